@@ -1,0 +1,114 @@
+!> A ball rolling without slipping on a surface z = H(x, y), per unit mass, in canonical
+!> coordinates (x, y, px, py) [cm, cm, cm/s, cm/s] (Ross et al. 2018, eq. kin_rescale):
+!>   T = (5/14) p^T M^-1 p,  M = I + grad H grad H^T,  V = g H,  p = (7/5) M v.
+!> With s = grad H . p, D = 1 + |grad H|^2, u = s/D and v = (5/7)(p - u grad H):
+!>   dq/dt = v,   dp/dt = u Hess(H) v - g grad H          (derivation: docs/theory.md)
+!> damped_ball_t adds the viscous generalised force -c p (docs/theory.md, "Damping").
+module tubes_ball
+  use tubes_kinds, only: wp
+  use tubes_field, only: vector_field_t
+  use tubes_surface, only: surface_t
+  implicit none
+  private
+
+  real(wp), parameter, public :: ROLL = 5.0_wp/7.0_wp  !! v = ROLL M^-1 p for a solid sphere
+
+  !> Conservative rolling ball.
+  type, extends(vector_field_t), public :: ball_t
+    class(surface_t), allocatable :: surf   !! the surface it rolls on
+    real(wp) :: g = 981.0_wp                !! gravitational acceleration [cm/s^2]
+  contains
+    procedure :: dim => ball_dim
+    procedure :: eval => ball_eval
+    procedure :: energy => ball_energy
+    procedure :: velocity => ball_velocity
+    procedure :: momentum => ball_momentum
+    procedure :: potential => ball_potential
+  end type ball_t
+
+  !> Rolling ball with viscous damping: dp/dt gains -c p, so that dE/dt = -2 c T.
+  type, extends(ball_t), public :: damped_ball_t
+    real(wp) :: c = 0   !! damping rate [1/s]; c = 2 zeta omega_1 (docs/theory.md)
+  contains
+    procedure :: eval => damped_eval
+  end type damped_ball_t
+
+  public :: make_ball
+
+contains
+
+  !> Build a ball model on surface `surf` (allocate with source=, see STYLE.md).
+  subroutine make_ball(ball, surf, g)
+    type(ball_t), intent(out) :: ball
+    class(surface_t), intent(in) :: surf   !! the surface
+    real(wp), intent(in) :: g              !! gravity [cm/s^2]
+    allocate (ball%surf, source=surf)
+    ball%g = g
+  end subroutine make_ball
+
+  pure integer function ball_dim(self)
+    class(ball_t), intent(in) :: self
+    ball_dim = 4
+  end function ball_dim
+
+  pure subroutine ball_eval(self, t, x, dxdt, stat)
+    class(ball_t), intent(in) :: self
+    real(wp), intent(in)  :: t, x(:)
+    real(wp), intent(out) :: dxdt(:)
+    integer, intent(out)  :: stat
+    real(wp) :: gr(2), hs(2, 2), u, v(2)
+    call self%surf%derivs(x(1), x(2), gr, hs)
+    u = (gr(1)*x(3) + gr(2)*x(4))/(1 + gr(1)**2 + gr(2)**2)
+    v = ROLL*(x(3:4) - u*gr)
+    dxdt(1:2) = v
+    dxdt(3:4) = u*matmul(hs, v) - self%g*gr
+    stat = 0
+    if (.not. all(abs(dxdt(1:4)) <= huge(1.0_wp))) stat = -1   ! NaN or Inf
+  end subroutine ball_eval
+
+  pure subroutine damped_eval(self, t, x, dxdt, stat)
+    class(damped_ball_t), intent(in) :: self
+    real(wp), intent(in)  :: t, x(:)
+    real(wp), intent(out) :: dxdt(:)
+    integer, intent(out)  :: stat
+    call ball_eval(self, t, x, dxdt, stat)
+    dxdt(3:4) = dxdt(3:4) - self%c*x(3:4)
+  end subroutine damped_eval
+
+  !> Total energy per unit mass T + g H [(cm/s)^2].
+  pure real(wp) function ball_energy(self, x) result(e)
+    class(ball_t), intent(in) :: self
+    real(wp), intent(in) :: x(4)   !! (x, y, px, py)
+    real(wp) :: gr(2), hs(2, 2), s
+    call self%surf%derivs(x(1), x(2), gr, hs)
+    s = gr(1)*x(3) + gr(2)*x(4)
+    e = 0.5_wp*ROLL*(x(3)**2 + x(4)**2 - s*s/(1 + gr(1)**2 + gr(2)**2)) &
+        + self%g*self%surf%height(x(1), x(2))
+  end function ball_energy
+
+  !> Potential energy per unit mass g H(x, y) [(cm/s)^2].
+  pure real(wp) function ball_potential(self, x, y) result(v)
+    class(ball_t), intent(in) :: self
+    real(wp), intent(in) :: x, y
+    v = self%g*self%surf%height(x, y)
+  end function ball_potential
+
+  !> Planar velocity (dx/dt, dy/dt) [cm/s] from momenta: v = (5/7) M^-1 p.
+  pure function ball_velocity(self, x) result(v)
+    class(ball_t), intent(in) :: self
+    real(wp), intent(in) :: x(4)
+    real(wp) :: v(2), gr(2), hs(2, 2), u
+    call self%surf%derivs(x(1), x(2), gr, hs)
+    u = (gr(1)*x(3) + gr(2)*x(4))/(1 + gr(1)**2 + gr(2)**2)
+    v = ROLL*(x(3:4) - u*gr)
+  end function ball_velocity
+
+  !> Momenta (px, py) [cm/s] from the planar velocity at (q1, q2): p = (7/5) M v.
+  pure function ball_momentum(self, q, v) result(p)
+    class(ball_t), intent(in) :: self
+    real(wp), intent(in) :: q(2), v(2)
+    real(wp) :: p(2), gr(2), hs(2, 2)
+    call self%surf%derivs(q(1), q(2), gr, hs)
+    p = (v + gr*(gr(1)*v(1) + gr(2)*v(2)))/ROLL
+  end function ball_momentum
+end module tubes_ball

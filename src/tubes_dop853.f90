@@ -1,0 +1,223 @@
+!> DOP853: Hairer's explicit Runge-Kutta 8(5,3) with step-size control and 7th-order dense
+!> output. With h > 0 it takes fixed steps of h without error control (used to measure order).
+module tubes_dop853
+  use tubes_kinds, only: wp
+  use tubes_integrator, only: integrator_t
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
+  use tubes_dop853_tableau, only: NS, NSX, C, tableau_a, tableau_e3, tableau_e5, tableau_d
+  implicit none
+  private
+
+  real(wp), parameter :: SAFETY = 0.9_wp, FAC_MIN = 0.333_wp, FAC_MAX = 6.0_wp
+
+  type, extends(integrator_t), public :: dop853_t
+    real(wp), allocatable :: k(:, :)      !! stages of the last accepted step (n, NSX)
+    real(wp), allocatable :: f_cur(:)     !! f(t, x) at the current point (FSAL)
+    real(wp), allocatable :: x_old(:)     !! state at t_old
+    real(wp), allocatable :: x_new(:)     !! state at t
+    real(wp), allocatable :: dense(:, :)  !! interpolant coefficients (n, 7)
+    real(wp), allocatable :: a(:, :)      !! Runge-Kutta matrix (NSX, NSX)
+    real(wp), allocatable :: e3(:), e5(:), d(:, :)
+    real(wp) :: h_used = 0                !! size of the last accepted step [s]
+    logical :: dense_ready = .false.
+  contains
+    procedure :: step => dop853_step
+    procedure :: interp => dop853_interp
+  end type dop853_t
+
+contains
+
+  subroutine setup(self, n, x, stat)
+    class(dop853_t), intent(inout) :: self
+    integer, intent(in) :: n
+    real(wp), intent(in) :: x(:)
+    integer, intent(out) :: stat
+    if (.not. allocated(self%a)) then
+      allocate (self%a(NSX, NSX), self%e3(NS + 1), self%e5(NS + 1), self%d(4, NSX))
+      self%a = tableau_a()
+      self%e3 = tableau_e3()
+      self%e5 = tableau_e5()
+      self%d = tableau_d()
+    end if
+    if (allocated(self%k)) then
+      if (size(self%k, 1) /= n) deallocate (self%k, self%f_cur, self%x_old, self%x_new, self%dense)
+    end if
+    if (.not. allocated(self%k)) allocate (self%k(n, NSX), self%f_cur(n), self%x_old(n), &
+                                           self%x_new(n), self%dense(n, 7))
+    call self%f%eval(self%t, x, self%f_cur, stat)
+    self%nfev = self%nfev + 1
+    if (stat /= 0) stat = TUBES_EMODEL
+    self%fresh = .false.
+  end subroutine setup
+
+  !> Hairer's starting step (Solving ODEs I, II.4): from |x|, |f| and a trial Euler step.
+  subroutine initial_step(self, x, dir, h0, stat)
+    class(dop853_t), intent(inout) :: self
+    real(wp), intent(in) :: x(:), dir
+    real(wp), intent(out) :: h0
+    integer, intent(out) :: stat
+    real(wp) :: sk(size(x)), d0, d1, d2, h1, x1(size(x)), f1(size(x))
+    sk = self%atol + self%rtol*abs(x)
+    d0 = sqrt(sum((x/sk)**2)/size(x))
+    d1 = sqrt(sum((self%f_cur/sk)**2)/size(x))
+    if (d0 < 1.0e-5_wp .or. d1 < 1.0e-5_wp) then
+      h0 = 1.0e-6_wp
+    else
+      h0 = 0.01_wp*d0/d1
+    end if
+    x1 = x + dir*h0*self%f_cur
+    call self%f%eval(self%t + dir*h0, x1, f1, stat)
+    self%nfev = self%nfev + 1
+    if (stat /= 0) then
+      stat = TUBES_OK   ! fall back to the cautious guess
+      return
+    end if
+    d2 = sqrt(sum(((f1 - self%f_cur)/sk)**2)/size(x))/h0
+    if (max(d1, d2) <= 1.0e-15_wp) then
+      h1 = max(1.0e-6_wp, h0*1.0e-3_wp)
+    else
+      h1 = (0.01_wp/max(d1, d2))**(1.0_wp/8)
+    end if
+    h0 = min(100*h0, h1)
+  end subroutine initial_step
+
+  subroutine dop853_step(self, x, tmax, stat)
+    class(dop853_t), intent(inout) :: self
+    real(wp), intent(inout) :: x(:)
+    real(wp), intent(in) :: tmax
+    integer, intent(out) :: stat
+    real(wp) :: dir, h, hmin, err, err3, err5, den, fac, xnew(size(x)), sk(size(x)), xs(size(x))
+    real(wp) :: e3v(size(x)), e5v(size(x))
+    integer :: i, n, fs
+    logical :: last, reject_prev
+    n = size(x)
+    stat = TUBES_OK
+    if (self%fresh .or. .not. allocated(self%k)) then
+      call setup(self, n, x, stat)
+      if (stat /= TUBES_OK) return
+      self%h_next = 0
+    end if
+    dir = sign(1.0_wp, tmax - self%t)
+    if (tmax == self%t) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    if (self%h > 0) then
+      h = self%h
+    else if (self%h_next > 0) then
+      h = self%h_next
+    else
+      call initial_step(self, x, dir, h, stat)
+      if (stat /= TUBES_OK) return
+    end if
+    reject_prev = .false.
+    self%k(:, 1) = self%f_cur
+    self%dense_ready = .false.
+    do
+      hmin = 16*epsilon(1.0_wp)*max(abs(self%t), abs(tmax) - abs(tmax - self%t), 1.0e-300_wp)
+      last = h >= abs(tmax - self%t)
+      if (last) h = abs(tmax - self%t)
+      if (h < hmin .and. .not. last) then
+        stat = TUBES_ESTEP
+        return
+      end if
+      ! stages 2..12 and the 8th-order solution
+      do i = 2, NS
+        xs = x + (dir*h)*matmul(self%k(:, 1:i - 1), self%a(i, 1:i - 1))
+        call self%f%eval(self%t + dir*C(i)*h, xs, self%k(:, i), fs)
+        if (fs /= 0) exit
+      end do
+      self%nfev = self%nfev + (i - 2 + merge(1, 0, fs == 0))
+      if (fs == 0) then
+        xnew = x + (dir*h)*matmul(self%k(:, 1:NS), self%a(NS + 1, 1:NS))
+        call self%f%eval(self%t + dir*h, xnew, self%k(:, NS + 1), fs)
+        self%nfev = self%nfev + 1
+      end if
+      if (fs < 0) then
+        stat = TUBES_EMODEL
+        return
+      end if
+      if (fs > 0) then            ! the model asks for a smaller step
+        h = h/4
+        self%nrejected = self%nrejected + 1
+        reject_prev = .true.
+        cycle
+      end if
+      if (self%h > 0) exit        ! fixed step: no error control
+      sk = self%atol + self%rtol*max(abs(x), abs(xnew))
+      e5v = matmul(self%k(:, 1:NS + 1), self%e5)/sk
+      e3v = matmul(self%k(:, 1:NS + 1), self%e3)/sk
+      err5 = sum(e5v**2)
+      err3 = sum(e3v**2)
+      den = err5 + 0.01_wp*err3
+      if (den > 0) then
+        err = h*err5/sqrt(den*n)
+      else
+        err = 0
+      end if
+      if (.not. (err <= huge(1.0_wp))) then   ! NaN in the estimate
+        stat = TUBES_EMODEL
+        return
+      end if
+      if (err <= 1) then
+        fac = min(FAC_MAX, max(FAC_MIN, SAFETY*err**(-1.0_wp/8)))
+        if (err == 0) fac = FAC_MAX
+        if (reject_prev) fac = min(1.0_wp, fac)
+        self%h_next = h*fac
+        exit
+      end if
+      self%nrejected = self%nrejected + 1
+      reject_prev = .true.
+      h = h*max(FAC_MIN, SAFETY*err**(-1.0_wp/8))
+    end do
+    self%x_old = x
+    self%x_new = xnew
+    self%t_old = self%t
+    if (last) then
+      self%t = tmax
+    else
+      self%t = self%t + dir*h
+    end if
+    self%h_used = dir*h
+    x = xnew
+    self%f_cur = self%k(:, NS + 1)   ! FSAL: f(t_new, x_new) starts the next step
+    self%nsteps = self%nsteps + 1
+  end subroutine dop853_step
+
+  !> 7th-order continuous extension; the 3 extra stages are computed on first use in a step.
+  subroutine dop853_interp(self, s, xs)
+    class(dop853_t), intent(inout) :: self
+    real(wp), intent(in) :: s
+    real(wp), intent(out) :: xs(:)
+    real(wp) :: h, th, th1, dx(size(xs)), y(size(xs))
+    integer :: i, j, fs
+    h = self%h_used
+    if (.not. self%dense_ready) then
+      do i = NS + 2, NSX
+        y = self%x_old + h*matmul(self%k(:, 1:i - 1), self%a(i, 1:i - 1))
+        call self%f%eval(self%t_old + C(i)*h, y, self%k(:, i), fs)
+        self%nfev = self%nfev + 1
+      end do
+      dx = self%x_new - self%x_old
+      self%dense(:, 1) = dx
+      self%dense(:, 2) = h*self%k(:, 1) - dx
+      self%dense(:, 3) = 2*dx - h*(self%k(:, NS + 1) + self%k(:, 1))
+      do j = 1, 4
+        self%dense(:, 3 + j) = h*matmul(self%k, self%d(j, :))
+      end do
+      self%dense_ready = .true.
+    end if
+    th = (s - self%t_old)/h
+    th1 = 1 - th
+    y = 0
+    do i = 7, 1, -1
+      y = y + self%dense(:, i)
+      if (mod(7 - i, 2) == 0) then
+        y = y*th
+      else
+        y = y*th1
+      end if
+    end do
+    xs = self%x_old + y
+  end subroutine dop853_interp
+end module tubes_dop853

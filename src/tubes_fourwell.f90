@@ -1,0 +1,45 @@
+!> The machined four-well surface of Ross et al. (2018), eq. (pot_rescale):
+!>   H = alpha (x^2 + y^2) - beta (sqrt(x^2 + gamma) + sqrt(y^2 + gamma)) - xi x y + h0
+module tubes_fourwell
+  use tubes_kinds, only: wp
+  use tubes_surface, only: surface_t
+  implicit none
+  private
+
+  !> Paper parameters are the defaults.
+  type, extends(surface_t), public :: fourwell_t
+    real(wp) :: alpha = 0.07_wp     !! curvature of the bowl [1/cm]
+    real(wp) :: beta = 1.017_wp     !! depth of the wells [1]
+    real(wp) :: gamma = 15.103_wp   !! smoothing of the ridges [cm^2]
+    real(wp) :: xi = 0.00656_wp     !! tilt coupling of x and y [1/cm]
+    real(wp) :: h0 = 12.065_wp      !! height offset [cm]
+  contains
+    procedure :: height => fourwell_height
+    procedure :: derivs => fourwell_derivs
+  end type fourwell_t
+
+contains
+
+  pure function fourwell_height(self, x, y) result(h)
+    class(fourwell_t), intent(in) :: self
+    real(wp), intent(in) :: x, y
+    real(wp) :: h
+    h = self%alpha*(x*x + y*y) - self%beta*(sqrt(x*x + self%gamma) + sqrt(y*y + self%gamma)) &
+        - self%xi*x*y + self%h0
+  end function fourwell_height
+
+  pure subroutine fourwell_derivs(self, x, y, grad, hess)
+    class(fourwell_t), intent(in) :: self
+    real(wp), intent(in)  :: x, y
+    real(wp), intent(out) :: grad(2), hess(2, 2)
+    real(wp) :: sx, sy
+    sx = sqrt(x*x + self%gamma)
+    sy = sqrt(y*y + self%gamma)
+    grad(1) = 2*self%alpha*x - self%beta*x/sx - self%xi*y
+    grad(2) = 2*self%alpha*y - self%beta*y/sy - self%xi*x
+    hess(1, 1) = 2*self%alpha - self%beta*self%gamma/sx**3   ! d/dx (x/sx) = gamma/sx^3
+    hess(2, 2) = 2*self%alpha - self%beta*self%gamma/sy**3
+    hess(1, 2) = -self%xi
+    hess(2, 1) = -self%xi
+  end subroutine fourwell_derivs
+end module tubes_fourwell

@@ -1,0 +1,32 @@
+!> Status codes shared by Fortran, C (include/tubes.h) and Python (python/tubes/__init__.py).
+!> Codes >= 0 are successes, codes < 0 are failures.
+module tubes_status
+  implicit none
+  private
+  integer, parameter, public :: TUBES_OK = 0         !! success
+  integer, parameter, public :: TUBES_EVENT = 1      !! success: stopped at a terminal event
+  integer, parameter, public :: TUBES_EINPUT = -1    !! invalid argument
+  integer, parameter, public :: TUBES_EMAXSTEPS = -2 !! step budget exhausted
+  integer, parameter, public :: TUBES_ESTEP = -3     !! step size underflow
+  integer, parameter, public :: TUBES_EMODEL = -4    !! model returned NaN/Inf or refused the state
+  integer, parameter, public :: TUBES_EIO = -5       !! file could not be read or written
+  integer, parameter, public :: TUBES_ENOCONV = -6   !! an iteration (Newton, root finder) did not converge
+  public :: status_message
+contains
+  !> Text for a status code.
+  pure function status_message(code) result(msg)
+    integer, intent(in) :: code       !! a TUBES_* code
+    character(:), allocatable :: msg  !! its meaning
+    select case (code)
+    case (TUBES_OK);        msg = 'ok'
+    case (TUBES_EVENT);     msg = 'stopped at a terminal event'
+    case (TUBES_EINPUT);    msg = 'invalid input'
+    case (TUBES_EMAXSTEPS); msg = 'maximum number of steps reached'
+    case (TUBES_ESTEP);     msg = 'step size underflow'
+    case (TUBES_EMODEL);    msg = 'the vector field returned NaN or Inf'
+    case (TUBES_EIO);       msg = 'input/output error'
+    case (TUBES_ENOCONV);   msg = 'iteration did not converge'
+    case default;           msg = 'unknown status code'
+    end select
+  end function status_message
+end module tubes_status
