@@ -1,0 +1,141 @@
+# tubes: one Makefile. `make deps`, `make`, `make check`, `make bench`, `make lint`, `make clean`.
+# Release objects go to build/, the runtime-checked variant used by `make check` to build/debug/.
+
+# GNU make's built-in FC is f77 (toolchain-notes pitfall 8): only honour FC if the user set it.
+ifeq ($(origin FC),default)
+FC := gfortran
+endif
+ifeq ($(origin CC),default)
+CC := gcc
+endif
+
+PREFIX   ?= /usr/local
+BUILD    ?= build
+MODE     ?= release
+PYTHON   ?= /usr/bin/python3
+VENV     := .venv
+VPY      := $(abspath $(VENV))/bin/python
+
+VERSION  := 0.1.0
+GIT_HASH := $(shell git rev-parse --short=12 HEAD 2>/dev/null || echo unknown)$(shell git diff --quiet HEAD 2>/dev/null || echo -dirty)
+
+HDF5_CFLAGS := $(shell pkg-config --cflags hdf5-serial 2>/dev/null)
+HDF5_LIBS   := $(shell pkg-config --libs hdf5-serial 2>/dev/null) -lhdf5_hl
+LAPACK_LIBS := -llapack -lblas
+
+ifeq ($(MODE),debug)
+OPT_F := -O0 -g -fcheck=all -ffpe-trap=invalid,zero,overflow -fbacktrace
+OPT_C := -O0 -g
+else
+OPT_F := -O2 -g
+OPT_C := -O2 -g
+endif
+FFLAGS_ALL := -std=f2018 -fPIC -fopenmp -Wall -Wno-unused-dummy-argument -Wno-compare-reals \
+              -Wno-maybe-uninitialized $(OPT_F) -J $(BUILD)/mod -I $(BUILD)/mod $(FFLAGS)
+CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -fPIC -fopenmp -Wall -Wextra $(OPT_C) -Iinclude \
+              $(HDF5_CFLAGS) -DTUBES_VERSION='"$(VERSION)"' -DTUBES_GIT='"$(GIT_HASH)"' \
+              -DTUBES_COMPILER='"$(FC) $(shell $(FC) -dumpfullversion 2>/dev/null)"' \
+              -DTUBES_FFLAGS='"$(strip $(OPT_F))"' $(CFLAGS)
+LDLIBS_ALL := $(HDF5_LIBS) $(LAPACK_LIBS) -lm $(LDLIBS)
+
+F_SRC := $(wildcard src/*.f90 src/c/*.f90 src/io/*.f90)
+C_SRC := $(filter-out src/io/tubes_main.c,$(wildcard src/io/*.c))
+F_OBJ := $(patsubst %.f90,$(BUILD)/obj/%.o,$(notdir $(F_SRC)))
+C_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(notdir $(C_SRC)))
+LIB   := $(BUILD)/libtubes.a
+vpath %.f90 src src/c src/io tests
+vpath %.c src/io tests
+
+T_F_SRC := $(wildcard tests/test_*.f90)
+T_C_SRC := $(wildcard tests/test_*.c)
+T_BIN   := $(patsubst tests/%.f90,$(BUILD)/tests/%,$(T_F_SRC)) $(patsubst tests/%.c,$(BUILD)/tests/%,$(T_C_SRC))
+
+PYEXT_STAMP := $(BUILD)/pyext.stamp
+
+.PHONY: all deps check tests lint bench docs clean install python
+all: tubes $(LIB) python
+
+# ---------------------------------------------------------------- dependencies
+APT_PKGS := gfortran gcc make pkg-config libhdf5-dev liblapack-dev libgsl-dev libsundials-dev \
+            libsundials-fortran-dev libfftw3-dev libopenmpi-dev openmpi-bin python3-dev python3-venv
+PY_PKGS  := numpy scipy h5py matplotlib pytest meson ninja
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+deps:
+	@missing=$$(for p in $(APT_PKGS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null \
+	    | grep -q 'install ok installed' || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "deps: installing Debian packages:" $$missing; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq \
+	    --no-install-recommends $$missing || exit 1; \
+	else echo "deps: Debian packages already installed"; fi
+	@if $(VENV)/bin/python -c 'import numpy, scipy, h5py, matplotlib, pytest, mesonbuild' 2>/dev/null \
+	    && [ -x $(VENV)/bin/ninja ]; then echo "deps: $(VENV) already complete"; \
+	else echo "deps: creating $(VENV) with $(PY_PKGS)"; \
+	  $(PYTHON) -m venv $(VENV) && $(VENV)/bin/pip install --quiet --upgrade pip && \
+	  $(VENV)/bin/pip install --quiet $(PY_PKGS) || exit 1; fi
+	@site=$$($(VENV)/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])'); \
+	  echo "$(abspath python)" > $$site/tubes-dev.pth; echo "deps: $(VENV) sees $(abspath python) (tubes-dev.pth)"
+
+# ---------------------------------------------------------------- build
+$(BUILD)/obj $(BUILD)/mod $(BUILD)/tests:
+	@mkdir -p $@
+
+# Module order from the `use tubes_*` lines (file name = module name, STYLE.md).
+$(BUILD)/deps.mk: $(F_SRC) $(T_F_SRC) Makefile | $(BUILD)/obj
+	@for f in $(F_SRC) $(T_F_SRC); do b=$$(basename $$f .f90); \
+	  for m in $$(sed -n 's/^ *use  *\(tubes_[a-z0-9_]*\).*/\1/p' $$f | sort -u); do \
+	    [ "$$m" = "$$b" ] || echo "$(BUILD)/obj/$$b.o: $(BUILD)/obj/$$m.o"; done; done > $@
+-include $(BUILD)/deps.mk
+
+$(BUILD)/obj/%.o: %.f90 | $(BUILD)/obj $(BUILD)/mod
+	$(FC) $(FFLAGS_ALL) -c $< -o $@
+$(BUILD)/obj/%.o: %.c include/tubes.h | $(BUILD)/obj
+	$(CC) $(CFLAGS_ALL) -c $< -o $@
+
+$(LIB): $(F_OBJ) $(C_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+
+tubes: $(BUILD)/obj/tubes_main.o $(LIB)
+	$(FC) -fopenmp -o $@ $^ $(LDLIBS_ALL)
+
+# ---------------------------------------------------------------- python extension (f2py, meson)
+python: $(PYEXT_STAMP)
+$(PYEXT_STAMP): python/tubes_f2py.f90 $(LIB)
+	@if [ ! -x $(VPY) ]; then echo "python: no $(VENV); run 'make deps' first" >&2; exit 1; fi
+	@mkdir -p $(BUILD)/py && rm -f python/tubes/_core*.so
+	cd $(BUILD)/py && PATH=$(abspath $(VENV))/bin:$$PATH FFLAGS="-fPIC -fopenmp" \
+	  $(VPY) -m numpy.f2py -c --backend meson -m _core $(abspath python/tubes_f2py.f90) \
+	  -I$(abspath $(BUILD)/mod) -L$(abspath $(BUILD)) -ltubes -llapack -lblas --dep openmp > f2py.log 2>&1 \
+	  || { tail -30 f2py.log; exit 1; }
+	cp $(BUILD)/py/_core*.so python/tubes/
+	@touch $@
+
+# ---------------------------------------------------------------- tests
+$(BUILD)/tests/%: tests/%.f90 $(BUILD)/obj/tubes_check.o $(LIB) | $(BUILD)/tests
+	$(FC) $(FFLAGS_ALL) -o $@ $< $(BUILD)/obj/tubes_check.o $(LIB) $(LDLIBS_ALL)
+$(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)/tests
+	$(CC) $(CFLAGS_ALL) -o $@ $< $(LIB) -lgfortran $(LDLIBS_ALL)
+$(BUILD)/obj/tubes_check.o: tests/tubes_check.f90 | $(BUILD)/obj $(BUILD)/mod
+	$(FC) $(FFLAGS_ALL) -c $< -o $@
+
+tests: $(filter-out $(BUILD)/tests/tubes_check,$(T_BIN))
+
+check: all tests
+	@$(MAKE) --no-print-directory BUILD=build/debug MODE=debug tests
+	@bash tests/run_all.sh
+
+lint:
+	@bash tests/lint.sh
+
+bench: all
+	@bash bench/run.sh
+
+install: all
+	install -d $(PREFIX)/bin $(PREFIX)/lib $(PREFIX)/include
+	install -m 755 tubes $(PREFIX)/bin/tubes
+	install -m 644 $(LIB) $(PREFIX)/lib/libtubes.a
+	install -m 644 include/tubes.h $(PREFIX)/include/tubes.h
+
+clean:
+	rm -rf build tubes python/tubes/_core*.so

@@ -1,0 +1,101 @@
+/* tubes: the C view of the bind(C) API (src/c/tubes_capi.f90) and of the namelist reader
+ * Binding labels must differ from every Fortran module name (they share one global namespace).
+ * (src/io/tubes_nml.f90). Units: cm, s; energies per unit mass in (cm/s)^2. */
+#ifndef TUBES_H
+#define TUBES_H
+#include <stdint.h>
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Status codes (src/tubes_status.f90, python/tubes/__init__.py). >= 0 success. */
+enum {
+  TUBES_OK = 0, TUBES_EVENT = 1,
+  TUBES_EINPUT = -1, TUBES_EMAXSTEPS = -2, TUBES_ESTEP = -3, TUBES_EMODEL = -4,
+  TUBES_EIO = -5, TUBES_ENOCONV = -6
+};
+
+/* Integration methods (src/tubes_methods.f90). */
+enum { TUBES_METHOD_DOP853 = 1 };
+
+/* The model parameter vector: model[TUBES_NMODEL] =
+ * {alpha [1/cm], beta [1], gamma [cm^2], xi [1/cm], h0 [cm], g [cm/s^2], damping_ratio [1]}. */
+enum { TUBES_NMODEL = 7 };
+
+/* Copy the text of status `code` into buf (NUL-terminated, at most len bytes). */
+void tubes_status_message(int code, char *buf, int len);
+
+/* Energy per unit mass of state x = (x, y, px, py) on the conservative model. */
+int tubes_energy(const double model[TUBES_NMODEL], const double x[4], double *energy);
+
+/* Hamilton's equations dx/dt at state x (damped if model[6] > 0). */
+int tubes_vector_field(const double model[TUBES_NMODEL], const double x[4], double dxdt[4]);
+
+/* Momenta p = (7/5) M v of a ball at position q with planar velocity v. */
+int tubes_momentum(const double model[TUBES_NMODEL], const double q[2], const double v[2],
+                   double p[2]);
+
+/* Damping rate c = 2 zeta omega_1 [1/s] used for damping_ratio = model[6]. */
+int tubes_damping_rate(const double model[TUBES_NMODEL], double *c);
+
+/* Critical points of H in |x|,|y| <= box from an n_grid^2 Newton grid; at most nmax are
+ * returned in *n. names: nmax blocks of 8 chars, NUL-padded. For rank-1 saddles: lambda
+ * [1/s], omega [rad/s] and evec (16 per point: columns u, s, Re c, Im c of the 4x4 matrix,
+ * column-major); zero for the others. */
+int tubes_find_equilibria(const double model[TUBES_NMODEL], double box, int n_grid, int nmax,
+                     int *n, double x[], double y[], double height[], double energy[],
+                     double grad_norm[], int morse[], char names[], double lambda[],
+                     double omega[], double evec[]);
+
+/* Progress callback: called every few thousand steps with the current time; return
+ * non-zero to stop the integration (the result so far is returned with TUBES_OK). */
+typedef int (*tubes_progress_fn)(double t, void *user);
+
+/* Integrate from x0 at t = 0 to t_end, sampling every dt_out (nmax >= floor(t_end/dt_out)+2).
+ * Outputs: *n samples t[n], state[4 n] (row k = x, y, px, py), energy[n];
+ * counters = {nfev, nsteps, nrejected}; *c_damp = damping rate used [1/s].
+ * On failure the samples up to the last accepted step are returned with a status < 0. */
+int tubes_run_trajectory(const double model[TUBES_NMODEL], const double x0[4], double t_end,
+                     double dt_out, int method, double rtol, double atol, double h,
+                     int64_t max_steps, int nmax, int *n, double t[], double state[],
+                     double energy[], int64_t counters[3], double *c_damp,
+                     tubes_progress_fn progress, void *user);
+
+/* ---- namelist input (src/io/tubes_nml.f90; validated by src/io/tubes_input.c) ---- */
+enum { TUBES_NSCENES = 16, TUBES_LSCENE = 32, TUBES_LPATH = 1024, TUBES_LNAME = 32 };
+
+typedef struct {
+  /* &run */
+  char scenes[TUBES_NSCENES][TUBES_LSCENE];
+  char output[TUBES_LPATH];
+  /* &model */
+  double alpha, beta, gamma, xi, h0, g, damping_ratio;
+  /* &equilibria */
+  double box;
+  int n_grid;
+  char saddle[8];
+  /* &trajectory */
+  double x0, y0, px0, py0, t_end, dt_out;
+  int at_rest;
+  /* &integrator */
+  char method[TUBES_LNAME];
+  double rtol, atol, h;
+  int64_t max_steps;
+} tubes_config_t;
+
+/* Set every variable to its default. */
+void tubes_nml_defaults(tubes_config_t *cfg);
+
+/* Read every group present in the file at path into cfg (defaults first). Returns 0, or the
+ * Fortran iostat of the first failing group; then *group is its index (0 run, 1 model,
+ * 2 equilibria, 3 trajectory, 4 integrator) and msg holds the iomsg. */
+int tubes_nml_read(const char *path, tubes_config_t *cfg, int *group, char *msg, int msglen);
+
+/* The effective namelist (all groups, Fortran namelist WRITE) into buf. Returns its length,
+ * or -1 if buf is too small. */
+int tubes_nml_write(const tubes_config_t *cfg, char *buf, int buflen);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

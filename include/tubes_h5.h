@@ -1,0 +1,27 @@
+/* Small helpers over the HDF5 C API for tubes' output (src/io/tubes_h5.c). Every function
+ * returns 0 on success and -1 on failure (HDF5's own error stack is silenced). */
+#ifndef TUBES_H5_H
+#define TUBES_H5_H
+#include <hdf5.h>
+#ifdef __cplusplus
+extern "C" {
+#endif
+/* Create path.tmp.<pid> for writing; its name is returned in tmp. */
+hid_t h5_create_tmp(const char *path, char *tmp, size_t tmplen);
+/* Close and rename tmp to path (the file appears only when complete). */
+int h5_commit(hid_t f, const char *tmp, const char *path);
+/* Close and delete tmp. */
+void h5_discard(hid_t f, const char *tmp);
+hid_t h5_group(hid_t loc, const char *name);
+int h5_attr_double(hid_t loc, const char *name, double v);
+int h5_attr_long(hid_t loc, const char *name, long long v);
+int h5_attr_string(hid_t loc, const char *name, const char *s);
+/* Datasets: rank 1 or 2 (dims in C order), with a `units` attribute. */
+int h5_write_double(hid_t loc, const char *name, int rank, const hsize_t *dims, const double *data,
+                    const char *units);
+int h5_write_int(hid_t loc, const char *name, hsize_t n, const int *data, const char *units);
+int h5_write_strings(hid_t loc, const char *name, hsize_t n, const char *const *s);
+#ifdef __cplusplus
+}
+#endif
+#endif

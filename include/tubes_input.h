@@ -1,0 +1,53 @@
+/* Input handling of the tubes program (src/io/tubes_input.c): the table of namelist
+ * variables, a lexer that gives every assignment its line, and validation with messages. */
+#ifndef TUBES_INPUT_H
+#define TUBES_INPUT_H
+#include <stdio.h>
+#include "tubes.h"
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum { NML_REAL, NML_INT, NML_LOGICAL, NML_STRING } nml_type;
+
+/* One namelist variable: the single source for the lexer, --help and docs/input.md. */
+typedef struct {
+  const char *group, *name;
+  nml_type type;
+  int count;            /* array length (1 = scalar) */
+  const char *units, *deflt, *allowed, *doc;
+} nml_var;
+
+extern const nml_var tubes_nml_vars[];
+extern const int tubes_nml_nvars;
+extern const char *const tubes_nml_groups[];   /* in tubes_nml_read's order */
+extern const int tubes_nml_ngroups;
+extern const char *const tubes_scene_names[];
+extern const char *const tubes_scene_docs[];
+extern const int tubes_nscenes;
+
+/* Where each variable was set in the file (0 = not set). */
+typedef struct {
+  int group_line[8];               /* line of &group, 0 if absent */
+  int var_line[64];                /* per tubes_nml_vars entry */
+  char var_text[64][96];           /* first characters of the value as written */
+} nml_where;
+
+/* Lex the file: unknown groups or variables, unterminated groups, malformed values.
+ * Returns 0, or 1 after printing a message naming the file and line to err. */
+int nml_lex(const char *path, nml_where *w, FILE *err);
+
+/* Turn a failure of tubes_nml_read into a message with the line (best effort). */
+void nml_report_read_error(const char *path, const nml_where *w, int group, const char *msg,
+                           FILE *err);
+
+/* Range and consistency checks. Returns the number of errors printed to err. */
+int nml_validate(const char *path, const tubes_config_t *cfg, const nml_where *w, FILE *err);
+
+/* Print the groups, variables and scenes (for --help). */
+void nml_print_help(FILE *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,27 @@
+/* Scene drivers of the tubes program (src/io/tubes_scenes.c): each computes through the
+ * bind(C) API, prints a short summary on stdout and writes its group of the HDF5 file. */
+#ifndef TUBES_SCENES_H
+#define TUBES_SCENES_H
+#include <hdf5.h>
+#include "tubes.h"
+#ifdef __cplusplus
+extern "C" {
+#endif
+/* Exit codes of the program (docs/usage.md). */
+enum { EXIT_BADINPUT = 1, EXIT_NUMERIC = 2, EXIT_IO = 3 };
+
+typedef struct {
+  const tubes_config_t *cfg;
+  double model[TUBES_NMODEL];
+  hid_t file;
+} tubes_run_t;
+
+/* Each returns 0, EXIT_NUMERIC (numerical failure, reported on stderr, recorded in the file)
+ * or EXIT_IO. */
+int scene_model(tubes_run_t *run);
+int scene_equilibria(tubes_run_t *run);
+int scene_trajectory(tubes_run_t *run);
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,190 @@
+!> The bind(C) API (include/tubes.h): scalars by value, explicit-shape arrays, int status.
+module tubes_capi
+  use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_int64_t, c_ptr, c_funptr, &
+                                         c_null_char, c_associated, c_funloc, c_f_procpointer
+  use tubes_kinds, only: wp
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, status_message
+  use tubes_ball, only: ball_t
+  use tubes_models, only: NMODEL, conservative_ball, damping_rate, model_ball
+  use tubes_equilibria, only: equilibrium_t, find_equilibria
+  use tubes_integrator, only: integrator_t, propagate
+  use tubes_methods, only: new_integrator
+  use tubes_sampler, only: sampler_t
+  implicit none
+  private
+
+  !> Sampler that also calls a C progress callback every PROGRESS_EVERY steps.
+  type, extends(sampler_t) :: c_sampler_t
+    type(c_funptr) :: cb
+    type(c_ptr) :: user
+  contains
+    procedure :: on_step => c_sampler_on_step
+  end type c_sampler_t
+  integer, parameter :: PROGRESS_EVERY = 2000
+
+  abstract interface
+    integer(c_int) function progress_i(t, user) bind(C)
+      import :: c_int, c_double, c_ptr
+      real(c_double), value :: t
+      type(c_ptr), value :: user
+    end function progress_i
+  end interface
+
+contains
+
+  subroutine c_status_message(code, buf, len) bind(C, name='tubes_status_message')
+    integer(c_int), value :: code, len
+    character(kind=c_char), intent(out) :: buf(len)
+    character(:), allocatable :: m
+    integer :: i
+    if (len < 1) return
+    m = status_message(code)
+    do i = 1, min(len - 1, len_trim(m))
+      buf(i) = m(i:i)
+    end do
+    buf(min(len - 1, len_trim(m)) + 1) = c_null_char
+  end subroutine c_status_message
+
+  integer(c_int) function c_energy(model, x, energy) result(stat) bind(C, name='tubes_energy')
+    real(c_double), intent(in) :: model(NMODEL), x(4)
+    real(c_double), intent(out) :: energy
+    type(ball_t) :: ball
+    energy = 0
+    call conservative_ball(model, ball, stat)
+    if (stat /= TUBES_OK) return
+    energy = ball%energy(x)
+  end function c_energy
+
+  integer(c_int) function c_vector_field(model, x, dxdt) result(stat) &
+      bind(C, name='tubes_vector_field')
+    real(c_double), intent(in) :: model(NMODEL), x(4)
+    real(c_double), intent(out) :: dxdt(4)
+    class(ball_t), allocatable :: ball
+    real(wp) :: c
+    dxdt = 0
+    call model_ball(model, ball, c, stat)
+    if (stat /= TUBES_OK) return
+    call ball%eval(0.0_wp, x, dxdt, stat)
+    if (stat /= 0) stat = -4
+  end function c_vector_field
+
+  integer(c_int) function c_momentum(model, q, v, p) result(stat) bind(C, name='tubes_momentum')
+    real(c_double), intent(in) :: model(NMODEL), q(2), v(2)
+    real(c_double), intent(out) :: p(2)
+    type(ball_t) :: ball
+    p = 0
+    call conservative_ball(model, ball, stat)
+    if (stat /= TUBES_OK) return
+    p = ball%momentum(q, v)
+  end function c_momentum
+
+  integer(c_int) function c_damping_rate(model, c) result(stat) bind(C, name='tubes_damping_rate')
+    real(c_double), intent(in) :: model(NMODEL)
+    real(c_double), intent(out) :: c
+    type(ball_t) :: ball
+    c = 0
+    call conservative_ball(model, ball, stat)
+    if (stat /= TUBES_OK) return
+    if (model(7) > 0) call damping_rate(ball, model(7), c, stat)
+  end function c_damping_rate
+
+  integer(c_int) function c_equilibria(model, box, n_grid, nmax, n, x, y, height, energy, &
+      grad_norm, morse, names, lambda, omega, evec) result(stat) bind(C, name='tubes_find_equilibria')
+    real(c_double), intent(in) :: model(NMODEL)
+    real(c_double), value :: box
+    integer(c_int), value :: n_grid, nmax
+    integer(c_int), intent(out) :: n
+    real(c_double), intent(out) :: x(nmax), y(nmax), height(nmax), energy(nmax), &
+                                   grad_norm(nmax), lambda(nmax), omega(nmax), evec(16, nmax)
+    integer(c_int), intent(out) :: morse(nmax)
+    character(kind=c_char), intent(out) :: names(8, nmax)
+    type(ball_t) :: ball
+    type(equilibrium_t), allocatable :: eqs(:)
+    integer :: k, i
+    n = 0
+    call conservative_ball(model, ball, stat)
+    if (stat /= TUBES_OK) return
+    call find_equilibria(ball, box, n_grid, eqs, stat)
+    if (stat /= TUBES_OK) return
+    n = min(size(eqs), nmax)
+    names = c_null_char
+    do k = 1, n
+      x(k) = eqs(k)%q(1)
+      y(k) = eqs(k)%q(2)
+      height(k) = eqs(k)%height
+      energy(k) = eqs(k)%energy
+      grad_norm(k) = eqs(k)%grad_norm
+      morse(k) = eqs(k)%morse
+      lambda(k) = eqs(k)%lambda
+      omega(k) = eqs(k)%omega
+      evec(:, k) = reshape(eqs(k)%evec, [16])
+      do i = 1, min(7, len_trim(eqs(k)%name))
+        names(i, k) = eqs(k)%name(i:i)
+      end do
+    end do
+  end function c_equilibria
+
+  integer(c_int) function c_trajectory(model, x0, t_end, dt_out, method, rtol, atol, h, &
+      max_steps, nmax, n, t, state, energy, counters, c_damp, progress, user) result(stat) &
+      bind(C, name='tubes_run_trajectory')
+    real(c_double), intent(in) :: model(NMODEL), x0(4)
+    real(c_double), value :: t_end, dt_out, rtol, atol, h
+    integer(c_int), value :: method, nmax
+    integer(c_int64_t), value :: max_steps
+    integer(c_int), intent(out) :: n
+    real(c_double), intent(out) :: t(nmax), state(4, nmax), energy(nmax), c_damp
+    integer(c_int64_t), intent(out) :: counters(3)
+    type(c_funptr), value :: progress
+    type(c_ptr), value :: user
+    class(ball_t), allocatable :: ball
+    type(ball_t) :: cons
+    class(integrator_t), allocatable :: ig
+    type(c_sampler_t) :: obs
+    real(wp) :: x(4)
+    integer :: k, st2
+    n = 0
+    counters = 0
+    c_damp = 0
+    if (dt_out <= 0 .or. t_end < 0 .or. nmax < 2) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    call model_ball(model, ball, c_damp, stat)
+    if (stat /= TUBES_OK) return
+    call conservative_ball(model, cons, stat)
+    call new_integrator(method, ig, stat)
+    if (stat /= TUBES_OK) return
+    call ig%init(ball, 0.0_wp)
+    ig%rtol = rtol
+    ig%atol = atol
+    ig%h = h
+    ig%max_steps = max_steps
+    x = x0
+    obs%cb = progress
+    obs%user = user
+    call obs%start(0.0_wp, dt_out, x, nmax)
+    if (t_end > 0) call propagate(ig, x, t_end, stat, observer=obs)
+    if (stat == TUBES_EVENT) stat = TUBES_OK
+    n = obs%n
+    t(1:n) = obs%t(1:n)
+    state(:, 1:n) = obs%x(:, 1:n)
+    do k = 1, n
+      energy(k) = cons%energy(state(:, k))
+    end do
+    counters = [ig%nfev, ig%nsteps, ig%nrejected]
+    st2 = 0
+  end function c_trajectory
+
+  subroutine c_sampler_on_step(self, ig, t_hi, stop_now)
+    class(c_sampler_t), intent(inout) :: self
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: t_hi
+    logical, intent(out) :: stop_now
+    procedure(progress_i), pointer :: f
+    call self%sampler_t%on_step(ig, t_hi, stop_now)
+    if (mod(self%count, PROGRESS_EVERY) == 0 .and. c_associated(self%cb)) then
+      call c_f_procpointer(self%cb, f)
+      stop_now = f(ig%t, self%user) /= 0
+    end if
+  end subroutine c_sampler_on_step
+end module tubes_capi

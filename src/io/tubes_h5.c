@@ -1,0 +1,85 @@
+/* HDF5 output helpers (include/tubes_h5.h). Strings are variable-length UTF-8 so that h5py
+ * returns str, not bytes. */
+#include "tubes_h5.h"
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+hid_t h5_create_tmp(const char *path, char *tmp, size_t tmplen) {
+  H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+  snprintf(tmp, tmplen, "%s.tmp.%ld", path, (long)getpid());
+  return H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+}
+
+int h5_commit(hid_t f, const char *tmp, const char *path) {
+  if (H5Fclose(f) < 0) { remove(tmp); return -1; }
+  if (rename(tmp, path) != 0) { remove(tmp); return -1; }
+  return 0;
+}
+
+void h5_discard(hid_t f, const char *tmp) {
+  if (f >= 0) H5Fclose(f);
+  remove(tmp);
+}
+
+hid_t h5_group(hid_t loc, const char *name) {
+  return H5Gcreate2(loc, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+}
+
+static int attr(hid_t loc, const char *name, hid_t type, const void *v) {
+  hid_t sp = H5Screate(H5S_SCALAR);
+  hid_t a = H5Acreate2(loc, name, type, sp, H5P_DEFAULT, H5P_DEFAULT);
+  int rc = (a < 0 || H5Awrite(a, type, v) < 0) ? -1 : 0;
+  if (a >= 0) H5Aclose(a);
+  H5Sclose(sp);
+  return rc;
+}
+
+int h5_attr_double(hid_t loc, const char *name, double v) { return attr(loc, name, H5T_NATIVE_DOUBLE, &v); }
+int h5_attr_long(hid_t loc, const char *name, long long v) { return attr(loc, name, H5T_NATIVE_LLONG, &v); }
+
+static hid_t vlen_str(void) {
+  hid_t t = H5Tcopy(H5T_C_S1);
+  H5Tset_size(t, H5T_VARIABLE);
+  H5Tset_cset(t, H5T_CSET_UTF8);
+  return t;
+}
+
+int h5_attr_string(hid_t loc, const char *name, const char *s) {
+  hid_t t = vlen_str();
+  int rc = attr(loc, name, t, &s);
+  H5Tclose(t);
+  return rc;
+}
+
+int h5_write_double(hid_t loc, const char *name, int rank, const hsize_t *dims, const double *data,
+                    const char *units) {
+  hid_t sp = H5Screate_simple(rank, dims, NULL);
+  hid_t d = H5Dcreate2(loc, name, H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  int rc = (d < 0 || H5Dwrite(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) ? -1 : 0;
+  if (rc == 0 && units) rc = h5_attr_string(d, "units", units);
+  if (d >= 0) H5Dclose(d);
+  H5Sclose(sp);
+  return rc;
+}
+
+int h5_write_int(hid_t loc, const char *name, hsize_t n, const int *data, const char *units) {
+  hid_t sp = H5Screate_simple(1, &n, NULL);
+  hid_t d = H5Dcreate2(loc, name, H5T_NATIVE_INT, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  int rc = (d < 0 || H5Dwrite(d, H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) ? -1 : 0;
+  if (rc == 0 && units) rc = h5_attr_string(d, "units", units);
+  if (d >= 0) H5Dclose(d);
+  H5Sclose(sp);
+  return rc;
+}
+
+int h5_write_strings(hid_t loc, const char *name, hsize_t n, const char *const *s) {
+  hid_t t = vlen_str();
+  hid_t sp = H5Screate_simple(1, &n, NULL);
+  hid_t d = H5Dcreate2(loc, name, t, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  int rc = (d < 0 || H5Dwrite(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, s) < 0) ? -1 : 0;
+  if (d >= 0) H5Dclose(d);
+  H5Sclose(sp);
+  H5Tclose(t);
+  return rc;
+}

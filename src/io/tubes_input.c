@@ -1,0 +1,390 @@
+/* Namelist input: variable table, lexer with line numbers, validation (include/tubes_input.h).
+ * Fortran's namelist READ (src/io/tubes_nml.f90) reads the values; this file makes sure every
+ * mistake is reported with the file, group, variable and line before and after it does. */
+#include "tubes_input.h"
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+const char *const tubes_nml_groups[] = {"run", "model", "equilibria", "trajectory", "integrator"};
+const int tubes_nml_ngroups = 5;
+
+const char *const tubes_scene_names[] = {"equilibria", "trajectory"};
+const char *const tubes_scene_docs[] = {
+    "critical points of H, Morse index, names, saddle linearization (lambda, omega, T_po)",
+    "one trajectory with sampled output and its energy error"};
+const int tubes_nscenes = 2;
+
+const nml_var tubes_nml_vars[] = {
+    {"run", "scenes", NML_STRING, TUBES_NSCENES, "-", "'equilibria'",
+     "equilibria, trajectory", "scenes to run, in order"},
+    {"run", "output", NML_STRING, 1, "-", "'tubes.h5'", "a writable path",
+     "HDF5 output file (overridden by -o)"},
+    {"model", "alpha", NML_REAL, 1, "1/cm", "0.07", "> 0", "bowl curvature of H"},
+    {"model", "beta", NML_REAL, 1, "1", "1.017", ">= 0", "well depth coefficient of H"},
+    {"model", "gamma", NML_REAL, 1, "cm^2", "15.103", "> 0", "smoothing of H's ridges"},
+    {"model", "xi", NML_REAL, 1, "1/cm", "0.00656", "finite", "x-y coupling (tilt) of H"},
+    {"model", "h0", NML_REAL, 1, "cm", "12.065", "finite", "height offset of H"},
+    {"model", "g", NML_REAL, 1, "cm/s^2", "981", "> 0", "gravitational acceleration"},
+    {"model", "damping_ratio", NML_REAL, 1, "1", "0", "0 <= zeta < 1",
+     "viscous damping ratio zeta of the lowest well's slow mode (0 = conservative)"},
+    {"equilibria", "box", NML_REAL, 1, "cm", "20", "> 0",
+     "search box |x|, |y| <= box for critical points"},
+    {"equilibria", "n_grid", NML_INT, 1, "-", "41", "2 .. 2001", "Newton starts per axis"},
+    {"equilibria", "saddle", NML_STRING, 1, "-", "'S12'", "S12, S14, S23, S34",
+     "the rank-1 saddle the other scenes use"},
+    {"trajectory", "x0", NML_REAL, 1, "cm", "4", "finite", "initial x"},
+    {"trajectory", "y0", NML_REAL, 1, "cm", "12.614863819914357", "finite", "initial y"},
+    {"trajectory", "px0", NML_REAL, 1, "cm/s", "0", "finite", "initial p_x (ignored if at_rest)"},
+    {"trajectory", "py0", NML_REAL, 1, "cm/s", "0", "finite", "initial p_y (ignored if at_rest)"},
+    {"trajectory", "at_rest", NML_LOGICAL, 1, "-", ".true.", ".true., .false.",
+     "start from rest at (x0, y0)"},
+    {"trajectory", "t_end", NML_REAL, 1, "s", "10", ">= 0", "final time"},
+    {"trajectory", "dt_out", NML_REAL, 1, "s", "0.01", "> 0", "sample spacing of the output"},
+    {"integrator", "method", NML_STRING, 1, "-", "'dop853'", "dop853", "integration method"},
+    {"integrator", "rtol", NML_REAL, 1, "1", "1e-12", "1e-15 <= rtol < 1",
+     "relative tolerance (variable-step methods)"},
+    {"integrator", "atol", NML_REAL, 1, "state units", "1e-12", "> 0",
+     "absolute tolerance (variable-step methods)"},
+    {"integrator", "h", NML_REAL, 1, "s", "0", ">= 0",
+     "fixed step; 0 = variable step with rtol/atol"},
+    {"integrator", "max_steps", NML_INT, 1, "-", "10000000", ">= 1", "step budget"},
+};
+const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
+
+static int group_index(const char *g) {
+  for (int i = 0; i < tubes_nml_ngroups; i++)
+    if (strcasecmp(g, tubes_nml_groups[i]) == 0) return i;
+  return -1;
+}
+static int var_index(const char *g, const char *name) {
+  for (int i = 0; i < tubes_nml_nvars; i++)
+    if (strcasecmp(g, tubes_nml_vars[i].group) == 0 && strcasecmp(name, tubes_nml_vars[i].name) == 0)
+      return i;
+  return -1;
+}
+static void list_vars(const char *g, FILE *err) {
+  const char *sep = "";
+  for (int i = 0; i < tubes_nml_nvars; i++)
+    if (strcasecmp(g, tubes_nml_vars[i].group) == 0) {
+      fprintf(err, "%s%s", sep, tubes_nml_vars[i].name);
+      sep = ", ";
+    }
+}
+static void list_groups(FILE *err) {
+  for (int i = 0; i < tubes_nml_ngroups; i++) fprintf(err, "%s&%s", i ? ", " : "", tubes_nml_groups[i]);
+}
+
+static char *slurp(const char *path, FILE *err) {
+  FILE *f = fopen(path, "rb");
+  if (!f) {
+    fprintf(err, "tubes: cannot open input file '%s': %s\n", path, strerror(errno));
+    return NULL;
+  }
+  size_t cap = 4096, n = 0;
+  char *buf = malloc(cap);
+  size_t r;
+  while (buf && (r = fread(buf + n, 1, cap - n - 1, f)) > 0) {
+    n += r;
+    if (n + 1 >= cap) {
+      char *nb = realloc(buf, cap *= 2);
+      if (!nb) { free(buf); buf = NULL; }
+      else buf = nb;
+    }
+  }
+  if (ferror(f)) {
+    fprintf(err, "tubes: cannot read input file '%s': %s\n", path, strerror(errno));
+    free(buf);
+    buf = NULL;
+  }
+  fclose(f);
+  if (buf) buf[n] = '\0';
+  return buf;
+}
+
+/* Check one value token against the variable's type. Returns NULL if fine, else a reason. */
+static const char *check_token(nml_type t, const char *tok, size_t len) {
+  char tmp[256];
+  if (len >= sizeof tmp) len = sizeof tmp - 1;
+  memcpy(tmp, tok, len);
+  tmp[len] = '\0';
+  const char *star = strchr(tmp, '*');       /* repeat count r*value */
+  const char *v = tmp;
+  if (star && t != NML_STRING) v = star + 1;
+  if (star && t == NML_STRING && tmp[0] != '\'' && tmp[0] != '"') v = star + 1;
+  switch (t) {
+  case NML_REAL: {
+    char num[256];
+    size_t k = 0;
+    for (const char *p = v; *p && k < sizeof num - 1; p++) num[k++] = (*p == 'd' || *p == 'D') ? 'e' : *p;
+    num[k] = '\0';
+    char *end;
+    errno = 0;
+    double x = strtod(num, &end);
+    if (end == num || *end != '\0') return "is not a real number";
+    if (!isfinite(x) || errno == ERANGE) return "is not a finite real number";
+    return NULL;
+  }
+  case NML_INT: {
+    char *end;
+    errno = 0;
+    (void)strtoll(v, &end, 10);
+    if (end == v || *end != '\0') return "is not an integer";
+    if (errno == ERANGE) return "is out of the integer range";
+    return NULL;
+  }
+  case NML_LOGICAL: {
+    const char *ok[] = {".true.", ".false.", "t", "f", ".t.", ".f.", "true", "false"};
+    for (size_t i = 0; i < sizeof ok / sizeof ok[0]; i++)
+      if (strcasecmp(v, ok[i]) == 0) return NULL;
+    return "is not a logical (.true. or .false.)";
+  }
+  case NML_STRING:
+    if (v[0] == '\'' || v[0] == '"') return NULL;
+    return "is not a quoted string (write it as 'text')";
+  }
+  return NULL;
+}
+
+int nml_lex(const char *path, nml_where *w, FILE *err) {
+  memset(w, 0, sizeof *w);
+  char *s = slurp(path, err);
+  if (!s) return 1;
+  int line = 1, cur = -1, cur_line = 0, rc = 0;
+  char *p = s;
+  const char *gname = NULL;
+#define FAIL(...) do { fprintf(err, "%s:%d: ", path, line); fprintf(err, __VA_ARGS__); \
+                       fputc('\n', err); rc = 1; goto done; } while (0)
+  while (*p) {
+    if (*p == '\n') { line++; p++; continue; }
+    if (isspace((unsigned char)*p) || (cur >= 0 && *p == ',')) { p++; continue; }
+    if (*p == '!') { while (*p && *p != '\n') p++; continue; }
+    if (cur < 0) {                                   /* outside any group */
+      if (*p != '&' && *p != '$')
+        FAIL("text outside a namelist group (a group starts with &name and ends with /; "
+             "comments start with !)");
+      p++;
+      char name[64];
+      int k = 0;
+      while ((isalnum((unsigned char)*p) || *p == '_') && k < 63) name[k++] = *p++;
+      name[k] = '\0';
+      if (k == 0) FAIL("'&' must be followed by a group name");
+      int gi = group_index(name);
+      if (gi < 0) {
+        fprintf(err, "%s:%d: unknown namelist group &%s; known groups: ", path, line, name);
+        list_groups(err);
+        fputc('\n', err);
+        rc = 1;
+        goto done;
+      }
+      if (w->group_line[gi])
+        FAIL("group &%s appears twice (first at line %d); merge them", name, w->group_line[gi]);
+      w->group_line[gi] = line;
+      cur = gi;
+      cur_line = line;
+      gname = tubes_nml_groups[gi];
+      continue;
+    }
+    /* inside group cur */
+    if (*p == '/') { cur = -1; p++; continue; }
+    if (*p == '&' || *p == '$') {
+      if (strncasecmp(p + 1, "end", 3) == 0 && !isalnum((unsigned char)p[4])) { cur = -1; p += 4; continue; }
+      FAIL("group &%s (line %d) is not closed with '/' before the next group", gname, cur_line);
+    }
+    if (!(isalpha((unsigned char)*p))) FAIL("&%s: expected a variable name, found '%c'", gname, *p);
+    char name[64];
+    int k = 0;
+    while ((isalnum((unsigned char)*p) || *p == '_' || *p == '%') && k < 63) name[k++] = *p++;
+    name[k] = '\0';
+    int vi = var_index(gname, name);
+    if (vi < 0) {
+      fprintf(err, "%s:%d: &%s: unknown variable '%s'; variables of &%s: ", path, line, gname, name, gname);
+      list_vars(gname, err);
+      fputc('\n', err);
+      rc = 1;
+      goto done;
+    }
+    const nml_var *v = &tubes_nml_vars[vi];
+    while (*p == ' ' || *p == '\t') p++;
+    int first_index = 1;
+    if (*p == '(') {
+      if (v->count == 1) FAIL("&%s: '%s' is a scalar and takes no index", gname, name);
+      char *end;
+      long ix = strtol(p + 1, &end, 10);
+      if (end == p + 1 || *end != ')' || ix < 1 || ix > v->count)
+        FAIL("&%s: bad index for '%s' (allowed 1 to %d)", gname, name, v->count);
+      first_index = (int)ix;
+      p = end + 1;
+      while (*p == ' ' || *p == '\t') p++;
+    }
+    if (*p != '=') FAIL("&%s: expected '=' after '%s'", gname, name);
+    p++;
+    if (w->var_line[vi] && v->count == 1)
+      FAIL("&%s: '%s' is set twice (first at line %d)", gname, name, w->var_line[vi]);
+    w->var_line[vi] = line;
+    /* values until the next "name =" or "name(" or '/' */
+    int nvals = 0, vline = line;
+    char *vstart = NULL;
+    for (;;) {
+      while (*p == ' ' || *p == '\t' || *p == ',' || *p == '\n' || *p == '\r' || *p == '!') {
+        if (*p == '!') { while (*p && *p != '\n') p++; continue; }
+        if (*p == '\n') line++;
+        p++;
+      }
+      if (!*p || *p == '/' || *p == '&' || *p == '$') break;
+      char *tok = p;
+      if (*p == '\'' || *p == '"') {
+        char q = *p++;
+        for (;;) {
+          if (!*p || *p == '\n') FAIL("&%s: unterminated string in the value of '%s'", gname, name);
+          if (*p == q && p[1] == q) { p += 2; continue; }
+          if (*p == q) { p++; break; }
+          p++;
+        }
+      } else {
+        /* is this the next assignment? identifier followed by '=' or '(' */
+        char *q = p;
+        if (isalpha((unsigned char)*q)) {
+          while (isalnum((unsigned char)*q) || *q == '_' || *q == '%') q++;
+          char *r = q;
+          while (*r == ' ' || *r == '\t') r++;
+          if (*r == '=' || (*r == '(' && v->type != NML_STRING)) break;
+          if (*r == '(' ) break;
+        }
+        while (*p && !isspace((unsigned char)*p) && *p != ',' && *p != '/' && *p != '!') p++;
+      }
+      size_t len = (size_t)(p - tok);
+      if (!vstart) {
+        vstart = tok;
+        size_t m = len < 95 ? len : 95;
+        memcpy(w->var_text[vi], tok, m);
+        w->var_text[vi][m] = '\0';
+      }
+      nvals++;
+      const char *why = check_token(v->type, tok, len);
+      if (why)
+        FAIL("&%s: value %.*s of '%s' %s (%s: %s)", gname, (int)(len > 60 ? 60 : len), tok, name,
+             why, v->name, v->doc);
+      if (first_index - 1 + nvals > v->count)
+        FAIL("&%s: too many values for '%s' (at most %d)", gname, name, v->count);
+    }
+    (void)vline;
+    if (nvals == 0) FAIL("&%s: '%s =' has no value", gname, name);
+    if (!*p) break;
+  }
+  if (cur >= 0) {
+    fprintf(err, "%s:%d: group &%s is not closed with '/'\n", path, cur_line, gname);
+    rc = 1;
+  }
+done:
+#undef FAIL
+  free(s);
+  return rc;
+}
+
+void nml_report_read_error(const char *path, const nml_where *w, int group, const char *msg,
+                           FILE *err) {
+  const char *g = (group >= 0 && group < tubes_nml_ngroups) ? tubes_nml_groups[group] : "?";
+  /* gfortran says "Cannot match namelist object name <token>": find the token's variable */
+  const char *tok = strstr(msg, "object name ");
+  if (tok) {
+    tok += strlen("object name ");
+    for (int i = 0; i < tubes_nml_nvars; i++)
+      if (strcasecmp(tubes_nml_vars[i].group, g) == 0 && w->var_line[i] &&
+          strstr(w->var_text[i], tok)) {
+        fprintf(err, "%s:%d: &%s: cannot read the value of '%s' (%s): %s\n", path, w->var_line[i],
+                g, tubes_nml_vars[i].name, w->var_text[i], msg);
+        return;
+      }
+  }
+  fprintf(err, "%s:%d: &%s: %s\n", path, group >= 0 ? w->group_line[group] : 0, g, msg);
+}
+
+static int line_of(const nml_where *w, const char *group, const char *name) {
+  int i = var_index(group, name);
+  return i >= 0 ? w->var_line[i] : 0;
+}
+
+static int bad(const char *path, const nml_where *w, const char *group, const char *name,
+               FILE *err, const char *fmt, double value) {
+  int i = var_index(group, name);
+  int ln = line_of(w, group, name);
+  if (!ln) ln = w->group_line[group_index(group)];
+  fprintf(err, "%s:%d: &%s: %s = %.17g is out of range: allowed %s (%s, %s)", path, ln, group,
+          name, value, i >= 0 ? tubes_nml_vars[i].allowed : "?", i >= 0 ? tubes_nml_vars[i].doc : "",
+          i >= 0 ? tubes_nml_vars[i].units : "");
+  if (fmt && *fmt) fprintf(err, "; %s", fmt);
+  fputc('\n', err);
+  return 1;
+}
+
+static int bad_string(const char *path, const nml_where *w, const char *group, const char *name,
+                      const char *value, FILE *err) {
+  int i = var_index(group, name);
+  int ln = line_of(w, group, name);
+  if (!ln) ln = w->group_line[group_index(group)];
+  fprintf(err, "%s:%d: &%s: %s = '%s' is not allowed: allowed %s\n", path, ln, group, name, value,
+          i >= 0 ? tubes_nml_vars[i].allowed : "?");
+  return 1;
+}
+
+int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
+  int n = 0, nscenes = 0;
+  for (int k = 0; k < TUBES_NSCENES; k++) {
+    const char *s = c->scenes[k];
+    if (!s[0]) continue;
+    nscenes++;
+    int ok = 0;
+    for (int j = 0; j < tubes_nscenes; j++) ok |= strcmp(s, tubes_scene_names[j]) == 0;
+    if (!ok) n += bad_string(path, w, "run", "scenes", s, err);
+  }
+  if (nscenes == 0) {
+    fprintf(err, "%s:%d: &run: scenes is empty: name at least one of ", path, line_of(w, "run", "scenes"));
+    for (int j = 0; j < tubes_nscenes; j++) fprintf(err, "%s'%s'", j ? ", " : "", tubes_scene_names[j]);
+    fputc('\n', err);
+    n++;
+  }
+  if (!c->output[0]) n += bad_string(path, w, "run", "output", "", err);
+  if (!(c->alpha > 0)) n += bad(path, w, "model", "alpha", err, "", c->alpha);
+  if (!(c->beta >= 0)) n += bad(path, w, "model", "beta", err, "", c->beta);
+  if (!(c->gamma > 0)) n += bad(path, w, "model", "gamma", err, "", c->gamma);
+  if (!(c->g > 0)) n += bad(path, w, "model", "g", err, "", c->g);
+  if (!(c->damping_ratio >= 0 && c->damping_ratio < 1))
+    n += bad(path, w, "model", "damping_ratio", err, "", c->damping_ratio);
+  if (!(c->box > 0)) n += bad(path, w, "equilibria", "box", err, "", c->box);
+  if (!(c->n_grid >= 2 && c->n_grid <= 2001)) n += bad(path, w, "equilibria", "n_grid", err, "", c->n_grid);
+  {
+    const char *ok[] = {"S12", "S14", "S23", "S34"};
+    int found = 0;
+    for (int j = 0; j < 4; j++) found |= strcmp(c->saddle, ok[j]) == 0;
+    if (!found) n += bad_string(path, w, "equilibria", "saddle", c->saddle, err);
+  }
+  if (!(c->t_end >= 0)) n += bad(path, w, "trajectory", "t_end", err, "", c->t_end);
+  if (!(c->dt_out > 0)) n += bad(path, w, "trajectory", "dt_out", err, "", c->dt_out);
+  else if (c->t_end / c->dt_out > 5.0e7)
+    n += bad(path, w, "trajectory", "dt_out", err, "t_end/dt_out exceeds 5e7 samples", c->dt_out);
+  if (strcmp(c->method, "dop853") != 0) n += bad_string(path, w, "integrator", "method", c->method, err);
+  if (!(c->rtol >= 1e-15 && c->rtol < 1)) n += bad(path, w, "integrator", "rtol", err, "", c->rtol);
+  if (!(c->atol > 0)) n += bad(path, w, "integrator", "atol", err, "", c->atol);
+  if (!(c->h >= 0)) n += bad(path, w, "integrator", "h", err, "", c->h);
+  if (!(c->max_steps >= 1)) n += bad(path, w, "integrator", "max_steps", err, "", (double)c->max_steps);
+  return n;
+}
+
+void nml_print_help(FILE *out) {
+  const char *tn[] = {"real", "integer", "logical", "string"};
+  fprintf(out, "Scenes (&run scenes = ...):\n");
+  for (int j = 0; j < tubes_nscenes; j++) fprintf(out, "  %-12s %s\n", tubes_scene_names[j], tubes_scene_docs[j]);
+  fprintf(out, "\nNamelist groups and variables (details: docs/input.md):\n");
+  for (int gi = 0; gi < tubes_nml_ngroups; gi++) {
+    fprintf(out, "  &%s\n", tubes_nml_groups[gi]);
+    for (int i = 0; i < tubes_nml_nvars; i++) {
+      const nml_var *v = &tubes_nml_vars[i];
+      if (strcmp(v->group, tubes_nml_groups[gi])) continue;
+      fprintf(out, "    %-14s %-8s [%s] default %s; %s\n", v->name, tn[v->type], v->units, v->deflt, v->doc);
+    }
+  }
+}

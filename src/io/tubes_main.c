@@ -1,0 +1,154 @@
+/* tubes: the program entry. Reads and validates the namelist, runs the scenes, writes the HDF5
+ * file under a temporary name and renames it when complete. Exit codes: docs/usage.md. */
+#include "tubes.h"
+#include "tubes_h5.h"
+#include "tubes_input.h"
+#include "tubes_scenes.h"
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#ifndef TUBES_VERSION
+#define TUBES_VERSION "unknown"
+#endif
+#ifndef TUBES_GIT
+#define TUBES_GIT "unknown"
+#endif
+#ifndef TUBES_COMPILER
+#define TUBES_COMPILER "unknown"
+#endif
+#ifndef TUBES_FFLAGS
+#define TUBES_FFLAGS "unknown"
+#endif
+
+static void usage(FILE *out) {
+  fprintf(out,
+          "usage: tubes [options] INPUT.nml\n"
+          "Phase-space transport between potential wells (tube dynamics) for a ball rolling on a surface.\n\n"
+          "options:\n"
+          "  -o FILE      write the HDF5 output to FILE (overrides &run output)\n"
+          "  --check      read and validate INPUT.nml, print the effective namelist, and exit\n"
+          "  --version    print the version and exit\n"
+          "  -h, --help   this help\n\n"
+          "exit codes: 0 success; 1 bad input or usage; 2 numerical failure (reported on stderr;\n"
+          "the file is still written with the failure recorded); 3 output could not be written\n\n");
+}
+
+int main(int argc, char **argv) {
+  const char *input = NULL, *out_override = NULL;
+  int check_only = 0;
+  for (int i = 1; i < argc; i++) {
+    if (!strcmp(argv[i], "-h") || !strcmp(argv[i], "--help")) {
+      usage(stdout);
+      nml_print_help(stdout);
+      return 0;
+    } else if (!strcmp(argv[i], "--version")) {
+      printf("tubes %s (git %s, %s)\n", TUBES_VERSION, TUBES_GIT, TUBES_COMPILER);
+      return 0;
+    } else if (!strcmp(argv[i], "--check")) {
+      check_only = 1;
+    } else if (!strcmp(argv[i], "-o")) {
+      if (i + 1 >= argc) {
+        fprintf(stderr, "tubes: -o needs a file name\n");
+        return EXIT_BADINPUT;
+      }
+      out_override = argv[++i];
+    } else if (argv[i][0] == '-' && argv[i][1]) {
+      fprintf(stderr, "tubes: unknown option '%s' (see tubes --help)\n", argv[i]);
+      return EXIT_BADINPUT;
+    } else if (input) {
+      fprintf(stderr, "tubes: only one input file is allowed ('%s' and '%s')\n", input, argv[i]);
+      return EXIT_BADINPUT;
+    } else {
+      input = argv[i];
+    }
+  }
+  if (!input) {
+    usage(stderr);
+    fprintf(stderr, "tubes: no input file given\n");
+    return EXIT_BADINPUT;
+  }
+
+  nml_where where;
+  if (nml_lex(input, &where, stderr)) return EXIT_BADINPUT;
+  static tubes_config_t cfg;
+  int group = -1;
+  char msg[512];
+  int ios = tubes_nml_read(input, &cfg, &group, msg, (int)sizeof msg);
+  if (ios != 0) {
+    if (group < 0) fprintf(stderr, "tubes: cannot read '%s': %s\n", input, msg);
+    else nml_report_read_error(input, &where, group, msg, stderr);
+    return EXIT_BADINPUT;
+  }
+  if (out_override) {
+    if (strlen(out_override) >= TUBES_LPATH) {
+      fprintf(stderr, "tubes: -o: file name longer than %d characters\n", TUBES_LPATH - 1);
+      return EXIT_BADINPUT;
+    }
+    snprintf(cfg.output, sizeof cfg.output, "%s", out_override);
+  }
+  if (nml_validate(input, &cfg, &where, stderr)) return EXIT_BADINPUT;
+
+  static char nml_text[65536];
+  if (tubes_nml_write(&cfg, nml_text, (int)sizeof nml_text) < 0) {
+    fprintf(stderr, "tubes: internal error: effective namelist does not fit its buffer\n");
+    return EXIT_IO;
+  }
+  if (check_only) {
+    printf("%s: valid\n%s", input, nml_text);
+    return 0;
+  }
+
+  char tmp[TUBES_LPATH + 64];
+  hid_t f = h5_create_tmp(cfg.output, tmp, sizeof tmp);
+  if (f < 0) {
+    fprintf(stderr, "tubes: cannot create output file '%s' (via '%s')\n", cfg.output, tmp);
+    return EXIT_IO;
+  }
+  char created[64], cmd[4096] = "";
+  time_t tt = time(NULL);
+  strftime(created, sizeof created, "%Y-%m-%dT%H:%M:%SZ", gmtime(&tt));
+  for (int i = 0; i < argc; i++) {
+    strncat(cmd, argv[i], sizeof cmd - strlen(cmd) - 2);
+    if (i + 1 < argc) strncat(cmd, " ", sizeof cmd - strlen(cmd) - 1);
+  }
+  int rc = 0;
+  rc |= h5_attr_string(f, "tubes_version", TUBES_VERSION);
+  rc |= h5_attr_string(f, "git_commit", TUBES_GIT);
+  rc |= h5_attr_string(f, "created", created);
+  rc |= h5_attr_string(f, "input_file", input);
+  rc |= h5_attr_string(f, "input_namelist", nml_text);
+  rc |= h5_attr_string(f, "command_line", cmd);
+  rc |= h5_attr_string(f, "compiler", TUBES_COMPILER);
+  rc |= h5_attr_string(f, "fflags", TUBES_FFLAGS);
+  if (rc) {
+    fprintf(stderr, "tubes: cannot write to '%s'\n", tmp);
+    h5_discard(f, tmp);
+    return EXIT_IO;
+  }
+
+  tubes_run_t run = {&cfg, {cfg.alpha, cfg.beta, cfg.gamma, cfg.xi, cfg.h0, cfg.g, cfg.damping_ratio}, f};
+  int status = scene_model(&run);
+  for (int k = 0; k < TUBES_NSCENES && status != EXIT_IO; k++) {
+    const char *s = cfg.scenes[k];
+    int r = 0;
+    if (!s[0]) continue;
+    if (!strcmp(s, "equilibria")) r = scene_equilibria(&run);
+    else if (!strcmp(s, "trajectory")) r = scene_trajectory(&run);
+    if (r == EXIT_IO) status = EXIT_IO;
+    else if (r && !status) status = r;
+  }
+  if (status == EXIT_IO) {
+    fprintf(stderr, "tubes: writing '%s' failed; no output file was left\n", tmp);
+    h5_discard(f, tmp);
+    return EXIT_IO;
+  }
+  h5_attr_long(f, "exit_status", status);
+  if (h5_commit(f, tmp, cfg.output) != 0) {
+    fprintf(stderr, "tubes: cannot rename '%s' to '%s'\n", tmp, cfg.output);
+    return EXIT_IO;
+  }
+  printf("wrote %s\n", cfg.output);
+  return status;
+}

@@ -1,0 +1,282 @@
+!> Namelist input: Fortran's intrinsic namelist READ behind bind(C) (include/tubes.h).
+!> The C side (tubes_input.c) lexes the file first for line-accurate messages and validates
+!> ranges; this module only reads values and writes the effective namelist.
+module tubes_nml
+  use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_int64_t, c_null_char
+  use, intrinsic :: iso_fortran_env, only: iostat_end
+  implicit none
+  private
+
+  integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32
+
+  !> Mirror of tubes_config_t in include/tubes.h (same order, C layout).
+  type, bind(C), public :: tubes_config_t
+    character(kind=c_char) :: scenes(LSCENE, NSCENES)
+    character(kind=c_char) :: output(LPATH)
+    real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio
+    real(c_double) :: box
+    integer(c_int) :: n_grid
+    character(kind=c_char) :: saddle(8)
+    real(c_double) :: x0, y0, px0, py0, t_end, dt_out
+    integer(c_int) :: at_rest
+    character(kind=c_char) :: method(LNAME)
+    real(c_double) :: rtol, atol, h
+    integer(c_int64_t) :: max_steps
+  end type tubes_config_t
+
+  !> Namelist variables as Fortran sees them (one instance per call, never saved).
+  type :: vars_t
+    character(LSCENE) :: scenes(NSCENES)
+    character(LPATH) :: output
+    real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio
+    real(c_double) :: box
+    integer :: n_grid
+    character(8) :: saddle
+    real(c_double) :: x0, y0, px0, py0, t_end, dt_out
+    logical :: at_rest
+    character(LNAME) :: method
+    real(c_double) :: rtol, atol, h
+    integer(c_int64_t) :: max_steps
+  end type vars_t
+
+contains
+
+  subroutine set_defaults(v)
+    type(vars_t), intent(out) :: v
+    v%scenes = ''
+    v%scenes(1) = 'equilibria'
+    v%output = 'tubes.h5'
+    v%alpha = 0.07_c_double
+    v%beta = 1.017_c_double
+    v%gamma = 15.103_c_double
+    v%xi = 0.00656_c_double
+    v%h0 = 12.065_c_double
+    v%g = 981.0_c_double
+    v%damping_ratio = 0
+    v%box = 20
+    v%n_grid = 41
+    v%saddle = 'S12'
+    v%x0 = 4
+    v%y0 = 12.614863819914357_c_double
+    v%px0 = 0
+    v%py0 = 0
+    v%t_end = 10
+    v%dt_out = 0.01_c_double
+    v%at_rest = .true.
+    v%method = 'dop853'
+    v%rtol = 1.0e-12_c_double
+    v%atol = 1.0e-12_c_double
+    v%h = 0
+    v%max_steps = 10000000_c_int64_t
+  end subroutine set_defaults
+
+  subroutine to_c(v, cfg)
+    type(vars_t), intent(in) :: v
+    type(tubes_config_t), intent(out) :: cfg
+    integer :: k
+    do k = 1, NSCENES
+      call put(v%scenes(k), cfg%scenes(:, k))
+    end do
+    call put(v%output, cfg%output)
+    cfg%alpha = v%alpha; cfg%beta = v%beta; cfg%gamma = v%gamma; cfg%xi = v%xi
+    cfg%h0 = v%h0; cfg%g = v%g; cfg%damping_ratio = v%damping_ratio
+    cfg%box = v%box; cfg%n_grid = v%n_grid
+    call put(v%saddle, cfg%saddle)
+    cfg%x0 = v%x0; cfg%y0 = v%y0; cfg%px0 = v%px0; cfg%py0 = v%py0
+    cfg%t_end = v%t_end; cfg%dt_out = v%dt_out
+    cfg%at_rest = merge(1, 0, v%at_rest)
+    call put(v%method, cfg%method)
+    cfg%rtol = v%rtol; cfg%atol = v%atol; cfg%h = v%h; cfg%max_steps = v%max_steps
+  end subroutine to_c
+
+  subroutine from_c(cfg, v)
+    type(tubes_config_t), intent(in) :: cfg
+    type(vars_t), intent(out) :: v
+    integer :: k
+    do k = 1, NSCENES
+      v%scenes(k) = get(cfg%scenes(:, k))
+    end do
+    v%output = get(cfg%output)
+    v%alpha = cfg%alpha; v%beta = cfg%beta; v%gamma = cfg%gamma; v%xi = cfg%xi
+    v%h0 = cfg%h0; v%g = cfg%g; v%damping_ratio = cfg%damping_ratio
+    v%box = cfg%box; v%n_grid = cfg%n_grid
+    v%saddle = get(cfg%saddle)
+    v%x0 = cfg%x0; v%y0 = cfg%y0; v%px0 = cfg%px0; v%py0 = cfg%py0
+    v%t_end = cfg%t_end; v%dt_out = cfg%dt_out
+    v%at_rest = cfg%at_rest /= 0
+    v%method = get(cfg%method)
+    v%rtol = cfg%rtol; v%atol = cfg%atol; v%h = cfg%h; v%max_steps = cfg%max_steps
+  end subroutine from_c
+
+  pure subroutine put(s, c)
+    character(*), intent(in) :: s
+    character(kind=c_char), intent(out) :: c(:)
+    integer :: i, n
+    n = min(len_trim(s), size(c) - 1)
+    c = c_null_char
+    do i = 1, n
+      c(i) = s(i:i)
+    end do
+  end subroutine put
+
+  pure function get(c) result(s)
+    character(kind=c_char), intent(in) :: c(:)
+    character(size(c)) :: s
+    integer :: i
+    s = ''
+    do i = 1, size(c)
+      if (c(i) == c_null_char) exit
+      s(i:i) = c(i)
+    end do
+  end function get
+
+  subroutine c_defaults(cfg) bind(C, name='tubes_nml_defaults')
+    type(tubes_config_t), intent(out) :: cfg
+    type(vars_t) :: v
+    call set_defaults(v)
+    call to_c(v, cfg)
+  end subroutine c_defaults
+
+  integer(c_int) function c_read(path, cfg, group, msg, msglen) result(ios) &
+      bind(C, name='tubes_nml_read')
+    character(kind=c_char), intent(in) :: path(*)
+    type(tubes_config_t), intent(out) :: cfg
+    integer(c_int), intent(out) :: group
+    integer(c_int), value :: msglen
+    character(kind=c_char), intent(out) :: msg(msglen)
+    type(vars_t) :: v
+    character(LPATH) :: fname
+    character(512) :: iomsg
+    integer :: u, i, grp
+    character(LSCENE) :: scenes(NSCENES)
+    character(LPATH) :: output
+    real(c_double) :: alpha, beta, gamma, xi, h0, damping_ratio, box, x0, y0, px0, py0, &
+                      t_end, dt_out, rtol, atol, h
+    real(c_double) :: g
+    integer :: n_grid
+    character(8) :: saddle
+    logical :: at_rest
+    character(LNAME) :: method
+    integer(c_int64_t) :: max_steps
+    namelist /run/ scenes, output
+    namelist /model/ alpha, beta, gamma, xi, h0, g, damping_ratio
+    namelist /equilibria/ box, n_grid, saddle
+    namelist /trajectory/ x0, y0, px0, py0, at_rest, t_end, dt_out
+    namelist /integrator/ method, rtol, atol, h, max_steps
+    call set_defaults(v)
+    group = -1
+    msg = c_null_char
+    fname = ''
+    do i = 1, LPATH
+      if (path(i) == c_null_char) exit
+      fname(i:i) = path(i)
+    end do
+    scenes = v%scenes; output = v%output
+    alpha = v%alpha; beta = v%beta; gamma = v%gamma; xi = v%xi; h0 = v%h0; g = v%g
+    damping_ratio = v%damping_ratio
+    box = v%box; n_grid = v%n_grid; saddle = v%saddle
+    x0 = v%x0; y0 = v%y0; px0 = v%px0; py0 = v%py0; at_rest = v%at_rest
+    t_end = v%t_end; dt_out = v%dt_out
+    method = v%method; rtol = v%rtol; atol = v%atol; h = v%h; max_steps = v%max_steps
+    open (newunit=u, file=trim(fname), status='old', action='read', iostat=ios, iomsg=iomsg)
+    if (ios /= 0) then
+      call put(iomsg, msg)
+      call to_c(v, cfg)
+      return
+    end if
+    do grp = 0, 4
+      rewind (u)
+      select case (grp)
+      case (0); read (u, nml=run, iostat=ios, iomsg=iomsg)
+      case (1); read (u, nml=model, iostat=ios, iomsg=iomsg)
+      case (2); read (u, nml=equilibria, iostat=ios, iomsg=iomsg)
+      case (3); read (u, nml=trajectory, iostat=ios, iomsg=iomsg)
+      case (4); read (u, nml=integrator, iostat=ios, iomsg=iomsg)
+      end select
+      if (ios == iostat_end) ios = 0       ! group absent (C checks presence separately)
+      if (ios /= 0) then
+        group = grp
+        call put(iomsg, msg)
+        exit
+      end if
+    end do
+    close (u)
+    v%scenes = scenes; v%output = output
+    v%alpha = alpha; v%beta = beta; v%gamma = gamma; v%xi = xi; v%h0 = h0; v%g = g
+    v%damping_ratio = damping_ratio
+    v%box = box; v%n_grid = n_grid; v%saddle = saddle
+    v%x0 = x0; v%y0 = y0; v%px0 = px0; v%py0 = py0; v%at_rest = at_rest
+    v%t_end = t_end; v%dt_out = dt_out
+    v%method = method; v%rtol = rtol; v%atol = atol; v%h = h; v%max_steps = max_steps
+    call to_c(v, cfg)
+  end function c_read
+
+  integer(c_int) function c_write(cfg, buf, buflen) result(n) bind(C, name='tubes_nml_write')
+    type(tubes_config_t), intent(in) :: cfg
+    integer(c_int), value :: buflen
+    character(kind=c_char), intent(out) :: buf(buflen)
+    type(vars_t) :: v
+    character(LSCENE), allocatable :: scenes(:)
+    character(:), allocatable :: output, saddle, method
+    character(2048) :: line
+    integer :: u, ios, k, i, m
+    real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, box, x0, y0, px0, &
+                      py0, t_end, dt_out, rtol, atol, h
+    integer :: n_grid
+    logical :: at_rest
+    integer(c_int64_t) :: max_steps
+    namelist /run/ scenes, output
+    namelist /model/ alpha, beta, gamma, xi, h0, g, damping_ratio
+    namelist /equilibria/ box, n_grid, saddle
+    namelist /trajectory/ x0, y0, px0, py0, at_rest, t_end, dt_out
+    namelist /integrator/ method, rtol, atol, h, max_steps
+    call from_c(cfg, v)
+    m = count(len_trim(v%scenes) > 0)
+    allocate (scenes(max(m, 1)))
+    scenes = ''
+    m = 0
+    do k = 1, NSCENES
+      if (len_trim(v%scenes(k)) > 0) then
+        m = m + 1
+        scenes(m) = v%scenes(k)
+      end if
+    end do
+    output = trim(v%output); saddle = trim(v%saddle); method = trim(v%method)
+    alpha = v%alpha; beta = v%beta; gamma = v%gamma; xi = v%xi; h0 = v%h0; g = v%g
+    damping_ratio = v%damping_ratio
+    box = v%box; n_grid = v%n_grid
+    x0 = v%x0; y0 = v%y0; px0 = v%px0; py0 = v%py0; at_rest = v%at_rest
+    t_end = v%t_end; dt_out = v%dt_out
+    rtol = v%rtol; atol = v%atol; h = v%h; max_steps = v%max_steps
+    open (newunit=u, status='scratch', action='readwrite', delim='apostrophe', iostat=ios)
+    if (ios /= 0) then
+      n = -1
+      return
+    end if
+    write (u, nml=run)
+    write (u, nml=model)
+    write (u, nml=equilibria)
+    write (u, nml=trajectory)
+    write (u, nml=integrator)
+    rewind (u)
+    n = 0
+    buf = c_null_char
+    do
+      read (u, '(a)', iostat=ios) line
+      if (ios /= 0) exit
+      do i = 1, len_trim(line)
+        if (n >= buflen - 2) then
+          n = -1
+          close (u)
+          return
+        end if
+        n = n + 1
+        buf(n) = line(i:i)
+      end do
+      n = n + 1
+      buf(n) = achar(10)
+    end do
+    close (u)
+    if (n < buflen) buf(n + 1) = c_null_char
+  end function c_write
+end module tubes_nml

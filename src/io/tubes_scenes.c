@@ -1,0 +1,199 @@
+/* Scene drivers (include/tubes_scenes.h). */
+#include "tubes_scenes.h"
+#include "tubes_h5.h"
+#include <math.h>
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static double now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+static void status_text(int code, char *buf, int len) { tubes_status_message(code, buf, len); }
+
+int scene_model(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  hid_t g = h5_group(run->file, "model");
+  if (g < 0) return EXIT_IO;
+  int rc = 0;
+  rc |= h5_attr_string(g, "surface", "fourwell: H = alpha (x^2+y^2) - beta (sqrt(x^2+gamma) + "
+                                     "sqrt(y^2+gamma)) - xi x y + h0");
+  rc |= h5_attr_double(g, "alpha", c->alpha);
+  rc |= h5_attr_double(g, "beta", c->beta);
+  rc |= h5_attr_double(g, "gamma", c->gamma);
+  rc |= h5_attr_double(g, "xi", c->xi);
+  rc |= h5_attr_double(g, "h0", c->h0);
+  rc |= h5_attr_double(g, "g", c->g);
+  rc |= h5_attr_double(g, "damping_ratio", c->damping_ratio);
+  if (c->damping_ratio > 0) {
+    double cd = 0;
+    int st = tubes_damping_rate(run->model, &cd);
+    if (st < 0) {
+      fprintf(stderr, "tubes: model: cannot define the damping rate (no well found), status %d\n", st);
+      H5Gclose(g);
+      return EXIT_NUMERIC;
+    }
+    rc |= h5_attr_double(g, "damping_rate", cd);
+  }
+  H5Gclose(g);
+  return rc ? EXIT_IO : 0;
+}
+
+int scene_equilibria(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  enum { NMAX = 256 };
+  int n = 0, morse[NMAX];
+  static double x[NMAX], y[NMAX], hgt[NMAX], en[NMAX], gn[NMAX], lam[NMAX], om[NMAX], ev[16 * NMAX];
+  char names[8 * NMAX];
+  double t0 = now();
+  int st = tubes_find_equilibria(run->model, c->box, c->n_grid, NMAX, &n, x, y, hgt, en, gn, morse, names,
+                            lam, om, ev);
+  if (st < 0) {
+    char m[128];
+    status_text(st, m, sizeof m);
+    fprintf(stderr, "tubes: equilibria: failed: %s (status %d)\n", m, st);
+    return EXIT_NUMERIC;
+  }
+  const char *nm[NMAX];
+  for (int k = 0; k < n; k++) nm[k] = names + 8 * k;
+  int isad = -1;
+  for (int k = 0; k < n; k++)
+    if (strcmp(nm[k], c->saddle) == 0) isad = k;
+
+  printf("equilibria: %d critical points of H in |x|, |y| <= %g cm (%.3f s)\n", n, c->box, now() - t0);
+  printf("  %-4s %13s %13s %13s %5s %10s %10s %8s\n", "name", "x [cm]", "y [cm]", "E [(cm/s)^2]",
+         "index", "lambda[1/s]", "omega[1/s]", "T_po [s]");
+  for (int k = 0; k < n; k++) {
+    if (morse[k] == 1)
+      printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10.6f %8.6f\n", nm[k], x[k], y[k], en[k], morse[k],
+             lam[k], om[k], 2 * M_PI / om[k]);
+    else
+      printf("  %-4s %13.8f %13.8f %13.6f %5d %10s %10s %8s\n", nm[k], x[k], y[k], en[k], morse[k], "-", "-", "-");
+  }
+  hid_t g = h5_group(run->file, "equilibria");
+  if (g < 0) return EXIT_IO;
+  hsize_t dn = (hsize_t)n, d44[2] = {4, 4};
+  int rc = 0;
+  rc |= h5_write_double(g, "x", 1, &dn, x, "cm");
+  rc |= h5_write_double(g, "y", 1, &dn, y, "cm");
+  rc |= h5_write_double(g, "height", 1, &dn, hgt, "cm");
+  rc |= h5_write_double(g, "energy", 1, &dn, en, "(cm/s)^2");
+  rc |= h5_write_double(g, "grad_norm", 1, &dn, gn, "1");
+  rc |= h5_write_int(g, "morse_index", dn, morse, "1");
+  rc |= h5_write_strings(g, "name", dn, nm);
+  rc |= h5_write_double(g, "lambda", 1, &dn, lam, "1/s");
+  rc |= h5_write_double(g, "omega", 1, &dn, om, "rad/s");
+  rc |= h5_attr_double(g, "box", c->box);
+  rc |= h5_attr_long(g, "n_grid", c->n_grid);
+  H5Gclose(g);
+  if (rc) return EXIT_IO;
+  if (isad < 0) {
+    fprintf(stderr, "tubes: equilibria: saddle %s was not found in the box |x|, |y| <= %g cm\n", c->saddle, c->box);
+    return EXIT_NUMERIC;
+  }
+  int k = isad;
+  printf("saddle %s: E_e = %.10g (cm/s)^2, lambda = %.10g 1/s, omega = %.10g rad/s, T_po = %.10g s\n",
+         nm[k], en[k], lam[k], om[k], 2 * M_PI / om[k]);
+  g = h5_group(run->file, "saddle");
+  if (g < 0) return EXIT_IO;
+  double evr[16];   /* C order: row i = component i, columns u, s, Re c, Im c */
+  for (int i = 0; i < 4; i++)
+    for (int j = 0; j < 4; j++) evr[4 * i + j] = ev[16 * k + 4 * j + i];
+  rc |= h5_attr_string(g, "name", nm[k]);
+  rc |= h5_attr_double(g, "x", x[k]);
+  rc |= h5_attr_double(g, "y", y[k]);
+  rc |= h5_attr_double(g, "energy", en[k]);
+  rc |= h5_attr_double(g, "lambda", lam[k]);
+  rc |= h5_attr_double(g, "omega", om[k]);
+  rc |= h5_attr_double(g, "T_po", 2 * M_PI / om[k]);
+  rc |= h5_write_double(g, "eigenvectors", 2, d44, evr, "1");
+  H5Gclose(g);
+  return rc ? EXIT_IO : 0;
+}
+
+typedef struct {
+  double t_end, start, last;
+} progress_t;
+
+static int progress(double t, void *user) {
+  progress_t *p = user;
+  double w = now();
+  if (w - p->last >= 1.0) {
+    fprintf(stderr, "trajectory: t = %.4g of %.4g s (%.0f%%), %.1f s elapsed\n", t, p->t_end,
+            100.0 * t / p->t_end, w - p->start);
+    p->last = w;
+  }
+  return 0;
+}
+
+int scene_trajectory(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  double x0[4] = {c->x0, c->y0, c->at_rest ? 0.0 : c->px0, c->at_rest ? 0.0 : c->py0};
+  double nsd = floor(c->t_end / c->dt_out * (1 + 1e-12)) + 2;
+  int nmax = (int)nsd, n = 0;
+  double *t = malloc(sizeof(double) * nmax), *st = malloc(sizeof(double) * 4 * nmax),
+         *en = malloc(sizeof(double) * nmax);
+  if (!t || !st || !en) {
+    free(t); free(st); free(en);
+    fprintf(stderr, "tubes: trajectory: cannot allocate %d samples\n", nmax);
+    return EXIT_NUMERIC;
+  }
+  int64_t cnt[3] = {0, 0, 0};
+  double cdamp = 0;
+  progress_t pr = {c->t_end, now(), now()};
+  double t0 = now();
+  int s = tubes_run_trajectory(run->model, x0, c->t_end, c->dt_out, TUBES_METHOD_DOP853, c->rtol, c->atol,
+                           c->h, c->max_steps, nmax, &n, t, st, en, cnt, &cdamp, progress, &pr);
+  double wall = now() - t0;
+  char msg[128];
+  status_text(s, msg, sizeof msg);
+  int rc = 0;
+  double e0 = en[0], maxerr = 0;
+  for (int k = 0; k < n; k++) maxerr = fmax(maxerr, fabs(en[k] - e0) / fabs(e0));
+  if (s < 0)
+    fprintf(stderr, "tubes: trajectory: integration failed at t = %.17g s: %s (status %d) after %lld steps, "
+            "%lld rejected, %lld evaluations; the samples up to there are written\n",
+            n ? t[n - 1] : 0.0, msg, s, (long long)cnt[1], (long long)cnt[2], (long long)cnt[0]);
+  printf("trajectory: %s from (%g, %g, %g, %g), E0 = %.10g (cm/s)^2, to t = %g s: %d samples, "
+         "%lld steps (%lld rejected), %lld evaluations, %.3f s\n",
+         c->method, x0[0], x0[1], x0[2], x0[3], e0, n ? t[n - 1] : 0.0, n, (long long)cnt[1],
+         (long long)cnt[2], (long long)cnt[0], wall);
+  if (c->damping_ratio > 0)
+    printf("  damped (zeta = %g, c = %.6g 1/s): energy lost %.6g (cm/s)^2\n", c->damping_ratio, cdamp,
+           e0 - en[n - 1]);
+  else
+    printf("  max relative energy error %.3e\n", maxerr);
+  hid_t g = h5_group(run->file, "trajectory");
+  if (g < 0) rc = EXIT_IO;
+  else {
+    hsize_t dn = (hsize_t)n, d2[2] = {(hsize_t)n, 4};
+    int e = 0;
+    e |= h5_write_double(g, "t", 1, &dn, t, "s");
+    e |= h5_write_double(g, "state", 2, d2, st, "cm, cm, cm/s, cm/s");
+    e |= h5_write_double(g, "energy", 1, &dn, en, "(cm/s)^2");
+    e |= h5_attr_string(g, "method", c->method);
+    e |= h5_attr_double(g, "rtol", c->rtol);
+    e |= h5_attr_double(g, "atol", c->atol);
+    e |= h5_attr_double(g, "h", c->h);
+    e |= h5_attr_long(g, "nfev", cnt[0]);
+    e |= h5_attr_long(g, "nsteps", cnt[1]);
+    e |= h5_attr_long(g, "nrejected", cnt[2]);
+    e |= h5_attr_double(g, "wall_seconds", wall);
+    e |= h5_attr_double(g, "damping_rate", cdamp);
+    e |= h5_attr_double(g, "max_rel_energy_error", maxerr);
+    e |= h5_attr_long(g, "status", s);
+    e |= h5_attr_string(g, "status_message", msg);
+    H5Gclose(g);
+    if (e) rc = EXIT_IO;
+  }
+  free(t); free(st); free(en);
+  if (rc) return rc;
+  return s < 0 ? EXIT_NUMERIC : 0;
+}

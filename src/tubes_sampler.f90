@@ -1,0 +1,53 @@
+!> Observer that samples the dense output on the grid t0 + k dt (k = 0, 1, ...).
+module tubes_sampler
+  use tubes_kinds, only: wp
+  use tubes_integrator, only: integrator_t, observer_t
+  implicit none
+  private
+
+  type, extends(observer_t), public :: sampler_t
+    real(wp) :: t0 = 0                 !! first sample time [s]
+    real(wp) :: dt = 1                 !! sample spacing [s] (sign = direction)
+    integer :: n = 0                   !! samples taken
+    real(wp), allocatable :: t(:)      !! sample times [s]
+    real(wp), allocatable :: x(:, :)   !! samples (dim, nmax)
+    integer :: count = 0               !! steps seen
+  contains
+    procedure :: on_step => sampler_on_step
+    procedure :: start => sampler_start
+  end type sampler_t
+
+contains
+
+  !> Reset with room for nmax samples; records the initial state as sample 1.
+  subroutine sampler_start(self, t0, dt, x0, nmax)
+    class(sampler_t), intent(inout) :: self
+    real(wp), intent(in) :: t0, dt, x0(:)
+    integer, intent(in) :: nmax
+    if (allocated(self%t)) deallocate (self%t, self%x)
+    allocate (self%t(nmax), self%x(size(x0), nmax))
+    self%t0 = t0
+    self%dt = dt
+    self%n = 1
+    self%t(1) = t0
+    self%x(:, 1) = x0
+    self%count = 0
+  end subroutine sampler_start
+
+  subroutine sampler_on_step(self, ig, t_hi, stop_now)
+    class(sampler_t), intent(inout) :: self
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: t_hi
+    logical, intent(out) :: stop_now
+    real(wp) :: ts
+    stop_now = .false.
+    do while (self%n < size(self%t))
+      ts = self%t0 + self%n*self%dt
+      if (self%dt*(ts - t_hi) > 0) exit
+      self%n = self%n + 1
+      self%t(self%n) = ts
+      call ig%interp(ts, self%x(:, self%n))
+    end do
+    self%count = self%count + 1
+  end subroutine sampler_on_step
+end module tubes_sampler
