@@ -1,0 +1,194 @@
+"""tubes: phase-space transport between potential wells (tube dynamics).
+
+Python facade of the Fortran core (the f2py extension ``tubes._core``) and the reader of
+tubes' HDF5 output. Units: cm and s; energies per unit mass in (cm/s)^2.
+
+    >>> import tubes
+    >>> m = tubes.Model()                       # the paper's surface and g
+    >>> eq = tubes.equilibria(m)                # dict of arrays, names included
+    >>> res = tubes.load("paper.h5")            # an HDF5 result as nested attributes
+    >>> res.saddle.T_po, res.trajectory.state.shape
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+# Status codes: the same numbers as src/tubes_status.f90 and include/tubes.h.
+OK, EVENT = 0, 1
+EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV = -1, -2, -3, -4, -5, -6
+_MESSAGES = {
+    OK: "ok", EVENT: "stopped at a terminal event", EINPUT: "invalid input",
+    EMAXSTEPS: "maximum number of steps reached", ESTEP: "step size underflow",
+    EMODEL: "the vector field returned NaN or Inf", EIO: "input/output error",
+    ENOCONV: "iteration did not converge",
+}
+METHODS = {"dop853": 1}
+
+__all__ = ["Model", "TubesError", "energy", "vector_field", "velocity", "momentum",
+           "equilibria", "trajectory", "load", "Result"]
+
+
+class TubesError(RuntimeError):
+    """A failure reported by the Fortran core; ``code`` is the TUBES_* status."""
+
+    def __init__(self, code: int, where: str = ""):
+        self.code = int(code)
+        super().__init__(f"{where}: {_MESSAGES.get(self.code, 'unknown status')} (status {self.code})")
+
+
+def _lib():
+    try:
+        from . import _core as core  # noqa: PLC0415
+    except ImportError as exc:  # pragma: no cover - message for users who skipped `make`
+        raise ImportError("tubes._core is not built: run `make` in the tubes directory") from exc
+    return core
+
+
+@dataclasses.dataclass(frozen=True)
+class Model:
+    """The rolling ball on the four-well surface; defaults are the paper's values."""
+    alpha: float = 0.07          # [1/cm]
+    beta: float = 1.017          # [1]
+    gamma: float = 15.103        # [cm^2]
+    xi: float = 0.00656          # [1/cm]
+    h0: float = 12.065           # [cm]
+    g: float = 981.0             # [cm/s^2]
+    damping_ratio: float = 0.0   # [1]
+
+    def params(self) -> np.ndarray:
+        return np.array([self.alpha, self.beta, self.gamma, self.xi, self.h0, self.g,
+                         self.damping_ratio], dtype=np.float64)
+
+
+def _check(stat: int, where: str) -> None:
+    if stat < 0:
+        raise TubesError(stat, where)
+
+
+def _vec(x, n: int, name: str) -> np.ndarray:
+    a = np.array(x, dtype=np.float64, copy=True).reshape(-1)
+    if a.size != n:
+        raise ValueError(f"{name} must have {n} components, got {a.size}")
+    return a
+
+
+def energy(state, model: Model = Model()) -> float:
+    """Energy per unit mass T + g H [(cm/s)^2] of state (x, y, px, py)."""
+    stat, e = _lib().energy(model.params(), _vec(state, 4, "state"))
+    _check(stat, "energy")
+    return float(e)
+
+
+def vector_field(state, model: Model = Model()) -> np.ndarray:
+    """Hamilton's equations d(x, y, px, py)/dt (damped if model.damping_ratio > 0)."""
+    stat, f = _lib().vector_field(model.params(), _vec(state, 4, "state"))
+    _check(stat, "vector_field")
+    return np.asarray(f)
+
+
+def velocity(state, model: Model = Model()) -> np.ndarray:
+    """Planar velocity (dx/dt, dy/dt) [cm/s] of state (x, y, px, py)."""
+    stat, v = _lib().velocity(model.params(), _vec(state, 4, "state"))
+    _check(stat, "velocity")
+    return np.asarray(v)
+
+
+def momentum(q, v, model: Model = Model()) -> np.ndarray:
+    """Momenta p = (7/5) M v [cm/s] at position q with planar velocity v."""
+    stat, p = _lib().momentum(model.params(), _vec(q, 2, "q"), _vec(v, 2, "v"))
+    _check(stat, "momentum")
+    return np.asarray(p)
+
+
+def equilibria(model: Model = Model(), box: float = 20.0, n_grid: int = 41) -> dict:
+    """Critical points of H in |x|, |y| <= box: dict of arrays x, y, height, energy,
+    morse_index, name, lambda, omega (rank-1 saddles only), eigenvectors (n, 4, 4)."""
+    stat, n, x, y, h, e, morse, names, lam, om, ev = _lib().equilibria(
+        model.params(), float(box), int(n_grid))
+    _check(stat, "equilibria")
+    names = names.decode() if isinstance(names, bytes) else str(names)
+    return {"x": x[:n].copy(), "y": y[:n].copy(), "height": h[:n].copy(),
+            "energy": e[:n].copy(), "morse_index": morse[:n].copy(),
+            "name": names.split()[:n], "lambda": lam[:n].copy(), "omega": om[:n].copy(),
+            "eigenvectors": np.moveaxis(ev[:, :, :n], 2, 0).copy()}
+
+
+def trajectory(state0, t_end: float, dt_out: float = 0.01, model: Model = Model(),
+               method: str = "dop853", rtol: float = 1e-12, atol: float = 1e-12,
+               h: float = 0.0, max_steps: int = 10_000_000) -> dict:
+    """Integrate from state0 at t = 0 to t_end, sampled every dt_out.
+    Returns dict t (n,), state (n, 4), energy (n,), nfev, nsteps, nrejected."""
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; allowed: {', '.join(METHODS)}")
+    if not (dt_out > 0 and t_end >= 0):
+        raise ValueError("need dt_out > 0 and t_end >= 0")
+    nmax = int(np.floor(t_end / dt_out * (1 + 1e-12))) + 2
+    stat, n, t, st, en, cnt = _lib().trajectory(
+        model.params(), _vec(state0, 4, "state0"), float(t_end), float(dt_out), METHODS[method],
+        float(rtol), float(atol), float(h), int(max_steps), nmax)
+    _check(stat, "trajectory")
+    return {"t": t[:n].copy(), "state": st[:, :n].T.copy(), "energy": en[:n].copy(),
+            "nfev": int(cnt[0]), "nsteps": int(cnt[1]), "nrejected": int(cnt[2])}
+
+
+class Result:
+    """An HDF5 group of a tubes output: attributes and datasets as Python attributes
+    (datasets as numpy arrays, strings decoded), subgroups as nested Results."""
+
+    def __init__(self, name: str, attrs: dict, items: dict):
+        self._name, self.attrs, self._items = name, attrs, items
+
+    def __getattr__(self, key: str) -> Any:
+        items = self.__dict__.get("_items", {})
+        if key in items:
+            return items[key]
+        attrs = self.__dict__.get("attrs", {})
+        if key in attrs:
+            return attrs[key]
+        raise AttributeError(f"{self.__dict__.get('_name', '?')} has no dataset, group or "
+                             f"attribute {key!r}")
+
+    def __getitem__(self, key: str) -> Any:
+        node: Any = self
+        for part in key.strip("/").split("/"):
+            node = getattr(node, part)
+        return node
+
+    def __contains__(self, key: str) -> bool:
+        return key in self._items or key in self.attrs
+
+    def keys(self):
+        return list(self._items) + list(self.attrs)
+
+    def __repr__(self) -> str:
+        return f"<tubes.Result {self._name}: {', '.join(self.keys())}>"
+
+
+def _decode(v: Any) -> Any:
+    if isinstance(v, bytes):
+        return v.decode()
+    if isinstance(v, np.ndarray) and v.dtype.kind in "OS":
+        return [x.decode() if isinstance(x, bytes) else x for x in v.tolist()]
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _read(node, name: str) -> Result:
+    import h5py
+    attrs = {k: _decode(v) for k, v in node.attrs.items()}
+    items: dict = {}
+    for k, v in node.items():
+        items[k] = _read(v, f"{name}/{k}".replace("//", "/")) if isinstance(v, h5py.Group) \
+            else _decode(v[()])
+    return Result(name, attrs, items)
+
+
+def load(path: str) -> Result:
+    """Read a tubes HDF5 output completely into memory."""
+    import h5py
+    with h5py.File(path, "r") as f:
+        return _read(f, "/")
