@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# make check: every Fortran and C test program (optimised build, then the runtime-checked
+# build in build/debug), then pytest (Python layer and the tubes executable).
+# Ends with one line "N passed, N failed"; exits non-zero if anything failed.
+set -u
+cd "$(dirname "$0")/.."
+mkdir -p build/testlogs
+pass=0
+fail=0
+run() {
+  local name=$1
+  shift
+  local log="build/testlogs/${name//\//_}.log"
+  local t0=$SECONDS
+  if "$@" >"$log" 2>&1; then
+    pass=$((pass + 1))
+    printf 'PASS %-34s (%ds)\n' "$name" $((SECONDS - t0))
+  else
+    fail=$((fail + 1))
+    printf 'FAIL %-34s (log %s)\n' "$name" "$log"
+    grep -E '^FAIL|Error|error' "$log" | head -20
+  fi
+}
+for t in build/tests/test_*; do
+  [ -x "$t" ] && run "release/$(basename "$t")" "$t"
+done
+for t in build/debug/tests/test_*; do
+  [ -x "$t" ] && run "debug/$(basename "$t")" "$t"
+done
+log=build/testlogs/pytest.log
+OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python -m pytest -q -p no:cacheprovider tests >"$log" 2>&1
+prc=$?
+tail -3 "$log"
+np=$(grep -Eo '[0-9]+ passed' "$log" | tail -1 | grep -Eo '[0-9]+' || true)
+nf=$(grep -Eo '[0-9]+ (failed|error|errors)' "$log" | awk '{s += $1} END {print s + 0}')
+np=${np:-0}
+nf=${nf:-0}
+if [ "$prc" -ne 0 ] && [ "$nf" -eq 0 ]; then
+  nf=1   # pytest failed without a count (collection error, no tests): count it as a failure
+  grep -E 'Error|error' "$log" | head -10
+fi
+pass=$((pass + np))
+fail=$((fail + nf))
+[ "$nf" -gt 0 ] && grep -E '^(FAILED|ERROR)' "$log" | head -20
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]

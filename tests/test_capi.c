@@ -1,0 +1,85 @@
+/* The bind(C) API through include/tubes.h, as a C user calls it. Each check prints one line;
+ * exit 1 if any failed. */
+#include "tubes.h"
+#include <math.h>
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+#include <stdio.h>
+#include <string.h>
+
+static int nfail = 0, nchecks = 0;
+static void check(const char *name, int ok, double got, double want) {
+  nchecks++;
+  if (!ok) nfail++;
+  printf("%s %s (got %.17g, want %.17g)\n", ok ? "ok  " : "FAIL", name, got, want);
+}
+
+int main(void) {
+  const double model[TUBES_NMODEL] = {0.07, 1.017, 15.103, 0.00656, 12.065, 981.0, 0.0};
+  enum { NMAX = 32 };
+  int n = 0, morse[NMAX];
+  double x[NMAX], y[NMAX], h[NMAX], e[NMAX], gn[NMAX], lam[NMAX], om[NMAX], ev[16 * NMAX];
+  char names[8 * NMAX];
+  int st = tubes_find_equilibria(model, 20.0, 41, NMAX, &n, x, y, h, e, gn, morse, names, lam, om, ev);
+  check("equilibria status", st == TUBES_OK, st, TUBES_OK);
+  check("nine equilibria", n == 9, n, 9);
+  for (int k = 0; k < n; k++) {
+    double ek;
+    tubes_energy(model, (double[4]){x[k], y[k], 0, 0}, &ek);
+    /* energy at rest = g H: the same sum evaluated twice, equal to roundoff */
+    check("energy at rest equals g H", fabs(ek - e[k]) <= 1e-12 * fabs(e[k]), ek, e[k]);
+    double f[4];
+    tubes_vector_field(model, (double[4]){x[k], y[k], 0, 0}, f);
+    /* |dp/dt| = g |grad H| <= g * 1e-13 at a converged critical point */
+    check("rest point is an equilibrium", fabs(f[2]) + fabs(f[3]) <= 981.0 * 1e-13, fabs(f[2]) + fabs(f[3]), 0);
+  }
+  int k12 = -1;
+  for (int k = 0; k < n; k++)
+    if (!strcmp(names + 8 * k, "S12")) k12 = k;
+  check("S12 present", k12 >= 0, k12, 0);
+  if (k12 >= 0) {
+    /* T_po = 2 pi / omega is the small-orbit period; omega^2 = (5/7) g kappa_max */
+    double tp = 2 * M_PI / om[k12];
+    check("T_po in the paper's range (0.7-0.8 s)", tp > 0.7 && tp < 0.8, tp, 0.75);
+    /* unstable eigenvector: J u = lambda u with J = [[0, 5/7 I], [-g Hess, 0]]:
+       first rows say u_q = (5/7) u_p / lambda */
+    const double *u = ev + 16 * k12;
+    double r = fabs(u[0] - 5.0 / 7.0 * u[2] / lam[k12]) + fabs(u[1] - 5.0 / 7.0 * u[3] / lam[k12]);
+    check("unstable eigenvector: q part = (5/7) p part / lambda", r < 1e-12, r, 0);
+  }
+  double p[2];
+  tubes_momentum(model, (double[2]){0, 0}, (double[2]){1, 2}, p);
+  /* at the origin grad H = (0, 0) by symmetry, so M = I and p = (7/5) v */
+  check("momentum at origin", fabs(p[0] - 1.4) < 1e-15 && fabs(p[1] - 2.8) < 1e-15, p[1], 2.8);
+
+  /* trajectory: energy conserved to the tolerance's level; bad input refused */
+  enum { NS = 12 };
+  double t[NS], s[4 * NS], en[NS], cdamp;
+  int64_t cnt[3];
+  int ns = 0;
+  st = tubes_run_trajectory(model, (double[4]){4.0, 12.614863819914357, 0, 0}, 1.0, 0.1,
+                            TUBES_METHOD_DOP853, 1e-12, 1e-12, 0.0, 1000000, NS, &ns, t, s, en, cnt,
+                            &cdamp, NULL, NULL);
+  check("trajectory status", st == TUBES_OK, st, 0);
+  check("trajectory samples", ns == 11, ns, 11);
+  check("energy excess over S12 is 1500", fabs(en[0] - (k12 >= 0 ? e[k12] : 0) - 1500.0) < 1e-8,
+        en[0] - (k12 >= 0 ? e[k12] : 0), 1500);
+  /* ~100 steps with local error <= 1e-12 relative: drift well below 1e-10 */
+  check("energy conserved", fabs(en[ns - 1] - en[0]) <= 1e-10 * en[0], en[ns - 1], en[0]);
+  st = tubes_run_trajectory(model, (double[4]){4, 12, 0, 0}, 1.0, -0.1, TUBES_METHOD_DOP853, 1e-12,
+                            1e-12, 0.0, 1000, NS, &ns, t, s, en, cnt, &cdamp, NULL, NULL);
+  check("negative dt_out refused", st == TUBES_EINPUT, st, TUBES_EINPUT);
+  st = tubes_run_trajectory(model, (double[4]){4, 12, 0, 0}, 1.0, 0.1, 99, 1e-12, 1e-12, 0.0, 1000,
+                            NS, &ns, t, s, en, cnt, &cdamp, NULL, NULL);
+  check("unknown method refused", st == TUBES_EINPUT, st, TUBES_EINPUT);
+  char msg[64];
+  tubes_status_message(TUBES_EMAXSTEPS, msg, sizeof msg);
+  check("status message", strstr(msg, "maximum number of steps") != NULL, 0, 0);
+  if (nfail) {
+    printf("%d of %d check(s) FAILED in test_capi\n", nfail, nchecks);
+    return 1;
+  }
+  printf("all %d checks passed in test_capi\n", nchecks);
+  return 0;
+}

@@ -1,0 +1,198 @@
+"""The tubes executable: options, bad input paths (message, exit code, no output file),
+numerical failure, and the HDF5 contract of docs/output.md."""
+import pathlib
+import textwrap
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import ROOT, run_tubes
+
+BAD = [  # (name, namelist text, substrings the message must contain)
+    ("unknown group", "&runn scenes='equilibria' /\n", ["bad.nml:1", "unknown namelist group &runn", "&model"]),
+    ("unknown variable", "&model\n  alpha = 0.07\n  alfa = 1 /\n", ["bad.nml:3", "&model", "'alfa'", "alpha, beta"]),
+    ("malformed real", "&integrator\n rtol = abc\n/\n", ["bad.nml:2", "rtol", "abc", "not a real number"]),
+    ("malformed real 2", "&integrator rtol = 1.0.3 /\n", ["bad.nml:1", "rtol", "1.0.3"]),
+    ("malformed integer", "&equilibria n_grid = 4.5 /\n", ["bad.nml:1", "n_grid", "not an integer"]),
+    ("malformed logical", "&trajectory at_rest = yes /\n", ["bad.nml:1", "at_rest", "logical"]),
+    ("unquoted string", "&integrator method = dop853 /\n", ["bad.nml:1", "method", "quoted"]),
+    ("unterminated string", "&run output = 'x.h5 /\n", ["bad.nml:1", "unterminated string"]),
+    ("unclosed group", "&model alpha = 0.07\n&run /\n", ["bad.nml:2", "&model (line 1)", "not closed"]),
+    ("unclosed at eof", "&model alpha = 0.07\n", ["bad.nml:1", "not closed"]),
+    ("duplicate group", "&model /\n&model /\n", ["bad.nml:2", "appears twice"]),
+    ("duplicate variable", "&model g = 981\n g = 980 /\n", ["bad.nml:2", "set twice"]),
+    ("text outside", "alpha = 1\n", ["bad.nml:1", "outside a namelist group"]),
+    ("g <= 0", "&model\n g = -9.81 /\n", ["bad.nml:2", "&model", "g = -9.81", "> 0"]),
+    ("gamma <= 0", "&model gamma = 0 /\n", ["bad.nml:1", "gamma", "> 0"]),
+    ("alpha <= 0", "&model alpha = -1 /\n", ["bad.nml:1", "alpha"]),
+    ("damping >= 1", "&model damping_ratio = 1.5 /\n", ["bad.nml:1", "damping_ratio"]),
+    ("rtol <= 0", "&integrator rtol = 0 /\n", ["bad.nml:1", "rtol", "out of range"]),
+    ("atol <= 0", "&integrator atol = -1e-9 /\n", ["bad.nml:1", "atol"]),
+    ("h < 0", "&integrator h = -0.1 /\n", ["bad.nml:1", "&integrator", "h = -0.1"]),
+    ("max_steps < 1", "&integrator max_steps = 0 /\n", ["bad.nml:1", "max_steps"]),
+    ("unknown method", "&integrator method = 'euler' /\n", ["bad.nml:1", "method = 'euler'", "dop853"]),
+    ("unknown scene", "&run scenes = 'equilibria', 'flux' /\n", ["bad.nml:1", "'flux'", "trajectory"]),
+    ("empty scenes", "&run scenes = '' /\n", ["bad.nml:1", "scenes is empty"]),
+    ("t_end < 0", "&trajectory t_end = -1 /\n", ["bad.nml:1", "t_end", ">= 0"]),
+    ("dt_out <= 0", "&trajectory dt_out = 0 /\n", ["bad.nml:1", "dt_out"]),
+    ("n_grid < 2", "&equilibria n_grid = 1 /\n", ["bad.nml:1", "n_grid"]),
+    ("box <= 0", "&equilibria box = 0 /\n", ["bad.nml:1", "box"]),
+    ("unknown saddle", "&equilibria saddle = 'S13' /\n", ["bad.nml:1", "saddle = 'S13'", "S12"]),
+    ("scalar index", "&model g(2) = 1 /\n", ["bad.nml:1", "scalar"]),
+    ("too many values", "&model g = 1, 2 /\n", ["bad.nml:1", "too many values"]),
+    ("no value", "&model g = /\n", ["bad.nml:1", "no value"]),
+]
+
+
+def _no_outputs(d: pathlib.Path):
+    left = [p.name for p in d.iterdir() if p.suffix == ".h5" or ".tmp" in p.name]
+    assert not left, f"output left behind: {left}"
+
+
+@pytest.mark.parametrize("name,text,needles", BAD, ids=[b[0] for b in BAD])
+def test_bad_input(tmp_path, tubes_exe, name, text, needles):
+    (tmp_path / "bad.nml").write_text(text)
+    r = run_tubes(["bad.nml", "-o", "out.h5"], tmp_path)
+    assert r.returncode == 1, (r.returncode, r.stdout, r.stderr)
+    for n in needles:
+        assert n in r.stderr, f"{n!r} not in message: {r.stderr!r}"
+    _no_outputs(tmp_path)
+
+
+def test_missing_file(tmp_path, tubes_exe):
+    r = run_tubes(["nope.nml"], tmp_path)
+    assert r.returncode == 1
+    assert "nope.nml" in r.stderr and "cannot open" in r.stderr
+    _no_outputs(tmp_path)
+
+
+def test_unreadable_file(tmp_path, tubes_exe):
+    (tmp_path / "dir.nml").mkdir()        # a directory opens but cannot be read (even as root)
+    r = run_tubes(["dir.nml"], tmp_path)
+    assert r.returncode == 1
+    assert "dir.nml" in r.stderr and "cannot read" in r.stderr
+    _no_outputs(tmp_path)
+
+
+def test_usage_errors(tmp_path, tubes_exe):
+    assert run_tubes([], tmp_path).returncode == 1
+    r = run_tubes(["--frobnicate", "x.nml"], tmp_path)
+    assert r.returncode == 1 and "unknown option" in r.stderr
+    r = run_tubes(["a.nml", "b.nml"], tmp_path)
+    assert r.returncode == 1 and "only one input file" in r.stderr
+    r = run_tubes(["x.nml", "-o"], tmp_path)
+    assert r.returncode == 1 and "-o needs" in r.stderr
+
+
+def test_unwritable_output(tmp_path, tubes_exe):
+    (tmp_path / "ok.nml").write_text("")
+    r = run_tubes(["ok.nml", "-o", "no/such/dir/out.h5"], tmp_path)
+    assert r.returncode == 3 and "cannot create output file" in r.stderr
+
+
+def test_help_and_version(tmp_path, tubes_exe):
+    r = run_tubes(["--help"], tmp_path)
+    assert r.returncode == 0
+    for word in ["equilibria", "trajectory", "&model", "damping_ratio", "-o FILE", "--check"]:
+        assert word in r.stdout
+    r = run_tubes(["--version"], tmp_path)
+    assert r.returncode == 0 and r.stdout.startswith("tubes ")
+
+
+def test_check_only(tmp_path, tubes_exe):
+    r = run_tubes(["--check", str(ROOT / "input" / "paper.nml")], tmp_path)
+    assert r.returncode == 0 and "valid" in r.stdout and "&MODEL" in r.stdout
+    _no_outputs(tmp_path)
+
+
+def test_empty_namelist_is_the_paper(tmp_path, tubes_exe):
+    """An empty file runs with the paper's parameters: E_e and T_po as in the paper's model."""
+    (tmp_path / "empty.nml").write_text("")
+    r = run_tubes(["empty.nml", "-o", "e.h5"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    with h5py.File(tmp_path / "e.h5") as f:
+        m = f["model"].attrs
+        assert (m["alpha"], m["beta"], m["gamma"], m["xi"], m["h0"], m["g"]) == \
+            (0.07, 1.017, 15.103, 0.00656, 12.065, 981.0)
+        assert f["saddle"].attrs["name"] == "S12"
+    assert "S12" in r.stdout and "T_po" in r.stdout
+
+
+def test_output_override_and_no_temp(tmp_path, tubes_exe):
+    r = run_tubes([str(ROOT / "input" / "paper.nml"), "-o", "x.h5"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.h5"]
+
+
+def test_numerical_failure_is_reported(tmp_path, tubes_exe):
+    (tmp_path / "f.nml").write_text(textwrap.dedent("""\
+        &run scenes = 'trajectory' /
+        &integrator max_steps = 5 /
+        """))
+    r = run_tubes(["f.nml", "-o", "f.h5"], tmp_path)
+    assert r.returncode == 2
+    assert "maximum number of steps" in r.stderr and "t = " in r.stderr
+    with h5py.File(tmp_path / "f.h5") as f:
+        assert f["trajectory"].attrs["status"] == -2
+        assert f.attrs["exit_status"] == 2
+
+
+def test_hdf5_contract(tmp_path, tubes_exe):
+    """Every dataset and attribute docs/output.md promises for the paper's input."""
+    r = run_tubes([str(ROOT / "input" / "paper.nml"), "-o", "p.h5"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    with h5py.File(tmp_path / "p.h5") as f:
+        for a in ["tubes_version", "git_commit", "created", "input_namelist", "compiler"]:
+            assert a in f.attrs
+        assert "&MODEL" in f.attrs["input_namelist"]
+        for a in ["alpha", "beta", "gamma", "xi", "h0", "g", "damping_ratio"]:
+            assert a in f["model"].attrs
+        for d in ["x", "y", "energy", "morse_index", "name"]:
+            assert f["equilibria"][d].shape == (9,)
+        for a in ["name", "x", "y", "energy", "lambda", "omega", "T_po"]:
+            assert a in f["saddle"].attrs
+        tr = f["trajectory"]
+        n = tr["t"].shape[0]
+        assert tr["state"].shape == (n, 4) and tr["energy"].shape == (n,)
+        for a in ["method", "rtol", "atol", "nfev", "nsteps", "wall_seconds"]:
+            assert a in tr.attrs
+        # samples on the dt_out grid, first sample is the initial state at rest
+        assert np.allclose(np.diff(tr["t"][:]), 0.02, rtol=0, atol=1e-12)
+        assert np.array_equal(tr["state"][0], [4.0, 12.614863819914357, 0.0, 0.0])
+
+
+def test_damped_run(tmp_path, tubes_exe):
+    """zeta > 0: energy decreases monotonically along the samples (dE/dt = -2 c T <= 0)."""
+    (tmp_path / "d.nml").write_text("&run scenes='trajectory' /\n&model damping_ratio=0.025 /\n"
+                                    "&trajectory t_end=5 /\n")
+    r = run_tubes(["d.nml", "-o", "d.h5"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    with h5py.File(tmp_path / "d.h5") as f:
+        e = f["trajectory/energy"][:]
+        c = f["trajectory"].attrs["damping_rate"]
+        assert f["model"].attrs["damping_rate"] == c > 0
+    assert np.all(np.diff(e) <= 1e-9 * e[0])     # roundoff of the energy evaluation only
+    assert e[-1] < e[0] - 100                      # loses a visible amount in 5 s
+
+
+def test_docs_cover_every_variable_and_dataset(tmp_path, tubes_exe):
+    """Every namelist variable of --help is in docs/input.md; every HDF5 object of a run with
+    all scenes is in docs/output.md."""
+    r = run_tubes(["--help"], tmp_path)
+    doc = (ROOT / "docs" / "input.md").read_text()
+    names = [ln.split()[0] for ln in r.stdout.splitlines() if ln.startswith("    ") and ln.split()]
+    assert len(names) >= 20
+    for n in names:
+        assert f"`{n}`" in doc, f"namelist variable {n} missing from docs/input.md"
+    (tmp_path / "all.nml").write_text("&run scenes = 'equilibria', 'trajectory' /\n"
+                                      "&trajectory t_end = 0.1 /\n")
+    assert run_tubes(["all.nml", "-o", "a.h5"], tmp_path).returncode == 0
+    out = (ROOT / "docs" / "output.md").read_text()
+    seen = []
+    with h5py.File(tmp_path / "a.h5") as f:
+        f.visit(seen.append)
+        for obj in [f] + [f[k] for k in seen]:
+            seen += list(obj.attrs)
+    for name in set(s.split("/")[-1] for s in seen) - {"units"}:
+        assert f"`{name}`" in out or f"`/{name}`" in out, f"HDF5 object {name} missing from docs/output.md"

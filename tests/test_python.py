@@ -1,0 +1,124 @@
+"""The Python layer (tubes._core through the tubes package) against independent references:
+the paper's kinetic energy written out in numpy, finite-difference Hamilton equations, and
+scipy integrating the rolling ball's Lagrangian (velocity) form."""
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import tubes
+from conftest import ROOT, run_tubes
+
+M = tubes.Model()
+A, B, G, XI, H0, GRAV = M.alpha, M.beta, M.gamma, M.xi, M.h0, M.g
+
+
+def H(x, y):
+    return A * (x * x + y * y) - B * (np.sqrt(x * x + G) + np.sqrt(y * y + G)) - XI * x * y + H0
+
+
+def dH(x, y):
+    sx, sy = np.sqrt(x * x + G), np.sqrt(y * y + G)
+    return (2 * A * x - B * x / sx - XI * y, 2 * A * y - B * y / sy - XI * x,
+            2 * A - B * G / sx**3, -XI, 2 * A - B * G / sy**3)
+
+
+def energy_paper(s):
+    """Eq. (kin_rescale) + g H, exactly as printed in the paper."""
+    x, y, px, py = s
+    hx, hy, *_ = dH(x, y)
+    t = 5 / 14 * ((1 + hy**2) * px**2 + (1 + hx**2) * py**2 - 2 * hx * hy * px * py) / (1 + hx**2 + hy**2)
+    return t + GRAV * H(x, y)
+
+
+def lagrangian_rhs(_t, z):
+    """x'' = -h Hx, y'' = -h Hy, h = (5g/7 + Hxx x'^2 + 2 Hxy x'y' + Hyy y'^2)/(1 + Hx^2 + Hy^2)."""
+    x, y, vx, vy = z
+    hx, hy, hxx, hxy, hyy = dH(x, y)
+    h = (5 * GRAV / 7 + hxx * vx**2 + 2 * hxy * vx * vy + hyy * vy**2) / (1 + hx**2 + hy**2)
+    return [vx, vy, -h * hx, -h * hy]
+
+
+STATES = [np.array(s) for s in ([4.0, 12.6, 0.0, 0.0], [6.1, -0.3, 35.0, -12.0],
+                                [-3.0, 7.5, -60.0, 80.0], [10.0, 10.0, 5.0, 150.0])]
+
+
+@pytest.mark.parametrize("s", STATES)
+def test_energy_matches_paper_formula(s):
+    # two algebraically equal forms of T: agreement to roundoff of ~1e4-sized sums
+    assert tubes.energy(s) == pytest.approx(energy_paper(s), rel=1e-13)
+
+
+@pytest.mark.parametrize("s", STATES)
+def test_vector_field_is_hamiltonian(s):
+    """dq/dt = dE/dp, dp/dt = -dE/dq by central differences of the paper's energy."""
+    f = tubes.vector_field(s)
+    eps = 1e-5   # central difference: truncation ~ eps^2 |E'''| ~ 1e-8, roundoff ~ 1e-16 E/eps ~ 1e-8
+    grad = np.array([(energy_paper(s + eps * e) - energy_paper(s - eps * e)) / (2 * eps) for e in np.eye(4)])
+    expect = np.array([grad[2], grad[3], -grad[0], -grad[1]])
+    assert np.allclose(f, expect, rtol=1e-7, atol=1e-6)
+
+
+def test_velocity_momentum_roundtrip():
+    q, v = np.array([3.0, -2.0]), np.array([12.0, -40.0])
+    p = tubes.momentum(q, v)
+    hx, hy, *_ = dH(*q)
+    m = np.eye(2) + np.outer([hx, hy], [hx, hy])
+    assert np.allclose(p, 1.4 * m @ v, rtol=1e-14)              # p = (7/5) M v
+    assert np.allclose(tubes.velocity([*q, *p]), v, rtol=1e-13)
+
+
+def test_trajectory_against_lagrangian_form():
+    """tubes' DOP853 on Hamilton's equations vs scipy's DOP853 on the Lagrangian form.
+    Both run at tolerance 1e-12; over 1 s the difference can grow at most like
+    exp(lambda t) with lambda ~ 9/s (the saddle's rate, an upper bound on the stretching
+    here): 1e-12 * 1e4 * |x| -> allow 1e-7 relative to the state's scale."""
+    q0 = np.array([4.0, 12.614863819914357])
+    sol = solve_ivp(lagrangian_rhs, (0, 1.0), [*q0, 0, 0], method="DOP853", rtol=1e-12, atol=1e-12)
+    x, y, vx, vy = sol.y[:, -1]
+    p_ref = tubes.momentum([x, y], [vx, vy])
+    tr = tubes.trajectory([*q0, 0, 0], 1.0, dt_out=0.5)
+    got = tr["state"][-1]
+    ref = np.array([x, y, *p_ref])
+    scale = np.abs(ref).max()
+    assert np.abs(got - ref).max() <= 1e-7 * scale, (got, ref)
+    # the samples lie on the dt_out grid and conserve the paper's energy
+    assert np.allclose(tr["t"], [0.0, 0.5, 1.0])
+    e = [energy_paper(s) for s in tr["state"]]
+    assert np.ptp(e) <= 1e-10 * e[0]      # tol 1e-12 per step, ~100 steps
+
+
+def test_trajectory_errors_raise():
+    with pytest.raises(tubes.TubesError) as err:
+        tubes.trajectory([4.0, 12.0, 0, 0], 1.0, max_steps=3)
+    assert err.value.code == tubes.EMAXSTEPS
+    with pytest.raises(ValueError):
+        tubes.trajectory([4.0, 12.0, 0, 0], 1.0, method="euler")
+    with pytest.raises(ValueError):
+        tubes.energy([1.0, 2.0, 3.0])
+
+
+def test_equilibria_from_python():
+    eq = tubes.equilibria()
+    assert sorted(eq["name"]) == sorted(["W1", "W2", "W3", "W4", "S12", "S14", "S23", "S34", "R1"])
+    sad = [i for i, n in enumerate(eq["name"]) if n.startswith("S")]
+    e = eq["energy"][sad]
+    assert np.ptp(e) <= 1e-12 * e[0]                          # symmetric saddles, same energy
+    for i in sad:   # each saddle energy is g H there, the energy of the ball at rest
+        assert tubes.energy([eq["x"][i], eq["y"][i], 0, 0]) == pytest.approx(eq["energy"][i], rel=1e-14)
+        _, hy, hxx, hxy, hyy = dH(eq["x"][i], eq["y"][i])
+        kmin = 0.5 * (hxx + hyy) - np.hypot(0.5 * (hxx - hyy), hxy)
+        assert eq["lambda"][i] == pytest.approx(np.sqrt(-5 / 7 * GRAV * kmin), rel=1e-12)
+
+
+def test_load_reads_a_run(tmp_path):
+    r = run_tubes([str(ROOT / "input" / "paper.nml"), "-o", "p.h5"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    res = tubes.load(str(tmp_path / "p.h5"))
+    assert res.saddle.name == "S12" and res["saddle/name"] == "S12"
+    assert res.saddle.T_po == pytest.approx(2 * np.pi / res.saddle.omega, rel=1e-15)
+    assert res.equilibria.name[4] == "S12" and isinstance(res.equilibria.x, np.ndarray)
+    assert res.trajectory.state.shape == (len(res.trajectory.t), 4)
+    assert res.trajectory.method == "dop853"
+    assert "&MODEL" in res.input_namelist
+    with pytest.raises(AttributeError):
+        _ = res.nonexistent
