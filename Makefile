@@ -116,7 +116,7 @@ $(BUILD)/tests/%: tests/%.f90 $(BUILD)/obj/tubes_check.o $(LIB) | $(BUILD)/tests
 	$(FC) $(FFLAGS_ALL) -o $@ $< $(BUILD)/obj/tubes_check.o $(LIB) $(LDLIBS_ALL)
 $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)/tests
 	$(CC) $(CFLAGS_ALL) -o $@ $< $(LIB) -lgfortran $(LDLIBS_ALL)
-$(BUILD)/obj/tubes_check.o: tests/tubes_check.f90 | $(BUILD)/obj $(BUILD)/mod
+$(BUILD)/obj/tubes_check.o: tests/tubes_check.f90 $(F_OBJ) | $(BUILD)/obj $(BUILD)/mod
 	$(FC) $(FFLAGS_ALL) -c $< -o $@
 
 tests: $(filter-out $(BUILD)/tests/tubes_check,$(T_BIN))

@@ -1,6 +1,7 @@
 !> DOP853: Hairer's explicit Runge-Kutta 8(5,3) with step-size control and 7th-order dense
 !> output. With h > 0 it takes fixed steps of h without error control (used to measure order).
 module tubes_dop853
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
   use tubes_integrator, only: integrator_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
@@ -115,7 +116,7 @@ contains
     self%dense_ready = .false.
     do
       hmin = 16*epsilon(1.0_wp)*max(abs(self%t), abs(tmax) - abs(tmax - self%t), 1.0e-300_wp)
-      last = h >= abs(tmax - self%t)
+      last = h*(1 + 64*epsilon(1.0_wp)) >= abs(tmax - self%t)   ! absorb roundoff drift of t
       if (last) h = abs(tmax - self%t)
       if (h < hmin .and. .not. last) then
         stat = TUBES_ESTEP
@@ -127,7 +128,7 @@ contains
         call self%f%eval(self%t + dir*C(i)*h, xs, self%k(:, i), fs)
         if (fs /= 0) exit
       end do
-      self%nfev = self%nfev + (i - 2 + merge(1, 0, fs == 0))
+      self%nfev = self%nfev + (i - 2 + merge(0, 1, fs == 0))   ! stages 2..i-1, and i if it failed
       if (fs == 0) then
         xnew = x + (dir*h)*matmul(self%k(:, 1:NS), self%a(NS + 1, 1:NS))
         call self%f%eval(self%t + dir*h, xnew, self%k(:, NS + 1), fs)
@@ -197,6 +198,10 @@ contains
         y = self%x_old + h*matmul(self%k(:, 1:i - 1), self%a(i, 1:i - 1))
         call self%f%eval(self%t_old + C(i)*h, y, self%k(:, i), fs)
         self%nfev = self%nfev + 1
+        if (fs /= 0) then   ! the model refused a dense-output stage: never interpolate silently
+          xs = ieee_value(1.0_wp, ieee_quiet_nan)
+          return
+        end if
       end do
       dx = self%x_new - self%x_old
       self%dense(:, 1) = dx

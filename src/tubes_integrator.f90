@@ -121,7 +121,7 @@ contains
     integer, intent(out) :: stat
     class(event_t), intent(in), optional :: event
     class(observer_t), intent(inout), optional :: observer
-    real(wp) :: g0, g1, te, dir
+    real(wp) :: g0, g1, te, dir, t_start
     real(wp), allocatable :: xe(:)
     integer(i8) :: n
     logical :: stop_now, hit
@@ -131,6 +131,7 @@ contains
       return
     end if
     dir = sign(1.0_wp, tend - ig%t)
+    t_start = ig%t
     allocate (xe(size(x)))
     if (present(event)) g0 = event%g(ig%t, x)
     n = 0
@@ -148,7 +149,10 @@ contains
         if (crosses(g0, g1, event%direction)) then
           call locate_root(ig, event, g0, g1, te, xe, stat)
           if (stat < 0) return
-          hit = event%terminal
+          ! a root at the very start is the event this call was restarted from (g there is
+          ! roundoff of either sign): not a new crossing
+          hit = event%terminal .and. &
+                abs(te - t_start) > 8*epsilon(1.0_wp)*max(1.0_wp, abs(t_start))
         end if
         g0 = g1
       end if
