@@ -131,6 +131,11 @@ lint:
 bench: all
 	@bash bench/run.sh
 
+docs:
+	@$(VENV)/bin/python -c 'import ford' 2>/dev/null || { echo "docs: installing FORD into $(VENV)"; \
+	  $(VENV)/bin/pip install --quiet ford; }
+	$(VENV)/bin/ford docs/ford.md && echo "docs: API documentation in build/doc/index.html"
+
 install: all
 	install -d $(PREFIX)/bin $(PREFIX)/lib $(PREFIX)/include
 	install -m 755 tubes $(PREFIX)/bin/tubes
