@@ -103,7 +103,7 @@ tubes: $(BUILD)/obj/tubes_main.o $(LIB)
 python: $(PYEXT_STAMP)
 $(PYEXT_STAMP): python/tubes_f2py.f90 $(LIB)
 	@if [ ! -x $(VPY) ]; then echo "python: no $(VENV); run 'make deps' first" >&2; exit 1; fi
-	@mkdir -p $(BUILD)/py && rm -f python/tubes/_core*.so
+	@rm -rf $(BUILD)/py && mkdir -p $(BUILD)/py && rm -f python/tubes/_core*.so   # meson does not track .mod files: start clean
 	cd $(BUILD)/py && PATH=$(abspath $(VENV))/bin:$$PATH FFLAGS="-fPIC -fopenmp" \
 	  $(VPY) -m numpy.f2py -c --backend meson -m _core $(abspath python/tubes_f2py.f90) \
 	  -I$(abspath $(BUILD)/mod) -L$(abspath $(BUILD)) -ltubes -llapack -lblas --dep openmp > f2py.log 2>&1 \

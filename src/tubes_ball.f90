@@ -20,6 +20,7 @@ module tubes_ball
   contains
     procedure :: dim => ball_dim
     procedure :: eval => ball_eval
+    procedure :: jacobian => ball_jacobian
     procedure :: energy => ball_energy
     procedure :: velocity => ball_velocity
     procedure :: momentum => ball_momentum
@@ -31,6 +32,7 @@ module tubes_ball
     real(wp) :: c = 0   !! damping rate [1/s]; c = 2 zeta omega_1 (docs/theory.md)
   contains
     procedure :: eval => damped_eval
+    procedure :: jacobian => damped_jacobian
   end type damped_ball_t
 
   public :: make_ball
@@ -74,6 +76,56 @@ contains
     call ball_eval(self, t, x, dxdt, stat)
     dxdt(3:4) = dxdt(3:4) - self%c*x(3:4)
   end subroutine damped_eval
+
+  !> Analytic Jacobian of Hamilton's equations (derivation: docs/theory.md, "Jacobian").
+  pure subroutine ball_jacobian(self, t, x, jac, stat)
+    class(ball_t), intent(in) :: self
+    real(wp), intent(in)  :: t, x(:)
+    real(wp), intent(out) :: jac(:, :)
+    integer, intent(out)  :: stat
+    real(wp) :: gr(2), k(2, 2), t3(2, 2, 2), p(2), d, u, v(2), du_dp(2), du_dq(2), kv(2)
+    real(wp) :: dv_dp(2, 2), dv_dq(2, 2), dk_v(2, 2)
+    integer :: j
+    call self%surf%derivs(x(1), x(2), gr, k)
+    call self%surf%third(x(1), x(2), t3)
+    p = x(3:4)
+    d = 1 + gr(1)**2 + gr(2)**2
+    u = (gr(1)*p(1) + gr(2)*p(2))/d
+    v = ROLL*(p - u*gr)
+    du_dp = gr/d
+    du_dq = matmul(k, p - 2*u*gr)/d
+    dv_dp = -ROLL*outer(gr, du_dp)
+    dv_dp(1, 1) = dv_dp(1, 1) + ROLL
+    dv_dp(2, 2) = dv_dp(2, 2) + ROLL
+    dv_dq = -ROLL*(outer(gr, du_dq) + u*k)
+    kv = matmul(k, v)
+    do j = 1, 2
+      dk_v(:, j) = matmul(t3(:, :, j), v)   ! (dK/dq_j) v
+    end do
+    jac(1:2, 1:2) = dv_dq
+    jac(1:2, 3:4) = dv_dp
+    jac(3:4, 1:2) = outer(kv, du_dq) + u*dk_v + u*matmul(k, dv_dq) - self%g*k
+    jac(3:4, 3:4) = outer(kv, du_dp) + u*matmul(k, dv_dp)
+    stat = 0
+    if (.not. all(abs(jac(1:4, 1:4)) <= huge(1.0_wp))) stat = -1
+  end subroutine ball_jacobian
+
+  pure subroutine damped_jacobian(self, t, x, jac, stat)
+    class(damped_ball_t), intent(in) :: self
+    real(wp), intent(in)  :: t, x(:)
+    real(wp), intent(out) :: jac(:, :)
+    integer, intent(out)  :: stat
+    call ball_jacobian(self, t, x, jac, stat)
+    jac(3, 3) = jac(3, 3) - self%c
+    jac(4, 4) = jac(4, 4) - self%c
+  end subroutine damped_jacobian
+
+  pure function outer(a, b) result(m)
+    real(wp), intent(in) :: a(2), b(2)
+    real(wp) :: m(2, 2)
+    m(:, 1) = a*b(1)
+    m(:, 2) = a*b(2)
+  end function outer
 
   !> Total energy per unit mass T + g H [(cm/s)^2].
   pure real(wp) function ball_energy(self, x) result(e)

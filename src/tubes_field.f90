@@ -3,11 +3,13 @@ module tubes_field
   use tubes_kinds, only: wp
   implicit none
   private
+  public :: fd_jacobian
 
   type, abstract, public :: vector_field_t
   contains
     procedure(dim_i), deferred :: dim     !! state dimension
     procedure(eval_i), deferred :: eval   !! dx/dt = f(t, x)
+    procedure :: jacobian => fd_jacobian  !! df/dx; default: central differences
   end type vector_field_t
 
   abstract interface
@@ -23,4 +25,28 @@ module tubes_field
       integer, intent(out)  :: stat               !! 0 ok, >0 retry with a smaller step, <0 fatal
     end subroutine eval_i
   end interface
+
+contains
+
+  !> Jacobian by central differences (step sqrt-ish of eps scaled by |x|): a fallback for models
+  !> without an analytic one; error ~ 1e-10 relative. Models override it.
+  pure subroutine fd_jacobian(self, t, x, jac, stat)
+    class(vector_field_t), intent(in) :: self
+    real(wp), intent(in)  :: t, x(:)
+    real(wp), intent(out) :: jac(:, :)   !! jac(i, j) = df_i/dx_j
+    integer, intent(out)  :: stat
+    real(wp) :: xp(size(x)), fp(size(x)), fm(size(x)), d
+    integer :: j
+    do j = 1, size(x)
+      d = epsilon(1.0_wp)**(1.0_wp/3)*max(1.0_wp, abs(x(j)))
+      xp = x
+      xp(j) = x(j) + d
+      call self%eval(t, xp, fp, stat)
+      if (stat /= 0) return
+      xp(j) = x(j) - d
+      call self%eval(t, xp, fm, stat)
+      if (stat /= 0) return
+      jac(:, j) = (fp - fm)/(2*d)
+    end do
+  end subroutine fd_jacobian
 end module tubes_field

@@ -16,6 +16,7 @@ module tubes_fourwell
   contains
     procedure :: height => fourwell_height
     procedure :: derivs => fourwell_derivs
+    procedure :: third => fourwell_third
   end type fourwell_t
 
 contains
@@ -42,4 +43,14 @@ contains
     hess(1, 2) = -self%xi
     hess(2, 1) = -self%xi
   end subroutine fourwell_derivs
+
+  !> Third derivatives: only H_xxx and H_yyy are non-zero (H_xy = -xi is constant).
+  pure subroutine fourwell_third(self, x, y, t3)
+    class(fourwell_t), intent(in) :: self
+    real(wp), intent(in)  :: x, y
+    real(wp), intent(out) :: t3(2, 2, 2)
+    t3 = 0
+    t3(1, 1, 1) = 3*self%beta*self%gamma*x/sqrt(x*x + self%gamma)**5
+    t3(2, 2, 2) = 3*self%beta*self%gamma*y/sqrt(y*y + self%gamma)**5
+  end subroutine fourwell_third
 end module tubes_fourwell

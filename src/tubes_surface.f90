@@ -10,6 +10,7 @@ module tubes_surface
   contains
     procedure(height_i), deferred :: height   !! H(x, y) [cm]
     procedure(derivs_i), deferred :: derivs   !! gradient [1] and Hessian [1/cm]
+    procedure(third_i), deferred :: third     !! third derivatives [1/cm^2]
   end type surface_t
 
   abstract interface
@@ -26,5 +27,11 @@ module tubes_surface
       real(wp), intent(out) :: grad(2)     !! (H_x, H_y) [1]
       real(wp), intent(out) :: hess(2, 2)  !! [[H_xx, H_xy], [H_xy, H_yy]] [1/cm]
     end subroutine derivs_i
+    pure subroutine third_i(self, x, y, t3)
+      import :: surface_t, wp
+      class(surface_t), intent(in) :: self
+      real(wp), intent(in)  :: x, y            !! position [cm]
+      real(wp), intent(out) :: t3(2, 2, 2)     !! t3(i, j, k) = d^3 H / dq_i dq_j dq_k [1/cm^2]
+    end subroutine third_i
   end interface
 end module tubes_surface

@@ -1,0 +1,63 @@
+!> Variational equations: the state x and its state transition matrix Phi = dx(t)/dx(0)
+!> integrated together, d/dt [x, Phi] = [f(x), J(x) Phi], with any integrator.
+!> Layout of the extended state: (x(1:n), Phi(:, 1), ..., Phi(:, n)), n + n^2 components.
+module tubes_variational
+  use tubes_kinds, only: wp
+  use tubes_field, only: vector_field_t
+  implicit none
+  private
+
+  type, extends(vector_field_t), public :: variational_t
+    class(vector_field_t), allocatable :: base   !! the model whose flow is linearised
+  contains
+    procedure :: dim => var_dim
+    procedure :: eval => var_eval
+  end type variational_t
+
+  public :: make_variational, stm_start
+
+contains
+
+  !> Wrap a model (allocate with source=, see STYLE.md).
+  subroutine make_variational(var, base)
+    type(variational_t), intent(out) :: var
+    class(vector_field_t), intent(in) :: base
+    allocate (var%base, source=base)
+  end subroutine make_variational
+
+  !> Extended initial state (x0, identity).
+  pure function stm_start(x0) result(z)
+    real(wp), intent(in) :: x0(:)
+    real(wp) :: z(size(x0) + size(x0)**2)
+    integer :: n, j
+    n = size(x0)
+    z = 0
+    z(1:n) = x0
+    do j = 1, n
+      z(n + (j - 1)*n + j) = 1
+    end do
+  end function stm_start
+
+  pure integer function var_dim(self)
+    class(variational_t), intent(in) :: self
+    integer :: n
+    n = self%base%dim()
+    var_dim = n + n*n
+  end function var_dim
+
+  pure subroutine var_eval(self, t, x, dxdt, stat)
+    class(variational_t), intent(in) :: self
+    real(wp), intent(in)  :: t, x(:)
+    real(wp), intent(out) :: dxdt(:)
+    integer, intent(out)  :: stat
+    real(wp), allocatable :: jac(:, :)
+    integer :: n
+    n = self%base%dim()
+    call self%base%eval(t, x(1:n), dxdt(1:n), stat)
+    if (stat /= 0) return
+    allocate (jac(n, n))
+    call self%base%jacobian(t, x(1:n), jac, stat)
+    if (stat /= 0) return
+    dxdt(n + 1:n + n*n) = reshape(matmul(jac, reshape(x(n + 1:n + n*n), [n, n])), [n*n])
+  end subroutine var_eval
+end module tubes_variational
