@@ -22,6 +22,9 @@ GIT_HASH := $(shell git rev-parse --short=12 HEAD 2>/dev/null || echo unknown)$(
 HDF5_CFLAGS := $(shell pkg-config --cflags hdf5-serial 2>/dev/null)
 HDF5_LIBS   := $(shell pkg-config --libs hdf5-serial 2>/dev/null) -lhdf5_hl
 LAPACK_LIBS := -llapack -lblas
+GSL_LIBS    := -lgsl -lgslcblas
+SUNDIALS_INC := -I/usr/include/sundials/fortran
+SUNDIALS_LIBS := -lsundials_fcvode_mod -lsundials_cvode -lsundials_farkode_mod -lsundials_arkode
 
 ifeq ($(MODE),debug)
 OPT_F := -O0 -g -fcheck=all -ffpe-trap=invalid,zero,overflow -fbacktrace
@@ -31,20 +34,20 @@ OPT_F := -O2 -g
 OPT_C := -O2 -g
 endif
 FFLAGS_ALL := -std=f2018 -fPIC -fopenmp -Wall -Wno-unused-dummy-argument -Wno-compare-reals \
-              -Wno-maybe-uninitialized $(OPT_F) -J $(BUILD)/mod -I $(BUILD)/mod $(FFLAGS)
+              -Wno-maybe-uninitialized $(OPT_F) -J $(BUILD)/mod -I $(BUILD)/mod $(SUNDIALS_INC) $(FFLAGS)
 CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -fPIC -fopenmp -Wall -Wextra $(OPT_C) -Iinclude \
               $(HDF5_CFLAGS) -DTUBES_VERSION='"$(VERSION)"' -DTUBES_GIT='"$(GIT_HASH)"' \
               -DTUBES_COMPILER='"$(FC) $(shell $(FC) -dumpfullversion 2>/dev/null)"' \
               -DTUBES_FFLAGS='"$(strip $(OPT_F))"' $(CFLAGS)
-LDLIBS_ALL := $(HDF5_LIBS) $(LAPACK_LIBS) -lm $(LDLIBS)
+LDLIBS_ALL := $(HDF5_LIBS) $(SUNDIALS_LIBS) $(GSL_LIBS) $(LAPACK_LIBS) -lm $(LDLIBS)
 
 F_SRC := $(wildcard src/*.f90 src/c/*.f90 src/io/*.f90)
-C_SRC := $(filter-out src/io/tubes_main.c,$(wildcard src/io/*.c))
+C_SRC := $(filter-out src/io/tubes_main.c,$(wildcard src/io/*.c src/c/*.c))
 F_OBJ := $(patsubst %.f90,$(BUILD)/obj/%.o,$(notdir $(F_SRC)))
 C_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(notdir $(C_SRC)))
 LIB   := $(BUILD)/libtubes.a
 vpath %.f90 src src/c src/io tests
-vpath %.c src/io tests
+vpath %.c src/io src/c tests
 
 T_F_SRC := $(wildcard tests/test_*.f90)
 T_C_SRC := $(wildcard tests/test_*.c)
@@ -106,7 +109,7 @@ $(PYEXT_STAMP): python/tubes_f2py.f90 $(LIB)
 	@rm -rf $(BUILD)/py && mkdir -p $(BUILD)/py && rm -f python/tubes/_core*.so   # meson does not track .mod files: start clean
 	cd $(BUILD)/py && PATH=$(abspath $(VENV))/bin:$$PATH FFLAGS="-fPIC -fopenmp" \
 	  $(VPY) -m numpy.f2py -c --backend meson -m _core $(abspath python/tubes_f2py.f90) \
-	  -I$(abspath $(BUILD)/mod) -L$(abspath $(BUILD)) -ltubes -llapack -lblas --dep openmp > f2py.log 2>&1 \
+	  -I$(abspath $(BUILD)/mod) -L$(abspath $(BUILD)) -ltubes $(SUNDIALS_LIBS) $(GSL_LIBS) -llapack -lblas --dep openmp > f2py.log 2>&1 \
 	  || { tail -30 f2py.log; exit 1; }
 	cp $(BUILD)/py/_core*.so python/tubes/
 	@touch $@
@@ -115,7 +118,7 @@ $(PYEXT_STAMP): python/tubes_f2py.f90 $(LIB)
 $(BUILD)/tests/%: tests/%.f90 $(BUILD)/obj/tubes_check.o $(LIB) | $(BUILD)/tests
 	$(FC) $(FFLAGS_ALL) -o $@ $< $(BUILD)/obj/tubes_check.o $(LIB) $(LDLIBS_ALL)
 $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)/tests
-	$(CC) $(CFLAGS_ALL) -o $@ $< $(LIB) -lgfortran $(LDLIBS_ALL)
+	$(CC) $(CFLAGS_ALL) -o $@ $< $(LIB) -lgfortran $(LDLIBS_ALL) -lm
 $(BUILD)/obj/tubes_check.o: tests/tubes_check.f90 $(F_OBJ) | $(BUILD)/obj $(BUILD)/mod
 	$(FC) $(FFLAGS_ALL) -c $< -o $@
 
@@ -134,7 +137,7 @@ bench: all
 docs:
 	@$(VENV)/bin/python -c 'import ford' 2>/dev/null || { echo "docs: installing FORD into $(VENV)"; \
 	  $(VENV)/bin/pip install --quiet ford; }
-	$(VENV)/bin/ford docs/ford.md && echo "docs: API documentation in build/doc/index.html"
+	PATH=$(abspath $(VENV))/bin:$$PATH $(VENV)/bin/ford -q docs/ford.md && echo "docs: API documentation in build/doc/index.html"
 
 install: all
 	install -d $(PREFIX)/bin $(PREFIX)/lib $(PREFIX)/include

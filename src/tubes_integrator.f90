@@ -19,6 +19,7 @@ module tubes_integrator
     integer(i8) :: nfev = 0                   !! right-hand-side evaluations
     integer(i8) :: nsteps = 0                 !! accepted steps
     integer(i8) :: nrejected = 0              !! rejected steps
+    integer(i8) :: niter = 0                  !! implicit methods: Newton/fixed-point iterations
     logical :: fresh = .true.                 !! state was set from outside: restart the stepper
   contains
     procedure :: init => integrator_init
@@ -102,6 +103,7 @@ contains
     self%nfev = 0
     self%nsteps = 0
     self%nrejected = 0
+    self%niter = 0
     self%fresh = .true.
   end subroutine integrator_init
 
