@@ -61,8 +61,26 @@ int tubes_run_trajectory(const double model[TUBES_NMODEL], const double x0[4], d
                      double energy[], int64_t counters[3], double *c_damp,
                      tubes_progress_fn progress, void *user);
 
+/* Lyapunov orbits of the rank-1 saddle named `saddle` ("S12", ...) at the ascending excess
+ * energies des[nde] [(cm/s)^2], by continuation from dE -> 0 (docs/orbits.md). n_segments 1 =
+ * single shooting of the brake orbit, >= 2 = multiple shooting. Per orbit k (arrays of nde
+ * blocks): energy, period [s], action [cm^2/s], state0[4], mu_u, mu_s, mu_triv[4] (Re, Im of the
+ * trivial pair), stab (stability index), residual (corrector), closure (|x(T) - x(0)|),
+ * iterations, converged (1/0), mindist (closest approach to another equilibrium, cm),
+ * monodromy[16] (column-major 4x4), ts[nsamp] and xs[4 nsamp] samples over one period,
+ * history[max_iter] (residual after each Newton iteration). *end_de: the estimated end of the
+ * family (-1 if none was met); *end_reason: 0 none, 1 another equilibrium, 2 period without
+ * bound, 3 correction fails. Orbits past the end have converged = 0. */
+int tubes_orbit_family(const double model[TUBES_NMODEL], const char saddle[8], int nde,
+                       const double des[], int n_segments, double tol, double rtol, double atol,
+                       int max_iter, int nsamp, double energy[], double period[], double action[],
+                       double state0[], double mu_u[], double mu_s[], double mu_triv[],
+                       double stab[], double residual[], double closure[], int iterations[],
+                       int converged[], double mindist[], double monodromy[], double ts[],
+                       double xs[], double history[], double *end_de, int *end_reason);
+
 /* ---- namelist input (src/io/tubes_nml.f90; validated by src/io/tubes_input.c) ---- */
-enum { TUBES_NSCENES = 16, TUBES_LSCENE = 32, TUBES_LPATH = 1024, TUBES_LNAME = 32 };
+enum { TUBES_NSCENES = 16, TUBES_LSCENE = 32, TUBES_LPATH = 1024, TUBES_LNAME = 32, TUBES_MAXDE = 256 };
 
 typedef struct {
   /* &run */
@@ -81,6 +99,13 @@ typedef struct {
   char method[TUBES_LNAME];
   double rtol, atol, h;
   int64_t max_steps;
+  /* &orbits */
+  char orb_saddle[8];
+  double orb_de[TUBES_MAXDE];
+  int orb_nde;
+  char orb_method[TUBES_LNAME];
+  int orb_n_segments, orb_max_iter, orb_n_samples;
+  double orb_tol, orb_rtol, orb_atol;
 } tubes_config_t;
 
 /* Set every variable to its default. */
@@ -88,7 +113,7 @@ void tubes_nml_defaults(tubes_config_t *cfg);
 
 /* Read every group present in the file at path into cfg (defaults first). Returns 0, or the
  * Fortran iostat of the first failing group; then *group is its index (0 run, 1 model,
- * 2 equilibria, 3 trajectory, 4 integrator) and msg holds the iomsg. */
+ * 2 equilibria, 3 trajectory, 4 integrator, 5 orbits) and msg holds the iomsg. */
 int tubes_nml_read(const char *path, tubes_config_t *cfg, int *group, char *msg, int msglen);
 
 /* The effective namelist (all groups, Fortran namelist WRITE) into buf. Returns its length,

@@ -8,7 +8,7 @@
 extern "C" {
 #endif
 /* Exit codes of the program (docs/usage.md). */
-enum { EXIT_BADINPUT = 1, EXIT_NUMERIC = 2, EXIT_IO = 3 };
+enum { EXIT_BADINPUT = 1, EXIT_NUMERIC = 2, EXIT_IO = 3, EXIT_PARTIAL = 4 };
 
 typedef struct {
   const tubes_config_t *cfg;
@@ -21,6 +21,8 @@ typedef struct {
 int scene_model(tubes_run_t *run);
 int scene_equilibria(tubes_run_t *run);
 int scene_trajectory(tubes_run_t *run);
+/* Returns 0, EXIT_PARTIAL (some energies failed or lie past the family's end), EXIT_NUMERIC or EXIT_IO. */
+int scene_orbits(tubes_run_t *run);
 #ifdef __cplusplus
 }
 #endif

@@ -10,6 +10,7 @@ module tubes_capi
   use tubes_integrator, only: integrator_t, propagate
   use tubes_methods, only: new_integrator
   use tubes_sampler, only: sampler_t
+  use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
   implicit none
   private
 
@@ -174,6 +175,91 @@ contains
     counters = [ig%nfev, ig%nsteps, ig%nrejected]
     st2 = 0
   end function c_trajectory
+
+  !> The Lyapunov family of the saddle named `saddle` (C string) at the ascending excess
+  !> energies des(nde); outputs per orbit as in include/tubes.h (tubes_orbit_family).
+  integer(c_int) function c_orbit_family(model, saddle, nde, des, n_segments, tol, rtol, atol, &
+      max_iter, nsamp, energy, period, action, state0, mu_u, mu_s, mu_triv, stab, residual, &
+      closure, iterations, converged, mindist, monodromy, ts, xs, history, end_de, end_reason) &
+      result(stat) bind(C, name='tubes_orbit_family')
+    real(c_double), intent(in) :: model(NMODEL)
+    character(kind=c_char), intent(in) :: saddle(8)
+    integer(c_int), value :: nde, n_segments, max_iter, nsamp
+    real(c_double), intent(in) :: des(nde)
+    real(c_double), value :: tol, rtol, atol
+    real(c_double), intent(out) :: energy(nde), period(nde), action(nde), state0(4, nde), &
+      mu_u(nde), mu_s(nde), mu_triv(4, nde), stab(nde), residual(nde), closure(nde), &
+      mindist(nde), monodromy(4, 4, nde), ts(nsamp, nde), xs(4, nsamp, nde), &
+      history(max_iter, nde), end_de
+    integer(c_int), intent(out) :: iterations(nde), converged(nde), end_reason
+    type(ball_t) :: ball
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(orbit_opts_t) :: opts
+    type(orbit_t), allocatable :: orbs(:)
+    character(8) :: name
+    integer :: k, isad, nh, reason
+    real(wp) :: ede
+    energy = 0; period = 0; action = 0; state0 = 0; mu_u = 0; mu_s = 0; mu_triv = 0; stab = 0
+    residual = 0; closure = 0; mindist = 0; monodromy = 0; ts = 0; xs = 0; history = 0
+    iterations = 0; converged = 0; end_de = -1; end_reason = 0
+    name = ''
+    do k = 1, 8
+      if (saddle(k) == c_null_char) exit
+      name(k:k) = saddle(k)
+    end do
+    if (nde < 1 .or. nsamp < 2 .or. max_iter < 1 .or. n_segments < 1 .or. tol <= 0) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    call conservative_ball(model, ball, stat)
+    if (stat /= TUBES_OK) return
+    call find_equilibria(ball, 20.0_wp, 41, eqs, stat)
+    if (stat /= TUBES_OK) return
+    isad = 0
+    do k = 1, size(eqs)
+      if (eqs(k)%name == name .and. eqs(k)%morse == 1) isad = k
+    end do
+    if (isad == 0) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    opts%n_segments = n_segments
+    opts%tol = tol
+    opts%rtol = rtol
+    opts%atol = atol
+    opts%max_iter = max_iter
+    opts%n_samples = nsamp
+    allocate (orbs(nde))
+    call orbit_family(ball, eqs, isad, des, opts, orbs, ede, reason, stat)
+    if (stat < 0) return
+    end_de = ede
+    end_reason = reason
+    do k = 1, nde
+      energy(k) = eqs(isad)%energy + des(k)
+      if (allocated(orbs(k)%history)) then
+        nh = min(size(orbs(k)%history), max_iter)
+        history(1:nh, k) = orbs(k)%history(1:nh)
+      end if
+      iterations(k) = orbs(k)%iterations
+      converged(k) = merge(1, 0, orbs(k)%converged)
+      if (.not. orbs(k)%converged) cycle
+      period(k) = orbs(k)%period
+      action(k) = orbs(k)%action
+      state0(:, k) = orbs(k)%x0
+      mu_u(k) = orbs(k)%mu_unstable
+      mu_s(k) = orbs(k)%mu_stable
+      mu_triv(:, k) = [orbs(k)%mu_trivial(1), orbs(k)%mu_trivial_imag(1), &
+                       orbs(k)%mu_trivial(2), orbs(k)%mu_trivial_imag(2)]
+      stab(k) = orbs(k)%stability_index
+      residual(k) = orbs(k)%residual
+      closure(k) = orbs(k)%closure
+      mindist(k) = orbs(k)%min_eq_distance
+      monodromy(:, :, k) = orbs(k)%monodromy
+      ts(:, k) = orbs(k)%t
+      xs(:, :, k) = orbs(k)%x
+    end do
+    stat = TUBES_OK
+  end function c_orbit_family
 
   subroutine c_sampler_on_step(self, ig, t_hi, stop_now)
     class(c_sampler_t), intent(inout) :: self

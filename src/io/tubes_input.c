@@ -4,19 +4,23 @@
 #include "tubes_input.h"
 #include <ctype.h>
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 
-const char *const tubes_nml_groups[] = {"run", "model", "equilibria", "trajectory", "integrator"};
-const int tubes_nml_ngroups = 5;
+const char *const tubes_nml_groups[] = {"run", "model", "equilibria", "trajectory", "integrator",
+                                        "orbits"};
+const int tubes_nml_ngroups = 6;
 
-const char *const tubes_scene_names[] = {"equilibria", "trajectory"};
+const char *const tubes_scene_names[] = {"equilibria", "trajectory", "orbits"};
 const char *const tubes_scene_docs[] = {
     "critical points of H, Morse index, names, saddle linearization (lambda, omega, T_po)",
-    "one trajectory with sampled output and its energy error"};
-const int tubes_nscenes = 2;
+    "one trajectory with sampled output and its energy error",
+    "Lyapunov orbits of a saddle at the requested dE: period, action, Floquet multipliers, "
+    "continuation and the end of the family"};
+const int tubes_nscenes = 3;
 
 const nml_var tubes_nml_vars[] = {
     {"run", "scenes", NML_STRING, TUBES_NSCENES, "-", "'equilibria'",
@@ -52,6 +56,19 @@ const nml_var tubes_nml_vars[] = {
     {"integrator", "h", NML_REAL, 1, "s", "0", ">= 0",
      "fixed step; 0 = variable step with rtol/atol"},
     {"integrator", "max_steps", NML_INT, 1, "-", "10000000", ">= 1", "step budget"},
+    {"orbits", "saddle", NML_STRING, 1, "-", "'S12'", "S12, S14, S23, S34",
+     "the rank-1 saddle whose Lyapunov family is computed"},
+    {"orbits", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 10, 100", "> 0, increasing",
+     "excess energies dE = E - E_e of the orbits"},
+    {"orbits", "method", NML_STRING, 1, "-", "'single'", "single, multiple",
+     "single shooting of the brake orbit, or multiple shooting"},
+    {"orbits", "n_segments", NML_INT, 1, "-", "8", "2 .. 64", "segments of multiple shooting"},
+    {"orbits", "tol", NML_REAL, 1, "cm, cm/s", "1e-11", "1e-14 .. 1e-4",
+     "Newton tolerance on the periodicity mismatch (and |H - E|/E)"},
+    {"orbits", "rtol", NML_REAL, 1, "1", "1e-13", "1e-15 <= rtol < 1e-4", "integration tolerance (relative)"},
+    {"orbits", "atol", NML_REAL, 1, "state units", "1e-13", "> 0", "integration tolerance (absolute)"},
+    {"orbits", "max_iter", NML_INT, 1, "-", "25", "1 .. 200", "Newton iterations per orbit"},
+    {"orbits", "n_samples", NML_INT, 1, "-", "201", "2 .. 100000", "samples along each orbit in the output"},
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 
@@ -371,6 +388,38 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->atol > 0)) n += bad(path, w, "integrator", "atol", err, "", c->atol);
   if (!(c->h >= 0)) n += bad(path, w, "integrator", "h", err, "", c->h);
   if (!(c->max_steps >= 1)) n += bad(path, w, "integrator", "max_steps", err, "", (double)c->max_steps);
+  {
+    const char *ok[] = {"S12", "S14", "S23", "S34"};
+    int found = 0;
+    for (int j = 0; j < 4; j++) found |= strcmp(c->orb_saddle, ok[j]) == 0;
+    if (!found) n += bad_string(path, w, "orbits", "saddle", c->orb_saddle, err);
+  }
+  for (int k = 0; k < c->orb_nde; k++) {
+    if (!(c->orb_de[k] > 0)) {
+      n += bad(path, w, "orbits", "de", err, "every dE must be > 0", c->orb_de[k]);
+      break;
+    }
+    if (k > 0 && !(c->orb_de[k] > c->orb_de[k - 1])) {
+      n += bad(path, w, "orbits", "de", err, "the list must be strictly increasing", c->orb_de[k]);
+      break;
+    }
+  }
+  for (int k = c->orb_nde; k < TUBES_MAXDE; k++)
+    if (c->orb_de[k] != -DBL_MAX) {   /* the reader's UNSET = -huge */
+      n += bad(path, w, "orbits", "de", err, "the list has a gap: give its values from dE(1) on",
+               c->orb_de[k]);
+      break;
+    }
+  if (strcmp(c->orb_method, "single") && strcmp(c->orb_method, "multiple"))
+    n += bad_string(path, w, "orbits", "method", c->orb_method, err);
+  if (!(c->orb_n_segments >= 2 && c->orb_n_segments <= 64))
+    n += bad(path, w, "orbits", "n_segments", err, "", c->orb_n_segments);
+  if (!(c->orb_tol >= 1e-14 && c->orb_tol <= 1e-4)) n += bad(path, w, "orbits", "tol", err, "", c->orb_tol);
+  if (!(c->orb_rtol >= 1e-15 && c->orb_rtol < 1e-4)) n += bad(path, w, "orbits", "rtol", err, "", c->orb_rtol);
+  if (!(c->orb_atol > 0)) n += bad(path, w, "orbits", "atol", err, "", c->orb_atol);
+  if (!(c->orb_max_iter >= 1 && c->orb_max_iter <= 200)) n += bad(path, w, "orbits", "max_iter", err, "", c->orb_max_iter);
+  if (!(c->orb_n_samples >= 2 && c->orb_n_samples <= 100000))
+    n += bad(path, w, "orbits", "n_samples", err, "", c->orb_n_samples);
   return n;
 }
 

@@ -32,7 +32,8 @@ static void usage(FILE *out) {
           "  --version    print the version and exit\n"
           "  -h, --help   this help\n\n"
           "exit codes: 0 success; 1 bad input or usage; 2 numerical failure (reported on stderr;\n"
-          "the file is still written with the failure recorded); 3 output could not be written\n\n");
+          "the file is still written with the failure recorded); 3 output could not be written;\n"
+          "4 partial: some orbits failed or lie past the end of their family (the rest is written)\n\n");
 }
 
 int main(int argc, char **argv) {
@@ -136,8 +137,9 @@ int main(int argc, char **argv) {
     if (!s[0]) continue;
     if (!strcmp(s, "equilibria")) r = scene_equilibria(&run);
     else if (!strcmp(s, "trajectory")) r = scene_trajectory(&run);
+    else if (!strcmp(s, "orbits")) r = scene_orbits(&run);
     if (r == EXIT_IO) status = EXIT_IO;
-    else if (r && !status) status = r;
+    else if (r == EXIT_NUMERIC || (r && !status)) status = r;
   }
   if (status == EXIT_IO) {
     fprintf(stderr, "tubes: writing '%s' failed; no output file was left\n", tmp);

@@ -7,7 +7,10 @@ module tubes_nml
   implicit none
   private
 
-  integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32
+  integer, parameter :: NGROUPS = 6   !! run, model, equilibria, trajectory, integrator, orbits
+  integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32, MAXDE = 256
+  !> An unset entry of a list (dE): any value a user cannot mean.
+  real(c_double), parameter :: UNSET = -huge(1.0_c_double)
 
   !> Mirror of tubes_config_t in include/tubes.h (same order, C layout).
   type, bind(C), public :: tubes_config_t
@@ -22,6 +25,12 @@ module tubes_nml
     character(kind=c_char) :: method(LNAME)
     real(c_double) :: rtol, atol, h
     integer(c_int64_t) :: max_steps
+    character(kind=c_char) :: orb_saddle(8)
+    real(c_double) :: orb_de(MAXDE)
+    integer(c_int) :: orb_nde
+    character(kind=c_char) :: orb_method(LNAME)
+    integer(c_int) :: orb_n_segments, orb_max_iter, orb_n_samples
+    real(c_double) :: orb_tol, orb_rtol, orb_atol
   end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved).
@@ -37,6 +46,11 @@ module tubes_nml
     character(LNAME) :: method
     real(c_double) :: rtol, atol, h
     integer(c_int64_t) :: max_steps
+    character(8) :: orb_saddle
+    real(c_double) :: orb_de(MAXDE)
+    character(LNAME) :: orb_method
+    integer :: orb_n_segments, orb_max_iter, orb_n_samples
+    real(c_double) :: orb_tol, orb_rtol, orb_atol
   end type vars_t
 
 contains
@@ -68,6 +82,15 @@ contains
     v%atol = 1.0e-12_c_double
     v%h = 0
     v%max_steps = 10000000_c_int64_t
+    v%orb_saddle = 'S12'
+    v%orb_de = UNSET
+    v%orb_method = 'single'
+    v%orb_n_segments = 8
+    v%orb_max_iter = 25
+    v%orb_n_samples = 201
+    v%orb_tol = 1.0e-11_c_double
+    v%orb_rtol = 1.0e-13_c_double
+    v%orb_atol = 1.0e-13_c_double
   end subroutine set_defaults
 
   subroutine to_c(v, cfg)
@@ -87,6 +110,17 @@ contains
     cfg%at_rest = merge(1, 0, v%at_rest)
     call put(v%method, cfg%method)
     cfg%rtol = v%rtol; cfg%atol = v%atol; cfg%h = v%h; cfg%max_steps = v%max_steps
+    call put(v%orb_saddle, cfg%orb_saddle)
+    cfg%orb_de = v%orb_de
+    cfg%orb_nde = count(v%orb_de /= UNSET)
+    if (cfg%orb_nde == 0) then          ! default list of excess energies
+      cfg%orb_de(1:3) = [1.0_c_double, 10.0_c_double, 100.0_c_double]
+      cfg%orb_nde = 3
+    end if
+    call put(v%orb_method, cfg%orb_method)
+    cfg%orb_n_segments = v%orb_n_segments; cfg%orb_max_iter = v%orb_max_iter
+    cfg%orb_n_samples = v%orb_n_samples
+    cfg%orb_tol = v%orb_tol; cfg%orb_rtol = v%orb_rtol; cfg%orb_atol = v%orb_atol
   end subroutine to_c
 
   subroutine from_c(cfg, v)
@@ -106,6 +140,12 @@ contains
     v%at_rest = cfg%at_rest /= 0
     v%method = get(cfg%method)
     v%rtol = cfg%rtol; v%atol = cfg%atol; v%h = cfg%h; v%max_steps = cfg%max_steps
+    v%orb_saddle = get(cfg%orb_saddle)
+    v%orb_de = cfg%orb_de
+    v%orb_method = get(cfg%orb_method)
+    v%orb_n_segments = cfg%orb_n_segments; v%orb_max_iter = cfg%orb_max_iter
+    v%orb_n_samples = cfg%orb_n_samples
+    v%orb_tol = cfg%orb_tol; v%orb_rtol = cfg%orb_rtol; v%orb_atol = cfg%orb_atol
   end subroutine from_c
 
   pure subroutine put(s, c)
@@ -137,6 +177,135 @@ contains
     call to_c(v, cfg)
   end subroutine c_defaults
 
+  !> Read group number grp (0 run, 1 model, 2 equilibria, 3 trajectory, 4 integrator,
+  !> 5 orbits) from unit u into v, or write it (mode 'w'). One subroutine per group keeps the
+  !> namelist names (saddle, method, rtol, ...) separate between groups.
+  subroutine group_io(grp, mode, u, v, ios, iomsg)
+    integer, intent(in) :: grp, u
+    character, intent(in) :: mode
+    type(vars_t), intent(inout) :: v
+    integer, intent(out) :: ios
+    character(*), intent(inout) :: iomsg
+    ios = 0
+    select case (grp)
+    case (0); call io_run()
+    case (1); call io_model()
+    case (2); call io_equilibria()
+    case (3); call io_trajectory()
+    case (4); call io_integrator()
+    case (5); call io_orbits()
+    end select
+  contains
+    subroutine io_run()
+      character(LSCENE), allocatable :: scenes(:)
+      character(:), allocatable :: output
+      character(LPATH) :: out
+      integer :: m, k
+      namelist /run/ scenes, output
+      if (mode == 'r') then
+        allocate (scenes(NSCENES))
+        scenes = v%scenes
+        out = v%output
+        output = out
+        read (u, nml=run, iostat=ios, iomsg=iomsg)
+        v%scenes = scenes
+        v%output = output
+      else
+        m = max(1, count(len_trim(v%scenes) > 0))
+        allocate (scenes(m))
+        scenes = ''
+        m = 0
+        do k = 1, NSCENES
+          if (len_trim(v%scenes(k)) > 0) then
+            m = m + 1
+            scenes(m) = v%scenes(k)
+          end if
+        end do
+        output = trim(v%output)
+        write (u, nml=run, iostat=ios, iomsg=iomsg)
+      end if
+    end subroutine io_run
+    subroutine io_model()
+      real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio
+      namelist /model/ alpha, beta, gamma, xi, h0, g, damping_ratio
+      alpha = v%alpha; beta = v%beta; gamma = v%gamma; xi = v%xi; h0 = v%h0; g = v%g
+      damping_ratio = v%damping_ratio
+      if (mode == 'r') then
+        read (u, nml=model, iostat=ios, iomsg=iomsg)
+      else
+        write (u, nml=model, iostat=ios, iomsg=iomsg)
+      end if
+      v%alpha = alpha; v%beta = beta; v%gamma = gamma; v%xi = xi; v%h0 = h0; v%g = g
+      v%damping_ratio = damping_ratio
+    end subroutine io_model
+    subroutine io_equilibria()
+      real(c_double) :: box
+      integer :: n_grid
+      character(8) :: saddle
+      namelist /equilibria/ box, n_grid, saddle
+      box = v%box; n_grid = v%n_grid; saddle = v%saddle
+      if (mode == 'r') then
+        read (u, nml=equilibria, iostat=ios, iomsg=iomsg)
+      else
+        write (u, nml=equilibria, iostat=ios, iomsg=iomsg)
+      end if
+      v%box = box; v%n_grid = n_grid; v%saddle = saddle
+    end subroutine io_equilibria
+    subroutine io_trajectory()
+      real(c_double) :: x0, y0, px0, py0, t_end, dt_out
+      logical :: at_rest
+      namelist /trajectory/ x0, y0, px0, py0, at_rest, t_end, dt_out
+      x0 = v%x0; y0 = v%y0; px0 = v%px0; py0 = v%py0; at_rest = v%at_rest
+      t_end = v%t_end; dt_out = v%dt_out
+      if (mode == 'r') then
+        read (u, nml=trajectory, iostat=ios, iomsg=iomsg)
+      else
+        write (u, nml=trajectory, iostat=ios, iomsg=iomsg)
+      end if
+      v%x0 = x0; v%y0 = y0; v%px0 = px0; v%py0 = py0; v%at_rest = at_rest
+      v%t_end = t_end; v%dt_out = dt_out
+    end subroutine io_trajectory
+    subroutine io_integrator()
+      character(LNAME) :: method
+      real(c_double) :: rtol, atol, h
+      integer(c_int64_t) :: max_steps
+      namelist /integrator/ method, rtol, atol, h, max_steps
+      method = v%method; rtol = v%rtol; atol = v%atol; h = v%h; max_steps = v%max_steps
+      if (mode == 'r') then
+        read (u, nml=integrator, iostat=ios, iomsg=iomsg)
+      else
+        write (u, nml=integrator, iostat=ios, iomsg=iomsg)
+      end if
+      v%method = method; v%rtol = rtol; v%atol = atol; v%h = h; v%max_steps = max_steps
+    end subroutine io_integrator
+    subroutine io_orbits()
+      character(8) :: saddle
+      real(c_double), allocatable :: de(:)
+      character(LNAME) :: method
+      integer :: n_segments, max_iter, n_samples, m
+      real(c_double) :: tol, rtol, atol
+      namelist /orbits/ saddle, de, method, n_segments, tol, rtol, atol, max_iter, n_samples
+      saddle = v%orb_saddle; method = v%orb_method; n_segments = v%orb_n_segments
+      tol = v%orb_tol; rtol = v%orb_rtol; atol = v%orb_atol; max_iter = v%orb_max_iter
+      n_samples = v%orb_n_samples
+      if (mode == 'r') then
+        allocate (de(MAXDE))
+        de = v%orb_de
+        read (u, nml=orbits, iostat=ios, iomsg=iomsg)
+        v%orb_de = de
+      else
+        m = count(v%orb_de /= UNSET)
+        allocate (de(max(m, 1)))
+        de = 0
+        if (m > 0) de = v%orb_de(1:m)
+        write (u, nml=orbits, iostat=ios, iomsg=iomsg)
+      end if
+      v%orb_saddle = saddle; v%orb_method = method; v%orb_n_segments = n_segments
+      v%orb_tol = tol; v%orb_rtol = rtol; v%orb_atol = atol; v%orb_max_iter = max_iter
+      v%orb_n_samples = n_samples
+    end subroutine io_orbits
+  end subroutine group_io
+
   integer(c_int) function c_read(path, cfg, group, msg, msglen) result(ios) &
       bind(C, name='tubes_nml_read')
     character(kind=c_char), intent(in) :: path(*)
@@ -148,21 +317,6 @@ contains
     character(LPATH) :: fname
     character(512) :: iomsg
     integer :: u, i, grp
-    character(LSCENE) :: scenes(NSCENES)
-    character(LPATH) :: output
-    real(c_double) :: alpha, beta, gamma, xi, h0, damping_ratio, box, x0, y0, px0, py0, &
-                      t_end, dt_out, rtol, atol, h
-    real(c_double) :: g
-    integer :: n_grid
-    character(8) :: saddle
-    logical :: at_rest
-    character(LNAME) :: method
-    integer(c_int64_t) :: max_steps
-    namelist /run/ scenes, output
-    namelist /model/ alpha, beta, gamma, xi, h0, g, damping_ratio
-    namelist /equilibria/ box, n_grid, saddle
-    namelist /trajectory/ x0, y0, px0, py0, at_rest, t_end, dt_out
-    namelist /integrator/ method, rtol, atol, h, max_steps
     call set_defaults(v)
     group = -1
     msg = c_null_char
@@ -171,28 +325,16 @@ contains
       if (path(i) == c_null_char) exit
       fname(i:i) = path(i)
     end do
-    scenes = v%scenes; output = v%output
-    alpha = v%alpha; beta = v%beta; gamma = v%gamma; xi = v%xi; h0 = v%h0; g = v%g
-    damping_ratio = v%damping_ratio
-    box = v%box; n_grid = v%n_grid; saddle = v%saddle
-    x0 = v%x0; y0 = v%y0; px0 = v%px0; py0 = v%py0; at_rest = v%at_rest
-    t_end = v%t_end; dt_out = v%dt_out
-    method = v%method; rtol = v%rtol; atol = v%atol; h = v%h; max_steps = v%max_steps
     open (newunit=u, file=trim(fname), status='old', action='read', iostat=ios, iomsg=iomsg)
     if (ios /= 0) then
       call put(iomsg, msg)
       call to_c(v, cfg)
       return
     end if
-    do grp = 0, 4
+    do grp = 0, NGROUPS - 1
       rewind (u)
-      select case (grp)
-      case (0); read (u, nml=run, iostat=ios, iomsg=iomsg)
-      case (1); read (u, nml=model, iostat=ios, iomsg=iomsg)
-      case (2); read (u, nml=equilibria, iostat=ios, iomsg=iomsg)
-      case (3); read (u, nml=trajectory, iostat=ios, iomsg=iomsg)
-      case (4); read (u, nml=integrator, iostat=ios, iomsg=iomsg)
-      end select
+      iomsg = ''
+      call group_io(grp, 'r', u, v, ios, iomsg)
       if (ios == iostat_end) ios = 0       ! group absent (C checks presence separately)
       if (ios /= 0) then
         group = grp
@@ -201,13 +343,6 @@ contains
       end if
     end do
     close (u)
-    v%scenes = scenes; v%output = output
-    v%alpha = alpha; v%beta = beta; v%gamma = gamma; v%xi = xi; v%h0 = h0; v%g = g
-    v%damping_ratio = damping_ratio
-    v%box = box; v%n_grid = n_grid; v%saddle = saddle
-    v%x0 = x0; v%y0 = y0; v%px0 = px0; v%py0 = py0; v%at_rest = at_rest
-    v%t_end = t_end; v%dt_out = dt_out
-    v%method = method; v%rtol = rtol; v%atol = atol; v%h = h; v%max_steps = max_steps
     call to_c(v, cfg)
   end function c_read
 
@@ -216,48 +351,18 @@ contains
     integer(c_int), value :: buflen
     character(kind=c_char), intent(out) :: buf(buflen)
     type(vars_t) :: v
-    character(LSCENE), allocatable :: scenes(:)
-    character(:), allocatable :: output, saddle, method
     character(2048) :: line
-    integer :: u, ios, k, i, m
-    real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, box, x0, y0, px0, &
-                      py0, t_end, dt_out, rtol, atol, h
-    integer :: n_grid
-    logical :: at_rest
-    integer(c_int64_t) :: max_steps
-    namelist /run/ scenes, output
-    namelist /model/ alpha, beta, gamma, xi, h0, g, damping_ratio
-    namelist /equilibria/ box, n_grid, saddle
-    namelist /trajectory/ x0, y0, px0, py0, at_rest, t_end, dt_out
-    namelist /integrator/ method, rtol, atol, h, max_steps
+    character(512) :: iomsg
+    integer :: u, ios, i, grp
     call from_c(cfg, v)
-    m = count(len_trim(v%scenes) > 0)
-    allocate (scenes(max(m, 1)))
-    scenes = ''
-    m = 0
-    do k = 1, NSCENES
-      if (len_trim(v%scenes(k)) > 0) then
-        m = m + 1
-        scenes(m) = v%scenes(k)
-      end if
-    end do
-    output = trim(v%output); saddle = trim(v%saddle); method = trim(v%method)
-    alpha = v%alpha; beta = v%beta; gamma = v%gamma; xi = v%xi; h0 = v%h0; g = v%g
-    damping_ratio = v%damping_ratio
-    box = v%box; n_grid = v%n_grid
-    x0 = v%x0; y0 = v%y0; px0 = v%px0; py0 = v%py0; at_rest = v%at_rest
-    t_end = v%t_end; dt_out = v%dt_out
-    rtol = v%rtol; atol = v%atol; h = v%h; max_steps = v%max_steps
     open (newunit=u, status='scratch', action='readwrite', delim='apostrophe', iostat=ios)
     if (ios /= 0) then
       n = -1
       return
     end if
-    write (u, nml=run)
-    write (u, nml=model)
-    write (u, nml=equilibria)
-    write (u, nml=trajectory)
-    write (u, nml=integrator)
+    do grp = 0, NGROUPS - 1
+      call group_io(grp, 'w', u, v, ios, iomsg)
+    end do
     rewind (u)
     n = 0
     buf = c_null_char

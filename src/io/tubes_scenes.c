@@ -197,3 +197,135 @@ int scene_trajectory(tubes_run_t *run) {
   if (rc) return rc;
   return s < 0 ? EXIT_NUMERIC : 0;
 }
+
+static const char *end_reason_text(int r) {
+  switch (r) {
+  case 1: return "the orbits run into another equilibrium";
+  case 2: return "the period grows without bound";
+  case 3: return "the correction fails for ever smaller steps";
+  default: return "none";
+  }
+}
+
+int scene_orbits(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  int n = c->orb_nde, ns = c->orb_n_samples, mi = c->orb_max_iter;
+  int nseg = strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments;
+  double *e = calloc(n, sizeof(double)), *per = calloc(n, sizeof(double)), *act = calloc(n, sizeof(double)),
+         *s0 = calloc(4 * n, sizeof(double)), *mu = calloc(n, sizeof(double)), *ms = calloc(n, sizeof(double)),
+         *mt = calloc(4 * n, sizeof(double)), *stab = calloc(n, sizeof(double)), *res = calloc(n, sizeof(double)),
+         *clo = calloc(n, sizeof(double)), *md = calloc(n, sizeof(double)), *mono = calloc(16 * n, sizeof(double)),
+         *ts = calloc((size_t)ns * n, sizeof(double)), *xs = calloc((size_t)4 * ns * n, sizeof(double)),
+         *hist = calloc((size_t)mi * n, sizeof(double));
+  int *it = calloc(n, sizeof(int)), *conv = calloc(n, sizeof(int));
+  int rc = 0;
+  if (!e || !per || !act || !s0 || !mu || !ms || !mt || !stab || !res || !clo || !md || !mono || !ts || !xs ||
+      !hist || !it || !conv) {
+    fprintf(stderr, "tubes: orbits: out of memory\n");
+    rc = EXIT_NUMERIC;
+    goto out;
+  }
+  double end_de = -1, t0 = now();
+  int reason = 0;
+  fprintf(stderr, "orbits: continuing the %s family to dE = %g (%s shooting)...\n", c->orb_saddle,
+          c->orb_de[n - 1], nseg > 1 ? "multiple" : "single");
+  int st = tubes_orbit_family(run->model, c->orb_saddle, n, c->orb_de, nseg, c->orb_tol, c->orb_rtol,
+                              c->orb_atol, mi, ns, e, per, act, s0, mu, ms, mt, stab, res, clo, it, conv, md,
+                              mono, ts, xs, hist, &end_de, &reason);
+  if (st < 0) {
+    char m[128];
+    status_text(st, m, sizeof m);
+    fprintf(stderr, "tubes: orbits: failed: %s (status %d)\n", m, st);
+    rc = EXIT_NUMERIC;
+    goto out;
+  }
+  printf("orbits: %s Lyapunov family, %s shooting%s (%.2f s)\n", c->orb_saddle, nseg > 1 ? "multiple" : "single",
+         nseg > 1 ? "" : " (brake orbit)", now() - t0);
+  printf("  %10s %12s %14s %14s %11s %9s %5s\n", "dE", "period [s]", "action", "mu_unstable", "residual",
+         "closure", "iter");
+  int nfail = 0;
+  for (int k = 0; k < n; k++) {
+    if (conv[k])
+      printf("  %10.4g %12.9f %14.8g %14.8g %11.2e %9.1e %5d\n", c->orb_de[k], per[k], act[k], mu[k], res[k],
+             clo[k], it[k]);
+    else {
+      nfail++;
+      if (end_de > 0 && c->orb_de[k] >= end_de * (1 - 1e-6))
+        printf("  %10.4g   refused: past the end of the family (dE ~ %.6g)\n", c->orb_de[k], end_de);
+      else
+        printf("  %10.4g   not converged\n", c->orb_de[k]);
+    }
+  }
+  if (end_de > 0) {
+    printf("  family end: dE ~ %.8g (cm/s)^2: %s\n", end_de, end_reason_text(reason));
+    for (int k = 0; k < n; k++)
+      if (!conv[k])
+        fprintf(stderr, "tubes: orbits: dE = %g is past the end of the %s family, which ends at dE ~ %.8g "
+                "(cm/s)^2 (%s); not computed\n", c->orb_de[k], c->orb_saddle, end_de, end_reason_text(reason));
+  } else {
+    for (int k = 0; k < n; k++)
+      if (!conv[k]) {
+        fprintf(stderr, "tubes: orbits: dE = %g: the correction did not converge; residual history:", c->orb_de[k]);
+        for (int j = 0; j < it[k] && j < mi; j++) fprintf(stderr, " %.2e", hist[(size_t)k * mi + j]);
+        fputc('\n', stderr);
+      }
+  }
+  hid_t g = h5_group(run->file, "orbits");
+  if (g < 0) { rc = EXIT_IO; goto out; }
+  hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, 4}, d2[2] = {(hsize_t)n, 2}, d44[3] = {(hsize_t)n, 4, 4};
+  double *mre = malloc(sizeof(double) * 2 * n), *mim = malloc(sizeof(double) * 2 * n),
+         *monot = malloc(sizeof(double) * 16 * n);
+  for (int k = 0; k < n; k++) {
+    mre[2 * k] = mt[4 * k]; mim[2 * k] = mt[4 * k + 1]; mre[2 * k + 1] = mt[4 * k + 2]; mim[2 * k + 1] = mt[4 * k + 3];
+    for (int i = 0; i < 4; i++)
+      for (int j = 0; j < 4; j++) monot[16 * k + 4 * i + j] = mono[16 * k + 4 * j + i];   /* row-major */
+  }
+  int h = 0;
+  h |= h5_write_double(g, "dE", 1, &dn, c->orb_de, "(cm/s)^2");
+  h |= h5_write_double(g, "energy", 1, &dn, e, "(cm/s)^2");
+  h |= h5_write_double(g, "period", 1, &dn, per, "s");
+  h |= h5_write_double(g, "action", 1, &dn, act, "cm^2/s");
+  h |= h5_write_double(g, "mu_unstable", 1, &dn, mu, "1");
+  h |= h5_write_double(g, "mu_stable", 1, &dn, ms, "1");
+  h |= h5_write_double(g, "mu_trivial", 2, d2, mre, "1");
+  h |= h5_write_double(g, "mu_trivial_imag", 2, d2, mim, "1");
+  h |= h5_write_double(g, "stability_index", 1, &dn, stab, "1");
+  h |= h5_write_double(g, "state0", 2, d4, s0, "cm, cm, cm/s, cm/s");
+  h |= h5_write_int(g, "converged", dn, conv, "1");
+  h |= h5_write_double(g, "residual", 1, &dn, res, "cm, cm/s");
+  h |= h5_write_double(g, "closure", 1, &dn, clo, "cm, cm/s");
+  h |= h5_write_int(g, "iterations", dn, it, "1");
+  h |= h5_write_double(g, "min_eq_distance", 1, &dn, md, "cm");
+  h |= h5_write_double(g, "monodromy", 3, d44, monot, "1");
+  h |= h5_attr_string(g, "saddle", c->orb_saddle);
+  h |= h5_attr_string(g, "method", nseg > 1 ? "multiple" : "single");
+  h |= h5_attr_long(g, "n_segments", nseg);
+  h |= h5_attr_double(g, "tol", c->orb_tol);
+  if (end_de > 0) {
+    h |= h5_attr_double(g, "family_end_dE", end_de);
+    h |= h5_attr_string(g, "family_end_reason", end_reason_text(reason));
+  }
+  for (int k = 0; k < n && !h; k++) {
+    char name[32];
+    snprintf(name, sizeof name, "orbit_%03d", k);
+    hid_t o = h5_group(g, name);
+    if (o < 0) { h = 1; break; }
+    hsize_t dsn = (hsize_t)ns, dx[2] = {(hsize_t)ns, 4}, dh = (hsize_t)(it[k] < mi ? it[k] : mi);
+    h |= h5_attr_double(o, "dE", c->orb_de[k]);
+    h |= h5_attr_long(o, "converged", conv[k]);
+    if (dh > 0) h |= h5_write_double(o, "history", 1, &dh, hist + (size_t)k * mi, "cm, cm/s");
+    if (conv[k]) {
+      h |= h5_write_double(o, "t", 1, &dsn, ts + (size_t)k * ns, "s");
+      h |= h5_write_double(o, "state", 2, dx, xs + (size_t)4 * k * ns, "cm, cm, cm/s, cm/s");
+    }
+    H5Gclose(o);
+  }
+  free(mre); free(mim); free(monot);
+  H5Gclose(g);
+  if (h) rc = EXIT_IO;
+  else if (nfail) rc = EXIT_PARTIAL;
+out:
+  free(e); free(per); free(act); free(s0); free(mu); free(ms); free(mt); free(stab); free(res); free(clo);
+  free(md); free(mono); free(ts); free(xs); free(hist); free(it); free(conv);
+  return rc;
+}
