@@ -230,7 +230,7 @@ contains
     integer, intent(out) :: stat
     integer :: n, m, nu, i, j, it, info, lwork, st(size(nodes, 2))
     real(wp), allocatable :: a(:, :), b(:), work(:), y(:, :), phis(:, :, :), fy(:, :)
-    real(wp) :: xref(4), fref(4), gr(2), hs(2, 2), res, rowmax, pscale, scale(4)
+    real(wp) :: xref(4), fref(4), gr(2), hs(2, 2), res, rowmax, pscale, scale(4), xref_grad(4)
     n = size(nodes, 2)
     m = 4*n + 2
     nu = 4*n + 1
@@ -267,7 +267,8 @@ contains
       end do
       call ball%surf%derivs(nodes(1, 1), nodes(2, 1), gr, hs)
       b(m - 1) = ball%energy(nodes(:, 1)) - energy
-      call energy_gradient(ball, nodes(:, 1), a(m - 1, 1:4))
+      call energy_gradient(ball, nodes(:, 1), xref_grad)
+      a(m - 1, 1:4) = xref_grad
       b(m) = dot_product(nodes(:, 1) - xref, fref)
       a(m, 1:4) = fref
       res = 0
