@@ -1,0 +1,41 @@
+"""The orbits scene through the executable: output contract, refusal past the family's end
+(message with the limiting dE, exit code 4, the other energies written), the plots."""
+import h5py
+import numpy as np
+
+import tubes
+from conftest import run_tubes
+
+
+def test_orbits_scene_and_family_end(tmp_path, tubes_exe):
+    (tmp_path / "o.nml").write_text("&run scenes = 'equilibria', 'orbits' /\n"
+                                    "&orbits de = 1, 100, 800, method = 'multiple', n_segments = 4 /\n")
+    r = run_tubes(["o.nml", "-o", "o.h5"], tmp_path)
+    assert r.returncode == 4, r.stderr                       # partial: dE = 800 refused
+    assert "dE = 800 is past the end of the S12 family" in r.stderr
+    assert "777.06" in r.stderr                              # the limit, E(R1) - E_e = 777.0625
+    with h5py.File(tmp_path / "o.h5") as f:
+        o = f["orbits"]
+        assert list(o["converged"][:]) == [1, 1, 0]
+        assert abs(o.attrs["family_end_dE"] - 777.0625) < 0.1
+        eq = f["equilibria"]
+        names = [n.decode() for n in eq["name"][:]]
+        e_r1 = eq["energy"][names.index("R1")]
+        assert abs(o.attrs["family_end_dE"] - (e_r1 - f["saddle"].attrs["energy"])) < 0.1
+        # periods near T_po; the first orbit's action close to T_po dE (MacKay)
+        t_po = f["saddle"].attrs["T_po"]
+        assert abs(o["period"][0] - t_po) < 1e-3 and abs(o["action"][0] / (t_po * 1.0) - 1) < 1e-3
+        assert o["orbit_000/state"].shape == (201, 4)
+        assert np.allclose(o["mu_unstable"][:2] * o["mu_stable"][:2], 1, rtol=1e-8)
+
+
+def test_orbit_plots(tmp_path, tubes_exe):
+    (tmp_path / "o.nml").write_text("&run scenes = 'equilibria', 'orbits' /\n&orbits de = 10, 200 /\n")
+    assert run_tubes(["o.nml", "-o", "o.h5"], tmp_path).returncode == 0
+    from tubes import plots
+    assert plots.main([str(tmp_path / "o.h5"), "-o", str(tmp_path / "fig")]) == 0
+    for name in ["orbit_family.png", "orbit_properties.png"]:
+        p = tmp_path / "fig" / name
+        assert p.stat().st_size > 10_000
+    res = tubes.load(str(tmp_path / "o.h5"))
+    assert res.orbits.orbit_001.state.shape == (201, 4)
