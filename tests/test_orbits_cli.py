@@ -39,3 +39,21 @@ def test_orbit_plots(tmp_path, tubes_exe):
         assert p.stat().st_size > 10_000
     res = tubes.load(str(tmp_path / "o.h5"))
     assert res.orbits.orbit_001.state.shape == (201, 4)
+
+
+def test_orbits_identical_for_1_and_2_threads(tmp_path, tubes_exe):
+    """Multiple-shooting segments run in parallel; the result must not depend on the threads."""
+    import os
+    import subprocess
+    (tmp_path / "o.nml").write_text("&run scenes = 'orbits' /\n"
+                                    "&orbits de = 5, 300, method = 'multiple', n_segments = 6 /\n")
+    out = {}
+    for nt in (1, 2):
+        env = dict(os.environ, OMP_NUM_THREADS=str(nt))
+        r = subprocess.run([tubes_exe, "o.nml", "-o", f"t{nt}.h5"], cwd=tmp_path, env=env,
+                           capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        with h5py.File(tmp_path / f"t{nt}.h5") as f:
+            out[nt] = {k: f["orbits"][k][()] for k in ["period", "action", "state0", "monodromy", "residual"]}
+    for k in out[1]:
+        assert np.array_equal(out[1][k], out[2][k]), k         # bitwise
