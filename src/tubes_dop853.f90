@@ -116,7 +116,8 @@ contains
     self%dense_ready = .false.
     do
       hmin = 16*epsilon(1.0_wp)*max(abs(self%t), abs(tmax) - abs(tmax - self%t), 1.0e-300_wp)
-      last = h*(1 + 64*epsilon(1.0_wp)) >= abs(tmax - self%t)   ! absorb roundoff drift of t
+      ! absorb the roundoff drift of t: relative to h, and a few ulps of t (large t, small h)
+      last = h*(1 + 64*epsilon(1.0_wp)) + 4*spacing(max(abs(self%t), abs(tmax))) >= abs(tmax - self%t)
       if (last) h = abs(tmax - self%t)
       if (h < hmin .and. .not. last) then
         stat = TUBES_ESTEP

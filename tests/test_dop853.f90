@@ -485,6 +485,13 @@ program test_dop853
   call propagate(ig, x, 1.0_wp, stat)
   call check_eq('fixed h = 0.1 to t = 1: 10 steps', int(ig%nsteps), 10)
   call check_eq('fixed h = 0.1 to t = 1: nfev = 1 + 12 * 10', int(ig%nfev), 121)
+  ! and at large t, where ulp(t) >> 64 eps h: h = 0.02 to t = 1000 is 50000 steps exactly
+  call ig%init(oscillator_t(), t0=0.0_wp)
+  ig%h = 0.02_wp
+  ig%max_steps = 100000
+  x = [1.0_wp, 0.0_wp]
+  call propagate(ig, x, 1000.0_wp, stat)
+  call check_eq('fixed h = 0.02 to t = 1000: 50000 steps, no sliver steps', int(ig%nsteps), 50000)
 
   call finish('test_dop853')
 

@@ -1,0 +1,191 @@
+!> Classical fourth-order Runge-Kutta with a fixed step and cubic Hermite dense output.
+!> The step is ig%h (> 0, required); the last step is shortened to land exactly on tmax.
+!> f at the end of a step is the first stage of the next one (FSAL-like reuse), so a step
+!> costs 4 evaluations of the model, plus 1 when the stepper (re)starts. Works in either
+!> direction; step times lie on the grid t0 + k h (no drift of t, no sliver last step).
+!> See docs/integrators-tao.md.
+module tubes_rk4
+  use tubes_kinds, only: wp, i8
+  use tubes_integrator, only: integrator_t
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
+  implicit none
+  private
+
+  !> Classical RK4 (Kutta 1901): c = (0, 1/2, 1/2, 1), b = (1, 2, 2, 1)/6.
+  type, extends(integrator_t), public :: rk4_t
+    real(wp), allocatable :: f_cur(:)   !! f(t, x) at the current point (next step's stage 1)
+    real(wp), allocatable :: f_old(:)   !! f at the start of the last accepted step
+    real(wp), allocatable :: x_old(:)   !! state at t_old
+    real(wp), allocatable :: x_new(:)   !! state at t (the value returned by the last step)
+    real(wp) :: h_used = 0              !! signed size of the last accepted step [s]
+    real(wp) :: grid_t0 = 0             !! the step grid t_k = grid_t0 + k grid_hs [s] ...
+    real(wp) :: grid_hs = 0             !! ... its signed spacing (0: no grid) [s]
+    integer(i8) :: grid_n = 0           !! ... and the index k of the current t on it
+    real(wp) :: grid_mark = 0           !! t as set by the last step (t changed outside: new grid)
+  contains
+    procedure :: step => rk4_step
+    procedure :: interp => rk4_interp
+  end type rk4_t
+
+contains
+
+  !> (Re)start: storage for dimension n and f at the current point.
+  subroutine setup(self, x, stat)
+    class(rk4_t), intent(inout) :: self
+    real(wp), intent(in) :: x(:)
+    integer, intent(out) :: stat
+    integer :: n
+    n = size(x)
+    if (allocated(self%f_cur)) then
+      if (size(self%f_cur) /= n) deallocate (self%f_cur, self%f_old, self%x_old, self%x_new)
+    end if
+    if (.not. allocated(self%f_cur)) allocate (self%f_cur(n), self%f_old(n), self%x_old(n), &
+                                               self%x_new(n))
+    call self%f%eval(self%t, x, self%f_cur, stat)
+    self%nfev = self%nfev + 1
+    if (stat /= 0 .or. .not. all(abs(self%f_cur) <= huge(1.0_wp))) then
+      stat = TUBES_EMODEL
+      return
+    end if
+    stat = TUBES_OK
+    self%x_new = x
+    self%grid_hs = 0
+    self%fresh = .false.
+  end subroutine setup
+
+  !> The stored f(t, x) is stale: a fresh start, a new dimension, or x changed from outside
+  !> since the last step (e.g. reset by the caller without setting fresh).
+  pure logical function restart_needed(self, x)
+    class(rk4_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    restart_needed = .true.
+    if (self%fresh .or. .not. allocated(self%f_cur)) return
+    if (size(self%f_cur) /= size(x)) return
+    restart_needed = any(x /= self%x_new)
+  end function restart_needed
+
+  !> One RK4 step of ig%h (the last one shortened to land on tmax), in either direction.
+  !> A model that asks for a smaller step (stat > 0) gets h/4 for this step (counted in
+  !> nrejected; TUBES_ESTEP below 16 eps |t|); stat < 0, NaN or Inf give TUBES_EMODEL.
+  !> On failure t and x stay at the last accepted step.
+  subroutine rk4_step(self, x, tmax, stat)
+    class(rk4_t), intent(inout) :: self
+    real(wp), intent(inout) :: x(:)   !! state at t on entry, at the new t on return
+    real(wp), intent(in) :: tmax      !! never step past this time [s]
+    integer, intent(out) :: stat
+    real(wp) :: dir, h, hs, hmin, t, t_full
+    real(wp), dimension(size(x)) :: k2, k3, k4, xs, xnew, fnew
+    integer :: fs
+    logical :: last, on_grid
+    stat = TUBES_OK
+    if (.not. (self%h > 0) .or. tmax == self%t) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    if (restart_needed(self, x)) then
+      call setup(self, x, stat)
+      if (stat /= TUBES_OK) return
+    end if
+    dir = sign(1.0_wp, tmax - self%t)
+    h = self%h
+    t = self%t
+    on_grid = self%t == self%grid_mark .and. dir*h == self%grid_hs
+    if (.not. on_grid) then   ! start a new grid t_k = grid_t0 + k dir h at the current t
+      self%grid_t0 = t
+      self%grid_n = 0
+      self%grid_hs = dir*h
+      on_grid = .true.
+    end if
+    do
+      if (on_grid) then   ! one rounding, no accumulated drift of t
+        t_full = self%grid_t0 + (self%grid_n + 1)*self%grid_hs
+      else
+        t_full = t + dir*h
+      end if
+      ! last step if a full step reaches tmax, up to roundoff of t (64 ulps)
+      last = dir*(tmax - t_full) <= 64*epsilon(1.0_wp)*max(h, abs(t_full))
+      if (last) then
+        hs = tmax - t
+      else
+        hs = t_full - t
+      end if
+      hmin = 16*epsilon(1.0_wp)*max(abs(t), abs(tmax) - abs(tmax - t), 1.0e-300_wp)
+      if (abs(hs) < hmin .and. .not. last) then
+        stat = TUBES_ESTEP
+        return
+      end if
+      xs = x + (hs/2)*self%f_cur
+      call self%f%eval(t + hs/2, xs, k2, fs)
+      self%nfev = self%nfev + 1
+      if (fs == 0) then
+        xs = x + (hs/2)*k2
+        call self%f%eval(t + hs/2, xs, k3, fs)
+        self%nfev = self%nfev + 1
+      end if
+      if (fs == 0) then
+        xs = x + hs*k3
+        call self%f%eval(t + hs, xs, k4, fs)
+        self%nfev = self%nfev + 1
+      end if
+      if (fs == 0) then
+        xnew = x + (hs/6)*(self%f_cur + 2*(k2 + k3) + k4)
+        ! f at the new point: the Hermite end slope and the next step's first stage
+        call self%f%eval(t + hs, xnew, fnew, fs)
+        self%nfev = self%nfev + 1
+        if (fs == 0 .and. .not. (all(abs(xnew) <= huge(1.0_wp)) .and. &
+                                 all(abs(fnew) <= huge(1.0_wp)))) fs = -1
+      end if
+      if (fs < 0) then
+        stat = TUBES_EMODEL
+        return
+      end if
+      if (fs == 0) exit
+      h = h/4                   ! the model asks for a smaller step: off the grid
+      on_grid = .false.
+      self%nrejected = self%nrejected + 1
+    end do
+    if (on_grid .and. .not. last) then
+      self%grid_n = self%grid_n + 1
+    else
+      self%grid_hs = 0          ! the next step starts a new grid
+    end if
+    self%x_old = x
+    self%f_old = self%f_cur
+    self%x_new = xnew
+    self%f_cur = fnew
+    self%t_old = t
+    if (last) then
+      self%t = tmax
+    else
+      self%t = t_full
+    end if
+    self%grid_mark = self%t
+    self%h_used = hs
+    x = xnew
+    self%nsteps = self%nsteps + 1
+  end subroutine rk4_step
+
+  !> Cubic Hermite interpolation from x and f at both ends of the last accepted step:
+  !> local error O(h^4), continuous with a continuous derivative across steps.
+  subroutine rk4_interp(self, s, xs)
+    class(rk4_t), intent(inout) :: self
+    real(wp), intent(in) :: s       !! time in [t_old, t] [s]
+    real(wp), intent(out) :: xs(:)  !! state at s
+    call hermite(self%x_old, self%f_old, self%x_new, self%f_cur, self%t_old, self%h_used, s, xs)
+  end subroutine rk4_interp
+
+  !> The cubic with values x0, x1 and slopes f0, f1 at t0, t0 + h, evaluated at s.
+  pure subroutine hermite(x0, f0, x1, f1, t0, h, s, xs)
+    real(wp), intent(in) :: x0(:), f0(:), x1(:), f1(:), t0, h, s
+    real(wp), intent(out) :: xs(:)
+    real(wp) :: th, th1
+    if (h == 0) then
+      xs = x1
+      return
+    end if
+    th = (s - t0)/h
+    th1 = 1 - th
+    ! x0 + th (x1 - x0) + th th1 [ th1 h f0 - th h f1 + (th - th1) (x1 - x0) ]
+    xs = x0 + th*(x1 - x0) + th*th1*((th1*h)*f0 - (th*h)*f1 + (th - th1)*(x1 - x0))
+  end subroutine hermite
+end module tubes_rk4
