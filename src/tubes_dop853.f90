@@ -2,7 +2,7 @@
 !> output. With h > 0 it takes fixed steps of h without error control (used to measure order).
 module tubes_dop853
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, i8
   use tubes_integrator, only: integrator_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
   use tubes_dop853_tableau, only: NS, NSX, C, tableau_a, tableau_e3, tableau_e5, tableau_d
@@ -20,6 +20,8 @@ module tubes_dop853
     real(wp), allocatable :: a(:, :)      !! Runge-Kutta matrix (NSX, NSX)
     real(wp), allocatable :: e3(:), e5(:), d(:, :)
     real(wp) :: h_used = 0                !! size of the last accepted step [s]
+    real(wp) :: t_grid0 = 0               !! fixed-step mode: steps end on t_grid0 + k h
+    integer(i8) :: k_grid = 0             !! fixed-step mode: steps taken since t_grid0
     logical :: dense_ready = .false.
   contains
     procedure :: step => dop853_step
@@ -97,6 +99,8 @@ contains
       call setup(self, n, x, stat)
       if (stat /= TUBES_OK) return
       self%h_next = 0
+      self%t_grid0 = self%t
+      self%k_grid = 0
     end if
     dir = sign(1.0_wp, tmax - self%t)
     if (tmax == self%t) then
@@ -116,8 +120,13 @@ contains
     self%dense_ready = .false.
     do
       hmin = 16*epsilon(1.0_wp)*max(abs(self%t), abs(tmax) - abs(tmax - self%t), 1.0e-300_wp)
-      ! absorb the roundoff drift of t: relative to h, and a few ulps of t (large t, small h)
-      last = h*(1 + 64*epsilon(1.0_wp)) + 4*spacing(max(abs(self%t), abs(tmax))) >= abs(tmax - self%t)
+      if (self%h > 0) then
+        ! fixed step: end on the grid t_grid0 + k h (no drift of t), the last step on tmax
+        h = abs(self%t_grid0 + dir*(self%k_grid + 1)*self%h - self%t)
+        last = h*(1 + 64*epsilon(1.0_wp)) >= abs(tmax - self%t)
+      else
+        last = h*(1 + 64*epsilon(1.0_wp)) >= abs(tmax - self%t)   ! absorb roundoff drift of t
+      end if
       if (last) h = abs(tmax - self%t)
       if (h < hmin .and. .not. last) then
         stat = TUBES_ESTEP
@@ -137,6 +146,10 @@ contains
       end if
       if (fs < 0) then
         stat = TUBES_EMODEL
+        return
+      end if
+      if (fs > 0 .and. self%h > 0) then   ! fixed step cannot honour a request to shrink
+        stat = TUBES_ESTEP
         return
       end if
       if (fs > 0) then            ! the model asks for a smaller step
@@ -177,9 +190,12 @@ contains
     self%t_old = self%t
     if (last) then
       self%t = tmax
+    else if (self%h > 0) then
+      self%t = self%t_grid0 + dir*(self%k_grid + 1)*self%h
     else
       self%t = self%t + dir*h
     end if
+    self%k_grid = self%k_grid + 1
     self%h_used = dir*h
     x = xnew
     self%f_cur = self%k(:, NS + 1)   ! FSAL: f(t_new, x_new) starts the next step
