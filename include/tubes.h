@@ -16,7 +16,12 @@ enum {
 };
 
 /* Integration methods (src/tubes_methods.f90). */
-enum { TUBES_METHOD_DOP853 = 1 };
+enum {
+  TUBES_METHOD_DOP853 = 1, TUBES_METHOD_RK4 = 2, TUBES_METHOD_TAO2 = 3, TUBES_METHOD_TAO4 = 4,
+  TUBES_METHOD_TAO6 = 5, TUBES_METHOD_GAUSS4 = 6, TUBES_METHOD_GAUSS6 = 7, TUBES_METHOD_GAUSS8 = 8
+};
+/* Method options (tubes_run_trajectory): omega_bind [1/s] for tao* (0 = default 200),
+ * solver for gauss*: 0 or 1 simplified Newton, 2 fixed point; max_iter for gauss* (0 = default). */
 
 /* The model parameter vector: model[TUBES_NMODEL] =
  * {alpha [1/cm], beta [1], gamma [cm^2], xi [1/cm], h0 [cm], g [cm/s^2], damping_ratio [1]}. */
@@ -53,13 +58,14 @@ typedef int (*tubes_progress_fn)(double t, void *user);
 
 /* Integrate from x0 at t = 0 to t_end, sampling every dt_out (nmax >= floor(t_end/dt_out)+2).
  * Outputs: *n samples t[n], state[4 n] (row k = x, y, px, py), energy[n];
- * counters = {nfev, nsteps, nrejected}; *c_damp = damping rate used [1/s].
+ * counters = {nfev, nsteps, nrejected, niter}; *c_damp = damping rate used [1/s].
  * On failure the samples up to the last accepted step are returned with a status < 0. */
 int tubes_run_trajectory(const double model[TUBES_NMODEL], const double x0[4], double t_end,
-                     double dt_out, int method, double rtol, double atol, double h,
-                     int64_t max_steps, int nmax, int *n, double t[], double state[],
-                     double energy[], int64_t counters[3], double *c_damp,
-                     tubes_progress_fn progress, void *user);
+                         double dt_out, int method, double rtol, double atol, double h,
+                         int64_t max_steps, double omega_bind, int solver, int max_iter, int nmax,
+                         int *n, double t[], double state[], double energy[],
+                         int64_t counters[4], double *c_damp, tubes_progress_fn progress,
+                         void *user);
 
 /* Lyapunov orbits of the rank-1 saddle named `saddle` ("S12", ...) at the ascending excess
  * energies des[nde] [(cm/s)^2], by continuation from dE -> 0 (docs/orbits.md). n_segments 1 =
@@ -99,6 +105,9 @@ typedef struct {
   char method[TUBES_LNAME];
   double rtol, atol, h;
   int64_t max_steps;
+  double omega_bind;
+  char solver[TUBES_LNAME];
+  int max_iter;
   /* &orbits */
   char orb_saddle[8];
   double orb_de[TUBES_MAXDE];

@@ -44,6 +44,9 @@ void nml_report_read_error(const char *path, const nml_where *w, int group, cons
 /* Range and consistency checks. Returns the number of errors printed to err. */
 int nml_validate(const char *path, const tubes_config_t *cfg, const nml_where *w, FILE *err);
 
+/* TUBES_METHOD_* code of a method name, 0 if unknown. */
+int tubes_method_code(const char *name);
+
 /* Print the groups, variables and scenes (for --help). */
 void nml_print_help(FILE *out);
 

@@ -90,22 +90,22 @@ subroutine equilibria(params, box, n_grid, stat, n, x, y, height, en, morse, nam
   end do
 end subroutine equilibria
 
-subroutine trajectory(params, x0, t_end, dt_out, method, rtol, atol, h, max_steps, nmax, &
-                      stat, n, t, state, en, counters)
+subroutine trajectory(params, x0, t_end, dt_out, method, rtol, atol, h, max_steps, omega_bind, &
+                      solver, max_iter, nmax, stat, n, t, state, en, counters)
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_kinds, only: wp
   use tubes_ball, only: ball_t
   use tubes_models, only: model_ball, conservative_ball
   use tubes_integrator, only: integrator_t, propagate
-  use tubes_methods, only: new_integrator
+  use tubes_methods, only: new_integrator, method_opts_t
   use tubes_sampler, only: sampler_t
   implicit none
-  real(c_double), intent(in) :: params(7), x0(4), t_end, dt_out, rtol, atol, h
-  integer(c_int), intent(in) :: method, nmax
+  real(c_double), intent(in) :: params(7), x0(4), t_end, dt_out, rtol, atol, h, omega_bind
+  integer(c_int), intent(in) :: method, nmax, solver, max_iter
   integer(c_int64_t), intent(in) :: max_steps
   integer(c_int), intent(out) :: stat, n
   real(c_double), intent(out) :: t(nmax), state(4, nmax), en(nmax)
-  integer(c_int64_t), intent(out) :: counters(3)
+  integer(c_int64_t), intent(out) :: counters(4)
   class(ball_t), allocatable :: ball
   type(ball_t) :: cons
   class(integrator_t), allocatable :: ig
@@ -118,7 +118,8 @@ subroutine trajectory(params, x0, t_end, dt_out, method, rtol, atol, h, max_step
   call model_ball(params, ball, c, stat)
   if (stat /= 0) return
   call conservative_ball(params, cons, stat)
-  call new_integrator(method, ig, stat)
+  call new_integrator(method, ig, stat, method_opts_t(omega_bind=omega_bind, solver=solver, &
+                                                      max_iter=max_iter))
   if (stat /= 0) return
   call ig%init(ball, 0.0_wp)
   ig%rtol = rtol; ig%atol = atol; ig%h = h; ig%max_steps = max_steps
@@ -132,5 +133,5 @@ subroutine trajectory(params, x0, t_end, dt_out, method, rtol, atol, h, max_step
   do k = 1, n
     en(k) = cons%energy(state(:, k))
   end do
-  counters = [ig%nfev, ig%nsteps, ig%nrejected]
+  counters = [ig%nfev, ig%nsteps, ig%nrejected, ig%niter]
 end subroutine trajectory

@@ -1,8 +1,12 @@
 !> One stepper abstraction with dense output; events and observers written once (propagate).
+!> Events are found on the dense output of every accepted step: g(s, interp(s)) is sampled at
+!> event%nsub interior points, every sign change between consecutive samples is bracketed and
+!> refined by the Illinois method (docs/events.md). Nothing is ever re-integrated.
 module tubes_integrator
   use tubes_kinds, only: wp, i8
   use tubes_field, only: vector_field_t
-  use tubes_status, only: TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, TUBES_ENOCONV
+  use tubes_status, only: TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, TUBES_ENOCONV, &
+                          TUBES_EMODEL
   implicit none
   private
 
@@ -45,12 +49,21 @@ module tubes_integrator
     end subroutine interp_i
   end interface
 
-  !> Event function g(t, x) = 0.
+  !> Event function g(t, x) = 0. A crossing is a sign change of g along the trajectory that
+  !> passes the `direction` filter (sign of dg/dt) and the state-dependent `accept` filter;
+  !> `orientation` gives the direction reported for it (default: the sign of dg/dt).
   type, abstract, public :: event_t
-    integer :: direction = 0      !! +1 rising, -1 falling, 0 either
-    logical :: terminal = .true.  !! stop propagate at the first root
+    integer :: direction = 0      !! +1 rising (dg/dt > 0 in time), -1 falling, 0 either
+    logical :: terminal = .true.  !! stop propagate at the first accepted crossing
+    !> interior sample points of g per step (>= 0). Two crossings closer than about
+    !> h/(nsub+1) can both fall between two samples and then neither is seen
+    !> (docs/events.md measures it). 4 costs 4 cheap interpolations per step; 0 tests the
+    !> step ends only (and does not need the dense output of steps without a crossing)
+    integer :: nsub = 4
   contains
     procedure(g_i), deferred :: g
+    procedure :: accept => event_accept            !! filter on the state at a crossing
+    procedure :: orientation => event_orientation  !! direction reported for a crossing
   end type event_t
 
   abstract interface
@@ -64,10 +77,21 @@ module tubes_integrator
   !> The plane x(k) = c.
   type, extends(event_t), public :: plane_t
     integer :: k = 1        !! state component
-    real(wp) :: c = 0       !! level
+    real(wp) :: c = 0       !! level [units of x(k)]
   contains
     procedure :: g => plane_g
   end type plane_t
+
+  !> Every crossing found by propagate, in the order of integration (appended across calls).
+  type, public :: crossing_log_t
+    integer :: n = 0                       !! crossings recorded
+    integer :: max_crossings = 1000000     !! propagate stops (TUBES_EVENT) when n reaches it
+    real(wp), allocatable :: t(:)          !! crossing times t(1:n) [s]
+    real(wp), allocatable :: x(:, :)       !! states x(:, 1:n) at the crossings
+    integer, allocatable :: direction(:)   !! orientation of each crossing: +1 or -1
+  contains
+    procedure :: clear => log_clear
+  end type crossing_log_t
 
   !> Dense-output hook called after every accepted step; owns its own buffers.
   type, abstract, public :: observer_t
@@ -85,6 +109,14 @@ module tubes_integrator
       logical, intent(out) :: stop_now   !! .true. ends propagate with TUBES_OK
     end subroutine on_step_i
   end interface
+
+  integer, parameter :: MAX_NSUB = 10000     ! sanity bound on event%nsub
+  integer, parameter :: MAX_ITER = 300       ! root refinement: >> 3 x 64 bisections
+  real(wp), parameter :: EPS = epsilon(1.0_wp)
+  !> Root refinement stops when the bracket is below max(T_RTOL |t|, T_ATOL) [s]:
+  !> a few ulps of t, and 1e-15 s near t = 0.
+  real(wp), parameter, public :: T_RTOL = 4*EPS
+  real(wp), parameter, public :: T_ATOL = 1.0e-15_wp
 
   public :: propagate
 
@@ -113,16 +145,74 @@ contains
     plane_g = x(self%k) - self%c
   end function plane_g
 
-  !> Integrate x from ig%t to tend (either direction), stopping at a terminal event.
-  !> stat: TUBES_OK at tend (or when the observer asks), TUBES_EVENT at a terminal event
-  !> (ig%t = event time, x = state there), < 0 on failure (x at the last accepted step).
-  subroutine propagate(ig, x, tend, stat, event, observer)
+  !> Default filter: every crossing counts.
+  pure logical function event_accept(self, t, x)
+    class(event_t), intent(in) :: self
+    real(wp), intent(in) :: t      !! crossing time [s]
+    real(wp), intent(in) :: x(:)   !! state at the crossing
+    event_accept = .true.
+  end function event_accept
+
+  !> Default orientation of a crossing: the sign of dg/dt there (`slope`, +1 or -1).
+  pure integer function event_orientation(self, t, x, slope)
+    class(event_t), intent(in) :: self
+    real(wp), intent(in) :: t      !! crossing time [s]
+    real(wp), intent(in) :: x(:)   !! state at the crossing
+    integer, intent(in) :: slope   !! sign of dg/dt across the crossing (in time)
+    event_orientation = slope
+  end function event_orientation
+
+  !> Forget all recorded crossings (keeps the storage and max_crossings).
+  subroutine log_clear(self)
+    class(crossing_log_t), intent(inout) :: self
+    self%n = 0
+  end subroutine log_clear
+
+  !> Append a crossing, growing the storage geometrically.
+  subroutine log_append(log, t, x, direction)
+    type(crossing_log_t), intent(inout) :: log
+    real(wp), intent(in) :: t, x(:)
+    integer, intent(in) :: direction
+    real(wp), allocatable :: tt(:), xx(:, :)
+    integer, allocatable :: dd(:)
+    integer :: cap
+    if (allocated(log%t)) then   ! storage of another state dimension (log cleared): drop it
+      if (size(log%x, 1) /= size(x)) deallocate (log%t, log%x, log%direction)
+    end if
+    if (.not. allocated(log%t)) then
+      cap = max(1, min(64, log%max_crossings))
+      allocate (log%t(cap), log%x(size(x), cap), log%direction(cap))
+    else if (log%n >= size(log%t)) then
+      cap = int(min(2*int(size(log%t), i8), int(log%max_crossings, i8)))
+      allocate (tt(cap), xx(size(x), cap), dd(cap))
+      tt(1:log%n) = log%t(1:log%n)
+      xx(:, 1:log%n) = log%x(:, 1:log%n)
+      dd(1:log%n) = log%direction(1:log%n)
+      call move_alloc(tt, log%t)
+      call move_alloc(xx, log%x)
+      call move_alloc(dd, log%direction)
+    end if
+    log%n = log%n + 1
+    log%t(log%n) = t
+    log%x(:, log%n) = x
+    log%direction(log%n) = direction
+  end subroutine log_append
+
+  !> Integrate x from ig%t to tend (either direction), recording crossings of `event` and
+  !> stopping at a terminal one.
+  !> stat: TUBES_OK at tend (or when the observer asks); TUBES_EVENT at a terminal crossing or
+  !> when `crossings` reaches max_crossings (ig%t = crossing time, x = state there); < 0 on
+  !> failure (x at the last accepted step). A root at the very start of the call (a restart
+  !> from an event) is not a new crossing.
+  subroutine propagate(ig, x, tend, stat, event, observer, crossings)
     class(integrator_t), intent(inout) :: ig
-    real(wp), intent(inout) :: x(:)
-    real(wp), intent(in) :: tend
+    real(wp), intent(inout) :: x(:)                   !! state at ig%t, on return at ig%t
+    real(wp), intent(in) :: tend                      !! final time [s]
     integer, intent(out) :: stat
-    class(event_t), intent(in), optional :: event
+    class(event_t), intent(in), optional :: event     !! section to detect
     class(observer_t), intent(inout), optional :: observer
+    !> every accepted crossing is appended to it (ignored without event)
+    type(crossing_log_t), intent(inout), optional :: crossings
     real(wp) :: g0, g1, te, dir, t_start
     real(wp), allocatable :: xe(:)
     integer(i8) :: n
@@ -131,6 +221,24 @@ contains
     if (size(x) /= ig%f%dim()) then
       stat = TUBES_EINPUT
       return
+    end if
+    if (present(event)) then
+      if (event%nsub < 0 .or. event%nsub > MAX_NSUB .or. abs(event%direction) > 1) then
+        stat = TUBES_EINPUT
+        return
+      end if
+      if (present(crossings)) then
+        if (crossings%n >= crossings%max_crossings) then   ! full: the caller must clear it
+          stat = TUBES_EINPUT
+          return
+        end if
+        if (crossings%n > 0) then
+          if (size(crossings%x, 1) /= size(x)) then
+            stat = TUBES_EINPUT
+            return
+          end if
+        end if
+      end if
     end if
     dir = sign(1.0_wp, tend - ig%t)
     t_start = ig%t
@@ -148,14 +256,8 @@ contains
       hit = .false.
       if (present(event)) then
         g1 = event%g(ig%t, x)
-        if (crosses(g0, g1, event%direction)) then
-          call locate_root(ig, event, g0, g1, te, xe, stat)
-          if (stat < 0) return
-          ! a root at the very start is the event this call was restarted from (g there is
-          ! roundoff of either sign): not a new crossing
-          hit = event%terminal .and. &
-                abs(te - t_start) > 8*epsilon(1.0_wp)*max(1.0_wp, abs(t_start))
-        end if
+        call scan_step(ig, event, x, g0, g1, dir, t_start, te, xe, hit, stat, crossings)
+        if (stat < 0) return
         g0 = g1
       end if
       if (present(observer)) then
@@ -176,56 +278,137 @@ contains
     end do
   end subroutine propagate
 
-  pure logical function crosses(g0, g1, direction)
-    real(wp), intent(in) :: g0, g1
-    integer, intent(in) :: direction
-    select case (direction)
-    case (1);  crosses = g0 < 0 .and. g1 >= 0
-    case (-1); crosses = g0 > 0 .and. g1 <= 0
-    case default; crosses = (g0 < 0 .and. g1 >= 0) .or. (g0 > 0 .and. g1 <= 0)
-    end select
-  end function crosses
-
-  !> Root of g(s, interp(s)) in the last step by the Illinois method; never re-integrates.
-  subroutine locate_root(ig, event, g0, g1, te, xe, stat)
+  !> All crossings of `event` in the last accepted step [t_old, t], in the order of
+  !> integration. g is sampled at the step ends (g0, g1) and at nsub equally spaced interior
+  !> points of the dense output; each sign change between consecutive samples is refined.
+  !> Accepted crossings go to the log; `hit` (with te, xe) reports the first one that stops
+  !> the integration (terminal event, or the log reaching max_crossings).
+  subroutine scan_step(ig, event, x, g0, g1, dir, t_start, te, xe, hit, stat, crossings)
     class(integrator_t), intent(inout) :: ig
     class(event_t), intent(in) :: event
-    real(wp), intent(in) :: g0, g1
-    real(wp), intent(out) :: te, xe(:)
+    real(wp), intent(in) :: x(:)          !! state at ig%t (end of the step)
+    real(wp), intent(in) :: g0, g1        !! g at ig%t_old and at ig%t
+    real(wp), intent(in) :: dir           !! +1 forward, -1 backward in time
+    real(wp), intent(in) :: t_start       !! start of the propagate call [s]
+    real(wp), intent(out) :: te           !! time of the stopping crossing [s]
+    real(wp), intent(out) :: xe(:)        !! state there
+    logical, intent(out) :: hit
     integer, intent(out) :: stat
-    real(wp) :: a, b, ga, gb, s, gs
-    integer :: it, side
-    a = ig%t_old; b = ig%t; ga = g0; gb = g1
-    side = 0
+    type(crossing_log_t), intent(inout), optional :: crossings
+    real(wp) :: ts(0:event%nsub + 1), gv(0:event%nsub + 1), xs(size(x)), step_len
+    integer :: j, m, slope, orient
     stat = TUBES_OK
-    if (gb == 0) then
-      te = b
-      call ig%interp(te, xe)
+    hit = .false.
+    te = ig%t
+    m = event%nsub + 1
+    ts(0) = ig%t_old
+    gv(0) = g0
+    ts(m) = ig%t
+    gv(m) = g1
+    step_len = ig%t - ig%t_old
+    do j = 1, m - 1
+      ts(j) = ig%t_old + step_len*(real(j, wp)/m)
+      call ig%interp(ts(j), xs)
+      gv(j) = event%g(ts(j), xs)
+    end do
+    if (.not. all(abs(gv) <= huge(1.0_wp))) then   ! NaN/Inf from the model or the interpolant
+      stat = TUBES_EMODEL
       return
     end if
-    do it = 1, 200
-      s = (a*gb - b*ga)/(gb - ga)
-      call ig%interp(s, xe)
-      gs = event%g(s, xe)
-      if (gs == 0 .or. abs(b - a) <= 4*epsilon(1.0_wp)*max(abs(a), abs(b), 1.0_wp)) then
-        te = s
+    do j = 1, m
+      ! a sign change in (ts(j-1), ts(j)]: the left sample nonzero, the right one zero or of
+      ! the other sign. A root exactly on a sample thus belongs to the interval it ends, and a
+      ! step end to its own step only (the next step starts from g = 0: no sign change).
+      if (gv(j - 1) < 0 .and. gv(j) >= 0) then
+        slope = 1
+      else if (gv(j - 1) > 0 .and. gv(j) <= 0) then
+        slope = -1
+      else
+        cycle
+      end if
+      slope = slope*nint(dir)                 ! sign of dg/dt in time
+      if (event%direction /= 0 .and. event%direction /= slope) cycle
+      call refine_root(ig, event, ts(j - 1), ts(j), gv(j - 1), gv(j), j == m, x, te, xe, stat)
+      if (stat < 0) return
+      ! a root at the very start is the event this call was restarted from (g there is
+      ! roundoff of either sign): not a new crossing
+      if (j == 1 .and. ig%t_old == t_start .and. &
+          abs(te - t_start) <= 8*EPS*max(1.0_wp, abs(t_start))) cycle
+      if (.not. event%accept(te, xe)) cycle
+      orient = event%orientation(te, xe, slope)
+      if (present(crossings)) then
+        call log_append(crossings, te, xe, orient)
+        if (crossings%n >= crossings%max_crossings) hit = .true.
+      end if
+      if (event%terminal) hit = .true.
+      if (hit) return
+    end do
+  end subroutine scan_step
+
+  !> Root of g(s, interp(s)) in the bracket (a, b] of the last step (a, b in the order of
+  !> integration; g(a) /= 0, g(b) zero or of the other sign) by the Illinois method, with a
+  !> bisection whenever three iterations in a row fail to halve the bracket (roundoff-level
+  !> g). Returns te = b of the final bracket: on the far side of the root (g(te) = 0 or of the
+  !> sign after the crossing), within max(T_RTOL |t|, T_ATOL) of it; so a propagate restarted
+  !> from (te, xe) does not see the same crossing again. Never re-integrates.
+  subroutine refine_root(ig, event, a_in, b_in, ga_in, gb_in, b_is_end, x_end, te, xe, stat)
+    class(integrator_t), intent(inout) :: ig
+    class(event_t), intent(in) :: event
+    real(wp), intent(in) :: a_in, b_in, ga_in, gb_in
+    logical, intent(in) :: b_is_end        !! b_in is the step end ig%t, where x = x_end
+    real(wp), intent(in) :: x_end(:)
+    real(wp), intent(out) :: te, xe(:)
+    integer, intent(out) :: stat
+    real(wp) :: a, b, ga, gb, s, gs, w, w_prev, xs(size(xe))
+    integer :: it, side, slow
+    logical :: b_moved
+    stat = TUBES_OK
+    xe = x_end   ! the state at b while b is the step end
+    a = a_in; b = b_in; ga = ga_in; gb = gb_in
+    side = 0
+    slow = 0
+    b_moved = .false.
+    w_prev = abs(b - a)
+    do it = 1, MAX_ITER
+      if (gb == 0) exit
+      w = abs(b - a)
+      if (w <= max(T_RTOL*max(abs(a), abs(b)), T_ATOL)) exit
+      if (slow >= 3) then
+        s = a + (b - a)/2
+        slow = 0
+      else
+        s = (a*gb - b*ga)/(gb - ga)
+        ! keep the secant point strictly inside the bracket (it can round onto an end)
+        if (.not. (min(a, b) < s .and. s < max(a, b))) s = a + (b - a)/2
+      end if
+      call ig%interp(s, xs)
+      gs = event%g(s, xs)
+      if (.not. (abs(gs) <= huge(1.0_wp))) then
+        stat = TUBES_EMODEL
+        te = b
+        xe = xs
         return
       end if
-      if (sign(1.0_wp, gs) == sign(1.0_wp, gb)) then
+      if (gs /= 0 .and. sign(1.0_wp, gs) == sign(1.0_wp, ga)) then
+        a = s; ga = gs
+        if (side == 1) gb = gb/2      ! b kept twice in a row: Illinois halving
+        side = 1
+      else
         b = s; gb = gs
+        xe = xs
+        b_moved = .true.
         if (side == -1) ga = ga/2
         side = -1
-      else
-        a = s; ga = gs
-        if (side == 1) gb = gb/2
-        side = 1
       end if
-      if (abs(b - a) <= 4*epsilon(1.0_wp)*max(abs(a), abs(b), 1.0_wp)) then
-        te = s
-        return
+      if (abs(b - a) > w_prev/2) then
+        slow = slow + 1
+      else
+        slow = 0
+        w_prev = abs(b - a)
       end if
     end do
-    te = s
-    stat = TUBES_ENOCONV
-  end subroutine locate_root
+    if (it > MAX_ITER) stat = TUBES_ENOCONV
+    te = b
+    if (.not. (b_is_end .or. b_moved)) call ig%interp(te, xe)   ! b is an interior sample
+  end subroutine refine_root
 end module tubes_integrator

@@ -1,24 +1,68 @@
-!> Integration methods by code (the same numbers as TUBES_METHOD_* in include/tubes.h).
+!> Integration methods by code (the same numbers as TUBES_METHOD_* in include/tubes.h and
+!> tubes.METHODS in python/tubes/__init__.py) and their options.
 module tubes_methods
+  use tubes_kinds, only: wp
   use tubes_integrator, only: integrator_t
   use tubes_dop853, only: dop853_t
+  use tubes_rk4, only: rk4_t
+  use tubes_tao, only: tao_t, TAO_OMEGA_DEFAULT
+  use tubes_gauss, only: gauss_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT
   implicit none
   private
   integer, parameter, public :: METHOD_DOP853 = 1   !! Hairer's DOP853, variable step
-  public :: new_integrator
+  integer, parameter, public :: METHOD_RK4 = 2      !! classical Runge-Kutta, fixed step
+  integer, parameter, public :: METHOD_TAO2 = 3     !! Tao's explicit symplectic, order 2
+  integer, parameter, public :: METHOD_TAO4 = 4     !! Tao, order 4 (triple jump)
+  integer, parameter, public :: METHOD_TAO6 = 5     !! Tao, order 6
+  integer, parameter, public :: METHOD_GAUSS4 = 6   !! Gauss-Legendre, 2 stages, order 4
+  integer, parameter, public :: METHOD_GAUSS6 = 7   !! Gauss-Legendre, 3 stages, order 6
+  integer, parameter, public :: METHOD_GAUSS8 = 8   !! Gauss-Legendre, 4 stages, order 8
+  integer, parameter, public :: METHOD_LAST = 8     !! largest code available
+
+  !> Method-specific options; zero or blank means the method's default.
+  type, public :: method_opts_t
+    real(wp) :: omega_bind = 0       !! Tao's binding constant [1/s]; 0: TAO_OMEGA_DEFAULT
+    integer :: solver = 0            !! Gauss stage solver: 0/1 simplified Newton, 2 fixed point
+    integer :: max_iter = 0          !! Gauss iterations per step; 0: the solver's default
+  end type method_opts_t
+
+  public :: new_integrator, is_fixed_step
 
 contains
 
-  !> Allocate an integrator of the given method code.
-  subroutine new_integrator(method, ig, stat)
+  !> True for the methods that need &integrator h > 0.
+  pure logical function is_fixed_step(method)
+    integer, intent(in) :: method
+    is_fixed_step = method >= METHOD_RK4 .and. method <= METHOD_GAUSS8
+  end function is_fixed_step
+
+  !> Allocate an integrator of the given method code with its options.
+  subroutine new_integrator(method, ig, stat, opts)
     integer, intent(in) :: method
     class(integrator_t), allocatable, intent(out) :: ig
     integer, intent(out) :: stat
+    type(method_opts_t), intent(in), optional :: opts
+    type(method_opts_t) :: o
+    type(tao_t) :: tao
+    type(gauss_t) :: gauss
+    if (present(opts)) o = opts
     stat = TUBES_OK
     select case (method)
     case (METHOD_DOP853)
       allocate (dop853_t :: ig)
+    case (METHOD_RK4)
+      allocate (rk4_t :: ig)
+    case (METHOD_TAO2, METHOD_TAO4, METHOD_TAO6)
+      tao%order = 2*(method - METHOD_TAO2 + 1)
+      tao%omega_bind = TAO_OMEGA_DEFAULT
+      if (o%omega_bind > 0) tao%omega_bind = o%omega_bind
+      allocate (ig, source=tao)
+    case (METHOD_GAUSS4, METHOD_GAUSS6, METHOD_GAUSS8)
+      gauss%stages = method - METHOD_GAUSS4 + 2
+      if (o%solver == 2) gauss%solver = 'fixed_point'
+      gauss%max_iter = o%max_iter
+      allocate (ig, source=gauss)
     case default
       stat = TUBES_EINPUT
     end select

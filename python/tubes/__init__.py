@@ -25,7 +25,9 @@ _MESSAGES = {
     EMODEL: "the vector field returned NaN or Inf", EIO: "input/output error",
     ENOCONV: "iteration did not converge",
 }
-METHODS = {"dop853": 1}
+METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, "gauss6": 7,
+           "gauss8": 8}   # include/tubes.h TUBES_METHOD_*
+FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 
 __all__ = ["Model", "TubesError", "energy", "vector_field", "velocity", "momentum",
            "equilibria", "trajectory", "load", "Result"]
@@ -118,20 +120,27 @@ def equilibria(model: Model = Model(), box: float = 20.0, n_grid: int = 41) -> d
 
 def trajectory(state0, t_end: float, dt_out: float = 0.01, model: Model = Model(),
                method: str = "dop853", rtol: float = 1e-12, atol: float = 1e-12,
-               h: float = 0.0, max_steps: int = 10_000_000) -> dict:
-    """Integrate from state0 at t = 0 to t_end, sampled every dt_out.
-    Returns dict t (n,), state (n, 4), energy (n,), nfev, nsteps, nrejected."""
+               h: float = 0.0, max_steps: int = 10_000_000, omega_bind: float = 0.0,
+               solver: str = "newton", max_iter: int = 0) -> dict:
+    """Integrate from state0 at t = 0 to t_end, sampled every dt_out, with any method of
+    METHODS (fixed-step methods need h > 0; omega_bind for tao*, solver and max_iter for gauss*).
+    Returns dict t (n,), state (n, 4), energy (n,), nfev, nsteps, nrejected, niter."""
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; allowed: {', '.join(METHODS)}")
+    if method in FIXED_STEP and not h > 0:
+        raise ValueError(f"method {method!r} is fixed-step: give h > 0")
+    if solver not in ("newton", "fixed_point"):
+        raise ValueError("solver must be 'newton' or 'fixed_point'")
     if not (dt_out > 0 and t_end >= 0):
         raise ValueError("need dt_out > 0 and t_end >= 0")
     nmax = int(np.floor(t_end / dt_out * (1 + 1e-12))) + 2
     stat, n, t, st, en, cnt = _lib().trajectory(
         model.params(), _vec(state0, 4, "state0"), float(t_end), float(dt_out), METHODS[method],
-        float(rtol), float(atol), float(h), int(max_steps), nmax)
+        float(rtol), float(atol), float(h), int(max_steps), float(omega_bind),
+        1 if solver == "newton" else 2, int(max_iter), nmax)
     _check(stat, "trajectory")
     return {"t": t[:n].copy(), "state": st[:, :n].T.copy(), "energy": en[:n].copy(),
-            "nfev": int(cnt[0]), "nsteps": int(cnt[1]), "nrejected": int(cnt[2])}
+            "nfev": int(cnt[0]), "nsteps": int(cnt[1]), "nrejected": int(cnt[2]), "niter": int(cnt[3])}
 
 
 class Result:

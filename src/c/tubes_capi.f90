@@ -8,7 +8,7 @@ module tubes_capi
   use tubes_models, only: NMODEL, conservative_ball, damping_rate, model_ball
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_integrator, only: integrator_t, propagate
-  use tubes_methods, only: new_integrator
+  use tubes_methods, only: new_integrator, method_opts_t
   use tubes_sampler, only: sampler_t
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
   implicit none
@@ -126,15 +126,15 @@ contains
   end function c_equilibria
 
   integer(c_int) function c_trajectory(model, x0, t_end, dt_out, method, rtol, atol, h, &
-      max_steps, nmax, n, t, state, energy, counters, c_damp, progress, user) result(stat) &
-      bind(C, name='tubes_run_trajectory')
+      max_steps, omega_bind, solver, max_iter, nmax, n, t, state, energy, counters, c_damp, &
+      progress, user) result(stat) bind(C, name='tubes_run_trajectory')
     real(c_double), intent(in) :: model(NMODEL), x0(4)
-    real(c_double), value :: t_end, dt_out, rtol, atol, h
-    integer(c_int), value :: method, nmax
+    real(c_double), value :: t_end, dt_out, rtol, atol, h, omega_bind
+    integer(c_int), value :: method, nmax, solver, max_iter
     integer(c_int64_t), value :: max_steps
     integer(c_int), intent(out) :: n
     real(c_double), intent(out) :: t(nmax), state(4, nmax), energy(nmax), c_damp
-    integer(c_int64_t), intent(out) :: counters(3)
+    integer(c_int64_t), intent(out) :: counters(4)
     type(c_funptr), value :: progress
     type(c_ptr), value :: user
     class(ball_t), allocatable :: ball
@@ -142,7 +142,7 @@ contains
     class(integrator_t), allocatable :: ig
     type(c_sampler_t) :: obs
     real(wp) :: x(4)
-    integer :: k, st2
+    integer :: k
     n = 0
     counters = 0
     c_damp = 0
@@ -153,7 +153,8 @@ contains
     call model_ball(model, ball, c_damp, stat)
     if (stat /= TUBES_OK) return
     call conservative_ball(model, cons, stat)
-    call new_integrator(method, ig, stat)
+    call new_integrator(method, ig, stat, method_opts_t(omega_bind=omega_bind, solver=solver, &
+                                                        max_iter=max_iter))
     if (stat /= TUBES_OK) return
     call ig%init(ball, 0.0_wp)
     ig%rtol = rtol
@@ -172,8 +173,7 @@ contains
     do k = 1, n
       energy(k) = cons%energy(state(:, k))
     end do
-    counters = [ig%nfev, ig%nsteps, ig%nrejected]
-    st2 = 0
+    counters = [ig%nfev, ig%nsteps, ig%nrejected, ig%niter]
   end function c_trajectory
 
   !> The Lyapunov family of the saddle named `saddle` (C string) at the ascending excess

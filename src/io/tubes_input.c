@@ -48,7 +48,8 @@ const nml_var tubes_nml_vars[] = {
      "start from rest at (x0, y0)"},
     {"trajectory", "t_end", NML_REAL, 1, "s", "10", ">= 0", "final time"},
     {"trajectory", "dt_out", NML_REAL, 1, "s", "0.01", "> 0", "sample spacing of the output"},
-    {"integrator", "method", NML_STRING, 1, "-", "'dop853'", "dop853", "integration method"},
+    {"integrator", "method", NML_STRING, 1, "-", "'dop853'",
+     "dop853, rk4, tao2, tao4, tao6, gauss4, gauss6, gauss8", "integration method (docs/integrators.md)"},
     {"integrator", "rtol", NML_REAL, 1, "1", "1e-12", "1e-15 <= rtol < 1",
      "relative tolerance (variable-step methods)"},
     {"integrator", "atol", NML_REAL, 1, "state units", "1e-12", "> 0",
@@ -56,6 +57,9 @@ const nml_var tubes_nml_vars[] = {
     {"integrator", "h", NML_REAL, 1, "s", "0", ">= 0",
      "fixed step; 0 = variable step with rtol/atol"},
     {"integrator", "max_steps", NML_INT, 1, "-", "10000000", ">= 1", "step budget"},
+    {"integrator", "omega_bind", NML_REAL, 1, "1/s", "200", "> 0", "tao*: binding constant of the extended phase space"},
+    {"integrator", "solver", NML_STRING, 1, "-", "'newton'", "newton, fixed_point", "gauss*: stage equation solver"},
+    {"integrator", "max_iter", NML_INT, 1, "-", "0", "0 .. 1000", "gauss*: iterations per step (0: 10 newton, 100 fixed_point)"},
     {"orbits", "saddle", NML_STRING, 1, "-", "'S12'", "S12, S14, S23, S34",
      "the rank-1 saddle whose Lyapunov family is computed"},
     {"orbits", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 10, 100", "> 0, increasing",
@@ -71,6 +75,13 @@ const nml_var tubes_nml_vars[] = {
     {"orbits", "n_samples", NML_INT, 1, "-", "201", "2 .. 100000", "samples along each orbit in the output"},
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
+
+int tubes_method_code(const char *name) {
+  static const char *names[] = {"dop853", "rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"};
+  for (int i = 0; i < (int)(sizeof names / sizeof names[0]); i++)
+    if (!strcmp(name, names[i])) return i + 1;   /* = TUBES_METHOD_* */
+  return 0;
+}
 
 static int group_index(const char *g) {
   for (int i = 0; i < tubes_nml_ngroups; i++)
@@ -383,7 +394,13 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->dt_out > 0)) n += bad(path, w, "trajectory", "dt_out", err, "", c->dt_out);
   else if (c->t_end / c->dt_out > 5.0e7)
     n += bad(path, w, "trajectory", "dt_out", err, "t_end/dt_out exceeds 5e7 samples", c->dt_out);
-  if (strcmp(c->method, "dop853") != 0) n += bad_string(path, w, "integrator", "method", c->method, err);
+  if (tubes_method_code(c->method) == 0) n += bad_string(path, w, "integrator", "method", c->method, err);
+  else if (tubes_method_code(c->method) != TUBES_METHOD_DOP853 && !(c->h > 0))
+    n += bad(path, w, "integrator", "h", err, "the fixed-step method needs h > 0", c->h);
+  if (!(c->omega_bind > 0)) n += bad(path, w, "integrator", "omega_bind", err, "", c->omega_bind);
+  if (strcmp(c->solver, "newton") && strcmp(c->solver, "fixed_point"))
+    n += bad_string(path, w, "integrator", "solver", c->solver, err);
+  if (!(c->max_iter >= 0 && c->max_iter <= 1000)) n += bad(path, w, "integrator", "max_iter", err, "", c->max_iter);
   if (!(c->rtol >= 1e-15 && c->rtol < 1)) n += bad(path, w, "integrator", "rtol", err, "", c->rtol);
   if (!(c->atol > 0)) n += bad(path, w, "integrator", "atol", err, "", c->atol);
   if (!(c->h >= 0)) n += bad(path, w, "integrator", "h", err, "", c->h);

@@ -25,6 +25,9 @@ module tubes_nml
     character(kind=c_char) :: method(LNAME)
     real(c_double) :: rtol, atol, h
     integer(c_int64_t) :: max_steps
+    real(c_double) :: omega_bind
+    character(kind=c_char) :: solver(LNAME)
+    integer(c_int) :: max_iter
     character(kind=c_char) :: orb_saddle(8)
     real(c_double) :: orb_de(MAXDE)
     integer(c_int) :: orb_nde
@@ -46,6 +49,9 @@ module tubes_nml
     character(LNAME) :: method
     real(c_double) :: rtol, atol, h
     integer(c_int64_t) :: max_steps
+    real(c_double) :: omega_bind
+    character(LNAME) :: solver
+    integer :: max_iter
     character(8) :: orb_saddle
     real(c_double) :: orb_de(MAXDE)
     character(LNAME) :: orb_method
@@ -82,6 +88,9 @@ contains
     v%atol = 1.0e-12_c_double
     v%h = 0
     v%max_steps = 10000000_c_int64_t
+    v%omega_bind = 200
+    v%solver = 'newton'
+    v%max_iter = 0
     v%orb_saddle = 'S12'
     v%orb_de = UNSET
     v%orb_method = 'single'
@@ -110,6 +119,8 @@ contains
     cfg%at_rest = merge(1, 0, v%at_rest)
     call put(v%method, cfg%method)
     cfg%rtol = v%rtol; cfg%atol = v%atol; cfg%h = v%h; cfg%max_steps = v%max_steps
+    cfg%omega_bind = v%omega_bind; cfg%max_iter = v%max_iter
+    call put(v%solver, cfg%solver)
     call put(v%orb_saddle, cfg%orb_saddle)
     cfg%orb_de = v%orb_de
     cfg%orb_nde = count(v%orb_de /= UNSET)
@@ -140,6 +151,8 @@ contains
     v%at_rest = cfg%at_rest /= 0
     v%method = get(cfg%method)
     v%rtol = cfg%rtol; v%atol = cfg%atol; v%h = cfg%h; v%max_steps = cfg%max_steps
+    v%omega_bind = cfg%omega_bind; v%max_iter = cfg%max_iter
+    v%solver = get(cfg%solver)
     v%orb_saddle = get(cfg%orb_saddle)
     v%orb_de = cfg%orb_de
     v%orb_method = get(cfg%orb_method)
@@ -266,17 +279,20 @@ contains
       v%t_end = t_end; v%dt_out = dt_out
     end subroutine io_trajectory
     subroutine io_integrator()
-      character(LNAME) :: method
-      real(c_double) :: rtol, atol, h
+      character(LNAME) :: method, solver
+      real(c_double) :: rtol, atol, h, omega_bind
       integer(c_int64_t) :: max_steps
-      namelist /integrator/ method, rtol, atol, h, max_steps
+      integer :: max_iter
+      namelist /integrator/ method, rtol, atol, h, max_steps, omega_bind, solver, max_iter
       method = v%method; rtol = v%rtol; atol = v%atol; h = v%h; max_steps = v%max_steps
+      omega_bind = v%omega_bind; solver = v%solver; max_iter = v%max_iter
       if (mode == 'r') then
         read (u, nml=integrator, iostat=ios, iomsg=iomsg)
       else
         write (u, nml=integrator, iostat=ios, iomsg=iomsg)
       end if
       v%method = method; v%rtol = rtol; v%atol = atol; v%h = h; v%max_steps = max_steps
+      v%omega_bind = omega_bind; v%solver = solver; v%max_iter = max_iter
     end subroutine io_integrator
     subroutine io_orbits()
       character(8) :: saddle

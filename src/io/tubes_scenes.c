@@ -1,6 +1,7 @@
 /* Scene drivers (include/tubes_scenes.h). */
 #include "tubes_scenes.h"
 #include "tubes_h5.h"
+#include "tubes_input.h"
 #include <math.h>
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -145,12 +146,13 @@ int scene_trajectory(tubes_run_t *run) {
     fprintf(stderr, "tubes: trajectory: cannot allocate %d samples\n", nmax);
     return EXIT_NUMERIC;
   }
-  int64_t cnt[3] = {0, 0, 0};
+  int64_t cnt[4] = {0, 0, 0, 0};
   double cdamp = 0;
   progress_t pr = {c->t_end, now(), now()};
   double t0 = now();
-  int s = tubes_run_trajectory(run->model, x0, c->t_end, c->dt_out, TUBES_METHOD_DOP853, c->rtol, c->atol,
-                           c->h, c->max_steps, nmax, &n, t, st, en, cnt, &cdamp, progress, &pr);
+  int s = tubes_run_trajectory(run->model, x0, c->t_end, c->dt_out, tubes_method_code(c->method), c->rtol,
+                               c->atol, c->h, c->max_steps, c->omega_bind, strcmp(c->solver, "fixed_point") ? 1 : 2,
+                               c->max_iter, nmax, &n, t, st, en, cnt, &cdamp, progress, &pr);
   double wall = now() - t0;
   char msg[128];
   status_text(s, msg, sizeof msg);
@@ -185,6 +187,9 @@ int scene_trajectory(tubes_run_t *run) {
     e |= h5_attr_long(g, "nfev", cnt[0]);
     e |= h5_attr_long(g, "nsteps", cnt[1]);
     e |= h5_attr_long(g, "nrejected", cnt[2]);
+    e |= h5_attr_long(g, "niter", cnt[3]);
+    e |= h5_attr_double(g, "omega_bind", c->omega_bind);
+    e |= h5_attr_string(g, "solver", c->solver);
     e |= h5_attr_double(g, "wall_seconds", wall);
     e |= h5_attr_double(g, "damping_rate", cdamp);
     e |= h5_attr_double(g, "max_rel_energy_error", maxerr);

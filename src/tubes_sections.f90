@@ -1,0 +1,120 @@
+!> Surfaces of section for the rolling ball's canonical state (x, y, px, py) [cm, cm, cm/s, cm/s]
+!> as events for propagate: the ray theta = theta0 oriented by the sign of the canonical angular
+!> momentum p_theta (the paper's U1 = theta_line_t(theta0 = pi/4)), and the coordinate lines
+!> x = c, y = c. Definitions and orientation conventions: docs/events.md.
+module tubes_sections
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+  use tubes_kinds, only: wp
+  use tubes_integrator, only: event_t, plane_t
+  implicit none
+  private
+
+  real(wp), parameter :: PI = acos(-1.0_wp)
+
+  integer, parameter, public :: U1_MINUS = -1   !! U1^-: -sign(p_theta) = -1, i.e. p_theta > 0
+  integer, parameter, public :: U1_PLUS = 1     !! U1^+: -sign(p_theta) = +1, i.e. p_theta < 0
+
+  !> The ray {r > 0, theta = theta0} in the (x, y) plane. g = cos(theta0) y - sin(theta0) x
+  !> (= r sin(theta - theta0), zero on the whole line through the origin); crossings of the
+  !> opposite ray (x cos(theta0) + y sin(theta0) <= 0) are not crossings of the section.
+  !> A crossing is oriented by the sign of p_theta = x py - y px (reported as its direction),
+  !> not by the sign of dg/dt: the two can differ (docs/events.md). Select a branch with
+  !> `branch`; the inherited `direction` filters on dg/dt and is normally left at 0.
+  type, extends(event_t), public :: theta_line_t
+    real(wp) :: theta0 = 0   !! angle of the ray from the +x axis [rad]
+    integer :: branch = 0    !! +1: only p_theta > 0; -1: only p_theta < 0; 0: either
+  contains
+    procedure :: g => theta_g
+    procedure :: accept => theta_accept
+    procedure :: orientation => theta_orientation
+  end type theta_line_t
+
+  public :: polar_canonical, u1_section, x_line, y_line
+
+contains
+
+  pure real(wp) function theta_g(self, t, x)
+    class(theta_line_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:)
+    theta_g = cos(self%theta0)*x(2) - sin(self%theta0)*x(1)
+  end function theta_g
+
+  !> On the ray r > 0, and p_theta of the requested branch (p_theta = 0 belongs to neither).
+  pure logical function theta_accept(self, t, x)
+    class(theta_line_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:)
+    real(wp) :: pth
+    theta_accept = .false.
+    if (size(x) < 4) return   ! not a canonical (x, y, px, py) state
+    theta_accept = cos(self%theta0)*x(1) + sin(self%theta0)*x(2) > 0
+    if (.not. theta_accept .or. self%branch == 0) return
+    pth = x(1)*x(4) - x(2)*x(3)
+    theta_accept = (self%branch > 0 .and. pth > 0) .or. (self%branch < 0 .and. pth < 0)
+  end function theta_accept
+
+  !> The branch of a crossing: sign(p_theta) (0 only if p_theta is exactly 0).
+  pure integer function theta_orientation(self, t, x, slope)
+    class(theta_line_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:)
+    integer, intent(in) :: slope
+    real(wp) :: pth
+    theta_orientation = 0
+    if (size(x) < 4) return
+    pth = x(1)*x(4) - x(2)*x(3)
+    theta_orientation = merge(1, merge(-1, 0, pth < 0), pth > 0)
+  end function theta_orientation
+
+  !> Polar canonical coordinates of a state (x, y, px, py): [r, theta, p_r, p_theta] with
+  !> r = |(x, y)| [cm], theta = atan2(y, x) [rad] in (-pi, pi], p_r = (x px + y py)/r [cm/s]
+  !> (momentum conjugate to r), p_theta = x py - y px [cm^2/s] (conjugate to theta). The point
+  !> transformation q = r (cos theta, sin theta) gives p_r = p . dq/dr, p_theta = p . dq/dtheta.
+  !> At r = 0, p_r is undefined and returned as NaN.
+  pure function polar_canonical(x) result(pc)
+    real(wp), intent(in) :: x(4)   !! (x, y, px, py)
+    real(wp) :: pc(4)              !! (r, theta, p_r, p_theta)
+    pc(1) = hypot(x(1), x(2))
+    pc(2) = atan2(x(2), x(1))
+    if (pc(1) > 0) then
+      pc(3) = (x(1)*x(3) + x(2)*x(4))/pc(1)
+    else
+      pc(3) = ieee_value(1.0_wp, ieee_quiet_nan)
+    end if
+    pc(4) = x(1)*x(4) - x(2)*x(3)
+  end function polar_canonical
+
+  !> The paper's section U1^pm = {theta = pi/4, -sign(p_theta) = pm} (first-quadrant ray):
+  !> pm = U1_MINUS (-1) is the p_theta > 0 branch, U1_PLUS (+1) the p_theta < 0 branch,
+  !> 0 both.
+  pure function u1_section(pm, terminal) result(ev)
+    integer, intent(in) :: pm                  !! U1_MINUS, U1_PLUS or 0
+    logical, intent(in), optional :: terminal  !! default .true. (as event_t)
+    type(theta_line_t) :: ev
+    ev%theta0 = PI/4
+    ev%branch = -pm
+    if (present(terminal)) ev%terminal = terminal
+  end function u1_section
+
+  !> The line x = c (state component 1).
+  pure function x_line(c, direction, terminal) result(ev)
+    real(wp), intent(in) :: c                  !! level [cm]
+    integer, intent(in), optional :: direction !! +1: dx/dt > 0, -1: dx/dt < 0, 0 (default)
+    logical, intent(in), optional :: terminal  !! default .true.
+    type(plane_t) :: ev
+    ev%k = 1
+    ev%c = c
+    if (present(direction)) ev%direction = direction
+    if (present(terminal)) ev%terminal = terminal
+  end function x_line
+
+  !> The line y = c (state component 2).
+  pure function y_line(c, direction, terminal) result(ev)
+    real(wp), intent(in) :: c                  !! level [cm]
+    integer, intent(in), optional :: direction !! +1: dy/dt > 0, -1: dy/dt < 0, 0 (default)
+    logical, intent(in), optional :: terminal  !! default .true.
+    type(plane_t) :: ev
+    ev%k = 2
+    ev%c = c
+    if (present(direction)) ev%direction = direction
+    if (present(terminal)) ev%terminal = terminal
+  end function y_line
+end module tubes_sections
