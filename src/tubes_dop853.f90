@@ -119,7 +119,7 @@ contains
     self%k(:, 1) = self%f_cur
     self%dense_ready = .false.
     do
-      hmin = 16*epsilon(1.0_wp)*max(abs(self%t), abs(tmax) - abs(tmax - self%t), 1.0e-300_wp)
+      hmin = max(16*epsilon(1.0_wp)*max(abs(self%t), abs(tmax)), tiny(1.0_wp))   ! never subnormal
       if (self%h > 0) then
         ! fixed step: end on the grid t_grid0 + k h (no drift of t), the last step on tmax
         h = abs(self%t_grid0 + dir*(self%k_grid + 1)*self%h - self%t)
