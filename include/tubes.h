@@ -56,14 +56,21 @@ int tubes_find_equilibria(const double model[TUBES_NMODEL], double box, int n_gr
  * non-zero to stop the integration (the result so far is returned with TUBES_OK). */
 typedef int (*tubes_progress_fn)(double t, void *user);
 
-/* Integrate from x0 at t = 0 to t_end, sampling every dt_out (nmax >= floor(t_end/dt_out)+2).
- * Outputs: *n samples t[n], state[4 n] (row k = x, y, px, py), energy[n];
- * counters = {nfev, nsteps, nrejected, niter}; *c_damp = damping rate used [1/s].
- * On failure the samples up to the last accepted step are returned with a status < 0. */
+/* Integrate from x0 at t = 0 to t_end, sampling every dt_out (nmax >= floor(t_end/dt_out)+2),
+ * and record every crossing of a section: sec_kind 0 none, 1 the ray theta = sec_level [rad]
+ * (sec_dir = sign of p_theta wanted, 0 both; U1^- is sec_level = pi/4, sec_dir = +1), 2 the line
+ * x = sec_level [cm], 3 y = sec_level (sec_dir = sign of dx/dt or dy/dt, 0 both); stop_first != 0
+ * stops at the first crossing; at most max_cross are recorded (then the run stops).
+ * Outputs: *n samples t[n], state[4 n] (row k = x, y, px, py), energy[n]; *n_cross crossings
+ * cross_t, cross_x[4 n_cross], cross_dir (+1/-1); counters = {nfev, nsteps, nrejected, niter};
+ * *c_damp = damping rate used [1/s]. On failure the samples and crossings up to the last
+ * accepted step are returned with a status < 0. */
 int tubes_run_trajectory(const double model[TUBES_NMODEL], const double x0[4], double t_end,
                          double dt_out, int method, double rtol, double atol, double h,
-                         int64_t max_steps, double omega_bind, int solver, int max_iter, int nmax,
-                         int *n, double t[], double state[], double energy[],
+                         int64_t max_steps, double omega_bind, int solver, int max_iter,
+                         int sec_kind, double sec_level, int sec_dir, int stop_first, int max_cross,
+                         int nmax, int *n, double t[], double state[], double energy[],
+                         int *n_cross, double cross_t[], double cross_x[], int cross_dir[],
                          int64_t counters[4], double *c_damp, tubes_progress_fn progress,
                          void *user);
 
@@ -101,6 +108,9 @@ typedef struct {
   /* &trajectory */
   double x0, y0, px0, py0, t_end, dt_out;
   int at_rest;
+  char section[TUBES_LNAME];
+  double section_angle, section_level;
+  int section_direction, max_crossings, stop_at_first;
   /* &integrator */
   char method[TUBES_LNAME];
   double rtol, atol, h;

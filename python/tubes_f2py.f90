@@ -91,47 +91,64 @@ subroutine equilibria(params, box, n_grid, stat, n, x, y, height, en, morse, nam
 end subroutine equilibria
 
 subroutine trajectory(params, x0, t_end, dt_out, method, rtol, atol, h, max_steps, omega_bind, &
-                      solver, max_iter, nmax, stat, n, t, state, en, counters)
+                      solver, max_iter, sec_kind, sec_level, sec_dir, stop_first, max_cross, nmax, &
+                      stat, n, t, state, en, n_cross, cross_t, cross_x, cross_dir, counters)
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_kinds, only: wp
   use tubes_ball, only: ball_t
-  use tubes_models, only: model_ball, conservative_ball
-  use tubes_integrator, only: integrator_t, propagate
-  use tubes_methods, only: new_integrator, method_opts_t
+  use tubes_models, only: conservative_ball
+  use tubes_integrator, only: crossing_log_t
+  use tubes_methods, only: method_opts_t
+  use tubes_run, only: run_integration, section_spec_t
   use tubes_sampler, only: sampler_t
   implicit none
-  real(c_double), intent(in) :: params(7), x0(4), t_end, dt_out, rtol, atol, h, omega_bind
-  integer(c_int), intent(in) :: method, nmax, solver, max_iter
+  real(c_double), intent(in) :: params(7), x0(4), t_end, dt_out, rtol, atol, h, omega_bind, sec_level
+  integer(c_int), intent(in) :: method, nmax, solver, max_iter, sec_kind, sec_dir, stop_first, max_cross
   integer(c_int64_t), intent(in) :: max_steps
-  integer(c_int), intent(out) :: stat, n
+  integer(c_int), intent(out) :: stat, n, n_cross
   real(c_double), intent(out) :: t(nmax), state(4, nmax), en(nmax)
+  real(c_double), intent(out) :: cross_t(max_cross), cross_x(4, max_cross)
+  integer(c_int), intent(out) :: cross_dir(max_cross)
   integer(c_int64_t), intent(out) :: counters(4)
-  class(ball_t), allocatable :: ball
   type(ball_t) :: cons
-  class(integrator_t), allocatable :: ig
   type(sampler_t) :: obs
-  real(c_double) :: x(4), c
+  type(crossing_log_t) :: log
+  real(c_double) :: c
   integer :: k
-  n = 0; t = 0; state = 0; en = 0; counters = 0
+  n = 0; n_cross = 0; t = 0; state = 0; en = 0; counters = 0; cross_t = 0; cross_x = 0; cross_dir = 0
   stat = -1
-  if (dt_out <= 0 .or. t_end < 0 .or. nmax < 2) return
-  call model_ball(params, ball, c, stat)
-  if (stat /= 0) return
+  if (dt_out <= 0 .or. t_end < 0 .or. nmax < 2 .or. max_cross < 1) return
   call conservative_ball(params, cons, stat)
-  call new_integrator(method, ig, stat, method_opts_t(omega_bind=omega_bind, solver=solver, &
-                                                      max_iter=max_iter))
   if (stat /= 0) return
-  call ig%init(ball, 0.0_wp)
-  ig%rtol = rtol; ig%atol = atol; ig%h = h; ig%max_steps = max_steps
-  x = x0
-  call obs%start(0.0_wp, dt_out, x, nmax)
-  if (t_end > 0) call propagate(ig, x, t_end, stat, observer=obs)
-  if (stat == 1) stat = 0
+  call obs%start(0.0_wp, dt_out, x0, nmax)
+  call run_integration(params, x0, t_end, method, rtol, atol, h, max_steps, &
+                       method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter), &
+                       section_spec_t(kind=sec_kind, level=sec_level, dir=sec_dir, &
+                                      stop_at_first=stop_first /= 0, max_crossings=max_cross), &
+                       obs, log, counters, c, stat)
   n = obs%n
   t(1:n) = obs%t(1:n)
   state(:, 1:n) = obs%x(:, 1:n)
   do k = 1, n
     en(k) = cons%energy(state(:, k))
   end do
-  counters = [ig%nfev, ig%nsteps, ig%nrejected, ig%niter]
+  if (sec_kind /= 0) then
+    n_cross = min(log%n, max_cross)
+    do k = 1, n_cross
+      cross_t(k) = log%t(k)
+      cross_x(:, k) = log%x(:, k)
+      cross_dir(k) = log%direction(k)
+    end do
+  end if
 end subroutine trajectory
+
+subroutine reference_solution(params, x0, t_end, tol, stat, x_end, nsteps, nfev)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_reference, only: ref => reference_solution
+  implicit none
+  real(c_double), intent(in) :: params(7), x0(4), t_end, tol
+  integer(c_int), intent(out) :: stat
+  real(c_double), intent(out) :: x_end(4)
+  integer(c_int64_t), intent(out) :: nsteps, nfev
+  call ref(params, x0, t_end, tol, x_end, stat, nsteps, nfev)
+end subroutine reference_solution

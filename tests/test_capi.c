@@ -57,10 +57,12 @@ int main(void) {
   enum { NS = 12 };
   double t[NS], s[4 * NS], en[NS], cdamp;
   int64_t cnt[4];
+  double ct[8], cx[32];
+  int cdir[8], nc = 0;
   int ns = 0;
   st = tubes_run_trajectory(model, (double[4]){4.0, 12.614863819914357, 0, 0}, 1.0, 0.1,
-                            TUBES_METHOD_DOP853, 1e-12, 1e-12, 0.0, 1000000, 0.0, 0, 0, NS, &ns, t, s,
-                            en, cnt, &cdamp, NULL, NULL);
+                            TUBES_METHOD_DOP853, 1e-12, 1e-12, 0.0, 1000000, 0.0, 0, 0, 0, 0.0, 0, 0, 0,
+                            NS, &ns, t, s, en, &nc, ct, cx, cdir, cnt, &cdamp, NULL, NULL);
   check("trajectory status", st == TUBES_OK, st, 0);
   check("trajectory samples", ns == 11, ns, 11);
   check("energy excess over S12 is 1500", fabs(en[0] - (k12 >= 0 ? e[k12] : 0) - 1500.0) < 1e-8,
@@ -68,10 +70,12 @@ int main(void) {
   /* ~100 steps with local error <= 1e-12 relative: drift well below 1e-10 */
   check("energy conserved", fabs(en[ns - 1] - en[0]) <= 1e-10 * en[0], en[ns - 1], en[0]);
   st = tubes_run_trajectory(model, (double[4]){4, 12, 0, 0}, 1.0, -0.1, TUBES_METHOD_DOP853, 1e-12,
-                            1e-12, 0.0, 1000, 0.0, 0, 0, NS, &ns, t, s, en, cnt, &cdamp, NULL, NULL);
+                            1e-12, 0.0, 1000, 0.0, 0, 0, 0, 0.0, 0, 0, 0, NS, &ns, t, s, en, &nc, ct, cx,
+                            cdir, cnt, &cdamp, NULL, NULL);
   check("negative dt_out refused", st == TUBES_EINPUT, st, TUBES_EINPUT);
   st = tubes_run_trajectory(model, (double[4]){4, 12, 0, 0}, 1.0, 0.1, 99, 1e-12, 1e-12, 0.0, 1000,
-                            0.0, 0, 0, NS, &ns, t, s, en, cnt, &cdamp, NULL, NULL);
+                            0.0, 0, 0, 0, 0.0, 0, 0, 0, NS, &ns, t, s, en, &nc, ct, cx, cdir, cnt, &cdamp,
+                            NULL, NULL);
   check("unknown method refused", st == TUBES_EINPUT, st, TUBES_EINPUT);
   char msg[64];
   tubes_status_message(TUBES_EMAXSTEPS, msg, sizeof msg);

@@ -186,7 +186,7 @@ def test_docs_cover_every_variable_and_dataset(tmp_path, tubes_exe):
     for n in names:
         assert f"`{n}`" in doc, f"namelist variable {n} missing from docs/input.md"
     (tmp_path / "all.nml").write_text("&run scenes = 'equilibria', 'trajectory', 'orbits' /\n"
-                                      "&trajectory t_end = 0.1 /\n&orbits de = 1, 800 /\n")
+                                      "&trajectory t_end = 3, section = 'U1' /\n&orbits de = 1, 800 /\n")
     assert run_tubes(["all.nml", "-o", "a.h5"], tmp_path).returncode == 4   # 800: past the end
     out = (ROOT / "docs" / "output.md").read_text()
     seen = []

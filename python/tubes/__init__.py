@@ -30,7 +30,7 @@ METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, 
 FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 
 __all__ = ["Model", "TubesError", "energy", "vector_field", "velocity", "momentum",
-           "equilibria", "trajectory", "load", "Result"]
+           "equilibria", "integrate", "trajectory", "reference_solution", "load", "Result"]
 
 
 class TubesError(RuntimeError):
@@ -118,29 +118,89 @@ def equilibria(model: Model = Model(), box: float = 20.0, n_grid: int = 41) -> d
             "eigenvectors": np.moveaxis(ev[:, :, :n], 2, 0).copy()}
 
 
-def trajectory(state0, t_end: float, dt_out: float = 0.01, model: Model = Model(),
-               method: str = "dop853", rtol: float = 1e-12, atol: float = 1e-12,
-               h: float = 0.0, max_steps: int = 10_000_000, omega_bind: float = 0.0,
-               solver: str = "newton", max_iter: int = 0) -> dict:
-    """Integrate from state0 at t = 0 to t_end, sampled every dt_out, with any method of
-    METHODS (fixed-step methods need h > 0; omega_bind for tao*, solver and max_iter for gauss*).
-    Returns dict t (n,), state (n, 4), energy (n,), nfev, nsteps, nrejected, niter."""
+SECTIONS = {"U1-": (1, np.pi / 4, 1), "U1+": (1, np.pi / 4, -1), "U1": (1, np.pi / 4, 0)}
+
+
+def _section(section, level, direction):
+    """(kind, level, dir) of a section name (include/tubes.h, tubes_run_trajectory)."""
+    if section is None or section == "none":
+        return 0, 0.0, 0
+    if section in SECTIONS:
+        return SECTIONS[section]
+    if section == "theta":
+        return 1, float(level), int(direction)
+    if section in ("x", "y"):
+        return (2 if section == "x" else 3), float(level), int(direction)
+    raise ValueError(f"unknown section {section!r}; allowed: none, U1-, U1+, U1, theta, x, y")
+
+
+def integrate(state0, t_end: float, dt_out: float | None = None, model: Model = Model(),
+              method: str = "dop853", rtol: float = 1e-12, atol: float = 1e-12, h: float = 0.0,
+              max_steps: int = 10_000_000, omega_bind: float = 0.0, solver: str = "newton",
+              max_iter: int = 0, section: str | None = None, level: float = 0.0,
+              direction: int = 0, stop_at_first: bool = False, max_crossings: int = 10_000) -> dict:
+    """Integrate from state0 = (x, y, px, py) at t = 0 to t_end with any method of METHODS.
+
+    Samples every dt_out (default: only the end points). Fixed-step methods need h > 0;
+    omega_bind is Tao's binding constant, solver and max_iter configure gauss*.
+    section: None, "U1-" (theta = pi/4, p_theta > 0), "U1+", "U1", "theta" (the ray at angle
+    `level` [rad], direction = sign of p_theta or 0), "x" or "y" (the line x = level or y = level,
+    direction = sign of dx/dt or dy/dt or 0). Every crossing is recorded (on the integrator's
+    dense output), up to max_crossings; stop_at_first ends the run at the first one.
+
+    Returns a dict: t (n,), state (n, 4), energy (n,), nfev, nsteps, nrejected, niter, and with
+    a section crossings = dict t (m,), state (m, 4), direction (m,), and for theta sections
+    r, p_r, p_theta (polar canonical coordinates). Raises TubesError on failure.
+    """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; allowed: {', '.join(METHODS)}")
     if method in FIXED_STEP and not h > 0:
         raise ValueError(f"method {method!r} is fixed-step: give h > 0")
     if solver not in ("newton", "fixed_point"):
         raise ValueError("solver must be 'newton' or 'fixed_point'")
-    if not (dt_out > 0 and t_end >= 0):
-        raise ValueError("need dt_out > 0 and t_end >= 0")
+    if not t_end >= 0:
+        raise ValueError("need t_end >= 0")
+    if dt_out is None:
+        dt_out = max(t_end, 1e-300)
+    if not dt_out > 0:
+        raise ValueError("need dt_out > 0")
+    kind, lev, dirn = _section(section, level, direction)
     nmax = int(np.floor(t_end / dt_out * (1 + 1e-12))) + 2
-    stat, n, t, st, en, cnt = _lib().trajectory(
+    mc = max(1, int(max_crossings))
+    stat, n, t, st, en, nc, ct, cx, cd, cnt = _lib().trajectory(
         model.params(), _vec(state0, 4, "state0"), float(t_end), float(dt_out), METHODS[method],
         float(rtol), float(atol), float(h), int(max_steps), float(omega_bind),
-        1 if solver == "newton" else 2, int(max_iter), nmax)
-    _check(stat, "trajectory")
-    return {"t": t[:n].copy(), "state": st[:, :n].T.copy(), "energy": en[:n].copy(),
-            "nfev": int(cnt[0]), "nsteps": int(cnt[1]), "nrejected": int(cnt[2]), "niter": int(cnt[3])}
+        1 if solver == "newton" else 2, int(max_iter), kind, lev, dirn, int(bool(stop_at_first)),
+        mc, nmax)
+    _check(stat, "integrate")
+    out = {"t": t[:n].copy(), "state": st[:, :n].T.copy(), "energy": en[:n].copy(),
+           "nfev": int(cnt[0]), "nsteps": int(cnt[1]), "nrejected": int(cnt[2]), "niter": int(cnt[3])}
+    if kind:
+        xs = cx[:, :nc].T.copy()
+        cr = {"t": ct[:nc].copy(), "state": xs, "direction": cd[:nc].copy()}
+        if kind == 1:
+            r = np.hypot(xs[:, 0], xs[:, 1])
+            cr.update(r=r, p_r=(xs[:, 0] * xs[:, 2] + xs[:, 1] * xs[:, 3]) / r,
+                      p_theta=xs[:, 0] * xs[:, 3] - xs[:, 1] * xs[:, 2])
+        out["crossings"] = cr
+    return out
+
+
+def trajectory(state0, t_end: float, dt_out: float = 0.01, **kw) -> dict:
+    """integrate() sampled every dt_out (default 0.01 s); see integrate for the options."""
+    return integrate(state0, t_end, dt_out=dt_out, **kw)
+
+
+def reference_solution(state0, t_end: float, tol: float = 1e-26, model: Model = Model()) -> np.ndarray:
+    """Quad-precision (real128) DOP853 solution at t_end, rounded to double: the reference
+    that tests and benchmarks measure errors against (conservative model only; docs/events.md
+    gives its accuracy and cost: tol 1e-26 to t = 10 s takes about 2 s)."""
+    if model.damping_ratio != 0:
+        raise ValueError("reference_solution: conservative model only")
+    stat, x, _, _ = _lib().reference_solution(model.params(), _vec(state0, 4, "state0"),
+                                              float(t_end), float(tol))
+    _check(stat, "reference_solution")
+    return np.asarray(x)
 
 
 class Result:

@@ -9,6 +9,8 @@ module tubes_capi
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_integrator, only: integrator_t, propagate
   use tubes_methods, only: new_integrator, method_opts_t
+  use tubes_run, only: run_integration, section_spec_t
+  use tubes_integrator, only: crossing_log_t
   use tubes_sampler, only: sampler_t
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
   implicit none
@@ -126,54 +128,56 @@ contains
   end function c_equilibria
 
   integer(c_int) function c_trajectory(model, x0, t_end, dt_out, method, rtol, atol, h, &
-      max_steps, omega_bind, solver, max_iter, nmax, n, t, state, energy, counters, c_damp, &
-      progress, user) result(stat) bind(C, name='tubes_run_trajectory')
+      max_steps, omega_bind, solver, max_iter, sec_kind, sec_level, sec_dir, stop_first, &
+      max_cross, nmax, n, t, state, energy, n_cross, cross_t, cross_x, cross_dir, counters, &
+      c_damp, progress, user) result(stat) bind(C, name='tubes_run_trajectory')
     real(c_double), intent(in) :: model(NMODEL), x0(4)
-    real(c_double), value :: t_end, dt_out, rtol, atol, h, omega_bind
-    integer(c_int), value :: method, nmax, solver, max_iter
+    real(c_double), value :: t_end, dt_out, rtol, atol, h, omega_bind, sec_level
+    integer(c_int), value :: method, nmax, solver, max_iter, sec_kind, sec_dir, stop_first, max_cross
     integer(c_int64_t), value :: max_steps
-    integer(c_int), intent(out) :: n
+    integer(c_int), intent(out) :: n, n_cross
     real(c_double), intent(out) :: t(nmax), state(4, nmax), energy(nmax), c_damp
+    real(c_double), intent(out) :: cross_t(max(max_cross, 1)), cross_x(4, max(max_cross, 1))
+    integer(c_int), intent(out) :: cross_dir(max(max_cross, 1))
     integer(c_int64_t), intent(out) :: counters(4)
     type(c_funptr), value :: progress
     type(c_ptr), value :: user
-    class(ball_t), allocatable :: ball
     type(ball_t) :: cons
-    class(integrator_t), allocatable :: ig
     type(c_sampler_t) :: obs
-    real(wp) :: x(4)
+    type(crossing_log_t) :: log
     integer :: k
     n = 0
+    n_cross = 0
     counters = 0
     c_damp = 0
-    if (dt_out <= 0 .or. t_end < 0 .or. nmax < 2) then
+    if (dt_out <= 0 .or. t_end < 0 .or. nmax < 2 .or. max_cross < 0) then
       stat = TUBES_EINPUT
       return
     end if
-    call model_ball(model, ball, c_damp, stat)
-    if (stat /= TUBES_OK) return
     call conservative_ball(model, cons, stat)
-    call new_integrator(method, ig, stat, method_opts_t(omega_bind=omega_bind, solver=solver, &
-                                                        max_iter=max_iter))
     if (stat /= TUBES_OK) return
-    call ig%init(ball, 0.0_wp)
-    ig%rtol = rtol
-    ig%atol = atol
-    ig%h = h
-    ig%max_steps = max_steps
-    x = x0
     obs%cb = progress
     obs%user = user
-    call obs%start(0.0_wp, dt_out, x, nmax)
-    if (t_end > 0) call propagate(ig, x, t_end, stat, observer=obs)
-    if (stat == TUBES_EVENT) stat = TUBES_OK
+    call obs%start(0.0_wp, dt_out, x0, nmax)
+    call run_integration(model, x0, t_end, method, rtol, atol, h, max_steps, &
+                         method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter), &
+                         section_spec_t(kind=sec_kind, level=sec_level, dir=sec_dir, &
+                                        stop_at_first=stop_first /= 0, max_crossings=max(max_cross, 1)), &
+                         obs, log, counters, c_damp, stat)
     n = obs%n
     t(1:n) = obs%t(1:n)
     state(:, 1:n) = obs%x(:, 1:n)
     do k = 1, n
       energy(k) = cons%energy(state(:, k))
     end do
-    counters = [ig%nfev, ig%nsteps, ig%nrejected, ig%niter]
+    if (sec_kind /= 0) then
+      n_cross = min(log%n, max_cross)
+      do k = 1, n_cross
+        cross_t(k) = log%t(k)
+        cross_x(:, k) = log%x(:, k)
+        cross_dir(k) = log%direction(k)
+      end do
+    end if
   end function c_trajectory
 
   !> The Lyapunov family of the saddle named `saddle` (C string) at the ascending excess

@@ -48,6 +48,14 @@ const nml_var tubes_nml_vars[] = {
      "start from rest at (x0, y0)"},
     {"trajectory", "t_end", NML_REAL, 1, "s", "10", ">= 0", "final time"},
     {"trajectory", "dt_out", NML_REAL, 1, "s", "0.01", "> 0", "sample spacing of the output"},
+    {"trajectory", "section", NML_STRING, 1, "-", "'none'", "none, U1-, U1+, U1, theta, x, y",
+     "Poincare section whose crossings are recorded (docs/events.md)"},
+    {"trajectory", "section_angle", NML_REAL, 1, "deg", "45", "-360 .. 360", "section = 'theta': the ray's angle"},
+    {"trajectory", "section_level", NML_REAL, 1, "cm", "0", "finite", "section = 'x' or 'y': the line x = c or y = c"},
+    {"trajectory", "section_direction", NML_INT, 1, "-", "0", "-1, 0, 1",
+     "theta: sign of p_theta; x, y: sign of dx/dt or dy/dt; 0 both"},
+    {"trajectory", "max_crossings", NML_INT, 1, "-", "10000", "1 .. 10000000", "crossings recorded at most (then the run stops)"},
+    {"trajectory", "stop_at_first", NML_LOGICAL, 1, "-", ".false.", ".true., .false.", "stop at the first crossing"},
     {"integrator", "method", NML_STRING, 1, "-", "'dop853'",
      "dop853, rk4, tao2, tao4, tao6, gauss4, gauss6, gauss8", "integration method (docs/integrators.md)"},
     {"integrator", "rtol", NML_REAL, 1, "1", "1e-12", "1e-15 <= rtol < 1",
@@ -394,6 +402,18 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->dt_out > 0)) n += bad(path, w, "trajectory", "dt_out", err, "", c->dt_out);
   else if (c->t_end / c->dt_out > 5.0e7)
     n += bad(path, w, "trajectory", "dt_out", err, "t_end/dt_out exceeds 5e7 samples", c->dt_out);
+  {
+    const char *ok[] = {"none", "U1-", "U1+", "U1", "theta", "x", "y"};
+    int found = 0;
+    for (int j = 0; j < 7; j++) found |= strcmp(c->section, ok[j]) == 0;
+    if (!found) n += bad_string(path, w, "trajectory", "section", c->section, err);
+  }
+  if (!(c->section_angle >= -360 && c->section_angle <= 360))
+    n += bad(path, w, "trajectory", "section_angle", err, "", c->section_angle);
+  if (!(c->section_direction >= -1 && c->section_direction <= 1))
+    n += bad(path, w, "trajectory", "section_direction", err, "", c->section_direction);
+  if (!(c->max_crossings >= 1 && c->max_crossings <= 10000000))
+    n += bad(path, w, "trajectory", "max_crossings", err, "", c->max_crossings);
   if (tubes_method_code(c->method) == 0) n += bad_string(path, w, "integrator", "method", c->method, err);
   else if (tubes_method_code(c->method) != TUBES_METHOD_DOP853 && !(c->h > 0))
     n += bad(path, w, "integrator", "h", err, "the fixed-step method needs h > 0", c->h);

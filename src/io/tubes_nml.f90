@@ -22,6 +22,9 @@ module tubes_nml
     character(kind=c_char) :: saddle(8)
     real(c_double) :: x0, y0, px0, py0, t_end, dt_out
     integer(c_int) :: at_rest
+    character(kind=c_char) :: section(LNAME)
+    real(c_double) :: section_angle, section_level
+    integer(c_int) :: section_direction, max_crossings, stop_at_first
     character(kind=c_char) :: method(LNAME)
     real(c_double) :: rtol, atol, h
     integer(c_int64_t) :: max_steps
@@ -46,6 +49,10 @@ module tubes_nml
     character(8) :: saddle
     real(c_double) :: x0, y0, px0, py0, t_end, dt_out
     logical :: at_rest
+    character(LNAME) :: section
+    real(c_double) :: section_angle, section_level
+    integer :: section_direction, max_crossings
+    logical :: stop_at_first
     character(LNAME) :: method
     real(c_double) :: rtol, atol, h
     integer(c_int64_t) :: max_steps
@@ -83,6 +90,12 @@ contains
     v%t_end = 10
     v%dt_out = 0.01_c_double
     v%at_rest = .true.
+    v%section = 'none'
+    v%section_angle = 45
+    v%section_level = 0
+    v%section_direction = 0
+    v%max_crossings = 10000
+    v%stop_at_first = .false.
     v%method = 'dop853'
     v%rtol = 1.0e-12_c_double
     v%atol = 1.0e-12_c_double
@@ -117,6 +130,10 @@ contains
     cfg%x0 = v%x0; cfg%y0 = v%y0; cfg%px0 = v%px0; cfg%py0 = v%py0
     cfg%t_end = v%t_end; cfg%dt_out = v%dt_out
     cfg%at_rest = merge(1, 0, v%at_rest)
+    call put(v%section, cfg%section)
+    cfg%section_angle = v%section_angle; cfg%section_level = v%section_level
+    cfg%section_direction = v%section_direction; cfg%max_crossings = v%max_crossings
+    cfg%stop_at_first = merge(1, 0, v%stop_at_first)
     call put(v%method, cfg%method)
     cfg%rtol = v%rtol; cfg%atol = v%atol; cfg%h = v%h; cfg%max_steps = v%max_steps
     cfg%omega_bind = v%omega_bind; cfg%max_iter = v%max_iter
@@ -149,6 +166,10 @@ contains
     v%x0 = cfg%x0; v%y0 = cfg%y0; v%px0 = cfg%px0; v%py0 = cfg%py0
     v%t_end = cfg%t_end; v%dt_out = cfg%dt_out
     v%at_rest = cfg%at_rest /= 0
+    v%section = get(cfg%section)
+    v%section_angle = cfg%section_angle; v%section_level = cfg%section_level
+    v%section_direction = cfg%section_direction; v%max_crossings = cfg%max_crossings
+    v%stop_at_first = cfg%stop_at_first /= 0
     v%method = get(cfg%method)
     v%rtol = cfg%rtol; v%atol = cfg%atol; v%h = cfg%h; v%max_steps = cfg%max_steps
     v%omega_bind = cfg%omega_bind; v%max_iter = cfg%max_iter
@@ -265,11 +286,17 @@ contains
       v%box = box; v%n_grid = n_grid; v%saddle = saddle
     end subroutine io_equilibria
     subroutine io_trajectory()
-      real(c_double) :: x0, y0, px0, py0, t_end, dt_out
-      logical :: at_rest
-      namelist /trajectory/ x0, y0, px0, py0, at_rest, t_end, dt_out
+      real(c_double) :: x0, y0, px0, py0, t_end, dt_out, section_angle, section_level
+      logical :: at_rest, stop_at_first
+      character(LNAME) :: section
+      integer :: section_direction, max_crossings
+      namelist /trajectory/ x0, y0, px0, py0, at_rest, t_end, dt_out, section, section_angle, &
+        section_level, section_direction, max_crossings, stop_at_first
       x0 = v%x0; y0 = v%y0; px0 = v%px0; py0 = v%py0; at_rest = v%at_rest
       t_end = v%t_end; dt_out = v%dt_out
+      section = v%section; section_angle = v%section_angle; section_level = v%section_level
+      section_direction = v%section_direction; max_crossings = v%max_crossings
+      stop_at_first = v%stop_at_first
       if (mode == 'r') then
         read (u, nml=trajectory, iostat=ios, iomsg=iomsg)
       else
@@ -277,6 +304,9 @@ contains
       end if
       v%x0 = x0; v%y0 = y0; v%px0 = px0; v%py0 = py0; v%at_rest = at_rest
       v%t_end = t_end; v%dt_out = dt_out
+      v%section = section; v%section_angle = section_angle; v%section_level = section_level
+      v%section_direction = section_direction; v%max_crossings = max_crossings
+      v%stop_at_first = stop_at_first
     end subroutine io_trajectory
     subroutine io_integrator()
       character(LNAME) :: method, solver

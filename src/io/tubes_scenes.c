@@ -139,10 +139,21 @@ int scene_trajectory(tubes_run_t *run) {
   double x0[4] = {c->x0, c->y0, c->at_rest ? 0.0 : c->px0, c->at_rest ? 0.0 : c->py0};
   double nsd = floor(c->t_end / c->dt_out * (1 + 1e-12)) + 2;
   int nmax = (int)nsd, n = 0;
+  /* section: kind, level, orientation (docs/input.md) */
+  int sk = 0, sd = c->section_direction, mc = c->max_crossings;
+  double sl = 0;
+  if (!strcmp(c->section, "U1-")) { sk = 1; sl = M_PI / 4; sd = 1; }          /* p_theta > 0 */
+  else if (!strcmp(c->section, "U1+")) { sk = 1; sl = M_PI / 4; sd = -1; }
+  else if (!strcmp(c->section, "U1")) { sk = 1; sl = M_PI / 4; sd = 0; }
+  else if (!strcmp(c->section, "theta")) { sk = 1; sl = c->section_angle * M_PI / 180; }
+  else if (!strcmp(c->section, "x")) { sk = 2; sl = c->section_level; }
+  else if (!strcmp(c->section, "y")) { sk = 3; sl = c->section_level; }
   double *t = malloc(sizeof(double) * nmax), *st = malloc(sizeof(double) * 4 * nmax),
-         *en = malloc(sizeof(double) * nmax);
-  if (!t || !st || !en) {
-    free(t); free(st); free(en);
+         *en = malloc(sizeof(double) * nmax), *ct = malloc(sizeof(double) * mc),
+         *cx = malloc(sizeof(double) * 4 * mc);
+  int *cd = malloc(sizeof(int) * mc), ncross = 0;
+  if (!t || !st || !en || !ct || !cx || !cd) {
+    free(t); free(st); free(en); free(ct); free(cx); free(cd);
     fprintf(stderr, "tubes: trajectory: cannot allocate %d samples\n", nmax);
     return EXIT_NUMERIC;
   }
@@ -152,7 +163,8 @@ int scene_trajectory(tubes_run_t *run) {
   double t0 = now();
   int s = tubes_run_trajectory(run->model, x0, c->t_end, c->dt_out, tubes_method_code(c->method), c->rtol,
                                c->atol, c->h, c->max_steps, c->omega_bind, strcmp(c->solver, "fixed_point") ? 1 : 2,
-                               c->max_iter, nmax, &n, t, st, en, cnt, &cdamp, progress, &pr);
+                               c->max_iter, sk, sl, sd, c->stop_at_first, mc, nmax, &n, t, st, en, &ncross,
+                               ct, cx, cd, cnt, &cdamp, progress, &pr);
   double wall = now() - t0;
   char msg[128];
   status_text(s, msg, sizeof msg);
@@ -167,6 +179,7 @@ int scene_trajectory(tubes_run_t *run) {
          "%lld steps (%lld rejected), %lld evaluations, %.3f s\n",
          c->method, x0[0], x0[1], x0[2], x0[3], e0, n ? t[n - 1] : 0.0, n, (long long)cnt[1],
          (long long)cnt[2], (long long)cnt[0], wall);
+  if (sk) printf("  section %s: %d crossings\n", c->section, ncross);
   if (c->damping_ratio > 0)
     printf("  damped (zeta = %g, c = %.6g 1/s): energy lost %.6g (cm/s)^2\n", c->damping_ratio, cdamp,
            e0 - en[n - 1]);
@@ -195,10 +208,35 @@ int scene_trajectory(tubes_run_t *run) {
     e |= h5_attr_double(g, "max_rel_energy_error", maxerr);
     e |= h5_attr_long(g, "status", s);
     e |= h5_attr_string(g, "status_message", msg);
+    if (sk) {
+      hid_t cg = h5_group(g, "crossings");
+      hsize_t dc = (hsize_t)ncross, dc4[2] = {(hsize_t)ncross, 4};
+      e |= cg < 0;
+      e |= h5_write_double(cg, "t", 1, &dc, ct, "s");
+      e |= h5_write_double(cg, "state", 2, dc4, cx, "cm, cm, cm/s, cm/s");
+      e |= h5_write_int(cg, "direction", dc, cd, "1");
+      e |= h5_attr_string(cg, "section", c->section);
+      e |= h5_attr_double(cg, "level", sk == 1 ? sl : c->section_level);
+      if (sk == 1) {   /* polar canonical coordinates on the ray (docs/events.md) */
+        double *pr = malloc(sizeof(double) * (ncross ? ncross : 1)), *pth = malloc(sizeof(double) * (ncross ? ncross : 1)),
+               *rr = malloc(sizeof(double) * (ncross ? ncross : 1));
+        for (int k = 0; k < ncross; k++) {
+          const double *z = cx + 4 * k;
+          rr[k] = hypot(z[0], z[1]);
+          pr[k] = (z[0] * z[2] + z[1] * z[3]) / rr[k];
+          pth[k] = z[0] * z[3] - z[1] * z[2];
+        }
+        e |= h5_write_double(cg, "r", 1, &dc, rr, "cm");
+        e |= h5_write_double(cg, "p_r", 1, &dc, pr, "cm/s");
+        e |= h5_write_double(cg, "p_theta", 1, &dc, pth, "cm^2/s");
+        free(pr); free(pth); free(rr);
+      }
+      if (cg >= 0) H5Gclose(cg);
+    }
     H5Gclose(g);
     if (e) rc = EXIT_IO;
   }
-  free(t); free(st); free(en);
+  free(t); free(st); free(en); free(ct); free(cx); free(cd);
   if (rc) return rc;
   return s < 0 ? EXIT_NUMERIC : 0;
 }

@@ -1,0 +1,89 @@
+!> One integration as the program and the Python layer run it: the model from the parameter
+!> vector, a method with its options, sampling on a time grid, and optionally every crossing of
+!> a section. The C API (src/c/tubes_capi.f90) and f2py (python/tubes_f2py.f90) both call this.
+module tubes_run
+  use tubes_kinds, only: wp, i8
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT
+  use tubes_ball, only: ball_t
+  use tubes_models, only: model_ball, conservative_ball
+  use tubes_integrator, only: integrator_t, event_t, plane_t, crossing_log_t, propagate
+  use tubes_methods, only: new_integrator, method_opts_t
+  use tubes_sampler, only: sampler_t
+  use tubes_sections, only: theta_line_t
+  implicit none
+  private
+
+  integer, parameter, public :: SECTION_NONE = 0   !! no section
+  integer, parameter, public :: SECTION_THETA = 1  !! ray theta = level [rad]; dir = sign(p_theta)
+  integer, parameter, public :: SECTION_X = 2      !! line x = level [cm]; dir = sign(dx/dt)
+  integer, parameter, public :: SECTION_Y = 3      !! line y = level [cm]; dir = sign(dy/dt)
+
+  !> A section request (dir = 0: both orientations).
+  type, public :: section_spec_t
+    integer :: kind = SECTION_NONE
+    real(wp) :: level = 0
+    integer :: dir = 0
+    logical :: stop_at_first = .false.
+    integer :: max_crossings = 10000
+  end type section_spec_t
+
+  public :: run_integration
+
+contains
+
+  !> Integrate the model of params from x0 at t = 0 to t_end with method (and opts), sampling
+  !> into obs (already started by the caller) and recording crossings of sec into log.
+  !> stat: TUBES_OK, or < 0 (the samples and crossings up to the failure are kept).
+  !> counters = [nfev, nsteps, nrejected, niter]; c_damp = the damping rate used [1/s].
+  subroutine run_integration(params, x0, t_end, method, rtol, atol, h, max_steps, mopts, sec, &
+                             obs, log, counters, c_damp, stat)
+    real(wp), intent(in) :: params(:), x0(4), t_end, rtol, atol, h
+    integer, intent(in) :: method
+    integer(i8), intent(in) :: max_steps
+    type(method_opts_t), intent(in) :: mopts
+    type(section_spec_t), intent(in) :: sec
+    class(sampler_t), intent(inout) :: obs
+    type(crossing_log_t), intent(inout) :: log
+    integer(i8), intent(out) :: counters(4)
+    real(wp), intent(out) :: c_damp
+    integer, intent(out) :: stat
+    class(ball_t), allocatable :: ball
+    class(integrator_t), allocatable :: ig
+    class(event_t), allocatable :: ev
+    real(wp) :: x(4)
+    counters = 0
+    c_damp = 0
+    call model_ball(params, ball, c_damp, stat)
+    if (stat /= TUBES_OK) return
+    call new_integrator(method, ig, stat, mopts)
+    if (stat /= TUBES_OK) return
+    call ig%init(ball, 0.0_wp)
+    ig%rtol = rtol
+    ig%atol = atol
+    ig%h = h
+    ig%max_steps = max_steps
+    x = x0
+    log%max_crossings = sec%max_crossings
+    select case (sec%kind)
+    case (SECTION_THETA)
+      allocate (ev, source=theta_line_t(theta0=sec%level, branch=sec%dir, terminal=sec%stop_at_first))
+    case (SECTION_X)
+      allocate (ev, source=plane_t(k=1, c=sec%level, direction=sec%dir, terminal=sec%stop_at_first))
+    case (SECTION_Y)
+      allocate (ev, source=plane_t(k=2, c=sec%level, direction=sec%dir, terminal=sec%stop_at_first))
+    case (SECTION_NONE)
+    case default
+      stat = TUBES_EINPUT
+      return
+    end select
+    if (t_end > 0) then
+      if (allocated(ev)) then
+        call propagate(ig, x, t_end, stat, event=ev, observer=obs, crossings=log)
+      else
+        call propagate(ig, x, t_end, stat, observer=obs)
+      end if
+    end if
+    if (stat == TUBES_EVENT) stat = TUBES_OK
+    counters = [ig%nfev, ig%nsteps, ig%nrejected, ig%niter]
+  end subroutine run_integration
+end module tubes_run
