@@ -58,14 +58,20 @@ contains
     real(wp), intent(in)  :: t, x(:)
     real(wp), intent(out) :: dxdt(:)
     integer, intent(out)  :: stat
-    real(wp) :: gr(2), hs(2, 2), u, v(2)
+    real(wp) :: gr(2), hs(2, 2), u, vx, vy, fx, fy
     call self%surf%derivs(x(1), x(2), gr, hs)
-    u = (gr(1)*x(3) + gr(2)*x(4))/(1 + gr(1)**2 + gr(2)**2)
-    v = ROLL*(x(3:4) - u*gr)
-    dxdt(1:2) = v
-    dxdt(3:4) = u*matmul(hs, v) - self%g*gr
+    ! scalar form of v = (5/7)(p - u grad H), dp/dt = u Hess v - g grad H (hot path)
+    u = (gr(1)*x(3) + gr(2)*x(4))/(1 + gr(1)*gr(1) + gr(2)*gr(2))
+    vx = ROLL*(x(3) - u*gr(1))
+    vy = ROLL*(x(4) - u*gr(2))
+    fx = u*(hs(1, 1)*vx + hs(1, 2)*vy) - self%g*gr(1)
+    fy = u*(hs(2, 1)*vx + hs(2, 2)*vy) - self%g*gr(2)
+    dxdt(1) = vx
+    dxdt(2) = vy
+    dxdt(3) = fx
+    dxdt(4) = fy
     stat = 0
-    if (.not. all(abs(dxdt(1:4)) <= huge(1.0_wp))) stat = -1   ! NaN or Inf
+    if (.not. (abs(fx) + abs(fy) + abs(vx) + abs(vy) <= huge(1.0_wp))) stat = -1   ! NaN or Inf
   end subroutine ball_eval
 
   pure subroutine damped_eval(self, t, x, dxdt, stat)

@@ -18,6 +18,7 @@ module tubes_dop853
     real(wp), allocatable :: x_new(:)     !! state at t
     real(wp), allocatable :: dense(:, :)  !! interpolant coefficients (n, 7)
     real(wp), allocatable :: a(:, :)      !! Runge-Kutta matrix (NSX, NSX)
+    real(wp), allocatable :: at(:, :)     !! its transpose: row i of a is the contiguous at(:, i)
     real(wp), allocatable :: e3(:), e5(:), d(:, :)
     real(wp) :: h_used = 0                !! size of the last accepted step [s]
     real(wp) :: t_grid0 = 0               !! fixed-step mode: steps end on t_grid0 + k h
@@ -36,8 +37,9 @@ contains
     real(wp), intent(in) :: x(:)
     integer, intent(out) :: stat
     if (.not. allocated(self%a)) then
-      allocate (self%a(NSX, NSX), self%e3(NS + 1), self%e5(NS + 1), self%d(4, NSX))
+      allocate (self%a(NSX, NSX), self%at(NSX, NSX), self%e3(NS + 1), self%e5(NS + 1), self%d(4, NSX))
       self%a = tableau_a()
+      self%at = transpose(self%a)
       self%e3 = tableau_e3()
       self%e5 = tableau_e5()
       self%d = tableau_d()
@@ -134,13 +136,13 @@ contains
       end if
       ! stages 2..12 and the 8th-order solution
       do i = 2, NS
-        xs = x + (dir*h)*matmul(self%k(:, 1:i - 1), self%a(i, 1:i - 1))
+        call combine(x, self%k, self%at(:, i), i - 1, dir*h, xs)
         call self%f%eval(self%t + dir*C(i)*h, xs, self%k(:, i), fs)
         if (fs /= 0) exit
       end do
       self%nfev = self%nfev + (i - 2 + merge(0, 1, fs == 0))   ! stages 2..i-1, and i if it failed
       if (fs == 0) then
-        xnew = x + (dir*h)*matmul(self%k(:, 1:NS), self%a(NS + 1, 1:NS))
+        call combine(x, self%k, self%at(:, NS + 1), NS, dir*h, xnew)
         call self%f%eval(self%t + dir*h, xnew, self%k(:, NS + 1), fs)
         self%nfev = self%nfev + 1
       end if
@@ -160,8 +162,14 @@ contains
       end if
       if (self%h > 0) exit        ! fixed step: no error control
       sk = self%atol + self%rtol*max(abs(x), abs(xnew))
-      e5v = matmul(self%k(:, 1:NS + 1), self%e5)/sk
-      e3v = matmul(self%k(:, 1:NS + 1), self%e3)/sk
+      e5v = 0
+      e3v = 0
+      do i = 1, NS + 1
+        if (self%e5(i) /= 0) e5v = e5v + self%e5(i)*self%k(:, i)
+        if (self%e3(i) /= 0) e3v = e3v + self%e3(i)*self%k(:, i)
+      end do
+      e5v = e5v/sk
+      e3v = e3v/sk
       err5 = sum(e5v**2)
       err3 = sum(e3v**2)
       den = err5 + 0.01_wp*err3
@@ -201,6 +209,23 @@ contains
     self%f_cur = self%k(:, NS + 1)   ! FSAL: f(t_new, x_new) starts the next step
     self%nsteps = self%nsteps + 1
   end subroutine dop853_step
+
+  !> y = x + h sum_{j <= m, w_j /= 0} w_j k(:, j): a stage, without temporaries.
+  pure subroutine combine(x, k, w, m, h, y)
+    real(wp), intent(in), contiguous :: x(:), k(:, :), w(:)
+    real(wp), intent(in) :: h
+    integer, intent(in) :: m
+    real(wp), intent(out), contiguous :: y(:)
+    real(wp) :: acc
+    integer :: i, j
+    do i = 1, size(x)
+      acc = 0
+      do j = 1, m
+        acc = acc + w(j)*k(i, j)
+      end do
+      y(i) = x(i) + h*acc
+    end do
+  end subroutine combine
 
   !> 7th-order continuous extension; the 3 extra stages are computed on first use in a step.
   subroutine dop853_interp(self, s, xs)

@@ -38,8 +38,8 @@ contains
     sy = sqrt(y*y + self%gamma)
     grad(1) = 2*self%alpha*x - self%beta*x/sx - self%xi*y
     grad(2) = 2*self%alpha*y - self%beta*y/sy - self%xi*x
-    hess(1, 1) = 2*self%alpha - self%beta*self%gamma/sx**3   ! d/dx (x/sx) = gamma/sx^3
-    hess(2, 2) = 2*self%alpha - self%beta*self%gamma/sy**3
+    hess(1, 1) = 2*self%alpha - self%beta*self%gamma/(sx*sx*sx)   ! d/dx (x/sx) = gamma/sx^3
+    hess(2, 2) = 2*self%alpha - self%beta*self%gamma/(sy*sy*sy)
     hess(1, 2) = -self%xi
     hess(2, 1) = -self%xi
   end subroutine fourwell_derivs
