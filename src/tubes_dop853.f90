@@ -212,10 +212,10 @@ contains
 
   !> y = x + h sum_{j <= m, w_j /= 0} w_j k(:, j): a stage, without temporaries.
   pure subroutine combine(x, k, w, m, h, y)
-    real(wp), intent(in), contiguous :: x(:), k(:, :), w(:)
+    real(wp), intent(in) :: x(:), k(:, :), w(:)
     real(wp), intent(in) :: h
     integer, intent(in) :: m
-    real(wp), intent(out), contiguous :: y(:)
+    real(wp), intent(out) :: y(:)
     real(wp) :: acc
     integer :: i, j
     do i = 1, size(x)

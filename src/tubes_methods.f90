@@ -7,6 +7,8 @@ module tubes_methods
   use tubes_rk4, only: rk4_t
   use tubes_tao, only: tao_t, TAO_OMEGA_DEFAULT
   use tubes_gauss, only: gauss_t
+  use tubes_gsl, only: gsl_t
+  use tubes_sundials, only: cvode_t, arkode_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT
   implicit none
   private
@@ -18,7 +20,11 @@ module tubes_methods
   integer, parameter, public :: METHOD_GAUSS4 = 6   !! Gauss-Legendre, 2 stages, order 4
   integer, parameter, public :: METHOD_GAUSS6 = 7   !! Gauss-Legendre, 3 stages, order 6
   integer, parameter, public :: METHOD_GAUSS8 = 8   !! Gauss-Legendre, 4 stages, order 8
-  integer, parameter, public :: METHOD_LAST = 8     !! largest code available
+  integer, parameter, public :: METHOD_GSL_RK8PD = 9     !! GSL odeiv2 rk8pd, variable step
+  integer, parameter, public :: METHOD_GSL_RK4IMP = 10   !! GSL odeiv2 rk4imp (implicit), variable step
+  integer, parameter, public :: METHOD_CVODE_ADAMS = 11  !! SUNDIALS CVODE, Adams, variable step/order
+  integer, parameter, public :: METHOD_ARKODE_ERK8 = 12  !! SUNDIALS ARKODE ERKStep, Fehlberg 13-7-8
+  integer, parameter, public :: METHOD_LAST = 12         !! largest code available
 
   !> Method-specific options; zero or blank means the method's default.
   type, public :: method_opts_t
@@ -63,6 +69,14 @@ contains
       if (o%solver == 2) gauss%solver = 'fixed_point'
       gauss%max_iter = o%max_iter
       allocate (ig, source=gauss)
+    case (METHOD_GSL_RK8PD)
+      allocate (ig, source=gsl_t(kind='gsl_rk8pd'))
+    case (METHOD_GSL_RK4IMP)
+      allocate (ig, source=gsl_t(kind='gsl_rk4imp'))
+    case (METHOD_CVODE_ADAMS)
+      allocate (cvode_t :: ig)
+    case (METHOD_ARKODE_ERK8)
+      allocate (arkode_t :: ig)
     case default
       stat = TUBES_EINPUT
     end select

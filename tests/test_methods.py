@@ -52,3 +52,16 @@ def test_fixed_step_rules(tmp_path, tubes_exe):
 def test_gauss_counts_iterations(tmp_path):
     tr = tubes.trajectory(X0, 0.2, dt_out=0.1, method="gauss6", h=0.01, solver="fixed_point")
     assert tr["niter"] >= tr["nsteps"] > 0
+
+
+@pytest.mark.parametrize("method", ["dop853", "gsl_rk8pd", "gsl_rk4imp", "cvode_adams", "arkode_erk8"])
+def test_variable_step_methods_against_reference(method, reference):
+    """Each variable-step method reaches the real128 reference at its tolerance: the global
+    error over 0.5 s is at most the local tolerance times the flow's growth (~e^(9/s * 0.5 s)
+    ~ 1e2) times the number of steps' accumulation (~10): 1e3 tol; and it shrinks with tol."""
+    errs = []
+    for tol in (1e-8, 1e-11):
+        x = tubes.integrate(X0, 0.5, method=method, rtol=tol, atol=tol)["state"][-1]
+        errs.append(np.abs(x - reference).max() / np.abs(reference).max())
+        assert errs[-1] < 1e3 * tol, (method, tol, errs[-1])
+    assert errs[1] < errs[0] / 30

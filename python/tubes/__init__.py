@@ -26,7 +26,8 @@ _MESSAGES = {
     ENOCONV: "iteration did not converge",
 }
 METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, "gauss6": 7,
-           "gauss8": 8}   # include/tubes.h TUBES_METHOD_*
+           "gauss8": 8, "gsl_rk8pd": 9, "gsl_rk4imp": 10, "cvode_adams": 11,
+           "arkode_erk8": 12}   # include/tubes.h TUBES_METHOD_*
 FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 
 __all__ = ["Model", "TubesError", "energy", "vector_field", "velocity", "momentum",

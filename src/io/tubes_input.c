@@ -57,7 +57,8 @@ const nml_var tubes_nml_vars[] = {
     {"trajectory", "max_crossings", NML_INT, 1, "-", "10000", "1 .. 10000000", "crossings recorded at most (then the run stops)"},
     {"trajectory", "stop_at_first", NML_LOGICAL, 1, "-", ".false.", ".true., .false.", "stop at the first crossing"},
     {"integrator", "method", NML_STRING, 1, "-", "'dop853'",
-     "dop853, rk4, tao2, tao4, tao6, gauss4, gauss6, gauss8", "integration method (docs/integrators.md)"},
+     "dop853, rk4, tao2, tao4, tao6, gauss4, gauss6, gauss8, gsl_rk8pd, gsl_rk4imp, cvode_adams, arkode_erk8",
+     "integration method (docs/integrators.md)"},
     {"integrator", "rtol", NML_REAL, 1, "1", "1e-12", "1e-15 <= rtol < 1",
      "relative tolerance (variable-step methods)"},
     {"integrator", "atol", NML_REAL, 1, "state units", "1e-12", "> 0",
@@ -85,7 +86,8 @@ const nml_var tubes_nml_vars[] = {
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 
 int tubes_method_code(const char *name) {
-  static const char *names[] = {"dop853", "rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"};
+  static const char *names[] = {"dop853", "rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8",
+                                "gsl_rk8pd", "gsl_rk4imp", "cvode_adams", "arkode_erk8"};
   for (int i = 0; i < (int)(sizeof names / sizeof names[0]); i++)
     if (!strcmp(name, names[i])) return i + 1;   /* = TUBES_METHOD_* */
   return 0;
@@ -415,7 +417,8 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->max_crossings >= 1 && c->max_crossings <= 10000000))
     n += bad(path, w, "trajectory", "max_crossings", err, "", c->max_crossings);
   if (tubes_method_code(c->method) == 0) n += bad_string(path, w, "integrator", "method", c->method, err);
-  else if (tubes_method_code(c->method) != TUBES_METHOD_DOP853 && !(c->h > 0))
+  else if (tubes_method_code(c->method) >= TUBES_METHOD_RK4 && tubes_method_code(c->method) <= TUBES_METHOD_GAUSS8 &&
+           !(c->h > 0))
     n += bad(path, w, "integrator", "h", err, "the fixed-step method needs h > 0", c->h);
   if (!(c->omega_bind > 0)) n += bad(path, w, "integrator", "omega_bind", err, "", c->omega_bind);
   if (strcmp(c->solver, "newton") && strcmp(c->solver, "fixed_point"))

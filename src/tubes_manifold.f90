@@ -1,0 +1,308 @@
+!> Stable and unstable manifolds (tubes) of a Lyapunov orbit and their cut with a section
+!> theta = theta0: seeds along the orbit stepped off along the transported Floquet eigenvector,
+!> propagated (in parallel, OpenMP) to their first crossing of the section's p_theta branch,
+!> refined adaptively until the area enclosed by the cut, by Green's theorem on periodic cubic
+!> splines (GSL), converges. Theory: docs/tubes.md.
+module tubes_manifold
+  use, intrinsic :: iso_c_binding, only: c_int, c_double
+  use tubes_kinds, only: wp
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT
+  use tubes_ball, only: ball_t
+  use tubes_variational, only: variational_t, make_variational, stm_start
+  use tubes_dop853, only: dop853_t
+  use tubes_integrator, only: propagate
+  use tubes_sections, only: theta_line_t, polar_canonical
+  use tubes_orbits, only: orbit_t
+  implicit none
+  private
+
+  integer, parameter, public :: STABLE = -1     !! the stable manifold: integrated backwards
+  integer, parameter, public :: UNSTABLE = 1    !! the unstable manifold: integrated forwards
+
+  !> Options of a tube cut.
+  type, public :: tube_opts_t
+    integer :: kind = STABLE          !! STABLE or UNSTABLE
+    real(wp) :: theta0 = acos(-1.0_wp)/4   !! the section's ray [rad]
+    integer :: branch = 1             !! sign of p_theta at the cut (U1^- = +1)
+    real(wp) :: eps = 1.0e-6_wp       !! step-off distance from the orbit, position part [cm]
+    integer :: n_init = 64            !! seeds of the first round
+    integer :: n_max = 4096           !! seeds at most
+    real(wp) :: area_tol = 1.0e-10_wp !! relative change of the area that ends the refinement
+    real(wp) :: t_max = 30            !! longest flight from the orbit to the section [s]
+    real(wp) :: rtol = 1.0e-12_wp     !! integration tolerances
+    real(wp) :: atol = 1.0e-12_wp
+    logical :: adaptive = .true.      !! refine where the cut bends or its points spread;
+                                      !! .false.: double the seeds uniformly
+  end type tube_opts_t
+
+  !> The cut: a closed curve in (r, p_r), ordered by the seeds' phase tau on the orbit.
+  type, public :: tube_cut_t
+    integer :: n = 0                  !! points
+    real(wp), allocatable :: tau(:)   !! seed phase on the orbit [s]
+    real(wp), allocatable :: r(:)     !! r at the crossing [cm]
+    real(wp), allocatable :: pr(:)    !! p_r at the crossing [cm/s]
+    real(wp), allocatable :: time(:)  !! flight time from the seed to the section [s] (signed)
+    real(wp), allocatable :: x(:, :)  !! (x, y, px, py) at the crossing
+    real(wp) :: area = 0              !! Green's theorem on periodic splines [cm^2/s]
+    real(wp) :: area_polygon = 0      !! the polygon's (shoelace) area [cm^2/s]
+    real(wp) :: area_change = 0       !! |last - previous refinement| [cm^2/s]
+    integer :: rounds = 0             !! refinement rounds
+    integer, allocatable :: hist_n(:)        !! points after each round
+    real(wp), allocatable :: hist_area(:)    !! area after each round
+  end type tube_cut_t
+
+  public :: tube_cut
+
+  interface
+    integer(c_int) function spline_area(n, tau, r, p, period, area) bind(C, name='tubes_spline_area')
+      import :: c_int, c_double
+      integer(c_int), value :: n
+      real(c_double), intent(in) :: tau(*), r(*), p(*)
+      real(c_double), value :: period
+      real(c_double), intent(out) :: area
+    end function spline_area
+    subroutine dgeev(jobvl, jobvr, n, a, lda, wr, wi, vl, ldvl, vr, ldvr, work, lwork, info)
+      import :: wp
+      character, intent(in) :: jobvl, jobvr
+      integer, intent(in) :: n, lda, ldvl, ldvr, lwork
+      real(wp), intent(inout) :: a(lda, *)
+      real(wp), intent(out) :: wr(*), wi(*), vl(ldvl, *), vr(ldvr, *), work(*)
+      integer, intent(out) :: info
+    end subroutine dgeev
+  end interface
+
+contains
+
+  !> Floquet eigenvector of the monodromy for the unstable (kind = UNSTABLE) or stable
+  !> multiplier, unit length.
+  subroutine floquet_vector(mono, kind, v, stat)
+    real(wp), intent(in) :: mono(4, 4)
+    integer, intent(in) :: kind
+    real(wp), intent(out) :: v(4)
+    integer, intent(out) :: stat
+    real(wp) :: a(4, 4), wr(4), wi(4), vl(1, 1), vr(4, 4), work(64)
+    integer :: info, k
+    a = mono
+    call dgeev('N', 'V', 4, a, 4, wr, wi, vl, 1, vr, 4, work, 64, info)
+    if (info /= 0) then
+      stat = TUBES_ENOCONV
+      return
+    end if
+    if (kind == UNSTABLE) then
+      k = maxloc(wr, 1)
+    else
+      k = minloc(wr, 1)
+    end if
+    v = vr(:, k)/sqrt(sum(vr(:, k)**2))
+    stat = TUBES_OK
+  end subroutine floquet_vector
+
+  !> One seed: the orbit state at phase tau stepped off by sigma eps along the transported
+  !> eigenvector, propagated to its first crossing of the section branch.
+  subroutine one_seed(ball, orb, v0, sigma, tau, opts, pc, tcross, xc, stat)
+    type(ball_t), intent(in) :: ball
+    type(orbit_t), intent(in) :: orb
+    real(wp), intent(in) :: v0(4), sigma, tau
+    type(tube_opts_t), intent(in) :: opts
+    real(wp), intent(out) :: pc(4), tcross, xc(4)
+    integer, intent(out) :: stat
+    type(variational_t) :: var
+    type(dop853_t) :: ig
+    real(wp) :: z(20), v(4), x(4)
+    type(theta_line_t) :: sec
+    call make_variational(var, ball)
+    call ig%init(var, 0.0_wp)
+    ig%rtol = opts%rtol
+    ig%atol = opts%atol
+    z = stm_start(orb%x0)
+    stat = TUBES_OK
+    if (tau > 0) call propagate(ig, z, tau, stat)
+    if (stat < 0) return
+    v = matmul(reshape(z(5:20), [4, 4]), v0)
+    x = z(1:4) + sigma*opts%eps*v/sqrt(v(1)**2 + v(2)**2)
+    sec = theta_line_t(theta0=opts%theta0, branch=opts%branch, terminal=.true.)
+    call ig%init(ball, 0.0_wp)
+    ig%rtol = opts%rtol
+    ig%atol = opts%atol
+    call propagate(ig, x, real(opts%kind, wp)*opts%t_max, stat, event=sec)
+    if (stat == TUBES_EVENT) then
+      stat = TUBES_OK
+      tcross = ig%t
+      xc = x
+      pc = polar_canonical(x)
+    else if (stat >= 0) then
+      stat = TUBES_ENOCONV     ! no crossing within t_max
+    end if
+  end subroutine one_seed
+
+  !> The cut of the tube of orbit orb (period, x0 and monodromy set) with the section of opts.
+  !> well_dir: a vector from the saddle towards the well the section lies in; the branch of
+  !> the manifold on that side is taken. stat < 0 if a seed failed (no crossing within t_max,
+  !> integration failure) or the area did not converge within n_max seeds.
+  subroutine tube_cut(ball, orb, well_dir, opts, cut, stat)
+    type(ball_t), intent(in) :: ball
+    type(orbit_t), intent(in) :: orb
+    real(wp), intent(in) :: well_dir(2)
+    type(tube_opts_t), intent(in) :: opts
+    type(tube_cut_t), intent(out) :: cut
+    integer, intent(out) :: stat
+    real(wp) :: v0(4), sigma, a_old, a_new
+    real(wp), allocatable :: tau(:), pcs(:, :), tcs(:), xcs(:, :), newtau(:), chord(:), medc
+    logical, allocatable :: split(:)
+    integer, allocatable :: st(:)
+    integer :: n, i, j, m, info, nconv
+    if (opts%n_init < 8 .or. opts%eps <= 0 .or. orb%period <= 0) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    call floquet_vector(orb%monodromy, opts%kind, v0, stat)
+    if (stat /= TUBES_OK) return
+    sigma = sign(1.0_wp, v0(1)*well_dir(1) + v0(2)*well_dir(2))
+    n = opts%n_init
+    allocate (tau(n))
+    tau = [((i - 1)*orb%period/n, i = 1, n)]
+    allocate (pcs(4, 0), tcs(0), xcs(4, 0), st(0))
+    call seeds(tau, 1, n)
+    if (stat < 0) return
+    allocate (cut%hist_n(0), cut%hist_area(0))
+    a_old = huge(1.0_wp)
+    nconv = 0
+    do
+      call area_of(a_new, info)
+      if (info /= 0) then
+        stat = TUBES_ENOCONV
+        return
+      end if
+      cut%rounds = cut%rounds + 1
+      cut%hist_n = [cut%hist_n, n]
+      cut%hist_area = [cut%hist_area, a_new]
+      cut%area_change = abs(a_new - a_old)
+      if (cut%area_change <= opts%area_tol*abs(a_new)) then
+        nconv = nconv + 1
+        if (nconv >= 2) exit
+      else
+        nconv = 0
+      end if
+      if (n >= opts%n_max) then
+        stat = TUBES_ENOCONV
+        exit
+      end if
+      a_old = a_new
+      ! refine: intervals whose chord (scaled) exceeds twice the median, or all of them
+      allocate (chord(n), split(n))
+      do i = 1, n
+        j = mod(i, n) + 1
+        chord(i) = hypot((pcs(1, j) - pcs(1, i))/max(1.0e-300_wp, maxval(pcs(1, :)) - minval(pcs(1, :))), &
+                         (pcs(3, j) - pcs(3, i))/max(1.0e-300_wp, maxval(pcs(3, :)) - minval(pcs(3, :))))
+      end do
+      medc = median(chord)
+      split = chord > 2*medc
+      if (.not. opts%adaptive .or. count(split) == 0 .or. nconv > 0) split = .true.
+      m = count(split)
+      if (n + m > opts%n_max) then
+        stat = TUBES_ENOCONV
+        deallocate (chord, split)
+        exit
+      end if
+      allocate (newtau(m))
+      j = 0
+      do i = 1, n
+        if (split(i)) then
+          j = j + 1
+          if (i < n) then
+            newtau(j) = 0.5_wp*(tau(i) + tau(i + 1))
+          else
+            newtau(j) = 0.5_wp*(tau(n) + orb%period)
+          end if
+        end if
+      end do
+      tau = [tau, newtau]
+      call seeds(tau, n + 1, n + m)
+      if (stat < 0) return
+      call sort_by_tau()
+      n = n + m
+      deallocate (chord, split, newtau)
+    end do
+    cut%n = n
+    cut%tau = tau
+    cut%r = pcs(1, :)
+    cut%pr = pcs(3, :)
+    cut%time = tcs
+    cut%x = xcs
+    cut%area = abs(a_new)
+    cut%area_polygon = abs(polygon(pcs(1, :), pcs(3, :)))
+    if (stat == TUBES_ENOCONV .and. cut%area_change <= 1.0e3_wp*opts%area_tol*abs(a_new)) stat = TUBES_OK
+  contains
+    subroutine seeds(tt, i1, i2)
+      real(wp), intent(in) :: tt(:)
+      integer, intent(in) :: i1, i2
+      real(wp) :: p(4, i2 - i1 + 1), tc(i2 - i1 + 1), xc(4, i2 - i1 + 1)
+      integer :: s(i2 - i1 + 1), k
+      !$omp parallel do schedule(dynamic) default(shared) private(k)
+      do k = i1, i2
+        call one_seed(ball, orb, v0, sigma, tt(k), opts, p(:, k - i1 + 1), tc(k - i1 + 1), &
+                      xc(:, k - i1 + 1), s(k - i1 + 1))
+      end do
+      !$omp end parallel do
+      pcs = reshape([reshape(pcs, [size(pcs)]), reshape(p, [size(p)])], [4, i2])
+      tcs = [tcs, tc]
+      xcs = reshape([reshape(xcs, [size(xcs)]), reshape(xc, [size(xc)])], [4, i2])
+      st = [st, s]
+      if (any(s < 0)) stat = minval(s)
+    end subroutine seeds
+    subroutine sort_by_tau()
+      integer :: idx(size(tau)), k, l, tmp
+      idx = [(k, k = 1, size(tau))]
+      do k = 2, size(tau)          ! insertion sort: the list is two sorted runs
+        l = k
+        do while (l > 1)
+          if (tau(idx(l)) < tau(idx(l - 1))) then
+            tmp = idx(l); idx(l) = idx(l - 1); idx(l - 1) = tmp
+            l = l - 1
+          else
+            exit
+          end if
+        end do
+      end do
+      tau = tau(idx)
+      pcs = pcs(:, idx)
+      tcs = tcs(idx)
+      xcs = xcs(:, idx)
+      st = st(idx)
+    end subroutine sort_by_tau
+    subroutine area_of(a, info)
+      real(wp), intent(out) :: a
+      integer, intent(out) :: info
+      info = spline_area(size(tau), tau, pcs(1, :), pcs(3, :), orb%period, a)
+    end subroutine area_of
+  end subroutine tube_cut
+
+  pure real(wp) function polygon(r, p) result(a)
+    real(wp), intent(in) :: r(:), p(:)
+    integer :: i, j
+    a = 0
+    do i = 1, size(r)
+      j = mod(i, size(r)) + 1
+      a = a + 0.5_wp*(r(i)*p(j) - r(j)*p(i))
+    end do
+    a = -a      ! Green: the integral of p dr is minus the shoelace sum of (r, p)
+  end function polygon
+
+  pure real(wp) function median(a) result(m)
+    real(wp), intent(in) :: a(:)
+    real(wp) :: b(size(a)), t
+    integer :: i, j
+    b = a
+    do i = 2, size(b)
+      t = b(i)
+      j = i - 1
+      do while (j >= 1)
+        if (b(j) <= t) exit
+        b(j + 1) = b(j)
+        j = j - 1
+      end do
+      b(j + 1) = t
+    end do
+    m = b((size(b) + 1)/2)
+  end function median
+end module tubes_manifold
