@@ -90,3 +90,16 @@ int tubes_spline_area(int n, const double *tau, const double *r, const double *p
   free(tt); free(rr); free(pp);
   return st;
 }
+
+#include <gsl/gsl_rng.h>
+
+/* n uniform deviates in [0, 1) from GSL's MT19937 seeded with `seed`: one stream, drawn
+ * serially, so that the samples do not depend on how the work is later shared out. */
+int tubes_rng_uniform(unsigned long seed, int n, double *u) {
+  gsl_rng *r = gsl_rng_alloc(gsl_rng_mt19937);
+  if (!r) return GSL_ENOMEM;
+  gsl_rng_set(r, seed);
+  for (int i = 0; i < n; i++) u[i] = gsl_rng_uniform(r);
+  gsl_rng_free(r);
+  return 0;
+}
