@@ -94,6 +94,39 @@ int tubes_orbit_family(const double model[TUBES_NMODEL], const char saddle[8], i
                        int converged[], double mindist[], double monodromy[], double ts[],
                        double xs[], double history[], double *end_de, int *end_reason);
 
+/* The energy surface on the section theta = angle [rad] (a ray) at E = E_e(saddle) + de:
+ * permitted interval [rmin, rmax] [cm], area A_E [cm^2/s] and dA_E/dE [s] (docs/tubes.md). */
+int tubes_section_info(const double model[TUBES_NMODEL], const char saddle[8], double angle,
+                       double de, double *rmin, double *rmax, double *area, double *darea);
+
+/* The cut of the stable (kind -1) or unstable (kind +1) tube of the saddle's Lyapunov orbit at
+ * excess energy de with the section theta = angle [rad], p_theta of sign pth_sign, refined until
+ * the area changes by < area_tol (relative) or n_max (<= nout) seeds. Outputs: *n points tau, r,
+ * pr, time (flight time to the section, signed), xs[4 n]; *area (Green's theorem on periodic
+ * splines), *area_polygon, the orbit's *action and *period, and the refinement history
+ * hist_n[64], hist_area[64] (*nhist rounds). Orbit options as &orbits. */
+int tubes_tube_cut(const double model[TUBES_NMODEL], const char saddle[8], double de, int kind,
+                   double angle, int pth_sign, double eps, double area_tol, double t_max,
+                   int n_init, int n_max, int n_segments, double orb_tol, double orb_rtol,
+                   double orb_atol, int nout, int *n, double tau[], double r[], double pr[],
+                   double time[], double xs[], double *area, double *area_polygon,
+                   double *action, double *period, int *nhist, int hist_n[64],
+                   double hist_area[64]);
+
+/* Monte Carlo check at de: nsamp points uniform on the section's energy surface (GSL MT19937,
+ * seed), each integrated until it returns to the section (outcome 0), passes x < x_saddle - gate
+ * (outcome 1: transit) or t_max (2); inside[k] = 1 if (r, pr) lies inside the cut (cut_r,
+ * cut_pr). */
+int tubes_monte_carlo(const double model[TUBES_NMODEL], const char saddle[8], double de,
+                      double angle, int pth_sign, int nsamp, int seed, double t_max, double gate,
+                      int ncut, const double cut_r[], const double cut_pr[], double r[],
+                      double pr[], int outcome[], int inside[]);
+
+/* Poincare map of the section at de: pts[(j n_iter + k) 2 + {0, 1}] = (r, p_r) of the k-th return
+ * of seed j (NaN once it stops returning within t_max). */
+int tubes_poincare(const double model[TUBES_NMODEL], const char saddle[8], double de,
+                   double angle, int pth_sign, int n_seeds, int n_iter, double t_max, double pts[]);
+
 /* ---- namelist input (src/io/tubes_nml.f90; validated by src/io/tubes_input.c) ---- */
 enum { TUBES_NSCENES = 16, TUBES_LSCENE = 32, TUBES_LPATH = 1024, TUBES_LNAME = 32, TUBES_MAXDE = 256 };
 
@@ -127,6 +160,26 @@ typedef struct {
   char orb_method[TUBES_LNAME];
   int orb_n_segments, orb_max_iter, orb_n_samples;
   double orb_tol, orb_rtol, orb_atol;
+  /* &section */
+  double sec_angle;
+  int sec_pth_sign;
+  /* &tubes */
+  double tub_de[TUBES_MAXDE];
+  int tub_nde;
+  char tub_kind[TUBES_LNAME];
+  double tub_eps, tub_area_tol, tub_t_max;
+  int tub_n_init, tub_n_max;
+  /* &transition */
+  double tra_de[TUBES_MAXDE];
+  int tra_nde;
+  double tra_area_tol;
+  /* &montecarlo */
+  double mc_de, mc_t_max, mc_gate;
+  int mc_n_samples, mc_seed;
+  /* &sections */
+  double pm_de[TUBES_MAXDE];
+  int pm_nde, pm_n_seeds, pm_n_iter;
+  double pm_t_max;
 } tubes_config_t;
 
 /* Set every variable to its default. */

@@ -28,9 +28,9 @@ extern const int tubes_nscenes;
 
 /* Where each variable was set in the file (0 = not set). */
 typedef struct {
-  int group_line[8];               /* line of &group, 0 if absent */
-  int var_line[64];                /* per tubes_nml_vars entry */
-  char var_text[64][96];           /* first characters of the value as written */
+  int group_line[16];               /* line of &group, 0 if absent */
+  int var_line[96];                /* per tubes_nml_vars entry */
+  char var_text[96][96];           /* first characters of the value as written */
 } nml_where;
 
 /* Lex the file: unknown groups or variables, unterminated groups, malformed values.

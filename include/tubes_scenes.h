@@ -23,6 +23,10 @@ int scene_equilibria(tubes_run_t *run);
 int scene_trajectory(tubes_run_t *run);
 /* Returns 0, EXIT_PARTIAL (some energies failed or lie past the family's end), EXIT_NUMERIC or EXIT_IO. */
 int scene_orbits(tubes_run_t *run);
+int scene_tubes(tubes_run_t *run);
+int scene_transition(tubes_run_t *run);
+int scene_montecarlo(tubes_run_t *run);
+int scene_sections(tubes_run_t *run);
 #ifdef __cplusplus
 }
 #endif

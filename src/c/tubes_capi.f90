@@ -3,7 +3,7 @@ module tubes_capi
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_int64_t, c_ptr, c_funptr, &
                                          c_null_char, c_associated, c_funloc, c_f_procpointer
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, status_message
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, status_message
   use tubes_ball, only: ball_t
   use tubes_models, only: NMODEL, conservative_ball, damping_rate, model_ball
   use tubes_equilibria, only: equilibrium_t, find_equilibria
@@ -13,6 +13,10 @@ module tubes_capi
   use tubes_integrator, only: crossing_log_t
   use tubes_sampler, only: sampler_t
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
+  use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
+  use tubes_section, only: ray_t, section_region, section_area, section_darea
+  use tubes_transport, only: monte_carlo, poincare_map, state_on_section
+  use, intrinsic :: iso_c_binding, only: c_long
   implicit none
   private
 
@@ -264,6 +268,212 @@ contains
     end do
     stat = TUBES_OK
   end function c_orbit_family
+
+  !> The model, its equilibria, the saddle named by the C string and the well of the section's
+  !> quadrant (the one whose direction from the origin is closest to the ray's angle).
+  subroutine setup_saddle(model, saddle, angle, ball, eqs, isad, iwell, stat)
+    real(c_double), intent(in) :: model(NMODEL), angle
+    character(kind=c_char), intent(in) :: saddle(8)
+    type(ball_t), intent(out) :: ball
+    type(equilibrium_t), allocatable, intent(out) :: eqs(:)
+    integer, intent(out) :: isad, iwell, stat
+    character(8) :: name
+    integer :: k
+    real(wp) :: best, d
+    name = ''
+    do k = 1, 8
+      if (saddle(k) == c_null_char) exit
+      name(k:k) = saddle(k)
+    end do
+    call conservative_ball(model, ball, stat)
+    if (stat /= TUBES_OK) return
+    call find_equilibria(ball, 20.0_wp, 41, eqs, stat)
+    if (stat /= TUBES_OK) return
+    isad = 0
+    iwell = 0
+    best = huge(1.0_wp)
+    do k = 1, size(eqs)
+      if (eqs(k)%name == name .and. eqs(k)%morse == 1) isad = k
+      if (eqs(k)%morse == 0) then
+        d = abs(atan2(eqs(k)%q(2), eqs(k)%q(1)) - angle)
+        if (d < best) then
+          best = d
+          iwell = k
+        end if
+      end if
+    end do
+    if (isad == 0 .or. iwell == 0) stat = TUBES_EINPUT
+  end subroutine setup_saddle
+
+  !> The Lyapunov orbit at excess energy de by continuation (options as &orbits).
+  subroutine orbit_at(ball, eqs, isad, de, n_segments, tol, rtol, atol, orb, stat)
+    type(ball_t), intent(in) :: ball
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad, n_segments
+    real(wp), intent(in) :: de, tol, rtol, atol
+    type(orbit_t), intent(out) :: orb
+    integer, intent(out) :: stat
+    type(orbit_opts_t) :: opts
+    type(orbit_t) :: orbs(1)
+    real(wp) :: end_de
+    integer :: reason
+    opts%n_segments = n_segments
+    opts%tol = tol
+    opts%rtol = rtol
+    opts%atol = atol
+    call orbit_family(ball, eqs, isad, [de], opts, orbs, end_de, reason, stat)
+    if (stat /= TUBES_OK) return
+    orb = orbs(1)
+    if (.not. orb%converged) stat = TUBES_ENOCONV
+  end subroutine orbit_at
+
+  !> The energy surface on the section theta = angle [rad] at E = E_e + de: its interval
+  !> [rmin, rmax] on the ray, its area [cm^2/s] and dA/dE [s].
+  integer(c_int) function c_section_info(model, saddle, angle, de, rmin, rmax, area, darea) &
+      result(stat) bind(C, name='tubes_section_info')
+    real(c_double), intent(in) :: model(NMODEL)
+    character(kind=c_char), intent(in) :: saddle(8)
+    real(c_double), value :: angle, de
+    real(c_double), intent(out) :: rmin, rmax, area, darea
+    type(ball_t) :: ball
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(ray_t), target :: ray
+    integer :: isad, iw
+    real(wp) :: err
+    rmin = 0; rmax = 0; area = 0; darea = 0
+    call setup_saddle(model, saddle, angle, ball, eqs, isad, iw, stat)
+    if (stat /= TUBES_OK) return
+    ray%ball = ball
+    ray%theta0 = angle
+    ray%energy = eqs(isad)%energy + de
+    call section_region(ray, 2*sqrt(sum(eqs(iw)%q**2)) + 10, stat)
+    if (stat /= TUBES_OK) return
+    rmin = ray%rmin
+    rmax = ray%rmax
+    call section_area(ray, area, err, stat)
+    if (stat /= TUBES_OK) return
+    call section_darea(ray, darea, err, stat)
+  end function c_section_info
+
+  !> The cut of the Lyapunov orbit's tube at excess energy de with the section (include/tubes.h).
+  integer(c_int) function c_tube_cut(model, saddle, de, kind, angle, pth_sign, eps, area_tol, &
+      t_max, n_init, n_max, n_segments, orb_tol, orb_rtol, orb_atol, nout, n, tau, r, pr, time, &
+      xs, area, area_polygon, action, period, nhist, hist_n, hist_area) result(stat) &
+      bind(C, name='tubes_tube_cut')
+    real(c_double), intent(in) :: model(NMODEL)
+    character(kind=c_char), intent(in) :: saddle(8)
+    real(c_double), value :: de, angle, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol
+    integer(c_int), value :: kind, pth_sign, n_init, n_max, n_segments, nout
+    integer(c_int), intent(out) :: n, nhist, hist_n(64)
+    real(c_double), intent(out) :: tau(nout), r(nout), pr(nout), time(nout), xs(4, nout), area, &
+                                   area_polygon, action, period, hist_area(64)
+    type(ball_t) :: ball
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(orbit_t) :: orb
+    type(tube_opts_t) :: opts
+    type(tube_cut_t) :: cut
+    integer :: isad, iw
+    n = 0; nhist = 0; hist_n = 0; hist_area = 0; area = 0; area_polygon = 0; action = 0; period = 0
+    call setup_saddle(model, saddle, angle, ball, eqs, isad, iw, stat)
+    if (stat /= TUBES_OK) return
+    call orbit_at(ball, eqs, isad, de, n_segments, orb_tol, orb_rtol, orb_atol, orb, stat)
+    if (stat /= TUBES_OK) return
+    action = orb%action
+    period = orb%period
+    opts%kind = kind
+    opts%theta0 = angle
+    opts%branch = pth_sign
+    opts%eps = eps
+    opts%area_tol = area_tol
+    opts%t_max = t_max
+    opts%n_init = n_init
+    opts%n_max = min(n_max, nout)
+    call tube_cut(ball, orb, eqs(iw)%q - eqs(isad)%q, opts, cut, stat)
+    n = min(cut%n, nout)
+    if (n > 0) then
+      tau(1:n) = cut%tau(1:n)
+      r(1:n) = cut%r(1:n)
+      pr(1:n) = cut%pr(1:n)
+      time(1:n) = cut%time(1:n)
+      xs(:, 1:n) = cut%x(:, 1:n)
+    end if
+    area = cut%area
+    area_polygon = cut%area_polygon
+    if (allocated(cut%hist_n)) then
+      nhist = min(size(cut%hist_n), 64)
+      hist_n(1:nhist) = cut%hist_n(1:nhist)
+      hist_area(1:nhist) = cut%hist_area(1:nhist)
+    end if
+  end function c_tube_cut
+
+  !> Monte Carlo transition check at excess energy de (include/tubes.h).
+  integer(c_int) function c_monte_carlo(model, saddle, de, angle, pth_sign, nsamp, seed, t_max, &
+      gate, ncut, cut_r, cut_pr, r, pr, outcome, inside) result(stat) &
+      bind(C, name='tubes_monte_carlo')
+    real(c_double), intent(in) :: model(NMODEL)
+    character(kind=c_char), intent(in) :: saddle(8)
+    real(c_double), value :: de, angle, t_max, gate
+    integer(c_int), value :: pth_sign, nsamp, seed, ncut
+    real(c_double), intent(in) :: cut_r(ncut), cut_pr(ncut)
+    real(c_double), intent(out) :: r(nsamp), pr(nsamp)
+    integer(c_int), intent(out) :: outcome(nsamp), inside(nsamp)
+    type(ball_t) :: ball
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(ray_t), target :: ray
+    logical :: ins(nsamp)
+    integer :: isad, iw
+    r = 0; pr = 0; outcome = -1; inside = 0
+    call setup_saddle(model, saddle, angle, ball, eqs, isad, iw, stat)
+    if (stat /= TUBES_OK) return
+    ray%ball = ball
+    ray%theta0 = angle
+    ray%energy = eqs(isad)%energy + de
+    call section_region(ray, 2*sqrt(sum(eqs(iw)%q**2)) + 10, stat)
+    if (stat /= TUBES_OK) return
+    call monte_carlo(ray, nsamp, int(seed, c_long), pth_sign, eqs(isad)%q(1) - gate, t_max, &
+                     1.0e-10_wp, cut_r, cut_pr, r, pr, outcome, ins, stat)
+    inside = merge(1, 0, ins)
+  end function c_monte_carlo
+
+  !> Poincare map of the section at excess energy de: n_seeds starts on the section (half on
+  !> p_r = 0 across the region, half across p_r at the region's middle r), n_iter returns each:
+  !> pts(1:2, k, j) = (r, p_r) of the k-th return of seed j (NaN after it stops returning).
+  integer(c_int) function c_poincare(model, saddle, de, angle, pth_sign, n_seeds, n_iter, t_max, &
+      pts) result(stat) bind(C, name='tubes_poincare')
+    real(c_double), intent(in) :: model(NMODEL)
+    character(kind=c_char), intent(in) :: saddle(8)
+    real(c_double), value :: de, angle, t_max
+    integer(c_int), value :: pth_sign, n_seeds, n_iter
+    real(c_double), intent(out) :: pts(2, n_iter, n_seeds)
+    type(ball_t) :: ball
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(ray_t), target :: ray
+    real(wp) :: x0(4, n_seeds), rr, pp, rmid, pm
+    integer :: isad, iw, j, h, st
+    pts = 0
+    call setup_saddle(model, saddle, angle, ball, eqs, isad, iw, stat)
+    if (stat /= TUBES_OK) return
+    ray%ball = ball
+    ray%theta0 = angle
+    ray%energy = eqs(isad)%energy + de
+    call section_region(ray, 2*sqrt(sum(eqs(iw)%q**2)) + 10, stat)
+    if (stat /= TUBES_OK) return
+    h = (n_seeds + 1)/2
+    rmid = 0.5_wp*(ray%rmin + ray%rmax)
+    pm = sqrt(max(0.0_wp, 2*(ray%energy - ball%potential(rmid*cos(angle), rmid*sin(angle)))/(5.0_wp/7)))
+    do j = 1, n_seeds
+      if (j <= h) then
+        rr = ray%rmin + (ray%rmax - ray%rmin)*(j - 0.5_wp)/h
+        pp = 0
+      else
+        rr = rmid
+        pp = pm*(2*(j - h - 0.5_wp)/max(1, n_seeds - h) - 1)*0.98_wp
+      end if
+      call state_on_section(ray, rr, pp, pth_sign, x0(:, j), st)
+      if (st /= TUBES_OK) x0(:, j) = [rmid*cos(angle), rmid*sin(angle), 0.0_wp, 0.0_wp]
+    end do
+    call poincare_map(ball, angle, pth_sign, x0, n_iter, t_max, 1.0e-10_wp, pts, stat)
+  end function c_poincare
 
   subroutine c_sampler_on_step(self, ig, t_hi, stop_now)
     class(c_sampler_t), intent(inout) :: self

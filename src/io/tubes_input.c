@@ -11,16 +11,23 @@
 #include <strings.h>
 
 const char *const tubes_nml_groups[] = {"run", "model", "equilibria", "trajectory", "integrator",
-                                        "orbits"};
-const int tubes_nml_ngroups = 6;
+                                        "orbits", "section", "tubes", "transition", "montecarlo",
+                                        "sections"};
+const int tubes_nml_ngroups = 11;
 
-const char *const tubes_scene_names[] = {"equilibria", "trajectory", "orbits"};
+const char *const tubes_scene_names[] = {"equilibria", "trajectory", "orbits", "tubes", "transition",
+                                         "montecarlo", "sections"};
 const char *const tubes_scene_docs[] = {
     "critical points of H, Morse index, names, saddle linearization (lambda, omega, T_po)",
     "one trajectory with sampled output and its energy error",
     "Lyapunov orbits of a saddle at the requested dE: period, action, Floquet multipliers, "
-    "continuation and the end of the family"};
-const int tubes_nscenes = 3;
+    "continuation and the end of the family",
+    "tube cuts: the orbits' stable (or unstable) manifolds on the section, their areas (Green), "
+    "the eps/10 check, and the energy surface on the section (A0, tau)",
+    "p_trans(dE) = A_tube / A_E on a grid of dE, beside the leading-order formula",
+    "Monte Carlo check: points uniform on the section's energy surface, integrated and classified",
+    "Poincare maps of the section at fixed dE (KAM tori, chaos, the tube)"};
+const int tubes_nscenes = 7;
 
 const nml_var tubes_nml_vars[] = {
     {"run", "scenes", NML_STRING, TUBES_NSCENES, "-", "'equilibria'",
@@ -82,8 +89,30 @@ const nml_var tubes_nml_vars[] = {
     {"orbits", "atol", NML_REAL, 1, "state units", "1e-13", "> 0", "integration tolerance (absolute)"},
     {"orbits", "max_iter", NML_INT, 1, "-", "25", "1 .. 200", "Newton iterations per orbit"},
     {"orbits", "n_samples", NML_INT, 1, "-", "201", "2 .. 100000", "samples along each orbit in the output"},
+    {"section", "angle", NML_REAL, 1, "deg", "45", "0 < angle < 90", "the section's ray theta = angle (U1: 45)"},
+    {"section", "p_theta_sign", NML_INT, 1, "-", "1", "-1, 1", "branch: +1 p_theta > 0 (U1^-), -1 p_theta < 0 (U1^+)"},
+    {"tubes", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "10, 100", "> 0, increasing", "excess energies of the tube cuts"},
+    {"tubes", "kind", NML_STRING, 1, "-", "'stable'", "stable, unstable, both", "which manifold"},
+    {"tubes", "eps", NML_REAL, 1, "cm", "1e-6", "1e-10 .. 1e-2", "step-off from the orbit"},
+    {"tubes", "area_tol", NML_REAL, 1, "1", "1e-10", "1e-13 .. 1e-2", "relative area change that ends the refinement"},
+    {"tubes", "t_max", NML_REAL, 1, "s", "30", "> 0", "longest flight from the orbit to the section"},
+    {"tubes", "n_init", NML_INT, 1, "-", "64", "8 .. 100000", "seeds of the first round"},
+    {"tubes", "n_max", NML_INT, 1, "-", "8192", "n_init .. 1000000", "seeds at most"},
+    {"transition", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 2, 5, ..., 700, 750", "> 0, increasing",
+     "excess energies of p_trans(dE)"},
+    {"transition", "area_tol", NML_REAL, 1, "1", "1e-8", "1e-13 .. 1e-2", "relative accuracy of each tube area"},
+    {"montecarlo", "de", NML_REAL, 1, "(cm/s)^2", "100", "> 0", "excess energy of the samples"},
+    {"montecarlo", "n_samples", NML_INT, 1, "-", "10000", "1 .. 10000000", "points on the section"},
+    {"montecarlo", "seed", NML_INT, 1, "-", "12345", ">= 0", "seed of GSL's MT19937"},
+    {"montecarlo", "t_max", NML_REAL, 1, "s", "20", "> 0", "longest integration of a point"},
+    {"montecarlo", "gate", NML_REAL, 1, "cm", "1.5", "> 0", "a point has transited when x < x_saddle - gate"},
+    {"sections", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "100, 500", "> 0, increasing", "excess energies of the maps"},
+    {"sections", "n_seeds", NML_INT, 1, "-", "40", "1 .. 100000", "trajectories per map"},
+    {"sections", "n_iter", NML_INT, 1, "-", "300", "1 .. 1000000", "returns recorded per trajectory"},
+    {"sections", "t_max", NML_REAL, 1, "s", "2000", "> 0", "longest integration per trajectory"},
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
+_Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 96, "nml_where holds 96 variables");
 
 int tubes_method_code(const char *name) {
   static const char *names[] = {"dop853", "rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8",
@@ -369,6 +398,18 @@ static int bad_string(const char *path, const nml_where *w, const char *group, c
   return 1;
 }
 
+/* A list of excess energies: positive, strictly increasing, no gaps. */
+static int check_list(const char *path, const nml_where *w, const char *group, const double *de, int nde,
+                      FILE *err) {
+  for (int k = 0; k < nde; k++) {
+    if (!(de[k] > 0)) return bad(path, w, group, "de", err, "every dE must be > 0", de[k]);
+    if (k > 0 && !(de[k] > de[k - 1])) return bad(path, w, group, "de", err, "the list must be strictly increasing", de[k]);
+  }
+  for (int k = nde; k < TUBES_MAXDE; k++)
+    if (de[k] != -DBL_MAX && de[k] != 0) return bad(path, w, group, "de", err, "the list has a gap: give its values from de(1) on", de[k]);
+  return 0;
+}
+
 int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int n = 0, nscenes = 0;
   for (int k = 0; k < TUBES_NSCENES; k++) {
@@ -460,6 +501,28 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->orb_max_iter >= 1 && c->orb_max_iter <= 200)) n += bad(path, w, "orbits", "max_iter", err, "", c->orb_max_iter);
   if (!(c->orb_n_samples >= 2 && c->orb_n_samples <= 100000))
     n += bad(path, w, "orbits", "n_samples", err, "", c->orb_n_samples);
+  if (!(c->sec_angle > 0 && c->sec_angle < 90)) n += bad(path, w, "section", "angle", err, "", c->sec_angle);
+  if (c->sec_pth_sign != 1 && c->sec_pth_sign != -1)
+    n += bad(path, w, "section", "p_theta_sign", err, "", c->sec_pth_sign);
+  n += check_list(path, w, "tubes", c->tub_de, c->tub_nde, err);
+  n += check_list(path, w, "transition", c->tra_de, c->tra_nde, err);
+  n += check_list(path, w, "sections", c->pm_de, c->pm_nde, err);
+  if (strcmp(c->tub_kind, "stable") && strcmp(c->tub_kind, "unstable") && strcmp(c->tub_kind, "both"))
+    n += bad_string(path, w, "tubes", "kind", c->tub_kind, err);
+  if (!(c->tub_eps >= 1e-10 && c->tub_eps <= 1e-2)) n += bad(path, w, "tubes", "eps", err, "", c->tub_eps);
+  if (!(c->tub_area_tol >= 1e-13 && c->tub_area_tol <= 1e-2)) n += bad(path, w, "tubes", "area_tol", err, "", c->tub_area_tol);
+  if (!(c->tub_t_max > 0)) n += bad(path, w, "tubes", "t_max", err, "", c->tub_t_max);
+  if (!(c->tub_n_init >= 8 && c->tub_n_init <= 100000)) n += bad(path, w, "tubes", "n_init", err, "", c->tub_n_init);
+  if (!(c->tub_n_max >= c->tub_n_init && c->tub_n_max <= 1000000)) n += bad(path, w, "tubes", "n_max", err, "", c->tub_n_max);
+  if (!(c->tra_area_tol >= 1e-13 && c->tra_area_tol <= 1e-2)) n += bad(path, w, "transition", "area_tol", err, "", c->tra_area_tol);
+  if (!(c->mc_de > 0)) n += bad(path, w, "montecarlo", "de", err, "", c->mc_de);
+  if (!(c->mc_n_samples >= 1 && c->mc_n_samples <= 10000000)) n += bad(path, w, "montecarlo", "n_samples", err, "", c->mc_n_samples);
+  if (!(c->mc_seed >= 0)) n += bad(path, w, "montecarlo", "seed", err, "", c->mc_seed);
+  if (!(c->mc_t_max > 0)) n += bad(path, w, "montecarlo", "t_max", err, "", c->mc_t_max);
+  if (!(c->mc_gate > 0)) n += bad(path, w, "montecarlo", "gate", err, "", c->mc_gate);
+  if (!(c->pm_n_seeds >= 1 && c->pm_n_seeds <= 100000)) n += bad(path, w, "sections", "n_seeds", err, "", c->pm_n_seeds);
+  if (!(c->pm_n_iter >= 1 && c->pm_n_iter <= 1000000)) n += bad(path, w, "sections", "n_iter", err, "", c->pm_n_iter);
+  if (!(c->pm_t_max > 0)) n += bad(path, w, "sections", "t_max", err, "", c->pm_t_max);
   return n;
 }
 

@@ -138,6 +138,10 @@ int main(int argc, char **argv) {
     if (!strcmp(s, "equilibria")) r = scene_equilibria(&run);
     else if (!strcmp(s, "trajectory")) r = scene_trajectory(&run);
     else if (!strcmp(s, "orbits")) r = scene_orbits(&run);
+    else if (!strcmp(s, "tubes")) r = scene_tubes(&run);
+    else if (!strcmp(s, "transition")) r = scene_transition(&run);
+    else if (!strcmp(s, "montecarlo")) r = scene_montecarlo(&run);
+    else if (!strcmp(s, "sections")) r = scene_sections(&run);
     if (r == EXIT_IO) status = EXIT_IO;
     else if (r == EXIT_NUMERIC || (r && !status)) status = r;
   }

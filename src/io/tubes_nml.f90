@@ -7,7 +7,9 @@ module tubes_nml
   implicit none
   private
 
-  integer, parameter :: NGROUPS = 6   !! run, model, equilibria, trajectory, integrator, orbits
+  !> run, model, equilibria, trajectory, integrator, orbits, section, tubes, transition,
+  !> montecarlo, sections
+  integer, parameter :: NGROUPS = 11
   integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32, MAXDE = 256
   !> An unset entry of a list (dE): any value a user cannot mean.
   real(c_double), parameter :: UNSET = -huge(1.0_c_double)
@@ -37,6 +39,21 @@ module tubes_nml
     character(kind=c_char) :: orb_method(LNAME)
     integer(c_int) :: orb_n_segments, orb_max_iter, orb_n_samples
     real(c_double) :: orb_tol, orb_rtol, orb_atol
+    real(c_double) :: sec_angle
+    integer(c_int) :: sec_pth_sign
+    real(c_double) :: tub_de(MAXDE)
+    integer(c_int) :: tub_nde
+    character(kind=c_char) :: tub_kind(LNAME)
+    real(c_double) :: tub_eps, tub_area_tol, tub_t_max
+    integer(c_int) :: tub_n_init, tub_n_max
+    real(c_double) :: tra_de(MAXDE)
+    integer(c_int) :: tra_nde
+    real(c_double) :: tra_area_tol
+    real(c_double) :: mc_de, mc_t_max, mc_gate
+    integer(c_int) :: mc_n_samples, mc_seed
+    real(c_double) :: pm_de(MAXDE)
+    integer(c_int) :: pm_nde, pm_n_seeds, pm_n_iter
+    real(c_double) :: pm_t_max
   end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved).
@@ -64,6 +81,19 @@ module tubes_nml
     character(LNAME) :: orb_method
     integer :: orb_n_segments, orb_max_iter, orb_n_samples
     real(c_double) :: orb_tol, orb_rtol, orb_atol
+    real(c_double) :: sec_angle
+    integer :: sec_pth_sign
+    real(c_double) :: tub_de(MAXDE)
+    character(LNAME) :: tub_kind
+    real(c_double) :: tub_eps, tub_area_tol, tub_t_max
+    integer :: tub_n_init, tub_n_max
+    real(c_double) :: tra_de(MAXDE)
+    real(c_double) :: tra_area_tol
+    real(c_double) :: mc_de, mc_t_max, mc_gate
+    integer :: mc_n_samples, mc_seed
+    real(c_double) :: pm_de(MAXDE)
+    integer :: pm_n_seeds, pm_n_iter
+    real(c_double) :: pm_t_max
   end type vars_t
 
 contains
@@ -113,6 +143,26 @@ contains
     v%orb_tol = 1.0e-11_c_double
     v%orb_rtol = 1.0e-13_c_double
     v%orb_atol = 1.0e-13_c_double
+    v%sec_angle = 45
+    v%sec_pth_sign = 1
+    v%tub_de = UNSET
+    v%tub_kind = 'stable'
+    v%tub_eps = 1.0e-6_c_double
+    v%tub_area_tol = 1.0e-10_c_double
+    v%tub_t_max = 30
+    v%tub_n_init = 64
+    v%tub_n_max = 8192
+    v%tra_de = UNSET
+    v%tra_area_tol = 1.0e-8_c_double
+    v%mc_de = 100
+    v%mc_t_max = 20
+    v%mc_gate = 1.5_c_double
+    v%mc_n_samples = 10000
+    v%mc_seed = 12345
+    v%pm_de = UNSET
+    v%pm_n_seeds = 40
+    v%pm_n_iter = 300
+    v%pm_t_max = 2000
   end subroutine set_defaults
 
   subroutine to_c(v, cfg)
@@ -149,7 +199,33 @@ contains
     cfg%orb_n_segments = v%orb_n_segments; cfg%orb_max_iter = v%orb_max_iter
     cfg%orb_n_samples = v%orb_n_samples
     cfg%orb_tol = v%orb_tol; cfg%orb_rtol = v%orb_rtol; cfg%orb_atol = v%orb_atol
+    cfg%sec_angle = v%sec_angle; cfg%sec_pth_sign = v%sec_pth_sign
+    call put_list(v%tub_de, cfg%tub_de, cfg%tub_nde, [10.0_c_double, 100.0_c_double])
+    call put(v%tub_kind, cfg%tub_kind)
+    cfg%tub_eps = v%tub_eps; cfg%tub_area_tol = v%tub_area_tol; cfg%tub_t_max = v%tub_t_max
+    cfg%tub_n_init = v%tub_n_init; cfg%tub_n_max = v%tub_n_max
+    call put_list(v%tra_de, cfg%tra_de, cfg%tra_nde, [1.0_c_double, 2.0_c_double, 5.0_c_double, &
+      10.0_c_double, 20.0_c_double, 50.0_c_double, 100.0_c_double, 200.0_c_double, 300.0_c_double, &
+      400.0_c_double, 500.0_c_double, 600.0_c_double, 700.0_c_double, 750.0_c_double])
+    cfg%tra_area_tol = v%tra_area_tol
+    cfg%mc_de = v%mc_de; cfg%mc_t_max = v%mc_t_max; cfg%mc_gate = v%mc_gate
+    cfg%mc_n_samples = v%mc_n_samples; cfg%mc_seed = v%mc_seed
+    call put_list(v%pm_de, cfg%pm_de, cfg%pm_nde, [100.0_c_double, 500.0_c_double])
+    cfg%pm_n_seeds = v%pm_n_seeds; cfg%pm_n_iter = v%pm_n_iter; cfg%pm_t_max = v%pm_t_max
   end subroutine to_c
+
+  !> A list with unset entries: its default when none is set.
+  pure subroutine put_list(a, c, n, dflt)
+    real(c_double), intent(in) :: a(:), dflt(:)
+    real(c_double), intent(out) :: c(:)
+    integer(c_int), intent(out) :: n
+    c = a
+    n = count(a /= UNSET)
+    if (n == 0) then
+      c(1:size(dflt)) = dflt
+      n = size(dflt)
+    end if
+  end subroutine put_list
 
   subroutine from_c(cfg, v)
     type(tubes_config_t), intent(in) :: cfg
@@ -180,6 +256,17 @@ contains
     v%orb_n_segments = cfg%orb_n_segments; v%orb_max_iter = cfg%orb_max_iter
     v%orb_n_samples = cfg%orb_n_samples
     v%orb_tol = cfg%orb_tol; v%orb_rtol = cfg%orb_rtol; v%orb_atol = cfg%orb_atol
+    v%sec_angle = cfg%sec_angle; v%sec_pth_sign = cfg%sec_pth_sign
+    v%tub_de = cfg%tub_de
+    v%tub_kind = get(cfg%tub_kind)
+    v%tub_eps = cfg%tub_eps; v%tub_area_tol = cfg%tub_area_tol; v%tub_t_max = cfg%tub_t_max
+    v%tub_n_init = cfg%tub_n_init; v%tub_n_max = cfg%tub_n_max
+    v%tra_de = cfg%tra_de
+    v%tra_area_tol = cfg%tra_area_tol
+    v%mc_de = cfg%mc_de; v%mc_t_max = cfg%mc_t_max; v%mc_gate = cfg%mc_gate
+    v%mc_n_samples = cfg%mc_n_samples; v%mc_seed = cfg%mc_seed
+    v%pm_de = cfg%pm_de
+    v%pm_n_seeds = cfg%pm_n_seeds; v%pm_n_iter = cfg%pm_n_iter; v%pm_t_max = cfg%pm_t_max
   end subroutine from_c
 
   pure subroutine put(s, c)
@@ -228,6 +315,11 @@ contains
     case (3); call io_trajectory()
     case (4); call io_integrator()
     case (5); call io_orbits()
+    case (6); call io_section()
+    case (7); call io_tubes()
+    case (8); call io_transition()
+    case (9); call io_montecarlo()
+    case (10); call io_sections()
     end select
   contains
     subroutine io_run()
@@ -350,6 +442,93 @@ contains
       v%orb_tol = tol; v%orb_rtol = rtol; v%orb_atol = atol; v%orb_max_iter = max_iter
       v%orb_n_samples = n_samples
     end subroutine io_orbits
+    !> A list (dE) in read mode keeps its unset entries; in write mode only the set ones.
+    subroutine list_io(a, out)
+      real(c_double), intent(in) :: a(:)
+      real(c_double), allocatable, intent(out) :: out(:)
+      integer :: m
+      if (mode == 'r') then
+        out = a
+      else
+        m = count(a /= UNSET)
+        allocate (out(max(m, 1)))
+        out = 0
+        if (m > 0) out = a(1:m)
+      end if
+    end subroutine list_io
+    subroutine io_section()
+      real(c_double) :: angle
+      integer :: p_theta_sign
+      namelist /section/ angle, p_theta_sign
+      angle = v%sec_angle; p_theta_sign = v%sec_pth_sign
+      if (mode == 'r') then
+        read (u, nml=section, iostat=ios, iomsg=iomsg)
+      else
+        write (u, nml=section, iostat=ios, iomsg=iomsg)
+      end if
+      v%sec_angle = angle; v%sec_pth_sign = p_theta_sign
+    end subroutine io_section
+    subroutine io_tubes()
+      real(c_double), allocatable :: de(:)
+      character(LNAME) :: kind
+      real(c_double) :: eps, area_tol, t_max
+      integer :: n_init, n_max
+      namelist /tubes/ de, kind, eps, area_tol, t_max, n_init, n_max
+      call list_io(v%tub_de, de)
+      kind = v%tub_kind; eps = v%tub_eps; area_tol = v%tub_area_tol; t_max = v%tub_t_max
+      n_init = v%tub_n_init; n_max = v%tub_n_max
+      if (mode == 'r') then
+        read (u, nml=tubes, iostat=ios, iomsg=iomsg)
+        v%tub_de = de
+      else
+        write (u, nml=tubes, iostat=ios, iomsg=iomsg)
+      end if
+      v%tub_kind = kind; v%tub_eps = eps; v%tub_area_tol = area_tol; v%tub_t_max = t_max
+      v%tub_n_init = n_init; v%tub_n_max = n_max
+    end subroutine io_tubes
+    subroutine io_transition()
+      real(c_double), allocatable :: de(:)
+      real(c_double) :: area_tol
+      namelist /transition/ de, area_tol
+      call list_io(v%tra_de, de)
+      area_tol = v%tra_area_tol
+      if (mode == 'r') then
+        read (u, nml=transition, iostat=ios, iomsg=iomsg)
+        v%tra_de = de
+      else
+        write (u, nml=transition, iostat=ios, iomsg=iomsg)
+      end if
+      v%tra_area_tol = area_tol
+    end subroutine io_transition
+    subroutine io_montecarlo()
+      real(c_double) :: de, t_max, gate
+      integer :: n_samples, seed
+      namelist /montecarlo/ de, n_samples, seed, t_max, gate
+      de = v%mc_de; t_max = v%mc_t_max; gate = v%mc_gate; n_samples = v%mc_n_samples
+      seed = v%mc_seed
+      if (mode == 'r') then
+        read (u, nml=montecarlo, iostat=ios, iomsg=iomsg)
+      else
+        write (u, nml=montecarlo, iostat=ios, iomsg=iomsg)
+      end if
+      v%mc_de = de; v%mc_t_max = t_max; v%mc_gate = gate; v%mc_n_samples = n_samples
+      v%mc_seed = seed
+    end subroutine io_montecarlo
+    subroutine io_sections()
+      real(c_double), allocatable :: de(:)
+      integer :: n_seeds, n_iter
+      real(c_double) :: t_max
+      namelist /sections/ de, n_seeds, n_iter, t_max
+      call list_io(v%pm_de, de)
+      n_seeds = v%pm_n_seeds; n_iter = v%pm_n_iter; t_max = v%pm_t_max
+      if (mode == 'r') then
+        read (u, nml=sections, iostat=ios, iomsg=iomsg)
+        v%pm_de = de
+      else
+        write (u, nml=sections, iostat=ios, iomsg=iomsg)
+      end if
+      v%pm_n_seeds = n_seeds; v%pm_n_iter = n_iter; v%pm_t_max = t_max
+    end subroutine io_sections
   end subroutine group_io
 
   integer(c_int) function c_read(path, cfg, group, msg, msglen) result(ios) &

@@ -372,3 +372,279 @@ out:
   free(md); free(mono); free(ts); free(xs); free(hist); free(it); free(conv);
   return rc;
 }
+
+/* ---------------------------------------------------------------- tube dynamics scenes */
+
+/* E_e, T_po of the saddle named by &orbits saddle. */
+static int saddle_props(tubes_run_t *run, double *ee, double *tpo) {
+  enum { NMAX = 64 };
+  int n = 0, morse[NMAX];
+  double x[NMAX], y[NMAX], h[NMAX], e[NMAX], gn[NMAX], lam[NMAX], om[NMAX], ev[16 * NMAX];
+  char names[8 * NMAX];
+  int st = tubes_find_equilibria(run->model, 20.0, 41, NMAX, &n, x, y, h, e, gn, morse, names, lam, om, ev);
+  if (st < 0) return st;
+  for (int k = 0; k < n; k++)
+    if (!strcmp(names + 8 * k, run->cfg->orb_saddle)) {
+      *ee = e[k];
+      *tpo = 2 * M_PI / om[k];
+      return 0;
+    }
+  return TUBES_EINPUT;
+}
+
+static double sec_angle(const tubes_config_t *c) { return c->sec_angle * M_PI / 180; }
+static int orb_nseg(const tubes_config_t *c) { return strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments; }
+
+/* /section: the energy surface on the section at E_e (A0, tau, r range) and the growth rate. */
+static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, double *tpo_out) {
+  const tubes_config_t *c = run->cfg;
+  double ee, tpo, rmin, rmax, a0, tau;
+  int st = saddle_props(run, &ee, &tpo);
+  if (!st) st = tubes_section_info(run->model, c->orb_saddle, sec_angle(c), 0.0, &rmin, &rmax, &a0, &tau);
+  if (st < 0) {
+    fprintf(stderr, "tubes: section: the energy surface on the section could not be computed (status %d)\n", st);
+    return EXIT_NUMERIC;
+  }
+  *a0_out = a0; *tau_out = tau; *tpo_out = tpo;
+  if (H5Lexists(run->file, "section", H5P_DEFAULT) > 0) return 0;
+  printf("section theta = %g deg (p_theta %s 0): at E_e r in [%.6f, %.6f] cm, A0 = %.8g cm^2/s, "
+         "tau = dA_E/dE = %.8g s, T_po/A0 = %.6g (s/cm)^2\n", c->sec_angle, c->sec_pth_sign > 0 ? ">" : "<",
+         rmin, rmax, a0, tau, tpo / a0);
+  hid_t g = h5_group(run->file, "section");
+  if (g < 0) return EXIT_IO;
+  int e = 0;
+  e |= h5_attr_double(g, "angle", sec_angle(c));
+  e |= h5_attr_long(g, "p_theta_sign", c->sec_pth_sign);
+  e |= h5_attr_double(g, "A0", a0);
+  e |= h5_attr_double(g, "tau", tau);
+  e |= h5_attr_double(g, "growth_rate", tpo / a0);
+  e |= h5_attr_double(g, "T_po", tpo);
+  e |= h5_attr_double(g, "r_min", rmin);
+  e |= h5_attr_double(g, "r_max", rmax);
+  H5Gclose(g);
+  return e ? EXIT_IO : 0;
+}
+
+/* One tube cut into group loc; returns 0 or an exit code; *area gets the area. */
+static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int kind, double eps,
+                  double area_tol, double *area, double *action, double *t_po_cut) {
+  const tubes_config_t *c = run->cfg;
+  int nout = c->tub_n_max, n = 0, nh = 0, hn[64];
+  double *tau = malloc(sizeof(double) * nout), *r = malloc(sizeof(double) * nout), *pr = malloc(sizeof(double) * nout),
+         *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 4 * nout), ha[64], ar = 0, ap = 0, act = 0, per = 0;
+  int rc = 0;
+  if (!tau || !r || !pr || !tm || !xs) rc = EXIT_NUMERIC;
+  int st = rc ? -1 : tubes_tube_cut(run->model, c->orb_saddle, de, kind, sec_angle(c), c->sec_pth_sign, eps, area_tol,
+                                    c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol,
+                                    nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha);
+  if (st < 0 && !rc) {
+    char m[128];
+    status_text(st, m, sizeof m);
+    fprintf(stderr, "tubes: tubes: the cut at dE = %g failed: %s (status %d)", de, m, st);
+    if (nh > 0) {
+      fprintf(stderr, "; area after each round:");
+      for (int k = 0; k < nh; k++) fprintf(stderr, " %d:%.12g", hn[k], ha[k]);
+    }
+    fputc('\n', stderr);
+    rc = EXIT_PARTIAL;
+  }
+  if (loc >= 0 && n > 0) {
+    hid_t g = h5_group(loc, name);
+    hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, 4}, dh = (hsize_t)nh;
+    int e = g < 0;
+    e |= h5_write_double(g, "r", 1, &dn, r, "cm");
+    e |= h5_write_double(g, "p_r", 1, &dn, pr, "cm/s");
+    e |= h5_write_double(g, "time", 1, &dn, tm, "s");
+    e |= h5_write_double(g, "tau", 1, &dn, tau, "s");
+    e |= h5_write_double(g, "state", 2, d4, xs, "cm, cm, cm/s, cm/s");
+    if (nh > 0) {
+      e |= h5_write_int(g, "history_n", dh, hn, "1");
+      e |= h5_write_double(g, "history_area", 1, &dh, ha, "cm^2/s");
+    }
+    e |= h5_attr_double(g, "dE", de);
+    e |= h5_attr_string(g, "kind", kind < 0 ? "stable" : "unstable");
+    e |= h5_attr_double(g, "area", ar);
+    e |= h5_attr_double(g, "area_polygon", ap);
+    e |= h5_attr_double(g, "action", act);
+    e |= h5_attr_double(g, "period", per);
+    e |= h5_attr_double(g, "eps", eps);
+    e |= h5_attr_long(g, "converged", st >= 0);
+    if (g >= 0) H5Gclose(g);
+    if (e) rc = EXIT_IO;
+  }
+  *area = st < 0 ? NAN : ar;
+  *action = act;
+  *t_po_cut = per;
+  free(tau); free(r); free(pr); free(tm); free(xs);
+  return rc;
+}
+
+int scene_tubes(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  double a0, tau, tpo;
+  int rc = write_section(run, &a0, &tau, &tpo);
+  if (rc) return rc;
+  hid_t g = h5_group(run->file, "tubes");
+  if (g < 0) return EXIT_IO;
+  printf("tubes: %s manifold cuts on the section (eps = %g cm, area_tol = %g)\n", c->tub_kind, c->tub_eps, c->tub_area_tol);
+  printf("  %10s %8s %16s %16s %11s %11s %8s\n", "dE", "kind", "area", "action", "area/action-1", "eps/10 chg", "s");
+  for (int k = 0; k < c->tub_nde; k++) {
+    for (int kind = -1; kind <= 1; kind += 2) {
+      if (kind < 0 && !strcmp(c->tub_kind, "unstable")) continue;
+      if (kind > 0 && !strcmp(c->tub_kind, "stable")) continue;
+      char name[48];
+      double a, a10, act, per, t0 = now(), de = c->tub_de[k];
+      fprintf(stderr, "tubes: dE = %g, %s manifold...\n", de, kind < 0 ? "stable" : "unstable");
+      snprintf(name, sizeof name, "%s_%03d", kind < 0 ? "stable" : "unstable", k);
+      int r1 = cut_to(run, g, name, de, kind, c->tub_eps, c->tub_area_tol, &a, &act, &per);
+      int r2 = cut_to(run, -1, "", de, kind, c->tub_eps / 10, c->tub_area_tol, &a10, &act, &per);
+      if (r1 == EXIT_IO) { H5Gclose(g); return EXIT_IO; }
+      if (r1 || r2) rc = EXIT_PARTIAL;
+      char path[80];
+      snprintf(path, sizeof path, "%s", name);
+      if (H5Lexists(g, path, H5P_DEFAULT) > 0) {
+        hid_t o = H5Gopen2(g, path, H5P_DEFAULT);
+        h5_attr_double(o, "area_eps10", a10);
+        h5_attr_double(o, "area_eps_change", fabs(a - a10));
+        H5Gclose(o);
+      }
+      printf("  %10.4g %8s %16.12g %16.12g %11.2e %11.2e %8.2f\n", de, kind < 0 ? "stable" : "unstable", a, act,
+             a / act - 1, fabs(a - a10), now() - t0);
+    }
+  }
+  H5Gclose(g);
+  return rc;
+}
+
+int scene_transition(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  double a0, tau, tpo;
+  int rc = write_section(run, &a0, &tau, &tpo);
+  if (rc) return rc;
+  int n = c->tra_nde;
+  double *at = calloc(n, sizeof(double)), *act = calloc(n, sizeof(double)), *ae = calloc(n, sizeof(double)),
+         *pt = calloc(n, sizeof(double)), *pl = calloc(n, sizeof(double));
+  printf("transition: p_trans(dE) = A_tube / A_E on %d energies (area_tol %g)\n", n, c->tra_area_tol);
+  printf("  %10s %14s %14s %14s %12s %12s\n", "dE", "A_tube", "action", "A_E", "p_trans", "leading");
+  for (int k = 0; k < n; k++) {
+    double de = c->tra_de[k], rmin, rmax, darea, per, t0 = now();
+    fprintf(stderr, "transition: dE = %g (%d of %d)...\n", de, k + 1, n);
+    int r1 = cut_to(run, -1, "", de, -1, c->tub_eps, c->tra_area_tol, &at[k], &act[k], &per);
+    int st = tubes_section_info(run->model, c->orb_saddle, sec_angle(c), de, &rmin, &rmax, &ae[k], &darea);
+    if (r1 || st < 0) rc = EXIT_PARTIAL;
+    pt[k] = (st < 0) ? NAN : at[k] / ae[k];
+    pl[k] = tpo / a0 * de * (1 - tau / a0 * de);
+    printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %12.6g   (%.1f s)\n", de, at[k], act[k], ae[k], pt[k], pl[k], now() - t0);
+  }
+  hid_t g = h5_group(run->file, "transition");
+  int e = g < 0;
+  hsize_t dn = (hsize_t)n;
+  e |= h5_write_double(g, "dE", 1, &dn, c->tra_de, "(cm/s)^2");
+  e |= h5_write_double(g, "A_tube", 1, &dn, at, "cm^2/s");
+  e |= h5_write_double(g, "action", 1, &dn, act, "cm^2/s");
+  e |= h5_write_double(g, "A_E", 1, &dn, ae, "cm^2/s");
+  e |= h5_write_double(g, "p_trans", 1, &dn, pt, "1");
+  e |= h5_write_double(g, "p_trans_leading", 1, &dn, pl, "1");
+  if (g >= 0) H5Gclose(g);
+  free(at); free(act); free(ae); free(pt); free(pl);
+  return e ? EXIT_IO : rc;
+}
+
+int scene_montecarlo(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  double a0, tau, tpo;
+  int rc = write_section(run, &a0, &tau, &tpo);
+  if (rc) return rc;
+  int nout = c->tub_n_max, n = 0, nh = 0, hn[64];
+  double de = c->mc_de, *tau_ = malloc(sizeof(double) * nout), *cr = malloc(sizeof(double) * nout),
+         *cp = malloc(sizeof(double) * nout), *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 4 * nout),
+         ha[64], ar = 0, ap = 0, act = 0, per = 0, rmin, rmax, ae, darea, t0 = now();
+  int ns = c->mc_n_samples;
+  double *r = malloc(sizeof(double) * ns), *pr = malloc(sizeof(double) * ns);
+  int *out = malloc(sizeof(int) * ns), *ins = malloc(sizeof(int) * ns);
+  fprintf(stderr, "montecarlo: the tube cut at dE = %g...\n", de);
+  int st = tubes_tube_cut(run->model, c->orb_saddle, de, -1, sec_angle(c), c->sec_pth_sign, c->tub_eps, 1e-8,
+                          c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol, nout,
+                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha);
+  if (st >= 0) st = tubes_section_info(run->model, c->orb_saddle, sec_angle(c), de, &rmin, &rmax, &ae, &darea);
+  if (st >= 0) {
+    fprintf(stderr, "montecarlo: integrating %d points...\n", ns);
+    st = tubes_monte_carlo(run->model, c->orb_saddle, de, sec_angle(c), c->sec_pth_sign, ns, c->mc_seed, c->mc_t_max,
+                           c->mc_gate, n, cr, cp, r, pr, out, ins);
+  }
+  if (st < 0) {
+    char m[128];
+    status_text(st, m, sizeof m);
+    fprintf(stderr, "tubes: montecarlo: failed: %s (status %d)\n", m, st);
+    rc = EXIT_NUMERIC;
+  } else {
+    int nt = 0, nu = 0, in_nt = 0, out_t = 0, nin = 0;
+    for (int k = 0; k < ns; k++) {
+      nt += out[k] == 1;
+      nu += out[k] == 2;
+      nin += ins[k];
+      in_nt += ins[k] && out[k] != 1;
+      out_t += !ins[k] && out[k] == 1;
+    }
+    double f = (double)nt / ns, se = sqrt(f * (1 - f) / ns), p = ar / ae;
+    printf("montecarlo: dE = %g, %d points: transition fraction %.5f +- %.5f (p_trans = %.5f, %.1f standard errors);"
+           " %d inside the tube; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided (%.1f s)\n",
+           de, ns, f, se, p, se > 0 ? fabs(f - p) / se : 0.0, nin, in_nt, out_t, nu, now() - t0);
+    hid_t g = h5_group(run->file, "montecarlo");
+    int e = g < 0;
+    hsize_t dn = (hsize_t)ns;
+    e |= h5_attr_double(g, "dE", de);
+    e |= h5_attr_long(g, "n_samples", ns);
+    e |= h5_attr_long(g, "seed", c->mc_seed);
+    e |= h5_attr_double(g, "fraction", f);
+    e |= h5_attr_double(g, "std_error", se);
+    e |= h5_attr_double(g, "p_trans", p);
+    e |= h5_attr_long(g, "misclassified", in_nt + out_t);
+    e |= h5_attr_long(g, "misclassified_inside_no_transit", in_nt);
+    e |= h5_attr_long(g, "misclassified_outside_transit", out_t);
+    e |= h5_attr_long(g, "undecided", nu);
+    e |= h5_write_double(g, "r", 1, &dn, r, "cm");
+    e |= h5_write_double(g, "p_r", 1, &dn, pr, "cm/s");
+    e |= h5_write_int(g, "transit", dn, out, "1");
+    e |= h5_write_int(g, "inside", dn, ins, "1");
+    if (g >= 0) H5Gclose(g);
+    if (e) rc = EXIT_IO;
+  }
+  free(tau_); free(cr); free(cp); free(tm); free(xs); free(r); free(pr); free(out); free(ins);
+  return rc;
+}
+
+int scene_sections(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  double a0, tau, tpo;
+  int rc = write_section(run, &a0, &tau, &tpo);
+  if (rc) return rc;
+  hid_t g = h5_group(run->file, "sections");
+  if (g < 0) return EXIT_IO;
+  for (int k = 0; k < c->pm_nde; k++) {
+    int ns = c->pm_n_seeds, ni = c->pm_n_iter;
+    double de = c->pm_de[k], t0 = now();
+    double *pts = malloc(sizeof(double) * 2 * (size_t)ns * ni);
+    fprintf(stderr, "sections: Poincare map at dE = %g (%d trajectories, %d returns)...\n", de, ns, ni);
+    int st = tubes_poincare(run->model, c->orb_saddle, de, sec_angle(c), c->sec_pth_sign, ns, ni, c->pm_t_max, pts);
+    if (st < 0) {
+      fprintf(stderr, "tubes: sections: the map at dE = %g failed (status %d); the returns found are written\n", de, st);
+      rc = EXIT_PARTIAL;
+    }
+    long npts = 0;
+    for (long i = 0; i < (long)ns * ni; i++) npts += !isnan(pts[2 * i]);
+    printf("sections: dE = %g: %ld returns of %d trajectories (%.1f s)\n", de, npts, ns, now() - t0);
+    char name[32];
+    snprintf(name, sizeof name, "map_%03d", k);
+    hid_t m = h5_group(g, name);
+    hsize_t d3[3] = {(hsize_t)ns, (hsize_t)ni, 2};
+    int e = m < 0;
+    e |= h5_write_double(m, "points", 3, d3, pts, "cm, cm/s");
+    e |= h5_attr_double(m, "dE", de);
+    if (m >= 0) H5Gclose(m);
+    free(pts);
+    if (e) { H5Gclose(g); return EXIT_IO; }
+  }
+  H5Gclose(g);
+  return rc;
+}
