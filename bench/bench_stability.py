@@ -157,8 +157,11 @@ def task_edge(args):
         k += 1
     lo2, hi2 = bisect_edge(x0, method, solver, ha, hb, T_STAB_LONG, max_iter=max_iter, n=5)
     # stable islands above the edge: a few larger steps
-    islands = [float(f) for f in (1.25, 1.5, 2.0, 3.0, 4.0)
-               if stable(x0, method, hi * f, solver, T_STAB, max_iter=max_iter)]
+    islands = []
+    for f in (1.25, 1.5, 2.0, 3.0, 4.0):
+        r = run_fixed(x0, method, hi * f, solver, T_STAB, max_iter=max_iter)
+        if r["code"] == 0:
+            islands.append((f, r["de"]))
     return (de, method, solver, max_iter), {"lo": lo, "hi": hi, "code": code, "lo100": lo2,
                                             "hi100": hi2, "islands": islands}
 
@@ -181,22 +184,35 @@ def task_tao_omega(args):
     return (de, method, omega), {"x2": xf, "de": st["de"], "code": st["code"]}
 
 
-def task_tao_edge(args):
-    """Part 3: stability edge in h (10 s) at a given omega."""
+THETA = np.concatenate([np.logspace(-3, 0, 31)[:-1], np.arange(1.0, 8.0001, 0.1)])  # 2 omega h
+H_MAP = (4e-5, 0.5)    # [s] map cells with h outside this range are not run
+
+
+def task_tao_map(args):
+    """Part 3: one column (method, omega) of the stability map over theta = 2 omega h (10 s runs):
+    max energy error or failure per theta; the blow-up edge (first failing theta from below,
+    refined by bisection) and the first theta whose max |E - E0|/E0 exceeds 1e-3."""
     de, method, omega = args
     x0 = start_point(de)
-    h = min(0.25 / omega, 0.004)          # 2 omega h = 0.5, well inside the measured edge
-    k = 0
-    while not stable(x0, method, h, "-", T_STAB, omega) and k < 40:
-        h /= 2
-        k += 1
-    h_ok = h
-    while stable(x0, method, h_ok * 2 ** 0.25, "-", T_STAB, omega):
-        h_ok *= 2 ** 0.25
-    lo, hi = bisect_edge(x0, method, "-", h_ok, h_ok * 2 ** 0.25, T_STAB, omega, n=5)
-    islands = [float(f) for f in (1.25, 1.5, 2.0, 3.0)
-               if stable(x0, method, hi * f, "-", T_STAB, omega)]
-    return (de, method, omega), {"lo": lo, "hi": hi, "islands": islands}
+    col = []
+    for th in THETA:
+        h = th / (2 * omega)
+        if not H_MAP[0] <= h <= H_MAP[1]:
+            col.append((th, -999, np.nan))
+            continue
+        r = run_fixed(x0, method, h, "-", T_STAB, omega)
+        col.append((th, r["code"], r["de"]))
+    run = [c for c in col if c[1] != -999]
+    edge = acc = None
+    fails = [i for i, c in enumerate(run) if c[1] != 0]
+    if fails and fails[0] > 0:
+        lo, hi = bisect_edge(x0, method, "-", run[fails[0] - 1][0] / (2 * omega),
+                             run[fails[0]][0] / (2 * omega), T_STAB, omega, n=5)
+        edge = (lo, hi)
+    bad = [i for i, c in enumerate(run) if not c[2] <= ACC_LEVEL]
+    if bad and bad[0] > 0:
+        acc = run[bad[0]][0] / (2 * omega)
+    return (de, method, omega), {"col": col, "edge": edge, "acc": acc, "omega": omega}
 
 
 # --- part 4: sections ---------------------------------------------------------------------
@@ -218,7 +234,7 @@ def fine_crossings(t, x):
     xc = x[s] + w[:, None] * (x[s + 1] - x[s])
     keep = xc[:, 0] + xc[:, 1] > 0
     pth = xc[:, 0] * xc[:, 3] - xc[:, 1] * xc[:, 2]
-    return tc[keep], np.sign(pth[keep]).astype(int)
+    return tc[keep], np.sign(pth[keep]).astype(int), xc[keep]
 
 
 def match(ta, da, tb, db, tol):
@@ -290,7 +306,7 @@ def task_event_setting(args):
         return (de, method, h, solver, tol), {"code": exc.code}
     t, x = r["t"], r["state"]
     ct, cd = r["crossings"]["t"], r["crossings"]["direction"]
-    ft, fd = fine_crossings(t, x)
+    ft, fd, fx = fine_crossings(t, x)
     dt = t[1] - t[0]
     pairs, miss, spur = match(ft, fd, ct, cd, 2 * dt)
     coarse = event_run(x0, method, h, solver, tol, dt=T_EV)
@@ -300,7 +316,11 @@ def task_event_setting(args):
     step = int(round(max(h, DT_CMP) / dt))
     return (de, method, h, solver, tol), {
         "code": 0, "ct": ct, "cd": cd, "tg": t[::step], "xg": x[::step], "nsteps": r["nsteps"],
-        "det_missed": [float(ft[i]) for i in miss], "det_spurious": [float(ct[j]) for j in spur],
+        "det_missed": [(float(ft[i]), tubes.energy(fx[i]), float(fx[i, 0] * fx[i, 3] - fx[i, 1] * fx[i, 2]))
+                       for i in miss],
+        "det_spurious": [(float(ct[j]), tubes.energy(r["crossings"]["state"][j]), float(r["crossings"]["p_theta"][j]))
+                         for j in spur],
+        "e0": tubes.energy(x0),
         "det_dt": float(dt), "det_n": len(ft), "same": same,
         "tdiff_fine": float(max((abs(ft[i] - ct[j]) for i, j in pairs), default=0.0))}
 
@@ -399,6 +419,11 @@ def run_tasks(pool, fn, tasks, name):
     return out
 
 
+def code_name(code):
+    return {99: "energy > 1 / non-finite", tubes.ENOCONV: "ENOCONV", tubes.EMODEL: "EMODEL",
+            tubes.EMAXSTEPS: "EMAXSTEPS", tubes.ESTEP: "ESTEP"}.get(code, str(code))
+
+
 def fmt_h(h):
     if not np.isfinite(h):
         return "none"
@@ -493,11 +518,11 @@ def main():
     tao_om = dict(run_tasks(pool, task_tao_omega, [(de, m, om, h_tao) for de in DES
                                                    for m in ("tao2", "tao4", "tao6") for om in omegas],
                             "tao omega"))
-    print("part 3: Tao stability edge against omega ...", flush=True)
+    print("part 3: Tao stability map over (omega, 2 omega h) ...", flush=True)
     om_edge = 2.0 ** np.arange(0, 14)                     # 1 ... 8192 /s
-    tao_ed = dict(run_tasks(pool, task_tao_edge, [(de, m, om) for de in DES
-                                                  for m in ("tao2", "tao4", "tao6") for om in om_edge],
-                            "tao edge"))
+    map_tasks = sorted([(de, m, om) for de in DES for m in ("tao2", "tao4", "tao6") for om in om_edge],
+                       key=lambda a: -a[2] * {"tao2": 4, "tao4": 10, "tao6": 28}[a[1]])   # longest first
+    tao_ed = dict(run_tasks(pool, task_tao_map, map_tasks, "tao map"))
 
     # ---- part 4: events
     print("part 4: section U1, reference lists ...", flush=True)
@@ -549,9 +574,9 @@ def report(R, out):
             e = edges.get((de, method, solver, 0))
             acc[(de, method, solver)] = (h_acc, h_en, e)
             if e:
-                code = {99: "energy > 1 / non-finite", tubes.ENOCONV: "ENOCONV", tubes.EMODEL: "EMODEL"}.get(
-                    e["code"], str(e["code"]))
-                isl = f" (stable again at {', '.join(f'{f:g}x' for f in e['islands'])})" if e["islands"] else ""
+                code = code_name(e["code"])
+                isl = (" (no blow-up again at " + ", ".join(f"{f:g}x: dE/E {d:.1g}" for f, d in e["islands"]) + ")"
+                       if e["islands"] else "")
                 ed = f"{fmt_h(e['lo'])} - {fmt_h(e['hi'])}{isl}"
                 ed100 = f"{fmt_h(e['lo100'])} - {fmt_h(e['hi100'])}"
                 om = f"{2 * 200 * e['hi']:.2f}" if method.startswith("tao") else ""
@@ -560,6 +585,16 @@ def report(R, out):
             lines.append(f"| {label(method, solver)} | {de:.0f} | {fmt_h(h_acc)} | {fmt_h(h_en)} | {ed} | {code} | "
                          f"{ed100} | {om} |")
     tables["part1"] = "\n".join(lines)
+    lines = ["| dE | eigenvalues of J at the start [1/s] | rho(J(x0)) | max rho(J), 10 s orbit | rk4 edge (10 s) | "
+             "edge rho(J(x0)) | edge max rho(J) |", "|---|---|---|---|---|---|---|"]
+    for de in DES:
+        ev0 = np.linalg.eigvals(jacobian_fd(R["starts"][de]))
+        r0, rm = float(np.abs(ev0).max()), float(R["rho_j"][de].max())
+        e = edges[(de, "rk4", "-", 0)]
+        hm = np.sqrt(e["lo"] * e["hi"])
+        lines.append(f"| {de:.0f} | {', '.join(f'{v.real:+.2f}{v.imag:+.2f}i' for v in sorted(ev0, key=lambda v: (v.imag, v.real)))} | "
+                     f"{r0:.2f} | {rm:.2f} | {fmt_h(hm)} | {hm * r0:.2f} | {hm * rm:.2f} |")
+    tables["part1_rk4"] = "\n".join(lines)
 
     fig, axs = plt.subplots(2, 3, figsize=(16, 9.5), sharex=True)
     for col, de in enumerate(DES):
@@ -617,7 +652,8 @@ def report(R, out):
             for e, which in ((efp, 0), (enw, 1), (e1k, 1)):
                 if e:
                     hm = np.sqrt(e["lo"] * e["hi"])
-                    cells.append(f"{fmt_h(e['lo'])} - {fmt_h(e['hi'])}")
+                    cells.append(f"{fmt_h(e['lo'])} - {fmt_h(e['hi'])}" + ("" if e["code"] == tubes.ENOCONV else
+                                                                                 f" ({code_name(e['code'])})"))
                     if which == 0:
                         cells.append(f"{hm * rho_a[s] * rj:.2f}")
                     cells.append(f"{con_at(de, s, hm, which):.3g}")
@@ -699,24 +735,27 @@ def report(R, out):
                          f"{den[i200]:.2e} | {den[idn]:.2e}, {omegas[idn]:.0f} | "
                          + (f"{good.min():.0f} - {good.max():.0f} |" if len(good) else "none |"))
     tables["part3_omega"] = "\n".join(lines)
-    cmax = {"tao2": 1.0, "tao4": None, "tao6": None}
-    g4 = 1 / (2 - 2 ** (1 / 3))
-    g6 = 1 / (2 - 2 ** (1 / 5))
-    cmax["tao4"] = abs(1 - 2 * g4)
-    cmax["tao6"] = abs(1 - 2 * g4) * abs(1 - 2 * g6)
     lines = ["| method | dE | " + " | ".join(f"{om:.0f}" for om in om_edge) + " |",
              "|---|---|" + "---|" * len(om_edge)]
     for m in ("tao2", "tao4", "tao6"):
         for de in DES:
-            hh = np.array([np.sqrt(tao_ed[(de, m, om)]["lo"] * tao_ed[(de, m, om)]["hi"]) for om in om_edge])
+            cols = [tao_ed[(de, m, om)] for om in om_edge]
+            hh = np.array([np.sqrt(c["edge"][0] * c["edge"][1]) if c["edge"] else np.nan for c in cols])
+            ha = np.array([c["acc"] if c["acc"] else np.nan for c in cols])
             axs[2].loglog(om_edge, hh, lss[de], color=COLORS[m], marker=mk[de], ms=4, label=f"{m} dE={de:.0f}")
-            lines.append(f"| {m} h_edge [ms] | {de:.0f} | " + " | ".join(
-                f"{h * 1e3:.3g}" + ("*" if tao_ed[(de, m, om)]["islands"] else "") for h, om in zip(hh, om_edge)) + " |")
+            axs[2].loglog(om_edge, ha, lss[de], color=COLORS[m], marker=mk[de], ms=3, lw=0.6, mfc="none")
+            # above the edge: theta cells that run without blow-up, and those also accurate
+            isl = []
+            for c, h in zip(cols, hh):
+                above = [(th, code, d) for th, code, d in c["col"] if code != -999 and np.isfinite(h) and th > 2 * c["omega"] * h]
+                isl.append(sum(1 for a in above if a[1] == 0 and a[2] <= ACC_LEVEL))
+            lines.append(f"| {m} h_edge [ms] | {de:.0f} | " + " | ".join(f"{h * 1e3:.3g}" for h in hh) + " |")
             lines.append(f"| {m} 2 omega h_edge | {de:.0f} | " + " | ".join(f"{2 * om * h:.3g}" for h, om in zip(hh, om_edge)) + " |")
+            lines.append(f"| {m} 2 omega h, max dE/E > 1e-3 | {de:.0f} | " + " | ".join(
+                f"{2 * om * h:.3g}" for h, om in zip(ha, om_edge)) + " |")
+            lines.append(f"| {m} accurate cells above the edge | {de:.0f} | " + " | ".join(str(k) for k in isl) + " |")
     tables["part3_edge"] = "\n".join(lines)
-    tables["part3_cmax"] = ", ".join(f"{m} {c:.3f}" for m, c in cmax.items())
-    for m in ("tao2", "tao4", "tao6"):
-        axs[2].loglog(om_edge, np.pi / (2 * om_edge * cmax[m]), ":", color=COLORS[m], lw=1.5)
+    axs[2].loglog(om_edge, np.pi / (2 * om_edge), ":", color="k", lw=1.0)
     axs[0].axvline(200, color="k", lw=0.5, ls=":")
     axs[1].axvline(200, color="k", lw=0.5, ls=":")
     axs[0].set_xlabel("omega_bind [1/s]")
@@ -725,7 +764,7 @@ def report(R, out):
     axs[0].set_ylabel(f"relative error at t = 2 s (h = 1/{1 / h_tao:.0f} s)")
     axs[1].set_ylabel(f"max |E - E0|/E0 over 100 s (h = 1/{1 / h_tao:.0f} s)")
     axs[2].set_ylabel("stability edge h [s] (10 s run)")
-    axs[2].set_title("dotted: 2 omega h c_max = pi", fontsize=9)
+    axs[2].set_title("filled: blow-up edge; open: max dE/E (10 s) > 1e-3; dotted: 2 omega h = pi", fontsize=9)
     axs[0].legend(fontsize=6, ncol=3)
     axs[2].legend(fontsize=6, ncol=3)
     for ax in axs:
@@ -733,6 +772,43 @@ def report(R, out):
     fig.suptitle("Tao's binding constant omega: accuracy, long-time energy, stability edge", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     fig.savefig(out / "stability_tao.png", dpi=100)
+    plt.close(fig)
+
+    fig, axs = plt.subplots(3, 3, figsize=(15, 12), sharex=True, sharey=True)
+    from matplotlib.colors import ListedColormap
+    cmap = matplotlib.colormaps["viridis"].copy()
+    cmap.set_bad("white")
+    ex = np.log(om_edge)
+    xe = np.exp(np.concatenate([[ex[0] - 0.35], (ex[1:] + ex[:-1]) / 2, [ex[-1] + 0.35]]))
+    lt = np.log(THETA)
+    ye = np.exp(np.concatenate([[lt[0] - 0.1], (lt[1:] + lt[:-1]) / 2, [lt[-1] + 0.01]]))
+    for i, m in enumerate(("tao2", "tao4", "tao6")):
+        for j, de in enumerate(DES):
+            z = np.full((len(THETA), len(om_edge)), np.nan)
+            blow = np.zeros_like(z)
+            for k, om in enumerate(om_edge):
+                for r, (th, code, d) in enumerate(tao_ed[(de, m, om)]["col"]):
+                    if code == -999:
+                        continue
+                    if code != 0:
+                        blow[r, k] = 1
+                    else:
+                        z[r, k] = np.log10(max(d, 1e-12))
+            ax = axs[i, j]
+            pc = ax.pcolormesh(xe, ye, np.ma.masked_invalid(z), cmap=cmap, vmin=-9, vmax=0, shading="flat")
+            ax.pcolormesh(xe, ye, np.ma.masked_where(blow == 0, blow), cmap=ListedColormap(["red"]), shading="flat")
+            for kk in (1, 2):
+                ax.axhline(kk * np.pi, color="w", lw=0.6, ls=":")
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_title(f"{m}, dE = {de:.0f}", fontsize=9)
+            if i == 2:
+                ax.set_xlabel("omega_bind [1/s]")
+            if j == 0:
+                ax.set_ylabel("2 omega h")
+    fig.colorbar(pc, ax=axs, shrink=0.6, label="log10 max |E - E0|/E0 over 10 s (red: blow-up or failure; white: not run)")
+    fig.suptitle("Tao: stability map over (omega, 2 omega h); dotted lines at 2 omega h = pi, 2 pi", fontsize=10)
+    fig.savefig(out / "stability_tao_map.png", dpi=90)
     plt.close(fig)
 
     # ---------------- part 4
@@ -763,16 +839,17 @@ def report(R, out):
     tables["part4_ref"] = "\n".join(lines)
     tables["part4_bitwise"] = all(evref[de]["bitwise"] for de in DES)
 
-    lines = ["| setting | dE | steps | crossings in 50 s (ref) | agreement time T_div | window W = min(T_div, trust) | "
-             "matched in W | missed in W | spurious in W | max time error in W [s] | detector: crossings on own dense output | "
-             "detector missed | detector spurious |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| setting | dE | steps | crossings in 50 s (ref) | naive, whole trusted range: missed / spurious (of ref) | "
+             "T_div | W = min(T_div, trust) | matched in W | missed in W | spurious in W | max time error in W [s] | "
+             "detector: crossings on own dense output | detector missed | detector spurious |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     evsum = {}
     for (m, h, solver, tol) in settings:
         for de in DES:
             e = ev[(de, m, h, solver, tol)]
             name = f"dop853 tol {tol:.0e}" if m == "dop853" else f"{m} h 1/{1 / h:.0f}"
             if e["code"] != 0:
-                lines.append(f"| {name} | {de:.0f} | fails ({e['code']}) | | | | | | | | | | |")
+                lines.append(f"| {name} | {de:.0f} | fails ({e['code']}) | | | | | | | | | | | |")
                 continue
             r = evref[de]
             ig = np.round(e["tg"] / DT_CMP).astype(int)
@@ -783,11 +860,17 @@ def report(R, out):
             sel_m = e["ct"] < w - TAU
             pairs, ua, ub = match(r["ct"][sel_r], r["cd"][sel_r], e["ct"], e["cd"], TAU)
             pairs2, ua2, ub2 = match(e["ct"][sel_m], e["cd"][sel_m], r["ct"], r["cd"], TAU)
+            # naive: the whole trusted range, whatever the trajectory error
+            nr, nm = r["ct"] < trust[de] - TAU, e["ct"] < trust[de] - TAU
+            _, na, _ = match(r["ct"][nr], r["cd"][nr], e["ct"], e["cd"], TAU)
+            _, ns, _ = match(e["ct"][nm], e["cd"][nm], r["ct"], r["cd"], TAU)
             terr = max((abs(r["ct"][sel_r][i] - e["ct"][j]) for i, j in pairs), default=0.0)
             evsum[(de, m, h, tol)] = dict(n=len(e["ct"]), tdiv=tdiv, w=w, matched=len(pairs), missed=len(ua),
                                           spurious=len(ua2), terr=terr, dmiss=len(e["det_missed"]),
-                                          dspur=len(e["det_spurious"]), same=e["same"], nref=len(r["ct"]))
-            lines.append(f"| {name} | {de:.0f} | {e['nsteps']} | {len(e['ct'])} ({len(r['ct'])}) | {tdiv:.2f} s | {w:.2f} s | "
+                                          dspur=len(e["det_spurious"]), same=e["same"], nref=len(r["ct"]),
+                                          nmiss=len(na), nspur=len(ns), nref_t=int(nr.sum()))
+            lines.append(f"| {name} | {de:.0f} | {e['nsteps']} | {len(e['ct'])} ({len(r['ct'])}) | "
+                         f"{len(na)} / {len(ns)} ({int(nr.sum())}) | {tdiv:.2f} s | {w:.2f} s | "
                          f"{len(pairs)} | {len(ua)} | {len(ua2)} | {terr:.1e} | {e['det_n']} (dt {e['det_dt']:.2g} s) | "
                          f"{len(e['det_missed'])} | {len(e['det_spurious'])} |")
     tables["part4"] = "\n".join(lines)
@@ -796,9 +879,12 @@ def report(R, out):
     for (de, m, h, solver, tol), e in ev.items():
         if e.get("code", 1) == 0 and (e["det_missed"] or e["det_spurious"]):
             name = f"dop853 tol {tol:.0e}" if m == "dop853" else f"{m} h 1/{1 / h:.0f}"
-            det_notes.append(f"- {name}, dE = {de:.0f}: detector missed at t = "
-                             f"{', '.join(f'{t:.4f}' for t in e['det_missed']) or '-'}; spurious at "
-                             f"{', '.join(f'{t:.4f}' for t in e['det_spurious']) or '-'}")
+            allm = e["det_missed"] + e["det_spurious"]
+            det_notes.append(
+                f"- {name}, dE = {de:.0f}: {len(e['det_missed'])} missed and {len(e['det_spurious'])} spurious, "
+                f"all at t >= {min(a[0] for a in allm):.2f} s, where E = {min(a[1] for a in allm):.4f} to "
+                f"{max(a[1] for a in allm):.4f} (cm/s)^2 (E0 = {e['e0']:.1f}) and |p_theta| <= "
+                f"{max(abs(a[2]) for a in allm):.1e} cm^2/s")
     tables["part4_det"] = "\n".join(det_notes) if det_notes else "- none"
 
     fig, axs = plt.subplots(1, 3, figsize=(17, 5.2))

@@ -273,7 +273,10 @@ contains
     subroutine area_of(a, info)
       real(wp), intent(out) :: a
       integer, intent(out) :: info
-      info = spline_area(size(tau), tau, pcs(1, :), pcs(3, :), orb%period, a)
+      real(wp) :: rr(size(tau)), pp(size(tau))
+      rr = pcs(1, :)      ! contiguous copies for the C side
+      pp = pcs(3, :)
+      info = spline_area(size(tau), tau, rr, pp, orb%period, a)
     end subroutine area_of
   end subroutine tube_cut
 

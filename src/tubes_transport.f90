@@ -171,33 +171,39 @@ contains
     real(wp), intent(out) :: pts(2, n_iter, size(x0, 2))
     integer, intent(out) :: stat
     integer :: j, st(size(x0, 2))
+    !$omp parallel do schedule(dynamic) default(shared) private(j)
+    do j = 1, size(x0, 2)
+      call one_map(ball, theta0, branch, x0(:, j), n_iter, t_max, tol, pts(:, :, j), st(j))
+    end do
+    !$omp end parallel do
+    stat = min(0, minval(st))
+  end subroutine poincare_map
+
+  !> The returns of one trajectory (all locals: thread-private by construction).
+  subroutine one_map(ball, theta0, branch, x0, n_iter, t_max, tol, pts, stat)
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+    type(ball_t), intent(in) :: ball
+    real(wp), intent(in) :: theta0, x0(4), t_max, tol
+    integer, intent(in) :: branch, n_iter
+    real(wp), intent(out) :: pts(2, n_iter)
+    integer, intent(out) :: stat
     type(crossing_log_t) :: log
     type(dop853_t) :: ig
     real(wp) :: x(4), pc(4)
     integer :: k
-    pts = ieee_nan()
-    !$omp parallel do schedule(dynamic) default(shared) private(j, log, ig, x, pc, k)
-    do j = 1, size(x0, 2)
-      call ig%init(ball, 0.0_wp)
-      ig%rtol = tol
-      ig%atol = tol
-      ig%max_steps = 100000000
-      x = x0(:, j)
-      log%max_crossings = n_iter
-      call propagate(ig, x, t_max, st(j), event=theta_line_t(theta0=theta0, branch=branch, &
-                     terminal=.false.), crossings=log)
-      if (st(j) == TUBES_EVENT) st(j) = TUBES_OK
-      do k = 1, min(log%n, n_iter)
-        pc = polar_canonical(log%x(:, k))
-        pts(:, k, j) = [pc(1), pc(3)]
-      end do
+    pts = ieee_value(1.0_wp, ieee_quiet_nan)
+    call ig%init(ball, 0.0_wp)
+    ig%rtol = tol
+    ig%atol = tol
+    ig%max_steps = 100000000
+    x = x0
+    log%max_crossings = n_iter
+    call propagate(ig, x, t_max, stat, event=theta_line_t(theta0=theta0, branch=branch, &
+                   terminal=.false.), crossings=log)
+    if (stat == TUBES_EVENT) stat = TUBES_OK
+    do k = 1, min(log%n, n_iter)
+      pc = polar_canonical(log%x(:, k))
+      pts(:, k) = [pc(1), pc(3)]
     end do
-    !$omp end parallel do
-    stat = min(0, minval(st))
-  contains
-    pure real(wp) function ieee_nan()
-      use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-      ieee_nan = ieee_value(1.0_wp, ieee_quiet_nan)
-    end function ieee_nan
-  end subroutine poincare_map
+  end subroutine one_map
 end module tubes_transport

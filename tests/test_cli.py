@@ -185,8 +185,11 @@ def test_docs_cover_every_variable_and_dataset(tmp_path, tubes_exe):
     assert len(names) >= 20
     for n in names:
         assert f"`{n}`" in doc, f"namelist variable {n} missing from docs/input.md"
-    (tmp_path / "all.nml").write_text("&run scenes = 'equilibria', 'trajectory', 'orbits' /\n"
-                                      "&trajectory t_end = 3, section = 'U1' /\n&orbits de = 1, 800 /\n")
+    (tmp_path / "all.nml").write_text("&run scenes = 'equilibria', 'trajectory', 'orbits', 'tubes', "
+                                      "'transition', 'montecarlo', 'sections' /\n"
+                                      "&trajectory t_end = 3, section = 'U1' /\n&orbits de = 1, 800 /\n"
+                                      "&tubes de = 10, kind = 'both', area_tol = 1e-6 /\n&transition de = 10 /\n"
+                                      "&montecarlo n_samples = 50 /\n&sections de = 100, n_seeds = 2, n_iter = 3 /\n")
     assert run_tubes(["all.nml", "-o", "a.h5"], tmp_path).returncode == 4   # 800: past the end
     out = (ROOT / "docs" / "output.md").read_text()
     seen = []
@@ -195,5 +198,5 @@ def test_docs_cover_every_variable_and_dataset(tmp_path, tubes_exe):
         for obj in [f] + [f[k] for k in seen]:
             seen += list(obj.attrs)
     import re
-    for name in set(re.sub(r"orbit_\d+$", "orbit_<kkk>", s.split("/")[-1]) for s in seen) - {"units"}:
+    for name in set(re.sub(r"_\d{3}$", "_<kkk>", s.split("/")[-1]) for s in seen) - {"units"}:
         assert f"`{name}`" in out or f"`/{name}`" in out, f"HDF5 object {name} missing from docs/output.md"

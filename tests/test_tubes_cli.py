@@ -1,0 +1,81 @@
+"""Tube dynamics scenes through the executable: A_E against an estimate that uses only the
+energy function, p_trans's leading order, the Monte Carlo check, identical output for 1 and 2
+threads, and the Poincare maps."""
+import os
+import subprocess
+
+import h5py
+import numpy as np
+
+import tubes
+from conftest import TUBES, run_tubes
+
+
+def tubes_path():
+    return str(TUBES)
+
+NML = ("&run scenes = 'tubes', 'transition', 'montecarlo', 'sections' /\n"
+       "&tubes de = 100 /\n&transition de = 2, 100 /\n&montecarlo n_samples = 2000 /\n"
+       "&sections de = 100, n_seeds = 6, n_iter = 20 /\n")
+
+
+def _run(tmp_path, nthreads, name):
+    (tmp_path / "t.nml").write_text(NML)
+    env = dict(os.environ, OMP_NUM_THREADS=str(nthreads))
+    r = subprocess.run([tubes_path(), "t.nml", "-o", name],
+                       cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    return r
+
+
+def test_scenes_and_independent_checks(tmp_path, tubes_exe):
+    r = _run(tmp_path, 2, "a.h5")
+    with h5py.File(tmp_path / "a.h5") as f:
+        sec = f["section"].attrs
+        # A_E at dE = 100 by sampling: (r, p_r) is in the region iff min over p_theta of the
+        # energy (a parabola in p_theta: three evaluations give it exactly) is <= E
+        tr = f["transition"]
+        k = list(tr["dE"][:]).index(100.0)
+        a_e = tr["A_E"][k]
+        cut = f["tubes/stable_000"]
+        e = tubes.energy(cut["state"][0])          # the cut's points lie on the energy surface
+        rng = np.random.default_rng(3)
+        n = 20000
+        rs = rng.uniform(sec["r_min"] - 0.5, sec["r_max"] + 0.5, n)
+        prs = rng.uniform(-70.0, 70.0, n)
+        c = np.sqrt(0.5)
+        inside = 0
+        for rr, pp in zip(rs, prs):
+            def en(pt):
+                return tubes.energy([rr * c, rr * c, c * pp - c * pt / rr, c * pp + c * pt / rr])
+            e0, ep, em = en(0.0), en(1.0), en(-1.0)
+            a2 = (ep + em - 2 * e0) / 2
+            b = (ep - em) / 2
+            inside += (e0 - b * b / (4 * a2)) <= e
+        box = (sec["r_max"] - sec["r_min"] + 1.0) * 140.0
+        est = box * inside / n
+        se = box * np.sqrt(inside / n * (1 - inside / n) / n)
+        assert abs(est - a_e) < 4 * se, (est, a_e, se)
+        # the tube cut's area equals the orbit's action; eps/10 changes it negligibly
+        assert abs(cut.attrs["area"] / cut.attrs["action"] - 1) < 1e-8
+        assert cut.attrs["area_eps_change"] < 1e-8 * cut.attrs["area"]
+        # p_trans -> the leading-order formula as dE -> 0 (at dE = 2 the O(dE^2) term is ~1e-3 of it)
+        p, pl = tr["p_trans"][0], tr["p_trans_leading"][0]
+        assert abs(p / pl - 1) < 1e-3
+        assert abs(sec["growth_rate"] - sec["T_po"] / sec["A0"]) < 1e-15
+        mc = f["montecarlo"].attrs
+        assert abs(mc["fraction"] - mc["p_trans"]) < 4 * mc["std_error"]
+        assert mc["misclassified"] == 0
+        pts = f["sections/map_000/points"][:]
+        assert pts.shape == (6, 20, 2) and np.isfinite(pts).all()
+        assert np.all(pts[:, :, 0] > sec["r_min"] - 1)   # returns lie on the section's region
+
+
+def test_identical_for_1_and_2_threads(tmp_path, tubes_exe):
+    _run(tmp_path, 1, "one.h5")
+    _run(tmp_path, 2, "two.h5")
+    with h5py.File(tmp_path / "one.h5") as f1, h5py.File(tmp_path / "two.h5") as f2:
+        for d in ["tubes/stable_000/r", "tubes/stable_000/p_r", "transition/A_tube", "transition/p_trans",
+                  "montecarlo/transit", "montecarlo/r", "sections/map_000/points"]:
+            assert np.array_equal(f1[d][:], f2[d][:], equal_nan=True), d
+        assert f1["montecarlo"].attrs["fraction"] == f2["montecarlo"].attrs["fraction"]
