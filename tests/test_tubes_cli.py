@@ -79,3 +79,11 @@ def test_identical_for_1_and_2_threads(tmp_path, tubes_exe):
                   "montecarlo/transit", "montecarlo/r", "sections/map_000/points"]:
             assert np.array_equal(f1[d][:], f2[d][:], equal_nan=True), d
         assert f1["montecarlo"].attrs["fraction"] == f2["montecarlo"].attrs["fraction"]
+
+
+def test_tube_plots(tmp_path, tubes_exe):
+    _run(tmp_path, 2, "p.h5")
+    from tubes import plots
+    assert plots.main([str(tmp_path / "p.h5"), "-o", str(tmp_path / "fig")]) == 0
+    for name in ["section_dE100.png", "p_trans.png", "tube_trajectories.png"]:
+        assert (tmp_path / "fig" / name).stat().st_size > 10_000, name

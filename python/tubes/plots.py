@@ -89,6 +89,150 @@ def plot_orbit_properties(res, path):
     plt.close(fig)
 
 
+def _ray(res):
+    sec = res.section.attrs
+    th = sec["angle"]
+    return sec, np.cos(th), np.sin(th)
+
+
+def energy_boundary(res, de, n=600):
+    """The energy surface's boundary on the section at E_e + dE: r and +-p_r (numpy, from /model)."""
+    sec, c, s = _ray(res)
+    m, g = res.model, res.model.attrs["g"]
+    r = np.linspace(0.01, 30, 30000)
+    V = g * surface_height(m, r * c, r * s)
+    a, b, gam, xi = (m.attrs[k] for k in ("alpha", "beta", "gamma", "xi"))
+    x, y = r * c, r * s
+    hx = 2 * a * x - b * x / np.sqrt(x * x + gam) - xi * y
+    hy = 2 * a * y - b * y / np.sqrt(y * y + gam) - xi * x
+    hr = c * hx + s * hy
+    gap = sec["E_e"] + de - V
+    ok = gap >= 0
+    # the connected interval around the well on the ray
+    iw = np.argmin(np.where(r > 1, V, np.inf))
+    lo = iw
+    while lo > 0 and ok[lo - 1]:
+        lo -= 1
+    hi = iw
+    while hi < len(r) - 1 and ok[hi + 1]:
+        hi += 1
+    rr = r[lo:hi + 1]
+    p = np.sqrt(np.maximum(0, 14 / 5 * gap[lo:hi + 1] * (1 + hr[lo:hi + 1] ** 2)))
+    return np.concatenate([rr, rr[::-1]]), np.concatenate([p, -p[::-1]])
+
+
+def plot_sections(res, outdir):
+    """Poincare maps with the tube cut (when computed at the same dE) and the energy boundary."""
+    plt = _mpl()
+    paths = []
+    for name in sorted(k for k in res.sections.keys() if k.startswith("map_")):
+        m = getattr(res.sections, name)
+        de = m.attrs["dE"]
+        pts = m.points
+        fig, ax = plt.subplots(figsize=(6.5, 5.5))
+        ax.plot(pts[:, :, 0].ravel(), pts[:, :, 1].ravel(), ",", color="k", alpha=0.6)
+        br, bp = energy_boundary(res, de)
+        ax.plot(br, bp, color="m", lw=1.2, label="energy surface boundary")
+        if "tubes" in res:
+            for k in res.tubes.keys():
+                cut = getattr(res.tubes, k)
+                if k.startswith("stable") and abs(cut.attrs["dE"] - de) < 1e-9:
+                    ax.fill(cut.r, cut.p_r, color="c", alpha=0.5, label="stable tube (transition)")
+                    ax.plot(np.append(cut.r, cut.r[0]), np.append(cut.p_r, cut.p_r[0]), "b", lw=1)
+        ax.set_xlabel("r [cm]")
+        ax.set_ylabel("p_r [cm/s]")
+        ax.set_title(f"Poincare section U1^- at dE = {de:g} (cm/s)^2")
+        ax.legend(fontsize=8, loc="upper right")
+        fig.tight_layout()
+        p = pathlib.Path(outdir) / f"section_dE{de:g}.png"
+        fig.savefig(p, dpi=130)
+        plt.close(fig)
+        paths.append(p)
+    return paths
+
+
+def plot_transition(res, path):
+    """p_trans(dE) = A_tube / A_E beside the leading-order formula (and the Monte Carlo point)."""
+    plt = _mpl()
+    tr = res.transition
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    ax.plot(tr.dE, tr.p_trans, "o-", label="A_tube / A_E (tubes)")
+    ax.plot(tr.dE, tr.p_trans_leading, "--", label="(T_po/A0) dE (1 - tau dE/A0)")
+    if "montecarlo" in res:
+        mc = res.montecarlo.attrs
+        ax.errorbar([mc["dE"]], [mc["fraction"]], yerr=[2 * mc["std_error"]], fmt="s", color="r", capsize=3,
+                    label=f"Monte Carlo ({mc['n_samples']} points, 2 s.e.)")
+    ax.set_xlabel("dE [(cm/s)^2]")
+    ax.set_ylabel("transition fraction")
+    ax.legend(fontsize=8)
+    ax.grid(True, lw=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+def plot_tube_trajectories(res, path):
+    """The stable tube of the first cut and two trajectories from the section, one inside the cut
+    (transition) and one outside, in (x, y) and in (x, y, v_y) (tubes.integrate)."""
+    from . import Model, integrate, velocity
+    plt = _mpl()
+    m = res.model.attrs
+    model = Model(alpha=m["alpha"], beta=m["beta"], gamma=m["gamma"], xi=m["xi"], h0=m["h0"], g=m["g"])
+    name = sorted(k for k in res.tubes.keys() if k.startswith("stable"))[0]
+    cut = getattr(res.tubes, name)
+    de = cut.attrs["dE"]
+    fig = plt.figure(figsize=(12, 5.5))
+    ax1 = fig.add_subplot(1, 2, 1)
+    ax2 = fig.add_subplot(1, 2, 2, projection="3d")
+    idx = np.linspace(0, len(cut.r) - 1, 60).astype(int)
+    for i in idx:      # the manifold's trajectories from the cut to the orbit (forward in time)
+        tr = integrate(cut.state[i], -cut.time[i], dt_out=0.01, model=model)
+        v = np.array([velocity(z, model) for z in tr["state"]])
+        ax1.plot(tr["state"][:, 0], tr["state"][:, 1], color="c", lw=0.4)
+        ax2.plot(tr["state"][:, 0], tr["state"][:, 1], v[:, 1], color="c", lw=0.4)
+    # two trajectories: inside and outside the cut
+    rc = np.mean(cut.r)
+    pin = np.mean(cut.p_r)
+    sec, c, s = _ray(res)
+    for (rr, pp, col, lab) in [(rc, pin, "r", "inside: transition"),
+                               (rc, np.max(cut.p_r) + 0.3 * (np.max(cut.p_r) - np.min(cut.p_r)), "b",
+                                "outside: no transition")]:
+        # p_theta > 0 from the energy: solve (5/14) p^T M^-1 p = E - V on the diagonal (H_t = 0)
+        x, y = rr * c, rr * s
+        from . import energy
+        e_target = energy(cut.state[0], model)
+
+        def en(pt):
+            return energy([x, y, c * pp - s * pt / rr, s * pp + c * pt / rr], model)
+        lo, hi = 0.0, 1.0
+        while en(hi) < e_target:
+            hi *= 2
+        for _ in range(80):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if en(mid) < e_target else (lo, mid)
+        z0 = [x, y, c * pp - s * lo / rr, s * pp + c * lo / rr]
+        tr = integrate(z0, 3.0, dt_out=0.005, model=model)
+        v = np.array([velocity(z, model) for z in tr["state"]])
+        ax1.plot(tr["state"][:, 0], tr["state"][:, 1], color=col, lw=1.2, label=lab)
+        ax2.plot(tr["state"][:, 0], tr["state"][:, 1], v[:, 1], color=col, lw=1.2)
+    X, Y = np.meshgrid(np.linspace(-9, 12, 300), np.linspace(-2, 14, 300))
+    ax1.contour(X, Y, m["g"] * surface_height(res.model, X, Y), levels=[sec["E_e"] + de], colors="k", linewidths=0.8)
+    ax1.plot([0, 14 * c], [0, 14 * s], "k--", lw=0.6, label="U1")
+    ax1.set_xlim(-9, 12)
+    ax1.set_ylim(-2, 14)
+    ax1.set_aspect("equal")
+    ax1.set_xlabel("x [cm]")
+    ax1.set_ylabel("y [cm]")
+    ax1.legend(fontsize=7)
+    ax1.set_title(f"stable tube at dE = {de:g} and two trajectories")
+    ax2.set_xlabel("x")
+    ax2.set_ylabel("y")
+    ax2.set_zlabel("v_y [cm/s]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m tubes.plots", description=__doc__.splitlines()[0])
     ap.add_argument("result", help="a tubes HDF5 output file")
@@ -102,6 +246,14 @@ def main(argv=None):
         for name, fn in [("orbit_family.png", plot_orbit_family), ("orbit_properties.png", plot_orbit_properties)]:
             fn(res, out / name)
             written.append(out / name)
+    if "sections" in res and "section" in res:
+        written += plot_sections(res, out)
+    if "transition" in res:
+        plot_transition(res, out / "p_trans.png")
+        written.append(out / "p_trans.png")
+    if "tubes" in res and "section" in res:
+        plot_tube_trajectories(res, out / "tube_trajectories.png")
+        written.append(out / "tube_trajectories.png")
     for p in written:
         print(p)
     if not written:

@@ -419,6 +419,8 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
   e |= h5_attr_double(g, "tau", tau);
   e |= h5_attr_double(g, "growth_rate", tpo / a0);
   e |= h5_attr_double(g, "T_po", tpo);
+  e |= h5_attr_double(g, "E_e", ee);
+  e |= h5_attr_string(g, "saddle", c->orb_saddle);
   e |= h5_attr_double(g, "r_min", rmin);
   e |= h5_attr_double(g, "r_max", rmax);
   H5Gclose(g);
