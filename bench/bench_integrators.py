@@ -66,8 +66,8 @@ def run_tubes(method, **kw):
 
 def reference():
     if hasattr(tubes, "reference_solution"):
-        x = tubes.reference_solution(X0, T_END, tol=1e-26)
-        return np.asarray(x), "real128 (tubes.reference_solution, tol 1e-26)", 0.0
+        x = tubes.reference_solution(X0, T_END, tol=1e-28)
+        return np.asarray(x), "real128 DOP853 (tubes.reference_solution, tol 1e-28: relative error 5e-25, docs/events.md)", 0.0
     import heyoka as hy
     ta = hy.taylor_adaptive(heyoka_system(), X0.copy(), tol=1e-16)
     ta.propagate_until(T_END)
@@ -101,6 +101,10 @@ def work_precision(ref):
                 kw["solver"] = "fixed_point"
             sec, (x, nf) = best_of(lambda: run_tubes(m, **kw), 2)
             add(f"h 1/{round(1 / h)}", m, x, sec, nf)
+    for m in ["gsl_rk8pd", "cvode_adams", "arkode_erk8"]:
+        for tol in [1e-6, 1e-8, 1e-10, 1e-12, 1e-14]:
+            sec, (x, nf) = best_of(lambda: run_tubes(m, rtol=tol, atol=tol), 2)
+            add(f"tol {tol:.0e}", m, x, sec, nf)
     from scipy.integrate import solve_ivp
     for tol in [1e-6, 1e-8, 1e-10, 1e-12]:
         sec, sol = best_of(lambda: solve_ivp(numpy_rhs, (0, T_END), X0, method="DOP853", rtol=tol, atol=tol), 1)

@@ -185,7 +185,7 @@ def task_tao_omega(args):
 
 
 THETA = np.concatenate([np.logspace(-3, 0, 31)[:-1], np.arange(1.0, 8.0001, 0.1)])  # 2 omega h
-H_MAP = (4e-5, 0.5)    # [s] map cells with h outside this range are not run
+H_MAP = (1e-4, 0.5)    # [s] map cells with h outside this range are not run (cost)
 
 
 def task_tao_map(args):
@@ -417,6 +417,18 @@ def run_tasks(pool, fn, tasks, name):
         if (i + 1) % step == 0 or i + 1 == n:
             print(f"  {name}: {i + 1}/{n} ({time.perf_counter() - t0:.1f} s)", flush=True)
     return out
+
+
+def theta_fwd(th):
+    """Map axis: log10(theta) below 1, linear (stretched) above."""
+    th = np.asarray(th, float)
+    with np.errstate(all="ignore"):
+        return np.where(th < 1, np.log10(np.maximum(th, 1e-30)), (th - 1) * 0.6)
+
+
+def theta_inv(y):
+    y = np.asarray(y, float)
+    return np.where(y < 0, 10.0 ** np.minimum(y, 0), y / 0.6 + 1)
 
 
 def code_name(code):
@@ -780,8 +792,8 @@ def report(R, out):
     cmap.set_bad("white")
     ex = np.log(om_edge)
     xe = np.exp(np.concatenate([[ex[0] - 0.35], (ex[1:] + ex[:-1]) / 2, [ex[-1] + 0.35]]))
-    lt = np.log(THETA)
-    ye = np.exp(np.concatenate([[lt[0] - 0.1], (lt[1:] + lt[:-1]) / 2, [lt[-1] + 0.01]]))
+    lt = theta_fwd(THETA)
+    ye = theta_inv(np.concatenate([[lt[0] - 0.05], (lt[1:] + lt[:-1]) / 2, [lt[-1] + 0.03]]))
     for i, m in enumerate(("tao2", "tao4", "tao6")):
         for j, de in enumerate(DES):
             z = np.full((len(THETA), len(om_edge)), np.nan)
@@ -800,7 +812,9 @@ def report(R, out):
             for kk in (1, 2):
                 ax.axhline(kk * np.pi, color="w", lw=0.6, ls=":")
             ax.set_xscale("log")
-            ax.set_yscale("log")
+            ax.set_yscale("function", functions=(theta_fwd, theta_inv))
+            ax.set_yticks([1e-3, 1e-2, 0.1, 1, 2, 3, 4, 5, 6, 7, 8])
+            ax.set_yticklabels(["1e-3", "1e-2", "0.1", "1", "2", "3", "4", "5", "6", "7", "8"])
             ax.set_title(f"{m}, dE = {de:.0f}", fontsize=9)
             if i == 2:
                 ax.set_xlabel("omega_bind [1/s]")

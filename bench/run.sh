@@ -1,5 +1,15 @@
 #!/usr/bin/env bash
-# make bench: benchmarks measured in one run on this machine; writes docs/benchmarks.md.
+# make bench: benchmarks measured in one run on this machine; results into docs/benchmarks.md and
+# charts into docs/. Installs the bench-only peer heyoka into .venv when missing.
 set -eu
 cd "$(dirname "$0")/.."
-OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/bench_dop853.py "$@"
+if ! .venv/bin/python -c 'import heyoka' 2>/dev/null; then
+  echo "bench: installing heyoka (bench-only) into .venv"
+  .venv/bin/pip install --quiet heyoka
+fi
+export OPENBLAS_NUM_THREADS=1
+OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python bench/bench_dop853.py
+OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python bench/bench_integrators.py
+.venv/bin/python bench/bench_tubes.py
+if [ -f bench/bench_stability.py ]; then .venv/bin/python bench/bench_stability.py; fi
+echo "bench: results in docs/benchmarks.md"

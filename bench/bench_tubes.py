@@ -1,0 +1,70 @@
+"""Tube benchmarks (make bench): time to a converged tube cut at dE = 100 with 1 and 2 OpenMP
+threads (parallel efficiency), and Monte Carlo trajectories per second. Runs the executable."""
+import datetime
+import os
+import pathlib
+import subprocess
+import tempfile
+import time
+
+import h5py
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+
+def run(nml, threads):
+    with tempfile.TemporaryDirectory() as d:
+        p = pathlib.Path(d)
+        (p / "b.nml").write_text(nml)
+        env = dict(os.environ, OMP_NUM_THREADS=str(threads), OPENBLAS_NUM_THREADS="1")
+        best = 1e9
+        for _ in range(3):
+            t0 = time.perf_counter()
+            subprocess.run([str(ROOT / "tubes"), "b.nml", "-o", "b.h5"], cwd=p, env=env, check=True,
+                           capture_output=True)
+            best = min(best, time.perf_counter() - t0)
+        with h5py.File(p / "b.h5") as f:
+            info = {k: f[k] for k in f}
+            attrs = {}
+            if "tubes" in f:
+                g = f["tubes/stable_000"]
+                attrs = {"n": g["r"].shape[0], "area_err": abs(g.attrs["area"] / g.attrs["action"] - 1)}
+            if "montecarlo" in f:
+                attrs = dict(f["montecarlo"].attrs)
+        return best, attrs
+
+
+def main():
+    lines = ["<!-- bench_tubes begin -->", "## Tubes and Monte Carlo", "",
+             f"Measured {datetime.date.today().isoformat()} by `make bench` (bench/bench_tubes.py): best of 3 runs of "
+             "the executable (which includes the orbit continuation and, for the tube, the eps/10 repetition).", ""]
+    tube = "&run scenes = 'tubes' /\n&tubes de = 100, area_tol = 1e-10 /\n"
+    t1, a1 = run(tube, 1)
+    t2, a2 = run(tube, 2)
+    lines += ["| run | 1 thread [s] | 2 threads [s] | speed-up | parallel efficiency |", "|---|---|---|---|---|",
+              f"| tube cut at dE = 100 to area_tol 1e-10 ({a1['n']} seeds, twice: eps and eps/10; area/action - 1 = "
+              f"{a1['area_err']:.1e}) | {t1:.2f} | {t2:.2f} | {t1 / t2:.2f} | {t1 / t2 / 2:.0%} |"]
+    mc = "&run scenes = 'montecarlo' /\n&montecarlo de = 100, n_samples = 20000 /\n"
+    base = "&run scenes = 'montecarlo' /\n&montecarlo de = 100, n_samples = 1 /\n"
+    m1, _ = run(mc, 1)
+    m2, attrs = run(mc, 2)
+    b1, _ = run(base, 1)
+    b2, _ = run(base, 2)
+    lines += [f"| Monte Carlo, 20000 points at dE = 100 (fraction {attrs['fraction']:.4f} +- {attrs['std_error']:.4f}) "
+              f"| {m1:.2f} | {m2:.2f} | {m1 / m2:.2f} | {m1 / m2 / 2:.0%} |", "",
+              f"Monte Carlo throughput (the tube cut and set-up, {b1:.2f} s, subtracted): "
+              f"{20000 / max(m1 - b1, 1e-9):,.0f} trajectories/s with 1 thread, "
+              f"{20000 / max(m2 - b2, 1e-9):,.0f} with 2.", "<!-- bench_tubes end -->", ""]
+    for ln in lines:
+        print(ln)
+    md = ROOT / "docs" / "benchmarks.md"
+    text = md.read_text()
+    if "<!-- bench_tubes begin -->" in text:
+        text = text.split("<!-- bench_tubes begin -->")[0] + "\n".join(lines) + text.split("<!-- bench_tubes end -->")[1]
+    else:
+        text = text.rstrip() + "\n\n" + "\n".join(lines)
+    md.write_text(text)
+
+
+if __name__ == "__main__":
+    main()
