@@ -55,7 +55,7 @@ T_BIN   := $(patsubst tests/%.f90,$(BUILD)/tests/%,$(T_F_SRC)) $(patsubst tests/
 
 PYEXT_STAMP := $(BUILD)/pyext.stamp
 
-.PHONY: all deps check tests lint bench docs clean install python
+.PHONY: all deps check tests lint bench docs clean install python paper
 all: tubes $(LIB) python
 
 # ---------------------------------------------------------------- dependencies
@@ -133,6 +133,11 @@ lint:
 
 bench: all
 	@bash bench/run.sh
+
+# The paper's results and figures: figures/*.png from build/paper.h5 (docs/paper.md).
+paper: all
+	./tubes input/paper.nml -o build/paper.h5
+	$(VENV)/bin/python -m tubes.figures build/paper.h5 -o figures
 
 docs:
 	@$(VENV)/bin/python -c 'import ford' 2>/dev/null || { echo "docs: installing FORD into $(VENV)"; \

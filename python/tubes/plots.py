@@ -233,6 +233,36 @@ def plot_tube_trajectories(res, path):
     plt.close(fig)
 
 
+def plot_surface(res, path):
+    """The surface H with the energetically permitted regions (white) below and above the
+    saddle energy: dE = -100 and +100 (cm/s)^2 (the paper's Fig. 1(b, c))."""
+    plt = _mpl()
+    g = res.model.attrs["g"]
+    e_e = res.saddle.attrs["energy"] if "saddle" in res else res.section.attrs["E_e"]
+    X, Y = np.meshgrid(np.linspace(-13, 13, 500), np.linspace(-13, 13, 500))
+    V = g * surface_height(res.model, X, Y)
+    fig, axs = plt.subplots(1, 3, figsize=(15, 4.8))
+    cs = axs[0].contour(X, Y, surface_height(res.model, X, Y), levels=25, cmap="viridis", linewidths=0.8)
+    axs[0].clabel(cs, fontsize=6)
+    if "equilibria" in res:
+        eq = res.equilibria
+        for x, y, n in zip(eq.x, eq.y, eq.name):
+            axs[0].plot(x, y, "k+" if n.startswith("S") else ("kx" if n.startswith("R") else "ko"), ms=6)
+            axs[0].annotate(n, (x, y), fontsize=7, xytext=(3, 3), textcoords="offset points")
+    axs[0].set_title("H(x, y) [cm] and the equilibria")
+    for ax, de in zip(axs[1:], (-100.0, 100.0)):
+        ax.contourf(X, Y, (V > e_e + de).astype(float), levels=[0.5, 1.5], colors=["0.35"])
+        ax.contour(X, Y, V, levels=[e_e + de], colors="k", linewidths=0.8)
+        ax.set_title(f"permitted region (white), dE = {de:+g} (cm/s)^2")
+    for ax in axs:
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [cm]")
+        ax.set_ylabel("y [cm]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m tubes.plots", description=__doc__.splitlines()[0])
     ap.add_argument("result", help="a tubes HDF5 output file")
@@ -242,6 +272,9 @@ def main(argv=None):
     out = pathlib.Path(args.outdir)
     out.mkdir(parents=True, exist_ok=True)
     written = []
+    if "equilibria" in res or "section" in res:
+        plot_surface(res, out / "surface.png")
+        written.append(out / "surface.png")
     if "orbits" in res:
         for name, fn in [("orbit_family.png", plot_orbit_family), ("orbit_properties.png", plot_orbit_properties)]:
             fn(res, out / name)
