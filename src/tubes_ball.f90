@@ -12,6 +12,7 @@ module tubes_ball
   private
 
   real(wp), parameter, public :: ROLL = 5.0_wp/7.0_wp  !! v = ROLL M^-1 p for a solid sphere
+  real(wp), parameter, public :: MAX_RADIUS = 1.0e6_wp  !! |x| + |y| beyond this is refused [cm]
 
   !> Conservative rolling ball.
   type, extends(vector_field_t), public :: ball_t
@@ -72,6 +73,9 @@ contains
     dxdt(4) = fy
     stat = 0
     if (.not. (abs(fx) + abs(fy) + abs(vx) + abs(vy) <= huge(1.0_wp))) stat = -1   ! NaN or Inf
+    ! a state a million cm from the surface's centre is a blown-up integration, not a ball:
+    ! refuse it so that fixed-step methods report the blow-up instead of finite nonsense
+    if (abs(x(1)) + abs(x(2)) > MAX_RADIUS) stat = -1
   end subroutine ball_eval
 
   pure subroutine damped_eval(self, t, x, dxdt, stat)

@@ -23,7 +23,7 @@ contains
     case (TUBES_EINPUT);    msg = 'invalid input'
     case (TUBES_EMAXSTEPS); msg = 'maximum number of steps reached'
     case (TUBES_ESTEP);     msg = 'step size underflow'
-    case (TUBES_EMODEL);    msg = 'the vector field returned NaN or Inf'
+    case (TUBES_EMODEL);    msg = 'the model refused the state (NaN, Inf or a blown-up state)'
     case (TUBES_EIO);       msg = 'input/output error'
     case (TUBES_ENOCONV);   msg = 'iteration did not converge'
     case default;           msg = 'unknown status code'

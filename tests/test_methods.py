@@ -65,3 +65,12 @@ def test_variable_step_methods_against_reference(method, reference):
         errs.append(np.abs(x - reference).max() / np.abs(reference).max())
         assert errs[-1] < 1e3 * tol, (method, tol, errs[-1])
     assert errs[1] < errs[0] / 30
+
+
+def test_blow_up_is_reported():
+    """Beyond their stability edge (docs/stability.md) fixed-step methods blow up; the model
+    refuses states a million cm away, so the blow-up is an error, not finite nonsense."""
+    for method, h in [("tao2", 1 / 64), ("rk4", 0.5)]:
+        with pytest.raises(tubes.TubesError) as err:
+            tubes.integrate(X0, 10.0, method=method, h=h)
+        assert err.value.code == tubes.EMODEL
