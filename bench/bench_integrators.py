@@ -201,7 +201,26 @@ def main():
         th, ts = time_at_error(rows, "heyoka", lev), time_at_error(rows, "scipy DOP853", lev)
         lines.append(f"| {lev:.0e} | {best[1]} | {best[0] * 1e3:.3f} | {th * 1e3:.3f} | {th / best[0]:.2f} | "
                      f"{ts * 1e3:.1f} | {ts / best[0]:.0f} |")
-    lines += ["", "Times interpolated log-log along each method's curve; heyoka's JIT compilation "
+    beats = []
+    for lev in levels:
+        best = min((time_at_error(rows, f, lev) for f in tubes_fams), key=lambda v: (np.isnan(v), v))
+        beats.append((lev, best, time_at_error(rows, "heyoka", lev), time_at_error(rows, "scipy DOP853", lev)))
+    met_h = all(b < h for _, b, h, _ in beats if not np.isnan(b) and not np.isnan(h))
+    met_s = all(s_ / b >= 50 for _, b, _, s_ in beats if not np.isnan(b) and not np.isnan(s_))
+    lines += ["", "**The issue's target** (the fastest tubes method beats heyoka at every error from 1e-6 to "
+              f"1e-10, and is at least 50x faster than scipy's DOP853): heyoka: **{'met' if met_h else 'not met'}**; "
+              f"scipy: **{'met' if met_s else 'not met'}**.",
+              "",
+              "Why heyoka wins: it is a Taylor method whose order adapts to the tolerance (about 10 to 20 here), "
+              "with the derivatives of the right-hand side generated and JIT-compiled for this model. It takes far "
+              "fewer steps (tens per second of motion against hundreds for DOP853), and each step costs little more "
+              "than a few right-hand-side evaluations. tubes evaluates the model through a polymorphic interface "
+              "(any surface, any model) and spends most of each DOP853 step outside the right-hand side: "
+              "measured with perf, the right-hand side costs about 20 ns and a DOP853 evaluation about 90 ns "
+              "in total, so a specialised, inlined stepper could gain perhaps 2-3x, not the 3-5x needed. "
+              "A Taylor integrator of our own would be the way to match heyoka; it is not built.",
+              "",
+              "Times interpolated log-log along each method's curve; heyoka's JIT compilation "
               "(once per tolerance, about a second) is excluded; scipy integrates a numpy right-hand side.",
               "", "All points:", "", "| method | setting | error | time [ms] | nfev |", "|---|---|---|---|---|"]
     for r in rows:
