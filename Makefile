@@ -25,6 +25,8 @@ LAPACK_LIBS := -llapack -lblas
 GSL_LIBS    := -lgsl -lgslcblas
 SUNDIALS_INC := -I/usr/include/sundials/fortran
 SUNDIALS_LIBS := -lsundials_fcvode_mod -lsundials_cvode -lsundials_farkode_mod -lsundials_arkode
+FFTW_INC  := -I/usr/include
+FFTW_LIBS := -lfftw3
 
 ifeq ($(MODE),debug)
 OPT_F := -O0 -g -fcheck=all -ffpe-trap=invalid,zero,overflow -fbacktrace
@@ -34,12 +36,12 @@ OPT_F := -O2 -g
 OPT_C := -O2 -g
 endif
 FFLAGS_ALL := -std=f2018 -fPIC -fopenmp -Wall -Wno-unused-dummy-argument -Wno-compare-reals \
-              -Wno-maybe-uninitialized $(OPT_F) -J $(BUILD)/mod -I $(BUILD)/mod $(SUNDIALS_INC) $(FFLAGS)
+              -Wno-maybe-uninitialized $(OPT_F) -J $(BUILD)/mod -I $(BUILD)/mod $(SUNDIALS_INC) $(FFTW_INC) $(FFLAGS)
 CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -fPIC -fopenmp -Wall -Wextra $(OPT_C) -Iinclude \
               $(HDF5_CFLAGS) -DTUBES_VERSION='"$(VERSION)"' -DTUBES_GIT='"$(GIT_HASH)"' \
               -DTUBES_COMPILER='"$(FC) $(shell $(FC) -dumpfullversion 2>/dev/null)"' \
               -DTUBES_FFLAGS='"$(strip $(OPT_F))"' $(CFLAGS)
-LDLIBS_ALL := $(HDF5_LIBS) $(SUNDIALS_LIBS) $(GSL_LIBS) $(LAPACK_LIBS) -lm $(LDLIBS)
+LDLIBS_ALL := $(HDF5_LIBS) $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) $(LAPACK_LIBS) -lm $(LDLIBS)
 
 F_SRC := $(wildcard src/*.f90 src/c/*.f90 src/io/*.f90)
 C_SRC := $(filter-out src/io/tubes_main.c,$(wildcard src/io/*.c src/c/*.c))
@@ -109,7 +111,7 @@ $(PYEXT_STAMP): python/tubes_f2py.f90 $(LIB)
 	@rm -rf $(BUILD)/py && mkdir -p $(BUILD)/py && rm -f python/tubes/_core*.so   # meson does not track .mod files: start clean
 	cd $(BUILD)/py && PATH=$(abspath $(VENV))/bin:$$PATH FFLAGS="-fPIC -fopenmp" \
 	  $(VPY) -m numpy.f2py -c --backend meson -m _core $(abspath python/tubes_f2py.f90) \
-	  -I$(abspath $(BUILD)/mod) -L$(abspath $(BUILD)) -ltubes $(SUNDIALS_LIBS) $(GSL_LIBS) -llapack -lblas --dep openmp > f2py.log 2>&1 \
+	  -I$(abspath $(BUILD)/mod) -L$(abspath $(BUILD)) -ltubes $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) -llapack -lblas --dep openmp > f2py.log 2>&1 \
 	  || { tail -30 f2py.log; exit 1; }
 	cp $(BUILD)/py/_core*.so python/tubes/
 	@touch $@

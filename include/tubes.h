@@ -127,6 +127,30 @@ int tubes_monte_carlo(const double model[TUBES_NMODEL], const char saddle[8], do
 int tubes_poincare(const double model[TUBES_NMODEL], const char saddle[8], double de,
                    double angle, int pth_sign, int n_seeds, int n_iter, double t_max, double pts[]);
 
+/* Frames per track of the synthetic experiment: t = 0, 1/camera_rate, ... up to duration [s]
+ * (both ends included); 0 if duration or camera_rate is not > 0 or their product > 1e8. */
+int tubes_experiment_samples(double duration, double camera_rate);
+
+/* Release point draws after which tubes_synthetic_experiment gives up (TUBES_EINPUT). */
+enum { TUBES_MAX_RELEASE_DRAWS = 4194304 };
+
+/* Synthetic tracking data (src/tubes_experiment.f90, docs/experiment-data.md): n_tracks balls
+ * released from rest at points drawn uniformly in |x|, |y| <= box [cm] with g H - e_e in
+ * [de_min, de_max] [(cm/s)^2], integrated by DOP853 (rtol = atol = rtol) on the model with
+ * damping ratio model[6], sampled at ns = tubes_experiment_samples(duration, camera_rate)
+ * frames t[ns]; the measured position is the true one plus Gaussian noise of standard deviation
+ * noise [cm], rounded to multiples of pixel [cm] (0: no rounding). GSL MT19937 from seed, drawn
+ * serially: the result does not depend on the number of threads. Per track j and frame k
+ * (block (j ns + k)): state[4] (x, y, px, py), energy (conservative), noisy[2] (before rounding),
+ * measured[2]; release[3 j + {0, 1, 2}] = x0, y0, g H(x0, y0) - e_e. *c_damp: damping rate
+ * [1/s]; *n_draws: release points drawn. TUBES_EINPUT also when n_tracks points were not found
+ * within TUBES_MAX_RELEASE_DRAWS draws. */
+int tubes_synthetic_experiment(const double model[TUBES_NMODEL], double e_e, int n_tracks,
+                               double duration, double camera_rate, double pixel, double noise,
+                               double de_min, double de_max, double box, int seed, double rtol,
+                               int ns, double t[], double state[], double energy[], double noisy[],
+                               double measured[], double release[], double *c_damp, int *n_draws);
+
 /* ---- namelist input (src/io/tubes_nml.f90; validated by src/io/tubes_input.c) ---- */
 enum { TUBES_NSCENES = 16, TUBES_LSCENE = 32, TUBES_LPATH = 1024, TUBES_LNAME = 32, TUBES_MAXDE = 256 };
 
@@ -180,6 +204,11 @@ typedef struct {
   double pm_de[TUBES_MAXDE];
   int pm_nde, pm_n_seeds, pm_n_iter;
   double pm_t_max;
+  /* &experiment */
+  int exp_n_tracks, exp_seed;
+  double exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, exp_de_max,
+      exp_damping_ratio;
+  char exp_csv[TUBES_LPATH];
 } tubes_config_t;
 
 /* Set every variable to its default. */
@@ -187,7 +216,8 @@ void tubes_nml_defaults(tubes_config_t *cfg);
 
 /* Read every group present in the file at path into cfg (defaults first). Returns 0, or the
  * Fortran iostat of the first failing group; then *group is its index (0 run, 1 model,
- * 2 equilibria, 3 trajectory, 4 integrator, 5 orbits) and msg holds the iomsg. */
+ * 2 equilibria, 3 trajectory, 4 integrator, 5 orbits, 6 section, 7 tubes, 8 transition,
+ * 9 montecarlo, 10 sections, 11 experiment) and msg holds the iomsg. */
 int tubes_nml_read(const char *path, tubes_config_t *cfg, int *group, char *msg, int msglen);
 
 /* The effective namelist (all groups, Fortran namelist WRITE) into buf. Returns its length,

@@ -27,6 +27,9 @@ int scene_tubes(tubes_run_t *run);
 int scene_transition(tubes_run_t *run);
 int scene_montecarlo(tubes_run_t *run);
 int scene_sections(tubes_run_t *run);
+/* Synthetic tracking data (&experiment): writes /tracks, and the CSV file if &experiment csv is
+ * set. Returns 0, EXIT_NUMERIC or EXIT_IO. */
+int scene_synthetic_experiment(tubes_run_t *run);
 #ifdef __cplusplus
 }
 #endif

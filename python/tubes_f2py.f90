@@ -152,3 +152,34 @@ subroutine reference_solution(params, x0, t_end, tol, stat, x_end, nsteps, nfev)
   integer(c_int64_t), intent(out) :: nsteps, nfev
   call ref(params, x0, t_end, tol, x_end, stat, nsteps, nfev)
 end subroutine reference_solution
+
+subroutine differentiate_spectral(x, n, dt, cutoff, rolloff, edge, end_order, end_window, stat, v, xs)
+  ! tubes_differentiate: diff_spectral. edge 0 periodic, 1 odd, 2 mirror; end_window <= 0: default
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_differentiate, only: diff_spectral
+  implicit none
+  integer(c_int), intent(in) :: n
+  real(c_double), intent(in) :: x(n), dt, cutoff, rolloff
+  integer(c_int), intent(in) :: edge, end_order, end_window
+  integer(c_int), intent(out) :: stat
+  real(c_double), intent(out) :: v(n), xs(n)
+  if (end_window > 0) then
+    call diff_spectral(x, dt, cutoff, rolloff, edge, v, xs, stat, end_order=end_order, &
+                       end_window=end_window)
+  else
+    call diff_spectral(x, dt, cutoff, rolloff, edge, v, xs, stat, end_order=end_order)
+  end if
+end subroutine differentiate_spectral
+
+subroutine differentiate_savgol(x, n, dt, order, window, stat, v, xs)
+  ! tubes_differentiate: diff_savgol (window odd, 1 <= order < window <= n)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_differentiate, only: diff_savgol
+  implicit none
+  integer(c_int), intent(in) :: n
+  real(c_double), intent(in) :: x(n), dt
+  integer(c_int), intent(in) :: order, window
+  integer(c_int), intent(out) :: stat
+  real(c_double), intent(out) :: v(n), xs(n)
+  call diff_savgol(x, dt, order, window, v, xs, stat)
+end subroutine differentiate_savgol

@@ -31,7 +31,8 @@ METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, 
 FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 
 __all__ = ["Model", "TubesError", "energy", "vector_field", "velocity", "momentum",
-           "equilibria", "integrate", "trajectory", "reference_solution", "load", "Result"]
+           "equilibria", "integrate", "trajectory", "reference_solution", "differentiate",
+           "load", "Result"]
 
 
 class TubesError(RuntimeError):
@@ -202,6 +203,58 @@ def reference_solution(state0, t_end: float, tol: float = 1e-26, model: Model = 
                                               float(t_end), float(tol))
     _check(stat, "reference_solution")
     return np.asarray(x)
+
+
+EDGES = {"periodic": 0, "odd": 1, "mirror": 2}   # src/tubes_differentiate.f90 EDGE_*
+_DIFF_OPTIONS = {"spectral": {"cutoff": 5.0, "rolloff": 0.5, "edge": "mirror", "end_order": 3,
+                              "end_window": None},
+                 "savgol": {"order": 3, "window": 15}}
+
+
+def differentiate(x, dt: float, method: str = "spectral", **options):
+    """Velocity and smoothed position of samples x taken every dt [s] (src/tubes_differentiate.f90,
+    docs/experiment-data.md). x is 1-D (n,) or 2-D (n, k): each column is one coordinate.
+
+    method="spectral" (FFTW): options cutoff [Hz] (half-gain frequency of the raised-cosine
+    low-pass filter; None or 0 = no filter; default 5), rolloff (transition width / cutoff,
+    0 <= rolloff < 2; default 0.5), edge ("mirror": subtract a quadratic with the end slopes of
+    local fits and extend evenly, the default; "odd": subtract the line through the end samples
+    and extend oddly; "periodic": none), end_order (degree of the mirror's end fits, default 3),
+    end_window (their samples; default two cutoff periods, end_order + 4 without a filter).
+    method="savgol" (Savitzky-Golay): options order (polynomial degree, default 3) and window
+    (odd number of samples, default 15); the ends use the shifted window.
+
+    Returns (velocity, smoothed), arrays shaped like x. Raises TubesError on invalid input.
+    """
+    if method not in _DIFF_OPTIONS:
+        raise ValueError(f"unknown method {method!r}; allowed: spectral, savgol")
+    unknown = set(options) - set(_DIFF_OPTIONS[method])
+    if unknown:
+        raise TypeError(f"differentiate({method!r}): unknown option(s) {sorted(unknown)}; "
+                        f"allowed: {sorted(_DIFF_OPTIONS[method])}")
+    opt = dict(_DIFF_OPTIONS[method], **options)
+    a = np.array(x, dtype=np.float64, copy=True)
+    if a.ndim not in (1, 2):
+        raise ValueError("x must be 1-D (n,) or 2-D (n, k)")
+    cols = a.reshape(a.shape[0], -1)
+    v = np.empty_like(cols)
+    xs = np.empty_like(cols)
+    lib = _lib()
+    for j in range(cols.shape[1]):
+        c = np.ascontiguousarray(cols[:, j])
+        if method == "spectral":
+            if opt["edge"] not in EDGES:
+                raise ValueError(f"unknown edge {opt['edge']!r}; allowed: {', '.join(EDGES)}")
+            cutoff = 0.0 if opt["cutoff"] is None else float(opt["cutoff"])
+            ew = 0 if opt["end_window"] is None else int(opt["end_window"])
+            stat, vj, xj = lib.differentiate_spectral(c, float(dt), cutoff, float(opt["rolloff"]),
+                                                      EDGES[opt["edge"]], int(opt["end_order"]), ew)
+        else:
+            stat, vj, xj = lib.differentiate_savgol(c, float(dt), int(opt["order"]), int(opt["window"]))
+        _check(stat, f"differentiate({method!r})")
+        v[:, j] = vj
+        xs[:, j] = xj
+    return v.reshape(a.shape), xs.reshape(a.shape)
 
 
 class Result:

@@ -16,6 +16,7 @@ module tubes_capi
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
   use tubes_section, only: ray_t, section_region, section_area, section_darea
   use tubes_transport, only: monte_carlo, poincare_map, state_on_section
+  use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long
   implicit none
   private
@@ -474,6 +475,46 @@ contains
     end do
     call poincare_map(ball, angle, pth_sign, x0, n_iter, t_max, 1.0e-10_wp, pts, stat)
   end function c_poincare
+
+  !> Frames per track of the synthetic experiment (include/tubes.h).
+  integer(c_int) function c_experiment_samples(duration, camera_rate) result(ns) &
+      bind(C, name='tubes_experiment_samples')
+    real(c_double), value :: duration, camera_rate
+    ns = experiment_samples(duration, camera_rate)
+  end function c_experiment_samples
+
+  !> Synthetic tracking data (include/tubes.h, src/tubes_experiment.f90).
+  integer(c_int) function c_synthetic_experiment(model, e_e, n_tracks, duration, camera_rate, &
+      pixel, noise, de_min, de_max, box, seed, rtol, ns, t, state, energy, noisy, measured, &
+      release, c_damp, n_draws) result(stat) bind(C, name='tubes_synthetic_experiment')
+    real(c_double), intent(in) :: model(NMODEL)
+    real(c_double), value :: e_e, duration, camera_rate, pixel, noise, de_min, de_max, box, rtol
+    integer(c_int), value :: n_tracks, seed, ns
+    real(c_double), intent(out) :: t(max(ns, 0)), state(4, max(ns, 0), max(n_tracks, 0)), &
+      energy(max(ns, 0), max(n_tracks, 0)), noisy(2, max(ns, 0), max(n_tracks, 0)), &
+      measured(2, max(ns, 0), max(n_tracks, 0)), release(3, max(n_tracks, 0)), c_damp
+    integer(c_int), intent(out) :: n_draws
+    type(experiment_opts_t) :: opts
+    c_damp = 0
+    n_draws = 0
+    stat = TUBES_EINPUT
+    if (n_tracks < 1 .or. ns < 1 .or. seed < 0) return
+    if (ns /= experiment_samples(duration, camera_rate)) return
+    opts%n_tracks = n_tracks
+    opts%duration = duration
+    opts%camera_rate = camera_rate
+    opts%pixel = pixel
+    opts%noise = noise
+    opts%de_min = de_min
+    opts%de_max = de_max
+    opts%e_e = e_e
+    opts%box = box
+    opts%seed = int(seed, c_long)
+    opts%rtol = rtol
+    opts%atol = rtol
+    call synthetic_experiment(model, opts, t, state, energy, noisy, measured, release, c_damp, &
+                              n_draws, stat)
+  end function c_synthetic_experiment
 
   subroutine c_sampler_on_step(self, ig, t_hi, stop_now)
     class(c_sampler_t), intent(inout) :: self

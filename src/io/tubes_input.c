@@ -12,11 +12,11 @@
 
 const char *const tubes_nml_groups[] = {"run", "model", "equilibria", "trajectory", "integrator",
                                         "orbits", "section", "tubes", "transition", "montecarlo",
-                                        "sections"};
-const int tubes_nml_ngroups = 11;
+                                        "sections", "experiment"};
+const int tubes_nml_ngroups = 12;
 
 const char *const tubes_scene_names[] = {"equilibria", "trajectory", "orbits", "tubes", "transition",
-                                         "montecarlo", "sections"};
+                                         "montecarlo", "sections", "synthetic_experiment"};
 const char *const tubes_scene_docs[] = {
     "critical points of H, Morse index, names, saddle linearization (lambda, omega, T_po)",
     "one trajectory with sampled output and its energy error",
@@ -26,8 +26,10 @@ const char *const tubes_scene_docs[] = {
     "the eps/10 check, and the energy surface on the section (A0, tau)",
     "p_trans(dE) = A_tube / A_E on a grid of dE, beside the leading-order formula",
     "Monte Carlo check: points uniform on the section's energy surface, integrated and classified",
-    "Poincare maps of the section at fixed dE (KAM tori, chaos, the tube)"};
-const int tubes_nscenes = 7;
+    "Poincare maps of the section at fixed dE (KAM tori, chaos, the tube)",
+    "synthetic tracking data like the paper's experiment: balls released from rest, filmed with "
+    "noise and pixel rounding (docs/experiment-data.md)"};
+const int tubes_nscenes = 8;
 
 const nml_var tubes_nml_vars[] = {
     {"run", "scenes", NML_STRING, TUBES_NSCENES, "-", "'equilibria'",
@@ -110,6 +112,23 @@ const nml_var tubes_nml_vars[] = {
     {"sections", "n_seeds", NML_INT, 1, "-", "40", "1 .. 100000", "trajectories per map"},
     {"sections", "n_iter", NML_INT, 1, "-", "300", "1 .. 1000000", "returns recorded per trajectory"},
     {"sections", "t_max", NML_REAL, 1, "s", "2000", "> 0", "longest integration per trajectory"},
+    {"experiment", "n_tracks", NML_INT, 1, "-", "120", "1 .. 100000", "trajectories released"},
+    {"experiment", "duration", NML_REAL, 1, "s", "10", "> 0", "length of each track"},
+    {"experiment", "camera_rate", NML_REAL, 1, "Hz", "50", "> 0, duration*camera_rate <= 1e6",
+     "frames per second"},
+    {"experiment", "pixel", NML_REAL, 1, "cm", "0.16", ">= 0",
+     "pixel size: measured positions are multiples of it (0 = no rounding)"},
+    {"experiment", "noise", NML_REAL, 1, "cm", "0.05", ">= 0",
+     "standard deviation of the Gaussian position noise (before rounding)"},
+    {"experiment", "de_min", NML_REAL, 1, "(cm/s)^2", "1000", "finite, < de_max",
+     "release excess energy g H - E_e at rest: lower bound"},
+    {"experiment", "de_max", NML_REAL, 1, "(cm/s)^2", "3000", "finite, > de_min",
+     "release excess energy: upper bound"},
+    {"experiment", "damping_ratio", NML_REAL, 1, "1", "0.025", "0 <= zeta < 1",
+     "damping ratio of the experiment's ball (docs/theory.md#damping)"},
+    {"experiment", "seed", NML_INT, 1, "-", "2018", ">= 0", "seed of GSL's MT19937"},
+    {"experiment", "csv", NML_STRING, 1, "-", "''", "a writable path or ''",
+     "also write the tracks as CSV (track,t,x,y) to this file; '' = no CSV"},
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 _Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 96, "nml_where holds 96 variables");
@@ -523,6 +542,24 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->pm_n_seeds >= 1 && c->pm_n_seeds <= 100000)) n += bad(path, w, "sections", "n_seeds", err, "", c->pm_n_seeds);
   if (!(c->pm_n_iter >= 1 && c->pm_n_iter <= 1000000)) n += bad(path, w, "sections", "n_iter", err, "", c->pm_n_iter);
   if (!(c->pm_t_max > 0)) n += bad(path, w, "sections", "t_max", err, "", c->pm_t_max);
+  if (!(c->exp_n_tracks >= 1 && c->exp_n_tracks <= 100000))
+    n += bad(path, w, "experiment", "n_tracks", err, "", c->exp_n_tracks);
+  if (!(c->exp_duration > 0)) n += bad(path, w, "experiment", "duration", err, "", c->exp_duration);
+  if (!(c->exp_camera_rate > 0)) n += bad(path, w, "experiment", "camera_rate", err, "", c->exp_camera_rate);
+  else if (c->exp_duration > 0 && c->exp_duration * c->exp_camera_rate > 1e6)
+    n += bad(path, w, "experiment", "camera_rate", err, "duration*camera_rate exceeds 1e6 frames per track",
+             c->exp_camera_rate);
+  else if (c->exp_duration > 0 && c->exp_n_tracks >= 1 &&
+           (double)tubes_experiment_samples(c->exp_duration, c->exp_camera_rate) * c->exp_n_tracks > 5e7)
+    n += bad(path, w, "experiment", "n_tracks", err, "n_tracks times the frames per track exceeds 5e7",
+             c->exp_n_tracks);
+  if (!(c->exp_pixel >= 0)) n += bad(path, w, "experiment", "pixel", err, "", c->exp_pixel);
+  if (!(c->exp_noise >= 0)) n += bad(path, w, "experiment", "noise", err, "", c->exp_noise);
+  if (!(c->exp_de_min < c->exp_de_max))
+    n += bad(path, w, "experiment", "de_min", err, "de_min must be below de_max", c->exp_de_min);
+  if (!(c->exp_damping_ratio >= 0 && c->exp_damping_ratio < 1))
+    n += bad(path, w, "experiment", "damping_ratio", err, "", c->exp_damping_ratio);
+  if (!(c->exp_seed >= 0)) n += bad(path, w, "experiment", "seed", err, "", c->exp_seed);
   return n;
 }
 

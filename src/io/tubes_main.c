@@ -142,6 +142,7 @@ int main(int argc, char **argv) {
     else if (!strcmp(s, "transition")) r = scene_transition(&run);
     else if (!strcmp(s, "montecarlo")) r = scene_montecarlo(&run);
     else if (!strcmp(s, "sections")) r = scene_sections(&run);
+    else if (!strcmp(s, "synthetic_experiment")) r = scene_synthetic_experiment(&run);
     if (r == EXIT_IO) status = EXIT_IO;
     else if (r == EXIT_NUMERIC || (r && !status)) status = r;
   }

@@ -8,8 +8,8 @@ module tubes_nml
   private
 
   !> run, model, equilibria, trajectory, integrator, orbits, section, tubes, transition,
-  !> montecarlo, sections
-  integer, parameter :: NGROUPS = 11
+  !> montecarlo, sections, experiment
+  integer, parameter :: NGROUPS = 12
   integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32, MAXDE = 256
   !> An unset entry of a list (dE): any value a user cannot mean.
   real(c_double), parameter :: UNSET = -huge(1.0_c_double)
@@ -54,6 +54,10 @@ module tubes_nml
     real(c_double) :: pm_de(MAXDE)
     integer(c_int) :: pm_nde, pm_n_seeds, pm_n_iter
     real(c_double) :: pm_t_max
+    integer(c_int) :: exp_n_tracks, exp_seed
+    real(c_double) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
+                      exp_de_max, exp_damping_ratio
+    character(kind=c_char) :: exp_csv(LPATH)
   end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved).
@@ -94,6 +98,10 @@ module tubes_nml
     real(c_double) :: pm_de(MAXDE)
     integer :: pm_n_seeds, pm_n_iter
     real(c_double) :: pm_t_max
+    integer :: exp_n_tracks, exp_seed
+    real(c_double) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
+                      exp_de_max, exp_damping_ratio
+    character(LPATH) :: exp_csv
   end type vars_t
 
 contains
@@ -163,6 +171,16 @@ contains
     v%pm_n_seeds = 40
     v%pm_n_iter = 300
     v%pm_t_max = 2000
+    v%exp_n_tracks = 120
+    v%exp_duration = 10
+    v%exp_camera_rate = 50
+    v%exp_pixel = 0.16_c_double
+    v%exp_noise = 0.05_c_double
+    v%exp_de_min = 1000
+    v%exp_de_max = 3000
+    v%exp_damping_ratio = 0.025_c_double
+    v%exp_seed = 2018
+    v%exp_csv = ''
   end subroutine set_defaults
 
   subroutine to_c(v, cfg)
@@ -212,6 +230,12 @@ contains
     cfg%mc_n_samples = v%mc_n_samples; cfg%mc_seed = v%mc_seed
     call put_list(v%pm_de, cfg%pm_de, cfg%pm_nde, [100.0_c_double, 500.0_c_double])
     cfg%pm_n_seeds = v%pm_n_seeds; cfg%pm_n_iter = v%pm_n_iter; cfg%pm_t_max = v%pm_t_max
+    cfg%exp_n_tracks = v%exp_n_tracks; cfg%exp_seed = v%exp_seed
+    cfg%exp_duration = v%exp_duration; cfg%exp_camera_rate = v%exp_camera_rate
+    cfg%exp_pixel = v%exp_pixel; cfg%exp_noise = v%exp_noise
+    cfg%exp_de_min = v%exp_de_min; cfg%exp_de_max = v%exp_de_max
+    cfg%exp_damping_ratio = v%exp_damping_ratio
+    call put(v%exp_csv, cfg%exp_csv)
   end subroutine to_c
 
   !> A list with unset entries: its default when none is set.
@@ -267,6 +291,12 @@ contains
     v%mc_n_samples = cfg%mc_n_samples; v%mc_seed = cfg%mc_seed
     v%pm_de = cfg%pm_de
     v%pm_n_seeds = cfg%pm_n_seeds; v%pm_n_iter = cfg%pm_n_iter; v%pm_t_max = cfg%pm_t_max
+    v%exp_n_tracks = cfg%exp_n_tracks; v%exp_seed = cfg%exp_seed
+    v%exp_duration = cfg%exp_duration; v%exp_camera_rate = cfg%exp_camera_rate
+    v%exp_pixel = cfg%exp_pixel; v%exp_noise = cfg%exp_noise
+    v%exp_de_min = cfg%exp_de_min; v%exp_de_max = cfg%exp_de_max
+    v%exp_damping_ratio = cfg%exp_damping_ratio
+    v%exp_csv = get(cfg%exp_csv)
   end subroutine from_c
 
   pure subroutine put(s, c)
@@ -299,7 +329,7 @@ contains
   end subroutine c_defaults
 
   !> Read group number grp (0 run, 1 model, 2 equilibria, 3 trajectory, 4 integrator,
-  !> 5 orbits) from unit u into v, or write it (mode 'w'). One subroutine per group keeps the
+  !> 5 orbits, ..., 11 experiment) from unit u into v, or write it (mode 'w'). One subroutine per group keeps the
   !> namelist names (saddle, method, rtol, ...) separate between groups.
   subroutine group_io(grp, mode, u, v, ios, iomsg)
     integer, intent(in) :: grp, u
@@ -320,6 +350,7 @@ contains
     case (8); call io_transition()
     case (9); call io_montecarlo()
     case (10); call io_sections()
+    case (11); call io_experiment()
     end select
   contains
     subroutine io_run()
@@ -529,6 +560,29 @@ contains
       end if
       v%pm_n_seeds = n_seeds; v%pm_n_iter = n_iter; v%pm_t_max = t_max
     end subroutine io_sections
+    subroutine io_experiment()
+      integer :: n_tracks, seed
+      real(c_double) :: duration, camera_rate, pixel, noise, de_min, de_max, damping_ratio
+      character(:), allocatable :: csv
+      character(LPATH) :: buf
+      namelist /experiment/ n_tracks, duration, camera_rate, pixel, noise, de_min, de_max, &
+        damping_ratio, seed, csv
+      n_tracks = v%exp_n_tracks; seed = v%exp_seed; duration = v%exp_duration
+      camera_rate = v%exp_camera_rate; pixel = v%exp_pixel; noise = v%exp_noise
+      de_min = v%exp_de_min; de_max = v%exp_de_max; damping_ratio = v%exp_damping_ratio
+      if (mode == 'r') then
+        buf = v%exp_csv
+        csv = buf
+        read (u, nml=experiment, iostat=ios, iomsg=iomsg)
+        v%exp_csv = csv
+      else
+        csv = trim(v%exp_csv)
+        write (u, nml=experiment, iostat=ios, iomsg=iomsg)
+      end if
+      v%exp_n_tracks = n_tracks; v%exp_seed = seed; v%exp_duration = duration
+      v%exp_camera_rate = camera_rate; v%exp_pixel = pixel; v%exp_noise = noise
+      v%exp_de_min = de_min; v%exp_de_max = de_max; v%exp_damping_ratio = damping_ratio
+    end subroutine io_experiment
   end subroutine group_io
 
   integer(c_int) function c_read(path, cfg, group, msg, msglen) result(ios) &

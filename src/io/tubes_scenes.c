@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 static double now(void) {
   struct timespec ts;
@@ -648,5 +649,145 @@ int scene_sections(tubes_run_t *run) {
     if (e) { H5Gclose(g); return EXIT_IO; }
   }
   H5Gclose(g);
+  return rc;
+}
+
+/* ---------------------------------------------------------------- synthetic experiment */
+
+/* The tracks as CSV (header track,t,x,y; 12 significant digits), written to path.tmp.<pid>
+ * and renamed when complete. Returns 0 or -1. */
+static int write_tracks_csv(const char *path, int nt, int ns, const double *t, const double *meas) {
+  char tmp[TUBES_LPATH + 64];
+  snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
+  FILE *f = fopen(tmp, "w");
+  if (!f) return -1;
+  int e = fprintf(f, "track,t,x,y\n") < 0;
+  for (int j = 0; j < nt && !e; j++)
+    for (int k = 0; k < ns && !e; k++) {
+      const double *m = meas + 2 * ((size_t)j * ns + k);
+      e = fprintf(f, "%d,%.12g,%.12g,%.12g\n", j, t[k], m[0], m[1]) < 0;
+    }
+  if (fclose(f) != 0) e = 1;
+  if (e || rename(tmp, path) != 0) {
+    remove(tmp);
+    return -1;
+  }
+  return 0;
+}
+
+int scene_synthetic_experiment(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  const double box = 13.0, rtol = 1e-10;   /* docs/experiment-data.md */
+  double ee, tpo;
+  int st = saddle_props(run, &ee, &tpo);
+  if (st < 0) {
+    fprintf(stderr, "tubes: synthetic_experiment: the saddle %s (E_e) was not found (status %d)\n",
+            c->orb_saddle, st);
+    return EXIT_NUMERIC;
+  }
+  int nt = c->exp_n_tracks, ns = tubes_experiment_samples(c->exp_duration, c->exp_camera_rate);
+  size_t n = (size_t)nt * ns;
+  double *t = malloc(sizeof(double) * ns), *state = malloc(sizeof(double) * 4 * n),
+         *energy = malloc(sizeof(double) * n), *noisy = malloc(sizeof(double) * 2 * n),
+         *meas = malloc(sizeof(double) * 2 * n), *rel = malloc(sizeof(double) * 3 * nt),
+         *x = malloc(sizeof(double) * n), *y = malloc(sizeof(double) * n), *de = malloc(sizeof(double) * n),
+         *tt = malloc(sizeof(double) * n), *rxy = malloc(sizeof(double) * 2 * nt),
+         *rde = malloc(sizeof(double) * nt);
+  int *track = malloc(sizeof(int) * n);
+  int rc = 0;
+  if (!t || !state || !energy || !noisy || !meas || !rel || !x || !y || !de || !tt || !rxy || !rde || !track) {
+    fprintf(stderr, "tubes: synthetic_experiment: cannot allocate %zu frames\n", n);
+    rc = EXIT_NUMERIC;
+    goto out;
+  }
+  double model[TUBES_NMODEL], cd = 0, t0 = now();
+  memcpy(model, run->model, sizeof model);
+  model[6] = c->exp_damping_ratio;
+  int ndraw = 0;
+  fprintf(stderr, "synthetic_experiment: %d tracks of %g s at %g Hz...\n", nt, c->exp_duration, c->exp_camera_rate);
+  st = tubes_synthetic_experiment(model, ee, nt, c->exp_duration, c->exp_camera_rate, c->exp_pixel, c->exp_noise,
+                                  c->exp_de_min, c->exp_de_max, box, c->exp_seed, rtol, ns, t, state, energy, noisy,
+                                  meas, rel, &cd, &ndraw);
+  if (st == TUBES_EINPUT) {
+    fprintf(stderr, "tubes: synthetic_experiment: found fewer than %d release points with g H - E_e in "
+            "[%g, %g] (cm/s)^2 in the box |x|, |y| <= %g cm after %d draws (E_e = %.10g (cm/s)^2 of %s); "
+            "widen [de_min, de_max]\n", nt, c->exp_de_min, c->exp_de_max, box, ndraw, ee, c->orb_saddle);
+    rc = EXIT_NUMERIC;
+    goto out;
+  }
+  if (st < 0) {
+    char m[128];
+    status_text(st, m, sizeof m);
+    fprintf(stderr, "tubes: synthetic_experiment: an integration failed: %s (status %d); the frames up to "
+            "the failure are written, NaN after it\n", m, st);
+    rc = EXIT_NUMERIC;
+  }
+  for (int j = 0; j < nt; j++) {
+    rxy[2 * j] = rel[3 * j];
+    rxy[2 * j + 1] = rel[3 * j + 1];
+    rde[j] = rel[3 * j + 2];
+    for (int k = 0; k < ns; k++) {
+      size_t i = (size_t)j * ns + k;
+      track[i] = j;
+      tt[i] = t[k];
+      x[i] = meas[2 * i];
+      y[i] = meas[2 * i + 1];
+      de[i] = energy[i] - ee;
+    }
+  }
+  printf("synthetic_experiment: %d tracks x %d frames (%g Hz, %g s), releases at dE in [%g, %g] (cm/s)^2 "
+         "(%d of %d draws accepted), zeta = %g (c = %.6g 1/s), noise %g cm, pixel %g cm (%.2f s)\n",
+         nt, ns, c->exp_camera_rate, c->exp_duration, c->exp_de_min, c->exp_de_max, nt, ndraw,
+         c->exp_damping_ratio, cd, c->exp_noise, c->exp_pixel, now() - t0);
+  hid_t g = h5_group(run->file, "tracks");
+  int e = g < 0;
+  hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, 4}, d2[2] = {(hsize_t)n, 2}, dr[2] = {(hsize_t)nt, 2},
+          dnt = (hsize_t)nt;
+  e |= h5_write_int(g, "track", dn, track, "1");
+  e |= h5_write_double(g, "t", 1, &dn, tt, "s");
+  e |= h5_write_double(g, "x", 1, &dn, x, "cm");
+  e |= h5_write_double(g, "y", 1, &dn, y, "cm");
+  e |= h5_attr_double(g, "camera_rate", c->exp_camera_rate);
+  e |= h5_attr_double(g, "pixel", c->exp_pixel);
+  e |= h5_attr_double(g, "noise", c->exp_noise);
+  e |= h5_attr_double(g, "damping_ratio", c->exp_damping_ratio);
+  e |= h5_attr_double(g, "damping_rate", cd);
+  e |= h5_attr_long(g, "seed", c->exp_seed);
+  e |= h5_attr_long(g, "n_tracks", nt);
+  e |= h5_attr_long(g, "n_samples", ns);
+  e |= h5_attr_double(g, "duration", c->exp_duration);
+  e |= h5_attr_double(g, "de_min", c->exp_de_min);
+  e |= h5_attr_double(g, "de_max", c->exp_de_max);
+  e |= h5_attr_double(g, "E_e", ee);
+  e |= h5_attr_string(g, "saddle", c->orb_saddle);
+  e |= h5_attr_double(g, "box", box);
+  e |= h5_attr_double(g, "rtol", rtol);
+  e |= h5_attr_long(g, "n_draws", ndraw);
+  e |= h5_attr_long(g, "status", st);
+  hid_t tg = g < 0 ? -1 : h5_group(g, "truth");
+  e |= tg < 0;
+  e |= h5_write_double(tg, "state", 2, d4, state, "cm, cm, cm/s, cm/s");
+  e |= h5_write_double(tg, "energy", 1, &dn, energy, "(cm/s)^2");
+  e |= h5_write_double(tg, "dE", 1, &dn, de, "(cm/s)^2");
+  e |= h5_write_double(tg, "noisy", 2, d2, noisy, "cm");
+  e |= h5_write_double(tg, "release", 2, dr, rxy, "cm");
+  e |= h5_write_double(tg, "release_dE", 1, &dnt, rde, "(cm/s)^2");
+  if (tg >= 0) H5Gclose(tg);
+  if (g >= 0) H5Gclose(g);
+  if (e) {
+    rc = EXIT_IO;
+    goto out;
+  }
+  if (c->exp_csv[0]) {
+    if (write_tracks_csv(c->exp_csv, nt, ns, t, meas)) {
+      fprintf(stderr, "tubes: synthetic_experiment: cannot write the CSV file '%s'\n", c->exp_csv);
+      rc = EXIT_IO;
+    } else {
+      printf("  wrote %s (track,t,x,y)\n", c->exp_csv);
+    }
+  }
+out:
+  free(t); free(state); free(energy); free(noisy); free(meas); free(rel); free(x); free(y); free(de); free(tt);
+  free(rxy); free(rde); free(track);
   return rc;
 }
