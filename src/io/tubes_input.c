@@ -33,7 +33,8 @@ const int tubes_nscenes = 8;
 
 const nml_var tubes_nml_vars[] = {
     {"run", "scenes", NML_STRING, TUBES_NSCENES, "-", "'equilibria'",
-     "equilibria, trajectory", "scenes to run, in order"},
+     "equilibria, trajectory, orbits, tubes, transition, montecarlo, sections, synthetic_experiment",
+     "scenes to run, in order"},
     {"run", "output", NML_STRING, 1, "-", "'tubes.h5'", "a writable path",
      "HDF5 output file (overridden by -o)"},
     {"model", "alpha", NML_REAL, 1, "1/cm", "0.07", "> 0", "bowl curvature of H"},
