@@ -72,5 +72,7 @@ def test_blow_up_is_reported():
     refuses states a million cm away, so the blow-up is an error, not finite nonsense."""
     for method, h in [("tao2", 1 / 64), ("rk4", 0.5)]:
         with pytest.raises(tubes.TubesError) as err:
-            tubes.integrate(X0, 10.0, method=method, h=h)
+            tubes.integrate(X0, 10.0, dt_out=0.01, method=method, h=h)
         assert err.value.code == tubes.EMODEL
+        part = err.value.partial                      # the samples up to the blow-up are kept
+        assert part is not None and len(part["t"]) >= 1 and part["t"][-1] < 10.0

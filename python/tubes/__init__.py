@@ -22,7 +22,7 @@ EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV = -1, -2, -3, -4, -5, -6
 _MESSAGES = {
     OK: "ok", EVENT: "stopped at a terminal event", EINPUT: "invalid input",
     EMAXSTEPS: "maximum number of steps reached", ESTEP: "step size underflow",
-    EMODEL: "the vector field returned NaN or Inf", EIO: "input/output error",
+    EMODEL: "the model refused the state (NaN, Inf or a blown-up state)", EIO: "input/output error",
     ENOCONV: "iteration did not converge",
 }
 METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, "gauss6": 7,
@@ -36,10 +36,12 @@ __all__ = ["Model", "TubesError", "energy", "vector_field", "velocity", "momentu
 
 
 class TubesError(RuntimeError):
-    """A failure reported by the Fortran core; ``code`` is the TUBES_* status."""
+    """A failure reported by the Fortran core; ``code`` is the TUBES_* status; ``partial`` holds
+    what was computed up to the failure where the function keeps it (integrate), else None."""
 
     def __init__(self, code: int, where: str = ""):
         self.code = int(code)
+        self.partial = None
         super().__init__(f"{where}: {_MESSAGES.get(self.code, 'unknown status')} (status {self.code})")
 
 
@@ -174,7 +176,6 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model = 
         float(rtol), float(atol), float(h), int(max_steps), float(omega_bind),
         1 if solver == "newton" else 2, int(max_iter), kind, lev, dirn, int(bool(stop_at_first)),
         mc, nmax)
-    _check(stat, "integrate")
     out = {"t": t[:n].copy(), "state": st[:, :n].T.copy(), "energy": en[:n].copy(),
            "nfev": int(cnt[0]), "nsteps": int(cnt[1]), "nrejected": int(cnt[2]), "niter": int(cnt[3])}
     if kind:
@@ -185,6 +186,10 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model = 
             cr.update(r=r, p_r=(xs[:, 0] * xs[:, 2] + xs[:, 1] * xs[:, 3]) / r,
                       p_theta=xs[:, 0] * xs[:, 3] - xs[:, 1] * xs[:, 2])
         out["crossings"] = cr
+    if stat < 0:   # keep what was computed up to the failure: err.partial
+        err = TubesError(stat, "integrate")
+        err.partial = out
+        raise err
     return out
 
 
