@@ -1,0 +1,1713 @@
+"""Transition fractions from tracked trajectories: the experiment of Ross et al. (2018), Sec. IV-V.
+
+    python -m tubes.experiment TRACKS --theory RESULT.h5 -o ANALYSIS.h5 [--figure FIG.png]
+                               [--estimator spectral|savgol] [--bins -40:400:40] ...
+
+TRACKS is a CSV file (header ``track,t,x,y``; s and cm) or an HDF5 file with the group /tracks
+(datasets track, t, x, y). The pipeline: read and validate the tracks (NaNs, gaps, time order,
+short pieces, positions off the plate or energetically impossible: each reported, nothing dropped
+silently), drop the first t_skip of every track, estimate velocities (spectral or Savitzky-Golay
+differentiation), momenta and energies (tubes.momentum, tubes.energy), locate the crossings of U1
+(the ray theta = pi/4, x > 0) on cubic splines, classify every U1^- crossing by its fate (through
+the S12 bottleneck before the next U1 crossing, back to U1, or censored), bin by dE, give Wilson
+intervals, fit the small-dE slope and compare with the tube theory of a tubes RESULT.h5 (p_trans
+and the tube cuts). docs/experiment.md describes every step, the output and the measured errors.
+Units: cm, s; energies per unit mass in (cm/s)^2.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import datetime
+import functools
+import json
+import math
+import os
+import pathlib
+import sys
+import warnings
+
+import numpy as np
+
+from . import Model, TubesError, energy, equilibria, integrate, momentum, vector_field
+
+PLATE = 15.0            # [cm] half-width of the machined plate: |x|, |y| <= PLATE
+T_SKIP = 0.4            # [s] the paper's Lyapunov time, dropped at the start of every track
+GATE = 1.5              # [cm] a transition passes x < x_S12 - GATE (as the montecarlo scene)
+MIN_DURATION = 1.0      # [s] shortest segment analysed
+GAP_FACTOR = 1.5        # a time step > GAP_FACTOR / rate is a gap
+ESTIMATORS = ("spectral", "savgol")
+# Tuned on synthetic tracks with known truth (tune(); docs/experiment.md, "Tuning"):
+DEFAULT_OPTIONS = {"savgol": {"window": 15, "order": 4}, "spectral": {"cutoff": 5.0, "edge": "odd"}}
+ENERGY_WINDOW = 1.0     # [s] half-width of the windowed energy regression (tuned likewise)
+EDGE = 0.1              # [s] crossings this close to a segment end are not classified
+TRIM = 0.2              # [s] samples this close to a segment end stay out of energy windows
+MATCH_TOL = 0.1         # [s] two crossings of one branch and track this close are the same one
+                        #     (consecutive crossings of one branch are > 0.3 s apart)
+
+OUTCOME_TRANSITION, OUTCOME_RETURN, OUTCOME_CENSORED, OUTCOME_EDGE = 1, 0, -1, -2
+
+__all__ = ["ExperimentError", "Tracks", "Issue", "ValidationReport", "Segment", "Theory",
+           "read_tracks", "write_tracks_csv", "write_tracks_h5", "validate", "differentiate", "estimate_segment",
+           "find_crossings", "analyse", "load_theory", "wilson", "fit_slope", "inside_polygon",
+           "synthetic_tracks", "tune", "write_analysis", "plot_analysis", "main", "Options", "Analysis",
+           "window_energy", "classify", "truth_crossings", "noise_estimate"]
+
+
+class ExperimentError(RuntimeError):
+    """Bad input: unreadable or malformed tracks or theory file, no usable data, bad options."""
+
+
+# --------------------------------------------------------------------------------------------
+# Tracks and their validation
+# --------------------------------------------------------------------------------------------
+
+@dataclasses.dataclass
+class Tracks:
+    """Flat arrays, one row per sample (sorted by track then time in the files)."""
+    track: np.ndarray                 # (n,) int64 track id
+    t: np.ndarray                     # (n,) [s]
+    x: np.ndarray                     # (n,) [cm]
+    y: np.ndarray                     # (n,) [cm]
+    attrs: dict = dataclasses.field(default_factory=dict)   # camera_rate, pixel, noise, ...
+    truth: dict | None = None         # state (n, 4), energy (n,), dE (n,): synthetic data only
+    source: str = ""
+
+
+@dataclasses.dataclass
+class Issue:
+    """One problem found in one track. severity 'warning': samples or a segment were dropped
+    and the rest of the track is used; 'error': the whole track was rejected."""
+    track: int
+    kind: str            # nan, off_plate, jump, gap, time_order, irregular, jitter, short, impossible_height
+    severity: str
+    t_start: float       # [s] time span concerned
+    t_end: float
+    n_samples: int       # samples dropped (0 for a gap)
+    message: str
+
+
+KINDS = ("nan", "off_plate", "jump", "impossible_height", "gap", "time_order", "irregular",
+         "jitter", "short")
+
+
+@dataclasses.dataclass
+class ValidationReport:
+    """Per-track issues and the counts of the whole file."""
+    issues: list = dataclasses.field(default_factory=list)
+    n_tracks: int = 0            # tracks in the file
+    n_tracks_rejected: int = 0   # tracks rejected as a whole (severity 'error')
+    n_samples: int = 0           # samples in the file
+    n_samples_skipped: int = 0   # samples in the first t_skip of a track (by design)
+    n_samples_used: int = 0      # samples in the analysed segments
+    n_segments: int = 0          # analysed segments
+
+    def add(self, *args) -> None:
+        self.issues.append(Issue(*args))
+
+    def counts(self) -> dict:
+        """kind -> number of issues of that kind."""
+        out = {k: 0 for k in KINDS}
+        for i in self.issues:
+            out[i.kind] = out.get(i.kind, 0) + 1
+        return out
+
+    def samples_dropped(self) -> dict:
+        """kind -> samples dropped for that reason."""
+        out = {k: 0 for k in KINDS}
+        for i in self.issues:
+            out[i.kind] = out.get(i.kind, 0) + i.n_samples
+        return out
+
+    def summary(self) -> str:
+        c, d = self.counts(), self.samples_dropped()
+        lines = [f"tracks: {self.n_tracks} read, {self.n_tracks_rejected} rejected; samples: "
+                 f"{self.n_samples} read, {self.n_samples_skipped} in the first t_skip, "
+                 f"{self.n_samples_used} analysed in {self.n_segments} segments"]
+        kinds = [k for k in c if c[k]]
+        if kinds:
+            lines.append("issues: " + ", ".join(f"{k} {c[k]} ({d[k]} samples)" for k in kinds))
+        return "\n".join(lines)
+
+
+@dataclasses.dataclass
+class Segment:
+    """A piece of one track with valid, regularly sampled data."""
+    track: int
+    index: np.ndarray    # rows of the flat arrays
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+
+
+def _read_csv(path: str) -> Tracks:
+    cols = {"track": [], "t": [], "x": [], "y": []}
+    try:
+        f = open(path, newline="", encoding="utf-8")
+    except OSError as exc:
+        raise ExperimentError(f"{path}: cannot open ({exc.strerror})") from exc
+    with f:
+        rows = csv.reader(f)
+        header = None
+        lineno = 0
+        for lineno, row in enumerate(rows, start=1):
+            if not row or (row[0].strip().startswith("#")) or all(not c.strip() for c in row):
+                continue
+            if header is None:
+                header = [c.strip().lower() for c in row]
+                missing = [c for c in ("track", "t", "x", "y") if c not in header]
+                if missing:
+                    raise ExperimentError(
+                        f"{path}:{lineno}: the header must name the columns track,t,x,y "
+                        f"(s and cm); got {','.join(row)} (missing {', '.join(missing)})")
+                pos = {c: header.index(c) for c in ("track", "t", "x", "y")}
+                continue
+            if len(row) != len(header):
+                raise ExperimentError(f"{path}:{lineno}: {len(row)} fields, the header has "
+                                      f"{len(header)}")
+            for c in ("track", "t", "x", "y"):
+                s = row[pos[c]].strip()
+                if c == "track":
+                    try:
+                        v = float(s)
+                    except ValueError:
+                        v = math.nan
+                    if not (math.isfinite(v) and v == int(v)):
+                        raise ExperimentError(f"{path}:{lineno}: column 'track': {s!r} is not "
+                                              f"an integer track id")
+                    cols[c].append(int(v))
+                else:
+                    if s == "":
+                        cols[c].append(math.nan)    # a lost frame: reported as NaN
+                        continue
+                    try:
+                        cols[c].append(float(s))
+                    except ValueError:
+                        raise ExperimentError(f"{path}:{lineno}: column {c!r}: cannot read "
+                                              f"{s!r} as a number") from None
+    if header is None:
+        raise ExperimentError(f"{path}: empty file (expected the header track,t,x,y)")
+    if not cols["t"]:
+        raise ExperimentError(f"{path}: no samples after the header")
+    return Tracks(np.asarray(cols["track"], dtype=np.int64), np.asarray(cols["t"], float),
+                  np.asarray(cols["x"], float), np.asarray(cols["y"], float), {}, None, path)
+
+
+def _read_h5(path: str) -> Tracks:
+    import h5py
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise ExperimentError(f"{path}: not a readable HDF5 file ({exc})") from exc
+    with f:
+        if "tracks" not in f or not isinstance(f["tracks"], h5py.Group):
+            raise ExperimentError(f"{path}: no group /tracks (expected datasets track, t, x, y)")
+        g = f["tracks"]
+        arrs = {}
+        for c in ("track", "t", "x", "y"):
+            if c not in g or not isinstance(g[c], h5py.Dataset):
+                raise ExperimentError(f"{path}: /tracks has no dataset {c!r}")
+            a = np.asarray(g[c][()])
+            if a.ndim != 1:
+                raise ExperimentError(f"{path}: /tracks/{c} must be one-dimensional, shape {a.shape}")
+            arrs[c] = a
+        n = arrs["t"].size
+        for c in arrs:
+            if arrs[c].size != n:
+                raise ExperimentError(f"{path}: /tracks/{c} has {arrs[c].size} values, /tracks/t {n}")
+        if n == 0:
+            raise ExperimentError(f"{path}: /tracks is empty")
+        tr = arrs["track"]
+        if tr.dtype.kind == "f":
+            if not np.all(np.isfinite(tr)) or np.any(tr != np.round(tr)):
+                raise ExperimentError(f"{path}: /tracks/track must hold integer track ids")
+        elif tr.dtype.kind not in "iu":
+            raise ExperimentError(f"{path}: /tracks/track must hold integer track ids")
+        attrs = {k: (v.decode() if isinstance(v, bytes) else (v.item() if isinstance(v, np.generic) else v))
+                 for k, v in g.attrs.items()}
+        truth = None
+        if "truth" in g:
+            t = g["truth"]
+            truth = {k: np.asarray(t[k][()]) for k in ("state", "energy", "dE") if k in t}
+            if "state" not in truth or truth["state"].shape != (n, 4):
+                truth = None
+        return Tracks(tr.astype(np.int64), arrs["t"].astype(float), arrs["x"].astype(float),
+                      arrs["y"].astype(float), attrs, truth, path)
+
+
+def read_tracks(path: str) -> Tracks:
+    """Read a CSV (header track,t,x,y) or HDF5 (/tracks) file of tracked positions."""
+    p = pathlib.Path(path)
+    if not p.exists():
+        raise ExperimentError(f"{path}: no such file")
+    with open(p, "rb") as f:
+        magic = f.read(8)
+    if magic == b"\x89HDF\r\n\x1a\n":
+        return _read_h5(path)
+    return _read_csv(path)
+
+
+def write_tracks_csv(path: str, tr: Tracks) -> None:
+    """Write tracks as CSV (header track,t,x,y)."""
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("track,t,x,y\n")
+        for k, t, x, y in zip(tr.track, tr.t, tr.x, tr.y):
+            f.write(f"{k},{t:.6f},{x:.6f},{y:.6f}\n")
+
+
+def write_tracks_h5(path: str, tr: Tracks) -> None:
+    """Write tracks in the HDF5 layout read_tracks reads (the synthetic_experiment scene's):
+    /tracks/{track, t, x, y}, its attributes, and /tracks/truth when tr.truth is set."""
+    import h5py
+    with h5py.File(path, "w") as f:
+        g = f.create_group("tracks")
+        for k, u in (("track", "1"), ("t", "s"), ("x", "cm"), ("y", "cm")):
+            d = g.create_dataset(k, data=getattr(tr, k))
+            d.attrs["units"] = u
+        for k, v in tr.attrs.items():
+            g.attrs[k] = v
+        if tr.truth is not None:
+            h = g.create_group("truth")
+            for k, v in tr.truth.items():
+                h.create_dataset(k, data=v)
+
+
+def _runs(mask: np.ndarray):
+    """(start, stop) of the runs of True in mask."""
+    m = np.concatenate([[False], mask, [False]]).astype(np.int8)
+    d = np.diff(m)
+    return list(zip(np.nonzero(d == 1)[0], np.nonzero(d == -1)[0]))
+
+
+def _jump_flags(t: np.ndarray, x: np.ndarray, y: np.ndarray, tol: float) -> np.ndarray:
+    """Glitches: samples that deviate by more than tol [cm] from the cubic through their 4
+    neighbours (at the neighbours' times), the largest first, repeated (so a glitch flags itself,
+    not its neighbours); flags closer than 6 samples to each other are joined with everything
+    between them (an excursion of the tracker rather than an isolated glitch)."""
+    n = x.size
+    bad = np.zeros(n, bool)
+    if n < 5:
+        return bad
+    for _ in range(max(1, n // 5)):
+        good = np.nonzero(~bad)[0]
+        if good.size < 5:
+            break
+        tt, xs, ys = t[good], x[good], y[good]
+        nb = [tt[:-4], tt[1:-3], tt[3:-1], tt[4:]]
+        c = tt[2:-2]
+        px = np.zeros(c.size)
+        py = np.zeros(c.size)
+        for j, (tj, xj, yj) in enumerate(zip(nb, (xs[:-4], xs[1:-3], xs[3:-1], xs[4:]),
+                                             (ys[:-4], ys[1:-3], ys[3:-1], ys[4:]))):
+            w = np.ones(c.size)
+            for m, tm in enumerate(nb):
+                if m != j:
+                    w *= (c - tm) / (tj - tm)
+            px += w * xj
+            py += w * yj
+        dev = np.hypot(xs[2:-2] - px, ys[2:-2] - py)
+        k = int(np.argmax(dev))
+        if dev[k] <= tol:
+            break
+        bad[good[k + 2]] = True
+    f = np.nonzero(bad)[0]
+    for i, j in zip(f[:-1], f[1:]):
+        if j - i < 6:
+            bad[i:j + 1] = True
+    return bad
+
+
+def validate(tracks: Tracks, rate: float, t_skip: float = T_SKIP, plate: float = PLATE,
+             min_samples: int = 50, jump_tol: float = 1.0):
+    """Split the tracks into analysable segments; returns (segments, report).
+
+    Per track: samples with a NaN are dropped (kind nan); times must increase strictly (a
+    repeated or decreasing time rejects the track: time_order; a step below 0.5/rate: irregular);
+    positions with |x| or |y| > plate are dropped (off_plate), and so are single-sample jumps
+    larger than jump_tol from the cubic through the 4 neighbours (jump); steps > 1.5/rate split
+    the track (gap); the first t_skip after the track's first sample is dropped; pieces shorter
+    than min_samples are dropped (short). Every drop is an Issue; the energetic check on the
+    segments' heights comes later (estimate_segment, analyse)."""
+    rep = ValidationReport()
+    rep.n_samples = int(tracks.t.size)
+    ids, first = np.unique(tracks.track, return_index=True)
+    ids = ids[np.argsort(first)]
+    rep.n_tracks = int(ids.size)
+    segs = []
+    dt0 = 1.0 / rate
+    for k in ids:
+        idx = np.nonzero(tracks.track == k)[0]
+        t, x, y = tracks.t[idx], tracks.x[idx], tracks.y[idx]
+        k = int(k)
+        nan = ~(np.isfinite(t) & np.isfinite(x) & np.isfinite(y))
+        if nan.any():
+            for a, b in _runs(nan):
+                tt = t[a:b][np.isfinite(t[a:b])]
+                rep.add(k, "nan", "warning", float(tt.min()) if tt.size else math.nan,
+                        float(tt.max()) if tt.size else math.nan, int(b - a),
+                        f"track {k}: {b - a} sample(s) with NaN (rows {idx[a]}..{idx[b - 1]}) dropped")
+        keep = ~np.isnan(t)
+        tk = t[keep]
+        if tk.size == 0:
+            rep.n_tracks_rejected += 1
+            rep.add(k, "nan", "error", math.nan, math.nan, int(idx.size),
+                    f"track {k}: no sample with a finite time: track rejected")
+            continue
+        d = np.diff(tk)
+        if np.any(d <= 0):
+            j = int(np.argmax(d <= 0))
+            what = "repeated" if d[j] == 0 else "decreasing"
+            rep.n_tracks_rejected += 1
+            rep.add(k, "time_order", "error", float(tk[0]), float(tk[-1]), int(idx.size),
+                    f"track {k}: {what} time at t = {tk[j + 1]:.6g} s (after {tk[j]:.6g} s; "
+                    f"{int(np.sum(d <= 0))} such step(s)): times must increase within a track; "
+                    f"track rejected")
+            continue
+        if np.any(d < 0.5 * dt0):
+            j = int(np.argmax(d < 0.5 * dt0))
+            rep.n_tracks_rejected += 1
+            rep.add(k, "irregular", "error", float(tk[0]), float(tk[-1]), int(idx.size),
+                    f"track {k}: time step {d[j]:.3g} s at t = {tk[j]:.6g} s is below half the "
+                    f"camera period {dt0:.3g} s: track rejected")
+            continue
+        ok = ~nan
+        off = ok & ((np.abs(x) > plate) | (np.abs(y) > plate))
+        if off.any():
+            for a, b in _runs(off):
+                rep.add(k, "off_plate", "warning", float(t[a]), float(t[b - 1]), int(b - a),
+                        f"track {k}: {b - a} sample(s) off the plate (|x| or |y| > {plate:g} cm, "
+                        f"e.g. ({x[a]:.3g}, {y[a]:.3g})) at t = {t[a]:.6g}..{t[b - 1]:.6g} s dropped")
+            ok &= ~off
+        # regular sampling: split at gaps; then isolated jumps within each gap-free piece
+        tstart = float(np.nanmin(t))
+        pieces = []
+        for a, b in _runs(ok):
+            ii = np.arange(a, b)
+            cuts = np.nonzero(np.diff(t[ii]) > GAP_FACTOR * dt0)[0]
+            for c in cuts:
+                rep.add(k, "gap", "warning", float(t[ii[c]]), float(t[ii[c + 1]]), 0,
+                        f"track {k}: gap of {t[ii[c + 1]] - t[ii[c]]:.3g} s after t = {t[ii[c]]:.6g} s: "
+                        f"track split")
+            for pc in np.split(ii, cuts + 1):
+                jf = _jump_flags(t[pc], x[pc], y[pc], jump_tol)
+                for a2, b2 in _runs(jf):
+                    ta, tb = float(t[pc[a2]]), float(t[pc[b2 - 1]])
+                    what = (f"sample at t = {ta:.6g} s jumps" if b2 - a2 == 1 else
+                            f"{b2 - a2} samples at t = {ta:.6g}..{tb:.6g} s jump")
+                    rep.add(k, "jump", "warning", ta, tb, int(b2 - a2),
+                            f"track {k}: {what} more than {jump_tol:g} cm off the track: dropped")
+                pieces += [pc[a2:b2] for a2, b2 in _runs(~jf)]
+        for pc in pieces:
+            sk = t[pc] < tstart + t_skip - 1e-9 * max(1.0, abs(tstart))
+            rep.n_samples_skipped += int(sk.sum())
+            pc = pc[~sk]
+            if pc.size == 0:
+                continue
+            if pc.size < min_samples:
+                rep.add(k, "short", "warning", float(t[pc[0]]), float(t[pc[-1]]), int(pc.size),
+                        f"track {k}: segment t = {t[pc[0]]:.6g}..{t[pc[-1]]:.6g} s has {pc.size} "
+                        f"samples, fewer than the {min_samples} needed: dropped")
+                continue
+            dd = np.diff(t[pc])
+            if dd.size and np.max(np.abs(dd - np.median(dd))) > 0.05 * np.median(dd):
+                rep.add(k, "jitter", "warning", float(t[pc[0]]), float(t[pc[-1]]), 0,
+                        f"track {k}: time steps vary by up to "
+                        f"{np.max(np.abs(dd - np.median(dd))) / np.median(dd):.0%} of the median "
+                        f"in t = {t[pc[0]]:.6g}..{t[pc[-1]]:.6g} s; treated as uniform")
+            segs.append(Segment(k, idx[pc], t[pc].copy(), x[pc].copy(), y[pc].copy()))
+    rep.n_segments = len(segs)
+    rep.n_samples_used = int(sum(s.t.size for s in segs))
+    return segs, rep
+
+
+# --------------------------------------------------------------------------------------------
+# Differentiation, momenta and energies
+# --------------------------------------------------------------------------------------------
+
+@functools.lru_cache(maxsize=32)
+def savgol_matrices(window: int, order: int):
+    """Savitzky-Golay evaluation rows: (smooth, deriv) of shape (window, window); row j gives the
+    value (derivative per sample) at offset j - window//2 of the least-squares polynomial of the
+    given order through the window's samples."""
+    h = window // 2
+    k = np.arange(-h, h + 1, dtype=float)
+    A = np.vander(k, order + 1, increasing=True)
+    P = np.linalg.pinv(A)                                   # coefficients = P @ samples
+    Vs = np.vander(k, order + 1, increasing=True)
+    Vd = np.zeros_like(Vs)
+    Vd[:, 1:] = Vs[:, :-1] * np.arange(1, order + 1)
+    return Vs @ P, Vd @ P
+
+
+def differentiate(x, dt: float, method: str = "spectral", **options):
+    """(velocity, smoothed position) of uniformly sampled x ((n,) or (n, k)): tubes.differentiate,
+    the Fortran estimators of src/tubes_differentiate.f90."""
+    import tubes
+    if method not in ESTIMATORS:
+        raise ExperimentError(f"unknown estimator {method!r}; allowed: {', '.join(ESTIMATORS)}")
+    fn = getattr(tubes, "differentiate", None)
+    if fn is None:      # the package predates tubes.differentiate: rebuild (make)
+        raise ExperimentError("tubes.differentiate is missing: rebuild tubes (make)")
+    try:
+        v, sm = fn(np.asarray(x, dtype=np.float64), dt, method=method, **options)
+    except (TypeError, ValueError) as exc:
+        raise ExperimentError(f"estimator {method} {options}: {exc}") from None
+    except TubesError as exc:
+        raise ExperimentError(f"estimator {method} {options} on {np.shape(x)[0]} samples: {exc}") from None
+    return np.asarray(v, float), np.asarray(sm, float)
+
+
+def differentiator_name() -> str:
+    return "tubes.differentiate (src/tubes_differentiate.f90)"
+
+
+def min_samples_for(method: str, options: dict) -> int:
+    """Fewest samples the estimator needs (besides MIN_DURATION)."""
+    if method == "savgol":
+        return 2 * int(options.get("window", 15)) + 1
+    return 16
+
+
+def surface_derivatives(x, y, model: Model = Model()):
+    """grad H (2, n) and Hess H (2, 2, n) of the four-well surface (docs/theory.md), numpy."""
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    a, b, g, xi = model.alpha, model.beta, model.gamma, model.xi
+    hx = 2 * a * x - b * x / np.sqrt(x * x + g) - xi * y
+    hy = 2 * a * y - b * y / np.sqrt(y * y + g) - xi * x
+    hxx = 2 * a - b * g / (x * x + g) ** 1.5
+    hyy = 2 * a - b * g / (y * y + g) ** 1.5
+    hxy = np.full_like(x, -xi)
+    return np.array([hx, hy]), np.array([[hxx, hxy], [hxy, hyy]])
+
+
+def state_energy(x, y, vx, vy, model: Model = Model()):
+    """Momenta and energy at each sample: the Fortran routines behind tubes.momentum and
+    tubes.energy, called on the extension directly with the parameters built once (the public
+    wrappers spend ~3 us per call on Python checks, 10 times the routine; test_experiment checks
+    that both give the same numbers). Returns px, py, E, T with T = p.v / 2 (T is quadratic in v)."""
+    from . import _lib
+    core = _lib()
+    par = model.params()
+    n = len(x)
+    px, py, E = np.empty(n), np.empty(n), np.empty(n)
+    q = np.empty(2)
+    v = np.empty(2)
+    z = np.empty(4)
+    for i in range(n):
+        q[0], q[1], v[0], v[1] = x[i], y[i], vx[i], vy[i]
+        st, p = core.momentum(par, q, v)
+        if st < 0:
+            raise TubesError(st, "momentum")
+        z[0], z[1], z[2], z[3] = x[i], y[i], p[0], p[1]
+        st, e = core.energy(par, z)
+        if st < 0:
+            raise TubesError(st, "energy")
+        px[i], py[i], E[i] = p[0], p[1], e
+    T = 0.5 * (px * vx + py * vy)
+    return px, py, E, T
+
+
+def energy_of_states(states, model: Model = Model()) -> np.ndarray:
+    """tubes' energy of each row (x, y, px, py) of states [(cm/s)^2]."""
+    from . import _lib
+    core = _lib()
+    par = model.params()
+    states = np.asarray(states, float)
+    out = np.empty(states.shape[0])
+    for i in range(out.size):
+        st, out[i] = core.energy(par, states[i])
+        if st < 0:
+            raise TubesError(st, "energy")
+    return out
+
+
+def potential_energy(x, y, model: Model = Model()) -> np.ndarray:
+    """g H(x, y) [(cm/s)^2] at each point (tubes' energy at rest)."""
+    from . import _lib
+    core = _lib()
+    par = model.params()
+    z = np.zeros(4)
+    out = np.empty(len(x))
+    for i in range(len(x)):
+        z[0], z[1] = x[i], y[i]
+        st, out[i] = core.energy(par, z)
+        if st < 0:
+            raise TubesError(st, "energy")
+    return out
+
+
+def estimate_segment(seg: Segment, method: str, options: dict, model: Model) -> dict:
+    """Smoothed positions, velocities, momenta, energy E and kinetic energy T along a segment,
+    and dE/dq at fixed velocity (for the error propagation)."""
+    dt = float(np.median(np.diff(seg.t)))
+    vx, xs = differentiate(seg.x, dt, method, **options)
+    vy, ys = differentiate(seg.y, dt, method, **options)
+    px, py, E, T = state_energy(xs, ys, vx, vy, model)
+    gr, hs = surface_derivatives(xs, ys, model)
+    gv = gr[0] * vx + gr[1] * vy
+    # E = (7/10)(|v|^2 + (grad H . v)^2) + g H:  dE/dq = (7/5)(grad H . v) Hess v + g grad H
+    fq = np.array([1.4 * gv * (hs[0, 0] * vx + hs[0, 1] * vy) + model.g * gr[0],
+                   1.4 * gv * (hs[1, 0] * vx + hs[1, 1] * vy) + model.g * gr[1]])
+    return {"t": seg.t, "dt": dt, "x": xs, "y": ys, "vx": vx, "vy": vy, "px": px, "py": py,
+            "E": E, "T": T, "dEdq": fq, "method": method, "options": dict(options)}
+
+
+def _noise_response(seg: Segment, est: dict, sigma: float, k: int, rng) -> np.ndarray:
+    """(k, n): the energy error at each sample caused by k realisations of white position noise
+    of standard deviation sigma [cm], to first order: p . dv + dE/dq . dq_smoothed (dv, dq the
+    estimator applied to the noise: it is linear)."""
+    n = seg.t.size
+    nx = rng.normal(0.0, sigma, (n, k))
+    ny = rng.normal(0.0, sigma, (n, k))
+    dvx, dsx = differentiate(nx, est["dt"], est["method"], **est["options"])
+    dvy, dsy = differentiate(ny, est["dt"], est["method"], **est["options"])
+    out = (est["px"][:, None] * dvx + est["py"][:, None] * dvy + est["dEdq"][0][:, None] * dsx
+           + est["dEdq"][1][:, None] * dsy)
+    return out.T
+
+
+def window_energy(t, E, T, tc, half_width: float, trim: float = TRIM):
+    """Energy at times tc by a local linear regression of E on the dissipation coordinate
+    D(t) = integral of 2T dt over |t - tc| <= half_width (exact for viscous damping
+    dE/dt = -2 c T, and for any slow damping law to first order). Samples within trim [s] of
+    the segment's ends (where the estimators are least accurate) are left out while at least 10
+    others remain. Returns (E_fit, slope, rows) with slope = dE/dD (-c for viscous damping) and
+    rows[i] = (indices, weights) such that E_fit[i] = weights . E[indices]."""
+    D = _dissipation(t, T)
+    out = np.empty(len(tc))
+    slope = np.empty(len(tc))
+    rows = []
+    inner = (t - t[0] >= trim) & (t[-1] - t >= trim)
+    for i, c in enumerate(tc):
+        near = np.abs(t - c) <= half_width
+        sel = np.nonzero(near & inner)[0]
+        if sel.size < 10:
+            sel = np.nonzero(near)[0]
+        if sel.size < 3:
+            sel = np.argsort(np.abs(t - c))[:3]
+        dc = np.interp(c, t, D)
+        A = np.column_stack([np.ones(sel.size), D[sel] - dc])
+        if np.ptp(D[sel]) <= 0:
+            w = np.full(sel.size, 1.0 / sel.size)
+            slope[i] = 0.0
+        else:
+            pinv = np.linalg.pinv(A)
+            w = pinv[0]
+            slope[i] = pinv[1] @ E[sel]
+        out[i] = w @ E[sel]
+        rows.append((sel, w))
+    return out, slope, rows
+
+
+def noise_estimate(segments) -> float:
+    """Position noise [cm] from the data: the residual of a Savitzky-Golay smoothing (window 11,
+    order 3) over the interior samples, divided by sqrt(1 - h0) (h0 its central weight: white
+    noise under a projection filter leaves a residual of variance sigma^2 (1 - h0))."""
+    w, o = 11, 3
+    S, _ = savgol_matrices(w, o)
+    h0 = S[w // 2, w // 2]
+    res = []
+    for s in segments:
+        if s.t.size < 2 * w:
+            continue
+        for a in (s.x, s.y):
+            r = a[w // 2:-(w // 2)] - np.lib.stride_tricks.sliding_window_view(a, w) @ S[w // 2]
+            res.append(r)
+    if not res:
+        return math.nan
+    r = np.concatenate(res)
+    return float(np.sqrt(np.mean(r * r) / (1 - h0)))
+
+
+# --------------------------------------------------------------------------------------------
+# Crossings of U1 and their fate
+# --------------------------------------------------------------------------------------------
+
+def _cubic_weights(t4, tq):
+    """Lagrange weights of the cubic through the 4 sample times t4 evaluated at tq."""
+    w = np.ones(4)
+    for j in range(4):
+        for m in range(4):
+            if m != j:
+                w[j] *= (tq - t4[m]) / (t4[j] - t4[m])
+    return w
+
+
+def _cubic_roots(t, g, level: float = 0.0):
+    """Times where the sampled g crosses level: one per sign change of g - level between
+    consecutive samples, the root inside that interval of the cubic through the 4 nearest samples
+    (i-1 .. i+2, shifted at the ends; the middle root if there are three, linear interpolation if
+    the cubic has none there). Returns (times, index of the sample before)."""
+    h = g - level
+    s = np.sign(h)
+    idx = np.nonzero((s[:-1] != 0) & (s[:-1] != s[1:]))[0]
+    out = np.empty(idx.size)
+    n = t.size
+    for j, i in enumerate(idx):
+        a, b = t[i], t[i + 1]
+        lin = a + (b - a) * h[i] / (h[i] - h[i + 1])
+        if n < 4:
+            out[j] = lin
+            continue
+        k0 = min(max(i - 1, 0), n - 4)
+        tt, hh = t[k0:k0 + 4], h[k0:k0 + 4]
+        u = (tt - a) / (b - a)
+        c = np.polyfit(u, hh, 3)                 # exact through 4 points
+        r = np.roots(c)
+        r = np.sort(r[(np.abs(r.imag) < 1e-9) & (r.real >= -1e-12) & (r.real <= 1 + 1e-12)].real)
+        out[j] = a + (b - a) * r[r.size // 2] if r.size else lin
+    return out, idx
+
+
+def _at(t, arr, tq):
+    """Cubic (4-point Lagrange) interpolation of the sampled arr at the times tq."""
+    n = t.size
+    out = np.empty(len(tq))
+    for j, c in enumerate(tq):
+        i = int(np.clip(np.searchsorted(t, c) - 1, 0, n - 2))
+        k0 = min(max(i - 1, 0), n - 4)
+        out[j] = _cubic_weights(t[k0:k0 + 4], c) @ arr[k0:k0 + 4]
+    return out
+
+
+def find_crossings(est: dict, model: Model, x_gate: float):
+    """U1 crossings (theta = pi/4, x > 0) of one estimated segment: roots of y - x of the smoothed
+    positions on the cubic through the 4 samples around each sign change, with positions and
+    velocities interpolated there by the same cubics; and the gate passages (x falls below
+    x_gate with y > 0). Returns (crossings: dict of arrays t, x, y, vx, vy, px, py, r, p_r,
+    p_theta, branch; gate times)."""
+    t = est["t"]
+    g = est["y"] - est["x"]
+    tc, _ = _cubic_roots(t, g)
+    xs, ys = _at(t, est["x"], tc), _at(t, est["y"], tc)
+    keep = (xs + ys) > 0
+    tc, xs, ys = tc[keep], xs[keep], ys[keep]
+    q = 0.5 * (xs + ys)                       # on the ray x = y (to the cubic's accuracy)
+    vx, vy = _at(t, est["vx"], tc), _at(t, est["vy"], tc)
+    px, py, _, _ = state_energy(q, q, vx, vy, model) if tc.size else (np.zeros(0),) * 4
+    r = np.sqrt(2.0) * q
+    cr = {"t": tc, "x": q, "y": q.copy(), "vx": vx, "vy": vy, "px": px, "py": py, "r": r,
+          "p_r": (q * px + q * py) / np.where(r > 0, r, 1), "p_theta": q * py - q * px}
+    cr["branch"] = np.sign(cr["p_theta"]).astype(int)
+    tg, _ = _cubic_roots(t, est["x"], x_gate)
+    if tg.size:
+        ok = (_at(t, est["vx"], tg) < 0) & (_at(t, est["y"], tg) > 0)
+        tg = tg[ok]
+    return cr, tg
+
+
+def classify(cr: dict, tg: np.ndarray, t_first: float, t_last: float, edge: float = EDGE,
+             guard: float = 0.0) -> np.ndarray:
+    """Outcome of every crossing (only U1^- ones are meaningful): 1 the ball passes the gate
+    before its next U1 crossing (transition), 0 it crosses U1 again first, -1 censored (neither
+    before the segment ends, or within guard of the end), -2 within edge of a segment end."""
+    tc = cr["t"]
+    out = np.full(tc.size, OUTCOME_CENSORED, int)
+    for i, c in enumerate(tc):
+        if c - t_first < edge or t_last - c < edge:
+            out[i] = OUTCOME_EDGE
+            continue
+        if t_last - c < guard:
+            continue
+        tn = tc[i + 1] if i + 1 < tc.size else math.inf
+        after = tg[tg > c]
+        t_g = after[0] if after.size else math.inf
+        if t_g < tn:
+            out[i] = OUTCOME_TRANSITION
+        elif tn < math.inf:
+            out[i] = OUTCOME_RETURN
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# Theory
+# --------------------------------------------------------------------------------------------
+
+@dataclasses.dataclass
+class Theory:
+    path: str
+    E_e: float
+    growth_rate: float
+    dE: np.ndarray
+    p_trans: np.ndarray
+    cuts: list                        # [(dE, r, p_r)] sorted by dE
+    model: Model
+    result: object = None             # tubes.load of the file (for the plots)
+
+    def p(self, de) -> np.ndarray:
+        """A_tube/A_E interpolated linearly in dE (p = 0 at dE <= 0; NaN above the last dE)."""
+        de = np.asarray(de, float)
+        out = np.interp(de, np.concatenate([[0.0], self.dE]), np.concatenate([[0.0], self.p_trans]))
+        out = np.where(de <= 0, 0.0, out)
+        return np.where(de > self.dE[-1], np.nan, out)
+
+    def cut_for(self, de: float, rule: str = "at-or-above"):
+        """The tube cut for a crossing at dE: the one of smallest dE >= de ('at-or-above'; the
+        caller passes the bin's upper edge for the paper's 'bin-top'), or the nearest in dE
+        ('nearest'); None if there is none."""
+        if not self.cuts:
+            return None
+        ds = np.array([c[0] for c in self.cuts])
+        if rule == "nearest":
+            return self.cuts[int(np.argmin(np.abs(ds - de)))]
+        j = np.nonzero(ds >= de - 1e-9)[0]
+        return self.cuts[int(j[0])] if j.size else None
+
+
+def load_theory(path: str) -> Theory:
+    """Read /section, /transition and /tubes/stable_* of a tubes RESULT.h5."""
+    import h5py
+    from . import load
+    if not pathlib.Path(path).exists():
+        raise ExperimentError(f"{path}: no such theory file")
+    try:
+        res = load(path)
+    except OSError as exc:
+        raise ExperimentError(f"{path}: not a readable HDF5 file ({exc})") from exc
+    for grp, what in (("section", "scenes tubes/transition"), ("transition", "scene transition")):
+        if grp not in res:
+            raise ExperimentError(f"{path}: no group /{grp} (run tubes with the {what})")
+    tr = res.transition
+    de = np.asarray(tr.dE, float)
+    p = np.asarray(tr.p_trans, float)
+    ok = np.isfinite(p)
+    if not ok.any():
+        raise ExperimentError(f"{path}: /transition/p_trans has no finite value")
+    order = np.argsort(de[ok])
+    cuts = []
+    if "tubes" in res:
+        for k in sorted(res.tubes.keys()):
+            if k.startswith("stable_"):
+                c = getattr(res.tubes, k)
+                cuts.append((float(c.attrs["dE"]), np.asarray(c.r, float), np.asarray(c.p_r, float)))
+    cuts.sort(key=lambda c: c[0])
+    model = Model()
+    if "model" in res:
+        m = res.model.attrs
+        model = Model(**{k: float(m[k]) for k in ("alpha", "beta", "gamma", "xi", "h0", "g") if k in m})
+    sec = res.section.attrs
+    return Theory(path, float(sec["E_e"]), float(sec["growth_rate"]), de[ok][order], p[ok][order],
+                  cuts, model, res)
+
+
+def inside_polygon(px, py, vx, vy) -> np.ndarray:
+    """Even-odd rule: which points (px, py) lie inside the closed polygon (vx, vy)."""
+    px = np.atleast_1d(np.asarray(px, float))[:, None]
+    py = np.atleast_1d(np.asarray(py, float))[:, None]
+    x1, y1 = np.asarray(vx, float)[None, :], np.asarray(vy, float)[None, :]
+    x2, y2 = np.roll(x1, -1, axis=1), np.roll(y1, -1, axis=1)
+    cond = (y1 > py) != (y2 > py)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xint = x1 + (py - y1) * (x2 - x1) / (y2 - y1)
+    return (np.sum(cond & (px < xint), axis=1) % 2) == 1
+
+
+# --------------------------------------------------------------------------------------------
+# Statistics
+# --------------------------------------------------------------------------------------------
+
+def wilson(k, n, z: float):
+    """Wilson score interval (lo, hi) for k successes in n (arrays; n may be non-integer, an
+    effective sample size). NaN where n = 0."""
+    k = np.asarray(k, float)
+    n = np.asarray(n, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p = k / n
+        den = 1 + z * z / n
+        mid = (p + z * z / (2 * n)) / den
+        half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return np.where(n > 0, mid - half, np.nan), np.where(n > 0, mid + half, np.nan)
+
+
+def fit_slope(x, k, n, deff=1.0, iterations: int = 50):
+    """Weighted least squares of the fraction k/n against x through the origin, with the
+    binomial weights n_eff / (p (1 - p)) at p = slope x of the fit itself (iterated;
+    n_eff = n / deff; p is floored at half a count, 0.5 / n_eff). Returns (slope, slope_err)."""
+    x = np.asarray(x, float)
+    k = np.asarray(k, float)
+    n = np.asarray(n, float)
+    ok = (n > 0) & (x > 0)
+    if not ok.any():
+        return math.nan, math.nan
+    x, f, ne = x[ok], k[ok] / n[ok], n[ok] / np.broadcast_to(np.asarray(deff, float), n.shape)[ok]
+
+    def weights(s):
+        p = np.clip(s * x, 0.5 / ne, 1 - 0.5 / ne)
+        return ne / (p * (1 - p))
+    s = float(np.sum(ne * f * x) / np.sum(ne * x * x))
+    for _ in range(iterations):
+        w = weights(s)
+        s_new = float(np.sum(w * f * x) / np.sum(w * x * x))
+        done = abs(s_new - s) <= 1e-12 * max(abs(s), 1e-300)
+        s = s_new
+        if done:
+            break
+    w = weights(s)
+    return s, float(1 / np.sqrt(np.sum(w * x * x)))
+
+
+def fit_line(x, f, w):
+    """Weighted straight line f = a + b x; returns (a, b, cov)."""
+    A = np.column_stack([np.ones_like(x), x])
+    Aw = A * w[:, None]
+    cov = np.linalg.inv(A.T @ Aw)
+    a, b = cov @ (Aw.T @ f)
+    return float(a), float(b), cov
+
+
+# --------------------------------------------------------------------------------------------
+# The analysis
+# --------------------------------------------------------------------------------------------
+
+@dataclasses.dataclass
+class Options:
+    estimator: str = "spectral"
+    estimator_options: dict = dataclasses.field(default_factory=dict)
+    energy: str = "window"               # 'window' (regression) or 'instant'
+    energy_window: float = ENERGY_WINDOW
+    t_skip: float = T_SKIP
+    gate: float = GATE
+    plate: float = PLATE
+    rate: float = 0.0                    # [Hz]; 0: from the file or the median time step
+    noise: float = 0.0                   # [cm]; 0: estimated from the data
+    bins: tuple = tuple(np.arange(-40.0, 400.0 + 1e-9, 40.0))
+    confidence: float = 0.95
+    fit_max: float = 160.0               # [(cm/s)^2] bins inside (0, fit_max] enter the slope fit
+    edge: float = EDGE
+    guard: float = 0.0
+    resamples: int = 16                  # noise realisations for dE_err
+    bootstrap: int = 400                 # track bootstrap replicates
+    cut_rule: str = "at-or-above"
+    compare: bool = True                 # also run the other estimator (dE_other)
+    min_duration: float = MIN_DURATION
+    jump_tol: float = 0.0                # [cm]; 0: max(1 cm, 12 noise)
+    seed: int = 20180214
+
+
+def _z(conf: float) -> float:
+    from statistics import NormalDist
+    return float(NormalDist().inv_cdf(0.5 + conf / 2))
+
+
+def _gate_geometry(model: Model):
+    eq = equilibria(model)
+    if "S12" not in eq["name"]:
+        raise ExperimentError("the model has no saddle S12")
+    j = eq["name"].index("S12")
+    return float(eq["x"][j]), float(eq["y"][j]), float(eq["energy"][j])
+
+
+def _slow_frequency(model: Model) -> float:
+    """omega_1 = sqrt((5/7) g kappa_min) at the well W1 (docs/theory.md), for zeta = c/(2 omega_1)."""
+    eq = equilibria(model)
+    j = eq["name"].index("W1") if "W1" in eq["name"] else 0
+    _, hs = surface_derivatives([eq["x"][j]], [eq["y"][j]], model)
+    kmin = np.linalg.eigvalsh(hs[:, :, 0]).min()
+    return float(np.sqrt(5.0 / 7.0 * model.g * kmin))
+
+
+def _analyse_segments(segs, opt: Options, method: str, model: Model, x_gate: float, E_e: float,
+                      sigma: float, rng, rep: ValidationReport | None):
+    """Crossings of all segments with one estimator. The energetic check (heights above the
+    energy available) drops samples and splits segments (reported in rep)."""
+    out = []
+    queue = list(segs)
+    final = []
+    while queue:
+        s = queue.pop(0)
+        est = estimate_segment(s, method, opt.estimator_options if method == opt.estimator
+                               else DEFAULT_OPTIONS[method], model)
+        if rep is not None:
+            bad, V, cap = _impossible_heights(s, est, model, sigma)
+            if bad.any():
+                for a, b in _runs(bad):
+                    j = a + int(np.argmax(V[a:b] - cap[a:b]))
+                    rep.add(s.track, "impossible_height", "warning", float(s.t[a]), float(s.t[b - 1]),
+                            int(b - a), f"track {s.track}: {b - a} sample(s) at t = {s.t[a]:.6g}.."
+                            f"{s.t[b - 1]:.6g} s lie higher than the energy of the track allows "
+                            f"(g H up to {V[j]:.0f}, energy with tolerance {cap[j]:.0f} (cm/s)^2): dropped")
+                need = max(min_samples_for(method, opt.estimator_options),
+                           int(math.ceil(opt.min_duration * opt.rate)))
+                for a, b in _runs(~bad):
+                    sub = Segment(s.track, s.index[a:b], s.t[a:b], s.x[a:b], s.y[a:b])
+                    if b - a < need:
+                        rep.add(s.track, "short", "warning", float(sub.t[0]), float(sub.t[-1]),
+                                int(b - a), f"track {s.track}: segment t = {sub.t[0]:.6g}.."
+                                f"{sub.t[-1]:.6g} s has {b - a} samples, fewer than the {need} needed: "
+                                f"dropped")
+                        continue
+                    queue.append(sub)
+                continue
+        final.append(s)
+        cr, tg = find_crossings(est, model, x_gate)
+        cr["outcome"] = classify(cr, tg, s.t[0], s.t[-1], opt.edge, opt.guard)
+        # energies at the crossings
+        if opt.energy == "window":
+            ew, slope, rows = window_energy(s.t, est["E"], est["T"], cr["t"], opt.energy_window)
+        else:
+            ew = state_energy(cr["x"], cr["y"], cr["vx"], cr["vy"], model)[2]
+            slope = np.full(cr["t"].size, np.nan)
+            rows = [(np.array([np.argmin(np.abs(s.t - c))]), np.ones(1)) for c in cr["t"]]
+        cr["E"] = ew
+        cr["dE"] = ew - E_e
+        cr["E_instant"] = state_energy(cr["x"], cr["y"], cr["vx"], cr["vy"], model)[2]
+        cr["damping_slope"] = -slope
+        if opt.resamples > 0 and sigma > 0 and cr["t"].size:
+            resp = _noise_response(s, est, sigma, opt.resamples, rng)
+            de = np.array([resp[:, sel] @ w for sel, w in rows]).reshape(cr["t"].size, -1)
+            cr["dE_noise"] = np.sqrt(np.mean(de * de, axis=1))
+        else:
+            cr["dE_noise"] = np.zeros(cr["t"].size)
+        cr["track"] = np.full(cr["t"].size, s.track, int)
+        cr["segment"] = np.full(cr["t"].size, len(final) - 1, int)
+        out.append(cr)
+    if not out:
+        return None, final
+    keys = out[0].keys()
+    return {k: np.concatenate([c[k] for c in out]) for k in keys}, final
+
+
+def _dissipation(t, T):
+    """D(t) = integral of 2 T dt (trapezoidal) [(cm/s)^2 s]: dE/dt = -c dD/dt for viscous damping."""
+    return np.concatenate([[0.0], np.cumsum((T[1:] + T[:-1]) * np.diff(t))])
+
+
+def _impossible_heights(s: Segment, est: dict, model: Model, sigma: float):
+    """Samples whose potential energy g H (of the smoothed position) exceeds the energy the ball
+    has there: E0(t) + b D(t), D the dissipation coordinate, b = -c the slope of a least-squares
+    fit of E on D over the segment (residuals above 5 robust sigma dropped, repeated up to 5 times;
+    clipped to a damping rate in [0, 2] 1/s), E0(t) the running median of E - b D over +-1 s
+    (robust against the spikes and excursions shorter than 1 s that a glitch leaves in E).
+    Tolerance: 5 sigma_E (robust noise of E from first differences) plus 3 g sigma (sigma the
+    position noise; |grad H| < ~1.3 on the plate). Returns (flags, g H, energy + tolerance)."""
+    t, E, T = s.t, est["E"], est["T"]
+    n = E.size
+    D = _dissipation(t, T)
+    A = np.column_stack([np.ones(n), D])
+    good = np.ones(n, bool)
+    for _ in range(5):
+        coef = np.linalg.lstsq(A[good], E[good], rcond=None)[0]
+        res = E - A @ coef
+        mad = 1.4826 * np.median(np.abs(res[good] - np.median(res[good])))
+        new = np.abs(res) <= 5 * mad if mad > 0 else good
+        if new.sum() < 3 or np.array_equal(new, good):
+            break
+        good = new
+    b = float(np.clip(coef[1], -2.0, 0.0))
+    F = E - b * D
+    h = max(1, min(int(round(1.0 / est["dt"])), (n - 1) // 2))
+    win = np.lib.stride_tricks.sliding_window_view(np.pad(F, h, mode="edge"), 2 * h + 1)
+    ref = np.median(win, axis=1) + b * D
+    d = np.diff(E)
+    sig_e = 1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2) if d.size else 0.0
+    V = potential_energy(est["x"], est["y"], model)
+    cap = ref + 5 * sig_e + 3 * model.g * sigma
+    return V > cap, V, cap
+
+
+@dataclasses.dataclass
+class Analysis:
+    options: Options
+    report: ValidationReport
+    crossings: dict            # U1^- crossings (per-crossing arrays)
+    bins: dict                 # per-bin arrays
+    attrs: dict                # scalars
+    theory: Theory | None
+
+
+def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = None,
+            model: Model | None = None) -> Analysis:
+    """The whole pipeline on a set of tracks (see the module docstring)."""
+    opt = dataclasses.replace(opt) if opt is not None else Options()    # filled in below: a copy
+    if opt.estimator not in ESTIMATORS:
+        raise ExperimentError(f"unknown estimator {opt.estimator!r}; allowed: {', '.join(ESTIMATORS)}")
+    if not opt.estimator_options:
+        opt.estimator_options = dict(DEFAULT_OPTIONS[opt.estimator])
+    model = model or (theory.model if theory is not None else Model())
+    rng = np.random.default_rng(opt.seed)
+    xs12, _, E_e = _gate_geometry(model)
+    if theory is not None and abs(theory.E_e - E_e) > 1e-6 * abs(E_e):
+        raise ExperimentError(f"{theory.path}: E_e = {theory.E_e} differs from the model's "
+                              f"saddle energy {E_e} (different surface parameters?)")
+    x_gate = xs12 - opt.gate
+    # sampling rate
+    rate = opt.rate or float(tracks.attrs.get("camera_rate", 0) or 0)
+    if not rate > 0:
+        d = np.diff(tracks.t)
+        d = d[(np.diff(tracks.track) == 0) & np.isfinite(d) & (d > 0)]
+        if d.size == 0:
+            raise ExperimentError(f"{tracks.source}: cannot infer the camera rate (give --rate)")
+        rate = 1.0 / float(np.median(d))
+    opt.rate = rate
+    stated = tracks.attrs.get("noise"), tracks.attrs.get("pixel")
+    nmin = max(min_samples_for(opt.estimator, opt.estimator_options),
+               int(math.ceil(opt.min_duration * rate)))
+    jt = opt.jump_tol
+    if not jt > 0:
+        jt = max(1.0, 12 * opt.noise) if opt.noise > 0 else 1.0
+    segs, rep = validate(tracks, rate, opt.t_skip, opt.plate, nmin, jt)
+    if not segs:
+        raise ExperimentError(f"{tracks.source}: no usable track segment\n{rep.summary()}\n" +
+                              "\n".join(i.message for i in rep.issues[:20]))
+    sigma_est = noise_estimate(segs)
+    sigma = opt.noise if opt.noise > 0 else sigma_est
+    cr, segs = _analyse_segments(segs, opt, opt.estimator, model, x_gate, E_e, sigma, rng, rep)
+    rep.n_segments = len(segs)
+    rep.n_samples_used = int(sum(s.t.size for s in segs))
+    if cr is None:
+        raise ExperimentError(f"{tracks.source}: no crossing of U1 in the analysed data\n{rep.summary()}")
+    # the other estimator, for dE_other (same segments, no second energetic check)
+    other = [m for m in ESTIMATORS if m != opt.estimator][0]
+    if opt.compare:
+        o2 = dataclasses.replace(opt, resamples=0)
+        cr2, _ = _analyse_segments(segs, o2, other, model, x_gate, E_e, sigma, rng, None)
+        cr["dE_other"] = _match(cr, cr2, "dE", MATCH_TOL)
+        cr["outcome_other"] = _match(cr, cr2, "outcome", MATCH_TOL, fill=-9).astype(int)
+    else:
+        cr["dE_other"] = np.full(cr["t"].size, np.nan)
+        cr["outcome_other"] = np.full(cr["t"].size, -9)
+    diff = np.where(np.isfinite(cr["dE_other"]), cr["dE"] - cr["dE_other"], 0.0)
+    cr["dE_err"] = np.hypot(cr["dE_noise"], diff)
+    n_plus = int(np.sum(cr["branch"] < 0))
+    n_all = int(cr["t"].size)
+    minus = cr["branch"] > 0
+    cm = {k: v[minus] for k, v in cr.items()}
+    # truth (synthetic data)
+    truth_attrs = {}
+    if tracks.truth is not None:
+        truth_attrs = _truth_check(tracks, cm, model, E_e, x_gate, opt, segs)
+    bins, attrs = _statistics(cm, opt, theory, rng)
+    # the tube cuts
+    attrs.update(_inside(cm, theory, opt))
+    # damping from the data: the regression slope -dE/dD = c
+    ds = cm["damping_slope"]
+    ds = ds[np.isfinite(ds)]
+    c_hat = float(np.median(ds)) if ds.size else math.nan
+    attrs.update({
+        "n_u1_crossings": n_all, "n_u1_plus": n_plus, "n_u1_minus": int(minus.sum()),
+        "n_censored": int(np.sum(cm["outcome"] == OUTCOME_CENSORED)),
+        "n_edge": int(np.sum(cm["outcome"] == OUTCOME_EDGE)),
+        "estimator": opt.estimator, "estimator_options": json.dumps(opt.estimator_options),
+        "differentiator": differentiator_name(), "energy_method": opt.energy,
+        "energy_window": opt.energy_window, "t_skip": opt.t_skip, "gate": opt.gate,
+        "x_gate": x_gate, "x_S12": xs12, "E_e": E_e, "camera_rate": rate,
+        "noise_estimate": sigma_est, "noise_used": sigma,
+        "noise_stated": float(math.hypot(stated[0] or 0.0, (stated[1] or 0.0) / math.sqrt(12)))
+        if stated[0] is not None or stated[1] is not None else math.nan,
+        "confidence": opt.confidence, "fit_max": opt.fit_max, "edge": opt.edge, "guard": opt.guard,
+        "resamples": opt.resamples, "cut_rule": opt.cut_rule,
+        "outcome_agreement_estimators": float(np.mean(cm["outcome_other"][cm["outcome"] >= 0]
+                                                      == cm["outcome"][cm["outcome"] >= 0]))
+        if opt.compare and np.any(cm["outcome"] >= 0) else math.nan,
+        "damping_rate_estimate": c_hat,
+        "damping_ratio_estimate": c_hat / (2 * _slow_frequency(model)) if math.isfinite(c_hat) else math.nan,
+    })
+    attrs.update(truth_attrs)
+    return Analysis(opt, rep, cm, bins, attrs, theory)
+
+
+def _match(a: dict, b: dict, key: str, tol: float, fill=np.nan):
+    """b[key] at the crossing of b nearest in time to each crossing of a (same branch, within tol)."""
+    out = np.full(a["t"].size, fill, float)
+    if b is None or b["t"].size == 0:
+        return out
+    for i, (t, br, tr) in enumerate(zip(a["t"], a["branch"], a["track"])):
+        j = np.nonzero((b["track"] == tr) & (b["branch"] == br))[0]
+        if j.size:
+            k = j[np.argmin(np.abs(b["t"][j] - t))]
+            if abs(b["t"][k] - t) <= tol:
+                out[i] = b[key][k]
+    return out
+
+
+def _statistics(cm: dict, opt: Options, theory: Theory | None, rng):
+    edges = np.asarray(opt.bins, float)
+    nb = edges.size - 1
+    z = _z(opt.confidence)
+    dec = cm["outcome"] >= 0
+    dE = cm["dE"]
+    b = np.digitize(dE, edges) - 1
+    inb = dec & (b >= 0) & (b < nb)
+    tracks = np.unique(cm["track"][inb])
+    tix = {t: i for i, t in enumerate(tracks)}
+    K = np.zeros((tracks.size, nb))
+    N = np.zeros((tracks.size, nb))
+    for i in np.nonzero(inb)[0]:
+        N[tix[cm["track"][i]], b[i]] += 1
+        K[tix[cm["track"][i]], b[i]] += cm["outcome"][i] == OUTCOME_TRANSITION
+    n = N.sum(0)
+    k = K.sum(0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        f = k / n
+    center = np.array([dE[inb & (b == j)].mean() if n[j] else 0.5 * (edges[j] + edges[j + 1])
+                       for j in range(nb)])
+    derr = np.array([np.sqrt(np.mean(cm["dE_err"][inb & (b == j)] ** 2)) if n[j] else np.nan
+                     for j in range(nb)])
+    censored = np.array([np.sum((cm["outcome"] == OUTCOME_CENSORED) & (b == j)) for j in range(nb)])
+    # track bootstrap: design effect of the within-track correlation
+    B = opt.bootstrap
+    fb = np.full((B, nb), np.nan)
+    if B > 0 and tracks.size > 1:
+        W = rng.multinomial(tracks.size, np.full(tracks.size, 1.0 / tracks.size), size=B).astype(float)
+        kb, nbb = W @ K, W @ N
+        with np.errstate(invalid="ignore", divide="ignore"):
+            fb = kb / nbb
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)      # bins without crossings: NaN
+        sd_boot = np.nanstd(fb, axis=0) if B > 0 else np.full(nb, np.nan)
+        var_bin = f * (1 - f) / n
+        usable = (k > 0) & (k < n) & (n >= 10)
+        deff = float(np.nansum((sd_boot ** 2)[usable]) / np.sum(var_bin[usable])) if usable.any() else 1.0
+    deff = max(1.0, deff) if math.isfinite(deff) else 1.0
+    lo, hi = (np.clip(v, 0.0, 1.0) for v in wilson(k / deff, n / deff, z))   # roundoff at k = 0, n
+    wlo, whi = (np.clip(v, 0.0, 1.0) for v in wilson(k, n, z))
+    ptheo = np.full(nb, np.nan)
+    if theory is not None:
+        pt = theory.p(dE)
+        ptheo = np.array([np.mean(pt[inb & (b == j)]) if n[j] else np.nan for j in range(nb)])
+    fitm = (edges[:-1] >= 0) & (edges[1:] <= opt.fit_max + 1e-9) & (n > 0)
+    attrs = {"n_crossings": int(n.sum()), "n_transitions": int(k.sum()), "design_effect": deff,
+             "n_tracks_with_crossings": int(tracks.size), "n_bins_fit": int(fitm.sum())}
+    s = se = math.nan
+    if fitm.any() and k[fitm].sum() == 0:
+        # no transition: slope 0; the 95 % upper limit from Poisson (3 events): s sum(n dE) <= 3
+        s = 0.0
+        attrs["slope_upper_95"] = float(3.0 / np.sum(n[fitm] / deff * center[fitm]))
+    elif fitm.any():
+        s, se = fit_slope(center[fitm], k[fitm], n[fitm], deff)
+        x = center[fitm]
+        ne = n[fitm] / deff
+        p = np.clip(s * x, 0.5 / ne, 1 - 0.5 / ne)
+        w = ne / (p * (1 - p))
+        chi2 = float(np.sum(w * (f[fitm] - s * x) ** 2))
+        a, bb, cov = fit_line(x, f[fitm], w)
+        attrs.update({"chi2": chi2, "dof": int(fitm.sum() - 1), "intercept_fit_intercept": a,
+                      "intercept_fit_intercept_err": float(np.sqrt(cov[0, 0])),
+                      "intercept_fit_slope": bb, "intercept_fit_slope_err": float(np.sqrt(cov[1, 1]))})
+        if B > 0 and tracks.size > 1:
+            sb = []
+            for r in range(B):
+                if np.sum(kb[r][fitm]) > 0:
+                    sb.append(fit_slope(x, kb[r][fitm], nbb[r][fitm], 1.0, iterations=20)[0])
+            attrs["slope_err_bootstrap"] = float(np.std(sb)) if len(sb) > 1 else math.nan
+        if theory is not None and np.all(np.isfinite(ptheo[fitm])):
+            attrs["slope_theory"] = float(np.sum(w * ptheo[fitm] * x) / np.sum(w * x * x))
+    attrs["slope"], attrs["slope_err"] = s, se
+    if theory is not None:
+        attrs["growth_rate"] = theory.growth_rate
+    bins = {"dE_low": edges[:-1], "dE_high": edges[1:], "dE_center": center, "dE_err": derr,
+            "count": n.astype(np.int64), "transitions": k.astype(np.int64),
+            "censored": censored.astype(np.int64), "fraction": f, "ci_low": lo, "ci_high": hi,
+            "wilson_low": wlo, "wilson_high": whi, "fraction_std_bootstrap": sd_boot,
+            "p_theory": ptheo, "in_fit": fitm.astype(np.int8)}
+    return bins, attrs
+
+
+def _inside(cm: dict, theory: Theory | None, opt: Options) -> dict:
+    n = cm["t"].size
+    cm["inside"] = np.full(n, -1, int)          # -1 not evaluated
+    cm["cut_dE"] = np.full(n, np.nan)
+    if theory is None or not theory.cuts:
+        return {"inside_fraction": math.nan, "n_inside_evaluated": 0}
+    edges = np.asarray(opt.bins, float)
+    for i in range(n):
+        if cm["outcome"][i] < 0:
+            continue
+        de = cm["dE"][i]
+        if opt.cut_rule == "bin-top":          # the paper: the cut at the bin's upper edge
+            j = np.searchsorted(edges, de, side="right")
+            if j == 0 or j >= edges.size:
+                continue
+            de = edges[j]
+        c = theory.cut_for(de, "nearest" if opt.cut_rule == "nearest" else "at-or-above")
+        if c is None:
+            continue
+        cm["cut_dE"][i] = c[0]
+        cm["inside"][i] = int(inside_polygon(cm["r"][i], cm["p_r"][i], c[1], c[2])[0])
+    tr = (cm["outcome"] == OUTCOME_TRANSITION) & (cm["inside"] >= 0)
+    nt = (cm["outcome"] == OUTCOME_RETURN) & (cm["inside"] >= 0)
+    return {"inside_fraction": float(np.mean(cm["inside"][tr] == 1)) if tr.any() else math.nan,
+            "n_inside_evaluated": int(tr.sum()),
+            "n_transitions_inside": int(np.sum(cm["inside"][tr] == 1)),
+            "nontransit_inside_fraction": float(np.mean(cm["inside"][nt] == 1)) if nt.any() else math.nan,
+            "n_nontransit_evaluated": int(nt.sum())}
+
+
+def truth_crossings(tracks: Tracks, segs, model: Model, x_gate: float, opt: Options) -> dict:
+    """U1 crossings and outcomes of the noise-free samples of synthetic tracks (/tracks/truth:
+    exact positions and velocities, the same segments, the same crossing code), with their true
+    dE (the exact energy interpolated in time)."""
+    from . import velocity
+    tr = tracks.truth
+    E_true = tr.get("energy")
+    if E_true is None:
+        E_true = energy_of_states(tr["state"], model)
+    _, _, E_e = _gate_geometry(model)
+    out = []
+    for j, s in enumerate(segs):
+        st = tr["state"][s.index]
+        v = np.array([velocity(z, model) for z in st])
+        est = {"t": s.t, "x": st[:, 0], "y": st[:, 1], "vx": v[:, 0], "vy": v[:, 1]}
+        c, tg = find_crossings(est, model, x_gate)
+        c["outcome"] = classify(c, tg, s.t[0], s.t[-1], opt.edge, opt.guard)
+        c["track"] = np.full(c["t"].size, s.track)
+        c["segment"] = np.full(c["t"].size, j)
+        c["dE"] = _at(s.t, E_true[s.index], c["t"]) - E_e
+        out.append(c)
+    return {k: np.concatenate([c[k] for c in out]) for k in out[0]}
+
+
+def _truth_check(tracks: Tracks, cm: dict, model: Model, E_e: float, x_gate: float, opt: Options,
+                 segs) -> dict:
+    """Against /tracks/truth: each estimated U1^- crossing is matched to the true crossing of the
+    same branch nearest in time (within MATCH_TOL); dE, r, p_r errors and outcome agreement."""
+    tc = truth_crossings(tracks, segs, model, x_gate, opt)
+    tol = MATCH_TOL
+    cm["outcome_truth"] = _match(cm, tc, "outcome", tol, fill=-9).astype(int)
+    cm["dE_truth"] = _match(cm, tc, "dE", tol)
+    r_t = _match(cm, tc, "r", tol)
+    pr_t = _match(cm, tc, "p_r", tol)
+    tminus = {k: v[tc["branch"] > 0] for k, v in tc.items()}
+    back = _match(tminus, cm, "t", tol)
+    m = np.isfinite(cm["dE_truth"])
+    err = cm["dE"][m] - cm["dE_truth"][m]
+    dec = (cm["outcome"] >= 0) & (cm["outcome_truth"] >= 0)
+    agree = cm["outcome"][dec] == cm["outcome_truth"][dec]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = err / cm["dE_err"][m]
+    return {"truth_dE_rms": float(np.sqrt(np.mean(err ** 2))) if err.size else math.nan,
+            "truth_dE_bias": float(np.mean(err)) if err.size else math.nan,
+            "truth_dE_z_rms": float(np.sqrt(np.nanmean(z ** 2))) if err.size else math.nan,
+            "truth_r_rms": float(np.sqrt(np.mean((cm["r"][m] - r_t[m]) ** 2))) if err.size else math.nan,
+            "truth_p_r_rms": float(np.sqrt(np.mean((cm["p_r"][m] - pr_t[m]) ** 2))) if err.size else math.nan,
+            "truth_outcome_agreement": float(np.mean(agree)) if agree.size else math.nan,
+            "truth_n_outcome_compared": int(agree.size),
+            "truth_n_u1_minus": int(tminus["t"].size), "truth_matched": int(m.sum()),
+            "truth_missed": int(np.sum(~np.isfinite(back))), "truth_spurious": int(np.sum(~m))}
+
+
+# --------------------------------------------------------------------------------------------
+# Output
+# --------------------------------------------------------------------------------------------
+
+def write_analysis(path: str, an: Analysis, argv=None, tracks_path: str = "") -> None:
+    """Write /experiment (bins, attributes), /experiment/crossings, /experiment/validation."""
+    import h5py
+    tmp = f"{path}.tmp.{os.getpid()}"
+    str_dt = h5py.string_dtype()
+    try:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+            f.attrs["command_line"] = " ".join(argv) if argv else ""
+            f.attrs["tracks_file"] = tracks_path
+            f.attrs["theory_file"] = an.theory.path if an.theory else ""
+            if an.theory is not None and an.theory.result is not None:
+                f.attrs["theory_git_commit"] = str(an.theory.result.attrs.get("git_commit", ""))
+            g = f.create_group("experiment")
+            units = {"dE_low": "(cm/s)^2", "dE_high": "(cm/s)^2", "dE_center": "(cm/s)^2",
+                     "dE_err": "(cm/s)^2"}
+            for k, v in an.bins.items():
+                d = g.create_dataset(k, data=np.asarray(v))
+                d.attrs["units"] = units.get(k, "1")
+            for k, v in an.attrs.items():
+                g.attrs[k] = v
+            c = g.create_group("crossings")
+            cu = {"t": "s", "r": "cm", "p_r": "cm/s", "p_theta": "cm^2/s", "x": "cm", "y": "cm",
+                  "vx": "cm/s", "vy": "cm/s", "px": "cm/s", "py": "cm/s", "E": "(cm/s)^2",
+                  "dE": "(cm/s)^2", "dE_err": "(cm/s)^2", "dE_noise": "(cm/s)^2",
+                  "dE_other": "(cm/s)^2", "dE_truth": "(cm/s)^2", "E_instant": "(cm/s)^2",
+                  "cut_dE": "(cm/s)^2", "damping_slope": "1/s"}
+            for k, v in an.crossings.items():
+                d = c.create_dataset(k, data=np.asarray(v))
+                d.attrs["units"] = cu.get(k, "1")
+            v = g.create_group("validation")
+            rep = an.report
+            for k in ("n_tracks", "n_tracks_rejected", "n_samples", "n_samples_skipped",
+                      "n_samples_used", "n_segments"):
+                v.attrs[k] = getattr(rep, k)
+            for k, n in rep.counts().items():
+                v.attrs[f"count_{k}"] = n
+            for k, n in rep.samples_dropped().items():
+                v.attrs[f"samples_{k}"] = n
+            iss = rep.issues
+            v.create_dataset("track", data=np.array([i.track for i in iss], dtype=np.int64))
+            v.create_dataset("t_start", data=np.array([i.t_start for i in iss], float))
+            v.create_dataset("t_end", data=np.array([i.t_end for i in iss], float))
+            v.create_dataset("n_samples", data=np.array([i.n_samples for i in iss], dtype=np.int64))
+            v.create_dataset("kind", data=[i.kind for i in iss], dtype=str_dt)
+            v.create_dataset("severity", data=[i.severity for i in iss], dtype=str_dt)
+            v.create_dataset("message", data=[i.message for i in iss], dtype=str_dt)
+        os.replace(tmp, path)
+    except OSError:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+
+
+def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0)) -> None:
+    """The paper's Fig. 4: (a) U1^- crossings with dE in section_range by outcome, with the tube
+    cut at or above the range's upper end and the energy boundary there; (b) the transition
+    fraction against dE with its intervals, the fit and the theory."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from .plots import energy_boundary
+    cm, b, a = an.crossings, an.bins, an.attrs
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12.5, 5.0))
+    lo, hi = section_range
+    s = (cm["dE"] >= lo) & (cm["dE"] < hi)
+    th = an.theory
+    if th is not None:
+        cut = th.cut_for(hi)
+        if cut is not None:
+            ax1.fill(cut[1], cut[2], color="c", alpha=0.45,
+                     label=f"stable tube cut, dE = {cut[0]:g}")
+            ax1.plot(np.append(cut[1], cut[1][0]), np.append(cut[2], cut[2][0]), "b", lw=1)
+        if th.result is not None and "section" in th.result and "model" in th.result:
+            br, bp = energy_boundary(th.result, hi)
+            ax1.plot(br, bp, color="m", lw=1.2, label=f"energy boundary, dE = {hi:g}")
+    for code, col, lab in ((OUTCOME_RETURN, "k", "no transition"), (OUTCOME_TRANSITION, "r", "transition"),
+                           (OUTCOME_CENSORED, "0.6", "censored")):
+        m = s & (cm["outcome"] == code)
+        ax1.plot(cm["r"][m], cm["p_r"][m], "o", ms=3.5 if code else 2.5, color=col,
+                 label=f"{lab} ({int(m.sum())})")
+    ax1.set_xlabel("r [cm]")
+    ax1.set_ylabel("p_r [cm/s]")
+    ax1.set_title(f"U1^- crossings with dE in [{lo:g}, {hi:g}) (cm/s)^2")
+    ax1.legend(fontsize=7, loc="upper right")
+    ok = b["count"] > 0
+    x = b["dE_center"][ok]
+    f = b["fraction"][ok]
+    yerr = np.clip(np.array([f - b["ci_low"][ok], b["ci_high"][ok] - f]), 0, None)   # roundoff at k = 0
+    ax2.errorbar(x, f, yerr=yerr, xerr=b["dE_err"][ok], fmt="o", color="k", ms=4, capsize=2,
+                 label=f"tracks ({int(a['confidence'] * 100)}% Wilson, design effect "
+                       f"{a['design_effect']:.2f})")
+    if th is not None:
+        dd = np.linspace(0, th.dE[-1], 300)
+        ax2.plot(dd, th.p(dd), "b-", label="A_tube / A_E (tubes)")
+        ax2.plot(dd, th.growth_rate * dd, "b:", lw=0.8, label="(T_po / A0) dE")
+    if math.isfinite(a.get("slope", math.nan)):
+        dd = np.linspace(0, a["fit_max"], 50)
+        ax2.plot(dd, a["slope"] * dd, "r--",
+                 label=f"fit: slope ({a['slope'] * 1e3:.2f} +- {a['slope_err'] * 1e3:.2f})e-3 (s/cm)^2")
+    ax2.axhline(0, color="0.5", lw=0.5)
+    ax2.set_xlabel("dE [(cm/s)^2]")
+    ax2.set_ylabel("transition fraction")
+    ax2.set_title(f"{a['n_crossings']} crossings of U1^-, {a['n_transitions']} transitions")
+    ax2.legend(fontsize=7, loc="upper left")
+    ax2.grid(True, lw=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+
+
+# --------------------------------------------------------------------------------------------
+# Synthetic tracks and tuning
+# --------------------------------------------------------------------------------------------
+
+def _grad(x, y, model):
+    """grad H from tubes.vector_field at rest: dp/dt = -g grad H."""
+    f = vector_field((x, y, 0.0, 0.0), model)
+    return -f[2:] / model.g
+
+
+def _release_point(E, phi, model):
+    """The point on the outer zero-velocity curve g H = E along the direction phi."""
+    from scipy.optimize import brentq
+
+    def f(r):
+        return energy((r * np.cos(phi), r * np.sin(phi), 0.0, 0.0), model) - E
+    rr = np.linspace(2.0, 14.0, 61)
+    r0 = rr[int(np.argmin([f(r) for r in rr]))]
+    r = brentq(f, r0, 40.0, xtol=1e-12)
+    return r * np.cos(phi), r * np.sin(phi)
+
+
+def _microcanonical(E, model, rng, box=14.0):
+    """A state uniform on the energy surface E: q with density sqrt(det M) = sqrt(1 + |grad H|^2)
+    on {g H < E}, momentum uniform in the angle of the ellipse T = E - g H (docs/experiment.md)."""
+    gmax = math.sqrt(1 + 2.0 ** 2)
+    while True:
+        x, y = rng.uniform(-box, box, 2)
+        K = E - energy((x, y, 0.0, 0.0), model)
+        if K <= 0:
+            continue
+        g = _grad(x, y, model)
+        g2 = float(g @ g)
+        if rng.uniform() * gmax > math.sqrt(1 + g2):
+            continue
+        phi = rng.uniform(0, 2 * np.pi)
+        u = np.array([np.cos(phi), np.sin(phi)])
+        gh = g / math.sqrt(g2) if g2 > 0 else np.zeros(2)
+        mh = np.eye(2) + (math.sqrt(1 + g2) - 1) * np.outer(gh, gh)     # M^(1/2)
+        p = math.sqrt(14 * K / 5) * (mh @ u)
+        return np.array([x, y, p[0], p[1]])
+
+
+def synthetic_tracks(n_tracks: int, duration: float = 10.0, rate: float = 50.0, noise: float = 0.05,
+                     pixel: float = 0.16, damping_ratio: float = 0.0, ensemble: str = "rest",
+                     dE_range=(1000.0, 2000.0), seed: int = 1, model: Model | None = None) -> Tracks:
+    """Tracks integrated with tubes.integrate (DOP853, rtol 1e-10), sampled at rate [Hz], with
+    Gaussian position noise [cm] and then quantised to pixel [cm]. ensemble 'rest': released from
+    rest on the outer zero-velocity curve at E_e + dE (dE uniform in dE_range), as in the
+    experiment; 'microcanonical': a state uniform on that energy surface. truth holds the exact
+    states, energies and dE at the samples."""
+    model = model or Model(damping_ratio=damping_ratio)
+    if model.damping_ratio != damping_ratio:
+        model = dataclasses.replace(model, damping_ratio=damping_ratio)
+    cons = dataclasses.replace(model, damping_ratio=0.0)
+    _, _, E_e = _gate_geometry(cons)
+    rng = np.random.default_rng(seed)
+    tk, tt, xx, yy, st = [], [], [], [], []
+    for k in range(n_tracks):
+        de = rng.uniform(*dE_range)
+        if ensemble == "rest":
+            x0, y0 = _release_point(E_e + de, rng.uniform(0, 2 * np.pi), cons)
+            z0 = np.array([x0, y0, 0.0, 0.0])
+        elif ensemble == "microcanonical":
+            z0 = _microcanonical(E_e + de, cons, rng)
+        else:
+            raise ValueError(f"unknown ensemble {ensemble!r}")
+        r = integrate(z0, duration, dt_out=1.0 / rate, model=model, rtol=1e-10, atol=1e-10)
+        n = r["t"].size
+        tk.append(np.full(n, k))
+        tt.append(r["t"])
+        st.append(r["state"])
+        x = r["state"][:, 0] + rng.normal(0, noise, n)
+        y = r["state"][:, 1] + rng.normal(0, noise, n)
+        if pixel > 0:
+            x = pixel * np.round(x / pixel)
+            y = pixel * np.round(y / pixel)
+        xx.append(x)
+        yy.append(y)
+    state = np.concatenate(st)
+    en = energy_of_states(state, cons)
+    attrs = {"camera_rate": rate, "pixel": pixel, "noise": noise, "damping_ratio": damping_ratio,
+             "seed": seed, "n_tracks": n_tracks, "E_e": E_e}
+    return Tracks(np.concatenate(tk).astype(np.int64), np.concatenate(tt), np.concatenate(xx),
+                  np.concatenate(yy), attrs, {"state": state, "energy": en, "dE": en - E_e},
+                  "synthetic")
+
+
+def tune(tracks: Tracks, grid: dict | None = None, windows=(0.0, 0.5, 1.0, 2.0),
+         model: Model | None = None) -> list:
+    """Measure each estimator setting against the truth of synthetic tracks: the rms velocity
+    error over the interior samples of the segments (more than 0.2 s from an end) and the rms and
+    mean error of E at the U1^- crossings, instantaneous (window 0) or windowed. Returns rows
+    (method, options, window, v_rms, dE_rms, dE_bias, n) sorted by dE_rms."""
+    from . import velocity
+    model = model or Model()
+    grid = grid or {"spectral": [{"cutoff": c, "edge": e} for c in (4.0, 5.0, 6.0) for e in ("odd", "mirror")],
+                    "savgol": [{"window": w, "order": o} for (w, o) in ((11, 3), (15, 4), (19, 4))]}
+    xs12, _, E_e = _gate_geometry(model)
+    rate = float(tracks.attrs.get("camera_rate", 50.0))
+    segs, _ = validate(tracks, rate, T_SKIP, PLATE, 60, 1e9)
+    tv = {}
+    for s in segs:
+        st = tracks.truth["state"][s.index]
+        tv[id(s)] = np.array([velocity(z, model) for z in st])
+    rows = []
+    for method, opts in grid.items():
+        for o in opts:
+            verr, eerr = [], {w: [] for w in windows}
+            for s in segs:
+                est = estimate_segment(s, method, o, model)
+                v = tv[id(s)]
+                inner = (s.t - s.t[0] > 0.2) & (s.t[-1] - s.t > 0.2)
+                verr.append(np.hypot(est["vx"] - v[:, 0], est["vy"] - v[:, 1])[inner])
+                cr, _ = find_crossings(est, model, xs12 - GATE)
+                m = (cr["branch"] > 0) & (cr["t"] - s.t[0] > EDGE) & (s.t[-1] - cr["t"] > EDGE)
+                tc = cr["t"][m]
+                etrue = np.interp(tc, s.t, tracks.truth["energy"][s.index])
+                for w in windows:
+                    if w == 0:
+                        e = state_energy(cr["x"][m], cr["y"][m], cr["vx"][m], cr["vy"][m], model)[2]
+                    else:
+                        e, _, _ = window_energy(s.t, est["E"], est["T"], tc, w)
+                    eerr[w].append(e - etrue)
+            v = np.concatenate(verr)
+            for w in windows:
+                e = np.concatenate(eerr[w])
+                rows.append((method, o, w, float(np.sqrt(np.mean(v * v))), float(np.sqrt(np.mean(e * e))),
+                             float(np.mean(e)), int(e.size)))
+    rows.sort(key=lambda r: r[4])
+    return rows
+
+
+# --------------------------------------------------------------------------------------------
+# Command line
+# --------------------------------------------------------------------------------------------
+
+def _parse_bins(s: str) -> tuple:
+    try:
+        if ":" in s:
+            a, b, c = (float(v) for v in s.split(":"))
+            if not c > 0 or not b > a:
+                raise ValueError
+            e = np.arange(a, b + 0.5 * c, c)
+        else:
+            e = np.array([float(v) for v in s.split(",")])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"bins {s!r}: give START:STOP:STEP or increasing edges "
+                                         f"e1,e2,... in (cm/s)^2") from None
+    if e.size < 2 or np.any(np.diff(e) <= 0) or not np.all(np.isfinite(e)):
+        raise argparse.ArgumentTypeError(f"bins {s!r}: need at least two increasing finite edges")
+    return tuple(e)
+
+
+def _parse_range(s: str) -> tuple:
+    try:
+        a, b = (float(v) for v in s.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{s!r}: give LOW,HIGH") from None
+    if not b > a:
+        raise argparse.ArgumentTypeError(f"{s!r}: need LOW < HIGH")
+    return a, b
+
+
+def _positive(s: str) -> float:
+    try:
+        v = float(s)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{s!r} is not a number") from None
+    if not v >= 0 or not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"{s!r} must be >= 0")
+    return v
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    orig = list(argv)
+    for i in range(len(argv) - 1):      # "--bins -40:400:40": a value, not an option
+        if argv[i] in ("--bins", "--section-range") and argv[i + 1][:2].lstrip("-")[:1].isdigit() \
+                and argv[i + 1].startswith("-"):
+            argv[i:i + 2] = [f"{argv[i]}={argv[i + 1]}", ""]
+    argv = [a for a in argv if a != ""]
+    ap = argparse.ArgumentParser(
+        prog="python -m tubes.experiment",
+        description="Transition fractions from tracked trajectories (docs/experiment.md).")
+    ap.add_argument("tracks", help="CSV (track,t,x,y; s, cm) or HDF5 (/tracks) file")
+    ap.add_argument("--theory", help="tubes RESULT.h5 with /section, /transition (and /tubes)")
+    ap.add_argument("-o", "--output", help="write the analysis to this HDF5 file")
+    ap.add_argument("--figure", help="draw the paper's Fig. 4 into this PNG file")
+    ap.add_argument("--estimator", choices=ESTIMATORS, default="spectral")
+    ap.add_argument("--window", type=int, help="savgol window [samples, odd] (default 15)")
+    ap.add_argument("--order", type=int, help="savgol polynomial order (default 4)")
+    ap.add_argument("--cutoff", type=float, help="spectral low-pass cutoff [Hz] (default 5)")
+    ap.add_argument("--edge", choices=("odd", "mirror", "periodic"),
+                    help="spectral edge handling (default odd)")
+    ap.add_argument("--energy", choices=("window", "instant"), default="window",
+                    help="energy at a crossing: windowed regression (default) or instantaneous")
+    ap.add_argument("--energy-window", type=_positive, default=ENERGY_WINDOW,
+                    help=f"half-width of the energy regression [s] (default {ENERGY_WINDOW})")
+    ap.add_argument("--bins", type=_parse_bins, default=None,
+                    help="dE bin edges: START:STOP:STEP or e1,e2,... [(cm/s)^2] (default -40:400:40)")
+    ap.add_argument("--fit-max", type=_positive, default=160.0,
+                    help="bins within (0, FIT_MAX] enter the slope fit (default 160)")
+    ap.add_argument("--confidence", type=float, default=0.95, help="interval level (default 0.95)")
+    ap.add_argument("--t-skip", type=_positive, default=T_SKIP, help="dropped at each track start [s]")
+    ap.add_argument("--gate", type=_positive, default=GATE, help="transition: x < x_S12 - GATE [cm]")
+    ap.add_argument("--rate", type=_positive, default=0.0, help="camera rate [Hz] (default: file)")
+    ap.add_argument("--noise", type=_positive, default=0.0,
+                    help="position noise [cm] for dE_err (default: estimated from the data)")
+    ap.add_argument("--plate", type=_positive, default=PLATE, help="plate half-width [cm]")
+    ap.add_argument("--guard", type=_positive, default=0.0,
+                    help="crossings within GUARD s of a segment end count as censored (default 0)")
+    ap.add_argument("--resamples", type=int, default=16, help="noise realisations for dE_err")
+    ap.add_argument("--bootstrap", type=int, default=400, help="track bootstrap replicates")
+    ap.add_argument("--cut-rule", choices=("at-or-above", "nearest", "bin-top"), default="at-or-above",
+                    help="tube cut for a crossing: the first at or above its dE (default), the "
+                         "nearest, or the first at or above its bin's upper edge (the paper's)")
+    ap.add_argument("--section-range", type=_parse_range, default=(40.0, 140.0),
+                    help="dE range of the section plot (default 40,140)")
+    ap.add_argument("--strict", action="store_true",
+                    help="exit with status 1 if any track was rejected or any sample dropped")
+    args = ap.parse_args(argv)
+    try:
+        if not 0 < args.confidence < 1:
+            raise ExperimentError("--confidence must lie in (0, 1)")
+        if args.resamples < 0 or args.bootstrap < 0:
+            raise ExperimentError("--resamples and --bootstrap must be >= 0")
+        est_opts = dict(DEFAULT_OPTIONS[args.estimator])
+        if args.estimator == "savgol":
+            if args.window is not None:
+                est_opts["window"] = args.window
+            if args.order is not None:
+                est_opts["order"] = args.order
+            if est_opts["window"] % 2 == 0 or est_opts["window"] < 5 or not \
+                    0 < est_opts["order"] < est_opts["window"] - 1:
+                raise ExperimentError("savgol: need an odd window >= 5 and 0 < order < window - 1")
+        else:
+            if args.cutoff is not None:
+                if not args.cutoff > 0:
+                    raise ExperimentError("--cutoff must be > 0")
+                est_opts["cutoff"] = args.cutoff
+            if args.edge is not None:
+                est_opts["edge"] = args.edge
+        theory = load_theory(args.theory) if args.theory else None
+        opt = Options(estimator=args.estimator, estimator_options=est_opts, energy=args.energy,
+                      energy_window=args.energy_window, t_skip=args.t_skip, gate=args.gate,
+                      plate=args.plate, rate=args.rate, noise=args.noise,
+                      confidence=args.confidence, fit_max=args.fit_max, guard=args.guard,
+                      resamples=args.resamples, bootstrap=args.bootstrap, cut_rule=args.cut_rule)
+        if args.bins is not None:
+            opt.bins = args.bins
+        tracks = read_tracks(args.tracks)
+        an = analyse(tracks, theory, opt)
+    except ExperimentError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    rep = an.report
+    for i in rep.issues:
+        print(f"{i.severity}: {i.message}", file=sys.stderr)
+    a = an.attrs
+    print(rep.summary())
+    print(f"U1 crossings: {a['n_u1_crossings']} ({a['n_u1_minus']} U1^-, {a['n_u1_plus']} U1^+); "
+          f"U1^- classified: {a['n_crossings']} in the bins, {a['n_transitions']} transitions, "
+          f"{a['n_censored']} censored, {a['n_edge']} at segment edges")
+    print(f"estimator {a['estimator']} {a['estimator_options']} ({a['differentiator']}), energy "
+          f"{a['energy_method']}; position noise {a['noise_used']:.4f} cm; design effect "
+          f"{a['design_effect']:.2f}")
+    if "slope_upper_95" in a:
+        print(f"no transition at 0 < dE <= {a['fit_max']:g}: slope 0, 95 % upper limit "
+              f"{a['slope_upper_95'] * 1e3:.3f}e-3 (s/cm)^2")
+    elif math.isfinite(a.get("slope", math.nan)):
+        line = f"slope (through the origin, dE <= {a['fit_max']:g}): ({a['slope'] * 1e3:.3f} +- " \
+               f"{a['slope_err'] * 1e3:.3f})e-3 (s/cm)^2"
+        if "slope_theory" in a:
+            line += f"; theory with the same weights {a['slope_theory'] * 1e3:.3f}e-3, T_po/A0 = " \
+                    f"{a['growth_rate'] * 1e3:.4f}e-3"
+        print(line)
+    if math.isfinite(a.get("inside_fraction", math.nan)):
+        print(f"transitions inside the tube cut ({a['cut_rule']}): {a['n_transitions_inside']} of "
+              f"{a['n_inside_evaluated']} = {a['inside_fraction']:.3%}")
+    if "truth_dE_rms" in a:
+        print(f"against the truth: dE rms {a['truth_dE_rms']:.2f}, bias {a['truth_dE_bias']:+.2f} "
+              f"(cm/s)^2, z rms {a['truth_dE_z_rms']:.2f}; outcome agreement "
+              f"{a['truth_outcome_agreement']:.4f}")
+    b = an.bins
+    print("      dE bin     center   count  trans  fraction     interval        theory")
+    for j in range(b["count"].size):
+        print(f"{b['dE_low'][j]:7.0f}..{b['dE_high'][j]:<5.0f} {b['dE_center'][j]:8.1f} {b['count'][j]:7d} "
+              f"{b['transitions'][j]:6d}  {b['fraction'][j]:8.4f}  [{b['ci_low'][j]:.4f}, "
+              f"{b['ci_high'][j]:.4f}]  {b['p_theory'][j]:8.4f}")
+    try:
+        if args.output:
+            write_analysis(args.output, an, ["python -m tubes.experiment", *orig], args.tracks)
+            print(f"wrote {args.output}")
+        if args.figure:
+            plot_analysis(args.figure, an, args.section_range)
+            print(f"wrote {args.figure}")
+    except OSError as exc:
+        print(f"error: cannot write the output: {exc}", file=sys.stderr)
+        return 3
+    if args.strict and rep.issues:
+        print(f"error: --strict: {len(rep.issues)} issue(s) in the tracks", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
