@@ -1,6 +1,17 @@
 # tubes: one Makefile. `make deps`, `make`, `make check`, `make bench`, `make lint`, `make clean`.
 # Release objects go to build/, the runtime-checked variant used by `make check` to build/debug/.
 
+# MPI=1: the MPI flavour (docs/cluster.md), built with the MPI compiler wrappers into build/mpi;
+# `./tubes` is a copy of the flavour built last (`make` and `make MPI=1` each restore their own).
+ifeq ($(MPI),1)
+FC       := $(or $(MPIFC),mpifort)
+CC       := $(or $(MPICC),mpicc)
+BUILD    ?= build/mpi
+MPI_DEF  := -DTUBES_MPI
+else
+MPI_DEF  :=
+endif
+
 # GNU make's built-in FC is f77 (toolchain-notes pitfall 8): only honour FC if the user set it.
 ifeq ($(origin FC),default)
 FC := gfortran
@@ -40,7 +51,7 @@ FFLAGS_ALL := -std=f2018 -fPIC -fopenmp -Wall -Wno-unused-dummy-argument -Wno-co
 CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -fPIC -fopenmp -Wall -Wextra $(OPT_C) -Iinclude \
               $(HDF5_CFLAGS) -DTUBES_VERSION='"$(VERSION)"' -DTUBES_GIT='"$(GIT_HASH)"' \
               -DTUBES_COMPILER='"$(FC) $(shell $(FC) -dumpfullversion 2>/dev/null)"' \
-              -DTUBES_FFLAGS='"$(strip $(OPT_F))"' $(CFLAGS)
+              -DTUBES_FFLAGS='"$(strip $(OPT_F))"' $(MPI_DEF) $(CFLAGS)
 LDLIBS_ALL := $(HDF5_LIBS) $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) $(LAPACK_LIBS) -lm $(LDLIBS)
 
 F_SRC := $(wildcard src/*.f90 src/c/*.f90 src/io/*.f90)
@@ -57,8 +68,12 @@ T_BIN   := $(patsubst tests/%.f90,$(BUILD)/tests/%,$(T_F_SRC)) $(patsubst tests/
 
 PYEXT_STAMP := $(BUILD)/pyext.stamp
 
-.PHONY: all deps check tests lint bench docs clean install python paper
+.PHONY: all deps check tests lint bench docs clean install python paper FORCE
+ifeq ($(MPI),1)
+all: tubes $(LIB)           # the Python extension is built by the serial flavour only
+else
 all: tubes $(LIB) python
+endif
 
 # ---------------------------------------------------------------- dependencies
 APT_PKGS := gfortran gcc make pkg-config libhdf5-dev liblapack-dev libgsl-dev libsundials-dev \
@@ -94,6 +109,8 @@ $(BUILD)/deps.mk: $(F_SRC) $(T_F_SRC) Makefile | $(BUILD)/obj
 
 $(BUILD)/obj/%.o: %.f90 | $(BUILD)/obj $(BUILD)/mod
 	$(FC) $(FFLAGS_ALL) -c $< -o $@
+# tubes_par is the one preprocessed source: MPI or the one-rank identity (src/tubes_par.f90)
+$(BUILD)/obj/tubes_par.o: FFLAGS_ALL += -cpp $(MPI_DEF)
 $(BUILD)/obj/%.o: %.c include/tubes.h | $(BUILD)/obj
 	$(CC) $(CFLAGS_ALL) -c $< -o $@
 
@@ -101,8 +118,11 @@ $(LIB): $(F_OBJ) $(C_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-tubes: $(BUILD)/obj/tubes_main.o $(LIB)
+$(BUILD)/bin/tubes: $(BUILD)/obj/tubes_main.o $(LIB)
+	@mkdir -p $(BUILD)/bin
 	$(FC) -fopenmp -o $@ $^ $(LDLIBS_ALL)
+tubes: $(BUILD)/bin/tubes FORCE
+	@cmp -s $< $@ || { cp $< $@ && echo "tubes: the $(if $(MPI_DEF),MPI,serial) flavour ($<)"; }
 
 # ---------------------------------------------------------------- python extension (f2py, meson)
 python: $(PYEXT_STAMP)
@@ -126,8 +146,13 @@ $(BUILD)/obj/tubes_check.o: tests/tubes_check.f90 $(F_OBJ) | $(BUILD)/obj $(BUIL
 
 tests: $(filter-out $(BUILD)/tests/tubes_check,$(T_BIN))
 
+# The MPI flavour is built (into build/mpi, leaving ./tubes serial) and tested with 2 ranks
+# whenever an MPI compiler wrapper is installed (make deps installs OpenMPI).
 check: all tests
 	@$(MAKE) --no-print-directory BUILD=build/debug MODE=debug tests
+	@if command -v $(or $(MPIFC),mpifort) >/dev/null 2>&1; then \
+	  $(MAKE) --no-print-directory MPI=1 build/mpi/bin/tubes; \
+	else echo "check: no mpifort: the MPI flavour is not built or tested"; fi
 	@bash tests/run_all.sh
 
 lint:

@@ -12,4 +12,9 @@ OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python bench/bench_dop853.py
 OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python bench/bench_integrators.py
 .venv/bin/python bench/bench_tubes.py
 if [ -f bench/bench_stability.py ]; then .venv/bin/python bench/bench_stability.py; fi
+# the MPI flavour's scaling (docs/cluster.md), when an MPI compiler wrapper is installed
+if command -v mpifort >/dev/null 2>&1; then
+  make --no-print-directory MPI=1 build/mpi/bin/tubes
+  .venv/bin/python bench/bench_mpi.py
+fi
 echo "bench: results in docs/benchmarks.md"

@@ -12,7 +12,8 @@ extern "C" {
 enum {
   TUBES_OK = 0, TUBES_EVENT = 1,
   TUBES_EINPUT = -1, TUBES_EMAXSTEPS = -2, TUBES_ESTEP = -3, TUBES_EMODEL = -4,
-  TUBES_EIO = -5, TUBES_ENOCONV = -6
+  TUBES_EIO = -5, TUBES_ENOCONV = -6,
+  TUBES_EFAULT = -7 /* a failure injected by TUBES_FAULT (tests only) */
 };
 
 /* Integration methods (src/tubes_methods.f90). */
@@ -104,19 +105,21 @@ int tubes_section_info(const double model[TUBES_NMODEL], const char saddle[8], d
  * the area changes by < area_tol (relative) or n_max (<= nout) seeds. Outputs: *n points tau, r,
  * pr, time (flight time to the section, signed), xs[4 n]; *area (Green's theorem on periodic
  * splines), *area_polygon, the orbit's *action and *period, and the refinement history
- * hist_n[64], hist_area[64] (*nhist rounds). Orbit options as &orbits. */
+ * hist_n[64], hist_area[64] (*nhist rounds). Orbit options as &orbits. When seeds fail (no
+ * crossing within t_max, an integration failure), *n_failed counts them and *fail_tau is the
+ * orbit phase [s] of the first. */
 int tubes_tube_cut(const double model[TUBES_NMODEL], const char saddle[8], double de, int kind,
                    double angle, int pth_sign, double eps, double area_tol, double t_max,
                    int n_init, int n_max, int n_segments, double orb_tol, double orb_rtol,
                    double orb_atol, int nout, int *n, double tau[], double r[], double pr[],
                    double time[], double xs[], double *area, double *area_polygon,
                    double *action, double *period, int *nhist, int hist_n[64],
-                   double hist_area[64]);
+                   double hist_area[64], int *n_failed, double *fail_tau);
 
 /* Monte Carlo check at de: nsamp points uniform on the section's energy surface (GSL MT19937,
  * seed), each integrated until it returns to the section (outcome 0), passes x < x_saddle - gate
- * (outcome 1: transit) or t_max (2); inside[k] = 1 if (r, pr) lies inside the cut (cut_r,
- * cut_pr). */
+ * (outcome 1: transit) or t_max (2); a sample whose integration failed has its (negative)
+ * status as outcome. inside[k] = 1 if (r, pr) lies inside the cut (cut_r, cut_pr). */
 int tubes_monte_carlo(const double model[TUBES_NMODEL], const char saddle[8], double de,
                       double angle, int pth_sign, int nsamp, int seed, double t_max, double gate,
                       int ncut, const double cut_r[], const double cut_pr[], double r[],

@@ -12,6 +12,11 @@ hid_t h5_create_tmp(const char *path, char *tmp, size_t tmplen);
 int h5_commit(hid_t f, const char *tmp, const char *path);
 /* Close and delete tmp. */
 void h5_discard(hid_t f, const char *tmp);
+/* An in-memory file that is never written to disk (the MPI ranks other than 0 write their copy
+ * of the output there, so that every rank runs the same code; docs/cluster.md). */
+hid_t h5_create_scratch(void);
+/* A function called whenever a write fails (before the helper returns -1), or NULL. */
+void h5_set_failure_hook(void (*hook)(void));
 hid_t h5_group(hid_t loc, const char *name);
 int h5_attr_double(hid_t loc, const char *name, double v);
 int h5_attr_long(hid_t loc, const char *name, long long v);

@@ -13,7 +13,9 @@ enum { EXIT_BADINPUT = 1, EXIT_NUMERIC = 2, EXIT_IO = 3, EXIT_PARTIAL = 4 };
 typedef struct {
   const tubes_config_t *cfg;
   double model[TUBES_NMODEL];
-  hid_t file;
+  hid_t file;    /* rank 0: the output file; other MPI ranks: an in-memory scratch file */
+  int rank;      /* MPI rank (0 without MPI): only rank 0 writes files */
+  int nranks;    /* MPI ranks (1 without MPI) */
 } tubes_run_t;
 
 /* Each returns 0, EXIT_NUMERIC (numerical failure, reported on stderr, recorded in the file)

@@ -5,12 +5,14 @@
 !> Model and defaults: docs/experiment-data.md.
 !>
 !> All random numbers come from one GSL MT19937 stream (tubes_rng_uniform, src/c/tubes_quad.c)
-!> and are drawn serially before the tracks are integrated in parallel (OpenMP), each track into
-!> its own slice: the result does not depend on the number of threads.
+!> and are drawn serially before the tracks are integrated in parallel (MPI ranks and OpenMP
+!> threads), each track into its own slice: the result does not depend on either number.
 module tubes_experiment
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_long
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EFAULT
+  use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_ball, only: ball_t
   use tubes_models, only: NMODEL, model_ball, conservative_ball
   use tubes_dop853, only: dop853_t
@@ -89,8 +91,9 @@ contains
     type(ball_t) :: cons
     real(wp), allocatable :: u(:)
     real(wp) :: dt, de, r, th
-    integer :: ns, nt, nb, j, k, m, off
+    integer :: ns, nt, nb, j, k, m, off, kf
     integer, allocatable :: st(:)
+    type(par_t) :: pp
     t = 0; state = 0; energy = 0; noisy = 0; measured = 0; release = 0; c_damp = 0; n_draws = 0
     stat = TUBES_EINPUT
     nt = opts%n_tracks
@@ -141,14 +144,28 @@ contains
       nb = min(4*nb, MAX_RELEASE_DRAWS)
     end do
 
-    ! the noise-free tracks, in parallel; each writes its own slice
+    ! the noise-free tracks, dealt out over MPI ranks (tubes_par) and threads; each writes
+    ! its own slice
+    call par_bcast(release)
+    pp = par_here()
+    kf = par_fault_item('track')
     allocate (st(nt))
+    st = TUBES_OK
+    state = 0
     !$omp parallel do schedule(dynamic) default(shared) private(j)
     do j = 1, nt
+      if (.not. pp%mine(j)) cycle
+      if (j == kf) then
+        st(j) = TUBES_EFAULT
+        state(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
+        cycle
+      end if
       call one_track(model, [release(1, j), release(2, j), 0.0_wp, 0.0_wp], dt, ns, opts%rtol, &
                      opts%atol, state(:, :, j), st(j))
     end do
     !$omp end parallel do
+    call par_share(state)
+    call par_share(st)
     do k = 1, ns
       t(k) = (k - 1)*dt
     end do

@@ -6,7 +6,8 @@
 module tubes_manifold
   use, intrinsic :: iso_c_binding, only: c_int, c_double
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT, TUBES_EFAULT
+  use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_ball, only: ball_t
   use tubes_variational, only: variational_t, make_variational, stm_start
   use tubes_dop853, only: dop853_t
@@ -49,6 +50,9 @@ module tubes_manifold
     integer :: rounds = 0             !! refinement rounds
     integer, allocatable :: hist_n(:)        !! points after each round
     real(wp), allocatable :: hist_area(:)    !! area after each round
+    integer :: n_failed = 0           !! seeds that failed (the cut is then incomplete)
+    real(wp) :: fail_tau = 0          !! phase on the orbit of the first failed seed [s]
+    integer :: fail_stat = 0          !! and its status
   end type tube_cut_t
 
   public :: tube_cut
@@ -110,6 +114,9 @@ contains
     type(dop853_t) :: ig
     real(wp) :: z(20), v(4), x(4)
     type(theta_line_t) :: sec
+    pc = 0
+    tcross = 0
+    xc = 0
     call make_variational(var, ball)
     call ig%init(var, 0.0_wp)
     ig%rtol = opts%rtol
@@ -146,6 +153,7 @@ contains
     type(tube_opts_t), intent(in) :: opts
     type(tube_cut_t), intent(out) :: cut
     integer, intent(out) :: stat
+    type(orbit_t) :: orb0
     real(wp) :: v0(4), sigma, a_old, a_new
     real(wp), allocatable :: tau(:), pcs(:, :), tcs(:), xcs(:, :), newtau(:), chord(:), medc
     logical, allocatable :: split(:)
@@ -155,20 +163,30 @@ contains
       stat = TUBES_EINPUT
       return
     end if
-    call floquet_vector(orb%monodromy, opts%kind, v0, stat)
+    ! every rank seeds from rank 0's orbit (tubes_par: replicated inputs are broadcast)
+    orb0 = orb
+    call par_bcast(orb0%x0)
+    call par_bcast(orb0%period)
+    call par_bcast(orb0%monodromy)
+    call floquet_vector(orb0%monodromy, opts%kind, v0, stat)
     if (stat /= TUBES_OK) return
+    call par_bcast(v0)
     sigma = sign(1.0_wp, v0(1)*well_dir(1) + v0(2)*well_dir(2))
     n = opts%n_init
     allocate (tau(n))
-    tau = [((i - 1)*orb%period/n, i = 1, n)]
+    tau = [((i - 1)*orb0%period/n, i = 1, n)]
     allocate (pcs(4, 0), tcs(0), xcs(4, 0), st(0))
     call seeds(tau, 1, n)
-    if (stat < 0) return
+    if (stat < 0) then
+      call report_failed()
+      return
+    end if
     allocate (cut%hist_n(0), cut%hist_area(0))
     a_old = huge(1.0_wp)
     nconv = 0
     do
       call area_of(a_new, info)
+      call par_bcast(a_new)      ! the refinement decisions must agree on every rank
       if (info /= 0) then
         stat = TUBES_ENOCONV
         return
@@ -212,13 +230,16 @@ contains
           if (i < n) then
             newtau(j) = 0.5_wp*(tau(i) + tau(i + 1))
           else
-            newtau(j) = 0.5_wp*(tau(n) + orb%period)
+            newtau(j) = 0.5_wp*(tau(n) + orb0%period)
           end if
         end if
       end do
       tau = [tau, newtau]
       call seeds(tau, n + 1, n + m)
-      if (stat < 0) return
+      if (stat < 0) then
+        call report_failed()
+        return
+      end if
       call sort_by_tau()
       n = n + m
       deallocate (chord, split, newtau)
@@ -237,13 +258,29 @@ contains
       real(wp), intent(in) :: tt(:)
       integer, intent(in) :: i1, i2
       real(wp) :: p(4, i2 - i1 + 1), tc(i2 - i1 + 1), xc(4, i2 - i1 + 1)
-      integer :: s(i2 - i1 + 1), k
+      integer :: s(i2 - i1 + 1), k, kf
+      type(par_t) :: pp
+      pp = par_here()                    ! seed k - i1 + 1 of this round is computed on its owner
+      kf = par_fault_item('seed')
+      p = 0
+      tc = 0
+      xc = 0
+      s = TUBES_OK
       !$omp parallel do schedule(dynamic) default(shared) private(k)
       do k = i1, i2
-        call one_seed(ball, orb, v0, sigma, tt(k), opts, p(:, k - i1 + 1), tc(k - i1 + 1), &
+        if (.not. pp%mine(k - i1 + 1)) cycle
+        if (k == kf) then
+          s(k - i1 + 1) = TUBES_EFAULT
+          cycle
+        end if
+        call one_seed(ball, orb0, v0, sigma, tt(k), opts, p(:, k - i1 + 1), tc(k - i1 + 1), &
                       xc(:, k - i1 + 1), s(k - i1 + 1))
       end do
       !$omp end parallel do
+      call par_share(p)
+      call par_share(tc)
+      call par_share(xc)
+      call par_share(s)
       pcs = reshape([reshape(pcs, [size(pcs)]), reshape(p, [size(p)])], [4, i2])
       tcs = [tcs, tc]
       xcs = reshape([reshape(xcs, [size(xcs)]), reshape(xc, [size(xc)])], [4, i2])
@@ -276,8 +313,19 @@ contains
       real(wp) :: rr(size(tau)), pp(size(tau))
       rr = pcs(1, :)      ! contiguous copies for the C side
       pp = pcs(3, :)
-      info = spline_area(size(tau), tau, rr, pp, orb%period, a)
+      info = spline_area(size(tau), tau, rr, pp, orb0%period, a)
     end subroutine area_of
+    subroutine report_failed()         ! the failed seeds, for the caller's diagnostics
+      integer :: k
+      cut%n_failed = count(st < 0)
+      do k = 1, size(st)
+        if (st(k) < 0) then
+          cut%fail_tau = tau(k)
+          cut%fail_stat = st(k)
+          exit
+        end if
+      end do
+    end subroutine report_failed
   end subroutine tube_cut
 
   pure real(wp) function polygon(r, p) result(a)

@@ -4,7 +4,8 @@
 !> Theory and conventions: docs/orbits.md.
 module tubes_orbits
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EFAULT
+  use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_field, only: vector_field_t
   use tubes_ball, only: ball_t
   use tubes_variational, only: variational_t, make_variational, stm_start
@@ -228,7 +229,8 @@ contains
     type(orbit_opts_t) :: o
     type(orbit_t), intent(inout) :: orb
     integer, intent(out) :: stat
-    integer :: n, m, nu, i, j, it, info, lwork, st(size(nodes, 2))
+    integer :: n, m, nu, i, j, it, info, lwork, st(size(nodes, 2)), kf
+    type(par_t) :: pp
     real(wp), allocatable :: a(:, :), b(:), work(:), y(:, :), phis(:, :, :), fy(:, :)
     real(wp) :: xref(4), fref(4), gr(2), hs(2, 2), res, rowmax, pscale, scale(4), xref_grad(4)
     n = size(nodes, 2)
@@ -237,6 +239,8 @@ contains
     o = opts
     lwork = 64*m
     allocate (a(m, nu), b(m), work(lwork), y(4, n), phis(4, 4, n), fy(4, n))
+    pp = par_here()
+    kf = par_fault_item('segment')
     xref = nodes(:, 1)
     call ball%eval(0.0_wp, xref, fref, stat)
     pscale = 1
@@ -247,12 +251,28 @@ contains
     stat = TUBES_OK
     do it = 1, opts%max_iter
       if (diverging(orb%history)) exit
+      ! segments dealt out over MPI ranks (tubes_par) and threads, from rank 0's nodes
+      call par_bcast(nodes)
+      call par_bcast(period)
+      y = 0
+      phis = 0
+      fy = 0
+      st = TUBES_OK
       !$omp parallel do schedule(static) default(shared) private(i)
       do i = 1, n
+        if (.not. pp%mine(i)) cycle
+        if (i == kf) then
+          st(i) = TUBES_EFAULT
+          cycle
+        end if
         call flow_stm(ball, nodes(:, i), period/n, o, y(:, i), phis(:, :, i), st(i))
         if (st(i) >= 0) call ball%eval(0.0_wp, y(:, i), fy(:, i), st(i))
       end do
       !$omp end parallel do
+      call par_share(y)
+      call par_share(phis)
+      call par_share(fy)
+      call par_share(st)
       if (any(st < 0)) then
         stat = minval(st)
         return

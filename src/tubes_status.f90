@@ -11,6 +11,7 @@ module tubes_status
   integer, parameter, public :: TUBES_EMODEL = -4    !! model returned NaN/Inf or refused the state
   integer, parameter, public :: TUBES_EIO = -5       !! file could not be read or written
   integer, parameter, public :: TUBES_ENOCONV = -6   !! an iteration (Newton, root finder) did not converge
+  integer, parameter, public :: TUBES_EFAULT = -7    !! a failure injected by TUBES_FAULT (tests only)
   public :: status_message
 contains
   !> Text for a status code.
@@ -26,6 +27,7 @@ contains
     case (TUBES_EMODEL);    msg = 'the model refused the state (NaN, Inf or a blown-up state)'
     case (TUBES_EIO);       msg = 'input/output error'
     case (TUBES_ENOCONV);   msg = 'iteration did not converge'
+    case (TUBES_EFAULT);    msg = 'failure injected by TUBES_FAULT (testing)'
     case default;           msg = 'unknown status code'
     end select
   end function status_message

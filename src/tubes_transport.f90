@@ -4,7 +4,8 @@
 module tubes_transport
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_long
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT
+  use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_ball, only: ball_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
   use tubes_dop853, only: dop853_t
@@ -122,8 +123,9 @@ contains
     logical, intent(out) :: inside(n)
     integer, intent(out) :: stat
     real(wp), allocatable :: u(:)
-    real(wp) :: pmax, rr, pp, x(4), te
-    integer :: k, m, i, st(n)
+    real(wp) :: pmax, rr, pp_, x(4), te
+    integer :: k, m, i, st(n), kf
+    type(par_t) :: pp
     stat = TUBES_OK
     if (n < 1) then
       stat = TUBES_EINPUT
@@ -144,38 +146,73 @@ contains
         k = 0
       end if
       rr = ray%rmin + (ray%rmax - ray%rmin)*u(k + 1)
-      pp = pmax*(2*u(k + 2) - 1)
+      pp_ = pmax*(2*u(k + 2) - 1)
       k = k + 2
-      if (abs(pp) < boundary_pr(ray, rr)) then
+      if (abs(pp_) < boundary_pr(ray, rr)) then
         m = m + 1
         r(m) = rr
-        pr(m) = pp
+        pr(m) = pp_
       end if
     end do
+    ! the samples are dealt out over MPI ranks (tubes_par), and over threads inside a rank;
+    ! a failed sample keeps its status as its outcome
+    call par_bcast(r)
+    call par_bcast(pr)
+    pp = par_here()
+    kf = par_fault_item('sample')
+    outcome = MC_UNDECIDED
+    inside = .false.
+    st = TUBES_OK
     !$omp parallel do schedule(dynamic) default(shared) private(i, x, te)
     do i = 1, n
-      call state_on_section(ray, r(i), pr(i), branch, x, st(i))
-      if (st(i) == TUBES_OK) call mc_classify(ray%ball, ray%theta0, x, x_stop, t_max, tol, outcome(i), te, st(i))
+      if (.not. pp%mine(i)) cycle
+      if (i == kf) then
+        st(i) = TUBES_EFAULT
+      else
+        call state_on_section(ray, r(i), pr(i), branch, x, st(i))
+        if (st(i) == TUBES_OK) call mc_classify(ray%ball, ray%theta0, x, x_stop, t_max, tol, outcome(i), te, st(i))
+      end if
+      if (st(i) < 0) outcome(i) = st(i)
       inside(i) = inside_curve(r(i), pr(i), cr, cp)
     end do
     !$omp end parallel do
+    call par_share(outcome)
+    call par_share(inside)
+    call par_share(st)
     stat = min(0, minval(st))
   end subroutine monte_carlo
 
   !> Poincare map of the section branch: n_iter returns of each start state x0(:, j), recorded
   !> as (r, p_r) in pts(:, k, j) (NaN after a trajectory stops returning within t_max).
   subroutine poincare_map(ball, theta0, branch, x0, n_iter, t_max, tol, pts, stat)
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     type(ball_t), intent(in) :: ball
     real(wp), intent(in) :: theta0, x0(:, :), t_max, tol
     integer, intent(in) :: branch, n_iter
     real(wp), intent(out) :: pts(2, n_iter, size(x0, 2))
     integer, intent(out) :: stat
-    integer :: j, st(size(x0, 2))
+    real(wp) :: xs(4, size(x0, 2))
+    integer :: j, st(size(x0, 2)), kf
+    type(par_t) :: pp
+    xs = x0
+    call par_bcast(xs)                  ! seeds dealt out over MPI ranks (tubes_par)
+    pp = par_here()
+    kf = par_fault_item('map')
+    pts = 0
+    st = TUBES_OK
     !$omp parallel do schedule(dynamic) default(shared) private(j)
     do j = 1, size(x0, 2)
-      call one_map(ball, theta0, branch, x0(:, j), n_iter, t_max, tol, pts(:, :, j), st(j))
+      if (.not. pp%mine(j)) cycle
+      if (j == kf) then
+        st(j) = TUBES_EFAULT
+        pts(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
+        cycle
+      end if
+      call one_map(ball, theta0, branch, xs(:, j), n_iter, t_max, tol, pts(:, :, j), st(j))
     end do
     !$omp end parallel do
+    call par_share(pts)
+    call par_share(st)
     stat = min(0, minval(st))
   end subroutine poincare_map
 

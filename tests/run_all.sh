@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # make check: every Fortran and C test program (optimised build, then the runtime-checked
-# build in build/debug), then pytest (Python layer and the tubes executable).
+# build in build/debug), the MPI flavour's 2-rank checks (tests/mpi_check.sh), then pytest
+# (Python layer and the tubes executable).
 # Ends with one line "N passed, N failed"; exits non-zero if anything failed.
 set -u
 cd "$(dirname "$0")/.."
@@ -27,6 +28,14 @@ done
 for t in build/debug/tests/test_*; do
   [ -x "$t" ] && run "debug/$(basename "$t")" "$t"
 done
+# the MPI flavour (built by make check when mpifort exists): 2-rank runs against the serial one
+if [ -x build/mpi/bin/tubes ]; then
+  for t in identical fault badinput badoutput; do
+    run "mpi/$t" bash tests/mpi_check.sh "$t"
+  done
+else
+  echo "SKIP mpi/* (no build/mpi/bin/tubes: no MPI compiler wrapper)"
+fi
 log=build/testlogs/pytest.log
 OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python -m pytest -q -p no:cacheprovider tests >"$log" 2>&1
 prc=$?

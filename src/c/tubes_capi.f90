@@ -359,15 +359,15 @@ contains
   !> The cut of the Lyapunov orbit's tube at excess energy de with the section (include/tubes.h).
   integer(c_int) function c_tube_cut(model, saddle, de, kind, angle, pth_sign, eps, area_tol, &
       t_max, n_init, n_max, n_segments, orb_tol, orb_rtol, orb_atol, nout, n, tau, r, pr, time, &
-      xs, area, area_polygon, action, period, nhist, hist_n, hist_area) result(stat) &
+      xs, area, area_polygon, action, period, nhist, hist_n, hist_area, n_failed, fail_tau) result(stat) &
       bind(C, name='tubes_tube_cut')
     real(c_double), intent(in) :: model(NMODEL)
     character(kind=c_char), intent(in) :: saddle(8)
     real(c_double), value :: de, angle, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol
     integer(c_int), value :: kind, pth_sign, n_init, n_max, n_segments, nout
-    integer(c_int), intent(out) :: n, nhist, hist_n(64)
+    integer(c_int), intent(out) :: n, nhist, hist_n(64), n_failed
     real(c_double), intent(out) :: tau(nout), r(nout), pr(nout), time(nout), xs(4, nout), area, &
-                                   area_polygon, action, period, hist_area(64)
+                                   area_polygon, action, period, hist_area(64), fail_tau
     type(ball_t) :: ball
     type(equilibrium_t), allocatable :: eqs(:)
     type(orbit_t) :: orb
@@ -375,6 +375,7 @@ contains
     type(tube_cut_t) :: cut
     integer :: isad, iw
     n = 0; nhist = 0; hist_n = 0; hist_area = 0; area = 0; area_polygon = 0; action = 0; period = 0
+    n_failed = 0; fail_tau = 0
     call setup_saddle(model, saddle, angle, ball, eqs, isad, iw, stat)
     if (stat /= TUBES_OK) return
     call orbit_at(ball, eqs, isad, de, n_segments, orb_tol, orb_rtol, orb_atol, orb, stat)
@@ -390,6 +391,8 @@ contains
     opts%n_init = n_init
     opts%n_max = min(n_max, nout)
     call tube_cut(ball, orb, eqs(iw)%q - eqs(isad)%q, opts, cut, stat)
+    n_failed = cut%n_failed
+    fail_tau = cut%fail_tau
     n = min(cut%n, nout)
     if (n > 0) then
       tau(1:n) = cut%tau(1:n)

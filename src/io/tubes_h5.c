@@ -22,8 +22,28 @@ void h5_discard(hid_t f, const char *tmp) {
   remove(tmp);
 }
 
+hid_t h5_create_scratch(void) {
+  H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+  hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+  if (fapl < 0) return -1;
+  hid_t f = -1;
+  if (H5Pset_fapl_core(fapl, 1 << 20, 0) >= 0)    /* 1 MiB increments, no backing store */
+    f = H5Fcreate("tubes-scratch.h5", H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+  H5Pclose(fapl);
+  return f;
+}
+
+static void (*failure_hook)(void) = NULL;
+void h5_set_failure_hook(void (*hook)(void)) { failure_hook = hook; }
+static int failed(int rc) {
+  if (rc && failure_hook) failure_hook();
+  return rc;
+}
+
 hid_t h5_group(hid_t loc, const char *name) {
-  return H5Gcreate2(loc, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  hid_t g = H5Gcreate2(loc, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  failed(g < 0);
+  return g;
 }
 
 static int attr(hid_t loc, const char *name, hid_t type, const void *v) {
@@ -32,7 +52,7 @@ static int attr(hid_t loc, const char *name, hid_t type, const void *v) {
   int rc = (a < 0 || H5Awrite(a, type, v) < 0) ? -1 : 0;
   if (a >= 0) H5Aclose(a);
   H5Sclose(sp);
-  return rc;
+  return failed(rc);
 }
 
 int h5_attr_double(hid_t loc, const char *name, double v) { return attr(loc, name, H5T_NATIVE_DOUBLE, &v); }
@@ -60,7 +80,7 @@ int h5_write_double(hid_t loc, const char *name, int rank, const hsize_t *dims, 
   if (rc == 0 && units) rc = h5_attr_string(d, "units", units);
   if (d >= 0) H5Dclose(d);
   H5Sclose(sp);
-  return rc;
+  return failed(rc);
 }
 
 int h5_write_int(hid_t loc, const char *name, hsize_t n, const int *data, const char *units) {
@@ -70,7 +90,7 @@ int h5_write_int(hid_t loc, const char *name, hsize_t n, const int *data, const 
   if (rc == 0 && units) rc = h5_attr_string(d, "units", units);
   if (d >= 0) H5Dclose(d);
   H5Sclose(sp);
-  return rc;
+  return failed(rc);
 }
 
 int h5_write_strings(hid_t loc, const char *name, hsize_t n, const char *const *s) {
@@ -81,5 +101,5 @@ int h5_write_strings(hid_t loc, const char *name, hsize_t n, const char *const *
   if (d >= 0) H5Dclose(d);
   H5Sclose(sp);
   H5Tclose(t);
-  return rc;
+  return failed(rc);
 }

@@ -8,6 +8,12 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#ifdef TUBES_MPI
+#include <mpi.h>
+#endif
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #ifndef TUBES_VERSION
 #define TUBES_VERSION "unknown"
@@ -36,7 +42,66 @@ static void usage(FILE *out) {
           "4 partial: some orbits failed or lie past the end of their family (the rest is written)\n\n");
 }
 
+/* MPI (docs/cluster.md): every rank runs the whole program on the same input; the ensembles
+ * are shared out inside the numerics (src/tubes_par.f90). Rank 0 alone prints and writes the
+ * output file; the other ranks write their copy into an in-memory scratch file and print
+ * nothing (TUBES_MPI_VERBOSE=1 lets them print). */
+static int g_rank = 0, g_nranks = 1;
+static char g_tmp[TUBES_LPATH + 64];
+
+static void io_failed_abort(void) {
+#ifdef TUBES_MPI
+  fprintf(stderr, "tubes: writing '%s' failed on rank 0; stopping all %d ranks; no output file was left\n",
+          g_tmp, g_nranks);
+  remove(g_tmp);
+  MPI_Abort(MPI_COMM_WORLD, EXIT_IO);
+#endif
+}
+
+/* The worst exit code over the ranks: EXIT_IO, else EXIT_NUMERIC, else the largest. */
+static int agree(int r) {
+#ifdef TUBES_MPI
+  if (g_nranks > 1) {
+    int in[2] = {r == EXIT_IO, r == EXIT_NUMERIC ? 1 : 0}, out[2] = {0, 0}, rmax = r;
+    MPI_Allreduce(in, out, 2, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    MPI_Allreduce(&r, &rmax, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    return out[0] ? EXIT_IO : out[1] ? EXIT_NUMERIC : rmax;
+  }
+#endif
+  return r;
+}
+
+static int run_main(int argc, char **argv);
+
 int main(int argc, char **argv) {
+#ifdef TUBES_MPI
+  int provided = 0;
+  if (MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
+    fprintf(stderr, "tubes: MPI_Init_thread failed\n");
+    return EXIT_IO;
+  }
+  MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &g_nranks);
+  const char *v = getenv("TUBES_MPI_VERBOSE");
+  if (g_rank != 0 && !(v && v[0] == '1')) {
+    /* silence this rank's messages (stdio only: fd 2 stays open for the runtime's own) */
+    FILE *null = fopen("/dev/null", "w");
+    if (null) {
+      stdout = null;
+      stderr = null;
+    }
+  }
+  if (provided < MPI_THREAD_FUNNELED && g_rank == 0)
+    fprintf(stderr, "tubes: warning: the MPI library provides thread level %d < MPI_THREAD_FUNNELED\n", provided);
+#endif
+  int rc = run_main(argc, argv);
+#ifdef TUBES_MPI
+  MPI_Finalize();
+#endif
+  return rc;
+}
+
+static int run_main(int argc, char **argv) {
   const char *input = NULL, *out_override = NULL;
   int check_only = 0;
   for (int i = 1; i < argc; i++) {
@@ -101,12 +166,17 @@ int main(int argc, char **argv) {
     return 0;
   }
 
-  char tmp[TUBES_LPATH + 64];
-  hid_t f = h5_create_tmp(cfg.output, tmp, sizeof tmp);
-  if (f < 0) {
-    fprintf(stderr, "tubes: cannot create output file '%s' (via '%s')\n", cfg.output, tmp);
+  char *tmp = g_tmp;
+  hid_t f = g_rank == 0 ? h5_create_tmp(cfg.output, tmp, sizeof g_tmp) : h5_create_scratch();
+  if (agree(f < 0 ? EXIT_IO : 0) == EXIT_IO) {
+    if (f >= 0) h5_discard(f, g_rank == 0 ? tmp : "");
+    if (g_rank == 0)
+      fprintf(stderr, "tubes: cannot create output file '%s' (via '%s')\n", cfg.output, tmp);
+    else
+      fprintf(stderr, "tubes: rank %d cannot create its in-memory scratch file\n", g_rank);
     return EXIT_IO;
   }
+  if (g_nranks > 1 && g_rank == 0) h5_set_failure_hook(io_failed_abort);
   char created[64], cmd[4096] = "";
   time_t tt = time(NULL);
   strftime(created, sizeof created, "%Y-%m-%dT%H:%M:%SZ", gmtime(&tt));
@@ -123,14 +193,21 @@ int main(int argc, char **argv) {
   rc |= h5_attr_string(f, "command_line", cmd);
   rc |= h5_attr_string(f, "compiler", TUBES_COMPILER);
   rc |= h5_attr_string(f, "fflags", TUBES_FFLAGS);
+  rc |= h5_attr_long(f, "mpi_ranks", g_nranks);
+#ifdef _OPENMP
+  rc |= h5_attr_long(f, "omp_threads", omp_get_max_threads());
+#else
+  rc |= h5_attr_long(f, "omp_threads", 1);
+#endif
   if (rc) {
     fprintf(stderr, "tubes: cannot write to '%s'\n", tmp);
     h5_discard(f, tmp);
     return EXIT_IO;
   }
 
-  tubes_run_t run = {&cfg, {cfg.alpha, cfg.beta, cfg.gamma, cfg.xi, cfg.h0, cfg.g, cfg.damping_ratio}, f};
-  int status = scene_model(&run);
+  tubes_run_t run = {&cfg, {cfg.alpha, cfg.beta, cfg.gamma, cfg.xi, cfg.h0, cfg.g, cfg.damping_ratio}, f,
+                     g_rank, g_nranks};
+  int status = agree(scene_model(&run));
   for (int k = 0; k < TUBES_NSCENES && status != EXIT_IO; k++) {
     const char *s = cfg.scenes[k];
     int r = 0;
@@ -143,8 +220,13 @@ int main(int argc, char **argv) {
     else if (!strcmp(s, "montecarlo")) r = scene_montecarlo(&run);
     else if (!strcmp(s, "sections")) r = scene_sections(&run);
     else if (!strcmp(s, "synthetic_experiment")) r = scene_synthetic_experiment(&run);
+    r = agree(r);
     if (r == EXIT_IO) status = EXIT_IO;
     else if (r == EXIT_NUMERIC || (r && !status)) status = r;
+  }
+  if (g_rank != 0) {                  /* the scratch copy is dropped */
+    H5Fclose(f);
+    return status;
   }
   if (status == EXIT_IO) {
     fprintf(stderr, "tubes: writing '%s' failed; no output file was left\n", tmp);

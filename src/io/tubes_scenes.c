@@ -432,18 +432,21 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
 static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int kind, double eps,
                   double area_tol, double *area, double *action, double *t_po_cut) {
   const tubes_config_t *c = run->cfg;
-  int nout = c->tub_n_max, n = 0, nh = 0, hn[64];
+  int nout = c->tub_n_max, n = 0, nh = 0, hn[64], nfail = 0;
   double *tau = malloc(sizeof(double) * nout), *r = malloc(sizeof(double) * nout), *pr = malloc(sizeof(double) * nout),
-         *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 4 * nout), ha[64], ar = 0, ap = 0, act = 0, per = 0;
+         *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 4 * nout), ha[64], ar = 0, ap = 0, act = 0, per = 0,
+         ftau = 0;
   int rc = 0;
   if (!tau || !r || !pr || !tm || !xs) rc = EXIT_NUMERIC;
   int st = rc ? -1 : tubes_tube_cut(run->model, c->orb_saddle, de, kind, sec_angle(c), c->sec_pth_sign, eps, area_tol,
                                     c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol,
-                                    nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha);
+                                    nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau);
   if (st < 0 && !rc) {
     char m[128];
     status_text(st, m, sizeof m);
     fprintf(stderr, "tubes: tubes: the cut at dE = %g failed: %s (status %d)", de, m, st);
+    if (nfail > 0)
+      fprintf(stderr, "; %d seed(s) failed, the first at orbit phase tau = %.10g s of T = %.10g s", nfail, ftau, per);
     if (nh > 0) {
       fprintf(stderr, "; area after each round:");
       for (int k = 0; k < nh; k++) fprintf(stderr, " %d:%.12g", hn[k], ha[k]);
@@ -558,8 +561,8 @@ int scene_montecarlo(tubes_run_t *run) {
   double a0, tau, tpo;
   int rc = write_section(run, &a0, &tau, &tpo);
   if (rc) return rc;
-  int nout = c->tub_n_max, n = 0, nh = 0, hn[64];
-  double de = c->mc_de, *tau_ = malloc(sizeof(double) * nout), *cr = malloc(sizeof(double) * nout),
+  int nout = c->tub_n_max, n = 0, nh = 0, hn[64], nfail = 0;
+  double ftau = 0, de = c->mc_de, *tau_ = malloc(sizeof(double) * nout), *cr = malloc(sizeof(double) * nout),
          *cp = malloc(sizeof(double) * nout), *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 4 * nout),
          ha[64], ar = 0, ap = 0, act = 0, per = 0, rmin, rmax, ae, darea, t0 = now();
   int ns = c->mc_n_samples;
@@ -568,9 +571,14 @@ int scene_montecarlo(tubes_run_t *run) {
   fprintf(stderr, "montecarlo: the tube cut at dE = %g...\n", de);
   int st = tubes_tube_cut(run->model, c->orb_saddle, de, -1, sec_angle(c), c->sec_pth_sign, c->tub_eps, 1e-8,
                           c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol, nout,
-                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha);
+                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau);
+  if (st < 0 && nfail > 0)
+    fprintf(stderr, "tubes: montecarlo: the tube cut at dE = %g: %d seed(s) failed, the first at orbit phase "
+            "tau = %.10g s\n", de, nfail, ftau);
   if (st >= 0) st = tubes_section_info(run->model, c->orb_saddle, sec_angle(c), de, &rmin, &rmax, &ae, &darea);
+  int mc_ran = 0;
   if (st >= 0) {
+    mc_ran = 1;
     fprintf(stderr, "montecarlo: integrating %d points...\n", ns);
     st = tubes_monte_carlo(run->model, c->orb_saddle, de, sec_angle(c), c->sec_pth_sign, ns, c->mc_seed, c->mc_t_max,
                            c->mc_gate, n, cr, cp, r, pr, out, ins);
@@ -579,6 +587,17 @@ int scene_montecarlo(tubes_run_t *run) {
     char m[128];
     status_text(st, m, sizeof m);
     fprintf(stderr, "tubes: montecarlo: failed: %s (status %d)\n", m, st);
+    int nbad = 0, first = -1;
+    for (int k = 0; k < ns && mc_ran; k++)
+      if (out[k] < 0) {
+        if (first < 0) first = k;
+        nbad++;
+      }
+    if (first >= 0) {
+      status_text(out[first], m, sizeof m);
+      fprintf(stderr, "tubes: montecarlo: %d of %d samples failed; the first, sample %d at (r, p_r) = (%.10g cm, "
+              "%.10g cm/s): %s (status %d)\n", nbad, ns, first + 1, r[first], pr[first], m, out[first]);
+    }
     rc = EXIT_NUMERIC;
   } else {
     int nt = 0, nu = 0, in_nt = 0, out_t = 0, nin = 0;
@@ -720,6 +739,16 @@ int scene_synthetic_experiment(tubes_run_t *run) {
     status_text(st, m, sizeof m);
     fprintf(stderr, "tubes: synthetic_experiment: an integration failed: %s (status %d); the frames up to "
             "the failure are written, NaN after it\n", m, st);
+    int nbad = 0, first = -1;
+    for (int j = 0; j < nt; j++)
+      if (isnan(state[4 * ((size_t)j * ns + ns - 1)])) {
+        if (first < 0) first = j;
+        nbad++;
+      }
+    if (first >= 0)
+      fprintf(stderr, "tubes: synthetic_experiment: %d of %d tracks stop early; the first, track %d released at "
+              "(%.10g, %.10g) cm with dE = %.10g (cm/s)^2\n", nbad, nt, first, rel[3 * first], rel[3 * first + 1],
+              rel[3 * first + 2]);
     rc = EXIT_NUMERIC;
   }
   for (int j = 0; j < nt; j++) {
@@ -778,7 +807,7 @@ int scene_synthetic_experiment(tubes_run_t *run) {
     rc = EXIT_IO;
     goto out;
   }
-  if (c->exp_csv[0]) {
+  if (c->exp_csv[0] && run->rank == 0) {
     if (write_tracks_csv(c->exp_csv, nt, ns, t, meas)) {
       fprintf(stderr, "tubes: synthetic_experiment: cannot write the CSV file '%s'\n", c->exp_csv);
       rc = EXIT_IO;

@@ -1,0 +1,226 @@
+!> Work sharing over MPI ranks (docs/cluster.md).
+!>
+!> The items 1..n of an ensemble (tube seeds, Monte Carlo samples, Poincare seeds, tracks,
+!> multiple-shooting segments) are dealt out cyclically: rank r computes the items k with
+!> mod(k - 1, nranks) == r (OpenMP threads share them inside the rank), then par_share gathers
+!> every item's result to every rank, in index order. Each item is computed by the same code
+!> from the same inputs whichever rank owns it, so the gathered result is the serial one bit
+!> for bit, for any number of ranks and threads. The inputs of a distributed loop that come
+!> from replicated serial work (the orbit, the sample points) are broadcast from rank 0 first
+!> (par_bcast), so that ranks agree even if their libraries' kernels differ in the last bit.
+!>
+!> Compiled with -DTUBES_MPI (make MPI=1) these call MPI on MPI_COMM_WORLD; otherwise, and
+!> whenever MPI is not initialised (the Python extension, the C API's test program), every
+!> procedure is the one-rank identity. MPI calls are made only outside OpenMP parallel regions
+!> (MPI_THREAD_FUNNELED). No module state: the rank and size are queried from MPI.
+module tubes_par
+#ifdef TUBES_MPI
+  use mpi_f08, only: MPI_Initialized, MPI_Finalized, MPI_Comm_size, MPI_Comm_rank, MPI_Allgatherv, &
+                     MPI_Bcast, MPI_Allreduce, MPI_COMM_WORLD, MPI_DOUBLE_PRECISION, MPI_INTEGER, MPI_MIN
+#endif
+  use tubes_kinds, only: wp
+  implicit none
+  private
+
+  !> The calling rank's share of a loop: item k is computed here when mine(k).
+  type, public :: par_t
+    integer :: rank = 0      !! this rank, 0-based
+    integer :: nranks = 1    !! number of ranks
+  contains
+    procedure :: mine => par_mine
+  end type par_t
+
+  public :: par_here, par_share, par_bcast, par_min, par_fault_item, par_active
+
+  !> Gather the items (the last dimension) computed by their owners to every rank.
+  interface par_share
+    module procedure share_r1, share_r2, share_r3, share_i1, share_l1
+  end interface par_share
+
+  !> Broadcast from rank 0.
+  interface par_bcast
+    module procedure bcast_r0, bcast_r1, bcast_r2
+  end interface par_bcast
+contains
+  !> True when running on more than one rank (MPI build, MPI initialised, size > 1).
+  logical function par_active()
+    type(par_t) :: p
+    p = par_here()
+    par_active = p%nranks > 1
+  end function par_active
+
+  !> The calling rank and the number of ranks (0 and 1 without MPI).
+  function par_here() result(p)
+    type(par_t) :: p
+#ifdef TUBES_MPI
+    logical :: up, down
+    call MPI_Initialized(up)
+    call MPI_Finalized(down)
+    if (up .and. .not. down) then
+      call MPI_Comm_rank(MPI_COMM_WORLD, p%rank)
+      call MPI_Comm_size(MPI_COMM_WORLD, p%nranks)
+      return
+    end if
+#endif
+    p%rank = 0
+    p%nranks = 1
+  end function par_here
+
+  !> Whether item k (1-based) is computed on this rank.
+  elemental logical function par_mine(self, k)
+    class(par_t), intent(in) :: self
+    integer, intent(in) :: k     !! item index, 1-based
+    par_mine = mod(k - 1, self%nranks) == self%rank
+  end function par_mine
+
+  !> Number of items of 1..n owned by rank r.
+  pure integer function n_owned(n, r, np)
+    integer, intent(in) :: n, r, np
+    n_owned = max(0, (n - r + np - 1)/np)
+  end function n_owned
+
+  !> The core of par_share for reals: buf holds n items of w values each.
+  subroutine share_dp(buf, w, n)
+    integer, intent(in) :: w     !! values per item
+    integer, intent(in) :: n     !! items
+    real(wp), intent(inout) :: buf(w, n)
+#ifdef TUBES_MPI
+    type(par_t) :: p
+    real(wp), allocatable :: send(:, :), recv(:)
+    integer, allocatable :: counts(:), displs(:)
+    integer :: r, m
+    p = par_here()
+    if (p%nranks == 1 .or. n == 0 .or. w == 0) return
+    allocate (counts(0:p%nranks - 1), displs(0:p%nranks - 1))
+    do r = 0, p%nranks - 1
+      counts(r) = w*n_owned(n, r, p%nranks)
+    end do
+    displs(0) = 0
+    do r = 1, p%nranks - 1
+      displs(r) = displs(r - 1) + counts(r - 1)
+    end do
+    send = buf(:, p%rank + 1:n:p%nranks)
+    allocate (recv(sum(counts)))
+    call MPI_Allgatherv(send, size(send), MPI_DOUBLE_PRECISION, recv, counts, displs, &
+                        MPI_DOUBLE_PRECISION, MPI_COMM_WORLD)
+    do r = 0, p%nranks - 1
+      m = n_owned(n, r, p%nranks)
+      if (m > 0) buf(:, r + 1:n:p%nranks) = reshape(recv(displs(r) + 1:displs(r) + counts(r)), [w, m])
+    end do
+#endif
+  end subroutine share_dp
+
+  !> The core of par_share for integers.
+  subroutine share_int(buf, w, n)
+    integer, intent(in) :: w, n
+    integer, intent(inout) :: buf(w, n)
+#ifdef TUBES_MPI
+    type(par_t) :: p
+    integer, allocatable :: send(:, :), recv(:), counts(:), displs(:)
+    integer :: r, m
+    p = par_here()
+    if (p%nranks == 1 .or. n == 0 .or. w == 0) return
+    allocate (counts(0:p%nranks - 1), displs(0:p%nranks - 1))
+    do r = 0, p%nranks - 1
+      counts(r) = w*n_owned(n, r, p%nranks)
+    end do
+    displs(0) = 0
+    do r = 1, p%nranks - 1
+      displs(r) = displs(r - 1) + counts(r - 1)
+    end do
+    send = buf(:, p%rank + 1:n:p%nranks)
+    allocate (recv(sum(counts)))
+    call MPI_Allgatherv(send, size(send), MPI_INTEGER, recv, counts, displs, MPI_INTEGER, MPI_COMM_WORLD)
+    do r = 0, p%nranks - 1
+      m = n_owned(n, r, p%nranks)
+      if (m > 0) buf(:, r + 1:n:p%nranks) = reshape(recv(displs(r) + 1:displs(r) + counts(r)), [w, m])
+    end do
+#endif
+  end subroutine share_int
+
+  subroutine share_r1(a)
+    real(wp), intent(inout), contiguous :: a(:)       !! one value per item
+    call share_dp(a, 1, size(a))
+  end subroutine share_r1
+
+  subroutine share_r2(a)
+    real(wp), intent(inout), contiguous :: a(:, :)    !! items along the second dimension
+    call share_dp(a, size(a, 1), size(a, 2))
+  end subroutine share_r2
+
+  subroutine share_r3(a)
+    real(wp), intent(inout), contiguous :: a(:, :, :) !! items along the third dimension
+    call share_dp(a, size(a, 1)*size(a, 2), size(a, 3))
+  end subroutine share_r3
+
+  subroutine share_i1(a)
+    integer, intent(inout), contiguous :: a(:)
+    call share_int(a, 1, size(a))
+  end subroutine share_i1
+
+  subroutine share_l1(a)
+    logical, intent(inout), contiguous :: a(:)
+    integer :: b(size(a))
+    b = merge(1, 0, a)
+    call share_int(b, 1, size(b))
+    a = b /= 0
+  end subroutine share_l1
+
+  subroutine bcast_dp(buf, n)
+    integer, intent(in) :: n
+    real(wp), intent(inout) :: buf(n)
+#ifdef TUBES_MPI
+    if (.not. par_active()) return
+    call MPI_Bcast(buf, n, MPI_DOUBLE_PRECISION, 0, MPI_COMM_WORLD)
+#endif
+  end subroutine bcast_dp
+
+  subroutine bcast_r0(a)
+    real(wp), intent(inout) :: a
+    real(wp) :: b(1)
+    b(1) = a
+    call bcast_dp(b, 1)
+    a = b(1)
+  end subroutine bcast_r0
+
+  subroutine bcast_r1(a)
+    real(wp), intent(inout), contiguous :: a(:)
+    call bcast_dp(a, size(a))
+  end subroutine bcast_r1
+
+  subroutine bcast_r2(a)
+    real(wp), intent(inout), contiguous :: a(:, :)
+    call bcast_dp(a, size(a))
+  end subroutine bcast_r2
+
+  !> The minimum of an integer over all ranks (e.g. a status every rank must agree on).
+  integer function par_min(k)
+    integer, intent(in) :: k
+#ifdef TUBES_MPI
+    integer :: r(1)
+    par_min = k
+    if (.not. par_active()) return
+    call MPI_Allreduce([k], r, 1, MPI_INTEGER, MPI_MIN, MPI_COMM_WORLD)
+    par_min = r(1)
+#else
+    par_min = k
+#endif
+  end function par_min
+
+  !> Fault injection for the tests (docs/development.md): with the environment variable
+  !> TUBES_FAULT=loop:k (loop one of seed, sample, map, track, segment), item k of every such
+  !> loop fails with TUBES_EFAULT. Returns k, or 0 when no fault is set for this loop.
+  integer function par_fault_item(loop)
+    character(*), intent(in) :: loop
+    character(64) :: v
+    integer :: n, st, c, k
+    par_fault_item = 0
+    call get_environment_variable('TUBES_FAULT', v, n, st)
+    if (st /= 0 .or. n == 0) return
+    c = index(v, ':')
+    if (c < 2) return
+    if (v(1:c - 1) /= loop) return
+    read (v(c + 1:n), *, iostat=st) k
+    if (st == 0 .and. k > 0) par_fault_item = k
+  end function par_fault_item
+end module tubes_par

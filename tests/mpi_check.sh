@@ -1,0 +1,131 @@
+#!/usr/bin/env bash
+# The MPI flavour's checks (make check runs them through tests/run_all.sh when build/mpi/bin/tubes
+# exists). usage: tests/mpi_check.sh identical|fault|badinput|badoutput
+#   identical  the serial ./tubes (1 thread) and the MPI build with 1 rank x 2 threads, 2 ranks x
+#              1 thread and 2 ranks x 2 threads write the same file, bit for bit
+#              (python -m tubes.h5compare: every dataset and attribute but the provenance ones)
+#   fault      a work item that fails on rank 1 (TUBES_FAULT) is reported by rank 0 with its
+#              diagnostics, the run ends (exit 2) without hanging, and the file records it
+#   badinput   a bad namelist: one message (not one per rank), exit 1, no file
+#   badoutput  an output file that cannot be created: exit 3 on every rank, no hang
+set -u
+cd "$(dirname "$0")/.."
+root=$PWD
+bin=$root/build/mpi/bin/tubes
+py=$root/.venv/bin/python
+[ -x "$bin" ] || { echo "FAIL: no MPI build at $bin"; exit 1; }
+# OpenMPI refuses root and more ranks than cores unless told (toolchain-notes pitfall 10);
+# --bind-to none lets each rank's OpenMP threads use every core. MPICH's mpiexec needs none.
+if mpirun --version 2>&1 | grep -q "Open MPI"; then
+  launch=(mpirun --allow-run-as-root --oversubscribe --bind-to none -x OMP_NUM_THREADS -x TUBES_FAULT)
+else
+  launch=(mpiexec -genvlist OMP_NUM_THREADS,TUBES_FAULT)
+fi
+export TUBES_FAULT=
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fail=0
+check() {   # check CONDITION-EXIT-CODE MESSAGE
+  if [ "$1" -eq 0 ]; then echo "ok: $2"; else echo "FAIL: $2"; fail=1; fi
+}
+# Every distributed loop: tube seeds with adaptive refinement (tubes, transition, montecarlo),
+# Monte Carlo samples, Poincare seeds, multiple-shooting segments, synthetic tracks.
+cat >"$work/all.nml" <<'EOF'
+&run
+  scenes = 'orbits', 'tubes', 'transition', 'montecarlo', 'sections', 'synthetic_experiment'
+  output = 'out.h5'
+/
+&orbits
+  saddle = 'S12', de = 10, 100, method = 'multiple', n_segments = 6
+/
+&tubes
+  de = 100, kind = 'both', area_tol = 1e-8, n_max = 1024
+/
+&transition
+  de = 20, 300, area_tol = 1e-6
+/
+&montecarlo
+  de = 100, n_samples = 301, seed = 11
+/
+&sections
+  de = 100, n_seeds = 7, n_iter = 15
+/
+&experiment
+  n_tracks = 9, duration = 3.0, damping_ratio = 0.01, seed = 5
+/
+EOF
+
+case "${1:-}" in
+identical)
+  mkdir -p "$work/serial" "$work/r1t2" "$work/r2t1" "$work/r2t2"
+  (cd "$work/serial" && OMP_NUM_THREADS=1 timeout 300 "$root/tubes" ../all.nml >log 2>&1)
+  check $? "serial run"
+  (cd "$work/r1t2" && OMP_NUM_THREADS=2 timeout 300 "${launch[@]}" -np 1 "$bin" ../all.nml >log 2>&1)
+  check $? "MPI 1 rank x 2 threads"
+  (cd "$work/r2t1" && OMP_NUM_THREADS=1 timeout 300 "${launch[@]}" -np 2 "$bin" ../all.nml >log 2>&1)
+  check $? "MPI 2 ranks x 1 thread"
+  (cd "$work/r2t2" && OMP_NUM_THREADS=2 timeout 300 "${launch[@]}" -np 2 "$bin" ../all.nml >log 2>&1)
+  check $? "MPI 2 ranks x 2 threads"
+  for d in r1t2 r2t1 r2t2; do
+    "$py" -m tubes.h5compare "$work/serial/out.h5" "$work/$d/out.h5"
+    check $? "$d identical to the serial run"
+  done
+  "$py" - "$work/r2t2/out.h5" <<'EOF'
+import sys, h5py
+f = h5py.File(sys.argv[1], "r")
+assert int(f.attrs["mpi_ranks"]) == 2 and int(f.attrs["omp_threads"]) == 2, dict(f.attrs)
+assert int(f.attrs["exit_status"]) == 0
+EOF
+  check $? "provenance records 2 ranks x 2 threads"
+  n=$(grep -c "^wrote" "$work/r2t2/log")
+  [ "$n" -eq 1 ]
+  check $? "only rank 0 prints (\"wrote\" appears $n time(s))"
+  ;;
+fault)
+  for f in sample:2 seed:4; do
+    mkdir -p "$work/$f"
+    (cd "$work/$f" && TUBES_FAULT=$f OMP_NUM_THREADS=1 timeout 120 "${launch[@]}" -np 2 "$bin" ../all.nml \
+      >log 2>err)
+    rc=$?
+    [ "$rc" -eq 2 ]
+    check $? "TUBES_FAULT=$f (an item of rank 1): exit 2 (got $rc; 124 = hung)"
+    grep -q "failure injected by TUBES_FAULT" "$work/$f/err"
+    check $? "TUBES_FAULT=$f: reported on stderr"
+    ls "$work/$f"/*.tmp.* >/dev/null 2>&1
+    [ $? -ne 0 ]
+    check $? "TUBES_FAULT=$f: no temporary file left"
+    "$py" -c "import h5py, sys; sys.exit(int(h5py.File('$work/$f/out.h5')['/'].attrs['exit_status']) != 2)"
+    check $? "TUBES_FAULT=$f: the file is written and records exit status 2"
+  done
+  grep -q "sample 2 at (r, p_r)" "$work/sample:2/err"
+  check $? "the failed sample is named with its point"
+  grep -q "seed(s) failed, the first at orbit phase" "$work/seed:4/err"
+  check $? "the failed seed is named with its phase"
+  ;;
+badinput)
+  printf '&run\n  scenes = "tubes"\n  output = "x.h5"\n/\n&tubes\n  de = -5\n/\n' >"$work/bad.nml"
+  (cd "$work" && OMP_NUM_THREADS=1 timeout 60 "${launch[@]}" -np 2 "$bin" bad.nml >log 2>err)
+  rc=$?
+  [ "$rc" -eq 1 ]
+  check $? "bad input: exit 1 (got $rc)"
+  n=$(grep -c "bad.nml" "$work/err")
+  [ "$n" -eq 1 ]
+  check $? "bad input: one message naming the file (found $n)"
+  [ ! -e "$work/x.h5" ]
+  check $? "bad input: no output file"
+  ;;
+badoutput)
+  (cd "$work" && OMP_NUM_THREADS=1 timeout 60 "${launch[@]}" -np 2 "$bin" all.nml -o "$work/no/such/dir/x.h5" \
+    >log 2>err)
+  rc=$?
+  [ "$rc" -eq 3 ]
+  check $? "an output file that cannot be created: exit 3 (got $rc; 124 = hung)"
+  grep -q "cannot create output file" "$work/err"
+  check $? "the reason is reported"
+  ;;
+*)
+  echo "usage: tests/mpi_check.sh identical|fault|badinput|badoutput" >&2
+  exit 2
+  ;;
+esac
+exit $fail
