@@ -107,14 +107,16 @@ int tubes_section_info(const double model[TUBES_NMODEL], const char saddle[8], d
  * splines), *area_polygon, the orbit's *action and *period, and the refinement history
  * hist_n[64], hist_area[64] (*nhist rounds). Orbit options as &orbits. When seeds fail (no
  * crossing within t_max, an integration failure), *n_failed counts them and *fail_tau is the
- * orbit phase [s] of the first. */
+ * orbit phase [s] of the first. local = 0: the seeds (and multiple-shooting segments) are
+ * shared among all MPI ranks, which must all call; local = 1: this rank computes the cut alone
+ * (the caller deals out whole cuts, e.g. energies, to ranks). */
 int tubes_tube_cut(const double model[TUBES_NMODEL], const char saddle[8], double de, int kind,
                    double angle, int pth_sign, double eps, double area_tol, double t_max,
                    int n_init, int n_max, int n_segments, double orb_tol, double orb_rtol,
                    double orb_atol, int nout, int *n, double tau[], double r[], double pr[],
                    double time[], double xs[], double *area, double *area_polygon,
                    double *action, double *period, int *nhist, int hist_n[64],
-                   double hist_area[64], int *n_failed, double *fail_tau);
+                   double hist_area[64], int *n_failed, double *fail_tau, int local);
 
 /* Monte Carlo check at de: nsamp points uniform on the section's energy surface (GSL MT19937,
  * seed), each integrated until it returns to the section (outcome 0), passes x < x_saddle - gate

@@ -34,6 +34,8 @@ module tubes_manifold
     real(wp) :: atol = 1.0e-12_wp
     logical :: adaptive = .true.      !! refine where the cut bends or its points spread;
                                       !! .false.: double the seeds uniformly
+    logical :: local = .false.        !! compute on this MPI rank alone (the caller has dealt
+                                      !! out a coarser level); default: seeds over all ranks
   end type tube_opts_t
 
   !> The cut: a closed curve in (r, p_r), ordered by the seeds' phase tau on the orbit.
@@ -154,6 +156,7 @@ contains
     type(tube_cut_t), intent(out) :: cut
     integer, intent(out) :: stat
     type(orbit_t) :: orb0
+    type(par_t) :: grp
     real(wp) :: v0(4), sigma, a_old, a_new
     real(wp), allocatable :: tau(:), pcs(:, :), tcs(:), xcs(:, :), newtau(:), chord(:), medc
     logical, allocatable :: split(:)
@@ -164,13 +167,14 @@ contains
       return
     end if
     ! every rank seeds from rank 0's orbit (tubes_par: replicated inputs are broadcast)
+    grp = par_here(opts%local)
     orb0 = orb
-    call par_bcast(orb0%x0)
-    call par_bcast(orb0%period)
-    call par_bcast(orb0%monodromy)
+    call par_bcast(orb0%x0, grp)
+    call par_bcast(orb0%period, grp)
+    call par_bcast(orb0%monodromy, grp)
     call floquet_vector(orb0%monodromy, opts%kind, v0, stat)
     if (stat /= TUBES_OK) return
-    call par_bcast(v0)
+    call par_bcast(v0, grp)
     sigma = sign(1.0_wp, v0(1)*well_dir(1) + v0(2)*well_dir(2))
     n = opts%n_init
     allocate (tau(n))
@@ -186,7 +190,7 @@ contains
     nconv = 0
     do
       call area_of(a_new, info)
-      call par_bcast(a_new)      ! the refinement decisions must agree on every rank
+      call par_bcast(a_new, grp)      ! the refinement decisions must agree on every rank
       if (info /= 0) then
         stat = TUBES_ENOCONV
         return
@@ -260,7 +264,7 @@ contains
       real(wp) :: p(4, i2 - i1 + 1), tc(i2 - i1 + 1), xc(4, i2 - i1 + 1)
       integer :: s(i2 - i1 + 1), k, kf
       type(par_t) :: pp
-      pp = par_here()                    ! seed k - i1 + 1 of this round is computed on its owner
+      pp = grp                           ! seed k - i1 + 1 of this round is computed on its owner
       kf = par_fault_item('seed')
       p = 0
       tc = 0
@@ -277,10 +281,10 @@ contains
                       xc(:, k - i1 + 1), s(k - i1 + 1))
       end do
       !$omp end parallel do
-      call par_share(p)
-      call par_share(tc)
-      call par_share(xc)
-      call par_share(s)
+      call par_share(p, grp)
+      call par_share(tc, grp)
+      call par_share(xc, grp)
+      call par_share(s, grp)
       pcs = reshape([reshape(pcs, [size(pcs)]), reshape(p, [size(p)])], [4, i2])
       tcs = [tcs, tc]
       xcs = reshape([reshape(xcs, [size(xcs)]), reshape(xc, [size(xc)])], [4, i2])

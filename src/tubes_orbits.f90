@@ -32,6 +32,8 @@ module tubes_orbits
     integer :: max_iter = 25          !! Newton iterations per orbit
     integer :: n_samples = 201        !! samples along one period in the output
     real(wp) :: period_max = 20       !! periods beyond period_max * T_po end the family [1]
+    logical :: local = .false.        !! multiple shooting on this MPI rank alone (the caller
+                                      !! has dealt out a coarser level); default: all ranks
   end type orbit_opts_t
 
   !> One periodic orbit.
@@ -239,7 +241,7 @@ contains
     o = opts
     lwork = 64*m
     allocate (a(m, nu), b(m), work(lwork), y(4, n), phis(4, 4, n), fy(4, n))
-    pp = par_here()
+    pp = par_here(opts%local)
     kf = par_fault_item('segment')
     xref = nodes(:, 1)
     call ball%eval(0.0_wp, xref, fref, stat)
@@ -252,8 +254,8 @@ contains
     do it = 1, opts%max_iter
       if (diverging(orb%history)) exit
       ! segments dealt out over MPI ranks (tubes_par) and threads, from rank 0's nodes
-      call par_bcast(nodes)
-      call par_bcast(period)
+      call par_bcast(nodes, pp)
+      call par_bcast(period, pp)
       y = 0
       phis = 0
       fy = 0
@@ -269,10 +271,10 @@ contains
         if (st(i) >= 0) call ball%eval(0.0_wp, y(:, i), fy(:, i), st(i))
       end do
       !$omp end parallel do
-      call par_share(y)
-      call par_share(phis)
-      call par_share(fy)
-      call par_share(st)
+      call par_share(y, pp)
+      call par_share(phis, pp)
+      call par_share(fy, pp)
+      call par_share(st, pp)
       if (any(st < 0)) then
         stat = minval(st)
         return

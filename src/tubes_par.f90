@@ -16,7 +16,7 @@
 module tubes_par
 #ifdef TUBES_MPI
   use mpi_f08, only: MPI_Initialized, MPI_Finalized, MPI_Comm_size, MPI_Comm_rank, MPI_Allgatherv, &
-                     MPI_Bcast, MPI_Allreduce, MPI_COMM_WORLD, MPI_DOUBLE_PRECISION, MPI_INTEGER, MPI_MIN
+                     MPI_Bcast, MPI_COMM_WORLD, MPI_DOUBLE_PRECISION, MPI_INTEGER
 #endif
   use tubes_kinds, only: wp
   implicit none
@@ -30,7 +30,7 @@ module tubes_par
     procedure :: mine => par_mine
   end type par_t
 
-  public :: par_here, par_share, par_bcast, par_min, par_fault_item, par_active
+  public :: par_here, par_share, par_bcast, par_fault_item, par_active
 
   !> Gather the items (the last dimension) computed by their owners to every rank.
   interface par_share
@@ -43,17 +43,26 @@ module tubes_par
   end interface par_bcast
 contains
   !> True when running on more than one rank (MPI build, MPI initialised, size > 1).
-  logical function par_active()
-    type(par_t) :: p
-    p = par_here()
-    par_active = p%nranks > 1
+  logical function par_active(p)
+    type(par_t), intent(in), optional :: p   !! the group (default: all ranks)
+    type(par_t) :: q
+    q = par_here()
+    if (present(p)) q = p
+    par_active = q%nranks > 1
   end function par_active
 
-  !> The calling rank and the number of ranks (0 and 1 without MPI).
-  function par_here() result(p)
+  !> The calling rank and the number of ranks (0 and 1 without MPI, or with local = .true.:
+  !> the caller has already dealt out a coarser level, e.g. energies, and this rank works alone).
+  function par_here(local) result(p)
+    logical, intent(in), optional :: local
     type(par_t) :: p
 #ifdef TUBES_MPI
     logical :: up, down
+    p%rank = 0
+    p%nranks = 1
+    if (present(local)) then
+      if (local) return
+    end if
     call MPI_Initialized(up)
     call MPI_Finalized(down)
     if (up .and. .not. down) then
@@ -80,16 +89,15 @@ contains
   end function n_owned
 
   !> The core of par_share for reals: buf holds n items of w values each.
-  subroutine share_dp(buf, w, n)
+  subroutine share_dp(buf, w, n, p)
     integer, intent(in) :: w     !! values per item
     integer, intent(in) :: n     !! items
     real(wp), intent(inout) :: buf(w, n)
+    type(par_t), intent(in) :: p
 #ifdef TUBES_MPI
-    type(par_t) :: p
     real(wp), allocatable :: send(:, :), recv(:)
     integer, allocatable :: counts(:), displs(:)
     integer :: r, m
-    p = par_here()
     if (p%nranks == 1 .or. n == 0 .or. w == 0) return
     allocate (counts(0:p%nranks - 1), displs(0:p%nranks - 1))
     do r = 0, p%nranks - 1
@@ -111,14 +119,13 @@ contains
   end subroutine share_dp
 
   !> The core of par_share for integers.
-  subroutine share_int(buf, w, n)
+  subroutine share_int(buf, w, n, p)
     integer, intent(in) :: w, n
     integer, intent(inout) :: buf(w, n)
+    type(par_t), intent(in) :: p
 #ifdef TUBES_MPI
-    type(par_t) :: p
     integer, allocatable :: send(:, :), recv(:), counts(:), displs(:)
     integer :: r, m
-    p = par_here()
     if (p%nranks == 1 .or. n == 0 .or. w == 0) return
     allocate (counts(0:p%nranks - 1), displs(0:p%nranks - 1))
     do r = 0, p%nranks - 1
@@ -138,74 +145,84 @@ contains
 #endif
   end subroutine share_int
 
-  subroutine share_r1(a)
+  subroutine share_r1(a, p)
     real(wp), intent(inout), contiguous :: a(:)       !! one value per item
-    call share_dp(a, 1, size(a))
+    type(par_t), intent(in), optional :: p   !! the group that computed the items (default: all ranks)
+    type(par_t) :: q
+    q = par_here()
+    if (present(p)) q = p
+    call share_dp(a, 1, size(a), q)
   end subroutine share_r1
 
-  subroutine share_r2(a)
+  subroutine share_r2(a, p)
     real(wp), intent(inout), contiguous :: a(:, :)    !! items along the second dimension
-    call share_dp(a, size(a, 1), size(a, 2))
+    type(par_t), intent(in), optional :: p   !! the group that computed the items (default: all ranks)
+    type(par_t) :: q
+    q = par_here()
+    if (present(p)) q = p
+    call share_dp(a, size(a, 1), size(a, 2), q)
   end subroutine share_r2
 
-  subroutine share_r3(a)
+  subroutine share_r3(a, p)
     real(wp), intent(inout), contiguous :: a(:, :, :) !! items along the third dimension
-    call share_dp(a, size(a, 1)*size(a, 2), size(a, 3))
+    type(par_t), intent(in), optional :: p   !! the group that computed the items (default: all ranks)
+    type(par_t) :: q
+    q = par_here()
+    if (present(p)) q = p
+    call share_dp(a, size(a, 1)*size(a, 2), size(a, 3), q)
   end subroutine share_r3
 
-  subroutine share_i1(a)
+  subroutine share_i1(a, p)
     integer, intent(inout), contiguous :: a(:)
-    call share_int(a, 1, size(a))
+    type(par_t), intent(in), optional :: p   !! the group that computed the items (default: all ranks)
+    type(par_t) :: q
+    q = par_here()
+    if (present(p)) q = p
+    call share_int(a, 1, size(a), q)
   end subroutine share_i1
 
-  subroutine share_l1(a)
+  subroutine share_l1(a, p)
     logical, intent(inout), contiguous :: a(:)
+    type(par_t), intent(in), optional :: p
     integer :: b(size(a))
+    type(par_t) :: q
+    q = par_here()
+    if (present(p)) q = p
     b = merge(1, 0, a)
-    call share_int(b, 1, size(b))
+    call share_int(b, 1, size(b), q)
     a = b /= 0
   end subroutine share_l1
 
-  subroutine bcast_dp(buf, n)
+  subroutine bcast_dp(buf, n, p)
     integer, intent(in) :: n
     real(wp), intent(inout) :: buf(n)
+    type(par_t), intent(in), optional :: p
 #ifdef TUBES_MPI
-    if (.not. par_active()) return
+    if (.not. par_active(p)) return
     call MPI_Bcast(buf, n, MPI_DOUBLE_PRECISION, 0, MPI_COMM_WORLD)
 #endif
   end subroutine bcast_dp
 
-  subroutine bcast_r0(a)
+  subroutine bcast_r0(a, p)
     real(wp), intent(inout) :: a
+    type(par_t), intent(in), optional :: p   !! the group (default: all ranks); one rank: no-op
     real(wp) :: b(1)
     b(1) = a
-    call bcast_dp(b, 1)
+    call bcast_dp(b, 1, p)
     a = b(1)
   end subroutine bcast_r0
 
-  subroutine bcast_r1(a)
+  subroutine bcast_r1(a, p)
     real(wp), intent(inout), contiguous :: a(:)
-    call bcast_dp(a, size(a))
+    type(par_t), intent(in), optional :: p
+    call bcast_dp(a, size(a), p)
   end subroutine bcast_r1
 
-  subroutine bcast_r2(a)
+  subroutine bcast_r2(a, p)
     real(wp), intent(inout), contiguous :: a(:, :)
-    call bcast_dp(a, size(a))
+    type(par_t), intent(in), optional :: p
+    call bcast_dp(a, size(a), p)
   end subroutine bcast_r2
-
-  !> The minimum of an integer over all ranks (e.g. a status every rank must agree on).
-  integer function par_min(k)
-    integer, intent(in) :: k
-#ifdef TUBES_MPI
-    integer :: r(1)
-    par_min = k
-    if (.not. par_active()) return
-    call MPI_Allreduce([k], r, 1, MPI_INTEGER, MPI_MIN, MPI_COMM_WORLD)
-    par_min = r(1)
-#else
-    par_min = k
-#endif
-  end function par_min
 
   !> Fault injection for the tests (docs/development.md): with the environment variable
   !> TUBES_FAULT=loop:k (loop one of seed, sample, map, track, segment), item k of every such

@@ -28,8 +28,9 @@ fail=0
 check() {   # check CONDITION-EXIT-CODE MESSAGE
   if [ "$1" -eq 0 ]; then echo "ok: $2"; else echo "FAIL: $2"; fail=1; fi
 }
-# Every distributed loop: tube seeds with adaptive refinement (tubes, transition, montecarlo),
-# Monte Carlo samples, Poincare seeds, multiple-shooting segments, synthetic tracks.
+# Every distributed loop: tube seeds with adaptive refinement (tubes, montecarlo), whole energies
+# (transition: dE = 300 is rank 1's), Monte Carlo samples, Poincare seeds, multiple-shooting
+# segments, synthetic tracks.
 cat >"$work/all.nml" <<'EOF'
 &run
   scenes = 'orbits', 'tubes', 'transition', 'montecarlo', 'sections', 'synthetic_experiment'
@@ -101,6 +102,8 @@ fault)
   check $? "the failed sample is named with its point"
   grep -q "seed(s) failed, the first at orbit phase" "$work/seed:4/err"
   check $? "the failed seed is named with its phase"
+  grep -q "the cut at dE = 300 failed" "$work/seed:4/err"
+  check $? "a failure in an energy computed by rank 1 (transition) is reported by rank 0"
   ;;
 badinput)
   printf '&run\n  scenes = "tubes"\n  output = "x.h5"\n/\n&tubes\n  de = -5\n/\n' >"$work/bad.nml"

@@ -307,8 +307,9 @@ contains
   end subroutine setup_saddle
 
   !> The Lyapunov orbit at excess energy de by continuation (options as &orbits).
-  subroutine orbit_at(ball, eqs, isad, de, n_segments, tol, rtol, atol, orb, stat)
+  subroutine orbit_at(ball, eqs, isad, de, n_segments, tol, rtol, atol, orb, stat, local)
     type(ball_t), intent(in) :: ball
+    logical, intent(in), optional :: local    !! on this MPI rank alone (default: all ranks)
     type(equilibrium_t), intent(in) :: eqs(:)
     integer, intent(in) :: isad, n_segments
     real(wp), intent(in) :: de, tol, rtol, atol
@@ -322,6 +323,7 @@ contains
     opts%tol = tol
     opts%rtol = rtol
     opts%atol = atol
+    if (present(local)) opts%local = local
     call orbit_family(ball, eqs, isad, [de], opts, orbs, end_de, reason, stat)
     if (stat /= TUBES_OK) return
     orb = orbs(1)
@@ -359,12 +361,12 @@ contains
   !> The cut of the Lyapunov orbit's tube at excess energy de with the section (include/tubes.h).
   integer(c_int) function c_tube_cut(model, saddle, de, kind, angle, pth_sign, eps, area_tol, &
       t_max, n_init, n_max, n_segments, orb_tol, orb_rtol, orb_atol, nout, n, tau, r, pr, time, &
-      xs, area, area_polygon, action, period, nhist, hist_n, hist_area, n_failed, fail_tau) result(stat) &
-      bind(C, name='tubes_tube_cut')
+      xs, area, area_polygon, action, period, nhist, hist_n, hist_area, n_failed, fail_tau, local) &
+      result(stat) bind(C, name='tubes_tube_cut')
     real(c_double), intent(in) :: model(NMODEL)
     character(kind=c_char), intent(in) :: saddle(8)
     real(c_double), value :: de, angle, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol
-    integer(c_int), value :: kind, pth_sign, n_init, n_max, n_segments, nout
+    integer(c_int), value :: kind, pth_sign, n_init, n_max, n_segments, nout, local
     integer(c_int), intent(out) :: n, nhist, hist_n(64), n_failed
     real(c_double), intent(out) :: tau(nout), r(nout), pr(nout), time(nout), xs(4, nout), area, &
                                    area_polygon, action, period, hist_area(64), fail_tau
@@ -378,10 +380,11 @@ contains
     n_failed = 0; fail_tau = 0
     call setup_saddle(model, saddle, angle, ball, eqs, isad, iw, stat)
     if (stat /= TUBES_OK) return
-    call orbit_at(ball, eqs, isad, de, n_segments, orb_tol, orb_rtol, orb_atol, orb, stat)
+    call orbit_at(ball, eqs, isad, de, n_segments, orb_tol, orb_rtol, orb_atol, orb, stat, local /= 0)
     if (stat /= TUBES_OK) return
     action = orb%action
     period = orb%period
+    opts%local = local /= 0
     opts%kind = kind
     opts%theta0 = angle
     opts%branch = pth_sign

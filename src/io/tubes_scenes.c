@@ -11,6 +11,9 @@
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
+#ifdef TUBES_MPI
+#include <mpi.h>
+#endif
 
 static double now(void) {
   struct timespec ts;
@@ -428,9 +431,12 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
   return e ? EXIT_IO : 0;
 }
 
-/* One tube cut into group loc; returns 0 or an exit code; *area gets the area. */
+/* One tube cut into group loc (none if loc < 0); returns 0 or an exit code; *area gets the area.
+ * local = 1: computed on this rank alone (the caller deals out cuts), else by all ranks together.
+ * A failure is described in err (printed to stderr if err is NULL). */
 static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int kind, double eps,
-                  double area_tol, double *area, double *action, double *t_po_cut) {
+                  double area_tol, double *area, double *action, double *t_po_cut, int local, char *err,
+                  size_t errlen) {
   const tubes_config_t *c = run->cfg;
   int nout = c->tub_n_max, n = 0, nh = 0, hn[64], nfail = 0;
   double *tau = malloc(sizeof(double) * nout), *r = malloc(sizeof(double) * nout), *pr = malloc(sizeof(double) * nout),
@@ -440,18 +446,23 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
   if (!tau || !r || !pr || !tm || !xs) rc = EXIT_NUMERIC;
   int st = rc ? -1 : tubes_tube_cut(run->model, c->orb_saddle, de, kind, sec_angle(c), c->sec_pth_sign, eps, area_tol,
                                     c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol,
-                                    nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau);
+                                    nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau,
+                                    local);
+  if (err && errlen) err[0] = 0;
   if (st < 0 && !rc) {
-    char m[128];
+    char m[128], buf[2048];
+    size_t len = 0;
     status_text(st, m, sizeof m);
-    fprintf(stderr, "tubes: tubes: the cut at dE = %g failed: %s (status %d)", de, m, st);
-    if (nfail > 0)
-      fprintf(stderr, "; %d seed(s) failed, the first at orbit phase tau = %.10g s of T = %.10g s", nfail, ftau, per);
-    if (nh > 0) {
-      fprintf(stderr, "; area after each round:");
-      for (int k = 0; k < nh; k++) fprintf(stderr, " %d:%.12g", hn[k], ha[k]);
+    len += snprintf(buf + len, sizeof buf - len, "tubes: tubes: the cut at dE = %g failed: %s (status %d)", de, m, st);
+    if (nfail > 0 && len < sizeof buf)
+      len += snprintf(buf + len, sizeof buf - len, "; %d seed(s) failed, the first at orbit phase tau = %.10g s of "
+                      "T = %.10g s", nfail, ftau, per);
+    if (nh > 0 && len < sizeof buf) {
+      len += snprintf(buf + len, sizeof buf - len, "; area after each round:");
+      for (int k = 0; k < nh && len < sizeof buf; k++) len += snprintf(buf + len, sizeof buf - len, " %d:%.12g", hn[k], ha[k]);
     }
-    fputc('\n', stderr);
+    if (err) snprintf(err, errlen, "%s", buf);
+    else fprintf(stderr, "%s\n", buf);
     rc = EXIT_PARTIAL;
   }
   if (loc >= 0 && n > 0) {
@@ -502,8 +513,8 @@ int scene_tubes(tubes_run_t *run) {
       double a, a10, act, per, t0 = now(), de = c->tub_de[k];
       fprintf(stderr, "tubes: dE = %g, %s manifold...\n", de, kind < 0 ? "stable" : "unstable");
       snprintf(name, sizeof name, "%s_%03d", kind < 0 ? "stable" : "unstable", k);
-      int r1 = cut_to(run, g, name, de, kind, c->tub_eps, c->tub_area_tol, &a, &act, &per);
-      int r2 = cut_to(run, -1, "", de, kind, c->tub_eps / 10, c->tub_area_tol, &a10, &act, &per);
+      int r1 = cut_to(run, g, name, de, kind, c->tub_eps, c->tub_area_tol, &a, &act, &per, 0, NULL, 0);
+      int r2 = cut_to(run, -1, "", de, kind, c->tub_eps / 10, c->tub_area_tol, &a10, &act, &per, 0, NULL, 0);
       if (r1 == EXIT_IO) { H5Gclose(g); return EXIT_IO; }
       if (r1 || r2) rc = EXIT_PARTIAL;
       char path[80];
@@ -522,6 +533,23 @@ int scene_tubes(tubes_run_t *run) {
   return rc;
 }
 
+/* Whole energies are dealt out to the MPI ranks (energy k on rank k mod nranks), each computed by
+ * the rank alone with its OpenMP threads; the results and messages are then shared from each
+ * energy's owner, and rank 0 prints them in energy order. */
+typedef struct {
+  double at, act, ae, pt, secs;
+  int rc;
+  char err[2048];
+} transition_item_t;
+
+static void share_from(void *buf, int bytes, int owner, const tubes_run_t *run) {
+#ifdef TUBES_MPI
+  if (run->nranks > 1) MPI_Bcast(buf, bytes, MPI_BYTE, owner, MPI_COMM_WORLD);
+#else
+  (void)buf; (void)bytes; (void)owner; (void)run;
+#endif
+}
+
 int scene_transition(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   double a0, tau, tpo;
@@ -530,17 +558,44 @@ int scene_transition(tubes_run_t *run) {
   int n = c->tra_nde;
   double *at = calloc(n, sizeof(double)), *act = calloc(n, sizeof(double)), *ae = calloc(n, sizeof(double)),
          *pt = calloc(n, sizeof(double)), *pl = calloc(n, sizeof(double));
+  transition_item_t *it = calloc(n, sizeof(transition_item_t));
+  if (!at || !act || !ae || !pt || !pl || !it) {
+    fprintf(stderr, "tubes: transition: out of memory\n");
+    free(at); free(act); free(ae); free(pt); free(pl); free(it);
+    return EXIT_NUMERIC;
+  }
+  if (run->nranks > 1)
+    fprintf(stderr, "transition: %d energies dealt out to %d MPI ranks\n", n, run->nranks);
+  for (int k = 0; k < n; k++) {
+    if (k % run->nranks != run->rank) continue;
+    transition_item_t *x = &it[k];
+    double de = c->tra_de[k], rmin, rmax, darea, per, t0 = now();
+    fprintf(stderr, "transition: dE = %g (%d of %d)...\n", de, k + 1, n);
+    int r1 = cut_to(run, -1, "", de, -1, c->tub_eps, c->tra_area_tol, &x->at, &x->act, &per, 1, x->err,
+                    sizeof x->err);
+    int st = tubes_section_info(run->model, c->orb_saddle, sec_angle(c), de, &rmin, &rmax, &x->ae, &darea);
+    if (st < 0) {
+      char m[128];
+      status_text(st, m, sizeof m);
+      size_t l = strlen(x->err);
+      snprintf(x->err + l, sizeof x->err - l, "%stubes: transition: the energy surface on the section at dE = %g: "
+               "%s (status %d)", l ? "\n" : "", de, m, st);
+    }
+    x->rc = (r1 || st < 0) ? EXIT_PARTIAL : 0;
+    x->pt = (st < 0) ? NAN : x->at / x->ae;
+    x->secs = now() - t0;
+  }
   printf("transition: p_trans(dE) = A_tube / A_E on %d energies (area_tol %g)\n", n, c->tra_area_tol);
   printf("  %10s %14s %14s %14s %12s %12s\n", "dE", "A_tube", "action", "A_E", "p_trans", "leading");
   for (int k = 0; k < n; k++) {
-    double de = c->tra_de[k], rmin, rmax, darea, per, t0 = now();
-    fprintf(stderr, "transition: dE = %g (%d of %d)...\n", de, k + 1, n);
-    int r1 = cut_to(run, -1, "", de, -1, c->tub_eps, c->tra_area_tol, &at[k], &act[k], &per);
-    int st = tubes_section_info(run->model, c->orb_saddle, sec_angle(c), de, &rmin, &rmax, &ae[k], &darea);
-    if (r1 || st < 0) rc = EXIT_PARTIAL;
-    pt[k] = (st < 0) ? NAN : at[k] / ae[k];
+    share_from(&it[k], (int)sizeof it[k], k % run->nranks, run);
+    double de = c->tra_de[k];
+    at[k] = it[k].at; act[k] = it[k].act; ae[k] = it[k].ae; pt[k] = it[k].pt;
     pl[k] = tpo / a0 * de * (1 - tau / a0 * de);
-    printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %12.6g   (%.1f s)\n", de, at[k], act[k], ae[k], pt[k], pl[k], now() - t0);
+    if (it[k].err[0]) fprintf(stderr, "%s\n", it[k].err);
+    if (it[k].rc) rc = EXIT_PARTIAL;
+    printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %12.6g   (%.1f s)\n", de, at[k], act[k], ae[k], pt[k], pl[k],
+           it[k].secs);
   }
   hid_t g = h5_group(run->file, "transition");
   int e = g < 0;
@@ -552,7 +607,7 @@ int scene_transition(tubes_run_t *run) {
   e |= h5_write_double(g, "p_trans", 1, &dn, pt, "1");
   e |= h5_write_double(g, "p_trans_leading", 1, &dn, pl, "1");
   if (g >= 0) H5Gclose(g);
-  free(at); free(act); free(ae); free(pt); free(pl);
+  free(at); free(act); free(ae); free(pt); free(pl); free(it);
   return e ? EXIT_IO : rc;
 }
 
@@ -571,7 +626,7 @@ int scene_montecarlo(tubes_run_t *run) {
   fprintf(stderr, "montecarlo: the tube cut at dE = %g...\n", de);
   int st = tubes_tube_cut(run->model, c->orb_saddle, de, -1, sec_angle(c), c->sec_pth_sign, c->tub_eps, 1e-8,
                           c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol, nout,
-                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau);
+                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau, 0);
   if (st < 0 && nfail > 0)
     fprintf(stderr, "tubes: montecarlo: the tube cut at dE = %g: %d seed(s) failed, the first at orbit phase "
             "tau = %.10g s\n", de, nfail, ftau);
