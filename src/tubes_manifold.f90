@@ -67,6 +67,13 @@ module tubes_manifold
       real(c_double), value :: period
       real(c_double), intent(out) :: area
     end function spline_area
+    subroutine dlasrt(id, n, d, info)
+      import :: wp
+      character, intent(in) :: id
+      integer, intent(in) :: n
+      real(wp), intent(inout) :: d(*)
+      integer, intent(out) :: info
+    end subroutine dlasrt
     subroutine dgeev(jobvl, jobvr, n, a, lda, wr, wi, vl, ldvl, vr, ldvr, work, lwork, info)
       import :: wp
       character, intent(in) :: jobvl, jobvr
@@ -157,7 +164,7 @@ contains
     integer, intent(out) :: stat
     type(orbit_t) :: orb0
     type(par_t) :: grp
-    real(wp) :: v0(4), sigma, a_old, a_new
+    real(wp) :: v0(4), sigma, a_old, a_new, span_r, span_p
     real(wp), allocatable :: tau(:), pcs(:, :), tcs(:), xcs(:, :), newtau(:), chord(:), medc
     logical, allocatable :: split(:)
     integer, allocatable :: st(:)
@@ -212,10 +219,11 @@ contains
       a_old = a_new
       ! refine: intervals whose chord (scaled) exceeds twice the median, or all of them
       allocate (chord(n), split(n))
+      span_r = max(1.0e-300_wp, maxval(pcs(1, :)) - minval(pcs(1, :)))   ! the cut's extent in r
+      span_p = max(1.0e-300_wp, maxval(pcs(3, :)) - minval(pcs(3, :)))   ! and in p_r
       do i = 1, n
         j = mod(i, n) + 1
-        chord(i) = hypot((pcs(1, j) - pcs(1, i))/max(1.0e-300_wp, maxval(pcs(1, :)) - minval(pcs(1, :))), &
-                         (pcs(3, j) - pcs(3, i))/max(1.0e-300_wp, maxval(pcs(3, :)) - minval(pcs(3, :))))
+        chord(i) = hypot((pcs(1, j) - pcs(1, i))/span_r, (pcs(3, j) - pcs(3, i))/span_p)
       end do
       medc = median(chord)
       split = chord > 2*medc
@@ -291,19 +299,25 @@ contains
       st = [st, s]
       if (any(s < 0)) stat = minval(s)
     end subroutine seeds
-    subroutine sort_by_tau()
-      integer :: idx(size(tau)), k, l, tmp
-      idx = [(k, k = 1, size(tau))]
-      do k = 2, size(tau)          ! insertion sort: the list is two sorted runs
-        l = k
-        do while (l > 1)
-          if (tau(idx(l)) < tau(idx(l - 1))) then
-            tmp = idx(l); idx(l) = idx(l - 1); idx(l - 1) = tmp
-            l = l - 1
-          else
-            exit
-          end if
-        end do
+    subroutine sort_by_tau()            ! merge the two sorted runs tau(1:n), tau(n+1:n+m)
+      integer :: idx(size(tau)), k, a, b, nt
+      nt = size(tau)
+      a = 1
+      b = n + 1
+      do k = 1, nt
+        if (b > nt) then
+          idx(k) = a
+          a = a + 1
+        else if (a > n) then
+          idx(k) = b
+          b = b + 1
+        else if (tau(b) < tau(a)) then
+          idx(k) = b
+          b = b + 1
+        else
+          idx(k) = a
+          a = a + 1
+        end if
       end do
       tau = tau(idx)
       pcs = pcs(:, idx)
@@ -343,21 +357,13 @@ contains
     a = -a      ! Green: the integral of p dr is minus the shoelace sum of (r, p)
   end function polygon
 
-  pure real(wp) function median(a) result(m)
+  !> The median (the upper one for an even count), by LAPACK's sort.
+  real(wp) function median(a) result(m)
     real(wp), intent(in) :: a(:)
-    real(wp) :: b(size(a)), t
-    integer :: i, j
+    real(wp) :: b(size(a))
+    integer :: info
     b = a
-    do i = 2, size(b)
-      t = b(i)
-      j = i - 1
-      do while (j >= 1)
-        if (b(j) <= t) exit
-        b(j + 1) = b(j)
-        j = j - 1
-      end do
-      b(j + 1) = t
-    end do
+    call dlasrt('I', size(b), b, info)
     m = b((size(b) + 1)/2)
   end function median
 end module tubes_manifold
