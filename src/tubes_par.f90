@@ -82,11 +82,28 @@ contains
     par_mine = mod(k - 1, self%nranks) == self%rank
   end function par_mine
 
+#ifdef TUBES_MPI
   !> Number of items of 1..n owned by rank r.
   pure integer function n_owned(n, r, np)
     integer, intent(in) :: n, r, np
     n_owned = max(0, (n - r + np - 1)/np)
   end function n_owned
+
+  !> Allgatherv's layout: rank r's count of values (w per item it owns) and its offset.
+  pure subroutine layout(w, n, np, counts, displs)
+    integer, intent(in) :: w, n, np
+    integer, intent(out) :: counts(0:np - 1), displs(0:np - 1)
+    integer :: r
+    do r = 0, np - 1
+      counts(r) = w*n_owned(n, r, np)
+    end do
+    displs(0) = 0
+    do r = 1, np - 1
+      displs(r) = displs(r - 1) + counts(r - 1)
+    end do
+  end subroutine layout
+
+#endif
 
   !> The core of par_share for reals: buf holds n items of w values each.
   subroutine share_dp(buf, w, n, p)
@@ -96,17 +113,10 @@ contains
     type(par_t), intent(in) :: p
 #ifdef TUBES_MPI
     real(wp), allocatable :: send(:, :), recv(:)
-    integer, allocatable :: counts(:), displs(:)
+    integer :: counts(0:p%nranks - 1), displs(0:p%nranks - 1)
     integer :: r, m
     if (p%nranks == 1 .or. n == 0 .or. w == 0) return
-    allocate (counts(0:p%nranks - 1), displs(0:p%nranks - 1))
-    do r = 0, p%nranks - 1
-      counts(r) = w*n_owned(n, r, p%nranks)
-    end do
-    displs(0) = 0
-    do r = 1, p%nranks - 1
-      displs(r) = displs(r - 1) + counts(r - 1)
-    end do
+    call layout(w, n, p%nranks, counts, displs)
     send = buf(:, p%rank + 1:n:p%nranks)
     allocate (recv(sum(counts)))
     call MPI_Allgatherv(send, size(send), MPI_DOUBLE_PRECISION, recv, counts, displs, &
@@ -124,17 +134,11 @@ contains
     integer, intent(inout) :: buf(w, n)
     type(par_t), intent(in) :: p
 #ifdef TUBES_MPI
-    integer, allocatable :: send(:, :), recv(:), counts(:), displs(:)
+    integer, allocatable :: send(:, :), recv(:)
+    integer :: counts(0:p%nranks - 1), displs(0:p%nranks - 1)
     integer :: r, m
     if (p%nranks == 1 .or. n == 0 .or. w == 0) return
-    allocate (counts(0:p%nranks - 1), displs(0:p%nranks - 1))
-    do r = 0, p%nranks - 1
-      counts(r) = w*n_owned(n, r, p%nranks)
-    end do
-    displs(0) = 0
-    do r = 1, p%nranks - 1
-      displs(r) = displs(r - 1) + counts(r - 1)
-    end do
+    call layout(w, n, p%nranks, counts, displs)
     send = buf(:, p%rank + 1:n:p%nranks)
     allocate (recv(sum(counts)))
     call MPI_Allgatherv(send, size(send), MPI_INTEGER, recv, counts, displs, MPI_INTEGER, MPI_COMM_WORLD)
