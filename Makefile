@@ -54,12 +54,12 @@ CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -fPIC -fopenmp -Wall -Wextra $(
               -DTUBES_FFLAGS='"$(strip $(OPT_F))"' $(MPI_DEF) $(CFLAGS)
 LDLIBS_ALL := $(HDF5_LIBS) $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) $(LAPACK_LIBS) -lm $(LDLIBS)
 
-F_SRC := $(wildcard src/*.f90 src/c/*.f90 src/io/*.f90)
+F_SRC := $(wildcard src/*.f90 src/models/*.f90 src/c/*.f90 src/io/*.f90)
 C_SRC := $(filter-out src/io/tubes_main.c,$(wildcard src/io/*.c src/c/*.c))
 F_OBJ := $(patsubst %.f90,$(BUILD)/obj/%.o,$(notdir $(F_SRC)))
 C_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(notdir $(C_SRC)))
 LIB   := $(BUILD)/libtubes.a
-vpath %.f90 src src/c src/io tests
+vpath %.f90 src src/models src/c src/io tests
 vpath %.c src/io src/c tests
 
 T_F_SRC := $(wildcard tests/test_*.f90)

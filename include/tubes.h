@@ -13,7 +13,8 @@ enum {
   TUBES_OK = 0, TUBES_EVENT = 1,
   TUBES_EINPUT = -1, TUBES_EMAXSTEPS = -2, TUBES_ESTEP = -3, TUBES_EMODEL = -4,
   TUBES_EIO = -5, TUBES_ENOCONV = -6,
-  TUBES_EFAULT = -7 /* a failure injected by TUBES_FAULT (tests only) */
+  TUBES_EFAULT = -7, /* a failure injected by TUBES_FAULT (tests only) */
+  TUBES_EOUTSIDE = -8 /* a tube crossed the section outside the region chosen on it */
 };
 
 /* Integration methods (src/tubes_methods.f90). */
@@ -26,34 +27,70 @@ enum {
 /* Method options (tubes_run_trajectory): omega_bind [1/s] for tao* (0 = default 200),
  * solver for gauss*: 0 or 1 simplified Newton, 2 fixed point; max_iter for gauss* (0 = default). */
 
-/* The model parameter vector: model[TUBES_NMODEL] =
- * {alpha [1/cm], beta [1], gamma [cm^2], xi [1/cm], h0 [cm], g [cm/s^2], damping_ratio [1]}. */
-enum { TUBES_NMODEL = 7 };
+/* A model is chosen by the name of its system (the library, docs/models.md) and its parameter
+ * vector params[TUBES_MAXPARAM] in the order of tubes_model_info (the table in
+ * src/tubes_models.f90 is the one definition). rolling_ball's order is {alpha [1/cm], beta [1],
+ * gamma [cm^2], xi [1/cm], h0 [cm], g [cm/s^2], damping_ratio [1]}. */
+enum { TUBES_NMODEL = 7, TUBES_LSYSTEM = 32, TUBES_MAXPARAM = 16, TUBES_LPARAM = 16,
+       TUBES_MAXDOF = 3, TUBES_LUNITS = 16, TUBES_LDOC = 96, TUBES_LSUMMARY = 160 };
+
+/* The name of built-in system k = 0, 1, ... into name (NUL-terminated); TUBES_EINPUT past the
+ * last one. */
+int tubes_model_system(int k, char name[TUBES_LSYSTEM]);
+
+/* The table entry of system `system` (NUL-terminated): degrees of freedom, np parameters with
+ * names (blocks of TUBES_LPARAM chars), defaults, units (blocks of TUBES_LUNITS) and meanings
+ * (blocks of TUBES_LDOC), a one-line summary; the scenes' defaults: the equilibrium search box
+ * (half-widths and centre per coordinate), the saddle (by name, or "" and then by position
+ * saddle_near), the section (kind "ray", "plane" or "" for none; plane: index 1..N, value,
+ * direction; ray: angle [deg], direction = sign of p_theta) and the transit gate. Strings are
+ * NUL-terminated within their blocks. TUBES_EINPUT for an unknown system. */
+int tubes_model_info(const char system[TUBES_LSYSTEM], int *ndof, int *np, char names[],
+                     double defaults[], char units[], char docs[], char summary[TUBES_LSUMMARY],
+                     char length_units[8], double box[TUBES_MAXDOF],
+                     double box_center[TUBES_MAXDOF], char saddle[8],
+                     double saddle_near[TUBES_MAXDOF], char section_kind[8], int *section_index,
+                     double *section_value, int *section_direction, double *section_angle,
+                     double *gate);
 
 /* Copy the text of status `code` into buf (NUL-terminated, at most len bytes). */
 void tubes_status_message(int code, char *buf, int len);
 
-/* Energy per unit mass of state x = (x, y, px, py) on the conservative model. */
-int tubes_energy(const double model[TUBES_NMODEL], const double x[4], double *energy);
+/* *natural = 1 if the model is natural (H = 1/2 p^T A(q) p + V(q): rest points, brake orbits). */
+int tubes_model_natural(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                        int *natural);
 
-/* Hamilton's equations dx/dt at state x (damped if model[6] > 0). */
-int tubes_vector_field(const double model[TUBES_NMODEL], const double x[4], double dxdt[4]);
+/* Energy H(x) of the state x[n] (n = 2 N) on the conservative model. */
+int tubes_energy(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], int n,
+                 const double x[], double *energy);
 
-/* Momenta p = (7/5) M v of a ball at position q with planar velocity v. */
-int tubes_momentum(const double model[TUBES_NMODEL], const double q[2], const double v[2],
-                   double p[2]);
+/* Hamilton's equations dx/dt at the state x[n] (damped for the rolling ball with
+ * damping_ratio > 0). */
+int tubes_vector_field(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                       int n, const double x[], double dxdt[]);
 
-/* Damping rate c = 2 zeta omega_1 [1/s] used for damping_ratio = model[6]. */
-int tubes_damping_rate(const double model[TUBES_NMODEL], double *c);
+/* rolling_ball only: momenta p = (7/5) M v of a ball at position q with planar velocity v. */
+int tubes_momentum(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                   const double q[2], const double v[2], double p[2]);
 
-/* Critical points of H in |x|,|y| <= box from an n_grid^2 Newton grid; at most nmax are
- * returned in *n. names: nmax blocks of 8 chars, NUL-padded. For rank-1 saddles: lambda
- * [1/s], omega [rad/s] and evec (16 per point: columns u, s, Re c, Im c of the 4x4 matrix,
- * column-major); zero for the others. */
-int tubes_find_equilibria(const double model[TUBES_NMODEL], double box, int n_grid, int nmax,
-                     int *n, double x[], double y[], double height[], double energy[],
-                     double grad_norm[], int morse[], char names[], double lambda[],
-                     double omega[], double evec[]);
+/* Damping rate [1/s] of the field the scenes integrate (rolling_ball: c = 2 zeta omega_1 for
+ * damping_ratio = zeta; 0 for conservative models). */
+int tubes_damping_rate(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                       double *c);
+
+/* Equilibria of Hamilton's equations with q in the box lo[k] <= q_k <= hi[k] (k < ndof) from an
+ * n_grid^ndof Newton grid; *n of them (at most nmax, else TUBES_EINPUT), *ndof = N. Per point k
+ * (blocks of TUBES_MAXDOF): q, p; height (natural systems: the potential's shape, the ball's
+ * H(x, y) [cm]; others: the energy), energy, grad_norm (Newton residual), morse (index: the
+ * eigenvalues of the linearised flow with positive real part), rank1 (1: saddle x centre^(N-1)),
+ * names (blocks of 8 chars). For rank-1 saddles: lambda [1/time], omega (blocks of
+ * TUBES_MAXDOF - 1, ascending) and evec (blocks of 4 TUBES_MAXDOF^2; the first (2N)^2 hold the
+ * 2N x 2N matrix of columns u, s, Re c_1, Im c_1, ..., column-major); zero for the others. */
+int tubes_find_equilibria(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                          const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                          int nmax, int *n, int *ndof, double q[], double p[], double height[],
+                          double energy[], double grad_norm[], int morse[], int rank1[],
+                          char names[], double lambda[], double omega[], double evec[]);
 
 /* Progress callback: called every few thousand steps with the current time; return
  * non-zero to stop the integration (the result so far is returned with TUBES_OK). */
@@ -68,7 +105,8 @@ typedef int (*tubes_progress_fn)(double t, void *user);
  * cross_t, cross_x[4 n_cross], cross_dir (+1/-1); counters = {nfev, nsteps, nrejected, niter};
  * *c_damp = damping rate used [1/s]. On failure the samples and crossings up to the last
  * accepted step are returned with a status < 0. */
-int tubes_run_trajectory(const double model[TUBES_NMODEL], const double x0[4], double t_end,
+int tubes_run_trajectory(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                         int n2, const double x0[], double t_end,
                          double dt_out, int method, double rtol, double atol, double h,
                          int64_t max_steps, double omega_bind, int solver, int max_iter,
                          int sec_kind, double sec_level, int sec_dir, int stop_first, int max_cross,
@@ -87,7 +125,9 @@ int tubes_run_trajectory(const double model[TUBES_NMODEL], const double x0[4], d
  * history[max_iter] (residual after each Newton iteration). *end_de: the estimated end of the
  * family (-1 if none was met); *end_reason: 0 none, 1 another equilibrium, 2 period without
  * bound, 3 correction fails. Orbits past the end have converged = 0. */
-int tubes_orbit_family(const double model[TUBES_NMODEL], const char saddle[8], int nde,
+int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                       const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                       const char saddle[8], int nde,
                        const double des[], int n_segments, double tol, double rtol, double atol,
                        int max_iter, int nsamp, double energy[], double period[], double action[],
                        double state0[], double mu_u[], double mu_s[], double mu_triv[],
@@ -95,23 +135,35 @@ int tubes_orbit_family(const double model[TUBES_NMODEL], const char saddle[8], i
                        int converged[], double mindist[], double monodromy[], double ts[],
                        double xs[], double history[], double *end_de, int *end_reason);
 
-/* The energy surface on the section theta = angle [rad] (a ray) at E = E_e(saddle) + de:
- * permitted interval [rmin, rmax] [cm], area A_E [cm^2/s] and dA_E/dE [s] (docs/tubes.md). */
-int tubes_section_info(const double model[TUBES_NMODEL], const char saddle[8], double angle,
-                       double de, double *rmin, double *rmax, double *area, double *darea);
+/* Sections of the tube-dynamics calls (docs/tubes.md, "Sections"): sec_kind 1 = the rolling
+ * ball's ray theta = level [rad], dir = sign of p_theta, coordinates (r, p_r); sec_kind 2 = the
+ * plane q_{sec_index} = level (sec_index 1..N), dir = sign of dq/dt at the crossing,
+ * coordinates (s, p_s) = (q_j, p_j) of the other degree of freedom. TUBES_EINPUT for a section
+ * that makes no sense for the model (a ray on another model, an index out of range) or that the
+ * energy surface does not meet.
+ * The energy surface on the section at E = E_e(saddle) + de: its interval [rmin, rmax] of s,
+ * area A_E and dA_E/dE (docs/tubes.md). */
+int tubes_section_info(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                       const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                       const char saddle[8], int sec_kind, int sec_index, double level,
+                       int dir, double de, double *rmin, double *rmax, double *area,
+                       double *darea);
 
 /* The cut of the stable (kind -1) or unstable (kind +1) tube of the saddle's Lyapunov orbit at
- * excess energy de with the section theta = angle [rad], p_theta of sign pth_sign, refined until
+ * excess energy de with the section (as tubes_section_info), refined until
  * the area changes by < area_tol (relative) or n_max (<= nout) seeds. Outputs: *n points tau, r,
- * pr, time (flight time to the section, signed), xs[4 n]; *area (Green's theorem on periodic
+ * pr (the section's s, p_s), time (flight time to the section, signed), xs[4 n]; *area (Green's theorem on periodic
  * splines), *area_polygon, the orbit's *action and *period, and the refinement history
  * hist_n[64], hist_area[64] (*nhist rounds). Orbit options as &orbits. When seeds fail (no
  * crossing within t_max, an integration failure), *n_failed counts them and *fail_tau is the
  * orbit phase [s] of the first. local = 0: the seeds (and multiple-shooting segments) are
  * shared among all MPI ranks, which must all call; local = 1: this rank computes the cut alone
- * (the caller deals out whole cuts, e.g. energies, to ranks). */
-int tubes_tube_cut(const double model[TUBES_NMODEL], const char saddle[8], double de, int kind,
-                   double angle, int pth_sign, double eps, double area_tol, double t_max,
+ * (the caller deals out whole cuts, e.g. energies, to ranks). TUBES_EOUTSIDE: the tube crosses
+ * the plane outside the region chosen on it (first on another part of the line). */
+int tubes_tube_cut(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                   const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                   const char saddle[8], double de, int kind, int sec_kind, int sec_index,
+                   double level, int dir, double eps, double area_tol, double t_max,
                    int n_init, int n_max, int n_segments, double orb_tol, double orb_rtol,
                    double orb_atol, int nout, int *n, double tau[], double r[], double pr[],
                    double time[], double xs[], double *area, double *area_polygon,
@@ -119,18 +171,23 @@ int tubes_tube_cut(const double model[TUBES_NMODEL], const char saddle[8], doubl
                    double hist_area[64], int *n_failed, double *fail_tau, int local);
 
 /* Monte Carlo check at de: nsamp points uniform on the section's energy surface (GSL MT19937,
- * seed), each integrated until it returns to the section (outcome 0), passes x < x_saddle - gate
- * (outcome 1: transit) or t_max (2); a sample whose integration failed has its (negative)
+ * seed), each integrated until it returns to the section (outcome 0), passes the saddle's gate,
+ * the hyperplane gate past the saddle along its reaction coordinate (the configuration part of its
+ * unstable eigenvector) away from the section's well (outcome 1: transit) or t_max (2); a sample whose integration failed has its (negative)
  * status as outcome. inside[k] = 1 if (r, pr) lies inside the cut (cut_r, cut_pr). */
-int tubes_monte_carlo(const double model[TUBES_NMODEL], const char saddle[8], double de,
-                      double angle, int pth_sign, int nsamp, int seed, double t_max, double gate,
+int tubes_monte_carlo(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                      const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                      const char saddle[8], double de, int sec_kind, int sec_index,
+                      double level, int dir, int nsamp, int seed, double t_max, double gate,
                       int ncut, const double cut_r[], const double cut_pr[], double r[],
                       double pr[], int outcome[], int inside[]);
 
 /* Poincare map of the section at de: pts[(j n_iter + k) 2 + {0, 1}] = (r, p_r) of the k-th return
  * of seed j (NaN once it stops returning within t_max). */
-int tubes_poincare(const double model[TUBES_NMODEL], const char saddle[8], double de,
-                   double angle, int pth_sign, int n_seeds, int n_iter, double t_max, double pts[]);
+int tubes_poincare(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                   const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                   const char saddle[8], double de, int sec_kind, int sec_index,
+                   double level, int dir, int n_seeds, int n_iter, double t_max, double pts[]);
 
 /* Frames per track of the synthetic experiment: t = 0, 1/camera_rate, ... up to duration [s]
  * (both ends included); 0 if duration or camera_rate is not > 0 or their product > 1e8. */
@@ -150,7 +207,7 @@ enum { TUBES_MAX_RELEASE_DRAWS = 4194304 };
  * measured[2]; release[3 j + {0, 1, 2}] = x0, y0, g H(x0, y0) - e_e. *c_damp: damping rate
  * [1/s]; *n_draws: release points drawn. TUBES_EINPUT also when n_tracks points were not found
  * within TUBES_MAX_RELEASE_DRAWS draws. */
-int tubes_synthetic_experiment(const double model[TUBES_NMODEL], double e_e, int n_tracks,
+int tubes_synthetic_experiment(const double params[TUBES_MAXPARAM], double e_e, int n_tracks,
                                double duration, double camera_rate, double pixel, double noise,
                                double de_min, double de_max, double box, int seed, double rtol,
                                int ns, double t[], double state[], double energy[], double noisy[],
@@ -214,6 +271,21 @@ typedef struct {
   double exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, exp_de_max,
       exp_damping_ratio;
   char exp_csv[TUBES_LPATH];
+  /* the any-Hamiltonian additions: &model system and the other systems' parameters (unset:
+   * -DBL_MAX), &equilibria box (list) and box_center, &orbits saddle_near, &section kind, index,
+   * direction, value */
+  char system[TUBES_LNAME];
+  double m_a, m_b, d, lambda, zeta, eps_s, omega, eps, mu;
+  double box_list[TUBES_MAXDOF], box_center[TUBES_MAXDOF], orb_saddle_near[TUBES_MAXDOF];
+  char sec_kind[TUBES_LNAME];
+  int sec_index, sec_direction;
+  double sec_value;
+  /* resolved by the reader from the library's table (src/tubes_models.f90): the system's degrees
+   * of freedom and parameters in the table's order (nparams = -1: unknown system), the search box,
+   * whether the saddle is chosen by position; box_list, box_center, the section's fields, the
+   * saddle and mc_gate then hold the effective values */
+  int ndof, nparams, orb_use_near;
+  double params[TUBES_MAXPARAM], box_lo[TUBES_MAXDOF], box_hi[TUBES_MAXDOF];
 } tubes_config_t;
 
 /* Set every variable to its default. */

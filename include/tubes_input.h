@@ -29,8 +29,8 @@ extern const int tubes_nscenes;
 /* Where each variable was set in the file (0 = not set). */
 typedef struct {
   int group_line[16];               /* line of &group, 0 if absent */
-  int var_line[96];                /* per tubes_nml_vars entry */
-  char var_text[96][96];           /* first characters of the value as written */
+  int var_line[192];               /* per tubes_nml_vars entry */
+  char var_text[192][96];          /* first characters of the value as written */
 } nml_where;
 
 /* Lex the file: unknown groups or variables, unterminated groups, malformed values.
@@ -40,6 +40,9 @@ int nml_lex(const char *path, nml_where *w, FILE *err);
 /* Turn a failure of tubes_nml_read into a message with the line (best effort). */
 void nml_report_read_error(const char *path, const nml_where *w, int group, const char *msg,
                            FILE *err);
+
+/* The line where group.name was set in the file (0: not set). */
+int nml_line(const nml_where *w, const char *group, const char *name);
 
 /* Range and consistency checks. Returns the number of errors printed to err. */
 int nml_validate(const char *path, const tubes_config_t *cfg, const nml_where *w, FILE *err);

@@ -12,11 +12,24 @@ enum { EXIT_BADINPUT = 1, EXIT_NUMERIC = 2, EXIT_IO = 3, EXIT_PARTIAL = 4 };
 
 typedef struct {
   const tubes_config_t *cfg;
-  double model[TUBES_NMODEL];
+  char system[TUBES_LSYSTEM];                      /* the model (docs/models.md) */
+  double params[TUBES_MAXPARAM];                   /* its parameters, in the table's order */
+  int ndof;                                        /* N: states have 2 N components */
+  int natural;                                     /* 1: H = T + V (brake orbits, rest points) */
+  char length_units[8];                            /* units of the coordinates ("cm", "1") */
+  double lo[TUBES_MAXDOF], hi[TUBES_MAXDOF];       /* the equilibrium search box */
+  int n_grid;
+  char saddle[8];                                  /* the chosen saddle (&orbits), resolved */
+  const char *input;                               /* the input file, for messages */
+  int eq_saddle_line, orb_saddle_line;             /* where &equilibria / &orbits saddle were set */
   hid_t file;    /* rank 0: the output file; other MPI ranks: an in-memory scratch file */
   int rank;      /* MPI rank (0 without MPI): only rank 0 writes files */
   int nranks;    /* MPI ranks (1 without MPI) */
 } tubes_run_t;
+
+/* Fill the model, the box and the saddle of run from run->cfg; resolves &orbits saddle_near to
+ * the nearest rank-1 saddle. Returns 0 or EXIT_BADINPUT / EXIT_NUMERIC (message printed). */
+int run_setup(tubes_run_t *run);
 
 /* Each returns 0, EXIT_NUMERIC (numerical failure, reported on stderr, recorded in the file)
  * or EXIT_IO. */

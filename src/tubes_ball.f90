@@ -3,10 +3,11 @@
 !>   T = (5/14) p^T M^-1 p,  M = I + grad H grad H^T,  V = g H,  p = (7/5) M v.
 !> With s = grad H . p, D = 1 + |grad H|^2, u = s/D and v = (5/7)(p - u grad H):
 !>   dq/dt = v,   dp/dt = u Hess(H) v - g grad H          (derivation: docs/theory.md)
-!> damped_ball_t adds the viscous generalised force -c p (docs/theory.md, "Damping").
+!> The ball is a natural system (tubes_hamiltonian): V = g H, shape = H, potential_scale = g,
+!> A(q) = (5/7) M^-1. Damping is the generic damped_t wrapper (-c p on the momenta).
 module tubes_ball
   use tubes_kinds, only: wp
-  use tubes_field, only: vector_field_t
+  use tubes_hamiltonian, only: natural_t, LEN_NAME, NAMES_QUADRANT
   use tubes_surface, only: surface_t
   implicit none
   private
@@ -14,27 +15,28 @@ module tubes_ball
   real(wp), parameter, public :: ROLL = 5.0_wp/7.0_wp  !! v = ROLL M^-1 p for a solid sphere
   real(wp), parameter, public :: MAX_RADIUS = 1.0e6_wp  !! |x| + |y| beyond this is refused [cm]
 
-  !> Conservative rolling ball.
-  type, extends(vector_field_t), public :: ball_t
+  !> Conservative rolling ball (potential_scale = g).
+  type, extends(natural_t), public :: ball_t
     class(surface_t), allocatable :: surf   !! the surface it rolls on
     real(wp) :: g = 981.0_wp                !! gravitational acceleration [cm/s^2]
   contains
-    procedure :: dim => ball_dim
+    procedure :: ndof => ball_ndof
     procedure :: eval => ball_eval
     procedure :: jacobian => ball_jacobian
     procedure :: energy => ball_energy
+    procedure :: gradient => ball_gradient
+    procedure :: hessian => ball_hessian
+    procedure :: shape => ball_shape
+    procedure :: shape_derivs => ball_shape_derivs
+    procedure :: kinetic_matrix => ball_kinetic_matrix
+    procedure :: rest_kinetic_matrix => ball_rest_kinetic
+    procedure :: coordinate_name => ball_coordinate_name
+    procedure :: naming => ball_naming
+    procedure :: potential_scale => ball_potential_scale
     procedure :: velocity => ball_velocity
     procedure :: momentum => ball_momentum
-    procedure :: potential => ball_potential
+    procedure :: potential_xy => ball_potential
   end type ball_t
-
-  !> Rolling ball with viscous damping: dp/dt gains -c p, so that dE/dt = -2 c T.
-  type, extends(ball_t), public :: damped_ball_t
-    real(wp) :: c = 0   !! damping rate [1/s]; c = 2 zeta omega_1 (docs/theory.md)
-  contains
-    procedure :: eval => damped_eval
-    procedure :: jacobian => damped_jacobian
-  end type damped_ball_t
 
   public :: make_ball
 
@@ -49,10 +51,92 @@ contains
     ball%g = g
   end subroutine make_ball
 
-  pure integer function ball_dim(self)
+  pure integer function ball_ndof(self)
     class(ball_t), intent(in) :: self
-    ball_dim = 4
-  end function ball_dim
+    ball_ndof = 2
+  end function ball_ndof
+
+  !> The surface's height H(q) [cm] (V = g H).
+  pure real(wp) function ball_shape(self, q)
+    class(ball_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    ball_shape = self%surf%height(q(1), q(2))
+  end function ball_shape
+
+  pure subroutine ball_shape_derivs(self, q, grad, hess)
+    class(ball_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(out) :: grad(:), hess(:, :)
+    real(wp) :: gr(2), hs(2, 2)
+    call self%surf%derivs(q(1), q(2), gr, hs)
+    grad(1:2) = gr
+    hess(1:2, 1:2) = hs
+  end subroutine ball_shape_derivs
+
+  !> A(q) = (5/7) M^-1 = (5/7)(I - grad H grad H^T / (1 + |grad H|^2)).
+  pure subroutine ball_kinetic_matrix(self, q, a)
+    class(ball_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(out) :: a(:, :)
+    real(wp) :: gr(2), hs(2, 2), d
+    call self%surf%derivs(q(1), q(2), gr, hs)
+    d = 1 + gr(1)**2 + gr(2)**2
+    a(1:2, 1:2) = -ROLL*outer(gr, gr)/d
+    a(1, 1) = a(1, 1) + ROLL
+    a(2, 2) = a(2, 2) + ROLL
+  end subroutine ball_kinetic_matrix
+
+  !> At a critical point of the surface M = I: A = (5/7) I.
+  pure subroutine ball_rest_kinetic(self, q, a)
+    class(ball_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(out) :: a(:, :)
+    a(1:2, 1:2) = 0
+    a(1, 1) = ROLL
+    a(2, 2) = ROLL
+  end subroutine ball_rest_kinetic
+
+  !> dH/dx = (-dp/dt, dq/dt) of the conservative flow [(cm/s)^2/cm, cm/s].
+  pure subroutine ball_gradient(self, x, g, stat)
+    class(ball_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: g(:)
+    integer, intent(out) :: stat
+    real(wp) :: f(4)
+    call ball_eval(self, 0.0_wp, x, f, stat)
+    g(1:4) = [-f(3), -f(4), f(1), f(2)]
+  end subroutine ball_gradient
+
+  !> Hessian of H from the analytic Jacobian J Hess H (ball_jacobian): Hess = -J jac.
+  pure subroutine ball_hessian(self, x, h, stat)
+    class(ball_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: h(:, :)
+    integer, intent(out) :: stat
+    real(wp) :: jac(4, 4)
+    call ball_jacobian(self, 0.0_wp, x, jac, stat)
+    h(1:2, 1:4) = -jac(3:4, 1:4)
+    h(3:4, 1:4) = jac(1:2, 1:4)
+  end subroutine ball_hessian
+
+  pure function ball_coordinate_name(self, k) result(name)
+    class(ball_t), intent(in) :: self
+    integer, intent(in) :: k
+    character(LEN_NAME) :: name
+    character(2), parameter :: NAMES(4) = ['x ', 'y ', 'px', 'py']
+    name = NAMES(k)
+  end function ball_coordinate_name
+
+  !> V = g H.
+  pure real(wp) function ball_potential_scale(self)
+    class(ball_t), intent(in) :: self
+    ball_potential_scale = self%g
+  end function ball_potential_scale
+
+  pure integer function ball_naming(self)
+    class(ball_t), intent(in) :: self
+    ball_naming = NAMES_QUADRANT
+  end function ball_naming
 
   pure subroutine ball_eval(self, t, x, dxdt, stat)
     class(ball_t), intent(in) :: self
@@ -77,15 +161,6 @@ contains
     ! refuse it so that fixed-step methods report the blow-up instead of finite nonsense
     if (abs(x(1)) + abs(x(2)) > MAX_RADIUS) stat = -1
   end subroutine ball_eval
-
-  pure subroutine damped_eval(self, t, x, dxdt, stat)
-    class(damped_ball_t), intent(in) :: self
-    real(wp), intent(in)  :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out)  :: stat
-    call ball_eval(self, t, x, dxdt, stat)
-    dxdt(3:4) = dxdt(3:4) - self%c*x(3:4)
-  end subroutine damped_eval
 
   !> Analytic Jacobian of Hamilton's equations (derivation: docs/theory.md, "Jacobian").
   pure subroutine ball_jacobian(self, t, x, jac, stat)
@@ -120,16 +195,6 @@ contains
     if (.not. all(abs(jac(1:4, 1:4)) <= huge(1.0_wp))) stat = -1
   end subroutine ball_jacobian
 
-  pure subroutine damped_jacobian(self, t, x, jac, stat)
-    class(damped_ball_t), intent(in) :: self
-    real(wp), intent(in)  :: t, x(:)
-    real(wp), intent(out) :: jac(:, :)
-    integer, intent(out)  :: stat
-    call ball_jacobian(self, t, x, jac, stat)
-    jac(3, 3) = jac(3, 3) - self%c
-    jac(4, 4) = jac(4, 4) - self%c
-  end subroutine damped_jacobian
-
   pure function outer(a, b) result(m)
     real(wp), intent(in) :: a(2), b(2)
     real(wp) :: m(2, 2)
@@ -140,7 +205,7 @@ contains
   !> Total energy per unit mass T + g H [(cm/s)^2].
   pure real(wp) function ball_energy(self, x) result(e)
     class(ball_t), intent(in) :: self
-    real(wp), intent(in) :: x(4)   !! (x, y, px, py)
+    real(wp), intent(in) :: x(:)   !! (x, y, px, py)
     real(wp) :: gr(2), hs(2, 2), s
     call self%surf%derivs(x(1), x(2), gr, hs)
     s = gr(1)*x(3) + gr(2)*x(4)

@@ -1,29 +1,36 @@
-!> Critical points of the surface (equilibria of the rolling ball, p = 0), their Morse index,
-!> names and, at rank-1 saddles, the linearized Hamiltonian flow (LAPACK dgeev).
+!> Equilibria of Hamilton's equations for any model (tubes_hamiltonian), their index (the
+!> number of eigenvalues of the linearised flow with positive real part; for natural systems
+!> the Morse index of V), names, and at rank-1 saddles (one real pair, the rest centres) the
+!> linearised flow: lambda, the centre frequencies omega_k and the eigenvectors (LAPACK dgeev).
+!> Natural systems: rest points p = 0 at the critical points of V, by Newton in q. Others (the
+!> CR3BP): Newton on the 2N-dimensional vector field from (q, rest momenta of q).
 module tubes_equilibria
   use tubes_kinds, only: wp
-  use tubes_ball, only: ball_t, ROLL
+  use tubes_hamiltonian, only: hamiltonian_t, natural_t, NAMES_QUADRANT, NAMES_LAGRANGE
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   implicit none
   private
 
-  real(wp), parameter :: PI = acos(-1.0_wp)
+  integer, parameter, public :: MAX_EQUILIBRIA = 256   !! equilibria kept at most (more: TUBES_ENOCONV)
 
-  !> One critical point of H.
+  !> One equilibrium.
   type, public :: equilibrium_t
-    real(wp) :: q(2) = 0            !! position (x, y) [cm]
-    real(wp) :: height = 0          !! H(x, y) [cm]
-    real(wp) :: energy = 0          !! g H [(cm/s)^2]
-    real(wp) :: grad_norm = 0       !! |grad H| at q [1], the Newton residual
-    real(wp) :: curv(2) = 0         !! Hessian eigenvalues, ascending [1/cm]
-    integer :: morse = -1           !! Morse index: 0 well, 1 rank-1 saddle, 2 rank-2 saddle
-    character(len=8) :: name = ''   !! W<quadrant>, S<ij> (joins wells i and j), R<k>
-    real(wp) :: lambda = 0          !! rank-1 only: real eigenvalue of the flow [1/s]
-    real(wp) :: omega = 0           !! rank-1 only: frequency of the centre pair [rad/s]
-    real(wp) :: evec(4, 4) = 0      !! rank-1 only: columns u(+lambda), s(-lambda), Re c, Im c
+    real(wp), allocatable :: q(:)   !! configuration [units of q]
+    real(wp), allocatable :: x(:)   !! full state (q, p); p = 0 for natural systems
+    real(wp) :: height = 0          !! natural: shape(q) (the ball: H(x, y) [cm]); else H
+    real(wp) :: energy = 0          !! H at the equilibrium
+    real(wp) :: grad_norm = 0       !! Newton residual: |grad shape| (natural) or |f(x)|
+    real(wp), allocatable :: curv(:) !! natural: Hessian eigenvalues of shape, ascending
+    integer :: morse = -1           !! index: eigenvalues with Re > 0 (natural: Morse index of V)
+    logical :: rank1 = .false.      !! one real pair +-lambda, all others +-i omega_k
+    character(len=8) :: name = ''   !! docs/models.md, "Naming of equilibria"
+    real(wp) :: lambda = 0          !! rank-1 only: real eigenvalue of the flow [1/time]
+    real(wp), allocatable :: omegas(:) !! rank-1 only: centre frequencies, ascending [rad/time]
+    real(wp) :: omega = 0           !! rank-1 only: omegas(1)
+    real(wp), allocatable :: evec(:, :) !! rank-1 only: columns u(+lambda), s(-lambda), Re c_k, Im c_k
   end type equilibrium_t
 
-  public :: find_equilibria, linearize, rest_jacobian, quadrant
+  public :: find_equilibria, linearize, quadrant, rest_jacobian
 
   interface
     subroutine dgeev(jobvl, jobvr, n, a, lda, wr, wi, vl, ldvl, vr, ldvr, work, lwork, info)
@@ -42,13 +49,19 @@ module tubes_equilibria
       real(wp), intent(out) :: w(*), work(*)
       integer, intent(out) :: info
     end subroutine dsyev
+    subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
+      import :: wp
+      integer, intent(in) :: n, nrhs, lda, ldb
+      real(wp), intent(inout) :: a(lda, *), b(ldb, *)
+      integer, intent(out) :: ipiv(*), info
+    end subroutine dgesv
   end interface
 
 contains
 
   !> Quadrant 1..4 of (x, y), 0 on an axis.
   pure integer function quadrant(q)
-    real(wp), intent(in) :: q(2)
+    real(wp), intent(in) :: q(:)
     quadrant = 0
     if (q(1) > 0 .and. q(2) > 0) quadrant = 1
     if (q(1) < 0 .and. q(2) > 0) quadrant = 2
@@ -56,134 +69,199 @@ contains
     if (q(1) > 0 .and. q(2) < 0) quadrant = 4
   end function quadrant
 
-  !> Newton's method on grad H = 0 from q; converged when the step is below roundoff.
-  subroutine newton(ball, q, ok)
-    type(ball_t), intent(in) :: ball
-    real(wp), intent(inout) :: q(2)
+  !> Solve a x = b for a small system (closed form for n = 2, LAPACK otherwise).
+  subroutine small_solve(a, b, x, ok)
+    real(wp), intent(in) :: a(:, :), b(:)
+    real(wp), intent(out) :: x(:)
     logical, intent(out) :: ok
-    real(wp) :: gr(2), hs(2, 2), det, dq(2), scale
+    real(wp) :: det, aa(size(b), size(b)), bb(size(b))
+    integer :: ipiv(size(b)), info, n
+    n = size(b)
+    ok = .true.
+    if (n == 2) then
+      det = a(1, 1)*a(2, 2) - a(1, 2)*a(2, 1)
+      if (abs(det) < 1.0e-14_wp) then
+        ok = .false.
+        return
+      end if
+      x = [a(2, 2)*b(1) - a(1, 2)*b(2), a(1, 1)*b(2) - a(2, 1)*b(1)]/det
+    else
+      aa = a
+      bb = b
+      call dgesv(n, 1, aa, n, ipiv, bb, n, info)
+      ok = info == 0
+      x = bb
+    end if
+  end subroutine small_solve
+
+  !> Newton's method on grad shape = 0 from q (natural systems); converged when the step is
+  !> below roundoff. Steps are damped to length_scale.
+  subroutine newton_natural(model, q, ok)
+    class(natural_t), intent(in) :: model
+    real(wp), intent(inout) :: q(:)
+    logical, intent(out) :: ok
+    real(wp) :: gr(size(q)), hs(size(q), size(q)), dq(size(q)), scale, ls
     integer :: it
     ok = .false.
+    ls = model%length_scale()
     do it = 1, 60
-      call ball%surf%derivs(q(1), q(2), gr, hs)
-      det = hs(1, 1)*hs(2, 2) - hs(1, 2)*hs(2, 1)
-      if (abs(det) < 1.0e-14_wp) return
-      dq = [hs(2, 2)*gr(1) - hs(1, 2)*gr(2), hs(1, 1)*gr(2) - hs(2, 1)*gr(1)]/det
-      scale = max(1.0_wp, sqrt(sum(dq**2)))   ! damp long steps to 1 cm
+      call model%shape_derivs(q, gr, hs)
+      if (.not. all(abs(gr) <= huge(1.0_wp))) return
+      call small_solve(hs, gr, dq, ok)
+      if (.not. ok) return
+      ok = .false.
+      scale = max(1.0_wp, sqrt(sum(dq**2))/ls)   ! damp long steps to one length scale
       q = q - dq/scale
-      if (sqrt(sum(dq**2)) <= 1.0e-14_wp*max(1.0_wp, sqrt(sum(q**2)))) then
+      if (sqrt(sum(dq**2)) <= 1.0e-14_wp*max(ls, sqrt(sum(q**2)))) then
         ok = .true.
         return
       end if
     end do
     ok = sqrt(sum(gr**2)) <= 1.0e-13_wp
-  end subroutine newton
+  end subroutine newton_natural
 
-  !> Eigenvalues (ascending) of the Hessian of H at q.
-  subroutine hessian_eigs(ball, q, ev, vecs)
-    type(ball_t), intent(in) :: ball
-    real(wp), intent(in) :: q(2)
-    real(wp), intent(out) :: ev(2), vecs(2, 2)
-    real(wp) :: gr(2), work(16)
-    integer :: info
-    call ball%surf%derivs(q(1), q(2), gr, vecs)
-    call dsyev('V', 'U', 2, vecs, 2, ev, work, 16, info)
-  end subroutine hessian_eigs
+  !> Newton's method on f(x) = J grad H = 0 in 2N dimensions (any model).
+  subroutine newton_general(model, x, ok)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(inout) :: x(:)
+    logical, intent(out) :: ok
+    real(wp) :: f(size(x)), jac(size(x), size(x)), dx(size(x)), scale, ls, xs
+    integer :: it, stat, n
+    ok = .false.
+    n = size(x)/2
+    ls = model%length_scale()
+    do it = 1, 60
+      call model%eval(0.0_wp, x, f, stat)
+      if (stat /= 0) return
+      call model%jacobian(0.0_wp, x, jac, stat)
+      if (stat /= 0) return
+      call small_solve(jac, f, dx, ok)
+      if (.not. ok) return
+      ok = .false.
+      scale = max(1.0_wp, sqrt(sum(dx(1:n)**2))/ls)
+      x = x - dx/scale
+      xs = max(ls, sqrt(sum(x**2)))
+      if (sqrt(sum(dx**2)) <= 1.0e-14_wp*xs) then
+        call model%eval(0.0_wp, x, f, stat)
+        ok = stat == 0 .and. sqrt(sum(f**2)) <= 1.0e-10_wp*xs
+        return
+      end if
+    end do
+  end subroutine newton_general
 
-  !> Steepest descent of H from q into a minimum (used to name saddles by their wells).
-  subroutine descend(ball, q)
-    type(ball_t), intent(in) :: ball
-    real(wp), intent(inout) :: q(2)
-    real(wp) :: gr(2), hs(2, 2), a, qn(2), h0
+  !> Steepest descent of shape from q into a minimum (names saddles by their wells).
+  subroutine descend(model, q)
+    class(natural_t), intent(in) :: model
+    real(wp), intent(inout) :: q(:)
+    real(wp) :: gr(size(q)), hs(size(q), size(q)), a, qn(size(q)), h0
     integer :: it
     logical :: ok
     a = 1.0_wp
     do it = 1, 20000
-      call ball%surf%derivs(q(1), q(2), gr, hs)
+      call model%shape_derivs(q, gr, hs)
       if (sqrt(sum(gr**2)) < 1.0e-6_wp) exit
-      h0 = ball%surf%height(q(1), q(2))
+      h0 = model%shape(q)
       do
         qn = q - a*gr
-        if (ball%surf%height(qn(1), qn(2)) < h0 .or. a < 1.0e-12_wp) exit
+        if (model%shape(qn) < h0 .or. a < 1.0e-12_wp) exit
         a = a/2
       end do
       q = qn
       a = min(2*a, 10.0_wp)
     end do
-    call newton(ball, q, ok)
+    call newton_natural(model, q, ok)
   end subroutine descend
 
-  !> All critical points of H in |x|, |y| <= box, by Newton from an n_grid x n_grid grid,
-  !> deduplicated, classified and named. Sorted: wells, rank-1 saddles, rank-2, by name.
-  subroutine find_equilibria(ball, box, n_grid, eqs, stat)
-    type(ball_t), intent(in) :: ball
-    real(wp), intent(in) :: box        !! half-width of the search box [cm]
-    integer, intent(in) :: n_grid      !! starting points per axis (>= 2)
+  !> Eigenvalues (ascending) and vectors of the Hessian of shape at q.
+  subroutine hessian_eigs(model, q, ev, vecs)
+    class(natural_t), intent(in) :: model
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(out) :: ev(:), vecs(:, :)
+    real(wp) :: gr(size(q)), work(64)
+    integer :: info, n
+    n = size(q)
+    call model%shape_derivs(q, gr, vecs)
+    call dsyev('V', 'U', n, vecs, n, ev, work, 64, info)
+  end subroutine hessian_eigs
+
+  !> All equilibria with q in the box [lo, hi] (per coordinate), by Newton from an n_grid^N
+  !> grid, deduplicated, classified and named. Sorted: by index, then by name.
+  !> stat: TUBES_EINPUT for a bad box; TUBES_ENOCONV if more than MAX_EQUILIBRIA were found.
+  subroutine find_equilibria(model, lo, hi, n_grid, eqs, stat)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: lo(:), hi(:)   !! the search box [units of q] (size N)
+    integer, intent(in) :: n_grid          !! starting points per axis (>= 2)
     type(equilibrium_t), allocatable, intent(out) :: eqs(:)
     integer, intent(out) :: stat
     type(equilibrium_t), allocatable :: found(:)
-    type(equilibrium_t) :: e
-    real(wp) :: q(2), gr(2), hs(2, 2), vecs(2, 2), qa(2), qb(2), dup_tol
-    integer :: i, j, n, k, wa, wb, nr, order(64), m
+    real(wp), allocatable :: q(:), x(:), p(:)
+    real(wp) :: dup_tol, tol_box
+    integer :: n, nd, k, m, idx(8), ngrid_total, ig, i, j, st
+    integer, allocatable :: order(:)
     logical :: ok, dup
     stat = TUBES_OK
-    if (box <= 0 .or. n_grid < 2) then
+    nd = model%ndof()
+    if (size(lo) /= nd .or. size(hi) /= nd .or. n_grid < 2 .or. nd > 8) then
       stat = TUBES_EINPUT
       return
     end if
-    allocate (found(64))
+    if (any(.not. (hi > lo))) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    allocate (found(MAX_EQUILIBRIA), q(nd), x(2*nd), p(nd))
     n = 0
-    dup_tol = 1.0e-6_wp*max(1.0_wp, box)
-    do i = 0, n_grid - 1
-      do j = 0, n_grid - 1
-        q = [-box + 2*box*i/(n_grid - 1), -box + 2*box*j/(n_grid - 1)]
-        call newton(ball, q, ok)
-        if (.not. ok) cycle
-        if (any(abs(q) > box*(1 + 1.0e-12_wp))) cycle
-        dup = .false.
-        do k = 1, n
-          if (sqrt(sum((found(k)%q - q)**2)) < dup_tol) dup = .true.
-        end do
-        if (dup .or. n == size(found)) cycle
-        n = n + 1
-        found(n)%q = q
+    dup_tol = 1.0e-6_wp*max(1.0_wp, maxval(0.5_wp*(hi - lo)))
+    ngrid_total = n_grid**nd
+    do ig = 0, ngrid_total - 1
+      ! grid point ig: digits in base n_grid, coordinate 1 the slowest (as the 2-D loop i, j)
+      k = ig
+      do i = nd, 1, -1
+        idx(i) = mod(k, n_grid)
+        k = k/n_grid
       end do
+      do i = 1, nd
+        q(i) = lo(i) + (hi(i) - lo(i))*idx(i)/(n_grid - 1)
+      end do
+      select type (model)
+      class is (natural_t)
+        call newton_natural(model, q, ok)
+        x(1:nd) = q
+        x(nd + 1:) = 0
+      class default
+        p = 0
+        call model%rest_momenta(q, p, st)
+        if (st /= TUBES_OK) cycle
+        x = [q, p]
+        call newton_general(model, x, ok)
+        q = x(1:nd)
+      end select
+      if (.not. ok) cycle
+      tol_box = 1.0e-12_wp
+      if (any(q < lo - tol_box*abs(lo) .or. q > hi + tol_box*abs(hi))) cycle
+      dup = .false.
+      do k = 1, n
+        if (sqrt(sum((found(k)%x - x)**2)) < dup_tol) dup = .true.
+      end do
+      if (dup) cycle
+      if (n == size(found)) then
+        stat = TUBES_ENOCONV      ! more equilibria than MAX_EQUILIBRIA: refuse, do not truncate
+        return
+      end if
+      n = n + 1
+      found(n)%q = q
+      found(n)%x = x
     end do
     ! classify
     do k = 1, n
-      q = found(k)%q
-      call ball%surf%derivs(q(1), q(2), gr, hs)
-      found(k)%grad_norm = sqrt(sum(gr**2))
-      found(k)%height = ball%surf%height(q(1), q(2))
-      found(k)%energy = ball%g*found(k)%height
-      call hessian_eigs(ball, q, found(k)%curv, vecs)
-      found(k)%morse = count(found(k)%curv < 0)
+      call classify(model, found(k), stat)
+      if (stat /= TUBES_OK) return
     end do
-    ! names: wells by quadrant; rank-1 saddles by the wells their descent reaches
-    nr = 0
-    do k = 1, n
-      select case (found(k)%morse)
-      case (0)
-        write (found(k)%name, '(a,i0)') 'W', quadrant(found(k)%q)
-      case (1)
-        call hessian_eigs(ball, found(k)%q, found(k)%curv, vecs)
-        qa = found(k)%q + 1.0e-3_wp*vecs(:, 1)
-        qb = found(k)%q - 1.0e-3_wp*vecs(:, 1)
-        call descend(ball, qa)
-        call descend(ball, qb)
-        wa = quadrant(qa)
-        wb = quadrant(qb)
-        write (found(k)%name, '(a,i0,i0)') 'S', min(wa, wb), max(wa, wb)
-        call linearize(ball, found(k)%q, found(k)%lambda, found(k)%omega, found(k)%evec, stat)
-        if (stat /= TUBES_OK) return
-      case default
-        nr = nr + 1
-        write (found(k)%name, '(a,i0)') 'R', nr
-      end select
-    end do
-    ! sort by (morse, name): insertion sort on a small list
+    call name_all(model, found(1:n))
+    ! sort by (index, name): insertion sort on a short list
     m = n
-    order(1:m) = [(i, i = 1, m)]
+    allocate (order(m))
+    order = [(i, i = 1, m)]
     do i = 2, m
       j = i
       do while (j > 1)
@@ -197,10 +275,280 @@ contains
     end do
     allocate (eqs(m))
     do i = 1, m
-      e = found(order(i))
-      eqs(i) = e
+      eqs(i) = found(order(i))
     end do
   end subroutine find_equilibria
+
+  !> Energy, residual, index and (rank-1) linearisation of one equilibrium.
+  subroutine classify(model, e, stat)
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(inout) :: e
+    integer, intent(out) :: stat
+    integer :: nd, nreal, ncentre
+    real(wp) :: f(size(e%x)), gr(size(e%q)), hs(size(e%q), size(e%q)), vecs(size(e%q), size(e%q))
+    real(wp) :: wr(size(e%x)), wi(size(e%x)), scale
+    nd = size(e%q)
+    stat = TUBES_OK
+    allocate (e%curv(nd))
+    e%curv = 0
+    select type (model)
+    class is (natural_t)
+      call model%shape_derivs(e%q, gr, hs)
+      e%grad_norm = sqrt(sum(gr**2))
+      e%height = model%shape(e%q)
+      e%energy = model%potential_scale()*e%height
+      call hessian_eigs(model, e%q, e%curv, vecs)
+      e%morse = count(e%curv < 0)
+    class default
+      call model%eval(0.0_wp, e%x, f, stat)
+      if (stat /= 0) return
+      e%grad_norm = sqrt(sum(f**2))
+      e%energy = model%energy(e%x)
+      e%height = e%energy
+    end select
+    call spectrum(model, e%x, wr, wi, stat)
+    if (stat /= TUBES_OK) return
+    scale = max(maxval(abs(wr)), maxval(abs(wi)))
+    nreal = count(wr > 1.0e-8_wp*scale .and. abs(wi) <= 1.0e-8_wp*scale)
+    ncentre = count(abs(wr) <= 1.0e-8_wp*scale .and. wi > 1.0e-8_wp*scale)
+    select type (model)
+    class is (natural_t)
+    class default
+      e%morse = count(wr > 1.0e-8_wp*scale)
+    end select
+    e%rank1 = e%morse == 1 .and. nreal == 1 .and. ncentre == nd - 1
+    if (e%rank1) then
+      allocate (e%omegas(nd - 1), e%evec(2*nd, 2*nd))
+      call linearize(model, e%x, e%lambda, e%omegas, e%evec, stat)
+      if (stat /= TUBES_OK) return
+      e%omega = e%omegas(1)
+    else
+      allocate (e%omegas(max(nd - 1, 1)), e%evec(2*nd, 2*nd))
+      e%omegas = 0
+      e%evec = 0
+    end if
+  end subroutine classify
+
+  !> Eigenvalues of the linearised flow at the equilibrium x.
+  subroutine spectrum(model, x, wr, wi, stat)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: wr(:), wi(:)
+    integer, intent(out) :: stat
+    real(wp) :: jac(size(x), size(x)), vl(1, 1), vr(1, 1), work(64*size(x))
+    integer :: info, n2
+    n2 = size(x)
+    call rest_jacobian(model, x, jac, stat)
+    if (stat /= TUBES_OK) return
+    call dgeev('N', 'N', n2, jac, n2, wr, wi, vl, 1, vr, 1, work, size(work), info)
+    if (info /= 0) stat = TUBES_ENOCONV
+  end subroutine spectrum
+
+  !> Jacobian of Hamilton's equations at an equilibrium x. Natural systems:
+  !> [[0, A(q)], [-Hess V, 0]] with the rest kinetic matrix (the kinetic terms are quadratic in
+  !> p); others: the model's Jacobian.
+  subroutine rest_jacobian(model, x, jac, stat)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: jac(:, :)
+    integer, intent(out) :: stat
+    integer :: nd
+    real(wp) :: gr(size(x)/2), hs(size(x)/2, size(x)/2), a(size(x)/2, size(x)/2)
+    nd = size(x)/2
+    stat = TUBES_OK
+    select type (model)
+    class is (natural_t)
+      call model%shape_derivs(x(1:nd), gr, hs)
+      call model%rest_kinetic_matrix(x(1:nd), a)
+      jac = 0
+      jac(1:nd, nd + 1:2*nd) = a
+      jac(nd + 1:2*nd, 1:nd) = -model%potential_scale()*hs
+    class default
+      call model%jacobian(0.0_wp, x, jac, stat)
+      if (stat /= 0) stat = TUBES_EINPUT
+    end select
+  end subroutine rest_jacobian
+
+  !> Linearised flow at a rank-1 saddle x: eigenvalues +-lambda, +-i omega_k (LAPACK dgeev,
+  !> omegas ascending) and eigenvectors as columns u, s, Re c_1, Im c_1, ..., unit length, u
+  !> and s with their largest component positive. stat = TUBES_EINPUT if x is not a saddle x
+  !> centre^(N-1).
+  subroutine linearize(model, x, lambda, omegas, evec, stat)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: lambda, omegas(:), evec(:, :)
+    integer, intent(out) :: stat
+    real(wp) :: jac(size(x), size(x)), wr(size(x)), wi(size(x)), vl(1, 1), vr(size(x), size(x))
+    real(wp) :: work(64*size(x)), v(size(x)), nrm, scale
+    integer :: info, k, iu, is, n2, nc, ic(size(x)), j
+    stat = TUBES_OK
+    n2 = size(x)
+    call rest_jacobian(model, x, jac, stat)
+    if (stat /= TUBES_OK) return
+    call dgeev('N', 'V', n2, jac, n2, wr, wi, vl, 1, vr, n2, work, size(work), info)
+    if (info /= 0) then
+      stat = TUBES_ENOCONV
+      return
+    end if
+    iu = maxloc(wr, 1)
+    is = minloc(wr, 1)
+    lambda = wr(iu)
+    scale = max(maxval(abs(wr)), maxval(abs(wi)))
+    ! the centre pairs: dgeev stores a pair as columns j (Re) and j+1 (Im), wi(j) > 0
+    nc = 0
+    do j = 1, n2
+      if (wi(j) > 0 .and. abs(wr(j)) <= 1.0e-8_wp*scale) then
+        nc = nc + 1
+        ic(nc) = j
+      end if
+    end do
+    if (lambda <= 0 .or. nc /= n2/2 - 1 .or. size(omegas) < nc) then
+      stat = TUBES_EINPUT    ! not a saddle x centre^(N-1)
+      return
+    end if
+    ! ascending frequencies (insertion sort of the few pairs)
+    do k = 2, nc
+      j = k
+      do while (j > 1)
+        if (wi(ic(j)) < wi(ic(j - 1))) then
+          info = ic(j); ic(j) = ic(j - 1); ic(j - 1) = info
+          j = j - 1
+        else
+          exit
+        end if
+      end do
+    end do
+    evec(:, 1) = vr(:, iu)
+    evec(:, 2) = vr(:, is)
+    do k = 1, nc
+      omegas(k) = wi(ic(k))
+      evec(:, 2*k + 1) = vr(:, ic(k))
+      evec(:, 2*k + 2) = vr(:, ic(k) + 1)
+    end do
+    do k = 1, n2
+      v = evec(:, k)
+      nrm = sqrt(sum(v**2))
+      if (nrm > 0) v = v/nrm
+      if (v(maxloc(abs(v), 1)) < 0 .and. k <= 2) v = -v
+      evec(:, k) = v
+    end do
+  end subroutine linearize
+
+  !> Names by the model's scheme (docs/models.md, "Naming of equilibria").
+  subroutine name_all(model, eqs)
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(inout) :: eqs(:)
+    integer :: k, nr, wa, wb, scheme
+    real(wp), allocatable :: qa(:), qb(:), vecs(:, :), ev(:)
+    scheme = model%naming()
+    if (scheme == NAMES_QUADRANT .and. size(eqs) > 0) then
+      select type (model)
+      class is (natural_t)
+        nr = 0
+        do k = 1, size(eqs)
+          select case (eqs(k)%morse)
+          case (0)
+            write (eqs(k)%name, '(a,i0)') 'W', quadrant(eqs(k)%q)
+          case (1)
+            allocate (vecs(size(eqs(k)%q), size(eqs(k)%q)), ev(size(eqs(k)%q)))
+            call hessian_eigs(model, eqs(k)%q, ev, vecs)
+            qa = eqs(k)%q + 1.0e-3_wp*vecs(:, 1)
+            qb = eqs(k)%q - 1.0e-3_wp*vecs(:, 1)
+            call descend(model, qa)
+            call descend(model, qb)
+            wa = quadrant(qa)
+            wb = quadrant(qb)
+            write (eqs(k)%name, '(a,i0,i0)') 'S', min(wa, wb), max(wa, wb)
+            deallocate (vecs, ev)
+          case default
+            nr = nr + 1
+            write (eqs(k)%name, '(a,i0)') 'R', nr
+          end select
+        end do
+        if (unique_names(eqs)) return
+      end select
+    else if (scheme == NAMES_LAGRANGE) then
+      call name_lagrange(eqs)
+      if (unique_names(eqs)) return
+    end if
+    call name_generic(eqs)
+  end subroutine name_all
+
+  logical function unique_names(eqs)
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer :: i, j
+    unique_names = .true.
+    do i = 1, size(eqs)
+      if (len_trim(eqs(i)%name) == 0) unique_names = .false.
+      do j = 1, i - 1
+        if (eqs(i)%name == eqs(j)%name) unique_names = .false.
+      end do
+    end do
+  end function unique_names
+
+  !> W<k> (index 0), S<k> (rank-1), R<k> (others), k by ascending energy, then q1, then q2.
+  subroutine name_generic(eqs)
+    type(equilibrium_t), intent(inout) :: eqs(:)
+    integer :: i, j, k, cls(size(eqs))
+    character, parameter :: LETTER(0:2) = ['W', 'S', 'R']
+    do i = 1, size(eqs)
+      cls(i) = 2
+      if (eqs(i)%morse == 0) cls(i) = 0
+      if (eqs(i)%rank1) cls(i) = 1
+    end do
+    do i = 1, size(eqs)
+      k = 1
+      do j = 1, size(eqs)
+        if (j /= i .and. cls(j) == cls(i) .and. earlier(eqs(j), eqs(i))) k = k + 1
+      end do
+      write (eqs(i)%name, '(a,i0)') LETTER(cls(i)), k
+    end do
+  contains
+    pure logical function earlier(a, b)
+      type(equilibrium_t), intent(in) :: a, b
+      real(wp) :: tol
+      integer :: d
+      tol = 1.0e-9_wp*max(1.0_wp, abs(a%energy), abs(b%energy))
+      if (abs(a%energy - b%energy) > tol) then
+        earlier = a%energy < b%energy
+        return
+      end if
+      do d = 1, size(a%q)
+        if (abs(a%q(d) - b%q(d)) > 1.0e-9_wp*max(1.0_wp, abs(a%q(d)))) then
+          earlier = a%q(d) < b%q(d)
+          return
+        end if
+      end do
+      earlier = .false.
+    end function earlier
+  end subroutine name_generic
+
+  !> The CR3BP's L1..L5: collinear points (y = 0) by x: L3 < L1 < L2; L4 at y > 0, L5 at y < 0.
+  subroutine name_lagrange(eqs)
+    type(equilibrium_t), intent(inout) :: eqs(:)
+    integer :: i, j, ncol, col(size(eqs)), rank
+    character(2), parameter :: COLLINEAR(3) = ['L3', 'L1', 'L2']
+    ncol = 0
+    do i = 1, size(eqs)
+      eqs(i)%name = ''
+      if (abs(eqs(i)%q(2)) <= 1.0e-10_wp) then
+        ncol = ncol + 1
+        col(ncol) = i
+      else if (eqs(i)%q(2) > 0) then
+        eqs(i)%name = 'L4'
+      else
+        eqs(i)%name = 'L5'
+      end if
+    end do
+    if (ncol /= 3) return
+    do i = 1, 3
+      rank = 1
+      do j = 1, 3
+        if (eqs(col(j))%q(1) < eqs(col(i))%q(1)) rank = rank + 1
+      end do
+      eqs(col(i))%name = COLLINEAR(rank)
+    end do
+  end subroutine name_lagrange
 
   pure logical function before(a, b)
     type(equilibrium_t), intent(in) :: a, b
@@ -210,56 +558,4 @@ contains
       before = llt(a%name, b%name)
     end if
   end function before
-
-  !> Jacobian of Hamilton's equations at a rest point (grad H = 0, p = 0):
-  !> [[0, (5/7) I], [-g Hess H, 0]] (the kinetic terms are quadratic in p).
-  subroutine rest_jacobian(ball, q, jac)
-    type(ball_t), intent(in) :: ball
-    real(wp), intent(in) :: q(2)
-    real(wp), intent(out) :: jac(4, 4)
-    real(wp) :: gr(2), hs(2, 2)
-    call ball%surf%derivs(q(1), q(2), gr, hs)
-    jac = 0
-    jac(1, 3) = ROLL
-    jac(2, 4) = ROLL
-    jac(3:4, 1:2) = -ball%g*hs
-  end subroutine rest_jacobian
-
-  !> Linearized flow at a rank-1 saddle: eigenvalues +-lambda, +-i omega (LAPACK dgeev) and
-  !> eigenvectors as columns u, s, Re c, Im c, unit length, largest component positive.
-  subroutine linearize(ball, q, lambda, omega, evec, stat)
-    type(ball_t), intent(in) :: ball
-    real(wp), intent(in) :: q(2)
-    real(wp), intent(out) :: lambda, omega, evec(4, 4)
-    integer, intent(out) :: stat
-    real(wp) :: jac(4, 4), wr(4), wi(4), vl(1, 1), vr(4, 4), work(64), v(4), nrm
-    integer :: info, k, iu, is, ic
-    stat = TUBES_OK
-    call rest_jacobian(ball, q, jac)
-    call dgeev('N', 'V', 4, jac, 4, wr, wi, vl, 1, vr, 4, work, 64, info)
-    if (info /= 0) then
-      stat = TUBES_ENOCONV
-      return
-    end if
-    iu = maxloc(wr, 1)
-    is = minloc(wr, 1)
-    ic = maxloc(wi, 1)       ! dgeev stores the pair as columns ic (Re) and ic+1 (Im)
-    lambda = wr(iu)
-    omega = wi(ic)
-    if (lambda <= 0 .or. omega <= 0) then
-      stat = TUBES_EINPUT    ! not a saddle x centre
-      return
-    end if
-    evec(:, 1) = vr(:, iu)
-    evec(:, 2) = vr(:, is)
-    evec(:, 3) = vr(:, ic)
-    evec(:, 4) = vr(:, ic + 1)
-    do k = 1, 4
-      v = evec(:, k)
-      nrm = sqrt(sum(v**2))
-      if (nrm > 0) v = v/nrm
-      if (v(maxloc(abs(v), 1)) < 0 .and. k <= 2) v = -v
-      evec(:, k) = v
-    end do
-  end subroutine linearize
 end module tubes_equilibria

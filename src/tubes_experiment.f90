@@ -15,6 +15,7 @@ module tubes_experiment
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_ball, only: ball_t
   use tubes_models, only: NMODEL, model_ball, conservative_ball
+  use tubes_field, only: vector_field_t
   use tubes_dop853, only: dop853_t
   use tubes_sampler, only: sampler_t
   use tubes_integrator, only: propagate
@@ -87,7 +88,7 @@ contains
     real(wp), intent(out) :: c_damp              !! damping rate used [1/s]
     integer, intent(out) :: n_draws              !! release points drawn
     integer, intent(out) :: stat
-    class(ball_t), allocatable :: model
+    class(vector_field_t), allocatable :: model
     type(ball_t) :: cons
     real(wp), allocatable :: u(:)
     real(wp) :: dt, de, r, th
@@ -128,7 +129,7 @@ contains
         k = k + 1
         release(1, m + 1) = opts%box*(2*u(2*k - 1) - 1)
         release(2, m + 1) = opts%box*(2*u(2*k) - 1)
-        de = cons%potential(release(1, m + 1), release(2, m + 1)) - opts%e_e
+        de = cons%potential_xy(release(1, m + 1), release(2, m + 1)) - opts%e_e
         if (de >= opts%de_min .and. de <= opts%de_max) then
           m = m + 1
           release(3, m) = de
@@ -201,7 +202,7 @@ contains
   !> One track from rest at x0: DOP853 on the (damped) model, sampled every dt by the dense
   !> output (ns frames from t = 0). On failure the frames not reached are NaN.
   subroutine one_track(model, x0, dt, ns, rtol, atol, xs, stat)
-    class(ball_t), intent(in) :: model
+    class(vector_field_t), intent(in) :: model
     real(wp), intent(in) :: x0(4), dt, rtol, atol
     integer, intent(in) :: ns
     real(wp), intent(out) :: xs(4, ns)

@@ -8,11 +8,12 @@ module tubes_manifold
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT, TUBES_EFAULT
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
-  use tubes_ball, only: ball_t
+  use tubes_hamiltonian, only: hamiltonian_t
   use tubes_variational, only: variational_t, make_variational, stm_start
   use tubes_dop853, only: dop853_t
   use tubes_integrator, only: propagate
-  use tubes_sections, only: theta_line_t, polar_canonical
+  use tubes_section_kinds, only: poincare_t
+  use tubes_integrator, only: event_t
   use tubes_orbits, only: orbit_t
   implicit none
   private
@@ -20,12 +21,10 @@ module tubes_manifold
   integer, parameter, public :: STABLE = -1     !! the stable manifold: integrated backwards
   integer, parameter, public :: UNSTABLE = 1    !! the unstable manifold: integrated forwards
 
-  !> Options of a tube cut.
+  !> Options of a tube cut (the section itself is a tubes_section_kinds section).
   type, public :: tube_opts_t
     integer :: kind = STABLE          !! STABLE or UNSTABLE
-    real(wp) :: theta0 = acos(-1.0_wp)/4   !! the section's ray [rad]
-    integer :: branch = 1             !! sign of p_theta at the cut (U1^- = +1)
-    real(wp) :: eps = 1.0e-6_wp       !! step-off distance from the orbit, position part [cm]
+    real(wp) :: eps = 1.0e-6_wp       !! step-off distance from the orbit, position part [units of q]
     integer :: n_init = 64            !! seeds of the first round
     integer :: n_max = 4096           !! seeds at most
     real(wp) :: area_tol = 1.0e-10_wp !! relative change of the area that ends the refinement
@@ -38,14 +37,15 @@ module tubes_manifold
                                       !! out a coarser level); default: seeds over all ranks
   end type tube_opts_t
 
-  !> The cut: a closed curve in (r, p_r), ordered by the seeds' phase tau on the orbit.
+  !> The cut: a closed curve in the section's (s, p_s) (the ray's (r, p_r)), ordered by the
+  !> seeds' phase tau on the orbit.
   type, public :: tube_cut_t
     integer :: n = 0                  !! points
-    real(wp), allocatable :: tau(:)   !! seed phase on the orbit [s]
-    real(wp), allocatable :: r(:)     !! r at the crossing [cm]
-    real(wp), allocatable :: pr(:)    !! p_r at the crossing [cm/s]
-    real(wp), allocatable :: time(:)  !! flight time from the seed to the section [s] (signed)
-    real(wp), allocatable :: x(:, :)  !! (x, y, px, py) at the crossing
+    real(wp), allocatable :: tau(:)   !! seed phase on the orbit [time]
+    real(wp), allocatable :: r(:)     !! s at the crossing (ray: r [cm])
+    real(wp), allocatable :: pr(:)    !! p_s at the crossing (ray: p_r [cm/s])
+    real(wp), allocatable :: time(:)  !! flight time from the seed to the section [time] (signed)
+    real(wp), allocatable :: x(:, :)  !! the state at the crossing (2N)
     real(wp) :: area = 0              !! Green's theorem on periodic splines [cm^2/s]
     real(wp) :: area_polygon = 0      !! the polygon's (shoelace) area [cm^2/s]
     real(wp) :: area_change = 0       !! |last - previous refinement| [cm^2/s]
@@ -89,14 +89,16 @@ contains
   !> Floquet eigenvector of the monodromy for the unstable (kind = UNSTABLE) or stable
   !> multiplier, unit length.
   subroutine floquet_vector(mono, kind, v, stat)
-    real(wp), intent(in) :: mono(4, 4)
+    real(wp), intent(in) :: mono(:, :)
     integer, intent(in) :: kind
-    real(wp), intent(out) :: v(4)
+    real(wp), intent(out) :: v(:)
     integer, intent(out) :: stat
-    real(wp) :: a(4, 4), wr(4), wi(4), vl(1, 1), vr(4, 4), work(64)
-    integer :: info, k
+    real(wp) :: a(size(v), size(v)), wr(size(v)), wi(size(v)), vl(1, 1), vr(size(v), size(v)), &
+                work(64*size(v))
+    integer :: info, k, n2
+    n2 = size(v)
     a = mono
-    call dgeev('N', 'V', 4, a, 4, wr, wi, vl, 1, vr, 4, work, 64, info)
+    call dgeev('N', 'V', n2, a, n2, wr, wi, vl, 1, vr, n2, work, size(work), info)
     if (info /= 0) then
       stat = TUBES_ENOCONV
       return
@@ -112,17 +114,20 @@ contains
 
   !> One seed: the orbit state at phase tau stepped off by sigma eps along the transported
   !> eigenvector, propagated to its first crossing of the section branch.
-  subroutine one_seed(ball, orb, v0, sigma, tau, opts, pc, tcross, xc, stat)
-    type(ball_t), intent(in) :: ball
+  subroutine one_seed(ball, orb, v0, sigma, tau, psec, opts, pc, tcross, xc, stat)
+    class(hamiltonian_t), intent(in) :: ball
     type(orbit_t), intent(in) :: orb
-    real(wp), intent(in) :: v0(4), sigma, tau
+    real(wp), intent(in) :: v0(:), sigma, tau
+    type(poincare_t), intent(in) :: psec
     type(tube_opts_t), intent(in) :: opts
-    real(wp), intent(out) :: pc(4), tcross, xc(4)
+    real(wp), intent(out) :: pc(2), tcross, xc(:)
     integer, intent(out) :: stat
     type(variational_t) :: var
     type(dop853_t) :: ig
-    real(wp) :: z(20), v(4), x(4)
-    type(theta_line_t) :: sec
+    real(wp) :: z(size(v0) + size(v0)**2), v(size(v0)), x(size(v0))
+    class(event_t), allocatable :: sec
+    integer :: n2
+    n2 = size(v0)
     pc = 0
     tcross = 0
     xc = 0
@@ -134,9 +139,9 @@ contains
     stat = TUBES_OK
     if (tau > 0) call propagate(ig, z, tau, stat)
     if (stat < 0) return
-    v = matmul(reshape(z(5:20), [4, 4]), v0)
-    x = z(1:4) + sigma*opts%eps*v/sqrt(v(1)**2 + v(2)**2)
-    sec = theta_line_t(theta0=opts%theta0, branch=opts%branch, terminal=.true.)
+    v = matmul(reshape(z(n2 + 1:), [n2, n2]), v0)
+    x = z(1:n2) + sigma*opts%eps*v/sqrt(sum(v(1:n2/2)**2))
+    sec = psec%event(.true.)
     call ig%init(ball, 0.0_wp)
     ig%rtol = opts%rtol
     ig%atol = opts%atol
@@ -145,7 +150,7 @@ contains
       stat = TUBES_OK
       tcross = ig%t
       xc = x
-      pc = polar_canonical(x)
+      pc = psec%coords(x)
     else if (stat >= 0) then
       stat = TUBES_ENOCONV     ! no crossing within t_max
     end if
@@ -155,16 +160,17 @@ contains
   !> well_dir: a vector from the saddle towards the well the section lies in; the branch of
   !> the manifold on that side is taken. stat < 0 if a seed failed (no crossing within t_max,
   !> integration failure) or the area did not converge within n_max seeds.
-  subroutine tube_cut(ball, orb, well_dir, opts, cut, stat)
-    type(ball_t), intent(in) :: ball
+  subroutine tube_cut(ball, orb, well_dir, psec, opts, cut, stat)
+    class(hamiltonian_t), intent(in) :: ball
     type(orbit_t), intent(in) :: orb
-    real(wp), intent(in) :: well_dir(2)
+    real(wp), intent(in) :: well_dir(:)      !! from the saddle towards the section's well (N)
+    type(poincare_t), intent(in) :: psec     !! the section
     type(tube_opts_t), intent(in) :: opts
     type(tube_cut_t), intent(out) :: cut
     integer, intent(out) :: stat
     type(orbit_t) :: orb0
     type(par_t) :: grp
-    real(wp) :: v0(4), sigma, a_old, a_new, span_r, span_p
+    real(wp) :: v0(size(orb%x0)), sigma, a_old, a_new, span_r, span_p
     real(wp), allocatable :: tau(:), pcs(:, :), tcs(:), xcs(:, :), newtau(:), chord(:), medc
     logical, allocatable :: split(:)
     integer, allocatable :: st(:)
@@ -182,11 +188,11 @@ contains
     call floquet_vector(orb0%monodromy, opts%kind, v0, stat)
     if (stat /= TUBES_OK) return
     call par_bcast(v0, grp)
-    sigma = sign(1.0_wp, v0(1)*well_dir(1) + v0(2)*well_dir(2))
+    sigma = sign(1.0_wp, dot2(v0, well_dir))
     n = opts%n_init
     allocate (tau(n))
     tau = [((i - 1)*orb0%period/n, i = 1, n)]
-    allocate (pcs(4, 0), tcs(0), xcs(4, 0), st(0))
+    allocate (pcs(2, 0), tcs(0), xcs(size(v0), 0), st(0))
     call seeds(tau, 1, n)
     if (stat < 0) then
       call report_failed()
@@ -220,10 +226,10 @@ contains
       ! refine: intervals whose chord (scaled) exceeds twice the median, or all of them
       allocate (chord(n), split(n))
       span_r = max(1.0e-300_wp, maxval(pcs(1, :)) - minval(pcs(1, :)))   ! the cut's extent in r
-      span_p = max(1.0e-300_wp, maxval(pcs(3, :)) - minval(pcs(3, :)))   ! and in p_r
+      span_p = max(1.0e-300_wp, maxval(pcs(2, :)) - minval(pcs(2, :)))   ! and in p_r
       do i = 1, n
         j = mod(i, n) + 1
-        chord(i) = hypot((pcs(1, j) - pcs(1, i))/span_r, (pcs(3, j) - pcs(3, i))/span_p)
+        chord(i) = hypot((pcs(1, j) - pcs(1, i))/span_r, (pcs(2, j) - pcs(2, i))/span_p)
       end do
       medc = median(chord)
       split = chord > 2*medc
@@ -259,17 +265,17 @@ contains
     cut%n = n
     cut%tau = tau
     cut%r = pcs(1, :)
-    cut%pr = pcs(3, :)
+    cut%pr = pcs(2, :)
     cut%time = tcs
     cut%x = xcs
     cut%area = abs(a_new)
-    cut%area_polygon = abs(polygon(pcs(1, :), pcs(3, :)))
+    cut%area_polygon = abs(polygon(pcs(1, :), pcs(2, :)))
     if (stat == TUBES_ENOCONV .and. cut%area_change <= 1.0e3_wp*opts%area_tol*abs(a_new)) stat = TUBES_OK
   contains
     subroutine seeds(tt, i1, i2)
       real(wp), intent(in) :: tt(:)
       integer, intent(in) :: i1, i2
-      real(wp) :: p(4, i2 - i1 + 1), tc(i2 - i1 + 1), xc(4, i2 - i1 + 1)
+      real(wp) :: p(2, i2 - i1 + 1), tc(i2 - i1 + 1), xc(size(v0), i2 - i1 + 1)
       integer :: s(i2 - i1 + 1), k, kf
       type(par_t) :: pp
       pp = grp                           ! seed k - i1 + 1 of this round is computed on its owner
@@ -285,7 +291,7 @@ contains
           s(k - i1 + 1) = TUBES_EFAULT
           cycle
         end if
-        call one_seed(ball, orb0, v0, sigma, tt(k), opts, p(:, k - i1 + 1), tc(k - i1 + 1), &
+        call one_seed(ball, orb0, v0, sigma, tt(k), psec, opts, p(:, k - i1 + 1), tc(k - i1 + 1), &
                       xc(:, k - i1 + 1), s(k - i1 + 1))
       end do
       !$omp end parallel do
@@ -293,9 +299,9 @@ contains
       call par_share(tc, grp)
       call par_share(xc, grp)
       call par_share(s, grp)
-      pcs = reshape([reshape(pcs, [size(pcs)]), reshape(p, [size(p)])], [4, i2])
+      pcs = reshape([reshape(pcs, [size(pcs)]), reshape(p, [size(p)])], [2, i2])
       tcs = [tcs, tc]
-      xcs = reshape([reshape(xcs, [size(xcs)]), reshape(xc, [size(xc)])], [4, i2])
+      xcs = reshape([reshape(xcs, [size(xcs)]), reshape(xc, [size(xc)])], [size(v0), i2])
       st = [st, s]
       if (any(s < 0)) stat = minval(s)
     end subroutine seeds
@@ -330,7 +336,7 @@ contains
       integer, intent(out) :: info
       real(wp) :: rr(size(tau)), pp(size(tau))
       rr = pcs(1, :)      ! contiguous copies for the C side
-      pp = pcs(3, :)
+      pp = pcs(2, :)
       info = spline_area(size(tau), tau, rr, pp, orb0%period, a)
     end subroutine area_of
     subroutine report_failed()         ! the failed seeds, for the caller's diagnostics
@@ -345,6 +351,17 @@ contains
       end do
     end subroutine report_failed
   end subroutine tube_cut
+
+  !> The configuration part of v (first N of 2N components) dotted with w (N): the side of the
+  !> saddle a step along v goes to. Written out for N = 2 as the 2-DOF code always was.
+  pure real(wp) function dot2(v, w) result(d)
+    real(wp), intent(in) :: v(:), w(:)
+    integer :: k
+    d = v(1)*w(1)
+    do k = 2, size(w)
+      d = d + v(k)*w(k)
+    end do
+  end function dot2
 
   pure real(wp) function polygon(r, p) result(a)
     real(wp), intent(in) :: r(:), p(:)

@@ -1,17 +1,296 @@
-!> Builds models from the flat parameter vector that crosses the C and Python boundaries:
-!> params = [alpha, beta, gamma, xi, h0, g, damping_ratio] (TUBES_NMODEL = 7, include/tubes.h).
+!> The library of models, chosen by name: each system's parameters (names, units, defaults,
+!> meaning), its default search box, saddle and section, and its constructor. This table is
+!> the one definition: the namelist reader, --help, docs/models.md and Python all ask it
+!> (tubes_model_info in include/tubes.h). A model travels across the C and Python boundaries
+!> as (system name, parameter vector in the order of this table).
 module tubes_models
   use tubes_kinds, only: wp
-  use tubes_ball, only: ball_t, damped_ball_t, make_ball, ROLL
+  use tubes_field, only: vector_field_t
+  use tubes_hamiltonian, only: hamiltonian_t, natural_t, damped_t, make_damped
+  use tubes_ball, only: ball_t, make_ball, ROLL
   use tubes_fourwell, only: fourwell_t
+  use tubes_henon_heiles, only: henon_heiles_t
+  use tubes_de_leon_berne, only: de_leon_berne_t
+  use tubes_coupled_quartic, only: coupled_quartic_t
+  use tubes_cr3bp, only: cr3bp_t
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_status, only: TUBES_OK, TUBES_EINPUT
   implicit none
   private
-  integer, parameter, public :: NMODEL = 7   !! length of the parameter vector
-  public :: conservative_ball, damping_rate, model_ball
+
+  integer, parameter, public :: MAX_PARAMS = 16   !! parameters of one system at most
+  integer, parameter, public :: MAX_DOF = 3       !! degrees of freedom of a built-in system at most
+  integer, parameter, public :: LEN_SYSTEM = 32   !! length of a system's name
+  integer, parameter, public :: LEN_PARAM = 16    !! length of a parameter's name
+  integer, parameter, public :: NSYSTEMS = 5      !! built-in systems
+  integer, parameter, public :: NMODEL = 7        !! rolling_ball's parameters (the old vector)
+
+  !> One parameter of a system.
+  type, public :: param_info_t
+    character(LEN_PARAM) :: name = ''     !! namelist variable in &model
+    real(wp) :: default = 0               !! its default
+    character(16) :: units = ''           !! units
+    character(96) :: doc = ''             !! meaning
+  end type param_info_t
+
+  !> A system of the library with its defaults for the scenes.
+  type, public :: system_info_t
+    character(LEN_SYSTEM) :: name = ''    !! &model system
+    character(160) :: summary = ''        !! one line: the Hamiltonian
+    integer :: ndof = 2                   !! degrees of freedom
+    integer :: np = 0                     !! parameters
+    type(param_info_t) :: params(MAX_PARAMS)
+    character(8) :: length_units = ''     !! units of the coordinates
+    real(wp) :: box(MAX_DOF) = 0          !! default half-widths of the equilibrium search box
+    real(wp) :: box_center(MAX_DOF) = 0   !! and its centre
+    character(8) :: saddle = ''           !! default saddle by name ('' : by saddle_near)
+    real(wp) :: saddle_near(MAX_DOF) = 0  !! default saddle by position (when saddle = '')
+    character(8) :: section_kind = ''     !! default section: 'ray', 'plane' or '' (none)
+    integer :: section_index = 0          !! plane: coordinate index k of q_k = value
+    real(wp) :: section_value = 0         !! plane: the level
+    integer :: section_direction = 0      !! plane: sign of dq_k/dt; ray: sign of p_theta
+    real(wp) :: section_angle = 0         !! ray: angle [deg]
+    real(wp) :: gate = 0                  !! default transit gate (distance past the saddle)
+  end type system_info_t
+
+  public :: system_info, system_name, make_model, make_field, conservative_ball, model_ball, &
+            damping_rate, momentum_of, potential_of, shape_derivs_of
 
 contains
+
+  pure function p(name, default, units, doc) result(pi)
+    character(*), intent(in) :: name, units, doc
+    real(wp), intent(in) :: default
+    type(param_info_t) :: pi
+    pi%name = name
+    pi%default = default
+    pi%units = units
+    pi%doc = doc
+  end function p
+
+  !> The name of system k = 1..NSYSTEMS.
+  pure function system_name(k) result(name)
+    integer, intent(in) :: k
+    character(LEN_SYSTEM) :: name
+    character(LEN_SYSTEM), parameter :: NAMES(NSYSTEMS) = [character(LEN_SYSTEM) :: &
+      'rolling_ball', 'henon_heiles', 'de_leon_berne', 'coupled_quartic', 'cr3bp']
+    name = ''
+    if (k >= 1 .and. k <= NSYSTEMS) name = NAMES(k)
+  end function system_name
+
+  !> The table entry of a system; stat = TUBES_EINPUT for an unknown name.
+  subroutine system_info(name, info, stat)
+    character(*), intent(in) :: name
+    type(system_info_t), intent(out) :: info
+    integer, intent(out) :: stat
+    stat = TUBES_OK
+    info%name = name
+    select case (trim(name))
+    case ('rolling_ball')
+      info%summary = 'a ball rolling on the four-well surface z = H(x, y) (Ross et al. 2018)'
+      info%np = 7
+      info%params(1) = p('alpha', 0.07_wp, '1/cm', 'curvature of the bowl')
+      info%params(2) = p('beta', 1.017_wp, '1', 'depth of the wells')
+      info%params(3) = p('gamma', 15.103_wp, 'cm^2', 'smoothing of the ridges (> 0)')
+      info%params(4) = p('xi', 0.00656_wp, '1/cm', 'tilt coupling of x and y')
+      info%params(5) = p('h0', 12.065_wp, 'cm', 'height offset')
+      info%params(6) = p('g', 981.0_wp, 'cm/s^2', 'gravitational acceleration (> 0)')
+      info%params(7) = p('damping_ratio', 0.0_wp, '1', 'zeta: c = 2 zeta omega_1 (docs/theory.md)')
+      info%length_units = 'cm'
+      info%box(1:2) = 20
+      info%saddle = 'S12'
+      info%section_kind = 'ray'
+      info%section_angle = 45
+      info%section_direction = 1
+      info%gate = 1.5_wp
+    case ('henon_heiles')
+      info%summary = 'H = (px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2 y - y^3/3 (Henon & Heiles 1964)'
+      info%np = 0
+      info%length_units = '1'
+      info%box(1:2) = 1.5_wp
+      info%saddle_near(1:2) = [0.0_wp, 1.0_wp]
+      info%section_kind = 'plane'
+      info%section_index = 2
+      info%section_value = 0
+      info%section_direction = 1
+      info%gate = 0.1_wp
+    case ('de_leon_berne')
+      info%summary = 'H = px^2/(2 m_a) + py^2/(2 m_b) + D (1 - exp(-lambda x))^2 ' // &
+                     '+ 4 y^2 (y^2 - 1) exp(-zeta lambda x) + eps_s (De Leon & Berne 1981)'
+      info%np = 6
+      info%params(1) = p('m_a', 8.0_wp, '1', 'mass of the x mode (> 0)')
+      info%params(2) = p('m_b', 8.0_wp, '1', 'mass of the y mode (> 0)')
+      info%params(3) = p('d', 10.0_wp, '1', 'dissociation energy D of the Morse oscillator')
+      info%params(4) = p('lambda', 1.5_wp, '1', 'range of the Morse oscillator (> 0)')
+      info%params(5) = p('zeta', 1.0_wp, '1', 'decay of the double well along x')
+      info%params(6) = p('eps_s', 1.0_wp, '1', 'energy of the saddle')
+      info%length_units = '1'
+      info%box(1:2) = [1.0_wp, 1.5_wp]
+      info%saddle_near(1:2) = 0
+      info%section_kind = 'plane'
+      info%section_index = 2
+      info%section_value = 1/sqrt(2.0_wp)
+      info%section_direction = -1
+      info%gate = 0.1_wp
+    case ('coupled_quartic')
+      info%summary = 'H = px^2/(2 m_a) + py^2/(2 m_b) - alpha x^2/2 + beta x^4/4 + omega y^2/2 ' // &
+                     '+ eps (x - y)^2/2 (UPOsHam)'
+      info%np = 6
+      info%params(1) = p('m_a', 1.0_wp, '1', 'mass of the x mode (> 0)')
+      info%params(2) = p('m_b', 1.0_wp, '1', 'mass of the y mode (> 0)')
+      info%params(3) = p('alpha', 1.0_wp, '1', 'negative curvature of the x double well')
+      info%params(4) = p('beta', 1.0_wp, '1', 'quartic stiffness of x (> 0)')
+      info%params(5) = p('omega', 1.0_wp, '1', 'stiffness of the y mode')
+      info%params(6) = p('eps', 0.1_wp, '1', 'coupling of x and y')
+      info%length_units = '1'
+      info%box(1:2) = 2
+      info%saddle_near(1:2) = 0
+      info%section_kind = 'plane'
+      info%section_index = 1
+      info%section_value = -1
+      info%section_direction = 1
+      info%gate = 0.1_wp
+    case ('cr3bp')
+      info%summary = 'planar circular restricted three-body problem, rotating frame: H = ' // &
+                     '(px^2 + py^2)/2 + y px - x py - (1 - mu)/r1 - mu/r2'
+      info%np = 1
+      info%params(1) = p('mu', 0.01215058560962404_wp, '1', 'mass ratio m2/(m1 + m2) in (0, 1/2]')
+      info%length_units = '1'
+      info%box(1:2) = 1.5_wp
+      info%saddle = 'L1'
+      info%section_kind = ''
+      info%gate = 0.01_wp
+    case default
+      stat = TUBES_EINPUT
+    end select
+  end subroutine system_info
+
+  !> The conservative model of a system with parameters params (in the table's order).
+  !> stat = TUBES_EINPUT for an unknown system or parameters out of range.
+  subroutine make_model(system, params, model, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:)
+    class(hamiltonian_t), allocatable, intent(out) :: model
+    integer, intent(out) :: stat
+    type(system_info_t) :: info
+    type(ball_t) :: ball
+    call system_info(system, info, stat)
+    if (stat /= TUBES_OK) return
+    stat = TUBES_EINPUT
+    if (size(params) < info%np) return
+    if (.not. all(abs(params(1:info%np)) <= huge(1.0_wp))) return
+    select case (trim(system))
+    case ('rolling_ball')
+      call conservative_ball(params(1:NMODEL), ball, stat)
+      if (stat /= TUBES_OK) return
+      allocate (model, source=ball)
+    case ('henon_heiles')
+      allocate (model, source=henon_heiles_t())
+    case ('de_leon_berne')
+      if (params(1) <= 0 .or. params(2) <= 0 .or. params(4) <= 0) return
+      allocate (model, source=de_leon_berne_t(m_a=params(1), m_b=params(2), d=params(3), &
+                                              lambda=params(4), zeta=params(5), eps_s=params(6)))
+    case ('coupled_quartic')
+      if (params(1) <= 0 .or. params(2) <= 0 .or. params(4) <= 0) return
+      allocate (model, source=coupled_quartic_t(m_a=params(1), m_b=params(2), alpha=params(3), &
+                                                beta=params(4), omega=params(5), eps=params(6)))
+    case ('cr3bp')
+      if (.not. (params(1) > 0 .and. params(1) <= 0.5_wp)) return
+      allocate (model, source=cr3bp_t(mu=params(1)))
+    end select
+    stat = TUBES_OK
+  end subroutine make_model
+
+  !> The vector field a scene integrates: the conservative model, or for the rolling ball with
+  !> damping_ratio > 0 the damped_t wrapper with c = 2 zeta omega_1. c: the rate used (0 if none).
+  subroutine make_field(system, params, field, c, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:)
+    class(vector_field_t), allocatable, intent(out) :: field
+    real(wp), intent(out) :: c
+    integer, intent(out) :: stat
+    class(hamiltonian_t), allocatable :: model
+    type(damped_t) :: damped
+    c = 0
+    call make_model(system, params, model, stat)
+    if (stat /= TUBES_OK) return
+    select type (model)
+    type is (ball_t)
+      if (params(7) > 0) then
+        call damping_rate(model, params(7), c, stat)
+        if (stat /= TUBES_OK) return
+        call make_damped(damped, model, c)
+        allocate (field, source=damped)
+        return
+      end if
+    end select
+    allocate (field, source=model)
+  end subroutine make_field
+
+  !> Natural systems: the momenta of velocity v at q, p = A(q)^-1 v (the ball: its own
+  !> (7/5) M v). stat = TUBES_EINPUT for other models.
+  subroutine momentum_of(model, q, v, p, stat)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: q(:), v(:)
+    real(wp), intent(out) :: p(:)
+    integer, intent(out) :: stat
+    real(wp) :: a(size(q), size(q)), b(size(q))
+    integer :: ipiv(size(q)), info, n
+    interface
+      subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
+        import :: wp
+        integer, intent(in) :: n, nrhs, lda, ldb
+        real(wp), intent(inout) :: a(lda, *), b(ldb, *)
+        integer, intent(out) :: ipiv(*), info
+      end subroutine dgesv
+    end interface
+    p = 0
+    stat = TUBES_EINPUT
+    n = size(q)
+    select type (model)
+    type is (ball_t)
+      p = model%momentum(q, v)
+      stat = TUBES_OK
+    class is (natural_t)
+      call model%kinetic_matrix(q, a)
+      b = v
+      call dgesv(n, 1, a, n, ipiv, b, n, info)
+      if (info /= 0) return
+      p = b
+      stat = TUBES_OK
+    end select
+  end subroutine momentum_of
+
+  !> Natural systems: V(q). stat = TUBES_EINPUT for other models.
+  subroutine potential_of(model, q, v, stat)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(out) :: v
+    integer, intent(out) :: stat
+    v = 0
+    stat = TUBES_EINPUT
+    select type (model)
+    class is (natural_t)
+      v = model%potential(q)
+      stat = TUBES_OK
+    end select
+  end subroutine potential_of
+
+  !> Natural systems: gradient and Hessian of the potential's shape (the ball: of H(x, y)).
+  subroutine shape_derivs_of(model, q, grad, hess, stat)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(out) :: grad(:), hess(:, :)
+    integer, intent(out) :: stat
+    grad = 0
+    hess = 0
+    stat = TUBES_EINPUT
+    select type (model)
+    class is (natural_t)
+      call model%shape_derivs(q, grad, hess)
+      stat = TUBES_OK
+    end select
+  end subroutine shape_derivs_of
 
   !> The conservative ball on the four-well surface of params(1:6).
   subroutine conservative_ball(params, ball, stat)
@@ -37,7 +316,7 @@ contains
     type(equilibrium_t), allocatable :: eqs(:)
     integer :: k, kbest
     c = 0
-    call find_equilibria(ball, 20.0_wp, 41, eqs, stat)
+    call find_equilibria(ball, [-20.0_wp, -20.0_wp], [20.0_wp, 20.0_wp], 41, eqs, stat)
     if (stat /= TUBES_OK) return
     kbest = 0
     do k = 1, size(eqs)
@@ -55,26 +334,12 @@ contains
     c = 2*zeta*sqrt(ROLL*ball%g*eqs(kbest)%curv(1))
   end subroutine damping_rate
 
-  !> The model a scene integrates: conservative unless params(7) (zeta) > 0.
+  !> The rolling ball a scene integrates: conservative unless params(7) (zeta) > 0.
   subroutine model_ball(params, model, c, stat)
     real(wp), intent(in) :: params(NMODEL)
-    class(ball_t), allocatable, intent(out) :: model
+    class(vector_field_t), allocatable, intent(out) :: model
     real(wp), intent(out) :: c      !! damping rate used [1/s] (0 if conservative)
     integer, intent(out) :: stat
-    type(ball_t) :: ball
-    type(damped_ball_t) :: damped
-    c = 0
-    call conservative_ball(params, ball, stat)
-    if (stat /= TUBES_OK) return
-    if (params(7) > 0) then
-      call damping_rate(ball, params(7), c, stat)
-      if (stat /= TUBES_OK) return
-      allocate (damped%surf, source=ball%surf)
-      damped%g = ball%g
-      damped%c = c
-      allocate (model, source=damped)
-    else
-      allocate (model, source=ball)
-    end if
+    call make_field('rolling_ball', params, model, c, stat)
   end subroutine model_ball
 end module tubes_models

@@ -7,12 +7,12 @@ module tubes_orbits
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EFAULT
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_field, only: vector_field_t
-  use tubes_ball, only: ball_t
+  use tubes_hamiltonian, only: hamiltonian_t, natural_t
   use tubes_variational, only: variational_t, make_variational, stm_start
   use tubes_dop853, only: dop853_t
   use tubes_integrator, only: propagate
   use tubes_sampler, only: sampler_t
-  use tubes_equilibria, only: equilibrium_t
+  use tubes_equilibria, only: equilibrium_t, rest_jacobian
   implicit none
   private
 
@@ -25,7 +25,8 @@ module tubes_orbits
 
   !> Options of the corrector and the continuation.
   type, public :: orbit_opts_t
-    integer :: n_segments = 1         !! 1: single shooting (brake orbit); >= 2: multiple shooting
+    integer :: n_segments = 1         !! 1: single shooting of a symmetric orbit (the brake orbit
+                                      !! of natural systems); >= 2: multiple shooting
     real(wp) :: tol = 1.0e-11_wp      !! Newton tolerance on the scaled residual [1]
     real(wp) :: rtol = 1.0e-13_wp     !! integration tolerance (relative)
     real(wp) :: atol = 1.0e-13_wp     !! integration tolerance (absolute)
@@ -38,12 +39,13 @@ module tubes_orbits
 
   !> One periodic orbit.
   type, public :: orbit_t
-    real(wp) :: de = 0                !! excess energy E - E_e [(cm/s)^2]
-    real(wp) :: energy = 0            !! E [(cm/s)^2]
-    real(wp) :: period = 0            !! T [s]
-    real(wp) :: x0(4) = 0             !! state at t = 0 (a rest point for single shooting)
-    real(wp) :: action = 0            !! integral of p dq over one period [cm^2/s]
-    real(wp) :: monodromy(4, 4) = 0   !! state transition matrix over one period
+    real(wp) :: de = 0                !! excess energy E - E_e [energy]
+    real(wp) :: energy = 0            !! E [energy]
+    real(wp) :: period = 0            !! T [time]
+    real(wp), allocatable :: x0(:)    !! state at t = 0 (on the reversor's fixed set for single
+                                      !! shooting: a rest point for natural systems) (2N)
+    real(wp) :: action = 0            !! integral of p dq over one period [energy x time]
+    real(wp), allocatable :: monodromy(:, :)  !! state transition matrix over one period (2N, 2N)
     real(wp) :: mu_unstable = 0       !! largest Floquet multiplier
     real(wp) :: mu_stable = 0         !! smallest Floquet multiplier
     real(wp) :: mu_trivial(2) = 0     !! real parts of the trivial pair (both 1 exactly)
@@ -58,18 +60,18 @@ module tubes_orbits
     logical :: converged = .false.
     real(wp), allocatable :: history(:)  !! scaled residual after each iteration
     real(wp), allocatable :: t(:)        !! sample times [s]
-    real(wp), allocatable :: x(:, :)     !! samples (4, n_samples)
+    real(wp), allocatable :: x(:, :)     !! samples (2N, n_samples)
   end type orbit_t
 
-  !> Integral of p . dq/dt alongside the flow: dimension 5.
+  !> Integral of p . dq/dt alongside the flow: dimension 2N + 1.
   type, extends(vector_field_t) :: action_field_t
-    type(ball_t) :: ball
+    class(hamiltonian_t), allocatable :: model
   contains
     procedure :: dim => action_dim
     procedure :: eval => action_eval
   end type action_field_t
 
-  public :: linear_guess, correct_brake, correct_multiple, finish_orbit, orbit_family
+  public :: linear_guess, correct_symmetric, correct_multiple, finish_orbit, orbit_family
 
   interface
     subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
@@ -100,7 +102,7 @@ contains
 
   pure integer function action_dim(self)
     class(action_field_t), intent(in) :: self
-    action_dim = 5
+    action_dim = self%model%dim() + 1
   end function action_dim
 
   pure subroutine action_eval(self, t, x, dxdt, stat)
@@ -108,81 +110,152 @@ contains
     real(wp), intent(in) :: t, x(:)
     real(wp), intent(out) :: dxdt(:)
     integer, intent(out) :: stat
-    call self%ball%eval(t, x(1:4), dxdt(1:4), stat)
-    dxdt(5) = x(3)*dxdt(1) + x(4)*dxdt(2)   ! p . dq/dt
+    integer :: n, k
+    real(wp) :: acc
+    n = self%model%ndof()
+    call self%model%eval(t, x(1:2*n), dxdt(1:2*n), stat)
+    acc = x(n + 1)*dxdt(1)                   ! p . dq/dt
+    do k = 2, n
+      acc = acc + x(n + k)*dxdt(k)
+    end do
+    dxdt(2*n + 1) = acc
   end subroutine action_eval
 
-  !> Linear (small-amplitude) brake orbit at excess energy de: rest point q_s + A e2 with
-  !> (1/2) g kappa_2 A^2 = de, e2 the positive-curvature direction pointing away from the
-  !> origin, and half period pi / omega.
-  subroutine linear_guess(ball, sad, de, q0, tau)
-    type(ball_t), intent(in) :: ball
+  !> Linear (small-amplitude) orbit of the saddle's centre mode at excess energy de, started on
+  !> the fixed set of the model's reversor (a rest point for natural systems): x0 and the half
+  !> period tau = pi / omega. Natural 2-DOF systems whose kinetic matrix is isotropic at the
+  !> saddle: the rest point q_s + A e2 with (1/2) V_22 A^2 = de, e2 the positive-curvature
+  !> direction of V pointing away from the origin. Otherwise: the centre eigenvector, phased
+  !> onto the fixed set, scaled so that its quadratic energy is de.
+  subroutine linear_guess(model, sad, de, x0, tau)
+    class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: sad
     real(wp), intent(in) :: de
-    real(wp), intent(out) :: q0(2), tau
-    real(wp) :: gr(2), k(2, 2), e2(2), kap, b, c, disc
-    call ball%surf%derivs(sad%q(1), sad%q(2), gr, k)
-    b = 0.5_wp*(k(1, 1) + k(2, 2))
-    c = k(1, 1)*k(2, 2) - k(1, 2)**2
-    disc = sqrt(max(b*b - c, 0.0_wp))
-    kap = b + disc                      ! larger Hessian eigenvalue
-    if (abs(k(1, 2)) > 0) then
-      e2 = [k(1, 2), kap - k(1, 1)]
-    else if (k(1, 1) >= k(2, 2)) then
-      e2 = [1.0_wp, 0.0_wp]
-    else
-      e2 = [0.0_wp, 1.0_wp]
-    end if
-    e2 = e2/sqrt(sum(e2**2))
-    if (dot_product(e2, sad%q) < 0) e2 = -e2
-    q0 = sad%q + sqrt(2*de/(ball%g*kap))*e2
+    real(wp), intent(out) :: x0(:), tau
+    real(wp) :: gr(2), k(2, 2), e2(2), kap, b, c, disc, a(2, 2)
+    real(wp) :: hs(size(x0), size(x0)), v(size(x0)), re(size(x0)), im(size(x0)), aa, bb, ab, phi
+    integer :: n, rev(size(x0)), st
+    n = size(x0)/2
     tau = PI/sad%omega
+    select type (model)
+    class is (natural_t)
+      if (n == 2) then
+        call model%rest_kinetic_matrix(sad%q, a)
+        if (a(1, 2) == 0 .and. a(2, 1) == 0 .and. a(1, 1) == a(2, 2)) then
+          call model%shape_derivs(sad%q, gr, k)
+          b = 0.5_wp*(k(1, 1) + k(2, 2))
+          c = k(1, 1)*k(2, 2) - k(1, 2)**2
+          disc = sqrt(max(b*b - c, 0.0_wp))
+          kap = b + disc                      ! larger Hessian eigenvalue
+          if (abs(k(1, 2)) > 0) then
+            e2 = [k(1, 2), kap - k(1, 1)]
+          else if (k(1, 1) >= k(2, 2)) then
+            e2 = [1.0_wp, 0.0_wp]
+          else
+            e2 = [0.0_wp, 1.0_wp]
+          end if
+          e2 = e2/sqrt(sum(e2**2))
+          if (dot_product(e2, sad%q) < 0) e2 = -e2
+          x0 = 0
+          x0(1:2) = sad%q + sqrt(2*de/(model%potential_scale()*kap))*e2
+          return
+        end if
+      end if
+    end select
+    ! general: v = cos(phi) Re c - sin(phi) Im c with the reversor's odd components minimal
+    re = sad%evec(:, 3)
+    im = sad%evec(:, 4)
+    rev = model%reversor()
+    aa = sum(re**2, mask=rev < 0)
+    bb = sum(im**2, mask=rev < 0)
+    ab = sum(re*im, mask=rev < 0)
+    phi = 0
+    if (any(rev < 0)) phi = 0.5_wp*atan2(2*ab, -(aa - bb))
+    v = cos(phi)*re - sin(phi)*im
+    where (rev < 0) v = 0
+    call model%hessian(sad%x, hs, st)
+    b = 0.5_wp*dot_product(v, matmul(hs, v))
+    if (st /= 0 .or. .not. b > 0) b = 1
+    if (dot_product(v(1:n), sad%q) < 0) v = -v
+    x0 = sad%x + sqrt(de/b)*v
   end subroutine linear_guess
 
-  !> Propagate the variational equations from (q, p = 0) for time tau: returns x(tau), Phi.
-  subroutine flow_stm(ball, x0, tau, opts, x, phi, stat)
-    type(ball_t), intent(in) :: ball
-    real(wp), intent(in) :: x0(4), tau
+  !> Propagate the variational equations from x0 for time tau: returns x(tau), Phi.
+  subroutine flow_stm(model, x0, tau, opts, x, phi, stat)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: x0(:), tau
     type(orbit_opts_t), intent(in) :: opts
-    real(wp), intent(out) :: x(4), phi(4, 4)
+    real(wp), intent(out) :: x(:), phi(:, :)
     integer, intent(out) :: stat
     type(variational_t) :: var
     type(dop853_t) :: ig
-    real(wp) :: z(20)
-    call make_variational(var, ball)
+    real(wp) :: z(size(x0) + size(x0)**2)
+    integer :: n2
+    n2 = size(x0)
+    call make_variational(var, model)
     call ig%init(var, 0.0_wp)
     ig%rtol = opts%rtol
     ig%atol = opts%atol
     z = stm_start(x0)
     call propagate(ig, z, tau, stat)
-    x = z(1:4)
-    phi = reshape(z(5:20), [4, 4])
+    x = z(1:n2)
+    phi = reshape(z(n2 + 1:), [n2, n2])
   end subroutine flow_stm
 
-  !> Single shooting for a brake orbit: unknowns (q0, tau) with p(0) = 0, conditions
-  !> p(tau) = 0 and g H(q0) = E. Newton with the state transition matrix.
-  subroutine correct_brake(ball, energy, de, q0, tau, opts, orb, stat)
-    type(ball_t), intent(in) :: ball
+  !> Single shooting of an orbit symmetric under the model's reversor R (for natural systems
+  !> R: p -> -p, the brake orbit): unknowns the even components of x0 (R = +1; the odd ones are
+  !> 0) and the half period tau, conditions: the odd components of x(tau) vanish and H(x0) = E.
+  !> Newton with the state transition matrix.
+  subroutine correct_symmetric(model, energy, de, x0, tau, opts, orb, stat)
+    class(hamiltonian_t), intent(in) :: model
     real(wp), intent(in) :: energy
     real(wp), intent(in) :: de        !! excess energy: sets the residual's scales
-    real(wp), intent(inout) :: q0(2), tau
+    real(wp), intent(inout) :: x0(:), tau
     type(orbit_opts_t), intent(in) :: opts
     type(orbit_t), intent(inout) :: orb
     integer, intent(out) :: stat
-    real(wp) :: x(4), phi(4, 4), f(4), jac(3, 3), r(3), gr(2), hs(2, 2), pscale, res, du(3)
-    integer :: it, ipiv(3), info
-    pscale = 1                          ! residual in cm/s (momenta) and relative to E (energy)
+    real(wp) :: x(size(x0)), phi(size(x0), size(x0)), f(size(x0)), gr(size(x0)), pscale, res
+    real(wp), allocatable :: jac(:, :), r(:), du(:)
+    integer :: it, info, n2, nf, no, k
+    integer, allocatable :: ipiv(:), ev(:), od(:)
+    integer :: rev(size(x0))
+    n2 = size(x0)
+    rev = model%reversor()
+    ev = pack([(k, k = 1, n2)], rev > 0)
+    od = pack([(k, k = 1, n2)], rev < 0)
+    nf = size(ev)
+    no = size(od)
+    if (nf + no /= n2 .or. no /= nf) then
+      stat = TUBES_EINPUT              ! no reversor of this kind: use multiple shooting
+      return
+    end if
+    allocate (jac(no + 1, nf + 1), r(no + 1), du(nf + 1), ipiv(nf + 1))
+    pscale = 1                          ! residual in momentum units and relative to E (energy)
     if (allocated(orb%history)) deallocate (orb%history)
     allocate (orb%history(0))
     orb%converged = .false.
+    x0(od) = 0
     do it = 1, opts%max_iter
       if (diverging(orb%history)) exit
-      call flow_stm(ball, [q0, 0.0_wp, 0.0_wp], tau, opts, x, phi, stat)
+      call flow_stm(model, x0, tau, opts, x, phi, stat)
       if (stat < 0) return
-      call ball%eval(0.0_wp, x, f, stat)
-      call ball%surf%derivs(q0(1), q0(2), gr, hs)
-      r = [x(3), x(4), ball%potential(q0(1), q0(2)) - energy]
-      res = max(abs(r(1))/pscale, abs(r(2))/pscale, abs(r(3))/abs(energy))
+      call model%eval(0.0_wp, x, f, stat)
+      if (stat /= 0) then
+        stat = TUBES_ENOCONV
+        return
+      end if
+      call model%gradient(x0, gr, stat)
+      if (stat /= 0) then
+        stat = TUBES_ENOCONV
+        return
+      end if
+      r(1:no) = x(od)
+      r(no + 1) = model%energy(x0) - energy
+      res = 0
+      do k = 1, no
+        res = max(res, abs(r(k))/pscale)
+      end do
+      res = max(res, abs(r(no + 1))/abs(energy))
       orb%history = [orb%history, res]
       orb%iterations = it
       if (res <= opts%tol) then
@@ -190,20 +263,20 @@ contains
         exit
       end if
       jac = 0
-      jac(1:2, 1:2) = phi(3:4, 1:2)
-      jac(1:2, 3) = f(3:4)
-      jac(3, 1:2) = ball%g*gr
+      jac(1:no, 1:nf) = phi(od, ev)
+      jac(1:no, nf + 1) = f(od)
+      jac(no + 1, 1:nf) = gr(ev)
       du = -r
-      call dgesv(3, 1, jac, 3, ipiv, du, 3, info)
+      call dgesv(nf + 1, 1, jac, no + 1, ipiv, du, nf + 1, info)
       if (info /= 0) then
         stat = TUBES_ENOCONV
         return
       end if
-      ! damp steps that leave the neighbourhood (0.5 cm, 20 % of tau)
-      du = du*min(1.0_wp, 0.5_wp/max(1.0e-300_wp, sqrt(sum(du(1:2)**2))), &
-                  0.2_wp*tau/max(1.0e-300_wp, abs(du(3))))
-      q0 = q0 + du(1:2)
-      tau = tau + du(3)
+      ! damp steps that leave the neighbourhood (half a length scale, 20 % of tau)
+      du = du*min(1.0_wp, 0.5_wp*model%length_scale()/max(1.0e-300_wp, sqrt(sum(du(1:nf)**2))), &
+                  0.2_wp*tau/max(1.0e-300_wp, abs(du(nf + 1))))
+      x0(ev) = x0(ev) + du(1:nf)
+      tau = tau + du(nf + 1)
       if (tau <= 0) then
         stat = TUBES_ENOCONV
         return
@@ -211,42 +284,45 @@ contains
     end do
     if (.not. orb%converged) orb%converged = stagnated(orb%history, opts%tol)
     stat = merge(TUBES_OK, TUBES_ENOCONV, orb%converged)
-    orb%x0 = [q0, 0.0_wp, 0.0_wp]
+    orb%x0 = x0
     orb%period = 2*tau
     orb%energy = energy
-  end subroutine correct_brake
+  end subroutine correct_symmetric
 
-  !> Multiple shooting with n = opts%n_segments nodes x_i (4 n unknowns) and the period T:
+  !> Multiple shooting with n = opts%n_segments nodes x_i (2N n unknowns) and the period T:
   !> x_{i+1} = phi_{T/n}(x_i) (cyclic), H(x_1) = E, and the phase condition
-  !> (x_1 - x_ref) . f(x_ref) = 0. The 4n + 2 equations (one redundant by energy
+  !> (x_1 - x_ref) . f(x_ref) = 0. The 2N n + 2 equations (one redundant by energy
   !> conservation) are solved by Gauss-Newton least squares (LAPACK dgels) on row-equilibrated
   !> equations. The segments are propagated in parallel (OpenMP), each with its own integrator.
-  subroutine correct_multiple(ball, energy, de, nodes, period, opts, orb, stat)
-    type(ball_t), intent(in) :: ball
+  !> Assumes no symmetry: works for any model.
+  subroutine correct_multiple(model, energy, de, nodes, period, opts, orb, stat)
+    class(hamiltonian_t), intent(in) :: model
     real(wp), intent(in) :: energy
     real(wp), intent(in) :: de        !! excess energy: sets the residual's scales
-    real(wp), intent(inout) :: nodes(:, :)   !! (4, n)
+    real(wp), intent(inout) :: nodes(:, :)   !! (2N, n)
     real(wp), intent(inout) :: period
     type(orbit_opts_t), intent(in) :: opts
     type(orbit_opts_t) :: o
     type(orbit_t), intent(inout) :: orb
     integer, intent(out) :: stat
-    integer :: n, m, nu, i, j, it, info, lwork, st(size(nodes, 2)), kf
+    integer :: n, m, nu, i, j, it, info, lwork, st(size(nodes, 2)), kf, d, i0, j0
     type(par_t) :: pp
     real(wp), allocatable :: a(:, :), b(:), work(:), y(:, :), phis(:, :, :), fy(:, :)
-    real(wp) :: xref(4), fref(4), gr(2), hs(2, 2), res, rowmax, pscale, scale(4), xref_grad(4)
+    real(wp) :: xref(size(nodes, 1)), fref(size(nodes, 1)), res, rowmax, pscale, &
+                scale(size(nodes, 1)), xref_grad(size(nodes, 1))
+    d = size(nodes, 1)
     n = size(nodes, 2)
-    m = 4*n + 2
-    nu = 4*n + 1
+    m = d*n + 2
+    nu = d*n + 1
     o = opts
     lwork = 64*m
-    allocate (a(m, nu), b(m), work(lwork), y(4, n), phis(4, 4, n), fy(4, n))
+    allocate (a(m, nu), b(m), work(lwork), y(d, n), phis(d, d, n), fy(d, n))
     pp = par_here(opts%local)
     kf = par_fault_item('segment')
     xref = nodes(:, 1)
-    call ball%eval(0.0_wp, xref, fref, stat)
+    call model%eval(0.0_wp, xref, fref, stat)
     pscale = 1
-    scale = 1                          ! residual in cm and cm/s
+    scale = 1                          ! residual in the state's units
     if (allocated(orb%history)) deallocate (orb%history)
     allocate (orb%history(0))
     orb%converged = .false.
@@ -267,8 +343,8 @@ contains
           st(i) = TUBES_EFAULT
           cycle
         end if
-        call flow_stm(ball, nodes(:, i), period/n, o, y(:, i), phis(:, :, i), st(i))
-        if (st(i) >= 0) call ball%eval(0.0_wp, y(:, i), fy(:, i), st(i))
+        call flow_stm(model, nodes(:, i), period/n, o, y(:, i), phis(:, :, i), st(i))
+        if (st(i) >= 0) call model%eval(0.0_wp, y(:, i), fy(:, i), st(i))
       end do
       !$omp end parallel do
       call par_share(y, pp)
@@ -282,20 +358,25 @@ contains
       a = 0
       do i = 1, n
         j = mod(i, n) + 1
-        b(4*i - 3:4*i) = nodes(:, j) - y(:, i)
-        a(4*i - 3:4*i, 4*i - 3:4*i) = -phis(:, :, i)
-        a(4*i - 3:4*i, 4*j - 3:4*j) = a(4*i - 3:4*i, 4*j - 3:4*j) + identity4()
-        a(4*i - 3:4*i, nu) = -fy(:, i)/n
+        i0 = d*(i - 1)
+        j0 = d*(j - 1)
+        b(i0 + 1:i0 + d) = nodes(:, j) - y(:, i)
+        a(i0 + 1:i0 + d, i0 + 1:i0 + d) = -phis(:, :, i)
+        a(i0 + 1:i0 + d, j0 + 1:j0 + d) = a(i0 + 1:i0 + d, j0 + 1:j0 + d) + identity(d)
+        a(i0 + 1:i0 + d, nu) = -fy(:, i)/n
       end do
-      call ball%surf%derivs(nodes(1, 1), nodes(2, 1), gr, hs)
-      b(m - 1) = ball%energy(nodes(:, 1)) - energy
-      call energy_gradient(ball, nodes(:, 1), xref_grad)
-      a(m - 1, 1:4) = xref_grad
+      b(m - 1) = model%energy(nodes(:, 1)) - energy
+      call model%gradient(nodes(:, 1), xref_grad, stat)
+      if (stat /= 0) then
+        stat = TUBES_ENOCONV
+        return
+      end if
+      a(m - 1, 1:d) = xref_grad
       b(m) = dot_product(nodes(:, 1) - xref, fref)
-      a(m, 1:4) = fref
+      a(m, 1:d) = fref
       res = 0
       do i = 1, n
-        res = max(res, maxval(abs(b(4*i - 3:4*i))/scale))
+        res = max(res, maxval(abs(b(d*(i - 1) + 1:d*i))/scale))
       end do
       res = max(res, abs(b(m - 1))/abs(energy))
       orb%history = [orb%history, res]
@@ -318,7 +399,7 @@ contains
         return
       end if
       do i = 1, n
-        nodes(:, i) = nodes(:, i) + b(4*i - 3:4*i)
+        nodes(:, i) = nodes(:, i) + b(d*(i - 1) + 1:d*i)
       end do
       period = period + b(nu)
       if (period <= 0) then
@@ -332,7 +413,6 @@ contains
     orb%period = period
     orb%energy = energy
   end subroutine correct_multiple
-
   !> A Newton sequence is hopeless when it has not reduced its residual for 4 iterations.
   pure logical function diverging(h)
     real(wp), intent(in) :: h(:)
@@ -349,30 +429,21 @@ contains
     if (size(h) > 0) stagnated = h(size(h)) <= 100*tol
   end function stagnated
 
-  pure function identity4() result(e)
-    real(wp) :: e(4, 4)
+  pure function identity(n) result(e)
+    integer, intent(in) :: n
+    real(wp) :: e(n, n)
     integer :: i
     e = 0
-    do i = 1, 4
+    do i = 1, n
       e(i, i) = 1
     end do
-  end function identity4
-
-  !> Gradient of the energy by the vector field: dE/dq = -dp/dt, dE/dp = dq/dt.
-  subroutine energy_gradient(ball, x, g)
-    type(ball_t), intent(in) :: ball
-    real(wp), intent(in) :: x(4)
-    real(wp), intent(out) :: g(4)
-    real(wp) :: f(4)
-    integer :: stat
-    call ball%eval(0.0_wp, x, f, stat)
-    g = [-f(3), -f(4), f(1), f(2)]
-  end subroutine energy_gradient
+  end function identity
 
   !> Monodromy, Floquet multipliers, action, samples and the periodicity residual of a
-  !> corrected orbit; distance of closest approach to the other equilibria eqs.
-  subroutine finish_orbit(ball, orb, opts, eqs, isad, stat)
-    type(ball_t), intent(in) :: ball
+  !> corrected orbit; distance of closest approach (in configuration) to the other
+  !> equilibria eqs.
+  subroutine finish_orbit(model, orb, opts, eqs, isad, stat)
+    class(hamiltonian_t), intent(in) :: model
     type(orbit_t), intent(inout) :: orb
     type(orbit_opts_t), intent(in) :: opts
     type(equilibrium_t), intent(in) :: eqs(:)
@@ -381,15 +452,21 @@ contains
     type(action_field_t) :: af
     type(dop853_t) :: ig
     type(sampler_t) :: obs
-    real(wp) :: x(4), phi(4, 4), z(5), wr(4), wi(4), vl(1, 1), vr(1, 1), work(64), mono(4, 4), d
-    integer :: info, k, iu, is, j, itr(2)
-    call flow_stm(ball, orb%x0, orb%period, opts, x, phi, stat)
+    real(wp), allocatable :: x(:), phi(:, :), z(:), wr(:), wi(:), work(:), mono(:, :), dist1(:)
+    real(wp) :: vl(1, 1), vr(1, 1), d
+    integer :: info, k, iu, is, j, itr(2), n2, nd
+    logical, allocatable :: free(:)
+    n2 = size(orb%x0)
+    nd = n2/2
+    allocate (x(n2), phi(n2, n2), z(n2 + 1), wr(n2), wi(n2), work(64*n2), mono(n2, n2), &
+              dist1(n2), free(n2))
+    call flow_stm(model, orb%x0, orb%period, opts, x, phi, stat)
     if (stat < 0) return
     orb%monodromy = phi
     orb%closure = maxval(abs(x - orb%x0))
     orb%residual = orb%history(size(orb%history))
     mono = phi
-    call dgeev('N', 'N', 4, mono, 4, wr, wi, vl, 1, vr, 1, work, 64, info)
+    call dgeev('N', 'N', n2, mono, n2, wr, wi, vl, 1, vr, 1, work, size(work), info)
     if (info /= 0) then
       stat = TUBES_ENOCONV
       return
@@ -398,18 +475,22 @@ contains
     is = minloc(wr, 1)
     orb%mu_unstable = wr(iu)
     orb%mu_stable = wr(is)
-    j = 0
-    do k = 1, 4
-      if (k /= iu .and. k /= is .and. j < 2) then
-        j = j + 1
-        itr(j) = k
-      end if
+    ! the trivial pair: of the others, the two closest to 1, in index order
+    free = .true.
+    free(iu) = .false.
+    free(is) = .false.
+    dist1 = abs(cmplx(wr - 1, wi, kind=wp))
+    do k = 1, 2
+      j = minloc(dist1, 1, mask=free)
+      free(j) = .false.
+      itr(k) = j
     end do
+    if (itr(1) > itr(2)) itr = itr([2, 1])
     orb%mu_trivial = wr(itr)
     orb%mu_trivial_imag = wi(itr)
     orb%stability_index = 0.5_wp*(orb%mu_unstable + orb%mu_stable)
     ! action and samples in one pass
-    af%ball = ball
+    allocate (af%model, source=model)
     call ig%init(af, 0.0_wp)
     ig%rtol = opts%rtol
     ig%atol = opts%atol
@@ -417,18 +498,18 @@ contains
     call obs%start(0.0_wp, orb%period/(opts%n_samples - 1), z, opts%n_samples)
     call propagate(ig, z, orb%period, stat, observer=obs)
     if (stat < 0) return
-    orb%action = z(5)
+    orb%action = z(n2 + 1)
     if (allocated(orb%t)) deallocate (orb%t, orb%x)
-    allocate (orb%t(opts%n_samples), orb%x(4, opts%n_samples))
+    allocate (orb%t(opts%n_samples), orb%x(n2, opts%n_samples))
     orb%t = obs%t(1:opts%n_samples)
-    orb%x = obs%x(1:4, 1:opts%n_samples)
+    orb%x = obs%x(1:n2, 1:opts%n_samples)
     orb%t(opts%n_samples) = orb%period
-    orb%x(:, opts%n_samples) = z(1:4)
+    orb%x(:, opts%n_samples) = z(1:n2)
     orb%min_eq_distance = huge(1.0_wp)
     do k = 1, size(eqs)
       if (k == isad) cycle
       do j = 1, opts%n_samples
-        d = sqrt(sum((orb%x(1:2, j) - eqs(k)%q)**2))
+        d = sqrt(sum((orb%x(1:nd, j) - eqs(k)%q)**2))
         orb%min_eq_distance = min(orb%min_eq_distance, d)
       end do
     end do
@@ -436,19 +517,19 @@ contains
   end subroutine finish_orbit
 
   !> Nodes for multiple shooting: n points a period apart/n along the trajectory from x0.
-  subroutine nodes_from(ball, x0, period, n, opts, nodes, stat)
-    type(ball_t), intent(in) :: ball
-    real(wp), intent(in) :: x0(4), period
+  subroutine nodes_from(model, x0, period, n, opts, nodes, stat)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: x0(:), period
     integer, intent(in) :: n
     type(orbit_opts_t), intent(in) :: opts
-    real(wp), intent(out) :: nodes(4, n)
+    real(wp), intent(out) :: nodes(:, :)
     integer, intent(out) :: stat
     type(dop853_t) :: ig
-    real(wp) :: x(4)
+    real(wp) :: x(size(x0))
     integer :: i
     x = x0
     nodes(:, 1) = x0
-    call ig%init(ball, 0.0_wp)
+    call ig%init(model, 0.0_wp)
     ig%rtol = opts%rtol
     ig%atol = opts%atol
     stat = TUBES_OK
@@ -459,13 +540,23 @@ contains
     end do
   end subroutine nodes_from
 
-  !> Solve one orbit at excess energy de from the brake guess (q0, tau) with the method of
-  !> opts (single or multiple shooting).
-  subroutine solve_orbit(ball, sad, de, q0, tau, opts, eqs, isad, orb, stat)
-    type(ball_t), intent(in) :: ball
+  !> True when the model has a reversor whose fixed set holds half the components (the
+  !> symmetric single-shooting corrector applies).
+  logical function has_reversor(model)
+    class(hamiltonian_t), intent(in) :: model
+    integer :: rev(model%dim())
+    rev = model%reversor()
+    has_reversor = count(rev > 0) == size(rev)/2 .and. count(rev < 0) == size(rev)/2
+  end function has_reversor
+
+  !> Solve one orbit at excess energy de from the guess (x0 on the reversor's fixed set, tau
+  !> the half period) with the method of opts: single shooting of the symmetric orbit, or
+  !> multiple shooting (also for models without a reversor).
+  subroutine solve_orbit(model, sad, de, x0, tau, opts, eqs, isad, orb, stat)
+    class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: sad
     real(wp), intent(in) :: de
-    real(wp), intent(inout) :: q0(2), tau
+    real(wp), intent(inout) :: x0(:), tau
     type(orbit_opts_t), intent(in) :: opts
     type(equilibrium_t), intent(in) :: eqs(:)
     integer, intent(in) :: isad
@@ -473,22 +564,26 @@ contains
     integer, intent(out) :: stat
     real(wp), allocatable :: nodes(:, :)
     real(wp) :: period
+    integer :: rev(size(x0)), ns
     orb%de = de
-    if (opts%n_segments <= 1) then
-      call correct_brake(ball, sad%energy + de, de, q0, tau, opts, orb, stat)
+    if (opts%n_segments <= 1 .and. has_reversor(model)) then
+      call correct_symmetric(model, sad%energy + de, de, x0, tau, opts, orb, stat)
     else
-      allocate (nodes(4, opts%n_segments))
-      call nodes_from(ball, [q0, 0.0_wp, 0.0_wp], 2*tau, opts%n_segments, opts, nodes, stat)
+      ns = max(opts%n_segments, 1)
+      allocate (nodes(size(x0), ns))
+      call nodes_from(model, x0, 2*tau, ns, opts, nodes, stat)
       if (stat < 0) return
       period = 2*tau
-      call correct_multiple(ball, sad%energy + de, de, nodes, period, opts, orb, stat)
+      call correct_multiple(model, sad%energy + de, de, nodes, period, opts, orb, stat)
       if (stat == TUBES_OK) then
-        q0 = nodes(1:2, 1)
+        x0 = nodes(:, 1)
+        rev = model%reversor()
+        if (has_reversor(model)) where (rev < 0) x0 = 0   ! the next guess on the fixed set
         tau = period/2
       end if
     end if
     orb%de = de
-    if (stat == TUBES_OK) call finish_orbit(ball, orb, opts, eqs, isad, stat)
+    if (stat == TUBES_OK) call finish_orbit(model, orb, opts, eqs, isad, stat)
   end subroutine solve_orbit
 
   !> The family of Lyapunov orbits of saddle eqs(isad) at the requested excess energies
@@ -497,8 +592,8 @@ contains
   !> equilibrium, or failure of the corrector for steps below 1e-6 of de) the continuation
   !> stops: end_de estimates the limit, end_reason says why, and orbits past it are not
   !> computed (converged = .false.). stat < 0 only for invalid input.
-  subroutine orbit_family(ball, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
-    type(ball_t), intent(in) :: ball
+  subroutine orbit_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
+    class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: eqs(:)
     integer, intent(in) :: isad
     real(wp), intent(in) :: des(:)
@@ -508,15 +603,20 @@ contains
     integer, intent(out) :: end_reason
     integer, intent(out) :: stat
     type(orbit_t) :: orb
-    real(wp) :: s, s_prev, s_last, ds, q0(2), tau, qa(2), ta, qb(2), tb, s_target, t_po
+    real(wp) :: s, s_prev, s_last, ds, tau, ta, tb, s_target, t_po
     real(wp) :: hist_s(3), hist_t(3), t_pred
+    real(wp), allocatable :: x0(:), xa(:), xb(:)
     integer :: k, st, nhist
     logical :: have_prev
     stat = TUBES_OK
     end_de = -1
     end_reason = END_NONE
     if (size(des) == 0) return
-    if (any(des <= 0)) then
+    if (any(des <= 0) .or. isad < 1 .or. isad > size(eqs)) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    if (.not. eqs(isad)%rank1) then
       stat = TUBES_EINPUT
       return
     end if
@@ -526,13 +626,14 @@ contains
         return
       end if
     end do
+    allocate (x0(model%dim()), xa(model%dim()), xb(model%dim()))
     t_po = 2*PI/eqs(isad)%omega
-    ! continuation in s = sqrt(de): the brake point moves linearly in s near s = 0
+    ! continuation in s = sqrt(de): the start point moves linearly in s near s = 0
     s_last = 0
     s = min(sqrt(des(1)), 0.5_wp)
-    call linear_guess(ball, eqs(isad), s*s, q0, tau)
+    call linear_guess(model, eqs(isad), s*s, x0, tau)
     have_prev = .false.
-    qa = q0; ta = tau; qb = q0; tb = tau; s_prev = 0
+    xa = x0; ta = tau; xb = x0; tb = tau; s_prev = 0
     ds = s
     k = 1
     nhist = 0
@@ -541,16 +642,16 @@ contains
       if (s > s_target) s = s_target
       ! predictor
       if (have_prev) then
-        q0 = qb + (qb - qa)*(s - s_last)/(s_last - s_prev)
+        x0 = xb + (xb - xa)*(s - s_last)/(s_last - s_prev)
         tau = tb + (tb - ta)*(s - s_last)/(s_last - s_prev)
       else if (s_last > 0) then
-        q0 = qb + (qb - eqs(isad)%q)*(s - s_last)/s_last
+        x0 = xb + (xb - eqs(isad)%x)*(s - s_last)/s_last
         tau = tb
       else
-        call linear_guess(ball, eqs(isad), s*s, q0, tau)
+        call linear_guess(model, eqs(isad), s*s, x0, tau)
       end if
       t_pred = 2*tau
-      call solve_orbit(ball, eqs(isad), s*s, q0, tau, opts, eqs, isad, orb, st)
+      call solve_orbit(model, eqs(isad), s*s, x0, tau, opts, eqs, isad, orb, st)
       if (st == TUBES_OK .and. orb%period > opts%period_max*t_po) then
         end_reason = END_PERIOD
         st = TUBES_ENOCONV
@@ -574,8 +675,8 @@ contains
       hist_s = [hist_s(2:3), s]
       hist_t = [hist_t(2:3), orb%period]
       if (s_last > 0) have_prev = .true.
-      s_prev = s_last; qa = qb; ta = tb
-      s_last = s; qb = q0; tb = tau
+      s_prev = s_last; xa = xb; ta = tb
+      s_last = s; xb = x0; tb = tau
       if (abs(s - s_target) <= 1.0e-14_wp*s_target) then
         orbits(k) = orb
         orbits(k)%de = des(k)
@@ -590,7 +691,8 @@ contains
     end do
     if (k <= size(des)) then
       ! the family ended before des(k): estimate the limit from the last periods
-      if (orb%min_eq_distance < 0.05_wp .and. end_reason /= END_PERIOD) end_reason = END_EQUILIBRIUM
+      if (orb%min_eq_distance < 0.05_wp*model%length_scale() .and. end_reason /= END_PERIOD) &
+        end_reason = END_EQUILIBRIUM
       if (end_reason == END_NOCONV .and. nhist == 3) end_reason = END_PERIOD
       end_de = limit_estimate(hist_s, hist_t, nhist, s_last)
       do while (k <= size(des))
@@ -600,7 +702,6 @@ contains
       end do
     end if
   end subroutine orbit_family
-
   !> Limiting de of a family whose period grows like T = a - b ln(L - de): solve the three
   !> equations of the last three accepted points for L (bisection); falls back to the last de.
   pure real(wp) function limit_estimate(hs, ht, n, s_last) result(l)

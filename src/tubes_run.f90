@@ -4,8 +4,8 @@
 module tubes_run
   use tubes_kinds, only: wp, i8
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT
-  use tubes_ball, only: ball_t
-  use tubes_models, only: model_ball, conservative_ball
+  use tubes_field, only: vector_field_t
+  use tubes_models, only: make_field
   use tubes_integrator, only: integrator_t, event_t, plane_t, crossing_log_t, propagate
   use tubes_methods, only: new_integrator, method_opts_t
   use tubes_sampler, only: sampler_t
@@ -31,13 +31,14 @@ module tubes_run
 
 contains
 
-  !> Integrate the model of params from x0 at t = 0 to t_end with method (and opts), sampling
+  !> Integrate the model (system, params) from x0 at t = 0 to t_end with method (and opts), sampling
   !> into obs (already started by the caller) and recording crossings of sec into log.
   !> stat: TUBES_OK, or < 0 (the samples and crossings up to the failure are kept).
   !> counters = [nfev, nsteps, nrejected, niter]; c_damp = the damping rate used [1/s].
-  subroutine run_integration(params, x0, t_end, method, rtol, atol, h, max_steps, mopts, sec, &
-                             obs, log, counters, c_damp, stat)
-    real(wp), intent(in) :: params(:), x0(4), t_end, rtol, atol, h
+  subroutine run_integration(system, params, x0, t_end, method, rtol, atol, h, max_steps, mopts, &
+                             sec, obs, log, counters, c_damp, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:), x0(:), t_end, rtol, atol, h
     integer, intent(in) :: method
     integer(i8), intent(in) :: max_steps
     type(method_opts_t), intent(in) :: mopts
@@ -47,17 +48,21 @@ contains
     integer(i8), intent(out) :: counters(4)
     real(wp), intent(out) :: c_damp
     integer, intent(out) :: stat
-    class(ball_t), allocatable :: ball
+    class(vector_field_t), allocatable :: field
     class(integrator_t), allocatable :: ig
     class(event_t), allocatable :: ev
-    real(wp) :: x(4)
+    real(wp) :: x(size(x0))
     counters = 0
     c_damp = 0
-    call model_ball(params, ball, c_damp, stat)
+    call make_field(system, params, field, c_damp, stat)
     if (stat /= TUBES_OK) return
+    if (size(x0) /= field%dim()) then
+      stat = TUBES_EINPUT
+      return
+    end if
     call new_integrator(method, ig, stat, mopts)
     if (stat /= TUBES_OK) return
-    call ig%init(ball, 0.0_wp)
+    call ig%init(field, 0.0_wp)
     ig%rtol = rtol
     ig%atol = atol
     ig%h = h
@@ -66,6 +71,10 @@ contains
     log%max_crossings = sec%max_crossings
     select case (sec%kind)
     case (SECTION_THETA)
+      if (size(x0) /= 4) then      ! the polar ray needs a planar (x, y, px, py) state
+        stat = TUBES_EINPUT
+        return
+      end if
       allocate (ev, source=theta_line_t(theta0=sec%level, branch=sec%dir, terminal=sec%stop_at_first))
     case (SECTION_X)
       allocate (ev, source=plane_t(k=1, c=sec%level, direction=sec%dir, terminal=sec%stop_at_first))

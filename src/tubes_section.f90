@@ -50,7 +50,7 @@ contains
   pure real(wp) function ray_potential(ray, r) result(v)
     type(ray_t), intent(in) :: ray
     real(wp), intent(in) :: r
-    v = ray%ball%potential(r*cos(ray%theta0), r*sin(ray%theta0))
+    v = ray%ball%potential_xy(r*cos(ray%theta0), r*sin(ray%theta0))
   end function ray_potential
 
   !> dH/dr along the ray [1].

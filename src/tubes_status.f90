@@ -12,6 +12,7 @@ module tubes_status
   integer, parameter, public :: TUBES_EIO = -5       !! file could not be read or written
   integer, parameter, public :: TUBES_ENOCONV = -6   !! an iteration (Newton, root finder) did not converge
   integer, parameter, public :: TUBES_EFAULT = -7    !! a failure injected by TUBES_FAULT (tests only)
+  integer, parameter, public :: TUBES_EOUTSIDE = -8  !! a tube crossed the section outside its region
   public :: status_message
 contains
   !> Text for a status code.
@@ -28,6 +29,7 @@ contains
     case (TUBES_EIO);       msg = 'input/output error'
     case (TUBES_ENOCONV);   msg = 'iteration did not converge'
     case (TUBES_EFAULT);    msg = 'failure injected by TUBES_FAULT (testing)'
+    case (TUBES_EOUTSIDE);  msg = 'the tube crosses the section outside the region of the energy surface chosen on it'
     case default;           msg = 'unknown status code'
     end select
   end function status_message

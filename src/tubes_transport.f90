@@ -6,12 +6,11 @@ module tubes_transport
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
-  use tubes_ball, only: ball_t
+  use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
   use tubes_dop853, only: dop853_t
-  use tubes_sections, only: theta_line_t, polar_canonical
-  use tubes_section, only: ray_t, section_region, section_area, section_darea, p_theta_from, &
-                           boundary_pr
+  use tubes_integrator, only: event_t
+  use tubes_section_kinds, only: poincare_t
   implicit none
   private
 
@@ -19,15 +18,23 @@ module tubes_transport
   integer, parameter, public :: MC_TRANSIT = 1   !! entered the other well through the bottleneck
   integer, parameter, public :: MC_UNDECIDED = 2 !! neither within t_max
 
-  !> Stops an integration once x(1) passes below a line x = x_stop (the other well's side).
+  !> The transit gate of a saddle: the configuration hyperplane (q - q_s) . n = dist, n the
+  !> unit configuration part of the saddle's unstable eigenvector (its reaction coordinate)
+  !> pointing away from the section's well. Stops an integration once a step ends beyond it.
+  type, public :: gate_spec_t
+    real(wp), allocatable :: origin(:)   !! the saddle's configuration q_s
+    real(wp), allocatable :: normal(:)   !! unit normal n, towards the other side
+    real(wp) :: dist = 0                 !! distance past the saddle [units of q]
+  end type gate_spec_t
+
   type, extends(observer_t) :: gate_t
-    real(wp) :: x_stop = 0
+    type(gate_spec_t) :: spec
     logical :: passed = .false.
   contains
     procedure :: on_step => gate_on_step
   end type gate_t
 
-  public :: state_on_section, inside_curve, mc_classify, monte_carlo, poincare_map
+  public :: inside_curve, mc_classify, monte_carlo, poincare_map
 
   interface
     integer(c_int) function rng_uniform(seed, n, u) bind(C, name='tubes_rng_uniform')
@@ -45,25 +52,13 @@ contains
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
     logical, intent(out) :: stop_now
-    real(wp) :: x(4)
+    real(wp) :: x(ig%f%dim())
+    integer :: n
+    n = size(self%spec%normal)
     call ig%interp(t_hi, x)
-    stop_now = x(1) < self%x_stop
+    stop_now = dot_product(x(1:n) - self%spec%origin, self%spec%normal) > self%spec%dist
     if (stop_now) self%passed = .true.
   end subroutine gate_on_step
-
-  !> The Cartesian state at (r, p_r) on the ray's section with p_theta of sign branch.
-  subroutine state_on_section(ray, r, pr, branch, x, stat)
-    type(ray_t), intent(in) :: ray
-    real(wp), intent(in) :: r, pr
-    integer, intent(in) :: branch
-    real(wp), intent(out) :: x(4)
-    integer, intent(out) :: stat
-    real(wp) :: pth, c, s
-    call p_theta_from(ray, r, pr, branch, pth, stat)
-    c = cos(ray%theta0)
-    s = sin(ray%theta0)
-    x = [r*c, r*s, c*pr - s*pth/r, s*pr + c*pth/r]
-  end subroutine state_on_section
 
   !> Point-in-polygon (even-odd rule) for the closed curve (cr, cp).
   pure logical function inside_curve(r, p, cr, cp) result(inside)
@@ -80,23 +75,26 @@ contains
   end function inside_curve
 
   !> Follow the state x0 (on the section) forward until it returns to the section (either
-  !> branch: MC_RETURN) or passes x < x_stop (MC_TRANSIT), or t_max (MC_UNDECIDED).
-  subroutine mc_classify(ball, theta0, x0, x_stop, t_max, tol, outcome, t_end, stat)
-    type(ball_t), intent(in) :: ball
-    real(wp), intent(in) :: theta0, x0(4), x_stop, t_max, tol
+  !> branch: MC_RETURN) or passes the saddle's gate (MC_TRANSIT), or t_max (MC_UNDECIDED).
+  subroutine mc_classify(ball, psec, x0, gspec, t_max, tol, outcome, t_end, stat)
+    class(hamiltonian_t), intent(in) :: ball
+    type(poincare_t), intent(in) :: psec
+    real(wp), intent(in) :: x0(:), t_max, tol
+    type(gate_spec_t), intent(in) :: gspec
     integer, intent(out) :: outcome
     real(wp), intent(out) :: t_end
     integer, intent(out) :: stat
     type(dop853_t) :: ig
     type(gate_t) :: gate
-    real(wp) :: x(4)
+    real(wp) :: x(size(x0))
+    class(event_t), allocatable :: ret
+    ret = psec%return_event()
     call ig%init(ball, 0.0_wp)
     ig%rtol = tol
     ig%atol = tol
     x = x0
-    gate%x_stop = x_stop
-    call propagate(ig, x, t_max, stat, event=theta_line_t(theta0=theta0, branch=0, terminal=.true.), &
-                   observer=gate)
+    gate%spec = gspec
+    call propagate(ig, x, t_max, stat, event=ret, observer=gate)
     t_end = ig%t
     if (stat == TUBES_EVENT) then
       outcome = MC_RETURN
@@ -108,22 +106,25 @@ contains
     end if
   end subroutine mc_classify
 
-  !> Monte Carlo transition fraction: n points uniform in the permitted region of the ray's
-  !> section at the ray's energy (rejection in the bounding box, GSL MT19937 from seed, drawn
-  !> serially), each with p_theta of sign branch, integrated in parallel (OpenMP) and classified.
-  !> The cut (cr, cp) gives each point's predicted class (inside = transit).
-  subroutine monte_carlo(ray, n, seed, branch, x_stop, t_max, tol, cr, cp, r, pr, outcome, &
+  !> Monte Carlo transition fraction: n points uniform in the permitted region of the
+  !> section at its energy (rejection in the bounding box, GSL MT19937 from seed, drawn
+  !> serially), each on the section's branch, integrated in parallel (OpenMP) and classified by
+  !> the saddle's gate gspec. The cut (cr, cp) gives each point's predicted class (inside =
+  !> transit).
+  subroutine monte_carlo(model, psec, n, seed, gspec, t_max, tol, cr, cp, r, pr, outcome, &
                          inside, stat)
-    type(ray_t), intent(in) :: ray
-    integer, intent(in) :: n, branch
+    class(hamiltonian_t), intent(in) :: model
+    type(poincare_t), intent(in) :: psec
+    integer, intent(in) :: n
     integer(c_long), intent(in) :: seed
-    real(wp), intent(in) :: x_stop, t_max, tol, cr(:), cp(:)
+    real(wp), intent(in) :: t_max, tol, cr(:), cp(:)
+    type(gate_spec_t), intent(in) :: gspec      !! the saddle's transit gate
     real(wp), intent(out) :: r(n), pr(n)
     integer, intent(out) :: outcome(n)
     logical, intent(out) :: inside(n)
     integer, intent(out) :: stat
     real(wp), allocatable :: u(:)
-    real(wp) :: pmax, rr, pp_, x(4), te
+    real(wp) :: plo, phi_, pl, ph, pc, pmax, rr, pp_, x(model%dim()), te
     integer :: k, m, i, st(n), kf
     type(par_t) :: pp
     stat = TUBES_OK
@@ -131,11 +132,16 @@ contains
       stat = TUBES_EINPUT
       return
     end if
-    pmax = 0
+    ! the bounding box of the region in p_s: centre pc, half-height pmax (1 % margin)
+    pl = huge(1.0_wp)
+    ph = -huge(1.0_wp)
     do i = 0, 2000
-      pmax = max(pmax, boundary_pr(ray, ray%rmin + (ray%rmax - ray%rmin)*i/2000.0_wp))
+      call psec%bounds(psec%smin + (psec%smax - psec%smin)*i/2000.0_wp, plo, phi_)
+      pl = min(pl, plo)
+      ph = max(ph, phi_)
     end do
-    pmax = pmax*1.01_wp
+    pc = (pl + ph)/2
+    pmax = (ph - pl)/2*1.01_wp
     m = 0
     k = 0
     allocate (u(8*n + 64))
@@ -145,10 +151,11 @@ contains
         stat = rng_uniform(seed + k, size(u), u)
         k = 0
       end if
-      rr = ray%rmin + (ray%rmax - ray%rmin)*u(k + 1)
-      pp_ = pmax*(2*u(k + 2) - 1)
+      rr = psec%smin + (psec%smax - psec%smin)*u(k + 1)
+      pp_ = pc + pmax*(2*u(k + 2) - 1)
       k = k + 2
-      if (abs(pp_) < boundary_pr(ray, rr)) then
+      call psec%bounds(rr, plo, phi_)
+      if (pp_ > plo .and. pp_ < phi_) then
         m = m + 1
         r(m) = rr
         pr(m) = pp_
@@ -169,8 +176,8 @@ contains
       if (i == kf) then
         st(i) = TUBES_EFAULT
       else
-        call state_on_section(ray, r(i), pr(i), branch, x, st(i))
-        if (st(i) == TUBES_OK) call mc_classify(ray%ball, ray%theta0, x, x_stop, t_max, tol, outcome(i), te, st(i))
+        call psec%state(r(i), pr(i), x, st(i))
+        if (st(i) == TUBES_OK) call mc_classify(model, psec, x, gspec, t_max, tol, outcome(i), te, st(i))
       end if
       if (st(i) < 0) outcome(i) = st(i)
       inside(i) = inside_curve(r(i), pr(i), cr, cp)
@@ -184,14 +191,15 @@ contains
 
   !> Poincare map of the section branch: n_iter returns of each start state x0(:, j), recorded
   !> as (r, p_r) in pts(:, k, j) (NaN after a trajectory stops returning within t_max).
-  subroutine poincare_map(ball, theta0, branch, x0, n_iter, t_max, tol, pts, stat)
+  subroutine poincare_map(ball, psec, x0, n_iter, t_max, tol, pts, stat)
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-    type(ball_t), intent(in) :: ball
-    real(wp), intent(in) :: theta0, x0(:, :), t_max, tol
-    integer, intent(in) :: branch, n_iter
+    class(hamiltonian_t), intent(in) :: ball
+    type(poincare_t), intent(in) :: psec
+    real(wp), intent(in) :: x0(:, :), t_max, tol
+    integer, intent(in) :: n_iter
     real(wp), intent(out) :: pts(2, n_iter, size(x0, 2))
     integer, intent(out) :: stat
-    real(wp) :: xs(4, size(x0, 2))
+    real(wp) :: xs(size(x0, 1), size(x0, 2))
     integer :: j, st(size(x0, 2)), kf
     type(par_t) :: pp
     xs = x0
@@ -208,7 +216,7 @@ contains
         pts(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
         cycle
       end if
-      call one_map(ball, theta0, branch, xs(:, j), n_iter, t_max, tol, pts(:, :, j), st(j))
+      call one_map(ball, psec, xs(:, j), n_iter, t_max, tol, pts(:, :, j), st(j))
     end do
     !$omp end parallel do
     call par_share(pts)
@@ -217,16 +225,17 @@ contains
   end subroutine poincare_map
 
   !> The returns of one trajectory (all locals: thread-private by construction).
-  subroutine one_map(ball, theta0, branch, x0, n_iter, t_max, tol, pts, stat)
+  subroutine one_map(ball, psec, x0, n_iter, t_max, tol, pts, stat)
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-    type(ball_t), intent(in) :: ball
-    real(wp), intent(in) :: theta0, x0(4), t_max, tol
-    integer, intent(in) :: branch, n_iter
+    class(hamiltonian_t), intent(in) :: ball
+    type(poincare_t), intent(in) :: psec
+    real(wp), intent(in) :: x0(:), t_max, tol
+    integer, intent(in) :: n_iter
     real(wp), intent(out) :: pts(2, n_iter)
     integer, intent(out) :: stat
     type(crossing_log_t) :: log
     type(dop853_t) :: ig
-    real(wp) :: x(4), pc(4)
+    real(wp) :: x(size(x0))
     integer :: k
     pts = ieee_value(1.0_wp, ieee_quiet_nan)
     call ig%init(ball, 0.0_wp)
@@ -235,12 +244,10 @@ contains
     ig%max_steps = 100000000
     x = x0
     log%max_crossings = n_iter
-    call propagate(ig, x, t_max, stat, event=theta_line_t(theta0=theta0, branch=branch, &
-                   terminal=.false.), crossings=log)
+    call propagate(ig, x, t_max, stat, event=psec%event(.false.), crossings=log)
     if (stat == TUBES_EVENT) stat = TUBES_OK
     do k = 1, min(log%n, n_iter)
-      pc = polar_canonical(log%x(:, k))
-      pts(:, k) = [pc(1), pc(3)]
+      pts(:, k) = psec%coords(log%x(:, k))
     end do
   end subroutine one_map
 end module tubes_transport

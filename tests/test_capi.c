@@ -16,21 +16,49 @@ static void check(const char *name, int ok, double got, double want) {
 }
 
 int main(void) {
-  const double model[TUBES_NMODEL] = {0.07, 1.017, 15.103, 0.00656, 12.065, 981.0, 0.0};
-  enum { NMAX = 32 };
-  int n = 0, morse[NMAX];
-  double x[NMAX], y[NMAX], h[NMAX], e[NMAX], gn[NMAX], lam[NMAX], om[NMAX], ev[16 * NMAX];
+  const char sys[TUBES_LSYSTEM] = "rolling_ball";
+  double model[TUBES_MAXPARAM] = {0};
+  enum { NMAX = 32, MD = TUBES_MAXDOF };
+  /* the model by name: its parameters and defaults come from the library's table */
+  {
+    int ndof = 0, np = 0, si, sd;
+    char pn[TUBES_MAXPARAM * TUBES_LPARAM], pu[TUBES_MAXPARAM * TUBES_LUNITS], pd[TUBES_MAXPARAM * TUBES_LDOC];
+    char sum[TUBES_LSUMMARY], lu[8], sad[8], sk[8];
+    double box[MD], boxc[MD], near[MD], sv, sa, gate;
+    int st = tubes_model_info(sys, &ndof, &np, pn, model, pu, pd, sum, lu, box, boxc, sad, near, sk, &si, &sv,
+                              &sd, &sa, &gate);
+    check("model info status", st == TUBES_OK, st, 0);
+    check("rolling_ball has 7 parameters, 2 dof", np == 7 && ndof == 2, np, 7);
+    check("rolling_ball: alpha first, the paper's 0.07", !strcmp(pn, "alpha") && model[0] == 0.07, model[0], 0.07);
+    check("rolling_ball: default saddle S12", !strcmp(sad, "S12"), 0, 0);
+    st = tubes_model_info("no_such_system", &ndof, &np, pn, box, pu, pd, sum, lu, box, boxc, sad, near, sk, &si,
+                          &sv, &sd, &sa, &gate);
+    check("unknown system refused", st == TUBES_EINPUT, st, TUBES_EINPUT);
+    char nm[TUBES_LSYSTEM];
+    int nsys = 0;
+    while (tubes_model_system(nsys, nm) == TUBES_OK) nsys++;
+    check("five built-in systems", nsys == 5, nsys, 5);
+  }
+  const double lo[MD] = {-20, -20, 0}, hi[MD] = {20, 20, 0};
+  int n = 0, ndof = 0, morse[NMAX], rank1[NMAX];
+  double q[MD * NMAX], pp[MD * NMAX], x[NMAX], y[NMAX], h[NMAX], e[NMAX], gn[NMAX], lam[NMAX],
+      om[(MD - 1) * NMAX], ev[4 * MD * MD * NMAX];
   char names[8 * NMAX];
-  int st = tubes_find_equilibria(model, 20.0, 41, NMAX, &n, x, y, h, e, gn, morse, names, lam, om, ev);
+  int st = tubes_find_equilibria(sys, model, lo, hi, 41, NMAX, &n, &ndof, q, pp, h, e, gn, morse, rank1, names,
+                                 lam, om, ev);
+  for (int k = 0; k < n; k++) {
+    x[k] = q[MD * k];
+    y[k] = q[MD * k + 1];
+  }
   check("equilibria status", st == TUBES_OK, st, TUBES_OK);
   check("nine equilibria", n == 9, n, 9);
   for (int k = 0; k < n; k++) {
     double ek;
-    tubes_energy(model, (double[4]){x[k], y[k], 0, 0}, &ek);
+    tubes_energy(sys, model, 4, (double[4]){x[k], y[k], 0, 0}, &ek);
     /* energy at rest = g H: the same sum evaluated twice, equal to roundoff */
     check("energy at rest equals g H", fabs(ek - e[k]) <= 1e-12 * fabs(e[k]), ek, e[k]);
     double f[4];
-    tubes_vector_field(model, (double[4]){x[k], y[k], 0, 0}, f);
+    tubes_vector_field(sys, model, 4, (double[4]){x[k], y[k], 0, 0}, f);
     /* |dp/dt| = g |grad H| <= g * 1e-13 at a converged critical point */
     check("rest point is an equilibrium", fabs(f[2]) + fabs(f[3]) <= 981.0 * 1e-13, fabs(f[2]) + fabs(f[3]), 0);
   }
@@ -40,16 +68,16 @@ int main(void) {
   check("S12 present", k12 >= 0, k12, 0);
   if (k12 >= 0) {
     /* T_po = 2 pi / omega is the small-orbit period; omega^2 = (5/7) g kappa_max */
-    double tp = 2 * M_PI / om[k12];
+    double tp = 2 * M_PI / om[(MD - 1) * k12];
     check("T_po in the paper's range (0.7-0.8 s)", tp > 0.7 && tp < 0.8, tp, 0.75);
     /* unstable eigenvector: J u = lambda u with J = [[0, 5/7 I], [-g Hess, 0]]:
        first rows say u_q = (5/7) u_p / lambda */
-    const double *u = ev + 16 * k12;
+    const double *u = ev + 4 * MD * MD * k12;   /* the first 16 hold the 4 x 4 matrix */
     double r = fabs(u[0] - 5.0 / 7.0 * u[2] / lam[k12]) + fabs(u[1] - 5.0 / 7.0 * u[3] / lam[k12]);
     check("unstable eigenvector: q part = (5/7) p part / lambda", r < 1e-12, r, 0);
   }
   double p[2];
-  tubes_momentum(model, (double[2]){0, 0}, (double[2]){1, 2}, p);
+  tubes_momentum(sys, model, (double[2]){0, 0}, (double[2]){1, 2}, p);
   /* at the origin grad H = (0, 0) by symmetry, so M = I and p = (7/5) v */
   check("momentum at origin", fabs(p[0] - 1.4) < 1e-15 && fabs(p[1] - 2.8) < 1e-15, p[1], 2.8);
 
@@ -60,7 +88,7 @@ int main(void) {
   double ct[8], cx[32];
   int cdir[8], nc = 0;
   int ns = 0;
-  st = tubes_run_trajectory(model, (double[4]){4.0, 12.614863819914357, 0, 0}, 1.0, 0.1,
+  st = tubes_run_trajectory(sys, model, 4, (double[4]){4.0, 12.614863819914357, 0, 0}, 1.0, 0.1,
                             TUBES_METHOD_DOP853, 1e-12, 1e-12, 0.0, 1000000, 0.0, 0, 0, 0, 0.0, 0, 0, 0,
                             NS, &ns, t, s, en, &nc, ct, cx, cdir, cnt, &cdamp, NULL, NULL);
   check("trajectory status", st == TUBES_OK, st, 0);
@@ -69,11 +97,11 @@ int main(void) {
         en[0] - (k12 >= 0 ? e[k12] : 0), 1500);
   /* ~100 steps with local error <= 1e-12 relative: drift well below 1e-10 */
   check("energy conserved", fabs(en[ns - 1] - en[0]) <= 1e-10 * en[0], en[ns - 1], en[0]);
-  st = tubes_run_trajectory(model, (double[4]){4, 12, 0, 0}, 1.0, -0.1, TUBES_METHOD_DOP853, 1e-12,
+  st = tubes_run_trajectory(sys, model, 4, (double[4]){4, 12, 0, 0}, 1.0, -0.1, TUBES_METHOD_DOP853, 1e-12,
                             1e-12, 0.0, 1000, 0.0, 0, 0, 0, 0.0, 0, 0, 0, NS, &ns, t, s, en, &nc, ct, cx,
                             cdir, cnt, &cdamp, NULL, NULL);
   check("negative dt_out refused", st == TUBES_EINPUT, st, TUBES_EINPUT);
-  st = tubes_run_trajectory(model, (double[4]){4, 12, 0, 0}, 1.0, 0.1, 99, 1e-12, 1e-12, 0.0, 1000,
+  st = tubes_run_trajectory(sys, model, 4, (double[4]){4, 12, 0, 0}, 1.0, 0.1, 99, 1e-12, 1e-12, 0.0, 1000,
                             0.0, 0, 0, 0, 0.0, 0, 0, 0, NS, &ns, t, s, en, &nc, ct, cx, cdir, cnt, &cdamp,
                             NULL, NULL);
   check("unknown method refused", st == TUBES_EINPUT, st, TUBES_EINPUT);

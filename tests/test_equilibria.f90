@@ -35,13 +35,13 @@ program test_equilibria
   call make_ball(ball, surf, G)
 
   ! --- input validation --------------------------------------------------------------------
-  call find_equilibria(ball, 0.0_wp, 41, none, stat)
-  call check_eq('find_equilibria: box = 0 is TUBES_EINPUT', stat, TUBES_EINPUT)
-  call find_equilibria(ball, 20.0_wp, 1, none, stat)
+  call find_equilibria(ball, [0.0_wp, 0.0_wp], [0.0_wp, 0.0_wp], 41, none, stat)
+  call check_eq('find_equilibria: an empty box is TUBES_EINPUT', stat, TUBES_EINPUT)
+  call find_equilibria(ball, [-20.0_wp, -20.0_wp], [20.0_wp, 20.0_wp], 1, none, stat)
   call check_eq('find_equilibria: n_grid = 1 is TUBES_EINPUT', stat, TUBES_EINPUT)
 
   ! --- the paper surface -------------------------------------------------------------------
-  call find_equilibria(ball, 20.0_wp, 41, eqs, stat)
+  call find_equilibria(ball, [-20.0_wp, -20.0_wp], [20.0_wp, 20.0_wp], 41, eqs, stat)
   call check_eq('paper surface: status', stat, TUBES_OK)
   call check_eq('paper surface: 9 equilibria', size(eqs), 9)
   if (size(eqs) /= 9) call finish('test_equilibria')   ! the rest indexes 9 points
@@ -155,7 +155,7 @@ program test_equilibria
     call check_rel(trim(lbl), eqs(k)%lambda, lam, 1.0e-12_wp)
     write (lbl, '(a,a)') 'omega = sqrt((5/7) g kappa_max) at ', trim(nm)
     call check_rel(trim(lbl), eqs(k)%omega, omg, 1.0e-12_wp)
-    call rest_jacobian(ball, eqs(k)%q, jac)
+    call rest_jacobian(ball, eqs(k)%x, jac, stat)
     ! eigenvector residuals: dgeev's residual is ~eps |J| ~ 3e-14 for unit vectors; 1e-10
     ! is generous; scaled by |lambda| ~ 9/s it stays an absolute 1e-10 check
     v = eqs(k)%evec(:, 1)
@@ -192,7 +192,7 @@ program test_equilibria
   ! f''(0) = 2 alpha - beta/sqrt(gamma) < 0, f''(y*) = 2 alpha (1 - 4 alpha^2 gamma/beta^2).
   surf = fourwell_t(xi=0.0_wp, beta=0.8_wp)
   call make_ball(ball, surf, G)
-  call find_equilibria(ball, 20.0_wp, 41, eqs, stat)
+  call find_equilibria(ball, [-20.0_wp, -20.0_wp], [20.0_wp, 20.0_wp], 41, eqs, stat)
   call check_eq('xi = 0 variant: status', stat, TUBES_OK)
   call check_eq('xi = 0 variant: 9 equilibria', size(eqs), 9)
   if (size(eqs) /= 9) call finish('test_equilibria')

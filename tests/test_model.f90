@@ -11,7 +11,8 @@
 program test_model
   use tubes_kinds, only: wp
   use tubes_fourwell, only: fourwell_t
-  use tubes_ball, only: ball_t, damped_ball_t, make_ball
+  use tubes_ball, only: ball_t, make_ball
+  use tubes_hamiltonian, only: damped_t, make_damped
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
   implicit none
 
@@ -22,7 +23,7 @@ program test_model
 
   type(fourwell_t) :: surf
   type(ball_t) :: ball
-  type(damped_ball_t) :: dball
+  type(damped_t) :: dball
   real(wp) :: pts(2, NPT), st(4, NST)
   real(wp) :: x, y, d, xp, xm, yp, ym, gr(2), hs(2, 2), grp(2), grm(2), fd, tol
   real(wp) :: m3, m4, s_h, s_g, mm(2, 2), v(2), p(2), z(4), f(4), a_lag(2), a_fd(2), a_fd2(2)
@@ -170,9 +171,7 @@ program test_model
   ! --- 5. damped ball: dE/dt = -2 c T --------------------------------------------------
   ! dp/dt gains -c p and dE/dt = (dT/dp) . (-c p) = -c p . (5/7) M^-1 p = -2 c T.
   c_damp = 0.37_wp   ! [1/s], any positive value
-  dball%g = G
-  allocate (dball%surf, source=surf)
-  dball%c = c_damp
+  call make_damped(dball, ball, c_damp)   ! the generic wrapper: -c p on the momenta
   do i = 1, NST
     x = st(1, i); y = st(2, i); v = st(3:4, i)
     call surf%derivs(x, y, gr, hs)
@@ -182,8 +181,8 @@ program test_model
     call dball%eval(0.0_wp, z, f, stat)
     write (lbl, '(a,i0)') 'damped eval stat, state ', i
     call check_eq(trim(lbl), stat, 0)
-    de = (dball%energy(z + dt*f) - dball%energy(z - dt*f))/(2*dt)
-    de2 = (dball%energy(z + 2*dt*f) - dball%energy(z - 2*dt*f))/(4*dt)
+    de = (ball%energy(z + dt*f) - ball%energy(z - dt*f))/(2*dt)
+    de2 = (ball%energy(z + 2*dt*f) - ball%energy(z - 2*dt*f))/(4*dt)
     s_h = surf%alpha*(x*x + y*y) + surf%beta*(sqrt(x*x + surf%gamma) + sqrt(y*y + surf%gamma)) &
           + abs(surf%xi*x*y) + abs(surf%h0)
     r_e = 16*EPS*((1 + sum(gr**2))*kin + G*s_h)

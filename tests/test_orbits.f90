@@ -23,7 +23,7 @@ program test_orbits
   character(80) :: lbl
 
   call make_ball(ball, fourwell_t(), 981.0_wp)
-  call find_equilibria(ball, 20.0_wp, 41, eqs, stat)
+  call find_equilibria(ball, [-20.0_wp, -20.0_wp], [20.0_wp, 20.0_wp], 41, eqs, stat)
   isad = 0; ir1 = 0
   do k = 1, size(eqs)
     if (eqs(k)%name == 'S12') isad = k
@@ -74,7 +74,7 @@ program test_orbits
     ! on the 2001 samples (error ~ (T/2000)^4 |d4 V| T ~ 1e-9 of the action)
     a_int = 0
     do j = 1, 2001
-      e = 2*(os(k)%energy - ball%potential(os(k)%x(1, j), os(k)%x(2, j)))
+      e = 2*(os(k)%energy - ball%potential_xy(os(k)%x(1, j), os(k)%x(2, j)))
       if (j == 1 .or. j == 2001) then
         a_int = a_int + e
       else if (mod(j, 2) == 0) then

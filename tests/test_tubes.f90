@@ -12,6 +12,8 @@ program test_tubes
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
   use tubes_section, only: ray_t, section_region, section_area, section_darea, boundary_pr
+  use tubes_section_kinds, only: poincare_t, make_ray_section
+  use tubes_transport, only: gate_spec_t
   use tubes_transport, only: monte_carlo
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
   implicit none
@@ -22,6 +24,8 @@ program test_tubes
   type(tube_opts_t) :: to
   type(tube_cut_t) :: cut, c1, c2, c3
   type(ray_t), target :: ray
+  type(poincare_t) :: psec
+  type(gate_spec_t) :: gate
   real(wp) :: end_de, wd(2), a, err, a2, da, e1, e2, e3, s, h
   real(wp), allocatable :: r(:), pr(:)
   integer, allocatable :: out(:)
@@ -30,17 +34,18 @@ program test_tubes
   character(64) :: lbl
 
   call make_ball(ball, fourwell_t(), 981.0_wp)
-  call find_equilibria(ball, 20.0_wp, 41, eqs, stat)
+  call find_equilibria(ball, [-20.0_wp, -20.0_wp], [20.0_wp, 20.0_wp], 41, eqs, stat)
   do k = 1, size(eqs)
     if (eqs(k)%name == 'S12') isad = k
     if (eqs(k)%name == 'W1') iw = k
   end do
   wd = eqs(iw)%q - eqs(isad)%q
+  call make_ray_section(psec, ball, acos(-1.0_wp)/4, 1)   ! U1^-
   call orbit_family(ball, eqs, isad, [10.0_wp, 100.0_wp], oo, orbs, end_de, reason, stat)
 
   ! area = action (the issue's bound: 1e-8 relative; the quadrature reaches ~1e-12)
   do k = 1, 2
-    call tube_cut(ball, orbs(k), wd, to, cut, stat)
+    call tube_cut(ball, orbs(k), wd, psec, to, cut, stat)
     write (lbl, '(a,f6.1)') 'tube cut at dE =', orbs(k)%de
     call check_eq(trim(lbl)//': status', stat, 0)
     call check_rel(trim(lbl)//': area = action', cut%area, orbs(k)%action, 1.0e-8_wp)
@@ -56,11 +61,11 @@ program test_tubes
   to%adaptive = .false.
   to%area_tol = 1.0_wp      ! one round only
   to%n_init = 32
-  call tube_cut(ball, orbs(2), wd, to, c1, stat)
+  call tube_cut(ball, orbs(2), wd, psec, to, c1, stat)
   to%n_init = 64
-  call tube_cut(ball, orbs(2), wd, to, c2, stat)
+  call tube_cut(ball, orbs(2), wd, psec, to, c2, stat)
   to%n_init = 128
-  call tube_cut(ball, orbs(2), wd, to, c3, stat)
+  call tube_cut(ball, orbs(2), wd, psec, to, c3, stat)
   e1 = abs(c1%hist_area(1) - orbs(2)%action)
   e2 = abs(c2%hist_area(1) - orbs(2)%action)
   e3 = abs(c3%hist_area(1) - orbs(2)%action)
@@ -74,9 +79,9 @@ program test_tubes
   ! eps/10 changes the area by O(eps^2) only (first-order term vanishes: dH(v_s) = 0)
   to = tube_opts_t()
   to%eps = 1.0e-5_wp
-  call tube_cut(ball, orbs(2), wd, to, c1, stat)
+  call tube_cut(ball, orbs(2), wd, psec, to, c1, stat)
   to%eps = 1.0e-6_wp
-  call tube_cut(ball, orbs(2), wd, to, c2, stat)
+  call tube_cut(ball, orbs(2), wd, psec, to, c2, stat)
   call check_rel('eps 1e-5 vs 1e-6: areas agree to 1e-9', c1%area, c2%area, 1.0e-9_wp)
 
   ! the energy surface: A_E by QAGS vs the trapezoidal integral of the boundary 2 p_r,max(r)
@@ -113,10 +118,16 @@ program test_tubes
   call section_area(ray, a, err, stat)
   to = tube_opts_t()
   to%area_tol = 1.0e-8_wp
-  call tube_cut(ball, orbs(2), wd, to, cut, stat)
+  call tube_cut(ball, orbs(2), wd, psec, to, cut, stat)
   n = 1500
   allocate (r(n), pr(n), out(n), ins(n))
-  call monte_carlo(ray, n, 7_c_long, 1, eqs(isad)%q(1) - 1.5_wp, 20.0_wp, 1.0e-10_wp, cut%r, cut%pr, &
+  ! the gate: 1.5 cm past S12 along its reaction coordinate, away from W1 (docs/tubes.md)
+  gate%origin = eqs(isad)%q
+  gate%normal = eqs(isad)%evec(1:2, 1)/norm2(eqs(isad)%evec(1:2, 1))
+  if (dot_product(gate%normal, wd) > 0) gate%normal = -gate%normal
+  gate%dist = 1.5_wp
+  call psec%set_energy(eqs(isad)%energy + 100, 20.0_wp, stat)
+  call monte_carlo(ball, psec, n, 7_c_long, gate, 20.0_wp, 1.0e-10_wp, cut%r, cut%pr, &
                    r, pr, out, ins, stat)
   call check_eq('Monte Carlo: status', stat, 0)
   call check_eq('Monte Carlo: no misclassification (inside <=> transit)', &

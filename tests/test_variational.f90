@@ -6,14 +6,15 @@ program test_variational
   use tubes_kinds, only: wp
   use tubes_field, only: fd_jacobian
   use tubes_fourwell, only: fourwell_t
-  use tubes_ball, only: ball_t, damped_ball_t, make_ball
+  use tubes_ball, only: ball_t, make_ball
+  use tubes_hamiltonian, only: damped_t, make_damped
   use tubes_variational, only: variational_t, make_variational, stm_start
   use tubes_dop853, only: dop853_t
   use tubes_integrator, only: propagate
   use tubes_check, only: check_close, check_true, finish
   implicit none
   type(ball_t) :: ball
-  type(damped_ball_t) :: damped
+  type(damped_t) :: damped
   type(fourwell_t) :: surf
   type(variational_t) :: var
   type(dop853_t) :: ig
@@ -53,9 +54,7 @@ program test_variational
     write (lbl, '(a,i0)') 'ball Jacobian vs finite differences, state ', k
     call check_close(trim(lbl), maxval(abs(jac - jfd))/sc, 0.0_wp, 1.0e-7_wp)
   end do
-  allocate (damped%surf, source=ball%surf)
-  damped%g = 981.0_wp
-  damped%c = 0.4_wp
+  call make_damped(damped, ball, 0.4_wp)
   call damped%jacobian(0.0_wp, states(:, 3), jac, stat)
   call fd_jacobian(damped, 0.0_wp, states(:, 3), jfd, stat)
   call check_close('damped Jacobian vs finite differences', maxval(abs(jac - jfd))/maxval(abs(jfd)), &

@@ -1,37 +1,40 @@
 """tubes: phase-space transport between potential wells (tube dynamics).
 
 Python facade of the Fortran core (the f2py extension ``tubes._core``) and the reader of
-tubes' HDF5 output. Units: cm and s; energies per unit mass in (cm/s)^2.
+tubes' HDF5 output. Models come from the library (docs/models.md); the rolling ball's units are
+cm and s, energies per unit mass in (cm/s)^2.
 
     >>> import tubes
     >>> m = tubes.Model()                       # the paper's surface and g
+    >>> hh = tubes.Model(system="henon_heiles")
     >>> eq = tubes.equilibria(m)                # dict of arrays, names included
     >>> res = tubes.load("paper.h5")            # an HDF5 result as nested attributes
     >>> res.saddle.T_po, res.trajectory.state.shape
 """
 from __future__ import annotations
 
-import dataclasses
 from typing import Any
 
 import numpy as np
 
 # Status codes: the same numbers as src/tubes_status.f90 and include/tubes.h.
 OK, EVENT = 0, 1
-EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV, EFAULT = -1, -2, -3, -4, -5, -6, -7
+EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV, EFAULT, EOUTSIDE = -1, -2, -3, -4, -5, -6, -7, -8
 _MESSAGES = {
     OK: "ok", EVENT: "stopped at a terminal event", EINPUT: "invalid input",
     EMAXSTEPS: "maximum number of steps reached", ESTEP: "step size underflow",
     EMODEL: "the model refused the state (NaN, Inf or a blown-up state)", EIO: "input/output error",
     ENOCONV: "iteration did not converge", EFAULT: "failure injected by TUBES_FAULT (testing)",
+    EOUTSIDE: "the tube crosses the section outside the region of the energy surface chosen on it",
 }
 METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, "gauss6": 7,
            "gauss8": 8, "gsl_rk8pd": 9, "gsl_rk4imp": 10, "cvode_adams": 11,
            "arkode_erk8": 12}   # include/tubes.h TUBES_METHOD_*
 FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 
-__all__ = ["Model", "TubesError", "energy", "vector_field", "velocity", "momentum",
-           "equilibria", "integrate", "trajectory", "reference_solution", "differentiate",
+__all__ = ["Model", "TubesError", "systems", "model_info", "energy", "energies", "potentials",
+           "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
+           "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
            "load", "Result"]
 
 
@@ -53,20 +56,116 @@ def _lib():
     return core
 
 
-@dataclasses.dataclass(frozen=True)
 class Model:
-    """The rolling ball on the four-well surface; defaults are the paper's values."""
-    alpha: float = 0.07          # [1/cm]
-    beta: float = 1.017          # [1]
-    gamma: float = 15.103        # [cm^2]
-    xi: float = 0.00656          # [1/cm]
-    h0: float = 12.065           # [cm]
-    g: float = 981.0             # [cm/s^2]
-    damping_ratio: float = 0.0   # [1]
+    """A model of the library (docs/models.md), chosen by name and parametrised by keyword:
+
+        tubes.Model()                                   # the paper's four-well ball
+        tubes.Model(alpha=0.08)                         # the ball with another bowl
+        tubes.Model(system="henon_heiles")
+        tubes.Model(system="cr3bp", mu=0.000953875)     # Sun-Jupiter
+
+    The parameters, their defaults and their order come from the Fortran table
+    (src/tubes_models.f90): a keyword that is not a parameter of the system is refused with the
+    system's parameters named, as the input file refuses it. ``model.alpha`` reads a parameter;
+    ``model.parameters`` is the dict of all of them; ``model.params()`` the vector the core
+    takes."""
+
+    __slots__ = ("system", "parameters", "ndof", "_vector", "info")
+
+    def __init__(self, system: str = "rolling_ball", **parameters):
+        info = model_info(system)
+        unknown = sorted(set(parameters) - set(info["parameters"]))
+        if unknown:
+            allowed = ", ".join(info["parameters"]) or "none"
+            raise ValueError(f"Model: {', '.join(unknown)} is not a parameter of system {system!r} "
+                             f"(its parameters: {allowed})")
+        values = dict(info["parameters"])
+        for k, v in parameters.items():
+            v = float(v)
+            if not np.isfinite(v):
+                raise ValueError(f"Model: {k} = {v} must be finite")
+            values[k] = v
+        vec = np.zeros(16)
+        vec[:len(values)] = list(values.values())
+        object.__setattr__(self, "system", system)
+        object.__setattr__(self, "parameters", values)
+        object.__setattr__(self, "ndof", info["ndof"])
+        object.__setattr__(self, "_vector", vec)
+        object.__setattr__(self, "info", info)
+        # the core's own range checks (masses > 0, 0 < mu <= 1/2, ...): evaluate once
+        stat, _ = _lib().energies(system, vec, np.zeros((2 * self.ndof, 1), order="F"))
+        if stat < 0:
+            raise ValueError(f"Model: parameters out of range for system {system!r}: {values} "
+                             "(docs/models.md gives the allowed ranges)")
+
+    def __getattr__(self, key):
+        try:
+            return object.__getattribute__(self, "parameters")[key]
+        except KeyError:
+            raise AttributeError(f"system {self.system!r} has no parameter {key!r}") from None
+
+    def __setattr__(self, key, value):
+        raise AttributeError("Model is immutable: build a new one")
+
+    def __eq__(self, other):
+        return (isinstance(other, Model) and self.system == other.system
+                and self.parameters == other.parameters)
+
+    def __hash__(self):
+        return hash((self.system, tuple(self.parameters.items())))
+
+    def __repr__(self):
+        kw = ", ".join(f"{k}={v!r}" for k, v in self.parameters.items())
+        return f"Model(system={self.system!r}{', ' if kw else ''}{kw})"
 
     def params(self) -> np.ndarray:
-        return np.array([self.alpha, self.beta, self.gamma, self.xi, self.h0, self.g,
-                         self.damping_ratio], dtype=np.float64)
+        """The parameter vector (16) the core takes, in the table's order."""
+        return self._vector.copy()
+
+    def replace(self, **parameters) -> "Model":
+        """A copy with some parameters changed."""
+        return Model(self.system, **{**self.parameters, **parameters})
+
+    @classmethod
+    def of(cls, res) -> "Model":
+        """The model an output file was computed with (its /model group; a Result of load or
+        an h5py group). Files written before /model@system existed are the rolling ball."""
+        node = res.model if hasattr(res, "model") and not hasattr(res, "attrs") else res
+        attrs = dict(node.attrs)
+        system = _decode(attrs.get("system", "rolling_ball"))
+        names = model_info(system)["parameters"]
+        return cls(system, **{k: float(attrs[k]) for k in names if k in attrs})
+
+
+def systems() -> list[str]:
+    """The names of the built-in systems."""
+    out, k = [], 1
+    while True:
+        stat, name = _lib().model_system(k)
+        if stat < 0:
+            return out
+        out.append(_str(name))
+        k += 1
+
+
+def _str(b) -> str:
+    return (b.decode() if isinstance(b, bytes) else str(b)).strip()
+
+
+def model_info(system: str) -> dict:
+    """The library's table entry of a system: ndof, parameters (name -> default, in order),
+    summary, and the scenes' defaults (saddle, saddle_near, section, gate, box)."""
+    (stat, ndof, np_, names, defaults, summary, saddle, near, sec_kind, sec_index, sec_value,
+     sec_dir, sec_angle, gate, box, box_center) = _lib().model_info(system)
+    if stat < 0:
+        raise ValueError(f"unknown system {system!r}; the systems are: {', '.join(systems())}")
+    names = names.decode() if isinstance(names, bytes) else str(names)
+    params = {names[16 * k:16 * k + 16].strip(): float(defaults[k]) for k in range(np_)}
+    return {"system": system, "ndof": int(ndof), "parameters": params, "summary": _str(summary),
+            "saddle": _str(saddle), "saddle_near": np.array(near[:ndof]),
+            "section": {"kind": _str(sec_kind), "index": int(sec_index), "value": float(sec_value),
+                        "direction": int(sec_dir), "angle": float(sec_angle)},
+            "gate": float(gate), "box": np.array(box[:ndof]), "box_center": np.array(box_center[:ndof])}
 
 
 def _check(stat: int, where: str) -> None:
@@ -81,45 +180,136 @@ def _vec(x, n: int, name: str) -> np.ndarray:
     return a
 
 
-def energy(state, model: Model = Model()) -> float:
-    """Energy per unit mass T + g H [(cm/s)^2] of state (x, y, px, py)."""
-    stat, e = _lib().energy(model.params(), _vec(state, 4, "state"))
+def energy(state, model: Model | None = None) -> float:
+    """H of a state (q, p) (2N components) on the conservative model; for the ball the energy
+    per unit mass T + g H [(cm/s)^2] of (x, y, px, py)."""
+    model = model or Model()
+    n = 2 * model.ndof
+    stat, e = _lib().energies(model.system, model.params(),
+                              _vec(state, n, "state").reshape(n, 1, order="F"))
     _check(stat, "energy")
-    return float(e)
+    return float(e[0])
 
 
-def vector_field(state, model: Model = Model()) -> np.ndarray:
-    """Hamilton's equations d(x, y, px, py)/dt (damped if model.damping_ratio > 0)."""
-    stat, f = _lib().vector_field(model.params(), _vec(state, 4, "state"))
+def energies(states, model: Model | None = None) -> np.ndarray:
+    """H of each row of states (m, 2N), in one call to the core."""
+    model = model or Model()
+    n = 2 * model.ndof
+    a = np.asfortranarray(np.array(states, dtype=np.float64, copy=True).reshape(-1, n).T)
+    stat, e = _lib().energies(model.system, model.params(), a)
+    _check(stat, "energies")
+    return np.asarray(e).copy()
+
+
+def potentials(q, model: Model | None = None) -> np.ndarray:
+    """V at each row of q (m, N) (natural systems: the ball's g H)."""
+    model = model or Model()
+    n = model.ndof
+    a = np.asfortranarray(np.array(q, dtype=np.float64, copy=True).reshape(-1, n).T)
+    stat, v = _lib().potentials(model.system, model.params(), a)
+    _check(stat, "potentials")
+    return np.asarray(v).copy()
+
+
+def shape_derivatives(q, model: Model | None = None):
+    """Gradient (N, m) and Hessian (N, N, m) of the potential's shape at each row of q (m, N)
+    (natural systems; the ball: of the surface's height H(x, y), V = g H)."""
+    model = model or Model()
+    n = model.ndof
+    a = np.asfortranarray(np.array(q, dtype=np.float64, copy=True).reshape(-1, n).T)
+    stat, g, h = _lib().shape_derivs(model.system, model.params(), a)
+    _check(stat, "shape_derivatives")
+    return np.asarray(g).copy(), np.asarray(h).copy()
+
+
+def vector_field(state, model: Model | None = None) -> np.ndarray:
+    """Hamilton's equations dx/dt at a state (damped for the ball with damping_ratio > 0)."""
+    model = model or Model()
+    n = 2 * model.ndof
+    stat, f = _lib().vector_field(model.system, model.params(), _vec(state, n, "state"))
     _check(stat, "vector_field")
     return np.asarray(f)
 
 
-def velocity(state, model: Model = Model()) -> np.ndarray:
-    """Planar velocity (dx/dt, dy/dt) [cm/s] of state (x, y, px, py)."""
-    stat, v = _lib().velocity(model.params(), _vec(state, 4, "state"))
-    _check(stat, "velocity")
-    return np.asarray(v)
+def velocity(state, model: Model | None = None) -> np.ndarray:
+    """dq/dt = dH/dp of a state on the conservative model (the ball: (dx/dt, dy/dt) [cm/s])."""
+    model = model or Model()
+    cons = model.replace(damping_ratio=0.0) if "damping_ratio" in model.parameters else model
+    return vector_field(state, cons)[:model.ndof]
 
 
-def momentum(q, v, model: Model = Model()) -> np.ndarray:
-    """Momenta p = (7/5) M v [cm/s] at position q with planar velocity v."""
-    stat, p = _lib().momentum(model.params(), _vec(q, 2, "q"), _vec(v, 2, "v"))
+def momentum(q, v, model: Model | None = None) -> np.ndarray:
+    """Natural systems: the momenta of velocity v at q (the ball: p = (7/5) M v [cm/s])."""
+    model = model or Model()
+    n = model.ndof
+    stat, p = _lib().momentum(model.system, model.params(), _vec(q, n, "q"), _vec(v, n, "v"))
     _check(stat, "momentum")
     return np.asarray(p)
 
 
-def equilibria(model: Model = Model(), box: float = 20.0, n_grid: int = 41) -> dict:
-    """Critical points of H in |x|, |y| <= box: dict of arrays x, y, height, energy,
-    morse_index, name, lambda, omega (rank-1 saddles only), eigenvectors (n, 4, 4)."""
-    stat, n, x, y, h, e, morse, names, lam, om, ev = _lib().equilibria(
-        model.params(), float(box), int(n_grid))
+def _box(model: Model, box, box_center):
+    info = model.info
+    half = info["box"] if box is None else np.broadcast_to(np.asarray(box, float), (model.ndof,))
+    centre = info["box_center"] if box_center is None else np.asarray(box_center, float)
+    lo, hi = np.zeros(3), np.zeros(3)
+    lo[:model.ndof] = centre - half
+    hi[:model.ndof] = centre + half
+    return lo, hi
+
+
+def equilibria(model: Model | None = None, box=None, n_grid: int = 41, box_center=None) -> dict:
+    """Equilibria with q in the box (half-widths per coordinate, or one for all; default the
+    system's) around box_center: dict of arrays q (n, N), state (n, 2N), x, y (q1, q2), height,
+    energy, morse_index (the index: eigenvalues with positive real part), rank1, name,
+    lambda, omega (rank-1 saddles; omega the lowest centre frequency), omegas (n, N-1),
+    eigenvectors (n, 2N, 2N)."""
+    model = model or Model()
+    lo, hi = _box(model, box, box_center)
+    (stat, n, nd, q, p, h, e, morse, rank1, names, lam, om, ev) = _lib().equilibria(
+        model.system, model.params(), lo, hi, int(n_grid))
     _check(stat, "equilibria")
     names = names.decode() if isinstance(names, bytes) else str(names)
-    return {"x": x[:n].copy(), "y": y[:n].copy(), "height": h[:n].copy(),
-            "energy": e[:n].copy(), "morse_index": morse[:n].copy(),
-            "name": names.split()[:n], "lambda": lam[:n].copy(), "omega": om[:n].copy(),
-            "eigenvectors": np.moveaxis(ev[:, :, :n], 2, 0).copy()}
+    qq = q[:nd, :n].T.copy()
+    st = np.concatenate([qq, p[:nd, :n].T], axis=1)
+    return {"q": qq, "state": st, "x": qq[:, 0].copy(), "y": qq[:, 1].copy(),
+            "height": h[:n].copy(), "energy": e[:n].copy(), "morse_index": morse[:n].copy(),
+            "rank1": rank1[:n].astype(bool), "name": [names[9 * k:9 * k + 9].strip() for k in range(n)],
+            "lambda": lam[:n].copy(), "omega": om[0, :n].copy(), "omegas": om[:nd - 1, :n].T.copy(),
+            "eigenvectors": np.moveaxis(ev[:2 * nd, :2 * nd, :n], 2, 0).copy()}
+
+
+def section_boundary(model: Model | None = None, de: float = 0.0, saddle: str | None = None,
+                     section: dict | None = None, m: int = 400, box=None, n_grid: int = 41) -> dict:
+    """The energy surface's boundary on a section at E_e(saddle) + de (docs/tubes.md,
+    "Sections"): dict s (m,), p_min, p_max (m,), s_min, s_max. section: {"kind": "ray", "angle":
+    deg, "p_theta_sign": +-1} or {"kind": "plane", "index": k, "value": c, "direction": +-1};
+    default the system's section and saddle."""
+    model = model or Model()
+    info = model.info
+    sec = dict(info["section"])
+    if section:
+        sec.update(section)
+    if not sec["kind"]:
+        raise ValueError(f"system {model.system!r} has no default section: give one")
+    sad = saddle or info["saddle"]
+    if not sad:
+        eq = equilibria(model, box=box, n_grid=n_grid)
+        near = info["saddle_near"]
+        k = min((i for i in range(len(eq["name"])) if eq["rank1"][i]),
+                key=lambda i: np.sum((eq["q"][i] - near) ** 2))
+        sad = eq["name"][k]
+    lo, hi = _box(model, box, None)
+    if sec["kind"] == "ray":
+        kind, index, level = 1, 0, np.radians(sec.get("angle", 45.0))
+        dirn = int(sec.get("p_theta_sign", sec.get("direction", 1)))
+    else:
+        kind, index, level, dirn = 2, int(sec["index"]), float(sec["value"]), int(sec["direction"])
+    stat, smin, smax, s, pmin, pmax = _lib().section_boundary(
+        model.system, model.params(), lo, hi, int(n_grid), sad, kind, index, level, dirn,
+        float(de), int(m))
+    _check(stat, "section_boundary")
+    return {"s": np.asarray(s).copy(), "p_min": np.asarray(pmin).copy(),
+            "p_max": np.asarray(pmax).copy(), "s_min": float(smin), "s_max": float(smax)}
 
 
 SECTIONS = {"U1-": (1, np.pi / 4, 1), "U1+": (1, np.pi / 4, -1), "U1": (1, np.pi / 4, 0)}
@@ -138,7 +328,7 @@ def _section(section, level, direction):
     raise ValueError(f"unknown section {section!r}; allowed: none, U1-, U1+, U1, theta, x, y")
 
 
-def integrate(state0, t_end: float, dt_out: float | None = None, model: Model = Model(),
+def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | None = None,
               method: str = "dop853", rtol: float = 1e-12, atol: float = 1e-12, h: float = 0.0,
               max_steps: int = 10_000_000, omega_bind: float = 0.0, solver: str = "newton",
               max_iter: int = 0, section: str | None = None, level: float = 0.0,
@@ -156,6 +346,7 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model = 
     a section crossings = dict t (m,), state (m, 4), direction (m,), and for theta sections
     r, p_r, p_theta (polar canonical coordinates). Raises TubesError on failure.
     """
+    model = model or Model()
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; allowed: {', '.join(METHODS)}")
     if method in FIXED_STEP and not h > 0:
@@ -171,8 +362,11 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model = 
     kind, lev, dirn = _section(section, level, direction)
     nmax = int(np.floor(t_end / dt_out * (1 + 1e-12))) + 2
     mc = max(1, int(max_crossings))
+    n2 = 2 * model.ndof
+    if kind == 1 and model.system != "rolling_ball":
+        raise ValueError("the polar ray sections (U1, theta) are the rolling ball's; use 'x' or 'y'")
     stat, n, t, st, en, nc, ct, cx, cd, cnt = _lib().trajectory(
-        model.params(), _vec(state0, 4, "state0"), float(t_end), float(dt_out), METHODS[method],
+        model.system, model.params(), _vec(state0, n2, "state0"), float(t_end), float(dt_out), METHODS[method],
         float(rtol), float(atol), float(h), int(max_steps), float(omega_bind),
         1 if solver == "newton" else 2, int(max_iter), kind, lev, dirn, int(bool(stop_at_first)),
         mc, nmax)
@@ -198,13 +392,16 @@ def trajectory(state0, t_end: float, dt_out: float = 0.01, **kw) -> dict:
     return integrate(state0, t_end, dt_out=dt_out, **kw)
 
 
-def reference_solution(state0, t_end: float, tol: float = 1e-26, model: Model = Model()) -> np.ndarray:
+def reference_solution(state0, t_end: float, tol: float = 1e-26, model: Model | None = None) -> np.ndarray:
     """Quad-precision (real128) DOP853 solution at t_end, rounded to double: the reference
     that tests and benchmarks measure errors against (conservative model only; docs/events.md
     gives its accuracy and cost: tol 1e-26 to t = 10 s takes about 2 s)."""
+    model = model or Model()
+    if model.system != "rolling_ball":
+        raise ValueError("reference_solution: the real128 reference exists for rolling_ball only")
     if model.damping_ratio != 0:
         raise ValueError("reference_solution: conservative model only")
-    stat, x, _, _ = _lib().reference_solution(model.params(), _vec(state0, 4, "state0"),
+    stat, x, _, _ = _lib().reference_solution(model.params()[:7], _vec(state0, 4, "state0"),
                                               float(t_end), float(tol))
     _check(stat, "reference_solution")
     return np.asarray(x)

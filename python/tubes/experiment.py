@@ -30,7 +30,8 @@ import warnings
 
 import numpy as np
 
-from . import Model, TubesError, energy, equilibria, integrate, momentum, vector_field
+from . import (Model, TubesError, energies, energy, equilibria, integrate, momentum, potentials,
+               shape_derivatives, vector_field)
 
 PLATE = 15.0            # [cm] half-width of the machined plate: |x|, |y| <= PLATE
 T_SKIP = 0.4            # [s] the paper's Lyapunov time, dropped at the start of every track
@@ -470,16 +471,10 @@ def min_samples_for(method: str, options: dict) -> int:
 
 
 def surface_derivatives(x, y, model: Model = Model()):
-    """grad H (2, n) and Hess H (2, 2, n) of the four-well surface (docs/theory.md), numpy."""
-    x = np.asarray(x, float)
-    y = np.asarray(y, float)
-    a, b, g, xi = model.alpha, model.beta, model.gamma, model.xi
-    hx = 2 * a * x - b * x / np.sqrt(x * x + g) - xi * y
-    hy = 2 * a * y - b * y / np.sqrt(y * y + g) - xi * x
-    hxx = 2 * a - b * g / (x * x + g) ** 1.5
-    hyy = 2 * a - b * g / (y * y + g) ** 1.5
-    hxy = np.full_like(x, -xi)
-    return np.array([hx, hy]), np.array([[hxx, hxy], [hxy, hyy]])
+    """grad H (2, n) and Hess H (2, 2, n) of the ball's surface at the points (x, y), by the core
+    (tubes.shape_derivatives: the model's one definition)."""
+    q = np.stack([np.asarray(x, float).ravel(), np.asarray(y, float).ravel()], axis=1)
+    return shape_derivatives(q, model)
 
 
 def state_energy(x, y, vx, vy, model: Model = Model()):
@@ -491,51 +486,28 @@ def state_energy(x, y, vx, vy, model: Model = Model()):
     core = _lib()
     par = model.params()
     n = len(x)
-    px, py, E = np.empty(n), np.empty(n), np.empty(n)
+    px, py = np.empty(n), np.empty(n)
     q = np.empty(2)
     v = np.empty(2)
-    z = np.empty(4)
     for i in range(n):
         q[0], q[1], v[0], v[1] = x[i], y[i], vx[i], vy[i]
-        st, p = core.momentum(par, q, v)
+        st, p = core.momentum(model.system, par, q, v)
         if st < 0:
             raise TubesError(st, "momentum")
-        z[0], z[1], z[2], z[3] = x[i], y[i], p[0], p[1]
-        st, e = core.energy(par, z)
-        if st < 0:
-            raise TubesError(st, "energy")
-        px[i], py[i], E[i] = p[0], p[1], e
+        px[i], py[i] = p[0], p[1]
+    E = energies(np.stack([np.asarray(x, float), np.asarray(y, float), px, py], axis=1), model)
     T = 0.5 * (px * vx + py * vy)
     return px, py, E, T
 
 
 def energy_of_states(states, model: Model = Model()) -> np.ndarray:
     """tubes' energy of each row (x, y, px, py) of states [(cm/s)^2]."""
-    from . import _lib
-    core = _lib()
-    par = model.params()
-    states = np.asarray(states, float)
-    out = np.empty(states.shape[0])
-    for i in range(out.size):
-        st, out[i] = core.energy(par, states[i])
-        if st < 0:
-            raise TubesError(st, "energy")
-    return out
+    return energies(np.asarray(states, float), model)
 
 
 def potential_energy(x, y, model: Model = Model()) -> np.ndarray:
     """g H(x, y) [(cm/s)^2] at each point (tubes' energy at rest)."""
-    from . import _lib
-    core = _lib()
-    par = model.params()
-    z = np.zeros(4)
-    out = np.empty(len(x))
-    for i in range(len(x)):
-        z[0], z[1] = x[i], y[i]
-        st, out[i] = core.energy(par, z)
-        if st < 0:
-            raise TubesError(st, "energy")
-    return out
+    return potentials(np.stack([np.asarray(x, float), np.asarray(y, float)], axis=1), model)
 
 
 def estimate_segment(seg: Segment, method: str, options: dict, model: Model) -> dict:
@@ -783,10 +755,11 @@ def load_theory(path: str) -> Theory:
                 c = getattr(res.tubes, k)
                 cuts.append((float(c.attrs["dE"]), np.asarray(c.r, float), np.asarray(c.p_r, float)))
     cuts.sort(key=lambda c: c[0])
-    model = Model()
-    if "model" in res:
-        m = res.model.attrs
-        model = Model(**{k: float(m[k]) for k in ("alpha", "beta", "gamma", "xi", "h0", "g") if k in m})
+    model = Model.of(res) if "model" in res else Model()
+    if model.system != "rolling_ball":
+        raise ExperimentError(f"{path}: the theory was computed for system {model.system!r}; the experiment "
+                         "analysis is for the rolling ball (rolling_ball)")
+    model = model.replace(damping_ratio=0.0)
     sec = res.section.attrs
     return Theory(path, float(sec["E_e"]), float(sec["growth_rate"]), de[ok][order], p[ok][order],
                   cuts, model, res)
@@ -1456,8 +1429,8 @@ def synthetic_tracks(n_tracks: int, duration: float = 10.0, rate: float = 50.0, 
     states, energies and dE at the samples."""
     model = model or Model(damping_ratio=damping_ratio)
     if model.damping_ratio != damping_ratio:
-        model = dataclasses.replace(model, damping_ratio=damping_ratio)
-    cons = dataclasses.replace(model, damping_ratio=0.0)
+        model = model.replace(damping_ratio=damping_ratio)
+    cons = model.replace(damping_ratio=0.0)
     _, _, E_e = _gate_geometry(cons)
     rng = np.random.default_rng(seed)
     tk, tt, xx, yy, st = [], [], [], [], []

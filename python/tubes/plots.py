@@ -21,10 +21,11 @@ def _mpl():
     return plt
 
 
-def surface_height(model, x, y):
-    """H(x, y) of the four-well surface from the /model attributes (numpy)."""
-    a, b, g, xi, h0 = (model.attrs[k] for k in ("alpha", "beta", "gamma", "xi", "h0"))
-    return a * (x * x + y * y) - b * (np.sqrt(x * x + g) + np.sqrt(y * y + g)) - xi * x * y + h0
+def potential_grid(res, X, Y):
+    """V on a grid of (x, y) for the model of a result file, by the core (tubes.potentials)."""
+    from . import Model, potentials
+    q = np.stack([np.ravel(X), np.ravel(Y)], axis=1)
+    return potentials(q, Model.of(res)).reshape(np.shape(X))
 
 
 def plot_orbit_family(res, path):
@@ -36,7 +37,7 @@ def plot_orbit_family(res, path):
     xs = np.linspace(-5, 4, 450)
     ys = np.linspace(-1.5, 12.5, 700)
     X, Y = np.meshgrid(xs, ys)
-    V = g * surface_height(res.model, X, Y)
+    V = potential_grid(res, X, Y)
     conv = np.asarray(orb.converged, dtype=bool)
     energies = np.asarray(orb.energy)[conv]
     cmap = plt.get_cmap("viridis")
@@ -96,29 +97,22 @@ def _ray(res):
 
 
 def energy_boundary(res, de, n=600):
-    """The energy surface's boundary on the section at E_e + dE: r and +-p_r (numpy, from /model)."""
-    sec, c, s = _ray(res)
-    m, g = res.model, res.model.attrs["g"]
-    r = np.linspace(0.01, 30, 30000)
-    V = g * surface_height(m, r * c, r * s)
-    a, b, gam, xi = (m.attrs[k] for k in ("alpha", "beta", "gamma", "xi"))
-    x, y = r * c, r * s
-    hx = 2 * a * x - b * x / np.sqrt(x * x + gam) - xi * y
-    hy = 2 * a * y - b * y / np.sqrt(y * y + gam) - xi * x
-    hr = c * hx + s * hy
-    gap = sec["E_e"] + de - V
-    ok = gap >= 0
-    # the connected interval around the well on the ray
-    iw = np.argmin(np.where(r > 1, V, np.inf))
-    lo = iw
-    while lo > 0 and ok[lo - 1]:
-        lo -= 1
-    hi = iw
-    while hi < len(r) - 1 and ok[hi + 1]:
-        hi += 1
-    rr = r[lo:hi + 1]
-    p = np.sqrt(np.maximum(0, 14 / 5 * gap[lo:hi + 1] * (1 + hr[lo:hi + 1] ** 2)))
-    return np.concatenate([rr, rr[::-1]]), np.concatenate([p, -p[::-1]])
+    """The energy surface's boundary on the section of a result file at E_e + dE, as a closed
+    curve (s, p_s) (r, p_r on the ball's ray), computed by the core (tubes.section_boundary)."""
+    from . import Model, section_boundary
+    sec = res.section.attrs
+    model = Model.of(res)
+    if "angle" in sec:
+        section = {"kind": "ray", "angle": np.degrees(sec["angle"]), "p_theta_sign": int(sec["p_theta_sign"])}
+    else:
+        section = {"kind": "plane", "index": int(sec["index"]), "value": float(sec["value"]),
+                   "direction": int(sec["direction"])}
+    b = section_boundary(model, de, saddle=_dec(sec["saddle"]), section=section, m=n)
+    return np.concatenate([b["s"], b["s"][::-1]]), np.concatenate([b["p_max"], b["p_min"][::-1]])
+
+
+def _dec(v):
+    return v.decode() if isinstance(v, bytes) else str(v)
 
 
 def plot_sections(res, outdir):
@@ -176,8 +170,7 @@ def plot_tube_trajectories(res, path):
     (transition) and one outside, in (x, y) and in (x, y, v_y) (tubes.integrate)."""
     from . import Model, integrate, velocity
     plt = _mpl()
-    m = res.model.attrs
-    model = Model(alpha=m["alpha"], beta=m["beta"], gamma=m["gamma"], xi=m["xi"], h0=m["h0"], g=m["g"])
+    model = Model.of(res)
     name = sorted(k for k in res.tubes.keys() if k.startswith("stable"))[0]
     cut = getattr(res.tubes, name)
     de = cut.attrs["dE"]
@@ -216,7 +209,7 @@ def plot_tube_trajectories(res, path):
         ax1.plot(tr["state"][:, 0], tr["state"][:, 1], color=col, lw=1.2, label=lab)
         ax2.plot(tr["state"][:, 0], tr["state"][:, 1], v[:, 1], color=col, lw=1.2)
     X, Y = np.meshgrid(np.linspace(-9, 12, 300), np.linspace(-2, 14, 300))
-    ax1.contour(X, Y, m["g"] * surface_height(res.model, X, Y), levels=[sec["E_e"] + de], colors="k", linewidths=0.8)
+    ax1.contour(X, Y, potential_grid(res, X, Y), levels=[sec["E_e"] + de], colors="k", linewidths=0.8)
     ax1.plot([0, 14 * c], [0, 14 * s], "k--", lw=0.6, label="U1")
     ax1.set_xlim(-9, 12)
     ax1.set_ylim(-2, 14)
@@ -240,9 +233,9 @@ def plot_surface(res, path):
     g = res.model.attrs["g"]
     e_e = res.saddle.attrs["energy"] if "saddle" in res else res.section.attrs["E_e"]
     X, Y = np.meshgrid(np.linspace(-13, 13, 500), np.linspace(-13, 13, 500))
-    V = g * surface_height(res.model, X, Y)
+    V = potential_grid(res, X, Y)
     fig, axs = plt.subplots(1, 3, figsize=(15, 4.8))
-    cs = axs[0].contour(X, Y, surface_height(res.model, X, Y), levels=25, cmap="viridis", linewidths=0.8)
+    cs = axs[0].contour(X, Y, V / g, levels=25, cmap="viridis", linewidths=0.8)
     axs[0].clabel(cs, fontsize=6)
     if "equilibria" in res:
         eq = res.equilibria

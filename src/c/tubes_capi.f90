@@ -3,9 +3,14 @@ module tubes_capi
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_int64_t, c_ptr, c_funptr, &
                                          c_null_char, c_associated, c_funloc, c_f_procpointer
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, status_message
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EMODEL, &
+                          TUBES_EOUTSIDE, status_message
+  use tubes_field, only: vector_field_t
+  use tubes_hamiltonian, only: hamiltonian_t
   use tubes_ball, only: ball_t
-  use tubes_models, only: NMODEL, conservative_ball, damping_rate, model_ball
+  use tubes_models, only: NMODEL, MAX_PARAMS, MAX_DOF, LEN_SYSTEM, LEN_PARAM, NSYSTEMS, &
+                          system_info_t, system_info, system_name, make_model, make_field, &
+                          conservative_ball
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_integrator, only: integrator_t, propagate
   use tubes_methods, only: new_integrator, method_opts_t
@@ -14,12 +19,15 @@ module tubes_capi
   use tubes_sampler, only: sampler_t
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
-  use tubes_section, only: ray_t, section_region, section_area, section_darea
-  use tubes_transport, only: monte_carlo, poincare_map, state_on_section
+  use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE
+  use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t
+  use tubes_study, only: setup_model, setup_section, orbit_at, saddle_gate
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long
   implicit none
   private
+
+  real(wp), parameter :: PI = acos(-1.0_wp)
 
   !> Sampler that also calls a C progress callback every PROGRESS_EVERY steps.
   type, extends(sampler_t) :: c_sampler_t
@@ -53,101 +61,221 @@ contains
     buf(min(len - 1, len_trim(m)) + 1) = c_null_char
   end subroutine c_status_message
 
-  integer(c_int) function c_energy(model, x, energy) result(stat) bind(C, name='tubes_energy')
-    real(c_double), intent(in) :: model(NMODEL), x(4)
-    real(c_double), intent(out) :: energy
-    type(ball_t) :: ball
-    energy = 0
-    call conservative_ball(model, ball, stat)
+  !> A C string (NUL-terminated within len) as a Fortran string.
+  pure function from_c(s, len) result(f)
+    integer, intent(in) :: len
+    character(kind=c_char), intent(in) :: s(len)
+    character(len) :: f
+    integer :: k
+    f = ''
+    do k = 1, len
+      if (s(k) == c_null_char) exit
+      f(k:k) = s(k)
+    end do
+  end function from_c
+
+  !> A Fortran string into a C block of len chars (NUL-terminated, NUL-padded).
+  pure subroutine to_c(f, s, len)
+    character(*), intent(in) :: f
+    integer, intent(in) :: len
+    character(kind=c_char), intent(out) :: s(len)
+    integer :: k
+    s = c_null_char
+    do k = 1, min(len - 1, len_trim(f))
+      s(k) = f(k:k)
+    end do
+  end subroutine to_c
+
+  integer(c_int) function c_model_system(k, name) result(stat) bind(C, name='tubes_model_system')
+    integer(c_int), value :: k
+    character(kind=c_char), intent(out) :: name(LEN_SYSTEM)
+    name = c_null_char
+    stat = TUBES_EINPUT
+    if (k < 0 .or. k >= NSYSTEMS) return
+    call to_c(system_name(k + 1), name, LEN_SYSTEM)
+    stat = TUBES_OK
+  end function c_model_system
+
+  integer(c_int) function c_model_info(system, ndof, np, names, defaults, units, docs, summary, &
+      length_units, box, box_center, saddle, saddle_near, section_kind, section_index, &
+      section_value, section_direction, section_angle, gate) result(stat) &
+      bind(C, name='tubes_model_info')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    integer(c_int), intent(out) :: ndof, np, section_index, section_direction
+    character(kind=c_char), intent(out) :: names(LEN_PARAM, MAX_PARAMS), units(16, MAX_PARAMS), &
+      docs(96, MAX_PARAMS), summary(160), length_units(8), saddle(8), section_kind(8)
+    real(c_double), intent(out) :: defaults(MAX_PARAMS), box(MAX_DOF), box_center(MAX_DOF), &
+      saddle_near(MAX_DOF), section_value, section_angle, gate
+    type(system_info_t) :: info
+    integer :: k, ist
+    call system_info(trim(from_c(system, LEN_SYSTEM)), info, ist)
+    stat = ist
+    ndof = info%ndof
+    np = info%np
+    defaults = 0
+    names = c_null_char; units = c_null_char; docs = c_null_char
+    do k = 1, info%np
+      call to_c(info%params(k)%name, names(:, k), LEN_PARAM)
+      call to_c(info%params(k)%units, units(:, k), 16)
+      call to_c(info%params(k)%doc, docs(:, k), 96)
+      defaults(k) = info%params(k)%default
+    end do
+    call to_c(info%summary, summary, 160)
+    call to_c(info%length_units, length_units, 8)
+    box = info%box
+    box_center = info%box_center
+    call to_c(info%saddle, saddle, 8)
+    saddle_near = info%saddle_near
+    call to_c(info%section_kind, section_kind, 8)
+    section_index = info%section_index
+    section_value = info%section_value
+    section_direction = info%section_direction
+    section_angle = info%section_angle
+    gate = info%gate
+  end function c_model_info
+
+  !> 1 if the system is natural (H = T + V: rest points, brake orbits, zero-velocity curves).
+  integer(c_int) function c_model_natural(system, params, natural) result(stat) &
+      bind(C, name='tubes_model_natural')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
+    integer(c_int), intent(out) :: natural
+    class(hamiltonian_t), allocatable :: model
+    natural = 0
+    call model_of(system, params, model, stat)
     if (stat /= TUBES_OK) return
-    energy = ball%energy(x)
+    natural = merge(1, 0, model%is_natural())
+  end function c_model_natural
+
+  !> The conservative model of (system, params).
+  subroutine model_of(system, params, model, stat)
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
+    class(hamiltonian_t), allocatable, intent(out) :: model
+    integer, intent(out) :: stat
+    call make_model(trim(from_c(system, LEN_SYSTEM)), params, model, stat)
+  end subroutine model_of
+
+  integer(c_int) function c_energy(system, params, n, x, energy) result(stat) bind(C, name='tubes_energy')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
+    integer(c_int), value :: n
+    real(c_double), intent(in) :: x(n)
+    real(c_double), intent(out) :: energy
+    class(hamiltonian_t), allocatable :: model
+    energy = 0
+    call model_of(system, params, model, stat)
+    if (stat /= TUBES_OK) return
+    if (n /= model%dim()) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    energy = model%energy(x)
   end function c_energy
 
-  integer(c_int) function c_vector_field(model, x, dxdt) result(stat) &
+  integer(c_int) function c_vector_field(system, params, n, x, dxdt) result(stat) &
       bind(C, name='tubes_vector_field')
-    real(c_double), intent(in) :: model(NMODEL), x(4)
-    real(c_double), intent(out) :: dxdt(4)
-    class(ball_t), allocatable :: ball
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
+    integer(c_int), value :: n
+    real(c_double), intent(in) :: x(n)
+    real(c_double), intent(out) :: dxdt(n)
+    class(vector_field_t), allocatable :: field
     real(wp) :: c
     dxdt = 0
-    call model_ball(model, ball, c, stat)
+    call make_field(trim(from_c(system, LEN_SYSTEM)), params, field, c, stat)
     if (stat /= TUBES_OK) return
-    call ball%eval(0.0_wp, x, dxdt, stat)
-    if (stat /= 0) stat = -4
+    if (n /= field%dim()) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    call field%eval(0.0_wp, x, dxdt, stat)
+    if (stat /= 0) stat = TUBES_EMODEL
   end function c_vector_field
 
-  integer(c_int) function c_momentum(model, q, v, p) result(stat) bind(C, name='tubes_momentum')
-    real(c_double), intent(in) :: model(NMODEL), q(2), v(2)
+  integer(c_int) function c_momentum(system, params, q, v, p) result(stat) bind(C, name='tubes_momentum')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS), q(2), v(2)
     real(c_double), intent(out) :: p(2)
     type(ball_t) :: ball
     p = 0
-    call conservative_ball(model, ball, stat)
+    stat = TUBES_EINPUT
+    if (trim(from_c(system, LEN_SYSTEM)) /= 'rolling_ball') return
+    call conservative_ball(params(1:NMODEL), ball, stat)
     if (stat /= TUBES_OK) return
     p = ball%momentum(q, v)
   end function c_momentum
 
-  integer(c_int) function c_damping_rate(model, c) result(stat) bind(C, name='tubes_damping_rate')
-    real(c_double), intent(in) :: model(NMODEL)
+  integer(c_int) function c_damping_rate(system, params, c) result(stat) bind(C, name='tubes_damping_rate')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
     real(c_double), intent(out) :: c
-    type(ball_t) :: ball
-    c = 0
-    call conservative_ball(model, ball, stat)
-    if (stat /= TUBES_OK) return
-    if (model(7) > 0) call damping_rate(ball, model(7), c, stat)
+    class(vector_field_t), allocatable :: field
+    call make_field(trim(from_c(system, LEN_SYSTEM)), params, field, c, stat)
   end function c_damping_rate
 
-  integer(c_int) function c_equilibria(model, box, n_grid, nmax, n, x, y, height, energy, &
-      grad_norm, morse, names, lambda, omega, evec) result(stat) bind(C, name='tubes_find_equilibria')
-    real(c_double), intent(in) :: model(NMODEL)
-    real(c_double), value :: box
+  !> Equilibria of the model in the box [lo, hi] (per coordinate, ndof of them).
+  integer(c_int) function c_equilibria(system, params, lo, hi, n_grid, nmax, n, ndof, q, p, height, &
+      energy, grad_norm, morse, rank1, names, lambda, omega, evec) result(stat) &
+      bind(C, name='tubes_find_equilibria')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, nmax
-    integer(c_int), intent(out) :: n
-    real(c_double), intent(out) :: x(nmax), y(nmax), height(nmax), energy(nmax), &
-                                   grad_norm(nmax), lambda(nmax), omega(nmax), evec(16, nmax)
-    integer(c_int), intent(out) :: morse(nmax)
+    integer(c_int), intent(out) :: n, ndof
+    real(c_double), intent(out) :: q(MAX_DOF, nmax), p(MAX_DOF, nmax), height(nmax), energy(nmax), &
+      grad_norm(nmax), lambda(nmax), omega(MAX_DOF - 1, nmax), evec(4*MAX_DOF*MAX_DOF, nmax)
+    integer(c_int), intent(out) :: morse(nmax), rank1(nmax)
     character(kind=c_char), intent(out) :: names(8, nmax)
-    type(ball_t) :: ball
+    class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
-    integer :: k, i
-    n = 0
-    call conservative_ball(model, ball, stat)
+    integer :: k, nd
+    n = 0; ndof = 0; q = 0; p = 0; height = 0; energy = 0; grad_norm = 0; lambda = 0; omega = 0
+    evec = 0; morse = -1; rank1 = 0; names = c_null_char
+    call model_of(system, params, model, stat)
     if (stat /= TUBES_OK) return
-    call find_equilibria(ball, box, n_grid, eqs, stat)
+    nd = model%ndof()
+    ndof = nd
+    call find_equilibria(model, lo(1:nd), hi(1:nd), n_grid, eqs, stat)
     if (stat /= TUBES_OK) return
-    n = min(size(eqs), nmax)
-    names = c_null_char
+    if (size(eqs) > nmax) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    n = size(eqs)
     do k = 1, n
-      x(k) = eqs(k)%q(1)
-      y(k) = eqs(k)%q(2)
+      q(1:nd, k) = eqs(k)%q
+      p(1:nd, k) = eqs(k)%x(nd + 1:2*nd)
       height(k) = eqs(k)%height
       energy(k) = eqs(k)%energy
       grad_norm(k) = eqs(k)%grad_norm
       morse(k) = eqs(k)%morse
+      rank1(k) = merge(1, 0, eqs(k)%rank1)
       lambda(k) = eqs(k)%lambda
-      omega(k) = eqs(k)%omega
-      evec(:, k) = reshape(eqs(k)%evec, [16])
-      do i = 1, min(7, len_trim(eqs(k)%name))
-        names(i, k) = eqs(k)%name(i:i)
-      end do
+      omega(1:nd - 1, k) = eqs(k)%omegas(1:nd - 1)
+      evec(1:4*nd*nd, k) = reshape(eqs(k)%evec, [4*nd*nd])
+      call to_c(eqs(k)%name, names(:, k), 8)
     end do
   end function c_equilibria
 
-  integer(c_int) function c_trajectory(model, x0, t_end, dt_out, method, rtol, atol, h, &
+  integer(c_int) function c_trajectory(system, params, n2, x0, t_end, dt_out, method, rtol, atol, h, &
       max_steps, omega_bind, solver, max_iter, sec_kind, sec_level, sec_dir, stop_first, &
       max_cross, nmax, n, t, state, energy, n_cross, cross_t, cross_x, cross_dir, counters, &
       c_damp, progress, user) result(stat) bind(C, name='tubes_run_trajectory')
-    real(c_double), intent(in) :: model(NMODEL), x0(4)
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
+    integer(c_int), value :: n2
+    real(c_double), intent(in) :: x0(n2)
     real(c_double), value :: t_end, dt_out, rtol, atol, h, omega_bind, sec_level
     integer(c_int), value :: method, nmax, solver, max_iter, sec_kind, sec_dir, stop_first, max_cross
     integer(c_int64_t), value :: max_steps
     integer(c_int), intent(out) :: n, n_cross
-    real(c_double), intent(out) :: t(nmax), state(4, nmax), energy(nmax), c_damp
-    real(c_double), intent(out) :: cross_t(max(max_cross, 1)), cross_x(4, max(max_cross, 1))
+    real(c_double), intent(out) :: t(nmax), state(n2, nmax), energy(nmax), c_damp
+    real(c_double), intent(out) :: cross_t(max(max_cross, 1)), cross_x(n2, max(max_cross, 1))
     integer(c_int), intent(out) :: cross_dir(max(max_cross, 1))
     integer(c_int64_t), intent(out) :: counters(4)
     type(c_funptr), value :: progress
     type(c_ptr), value :: user
-    type(ball_t) :: cons
+    class(hamiltonian_t), allocatable :: cons
     type(c_sampler_t) :: obs
     type(crossing_log_t) :: log
     integer :: k
@@ -159,12 +287,17 @@ contains
       stat = TUBES_EINPUT
       return
     end if
-    call conservative_ball(model, cons, stat)
+    call model_of(system, params, cons, stat)
     if (stat /= TUBES_OK) return
+    if (n2 /= cons%dim()) then
+      stat = TUBES_EINPUT
+      return
+    end if
     obs%cb = progress
     obs%user = user
     call obs%start(0.0_wp, dt_out, x0, nmax)
-    call run_integration(model, x0, t_end, method, rtol, atol, h, max_steps, &
+    call run_integration(trim(from_c(system, LEN_SYSTEM)), params, x0, t_end, method, rtol, atol, &
+                         h, max_steps, &
                          method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter), &
                          section_spec_t(kind=sec_kind, level=sec_level, dir=sec_dir, &
                                         stop_at_first=stop_first /= 0, max_crossings=max(max_cross, 1)), &
@@ -187,51 +320,37 @@ contains
 
   !> The Lyapunov family of the saddle named `saddle` (C string) at the ascending excess
   !> energies des(nde); outputs per orbit as in include/tubes.h (tubes_orbit_family).
-  integer(c_int) function c_orbit_family(model, saddle, nde, des, n_segments, tol, rtol, atol, &
-      max_iter, nsamp, energy, period, action, state0, mu_u, mu_s, mu_triv, stab, residual, &
-      closure, iterations, converged, mindist, monodromy, ts, xs, history, end_de, end_reason) &
-      result(stat) bind(C, name='tubes_orbit_family')
-    real(c_double), intent(in) :: model(NMODEL)
-    character(kind=c_char), intent(in) :: saddle(8)
-    integer(c_int), value :: nde, n_segments, max_iter, nsamp
+  integer(c_int) function c_orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, &
+      n_segments, tol, rtol, atol, max_iter, nsamp, energy, period, action, state0, mu_u, mu_s, &
+      mu_triv, stab, residual, closure, iterations, converged, mindist, monodromy, ts, xs, &
+      history, end_de, end_reason) result(stat) bind(C, name='tubes_orbit_family')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, nde, n_segments, max_iter, nsamp
     real(c_double), intent(in) :: des(nde)
     real(c_double), value :: tol, rtol, atol
-    real(c_double), intent(out) :: energy(nde), period(nde), action(nde), state0(4, nde), &
-      mu_u(nde), mu_s(nde), mu_triv(4, nde), stab(nde), residual(nde), closure(nde), &
-      mindist(nde), monodromy(4, 4, nde), ts(nsamp, nde), xs(4, nsamp, nde), &
-      history(max_iter, nde), end_de
+    real(c_double), intent(out) :: energy(nde), period(nde), action(nde), &
+      state0(2*MAX_DOF, nde), mu_u(nde), mu_s(nde), mu_triv(4, nde), stab(nde), residual(nde), &
+      closure(nde), mindist(nde), monodromy(4*MAX_DOF*MAX_DOF, nde), ts(nsamp, nde), &
+      xs(2*MAX_DOF, nsamp, nde), history(max_iter, nde), end_de
     integer(c_int), intent(out) :: iterations(nde), converged(nde), end_reason
-    type(ball_t) :: ball
+    class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
     type(orbit_opts_t) :: opts
     type(orbit_t), allocatable :: orbs(:)
-    character(8) :: name
-    integer :: k, isad, nh, reason
+    integer :: k, isad, nh, reason, n2
     real(wp) :: ede
     energy = 0; period = 0; action = 0; state0 = 0; mu_u = 0; mu_s = 0; mu_triv = 0; stab = 0
     residual = 0; closure = 0; mindist = 0; monodromy = 0; ts = 0; xs = 0; history = 0
     iterations = 0; converged = 0; end_de = -1; end_reason = 0
-    name = ''
-    do k = 1, 8
-      if (saddle(k) == c_null_char) exit
-      name(k:k) = saddle(k)
-    end do
     if (nde < 1 .or. nsamp < 2 .or. max_iter < 1 .or. n_segments < 1 .or. tol <= 0) then
       stat = TUBES_EINPUT
       return
     end if
-    call conservative_ball(model, ball, stat)
+    call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+                     model, eqs, isad, stat)
     if (stat /= TUBES_OK) return
-    call find_equilibria(ball, 20.0_wp, 41, eqs, stat)
-    if (stat /= TUBES_OK) return
-    isad = 0
-    do k = 1, size(eqs)
-      if (eqs(k)%name == name .and. eqs(k)%morse == 1) isad = k
-    end do
-    if (isad == 0) then
-      stat = TUBES_EINPUT
-      return
-    end if
+    n2 = model%dim()
     opts%n_segments = n_segments
     opts%tol = tol
     opts%rtol = rtol
@@ -239,7 +358,7 @@ contains
     opts%max_iter = max_iter
     opts%n_samples = nsamp
     allocate (orbs(nde))
-    call orbit_family(ball, eqs, isad, des, opts, orbs, ede, reason, stat)
+    call orbit_family(model, eqs, isad, des, opts, orbs, ede, reason, stat)
     if (stat < 0) return
     end_de = ede
     end_reason = reason
@@ -254,7 +373,7 @@ contains
       if (.not. orbs(k)%converged) cycle
       period(k) = orbs(k)%period
       action(k) = orbs(k)%action
-      state0(:, k) = orbs(k)%x0
+      state0(1:n2, k) = orbs(k)%x0
       mu_u(k) = orbs(k)%mu_unstable
       mu_s(k) = orbs(k)%mu_stable
       mu_triv(:, k) = [orbs(k)%mu_trivial(1), orbs(k)%mu_trivial_imag(1), &
@@ -263,137 +382,81 @@ contains
       residual(k) = orbs(k)%residual
       closure(k) = orbs(k)%closure
       mindist(k) = orbs(k)%min_eq_distance
-      monodromy(:, :, k) = orbs(k)%monodromy
+      monodromy(1:n2*n2, k) = reshape(orbs(k)%monodromy, [n2*n2])
       ts(:, k) = orbs(k)%t
-      xs(:, :, k) = orbs(k)%x
+      xs(1:n2, :, k) = orbs(k)%x
     end do
     stat = TUBES_OK
   end function c_orbit_family
 
-  !> The model, its equilibria, the saddle named by the C string and the well of the section's
-  !> quadrant (the one whose direction from the origin is closest to the ray's angle).
-  subroutine setup_saddle(model, saddle, angle, ball, eqs, isad, iwell, stat)
-    real(c_double), intent(in) :: model(NMODEL), angle
-    character(kind=c_char), intent(in) :: saddle(8)
-    type(ball_t), intent(out) :: ball
-    type(equilibrium_t), allocatable, intent(out) :: eqs(:)
-    integer, intent(out) :: isad, iwell, stat
-    character(8) :: name
-    integer :: k
-    real(wp) :: best, d
-    name = ''
-    do k = 1, 8
-      if (saddle(k) == c_null_char) exit
-      name(k:k) = saddle(k)
-    end do
-    call conservative_ball(model, ball, stat)
-    if (stat /= TUBES_OK) return
-    call find_equilibria(ball, 20.0_wp, 41, eqs, stat)
-    if (stat /= TUBES_OK) return
-    isad = 0
-    iwell = 0
-    best = huge(1.0_wp)
-    do k = 1, size(eqs)
-      if (eqs(k)%name == name .and. eqs(k)%morse == 1) isad = k
-      if (eqs(k)%morse == 0) then
-        d = abs(atan2(eqs(k)%q(2), eqs(k)%q(1)) - angle)
-        if (d < best) then
-          best = d
-          iwell = k
-        end if
-      end if
-    end do
-    if (isad == 0 .or. iwell == 0) stat = TUBES_EINPUT
-  end subroutine setup_saddle
-
-  !> The Lyapunov orbit at excess energy de by continuation (options as &orbits).
-  subroutine orbit_at(ball, eqs, isad, de, n_segments, tol, rtol, atol, orb, stat, local)
-    type(ball_t), intent(in) :: ball
-    logical, intent(in), optional :: local    !! on this MPI rank alone (default: all ranks)
-    type(equilibrium_t), intent(in) :: eqs(:)
-    integer, intent(in) :: isad, n_segments
-    real(wp), intent(in) :: de, tol, rtol, atol
-    type(orbit_t), intent(out) :: orb
-    integer, intent(out) :: stat
-    type(orbit_opts_t) :: opts
-    type(orbit_t) :: orbs(1)
-    real(wp) :: end_de
-    integer :: reason
-    opts%n_segments = n_segments
-    opts%tol = tol
-    opts%rtol = rtol
-    opts%atol = atol
-    if (present(local)) opts%local = local
-    call orbit_family(ball, eqs, isad, [de], opts, orbs, end_de, reason, stat)
-    if (stat /= TUBES_OK) return
-    orb = orbs(1)
-    if (.not. orb%converged) stat = TUBES_ENOCONV
-  end subroutine orbit_at
-
-  !> The energy surface on the section theta = angle [rad] at E = E_e + de: its interval
-  !> [rmin, rmax] on the ray, its area [cm^2/s] and dA/dE [s].
-  integer(c_int) function c_section_info(model, saddle, angle, de, rmin, rmax, area, darea) &
-      result(stat) bind(C, name='tubes_section_info')
-    real(c_double), intent(in) :: model(NMODEL)
-    character(kind=c_char), intent(in) :: saddle(8)
-    real(c_double), value :: angle, de
-    real(c_double), intent(out) :: rmin, rmax, area, darea
-    type(ball_t) :: ball
+  !> The energy surface on the section at E = E_e + de: its interval [smin, smax], its area
+  !> and dA/dE.
+  integer(c_int) function c_section_info(system, params, lo, hi, n_grid, saddle, sec_kind, &
+      sec_index, level, dir, de, smin, smax, area, darea) result(stat) &
+      bind(C, name='tubes_section_info')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, sec_kind, sec_index, dir
+    real(c_double), value :: level, de
+    real(c_double), intent(out) :: smin, smax, area, darea
+    class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
-    type(ray_t), target :: ray
-    integer :: isad, iw
+    type(poincare_t), target :: psec
+    real(wp), allocatable :: q_ref(:)
+    integer :: isad
     real(wp) :: err
-    rmin = 0; rmax = 0; area = 0; darea = 0
-    call setup_saddle(model, saddle, angle, ball, eqs, isad, iw, stat)
+    smin = 0; smax = 0; area = 0; darea = 0
+    call setup_section(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+                       sec_kind, sec_index, level, dir, de, &
+                       model, eqs, isad, psec, q_ref, stat)
     if (stat /= TUBES_OK) return
-    ray%ball = ball
-    ray%theta0 = angle
-    ray%energy = eqs(isad)%energy + de
-    call section_region(ray, 2*sqrt(sum(eqs(iw)%q**2)) + 10, stat)
+    smin = psec%smin
+    smax = psec%smax
+    call psec%area(area, err, stat)
     if (stat /= TUBES_OK) return
-    rmin = ray%rmin
-    rmax = ray%rmax
-    call section_area(ray, area, err, stat)
-    if (stat /= TUBES_OK) return
-    call section_darea(ray, darea, err, stat)
+    call psec%darea(darea, err, stat)
   end function c_section_info
 
   !> The cut of the Lyapunov orbit's tube at excess energy de with the section (include/tubes.h).
-  integer(c_int) function c_tube_cut(model, saddle, de, kind, angle, pth_sign, eps, area_tol, &
-      t_max, n_init, n_max, n_segments, orb_tol, orb_rtol, orb_atol, nout, n, tau, r, pr, time, &
-      xs, area, area_polygon, action, period, nhist, hist_n, hist_area, n_failed, fail_tau, local) &
-      result(stat) bind(C, name='tubes_tube_cut')
-    real(c_double), intent(in) :: model(NMODEL)
-    character(kind=c_char), intent(in) :: saddle(8)
-    real(c_double), value :: de, angle, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol
-    integer(c_int), value :: kind, pth_sign, n_init, n_max, n_segments, nout, local
+  integer(c_int) function c_tube_cut(system, params, lo, hi, n_grid, saddle, de, kind, sec_kind, &
+      sec_index, level, dir, eps, area_tol, t_max, n_init, n_max, n_segments, orb_tol, orb_rtol, &
+      orb_atol, nout, n, tau, r, pr, time, xs, area, area_polygon, action, period, nhist, hist_n, &
+      hist_area, n_failed, fail_tau, local) result(stat) bind(C, name='tubes_tube_cut')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, sec_kind, sec_index, dir
+    real(c_double), value :: de, level, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol
+    integer(c_int), value :: kind, n_init, n_max, n_segments, nout, local
     integer(c_int), intent(out) :: n, nhist, hist_n(64), n_failed
     real(c_double), intent(out) :: tau(nout), r(nout), pr(nout), time(nout), xs(4, nout), area, &
                                    area_polygon, action, period, hist_area(64), fail_tau
-    type(ball_t) :: ball
+    class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
+    type(poincare_t) :: psec
+    real(wp), allocatable :: q_ref(:)
     type(orbit_t) :: orb
     type(tube_opts_t) :: opts
     type(tube_cut_t) :: cut
-    integer :: isad, iw
+    integer :: isad
+    real(wp) :: tol_s
     n = 0; nhist = 0; hist_n = 0; hist_area = 0; area = 0; area_polygon = 0; action = 0; period = 0
     n_failed = 0; fail_tau = 0
-    call setup_saddle(model, saddle, angle, ball, eqs, isad, iw, stat)
+    call setup_section(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+                       sec_kind, sec_index, level, dir, de, &
+                       model, eqs, isad, psec, q_ref, stat)
     if (stat /= TUBES_OK) return
-    call orbit_at(ball, eqs, isad, de, n_segments, orb_tol, orb_rtol, orb_atol, orb, stat, local /= 0)
+    call orbit_at(model, eqs, isad, de, n_segments, orb_tol, orb_rtol, orb_atol, orb, stat, local /= 0)
     if (stat /= TUBES_OK) return
     action = orb%action
     period = orb%period
     opts%local = local /= 0
     opts%kind = kind
-    opts%theta0 = angle
-    opts%branch = pth_sign
     opts%eps = eps
     opts%area_tol = area_tol
     opts%t_max = t_max
     opts%n_init = n_init
     opts%n_max = min(n_max, nout)
-    call tube_cut(ball, orb, eqs(iw)%q - eqs(isad)%q, opts, cut, stat)
+    call tube_cut(model, orb, q_ref - eqs(isad)%q, psec, opts, cut, stat)
     n_failed = cut%n_failed
     fail_tau = cut%fail_tau
     n = min(cut%n, nout)
@@ -411,75 +474,100 @@ contains
       hist_n(1:nhist) = cut%hist_n(1:nhist)
       hist_area(1:nhist) = cut%hist_area(1:nhist)
     end if
+    ! a plane crossed outside the section's region (another part of the line) is not a cut of
+    ! the section the caller asked for
+    if (stat == TUBES_OK .and. psec%kind == SEC_PLANE .and. n > 0) then
+      tol_s = 1.0e-9_wp*max(1.0_wp, psec%smax - psec%smin)
+      if (any(r(1:n) < psec%smin - tol_s .or. r(1:n) > psec%smax + tol_s)) stat = TUBES_EOUTSIDE
+    end if
   end function c_tube_cut
 
   !> Monte Carlo transition check at excess energy de (include/tubes.h).
-  integer(c_int) function c_monte_carlo(model, saddle, de, angle, pth_sign, nsamp, seed, t_max, &
-      gate, ncut, cut_r, cut_pr, r, pr, outcome, inside) result(stat) &
-      bind(C, name='tubes_monte_carlo')
-    real(c_double), intent(in) :: model(NMODEL)
-    character(kind=c_char), intent(in) :: saddle(8)
-    real(c_double), value :: de, angle, t_max, gate
-    integer(c_int), value :: pth_sign, nsamp, seed, ncut
+  integer(c_int) function c_monte_carlo(system, params, lo, hi, n_grid, saddle, de, sec_kind, &
+      sec_index, level, dir, nsamp, seed, t_max, gate, ncut, cut_r, cut_pr, r, pr, outcome, inside) &
+      result(stat) bind(C, name='tubes_monte_carlo')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, sec_kind, sec_index, dir
+    real(c_double), value :: de, level, t_max, gate
+    integer(c_int), value :: nsamp, seed, ncut
     real(c_double), intent(in) :: cut_r(ncut), cut_pr(ncut)
     real(c_double), intent(out) :: r(nsamp), pr(nsamp)
     integer(c_int), intent(out) :: outcome(nsamp), inside(nsamp)
-    type(ball_t) :: ball
+    class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
-    type(ray_t), target :: ray
+    type(poincare_t) :: psec
+    real(wp), allocatable :: q_ref(:)
     logical :: ins(nsamp)
-    integer :: isad, iw
+    type(gate_spec_t) :: gspec
+    integer :: isad
     r = 0; pr = 0; outcome = -1; inside = 0
-    call setup_saddle(model, saddle, angle, ball, eqs, isad, iw, stat)
+    call setup_section(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+                       sec_kind, sec_index, level, dir, de, &
+                       model, eqs, isad, psec, q_ref, stat)
     if (stat /= TUBES_OK) return
-    ray%ball = ball
-    ray%theta0 = angle
-    ray%energy = eqs(isad)%energy + de
-    call section_region(ray, 2*sqrt(sum(eqs(iw)%q**2)) + 10, stat)
-    if (stat /= TUBES_OK) return
-    call monte_carlo(ray, nsamp, int(seed, c_long), pth_sign, eqs(isad)%q(1) - gate, t_max, &
-                     1.0e-10_wp, cut_r, cut_pr, r, pr, outcome, ins, stat)
+    call saddle_gate(eqs(isad), q_ref, gate, gspec)
+    call monte_carlo(model, psec, nsamp, int(seed, c_long), gspec, t_max, 1.0e-10_wp, cut_r, cut_pr, &
+                     r, pr, outcome, ins, stat)
     inside = merge(1, 0, ins)
   end function c_monte_carlo
 
-  !> Poincare map of the section at excess energy de: n_seeds starts on the section (half on
-  !> p_r = 0 across the region, half across p_r at the region's middle r), n_iter returns each:
-  !> pts(1:2, k, j) = (r, p_r) of the k-th return of seed j (NaN after it stops returning).
-  integer(c_int) function c_poincare(model, saddle, de, angle, pth_sign, n_seeds, n_iter, t_max, &
-      pts) result(stat) bind(C, name='tubes_poincare')
-    real(c_double), intent(in) :: model(NMODEL)
-    character(kind=c_char), intent(in) :: saddle(8)
-    real(c_double), value :: de, angle, t_max
-    integer(c_int), value :: pth_sign, n_seeds, n_iter
+  !> Poincare map of the section at excess energy de: n_seeds starts on the section (half at the
+  !> middle of the p_s range across the region, half across p_s at the region's middle s),
+  !> n_iter returns each: pts(1:2, k, j) = (s, p_s) of the k-th return of seed j (NaN after it
+  !> stops returning).
+  integer(c_int) function c_poincare(system, params, lo, hi, n_grid, saddle, de, sec_kind, &
+      sec_index, level, dir, n_seeds, n_iter, t_max, pts) result(stat) bind(C, name='tubes_poincare')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, sec_kind, sec_index, dir
+    real(c_double), value :: de, level, t_max
+    integer(c_int), value :: n_seeds, n_iter
     real(c_double), intent(out) :: pts(2, n_iter, n_seeds)
-    type(ball_t) :: ball
+    class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
-    type(ray_t), target :: ray
-    real(wp) :: x0(4, n_seeds), rr, pp, rmid, pm
-    integer :: isad, iw, j, h, st
+    type(poincare_t) :: psec
+    real(wp), allocatable :: q_ref(:), x0(:, :)
+    real(wp) :: rr, pp, rmid, pm, plo, phi_, pmid
+    integer :: isad, j, h, st
     pts = 0
-    call setup_saddle(model, saddle, angle, ball, eqs, isad, iw, stat)
+    call setup_section(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+                       sec_kind, sec_index, level, dir, de, &
+                       model, eqs, isad, psec, q_ref, stat)
     if (stat /= TUBES_OK) return
-    ray%ball = ball
-    ray%theta0 = angle
-    ray%energy = eqs(isad)%energy + de
-    call section_region(ray, 2*sqrt(sum(eqs(iw)%q**2)) + 10, stat)
-    if (stat /= TUBES_OK) return
+    allocate (x0(model%dim(), n_seeds))
     h = (n_seeds + 1)/2
-    rmid = 0.5_wp*(ray%rmin + ray%rmax)
-    pm = sqrt(max(0.0_wp, 2*(ray%energy - ball%potential(rmid*cos(angle), rmid*sin(angle)))/(5.0_wp/7)))
+    rmid = 0.5_wp*(psec%smin + psec%smax)
+    call psec%bounds(rmid, plo, phi_)
+    pm = 0.5_wp*(phi_ - plo)
+    pmid = 0.5_wp*(phi_ + plo)
+    if (psec%kind == SEC_RAY) then       ! the ray's p_r range at rmid from the potential (as before)
+      pm = sqrt(max(0.0_wp, 2*(psec%energy - psec%ray%ball%potential_xy(rmid*cos(level), &
+                                                                          rmid*sin(level)))/(5.0_wp/7)))
+      pmid = 0
+    end if
     do j = 1, n_seeds
       if (j <= h) then
-        rr = ray%rmin + (ray%rmax - ray%rmin)*(j - 0.5_wp)/h
+        rr = psec%smin + (psec%smax - psec%smin)*(j - 0.5_wp)/h
         pp = 0
+        if (psec%kind /= SEC_RAY) then
+          call psec%bounds(rr, plo, phi_)
+          pp = 0.5_wp*(plo + phi_)
+        end if
       else
         rr = rmid
-        pp = pm*(2*(j - h - 0.5_wp)/max(1, n_seeds - h) - 1)*0.98_wp
+        pp = pmid + pm*(2*(j - h - 0.5_wp)/max(1, n_seeds - h) - 1)*0.98_wp
       end if
-      call state_on_section(ray, rr, pp, pth_sign, x0(:, j), st)
-      if (st /= TUBES_OK) x0(:, j) = [rmid*cos(angle), rmid*sin(angle), 0.0_wp, 0.0_wp]
+      call psec%state(rr, pp, x0(:, j), st)
+      if (st /= TUBES_OK) then       ! a seed at the region's edge
+        if (psec%kind == SEC_RAY) then
+          x0(:, j) = [rmid*cos(level), rmid*sin(level), 0.0_wp, 0.0_wp]
+        else
+          call psec%state(rmid, pmid, x0(:, j), st)
+        end if
+      end if
     end do
-    call poincare_map(ball, angle, pth_sign, x0, n_iter, t_max, 1.0e-10_wp, pts, stat)
+    call poincare_map(model, psec, x0, n_iter, t_max, 1.0e-10_wp, pts, stat)
   end function c_poincare
 
   !> Frames per track of the synthetic experiment (include/tubes.h).
@@ -490,10 +578,10 @@ contains
   end function c_experiment_samples
 
   !> Synthetic tracking data (include/tubes.h, src/tubes_experiment.f90).
-  integer(c_int) function c_synthetic_experiment(model, e_e, n_tracks, duration, camera_rate, &
+  integer(c_int) function c_synthetic_experiment(params, e_e, n_tracks, duration, camera_rate, &
       pixel, noise, de_min, de_max, box, seed, rtol, ns, t, state, energy, noisy, measured, &
       release, c_damp, n_draws) result(stat) bind(C, name='tubes_synthetic_experiment')
-    real(c_double), intent(in) :: model(NMODEL)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
     real(c_double), value :: e_e, duration, camera_rate, pixel, noise, de_min, de_max, box, rtol
     integer(c_int), value :: n_tracks, seed, ns
     real(c_double), intent(out) :: t(max(ns, 0)), state(4, max(ns, 0), max(n_tracks, 0)), &
@@ -518,7 +606,7 @@ contains
     opts%seed = int(seed, c_long)
     opts%rtol = rtol
     opts%atol = rtol
-    call synthetic_experiment(model, opts, t, state, energy, noisy, measured, release, c_damp, &
+    call synthetic_experiment(params(1:NMODEL), opts, t, state, energy, noisy, measured, release, c_damp, &
                               n_draws, stat)
   end function c_synthetic_experiment
 

@@ -37,19 +37,38 @@ const nml_var tubes_nml_vars[] = {
      "scenes to run, in order"},
     {"run", "output", NML_STRING, 1, "-", "'tubes.h5'", "a writable path",
      "HDF5 output file (overridden by -o)"},
-    {"model", "alpha", NML_REAL, 1, "1/cm", "0.07", "> 0", "bowl curvature of H"},
-    {"model", "beta", NML_REAL, 1, "1", "1.017", ">= 0", "well depth coefficient of H"},
-    {"model", "gamma", NML_REAL, 1, "cm^2", "15.103", "> 0", "smoothing of H's ridges"},
-    {"model", "xi", NML_REAL, 1, "1/cm", "0.00656", "finite", "x-y coupling (tilt) of H"},
-    {"model", "h0", NML_REAL, 1, "cm", "12.065", "finite", "height offset of H"},
-    {"model", "g", NML_REAL, 1, "cm/s^2", "981", "> 0", "gravitational acceleration"},
+    {"model", "system", NML_STRING, 1, "-", "'rolling_ball'",
+     "rolling_ball, henon_heiles, de_leon_berne, coupled_quartic, cr3bp",
+     "the Hamiltonian system (docs/models.md); its parameters follow"},
+    {"model", "alpha", NML_REAL, 1, "1/cm", "0.07", "> 0",
+     "rolling_ball: bowl curvature of H; coupled_quartic (default 1): negative curvature of x"},
+    {"model", "beta", NML_REAL, 1, "1", "1.017", ">= 0",
+     "rolling_ball: well depth coefficient of H; coupled_quartic (default 1, > 0): quartic stiffness"},
+    {"model", "gamma", NML_REAL, 1, "cm^2", "15.103", "> 0", "rolling_ball: smoothing of H's ridges"},
+    {"model", "xi", NML_REAL, 1, "1/cm", "0.00656", "finite", "rolling_ball: x-y coupling (tilt) of H"},
+    {"model", "h0", NML_REAL, 1, "cm", "12.065", "finite", "rolling_ball: height offset of H"},
+    {"model", "g", NML_REAL, 1, "cm/s^2", "981", "> 0", "rolling_ball: gravitational acceleration"},
     {"model", "damping_ratio", NML_REAL, 1, "1", "0", "0 <= zeta < 1",
-     "viscous damping ratio zeta of the lowest well's slow mode (0 = conservative)"},
-    {"equilibria", "box", NML_REAL, 1, "cm", "20", "> 0",
-     "search box |x|, |y| <= box for critical points"},
-    {"equilibria", "n_grid", NML_INT, 1, "-", "41", "2 .. 2001", "Newton starts per axis"},
-    {"equilibria", "saddle", NML_STRING, 1, "-", "'S12'", "S12, S14, S23, S34",
-     "the rank-1 saddle the other scenes use"},
+     "rolling_ball: viscous damping ratio zeta of the lowest well's slow mode (0 = conservative)"},
+    {"model", "m_a", NML_REAL, 1, "1", "8 (de_leon_berne), 1 (coupled_quartic)", "> 0",
+     "de_leon_berne, coupled_quartic: mass of the x mode"},
+    {"model", "m_b", NML_REAL, 1, "1", "8 (de_leon_berne), 1 (coupled_quartic)", "> 0",
+     "de_leon_berne, coupled_quartic: mass of the y mode"},
+    {"model", "d", NML_REAL, 1, "1", "10", "finite", "de_leon_berne: dissociation energy D of the Morse oscillator"},
+    {"model", "lambda", NML_REAL, 1, "1", "1.5", "> 0", "de_leon_berne: range of the Morse oscillator"},
+    {"model", "zeta", NML_REAL, 1, "1", "1", "finite", "de_leon_berne: decay of the double well along x"},
+    {"model", "eps_s", NML_REAL, 1, "1", "1", "finite", "de_leon_berne: energy of the saddle"},
+    {"model", "omega", NML_REAL, 1, "1", "1", "finite", "coupled_quartic: stiffness of the y mode"},
+    {"model", "eps", NML_REAL, 1, "1", "0.1", "finite", "coupled_quartic: coupling of x and y"},
+    {"model", "mu", NML_REAL, 1, "1", "0.01215058560962404", "0 < mu <= 0.5",
+     "cr3bp: mass ratio m2/(m1 + m2) (Earth-Moon by default)"},
+    {"equilibria", "box", NML_REAL, TUBES_MAXDOF, "units of q", "the system's (20 cm for the ball)", "> 0",
+     "half-widths of the search box per coordinate (one value: every coordinate)"},
+    {"equilibria", "box_center", NML_REAL, TUBES_MAXDOF, "units of q", "the system's (0)", "finite",
+     "centre of the search box"},
+    {"equilibria", "n_grid", NML_INT, 1, "-", "41", "2 .. 2001, n_grid^N <= 1e6", "Newton starts per axis"},
+    {"equilibria", "saddle", NML_STRING, 1, "-", "'' (the &orbits choice)", "a rank-1 saddle's name",
+     "the rank-1 saddle the equilibria scene reports in /saddle"},
     {"trajectory", "x0", NML_REAL, 1, "cm", "4", "finite", "initial x"},
     {"trajectory", "y0", NML_REAL, 1, "cm", "12.614863819914357", "finite", "initial y"},
     {"trajectory", "px0", NML_REAL, 1, "cm/s", "0", "finite", "initial p_x (ignored if at_rest)"},
@@ -79,8 +98,11 @@ const nml_var tubes_nml_vars[] = {
     {"integrator", "omega_bind", NML_REAL, 1, "1/s", "200", "> 0", "tao*: binding constant of the extended phase space"},
     {"integrator", "solver", NML_STRING, 1, "-", "'newton'", "newton, fixed_point", "gauss*: stage equation solver"},
     {"integrator", "max_iter", NML_INT, 1, "-", "0", "0 .. 1000", "gauss*: iterations per step (0: 10 newton, 100 fixed_point)"},
-    {"orbits", "saddle", NML_STRING, 1, "-", "'S12'", "S12, S14, S23, S34",
-     "the rank-1 saddle whose Lyapunov family is computed"},
+    {"orbits", "saddle", NML_STRING, 1, "-", "the system's (S12 for the ball, L1 for cr3bp)",
+     "the name of a rank-1 saddle of the model (docs/models.md)",
+     "the rank-1 saddle of every scene that needs one"},
+    {"orbits", "saddle_near", NML_REAL, TUBES_MAXDOF, "units of q", "the system's (henon_heiles: 0, 1)",
+     "finite; not with saddle", "choose the rank-1 saddle nearest this configuration point instead"},
     {"orbits", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 10, 100", "> 0, increasing",
      "excess energies dE = E - E_e of the orbits"},
     {"orbits", "method", NML_STRING, 1, "-", "'single'", "single, multiple",
@@ -92,8 +114,16 @@ const nml_var tubes_nml_vars[] = {
     {"orbits", "atol", NML_REAL, 1, "state units", "1e-13", "> 0", "integration tolerance (absolute)"},
     {"orbits", "max_iter", NML_INT, 1, "-", "25", "1 .. 200", "Newton iterations per orbit"},
     {"orbits", "n_samples", NML_INT, 1, "-", "201", "2 .. 100000", "samples along each orbit in the output"},
-    {"section", "angle", NML_REAL, 1, "deg", "45", "0 < angle < 90", "the section's ray theta = angle (U1: 45)"},
-    {"section", "p_theta_sign", NML_INT, 1, "-", "1", "-1, 1", "branch: +1 p_theta > 0 (U1^-), -1 p_theta < 0 (U1^+)"},
+    {"section", "kind", NML_STRING, 1, "-", "the system's ('ray' for the ball)", "ray, plane",
+     "ray: the ball's polar ray theta = angle; plane: q_index = value (docs/tubes.md, Sections)"},
+    {"section", "angle", NML_REAL, 1, "deg", "45", "-360 .. 360", "kind = 'ray': the ray theta = angle (U1: 45)"},
+    {"section", "p_theta_sign", NML_INT, 1, "-", "1", "-1, 1",
+     "kind = 'ray': branch: +1 p_theta > 0 (U1^-), -1 p_theta < 0 (U1^+)"},
+    {"section", "index", NML_INT, 1, "-", "the system's", "1 .. N",
+     "kind = 'plane': the coordinate k of the plane q_k = value"},
+    {"section", "value", NML_REAL, 1, "units of q", "the system's", "finite", "kind = 'plane': the level c of q_k = c"},
+    {"section", "direction", NML_INT, 1, "-", "the system's", "-1, 1",
+     "kind = 'plane': the sign of dq_k/dt at the crossings"},
     {"tubes", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "10, 100", "> 0, increasing", "excess energies of the tube cuts"},
     {"tubes", "kind", NML_STRING, 1, "-", "'stable'", "stable, unstable, both", "which manifold"},
     {"tubes", "eps", NML_REAL, 1, "cm", "1e-6", "1e-10 .. 1e-2", "step-off from the orbit"},
@@ -108,7 +138,8 @@ const nml_var tubes_nml_vars[] = {
     {"montecarlo", "n_samples", NML_INT, 1, "-", "10000", "1 .. 10000000", "points on the section"},
     {"montecarlo", "seed", NML_INT, 1, "-", "12345", ">= 0", "seed of GSL's MT19937"},
     {"montecarlo", "t_max", NML_REAL, 1, "s", "20", "> 0", "longest integration of a point"},
-    {"montecarlo", "gate", NML_REAL, 1, "cm", "1.5", "> 0", "a point has transited when x < x_saddle - gate"},
+    {"montecarlo", "gate", NML_REAL, 1, "units of q", "the system's (1.5 cm for the ball)", "> 0",
+     "a point has transited when it is this far past the saddle along its reaction coordinate"},
     {"sections", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "100, 500", "> 0, increasing", "excess energies of the maps"},
     {"sections", "n_seeds", NML_INT, 1, "-", "40", "1 .. 100000", "trajectories per map"},
     {"sections", "n_iter", NML_INT, 1, "-", "300", "1 .. 1000000", "returns recorded per trajectory"},
@@ -132,7 +163,7 @@ const nml_var tubes_nml_vars[] = {
      "also write the tracks as CSV (track,t,x,y) to this file; '' = no CSV"},
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
-_Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 96, "nml_where holds 96 variables");
+_Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 192, "nml_where holds 192 variables");
 
 int tubes_method_code(const char *name) {
   static const char *names[] = {"dop853", "rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8",
@@ -394,6 +425,7 @@ static int line_of(const nml_where *w, const char *group, const char *name) {
   int i = var_index(group, name);
   return i >= 0 ? w->var_line[i] : 0;
 }
+int nml_line(const nml_where *w, const char *group, const char *name) { return line_of(w, group, name); }
 
 static int bad(const char *path, const nml_where *w, const char *group, const char *name,
                FILE *err, const char *fmt, double value) {
@@ -430,6 +462,137 @@ static int check_list(const char *path, const nml_where *w, const char *group, c
   return 0;
 }
 
+/* &model: the system exists, every &model variable set in the file is one of its parameters,
+ * and the parameters are in range (the library's constructor decides: src/tubes_models.f90). */
+static int validate_model(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
+  int ndof = 0, np = 0, si, sd;
+  static char names[TUBES_MAXPARAM * TUBES_LPARAM], units[TUBES_MAXPARAM * TUBES_LUNITS],
+      docs[TUBES_MAXPARAM * TUBES_LDOC];
+  char sys[TUBES_LSYSTEM] = "", summary[TUBES_LSUMMARY], lu[8], sad[8], sk[8];
+  double defs[TUBES_MAXPARAM], box[TUBES_MAXDOF], boxc[TUBES_MAXDOF], near[TUBES_MAXDOF], sv, sa, gate;
+  snprintf(sys, sizeof sys, "%s", c->system);
+  int ln = line_of(w, "model", "system");
+  if (!ln) ln = w->group_line[group_index("model")];
+  if (c->nparams < 0 || tubes_model_info(sys, &ndof, &np, names, defs, units, docs, summary, lu, box, boxc, sad,
+                                         near, sk, &si, &sv, &sd, &sa, &gate) < 0) {
+    fprintf(err, "%s:%d: &model: system = '%s' is not a built-in system: allowed ", path, ln, c->system);
+    char nm[TUBES_LSYSTEM];
+    for (int k = 0; tubes_model_system(k, nm) == TUBES_OK; k++) fprintf(err, "%s%s", k ? ", " : "", nm);
+    fprintf(err, " (docs/models.md)\n");
+    return 1;
+  }
+  int n = 0;
+  for (int i = 0; i < tubes_nml_nvars; i++) {
+    const nml_var *v = &tubes_nml_vars[i];
+    if (strcmp(v->group, "model") || !strcmp(v->name, "system") || !w->var_line[i]) continue;
+    int mine = 0;
+    for (int k = 0; k < np; k++) mine |= !strcmp(names + TUBES_LPARAM * k, v->name);
+    if (mine) continue;
+    fprintf(err, "%s:%d: &model: %s is not a parameter of system '%s' (its parameters: ", path,
+            w->var_line[i], v->name, sys);
+    for (int k = 0; k < np; k++) fprintf(err, "%s%s", k ? ", " : "", names + TUBES_LPARAM * k);
+    fprintf(err, "%s)\n", np ? "" : "none");
+    n++;
+  }
+  if (n) return n;
+  for (int k = 0; k < np; k++)
+    if (!isfinite(c->params[k])) {
+      n += bad(path, w, "model", names + TUBES_LPARAM * k, err, "must be finite", c->params[k]);
+    }
+  if (n) return n;
+  if (!strcmp(sys, "rolling_ball")) {
+    if (!(c->alpha > 0)) n += bad(path, w, "model", "alpha", err, "", c->alpha);
+    if (!(c->beta >= 0)) n += bad(path, w, "model", "beta", err, "", c->beta);
+    if (!(c->gamma > 0)) n += bad(path, w, "model", "gamma", err, "", c->gamma);
+    if (!(c->g > 0)) n += bad(path, w, "model", "g", err, "", c->g);
+    if (!(c->damping_ratio >= 0 && c->damping_ratio < 1))
+      n += bad(path, w, "model", "damping_ratio", err, "", c->damping_ratio);
+    if (n) return n;
+  }
+  int natural = 0;
+  if (tubes_model_natural(sys, c->params, &natural) < 0) {
+    fprintf(err, "%s:%d: &model: the parameters of system '%s' are out of range:", path, ln, sys);
+    for (int k = 0; k < np; k++)
+      fprintf(err, "%s %s = %.17g (%s)", k ? "," : "", names + TUBES_LPARAM * k, c->params[k], docs + TUBES_LDOC * k);
+    fputc('\n', err);
+    return 1;
+  }
+  return 0;
+}
+
+static int scene_requested(const tubes_config_t *c, const char *name) {
+  for (int k = 0; k < TUBES_NSCENES; k++)
+    if (!strcmp(c->scenes[k], name)) return 1;
+  return 0;
+}
+
+/* &equilibria box, &orbits saddle / saddle_near, &section for the chosen system. */
+static int validate_geometry(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
+  int n = 0, nd = c->ndof;
+  for (int k = 0; k < nd; k++) {
+    if (!(c->box_list[k] > 0 && c->box_list[k] < DBL_MAX))
+      n += bad(path, w, "equilibria", "box", err, "every half-width must be > 0", c->box_list[k]);
+    if (!isfinite(c->box_center[k])) n += bad(path, w, "equilibria", "box_center", err, "", c->box_center[k]);
+  }
+  if (!(c->n_grid >= 2 && c->n_grid <= 2001 && pow(c->n_grid, nd) <= 1e6))
+    n += bad(path, w, "equilibria", "n_grid", err, "n_grid^N Newton starts at most 1e6", c->n_grid);
+  if (line_of(w, "orbits", "saddle") && line_of(w, "orbits", "saddle_near")) {
+    fprintf(err, "%s:%d: &orbits: saddle and saddle_near are both set: choose the saddle by name or by "
+            "position, not both\n", path, line_of(w, "orbits", "saddle_near"));
+    n++;
+  }
+  if (strlen(c->orb_saddle) > 7) n += bad_string(path, w, "orbits", "saddle", c->orb_saddle, err);
+  for (int k = 0; k < nd; k++)
+    if (c->orb_use_near && !isfinite(c->orb_saddle_near[k]))
+      n += bad(path, w, "orbits", "saddle_near", err, "", c->orb_saddle_near[k]);
+  int need_section = scene_requested(c, "tubes") || scene_requested(c, "transition") ||
+                     scene_requested(c, "montecarlo") || scene_requested(c, "sections");
+  int set_ray = line_of(w, "section", "angle") || line_of(w, "section", "p_theta_sign");
+  int set_plane = line_of(w, "section", "index") || line_of(w, "section", "value") ||
+                  line_of(w, "section", "direction");
+  int gl = w->group_line[group_index("section")];
+  if (!c->sec_kind[0]) {
+    if (need_section) {
+      fprintf(err, "%s: &section: system '%s' has no default section; set kind = 'plane', index, value "
+              "and direction (docs/tubes.md, Sections)\n", path, c->system);
+      n++;
+    }
+  } else if (!strcmp(c->sec_kind, "ray")) {
+    if (strcmp(c->system, "rolling_ball")) {
+      fprintf(err, "%s:%d: &section: kind = 'ray' is the four-well ball's polar section; system '%s' takes "
+              "kind = 'plane' (index, value, direction)\n", path, line_of(w, "section", "kind") ? line_of(w, "section", "kind") : gl,
+              c->system);
+      n++;
+    } else if (set_plane) {
+      fprintf(err, "%s:%d: &section: index, value and direction belong to kind = 'plane'; kind = 'ray' takes "
+              "angle and p_theta_sign\n", path, gl);
+      n++;
+    }
+    if (!(c->sec_angle >= -360 && c->sec_angle <= 360)) n += bad(path, w, "section", "angle", err, "", c->sec_angle);
+    if (c->sec_pth_sign != 1 && c->sec_pth_sign != -1)
+      n += bad(path, w, "section", "p_theta_sign", err, "", c->sec_pth_sign);
+  } else if (!strcmp(c->sec_kind, "plane")) {
+    if (set_ray) {
+      fprintf(err, "%s:%d: &section: angle and p_theta_sign belong to kind = 'ray'; kind = 'plane' takes "
+              "index, value and direction\n", path, gl);
+      n++;
+    }
+    if (!(c->sec_index >= 1 && c->sec_index <= nd)) {
+      int ln = line_of(w, "section", "index");
+      fprintf(err, "%s:%d: &section: index = %d is out of range: allowed 1 .. %d (the coordinates of system "
+              "'%s')\n", path, ln ? ln : gl, c->sec_index, nd, c->system);
+      n++;
+    }
+    if (!(c->sec_direction == 1 || c->sec_direction == -1))
+      n += bad(path, w, "section", "direction", err, "", c->sec_direction);
+    if (!isfinite(c->sec_value) || c->sec_value == -DBL_MAX)
+      n += bad(path, w, "section", "value", err, "", c->sec_value);
+  } else {
+    n += bad_string(path, w, "section", "kind", c->sec_kind, err);
+  }
+  return n;
+}
+
 int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int n = 0, nscenes = 0;
   for (int k = 0; k < TUBES_NSCENES; k++) {
@@ -447,20 +610,9 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
     n++;
   }
   if (!c->output[0]) n += bad_string(path, w, "run", "output", "", err);
-  if (!(c->alpha > 0)) n += bad(path, w, "model", "alpha", err, "", c->alpha);
-  if (!(c->beta >= 0)) n += bad(path, w, "model", "beta", err, "", c->beta);
-  if (!(c->gamma > 0)) n += bad(path, w, "model", "gamma", err, "", c->gamma);
-  if (!(c->g > 0)) n += bad(path, w, "model", "g", err, "", c->g);
-  if (!(c->damping_ratio >= 0 && c->damping_ratio < 1))
-    n += bad(path, w, "model", "damping_ratio", err, "", c->damping_ratio);
-  if (!(c->box > 0)) n += bad(path, w, "equilibria", "box", err, "", c->box);
-  if (!(c->n_grid >= 2 && c->n_grid <= 2001)) n += bad(path, w, "equilibria", "n_grid", err, "", c->n_grid);
-  {
-    const char *ok[] = {"S12", "S14", "S23", "S34"};
-    int found = 0;
-    for (int j = 0; j < 4; j++) found |= strcmp(c->saddle, ok[j]) == 0;
-    if (!found) n += bad_string(path, w, "equilibria", "saddle", c->saddle, err);
-  }
+  int nm = validate_model(path, c, w, err);
+  n += nm;
+  if (!nm && c->nparams >= 0) n += validate_geometry(path, c, w, err);
   if (!(c->t_end >= 0)) n += bad(path, w, "trajectory", "t_end", err, "", c->t_end);
   if (!(c->dt_out > 0)) n += bad(path, w, "trajectory", "dt_out", err, "", c->dt_out);
   else if (c->t_end / c->dt_out > 5.0e7)
@@ -489,12 +641,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->atol > 0)) n += bad(path, w, "integrator", "atol", err, "", c->atol);
   if (!(c->h >= 0)) n += bad(path, w, "integrator", "h", err, "", c->h);
   if (!(c->max_steps >= 1)) n += bad(path, w, "integrator", "max_steps", err, "", (double)c->max_steps);
-  {
-    const char *ok[] = {"S12", "S14", "S23", "S34"};
-    int found = 0;
-    for (int j = 0; j < 4; j++) found |= strcmp(c->orb_saddle, ok[j]) == 0;
-    if (!found) n += bad_string(path, w, "orbits", "saddle", c->orb_saddle, err);
-  }
   for (int k = 0; k < c->orb_nde; k++) {
     if (!(c->orb_de[k] > 0)) {
       n += bad(path, w, "orbits", "de", err, "every dE must be > 0", c->orb_de[k]);
@@ -521,9 +667,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->orb_max_iter >= 1 && c->orb_max_iter <= 200)) n += bad(path, w, "orbits", "max_iter", err, "", c->orb_max_iter);
   if (!(c->orb_n_samples >= 2 && c->orb_n_samples <= 100000))
     n += bad(path, w, "orbits", "n_samples", err, "", c->orb_n_samples);
-  if (!(c->sec_angle > 0 && c->sec_angle < 90)) n += bad(path, w, "section", "angle", err, "", c->sec_angle);
-  if (c->sec_pth_sign != 1 && c->sec_pth_sign != -1)
-    n += bad(path, w, "section", "p_theta_sign", err, "", c->sec_pth_sign);
   n += check_list(path, w, "tubes", c->tub_de, c->tub_nde, err);
   n += check_list(path, w, "transition", c->tra_de, c->tra_nde, err);
   n += check_list(path, w, "sections", c->pm_de, c->pm_nde, err);
@@ -539,7 +682,8 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->mc_n_samples >= 1 && c->mc_n_samples <= 10000000)) n += bad(path, w, "montecarlo", "n_samples", err, "", c->mc_n_samples);
   if (!(c->mc_seed >= 0)) n += bad(path, w, "montecarlo", "seed", err, "", c->mc_seed);
   if (!(c->mc_t_max > 0)) n += bad(path, w, "montecarlo", "t_max", err, "", c->mc_t_max);
-  if (!(c->mc_gate > 0)) n += bad(path, w, "montecarlo", "gate", err, "", c->mc_gate);
+  if (c->nparams >= 0 && !(c->mc_gate > 0 && c->mc_gate < DBL_MAX))
+    n += bad(path, w, "montecarlo", "gate", err, "", c->mc_gate);
   if (!(c->pm_n_seeds >= 1 && c->pm_n_seeds <= 100000)) n += bad(path, w, "sections", "n_seeds", err, "", c->pm_n_seeds);
   if (!(c->pm_n_iter >= 1 && c->pm_n_iter <= 1000000)) n += bad(path, w, "sections", "n_iter", err, "", c->pm_n_iter);
   if (!(c->pm_t_max > 0)) n += bad(path, w, "sections", "t_max", err, "", c->pm_t_max);

@@ -166,6 +166,18 @@ static int run_main(int argc, char **argv) {
     return 0;
   }
 
+  /* the model, the box and the saddle (a saddle that does not exist is bad input): before the
+   * output file exists, so that a refused run leaves none */
+  static tubes_run_t run;
+  run.cfg = &cfg;
+  run.input = input;
+  run.eq_saddle_line = nml_line(&where, "equilibria", "saddle");
+  run.orb_saddle_line = nml_line(&where, "orbits", "saddle");
+  run.rank = g_rank;
+  run.nranks = g_nranks;
+  int setup = agree(run_setup(&run));
+  if (setup) return setup;
+
   char *tmp = g_tmp;
   hid_t f = g_rank == 0 ? h5_create_tmp(cfg.output, tmp, sizeof g_tmp) : h5_create_scratch();
   if (agree(f < 0 ? EXIT_IO : 0) == EXIT_IO) {
@@ -205,8 +217,7 @@ static int run_main(int argc, char **argv) {
     return EXIT_IO;
   }
 
-  tubes_run_t run = {&cfg, {cfg.alpha, cfg.beta, cfg.gamma, cfg.xi, cfg.h0, cfg.g, cfg.damping_ratio}, f,
-                     g_rank, g_nranks};
+  run.file = f;
   int status = agree(scene_model(&run));
   for (int k = 0; k < TUBES_NSCENES && status != EXIT_IO; k++) {
     const char *s = cfg.scenes[k];

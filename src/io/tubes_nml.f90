@@ -4,6 +4,7 @@
 module tubes_nml
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_int64_t, c_null_char
   use, intrinsic :: iso_fortran_env, only: iostat_end
+  use tubes_models, only: system_info_t, system_info, MAX_PARAMS, MAX_DOF
   implicit none
   private
 
@@ -13,6 +14,8 @@ module tubes_nml
   integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32, MAXDE = 256
   !> An unset entry of a list (dE): any value a user cannot mean.
   real(c_double), parameter :: UNSET = -huge(1.0_c_double)
+  !> An unset integer (&section index, direction, p_theta_sign): 0 is a value a user can mean.
+  integer, parameter :: UNSET_INT = -huge(1)
 
   !> Mirror of tubes_config_t in include/tubes.h (same order, C layout).
   type, bind(C), public :: tubes_config_t
@@ -58,6 +61,15 @@ module tubes_nml
     real(c_double) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
                       exp_de_max, exp_damping_ratio
     character(kind=c_char) :: exp_csv(LPATH)
+    ! the any-Hamiltonian additions (docs/input.md); the resolved values follow
+    character(kind=c_char) :: system(LNAME)
+    real(c_double) :: m_a, m_b, d, lambda, zeta, eps_s, omega, eps, mu
+    real(c_double) :: box_list(MAX_DOF), box_center(MAX_DOF), orb_saddle_near(MAX_DOF)
+    character(kind=c_char) :: sec_kind(LNAME)
+    integer(c_int) :: sec_index, sec_direction
+    real(c_double) :: sec_value
+    integer(c_int) :: ndof, nparams, orb_use_near
+    real(c_double) :: params(MAX_PARAMS), box_lo(MAX_DOF), box_hi(MAX_DOF)
   end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved).
@@ -102,6 +114,12 @@ module tubes_nml
     real(c_double) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
                       exp_de_max, exp_damping_ratio
     character(LPATH) :: exp_csv
+    character(LNAME) :: system
+    real(c_double) :: m_a, m_b, d, lambda, zeta, eps_s, omega, eps, mu
+    real(c_double) :: box_list(MAX_DOF), box_center(MAX_DOF), orb_saddle_near(MAX_DOF)
+    character(LNAME) :: sec_kind
+    integer :: sec_index, sec_direction
+    real(c_double) :: sec_value
   end type vars_t
 
 contains
@@ -111,16 +129,16 @@ contains
     v%scenes = ''
     v%scenes(1) = 'equilibria'
     v%output = 'tubes.h5'
-    v%alpha = 0.07_c_double
-    v%beta = 1.017_c_double
-    v%gamma = 15.103_c_double
-    v%xi = 0.00656_c_double
-    v%h0 = 12.065_c_double
-    v%g = 981.0_c_double
-    v%damping_ratio = 0
-    v%box = 20
+    v%system = 'rolling_ball'
+    v%alpha = UNSET; v%beta = UNSET; v%gamma = UNSET; v%xi = UNSET; v%h0 = UNSET; v%g = UNSET
+    v%damping_ratio = UNSET
+    v%m_a = UNSET; v%m_b = UNSET; v%d = UNSET; v%lambda = UNSET; v%zeta = UNSET; v%eps_s = UNSET
+    v%omega = UNSET; v%eps = UNSET; v%mu = UNSET
+    v%box = 0
+    v%box_list = UNSET
+    v%box_center = UNSET
     v%n_grid = 41
-    v%saddle = 'S12'
+    v%saddle = ''
     v%x0 = 4
     v%y0 = 12.614863819914357_c_double
     v%px0 = 0
@@ -142,7 +160,8 @@ contains
     v%omega_bind = 200
     v%solver = 'newton'
     v%max_iter = 0
-    v%orb_saddle = 'S12'
+    v%orb_saddle = ''
+    v%orb_saddle_near = UNSET
     v%orb_de = UNSET
     v%orb_method = 'single'
     v%orb_n_segments = 8
@@ -151,8 +170,12 @@ contains
     v%orb_tol = 1.0e-11_c_double
     v%orb_rtol = 1.0e-13_c_double
     v%orb_atol = 1.0e-13_c_double
-    v%sec_angle = 45
-    v%sec_pth_sign = 1
+    v%sec_angle = UNSET
+    v%sec_pth_sign = UNSET_INT
+    v%sec_kind = ''
+    v%sec_index = UNSET_INT
+    v%sec_value = UNSET
+    v%sec_direction = UNSET_INT
     v%tub_de = UNSET
     v%tub_kind = 'stable'
     v%tub_eps = 1.0e-6_c_double
@@ -164,7 +187,7 @@ contains
     v%tra_area_tol = 1.0e-8_c_double
     v%mc_de = 100
     v%mc_t_max = 20
-    v%mc_gate = 1.5_c_double
+    v%mc_gate = UNSET
     v%mc_n_samples = 10000
     v%mc_seed = 12345
     v%pm_de = UNSET
@@ -191,9 +214,7 @@ contains
       call put(v%scenes(k), cfg%scenes(:, k))
     end do
     call put(v%output, cfg%output)
-    cfg%alpha = v%alpha; cfg%beta = v%beta; cfg%gamma = v%gamma; cfg%xi = v%xi
-    cfg%h0 = v%h0; cfg%g = v%g; cfg%damping_ratio = v%damping_ratio
-    cfg%box = v%box; cfg%n_grid = v%n_grid
+    cfg%n_grid = v%n_grid
     call put(v%saddle, cfg%saddle)
     cfg%x0 = v%x0; cfg%y0 = v%y0; cfg%px0 = v%px0; cfg%py0 = v%py0
     cfg%t_end = v%t_end; cfg%dt_out = v%dt_out
@@ -217,7 +238,6 @@ contains
     cfg%orb_n_segments = v%orb_n_segments; cfg%orb_max_iter = v%orb_max_iter
     cfg%orb_n_samples = v%orb_n_samples
     cfg%orb_tol = v%orb_tol; cfg%orb_rtol = v%orb_rtol; cfg%orb_atol = v%orb_atol
-    cfg%sec_angle = v%sec_angle; cfg%sec_pth_sign = v%sec_pth_sign
     call put_list(v%tub_de, cfg%tub_de, cfg%tub_nde, [10.0_c_double, 100.0_c_double])
     call put(v%tub_kind, cfg%tub_kind)
     cfg%tub_eps = v%tub_eps; cfg%tub_area_tol = v%tub_area_tol; cfg%tub_t_max = v%tub_t_max
@@ -226,7 +246,7 @@ contains
       10.0_c_double, 20.0_c_double, 50.0_c_double, 100.0_c_double, 200.0_c_double, 300.0_c_double, &
       400.0_c_double, 500.0_c_double, 600.0_c_double, 700.0_c_double, 750.0_c_double])
     cfg%tra_area_tol = v%tra_area_tol
-    cfg%mc_de = v%mc_de; cfg%mc_t_max = v%mc_t_max; cfg%mc_gate = v%mc_gate
+    cfg%mc_de = v%mc_de; cfg%mc_t_max = v%mc_t_max
     cfg%mc_n_samples = v%mc_n_samples; cfg%mc_seed = v%mc_seed
     call put_list(v%pm_de, cfg%pm_de, cfg%pm_nde, [100.0_c_double, 500.0_c_double])
     cfg%pm_n_seeds = v%pm_n_seeds; cfg%pm_n_iter = v%pm_n_iter; cfg%pm_t_max = v%pm_t_max
@@ -236,7 +256,162 @@ contains
     cfg%exp_de_min = v%exp_de_min; cfg%exp_de_max = v%exp_de_max
     cfg%exp_damping_ratio = v%exp_damping_ratio
     call put(v%exp_csv, cfg%exp_csv)
+    call resolve(v, cfg)          ! last: it fills the effective values of the fields above
   end subroutine to_c
+
+  !> The value of &model variable `name` in v (UNSET if not set in the file).
+  pure real(c_double) function model_var(v, name) result(x)
+    type(vars_t), intent(in) :: v
+    character(*), intent(in) :: name
+    select case (name)
+    case ('alpha'); x = v%alpha
+    case ('beta'); x = v%beta
+    case ('gamma'); x = v%gamma
+    case ('xi'); x = v%xi
+    case ('h0'); x = v%h0
+    case ('g'); x = v%g
+    case ('damping_ratio'); x = v%damping_ratio
+    case ('m_a'); x = v%m_a
+    case ('m_b'); x = v%m_b
+    case ('d'); x = v%d
+    case ('lambda'); x = v%lambda
+    case ('zeta'); x = v%zeta
+    case ('eps_s'); x = v%eps_s
+    case ('omega'); x = v%omega
+    case ('eps'); x = v%eps
+    case ('mu'); x = v%mu
+    case default; x = UNSET
+    end select
+  end function model_var
+
+  !> v's &model variables: the system's parameters with their effective values (cfg%params),
+  !> the others unset (the effective namelist writes the system's parameters only).
+  subroutine effective_model(cfg, v)
+    type(tubes_config_t), intent(in) :: cfg
+    type(vars_t), intent(inout) :: v
+    type(system_info_t) :: info
+    integer :: st, k
+    v%alpha = UNSET; v%beta = UNSET; v%gamma = UNSET; v%xi = UNSET; v%h0 = UNSET; v%g = UNSET
+    v%damping_ratio = UNSET
+    v%m_a = UNSET; v%m_b = UNSET; v%d = UNSET; v%lambda = UNSET; v%zeta = UNSET; v%eps_s = UNSET
+    v%omega = UNSET; v%eps = UNSET; v%mu = UNSET
+    call system_info(trim(v%system), info, st)
+    if (st /= 0) return
+    do k = 1, info%np
+      select case (trim(info%params(k)%name))
+      case ('alpha'); v%alpha = cfg%params(k)
+      case ('beta'); v%beta = cfg%params(k)
+      case ('gamma'); v%gamma = cfg%params(k)
+      case ('xi'); v%xi = cfg%params(k)
+      case ('h0'); v%h0 = cfg%params(k)
+      case ('g'); v%g = cfg%params(k)
+      case ('damping_ratio'); v%damping_ratio = cfg%params(k)
+      case ('m_a'); v%m_a = cfg%params(k)
+      case ('m_b'); v%m_b = cfg%params(k)
+      case ('d'); v%d = cfg%params(k)
+      case ('lambda'); v%lambda = cfg%params(k)
+      case ('zeta'); v%zeta = cfg%params(k)
+      case ('eps_s'); v%eps_s = cfg%params(k)
+      case ('omega'); v%omega = cfg%params(k)
+      case ('eps'); v%eps = cfg%params(k)
+      case ('mu'); v%mu = cfg%params(k)
+      end select
+    end do
+  end subroutine effective_model
+
+  !> The effective model, box, saddle, section and gate: the file's values, else the system's
+  !> defaults from the library's table (src/tubes_models.f90). An unknown system leaves
+  !> nparams = -1 (nml_validate reports it).
+  subroutine resolve(v, cfg)
+    type(vars_t), intent(in) :: v
+    type(tubes_config_t), intent(inout) :: cfg
+    type(system_info_t) :: info
+    integer :: st, k, nd
+    real(c_double) :: x, half(MAX_DOF), centre(MAX_DOF)
+    call put(v%system, cfg%system)
+    cfg%alpha = v%alpha; cfg%beta = v%beta; cfg%gamma = v%gamma; cfg%xi = v%xi
+    cfg%h0 = v%h0; cfg%g = v%g; cfg%damping_ratio = v%damping_ratio
+    cfg%m_a = v%m_a; cfg%m_b = v%m_b; cfg%d = v%d; cfg%lambda = v%lambda; cfg%zeta = v%zeta
+    cfg%eps_s = v%eps_s; cfg%omega = v%omega; cfg%eps = v%eps; cfg%mu = v%mu
+    cfg%box_list = v%box_list
+    cfg%box_center = v%box_center
+    cfg%orb_saddle_near = v%orb_saddle_near
+    cfg%params = 0
+    cfg%box_lo = 0
+    cfg%box_hi = 0
+    cfg%box = 0
+    cfg%orb_use_near = 0
+    cfg%sec_angle = v%sec_angle; cfg%sec_pth_sign = v%sec_pth_sign
+    call put(v%sec_kind, cfg%sec_kind)
+    cfg%sec_index = v%sec_index; cfg%sec_value = v%sec_value; cfg%sec_direction = v%sec_direction
+    cfg%mc_gate = v%mc_gate
+    call system_info(trim(v%system), info, st)
+    if (st /= 0) then
+      cfg%nparams = -1
+      cfg%ndof = 0
+      return
+    end if
+    cfg%nparams = info%np
+    cfg%ndof = info%ndof
+    nd = info%ndof
+    do k = 1, info%np
+      x = model_var(v, trim(info%params(k)%name))
+      if (x == UNSET) x = info%params(k)%default
+      cfg%params(k) = x
+    end do
+    if (trim(v%system) == 'rolling_ball') then      ! the scenes still read these by name
+      cfg%alpha = cfg%params(1); cfg%beta = cfg%params(2); cfg%gamma = cfg%params(3)
+      cfg%xi = cfg%params(4); cfg%h0 = cfg%params(5); cfg%g = cfg%params(6)
+      cfg%damping_ratio = cfg%params(7)
+    else
+      cfg%damping_ratio = 0
+    end if
+    ! the box: one value = every coordinate
+    half = info%box
+    if (v%box_list(1) /= UNSET) then
+      half = v%box_list(1)
+      do k = 2, MAX_DOF
+        if (v%box_list(k) /= UNSET) half(k) = v%box_list(k)
+      end do
+    end if
+    centre = info%box_center
+    do k = 1, MAX_DOF
+      if (v%box_center(k) /= UNSET) centre(k) = v%box_center(k)
+    end do
+    cfg%box_lo(1:nd) = centre(1:nd) - half(1:nd)
+    cfg%box_hi(1:nd) = centre(1:nd) + half(1:nd)
+    cfg%box_list = 0
+    cfg%box_list(1:nd) = half(1:nd)
+    cfg%box_center = 0
+    cfg%box_center(1:nd) = centre(1:nd)
+    cfg%box = half(1)
+    ! the saddle: by name, by position, or the system's default
+    if (len_trim(v%orb_saddle) == 0 .and. v%orb_saddle_near(1) == UNSET) then
+      if (len_trim(info%saddle) > 0) then
+        call put(info%saddle, cfg%orb_saddle)
+      else
+        cfg%orb_use_near = 1
+        cfg%orb_saddle_near = 0
+        cfg%orb_saddle_near(1:nd) = info%saddle_near(1:nd)
+      end if
+    else if (v%orb_saddle_near(1) /= UNSET) then
+      cfg%orb_use_near = 1
+      where (cfg%orb_saddle_near == UNSET) cfg%orb_saddle_near = 0
+    end if
+    ! the section
+    if (len_trim(v%sec_kind) == 0) call put(info%section_kind, cfg%sec_kind)
+    if (get(cfg%sec_kind) == 'ray') then
+      if (v%sec_angle == UNSET) cfg%sec_angle = info%section_angle
+      if (v%sec_angle == UNSET .and. info%section_angle == 0) cfg%sec_angle = 45
+      if (v%sec_pth_sign == UNSET_INT) cfg%sec_pth_sign = merge(info%section_direction, 1, &
+                                                               info%section_direction /= 0)
+    else
+      if (v%sec_index == UNSET_INT) cfg%sec_index = info%section_index
+      if (v%sec_value == UNSET) cfg%sec_value = info%section_value
+      if (v%sec_direction == UNSET_INT) cfg%sec_direction = info%section_direction
+    end if
+    if (v%mc_gate == UNSET) cfg%mc_gate = info%gate
+  end subroutine resolve
 
   !> A list with unset entries: its default when none is set.
   pure subroutine put_list(a, c, n, dflt)
@@ -259,9 +434,18 @@ contains
       v%scenes(k) = get(cfg%scenes(:, k))
     end do
     v%output = get(cfg%output)
+    v%system = get(cfg%system)
     v%alpha = cfg%alpha; v%beta = cfg%beta; v%gamma = cfg%gamma; v%xi = cfg%xi
     v%h0 = cfg%h0; v%g = cfg%g; v%damping_ratio = cfg%damping_ratio
+    v%m_a = cfg%m_a; v%m_b = cfg%m_b; v%d = cfg%d; v%lambda = cfg%lambda; v%zeta = cfg%zeta
+    v%eps_s = cfg%eps_s; v%omega = cfg%omega; v%eps = cfg%eps; v%mu = cfg%mu
     v%box = cfg%box; v%n_grid = cfg%n_grid
+    v%box_list = cfg%box_list
+    v%box_center = cfg%box_center
+    v%orb_saddle_near = cfg%orb_saddle_near
+    v%sec_kind = get(cfg%sec_kind)
+    v%sec_index = cfg%sec_index; v%sec_value = cfg%sec_value; v%sec_direction = cfg%sec_direction
+    call effective_model(cfg, v)
     v%saddle = get(cfg%saddle)
     v%x0 = cfg%x0; v%y0 = cfg%y0; v%px0 = cfg%px0; v%py0 = cfg%py0
     v%t_end = cfg%t_end; v%dt_out = cfg%dt_out
@@ -383,30 +567,68 @@ contains
       end if
     end subroutine io_run
     subroutine io_model()
-      real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio
-      namelist /model/ alpha, beta, gamma, xi, h0, g, damping_ratio
+      character(LNAME) :: system
+      real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, m_a, m_b, d, lambda, zeta, &
+                        eps_s, omega, eps, mu
+      namelist /model/ system, alpha, beta, gamma, xi, h0, g, damping_ratio, m_a, m_b, d, lambda, &
+        zeta, eps_s, omega, eps, mu
+      system = v%system
       alpha = v%alpha; beta = v%beta; gamma = v%gamma; xi = v%xi; h0 = v%h0; g = v%g
-      damping_ratio = v%damping_ratio
+      damping_ratio = v%damping_ratio; m_a = v%m_a; m_b = v%m_b; d = v%d; lambda = v%lambda
+      zeta = v%zeta; eps_s = v%eps_s; omega = v%omega; eps = v%eps; mu = v%mu
       if (mode == 'r') then
         read (u, nml=model, iostat=ios, iomsg=iomsg)
+        v%system = system
+        v%alpha = alpha; v%beta = beta; v%gamma = gamma; v%xi = xi; v%h0 = h0; v%g = g
+        v%damping_ratio = damping_ratio; v%m_a = m_a; v%m_b = m_b; v%d = d; v%lambda = lambda
+        v%zeta = zeta; v%eps_s = eps_s; v%omega = omega; v%eps = eps; v%mu = mu
       else
-        write (u, nml=model, iostat=ios, iomsg=iomsg)
+        call write_model()
       end if
-      v%alpha = alpha; v%beta = beta; v%gamma = gamma; v%xi = xi; v%h0 = h0; v%g = g
-      v%damping_ratio = damping_ratio
     end subroutine io_model
+    !> The effective &model: the system and its own parameters only (the namelist WRITE of the
+    !> whole group would print the other systems' unset variables).
+    subroutine write_model()
+      type(system_info_t) :: info
+      integer :: k, st
+      character(64) :: num
+      write (u, '(a)', iostat=ios) '&MODEL'
+      write (u, '(a)', iostat=ios) ' SYSTEM=''' // trim(v%system) // ''','
+      call system_info(trim(v%system), info, st)
+      if (st /= 0) info%np = 0
+      do k = 1, info%np
+        write (num, '(es24.16e3)') model_var(v, trim(info%params(k)%name))
+        write (u, '(a)', iostat=ios) ' ' // trim(upper(info%params(k)%name)) // '=' // trim(adjustl(num)) // ','
+      end do
+      write (u, '(a)', iostat=ios) ' /'
+    end subroutine write_model
+    pure function upper(a) result(b)
+      character(*), intent(in) :: a
+      character(len(a)) :: b
+      integer :: i
+      b = a
+      do i = 1, len(a)
+        if (a(i:i) >= 'a' .and. a(i:i) <= 'z') b(i:i) = achar(iachar(a(i:i)) - 32)
+      end do
+    end function upper
     subroutine io_equilibria()
-      real(c_double) :: box
+      real(c_double), allocatable :: box(:), box_center(:)
       integer :: n_grid
       character(8) :: saddle
-      namelist /equilibria/ box, n_grid, saddle
-      box = v%box; n_grid = v%n_grid; saddle = v%saddle
+      namelist /equilibria/ box, box_center, n_grid, saddle
+      n_grid = v%n_grid; saddle = v%saddle
       if (mode == 'r') then
+        box = v%box_list
+        box_center = v%box_center
         read (u, nml=equilibria, iostat=ios, iomsg=iomsg)
+        v%box_list = box
+        v%box_center = box_center
       else
+        call list_io(v%box_list, box)
+        call list_io(v%box_center, box_center)
         write (u, nml=equilibria, iostat=ios, iomsg=iomsg)
       end if
-      v%box = box; v%n_grid = n_grid; v%saddle = saddle
+      v%n_grid = n_grid; v%saddle = saddle
     end subroutine io_equilibria
     subroutine io_trajectory()
       real(c_double) :: x0, y0, px0, py0, t_end, dt_out, section_angle, section_level
@@ -453,8 +675,11 @@ contains
       character(LNAME) :: method
       integer :: n_segments, max_iter, n_samples, m
       real(c_double) :: tol, rtol, atol
-      namelist /orbits/ saddle, de, method, n_segments, tol, rtol, atol, max_iter, n_samples
+      real(c_double), allocatable :: saddle_near(:)
+      namelist /orbits/ saddle, saddle_near, de, method, n_segments, tol, rtol, atol, max_iter, &
+        n_samples
       saddle = v%orb_saddle; method = v%orb_method; n_segments = v%orb_n_segments
+      call list_io(v%orb_saddle_near, saddle_near)
       tol = v%orb_tol; rtol = v%orb_rtol; atol = v%orb_atol; max_iter = v%orb_max_iter
       n_samples = v%orb_n_samples
       if (mode == 'r') then
@@ -462,6 +687,7 @@ contains
         de = v%orb_de
         read (u, nml=orbits, iostat=ios, iomsg=iomsg)
         v%orb_de = de
+        v%orb_saddle_near = saddle_near
       else
         m = count(v%orb_de /= UNSET)
         allocate (de(max(m, 1)))
@@ -488,16 +714,27 @@ contains
       end if
     end subroutine list_io
     subroutine io_section()
-      real(c_double) :: angle
-      integer :: p_theta_sign
-      namelist /section/ angle, p_theta_sign
-      angle = v%sec_angle; p_theta_sign = v%sec_pth_sign
+      real(c_double) :: angle, value
+      integer :: p_theta_sign, index, direction
+      character(LNAME) :: kind
+      namelist /section/ kind, angle, p_theta_sign, index, value, direction
+      angle = v%sec_angle; p_theta_sign = v%sec_pth_sign; kind = v%sec_kind
+      index = v%sec_index; value = v%sec_value; direction = v%sec_direction
       if (mode == 'r') then
         read (u, nml=section, iostat=ios, iomsg=iomsg)
+      else if (trim(kind) == 'ray') then
+        write (u, '(a)', iostat=ios) '&SECTION'
+        write (u, '(a,es24.16e3,a,i0,a)', iostat=ios) " KIND='ray', ANGLE=", angle, &
+          ', P_THETA_SIGN=', p_theta_sign, ','
+        write (u, '(a)', iostat=ios) ' /'
       else
-        write (u, nml=section, iostat=ios, iomsg=iomsg)
+        write (u, '(a)', iostat=ios) '&SECTION'
+        write (u, '(a,a,a,i0,a,es24.16e3,a,i0,a)', iostat=ios) " KIND='", trim(kind), "', INDEX=", &
+          index, ', VALUE=', value, ', DIRECTION=', direction, ','
+        write (u, '(a)', iostat=ios) ' /'
       end if
-      v%sec_angle = angle; v%sec_pth_sign = p_theta_sign
+      v%sec_angle = angle; v%sec_pth_sign = p_theta_sign; v%sec_kind = kind
+      v%sec_index = index; v%sec_value = value; v%sec_direction = direction
     end subroutine io_section
     subroutine io_tubes()
       real(c_double), allocatable :: de(:)

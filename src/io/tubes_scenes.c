@@ -23,23 +23,33 @@ static double now(void) {
 
 static void status_text(int code, char *buf, int len) { tubes_status_message(code, buf, len); }
 
+enum { NEQ_MAX = 256, MD = TUBES_MAXDOF };
+/* Monte Carlo fraction and p_trans disagree beyond this many standard errors (false alarm 6e-7). */
+enum { MC_SIGMA = 5 };
+
 int scene_model(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
+  int ndof = 0, np = 0, si = 0, sd = 0;
+  static char names[TUBES_MAXPARAM * TUBES_LPARAM], units[TUBES_MAXPARAM * TUBES_LUNITS],
+      docs[TUBES_MAXPARAM * TUBES_LDOC];
+  char summary[TUBES_LSUMMARY], lu[8], dsad[8], skind[8];
+  double defs[TUBES_MAXPARAM], box[MD], boxc[MD], near[MD], sv, sa, gate;
+  if (tubes_model_info(run->system, &ndof, &np, names, defs, units, docs, summary, lu, box, boxc, dsad, near,
+                       skind, &si, &sv, &sd, &sa, &gate) < 0)
+    return EXIT_BADINPUT;
   hid_t g = h5_group(run->file, "model");
   if (g < 0) return EXIT_IO;
   int rc = 0;
-  rc |= h5_attr_string(g, "surface", "fourwell: H = alpha (x^2+y^2) - beta (sqrt(x^2+gamma) + "
-                                     "sqrt(y^2+gamma)) - xi x y + h0");
-  rc |= h5_attr_double(g, "alpha", c->alpha);
-  rc |= h5_attr_double(g, "beta", c->beta);
-  rc |= h5_attr_double(g, "gamma", c->gamma);
-  rc |= h5_attr_double(g, "xi", c->xi);
-  rc |= h5_attr_double(g, "h0", c->h0);
-  rc |= h5_attr_double(g, "g", c->g);
-  rc |= h5_attr_double(g, "damping_ratio", c->damping_ratio);
-  if (c->damping_ratio > 0) {
+  rc |= h5_attr_string(g, "system", run->system);
+  rc |= h5_attr_string(g, "hamiltonian", summary);
+  rc |= h5_attr_long(g, "ndof", ndof);
+  if (!strcmp(run->system, "rolling_ball"))
+    rc |= h5_attr_string(g, "surface", "fourwell: H = alpha (x^2+y^2) - beta (sqrt(x^2+gamma) + "
+                                       "sqrt(y^2+gamma)) - xi x y + h0");
+  for (int k = 0; k < np; k++) rc |= h5_attr_double(g, names + TUBES_LPARAM * k, run->params[k]);
+  if (!strcmp(run->system, "rolling_ball") && c->damping_ratio > 0) {
     double cd = 0;
-    int st = tubes_damping_rate(run->model, &cd);
+    int st = tubes_damping_rate(run->system, run->params, &cd);
     if (st < 0) {
       fprintf(stderr, "tubes: model: cannot define the damping rate (no well found), status %d\n", st);
       H5Gclose(g);
@@ -51,73 +61,198 @@ int scene_model(tubes_run_t *run) {
   return rc ? EXIT_IO : 0;
 }
 
+/* The equilibria of the model in the run's box (tubes_find_equilibria), arrays of NEQ_MAX. */
+typedef struct {
+  int n, ndof, morse[NEQ_MAX], rank1[NEQ_MAX];
+  double q[MD * NEQ_MAX], p[MD * NEQ_MAX], hgt[NEQ_MAX], en[NEQ_MAX], gn[NEQ_MAX], lam[NEQ_MAX],
+      om[(MD - 1) * NEQ_MAX], ev[4 * MD * MD * NEQ_MAX];
+  char names[8 * NEQ_MAX];
+} eqlist_t;
+
+static int find_eqs(const tubes_run_t *run, eqlist_t *L) {
+  return tubes_find_equilibria(run->system, run->params, run->lo, run->hi, run->n_grid, NEQ_MAX, &L->n, &L->ndof,
+                               L->q, L->p, L->hgt, L->en, L->gn, L->morse, L->rank1, L->names, L->lam, L->om, L->ev);
+}
+
+static int find_named(const eqlist_t *L, const char *name) {
+  for (int k = 0; k < L->n; k++)
+    if (!strcmp(L->names + 8 * k, name)) return k;
+  return -1;
+}
+
+/* A saddle name that is not a rank-1 saddle of the model: the file, line, and the choices. */
+static void report_saddle(const tubes_run_t *run, const eqlist_t *L, const char *group, const char *name, int line) {
+  if (run->input && line > 0) fprintf(stderr, "%s:%d: ", run->input, line);
+  else if (run->input) fprintf(stderr, "%s: ", run->input);
+  else fprintf(stderr, "tubes: ");
+  fprintf(stderr, "&%s: saddle = '%s' is not a rank-1 saddle of system %s in the &equilibria box; its rank-1 "
+          "saddles are:", group, name, run->system);
+  int any = 0;
+  for (int j = 0; j < L->n; j++)
+    if (L->rank1[j]) { fprintf(stderr, "%s %s", any ? "," : "", L->names + 8 * j); any = 1; }
+  fprintf(stderr, "%s (choose one, or set &orbits saddle_near)\n", any ? "" : " none");
+}
+
+int run_setup(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  int np = 0, si = 0, sd = 0;
+  static char names[TUBES_MAXPARAM * TUBES_LPARAM], units[TUBES_MAXPARAM * TUBES_LUNITS],
+      docs[TUBES_MAXPARAM * TUBES_LDOC];
+  char summary[TUBES_LSUMMARY], lu[8], dsad[8], skind[8];
+  double defs[TUBES_MAXPARAM], box[MD], boxc[MD], near[MD], sv, sa, gate;
+  memset(run->system, 0, sizeof run->system);
+  snprintf(run->system, sizeof run->system, "%s", c->system);
+  if (tubes_model_info(run->system, &run->ndof, &np, names, defs, units, docs, summary, lu, box, boxc, dsad, near,
+                       skind, &si, &sv, &sd, &sa, &gate) < 0) {
+    fprintf(stderr, "tubes: unknown system '%s'\n", c->system);
+    return EXIT_BADINPUT;
+  }
+  for (int k = 0; k < TUBES_MAXPARAM; k++) run->params[k] = k < c->nparams ? c->params[k] : 0;
+  snprintf(run->length_units, sizeof run->length_units, "%s", lu);
+  if (tubes_model_natural(run->system, run->params, &run->natural) < 0) {
+    fprintf(stderr, "tubes: &model: the parameters are out of range for system %s\n", run->system);
+    return EXIT_BADINPUT;
+  }
+  for (int k = 0; k < MD; k++) {
+    run->lo[k] = c->box_lo[k];
+    run->hi[k] = c->box_hi[k];
+  }
+  run->n_grid = c->n_grid;
+  memset(run->saddle, 0, sizeof run->saddle);
+  snprintf(run->saddle, sizeof run->saddle, "%s", c->orb_saddle);
+  /* the saddle: needed by every scene but equilibria and trajectory; checked here, once */
+  int need = c->saddle[0] != 0;
+  for (int k = 0; k < TUBES_NSCENES; k++) {
+    const char *sc = c->scenes[k];
+    need |= sc[0] && strcmp(sc, "equilibria") && strcmp(sc, "trajectory");
+  }
+  if (!need && !c->orb_use_near) return 0;
+  static eqlist_t L;
+  int st = find_eqs(run, &L);
+  if (st < 0) {
+    char m[128];
+    status_text(st, m, sizeof m);
+    fprintf(stderr, "tubes: the equilibria of %s in the &equilibria box could not be found: %s (status %d)\n",
+            run->system, m, st);
+    return EXIT_NUMERIC;
+  }
+  if (c->saddle[0]) {                /* &equilibria saddle: the saddle the equilibria scene reports */
+    int k = find_named(&L, c->saddle);
+    if (k < 0 || !L.rank1[k]) {
+      report_saddle(run, &L, "equilibria", c->saddle, run->eq_saddle_line);
+      return EXIT_BADINPUT;
+    }
+  }
+  if (c->orb_use_near) {
+    int best = -1;
+    double dbest = 0;
+    for (int k = 0; k < L.n; k++) {
+      if (!L.rank1[k]) continue;
+      double d = 0;
+      for (int i = 0; i < L.ndof; i++) d += pow(L.q[MD * k + i] - c->orb_saddle_near[i], 2);
+      if (best < 0 || d < dbest) { best = k; dbest = d; }
+    }
+    if (best < 0) {
+      fprintf(stderr, "tubes: &orbits saddle_near: system %s has no rank-1 saddle in the &equilibria box\n",
+              run->system);
+      return EXIT_BADINPUT;
+    }
+    snprintf(run->saddle, sizeof run->saddle, "%s", L.names + 8 * best);
+    return 0;
+  }
+  int k = find_named(&L, run->saddle);
+  if (k < 0 || !L.rank1[k]) {
+    report_saddle(run, &L, "orbits", run->saddle, run->orb_saddle_line);
+    return EXIT_BADINPUT;
+  }
+  return 0;
+}
+
 int scene_equilibria(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  enum { NMAX = 256 };
-  int n = 0, morse[NMAX];
-  static double x[NMAX], y[NMAX], hgt[NMAX], en[NMAX], gn[NMAX], lam[NMAX], om[NMAX], ev[16 * NMAX];
-  char names[8 * NMAX];
+  static eqlist_t L;
   double t0 = now();
-  int st = tubes_find_equilibria(run->model, c->box, c->n_grid, NMAX, &n, x, y, hgt, en, gn, morse, names,
-                            lam, om, ev);
+  int st = find_eqs(run, &L);
   if (st < 0) {
     char m[128];
     status_text(st, m, sizeof m);
     fprintf(stderr, "tubes: equilibria: failed: %s (status %d)\n", m, st);
     return EXIT_NUMERIC;
   }
-  const char *nm[NMAX];
-  for (int k = 0; k < n; k++) nm[k] = names + 8 * k;
-  int isad = -1;
-  for (int k = 0; k < n; k++)
-    if (strcmp(nm[k], c->saddle) == 0) isad = k;
-
-  printf("equilibria: %d critical points of H in |x|, |y| <= %g cm (%.3f s)\n", n, c->box, now() - t0);
-  printf("  %-4s %13s %13s %13s %5s %10s %10s %8s\n", "name", "x [cm]", "y [cm]", "E [(cm/s)^2]",
-         "index", "lambda[1/s]", "omega[1/s]", "T_po [s]");
+  int n = L.n, nd = L.ndof, n2 = 2 * nd;
+  const char *nm[NEQ_MAX];
+  for (int k = 0; k < n; k++) nm[k] = L.names + 8 * k;
+  const char *want = c->saddle[0] ? c->saddle : run->saddle;
+  int isad = find_named(&L, want);
+  if (!strcmp(run->system, "rolling_ball")) {
+    printf("equilibria: %d critical points of H in |x|, |y| <= %g cm (%.3f s)\n", n, c->box, now() - t0);
+    printf("  %-4s %13s %13s %13s %5s %10s %10s %8s\n", "name", "x [cm]", "y [cm]", "E [(cm/s)^2]",
+           "index", "lambda[1/s]", "omega[1/s]", "T_po [s]");
+  } else {
+    printf("equilibria of %s: %d in the box", run->system, n);
+    for (int i = 0; i < nd; i++) printf("%s [%g, %g]", i ? " x" : "", run->lo[i], run->hi[i]);
+    printf(" (%.3f s)\n  %-4s %13s %13s %13s %5s %10s %10s %8s\n", now() - t0, "name", "q1", "q2", "E", "index",
+           "lambda", "omega", "T_po");
+  }
+  double *x = malloc(sizeof(double) * (n ? n : 1)), *y = malloc(sizeof(double) * (n ? n : 1)),
+         *om = malloc(sizeof(double) * (n ? n : 1)), *qq = malloc(sizeof(double) * (n ? n : 1) * n2);
   for (int k = 0; k < n; k++) {
-    if (morse[k] == 1)
-      printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10.6f %8.6f\n", nm[k], x[k], y[k], en[k], morse[k],
-             lam[k], om[k], 2 * M_PI / om[k]);
+    x[k] = L.q[MD * k];
+    y[k] = L.q[MD * k + 1];
+    om[k] = L.om[(MD - 1) * k];
+    for (int i = 0; i < nd; i++) {
+      qq[n2 * k + i] = L.q[MD * k + i];
+      qq[n2 * k + nd + i] = L.p[MD * k + i];
+    }
+    if (L.rank1[k])
+      printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10.6f %8.6f\n", nm[k], x[k], y[k], L.en[k], L.morse[k],
+             L.lam[k], om[k], 2 * M_PI / om[k]);
     else
-      printf("  %-4s %13.8f %13.8f %13.6f %5d %10s %10s %8s\n", nm[k], x[k], y[k], en[k], morse[k], "-", "-", "-");
+      printf("  %-4s %13.8f %13.8f %13.6f %5d %10s %10s %8s\n", nm[k], x[k], y[k], L.en[k], L.morse[k], "-", "-", "-");
   }
   hid_t g = h5_group(run->file, "equilibria");
-  if (g < 0) return EXIT_IO;
-  hsize_t dn = (hsize_t)n, d44[2] = {4, 4};
+  if (g < 0) { free(x); free(y); free(om); free(qq); return EXIT_IO; }
+  hsize_t dn = (hsize_t)n, dst[2] = {(hsize_t)n, (hsize_t)n2}, d44[2] = {(hsize_t)n2, (hsize_t)n2};
   int rc = 0;
   rc |= h5_write_double(g, "x", 1, &dn, x, "cm");
   rc |= h5_write_double(g, "y", 1, &dn, y, "cm");
-  rc |= h5_write_double(g, "height", 1, &dn, hgt, "cm");
-  rc |= h5_write_double(g, "energy", 1, &dn, en, "(cm/s)^2");
-  rc |= h5_write_double(g, "grad_norm", 1, &dn, gn, "1");
-  rc |= h5_write_int(g, "morse_index", dn, morse, "1");
+  rc |= h5_write_double(g, "state", 2, dst, qq, "state units");
+  rc |= h5_write_double(g, "height", 1, &dn, L.hgt, "cm");
+  rc |= h5_write_double(g, "energy", 1, &dn, L.en, "(cm/s)^2");
+  rc |= h5_write_double(g, "grad_norm", 1, &dn, L.gn, "1");
+  rc |= h5_write_int(g, "morse_index", dn, L.morse, "1");
   rc |= h5_write_strings(g, "name", dn, nm);
-  rc |= h5_write_double(g, "lambda", 1, &dn, lam, "1/s");
+  rc |= h5_write_double(g, "lambda", 1, &dn, L.lam, "1/s");
   rc |= h5_write_double(g, "omega", 1, &dn, om, "rad/s");
   rc |= h5_attr_double(g, "box", c->box);
   rc |= h5_attr_long(g, "n_grid", c->n_grid);
   H5Gclose(g);
+  free(x); free(y); free(om); free(qq);
   if (rc) return EXIT_IO;
-  if (isad < 0) {
-    fprintf(stderr, "tubes: equilibria: saddle %s was not found in the box |x|, |y| <= %g cm\n", c->saddle, c->box);
+  if (isad < 0 || !L.rank1[isad]) {
+    fprintf(stderr, "tubes: equilibria: saddle %s is not a rank-1 saddle of %s in the &equilibria box "
+            "(found:", want, run->system);
+    for (int k = 0; k < n; k++)
+      if (L.rank1[k]) fprintf(stderr, " %s", nm[k]);
+    fprintf(stderr, ")\n");
     return EXIT_NUMERIC;
   }
   int k = isad;
+  double omk = L.om[(MD - 1) * k];
   printf("saddle %s: E_e = %.10g (cm/s)^2, lambda = %.10g 1/s, omega = %.10g rad/s, T_po = %.10g s\n",
-         nm[k], en[k], lam[k], om[k], 2 * M_PI / om[k]);
+         nm[k], L.en[k], L.lam[k], omk, 2 * M_PI / omk);
   g = h5_group(run->file, "saddle");
   if (g < 0) return EXIT_IO;
-  double evr[16];   /* C order: row i = component i, columns u, s, Re c, Im c */
-  for (int i = 0; i < 4; i++)
-    for (int j = 0; j < 4; j++) evr[4 * i + j] = ev[16 * k + 4 * j + i];
+  double evr[36];   /* C order: row i = component i, columns u, s, Re c, Im c */
+  for (int i = 0; i < n2; i++)
+    for (int j = 0; j < n2; j++) evr[n2 * i + j] = L.ev[4 * MD * MD * k + n2 * j + i];
   rc |= h5_attr_string(g, "name", nm[k]);
-  rc |= h5_attr_double(g, "x", x[k]);
-  rc |= h5_attr_double(g, "y", y[k]);
-  rc |= h5_attr_double(g, "energy", en[k]);
-  rc |= h5_attr_double(g, "lambda", lam[k]);
-  rc |= h5_attr_double(g, "omega", om[k]);
-  rc |= h5_attr_double(g, "T_po", 2 * M_PI / om[k]);
+  rc |= h5_attr_double(g, "x", L.q[MD * k]);
+  rc |= h5_attr_double(g, "y", L.q[MD * k + 1]);
+  rc |= h5_attr_double(g, "energy", L.en[k]);
+  rc |= h5_attr_double(g, "lambda", L.lam[k]);
+  rc |= h5_attr_double(g, "omega", omk);
+  rc |= h5_attr_double(g, "T_po", 2 * M_PI / omk);
   rc |= h5_write_double(g, "eigenvectors", 2, d44, evr, "1");
   H5Gclose(g);
   return rc ? EXIT_IO : 0;
@@ -141,6 +276,11 @@ static int progress(double t, void *user) {
 int scene_trajectory(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   double x0[4] = {c->x0, c->y0, c->at_rest ? 0.0 : c->px0, c->at_rest ? 0.0 : c->py0};
+  if (run->ndof != 2) {
+    fprintf(stderr, "tubes: trajectory: system %s has %d degrees of freedom; the trajectory scene takes "
+            "(x0, y0, px0, py0) of a 2-DOF model\n", run->system, run->ndof);
+    return EXIT_BADINPUT;
+  }
   double nsd = floor(c->t_end / c->dt_out * (1 + 1e-12)) + 2;
   int nmax = (int)nsd, n = 0;
   /* section: kind, level, orientation (docs/input.md) */
@@ -165,7 +305,7 @@ int scene_trajectory(tubes_run_t *run) {
   double cdamp = 0;
   progress_t pr = {c->t_end, now(), now()};
   double t0 = now();
-  int s = tubes_run_trajectory(run->model, x0, c->t_end, c->dt_out, tubes_method_code(c->method), c->rtol,
+  int s = tubes_run_trajectory(run->system, run->params, 4, x0, c->t_end, c->dt_out, tubes_method_code(c->method), c->rtol,
                                c->atol, c->h, c->max_steps, c->omega_bind, strcmp(c->solver, "fixed_point") ? 1 : 2,
                                c->max_iter, sk, sl, sd, c->stop_at_first, mc, nmax, &n, t, st, en, &ncross,
                                ct, cx, cd, cnt, &cdamp, progress, &pr);
@@ -259,10 +399,10 @@ int scene_orbits(tubes_run_t *run) {
   int n = c->orb_nde, ns = c->orb_n_samples, mi = c->orb_max_iter;
   int nseg = strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments;
   double *e = calloc(n, sizeof(double)), *per = calloc(n, sizeof(double)), *act = calloc(n, sizeof(double)),
-         *s0 = calloc(4 * n, sizeof(double)), *mu = calloc(n, sizeof(double)), *ms = calloc(n, sizeof(double)),
+         *s0 = calloc(6 * n, sizeof(double)), *mu = calloc(n, sizeof(double)), *ms = calloc(n, sizeof(double)),
          *mt = calloc(4 * n, sizeof(double)), *stab = calloc(n, sizeof(double)), *res = calloc(n, sizeof(double)),
-         *clo = calloc(n, sizeof(double)), *md = calloc(n, sizeof(double)), *mono = calloc(16 * n, sizeof(double)),
-         *ts = calloc((size_t)ns * n, sizeof(double)), *xs = calloc((size_t)4 * ns * n, sizeof(double)),
+         *clo = calloc(n, sizeof(double)), *md = calloc(n, sizeof(double)), *mono = calloc(36 * n, sizeof(double)),
+         *ts = calloc((size_t)ns * n, sizeof(double)), *xs = calloc((size_t)6 * ns * n, sizeof(double)),
          *hist = calloc((size_t)mi * n, sizeof(double));
   int *it = calloc(n, sizeof(int)), *conv = calloc(n, sizeof(int));
   int rc = 0;
@@ -274,9 +414,9 @@ int scene_orbits(tubes_run_t *run) {
   }
   double end_de = -1, t0 = now();
   int reason = 0;
-  fprintf(stderr, "orbits: continuing the %s family to dE = %g (%s shooting)...\n", c->orb_saddle,
+  fprintf(stderr, "orbits: continuing the %s family to dE = %g (%s shooting)...\n", run->saddle,
           c->orb_de[n - 1], nseg > 1 ? "multiple" : "single");
-  int st = tubes_orbit_family(run->model, c->orb_saddle, n, c->orb_de, nseg, c->orb_tol, c->orb_rtol,
+  int st = tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, c->orb_de, nseg, c->orb_tol, c->orb_rtol,
                               c->orb_atol, mi, ns, e, per, act, s0, mu, ms, mt, stab, res, clo, it, conv, md,
                               mono, ts, xs, hist, &end_de, &reason);
   if (st < 0) {
@@ -286,8 +426,8 @@ int scene_orbits(tubes_run_t *run) {
     rc = EXIT_NUMERIC;
     goto out;
   }
-  printf("orbits: %s Lyapunov family, %s shooting%s (%.2f s)\n", c->orb_saddle, nseg > 1 ? "multiple" : "single",
-         nseg > 1 ? "" : " (brake orbit)", now() - t0);
+  printf("orbits: %s Lyapunov family, %s shooting%s (%.2f s)\n", run->saddle, nseg > 1 ? "multiple" : "single",
+         nseg > 1 ? "" : (run->natural ? " (brake orbit)" : " (symmetric orbit)"), now() - t0);
   printf("  %10s %12s %14s %14s %11s %9s %5s\n", "dE", "period [s]", "action", "mu_unstable", "residual",
          "closure", "iter");
   int nfail = 0;
@@ -308,7 +448,7 @@ int scene_orbits(tubes_run_t *run) {
     for (int k = 0; k < n; k++)
       if (!conv[k])
         fprintf(stderr, "tubes: orbits: dE = %g is past the end of the %s family, which ends at dE ~ %.8g "
-                "(cm/s)^2 (%s); not computed\n", c->orb_de[k], c->orb_saddle, end_de, end_reason_text(reason));
+                "(cm/s)^2 (%s); not computed\n", c->orb_de[k], run->saddle, end_de, end_reason_text(reason));
   } else {
     for (int k = 0; k < n; k++)
       if (!conv[k]) {
@@ -325,7 +465,10 @@ int scene_orbits(tubes_run_t *run) {
   for (int k = 0; k < n; k++) {
     mre[2 * k] = mt[4 * k]; mim[2 * k] = mt[4 * k + 1]; mre[2 * k + 1] = mt[4 * k + 2]; mim[2 * k + 1] = mt[4 * k + 3];
     for (int i = 0; i < 4; i++)
-      for (int j = 0; j < 4; j++) monot[16 * k + 4 * i + j] = mono[16 * k + 4 * j + i];   /* row-major */
+      for (int j = 0; j < 4; j++) monot[16 * k + 4 * i + j] = mono[36 * k + 4 * j + i];   /* row-major */
+    for (int i = 0; i < 4; i++) s0[4 * k + i] = s0[6 * k + i];                          /* compact */
+    for (int j = 0; j < ns; j++)
+      for (int i = 0; i < 4; i++) xs[(size_t)4 * (k * ns + j) + i] = xs[(size_t)6 * (k * ns + j) + i];
   }
   int h = 0;
   h |= h5_write_double(g, "dE", 1, &dn, c->orb_de, "(cm/s)^2");
@@ -344,7 +487,7 @@ int scene_orbits(tubes_run_t *run) {
   h |= h5_write_int(g, "iterations", dn, it, "1");
   h |= h5_write_double(g, "min_eq_distance", 1, &dn, md, "cm");
   h |= h5_write_double(g, "monodromy", 3, d44, monot, "1");
-  h |= h5_attr_string(g, "saddle", c->orb_saddle);
+  h |= h5_attr_string(g, "saddle", run->saddle);
   h |= h5_attr_string(g, "method", nseg > 1 ? "multiple" : "single");
   h |= h5_attr_long(g, "n_segments", nseg);
   h |= h5_attr_double(g, "tol", c->orb_tol);
@@ -381,22 +524,21 @@ out:
 
 /* E_e, T_po of the saddle named by &orbits saddle. */
 static int saddle_props(tubes_run_t *run, double *ee, double *tpo) {
-  enum { NMAX = 64 };
-  int n = 0, morse[NMAX];
-  double x[NMAX], y[NMAX], h[NMAX], e[NMAX], gn[NMAX], lam[NMAX], om[NMAX], ev[16 * NMAX];
-  char names[8 * NMAX];
-  int st = tubes_find_equilibria(run->model, 20.0, 41, NMAX, &n, x, y, h, e, gn, morse, names, lam, om, ev);
+  static eqlist_t L;
+  int st = find_eqs(run, &L);
   if (st < 0) return st;
-  for (int k = 0; k < n; k++)
-    if (!strcmp(names + 8 * k, run->cfg->orb_saddle)) {
-      *ee = e[k];
-      *tpo = 2 * M_PI / om[k];
-      return 0;
-    }
-  return TUBES_EINPUT;
+  int k = find_named(&L, run->saddle);
+  if (k < 0 || !L.rank1[k]) return TUBES_EINPUT;
+  *ee = L.en[k];
+  *tpo = 2 * M_PI / L.om[(MD - 1) * k];
+  return 0;
 }
 
 static double sec_angle(const tubes_config_t *c) { return c->sec_angle * M_PI / 180; }
+static int sec_is_ray(const tubes_config_t *c) { return !strcmp(c->sec_kind, "ray"); }
+/* The section's arguments of the C API: kind, index, level, direction (include/tubes.h). */
+#define SECTION(c) (sec_is_ray(c) ? 1 : 2), (c)->sec_index, (sec_is_ray(c) ? sec_angle(c) : (c)->sec_value), \
+                   (sec_is_ray(c) ? (c)->sec_pth_sign : (c)->sec_direction)
 static int orb_nseg(const tubes_config_t *c) { return strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments; }
 
 /* /section: the energy surface on the section at E_e (A0, tau, r range) and the growth rate. */
@@ -404,27 +546,39 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
   const tubes_config_t *c = run->cfg;
   double ee, tpo, rmin, rmax, a0, tau;
   int st = saddle_props(run, &ee, &tpo);
-  if (!st) st = tubes_section_info(run->model, c->orb_saddle, sec_angle(c), 0.0, &rmin, &rmax, &a0, &tau);
+  if (!st) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), 0.0, &rmin, &rmax, &a0, &tau);
   if (st < 0) {
     fprintf(stderr, "tubes: section: the energy surface on the section could not be computed (status %d)\n", st);
     return EXIT_NUMERIC;
   }
   *a0_out = a0; *tau_out = tau; *tpo_out = tpo;
   if (H5Lexists(run->file, "section", H5P_DEFAULT) > 0) return 0;
-  printf("section theta = %g deg (p_theta %s 0): at E_e r in [%.6f, %.6f] cm, A0 = %.8g cm^2/s, "
-         "tau = dA_E/dE = %.8g s, T_po/A0 = %.6g (s/cm)^2\n", c->sec_angle, c->sec_pth_sign > 0 ? ">" : "<",
-         rmin, rmax, a0, tau, tpo / a0);
+  if (sec_is_ray(c))
+    printf("section theta = %g deg (p_theta %s 0): at E_e r in [%.6f, %.6f] cm, A0 = %.8g cm^2/s, "
+           "tau = dA_E/dE = %.8g s, T_po/A0 = %.6g (s/cm)^2\n", c->sec_angle, c->sec_pth_sign > 0 ? ">" : "<",
+           rmin, rmax, a0, tau, tpo / a0);
+  else
+    printf("section q%d = %.10g (dq%d/dt %s 0): at E_e q%d in [%.8g, %.8g], A0 = %.10g, tau = dA_E/dE = %.10g, "
+           "T_po/A0 = %.6g\n", c->sec_index, c->sec_value, c->sec_index, c->sec_direction > 0 ? ">" : "<",
+           3 - c->sec_index, rmin, rmax, a0, tau, tpo / a0);
   hid_t g = h5_group(run->file, "section");
   if (g < 0) return EXIT_IO;
   int e = 0;
-  e |= h5_attr_double(g, "angle", sec_angle(c));
-  e |= h5_attr_long(g, "p_theta_sign", c->sec_pth_sign);
+  if (sec_is_ray(c)) {
+    e |= h5_attr_double(g, "angle", sec_angle(c));
+    e |= h5_attr_long(g, "p_theta_sign", c->sec_pth_sign);
+  } else {
+    e |= h5_attr_string(g, "kind", "plane");
+    e |= h5_attr_long(g, "index", c->sec_index);
+    e |= h5_attr_double(g, "value", c->sec_value);
+    e |= h5_attr_long(g, "direction", c->sec_direction);
+  }
   e |= h5_attr_double(g, "A0", a0);
   e |= h5_attr_double(g, "tau", tau);
   e |= h5_attr_double(g, "growth_rate", tpo / a0);
   e |= h5_attr_double(g, "T_po", tpo);
   e |= h5_attr_double(g, "E_e", ee);
-  e |= h5_attr_string(g, "saddle", c->orb_saddle);
+  e |= h5_attr_string(g, "saddle", run->saddle);
   e |= h5_attr_double(g, "r_min", rmin);
   e |= h5_attr_double(g, "r_max", rmax);
   H5Gclose(g);
@@ -444,7 +598,7 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
          ftau = 0;
   int rc = 0;
   if (!tau || !r || !pr || !tm || !xs) rc = EXIT_NUMERIC;
-  int st = rc ? -1 : tubes_tube_cut(run->model, c->orb_saddle, de, kind, sec_angle(c), c->sec_pth_sign, eps, area_tol,
+  int st = rc ? -1 : tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, kind, SECTION(c), eps, area_tol,
                                     c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol,
                                     nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau,
                                     local);
@@ -503,7 +657,8 @@ int scene_tubes(tubes_run_t *run) {
   if (rc) return rc;
   hid_t g = h5_group(run->file, "tubes");
   if (g < 0) return EXIT_IO;
-  printf("tubes: %s manifold cuts on the section (eps = %g cm, area_tol = %g)\n", c->tub_kind, c->tub_eps, c->tub_area_tol);
+  printf("tubes: %s manifold cuts on the section (eps = %g %s, area_tol = %g)\n", c->tub_kind, c->tub_eps,
+         strcmp(run->length_units, "1") ? run->length_units : "(length units)", c->tub_area_tol);
   printf("  %10s %8s %16s %16s %11s %11s %8s\n", "dE", "kind", "area", "action", "area/action-1", "eps/10 chg", "s");
   for (int k = 0; k < c->tub_nde; k++) {
     for (int kind = -1; kind <= 1; kind += 2) {
@@ -573,7 +728,7 @@ int scene_transition(tubes_run_t *run) {
     fprintf(stderr, "transition: dE = %g (%d of %d)...\n", de, k + 1, n);
     int r1 = cut_to(run, -1, "", de, -1, c->tub_eps, c->tra_area_tol, &x->at, &x->act, &per, 1, x->err,
                     sizeof x->err);
-    int st = tubes_section_info(run->model, c->orb_saddle, sec_angle(c), de, &rmin, &rmax, &x->ae, &darea);
+    int st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &x->ae, &darea);
     if (st < 0) {
       char m[128];
       status_text(st, m, sizeof m);
@@ -624,18 +779,18 @@ int scene_montecarlo(tubes_run_t *run) {
   double *r = malloc(sizeof(double) * ns), *pr = malloc(sizeof(double) * ns);
   int *out = malloc(sizeof(int) * ns), *ins = malloc(sizeof(int) * ns);
   fprintf(stderr, "montecarlo: the tube cut at dE = %g...\n", de);
-  int st = tubes_tube_cut(run->model, c->orb_saddle, de, -1, sec_angle(c), c->sec_pth_sign, c->tub_eps, 1e-8,
+  int st = tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, -1, SECTION(c), c->tub_eps, 1e-8,
                           c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol, nout,
                           &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau, 0);
   if (st < 0 && nfail > 0)
     fprintf(stderr, "tubes: montecarlo: the tube cut at dE = %g: %d seed(s) failed, the first at orbit phase "
             "tau = %.10g s\n", de, nfail, ftau);
-  if (st >= 0) st = tubes_section_info(run->model, c->orb_saddle, sec_angle(c), de, &rmin, &rmax, &ae, &darea);
+  if (st >= 0) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &ae, &darea);
   int mc_ran = 0;
   if (st >= 0) {
     mc_ran = 1;
     fprintf(stderr, "montecarlo: integrating %d points...\n", ns);
-    st = tubes_monte_carlo(run->model, c->orb_saddle, de, sec_angle(c), c->sec_pth_sign, ns, c->mc_seed, c->mc_t_max,
+    st = tubes_monte_carlo(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, c->mc_seed, c->mc_t_max,
                            c->mc_gate, n, cr, cp, r, pr, out, ins);
   }
   if (st < 0) {
@@ -684,8 +839,22 @@ int scene_montecarlo(tubes_run_t *run) {
     e |= h5_write_double(g, "p_r", 1, &dn, pr, "cm/s");
     e |= h5_write_int(g, "transit", dn, out, "1");
     e |= h5_write_int(g, "inside", dn, ins, "1");
+    /* the two answers must agree: the direct count within MC_SIGMA standard errors of the tube's
+     * p_trans, few misclassified points (a point within the cut's resolution of its boundary can
+     * be), few undecided; else the run says so and exits 2 (docs/tubes.md, "Monte Carlo check") */
+    double nsig = se > 0 ? fabs(f - p) / se : (f == p ? 0.0 : INFINITY);
+    int mis_lim = 2 + ns / 1000, und_lim = 2 + ns / 100;
+    int agrees = nsig <= MC_SIGMA && in_nt + out_t <= mis_lim && nu <= und_lim;
+    e |= h5_attr_long(g, "agrees", agrees);
     if (g >= 0) H5Gclose(g);
     if (e) rc = EXIT_IO;
+    else if (!agrees) {
+      fprintf(stderr, "tubes: montecarlo: the direct check disagrees with the tube at dE = %g: fraction %.5f +- %.5f "
+              "against p_trans = %.5f (%.1f standard errors, limit %g); %d misclassified (limit %d); %d undecided "
+              "(limit %d). The transit test, the section or the tube does not fit saddle %s: check &section and "
+              "&orbits saddle\n", de, f, se, p, nsig, (double)MC_SIGMA, in_nt + out_t, mis_lim, nu, und_lim, run->saddle);
+      rc = EXIT_NUMERIC;
+    }
   }
   free(tau_); free(cr); free(cp); free(tm); free(xs); free(r); free(pr); free(out); free(ins);
   return rc;
@@ -703,7 +872,7 @@ int scene_sections(tubes_run_t *run) {
     double de = c->pm_de[k], t0 = now();
     double *pts = malloc(sizeof(double) * 2 * (size_t)ns * ni);
     fprintf(stderr, "sections: Poincare map at dE = %g (%d trajectories, %d returns)...\n", de, ns, ni);
-    int st = tubes_poincare(run->model, c->orb_saddle, de, sec_angle(c), c->sec_pth_sign, ns, ni, c->pm_t_max, pts);
+    int st = tubes_poincare(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, ni, c->pm_t_max, pts);
     if (st < 0) {
       fprintf(stderr, "tubes: sections: the map at dE = %g failed (status %d); the returns found are written\n", de, st);
       rc = EXIT_PARTIAL;
@@ -756,7 +925,7 @@ int scene_synthetic_experiment(tubes_run_t *run) {
   int st = saddle_props(run, &ee, &tpo);
   if (st < 0) {
     fprintf(stderr, "tubes: synthetic_experiment: the saddle %s (E_e) was not found (status %d)\n",
-            c->orb_saddle, st);
+            run->saddle, st);
     return EXIT_NUMERIC;
   }
   int nt = c->exp_n_tracks, ns = tubes_experiment_samples(c->exp_duration, c->exp_camera_rate);
@@ -774,8 +943,8 @@ int scene_synthetic_experiment(tubes_run_t *run) {
     rc = EXIT_NUMERIC;
     goto out;
   }
-  double model[TUBES_NMODEL], cd = 0, t0 = now();
-  memcpy(model, run->model, sizeof model);
+  double model[TUBES_MAXPARAM], cd = 0, t0 = now();
+  memcpy(model, run->params, sizeof model);
   model[6] = c->exp_damping_ratio;
   int ndraw = 0;
   fprintf(stderr, "synthetic_experiment: %d tracks of %g s at %g Hz...\n", nt, c->exp_duration, c->exp_camera_rate);
@@ -785,7 +954,7 @@ int scene_synthetic_experiment(tubes_run_t *run) {
   if (st == TUBES_EINPUT) {
     fprintf(stderr, "tubes: synthetic_experiment: found fewer than %d release points with g H - E_e in "
             "[%g, %g] (cm/s)^2 in the box |x|, |y| <= %g cm after %d draws (E_e = %.10g (cm/s)^2 of %s); "
-            "widen [de_min, de_max]\n", nt, c->exp_de_min, c->exp_de_max, box, ndraw, ee, c->orb_saddle);
+            "widen [de_min, de_max]\n", nt, c->exp_de_min, c->exp_de_max, box, ndraw, ee, run->saddle);
     rc = EXIT_NUMERIC;
     goto out;
   }
@@ -843,7 +1012,7 @@ int scene_synthetic_experiment(tubes_run_t *run) {
   e |= h5_attr_double(g, "de_min", c->exp_de_min);
   e |= h5_attr_double(g, "de_max", c->exp_de_max);
   e |= h5_attr_double(g, "E_e", ee);
-  e |= h5_attr_string(g, "saddle", c->orb_saddle);
+  e |= h5_attr_string(g, "saddle", run->saddle);
   e |= h5_attr_double(g, "box", box);
   e |= h5_attr_double(g, "rtol", rtol);
   e |= h5_attr_long(g, "n_draws", ndraw);

@@ -1,0 +1,132 @@
+!> The planar circular restricted three-body problem in the rotating frame (V. Szebehely,
+!> Theory of Orbits, 1967; W. S. Koon, M. W. Lo, J. E. Marsden and S. D. Ross, Dynamical Systems,
+!> the Three-Body Problem and Space Mission Design, 2011), in units where the primaries' distance,
+!> total mass and angular velocity are 1:
+!>   H = (px^2 + py^2)/2 + y px - x py - (1 - mu)/r1 - mu/r2,
+!>   r1 = |(x + mu, y)| (the primary 1 - mu), r2 = |(x - 1 + mu, y)| (the secondary mu).
+!> Gyroscopic, not natural: at the equilibria L1..L5 the momenta are p = (-y, x). The Jacobi
+!> constant is C = -2 H. The reversor (x, y, px, py, t) -> (x, -y, -px, py, -t) maps solutions to
+!> solutions; the Lyapunov orbits of L1 and L2 are symmetric under it.
+module tubes_cr3bp
+  use tubes_kinds, only: wp
+  use tubes_hamiltonian, only: hamiltonian_t, LEN_NAME, NAMES_LAGRANGE
+  implicit none
+  private
+
+  real(wp), parameter :: MIN_R = 1.0e-100_wp   !! closer to a primary than this: a collision, refused
+  real(wp), parameter :: MAX_Q = 1.0e6_wp      !! |x| + |y| beyond this is refused
+
+  !> The CR3BP with mass ratio mu (its default lives in tubes_models).
+  type, extends(hamiltonian_t), public :: cr3bp_t
+    real(wp) :: mu   !! mass ratio m2/(m1 + m2), 0 < mu <= 1/2
+  contains
+    procedure :: ndof => cr_ndof
+    procedure :: energy => cr_energy
+    procedure :: gradient => cr_gradient
+    procedure :: hessian => cr_hessian
+    procedure :: naming => cr_naming
+    procedure :: reversor => cr_reversor
+    procedure :: length_scale => cr_length_scale
+    procedure :: coordinate_name => cr_name
+  end type cr3bp_t
+
+contains
+
+  pure integer function cr_ndof(self)
+    class(cr3bp_t), intent(in) :: self
+    cr_ndof = 2
+  end function cr_ndof
+
+  pure real(wp) function cr_energy(self, x)
+    class(cr3bp_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp) :: r1, r2
+    r1 = hypot(x(1) + self%mu, x(2))
+    r2 = hypot(x(1) - 1 + self%mu, x(2))
+    cr_energy = 0.5_wp*(x(3)**2 + x(4)**2) + x(2)*x(3) - x(1)*x(4) - (1 - self%mu)/r1 - self%mu/r2
+  end function cr_energy
+
+  !> dH/dx = (-py + U_x, px + U_y, px + y, py - x), U = -(1 - mu)/r1 - mu/r2.
+  pure subroutine cr_gradient(self, x, g, stat)
+    class(cr3bp_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: g(:)
+    integer, intent(out) :: stat
+    real(wp) :: r1, r2, a1, a2
+    r1 = hypot(x(1) + self%mu, x(2))
+    r2 = hypot(x(1) - 1 + self%mu, x(2))
+    stat = 0
+    g(1:4) = 0
+    if (.not. (min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) <= MAX_Q)) then
+      stat = -1
+      return
+    end if
+    a1 = (1 - self%mu)/r1**3
+    a2 = self%mu/r2**3
+    g(1) = -x(4) + a1*(x(1) + self%mu) + a2*(x(1) - 1 + self%mu)
+    g(2) = x(3) + (a1 + a2)*x(2)
+    g(3) = x(3) + x(2)
+    g(4) = x(4) - x(1)
+    if (.not. all(abs(g(1:4)) <= huge(1.0_wp))) stat = -1
+  end subroutine cr_gradient
+
+  !> U_xx = sum_i m_i (1/r_i^3 - 3 dx_i^2/r_i^5), U_xy = -sum_i 3 m_i dx_i y/r_i^5,
+  !> U_yy = sum_i m_i (1/r_i^3 - 3 y^2/r_i^5); H_{x,py} = -1, H_{y,px} = 1, H_{p,p} = I.
+  pure subroutine cr_hessian(self, x, h, stat)
+    class(cr3bp_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: h(:, :)
+    integer, intent(out) :: stat
+    real(wp) :: r1, r2, d1, d2, m1, m2, y
+    h(1:4, 1:4) = 0
+    d1 = x(1) + self%mu
+    d2 = x(1) - 1 + self%mu
+    y = x(2)
+    r1 = hypot(d1, y)
+    r2 = hypot(d2, y)
+    stat = 0
+    if (.not. (min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) <= MAX_Q)) then
+      stat = -1
+      return
+    end if
+    m1 = 1 - self%mu
+    m2 = self%mu
+    h(1, 1) = m1*(1/r1**3 - 3*d1**2/r1**5) + m2*(1/r2**3 - 3*d2**2/r2**5)
+    h(1, 2) = -3*m1*d1*y/r1**5 - 3*m2*d2*y/r2**5
+    h(2, 1) = h(1, 2)
+    h(2, 2) = m1*(1/r1**3 - 3*y**2/r1**5) + m2*(1/r2**3 - 3*y**2/r2**5)
+    h(1, 4) = -1
+    h(4, 1) = -1
+    h(2, 3) = 1
+    h(3, 2) = 1
+    h(3, 3) = 1
+    h(4, 4) = 1
+    if (.not. all(abs(h(1:4, 1:4)) <= huge(1.0_wp))) stat = -1
+  end subroutine cr_hessian
+
+  pure integer function cr_naming(self)
+    class(cr3bp_t), intent(in) :: self
+    cr_naming = NAMES_LAGRANGE
+  end function cr_naming
+
+  !> (x, y, px, py) -> (x, -y, -px, py) with t -> -t.
+  pure function cr_reversor(self) result(r)
+    class(cr3bp_t), intent(in) :: self
+    integer :: r(2*self%ndof())
+    r = [1, -1, -1, 1]
+  end function cr_reversor
+
+  !> The Hill radius (mu/3)^(1/3): the distance of L1 and L2 from the secondary.
+  pure real(wp) function cr_length_scale(self)
+    class(cr3bp_t), intent(in) :: self
+    cr_length_scale = (self%mu/3)**(1.0_wp/3)
+  end function cr_length_scale
+
+  pure function cr_name(self, k) result(name)
+    class(cr3bp_t), intent(in) :: self
+    integer, intent(in) :: k
+    character(LEN_NAME) :: name
+    character(2), parameter :: NAMES(4) = ['x ', 'y ', 'px', 'py']
+    name = NAMES(k)
+  end function cr_name
+end module tubes_cr3bp

@@ -1,0 +1,122 @@
+!> The De Leon-Berne model of isomerisation (N. De Leon and B. J. Berne, J. Chem. Phys. 75, 3495
+!> (1981)), as in the UPOsHam examples (Naik, Krajnak, Wiggins and Ross): a Morse oscillator x
+!> coupled to a symmetric double well y,
+!>   H = px^2/(2 m_a) + py^2/(2 m_b) + D (1 - exp(-lambda x))^2
+!>       + 4 y^2 (y^2 - 1) exp(-zeta lambda x) + eps_s.
+!> The origin is the rank-1 saddle (E = eps_s) between two wells at y = +-1/sqrt(2) (dV/dy = 0
+!> there for every x), slightly on the x < 0 side; y = 0 is invariant, so the saddle's Lyapunov
+!> orbit is a Morse oscillation along x with a period in closed form (docs/models.md).
+module tubes_de_leon_berne
+  use tubes_kinds, only: wp
+  use tubes_hamiltonian, only: natural_t, LEN_NAME
+  implicit none
+  private
+
+  real(wp), parameter :: MAX_Q = 1.0e6_wp   !! |x| + |y| beyond this is refused (a blown-up state)
+
+  !> De Leon-Berne; the parameters' defaults live in tubes_models.
+  type, extends(natural_t), public :: de_leon_berne_t
+    real(wp) :: m_a      !! mass of the x mode
+    real(wp) :: m_b      !! mass of the y mode
+    real(wp) :: d        !! dissociation energy D of the Morse oscillator
+    real(wp) :: lambda   !! range of the Morse oscillator
+    real(wp) :: zeta     !! decay of the double well along x
+    real(wp) :: eps_s    !! energy of the saddle
+  contains
+    procedure :: ndof => dlb_ndof
+    procedure :: energy => dlb_energy
+    procedure :: gradient => dlb_gradient
+    procedure :: hessian => dlb_hessian
+    procedure :: shape => dlb_shape
+    procedure :: shape_derivs => dlb_shape_derivs
+    procedure :: kinetic_matrix => dlb_kinetic
+    procedure :: coordinate_name => dlb_name
+  end type de_leon_berne_t
+
+contains
+
+  pure integer function dlb_ndof(self)
+    class(de_leon_berne_t), intent(in) :: self
+    dlb_ndof = 2
+  end function dlb_ndof
+
+  pure real(wp) function dlb_shape(self, q)
+    class(de_leon_berne_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    dlb_shape = self%d*(1 - exp(-self%lambda*q(1)))**2 &
+                + 4*q(2)**2*(q(2)**2 - 1)*exp(-self%zeta*self%lambda*q(1)) + self%eps_s
+  end function dlb_shape
+
+  !> With e1 = exp(-lambda x), ez = exp(-zeta lambda x), w(y) = 4 y^2 (y^2 - 1):
+  !> V_x = 2 D lambda e1 (1 - e1) - zeta lambda w ez, V_y = w' ez, w' = 16 y^3 - 8 y;
+  !> V_xx = 2 D lambda^2 (2 e1^2 - e1) + (zeta lambda)^2 w ez, V_xy = -zeta lambda w' ez,
+  !> V_yy = (48 y^2 - 8) ez.
+  pure subroutine dlb_shape_derivs(self, q, grad, hess)
+    class(de_leon_berne_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(out) :: grad(:), hess(:, :)
+    real(wp) :: e1, ez, w, wp_, zl
+    zl = self%zeta*self%lambda
+    e1 = exp(-self%lambda*q(1))
+    ez = exp(-zl*q(1))
+    w = 4*q(2)**2*(q(2)**2 - 1)
+    wp_ = 16*q(2)**3 - 8*q(2)
+    grad(1) = 2*self%d*self%lambda*e1*(1 - e1) - zl*w*ez
+    grad(2) = wp_*ez
+    hess(1, 1) = 2*self%d*self%lambda**2*(2*e1*e1 - e1) + zl*zl*w*ez
+    hess(1, 2) = -zl*wp_*ez
+    hess(2, 1) = hess(1, 2)
+    hess(2, 2) = (48*q(2)**2 - 8)*ez
+  end subroutine dlb_shape_derivs
+
+  pure subroutine dlb_kinetic(self, q, a)
+    class(de_leon_berne_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(out) :: a(:, :)
+    a(1:2, 1:2) = 0
+    a(1, 1) = 1/self%m_a
+    a(2, 2) = 1/self%m_b
+  end subroutine dlb_kinetic
+
+  pure real(wp) function dlb_energy(self, x)
+    class(de_leon_berne_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    dlb_energy = x(3)**2/(2*self%m_a) + x(4)**2/(2*self%m_b) + dlb_shape(self, x(1:2))
+  end function dlb_energy
+
+  pure subroutine dlb_gradient(self, x, g, stat)
+    class(de_leon_berne_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: g(:)
+    integer, intent(out) :: stat
+    real(wp) :: hs(2, 2)
+    call dlb_shape_derivs(self, x(1:2), g(1:2), hs)
+    g(3) = x(3)/self%m_a
+    g(4) = x(4)/self%m_b
+    stat = 0
+    if (.not. all(abs(g(1:4)) <= huge(1.0_wp)) .or. abs(x(1)) + abs(x(2)) > MAX_Q) stat = -1
+  end subroutine dlb_gradient
+
+  pure subroutine dlb_hessian(self, x, h, stat)
+    class(de_leon_berne_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: h(:, :)
+    integer, intent(out) :: stat
+    real(wp) :: gr(2), hs(2, 2)
+    call dlb_shape_derivs(self, x(1:2), gr, hs)
+    h(1:4, 1:4) = 0
+    h(1:2, 1:2) = hs
+    h(3, 3) = 1/self%m_a
+    h(4, 4) = 1/self%m_b
+    stat = 0
+    if (.not. all(abs(hs) <= huge(1.0_wp)) .or. abs(x(1)) + abs(x(2)) > MAX_Q) stat = -1
+  end subroutine dlb_hessian
+
+  pure function dlb_name(self, k) result(name)
+    class(de_leon_berne_t), intent(in) :: self
+    integer, intent(in) :: k
+    character(LEN_NAME) :: name
+    character(2), parameter :: NAMES(4) = ['x ', 'y ', 'px', 'py']
+    name = NAMES(k)
+  end function dlb_name
+end module tubes_de_leon_berne

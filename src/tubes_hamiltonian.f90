@@ -1,0 +1,309 @@
+!> The model layer: an autonomous Hamiltonian system with N degrees of freedom, state
+!> x = (q_1..q_N, p_1..p_N). Every analysis (equilibria, orbits, tubes, transport) sees a model
+!> only through hamiltonian_t; integrators see it as a vector_field_t. Theory: docs/theory.md,
+!> "The model layer"; the library of systems: docs/models.md.
+!>
+!> - hamiltonian_t: H, its gradient and Hessian (analytic in every built-in model), the
+!>   dimension, coordinate names; Hamilton's equations dx/dt = J grad H and their Jacobian
+!>   J Hess H by default (models may override them with faster or more accurate forms).
+!> - natural_t: H = T(q, p) + V(q), T = 1/2 p^T A(q) p positive definite, so that rest points
+!>   have p = 0, brake orbits, zero-velocity curves and releases from rest make sense.
+!>   V = potential_scale() * shape(q) (the rolling ball: g times the surface's height; 1 for
+!>   the others): rest points are the critical points of shape, with V's Morse index.
+!> - damped_t: any Hamiltonian with the viscous force -c p added to dp/dt (not Hamiltonian:
+!>   a vector field for integration only, dE/dt = -c p . dH/dp).
+module tubes_hamiltonian
+  use tubes_kinds, only: wp
+  use tubes_field, only: vector_field_t
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
+  implicit none
+  private
+
+  integer, parameter, public :: NAMES_GENERIC = 0    !! W/S/R + number by energy (docs/models.md)
+  integer, parameter, public :: NAMES_QUADRANT = 1   !! the four-well: W<quadrant>, S<ij>, R<k>
+  integer, parameter, public :: NAMES_LAGRANGE = 2   !! the CR3BP: L1..L5
+
+  integer, parameter, public :: LEN_NAME = 16        !! length of coordinate names
+
+  !> An autonomous Hamiltonian H(q, p) with N degrees of freedom.
+  type, abstract, extends(vector_field_t), public :: hamiltonian_t
+  contains
+    procedure(ndof_i), deferred :: ndof             !! N
+    procedure(energy_i), deferred :: energy         !! H(x)
+    procedure(gradient_i), deferred :: gradient     !! dH/dx (2N)
+    procedure(hessian_i), deferred :: hessian       !! d2H/dx2 (2N x 2N)
+    procedure :: dim => ham_dim                     !! 2N
+    procedure :: eval => ham_eval                   !! J grad H
+    procedure :: jacobian => ham_jacobian           !! J Hess H
+    procedure :: coordinate_name => ham_coordinate_name  !! 'q1'.. 'p1'.. unless overridden
+    procedure :: is_natural => ham_is_natural       !! .false. unless natural_t
+    procedure :: naming => ham_naming               !! NAMES_* scheme of its equilibria
+    procedure :: length_scale => ham_length_scale   !! typical configuration distance [units of q]
+    procedure :: reversor => ham_reversor           !! +1/-1 per component: a time-reversal symmetry
+    procedure :: rest_momenta => ham_rest_momenta   !! p with dH/dp(q, p) = 0 (zero velocity)
+  end type hamiltonian_t
+
+  !> A natural system H = 1/2 p^T A(q) p + potential_scale() shape(q).
+  type, abstract, extends(hamiltonian_t), public :: natural_t
+  contains
+    procedure(shape_i), deferred :: shape               !! shape(q)
+    procedure(shape_derivs_i), deferred :: shape_derivs !! its gradient and Hessian
+    procedure(kinetic_i), deferred :: kinetic_matrix    !! A(q) = d2T/dp2
+    procedure :: rest_kinetic_matrix => nat_rest_kinetic !! A at a rest point (grad V = 0)
+    procedure :: potential => nat_potential             !! V(q)
+    procedure :: potential_scale => nat_potential_scale !! V / shape (> 0)
+    procedure :: is_natural => nat_is_natural
+    procedure :: rest_momenta => nat_rest_momenta       !! p = 0
+    procedure :: reversor => nat_reversor               !! (q, p, t) -> (q, -p, -t)
+  end type natural_t
+
+  !> Viscous damping -c p on the momenta of any Hamiltonian model.
+  type, extends(vector_field_t), public :: damped_t
+    class(hamiltonian_t), allocatable :: base   !! the conservative model
+    real(wp) :: c = 0                           !! damping rate [1/time]
+  contains
+    procedure :: dim => damped_dim
+    procedure :: eval => damped_eval
+    procedure :: jacobian => damped_jacobian
+  end type damped_t
+
+  public :: make_damped
+
+  abstract interface
+    pure integer function ndof_i(self)
+      import :: hamiltonian_t
+      class(hamiltonian_t), intent(in) :: self
+    end function ndof_i
+    pure real(wp) function energy_i(self, x)
+      import :: hamiltonian_t, wp
+      class(hamiltonian_t), intent(in) :: self
+      real(wp), intent(in) :: x(:)      !! (q, p)
+    end function energy_i
+    pure subroutine gradient_i(self, x, g, stat)
+      import :: hamiltonian_t, wp
+      class(hamiltonian_t), intent(in) :: self
+      real(wp), intent(in) :: x(:)
+      real(wp), intent(out) :: g(:)     !! dH/dx_i
+      integer, intent(out) :: stat      !! 0, or -1 where H is not defined (NaN, singularity)
+    end subroutine gradient_i
+    pure subroutine hessian_i(self, x, h, stat)
+      import :: hamiltonian_t, wp
+      class(hamiltonian_t), intent(in) :: self
+      real(wp), intent(in) :: x(:)
+      real(wp), intent(out) :: h(:, :)  !! d2H/dx_i dx_j
+      integer, intent(out) :: stat
+    end subroutine hessian_i
+    pure real(wp) function shape_i(self, q)
+      import :: natural_t, wp
+      class(natural_t), intent(in) :: self
+      real(wp), intent(in) :: q(:)
+    end function shape_i
+    pure subroutine shape_derivs_i(self, q, grad, hess)
+      import :: natural_t, wp
+      class(natural_t), intent(in) :: self
+      real(wp), intent(in) :: q(:)
+      real(wp), intent(out) :: grad(:), hess(:, :)
+    end subroutine shape_derivs_i
+    pure subroutine kinetic_i(self, q, a)
+      import :: natural_t, wp
+      class(natural_t), intent(in) :: self
+      real(wp), intent(in) :: q(:)
+      real(wp), intent(out) :: a(:, :)   !! T = 1/2 p^T a p
+    end subroutine kinetic_i
+  end interface
+
+contains
+
+  pure integer function ham_dim(self)
+    class(hamiltonian_t), intent(in) :: self
+    ham_dim = 2*self%ndof()
+  end function ham_dim
+
+  !> dq/dt = dH/dp, dp/dt = -dH/dq.
+  pure subroutine ham_eval(self, t, x, dxdt, stat)
+    class(hamiltonian_t), intent(in) :: self
+    real(wp), intent(in)  :: t, x(:)
+    real(wp), intent(out) :: dxdt(:)
+    integer, intent(out)  :: stat
+    real(wp) :: g(size(x))
+    integer :: n
+    n = size(x)/2
+    call self%gradient(x, g, stat)
+    dxdt(1:n) = g(n + 1:2*n)
+    dxdt(n + 1:2*n) = -g(1:n)
+    if (stat == 0 .and. .not. all(abs(dxdt(1:2*n)) <= huge(1.0_wp))) stat = -1
+  end subroutine ham_eval
+
+  !> Jacobian of Hamilton's equations: J Hess H.
+  pure subroutine ham_jacobian(self, t, x, jac, stat)
+    class(hamiltonian_t), intent(in) :: self
+    real(wp), intent(in)  :: t, x(:)
+    real(wp), intent(out) :: jac(:, :)
+    integer, intent(out)  :: stat
+    real(wp) :: h(size(x), size(x))
+    integer :: n
+    n = size(x)/2
+    call self%hessian(x, h, stat)
+    jac(1:n, :) = h(n + 1:2*n, :)
+    jac(n + 1:2*n, :) = -h(1:n, :)
+    if (stat == 0 .and. .not. all(abs(jac(1:2*n, 1:2*n)) <= huge(1.0_wp))) stat = -1
+  end subroutine ham_jacobian
+
+  !> 'q1', ..., 'qN', 'p1', ..., 'pN'.
+  pure function ham_coordinate_name(self, k) result(name)
+    class(hamiltonian_t), intent(in) :: self
+    integer, intent(in) :: k          !! 1..2N
+    character(LEN_NAME) :: name
+    integer :: n
+    n = self%ndof()
+    if (k <= n) then
+      write (name, '(a,i0)') 'q', k
+    else
+      write (name, '(a,i0)') 'p', k - n
+    end if
+  end function ham_coordinate_name
+
+  pure logical function ham_is_natural(self)
+    class(hamiltonian_t), intent(in) :: self
+    ham_is_natural = .false.
+  end function ham_is_natural
+
+  pure integer function ham_naming(self)
+    class(hamiltonian_t), intent(in) :: self
+    ham_naming = NAMES_GENERIC
+  end function ham_naming
+
+  pure real(wp) function ham_length_scale(self)
+    class(hamiltonian_t), intent(in) :: self
+    ham_length_scale = 1
+  end function ham_length_scale
+
+  !> No known reversor: all zeros.
+  pure function ham_reversor(self) result(r)
+    class(hamiltonian_t), intent(in) :: self
+    integer :: r(2*self%ndof())
+    r = 0
+  end function ham_reversor
+
+  !> Momenta of zero velocity at q: dH/dp(q, p) = 0 by Newton from p (exact in one step when
+  !> H is quadratic in p, as in every built-in model). stat = TUBES_ENOCONV if it fails.
+  subroutine ham_rest_momenta(self, q, p, stat)
+    class(hamiltonian_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(inout) :: p(:)     !! start, on return the rest momenta
+    integer, intent(out) :: stat
+    real(wp) :: x(2*size(q)), g(2*size(q)), h(2*size(q), 2*size(q)), a(size(q), size(q)), b(size(q))
+    integer :: n, it, ipiv(size(q)), info
+    interface
+      subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
+        import :: wp
+        integer, intent(in) :: n, nrhs, lda, ldb
+        real(wp), intent(inout) :: a(lda, *), b(ldb, *)
+        integer, intent(out) :: ipiv(*), info
+      end subroutine dgesv
+    end interface
+    n = size(q)
+    do it = 1, 20
+      x = [q, p]
+      call self%gradient(x, g, stat)
+      if (stat /= 0) return
+      if (maxval(abs(g(n + 1:2*n))) <= 1.0e-14_wp*max(1.0_wp, maxval(abs(p)))) then
+        stat = TUBES_OK
+        return
+      end if
+      call self%hessian(x, h, stat)
+      if (stat /= 0) return
+      a = h(n + 1:2*n, n + 1:2*n)
+      b = -g(n + 1:2*n)
+      call dgesv(n, 1, a, n, ipiv, b, n, info)
+      if (info /= 0) then
+        stat = TUBES_ENOCONV
+        return
+      end if
+      p = p + b
+    end do
+    stat = TUBES_ENOCONV
+  end subroutine ham_rest_momenta
+
+  pure real(wp) function nat_potential(self, q)
+    class(natural_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    nat_potential = self%potential_scale()*self%shape(q)
+  end function nat_potential
+
+  !> The kinetic matrix at a rest point q (grad V(q) = 0); models whose A(q) simplifies
+  !> there override it.
+  pure subroutine nat_rest_kinetic(self, q, a)
+    class(natural_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(out) :: a(:, :)
+    call self%kinetic_matrix(q, a)
+  end subroutine nat_rest_kinetic
+
+  pure real(wp) function nat_potential_scale(self)
+    class(natural_t), intent(in) :: self
+    nat_potential_scale = 1
+  end function nat_potential_scale
+
+  pure logical function nat_is_natural(self)
+    class(natural_t), intent(in) :: self
+    nat_is_natural = .true.
+  end function nat_is_natural
+
+  subroutine nat_rest_momenta(self, q, p, stat)
+    class(natural_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(inout) :: p(:)
+    integer, intent(out) :: stat
+    p = 0
+    stat = TUBES_OK
+  end subroutine nat_rest_momenta
+
+  !> (q, p) -> (q, -p): brake orbits are the orbits symmetric under it.
+  pure function nat_reversor(self) result(r)
+    class(natural_t), intent(in) :: self
+    integer :: r(2*self%ndof())
+    integer :: n
+    n = self%ndof()
+    r(1:n) = 1
+    r(n + 1:2*n) = -1
+  end function nat_reversor
+
+  !> Wrap a conservative model with damping rate c (allocate with source=, see STYLE.md).
+  subroutine make_damped(d, base, c)
+    type(damped_t), intent(out) :: d
+    class(hamiltonian_t), intent(in) :: base
+    real(wp), intent(in) :: c    !! damping rate [1/time]
+    allocate (d%base, source=base)
+    d%c = c
+  end subroutine make_damped
+
+  pure integer function damped_dim(self)
+    class(damped_t), intent(in) :: self
+    damped_dim = self%base%dim()
+  end function damped_dim
+
+  pure subroutine damped_eval(self, t, x, dxdt, stat)
+    class(damped_t), intent(in) :: self
+    real(wp), intent(in)  :: t, x(:)
+    real(wp), intent(out) :: dxdt(:)
+    integer, intent(out)  :: stat
+    integer :: n
+    n = size(x)/2
+    call self%base%eval(t, x, dxdt, stat)
+    dxdt(n + 1:2*n) = dxdt(n + 1:2*n) - self%c*x(n + 1:2*n)
+  end subroutine damped_eval
+
+  pure subroutine damped_jacobian(self, t, x, jac, stat)
+    class(damped_t), intent(in) :: self
+    real(wp), intent(in)  :: t, x(:)
+    real(wp), intent(out) :: jac(:, :)
+    integer, intent(out)  :: stat
+    integer :: n, k
+    n = size(x)/2
+    call self%base%jacobian(t, x, jac, stat)
+    do k = n + 1, 2*n
+      jac(k, k) = jac(k, k) - self%c
+    end do
+  end subroutine damped_jacobian
+end module tubes_hamiltonian

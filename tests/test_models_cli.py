@@ -1,0 +1,247 @@
+"""The library of models through the executable (issue: any Hamiltonian system).
+
+Every expected value here is derived independently of tubes' code path: closed forms
+(Henon-Heiles' saddles, the Morse oscillator's period, the CR3BP's collinear quintic, A_E = 2 pi E
+on Henon-Heiles' section y = 0), limits (action / (T_po dE) -> 1, ln(mu) / T -> lambda as
+dE -> 0), symmetries (the four-well's four saddles) and the Monte Carlo count (a second method).
+"""
+import math
+
+import h5py
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from conftest import run_tubes
+
+
+def run(tmp_path, text, name="out.h5", ok=(0,)):
+    (tmp_path / "m.nml").write_text(text)
+    r = run_tubes(["m.nml", "-o", name], tmp_path, timeout=600)
+    assert r.returncode in ok, r.stdout + r.stderr
+    return r, h5py.File(tmp_path / name, "r")
+
+
+def saddle_index(f, name):
+    names = [n.decode() if isinstance(n, bytes) else n for n in f["equilibria/name"][:]]
+    return names.index(name)
+
+
+# ---------------------------------------------------------------- Henon-Heiles
+
+HH = "&model system = 'henon_heiles' /\n"
+
+
+def test_henon_heiles_equilibria(tmp_path):
+    r, f = run(tmp_path, HH + "&run scenes = 'equilibria' /\n&orbits saddle_near = 0, 1 /\n")
+    eq = f["equilibria"]
+    idx = eq["morse_index"][:]
+    assert sorted(idx) == [0, 1, 1, 1]                       # one well, three saddles
+    e = eq["energy"][:]
+    assert np.allclose(e[idx == 1], 1 / 6, rtol=0, atol=1e-14)  # V = 1/6 at the saddles
+    state = eq["state"][:]
+    q = state[:, :2]
+    expect = [(0, 1), (math.sqrt(3) / 2, -0.5), (-math.sqrt(3) / 2, -0.5)]
+    for x, y in expect:
+        assert np.min(np.hypot(q[:, 0] - x, q[:, 1] - y)) < 1e-12
+    sad = f["saddle"].attrs                                   # chosen by saddle_near = (0, 1)
+    assert abs(sad["x"]) < 1e-12 and abs(sad["y"] - 1) < 1e-12
+    # at (0, 1): V_yy = 1 - 2y = -1 and V_xx = 1 + 2y = 3, unit masses: lambda = 1, omega = sqrt 3
+    assert abs(sad["lambda"] - 1) < 1e-12
+    assert abs(sad["omega"] - math.sqrt(3)) < 1e-12
+
+
+def test_henon_heiles_orbits_action_limit(tmp_path):
+    des = [1e-5, 1e-4, 1e-3]
+    r, f = run(tmp_path, HH + "&run scenes = 'orbits' /\n&orbits saddle_near = 0, 1, de = "
+               + ", ".join(map(str, des)) + " /\n")
+    o = f["orbits"]
+    t_po = 2 * math.pi / math.sqrt(3)
+    dev = [abs(a / (t_po * de) - 1) for a, de in zip(o["action"][:], des)]
+    # action = T_po dE + O(dE^2) (MacKay 1990): the deviation falls linearly with dE
+    assert dev[0] < 1e-4
+    assert dev[0] < dev[1] < dev[2]
+    assert 5 < dev[1] / dev[0] < 20 and 5 < dev[2] / dev[1] < 20
+    assert all(o["converged"][:] == 1)
+
+
+def test_henon_heiles_tube_transition_montecarlo(tmp_path):
+    text = HH + ("&run scenes = 'tubes', 'transition', 'montecarlo' /\n"
+                 "&orbits saddle_near = 0, 1 /\n"
+                 "&section kind = 'plane', index = 2, value = 0.0, direction = 1 /\n"
+                 "&tubes de = 0.02 /\n&transition de = 0.005, 0.02 /\n"
+                 "&montecarlo de = 0.02, n_samples = 4000, seed = 7 /\n")
+    r, f = run(tmp_path, text)
+    tr = f["transition"]
+    for de, ae, at, act, p in zip(tr["dE"][:], tr["A_E"][:], tr["A_tube"][:], tr["action"][:],
+                                  tr["p_trans"][:]):
+        e = 1 / 6 + de
+        # on y = 0 the region is px^2 + x^2 <= 2E: a disc of area 2 pi E
+        assert abs(ae / (2 * math.pi * e) - 1) < 1e-10
+        # the tube's area is the orbit's action (to the refinement tolerance 1e-8)
+        assert abs(at / act - 1) < 1e-7
+        assert abs(p - act / (2 * math.pi * e)) < 1e-7 * p
+    mc = f["montecarlo"].attrs
+    assert abs(mc["fraction"] - mc["p_trans"]) < 4 * mc["std_error"]
+    assert mc["misclassified"] == 0
+    assert mc["undecided"] == 0
+    cut = f["tubes/stable_000"].attrs
+    assert abs(cut["area"] / cut["action"] - 1) < 1e-9
+
+
+# ---------------------------------------------------------------- De Leon-Berne
+
+def test_de_leon_berne_morse_period(tmp_path):
+    des = [0.1, 1.0, 3.0]
+    text = ("&model system = 'de_leon_berne' /\n&run scenes = 'equilibria', 'orbits' /\n"
+            "&orbits saddle_near = 0, 0, de = " + ", ".join(map(str, des)) + " /\n")
+    r, f = run(tmp_path, text)
+    sad = f["saddle"].attrs
+    assert abs(sad["x"]) < 1e-12 and abs(sad["y"]) < 1e-12
+    assert abs(sad["energy"] - 1.0) < 1e-14                  # eps_s
+    o = f["orbits"]
+    m_a, d, lam = 8.0, 10.0, 1.5
+    for de, period, x0 in zip(des, o["period"][:], o["state0"][:]):
+        # y = 0 is invariant and the orbit is a Morse oscillation along x with energy dE above
+        # its bottom: omega(E) = lambda sqrt(2 (D - E) / m_a)
+        expect = 2 * math.pi / (lam * math.sqrt(2 * (d - de) / m_a))
+        assert abs(period / expect - 1) < 1e-9, (de, period, expect)
+        assert abs(x0[1]) < 1e-10 and abs(x0[3]) < 1e-10
+
+
+# ---------------------------------------------------------------- CR3BP
+
+MU = 0.01215058560962404
+
+
+def collinear(mu):
+    def f(x):
+        r1, r2 = abs(x + mu), abs(x - 1 + mu)
+        return x - (1 - mu) * (x + mu) / r1**3 - mu * (x - 1 + mu) / r2**3
+    l1 = brentq(f, -mu + 1e-6, 1 - mu - 1e-6, xtol=1e-15)
+    l2 = brentq(f, 1 - mu + 1e-6, 2.0, xtol=1e-15)
+    l3 = brentq(f, -2.0, -mu - 1e-6, xtol=1e-15)
+    return l1, l2, l3
+
+
+def test_cr3bp_lagrange_points_and_lyapunov_orbits(tmp_path):
+    des = [1e-7, 1e-6, 1e-5]
+    text = ("&model system = 'cr3bp' /\n&run scenes = 'equilibria', 'orbits' /\n"
+            "&orbits saddle = 'L1', de = " + ", ".join(map(str, des)) + " /\n")
+    r, f = run(tmp_path, text)
+    l1, l2, l3 = collinear(MU)
+    st = f["equilibria/state"][:]
+    for name, x in (("L1", l1), ("L2", l2), ("L3", l3)):
+        k = saddle_index(f, name)
+        assert abs(st[k, 0] - x) < 1e-12 and abs(st[k, 1]) < 1e-12
+        assert abs(st[k, 2] - 0) < 1e-12 and abs(st[k, 3] - x) < 1e-12   # p = (-y, x)
+    for name, y in (("L4", math.sqrt(3) / 2), ("L5", -math.sqrt(3) / 2)):
+        k = saddle_index(f, name)
+        assert abs(st[k, 0] - (0.5 - MU)) < 1e-12 and abs(st[k, 1] - y) < 1e-12
+    sad = f["saddle"].attrs
+    lam = sad["lambda"]
+    o = f["orbits"]
+    assert all(o["converged"][:] == 1)
+    rates = []
+    for k in range(len(des)):
+        x0 = o["state0"][k]
+        assert abs(x0[1]) < 1e-12 and abs(x0[2]) < 1e-12      # starts on y = 0 with px = 0
+        xs = f[f"orbits/orbit_{k:03d}/state"][:]
+        # symmetric about the x axis: x(T - t) = x(t), y(T - t) = -y(t)
+        assert np.allclose(xs[::-1, 0], xs[:, 0], atol=1e-9)
+        assert np.allclose(xs[::-1, 1], -xs[:, 1], atol=1e-9)
+        rates.append(math.log(o["mu_unstable"][k]) / o["period"][k])
+    dev = [abs(r_ / lam - 1) for r_ in rates]
+    assert dev[0] < 1e-4 and dev[0] < dev[2]
+
+
+# ---------------------------------------------------------------- the four-well at all saddles
+
+SADDLE_SECTIONS = [("S12", 45.0, 1), ("S14", 45.0, -1), ("S23", 225.0, -1), ("S34", 225.0, 1)]
+
+
+@pytest.mark.parametrize("saddle,angle,sign", SADDLE_SECTIONS)
+def test_fourwell_every_saddle(tmp_path, saddle, angle, sign):
+    text = ("&run scenes = 'transition', 'montecarlo' /\n"
+            f"&orbits saddle = '{saddle}' /\n&section angle = {angle}, p_theta_sign = {sign} /\n"
+            "&transition de = 100 /\n&montecarlo de = 100, n_samples = 4000, seed = 5 /\n")
+    r, f = run(tmp_path, text)
+    p = f["transition/p_trans"][0]
+    # the surface is symmetric under (x, y) -> (y, x) and (x, y) -> (-x, -y), which map the four
+    # saddles and their sections onto each other: S12 (U1, p_theta > 0) gives 0.0819566
+    assert abs(p - 0.0819566) < 1e-6
+    mc = f["montecarlo"].attrs
+    assert abs(mc["fraction"] - mc["p_trans"]) < 4 * mc["std_error"]
+    assert mc["misclassified"] == 0
+
+
+def test_cr3bp_sun_jupiter_family_stays_on_the_family(tmp_path):
+    """Sun-Jupiter L1: coarse steps in energy are known to jump to an unrelated orbit. The orbit at
+    dE = 0.04 must be the same whether requested alone, after intermediate energies, or by
+    multiple shooting (a second corrector), and the period must grow along the family."""
+    base = "&model system = 'cr3bp', mu = 0.0009537 /\n&run scenes = 'orbits' /\n"
+    periods = []
+    for i, extra in enumerate(["de = 0.04",
+                               "de = 1e-4, 1e-3, 3e-3, 1e-2, 2e-2, 4e-2",
+                               "de = 0.04, method = 'multiple', n_segments = 8"]):
+        r, f = run(tmp_path, base + f"&orbits saddle = 'L1', {extra} /\n", name=f"sj{i}.h5")
+        o = f["orbits"]
+        assert all(o["converged"][:] == 1)
+        per = o["period"][:]
+        assert all(np.diff(per) > 0)
+        periods.append(per[-1])
+    # the correctors stop at residual 1e-11; the period agrees far below any family change
+    assert max(periods) - min(periods) < 1e-7 * periods[0], periods
+
+
+# ---------------------------------------------------------------- bad input of the new variables
+
+BAD = [
+    ("&run scenes = 'equilibria' /\n&model system = 'nope' /\n",
+     ["m.nml:2", "system = 'nope' is not a built-in system", "henon_heiles", "cr3bp"]),
+    ("&run scenes = 'equilibria' /\n&model system = 'henon_heiles', mu = 0.1 /\n",
+     ["m.nml:2", "mu is not a parameter of system 'henon_heiles'", "its parameters: none"]),
+    ("&run scenes = 'equilibria' /\n&model system = 'cr3bp',\n alpha = 0.1 /\n",
+     ["m.nml:3", "alpha is not a parameter of system 'cr3bp'", "its parameters: mu"]),
+    ("&run scenes = 'equilibria' /\n&model system = 'cr3bp', mu = 0.9 /\n",
+     ["m.nml:2", "parameters of system 'cr3bp' are out of range", "mu = 0.9"]),
+    ("&run scenes = 'equilibria' /\n&model system = 'de_leon_berne', m_a = -8 /\n",
+     ["parameters of system 'de_leon_berne' are out of range", "m_a = -8"]),
+    ("&run scenes = 'orbits' /\n&orbits saddle = 'S99' /\n",
+     ["saddle = 'S99' is not a rank-1 saddle of system rolling_ball", "S12, S14, S23, S34"]),
+    ("&run scenes = 'orbits' /\n&model system = 'cr3bp' /\n&orbits saddle = 'L4' /\n",
+     ["saddle = 'L4' is not a rank-1 saddle of system cr3bp", "L1, L2, L3"]),
+    ("&run scenes = 'orbits' /\n&orbits saddle = 'S12',\n saddle_near = 1, 2 /\n",
+     ["m.nml:3", "saddle and saddle_near are both set"]),
+    ("&run scenes = 'tubes' /\n&model system = 'henon_heiles' /\n"
+     "&section kind = 'plane', index = 3, value = 0, direction = 1 /\n",
+     ["m.nml:3", "index = 3 is out of range: allowed 1 .. 2", "henon_heiles"]),
+    ("&run scenes = 'tubes' /\n&model system = 'henon_heiles' /\n&section kind = 'ray' /\n",
+     ["m.nml:3", "kind = 'ray' is the four-well ball's polar section", "kind = 'plane'"]),
+    ("&run scenes = 'tubes' /\n&model system = 'henon_heiles' /\n&section direction = 0 /\n",
+     ["m.nml:3", "direction = 0 is out of range", "-1, 1"]),
+    ("&run scenes = 'tubes' /\n&model system = 'cr3bp' /\n",
+     ["system 'cr3bp' has no default section", "kind = 'plane'"]),
+    ("&run scenes = 'tubes' /\n&section kind = 'plane', angle = 30 /\n",
+     ["angle and p_theta_sign belong to kind = 'ray'"]),
+    ("&run scenes = 'tubes' /\n&section kind = 'cone' /\n",
+     ["kind = 'cone' is not allowed", "ray, plane"]),
+]
+
+
+@pytest.mark.parametrize("text,expect", BAD)
+def test_bad_input_of_the_model_layer(tmp_path, text, expect):
+    (tmp_path / "m.nml").write_text(text)
+    r = run_tubes(["m.nml", "-o", "bad.h5"], tmp_path)
+    assert r.returncode == 1, r.stdout + r.stderr
+    for e in expect:
+        assert e in r.stderr, (e, r.stderr)
+    assert not (tmp_path / "bad.h5").exists()
+    assert not list(tmp_path.glob("bad.h5.tmp*"))
+
+
+def test_the_paper_input_keeps_working_and_records_the_model(tmp_path):
+    r, f = run(tmp_path, "&run scenes = 'equilibria' /\n&model alpha = 0.07, beta = 1.017 /\n")
+    m = f["model"].attrs
+    assert (m["system"].decode() if isinstance(m["system"], bytes) else m["system"]) == "rolling_ball"
+    assert m["alpha"] == 0.07 and m["g"] == 981.0 and m["ndof"] == 2
