@@ -122,3 +122,51 @@ def test_load_reads_a_run(tmp_path):
     assert "&MODEL" in res.input_namelist
     with pytest.raises(AttributeError):
         _ = res.nonexistent
+
+
+# ---------------------------------------------------------------- models by name (the library)
+
+def test_models_by_name_and_their_table():
+    assert tubes.systems() == ["rolling_ball", "henon_heiles", "de_leon_berne", "coupled_quartic", "cr3bp"]
+    m = tubes.Model()
+    assert m.system == "rolling_ball" and m.alpha == 0.07 and m.ndof == 2
+    assert tubes.Model(alpha=0.08).alpha == 0.08
+    assert tubes.Model(system="cr3bp").mu == 0.01215058560962404
+    with pytest.raises(ValueError, match="mu is not a parameter of system 'henon_heiles'"):
+        tubes.Model(system="henon_heiles", mu=0.1)
+    with pytest.raises(ValueError, match="unknown system 'nope'"):
+        tubes.Model(system="nope")
+    with pytest.raises(ValueError, match="out of range"):
+        tubes.Model(system="cr3bp", mu=0.9)
+    with pytest.raises(ValueError, match="out of range"):
+        tubes.Model(gamma=-1.0)
+    assert tubes.Model(system="de_leon_berne", m_a=4.0) == tubes.Model(system="de_leon_berne").replace(m_a=4.0)
+
+
+def test_henon_heiles_from_python_against_closed_forms():
+    hh = tubes.Model(system="henon_heiles")
+    # H at a state, one by one and vectorised (the same Fortran function)
+    x = np.array([[0.1, 0.2, 0.3, 0.4], [-0.3, 0.1, 0.0, 0.5]])
+    e = tubes.energies(x, hh)
+    ref = 0.5 * (x[:, 2] ** 2 + x[:, 3] ** 2) + 0.5 * (x[:, 0] ** 2 + x[:, 1] ** 2) \
+        + x[:, 0] ** 2 * x[:, 1] - x[:, 1] ** 3 / 3
+    assert np.allclose(e, ref, rtol=1e-15, atol=1e-16)
+    assert tubes.energy(x[0], hh) == e[0]
+    eq = tubes.equilibria(hh)
+    assert eq["name"] == ["W1", "S1", "S2", "S3"]
+    assert np.allclose(eq["energy"][1:], 1 / 6, atol=1e-15)
+    assert np.allclose(eq["lambda"][1:], 1, atol=1e-12)
+    assert np.allclose(eq["omega"][1:], np.sqrt(3), atol=1e-12)
+    # the section y = 0 (dy/dt > 0) at E = 1/6 + dE: the disc x^2 + px^2 <= 2E
+    b = tubes.section_boundary(hh, 0.02, section={"kind": "plane", "index": 2, "value": 0.0, "direction": 1})
+    r = np.sqrt(2 * (1 / 6 + 0.02))
+    assert abs(b["s_min"] + r) < 1e-12 and abs(b["s_max"] - r) < 1e-12
+    assert np.allclose(b["p_max"], np.sqrt(np.maximum(0, r * r - b["s"] ** 2)), atol=1e-7)
+
+
+def test_model_of_a_result_file(tmp_path):
+    (tmp_path / "m.nml").write_text("&run scenes = 'equilibria' /\n&model system = 'cr3bp', mu = 0.001 /\n")
+    r = run_tubes(["m.nml", "-o", "m.h5"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    m = tubes.Model.of(tubes.load(str(tmp_path / "m.h5")))
+    assert m == tubes.Model(system="cr3bp", mu=0.001)

@@ -130,7 +130,10 @@ class Model:
     def of(cls, res) -> "Model":
         """The model an output file was computed with (its /model group; a Result of load or
         an h5py group). Files written before /model@system existed are the rolling ball."""
-        node = res.model if hasattr(res, "model") and not hasattr(res, "attrs") else res
+        try:
+            node = res["model"]          # a Result of load, or an h5py file
+        except (KeyError, TypeError, AttributeError):
+            node = res                   # the /model group itself
         attrs = dict(node.attrs)
         system = _decode(attrs.get("system", "rolling_ball"))
         names = model_info(system)["parameters"]
