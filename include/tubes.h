@@ -14,7 +14,8 @@ enum {
   TUBES_EINPUT = -1, TUBES_EMAXSTEPS = -2, TUBES_ESTEP = -3, TUBES_EMODEL = -4,
   TUBES_EIO = -5, TUBES_ENOCONV = -6,
   TUBES_EFAULT = -7, /* a failure injected by TUBES_FAULT (tests only) */
-  TUBES_EOUTSIDE = -8 /* a tube crossed the section outside the region chosen on it */
+  TUBES_EOUTSIDE = -8, /* a tube crossed the section outside the region chosen on it */
+  TUBES_ENOCROSS = -9 /* no crossing of the section within t_max */
 };
 
 /* Integration methods (src/tubes_methods.f90). */

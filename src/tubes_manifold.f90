@@ -6,7 +6,8 @@
 module tubes_manifold
   use, intrinsic :: iso_c_binding, only: c_int, c_double
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT, TUBES_EFAULT
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT, TUBES_EFAULT, &
+                          TUBES_ENOCROSS
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_variational, only: variational_t, make_variational, stm_start
@@ -152,7 +153,7 @@ contains
       xc = x
       pc = psec%coords(x)
     else if (stat >= 0) then
-      stat = TUBES_ENOCONV     ! no crossing within t_max
+      stat = TUBES_ENOCROSS    ! no crossing within t_max
     end if
   end subroutine one_seed
 

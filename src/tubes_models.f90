@@ -307,16 +307,21 @@ contains
   end subroutine conservative_ball
 
   !> Damping rate c = 2 zeta omega_1 [1/s], omega_1 the lower small-oscillation frequency at
-  !> the lowest well (docs/theory.md, "Damping"). Finds the wells; only call when zeta > 0.
+  !> the lowest well (docs/theory.md, "Damping"): a property of the surface, so its wells are
+  !> searched in the table's box for rolling_ball (not the run's &equilibria box). Only call
+  !> when zeta > 0.
   subroutine damping_rate(ball, zeta, c, stat)
     type(ball_t), intent(in) :: ball
     real(wp), intent(in) :: zeta   !! damping ratio [1]
     real(wp), intent(out) :: c     !! damping rate [1/s]
     integer, intent(out) :: stat
     type(equilibrium_t), allocatable :: eqs(:)
+    type(system_info_t) :: info
     integer :: k, kbest
     c = 0
-    call find_equilibria(ball, [-20.0_wp, -20.0_wp], [20.0_wp, 20.0_wp], 41, eqs, stat)
+    call system_info('rolling_ball', info, stat)
+    call find_equilibria(ball, info%box_center(1:2) - info%box(1:2), info%box_center(1:2) + info%box(1:2), &
+                         41, eqs, stat)
     if (stat /= TUBES_OK) return
     kbest = 0
     do k = 1, size(eqs)

@@ -318,6 +318,9 @@ contains
     end do
     if (open) call consider(lo, self%s_hi)
     if (inside) stat = TUBES_OK
+    ! a region that reaches the ends of the search is unbounded or larger than the box: its
+    ! area would be the search window's, not the energy surface's
+    if (inside .and. (self%smin <= self%s_lo .or. self%smax >= self%s_hi)) stat = TUBES_EINPUT
   contains
     subroutine consider(l, h)      ! keep the interval holding, or nearest to, s_anchor
       real(wp), intent(in) :: l, h

@@ -13,6 +13,7 @@ module tubes_status
   integer, parameter, public :: TUBES_ENOCONV = -6   !! an iteration (Newton, root finder) did not converge
   integer, parameter, public :: TUBES_EFAULT = -7    !! a failure injected by TUBES_FAULT (tests only)
   integer, parameter, public :: TUBES_EOUTSIDE = -8  !! a tube crossed the section outside its region
+  integer, parameter, public :: TUBES_ENOCROSS = -9  !! no crossing of the section within t_max
   public :: status_message
 contains
   !> Text for a status code.
@@ -30,6 +31,7 @@ contains
     case (TUBES_ENOCONV);   msg = 'iteration did not converge'
     case (TUBES_EFAULT);    msg = 'failure injected by TUBES_FAULT (testing)'
     case (TUBES_EOUTSIDE);  msg = 'the tube crosses the section outside the region of the energy surface chosen on it'
+    case (TUBES_ENOCROSS);  msg = 'no crossing of the section within t_max: the tube does not reach this section'
     case default;           msg = 'unknown status code'
     end select
   end function status_message

@@ -226,6 +226,10 @@ BAD = [
      ["angle and p_theta_sign belong to kind = 'ray'"]),
     ("&run scenes = 'tubes' /\n&section kind = 'cone' /\n",
      ["kind = 'cone' is not allowed", "ray, plane"]),
+    ("&run scenes = 'synthetic_experiment' /\n&model system = 'henon_heiles' /\n",
+     ["m.nml:1", "synthetic_experiment", "system = 'rolling_ball'"]),
+    ("&run scenes = 'trajectory' /\n&model system = 'cr3bp' /\n",
+     ["at_rest = .true. (the default) needs a natural system", "p = (-y0, x0)"]),
 ]
 
 
@@ -245,3 +249,40 @@ def test_the_paper_input_keeps_working_and_records_the_model(tmp_path):
     m = f["model"].attrs
     assert (m["system"].decode() if isinstance(m["system"], bytes) else m["system"]) == "rolling_ball"
     assert m["alpha"] == 0.07 and m["g"] == 981.0 and m["ndof"] == 2
+
+
+def test_cr3bp_plane_section_gyroscopic_area_and_transit(tmp_path):
+    """The gyroscopic case of the plane sections: Earth-Moon L1, the plane x = 0.9 between L1 and
+    the Moon, crossed towards L1 (dx/dt < 0). Minimising H over the free momentum px (px = -y)
+    leaves (py - x)^2 <= 2 (E - U_eff(x, y)), U_eff = -(x^2 + y^2)/2 - (1 - mu)/r1 - mu/r2, so the
+    region's width is 2 sqrt(2 (E - U_eff)): A_E and dA_E/dE by scipy's quad, independently of
+    tubes' quadratic-form code path. Then the tube's area against the action and the Monte Carlo."""
+    from scipy.integrate import quad
+    text = ("&model system = 'cr3bp' /\n&run scenes = 'transition', 'montecarlo' /\n"
+            "&section kind = 'plane', index = 1, value = 0.9, direction = -1 /\n"
+            "&transition de = 1e-4, 1e-3 /\n&montecarlo de = 1e-3, n_samples = 3000, seed = 3 /\n")
+    r, f = run(tmp_path, text)
+    sec = f["section"].attrs
+    e_e = sec["E_e"]
+
+    def ueff(y, x=0.9):
+        return -(x * x + y * y) / 2 - (1 - MU) / math.hypot(x + MU, y) - MU / math.hypot(x - 1 + MU, y)
+
+    def area(e):
+        ymax = brentq(lambda y: e - ueff(y), 0.0, 0.5, xtol=1e-15)   # U_eff is even in y
+        a, _ = quad(lambda y: 2 * math.sqrt(max(0.0, 2 * (e - ueff(y)))), -ymax, ymax, epsabs=0, epsrel=1e-12)
+        da, _ = quad(lambda y: 2 / math.sqrt(max(1e-300, 2 * (e - ueff(y)))), -ymax, ymax, epsabs=0,
+                     epsrel=1e-10, limit=200)
+        return a, da, ymax
+
+    a0, tau, ymax = area(e_e)
+    assert abs(sec["A0"] / a0 - 1) < 1e-9
+    assert abs(sec["tau"] / tau - 1) < 1e-6
+    assert abs(sec["r_max"] - ymax) < 1e-10 and abs(sec["r_min"] + ymax) < 1e-10
+    tr = f["transition"]
+    for de, ae, at, act in zip(tr["dE"][:], tr["A_E"][:], tr["A_tube"][:], tr["action"][:]):
+        assert abs(ae / area(e_e + de)[0] - 1) < 1e-9
+        assert abs(at / act - 1) < 1e-7
+    mc = f["montecarlo"].attrs
+    assert abs(mc["fraction"] - mc["p_trans"]) < 4 * mc["std_error"]
+    assert mc["misclassified"] == 0

@@ -19,13 +19,14 @@ import numpy as np
 
 # Status codes: the same numbers as src/tubes_status.f90 and include/tubes.h.
 OK, EVENT = 0, 1
-EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV, EFAULT, EOUTSIDE = -1, -2, -3, -4, -5, -6, -7, -8
+EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV, EFAULT, EOUTSIDE, ENOCROSS = -1, -2, -3, -4, -5, -6, -7, -8, -9
 _MESSAGES = {
     OK: "ok", EVENT: "stopped at a terminal event", EINPUT: "invalid input",
     EMAXSTEPS: "maximum number of steps reached", ESTEP: "step size underflow",
     EMODEL: "the model refused the state (NaN, Inf or a blown-up state)", EIO: "input/output error",
     ENOCONV: "iteration did not converge", EFAULT: "failure injected by TUBES_FAULT (testing)",
     EOUTSIDE: "the tube crosses the section outside the region of the energy surface chosen on it",
+    ENOCROSS: "no crossing of the section within t_max: the tube does not reach this section",
 }
 METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, "gauss6": 7,
            "gauss8": 8, "gsl_rk8pd": 9, "gsl_rk4imp": 10, "cvode_adams": 11,

@@ -545,6 +545,22 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
   for (int k = 0; k < nd; k++)
     if (c->orb_use_near && !isfinite(c->orb_saddle_near[k]))
       n += bad(path, w, "orbits", "saddle_near", err, "", c->orb_saddle_near[k]);
+  if (scene_requested(c, "synthetic_experiment") && strcmp(c->system, "rolling_ball")) {
+    fprintf(err, "%s:%d: &run: the synthetic_experiment scene releases balls on the four-well surface: it needs "
+            "system = 'rolling_ball' (this file's system is '%s')\n", path, line_of(w, "run", "scenes"), c->system);
+    n++;
+  }
+  if (scene_requested(c, "trajectory") && c->at_rest && strcmp(c->system, "rolling_ball")) {
+    int natural = 0;
+    tubes_model_natural(c->system, c->params, &natural);
+    if (!natural) {
+      int ln = line_of(w, "trajectory", "at_rest");
+      fprintf(err, "%s:%d: &trajectory: at_rest = .true. (the default) needs a natural system; system '%s' is "
+              "gyroscopic: set at_rest = .false. and give px0, py0 (zero velocity is p = (-y0, x0) for cr3bp)\n",
+              path, ln ? ln : w->group_line[group_index("trajectory")], c->system);
+      n++;
+    }
+  }
   int need_section = scene_requested(c, "tubes") || scene_requested(c, "transition") ||
                      scene_requested(c, "montecarlo") || scene_requested(c, "sections");
   int set_ray = line_of(w, "section", "angle") || line_of(w, "section", "p_theta_sign");

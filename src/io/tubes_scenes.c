@@ -548,7 +548,13 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
   int st = saddle_props(run, &ee, &tpo);
   if (!st) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), 0.0, &rmin, &rmax, &a0, &tau);
   if (st < 0) {
-    fprintf(stderr, "tubes: section: the energy surface on the section could not be computed (status %d)\n", st);
+    if (sec_is_ray(c))
+      fprintf(stderr, "tubes: section: the energy surface on the section could not be computed (status %d)\n", st);
+    else
+      fprintf(stderr, "tubes: section: the plane q%d = %g does not meet a bounded region of the energy surface at "
+              "E_e of %s (searched q%d over the &equilibria box widened by half its width on each side; status %d): "
+              "choose another value, or a box that holds the region\n", c->sec_index, c->sec_value, run->saddle,
+              3 - c->sec_index, st);
     return EXIT_NUMERIC;
   }
   *a0_out = a0; *tau_out = tau; *tpo_out = tpo;
