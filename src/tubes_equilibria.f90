@@ -12,6 +12,7 @@ module tubes_equilibria
   private
 
   integer, parameter, public :: MAX_EQUILIBRIA = 256   !! equilibria kept at most (more: TUBES_ENOCONV)
+  integer, parameter :: MAXN = 8                       !! configuration dimension at most
 
   !> One equilibrium.
   type, public :: equilibrium_t
@@ -69,13 +70,15 @@ contains
     if (q(1) > 0 .and. q(2) < 0) quadrant = 4
   end function quadrant
 
-  !> Solve a x = b for a small system (closed form for n = 2, LAPACK otherwise).
+  !> Solve a x = b for a small system (closed form for n = 2, LAPACK otherwise; n <= MAXN).
+  !> Fixed-size locals: this runs thousands of times per equilibrium search, and gfortran puts
+  !> automatic arrays on the heap.
   subroutine small_solve(a, b, x, ok)
     real(wp), intent(in) :: a(:, :), b(:)
     real(wp), intent(out) :: x(:)
     logical, intent(out) :: ok
-    real(wp) :: det, aa(size(b), size(b)), bb(size(b))
-    integer :: ipiv(size(b)), info, n
+    real(wp) :: det, aa(MAXN, MAXN), bb(MAXN)
+    integer :: ipiv(MAXN), info, n
     n = size(b)
     ok = .true.
     if (n == 2) then
@@ -84,13 +87,14 @@ contains
         ok = .false.
         return
       end if
-      x = [a(2, 2)*b(1) - a(1, 2)*b(2), a(1, 1)*b(2) - a(2, 1)*b(1)]/det
+      x(1) = (a(2, 2)*b(1) - a(1, 2)*b(2))/det
+      x(2) = (a(1, 1)*b(2) - a(2, 1)*b(1))/det
     else
-      aa = a
-      bb = b
-      call dgesv(n, 1, aa, n, ipiv, bb, n, info)
+      aa(1:n, 1:n) = a
+      bb(1:n) = b
+      call dgesv(n, 1, aa, MAXN, ipiv, bb, MAXN, info)
       ok = info == 0
-      x = bb
+      x = bb(1:n)
     end if
   end subroutine small_solve
 
@@ -100,24 +104,25 @@ contains
     class(natural_t), intent(in) :: model
     real(wp), intent(inout) :: q(:)
     logical, intent(out) :: ok
-    real(wp) :: gr(size(q)), hs(size(q), size(q)), dq(size(q)), scale, ls
-    integer :: it
+    real(wp) :: gr(MAXN), hs(MAXN, MAXN), dq(MAXN), scale, ls
+    integer :: it, n
     ok = .false.
+    n = size(q)
     ls = model%length_scale()
     do it = 1, 60
-      call model%shape_derivs(q, gr, hs)
-      if (.not. all(abs(gr) <= huge(1.0_wp))) return
-      call small_solve(hs, gr, dq, ok)
+      call model%shape_derivs(q, gr(1:n), hs(1:n, 1:n))
+      if (.not. all(abs(gr(1:n)) <= huge(1.0_wp))) return
+      call small_solve(hs(1:n, 1:n), gr(1:n), dq(1:n), ok)
       if (.not. ok) return
       ok = .false.
-      scale = max(1.0_wp, sqrt(sum(dq**2))/ls)   ! damp long steps to one length scale
-      q = q - dq/scale
-      if (sqrt(sum(dq**2)) <= 1.0e-14_wp*max(ls, sqrt(sum(q**2)))) then
+      scale = max(1.0_wp, sqrt(sum(dq(1:n)**2))/ls)   ! damp long steps to one length scale
+      q = q - dq(1:n)/scale
+      if (sqrt(sum(dq(1:n)**2)) <= 1.0e-14_wp*max(ls, sqrt(sum(q**2)))) then
         ok = .true.
         return
       end if
     end do
-    ok = sqrt(sum(gr**2)) <= 1.0e-13_wp
+    ok = sqrt(sum(gr(1:n)**2)) <= 1.0e-13_wp
   end subroutine newton_natural
 
   !> Newton's method on f(x) = J grad H = 0 in 2N dimensions (any model).
