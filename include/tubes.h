@@ -44,7 +44,8 @@ int tubes_model_system(int k, char name[TUBES_LSYSTEM]);
  * (blocks of TUBES_LDOC), a one-line summary; the scenes' defaults: the equilibrium search box
  * (half-widths and centre per coordinate), the saddle (by name, or "" and then by position
  * saddle_near), the section (kind "ray", "plane" or "" for none; plane: index 1..N, value,
- * direction; ray: angle [deg], direction = sign of p_theta) and the transit gate. Strings are
+ * direction; ray: angle [deg], direction = sign of p_theta) and the transit gate; surface: rolling_ball's surface formula ("" for
+ * the others). Strings are
  * NUL-terminated within their blocks. TUBES_EINPUT for an unknown system. */
 int tubes_model_info(const char system[TUBES_LSYSTEM], int *ndof, int *np, char names[],
                      double defaults[], char units[], char docs[], char summary[TUBES_LSUMMARY],
@@ -52,7 +53,7 @@ int tubes_model_info(const char system[TUBES_LSYSTEM], int *ndof, int *np, char 
                      double box_center[TUBES_MAXDOF], char saddle[8],
                      double saddle_near[TUBES_MAXDOF], char section_kind[8], int *section_index,
                      double *section_value, int *section_direction, double *section_angle,
-                     double *gate);
+                     double *gate, char surface[TUBES_LSUMMARY]);
 
 /* Copy the text of status `code` into buf (NUL-terminated, at most len bytes). */
 void tubes_status_message(int code, char *buf, int len);

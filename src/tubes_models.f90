@@ -37,6 +37,7 @@ module tubes_models
   type, public :: system_info_t
     character(LEN_SYSTEM) :: name = ''    !! &model system
     character(160) :: summary = ''        !! one line: the Hamiltonian
+    character(160) :: surface = ''        !! rolling_ball: the surface's formula (/model@surface)
     integer :: ndof = 2                   !! degrees of freedom
     integer :: np = 0                     !! parameters
     type(param_info_t) :: params(MAX_PARAMS)
@@ -88,6 +89,8 @@ contains
     select case (trim(name))
     case ('rolling_ball')
       info%summary = 'a ball rolling on the four-well surface z = H(x, y) (Ross et al. 2018)'
+      info%surface = 'fourwell: H = alpha (x^2+y^2) - beta (sqrt(x^2+gamma) + sqrt(y^2+gamma)) ' // &
+                     '- xi x y + h0'
       info%np = 7
       info%params(1) = p('alpha', 0.07_wp, '1/cm', 'curvature of the bowl')
       info%params(2) = p('beta', 1.017_wp, '1', 'depth of the wells')

@@ -23,16 +23,16 @@ int main(void) {
   {
     int ndof = 0, np = 0, si, sd;
     char pn[TUBES_MAXPARAM * TUBES_LPARAM], pu[TUBES_MAXPARAM * TUBES_LUNITS], pd[TUBES_MAXPARAM * TUBES_LDOC];
-    char sum[TUBES_LSUMMARY], lu[8], sad[8], sk[8];
+    char sum[TUBES_LSUMMARY], lu[8], sad[8], sk[8], surf[TUBES_LSUMMARY];
     double box[MD], boxc[MD], near[MD], sv, sa, gate;
     int st = tubes_model_info(sys, &ndof, &np, pn, model, pu, pd, sum, lu, box, boxc, sad, near, sk, &si, &sv,
-                              &sd, &sa, &gate);
+                              &sd, &sa, &gate, surf);
     check("model info status", st == TUBES_OK, st, 0);
     check("rolling_ball has 7 parameters, 2 dof", np == 7 && ndof == 2, np, 7);
     check("rolling_ball: alpha first, the paper's 0.07", !strcmp(pn, "alpha") && model[0] == 0.07, model[0], 0.07);
     check("rolling_ball: default saddle S12", !strcmp(sad, "S12"), 0, 0);
     st = tubes_model_info("no_such_system", &ndof, &np, pn, box, pu, pd, sum, lu, box, boxc, sad, near, sk, &si,
-                          &sv, &sd, &sa, &gate);
+                          &sv, &sd, &sa, &gate, surf);
     check("unknown system refused", st == TUBES_EINPUT, st, TUBES_EINPUT);
     char nm[TUBES_LSYSTEM];
     int nsys = 0;

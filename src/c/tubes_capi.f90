@@ -98,12 +98,12 @@ contains
 
   integer(c_int) function c_model_info(system, ndof, np, names, defaults, units, docs, summary, &
       length_units, box, box_center, saddle, saddle_near, section_kind, section_index, &
-      section_value, section_direction, section_angle, gate) result(stat) &
+      section_value, section_direction, section_angle, gate, surface) result(stat) &
       bind(C, name='tubes_model_info')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
     integer(c_int), intent(out) :: ndof, np, section_index, section_direction
     character(kind=c_char), intent(out) :: names(LEN_PARAM, MAX_PARAMS), units(16, MAX_PARAMS), &
-      docs(96, MAX_PARAMS), summary(160), length_units(8), saddle(8), section_kind(8)
+      docs(96, MAX_PARAMS), summary(160), length_units(8), saddle(8), section_kind(8), surface(160)
     real(c_double), intent(out) :: defaults(MAX_PARAMS), box(MAX_DOF), box_center(MAX_DOF), &
       saddle_near(MAX_DOF), section_value, section_angle, gate
     type(system_info_t) :: info
@@ -121,6 +121,7 @@ contains
       defaults(k) = info%params(k)%default
     end do
     call to_c(info%summary, summary, 160)
+    call to_c(info%surface, surface, 160)
     call to_c(info%length_units, length_units, 8)
     box = info%box
     box_center = info%box_center

@@ -468,13 +468,13 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
   int ndof = 0, np = 0, si, sd;
   static char names[TUBES_MAXPARAM * TUBES_LPARAM], units[TUBES_MAXPARAM * TUBES_LUNITS],
       docs[TUBES_MAXPARAM * TUBES_LDOC];
-  char sys[TUBES_LSYSTEM] = "", summary[TUBES_LSUMMARY], lu[8], sad[8], sk[8];
+  char sys[TUBES_LSYSTEM] = "", summary[TUBES_LSUMMARY], lu[8], sad[8], sk[8], surf[TUBES_LSUMMARY];
   double defs[TUBES_MAXPARAM], box[TUBES_MAXDOF], boxc[TUBES_MAXDOF], near[TUBES_MAXDOF], sv, sa, gate;
   snprintf(sys, sizeof sys, "%s", c->system);
   int ln = line_of(w, "model", "system");
   if (!ln) ln = w->group_line[group_index("model")];
   if (c->nparams < 0 || tubes_model_info(sys, &ndof, &np, names, defs, units, docs, summary, lu, box, boxc, sad,
-                                         near, sk, &si, &sv, &sd, &sa, &gate) < 0) {
+                                         near, sk, &si, &sv, &sd, &sa, &gate, surf) < 0) {
     fprintf(err, "%s:%d: &model: system = '%s' is not a built-in system: allowed ", path, ln, c->system);
     char nm[TUBES_LSYSTEM];
     for (int k = 0; tubes_model_system(k, nm) == TUBES_OK; k++) fprintf(err, "%s%s", k ? ", " : "", nm);

@@ -32,10 +32,10 @@ int scene_model(tubes_run_t *run) {
   int ndof = 0, np = 0, si = 0, sd = 0;
   static char names[TUBES_MAXPARAM * TUBES_LPARAM], units[TUBES_MAXPARAM * TUBES_LUNITS],
       docs[TUBES_MAXPARAM * TUBES_LDOC];
-  char summary[TUBES_LSUMMARY], lu[8], dsad[8], skind[8];
+  char summary[TUBES_LSUMMARY], lu[8], dsad[8], skind[8], surf[TUBES_LSUMMARY];
   double defs[TUBES_MAXPARAM], box[MD], boxc[MD], near[MD], sv, sa, gate;
   if (tubes_model_info(run->system, &ndof, &np, names, defs, units, docs, summary, lu, box, boxc, dsad, near,
-                       skind, &si, &sv, &sd, &sa, &gate) < 0)
+                       skind, &si, &sv, &sd, &sa, &gate, surf) < 0)
     return EXIT_BADINPUT;
   hid_t g = h5_group(run->file, "model");
   if (g < 0) return EXIT_IO;
@@ -43,9 +43,7 @@ int scene_model(tubes_run_t *run) {
   rc |= h5_attr_string(g, "system", run->system);
   rc |= h5_attr_string(g, "hamiltonian", summary);
   rc |= h5_attr_long(g, "ndof", ndof);
-  if (!strcmp(run->system, "rolling_ball"))
-    rc |= h5_attr_string(g, "surface", "fourwell: H = alpha (x^2+y^2) - beta (sqrt(x^2+gamma) + "
-                                       "sqrt(y^2+gamma)) - xi x y + h0");
+  if (surf[0]) rc |= h5_attr_string(g, "surface", surf);
   for (int k = 0; k < np; k++) rc |= h5_attr_double(g, names + TUBES_LPARAM * k, run->params[k]);
   if (!strcmp(run->system, "rolling_ball") && c->damping_ratio > 0) {
     double cd = 0;
@@ -98,12 +96,12 @@ int run_setup(tubes_run_t *run) {
   int np = 0, si = 0, sd = 0;
   static char names[TUBES_MAXPARAM * TUBES_LPARAM], units[TUBES_MAXPARAM * TUBES_LUNITS],
       docs[TUBES_MAXPARAM * TUBES_LDOC];
-  char summary[TUBES_LSUMMARY], lu[8], dsad[8], skind[8];
+  char summary[TUBES_LSUMMARY], lu[8], dsad[8], skind[8], surf[TUBES_LSUMMARY];
   double defs[TUBES_MAXPARAM], box[MD], boxc[MD], near[MD], sv, sa, gate;
   memset(run->system, 0, sizeof run->system);
   snprintf(run->system, sizeof run->system, "%s", c->system);
   if (tubes_model_info(run->system, &run->ndof, &np, names, defs, units, docs, summary, lu, box, boxc, dsad, near,
-                       skind, &si, &sv, &sd, &sa, &gate) < 0) {
+                       skind, &si, &sv, &sd, &sa, &gate, surf) < 0) {
     fprintf(stderr, "tubes: unknown system '%s'\n", c->system);
     return EXIT_BADINPUT;
   }
