@@ -7,7 +7,7 @@
 !> A(q) = (5/7) M^-1. Damping is the generic damped_t wrapper (-c p on the momenta).
 module tubes_ball
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: natural_t, LEN_NAME, NAMES_QUADRANT
+  use tubes_hamiltonian, only: natural_t, NAMES_QUADRANT
   use tubes_surface, only: surface_t
   implicit none
   private
@@ -30,7 +30,6 @@ module tubes_ball
     procedure :: shape_derivs => ball_shape_derivs
     procedure :: kinetic_matrix => ball_kinetic_matrix
     procedure :: rest_kinetic_matrix => ball_rest_kinetic
-    procedure :: coordinate_name => ball_coordinate_name
     procedure :: naming => ball_naming
     procedure :: potential_scale => ball_potential_scale
     procedure :: velocity => ball_velocity
@@ -119,13 +118,6 @@ contains
     h(3:4, 1:4) = jac(1:2, 1:4)
   end subroutine ball_hessian
 
-  pure function ball_coordinate_name(self, k) result(name)
-    class(ball_t), intent(in) :: self
-    integer, intent(in) :: k
-    character(LEN_NAME) :: name
-    character(2), parameter :: NAMES(4) = ['x ', 'y ', 'px', 'py']
-    name = NAMES(k)
-  end function ball_coordinate_name
 
   !> V = g H.
   pure real(wp) function ball_potential_scale(self)

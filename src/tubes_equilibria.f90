@@ -6,6 +6,7 @@
 !> CR3BP): Newton on the 2N-dimensional vector field from (q, rest momenta of q).
 module tubes_equilibria
   use tubes_kinds, only: wp
+  use tubes_lapack, only: dgeev, dsyev, dgesv
   use tubes_hamiltonian, only: hamiltonian_t, natural_t, NAMES_QUADRANT, NAMES_LAGRANGE
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   implicit none
@@ -33,30 +34,6 @@ module tubes_equilibria
 
   public :: find_equilibria, linearize, quadrant, rest_jacobian
 
-  interface
-    subroutine dgeev(jobvl, jobvr, n, a, lda, wr, wi, vl, ldvl, vr, ldvr, work, lwork, info)
-      import :: wp
-      character, intent(in) :: jobvl, jobvr
-      integer, intent(in) :: n, lda, ldvl, ldvr, lwork
-      real(wp), intent(inout) :: a(lda, *)
-      real(wp), intent(out) :: wr(*), wi(*), vl(ldvl, *), vr(ldvr, *), work(*)
-      integer, intent(out) :: info
-    end subroutine dgeev
-    subroutine dsyev(jobz, uplo, n, a, lda, w, work, lwork, info)
-      import :: wp
-      character, intent(in) :: jobz, uplo
-      integer, intent(in) :: n, lda, lwork
-      real(wp), intent(inout) :: a(lda, *)
-      real(wp), intent(out) :: w(*), work(*)
-      integer, intent(out) :: info
-    end subroutine dsyev
-    subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
-      import :: wp
-      integer, intent(in) :: n, nrhs, lda, ldb
-      real(wp), intent(inout) :: a(lda, *), b(ldb, *)
-      integer, intent(out) :: ipiv(*), info
-    end subroutine dgesv
-  end interface
 
 contains
 

@@ -9,6 +9,7 @@
 module tubes_gauss
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp, i8
+  use tubes_lapack, only: dgesv, dgetrf, dgetrs
   use tubes_integrator, only: integrator_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_ENOCONV
   implicit none
@@ -24,29 +25,6 @@ module tubes_gauss
   !> sliver step that lands on tmax).
   real(wp), parameter :: MAX_EXTRAP_RATIO = 4.0_wp
 
-  interface
-    subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
-      import :: wp
-      integer, intent(in) :: n, nrhs, lda, ldb
-      real(wp), intent(inout) :: a(lda, *), b(ldb, *)
-      integer, intent(out) :: ipiv(*), info
-    end subroutine dgesv
-    subroutine dgetrf(m, n, a, lda, ipiv, info)
-      import :: wp
-      integer, intent(in) :: m, n, lda
-      real(wp), intent(inout) :: a(lda, *)
-      integer, intent(out) :: ipiv(*), info
-    end subroutine dgetrf
-    subroutine dgetrs(trans, n, nrhs, a, lda, ipiv, b, ldb, info)
-      import :: wp
-      character, intent(in) :: trans
-      integer, intent(in) :: n, nrhs, lda, ldb
-      real(wp), intent(in) :: a(lda, *)
-      integer, intent(in) :: ipiv(*)
-      real(wp), intent(inout) :: b(ldb, *)
-      integer, intent(out) :: info
-    end subroutine dgetrs
-  end interface
 
   !> Gauss-Legendre collocation with s stages, fixed step h (> 0) taken from integrator_t.
   type, extends(integrator_t), public :: gauss_t

@@ -14,6 +14,7 @@
 !>   a vector field for integration only, dE/dt = -c p . dH/dp).
 module tubes_hamiltonian
   use tubes_kinds, only: wp
+  use tubes_lapack, only: dgesv
   use tubes_field, only: vector_field_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   implicit none
@@ -149,14 +150,21 @@ contains
     if (stat == 0 .and. .not. all(abs(jac(1:2*n, 1:2*n)) <= huge(1.0_wp))) stat = -1
   end subroutine ham_jacobian
 
-  !> 'q1', ..., 'qN', 'p1', ..., 'pN'.
+  !> x, y, (z), px, py, (pz) for N <= 3; q1..qN, p1..pN beyond.
   pure function ham_coordinate_name(self, k) result(name)
     class(hamiltonian_t), intent(in) :: self
     integer, intent(in) :: k          !! 1..2N
     character(LEN_NAME) :: name
+    character(1), parameter :: XYZ(3) = ['x', 'y', 'z']
     integer :: n
     n = self%ndof()
-    if (k <= n) then
+    if (n <= 3) then
+      if (k <= n) then
+        name = XYZ(k)
+      else
+        name = 'p'//XYZ(k - n)
+      end if
+    else if (k <= n) then
       write (name, '(a,i0)') 'q', k
     else
       write (name, '(a,i0)') 'p', k - n
@@ -194,14 +202,6 @@ contains
     integer, intent(out) :: stat
     real(wp) :: x(2*size(q)), g(2*size(q)), h(2*size(q), 2*size(q)), a(size(q), size(q)), b(size(q))
     integer :: n, it, ipiv(size(q)), info
-    interface
-      subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
-        import :: wp
-        integer, intent(in) :: n, nrhs, lda, ldb
-        real(wp), intent(inout) :: a(lda, *), b(ldb, *)
-        integer, intent(out) :: ipiv(*), info
-      end subroutine dgesv
-    end interface
     n = size(q)
     do it = 1, 20
       x = [q, p]

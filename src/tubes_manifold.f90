@@ -6,6 +6,7 @@
 module tubes_manifold
   use, intrinsic :: iso_c_binding, only: c_int, c_double
   use tubes_kinds, only: wp
+  use tubes_lapack, only: dlasrt, dgeev
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT, TUBES_EFAULT, &
                           TUBES_ENOCROSS
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
@@ -68,21 +69,6 @@ module tubes_manifold
       real(c_double), value :: period
       real(c_double), intent(out) :: area
     end function spline_area
-    subroutine dlasrt(id, n, d, info)
-      import :: wp
-      character, intent(in) :: id
-      integer, intent(in) :: n
-      real(wp), intent(inout) :: d(*)
-      integer, intent(out) :: info
-    end subroutine dlasrt
-    subroutine dgeev(jobvl, jobvr, n, a, lda, wr, wi, vl, ldvl, vr, ldvr, work, lwork, info)
-      import :: wp
-      character, intent(in) :: jobvl, jobvr
-      integer, intent(in) :: n, lda, ldvl, ldvr, lwork
-      real(wp), intent(inout) :: a(lda, *)
-      real(wp), intent(out) :: wr(*), wi(*), vl(ldvl, *), vr(ldvr, *), work(*)
-      integer, intent(out) :: info
-    end subroutine dgeev
   end interface
 
 contains

@@ -5,6 +5,7 @@
 !> as (system name, parameter vector in the order of this table).
 module tubes_models
   use tubes_kinds, only: wp
+  use tubes_lapack, only: dgesv
   use tubes_field, only: vector_field_t
   use tubes_hamiltonian, only: hamiltonian_t, natural_t, damped_t, make_damped
   use tubes_ball, only: ball_t, make_ball, ROLL
@@ -239,14 +240,6 @@ contains
     integer, intent(out) :: stat
     real(wp) :: a(size(q), size(q)), b(size(q))
     integer :: ipiv(size(q)), info, n
-    interface
-      subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
-        import :: wp
-        integer, intent(in) :: n, nrhs, lda, ldb
-        real(wp), intent(inout) :: a(lda, *), b(ldb, *)
-        integer, intent(out) :: ipiv(*), info
-      end subroutine dgesv
-    end interface
     p = 0
     stat = TUBES_EINPUT
     n = size(q)

@@ -4,6 +4,7 @@
 !> Theory and conventions: docs/orbits.md.
 module tubes_orbits
   use tubes_kinds, only: wp
+  use tubes_lapack, only: dgesv, dgels, dgeev
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EFAULT
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_field, only: vector_field_t
@@ -73,30 +74,6 @@ module tubes_orbits
 
   public :: linear_guess, correct_symmetric, correct_multiple, finish_orbit, orbit_family
 
-  interface
-    subroutine dgesv(n, nrhs, a, lda, ipiv, b, ldb, info)
-      import :: wp
-      integer, intent(in) :: n, nrhs, lda, ldb
-      real(wp), intent(inout) :: a(lda, *), b(ldb, *)
-      integer, intent(out) :: ipiv(*), info
-    end subroutine dgesv
-    subroutine dgels(trans, m, n, nrhs, a, lda, b, ldb, work, lwork, info)
-      import :: wp
-      character, intent(in) :: trans
-      integer, intent(in) :: m, n, nrhs, lda, ldb, lwork
-      real(wp), intent(inout) :: a(lda, *), b(ldb, *)
-      real(wp), intent(out) :: work(*)
-      integer, intent(out) :: info
-    end subroutine dgels
-    subroutine dgeev(jobvl, jobvr, n, a, lda, wr, wi, vl, ldvl, vr, ldvr, work, lwork, info)
-      import :: wp
-      character, intent(in) :: jobvl, jobvr
-      integer, intent(in) :: n, lda, ldvl, ldvr, lwork
-      real(wp), intent(inout) :: a(lda, *)
-      real(wp), intent(out) :: wr(*), wi(*), vl(ldvl, *), vr(ldvr, *), work(*)
-      integer, intent(out) :: info
-    end subroutine dgeev
-  end interface
 
 contains
 

@@ -17,7 +17,7 @@ module tubes_section_kinds
   use tubes_integrator, only: event_t, plane_t
   use tubes_sections, only: theta_line_t, polar_canonical
   use tubes_section, only: ray_t, section_region, section_area, section_darea, boundary_pr, &
-                           p_theta_from
+                           p_theta_from, quad_qags, quad_root
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   implicit none
   private
@@ -53,24 +53,6 @@ module tubes_section_kinds
 
   public :: make_ray_section, make_plane_section
 
-  interface
-    integer(c_int) function quad_qags(f, user, a, b, epsabs, epsrel, result, abserr) &
-        bind(C, name='tubes_quad_qags')
-      import :: c_int, c_double, c_ptr, c_funptr
-      type(c_funptr), value :: f
-      type(c_ptr), value :: user
-      real(c_double), value :: a, b, epsabs, epsrel
-      real(c_double), intent(out) :: result, abserr
-    end function quad_qags
-    integer(c_int) function quad_root(f, user, a, b, epsabs, epsrel, root) &
-        bind(C, name='tubes_quad_root')
-      import :: c_int, c_double, c_ptr, c_funptr
-      type(c_funptr), value :: f
-      type(c_ptr), value :: user
-      real(c_double), value :: a, b, epsabs, epsrel
-      real(c_double), intent(out) :: root
-    end function quad_root
-  end interface
 
 contains
 

@@ -4,7 +4,7 @@
 !> The origin is the rank-1 saddle (E = 0) between two wells on either side of x = 0.
 module tubes_coupled_quartic
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: natural_t, LEN_NAME
+  use tubes_hamiltonian, only: natural_t
   implicit none
   private
 
@@ -26,7 +26,6 @@ module tubes_coupled_quartic
     procedure :: shape => cq_shape
     procedure :: shape_derivs => cq_shape_derivs
     procedure :: kinetic_matrix => cq_kinetic
-    procedure :: coordinate_name => cq_name
   end type coupled_quartic_t
 
 contains
@@ -98,11 +97,4 @@ contains
     if (abs(x(1)) + abs(x(2)) > MAX_Q) stat = -1
   end subroutine cq_hessian
 
-  pure function cq_name(self, k) result(name)
-    class(coupled_quartic_t), intent(in) :: self
-    integer, intent(in) :: k
-    character(LEN_NAME) :: name
-    character(2), parameter :: NAMES(4) = ['x ', 'y ', 'px', 'py']
-    name = NAMES(k)
-  end function cq_name
 end module tubes_coupled_quartic

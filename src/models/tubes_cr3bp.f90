@@ -9,7 +9,7 @@
 !> solutions; the Lyapunov orbits of L1 and L2 are symmetric under it.
 module tubes_cr3bp
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: hamiltonian_t, LEN_NAME, NAMES_LAGRANGE
+  use tubes_hamiltonian, only: hamiltonian_t, NAMES_LAGRANGE
   implicit none
   private
 
@@ -27,7 +27,6 @@ module tubes_cr3bp
     procedure :: naming => cr_naming
     procedure :: reversor => cr_reversor
     procedure :: length_scale => cr_length_scale
-    procedure :: coordinate_name => cr_name
   end type cr3bp_t
 
 contains
@@ -122,11 +121,4 @@ contains
     cr_length_scale = (self%mu/3)**(1.0_wp/3)
   end function cr_length_scale
 
-  pure function cr_name(self, k) result(name)
-    class(cr3bp_t), intent(in) :: self
-    integer, intent(in) :: k
-    character(LEN_NAME) :: name
-    character(2), parameter :: NAMES(4) = ['x ', 'y ', 'px', 'py']
-    name = NAMES(k)
-  end function cr_name
 end module tubes_cr3bp

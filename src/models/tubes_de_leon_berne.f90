@@ -8,7 +8,7 @@
 !> orbit is a Morse oscillation along x with a period in closed form (docs/models.md).
 module tubes_de_leon_berne
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: natural_t, LEN_NAME
+  use tubes_hamiltonian, only: natural_t
   implicit none
   private
 
@@ -30,7 +30,6 @@ module tubes_de_leon_berne
     procedure :: shape => dlb_shape
     procedure :: shape_derivs => dlb_shape_derivs
     procedure :: kinetic_matrix => dlb_kinetic
-    procedure :: coordinate_name => dlb_name
   end type de_leon_berne_t
 
 contains
@@ -112,11 +111,4 @@ contains
     if (.not. all(abs(hs) <= huge(1.0_wp)) .or. abs(x(1)) + abs(x(2)) > MAX_Q) stat = -1
   end subroutine dlb_hessian
 
-  pure function dlb_name(self, k) result(name)
-    class(de_leon_berne_t), intent(in) :: self
-    integer, intent(in) :: k
-    character(LEN_NAME) :: name
-    character(2), parameter :: NAMES(4) = ['x ', 'y ', 'px', 'py']
-    name = NAMES(k)
-  end function dlb_name
 end module tubes_de_leon_berne

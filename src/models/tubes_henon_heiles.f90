@@ -5,7 +5,7 @@
 !> (0, 1) and (+-sqrt(3)/2, -1/2), each with lambda = 1 and omega = sqrt(3) (docs/models.md).
 module tubes_henon_heiles
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: natural_t, LEN_NAME
+  use tubes_hamiltonian, only: natural_t
   implicit none
   private
 
@@ -22,7 +22,6 @@ module tubes_henon_heiles
     procedure :: shape => hh_shape
     procedure :: shape_derivs => hh_shape_derivs
     procedure :: kinetic_matrix => hh_kinetic
-    procedure :: coordinate_name => hh_name
   end type henon_heiles_t
 
 contains
@@ -108,11 +107,4 @@ contains
     if (.not. abs(dxdt(3)) + abs(dxdt(4)) <= huge(1.0_wp) .or. abs(x(1)) + abs(x(2)) > MAX_Q) stat = -1
   end subroutine hh_eval
 
-  pure function hh_name(self, k) result(name)
-    class(henon_heiles_t), intent(in) :: self
-    integer, intent(in) :: k
-    character(LEN_NAME) :: name
-    character(2), parameter :: NAMES(4) = ['x ', 'y ', 'px', 'py']
-    name = NAMES(k)
-  end function hh_name
 end module tubes_henon_heiles
