@@ -131,13 +131,14 @@ contains
     end do
   end subroutine newton_general
 
-  !> Steepest descent of shape from q into a minimum (names saddles by their wells).
-  subroutine descend(model, q)
+  !> Steepest descent of shape from q into a minimum (names saddles by their wells); ok =
+  !> .false. if the final Newton polish did not converge.
+  subroutine descend(model, q, ok)
     class(natural_t), intent(in) :: model
     real(wp), intent(inout) :: q(:)
+    logical, intent(out) :: ok
     real(wp) :: gr(size(q)), hs(size(q), size(q)), a, qn(size(q)), h0
     integer :: it
-    logical :: ok
     a = 1.0_wp
     do it = 1, 20000
       call model%shape_derivs(q, gr, hs)
@@ -155,15 +156,17 @@ contains
   end subroutine descend
 
   !> Eigenvalues (ascending) and vectors of the Hessian of shape at q.
-  subroutine hessian_eigs(model, q, ev, vecs)
+  subroutine hessian_eigs(model, q, ev, vecs, stat)
     class(natural_t), intent(in) :: model
     real(wp), intent(in) :: q(:)
     real(wp), intent(out) :: ev(:), vecs(:, :)
-    real(wp) :: gr(size(q)), work(64)
+    integer, intent(out) :: stat     !! TUBES_ENOCONV if LAPACK's dsyev failed
+    real(wp) :: gr(MAXN), work(64)
     integer :: info, n
     n = size(q)
-    call model%shape_derivs(q, gr, vecs)
+    call model%shape_derivs(q, gr(1:n), vecs)
     call dsyev('V', 'U', n, vecs, n, ev, work, 64, info)
+    stat = merge(TUBES_OK, TUBES_ENOCONV, info == 0)
   end subroutine hessian_eigs
 
   !> All equilibria with q in the box [lo, hi] (per coordinate), by Newton from an n_grid^N
@@ -279,7 +282,8 @@ contains
       e%grad_norm = sqrt(sum(gr**2))
       e%height = model%shape(e%q)
       e%energy = model%potential_scale()*e%height
-      call hessian_eigs(model, e%q, e%curv, vecs)
+      call hessian_eigs(model, e%q, e%curv, vecs, stat)
+      if (stat /= TUBES_OK) return
       e%morse = count(e%curv < 0)
     class default
       call model%eval(0.0_wp, e%x, f, stat)
@@ -420,7 +424,8 @@ contains
   subroutine name_all(model, eqs)
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(inout) :: eqs(:)
-    integer :: k, nr, wa, wb, scheme
+    integer :: k, nr, wa, wb, scheme, st
+    logical :: oka, okb
     real(wp), allocatable :: qa(:), qb(:), vecs(:, :), ev(:)
     scheme = model%naming()
     if (scheme == NAMES_QUADRANT .and. size(eqs) > 0) then
@@ -433,14 +438,15 @@ contains
             write (eqs(k)%name, '(a,i0)') 'W', quadrant(eqs(k)%q)
           case (1)
             allocate (vecs(size(eqs(k)%q), size(eqs(k)%q)), ev(size(eqs(k)%q)))
-            call hessian_eigs(model, eqs(k)%q, ev, vecs)
+            call hessian_eigs(model, eqs(k)%q, ev, vecs, st)
             qa = eqs(k)%q + 1.0e-3_wp*vecs(:, 1)
             qb = eqs(k)%q - 1.0e-3_wp*vecs(:, 1)
-            call descend(model, qa)
-            call descend(model, qb)
+            call descend(model, qa, oka)
+            call descend(model, qb, okb)
             wa = quadrant(qa)
             wb = quadrant(qb)
-            write (eqs(k)%name, '(a,i0,i0)') 'S', min(wa, wb), max(wa, wb)
+            ! a failed eigen-solve or descent leaves the name empty: generic names are used
+            if (st == TUBES_OK .and. oka .and. okb) write (eqs(k)%name, '(a,i0,i0)') 'S', min(wa, wb), max(wa, wb)
             deallocate (vecs, ev)
           case default
             nr = nr + 1

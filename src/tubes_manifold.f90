@@ -368,6 +368,7 @@ contains
     integer :: info
     b = a
     call dlasrt('I', size(b), b, info)
+    if (info /= 0) error stop '[tubes_manifold:median] dlasrt refused a finite array'   ! cannot happen
     m = b((size(b) + 1)/2)
   end function median
 end module tubes_manifold

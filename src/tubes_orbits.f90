@@ -298,6 +298,10 @@ contains
     kf = par_fault_item('segment')
     xref = nodes(:, 1)
     call model%eval(0.0_wp, xref, fref, stat)
+    if (stat /= 0) then
+      stat = TUBES_ENOCONV                 ! the first node is not a state the model accepts
+      return
+    end if
     pscale = 1
     scale = 1                          ! residual in the state's units
     if (allocated(orb%history)) deallocate (orb%history)

@@ -146,9 +146,17 @@ contains
     k = 0
     allocate (u(8*n + 64))
     stat = rng_uniform(seed, size(u), u)
+    if (stat /= 0) then
+      stat = TUBES_EINPUT                  ! GSL refused the seed or the size
+      return
+    end if
     do while (m < n)
       if (k + 2 > size(u)) then            ! rare: draw more from the same stream's seed + 1
         stat = rng_uniform(seed + k, size(u), u)
+        if (stat /= 0) then
+          stat = TUBES_EINPUT
+          return
+        end if
         k = 0
       end if
       rr = psec%smin + (psec%smax - psec%smin)*u(k + 1)
