@@ -11,8 +11,10 @@ module tubes_study
   use tubes_models, only: make_model
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
-  use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section
-  use tubes_transport, only: gate_spec_t
+  use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_PLANE
+  use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
+  use tubes_transport, only: gate_spec_t, monte_carlo
+  use tubes_status, only: TUBES_EOUTSIDE
   implicit none
   private
 
@@ -20,7 +22,27 @@ module tubes_study
   integer, parameter, public :: SECTION_RAY = 1     !! sec_kind: the ball's polar ray
   integer, parameter, public :: SECTION_PLANE = 2   !! sec_kind: the plane q_index = level
 
-  public :: setup_model, setup_section, orbit_at, saddle_gate
+  public :: setup_model, setup_section, orbit_at, saddle_gate, section_info, cut_at, check_at
+
+  !> The section of a tube-dynamics call (as &section).
+  type, public :: section_choice_t
+    integer :: kind = SECTION_RAY    !! SECTION_RAY or SECTION_PLANE
+    integer :: index = 0             !! plane: q_index = level
+    real(wp) :: level = 0            !! ray: angle [rad]; plane: the level
+    integer :: dir = 1               !! ray: sign of p_theta; plane: sign of dq_index/dt
+  end type section_choice_t
+
+  !> The model, its search box and the saddle of a tube-dynamics call (as &model, &equilibria,
+  !> &orbits).
+  type, public :: study_t
+    character(32) :: system = 'rolling_ball'
+    real(wp) :: params(16) = 0
+    real(wp) :: lo(3) = 0, hi(3) = 0
+    integer :: n_grid = 41
+    character(8) :: saddle = ''
+    integer :: n_segments = 1        !! orbit corrector: 1 single shooting, >= 2 multiple
+    real(wp) :: orb_tol = 1.0e-11_wp, orb_rtol = 1.0e-13_wp, orb_atol = 1.0e-13_wp
+  end type study_t
 
 contains
 
@@ -149,4 +171,86 @@ contains
     gspec%dist = dist
   end subroutine saddle_gate
 
+  !> The energy surface on the section at E_e + de: its interval [smin, smax], area, dA/dE.
+  subroutine section_info(st, sec, de, smin, smax, area, darea, stat)
+    type(study_t), intent(in) :: st
+    type(section_choice_t), intent(in) :: sec
+    real(wp), intent(in) :: de
+    real(wp), intent(out) :: smin, smax, area, darea
+    integer, intent(out) :: stat
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(poincare_t), target :: psec
+    real(wp), allocatable :: q_ref(:)
+    integer :: isad
+    real(wp) :: err
+    smin = 0; smax = 0; area = 0; darea = 0
+    call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
+                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat)
+    if (stat /= TUBES_OK) return
+    smin = psec%smin
+    smax = psec%smax
+    call psec%area(area, err, stat)
+    if (stat /= TUBES_OK) return
+    call psec%darea(darea, err, stat)
+  end subroutine section_info
+
+  !> The cut of the tube of the saddle's Lyapunov orbit at excess energy de with the section
+  !> (opts: kind, eps, area_tol, t_max, n_init, n_max, local). orb is the orbit. A cut that
+  !> crosses a plane outside the chosen region is TUBES_EOUTSIDE.
+  subroutine cut_at(st, sec, de, opts, cut, orb, stat)
+    type(study_t), intent(in) :: st
+    type(section_choice_t), intent(in) :: sec
+    real(wp), intent(in) :: de
+    type(tube_opts_t), intent(in) :: opts
+    type(tube_cut_t), intent(out) :: cut
+    type(orbit_t), intent(out) :: orb
+    integer, intent(out) :: stat
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(poincare_t) :: psec
+    real(wp), allocatable :: q_ref(:)
+    integer :: isad
+    real(wp) :: tol_s
+    call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
+                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat)
+    if (stat /= TUBES_OK) return
+    call orbit_at(model, eqs, isad, de, st%n_segments, st%orb_tol, st%orb_rtol, st%orb_atol, orb, stat, &
+                  opts%local)
+    if (stat /= TUBES_OK) return
+    call tube_cut(model, orb, q_ref - eqs(isad)%q, psec, opts, cut, stat)
+    ! a plane crossed outside the section's region (another part of the line) is not a cut of
+    ! the section the caller asked for
+    if (stat == TUBES_OK .and. psec%kind == SEC_PLANE .and. cut%n > 0) then
+      tol_s = 1.0e-9_wp*max(1.0_wp, psec%smax - psec%smin)
+      if (any(cut%r(1:cut%n) < psec%smin - tol_s .or. cut%r(1:cut%n) > psec%smax + tol_s)) stat = TUBES_EOUTSIDE
+    end if
+  end subroutine cut_at
+
+  !> The Monte Carlo check at de: n points on the section, classified by the saddle's gate at
+  !> distance gate, predicted by the cut (cr, cp).
+  subroutine check_at(st, sec, de, n, seed, t_max, gate, cr, cp, r, pr, outcome, inside, stat)
+    use, intrinsic :: iso_c_binding, only: c_long
+    type(study_t), intent(in) :: st
+    type(section_choice_t), intent(in) :: sec
+    real(wp), intent(in) :: de, t_max, gate, cr(:), cp(:)
+    integer, intent(in) :: n
+    integer(c_long), intent(in) :: seed
+    real(wp), intent(out) :: r(n), pr(n)
+    integer, intent(out) :: outcome(n)
+    logical, intent(out) :: inside(n)
+    integer, intent(out) :: stat
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(poincare_t) :: psec
+    real(wp), allocatable :: q_ref(:)
+    type(gate_spec_t) :: gspec
+    integer :: isad
+    r = 0; pr = 0; outcome = -1; inside = .false.
+    call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
+                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat)
+    if (stat /= TUBES_OK) return
+    call saddle_gate(eqs(isad), q_ref, gate, gspec)
+    call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, cr, cp, r, pr, outcome, inside, stat)
+  end subroutine check_at
 end module tubes_study

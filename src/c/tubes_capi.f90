@@ -21,7 +21,8 @@ module tubes_capi
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE
   use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t
-  use tubes_study, only: setup_model, setup_section, orbit_at, saddle_gate
+  use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
+                         check_at
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long
   implicit none
@@ -390,6 +391,22 @@ contains
     stat = TUBES_OK
   end function c_orbit_family
 
+  !> The study (model, box, saddle, orbit corrector) and the section of a C call.
+  subroutine study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, st, sec)
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF), level
+    integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir
+    type(study_t), intent(out) :: st
+    type(section_choice_t), intent(out) :: sec
+    st%system = from_c(system, LEN_SYSTEM)
+    st%params = params
+    st%lo = lo
+    st%hi = hi
+    st%n_grid = n_grid
+    st%saddle = from_c(saddle, 8)
+    sec = section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir)
+  end subroutine study_of
+
   !> The energy surface on the section at E = E_e + de: its interval [smin, smax], its area
   !> and dA/dE.
   integer(c_int) function c_section_info(system, params, lo, hi, n_grid, saddle, sec_kind, &
@@ -400,22 +417,10 @@ contains
     integer(c_int), value :: n_grid, sec_kind, sec_index, dir
     real(c_double), value :: level, de
     real(c_double), intent(out) :: smin, smax, area, darea
-    class(hamiltonian_t), allocatable :: model
-    type(equilibrium_t), allocatable :: eqs(:)
-    type(poincare_t), target :: psec
-    real(wp), allocatable :: q_ref(:)
-    integer :: isad
-    real(wp) :: err
-    smin = 0; smax = 0; area = 0; darea = 0
-    call setup_section(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
-                       sec_kind, sec_index, level, dir, de, &
-                       model, eqs, isad, psec, q_ref, stat)
-    if (stat /= TUBES_OK) return
-    smin = psec%smin
-    smax = psec%smax
-    call psec%area(area, err, stat)
-    if (stat /= TUBES_OK) return
-    call psec%darea(darea, err, stat)
+    type(study_t) :: st
+    type(section_choice_t) :: sec
+    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, st, sec)
+    call section_info(st, sec, de, smin, smax, area, darea, stat)
   end function c_section_info
 
   !> The cut of the Lyapunov orbit's tube at excess energy de with the section (include/tubes.h).
@@ -431,25 +436,18 @@ contains
     integer(c_int), intent(out) :: n, nhist, hist_n(64), n_failed
     real(c_double), intent(out) :: tau(nout), r(nout), pr(nout), time(nout), xs(4, nout), area, &
                                    area_polygon, action, period, hist_area(64), fail_tau
-    class(hamiltonian_t), allocatable :: model
-    type(equilibrium_t), allocatable :: eqs(:)
-    type(poincare_t) :: psec
-    real(wp), allocatable :: q_ref(:)
+    type(study_t) :: st
+    type(section_choice_t) :: sec
     type(orbit_t) :: orb
     type(tube_opts_t) :: opts
     type(tube_cut_t) :: cut
-    integer :: isad
-    real(wp) :: tol_s
     n = 0; nhist = 0; hist_n = 0; hist_area = 0; area = 0; area_polygon = 0; action = 0; period = 0
     n_failed = 0; fail_tau = 0
-    call setup_section(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
-                       sec_kind, sec_index, level, dir, de, &
-                       model, eqs, isad, psec, q_ref, stat)
-    if (stat /= TUBES_OK) return
-    call orbit_at(model, eqs, isad, de, n_segments, orb_tol, orb_rtol, orb_atol, orb, stat, local /= 0)
-    if (stat /= TUBES_OK) return
-    action = orb%action
-    period = orb%period
+    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, st, sec)
+    st%n_segments = n_segments
+    st%orb_tol = orb_tol
+    st%orb_rtol = orb_rtol
+    st%orb_atol = orb_atol
     opts%local = local /= 0
     opts%kind = kind
     opts%eps = eps
@@ -457,7 +455,9 @@ contains
     opts%t_max = t_max
     opts%n_init = n_init
     opts%n_max = min(n_max, nout)
-    call tube_cut(model, orb, q_ref - eqs(isad)%q, psec, opts, cut, stat)
+    call cut_at(st, sec, de, opts, cut, orb, stat)
+    action = orb%action
+    period = orb%period
     n_failed = cut%n_failed
     fail_tau = cut%fail_tau
     n = min(cut%n, nout)
@@ -475,12 +475,6 @@ contains
       hist_n(1:nhist) = cut%hist_n(1:nhist)
       hist_area(1:nhist) = cut%hist_area(1:nhist)
     end if
-    ! a plane crossed outside the section's region (another part of the line) is not a cut of
-    ! the section the caller asked for
-    if (stat == TUBES_OK .and. psec%kind == SEC_PLANE .and. n > 0) then
-      tol_s = 1.0e-9_wp*max(1.0_wp, psec%smax - psec%smin)
-      if (any(r(1:n) < psec%smin - tol_s .or. r(1:n) > psec%smax + tol_s)) stat = TUBES_EOUTSIDE
-    end if
   end function c_tube_cut
 
   !> Monte Carlo transition check at excess energy de (include/tubes.h).
@@ -495,21 +489,12 @@ contains
     real(c_double), intent(in) :: cut_r(ncut), cut_pr(ncut)
     real(c_double), intent(out) :: r(nsamp), pr(nsamp)
     integer(c_int), intent(out) :: outcome(nsamp), inside(nsamp)
-    class(hamiltonian_t), allocatable :: model
-    type(equilibrium_t), allocatable :: eqs(:)
-    type(poincare_t) :: psec
-    real(wp), allocatable :: q_ref(:)
+    type(study_t) :: st
+    type(section_choice_t) :: sec
     logical :: ins(nsamp)
-    type(gate_spec_t) :: gspec
-    integer :: isad
-    r = 0; pr = 0; outcome = -1; inside = 0
-    call setup_section(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
-                       sec_kind, sec_index, level, dir, de, &
-                       model, eqs, isad, psec, q_ref, stat)
-    if (stat /= TUBES_OK) return
-    call saddle_gate(eqs(isad), q_ref, gate, gspec)
-    call monte_carlo(model, psec, nsamp, int(seed, c_long), gspec, t_max, 1.0e-10_wp, cut_r, cut_pr, &
-                     r, pr, outcome, ins, stat)
+    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, st, sec)
+    call check_at(st, sec, de, nsamp, int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, &
+                  ins, stat)
     inside = merge(1, 0, ins)
   end function c_monte_carlo
 

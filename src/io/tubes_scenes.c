@@ -611,7 +611,7 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
     char m[128], buf[2048];
     size_t len = 0;
     status_text(st, m, sizeof m);
-    len += snprintf(buf + len, sizeof buf - len, "tubes: tubes: the cut at dE = %g failed: %s (status %d)", de, m, st);
+    len += snprintf(buf + len, sizeof buf - len, "tubes: the cut at dE = %g failed: %s (status %d)", de, m, st);
     if (nfail > 0 && len < sizeof buf)
       len += snprintf(buf + len, sizeof buf - len, "; %d seed(s) failed, the first at orbit phase tau = %.10g s of "
                       "T = %.10g s", nfail, ftau, per);
