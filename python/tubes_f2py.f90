@@ -349,3 +349,233 @@ subroutine differentiate_savgol(x, n, dt, order, window, stat, v, xs)
   real(c_double), intent(out) :: v(n), xs(n)
   call diff_savgol(x, dt, order, window, v, xs, stat)
 end subroutine differentiate_savgol
+
+subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, use_near, near, &
+                      n_segments, orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, sec_kind, &
+                      sec_index, sec_level, sec_dir, tub_eps, tub_area_tol, tub_t_max, tub_n_init, &
+                      tub_n_max, tra_area_tol, mc_t_max, mc_gate)
+  ! an input file read by the program's own namelist reader (src/io/tubes_nml.f90), with the
+  ! system's defaults filled in: Python's scene calls take their defaults from here
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char, c_null_char
+  use tubes_nml, only: tubes_config_t
+  implicit none
+  character(len=*), intent(in) :: path
+  integer(c_int), intent(out) :: stat, n_grid, use_near, n_segments, orb_max_iter, orb_n_samples, &
+                                 sec_kind, sec_index, sec_dir, tub_n_init, tub_n_max
+  character(len=512), intent(out) :: msg
+  character(len=32), intent(out) :: system
+  character(len=8), intent(out) :: saddle
+  real(c_double), intent(out) :: params(16), lo(3), hi(3), near(3), orb_tol, orb_rtol, orb_atol, &
+                                 sec_level, tub_eps, tub_area_tol, tub_t_max, tra_area_tol, mc_t_max, &
+                                 mc_gate
+  interface
+    integer(c_int) function nml_read(p, cfg, group, m, mlen) bind(C, name='tubes_nml_read')
+      import :: c_int, c_char, tubes_config_t
+      character(kind=c_char), intent(in) :: p(*)
+      type(tubes_config_t), intent(out) :: cfg
+      integer(c_int), intent(out) :: group
+      integer(c_int), value :: mlen
+      character(kind=c_char), intent(out) :: m(mlen)
+    end function nml_read
+  end interface
+  type(tubes_config_t) :: cfg
+  character(kind=c_char) :: cpath(len_trim(path) + 1), cmsg(512)
+  integer(c_int) :: group
+  integer :: i
+  do i = 1, len_trim(path)
+    cpath(i) = path(i:i)
+  end do
+  cpath(len_trim(path) + 1) = c_null_char
+  stat = nml_read(cpath, cfg, group, cmsg, 512)
+  msg = ''
+  do i = 1, 512
+    if (cmsg(i) == c_null_char) exit
+    msg(i:i) = cmsg(i)
+  end do
+  system = chars(cfg%system)
+  params = cfg%params
+  lo = cfg%box_lo
+  hi = cfg%box_hi
+  n_grid = cfg%n_grid
+  saddle = chars(cfg%orb_saddle)
+  use_near = cfg%orb_use_near
+  near = cfg%orb_saddle_near
+  n_segments = merge(cfg%orb_n_segments, 1, chars(cfg%orb_method) == 'multiple')
+  orb_tol = cfg%orb_tol
+  orb_rtol = cfg%orb_rtol
+  orb_atol = cfg%orb_atol
+  orb_max_iter = cfg%orb_max_iter
+  orb_n_samples = cfg%orb_n_samples
+  if (chars(cfg%sec_kind) == 'ray') then
+    sec_kind = 1
+    sec_index = 0
+    sec_level = cfg%sec_angle*acos(-1.0_c_double)/180
+    sec_dir = cfg%sec_pth_sign
+  else if (chars(cfg%sec_kind) == 'plane') then
+    sec_kind = 2
+    sec_index = cfg%sec_index
+    sec_level = cfg%sec_value
+    sec_dir = cfg%sec_direction
+  else
+    sec_kind = 0
+    sec_index = 0
+    sec_level = 0
+    sec_dir = 0
+  end if
+  tub_eps = cfg%tub_eps
+  tub_area_tol = cfg%tub_area_tol
+  tub_t_max = cfg%tub_t_max
+  tub_n_init = cfg%tub_n_init
+  tub_n_max = cfg%tub_n_max
+  tra_area_tol = cfg%tra_area_tol
+  mc_t_max = cfg%mc_t_max
+  mc_gate = cfg%mc_gate
+contains
+  function chars(c) result(s)
+    character(kind=c_char), intent(in) :: c(:)
+    character(len=size(c)) :: s
+    integer :: k
+    s = ''
+    do k = 1, size(c)
+      if (c(k) == c_null_char) exit
+      s(k:k) = c(k)
+    end do
+  end function chars
+end subroutine read_input
+
+subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, tol, rtol, &
+                        atol, max_iter, nsamp, stat, energy, period, action, mu_u, mu_s, stab, &
+                        residual, closure, iterations, converged, state0, ts, xs, end_de, end_reason)
+  ! the Lyapunov family of a saddle (as the orbits scene)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_hamiltonian, only: hamiltonian_t
+  use tubes_equilibria, only: equilibrium_t
+  use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family_ => orbit_family
+  use tubes_study, only: setup_model
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, nde, n_segments, max_iter, nsamp
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), tol, rtol, atol
+  integer(c_int), intent(out) :: stat, iterations(nde), converged(nde), end_reason
+  real(c_double), intent(out) :: energy(nde), period(nde), action(nde), mu_u(nde), mu_s(nde), &
+                                 stab(nde), residual(nde), closure(nde), state0(6, nde), &
+                                 ts(nsamp, nde), xs(6, nsamp, nde), end_de
+  class(hamiltonian_t), allocatable :: model
+  type(equilibrium_t), allocatable :: eqs(:)
+  type(orbit_opts_t) :: opts
+  type(orbit_t) :: orbs(nde)
+  integer :: isad, k, n2, reason
+  energy = 0; period = 0; action = 0; mu_u = 0; mu_s = 0; stab = 0; residual = 0; closure = 0
+  iterations = 0; converged = 0; state0 = 0; ts = 0; xs = 0; end_de = -1; end_reason = 0
+  stat = -1
+  if (nde < 1 .or. nsamp < 2 .or. max_iter < 1 .or. n_segments < 1 .or. tol <= 0) return
+  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat)
+  if (stat /= 0) return
+  n2 = model%dim()
+  opts%n_segments = n_segments
+  opts%tol = tol
+  opts%rtol = rtol
+  opts%atol = atol
+  opts%max_iter = max_iter
+  opts%n_samples = nsamp
+  call orbit_family_(model, eqs, isad, des, opts, orbs, end_de, reason, stat)
+  end_reason = reason
+  if (stat < 0) return
+  do k = 1, nde
+    energy(k) = eqs(isad)%energy + des(k)
+    iterations(k) = orbs(k)%iterations
+    converged(k) = merge(1, 0, orbs(k)%converged)
+    if (.not. orbs(k)%converged) cycle
+    period(k) = orbs(k)%period
+    action(k) = orbs(k)%action
+    mu_u(k) = orbs(k)%mu_unstable
+    mu_s(k) = orbs(k)%mu_stable
+    stab(k) = orbs(k)%stability_index
+    residual(k) = orbs(k)%residual
+    closure(k) = orbs(k)%closure
+    state0(1:n2, k) = orbs(k)%x0
+    ts(:, k) = orbs(k)%t
+    xs(1:n2, :, k) = orbs(k)%x
+  end do
+end subroutine orbit_family
+
+subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol, orb_rtol, orb_atol, &
+                    sec_kind, sec_index, level, dir, de, kind, eps, area_tol, t_max, n_init, n_max, &
+                    stat, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
+  ! the cut of the saddle's tube at de with the section (as the tubes scene)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_orbits, only: orbit_t
+  use tubes_manifold, only: tube_opts_t, tube_cut_t
+  use tubes_study, only: study_t, section_choice_t, cut_at
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, n_segments, sec_kind, sec_index, dir, kind, n_init, n_max
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), orb_tol, orb_rtol, orb_atol, level, de, &
+                                eps, area_tol, t_max
+  integer(c_int), intent(out) :: stat, n, n_failed
+  real(c_double), intent(out) :: tau(n_max), r(n_max), pr(n_max), time(n_max), xs(4, n_max), area, &
+                                 area_polygon, action, period
+  type(study_t) :: st
+  type(tube_opts_t) :: opts
+  type(tube_cut_t) :: cut
+  type(orbit_t) :: orb
+  n = 0; tau = 0; r = 0; pr = 0; time = 0; xs = 0; area = 0; area_polygon = 0; action = 0; period = 0
+  n_failed = 0
+  st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+               n_segments=n_segments, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol)
+  opts%kind = kind
+  opts%eps = eps
+  opts%area_tol = area_tol
+  opts%t_max = t_max
+  opts%n_init = n_init
+  opts%n_max = n_max
+  call cut_at(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, opts, &
+              cut, orb, stat)
+  action = orb%action
+  period = orb%period
+  n_failed = cut%n_failed
+  n = min(cut%n, n_max)
+  if (n > 0) then
+    tau(1:n) = cut%tau(1:n)
+    r(1:n) = cut%r(1:n)
+    pr(1:n) = cut%pr(1:n)
+    time(1:n) = cut%time(1:n)
+    xs(:, 1:n) = cut%x(:, 1:n)
+  end if
+  area = cut%area
+  area_polygon = cut%area_polygon
+end subroutine tube_cut
+
+subroutine section_info(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
+                        stat, smin, smax, area, darea)
+  ! the energy surface on the section at E_e + de: interval, A_E, dA_E/dE
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_study, only: study_t, section_choice_t, section_info_ => section_info
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de
+  integer(c_int), intent(out) :: stat
+  real(c_double), intent(out) :: smin, smax, area, darea
+  call section_info_(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle), &
+                     section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, smin, &
+                     smax, area, darea, stat)
+end subroutine section_info
+
+subroutine monte_carlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
+                       nsamp, seed, t_max, gate, ncut, cut_r, cut_pr, stat, r, pr, outcome, inside)
+  ! the Monte Carlo check at de against the cut (cut_r, cut_pr) (as the montecarlo scene)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_long
+  use tubes_study, only: study_t, section_choice_t, check_at
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, nsamp, seed, ncut
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, t_max, gate, cut_r(ncut), cut_pr(ncut)
+  integer(c_int), intent(out) :: stat, outcome(nsamp), inside(nsamp)
+  real(c_double), intent(out) :: r(nsamp), pr(nsamp)
+  logical :: ins(nsamp)
+  call check_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle), &
+                section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, nsamp, &
+                int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, ins, stat)
+  inside = merge(1, 0, ins)
+end subroutine monte_carlo

@@ -36,6 +36,7 @@ FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 __all__ = ["Model", "TubesError", "systems", "model_info", "energy", "energies", "potentials",
            "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
            "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
+           "orbit_family", "tube_cut", "transition", "monte_carlo",
            "load", "Result"]
 
 
@@ -314,6 +315,174 @@ def section_boundary(model: Model | None = None, de: float = 0.0, saddle: str | 
     _check(stat, "section_boundary")
     return {"s": np.asarray(s).copy(), "p_min": np.asarray(pmin).copy(),
             "p_max": np.asarray(pmax).copy(), "s_min": float(smin), "s_max": float(smax)}
+
+
+# ---------------------------------------------------------------- scenes from Python
+
+def _nml_value(v) -> str:
+    if isinstance(v, str):
+        return repr(v)
+    if isinstance(v, bool):
+        return ".true." if v else ".false."
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return ", ".join(_nml_value(x) for x in v)
+    return repr(float(v)) if isinstance(v, float) else str(v)
+
+
+def _settings(model: Model, saddle=None, saddle_near=None, section=None, **groups) -> dict:
+    """The settings of a scene call as the program would use them: the model, the keywords given
+    (group -> {variable: value}) written as a namelist and read by the program's own reader
+    (src/io/tubes_nml.f90), so that every default and every system default comes from the one
+    place the input file's come from."""
+    import os
+    import tempfile
+    lines = [f"&model system = '{model.system}'" + "".join(
+        f", {k} = {_nml_value(v)}" for k, v in model.parameters.items()) + " /"]
+    orb = dict(groups.pop("orbits", {}))
+    if saddle is not None and saddle_near is not None:
+        raise ValueError("give saddle or saddle_near, not both")
+    if saddle is not None:
+        orb["saddle"] = str(saddle)
+    if saddle_near is not None:
+        orb["saddle_near"] = [float(x) for x in saddle_near]
+    if orb:
+        groups["orbits"] = orb
+    if section:
+        sec = dict(section)
+        groups["section"] = sec
+    for g, kv in groups.items():
+        if kv:
+            lines.append(f"&{g} " + ", ".join(f"{k} = {_nml_value(v)}" for k, v in kv.items()) + " /")
+    fd, path = tempfile.mkstemp(suffix=".nml")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write("\n".join(lines) + "\n")
+        out = _lib().read_input(path)
+    finally:
+        os.remove(path)
+    names = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", "use_near", "near",
+             "n_segments", "orb_tol", "orb_rtol", "orb_atol", "orb_max_iter", "orb_n_samples",
+             "sec_kind", "sec_index", "sec_level", "sec_dir", "tub_eps", "tub_area_tol", "tub_t_max",
+             "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate")
+    st = dict(zip(names, out))
+    if st["stat"] != 0:
+        raise ValueError(f"invalid settings: {_str(st['msg'])} ({' '.join(lines)})")
+    st["saddle"] = _str(st["saddle"])
+    if st["use_near"]:
+        eq = equilibria(model, box=(st["hi"] - st["lo"])[:model.ndof] / 2,
+                        box_center=((st["hi"] + st["lo"]) / 2)[:model.ndof], n_grid=int(st["n_grid"]))
+        k = [i for i in range(len(eq["name"])) if eq["rank1"][i]]
+        if not k:
+            raise ValueError(f"system {model.system!r} has no rank-1 saddle in the search box")
+        near = np.asarray(st["near"])[:model.ndof]
+        st["saddle"] = eq["name"][min(k, key=lambda i: np.sum((eq["q"][i] - near) ** 2))]
+    return st
+
+
+def _study(model, st):
+    return (model.system, model.params(), st["lo"], st["hi"], int(st["n_grid"]), st["saddle"])
+
+
+def _section_args(st):
+    if st["sec_kind"] == 0:
+        raise ValueError("this system has no default section: give section={'kind': 'plane', "
+                         "'index': k, 'value': c, 'direction': +-1}")
+    return int(st["sec_kind"]), int(st["sec_index"]), float(st["sec_level"]), int(st["sec_dir"])
+
+
+def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
+                 **orbits) -> dict:
+    """The Lyapunov orbits of a rank-1 saddle at the excess energies dE (as the orbits scene,
+    docs/orbits.md): dict of arrays dE, energy, period, action, mu_unstable, mu_stable,
+    stability_index, residual, closure, iterations, converged, state0 (n, 2N), and end_dE (the
+    family's estimated end, or None). Keywords: saddle or saddle_near, and &orbits' method,
+    n_segments, tol, rtol, atol, max_iter, n_samples."""
+    model = model or Model()
+    de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
+    st = _settings(model, saddle, saddle_near, orbits=dict(orbits, de=list(de)))
+    n2 = 2 * model.ndof
+    (stat, en, per, act, mu, ms, stab, res, clo, it, conv, s0, ts, xs, end_de, reason) = _lib().orbit_family(
+        *_study(model, st), de, int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
+        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]))
+    _check(stat, "orbit_family")
+    return {"dE": de, "energy": en.copy(), "period": per.copy(), "action": act.copy(),
+            "mu_unstable": mu.copy(), "mu_stable": ms.copy(), "stability_index": stab.copy(),
+            "residual": res.copy(), "closure": clo.copy(), "iterations": it.copy(),
+            "converged": conv.astype(bool), "state0": s0[:n2, :].T.copy(),
+            "end_dE": float(end_de) if end_de > 0 else None, "saddle": st["saddle"]}
+
+
+def _cut(model, st, de, kind, area_tol):
+    n_max = int(st["tub_n_max"])
+    (stat, n, tau, r, pr, tm, xs, area, apoly, act, per, nfail) = _lib().tube_cut(
+        *_study(model, st), int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
+        float(st["orb_atol"]), *_section_args(st), float(de), int(kind), float(st["tub_eps"]),
+        float(area_tol), float(st["tub_t_max"]), int(st["tub_n_init"]), n_max)
+    _check(stat, f"tube_cut(dE = {de})")
+    return {"dE": float(de), "r": r[:n].copy(), "p_r": pr[:n].copy(), "tau": tau[:n].copy(),
+            "time": tm[:n].copy(), "state": xs[:, :n].T.copy(), "area": float(area),
+            "area_polygon": float(apoly), "action": float(act), "period": float(per)}
+
+
+def tube_cut(model: Model | None = None, dE: float = 100.0, kind: str = "stable", saddle=None,
+             saddle_near=None, section=None, **options) -> dict:
+    """The cut of the saddle's stable (or unstable) tube at dE with the section (as the tubes
+    scene, docs/tubes.md): dict r, p_r (the section's s, p_s), tau, time, state, area,
+    area_polygon, action, period. section as in section_boundary (default the system's); options:
+    &tubes' eps, area_tol, t_max, n_init, n_max and &orbits' method, n_segments, tol, rtol, atol."""
+    model = model or Model()
+    orb = {k: options.pop(k) for k in list(options) if k in ("method", "n_segments", "tol", "rtol", "atol")}
+    st = _settings(model, saddle, saddle_near, section=section, orbits=orb, tubes=options)
+    return _cut(model, st, dE, -1 if kind == "stable" else 1, st["tub_area_tol"])
+
+
+def transition(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
+               section=None, area_tol=None, **orbits) -> dict:
+    """p_trans(dE) = A_tube / A_E (as the transition scene): dict of arrays dE, A_tube, action,
+    A_E, p_trans (NaN where a cut failed)."""
+    model = model or Model()
+    tra = {} if area_tol is None else {"area_tol": float(area_tol)}
+    st = _settings(model, saddle, saddle_near, section=section, orbits=orbits, transition=tra)
+    de = np.array(dE, dtype=np.float64).reshape(-1)
+    out = {k: np.full(de.size, np.nan) for k in ("A_tube", "action", "A_E", "p_trans")}
+    for i, d in enumerate(de):
+        c = _cut(model, st, d, -1, st["tra_area_tol"])
+        stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), float(d))
+        _check(stat, f"transition(dE = {d})")
+        out["A_tube"][i], out["action"][i], out["A_E"][i] = c["area"], c["action"], ae
+        out["p_trans"][i] = c["area"] / ae
+    out["dE"] = de
+    return out
+
+
+def monte_carlo(model: Model | None = None, dE: float = 100.0, n_samples: int = 10000,
+                seed: int = 12345, saddle=None, saddle_near=None, section=None, t_max=None,
+                gate=None, **orbits) -> dict:
+    """The Monte Carlo check at dE (as the montecarlo scene): n_samples points uniform on the
+    section's energy surface, each integrated until it passes the saddle's gate (transit) or
+    returns. dict: fraction, std_error, p_trans (A_tube / A_E), misclassified, undecided, and
+    per point r, p_r, transit (0 returned, 1 transited, 2 undecided), inside (the cut)."""
+    model = model or Model()
+    mc = {k: v for k, v in (("t_max", t_max), ("gate", gate)) if v is not None}
+    st = _settings(model, saddle, saddle_near, section=section, orbits=orbits, montecarlo=mc)
+    c = _cut(model, st, dE, -1, 1e-8)
+    stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), float(dE))
+    _check(stat, "monte_carlo")
+    stat, r, pr, outc, ins = _lib().monte_carlo(*_study(model, st), *_section_args(st), float(dE),
+                                                int(n_samples), int(seed), float(st["mc_t_max"]),
+                                                float(st["mc_gate"]), c["r"], c["p_r"])
+    _check(stat, "monte_carlo")
+    ins = ins.astype(bool)
+    f = float(np.mean(outc == 1))
+    return {"dE": float(dE), "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / n_samples)),
+            "p_trans": c["area"] / ae, "misclassified": int(np.sum(ins & (outc != 1)) + np.sum(~ins & (outc == 1))),
+            "undecided": int(np.sum(outc == 2)), "r": r.copy(), "p_r": pr.copy(),
+            "transit": outc.copy(), "inside": ins}
+
+
+for _f in (orbit_family, tube_cut, transition, monte_carlo, equilibria, section_boundary):
+    setattr(Model, _f.__name__, lambda self, *a, _f=_f, **k: _f(self, *a, **k))
+del _f
 
 
 SECTIONS = {"U1-": (1, np.pi / 4, 1), "U1+": (1, np.pi / 4, -1), "U1": (1, np.pi / 4, 0)}
