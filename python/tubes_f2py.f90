@@ -353,7 +353,7 @@ end subroutine differentiate_savgol
 subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, use_near, near, &
                       n_segments, orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, sec_kind, &
                       sec_index, sec_level, sec_dir, tub_eps, tub_area_tol, tub_t_max, tub_n_init, &
-                      tub_n_max, tra_area_tol, mc_t_max, mc_gate)
+                      tub_n_max, tra_area_tol, mc_t_max, mc_gate, pm_n_seeds, pm_n_iter, pm_t_max)
   ! an input file read by the program's own namelist reader (src/io/tubes_nml.f90), with the
   ! system's defaults filled in: Python's scene calls take their defaults from here
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char, c_null_char
@@ -361,13 +361,14 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   implicit none
   character(len=*), intent(in) :: path
   integer(c_int), intent(out) :: stat, n_grid, use_near, n_segments, orb_max_iter, orb_n_samples, &
-                                 sec_kind, sec_index, sec_dir, tub_n_init, tub_n_max
+                                 sec_kind, sec_index, sec_dir, tub_n_init, tub_n_max, pm_n_seeds, &
+                                 pm_n_iter
   character(len=512), intent(out) :: msg
   character(len=32), intent(out) :: system
   character(len=8), intent(out) :: saddle
   real(c_double), intent(out) :: params(16), lo(3), hi(3), near(3), orb_tol, orb_rtol, orb_atol, &
                                  sec_level, tub_eps, tub_area_tol, tub_t_max, tra_area_tol, mc_t_max, &
-                                 mc_gate
+                                 mc_gate, pm_t_max
   interface
     integer(c_int) function nml_read(p, cfg, group, m, mlen) bind(C, name='tubes_nml_read')
       import :: c_int, c_char, tubes_config_t
@@ -430,6 +431,9 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   tra_area_tol = cfg%tra_area_tol
   mc_t_max = cfg%mc_t_max
   mc_gate = cfg%mc_gate
+  pm_n_seeds = cfg%pm_n_seeds
+  pm_n_iter = cfg%pm_n_iter
+  pm_t_max = cfg%pm_t_max
 contains
   function chars(c) result(s)
     character(kind=c_char), intent(in) :: c(:)
@@ -579,3 +583,19 @@ subroutine monte_carlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_ind
                 int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, ins, stat)
   inside = merge(1, 0, ins)
 end subroutine monte_carlo
+
+subroutine poincare(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
+                    n_seeds, n_iter, t_max, stat, pts)
+  ! Poincare maps of the section at de (as the sections scene)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_study, only: study_t, section_choice_t, maps_at
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, n_seeds, n_iter
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, t_max
+  integer(c_int), intent(out) :: stat
+  real(c_double), intent(out) :: pts(2, n_iter, n_seeds)
+  call maps_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle), &
+               section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, n_seeds, &
+               n_iter, t_max, pts, stat)
+end subroutine poincare

@@ -11,9 +11,9 @@ module tubes_study
   use tubes_models, only: make_model
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
-  use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_PLANE
+  use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
-  use tubes_transport, only: gate_spec_t, monte_carlo
+  use tubes_transport, only: gate_spec_t, monte_carlo, poincare_map
   use tubes_status, only: TUBES_EOUTSIDE
   implicit none
   private
@@ -22,7 +22,7 @@ module tubes_study
   integer, parameter, public :: SECTION_RAY = 1     !! sec_kind: the ball's polar ray
   integer, parameter, public :: SECTION_PLANE = 2   !! sec_kind: the plane q_index = level
 
-  public :: setup_model, setup_section, orbit_at, saddle_gate, section_info, cut_at, check_at
+  public :: setup_model, setup_section, orbit_at, saddle_gate, section_info, cut_at, check_at, maps_at
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -253,4 +253,59 @@ contains
     call saddle_gate(eqs(isad), q_ref, gate, gspec)
     call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, cr, cp, r, pr, outcome, inside, stat)
   end subroutine check_at
+  !> Poincare maps of the section at de: n_seeds starts on the section (half at the middle of
+  !> the p_s range across the region, half across p_s at the region's middle s), n_iter returns
+  !> each: pts(1:2, k, j) = (s, p_s) of the k-th return of seed j (NaN after it stops returning).
+  subroutine maps_at(st, sec, de, n_seeds, n_iter, t_max, pts, stat)
+    type(study_t), intent(in) :: st
+    type(section_choice_t), intent(in) :: sec
+    real(wp), intent(in) :: de, t_max
+    integer, intent(in) :: n_seeds, n_iter
+    real(wp), intent(out) :: pts(2, n_iter, n_seeds)
+    integer, intent(out) :: stat
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(poincare_t) :: psec
+    real(wp), allocatable :: q_ref(:), x0(:, :)
+    real(wp) :: rr, pp, rmid, pm, plo, phi_, pmid, level
+    integer :: isad, j, h, s
+    pts = 0
+    level = sec%level
+    call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
+                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat)
+    if (stat /= TUBES_OK) return
+    allocate (x0(model%dim(), n_seeds))
+    h = (n_seeds + 1)/2
+    rmid = 0.5_wp*(psec%smin + psec%smax)
+    call psec%bounds(rmid, plo, phi_)
+    pm = 0.5_wp*(phi_ - plo)
+    pmid = 0.5_wp*(phi_ + plo)
+    if (psec%kind == SEC_RAY) then       ! the ray's p_r range at rmid from the potential (as before)
+      pm = sqrt(max(0.0_wp, 2*(psec%energy - psec%ray%ball%potential_xy(rmid*cos(level), &
+                                                                          rmid*sin(level)))/(5.0_wp/7)))
+      pmid = 0
+    end if
+    do j = 1, n_seeds
+      if (j <= h) then
+        rr = psec%smin + (psec%smax - psec%smin)*(j - 0.5_wp)/h
+        pp = 0
+        if (psec%kind /= SEC_RAY) then
+          call psec%bounds(rr, plo, phi_)
+          pp = 0.5_wp*(plo + phi_)
+        end if
+      else
+        rr = rmid
+        pp = pmid + pm*(2*(j - h - 0.5_wp)/max(1, n_seeds - h) - 1)*0.98_wp
+      end if
+      call psec%state(rr, pp, x0(:, j), s)
+      if (s /= TUBES_OK) then       ! a seed at the region's edge
+        if (psec%kind == SEC_RAY) then
+          x0(:, j) = [rmid*cos(level), rmid*sin(level), 0.0_wp, 0.0_wp]
+        else
+          call psec%state(rmid, pmid, x0(:, j), s)
+        end if
+      end if
+    end do
+    call poincare_map(model, psec, x0, n_iter, t_max, 1.0e-10_wp, pts, stat)
+  end subroutine maps_at
 end module tubes_study

@@ -48,3 +48,9 @@ def test_henon_heiles_scenes(tmp_path):
     assert np.array_equal(t["p_trans"], f["transition/p_trans"][:])
     mc = hh.monte_carlo(0.02, n_samples=1000, seed=9, saddle_near=(0, 1))
     assert mc["fraction"] == f["montecarlo"].attrs["fraction"] and mc["misclassified"] == 0
+
+
+def test_poincare_maps(tmp_path):
+    f = _run(tmp_path, "&run scenes = 'sections' /\n&sections de = 100, n_seeds = 4, n_iter = 30 /\n")
+    pts = tubes.Model().poincare(100, n_seeds=4, n_iter=30)
+    assert np.array_equal(pts, f["sections/map_000/points"][:], equal_nan=True)

@@ -36,7 +36,7 @@ FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 __all__ = ["Model", "TubesError", "systems", "model_info", "energy", "energies", "potentials",
            "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
            "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
-           "orbit_family", "tube_cut", "transition", "monte_carlo",
+           "orbit_family", "tube_cut", "transition", "monte_carlo", "poincare",
            "load", "Result"]
 
 
@@ -363,7 +363,8 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, **group
     names = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", "use_near", "near",
              "n_segments", "orb_tol", "orb_rtol", "orb_atol", "orb_max_iter", "orb_n_samples",
              "sec_kind", "sec_index", "sec_level", "sec_dir", "tub_eps", "tub_area_tol", "tub_t_max",
-             "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate")
+             "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate", "pm_n_seeds",
+             "pm_n_iter", "pm_t_max")
     st = dict(zip(names, out))
     if st["stat"] != 0:
         raise ValueError(f"invalid settings: {_str(st['msg'])} ({' '.join(lines)})")
@@ -480,7 +481,26 @@ def monte_carlo(model: Model | None = None, dE: float = 100.0, n_samples: int = 
             "transit": outc.copy(), "inside": ins}
 
 
-for _f in (orbit_family, tube_cut, transition, monte_carlo, equilibria, section_boundary):
+def poincare(model: Model | None = None, dE: float = 100.0, n_seeds=None, n_iter=None, t_max=None,
+             saddle=None, saddle_near=None, section=None) -> np.ndarray:
+    """Poincare map of the section at dE (as the sections scene): an array (n_seeds, n_iter, 2)
+    of (s, p_s) (the ray's (r, p_r)) of each return of each trajectory, NaN after one stops
+    returning within t_max. Raises TubesError if a trajectory failed (the returns are in
+    err.partial)."""
+    model = model or Model()
+    pm = {k: v for k, v in (("n_seeds", n_seeds), ("n_iter", n_iter), ("t_max", t_max)) if v is not None}
+    st = _settings(model, saddle, saddle_near, section=section, sections=pm)
+    stat, pts = _lib().poincare(*_study(model, st), *_section_args(st), float(dE), int(st["pm_n_seeds"]),
+                                int(st["pm_n_iter"]), float(st["pm_t_max"]))
+    out = np.moveaxis(pts, [0, 1, 2], [2, 1, 0]).copy()
+    if stat < 0:
+        err = TubesError(stat, "poincare")
+        err.partial = out
+        raise err
+    return out
+
+
+for _f in (orbit_family, tube_cut, transition, monte_carlo, poincare, equilibria, section_boundary):
     setattr(Model, _f.__name__, lambda self, *a, _f=_f, **k: _f(self, *a, **k))
 del _f
 

@@ -22,7 +22,7 @@ module tubes_capi
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE
   use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
-                         check_at
+                         check_at, maps_at
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long
   implicit none
@@ -510,50 +510,10 @@ contains
     real(c_double), value :: de, level, t_max
     integer(c_int), value :: n_seeds, n_iter
     real(c_double), intent(out) :: pts(2, n_iter, n_seeds)
-    class(hamiltonian_t), allocatable :: model
-    type(equilibrium_t), allocatable :: eqs(:)
-    type(poincare_t) :: psec
-    real(wp), allocatable :: q_ref(:), x0(:, :)
-    real(wp) :: rr, pp, rmid, pm, plo, phi_, pmid
-    integer :: isad, j, h, st
-    pts = 0
-    call setup_section(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
-                       sec_kind, sec_index, level, dir, de, &
-                       model, eqs, isad, psec, q_ref, stat)
-    if (stat /= TUBES_OK) return
-    allocate (x0(model%dim(), n_seeds))
-    h = (n_seeds + 1)/2
-    rmid = 0.5_wp*(psec%smin + psec%smax)
-    call psec%bounds(rmid, plo, phi_)
-    pm = 0.5_wp*(phi_ - plo)
-    pmid = 0.5_wp*(phi_ + plo)
-    if (psec%kind == SEC_RAY) then       ! the ray's p_r range at rmid from the potential (as before)
-      pm = sqrt(max(0.0_wp, 2*(psec%energy - psec%ray%ball%potential_xy(rmid*cos(level), &
-                                                                          rmid*sin(level)))/(5.0_wp/7)))
-      pmid = 0
-    end if
-    do j = 1, n_seeds
-      if (j <= h) then
-        rr = psec%smin + (psec%smax - psec%smin)*(j - 0.5_wp)/h
-        pp = 0
-        if (psec%kind /= SEC_RAY) then
-          call psec%bounds(rr, plo, phi_)
-          pp = 0.5_wp*(plo + phi_)
-        end if
-      else
-        rr = rmid
-        pp = pmid + pm*(2*(j - h - 0.5_wp)/max(1, n_seeds - h) - 1)*0.98_wp
-      end if
-      call psec%state(rr, pp, x0(:, j), st)
-      if (st /= TUBES_OK) then       ! a seed at the region's edge
-        if (psec%kind == SEC_RAY) then
-          x0(:, j) = [rmid*cos(level), rmid*sin(level), 0.0_wp, 0.0_wp]
-        else
-          call psec%state(rmid, pmid, x0(:, j), st)
-        end if
-      end if
-    end do
-    call poincare_map(model, psec, x0, n_iter, t_max, 1.0e-10_wp, pts, stat)
+    type(study_t) :: st
+    type(section_choice_t) :: sec
+    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, st, sec)
+    call maps_at(st, sec, de, n_seeds, n_iter, t_max, pts, stat)
   end function c_poincare
 
   !> Frames per track of the synthetic experiment (include/tubes.h).
