@@ -170,3 +170,21 @@ def test_model_of_a_result_file(tmp_path):
     assert r.returncode == 0, r.stderr
     m = tubes.Model.of(tubes.load(str(tmp_path / "m.h5")))
     assert m == tubes.Model(system="cr3bp", mu=0.001)
+
+
+def test_load_keeps_units_nested_paths_and_tables(tmp_path):
+    (tmp_path / "t.nml").write_text("&run scenes = 'orbits' /\n&orbits de = 1, 10 /\n")
+    r = run_tubes(["t.nml", "-o", "t.h5"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    res = tubes.load(str(tmp_path / "t.h5"))
+    assert res.orbits.units["period"] == "s" and res.orbits.units["action"] == "cm^2/s"
+    assert "orbits/period" in res and "orbits/nothing" not in res and "model/alpha" in res
+    assert np.array_equal(res["orbits/period"], res.orbits.period)
+    try:
+        import pandas  # noqa: F401
+    except ImportError:
+        pytest.skip("pandas is not installed")
+    df = res.orbits.to_pandas()
+    assert list(df["dE"]) == [1.0, 10.0] and df.attrs["units"]["period"] == "s"
+    ds = res.orbits.to_xarray()
+    assert ds["period"].attrs["units"] == "s" and ds.sizes["row"] == 2

@@ -654,10 +654,14 @@ def differentiate(x, dt: float, method: str = "spectral", **options):
 
 class Result:
     """An HDF5 group of a tubes output: attributes and datasets as Python attributes
-    (datasets as numpy arrays, strings decoded), subgroups as nested Results."""
+    (datasets as numpy arrays, strings decoded), subgroups as nested Results. ``units`` maps
+    each dataset to its units (the dataset's own ``units`` attribute); ``"orbits/period" in
+    res`` and ``res["orbits/period"]`` take nested paths; ``to_pandas()`` and ``to_xarray()``
+    turn a group's equal-length 1-D datasets into a table (pandas / xarray when installed)."""
 
-    def __init__(self, name: str, attrs: dict, items: dict):
+    def __init__(self, name: str, attrs: dict, items: dict, units: dict | None = None):
         self._name, self.attrs, self._items = name, attrs, items
+        self.units = units or {}
 
     def __getattr__(self, key: str) -> Any:
         items = self.__dict__.get("_items", {})
@@ -676,10 +680,37 @@ class Result:
         return node
 
     def __contains__(self, key: str) -> bool:
-        return key in self._items or key in self.attrs
+        node: Any = self
+        for part in key.strip("/").split("/"):
+            if not isinstance(node, Result) or (part not in node._items and part not in node.attrs):
+                return False
+            node = getattr(node, part)
+        return True
 
     def keys(self):
         return list(self._items) + list(self.attrs)
+
+    def _table(self) -> dict:
+        cols = {k: v for k, v in self._items.items() if isinstance(v, np.ndarray) and v.ndim == 1}
+        if not cols:
+            raise ValueError(f"{self._name} has no 1-D datasets to make a table of")
+        n = max(len(v) for v in cols.values())
+        return {k: v for k, v in cols.items() if len(v) == n}
+
+    def to_pandas(self):
+        """The group's 1-D datasets of the common length as a pandas DataFrame (units in
+        ``df.attrs["units"]``)."""
+        import pandas as pd
+        df = pd.DataFrame(self._table())
+        df.attrs["units"] = {k: self.units.get(k, "") for k in df.columns}
+        return df
+
+    def to_xarray(self):
+        """The group's 1-D datasets of the common length as an xarray Dataset (units as each
+        variable's ``units`` attribute)."""
+        import xarray as xr
+        cols = self._table()
+        return xr.Dataset({k: ("row", v, {"units": self.units.get(k, "")}) for k, v in cols.items()})
 
     def __repr__(self) -> str:
         return f"<tubes.Result {self._name}: {', '.join(self.keys())}>"
@@ -699,10 +730,15 @@ def _read(node, name: str) -> Result:
     import h5py
     attrs = {k: _decode(v) for k, v in node.attrs.items()}
     items: dict = {}
+    units: dict = {}
     for k, v in node.items():
-        items[k] = _read(v, f"{name}/{k}".replace("//", "/")) if isinstance(v, h5py.Group) \
-            else _decode(v[()])
-    return Result(name, attrs, items)
+        if isinstance(v, h5py.Group):
+            items[k] = _read(v, f"{name}/{k}".replace("//", "/"))
+        else:
+            items[k] = _decode(v[()])
+            if "units" in v.attrs:
+                units[k] = _decode(v.attrs["units"])
+    return Result(name, attrs, items, units)
 
 
 def load(path: str) -> Result:
