@@ -200,3 +200,16 @@ def test_docs_cover_every_variable_and_dataset(tmp_path, tubes_exe):
     import re
     for name in set(re.sub(r"_\d{3}$", "_<kkk>", s.split("/")[-1]) for s in seen) - {"units"}:
         assert f"`{name}`" in out or f"`/{name}`" in out, f"HDF5 object {name} missing from docs/output.md"
+
+
+def test_messages_echo_the_value_as_written_and_do_not_contradict(tmp_path):
+    (tmp_path / "r.nml").write_text("&run scenes = 'equilibria' /\n&integrator rtol = 1e-16 /\n")
+    r = run_tubes(["r.nml"], tmp_path)
+    assert r.returncode == 1 and "rtol = 1e-16 is out of range" in r.stderr, r.stderr
+    (tmp_path / "r.nml").write_text("&run scenes = 'trajectory' /\n&integrator method = 'rk4' /\n")
+    r = run_tubes(["r.nml"], tmp_path)
+    assert r.returncode == 1 and "method = 'rk4' is fixed-step: it needs h > 0" in r.stderr, r.stderr
+    assert "allowed >= 0" not in r.stderr
+    (tmp_path / "r.nml").write_text("&model system = 'coupled_quartic' /\n&run scenes = 'equilibria' /\n")
+    r = run_tubes(["r.nml", "-o", "r.h5"], tmp_path)
+    assert r.returncode == 0 and "-0.0000" not in r.stdout, r.stdout

@@ -5,6 +5,8 @@ import numpy as np
 
 from tubes.h5compare import compare, main
 
+from conftest import run_tubes
+
 
 def write(path, data, attrs=None, extra=None):
     with h5py.File(path, "w") as f:
@@ -47,3 +49,12 @@ def test_nan_attribute_and_structure(tmp_path):
     assert "/tubes@area" in d
     assert "/more: only in B" in d
     assert "mpi_ranks" not in d and "created" not in d
+
+
+def test_the_output_path_is_provenance(tmp_path):
+    (tmp_path / "e.nml").write_text("&run scenes = 'equilibria', output = 'a.h5' /\n")
+    assert run_tubes(["e.nml"], tmp_path).returncode == 0
+    assert run_tubes(["e.nml", "-o", "b.h5"], tmp_path).returncode == 0
+    from tubes.h5compare import compare
+    diffs = [d for d in compare(str(tmp_path / "a.h5"), str(tmp_path / "b.h5")) if "git_commit" not in d]
+    assert diffs == []

@@ -42,7 +42,7 @@ def test_fixed_step_rules(tmp_path, tubes_exe):
         tubes.trajectory(X0, 1.0, method="rk4")               # no h
     (tmp_path / "f.nml").write_text("&run scenes='trajectory' /\n&integrator method='gauss4' /\n")
     r = run_tubes(["f.nml"], tmp_path)
-    assert r.returncode == 1 and "fixed-step method needs h > 0" in r.stderr
+    assert r.returncode == 1 and "is fixed-step: it needs h > 0" in r.stderr
     (tmp_path / "g.nml").write_text("&run scenes='trajectory' /\n&integrator method='gauss4', h=0.01, "
                                     "solver='picard' /\n")
     r = run_tubes(["g.nml"], tmp_path)

@@ -188,3 +188,17 @@ def test_load_keeps_units_nested_paths_and_tables(tmp_path):
     assert list(df["dE"]) == [1.0, 10.0] and df.attrs["units"]["period"] == "s"
     ds = res.orbits.to_xarray()
     assert ds["period"].attrs["units"] == "s" and ds.sizes["row"] == 2
+
+
+def test_integrate_validates_as_the_input_file():
+    z0 = [4.0, 12.614863819914357, 0.0, 0.0]
+    for kw, msg in (({"rtol": -1}, "rtol = -1 is out of range"), ({"atol": 0}, "atol = 0 is out of range"),
+                    ({"h": -0.1}, "h = -0.1 is out of range"),
+                    ({"section": "theta", "level": 400.0}, "allowed -360 .. 360"),
+                    ({"direction": 2, "section": "x"}, "direction = 2")):
+        with pytest.raises(ValueError, match=msg):
+            tubes.integrate(z0, 1.0, **kw)
+    # the ray's angle is in degrees, as in the input file: 45 is the paper's U1 (either branch)
+    a = tubes.integrate(z0, 10.0, section="theta", level=45.0)
+    b = tubes.integrate(z0, 10.0, section="U1")
+    assert np.array_equal(a["crossings"]["t"], b["crossings"]["t"]) and len(a["crossings"]["t"]) > 0

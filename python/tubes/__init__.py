@@ -515,7 +515,7 @@ def _section(section, level, direction):
     if section in SECTIONS:
         return SECTIONS[section]
     if section == "theta":
-        return 1, float(level), int(direction)
+        return 1, np.radians(float(level)), int(direction)    # degrees, as &trajectory section_angle
     if section in ("x", "y"):
         return (2 if section == "x" else 3), float(level), int(direction)
     raise ValueError(f"unknown section {section!r}; allowed: none, U1-, U1+, U1, theta, x, y")
@@ -531,7 +531,7 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
     Samples every dt_out (default: only the end points). Fixed-step methods need h > 0;
     omega_bind is Tao's binding constant, solver and max_iter configure gauss*.
     section: None, "U1-" (theta = pi/4, p_theta > 0), "U1+", "U1", "theta" (the ray at angle
-    `level` [rad], direction = sign of p_theta or 0), "x" or "y" (the line x = level or y = level,
+    `level` [deg], as the input file's section_angle; direction = sign of p_theta or 0), "x" or "y" (the line x = level or y = level,
     direction = sign of dx/dt or dy/dt or 0). Every crossing is recorded (on the integrator's
     dense output), up to max_crossings; stop_at_first ends the run at the first one.
 
@@ -546,8 +546,21 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
         raise ValueError(f"method {method!r} is fixed-step: give h > 0")
     if solver not in ("newton", "fixed_point"):
         raise ValueError("solver must be 'newton' or 'fixed_point'")
+    # the input file's ranges (docs/input.md, &integrator and &trajectory), the same messages
     if not t_end >= 0:
-        raise ValueError("need t_end >= 0")
+        raise ValueError(f"t_end = {t_end} is out of range: allowed >= 0")
+    if not (1e-15 <= rtol < 1):
+        raise ValueError(f"rtol = {rtol} is out of range: allowed 1e-15 <= rtol < 1")
+    if not atol > 0:
+        raise ValueError(f"atol = {atol} is out of range: allowed > 0")
+    if not h >= 0:
+        raise ValueError(f"h = {h} is out of range: allowed >= 0 (0: variable step)")
+    if not max_steps >= 1:
+        raise ValueError(f"max_steps = {max_steps} is out of range: allowed >= 1")
+    if section == "theta" and not -360 <= level <= 360:
+        raise ValueError(f"level = {level} is out of range for section 'theta': allowed -360 .. 360 [deg]")
+    if direction not in (-1, 0, 1):
+        raise ValueError(f"direction = {direction} is out of range: allowed -1, 0, 1")
     if dt_out is None:
         dt_out = max(t_end, 1e-300)
     if not dt_out > 0:

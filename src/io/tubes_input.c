@@ -432,8 +432,14 @@ static int bad(const char *path, const nml_where *w, const char *group, const ch
   int i = var_index(group, name);
   int ln = line_of(w, group, name);
   if (!ln) ln = w->group_line[group_index(group)];
-  fprintf(err, "%s:%d: &%s: %s = %.17g is out of range: allowed %s (%s, %s)", path, ln, group,
-          name, value, i >= 0 ? tubes_nml_vars[i].allowed : "?", i >= 0 ? tubes_nml_vars[i].doc : "",
+  /* the value as the user wrote it when it was set in the file (1e-16, not 9.9999999999999998e-17) */
+  char shown[112];
+  if (i >= 0 && w->var_line[i] && tubes_nml_vars[i].count == 1 && w->var_text[i][0])
+    snprintf(shown, sizeof shown, "%s", w->var_text[i]);
+  else
+    snprintf(shown, sizeof shown, "%.17g", value);
+  fprintf(err, "%s:%d: &%s: %s = %s is out of range: allowed %s (%s, %s)", path, ln, group,
+          name, shown, i >= 0 ? tubes_nml_vars[i].allowed : "?", i >= 0 ? tubes_nml_vars[i].doc : "",
           i >= 0 ? tubes_nml_vars[i].units : "");
   if (fmt && *fmt) fprintf(err, "; %s", fmt);
   fputc('\n', err);
@@ -647,8 +653,12 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
     n += bad(path, w, "trajectory", "max_crossings", err, "", c->max_crossings);
   if (tubes_method_code(c->method) == 0) n += bad_string(path, w, "integrator", "method", c->method, err);
   else if (tubes_method_code(c->method) >= TUBES_METHOD_RK4 && tubes_method_code(c->method) <= TUBES_METHOD_GAUSS8 &&
-           !(c->h > 0))
-    n += bad(path, w, "integrator", "h", err, "the fixed-step method needs h > 0", c->h);
+           !(c->h > 0)) {
+    int ln = line_of(w, "integrator", "h") ? line_of(w, "integrator", "h") : line_of(w, "integrator", "method");
+    fprintf(err, "%s:%d: &integrator: method = '%s' is fixed-step: it needs h > 0 (the step [s]); h = %g\n", path, ln,
+            c->method, c->h);
+    n++;
+  }
   if (!(c->omega_bind > 0)) n += bad(path, w, "integrator", "omega_bind", err, "", c->omega_bind);
   if (strcmp(c->solver, "newton") && strcmp(c->solver, "fixed_point"))
     n += bad_string(path, w, "integrator", "solver", c->solver, err);

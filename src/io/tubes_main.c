@@ -74,6 +74,7 @@ static int agree(int r) {
 static int run_main(int argc, char **argv);
 
 int main(int argc, char **argv) {
+  setvbuf(stdout, NULL, _IOLBF, 0);   /* whole lines: stdout and stderr do not interleave mid-line */
 #ifdef TUBES_MPI
   int provided = 0;
   if (MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {

@@ -202,11 +202,14 @@ int scene_equilibria(tubes_run_t *run) {
       qq[n2 * k + i] = L.q[MD * k + i];
       qq[n2 * k + nd + i] = L.p[MD * k + i];
     }
+    /* a coordinate that prints as zero prints as 0, not -0 */
+    double xp = fabs(x[k]) < 5e-9 ? 0.0 : x[k], yp = fabs(y[k]) < 5e-9 ? 0.0 : y[k],
+           ep = fabs(L.en[k]) < 5e-7 ? 0.0 : L.en[k];
     if (L.rank1[k])
-      printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10.6f %8.6f\n", nm[k], x[k], y[k], L.en[k], L.morse[k],
+      printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10.6f %8.6f\n", nm[k], xp, yp, ep, L.morse[k],
              L.lam[k], om[k], 2 * M_PI / om[k]);
     else
-      printf("  %-4s %13.8f %13.8f %13.6f %5d %10s %10s %8s\n", nm[k], x[k], y[k], L.en[k], L.morse[k], "-", "-", "-");
+      printf("  %-4s %13.8f %13.8f %13.6f %5d %10s %10s %8s\n", nm[k], xp, yp, ep, L.morse[k], "-", "-", "-");
   }
   hid_t g = h5_group(run->file, "equilibria");
   if (g < 0) { free(x); free(y); free(om); free(qq); return EXIT_IO; }
@@ -237,8 +240,12 @@ int scene_equilibria(tubes_run_t *run) {
   }
   int k = isad;
   double omk = L.om[(MD - 1) * k];
-  printf("saddle %s: E_e = %.10g (cm/s)^2, lambda = %.10g 1/s, omega = %.10g rad/s, T_po = %.10g s\n",
-         nm[k], L.en[k], L.lam[k], omk, 2 * M_PI / omk);
+  if (!strcmp(run->system, "rolling_ball"))
+    printf("saddle %s: E_e = %.10g (cm/s)^2, lambda = %.10g 1/s, omega = %.10g rad/s, T_po = %.10g s\n",
+           nm[k], L.en[k], L.lam[k], omk, 2 * M_PI / omk);
+  else
+    printf("saddle %s: E_e = %.10g, lambda = %.10g, omega = %.10g, T_po = %.10g\n", nm[k],
+           fabs(L.en[k]) < 1e-300 ? 0.0 : L.en[k], L.lam[k], omk, 2 * M_PI / omk);
   g = h5_group(run->file, "saddle");
   if (g < 0) return EXIT_IO;
   double evr[36];   /* C order: row i = component i, columns u, s, Re c, Im c */
