@@ -213,3 +213,12 @@ def test_messages_echo_the_value_as_written_and_do_not_contradict(tmp_path):
     (tmp_path / "r.nml").write_text("&model system = 'coupled_quartic' /\n&run scenes = 'equilibria' /\n")
     r = run_tubes(["r.nml", "-o", "r.h5"], tmp_path)
     assert r.returncode == 0 and "-0.0000" not in r.stdout, r.stdout
+
+
+def test_an_output_that_is_a_directory_is_refused_before_the_work(tmp_path):
+    (tmp_path / "d.nml").write_text("&run scenes = 'equilibria', 'orbits' /\n")
+    (tmp_path / "adir").mkdir()
+    r = run_tubes(["d.nml", "-o", "adir"], tmp_path)
+    assert r.returncode == 3 and "'adir' is a directory" in r.stderr, r.stderr
+    assert r.stdout == ""                          # nothing was computed
+    assert not list(tmp_path.glob("adir.tmp*")) and not list((tmp_path / "adir").iterdir())

@@ -5,6 +5,7 @@
 #include "tubes_input.h"
 #include "tubes_scenes.h"
 #include <stdio.h>
+#include <sys/stat.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -165,6 +166,15 @@ static int run_main(int argc, char **argv) {
   if (check_only) {
     printf("%s: valid\n%s", input, nml_text);
     return 0;
+  }
+
+  /* an output path that is a directory would fail only at the final rename, after the work */
+  {
+    struct stat sb;
+    int isdir = g_rank == 0 && stat(cfg.output, &sb) == 0 && S_ISDIR(sb.st_mode);
+    if (isdir)
+      fprintf(stderr, "tubes: the output '%s' is a directory: give a file name (&run output or -o)\n", cfg.output);
+    if (agree(isdir ? EXIT_IO : 0)) return EXIT_IO;
   }
 
   /* the model, the box and the saddle (a saddle that does not exist is bad input): before the
