@@ -25,6 +25,9 @@ module tubes_hamiltonian
   integer, parameter, public :: NAMES_LAGRANGE = 2   !! the CR3BP: L1..L5
 
   integer, parameter, public :: LEN_NAME = 16        !! length of coordinate names
+  !> State dimension 2N at most for the default eval and Jacobian: fixed-size locals there,
+  !> since gfortran puts automatic arrays on the heap (one malloc per right-hand side)
+  integer, parameter :: MAX_STATE = 16
 
   !> An autonomous Hamiltonian H(q, p) with N degrees of freedom.
   type, abstract, extends(vector_field_t), public :: hamiltonian_t
@@ -126,10 +129,11 @@ contains
     real(wp), intent(in)  :: t, x(:)
     real(wp), intent(out) :: dxdt(:)
     integer, intent(out)  :: stat
-    real(wp) :: g(size(x))
+    real(wp) :: g(MAX_STATE)
     integer :: n
     n = size(x)/2
-    call self%gradient(x, g, stat)
+    if (2*n > MAX_STATE) error stop '[tubes_hamiltonian:ham_eval] more than 8 degrees of freedom'
+    call self%gradient(x, g(1:2*n), stat)
     dxdt(1:n) = g(n + 1:2*n)
     dxdt(n + 1:2*n) = -g(1:n)
     if (stat == 0 .and. .not. all(abs(dxdt(1:2*n)) <= huge(1.0_wp))) stat = -1
@@ -141,12 +145,13 @@ contains
     real(wp), intent(in)  :: t, x(:)
     real(wp), intent(out) :: jac(:, :)
     integer, intent(out)  :: stat
-    real(wp) :: h(size(x), size(x))
+    real(wp) :: h(MAX_STATE, MAX_STATE)
     integer :: n
     n = size(x)/2
-    call self%hessian(x, h, stat)
-    jac(1:n, :) = h(n + 1:2*n, :)
-    jac(n + 1:2*n, :) = -h(1:n, :)
+    if (2*n > MAX_STATE) error stop '[tubes_hamiltonian:ham_jacobian] more than 8 degrees of freedom'
+    call self%hessian(x, h(1:2*n, 1:2*n), stat)
+    jac(1:n, 1:2*n) = h(n + 1:2*n, 1:2*n)
+    jac(n + 1:2*n, 1:2*n) = -h(1:n, 1:2*n)
     if (stat == 0 .and. .not. all(abs(jac(1:2*n, 1:2*n)) <= huge(1.0_wp))) stat = -1
   end subroutine ham_jacobian
 
