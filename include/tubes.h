@@ -117,7 +117,10 @@ int tubes_run_trajectory(const char system[TUBES_LSYSTEM], const double params[T
                          int64_t counters[4], double *c_damp, tubes_progress_fn progress,
                          void *user);
 
-/* Lyapunov orbits of the rank-1 saddle named `saddle` ("S12", ...) at the ascending excess
+/* The orbit, tube, Monte Carlo and Poincare calls integrate with `method` (a TUBES_METHOD_*
+ * code) and its options as tubes_run_trajectory (h: the fixed step of fixed-step methods,
+ * omega_bind, solver, max_iter / int_max_iter); their tolerances are their own arguments.
+ * Lyapunov orbits of the rank-1 saddle named `saddle` ("S12", ...) at the ascending excess
  * energies des[nde] [(cm/s)^2], by continuation from dE -> 0 (docs/orbits.md). n_segments 1 =
  * single shooting of the brake orbit, >= 2 = multiple shooting. Per orbit k (arrays of nde
  * blocks): energy, period [s], action [cm^2/s], state0[4], mu_u, mu_s, mu_triv[4] (Re, Im of the
@@ -131,7 +134,8 @@ int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUB
                        const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                        const char saddle[8], int nde,
                        const double des[], int n_segments, double tol, double rtol, double atol,
-                       int max_iter, int nsamp, double energy[], double period[], double action[],
+                       int max_iter, int nsamp, int method, double h, double omega_bind, int solver,
+                       int int_max_iter, double energy[], double period[], double action[],
                        double state0[], double mu_u[], double mu_s[], double mu_triv[],
                        double stab[], double residual[], double closure[], int iterations[],
                        int converged[], double mindist[], double monodromy[], double ts[],
@@ -167,7 +171,8 @@ int tubes_tube_cut(const char system[TUBES_LSYSTEM], const double params[TUBES_M
                    const char saddle[8], double de, int kind, int sec_kind, int sec_index,
                    double level, int dir, double eps, double area_tol, double t_max,
                    int n_init, int n_max, int n_segments, double orb_tol, double orb_rtol,
-                   double orb_atol, int nout, int *n, double tau[], double r[], double pr[],
+                   double orb_atol, int method, double h, double omega_bind, int solver,
+                   int max_iter, int nout, int *n, double tau[], double r[], double pr[],
                    double time[], double xs[], double *area, double *area_polygon,
                    double *action, double *period, int *nhist, int hist_n[64],
                    double hist_area[64], int *n_failed, double *fail_tau, int local);
@@ -181,7 +186,7 @@ int tubes_monte_carlo(const char system[TUBES_LSYSTEM], const double params[TUBE
                       const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                       const char saddle[8], double de, int sec_kind, int sec_index,
                       double level, int dir, int nsamp, int seed, double t_max, double gate,
-                      int ncut, const double cut_r[], const double cut_pr[], double r[],
+                      int method, double h, double omega_bind, int solver, int max_iter, int ncut, const double cut_r[], const double cut_pr[], double r[],
                       double pr[], int outcome[], int inside[]);
 
 /* Poincare map of the section at de: pts[(j n_iter + k) 2 + {0, 1}] = (r, p_r) of the k-th return
@@ -189,7 +194,8 @@ int tubes_monte_carlo(const char system[TUBES_LSYSTEM], const double params[TUBE
 int tubes_poincare(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                    const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                    const char saddle[8], double de, int sec_kind, int sec_index,
-                   double level, int dir, int n_seeds, int n_iter, double t_max, double pts[]);
+                   double level, int dir, int n_seeds, int n_iter, double t_max, int method,
+                   double h, double omega_bind, int solver, int max_iter, double pts[]);
 
 /* Frames per track of the synthetic experiment: t = 0, 1/camera_rate, ... up to duration [s]
  * (both ends included); 0 if duration or camera_rate is not > 0 or their product > 1e8. */

@@ -353,7 +353,8 @@ end subroutine differentiate_savgol
 subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, use_near, near, &
                       n_segments, orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, sec_kind, &
                       sec_index, sec_level, sec_dir, tub_eps, tub_area_tol, tub_t_max, tub_n_init, &
-                      tub_n_max, tra_area_tol, mc_t_max, mc_gate, pm_n_seeds, pm_n_iter, pm_t_max)
+                      tub_n_max, tra_area_tol, mc_t_max, mc_gate, pm_n_seeds, pm_n_iter, pm_t_max, &
+                      method, h, omega_bind, solver, int_max_iter)
   ! an input file read by the program's own namelist reader (src/io/tubes_nml.f90), with the
   ! system's defaults filled in: Python's scene calls take their defaults from here
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char, c_null_char
@@ -362,14 +363,18 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   character(len=*), intent(in) :: path
   integer(c_int), intent(out) :: stat, n_grid, use_near, n_segments, orb_max_iter, orb_n_samples, &
                                  sec_kind, sec_index, sec_dir, tub_n_init, tub_n_max, pm_n_seeds, &
-                                 pm_n_iter
+                                 pm_n_iter, method, solver, int_max_iter
   character(len=512), intent(out) :: msg
   character(len=32), intent(out) :: system
   character(len=8), intent(out) :: saddle
   real(c_double), intent(out) :: params(16), lo(3), hi(3), near(3), orb_tol, orb_rtol, orb_atol, &
                                  sec_level, tub_eps, tub_area_tol, tub_t_max, tra_area_tol, mc_t_max, &
-                                 mc_gate, pm_t_max
+                                 mc_gate, pm_t_max, h, omega_bind
   interface
+    integer(c_int) function method_code(name) bind(C, name='tubes_method_code')
+      import :: c_int, c_char
+      character(kind=c_char), intent(in) :: name(*)
+    end function method_code
     integer(c_int) function nml_read(p, cfg, group, m, mlen) bind(C, name='tubes_nml_read')
       import :: c_int, c_char, tubes_config_t
       character(kind=c_char), intent(in) :: p(*)
@@ -434,6 +439,11 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   pm_n_seeds = cfg%pm_n_seeds
   pm_n_iter = cfg%pm_n_iter
   pm_t_max = cfg%pm_t_max
+  method = method_code(cfg%method)
+  h = cfg%h
+  omega_bind = cfg%omega_bind
+  solver = merge(2, 1, chars(cfg%solver) == 'fixed_point')
+  int_max_iter = cfg%max_iter
 contains
   function chars(c) result(s)
     character(kind=c_char), intent(in) :: c(:)
@@ -448,7 +458,8 @@ contains
 end subroutine read_input
 
 subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, tol, rtol, &
-                        atol, max_iter, nsamp, stat, energy, period, action, mu_u, mu_s, stab, &
+                        atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, &
+                        stat, energy, period, action, mu_u, mu_s, stab, &
                         residual, closure, iterations, converged, state0, ts, xs, end_de, end_reason)
   ! the Lyapunov family of a saddle (as the orbits scene)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
@@ -456,9 +467,11 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   use tubes_equilibria, only: equilibrium_t
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family_ => orbit_family
   use tubes_study, only: setup_model
+  use tubes_methods, only: integ_choice_t, method_opts_t
   implicit none
   character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, nde, n_segments, max_iter, nsamp
+  integer(c_int), intent(in) :: n_grid, nde, n_segments, max_iter, nsamp, method, solver, int_max_iter
+  real(c_double), intent(in) :: h, omega_bind
   real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), tol, rtol, atol
   integer(c_int), intent(out) :: stat, iterations(nde), converged(nde), end_reason
   real(c_double), intent(out) :: energy(nde), period(nde), action(nde), mu_u(nde), mu_s(nde), &
@@ -482,6 +495,8 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   opts%atol = atol
   opts%max_iter = max_iter
   opts%n_samples = nsamp
+  opts%integ = integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, solver=solver, &
+                                                                      max_iter=int_max_iter))
   call orbit_family_(model, eqs, isad, des, opts, orbs, end_de, reason, stat)
   end_reason = reason
   if (stat < 0) return
@@ -505,15 +520,19 @@ end subroutine orbit_family
 
 subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol, orb_rtol, orb_atol, &
                     sec_kind, sec_index, level, dir, de, kind, eps, area_tol, t_max, n_init, n_max, &
-                    stat, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
+                    method, h, omega_bind, solver, int_max_iter, stat, n, tau, r, pr, time, &
+                    xs, area, area_polygon, action, period, n_failed)
   ! the cut of the saddle's tube at de with the section (as the tubes scene)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_orbits, only: orbit_t
   use tubes_manifold, only: tube_opts_t, tube_cut_t
   use tubes_study, only: study_t, section_choice_t, cut_at
+  use tubes_methods, only: integ_choice_t, method_opts_t
   implicit none
   character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, n_segments, sec_kind, sec_index, dir, kind, n_init, n_max
+  integer(c_int), intent(in) :: n_grid, n_segments, sec_kind, sec_index, dir, kind, n_init, n_max, &
+                                method, solver, int_max_iter
+  real(c_double), intent(in) :: h, omega_bind
   real(c_double), intent(in) :: params(16), lo(3), hi(3), orb_tol, orb_rtol, orb_atol, level, de, &
                                 eps, area_tol, t_max
   integer(c_int), intent(out) :: stat, n, n_failed
@@ -526,7 +545,9 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   n = 0; tau = 0; r = 0; pr = 0; time = 0; xs = 0; area = 0; area_polygon = 0; action = 0; period = 0
   n_failed = 0
   st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-               n_segments=n_segments, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol)
+               n_segments=n_segments, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol, &
+               integ=integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
+                                    solver=solver, max_iter=int_max_iter)))
   opts%kind = kind
   opts%eps = eps
   opts%area_tol = area_tol
@@ -567,35 +588,46 @@ subroutine section_info(system, params, lo, hi, n_grid, saddle, sec_kind, sec_in
 end subroutine section_info
 
 subroutine monte_carlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
-                       nsamp, seed, t_max, gate, ncut, cut_r, cut_pr, stat, r, pr, outcome, inside)
+                       nsamp, seed, t_max, gate, method, h, omega_bind, solver, int_max_iter, ncut, &
+                       cut_r, cut_pr, stat, r, pr, outcome, inside)
   ! the Monte Carlo check at de against the cut (cut_r, cut_pr) (as the montecarlo scene)
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_long
   use tubes_study, only: study_t, section_choice_t, check_at
+  use tubes_methods, only: integ_choice_t, method_opts_t
   implicit none
   character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, nsamp, seed, ncut
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, nsamp, seed, ncut, method, solver, &
+                                int_max_iter
+  real(c_double), intent(in) :: h, omega_bind
   real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, t_max, gate, cut_r(ncut), cut_pr(ncut)
   integer(c_int), intent(out) :: stat, outcome(nsamp), inside(nsamp)
   real(c_double), intent(out) :: r(nsamp), pr(nsamp)
   logical :: ins(nsamp)
-  call check_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle), &
+  call check_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+                        integ=integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
+                                             solver=solver, max_iter=int_max_iter))), &
                 section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, nsamp, &
                 int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, ins, stat)
   inside = merge(1, 0, ins)
 end subroutine monte_carlo
 
 subroutine poincare(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
-                    n_seeds, n_iter, t_max, stat, pts)
+                    n_seeds, n_iter, t_max, method, h, omega_bind, solver, int_max_iter, stat, pts)
   ! Poincare maps of the section at de (as the sections scene)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_study, only: study_t, section_choice_t, maps_at
+  use tubes_methods, only: integ_choice_t, method_opts_t
   implicit none
   character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, n_seeds, n_iter
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, n_seeds, n_iter, method, solver, &
+                                int_max_iter
+  real(c_double), intent(in) :: h, omega_bind
   real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, t_max
   integer(c_int), intent(out) :: stat
   real(c_double), intent(out) :: pts(2, n_iter, n_seeds)
-  call maps_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle), &
+  call maps_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+                       integ=integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
+                                            solver=solver, max_iter=int_max_iter))), &
                section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, n_seeds, &
                n_iter, t_max, pts, stat)
 end subroutine poincare

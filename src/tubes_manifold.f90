@@ -12,7 +12,8 @@ module tubes_manifold
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_variational, only: variational_t, make_variational, stm_start
-  use tubes_dop853, only: dop853_t
+  use tubes_methods, only: integ_choice_t, make_integrator
+  use tubes_integrator, only: integrator_t
   use tubes_integrator, only: propagate
   use tubes_section_kinds, only: poincare_t
   use tubes_integrator, only: event_t
@@ -33,6 +34,7 @@ module tubes_manifold
     real(wp) :: t_max = 30            !! longest flight from the orbit to the section [s]
     real(wp) :: rtol = 1.0e-12_wp     !! integration tolerances
     real(wp) :: atol = 1.0e-12_wp
+    type(integ_choice_t) :: integ     !! the integrator (default DOP853)
     logical :: adaptive = .true.      !! refine where the cut bends or its points spread;
                                       !! .false.: double the seeds uniformly
     logical :: local = .false.        !! compute on this MPI rank alone (the caller has dealt
@@ -110,7 +112,7 @@ contains
     real(wp), intent(out) :: pc(2), tcross, xc(:)
     integer, intent(out) :: stat
     type(variational_t) :: var
-    type(dop853_t) :: ig
+    class(integrator_t), allocatable :: ig
     real(wp) :: z(size(v0) + size(v0)**2), v(size(v0)), x(size(v0))
     class(event_t), allocatable :: sec
     integer :: n2
@@ -118,6 +120,8 @@ contains
     pc = 0
     tcross = 0
     xc = 0
+    call make_integrator(opts%integ, ig, stat)
+    if (stat /= TUBES_OK) return
     call make_variational(var, ball)
     call ig%init(var, 0.0_wp)
     ig%rtol = opts%rtol

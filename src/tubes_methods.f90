@@ -33,7 +33,15 @@ module tubes_methods
     integer :: max_iter = 0          !! Gauss iterations per step; 0: the solver's default
   end type method_opts_t
 
-  public :: new_integrator, is_fixed_step
+  !> The integrator an analysis uses: the input's &integrator method with its options (the
+  !> tolerances stay each analysis's own).
+  type, public :: integ_choice_t
+    integer :: method = METHOD_DOP853     !! a METHOD_* code
+    real(wp) :: h = 0                     !! fixed step [time] (fixed-step methods; > 0 there)
+    type(method_opts_t) :: opts           !! method options
+  end type integ_choice_t
+
+  public :: new_integrator, is_fixed_step, make_integrator
 
 contains
 
@@ -81,4 +89,18 @@ contains
       stat = TUBES_EINPUT
     end select
   end subroutine new_integrator
+
+  !> Allocate the integrator of a choice, its fixed step set.
+  subroutine make_integrator(choice, ig, stat)
+    type(integ_choice_t), intent(in) :: choice
+    class(integrator_t), allocatable, intent(out) :: ig
+    integer, intent(out) :: stat
+    call new_integrator(choice%method, ig, stat, choice%opts)
+    if (stat /= TUBES_OK) return
+    if (is_fixed_step(choice%method) .and. .not. choice%h > 0) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    ig%h = choice%h
+  end subroutine make_integrator
 end module tubes_methods

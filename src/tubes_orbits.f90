@@ -10,7 +10,8 @@ module tubes_orbits
   use tubes_field, only: vector_field_t
   use tubes_hamiltonian, only: hamiltonian_t, natural_t
   use tubes_variational, only: variational_t, make_variational, stm_start
-  use tubes_dop853, only: dop853_t
+  use tubes_methods, only: integ_choice_t, make_integrator
+  use tubes_integrator, only: integrator_t
   use tubes_integrator, only: propagate
   use tubes_sampler, only: sampler_t
   use tubes_equilibria, only: equilibrium_t, rest_jacobian
@@ -34,6 +35,7 @@ module tubes_orbits
     integer :: max_iter = 25          !! Newton iterations per orbit
     integer :: n_samples = 201        !! samples along one period in the output
     real(wp) :: period_max = 20       !! periods beyond period_max * T_po end the family [1]
+    type(integ_choice_t) :: integ     !! the integrator (default DOP853)
     logical :: local = .false.        !! multiple shooting on this MPI rank alone (the caller
                                       !! has dealt out a coarser level); default: all ranks
   end type orbit_opts_t
@@ -165,10 +167,14 @@ contains
     real(wp), intent(out) :: x(:), phi(:, :)
     integer, intent(out) :: stat
     type(variational_t) :: var
-    type(dop853_t) :: ig
+    class(integrator_t), allocatable :: ig
     real(wp) :: z(size(x0) + size(x0)**2)
     integer :: n2
     n2 = size(x0)
+    x = 0
+    phi = 0
+    call make_integrator(opts%integ, ig, stat)
+    if (stat /= TUBES_OK) return
     call make_variational(var, model)
     call ig%init(var, 0.0_wp)
     ig%rtol = opts%rtol
@@ -431,7 +437,7 @@ contains
     integer, intent(in) :: isad
     integer, intent(out) :: stat
     type(action_field_t) :: af
-    type(dop853_t) :: ig
+    class(integrator_t), allocatable :: ig
     type(sampler_t) :: obs
     real(wp), allocatable :: x(:), phi(:, :), z(:), wr(:), wi(:), work(:), mono(:, :), dist1(:)
     real(wp) :: vl(1, 1), vr(1, 1), d
@@ -472,6 +478,8 @@ contains
     orb%stability_index = 0.5_wp*(orb%mu_unstable + orb%mu_stable)
     ! action and samples in one pass
     allocate (af%model, source=model)
+    call make_integrator(opts%integ, ig, stat)
+    if (stat /= TUBES_OK) return
     call ig%init(af, 0.0_wp)
     ig%rtol = opts%rtol
     ig%atol = opts%atol
@@ -505,11 +513,13 @@ contains
     type(orbit_opts_t), intent(in) :: opts
     real(wp), intent(out) :: nodes(:, :)
     integer, intent(out) :: stat
-    type(dop853_t) :: ig
+    class(integrator_t), allocatable :: ig
     real(wp) :: x(size(x0))
     integer :: i
     x = x0
     nodes(:, 1) = x0
+    call make_integrator(opts%integ, ig, stat)
+    if (stat /= TUBES_OK) return
     call ig%init(model, 0.0_wp)
     ig%rtol = opts%rtol
     ig%atol = opts%atol

@@ -15,6 +15,7 @@ module tubes_study
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
   use tubes_transport, only: gate_spec_t, monte_carlo, poincare_map
   use tubes_status, only: TUBES_EOUTSIDE
+  use tubes_methods, only: integ_choice_t
   implicit none
   private
 
@@ -42,6 +43,7 @@ module tubes_study
     character(8) :: saddle = ''
     integer :: n_segments = 1        !! orbit corrector: 1 single shooting, >= 2 multiple
     real(wp) :: orb_tol = 1.0e-11_wp, orb_rtol = 1.0e-13_wp, orb_atol = 1.0e-13_wp
+    type(integ_choice_t) :: integ    !! the integrator of every analysis (&integrator)
   end type study_t
 
 contains
@@ -133,9 +135,10 @@ contains
   end subroutine setup_section
 
   !> The Lyapunov orbit at excess energy de by continuation (options as &orbits).
-  subroutine orbit_at(ball, eqs, isad, de, n_segments, tol, rtol, atol, orb, stat, local)
+  subroutine orbit_at(ball, eqs, isad, de, n_segments, tol, rtol, atol, orb, stat, local, integ)
     class(hamiltonian_t), intent(in) :: ball
     logical, intent(in), optional :: local    !! on this MPI rank alone (default: all ranks)
+    type(integ_choice_t), intent(in), optional :: integ   !! the integrator (default DOP853)
     type(equilibrium_t), intent(in) :: eqs(:)
     integer, intent(in) :: isad, n_segments
     real(wp), intent(in) :: de, tol, rtol, atol
@@ -150,6 +153,7 @@ contains
     opts%rtol = rtol
     opts%atol = atol
     if (present(local)) opts%local = local
+    if (present(integ)) opts%integ = integ
     call orbit_family(ball, eqs, isad, [de], opts, orbs, end_de, reason, stat)
     if (stat /= TUBES_OK) return
     orb = orbs(1)
@@ -206,6 +210,7 @@ contains
     type(tube_cut_t), intent(out) :: cut
     type(orbit_t), intent(out) :: orb
     integer, intent(out) :: stat
+    type(tube_opts_t) :: o
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
     type(poincare_t) :: psec
@@ -216,9 +221,11 @@ contains
                        sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat)
     if (stat /= TUBES_OK) return
     call orbit_at(model, eqs, isad, de, st%n_segments, st%orb_tol, st%orb_rtol, st%orb_atol, orb, stat, &
-                  opts%local)
+                  opts%local, st%integ)
     if (stat /= TUBES_OK) return
-    call tube_cut(model, orb, q_ref - eqs(isad)%q, psec, opts, cut, stat)
+    o = opts
+    o%integ = st%integ
+    call tube_cut(model, orb, q_ref - eqs(isad)%q, psec, o, cut, stat)
     ! a plane crossed outside the section's region (another part of the line) is not a cut of
     ! the section the caller asked for
     if (stat == TUBES_OK .and. psec%kind == SEC_PLANE .and. cut%n > 0) then
@@ -251,7 +258,8 @@ contains
                        sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat)
     if (stat /= TUBES_OK) return
     call saddle_gate(eqs(isad), q_ref, gate, gspec)
-    call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, cr, cp, r, pr, outcome, inside, stat)
+    call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, st%integ, cr, cp, r, pr, outcome, &
+                     inside, stat)
   end subroutine check_at
   !> Poincare maps of the section at de: n_seeds starts on the section (half at the middle of
   !> the p_s range across the region, half across p_s at the region's middle s), n_iter returns
@@ -306,6 +314,6 @@ contains
         end if
       end if
     end do
-    call poincare_map(model, psec, x0, n_iter, t_max, 1.0e-10_wp, pts, stat)
+    call poincare_map(model, psec, x0, n_iter, t_max, 1.0e-10_wp, st%integ, pts, stat)
   end subroutine maps_at
 end module tubes_study

@@ -8,7 +8,7 @@ module tubes_transport
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
-  use tubes_dop853, only: dop853_t
+  use tubes_methods, only: integ_choice_t, make_integrator
   use tubes_integrator, only: event_t
   use tubes_section_kinds, only: poincare_t
   implicit none
@@ -76,18 +76,23 @@ contains
 
   !> Follow the state x0 (on the section) forward until it returns to the section (either
   !> branch: MC_RETURN) or passes the saddle's gate (MC_TRANSIT), or t_max (MC_UNDECIDED).
-  subroutine mc_classify(ball, psec, x0, gspec, t_max, tol, outcome, t_end, stat)
+  subroutine mc_classify(ball, psec, x0, gspec, t_max, tol, integ, outcome, t_end, stat)
     class(hamiltonian_t), intent(in) :: ball
     type(poincare_t), intent(in) :: psec
     real(wp), intent(in) :: x0(:), t_max, tol
     type(gate_spec_t), intent(in) :: gspec
+    type(integ_choice_t), intent(in) :: integ   !! the integrator
     integer, intent(out) :: outcome
     real(wp), intent(out) :: t_end
     integer, intent(out) :: stat
-    type(dop853_t) :: ig
+    class(integrator_t), allocatable :: ig
     type(gate_t) :: gate
     real(wp) :: x(size(x0))
     class(event_t), allocatable :: ret
+    outcome = MC_UNDECIDED
+    t_end = 0
+    call make_integrator(integ, ig, stat)
+    if (stat /= TUBES_OK) return
     ret = psec%return_event()
     call ig%init(ball, 0.0_wp)
     ig%rtol = tol
@@ -111,9 +116,10 @@ contains
   !> serially), each on the section's branch, integrated in parallel (OpenMP) and classified by
   !> the saddle's gate gspec. The cut (cr, cp) gives each point's predicted class (inside =
   !> transit).
-  subroutine monte_carlo(model, psec, n, seed, gspec, t_max, tol, cr, cp, r, pr, outcome, &
+  subroutine monte_carlo(model, psec, n, seed, gspec, t_max, tol, integ, cr, cp, r, pr, outcome, &
                          inside, stat)
     class(hamiltonian_t), intent(in) :: model
+    type(integ_choice_t), intent(in) :: integ   !! the integrator
     type(poincare_t), intent(in) :: psec
     integer, intent(in) :: n
     integer(c_long), intent(in) :: seed
@@ -185,7 +191,7 @@ contains
         st(i) = TUBES_EFAULT
       else
         call psec%state(r(i), pr(i), x, st(i))
-        if (st(i) == TUBES_OK) call mc_classify(model, psec, x, gspec, t_max, tol, outcome(i), te, st(i))
+        if (st(i) == TUBES_OK) call mc_classify(model, psec, x, gspec, t_max, tol, integ, outcome(i), te, st(i))
       end if
       if (st(i) < 0) outcome(i) = st(i)
       inside(i) = inside_curve(r(i), pr(i), cr, cp)
@@ -199,10 +205,11 @@ contains
 
   !> Poincare map of the section branch: n_iter returns of each start state x0(:, j), recorded
   !> as (r, p_r) in pts(:, k, j) (NaN after a trajectory stops returning within t_max).
-  subroutine poincare_map(ball, psec, x0, n_iter, t_max, tol, pts, stat)
+  subroutine poincare_map(ball, psec, x0, n_iter, t_max, tol, integ, pts, stat)
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     class(hamiltonian_t), intent(in) :: ball
     type(poincare_t), intent(in) :: psec
+    type(integ_choice_t), intent(in) :: integ   !! the integrator
     real(wp), intent(in) :: x0(:, :), t_max, tol
     integer, intent(in) :: n_iter
     real(wp), intent(out) :: pts(2, n_iter, size(x0, 2))
@@ -224,7 +231,7 @@ contains
         pts(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
         cycle
       end if
-      call one_map(ball, psec, xs(:, j), n_iter, t_max, tol, pts(:, :, j), st(j))
+      call one_map(ball, psec, xs(:, j), n_iter, t_max, tol, integ, pts(:, :, j), st(j))
     end do
     !$omp end parallel do
     call par_share(pts)
@@ -233,19 +240,22 @@ contains
   end subroutine poincare_map
 
   !> The returns of one trajectory (all locals: thread-private by construction).
-  subroutine one_map(ball, psec, x0, n_iter, t_max, tol, pts, stat)
+  subroutine one_map(ball, psec, x0, n_iter, t_max, tol, integ, pts, stat)
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     class(hamiltonian_t), intent(in) :: ball
     type(poincare_t), intent(in) :: psec
+    type(integ_choice_t), intent(in) :: integ
     real(wp), intent(in) :: x0(:), t_max, tol
     integer, intent(in) :: n_iter
     real(wp), intent(out) :: pts(2, n_iter)
     integer, intent(out) :: stat
     type(crossing_log_t) :: log
-    type(dop853_t) :: ig
+    class(integrator_t), allocatable :: ig
     real(wp) :: x(size(x0))
     integer :: k
     pts = ieee_value(1.0_wp, ieee_quiet_nan)
+    call make_integrator(integ, ig, stat)
+    if (stat /= TUBES_OK) return
     call ig%init(ball, 0.0_wp)
     ig%rtol = tol
     ig%atol = tol

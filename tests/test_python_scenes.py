@@ -54,3 +54,20 @@ def test_poincare_maps(tmp_path):
     f = _run(tmp_path, "&run scenes = 'sections' /\n&sections de = 100, n_seeds = 4, n_iter = 30 /\n")
     pts = tubes.Model().poincare(100, n_seeds=4, n_iter=30)
     assert np.array_equal(pts, f["sections/map_000/points"][:], equal_nan=True)
+
+
+def test_the_integrator_is_the_inputs_choice(tmp_path):
+    """&integrator method reaches the tube analyses: another method gives the same p_trans to its
+    own accuracy but not the same bits, and Python with the same choice gives the program's bits;
+    a fixed-step method without a step is refused."""
+    f = _run(tmp_path, "&run scenes = 'transition' /\n&transition de = 100 /\n&integrator method = 'arkode_erk8' /\n")
+    at, act = f["transition/A_tube"][0], f["transition/action"][0]
+    ref = tubes.Model().transition(dE=[100])
+    assert at != ref["A_tube"][0]                         # not DOP853's bits
+    assert abs(at / act - 1) < 1e-7                       # area = action to the cut's tolerance
+    assert abs(at / ref["A_tube"][0] - 1) < 1e-7
+    py = tubes.Model().transition(dE=[100], integrator={"method": "arkode_erk8"})
+    assert py["A_tube"][0] == at
+    (tmp_path / "r.nml").write_text("&run scenes = 'tubes' /\n&integrator method = 'rk4' /\n")
+    r = run_tubes(["r.nml"], tmp_path)
+    assert r.returncode == 1 and "is fixed-step: it needs h > 0" in r.stderr

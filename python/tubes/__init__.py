@@ -364,7 +364,7 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, **group
              "n_segments", "orb_tol", "orb_rtol", "orb_atol", "orb_max_iter", "orb_n_samples",
              "sec_kind", "sec_index", "sec_level", "sec_dir", "tub_eps", "tub_area_tol", "tub_t_max",
              "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate", "pm_n_seeds",
-             "pm_n_iter", "pm_t_max")
+             "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter")
     st = dict(zip(names, out))
     if st["stat"] != 0:
         raise ValueError(f"invalid settings: {_str(st['msg'])} ({' '.join(lines)})")
@@ -384,6 +384,10 @@ def _study(model, st):
     return (model.system, model.params(), st["lo"], st["hi"], int(st["n_grid"]), st["saddle"])
 
 
+def _integ(st):
+    return int(st["method"]), float(st["h"]), float(st["omega_bind"]), int(st["solver"]), int(st["int_max_iter"])
+
+
 def _section_args(st):
     if st["sec_kind"] == 0:
         raise ValueError("this system has no default section: give section={'kind': 'plane', "
@@ -392,19 +396,20 @@ def _section_args(st):
 
 
 def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
-                 **orbits) -> dict:
+                 integrator: dict | None = None, **orbits) -> dict:
     """The Lyapunov orbits of a rank-1 saddle at the excess energies dE (as the orbits scene,
     docs/orbits.md): dict of arrays dE, energy, period, action, mu_unstable, mu_stable,
     stability_index, residual, closure, iterations, converged, state0 (n, 2N), and end_dE (the
     family's estimated end, or None). Keywords: saddle or saddle_near, and &orbits' method,
-    n_segments, tol, rtol, atol, max_iter, n_samples."""
+    n_segments, tol, rtol, atol, max_iter, n_samples; integrator: &integrator's method and its
+    options as a dict, e.g. {"method": "arkode_erk8"} (default DOP853)."""
     model = model or Model()
     de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
-    st = _settings(model, saddle, saddle_near, orbits=dict(orbits, de=list(de)))
+    st = _settings(model, saddle, saddle_near, orbits=dict(orbits, de=list(de)), integrator=integrator)
     n2 = 2 * model.ndof
     (stat, en, per, act, mu, ms, stab, res, clo, it, conv, s0, ts, xs, end_de, reason) = _lib().orbit_family(
         *_study(model, st), de, int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
-        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]))
+        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st))
     _check(stat, "orbit_family")
     return {"dE": de, "energy": en.copy(), "period": per.copy(), "action": act.copy(),
             "mu_unstable": mu.copy(), "mu_stable": ms.copy(), "stability_index": stab.copy(),
@@ -418,7 +423,7 @@ def _cut(model, st, de, kind, area_tol):
     (stat, n, tau, r, pr, tm, xs, area, apoly, act, per, nfail) = _lib().tube_cut(
         *_study(model, st), int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
         float(st["orb_atol"]), *_section_args(st), float(de), int(kind), float(st["tub_eps"]),
-        float(area_tol), float(st["tub_t_max"]), int(st["tub_n_init"]), n_max)
+        float(area_tol), float(st["tub_t_max"]), int(st["tub_n_init"]), n_max, *_integ(st))
     _check(stat, f"tube_cut(dE = {de})")
     return {"dE": float(de), "r": r[:n].copy(), "p_r": pr[:n].copy(), "tau": tau[:n].copy(),
             "time": tm[:n].copy(), "state": xs[:, :n].T.copy(), "area": float(area),
@@ -426,24 +431,26 @@ def _cut(model, st, de, kind, area_tol):
 
 
 def tube_cut(model: Model | None = None, dE: float = 100.0, kind: str = "stable", saddle=None,
-             saddle_near=None, section=None, **options) -> dict:
+             saddle_near=None, section=None, integrator: dict | None = None, **options) -> dict:
     """The cut of the saddle's stable (or unstable) tube at dE with the section (as the tubes
     scene, docs/tubes.md): dict r, p_r (the section's s, p_s), tau, time, state, area,
     area_polygon, action, period. section as in section_boundary (default the system's); options:
     &tubes' eps, area_tol, t_max, n_init, n_max and &orbits' method, n_segments, tol, rtol, atol."""
     model = model or Model()
     orb = {k: options.pop(k) for k in list(options) if k in ("method", "n_segments", "tol", "rtol", "atol")}
-    st = _settings(model, saddle, saddle_near, section=section, orbits=orb, tubes=options)
+    st = _settings(model, saddle, saddle_near, section=section, orbits=orb, tubes=options,
+                   integrator=integrator)
     return _cut(model, st, dE, -1 if kind == "stable" else 1, st["tub_area_tol"])
 
 
 def transition(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
-               section=None, area_tol=None, **orbits) -> dict:
+               section=None, area_tol=None, integrator: dict | None = None, **orbits) -> dict:
     """p_trans(dE) = A_tube / A_E (as the transition scene): dict of arrays dE, A_tube, action,
     A_E, p_trans (NaN where a cut failed)."""
     model = model or Model()
     tra = {} if area_tol is None else {"area_tol": float(area_tol)}
-    st = _settings(model, saddle, saddle_near, section=section, orbits=orbits, transition=tra)
+    st = _settings(model, saddle, saddle_near, section=section, orbits=orbits, transition=tra,
+                   integrator=integrator)
     de = np.array(dE, dtype=np.float64).reshape(-1)
     out = {k: np.full(de.size, np.nan) for k in ("A_tube", "action", "A_E", "p_trans")}
     for i, d in enumerate(de):
@@ -458,20 +465,21 @@ def transition(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, s
 
 def monte_carlo(model: Model | None = None, dE: float = 100.0, n_samples: int = 10000,
                 seed: int = 12345, saddle=None, saddle_near=None, section=None, t_max=None,
-                gate=None, **orbits) -> dict:
+                gate=None, integrator: dict | None = None, **orbits) -> dict:
     """The Monte Carlo check at dE (as the montecarlo scene): n_samples points uniform on the
     section's energy surface, each integrated until it passes the saddle's gate (transit) or
     returns. dict: fraction, std_error, p_trans (A_tube / A_E), misclassified, undecided, and
     per point r, p_r, transit (0 returned, 1 transited, 2 undecided), inside (the cut)."""
     model = model or Model()
     mc = {k: v for k, v in (("t_max", t_max), ("gate", gate)) if v is not None}
-    st = _settings(model, saddle, saddle_near, section=section, orbits=orbits, montecarlo=mc)
+    st = _settings(model, saddle, saddle_near, section=section, orbits=orbits, montecarlo=mc,
+                   integrator=integrator)
     c = _cut(model, st, dE, -1, 1e-8)
     stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), float(dE))
     _check(stat, "monte_carlo")
     stat, r, pr, outc, ins = _lib().monte_carlo(*_study(model, st), *_section_args(st), float(dE),
                                                 int(n_samples), int(seed), float(st["mc_t_max"]),
-                                                float(st["mc_gate"]), c["r"], c["p_r"])
+                                                float(st["mc_gate"]), *_integ(st), c["r"], c["p_r"])
     _check(stat, "monte_carlo")
     ins = ins.astype(bool)
     f = float(np.mean(outc == 1))
@@ -482,16 +490,16 @@ def monte_carlo(model: Model | None = None, dE: float = 100.0, n_samples: int = 
 
 
 def poincare(model: Model | None = None, dE: float = 100.0, n_seeds=None, n_iter=None, t_max=None,
-             saddle=None, saddle_near=None, section=None) -> np.ndarray:
+             saddle=None, saddle_near=None, section=None, integrator: dict | None = None) -> np.ndarray:
     """Poincare map of the section at dE (as the sections scene): an array (n_seeds, n_iter, 2)
     of (s, p_s) (the ray's (r, p_r)) of each return of each trajectory, NaN after one stops
     returning within t_max. Raises TubesError if a trajectory failed (the returns are in
     err.partial)."""
     model = model or Model()
     pm = {k: v for k, v in (("n_seeds", n_seeds), ("n_iter", n_iter), ("t_max", t_max)) if v is not None}
-    st = _settings(model, saddle, saddle_near, section=section, sections=pm)
+    st = _settings(model, saddle, saddle_near, section=section, sections=pm, integrator=integrator)
     stat, pts = _lib().poincare(*_study(model, st), *_section_args(st), float(dE), int(st["pm_n_seeds"]),
-                                int(st["pm_n_iter"]), float(st["pm_t_max"]))
+                                int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st))
     out = np.moveaxis(pts, [0, 1, 2], [2, 1, 0]).copy()
     if stat < 0:
         err = TubesError(stat, "poincare")

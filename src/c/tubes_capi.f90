@@ -13,7 +13,7 @@ module tubes_capi
                           conservative_ball
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_integrator, only: integrator_t, propagate
-  use tubes_methods, only: new_integrator, method_opts_t
+  use tubes_methods, only: new_integrator, method_opts_t, integ_choice_t
   use tubes_run, only: run_integration, section_spec_t
   use tubes_integrator, only: crossing_log_t
   use tubes_sampler, only: sampler_t
@@ -323,12 +323,14 @@ contains
   !> The Lyapunov family of the saddle named `saddle` (C string) at the ascending excess
   !> energies des(nde); outputs per orbit as in include/tubes.h (tubes_orbit_family).
   integer(c_int) function c_orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, &
-      n_segments, tol, rtol, atol, max_iter, nsamp, energy, period, action, state0, mu_u, mu_s, &
-      mu_triv, stab, residual, closure, iterations, converged, mindist, monodromy, ts, xs, &
-      history, end_de, end_reason) result(stat) bind(C, name='tubes_orbit_family')
+      n_segments, tol, rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, &
+      energy, period, action, state0, mu_u, mu_s, mu_triv, stab, residual, closure, iterations, &
+      converged, mindist, monodromy, ts, xs, history, end_de, end_reason) result(stat) &
+      bind(C, name='tubes_orbit_family')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, nde, n_segments, max_iter, nsamp
+    integer(c_int), value :: n_grid, nde, n_segments, max_iter, nsamp, method, solver, int_max_iter
+    real(c_double), value :: h, omega_bind
     real(c_double), intent(in) :: des(nde)
     real(c_double), value :: tol, rtol, atol
     real(c_double), intent(out) :: energy(nde), period(nde), action(nde), &
@@ -359,6 +361,7 @@ contains
     opts%atol = atol
     opts%max_iter = max_iter
     opts%n_samples = nsamp
+    opts%integ = integ_of(method, h, omega_bind, solver, int_max_iter)
     allocate (orbs(nde))
     call orbit_family(model, eqs, isad, des, opts, orbs, ede, reason, stat)
     if (stat < 0) return
@@ -392,10 +395,12 @@ contains
   end function c_orbit_family
 
   !> The study (model, box, saddle, orbit corrector) and the section of a C call.
-  subroutine study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, st, sec)
+  subroutine study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, integ, st, &
+                      sec)
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF), level
     integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir
+    type(integ_choice_t), intent(in) :: integ
     type(study_t), intent(out) :: st
     type(section_choice_t), intent(out) :: sec
     st%system = from_c(system, LEN_SYSTEM)
@@ -405,7 +410,18 @@ contains
     st%n_grid = n_grid
     st%saddle = from_c(saddle, 8)
     sec = section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir)
+    st%integ = integ
   end subroutine study_of
+
+  !> The integrator choice of a C call (method code and options as tubes_run_trajectory).
+  pure function integ_of(method, h, omega_bind, solver, max_iter) result(c)
+    integer(c_int), intent(in) :: method, solver, max_iter
+    real(c_double), intent(in) :: h, omega_bind
+    type(integ_choice_t) :: c
+    c%method = method
+    c%h = h
+    c%opts = method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter)
+  end function integ_of
 
   !> The energy surface on the section at E = E_e + de: its interval [smin, smax], its area
   !> and dA/dE.
@@ -419,20 +435,23 @@ contains
     real(c_double), intent(out) :: smin, smax, area, darea
     type(study_t) :: st
     type(section_choice_t) :: sec
-    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, st, sec)
+    type(integ_choice_t) :: none
+    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, none, st, sec)
     call section_info(st, sec, de, smin, smax, area, darea, stat)
   end function c_section_info
 
   !> The cut of the Lyapunov orbit's tube at excess energy de with the section (include/tubes.h).
   integer(c_int) function c_tube_cut(system, params, lo, hi, n_grid, saddle, de, kind, sec_kind, &
       sec_index, level, dir, eps, area_tol, t_max, n_init, n_max, n_segments, orb_tol, orb_rtol, &
-      orb_atol, nout, n, tau, r, pr, time, xs, area, area_polygon, action, period, nhist, hist_n, &
-      hist_area, n_failed, fail_tau, local) result(stat) bind(C, name='tubes_tube_cut')
+      orb_atol, method, h, omega_bind, solver, max_iter, nout, n, tau, r, pr, time, xs, area, &
+      area_polygon, action, period, nhist, hist_n, hist_area, n_failed, fail_tau, local) result(stat) &
+      bind(C, name='tubes_tube_cut')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, sec_kind, sec_index, dir
     real(c_double), value :: de, level, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol
-    integer(c_int), value :: kind, n_init, n_max, n_segments, nout, local
+    integer(c_int), value :: kind, n_init, n_max, n_segments, nout, local, method, solver, max_iter
+    real(c_double), value :: h, omega_bind
     integer(c_int), intent(out) :: n, nhist, hist_n(64), n_failed
     real(c_double), intent(out) :: tau(nout), r(nout), pr(nout), time(nout), xs(4, nout), area, &
                                    area_polygon, action, period, hist_area(64), fail_tau
@@ -443,7 +462,8 @@ contains
     type(tube_cut_t) :: cut
     n = 0; nhist = 0; hist_n = 0; hist_area = 0; area = 0; area_polygon = 0; action = 0; period = 0
     n_failed = 0; fail_tau = 0
-    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, st, sec)
+    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+                  integ_of(method, h, omega_bind, solver, max_iter), st, sec)
     st%n_segments = n_segments
     st%orb_tol = orb_tol
     st%orb_rtol = orb_rtol
@@ -479,20 +499,22 @@ contains
 
   !> Monte Carlo transition check at excess energy de (include/tubes.h).
   integer(c_int) function c_monte_carlo(system, params, lo, hi, n_grid, saddle, de, sec_kind, &
-      sec_index, level, dir, nsamp, seed, t_max, gate, ncut, cut_r, cut_pr, r, pr, outcome, inside) &
-      result(stat) bind(C, name='tubes_monte_carlo')
+      sec_index, level, dir, nsamp, seed, t_max, gate, method, h, omega_bind, solver, max_iter, ncut, &
+      cut_r, cut_pr, r, pr, outcome, inside) result(stat) bind(C, name='tubes_monte_carlo')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, sec_kind, sec_index, dir
     real(c_double), value :: de, level, t_max, gate
-    integer(c_int), value :: nsamp, seed, ncut
+    integer(c_int), value :: nsamp, seed, ncut, method, solver, max_iter
+    real(c_double), value :: h, omega_bind
     real(c_double), intent(in) :: cut_r(ncut), cut_pr(ncut)
     real(c_double), intent(out) :: r(nsamp), pr(nsamp)
     integer(c_int), intent(out) :: outcome(nsamp), inside(nsamp)
     type(study_t) :: st
     type(section_choice_t) :: sec
     logical :: ins(nsamp)
-    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, st, sec)
+    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+                  integ_of(method, h, omega_bind, solver, max_iter), st, sec)
     call check_at(st, sec, de, nsamp, int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, &
                   ins, stat)
     inside = merge(1, 0, ins)
@@ -503,16 +525,19 @@ contains
   !> n_iter returns each: pts(1:2, k, j) = (s, p_s) of the k-th return of seed j (NaN after it
   !> stops returning).
   integer(c_int) function c_poincare(system, params, lo, hi, n_grid, saddle, de, sec_kind, &
-      sec_index, level, dir, n_seeds, n_iter, t_max, pts) result(stat) bind(C, name='tubes_poincare')
+      sec_index, level, dir, n_seeds, n_iter, t_max, method, h, omega_bind, solver, max_iter, pts) &
+      result(stat) bind(C, name='tubes_poincare')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, sec_kind, sec_index, dir
     real(c_double), value :: de, level, t_max
-    integer(c_int), value :: n_seeds, n_iter
+    integer(c_int), value :: n_seeds, n_iter, method, solver, max_iter
+    real(c_double), value :: h, omega_bind
     real(c_double), intent(out) :: pts(2, n_iter, n_seeds)
     type(study_t) :: st
     type(section_choice_t) :: sec
-    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, st, sec)
+    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+                  integ_of(method, h, omega_bind, solver, max_iter), st, sec)
     call maps_at(st, sec, de, n_seeds, n_iter, t_max, pts, stat)
   end function c_poincare
 

@@ -26,6 +26,9 @@ static void status_text(int code, char *buf, int len) { tubes_status_message(cod
 enum { NEQ_MAX = 256, MD = TUBES_MAXDOF };
 /* Monte Carlo fraction and p_trans disagree beyond this many standard errors (false alarm 6e-7). */
 enum { MC_SIGMA = 5 };
+/* The &integrator choice as the C API's arguments (include/tubes.h): every analysis uses it. */
+#define INTEGRATOR(c) tubes_method_code((c)->method), (c)->h, (c)->omega_bind, \
+                      (strcmp((c)->solver, "fixed_point") ? 1 : 2), (c)->max_iter
 
 int scene_model(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
@@ -422,7 +425,7 @@ int scene_orbits(tubes_run_t *run) {
   fprintf(stderr, "orbits: continuing the %s family to dE = %g (%s shooting)...\n", run->saddle,
           c->orb_de[n - 1], nseg > 1 ? "multiple" : "single");
   int st = tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, c->orb_de, nseg, c->orb_tol, c->orb_rtol,
-                              c->orb_atol, mi, ns, e, per, act, s0, mu, ms, mt, stab, res, clo, it, conv, md,
+                              c->orb_atol, mi, ns, INTEGRATOR(c), e, per, act, s0, mu, ms, mt, stab, res, clo, it, conv, md,
                               mono, ts, xs, hist, &end_de, &reason);
   if (st < 0) {
     char m[128];
@@ -611,7 +614,7 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
   if (!tau || !r || !pr || !tm || !xs) rc = EXIT_NUMERIC;
   int st = rc ? -1 : tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, kind, SECTION(c), eps, area_tol,
                                     c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol,
-                                    nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau,
+                                    INTEGRATOR(c), nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau,
                                     local);
   if (err && errlen) err[0] = 0;
   if (st < 0 && !rc) {
@@ -791,7 +794,8 @@ int scene_montecarlo(tubes_run_t *run) {
   int *out = malloc(sizeof(int) * ns), *ins = malloc(sizeof(int) * ns);
   fprintf(stderr, "montecarlo: the tube cut at dE = %g...\n", de);
   int st = tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, -1, SECTION(c), c->tub_eps, 1e-8,
-                          c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol, nout,
+                          c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol,
+                          INTEGRATOR(c), nout,
                           &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau, 0);
   if (st < 0 && nfail > 0)
     fprintf(stderr, "tubes: montecarlo: the tube cut at dE = %g: %d seed(s) failed, the first at orbit phase "
@@ -802,7 +806,7 @@ int scene_montecarlo(tubes_run_t *run) {
     mc_ran = 1;
     fprintf(stderr, "montecarlo: integrating %d points...\n", ns);
     st = tubes_monte_carlo(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, c->mc_seed, c->mc_t_max,
-                           c->mc_gate, n, cr, cp, r, pr, out, ins);
+                           c->mc_gate, INTEGRATOR(c), n, cr, cp, r, pr, out, ins);
   }
   if (st < 0) {
     char m[128];
@@ -883,7 +887,7 @@ int scene_sections(tubes_run_t *run) {
     double de = c->pm_de[k], t0 = now();
     double *pts = malloc(sizeof(double) * 2 * (size_t)ns * ni);
     fprintf(stderr, "sections: Poincare map at dE = %g (%d trajectories, %d returns)...\n", de, ns, ni);
-    int st = tubes_poincare(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, ni, c->pm_t_max, pts);
+    int st = tubes_poincare(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, ni, c->pm_t_max, INTEGRATOR(c), pts);
     if (st < 0) {
       fprintf(stderr, "tubes: sections: the map at dE = %g failed (status %d); the returns found are written\n", de, st);
       rc = EXIT_PARTIAL;
