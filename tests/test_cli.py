@@ -1,13 +1,15 @@
 """The tubes executable: options, bad input paths (message, exit code, no output file),
 numerical failure, and the HDF5 contract of docs/output.md."""
+import os
 import pathlib
+import subprocess
 import textwrap
 
 import h5py
 import numpy as np
 import pytest
 
-from conftest import ROOT, run_tubes
+from conftest import ROOT, TUBES, run_tubes
 
 BAD = [  # (name, namelist text, substrings the message must contain)
     ("unknown group", "&runn scenes='equilibria' /\n", ["bad.nml:1", "unknown namelist group &runn", "&model"]),
@@ -222,3 +224,23 @@ def test_an_output_that_is_a_directory_is_refused_before_the_work(tmp_path):
     assert r.returncode == 3 and "'adir' is a directory" in r.stderr, r.stderr
     assert r.stdout == ""                          # nothing was computed
     assert not list(tmp_path.glob("adir.tmp*")) and not list((tmp_path / "adir").iterdir())
+
+
+@pytest.mark.parametrize("sig,code,word", [(2, 130, "SIGINT"), (15, 143, "SIGTERM")])
+def test_a_signal_stops_the_run_and_leaves_no_file(tmp_path, sig, code, word):
+    import signal
+    import time
+    (tmp_path / "s.nml").write_text("&run scenes = 'sections', output = 's.h5' /\n"
+                                    "&sections de = 100, 500, n_seeds = 40, n_iter = 5000 /\n")
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    p = subprocess.Popen([str(TUBES), "s.nml"], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    t0 = time.time()
+    while not list(tmp_path.glob("s.h5.tmp*")) and time.time() - t0 < 30:   # the run has started
+        time.sleep(0.05)
+    time.sleep(0.3)
+    p.send_signal(sig)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == code, err
+    assert f"stopped by {word}" in err and "no output written" in err
+    assert not list(tmp_path.glob("s.h5*"))

@@ -4,10 +4,12 @@
 #include "tubes_h5.h"
 #include "tubes_input.h"
 #include "tubes_scenes.h"
+#include <signal.h>
 #include <stdio.h>
 #include <sys/stat.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include <time.h>
 #ifdef TUBES_MPI
 #include <mpi.h>
@@ -50,6 +52,23 @@ static void usage(FILE *out) {
 static int g_rank = 0, g_nranks = 1;
 static char g_tmp[TUBES_LPATH + 64];
 
+/* SIGINT (Ctrl-C) and SIGTERM (a batch system's kill): a run stops at once, removes its
+ * temporary output file (so no partial or corrupt file is left), says what happened and exits
+ * 128 + the signal (130, 143). Only async-signal-safe calls here: write, unlink, _exit. */
+static volatile sig_atomic_t g_have_tmp = 0;
+static void on_signal(int sig) {
+  const char *what = sig == SIGINT ? "SIGINT (interrupted)" : "SIGTERM (terminated)";
+  const char *head = "\ntubes: stopped by ";
+  const char *tail = g_have_tmp ? "; the temporary output file was removed, no output written\n"
+                                : "; no output written\n";
+  ssize_t r = write(STDERR_FILENO, head, strlen(head));
+  r = write(STDERR_FILENO, what, strlen(what));
+  r = write(STDERR_FILENO, tail, strlen(tail));
+  (void)r;
+  if (g_have_tmp) unlink(g_tmp);
+  _exit(128 + sig);
+}
+
 static void io_failed_abort(void) {
 #ifdef TUBES_MPI
   fprintf(stderr, "tubes: writing '%s' failed on rank 0; stopping all %d ranks; no output file was left\n",
@@ -76,6 +95,12 @@ static int run_main(int argc, char **argv);
 
 int main(int argc, char **argv) {
   setvbuf(stdout, NULL, _IOLBF, 0);   /* whole lines: stdout and stderr do not interleave mid-line */
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, NULL);
+  sigaction(SIGTERM, &sa, NULL);
 #ifdef TUBES_MPI
   int provided = 0;
   if (MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
@@ -191,6 +216,7 @@ static int run_main(int argc, char **argv) {
 
   char *tmp = g_tmp;
   hid_t f = g_rank == 0 ? h5_create_tmp(cfg.output, tmp, sizeof g_tmp) : h5_create_scratch();
+  if (g_rank == 0 && f >= 0) g_have_tmp = 1;
   if (agree(f < 0 ? EXIT_IO : 0) == EXIT_IO) {
     if (f >= 0) h5_discard(f, g_rank == 0 ? tmp : "");
     if (g_rank == 0)
@@ -256,7 +282,9 @@ static int run_main(int argc, char **argv) {
     return EXIT_IO;
   }
   h5_attr_long(f, "exit_status", status);
-  if (h5_commit(f, tmp, cfg.output) != 0) {
+  int committed = h5_commit(f, tmp, cfg.output);
+  g_have_tmp = 0;                     /* renamed (or removed by h5_commit on failure) */
+  if (committed != 0) {
     fprintf(stderr, "tubes: cannot rename '%s' to '%s'\n", tmp, cfg.output);
     return EXIT_IO;
   }
