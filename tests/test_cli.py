@@ -244,3 +244,22 @@ def test_a_signal_stops_the_run_and_leaves_no_file(tmp_path, sig, code, word):
     assert p.returncode == code, err
     assert f"stopped by {word}" in err and "no output written" in err
     assert not list(tmp_path.glob("s.h5*"))
+
+
+def test_a_full_disk_is_an_io_error_without_a_crash_or_a_file(tmp_path):
+    """A 2 MB filesystem fills during the write: exit 3 with the reason, no file left, no crash
+    (HDF5's exit handler used to walk the half-closed file: SIGSEGV)."""
+    small = tmp_path / "small"
+    small.mkdir()
+    m = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(small)], capture_output=True)
+    if m.returncode != 0:
+        pytest.skip("cannot mount a small tmpfs here (needs root)")
+    try:
+        (tmp_path / "f.nml").write_text("&run scenes = 'synthetic_experiment' /\n"
+                                        "&experiment n_tracks = 60, duration = 20.0 /\n")
+        r = run_tubes(["f.nml", "-o", str(small / "full.h5")], tmp_path)
+        assert r.returncode == 3, (r.returncode, r.stderr)
+        assert "No space left on device" in r.stderr and "no output file was left" in r.stderr
+        assert list(small.iterdir()) == []
+    finally:
+        subprocess.run(["umount", str(small)], capture_output=True)

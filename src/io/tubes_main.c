@@ -4,6 +4,7 @@
 #include "tubes_h5.h"
 #include "tubes_input.h"
 #include "tubes_scenes.h"
+#include <errno.h>
 #include <signal.h>
 #include <stdio.h>
 #include <sys/stat.h>
@@ -95,6 +96,10 @@ static int run_main(int argc, char **argv);
 
 int main(int argc, char **argv) {
   setvbuf(stdout, NULL, _IOLBF, 0);   /* whole lines: stdout and stderr do not interleave mid-line */
+  /* HDF5's exit handler closes every file still open: after a close that failed (a full disk) it
+   * walks a half-closed file and crashes (SIGSEGV in H5F__close_cb). Every file here is closed
+   * (or discarded) explicitly, so the handler has nothing to do: switch it off. */
+  H5dont_atexit();
   struct sigaction sa;
   memset(&sa, 0, sizeof sa);
   sa.sa_handler = on_signal;
@@ -277,7 +282,9 @@ static int run_main(int argc, char **argv) {
     return status;
   }
   if (status == EXIT_IO) {
-    fprintf(stderr, "tubes: writing '%s' failed; no output file was left\n", tmp);
+    int e = errno;   /* the reason HDF5's write or close met, when it was the system's */
+    fprintf(stderr, "tubes: writing '%s' failed%s%s; no output file was left\n", tmp, e ? ": " : "",
+            e ? strerror(e) : "");
     h5_discard(f, tmp);
     return EXIT_IO;
   }
