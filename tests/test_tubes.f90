@@ -14,6 +14,7 @@ program test_tubes
   use tubes_section, only: ray_t, section_region, section_area, section_darea, boundary_pr
   use tubes_section_kinds, only: poincare_t, make_ray_section
   use tubes_transport, only: gate_spec_t
+  use tubes_methods, only: integ_choice_t
   use tubes_transport, only: monte_carlo
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
   implicit none
@@ -127,7 +128,7 @@ program test_tubes
   if (dot_product(gate%normal, wd) > 0) gate%normal = -gate%normal
   gate%dist = 1.5_wp
   call psec%set_energy(eqs(isad)%energy + 100, 20.0_wp, stat)
-  call monte_carlo(ball, psec, n, 7_c_long, gate, 20.0_wp, 1.0e-10_wp, cut%r, cut%pr, &
+  call monte_carlo(ball, psec, n, 7_c_long, gate, 20.0_wp, 1.0e-10_wp, integ_choice_t(), cut%r, cut%pr, &
                    r, pr, out, ins, stat)
   call check_eq('Monte Carlo: status', stat, 0)
   call check_eq('Monte Carlo: no misclassification (inside <=> transit)', &
