@@ -114,6 +114,12 @@ $(BUILD)/obj/tubes_par.o: FFLAGS_ALL += -cpp $(MPI_DEF)
 $(BUILD)/obj/%.o: %.c include/tubes.h | $(BUILD)/obj
 	$(CC) $(CFLAGS_ALL) -c $< -o $@
 
+# The commit recorded in every output file: tubes_main.o is rebuilt whenever it changes (a commit,
+# or the tree turning dirty or clean), not only when tubes_main.c does.
+$(BUILD)/git_commit.txt: FORCE | $(BUILD)/obj
+	@echo '$(GIT_HASH)' | cmp -s - $@ || echo '$(GIT_HASH)' > $@
+$(BUILD)/obj/tubes_main.o: $(BUILD)/git_commit.txt
+
 $(LIB): $(F_OBJ) $(C_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
