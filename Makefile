@@ -42,6 +42,10 @@ FFTW_LIBS := -lfftw3
 ifeq ($(MODE),debug)
 OPT_F := -O0 -g -fcheck=all -ffpe-trap=invalid,zero,overflow -fbacktrace
 OPT_C := -O0 -g
+else ifeq ($(MODE),sanitize)
+SAN   := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+OPT_F := -O1 -g -fcheck=all $(SAN)
+OPT_C := -O1 -g $(SAN)
 else
 OPT_F := -O2 -g
 OPT_C := -O2 -g
@@ -68,16 +72,17 @@ T_BIN   := $(patsubst tests/%.f90,$(BUILD)/tests/%,$(T_F_SRC)) $(patsubst tests/
 
 PYEXT_STAMP := $(BUILD)/pyext.stamp
 
-.PHONY: all deps check tests lint bench docs clean install python paper FORCE
+.PHONY: venv-link all deps check tests lint bench docs clean install python paper fuzz sanitize FORCE
 ifeq ($(MPI),1)
 all: tubes $(LIB)           # the Python extension is built by the serial flavour only
 else
-all: tubes $(LIB) python
+all: tubes $(LIB) python venv-link
 endif
 
 # ---------------------------------------------------------------- dependencies
 APT_PKGS := gfortran gcc make pkg-config libhdf5-dev liblapack-dev libgsl-dev libsundials-dev \
-            libsundials-fortran-dev libfftw3-dev libopenmpi-dev openmpi-bin python3-dev python3-venv
+            libsundials-fortran-dev libfftw3-dev libopenmpi-dev openmpi-bin python3-dev python3-venv \
+            clang-14 libclang-rt-14-dev
 PY_PKGS  := numpy scipy h5py matplotlib pytest meson ninja pandas xarray
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 deps:
@@ -91,10 +96,20 @@ deps:
 	@if $(VENV)/bin/python -c 'import numpy, scipy, h5py, matplotlib, pytest, mesonbuild, pandas, xarray' 2>/dev/null \
 	    && [ -x $(VENV)/bin/ninja ]; then echo "deps: $(VENV) already complete"; \
 	else echo "deps: creating $(VENV) with $(PY_PKGS)"; \
-	  $(PYTHON) -m venv $(VENV) && $(VENV)/bin/pip install --quiet --upgrade pip && \
-	  $(VENV)/bin/pip install --quiet $(PY_PKGS) || exit 1; fi
-	@site=$$($(VENV)/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])'); \
-	  echo "$(abspath python)" > $$site/tubes-dev.pth; echo "deps: $(VENV) sees $(abspath python) (tubes-dev.pth)"
+	  $(PYTHON) -m venv $(VENV) && $(VENV)/bin/python -m pip install --quiet --upgrade pip && \
+	  $(VENV)/bin/python -m pip install --quiet $(PY_PKGS) || exit 1; fi
+	@$(MAKE) --no-print-directory venv-link
+
+# The .venv finds this tree's python/ through tubes-dev.pth, a path relative to its site-packages
+# (site.py joins them), so a copied tree (cp -r) imports its own package, not the original's.
+# `make` checks it each time and re-points a .venv made before this rule (an absolute path).
+venv-link:
+	@[ -x $(VENV)/bin/python ] || exit 0; \
+	site=$$($(VENV)/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])') && \
+	rel=$$($(VENV)/bin/python -c 'import os, sys; print(os.path.relpath(sys.argv[1], sys.argv[2]))' \
+	  "$(abspath python)" "$$site") && \
+	if [ "$$(cat $$site/tubes-dev.pth 2>/dev/null)" != "$$rel" ]; then \
+	  echo "$$rel" > $$site/tubes-dev.pth && echo "venv-link: $(VENV) imports tubes from $(abspath python)"; fi
 
 # ---------------------------------------------------------------- build
 $(BUILD)/obj $(BUILD)/mod $(BUILD)/tests:
@@ -126,7 +141,7 @@ $(LIB): $(F_OBJ) $(C_OBJ)
 
 $(BUILD)/bin/tubes: $(BUILD)/obj/tubes_main.o $(LIB)
 	@mkdir -p $(BUILD)/bin
-	$(FC) -fopenmp -o $@ $^ $(LDLIBS_ALL)
+	$(FC) -fopenmp $(SAN) -o $@ $^ $(LDLIBS_ALL)
 tubes: $(BUILD)/bin/tubes FORCE
 	@cmp -s $< $@ || { cp $< $@ && echo "tubes: the $(if $(MPI_DEF),MPI,serial) flavour ($<)"; }
 
@@ -159,10 +174,34 @@ check: all tests
 	@if command -v $(or $(MPIFC),mpifort) >/dev/null 2>&1; then \
 	  $(MAKE) --no-print-directory MPI=1 build/mpi/bin/tubes; \
 	else echo "check: no mpifort: the MPI flavour is not built or tested"; fi
+	@if command -v $(FUZZ_CC) >/dev/null 2>&1; then $(MAKE) --no-print-directory $(FUZZ_BIN); \
+	else echo "check: no $(FUZZ_CC): the namelist fuzzer is not built or run"; fi
 	@bash tests/run_all.sh
 
 lint:
 	@bash tests/lint.sh
+
+# ---------------------------------------------------------------- sanitizers (docs/development.md)
+# Every Fortran and C test program and the executable built with AddressSanitizer and UBSan (and
+# -fcheck=all) in build/sanitize; the test programs run, then the executable's pytest suites and
+# the paper's input (reduced ensembles) with that build. The Python extension is not sanitized.
+sanitize:
+	@$(MAKE) --no-print-directory BUILD=build/sanitize MODE=sanitize tests build/sanitize/bin/tubes
+	@bash tests/sanitize.sh
+
+# ---------------------------------------------------------------- fuzzing (docs/development.md)
+# libFuzzer (clang) on nml_load: the C lexer and validator instrumented, under ASan and UBSan;
+# the Fortran reader and the rest of the library linked as built. FUZZ_TIME seconds (make check: 60).
+FUZZ_CC   ?= clang-14
+FUZZ_TIME ?= 600
+FUZZ_BIN  := $(BUILD)/fuzz/fuzz_namelist
+$(FUZZ_BIN): tests/fuzz/fuzz_namelist.c src/io/tubes_input.c include/tubes_input.h include/tubes.h $(LIB)
+	@mkdir -p $(@D)
+	$(FUZZ_CC) -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -std=c11 \
+	  -D_POSIX_C_SOURCE=200809L -Iinclude -o $@ tests/fuzz/fuzz_namelist.c src/io/tubes_input.c \
+	  $(LIB) $(LDLIBS_ALL) -lgfortran -lgomp
+fuzz: $(FUZZ_BIN)
+	@bash tests/fuzz/run.sh $(FUZZ_BIN) $(FUZZ_TIME) $(if $(FUZZ_MERGE),merge)
 
 bench: all
 	@bash bench/run.sh

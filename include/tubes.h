@@ -15,7 +15,8 @@ enum {
   TUBES_EIO = -5, TUBES_ENOCONV = -6,
   TUBES_EFAULT = -7, /* a failure injected by TUBES_FAULT (tests only) */
   TUBES_EOUTSIDE = -8, /* a tube crossed the section outside the region chosen on it */
-  TUBES_ENOCROSS = -9 /* no crossing of the section within t_max */
+  TUBES_ENOCROSS = -9, /* no crossing of the section within t_max */
+  TUBES_EPASTEND = -10 /* past the end of the Lyapunov orbit family */
 };
 
 /* Integration methods (src/tubes_methods.f90). */

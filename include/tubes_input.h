@@ -47,6 +47,16 @@ int nml_line(const nml_where *w, const char *group, const char *name);
 /* Range and consistency checks. Returns the number of errors printed to err. */
 int nml_validate(const char *path, const tubes_config_t *cfg, const nml_where *w, FILE *err);
 
+/* The whole reading of an input file: lex, Fortran's namelist READ, the -o override (NULL: none),
+ * validation. Returns 0, or 1 after printing every message to err. The driver and the namelist
+ * fuzzer (tests/fuzz/) call this one function. */
+int nml_load(const char *path, const char *out_override, tubes_config_t *cfg, nml_where *w,
+             FILE *err);
+
+/* nml_load for callers without a FILE (the f2py layer): the messages, one per line, go to msg.
+ * Returns 0 or 1 (refused), -1 if no memory stream could be opened. */
+int tubes_input_check(const char *path, tubes_config_t *cfg, char *msg, int msglen);
+
 /* TUBES_METHOD_* code of a method name, 0 if unknown. */
 int tubes_method_code(const char *name);
 

@@ -355,8 +355,9 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
                       sec_index, sec_level, sec_dir, tub_eps, tub_area_tol, tub_t_max, tub_n_init, &
                       tub_n_max, tra_area_tol, mc_t_max, mc_gate, pm_n_seeds, pm_n_iter, pm_t_max, &
                       method, h, omega_bind, solver, int_max_iter)
-  ! an input file read by the program's own namelist reader (src/io/tubes_nml.f90), with the
-  ! system's defaults filled in: Python's scene calls take their defaults from here
+  ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
+  ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
+  ! scene calls take their defaults and their checks from here; msg holds the messages
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char, c_null_char
   use tubes_nml, only: tubes_config_t
   implicit none
@@ -364,7 +365,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   integer(c_int), intent(out) :: stat, n_grid, use_near, n_segments, orb_max_iter, orb_n_samples, &
                                  sec_kind, sec_index, sec_dir, tub_n_init, tub_n_max, pm_n_seeds, &
                                  pm_n_iter, method, solver, int_max_iter
-  character(len=512), intent(out) :: msg
+  character(len=2048), intent(out) :: msg
   character(len=32), intent(out) :: system
   character(len=8), intent(out) :: saddle
   real(c_double), intent(out) :: params(16), lo(3), hi(3), near(3), orb_tol, orb_rtol, orb_atol, &
@@ -375,26 +376,24 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
       import :: c_int, c_char
       character(kind=c_char), intent(in) :: name(*)
     end function method_code
-    integer(c_int) function nml_read(p, cfg, group, m, mlen) bind(C, name='tubes_nml_read')
+    integer(c_int) function input_check(p, cfg, m, mlen) bind(C, name='tubes_input_check')
       import :: c_int, c_char, tubes_config_t
       character(kind=c_char), intent(in) :: p(*)
       type(tubes_config_t), intent(out) :: cfg
-      integer(c_int), intent(out) :: group
       integer(c_int), value :: mlen
       character(kind=c_char), intent(out) :: m(mlen)
-    end function nml_read
+    end function input_check
   end interface
   type(tubes_config_t) :: cfg
-  character(kind=c_char) :: cpath(len_trim(path) + 1), cmsg(512)
-  integer(c_int) :: group
+  character(kind=c_char) :: cpath(len_trim(path) + 1), cmsg(2048)
   integer :: i
   do i = 1, len_trim(path)
     cpath(i) = path(i:i)
   end do
   cpath(len_trim(path) + 1) = c_null_char
-  stat = nml_read(cpath, cfg, group, cmsg, 512)
+  stat = input_check(cpath, cfg, cmsg, 2048)
   msg = ''
-  do i = 1, 512
+  do i = 1, 2048
     if (cmsg(i) == c_null_char) exit
     msg(i:i) = cmsg(i)
   end do
@@ -631,3 +630,12 @@ subroutine poincare(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index,
                section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, n_seeds, &
                n_iter, t_max, pts, stat)
 end subroutine poincare
+
+subroutine status_text(code, msg)
+  ! the meaning of a TUBES_* status code (src/tubes_status.f90: the one table of them)
+  use tubes_status, only: status_message
+  implicit none
+  integer, intent(in) :: code
+  character(len=256), intent(out) :: msg
+  msg = status_message(code)
+end subroutine status_text

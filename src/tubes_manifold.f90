@@ -132,7 +132,7 @@ contains
     if (stat < 0) return
     v = matmul(reshape(z(n2 + 1:), [n2, n2]), v0)
     x = z(1:n2) + sigma*opts%eps*v/sqrt(sum(v(1:n2/2)**2))
-    sec = psec%event(.true.)
+    call psec%event(.true., sec)
     call ig%init(ball, 0.0_wp)
     ig%rtol = opts%rtol
     ig%atol = opts%atol

@@ -89,26 +89,28 @@ contains
     stat = TUBES_OK
   end subroutine make_plane_section
 
-  function sec_event(self, terminal) result(ev)
+  !> (A subroutine, not a function: gfortran 12 leaks a polymorphic allocatable function result
+  !> after the assignment; make sanitize found 1 MB per paper run.)
+  subroutine sec_event(self, terminal, ev)
     class(poincare_t), intent(in) :: self
     logical, intent(in) :: terminal
-    class(event_t), allocatable :: ev
+    class(event_t), allocatable, intent(out) :: ev
     if (self%kind == SEC_RAY) then
       allocate (ev, source=theta_line_t(theta0=self%ray%theta0, branch=self%branch, terminal=terminal))
     else
       allocate (ev, source=plane_t(k=self%k, c=self%c, direction=self%branch, terminal=terminal))
     end if
-  end function sec_event
+  end subroutine sec_event
 
-  function sec_return(self) result(ev)
+  subroutine sec_return(self, ev)
     class(poincare_t), intent(in) :: self
-    class(event_t), allocatable :: ev
+    class(event_t), allocatable, intent(out) :: ev
     if (self%kind == SEC_RAY) then
       allocate (ev, source=theta_line_t(theta0=self%ray%theta0, branch=0, terminal=.true.))
     else
       allocate (ev, source=plane_t(k=self%k, c=self%c, direction=0, terminal=.true.))
     end if
-  end function sec_return
+  end subroutine sec_return
 
   !> (s, p_s): ray (r, p_r); plane (q_j, p_j).
   pure function sec_coords(self, x) result(sp)

@@ -14,6 +14,7 @@ module tubes_status
   integer, parameter, public :: TUBES_EFAULT = -7    !! a failure injected by TUBES_FAULT (tests only)
   integer, parameter, public :: TUBES_EOUTSIDE = -8  !! a tube crossed the section outside its region
   integer, parameter, public :: TUBES_ENOCROSS = -9  !! no crossing of the section within t_max
+  integer, parameter, public :: TUBES_EPASTEND = -10 !! past the end of the Lyapunov orbit family
   public :: status_message
 contains
   !> Text for a status code.
@@ -32,6 +33,7 @@ contains
     case (TUBES_EFAULT);    msg = 'failure injected by TUBES_FAULT (testing)'
     case (TUBES_EOUTSIDE);  msg = 'the tube crosses the section outside the region of the energy surface chosen on it'
     case (TUBES_ENOCROSS);  msg = 'no crossing of the section within t_max: the tube does not reach this section'
+    case (TUBES_EPASTEND);  msg = 'past the end of the Lyapunov orbit family: no orbit at this energy'
     case default;           msg = 'unknown status code'
     end select
   end function status_message

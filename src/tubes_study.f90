@@ -5,7 +5,7 @@
 !> pieces afresh.)
 module tubes_study
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_ball, only: ball_t
   use tubes_models, only: make_model
@@ -157,7 +157,10 @@ contains
     call orbit_family(ball, eqs, isad, [de], opts, orbs, end_de, reason, stat)
     if (stat /= TUBES_OK) return
     orb = orbs(1)
-    if (.not. orb%converged) stat = TUBES_ENOCONV
+    if (.not. orb%converged) then
+      stat = TUBES_ENOCONV
+      if (end_de > 0 .and. de >= end_de*(1 - 1.0e-6_wp)) stat = TUBES_EPASTEND
+    end if
   end subroutine orbit_at
 
   !> The transit gate of saddle eqs(isad) seen from q_ref (the section's side): the

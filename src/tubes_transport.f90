@@ -93,7 +93,7 @@ contains
     t_end = 0
     call make_integrator(integ, ig, stat)
     if (stat /= TUBES_OK) return
-    ret = psec%return_event()
+    call psec%return_event(ret)
     call ig%init(ball, 0.0_wp)
     ig%rtol = tol
     ig%atol = tol
@@ -251,6 +251,7 @@ contains
     integer, intent(out) :: stat
     type(crossing_log_t) :: log
     class(integrator_t), allocatable :: ig
+    class(event_t), allocatable :: ev
     real(wp) :: x(size(x0))
     integer :: k
     pts = ieee_value(1.0_wp, ieee_quiet_nan)
@@ -262,7 +263,8 @@ contains
     ig%max_steps = 100000000
     x = x0
     log%max_crossings = n_iter
-    call propagate(ig, x, t_max, stat, event=psec%event(.false.), crossings=log)
+    call psec%event(.false., ev)
+    call propagate(ig, x, t_max, stat, event=ev, crossings=log)
     if (stat == TUBES_EVENT) stat = TUBES_OK
     do k = 1, min(log%n, n_iter)
       pts(:, k) = psec%coords(log%x(:, k))

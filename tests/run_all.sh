@@ -36,6 +36,12 @@ if [ -x build/mpi/bin/tubes ]; then
 else
   echo "SKIP mpi/* (no build/mpi/bin/tubes: no MPI compiler wrapper)"
 fi
+# a minute of the namelist fuzzer (make fuzz runs it longer; docs/development.md)
+if [ -x build/fuzz/fuzz_namelist ]; then
+  run "fuzz/namelist (60 s)" bash tests/fuzz/run.sh build/fuzz/fuzz_namelist 60
+else
+  echo "SKIP fuzz/namelist (no build/fuzz/fuzz_namelist: no clang-14)"
+fi
 log=build/testlogs/pytest.log
 OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python -m pytest -q -p no:cacheprovider tests >"$log" 2>&1
 prc=$?

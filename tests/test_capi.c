@@ -31,7 +31,8 @@ int main(void) {
     check("rolling_ball has 7 parameters, 2 dof", np == 7 && ndof == 2, np, 7);
     check("rolling_ball: alpha first, the paper's 0.07", !strcmp(pn, "alpha") && model[0] == 0.07, model[0], 0.07);
     check("rolling_ball: default saddle S12", !strcmp(sad, "S12"), 0, 0);
-    st = tubes_model_info("no_such_system", &ndof, &np, pn, box, pu, pd, sum, lu, box, boxc, sad, near, sk, &si,
+    double junk[TUBES_MAXPARAM];
+    st = tubes_model_info("no_such_system", &ndof, &np, pn, junk, pu, pd, sum, lu, box, boxc, sad, near, sk, &si,
                           &sv, &sd, &sa, &gate, surf);
     check("unknown system refused", st == TUBES_EINPUT, st, TUBES_EINPUT);
     char nm[TUBES_LSYSTEM];

@@ -44,6 +44,11 @@ BAD = [  # (name, namelist text, substrings the message must contain)
     ("scalar index", "&model g(2) = 1 /\n", ["bad.nml:1", "scalar"]),
     ("too many values", "&model g = 1, 2 /\n", ["bad.nml:1", "too many values"]),
     ("no value", "&model g = /\n", ["bad.nml:1", "no value"]),
+    # found by the fuzzer: the lexer stopped at a NUL byte while Fortran's READ read past it
+    ("NUL byte", "&model g = 981 /\n&section kind = '\x00\x00p' /\n", ["bad.nml:2", "0x00", "not text"]),
+    ("scene twice", "&run scenes = 'equilibria', 'orbits', 'equilibria' /\n", ["bad.nml:1", "'equilibria' is named twice"]),
+    ("repeat count too large", "&equilibria box = 4*20.0 /\n", ["bad.nml:1", "repeat count 4", "1 to 3"]),
+    ("control byte", "&model\x1b g = 981 /\n", ["bad.nml:1", "0x1b", "not text"]),
 ]
 
 
@@ -263,3 +268,51 @@ def test_a_full_disk_is_an_io_error_without_a_crash_or_a_file(tmp_path):
         assert list(small.iterdir()) == []
     finally:
         subprocess.run(["umount", str(small)], capture_output=True)
+
+
+@pytest.mark.parametrize("text", [
+    "",
+    "&run scenes = 'orbits' /\n&orbits saddle_near = 1, 1 /\n",
+    "&run scenes = 'orbits', 'tubes' /\n&model system = 'henon_heiles' /\n",
+    "&section kind = 'ray', angle = 225, p_theta_sign = 1 /\n",
+    "&run scenes = 1*'orbits', 'equilibria' /\n",
+    "&equilibria box = 2*15.0, box_center = 2*, 0.0 /\n",
+], ids=["defaults", "saddle_near", "henon_heiles", "ray", "repeated string", "repeat and nulls"])
+def test_the_effective_namelist_reads_back_to_itself(tmp_path, tubes_exe, text):
+    """What --check prints (and every output file stores as input_namelist) is an input file that
+    gives the same run: the fuzzer found it refused ('saddle and saddle_near are both set')."""
+    (tmp_path / "a.nml").write_text(text)
+    r = run_tubes(["--check", "a.nml"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    eff = r.stdout.split("\n", 1)[1]
+    (tmp_path / "b.nml").write_text(eff)
+    r2 = run_tubes(["--check", "b.nml"], tmp_path)
+    assert r2.returncode == 0, r2.stderr
+    assert r2.stdout.split("\n", 1)[1] == eff
+
+
+def test_a_read_only_directory_is_refused_before_the_work(tmp_path, tubes_exe):
+    """Exit 3 naming the reason, before any computing, nothing left behind. Root writes through
+    file modes, so as root the directory is a read-only tmpfs."""
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    mounted = False
+    if os.geteuid() == 0:
+        m = subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=1m", "tmpfs", str(ro)], capture_output=True)
+        if m.returncode != 0:
+            pytest.skip("cannot mount a read-only tmpfs here")
+        mounted = True
+    else:
+        ro.chmod(0o555)
+    try:
+        (tmp_path / "p.nml").write_text("&run scenes = 'montecarlo' /\n&montecarlo n_samples = 2000000 /\n")
+        r = run_tubes(["p.nml", "-o", str(ro / "out.h5")], tmp_path, timeout=60)
+        assert r.returncode == 3, (r.returncode, r.stderr)
+        assert "Read-only file system" in r.stderr or "Permission denied" in r.stderr, r.stderr
+        assert str(ro / "out.h5") in r.stderr
+        assert list(ro.iterdir()) == []
+    finally:
+        if mounted:
+            subprocess.run(["umount", str(ro)], capture_output=True)
+        else:
+            ro.chmod(0o755)

@@ -1,6 +1,10 @@
 """The Python layer (tubes._core through the tubes package) against independent references:
 the paper's kinetic energy written out in numpy, finite-difference Hamilton equations, and
 scipy integrating the rolling ball's Lagrangian (velocity) form."""
+import pathlib
+import shutil
+import subprocess
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -202,3 +206,18 @@ def test_integrate_validates_as_the_input_file():
     a = tubes.integrate(z0, 10.0, section="theta", level=45.0)
     b = tubes.integrate(z0, 10.0, section="U1")
     assert np.array_equal(a["crossings"]["t"], b["crossings"]["t"]) and len(a["crossings"]["t"]) > 0
+
+
+def test_a_copied_tree_imports_its_own_package(tmp_path):
+    """The .venv finds python/ by a path relative to its site-packages (Makefile, venv-link), so a
+    copy of the tree imports the copy's package. The .venv is copied as a tree of symbolic links
+    (half a gigabyte otherwise); the .pth file is read through its link, relative to the copy."""
+    root = pathlib.Path(__file__).resolve().parents[1]
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    shutil.copytree(root / "python", copy / "python", ignore=shutil.ignore_patterns("__pycache__"))
+    subprocess.run(["cp", "-rs", str(root / ".venv"), str(copy / ".venv")], check=True)
+    r = subprocess.run([str(copy / ".venv" / "bin" / "python"), "-c", "import tubes; print(tubes.__file__)"],
+                       capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert pathlib.Path(r.stdout.strip()).resolve() == (copy / "python" / "tubes" / "__init__.py").resolve()

@@ -2,6 +2,7 @@
 energy function, p_trans's leading order, the Monte Carlo check, identical output for 1 and 2
 threads, and the Poincare maps."""
 import os
+import re
 import subprocess
 
 import h5py
@@ -87,3 +88,61 @@ def test_tube_plots(tmp_path, tubes_exe):
     assert plots.main([str(tmp_path / "p.h5"), "-o", str(tmp_path / "fig")]) == 0
     for name in ["section_dE100.png", "p_trans.png", "tube_trajectories.png"]:
         assert (tmp_path / "fig" / name).stat().st_size > 10_000, name
+
+
+def test_past_the_end_of_the_family_is_said_once_per_scene_and_recorded(tmp_path):
+    """The S12 family ends near dE = 777 (the orbits scene's estimate, docs/orbits.md): a tube,
+    p_trans or Monte Carlo check asked at dE = 800 is refused with the orbits scene's words, once
+    per scene, exit 4 (partial), and the file records the status (TUBES_EPASTEND = -10)."""
+    (tmp_path / "p.nml").write_text("&run scenes = 'orbits', 'tubes', 'transition', 'montecarlo' /\n"
+                                    "&orbits dE = 100, 800 /\n&tubes dE = 800 /\n"
+                                    "&transition dE = 100, 800 /\n&montecarlo dE = 800 /\n")
+    r = run_tubes(["p.nml", "-o", "p.h5"], tmp_path)
+    assert r.returncode == 4, r.stderr
+    end = [ln for ln in r.stdout.splitlines() if "family end: dE ~" in ln][0]
+    end_de = float(end.split("dE ~")[1].split()[0])
+    assert 700 < end_de < 800
+    # tubes, transition, montecarlo (the end is an extrapolation: its digits depend on the path)
+    ends = re.findall(r"tubes: dE = 800 is past the end of the S12 family, which ends at dE ~ ([0-9.]+)", r.stderr)
+    assert len(ends) == 3, r.stderr
+    assert all(abs(float(x) / end_de - 1) < 1e-5 for x in ends), (ends, end_de)
+    assert "did not converge" not in r.stderr and "tubes: tubes:" not in r.stderr
+    assert r.stdout.count("refused: past the end of the family") == 3   # orbits, tubes, transition
+    with h5py.File(tmp_path / "p.h5") as f:
+        assert f.attrs["exit_status"] == 4
+        assert list(f["transition/status"][:]) == [0, tubes.EPASTEND]
+        assert f["transition/p_trans"][0] > 0 and np.isnan(f["transition/p_trans"][1])
+        assert f["montecarlo"].attrs["status"] == tubes.EPASTEND and f["montecarlo"].attrs["agrees"] == 0
+        assert "past the end" in f["montecarlo"].attrs["status_message"]
+
+
+def test_a_numerical_failure_of_the_monte_carlo_check_is_recorded_in_the_file(tmp_path):
+    """exit 2 with the failure in the file (docs/usage.md): an injected failure of sample 3."""
+    (tmp_path / "m.nml").write_text("&run scenes = 'transition', 'montecarlo' /\n&transition dE = 100 /\n"
+                                    "&montecarlo n_samples = 500 /\n")
+    env = dict(os.environ, OMP_NUM_THREADS="1", TUBES_FAULT="sample:3")
+    r = subprocess.run([tubes_path(), "m.nml", "-o", "m.h5"], cwd=tmp_path, env=env, capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 2, r.stderr
+    assert "sample 3 at (r, p_r)" in r.stderr
+    with h5py.File(tmp_path / "m.h5") as f:
+        assert f.attrs["exit_status"] == 2
+        g = f["montecarlo"]
+        assert g.attrs["status"] == tubes.EFAULT and g.attrs["agrees"] == 0
+        assert g["transit"][2] == tubes.EFAULT and "fraction" not in g.attrs
+        assert list(f["transition/status"][:]) == [0]
+
+
+def test_progress_lines_for_a_list_of_energies_come_at_most_once_a_second(tmp_path):
+    """docs/usage.md: a scene's list of energies reports at most one line a second (the first
+    always); it printed one per energy, about ten a second, before."""
+    import time
+    (tmp_path / "t.nml").write_text("&run scenes = 'transition' /\n"
+                                    "&transition dE = 1, 2, 3, 5, 10, 20, 40, 60, 80, 100 /\n")
+    t0 = time.monotonic()
+    r = run_tubes(["t.nml", "-o", "t.h5"], tmp_path)
+    secs = time.monotonic() - t0
+    assert r.returncode == 0, r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if ln.startswith("transition: dE")]
+    assert lines and lines[0].startswith("transition: dE = 1 (1 of 10)")
+    assert len(lines) <= 1 + int(secs), (len(lines), secs)

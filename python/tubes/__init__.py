@@ -13,27 +13,29 @@ cm and s, energies per unit mass in (cm/s)^2.
 """
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import numpy as np
 
 # Status codes: the same numbers as src/tubes_status.f90 and include/tubes.h.
 OK, EVENT = 0, 1
-EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV, EFAULT, EOUTSIDE, ENOCROSS = -1, -2, -3, -4, -5, -6, -7, -8, -9
-_MESSAGES = {
-    OK: "ok", EVENT: "stopped at a terminal event", EINPUT: "invalid input",
-    EMAXSTEPS: "maximum number of steps reached", ESTEP: "step size underflow",
-    EMODEL: "the model refused the state (NaN, Inf or a blown-up state)", EIO: "input/output error",
-    ENOCONV: "iteration did not converge", EFAULT: "failure injected by TUBES_FAULT (testing)",
-    EOUTSIDE: "the tube crosses the section outside the region of the energy surface chosen on it",
-    ENOCROSS: "no crossing of the section within t_max: the tube does not reach this section",
-}
+EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV, EFAULT, EOUTSIDE, ENOCROSS, EPASTEND = (
+    -1, -2, -3, -4, -5, -6, -7, -8, -9, -10)
+
+
+def status_message(code: int) -> str:
+    """The meaning of a TUBES_* status code, from the library's one table (src/tubes_status.f90)."""
+    msg = _lib().status_text(int(code))
+    return (msg.decode() if isinstance(msg, bytes) else str(msg)).strip()
+
+
 METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, "gauss6": 7,
            "gauss8": 8, "gsl_rk8pd": 9, "gsl_rk4imp": 10, "cvode_adams": 11,
            "arkode_erk8": 12}   # include/tubes.h TUBES_METHOD_*
 FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 
-__all__ = ["Model", "TubesError", "systems", "model_info", "energy", "energies", "potentials",
+__all__ = ["Model", "TubesError", "status_message", "systems", "model_info", "energy", "energies", "potentials",
            "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
            "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
            "orbit_family", "tube_cut", "transition", "monte_carlo", "poincare",
@@ -47,7 +49,7 @@ class TubesError(RuntimeError):
     def __init__(self, code: int, where: str = ""):
         self.code = int(code)
         self.partial = None
-        super().__init__(f"{where}: {_MESSAGES.get(self.code, 'unknown status')} (status {self.code})")
+        super().__init__(f"{where}: {status_message(self.code)} (status {self.code})")
 
 
 def _lib():
@@ -94,11 +96,14 @@ class Model:
         object.__setattr__(self, "ndof", info["ndof"])
         object.__setattr__(self, "_vector", vec)
         object.__setattr__(self, "info", info)
-        # the core's own range checks (masses > 0, 0 < mu <= 1/2, ...): evaluate once
-        stat, _ = _lib().energies(system, vec, np.zeros((2 * self.ndof, 1), order="F"))
-        if stat < 0:
-            raise ValueError(f"Model: parameters out of range for system {system!r}: {values} "
-                             "(docs/models.md gives the allowed ranges)")
+        # the input file's checks, with its messages (alpha > 0, 0 <= damping_ratio < 1, masses
+        # > 0, 0 < mu <= 1/2, ...): the &model group read and validated by the program's reader
+        _read_namelist([self._nml()], "Model")
+
+    def _nml(self) -> str:
+        """The &model group of this model, as an input file writes it."""
+        return f"&model system = '{self.system}'" + "".join(
+            f", {k} = {_nml_value(v)}" for k, v in self.parameters.items()) + " /"
 
     def __getattr__(self, key):
         try:
@@ -329,15 +334,40 @@ def _nml_value(v) -> str:
     return repr(float(v)) if isinstance(v, float) else str(v)
 
 
+_SETTINGS = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", "use_near", "near",
+             "n_segments", "orb_tol", "orb_rtol", "orb_atol", "orb_max_iter", "orb_n_samples",
+             "sec_kind", "sec_index", "sec_level", "sec_dir", "tub_eps", "tub_area_tol", "tub_t_max",
+             "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate", "pm_n_seeds",
+             "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter")
+
+
+def _read_namelist(lines: list[str], who: str) -> dict:
+    """Namelist groups read and validated exactly as the program reads an input file (the C
+    lexer, the Fortran reader, the C validator: nml_load); a refusal raises ValueError with the
+    program's messages, the temporary file's name and line taken off."""
+    import os
+    import tempfile
+    fd, path = tempfile.mkstemp(suffix=".nml")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write("\n".join(lines) + "\n")
+        out = _lib().read_input(path)
+    finally:
+        os.remove(path)
+    st = dict(zip(_SETTINGS, out))
+    if st["stat"] != 0:
+        msgs = [re.sub(r"^\s*" + re.escape(path) + r"(:\d+)?:\s*", "", m)
+                for m in _str(st["msg"]).splitlines() if m.strip()]
+        raise ValueError(f"{who}: " + "\n".join(msgs or ["refused (no message)"]))
+    return st
+
+
 def _settings(model: Model, saddle=None, saddle_near=None, section=None, **groups) -> dict:
     """The settings of a scene call as the program would use them: the model, the keywords given
     (group -> {variable: value}) written as a namelist and read by the program's own reader
     (src/io/tubes_nml.f90), so that every default and every system default comes from the one
     place the input file's come from."""
-    import os
-    import tempfile
-    lines = [f"&model system = '{model.system}'" + "".join(
-        f", {k} = {_nml_value(v)}" for k, v in model.parameters.items()) + " /"]
+    lines = [model._nml()]
     orb = dict(groups.pop("orbits", {}))
     if saddle is not None and saddle_near is not None:
         raise ValueError("give saddle or saddle_near, not both")
@@ -353,21 +383,7 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, **group
     for g, kv in groups.items():
         if kv:
             lines.append(f"&{g} " + ", ".join(f"{k} = {_nml_value(v)}" for k, v in kv.items()) + " /")
-    fd, path = tempfile.mkstemp(suffix=".nml")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write("\n".join(lines) + "\n")
-        out = _lib().read_input(path)
-    finally:
-        os.remove(path)
-    names = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", "use_near", "near",
-             "n_segments", "orb_tol", "orb_rtol", "orb_atol", "orb_max_iter", "orb_n_samples",
-             "sec_kind", "sec_index", "sec_level", "sec_dir", "tub_eps", "tub_area_tol", "tub_t_max",
-             "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate", "pm_n_seeds",
-             "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter")
-    st = dict(zip(names, out))
-    if st["stat"] != 0:
-        raise ValueError(f"invalid settings: {_str(st['msg'])} ({' '.join(lines)})")
+    st = _read_namelist(lines, "tubes")
     st["saddle"] = _str(st["saddle"])
     if st["use_near"]:
         eq = equilibria(model, box=(st["hi"] - st["lo"])[:model.ndof] / 2,

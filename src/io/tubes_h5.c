@@ -1,5 +1,7 @@
 /* HDF5 output helpers (include/tubes_h5.h). Strings are variable-length UTF-8 so that h5py
  * returns str, not bytes. */
+#include <errno.h>
+#include <fcntl.h>
 #include "tubes_h5.h"
 #include <stdio.h>
 #include <string.h>
@@ -8,7 +10,17 @@
 hid_t h5_create_tmp(const char *path, char *tmp, size_t tmplen) {
   H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
   snprintf(tmp, tmplen, "%s.tmp.%ld", path, (long)getpid());
-  return H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  /* open(2) first: HDF5 does not pass on why a file cannot be created; errno tells the caller */
+  int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (fd < 0) return -1;
+  close(fd);
+  hid_t f = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (f < 0) {
+    int e = errno ? errno : EIO;
+    remove(tmp);
+    errno = e;
+  }
+  return f;
 }
 
 int h5_commit(hid_t f, const char *tmp, const char *path) {

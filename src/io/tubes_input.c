@@ -196,7 +196,7 @@ static void list_groups(FILE *err) {
   for (int i = 0; i < tubes_nml_ngroups; i++) fprintf(err, "%s&%s", i ? ", " : "", tubes_nml_groups[i]);
 }
 
-static char *slurp(const char *path, FILE *err) {
+static char *slurp(const char *path, size_t *len, FILE *err) {
   FILE *f = fopen(path, "rb");
   if (!f) {
     fprintf(err, "tubes: cannot open input file '%s': %s\n", path, strerror(errno));
@@ -220,6 +220,7 @@ static char *slurp(const char *path, FILE *err) {
   }
   fclose(f);
   if (buf) buf[n] = '\0';
+  *len = n;
   return buf;
 }
 
@@ -229,10 +230,7 @@ static const char *check_token(nml_type t, const char *tok, size_t len) {
   if (len >= sizeof tmp) len = sizeof tmp - 1;
   memcpy(tmp, tok, len);
   tmp[len] = '\0';
-  const char *star = strchr(tmp, '*');       /* repeat count r*value */
-  const char *v = tmp;
-  if (star && t != NML_STRING) v = star + 1;
-  if (star && t == NML_STRING && tmp[0] != '\'' && tmp[0] != '"') v = star + 1;
+  const char *v = tmp;                       /* the lexer has taken off a repeat count */
   switch (t) {
   case NML_REAL: {
     char num[256];
@@ -269,9 +267,22 @@ static const char *check_token(nml_type t, const char *tok, size_t len) {
 
 int nml_lex(const char *path, nml_where *w, FILE *err) {
   memset(w, 0, sizeof *w);
-  char *s = slurp(path, err);
+  size_t len = 0;
+  char *s = slurp(path, &len, err);
   if (!s) return 1;
   int line = 1, cur = -1, cur_line = 0, rc = 0;
+  /* a control byte (NUL ends the lexer's string while Fortran's READ goes on past it): not text */
+  for (size_t i = 0; i < len; i++) {
+    unsigned char ch = (unsigned char)s[i];
+    if (ch == '\n') line++;
+    else if (ch < 32 && ch != '\t' && ch != '\r') {
+      fprintf(err, "%s:%d: byte 0x%02x is not text: an input file holds printable characters, tabs and "
+              "line ends only\n", path, line, ch);
+      free(s);
+      return 1;
+    }
+  }
+  line = 1;
   char *p = s;
   const char *gname = NULL;
 #define FAIL(...) do { fprintf(err, "%s:%d: ", path, line); fprintf(err, __VA_ARGS__); \
@@ -353,8 +364,23 @@ int nml_lex(const char *path, nml_where *w, FILE *err) {
         p++;
       }
       if (!*p || *p == '/' || *p == '&' || *p == '$') break;
-      char *tok = p;
-      if (*p == '\'' || *p == '"') {
+      char *item = p, *tok = p;
+      long rep = 1;                                  /* a repeat count: r*value, or r* (r nulls) */
+      if (isdigit((unsigned char)*p)) {
+        char *q = p;
+        while (isdigit((unsigned char)*q)) q++;
+        if (*q == '*') {
+          errno = 0;
+          rep = strtol(p, NULL, 10);
+          if (rep < 1 || errno == ERANGE || rep > v->count)
+            FAIL("&%s: repeat count %.*s of '%s' is out of range (1 to %d)", gname, (int)(q - p > 20 ? 20 : q - p), p,
+                 name, v->count);
+          p = tok = q + 1;
+        }
+      }
+      if (tok != item && (!*p || isspace((unsigned char)*p) || *p == ',' || *p == '/')) {
+        /* r null values: nothing to check */
+      } else if (*p == '\'' || *p == '"') {
         char q = *p++;
         for (;;) {
           if (!*p || *p == '\n') FAIL("&%s: unterminated string in the value of '%s'", gname, name);
@@ -376,13 +402,13 @@ int nml_lex(const char *path, nml_where *w, FILE *err) {
       }
       size_t len = (size_t)(p - tok);
       if (!vstart) {
-        vstart = tok;
-        size_t m = len < 95 ? len : 95;
-        memcpy(w->var_text[vi], tok, m);
+        vstart = item;
+        size_t m = (size_t)(p - item) < 95 ? (size_t)(p - item) : 95;
+        memcpy(w->var_text[vi], item, m);
         w->var_text[vi][m] = '\0';
       }
-      nvals++;
-      const char *why = check_token(v->type, tok, len);
+      nvals += (int)rep;
+      const char *why = len ? check_token(v->type, tok, len) : NULL;
       if (why)
         FAIL("&%s: value %.*s of '%s' %s (%s: %s)", gname, (int)(len > 60 ? 60 : len), tok, name,
              why, v->name, v->doc);
@@ -519,7 +545,7 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
   if (tubes_model_natural(sys, c->params, &natural) < 0) {
     fprintf(err, "%s:%d: &model: the parameters of system '%s' are out of range:", path, ln, sys);
     for (int k = 0; k < np; k++)
-      fprintf(err, "%s %s = %.17g (%s)", k ? "," : "", names + TUBES_LPARAM * k, c->params[k], docs + TUBES_LDOC * k);
+      fprintf(err, "%s %s = %.15g (%s)", k ? "," : "", names + TUBES_LPARAM * k, c->params[k], docs + TUBES_LDOC * k);
     fputc('\n', err);
     return 1;
   }
@@ -624,6 +650,13 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
     int ok = 0;
     for (int j = 0; j < tubes_nscenes; j++) ok |= strcmp(s, tubes_scene_names[j]) == 0;
     if (!ok) n += bad_string(path, w, "run", "scenes", s, err);
+    for (int j = 0; j < k; j++)
+      if (!strcmp(s, c->scenes[j])) {
+        fprintf(err, "%s:%d: &run: scene '%s' is named twice in scenes: each scene runs once\n", path,
+                line_of(w, "run", "scenes"), s);
+        n++;
+        break;
+      }
   }
   if (nscenes == 0) {
     fprintf(err, "%s:%d: &run: scenes is empty: name at least one of ", path, line_of(w, "run", "scenes"));
@@ -732,6 +765,43 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
     n += bad(path, w, "experiment", "damping_ratio", err, "", c->exp_damping_ratio);
   if (!(c->exp_seed >= 0)) n += bad(path, w, "experiment", "seed", err, "", c->exp_seed);
   return n;
+}
+
+int nml_load(const char *path, const char *out_override, tubes_config_t *cfg, nml_where *w,
+             FILE *err) {
+  if (nml_lex(path, w, err)) return 1;
+  int group = -1;
+  char msg[512];
+  int ios = tubes_nml_read(path, cfg, &group, msg, (int)sizeof msg);
+  if (ios != 0) {
+    if (group < 0) fprintf(err, "tubes: cannot read '%s': %s\n", path, msg);
+    else nml_report_read_error(path, w, group, msg, err);
+    return 1;
+  }
+  if (out_override) {
+    if (strlen(out_override) >= TUBES_LPATH) {
+      fprintf(err, "tubes: -o: file name longer than %d characters\n", TUBES_LPATH - 1);
+      return 1;
+    }
+    snprintf(cfg->output, sizeof cfg->output, "%s", out_override);
+  }
+  return nml_validate(path, cfg, w, err) != 0;
+}
+
+int tubes_input_check(const char *path, tubes_config_t *cfg, char *msg, int msglen) {
+  static nml_where w;
+  char *buf = NULL;
+  size_t len = 0;
+  FILE *err = open_memstream(&buf, &len);
+  if (!err) {
+    snprintf(msg, (size_t)msglen, "cannot open a memory stream for the messages");
+    return -1;
+  }
+  int rc = nml_load(path, NULL, cfg, &w, err);
+  fclose(err);
+  snprintf(msg, (size_t)msglen, "%s", buf ? buf : "");
+  free(buf);
+  return rc;
 }
 
 void nml_print_help(FILE *out) {

@@ -168,25 +168,9 @@ static int run_main(int argc, char **argv) {
     return EXIT_BADINPUT;
   }
 
-  nml_where where;
-  if (nml_lex(input, &where, stderr)) return EXIT_BADINPUT;
+  static nml_where where;
   static tubes_config_t cfg;
-  int group = -1;
-  char msg[512];
-  int ios = tubes_nml_read(input, &cfg, &group, msg, (int)sizeof msg);
-  if (ios != 0) {
-    if (group < 0) fprintf(stderr, "tubes: cannot read '%s': %s\n", input, msg);
-    else nml_report_read_error(input, &where, group, msg, stderr);
-    return EXIT_BADINPUT;
-  }
-  if (out_override) {
-    if (strlen(out_override) >= TUBES_LPATH) {
-      fprintf(stderr, "tubes: -o: file name longer than %d characters\n", TUBES_LPATH - 1);
-      return EXIT_BADINPUT;
-    }
-    snprintf(cfg.output, sizeof cfg.output, "%s", out_override);
-  }
-  if (nml_validate(input, &cfg, &where, stderr)) return EXIT_BADINPUT;
+  if (nml_load(input, out_override, &cfg, &where, stderr)) return EXIT_BADINPUT;
 
   static char nml_text[65536];
   if (tubes_nml_write(&cfg, nml_text, (int)sizeof nml_text) < 0) {
@@ -220,12 +204,15 @@ static int run_main(int argc, char **argv) {
   if (setup) return setup;
 
   char *tmp = g_tmp;
+  errno = 0;
   hid_t f = g_rank == 0 ? h5_create_tmp(cfg.output, tmp, sizeof g_tmp) : h5_create_scratch();
+  int create_errno = errno;
   if (g_rank == 0 && f >= 0) g_have_tmp = 1;
   if (agree(f < 0 ? EXIT_IO : 0) == EXIT_IO) {
     if (f >= 0) h5_discard(f, g_rank == 0 ? tmp : "");
     if (g_rank == 0)
-      fprintf(stderr, "tubes: cannot create output file '%s' (via '%s')\n", cfg.output, tmp);
+      fprintf(stderr, "tubes: cannot create output file '%s' (via '%s'): %s\n", cfg.output, tmp,
+              create_errno ? strerror(create_errno) : "HDF5 refused it");
     else
       fprintf(stderr, "tubes: rank %d cannot create its in-memory scratch file\n", g_rank);
     return EXIT_IO;

@@ -676,6 +676,9 @@ contains
       integer :: n_segments, max_iter, n_samples, m
       real(c_double) :: tol, rtol, atol
       real(c_double), allocatable :: saddle_near(:)
+      character(512) :: buf(40)
+      logical :: by_name
+      integer :: k
       namelist /orbits/ saddle, saddle_near, de, method, n_segments, tol, rtol, atol, max_iter, &
         n_samples
       saddle = v%orb_saddle; method = v%orb_method; n_segments = v%orb_n_segments
@@ -693,7 +696,17 @@ contains
         allocate (de(max(m, 1)))
         de = 0
         if (m > 0) de = v%orb_de(1:m)
-        write (u, nml=orbits, iostat=ios, iomsg=iomsg)
+        ! the saddle is chosen once, by name or by position: the effective namelist states that
+        ! choice and leaves the other variable out (both set is refused when the text is read back)
+        buf = ''
+        write (buf, nml=orbits, delim='apostrophe', iostat=ios, iomsg=iomsg)
+        by_name = len_trim(saddle) > 0
+        do k = 1, size(buf)
+          if (len_trim(buf(k)) == 0) cycle
+          if (by_name .and. index(buf(k), ' SADDLE_NEAR=') == 1) cycle
+          if (.not. by_name .and. index(buf(k), ' SADDLE=') == 1) cycle
+          write (u, '(a)', iostat=ios) trim(buf(k))
+        end do
       end if
       v%orb_saddle = saddle; v%orb_method = method; v%orb_n_segments = n_segments
       v%orb_tol = tol; v%orb_rtol = rtol; v%orb_atol = atol; v%orb_max_iter = max_iter

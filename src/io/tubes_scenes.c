@@ -6,6 +6,7 @@
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,6 +20,19 @@ static double now(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+/* A progress line for one item of a scene's list (an energy): at most one a second, the first
+ * always (docs/usage.md); the lines that report a scene's own long step are printed as they come. */
+static void progress_item(const char *fmt, ...) {
+  static double last = -1e300;
+  double t = now();
+  if (t - last < 1.0) return;
+  last = t;
+  va_list ap;
+  va_start(ap, fmt);
+  vfprintf(stderr, fmt, ap);
+  va_end(ap);
 }
 
 static void status_text(int code, char *buf, int len) { tubes_status_message(code, buf, len); }
@@ -599,12 +613,32 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
   return e ? EXIT_IO : 0;
 }
 
+/* The end of the saddle's orbit family, for a cut asked past it: the family is continued again
+ * (on the failure path only) to say where it ends and why, as the orbits scene does. */
+static void past_end_message(tubes_run_t *run, double de, char *buf, size_t len) {
+  const tubes_config_t *c = run->cfg;
+  int mi = c->orb_max_iter, ns = c->orb_n_samples, conv = 0, it = 0, reason = 0;
+  double e, per, act, s0[2 * MD], mu, ms, mt[4], stab, res, clo, md, mono[4 * MD * MD], end_de = -1,
+      *hist = calloc(mi > 0 ? mi : 1, sizeof(double)), *ts = calloc(ns, sizeof(double)),
+      *xs = calloc((size_t)2 * MD * ns, sizeof(double));
+  if (hist && ts && xs)
+    tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, 1, &de, orb_nseg(c),
+                       c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c), &e, &per, &act, s0, &mu, &ms, mt,
+                       &stab, &res, &clo, &it, &conv, &md, mono, ts, xs, hist, &end_de, &reason);
+  free(hist); free(ts); free(xs);
+  if (end_de > 0)
+    snprintf(buf, len, "tubes: dE = %g is past the end of the %s family, which ends at dE ~ %.8g (%s): no orbit, "
+             "no tube there", de, run->saddle, end_de, end_reason_text(reason));
+  else
+    snprintf(buf, len, "tubes: dE = %g is past the end of the %s family: no orbit, no tube there", de, run->saddle);
+}
+
 /* One tube cut into group loc (none if loc < 0); returns 0 or an exit code; *area gets the area.
  * local = 1: computed on this rank alone (the caller deals out cuts), else by all ranks together.
  * A failure is described in err (printed to stderr if err is NULL). */
 static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int kind, double eps,
                   double area_tol, double *area, double *action, double *t_po_cut, int local, char *err,
-                  size_t errlen) {
+                  size_t errlen, int *status) {
   const tubes_config_t *c = run->cfg;
   int nout = c->tub_n_max, n = 0, nh = 0, hn[64], nfail = 0;
   double *tau = malloc(sizeof(double) * nout), *r = malloc(sizeof(double) * nout), *pr = malloc(sizeof(double) * nout),
@@ -617,7 +651,14 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
                                     INTEGRATOR(c), nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau,
                                     local);
   if (err && errlen) err[0] = 0;
-  if (st < 0 && !rc) {
+  if (status) *status = rc ? TUBES_EINPUT : st;
+  if (st == TUBES_EPASTEND) {
+    char buf[512];
+    past_end_message(run, de, buf, sizeof buf);
+    if (err) snprintf(err, errlen, "%s", buf);
+    else fprintf(stderr, "%s\n", buf);
+    rc = EXIT_PARTIAL;
+  } else if (st < 0 && !rc) {
     char m[128], buf[2048];
     size_t len = 0;
     status_text(st, m, sizeof m);
@@ -680,11 +721,19 @@ int scene_tubes(tubes_run_t *run) {
       if (kind > 0 && !strcmp(c->tub_kind, "stable")) continue;
       char name[48];
       double a, a10, act, per, t0 = now(), de = c->tub_de[k];
-      fprintf(stderr, "tubes: dE = %g, %s manifold...\n", de, kind < 0 ? "stable" : "unstable");
+      progress_item("tubes: dE = %g, %s manifold (%d of %d)...\n", de, kind < 0 ? "stable" : "unstable", k + 1,
+                    c->tub_nde);
       snprintf(name, sizeof name, "%s_%03d", kind < 0 ? "stable" : "unstable", k);
-      int r1 = cut_to(run, g, name, de, kind, c->tub_eps, c->tub_area_tol, &a, &act, &per, 0, NULL, 0);
-      int r2 = cut_to(run, -1, "", de, kind, c->tub_eps / 10, c->tub_area_tol, &a10, &act, &per, 0, NULL, 0);
+      int st1 = 0;
+      int r1 = cut_to(run, g, name, de, kind, c->tub_eps, c->tub_area_tol, &a, &act, &per, 0, NULL, 0, &st1);
       if (r1 == EXIT_IO) { H5Gclose(g); return EXIT_IO; }
+      if (st1 == TUBES_EPASTEND) {
+        printf("  %10.4g %8s   refused: past the end of the family (no orbit at this energy)\n", de,
+               kind < 0 ? "stable" : "unstable");
+        rc = EXIT_PARTIAL;
+        continue;
+      }
+      int r2 = cut_to(run, -1, "", de, kind, c->tub_eps / 10, c->tub_area_tol, &a10, &act, &per, 0, NULL, 0, NULL);
       if (r1 || r2) rc = EXIT_PARTIAL;
       char path[80];
       snprintf(path, sizeof path, "%s", name);
@@ -707,7 +756,7 @@ int scene_tubes(tubes_run_t *run) {
  * energy's owner, and rank 0 prints them in energy order. */
 typedef struct {
   double at, act, ae, pt, secs;
-  int rc;
+  int rc, status;
   char err[2048];
 } transition_item_t;
 
@@ -728,9 +777,10 @@ int scene_transition(tubes_run_t *run) {
   double *at = calloc(n, sizeof(double)), *act = calloc(n, sizeof(double)), *ae = calloc(n, sizeof(double)),
          *pt = calloc(n, sizeof(double)), *pl = calloc(n, sizeof(double));
   transition_item_t *it = calloc(n, sizeof(transition_item_t));
-  if (!at || !act || !ae || !pt || !pl || !it) {
+  int *stat = calloc(n, sizeof(int));
+  if (!at || !act || !ae || !pt || !pl || !it || !stat) {
     fprintf(stderr, "tubes: transition: out of memory\n");
-    free(at); free(act); free(ae); free(pt); free(pl); free(it);
+    free(at); free(act); free(ae); free(pt); free(pl); free(it); free(stat);
     return EXIT_NUMERIC;
   }
   if (run->nranks > 1)
@@ -739,9 +789,9 @@ int scene_transition(tubes_run_t *run) {
     if (k % run->nranks != run->rank) continue;
     transition_item_t *x = &it[k];
     double de = c->tra_de[k], rmin, rmax, darea, per, t0 = now();
-    fprintf(stderr, "transition: dE = %g (%d of %d)...\n", de, k + 1, n);
+    progress_item("transition: dE = %g (%d of %d)...\n", de, k + 1, n);
     int r1 = cut_to(run, -1, "", de, -1, c->tub_eps, c->tra_area_tol, &x->at, &x->act, &per, 1, x->err,
-                    sizeof x->err);
+                    sizeof x->err, &x->status);
     int st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &x->ae, &darea);
     if (st < 0) {
       char m[128];
@@ -751,6 +801,7 @@ int scene_transition(tubes_run_t *run) {
                "%s (status %d)", l ? "\n" : "", de, m, st);
     }
     x->rc = (r1 || st < 0) ? EXIT_PARTIAL : 0;
+    if (x->status >= 0 && st < 0) x->status = st;
     x->pt = (st < 0) ? NAN : x->at / x->ae;
     x->secs = now() - t0;
   }
@@ -763,8 +814,12 @@ int scene_transition(tubes_run_t *run) {
     pl[k] = tpo / a0 * de * (1 - tau / a0 * de);
     if (it[k].err[0]) fprintf(stderr, "%s\n", it[k].err);
     if (it[k].rc) rc = EXIT_PARTIAL;
-    printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %12.6g   (%.1f s)\n", de, at[k], act[k], ae[k], pt[k], pl[k],
-           it[k].secs);
+    stat[k] = it[k].status;
+    if (it[k].status == TUBES_EPASTEND)
+      printf("  %10.4g   refused: past the end of the family (no orbit at this energy)\n", de);
+    else
+      printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %12.6g   (%.1f s)\n", de, at[k], act[k], ae[k], pt[k], pl[k],
+             it[k].secs);
   }
   hid_t g = h5_group(run->file, "transition");
   int e = g < 0;
@@ -775,8 +830,9 @@ int scene_transition(tubes_run_t *run) {
   e |= h5_write_double(g, "A_E", 1, &dn, ae, "cm^2/s");
   e |= h5_write_double(g, "p_trans", 1, &dn, pt, "1");
   e |= h5_write_double(g, "p_trans_leading", 1, &dn, pl, "1");
+  e |= h5_write_int(g, "status", dn, stat, "1");
   if (g >= 0) H5Gclose(g);
-  free(at); free(act); free(ae); free(pt); free(pl); free(it);
+  free(at); free(act); free(ae); free(pt); free(pl); free(it); free(stat);
   return e ? EXIT_IO : rc;
 }
 
@@ -809,9 +865,13 @@ int scene_montecarlo(tubes_run_t *run) {
                            c->mc_gate, INTEGRATOR(c), n, cr, cp, r, pr, out, ins);
   }
   if (st < 0) {
-    char m[128];
+    char m[512];
     status_text(st, m, sizeof m);
-    fprintf(stderr, "tubes: montecarlo: failed: %s (status %d)\n", m, st);
+    if (st == TUBES_EPASTEND) {
+      past_end_message(run, de, m, sizeof m);
+      fprintf(stderr, "%s\n", m);
+    } else
+      fprintf(stderr, "tubes: montecarlo: failed: %s (status %d)\n", m, st);
     int nbad = 0, first = -1;
     for (int k = 0; k < ns && mc_ran; k++)
       if (out[k] < 0) {
@@ -823,7 +883,25 @@ int scene_montecarlo(tubes_run_t *run) {
       fprintf(stderr, "tubes: montecarlo: %d of %d samples failed; the first, sample %d at (r, p_r) = (%.10g cm, "
               "%.10g cm/s): %s (status %d)\n", nbad, ns, first + 1, r[first], pr[first], m, out[first]);
     }
-    rc = EXIT_NUMERIC;
+    rc = st == TUBES_EPASTEND ? EXIT_PARTIAL : EXIT_NUMERIC;
+    /* the failure is recorded in the file (docs/output.md): the scene's status, no fraction */
+    hid_t g = h5_group(run->file, "montecarlo");
+    int e = g < 0;
+    hsize_t dn = (hsize_t)ns;
+    e |= h5_attr_double(g, "dE", de);
+    e |= h5_attr_long(g, "n_samples", ns);
+    e |= h5_attr_long(g, "seed", c->mc_seed);
+    e |= h5_attr_long(g, "status", st);
+    status_text(st, m, sizeof m);
+    e |= h5_attr_string(g, "status_message", m);
+    e |= h5_attr_long(g, "agrees", 0);
+    if (mc_ran) {
+      e |= h5_write_double(g, "r", 1, &dn, r, "cm");
+      e |= h5_write_double(g, "p_r", 1, &dn, pr, "cm/s");
+      e |= h5_write_int(g, "transit", dn, out, "1");
+    }
+    if (g >= 0) H5Gclose(g);
+    if (e) rc = EXIT_IO;
   } else {
     int nt = 0, nu = 0, in_nt = 0, out_t = 0, nin = 0;
     for (int k = 0; k < ns; k++) {
@@ -850,6 +928,7 @@ int scene_montecarlo(tubes_run_t *run) {
     e |= h5_attr_long(g, "misclassified_inside_no_transit", in_nt);
     e |= h5_attr_long(g, "misclassified_outside_transit", out_t);
     e |= h5_attr_long(g, "undecided", nu);
+    e |= h5_attr_long(g, "status", 0);
     e |= h5_write_double(g, "r", 1, &dn, r, "cm");
     e |= h5_write_double(g, "p_r", 1, &dn, pr, "cm/s");
     e |= h5_write_int(g, "transit", dn, out, "1");
