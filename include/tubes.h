@@ -269,7 +269,7 @@ typedef struct {
   int tra_nde;
   double tra_area_tol;
   /* &montecarlo */
-  double mc_de, mc_t_max, mc_gate;
+  double mc_de, mc_t_max, mc_gate, mc_area_tol;
   int mc_n_samples, mc_seed;
   /* &sections */
   double pm_de[TUBES_MAXDE];

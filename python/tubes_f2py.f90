@@ -353,7 +353,7 @@ end subroutine differentiate_savgol
 subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, use_near, near, &
                       n_segments, orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, sec_kind, &
                       sec_index, sec_level, sec_dir, tub_eps, tub_area_tol, tub_t_max, tub_n_init, &
-                      tub_n_max, tra_area_tol, mc_t_max, mc_gate, pm_n_seeds, pm_n_iter, pm_t_max, &
+                      tub_n_max, tra_area_tol, mc_t_max, mc_gate, mc_area_tol, pm_n_seeds, pm_n_iter, pm_t_max, &
                       method, h, omega_bind, solver, int_max_iter)
   ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
   ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
@@ -370,7 +370,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   character(len=8), intent(out) :: saddle
   real(c_double), intent(out) :: params(16), lo(3), hi(3), near(3), orb_tol, orb_rtol, orb_atol, &
                                  sec_level, tub_eps, tub_area_tol, tub_t_max, tra_area_tol, mc_t_max, &
-                                 mc_gate, pm_t_max, h, omega_bind
+                                 mc_gate, mc_area_tol, pm_t_max, h, omega_bind
   interface
     integer(c_int) function method_code(name) bind(C, name='tubes_method_code')
       import :: c_int, c_char
@@ -435,6 +435,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   tra_area_tol = cfg%tra_area_tol
   mc_t_max = cfg%mc_t_max
   mc_gate = cfg%mc_gate
+  mc_area_tol = cfg%mc_area_tol
   pm_n_seeds = cfg%pm_n_seeds
   pm_n_iter = cfg%pm_n_iter
   pm_t_max = cfg%pm_t_max

@@ -46,6 +46,7 @@ BAD = [  # (name, namelist text, substrings the message must contain)
     ("no value", "&model g = /\n", ["bad.nml:1", "no value"]),
     # found by the fuzzer: the lexer stopped at a NUL byte while Fortran's READ read past it
     ("NUL byte", "&model g = 981 /\n&section kind = '\x00\x00p' /\n", ["bad.nml:2", "0x00", "not text"]),
+    ("montecarlo area_tol", "&montecarlo area_tol = 1 /\n", ["bad.nml:1", "area_tol = 1", "1e-13 .. 1e-2"]),
     ("scene twice", "&run scenes = 'equilibria', 'orbits', 'equilibria' /\n", ["bad.nml:1", "'equilibria' is named twice"]),
     ("repeat count too large", "&equilibria box = 4*20.0 /\n", ["bad.nml:1", "repeat count 4", "1 to 3"]),
     ("control byte", "&model\x1b g = 981 /\n", ["bad.nml:1", "0x1b", "not text"]),

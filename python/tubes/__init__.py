@@ -337,7 +337,7 @@ def _nml_value(v) -> str:
 _SETTINGS = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", "use_near", "near",
              "n_segments", "orb_tol", "orb_rtol", "orb_atol", "orb_max_iter", "orb_n_samples",
              "sec_kind", "sec_index", "sec_level", "sec_dir", "tub_eps", "tub_area_tol", "tub_t_max",
-             "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate", "pm_n_seeds",
+             "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate", "mc_area_tol", "pm_n_seeds",
              "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter")
 
 
@@ -481,16 +481,16 @@ def transition(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, s
 
 def monte_carlo(model: Model | None = None, dE: float = 100.0, n_samples: int = 10000,
                 seed: int = 12345, saddle=None, saddle_near=None, section=None, t_max=None,
-                gate=None, integrator: dict | None = None, **orbits) -> dict:
+                gate=None, area_tol=None, integrator: dict | None = None, **orbits) -> dict:
     """The Monte Carlo check at dE (as the montecarlo scene): n_samples points uniform on the
     section's energy surface, each integrated until it passes the saddle's gate (transit) or
     returns. dict: fraction, std_error, p_trans (A_tube / A_E), misclassified, undecided, and
     per point r, p_r, transit (0 returned, 1 transited, 2 undecided), inside (the cut)."""
     model = model or Model()
-    mc = {k: v for k, v in (("t_max", t_max), ("gate", gate)) if v is not None}
+    mc = {k: v for k, v in (("t_max", t_max), ("gate", gate), ("area_tol", area_tol)) if v is not None}
     st = _settings(model, saddle, saddle_near, section=section, orbits=orbits, montecarlo=mc,
                    integrator=integrator)
-    c = _cut(model, st, dE, -1, 1e-8)
+    c = _cut(model, st, dE, -1, float(st["mc_area_tol"]))
     stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), float(dE))
     _check(stat, "monte_carlo")
     stat, r, pr, outc, ins = _lib().monte_carlo(*_study(model, st), *_section_args(st), float(dE),

@@ -138,6 +138,7 @@ const nml_var tubes_nml_vars[] = {
     {"montecarlo", "n_samples", NML_INT, 1, "-", "10000", "1 .. 10000000", "points on the section"},
     {"montecarlo", "seed", NML_INT, 1, "-", "12345", ">= 0", "seed of GSL's MT19937"},
     {"montecarlo", "t_max", NML_REAL, 1, "s", "20", "> 0", "longest integration of a point"},
+    {"montecarlo", "area_tol", NML_REAL, 1, "1", "1e-8", "1e-13 .. 1e-2", "relative accuracy of the tube cut the points are sorted by"},
     {"montecarlo", "gate", NML_REAL, 1, "units of q", "the system's (1.5 cm for the ball)", "> 0",
      "a point has transited when it is this far past the saddle along its reaction coordinate"},
     {"sections", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "100, 500", "> 0, increasing", "excess energies of the maps"},
@@ -741,6 +742,8 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->mc_n_samples >= 1 && c->mc_n_samples <= 10000000)) n += bad(path, w, "montecarlo", "n_samples", err, "", c->mc_n_samples);
   if (!(c->mc_seed >= 0)) n += bad(path, w, "montecarlo", "seed", err, "", c->mc_seed);
   if (!(c->mc_t_max > 0)) n += bad(path, w, "montecarlo", "t_max", err, "", c->mc_t_max);
+  if (!(c->mc_area_tol >= 1e-13 && c->mc_area_tol <= 1e-2))
+    n += bad(path, w, "montecarlo", "area_tol", err, "", c->mc_area_tol);
   if (c->nparams >= 0 && !(c->mc_gate > 0 && c->mc_gate < DBL_MAX))
     n += bad(path, w, "montecarlo", "gate", err, "", c->mc_gate);
   if (!(c->pm_n_seeds >= 1 && c->pm_n_seeds <= 100000)) n += bad(path, w, "sections", "n_seeds", err, "", c->pm_n_seeds);

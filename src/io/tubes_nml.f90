@@ -52,7 +52,7 @@ module tubes_nml
     real(c_double) :: tra_de(MAXDE)
     integer(c_int) :: tra_nde
     real(c_double) :: tra_area_tol
-    real(c_double) :: mc_de, mc_t_max, mc_gate
+    real(c_double) :: mc_de, mc_t_max, mc_gate, mc_area_tol
     integer(c_int) :: mc_n_samples, mc_seed
     real(c_double) :: pm_de(MAXDE)
     integer(c_int) :: pm_nde, pm_n_seeds, pm_n_iter
@@ -105,7 +105,7 @@ module tubes_nml
     integer :: tub_n_init, tub_n_max
     real(c_double) :: tra_de(MAXDE)
     real(c_double) :: tra_area_tol
-    real(c_double) :: mc_de, mc_t_max, mc_gate
+    real(c_double) :: mc_de, mc_t_max, mc_gate, mc_area_tol
     integer :: mc_n_samples, mc_seed
     real(c_double) :: pm_de(MAXDE)
     integer :: pm_n_seeds, pm_n_iter
@@ -187,6 +187,7 @@ contains
     v%tra_area_tol = 1.0e-8_c_double
     v%mc_de = 100
     v%mc_t_max = 20
+    v%mc_area_tol = 1.0e-8_c_double
     v%mc_gate = UNSET
     v%mc_n_samples = 10000
     v%mc_seed = 12345
@@ -246,7 +247,7 @@ contains
       10.0_c_double, 20.0_c_double, 50.0_c_double, 100.0_c_double, 200.0_c_double, 300.0_c_double, &
       400.0_c_double, 500.0_c_double, 600.0_c_double, 700.0_c_double, 750.0_c_double])
     cfg%tra_area_tol = v%tra_area_tol
-    cfg%mc_de = v%mc_de; cfg%mc_t_max = v%mc_t_max
+    cfg%mc_de = v%mc_de; cfg%mc_t_max = v%mc_t_max; cfg%mc_area_tol = v%mc_area_tol
     cfg%mc_n_samples = v%mc_n_samples; cfg%mc_seed = v%mc_seed
     call put_list(v%pm_de, cfg%pm_de, cfg%pm_nde, [100.0_c_double, 500.0_c_double])
     cfg%pm_n_seeds = v%pm_n_seeds; cfg%pm_n_iter = v%pm_n_iter; cfg%pm_t_max = v%pm_t_max
@@ -472,6 +473,7 @@ contains
     v%tra_de = cfg%tra_de
     v%tra_area_tol = cfg%tra_area_tol
     v%mc_de = cfg%mc_de; v%mc_t_max = cfg%mc_t_max; v%mc_gate = cfg%mc_gate
+    v%mc_area_tol = cfg%mc_area_tol
     v%mc_n_samples = cfg%mc_n_samples; v%mc_seed = cfg%mc_seed
     v%pm_de = cfg%pm_de
     v%pm_n_seeds = cfg%pm_n_seeds; v%pm_n_iter = cfg%pm_n_iter; v%pm_t_max = cfg%pm_t_max
@@ -782,10 +784,11 @@ contains
       v%tra_area_tol = area_tol
     end subroutine io_transition
     subroutine io_montecarlo()
-      real(c_double) :: de, t_max, gate
+      real(c_double) :: de, t_max, gate, area_tol
       integer :: n_samples, seed
-      namelist /montecarlo/ de, n_samples, seed, t_max, gate
+      namelist /montecarlo/ de, n_samples, seed, t_max, gate, area_tol
       de = v%mc_de; t_max = v%mc_t_max; gate = v%mc_gate; n_samples = v%mc_n_samples
+      area_tol = v%mc_area_tol
       seed = v%mc_seed
       if (mode == 'r') then
         read (u, nml=montecarlo, iostat=ios, iomsg=iomsg)
@@ -793,6 +796,7 @@ contains
         write (u, nml=montecarlo, iostat=ios, iomsg=iomsg)
       end if
       v%mc_de = de; v%mc_t_max = t_max; v%mc_gate = gate; v%mc_n_samples = n_samples
+      v%mc_area_tol = area_tol
       v%mc_seed = seed
     end subroutine io_montecarlo
     subroutine io_sections()

@@ -849,7 +849,7 @@ int scene_montecarlo(tubes_run_t *run) {
   double *r = malloc(sizeof(double) * ns), *pr = malloc(sizeof(double) * ns);
   int *out = malloc(sizeof(int) * ns), *ins = malloc(sizeof(int) * ns);
   fprintf(stderr, "montecarlo: the tube cut at dE = %g...\n", de);
-  int st = tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, -1, SECTION(c), c->tub_eps, 1e-8,
+  int st = tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, -1, SECTION(c), c->tub_eps, c->mc_area_tol,
                           c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol,
                           INTEGRATOR(c), nout,
                           &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau, 0);
