@@ -836,6 +836,25 @@ int scene_transition(tubes_run_t *run) {
   return e ? EXIT_IO : rc;
 }
 
+/* The /montecarlo group with what every outcome records: dE, n_samples, seed, status, and the
+ * points (r, p_r, transit) when they were integrated (r != NULL). *e collects write errors. */
+static hid_t mc_group(tubes_run_t *run, double de, int ns, int st, const double *r, const double *pr,
+                      const int *out, int *e) {
+  hid_t g = h5_group(run->file, "montecarlo");
+  hsize_t dn = (hsize_t)ns;
+  *e |= g < 0;
+  *e |= h5_attr_double(g, "dE", de);
+  *e |= h5_attr_long(g, "n_samples", ns);
+  *e |= h5_attr_long(g, "seed", run->cfg->mc_seed);
+  *e |= h5_attr_long(g, "status", st);
+  if (r) {
+    *e |= h5_write_double(g, "r", 1, &dn, r, "cm");
+    *e |= h5_write_double(g, "p_r", 1, &dn, pr, "cm/s");
+    *e |= h5_write_int(g, "transit", dn, out, "1");
+  }
+  return g;
+}
+
 int scene_montecarlo(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   double a0, tau, tpo;
@@ -885,21 +904,11 @@ int scene_montecarlo(tubes_run_t *run) {
     }
     rc = st == TUBES_EPASTEND ? EXIT_PARTIAL : EXIT_NUMERIC;
     /* the failure is recorded in the file (docs/output.md): the scene's status, no fraction */
-    hid_t g = h5_group(run->file, "montecarlo");
-    int e = g < 0;
-    hsize_t dn = (hsize_t)ns;
-    e |= h5_attr_double(g, "dE", de);
-    e |= h5_attr_long(g, "n_samples", ns);
-    e |= h5_attr_long(g, "seed", c->mc_seed);
-    e |= h5_attr_long(g, "status", st);
+    int e = 0;
+    hid_t g = mc_group(run, de, ns, st, mc_ran ? r : NULL, pr, out, &e);
     status_text(st, m, sizeof m);
     e |= h5_attr_string(g, "status_message", m);
     e |= h5_attr_long(g, "agrees", 0);
-    if (mc_ran) {
-      e |= h5_write_double(g, "r", 1, &dn, r, "cm");
-      e |= h5_write_double(g, "p_r", 1, &dn, pr, "cm/s");
-      e |= h5_write_int(g, "transit", dn, out, "1");
-    }
     if (g >= 0) H5Gclose(g);
     if (e) rc = EXIT_IO;
   } else {
@@ -915,12 +924,9 @@ int scene_montecarlo(tubes_run_t *run) {
     printf("montecarlo: dE = %g, %d points: transition fraction %.5f +- %.5f (p_trans = %.5f, %.1f standard errors);"
            " %d inside the tube; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided (%.1f s)\n",
            de, ns, f, se, p, se > 0 ? fabs(f - p) / se : 0.0, nin, in_nt, out_t, nu, now() - t0);
-    hid_t g = h5_group(run->file, "montecarlo");
-    int e = g < 0;
+    int e = 0;
     hsize_t dn = (hsize_t)ns;
-    e |= h5_attr_double(g, "dE", de);
-    e |= h5_attr_long(g, "n_samples", ns);
-    e |= h5_attr_long(g, "seed", c->mc_seed);
+    hid_t g = mc_group(run, de, ns, 0, r, pr, out, &e);
     e |= h5_attr_double(g, "fraction", f);
     e |= h5_attr_double(g, "std_error", se);
     e |= h5_attr_double(g, "p_trans", p);
@@ -928,10 +934,6 @@ int scene_montecarlo(tubes_run_t *run) {
     e |= h5_attr_long(g, "misclassified_inside_no_transit", in_nt);
     e |= h5_attr_long(g, "misclassified_outside_transit", out_t);
     e |= h5_attr_long(g, "undecided", nu);
-    e |= h5_attr_long(g, "status", 0);
-    e |= h5_write_double(g, "r", 1, &dn, r, "cm");
-    e |= h5_write_double(g, "p_r", 1, &dn, pr, "cm/s");
-    e |= h5_write_int(g, "transit", dn, out, "1");
     e |= h5_write_int(g, "inside", dn, ins, "1");
     /* the two answers must agree: the direct count within MC_SIGMA standard errors of the tube's
      * p_trans, few misclassified points (a point within the cut's resolution of its boundary can
