@@ -148,51 +148,63 @@ def _read_csv(path: str) -> Tracks:
         f = open(path, newline="", encoding="utf-8")
     except OSError as exc:
         raise ExperimentError(f"{path}: cannot open ({exc.strerror})") from exc
-    with f:
-        rows = csv.reader(f)
-        header = None
-        lineno = 0
-        for lineno, row in enumerate(rows, start=1):
-            if not row or (row[0].strip().startswith("#")) or all(not c.strip() for c in row):
-                continue
-            if header is None:
-                header = [c.strip().lower() for c in row]
-                missing = [c for c in ("track", "t", "x", "y") if c not in header]
-                if missing:
-                    raise ExperimentError(
-                        f"{path}:{lineno}: the header must name the columns track,t,x,y "
-                        f"(s and cm); got {','.join(row)} (missing {', '.join(missing)})")
-                pos = {c: header.index(c) for c in ("track", "t", "x", "y")}
-                continue
-            if len(row) != len(header):
-                raise ExperimentError(f"{path}:{lineno}: {len(row)} fields, the header has "
-                                      f"{len(header)}")
-            for c in ("track", "t", "x", "y"):
-                s = row[pos[c]].strip()
-                if c == "track":
-                    try:
-                        v = float(s)
-                    except ValueError:
-                        v = math.nan
-                    if not (math.isfinite(v) and v == int(v)):
-                        raise ExperimentError(f"{path}:{lineno}: column 'track': {s!r} is not "
-                                              f"an integer track id")
-                    cols[c].append(int(v))
-                else:
-                    if s == "":
-                        cols[c].append(math.nan)    # a lost frame: reported as NaN
-                        continue
-                    try:
-                        cols[c].append(float(s))
-                    except ValueError:
-                        raise ExperimentError(f"{path}:{lineno}: column {c!r}: cannot read "
-                                              f"{s!r} as a number") from None
+    try:
+        with f:
+            header, lineno = _read_csv_rows(path, f, cols)
+    except UnicodeDecodeError as exc:
+        raise ExperimentError(f"{path}: not UTF-8 text (byte {exc.object[exc.start]:#04x} at offset "
+                              f"{exc.start} of a block): a CSV file of tracks is text") from None
+    except csv.Error as exc:
+        raise ExperimentError(f"{path}: not a CSV file ({exc})") from None
     if header is None:
         raise ExperimentError(f"{path}: empty file (expected the header track,t,x,y)")
     if not cols["t"]:
         raise ExperimentError(f"{path}: no samples after the header")
     return Tracks(np.asarray(cols["track"], dtype=np.int64), np.asarray(cols["t"], float),
                   np.asarray(cols["x"], float), np.asarray(cols["y"], float), {}, None, path)
+
+
+def _read_csv_rows(path: str, f, cols: dict):
+    """The rows of an open CSV file into cols; returns (header, last line number)."""
+    rows = csv.reader(f)
+    header = None
+    lineno = 0
+    for lineno, row in enumerate(rows, start=1):
+        if not row or (row[0].strip().startswith("#")) or all(not c.strip() for c in row):
+            continue
+        if header is None:
+            header = [c.strip().lower() for c in row]
+            missing = [c for c in ("track", "t", "x", "y") if c not in header]
+            if missing:
+                raise ExperimentError(
+                    f"{path}:{lineno}: the header must name the columns track,t,x,y "
+                    f"(s and cm); got {','.join(row)} (missing {', '.join(missing)})")
+            pos = {c: header.index(c) for c in ("track", "t", "x", "y")}
+            continue
+        if len(row) != len(header):
+            raise ExperimentError(f"{path}:{lineno}: {len(row)} fields, the header has "
+                                  f"{len(header)}")
+        for c in ("track", "t", "x", "y"):
+            s = row[pos[c]].strip()
+            if c == "track":
+                try:
+                    v = float(s)
+                except ValueError:
+                    v = math.nan
+                if not (math.isfinite(v) and v == int(v) and abs(v) < 2.0**53):
+                    raise ExperimentError(f"{path}:{lineno}: column 'track': {s!r} is not "
+                                          f"an integer track id (|id| < 2^53)")
+                cols[c].append(int(v))
+            else:
+                if s == "":
+                    cols[c].append(math.nan)    # a lost frame: reported as NaN
+                    continue
+                try:
+                    cols[c].append(float(s))
+                except ValueError:
+                    raise ExperimentError(f"{path}:{lineno}: column {c!r}: cannot read "
+                                          f"{s!r} as a number") from None
+    return header, lineno
 
 
 def _read_h5(path: str) -> Tracks:
