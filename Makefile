@@ -126,7 +126,7 @@ $(BUILD)/obj/%.o: %.f90 | $(BUILD)/obj $(BUILD)/mod
 	$(FC) $(FFLAGS_ALL) -c $< -o $@
 # tubes_par is the one preprocessed source: MPI or the one-rank identity (src/tubes_par.f90)
 $(BUILD)/obj/tubes_par.o: FFLAGS_ALL += -cpp $(MPI_DEF)
-$(BUILD)/obj/%.o: %.c include/tubes.h | $(BUILD)/obj
+$(BUILD)/obj/%.o: %.c include/tubes.h include/tubes_config.h | $(BUILD)/obj
 	$(CC) $(CFLAGS_ALL) -c $< -o $@
 
 # The commit recorded in every output file: tubes_main.o is rebuilt whenever it changes (a commit,
@@ -195,7 +195,7 @@ sanitize:
 FUZZ_CC   ?= clang-14
 FUZZ_TIME ?= 600
 FUZZ_BIN  := $(BUILD)/fuzz/fuzz_namelist
-$(FUZZ_BIN): tests/fuzz/fuzz_namelist.c src/io/tubes_input.c include/tubes_input.h include/tubes.h $(LIB)
+$(FUZZ_BIN): tests/fuzz/fuzz_namelist.c src/io/tubes_input.c include/tubes_input.h include/tubes_config.h $(LIB)
 	@mkdir -p $(@D)
 	$(FUZZ_CC) -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -std=c11 \
 	  -D_POSIX_C_SOURCE=200809L -Iinclude -o $@ tests/fuzz/fuzz_namelist.c src/io/tubes_input.c \

@@ -3,7 +3,7 @@
 #ifndef TUBES_INPUT_H
 #define TUBES_INPUT_H
 #include <stdio.h>
-#include "tubes.h"
+#include "tubes_config.h"
 #ifdef __cplusplus
 extern "C" {
 #endif

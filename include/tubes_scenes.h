@@ -3,7 +3,7 @@
 #ifndef TUBES_SCENES_H
 #define TUBES_SCENES_H
 #include <hdf5.h>
-#include "tubes.h"
+#include "tubes_config.h"
 #ifdef __cplusplus
 extern "C" {
 #endif

@@ -1,4 +1,4 @@
-!> Namelist input: Fortran's intrinsic namelist READ behind bind(C) (include/tubes.h).
+!> Namelist input: Fortran's intrinsic namelist READ behind bind(C) (include/tubes_config.h).
 !> The C side (tubes_input.c) lexes the file first for line-accurate messages and validates
 !> ranges; this module only reads values and writes the effective namelist.
 module tubes_nml
@@ -17,7 +17,7 @@ module tubes_nml
   !> An unset integer (&section index, direction, p_theta_sign): 0 is a value a user can mean.
   integer, parameter :: UNSET_INT = -huge(1)
 
-  !> Mirror of tubes_config_t in include/tubes.h (same order, C layout).
+  !> Mirror of tubes_config_t in include/tubes_config.h (same order, C layout).
   type, bind(C), public :: tubes_config_t
     character(kind=c_char) :: scenes(LSCENE, NSCENES)
     character(kind=c_char) :: output(LPATH)
