@@ -9,7 +9,7 @@ module tubes_run
   use tubes_integrator, only: integrator_t, event_t, plane_t, crossing_log_t, propagate
   use tubes_methods, only: new_integrator, method_opts_t
   use tubes_sampler, only: sampler_t
-  use tubes_sections, only: theta_line_t
+  use tubes_section_events, only: theta_line_t
   implicit none
   private
 

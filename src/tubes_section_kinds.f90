@@ -1,6 +1,6 @@
 !> Poincare sections of 2-DOF models for the tube dynamics scenes, one type for both kinds:
 !> - SEC_RAY: the rolling ball's polar ray theta = theta0 (the paper's U1), in the canonical
-!>   coordinates (r, p_r), the branch chosen by the sign of p_theta (tubes_section, tubes_sections);
+!>   coordinates (r, p_r), the branch chosen by the sign of p_theta (tubes_ray_surface, tubes_section_events);
 !> - SEC_PLANE: the plane q_k = c of any model whose H is quadratic in the momenta, in the
 !>   canonical coordinates (s, p_s) = (q_j, p_j), j /= k, crossed with sign(dq_k/dt) = direction.
 !> At an energy E the section's region is the set of (s, p_s) where a p_k with H = E exists; on
@@ -15,8 +15,8 @@ module tubes_section_kinds
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_ball, only: ball_t
   use tubes_integrator, only: event_t, plane_t
-  use tubes_sections, only: theta_line_t, polar_canonical
-  use tubes_section, only: ray_t, section_region, section_area, section_darea, boundary_pr, &
+  use tubes_section_events, only: theta_line_t, polar_canonical
+  use tubes_ray_surface, only: ray_t, section_region, section_area, section_darea, boundary_pr, &
                            p_theta_from, quad_qags, quad_root
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   implicit none

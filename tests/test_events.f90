@@ -113,14 +113,14 @@ contains
 end module test_events_models
 
 !> Events on dense output (tubes_integrator: propagate, crossing_log_t) and the sections of
-!> tubes_sections (theta_line_t, x_line/y_line, polar_canonical), against analytic crossings.
+!> tubes_section_events (theta_line_t, x_line/y_line, polar_canonical), against analytic crossings.
 program test_events
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS
   use tubes_integrator, only: propagate, event_t, plane_t, crossing_log_t, T_RTOL, T_ATOL
   use tubes_dop853, only: dop853_t
   use tubes_ball, only: ball_t, make_ball
-  use tubes_sections, only: theta_line_t, polar_canonical, u1_section, x_line, y_line, &
+  use tubes_section_events, only: theta_line_t, polar_canonical, u1_section, x_line, y_line, &
                             U1_MINUS, U1_PLUS
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
   use test_events_models, only: oscillator_t, fall_t, iso_t, tilt_t, rotate

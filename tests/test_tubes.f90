@@ -11,7 +11,7 @@ program test_tubes
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
-  use tubes_section, only: ray_t, section_region, section_area, section_darea, boundary_pr
+  use tubes_ray_surface, only: ray_t, section_region, section_area, section_darea, boundary_pr
   use tubes_section_kinds, only: poincare_t, make_ray_section
   use tubes_transport, only: gate_spec_t
   use tubes_methods, only: integ_choice_t

@@ -1,4 +1,4 @@
-/* GSL quadrature, root finding and periodic splines for the Fortran core (src/tubes_section.f90,
+/* GSL quadrature, root finding and periodic splines for the Fortran core (src/tubes_ray_surface.f90,
  * src/tubes_manifold.f90). The integrands are Fortran bind(C) callbacks with a user pointer; no
  * state outside the call (workspaces are allocated per call), so calls are thread-safe. GSL's
  * error handler is switched off (once) so that failures come back as status codes. */

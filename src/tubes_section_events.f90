@@ -2,7 +2,7 @@
 !> as events for propagate: the ray theta = theta0 oriented by the sign of the canonical angular
 !> momentum p_theta (the paper's U1 = theta_line_t(theta0 = pi/4)), and the coordinate lines
 !> x = c, y = c. Definitions and orientation conventions: docs/events.md.
-module tubes_sections
+module tubes_section_events
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
   use tubes_integrator, only: event_t, plane_t
@@ -117,4 +117,4 @@ contains
     if (present(direction)) ev%direction = direction
     if (present(terminal)) ev%terminal = terminal
   end function y_line
-end module tubes_sections
+end module tubes_section_events

@@ -2,7 +2,7 @@
 !> polar canonical coordinates (r, p_r): the permitted region p_r^2 <= (14/5)(E - gH(r))(1 + H_r^2)
 !> (H_r = dH/dr along the ray), its area A_E(E) and dA_E/dE by GSL quadrature, and p_theta from
 !> the energy. Derivation: docs/theory.md, "The energy surface on U1".
-module tubes_section
+module tubes_ray_surface
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_ptr, c_loc, c_f_pointer, c_funptr, c_funloc
   use tubes_kinds, only: wp
   use tubes_ball, only: ball_t, ROLL
@@ -205,4 +205,4 @@ contains
     stat = quad_qags(c_funloc(f_area), c_loc(ray), 0.0_wp, PI, 0.0_wp, 1.0e-12_wp, darea, abserr)
     if (stat /= 0) stat = TUBES_ENOCONV
   end subroutine section_darea
-end module tubes_section
+end module tubes_ray_surface
