@@ -158,11 +158,14 @@ $(PYEXT_STAMP): python/tubes_f2py.f90 $(LIB)
 	@touch $@
 
 # ---------------------------------------------------------------- tests
-$(BUILD)/tests/%: tests/%.f90 $(BUILD)/obj/tubes_check.o $(LIB) | $(BUILD)/tests
-	$(FC) $(FFLAGS_ALL) -o $@ $< $(BUILD)/obj/tubes_check.o $(LIB) $(LDLIBS_ALL)
+T_HELPERS := $(BUILD)/obj/tubes_check.o $(BUILD)/obj/tubes_test_models.o
+$(BUILD)/tests/%: tests/%.f90 $(T_HELPERS) $(LIB) | $(BUILD)/tests
+	$(FC) $(FFLAGS_ALL) -o $@ $< $(T_HELPERS) $(LIB) $(LDLIBS_ALL)
 $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)/tests
 	$(CC) $(CFLAGS_ALL) -o $@ $< $(LIB) -lgfortran $(LDLIBS_ALL) -lm
 $(BUILD)/obj/tubes_check.o: tests/tubes_check.f90 $(F_OBJ) | $(BUILD)/obj $(BUILD)/mod
+	$(FC) $(FFLAGS_ALL) -c $< -o $@
+$(BUILD)/obj/tubes_test_models.o: tests/tubes_test_models.f90 $(F_OBJ) | $(BUILD)/obj $(BUILD)/mod
 	$(FC) $(FFLAGS_ALL) -c $< -o $@
 
 tests: $(filter-out $(BUILD)/tests/tubes_check,$(T_BIN))

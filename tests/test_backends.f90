@@ -4,6 +4,7 @@
 module test_backends_models
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
+  use tubes_test_models, only: oscillator_t, nan_oscillator_t, rotate, osc_eval
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, observer_t
   use tubes_ball, only: ball_t
@@ -11,20 +12,6 @@ module test_backends_models
   private
   public :: oscillator_t, nan_oscillator_t, picky_oscillator_t, osc_probe_t, ball_probe_t
   public :: rotate
-
-  !> x' = v, v' = -x.
-  type, extends(vector_field_t) :: oscillator_t
-  contains
-    procedure :: dim => osc_dim
-    procedure :: eval => osc_eval
-    procedure :: jacobian => osc_jacobian
-  end type oscillator_t
-
-  !> The oscillator, but the model fails for x < 1/2: NaN and stat = -1 (fatal).
-  type, extends(oscillator_t) :: nan_oscillator_t
-  contains
-    procedure :: eval => nan_eval
-  end type nan_oscillator_t
 
   !> The oscillator, but it refuses states with x^2 + v^2 > r2max: stat = +1 (recoverable:
   !> "take a smaller step"). The exact solution from (1, 0) stays on the unit circle.
@@ -59,43 +46,6 @@ module test_backends_models
 
 contains
 
-  pure integer function osc_dim(self)
-    class(oscillator_t), intent(in) :: self
-    osc_dim = 2
-  end function osc_dim
-
-  pure subroutine osc_eval(self, t, x, dxdt, stat)
-    class(oscillator_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    dxdt(1) = x(2)
-    dxdt(2) = -x(1)
-    stat = 0
-  end subroutine osc_eval
-
-  !> The exact Jacobian [[0, 1], [-1, 0]] (CVODE's Newton corrector, rk4imp).
-  pure subroutine osc_jacobian(self, t, x, jac, stat)
-    class(oscillator_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: jac(:, :)
-    integer, intent(out) :: stat
-    jac = reshape([0.0_wp, -1.0_wp, 1.0_wp, 0.0_wp], [2, 2])
-    stat = 0
-  end subroutine osc_jacobian
-
-  pure subroutine nan_eval(self, t, x, dxdt, stat)
-    class(nan_oscillator_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    call osc_eval(self, t, x, dxdt, stat)
-    if (x(1) < 0.5_wp) then
-      dxdt = ieee_value(1.0_wp, ieee_quiet_nan)
-      stat = -1
-    end if
-  end subroutine nan_eval
-
   pure subroutine picky_eval(self, t, x, dxdt, stat)
     class(picky_oscillator_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:)
@@ -104,14 +54,6 @@ contains
     call osc_eval(self, t, x, dxdt, stat)
     if (x(1)**2 + x(2)**2 > self%r2max) stat = 1
   end subroutine picky_eval
-
-  !> Exact oscillator flow over time s: (x, v) -> (x cos s + v sin s, -x sin s + v cos s).
-  pure function rotate(x, s) result(y)
-    real(wp), intent(in) :: x(2), s
-    real(wp) :: y(2)
-    y(1) = x(1)*cos(s) + x(2)*sin(s)
-    y(2) = -x(1)*sin(s) + x(2)*cos(s)
-  end function rotate
 
   subroutine osc_on_step(self, ig, t_hi, stop_now)
     class(osc_probe_t), intent(inout) :: self

@@ -4,25 +4,13 @@
 module test_dop853_models
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
+  use tubes_test_models, only: oscillator_t, nan_oscillator_t, rotate
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, observer_t
   use tubes_dop853, only: dop853_t
   implicit none
   private
   public :: oscillator_t, nan_oscillator_t, dense_probe_t, rotate
-
-  !> x' = v, v' = -x.
-  type, extends(vector_field_t) :: oscillator_t
-  contains
-    procedure :: dim => osc_dim
-    procedure :: eval => osc_eval
-  end type oscillator_t
-
-  !> The oscillator, but the model refuses x < 1/2: NaN and stat = -1 (fatal).
-  type, extends(oscillator_t) :: nan_oscillator_t
-  contains
-    procedure :: eval => nan_eval
-  end type nan_oscillator_t
 
   !> Samples interp at 3 interior points of each step; largest errors against the exact
   !> solution from (0, (1, 0)) (global) and against the exact flow from the step's own
@@ -37,41 +25,6 @@ module test_dop853_models
   end type dense_probe_t
 
 contains
-
-  pure integer function osc_dim(self)
-    class(oscillator_t), intent(in) :: self
-    osc_dim = 2
-  end function osc_dim
-
-  pure subroutine osc_eval(self, t, x, dxdt, stat)
-    class(oscillator_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    dxdt(1) = x(2)
-    dxdt(2) = -x(1)
-    stat = 0
-  end subroutine osc_eval
-
-  pure subroutine nan_eval(self, t, x, dxdt, stat)
-    class(nan_oscillator_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    call osc_eval(self, t, x, dxdt, stat)
-    if (x(1) < 0.5_wp) then
-      dxdt = ieee_value(1.0_wp, ieee_quiet_nan)
-      stat = -1
-    end if
-  end subroutine nan_eval
-
-  !> Exact oscillator flow over time s: (x, v) -> (x cos s + v sin s, -x sin s + v cos s).
-  pure function rotate(x, s) result(y)
-    real(wp), intent(in) :: x(2), s
-    real(wp) :: y(2)
-    y(1) = x(1)*cos(s) + x(2)*sin(s)
-    y(2) = -x(1)*sin(s) + x(2)*cos(s)
-  end function rotate
 
   subroutine probe_on_step(self, ig, t_hi, stop_now)
     class(dense_probe_t), intent(inout) :: self

@@ -4,18 +4,12 @@
 !> tilted plane H = a x for the rolling ball (p = (7/5) M v with M /= I, quadratic motion).
 module test_events_models
   use tubes_kinds, only: wp
+  use tubes_test_models, only: oscillator_t, rotate
   use tubes_field, only: vector_field_t
   use tubes_surface, only: surface_t
   implicit none
   private
   public :: oscillator_t, fall_t, iso_t, tilt_t, rotate
-
-  !> x' = v, v' = -x.
-  type, extends(vector_field_t) :: oscillator_t
-  contains
-    procedure :: dim => osc_dim
-    procedure :: eval => osc_eval
-  end type oscillator_t
 
   !> x' = v, v' = -1.
   type, extends(oscillator_t) :: fall_t
@@ -40,21 +34,6 @@ module test_events_models
   end type tilt_t
 
 contains
-
-  pure integer function osc_dim(self)
-    class(oscillator_t), intent(in) :: self
-    osc_dim = 2
-  end function osc_dim
-
-  pure subroutine osc_eval(self, t, x, dxdt, stat)
-    class(oscillator_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    dxdt(1) = x(2)
-    dxdt(2) = -x(1)
-    stat = 0
-  end subroutine osc_eval
 
   pure subroutine fall_eval(self, t, x, dxdt, stat)
     class(fall_t), intent(in) :: self
@@ -103,13 +82,6 @@ contains
     t3 = 0
   end subroutine tilt_third
 
-  !> Exact oscillator flow over time s: (x, v) -> (x cos s + v sin s, -x sin s + v cos s).
-  pure function rotate(x, s) result(y)
-    real(wp), intent(in) :: x(2), s
-    real(wp) :: y(2)
-    y(1) = x(1)*cos(s) + x(2)*sin(s)
-    y(2) = -x(1)*sin(s) + x(2)*cos(s)
-  end function rotate
 end module test_events_models
 
 !> Events on dense output (tubes_integrator: propagate, crossing_log_t) and the sections of

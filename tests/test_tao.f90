@@ -5,6 +5,7 @@
 module test_tao_models
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
+  use tubes_test_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, observer_t
   use tubes_tao, only: tao_t
@@ -12,25 +13,6 @@ module test_tao_models
   private
   public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, line_t, coupling_t, &
             dense_probe_t, rotate
-
-  !> q' = p, p' = -q.
-  type, extends(vector_field_t) :: oscillator_t
-  contains
-    procedure :: dim => osc_dim
-    procedure :: eval => osc_eval
-  end type oscillator_t
-
-  !> The oscillator, but q < 1/2 gives NaN and stat = -1 (fatal).
-  type, extends(oscillator_t) :: nan_oscillator_t
-  contains
-    procedure :: eval => nan_eval
-  end type nan_oscillator_t
-
-  !> The oscillator, but q < 1/2 gives stat = +1 (retry with a smaller step).
-  type, extends(oscillator_t) :: shy_oscillator_t
-  contains
-    procedure :: eval => shy_eval
-  end type shy_oscillator_t
 
   !> x' = 1 in one dimension (not a canonical (q, p) state).
   type, extends(vector_field_t) :: line_t
@@ -65,42 +47,6 @@ module test_tao_models
 
 contains
 
-  pure integer function osc_dim(self)
-    class(oscillator_t), intent(in) :: self
-    osc_dim = 2
-  end function osc_dim
-
-  pure subroutine osc_eval(self, t, x, dxdt, stat)
-    class(oscillator_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    dxdt(1) = x(2)
-    dxdt(2) = -x(1)
-    stat = 0
-  end subroutine osc_eval
-
-  pure subroutine nan_eval(self, t, x, dxdt, stat)
-    class(nan_oscillator_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    call osc_eval(self, t, x, dxdt, stat)
-    if (x(1) < 0.5_wp) then
-      dxdt = ieee_value(1.0_wp, ieee_quiet_nan)
-      stat = -1
-    end if
-  end subroutine nan_eval
-
-  pure subroutine shy_eval(self, t, x, dxdt, stat)
-    class(shy_oscillator_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    call osc_eval(self, t, x, dxdt, stat)
-    if (x(1) < 0.5_wp) stat = 1
-  end subroutine shy_eval
-
   pure integer function line_dim(self)
     class(line_t), intent(in) :: self
     line_dim = 1
@@ -132,14 +78,6 @@ contains
     dxdt(7:8) = self%omega*(x(1:2) - x(5:6))
     stat = 0
   end subroutine coupling_eval
-
-  !> Exact oscillator flow over time s: (q, p) -> (q cos s + p sin s, -q sin s + p cos s).
-  pure function rotate(x, s) result(y)
-    real(wp), intent(in) :: x(2), s
-    real(wp) :: y(2)
-    y(1) = x(1)*cos(s) + x(2)*sin(s)
-    y(2) = -x(1)*sin(s) + x(2)*cos(s)
-  end function rotate
 
   subroutine probe_on_step(self, ig, t_hi, stop_now)
     class(dense_probe_t), intent(inout) :: self
