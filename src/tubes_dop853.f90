@@ -3,7 +3,7 @@
 module tubes_dop853
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp, i8
-  use tubes_integrator, only: integrator_t
+  use tubes_integrator, only: integrator_t, start_step
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
   use tubes_dop853_tableau, only: NS, NSX, C, tableau_a, tableau_e3, tableau_e5, tableau_d
   implicit none
@@ -55,37 +55,6 @@ contains
     self%fresh = .false.
   end subroutine setup
 
-  !> Hairer's starting step (Solving ODEs I, II.4): from |x|, |f| and a trial Euler step.
-  subroutine initial_step(self, x, dir, h0, stat)
-    class(dop853_t), intent(inout) :: self
-    real(wp), intent(in) :: x(:), dir
-    real(wp), intent(out) :: h0
-    integer, intent(out) :: stat
-    real(wp) :: sk(size(x)), d0, d1, d2, h1, x1(size(x)), f1(size(x))
-    sk = self%atol + self%rtol*abs(x)
-    d0 = sqrt(sum((x/sk)**2)/size(x))
-    d1 = sqrt(sum((self%f_cur/sk)**2)/size(x))
-    if (d0 < 1.0e-5_wp .or. d1 < 1.0e-5_wp) then
-      h0 = 1.0e-6_wp
-    else
-      h0 = 0.01_wp*d0/d1
-    end if
-    x1 = x + dir*h0*self%f_cur
-    call self%f%eval(self%t + dir*h0, x1, f1, stat)
-    self%nfev = self%nfev + 1
-    if (stat /= 0) then
-      stat = TUBES_OK   ! fall back to the cautious guess
-      return
-    end if
-    d2 = sqrt(sum(((f1 - self%f_cur)/sk)**2)/size(x))/h0
-    if (max(d1, d2) <= 1.0e-15_wp) then
-      h1 = max(1.0e-6_wp, h0*1.0e-3_wp)
-    else
-      h1 = (0.01_wp/max(d1, d2))**(1.0_wp/8)
-    end if
-    h0 = min(100*h0, h1)
-  end subroutine initial_step
-
   subroutine dop853_step(self, x, tmax, stat)
     class(dop853_t), intent(inout) :: self
     real(wp), intent(inout) :: x(:)
@@ -114,8 +83,7 @@ contains
     else if (self%h_next > 0) then
       h = self%h_next
     else
-      call initial_step(self, x, dir, h, stat)
-      if (stat /= TUBES_OK) return
+      call start_step(self%f, self%t, x, self%f_cur, dir, self%rtol, self%atol, 7, h, self%nfev)
     end if
     reject_prev = .false.
     self%k(:, 1) = self%f_cur

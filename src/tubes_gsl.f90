@@ -20,7 +20,7 @@ module tubes_gsl
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
   use tubes_kinds, only: wp, i8
   use tubes_field, only: vector_field_t
-  use tubes_integrator, only: integrator_t
+  use tubes_integrator, only: integrator_t, start_step
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
   implicit none
   private
@@ -344,10 +344,9 @@ contains
     real(wp), intent(in) :: t, x(:), dir, rtol, atol
     real(wp), intent(out) :: h0
     integer, intent(out) :: stat
-    real(wp) :: sk(size(x)), f0(size(x)), f1(size(x)), d0, d1, d2, h1
-    integer :: p, fs
+    real(wp) :: f0(size(x))
+    integer :: p
     p = method_order(m%kind)
-    sk = atol + rtol*abs(x)
     call m%ctx%f%eval(t, x, f0, stat)
     m%ctx%nfev = m%ctx%nfev + 1
     if (stat /= 0 .or. .not. all(ieee_is_finite(f0))) then
@@ -355,23 +354,7 @@ contains
       return
     end if
     stat = TUBES_OK
-    d0 = sqrt(sum((x/sk)**2)/size(x))
-    d1 = sqrt(sum((f0/sk)**2)/size(x))
-    if (d0 < 1.0e-5_wp .or. d1 < 1.0e-5_wp) then
-      h0 = 1.0e-6_wp
-    else
-      h0 = 0.01_wp*d0/d1
-    end if
-    call m%ctx%f%eval(t + dir*h0, x + dir*h0*f0, f1, fs)
-    m%ctx%nfev = m%ctx%nfev + 1
-    if (fs /= 0 .or. .not. all(ieee_is_finite(f1))) return   ! keep the cautious guess
-    d2 = sqrt(sum(((f1 - f0)/sk)**2)/size(x))/h0
-    if (max(d1, d2) <= 1.0e-15_wp) then
-      h1 = max(1.0e-6_wp, h0*1.0e-3_wp)
-    else
-      h1 = (0.01_wp/max(d1, d2))**(1.0_wp/(p + 1))
-    end if
-    h0 = min(100*h0, h1)
+    call start_step(m%ctx%f, t, x, f0, dir, rtol, atol, p, h0, m%ctx%nfev)
   end subroutine initial_step
 
   !> Record a failure: GSL's status and its text (plus what tubes made of it), the TUBES code.

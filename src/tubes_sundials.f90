@@ -21,7 +21,7 @@ module tubes_sundials
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
   use tubes_kinds, only: wp, i8
   use tubes_field, only: vector_field_t
-  use tubes_integrator, only: integrator_t
+  use tubes_integrator, only: integrator_t, start_step
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL, TUBES_ENOCONV
   use fsundials_context_mod, only: FSUNContext_Create, FSUNContext_Free
   use fsundials_nvector_mod, only: N_Vector, FN_VGetArrayPointer, FN_VDestroy
@@ -776,9 +776,8 @@ contains
     integer, intent(in) :: p
     real(wp), intent(out) :: h0
     integer, intent(out) :: stat
-    real(wp) :: sk(size(x)), f0(size(x)), f1(size(x)), d0, d1, d2, h1
+    real(wp) :: f0(size(x))
     integer :: fs
-    sk = atol + rtol*abs(x)
     call ctx%f%eval(t, x, f0, fs)
     ctx%nfev = ctx%nfev + 1
     if (fs /= 0 .or. .not. all(ieee_is_finite(f0))) then
@@ -787,23 +786,7 @@ contains
       return
     end if
     stat = TUBES_OK
-    d0 = sqrt(sum((x/sk)**2)/size(x))
-    d1 = sqrt(sum((f0/sk)**2)/size(x))
-    if (d0 < 1.0e-5_wp .or. d1 < 1.0e-5_wp) then
-      h0 = 1.0e-6_wp
-    else
-      h0 = 0.01_wp*d0/d1
-    end if
-    call ctx%f%eval(t + dir*h0, x + dir*h0*f0, f1, fs)
-    ctx%nfev = ctx%nfev + 1
-    if (fs /= 0 .or. .not. all(ieee_is_finite(f1))) return   ! keep the cautious guess
-    d2 = sqrt(sum(((f1 - f0)/sk)**2)/size(x))/h0
-    if (max(d1, d2) <= 1.0e-15_wp) then
-      h1 = max(1.0e-6_wp, h0*1.0e-3_wp)
-    else
-      h1 = (0.01_wp/max(d1, d2))**(1.0_wp/(p + 1))
-    end if
-    h0 = min(100*h0, h1)
+    call start_step(ctx%f, t, x, f0, dir, rtol, atol, p, h0, ctx%nfev)
   end subroutine initial_step
 
   !> Everything but the solver memory itself (freed by the caller first).
