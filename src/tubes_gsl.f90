@@ -20,7 +20,7 @@ module tubes_gsl
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
   use tubes_kinds, only: wp, i8
   use tubes_field, only: vector_field_t
-  use tubes_integrator, only: integrator_t, start_step
+  use tubes_integrator, only: integrator_t, start_step, hermite
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
   implicit none
   private
@@ -390,16 +390,12 @@ contains
     class(gsl_t), intent(inout) :: self
     real(wp), intent(in) :: s
     real(wp), intent(out) :: xs(:)
-    real(wp) :: h, th
     if (.not. associated(self%mem) .or. self%nsteps == 0 .or. self%t == self%t_old) then
       xs = ieee_value(1.0_wp, ieee_quiet_nan)
       return
     end if
     associate (m => self%mem)
-      h = self%t - self%t_old
-      th = (s - self%t_old)/h
-      xs = (1 - th)*m%x_old + th*m%x_new + th*(th - 1)*((1 - 2*th)*(m%x_new - m%x_old) &
-           + (th - 1)*h*m%f_old + th*h*m%f_new)
+      call hermite(m%x_old, m%f_old, m%x_new, m%f_new, self%t_old, self%t - self%t_old, s, xs)
     end associate
   end subroutine gsl_interp
 

@@ -118,9 +118,25 @@ module tubes_integrator
   real(wp), parameter, public :: T_RTOL = 4*EPS
   real(wp), parameter, public :: T_ATOL = 1.0e-15_wp
 
-  public :: propagate, start_step
+  public :: propagate, start_step, hermite
 
 contains
+
+  !> The cubic with values x0, x1 and slopes f0, f1 at t0, t0 + h, evaluated at s: the dense
+  !> output of the steppers that have none of their own (RK4, the GSL backends).
+  pure subroutine hermite(x0, f0, x1, f1, t0, h, s, xs)
+    real(wp), intent(in) :: x0(:), f0(:), x1(:), f1(:), t0, h, s
+    real(wp), intent(out) :: xs(:)
+    real(wp) :: th, th1
+    if (h == 0) then
+      xs = x1
+      return
+    end if
+    th = (s - t0)/h
+    th1 = 1 - th
+    ! x0 + th (x1 - x0) + th th1 [ th1 h f0 - th h f1 + (th - th1) (x1 - x0) ]
+    xs = x0 + th*(x1 - x0) + th*th1*((th1*h)*f0 - (th*h)*f1 + (th - th1)*(x1 - x0))
+  end subroutine hermite
 
   !> Hairer's starting step (Solving ODEs I, II.4) for a method of order p, from |x|, f0 = f(t, x)
   !> and one trial Euler step (one evaluation of f, added to nfev). The one copy for DOP853 and

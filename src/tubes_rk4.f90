@@ -6,7 +6,7 @@
 !> See docs/integrators-tao.md.
 module tubes_rk4
   use tubes_kinds, only: wp, i8
-  use tubes_integrator, only: integrator_t
+  use tubes_integrator, only: integrator_t, hermite
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
   implicit none
   private
@@ -174,18 +174,4 @@ contains
     call hermite(self%x_old, self%f_old, self%x_new, self%f_cur, self%t_old, self%h_used, s, xs)
   end subroutine rk4_interp
 
-  !> The cubic with values x0, x1 and slopes f0, f1 at t0, t0 + h, evaluated at s.
-  pure subroutine hermite(x0, f0, x1, f1, t0, h, s, xs)
-    real(wp), intent(in) :: x0(:), f0(:), x1(:), f1(:), t0, h, s
-    real(wp), intent(out) :: xs(:)
-    real(wp) :: th, th1
-    if (h == 0) then
-      xs = x1
-      return
-    end if
-    th = (s - t0)/h
-    th1 = 1 - th
-    ! x0 + th (x1 - x0) + th th1 [ th1 h f0 - th h f1 + (th - th1) (x1 - x0) ]
-    xs = x0 + th*(x1 - x0) + th*th1*((th1*h)*f0 - (th*h)*f1 + (th - th1)*(x1 - x0))
-  end subroutine hermite
 end module tubes_rk4
