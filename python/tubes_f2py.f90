@@ -223,11 +223,8 @@ subroutine trajectory(system, params, n2, x0, t_end, dt_out, method, rtol, atol,
                       counters)
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_models, only: make_model
-  use tubes_integrator, only: crossing_log_t
   use tubes_methods, only: method_opts_t
-  use tubes_run, only: run_integration, section_spec_t
+  use tubes_run, only: run_trajectory, section_spec_t
   use tubes_sampler, only: sampler_t
   implicit none
   character(len=*), intent(in) :: system
@@ -240,40 +237,13 @@ subroutine trajectory(system, params, n2, x0, t_end, dt_out, method, rtol, atol,
   real(c_double), intent(out) :: cross_t(max_cross), cross_x(n2, max_cross)
   integer(c_int), intent(out) :: cross_dir(max_cross)
   integer(c_int64_t), intent(out) :: counters(4)
-  class(hamiltonian_t), allocatable :: cons
   type(sampler_t) :: obs
-  type(crossing_log_t) :: log
   real(c_double) :: c
-  integer :: k
-  n = 0; n_cross = 0; t = 0; state = 0; en = 0; counters = 0; cross_t = 0; cross_x = 0; cross_dir = 0
-  stat = -1
-  if (dt_out <= 0 .or. t_end < 0 .or. nmax < 2 .or. max_cross < 1) return
-  call make_model(trim(system), params, cons, stat)
-  if (stat /= 0) return
-  if (n2 /= cons%dim()) then
-    stat = -1
-    return
-  end if
-  call obs%start(0.0_wp, dt_out, x0, nmax)
-  call run_integration(trim(system), params, x0, t_end, method, rtol, atol, h, max_steps, &
-                       method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter), &
-                       section_spec_t(kind=sec_kind, level=sec_level, dir=sec_dir, &
-                                      stop_at_first=stop_first /= 0, max_crossings=max_cross), &
-                       obs, log, counters, c, stat)
-  n = obs%n
-  t(1:n) = obs%t(1:n)
-  state(:, 1:n) = obs%x(:, 1:n)
-  do k = 1, n
-    en(k) = cons%energy(state(:, k))
-  end do
-  if (sec_kind /= 0) then
-    n_cross = min(log%n, max_cross)
-    do k = 1, n_cross
-      cross_t(k) = log%t(k)
-      cross_x(:, k) = log%x(:, k)
-      cross_dir(k) = log%direction(k)
-    end do
-  end if
+  call run_trajectory(trim(system), params, x0, t_end, dt_out, method, rtol, atol, h, max_steps, &
+                      method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter), &
+                      section_spec_t(kind=sec_kind, level=sec_level, dir=sec_dir, &
+                                     stop_at_first=stop_first /= 0, max_crossings=max_cross), &
+                      obs, n, t, state, en, n_cross, cross_t, cross_x, cross_dir, counters, c, stat)
 end subroutine trajectory
 
 subroutine section_boundary(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, &

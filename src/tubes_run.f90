@@ -5,7 +5,8 @@ module tubes_run
   use tubes_kinds, only: wp, i8
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT
   use tubes_field, only: vector_field_t
-  use tubes_models, only: make_field
+  use tubes_models, only: make_field, make_model
+  use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, event_t, plane_t, crossing_log_t, propagate
   use tubes_methods, only: new_integrator, method_opts_t
   use tubes_sampler, only: sampler_t
@@ -27,7 +28,7 @@ module tubes_run
     integer :: max_crossings = 10000
   end type section_spec_t
 
-  public :: run_integration
+  public :: run_integration, run_trajectory
 
 contains
 
@@ -95,4 +96,61 @@ contains
     if (stat == TUBES_EVENT) stat = TUBES_OK
     counters = [ig%nfev, ig%nsteps, ig%nrejected, ig%niter]
   end subroutine run_integration
+  !> The trajectory scene's whole integration, for the C API and f2py alike: checks, the model,
+  !> run_integration into obs (a sampler the caller may extend, e.g. with a progress callback),
+  !> then the samples (t, state, the conservative energy of each) and the first crossings copied
+  !> out. Arrays are sized by the caller: nmax samples, max(max_cross, 1) crossings.
+  subroutine run_trajectory(system, params, x0, t_end, dt_out, method, rtol, atol, h, max_steps, &
+                            mopts, sec, obs, n, t, state, energy, n_cross, cross_t, cross_x, &
+                            cross_dir, counters, c_damp, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:), x0(:), t_end, dt_out, rtol, atol, h
+    integer, intent(in) :: method
+    integer(i8), intent(in) :: max_steps
+    type(method_opts_t), intent(in) :: mopts
+    type(section_spec_t), intent(in) :: sec
+    class(sampler_t), intent(inout) :: obs
+    integer, intent(out) :: n, n_cross
+    real(wp), intent(out) :: t(:), state(:, :), energy(:), cross_t(:), cross_x(:, :)
+    integer, intent(out) :: cross_dir(:)
+    integer(i8), intent(out) :: counters(4)
+    real(wp), intent(out) :: c_damp
+    integer, intent(out) :: stat
+    class(hamiltonian_t), allocatable :: cons
+    type(crossing_log_t) :: log
+    type(section_spec_t) :: spec
+    integer :: k, nmax
+    n = 0; n_cross = 0; counters = 0; c_damp = 0
+    t = 0; state = 0; energy = 0; cross_t = 0; cross_x = 0; cross_dir = 0
+    nmax = size(t)
+    if (dt_out <= 0 .or. t_end < 0 .or. nmax < 2 .or. sec%max_crossings < 0) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    call make_model(system, params, cons, stat)
+    if (stat /= TUBES_OK) return
+    if (size(x0) /= cons%dim()) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    spec = sec
+    spec%max_crossings = max(sec%max_crossings, 1)
+    call obs%start(0.0_wp, dt_out, x0, nmax)
+    call run_integration(system, params, x0, t_end, method, rtol, atol, h, max_steps, mopts, spec, &
+                         obs, log, counters, c_damp, stat)
+    n = obs%n
+    t(1:n) = obs%t(1:n)
+    state(:, 1:n) = obs%x(:, 1:n)
+    do k = 1, n
+      energy(k) = cons%energy(state(:, k))
+    end do
+    if (sec%kind /= SECTION_NONE) then
+      n_cross = min(log%n, sec%max_crossings)
+      do k = 1, n_cross
+        cross_t(k) = log%t(k)
+        cross_x(:, k) = log%x(:, k)
+        cross_dir(k) = log%direction(k)
+      end do
+    end if
+  end subroutine run_trajectory
 end module tubes_run

@@ -14,7 +14,7 @@ module tubes_capi
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_integrator, only: integrator_t, propagate
   use tubes_methods, only: new_integrator, method_opts_t, integ_choice_t
-  use tubes_run, only: run_integration, section_spec_t
+  use tubes_run, only: run_trajectory, section_spec_t
   use tubes_integrator, only: crossing_log_t
   use tubes_sampler, only: sampler_t
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
@@ -277,47 +277,16 @@ contains
     integer(c_int64_t), intent(out) :: counters(4)
     type(c_funptr), value :: progress
     type(c_ptr), value :: user
-    class(hamiltonian_t), allocatable :: cons
     type(c_sampler_t) :: obs
-    type(crossing_log_t) :: log
-    integer :: k
-    n = 0
-    n_cross = 0
-    counters = 0
-    c_damp = 0
-    if (dt_out <= 0 .or. t_end < 0 .or. nmax < 2 .or. max_cross < 0) then
-      stat = TUBES_EINPUT
-      return
-    end if
-    call model_of(system, params, cons, stat)
-    if (stat /= TUBES_OK) return
-    if (n2 /= cons%dim()) then
-      stat = TUBES_EINPUT
-      return
-    end if
     obs%cb = progress
     obs%user = user
-    call obs%start(0.0_wp, dt_out, x0, nmax)
-    call run_integration(trim(from_c(system, LEN_SYSTEM)), params, x0, t_end, method, rtol, atol, &
-                         h, max_steps, &
-                         method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter), &
-                         section_spec_t(kind=sec_kind, level=sec_level, dir=sec_dir, &
-                                        stop_at_first=stop_first /= 0, max_crossings=max(max_cross, 1)), &
-                         obs, log, counters, c_damp, stat)
-    n = obs%n
-    t(1:n) = obs%t(1:n)
-    state(:, 1:n) = obs%x(:, 1:n)
-    do k = 1, n
-      energy(k) = cons%energy(state(:, k))
-    end do
-    if (sec_kind /= 0) then
-      n_cross = min(log%n, max_cross)
-      do k = 1, n_cross
-        cross_t(k) = log%t(k)
-        cross_x(:, k) = log%x(:, k)
-        cross_dir(k) = log%direction(k)
-      end do
-    end if
+    call run_trajectory(trim(from_c(system, LEN_SYSTEM)), params, x0, t_end, dt_out, method, rtol, &
+                        atol, h, max_steps, &
+                        method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter), &
+                        section_spec_t(kind=sec_kind, level=sec_level, dir=sec_dir, &
+                                       stop_at_first=stop_first /= 0, max_crossings=max_cross), &
+                        obs, n, t, state, energy, n_cross, cross_t, cross_x, cross_dir, counters, &
+                        c_damp, stat)
   end function c_trajectory
 
   !> The Lyapunov family of the saddle named `saddle` (C string) at the ascending excess
