@@ -15,7 +15,6 @@ module tubes_capi
   use tubes_integrator, only: integrator_t, propagate
   use tubes_methods, only: new_integrator, method_opts_t, integ_choice_t
   use tubes_run, only: run_trajectory, section_spec_t
-  use tubes_integrator, only: crossing_log_t
   use tubes_sampler, only: sampler_t
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
