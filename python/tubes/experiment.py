@@ -142,15 +142,45 @@ class Segment:
     y: np.ndarray
 
 
-def _read_csv(path: str) -> Tracks:
+TIME_UNITS = {"s": 1.0, "ms": 1.0e-3, "us": 1.0e-6}          # -> s
+LENGTH_UNITS = {"cm": 1.0, "mm": 0.1, "m": 100.0, "px": None}   # -> cm (px: --pixel-size)
+
+
+def _sniff_delimiter(path: str) -> str | None:
+    """The separator of a tracks file, from its first line that is not a comment: ',', ';', a tab,
+    or None (runs of spaces)."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            for line in f:
+                if line.strip() and not line.lstrip().startswith("#"):
+                    counts = {d: line.count(d) for d in (",", ";", "\t")}
+                    best = max(counts, key=counts.get)
+                    return best if counts[best] > 0 else None
+    except OSError:
+        return ","
+    return ","
+
+
+class _SpaceDialect(csv.Dialect):
+    delimiter = " "
+    skipinitialspace = True
+    quotechar = '"'
+    doublequote = True
+    lineterminator = "\n"
+    quoting = csv.QUOTE_MINIMAL
+
+
+def _read_csv(path: str, columns: dict | None = None) -> Tracks:
     cols = {"track": [], "t": [], "x": [], "y": []}
+    names = {c: (columns or {}).get(c, c).strip().lower() for c in cols}
     try:
         f = open(path, newline="", encoding="utf-8")
     except OSError as exc:
         raise ExperimentError(f"{path}: cannot open ({exc.strerror})") from exc
+    delim = _sniff_delimiter(path)
     try:
         with f:
-            header, lineno = _read_csv_rows(path, f, cols)
+            header, lineno = _read_csv_rows(path, f, cols, names, delim)
     except UnicodeDecodeError as exc:
         raise ExperimentError(f"{path}: not UTF-8 text (byte {exc.object[exc.start]:#04x} at offset "
                               f"{exc.start} of a block): a CSV file of tracks is text") from None
@@ -164,9 +194,10 @@ def _read_csv(path: str) -> Tracks:
                   np.asarray(cols["x"], float), np.asarray(cols["y"], float), {}, None, path)
 
 
-def _read_csv_rows(path: str, f, cols: dict):
-    """The rows of an open CSV file into cols; returns (header, last line number)."""
-    rows = csv.reader(f)
+def _read_csv_rows(path: str, f, cols: dict, names: dict, delim: str | None):
+    """The rows of an open CSV file into cols (the file's column names[c] for column c);
+    returns (header, last line number)."""
+    rows = csv.reader(f, delimiter=delim) if delim else csv.reader(f, _SpaceDialect())
     header = None
     lineno = 0
     for lineno, row in enumerate(rows, start=1):
@@ -174,12 +205,14 @@ def _read_csv_rows(path: str, f, cols: dict):
             continue
         if header is None:
             header = [c.strip().lower() for c in row]
-            missing = [c for c in ("track", "t", "x", "y") if c not in header]
+            missing = [names[c] for c in ("track", "t", "x", "y") if names[c] not in header]
             if missing:
                 raise ExperimentError(
-                    f"{path}:{lineno}: the header must name the columns track,t,x,y "
-                    f"(s and cm); got {','.join(row)} (missing {', '.join(missing)})")
-            pos = {c: header.index(c) for c in ("track", "t", "x", "y")}
+                    f"{path}:{lineno}: the header must name the columns "
+                    f"{','.join(names[c] for c in ('track', 't', 'x', 'y'))}; got {','.join(row)} "
+                    f"(missing {', '.join(missing)}); map other names with --columns "
+                    f"track=NAME,t=NAME,x=NAME,y=NAME")
+            pos = {c: header.index(names[c]) for c in ("track", "t", "x", "y")}
             continue
         if len(row) != len(header):
             raise ExperimentError(f"{path}:{lineno}: {len(row)} fields, the header has "
@@ -249,16 +282,41 @@ def _read_h5(path: str) -> Tracks:
                       arrs["y"].astype(float), attrs, truth, path)
 
 
-def read_tracks(path: str) -> Tracks:
-    """Read a CSV (header track,t,x,y) or HDF5 (/tracks) file of tracked positions."""
+def read_tracks(path: str, columns: dict | None = None, time_unit: str = "s",
+                length_unit: str = "cm", pixel_size: float | None = None) -> Tracks:
+    """Read a CSV (header track,t,x,y, or the names given in columns = {'track': ..., 't': ...,
+    'x': ..., 'y': ...}; separated by ',', ';', tabs or spaces) or HDF5 (/tracks) file of tracked
+    positions, with times in time_unit (s, ms, us) and lengths in length_unit (cm, mm, m, or px
+    with pixel_size in cm per pixel). Returned in s and cm, sorted by track, then time, whatever
+    the rows' order in the file."""
     p = pathlib.Path(path)
     if not p.exists():
         raise ExperimentError(f"{path}: no such file")
+    if time_unit not in TIME_UNITS:
+        raise ExperimentError(f"time unit {time_unit!r}: allowed {', '.join(TIME_UNITS)}")
+    if length_unit not in LENGTH_UNITS:
+        raise ExperimentError(f"length unit {length_unit!r}: allowed {', '.join(LENGTH_UNITS)}")
+    lscale = LENGTH_UNITS[length_unit]
+    if length_unit == "px":
+        if not (pixel_size is not None and math.isfinite(pixel_size) and pixel_size > 0):
+            raise ExperimentError("length unit px needs --pixel-size (cm per pixel, > 0)")
+        lscale = pixel_size
     with open(p, "rb") as f:
         magic = f.read(8)
-    if magic == b"\x89HDF\r\n\x1a\n":
-        return _read_h5(path)
-    return _read_csv(path)
+    tr = _read_h5(path) if magic == b"\x89HDF\r\n\x1a\n" else _read_csv(path, columns)
+    if TIME_UNITS[time_unit] != 1.0:
+        tr.t = tr.t * TIME_UNITS[time_unit]
+    if lscale != 1.0:
+        tr.x = tr.x * lscale
+        tr.y = tr.y * lscale
+    order = np.lexsort((tr.t, tr.track))
+    moved = int(np.count_nonzero(order != np.arange(order.size)))
+    if moved:
+        tr.track, tr.t, tr.x, tr.y = tr.track[order], tr.t[order], tr.x[order], tr.y[order]
+        if tr.truth:
+            tr.truth = {k: np.asarray(v)[order] for k, v in tr.truth.items()}
+    tr.attrs = dict(tr.attrs, time_unit=time_unit, length_unit=length_unit, rows_reordered=moved)
+    return tr
 
 
 def write_tracks_csv(path: str, tr: Tracks) -> None:
@@ -1025,7 +1083,20 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
         if d.size == 0:
             raise ExperimentError(f"{tracks.source}: cannot infer the camera rate (give --rate)")
         rate = 1.0 / float(np.median(d))
+    if not 1.0 <= rate <= 1.0e4:
+        hint = ("times in milliseconds? give --time-unit ms" if rate < 1.0 else
+                "times in seconds read as another unit? check --time-unit")
+        raise ExperimentError(f"{tracks.source}: camera rate {rate:.6g} Hz is outside 1 Hz .. 10 kHz: "
+                              f"{hint} (or give --rate)")
     opt.rate = rate
+    # every position within 1 cm of the plate's centre (the top of the central hill, where no
+    # ball stays): lengths in a larger unit read as cm
+    reach = np.hypot(tracks.x, tracks.y)
+    reach = reach[np.isfinite(reach)]
+    if reach.size and float(reach.max()) < 1.0:
+        raise ExperimentError(f"{tracks.source}: every position lies within {float(reach.max()):.3g} cm of the "
+                              f"plate's centre, where no ball stays: positions in metres? give "
+                              f"--length-unit m (or the right --length-unit / --pixel-size)")
     stated = tracks.attrs.get("noise"), tracks.attrs.get("pixel")
     nmin = max(min_samples_for(opt.estimator, opt.estimator_options),
                int(math.ceil(opt.min_duration * rate)))
@@ -1033,6 +1104,12 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
     if not jt > 0:
         jt = max(1.0, 12 * opt.noise) if opt.noise > 0 else 1.0
     segs, rep = validate(tracks, rate, opt.t_skip, opt.plate, nmin, jt)
+    n_off = rep.samples_dropped().get("off_plate", 0)
+    if n_off > 0.5 * tracks.t.size:
+        raise ExperimentError(
+            f"{tracks.source}: {n_off} of {tracks.t.size} samples ({100 * n_off / tracks.t.size:.0f} %) lie "
+            f"off the plate (|x| or |y| > {opt.plate:g} cm): positions in another unit (give "
+            f"--length-unit mm|m|px) or another origin (the plate's centre must be x = y = 0)?")
     if not segs:
         raise ExperimentError(f"{tracks.source}: no usable track segment\n{rep.summary()}\n" +
                               "\n".join(i.message for i in rep.issues[:20]))
@@ -1542,6 +1619,18 @@ def _parse_bins(s: str) -> tuple:
     return tuple(e)
 
 
+def _parse_columns(s: str) -> dict:
+    out = {}
+    for item in s.split(","):
+        k, sep, v = item.partition("=")
+        k, v = k.strip(), v.strip()
+        if not sep or k not in ("track", "t", "x", "y") or not v:
+            raise argparse.ArgumentTypeError(f"columns {s!r}: give track=NAME,t=NAME,x=NAME,y=NAME "
+                                             f"(any subset; {item!r} is not of that form)")
+        out[k] = v
+    return out
+
+
 def _parse_range(s: str) -> tuple:
     try:
         a, b = (float(v) for v in s.split(","))
@@ -1595,6 +1684,12 @@ def main(argv=None) -> int:
     ap.add_argument("--t-skip", type=_positive, default=T_SKIP, help="dropped at each track start [s]")
     ap.add_argument("--gate", type=_positive, default=GATE, help="transition: x < x_S12 - GATE [cm]")
     ap.add_argument("--rate", type=_positive, default=0.0, help="camera rate [Hz] (default: file)")
+    ap.add_argument("--columns", type=_parse_columns, default=None,
+                    help="the file's column names: track=NAME,t=NAME,x=NAME,y=NAME (any subset)")
+    ap.add_argument("--time-unit", choices=tuple(TIME_UNITS), default="s", help="unit of the times")
+    ap.add_argument("--length-unit", choices=tuple(LENGTH_UNITS), default="cm",
+                    help="unit of x and y (px needs --pixel-size)")
+    ap.add_argument("--pixel-size", type=_positive, default=None, help="cm per pixel (--length-unit px)")
     ap.add_argument("--noise", type=_positive, default=0.0,
                     help="position noise [cm] for dE_err (default: estimated from the data)")
     ap.add_argument("--plate", type=_positive, default=PLATE, help="plate half-width [cm]")
@@ -1639,12 +1734,18 @@ def main(argv=None) -> int:
                       resamples=args.resamples, bootstrap=args.bootstrap, cut_rule=args.cut_rule)
         if args.bins is not None:
             opt.bins = args.bins
-        tracks = read_tracks(args.tracks)
+        tracks = read_tracks(args.tracks, columns=args.columns, time_unit=args.time_unit,
+                             length_unit=args.length_unit, pixel_size=args.pixel_size)
         an = analyse(tracks, theory, opt)
     except ExperimentError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     rep = an.report
+    print(f"camera rate {an.attrs['camera_rate']:.6g} Hz ({'--rate' if args.rate else 'from the file'}); times in "
+          f"{args.time_unit}, lengths in {args.length_unit}")
+    if tracks.attrs.get("rows_reordered"):
+        print(f"note: {tracks.attrs['rows_reordered']} rows were not in (track, time) order: sorted "
+              f"(a file may list its rows in any order)", file=sys.stderr)
     for i in rep.issues:
         print(f"{i.severity}: {i.message}", file=sys.stderr)
     a = an.attrs
