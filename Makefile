@@ -83,7 +83,7 @@ endif
 APT_PKGS := gfortran gcc make pkg-config libhdf5-dev liblapack-dev libgsl-dev libsundials-dev \
             libsundials-fortran-dev libfftw3-dev libopenmpi-dev openmpi-bin python3-dev python3-venv \
             clang-14 libclang-rt-14-dev
-PY_PKGS  := numpy scipy h5py matplotlib pytest meson ninja pandas xarray hypothesis
+PY_PKGS  := numpy scipy h5py matplotlib pytest meson ninja pandas xarray hypothesis sympy
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 deps:
 	@missing=$$(for p in $(APT_PKGS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null \
@@ -93,7 +93,7 @@ deps:
 	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq \
 	    --no-install-recommends $$missing || exit 1; \
 	else echo "deps: Debian packages already installed"; fi
-	@if $(VENV)/bin/python -c 'import numpy, scipy, h5py, matplotlib, pytest, mesonbuild, pandas, xarray, hypothesis' 2>/dev/null \
+	@if $(VENV)/bin/python -c 'import numpy, scipy, h5py, matplotlib, pytest, mesonbuild, pandas, xarray, hypothesis, sympy' 2>/dev/null \
 	    && [ -x $(VENV)/bin/ninja ]; then echo "deps: $(VENV) already complete"; \
 	else echo "deps: creating $(VENV) with $(PY_PKGS)"; \
 	  $(PYTHON) -m venv $(VENV) && $(VENV)/bin/python -m pip install --quiet --upgrade pip && \
@@ -126,7 +126,7 @@ $(BUILD)/obj/%.o: %.f90 | $(BUILD)/obj $(BUILD)/mod
 	$(FC) $(FFLAGS_ALL) -c $< -o $@
 # tubes_par is the one preprocessed source: MPI or the one-rank identity (src/tubes_par.f90)
 $(BUILD)/obj/tubes_par.o: FFLAGS_ALL += -cpp $(MPI_DEF)
-$(BUILD)/obj/%.o: %.c include/tubes.h include/tubes_config.h | $(BUILD)/obj
+$(BUILD)/obj/%.o: %.c $(wildcard include/*.h) | $(BUILD)/obj
 	$(CC) $(CFLAGS_ALL) -c $< -o $@
 
 # The commit recorded in every output file: tubes_main.o is rebuilt whenever it changes (a commit,
@@ -134,6 +134,9 @@ $(BUILD)/obj/%.o: %.c include/tubes.h include/tubes_config.h | $(BUILD)/obj
 $(BUILD)/git_commit.txt: FORCE | $(BUILD)/obj
 	@echo '$(GIT_HASH)' | cmp -s - $@ || echo '$(GIT_HASH)' > $@
 $(BUILD)/obj/tubes_main.o: $(BUILD)/git_commit.txt
+# models written as formulas are compiled by the build's C compiler (src/io/tubes_expr.c)
+$(BUILD)/obj/tubes_expr.o: CFLAGS_ALL += -DTUBES_MODEL_CC='"$(CC)"' -DTUBES_SOURCE_DIR='"$(abspath .)"' \
+  -DTUBES_MODEL_CC_VERSION='"$(shell $(CC) -dumpfullversion 2>/dev/null)"'
 
 $(LIB): $(F_OBJ) $(C_OBJ)
 	@rm -f $@

@@ -56,6 +56,32 @@ int tubes_model_info(const char system[TUBES_LSYSTEM], int *ndof, int *np, char 
                      double *section_value, int *section_direction, double *section_angle,
                      double *gate, char surface[TUBES_LSUMMARY]);
 
+/* Models written as formulas (src/io/tubes_expr.c, docs/models.md): a model whose system name
+ * is expr_<16 hex digits> is the generated library of that name in the model cache. */
+typedef void (*tubes_expr_fn)(const double *in, double *out);
+typedef struct {
+  int kind;      /* 1: a Hamiltonian H(q, p); 2: a rolling ball's surface h(x, y) */
+  int ndof, natural;
+  /* kind 1: energy, field (J grad H), gradient, hessian, then when natural: shape (V),
+   * shape_derivs (grad V, Hess V), kinetic (A = d2H/dp2); kind 2: height, derivs (grad h, Hess h),
+   * third (d3h). Matrices column by column. */
+  tubes_expr_fn fn[7];
+  int reversor[2 * TUBES_MAXDOF];     /* kind 1: signs of a reversor x -> r x of H, or zeros */
+  char names[2 * TUBES_MAXDOF][16];   /* coordinates, then momenta (NUL-terminated) */
+  char formula[TUBES_LSUMMARY];       /* the formula (truncated) */
+} tubes_expr_lib_t;
+
+/* Build or find in the cache the library of the model described by spec (the text written by
+ * src/io/tubes_nml.f90); its name into key, its path into lib. On failure, the namelist variable
+ * at fault into var ("hamiltonian", "height", "coordinates", "momenta", "constants" or "system")
+ * and the reason into msg. seconds: time taken; hit: 1 if it came from the cache. */
+int tubes_expr_build(const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg, int lmsg,
+                     char *lib, int llib, double *seconds, int *hit);
+/* The loaded library of name key (TUBES_EINPUT if it is not in the cache). */
+int tubes_expr_open(const char key[TUBES_LSYSTEM], tubes_expr_lib_t *lib);
+/* The C compiler that builds models ($TUBES_CC, else the build's). */
+const char *tubes_expr_compiler(void);
+
 /* Copy the text of status `code` into buf (NUL-terminated, at most len bytes). */
 void tubes_status_message(int code, char *buf, int len);
 

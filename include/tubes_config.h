@@ -9,6 +9,8 @@ extern "C" {
 #endif
 
 enum { TUBES_NSCENES = 16, TUBES_LSCENE = 32, TUBES_LPATH = 1024, TUBES_LNAME = 32, TUBES_MAXDE = 256 };
+/* models written as formulas: a formula, a name, a constant 'name = value', how many, a message */
+enum { TUBES_LEXPR = 2048, TUBES_LSYM = 16, TUBES_LCONST = 128, TUBES_MAXCONST = 32, TUBES_LMSG = 1024 };
 
 typedef struct {
   /* &run */
@@ -80,6 +82,16 @@ typedef struct {
    * saddle and mc_gate then hold the effective values */
   int ndof, nparams, orb_use_near;
   double params[TUBES_MAXPARAM], box_lo[TUBES_MAXDOF], box_hi[TUBES_MAXDOF];
+  /* models written as formulas (docs/models.md): &model hamiltonian, coordinates, momenta,
+   * constants, surface, height; then model: the name the library knows the model by (the system's,
+   * or expr_<hash> for a formula; nparams = -2 when building it failed: expr_var names the
+   * variable at fault, expr_msg says why), expr_lib its shared library, expr_seconds the time
+   * the build or the cache lookup took, expr_hit 1 for a cache hit */
+  char hamiltonian[TUBES_LEXPR], coordinates[TUBES_MAXDOF][TUBES_LSYM], momenta[TUBES_MAXDOF][TUBES_LSYM],
+      constants[TUBES_MAXCONST][TUBES_LCONST], surface[TUBES_LNAME], height[TUBES_LEXPR];
+  char model[TUBES_LNAME], expr_var[TUBES_LNAME], expr_msg[TUBES_LMSG], expr_lib[TUBES_LPATH];
+  double expr_seconds;
+  int expr_hit;
 } tubes_config_t;
 
 /* Set every variable to its default. */

@@ -12,7 +12,8 @@ enum { EXIT_BADINPUT = 1, EXIT_NUMERIC = 2, EXIT_IO = 3, EXIT_PARTIAL = 4 };
 
 typedef struct {
   const tubes_config_t *cfg;
-  char system[TUBES_LSYSTEM];                      /* the model (docs/models.md) */
+  char system[TUBES_LSYSTEM];                      /* the model (docs/models.md): the library's name */
+  char label[64];                                  /* the model as messages name it */
   double params[TUBES_MAXPARAM];                   /* its parameters, in the table's order */
   int ndof;                                        /* N: states have 2 N components */
   int natural;                                     /* 1: H = T + V (brake orbits, rest points) */

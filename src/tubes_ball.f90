@@ -7,7 +7,7 @@
 !> A(q) = (5/7) M^-1. Damping is the generic damped_t wrapper (-c p on the momenta).
 module tubes_ball
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: natural_t, NAMES_QUADRANT
+  use tubes_hamiltonian, only: natural_t, NAMES_QUADRANT, NAMES_GENERIC
   use tubes_surface, only: surface_t
   implicit none
   private
@@ -19,6 +19,7 @@ module tubes_ball
   type, extends(natural_t), public :: ball_t
     class(surface_t), allocatable :: surf   !! the surface it rolls on
     real(wp) :: g = 981.0_wp                !! gravitational acceleration [cm/s^2]
+    logical :: four_well = .true.           !! name equilibria by quadrant (W1, S12, ...)
   contains
     procedure :: ndof => ball_ndof
     procedure :: eval => ball_eval
@@ -42,12 +43,14 @@ module tubes_ball
 contains
 
   !> Build a ball model on surface `surf` (allocate with source=, see STYLE.md).
-  subroutine make_ball(ball, surf, g)
+  subroutine make_ball(ball, surf, g, four_well)
     type(ball_t), intent(out) :: ball
     class(surface_t), intent(in) :: surf   !! the surface
     real(wp), intent(in) :: g              !! gravity [cm/s^2]
+    logical, intent(in), optional :: four_well  !! quadrant names (default .true.)
     allocate (ball%surf, source=surf)
     ball%g = g
+    if (present(four_well)) ball%four_well = four_well
   end subroutine make_ball
 
   pure integer function ball_ndof(self)
@@ -127,7 +130,7 @@ contains
 
   pure integer function ball_naming(self)
     class(ball_t), intent(in) :: self
-    ball_naming = NAMES_QUADRANT
+    ball_naming = merge(NAMES_QUADRANT, NAMES_GENERIC, self%four_well)
   end function ball_naming
 
   pure subroutine ball_eval(self, t, x, dxdt, stat)

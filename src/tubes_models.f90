@@ -4,6 +4,7 @@
 !> (tubes_model_info in include/tubes.h). A model travels across the C and Python boundaries
 !> as (system name, parameter vector in the order of this table).
 module tubes_models
+  use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char
   use tubes_kinds, only: wp
   use tubes_lapack, only: dgesv
   use tubes_field, only: vector_field_t
@@ -14,6 +15,7 @@ module tubes_models
   use tubes_de_leon_berne, only: de_leon_berne_t
   use tubes_coupled_quartic, only: coupled_quartic_t
   use tubes_cr3bp, only: cr3bp_t
+  use tubes_expression, only: expr_lib_t, expr_model, expr_surface, expr_surface_t, KIND_SURFACE
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_status, only: TUBES_OK, TUBES_EINPUT
   implicit none
@@ -54,6 +56,15 @@ module tubes_models
     real(wp) :: section_angle = 0         !! ray: angle [deg]
     real(wp) :: gate = 0                  !! default transit gate (distance past the saddle)
   end type system_info_t
+
+  interface
+    !> src/io/tubes_expr.c: the loaded library of a model written as a formula
+    integer(c_int) function expr_open(key, lib) bind(C, name='tubes_expr_open')
+      import :: c_int, c_char, expr_lib_t, LEN_SYSTEM
+      character(kind=c_char), intent(in) :: key(LEN_SYSTEM)
+      type(expr_lib_t), intent(out) :: lib
+    end function expr_open
+  end interface
 
   public :: system_info, system_name, make_model, make_field, conservative_ball, model_ball, &
             damping_rate, momentum_of, potential_of, shape_derivs_of
@@ -165,9 +176,61 @@ contains
       info%section_kind = ''
       info%gate = 0.01_wp
     case default
-      stat = TUBES_EINPUT
+      call expression_info(name, info, stat)
     end select
   end subroutine system_info
+
+  !> A model written as a formula (system name expr_<hash>, src/io/tubes_expr.c): its entry is
+  !> generic, no default section, the lowest rank-1 saddle S1, a search box of half-width 1
+  !> (the rolling ball's: 20 cm); docs/models.md.
+  subroutine expression_info(name, info, stat)
+    character(*), intent(in) :: name
+    type(system_info_t), intent(inout) :: info
+    integer, intent(out) :: stat
+    type(expr_lib_t) :: lib
+    character(len=160) :: formula
+    integer :: k
+    stat = TUBES_EINPUT
+    if (len_trim(name) /= 21 .or. name(1:min(5, len(name))) /= 'expr_') return
+    if (open_library(name, lib) /= TUBES_OK) return
+    formula = ''
+    do k = 1, size(lib%formula)
+      if (lib%formula(k) == c_null_char) exit
+      formula(k:k) = lib%formula(k)
+    end do
+    info%saddle = 'S1'
+    info%section_kind = ''
+    if (lib%kind == KIND_SURFACE) then
+      info%summary = 'a ball rolling on z = ' // formula
+      info%surface = formula
+      info%np = 2
+      info%params(1) = p('g', 981.0_wp, 'cm/s^2', 'gravitational acceleration (> 0)')
+      info%params(2) = p('damping_ratio', 0.0_wp, '1', 'zeta: c = 2 zeta omega_1 (docs/theory.md)')
+      info%length_units = 'cm'
+      info%box(1:2) = 20
+      info%gate = 1.5_wp
+    else
+      info%summary = 'H = ' // formula
+      info%ndof = lib%ndof
+      info%np = 0
+      info%length_units = '1'
+      info%box(1:lib%ndof) = 1
+      info%gate = 0.1_wp
+    end if
+    stat = TUBES_OK
+  end subroutine expression_info
+
+  integer function open_library(name, lib) result(stat)
+    character(*), intent(in) :: name
+    type(expr_lib_t), intent(out) :: lib
+    character(kind=c_char) :: key(LEN_SYSTEM)
+    integer :: k
+    key = c_null_char
+    do k = 1, min(len_trim(name), LEN_SYSTEM - 1)
+      key(k) = name(k:k)
+    end do
+    stat = int(expr_open(key, lib))
+  end function open_library
 
   !> The conservative model of a system with parameters params (in the table's order).
   !> stat = TUBES_EINPUT for an unknown system or parameters out of range.
@@ -201,9 +264,36 @@ contains
     case ('cr3bp')
       if (.not. (params(1) > 0 .and. params(1) <= 0.5_wp)) return
       allocate (model, source=cr3bp_t(mu=params(1)))
+    case default
+      call expression_model(system, params, model, stat)
+      return
     end select
     stat = TUBES_OK
   end subroutine make_model
+
+  !> The model of a formula's library: a Hamiltonian, or the ball on a surface (params g,
+  !> damping_ratio).
+  subroutine expression_model(system, params, model, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:)
+    class(hamiltonian_t), allocatable, intent(out) :: model
+    integer, intent(out) :: stat
+    type(expr_lib_t) :: lib
+    type(expr_surface_t) :: surf
+    type(ball_t) :: ball
+    stat = open_library(system, lib)
+    if (stat /= TUBES_OK) return
+    if (lib%kind /= KIND_SURFACE) then
+      call expr_model(lib, model, stat)
+      return
+    end if
+    stat = TUBES_EINPUT
+    if (.not. params(1) > 0) return
+    call expr_surface(lib, surf, stat)
+    if (stat /= TUBES_OK) return
+    call make_ball(ball, surf, params(1), four_well=.false.)
+    allocate (model, source=ball)
+  end subroutine expression_model
 
   !> The vector field a scene integrates: the conservative model, or for the rolling ball with
   !> damping_ratio > 0 the damped_t wrapper with c = 2 zeta omega_1. c: the rate used (0 if none).
@@ -215,13 +305,21 @@ contains
     integer, intent(out) :: stat
     class(hamiltonian_t), allocatable :: model
     type(damped_t) :: damped
+    type(system_info_t) :: info
+    real(wp) :: zeta
+    integer :: k
     c = 0
     call make_model(system, params, model, stat)
     if (stat /= TUBES_OK) return
+    call system_info(system, info, stat)
+    zeta = 0
+    do k = 1, info%np
+      if (info%params(k)%name == 'damping_ratio') zeta = params(k)
+    end do
     select type (model)
     type is (ball_t)
-      if (params(7) > 0) then
-        call damping_rate(model, params(7), c, stat)
+      if (zeta > 0) then
+        call damping_rate(model, zeta, c, stat)
         if (stat /= TUBES_OK) return
         call make_damped(damped, model, c)
         allocate (field, source=damped)

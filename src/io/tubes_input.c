@@ -62,6 +62,18 @@ const nml_var tubes_nml_vars[] = {
     {"model", "eps", NML_REAL, 1, "1", "0.1", "finite", "coupled_quartic: coupling of x and y"},
     {"model", "mu", NML_REAL, 1, "1", "0.01215058560962404", "0 < mu <= 0.5",
      "cr3bp: mass ratio m2/(m1 + m2) (Earth-Moon by default)"},
+    {"model", "hamiltonian", NML_STRING, 1, "energy", "-", "a formula (docs/models.md)",
+     "expression: H(q, p) in the coordinates, momenta and constants; ^ or ** for powers"},
+    {"model", "coordinates", NML_STRING, TUBES_MAXDOF, "-", "'x', 'y'", "1 to 3 distinct names",
+     "expression: the names of q_1..q_N"},
+    {"model", "momenta", NML_STRING, TUBES_MAXDOF, "-", "'p' + each coordinate", "one name per coordinate",
+     "expression: the names of p_1..p_N, in the coordinates' order"},
+    {"model", "constants", NML_STRING, TUBES_MAXCONST, "-", "none", "'name = value'",
+     "expression, or surface = 'expression': named constants; a value may use the constants before it"},
+    {"model", "surface", NML_STRING, 1, "-", "'fourwell'", "fourwell, expression",
+     "rolling_ball: the surface: the paper's four-well (alpha..h0), or the formula height"},
+    {"model", "height", NML_STRING, 1, "cm", "-", "a formula in x, y [cm]",
+     "rolling_ball with surface = 'expression': z = h(x, y), with the constants"},
     {"equilibria", "box", NML_REAL, TUBES_MAXDOF, "units of q", "the system's (20 cm for the ball)", "> 0",
      "half-widths of the search box per coordinate (one value: every coordinate)"},
     {"equilibria", "box_center", NML_REAL, TUBES_MAXDOF, "units of q", "the system's (0)", "finite",
@@ -260,10 +272,19 @@ static const char *check_token(nml_type t, const char *tok, size_t len) {
     return "is not a logical (.true. or .false.)";
   }
   case NML_STRING:
-    if (v[0] == '\'' || v[0] == '"') return NULL;
+    if (v[0] == '\'' || v[0] == '"') return NULL;   /* its length: string_cap */
     return "is not a quoted string (write it as 'text')";
   }
   return NULL;
+}
+
+/* The most characters a string variable holds (Fortran's READ would cut a longer one short). */
+static int string_cap(const nml_var *v) {
+  if (!strcmp(v->name, "hamiltonian") || !strcmp(v->name, "height")) return TUBES_LEXPR - 1;
+  if (!strcmp(v->name, "coordinates") || !strcmp(v->name, "momenta")) return TUBES_LSYM - 1;
+  if (!strcmp(v->name, "constants")) return TUBES_LCONST - 1;
+  if (!strcmp(v->name, "output") || !strcmp(v->name, "csv")) return TUBES_LPATH - 1;
+  return TUBES_LNAME - 1;
 }
 
 int nml_lex(const char *path, nml_where *w, FILE *err) {
@@ -383,12 +404,19 @@ int nml_lex(const char *path, nml_where *w, FILE *err) {
         /* r null values: nothing to check */
       } else if (*p == '\'' || *p == '"') {
         char q = *p++;
+        int chars = 0, kept = 0;   /* characters, and up to the last non-blank (Fortran pads) */
         for (;;) {
           if (!*p || *p == '\n') FAIL("&%s: unterminated string in the value of '%s'", gname, name);
-          if (*p == q && p[1] == q) { p += 2; continue; }
+          if (*p == q && p[1] == q) { p += 2; kept = ++chars; continue; }
           if (*p == q) { p++; break; }
+          chars++;
+          if (*p != ' ') kept = chars;
           p++;
         }
+        chars = kept;
+        if (chars > string_cap(v))
+          FAIL("&%s: the value of '%s' is %d characters long: at most %d are allowed", gname, name, chars,
+               string_cap(v));
       } else {
         /* is this the next assignment? identifier followed by '=' or '(' */
         char *q = p;
@@ -503,15 +531,31 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
       docs[TUBES_MAXPARAM * TUBES_LDOC];
   char sys[TUBES_LSYSTEM] = "", summary[TUBES_LSUMMARY], lu[8], sad[8], sk[8], surf[TUBES_LSUMMARY];
   double defs[TUBES_MAXPARAM], box[TUBES_MAXDOF], boxc[TUBES_MAXDOF], near[TUBES_MAXDOF], sv, sa, gate;
-  snprintf(sys, sizeof sys, "%s", c->system);
+  snprintf(sys, sizeof sys, "%s", c->model);
   int ln = line_of(w, "model", "system");
   if (!ln) ln = w->group_line[group_index("model")];
+  int ball = !strcmp(c->system, "rolling_ball"), formula = !strcmp(c->system, "expression");
+  if (ball && strcmp(c->surface, "fourwell") && strcmp(c->surface, "expression"))
+    return bad_string(path, w, "model", "surface", c->surface, err);
+  formula |= ball && !strcmp(c->surface, "expression");
+  /* the name the messages give the system */
+  char shown[64];
+  snprintf(shown, sizeof shown, "%s%s", c->system, ball && formula ? "' with surface = 'expression" : "");
+  if (c->nparams == -2) {   /* a formula that did not build (src/io/tubes_expr.c says why) */
+    int vl = strcmp(c->expr_var, "system") ? line_of(w, "model", c->expr_var) : 0;
+    if (!vl && ball) vl = line_of(w, "model", "surface");
+    if (!strcmp(c->expr_var, "system"))
+      fprintf(err, "%s:%d: &model: system = '%s': %s\n", path, vl ? vl : ln, shown, c->expr_msg);
+    else
+      fprintf(err, "%s:%d: &model: %s: %s\n", path, vl ? vl : ln, c->expr_var, c->expr_msg);
+    return 1;
+  }
   if (c->nparams < 0 || tubes_model_info(sys, &ndof, &np, names, defs, units, docs, summary, lu, box, boxc, sad,
                                          near, sk, &si, &sv, &sd, &sa, &gate, surf) < 0) {
     fprintf(err, "%s:%d: &model: system = '%s' is not a built-in system: allowed ", path, ln, c->system);
     char nm[TUBES_LSYSTEM];
     for (int k = 0; tubes_model_system(k, nm) == TUBES_OK; k++) fprintf(err, "%s%s", k ? ", " : "", nm);
-    fprintf(err, " (docs/models.md)\n");
+    fprintf(err, ", or expression (a Hamiltonian written as a formula: docs/models.md)\n");
     return 1;
   }
   int n = 0;
@@ -520,11 +564,17 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
     if (strcmp(v->group, "model") || !strcmp(v->name, "system") || !w->var_line[i]) continue;
     int mine = 0;
     for (int k = 0; k < np; k++) mine |= !strcmp(names + TUBES_LPARAM * k, v->name);
+    static const char *const ham_vars[] = {"hamiltonian", "coordinates", "momenta", "constants"};
+    for (int k = 0; k < 4 && formula && !ball; k++) mine |= !strcmp(v->name, ham_vars[k]);
+    mine |= ball && !strcmp(v->name, "surface");
+    mine |= ball && formula && (!strcmp(v->name, "height") || !strcmp(v->name, "constants"));
     if (mine) continue;
     fprintf(err, "%s:%d: &model: %s is not a parameter of system '%s' (its parameters: ", path,
-            w->var_line[i], v->name, sys);
+            w->var_line[i], v->name, shown);
     for (int k = 0; k < np; k++) fprintf(err, "%s%s", k ? ", " : "", names + TUBES_LPARAM * k);
-    fprintf(err, "%s)\n", np ? "" : "none");
+    if (formula && !ball) fprintf(err, "%shamiltonian, coordinates, momenta, constants", np ? ", " : "");
+    if (ball) fprintf(err, ", surface%s", formula ? ", height, constants" : "");
+    fprintf(err, "%s)\n", np || formula || ball ? "" : "none");
     n++;
   }
   if (n) return n;
@@ -542,6 +592,13 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
       n += bad(path, w, "model", "damping_ratio", err, "", c->damping_ratio);
     if (n) return n;
   }
+  for (int k = 0; k < np && formula; k++) {   /* a ball on a formula's surface: g, damping_ratio */
+    const char *nm = names + TUBES_LPARAM * k;
+    if (!strcmp(nm, "g") && !(c->params[k] > 0)) n += bad(path, w, "model", "g", err, "", c->params[k]);
+    if (!strcmp(nm, "damping_ratio") && !(c->params[k] >= 0 && c->params[k] < 1))
+      n += bad(path, w, "model", "damping_ratio", err, "", c->params[k]);
+  }
+  if (n) return n;
   int natural = 0;
   if (tubes_model_natural(sys, c->params, &natural) < 0) {
     fprintf(err, "%s:%d: &model: the parameters of system '%s' are out of range:", path, ln, sys);
@@ -578,6 +635,12 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
   for (int k = 0; k < nd; k++)
     if (c->orb_use_near && !isfinite(c->orb_saddle_near[k]))
       n += bad(path, w, "orbits", "saddle_near", err, "", c->orb_saddle_near[k]);
+  if (scene_requested(c, "synthetic_experiment") && !strcmp(c->system, "rolling_ball") &&
+      strcmp(c->surface, "fourwell")) {
+    fprintf(err, "%s:%d: &run: the synthetic_experiment scene models the paper's machined four-well surface: it "
+            "needs surface = 'fourwell' (this file's surface is '%s')\n", path, line_of(w, "run", "scenes"), c->surface);
+    n++;
+  }
   if (scene_requested(c, "synthetic_experiment") && strcmp(c->system, "rolling_ball")) {
     fprintf(err, "%s:%d: &run: the synthetic_experiment scene releases balls on the four-well surface: it needs "
             "system = 'rolling_ball' (this file's system is '%s')\n", path, line_of(w, "run", "scenes"), c->system);
@@ -585,7 +648,7 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
   }
   if (scene_requested(c, "trajectory") && c->at_rest && strcmp(c->system, "rolling_ball")) {
     int natural = 0;
-    tubes_model_natural(c->system, c->params, &natural);
+    tubes_model_natural(c->model, c->params, &natural);
     if (!natural) {
       int ln = line_of(w, "trajectory", "at_rest");
       fprintf(err, "%s:%d: &trajectory: at_rest = .true. (the default) needs a natural system; system '%s' is "

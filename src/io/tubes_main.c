@@ -275,6 +275,11 @@ static int run_main(int argc, char **argv) {
     h5_discard(f, tmp);
     return EXIT_IO;
   }
+  if (status == EXIT_BADINPUT) {       /* a request the model cannot meet: no output (docs/usage.md) */
+    h5_discard(f, tmp);
+    g_have_tmp = 0;
+    return EXIT_BADINPUT;
+  }
   h5_attr_long(f, "exit_status", status);
   int committed = h5_commit(f, tmp, cfg.output);
   g_have_tmp = 0;                     /* renamed (or removed by h5_commit on failure) */

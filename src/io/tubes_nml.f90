@@ -12,6 +12,8 @@ module tubes_nml
   !> montecarlo, sections, experiment
   integer, parameter :: NGROUPS = 12
   integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32, MAXDE = 256
+  !> models written as formulas: a formula, a name, a constant 'name = value', how many
+  integer, parameter :: LEXPR = 2048, LSYM = 16, LCONST = 128, MAXCONST = 32, LMSG = 1024
   !> An unset entry of a list (dE): any value a user cannot mean.
   real(c_double), parameter :: UNSET = -huge(1.0_c_double)
   !> An unset integer (&section index, direction, p_theta_sign): 0 is a value a user can mean.
@@ -70,6 +72,12 @@ module tubes_nml
     real(c_double) :: sec_value
     integer(c_int) :: ndof, nparams, orb_use_near
     real(c_double) :: params(MAX_PARAMS), box_lo(MAX_DOF), box_hi(MAX_DOF)
+    ! models written as formulas (docs/models.md), then what building them gave
+    character(kind=c_char) :: hamiltonian(LEXPR), coordinates(LSYM, MAX_DOF), momenta(LSYM, MAX_DOF), &
+      constants(LCONST, MAXCONST), surface(LNAME), height(LEXPR)
+    character(kind=c_char) :: model(LNAME), expr_var(LNAME), expr_msg(LMSG), expr_lib(LPATH)
+    real(c_double) :: expr_seconds
+    integer(c_int) :: expr_hit
   end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved).
@@ -120,6 +128,11 @@ module tubes_nml
     character(LNAME) :: sec_kind
     integer :: sec_index, sec_direction
     real(c_double) :: sec_value
+    character(LEXPR) :: hamiltonian, height
+    character(LSYM) :: coordinates(MAX_DOF), momenta(MAX_DOF)
+    character(LCONST) :: constants(MAXCONST)
+    character(LNAME) :: surface
+    character(LNAME) :: model_name   !! the library's name of the model (written only)
   end type vars_t
 
 contains
@@ -130,6 +143,13 @@ contains
     v%scenes(1) = 'equilibria'
     v%output = 'tubes.h5'
     v%system = 'rolling_ball'
+    v%hamiltonian = ''
+    v%height = ''
+    v%coordinates = ''
+    v%momenta = ''
+    v%constants = ''
+    v%surface = 'fourwell'
+    v%model_name = ''
     v%alpha = UNSET; v%beta = UNSET; v%gamma = UNSET; v%xi = UNSET; v%h0 = UNSET; v%g = UNSET
     v%damping_ratio = UNSET
     v%m_a = UNSET; v%m_b = UNSET; v%d = UNSET; v%lambda = UNSET; v%zeta = UNSET; v%eps_s = UNSET
@@ -207,9 +227,10 @@ contains
     v%exp_csv = ''
   end subroutine set_defaults
 
-  subroutine to_c(v, cfg)
+  subroutine to_c(v, cfg, build)
     type(vars_t), intent(in) :: v
     type(tubes_config_t), intent(out) :: cfg
+    logical, intent(in) :: build   !! build a model written as a formula (not after a read error)
     integer :: k
     do k = 1, NSCENES
       call put(v%scenes(k), cfg%scenes(:, k))
@@ -257,7 +278,17 @@ contains
     cfg%exp_de_min = v%exp_de_min; cfg%exp_de_max = v%exp_de_max
     cfg%exp_damping_ratio = v%exp_damping_ratio
     call put(v%exp_csv, cfg%exp_csv)
-    call resolve(v, cfg)          ! last: it fills the effective values of the fields above
+    call put(v%hamiltonian, cfg%hamiltonian)
+    call put(v%height, cfg%height)
+    call put(v%surface, cfg%surface)
+    do k = 1, MAX_DOF
+      call put(v%coordinates(k), cfg%coordinates(:, k))
+      call put(v%momenta(k), cfg%momenta(:, k))
+    end do
+    do k = 1, MAXCONST
+      call put(v%constants(k), cfg%constants(:, k))
+    end do
+    call resolve(v, cfg, build)   ! last: it fills the effective values of the fields above
   end subroutine to_c
 
   !> The value of &model variable `name` in v (UNSET if not set in the file).
@@ -296,7 +327,7 @@ contains
     v%damping_ratio = UNSET
     v%m_a = UNSET; v%m_b = UNSET; v%d = UNSET; v%lambda = UNSET; v%zeta = UNSET; v%eps_s = UNSET
     v%omega = UNSET; v%eps = UNSET; v%mu = UNSET
-    call system_info(trim(v%system), info, st)
+    call system_info(trim(get(cfg%model)), info, st)
     if (st /= 0) return
     do k = 1, info%np
       select case (trim(info%params(k)%name))
@@ -323,13 +354,18 @@ contains
   !> The effective model, box, saddle, section and gate: the file's values, else the system's
   !> defaults from the library's table (src/tubes_models.f90). An unknown system leaves
   !> nparams = -1 (nml_validate reports it).
-  subroutine resolve(v, cfg)
+  subroutine resolve(v, cfg, build)
     type(vars_t), intent(in) :: v
     type(tubes_config_t), intent(inout) :: cfg
+    logical, intent(in) :: build
     type(system_info_t) :: info
     integer :: st, k, nd
     real(c_double) :: x, half(MAX_DOF), centre(MAX_DOF)
     call put(v%system, cfg%system)
+    call put(v%system, cfg%model)
+    cfg%expr_var = c_null_char; cfg%expr_msg = c_null_char; cfg%expr_lib = c_null_char
+    cfg%expr_seconds = 0
+    cfg%expr_hit = 0
     cfg%alpha = v%alpha; cfg%beta = v%beta; cfg%gamma = v%gamma; cfg%xi = v%xi
     cfg%h0 = v%h0; cfg%g = v%g; cfg%damping_ratio = v%damping_ratio
     cfg%m_a = v%m_a; cfg%m_b = v%m_b; cfg%d = v%d; cfg%lambda = v%lambda; cfg%zeta = v%zeta
@@ -346,7 +382,14 @@ contains
     call put(v%sec_kind, cfg%sec_kind)
     cfg%sec_index = v%sec_index; cfg%sec_value = v%sec_value; cfg%sec_direction = v%sec_direction
     cfg%mc_gate = v%mc_gate
-    call system_info(trim(v%system), info, st)
+    if (is_expression(v)) then   ! the model's library: its name replaces the system's
+      cfg%nparams = -2
+      cfg%ndof = 0
+      if (.not. build) return
+      call build_expression(v, cfg, st)
+      if (st /= 0) return
+    end if
+    call system_info(trim(get(cfg%model)), info, st)
     if (st /= 0) then
       cfg%nparams = -1
       cfg%ndof = 0
@@ -360,7 +403,7 @@ contains
       if (x == UNSET) x = info%params(k)%default
       cfg%params(k) = x
     end do
-    if (trim(v%system) == 'rolling_ball') then      ! the scenes still read these by name
+    if (trim(get(cfg%model)) == 'rolling_ball') then      ! the scenes still read these by name
       cfg%alpha = cfg%params(1); cfg%beta = cfg%params(2); cfg%gamma = cfg%params(3)
       cfg%xi = cfg%params(4); cfg%h0 = cfg%params(5); cfg%g = cfg%params(6)
       cfg%damping_ratio = cfg%params(7)
@@ -414,6 +457,83 @@ contains
     if (v%mc_gate == UNSET) cfg%mc_gate = info%gate
   end subroutine resolve
 
+  !> Is the model written as a formula? (system 'expression', or a ball on surface 'expression')
+  pure logical function is_expression(v)
+    type(vars_t), intent(in) :: v
+    is_expression = trim(v%system) == 'expression' .or. &
+                    (trim(v%system) == 'rolling_ball' .and. trim(v%surface) == 'expression')
+  end function is_expression
+
+  !> The spec of a model written as a formula (python/tubes/codegen.py reads it): the formula,
+  !> the coordinates (default x, y), the momenta (default p<coordinate>), the constants.
+  function expression_spec(v) result(spec)
+    type(vars_t), intent(in) :: v
+    character(:), allocatable :: spec
+    character, parameter :: NL = achar(10)
+    integer :: k
+    if (trim(v%system) == 'expression') then
+      spec = 'tubes-expression 1' // NL // 'kind hamiltonian' // NL // 'expr ' // trim(v%hamiltonian) // NL
+      spec = spec // 'coordinates'
+      if (all(len_trim(v%coordinates) == 0)) then
+        spec = spec // ' x y'
+      else
+        do k = 1, MAX_DOF
+          if (len_trim(v%coordinates(k)) > 0) spec = spec // ' ' // trim(v%coordinates(k))
+        end do
+      end if
+      spec = spec // NL // 'momenta'
+      do k = 1, MAX_DOF
+        if (all(len_trim(v%momenta) == 0)) then
+          if (all(len_trim(v%coordinates) == 0)) then
+            if (k <= 2) spec = spec // ' p' // trim(merge('x', 'y', k == 1))
+          else if (len_trim(v%coordinates(k)) > 0) then
+            spec = spec // ' p' // trim(v%coordinates(k))
+          end if
+        else if (len_trim(v%momenta(k)) > 0) then
+          spec = spec // ' ' // trim(v%momenta(k))
+        end if
+      end do
+      spec = spec // NL
+    else
+      spec = 'tubes-expression 1' // NL // 'kind surface' // NL // 'expr ' // trim(v%height) // NL // &
+             'coordinates x y' // NL
+    end if
+    do k = 1, MAXCONST
+      if (len_trim(v%constants(k)) > 0) spec = spec // 'constant ' // trim(adjustl(v%constants(k))) // NL
+    end do
+  end function expression_spec
+
+  !> Build (or find in the cache) the library of v's formula: cfg%model becomes its name; on
+  !> failure st /= 0 and cfg%expr_var, cfg%expr_msg say why (src/io/tubes_expr.c).
+  subroutine build_expression(v, cfg, st)
+    type(vars_t), intent(in) :: v
+    type(tubes_config_t), intent(inout) :: cfg
+    integer, intent(out) :: st
+    interface
+      integer(c_int) function expr_build(spec, key, var, lvar, msg, lmsg, lib, llib, seconds, hit) &
+          bind(C, name='tubes_expr_build')
+        import :: c_int, c_char, c_double
+        character(kind=c_char), intent(in) :: spec(*)
+        character(kind=c_char), intent(out) :: key(*), var(*), msg(*), lib(*)
+        integer(c_int), value :: lvar, lmsg, llib
+        real(c_double), intent(out) :: seconds
+        integer(c_int), intent(out) :: hit
+      end function expr_build
+    end interface
+    character(:), allocatable :: spec
+    character(kind=c_char), allocatable :: cspec(:)
+    integer :: k
+    spec = expression_spec(v)
+    allocate (cspec(len(spec) + 1))
+    do k = 1, len(spec)
+      cspec(k) = spec(k:k)
+    end do
+    cspec(len(spec) + 1) = c_null_char
+    cfg%model = c_null_char
+    st = int(expr_build(cspec, cfg%model, cfg%expr_var, LNAME, cfg%expr_msg, LMSG, cfg%expr_lib, LPATH, &
+                        cfg%expr_seconds, cfg%expr_hit))
+  end subroutine build_expression
+
   !> A list with unset entries: its default when none is set.
   pure subroutine put_list(a, c, n, dflt)
     real(c_double), intent(in) :: a(:), dflt(:)
@@ -446,6 +566,17 @@ contains
     v%orb_saddle_near = cfg%orb_saddle_near
     v%sec_kind = get(cfg%sec_kind)
     v%sec_index = cfg%sec_index; v%sec_value = cfg%sec_value; v%sec_direction = cfg%sec_direction
+    v%hamiltonian = get(cfg%hamiltonian)
+    v%height = get(cfg%height)
+    v%surface = get(cfg%surface)
+    v%model_name = get(cfg%model)
+    do k = 1, MAX_DOF
+      v%coordinates(k) = get(cfg%coordinates(:, k))
+      v%momenta(k) = get(cfg%momenta(:, k))
+    end do
+    do k = 1, MAXCONST
+      v%constants(k) = get(cfg%constants(:, k))
+    end do
     call effective_model(cfg, v)
     v%saddle = get(cfg%saddle)
     v%x0 = cfg%x0; v%y0 = cfg%y0; v%px0 = cfg%px0; v%py0 = cfg%py0
@@ -511,7 +642,7 @@ contains
     type(tubes_config_t), intent(out) :: cfg
     type(vars_t) :: v
     call set_defaults(v)
-    call to_c(v, cfg)
+    call to_c(v, cfg, .false.)
   end subroutine c_defaults
 
   !> Read group number grp (0 run, 1 model, 2 equilibria, 3 trajectory, 4 integrator,
@@ -569,12 +700,17 @@ contains
       end if
     end subroutine io_run
     subroutine io_model()
-      character(LNAME) :: system
+      character(LNAME) :: system, surface
       real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, m_a, m_b, d, lambda, zeta, &
                         eps_s, omega, eps, mu
+      character(LEXPR) :: hamiltonian, height
+      character(LSYM) :: coordinates(MAX_DOF), momenta(MAX_DOF)
+      character(LCONST) :: constants(MAXCONST)
       namelist /model/ system, alpha, beta, gamma, xi, h0, g, damping_ratio, m_a, m_b, d, lambda, &
-        zeta, eps_s, omega, eps, mu
+        zeta, eps_s, omega, eps, mu, hamiltonian, coordinates, momenta, constants, surface, height
       system = v%system
+      hamiltonian = v%hamiltonian; height = v%height; surface = v%surface
+      coordinates = v%coordinates; momenta = v%momenta; constants = v%constants
       alpha = v%alpha; beta = v%beta; gamma = v%gamma; xi = v%xi; h0 = v%h0; g = v%g
       damping_ratio = v%damping_ratio; m_a = v%m_a; m_b = v%m_b; d = v%d; lambda = v%lambda
       zeta = v%zeta; eps_s = v%eps_s; omega = v%omega; eps = v%eps; mu = v%mu
@@ -584,6 +720,8 @@ contains
         v%alpha = alpha; v%beta = beta; v%gamma = gamma; v%xi = xi; v%h0 = h0; v%g = g
         v%damping_ratio = damping_ratio; v%m_a = m_a; v%m_b = m_b; v%d = d; v%lambda = lambda
         v%zeta = zeta; v%eps_s = eps_s; v%omega = omega; v%eps = eps; v%mu = mu
+        v%hamiltonian = hamiltonian; v%height = height; v%surface = surface
+        v%coordinates = coordinates; v%momenta = momenta; v%constants = constants
       else
         call write_model()
       end if
@@ -596,7 +734,16 @@ contains
       character(64) :: num
       write (u, '(a)', iostat=ios) '&MODEL'
       write (u, '(a)', iostat=ios) ' SYSTEM=''' // trim(v%system) // ''','
-      call system_info(trim(v%system), info, st)
+      if (trim(v%system) == 'expression') then
+        call write_string('HAMILTONIAN', v%hamiltonian)
+        call write_list('COORDINATES', v%coordinates)
+        call write_list('MOMENTA', v%momenta)
+      else if (trim(v%system) == 'rolling_ball' .and. trim(v%surface) /= 'fourwell') then
+        call write_string('SURFACE', v%surface)
+        call write_string('HEIGHT', v%height)
+      end if
+      if (is_expression(v)) call write_list('CONSTANTS', v%constants)
+      call system_info(trim(v%model_name), info, st)
       if (st /= 0) info%np = 0
       do k = 1, info%np
         write (num, '(es24.16e3)') model_var(v, trim(info%params(k)%name))
@@ -604,6 +751,35 @@ contains
       end do
       write (u, '(a)', iostat=ios) ' /'
     end subroutine write_model
+    !> name='text', with ' doubled (namelist quoting)
+    subroutine write_string(name, text)
+      character(*), intent(in) :: name, text
+      write (u, '(a)', iostat=ios) ' ' // name // '=''' // quoted(trim(text)) // ''','
+    end subroutine write_string
+    subroutine write_list(name, items)
+      character(*), intent(in) :: name, items(:)
+      integer :: k, n
+      n = 0
+      do k = 1, size(items)
+        if (len_trim(items(k)) > 0) n = k
+      end do
+      if (n == 0) return
+      write (u, '(a)', iostat=ios, advance='no') ' ' // name // '='
+      do k = 1, n
+        write (u, '(a)', iostat=ios, advance='no') '''' // quoted(trim(items(k))) // ''','
+      end do
+      write (u, '(a)', iostat=ios) ''
+    end subroutine write_list
+    pure function quoted(a) result(b)
+      character(*), intent(in) :: a
+      character(:), allocatable :: b
+      integer :: i
+      b = ''
+      do i = 1, len(a)
+        b = b // a(i:i)
+        if (a(i:i) == '''') b = b // ''''
+      end do
+    end function quoted
     pure function upper(a) result(b)
       character(*), intent(in) :: a
       character(len(a)) :: b
@@ -861,7 +1037,7 @@ contains
     open (newunit=u, file=trim(fname), status='old', action='read', iostat=ios, iomsg=iomsg)
     if (ios /= 0) then
       call put(iomsg, msg)
-      call to_c(v, cfg)
+      call to_c(v, cfg, .false.)
       return
     end if
     do grp = 0, NGROUPS - 1
@@ -876,7 +1052,7 @@ contains
       end if
     end do
     close (u)
-    call to_c(v, cfg)
+    call to_c(v, cfg, ios == 0)
   end function c_read
 
   integer(c_int) function c_write(cfg, buf, buflen) result(n) bind(C, name='tubes_nml_write')
@@ -884,7 +1060,7 @@ contains
     integer(c_int), value :: buflen
     character(kind=c_char), intent(out) :: buf(buflen)
     type(vars_t) :: v
-    character(2048) :: line
+    character(4608) :: line
     character(512) :: iomsg
     integer :: u, ios, i, grp
     call from_c(cfg, v)

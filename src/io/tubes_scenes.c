@@ -44,6 +44,33 @@ enum { MC_SIGMA = 5 };
 #define INTEGRATOR(c) tubes_method_code((c)->method), (c)->h, (c)->omega_bind, \
                       (strcmp((c)->solver, "fixed_point") ? 1 : 2), (c)->max_iter
 
+/* /model's attributes of a model written as a formula (docs/output.md). */
+static int expr_attrs(hid_t g, const tubes_config_t *c) {
+  int rc = 0;
+  if (!strcmp(c->system, "expression")) {
+    rc |= h5_attr_string(g, "formula", c->hamiltonian);
+    char buf[TUBES_MAXDOF * (TUBES_LSYM + 2)] = "";
+    for (int k = 0; k < TUBES_MAXDOF && c->coordinates[k][0]; k++)
+      snprintf(buf + strlen(buf), sizeof buf - strlen(buf), "%s%s", k ? " " : "", c->coordinates[k]);
+    rc |= h5_attr_string(g, "coordinates", buf[0] ? buf : "x y");
+    buf[0] = 0;
+    for (int k = 0; k < TUBES_MAXDOF && c->momenta[k][0]; k++)
+      snprintf(buf + strlen(buf), sizeof buf - strlen(buf), "%s%s", k ? " " : "", c->momenta[k]);
+    if (buf[0]) rc |= h5_attr_string(g, "momenta", buf);
+  } else {
+    rc |= h5_attr_string(g, "formula", c->height);
+  }
+  static char consts[TUBES_MAXCONST * (TUBES_LCONST + 2)];
+  consts[0] = 0;
+  for (int k = 0; k < TUBES_MAXCONST; k++)
+    if (c->constants[k][0])
+      snprintf(consts + strlen(consts), sizeof consts - strlen(consts), "%s%s", consts[0] ? "; " : "", c->constants[k]);
+  rc |= h5_attr_string(g, "constants", consts);
+  rc |= h5_attr_string(g, "library", c->expr_lib);
+  rc |= h5_attr_string(g, "library_name", c->model);
+  return rc;
+}
+
 int scene_model(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   int ndof = 0, np = 0, si = 0, sd = 0;
@@ -57,12 +84,24 @@ int scene_model(tubes_run_t *run) {
   hid_t g = h5_group(run->file, "model");
   if (g < 0) return EXIT_IO;
   int rc = 0;
-  rc |= h5_attr_string(g, "system", run->system);
+  rc |= h5_attr_string(g, "system", c->system);
   rc |= h5_attr_string(g, "hamiltonian", summary);
   rc |= h5_attr_long(g, "ndof", ndof);
   if (surf[0]) rc |= h5_attr_string(g, "surface", surf);
   for (int k = 0; k < np; k++) rc |= h5_attr_double(g, names + TUBES_LPARAM * k, run->params[k]);
-  if (!strcmp(run->system, "rolling_ball") && c->damping_ratio > 0) {
+  if (strcmp(c->model, c->system)) {
+    rc |= expr_attrs(g, c);
+    rc |= h5_attr_double(g, "library_seconds", c->expr_seconds);
+    rc |= h5_attr_long(g, "library_cached", c->expr_hit);
+    printf("model: %s, %d degree%s of freedom%s: %s %.*f %s (%s)\n", summary, ndof, ndof > 1 ? "s" : "",
+           run->natural ? ", natural" : "", c->expr_hit ? "generated code loaded from the cache in" :
+           "code generated (SymPy) and compiled in", c->expr_hit ? 1 : 2, c->expr_seconds * (c->expr_hit ? 1e3 : 1),
+           c->expr_hit ? "ms" : "s", c->expr_lib);
+  }
+  double zeta = 0;
+  for (int k = 0; k < np; k++)
+    if (!strcmp(names + TUBES_LPARAM * k, "damping_ratio")) zeta = run->params[k];
+  if (zeta > 0) {
     double cd = 0;
     int st = tubes_damping_rate(run->system, run->params, &cd);
     if (st < 0) {
@@ -101,7 +140,7 @@ static void report_saddle(const tubes_run_t *run, const eqlist_t *L, const char 
   else if (run->input) fprintf(stderr, "%s: ", run->input);
   else fprintf(stderr, "tubes: ");
   fprintf(stderr, "&%s: saddle = '%s' is not a rank-1 saddle of system %s in the &equilibria box; its rank-1 "
-          "saddles are:", group, name, run->system);
+          "saddles are:", group, name, run->label);
   int any = 0;
   for (int j = 0; j < L->n; j++)
     if (L->rank1[j]) { fprintf(stderr, "%s %s", any ? "," : "", L->names + 8 * j); any = 1; }
@@ -116,7 +155,9 @@ int run_setup(tubes_run_t *run) {
   char summary[TUBES_LSUMMARY], lu[8], dsad[8], skind[8], surf[TUBES_LSUMMARY];
   double defs[TUBES_MAXPARAM], box[MD], boxc[MD], near[MD], sv, sa, gate;
   memset(run->system, 0, sizeof run->system);
-  snprintf(run->system, sizeof run->system, "%s", c->system);
+  snprintf(run->system, sizeof run->system, "%s", c->model);   /* the library's name of the model */
+  snprintf(run->label, sizeof run->label, "%s%s", c->system,
+           strcmp(c->model, c->system) && strcmp(c->system, "expression") ? " (surface 'expression')" : "");
   if (tubes_model_info(run->system, &run->ndof, &np, names, defs, units, docs, summary, lu, box, boxc, dsad, near,
                        skind, &si, &sv, &sd, &sa, &gate, surf) < 0) {
     fprintf(stderr, "tubes: unknown system '%s'\n", c->system);
@@ -125,7 +166,7 @@ int run_setup(tubes_run_t *run) {
   for (int k = 0; k < TUBES_MAXPARAM; k++) run->params[k] = k < c->nparams ? c->params[k] : 0;
   snprintf(run->length_units, sizeof run->length_units, "%s", lu);
   if (tubes_model_natural(run->system, run->params, &run->natural) < 0) {
-    fprintf(stderr, "tubes: &model: the parameters are out of range for system %s\n", run->system);
+    fprintf(stderr, "tubes: &model: the parameters are out of range for system %s\n", run->label);
     return EXIT_BADINPUT;
   }
   for (int k = 0; k < MD; k++) {
@@ -148,7 +189,7 @@ int run_setup(tubes_run_t *run) {
     char m[128];
     status_text(st, m, sizeof m);
     fprintf(stderr, "tubes: the equilibria of %s in the &equilibria box could not be found: %s (status %d)\n",
-            run->system, m, st);
+            run->label, m, st);
     return EXIT_NUMERIC;
   }
   if (c->saddle[0]) {                /* &equilibria saddle: the saddle the equilibria scene reports */
@@ -169,7 +210,7 @@ int run_setup(tubes_run_t *run) {
     }
     if (best < 0) {
       fprintf(stderr, "tubes: &orbits saddle_near: system %s has no rank-1 saddle in the &equilibria box\n",
-              run->system);
+              run->label);
       return EXIT_BADINPUT;
     }
     snprintf(run->saddle, sizeof run->saddle, "%s", L.names + 8 * best);
@@ -204,10 +245,10 @@ int scene_equilibria(tubes_run_t *run) {
     printf("  %-4s %13s %13s %13s %5s %10s %10s %8s\n", "name", "x [cm]", "y [cm]", "E [(cm/s)^2]",
            "index", "lambda[1/s]", "omega[1/s]", "T_po [s]");
   } else {
-    printf("equilibria of %s: %d in the box", run->system, n);
+    printf("equilibria of %s: %d in the box", run->label, n);
     for (int i = 0; i < nd; i++) printf("%s [%g, %g]", i ? " x" : "", run->lo[i], run->hi[i]);
-    printf(" (%.3f s)\n  %-4s %13s %13s %13s %5s %10s %10s %8s\n", now() - t0, "name", "q1", "q2", "E", "index",
-           "lambda", "omega", "T_po");
+    printf(" (%.3f s)\n  %-4s %13s %13s %13s %5s %10s %10s %8s%s\n", now() - t0, "name", "q1", "q2", "E", "index",
+           "lambda", "omega", "T_po", nd > 2 ? "            q3     omega2" : "");
   }
   double *x = malloc(sizeof(double) * (n ? n : 1)), *y = malloc(sizeof(double) * (n ? n : 1)),
          *om = malloc(sizeof(double) * (n ? n : 1)), *qq = malloc(sizeof(double) * (n ? n : 1) * n2);
@@ -223,10 +264,15 @@ int scene_equilibria(tubes_run_t *run) {
     double xp = fabs(x[k]) < 5e-9 ? 0.0 : x[k], yp = fabs(y[k]) < 5e-9 ? 0.0 : y[k],
            ep = fabs(L.en[k]) < 5e-7 ? 0.0 : L.en[k];
     if (L.rank1[k])
-      printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10.6f %8.6f\n", nm[k], xp, yp, ep, L.morse[k],
+      printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10.6f %8.6f", nm[k], xp, yp, ep, L.morse[k],
              L.lam[k], om[k], 2 * M_PI / om[k]);
     else
-      printf("  %-4s %13.8f %13.8f %13.6f %5d %10s %10s %8s\n", nm[k], xp, yp, ep, L.morse[k], "-", "-", "-");
+      printf("  %-4s %13.8f %13.8f %13.6f %5d %10s %10s %8s", nm[k], xp, yp, ep, L.morse[k], "-", "-", "-");
+    if (nd > 2 && L.rank1[k])   /* 3 DOF: the third coordinate and the second centre's frequency */
+      printf(" %13.8f %10.6f", fabs(L.q[MD * k + 2]) < 5e-9 ? 0.0 : L.q[MD * k + 2], L.om[(MD - 1) * k + 1]);
+    else if (nd > 2)
+      printf(" %13.8f %10s", fabs(L.q[MD * k + 2]) < 5e-9 ? 0.0 : L.q[MD * k + 2], "-");
+    putchar('\n');
   }
   hid_t g = h5_group(run->file, "equilibria");
   if (g < 0) { free(x); free(y); free(om); free(qq); return EXIT_IO; }
@@ -242,6 +288,14 @@ int scene_equilibria(tubes_run_t *run) {
   rc |= h5_write_strings(g, "name", dn, nm);
   rc |= h5_write_double(g, "lambda", 1, &dn, L.lam, "1/s");
   rc |= h5_write_double(g, "omega", 1, &dn, om, "rad/s");
+  if (nd > 2) {   /* every centre frequency of a rank-1 saddle, (n, N - 1) */
+    double *oa = malloc(sizeof(double) * (n ? n : 1) * (nd - 1));
+    for (int k = 0; k < n; k++)
+      for (int i = 0; i < nd - 1; i++) oa[(nd - 1) * k + i] = L.om[(MD - 1) * k + i];
+    hsize_t dom[2] = {(hsize_t)n, (hsize_t)(nd - 1)};
+    rc |= h5_write_double(g, "omegas", 2, dom, oa, "rad/s");
+    free(oa);
+  }
   rc |= h5_attr_double(g, "box", c->box);
   rc |= h5_attr_long(g, "n_grid", c->n_grid);
   H5Gclose(g);
@@ -249,7 +303,7 @@ int scene_equilibria(tubes_run_t *run) {
   if (rc) return EXIT_IO;
   if (isad < 0 || !L.rank1[isad]) {
     fprintf(stderr, "tubes: equilibria: saddle %s is not a rank-1 saddle of %s in the &equilibria box "
-            "(found:", want, run->system);
+            "(found:", want, run->label);
     for (int k = 0; k < n; k++)
       if (L.rank1[k]) fprintf(stderr, " %s", nm[k]);
     fprintf(stderr, ")\n");
@@ -300,8 +354,18 @@ int scene_trajectory(tubes_run_t *run) {
   double x0[4] = {c->x0, c->y0, c->at_rest ? 0.0 : c->px0, c->at_rest ? 0.0 : c->py0};
   if (run->ndof != 2) {
     fprintf(stderr, "tubes: trajectory: system %s has %d degrees of freedom; the trajectory scene takes "
-            "(x0, y0, px0, py0) of a 2-DOF model\n", run->system, run->ndof);
+            "(x0, y0, px0, py0) of a 2-DOF model\n", run->label, run->ndof);
     return EXIT_BADINPUT;
+  }
+  {   /* H and Hamilton's equations are finite at the start (a formula may not be: log(x) at x < 0) */
+    double e = 0, f[4] = {0, 0, 0, 0};
+    int se = tubes_energy(run->system, run->params, 4, x0, &e), sf = tubes_vector_field(run->system, run->params, 4, x0, f);
+    if (se < 0 || sf < 0 || !isfinite(e) || !isfinite(f[0] + f[1] + f[2] + f[3])) {
+      fprintf(stderr, "%s: &trajectory: the model is not defined at the starting point (x0, y0, px0, py0) = "
+              "(%g, %g, %g, %g): H = %g, dx/dt = (%g, %g, %g, %g); start where H is finite\n",
+              run->input ? run->input : "tubes", x0[0], x0[1], x0[2], x0[3], e, f[0], f[1], f[2], f[3]);
+      return EXIT_BADINPUT;
+    }
   }
   double nsd = floor(c->t_end / c->dt_out * (1 + 1e-12)) + 2;
   int nmax = (int)nsd, n = 0;

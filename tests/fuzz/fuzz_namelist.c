@@ -32,6 +32,10 @@ int LLVMFuzzerInitialize(int *argc, char ***argv) {
   snprintf(g_again, sizeof g_again, "%.40s/tubes-fuzz-%d.2.nml", dir, (int)getpid());
   g_null = fopen("/dev/null", "w");
   if (!g_null) abort();
+  /* a formula's model would run SymPy and the compiler on every mutation: the reader refuses it
+   * with a message instead (src/io/tubes_expr.c), and the formulas have tests of their own */
+  setenv("TUBES_NO_CODEGEN", "1", 1);
+  setenv("TUBES_CACHE_DIR", "/nonexistent/tubes-fuzz-cache", 1);
   return 0;
 }
 

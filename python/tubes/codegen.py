@@ -1,0 +1,355 @@
+"""Code generation for models written as formulas (docs/models.md, "Models from the input file").
+
+tubes turns ``&model system = 'expression', hamiltonian = '...'`` (or a rolling ball's
+``height = '...'``) into C: SymPy parses nothing here; this module parses the formula with Python's
+own ``ast`` (a whitelist of operators and functions, columns for every message), builds the SymPy
+expression, differentiates it (gradient, Hessian; the surface's third derivatives), shares common
+subexpressions (``sympy.cse``) and prints C99. The C driver (src/io/tubes_expr.c) compiles the
+result into a shared object, caches it and loads it; this module is run as a script by path,
+``python codegen.py --out FILE < SPEC``, so it needs SymPy and nothing else from tubes.
+
+SPEC (built by src/io/tubes_nml.f90, one item a line)::
+
+    tubes-expression 1
+    kind hamiltonian            (or: kind surface)
+    expr <the formula>
+    coordinates x y
+    momenta px py               (hamiltonian only)
+    constant a = 0.07           (any number, in order; a constant may use the earlier ones)
+
+On a bad formula it writes ``<variable>\\t<message>`` lines on stderr (variable: hamiltonian,
+height, coordinates, momenta, constants) and exits 1; the driver adds the file and line.
+"""
+import ast
+import keyword
+import re
+import sys
+
+ABI = 1
+MAX_DOF = 3
+
+#: functions allowed in a formula, with their number of arguments
+FUNCTIONS = {"sqrt": 1, "exp": 1, "log": 1, "sin": 1, "cos": 1, "tan": 1, "atan2": 2, "sinh": 1,
+             "cosh": 1, "tanh": 1, "asin": 1, "acos": 1, "atan": 1}
+#: functions refused, with the reason
+REFUSED = {name: "is not differentiable where it switches (tubes needs the Hessian everywhere)"
+           for name in ("abs", "Abs", "sign", "min", "max", "Min", "Max", "floor", "ceil", "round",
+                        "heaviside", "Heaviside", "mod")}
+NAMED = {"pi"}
+#: words the formula parser (Python's ast) keeps for itself
+RESERVED = set(keyword.kwlist)
+NAME_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
+
+
+class FormulaError(Exception):
+    """A message about one namelist variable."""
+
+    def __init__(self, var, msg):
+        super().__init__(f"{var}: {msg}")
+        self.var = var
+        self.msg = msg
+
+
+def _caret(text):
+    """The formula with ^ as ** and a map from its columns back to the user's (1-based)."""
+    out, cols = [], []
+    for i, ch in enumerate(text):
+        if ch == "^":
+            out.append("**")
+            cols += [i + 1, i + 1]
+        else:
+            out.append(ch)
+            cols.append(i + 1)
+    cols.append(len(text) + 1)
+    return "".join(out), cols
+
+
+def parse(text, var, symbols, sp):
+    """The SymPy expression of formula `text`; symbols: name -> SymPy symbol or value."""
+    if not text.strip():
+        raise FormulaError(var, "is empty: write the formula")
+    src, cols = _caret(text)
+
+    def col(node_or_offset):
+        off = node_or_offset if isinstance(node_or_offset, int) else node_or_offset.col_offset
+        return cols[min(max(off, 0), len(cols) - 1)]
+
+    try:
+        tree = ast.parse(src.strip() and src, mode="eval")
+    except SyntaxError as e:
+        off = (e.offset or 1) - 1
+        what = (e.msg or "invalid syntax").replace("invalid syntax. Perhaps you forgot a comma?",
+                                                   "invalid syntax")
+        raise FormulaError(var, f"syntax error at column {col(off)}: {what} (in '{text.strip()}')")
+
+    ops = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult: lambda a, b: a * b,
+           ast.Div: lambda a, b: a / b, ast.Pow: lambda a, b: a**b}
+
+    def build(node):
+        if isinstance(node, ast.Expression):
+            return build(node.body)
+        if isinstance(node, ast.BinOp) and type(node.op) in ops:
+            return ops[type(node.op)](build(node.left), build(node.right))
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+            v = build(node.operand)
+            return -v if isinstance(node.op, ast.USub) else v
+        if isinstance(node, ast.Constant) and type(node.value) in (int, float):
+            return sp.Integer(node.value) if isinstance(node.value, int) else sp.Rational(repr(node.value))
+        if isinstance(node, ast.Name):
+            if node.id in symbols:
+                return symbols[node.id]
+            if node.id == "pi":
+                return sp.pi
+            if node.id in FUNCTIONS or node.id in REFUSED:
+                raise FormulaError(var, f"'{node.id}' at column {col(node)} is a function: write {node.id}(...)")
+            known = ", ".join(k for k in symbols) or "none"
+            raise FormulaError(var, f"unknown symbol '{node.id}' at column {col(node)}: the symbols are "
+                                    f"{known} (and pi)")
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+            name = node.func.id
+            if name in REFUSED:
+                raise FormulaError(var, f"function '{name}' at column {col(node)} {REFUSED[name]}: refused")
+            if name not in FUNCTIONS:
+                raise FormulaError(var, f"unknown function '{name}' at column {col(node)}: allowed "
+                                        + ", ".join(FUNCTIONS) + "; powers are written ^ or **")
+            if node.keywords or len(node.args) != FUNCTIONS[name]:
+                raise FormulaError(var, f"{name} at column {col(node)} takes {FUNCTIONS[name]} argument"
+                                        f"{'s' if FUNCTIONS[name] > 1 else ''}")
+            args = [build(a) for a in node.args]
+            return getattr(sp, name)(*args)
+        what = {ast.Compare: "a comparison", ast.IfExp: "a conditional", ast.BoolOp: "a logical operator",
+                ast.Attribute: "an attribute", ast.Subscript: "an index", ast.Lambda: "a lambda"}.get(
+                    type(node), f"'{ast.unparse(node)}'")
+        if isinstance(node, ast.BinOp):
+            what = "the operator " + {ast.Mod: "%", ast.FloorDiv: "//", ast.BitXor: "^", ast.BitAnd: "&",
+                                      ast.BitOr: "|", ast.MatMult: "@", ast.LShift: "<<",
+                                      ast.RShift: ">>"}.get(type(node.op), "?")
+        if isinstance(node, ast.Constant):
+            what = f"the literal {node.value!r}"
+        raise FormulaError(var, f"{what} at column {col(node)} is not allowed: a formula uses numbers, "
+                                "names, + - * / ^ ** and the functions " + ", ".join(FUNCTIONS))
+
+    return build(tree)
+
+
+def read_spec(lines):
+    spec = {"constants": []}
+    if not lines or lines[0].strip() != f"tubes-expression {ABI}":
+        raise SystemExit("codegen: the input is not a tubes-expression spec")
+    for line in lines[1:]:
+        key, _, rest = line.partition(" ")
+        if key == "constant":
+            spec["constants"].append(rest)
+        elif key in ("coordinates", "momenta"):
+            spec[key] = rest.split()
+        elif key in ("kind", "expr"):
+            spec[key] = rest
+    return spec
+
+
+def check_names(spec):
+    """Names are identifiers, not functions or C words, and each is used once."""
+    seen = {}
+    items = [("coordinates", n) for n in spec["coordinates"]]
+    items += [("momenta", n) for n in spec.get("momenta", [])]
+    consts = []
+    for k, c in enumerate(spec["constants"]):
+        name, eq, value = c.partition("=")
+        name = name.strip()
+        if not eq or not value.strip():
+            raise FormulaError("constants", f"constants({k + 1}) = '{c}' is not 'name = value'")
+        items.append(("constants", name))
+        consts.append((name, value.strip(), k + 1))
+    for var, name in items:
+        if not NAME_RE.match(name):
+            raise FormulaError(var, f"'{name}' is not a name (a letter, then letters, digits or _)")
+        if name in FUNCTIONS or name in REFUSED or name in NAMED:
+            raise FormulaError(var, f"'{name}' is the name of a function or constant of formulas: choose another")
+        if name in RESERVED:
+            raise FormulaError(var, f"'{name}' is a reserved word of formulas (as in Python): choose "
+                                    f"another, e.g. '{name}_'")
+        if name in seen:
+            raise FormulaError(var, f"'{name}' is named twice (in {seen[name]} and {var})")
+        seen[name] = var
+    return consts
+
+
+class Printer:
+    """SymPy's C99 printer, with small integer and half-integer powers as products and sqrt."""
+
+    def __init__(self, sp):
+        from sympy.printing.c import C99CodePrinter
+
+        class P(C99CodePrinter):
+            def _print_Pow(self, expr):
+                b, e = expr.base, expr.exp
+                if e.is_Integer and 2 <= abs(int(e)) <= 8:
+                    prod = "*".join([self.parenthesize(b, 100)] * abs(int(e)))
+                    return f"({prod})" if e > 0 else f"(1.0/({prod}))"
+                if e == -1:
+                    return f"(1.0/{self.parenthesize(b, 100)})"
+                if e.is_Rational and e.q == 2 and abs(e.p) <= 9 and e != sp.Rational(1, 2):
+                    n = abs(e.p) // 2
+                    base = f"sqrt({self._print(b)})" + "".join(f"*{self.parenthesize(b, 100)}" for _ in range(n))
+                    return f"({base})" if e > 0 else f"(1.0/({base}))"
+                return super()._print_Pow(expr)
+
+            def _print_Rational(self, expr):
+                return f"({expr.p}.0/{expr.q}.0)"
+
+            def _print_Integer(self, expr):
+                return f"{int(expr)}.0"
+
+        self.p = P()
+
+    def __call__(self, e):
+        return self.p.doprint(e)
+
+
+def function(sp, pr, name, inputs, consts, outputs, comment):
+    """One C function `void name(const double *in, double *out)`: out[k] = outputs[k]."""
+    temps, reduced = sp.cse(outputs, symbols=sp.numbered_symbols("t_"), order="none")
+    lines = [f"/* {comment} */", f"void {name}(const double *restrict in, double *restrict out) {{"]
+    for k, s in enumerate(inputs):
+        lines.append(f"  const double {s} = in[{k}];")
+    for s, v in consts:
+        lines.append(f"  const double {s} = {v!r};")
+    for s, e in temps:
+        lines.append(f"  const double {s} = {pr(e)};")
+    for k, e in enumerate(reduced):
+        lines.append(f"  out[{k}] = {pr(e)};")
+    lines.append("}")
+    return "\n".join(lines)
+
+
+def reversor(sp, h, qs, ps):
+    """Signs r (2N) of a reversor x -> r x (q_i -> s_i q_i, p_i -> -s_i p_i) with H(r x) = H(x),
+    the one with the most s_i = +1 (a natural system's (q, -p) first); zeros if none: symmetric
+    periodic orbits are found with it (src/tubes_orbits.f90)."""
+    from itertools import product
+    n = len(qs)
+    for signs in sorted(product((1, -1), repeat=n), key=lambda s: (s.count(-1), [-v for v in s])):
+        sub = {q: s * q for q, s in zip(qs, signs)}
+        sub.update({p: -s * p for p, s in zip(ps, signs)})
+        if sp.simplify(sp.expand(h.subs(sub, simultaneous=True) - h)) == 0:
+            return list(signs) + [-s for s in signs]
+    return [0] * (2 * n)
+
+
+def generate(spec):
+    """C source of the model in spec; raises FormulaError."""
+    import sympy as sp
+
+    kind = spec.get("kind")
+    var = "height" if kind == "surface" else "hamiltonian"
+    coords = spec.get("coordinates", [])
+    moms = spec.get("momenta", [])
+    if kind == "surface":
+        if len(coords) != 2:
+            raise FormulaError("coordinates", "a surface z = h(x, y) has two coordinates")
+    else:
+        if not 1 <= len(coords) <= MAX_DOF:
+            raise FormulaError("coordinates", f"{len(coords)} coordinates: a model has 1 to {MAX_DOF} "
+                                              "degrees of freedom")
+        if len(moms) != len(coords):
+            raise FormulaError("momenta", f"{len(moms)} momenta for {len(coords)} coordinates: give one "
+                                          "momentum per coordinate, in the same order")
+    consts = check_names(spec)
+    # constants: each a number, or a formula of numbers and the constants before it
+    csyms, cvals, table = {}, [], {}
+    for name, text, k in consts:
+        e = parse(text, "constants", dict(table), sp)
+        v = sp.N(e.subs({csyms[n]: val for n, val in cvals}), 30)
+        if not (v.is_real and v.is_finite):
+            raise FormulaError("constants", f"constants({k}): {name} = {text} is not a finite real number")
+        c_name = f"k_{name}"
+        csyms[name] = sp.Symbol(c_name, real=True)
+        cvals.append((name, v))
+        table[name] = csyms[name]
+    qs = [sp.Symbol(f"q_{k}", real=True) for k in range(len(coords))]
+    ps = [sp.Symbol(f"p_{k}", real=True) for k in range(len(moms))]
+    names = dict(zip(coords, qs))
+    names.update(zip(moms, ps))
+    names.update(table)
+    h = parse(spec.get("expr", ""), var, names, sp)
+    free = h.free_symbols
+    for n, s in list(zip(coords, qs)) + list(zip(moms, ps)):
+        if s not in free:
+            what = "coordinate" if s in qs else "momentum"
+            raise FormulaError(var, f"the {what} '{n}' never appears in the formula")
+    cdecl = [(str(csyms[n]), float(v)) for n, v in cvals]
+    pr = Printer(sp)
+    out = ["/* generated by python/tubes/codegen.py (docs/models.md): do not edit */",
+           "#include <math.h>", "#ifndef M_PI", "#define M_PI 3.14159265358979323846", "#endif",
+           f"const int tubes_expr_abi = {ABI};"]
+    if kind == "surface":
+        x = qs
+        d1 = [sp.diff(h, a) for a in x]
+        d2 = [sp.diff(h, a, b) for b in x for a in x]
+        d3 = [sp.diff(h, a, b, c) for c in x for b in x for a in x]
+        out += ["const int tubes_expr_kind = 2;", "const int tubes_expr_ndof = 2;",
+                "const int tubes_expr_natural = 1;",
+                function(sp, pr, "tubes_expr_height", x, cdecl, [h], "h(x, y)"),
+                function(sp, pr, "tubes_expr_derivs", x, cdecl, d1 + d2,
+                         "h_x, h_y, then the Hessian column by column"),
+                function(sp, pr, "tubes_expr_third", x, cdecl, d3, "t3(i, j, k), Fortran order")]
+        return "\n".join(out) + "\n", {"natural": True}
+    x = qs + ps
+    n = len(qs)
+    grad = [sp.diff(h, a) for a in x]
+    hess = [sp.diff(g, a) for a in x for g in grad]
+    field = grad[n:] + [-g for g in grad[:n]]
+    zero = {p: 0 for p in ps}
+    v = h.subs(zero)
+    t = sp.expand(h - v)
+    natural = all(sp.simplify(sp.diff(t, p).subs(zero)) == 0 for p in ps) and all(
+        sp.simplify(sp.diff(t, a, b, c)) == 0 for a in ps for b in ps for c in ps)
+    rev = reversor(sp, h, qs, ps)
+    out += ["const int tubes_expr_kind = 1;", f"const int tubes_expr_ndof = {n};",
+            f"const int tubes_expr_natural = {int(natural)};",
+            "/* a time-reversal symmetry (q_i, p_i) -> (s_i q_i, -s_i p_i) of H, or zeros */",
+            "const int tubes_expr_reversor[] = {" + ", ".join(str(r) for r in rev) + "};",
+            function(sp, pr, "tubes_expr_energy", x, cdecl, [h], "H(q, p)"),
+            function(sp, pr, "tubes_expr_field", x, cdecl, field, "dq/dt = dH/dp, dp/dt = -dH/dq"),
+            function(sp, pr, "tubes_expr_gradient", x, cdecl, grad, "dH/dx"),
+            function(sp, pr, "tubes_expr_hessian", x, cdecl, hess, "d2H/dx2, column by column")]
+    if natural:
+        vg = [sp.diff(v, a) for a in qs]
+        vh = [sp.diff(g, a) for a in qs for g in vg]
+        a = [sp.diff(t, pi, pj) for pj in ps for pi in ps]
+        out += [function(sp, pr, "tubes_expr_shape", qs, cdecl, [v], "V(q) = H(q, 0)"),
+                function(sp, pr, "tubes_expr_shape_derivs", qs, cdecl, vg + vh,
+                         "grad V, then its Hessian column by column"),
+                function(sp, pr, "tubes_expr_kinetic", qs, cdecl, a, "A(q) = d2H/dp2")]
+    return "\n".join(out) + "\n", {"natural": natural}
+
+
+def main(argv):
+    out_path = None
+    if len(argv) == 3 and argv[1] == "--out":
+        out_path = argv[2]
+    else:
+        sys.stderr.write("usage: codegen.py --out FILE < SPEC\n")
+        return 2
+    try:
+        import sympy  # noqa: F401
+    except ImportError:
+        sys.stderr.write("-\tSymPy is not installed for this Python (" + sys.executable + "): run make deps\n")
+        return 3
+    text = sys.stdin.read()
+    spec = read_spec(text.splitlines())
+    try:
+        src, _ = generate(spec)
+    except FormulaError as e:
+        sys.stderr.write(f"{e.var}\t{e.msg}\n")
+        return 1
+    # the whole spec, to tell a cached library from another model's (src/io/tubes_expr.c)
+    esc = "".join(c if c.isascii() and c.isprintable() and c not in '"\\?' else f"\\{ord(c):03o}"
+                  for c in text.encode("utf-8").decode("latin-1"))
+    with open(out_path, "w") as f:
+        f.write(src + f'const char tubes_expr_text[] = "{esc}";\n')
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

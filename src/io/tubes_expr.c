@@ -1,0 +1,346 @@
+/* Models written as formulas (docs/models.md, "Models from the input file"): the generated code's
+ * shared library, built once and cached, then loaded (include/tubes.h: tubes_expr_build,
+ * tubes_expr_open).
+ *
+ * build: the spec (src/io/tubes_nml.f90 writes it: the formula, names, constants and the
+ * compiler) is hashed (FNV-1a, 64 bits) into the library's name expr_<hash>; a cache hit is a
+ * library of that name whose embedded spec (tubes_expr_text) is the same text. A miss runs
+ * python/tubes/codegen.py (SymPy) and the build's C compiler in a private temporary directory of
+ * the cache and renames the library into place, so that runs and MPI ranks starting at once each
+ * build or load a whole library, never a half-written one.
+ * open: the library of a name, through dlopen (the loader keeps it: no state here). */
+#include "tubes.h"
+#include <dirent.h>
+#include <dlfcn.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <spawn.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+extern char **environ;
+
+#ifndef TUBES_MODEL_CC
+#define TUBES_MODEL_CC "cc"
+#endif
+#ifndef TUBES_SOURCE_DIR
+#define TUBES_SOURCE_DIR "."
+#endif
+#ifndef TUBES_MODEL_CC_VERSION
+#define TUBES_MODEL_CC_VERSION ""
+#endif
+#define EXPR_CFLAGS "-O2", "-fPIC", "-shared", "-fno-math-errno"
+
+static int build(const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg, int lmsg, char *lib,
+                 int llib, int *hit);
+
+static void say(char *msg, int lmsg, const char *fmt, ...) {
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(msg, (size_t)lmsg, fmt, ap);
+  va_end(ap);
+}
+
+/* The cache directory: $TUBES_CACHE_DIR, else ${XDG_CACHE_HOME:-$HOME/.cache}/tubes. */
+static int cache_dir(char *buf, size_t n) {
+  const char *d = getenv("TUBES_CACHE_DIR");
+  if (d && d[0]) return snprintf(buf, n, "%s", d) >= (int)n ? -1 : 0;
+  d = getenv("XDG_CACHE_HOME");
+  if (d && d[0]) return snprintf(buf, n, "%s/tubes", d) >= (int)n ? -1 : 0;
+  d = getenv("HOME");
+  if (!d || !d[0]) d = "/tmp";
+  return snprintf(buf, n, "%s/.cache/tubes", d) >= (int)n ? -1 : 0;
+}
+
+/* mkdir -p */
+static int make_dirs(const char *path) {
+  char p[PATH_MAX];
+  snprintf(p, sizeof p, "%s", path);
+  for (char *s = p + 1; *s; s++)
+    if (*s == '/') {
+      *s = 0;
+      if (mkdir(p, 0777) && errno != EEXIST) return -1;
+      *s = '/';
+    }
+  return mkdir(p, 0777) && errno != EEXIST ? -1 : 0;
+}
+
+static uint64_t fnv1a(const char *s) {
+  uint64_t h = 1469598103934665603ULL;
+  for (; *s; s++) h = (h ^ (unsigned char)*s) * 1099511628211ULL;
+  return h;
+}
+
+static double now(void) {
+  struct timespec t;
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static int exists(const char *path, int mode) { return access(path, mode) == 0; }
+
+/* Run argv with stdin from in (or /dev/null) and stdout+stderr into out; the exit status, or -1
+ * with errno when it could not start. */
+static int run(char *const argv[], const char *in, const char *out) {
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 0, in ? in : "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&fa, 1, out, O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  posix_spawn_file_actions_adddup2(&fa, 1, 2);
+  pid_t pid;
+  int e = posix_spawnp(&pid, argv[0], &fa, NULL, argv, environ);
+  posix_spawn_file_actions_destroy(&fa);
+  if (e) {
+    errno = e;
+    return -1;
+  }
+  int st;
+  while (waitpid(pid, &st, 0) < 0)
+    if (errno != EINTR) return -1;
+  if (WIFEXITED(st)) return WEXITSTATUS(st) == 127 ? (errno = ENOENT, -1) : WEXITSTATUS(st);
+  return 128 + (WIFSIGNALED(st) ? WTERMSIG(st) : 0);
+}
+
+/* The first lines of a file (a tool's complaint) into msg after its current text. */
+static void append_file(char *msg, int lmsg, const char *path) {
+  FILE *f = fopen(path, "r");
+  if (!f) return;
+  size_t k = strlen(msg);
+  size_t n = fread(msg + k, 1, (size_t)lmsg - k - 1, f);
+  msg[k + n] = 0;
+  for (size_t i = k + n; i > k && (msg[i - 1] == '\n' || msg[i - 1] == ' '); i--) msg[i - 1] = 0;
+  fclose(f);
+}
+
+/* rm -r of the build's temporary directory (flat) */
+static void remove_tree(const char *dir) {
+  DIR *d = opendir(dir);
+  if (d) {
+    struct dirent *e;
+    char p[PATH_MAX + 512];
+    while ((e = readdir(d)))
+      if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) {
+        snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
+        unlink(p);
+      }
+    closedir(d);
+  }
+  rmdir(dir);
+}
+
+/* A tool: $ENV, else a path relative to the program's directory, else one relative to the
+ * source tree the program was built from, else fallback (PATH). */
+static void find_tool(char *buf, size_t n, const char *env, const char *rel, const char *fallback) {
+  const char *e = getenv(env);
+  if (e && e[0]) {
+    snprintf(buf, n, "%s", e);
+    return;
+  }
+  char exe[PATH_MAX];
+  ssize_t k = readlink("/proc/self/exe", exe, sizeof exe - 1);
+  if (k > 0) {
+    exe[k] = 0;
+    char *slash = strrchr(exe, '/');
+    if (slash) {
+      *slash = 0;
+      if (snprintf(buf, n, "%s/%s", exe, rel) < (int)n && exists(buf, R_OK)) return;
+    }
+  }
+  if (snprintf(buf, n, "%s/%s", TUBES_SOURCE_DIR, rel) < (int)n && exists(buf, R_OK)) return;
+  snprintf(buf, n, "%s", fallback);
+}
+
+/* Is the library at path the model of spec? (its embedded text) */
+static int library_matches(const char *path, const char *spec) {
+  void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+  if (!h) return 0;
+  const char *text = (const char *)dlsym(h, "tubes_expr_text");
+  const int *abi = (const int *)dlsym(h, "tubes_expr_abi");
+  return text && abi && *abi == 1 && !strcmp(text, spec);
+}
+
+const char *tubes_expr_compiler(void) {
+  const char *cc = getenv("TUBES_CC");
+  return cc && cc[0] ? cc : TUBES_MODEL_CC;
+}
+
+int tubes_expr_build(const char *model, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg, int lmsg,
+                     char *lib, int llib, double *seconds, int *hit) {
+  double t0 = now();
+  /* the spec: the model and the compiler that builds it (both in the hash) */
+  const char *cc_env = getenv("TUBES_CC");
+  size_t ls = strlen(model) + 256;
+  char *spec = malloc(ls);
+  if (!spec) return TUBES_EIO;
+  snprintf(spec, ls, "%scompiler %s %s\n", model, tubes_expr_compiler(), cc_env && cc_env[0] ? "" : TUBES_MODEL_CC_VERSION);
+  int rc = build(spec, key, var, lvar, msg, lmsg, lib, llib, hit);
+  free(spec);
+  *seconds = now() - t0;
+  return rc;
+}
+
+static int build(const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg, int lmsg, char *lib,
+                 int llib, int *hit) {
+  char dir[PATH_MAX], path[PATH_MAX + 64], tmp[PATH_MAX + 64];
+  *hit = 0;
+  snprintf(var, (size_t)lvar, "system");
+  msg[0] = 0;
+  lib[0] = 0;
+  snprintf(key, TUBES_LSYSTEM, "expr_%016llx", (unsigned long long)fnv1a(spec));
+  if (cache_dir(dir, sizeof dir) || make_dirs(dir) || !exists(dir, W_OK | X_OK)) {
+    say(msg, lmsg, "the model cache directory '%s' cannot be created or written (%s): set TUBES_CACHE_DIR to a "
+        "writable directory", dir, strerror(errno ? errno : EACCES));
+    return TUBES_EIO;
+  }
+  snprintf(path, sizeof path, "%s/%s.so", dir, key);
+  snprintf(lib, (size_t)llib, "%s", path);
+  if (exists(path, R_OK)) {
+    if (library_matches(path, spec)) {
+      *hit = 1;
+      return TUBES_OK;
+    }
+    say(msg, lmsg, "the cached library '%s' is not this model's (a damaged file, or another model with the same "
+        "hash): remove it and run again", path);
+    return TUBES_EIO;
+  }
+  const char *off = getenv("TUBES_NO_CODEGEN");
+  if (off && off[0]) {
+    say(msg, lmsg, "the model is not in the cache and code generation is off (TUBES_NO_CODEGEN is set)");
+    return TUBES_EINPUT;
+  }
+  snprintf(tmp, sizeof tmp, "%s/%s.XXXXXX", dir, key);
+  if (!mkdtemp(tmp)) {
+    say(msg, lmsg, "cannot create a build directory in '%s': %s", dir, strerror(errno));
+    return TUBES_EIO;
+  }
+  char f_spec[PATH_MAX + 80], f_c[PATH_MAX + 80], f_so[PATH_MAX + 80], f_log[PATH_MAX + 80];
+  snprintf(f_spec, sizeof f_spec, "%s/model.spec", tmp);
+  snprintf(f_c, sizeof f_c, "%s/model.c", tmp);
+  snprintf(f_so, sizeof f_so, "%s/model.so", tmp);
+  snprintf(f_log, sizeof f_log, "%s/log", tmp);
+  int rc = TUBES_EIO;
+  FILE *f = fopen(f_spec, "w");
+  if (!f || fputs(spec, f) < 0 || fclose(f)) {
+    say(msg, lmsg, "cannot write '%s': %s", f_spec, strerror(errno));
+    goto done;
+  }
+  char py[PATH_MAX], script[PATH_MAX];
+  find_tool(py, sizeof py, "TUBES_PYTHON", ".venv/bin/python", "python3");
+  find_tool(script, sizeof script, "TUBES_CODEGEN", "python/tubes/codegen.py", "codegen.py");
+  {
+    char *argv[] = {py, script, "--out", f_c, NULL};
+    int st = run(argv, f_spec, f_log);
+    if (st < 0) {
+      say(msg, lmsg, "a model written as a formula needs Python 3 with SymPy to generate its code: '%s' cannot be "
+          "run (%s); run make deps, or set TUBES_PYTHON", py, strerror(errno));
+      goto done;
+    }
+    if (st == 1) {   /* the formula: "variable<TAB>message" */
+      FILE *g = fopen(f_log, "r");
+      char line[2048] = "";
+      if (g && fgets(line, sizeof line, g)) {
+        char *tab = strchr(line, '\t');
+        line[strcspn(line, "\n")] = 0;
+        if (tab) {
+          *tab = 0;
+          snprintf(var, (size_t)lvar, "%s", line);
+          say(msg, lmsg, "%s", tab + 1);
+        } else {
+          say(msg, lmsg, "%s", line);
+        }
+      }
+      if (g) fclose(g);
+      rc = TUBES_EINPUT;
+      goto done;
+    }
+    if (st != 0) {
+      say(msg, lmsg, "generating the model's code failed (%s %s, exit %d): ", py, script, st);
+      append_file(msg, lmsg, f_log);
+      goto done;
+    }
+  }
+  {
+    char cc[PATH_MAX];
+    snprintf(cc, sizeof cc, "%s", tubes_expr_compiler());
+    char *argv[] = {cc, EXPR_CFLAGS, "-o", f_so, f_c, "-lm", NULL};
+    int st = run(argv, NULL, f_log);
+    if (st < 0) {
+      say(msg, lmsg, "a model written as a formula is compiled with the build's C compiler: '%s' cannot be run "
+          "(%s); install it, or set TUBES_CC", cc, strerror(errno));
+      goto done;
+    }
+    if (st != 0) {
+      say(msg, lmsg, "compiling the model's code failed (%s, exit %d): ", cc, st);
+      append_file(msg, lmsg, f_log);
+      goto done;
+    }
+  }
+  if (rename(f_so, path)) {
+    say(msg, lmsg, "cannot move the model's library into the cache '%s': %s", path, strerror(errno));
+    goto done;
+  }
+  if (!library_matches(path, spec)) {
+    say(msg, lmsg, "the library just built, '%s', cannot be loaded: %s", path, dlerror());
+    goto done;
+  }
+  rc = TUBES_OK;
+done:
+  remove_tree(tmp);
+  return rc;
+}
+
+int tubes_expr_open(const char key[TUBES_LSYSTEM], tubes_expr_lib_t *m) {
+  char dir[PATH_MAX], path[PATH_MAX + 64], k[TUBES_LSYSTEM + 1];
+  memset(m, 0, sizeof *m);
+  snprintf(k, sizeof k, "%.*s", TUBES_LSYSTEM, key);
+  k[strcspn(k, " ")] = 0;
+  if (strncmp(k, "expr_", 5) || strlen(k) != 21 || cache_dir(dir, sizeof dir)) return TUBES_EINPUT;
+  snprintf(path, sizeof path, "%s/%s.so", dir, k);
+  void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+  if (!h) return TUBES_EINPUT;
+  const int *abi = dlsym(h, "tubes_expr_abi"), *kind = dlsym(h, "tubes_expr_kind"),
+            *ndof = dlsym(h, "tubes_expr_ndof"), *nat = dlsym(h, "tubes_expr_natural");
+  const char *text = dlsym(h, "tubes_expr_text");
+  if (!abi || *abi != 1 || !kind || !ndof || !nat || !text) return TUBES_EINPUT;
+  const int *rev = dlsym(h, "tubes_expr_reversor");
+  for (int i = 0; rev && i < 2 * *ndof && i < 2 * TUBES_MAXDOF; i++) m->reversor[i] = rev[i];
+  m->kind = *kind;
+  m->ndof = *ndof;
+  m->natural = *nat;
+  static const char *const ham[] = {"tubes_expr_energy", "tubes_expr_field", "tubes_expr_gradient",
+                                    "tubes_expr_hessian", "tubes_expr_shape", "tubes_expr_shape_derivs",
+                                    "tubes_expr_kinetic"};
+  static const char *const surf[] = {"tubes_expr_height", "tubes_expr_derivs", "tubes_expr_third"};
+  int nf = m->kind == 2 ? 3 : (m->natural ? 7 : 4);
+  for (int i = 0; i < nf; i++) {
+    *(void **)(&m->fn[i]) = dlsym(h, m->kind == 2 ? surf[i] : ham[i]);
+    if (!m->fn[i]) return TUBES_EINPUT;
+  }
+  /* names and formula from the spec's lines */
+  const char *s = text;
+  while (*s) {
+    const char *e = strchr(s, '\n');
+    size_t n = e ? (size_t)(e - s) : strlen(s);
+    if (!strncmp(s, "expr ", 5)) snprintf(m->formula, sizeof m->formula, "%.*s", (int)(n - 5), s + 5);
+    int off = !strncmp(s, "coordinates ", 12) ? 0 : !strncmp(s, "momenta ", 8) ? TUBES_MAXDOF : -1;
+    if (off >= 0) {
+      const char *w = strchr(s, ' ') + 1;
+      for (int j = 0; j < TUBES_MAXDOF && w < s + n; j++) {
+        size_t l = strcspn(w, " \n");
+        snprintf(m->names[off + j], sizeof m->names[0], "%.*s", (int)l, w);
+        w += l;
+        while (*w == ' ') w++;
+      }
+    }
+    s += n + (e != NULL);
+  }
+  return TUBES_OK;
+}
