@@ -11,6 +11,7 @@ export OPENBLAS_NUM_THREADS=1
 OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python bench/bench_dop853.py
 OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python bench/bench_integrators.py
 .venv/bin/python bench/bench_tubes.py
+.venv/bin/python bench/bench_expression.py
 if [ -f bench/bench_stability.py ]; then .venv/bin/python bench/bench_stability.py; fi
 # the MPI flavour's scaling (docs/cluster.md), when an MPI compiler wrapper is installed
 if command -v mpifort >/dev/null 2>&1; then
