@@ -367,7 +367,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
     if (cmsg(i) == c_null_char) exit
     msg(i:i) = cmsg(i)
   end do
-  system = chars(cfg%system)
+  system = chars(cfg%model)   ! the library's name of the model (expr_<hash> for a formula)
   params = cfg%params
   lo = cfg%box_lo
   hi = cfg%box_hi

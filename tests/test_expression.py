@@ -276,3 +276,32 @@ def test_start_where_the_formula_is_not_finite(tmp_path, cache):
     assert p.returncode == 1, p.stdout + p.stderr
     assert "&trajectory: the model is not defined at the starting point" in p.stderr
     assert not any(f.startswith("nf.h5") for f in os.listdir(tmp))
+
+
+def test_python_model_from_a_string_and_from_sympy(tmp_path, monkeypatch):
+    """tubes.Model(system='expression', ...) from text and from a SymPy expression: the library's
+    numbers of the built-in, through the same reader and cache as the program."""
+    monkeypatch.setenv("TUBES_CACHE_DIR", str(tmp_path / "cache"))
+    import sympy as sp
+    import tubes
+    m = tubes.Model(system="expression", hamiltonian=HH)
+    b = tubes.Model(system="henon_heiles")
+    x = [0.1, 0.2, 0.3, -0.1]
+    assert abs(tubes.energy(x, m) - tubes.energy(x, b)) < 1e-15
+    assert np.allclose(tubes.vector_field(x, m), tubes.vector_field(x, b), rtol=0, atol=1e-15)
+    sec = {"kind": "plane", "index": 2, "value": 0.0, "direction": 1}
+    r1 = tubes.transition(m, [0.01, 0.02], saddle_near=(0, 1), section=sec, equilibria={"box": 1.5})
+    r2 = tubes.transition(b, [0.01, 0.02], saddle_near=(0, 1), section=sec)
+    assert np.allclose(r1["p_trans"], r2["p_trans"], rtol=REL, atol=0)
+    # SymPy: symbols and a constant given as a number keep every digit
+    x_, y_, px, py, a = sp.symbols("x y px py a")
+    h = (px**2 + py**2) / 2 + (x_**2 + y_**2) / 2 + x_**2 * y_ - y_**3 / 3 + a * 0
+    s = tubes.Model(system="expression", hamiltonian=h + a * x_**2 - a * x_**2, constants={"a": 0.1})
+    assert abs(tubes.energy(x, s) - tubes.energy(x, b)) < 1e-15
+    assert s.replace().name == s.name
+    with pytest.raises(ValueError, match="function 'abs' at column"):
+        tubes.Model(system="expression", hamiltonian="px^2 + py^2 + abs(x) + y")
+    # the model of an output file
+    assert tubes.Model.of({"model": type("G", (), {"attrs": {
+        "system": "expression", "formula": HH, "coordinates": "x y", "momenta": "px py",
+        "constants": ""}})()}) == m

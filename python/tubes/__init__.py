@@ -68,16 +68,32 @@ class Model:
         tubes.Model(system="henon_heiles")
         tubes.Model(system="cr3bp", mu=0.000953875)     # Sun-Jupiter
 
+    or written as a formula (docs/models.md, "Models from the input file"), a string or a SymPy
+    expression, with constants as a dict or as 'name = value' strings:
+
+        tubes.Model(system="expression", hamiltonian="(px^2 + py^2)/2 + x^4/4 - x^2/2 + y^2/2")
+        tubes.Model(system="expression", hamiltonian=H, coordinates=(q1, q2, q3),
+                    momenta=(p1, p2, p3), constants={"k": 2.0})        # SymPy symbols
+        tubes.Model(surface="expression", height="0.07*(x^2 + y^2) - sqrt(x^2 + 15)")
+
     The parameters, their defaults and their order come from the Fortran table
     (src/tubes_models.f90): a keyword that is not a parameter of the system is refused with the
     system's parameters named, as the input file refuses it. ``model.alpha`` reads a parameter;
     ``model.parameters`` is the dict of all of them; ``model.params()`` the vector the core
     takes."""
 
-    __slots__ = ("system", "parameters", "ndof", "_vector", "info")
+    __slots__ = ("system", "parameters", "ndof", "_vector", "info", "name", "formula")
 
-    def __init__(self, system: str = "rolling_ball", **parameters):
-        info = model_info(system)
+    def __init__(self, system: str = "rolling_ball", *, hamiltonian=None, coordinates=None, momenta=None,
+                 constants=None, surface=None, height=None, **parameters):
+        formula = _formula(system, hamiltonian, coordinates, momenta, constants, surface, height)
+        object.__setattr__(self, "formula", formula)
+        name = system
+        if formula:
+            # the program's reader builds (or finds in the cache) the model's library: its name
+            _codegen_env()
+            name = _str(_read_namelist([_formula_nml(system, formula)], "Model")["system"])
+        info = model_info(name)
         unknown = sorted(set(parameters) - set(info["parameters"]))
         if unknown:
             allowed = ", ".join(info["parameters"]) or "none"
@@ -92,6 +108,7 @@ class Model:
         vec = np.zeros(16)
         vec[:len(values)] = list(values.values())
         object.__setattr__(self, "system", system)
+        object.__setattr__(self, "name", name)
         object.__setattr__(self, "parameters", values)
         object.__setattr__(self, "ndof", info["ndof"])
         object.__setattr__(self, "_vector", vec)
@@ -102,8 +119,8 @@ class Model:
 
     def _nml(self) -> str:
         """The &model group of this model, as an input file writes it."""
-        return f"&model system = '{self.system}'" + "".join(
-            f", {k} = {_nml_value(v)}" for k, v in self.parameters.items()) + " /"
+        head = _formula_nml(self.system, self.formula)[:-2] if self.formula else f"&model system = '{self.system}'"
+        return head + "".join(f", {k} = {_nml_value(v)}" for k, v in self.parameters.items()) + " /"
 
     def __getattr__(self, key):
         try:
@@ -115,14 +132,15 @@ class Model:
         raise AttributeError("Model is immutable: build a new one")
 
     def __eq__(self, other):
-        return (isinstance(other, Model) and self.system == other.system
+        return (isinstance(other, Model) and self.system == other.system and self.name == other.name
                 and self.parameters == other.parameters)
 
     def __hash__(self):
-        return hash((self.system, tuple(self.parameters.items())))
+        return hash((self.system, self.name, tuple(self.parameters.items())))
 
     def __repr__(self):
-        kw = ", ".join(f"{k}={v!r}" for k, v in self.parameters.items())
+        kw = ", ".join([f"{k}={v!r}" for k, v in (self.formula or {}).items()]
+                       + [f"{k}={v!r}" for k, v in self.parameters.items()])
         return f"Model(system={self.system!r}{', ' if kw else ''}{kw})"
 
     def params(self) -> np.ndarray:
@@ -130,8 +148,8 @@ class Model:
         return self._vector.copy()
 
     def replace(self, **parameters) -> "Model":
-        """A copy with some parameters changed."""
-        return Model(self.system, **{**self.parameters, **parameters})
+        """A copy with some parameters (or formula variables) changed."""
+        return Model(self.system, **{**(self.formula or {}), **self.parameters, **parameters})
 
     @classmethod
     def of(cls, res) -> "Model":
@@ -143,8 +161,84 @@ class Model:
             node = res                   # the /model group itself
         attrs = dict(node.attrs)
         system = _decode(attrs.get("system", "rolling_ball"))
+        if "formula" in attrs:            # a model written as a formula (docs/output.md)
+            consts = [c.strip() for c in _decode(attrs.get("constants", "")).split(";") if c.strip()]
+            if system == "expression":
+                kw = {"hamiltonian": _decode(attrs["formula"]),
+                      "coordinates": _decode(attrs.get("coordinates", "x y")).split(),
+                      "momenta": _decode(attrs.get("momenta", "")).split() or None}
+            else:
+                kw = {"surface": "expression", "height": _decode(attrs["formula"])}
+                kw.update({k: float(attrs[k]) for k in ("g", "damping_ratio") if k in attrs})
+            return cls(system, constants=consts, **kw)
         names = model_info(system)["parameters"]
         return cls(system, **{k: float(attrs[k]) for k in names if k in attrs})
+
+
+def _sympy_text(e) -> str:
+    """A formula as text: a string as it is, a SymPy expression printed with every float's
+    shortest round-trip digits (SymPy's default printer keeps 15)."""
+    if isinstance(e, str):
+        return e
+    from sympy.printing.str import StrPrinter  # noqa: PLC0415
+
+    class _Exact(StrPrinter):
+        def _print_Float(self, expr):
+            return repr(float(expr))
+
+    return _Exact().doprint(e)
+
+
+def _formula(system, hamiltonian, coordinates, momenta, constants, surface, height) -> dict | None:
+    """The formula variables of a model written as one (None for a library model)."""
+    if system != "expression" and surface in (None, "fourwell"):
+        if hamiltonian is not None or height is not None or constants is not None:
+            raise ValueError(f"Model: hamiltonian, height and constants belong to system='expression' "
+                             f"or surface='expression', not to system {system!r}")
+        return None
+    if system == "expression":
+        if hamiltonian is None:
+            raise ValueError("Model: system='expression' needs hamiltonian")
+        if surface is not None or height is not None:
+            raise ValueError("Model: surface and height belong to the rolling ball, not to system='expression'")
+        f = {"hamiltonian": _sympy_text(hamiltonian)}
+        if coordinates is not None:
+            f["coordinates"] = [str(c) for c in coordinates]
+        if momenta is not None:
+            f["momenta"] = [str(c) for c in momenta]
+    else:
+        if system != "rolling_ball" or surface != "expression" or height is None:
+            raise ValueError("Model: a formula's surface is system='rolling_ball', surface='expression', "
+                             "height='...'")
+        if hamiltonian is not None or coordinates is not None or momenta is not None:
+            raise ValueError("Model: hamiltonian, coordinates and momenta belong to system='expression'")
+        f = {"surface": "expression", "height": _sympy_text(height)}
+    if constants:
+        items = constants.items() if isinstance(constants, dict) else None
+        f["constants"] = ([f"{k} = {_sympy_text(v) if not isinstance(v, (int, float)) else repr(v)}"
+                           for k, v in items] if items is not None else [str(c) for c in constants])
+    return f
+
+
+def _quote(text: str) -> str:
+    return "'" + str(text).replace("'", "''") + "'"
+
+
+def _formula_nml(system: str, f: dict) -> str:
+    """The &model group of a formula's model."""
+    parts = [f"&model system = '{system}'"]
+    for k, v in f.items():
+        parts.append(f"{k} = " + (", ".join(_quote(x) for x in v) if isinstance(v, list) else _quote(v)))
+    return ", ".join(parts) + " /"
+
+
+def _codegen_env() -> None:
+    """The code generator this process runs for a new formula: this Python (it has SymPy if the
+    package's tests pass) and the package's codegen.py, unless the environment says otherwise."""
+    import os  # noqa: PLC0415
+    import sys  # noqa: PLC0415
+    os.environ.setdefault("TUBES_PYTHON", sys.executable)
+    os.environ.setdefault("TUBES_CODEGEN", os.path.join(os.path.dirname(os.path.abspath(__file__)), "codegen.py"))
 
 
 def systems() -> list[str]:
@@ -195,7 +289,7 @@ def energy(state, model: Model | None = None) -> float:
     per unit mass T + g H [(cm/s)^2] of (x, y, px, py)."""
     model = model or Model()
     n = 2 * model.ndof
-    stat, e = _lib().energies(model.system, model.params(),
+    stat, e = _lib().energies(model.name, model.params(),
                               _vec(state, n, "state").reshape(n, 1, order="F"))
     _check(stat, "energy")
     return float(e[0])
@@ -206,7 +300,7 @@ def energies(states, model: Model | None = None) -> np.ndarray:
     model = model or Model()
     n = 2 * model.ndof
     a = np.asfortranarray(np.array(states, dtype=np.float64, copy=True).reshape(-1, n).T)
-    stat, e = _lib().energies(model.system, model.params(), a)
+    stat, e = _lib().energies(model.name, model.params(), a)
     _check(stat, "energies")
     return np.asarray(e).copy()
 
@@ -216,7 +310,7 @@ def potentials(q, model: Model | None = None) -> np.ndarray:
     model = model or Model()
     n = model.ndof
     a = np.asfortranarray(np.array(q, dtype=np.float64, copy=True).reshape(-1, n).T)
-    stat, v = _lib().potentials(model.system, model.params(), a)
+    stat, v = _lib().potentials(model.name, model.params(), a)
     _check(stat, "potentials")
     return np.asarray(v).copy()
 
@@ -227,7 +321,7 @@ def shape_derivatives(q, model: Model | None = None):
     model = model or Model()
     n = model.ndof
     a = np.asfortranarray(np.array(q, dtype=np.float64, copy=True).reshape(-1, n).T)
-    stat, g, h = _lib().shape_derivs(model.system, model.params(), a)
+    stat, g, h = _lib().shape_derivs(model.name, model.params(), a)
     _check(stat, "shape_derivatives")
     return np.asarray(g).copy(), np.asarray(h).copy()
 
@@ -236,7 +330,7 @@ def vector_field(state, model: Model | None = None) -> np.ndarray:
     """Hamilton's equations dx/dt at a state (damped for the ball with damping_ratio > 0)."""
     model = model or Model()
     n = 2 * model.ndof
-    stat, f = _lib().vector_field(model.system, model.params(), _vec(state, n, "state"))
+    stat, f = _lib().vector_field(model.name, model.params(), _vec(state, n, "state"))
     _check(stat, "vector_field")
     return np.asarray(f)
 
@@ -252,7 +346,7 @@ def momentum(q, v, model: Model | None = None) -> np.ndarray:
     """Natural systems: the momenta of velocity v at q (the ball: p = (7/5) M v [cm/s])."""
     model = model or Model()
     n = model.ndof
-    stat, p = _lib().momentum(model.system, model.params(), _vec(q, n, "q"), _vec(v, n, "v"))
+    stat, p = _lib().momentum(model.name, model.params(), _vec(q, n, "q"), _vec(v, n, "v"))
     _check(stat, "momentum")
     return np.asarray(p)
 
@@ -276,7 +370,7 @@ def equilibria(model: Model | None = None, box=None, n_grid: int = 41, box_cente
     model = model or Model()
     lo, hi = _box(model, box, box_center)
     (stat, n, nd, q, p, h, e, morse, rank1, names, lam, om, ev) = _lib().equilibria(
-        model.system, model.params(), lo, hi, int(n_grid))
+        model.name, model.params(), lo, hi, int(n_grid))
     _check(stat, "equilibria")
     names = names.decode() if isinstance(names, bytes) else str(names)
     qq = q[:nd, :n].T.copy()
@@ -315,7 +409,7 @@ def section_boundary(model: Model | None = None, de: float = 0.0, saddle: str | 
     else:
         kind, index, level, dirn = 2, int(sec["index"]), float(sec["value"]), int(sec["direction"])
     stat, smin, smax, s, pmin, pmax = _lib().section_boundary(
-        model.system, model.params(), lo, hi, int(n_grid), sad, kind, index, level, dirn,
+        model.name, model.params(), lo, hi, int(n_grid), sad, kind, index, level, dirn,
         float(de), int(m))
     _check(stat, "section_boundary")
     return {"s": np.asarray(s).copy(), "p_min": np.asarray(pmin).copy(),
@@ -397,7 +491,7 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, **group
 
 
 def _study(model, st):
-    return (model.system, model.params(), st["lo"], st["hi"], int(st["n_grid"]), st["saddle"])
+    return (model.name, model.params(), st["lo"], st["hi"], int(st["n_grid"]), st["saddle"])
 
 
 def _integ(st):
@@ -412,7 +506,7 @@ def _section_args(st):
 
 
 def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
-                 integrator: dict | None = None, **orbits) -> dict:
+                 integrator: dict | None = None, equilibria: dict | None = None, **orbits) -> dict:
     """The Lyapunov orbits of a rank-1 saddle at the excess energies dE (as the orbits scene,
     docs/orbits.md): dict of arrays dE, energy, period, action, mu_unstable, mu_stable,
     stability_index, residual, closure, iterations, converged, state0 (n, 2N), and end_dE (the
@@ -421,7 +515,7 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
     options as a dict, e.g. {"method": "arkode_erk8"} (default DOP853)."""
     model = model or Model()
     de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
-    st = _settings(model, saddle, saddle_near, orbits=dict(orbits, de=list(de)), integrator=integrator)
+    st = _settings(model, saddle, saddle_near, orbits=dict(orbits, de=list(de)), integrator=integrator, equilibria=equilibria)
     n2 = 2 * model.ndof
     (stat, en, per, act, mu, ms, stab, res, clo, it, conv, s0, ts, xs, end_de, reason) = _lib().orbit_family(
         *_study(model, st), de, int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
@@ -447,7 +541,7 @@ def _cut(model, st, de, kind, area_tol):
 
 
 def tube_cut(model: Model | None = None, dE: float = 100.0, kind: str = "stable", saddle=None,
-             saddle_near=None, section=None, integrator: dict | None = None, **options) -> dict:
+             saddle_near=None, section=None, integrator: dict | None = None, equilibria: dict | None = None, **options) -> dict:
     """The cut of the saddle's stable (or unstable) tube at dE with the section (as the tubes
     scene, docs/tubes.md): dict r, p_r (the section's s, p_s), tau, time, state, area,
     area_polygon, action, period. section as in section_boundary (default the system's); options:
@@ -455,18 +549,18 @@ def tube_cut(model: Model | None = None, dE: float = 100.0, kind: str = "stable"
     model = model or Model()
     orb = {k: options.pop(k) for k in list(options) if k in ("method", "n_segments", "tol", "rtol", "atol")}
     st = _settings(model, saddle, saddle_near, section=section, orbits=orb, tubes=options,
-                   integrator=integrator)
+                   integrator=integrator, equilibria=equilibria)
     return _cut(model, st, dE, -1 if kind == "stable" else 1, st["tub_area_tol"])
 
 
 def transition(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
-               section=None, area_tol=None, integrator: dict | None = None, **orbits) -> dict:
+               section=None, area_tol=None, integrator: dict | None = None, equilibria: dict | None = None, **orbits) -> dict:
     """p_trans(dE) = A_tube / A_E (as the transition scene): dict of arrays dE, A_tube, action,
     A_E, p_trans (NaN where a cut failed)."""
     model = model or Model()
     tra = {} if area_tol is None else {"area_tol": float(area_tol)}
     st = _settings(model, saddle, saddle_near, section=section, orbits=orbits, transition=tra,
-                   integrator=integrator)
+                   integrator=integrator, equilibria=equilibria)
     de = np.array(dE, dtype=np.float64).reshape(-1)
     out = {k: np.full(de.size, np.nan) for k in ("A_tube", "action", "A_E", "p_trans")}
     for i, d in enumerate(de):
@@ -481,7 +575,7 @@ def transition(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, s
 
 def monte_carlo(model: Model | None = None, dE: float = 100.0, n_samples: int = 10000,
                 seed: int = 12345, saddle=None, saddle_near=None, section=None, t_max=None,
-                gate=None, area_tol=None, integrator: dict | None = None, **orbits) -> dict:
+                gate=None, area_tol=None, integrator: dict | None = None, equilibria: dict | None = None, **orbits) -> dict:
     """The Monte Carlo check at dE (as the montecarlo scene): n_samples points uniform on the
     section's energy surface, each integrated until it passes the saddle's gate (transit) or
     returns. dict: fraction, std_error, p_trans (A_tube / A_E), misclassified, undecided, and
@@ -489,7 +583,7 @@ def monte_carlo(model: Model | None = None, dE: float = 100.0, n_samples: int = 
     model = model or Model()
     mc = {k: v for k, v in (("t_max", t_max), ("gate", gate), ("area_tol", area_tol)) if v is not None}
     st = _settings(model, saddle, saddle_near, section=section, orbits=orbits, montecarlo=mc,
-                   integrator=integrator)
+                   integrator=integrator, equilibria=equilibria)
     c = _cut(model, st, dE, -1, float(st["mc_area_tol"]))
     stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), float(dE))
     _check(stat, "monte_carlo")
@@ -506,14 +600,14 @@ def monte_carlo(model: Model | None = None, dE: float = 100.0, n_samples: int = 
 
 
 def poincare(model: Model | None = None, dE: float = 100.0, n_seeds=None, n_iter=None, t_max=None,
-             saddle=None, saddle_near=None, section=None, integrator: dict | None = None) -> np.ndarray:
+             saddle=None, saddle_near=None, section=None, integrator: dict | None = None, equilibria: dict | None = None) -> np.ndarray:
     """Poincare map of the section at dE (as the sections scene): an array (n_seeds, n_iter, 2)
     of (s, p_s) (the ray's (r, p_r)) of each return of each trajectory, NaN after one stops
     returning within t_max. Raises TubesError if a trajectory failed (the returns are in
     err.partial)."""
     model = model or Model()
     pm = {k: v for k, v in (("n_seeds", n_seeds), ("n_iter", n_iter), ("t_max", t_max)) if v is not None}
-    st = _settings(model, saddle, saddle_near, section=section, sections=pm, integrator=integrator)
+    st = _settings(model, saddle, saddle_near, section=section, sections=pm, integrator=integrator, equilibria=equilibria)
     stat, pts = _lib().poincare(*_study(model, st), *_section_args(st), float(dE), int(st["pm_n_seeds"]),
                                 int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st))
     out = np.moveaxis(pts, [0, 1, 2], [2, 1, 0]).copy()
@@ -596,7 +690,7 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
     if kind == 1 and model.system != "rolling_ball":
         raise ValueError("the polar ray sections (U1, theta) are the rolling ball's; use 'x' or 'y'")
     stat, n, t, st, en, nc, ct, cx, cd, cnt = _lib().trajectory(
-        model.system, model.params(), _vec(state0, n2, "state0"), float(t_end), float(dt_out), METHODS[method],
+        model.name, model.params(), _vec(state0, n2, "state0"), float(t_end), float(dt_out), METHODS[method],
         float(rtol), float(atol), float(h), int(max_steps), float(omega_bind),
         1 if solver == "newton" else 2, int(max_iter), kind, lev, dirn, int(bool(stop_at_first)),
         mc, nmax)
@@ -627,7 +721,7 @@ def reference_solution(state0, t_end: float, tol: float = 1e-26, model: Model | 
     that tests and benchmarks measure errors against (conservative model only; docs/events.md
     gives its accuracy and cost: tol 1e-26 to t = 10 s takes about 2 s)."""
     model = model or Model()
-    if model.system != "rolling_ball":
+    if model.name != "rolling_ball":
         raise ValueError("reference_solution: the real128 reference exists for rolling_ball only")
     if model.damping_ratio != 0:
         raise ValueError("reference_solution: conservative model only")

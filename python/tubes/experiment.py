@@ -561,7 +561,7 @@ def state_energy(x, y, vx, vy, model: Model = Model()):
     v = np.empty(2)
     for i in range(n):
         q[0], q[1], v[0], v[1] = x[i], y[i], vx[i], vy[i]
-        st, p = core.momentum(model.system, par, q, v)
+        st, p = core.momentum(model.name, par, q, v)
         if st < 0:
             raise TubesError(st, "momentum")
         px[i], py[i] = p[0], p[1]
