@@ -8,6 +8,8 @@
 #              diagnostics, the run ends (exit 2) without hanging, and the file records it
 #   badinput   a bad namelist: one message (not one per rank), exit 1, no file
 #   badoutput  an output file that cannot be created: exit 3 on every rank, no hang
+#   formula    a model written as a formula, new to an empty cache: 2 ranks build it at once and
+#              write the serial run's file, bit for bit; the cache holds whole libraries only
 set -u
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -23,7 +25,7 @@ else
 fi
 export TUBES_FAULT=
 work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+trap '[ -n "${KEEP:-}" ] || rm -rf "$work"' EXIT
 fail=0
 check() {   # check CONDITION-EXIT-CODE MESSAGE
   if [ "$1" -eq 0 ]; then echo "ok: $2"; else echo "FAIL: $2"; fail=1; fi
@@ -128,8 +130,24 @@ badoutput)
   grep -q "cannot create output file" "$work/err"
   check $? "the reason is reported"
   ;;
+formula)
+  sed -e "s/^&run\$/\&model system = 'expression', hamiltonian = '(px^2 + py^2)\/2 - x^2\/2 + x^4\/4 + w^2*y^2\/2 + c*x^2*y', constants = 'w = 1.5', 'c = 0.2' \/\n\&equilibria box = 2 \/\n\&section kind = 'plane', index = 1, value = 0.5, direction = -1 \/\n\&run/" \
+      -e "s/saddle = 'S12', de = 10, 100/saddle_near = 0, 0, de = 0.01, 0.05/" -e "s/de = 100, kind = 'both'/de = 0.05, kind = 'stable'/" \
+      -e "s/de = 20, 300/de = 0.02, 0.1/" -e "s/de = 100, n_samples/de = 0.05, n_samples/" \
+      -e "s/de = 100, n_seeds/de = 0.05, n_seeds/" -e "s/, 'synthetic_experiment'//" "$work/all.nml" >"$work/f.nml"
+  mkdir -p "$work/fs" "$work/fm"
+  (cd "$work/fs" && TUBES_CACHE_DIR="$work/cs" OMP_NUM_THREADS=1 timeout 300 "$root/tubes" ../f.nml >log 2>&1)
+  check $? "serial run of a formula's model"
+  (cd "$work/fm" && TUBES_CACHE_DIR="$work/cm" OMP_NUM_THREADS=1 timeout 300 "${launch[@]}" -np 2 "$bin" ../f.nml \
+    >log 2>&1)
+  check $? "MPI 2 ranks x 1 thread, building the model in an empty cache at once"
+  "$py" -m tubes.h5compare "$work/fs/out.h5" "$work/fm/out.h5"
+  check $? "the formula's MPI run is identical to the serial run"
+  [ "$(ls "$work/cm")" = "$(cd "$work/cm" && ls expr_*.so)" ] && [ "$(ls "$work/cm" | wc -l)" -eq 1 ]
+  check $? "the cache holds one whole library and no leftovers ($(ls "$work/cm" | tr '\n' ' '))"
+  ;;
 *)
-  echo "usage: tests/mpi_check.sh identical|fault|badinput|badoutput" >&2
+  echo "usage: tests/mpi_check.sh identical|fault|badinput|badoutput|formula" >&2
   exit 2
   ;;
 esac

@@ -4,8 +4,8 @@
 
 With the default rtol = 0 every number must be identical bit for bit (NaN equals NaN at the
 same place). The provenance attributes that describe the run rather than its results (the
-creation time, the command line, the compiler, the numbers of MPI ranks and OpenMP threads)
-are skipped. Exit status 0 when the files agree, 1 when they differ (each difference is listed
+creation time, the command line, the compiler, the commit, the numbers of MPI ranks and OpenMP
+threads, a formula model's cached library) are skipped. Exit status 0 when the files agree, 1 when they differ (each difference is listed
 with the largest absolute and relative deviation), 2 on a usage or read error.
 Used by make check to show that MPI and OpenMP runs reproduce the serial output (docs/cluster.md).
 """
@@ -18,7 +18,10 @@ import h5py
 import numpy as np
 
 PROVENANCE = ("created", "command_line", "compiler", "fflags", "mpi_ranks", "omp_threads",
-              "input_file", "wall_seconds")
+              "input_file", "wall_seconds", "git_commit",
+              # a formula's compiled library: where it is cached, its name (a hash that includes the
+              # compiler: mpicc and gcc builds differ), how long building or loading it took
+              "library", "library_name", "library_seconds", "library_cached")
 
 
 def _without_output(text):
