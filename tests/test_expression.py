@@ -110,15 +110,17 @@ def test_de_leon_berne(tmp_path, cache):
 
 def test_cr3bp_gyroscopic(tmp_path, cache):
     tmp = str(tmp_path)
-    rest = "&equilibria box = 1.5 /\n&orbits saddle_near = 0.84, 0.0, de = 0.001, 0.002 /"
-    p = ok(run(tmp, "cr_e.nml", "&run scenes = 'equilibria', 'orbits', output = 'cr_e.h5' /\n"
+    # the section: the plane x = 0.7 between the Earth and L1, which the L1 tube crosses with dx/dt > 0
+    rest = ("&equilibria box = 1.5 /\n&orbits saddle_near = 0.84, 0.0, de = 0.001, 0.002 /\n"
+            "&section kind = 'plane', index = 1, value = 0.7, direction = 1 /\n&transition de = 0.001, 0.002 /")
+    p = ok(run(tmp, "cr_e.nml", "&run scenes = 'equilibria', 'orbits', 'transition', output = 'cr_e.h5' /\n"
                                 f"&model system = 'expression', hamiltonian = '{CR3BP}', "
                                 f"constants = 'mu = 0.01215058560962404' /\n{rest}", cache))
     assert "natural" not in p.stdout.splitlines()[0]
-    ok(run(tmp, "cr_b.nml", "&run scenes = 'equilibria', 'orbits', output = 'cr_b.h5' /\n"
+    ok(run(tmp, "cr_b.nml", "&run scenes = 'equilibria', 'orbits', 'transition', output = 'cr_b.h5' /\n"
                             f"&model system = 'cr3bp' /\n{rest}", cache))
     e, b = read(tmp, "cr_e.h5"), read(tmp, "cr_b.h5")
-    close(e, b, ["equilibria/energy", "equilibria/morse_index"] + ORB_KEYS)
+    close(e, b, EQ_KEYS + ORB_KEYS + ["transition/p_trans"])
 
 
 def test_four_well_ball_as_hamiltonian(tmp_path, cache):
