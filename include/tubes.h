@@ -216,6 +216,18 @@ int tubes_monte_carlo(const char system[TUBES_LSYSTEM], const double params[TUBE
                       int method, double h, double omega_bind, int solver, int max_iter, int ncut, const double cut_r[], const double cut_pr[], double r[],
                       double pr[], int outcome[], int inside[]);
 
+/* The flux of trajectories through the saddle's bottleneck at de (src/tubes_flux.f90, natural
+ * systems; docs/theory.md): sampled on the dividing surface with nsamp points from seed (flux,
+ * its standard error err), each followed to t_max at tolerance tol out of the slab of half-width
+ * gate; leading = (2 pi)^(N-1) de^(N-1) / ((N-1)! prod omega_k); counts = {points inside the
+ * energy shell, reacting, recrossing the other way, undecided}; box[2 (N-1)] the sampling box
+ * of the dividing surface's coordinates. TUBES_EINPUT for a model that is not natural. */
+int tubes_flux_sample(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                      const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid, const char saddle[8],
+               double de, int nsamp, int seed, double t_max, double gate, double tol, int method, double h,
+               double omega_bind, int solver, int max_iter, double *flux, double *err, double *leading,
+               int counts[4], double box[2 * (TUBES_MAXDOF - 1)]);
+
 /* Poincare map of the section at de: pts[(j n_iter + k) 2 + {0, 1}] = (r, p_r) of the k-th return
  * of seed j (NaN once it stops returning within t_max). */
 int tubes_poincare(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],

@@ -92,6 +92,10 @@ typedef struct {
   char model[TUBES_LNAME], expr_var[TUBES_LNAME], expr_msg[TUBES_LMSG], expr_lib[TUBES_LPATH];
   double expr_seconds;
   int expr_hit;
+  /* &flux (docs/input.md); flux_gate resolved like mc_gate */
+  double flux_de[TUBES_MAXDE];
+  int flux_nde, flux_n_samples, flux_seed;
+  double flux_t_max, flux_gate, flux_tol;
 } tubes_config_t;
 
 /* Set every variable to its default. */
@@ -100,7 +104,7 @@ void tubes_nml_defaults(tubes_config_t *cfg);
 /* Read every group present in the file at path into cfg (defaults first). Returns 0, or the
  * Fortran iostat of the first failing group; then *group is its index (0 run, 1 model,
  * 2 equilibria, 3 trajectory, 4 integrator, 5 orbits, 6 section, 7 tubes, 8 transition,
- * 9 montecarlo, 10 sections, 11 experiment) and msg holds the iomsg. */
+ * 9 montecarlo, 10 sections, 11 experiment, 12 flux) and msg holds the iomsg. */
 int tubes_nml_read(const char *path, tubes_config_t *cfg, int *group, char *msg, int msglen);
 
 /* The effective namelist (all groups, Fortran namelist WRITE) into buf. Returns its length,

@@ -34,7 +34,7 @@ module tubes_transport
     procedure :: on_step => gate_on_step
   end type gate_t
 
-  public :: inside_curve, mc_classify, monte_carlo, poincare_map
+  public :: inside_curve, mc_classify, monte_carlo, poincare_map, rng_uniform
 
   interface
     integer(c_int) function rng_uniform(seed, n, u) bind(C, name='tubes_rng_uniform')

@@ -34,7 +34,7 @@ BAD = [  # (name, namelist text, substrings the message must contain)
     ("h < 0", "&integrator h = -0.1 /\n", ["bad.nml:1", "&integrator", "h = -0.1"]),
     ("max_steps < 1", "&integrator max_steps = 0 /\n", ["bad.nml:1", "max_steps"]),
     ("unknown method", "&integrator method = 'euler' /\n", ["bad.nml:1", "method = 'euler'", "dop853"]),
-    ("unknown scene", "&run scenes = 'equilibria', 'flux' /\n", ["bad.nml:1", "'flux'", "trajectory"]),
+    ("unknown scene", "&run scenes = 'equilibria', 'normal_form' /\n", ["bad.nml:1", "'normal_form'", "trajectory"]),
     ("empty scenes", "&run scenes = '' /\n", ["bad.nml:1", "scenes is empty"]),
     ("t_end < 0", "&trajectory t_end = -1 /\n", ["bad.nml:1", "t_end", ">= 0"]),
     ("dt_out <= 0", "&trajectory dt_out = 0 /\n", ["bad.nml:1", "dt_out"]),

@@ -20,6 +20,7 @@ module tubes_capi
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE
   use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t
+  use tubes_flux, only: flux_result_t, flux_leading_order, flux_sampled
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, maps_at
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
@@ -487,6 +488,40 @@ contains
                   ins, stat)
     inside = merge(1, 0, ins)
   end function c_monte_carlo
+
+  !> The flux of trajectories through the saddle's bottleneck at excess energy de
+  !> (src/tubes_flux.f90): sampled with nsamp points from seed (its standard error err), and the
+  !> leading-order formula; counts = (points inside the shell, reacting, recrossing the other
+  !> way, undecided within t_max); box(2, N-1) the sampling box of the dividing surface.
+  !> TUBES_EINPUT for a model that is not natural.
+  integer(c_int) function c_flux(system, params, lo, hi, n_grid, saddle, de, nsamp, seed, t_max, gate, &
+      tol, method, h, omega_bind, solver, max_iter, flux, err, leading, counts, box) result(stat) &
+      bind(C, name='tubes_flux_sample')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, nsamp, seed, method, solver, max_iter
+    real(c_double), value :: de, t_max, gate, tol, h, omega_bind
+    real(c_double), intent(out) :: flux, err, leading, box(2, MAX_DOF - 1)
+    integer(c_int), intent(out) :: counts(4)
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(flux_result_t) :: res
+    integer :: isad, ist
+    flux = 0; err = 0; leading = 0; counts = 0; box = 0
+    call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+                     model, eqs, isad, ist)
+    stat = ist
+    if (ist /= TUBES_OK) return
+    leading = flux_leading_order(eqs(isad)%omegas, de)
+    call flux_sampled(model, eqs(isad), de, nsamp, seed, t_max, tol, gate, &
+                      maxval(hi(1:model%ndof()) - lo(1:model%ndof())), &
+                      integ_of(method, h, omega_bind, solver, max_iter), res, ist)
+    stat = ist
+    flux = res%flux
+    err = res%err
+    counts = [res%n_inside, res%n_reactive, res%n_recrossing, res%n_undecided]
+    box(:, 1:model%ndof() - 1) = res%box(:, 1:model%ndof() - 1)
+  end function c_flux
 
   !> Poincare map of the section at excess energy de: n_seeds starts on the section (half at the
   !> middle of the p_s range across the region, half across p_s at the region's middle s),

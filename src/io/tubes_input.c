@@ -12,11 +12,11 @@
 
 const char *const tubes_nml_groups[] = {"run", "model", "equilibria", "trajectory", "integrator",
                                         "orbits", "section", "tubes", "transition", "montecarlo",
-                                        "sections", "experiment"};
-const int tubes_nml_ngroups = 12;
+                                        "sections", "experiment", "flux"};
+const int tubes_nml_ngroups = 13;
 
 const char *const tubes_scene_names[] = {"equilibria", "trajectory", "orbits", "tubes", "transition",
-                                         "montecarlo", "sections", "synthetic_experiment"};
+                                         "montecarlo", "sections", "synthetic_experiment", "flux"};
 const char *const tubes_scene_docs[] = {
     "critical points of H, Morse index, names, saddle linearization (lambda, omega, T_po)",
     "one trajectory with sampled output and its energy error",
@@ -28,8 +28,10 @@ const char *const tubes_scene_docs[] = {
     "Monte Carlo check: points uniform on the section's energy surface, integrated and classified",
     "Poincare maps of the section at fixed dE (KAM tori, chaos, the tube)",
     "synthetic tracking data like the paper's experiment: balls released from rest, filmed with "
-    "noise and pixel rounding (docs/experiment-data.md)"};
-const int tubes_nscenes = 8;
+    "noise and pixel rounding (docs/experiment-data.md)",
+    "the flux of trajectories through the saddle's bottleneck in N degrees of freedom: sampled on the "
+    "dividing surface, beside the leading-order formula (docs/theory.md)"};
+const int tubes_nscenes = 9;
 
 const nml_var tubes_nml_vars[] = {
     {"run", "scenes", NML_STRING, TUBES_NSCENES, "-", "'equilibria'",
@@ -174,6 +176,14 @@ const nml_var tubes_nml_vars[] = {
     {"experiment", "seed", NML_INT, 1, "-", "2018", ">= 0", "seed of GSL's MT19937"},
     {"experiment", "csv", NML_STRING, 1, "-", "''", "a writable path or ''",
      "also write the tracks as CSV (track,t,x,y) to this file; '' = no CSV"},
+    {"flux", "de", NML_REAL, TUBES_MAXDE, "energy", "the &transition list", "> 0, increasing",
+     "excess energies of the flux"},
+    {"flux", "n_samples", NML_INT, 1, "-", "4000", "2 .. 1e7", "points on the dividing surface per energy"},
+    {"flux", "seed", NML_INT, 1, "-", "1", ">= 0", "seed of GSL's MT19937"},
+    {"flux", "t_max", NML_REAL, 1, "time", "20", "> 0", "integration limit of each point's future and past"},
+    {"flux", "gate", NML_REAL, 1, "units of q", "the &montecarlo gate", "> 0",
+     "half-width of the slab around the dividing surface that a passage crosses"},
+    {"flux", "tol", NML_REAL, 1, "1", "1e-10", "1e-14 .. 1e-3", "rtol = atol of the integrations"},
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 _Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 192, "nml_where holds 192 variables");
@@ -657,6 +667,21 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
       n++;
     }
   }
+  if (scene_requested(c, "flux")) {
+    int natural = 0;
+    tubes_model_natural(c->model, c->params, &natural);
+    if (!natural) {
+      fprintf(err, "%s:%d: &run: the flux scene samples the dividing surface of a natural system (H = T(q, p) + "
+              "V(q), the past of (q, p) the future of (q, -p)); system '%s' is not natural\n", path,
+              line_of(w, "run", "scenes"), c->system);
+      n++;
+    }
+    if (nd < 2) {
+      fprintf(err, "%s:%d: &run: the flux scene needs 2 or 3 degrees of freedom (system '%s' has %d)\n", path,
+              line_of(w, "run", "scenes"), c->system, nd);
+      n++;
+    }
+  }
   int need_section = scene_requested(c, "tubes") || scene_requested(c, "transition") ||
                      scene_requested(c, "montecarlo") || scene_requested(c, "sections");
   int set_ray = line_of(w, "section", "angle") || line_of(w, "section", "p_theta_sign");
@@ -809,6 +834,14 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
     n += bad(path, w, "montecarlo", "area_tol", err, "", c->mc_area_tol);
   if (c->nparams >= 0 && !(c->mc_gate > 0 && c->mc_gate < DBL_MAX))
     n += bad(path, w, "montecarlo", "gate", err, "", c->mc_gate);
+  n += check_list(path, w, "flux", c->flux_de, c->flux_nde, err);
+  if (!(c->flux_n_samples >= 2 && c->flux_n_samples <= 10000000))
+    n += bad(path, w, "flux", "n_samples", err, "", c->flux_n_samples);
+  if (!(c->flux_seed >= 0)) n += bad(path, w, "flux", "seed", err, "", c->flux_seed);
+  if (!(c->flux_t_max > 0)) n += bad(path, w, "flux", "t_max", err, "", c->flux_t_max);
+  if (c->nparams >= 0 && !(c->flux_gate > 0 && c->flux_gate < DBL_MAX))
+    n += bad(path, w, "flux", "gate", err, "", c->flux_gate);
+  if (!(c->flux_tol >= 1e-14 && c->flux_tol <= 1e-3)) n += bad(path, w, "flux", "tol", err, "", c->flux_tol);
   if (!(c->pm_n_seeds >= 1 && c->pm_n_seeds <= 100000)) n += bad(path, w, "sections", "n_seeds", err, "", c->pm_n_seeds);
   if (!(c->pm_n_iter >= 1 && c->pm_n_iter <= 1000000)) n += bad(path, w, "sections", "n_iter", err, "", c->pm_n_iter);
   if (!(c->pm_t_max > 0)) n += bad(path, w, "sections", "t_max", err, "", c->pm_t_max);

@@ -260,6 +260,7 @@ static int run_main(int argc, char **argv) {
     else if (!strcmp(s, "montecarlo")) r = scene_montecarlo(&run);
     else if (!strcmp(s, "sections")) r = scene_sections(&run);
     else if (!strcmp(s, "synthetic_experiment")) r = scene_synthetic_experiment(&run);
+    else if (!strcmp(s, "flux")) r = scene_flux(&run);
     r = agree(r);
     if (r == EXIT_IO) status = EXIT_IO;
     else if (r == EXIT_NUMERIC || (r && !status)) status = r;

@@ -10,7 +10,7 @@ module tubes_nml
 
   !> run, model, equilibria, trajectory, integrator, orbits, section, tubes, transition,
   !> montecarlo, sections, experiment
-  integer, parameter :: NGROUPS = 12
+  integer, parameter :: NGROUPS = 13
   integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32, MAXDE = 256
   !> models written as formulas: a formula, a name, a constant 'name = value', how many
   integer, parameter :: LEXPR = 2048, LSYM = 16, LCONST = 128, MAXCONST = 32, LMSG = 1024
@@ -78,6 +78,9 @@ module tubes_nml
     character(kind=c_char) :: model(LNAME), expr_var(LNAME), expr_msg(LMSG), expr_lib(LPATH)
     real(c_double) :: expr_seconds
     integer(c_int) :: expr_hit
+    real(c_double) :: flux_de(MAXDE)
+    integer(c_int) :: flux_nde, flux_n_samples, flux_seed
+    real(c_double) :: flux_t_max, flux_gate, flux_tol
   end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved).
@@ -133,6 +136,9 @@ module tubes_nml
     character(LCONST) :: constants(MAXCONST)
     character(LNAME) :: surface
     character(LNAME) :: model_name   !! the library's name of the model (written only)
+    real(c_double) :: flux_de(MAXDE)
+    integer :: flux_n_samples, flux_seed
+    real(c_double) :: flux_t_max, flux_gate, flux_tol
   end type vars_t
 
 contains
@@ -211,6 +217,12 @@ contains
     v%mc_gate = UNSET
     v%mc_n_samples = 10000
     v%mc_seed = 12345
+    v%flux_de = UNSET
+    v%flux_n_samples = 4000
+    v%flux_seed = 1
+    v%flux_t_max = 20
+    v%flux_gate = UNSET
+    v%flux_tol = 1.0e-10_c_double
     v%pm_de = UNSET
     v%pm_n_seeds = 40
     v%pm_n_iter = 300
@@ -268,6 +280,9 @@ contains
       10.0_c_double, 20.0_c_double, 50.0_c_double, 100.0_c_double, 200.0_c_double, 300.0_c_double, &
       400.0_c_double, 500.0_c_double, 600.0_c_double, 700.0_c_double, 750.0_c_double])
     cfg%tra_area_tol = v%tra_area_tol
+    call put_list(v%flux_de, cfg%flux_de, cfg%flux_nde, cfg%tra_de(1:cfg%tra_nde))
+    cfg%flux_n_samples = v%flux_n_samples; cfg%flux_seed = v%flux_seed
+    cfg%flux_t_max = v%flux_t_max; cfg%flux_tol = v%flux_tol
     cfg%mc_de = v%mc_de; cfg%mc_t_max = v%mc_t_max; cfg%mc_area_tol = v%mc_area_tol
     cfg%mc_n_samples = v%mc_n_samples; cfg%mc_seed = v%mc_seed
     call put_list(v%pm_de, cfg%pm_de, cfg%pm_nde, [100.0_c_double, 500.0_c_double])
@@ -382,6 +397,7 @@ contains
     call put(v%sec_kind, cfg%sec_kind)
     cfg%sec_index = v%sec_index; cfg%sec_value = v%sec_value; cfg%sec_direction = v%sec_direction
     cfg%mc_gate = v%mc_gate
+    cfg%flux_gate = v%flux_gate
     if (is_expression(v)) then   ! the model's library: its name replaces the system's
       cfg%nparams = -2
       cfg%ndof = 0
@@ -455,6 +471,7 @@ contains
       if (v%sec_direction == UNSET_INT) cfg%sec_direction = info%section_direction
     end if
     if (v%mc_gate == UNSET) cfg%mc_gate = info%gate
+    if (v%flux_gate == UNSET) cfg%flux_gate = cfg%mc_gate
   end subroutine resolve
 
   !> Is the model written as a formula? (system 'expression', or a ball on surface 'expression')
@@ -606,6 +623,9 @@ contains
     v%mc_de = cfg%mc_de; v%mc_t_max = cfg%mc_t_max; v%mc_gate = cfg%mc_gate
     v%mc_area_tol = cfg%mc_area_tol
     v%mc_n_samples = cfg%mc_n_samples; v%mc_seed = cfg%mc_seed
+    v%flux_de = cfg%flux_de
+    v%flux_n_samples = cfg%flux_n_samples; v%flux_seed = cfg%flux_seed
+    v%flux_t_max = cfg%flux_t_max; v%flux_gate = cfg%flux_gate; v%flux_tol = cfg%flux_tol
     v%pm_de = cfg%pm_de
     v%pm_n_seeds = cfg%pm_n_seeds; v%pm_n_iter = cfg%pm_n_iter; v%pm_t_max = cfg%pm_t_max
     v%exp_n_tracks = cfg%exp_n_tracks; v%exp_seed = cfg%exp_seed
@@ -668,6 +688,7 @@ contains
     case (9); call io_montecarlo()
     case (10); call io_sections()
     case (11); call io_experiment()
+    case (12); call io_flux()
     end select
   contains
     subroutine io_run()
@@ -975,6 +996,23 @@ contains
       v%mc_area_tol = area_tol
       v%mc_seed = seed
     end subroutine io_montecarlo
+    subroutine io_flux()
+      real(c_double), allocatable :: de(:)
+      integer :: n_samples, seed
+      real(c_double) :: t_max, gate, tol
+      namelist /flux/ de, n_samples, seed, t_max, gate, tol
+      call list_io(v%flux_de, de)
+      n_samples = v%flux_n_samples; seed = v%flux_seed; t_max = v%flux_t_max
+      gate = v%flux_gate; tol = v%flux_tol
+      if (mode == 'r') then
+        read (u, nml=flux, iostat=ios, iomsg=iomsg)
+        v%flux_de = de
+      else
+        write (u, nml=flux, iostat=ios, iomsg=iomsg)
+      end if
+      v%flux_n_samples = n_samples; v%flux_seed = seed; v%flux_t_max = t_max
+      v%flux_gate = gate; v%flux_tol = tol
+    end subroutine io_flux
     subroutine io_sections()
       real(c_double), allocatable :: de(:)
       integer :: n_seeds, n_iter

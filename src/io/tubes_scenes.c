@@ -1204,3 +1204,78 @@ out:
   free(rxy); free(rde); free(track);
   return rc;
 }
+
+/* The flux through the bottleneck on the &flux energies: sampled on the dividing surface (every
+ * rank samples every energy: the same numbers), beside the leading-order formula. A sample whose
+ * future or past stays near the saddle to t_max is undecided; more than 1 % of the points inside
+ * the shell undecided is a failure (t_max too short for the slab), reported with exit 2. */
+int scene_flux(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  int n = c->flux_nde, rc = 0;
+  double *fl = calloc(n, sizeof(double)), *fe = calloc(n, sizeof(double)), *lo = calloc(n, sizeof(double));
+  int *cnt = calloc(4 * (size_t)n, sizeof(int)), *stat = calloc(n, sizeof(int));
+  if (!fl || !fe || !lo || !cnt || !stat) {
+    free(fl); free(fe); free(lo); free(cnt); free(stat);
+    fprintf(stderr, "tubes: flux: out of memory\n");
+    return EXIT_NUMERIC;
+  }
+  printf("flux: through the bottleneck of %s, N = %d: sampled on the dividing surface (%d points, slab "
+         "half-width %g, tol %g), beside the leading order (2 pi)^(N-1) dE^(N-1) / ((N-1)! prod omega)\n",
+         run->saddle, run->ndof, c->flux_n_samples, c->flux_gate, c->flux_tol);
+  printf("  %10s %16s %12s %16s %9s %9s %9s %9s\n", "dE", "flux", "+-", "leading", "flux/lead", "reacting",
+         "recross", "undecided");
+  for (int k = 0; k < n; k++) {
+    double de = c->flux_de[k], box[2 * (MD - 1)], t0 = now();
+    progress_item("flux: dE = %g (%d of %d)...\n", de, k + 1, n);
+    int st = tubes_flux_sample(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, c->flux_n_samples,
+                        c->flux_seed, c->flux_t_max, c->flux_gate, c->flux_tol, INTEGRATOR(c), &fl[k], &fe[k], &lo[k],
+                        cnt + 4 * k, box);
+    stat[k] = st;
+    int *ct = cnt + 4 * k;
+    if (st < 0) {
+      char m[128];
+      status_text(st, m, sizeof m);
+      fprintf(stderr, "tubes: flux: dE = %g failed: %s (status %d)\n", de, m, st);
+      fl[k] = fe[k] = NAN;
+      rc = EXIT_NUMERIC;
+      continue;
+    }
+    printf("  %10.4g %16.10g %12.4g %16.10g %9.6f %9d %9d %9d   (%.1f s)\n", de, fl[k], fe[k], lo[k], fl[k] / lo[k],
+           ct[1], ct[2], ct[3], now() - t0);
+    if (ct[3] > 0.01 * ct[0]) {
+      fprintf(stderr, "tubes: flux: dE = %g: %d of %d points on the dividing surface neither left the slab "
+              "|(q - q_s) . n| <= %g forwards nor backwards within t_max = %g: raise &flux t_max (or lower gate)\n",
+              de, ct[3], ct[0], c->flux_gate, c->flux_t_max);
+      rc = EXIT_NUMERIC;
+    }
+  }
+  hid_t g = h5_group(run->file, "flux");
+  int e = g < 0;
+  hsize_t dn = (hsize_t)n;
+  int *nin = malloc(sizeof(int) * (n ? n : 1)), *nre = malloc(sizeof(int) * (n ? n : 1)),
+      *nrc = malloc(sizeof(int) * (n ? n : 1)), *nun = malloc(sizeof(int) * (n ? n : 1));
+  for (int k = 0; nin && nre && nrc && nun && k < n; k++) {
+    nin[k] = cnt[4 * k]; nre[k] = cnt[4 * k + 1]; nrc[k] = cnt[4 * k + 2]; nun[k] = cnt[4 * k + 3];
+  }
+  e |= !nin || !nre || !nrc || !nun;
+  if (!e) {
+    e |= h5_write_double(g, "dE", 1, &dn, c->flux_de, "energy");
+    e |= h5_write_double(g, "flux_sampled", 1, &dn, fl, "action^(N-1)");
+    e |= h5_write_double(g, "flux_sampled_err", 1, &dn, fe, "action^(N-1)");
+    e |= h5_write_double(g, "flux_leading_order", 1, &dn, lo, "action^(N-1)");
+    e |= h5_write_int(g, "n_inside", dn, nin, "1");
+    e |= h5_write_int(g, "n_reacting", dn, nre, "1");
+    e |= h5_write_int(g, "n_recrossing", dn, nrc, "1");
+    e |= h5_write_int(g, "n_undecided", dn, nun, "1");
+    e |= h5_write_int(g, "status", dn, stat, "1");
+    e |= h5_attr_long(g, "n_samples", c->flux_n_samples);
+    e |= h5_attr_long(g, "seed", c->flux_seed);
+    e |= h5_attr_double(g, "t_max", c->flux_t_max);
+    e |= h5_attr_double(g, "gate", c->flux_gate);
+    e |= h5_attr_double(g, "tol", c->flux_tol);
+    e |= h5_attr_string(g, "saddle", run->saddle);
+  }
+  if (g >= 0) H5Gclose(g);
+  free(fl); free(fe); free(lo); free(cnt); free(stat); free(nin); free(nre); free(nrc); free(nun);
+  return e ? EXIT_IO : rc;
+}

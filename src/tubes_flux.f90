@@ -1,0 +1,298 @@
+!> The flux of reacting trajectories through a rank-1 saddle's bottleneck, in N degrees of
+!> freedom (the paper's section II; docs/theory.md, "Flux in N degrees of freedom"):
+!>
+!> - leading order: f = (2 pi)^(N-1) dE^(N-1) / ((N-1)! prod omega_k) (T_po dE in 2 DOF);
+!> - by sampling, without a normal form: the dividing surface DS is the configuration hyperplane
+!>   through the saddle normal to its reaction coordinate n (the unstable eigenvector's q part).
+!>   In the rotated canonical coordinates Q = R (q - q_s), P = R p (R orthogonal, first row n)
+!>   the flux form on the energy shell is dQ' dP' (the primes: components 2..N), so the flux is
+!>   an integral over (Q', P'). At fixed Q' the momenta with a crossing of the shell form the
+!>   ellipsoid 1/2 P'^T S P' <= E - V(q) (S the Schur complement of the kinetic matrix in the
+!>   rotated frame, P1 eliminated), whose volume w(Q') = c_(N-1) (2 (E - V))^((N-1)/2) / sqrt(det S)
+!>   is integrated exactly; Q' is sampled uniformly in a box around the saddle (the part of
+!>   {V < E} seen from the saddle along straight segments: other bottlenecks that the hyperplane
+!>   cuts farther out are excluded) and P' uniformly in the ellipsoid. Each point, on the branch dQ1/dt > 0, is followed forwards, and its
+!>   time-reversed image (q, -p) forwards (natural systems: that is the point's past), until
+!>   they leave the slab |(q - q_s) . n| <= gate: c = +1 for a passage from the - side to the +
+!>   side, -1 for the reverse, 0 otherwise. Then f = vol(box) E[w c], whose standard error is the
+!>   sample's. Recrossings cancel in pairs, so f is the flux of trajectories passing through the
+!>   bottleneck, exact whatever the choice of DS (in 2 DOF: the Lyapunov orbit's action).
+module tubes_flux
+  use tubes_kinds, only: wp
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT
+  use tubes_hamiltonian, only: hamiltonian_t, natural_t
+  use tubes_equilibria, only: equilibrium_t
+  use tubes_integrator, only: integrator_t, observer_t, propagate
+  use tubes_methods, only: integ_choice_t, make_integrator
+  use tubes_transport, only: rng_uniform
+  implicit none
+  private
+
+  real(wp), parameter :: PI = acos(-1.0_wp)
+  integer, parameter :: MAXN = 3
+  integer, parameter :: NSTAR = 64     !! points checked on the segment from the saddle to a sample
+
+  !> Stops an integration once it leaves the slab |(q - q_s) . n| <= dist; side = +1 or -1.
+  type, extends(observer_t) :: slab_t
+    real(wp) :: origin(MAXN) = 0, normal(MAXN) = 0, dist = 0
+    integer :: n = 0, side = 0
+  contains
+    procedure :: on_step => slab_on_step
+  end type slab_t
+
+  !> What flux_sampled found.
+  type, public :: flux_result_t
+    real(wp) :: flux = 0            !! f [action^(N-1)]
+    real(wp) :: err = 0             !! its standard error
+    integer :: n_reactive = 0       !! samples with c /= 0
+    integer :: n_recrossing = 0     !! samples with c = -1
+    integer :: n_undecided = 0      !! samples whose future or past stayed in the slab to t_max
+    integer :: n_inside = 0         !! samples with V(q) < E (w > 0)
+    real(wp) :: box(2, MAXN - 1) = 0 !! the sampling box of Q' [lo, hi per axis]
+  end type flux_result_t
+
+  public :: flux_leading_order, flux_sampled
+
+contains
+
+  !> (2 pi)^(N-1) dE^(N-1) / ((N-1)! prod omega_k).
+  pure real(wp) function flux_leading_order(omegas, de) result(f)
+    real(wp), intent(in) :: omegas(:), de
+    integer :: k
+    f = 1
+    do k = 1, size(omegas)
+      f = f*2*PI*de/(k*omegas(k))
+    end do
+  end function flux_leading_order
+
+  subroutine slab_on_step(self, ig, t_hi, stop_now)
+    class(slab_t), intent(inout) :: self
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: t_hi
+    logical, intent(out) :: stop_now
+    real(wp) :: x(ig%f%dim()), s
+    call ig%interp(t_hi, x)
+    s = dot_product(x(1:self%n) - self%origin(1:self%n), self%normal(1:self%n))
+    stop_now = abs(s) > self%dist
+    if (stop_now) self%side = merge(1, -1, s > 0)
+  end subroutine slab_on_step
+
+  !> The side (+1, -1) by which x's forward trajectory leaves the slab, 0 if not within t_max.
+  subroutine leave_side(model, slab, x0, t_max, tol, integ, side, stat)
+    class(hamiltonian_t), intent(in) :: model
+    type(slab_t), intent(in) :: slab
+    real(wp), intent(in) :: x0(:), t_max, tol
+    type(integ_choice_t), intent(in) :: integ
+    integer, intent(out) :: side, stat
+    class(integrator_t), allocatable :: ig
+    type(slab_t) :: obs
+    real(wp) :: x(size(x0))
+    side = 0
+    call make_integrator(integ, ig, stat)
+    if (stat /= TUBES_OK) return
+    call ig%init(model, 0.0_wp)
+    ig%rtol = tol
+    ig%atol = tol
+    obs = slab
+    x = x0
+    call propagate(ig, x, t_max, stat, observer=obs)
+    if (stat < 0) return
+    stat = TUBES_OK
+    side = obs%side
+  end subroutine leave_side
+
+  !> The extent of {V <= E} from q_s along +-e: the first t with V(q_s + t e) > E (doubling from
+  !> h0, then bisection); t_cap if V stays below E up to there.
+  real(wp) function extent(model, qs, e, energy, h0, t_cap) result(t)
+    class(natural_t), intent(in) :: model
+    real(wp), intent(in) :: qs(:), e(:), energy, h0, t_cap
+    real(wp) :: lo, hi
+    integer :: k
+    lo = 0
+    hi = h0
+    do while (model%potential(qs + hi*e) <= energy)
+      lo = hi
+      hi = 2*hi
+      if (hi > t_cap) then
+        t = t_cap
+        return
+      end if
+    end do
+    do k = 1, 60
+      t = (lo + hi)/2
+      if (model%potential(qs + t*e) <= energy) then
+        lo = t
+      else
+        hi = t
+      end if
+    end do
+    t = hi
+  end function extent
+
+  !> The sampled flux through the saddle sad's bottleneck at E = E_s + de: n points, uniforms
+  !> from seed (drawn serially: the same result for any number of threads), t_max and tol for
+  !> the integrations, gate the half-width of the slab [units of q]. stat = TUBES_EINPUT for a
+  !> model that is not natural, TUBES_EMODEL where the model fails at a sample.
+  subroutine flux_sampled(model, sad, de, n, seed, t_max, tol, gate, span, integ, res, stat)
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: sad
+    real(wp), intent(in) :: de, t_max, tol, gate
+    real(wp), intent(in) :: span          !! no extent beyond this [units of q]
+    integer, intent(in) :: n, seed
+    type(integ_choice_t), intent(in) :: integ
+    type(flux_result_t), intent(out) :: res
+    integer, intent(out) :: stat
+    real(wp) :: r(MAXN, MAXN), energy, vol, ex(2), cball
+    real(wp), allocatable :: u(:), val(:)
+    integer, allocatable :: cls(:), st(:)
+    integer :: nd, m, j, k, i
+    type(slab_t) :: slab
+    stat = TUBES_EINPUT
+    nd = model%ndof()
+    if (nd < 2 .or. nd > MAXN .or. n < 2 .or. .not. de > 0 .or. .not. allocated(sad%evec)) return
+    energy = sad%energy + de
+    ! the rotated frame: r(1, :) = n, then an orthonormal basis of n's complement
+    r = 0
+    r(1, 1:nd) = sad%evec(1:nd, 1)/sqrt(sum(sad%evec(1:nd, 1)**2))
+    m = 1
+    do k = 1, nd
+      if (m == nd) exit
+      r(m + 1, :) = 0
+      r(m + 1, k) = 1
+      do j = 1, m
+        r(m + 1, 1:nd) = r(m + 1, 1:nd) - dot_product(r(m + 1, 1:nd), r(j, 1:nd))*r(j, 1:nd)
+      end do
+      if (sqrt(sum(r(m + 1, 1:nd)**2)) < 0.1_wp) cycle
+      r(m + 1, 1:nd) = r(m + 1, 1:nd)/sqrt(sum(r(m + 1, 1:nd)**2))
+      m = m + 1
+    end do
+    select type (model)
+    class is (natural_t)
+      ! the box of Q': twice the extent of {V <= E} along each axis, both ways
+      vol = 1
+      do j = 2, nd
+        ex(1) = extent(model, sad%q, -r(j, 1:nd), energy, 1.0e-3_wp*span, span)
+        ex(2) = extent(model, sad%q, r(j, 1:nd), energy, 1.0e-3_wp*span, span)
+        res%box(:, j - 1) = [-2*ex(1), 2*ex(2)]
+        vol = vol*2*(ex(1) + ex(2))
+      end do
+      cball = merge(2.0_wp, PI, nd == 2)       ! the volume of the unit (N-1)-ball
+      allocate (u(2*(nd - 1)*n), val(n), cls(n), st(n))
+      stat = int(rng_uniform(int(seed, 8), size(u), u))
+      if (stat /= 0) then
+        stat = TUBES_EINPUT
+        return
+      end if
+      slab%n = nd
+      slab%origin(1:nd) = sad%q
+      slab%normal(1:nd) = r(1, 1:nd)
+      slab%dist = gate
+      val = 0
+      cls = 0
+      st = TUBES_OK
+      !$omp parallel do schedule(dynamic) default(shared) private(i)
+      do i = 1, n
+        call one_sample(i)
+      end do
+      !$omp end parallel do
+      if (any(st /= TUBES_OK)) then
+        stat = st(findloc(st /= TUBES_OK, .true., dim=1))
+        return
+      end if
+      res%flux = vol*sum(val)/n
+      res%err = vol*sqrt(max(0.0_wp, sum((val - sum(val)/n)**2)/(n - 1))/n)
+      res%n_reactive = count(cls == 1 .or. cls == -1)
+      res%n_recrossing = count(cls == -1)
+      res%n_undecided = count(cls == 2)
+      res%n_inside = count(cls /= 3)
+      stat = TUBES_OK
+    class default
+      stat = TUBES_EINPUT      ! the past of (q, p) is the future of (q, -p) for natural systems only
+    end select
+
+  contains
+
+    !> Sample i: its weight times its class into val(i); cls(i) = 1, -1, 0, 2 (undecided) or
+    !> 3 (outside the shell).
+    subroutine one_sample(i)
+      integer, intent(in) :: i
+      real(wp) :: q(nd), a(nd, nd), ar(nd, nd), s(nd - 1, nd - 1), l(nd - 1, nd - 1), pp(nd - 1), &
+                  bigp(nd), p(nd), x(2*nd), v, w, qa, qb, qc, rad, uu(2*(nd - 1))
+      integer :: fw, bw, sf, sb, j2
+      uu = u(2*(nd - 1)*(i - 1) + 1:2*(nd - 1)*i)
+      q = sad%q
+      do j2 = 2, nd
+        q = q + (res%box(1, j2 - 1) + uu(j2 - 1)*(res%box(2, j2 - 1) - res%box(1, j2 - 1)))*r(j2, 1:nd)
+      end do
+      select type (model)
+      class is (natural_t)
+        v = model%potential(q)
+        if (.not. v < energy) then
+          cls(i) = 3
+          return
+        end if
+        ! only the part of {V < E} on the DS that the saddle sees (star-shaped from it): other
+        ! bottlenecks the hyperplane may cut farther out are not this saddle's
+        do j2 = 1, NSTAR - 1
+          if (.not. model%potential(sad%q + (real(j2, wp)/NSTAR)*(q - sad%q)) < energy) then
+            cls(i) = 3
+            return
+          end if
+        end do
+        call model%kinetic_matrix(q, a)
+      end select
+      ar = matmul(matmul(r(1:nd, 1:nd), a), transpose(r(1:nd, 1:nd)))
+      s = ar(2:nd, 2:nd) - spread(ar(2:nd, 1), 2, nd - 1)*spread(ar(1, 2:nd), 1, nd - 1)/ar(1, 1)
+      ! Cholesky s = l l^T (1 x 1 or 2 x 2)
+      l = 0
+      l(1, 1) = sqrt(s(1, 1))
+      if (nd == 3) then
+        l(2, 1) = s(2, 1)/l(1, 1)
+        l(2, 2) = sqrt(s(2, 2) - l(2, 1)**2)
+      end if
+      rad = sqrt(2*(energy - v))
+      w = cball*rad**(nd - 1)/product([(l(j2, j2), j2=1, nd - 1)])
+      if (.not. (w >= 0 .and. w <= huge(1.0_wp))) then
+        st(i) = TUBES_EMODEL
+        return
+      end if
+      ! a point uniform in the unit (N-1)-ball, then P' = rad l^-T ball
+      if (nd == 2) then
+        pp(1) = 2*uu(2) - 1
+      else
+        pp = sqrt(uu(3))*[cos(2*PI*uu(4)), sin(2*PI*uu(4))]
+      end if
+      pp = rad*pp
+      if (nd == 3) then          ! solve l^T y = pp
+        pp(2) = pp(2)/l(2, 2)
+        pp(1) = (pp(1) - l(2, 1)*pp(2))/l(1, 1)
+      else
+        pp(1) = pp(1)/l(1, 1)
+      end if
+      ! P1 on the branch dQ1/dt = ar(1,:) . P > 0: 1/2 ar11 P1^2 + b P1 + c = 0
+      qa = ar(1, 1)/2
+      qb = dot_product(ar(1, 2:nd), pp)
+      qc = dot_product(pp, matmul(ar(2:nd, 2:nd), pp))/2 + v - energy
+      bigp(1) = (-qb + sqrt(max(0.0_wp, qb*qb - 4*qa*qc)))/(2*qa)
+      bigp(2:nd) = pp
+      p = matmul(transpose(r(1:nd, 1:nd)), bigp)
+      x(1:nd) = q
+      x(nd + 1:2*nd) = p
+      call leave_side(model, slab, x, t_max, tol, integ, fw, sf)
+      x(nd + 1:2*nd) = -p
+      call leave_side(model, slab, x, t_max, tol, integ, bw, sb)
+      if (sf /= TUBES_OK .or. sb /= TUBES_OK) then
+        st(i) = merge(sf, sb, sf /= TUBES_OK)
+        return
+      end if
+      if (fw == 0 .or. bw == 0) then
+        cls(i) = 2
+      else if (fw == 1 .and. bw == -1) then
+        cls(i) = 1
+      else if (fw == -1 .and. bw == 1) then
+        cls(i) = -1
+      end if
+      if (cls(i) == 1 .or. cls(i) == -1) val(i) = cls(i)*w
+    end subroutine one_sample
+  end subroutine flux_sampled
+end module tubes_flux

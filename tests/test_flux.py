@@ -1,0 +1,122 @@
+"""The flux scene (src/tubes_flux.f90, docs/theory.md "Flux in N degrees of freedom"), through the
+executable, against independent references: the closed form of a separable 3-DOF saddle, a 2-D
+quadrature where a coupled 3-DOF model keeps {q1 = p1 = 0} invariant, and in 2 DOF the Lyapunov
+orbit's action (the orbits scene, another computation). Sampled values within 4 standard errors."""
+import math
+import os
+import subprocess
+import textwrap
+
+import h5py
+import numpy as np
+import pytest
+from scipy import integrate
+
+from conftest import TIMEOUT_SCALE, TUBES
+
+SIGMAS = 4
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    return str(tmp_path_factory.mktemp("model-cache"))
+
+
+def run(tmp, text, cache):
+    path = os.path.join(tmp, "f.nml")
+    with open(path, "w") as f:
+        f.write(textwrap.dedent(text))
+    p = subprocess.run([str(TUBES), path], cwd=tmp, capture_output=True, text=True, timeout=300 * TIMEOUT_SCALE,
+                       env=dict(os.environ, OMP_NUM_THREADS="2", TUBES_CACHE_DIR=cache))
+    return p
+
+
+def flux_of(tmp):
+    with h5py.File(os.path.join(tmp, "f.h5")) as f:
+        g = f["flux"]
+        out = {k: g[k][()] for k in g}
+        if "orbits" in f:
+            out["action"] = f["orbits/action"][()]
+        return out
+
+
+def test_separable_three_dof_saddle(tmp_path, cache):
+    """H = |p|^2/2 - q1^2/2 + w2^2 q2^2/2 + w3^2 q3^2/2: f = 2 pi^2 E^2 / (w2 w3) exactly."""
+    tmp = str(tmp_path)
+    p = run(tmp, """
+        &run scenes = 'equilibria', 'flux', output = 'f.h5' /
+        &model system = 'expression', hamiltonian = '(p1^2 + p2^2 + p3^2)/2 - q1^2/2 + w2^2*q2^2/2 + w3^2*q3^2/2',
+          coordinates = 'q1', 'q2', 'q3', momenta = 'p1', 'p2', 'p3', constants = 'w2 = 1.3', 'w3 = 2.1' /
+        &equilibria box = 1.0, n_grid = 5 /
+        &flux de = 0.01, 0.2, n_samples = 20000, seed = 3 /
+        """, cache)
+    assert p.returncode == 0, p.stdout + p.stderr
+    f = flux_of(tmp)
+    exact = 2 * math.pi**2 * f["dE"] ** 2 / (1.3 * 2.1)
+    assert np.allclose(f["flux_leading_order"], exact, rtol=1e-12)
+    assert np.all(np.abs(f["flux_sampled"] - exact) < SIGMAS * f["flux_sampled_err"]), (f, exact)
+    assert np.all(f["flux_sampled_err"] < 0.03 * exact)
+    assert f["n_recrossing"].tolist() == [0, 0] and f["n_undecided"].tolist() == [0, 0]
+
+
+def test_coupled_three_dof_against_quadrature(tmp_path, cache):
+    """Quartic couplings that keep {q1 = p1 = 0} invariant: the NHIM is {q1 = p1 = 0, H = E} and
+    the flux is 2 pi times the integral of E - V(0, q2, q3) over {V <= E} (p2, p3 integrated in
+    closed form), by scipy's dblquad."""
+    w2, w3, c, d, de = 1.0, 1.7, 2.0, 0.5, 0.3
+    tmp = str(tmp_path)
+    p = run(tmp, f"""
+        &run scenes = 'flux', output = 'f.h5' /
+        &model system = 'expression',
+          hamiltonian = '(p1^2 + p2^2 + p3^2)/2 - q1^2/2 + q1^4/4 + w2^2*q2^2/2 + w3^2*q3^2/2 + c*q2^2*q3^2 + d*q1^2*q2^2',
+          coordinates = 'q1', 'q2', 'q3', momenta = 'p1', 'p2', 'p3',
+          constants = 'w2 = {w2}', 'w3 = {w3}', 'c = {c}', 'd = {d}' /
+        &equilibria box = 1.5, n_grid = 7 /
+        &orbits saddle_near = 0, 0, 0 /
+        &flux de = {de}, n_samples = 20000, seed = 5, t_max = 40 /
+        """, cache)
+    assert p.returncode == 0, p.stdout + p.stderr
+    f = flux_of(tmp)
+
+    # at fixed q2, V = a + b q3^2: the q3 integral of E - V is (4/3) (E - a)^(3/2) / sqrt(b)
+    q2max = math.sqrt(2 * de) / w2
+    ref, _ = integrate.quad(lambda q2: 4 / 3 * max(de - w2**2 * q2**2 / 2, 0.0) ** 1.5
+                            / math.sqrt(w3**2 / 2 + c * q2**2), -q2max, q2max, epsabs=1e-14, epsrel=1e-12)
+    ref *= 2 * math.pi
+    assert abs(f["flux_sampled"][0] - ref) < SIGMAS * f["flux_sampled_err"][0], (f, ref)
+    # the quartic coupling lowers the flux below the leading order (a real check of the sampling)
+    assert ref < 0.95 * f["flux_leading_order"][0]
+
+
+@pytest.mark.parametrize("model,rest", [
+    ("&model system = 'henon_heiles' /", "&orbits saddle_near = 0.0, 1.0, de = 0.001, 0.03 /\n"
+                                         "&flux de = 0.001, 0.03, n_samples = 8000 /"),
+    ("&model system = 'rolling_ball' /", "&orbits de = 10, 400, 700 /\n&flux de = 10, 400, 700, n_samples = 8000 /"),
+])
+def test_two_dof_flux_is_the_orbit_action(tmp_path, cache, model, rest):
+    """In 2 DOF the flux through the bottleneck is the Lyapunov orbit's action (Green's theorem on
+    the tube's cut, computed by the orbits scene): the sampled flux agrees within 4 sigma, also
+    at the ball's dE = 400 where it is 4 % above the leading order."""
+    tmp = str(tmp_path)
+    p = run(tmp, f"&run scenes = 'orbits', 'flux', output = 'f.h5' /\n{model}\n{rest}\n", cache)
+    assert p.returncode == 0, p.stdout + p.stderr
+    f = flux_of(tmp)
+    assert np.all(np.abs(f["flux_sampled"] - f["action"]) < SIGMAS * f["flux_sampled_err"]), f
+
+
+def test_flux_refused_for_a_gyroscopic_model(tmp_path, cache):
+    p = run(str(tmp_path), """
+        &run scenes = 'flux', output = 'f.h5' /
+        &model system = 'cr3bp' /
+        """, cache)
+    assert p.returncode == 1 and "the flux scene samples the dividing surface of a natural system" in p.stderr
+    assert not os.path.exists(os.path.join(str(tmp_path), "f.h5"))
+
+
+def test_too_short_t_max_is_a_failure(tmp_path, cache):
+    p = run(str(tmp_path), """
+        &run scenes = 'flux', output = 'f.h5' /
+        &model system = 'henon_heiles' /
+        &flux de = 0.01, n_samples = 500, t_max = 0.01 /
+        """, cache)
+    assert p.returncode == 2 and "raise &flux t_max" in p.stderr, p.stderr
