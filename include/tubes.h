@@ -160,7 +160,7 @@ int tubes_run_trajectory(const char system[TUBES_LSYSTEM], const double params[T
 int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                        const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                        const char saddle[8], int nde,
-                       const double des[], int n_segments, double tol, double rtol, double atol,
+                       const double des[], int n_segments, int family, double tol, double rtol, double atol,
                        int max_iter, int nsamp, int method, double h, double omega_bind, int solver,
                        int int_max_iter, double energy[], double period[], double action[],
                        double state0[], double mu_u[], double mu_s[], double mu_triv[],

@@ -96,6 +96,7 @@ typedef struct {
   double flux_de[TUBES_MAXDE];
   int flux_nde, flux_n_samples, flux_seed;
   double flux_t_max, flux_gate, flux_tol;
+  int orb_family;   /* &orbits family: which centre mode's Lyapunov family (1 .. N-1) */
 } tubes_config_t;
 
 /* Set every variable to its default. */

@@ -324,7 +324,8 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
                       n_segments, orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, sec_kind, &
                       sec_index, sec_level, sec_dir, tub_eps, tub_area_tol, tub_t_max, tub_n_init, &
                       tub_n_max, tra_area_tol, mc_t_max, mc_gate, mc_area_tol, pm_n_seeds, pm_n_iter, pm_t_max, &
-                      method, h, omega_bind, solver, int_max_iter)
+                      method, h, omega_bind, solver, int_max_iter, orb_family, flux_n_samples, flux_seed, &
+                      flux_t_max, flux_gate, flux_tol)
   ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
   ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
   ! scene calls take their defaults and their checks from here; msg holds the messages
@@ -334,7 +335,9 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   character(len=*), intent(in) :: path
   integer(c_int), intent(out) :: stat, n_grid, use_near, n_segments, orb_max_iter, orb_n_samples, &
                                  sec_kind, sec_index, sec_dir, tub_n_init, tub_n_max, pm_n_seeds, &
-                                 pm_n_iter, method, solver, int_max_iter
+                                 pm_n_iter, method, solver, int_max_iter, orb_family, flux_n_samples, &
+                                 flux_seed
+  real(c_double), intent(out) :: flux_t_max, flux_gate, flux_tol
   character(len=2048), intent(out) :: msg
   character(len=32), intent(out) :: system
   character(len=8), intent(out) :: saddle
@@ -414,6 +417,12 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   omega_bind = cfg%omega_bind
   solver = merge(2, 1, chars(cfg%solver) == 'fixed_point')
   int_max_iter = cfg%max_iter
+  orb_family = cfg%orb_family
+  flux_n_samples = cfg%flux_n_samples
+  flux_seed = cfg%flux_seed
+  flux_t_max = cfg%flux_t_max
+  flux_gate = cfg%flux_gate
+  flux_tol = cfg%flux_tol
 contains
   function chars(c) result(s)
     character(kind=c_char), intent(in) :: c(:)
@@ -427,7 +436,7 @@ contains
   end function chars
 end subroutine read_input
 
-subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, tol, rtol, &
+subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &
                         atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, &
                         stat, energy, period, action, mu_u, mu_s, stab, &
                         residual, closure, iterations, converged, state0, ts, xs, end_de, end_reason)
@@ -440,7 +449,7 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   use tubes_methods, only: integ_choice_t, method_opts_t
   implicit none
   character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, nde, n_segments, max_iter, nsamp, method, solver, int_max_iter
+  integer(c_int), intent(in) :: n_grid, nde, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
   real(c_double), intent(in) :: h, omega_bind
   real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), tol, rtol, atol
   integer(c_int), intent(out) :: stat, iterations(nde), converged(nde), end_reason
@@ -465,6 +474,7 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   opts%atol = atol
   opts%max_iter = max_iter
   opts%n_samples = nsamp
+  opts%family = family
   opts%integ = integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, solver=solver, &
                                                                       max_iter=int_max_iter))
   call orbit_family_(model, eqs, isad, des, opts, orbs, end_de, reason, stat)
@@ -610,3 +620,38 @@ subroutine status_text(code, msg)
   character(len=256), intent(out) :: msg
   msg = status_message(code)
 end subroutine status_text
+
+subroutine flux(system, params, lo, hi, n_grid, saddle, nde, des, nsamp, seed, t_max, gate, tol, method, h, &
+                omega_bind, solver, int_max_iter, stat, fl, err, leading, counts)
+  ! the flux through the saddle's bottleneck (as the flux scene; src/tubes_flux.f90)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_hamiltonian, only: hamiltonian_t
+  use tubes_equilibria, only: equilibrium_t
+  use tubes_study, only: setup_model
+  use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_flux, only: flux_result_t, flux_leading_order, flux_sampled
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, nde, nsamp, seed, method, solver, int_max_iter
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), t_max, gate, tol, h, omega_bind
+  integer(c_int), intent(out) :: stat, counts(4, nde)
+  real(c_double), intent(out) :: fl(nde), err(nde), leading(nde)
+  class(hamiltonian_t), allocatable :: model
+  type(equilibrium_t), allocatable :: eqs(:)
+  type(flux_result_t) :: res
+  integer :: isad, k, nd
+  fl = 0; err = 0; leading = 0; counts = 0
+  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat)
+  if (stat /= 0) return
+  nd = model%ndof()
+  do k = 1, nde
+    leading(k) = flux_leading_order(eqs(isad)%omegas, des(k))
+    call flux_sampled(model, eqs(isad), des(k), nsamp, seed, t_max, tol, gate, maxval(hi(1:nd) - lo(1:nd)), &
+                      integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
+                      solver=solver, max_iter=int_max_iter)), res, stat)
+    if (stat /= 0) return
+    fl(k) = res%flux
+    err(k) = res%err
+    counts(:, k) = [res%n_inside, res%n_reactive, res%n_recrossing, res%n_undecided]
+  end do
+end subroutine flux

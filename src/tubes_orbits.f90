@@ -34,6 +34,7 @@ module tubes_orbits
     real(wp) :: atol = 1.0e-13_wp     !! integration tolerance (absolute)
     integer :: max_iter = 25          !! Newton iterations per orbit
     integer :: n_samples = 201        !! samples along one period in the output
+    integer :: family = 1             !! the family of the saddle's family-th centre mode (1..N-1)
     real(wp) :: period_max = 20       !! periods beyond period_max * T_po end the family [1]
     type(integ_choice_t) :: integ     !! the integrator (default DOP853)
     logical :: local = .false.        !! multiple shooting on this MPI rank alone (the caller
@@ -583,7 +584,7 @@ contains
   !> equilibrium, or failure of the corrector for steps below 1e-6 of de) the continuation
   !> stops: end_de estimates the limit, end_reason says why, and orbits past it are not
   !> computed (converged = .false.). stat < 0 only for invalid input.
-  subroutine orbit_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
+  recursive subroutine orbit_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: eqs(:)
     integer, intent(in) :: isad
@@ -610,6 +611,26 @@ contains
     if (.not. eqs(isad)%rank1) then
       stat = TUBES_EINPUT
       return
+    end if
+    if (opts%family /= 1) then   ! another centre mode's family: that mode first, then as family 1
+      if (opts%family < 1 .or. opts%family > size(eqs(isad)%omegas)) then
+        stat = TUBES_EINPUT
+        return
+      end if
+      block
+        type(equilibrium_t) :: e(size(eqs))
+        type(orbit_opts_t) :: o
+        integer :: j
+        e = eqs
+        j = opts%family
+        e(isad)%omega = e(isad)%omegas(j)
+        e(isad)%omegas([1, j]) = e(isad)%omegas([j, 1])
+        e(isad)%evec(:, [3, 4, 2*j + 1, 2*j + 2]) = e(isad)%evec(:, [2*j + 1, 2*j + 2, 3, 4])
+        o = opts
+        o%family = 1
+        call orbit_family(model, e, isad, des, o, orbits, end_de, end_reason, stat)
+        return
+      end block
     end if
     do k = 2, size(des)
       if (des(k) <= des(k - 1)) then

@@ -292,13 +292,13 @@ contains
   !> The Lyapunov family of the saddle named `saddle` (C string) at the ascending excess
   !> energies des(nde); outputs per orbit as in include/tubes.h (tubes_orbit_family).
   integer(c_int) function c_orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, &
-      n_segments, tol, rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, &
+      n_segments, family, tol, rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, &
       energy, period, action, state0, mu_u, mu_s, mu_triv, stab, residual, closure, iterations, &
       converged, mindist, monodromy, ts, xs, history, end_de, end_reason) result(stat) &
       bind(C, name='tubes_orbit_family')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, nde, n_segments, max_iter, nsamp, method, solver, int_max_iter
+    integer(c_int), value :: n_grid, nde, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
     real(c_double), value :: h, omega_bind
     real(c_double), intent(in) :: des(nde)
     real(c_double), value :: tol, rtol, atol
@@ -330,6 +330,7 @@ contains
     opts%atol = atol
     opts%max_iter = max_iter
     opts%n_samples = nsamp
+    opts%family = family
     opts%integ = integ_of(method, h, omega_bind, solver, int_max_iter)
     allocate (orbs(nde))
     call orbit_family(model, eqs, isad, des, opts, orbs, ede, reason, stat)

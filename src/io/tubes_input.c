@@ -128,6 +128,8 @@ const nml_var tubes_nml_vars[] = {
     {"orbits", "atol", NML_REAL, 1, "state units", "1e-13", "> 0", "integration tolerance (absolute)"},
     {"orbits", "max_iter", NML_INT, 1, "-", "25", "1 .. 200", "Newton iterations per orbit"},
     {"orbits", "n_samples", NML_INT, 1, "-", "201", "2 .. 100000", "samples along each orbit in the output"},
+    {"orbits", "family", NML_INT, 1, "-", "1", "1 .. N-1",
+     "the Lyapunov family of the saddle's k-th centre frequency (ascending; N = 3: 2 families)"},
     {"section", "kind", NML_STRING, 1, "-", "the system's ('ray' for the ball)", "ray, plane",
      "ray: the ball's polar ray theta = angle; plane: q_index = value (docs/tubes.md, Sections)"},
     {"section", "angle", NML_REAL, 1, "deg", "45", "-360 .. 360", "kind = 'ray': the ray theta = angle (U1: 45)"},
@@ -813,6 +815,13 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->orb_rtol >= 1e-15 && c->orb_rtol < 1e-4)) n += bad(path, w, "orbits", "rtol", err, "", c->orb_rtol);
   if (!(c->orb_atol > 0)) n += bad(path, w, "orbits", "atol", err, "", c->orb_atol);
   if (!(c->orb_max_iter >= 1 && c->orb_max_iter <= 200)) n += bad(path, w, "orbits", "max_iter", err, "", c->orb_max_iter);
+  if (c->nparams >= 0 && !(c->orb_family >= 1 && c->orb_family <= (c->ndof > 1 ? c->ndof - 1 : 1))) {
+    int ln = line_of(w, "orbits", "family");
+    fprintf(err, "%s:%d: &orbits: family = %d is out of range: allowed 1 .. %d (the saddle's centre modes; "
+            "system '%s' has %d degrees of freedom)\n", path, ln ? ln : w->group_line[group_index("orbits")],
+            c->orb_family, c->ndof > 1 ? c->ndof - 1 : 1, c->system, c->ndof);
+    n++;
+  }
   if (!(c->orb_n_samples >= 2 && c->orb_n_samples <= 100000))
     n += bad(path, w, "orbits", "n_samples", err, "", c->orb_n_samples);
   n += check_list(path, w, "tubes", c->tub_de, c->tub_nde, err);

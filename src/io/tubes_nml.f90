@@ -81,6 +81,7 @@ module tubes_nml
     real(c_double) :: flux_de(MAXDE)
     integer(c_int) :: flux_nde, flux_n_samples, flux_seed
     real(c_double) :: flux_t_max, flux_gate, flux_tol
+    integer(c_int) :: orb_family
   end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved).
@@ -139,6 +140,7 @@ module tubes_nml
     real(c_double) :: flux_de(MAXDE)
     integer :: flux_n_samples, flux_seed
     real(c_double) :: flux_t_max, flux_gate, flux_tol
+    integer :: orb_family
   end type vars_t
 
 contains
@@ -193,6 +195,7 @@ contains
     v%orb_n_segments = 8
     v%orb_max_iter = 25
     v%orb_n_samples = 201
+    v%orb_family = 1
     v%orb_tol = 1.0e-11_c_double
     v%orb_rtol = 1.0e-13_c_double
     v%orb_atol = 1.0e-13_c_double
@@ -271,6 +274,7 @@ contains
     call put(v%orb_method, cfg%orb_method)
     cfg%orb_n_segments = v%orb_n_segments; cfg%orb_max_iter = v%orb_max_iter
     cfg%orb_n_samples = v%orb_n_samples
+    cfg%orb_family = v%orb_family
     cfg%orb_tol = v%orb_tol; cfg%orb_rtol = v%orb_rtol; cfg%orb_atol = v%orb_atol
     call put_list(v%tub_de, cfg%tub_de, cfg%tub_nde, [10.0_c_double, 100.0_c_double])
     call put(v%tub_kind, cfg%tub_kind)
@@ -612,6 +616,7 @@ contains
     v%orb_method = get(cfg%orb_method)
     v%orb_n_segments = cfg%orb_n_segments; v%orb_max_iter = cfg%orb_max_iter
     v%orb_n_samples = cfg%orb_n_samples
+    v%orb_family = cfg%orb_family
     v%orb_tol = cfg%orb_tol; v%orb_rtol = cfg%orb_rtol; v%orb_atol = cfg%orb_atol
     v%sec_angle = cfg%sec_angle; v%sec_pth_sign = cfg%sec_pth_sign
     v%tub_de = cfg%tub_de
@@ -872,15 +877,16 @@ contains
       character(8) :: saddle
       real(c_double), allocatable :: de(:)
       character(LNAME) :: method
-      integer :: n_segments, max_iter, n_samples, m
+      integer :: n_segments, max_iter, n_samples, m, family
       real(c_double) :: tol, rtol, atol
       real(c_double), allocatable :: saddle_near(:)
       character(512) :: buf(40)
       logical :: by_name
       integer :: k
       namelist /orbits/ saddle, saddle_near, de, method, n_segments, tol, rtol, atol, max_iter, &
-        n_samples
+        n_samples, family
       saddle = v%orb_saddle; method = v%orb_method; n_segments = v%orb_n_segments
+      family = v%orb_family
       call list_io(v%orb_saddle_near, saddle_near)
       tol = v%orb_tol; rtol = v%orb_rtol; atol = v%orb_atol; max_iter = v%orb_max_iter
       n_samples = v%orb_n_samples
@@ -910,6 +916,7 @@ contains
       v%orb_saddle = saddle; v%orb_method = method; v%orb_n_segments = n_segments
       v%orb_tol = tol; v%orb_rtol = rtol; v%orb_atol = atol; v%orb_max_iter = max_iter
       v%orb_n_samples = n_samples
+      v%orb_family = family
     end subroutine io_orbits
     !> A list (dE) in read mode keeps its unset entries; in write mode only the set ones.
     subroutine list_io(a, out)

@@ -502,7 +502,7 @@ int scene_orbits(tubes_run_t *run) {
   int reason = 0;
   fprintf(stderr, "orbits: continuing the %s family to dE = %g (%s shooting)...\n", run->saddle,
           c->orb_de[n - 1], nseg > 1 ? "multiple" : "single");
-  int st = tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, c->orb_de, nseg, c->orb_tol, c->orb_rtol,
+  int st = tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, c->orb_de, nseg, c->orb_family, c->orb_tol, c->orb_rtol,
                               c->orb_atol, mi, ns, INTEGRATOR(c), e, per, act, s0, mu, ms, mt, stab, res, clo, it, conv, md,
                               mono, ts, xs, hist, &end_de, &reason);
   if (st < 0) {
@@ -545,16 +545,18 @@ int scene_orbits(tubes_run_t *run) {
   }
   hid_t g = h5_group(run->file, "orbits");
   if (g < 0) { rc = EXIT_IO; goto out; }
-  hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, 4}, d2[2] = {(hsize_t)n, 2}, d44[3] = {(hsize_t)n, 4, 4};
+  int n2 = 2 * run->ndof;   /* state components: 2N */
+  hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, (hsize_t)n2}, d2[2] = {(hsize_t)n, 2},
+          d44[3] = {(hsize_t)n, (hsize_t)n2, (hsize_t)n2};
   double *mre = malloc(sizeof(double) * 2 * n), *mim = malloc(sizeof(double) * 2 * n),
-         *monot = malloc(sizeof(double) * 16 * n);
+         *monot = malloc(sizeof(double) * 36 * n);
   for (int k = 0; k < n; k++) {
     mre[2 * k] = mt[4 * k]; mim[2 * k] = mt[4 * k + 1]; mre[2 * k + 1] = mt[4 * k + 2]; mim[2 * k + 1] = mt[4 * k + 3];
-    for (int i = 0; i < 4; i++)
-      for (int j = 0; j < 4; j++) monot[16 * k + 4 * i + j] = mono[36 * k + 4 * j + i];   /* row-major */
-    for (int i = 0; i < 4; i++) s0[4 * k + i] = s0[6 * k + i];                          /* compact */
+    for (int i = 0; i < n2; i++)
+      for (int j = 0; j < n2; j++) monot[n2 * n2 * k + n2 * i + j] = mono[36 * k + n2 * j + i];   /* row-major */
+    for (int i = 0; i < n2; i++) s0[n2 * k + i] = s0[6 * k + i];                                /* compact */
     for (int j = 0; j < ns; j++)
-      for (int i = 0; i < 4; i++) xs[(size_t)4 * (k * ns + j) + i] = xs[(size_t)6 * (k * ns + j) + i];
+      for (int i = 0; i < n2; i++) xs[(size_t)n2 * (k * ns + j) + i] = xs[(size_t)6 * (k * ns + j) + i];
   }
   int h = 0;
   h |= h5_write_double(g, "dE", 1, &dn, c->orb_de, "(cm/s)^2");
@@ -566,7 +568,7 @@ int scene_orbits(tubes_run_t *run) {
   h |= h5_write_double(g, "mu_trivial", 2, d2, mre, "1");
   h |= h5_write_double(g, "mu_trivial_imag", 2, d2, mim, "1");
   h |= h5_write_double(g, "stability_index", 1, &dn, stab, "1");
-  h |= h5_write_double(g, "state0", 2, d4, s0, "cm, cm, cm/s, cm/s");
+  h |= h5_write_double(g, "state0", 2, d4, s0, n2 == 4 ? "cm, cm, cm/s, cm/s" : "state units");
   h |= h5_write_int(g, "converged", dn, conv, "1");
   h |= h5_write_double(g, "residual", 1, &dn, res, "cm, cm/s");
   h |= h5_write_double(g, "closure", 1, &dn, clo, "cm, cm/s");
@@ -577,6 +579,7 @@ int scene_orbits(tubes_run_t *run) {
   h |= h5_attr_string(g, "method", nseg > 1 ? "multiple" : "single");
   h |= h5_attr_long(g, "n_segments", nseg);
   h |= h5_attr_double(g, "tol", c->orb_tol);
+  h |= h5_attr_long(g, "family", c->orb_family);
   if (end_de > 0) {
     h |= h5_attr_double(g, "family_end_dE", end_de);
     h |= h5_attr_string(g, "family_end_reason", end_reason_text(reason));
@@ -586,13 +589,13 @@ int scene_orbits(tubes_run_t *run) {
     snprintf(name, sizeof name, "orbit_%03d", k);
     hid_t o = h5_group(g, name);
     if (o < 0) { h = 1; break; }
-    hsize_t dsn = (hsize_t)ns, dx[2] = {(hsize_t)ns, 4}, dh = (hsize_t)(it[k] < mi ? it[k] : mi);
+    hsize_t dsn = (hsize_t)ns, dx[2] = {(hsize_t)ns, (hsize_t)n2}, dh = (hsize_t)(it[k] < mi ? it[k] : mi);
     h |= h5_attr_double(o, "dE", c->orb_de[k]);
     h |= h5_attr_long(o, "converged", conv[k]);
     if (dh > 0) h |= h5_write_double(o, "history", 1, &dh, hist + (size_t)k * mi, "cm, cm/s");
     if (conv[k]) {
       h |= h5_write_double(o, "t", 1, &dsn, ts + (size_t)k * ns, "s");
-      h |= h5_write_double(o, "state", 2, dx, xs + (size_t)4 * k * ns, "cm, cm, cm/s, cm/s");
+      h |= h5_write_double(o, "state", 2, dx, xs + (size_t)n2 * k * ns, n2 == 4 ? "cm, cm, cm/s, cm/s" : "state units");
     }
     H5Gclose(o);
   }
@@ -686,7 +689,7 @@ static void past_end_message(tubes_run_t *run, double de, char *buf, size_t len)
       *hist = calloc(mi > 0 ? mi : 1, sizeof(double)), *ts = calloc(ns, sizeof(double)),
       *xs = calloc((size_t)2 * MD * ns, sizeof(double));
   if (hist && ts && xs)
-    tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, 1, &de, orb_nseg(c),
+    tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, 1, &de, orb_nseg(c), 1,
                        c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c), &e, &per, &act, s0, &mu, &ms, mt,
                        &stab, &res, &clo, &it, &conv, &md, mono, ts, xs, hist, &end_de, &reason);
   free(hist); free(ts); free(xs);
