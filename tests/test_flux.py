@@ -120,3 +120,19 @@ def test_too_short_t_max_is_a_failure(tmp_path, cache):
         &flux de = 0.01, n_samples = 500, t_max = 0.01 /
         """, cache)
     assert p.returncode == 2 and "raise &flux t_max" in p.stderr, p.stderr
+
+
+def test_python_flux_and_families(tmp_path, monkeypatch):
+    """tubes.flux and tubes.orbit_family(family=...) reach the same computations from Python."""
+    monkeypatch.setenv("TUBES_CACHE_DIR", str(tmp_path / "cache"))
+    import tubes
+    hh = tubes.Model(system="henon_heiles")
+    f = tubes.flux(hh, [0.001, 0.02], saddle_near=(0, 1), n_samples=6000, seed=4)
+    act = tubes.orbit_family(hh, [0.001, 0.02], saddle_near=(0, 1))["action"]
+    assert np.all(np.abs(f["flux_sampled"] - act) < SIGMAS * f["flux_sampled_err"]), (f, act)
+    assert np.allclose(f["flux_leading_order"], 2 * math.pi / math.sqrt(3) * np.array([0.001, 0.02]), rtol=1e-12)
+    m = tubes.Model(system="expression", hamiltonian="(p1^2 + p2^2 + p3^2)/2 - q1^2/2 + 1.3^2*q2^2/2 + 2.1^2*q3^2/2",
+                    coordinates=("q1", "q2", "q3"), momenta=("p1", "p2", "p3"))
+    assert np.allclose(tubes.orbit_family(m, [0.01], family=2)["period"], 2 * math.pi / 2.1, rtol=1e-12)
+    with pytest.raises(ValueError, match="family = 3 is out of range"):
+        tubes.orbit_family(m, [0.01], family=3)

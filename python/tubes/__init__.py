@@ -38,7 +38,7 @@ FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 __all__ = ["Model", "TubesError", "status_message", "systems", "model_info", "energy", "energies", "potentials",
            "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
            "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
-           "orbit_family", "tube_cut", "transition", "monte_carlo", "poincare",
+           "orbit_family", "tube_cut", "transition", "monte_carlo", "poincare", "flux",
            "load", "Result"]
 
 
@@ -432,7 +432,8 @@ _SETTINGS = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", 
              "n_segments", "orb_tol", "orb_rtol", "orb_atol", "orb_max_iter", "orb_n_samples",
              "sec_kind", "sec_index", "sec_level", "sec_dir", "tub_eps", "tub_area_tol", "tub_t_max",
              "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate", "mc_area_tol", "pm_n_seeds",
-             "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter")
+             "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter", "orb_family",
+             "flux_n_samples", "flux_seed", "flux_t_max", "flux_gate", "flux_tol")
 
 
 def _read_namelist(lines: list[str], who: str) -> dict:
@@ -511,14 +512,15 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
     docs/orbits.md): dict of arrays dE, energy, period, action, mu_unstable, mu_stable,
     stability_index, residual, closure, iterations, converged, state0 (n, 2N), and end_dE (the
     family's estimated end, or None). Keywords: saddle or saddle_near, and &orbits' method,
-    n_segments, tol, rtol, atol, max_iter, n_samples; integrator: &integrator's method and its
-    options as a dict, e.g. {"method": "arkode_erk8"} (default DOP853)."""
+    n_segments, tol, rtol, atol, max_iter, n_samples, family (the k-th centre mode's family in 3
+    DOF); integrator: &integrator's method and its options as a dict, e.g. {"method":
+    "arkode_erk8"} (default DOP853)."""
     model = model or Model()
     de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
     st = _settings(model, saddle, saddle_near, orbits=dict(orbits, de=list(de)), integrator=integrator, equilibria=equilibria)
     n2 = 2 * model.ndof
     (stat, en, per, act, mu, ms, stab, res, clo, it, conv, s0, ts, xs, end_de, reason) = _lib().orbit_family(
-        *_study(model, st), de, int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
+        *_study(model, st), de, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]),
         float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st))
     _check(stat, "orbit_family")
     return {"dE": de, "energy": en.copy(), "period": per.copy(), "action": act.copy(),
@@ -526,6 +528,30 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
             "residual": res.copy(), "closure": clo.copy(), "iterations": it.copy(),
             "converged": conv.astype(bool), "state0": s0[:n2, :].T.copy(),
             "end_dE": float(end_de) if end_de > 0 else None, "saddle": st["saddle"]}
+
+
+def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
+         n_samples=None, seed=None, t_max=None, gate=None, tol=None, integrator: dict | None = None,
+         equilibria: dict | None = None) -> dict:
+    """The flux of trajectories through a rank-1 saddle's bottleneck (as the flux scene,
+    docs/theory.md "Flux in N degrees of freedom"; natural systems, 2 or 3 DOF): dict of arrays
+    dE, flux_sampled, flux_sampled_err, flux_leading_order, n_inside, n_reacting, n_recrossing,
+    n_undecided. Keywords as &flux (defaults from the program's reader)."""
+    model = model or Model()
+    de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
+    fl = {k: v for k, v in (("n_samples", n_samples), ("seed", seed), ("t_max", t_max), ("gate", gate),
+                             ("tol", tol)) if v is not None}
+    st = _settings(model, saddle, saddle_near, flux=dict(fl, de=list(de)), integrator=integrator,
+                   equilibria=equilibria)
+    if not model.info or model.info.get("ndof", 2) < 2:
+        raise ValueError("flux: the model needs 2 or 3 degrees of freedom")
+    stat, f, e, lead, cnt = _lib().flux(*_study(model, st), de, int(st["flux_n_samples"]), int(st["flux_seed"]),
+                                        float(st["flux_t_max"]), float(st["flux_gate"]), float(st["flux_tol"]),
+                                        *_integ(st))
+    _check(stat, "flux")
+    return {"dE": de, "flux_sampled": f.copy(), "flux_sampled_err": e.copy(), "flux_leading_order": lead.copy(),
+            "n_inside": cnt[0].copy(), "n_reacting": cnt[1].copy(), "n_recrossing": cnt[2].copy(),
+            "n_undecided": cnt[3].copy()}
 
 
 def _cut(model, st, de, kind, area_tol):
@@ -618,7 +644,7 @@ def poincare(model: Model | None = None, dE: float = 100.0, n_seeds=None, n_iter
     return out
 
 
-for _f in (orbit_family, tube_cut, transition, monte_carlo, poincare, equilibria, section_boundary):
+for _f in (orbit_family, tube_cut, transition, monte_carlo, poincare, flux, equilibria, section_boundary):
     setattr(Model, _f.__name__, lambda self, *a, _f=_f, **k: _f(self, *a, **k))
 del _f
 
