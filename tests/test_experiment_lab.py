@@ -2,6 +2,7 @@
 positions in mm, m or pixels, other column names, ';' or tab separators, rows ordered by frame.
 With the right options the reader returns the canonical file's samples (to round-off) and the
 analysis prints the canonical numbers; without them the run refuses and names the option."""
+import math
 import os
 import re
 import subprocess
@@ -128,3 +129,86 @@ def test_without_the_options_the_run_refuses_and_names_the_cause(canon, tmp_path
     for n in needles:
         assert n in r.stderr, (n, r.stderr)
     assert not (tmp_path / "an.h5").exists()
+
+
+# ------------------------------------------------ fits, pipes, warnings, the theory's model
+
+@pytest.fixture(scope="module")
+def flat(tmp_path_factory):
+    """40 conservative tracks at dE in (0, 300) (transitions in the fit range), a theory file, and
+    the same tracks with 1 % of the x samples NaN."""
+    d = tmp_path_factory.mktemp("fits")
+    tr = ex.synthetic_tracks(24, ensemble="microcanonical", dE_range=(0.0, 300.0), seed=21, noise=0.05,
+                             pixel=0.16, rate=50.0)
+    ex.write_tracks_h5(str(d / "cons.h5"), tr)
+    k = np.random.default_rng(3).choice(tr.x.size, tr.x.size // 100, replace=False)
+    tr.x[k] = np.nan
+    ex.write_tracks_csv(str(d / "nan.csv"), tr)
+    (d / "t.nml").write_text("&run scenes = 'tubes', 'transition' /\n"
+                             "&tubes de = 40, 80, 120, 160, 200, 300, area_tol = 1e-6 /\n"
+                             "&transition de = 5, 20, 40, 80, 120, 160, 200, 300, area_tol = 1e-6 /\n")
+    r = subprocess.run([str(ROOT / "tubes"), "t.nml", "-o", "theory.h5"], cwd=d, capture_output=True, text=True,
+                       timeout=300)
+    assert r.returncode == 0, r.stderr
+    return d
+
+
+def test_fits_never_crash(flat, tmp_path):
+    """Any bins: one bin in the fit range gives the slope through the origin and a note (no free
+    line: it was numpy's LinAlgError), none gives no slope; the CLI prints the note and writes
+    its outputs."""
+    tr = ex.read_tracks(str(flat / "cons.h5"))
+    th = ex.load_theory(str(flat / "theory.h5"))
+    for bins, fits in (((0.0, 160.0), 1), ((-40.0, 0.0, 160.0), 1), ((-40.0, 0.0), 0), ((150.0, 200.0, 400.0), 0),
+                       (tuple(np.arange(-40.0, 401.0, 80.0)), 1), ((0.0, 80.0, 160.0), 2)):
+        a = ex.analyse(tr, th, ex.Options(bins=bins, bootstrap=20, resamples=0, compare=False)).attrs
+        assert a["n_bins_fit"] == fits, (bins, a["n_bins_fit"])
+        assert math.isfinite(a["slope"]) == (fits > 0), bins
+        assert ("fit_note" in a) == (fits == 1), bins
+    r = _run([str(flat / "cons.h5"), "--theory", str(flat / "theory.h5"), "--bins", "0:160:160", "--bootstrap", "20",
+              "--resamples", "0", "-o", str(tmp_path / "an.h5"), "--figure", str(tmp_path / "f.png")], tmp_path)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+    assert "a free line needs two" in r.stdout
+    assert (tmp_path / "an.h5").exists() and (tmp_path / "f.png").exists()
+
+
+def test_a_broken_pipe_ends_quietly_with_the_outputs_written(flat, tmp_path):
+    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=str(ROOT / "python"))
+    cmd = (f"{PY} -m tubes.experiment {flat / 'cons.h5'} --theory {flat / 'theory.h5'} --bootstrap 20 "
+           f"--resamples 0 -o an.h5 --figure f.png | head -1")
+    r = subprocess.run(["bash", "-o", "pipefail", "-c", cmd], cwd=tmp_path, capture_output=True, text=True,
+                       timeout=300, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "Traceback" not in r.stderr and "BrokenPipe" not in r.stderr, r.stderr
+    assert r.stdout.startswith("camera rate")
+    assert (tmp_path / "an.h5").exists() and (tmp_path / "f.png").exists()
+
+
+def test_issues_are_summarised(flat, tmp_path):
+    """1 % NaN samples: a count per kind and the first three on stderr, not one line per sample;
+    --all-issues prints every one."""
+    args = [str(flat / "nan.csv"), "--theory", str(flat / "theory.h5"), "--bootstrap", "20", "--resamples", "0"]
+    r = _run(args, tmp_path)
+    assert r.returncode == 0, r.stderr
+    lines = r.stderr.splitlines()
+    assert len(lines) <= 12, r.stderr
+    assert re.search(r"warning: \d+ issue\(s\) of kind nan \(\d+ samples\); the first 3:", r.stderr)
+    r = _run(args + ["--all-issues"], tmp_path)
+    assert len(r.stderr.splitlines()) > 50
+
+
+def test_a_theory_for_another_surface_is_refused(flat, tmp_path):
+    """Tracks made by tubes record their /model; a theory computed for another surface (here
+    alpha = 0.075 against 0.07) is refused, naming the parameter."""
+    (tmp_path / "t2.nml").write_text("&run scenes = 'tubes', 'transition' /\n&model alpha = 0.075 /\n"
+                                     "&tubes de = 40, 80, area_tol = 1e-6 /\n&transition de = 5, 40, 80, area_tol = 1e-6 /\n")
+    r = subprocess.run([str(ROOT / "tubes"), "t2.nml", "-o", "theory2.h5"], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    (tmp_path / "s.nml").write_text("&run scenes = 'synthetic_experiment' /\n&experiment n_tracks = 4, duration = 3.0 /\n")
+    r = subprocess.run([str(ROOT / "tubes"), "s.nml", "-o", "tracks.h5"], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    r = _run(["tracks.h5", "--theory", "theory2.h5"], tmp_path)
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert "alpha = 0.075 (theory) against 0.07 (tracks)" in r.stderr

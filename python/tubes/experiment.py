@@ -17,10 +17,12 @@ Units: cm, s; energies per unit mass in (cm/s)^2.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import dataclasses
 import datetime
 import functools
+import io
 import json
 import math
 import os
@@ -143,6 +145,7 @@ class Segment:
 
 
 TIME_UNITS = {"s": 1.0, "ms": 1.0e-3, "us": 1.0e-6}          # -> s
+SURFACE_PARAMS = ("alpha", "beta", "gamma", "xi", "h0", "g")   # the surface and gravity of a track file
 LENGTH_UNITS = {"cm": 1.0, "mm": 0.1, "m": 100.0, "px": None}   # -> cm (px: --pixel-size)
 
 
@@ -272,6 +275,12 @@ def _read_h5(path: str) -> Tracks:
             raise ExperimentError(f"{path}: /tracks/track must hold integer track ids")
         attrs = {k: (v.decode() if isinstance(v, bytes) else (v.item() if isinstance(v, np.generic) else v))
                  for k, v in g.attrs.items()}
+        if "model" in f:   # a tubes file: the surface the tracks were made on (checked against a theory)
+            m = f["model"].attrs
+            sysname = m.get("system", b"rolling_ball")
+            sysname = sysname.decode() if isinstance(sysname, bytes) else str(sysname)
+            attrs["surface_model"] = json.dumps(
+                {"system": sysname, **{k: float(m[k]) for k in SURFACE_PARAMS if k in m}})
         truth = None
         if "truth" in g:
             t = g["truth"]
@@ -892,11 +901,19 @@ def fit_slope(x, k, n, deff=1.0, iterations: int = 50):
 
 
 def fit_line(x, f, w):
-    """Weighted straight line f = a + b x; returns (a, b, cov)."""
-    A = np.column_stack([np.ones_like(x), x])
-    Aw = A * w[:, None]
-    cov = np.linalg.inv(A.T @ Aw)
-    a, b = cov @ (Aw.T @ f)
+    """Weighted straight line f = a + b x; returns (a, b, cov), or NaNs when fewer than two
+    distinct x carry weight (one bin: a line through it is not determined)."""
+    x, f, w = (np.asarray(v, float) for v in (x, f, w))
+    ok = np.isfinite(x) & np.isfinite(f) & np.isfinite(w) & (w > 0)
+    if np.unique(x[ok]).size < 2:
+        return math.nan, math.nan, np.full((2, 2), math.nan)
+    A = np.column_stack([np.ones_like(x[ok]), x[ok]])
+    Aw = A * w[ok][:, None]
+    try:
+        cov = np.linalg.inv(A.T @ Aw)
+    except np.linalg.LinAlgError:
+        return math.nan, math.nan, np.full((2, 2), math.nan)
+    a, b = cov @ (Aw.T @ f[ok])
     return float(a), float(b), cov
 
 
@@ -1074,6 +1091,17 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
     if theory is not None and abs(theory.E_e - E_e) > 1e-6 * abs(E_e):
         raise ExperimentError(f"{theory.path}: E_e = {theory.E_e} differs from the model's "
                               f"saddle energy {E_e} (different surface parameters?)")
+    if theory is not None and tracks.attrs.get("surface_model"):
+        made = json.loads(tracks.attrs["surface_model"])
+        used = {"system": theory.model.system, **{k: theory.model.parameters.get(k) for k in SURFACE_PARAMS}}
+        differ = [k for k in made if k == "system" and made[k] != used[k] or k != "system" and (
+            used.get(k) is None or abs(made[k] - used[k]) > 1e-12 * max(abs(used[k]), 1.0))]
+        if differ:
+            raise ExperimentError(
+                f"{theory.path}: the theory was computed for another model than the tracks "
+                f"({tracks.source or 'the tracks'}): " + ", ".join(f"{k} = {used.get(k)} (theory) against {made[k]} (tracks)"
+                                                 for k in differ)
+                + "; compute the theory with the tracks' &model")
     x_gate = xs12 - opt.gate
     # sampling rate
     rate = opt.rate or float(tracks.attrs.get("camera_rate", 0) or 0)
@@ -1245,6 +1273,9 @@ def _statistics(cm: dict, opt: Options, theory: Theory | None, rng):
         w = ne / (p * (1 - p))
         chi2 = float(np.sum(w * (f[fitm] - s * x) ** 2))
         a, bb, cov = fit_line(x, f[fitm], w)
+        if not math.isfinite(a):
+            attrs["fit_note"] = (f"{int(fitm.sum())} bin(s) in the fit range (0, {opt.fit_max:g}]: the slope "
+                                 "through the origin only; a free line needs two")
         attrs.update({"chi2": chi2, "dof": int(fitm.sum() - 1), "intercept_fit_intercept": a,
                       "intercept_fit_intercept_err": float(np.sqrt(cov[0, 0])),
                       "intercept_fit_slope": bb, "intercept_fit_slope_err": float(np.sqrt(cov[1, 1]))})
@@ -1704,7 +1735,59 @@ def main(argv=None) -> int:
                     help="dE range of the section plot (default 40,140)")
     ap.add_argument("--strict", action="store_true",
                     help="exit with status 1 if any track was rejected or any sample dropped")
+    ap.add_argument("--all-issues", action="store_true",
+                    help="print every issue found in the tracks (default: a count per kind and the "
+                         f"first {SHOWN_ISSUES} of each; all are in the output's /experiment/validation)")
     args = ap.parse_args(argv)
+    # a reader that stops early (| head) ends this program quietly, its files still written
+    with contextlib.redirect_stdout(_QuietPipe(sys.stdout)):
+        return _main(args, orig)
+
+
+class _QuietPipe(io.TextIOBase):
+    """stdout that turns a broken pipe into silence (the rest of the run goes on)."""
+
+    def __init__(self, stream):
+        self.stream = stream
+        self.broken = False
+
+    def write(self, s):
+        if not self.broken:
+            try:
+                self.stream.write(s)
+                self.stream.flush()
+            except BrokenPipeError:
+                self.broken = True
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(devnull, self.stream.fileno())     # Python's own flush at exit stays quiet
+                os.close(devnull)
+        return len(s)
+
+    def flush(self):
+        pass
+
+
+SHOWN_ISSUES = 3     # issues printed per kind unless --all-issues
+
+
+def _print_issues(rep: "ValidationReport", all_issues: bool) -> None:
+    """The issues on stderr: every one, or per kind its count and the first SHOWN_ISSUES."""
+    by_kind = {}
+    for i in rep.issues:
+        by_kind.setdefault((i.severity, i.kind), []).append(i)
+    for (sev, kind), items in by_kind.items():
+        shown = items if all_issues else items[:SHOWN_ISSUES]
+        if not all_issues and len(items) > 1:
+            print(f"{sev}: {len(items)} issue(s) of kind {kind} ({sum(i.n_samples for i in items)} samples); "
+                  f"the first {len(shown)}:", file=sys.stderr)
+        for i in shown:
+            print(f"{sev}: {i.message}", file=sys.stderr)
+        if len(items) > len(shown):
+            print(f"{sev}: ... and {len(items) - len(shown)} more of kind {kind} (--all-issues prints them; all "
+                  "are in the output's /experiment/validation)", file=sys.stderr)
+
+
+def _main(args, orig) -> int:
     try:
         if not 0 < args.confidence < 1:
             raise ExperimentError("--confidence must lie in (0, 1)")
@@ -1746,8 +1829,7 @@ def main(argv=None) -> int:
     if tracks.attrs.get("rows_reordered"):
         print(f"note: {tracks.attrs['rows_reordered']} rows were not in (track, time) order: sorted "
               f"(a file may list its rows in any order)", file=sys.stderr)
-    for i in rep.issues:
-        print(f"{i.severity}: {i.message}", file=sys.stderr)
+    _print_issues(rep, args.all_issues)
     a = an.attrs
     print(rep.summary())
     print(f"U1 crossings: {a['n_u1_crossings']} ({a['n_u1_minus']} U1^-, {a['n_u1_plus']} U1^+); "
@@ -1766,6 +1848,10 @@ def main(argv=None) -> int:
             line += f"; theory with the same weights {a['slope_theory'] * 1e3:.3f}e-3, T_po/A0 = " \
                     f"{a['growth_rate'] * 1e3:.4f}e-3"
         print(line)
+        if "fit_note" in a:
+            print(f"note: {a['fit_note']}")
+    else:
+        print(f"no slope: no bin with crossings inside the fit range (0, {a['fit_max']:g}] of the bins")
     if math.isfinite(a.get("inside_fraction", math.nan)):
         print(f"transitions inside the tube cut ({a['cut_rule']}): {a['n_transitions_inside']} of "
               f"{a['n_inside_evaluated']} = {a['inside_fraction']:.3%}")
