@@ -53,7 +53,8 @@ OUTCOME_TRANSITION, OUTCOME_RETURN, OUTCOME_CENSORED, OUTCOME_EDGE = 1, 0, -1, -
 
 __all__ = ["ExperimentError", "Tracks", "Issue", "ValidationReport", "Segment", "Theory",
            "read_tracks", "write_tracks_csv", "write_tracks_h5", "validate", "differentiate", "estimate_segment",
-           "find_crossings", "analyse", "load_theory", "wilson", "fit_slope", "inside_polygon",
+           "find_crossings", "analyse", "load_theory", "Calibration", "fit_calibration", "read_calibration",
+           "wilson", "fit_slope", "inside_polygon",
            "synthetic_tracks", "tune", "write_analysis", "plot_analysis", "main", "Options", "Analysis",
            "window_energy", "classify", "truth_crossings", "noise_estimate"]
 
@@ -146,6 +147,7 @@ class Segment:
 
 TIME_UNITS = {"s": 1.0, "ms": 1.0e-3, "us": 1.0e-6}          # -> s
 SURFACE_PARAMS = ("alpha", "beta", "gamma", "xi", "h0", "g")   # the surface and gravity of a track file
+CAL_RESIDUAL_MAX = 0.5   # [cm] a fitted calibration worse than this is refused
 LENGTH_UNITS = {"cm": 1.0, "mm": 0.1, "m": 100.0, "px": None}   # -> cm (px: --pixel-size)
 
 
@@ -291,13 +293,97 @@ def _read_h5(path: str) -> Tracks:
                       arrs["y"].astype(float), attrs, truth, path)
 
 
+@dataclasses.dataclass
+class Calibration:
+    """Camera to surface coordinates, after the length unit: subtract the plate centre's camera
+    position (origin), flip y if the camera's y axis points down, rotate by angle [deg]
+    counter-clockwise: (x, y)_surface = R(angle) (x - ox, s (y - oy)), s = -1 if flip_y."""
+    origin: tuple = (0.0, 0.0)        # [cm] the plate centre in the camera frame
+    angle: float = 0.0                # [deg]
+    flip_y: bool = False
+    residual: float = math.nan        # [cm] rms of a fitted calibration's known points
+    n_points: int = 0
+
+    def apply(self, x, y):
+        a = math.radians(self.angle)
+        u = np.asarray(x, float) - self.origin[0]
+        v = (np.asarray(y, float) - self.origin[1]) * (-1.0 if self.flip_y else 1.0)
+        return math.cos(a) * u - math.sin(a) * v, math.sin(a) * u + math.cos(a) * v
+
+    def describe(self) -> str:
+        s = (f"calibration: origin ({self.origin[0]:.4g}, {self.origin[1]:.4g}) cm, rotation {self.angle:.4g} deg"
+             f"{', y flipped' if self.flip_y else ''}")
+        if self.n_points:
+            s += f"; fitted to {self.n_points} known points, residual rms {self.residual:.3g} cm"
+        return s
+
+
+def fit_calibration(camera, surface, length_unit: str = "cm", pixel_size: float | None = None) -> Calibration:
+    """The rotation, origin and y flip taking known camera points (n, 2; in length_unit) to their
+    surface positions (n, 2) [cm], n >= 2: least squares (Procrustes, the scale fixed by the
+    units), with and without the flip; the better fit is kept and its rms residual reported."""
+    cam = np.asarray(camera, float).reshape(-1, 2) * _length_scale(length_unit, pixel_size)
+    srf = np.asarray(surface, float).reshape(-1, 2)
+    if cam.shape[0] < 2 or cam.shape != srf.shape or not (np.all(np.isfinite(cam)) and np.all(np.isfinite(srf))):
+        raise ExperimentError("calibration: need at least two finite known points (camera x, y; surface x, y)")
+    best = None
+    for flip in (False, True):
+        c = cam * np.array([1.0, -1.0 if flip else 1.0])
+        cm_, sm = c.mean(0), srf.mean(0)
+        h = (c - cm_).T @ (srf - sm)
+        ang = math.atan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])          # 2-D Procrustes rotation
+        r = np.array([[math.cos(ang), -math.sin(ang)], [math.sin(ang), math.cos(ang)]])
+        origin = cm_ - r.T @ sm                                           # R (c - o) = s
+        res = float(np.sqrt(np.mean(np.sum((((c - origin) @ r.T) - srf) ** 2, axis=1))))
+        raw = (float(origin[0]), float(origin[1]) * (-1.0 if flip else 1.0))   # in the file's frame
+        cal = Calibration(raw, math.degrees(ang), flip, res, cam.shape[0])
+        if best is None or res < best.residual - 1e-12:
+            best = cal
+    return best
+
+
+def read_calibration(path: str, length_unit: str = "cm", pixel_size: float | None = None) -> Calibration:
+    """A calibration file: CSV rows camera_x,camera_y,surface_x,surface_y of known points (for
+    example the wells where damped balls come to rest), a header line allowed; fitted."""
+    rows = []
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            for n, line in enumerate(f, 1):
+                cells = [c.strip() for c in line.replace(";", ",").split(",")]
+                if not line.strip() or line.lstrip().startswith("#"):
+                    continue
+                try:
+                    rows.append([float(c) for c in cells])
+                except ValueError:
+                    if rows or n > 1:
+                        raise ExperimentError(f"{path}:{n}: not four numbers: {line.strip()!r}") from None
+                    continue                                              # a header
+                if len(rows[-1]) != 4:
+                    raise ExperimentError(f"{path}:{n}: need camera_x,camera_y,surface_x,surface_y")
+    except OSError as exc:
+        raise ExperimentError(f"{path}: cannot read the calibration file ({exc.strerror})") from exc
+    a = np.array(rows, float).reshape(-1, 4)
+    return fit_calibration(a[:, :2], a[:, 2:], length_unit, pixel_size)
+
+
+def _length_scale(length_unit: str, pixel_size: float | None) -> float:
+    if length_unit not in LENGTH_UNITS:
+        raise ExperimentError(f"length unit {length_unit!r}: allowed {', '.join(LENGTH_UNITS)}")
+    if length_unit == "px":
+        if not (pixel_size is not None and math.isfinite(pixel_size) and pixel_size > 0):
+            raise ExperimentError("length unit px needs --pixel-size (cm per pixel, > 0)")
+        return pixel_size
+    return LENGTH_UNITS[length_unit]
+
+
 def read_tracks(path: str, columns: dict | None = None, time_unit: str = "s",
-                length_unit: str = "cm", pixel_size: float | None = None) -> Tracks:
+                length_unit: str = "cm", pixel_size: float | None = None,
+                calibration: Calibration | None = None) -> Tracks:
     """Read a CSV (header track,t,x,y, or the names given in columns = {'track': ..., 't': ...,
     'x': ..., 'y': ...}; separated by ',', ';', tabs or spaces) or HDF5 (/tracks) file of tracked
     positions, with times in time_unit (s, ms, us) and lengths in length_unit (cm, mm, m, or px
     with pixel_size in cm per pixel). Returned in s and cm, sorted by track, then time, whatever
-    the rows' order in the file."""
+    the rows' order in the file; calibration, if given, maps camera to surface coordinates."""
     p = pathlib.Path(path)
     if not p.exists():
         raise ExperimentError(f"{path}: no such file")
@@ -318,6 +404,8 @@ def read_tracks(path: str, columns: dict | None = None, time_unit: str = "s",
     if lscale != 1.0:
         tr.x = tr.x * lscale
         tr.y = tr.y * lscale
+    if calibration is not None:
+        tr.x, tr.y = calibration.apply(tr.x, tr.y)
     order = np.lexsort((tr.t, tr.track))
     moved = int(np.count_nonzero(order != np.arange(order.size)))
     if moved:
@@ -1181,7 +1269,8 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
         raise ExperimentError(
             f"{tracks.source}: {n_off} of {tracks.t.size} samples ({100 * n_off / tracks.t.size:.0f} %) lie "
             f"off the plate (|x| or |y| > {opt.plate:g} cm): positions in another unit (give "
-            f"--length-unit mm|m|px) or another origin (the plate's centre must be x = y = 0)?")
+            f"--length-unit mm|m|px) or another frame: the plate's centre must be x = y = 0 (give --origin "
+            f"X,Y, --rotate, --flip-y or a --calibration file of known points)?")
     if not segs:
         raise ExperimentError(f"{tracks.source}: no usable track segment\n{rep.summary()}\n" +
                               "\n".join(i.message for i in rep.issues[:20]))
@@ -1696,6 +1785,16 @@ def _parse_bins(s: str) -> tuple:
     return tuple(e)
 
 
+def _parse_pair(s: str) -> tuple:
+    try:
+        a, b = (float(v) for v in s.split(","))
+        if not (math.isfinite(a) and math.isfinite(b)):
+            raise ValueError
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{s!r}: give X,Y (two finite numbers)") from None
+    return a, b
+
+
 def _parse_columns(s: str) -> dict:
     out = {}
     for item in s.split(","):
@@ -1767,6 +1866,14 @@ def main(argv=None) -> int:
     ap.add_argument("--length-unit", choices=tuple(LENGTH_UNITS), default="cm",
                     help="unit of x and y (px needs --pixel-size)")
     ap.add_argument("--pixel-size", type=_positive, default=None, help="cm per pixel (--length-unit px)")
+    ap.add_argument("--origin", type=_parse_pair, default=None,
+                    help="the plate centre X,Y in the file's frame and length unit")
+    ap.add_argument("--rotate", type=float, default=None,
+                    help="rotate the file's frame by this angle [deg, counter-clockwise] onto the surface's")
+    ap.add_argument("--flip-y", action="store_true", help="the file's y axis points down (image rows)")
+    ap.add_argument("--calibration", default=None,
+                    help="CSV of known points camera_x,camera_y,surface_x,surface_y (camera in the "
+                         "file's length unit, surface in cm): origin, rotation and flip fitted, residual printed")
     ap.add_argument("--noise", type=_positive, default=0.0,
                     help="position noise [cm] for dE_err (default: estimated from the data)")
     ap.add_argument("--plate", type=_positive, default=PLATE, help="plate half-width [cm]")
@@ -1863,13 +1970,29 @@ def _main(args, orig) -> int:
                       resamples=args.resamples, bootstrap=args.bootstrap, cut_rule=args.cut_rule)
         if args.bins is not None:
             opt.bins = args.bins
+        cal = None
+        if args.calibration and (args.origin is not None or args.rotate is not None or args.flip_y):
+            raise ExperimentError("--calibration fits origin, rotation and flip: do not also give --origin, "
+                                  "--rotate or --flip-y")
+        if args.calibration:
+            cal = read_calibration(args.calibration, args.length_unit, args.pixel_size)
+            if not cal.residual <= CAL_RESIDUAL_MAX:
+                raise ExperimentError(f"{args.calibration}: the known points do not fit a rotation, shift and flip: "
+                                      f"residual rms {cal.residual:.3g} cm > {CAL_RESIDUAL_MAX} cm (wrong "
+                                      "--length-unit, a point mistyped, or a camera seen at an angle?)")
+        elif args.origin is not None or args.rotate is not None or args.flip_y:
+            sc = _length_scale(args.length_unit, args.pixel_size)
+            o = args.origin or (0.0, 0.0)
+            cal = Calibration((o[0] * sc, o[1] * sc), args.rotate or 0.0, args.flip_y)
         tracks = read_tracks(args.tracks, columns=args.columns, time_unit=args.time_unit,
-                             length_unit=args.length_unit, pixel_size=args.pixel_size)
+                             length_unit=args.length_unit, pixel_size=args.pixel_size, calibration=cal)
         an = analyse(tracks, theory, opt)
     except ExperimentError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     rep = an.report
+    if cal is not None:
+        print(cal.describe())
     print(f"camera rate {an.attrs['camera_rate']:.6g} Hz ({'--rate' if args.rate else 'from the file'}); times in "
           f"{args.time_unit}, lengths in {args.length_unit}")
     if tracks.attrs.get("rows_reordered"):
