@@ -295,3 +295,17 @@ def test_the_lab_example_walkthrough(tmp_path):
     with h5py.File(tmp_path / "lab.h5") as f:
         a = f["experiment"].attrs
         assert abs(a["damping_ratio"] - 0.025) < 4 * a["damping_ratio_err"]
+
+
+def test_a_flipped_y_axis_is_refused(flat, tmp_path):
+    """The image's y axis pointing down (and nothing else wrong): samples lie higher than their
+    energy allows (none in the right frame); the run is refused naming --flip-y, and with
+    --flip-y the data come back."""
+    tr = ex.read_tracks(str(flat / "cons.h5"))
+    tr.y = -tr.y
+    ex.write_tracks_csv(str(tmp_path / "down.csv"), tr)
+    base = [str(tmp_path / "down.csv"), "--theory", str(flat / "theory.h5"), "--bootstrap", "0", "--resamples", "0"]
+    r = _run(base, tmp_path)
+    assert r.returncode == 1 and "--flip-y" in r.stderr and "higher on the surface" in r.stderr, r.stderr
+    r = _run(base + ["--flip-y"], tmp_path)
+    assert r.returncode == 0, r.stderr

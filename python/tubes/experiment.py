@@ -1032,6 +1032,7 @@ class Options:
     min_duration: float = MIN_DURATION
     jump_tol: float = 0.0                # [cm]; 0: max(1 cm, 12 noise)
     seed: int = 20180214
+    max_impossible: float = 0.005        # refuse when more samples than this fraction lie too high
 
 
 def _z(conf: float) -> float:
@@ -1280,6 +1281,13 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
     cr, segs = _analyse_segments(segs, opt, opt.estimator, model, x_gate, E_e, sigma, rng, rep, decay)
     rep.n_segments = len(segs)
     rep.n_samples_used = int(sum(s.t.size for s in segs))
+    n_high = rep.samples_dropped().get("impossible_height", 0)
+    if n_high > opt.max_impossible * max(rep.n_samples, 1):
+        raise ExperimentError(
+            f"{tracks.source}: {n_high} of {rep.n_samples} samples ({100 * n_high / max(rep.n_samples, 1):.1f} %) lie "
+            f"higher on the surface than their track's energy allows (correct data: none): the frame is probably "
+            f"wrong (the image's y axis pointing down: --flip-y; a turned camera: --rotate or --calibration) or "
+            f"the theory's surface is not the tracks'; --max-impossible {opt.max_impossible:g} is the limit")
     if cr is None:
         raise ExperimentError(f"{tracks.source}: no crossing of U1 in the analysed data\n{rep.summary()}")
     # the other estimator, for dE_other (same segments, no second energetic check)
@@ -1871,6 +1879,9 @@ def main(argv=None) -> int:
     ap.add_argument("--rotate", type=float, default=None,
                     help="rotate the file's frame by this angle [deg, counter-clockwise] onto the surface's")
     ap.add_argument("--flip-y", action="store_true", help="the file's y axis points down (image rows)")
+    ap.add_argument("--max-impossible", type=_positive, default=0.005,
+                    help="refuse when more than this fraction of the samples lie higher than their track's "
+                         "energy allows (default 0.005; correct data: none)")
     ap.add_argument("--calibration", default=None,
                     help="CSV of known points camera_x,camera_y,surface_x,surface_y (camera in the "
                          "file's length unit, surface in cm): origin, rotation and flip fitted, residual printed")
@@ -1967,7 +1978,8 @@ def _main(args, orig) -> int:
                       energy_window=args.energy_window, t_skip=args.t_skip, gate=args.gate,
                       plate=args.plate, rate=args.rate, noise=args.noise,
                       confidence=args.confidence, fit_max=args.fit_max, guard=args.guard,
-                      resamples=args.resamples, bootstrap=args.bootstrap, cut_rule=args.cut_rule)
+                      resamples=args.resamples, bootstrap=args.bootstrap, cut_rule=args.cut_rule,
+                      max_impossible=args.max_impossible)
         if args.bins is not None:
             opt.bins = args.bins
         cal = None
