@@ -307,3 +307,21 @@ def test_python_model_from_a_string_and_from_sympy(tmp_path, monkeypatch):
     assert tubes.Model.of({"model": type("G", (), {"attrs": {
         "system": "expression", "formula": HH, "coordinates": "x y", "momenta": "px py",
         "constants": ""}})()}) == m
+
+
+def test_the_tutorial_input_file(tmp_path, cache):
+    """input/expression.nml (docs/models.md's tutorial) runs through, and its numbers are the
+    closed forms: lambda = 1, omega = 1.5, the orbit's action T_po dE, the tube's area the action,
+    p_trans = action / A_E, the Monte Carlo check agreeing (the program exits 2 otherwise)."""
+    tmp = str(tmp_path)
+    p = subprocess.run([str(TUBES), str(ROOT / "input" / "expression.nml"), "-o", "e.h5"], cwd=tmp, capture_output=True,
+                       text=True, timeout=300 * TIMEOUT_SCALE, env=dict(os.environ, TUBES_CACHE_DIR=cache))
+    assert p.returncode == 0, p.stdout + p.stderr
+    with h5py.File(os.path.join(tmp, "e.h5")) as f:
+        s = f["equilibria/morse_index"][()] == 1
+        assert np.allclose(f["equilibria/lambda"][()][s], 1.0, rtol=1e-12)
+        assert np.allclose(f["equilibria/omega"][()][s], 1.5, rtol=1e-12)
+        t_po = 2 * math.pi / 1.5
+        assert np.allclose(f["orbits/action"][()], t_po * f["orbits/dE"][()], rtol=1e-10)
+        assert np.allclose(f["transition/A_tube"][()], t_po * f["transition/dE"][()], rtol=1e-8)
+        assert bool(f["montecarlo"].attrs["agrees"])
