@@ -38,6 +38,8 @@ static void progress_item(const char *fmt, ...) {
 static void status_text(int code, char *buf, int len) { tubes_status_message(code, buf, len); }
 
 enum { NEQ_MAX = 256, MD = TUBES_MAXDOF };
+/* The leading-order p_trans, (T_po/A0) dE (1 - tau dE/A0), is flagged where |tau dE/A0| exceeds this. */
+#define LEADING_RANGE 0.3
 /* Monte Carlo fraction and p_trans disagree beyond this many standard errors (false alarm 6e-7). */
 enum { MC_SIGMA = 5 };
 /* The &integrator choice as the C API's arguments (include/tubes.h): every analysis uses it. */
@@ -874,6 +876,7 @@ int scene_transition(tubes_run_t *run) {
   }
   printf("transition: p_trans(dE) = A_tube / A_E on %d energies (area_tol %g)\n", n, c->tra_area_tol);
   printf("  %10s %14s %14s %14s %12s %12s\n", "dE", "A_tube", "action", "A_E", "p_trans", "leading");
+  int beyond = 0;   /* energies where the leading order's correction tau dE / A0 exceeds LEADING_RANGE */
   for (int k = 0; k < n; k++) {
     share_from(&it[k], (int)sizeof it[k], k % run->nranks, run);
     double de = c->tra_de[k];
@@ -884,10 +887,16 @@ int scene_transition(tubes_run_t *run) {
     stat[k] = it[k].status;
     if (it[k].status == TUBES_EPASTEND)
       printf("  %10.4g   refused: past the end of the family (no orbit at this energy)\n", de);
-    else
-      printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %12.6g   (%.1f s)\n", de, at[k], act[k], ae[k], pt[k], pl[k],
-             it[k].secs);
+    else {
+      int out = fabs(tau / a0 * de) > LEADING_RANGE;
+      beyond += out;
+      printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %12.6g%s  (%.1f s)\n", de, at[k], act[k], ae[k], pt[k], pl[k],
+             out ? "*" : " ", it[k].secs);
+    }
   }
+  if (beyond)
+    printf("  * the leading order (T_po/A0) dE (1 - tau dE/A0) is outside its range there: tau dE/A0 > %g "
+           "(p_trans is A_tube/A_E, computed)\n", LEADING_RANGE);
   hid_t g = h5_group(run->file, "transition");
   int e = g < 0;
   hsize_t dn = (hsize_t)n;
