@@ -276,7 +276,7 @@ def test_cli_on_the_synthetic_experiment_scene(tmp_path, theory, tubes_exe):
     /experiment datasets and attributes, the figure; the analysis against the scene's truth:
     outcomes agree (the noise moves the path by ~0.05 cm), the dE error is covered by dE_err, and
     the damping ratio comes back to 3 %."""
-    (tmp_path / "s.nml").write_text("&run scenes = 'synthetic_experiment' /\n&experiment n_tracks = 120 /\n")
+    (tmp_path / "s.nml").write_text("&run scenes = 'synthetic_experiment' /\n&experiment n_tracks = 120, duration = 10, damping_ratio = 0.025 /\n")
     r = subprocess.run([str(TUBES), "s.nml", "-o", "tracks.h5"], cwd=tmp_path, capture_output=True,
                        text=True, timeout=120, env=dict(os.environ, OMP_NUM_THREADS="2"))
     assert r.returncode == 0, r.stderr

@@ -309,3 +309,21 @@ def test_a_flipped_y_axis_is_refused(flat, tmp_path):
     assert r.returncode == 1 and "--flip-y" in r.stderr and "higher on the surface" in r.stderr, r.stderr
     r = _run(base + ["--flip-y"], tmp_path)
     assert r.returncode == 0, r.stderr
+
+
+def test_velocities_that_do_not_fit_the_surface_are_refused(canon, tmp_path):
+    """Along a track g H falls by what T gains (the printed energy balance, 1 to 1 %). Time stamps
+    from a wrong frame period (a 50 Hz camera stamped as 41.7 Hz: times 1.2 times too long, the
+    rate still inside 1 Hz..10 kHz) make the velocities 1.2 times too small, and g H then trades at
+    1.2^2 = 1.44 times T: refused, naming --time-unit, --rate and the length units."""
+    d, rows = canon
+    ok = _run([str(d / "canon.csv"), "--resamples", "0", "--bootstrap", "0"], tmp_path)
+    assert ok.returncode == 0, ok.stderr
+    m = re.search(r"g H falls by ([0-9.]+) times what T gains", ok.stdout)
+    assert m and abs(float(m.group(1)) - 1) < 0.01, ok.stdout
+    _lab(tmp_path / "slow.csv", rows, tscale=1.2)
+    r = _run([str(tmp_path / "slow.csv"), "--resamples", "0", "--bootstrap", "0"], tmp_path)
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert "do not trade one for one" in r.stderr and "--rate" in r.stderr and "--time-unit" in r.stderr
+    m = re.search(r"g H falls by ([0-9.]+) times", r.stderr)
+    assert m and abs(float(m.group(1)) - 1.2**2) < 0.05, r.stderr

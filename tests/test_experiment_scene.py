@@ -60,7 +60,7 @@ def test_contract(run):
     a = run["attrs"]
     ns = int(a["n_samples"])
     n = N_TRACKS * ns
-    assert ns == 501                                   # 10 s at 50 Hz, both ends
+    assert ns == 701                                   # 14 s at 50 Hz, both ends
     assert run["track"].dtype == np.int32 and run["track"].shape == (n,)
     for k in ("t", "x", "y", "energy", "dE"):
         assert run[k].shape == (n,) and run[k].dtype == np.float64
@@ -72,7 +72,7 @@ def test_contract(run):
               "n_draws", "status"]:
         assert k in a, k
     assert (a["camera_rate"], a["pixel"], a["noise"], a["damping_ratio"], a["n_tracks"],
-            a["de_min"], a["de_max"], a["seed"]) == (50, 0.16, 0.05, 0.025, N_TRACKS, 1000, 3000, 2018)
+            a["de_min"], a["de_max"], a["seed"], a["duration"]) == (50, 0.16, 0.05, 0.014, N_TRACKS, 1000, 3000, 2018, 14)
     assert a["status"] == 0 and a["saddle"] == "S12"
     assert np.array_equal(run["track"], np.repeat(np.arange(N_TRACKS), ns))
     t = run["t"].reshape(N_TRACKS, ns)
@@ -106,7 +106,7 @@ def test_damping_rate(run):
     hess = np.array([[2 * ALPHA - BETA * GAMMA / (x**2 + GAMMA)**1.5, -XI],
                      [-XI, 2 * ALPHA - BETA * GAMMA / (y**2 + GAMMA)**1.5]])
     omega1 = np.sqrt(5 / 7 * G * np.linalg.eigvalsh(hess)[0])
-    assert run["attrs"]["damping_rate"] == pytest.approx(2 * 0.025 * omega1, rel=1e-9)
+    assert run["attrs"]["damping_rate"] == pytest.approx(2 * 0.014 * omega1, rel=1e-9)
 
 
 def test_truth_energy_decays_as_damping_implies(run):

@@ -46,10 +46,30 @@ DEFAULT_OPTIONS = {"savgol": {"window": 15, "order": 4}, "spectral": {"cutoff": 
 ENERGY_WINDOW = 1.0     # [s] half-width of the windowed energy regression (tuned likewise)
 EDGE = 0.1              # [s] crossings this close to a segment end are not classified
 TRIM = 0.2              # [s] samples this close to a segment end stay out of energy windows
+ENERGY_BALANCE_TOL = 0.1  # refuse when g H trades with T at a ratio further than this from 1
 MATCH_TOL = 0.1         # [s] two crossings of one branch and track this close are the same one
                         #     (consecutive crossings of one branch are > 0.3 s apart)
 
 OUTCOME_TRANSITION, OUTCOME_RETURN, OUTCOME_CENSORED, OUTCOME_EDGE = 1, 0, -1, -2
+
+# Folding (--fold): maps (x, y) -> M (x, y) that carry the diagonal of one quadrant onto U1, the
+# crossings moving one way onto U1^- (towards S12) and the saddle ahead onto S12.  H(x, y) is
+# invariant under (x, y) -> (y, x) and (x, y) -> (-x, -y) only: the first four are exact; the other
+# four map the surface onto its mirror image (xi -> -xi), whose wells W2, W4 are 486 (cm/s)^2
+# shallower (docs/experiment.md, "Folding").  (name, M, quadrant, exact, the saddle ahead)
+IMAGES = (
+    ("Q1+", ((1, 0), (0, 1)), 1, True, "S12"),       # Q1, counter-clockwise
+    ("Q1-", ((0, 1), (1, 0)), 1, True, "S14"),       # Q1, clockwise: the swap
+    ("Q3+", ((-1, 0), (0, -1)), 3, True, "S34"),     # Q3, counter-clockwise: the half turn
+    ("Q3-", ((0, -1), (-1, 0)), 3, True, "S23"),     # Q3, clockwise
+    ("Q2+", ((0, 1), (-1, 0)), 2, False, "S23"),     # Q2, counter-clockwise: a quarter turn
+    ("Q2-", ((-1, 0), (0, 1)), 2, False, "S12"),     # Q2, clockwise: x -> -x
+    ("Q4+", ((0, -1), (1, 0)), 4, False, "S14"),     # Q4, counter-clockwise: a quarter turn
+    ("Q4-", ((1, 0), (0, -1)), 4, False, "S34"),     # Q4, clockwise: y -> -y
+)
+FOLDS = {"none": (0,), "exact": (0, 1, 2, 3), "all": tuple(range(8))}
+FOLD_TEXT = {"none": "U1^-", "exact": "the diagonals of quadrants 1 and 3, both ways",
+             "all": "the four diagonals, both ways"}
 
 __all__ = ["ExperimentError", "Tracks", "Issue", "ValidationReport", "Segment", "Theory",
            "read_tracks", "write_tracks_csv", "write_tracks_h5", "validate", "differentiate", "estimate_segment",
@@ -811,12 +831,25 @@ def _at(t, arr, tq):
     return out
 
 
-def find_crossings(est: dict, model: Model, x_gate: float):
+def _image(est: dict, k: int) -> dict:
+    """The estimated segment mapped by IMAGES[k] (positions and velocities; the rest as is)."""
+    if k == 0:
+        return est
+    (a, b), (c, d) = IMAGES[k][1]
+    out = dict(est)
+    out["x"], out["y"] = a * est["x"] + b * est["y"], c * est["x"] + d * est["y"]
+    out["vx"], out["vy"] = a * est["vx"] + b * est["vy"], c * est["vx"] + d * est["vy"]
+    return out
+
+
+def find_crossings(est: dict, model: Model, x_gate: float, image: int = 0):
     """U1 crossings (theta = pi/4, x > 0) of one estimated segment: roots of y - x of the smoothed
     positions on the cubic through the 4 samples around each sign change, with positions and
     velocities interpolated there by the same cubics; and the gate passages (x falls below
-    x_gate with y > 0). Returns (crossings: dict of arrays t, x, y, vx, vy, px, py, r, p_r,
-    p_theta, branch; gate times)."""
+    x_gate with y > 0). With image k, of the segment mapped by IMAGES[k] (another quadrant's
+    diagonal, or the other direction). Returns (crossings: dict of arrays t, x, y, vx, vy, px, py,
+    r, p_r, p_theta, branch, image; gate times)."""
+    est = _image(est, image)
     t = est["t"]
     g = est["y"] - est["x"]
     tc, _ = _cubic_roots(t, g)
@@ -830,6 +863,7 @@ def find_crossings(est: dict, model: Model, x_gate: float):
     cr = {"t": tc, "x": q, "y": q.copy(), "vx": vx, "vy": vy, "px": px, "py": py, "r": r,
           "p_r": (q * px + q * py) / np.where(r > 0, r, 1), "p_theta": q * py - q * px}
     cr["branch"] = np.sign(cr["p_theta"]).astype(int)
+    cr["image"] = np.full(tc.size, image, int)
     tg, _ = _cubic_roots(t, est["x"], x_gate)
     if tg.size:
         ok = (_at(t, est["vx"], tg) < 0) & (_at(t, est["y"], tg) > 0)
@@ -1033,6 +1067,7 @@ class Options:
     jump_tol: float = 0.0                # [cm]; 0: max(1 cm, 12 noise)
     seed: int = 20180214
     max_impossible: float = 0.005        # refuse when more samples than this fraction lie too high
+    fold: str = "none"                   # 'none' (U1^- only), 'exact' (Q1, Q3, both ways), 'all'
 
 
 def _z(conf: float) -> float:
@@ -1058,7 +1093,8 @@ def _slow_frequency(model: Model) -> float:
 
 
 def _analyse_segments(segs, opt: Options, method: str, model: Model, x_gate: float, E_e: float,
-                      sigma: float, rng, rep: ValidationReport | None, decay: list | None = None):
+                      sigma: float, rng, rep: ValidationReport | None, decay: list | None = None,
+                      energies: list | None = None):
     """Crossings of all segments with one estimator. The energetic check (heights above the
     energy available) drops samples and splits segments (reported in rep). decay, if given,
     receives per segment (track, S_DE, S_DD): the within-segment sums of the energy's decay
@@ -1092,6 +1128,8 @@ def _analyse_segments(segs, opt: Options, method: str, model: Model, x_gate: flo
                     queue.append(sub)
                 continue
         final.append(s)
+        if energies is not None:
+            energies.append((est["T"], est["E"], _dissipation(s.t, est["T"]), s.t))
         if decay is not None:
             d = _dissipation(s.t, est["T"])
             e = est["E"]
@@ -1100,9 +1138,13 @@ def _analyse_segments(segs, opt: Options, method: str, model: Model, x_gate: flo
                 dc, ec, tc = d[ok] - d[ok].mean(), e[ok] - e[ok].mean(), s.t[ok] - s.t[ok].mean()
                 decay.append((s.track, np.array([[dc @ dc, dc @ tc], [dc @ tc, tc @ tc]]),
                               np.array([dc @ ec, tc @ ec])))
-        cr, tg = find_crossings(est, model, x_gate)
-        cr["outcome"] = classify(cr, tg, s.t[0], s.t[-1], opt.edge, opt.guard)
-        # energies at the crossings
+        parts = []
+        for k in FOLDS[opt.fold]:
+            c, tg = find_crossings(est, model, x_gate, k)
+            c["outcome"] = classify(c, tg, s.t[0], s.t[-1], opt.edge, opt.guard)
+            parts.append(c)
+        cr = {key: np.concatenate([c[key] for c in parts]) for key in parts[0]}
+        # energies at the crossings (the ball's, in the surface's own frame)
         if opt.energy == "window":
             ew, slope, rows = window_energy(s.t, est["E"], est["T"], cr["t"], opt.energy_window)
         else:
@@ -1200,6 +1242,29 @@ def _impossible_heights(s: Segment, est: dict, model: Model, sigma: float):
     return V > cap, V, cap
 
 
+def _energy_balance(parts: list) -> float:
+    """The factor s in g H = a_seg - s T - c D + beta t, fitted by least squares over all segments
+    (own intercepts): along a track the potential energy g H must fall by what the kinetic energy
+    T gains, s = 1, up to the damping (c D, D the integral of 2 T dt) and the noise's constant
+    (beta t) as in _damping. Velocities off by a factor k (a time or length unit, a wrong rate)
+    give s = 1/k^2; measured on correct synthetic tracks: 0.9997 (zeta 0.014), 1.0032 (0.0025);
+    with the times stretched by 1.05: 1.099. parts: per segment (T, E, D, t). NaN without data."""
+    M, r = np.zeros((3, 3)), np.zeros(3)
+    for T, E, D, t in parts:
+        ok = np.isfinite(T) & np.isfinite(E) & np.isfinite(D)
+        if ok.sum() < 4:
+            continue
+        X = np.column_stack([T[ok], D[ok], t[ok]])
+        X -= X.mean(0)
+        V = E[ok] - T[ok]
+        M += X.T @ X
+        r += X.T @ (V - V.mean())
+    try:
+        return float(-np.linalg.solve(M, r)[0])
+    except np.linalg.LinAlgError:
+        return math.nan
+
+
 @dataclasses.dataclass
 class Analysis:
     options: Options
@@ -1277,8 +1342,9 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
                               "\n".join(i.message for i in rep.issues[:20]))
     sigma_est = noise_estimate(segs)
     sigma = opt.noise if opt.noise > 0 else sigma_est
-    decay = []
-    cr, segs = _analyse_segments(segs, opt, opt.estimator, model, x_gate, E_e, sigma, rng, rep, decay)
+    decay, energies = [], []
+    cr, segs = _analyse_segments(segs, opt, opt.estimator, model, x_gate, E_e, sigma, rng, rep, decay,
+                                 energies)
     rep.n_segments = len(segs)
     rep.n_samples_used = int(sum(s.t.size for s in segs))
     n_high = rep.samples_dropped().get("impossible_height", 0)
@@ -1288,6 +1354,14 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
             f"higher on the surface than their track's energy allows (correct data: none): the frame is probably "
             f"wrong (the image's y axis pointing down: --flip-y; a turned camera: --rotate or --calibration) or "
             f"the theory's surface is not the tracks'; --max-impossible {opt.max_impossible:g} is the limit")
+    balance = _energy_balance(energies)
+    if math.isfinite(balance) and abs(balance - 1) > ENERGY_BALANCE_TOL:
+        k = 1 / math.sqrt(balance) if balance > 0 else math.nan
+        raise ExperimentError(
+            f"{tracks.source}: the kinetic and potential energies do not trade one for one along the tracks: "
+            f"g H falls by {balance:.3g} times what T gains (1 on this surface; tolerance "
+            f"{ENERGY_BALANCE_TOL:g}): the velocities look {k:.3g} times too large for the positions: check "
+            f"--time-unit, --rate, --length-unit and --pixel-size, or the surface (--theory)")
     if cr is None:
         raise ExperimentError(f"{tracks.source}: no crossing of U1 in the analysed data\n{rep.summary()}")
     # the other estimator, for dE_other (same segments, no second energetic check)
@@ -1306,13 +1380,23 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
     n_all = int(cr["t"].size)
     minus = cr["branch"] > 0
     cm = {k: v[minus] for k, v in cr.items()}
+    exact = np.array([IMAGES[k][3] for k in cm["image"]], bool)
     # truth (synthetic data)
     truth_attrs = {}
     if tracks.truth is not None:
         truth_attrs = _truth_check(tracks, cm, model, E_e, x_gate, opt, segs)
-    bins, attrs = _statistics(cm, opt, theory, rng)
+    # the transition fraction against the theory: U1^- and its exact images (Q1, Q3) only
+    bins, attrs = _statistics({k: v[exact] for k, v in cm.items()}, opt, theory, rng)
+    dec = cm["outcome"] >= 0
+    attrs.update({"fold": opt.fold, "n_folded_crossings": int(dec.sum()),
+                  "n_folded_transitions": int(np.sum(cm["outcome"] == OUTCOME_TRANSITION))})
+    if not exact.all():
+        # the other quadrants' wells are shallower: their own table, no theory (docs/experiment.md)
+        other, oa = _statistics({k: v[~exact] for k, v in cm.items()}, opt, None, rng)
+        bins.update({f"q24_{k}": v for k, v in other.items() if k not in ("dE_low", "dE_high", "in_fit")})
+        attrs.update({f"q24_{k}": v for k, v in oa.items()})
     # the tube cuts
-    attrs.update(_inside(cm, theory, opt))
+    attrs.update(_inside(cm, theory, opt, exact))
     # damping from the data: the regression slope -dE/dD = c
     ds = cm["damping_slope"]
     ds = ds[np.isfinite(ds)]
@@ -1337,6 +1421,7 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
         "damping_ratio_estimate": c_hat / (2 * _slow_frequency(model)) if math.isfinite(c_hat) else math.nan,
     })
     attrs.update(_damping(decay, model, opt, rng))
+    attrs["energy_balance"] = balance
     attrs.update(truth_attrs)
     return Analysis(opt, rep, cm, bins, attrs, theory)
 
@@ -1346,8 +1431,8 @@ def _match(a: dict, b: dict, key: str, tol: float, fill=np.nan):
     out = np.full(a["t"].size, fill, float)
     if b is None or b["t"].size == 0:
         return out
-    for i, (t, br, tr) in enumerate(zip(a["t"], a["branch"], a["track"])):
-        j = np.nonzero((b["track"] == tr) & (b["branch"] == br))[0]
+    for i, (t, br, tr, im) in enumerate(zip(a["t"], a["branch"], a["track"], a["image"])):
+        j = np.nonzero((b["track"] == tr) & (b["branch"] == br) & (b["image"] == im))[0]
         if j.size:
             k = j[np.argmin(np.abs(b["t"][j] - t))]
             if abs(b["t"][k] - t) <= tol:
@@ -1441,7 +1526,9 @@ def _statistics(cm: dict, opt: Options, theory: Theory | None, rng):
     return bins, attrs
 
 
-def _inside(cm: dict, theory: Theory | None, opt: Options) -> dict:
+def _inside(cm: dict, theory: Theory | None, opt: Options, exact: np.ndarray) -> dict:
+    """Inside the tube cut of U1^- or not, for the decided crossings of U1^- and its exact images
+    (exact); the others stay -1 (not evaluated)."""
     n = cm["t"].size
     cm["inside"] = np.full(n, -1, int)          # -1 not evaluated
     cm["cut_dE"] = np.full(n, np.nan)
@@ -1449,7 +1536,7 @@ def _inside(cm: dict, theory: Theory | None, opt: Options) -> dict:
         return {"inside_fraction": math.nan, "n_inside_evaluated": 0}
     edges = np.asarray(opt.bins, float)
     for i in range(n):
-        if cm["outcome"][i] < 0:
+        if cm["outcome"][i] < 0 or not exact[i]:
             continue
         de = cm["dE"][i]
         if opt.cut_rule == "bin-top":          # the paper: the cut at the bin's upper edge
@@ -1486,12 +1573,13 @@ def truth_crossings(tracks: Tracks, segs, model: Model, x_gate: float, opt: Opti
         st = tr["state"][s.index]
         v = np.array([velocity(z, model) for z in st])
         est = {"t": s.t, "x": st[:, 0], "y": st[:, 1], "vx": v[:, 0], "vy": v[:, 1]}
-        c, tg = find_crossings(est, model, x_gate)
-        c["outcome"] = classify(c, tg, s.t[0], s.t[-1], opt.edge, opt.guard)
-        c["track"] = np.full(c["t"].size, s.track)
-        c["segment"] = np.full(c["t"].size, j)
-        c["dE"] = _at(s.t, E_true[s.index], c["t"]) - E_e
-        out.append(c)
+        for k in FOLDS[opt.fold]:
+            c, tg = find_crossings(est, model, x_gate, k)
+            c["outcome"] = classify(c, tg, s.t[0], s.t[-1], opt.edge, opt.guard)
+            c["track"] = np.full(c["t"].size, s.track)
+            c["segment"] = np.full(c["t"].size, j)
+            c["dE"] = _at(s.t, E_true[s.index], c["t"]) - E_e
+            out.append(c)
     return {k: np.concatenate([c[k] for c in out]) for k in out[0]}
 
 
@@ -1543,7 +1631,7 @@ def write_analysis(path: str, an: Analysis, argv=None, tracks_path: str = "") ->
                 f.attrs["theory_git_commit"] = str(an.theory.result.attrs.get("git_commit", ""))
             g = f.create_group("experiment")
             units = {"dE_low": "(cm/s)^2", "dE_high": "(cm/s)^2", "dE_center": "(cm/s)^2",
-                     "dE_err": "(cm/s)^2"}
+                     "dE_err": "(cm/s)^2", "q24_dE_center": "(cm/s)^2", "q24_dE_err": "(cm/s)^2"}
             for k, v in an.bins.items():
                 d = g.create_dataset(k, data=np.asarray(v))
                 d.attrs["units"] = units.get(k, "1")
@@ -1593,7 +1681,7 @@ def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0)) -> None:
     cm, b, a = an.crossings, an.bins, an.attrs
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12.5, 5.0))
     lo, hi = section_range
-    s = (cm["dE"] >= lo) & (cm["dE"] < hi)
+    s = (cm["dE"] >= lo) & (cm["dE"] < hi) & np.array([IMAGES[k][3] for k in cm["image"]], bool)
     th = an.theory
     if th is not None:
         cut = th.cut_for(hi)
@@ -1895,6 +1983,10 @@ def main(argv=None) -> int:
     ap.add_argument("--cut-rule", choices=("at-or-above", "nearest", "bin-top"), default="at-or-above",
                     help="tube cut for a crossing: the first at or above its dE (default), the "
                          "nearest, or the first at or above its bin's upper edge (the paper's)")
+    ap.add_argument("--fold", choices=tuple(FOLDS), default="none",
+                    help="none: U1^- only (default); exact: also U1^+ and both ways through quadrant 3's "
+                         "diagonal (the surface's symmetries: the same theory); all: also quadrants 2 and "
+                         "4 (shallower wells: counted and tabulated apart, q24_*)")
     ap.add_argument("--section-range", type=_parse_range, default=(40.0, 140.0),
                     help="dE range of the section plot (default 40,140)")
     ap.add_argument("--strict", action="store_true",
@@ -1979,7 +2071,7 @@ def _main(args, orig) -> int:
                       plate=args.plate, rate=args.rate, noise=args.noise,
                       confidence=args.confidence, fit_max=args.fit_max, guard=args.guard,
                       resamples=args.resamples, bootstrap=args.bootstrap, cut_rule=args.cut_rule,
-                      max_impossible=args.max_impossible)
+                      max_impossible=args.max_impossible, fold=args.fold)
         if args.bins is not None:
             opt.bins = args.bins
         cal = None
@@ -2013,9 +2105,20 @@ def _main(args, orig) -> int:
     _print_issues(rep, args.all_issues)
     a = an.attrs
     print(rep.summary())
-    print(f"U1 crossings: {a['n_u1_crossings']} ({a['n_u1_minus']} U1^-, {a['n_u1_plus']} U1^+); "
-          f"U1^- classified: {a['n_crossings']} in the bins, {a['n_transitions']} transitions, "
-          f"{a['n_censored']} censored, {a['n_edge']} at segment edges")
+    if a["fold"] == "none":
+        print(f"U1 crossings: {a['n_u1_crossings']} ({a['n_u1_minus']} U1^-, {a['n_u1_plus']} U1^+); "
+              f"U1^- classified: {a['n_crossings']} in the bins, {a['n_transitions']} transitions, "
+              f"{a['n_censored']} censored, {a['n_edge']} at segment edges")
+    else:
+        print(f"crossings of {FOLD_TEXT[a['fold']]}: {a['n_u1_minus']} (each once, as U1^- of its image); "
+              f"{a['n_censored']} censored, {a['n_edge']} at segment edges")
+    if a["fold"] != "none":
+        line = (f"folded ({a['fold']}: {FOLD_TEXT[a['fold']]}): {a['n_folded_crossings']} crossings "
+                f"classified at any energy, {a['n_folded_transitions']} transitions; in the bins: quadrants 1 "
+                f"and 3 {a['n_crossings']} crossings, {a['n_transitions']} transitions")
+        if "q24_n_crossings" in a:
+            line += f"; quadrants 2 and 4 {a['q24_n_crossings']}, {a['q24_n_transitions']} (their own column)"
+        print(line)
     print(f"estimator {a['estimator']} {a['estimator_options']} ({a['differentiator']}), energy "
           f"{a['energy_method']}; position noise {a['noise_used']:.4f} cm; design effect "
           f"{a['design_effect']:.2f}")
@@ -2042,16 +2145,22 @@ def _main(args, orig) -> int:
               f"{a['damping_rate_err']:.2g} 1/s, zeta = {a['damping_ratio']:.5g} +- {a['damping_ratio_err']:.2g} "
               f"({a['confidence']:.0%}: {a['damping_ratio'] - z * a['damping_ratio_err']:.5g} .. "
               f"{a['damping_ratio'] + z * a['damping_ratio_err']:.5g})")
+    print(f"energy balance along the tracks: g H falls by {a['energy_balance']:.4f} times what T gains "
+          f"(1 for positions, times and surface that agree)")
     if "truth_dE_rms" in a:
         print(f"against the truth: dE rms {a['truth_dE_rms']:.2f}, bias {a['truth_dE_bias']:+.2f} "
               f"(cm/s)^2, z rms {a['truth_dE_z_rms']:.2f}; outcome agreement "
               f"{a['truth_outcome_agreement']:.4f}")
     b = an.bins
-    print("      dE bin     center   count  trans  fraction     interval        theory")
+    q24 = "q24_count" in b
+    print("      dE bin     center   count  trans  fraction     interval        theory" +
+          ("   | Q2+Q4: count  trans  fraction" if q24 else ""))
     for j in range(b["count"].size):
         print(f"{b['dE_low'][j]:7.0f}..{b['dE_high'][j]:<5.0f} {b['dE_center'][j]:8.1f} {b['count'][j]:7d} "
               f"{b['transitions'][j]:6d}  {b['fraction'][j]:8.4f}  [{b['ci_low'][j]:.4f}, "
-              f"{b['ci_high'][j]:.4f}]  {b['p_theory'][j]:8.4f}")
+              f"{b['ci_high'][j]:.4f}]  {b['p_theory'][j]:8.4f}" +
+              (f"   |      {b['q24_count'][j]:7d} {b['q24_transitions'][j]:6d}  {b['q24_fraction'][j]:8.4f}"
+               if q24 else ""))
     try:
         if args.output:
             write_analysis(args.output, an, ["python -m tubes.experiment", *orig], args.tracks)

@@ -231,13 +231,13 @@ contains
     v%pm_n_iter = 300
     v%pm_t_max = 2000
     v%exp_n_tracks = 120
-    v%exp_duration = 10
+    v%exp_duration = 14
     v%exp_camera_rate = 50
     v%exp_pixel = 0.16_c_double
     v%exp_noise = 0.05_c_double
     v%exp_de_min = 1000
     v%exp_de_max = 3000
-    v%exp_damping_ratio = 0.025_c_double
+    v%exp_damping_ratio = 0.014_c_double
     v%exp_seed = 2018
     v%exp_csv = ''
   end subroutine set_defaults
