@@ -26,16 +26,22 @@ def _tubes(cwd, name, text):
     return cwd / f"{name}.h5"
 
 
+def _cli(args, cwd):
+    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=str(ROOT / "python"))
+    return subprocess.run([PY, "-m", "tubes.experiment", *args], cwd=cwd, capture_output=True, text=True,
+                          timeout=300, env=env)
+
+
 @pytest.fixture(scope="module")
 def paper_like(tmp_path_factory):
     d = tmp_path_factory.mktemp("fold")
     h5 = _tubes(d, "p", "&run scenes = 'synthetic_experiment', 'tubes', 'transition' /\n"
                         "&tubes de = 100, 140, 200, 400, area_tol = 1e-6 /\n"
                         "&transition de = 1, 20, 40, 80, 120, 160, 200, 300, 400, area_tol = 1e-6 /\n")
-    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=str(ROOT / "python"))
-    r = subprocess.run([PY, "-m", "tubes.experiment", str(h5), "--theory", str(h5), "--fold", "all",
-                        "--resamples", "0", "--bootstrap", "200", "-o", "a.h5"], cwd=d, capture_output=True,
-                       text=True, timeout=300, env=env)
+    q24 = _tubes(d, "q", "&run scenes = 'transition' /\n&orbits saddle = 'S23' /\n&section angle = 135 /\n"
+                         "&transition de = 1, 20, 40, 80, 120, 160, 200, 300, 400, area_tol = 1e-6 /\n")
+    r = _cli([str(h5), "--theory", str(h5), "--fold", "all", "--theory-q24", str(q24), "--resamples", "0",
+              "--bootstrap", "200", "-o", "a.h5"], d)
     assert r.returncode == 0, r.stderr
     with h5py.File(d / "a.h5") as f:
         attrs = dict(f["experiment"].attrs)
@@ -54,6 +60,20 @@ def test_the_paper_counts_and_slope(paper_like):
     assert abs(a["slope"] - a["slope_theory"]) < 3 * a["slope_err"], (a["slope"], a["slope_err"], a["slope_theory"])
     assert abs(a["damping_ratio"] - 0.014) < 4 * a["damping_ratio_err"]
     assert "folded (all: the four diagonals, both ways)" in out and "Q2+Q4" in out
+
+
+def test_quadrants_2_and_4_against_their_own_theory(paper_like):
+    """--theory-q24 (the diagonal of quadrant 2 through S23) gives the q24 table its theory: about
+    twice U1's (1.5 to 1.9 times; test_quadrant_2_is_the_mirror_surface), and the fraction there
+    within 3 standard errors of it. A theory on the wrong diagonal is refused, each way."""
+    d, h5, a, _, out = paper_like
+    assert 1.4 < a["q24_slope_theory"] / a["slope_theory"] < 2.0
+    assert abs(a["q24_slope"] - a["q24_slope_theory"]) < 3 * a["q24_slope_err"], (a["q24_slope"], a["q24_slope_err"])
+    assert "quadrants 2 and 4: slope" in out
+    r = _cli([str(h5), "--theory", str(d / "q.h5"), "--resamples", "0", "--bootstrap", "0"], d)
+    assert r.returncode == 1 and "the ray at 135 deg" in r.stderr and "--theory needs U1" in r.stderr, r.stderr
+    r = _cli([str(h5), "--fold", "all", "--theory-q24", str(h5), "--resamples", "0", "--bootstrap", "0"], d)
+    assert r.returncode == 1 and "the ray at 45 deg" in r.stderr, r.stderr
 
 
 def test_fold_finds_the_true_diagonal_crossings(paper_like):

@@ -46,7 +46,8 @@ DEFAULT_OPTIONS = {"savgol": {"window": 15, "order": 4}, "spectral": {"cutoff": 
 ENERGY_WINDOW = 1.0     # [s] half-width of the windowed energy regression (tuned likewise)
 EDGE = 0.1              # [s] crossings this close to a segment end are not classified
 TRIM = 0.2              # [s] samples this close to a segment end stay out of energy windows
-ENERGY_BALANCE_TOL = 0.1  # refuse when g H trades with T at a ratio further than this from 1
+ENERGY_BALANCE_TOL = 0.1  # refuse when g H trades with T (median over segments) further than this from 1
+SEGMENT_BALANCE_TOL = 0.25  # drop a segment whose own ratio is further than this from 1
 MATCH_TOL = 0.1         # [s] two crossings of one branch and track this close are the same one
                         #     (consecutive crossings of one branch are > 0.3 s apart)
 
@@ -113,7 +114,7 @@ class Issue:
 
 
 KINDS = ("nan", "off_plate", "jump", "impossible_height", "gap", "time_order", "irregular",
-         "jitter", "short")
+         "jitter", "short", "energy_balance")
 
 
 @dataclasses.dataclass
@@ -908,6 +909,7 @@ class Theory:
     cuts: list                        # [(dE, r, p_r)] sorted by dE
     model: Model
     result: object = None             # tubes.load of the file (for the plots)
+    angle: float = 45.0               # [deg] the section's ray (45: U1)
 
     def p(self, de) -> np.ndarray:
         """A_tube/A_E interpolated linearly in dE (p = 0 at dE <= 0; NaN above the last dE)."""
@@ -929,8 +931,10 @@ class Theory:
         return self.cuts[int(j[0])] if j.size else None
 
 
-def load_theory(path: str) -> Theory:
-    """Read /section, /transition and /tubes/stable_* of a tubes RESULT.h5."""
+def load_theory(path: str, diagonal: int = 1) -> Theory:
+    """Read /section, /transition and /tubes/stable_* of a tubes RESULT.h5 computed on the diagonal
+    of quadrant 1 or 3 (diagonal = 1: U1 and its exact images, --theory) or of quadrant 2 or 4
+    (diagonal = 2: --theory-q24); another section is refused."""
     import h5py
     from . import load
     if not pathlib.Path(path).exists():
@@ -962,8 +966,16 @@ def load_theory(path: str) -> Theory:
                          "analysis is for the rolling ball (rolling_ball)")
     model = model.replace(damping_ratio=0.0)
     sec = res.section.attrs
+    angle = math.degrees(float(sec.get("angle", math.pi / 4)))
+    want = (45.0, 225.0) if diagonal == 1 else (135.0, 315.0)
+    if not any(abs((angle - w + 180.0) % 360.0 - 180.0) < 1e-6 for w in want):
+        raise ExperimentError(
+            f"{path}: the theory's section is the ray at {angle:g} deg; "
+            + ("--theory needs U1 (&section angle = 45) or quadrant 3's diagonal (225)" if diagonal == 1 else
+               "--theory-q24 needs the diagonal of quadrant 2 (&section angle = 135, &orbits saddle = 'S23') or 4 "
+               "(315, 'S14')"))
     return Theory(path, float(sec["E_e"]), float(sec["growth_rate"]), de[ok][order], p[ok][order],
-                  cuts, model, res)
+                  cuts, model, res, angle)
 
 
 def inside_polygon(px, py, vx, vy) -> np.ndarray:
@@ -1127,9 +1139,16 @@ def _analyse_segments(segs, opt: Options, method: str, model: Model, x_gate: flo
                         continue
                     queue.append(sub)
                 continue
-        final.append(s)
         if energies is not None:
-            energies.append((est["T"], est["E"], _dissipation(s.t, est["T"]), s.t))
+            bal = _segment_balance(s.t, est["T"], est["E"])
+            energies.append(bal)
+            if rep is not None and abs(bal - 1) > SEGMENT_BALANCE_TOL:
+                rep.add(s.track, "energy_balance", "warning", float(s.t[0]), float(s.t[-1]), int(s.t.size),
+                        f"track {s.track}: segment t = {s.t[0]:.6g}..{s.t[-1]:.6g} s: g H trades with the kinetic "
+                        f"energy at {bal:.3g} to 1 (the ball's: 1): these positions are not a ball rolling on the "
+                        f"surface (a tracker glitch?): dropped")
+                continue
+        final.append(s)
         if decay is not None:
             d = _dissipation(s.t, est["T"])
             e = est["E"]
@@ -1242,27 +1261,20 @@ def _impossible_heights(s: Segment, est: dict, model: Model, sigma: float):
     return V > cap, V, cap
 
 
-def _energy_balance(parts: list) -> float:
-    """The factor s in g H = a_seg - s T - c D + beta t, fitted by least squares over all segments
-    (own intercepts): along a track the potential energy g H must fall by what the kinetic energy
-    T gains, s = 1, up to the damping (c D, D the integral of 2 T dt) and the noise's constant
-    (beta t) as in _damping. Velocities off by a factor k (a time or length unit, a wrong rate)
-    give s = 1/k^2; measured on correct synthetic tracks: 0.9997 (zeta 0.014), 1.0032 (0.0025);
-    with the times stretched by 1.05: 1.099. parts: per segment (T, E, D, t). NaN without data."""
-    M, r = np.zeros((3, 3)), np.zeros(3)
-    for T, E, D, t in parts:
-        ok = np.isfinite(T) & np.isfinite(E) & np.isfinite(D)
-        if ok.sum() < 4:
-            continue
-        X = np.column_stack([T[ok], D[ok], t[ok]])
-        X -= X.mean(0)
-        V = E[ok] - T[ok]
-        M += X.T @ X
-        r += X.T @ (V - V.mean())
-    try:
-        return float(-np.linalg.solve(M, r)[0])
-    except np.linalg.LinAlgError:
+def _segment_balance(t, T, E) -> float:
+    """The factor s in g H = a - s T - c D + beta t over one segment (least squares): along a track
+    the potential energy g H falls by what the kinetic energy T gains, s = 1, up to the damping
+    (c D, D the integral of 2 T dt) and the constant the noise adds to T (beta t), as in
+    _damping. Velocities off by a factor k (a time or length unit, a wrong frame period) give
+    s = 1/k^2. NaN for fewer than 8 usable samples."""
+    D = _dissipation(t, T)
+    ok = np.isfinite(T) & np.isfinite(E) & np.isfinite(D)
+    if ok.sum() < 8:
         return math.nan
+    X = np.column_stack([T[ok], D[ok], t[ok]])
+    X -= X.mean(0)
+    V = E[ok] - T[ok]
+    return float(-np.linalg.lstsq(X, V - V.mean(), rcond=None)[0][0])
 
 
 @dataclasses.dataclass
@@ -1276,8 +1288,9 @@ class Analysis:
 
 
 def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = None,
-            model: Model | None = None) -> Analysis:
-    """The whole pipeline on a set of tracks (see the module docstring)."""
+            model: Model | None = None, theory_q24: Theory | None = None) -> Analysis:
+    """The whole pipeline on a set of tracks (see the module docstring). theory_q24: the theory of
+    the diagonals of quadrants 2 and 4, for their own table with --fold all."""
     opt = dataclasses.replace(opt) if opt is not None else Options()    # filled in below: a copy
     if opt.estimator not in ESTIMATORS:
         raise ExperimentError(f"unknown estimator {opt.estimator!r}; allowed: {', '.join(ESTIMATORS)}")
@@ -1300,6 +1313,14 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
                 f"({tracks.source or 'the tracks'}): " + ", ".join(f"{k} = {used.get(k)} (theory) against {made[k]} (tracks)"
                                                  for k in differ)
                 + "; compute the theory with the tracks' &model")
+    if theory_q24 is not None:
+        if opt.fold != "all":
+            raise ExperimentError("--theory-q24 is for the crossings of quadrants 2 and 4: give --fold all")
+        if abs(theory_q24.E_e - E_e) > 1e-6 * abs(E_e) or any(
+                abs(theory_q24.model.parameters.get(k, 0.0) - model.parameters.get(k, 0.0)) >
+                1e-12 * max(abs(model.parameters.get(k, 0.0)), 1.0) for k in SURFACE_PARAMS):
+            raise ExperimentError(f"{theory_q24.path}: computed for another surface than the tracks' model "
+                                  "(compute it with the same &model)")
     x_gate = xs12 - opt.gate
     # sampling rate
     rate = opt.rate or float(tracks.attrs.get("camera_rate", 0) or 0)
@@ -1354,7 +1375,7 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
             f"higher on the surface than their track's energy allows (correct data: none): the frame is probably "
             f"wrong (the image's y axis pointing down: --flip-y; a turned camera: --rotate or --calibration) or "
             f"the theory's surface is not the tracks'; --max-impossible {opt.max_impossible:g} is the limit")
-    balance = _energy_balance(energies)
+    balance = float(np.nanmedian(energies)) if np.any(np.isfinite(energies)) else math.nan
     if math.isfinite(balance) and abs(balance - 1) > ENERGY_BALANCE_TOL:
         k = 1 / math.sqrt(balance) if balance > 0 else math.nan
         raise ExperimentError(
@@ -1392,7 +1413,7 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
                   "n_folded_transitions": int(np.sum(cm["outcome"] == OUTCOME_TRANSITION))})
     if not exact.all():
         # the other quadrants' wells are shallower: their own table, no theory (docs/experiment.md)
-        other, oa = _statistics({k: v[~exact] for k, v in cm.items()}, opt, None, rng)
+        other, oa = _statistics({k: v[~exact] for k, v in cm.items()}, opt, theory_q24, rng)
         bins.update({f"q24_{k}": v for k, v in other.items() if k not in ("dE_low", "dE_high", "in_fit")})
         attrs.update({f"q24_{k}": v for k, v in oa.items()})
     # the tube cuts
@@ -1987,6 +2008,9 @@ def main(argv=None) -> int:
                     help="none: U1^- only (default); exact: also U1^+ and both ways through quadrant 3's "
                          "diagonal (the surface's symmetries: the same theory); all: also quadrants 2 and "
                          "4 (shallower wells: counted and tabulated apart, q24_*)")
+    ap.add_argument("--theory-q24", default=None,
+                    help="with --fold all: a tubes RESULT.h5 on the diagonal of quadrant 2 (&orbits saddle = "
+                         "'S23', &section angle = 135) for the q24 table's theory")
     ap.add_argument("--section-range", type=_parse_range, default=(40.0, 140.0),
                     help="dE range of the section plot (default 40,140)")
     ap.add_argument("--strict", action="store_true",
@@ -2066,6 +2090,7 @@ def _main(args, orig) -> int:
             if args.edge is not None:
                 est_opts["edge"] = args.edge
         theory = load_theory(args.theory) if args.theory else None
+        theory_q24 = load_theory(args.theory_q24, diagonal=2) if args.theory_q24 else None
         opt = Options(estimator=args.estimator, estimator_options=est_opts, energy=args.energy,
                       energy_window=args.energy_window, t_skip=args.t_skip, gate=args.gate,
                       plate=args.plate, rate=args.rate, noise=args.noise,
@@ -2090,7 +2115,7 @@ def _main(args, orig) -> int:
             cal = Calibration((o[0] * sc, o[1] * sc), args.rotate or 0.0, args.flip_y)
         tracks = read_tracks(args.tracks, columns=args.columns, time_unit=args.time_unit,
                              length_unit=args.length_unit, pixel_size=args.pixel_size, calibration=cal)
-        an = analyse(tracks, theory, opt)
+        an = analyse(tracks, theory, opt, theory_q24=theory_q24)
     except ExperimentError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
@@ -2119,6 +2144,9 @@ def _main(args, orig) -> int:
         if "q24_n_crossings" in a:
             line += f"; quadrants 2 and 4 {a['q24_n_crossings']}, {a['q24_n_transitions']} (their own column)"
         print(line)
+        if math.isfinite(a.get("q24_slope", math.nan)) and "q24_slope_theory" in a:
+            print(f"quadrants 2 and 4: slope ({a['q24_slope'] * 1e3:.3f} +- {a['q24_slope_err'] * 1e3:.3f})e-3 "
+                  f"(s/cm)^2; their theory with the same weights {a['q24_slope_theory'] * 1e3:.3f}e-3")
     print(f"estimator {a['estimator']} {a['estimator_options']} ({a['differentiator']}), energy "
           f"{a['energy_method']}; position noise {a['noise_used']:.4f} cm; design effect "
           f"{a['design_effect']:.2f}")
@@ -2154,13 +2182,13 @@ def _main(args, orig) -> int:
     b = an.bins
     q24 = "q24_count" in b
     print("      dE bin     center   count  trans  fraction     interval        theory" +
-          ("   | Q2+Q4: count  trans  fraction" if q24 else ""))
+          ("   | Q2+Q4: count  trans  fraction    theory" if q24 else ""))
     for j in range(b["count"].size):
         print(f"{b['dE_low'][j]:7.0f}..{b['dE_high'][j]:<5.0f} {b['dE_center'][j]:8.1f} {b['count'][j]:7d} "
               f"{b['transitions'][j]:6d}  {b['fraction'][j]:8.4f}  [{b['ci_low'][j]:.4f}, "
               f"{b['ci_high'][j]:.4f}]  {b['p_theory'][j]:8.4f}" +
-              (f"   |      {b['q24_count'][j]:7d} {b['q24_transitions'][j]:6d}  {b['q24_fraction'][j]:8.4f}"
-               if q24 else ""))
+              (f"   |      {b['q24_count'][j]:7d} {b['q24_transitions'][j]:6d}  {b['q24_fraction'][j]:8.4f}  "
+               f"{b['q24_p_theory'][j]:8.4f}" if q24 else ""))
     try:
         if args.output:
             write_analysis(args.output, an, ["python -m tubes.experiment", *orig], args.tracks)
