@@ -79,6 +79,12 @@ int tubes_expr_build(const char *spec, char key[TUBES_LSYSTEM], char *var, int l
                      char *lib, int llib, double *seconds, int *hit);
 /* The loaded library of name key (TUBES_EINPUT if it is not in the cache). */
 int tubes_expr_open(const char key[TUBES_LSYSTEM], tubes_expr_lib_t *lib);
+/* The Taylor expansion of the Hamiltonian of the formula model key at z = (q, p) to total degree
+ * order, from its formula (python/tubes/codegen.py --taylor: SymPy, exact coefficients rounded to
+ * double): *n terms, *expo (2N exponents of (dq, dp) per term) and *coef, both malloc'ed. On
+ * failure (a built-in model, no Python or SymPy) the reason in msg. */
+int tubes_expr_taylor(const char key[TUBES_LSYSTEM], const double *z, int order, int *n, int **expo, double **coef,
+                      char *msg, int lmsg);
 /* The C compiler that builds models ($TUBES_CC, else the build's). */
 const char *tubes_expr_compiler(void);
 
@@ -227,6 +233,20 @@ int tubes_flux_sample(const char system[TUBES_LSYSTEM], const double params[TUBE
                double de, int nsamp, int seed, double t_max, double gate, double tol, int method, double h,
                double omega_bind, int solver, int max_iter, double *flux, double *err, double *leading,
                int counts[4], double box[2 * (TUBES_MAXDOF - 1)]);
+
+/* The Birkhoff normal form of H from its Taylor coefficients at a saddle x centre^(N-1)
+ * equilibrium (src/tubes_normal_form.f90; docs/theory.md): n_terms terms, expo[t 2N + i] the
+ * exponent of the i-th of (dq_1..dq_N, dp_1..dp_N) in term t, coef[t]; to degree order. The flux
+ * at de[0..n_de-1]: flux[k] (NaN and fstat[k] = TUBES_ENOCONV where the truncated normal form has
+ * no bounded action region). Out: lambda, omegas[N-1], the normal form H_NF = sum_t nf_coef[t]
+ * I_1^nf_expo[3t] J_2^nf_expo[3t+1] J_3^nf_expo[3t+2] (n_nf <= max_nf terms, the constant E_s
+ * included), diag = {max |C^T J C - J|, largest non-normal coefficient left, largest imaginary
+ * part, smallest divisor}; msg the reason of a refusal (TUBES_EINPUT: not a saddle x centres,
+ * degenerate, equal frequencies, a negative-energy centre; TUBES_ENOCONV: a resonance). */
+int tubes_birkhoff(int n_dof, int order, int n_terms, const int expo[], const double coef[], int n_de,
+                      const double de[], double flux[], int fstat[], double *lambda,
+                      double omegas[TUBES_MAXDOF - 1], int max_nf, int *n_nf, int nf_expo[],
+                      double nf_coef[], double diag[4], char *msg, int lmsg);
 
 /* Poincare map of the section at de: pts[(j n_iter + k) 2 + {0, 1}] = (r, p_r) of the k-th return
  * of seed j (NaN once it stops returning within t_max). */

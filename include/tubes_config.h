@@ -94,7 +94,7 @@ typedef struct {
   int expr_hit;
   /* &flux (docs/input.md); flux_gate resolved like mc_gate */
   double flux_de[TUBES_MAXDE];
-  int flux_nde, flux_n_samples, flux_seed;
+  int flux_nde, flux_n_samples, flux_seed, flux_order;
   double flux_t_max, flux_gate, flux_tol;
   int orb_family;   /* &orbits family: which centre mode's Lyapunov family (1 .. N-1) */
 } tubes_config_t;

@@ -655,3 +655,31 @@ subroutine flux(system, params, lo, hi, n_grid, saddle, nde, des, nsamp, seed, t
     counts(:, k) = [res%n_inside, res%n_reactive, res%n_recrossing, res%n_undecided]
   end do
 end subroutine flux
+
+subroutine birkhoff(nd, order, nt, expo, coef, nde, de, stat, flux, fstat, lambda, omegas, n_nf, nf_expo, &
+                    nf_coef, diag, msg)
+  ! the Birkhoff normal form from Taylor coefficients and its flux (as the flux scene's &flux order)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_normal_form, only: nf_result_t, normal_form_flux
+  implicit none
+  integer(c_int), intent(in) :: nd, order, nt, nde
+  integer(c_int), intent(in) :: expo(2*nd, nt)
+  real(c_double), intent(in) :: coef(nt), de(nde)
+  integer(c_int), intent(out) :: stat, fstat(nde), n_nf, nf_expo(3, 4096)
+  real(c_double), intent(out) :: flux(nde), lambda, omegas(2), nf_coef(4096), diag(4)
+  character(len=256), intent(out) :: msg
+  type(nf_result_t) :: res
+  integer :: k
+  lambda = 0; omegas = 0; n_nf = 0; nf_expo = 0; nf_coef = 0; diag = 0
+  call normal_form_flux(nd, order, expo, coef, de, res, flux, fstat, stat)
+  msg = res%message
+  if (stat /= 0) return
+  lambda = res%lambda
+  omegas(1:nd - 1) = res%omegas(1:nd - 1)
+  diag = [res%symplectic_error, res%residual, res%imaginary, res%smallest_divisor]
+  n_nf = min(res%nterms, 4096)
+  do k = 1, n_nf
+    nf_expo(1:nd, k) = res%expo(:, k)
+    nf_coef(k) = res%coef(k)
+  end do
+end subroutine birkhoff

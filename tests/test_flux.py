@@ -34,7 +34,7 @@ def run(tmp, text, cache):
 def flux_of(tmp):
     with h5py.File(os.path.join(tmp, "f.h5")) as f:
         g = f["flux"]
-        out = {k: g[k][()] for k in g}
+        out = {k: g[k][()] for k in g if isinstance(g[k], h5py.Dataset)}
         if "orbits" in f:
             out["action"] = f["orbits/action"][()]
         return out

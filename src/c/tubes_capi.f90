@@ -21,6 +21,7 @@ module tubes_capi
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE
   use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t
   use tubes_flux, only: flux_result_t, flux_leading_order, flux_sampled
+  use tubes_normal_form, only: nf_result_t, normal_form_flux
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, maps_at
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
@@ -523,6 +524,37 @@ contains
     counts = [res%n_inside, res%n_reactive, res%n_recrossing, res%n_undecided]
     box(:, 1:model%ndof() - 1) = res%box(:, 1:model%ndof() - 1)
   end function c_flux
+
+  !> The Birkhoff normal form of H from its Taylor coefficients at a saddle x centre^(N-1)
+  !> (n_terms of them: the exponents expo(2N, n_terms) of (dq, dp), coef) to degree order, and
+  !> its flux at de(1:n_de): flux(k), fstat(k) (TUBES_ENOCONV where the truncated form has no
+  !> bounded action region). Out: lambda, omegas(N-1), the normal form's terms (at most max_nf:
+  !> nf_expo(3, .) the exponents of I_1, J_2, J_3, nf_coef), diag = (symplectic error of the
+  !> linear change, largest non-normal coefficient left, largest imaginary part, smallest
+  !> divisor), msg the reason of a refusal. src/tubes_normal_form.f90.
+  integer(c_int) function c_normal_form(n_dof, order, n_terms, expo, coef, n_de, de, flux, fstat, lambda, &
+      omegas, max_nf, n_nf, nf_expo, nf_coef, diag, msg, lmsg) result(stat) bind(C, name='tubes_birkhoff')
+    integer(c_int), value :: n_dof, order, n_terms, n_de, max_nf, lmsg
+    integer(c_int), intent(in) :: expo(2*n_dof, n_terms)
+    real(c_double), intent(in) :: coef(n_terms), de(n_de)
+    real(c_double), intent(out) :: flux(n_de), lambda, omegas(MAX_DOF - 1), nf_coef(max_nf), diag(4)
+    integer(c_int), intent(out) :: fstat(n_de), n_nf, nf_expo(3, max_nf)
+    character(kind=c_char), intent(out) :: msg(lmsg)
+    type(nf_result_t) :: res
+    integer :: k
+    lambda = 0; omegas = 0; n_nf = 0; nf_expo = 0; nf_coef = 0; diag = 0
+    call normal_form_flux(n_dof, order, expo, coef, de, res, flux, fstat, stat)
+    call to_c(trim(res%message), msg, lmsg)
+    if (stat /= TUBES_OK) return
+    lambda = res%lambda
+    omegas(1:n_dof - 1) = res%omegas(1:n_dof - 1)
+    diag = [res%symplectic_error, res%residual, res%imaginary, res%smallest_divisor]
+    n_nf = min(res%nterms, max_nf)
+    do k = 1, n_nf
+      nf_expo(1:n_dof, k) = res%expo(:, k)
+      nf_coef(k) = res%coef(k)
+    end do
+  end function c_normal_form
 
   !> Poincare map of the section at excess energy de: n_seeds starts on the section (half at the
   !> middle of the p_s range across the region, half across p_s at the region's middle s),

@@ -344,3 +344,109 @@ int tubes_expr_open(const char key[TUBES_LSYSTEM], tubes_expr_lib_t *m) {
   }
   return TUBES_OK;
 }
+
+int tubes_expr_taylor(const char key[TUBES_LSYSTEM], const double *z, int order, int *n, int **expo, double **coef,
+                      char *msg, int lmsg) {
+  char dir[PATH_MAX], path[PATH_MAX + 64], k[TUBES_LSYSTEM + 1];
+  *n = 0;
+  *expo = NULL;
+  *coef = NULL;
+  msg[0] = 0;
+  snprintf(k, sizeof k, "%.*s", TUBES_LSYSTEM, key);
+  k[strcspn(k, " ")] = 0;
+  if (strncmp(k, "expr_", 5) || cache_dir(dir, sizeof dir)) {
+    say(msg, lmsg, "the normal form needs the model written as a formula (&model system = 'expression'): "
+        "its Taylor expansion comes from the formula (docs/models.md)");
+    return TUBES_EINPUT;
+  }
+  snprintf(path, sizeof path, "%s/%s.so", dir, k);
+  void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+  const char *text = h ? (const char *)dlsym(h, "tubes_expr_text") : NULL;
+  const int *ndof = h ? (const int *)dlsym(h, "tubes_expr_ndof") : NULL;
+  const int *kind = h ? (const int *)dlsym(h, "tubes_expr_kind") : NULL;
+  if (!text || !ndof || !kind) {
+    say(msg, lmsg, "cannot load the model's library '%s'", path);
+    return TUBES_EINPUT;
+  }
+  if (*kind != 1) {
+    say(msg, lmsg, "the normal form needs a Hamiltonian formula (system = 'expression'), not a surface");
+    return TUBES_EINPUT;
+  }
+  int nv = 2 * *ndof;
+  char tmp[PATH_MAX + 32];
+  snprintf(tmp, sizeof tmp, "%s/taylor.XXXXXX", dir);
+  if (!mkdtemp(tmp)) {
+    say(msg, lmsg, "cannot create a directory in '%s': %s", dir, strerror(errno));
+    return TUBES_EIO;
+  }
+  char f_spec[PATH_MAX + 80], f_out[PATH_MAX + 80], f_log[PATH_MAX + 80];
+  snprintf(f_spec, sizeof f_spec, "%s/model.spec", tmp);
+  snprintf(f_out, sizeof f_out, "%s/taylor", tmp);
+  snprintf(f_log, sizeof f_log, "%s/log", tmp);
+  int rc = TUBES_EIO;
+  FILE *f = fopen(f_spec, "w");
+  if (!f || fputs(text, f) < 0 || fclose(f)) {
+    say(msg, lmsg, "cannot write '%s': %s", f_spec, strerror(errno));
+    goto done;
+  }
+  {
+    char py[PATH_MAX], script[PATH_MAX], ord[16], zs[2 * TUBES_MAXDOF][32];
+    find_tool(py, sizeof py, "TUBES_PYTHON", ".venv/bin/python", "python3");
+    find_tool(script, sizeof script, "TUBES_CODEGEN", "python/tubes/codegen.py", "codegen.py");
+    snprintf(ord, sizeof ord, "%d", order);
+    char *argv[6 + 2 * TUBES_MAXDOF] = {py, script, "--taylor", f_out, ord};
+    for (int i = 0; i < nv; i++) {
+      snprintf(zs[i], sizeof zs[i], "%.17g", z[i]);
+      argv[5 + i] = zs[i];
+    }
+    argv[5 + nv] = NULL;
+    int st = run(argv, f_spec, f_log);
+    if (st != 0) {
+      say(msg, lmsg, "the Taylor expansion of the formula failed (%s %s --taylor, exit %d): ", py, script, st);
+      append_file(msg, lmsg, f_log);
+      goto done;
+    }
+  }
+  {
+    FILE *g = fopen(f_out, "r");
+    if (!g) {
+      say(msg, lmsg, "cannot read '%s': %s", f_out, strerror(errno));
+      goto done;
+    }
+    int cap = 256, m = 0;
+    int *e = malloc(sizeof(int) * (size_t)(cap * nv));
+    double *c = malloc(sizeof(double) * (size_t)cap);
+    int ok = e && c;
+    while (ok) {
+      int row[2 * TUBES_MAXDOF], got = 0;
+      for (int i = 0; i < nv; i++) got += fscanf(g, "%d", &row[i]) == 1;
+      double v;
+      if (got != nv || fscanf(g, "%lf", &v) != 1) break;
+      if (m == cap) {
+        cap *= 2;
+        int *e2 = realloc(e, sizeof(int) * (size_t)(cap * nv));
+        double *c2 = realloc(c, sizeof(double) * (size_t)cap);
+        if (e2) e = e2;
+        if (c2) c = c2;
+        ok = e2 && c2;
+        if (!ok) break;
+      }
+      memcpy(e + (size_t)m * nv, row, sizeof(int) * (size_t)nv);
+      c[m++] = v;
+    }
+    fclose(g);
+    if (!ok) {
+      free(e);
+      free(c);
+      say(msg, lmsg, "out of memory reading the Taylor expansion");
+      goto done;
+    }
+    *n = m;
+    *expo = e;
+    *coef = c;
+    rc = TUBES_OK;
+  }
+done:
+  remove_tree(tmp);
+  return rc;
+}

@@ -186,6 +186,8 @@ const nml_var tubes_nml_vars[] = {
     {"flux", "gate", NML_REAL, 1, "units of q", "the &montecarlo gate", "> 0",
      "half-width of the slab around the dividing surface that a passage crosses"},
     {"flux", "tol", NML_REAL, 1, "1", "1e-10", "1e-14 .. 1e-3", "rtol = atol of the integrations"},
+    {"flux", "order", NML_INT, 1, "-", "0", "0, or 2 .. 16 (2 DOF), 2 .. 10 (3 DOF)",
+     "degree of the Birkhoff normal form (formula models); 0 = none"},
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 _Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 192, "nml_where holds 192 variables");
@@ -851,6 +853,8 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (c->nparams >= 0 && !(c->flux_gate > 0 && c->flux_gate < DBL_MAX))
     n += bad(path, w, "flux", "gate", err, "", c->flux_gate);
   if (!(c->flux_tol >= 1e-14 && c->flux_tol <= 1e-3)) n += bad(path, w, "flux", "tol", err, "", c->flux_tol);
+  if (!(c->flux_order == 0 || (c->flux_order >= 2 && c->flux_order <= 16)))
+    n += bad(path, w, "flux", "order", err, "", c->flux_order);
   if (!(c->pm_n_seeds >= 1 && c->pm_n_seeds <= 100000)) n += bad(path, w, "sections", "n_seeds", err, "", c->pm_n_seeds);
   if (!(c->pm_n_iter >= 1 && c->pm_n_iter <= 1000000)) n += bad(path, w, "sections", "n_iter", err, "", c->pm_n_iter);
   if (!(c->pm_t_max > 0)) n += bad(path, w, "sections", "t_max", err, "", c->pm_t_max);

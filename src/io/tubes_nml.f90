@@ -79,7 +79,7 @@ module tubes_nml
     real(c_double) :: expr_seconds
     integer(c_int) :: expr_hit
     real(c_double) :: flux_de(MAXDE)
-    integer(c_int) :: flux_nde, flux_n_samples, flux_seed
+    integer(c_int) :: flux_nde, flux_n_samples, flux_seed, flux_order
     real(c_double) :: flux_t_max, flux_gate, flux_tol
     integer(c_int) :: orb_family
   end type tubes_config_t
@@ -138,7 +138,7 @@ module tubes_nml
     character(LNAME) :: surface
     character(LNAME) :: model_name   !! the library's name of the model (written only)
     real(c_double) :: flux_de(MAXDE)
-    integer :: flux_n_samples, flux_seed
+    integer :: flux_n_samples, flux_seed, flux_order
     real(c_double) :: flux_t_max, flux_gate, flux_tol
     integer :: orb_family
   end type vars_t
@@ -226,6 +226,7 @@ contains
     v%flux_t_max = 20
     v%flux_gate = UNSET
     v%flux_tol = 1.0e-10_c_double
+    v%flux_order = 0
     v%pm_de = UNSET
     v%pm_n_seeds = 40
     v%pm_n_iter = 300
@@ -285,7 +286,7 @@ contains
       400.0_c_double, 500.0_c_double, 600.0_c_double, 700.0_c_double, 750.0_c_double])
     cfg%tra_area_tol = v%tra_area_tol
     call put_list(v%flux_de, cfg%flux_de, cfg%flux_nde, cfg%tra_de(1:cfg%tra_nde))
-    cfg%flux_n_samples = v%flux_n_samples; cfg%flux_seed = v%flux_seed
+    cfg%flux_n_samples = v%flux_n_samples; cfg%flux_seed = v%flux_seed; cfg%flux_order = v%flux_order
     cfg%flux_t_max = v%flux_t_max; cfg%flux_tol = v%flux_tol
     cfg%mc_de = v%mc_de; cfg%mc_t_max = v%mc_t_max; cfg%mc_area_tol = v%mc_area_tol
     cfg%mc_n_samples = v%mc_n_samples; cfg%mc_seed = v%mc_seed
@@ -629,7 +630,7 @@ contains
     v%mc_area_tol = cfg%mc_area_tol
     v%mc_n_samples = cfg%mc_n_samples; v%mc_seed = cfg%mc_seed
     v%flux_de = cfg%flux_de
-    v%flux_n_samples = cfg%flux_n_samples; v%flux_seed = cfg%flux_seed
+    v%flux_n_samples = cfg%flux_n_samples; v%flux_seed = cfg%flux_seed; v%flux_order = cfg%flux_order
     v%flux_t_max = cfg%flux_t_max; v%flux_gate = cfg%flux_gate; v%flux_tol = cfg%flux_tol
     v%pm_de = cfg%pm_de
     v%pm_n_seeds = cfg%pm_n_seeds; v%pm_n_iter = cfg%pm_n_iter; v%pm_t_max = cfg%pm_t_max
@@ -1005,11 +1006,11 @@ contains
     end subroutine io_montecarlo
     subroutine io_flux()
       real(c_double), allocatable :: de(:)
-      integer :: n_samples, seed
+      integer :: n_samples, seed, order
       real(c_double) :: t_max, gate, tol
-      namelist /flux/ de, n_samples, seed, t_max, gate, tol
+      namelist /flux/ de, n_samples, seed, t_max, gate, tol, order
       call list_io(v%flux_de, de)
-      n_samples = v%flux_n_samples; seed = v%flux_seed; t_max = v%flux_t_max
+      n_samples = v%flux_n_samples; seed = v%flux_seed; t_max = v%flux_t_max; order = v%flux_order
       gate = v%flux_gate; tol = v%flux_tol
       if (mode == 'r') then
         read (u, nml=flux, iostat=ios, iomsg=iomsg)
@@ -1017,7 +1018,7 @@ contains
       else
         write (u, nml=flux, iostat=ios, iomsg=iomsg)
       end if
-      v%flux_n_samples = n_samples; v%flux_seed = seed; v%flux_t_max = t_max
+      v%flux_n_samples = n_samples; v%flux_seed = seed; v%flux_t_max = t_max; v%flux_order = order
       v%flux_gate = gate; v%flux_tol = tol
     end subroutine io_flux
     subroutine io_sections()

@@ -1217,6 +1217,127 @@ out:
   return rc;
 }
 
+/* The normal form's results for /flux. */
+typedef struct {
+  int done, stat, n_nf, ndof;
+  double lambda, omegas[MD - 1], diag[4];
+  double *flux, *change, *coef;
+  int *pw;        /* 3 per term: the powers of I_1, J_2, J_3 */
+  char msg[512];
+} nf_out_t;
+
+/* The Birkhoff normal form of the formula model at the saddle (&flux order K; src/tubes_normal_form.f90)
+ * and its flux on the &flux energies at orders K and K - 2, against the sampled flux fl +- fe:
+ * a refusal (not a formula model: exit 1; degenerate, resonant: exit 2, the sampled flux still
+ * written) or a disagreement beyond 5 combined standard errors (exit 2) is reported. */
+static int flux_normal_form(const tubes_run_t *run, const double *fl, const double *fe, nf_out_t *o) {
+  const tubes_config_t *c = run->cfg;
+  int n = c->flux_nde, K = c->flux_order, nd = run->ndof;
+  o->flux = calloc((size_t)n, sizeof(double));
+  o->change = calloc((size_t)n, sizeof(double));
+  if (!o->flux || !o->change) return EXIT_NUMERIC;
+  for (int k = 0; k < n; k++) o->flux[k] = o->change[k] = NAN;
+  if (nd == 3 && K > 10) {
+    fprintf(stderr, "%s: &flux: order = %d: at most 10 in 3 degrees of freedom (the monomials grow as K^6)\n",
+            run->input ? run->input : "tubes", K);
+    return EXIT_BADINPUT;
+  }
+  eqlist_t L;
+  int st = find_eqs(run, &L), ks = st ? -1 : find_named(&L, run->saddle);
+  if (ks < 0) {
+    fprintf(stderr, "tubes: flux: normal form: the saddle %s was not found again\n", run->saddle);
+    return EXIT_NUMERIC;
+  }
+  double z[2 * MD];
+  for (int i = 0; i < nd; i++) {
+    z[i] = L.q[MD * ks + i];
+    z[nd + i] = L.p[MD * ks + i];
+  }
+  double t0 = now();
+  int nt = 0, *ex = NULL;
+  double *cf = NULL;
+  st = tubes_expr_taylor(run->system, z, K, &nt, &ex, &cf, o->msg, sizeof o->msg);
+  if (st) {
+    fprintf(stderr, "%s: &flux: order = %d: %s\n", run->input ? run->input : "tubes", K, o->msg);
+    return EXIT_BADINPUT;
+  }
+  int max_nf = 4096, *fst = calloc((size_t)n, sizeof(int)), n2 = 0, *pw2 = malloc(sizeof(int) * 3 * 4096);
+  double *f2 = calloc((size_t)n, sizeof(double)), *c2 = malloc(sizeof(double) * 4096), lam2, om2[MD - 1], d2[4];
+  char m2[512];
+  o->coef = malloc(sizeof(double) * (size_t)max_nf);
+  o->pw = malloc(sizeof(int) * 3 * (size_t)max_nf);
+  int rc = 0;
+  if (!fst || !f2 || !o->coef || !o->pw || !pw2 || !c2) {
+    rc = EXIT_NUMERIC;
+    goto out;
+  }
+  o->ndof = nd;
+  o->stat = tubes_birkhoff(nd, K, nt, ex, cf, n, c->flux_de, o->flux, fst, &o->lambda, o->omegas, max_nf,
+                              &o->n_nf, o->pw, o->coef, o->diag, o->msg, sizeof o->msg);
+  o->done = 1;
+  if (o->stat) {
+    fprintf(stderr, "tubes: flux: %s (status %d); the sampled flux is written\n", o->msg, o->stat);
+    rc = EXIT_NUMERIC;
+    goto out;
+  }
+  if (K >= 4 && tubes_birkhoff(nd, K - 2, nt, ex, cf, n, c->flux_de, f2, fst + 0, &lam2, om2, 4096, &n2, pw2, c2,
+                                   d2, m2, sizeof m2) == 0)
+    for (int k = 0; k < n; k++) o->change[k] = fabs(o->flux[k] - f2[k]);
+  printf("flux: Birkhoff normal form of order %d at %s (%.2f s): lambda = %.10g, omega = %.10g", K, run->saddle,
+         now() - t0, o->lambda, o->omegas[0]);
+  if (nd == 3) printf(", %.10g", o->omegas[1]);
+  printf("; checks: symplectic %.1e, non-normal terms left %.1e, imaginary %.1e, smallest divisor %.4g\n",
+         o->diag[0], o->diag[1], o->diag[2], o->diag[3]);
+  printf("  %10s %18s %12s %16s %12s %9s\n", "dE", "normal form", "change K-2", "sampled", "+-", "diff/sd");
+  for (int k = 0; k < n; k++) {
+    double sd = sqrt(fe[k] * fe[k] + (isfinite(o->change[k]) ? o->change[k] * o->change[k] : 0.0));
+    double z_ = (o->flux[k] - fl[k]) / sd;
+    printf("  %10.4g %18.12g %12.3g %16.10g %12.4g %9.2f\n", c->flux_de[k], o->flux[k], o->change[k], fl[k], fe[k], z_);
+    if (!isfinite(o->flux[k])) {
+      fprintf(stderr, "tubes: flux: dE = %g: the normal form of order %d has no bounded region of actions there "
+              "(beyond the series' reach): lower dE\n", c->flux_de[k], K);
+      rc = EXIT_NUMERIC;
+    } else if (isfinite(fl[k]) && fabs(z_) > 5) {
+      fprintf(stderr, "tubes: flux: dE = %g: the normal form (%.10g, change %.3g from order %d) and the sampled "
+              "flux (%.10g +- %.3g) disagree by %.1f standard errors\n", c->flux_de[k], o->flux[k], o->change[k],
+              K - 2, fl[k], fe[k], z_);
+      rc = EXIT_NUMERIC;
+    }
+  }
+out:
+  free(ex); free(cf); free(fst); free(f2); free(c2); free(pw2);
+  return rc;
+}
+
+static int write_normal_form(hid_t g, const nf_out_t *o, int n) {
+  hsize_t dn = (hsize_t)n;
+  int e = h5_write_double(g, "flux_normal_form", 1, &dn, o->flux, "action^(N-1)");
+  e |= h5_write_double(g, "flux_normal_form_change", 1, &dn, o->change, "action^(N-1)");
+  e |= h5_attr_long(g, "normal_form_status", o->stat);
+  e |= h5_attr_string(g, "normal_form_message", o->msg);
+  if (!o->done || o->stat) return e;
+  hid_t h = h5_group(g, "normal_form");
+  if (h < 0) return 1;
+  hsize_t nm = (hsize_t)(o->ndof - 1), nt = (hsize_t)o->n_nf;
+  e |= h5_attr_double(h, "lambda", o->lambda);
+  e |= h5_write_double(h, "omegas", 1, &nm, o->omegas, "1/time");
+  e |= h5_attr_double(h, "symplectic_error", o->diag[0]);
+  e |= h5_attr_double(h, "residual", o->diag[1]);
+  e |= h5_attr_double(h, "imaginary", o->diag[2]);
+  e |= h5_attr_double(h, "smallest_divisor", o->diag[3]);
+  e |= h5_write_double(h, "coefficients", 1, &nt, o->coef, "energy / action^|powers|");
+  int *col = malloc(sizeof(int) * (o->n_nf ? (size_t)o->n_nf : 1));
+  static const char *const names[3] = {"power_I1", "power_J2", "power_J3"};
+  for (int j = 0; col && j < o->ndof; j++) {
+    for (int t = 0; t < o->n_nf; t++) col[t] = o->pw[3 * t + j];
+    e |= h5_write_int(h, names[j], nt, col, "1");
+  }
+  e |= !col;
+  free(col);
+  H5Gclose(h);
+  return e;
+}
+
 /* The flux through the bottleneck on the &flux energies: sampled on the dividing surface (every
  * rank samples every energy: the same numbers), beside the leading-order formula. A sample whose
  * future or past stays near the saddle to t_max is undecided; more than 1 % of the points inside
@@ -1261,6 +1382,14 @@ int scene_flux(tubes_run_t *run) {
       rc = EXIT_NUMERIC;
     }
   }
+  /* the normal form (&flux order > 0): its flux at order K and K - 2 (the change: its own error
+   * estimate), and the check against the sampled flux */
+  nf_out_t nfo;
+  memset(&nfo, 0, sizeof nfo);
+  if (c->flux_order > 0) {
+    int r2 = flux_normal_form(run, fl, fe, &nfo);
+    if (r2 && (!rc || r2 == EXIT_BADINPUT)) rc = r2;
+  }
   hid_t g = h5_group(run->file, "flux");
   int e = g < 0;
   hsize_t dn = (hsize_t)n;
@@ -1286,8 +1415,11 @@ int scene_flux(tubes_run_t *run) {
     e |= h5_attr_double(g, "gate", c->flux_gate);
     e |= h5_attr_double(g, "tol", c->flux_tol);
     e |= h5_attr_string(g, "saddle", run->saddle);
+    e |= h5_attr_long(g, "order", c->flux_order);
+    if (c->flux_order > 0) e |= write_normal_form(g, &nfo, n);
   }
   if (g >= 0) H5Gclose(g);
   free(fl); free(fe); free(lo); free(cnt); free(stat); free(nin); free(nre); free(nrc); free(nun);
+  free(nfo.flux); free(nfo.change); free(nfo.coef); free(nfo.pw);
   return e ? EXIT_IO : rc;
 }

@@ -1,0 +1,161 @@
+"""The Birkhoff normal form and its flux (src/tubes_normal_form.f90, `&flux order`; docs/theory.md,
+"The normal form"), through the executable, against independent references: the closed form of a
+separable 3-DOF saddle (1e-12), a 2-D quadrature of the NHIM's interior where a quartic coupling
+keeps {q1 = p1 = 0} invariant, the Lyapunov orbit's action in 2 DOF (the orbits scene: shooting,
+another computation), the sampled flux (within 4 standard errors); convergence with the order;
+the refusals (a built-in model, a resonance)."""
+import math
+
+import numpy as np
+import pytest
+from scipy import integrate, optimize
+
+from test_flux import SIGMAS, cache, flux_of, run  # noqa: F401  (cache: the fixture)
+
+COUPLED = ("(p1^2 + p2^2 + p3^2)/2 - q1^2/2 + q1^4/4 + w2^2*q2^2/2 + w3^2*q3^2/2 + a*q1^2*q2^2"
+           " + b*q1^2*q3^2 + c*q2^2*q3^2 + d*q2^4")
+CONSTS = "'w2 = 1.3', 'w3 = 2.1', 'a = 0.2', 'b = 0.1', 'c = 0.3', 'd = 0.05'"
+
+
+def _nml(h, consts, de, order, extra="", n_samples=20000, seed=3, ndof=3, scenes="'flux'"):
+    coords = "'q1', 'q2', 'q3'" if ndof == 3 else "'q1', 'q2'"
+    moms = "'p1', 'p2', 'p3'" if ndof == 3 else "'p1', 'p2'"
+    return f"""
+        &run scenes = {scenes}, output = 'f.h5' /
+        &model system = 'expression', hamiltonian = '{h}',
+          coordinates = {coords}, momenta = {moms}, constants = {consts} /
+        &equilibria box = 1.0, n_grid = 5 /
+        &orbits saddle_near = {', '.join(['0'] * ndof)} {extra} /
+        &flux de = {', '.join(map(str, de))}, order = {order}, n_samples = {n_samples}, seed = {seed} /
+        """
+
+
+def test_separable_saddle_is_exact(tmp_path, cache):
+    """H = |p|^2/2 - q1^2/2 + w2^2 q2^2/2 + w3^2 q3^2/2: the normal form is H itself, the flux
+    2 pi^2 dE^2 / (w2 w3) to 1e-12; the sampled flux agrees within 4 standard errors."""
+    tmp = str(tmp_path)
+    p = run(tmp, _nml("(p1^2 + p2^2 + p3^2)/2 - q1^2/2 + w2^2*q2^2/2 + w3^2*q3^2/2", "'w2 = 1.3', 'w3 = 2.1'",
+                      [0.01, 0.2], 6), cache)
+    assert p.returncode == 0, p.stdout + p.stderr
+    f = flux_of(tmp)
+    exact = 2 * math.pi**2 * f["dE"] ** 2 / (1.3 * 2.1)
+    np.testing.assert_allclose(f["flux_normal_form"], exact, rtol=1e-12)
+    assert np.all(np.abs(f["flux_sampled"] - exact) < SIGMAS * f["flux_sampled_err"])
+    assert "Birkhoff normal form of order 6" in p.stdout
+
+
+def _nhim_volume(de):
+    """(2 pi) int int_{V < dE} (dE - V) dq2 dq3 on q1 = p1 = 0 (the momenta's disc integrated):
+    polar coordinates, Brent for the boundary, QUADPACK (scipy), relative 1e-13."""
+    w2, w3, c, d = 1.3, 2.1, 0.3, 0.05
+
+    def v(x, y):
+        return w2**2 * x**2 / 2 + w3**2 * y**2 / 2 + c * x**2 * y**2 + d * x**4
+
+    def inner(phi):
+        g = lambda r: v(r * math.cos(phi), r * math.sin(phi)) - de  # noqa: E731
+        rmax = optimize.brentq(g, 0, 10.0, xtol=1e-15, rtol=1e-15)
+        return integrate.quad(lambda r: (de - v(r * math.cos(phi), r * math.sin(phi))) * r, 0, rmax,
+                              epsabs=0, epsrel=1e-13)[0]
+
+    return 2 * math.pi * integrate.quad(inner, 0, 2 * math.pi, epsabs=0, epsrel=1e-13, limit=200)[0]
+
+
+@pytest.mark.parametrize("order", [4, 6, 8, 10])
+def test_coupled_quartic_converges_to_the_quadrature(tmp_path, cache, order):
+    """A quartic coupling that keeps {q1 = p1 = 0} invariant: the flux is the 4-volume of
+    {H(0, 0, q2, p2, q3, p3) <= E} (quadrature). The normal form's error falls with the order
+    (measured: 3e-4, 1e-6, 2e-8, 1e-10 relative at dE = 0.1... below), its printed change from
+    order K - 2 bounds it, and the sampled flux agrees within 4 standard errors."""
+    tmp = str(tmp_path)
+    p = run(tmp, _nml(COUPLED, CONSTS, [0.05, 0.1], order), cache)
+    assert p.returncode == 0, p.stdout + p.stderr
+    f = flux_of(tmp)
+    ref = np.array([_nhim_volume(de) for de in f["dE"]])
+    err = np.abs(f["flux_normal_form"] / ref - 1)
+    bound = {4: 2e-3, 6: 2e-5, 8: 3e-7, 10: 3e-9}[order]
+    assert np.all(err < bound), (order, err)
+    if order > 4:
+        assert np.all(np.abs(f["flux_normal_form"] - ref) <= 3 * f["flux_normal_form_change"] + 1e-13 * ref)
+    assert np.all(np.abs(f["flux_sampled"] - ref) < SIGMAS * f["flux_sampled_err"])
+
+
+def test_a_coupling_that_moves_the_nhim(tmp_path, cache):
+    """With q1 q2^2 and q1 q3^2 terms the NHIM is no longer {q1 = p1 = 0}: the normal form
+    (orders 8 and 10 agree to its printed change) against the sampled flux only."""
+    tmp = str(tmp_path)
+    h = COUPLED + " + e*q1*q2^2 + e*q1*q3^2"
+    p = run(tmp, _nml(h, CONSTS + ", 'e = 0.15'", [0.1], 10, n_samples=100000), cache)
+    assert p.returncode == 0, p.stdout + p.stderr
+    f = flux_of(tmp)
+    assert f["flux_normal_form_change"][0] < 1e-6 * f["flux_normal_form"][0]
+    assert abs(f["flux_sampled"][0] - f["flux_normal_form"][0]) < SIGMAS * f["flux_sampled_err"][0]
+    # and it is not the invariant case's number (4e-4 relative away: 100 times the normal form's change)
+    rel_change = f["flux_normal_form_change"][0] / f["flux_normal_form"][0]
+    assert abs(f["flux_normal_form"][0] / _nhim_volume(0.1) - 1) > 100 * rel_change
+
+
+def test_two_dof_normal_form_is_the_lyapunov_action(tmp_path, cache):
+    """Henon-Heiles as a formula: the flux 2 pi J(dE) of the normal form against the action of the
+    Lyapunov orbit of the same energy found by shooting (the orbits scene), the error falling
+    with the order."""
+    tmp = str(tmp_path)
+    errs = []
+    for order in (4, 6, 8, 10, 12):
+        p = run(tmp, f"""
+            &run scenes = 'orbits', 'flux', output = 'f.h5' /
+            &model system = 'expression', hamiltonian = '(px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2*y - y^3/3',
+              coordinates = 'x', 'y' /
+            &orbits saddle_near = 0, 1, de = 0.01, 0.1 /
+            &flux de = 0.01, 0.1, order = {order}, n_samples = 4000 /
+            """, cache)
+        assert p.returncode == 0, p.stdout + p.stderr
+        f = flux_of(tmp)
+        errs.append(np.abs(f["flux_normal_form"] / f["action"] - 1))
+    errs = np.array(errs)
+    assert np.all(np.diff(errs[:, 1]) < 0), errs          # dE = 0.1: falls at every order
+    assert errs[-1, 0] < 1e-9 and errs[-1, 1] < 1e-6, errs
+
+
+def test_the_four_well_ball_written_as_a_formula(tmp_path, cache):
+    """The ball's Hamiltonian (square roots and the kinetic metric: the Taylor expansion by
+    automatic differentiation, python/tubes/codegen.py) at S12: the normal form's flux against the
+    Lyapunov orbit's action, the error falling with the order at dE = 100 and 400 (cm/s)^2 and
+    below 1e-6 at order 10, dE = 100."""
+    from test_expression import BALL, PAPER
+    consts = ", ".join(f"'{k} = {v}'" for k, v in PAPER.items())
+    tmp = str(tmp_path)
+    errs = []
+    for order in (4, 6, 8, 10):
+        p = run(tmp, f"""
+            &run scenes = 'orbits', 'flux', output = 'f.h5' /
+            &model system = 'expression', hamiltonian = '{BALL}', constants = {consts} /
+            &equilibria box = 20.0 /
+            &orbits saddle_near = 0.0, 6.1, de = 100, 400 /
+            &flux de = 100, 400, order = {order}, n_samples = 2000 /
+            """, cache)
+        assert p.returncode == 0, p.stdout + p.stderr
+        f = flux_of(tmp)
+        errs.append(np.abs(f["flux_normal_form"] / f["action"] - 1))
+    errs = np.array(errs)
+    assert np.all(np.diff(errs, axis=0) < 0), errs
+    assert errs[-1, 0] < 1e-6, errs
+
+
+def test_refusals(tmp_path, cache):
+    """A built-in model has no formula to expand: exit 1 naming &flux order. A 1:2 resonance of
+    the centres with a resonant term (q2^2 q3 with w3 = 2 w2): refused naming it, exit 2, the
+    sampled flux still written."""
+    tmp = str(tmp_path)
+    p = run(tmp, """
+        &run scenes = 'flux', output = 'f.h5' /
+        &model system = 'henon_heiles' /
+        &flux de = 0.01, order = 6 /
+        """, cache)
+    assert p.returncode == 1 and "&flux: order = 6" in p.stderr and "formula" in p.stderr, p.stderr
+    p = run(tmp, _nml("(p1^2 + p2^2 + p3^2)/2 - q1^2/2 + w2^2*q2^2/2 + w3^2*q3^2/2 + 0.1*q2^2*q3",
+                      "'w2 = 1.0', 'w3 = 2.0'", [0.01], 6, n_samples=2000), cache)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert "resonance" in p.stderr and "-2 omega_2 +1 omega_3 = 0" in p.stderr, p.stderr
+    f = flux_of(tmp)
+    assert np.isfinite(f["flux_sampled"][0]) and np.isnan(f["flux_normal_form"][0])
