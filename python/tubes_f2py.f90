@@ -325,7 +325,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
                       sec_index, sec_level, sec_dir, tub_eps, tub_area_tol, tub_t_max, tub_n_init, &
                       tub_n_max, tra_area_tol, mc_t_max, mc_gate, mc_area_tol, pm_n_seeds, pm_n_iter, pm_t_max, &
                       method, h, omega_bind, solver, int_max_iter, orb_family, flux_n_samples, flux_seed, &
-                      flux_t_max, flux_gate, flux_tol)
+                      flux_t_max, flux_gate, flux_tol, flux_order, expr_lib)
   ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
   ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
   ! scene calls take their defaults and their checks from here; msg holds the messages
@@ -338,6 +338,8 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
                                  pm_n_iter, method, solver, int_max_iter, orb_family, flux_n_samples, &
                                  flux_seed
   real(c_double), intent(out) :: flux_t_max, flux_gate, flux_tol
+  integer(c_int), intent(out) :: flux_order
+  character(len=1024), intent(out) :: expr_lib
   character(len=2048), intent(out) :: msg
   character(len=32), intent(out) :: system
   character(len=8), intent(out) :: saddle
@@ -423,6 +425,8 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   flux_t_max = cfg%flux_t_max
   flux_gate = cfg%flux_gate
   flux_tol = cfg%flux_tol
+  flux_order = cfg%flux_order
+  expr_lib = chars(cfg%expr_lib)   ! a formula model's library file ('' for a built-in)
 contains
   function chars(c) result(s)
     character(kind=c_char), intent(in) :: c(:)

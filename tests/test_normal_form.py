@@ -159,3 +159,44 @@ def test_refusals(tmp_path, cache):
     assert "resonance" in p.stderr and "-2 omega_2 +1 omega_3 = 0" in p.stderr, p.stderr
     f = flux_of(tmp)
     assert np.isfinite(f["flux_sampled"][0]) and np.isnan(f["flux_normal_form"][0])
+
+
+def test_python_gives_the_scenes_numbers(tmp_path, cache):
+    """tubes.flux(..., order=K): the scene's flux_normal_form and its change, bitwise (one path:
+    the program's reader, the formula's library, the same Fortran), and the normal form's terms;
+    a built-in model is refused."""
+    import os
+
+    import h5py
+
+    import tubes
+    tmp = str(tmp_path)
+    hh = "(px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2*y - y^3/3"
+    p = run(tmp, f"""
+        &run scenes = 'flux', output = 'f.h5' /
+        &model system = 'expression', hamiltonian = '{hh}', coordinates = 'x', 'y' /
+        &orbits saddle_near = 0, 1 /
+        &flux de = 0.01, 0.05, order = 8, n_samples = 2000 /
+        """, cache)
+    assert p.returncode == 0, p.stderr
+    f = flux_of(tmp)
+    old = os.environ.get("TUBES_CACHE_DIR")
+    os.environ["TUBES_CACHE_DIR"] = cache
+    try:
+        r = tubes.flux(tubes.Model(system="expression", hamiltonian=hh, coordinates=["x", "y"]), dE=[0.01, 0.05],
+                       saddle_near=[0, 1], n_samples=2000, order=8)
+        with pytest.raises(ValueError, match="written as a formula"):
+            tubes.flux(tubes.Model(system="henon_heiles"), dE=[0.01], order=6)
+    finally:
+        if old is None:
+            del os.environ["TUBES_CACHE_DIR"]
+        else:
+            os.environ["TUBES_CACHE_DIR"] = old
+    assert np.array_equal(r["flux_normal_form"], f["flux_normal_form"])
+    assert np.array_equal(r["flux_normal_form_change"], f["flux_normal_form_change"])
+    nf = r["normal_form"]
+    assert nf["lambda"] == pytest.approx(1.0, rel=1e-14) and nf["omegas"][0] == pytest.approx(3**0.5, rel=1e-14)
+    with h5py.File(os.path.join(tmp, "f.h5")) as h:
+        g = h["flux/normal_form"]
+        assert np.array_equal(nf["coefficients"], g["coefficients"][()])
+        assert np.array_equal(nf["powers"][:, 1], g["power_J2"][()])

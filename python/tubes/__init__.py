@@ -433,7 +433,7 @@ _SETTINGS = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", 
              "sec_kind", "sec_index", "sec_level", "sec_dir", "tub_eps", "tub_area_tol", "tub_t_max",
              "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate", "mc_area_tol", "pm_n_seeds",
              "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter", "orb_family",
-             "flux_n_samples", "flux_seed", "flux_t_max", "flux_gate", "flux_tol")
+             "flux_n_samples", "flux_seed", "flux_t_max", "flux_gate", "flux_tol", "flux_order", "expr_lib")
 
 
 def _read_namelist(lines: list[str], who: str) -> dict:
@@ -531,16 +531,19 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
 
 
 def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
-         n_samples=None, seed=None, t_max=None, gate=None, tol=None, integrator: dict | None = None,
+         n_samples=None, seed=None, t_max=None, gate=None, tol=None, order=None, integrator: dict | None = None,
          equilibria: dict | None = None) -> dict:
     """The flux of trajectories through a rank-1 saddle's bottleneck (as the flux scene,
     docs/theory.md "Flux in N degrees of freedom"; natural systems, 2 or 3 DOF): dict of arrays
     dE, flux_sampled, flux_sampled_err, flux_leading_order, n_inside, n_reacting, n_recrossing,
-    n_undecided. Keywords as &flux (defaults from the program's reader)."""
+    n_undecided; with order = K (a model written as a formula) also flux_normal_form,
+    flux_normal_form_change and normal_form (dict: lambda, omegas, coefficients, powers (n, N),
+    symplectic_error, residual, imaginary, smallest_divisor), the scene's numbers. Keywords as
+    &flux (defaults from the program's reader)."""
     model = model or Model()
     de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
     fl = {k: v for k, v in (("n_samples", n_samples), ("seed", seed), ("t_max", t_max), ("gate", gate),
-                             ("tol", tol)) if v is not None}
+                             ("tol", tol), ("order", order)) if v is not None}
     st = _settings(model, saddle, saddle_near, flux=dict(fl, de=list(de)), integrator=integrator,
                    equilibria=equilibria)
     if not model.info or model.info.get("ndof", 2) < 2:
@@ -549,9 +552,46 @@ def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_
                                         float(st["flux_t_max"]), float(st["flux_gate"]), float(st["flux_tol"]),
                                         *_integ(st))
     _check(stat, "flux")
-    return {"dE": de, "flux_sampled": f.copy(), "flux_sampled_err": e.copy(), "flux_leading_order": lead.copy(),
-            "n_inside": cnt[0].copy(), "n_reacting": cnt[1].copy(), "n_recrossing": cnt[2].copy(),
-            "n_undecided": cnt[3].copy()}
+    out = {"dE": de, "flux_sampled": f.copy(), "flux_sampled_err": e.copy(), "flux_leading_order": lead.copy(),
+           "n_inside": cnt[0].copy(), "n_reacting": cnt[1].copy(), "n_recrossing": cnt[2].copy(),
+           "n_undecided": cnt[3].copy()}
+    if int(st["flux_order"]) > 0:
+        out.update(_normal_form_flux(model, st, de, int(st["flux_order"])))
+    return out
+
+
+def _normal_form_flux(model, st, de, order):
+    """The flux scene's normal form (src/tubes_normal_form.f90) at orders K and K - 2: the Taylor
+    expansion of the formula from the spec embedded in its library (the one the program reads)."""
+    import ctypes
+
+    from . import codegen
+    path = _str(st["expr_lib"])
+    if not path:
+        raise ValueError(f"flux: order = {order}: the normal form needs the model written as a formula "
+                         "(system='expression'): its Taylor expansion comes from the formula")
+    so = ctypes.CDLL(path)
+    spec = ctypes.string_at(ctypes.addressof(ctypes.c_char.in_dll(so, "tubes_expr_text"))).decode()
+    lo, hi = np.asarray(st["lo"], float), np.asarray(st["hi"], float)
+    nd = model.ndof
+    eq = equilibria(model, box=list((hi - lo)[:nd] / 2), n_grid=int(st["n_grid"]), box_center=list((hi + lo)[:nd] / 2))
+    k = eq["name"].index(_str(st["saddle"]))
+    terms = codegen.taylor(codegen.read_spec(spec.splitlines()), [float(v) for v in eq["state"][k]], order)
+    expo = np.asfortranarray(np.array([m for m, _ in terms], dtype=np.int32).T)
+    coef = np.array([c for _, c in terms], dtype=np.float64)
+    res = []
+    for kk in (order, order - 2) if order >= 4 else (order,):
+        sel = expo.sum(axis=0) <= kk
+        res.append(_lib().birkhoff(kk, np.asfortranarray(expo[:, sel]), coef[sel], de, nd=nd))
+    stat, fl, fst, lam, om, n_nf, pw, cf, diag, msg = res[0]
+    if stat != 0:
+        raise ValueError(f"flux: {_str(msg)}")
+    change = np.abs(fl - res[1][1]) if len(res) > 1 else np.full(de.size, np.nan)
+    return {"flux_normal_form": fl.copy(), "flux_normal_form_change": change,
+            "normal_form": {"lambda": float(lam), "omegas": om[:nd - 1].copy(), "coefficients": cf[:n_nf].copy(),
+                            "powers": pw[:nd, :n_nf].T.copy(), "symplectic_error": float(diag[0]),
+                            "residual": float(diag[1]), "imaginary": float(diag[2]),
+                            "smallest_divisor": float(diag[3])}}
 
 
 def _cut(model, st, de, kind, area_tol):
