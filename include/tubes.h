@@ -117,7 +117,7 @@ int tubes_damping_rate(const char system[TUBES_LSYSTEM], const double params[TUB
  * n_grid^ndof Newton grid; *n of them (at most nmax, else TUBES_EINPUT), *ndof = N. Per point k
  * (blocks of TUBES_MAXDOF): q, p; height (natural systems: the potential's shape, the ball's
  * H(x, y) [cm]; others: the energy), energy, grad_norm (Newton residual), morse (index: the
- * eigenvalues of the linearised flow with positive real part), rank1 (1: saddle x centre^(N-1)),
+ * eigenvalues of the linearised flow with positive real part), rank1 (1: saddle x centre^(N-1); 2: a degenerate saddle, one real pair and the rest centres or 0),
  * names (blocks of 8 chars). For rank-1 saddles: lambda [1/time], omega (blocks of
  * TUBES_MAXDOF - 1, ascending) and evec (blocks of 4 TUBES_MAXDOF^2; the first (2N)^2 hold the
  * 2N x 2N matrix of columns u, s, Re c_1, Im c_1, ..., column-major); zero for the others. */

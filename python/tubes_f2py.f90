@@ -209,7 +209,7 @@ subroutine equilibria(system, params, lo, hi, n_grid, stat, n, ndof, q, p, heigh
     height(k) = eqs(k)%height
     en(k) = eqs(k)%energy
     morse(k) = eqs(k)%morse
-    rank1(k) = merge(1, 0, eqs(k)%rank1)
+    rank1(k) = merge(1, merge(2, 0, eqs(k)%degenerate), eqs(k)%rank1)   ! 2: a degenerate saddle
     lam(k) = eqs(k)%lambda
     om(1:nd - 1, k) = eqs(k)%omegas(1:nd - 1)
     evec(1:2*nd, 1:2*nd, k) = eqs(k)%evec
@@ -645,7 +645,7 @@ subroutine flux(system, params, lo, hi, n_grid, saddle, nde, des, nsamp, seed, t
   type(flux_result_t) :: res
   integer :: isad, k, nd
   fl = 0; err = 0; leading = 0; counts = 0
-  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat)
+  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat, degenerate_ok=.true.)
   if (stat /= 0) return
   nd = model%ndof()
   do k = 1, nde

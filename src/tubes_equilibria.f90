@@ -25,6 +25,9 @@ module tubes_equilibria
     real(wp), allocatable :: curv(:) !! natural: Hessian eigenvalues of shape, ascending
     integer :: morse = -1           !! index: eigenvalues with Re > 0 (natural: Morse index of V)
     logical :: rank1 = .false.      !! one real pair +-lambda, all others +-i omega_k
+    logical :: degenerate = .false. !! one real pair +-lambda, the others +-i omega_k or 0 (a mode
+                                    !! without quadratic term, e.g. a quartic bath): named D<k>;
+                                    !! lambda, evec(:, 1:2) and the nonzero omegas are set
     character(len=8) :: name = ''   !! docs/models.md, "Naming of equilibria"
     real(wp) :: lambda = 0          !! rank-1 only: real eigenvalue of the flow [1/time]
     real(wp), allocatable :: omegas(:) !! rank-1 only: centre frequencies, ascending [rad/time]
@@ -269,7 +272,7 @@ contains
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(inout) :: e
     integer, intent(out) :: stat
-    integer :: nd, nreal, ncentre
+    integer :: nd, nreal, ncentre, nzero
     real(wp) :: f(size(e%x)), gr(size(e%q)), hs(size(e%q), size(e%q)), vecs(size(e%q), size(e%q))
     real(wp) :: wr(size(e%x)), wi(size(e%x)), scale
     nd = size(e%q)
@@ -303,9 +306,11 @@ contains
       e%morse = count(wr > 1.0e-8_wp*scale)
     end select
     e%rank1 = e%morse == 1 .and. nreal == 1 .and. ncentre == nd - 1
-    if (e%rank1) then
+    nzero = count(abs(wr) <= 1.0e-8_wp*scale .and. abs(wi) <= 1.0e-8_wp*scale)
+    e%degenerate = e%morse == 1 .and. nreal == 1 .and. nzero > 0 .and. 2*ncentre + nzero == 2*nd - 2
+    if (e%rank1 .or. e%degenerate) then
       allocate (e%omegas(nd - 1), e%evec(2*nd, 2*nd))
-      call linearize(model, e%x, e%lambda, e%omegas, e%evec, stat)
+      call linearize(model, e%x, e%lambda, e%omegas, e%evec, stat, e%degenerate)
       if (stat /= TUBES_OK) return
       e%omega = e%omegas(1)
     else
@@ -358,16 +363,21 @@ contains
   !> Linearised flow at a rank-1 saddle x: eigenvalues +-lambda, +-i omega_k (LAPACK dgeev,
   !> omegas ascending) and eigenvectors as columns u, s, Re c_1, Im c_1, ..., unit length, u
   !> and s with their largest component positive. stat = TUBES_EINPUT if x is not a saddle x
-  !> centre^(N-1).
-  subroutine linearize(model, x, lambda, omegas, evec, stat)
+  !> centre^(N-1). With degenerate = .true., also a saddle whose other eigenvalues are centres or
+  !> 0 (a mode without quadratic term): its zero modes come first in omegas (0) with zero columns.
+  subroutine linearize(model, x, lambda, omegas, evec, stat, degenerate)
     class(hamiltonian_t), intent(in) :: model
     real(wp), intent(in) :: x(:)
     real(wp), intent(out) :: lambda, omegas(:), evec(:, :)
     integer, intent(out) :: stat
+    logical, intent(in), optional :: degenerate
     real(wp) :: jac(size(x), size(x)), wr(size(x)), wi(size(x)), vl(1, 1), vr(size(x), size(x))
     real(wp) :: work(64*size(x)), v(size(x)), nrm, scale
-    integer :: info, k, iu, is, n2, nc, ic(size(x)), j
+    integer :: info, k, iu, is, n2, nc, ic(size(x)), j, nz
+    logical :: deg
     stat = TUBES_OK
+    deg = .false.
+    if (present(degenerate)) deg = degenerate
     n2 = size(x)
     call rest_jacobian(model, x, jac, stat)
     if (stat /= TUBES_OK) return
@@ -383,12 +393,15 @@ contains
     ! the centre pairs: dgeev stores a pair as columns j (Re) and j+1 (Im), wi(j) > 0
     nc = 0
     do j = 1, n2
-      if (wi(j) > 0 .and. abs(wr(j)) <= 1.0e-8_wp*scale) then
+      if (wi(j) > 1.0e-8_wp*scale .and. abs(wr(j)) <= 1.0e-8_wp*scale) then
         nc = nc + 1
         ic(nc) = j
       end if
     end do
-    if (lambda <= 0 .or. nc /= n2/2 - 1 .or. size(omegas) < nc) then
+    ! zero modes (degenerate saddles only): the eigenvalues at 0, two per mode
+    nz = 0
+    if (deg) nz = count(abs(wr) <= 1.0e-8_wp*scale .and. abs(wi) <= 1.0e-8_wp*scale)/2
+    if (lambda <= 0 .or. nc + nz /= n2/2 - 1 .or. size(omegas) < nc + nz) then
       stat = TUBES_EINPUT    ! not a saddle x centre^(N-1)
       return
     end if
@@ -404,12 +417,14 @@ contains
         end if
       end do
     end do
+    evec = 0
     evec(:, 1) = vr(:, iu)
     evec(:, 2) = vr(:, is)
+    omegas = 0
     do k = 1, nc
-      omegas(k) = wi(ic(k))
-      evec(:, 2*k + 1) = vr(:, ic(k))
-      evec(:, 2*k + 2) = vr(:, ic(k) + 1)
+      omegas(nz + k) = wi(ic(k))
+      evec(:, 2*(nz + k) + 1) = vr(:, ic(k))
+      evec(:, 2*(nz + k) + 2) = vr(:, ic(k) + 1)
     end do
     do k = 1, n2
       v = evec(:, k)
@@ -474,15 +489,17 @@ contains
     end do
   end function unique_names
 
-  !> W<k> (index 0), S<k> (rank-1), R<k> (others), k by ascending energy, then q1, then q2.
+  !> W<k> (index 0), S<k> (rank-1), D<k> (degenerate index-1 saddles), R<k> (others), k by
+  !> ascending energy, then q1, then q2.
   subroutine name_generic(eqs)
     type(equilibrium_t), intent(inout) :: eqs(:)
     integer :: i, j, k, cls(size(eqs))
-    character, parameter :: LETTER(0:2) = ['W', 'S', 'R']
+    character, parameter :: LETTER(0:3) = ['W', 'S', 'R', 'D']
     do i = 1, size(eqs)
       cls(i) = 2
       if (eqs(i)%morse == 0) cls(i) = 0
       if (eqs(i)%rank1) cls(i) = 1
+      if (eqs(i)%degenerate) cls(i) = 3
     end do
     do i = 1, size(eqs)
       k = 1

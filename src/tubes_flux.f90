@@ -18,6 +18,7 @@
 !>   sample's. Recrossings cancel in pairs, so f is the flux of trajectories passing through the
 !>   bottleneck, exact whatever the choice of DS (in 2 DOF: the Lyapunov orbit's action).
 module tubes_flux
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT
   use tubes_hamiltonian, only: hamiltonian_t, natural_t
@@ -59,6 +60,8 @@ contains
   pure real(wp) function flux_leading_order(omegas, de) result(f)
     real(wp), intent(in) :: omegas(:), de
     integer :: k
+    f = ieee_value(1.0_wp, ieee_quiet_nan)      ! a degenerate saddle (a frequency 0): none
+    if (any(.not. omegas > 0)) return
     f = 1
     do k = 1, size(omegas)
       f = f*2*PI*de/(k*omegas(k))

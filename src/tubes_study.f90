@@ -48,8 +48,9 @@ module tubes_study
 
 contains
 
-  !> The model, its equilibria in the box and the rank-1 saddle named `saddle`.
-  subroutine setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat)
+  !> The model, its equilibria in the box and the rank-1 saddle named `saddle` (with
+  !> degenerate_ok, also a degenerate saddle: the sampled flux takes one).
+  subroutine setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat, degenerate_ok)
     character(*), intent(in) :: system            !! the system's name
     character(*), intent(in) :: saddle            !! the rank-1 saddle's name
     real(wp), intent(in) :: params(:)             !! its parameters (table order)
@@ -58,6 +59,7 @@ contains
     class(hamiltonian_t), allocatable, intent(out) :: model
     type(equilibrium_t), allocatable, intent(out) :: eqs(:)
     integer, intent(out) :: isad, stat
+    logical, intent(in), optional :: degenerate_ok
     character(8) :: name
     integer :: k, nd
     isad = 0
@@ -69,6 +71,9 @@ contains
     if (stat /= TUBES_OK) return
     do k = 1, size(eqs)
       if (eqs(k)%name == name .and. eqs(k)%rank1) isad = k
+      if (present(degenerate_ok) .and. eqs(k)%name == name .and. eqs(k)%degenerate) then
+        if (degenerate_ok) isad = k
+      end if
     end do
     if (isad == 0) stat = TUBES_EINPUT
   end subroutine setup_model

@@ -200,3 +200,25 @@ def test_python_gives_the_scenes_numbers(tmp_path, cache):
         g = h["flux/normal_form"]
         assert np.array_equal(nf["coefficients"], g["coefficients"][()])
         assert np.array_equal(nf["powers"][:, 1], g["power_J2"][()])
+
+
+def test_a_quartic_bath_is_sampled_not_normalised(tmp_path, cache):
+    """H = |p|^2/2 - q1^2/2 + w2^2 q2^2/2 + q3^4/4: the bath mode has no quadratic term, the saddle
+    is degenerate (named D1). The normal form is refused naming that (exit 2); the sampled flux
+    still works and matches the closed form (2 pi / w2) int_0^dE A3(e) de = (8 pi C / (7 w2))
+    dE^(7/4), A3(e) = C e^(3/4) the area of p^2/2 + q^4/4 <= e, C = 4 4^(1/4) sqrt 2 int_0^1
+    sqrt(1 - u^4) du. The orbits scene refuses D1, saying why."""
+    tmp = str(tmp_path)
+    h = "(p1^2 + p2^2 + p3^2)/2 - q1^2/2 + w2^2*q2^2/2 + q3^4/4"
+    p = run(tmp, _nml(h, "'w2 = 1.3'", [0.1, 0.5], 6, n_samples=20000, scenes="'equilibria', 'flux'"), cache)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert "degenerate" in p.stderr and "no Birkhoff normal form" in p.stderr, p.stderr
+    assert "D1" in p.stdout and "no leading-order flux" in p.stdout
+    f = flux_of(tmp)
+    c = 4 * 4**0.25 * math.sqrt(2) * integrate.quad(lambda u: math.sqrt(1 - u**4), 0, 1, epsabs=0, epsrel=1e-13)[0]
+    exact = 8 * math.pi * c / (7 * 1.3) * f["dE"] ** 1.75
+    assert np.all(np.abs(f["flux_sampled"] - exact) < SIGMAS * f["flux_sampled_err"]), (f["flux_sampled"], exact)
+    assert np.all(np.isnan(f["flux_normal_form"])) and np.all(np.isnan(f["flux_leading_order"]))
+    p = run(tmp, _nml(h, "'w2 = 1.3'", [0.1], 0, scenes="'orbits'").replace("saddle_near = 0, 0, 0", "saddle = 'D1'"),
+            cache)
+    assert p.returncode == 1 and "D1 is a degenerate saddle" in p.stderr, p.stderr

@@ -377,7 +377,7 @@ def equilibria(model: Model | None = None, box=None, n_grid: int = 41, box_cente
     st = np.concatenate([qq, p[:nd, :n].T], axis=1)
     return {"q": qq, "state": st, "x": qq[:, 0].copy(), "y": qq[:, 1].copy(),
             "height": h[:n].copy(), "energy": e[:n].copy(), "morse_index": morse[:n].copy(),
-            "rank1": rank1[:n].astype(bool), "name": [names[9 * k:9 * k + 9].strip() for k in range(n)],
+            "rank1": rank1[:n] == 1, "degenerate": rank1[:n] == 2, "name": [names[9 * k:9 * k + 9].strip() for k in range(n)],
             "lambda": lam[:n].copy(), "omega": om[0, :n].copy(), "omegas": om[:nd - 1, :n].T.copy(),
             "eigenvectors": np.moveaxis(ev[:2 * nd, :2 * nd, :n], 2, 0).copy()}
 

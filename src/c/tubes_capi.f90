@@ -252,7 +252,7 @@ contains
       energy(k) = eqs(k)%energy
       grad_norm(k) = eqs(k)%grad_norm
       morse(k) = eqs(k)%morse
-      rank1(k) = merge(1, 0, eqs(k)%rank1)
+      rank1(k) = merge(1, merge(2, 0, eqs(k)%degenerate), eqs(k)%rank1)   ! 2: a degenerate saddle
       lambda(k) = eqs(k)%lambda
       omega(1:nd - 1, k) = eqs(k)%omegas(1:nd - 1)
       evec(1:4*nd*nd, k) = reshape(eqs(k)%evec, [4*nd*nd])
@@ -511,7 +511,7 @@ contains
     integer :: isad, ist
     flux = 0; err = 0; leading = 0; counts = 0; box = 0
     call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
-                     model, eqs, isad, ist)
+                     model, eqs, isad, ist, degenerate_ok=.true.)
     stat = ist
     if (ist /= TUBES_OK) return
     leading = flux_leading_order(eqs(isad)%omegas, de)

@@ -145,8 +145,20 @@ static void report_saddle(const tubes_run_t *run, const eqlist_t *L, const char 
           "saddles are:", group, name, run->label);
   int any = 0;
   for (int j = 0; j < L->n; j++)
-    if (L->rank1[j]) { fprintf(stderr, "%s %s", any ? "," : "", L->names + 8 * j); any = 1; }
-  fprintf(stderr, "%s (choose one, or set &orbits saddle_near)\n", any ? "" : " none");
+    if (L->rank1[j] == 1) { fprintf(stderr, "%s %s", any ? "," : "", L->names + 8 * j); any = 1; }
+  fprintf(stderr, "%s (choose one, or set &orbits saddle_near)", any ? "" : " none");
+  int k = find_named(L, name);
+  if (k >= 0 && L->rank1[k] == 2)
+    fprintf(stderr, "; %s is a degenerate saddle (a mode without quadratic term): only the scenes equilibria "
+            "and flux (sampled) take it", name);
+  fputc('\n', stderr);
+}
+
+/* 1 if every scene of the run takes a degenerate saddle (equilibria, flux). */
+static int degenerate_ok(const tubes_config_t *c) {
+  for (int i = 0; i < TUBES_NSCENES && c->scenes[i][0]; i++)
+    if (strcmp(c->scenes[i], "equilibria") && strcmp(c->scenes[i], "flux")) return 0;
+  return 1;
 }
 
 int run_setup(tubes_run_t *run) {
@@ -196,7 +208,7 @@ int run_setup(tubes_run_t *run) {
   }
   if (c->saddle[0]) {                /* &equilibria saddle: the saddle the equilibria scene reports */
     int k = find_named(&L, c->saddle);
-    if (k < 0 || !L.rank1[k]) {
+    if (k < 0 || !(L.rank1[k] == 1 || (L.rank1[k] == 2 && degenerate_ok(c)))) {
       report_saddle(run, &L, "equilibria", c->saddle, run->eq_saddle_line);
       return EXIT_BADINPUT;
     }
@@ -205,7 +217,7 @@ int run_setup(tubes_run_t *run) {
     int best = -1;
     double dbest = 0;
     for (int k = 0; k < L.n; k++) {
-      if (!L.rank1[k]) continue;
+      if (!(L.rank1[k] == 1 || (L.rank1[k] == 2 && degenerate_ok(c)))) continue;
       double d = 0;
       for (int i = 0; i < L.ndof; i++) d += pow(L.q[MD * k + i] - c->orb_saddle_near[i], 2);
       if (best < 0 || d < dbest) { best = k; dbest = d; }
@@ -219,7 +231,7 @@ int run_setup(tubes_run_t *run) {
     return 0;
   }
   int k = find_named(&L, run->saddle);
-  if (k < 0 || !L.rank1[k]) {
+  if (k < 0 || !(L.rank1[k] == 1 || (L.rank1[k] == 2 && degenerate_ok(c)))) {
     report_saddle(run, &L, "orbits", run->saddle, run->orb_saddle_line);
     return EXIT_BADINPUT;
   }
@@ -265,12 +277,14 @@ int scene_equilibria(tubes_run_t *run) {
     /* a coordinate that prints as zero prints as 0, not -0 */
     double xp = fabs(x[k]) < 5e-9 ? 0.0 : x[k], yp = fabs(y[k]) < 5e-9 ? 0.0 : y[k],
            ep = fabs(L.en[k]) < 5e-7 ? 0.0 : L.en[k];
-    if (L.rank1[k])
+    if (L.rank1[k] == 1)
       printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10.6f %8.6f", nm[k], xp, yp, ep, L.morse[k],
              L.lam[k], om[k], 2 * M_PI / om[k]);
+    else if (L.rank1[k] == 2)   /* degenerate: a zero frequency, no Lyapunov orbit */
+      printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10.6f %8s", nm[k], xp, yp, ep, L.morse[k], L.lam[k], 0.0, "-");
     else
       printf("  %-4s %13.8f %13.8f %13.6f %5d %10s %10s %8s", nm[k], xp, yp, ep, L.morse[k], "-", "-", "-");
-    if (nd > 2 && L.rank1[k])   /* 3 DOF: the third coordinate and the second centre's frequency */
+    if (nd > 2 && L.rank1[k] >= 1)   /* 3 DOF: the third coordinate and the second centre's frequency */
       printf(" %13.8f %10.6f", fabs(L.q[MD * k + 2]) < 5e-9 ? 0.0 : L.q[MD * k + 2], L.om[(MD - 1) * k + 1]);
     else if (nd > 2)
       printf(" %13.8f %10s", fabs(L.q[MD * k + 2]) < 5e-9 ? 0.0 : L.q[MD * k + 2], "-");
@@ -303,11 +317,17 @@ int scene_equilibria(tubes_run_t *run) {
   H5Gclose(g);
   free(x); free(y); free(om); free(qq);
   if (rc) return EXIT_IO;
+  if (isad >= 0 && L.rank1[isad] == 2) {
+    printf("saddle %s: E_e = %.10g, lambda = %.10g, degenerate (a centre frequency is 0: a mode without "
+           "quadratic term): no Lyapunov orbits, no leading-order flux; the flux scene samples it\n", nm[isad],
+           fabs(L.en[isad]) < 1e-300 ? 0.0 : L.en[isad], L.lam[isad]);
+    return 0;
+  }
   if (isad < 0 || !L.rank1[isad]) {
     fprintf(stderr, "tubes: equilibria: saddle %s is not a rank-1 saddle of %s in the &equilibria box "
             "(found:", want, run->label);
     for (int k = 0; k < n; k++)
-      if (L.rank1[k]) fprintf(stderr, " %s", nm[k]);
+      if (L.rank1[k] == 1) fprintf(stderr, " %s", nm[k]);
     fprintf(stderr, ")\n");
     return EXIT_NUMERIC;
   }
@@ -619,7 +639,7 @@ static int saddle_props(tubes_run_t *run, double *ee, double *tpo) {
   int st = find_eqs(run, &L);
   if (st < 0) return st;
   int k = find_named(&L, run->saddle);
-  if (k < 0 || !L.rank1[k]) return TUBES_EINPUT;
+  if (k < 0 || L.rank1[k] != 1) return TUBES_EINPUT;
   *ee = L.en[k];
   *tpo = 2 * M_PI / L.om[(MD - 1) * k];
   return 0;
