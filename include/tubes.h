@@ -242,11 +242,17 @@ int tubes_flux_sample(const char system[TUBES_LSYSTEM], const double params[TUBE
  * I_1^nf_expo[3t] J_2^nf_expo[3t+1] J_3^nf_expo[3t+2] (n_nf <= max_nf terms, the constant E_s
  * included), diag = {max |C^T J C - J|, largest non-normal coefficient left, largest imaginary
  * part, smallest divisor}; msg the reason of a refusal (TUBES_EINPUT: not a saddle x centres,
- * degenerate, equal frequencies, a negative-energy centre; TUBES_ENOCONV: a resonance). */
+ * degenerate, equal frequencies, a negative-energy centre; TUBES_ENOCONV: a resonance). nhim and
+ * round_trip: below. */
 int tubes_birkhoff(int n_dof, int order, int n_terms, const int expo[], const double coef[], int n_de,
                       const double de[], double flux[], int fstat[], double *lambda,
                       double omegas[TUBES_MAXDOF - 1], int max_nf, int *n_nf, int nf_expo[],
-                      double nf_coef[], double diag[4], char *msg, int lmsg);
+                      double nf_coef[], double diag[4], double nhim[], double round_trip[], char *msg,
+                      int lmsg);
+/* Points of the NHIM per energy that tubes_birkhoff maps to the model's coordinates: nhim[(k
+ * TUBES_NF_NPTS + j) 2N + i] = component i of z - z_s of point j at de[k]; round_trip[k] the largest
+ * |new(old(zeta)) - zeta| of the coordinate change and its inverse there (src/tubes_normal_form.f90). */
+#define TUBES_NF_NPTS 8
 
 /* Poincare map of the section at de: pts[(j n_iter + k) 2 + {0, 1}] = (r, p_r) of the k-th return
  * of seed j (NaN once it stops returning within t_max). */

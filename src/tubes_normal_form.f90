@@ -53,7 +53,13 @@ module tubes_normal_form
     real(wp) :: imaginary = 0                  !! largest |Im| of a normal-form coefficient
     real(wp) :: smallest_divisor = 0           !! min |<nu, a - b>| over the removed monomials
     character(len=256) :: message = ''
+    !> with nhim_de: points of the NHIM at each of those energies mapped to the model's
+    !> coordinates, dz = z - z_s (2N, NF_NPTS, size(nhim_de)), and the largest round-trip error
+    !> |new(old(zeta)) - zeta| of the normal form's coordinate change and its inverse there
+    real(wp), allocatable :: nhim(:, :, :)
+    real(wp), allocatable :: round_trip(:)
   end type nf_result_t
+  integer, parameter, public :: NF_NPTS = 8    !! NHIM points per energy
 
   type :: area_t                               !! data of the 3-DOF area integrand
     type(nf_result_t), pointer :: nf => null()
@@ -151,14 +157,15 @@ contains
   !> stat: TUBES_EINPUT for bad arguments, or an equilibrium that is not a saddle x centres (a
   !> zero or repeated frequency, a centre of negative energy, ...); TUBES_ENOCONV for a resonance
   !> in the terms; the reason in res%message.
-  subroutine normal_form(nd, order, expo, coef, res, stat)
+  subroutine normal_form(nd, order, expo, coef, res, stat, nhim_de)
     integer, intent(in) :: nd, order
     integer, intent(in) :: expo(:, :)
     real(wp), intent(in) :: coef(:)
-    type(nf_result_t), intent(out) :: res
+    type(nf_result_t), intent(out), target :: res
     integer, intent(out) :: stat
+    real(wp), intent(in), optional :: nhim_de(:)   !! energies of NHIM points to map (res%nhim)
     type(space_t) :: s
-    complex(wp), allocatable :: h(:), w(:), t(:), u(:)
+    complex(wp), allocatable :: h(:), w(:), t(:), u(:), gens(:, :)
     real(wp) :: m(2*NF_MAX_DOF, 2*NF_MAX_DOF), jm(2*NF_MAX_DOF, 2*NF_MAX_DOF), c(2*NF_MAX_DOF, 2*NF_MAX_DOF)
     real(wp) :: jj(2*NF_MAX_DOF, 2*NF_MAX_DOF), a(2*NF_MAX_DOF, 2*NF_MAX_DOF), scale
     complex(wp) :: p(2*NF_MAX_DOF, 2*NF_MAX_DOF), nu(NF_MAX_DOF), dv
@@ -230,6 +237,8 @@ contains
       h = h + t
     end do
     ! Lie transforms, degree by degree
+    allocate (gens(s%nmon, 3:max(order, 3)))
+    gens = 0
     scale = max(abs(res%lambda), maxval(res%omegas(1:nd - 1)))
     res%smallest_divisor = huge(1.0_wp)
     do n = 3, order
@@ -249,6 +258,7 @@ contains
         res%smallest_divisor = min(res%smallest_divisor, abs(dv))
         w(k) = h(k)/dv
       end do
+      gens(:, n) = w
       if (all(w == 0)) cycle
       t = h
       do j = 1, order
@@ -280,7 +290,111 @@ contains
     end do
     if (res%smallest_divisor == huge(1.0_wp)) res%smallest_divisor = 0
     stat = TUBES_OK
+    if (present(nhim_de)) call nhim_points(s, gens, c(1:nv, 1:nv), res, nhim_de)
   end subroutine normal_form
+
+  !> f <- exp(L_W) f = f + {f, W} + {{f, W}, W}/2 + ..., truncated at degree dmax.
+  subroutine lie_series(s, f, w, dmax)
+    type(space_t), intent(in) :: s
+    complex(wp), intent(inout) :: f(:)
+    complex(wp), intent(in) :: w(:)
+    integer, intent(in) :: dmax
+    complex(wp) :: t(size(f)), u(size(f))
+    integer :: j
+    if (all(w == 0)) return
+    t = f
+    do j = 1, dmax
+      call bracket(s, t, w, dmax, u)
+      t = u/j
+      if (all(t == 0)) exit
+      f = f + t
+    end do
+  end subroutine lie_series
+
+  !> The value of the polynomial f at the complex point zeta.
+  pure complex(wp) function poly_at(s, f, zeta) result(v)
+    type(space_t), intent(in) :: s
+    complex(wp), intent(in) :: f(:), zeta(:)
+    integer :: k
+    v = 0
+    do k = 1, s%nmon
+      if (f(k) /= 0) v = v + f(k)*product(zeta**s%expo(:, k))
+    end do
+  end function poly_at
+
+  !> NF_NPTS points of the NHIM (I_1 = 0) at each energy of de: actions on H_NF(0, J) - E_s = dE
+  !> (3 DOF: J_2 from 0 to its largest, J_3 from the boundary), angles spread; mapped to the
+  !> model's coordinates by the normal form's change (the Lie series of the coordinates, degree
+  !> K - 1), and back by its inverse: res%nhim (dz) and res%round_trip.
+  subroutine nhim_points(s, gens, c, res, de)
+    type(space_t), intent(in) :: s
+    complex(wp), intent(in) :: gens(:, 3:)
+    real(wp), intent(in) :: c(:, :)
+    type(nf_result_t), intent(inout), target :: res
+    real(wp), intent(in) :: de(:)
+    complex(wp), allocatable :: fwd(:, :), inv(:, :)
+    complex(wp) :: zn(s%nv), zo(s%nv), zb(s%nv), w(s%nv)
+    type(area_t), target :: ar
+    real(wp) :: jj(2), th, j2max, rt
+    integer :: nd, nv, i, n, k, m, st, kmax
+    nd = s%nd
+    nv = s%nv
+    kmax = ubound(gens, 2)
+    allocate (fwd(s%nmon, nv), inv(s%nmon, nv), res%nhim(nv, NF_NPTS, size(de)), res%round_trip(size(de)))
+    res%nhim = ieee_value(1.0_wp, ieee_quiet_nan)
+    res%round_trip = ieee_value(1.0_wp, ieee_quiet_nan)
+    do i = 1, nv
+      fwd(:, i) = 0
+      fwd(i + 1, i) = 1               ! the degree-1 monomials follow the constant, in variable order
+      inv(:, i) = fwd(:, i)
+      do n = 3, kmax                  ! old = phi_3 o ... o phi_K (new)
+        call lie_series(s, fwd(:, i), gens(:, n), s%kmax - 1)
+      end do
+      do n = kmax, 3, -1              ! new = phi_K^-1 o ... o phi_3^-1 (old)
+        call lie_series(s, inv(:, i), -gens(:, n), s%kmax - 1)
+      end do
+    end do
+    ar%nf => res
+    do m = 1, size(de)
+      ar%de = de(m)
+      call action_root(ar, 0.0_wp, 1, j2max, st)
+      if (st /= TUBES_OK) cycle
+      rt = 0
+      do k = 1, NF_NPTS
+        th = 2*PI*(k - 1)/NF_NPTS
+        if (nd == 2) then
+          jj(1) = j2max
+        else
+          jj(1) = j2max*(k - 1)/(NF_NPTS - 1)
+          call action_root(ar, jj(1), 2, jj(2), st)
+          if (st /= TUBES_OK) jj(2) = 0
+        end if
+        zn = 0
+        do i = 2, nd
+          w(1) = sqrt(2*jj(i - 1))*cos(th*(i - 1) + 0.7_wp*(i - 2))
+          w(2) = sqrt(2*jj(i - 1))*sin(th*(i - 1) + 0.7_wp*(i - 2))
+          zn(i) = (w(1) - IU*w(2))/sqrt(2.0_wp)
+          zn(nd + i) = (w(2) - IU*w(1))/sqrt(2.0_wp)
+        end do
+        do i = 1, nv
+          zo(i) = poly_at(s, fwd(:, i), zn)
+        end do
+        do i = 1, nv
+          zb(i) = poly_at(s, inv(:, i), zo)
+        end do
+        rt = max(rt, maxval(abs(zb - zn)))
+        ! back to real normal coordinates (x_k, y_k), then dz = C w
+        w(1) = zo(1)
+        w(nd + 1) = zo(nd + 1)
+        do i = 2, nd
+          w(i) = (zo(i) + IU*zo(nd + i))/sqrt(2.0_wp)
+          w(nd + i) = (IU*zo(i) + zo(nd + i))/sqrt(2.0_wp)
+        end do
+        res%nhim(:, k, m) = matmul(c, real(w, wp))
+      end do
+      res%round_trip(m) = rt
+    end do
+  end subroutine nhim_points
 
   !> u = t * (sum_j l(j) zeta_j)
   subroutine times_linear(s, t, l, u)
@@ -415,7 +529,7 @@ contains
     integer :: k
     flux = ieee_value(1.0_wp, ieee_quiet_nan)
     fstat = TUBES_EINPUT
-    call normal_form(nd, order, expo, coef, res, stat)
+    call normal_form(nd, order, expo, coef, res, stat, de)
     if (stat /= TUBES_OK) return
     do k = 1, size(de)
       call nf_flux(res, de(k), flux(k), fstat(k))

@@ -222,3 +222,31 @@ def test_a_quartic_bath_is_sampled_not_normalised(tmp_path, cache):
     p = run(tmp, _nml(h, "'w2 = 1.3'", [0.1], 0, scenes="'orbits'").replace("saddle_near = 0, 0, 0", "saddle = 'D1'"),
             cache)
     assert p.returncode == 1 and "D1 is a degenerate saddle" in p.stderr, p.stderr
+
+
+def test_nhim_points_lie_on_the_lyapunov_orbit(tmp_path, cache):
+    """The normal form's coordinate change maps points of its NHIM (I_1 = 0, H_NF = E_s + dE) to the
+    model's (q, p): there the model's own energy is E_s + dE (nhim_energy_error), the change and
+    its inverse round-trip, and each point, integrated by the model for the Lyapunov orbit's period
+    (the orbits scene, by shooting), comes back to itself: the points are on the orbit."""
+    import h5py
+
+    import tubes
+    tmp = str(tmp_path)
+    hh = "(px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2*y - y^3/3"
+    p = run(tmp, f"""
+        &run scenes = 'orbits', 'flux', output = 'f.h5' /
+        &model system = 'expression', hamiltonian = '{hh}', coordinates = 'x', 'y' /
+        &orbits saddle_near = 0, 1, de = 0.01 /
+        &flux de = 0.01, order = 12, n_samples = 2000 /
+        """, cache)
+    assert p.returncode == 0, p.stdout + p.stderr
+    f = flux_of(tmp)
+    assert f["nhim_energy_error"][0] < 1e-11 and f["round_trip_error"][0] < 1e-11, f
+    with h5py.File(f"{tmp}/f.h5") as h:
+        pts = h["flux/normal_form/nhim_points"][0]
+        period = h["orbits/period"][0]
+    m = tubes.Model(system="henon_heiles")        # the built-in: another code for the same H
+    for z in pts:
+        r = tubes.integrate(z, period, model=m, rtol=1e-13, atol=1e-13)
+        assert np.max(np.abs(r["state"][-1] - z)) < 1e-8, (z, r["state"][-1])

@@ -21,7 +21,8 @@ module tubes_capi
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE
   use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t
   use tubes_flux, only: flux_result_t, flux_leading_order, flux_sampled
-  use tubes_normal_form, only: nf_result_t, normal_form_flux
+  use tubes_normal_form, only: nf_result_t, normal_form_flux, NF_NPTS
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, maps_at
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
@@ -533,16 +534,20 @@ contains
   !> linear change, largest non-normal coefficient left, largest imaginary part, smallest
   !> divisor), msg the reason of a refusal. src/tubes_normal_form.f90.
   integer(c_int) function c_normal_form(n_dof, order, n_terms, expo, coef, n_de, de, flux, fstat, lambda, &
-      omegas, max_nf, n_nf, nf_expo, nf_coef, diag, msg, lmsg) result(stat) bind(C, name='tubes_birkhoff')
+      omegas, max_nf, n_nf, nf_expo, nf_coef, diag, nhim, round_trip, msg, lmsg) result(stat) &
+      bind(C, name='tubes_birkhoff')
     integer(c_int), value :: n_dof, order, n_terms, n_de, max_nf, lmsg
     integer(c_int), intent(in) :: expo(2*n_dof, n_terms)
     real(c_double), intent(in) :: coef(n_terms), de(n_de)
     real(c_double), intent(out) :: flux(n_de), lambda, omegas(MAX_DOF - 1), nf_coef(max_nf), diag(4)
     integer(c_int), intent(out) :: fstat(n_de), n_nf, nf_expo(3, max_nf)
+    real(c_double), intent(out) :: nhim(2*n_dof, NF_NPTS, n_de), round_trip(n_de)
     character(kind=c_char), intent(out) :: msg(lmsg)
     type(nf_result_t) :: res
     integer :: k
     lambda = 0; omegas = 0; n_nf = 0; nf_expo = 0; nf_coef = 0; diag = 0
+    nhim = ieee_value(1.0_c_double, ieee_quiet_nan)
+    round_trip = nhim(1, 1, :)
     call normal_form_flux(n_dof, order, expo, coef, de, res, flux, fstat, stat)
     call to_c(trim(res%message), msg, lmsg)
     if (stat /= TUBES_OK) return
@@ -554,6 +559,10 @@ contains
       nf_expo(1:n_dof, k) = res%expo(:, k)
       nf_coef(k) = res%coef(k)
     end do
+    if (allocated(res%nhim)) then
+      nhim = res%nhim
+      round_trip = res%round_trip
+    end if
   end function c_normal_form
 
   !> Poincare map of the section at excess energy de: n_seeds starts on the section (half at the

@@ -1243,6 +1243,8 @@ typedef struct {
   double lambda, omegas[MD - 1], diag[4];
   double *flux, *change, *coef;
   int *pw;        /* 3 per term: the powers of I_1, J_2, J_3 */
+  double *nhim;   /* TUBES_NF_NPTS points z of the NHIM per energy (2N each), mapped from the normal form */
+  double *round_trip, *energy_err;   /* per energy: the change's round trip; max |H(z) - E_s - dE| / dE */
   char msg[512];
 } nf_out_t;
 
@@ -1255,8 +1257,11 @@ static int flux_normal_form(const tubes_run_t *run, const double *fl, const doub
   int n = c->flux_nde, K = c->flux_order, nd = run->ndof;
   o->flux = calloc((size_t)n, sizeof(double));
   o->change = calloc((size_t)n, sizeof(double));
-  if (!o->flux || !o->change) return EXIT_NUMERIC;
-  for (int k = 0; k < n; k++) o->flux[k] = o->change[k] = NAN;
+  o->round_trip = calloc((size_t)n, sizeof(double));
+  o->energy_err = calloc((size_t)n, sizeof(double));
+  o->nhim = calloc((size_t)n * TUBES_NF_NPTS * 2 * MD, sizeof(double));
+  if (!o->flux || !o->change || !o->round_trip || !o->energy_err || !o->nhim) return EXIT_NUMERIC;
+  for (int k = 0; k < n; k++) o->flux[k] = o->change[k] = o->round_trip[k] = o->energy_err[k] = NAN;
   if (nd == 3 && K > 10) {
     fprintf(stderr, "%s: &flux: order = %d: at most 10 in 3 degrees of freedom (the monomials grow as K^6)\n",
             run->input ? run->input : "tubes", K);
@@ -1293,26 +1298,44 @@ static int flux_normal_form(const tubes_run_t *run, const double *fl, const doub
   }
   o->ndof = nd;
   o->stat = tubes_birkhoff(nd, K, nt, ex, cf, n, c->flux_de, o->flux, fst, &o->lambda, o->omegas, max_nf,
-                              &o->n_nf, o->pw, o->coef, o->diag, o->msg, sizeof o->msg);
+                              &o->n_nf, o->pw, o->coef, o->diag, o->nhim, o->round_trip, o->msg, sizeof o->msg);
   o->done = 1;
   if (o->stat) {
     fprintf(stderr, "tubes: flux: %s (status %d); the sampled flux is written\n", o->msg, o->stat);
     rc = EXIT_NUMERIC;
     goto out;
   }
-  if (K >= 4 && tubes_birkhoff(nd, K - 2, nt, ex, cf, n, c->flux_de, f2, fst + 0, &lam2, om2, 4096, &n2, pw2, c2,
-                                   d2, m2, sizeof m2) == 0)
+  double *nh2 = malloc(sizeof(double) * (size_t)n * TUBES_NF_NPTS * 2 * MD), *rt2 = malloc(sizeof(double) * (size_t)n);
+  if (K >= 4 && nh2 && rt2 && tubes_birkhoff(nd, K - 2, nt, ex, cf, n, c->flux_de, f2, fst + 0, &lam2, om2, 4096, &n2,
+                                             pw2, c2, d2, nh2, rt2, m2, sizeof m2) == 0)
     for (int k = 0; k < n; k++) o->change[k] = fabs(o->flux[k] - f2[k]);
+  free(nh2); free(rt2);
+  /* the NHIM's points mapped to the model's coordinates: their energy by the model itself */
+  for (int k = 0; k < n; k++) {
+    double worst = 0;
+    for (int j = 0; j < TUBES_NF_NPTS; j++) {
+      double *d = o->nhim + ((size_t)k * TUBES_NF_NPTS + j) * 2 * nd, x[2 * MD], en;
+      for (int i = 0; i < 2 * nd; i++) {
+        x[i] = z[i] + d[i];
+        d[i] = x[i];          /* stored as z itself */
+      }
+      if (tubes_energy(run->system, run->params, 2 * nd, x, &en) || !isfinite(en)) { worst = NAN; break; }
+      worst = fmax(worst, fabs(en - L.en[ks] - c->flux_de[k]) / c->flux_de[k]);
+    }
+    o->energy_err[k] = isfinite(o->flux[k]) ? worst : NAN;
+  }
   printf("flux: Birkhoff normal form of order %d at %s (%.2f s): lambda = %.10g, omega = %.10g", K, run->saddle,
          now() - t0, o->lambda, o->omegas[0]);
   if (nd == 3) printf(", %.10g", o->omegas[1]);
   printf("; checks: symplectic %.1e, non-normal terms left %.1e, imaginary %.1e, smallest divisor %.4g\n",
          o->diag[0], o->diag[1], o->diag[2], o->diag[3]);
-  printf("  %10s %18s %12s %16s %12s %9s\n", "dE", "normal form", "change K-2", "sampled", "+-", "diff/sd");
+  printf("  %10s %18s %12s %16s %12s %9s %12s %12s\n", "dE", "normal form", "change K-2", "sampled", "+-", "diff/sd",
+         "NHIM dE err", "round trip");
   for (int k = 0; k < n; k++) {
     double sd = sqrt(fe[k] * fe[k] + (isfinite(o->change[k]) ? o->change[k] * o->change[k] : 0.0));
     double z_ = (o->flux[k] - fl[k]) / sd;
-    printf("  %10.4g %18.12g %12.3g %16.10g %12.4g %9.2f\n", c->flux_de[k], o->flux[k], o->change[k], fl[k], fe[k], z_);
+    printf("  %10.4g %18.12g %12.3g %16.10g %12.4g %9.2f %12.3g %12.3g\n", c->flux_de[k], o->flux[k], o->change[k], fl[k],
+           fe[k], z_, o->energy_err[k], o->round_trip[k]);
     if (!isfinite(o->flux[k])) {
       fprintf(stderr, "tubes: flux: dE = %g: the normal form of order %d has no bounded region of actions there "
               "(beyond the series' reach): lower dE\n", c->flux_de[k], K);
@@ -1333,6 +1356,8 @@ static int write_normal_form(hid_t g, const nf_out_t *o, int n) {
   hsize_t dn = (hsize_t)n;
   int e = h5_write_double(g, "flux_normal_form", 1, &dn, o->flux, "action^(N-1)");
   e |= h5_write_double(g, "flux_normal_form_change", 1, &dn, o->change, "action^(N-1)");
+  e |= h5_write_double(g, "nhim_energy_error", 1, &dn, o->energy_err, "1");
+  e |= h5_write_double(g, "round_trip_error", 1, &dn, o->round_trip, "1");
   e |= h5_attr_long(g, "normal_form_status", o->stat);
   e |= h5_attr_string(g, "normal_form_message", o->msg);
   if (!o->done || o->stat) return e;
@@ -1346,6 +1371,8 @@ static int write_normal_form(hid_t g, const nf_out_t *o, int n) {
   e |= h5_attr_double(h, "imaginary", o->diag[2]);
   e |= h5_attr_double(h, "smallest_divisor", o->diag[3]);
   e |= h5_write_double(h, "coefficients", 1, &nt, o->coef, "energy / action^|powers|");
+  hsize_t dp[3] = {(hsize_t)n, TUBES_NF_NPTS, (hsize_t)(2 * o->ndof)};
+  e |= h5_write_double(h, "nhim_points", 3, dp, o->nhim, "state units");
   int *col = malloc(sizeof(int) * (o->n_nf ? (size_t)o->n_nf : 1));
   static const char *const names[3] = {"power_I1", "power_J2", "power_J3"};
   for (int j = 0; col && j < o->ndof; j++) {
@@ -1440,6 +1467,7 @@ int scene_flux(tubes_run_t *run) {
   }
   if (g >= 0) H5Gclose(g);
   free(fl); free(fe); free(lo); free(cnt); free(stat); free(nin); free(nre); free(nrc); free(nun);
-  free(nfo.flux); free(nfo.change); free(nfo.coef); free(nfo.pw);
+  free(nfo.flux); free(nfo.change); free(nfo.coef); free(nfo.pw); free(nfo.nhim); free(nfo.round_trip);
+  free(nfo.energy_err);
   return e ? EXIT_IO : rc;
 }
