@@ -43,7 +43,7 @@ else
   echo "SKIP fuzz/namelist (no build/fuzz/fuzz_namelist: no clang-14)"
 fi
 log=build/testlogs/pytest.log
-OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python -m pytest -q -p no:cacheprovider tests >"$log" 2>&1
+OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python -m pytest -q -p no:cacheprovider --durations=15 tests >"$log" 2>&1
 prc=$?
 tail -3 "$log"
 np=$(grep -Eo '[0-9]+ passed' "$log" | tail -1 | grep -Eo '[0-9]+' || true)
