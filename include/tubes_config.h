@@ -97,6 +97,7 @@ typedef struct {
   int flux_nde, flux_n_samples, flux_seed, flux_order;
   double flux_t_max, flux_gate, flux_tol;
   int orb_family;   /* &orbits family: which centre mode's Lyapunov family (1 .. N-1) */
+  int spatial;      /* &model spatial: the cr3bp in three dimensions (model cr3bp_spatial) */
 } tubes_config_t;
 
 /* Set every variable to its default. */

@@ -25,7 +25,7 @@ module tubes_models
   integer, parameter, public :: MAX_DOF = 3       !! degrees of freedom of a built-in system at most
   integer, parameter, public :: LEN_SYSTEM = 32   !! length of a system's name
   integer, parameter, public :: LEN_PARAM = 16    !! length of a parameter's name
-  integer, parameter, public :: NSYSTEMS = 5      !! built-in systems
+  integer, parameter, public :: NSYSTEMS = 6      !! built-in systems
   integer, parameter, public :: NMODEL = 7        !! rolling_ball's parameters (the old vector)
 
   !> One parameter of a system.
@@ -86,7 +86,7 @@ contains
     integer, intent(in) :: k
     character(LEN_SYSTEM) :: name
     character(LEN_SYSTEM), parameter :: NAMES(NSYSTEMS) = [character(LEN_SYSTEM) :: &
-      'rolling_ball', 'henon_heiles', 'de_leon_berne', 'coupled_quartic', 'cr3bp']
+      'rolling_ball', 'henon_heiles', 'de_leon_berne', 'coupled_quartic', 'cr3bp', 'cr3bp_spatial']
     name = ''
     if (k >= 1 .and. k <= NSYSTEMS) name = NAMES(k)
   end function system_name
@@ -172,6 +172,17 @@ contains
       info%params(1) = p('mu', 0.01215058560962404_wp, '1', 'mass ratio m2/(m1 + m2) in (0, 1/2]')
       info%length_units = '1'
       info%box(1:2) = 1.5_wp
+      info%saddle = 'L1'
+      info%section_kind = ''
+      info%gate = 0.01_wp
+    case ('cr3bp_spatial')
+      info%summary = 'spatial circular restricted three-body problem, rotating frame: H = ' // &
+                     '|p|^2/2 + y px - x py - (1 - mu)/r1 - mu/r2 (also cr3bp with spatial = .true.)'
+      info%ndof = 3
+      info%np = 1
+      info%params(1) = p('mu', 0.01215058560962404_wp, '1', 'mass ratio m2/(m1 + m2) in (0, 1/2]')
+      info%length_units = '1'
+      info%box(1:3) = [1.5_wp, 1.5_wp, 0.3_wp]
       info%saddle = 'L1'
       info%section_kind = ''
       info%gate = 0.01_wp
@@ -264,6 +275,9 @@ contains
     case ('cr3bp')
       if (.not. (params(1) > 0 .and. params(1) <= 0.5_wp)) return
       allocate (model, source=cr3bp_t(mu=params(1)))
+    case ('cr3bp_spatial')
+      if (.not. (params(1) > 0 .and. params(1) <= 0.5_wp)) return
+      allocate (model, source=cr3bp_t(mu=params(1), nd=3))
     case default
       call expression_model(system, params, model, stat)
       return

@@ -250,3 +250,23 @@ def test_nhim_points_lie_on_the_lyapunov_orbit(tmp_path, cache):
     for z in pts:
         r = tubes.integrate(z, period, model=m, rtol=1e-13, atol=1e-13)
         assert np.max(np.abs(r["state"][-1] - z)) < 1e-8, (z, r["state"][-1])
+
+
+def test_a_gyroscopic_saddle_the_planar_cr3bp(tmp_path, cache):
+    """The planar CR3BP (written as a formula) at Earth-Moon L1 is not natural: the scene does not
+    sample it, but the normal form's flux is the Lyapunov orbit's action (shooting) to 1e-8 at
+    dE = 1e-3, 1e-2; the NHIM points carry the model's energy."""
+    tmp = str(tmp_path)
+    h = ("(px^2 + py^2)/2 + y*px - x*py - (1 - mu)/sqrt((x + mu)^2 + y^2) - mu/sqrt((x - 1 + mu)^2 + y^2)")
+    p = run(tmp, f"""
+        &run scenes = 'orbits', 'flux', output = 'f.h5' /
+        &model system = 'expression', hamiltonian = '{h}', constants = 'mu = 0.01215058560962404' /
+        &equilibria box = 1.5, n_grid = 31 /
+        &orbits saddle_near = 0.84, 0, de = 0.001, 0.01 /
+        &flux de = 0.001, 0.01, order = 10 /
+        """, cache)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "not sampled: the model is not natural" in p.stdout
+    f = flux_of(tmp)
+    np.testing.assert_allclose(f["flux_normal_form"], f["action"], rtol=1e-8)
+    assert np.all(np.isnan(f["flux_sampled"])) and np.all(f["nhim_energy_error"] < 1e-5)

@@ -131,7 +131,8 @@ def test_load_reads_a_run(tmp_path):
 # ---------------------------------------------------------------- models by name (the library)
 
 def test_models_by_name_and_their_table():
-    assert tubes.systems() == ["rolling_ball", "henon_heiles", "de_leon_berne", "coupled_quartic", "cr3bp"]
+    assert tubes.systems() == ["rolling_ball", "henon_heiles", "de_leon_berne", "coupled_quartic", "cr3bp",
+                              "cr3bp_spatial"]
     m = tubes.Model()
     assert m.system == "rolling_ball" and m.alpha == 0.07 and m.ndof == 2
     assert tubes.Model(alpha=0.08).alpha == 0.08

@@ -88,3 +88,36 @@ def test_spatial_cr3bp_l1(tmp_path, cache):
     assert abs(periods[2][0] - 2 * math.pi / wp) < 1e-7 * 2 * math.pi / wp
     # and moves away from it as dE grows: an actual family, not the linear orbit repeated
     assert abs(periods[1][1] - 2 * math.pi / wv) > 1e-5
+
+
+def test_the_built_in_spatial_cr3bp(tmp_path, cache):
+    """&model system = 'cr3bp', spatial = .true. (the library's cr3bp_spatial, written in Fortran)
+    against the same problem written as a formula (SymPy's derivatives) and the linear theory:
+    L1's state, lambda and both frequencies, and both families' periods and energies, to 1e-10
+    (actions to 1e-12 absolute);
+    /model names cr3bp_spatial (tubes.Model.of rebuilds it); spatial on another system is refused."""
+    x1, lam, wp, wv = l1_linear_theory()
+    tmp = str(tmp_path)
+    rest = """
+        &equilibria box = 1.5, 1.5, 0.3, n_grid = 31 /
+        &orbits saddle_near = 0.84, 0.0, 0.0, de = 1e-6, 1e-3, family = {fam} /
+        """
+    for fam in (1, 2):
+        b = run(tmp, f"b{fam}.nml", f"&run scenes = 'equilibria', 'orbits', output = 'b{fam}.h5' /\n"
+                f"&model system = 'cr3bp', spatial = .true. /\n" + rest.format(fam=fam), cache)
+        e = run(tmp, f"e{fam}.nml", f"&run scenes = 'equilibria', 'orbits', output = 'e{fam}.h5' /\n"
+                f"&model system = 'expression', hamiltonian = '{SPATIAL}', coordinates = 'x', 'y', 'z', "
+                f"constants = 'mu = {MU!r}' /\n" + rest.format(fam=fam), cache)
+        k = int(np.argmin(np.abs(b["equilibria/state"][:, 0] - x1) + np.abs(b["equilibria/state"][:, 1])))
+        assert abs(b["equilibria/state"][k, 0] - x1) < 1e-12
+        assert abs(b["equilibria/lambda"][k] / lam - 1) < 1e-10
+        assert np.allclose(b["equilibria/omegas"][k], [wv, wp], rtol=1e-10)
+        for key in ("period", "energy"):
+            np.testing.assert_allclose(b[f"orbits/{key}"][()], e[f"orbits/{key}"][()], rtol=1e-10, atol=1e-14)
+        # the action of an orbit of amplitude ~1e-3 carries the corrector's tolerance (1e-11 in the state)
+        np.testing.assert_allclose(b["orbits/action"][()], e["orbits/action"][()], rtol=0, atol=1e-12)
+        assert b["model"].attrs["system"] == "cr3bp_spatial" and int(b["model"].attrs["ndof"]) == 3
+    with open(os.path.join(tmp, "bad.nml"), "w") as f:
+        f.write("&model system = 'henon_heiles', spatial = .true. /\n")
+    p = subprocess.run([str(TUBES), "bad.nml"], cwd=tmp, capture_output=True, text=True, timeout=60)
+    assert p.returncode == 1 and "spatial is not a parameter of system 'henon_heiles'" in p.stderr, p.stderr

@@ -64,6 +64,8 @@ const nml_var tubes_nml_vars[] = {
     {"model", "eps", NML_REAL, 1, "1", "0.1", "finite", "coupled_quartic: coupling of x and y"},
     {"model", "mu", NML_REAL, 1, "1", "0.01215058560962404", "0 < mu <= 0.5",
      "cr3bp: mass ratio m2/(m1 + m2) (Earth-Moon by default)"},
+    {"model", "spatial", NML_LOGICAL, 1, "-", ".false.", ".true., .false. (cr3bp only)",
+     "cr3bp: the spatial problem, 3 degrees of freedom (the library's cr3bp_spatial)"},
     {"model", "hamiltonian", NML_STRING, 1, "energy", "-", "a formula (docs/models.md)",
      "expression: H(q, p) in the coordinates, momenta and constants; ^ or ** for powers"},
     {"model", "coordinates", NML_STRING, TUBES_MAXDOF, "-", "'x', 'y'", "1 to 3 distinct names",
@@ -581,6 +583,7 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
     static const char *const ham_vars[] = {"hamiltonian", "coordinates", "momenta", "constants"};
     for (int k = 0; k < 4 && formula && !ball; k++) mine |= !strcmp(v->name, ham_vars[k]);
     mine |= ball && !strcmp(v->name, "surface");
+    mine |= !strcmp(v->name, "spatial") && !strcmp(c->system, "cr3bp");
     mine |= ball && formula && (!strcmp(v->name, "height") || !strcmp(v->name, "constants"));
     if (mine) continue;
     fprintf(err, "%s:%d: &model: %s is not a parameter of system '%s' (its parameters: ", path,
@@ -674,9 +677,10 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
   if (scene_requested(c, "flux")) {
     int natural = 0;
     tubes_model_natural(c->model, c->params, &natural);
-    if (!natural) {
+    if (!natural && c->flux_order == 0) {
       fprintf(err, "%s:%d: &run: the flux scene samples the dividing surface of a natural system (H = T(q, p) + "
-              "V(q), the past of (q, p) the future of (q, -p)); system '%s' is not natural\n", path,
+              "V(q), the past of (q, p) the future of (q, -p)); system '%s' is not natural: give &flux order "
+              "(the normal form's flux alone, for a model written as a formula)\n", path,
               line_of(w, "run", "scenes"), c->system);
       n++;
     }

@@ -82,6 +82,7 @@ module tubes_nml
     integer(c_int) :: flux_nde, flux_n_samples, flux_seed, flux_order
     real(c_double) :: flux_t_max, flux_gate, flux_tol
     integer(c_int) :: orb_family
+    integer(c_int) :: spatial
   end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved).
@@ -141,6 +142,7 @@ module tubes_nml
     integer :: flux_n_samples, flux_seed, flux_order
     real(c_double) :: flux_t_max, flux_gate, flux_tol
     integer :: orb_family
+    logical :: spatial
   end type vars_t
 
 contains
@@ -227,6 +229,7 @@ contains
     v%flux_gate = UNSET
     v%flux_tol = 1.0e-10_c_double
     v%flux_order = 0
+    v%spatial = .false.
     v%pm_de = UNSET
     v%pm_n_seeds = 40
     v%pm_n_iter = 300
@@ -257,6 +260,7 @@ contains
     cfg%x0 = v%x0; cfg%y0 = v%y0; cfg%px0 = v%px0; cfg%py0 = v%py0
     cfg%t_end = v%t_end; cfg%dt_out = v%dt_out
     cfg%at_rest = merge(1, 0, v%at_rest)
+    cfg%spatial = merge(1, 0, v%spatial)
     call put(v%section, cfg%section)
     cfg%section_angle = v%section_angle; cfg%section_level = v%section_level
     cfg%section_direction = v%section_direction; cfg%max_crossings = v%max_crossings
@@ -382,7 +386,11 @@ contains
     integer :: st, k, nd
     real(c_double) :: x, half(MAX_DOF), centre(MAX_DOF)
     call put(v%system, cfg%system)
-    call put(v%system, cfg%model)
+    if (v%spatial .and. trim(v%system) == 'cr3bp') then
+      call put('cr3bp_spatial', cfg%model)     ! the spatial problem: its own entry of the library
+    else
+      call put(v%system, cfg%model)
+    end if
     cfg%expr_var = c_null_char; cfg%expr_msg = c_null_char; cfg%expr_lib = c_null_char
     cfg%expr_seconds = 0
     cfg%expr_hit = 0
@@ -604,6 +612,7 @@ contains
     v%x0 = cfg%x0; v%y0 = cfg%y0; v%px0 = cfg%px0; v%py0 = cfg%py0
     v%t_end = cfg%t_end; v%dt_out = cfg%dt_out
     v%at_rest = cfg%at_rest /= 0
+    v%spatial = cfg%spatial /= 0
     v%section = get(cfg%section)
     v%section_angle = cfg%section_angle; v%section_level = cfg%section_level
     v%section_direction = cfg%section_direction; v%max_crossings = cfg%max_crossings
@@ -730,12 +739,14 @@ contains
       character(LNAME) :: system, surface
       real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, m_a, m_b, d, lambda, zeta, &
                         eps_s, omega, eps, mu
+      logical :: spatial
       character(LEXPR) :: hamiltonian, height
       character(LSYM) :: coordinates(MAX_DOF), momenta(MAX_DOF)
       character(LCONST) :: constants(MAXCONST)
       namelist /model/ system, alpha, beta, gamma, xi, h0, g, damping_ratio, m_a, m_b, d, lambda, &
-        zeta, eps_s, omega, eps, mu, hamiltonian, coordinates, momenta, constants, surface, height
+        zeta, eps_s, omega, eps, mu, hamiltonian, coordinates, momenta, constants, surface, height, spatial
       system = v%system
+      spatial = v%spatial
       hamiltonian = v%hamiltonian; height = v%height; surface = v%surface
       coordinates = v%coordinates; momenta = v%momenta; constants = v%constants
       alpha = v%alpha; beta = v%beta; gamma = v%gamma; xi = v%xi; h0 = v%h0; g = v%g
@@ -744,6 +755,7 @@ contains
       if (mode == 'r') then
         read (u, nml=model, iostat=ios, iomsg=iomsg)
         v%system = system
+        v%spatial = spatial
         v%alpha = alpha; v%beta = beta; v%gamma = gamma; v%xi = xi; v%h0 = h0; v%g = g
         v%damping_ratio = damping_ratio; v%m_a = m_a; v%m_b = m_b; v%d = d; v%lambda = lambda
         v%zeta = zeta; v%eps_s = eps_s; v%omega = omega; v%eps = eps; v%mu = mu
@@ -761,6 +773,7 @@ contains
       character(64) :: num
       write (u, '(a)', iostat=ios) '&MODEL'
       write (u, '(a)', iostat=ios) ' SYSTEM=''' // trim(v%system) // ''','
+      if (v%spatial) write (u, '(a)', iostat=ios) ' SPATIAL=T,'
       if (trim(v%system) == 'expression') then
         call write_string('HAMILTONIAN', v%hamiltonian)
         call write_list('COORDINATES', v%coordinates)

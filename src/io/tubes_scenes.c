@@ -86,12 +86,14 @@ int scene_model(tubes_run_t *run) {
   hid_t g = h5_group(run->file, "model");
   if (g < 0) return EXIT_IO;
   int rc = 0;
-  rc |= h5_attr_string(g, "system", c->system);
+  int formula = !strncmp(c->model, "expr_", 5);   /* a model written as a formula: its library */
+  /* a built-in: the library's name (cr3bp with spatial = .true. is cr3bp_spatial) */
+  rc |= h5_attr_string(g, "system", formula ? c->system : c->model);
   rc |= h5_attr_string(g, "hamiltonian", summary);
   rc |= h5_attr_long(g, "ndof", ndof);
   if (surf[0]) rc |= h5_attr_string(g, "surface", surf);
   for (int k = 0; k < np; k++) rc |= h5_attr_double(g, names + TUBES_LPARAM * k, run->params[k]);
-  if (strcmp(c->model, c->system)) {
+  if (formula) {
     rc |= expr_attrs(g, c);
     rc |= h5_attr_double(g, "library_seconds", c->expr_seconds);
     rc |= h5_attr_long(g, "library_cached", c->expr_hit);
@@ -170,8 +172,9 @@ int run_setup(tubes_run_t *run) {
   double defs[TUBES_MAXPARAM], box[MD], boxc[MD], near[MD], sv, sa, gate;
   memset(run->system, 0, sizeof run->system);
   snprintf(run->system, sizeof run->system, "%s", c->model);   /* the library's name of the model */
-  snprintf(run->label, sizeof run->label, "%s%s", c->system,
-           strcmp(c->model, c->system) && strcmp(c->system, "expression") ? " (surface 'expression')" : "");
+  int formula = !strncmp(c->model, "expr_", 5);
+  snprintf(run->label, sizeof run->label, "%s%s", formula ? c->system : c->model,
+           formula && strcmp(c->system, "expression") ? " (surface 'expression')" : "");
   if (tubes_model_info(run->system, &run->ndof, &np, names, defs, units, docs, summary, lu, box, boxc, dsad, near,
                        skind, &si, &sv, &sd, &sa, &gate, surf) < 0) {
     fprintf(stderr, "tubes: unknown system '%s'\n", c->system);
@@ -1404,7 +1407,11 @@ int scene_flux(tubes_run_t *run) {
          run->saddle, run->ndof, c->flux_n_samples, c->flux_gate, c->flux_tol);
   printf("  %10s %16s %12s %16s %9s %9s %9s %9s\n", "dE", "flux", "+-", "leading", "flux/lead", "reacting",
          "recross", "undecided");
-  for (int k = 0; k < n; k++) {
+  if (!run->natural)
+    printf("  (not sampled: the model is not natural, the past of (q, p) is not the future of (q, -p); the "
+           "normal form's flux only)\n");
+  for (int k = 0; k < n && !run->natural; k++) fl[k] = fe[k] = lo[k] = NAN;
+  for (int k = 0; k < n && run->natural; k++) {
     double de = c->flux_de[k], box[2 * (MD - 1)], t0 = now();
     progress_item("flux: dE = %g (%d of %d)...\n", de, k + 1, n);
     int st = tubes_flux_sample(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, c->flux_n_samples,

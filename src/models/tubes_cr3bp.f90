@@ -7,6 +7,10 @@
 !> Gyroscopic, not natural: at the equilibria L1..L5 the momenta are p = (-y, x). The Jacobi
 !> constant is C = -2 H. The reversor (x, y, px, py, t) -> (x, -y, -px, py, -t) maps solutions to
 !> solutions; the Lyapunov orbits of L1 and L2 are symmetric under it.
+!> Spatial (nd = 3, the system cr3bp_spatial, or cr3bp with spatial = .true.): the state is
+!> (x, y, z, px, py, pz), H = |p|^2/2 + y px - x py - (1 - mu)/r1 - mu/r2 with r1 = |(x + mu, y, z)|,
+!> r2 = |(x - 1 + mu, y, z)|; the reversor (x, -y, z, -px, py, -pz); L1..L5 lie in z = 0, where
+!> the vertical mode decouples: its frequency omega_v = sqrt(c2) (Koon et al. 2011, ch. 6).
 module tubes_cr3bp
   use tubes_kinds, only: wp
   use tubes_hamiltonian, only: hamiltonian_t, NAMES_LAGRANGE
@@ -19,6 +23,7 @@ module tubes_cr3bp
   !> The CR3BP with mass ratio mu (its default lives in tubes_models).
   type, extends(hamiltonian_t), public :: cr3bp_t
     real(wp) :: mu   !! mass ratio m2/(m1 + m2), 0 < mu <= 1/2
+    integer :: nd = 2   !! 2: planar; 3: spatial
   contains
     procedure :: ndof => cr_ndof
     procedure :: energy => cr_energy
@@ -33,13 +38,19 @@ contains
 
   pure integer function cr_ndof(self)
     class(cr3bp_t), intent(in) :: self
-    cr_ndof = 2
+    cr_ndof = self%nd
   end function cr_ndof
 
   pure real(wp) function cr_energy(self, x)
     class(cr3bp_t), intent(in) :: self
     real(wp), intent(in) :: x(:)
     real(wp) :: r1, r2
+    if (self%nd == 3) then
+      r1 = norm2([x(1) + self%mu, x(2), x(3)])
+      r2 = norm2([x(1) - 1 + self%mu, x(2), x(3)])
+      cr_energy = 0.5_wp*(x(4)**2 + x(5)**2 + x(6)**2) + x(2)*x(4) - x(1)*x(5) - (1 - self%mu)/r1 - self%mu/r2
+      return
+    end if
     r1 = hypot(x(1) + self%mu, x(2))
     r2 = hypot(x(1) - 1 + self%mu, x(2))
     cr_energy = 0.5_wp*(x(3)**2 + x(4)**2) + x(2)*x(3) - x(1)*x(4) - (1 - self%mu)/r1 - self%mu/r2
@@ -52,6 +63,10 @@ contains
     real(wp), intent(out) :: g(:)
     integer, intent(out) :: stat
     real(wp) :: r1, r2, a1, a2
+    if (self%nd == 3) then
+      call gradient3(self, x, g, stat)
+      return
+    end if
     r1 = hypot(x(1) + self%mu, x(2))
     r2 = hypot(x(1) - 1 + self%mu, x(2))
     stat = 0
@@ -77,6 +92,10 @@ contains
     real(wp), intent(out) :: h(:, :)
     integer, intent(out) :: stat
     real(wp) :: r1, r2, d1, d2, m1, m2, y
+    if (self%nd == 3) then
+      call hessian3(self, x, h, stat)
+      return
+    end if
     h(1:4, 1:4) = 0
     d1 = x(1) + self%mu
     d2 = x(1) - 1 + self%mu
@@ -108,12 +127,79 @@ contains
     cr_naming = NAMES_LAGRANGE
   end function cr_naming
 
-  !> (x, y, px, py) -> (x, -y, -px, py) with t -> -t.
+  !> (x, y, px, py) -> (x, -y, -px, py) with t -> -t; spatial: (x, -y, z, -px, py, -pz).
   pure function cr_reversor(self) result(r)
     class(cr3bp_t), intent(in) :: self
     integer :: r(2*self%ndof())
-    r = [1, -1, -1, 1]
+    if (self%nd == 3) then
+      r = [1, -1, 1, -1, 1, -1]
+    else
+      r = [1, -1, -1, 1]
+    end if
   end function cr_reversor
+
+  !> Spatial: dH/dx = (-py + U_x, px + U_y, U_z, px + y, py - x, pz), U = -(1 - mu)/r1 - mu/r2.
+  pure subroutine gradient3(self, x, g, stat)
+    class(cr3bp_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: g(:)
+    integer, intent(out) :: stat
+    real(wp) :: r1, r2, a1, a2
+    r1 = norm2([x(1) + self%mu, x(2), x(3)])
+    r2 = norm2([x(1) - 1 + self%mu, x(2), x(3)])
+    stat = 0
+    g(1:6) = 0
+    if (.not. (min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) + abs(x(3)) <= MAX_Q)) then
+      stat = -1
+      return
+    end if
+    a1 = (1 - self%mu)/r1**3
+    a2 = self%mu/r2**3
+    g(1) = -x(5) + a1*(x(1) + self%mu) + a2*(x(1) - 1 + self%mu)
+    g(2) = x(4) + (a1 + a2)*x(2)
+    g(3) = (a1 + a2)*x(3)
+    g(4) = x(4) + x(2)
+    g(5) = x(5) - x(1)
+    g(6) = x(6)
+    if (.not. all(abs(g(1:6)) <= huge(1.0_wp))) stat = -1
+  end subroutine gradient3
+
+  !> Spatial: U_ij = sum_k m_k (delta_ij / r_k^3 - 3 d_i d_j / r_k^5) with d = (x - x_k, y, z);
+  !> H_{x,py} = -1, H_{y,px} = 1, H_{p,p} = I.
+  pure subroutine hessian3(self, x, h, stat)
+    class(cr3bp_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: h(:, :)
+    integer, intent(out) :: stat
+    real(wp) :: d(3, 2), r(2), m(2)
+    integer :: i, j, k
+    h(1:6, 1:6) = 0
+    d(:, 1) = [x(1) + self%mu, x(2), x(3)]
+    d(:, 2) = [x(1) - 1 + self%mu, x(2), x(3)]
+    r = [norm2(d(:, 1)), norm2(d(:, 2))]
+    m = [1 - self%mu, self%mu]
+    stat = 0
+    if (.not. (minval(r) > MIN_R .and. abs(x(1)) + abs(x(2)) + abs(x(3)) <= MAX_Q)) then
+      stat = -1
+      return
+    end if
+    do j = 1, 3
+      do i = 1, 3
+        do k = 1, 2
+          h(i, j) = h(i, j) - 3*m(k)*d(i, k)*d(j, k)/r(k)**5
+          if (i == j) h(i, j) = h(i, j) + m(k)/r(k)**3
+        end do
+      end do
+    end do
+    h(1, 5) = -1
+    h(5, 1) = -1
+    h(2, 4) = 1
+    h(4, 2) = 1
+    h(4, 4) = 1
+    h(5, 5) = 1
+    h(6, 6) = 1
+    if (.not. all(abs(h(1:6, 1:6)) <= huge(1.0_wp))) stat = -1
+  end subroutine hessian3
 
   !> The Hill radius (mu/3)^(1/3): the distance of L1 and L2 from the secondary.
   pure real(wp) function cr_length_scale(self)
