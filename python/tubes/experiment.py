@@ -1583,8 +1583,11 @@ def truth_crossings(tracks: Tracks, segs, model: Model, x_gate: float, opt: Opti
     """U1 crossings and outcomes of the noise-free samples of synthetic tracks (/tracks/truth:
     exact positions and velocities, the same segments, the same crossing code), with their true
     dE (the exact energy interpolated in time)."""
-    from . import velocity
+    from . import vector_field
     tr = tracks.truth
+    # the conservative model's dq/dt (tubes.velocity, with the model made once, not per sample)
+    cons = model.replace(damping_ratio=0.0) if "damping_ratio" in model.parameters else model
+    nd = model.ndof
     E_true = tr.get("energy")
     if E_true is None:
         E_true = energy_of_states(tr["state"], model)
@@ -1592,7 +1595,7 @@ def truth_crossings(tracks: Tracks, segs, model: Model, x_gate: float, opt: Opti
     out = []
     for j, s in enumerate(segs):
         st = tr["state"][s.index]
-        v = np.array([velocity(z, model) for z in st])
+        v = np.array([vector_field(z, cons)[:nd] for z in st])
         est = {"t": s.t, "x": st[:, 0], "y": st[:, 1], "vx": v[:, 0], "vy": v[:, 1]}
         for k in FOLDS[opt.fold]:
             c, tg = find_crossings(est, model, x_gate, k)
