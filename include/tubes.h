@@ -234,6 +234,18 @@ int tubes_flux_sample(const char system[TUBES_LSYSTEM], const double params[TUBE
                double omega_bind, int solver, int max_iter, double *flux, double *err, double *leading,
                int counts[4], double box[2 * (TUBES_MAXDOF - 1)]);
 
+/* The energy surface's volume on the plane section q_k = c (k = 1..N, crossed with sign(dq_k/dt)
+ * = dir) at de above the saddle, sampled like the flux (natural systems), and the fraction of it
+ * that passes the saddle's slab (half-width gate) on the far side before returning to the section:
+ * the transition fraction, which tube dynamics predicts as flux / volume (src/tubes_flux.f90;
+ * docs/theory.md). counts = {inside the shell, transits, returns, undecided}. TUBES_EOUTSIDE if the
+ * section's point nearest the saddle lies outside the energy shell. */
+int tubes_section_transit(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                          const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid, const char saddle[8],
+                          double de, int k, double c, int dir, int nsamp, int seed, double t_max, double gate,
+                          double tol, int method, double h, double omega_bind, int solver, int max_iter,
+                          double *volume, double *volume_err, double *fraction, double *fraction_err, int counts[4]);
+
 /* The Birkhoff normal form of H from its Taylor coefficients at a saddle x centre^(N-1)
  * equilibrium (src/tubes_normal_form.f90; docs/theory.md): n_terms terms, expo[t 2N + i] the
  * exponent of the i-th of (dq_1..dq_N, dp_1..dp_N) in term t, coef[t]; to degree order. The flux

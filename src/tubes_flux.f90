@@ -20,7 +20,7 @@
 module tubes_flux
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT, TUBES_EOUTSIDE
   use tubes_hamiltonian, only: hamiltonian_t, natural_t
   use tubes_equilibria, only: equilibrium_t
   use tubes_integrator, only: integrator_t, observer_t, propagate
@@ -41,6 +41,16 @@ module tubes_flux
     procedure :: on_step => slab_on_step
   end type slab_t
 
+  !> Integrates until the trajectory passes the saddle's slab on the far side (outcome 1, a
+  !> transit) or crosses the section q_k = c again in its direction (outcome -1, a return):
+  !> checked at NSUB points of every step on the dense output.
+  type, extends(observer_t) :: transit_t
+    real(wp) :: qs(MAXN) = 0, ns(MAXN) = 0, gate = 0, c = 0, s_prev = 0, t_prev = 0
+    integer :: n = 0, k = 1, dir = 1, outcome = 0
+  contains
+    procedure :: on_step => transit_on_step
+  end type transit_t
+
   !> What flux_sampled found.
   type, public :: flux_result_t
     real(wp) :: flux = 0            !! f [action^(N-1)]
@@ -50,6 +60,10 @@ module tubes_flux
     integer :: n_undecided = 0      !! samples whose future or past stayed in the slab to t_max
     integer :: n_inside = 0         !! samples with V(q) < E (w > 0)
     real(wp) :: box(2, MAXN - 1) = 0 !! the sampling box of Q' [lo, hi per axis]
+    !> section mode (flux_sampled with plane): the energy surface's volume on the section and
+    !> the fraction of it that transits before returning
+    real(wp) :: volume = 0, volume_err = 0, fraction = 0, fraction_err = 0
+    integer :: n_transit = 0, n_return = 0
   end type flux_result_t
 
   public :: flux_leading_order, flux_sampled
@@ -79,6 +93,58 @@ contains
     stop_now = abs(s) > self%dist
     if (stop_now) self%side = merge(1, -1, s > 0)
   end subroutine slab_on_step
+
+  subroutine transit_on_step(self, ig, t_hi, stop_now)
+    class(transit_t), intent(inout) :: self
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: t_hi
+    logical, intent(out) :: stop_now
+    integer, parameter :: NSUB = 8
+    real(wp) :: x(ig%f%dim()), t, s, d
+    integer :: j
+    stop_now = .false.
+    do j = 1, NSUB
+      t = self%t_prev + (t_hi - self%t_prev)*j/NSUB
+      call ig%interp(t, x)
+      d = dot_product(x(1:self%n) - self%qs(1:self%n), self%ns(1:self%n))
+      s = x(self%k) - self%c
+      if (d > self%gate) then
+        self%outcome = 1
+      else if (self%dir*self%s_prev < 0 .and. self%dir*s >= 0) then
+        self%outcome = -1
+      end if
+      self%s_prev = s
+      if (self%outcome /= 0) then
+        stop_now = .true.
+        exit
+      end if
+    end do
+    self%t_prev = t_hi
+  end subroutine transit_on_step
+
+  !> The outcome of x0's forward trajectory for the section (transit_t): 1, -1 or 0 (t_max).
+  subroutine transit_or_return(model, obs0, x0, t_max, tol, integ, outcome, stat)
+    class(hamiltonian_t), intent(in) :: model
+    type(transit_t), intent(in) :: obs0
+    real(wp), intent(in) :: x0(:), t_max, tol
+    type(integ_choice_t), intent(in) :: integ
+    integer, intent(out) :: outcome, stat
+    class(integrator_t), allocatable :: ig
+    type(transit_t) :: obs
+    real(wp) :: x(size(x0))
+    outcome = 0
+    call make_integrator(integ, ig, stat)
+    if (stat /= TUBES_OK) return
+    call ig%init(model, 0.0_wp)
+    ig%rtol = tol
+    ig%atol = tol
+    obs = obs0
+    x = x0
+    call propagate(ig, x, t_max, stat, observer=obs)
+    if (stat < 0) return
+    stat = TUBES_OK
+    outcome = obs%outcome
+  end subroutine transit_or_return
 
   !> The side (+1, -1) by which x's forward trajectory leaves the slab, 0 if not within t_max.
   subroutine leave_side(model, slab, x0, t_max, tol, integ, side, stat)
@@ -136,7 +202,13 @@ contains
   !> from seed (drawn serially: the same result for any number of threads), t_max and tol for
   !> the integrations, gate the half-width of the slab [units of q]. stat = TUBES_EINPUT for a
   !> model that is not natural, TUBES_EMODEL where the model fails at a sample.
-  subroutine flux_sampled(model, sad, de, n, seed, t_max, tol, gate, span, integ, res, stat)
+  !> With plane = (k, dir) and plane_c: the section q_k = c crossed with sign(dq_k/dt) = dir
+  !> instead of the dividing surface: the same sampling of (Q', P') on the section's energy
+  !> surface around the point of the section nearest the saddle (res%volume: its volume), each
+  !> point followed forwards until it transits (passes the saddle's slab on the far side) or
+  !> returns to the section (res%fraction: the fraction that transits; docs/theory.md).
+  !> TUBES_EOUTSIDE if that point is not inside the energy shell.
+  subroutine flux_sampled(model, sad, de, n, seed, t_max, tol, gate, span, integ, res, stat, plane, plane_c)
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: sad
     real(wp), intent(in) :: de, t_max, tol, gate
@@ -145,18 +217,40 @@ contains
     type(integ_choice_t), intent(in) :: integ
     type(flux_result_t), intent(out) :: res
     integer, intent(out) :: stat
-    real(wp) :: r(MAXN, MAXN), energy, vol, ex(2), cball
+    integer, intent(in), optional :: plane(2)
+    real(wp), intent(in), optional :: plane_c
+    real(wp) :: r(MAXN, MAXN), energy, vol, ex(2), cball, q0(MAXN), sw
     real(wp), allocatable :: u(:), val(:)
     integer, allocatable :: cls(:), st(:)
     integer :: nd, m, j, k, i
+    logical :: section
     type(slab_t) :: slab
+    type(transit_t) :: tobs
     stat = TUBES_EINPUT
     nd = model%ndof()
     if (nd < 2 .or. nd > MAXN .or. n < 2 .or. .not. de > 0 .or. .not. allocated(sad%evec)) return
     energy = sad%energy + de
+    section = present(plane) .and. present(plane_c)
+    q0 = 0
+    q0(1:nd) = sad%q
     ! the rotated frame: r(1, :) = n, then an orthonormal basis of n's complement
     r = 0
     r(1, 1:nd) = sad%evec(1:nd, 1)/sqrt(sum(sad%evec(1:nd, 1)**2))
+    if (section) then           ! the section's normal, oriented by its direction
+      if (plane(1) < 1 .or. plane(1) > nd .or. abs(plane(2)) /= 1) return
+      r(1, :) = 0
+      r(1, plane(1)) = plane(2)
+      q0(plane(1)) = plane_c
+      tobs%n = nd
+      tobs%k = plane(1)
+      tobs%dir = plane(2)
+      tobs%c = plane_c
+      tobs%gate = gate
+      tobs%qs(1:nd) = sad%q
+      tobs%ns(1:nd) = sad%evec(1:nd, 1)/sqrt(sum(sad%evec(1:nd, 1)**2))
+      ! towards the far side: away from the section's point
+      if (dot_product(q0(1:nd) - sad%q, tobs%ns(1:nd)) > 0) tobs%ns = -tobs%ns
+    end if
     m = 1
     do k = 1, nd
       if (m == nd) exit
@@ -173,9 +267,15 @@ contains
     class is (natural_t)
       ! the box of Q': twice the extent of {V <= E} along each axis, both ways
       vol = 1
+      if (section) then
+        if (.not. model%potential(q0(1:nd)) < energy) then
+          stat = TUBES_EOUTSIDE       ! the section misses the energy surface there
+          return
+        end if
+      end if
       do j = 2, nd
-        ex(1) = extent(model, sad%q, -r(j, 1:nd), energy, 1.0e-3_wp*span, span)
-        ex(2) = extent(model, sad%q, r(j, 1:nd), energy, 1.0e-3_wp*span, span)
+        ex(1) = extent(model, q0(1:nd), -r(j, 1:nd), energy, 1.0e-3_wp*span, span)
+        ex(2) = extent(model, q0(1:nd), r(j, 1:nd), energy, 1.0e-3_wp*span, span)
         res%box(:, j - 1) = [-2*ex(1), 2*ex(2)]
         vol = vol*2*(ex(1) + ex(2))
       end do
@@ -202,6 +302,21 @@ contains
         stat = st(findloc(st /= TUBES_OK, .true., dim=1))
         return
       end if
+      if (section) then        ! val = w inside the shell, cls = 1 transit, -1 return, 2 undecided
+        res%volume = vol*sum(val)/n
+        res%volume_err = vol*sqrt(max(0.0_wp, sum((val - sum(val)/n)**2)/(n - 1))/n)
+        sw = sum(val)
+        if (sw > 0) then
+          res%fraction = sum(val, mask=cls == 1)/sw
+          res%fraction_err = sqrt(sum(val**2*(merge(1.0_wp, 0.0_wp, cls == 1) - res%fraction)**2))/sw
+        end if
+        res%n_transit = count(cls == 1)
+        res%n_return = count(cls == -1)
+        res%n_undecided = count(cls == 2)
+        res%n_inside = count(cls /= 3)
+        stat = TUBES_OK
+        return
+      end if
       res%flux = vol*sum(val)/n
       res%err = vol*sqrt(max(0.0_wp, sum((val - sum(val)/n)**2)/(n - 1))/n)
       res%n_reactive = count(cls == 1 .or. cls == -1)
@@ -223,7 +338,7 @@ contains
                   bigp(nd), p(nd), x(2*nd), v, w, qa, qb, qc, rad, uu(2*(nd - 1))
       integer :: fw, bw, sf, sb, j2
       uu = u(2*(nd - 1)*(i - 1) + 1:2*(nd - 1)*i)
-      q = sad%q
+      q = q0(1:nd)
       do j2 = 2, nd
         q = q + (res%box(1, j2 - 1) + uu(j2 - 1)*(res%box(2, j2 - 1) - res%box(1, j2 - 1)))*r(j2, 1:nd)
       end do
@@ -237,7 +352,7 @@ contains
         ! only the part of {V < E} on the DS that the saddle sees (star-shaped from it): other
         ! bottlenecks the hyperplane may cut farther out are not this saddle's
         do j2 = 1, NSTAR - 1
-          if (.not. model%potential(sad%q + (real(j2, wp)/NSTAR)*(q - sad%q)) < energy) then
+          if (.not. model%potential(q0(1:nd) + (real(j2, wp)/NSTAR)*(q - q0(1:nd))) < energy) then
             cls(i) = 3
             return
           end if
@@ -281,6 +396,16 @@ contains
       p = matmul(transpose(r(1:nd, 1:nd)), bigp)
       x(1:nd) = q
       x(nd + 1:2*nd) = p
+      if (section) then
+        call transit_or_return(model, tobs, x, t_max, tol, integ, fw, sf)
+        if (sf /= TUBES_OK) then
+          st(i) = sf
+          return
+        end if
+        cls(i) = merge(2, fw, fw == 0)
+        val(i) = w
+        return
+      end if
       call leave_side(model, slab, x, t_max, tol, integ, fw, sf)
       x(nd + 1:2*nd) = -p
       call leave_side(model, slab, x, t_max, tol, integ, bw, sb)

@@ -270,3 +270,34 @@ def test_a_gyroscopic_saddle_the_planar_cr3bp(tmp_path, cache):
     f = flux_of(tmp)
     np.testing.assert_allclose(f["flux_normal_form"], f["action"], rtol=1e-8)
     assert np.all(np.isnan(f["flux_sampled"])) and np.all(f["nhim_energy_error"] < 1e-5)
+
+
+def test_transition_fraction_on_a_four_dimensional_section(tmp_path, cache):
+    """Tube dynamics in 3 DOF (the paper's section II): on the section q1 = -0.7 (moving towards
+    the saddle) the fraction of the energy surface that transits before returning is the flux
+    over the section's 4-volume. The volume against a quadrature (2 pi int int (E - V(-0.7, q2, q3))
+    over V < E, the momenta's disc integrated), the Monte Carlo fraction against the normal form's
+    flux / volume, both within 4 standard errors."""
+    tmp = str(tmp_path)
+    text = _nml(COUPLED, CONSTS, [0.05, 0.1], 8, n_samples=20000).replace(
+        "&flux", "&section kind = 'plane', index = 1, value = -0.7, direction = 1 /\n        &flux")
+    p = run(tmp, text, cache)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "the transition fraction on the section q1 = -0.7" in p.stdout
+    f = flux_of(tmp)
+    w2, w3, a, b, c, d = 1.3, 2.1, 0.2, 0.1, 0.3, 0.05
+    q1 = -0.7
+
+    def v(x, y):
+        return (-q1**2 / 2 + q1**4 / 4 + w2**2 * x**2 / 2 + w3**2 * y**2 / 2 + a * q1**2 * x**2 + b * q1**2 * y**2
+                + c * x**2 * y**2 + d * x**4)
+
+    for k, de in enumerate(f["dE"]):
+        def inner(phi):
+            g = lambda r: v(r * math.cos(phi), r * math.sin(phi)) - de  # noqa: E731
+            rmax = optimize.brentq(g, 0, 10.0, xtol=1e-14)
+            return integrate.quad(lambda r: (de - v(r * math.cos(phi), r * math.sin(phi))) * r, 0, rmax)[0]
+        vol = 2 * math.pi * integrate.quad(inner, 0, 2 * math.pi, limit=200)[0]
+        assert abs(f["section_volume"][k] - vol) < SIGMAS * f["section_volume_err"][k], (f["section_volume"][k], vol)
+        theory = f["flux_normal_form"][k] / vol
+        assert abs(f["p_trans_section"][k] - theory) < SIGMAS * f["p_trans_section_err"][k], (f["p_trans_section"][k], theory)

@@ -526,6 +526,40 @@ contains
     box(:, 1:model%ndof() - 1) = res%box(:, 1:model%ndof() - 1)
   end function c_flux
 
+  !> The energy surface's volume on the section q_k = c (crossed with sign(dq_k/dt) = dir) at
+  !> E_s + de near the saddle, and the fraction of it that transits the bottleneck before
+  !> returning (flux_sampled's section mode): volume +- volume_err, fraction +- fraction_err,
+  !> counts = {inside the shell, transits, returns, undecided}. TUBES_EOUTSIDE if the section's
+  !> point nearest the saddle is not inside the energy shell.
+  integer(c_int) function c_section_transit(system, params, lo, hi, n_grid, saddle, de, k, c, dir, nsamp, seed, &
+      t_max, gate, tol, method, h, omega_bind, solver, max_iter, volume, volume_err, fraction, fraction_err, &
+      counts) result(stat) bind(C, name='tubes_section_transit')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, k, dir, nsamp, seed, method, solver, max_iter
+    real(c_double), value :: de, c, t_max, gate, tol, h, omega_bind
+    real(c_double), intent(out) :: volume, volume_err, fraction, fraction_err
+    integer(c_int), intent(out) :: counts(4)
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(flux_result_t) :: res
+    integer :: isad, ist
+    volume = 0; volume_err = 0; fraction = 0; fraction_err = 0; counts = 0
+    call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+                     model, eqs, isad, ist, degenerate_ok=.true.)
+    stat = ist
+    if (ist /= TUBES_OK) return
+    call flux_sampled(model, eqs(isad), de, nsamp, seed, t_max, tol, gate, &
+                      maxval(hi(1:model%ndof()) - lo(1:model%ndof())), &
+                      integ_of(method, h, omega_bind, solver, max_iter), res, ist, [k, dir], c)
+    stat = ist
+    volume = res%volume
+    volume_err = res%volume_err
+    fraction = res%fraction
+    fraction_err = res%fraction_err
+    counts = [res%n_inside, res%n_transit, res%n_return, res%n_undecided]
+  end function c_section_transit
+
   !> The Birkhoff normal form of H from its Taylor coefficients at a saddle x centre^(N-1)
   !> (n_terms of them: the exponents expo(2N, n_terms) of (dq, dp), coef) to degree order, and
   !> its flux at de(1:n_de): flux(k), fstat(k) (TUBES_ENOCONV where the truncated form has no

@@ -1355,6 +1355,57 @@ out:
   return rc;
 }
 
+/* The &section plane q_k = c: the energy surface's volume on it (sampled as the flux) and the
+ * fraction of it that transits before returning, against flux / volume (the normal form's flux
+ * when there is one, else the sampled). More than 1 % undecided, or the two more than 5 combined
+ * standard errors apart: reported, exit 2. */
+static int section_fraction(const tubes_run_t *run, const double *fl, const double *fe, const double *fnf,
+                            const double *fch, double *sv, double *sve, double *sf, double *sfe, double *pth) {
+  const tubes_config_t *c = run->cfg;
+  int n = c->flux_nde, rc = 0;
+  printf("flux: the transition fraction on the section q%d = %g (dq%d/dt %s 0): Monte Carlo (%d points) against "
+         "flux / volume\n", c->sec_index, c->sec_value, c->sec_index, c->sec_direction > 0 ? ">" : "<",
+         c->flux_n_samples);
+  printf("  %10s %14s %10s %12s %12s %10s %9s %9s %9s %9s\n", "dE", "volume", "+-", "flux/volume", "Monte Carlo",
+         "+-", "diff/sd", "transits", "returns", "undecided");
+  for (int k = 0; k < n; k++) {
+    int cnt[4];
+    double t0 = now();
+    int st = tubes_section_transit(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle,
+                                   c->flux_de[k], c->sec_index, c->sec_value, c->sec_direction, c->flux_n_samples,
+                                   c->flux_seed, c->flux_t_max, c->flux_gate, c->flux_tol, INTEGRATOR(c), &sv[k],
+                                   &sve[k], &sf[k], &sfe[k], cnt);
+    if (st < 0) {
+      char m[128];
+      status_text(st, m, sizeof m);
+      fprintf(stderr, "tubes: flux: the section q%d = %g at dE = %g: %s (status %d)%s\n", c->sec_index, c->sec_value,
+              c->flux_de[k], m, st, st == TUBES_EOUTSIDE ? ": the section's point nearest the saddle lies outside "
+              "the energy surface (a section the tube cannot reach there: move it)" : "");
+      sv[k] = sve[k] = sf[k] = sfe[k] = pth[k] = NAN;
+      rc = EXIT_NUMERIC;
+      continue;
+    }
+    int use_nf = fnf && isfinite(fnf[k]);
+    double f = use_nf ? fnf[k] : fl[k], ferr = use_nf ? (isfinite(fch[k]) ? fch[k] : 0.0) : fe[k];
+    pth[k] = f / sv[k];
+    double sp = pth[k] * sqrt(pow(ferr / f, 2) + pow(sve[k] / sv[k], 2));
+    double z = (sf[k] - pth[k]) / sqrt(sfe[k] * sfe[k] + sp * sp);
+    printf("  %10.4g %14.8g %10.3g %12.6f %12.6f %10.2g %9.2f %9d %9d %9d   (%.1f s)\n", c->flux_de[k], sv[k], sve[k],
+           pth[k], sf[k], sfe[k], z, cnt[1], cnt[2], cnt[3], now() - t0);
+    if (cnt[3] > 0.01 * cnt[0]) {
+      fprintf(stderr, "tubes: flux: the section at dE = %g: %d of %d points neither transited nor returned within "
+              "t_max = %g: raise &flux t_max\n", c->flux_de[k], cnt[3], cnt[0], c->flux_t_max);
+      rc = EXIT_NUMERIC;
+    } else if (isfinite(z) && fabs(z) > 5) {
+      fprintf(stderr, "tubes: flux: the section at dE = %g: the Monte Carlo transition fraction %.6g +- %.2g and "
+              "flux / volume %.6g disagree by %.1f standard errors (a section crossed by the tube more than once?)\n",
+              c->flux_de[k], sf[k], sfe[k], pth[k], z);
+      rc = EXIT_NUMERIC;
+    }
+  }
+  return rc;
+}
+
 static int write_normal_form(hid_t g, const nf_out_t *o, int n) {
   hsize_t dn = (hsize_t)n;
   int e = h5_write_double(g, "flux_normal_form", 1, &dn, o->flux, "action^(N-1)");
@@ -1444,6 +1495,15 @@ int scene_flux(tubes_run_t *run) {
     int r2 = flux_normal_form(run, fl, fe, &nfo);
     if (r2 && (!rc || r2 == EXIT_BADINPUT)) rc = r2;
   }
+  /* the transition fraction on a plane section: Monte Carlo against flux / volume */
+  int sec = run->natural && run->ndof == 3 && !strcmp(c->sec_kind, "plane");   /* 2 DOF: the transition scene */
+  double *sv = calloc((size_t)n, sizeof(double)), *sve = calloc((size_t)n, sizeof(double)),
+         *sf = calloc((size_t)n, sizeof(double)), *sfe = calloc((size_t)n, sizeof(double)),
+         *pth = calloc((size_t)n, sizeof(double));
+  if (sec && sv && sve && sf && sfe && pth) {
+    int r3 = section_fraction(run, fl, fe, nfo.flux, nfo.change, sv, sve, sf, sfe, pth);
+    if (r3 && !rc) rc = r3;
+  }
   hid_t g = h5_group(run->file, "flux");
   int e = g < 0;
   hsize_t dn = (hsize_t)n;
@@ -1471,10 +1531,20 @@ int scene_flux(tubes_run_t *run) {
     e |= h5_attr_string(g, "saddle", run->saddle);
     e |= h5_attr_long(g, "order", c->flux_order);
     if (c->flux_order > 0) e |= write_normal_form(g, &nfo, n);
+    if (sec) {
+      e |= h5_write_double(g, "section_volume", 1, &dn, sv, "action^(N-1)");
+      e |= h5_write_double(g, "section_volume_err", 1, &dn, sve, "action^(N-1)");
+      e |= h5_write_double(g, "p_trans_section", 1, &dn, sf, "1");
+      e |= h5_write_double(g, "p_trans_section_err", 1, &dn, sfe, "1");
+      e |= h5_write_double(g, "p_trans_theory", 1, &dn, pth, "1");
+      e |= h5_attr_long(g, "section_index", c->sec_index);
+      e |= h5_attr_double(g, "section_value", c->sec_value);
+      e |= h5_attr_long(g, "section_direction", c->sec_direction);
+    }
   }
   if (g >= 0) H5Gclose(g);
   free(fl); free(fe); free(lo); free(cnt); free(stat); free(nin); free(nre); free(nrc); free(nun);
   free(nfo.flux); free(nfo.change); free(nfo.coef); free(nfo.pw); free(nfo.nhim); free(nfo.round_trip);
-  free(nfo.energy_err);
+  free(nfo.energy_err); free(sv); free(sve); free(sf); free(sfe); free(pth);
   return e ? EXIT_IO : rc;
 }
