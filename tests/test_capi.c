@@ -38,7 +38,7 @@ int main(void) {
     char nm[TUBES_LSYSTEM];
     int nsys = 0;
     while (tubes_model_system(nsys, nm) == TUBES_OK) nsys++;
-    check("five built-in systems", nsys == 5, nsys, 5);
+    check("six built-in systems (cr3bp_spatial the sixth)", nsys == 6, nsys, 6);
   }
   const double lo[MD] = {-20, -20, 0}, hi[MD] = {20, 20, 0};
   int n = 0, ndof = 0, morse[NMAX], rank1[NMAX];
