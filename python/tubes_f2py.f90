@@ -687,3 +687,39 @@ subroutine birkhoff(nd, order, nt, expo, coef, nde, de, stat, flux, fstat, lambd
     nf_coef(k) = res%coef(k)
   end do
 end subroutine birkhoff
+
+subroutine section_transit(system, params, lo, hi, n_grid, saddle, nde, des, k, c, dir, nsamp, seed, t_max, gate, &
+                           tol, method, h, omega_bind, solver, int_max_iter, stat, vol, vol_err, frac, frac_err, counts)
+  ! the energy surface's volume on a plane section and its transiting fraction (as the flux scene)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_hamiltonian, only: hamiltonian_t
+  use tubes_equilibria, only: equilibrium_t
+  use tubes_study, only: setup_model
+  use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_flux, only: flux_result_t, flux_sampled
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, nde, k, dir, nsamp, seed, method, solver, int_max_iter
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), c, t_max, gate, tol, h, omega_bind
+  integer(c_int), intent(out) :: stat, counts(4, nde)
+  real(c_double), intent(out) :: vol(nde), vol_err(nde), frac(nde), frac_err(nde)
+  class(hamiltonian_t), allocatable :: model
+  type(equilibrium_t), allocatable :: eqs(:)
+  type(flux_result_t) :: res
+  integer :: isad, j, nd
+  vol = 0; vol_err = 0; frac = 0; frac_err = 0; counts = 0
+  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat, degenerate_ok=.true.)
+  if (stat /= 0) return
+  nd = model%ndof()
+  do j = 1, nde
+    call flux_sampled(model, eqs(isad), des(j), nsamp, seed, t_max, tol, gate, maxval(hi(1:nd) - lo(1:nd)), &
+                      integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
+                      solver=solver, max_iter=int_max_iter)), res, stat, [k, dir], c)
+    if (stat /= 0) return
+    vol(j) = res%volume
+    vol_err(j) = res%volume_err
+    frac(j) = res%fraction
+    frac_err(j) = res%fraction_err
+    counts(:, j) = [res%n_inside, res%n_transit, res%n_return, res%n_undecided]
+  end do
+end subroutine section_transit

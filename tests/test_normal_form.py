@@ -301,3 +301,34 @@ def test_transition_fraction_on_a_four_dimensional_section(tmp_path, cache):
         assert abs(f["section_volume"][k] - vol) < SIGMAS * f["section_volume_err"][k], (f["section_volume"][k], vol)
         theory = f["flux_normal_form"][k] / vol
         assert abs(f["p_trans_section"][k] - theory) < SIGMAS * f["p_trans_section_err"][k], (f["p_trans_section"][k], theory)
+
+
+def test_python_section_fraction_is_the_scenes(tmp_path, cache):
+    """tubes.flux(..., section={...}) gives the scene's section volume, Monte Carlo fraction and
+    flux / volume bitwise (one Fortran path)."""
+    import os
+
+    import tubes
+    tmp = str(tmp_path)
+    text = _nml(COUPLED, CONSTS, [0.05], 6, n_samples=4000).replace(
+        "&flux", "&section kind = 'plane', index = 1, value = -0.7, direction = 1 /\n        &flux")
+    p = run(tmp, text, cache)
+    assert p.returncode == 0, p.stdout + p.stderr
+    f = flux_of(tmp)
+    consts = {"w2": 1.3, "w3": 2.1, "a": 0.2, "b": 0.1, "c": 0.3, "d": 0.05}
+    old = os.environ.get("TUBES_CACHE_DIR")
+    os.environ["TUBES_CACHE_DIR"] = cache
+    try:
+        m = tubes.Model(system="expression", hamiltonian=COUPLED, coordinates=["q1", "q2", "q3"],
+                        momenta=["p1", "p2", "p3"], constants=consts)
+        r = tubes.flux(m, dE=[0.05], saddle_near=[0, 0, 0], n_samples=4000, seed=3, order=6,
+                       section={"kind": "plane", "index": 1, "value": -0.7, "direction": 1},
+                       equilibria={"box": 1.0, "n_grid": 5})
+    finally:
+        if old is None:
+            del os.environ["TUBES_CACHE_DIR"]
+        else:
+            os.environ["TUBES_CACHE_DIR"] = old
+    for k in ("section_volume", "section_volume_err", "p_trans_section", "p_trans_section_err", "p_trans_theory",
+              "flux_normal_form", "flux_sampled"):
+        assert np.array_equal(r[k], f[k]), (k, r[k], f[k])

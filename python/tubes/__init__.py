@@ -532,20 +532,22 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
 
 
 def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
-         n_samples=None, seed=None, t_max=None, gate=None, tol=None, order=None, integrator: dict | None = None,
-         equilibria: dict | None = None) -> dict:
+         n_samples=None, seed=None, t_max=None, gate=None, tol=None, order=None, section: dict | None = None,
+         integrator: dict | None = None, equilibria: dict | None = None) -> dict:
     """The flux of trajectories through a rank-1 saddle's bottleneck (as the flux scene,
     docs/theory.md "Flux in N degrees of freedom"; natural systems, 2 or 3 DOF): dict of arrays
     dE, flux_sampled, flux_sampled_err, flux_leading_order, n_inside, n_reacting, n_recrossing,
     n_undecided; with order = K (a model written as a formula) also flux_normal_form,
     flux_normal_form_change and normal_form (dict: lambda, omegas, coefficients, powers (n, N),
-    symplectic_error, residual, imaginary, smallest_divisor), the scene's numbers. Keywords as
+    symplectic_error, residual, imaginary, smallest_divisor), the scene's numbers. With a plane
+    section (3 DOF; {'kind': 'plane', 'index': k, 'value': c, 'direction': +-1}) also
+    section_volume(_err), p_trans_section(_err), p_trans_theory (flux / volume). Keywords as
     &flux (defaults from the program's reader)."""
     model = model or Model()
     de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
     fl = {k: v for k, v in (("n_samples", n_samples), ("seed", seed), ("t_max", t_max), ("gate", gate),
                              ("tol", tol), ("order", order)) if v is not None}
-    st = _settings(model, saddle, saddle_near, flux=dict(fl, de=list(de)), integrator=integrator,
+    st = _settings(model, saddle, saddle_near, section=section, flux=dict(fl, de=list(de)), integrator=integrator,
                    equilibria=equilibria)
     if not model.info or model.info.get("ndof", 2) < 2:
         raise ValueError("flux: the model needs 2 or 3 degrees of freedom")
@@ -558,6 +560,19 @@ def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_
            "n_undecided": cnt[3].copy()}
     if int(st["flux_order"]) > 0:
         out.update(_normal_form_flux(model, st, de, int(st["flux_order"])))
+    if section is not None:
+        if model.ndof != 3 or int(st["sec_kind"]) != 2:
+            raise ValueError("flux: section: the transition fraction on a section is for a plane section in 3 "
+                             "degrees of freedom (2 DOF: tubes.transition)")
+        stat, v, ve, fr, fre, cnt = _lib().section_transit(
+            *_study(model, st), de, int(st["sec_index"]), float(st["sec_level"]), int(st["sec_dir"]),
+            int(st["flux_n_samples"]), int(st["flux_seed"]), float(st["flux_t_max"]), float(st["flux_gate"]),
+            float(st["flux_tol"]), *_integ(st))
+        _check(stat, "flux (section)")
+        f_th = out.get("flux_normal_form", out["flux_sampled"])
+        f_th = np.where(np.isfinite(f_th), f_th, out["flux_sampled"])
+        out.update({"section_volume": v.copy(), "section_volume_err": ve.copy(), "p_trans_section": fr.copy(),
+                    "p_trans_section_err": fre.copy(), "p_trans_theory": f_th / v})
     return out
 
 
