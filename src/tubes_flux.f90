@@ -122,6 +122,26 @@ contains
     self%t_prev = t_hi
   end subroutine transit_on_step
 
+  !> x0's forward trajectory to t_max, or until the observer stops it (its outcome is in obs).
+  subroutine follow(model, obs, x0, t_max, tol, integ, stat)
+    class(hamiltonian_t), intent(in) :: model
+    class(observer_t), intent(inout) :: obs
+    real(wp), intent(in) :: x0(:), t_max, tol
+    type(integ_choice_t), intent(in) :: integ
+    integer, intent(out) :: stat
+    class(integrator_t), allocatable :: ig
+    real(wp) :: x(size(x0))
+    call make_integrator(integ, ig, stat)
+    if (stat /= TUBES_OK) return
+    call ig%init(model, 0.0_wp)
+    ig%rtol = tol
+    ig%atol = tol
+    x = x0
+    call propagate(ig, x, t_max, stat, observer=obs)
+    if (stat < 0) return
+    stat = TUBES_OK
+  end subroutine follow
+
   !> The outcome of x0's forward trajectory for the section (transit_t): 1, -1 or 0 (t_max).
   subroutine transit_or_return(model, obs0, x0, t_max, tol, integ, outcome, stat)
     class(hamiltonian_t), intent(in) :: model
@@ -129,21 +149,10 @@ contains
     real(wp), intent(in) :: x0(:), t_max, tol
     type(integ_choice_t), intent(in) :: integ
     integer, intent(out) :: outcome, stat
-    class(integrator_t), allocatable :: ig
     type(transit_t) :: obs
-    real(wp) :: x(size(x0))
-    outcome = 0
-    call make_integrator(integ, ig, stat)
-    if (stat /= TUBES_OK) return
-    call ig%init(model, 0.0_wp)
-    ig%rtol = tol
-    ig%atol = tol
     obs = obs0
-    x = x0
-    call propagate(ig, x, t_max, stat, observer=obs)
-    if (stat < 0) return
-    stat = TUBES_OK
-    outcome = obs%outcome
+    call follow(model, obs, x0, t_max, tol, integ, stat)
+    outcome = merge(obs%outcome, 0, stat == TUBES_OK)
   end subroutine transit_or_return
 
   !> The side (+1, -1) by which x's forward trajectory leaves the slab, 0 if not within t_max.
@@ -153,21 +162,10 @@ contains
     real(wp), intent(in) :: x0(:), t_max, tol
     type(integ_choice_t), intent(in) :: integ
     integer, intent(out) :: side, stat
-    class(integrator_t), allocatable :: ig
     type(slab_t) :: obs
-    real(wp) :: x(size(x0))
-    side = 0
-    call make_integrator(integ, ig, stat)
-    if (stat /= TUBES_OK) return
-    call ig%init(model, 0.0_wp)
-    ig%rtol = tol
-    ig%atol = tol
     obs = slab
-    x = x0
-    call propagate(ig, x, t_max, stat, observer=obs)
-    if (stat < 0) return
-    stat = TUBES_OK
-    side = obs%side
+    call follow(model, obs, x0, t_max, tol, integ, stat)
+    side = merge(obs%side, 0, stat == TUBES_OK)
   end subroutine leave_side
 
   !> The extent of {V <= E} from q_s along +-e: the first t with V(q_s + t e) > E (doubling from

@@ -65,6 +65,7 @@ module tubes_normal_form
     type(nf_result_t), pointer :: nf => null()
     real(wp) :: de = 0, j2 = 0
     integer :: stat = TUBES_OK
+    integer :: k = 1                           !! the action f_action_gap varies: 1 J_2 (J_3 = 0), 2 J_3
   end type area_t
 
   public :: normal_form, nf_flux, nf_action_energy, normal_form_flux
@@ -600,11 +601,8 @@ contains
       hi = 2*hi
     end do
     if (.not. gap(ar, k, hi) < 0 .or. gap(ar, k, 0.0_wp) < 0) return
-    if (k == 1) then
-      stat = quad_root(c_funloc(f_gap1), c_loc(ar), 0.0_wp, hi, 0.0_wp, 1.0e-14_wp, root)
-    else
-      stat = quad_root(c_funloc(f_gap2), c_loc(ar), 0.0_wp, hi, 0.0_wp, 1.0e-14_wp, root)
-    end if
+    ar%k = k
+    stat = quad_root(c_funloc(f_action_gap), c_loc(ar), 0.0_wp, hi, 0.0_wp, 1.0e-14_wp, root)
     if (stat /= 0) stat = TUBES_ENOCONV
   end subroutine action_root
 
@@ -622,21 +620,13 @@ contains
     gap = ar%de - nf_action_energy(ar%nf, j(1:ar%nf%ndof - 1))
   end function gap
 
-  real(c_double) function f_gap1(x, user) bind(C)
+  real(c_double) function f_action_gap(x, user) bind(C)
     real(c_double), value :: x
     type(c_ptr), value :: user
     type(area_t), pointer :: ar
     call c_f_pointer(user, ar)
-    f_gap1 = gap(ar, 1, x)
-  end function f_gap1
-
-  real(c_double) function f_gap2(x, user) bind(C)
-    real(c_double), value :: x
-    type(c_ptr), value :: user
-    type(area_t), pointer :: ar
-    call c_f_pointer(user, ar)
-    f_gap2 = gap(ar, 2, x)
-  end function f_gap2
+    f_action_gap = gap(ar, ar%k, x)
+  end function f_action_gap
 
   !> J_3 at the boundary over J_2 = x (0 past the region).
   real(c_double) function f_j3(x, user) bind(C)
