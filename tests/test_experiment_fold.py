@@ -127,3 +127,10 @@ def test_quadrant_2_is_the_mirror_surface(tmp_path):
     mirror = p("m", "&model xi = -0.00656 /\n")
     np.testing.assert_allclose(q2, mirror, rtol=1e-9)
     assert 1.7 < q2[0] / q1[0] < 2.0 and 1.6 < q2[1] / q1[1] < 1.9
+
+
+def test_theory_q24_needs_the_fold(paper_like):
+    """--theory-q24 belongs to --fold all: without it, exit 1 naming the option."""
+    d, h5, _, _, _ = paper_like
+    r = _cli([str(h5), "--theory-q24", str(d / "q.h5"), "--resamples", "0", "--bootstrap", "0"], d)
+    assert r.returncode == 1 and "give --fold all" in r.stderr, r.stderr

@@ -332,3 +332,17 @@ def test_python_section_fraction_is_the_scenes(tmp_path, cache):
     for k in ("section_volume", "section_volume_err", "p_trans_section", "p_trans_section_err", "p_trans_theory",
               "flux_normal_form", "flux_sampled"):
         assert np.array_equal(r[k], f[k]), (k, r[k], f[k])
+
+
+def test_bad_requests_are_refused(tmp_path, cache):
+    """&flux order = 1 (out of range, exit 1 naming it); order 12 in 3 DOF (exit 1: at most 10); a
+    section whose point nearest the saddle lies outside the energy surface (exit 2, saying so)."""
+    tmp = str(tmp_path)
+    p = run(tmp, _nml(COUPLED, CONSTS, [0.05], 1, n_samples=200), cache)
+    assert p.returncode == 1 and "order = 1 is out of range" in p.stderr, p.stderr
+    p = run(tmp, _nml(COUPLED, CONSTS, [0.05], 12, n_samples=200), cache)
+    assert p.returncode == 1 and "at most 10 in 3 degrees of freedom" in p.stderr, p.stderr
+    text = _nml(COUPLED, CONSTS, [0.05], 0, n_samples=200).replace(
+        "&flux", "&section kind = 'plane', index = 1, value = -3.0, direction = 1 /\n        &flux")
+    p = run(tmp, text, cache)
+    assert p.returncode == 2 and "lies outside the energy surface" in p.stderr, p.stderr
