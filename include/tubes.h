@@ -244,7 +244,33 @@ int tubes_section_transit(const char system[TUBES_LSYSTEM], const double params[
                           const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid, const char saddle[8],
                           double de, int k, double c, int dir, int nsamp, int seed, double t_max, double gate,
                           double tol, int method, double h, double omega_bind, int solver, int max_iter,
-                          double *volume, double *volume_err, double *fraction, double *fraction_err, int counts[4]);
+                          double *volume, double *volume_err, double *fraction, double *fraction_err, int counts[4],
+                          double x[], double w[], int cls[]);
+/* ... and every sample: x[6 i + j] its state (j < 2N; NaN outside the shell), w[i] its weight
+ * (the momenta's ellipsoid volume), cls[i] = 1 transit, -1 return, 2 undecided, 3 outside. */
+
+/* The cut of the stable tube of a 3-DOF saddle's NHIM at de with the plane q_k = c (crossed with
+ * sign(dq_k/dt) = dir; src/tubes_cut3.f90, docs/theory.md "Tube cuts in 3 DOF"): the normal form of
+ * degree order from the Taylor expansion (n_terms terms: expo[6 t + i], coef[t]) at the saddle's
+ * state zs; seeds on n_cut + 1 rings of (2 n_cut)^2 NHIM points, stepped off by eps times the
+ * NHIM's radius, followed backwards to their first crossing. Out: xcut[6 m + j] the state of node m
+ * at the section, tcut[m] its time (< 0), stcut[m] its status (0, 1 no crossing within t_max,
+ * 2 crossed the other way first, < 0 a failure); diag = {the seeds' largest |H - E| / dE before
+ * their correction, the cut's enclosed 4-volume, failed nodes, the 4-volume of the cut on every
+ * other node (n_cut even; the discretisation's error estimate), the points unresolved below};
+ * inside[i] = 1 if point pts[6 i ..] of the section lies inside the cut, 0 outside, -1 not a point
+ * (NaN): the parity of the crossings of its line along q_a, those near it moved onto the smooth
+ * (tricubic) interpolant of the nodes by Newton (where Newton fails, unresolved, the
+ * piecewise-linear crossing is kept); inside_pl[i] the same on the piecewise-linear cut. TUBES_ENOCROSS if a node failed; TUBES_EINPUT with msg for a
+ * refused normal form or plane. */
+#define TUBES_CUT3_NODES(n_cut) (((n_cut) + 1) * 4 * (n_cut) * (n_cut))
+int tubes_tube_cut3(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                    const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid, const char saddle[8],
+                    int order, int n_terms, const int expo[], const double coef[], const double zs[6], double de,
+                    int k, double c, int dir, int n_cut, double eps, double t_max, double tol, int method, double h,
+                    double omega_bind, int solver, int max_iter, int n_pts, const double pts[], int inside[],
+                    int inside_pl[], double xcut[], double tcut[], int stcut[], double diag[5], char *msg,
+                    int lmsg);
 
 /* The Birkhoff normal form of H from its Taylor coefficients at a saddle x centre^(N-1)
  * equilibrium (src/tubes_normal_form.f90; docs/theory.md): n_terms terms, expo[t 2N + i] the

@@ -94,8 +94,8 @@ typedef struct {
   int expr_hit;
   /* &flux (docs/input.md); flux_gate resolved like mc_gate */
   double flux_de[TUBES_MAXDE];
-  int flux_nde, flux_n_samples, flux_seed, flux_order;
-  double flux_t_max, flux_gate, flux_tol;
+  int flux_nde, flux_n_samples, flux_seed, flux_order, flux_n_cut;
+  double flux_t_max, flux_gate, flux_tol, flux_cut_eps;
   int orb_family;   /* &orbits family: which centre mode's Lyapunov family (1 .. N-1) */
   int spatial;      /* &model spatial: the cr3bp in three dimensions (model cr3bp_spatial) */
 } tubes_config_t;

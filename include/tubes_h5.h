@@ -25,6 +25,7 @@ int h5_attr_string(hid_t loc, const char *name, const char *s);
 int h5_write_double(hid_t loc, const char *name, int rank, const hsize_t *dims, const double *data,
                     const char *units);
 int h5_write_int(hid_t loc, const char *name, hsize_t n, const int *data, const char *units);
+int h5_write_int_nd(hid_t loc, const char *name, int rank, const hsize_t *dims, const int *data, const char *units);
 int h5_write_strings(hid_t loc, const char *name, hsize_t n, const char *const *s);
 #ifdef __cplusplus
 }

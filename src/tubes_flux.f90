@@ -64,6 +64,10 @@ module tubes_flux
     !> the fraction of it that transits before returning
     real(wp) :: volume = 0, volume_err = 0, fraction = 0, fraction_err = 0
     integer :: n_transit = 0, n_return = 0
+    !> section mode: every sample, its state (2N, n; NaN outside the shell), weight w (n) and
+    !> class (n: 1 transit, -1 return, 2 undecided, 3 outside the shell)
+    real(wp), allocatable :: x(:, :), w(:)
+    integer, allocatable :: cls(:)
   end type flux_result_t
 
   public :: flux_leading_order, flux_sampled
@@ -284,6 +288,10 @@ contains
         stat = TUBES_EINPUT
         return
       end if
+      if (section) then
+        allocate (res%x(2*nd, n))
+        res%x = ieee_value(1.0_wp, ieee_quiet_nan)
+      end if
       slab%n = nd
       slab%origin(1:nd) = sad%q
       slab%normal(1:nd) = r(1, 1:nd)
@@ -301,6 +309,8 @@ contains
         return
       end if
       if (section) then        ! val = w inside the shell, cls = 1 transit, -1 return, 2 undecided
+        res%w = val
+        res%cls = cls
         res%volume = vol*sum(val)/n
         res%volume_err = vol*sqrt(max(0.0_wp, sum((val - sum(val)/n)**2)/(n - 1))/n)
         sw = sum(val)
@@ -395,6 +405,7 @@ contains
       x(1:nd) = q
       x(nd + 1:2*nd) = p
       if (section) then
+        res%x(:, i) = x
         call transit_or_return(model, tobs, x, t_max, tol, integ, fw, sf)
         if (sf /= TUBES_OK) then
           st(i) = sf

@@ -68,7 +68,16 @@ module tubes_normal_form
     integer :: k = 1                           !! the action f_action_gap varies: 1 J_2 (J_3 = 0), 2 J_3
   end type area_t
 
-  public :: normal_form, nf_flux, nf_action_energy, normal_form_flux
+  !> The normal form's coordinate change (old from new, Lie series of degree K - 1) and its
+  !> inverse, with the linear change C: new real normal-form coordinates w = (x_1..x_N, y_1..y_N)
+  !> (x_1 unstable, y_1 stable, (x_k, y_k) a centre) map to dz = z - z_s (nf_to_model).
+  type, public :: nf_change_t
+    type(space_t) :: s
+    complex(wp), allocatable :: fwd(:, :), inv(:, :)   !! (nmon, 2N)
+    real(wp), allocatable :: c(:, :)                   !! (2N, 2N)
+  end type nf_change_t
+
+  public :: normal_form, nf_flux, nf_action_energy, normal_form_flux, nf_to_model, nf_nhim_point
 
 contains
 
@@ -158,14 +167,16 @@ contains
   !> stat: TUBES_EINPUT for bad arguments, or an equilibrium that is not a saddle x centres (a
   !> zero or repeated frequency, a centre of negative energy, ...); TUBES_ENOCONV for a resonance
   !> in the terms; the reason in res%message.
-  subroutine normal_form(nd, order, expo, coef, res, stat, nhim_de)
+  subroutine normal_form(nd, order, expo, coef, res, stat, nhim_de, change)
     integer, intent(in) :: nd, order
     integer, intent(in) :: expo(:, :)
     real(wp), intent(in) :: coef(:)
     type(nf_result_t), intent(out), target :: res
     integer, intent(out) :: stat
     real(wp), intent(in), optional :: nhim_de(:)   !! energies of NHIM points to map (res%nhim)
+    type(nf_change_t), intent(out), optional :: change   !! the coordinate change, kept
     type(space_t) :: s
+    type(nf_change_t) :: ch
     complex(wp), allocatable :: h(:), w(:), t(:), u(:), gens(:, :)
     real(wp) :: m(2*NF_MAX_DOF, 2*NF_MAX_DOF), jm(2*NF_MAX_DOF, 2*NF_MAX_DOF), c(2*NF_MAX_DOF, 2*NF_MAX_DOF)
     real(wp) :: jj(2*NF_MAX_DOF, 2*NF_MAX_DOF), a(2*NF_MAX_DOF, 2*NF_MAX_DOF), scale
@@ -291,8 +302,117 @@ contains
     end do
     if (res%smallest_divisor == huge(1.0_wp)) res%smallest_divisor = 0
     stat = TUBES_OK
-    if (present(nhim_de)) call nhim_points(s, gens, c(1:nv, 1:nv), res, nhim_de)
+    if (.not. (present(nhim_de) .or. present(change))) return
+    call make_change(s, gens, c(1:nv, 1:nv), ch)
+    if (present(nhim_de)) call nhim_points(ch, res, nhim_de)
+    if (present(change)) change = ch
   end subroutine normal_form
+
+  !> The coordinate change old = phi_3 o ... o phi_K (new) and its inverse as polynomials of
+  !> degree K - 1 in the complex coordinates, with C.
+  subroutine make_change(s, gens, c, ch)
+    type(space_t), intent(in) :: s
+    complex(wp), intent(in) :: gens(:, 3:)
+    real(wp), intent(in) :: c(:, :)
+    type(nf_change_t), intent(out) :: ch
+    integer :: i, n, kmax
+    kmax = ubound(gens, 2)
+    ch%s = s
+    ch%c = c
+    allocate (ch%fwd(s%nmon, s%nv), ch%inv(s%nmon, s%nv))
+    do i = 1, s%nv
+      ch%fwd(:, i) = 0
+      ch%fwd(i + 1, i) = 1            ! the degree-1 monomials follow the constant, in variable order
+      ch%inv(:, i) = ch%fwd(:, i)
+      do n = 3, kmax                  ! old = phi_3 o ... o phi_K (new)
+        call lie_series(s, ch%fwd(:, i), gens(:, n), s%kmax - 1)
+      end do
+      do n = kmax, 3, -1              ! new = phi_K^-1 o ... o phi_3^-1 (old)
+        call lie_series(s, ch%inv(:, i), -gens(:, n), s%kmax - 1)
+      end do
+    end do
+  end subroutine make_change
+
+  !> Real normal-form coordinates w -> complex (xi, eta): the hyperbolic pair as it is, each
+  !> centre by the inverse of x = (xi + i eta)/sqrt 2, y = (i xi + eta)/sqrt 2.
+  pure function to_complex(nd, w) result(z)
+    integer, intent(in) :: nd
+    real(wp), intent(in) :: w(:)
+    complex(wp) :: z(2*nd)
+    integer :: i
+    z(1) = w(1)
+    z(nd + 1) = w(nd + 1)
+    do i = 2, nd
+      z(i) = (w(i) - IU*w(nd + i))/sqrt(2.0_wp)
+      z(nd + i) = (w(nd + i) - IU*w(i))/sqrt(2.0_wp)
+    end do
+  end function to_complex
+
+  !> The model's dz = C w(old), w(old) the real coordinates of old(zn).
+  function complex_to_model(ch, zn) result(dz)
+    type(nf_change_t), intent(in) :: ch
+    complex(wp), intent(in) :: zn(:)
+    real(wp) :: dz(ch%s%nv)
+    complex(wp) :: zo(ch%s%nv), w(ch%s%nv)
+    integer :: i, nd
+    nd = ch%s%nd
+    do i = 1, ch%s%nv
+      zo(i) = poly_at(ch%s, ch%fwd(:, i), zn)
+    end do
+    w(1) = zo(1)
+    w(nd + 1) = zo(nd + 1)
+    do i = 2, nd
+      w(i) = (zo(i) + IU*zo(nd + i))/sqrt(2.0_wp)
+      w(nd + i) = (IU*zo(i) + zo(nd + i))/sqrt(2.0_wp)
+    end do
+    dz = matmul(ch%c, real(w, wp))
+  end function complex_to_model
+
+  !> dz = z - z_s of the point with real normal-form coordinates w (x_1..x_N, y_1..y_N).
+  function nf_to_model(ch, w) result(dz)
+    type(nf_change_t), intent(in) :: ch
+    real(wp), intent(in) :: w(:)
+    real(wp) :: dz(ch%s%nv)
+    dz = complex_to_model(ch, to_complex(ch%s%nd, w))
+  end function nf_to_model
+
+  !> The point of the NHIM at E_s + de with the actions' split eta (3 DOF: J_2 = sin^2(eta) times
+  !> its largest, J_3 from H_NF(0, J) - E_s = de; 2 DOF: eta ignored) and the angles th(1:N-1),
+  !> stepped off to y_1 = y1 on the stable manifold x_1 = 0 (H_NF there is H_NF(0, J): the same
+  !> energy): dz = z - z_s. stat TUBES_ENOCONV if the actions have no root there.
+  subroutine nf_nhim_point(nf, ch, de, eta, th, y1, dz, stat)
+    type(nf_result_t), intent(in), target :: nf
+    type(nf_change_t), intent(in) :: ch
+    real(wp), intent(in) :: de, eta, th(:), y1
+    real(wp), intent(out) :: dz(:)
+    integer, intent(out) :: stat
+    type(area_t), target :: ar
+    real(wp) :: j2max, jj(2), w(2*NF_MAX_DOF)
+    integer :: nd, i
+    nd = nf%ndof
+    dz = ieee_value(1.0_wp, ieee_quiet_nan)
+    ar%nf => nf
+    ar%de = de
+    call action_root(ar, 0.0_wp, 1, j2max, stat)
+    if (stat /= TUBES_OK) return
+    jj = [j2max, 0.0_wp]
+    if (nd == 3) then
+      jj(1) = j2max*sin(eta)**2
+      jj(2) = 0
+      ar%j2 = jj(1)
+      if (gap(ar, 2, 0.0_wp) > 0) then
+        call action_root(ar, jj(1), 2, jj(2), stat)
+        if (stat /= TUBES_OK) return
+      end if
+    end if
+    w = 0
+    w(nd + 1) = y1
+    do i = 2, nd
+      w(i) = sqrt(2*jj(i - 1))*cos(th(i - 1))
+      w(nd + i) = sqrt(2*jj(i - 1))*sin(th(i - 1))
+    end do
+    dz = nf_to_model(ch, w(1:2*nd))
+  end subroutine nf_nhim_point
 
   !> f <- exp(L_W) f = f + {f, W} + {{f, W}, W}/2 + ..., truncated at degree dmax.
   subroutine lie_series(s, f, w, dmax)
@@ -327,34 +447,19 @@ contains
   !> (3 DOF: J_2 from 0 to its largest, J_3 from the boundary), angles spread; mapped to the
   !> model's coordinates by the normal form's change (the Lie series of the coordinates, degree
   !> K - 1), and back by its inverse: res%nhim (dz) and res%round_trip.
-  subroutine nhim_points(s, gens, c, res, de)
-    type(space_t), intent(in) :: s
-    complex(wp), intent(in) :: gens(:, 3:)
-    real(wp), intent(in) :: c(:, :)
+  subroutine nhim_points(ch, res, de)
+    type(nf_change_t), intent(in) :: ch
     type(nf_result_t), intent(inout), target :: res
     real(wp), intent(in) :: de(:)
-    complex(wp), allocatable :: fwd(:, :), inv(:, :)
-    complex(wp) :: zn(s%nv), zo(s%nv), zb(s%nv), w(s%nv)
+    complex(wp) :: zn(ch%s%nv), zo(ch%s%nv), zb(ch%s%nv)
     type(area_t), target :: ar
-    real(wp) :: jj(2), th, j2max, rt
-    integer :: nd, nv, i, n, k, m, st, kmax
-    nd = s%nd
-    nv = s%nv
-    kmax = ubound(gens, 2)
-    allocate (fwd(s%nmon, nv), inv(s%nmon, nv), res%nhim(nv, NF_NPTS, size(de)), res%round_trip(size(de)))
+    real(wp) :: jj(2), th, j2max, rt, w(ch%s%nv)
+    integer :: nd, nv, i, k, m, st
+    nd = ch%s%nd
+    nv = ch%s%nv
+    allocate (res%nhim(nv, NF_NPTS, size(de)), res%round_trip(size(de)))
     res%nhim = ieee_value(1.0_wp, ieee_quiet_nan)
     res%round_trip = ieee_value(1.0_wp, ieee_quiet_nan)
-    do i = 1, nv
-      fwd(:, i) = 0
-      fwd(i + 1, i) = 1               ! the degree-1 monomials follow the constant, in variable order
-      inv(:, i) = fwd(:, i)
-      do n = 3, kmax                  ! old = phi_3 o ... o phi_K (new)
-        call lie_series(s, fwd(:, i), gens(:, n), s%kmax - 1)
-      end do
-      do n = kmax, 3, -1              ! new = phi_K^-1 o ... o phi_3^-1 (old)
-        call lie_series(s, inv(:, i), -gens(:, n), s%kmax - 1)
-      end do
-    end do
     ar%nf => res
     do m = 1, size(de)
       ar%de = de(m)
@@ -370,28 +475,20 @@ contains
           call action_root(ar, jj(1), 2, jj(2), st)
           if (st /= TUBES_OK) jj(2) = 0
         end if
-        zn = 0
+        w = 0
         do i = 2, nd
-          w(1) = sqrt(2*jj(i - 1))*cos(th*(i - 1) + 0.7_wp*(i - 2))
-          w(2) = sqrt(2*jj(i - 1))*sin(th*(i - 1) + 0.7_wp*(i - 2))
-          zn(i) = (w(1) - IU*w(2))/sqrt(2.0_wp)
-          zn(nd + i) = (w(2) - IU*w(1))/sqrt(2.0_wp)
+          w(i) = sqrt(2*jj(i - 1))*cos(th*(i - 1) + 0.7_wp*(i - 2))
+          w(nd + i) = sqrt(2*jj(i - 1))*sin(th*(i - 1) + 0.7_wp*(i - 2))
+        end do
+        zn = to_complex(nd, w)
+        do i = 1, nv
+          zo(i) = poly_at(ch%s, ch%fwd(:, i), zn)
         end do
         do i = 1, nv
-          zo(i) = poly_at(s, fwd(:, i), zn)
-        end do
-        do i = 1, nv
-          zb(i) = poly_at(s, inv(:, i), zo)
+          zb(i) = poly_at(ch%s, ch%inv(:, i), zo)
         end do
         rt = max(rt, maxval(abs(zb - zn)))
-        ! back to real normal coordinates (x_k, y_k), then dz = C w
-        w(1) = zo(1)
-        w(nd + 1) = zo(nd + 1)
-        do i = 2, nd
-          w(i) = (zo(i) + IU*zo(nd + i))/sqrt(2.0_wp)
-          w(nd + i) = (IU*zo(i) + zo(nd + i))/sqrt(2.0_wp)
-        end do
-        res%nhim(:, k, m) = matmul(c, real(w, wp))
+        res%nhim(:, k, m) = complex_to_model(ch, zn)
       end do
       res%round_trip(m) = rt
     end do

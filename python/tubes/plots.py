@@ -256,6 +256,75 @@ def plot_surface(res, path):
     plt.close(fig)
 
 
+def _hull(p):
+    """The convex hull of 2-D points p (n, 2), closed (Andrew's monotone chain)."""
+    p = np.unique(np.asarray(p, dtype=float), axis=0)
+
+    def half(pts):
+        h = []
+        for q in pts:
+            while len(h) >= 2 and np.cross(h[-1] - h[-2], q - h[-2]) <= 0:
+                h.pop()
+            h.append(q)
+        return h
+    lower, upper = half(p), half(p[::-1])
+    return np.array(lower[:-1] + upper[:-1] + [lower[0]])
+
+
+def plot_tube_cut3(res, path, k=-1, slice_width=0.05, max_points=3000):
+    """The 3-DOF tube's cut with a 4-D section (the flux scene's /flux/tube_cut, dE index k): its
+    projections on the section's two canonical planes (q_a, p_a) and (q_b, p_b), with the Monte Carlo
+    points that transit (red) and return (blue); and the paper's inside test: the nodes of the cut
+    whose (q_b, p_b) lie within slice_width (relative) of a transiting point's form a circle in
+    (q_a, p_a), and the points near that (q_b, p_b) inside it are those that transit."""
+    plt = _mpl()
+    g = res["flux/tube_cut"]
+    de = float(res["flux/dE"][k])
+    sec = np.asarray(g.section[k]).reshape(-1, 4)
+    pts = np.asarray(g.points[k])
+    out = np.asarray(g.outcome[k])
+    ax_names = str(g.attrs["axes"]).split()
+    a, b = int(ax_names[0][1:]) - 1, int(ax_names[2][1:]) - 1
+    nd = pts.shape[1] // 2
+    xy = np.stack([pts[:, a], pts[:, nd + a], pts[:, b], pts[:, nd + b]], axis=1)
+    rng = np.random.default_rng(0)
+    tr = np.flatnonzero(out == 1)
+    rt = np.flatnonzero(out == -1)
+    rt = rt[rng.permutation(rt.size)[:max_points]]
+    fig, axs = plt.subplots(1, 3, figsize=(15, 4.8))
+    for j, (i0, lab) in enumerate([(0, ax_names[:2]), (2, ax_names[2:])]):
+        ax = axs[j]
+        ax.plot(xy[rt, i0], xy[rt, i0 + 1], ".", ms=1.5, color="tab:blue", alpha=0.4, label="returns")
+        hull = _hull(sec[:, i0:i0 + 2])      # the cut's projection: a disk
+        ax.fill(hull[:, 0], hull[:, 1], color="tab:green", alpha=0.25, lw=1.5, ec="tab:green",
+                label="tube cut (projection)")
+        ax.plot(xy[tr, i0], xy[tr, i0 + 1], ".", ms=3, color="tab:red", label="transits")
+        ax.set_xlabel(lab[0])
+        ax.set_ylabel(lab[1])
+        ax.set_title(f"projection on ({lab[0]}, {lab[1]})")
+    axs[0].legend(loc="upper right", fontsize=8, markerscale=3)
+    # the slice through a transiting point near the cut's middle
+    span = np.ptp(sec[:, 2:4], axis=0)
+    ax = axs[2]
+    if tr.size:
+        c = xy[tr[np.argmin(np.sum(((xy[tr, 2:4] - np.median(sec[:, 2:4], axis=0)) / span) ** 2, axis=1))], 2:4]
+        near = np.all(np.abs((sec[:, 2:4] - c) / span) < slice_width, axis=1)
+        pn = np.all(np.abs((xy[:, 2:4] - c) / span) < slice_width, axis=1)
+        ax.plot(sec[near, 0], sec[near, 1], "o", ms=3, mfc="none", color="0.3", label="cut nodes")
+        ax.plot(xy[pn & (out == -1), 0], xy[pn & (out == -1), 1], ".", color="tab:blue", label="returns")
+        ax.plot(xy[pn & (out == 1), 0], xy[pn & (out == 1), 1], ".", color="tab:red", label="transits")
+        ax.set_title(f"slice ({ax_names[2]}, {ax_names[3]}) = ({c[0]:.3g}, {c[1]:.3g}) "
+                     f"+- {100 * slice_width:.0f} %")
+        ax.legend(loc="upper right", fontsize=8)
+    ax.set_xlabel(ax_names[0])
+    ax.set_ylabel(ax_names[1])
+    fig.suptitle(f"stable tube's cut with the section (dE = {de:g}): a 3-sphere in 4-D; "
+                 f"{int(g.misclassified[k])} misclassified of {int(np.sum((out == 1) | (out == -1)))}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m tubes.plots", description=__doc__.splitlines()[0])
     ap.add_argument("result", help="a tubes HDF5 output file")
@@ -280,6 +349,9 @@ def main(argv=None):
     if "tubes" in res and "section" in res:
         plot_tube_trajectories(res, out / "tube_trajectories.png")
         written.append(out / "tube_trajectories.png")
+    if "flux" in res and "tube_cut" in res["flux"]:
+        plot_tube_cut3(res, out / "tube_cut_3dof.png")
+        written.append(out / "tube_cut_3dof.png")
     for p in written:
         print(p)
     if not written:

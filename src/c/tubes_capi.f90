@@ -21,7 +21,8 @@ module tubes_capi
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE
   use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t
   use tubes_flux, only: flux_result_t, flux_leading_order, flux_sampled
-  use tubes_normal_form, only: nf_result_t, normal_form_flux, NF_NPTS
+  use tubes_normal_form, only: nf_result_t, nf_change_t, normal_form, normal_form_flux, NF_NPTS
+  use tubes_cut3, only: cut3_t, cut3_compute, cut3_inside, cut3_half
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, maps_at
@@ -533,18 +534,21 @@ contains
   !> point nearest the saddle is not inside the energy shell.
   integer(c_int) function c_section_transit(system, params, lo, hi, n_grid, saddle, de, k, c, dir, nsamp, seed, &
       t_max, gate, tol, method, h, omega_bind, solver, max_iter, volume, volume_err, fraction, fraction_err, &
-      counts) result(stat) bind(C, name='tubes_section_transit')
+      counts, x, w, cls) result(stat) bind(C, name='tubes_section_transit')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, k, dir, nsamp, seed, method, solver, max_iter
     real(c_double), value :: de, c, t_max, gate, tol, h, omega_bind
-    real(c_double), intent(out) :: volume, volume_err, fraction, fraction_err
-    integer(c_int), intent(out) :: counts(4)
+    real(c_double), intent(out) :: volume, volume_err, fraction, fraction_err, x(2*MAX_DOF, nsamp), w(nsamp)
+    integer(c_int), intent(out) :: counts(4), cls(nsamp)
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
     type(flux_result_t) :: res
-    integer :: isad, ist
+    integer :: isad, ist, nd
     volume = 0; volume_err = 0; fraction = 0; fraction_err = 0; counts = 0
+    x = ieee_value(1.0_c_double, ieee_quiet_nan)
+    w = 0
+    cls = 3
     call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
                      model, eqs, isad, ist, degenerate_ok=.true.)
     stat = ist
@@ -558,7 +562,81 @@ contains
     fraction = res%fraction
     fraction_err = res%fraction_err
     counts = [res%n_inside, res%n_transit, res%n_return, res%n_undecided]
+    if (ist /= TUBES_OK .or. .not. allocated(res%x)) return
+    nd = model%ndof()
+    x(1:2*nd, :) = res%x
+    w = res%w
+    cls = res%cls
   end function c_section_transit
+
+  !> The cut of the stable tube of a 3-DOF saddle's NHIM at de with the plane q_k = c (crossed with
+  !> sign(dq_k/dt) = dir), from the normal form of order `order` of the Taylor expansion (expo, coef)
+  !> at zs, on a grid of n_cut + 1 rings of (2 n_cut)^2 NHIM points stepped off by eps
+  !> (src/tubes_cut3.f90): the states at the section xcut(6, nodes), times tcut, node status stcut;
+  !> diag = (the seeds' largest |H - E| / dE before their correction, the enclosed 4-volume,
+  !> failed nodes); and for the points pts(6, n_pts) of the section: inside(i) = 1 inside the cut,
+  !> 0 outside, -1 not a point (NaN). TUBES_ENOCROSS if a node failed, TUBES_EINPUT (msg) if the
+  !> normal form or the request is refused.
+  integer(c_int) function c_tube_cut3(system, params, lo, hi, n_grid, saddle, order, n_terms, expo, coef, zs, &
+      de, k, c, dir, n_cut, eps, t_max, tol, method, h, omega_bind, solver, max_iter, n_pts, pts, inside, &
+      inside_pl, xcut, tcut, stcut, diag, msg, lmsg) result(stat) bind(C, name='tubes_tube_cut3')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, order, n_terms, k, dir, n_cut, method, solver, max_iter, n_pts, lmsg
+    integer(c_int), intent(in) :: expo(6, n_terms)
+    real(c_double), intent(in) :: coef(n_terms), zs(6), pts(6, n_pts)
+    real(c_double), value :: de, c, eps, t_max, tol, h, omega_bind
+    integer(c_int), intent(out) :: inside(n_pts), inside_pl(n_pts), stcut((n_cut + 1)*4*n_cut*n_cut)
+    real(c_double), intent(out) :: xcut(6, (n_cut + 1)*4*n_cut*n_cut), tcut((n_cut + 1)*4*n_cut*n_cut), diag(5)
+    character(kind=c_char), intent(out) :: msg(lmsg)
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(nf_result_t) :: nf
+    type(nf_change_t) :: ch
+    type(cut3_t) :: cut, half
+    logical :: ins(n_pts), ok(n_pts), unres(n_pts)
+    integer :: isad, ist
+    inside = -1
+    inside_pl = -1
+    stcut = TUBES_EINPUT
+    xcut = ieee_value(1.0_c_double, ieee_quiet_nan)
+    tcut = xcut(1, 1)
+    diag = [xcut(1, 1), xcut(1, 1), 0.0_c_double, xcut(1, 1), 0.0_c_double]
+    call to_c('', msg, lmsg)
+    call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+                     model, eqs, isad, ist)
+    stat = ist
+    if (ist /= TUBES_OK) return
+    call normal_form(3, order, expo, coef, nf, ist, change=ch)
+    stat = ist
+    if (ist /= TUBES_OK) then
+      call to_c(trim(nf%message), msg, lmsg)
+      return
+    end if
+    call cut3_compute(model, nf, ch, zs, model%energy(zs), de, n_cut, 2*n_cut, eps, k, c, dir, t_max, tol, &
+                      integ_of(method, h, omega_bind, solver, max_iter), cut, ist)
+    stat = ist
+    if (ist == TUBES_EINPUT) then
+      call to_c('the plane is parallel to the direction in which the tube leaves the saddle, or passes ' // &
+                'through the saddle', msg, lmsg)
+      return
+    end if
+    if (.not. allocated(cut%x)) return
+    xcut = cut%x
+    tcut = cut%t
+    stcut = cut%st
+    diag = [cut%seed_energy_error, cut%volume, real(cut%n_failed, c_double), xcut(1, 1), 0.0_c_double]
+    if (ist /= TUBES_OK) return
+    ok = .not. any(pts /= pts, dim=1)
+    call cut3_inside(cut, pts(cut%axes, :), ins)
+    where (ok) inside_pl = merge(1, 0, ins)
+    call cut3_inside(cut, pts(cut%axes, :), ins, smooth=.true., unresolved=unres)
+    where (ok) inside = merge(1, 0, ins)
+    diag(5) = count(unres .and. ok)
+    call cut3_half(cut, half, ist)
+    if (ist /= TUBES_OK) return
+    diag(4) = half%volume
+  end function c_tube_cut3
 
   !> The Birkhoff normal form of H from its Taylor coefficients at a saddle x centre^(N-1)
   !> (n_terms of them: the exponents expo(2N, n_terms) of (dq, dp), coef) to degree order, and

@@ -96,7 +96,11 @@ int h5_write_double(hid_t loc, const char *name, int rank, const hsize_t *dims, 
 }
 
 int h5_write_int(hid_t loc, const char *name, hsize_t n, const int *data, const char *units) {
-  hid_t sp = H5Screate_simple(1, &n, NULL);
+  return h5_write_int_nd(loc, name, 1, &n, data, units);
+}
+
+int h5_write_int_nd(hid_t loc, const char *name, int rank, const hsize_t *dims, const int *data, const char *units) {
+  hid_t sp = H5Screate_simple(rank, dims, NULL);
   hid_t d = H5Dcreate2(loc, name, H5T_NATIVE_INT, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   int rc = (d < 0 || H5Dwrite(d, H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) ? -1 : 0;
   if (rc == 0 && units) rc = h5_attr_string(d, "units", units);

@@ -190,6 +190,11 @@ const nml_var tubes_nml_vars[] = {
     {"flux", "tol", NML_REAL, 1, "1", "1e-10", "1e-14 .. 1e-3", "rtol = atol of the integrations"},
     {"flux", "order", NML_INT, 1, "-", "0", "0, or 2 .. 16 (2 DOF), 2 .. 10 (3 DOF)",
      "degree of the Birkhoff normal form (formula models); 0 = none"},
+    {"flux", "n_cut", NML_INT, 1, "-", "16", "0, or even 4 .. 64",
+     "3 DOF with order and a plane &section: the tube's cut on a grid of n_cut + 1 rings of "
+     "(2 n_cut)^2 NHIM points; 0 = none"},
+    {"flux", "cut_eps", NML_REAL, 1, "1", "1e-3", "1e-8 .. 0.1",
+     "step-off of the tube's seeds from the NHIM, in units of its radius sqrt(2 dE / omega_2)"},
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 _Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 192, "nml_where holds 192 variables");
@@ -859,6 +864,9 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->flux_tol >= 1e-14 && c->flux_tol <= 1e-3)) n += bad(path, w, "flux", "tol", err, "", c->flux_tol);
   if (!(c->flux_order == 0 || (c->flux_order >= 2 && c->flux_order <= 16)))
     n += bad(path, w, "flux", "order", err, "", c->flux_order);
+  if (!(c->flux_n_cut == 0 || (c->flux_n_cut >= 4 && c->flux_n_cut <= 64 && c->flux_n_cut % 2 == 0)))
+    n += bad(path, w, "flux", "n_cut", err, "", c->flux_n_cut);
+  if (!(c->flux_cut_eps >= 1e-8 && c->flux_cut_eps <= 0.1)) n += bad(path, w, "flux", "cut_eps", err, "", c->flux_cut_eps);
   if (!(c->pm_n_seeds >= 1 && c->pm_n_seeds <= 100000)) n += bad(path, w, "sections", "n_seeds", err, "", c->pm_n_seeds);
   if (!(c->pm_n_iter >= 1 && c->pm_n_iter <= 1000000)) n += bad(path, w, "sections", "n_iter", err, "", c->pm_n_iter);
   if (!(c->pm_t_max > 0)) n += bad(path, w, "sections", "t_max", err, "", c->pm_t_max);

@@ -79,8 +79,8 @@ module tubes_nml
     real(c_double) :: expr_seconds
     integer(c_int) :: expr_hit
     real(c_double) :: flux_de(MAXDE)
-    integer(c_int) :: flux_nde, flux_n_samples, flux_seed, flux_order
-    real(c_double) :: flux_t_max, flux_gate, flux_tol
+    integer(c_int) :: flux_nde, flux_n_samples, flux_seed, flux_order, flux_n_cut
+    real(c_double) :: flux_t_max, flux_gate, flux_tol, flux_cut_eps
     integer(c_int) :: orb_family
     integer(c_int) :: spatial
   end type tubes_config_t
@@ -139,8 +139,8 @@ module tubes_nml
     character(LNAME) :: surface
     character(LNAME) :: model_name   !! the library's name of the model (written only)
     real(c_double) :: flux_de(MAXDE)
-    integer :: flux_n_samples, flux_seed, flux_order
-    real(c_double) :: flux_t_max, flux_gate, flux_tol
+    integer :: flux_n_samples, flux_seed, flux_order, flux_n_cut
+    real(c_double) :: flux_t_max, flux_gate, flux_tol, flux_cut_eps
     integer :: orb_family
     logical :: spatial
   end type vars_t
@@ -229,6 +229,8 @@ contains
     v%flux_gate = UNSET
     v%flux_tol = 1.0e-10_c_double
     v%flux_order = 0
+    v%flux_n_cut = 16
+    v%flux_cut_eps = 1.0e-3_c_double
     v%spatial = .false.
     v%pm_de = UNSET
     v%pm_n_seeds = 40
@@ -292,6 +294,7 @@ contains
     call put_list(v%flux_de, cfg%flux_de, cfg%flux_nde, cfg%tra_de(1:cfg%tra_nde))
     cfg%flux_n_samples = v%flux_n_samples; cfg%flux_seed = v%flux_seed; cfg%flux_order = v%flux_order
     cfg%flux_t_max = v%flux_t_max; cfg%flux_tol = v%flux_tol
+    cfg%flux_n_cut = v%flux_n_cut; cfg%flux_cut_eps = v%flux_cut_eps
     cfg%mc_de = v%mc_de; cfg%mc_t_max = v%mc_t_max; cfg%mc_area_tol = v%mc_area_tol
     cfg%mc_n_samples = v%mc_n_samples; cfg%mc_seed = v%mc_seed
     call put_list(v%pm_de, cfg%pm_de, cfg%pm_nde, [100.0_c_double, 500.0_c_double])
@@ -641,6 +644,7 @@ contains
     v%flux_de = cfg%flux_de
     v%flux_n_samples = cfg%flux_n_samples; v%flux_seed = cfg%flux_seed; v%flux_order = cfg%flux_order
     v%flux_t_max = cfg%flux_t_max; v%flux_gate = cfg%flux_gate; v%flux_tol = cfg%flux_tol
+    v%flux_n_cut = cfg%flux_n_cut; v%flux_cut_eps = cfg%flux_cut_eps
     v%pm_de = cfg%pm_de
     v%pm_n_seeds = cfg%pm_n_seeds; v%pm_n_iter = cfg%pm_n_iter; v%pm_t_max = cfg%pm_t_max
     v%exp_n_tracks = cfg%exp_n_tracks; v%exp_seed = cfg%exp_seed
@@ -1019,12 +1023,12 @@ contains
     end subroutine io_montecarlo
     subroutine io_flux()
       real(c_double), allocatable :: de(:)
-      integer :: n_samples, seed, order
-      real(c_double) :: t_max, gate, tol
-      namelist /flux/ de, n_samples, seed, t_max, gate, tol, order
+      integer :: n_samples, seed, order, n_cut
+      real(c_double) :: t_max, gate, tol, cut_eps
+      namelist /flux/ de, n_samples, seed, t_max, gate, tol, order, n_cut, cut_eps
       call list_io(v%flux_de, de)
       n_samples = v%flux_n_samples; seed = v%flux_seed; t_max = v%flux_t_max; order = v%flux_order
-      gate = v%flux_gate; tol = v%flux_tol
+      gate = v%flux_gate; tol = v%flux_tol; n_cut = v%flux_n_cut; cut_eps = v%flux_cut_eps
       if (mode == 'r') then
         read (u, nml=flux, iostat=ios, iomsg=iomsg)
         v%flux_de = de
@@ -1032,7 +1036,7 @@ contains
         write (u, nml=flux, iostat=ios, iomsg=iomsg)
       end if
       v%flux_n_samples = n_samples; v%flux_seed = seed; v%flux_t_max = t_max; v%flux_order = order
-      v%flux_gate = gate; v%flux_tol = tol
+      v%flux_gate = gate; v%flux_tol = tol; v%flux_n_cut = n_cut; v%flux_cut_eps = cut_eps
     end subroutine io_flux
     subroutine io_sections()
       real(c_double), allocatable :: de(:)

@@ -1249,6 +1249,8 @@ typedef struct {
   double *nhim;   /* TUBES_NF_NPTS points z of the NHIM per energy (2N each), mapped from the normal form */
   double *round_trip, *energy_err;   /* per energy: the change's round trip; max |H(z) - E_s - dE| / dE */
   char msg[512];
+  int nt, *ex;    /* the Taylor expansion at z the normal form came from: nt terms, 2N powers each */
+  double *cf, z[2 * MD];
 } nf_out_t;
 
 /* The Birkhoff normal form of the formula model at the saddle (&flux order K; src/tubes_normal_form.f90)
@@ -1285,6 +1287,7 @@ static int flux_normal_form(const tubes_run_t *run, const double *fl, const doub
   int nt = 0, *ex = NULL;
   double *cf = NULL;
   st = tubes_expr_taylor(run->system, z, K, &nt, &ex, &cf, o->msg, sizeof o->msg);
+  memcpy(o->z, z, sizeof z);
   if (st) {
     fprintf(stderr, "%s: &flux: order = %d: %s\n", run->input ? run->input : "tubes", K, o->msg);
     return EXIT_BADINPUT;
@@ -1351,7 +1354,10 @@ static int flux_normal_form(const tubes_run_t *run, const double *fl, const doub
     }
   }
 out:
-  free(ex); free(cf); free(fst); free(f2); free(c2); free(pw2);
+  o->nt = nt;          /* kept for the tube's cut (section_fraction) */
+  o->ex = ex;
+  o->cf = cf;
+  free(fst); free(f2); free(c2); free(pw2);
   return rc;
 }
 
@@ -1360,9 +1366,10 @@ out:
  * when there is one, else the sampled). More than 1 % undecided, or the two more than 5 combined
  * standard errors apart: reported, exit 2. */
 static int section_fraction(const tubes_run_t *run, const double *fl, const double *fe, const double *fnf,
-                            const double *fch, double *sv, double *sve, double *sf, double *sfe, double *pth) {
+                            const double *fch, double *sv, double *sve, double *sf, double *sfe, double *pth,
+                            double *sx, double *sw, int *scls) {
   const tubes_config_t *c = run->cfg;
-  int n = c->flux_nde, rc = 0;
+  int n = c->flux_nde, rc = 0, ns = c->flux_n_samples;
   printf("flux: the transition fraction on the section q%d = %g (dq%d/dt %s 0): Monte Carlo (%d points) against "
          "flux / volume\n", c->sec_index, c->sec_value, c->sec_index, c->sec_direction > 0 ? ">" : "<",
          c->flux_n_samples);
@@ -1374,7 +1381,8 @@ static int section_fraction(const tubes_run_t *run, const double *fl, const doub
     int st = tubes_section_transit(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle,
                                    c->flux_de[k], c->sec_index, c->sec_value, c->sec_direction, c->flux_n_samples,
                                    c->flux_seed, c->flux_t_max, c->flux_gate, c->flux_tol, INTEGRATOR(c), &sv[k],
-                                   &sve[k], &sf[k], &sfe[k], cnt);
+                                   &sve[k], &sf[k], &sfe[k], cnt, sx + (size_t)k * ns * 2 * MD,
+                                   sw + (size_t)k * ns, scls + (size_t)k * ns);
     if (st < 0) {
       char m[128];
       status_text(st, m, sizeof m);
@@ -1404,6 +1412,179 @@ static int section_fraction(const tubes_run_t *run, const double *fl, const doub
     }
   }
   return rc;
+}
+
+/* The tube's cut on the section (3 DOF, a normal form, &flux n_cut > 0): per energy. */
+typedef struct {
+  int n, nodes, ns, axes[4];
+  double *x, *t, *diag, *ptrans, *sx, *sw;   /* nodes' states (6 each), times; diag 4 per energy */
+  double *vex;                                /* the volume extrapolated from the grid and its half */
+  int *st, *inside, *inside_pl, *scls, *mis, *mis_pl, *unres;
+} cut_out_t;
+
+/* The cut of the stable tube with the section q_k = c (src/tubes_cut3.f90): its 4-volume against
+ * the flux, and the Monte Carlo points of section_fraction inside it against their fate. The cut
+ * on every other node gives a second volume V_h: the discretisation is second order, so
+ * V_x = V + (V - V_h) / 3 is the extrapolated volume. The piecewise-linear cut lacks about
+ * |V_x - V|: the decided points in that shell, mu = n_decided |V_x - V| / (the section's volume),
+ * are those its resolution may misclassify. Reported with exit 2: a seed that never reaches the
+ * section; V_x further from the flux than a quarter of |V - V_h| (plus 1e-6 relative); more
+ * misclassified points (by the smooth cut) than mu + 5 sqrt(mu) + 2. */
+static int tube_cut3(const tubes_run_t *run, const nf_out_t *o, const double *sv, cut_out_t *u) {
+  const tubes_config_t *c = run->cfg;
+  int n = c->flux_nde, rc = 0, m = TUBES_CUT3_NODES(c->flux_n_cut), ns = u->ns;
+  int k3 = c->sec_index, a = k3 == 1 ? 2 : 1, b = 6 - k3 - a;
+  int ax[4] = {a, 3 + a, b, 3 + b};
+  memcpy(u->axes, ax, sizeof ax);
+  u->n = n;
+  u->nodes = m;
+  u->x = malloc(sizeof(double) * 6 * (size_t)m * n);
+  u->t = malloc(sizeof(double) * (size_t)m * n);
+  u->st = malloc(sizeof(int) * (size_t)m * n);
+  u->diag = malloc(sizeof(double) * 5 * (size_t)n);
+  u->ptrans = malloc(sizeof(double) * (size_t)n);
+  u->vex = malloc(sizeof(double) * (size_t)n);
+  u->inside = malloc(sizeof(int) * (size_t)ns * n);
+  u->inside_pl = malloc(sizeof(int) * (size_t)ns * n);
+  u->mis = malloc(sizeof(int) * (size_t)n);
+  u->mis_pl = malloc(sizeof(int) * (size_t)n);
+  u->unres = malloc(sizeof(int) * (size_t)n);
+  if (!u->x || !u->t || !u->st || !u->diag || !u->ptrans || !u->vex || !u->inside || !u->inside_pl || !u->mis ||
+      !u->mis_pl || !u->unres)
+    return EXIT_NUMERIC;
+  printf("flux: the stable tube's cut with the section q%d = %g: a 3-sphere from %d NHIM seeds (%d rings of "
+         "%d x %d, step-off %g); its 4-volume against the flux, the Monte Carlo points inside it against their fate\n",
+         k3, c->sec_value, m, c->flux_n_cut + 1, 2 * c->flux_n_cut, 2 * c->flux_n_cut, c->flux_cut_eps);
+  printf("  %10s %13s %13s %13s %11s %11s %12s %12s %8s %8s %11s %9s %10s\n", "dE", "cut volume", "extrapolated",
+         "flux", "extrap/f-1", "seed dE err", "p_trans tube", "Monte Carlo", "inside", "decided", "misclass PL",
+         "misclass", "unresolved");
+  for (int k = 0; k < n; k++) {
+    double t0 = now(), *d = u->diag + 5 * k, *sx = u->sx + (size_t)k * ns * 2 * MD, *sw = u->sw + (size_t)k * ns;
+    int *ins = u->inside + (size_t)k * ns, *inh = u->inside_pl + (size_t)k * ns, *cls = u->scls + (size_t)k * ns;
+    char msg[256] = "";
+    u->mis[k] = u->mis_pl[k] = u->unres[k] = -1;
+    u->ptrans[k] = u->vex[k] = NAN;
+    progress_item("flux: the tube's cut at dE = %g (%d of %d)...\n", c->flux_de[k], k + 1, n);
+    int st = tubes_tube_cut3(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, c->flux_order,
+                             o->nt, o->ex, o->cf, o->z, c->flux_de[k], c->sec_index, c->sec_value, c->sec_direction,
+                             c->flux_n_cut, c->flux_cut_eps, c->flux_t_max, c->flux_tol, INTEGRATOR(c), ns, sx, ins,
+                             inh, u->x + 6 * (size_t)m * k, u->t + (size_t)m * k, u->st + (size_t)m * k, d, msg,
+                             sizeof msg);
+    if (st < 0) {
+      int nf[3] = {0, 0, 0};
+      for (int j = 0; j < m; j++) {
+        int s = u->st[(size_t)m * k + j];
+        nf[s == 1 ? 0 : s == 2 ? 1 : 2] += s != 0;
+      }
+      if (st == TUBES_ENOCROSS)
+        fprintf(stderr, "tubes: flux: the tube's cut at dE = %g: of %d seeds, %d did not reach the section q%d = %g "
+                "within t_max = %g, %d crossed it the other way first, %d failed: the tube does not reach this "
+                "section as a whole (move it nearer the saddle, or raise &flux t_max)\n", c->flux_de[k], m, nf[0],
+                k3, c->sec_value, c->flux_t_max, nf[1], nf[2]);
+      else
+        fprintf(stderr, "tubes: flux: the tube's cut at dE = %g: %s (status %d)\n", c->flux_de[k],
+                msg[0] ? msg : "failed", st);
+      rc = EXIT_NUMERIC;
+      continue;
+    }
+    double win = 0, wall = 0;
+    int nin = 0, ndec = 0, mis = 0, mispl = 0;
+    double mu = 0;
+    for (int i = 0; i < ns; i++) {
+      if (cls[i] == 3 || ins[i] < 0) continue;
+      wall += sw[i];
+      win += ins[i] ? sw[i] : 0;
+      nin += ins[i];
+      if (cls[i] == 1 || cls[i] == -1) {
+        ndec++;
+        mis += ins[i] != (cls[i] == 1);
+        mispl += inh[i] != (cls[i] == 1);
+      }
+    }
+    u->mis[k] = mis;
+    u->mis_pl[k] = mispl;
+    u->unres[k] = (int)d[4];
+    u->ptrans[k] = wall > 0 ? win / wall : NAN;
+    double f = o->flux[k], mc = NAN;
+    {
+      double wt = 0;
+      for (int i = 0; i < ns; i++) wt += cls[i] == 1 ? sw[i] : 0;
+      mc = wall > 0 ? wt / wall : NAN;
+    }
+    u->vex[k] = d[1] + (d[1] - d[3]) / 3;
+    mu = ndec * fabs(u->vex[k] - d[1]) / sv[k];
+    printf("  %10.4g %13.8g %13.8g %13.8g %11.2e %11.2e %12.6f %12.6f %8d %8d %11d %9d %10d   (%.1f s)\n",
+           c->flux_de[k], d[1], u->vex[k], f, u->vex[k] / f - 1, d[0], u->ptrans[k], mc, nin, ndec, mispl, mis,
+           u->unres[k], now() - t0);
+    if (!(fabs(u->vex[k] - f) <= 0.25 * fabs(d[1] - d[3]) + 1e-6 * f)) {
+      fprintf(stderr, "tubes: flux: the tube's cut at dE = %g: its 4-volume %.8g (%.8g on every other node, "
+              "extrapolated %.8g) and the normal form's flux %.8g differ by more than the grid explains: the cut "
+              "is under-resolved (raise &flux n_cut) or the normal form does not reach dE (raise &flux order, "
+              "lower dE)\n", c->flux_de[k], d[1], d[3], u->vex[k], f);
+      rc = EXIT_NUMERIC;
+    } else if (mis > mu + 5 * sqrt(mu) + 2) {
+      fprintf(stderr, "tubes: flux: the tube's cut at dE = %g: %d of the %d decided Monte Carlo points lie on the "
+              "wrong side of it for their fate, more than its resolution explains (about %.1f lie in the shell the "
+              "piecewise-linear cut misses): the tube does not separate transit from return on this section\n",
+              c->flux_de[k], mis, ndec, mu);
+      rc = EXIT_NUMERIC;
+    }
+  }
+  return rc;
+}
+
+static int write_tube_cut3(hid_t g, const cut_out_t *u) {
+  hid_t h = h5_group(g, "tube_cut");
+  if (h < 0) return 1;
+  int nc = (int)lround(cbrt(u->nodes / 4.0));   /* nodes = (n_cut + 1) 4 n_cut^2 */
+  while (TUBES_CUT3_NODES(nc) < u->nodes) nc++;
+  while (TUBES_CUT3_NODES(nc) > u->nodes) nc--;
+  hsize_t dx[5] = {(hsize_t)u->n, (hsize_t)nc + 1, 2 * (hsize_t)nc, 2 * (hsize_t)nc, 6};
+  hsize_t dn = (hsize_t)u->n, dd[2] = {(hsize_t)u->n, 3}, dp[3] = {(hsize_t)u->n, (hsize_t)u->ns, 6},
+          ds[2] = {(hsize_t)u->n, (hsize_t)u->ns};
+  double *sec = malloc(sizeof(double) * 4 * (size_t)u->nodes * u->n);
+  double *px = malloc(sizeof(double) * 6 * (size_t)u->ns * u->n);
+  double *vol = malloc(sizeof(double) * (size_t)u->n), *een = malloc(sizeof(double) * (size_t)u->n);
+  int e = !sec || !px || !vol || !een;
+  for (size_t j = 0; !e && j < (size_t)u->nodes * u->n; j++)
+    for (int i = 0; i < 4; i++) sec[4 * j + i] = u->x[6 * j + u->axes[i] - 1];
+  for (size_t j = 0; !e && j < (size_t)u->ns * u->n; j++)
+    for (int i = 0; i < 6; i++) px[6 * j + i] = u->sx[2 * MD * j + i];
+  double *vh = malloc(sizeof(double) * (size_t)u->n);
+  e |= !vh;
+  for (int k = 0; !e && k < u->n; k++) {
+    vol[k] = u->diag[4 * k + 1];
+    een[k] = u->diag[4 * k];
+    vh[k] = u->diag[4 * k + 3];
+  }
+  if (!e) {
+    e |= h5_write_double(h, "states", 5, dx, u->x, "state units");
+    dx[4] = 4;
+    e |= h5_write_double(h, "section", 5, dx, sec, "state units");
+    e |= h5_write_double(h, "time", 4, dx, u->t, "time");
+    e |= h5_write_int_nd(h, "status", 4, dx, u->st, "1");
+    e |= h5_write_double(h, "volume", 1, &dn, vol, "action^2");
+    e |= h5_write_double(h, "volume_half", 1, &dn, vh, "action^2");
+    e |= h5_write_double(h, "seed_energy_error", 1, &dn, een, "1");
+    e |= h5_write_double(h, "p_trans_tube", 1, &dn, u->ptrans, "1");
+    e |= h5_write_int(h, "misclassified", dn, u->mis, "1");
+    e |= h5_write_int(h, "misclassified_pl", dn, u->mis_pl, "1");
+    e |= h5_write_int(h, "unresolved", dn, u->unres, "1");
+    e |= h5_write_double(h, "volume_extrapolated", 1, &dn, u->vex, "action^2");
+    e |= h5_write_double(h, "points", 3, dp, px, "state units");
+    e |= h5_write_double(h, "weight", 2, ds, u->sw, "action^2 / length^2");
+    e |= h5_write_int_nd(h, "outcome", 2, ds, u->scls, "1");
+    e |= h5_write_int_nd(h, "inside", 2, ds, u->inside, "1");
+    e |= h5_write_int_nd(h, "inside_pl", 2, ds, u->inside_pl, "1");
+    char axes[64];
+    snprintf(axes, sizeof axes, "q%d p%d q%d p%d", u->axes[0], u->axes[0], u->axes[2], u->axes[2]);
+    e |= h5_attr_string(h, "axes", axes);
+    e |= h5_attr_long(h, "n_cut", nc);
+  }
+  (void)dd;
+  free(sec); free(px); free(vol); free(een); free(vh);
+  H5Gclose(h);
+  return e;
 }
 
 static int write_normal_form(hid_t g, const nf_out_t *o, int n) {
@@ -1500,9 +1681,26 @@ int scene_flux(tubes_run_t *run) {
   double *sv = calloc((size_t)n, sizeof(double)), *sve = calloc((size_t)n, sizeof(double)),
          *sf = calloc((size_t)n, sizeof(double)), *sfe = calloc((size_t)n, sizeof(double)),
          *pth = calloc((size_t)n, sizeof(double));
-  if (sec && sv && sve && sf && sfe && pth) {
-    int r3 = section_fraction(run, fl, fe, nfo.flux, nfo.change, sv, sve, sf, sfe, pth);
+  cut_out_t cut;
+  memset(&cut, 0, sizeof cut);
+  cut.ns = c->flux_n_samples;
+  if (sec) {
+    cut.sx = malloc(sizeof(double) * 2 * MD * (size_t)n * cut.ns);
+    cut.sw = malloc(sizeof(double) * (size_t)n * cut.ns);
+    cut.scls = malloc(sizeof(int) * (size_t)n * cut.ns);
+  }
+  if (sec && sv && sve && sf && sfe && pth && cut.sx && cut.sw && cut.scls) {
+    int r3 = section_fraction(run, fl, fe, nfo.flux, nfo.change, sv, sve, sf, sfe, pth, cut.sx, cut.sw, cut.scls);
     if (r3 && !rc) rc = r3;
+    /* the tube's cut: a normal form (its coordinates seed the tube) with every energy's flux */
+    int cutok = c->flux_n_cut > 0 && nfo.done && nfo.stat == 0 && nfo.ex;
+    for (int k = 0; cutok && k < n; k++) cutok = isfinite(nfo.flux[k]) && isfinite(sv[k]);
+    if (cutok) {
+      int r4 = tube_cut3(run, &nfo, sv, &cut);
+      if (r4 && !rc) rc = r4;
+    } else if (c->flux_n_cut > 0) {
+      printf("  (no tube cut: it is seeded from the normal form, which needs &flux order and a flux at every dE)\n");
+    }
   }
   hid_t g = h5_group(run->file, "flux");
   int e = g < 0;
@@ -1540,11 +1738,15 @@ int scene_flux(tubes_run_t *run) {
       e |= h5_attr_long(g, "section_index", c->sec_index);
       e |= h5_attr_double(g, "section_value", c->sec_value);
       e |= h5_attr_long(g, "section_direction", c->sec_direction);
+      if (cut.mis) e |= write_tube_cut3(g, &cut);
     }
   }
   if (g >= 0) H5Gclose(g);
   free(fl); free(fe); free(lo); free(cnt); free(stat); free(nin); free(nre); free(nrc); free(nun);
   free(nfo.flux); free(nfo.change); free(nfo.coef); free(nfo.pw); free(nfo.nhim); free(nfo.round_trip);
-  free(nfo.energy_err); free(sv); free(sve); free(sf); free(sfe); free(pth);
+  free(nfo.energy_err); free(sv); free(sve); free(sf); free(sfe); free(pth); free(nfo.ex); free(nfo.cf);
+  free(cut.x); free(cut.t); free(cut.st); free(cut.diag); free(cut.ptrans); free(cut.inside); free(cut.mis);
+  free(cut.vex); free(cut.inside_pl); free(cut.mis_pl); free(cut.unres);
+  free(cut.sx); free(cut.sw); free(cut.scls);
   return e ? EXIT_IO : rc;
 }
