@@ -255,22 +255,25 @@ int tubes_section_transit(const char system[TUBES_LSYSTEM], const double params[
  * state zs; seeds on n_cut + 1 rings of (2 n_cut)^2 NHIM points, stepped off by eps times the
  * NHIM's radius, followed backwards to their first crossing. Out: xcut[6 m + j] the state of node m
  * at the section, tcut[m] its time (< 0), stcut[m] its status (0, 1 no crossing within t_max,
- * 2 crossed the other way first, < 0 a failure); diag = {the seeds' largest |H - E| / dE before
- * their correction, the cut's enclosed 4-volume, failed nodes, the 4-volume of the cut on every
- * other node (n_cut even; the discretisation's error estimate), the points unresolved below};
- * inside[i] = 1 if point pts[6 i ..] of the section lies inside the cut, 0 outside, -1 not a point
- * (NaN): the parity of the crossings of its line along q_a, those near it moved onto the smooth
- * (tricubic) interpolant of the nodes by Newton (where Newton fails, unresolved, the
- * piecewise-linear crossing is kept); inside_pl[i] the same on the piecewise-linear cut. TUBES_ENOCROSS if a node failed; TUBES_EINPUT with msg for a
- * refused normal form or plane. */
+ * 2 crossed the other way first, < 0 a failure). The section's Monte Carlo points pts[6 i + j]
+ * (NaN: none) with weights w[i] and classes cls[i] (tubes_section_transit's) are placed:
+ * inside[i] = 1 inside the cut, 0 outside, -1 not a point: the parity of the crossings of its line
+ * along q_a, those near it moved onto the smooth (tricubic) interpolant of the nodes by Newton;
+ * inside_pl[i] the same on the piecewise-linear cut. diag[TUBES_CUT3_NDIAG]: the seeds' largest
+ * |H - E| / dE before their correction, the cut's 4-volume V, failed nodes, V_h on every other node,
+ * V_x = V + (V - V_h) / 3, unresolved points (Newton failed: the linear crossing kept), decided
+ * points misclassified, the same by the linear cut, decided points, points inside, the weighted
+ * fraction inside (p_trans of the tube), the weighted fraction that transits. TUBES_ENOCROSS if a
+ * node failed; TUBES_EINPUT with msg for a refused normal form or plane. */
 #define TUBES_CUT3_NODES(n_cut) (((n_cut) + 1) * 4 * (n_cut) * (n_cut))
+#define TUBES_CUT3_NDIAG 12
 int tubes_tube_cut3(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                     const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid, const char saddle[8],
                     int order, int n_terms, const int expo[], const double coef[], const double zs[6], double de,
                     int k, double c, int dir, int n_cut, double eps, double t_max, double tol, int method, double h,
-                    double omega_bind, int solver, int max_iter, int n_pts, const double pts[], int inside[],
-                    int inside_pl[], double xcut[], double tcut[], int stcut[], double diag[5], char *msg,
-                    int lmsg);
+                    double omega_bind, int solver, int max_iter, int n_pts, const double pts[], const double w[],
+                    const int cls[], int inside[], int inside_pl[], double xcut[], double tcut[], int stcut[],
+                    double diag[TUBES_CUT3_NDIAG], char *msg, int lmsg);
 
 /* The Birkhoff normal form of H from its Taylor coefficients at a saddle x centre^(N-1)
  * equilibrium (src/tubes_normal_form.f90; docs/theory.md): n_terms terms, expo[t 2N + i] the

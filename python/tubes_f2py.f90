@@ -325,7 +325,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
                       sec_index, sec_level, sec_dir, tub_eps, tub_area_tol, tub_t_max, tub_n_init, &
                       tub_n_max, tra_area_tol, mc_t_max, mc_gate, mc_area_tol, pm_n_seeds, pm_n_iter, pm_t_max, &
                       method, h, omega_bind, solver, int_max_iter, orb_family, flux_n_samples, flux_seed, &
-                      flux_t_max, flux_gate, flux_tol, flux_order, expr_lib)
+                      flux_t_max, flux_gate, flux_tol, flux_order, flux_n_cut, flux_cut_eps, expr_lib)
   ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
   ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
   ! scene calls take their defaults and their checks from here; msg holds the messages
@@ -337,8 +337,8 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
                                  sec_kind, sec_index, sec_dir, tub_n_init, tub_n_max, pm_n_seeds, &
                                  pm_n_iter, method, solver, int_max_iter, orb_family, flux_n_samples, &
                                  flux_seed
-  real(c_double), intent(out) :: flux_t_max, flux_gate, flux_tol
-  integer(c_int), intent(out) :: flux_order
+  real(c_double), intent(out) :: flux_t_max, flux_gate, flux_tol, flux_cut_eps
+  integer(c_int), intent(out) :: flux_order, flux_n_cut
   character(len=1024), intent(out) :: expr_lib
   character(len=2048), intent(out) :: msg
   character(len=32), intent(out) :: system
@@ -426,6 +426,8 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   flux_gate = cfg%flux_gate
   flux_tol = cfg%flux_tol
   flux_order = cfg%flux_order
+  flux_n_cut = cfg%flux_n_cut
+  flux_cut_eps = cfg%flux_cut_eps
   expr_lib = chars(cfg%expr_lib)   ! a formula model's library file ('' for a built-in)
 contains
   function chars(c) result(s)
@@ -689,7 +691,8 @@ subroutine birkhoff(nd, order, nt, expo, coef, nde, de, stat, flux, fstat, lambd
 end subroutine birkhoff
 
 subroutine section_transit(system, params, lo, hi, n_grid, saddle, nde, des, k, c, dir, nsamp, seed, t_max, gate, &
-                           tol, method, h, omega_bind, solver, int_max_iter, stat, vol, vol_err, frac, frac_err, counts)
+                           tol, method, h, omega_bind, solver, int_max_iter, stat, vol, vol_err, frac, frac_err, counts, &
+                           x, w, cls)
   ! the energy surface's volume on a plane section and its transiting fraction (as the flux scene)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_hamiltonian, only: hamiltonian_t
@@ -703,11 +706,14 @@ subroutine section_transit(system, params, lo, hi, n_grid, saddle, nde, des, k, 
   real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), c, t_max, gate, tol, h, omega_bind
   integer(c_int), intent(out) :: stat, counts(4, nde)
   real(c_double), intent(out) :: vol(nde), vol_err(nde), frac(nde), frac_err(nde)
+  real(c_double), intent(out) :: x(6, nsamp, nde), w(nsamp, nde)   ! every sample (tube_cut3's points)
+  integer(c_int), intent(out) :: cls(nsamp, nde)
   class(hamiltonian_t), allocatable :: model
   type(equilibrium_t), allocatable :: eqs(:)
   type(flux_result_t) :: res
   integer :: isad, j, nd
   vol = 0; vol_err = 0; frac = 0; frac_err = 0; counts = 0
+  x = 0; w = 0; cls = 3
   call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat, degenerate_ok=.true.)
   if (stat /= 0) return
   nd = model%ndof()
@@ -721,5 +727,35 @@ subroutine section_transit(system, params, lo, hi, n_grid, saddle, nde, des, k, 
     frac(j) = res%fraction
     frac_err(j) = res%fraction_err
     counts(:, j) = [res%n_inside, res%n_transit, res%n_return, res%n_undecided]
+    x(1:2*nd, :, j) = res%x
+    w(:, j) = res%w
+    cls(:, j) = res%cls
   end do
 end subroutine section_transit
+
+subroutine tube_cut3(system, params, lo, hi, n_grid, saddle, order, nt, expo, coef, zs, de, k, c, dir, n_cut, eps, &
+                     t_max, tol, method, h, omega_bind, solver, int_max_iter, npts, pts, w, cls, stat, inside, &
+                     inside_pl, xcut, tcut, stcut, diag, msg)
+  ! the 3-DOF tube's cut with a plane section and the section's points inside it (as the flux scene)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, order, nt, k, dir, n_cut, method, solver, int_max_iter, npts
+  integer(c_int), intent(in) :: expo(6, nt), cls(npts)
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), coef(nt), zs(6), de, c, eps, t_max, tol, h, omega_bind
+  real(c_double), intent(in) :: pts(6, npts), w(npts)
+  integer(c_int), intent(out) :: stat, inside(npts), inside_pl(npts), stcut((n_cut + 1)*4*n_cut*n_cut)
+  real(c_double), intent(out) :: xcut(6, (n_cut + 1)*4*n_cut*n_cut), tcut((n_cut + 1)*4*n_cut*n_cut), diag(12)
+  character(len=256), intent(out) :: msg
+  type(cut3_t) :: cut
+  xcut = 0; tcut = 0; stcut = -1
+  call cut3_study(trim(system), params, lo, hi, n_grid, trim(saddle), order, expo, coef, zs, de, k, c, dir, n_cut, &
+                  eps, t_max, tol, integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
+                  solver=solver, max_iter=int_max_iter)), pts, w, cls, inside, inside_pl, cut, diag, msg, stat)
+  if (.not. allocated(cut%x)) return
+  xcut = cut%x
+  tcut = cut%t
+  stcut = cut%st
+end subroutine tube_cut3

@@ -434,7 +434,8 @@ _SETTINGS = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", 
              "sec_kind", "sec_index", "sec_level", "sec_dir", "tub_eps", "tub_area_tol", "tub_t_max",
              "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate", "mc_area_tol", "pm_n_seeds",
              "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter", "orb_family",
-             "flux_n_samples", "flux_seed", "flux_t_max", "flux_gate", "flux_tol", "flux_order", "expr_lib")
+             "flux_n_samples", "flux_seed", "flux_t_max", "flux_gate", "flux_tol", "flux_order", "flux_n_cut",
+             "flux_cut_eps", "expr_lib")
 
 
 def _read_namelist(lines: list[str], who: str) -> dict:
@@ -533,7 +534,7 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
 
 def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
          n_samples=None, seed=None, t_max=None, gate=None, tol=None, order=None, section: dict | None = None,
-         integrator: dict | None = None, equilibria: dict | None = None) -> dict:
+         integrator: dict | None = None, equilibria: dict | None = None, **cut_options) -> dict:
     """The flux of trajectories through a rank-1 saddle's bottleneck (as the flux scene,
     docs/theory.md "Flux in N degrees of freedom"; natural systems, 2 or 3 DOF): dict of arrays
     dE, flux_sampled, flux_sampled_err, flux_leading_order, n_inside, n_reacting, n_recrossing,
@@ -541,12 +542,17 @@ def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_
     flux_normal_form_change and normal_form (dict: lambda, omegas, coefficients, powers (n, N),
     symplectic_error, residual, imaginary, smallest_divisor), the scene's numbers. With a plane
     section (3 DOF; {'kind': 'plane', 'index': k, 'value': c, 'direction': +-1}) also
-    section_volume(_err), p_trans_section(_err), p_trans_theory (flux / volume). Keywords as
-    &flux (defaults from the program's reader)."""
+    section_volume(_err), p_trans_section(_err), p_trans_theory (flux / volume), and with order
+    (&flux n_cut > 0) tube_cut: the stable tube's cut with the section per dE (the scene's
+    /flux/tube_cut: section, states, time, status, volume, volume_half, volume_extrapolated,
+    seed_energy_error, misclassified, misclassified_pl, unresolved, p_trans_tube, and the section's
+    points, weight, outcome, inside, inside_pl). Keywords as &flux (defaults from the program's
+    reader; n_cut and cut_eps too)."""
     model = model or Model()
     de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
     fl = {k: v for k, v in (("n_samples", n_samples), ("seed", seed), ("t_max", t_max), ("gate", gate),
                              ("tol", tol), ("order", order)) if v is not None}
+    fl.update(cut_options)
     st = _settings(model, saddle, saddle_near, section=section, flux=dict(fl, de=list(de)), integrator=integrator,
                    equilibria=equilibria)
     if not model.info or model.info.get("ndof", 2) < 2:
@@ -558,13 +564,15 @@ def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_
     out = {"dE": de, "flux_sampled": f.copy(), "flux_sampled_err": e.copy(), "flux_leading_order": lead.copy(),
            "n_inside": cnt[0].copy(), "n_reacting": cnt[1].copy(), "n_recrossing": cnt[2].copy(),
            "n_undecided": cnt[3].copy()}
+    taylor = None
     if int(st["flux_order"]) > 0:
         out.update(_normal_form_flux(model, st, de, int(st["flux_order"])))
+        taylor = out.pop("_taylor")
     if section is not None:
         if model.ndof != 3 or int(st["sec_kind"]) != 2:
             raise ValueError("flux: section: the transition fraction on a section is for a plane section in 3 "
                              "degrees of freedom (2 DOF: tubes.transition)")
-        stat, v, ve, fr, fre, cnt = _lib().section_transit(
+        stat, v, ve, fr, fre, cnt, xs, ws, cls = _lib().section_transit(
             *_study(model, st), de, int(st["sec_index"]), float(st["sec_level"]), int(st["sec_dir"]),
             int(st["flux_n_samples"]), int(st["flux_seed"]), float(st["flux_t_max"]), float(st["flux_gate"]),
             float(st["flux_tol"]), *_integ(st))
@@ -573,6 +581,45 @@ def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_
         f_th = np.where(np.isfinite(f_th), f_th, out["flux_sampled"])
         out.update({"section_volume": v.copy(), "section_volume_err": ve.copy(), "p_trans_section": fr.copy(),
                     "p_trans_section_err": fre.copy(), "p_trans_theory": f_th / v})
+        if taylor is not None and int(st["flux_n_cut"]) > 0:
+            out["tube_cut"] = _tube_cut3(model, st, de, taylor, xs, ws, cls)
+    return out
+
+
+def _tube_cut3(model, st, de, taylor, xs, ws, cls):
+    """The flux scene's tube cut (src/tubes_cut3.f90, cut3_study) at every dE, the section's Monte
+    Carlo points xs (6, n, nde), weights and classes placed inside or outside it."""
+    expo, coef, z = taylor
+    nc = int(st["flux_n_cut"])
+    names = ("seed_energy_error", "volume", "n_failed", "volume_half", "volume_extrapolated", "unresolved",
+             "misclassified", "misclassified_pl", "n_decided", "n_inside_tube", "p_trans_tube", "p_trans_monte_carlo")
+    res = {k: [] for k in names + ("section", "states", "time", "status", "inside", "inside_pl")}
+    k3 = int(st["sec_index"])
+    a = 2 if k3 == 1 else 1
+    b = 6 - k3 - a
+    ax = [a - 1, 3 + a - 1, b - 1, 3 + b - 1]
+    for j, d in enumerate(de):
+        pts = np.asfortranarray(np.where(cls[:, j] == 3, np.nan, xs[:, :, j]))
+        (stat, ins, inpl, xc, tc, sc, diag, msg) = _lib().tube_cut3(
+            *_study(model, st), int(st["flux_order"]), expo, coef, z, float(d), k3, float(st["sec_level"]),
+            int(st["sec_dir"]), nc, float(st["flux_cut_eps"]), float(st["flux_t_max"]), float(st["flux_tol"]),
+            *_integ(st), pts, ws[:, j], cls[:, j])
+        if stat != 0:
+            raise ValueError(f"flux: the tube's cut at dE = {d:g}: {_str(msg) or 'failed'} (status {stat})")
+        shape = (nc + 1, 2 * nc, 2 * nc)
+        for i, k in enumerate(names):
+            res[k].append(diag[i])
+        res["states"].append(xc.T.reshape(shape + (6,)))
+        res["section"].append(xc[ax].T.reshape(shape + (4,)))
+        res["time"].append(tc.reshape(shape))
+        res["status"].append(sc.reshape(shape))
+        res["inside"].append(ins.copy())
+        res["inside_pl"].append(inpl.copy())
+    out = {k: np.array(v) for k, v in res.items()}
+    for k in ("n_failed", "unresolved", "misclassified", "misclassified_pl", "n_decided", "n_inside_tube"):
+        out[k] = out[k].astype(int)
+    out.update({"points": np.transpose(xs, (2, 1, 0)).copy(), "weight": ws.T.copy(), "outcome": cls.T.copy(),
+                "axes": f"q{a} p{a} q{b} p{b}", "n_cut": nc})
     return out
 
 
@@ -603,7 +650,9 @@ def _normal_form_flux(model, st, de, order):
     if stat != 0:
         raise ValueError(f"flux: {_str(msg)}")
     change = np.abs(fl - res[1][1]) if len(res) > 1 else np.full(de.size, np.nan)
-    return {"flux_normal_form": fl.copy(), "flux_normal_form_change": change,
+    z = np.zeros(6)
+    z[:2 * nd] = eq["state"][k]
+    return {"_taylor": (expo, coef, z), "flux_normal_form": fl.copy(), "flux_normal_form_change": change,
             "normal_form": {"lambda": float(lam), "omegas": om[:nd - 1].copy(), "coefficients": cf[:n_nf].copy(),
                             "powers": pw[:nd, :n_nf].T.copy(), "symplectic_error": float(diag[0]),
                             "residual": float(diag[1]), "imaginary": float(diag[2]),

@@ -263,7 +263,8 @@ def _hull(p):
     def half(pts):
         h = []
         for q in pts:
-            while len(h) >= 2 and np.cross(h[-1] - h[-2], q - h[-2]) <= 0:
+            while len(h) >= 2 and ((h[-1][0] - h[-2][0]) * (q[1] - h[-2][1])
+                                   - (h[-1][1] - h[-2][1]) * (q[0] - h[-2][0])) <= 0:
                 h.pop()
             h.append(q)
         return h
@@ -281,10 +282,22 @@ def plot_tube_cut3(res, path, k=-1, slice_width=0.05, max_points=3000):
     g = res["flux/tube_cut"]
     de = float(res["flux/dE"][k])
     sec = np.asarray(g.section[k]).reshape(-1, 4)
-    pts = np.asarray(g.points[k])
-    out = np.asarray(g.outcome[k])
     ax_names = str(g.attrs["axes"]).split()
     a, b = int(ax_names[0][1:]) - 1, int(ax_names[2][1:]) - 1
+    ks = int(g.attrs["section_index"]) - 1
+    sec_name = f"q{ks + 1}"
+    if "model" in res and "coordinates" in res["model"].attrs and "momenta" in res["model"].attrs:
+        qn, pn_ = res["model"].attrs["coordinates"], res["model"].attrs["momenta"]
+        qn = qn.split() if isinstance(qn, str) else list(qn)
+        pn_ = pn_.split() if isinstance(pn_, str) else list(pn_)
+        if len(qn) == 3 and len(pn_) == 3:       # the model's own names
+            ax_names = [qn[a], pn_[a], qn[b], pn_[b]]
+            sec_name = qn[ks]
+    if "points" in g:           # the section's Monte Carlo (natural models)
+        pts = np.asarray(g.points[k])
+        out = np.asarray(g.outcome[k])
+    else:
+        pts, out = np.zeros((0, 6)), np.zeros(0, dtype=int)
     nd = pts.shape[1] // 2
     xy = np.stack([pts[:, a], pts[:, nd + a], pts[:, b], pts[:, nd + b]], axis=1)
     rng = np.random.default_rng(0)
@@ -306,20 +319,23 @@ def plot_tube_cut3(res, path, k=-1, slice_width=0.05, max_points=3000):
     # the slice through a transiting point near the cut's middle
     span = np.ptp(sec[:, 2:4], axis=0)
     ax = axs[2]
+    c = np.median(sec[:, 2:4], axis=0)      # through the middle of the cut, or a transiting point near it
     if tr.size:
-        c = xy[tr[np.argmin(np.sum(((xy[tr, 2:4] - np.median(sec[:, 2:4], axis=0)) / span) ** 2, axis=1))], 2:4]
-        near = np.all(np.abs((sec[:, 2:4] - c) / span) < slice_width, axis=1)
-        pn = np.all(np.abs((xy[:, 2:4] - c) / span) < slice_width, axis=1)
-        ax.plot(sec[near, 0], sec[near, 1], "o", ms=3, mfc="none", color="0.3", label="cut nodes")
-        ax.plot(xy[pn & (out == -1), 0], xy[pn & (out == -1), 1], ".", color="tab:blue", label="returns")
-        ax.plot(xy[pn & (out == 1), 0], xy[pn & (out == 1), 1], ".", color="tab:red", label="transits")
-        ax.set_title(f"slice ({ax_names[2]}, {ax_names[3]}) = ({c[0]:.3g}, {c[1]:.3g}) "
-                     f"+- {100 * slice_width:.0f} %")
-        ax.legend(loc="upper right", fontsize=8)
+        c = xy[tr[np.argmin(np.sum(((xy[tr, 2:4] - c) / span) ** 2, axis=1))], 2:4]
+    near = np.all(np.abs((sec[:, 2:4] - c) / span) < slice_width, axis=1)
+    pn = np.all(np.abs((xy[:, 2:4] - c) / span) < slice_width, axis=1)
+    ax.plot(sec[near, 0], sec[near, 1], "o", ms=3, mfc="none", color="0.3", label="cut nodes")
+    ax.plot(xy[pn & (out == -1), 0], xy[pn & (out == -1), 1], ".", color="tab:blue", label="returns")
+    ax.plot(xy[pn & (out == 1), 0], xy[pn & (out == 1), 1], ".", color="tab:red", label="transits")
+    ax.set_title(f"slice ({ax_names[2]}, {ax_names[3]}) = ({c[0]:.3g}, {c[1]:.3g}) "
+                 f"+- {100 * slice_width:.0f} %")
+    ax.legend(loc="upper right", fontsize=8)
     ax.set_xlabel(ax_names[0])
     ax.set_ylabel(ax_names[1])
-    fig.suptitle(f"stable tube's cut with the section (dE = {de:g}): a 3-sphere in 4-D; "
-                 f"{int(g.misclassified[k])} misclassified of {int(np.sum((out == 1) | (out == -1)))}")
+    mc = (f"; {int(g.misclassified[k])} of {int(np.sum((out == 1) | (out == -1)))} Monte Carlo points misclassified"
+          if out.size else "")
+    fig.suptitle(f"stable tube's cut with the section {sec_name} = "
+                 f"{float(g.attrs['section_value']):g} (dE = {de:g}): a 3-sphere in 4-D{mc}")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

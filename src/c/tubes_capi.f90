@@ -21,8 +21,8 @@ module tubes_capi
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE
   use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t
   use tubes_flux, only: flux_result_t, flux_leading_order, flux_sampled
-  use tubes_normal_form, only: nf_result_t, nf_change_t, normal_form, normal_form_flux, NF_NPTS
-  use tubes_cut3, only: cut3_t, cut3_compute, cut3_inside, cut3_half
+  use tubes_normal_form, only: nf_result_t, normal_form_flux, NF_NPTS
+  use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, maps_at
@@ -578,64 +578,33 @@ contains
   !> 0 outside, -1 not a point (NaN). TUBES_ENOCROSS if a node failed, TUBES_EINPUT (msg) if the
   !> normal form or the request is refused.
   integer(c_int) function c_tube_cut3(system, params, lo, hi, n_grid, saddle, order, n_terms, expo, coef, zs, &
-      de, k, c, dir, n_cut, eps, t_max, tol, method, h, omega_bind, solver, max_iter, n_pts, pts, inside, &
+      de, k, c, dir, n_cut, eps, t_max, tol, method, h, omega_bind, solver, max_iter, n_pts, pts, w, cls, inside, &
       inside_pl, xcut, tcut, stcut, diag, msg, lmsg) result(stat) bind(C, name='tubes_tube_cut3')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, order, n_terms, k, dir, n_cut, method, solver, max_iter, n_pts, lmsg
-    integer(c_int), intent(in) :: expo(6, n_terms)
-    real(c_double), intent(in) :: coef(n_terms), zs(6), pts(6, n_pts)
+    integer(c_int), intent(in) :: expo(6, n_terms), cls(n_pts)
+    real(c_double), intent(in) :: coef(n_terms), zs(6), pts(6, n_pts), w(n_pts)
     real(c_double), value :: de, c, eps, t_max, tol, h, omega_bind
     integer(c_int), intent(out) :: inside(n_pts), inside_pl(n_pts), stcut((n_cut + 1)*4*n_cut*n_cut)
-    real(c_double), intent(out) :: xcut(6, (n_cut + 1)*4*n_cut*n_cut), tcut((n_cut + 1)*4*n_cut*n_cut), diag(5)
+    real(c_double), intent(out) :: xcut(6, (n_cut + 1)*4*n_cut*n_cut), tcut((n_cut + 1)*4*n_cut*n_cut), &
+                                   diag(CUT3_NDIAG)
     character(kind=c_char), intent(out) :: msg(lmsg)
-    class(hamiltonian_t), allocatable :: model
-    type(equilibrium_t), allocatable :: eqs(:)
-    type(nf_result_t) :: nf
-    type(nf_change_t) :: ch
-    type(cut3_t) :: cut, half
-    logical :: ins(n_pts), ok(n_pts), unres(n_pts)
-    integer :: isad, ist
-    inside = -1
-    inside_pl = -1
+    type(cut3_t) :: cut
+    character(len=256) :: m
+    integer :: ist
     stcut = TUBES_EINPUT
     xcut = ieee_value(1.0_c_double, ieee_quiet_nan)
     tcut = xcut(1, 1)
-    diag = [xcut(1, 1), xcut(1, 1), 0.0_c_double, xcut(1, 1), 0.0_c_double]
-    call to_c('', msg, lmsg)
-    call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
-                     model, eqs, isad, ist)
+    call cut3_study(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), order, &
+                    expo, coef, zs, de, k, c, dir, n_cut, eps, t_max, tol, integ_of(method, h, omega_bind, &
+                    solver, max_iter), pts, w, cls, inside, inside_pl, cut, diag, m, ist)
     stat = ist
-    if (ist /= TUBES_OK) return
-    call normal_form(3, order, expo, coef, nf, ist, change=ch)
-    stat = ist
-    if (ist /= TUBES_OK) then
-      call to_c(trim(nf%message), msg, lmsg)
-      return
-    end if
-    call cut3_compute(model, nf, ch, zs, model%energy(zs), de, n_cut, 2*n_cut, eps, k, c, dir, t_max, tol, &
-                      integ_of(method, h, omega_bind, solver, max_iter), cut, ist)
-    stat = ist
-    if (ist == TUBES_EINPUT) then
-      call to_c('the plane is parallel to the direction in which the tube leaves the saddle, or passes ' // &
-                'through the saddle', msg, lmsg)
-      return
-    end if
+    call to_c(trim(m), msg, lmsg)
     if (.not. allocated(cut%x)) return
     xcut = cut%x
     tcut = cut%t
     stcut = cut%st
-    diag = [cut%seed_energy_error, cut%volume, real(cut%n_failed, c_double), xcut(1, 1), 0.0_c_double]
-    if (ist /= TUBES_OK) return
-    ok = .not. any(pts /= pts, dim=1)
-    call cut3_inside(cut, pts(cut%axes, :), ins)
-    where (ok) inside_pl = merge(1, 0, ins)
-    call cut3_inside(cut, pts(cut%axes, :), ins, smooth=.true., unresolved=unres)
-    where (ok) inside = merge(1, 0, ins)
-    diag(5) = count(unres .and. ok)
-    call cut3_half(cut, half, ist)
-    if (ist /= TUBES_OK) return
-    diag(4) = half%volume
   end function c_tube_cut3
 
   !> The Birkhoff normal form of H from its Taylor coefficients at a saddle x centre^(N-1)

@@ -1441,11 +1441,11 @@ static int tube_cut3(const tubes_run_t *run, const nf_out_t *o, const double *sv
   u->x = malloc(sizeof(double) * 6 * (size_t)m * n);
   u->t = malloc(sizeof(double) * (size_t)m * n);
   u->st = malloc(sizeof(int) * (size_t)m * n);
-  u->diag = malloc(sizeof(double) * 5 * (size_t)n);
+  u->diag = malloc(sizeof(double) * TUBES_CUT3_NDIAG * (size_t)n);
   u->ptrans = malloc(sizeof(double) * (size_t)n);
   u->vex = malloc(sizeof(double) * (size_t)n);
-  u->inside = malloc(sizeof(int) * (size_t)ns * n);
-  u->inside_pl = malloc(sizeof(int) * (size_t)ns * n);
+  u->inside = malloc(sizeof(int) * ((size_t)ns * n + 1));
+  u->inside_pl = malloc(sizeof(int) * ((size_t)ns * n + 1));
   u->mis = malloc(sizeof(int) * (size_t)n);
   u->mis_pl = malloc(sizeof(int) * (size_t)n);
   u->unres = malloc(sizeof(int) * (size_t)n);
@@ -1459,7 +1459,7 @@ static int tube_cut3(const tubes_run_t *run, const nf_out_t *o, const double *sv
          "flux", "extrap/f-1", "seed dE err", "p_trans tube", "Monte Carlo", "inside", "decided", "misclass PL",
          "misclass", "unresolved");
   for (int k = 0; k < n; k++) {
-    double t0 = now(), *d = u->diag + 5 * k, *sx = u->sx + (size_t)k * ns * 2 * MD, *sw = u->sw + (size_t)k * ns;
+    double t0 = now(), *d = u->diag + TUBES_CUT3_NDIAG * k, *sx = u->sx + (size_t)k * ns * 2 * MD, *sw = u->sw + (size_t)k * ns;
     int *ins = u->inside + (size_t)k * ns, *inh = u->inside_pl + (size_t)k * ns, *cls = u->scls + (size_t)k * ns;
     char msg[256] = "";
     u->mis[k] = u->mis_pl[k] = u->unres[k] = -1;
@@ -1467,8 +1467,8 @@ static int tube_cut3(const tubes_run_t *run, const nf_out_t *o, const double *sv
     progress_item("flux: the tube's cut at dE = %g (%d of %d)...\n", c->flux_de[k], k + 1, n);
     int st = tubes_tube_cut3(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, c->flux_order,
                              o->nt, o->ex, o->cf, o->z, c->flux_de[k], c->sec_index, c->sec_value, c->sec_direction,
-                             c->flux_n_cut, c->flux_cut_eps, c->flux_t_max, c->flux_tol, INTEGRATOR(c), ns, sx, ins,
-                             inh, u->x + 6 * (size_t)m * k, u->t + (size_t)m * k, u->st + (size_t)m * k, d, msg,
+                             c->flux_n_cut, c->flux_cut_eps, c->flux_t_max, c->flux_tol, INTEGRATOR(c), ns, sx, sw, cls,
+                             ins, inh, u->x + 6 * (size_t)m * k, u->t + (size_t)m * k, u->st + (size_t)m * k, d, msg,
                              sizeof msg);
     if (st < 0) {
       int nf[3] = {0, 0, 0};
@@ -1487,32 +1487,15 @@ static int tube_cut3(const tubes_run_t *run, const nf_out_t *o, const double *sv
       rc = EXIT_NUMERIC;
       continue;
     }
-    double win = 0, wall = 0;
-    int nin = 0, ndec = 0, mis = 0, mispl = 0;
-    double mu = 0;
-    for (int i = 0; i < ns; i++) {
-      if (cls[i] == 3 || ins[i] < 0) continue;
-      wall += sw[i];
-      win += ins[i] ? sw[i] : 0;
-      nin += ins[i];
-      if (cls[i] == 1 || cls[i] == -1) {
-        ndec++;
-        mis += ins[i] != (cls[i] == 1);
-        mispl += inh[i] != (cls[i] == 1);
-      }
-    }
+    /* d: seed error, V, failed, V_h, V_x, unresolved, misclassified, by the linear cut, decided, inside,
+     * p_trans of the tube, of the Monte Carlo */
+    int ndec = (int)d[8], nin = (int)d[9], mis = (int)d[6], mispl = (int)d[7];
+    double f = o->flux[k], mc = d[11], mu = ndec * fabs(d[4] - d[1]) / sv[k];
     u->mis[k] = mis;
     u->mis_pl[k] = mispl;
-    u->unres[k] = (int)d[4];
-    u->ptrans[k] = wall > 0 ? win / wall : NAN;
-    double f = o->flux[k], mc = NAN;
-    {
-      double wt = 0;
-      for (int i = 0; i < ns; i++) wt += cls[i] == 1 ? sw[i] : 0;
-      mc = wall > 0 ? wt / wall : NAN;
-    }
-    u->vex[k] = d[1] + (d[1] - d[3]) / 3;
-    mu = ndec * fabs(u->vex[k] - d[1]) / sv[k];
+    u->unres[k] = (int)d[5];
+    u->ptrans[k] = d[10];
+    u->vex[k] = d[4];
     printf("  %10.4g %13.8g %13.8g %13.8g %11.2e %11.2e %12.6f %12.6f %8d %8d %11d %9d %10d   (%.1f s)\n",
            c->flux_de[k], d[1], u->vex[k], f, u->vex[k] / f - 1, d[0], u->ptrans[k], mc, nin, ndec, mispl, mis,
            u->unres[k], now() - t0);
@@ -1533,7 +1516,7 @@ static int tube_cut3(const tubes_run_t *run, const nf_out_t *o, const double *sv
   return rc;
 }
 
-static int write_tube_cut3(hid_t g, const cut_out_t *u) {
+static int write_tube_cut3(hid_t g, const cut_out_t *u, const tubes_config_t *c) {
   hid_t h = h5_group(g, "tube_cut");
   if (h < 0) return 1;
   int nc = (int)lround(cbrt(u->nodes / 4.0));   /* nodes = (n_cut + 1) 4 n_cut^2 */
@@ -1543,7 +1526,7 @@ static int write_tube_cut3(hid_t g, const cut_out_t *u) {
   hsize_t dn = (hsize_t)u->n, dd[2] = {(hsize_t)u->n, 3}, dp[3] = {(hsize_t)u->n, (hsize_t)u->ns, 6},
           ds[2] = {(hsize_t)u->n, (hsize_t)u->ns};
   double *sec = malloc(sizeof(double) * 4 * (size_t)u->nodes * u->n);
-  double *px = malloc(sizeof(double) * 6 * (size_t)u->ns * u->n);
+  double *px = malloc(sizeof(double) * 6 * ((size_t)u->ns * u->n + 1));
   double *vol = malloc(sizeof(double) * (size_t)u->n), *een = malloc(sizeof(double) * (size_t)u->n);
   int e = !sec || !px || !vol || !een;
   for (size_t j = 0; !e && j < (size_t)u->nodes * u->n; j++)
@@ -1553,9 +1536,9 @@ static int write_tube_cut3(hid_t g, const cut_out_t *u) {
   double *vh = malloc(sizeof(double) * (size_t)u->n);
   e |= !vh;
   for (int k = 0; !e && k < u->n; k++) {
-    vol[k] = u->diag[4 * k + 1];
-    een[k] = u->diag[4 * k];
-    vh[k] = u->diag[4 * k + 3];
+    vol[k] = u->diag[TUBES_CUT3_NDIAG * k + 1];
+    een[k] = u->diag[TUBES_CUT3_NDIAG * k];
+    vh[k] = u->diag[TUBES_CUT3_NDIAG * k + 3];
   }
   if (!e) {
     e |= h5_write_double(h, "states", 5, dx, u->x, "state units");
@@ -1571,11 +1554,17 @@ static int write_tube_cut3(hid_t g, const cut_out_t *u) {
     e |= h5_write_int(h, "misclassified_pl", dn, u->mis_pl, "1");
     e |= h5_write_int(h, "unresolved", dn, u->unres, "1");
     e |= h5_write_double(h, "volume_extrapolated", 1, &dn, u->vex, "action^2");
-    e |= h5_write_double(h, "points", 3, dp, px, "state units");
-    e |= h5_write_double(h, "weight", 2, ds, u->sw, "action^2 / length^2");
-    e |= h5_write_int_nd(h, "outcome", 2, ds, u->scls, "1");
-    e |= h5_write_int_nd(h, "inside", 2, ds, u->inside, "1");
-    e |= h5_write_int_nd(h, "inside_pl", 2, ds, u->inside_pl, "1");
+    if (u->ns > 0) {    /* the section's Monte Carlo points (natural models) */
+      e |= h5_write_double(h, "points", 3, dp, px, "state units");
+      e |= h5_write_double(h, "weight", 2, ds, u->sw, "action^2 / length^2");
+      e |= h5_write_int_nd(h, "outcome", 2, ds, u->scls, "1");
+      e |= h5_write_int_nd(h, "inside", 2, ds, u->inside, "1");
+      e |= h5_write_int_nd(h, "inside_pl", 2, ds, u->inside_pl, "1");
+    }
+    e |= h5_attr_long(h, "section_index", c->sec_index);
+    e |= h5_attr_double(h, "section_value", c->sec_value);
+    e |= h5_attr_long(h, "section_direction", c->sec_direction);
+    e |= h5_attr_double(h, "cut_eps", c->flux_cut_eps);
     char axes[64];
     snprintf(axes, sizeof axes, "q%d p%d q%d p%d", u->axes[0], u->axes[0], u->axes[2], u->axes[2]);
     e |= h5_attr_string(h, "axes", axes);
@@ -1677,7 +1666,9 @@ int scene_flux(tubes_run_t *run) {
     if (r2 && (!rc || r2 == EXIT_BADINPUT)) rc = r2;
   }
   /* the transition fraction on a plane section: Monte Carlo against flux / volume */
-  int sec = run->natural && run->ndof == 3 && !strcmp(c->sec_kind, "plane");   /* 2 DOF: the transition scene */
+  /* 2 DOF: the transition scene. A model that is not natural: the tube's cut without Monte Carlo */
+  int sec = run->natural && run->ndof == 3 && !strcmp(c->sec_kind, "plane");
+  int cut_only = !run->natural && run->ndof == 3 && !strcmp(c->sec_kind, "plane");
   double *sv = calloc((size_t)n, sizeof(double)), *sve = calloc((size_t)n, sizeof(double)),
          *sf = calloc((size_t)n, sizeof(double)), *sfe = calloc((size_t)n, sizeof(double)),
          *pth = calloc((size_t)n, sizeof(double));
@@ -1699,6 +1690,21 @@ int scene_flux(tubes_run_t *run) {
       int r4 = tube_cut3(run, &nfo, sv, &cut);
       if (r4 && !rc) rc = r4;
     } else if (c->flux_n_cut > 0) {
+      printf("  (no tube cut: it is seeded from the normal form, which needs &flux order and a flux at every dE)\n");
+    }
+  } else if (cut_only && c->flux_n_cut > 0 && sv) {
+    int cutok = nfo.done && nfo.stat == 0 && nfo.ex;
+    for (int k = 0; cutok && k < n; k++) cutok = isfinite(nfo.flux[k]);
+    cut.ns = 0;
+    cut.sx = malloc(sizeof(double) * 2 * MD);
+    cut.sw = malloc(sizeof(double));
+    cut.scls = malloc(sizeof(int));
+    if (cutok && cut.sx && cut.sw && cut.scls) {
+      for (int k = 0; k < n; k++) sv[k] = NAN;
+      printf("  (the section's Monte Carlo needs a natural model: the tube's cut alone)\n");
+      int r4 = tube_cut3(run, &nfo, sv, &cut);
+      if (r4 && !rc) rc = r4;
+    } else {
       printf("  (no tube cut: it is seeded from the normal form, which needs &flux order and a flux at every dE)\n");
     }
   }
@@ -1738,8 +1744,8 @@ int scene_flux(tubes_run_t *run) {
       e |= h5_attr_long(g, "section_index", c->sec_index);
       e |= h5_attr_double(g, "section_value", c->sec_value);
       e |= h5_attr_long(g, "section_direction", c->sec_direction);
-      if (cut.mis) e |= write_tube_cut3(g, &cut);
     }
+    if (cut.mis) e |= write_tube_cut3(g, &cut, c);
   }
   if (g >= 0) H5Gclose(g);
   free(fl); free(fe); free(lo); free(cnt); free(stat); free(nin); free(nre); free(nrc); free(nun);
