@@ -1476,7 +1476,12 @@ static int tube_cut3(const tubes_run_t *run, const nf_out_t *o, const double *sv
         int s = u->st[(size_t)m * k + j];
         nf[s == 1 ? 0 : s == 2 ? 1 : 2] += s != 0;
       }
-      if (st == TUBES_ENOCROSS)
+      if (st == TUBES_ENOCROSS && nf[1] == m)
+        fprintf(stderr, "tubes: flux: the tube's cut at dE = %g: the stable tube reaches the section q%d = %g with "
+                "dq%d/dt %s 0, and &section direction = %d asks for the other way: set direction = %d\n",
+                c->flux_de[k], k3, c->sec_value, k3, c->sec_direction > 0 ? "<" : ">", c->sec_direction,
+                -c->sec_direction);
+      else if (st == TUBES_ENOCROSS)
         fprintf(stderr, "tubes: flux: the tube's cut at dE = %g: of %d seeds, %d did not reach the section q%d = %g "
                 "within t_max = %g, %d crossed it the other way first, %d failed: the tube does not reach this "
                 "section as a whole (move it nearer the saddle, or raise &flux t_max)\n", c->flux_de[k], m, nf[0],
