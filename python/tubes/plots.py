@@ -307,11 +307,13 @@ def plot_tube_cut3(res, path, k=-1, slice_width=0.05, max_points=3000):
     fig, axs = plt.subplots(1, 3, figsize=(15, 4.8))
     for j, (i0, lab) in enumerate([(0, ax_names[:2]), (2, ax_names[2:])]):
         ax = axs[j]
-        ax.plot(xy[rt, i0], xy[rt, i0 + 1], ".", ms=1.5, color="tab:blue", alpha=0.4, label="returns")
+        if out.size:
+            ax.plot(xy[rt, i0], xy[rt, i0 + 1], ".", ms=1.5, color="tab:blue", alpha=0.4, label="returns")
         hull = _hull(sec[:, i0:i0 + 2])      # the cut's projection: a disk
         ax.fill(hull[:, 0], hull[:, 1], color="tab:green", alpha=0.25, lw=1.5, ec="tab:green",
                 label="tube cut (projection)")
-        ax.plot(xy[tr, i0], xy[tr, i0 + 1], ".", ms=3, color="tab:red", label="transits")
+        if out.size:
+            ax.plot(xy[tr, i0], xy[tr, i0 + 1], ".", ms=3, color="tab:red", label="transits")
         ax.set_xlabel(lab[0])
         ax.set_ylabel(lab[1])
         ax.set_title(f"projection on ({lab[0]}, {lab[1]})")
@@ -325,8 +327,9 @@ def plot_tube_cut3(res, path, k=-1, slice_width=0.05, max_points=3000):
     near = np.all(np.abs((sec[:, 2:4] - c) / span) < slice_width, axis=1)
     pn = np.all(np.abs((xy[:, 2:4] - c) / span) < slice_width, axis=1)
     ax.plot(sec[near, 0], sec[near, 1], "o", ms=3, mfc="none", color="0.3", label="cut nodes")
-    ax.plot(xy[pn & (out == -1), 0], xy[pn & (out == -1), 1], ".", color="tab:blue", label="returns")
-    ax.plot(xy[pn & (out == 1), 0], xy[pn & (out == 1), 1], ".", color="tab:red", label="transits")
+    if out.size:
+        ax.plot(xy[pn & (out == -1), 0], xy[pn & (out == -1), 1], ".", color="tab:blue", label="returns")
+        ax.plot(xy[pn & (out == 1), 0], xy[pn & (out == 1), 1], ".", color="tab:red", label="transits")
     ax.set_title(f"slice ({ax_names[2]}, {ax_names[3]}) = ({c[0]:.3g}, {c[1]:.3g}) "
                  f"+- {100 * slice_width:.0f} %")
     ax.legend(loc="upper right", fontsize=8)
