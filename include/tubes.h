@@ -16,7 +16,8 @@ enum {
   TUBES_EFAULT = -7, /* a failure injected by TUBES_FAULT (tests only) */
   TUBES_EOUTSIDE = -8, /* a tube crossed the section outside the region chosen on it */
   TUBES_ENOCROSS = -9, /* no crossing of the section within t_max */
-  TUBES_EPASTEND = -10 /* past the end of the Lyapunov orbit family */
+  TUBES_EPASTEND = -10, /* past the end of the Lyapunov orbit family */
+  TUBES_ENARROW = -11 /* the slab (&flux gate) is narrower than the NHIM's reach along the reaction coordinate */
 };
 
 /* Integration methods (src/tubes_methods.f90). */

@@ -20,7 +20,7 @@
 module tubes_flux
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT, TUBES_EOUTSIDE
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENARROW
   use tubes_hamiltonian, only: hamiltonian_t, natural_t
   use tubes_equilibria, only: equilibrium_t
   use tubes_integrator, only: integrator_t, observer_t, propagate
@@ -64,6 +64,9 @@ module tubes_flux
     !> the fraction of it that transits before returning
     real(wp) :: volume = 0, volume_err = 0, fraction = 0, fraction_err = 0
     integer :: n_transit = 0, n_return = 0
+    !> the NHIM's reach along the reaction coordinate n at dE, linear: max_k of mode k's amplitude
+    !> sqrt(2 dE / (omega_k |a^T J b|)) times |(n . a_q, n . b_q)| (a + i b its eigenvector)
+    real(wp) :: nhim_reach = 0
     !> section mode: every sample, its state (2N, n; NaN outside the shell), weight w (n) and
     !> class (n: 1 transit, -1 return, 2 undecided, 3 outside the shell)
     real(wp), allocatable :: x(:, :), w(:)
@@ -159,7 +162,8 @@ contains
     outcome = merge(obs%outcome, 0, stat == TUBES_OK)
   end subroutine transit_or_return
 
-  !> The side (+1, -1) by which x's forward trajectory leaves the slab, 0 if not within t_max.
+  !> The side (+1, -1) by which x's trajectory leaves the slab, 0 if not within |t_max| (t_max < 0:
+  !> its past).
   subroutine leave_side(model, slab, x0, t_max, tol, integ, side, stat)
     class(hamiltonian_t), intent(in) :: model
     type(slab_t), intent(in) :: slab
@@ -172,16 +176,114 @@ contains
     side = merge(obs%side, 0, stat == TUBES_OK)
   end subroutine leave_side
 
+  !> H(q, p) = 1/2 (p - pc)^T A (p - pc) + V_eff(q) for a model quadratic in the momenta: A(q) =
+  !> d2H/dp2, pc(q) = -A^-1 dH/dp(q, 0), V_eff = H(q, 0) - 1/2 pc^T A pc (natural models: their own
+  !> A, pc = 0, V; gyroscopic ones, the CR3BP: V_eff is the Jacobi effective potential). stat /= 0
+  !> where H is not defined at (q, 0).
+  subroutine quadratic_parts(model, q, a, pc, v, stat)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(out) :: a(:, :), pc(:), v
+    integer, intent(out) :: stat
+    real(wp) :: x(2*size(q)), g(2*size(q)), h(2*size(q), 2*size(q)), l(size(q), size(q))
+    integer :: nd, i, j
+    nd = size(q)
+    stat = 0
+    select type (model)
+    class is (natural_t)
+      call model%kinetic_matrix(q, a)
+      pc = 0
+      v = model%potential(q)
+      return
+    end select
+    x = 0
+    x(1:nd) = q
+    call model%gradient(x, g, stat)
+    if (stat /= 0) return
+    call model%hessian(x, h, stat)
+    if (stat /= 0) return
+    a = h(nd + 1:, nd + 1:)
+    ! pc = -A^-1 b by Cholesky (A is positive definite for a kinetic energy)
+    l = 0
+    do j = 1, nd
+      l(j, j) = a(j, j) - sum(l(j, 1:j - 1)**2)
+      if (.not. l(j, j) > 0) then
+        stat = -1
+        return
+      end if
+      l(j, j) = sqrt(l(j, j))
+      do i = j + 1, nd
+        l(i, j) = (a(i, j) - sum(l(i, 1:j - 1)*l(j, 1:j - 1)))/l(j, j)
+      end do
+    end do
+    pc = -g(nd + 1:)
+    do i = 1, nd
+      pc(i) = (pc(i) - sum(l(i, 1:i - 1)*pc(1:i - 1)))/l(i, i)
+    end do
+    do i = nd, 1, -1
+      pc(i) = (pc(i) - sum(l(i + 1:nd, i)*pc(i + 1:nd)))/l(i, i)
+    end do
+    v = model%energy(x) - dot_product(pc, matmul(a, pc))/2
+  end subroutine quadratic_parts
+
+  !> V_eff(q) (quadratic_parts); +huge where H is not defined.
+  real(wp) function veff(model, q) result(v)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: q(:)
+    real(wp) :: a(size(q), size(q)), pc(size(q))
+    integer :: st
+    call quadratic_parts(model, q, a, pc, v, st)
+    if (st /= 0) v = huge(1.0_wp)
+  end function veff
+
+  !> Whether H(q, p) is the quadratic of quadratic_parts in p at q (three momenta checked to
+  !> 1e-9 relative): the sampling's premise.
+  logical function quadratic_in_p(model, q) result(ok)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: q(:)
+    real(wp) :: a(size(q), size(q)), pc(size(q)), v, x(2*size(q)), p(size(q)), hq
+    integer :: st, k, nd, i
+    nd = size(q)
+    call quadratic_parts(model, q, a, pc, v, st)
+    ok = st == 0
+    if (.not. ok) return
+    do k = 1, 3
+      p = [(0.3_wp*k + 0.17_wp*i, i = 1, nd)]
+      x(1:nd) = q
+      x(nd + 1:) = p
+      hq = dot_product(p - pc, matmul(a, p - pc))/2 + v
+      ok = ok .and. abs(model%energy(x) - hq) <= 1.0e-9_wp*max(1.0_wp, abs(hq), abs(v))
+    end do
+  end function quadratic_in_p
+
+  !> The NHIM's reach along n at de (flux_result_t%nhim_reach), from the linearisation.
+  pure real(wp) function nhim_reach(sad, nd, de, n) result(ext)
+    type(equilibrium_t), intent(in) :: sad
+    integer, intent(in) :: nd
+    real(wp), intent(in) :: de, n(:)
+    real(wp) :: a(2*nd), b(2*nd), sy
+    integer :: k
+    ext = 0
+    do k = 1, nd - 1
+      if (size(sad%evec, 2) < 2 + 2*k .or. .not. sad%omegas(k) > 0) cycle
+      a = sad%evec(:, 1 + 2*k)
+      b = sad%evec(:, 2 + 2*k)
+      sy = abs(dot_product(a(1:nd), b(nd + 1:)) - dot_product(a(nd + 1:), b(1:nd)))
+      if (.not. sy > 0) cycle
+      ext = max(ext, sqrt(2*de/(sad%omegas(k)*sy))*sqrt(dot_product(n, a(1:nd))**2 + dot_product(n, b(1:nd))**2))
+    end do
+  end function nhim_reach
+
   !> The extent of {V <= E} from q_s along +-e: the first t with V(q_s + t e) > E (doubling from
   !> h0, then bisection); t_cap if V stays below E up to there.
   real(wp) function extent(model, qs, e, energy, h0, t_cap) result(t)
-    class(natural_t), intent(in) :: model
+    class(hamiltonian_t), intent(in) :: model
     real(wp), intent(in) :: qs(:), e(:), energy, h0, t_cap
     real(wp) :: lo, hi
     integer :: k
     lo = 0
     hi = h0
-    do while (model%potential(qs + hi*e) <= energy)
+    do while (veff(model, qs + hi*e) <= energy)
       lo = hi
       hi = 2*hi
       if (hi > t_cap) then
@@ -191,7 +293,7 @@ contains
     end do
     do k = 1, 60
       t = (lo + hi)/2
-      if (model%potential(qs + t*e) <= energy) then
+      if (veff(model, qs + t*e) <= energy) then
         lo = t
       else
         hi = t
@@ -224,8 +326,8 @@ contains
     real(wp) :: r(MAXN, MAXN), energy, vol, ex(2), cball, q0(MAXN), sw
     real(wp), allocatable :: u(:), val(:)
     integer, allocatable :: cls(:), st(:)
-    integer :: nd, m, j, k, i
-    logical :: section
+    integer :: nd, m, j, k, i, rv(2*MAXN)
+    logical :: section, natural
     type(slab_t) :: slab
     type(transit_t) :: tobs
     stat = TUBES_EINPUT
@@ -253,6 +355,18 @@ contains
       ! towards the far side: away from the section's point
       if (dot_product(q0(1:nd) - sad%q, tobs%ns(1:nd)) > 0) tobs%ns = -tobs%ns
     end if
+    natural = model%is_natural()
+    if (.not. natural .and. .not. section) then
+      ! a crossing against the DS pairs with its time-reverse (on the positive branch, with the
+      ! opposite c) only if a reversor maps the DS to itself: n in the +1 space of the reversor's
+      ! q part (the CR3BP's (x, -y): n along x). No reversor: not sampled (TUBES_EINPUT)
+      rv = 0
+      rv(1:2*nd) = model%reversor()
+      if (all(rv == 0)) return
+      where (rv(1:nd) /= 1) r(1, 1:nd) = 0
+      if (sqrt(sum(r(1, 1:nd)**2)) < 0.1_wp) return
+      r(1, 1:nd) = r(1, 1:nd)/sqrt(sum(r(1, 1:nd)**2))
+    end if
     m = 1
     do k = 1, nd
       if (m == nd) exit
@@ -265,12 +379,20 @@ contains
       r(m + 1, 1:nd) = r(m + 1, 1:nd)/sqrt(sum(r(m + 1, 1:nd)**2))
       m = m + 1
     end do
-    select type (model)
-    class is (natural_t)
-      ! the box of Q': twice the extent of {V <= E} along each axis, both ways
+    ! the sampling needs H quadratic in the momenta (natural or gyroscopic models)
+    if (.not. quadratic_in_p(model, q0(1:nd))) return
+    ! a passage is a leaving of the slab on the far side: the NHIM must lie well inside it, else
+    ! orbits on or near it leave the slab both ways without passing (recrossings counted as passages)
+    res%nhim_reach = nhim_reach(sad, nd, de, merge(tobs%ns(1:nd), r(1, 1:nd), section))
+    if (.not. 2*res%nhim_reach < gate) then
+      stat = TUBES_ENARROW
+      return
+    end if
+    block
+      ! the box of Q': twice the extent of {V_eff <= E} along each axis, both ways
       vol = 1
       if (section) then
-        if (.not. model%potential(q0(1:nd)) < energy) then
+        if (.not. veff(model, q0(1:nd)) < energy) then
           stat = TUBES_EOUTSIDE       ! the section misses the energy surface there
           return
         end if
@@ -332,9 +454,7 @@ contains
       res%n_undecided = count(cls == 2)
       res%n_inside = count(cls /= 3)
       stat = TUBES_OK
-    class default
-      stat = TUBES_EINPUT      ! the past of (q, p) is the future of (q, -p) for natural systems only
-    end select
+    end block
 
   contains
 
@@ -343,30 +463,26 @@ contains
     subroutine one_sample(i)
       integer, intent(in) :: i
       real(wp) :: q(nd), a(nd, nd), ar(nd, nd), s(nd - 1, nd - 1), l(nd - 1, nd - 1), pp(nd - 1), &
-                  bigp(nd), p(nd), x(2*nd), v, w, qa, qb, qc, rad, uu(2*(nd - 1))
+                  bigp(nd), p(nd), x(2*nd), v, w, qa, qb, qc, rad, uu(2*(nd - 1)), pc(nd)
       integer :: fw, bw, sf, sb, j2
       uu = u(2*(nd - 1)*(i - 1) + 1:2*(nd - 1)*i)
       q = q0(1:nd)
       do j2 = 2, nd
         q = q + (res%box(1, j2 - 1) + uu(j2 - 1)*(res%box(2, j2 - 1) - res%box(1, j2 - 1)))*r(j2, 1:nd)
       end do
-      select type (model)
-      class is (natural_t)
-        v = model%potential(q)
-        if (.not. v < energy) then
+      call quadratic_parts(model, q, a, pc, v, j2)
+      if (j2 /= 0 .or. .not. v < energy) then
+        cls(i) = 3
+        return
+      end if
+      ! only the part of {V < E} on the DS that the saddle sees (star-shaped from it): other
+      ! bottlenecks the hyperplane may cut farther out are not this saddle's
+      do j2 = 1, NSTAR - 1
+        if (.not. veff(model, q0(1:nd) + (real(j2, wp)/NSTAR)*(q - q0(1:nd))) < energy) then
           cls(i) = 3
           return
         end if
-        ! only the part of {V < E} on the DS that the saddle sees (star-shaped from it): other
-        ! bottlenecks the hyperplane may cut farther out are not this saddle's
-        do j2 = 1, NSTAR - 1
-          if (.not. model%potential(q0(1:nd) + (real(j2, wp)/NSTAR)*(q - q0(1:nd))) < energy) then
-            cls(i) = 3
-            return
-          end if
-        end do
-        call model%kinetic_matrix(q, a)
-      end select
+      end do
       ar = matmul(matmul(r(1:nd, 1:nd), a), transpose(r(1:nd, 1:nd)))
       s = ar(2:nd, 2:nd) - spread(ar(2:nd, 1), 2, nd - 1)*spread(ar(1, 2:nd), 1, nd - 1)/ar(1, 1)
       ! Cholesky s = l l^T (1 x 1 or 2 x 2)
@@ -401,7 +517,7 @@ contains
       qc = dot_product(pp, matmul(ar(2:nd, 2:nd), pp))/2 + v - energy
       bigp(1) = (-qb + sqrt(max(0.0_wp, qb*qb - 4*qa*qc)))/(2*qa)
       bigp(2:nd) = pp
-      p = matmul(transpose(r(1:nd, 1:nd)), bigp)
+      p = pc + matmul(transpose(r(1:nd, 1:nd)), bigp)    ! the ellipsoid's centre pc (gyroscopic)
       x(1:nd) = q
       x(nd + 1:2*nd) = p
       if (section) then
@@ -416,8 +532,12 @@ contains
         return
       end if
       call leave_side(model, slab, x, t_max, tol, integ, fw, sf)
-      x(nd + 1:2*nd) = -p
-      call leave_side(model, slab, x, t_max, tol, integ, bw, sb)
+      if (natural) then              ! the past of (q, p) is the future of (q, -p)
+        x(nd + 1:2*nd) = -p
+        call leave_side(model, slab, x, t_max, tol, integ, bw, sb)
+      else                           ! followed backwards
+        call leave_side(model, slab, x, -t_max, tol, integ, bw, sb)
+      end if
       if (sf /= TUBES_OK .or. sb /= TUBES_OK) then
         st(i) = merge(sf, sb, sf /= TUBES_OK)
         return

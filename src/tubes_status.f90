@@ -15,6 +15,7 @@ module tubes_status
   integer, parameter, public :: TUBES_EOUTSIDE = -8  !! a tube crossed the section outside its region
   integer, parameter, public :: TUBES_ENOCROSS = -9  !! no crossing of the section within t_max
   integer, parameter, public :: TUBES_EPASTEND = -10 !! past the end of the Lyapunov orbit family
+  integer, parameter, public :: TUBES_ENARROW = -11  !! the slab (&flux gate) is narrower than the NHIM
   public :: status_message
 contains
   !> Text for a status code.
@@ -34,6 +35,8 @@ contains
     case (TUBES_EOUTSIDE);  msg = 'the tube crosses the section outside the region of the energy surface chosen on it'
     case (TUBES_ENOCROSS);  msg = 'no crossing of the section within t_max: the tube does not reach this section'
     case (TUBES_EPASTEND);  msg = 'past the end of the Lyapunov orbit family: no orbit at this energy'
+    case (TUBES_ENARROW);   msg = 'the slab around the dividing surface is narrower than the NHIM reaches ' // &
+                                  'along the reaction coordinate: raise &flux gate'
     case default;           msg = 'unknown status code'
     end select
   end function status_message

@@ -104,13 +104,29 @@ def test_two_dof_flux_is_the_orbit_action(tmp_path, cache, model, rest):
     assert np.all(np.abs(f["flux_sampled"] - f["action"]) < SIGMAS * f["flux_sampled_err"]), f
 
 
-def test_flux_refused_for_a_gyroscopic_model(tmp_path, cache):
-    p = run(str(tmp_path), """
+def test_gyroscopic_built_in_cr3bp_is_sampled(tmp_path, cache):
+    """The built-in planar CR3BP (gyroscopic, no formula: no normal form) is sampled as H quadratic
+    in the momenta, its past followed backwards: the flux is the Lyapunov orbit's action (the
+    orbits scene, shooting) within 4 standard errors. At dE = 0.01 its default slab (gate 0.01)
+    is narrower than the Lyapunov orbit reaches along x: refused (exit 2, naming &flux gate)."""
+    tmp = str(tmp_path)
+    p = run(tmp, """
         &run scenes = 'flux', output = 'f.h5' /
         &model system = 'cr3bp' /
+        &flux de = 0.01, n_samples = 200 /
         """, cache)
-    assert p.returncode == 1 and "the flux scene samples the dividing surface of a natural system" in p.stderr
-    assert not os.path.exists(os.path.join(str(tmp_path), "f.h5"))
+    assert p.returncode == 2 and "raise &flux gate" in p.stderr, p.stderr
+    p = run(tmp, """
+        &run scenes = 'orbits', 'flux', output = 'f.h5' /
+        &model system = 'cr3bp' /
+        &orbits de = 0.001, 0.01 /
+        &flux de = 0.001, 0.01, n_samples = 20000, gate = 0.1 /
+        """, cache)
+    assert p.returncode == 0, p.stdout + p.stderr
+    f = flux_of(tmp)
+    assert np.all(np.abs(f["flux_sampled"] - f["action"]) < SIGMAS * f["flux_sampled_err"]), (f["flux_sampled"],
+                                                                                            f["action"])
+    assert np.all(f["flux_sampled_err"] < 0.02 * f["action"])
 
 
 def test_too_short_t_max_is_a_failure(tmp_path, cache):

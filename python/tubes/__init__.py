@@ -20,8 +20,8 @@ import numpy as np
 
 # Status codes: the same numbers as src/tubes_status.f90 and include/tubes.h.
 OK, EVENT = 0, 1
-EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV, EFAULT, EOUTSIDE, ENOCROSS, EPASTEND = (
-    -1, -2, -3, -4, -5, -6, -7, -8, -9, -10)
+EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV, EFAULT, EOUTSIDE, ENOCROSS, EPASTEND, ENARROW = (
+    -1, -2, -3, -4, -5, -6, -7, -8, -9, -10, -11)
 
 
 def status_message(code: int) -> str:

@@ -680,15 +680,6 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
     }
   }
   if (scene_requested(c, "flux")) {
-    int natural = 0;
-    tubes_model_natural(c->model, c->params, &natural);
-    if (!natural && c->flux_order == 0) {
-      fprintf(err, "%s:%d: &run: the flux scene samples the dividing surface of a natural system (H = T(q, p) + "
-              "V(q), the past of (q, p) the future of (q, -p)); system '%s' is not natural: give &flux order "
-              "(the normal form's flux alone, for a model written as a formula)\n", path,
-              line_of(w, "run", "scenes"), c->system);
-      n++;
-    }
     if (nd < 2) {
       fprintf(err, "%s:%d: &run: the flux scene needs 2 or 3 degrees of freedom (system '%s' has %d)\n", path,
               line_of(w, "run", "scenes"), c->system, nd);

@@ -1633,11 +1633,8 @@ int scene_flux(tubes_run_t *run) {
          run->saddle, run->ndof, c->flux_n_samples, c->flux_gate, c->flux_tol);
   printf("  %10s %16s %12s %16s %9s %9s %9s %9s\n", "dE", "flux", "+-", "leading", "flux/lead", "reacting",
          "recross", "undecided");
-  if (!run->natural)
-    printf("  (not sampled: the model is not natural, the past of (q, p) is not the future of (q, -p); the "
-           "normal form's flux only)\n");
-  for (int k = 0; k < n && !run->natural; k++) fl[k] = fe[k] = lo[k] = NAN;
-  for (int k = 0; k < n && run->natural; k++) {
+  int sampled = 1;   /* H quadratic in the momenta (natural or gyroscopic): else the normal form alone */
+  for (int k = 0; k < n && sampled; k++) {
     double de = c->flux_de[k], box[2 * (MD - 1)], t0 = now();
     progress_item("flux: dE = %g (%d of %d)...\n", de, k + 1, n);
     int st = tubes_flux_sample(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, c->flux_n_samples,
@@ -1645,6 +1642,18 @@ int scene_flux(tubes_run_t *run) {
                         cnt + 4 * k, box);
     stat[k] = st;
     int *ct = cnt + 4 * k;
+    if (st == TUBES_EINPUT && !run->natural) {
+      printf("  (not sampled: H is not quadratic in the momenta; the normal form's flux only)\n");
+      for (int j = 0; j < n; j++) fl[j] = fe[j] = lo[j] = NAN;
+      sampled = 0;
+      if (c->flux_order == 0) {
+        fprintf(stderr, "tubes: flux: the Hamiltonian of '%s' is not quadratic in the momenta: the dividing surface "
+                "cannot be sampled; give &flux order (the normal form's flux, for a model written as a formula)\n",
+                c->system);
+        rc = EXIT_NUMERIC;
+      }
+      break;
+    }
     if (st < 0) {
       char m[128];
       status_text(st, m, sizeof m);
@@ -1671,9 +1680,9 @@ int scene_flux(tubes_run_t *run) {
     if (r2 && (!rc || r2 == EXIT_BADINPUT)) rc = r2;
   }
   /* the transition fraction on a plane section: Monte Carlo against flux / volume */
-  /* 2 DOF: the transition scene. A model that is not natural: the tube's cut without Monte Carlo */
-  int sec = run->natural && run->ndof == 3 && !strcmp(c->sec_kind, "plane");
-  int cut_only = !run->natural && run->ndof == 3 && !strcmp(c->sec_kind, "plane");
+  /* 2 DOF: the transition scene. A model not quadratic in the momenta: the tube's cut without Monte Carlo */
+  int sec = sampled && run->ndof == 3 && !strcmp(c->sec_kind, "plane");
+  int cut_only = !sampled && run->ndof == 3 && !strcmp(c->sec_kind, "plane");
   double *sv = calloc((size_t)n, sizeof(double)), *sve = calloc((size_t)n, sizeof(double)),
          *sf = calloc((size_t)n, sizeof(double)), *sfe = calloc((size_t)n, sizeof(double)),
          *pth = calloc((size_t)n, sizeof(double));
@@ -1706,7 +1715,7 @@ int scene_flux(tubes_run_t *run) {
     cut.scls = malloc(sizeof(int));
     if (cutok && cut.sx && cut.sw && cut.scls) {
       for (int k = 0; k < n; k++) sv[k] = NAN;
-      printf("  (the section's Monte Carlo needs a natural model: the tube's cut alone)\n");
+      printf("  (the section's Monte Carlo needs H quadratic in the momenta: the tube's cut alone)\n");
       int r4 = tube_cut3(run, &nfo, sv, &cut);
       if (r4 && !rc) rc = r4;
     } else {
