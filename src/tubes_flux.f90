@@ -2,8 +2,10 @@
 !> freedom (the paper's section II; docs/theory.md, "Flux in N degrees of freedom"):
 !>
 !> - leading order: f = (2 pi)^(N-1) dE^(N-1) / ((N-1)! prod omega_k) (T_po dE in 2 DOF);
-!> - by sampling, without a normal form: the dividing surface DS is the configuration hyperplane
-!>   through the saddle normal to its reaction coordinate n (the unstable eigenvector's q part).
+!> - by sampling, without a normal form, for H quadratic in the momenta (natural or gyroscopic:
+!>   quadratic_parts): the dividing surface DS is the configuration hyperplane through the saddle
+!>   normal to its reaction coordinate n (the unstable eigenvector's q part; for a model that is
+!>   not natural put in the +1 space of its reversor, so that the DS is mapped to itself).
 !>   In the rotated canonical coordinates Q = R (q - q_s), P = R p (R orthogonal, first row n)
 !>   the flux form on the energy shell is dQ' dP' (the primes: components 2..N), so the flux is
 !>   an integral over (Q', P'). At fixed Q' the momenta with a crossing of the shell form the
@@ -13,7 +15,8 @@
 !>   {V < E} seen from the saddle along straight segments: other bottlenecks that the hyperplane
 !>   cuts farther out are excluded) and P' uniformly in the ellipsoid. Each point, on the branch dQ1/dt > 0, is followed forwards, and its
 !>   time-reversed image (q, -p) forwards (natural systems: that is the point's past), until
-!>   they leave the slab |(q - q_s) . n| <= gate: c = +1 for a passage from the - side to the +
+!>   they leave the slab |(q - q_s) . n| <= gate (another model's past is followed backwards;
+!>   a gate below twice the NHIM's linear reach along n is refused): c = +1 for a passage from the - side to the +
 !>   side, -1 for the reverse, 0 otherwise. Then f = vol(box) E[w c], whose standard error is the
 !>   sample's. Recrossings cancel in pairs, so f is the flux of trajectories passing through the
 !>   bottleneck, exact whatever the choice of DS (in 2 DOF: the Lyapunov orbit's action).

@@ -1643,13 +1643,14 @@ int scene_flux(tubes_run_t *run) {
     stat[k] = st;
     int *ct = cnt + 4 * k;
     if (st == TUBES_EINPUT && !run->natural) {
-      printf("  (not sampled: H is not quadratic in the momenta; the normal form's flux only)\n");
+      printf("  (not sampled: H is not quadratic in the momenta, or has no reversor to pair each crossing with "
+             "its time-reverse; the normal form's flux only)\n");
       for (int j = 0; j < n; j++) fl[j] = fe[j] = lo[j] = NAN;
       sampled = 0;
       if (c->flux_order == 0) {
-        fprintf(stderr, "tubes: flux: the Hamiltonian of '%s' is not quadratic in the momenta: the dividing surface "
-                "cannot be sampled; give &flux order (the normal form's flux, for a model written as a formula)\n",
-                c->system);
+        fprintf(stderr, "tubes: flux: the Hamiltonian of '%s' is not quadratic in the momenta or has no reversor "
+                "(a time-reversal symmetry): the dividing surface cannot be sampled; give &flux order (the normal "
+                "form's flux, for a model written as a formula)\n", c->system);
         rc = EXIT_NUMERIC;
       }
       break;
