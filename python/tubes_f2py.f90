@@ -759,3 +759,24 @@ subroutine tube_cut3(system, params, lo, hi, n_grid, saddle, order, nt, expo, co
   tcut = cut%t
   stcut = cut%st
 end subroutine tube_cut3
+
+subroutine nf_map(nd, order, nt, expo, coef, to_model, npts, pts, stat, out, round_trip, msg)
+  ! points through the Birkhoff normal form's coordinate change and back (tubes.normal_form_map)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_normal_form, only: nf_result_t, nf_change_t, normal_form, nf_map_points
+  implicit none
+  integer(c_int), intent(in) :: nd, order, nt, to_model, npts
+  integer(c_int), intent(in) :: expo(2*nd, nt)
+  real(c_double), intent(in) :: coef(nt), pts(2*nd, npts)
+  integer(c_int), intent(out) :: stat
+  real(c_double), intent(out) :: out(2*nd, npts), round_trip(npts)
+  character(len=256), intent(out) :: msg
+  type(nf_result_t) :: res
+  type(nf_change_t) :: ch
+  out = 0
+  round_trip = 0
+  call normal_form(nd, order, expo, coef, res, stat, change=ch)
+  msg = res%message
+  if (stat /= 0) return
+  call nf_map_points(ch, to_model /= 0, pts, out, round_trip)
+end subroutine nf_map

@@ -77,7 +77,8 @@ module tubes_normal_form
     real(wp), allocatable :: c(:, :)                   !! (2N, 2N)
   end type nf_change_t
 
-  public :: normal_form, nf_flux, nf_action_energy, normal_form_flux, nf_to_model, nf_nhim_point
+  public :: normal_form, nf_flux, nf_action_energy, normal_form_flux, nf_to_model, nf_nhim_point, nf_from_model, &
+            nf_map_points
 
 contains
 
@@ -375,6 +376,56 @@ contains
     real(wp) :: dz(ch%s%nv)
     dz = complex_to_model(ch, to_complex(ch%s%nd, w))
   end function nf_to_model
+
+  !> The real normal-form coordinates w of the model's point dz = z - z_s: w(old) = C^-1 dz
+  !> (C^-1 = -J C^T J, C symplectic), complexified, through the inverse change, back to real
+  !> (the imaginary parts left are the change's roundoff).
+  function nf_from_model(ch, dz) result(w)
+    type(nf_change_t), intent(in) :: ch
+    real(wp), intent(in) :: dz(:)
+    real(wp) :: w(ch%s%nv)
+    real(wp) :: jj(ch%s%nv, ch%s%nv), wo(ch%s%nv)
+    complex(wp) :: zo(ch%s%nv), zn(ch%s%nv)
+    integer :: i, nd, nv
+    nd = ch%s%nd
+    nv = ch%s%nv
+    jj = 0
+    do i = 1, nd
+      jj(i, nd + i) = 1
+      jj(nd + i, i) = -1
+    end do
+    wo = -matmul(jj, matmul(transpose(ch%c), matmul(jj, dz)))
+    zo = to_complex(nd, wo)
+    do i = 1, nv
+      zn(i) = poly_at(ch%s, ch%inv(:, i), zo)
+    end do
+    w(1) = real(zn(1), wp)
+    w(nd + 1) = real(zn(nd + 1), wp)
+    do i = 2, nd
+      w(i) = real((zn(i) + IU*zn(nd + i))/sqrt(2.0_wp), wp)
+      w(nd + i) = real((IU*zn(i) + zn(nd + i))/sqrt(2.0_wp), wp)
+    end do
+  end function nf_from_model
+
+  !> Points mapped by the normal form's change (to_model: pts are real normal-form coordinates
+  !> (x_1..x_N, y_1..y_N), out = z - z_s; else pts are z - z_s, out normal-form coordinates), each
+  !> with its round trip |back(out) - pts| (max norm).
+  subroutine nf_map_points(ch, to_model, pts, out, round_trip)
+    type(nf_change_t), intent(in) :: ch
+    logical, intent(in) :: to_model
+    real(wp), intent(in) :: pts(:, :)
+    real(wp), intent(out) :: out(:, :), round_trip(:)
+    integer :: k
+    do k = 1, size(pts, 2)
+      if (to_model) then
+        out(:, k) = nf_to_model(ch, pts(:, k))
+        round_trip(k) = maxval(abs(nf_from_model(ch, out(:, k)) - pts(:, k)))
+      else
+        out(:, k) = nf_from_model(ch, pts(:, k))
+        round_trip(k) = maxval(abs(nf_to_model(ch, out(:, k)) - pts(:, k)))
+      end if
+    end do
+  end subroutine nf_map_points
 
   !> The point of the NHIM at E_s + de with the actions' split eta (3 DOF: J_2 = sin^2(eta) times
   !> its largest, J_3 from H_NF(0, J) - E_s = de; 2 DOF: eta ignored) and the angles th(1:N-1),

@@ -349,3 +349,38 @@ def test_bad_requests_are_refused(tmp_path, cache):
         "&flux", "&section kind = 'plane', index = 1, value = -3.0, direction = 1 /\n        &flux")
     p = run(tmp, text, cache)
     assert p.returncode == 2 and "lies outside the energy surface" in p.stderr, p.stderr
+
+
+def test_points_through_the_coordinate_change(cache, monkeypatch):
+    """tubes.normal_form_map: real normal-form coordinates to the model's (q, p) and back. For the
+    separable saddle the model's energy of the image is lambda x1 y1 + omega_2 J_2 + omega_3 J_3
+    (1e-12); for the coupled quartic, points of the NHIM (x1 = y1 = 0) land on its invariant plane
+    q1 = p1 = 0, and the round trip falls with the order."""
+    import tubes
+    monkeypatch.setenv("TUBES_CACHE_DIR", cache)
+    names = {"coordinates": ["q1", "q2", "q3"], "momenta": ["p1", "p2", "p3"]}
+    rng = np.random.default_rng(5)
+    w = rng.uniform(-0.3, 0.3, size=(20, 6))
+    sep = tubes.Model(system="expression", hamiltonian="(p1^2 + p2^2 + p3^2)/2 - q1^2/2 + 1.3^2*q2^2/2 + 2.1^2*q3^2/2",
+                      **names)
+    r = tubes.normal_form_map(sep, w, order=4, saddle_near=[0, 0, 0], equilibria={"box": 1.0, "n_grid": 5})
+    q1, q2, q3, p1, p2, p3 = r["points"].T
+    h = (p1**2 + p2**2 + p3**2) / 2 - q1**2 / 2 + 1.3**2 * q2**2 / 2 + 2.1**2 * q3**2 / 2
+    hnf = w[:, 0] * w[:, 3] + 1.3 * (w[:, 1]**2 + w[:, 4]**2) / 2 + 2.1 * (w[:, 2]**2 + w[:, 5]**2) / 2
+    np.testing.assert_allclose(h, hnf, atol=1e-12)
+    assert np.all(r["round_trip"] < 1e-14)
+    back = tubes.normal_form_map(sep, r["points"], order=4, to="normal_form", saddle_near=[0, 0, 0],
+                                 equilibria={"box": 1.0, "n_grid": 5})
+    np.testing.assert_allclose(back["points"], w, atol=1e-14)
+    cq = tubes.Model(system="expression", hamiltonian=COUPLED,
+                     constants={"w2": 1.3, "w3": 2.1, "a": 0.2, "b": 0.1, "c": 0.3, "d": 0.05}, **names)
+    wn = w.copy()
+    wn[:, [0, 3]] = 0
+    trips = []
+    for order in (4, 6, 8):
+        r = tubes.normal_form_map(cq, wn, order=order, saddle_near=[0, 0, 0], equilibria={"box": 1.0, "n_grid": 5})
+        assert np.all(np.abs(r["points"][:, [0, 3]]) < 1e-14)
+        trips.append(r["round_trip"].max())
+    assert trips[0] > 10 * trips[1] > 100 * trips[2], trips
+    with pytest.raises(ValueError, match="formula"):
+        tubes.normal_form_map(tubes.Model(system="henon_heiles"), np.zeros((1, 4)), saddle_near=[0, 1])

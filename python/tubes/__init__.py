@@ -38,7 +38,7 @@ FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 __all__ = ["Model", "TubesError", "status_message", "systems", "model_info", "energy", "energies", "potentials",
            "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
            "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
-           "orbit_family", "tube_cut", "transition", "monte_carlo", "poincare", "flux",
+           "orbit_family", "tube_cut", "transition", "monte_carlo", "poincare", "flux", "normal_form_map",
            "load", "Result"]
 
 
@@ -623,15 +623,15 @@ def _tube_cut3(model, st, de, taylor, xs, ws, cls):
     return out
 
 
-def _normal_form_flux(model, st, de, order):
-    """The flux scene's normal form (src/tubes_normal_form.f90) at orders K and K - 2: the Taylor
-    expansion of the formula from the spec embedded in its library (the one the program reads)."""
+def _taylor_at_saddle(model, st, order, who):
+    """The Taylor expansion (exponents (2N, n), coefficients, the saddle's state z_s) of the formula
+    at the saddle of the settings, from the spec embedded in its library (the one the program reads)."""
     import ctypes
 
     from . import codegen
     path = _str(st["expr_lib"])
     if not path:
-        raise ValueError(f"flux: order = {order}: the normal form needs the model written as a formula "
+        raise ValueError(f"{who}: order = {order}: the normal form needs the model written as a formula "
                          "(system='expression'): its Taylor expansion comes from the formula")
     so = ctypes.CDLL(path)
     spec = ctypes.string_at(ctypes.addressof(ctypes.c_char.in_dll(so, "tubes_expr_text"))).decode()
@@ -642,6 +642,41 @@ def _normal_form_flux(model, st, de, order):
     terms = codegen.taylor(codegen.read_spec(spec.splitlines()), [float(v) for v in eq["state"][k]], order)
     expo = np.asfortranarray(np.array([m for m, _ in terms], dtype=np.int32).T)
     coef = np.array([c for _, c in terms], dtype=np.float64)
+    return expo, coef, np.asarray(eq["state"][k], dtype=float)
+
+
+def normal_form_map(model: Model, points, order: int = 8, to: str = "model", saddle=None, saddle_near=None,
+                    equilibria: dict | None = None) -> dict:
+    """Points through the Birkhoff normal form's coordinate change at a saddle (docs/theory.md, "The
+    normal form"; a model written as a formula, 2 or 3 DOF). to = 'model': points (m, 2N) are real
+    normal-form coordinates (x_1..x_N, y_1..y_N: x_1 unstable, y_1 stable, (x_k, y_k) the k-th
+    centre, J_k = (x_k^2 + y_k^2)/2), returned as the model's states z (m, 2N); to = 'normal_form':
+    the reverse. Returns dict points (mapped), round_trip (m,) the max-norm error of mapping back
+    (the truncated series' own check: it grows with the distance from the saddle), saddle_state."""
+    if to not in ("model", "normal_form"):
+        raise ValueError("normal_form_map: to = 'model' or 'normal_form'")
+    st = _settings(model, saddle, saddle_near, equilibria=equilibria, flux={"order": int(order)})
+    expo, coef, zs = _taylor_at_saddle(model, st, int(order), "normal_form_map")
+    nd = model.ndof
+    pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
+    if pts.shape[1] != 2 * nd:
+        raise ValueError(f"normal_form_map: points must be (m, {2 * nd})")
+    if to == "normal_form":
+        pts = pts - zs
+    stat, out, rt, msg = _lib().nf_map(int(order), expo, coef, 1 if to == "model" else 0,
+                                       np.asfortranarray(pts.T), nd=nd)
+    if stat != 0:
+        raise ValueError(f"normal_form_map: {_str(msg)}")
+    mapped = out.T.copy()
+    if to == "model":
+        mapped += zs
+    return {"points": mapped, "round_trip": rt.copy(), "saddle_state": zs}
+
+
+def _normal_form_flux(model, st, de, order):
+    """The flux scene's normal form (src/tubes_normal_form.f90) at orders K and K - 2."""
+    expo, coef, zstate = _taylor_at_saddle(model, st, order, "flux")
+    nd = model.ndof
     res = []
     for kk in (order, order - 2) if order >= 4 else (order,):
         sel = expo.sum(axis=0) <= kk
@@ -651,7 +686,7 @@ def _normal_form_flux(model, st, de, order):
         raise ValueError(f"flux: {_str(msg)}")
     change = np.abs(fl - res[1][1]) if len(res) > 1 else np.full(de.size, np.nan)
     z = np.zeros(6)
-    z[:2 * nd] = eq["state"][k]
+    z[:2 * nd] = zstate
     return {"_taylor": (expo, coef, z), "flux_normal_form": fl.copy(), "flux_normal_form_change": change,
             "normal_form": {"lambda": float(lam), "omegas": om[:nd - 1].copy(), "coefficients": cf[:n_nf].copy(),
                             "powers": pw[:nd, :n_nf].T.copy(), "symplectic_error": float(diag[0]),
@@ -749,7 +784,8 @@ def poincare(model: Model | None = None, dE: float = 100.0, n_seeds=None, n_iter
     return out
 
 
-for _f in (orbit_family, tube_cut, transition, monte_carlo, poincare, flux, equilibria, section_boundary):
+for _f in (orbit_family, tube_cut, transition, monte_carlo, poincare, flux, equilibria, section_boundary,
+           normal_form_map):
     setattr(Model, _f.__name__, lambda self, *a, _f=_f, **k: _f(self, *a, **k))
 del _f
 
