@@ -17,6 +17,18 @@ COUPLED = ("(p1^2 + p2^2 + p3^2)/2 - q1^2/2 + q1^4/4 + w2^2*q2^2/2 + w3^2*q3^2/2
 CONSTS = "'w2 = 1.3', 'w3 = 2.1', 'a = 0.2', 'b = 0.1', 'c = 0.3', 'd = 0.05'"
 
 
+def _section_of(tmp):
+    """/flux/section: its datasets and attributes."""
+    import os
+
+    import h5py
+    with h5py.File(os.path.join(tmp, "f.h5")) as fh:
+        g = fh["flux/section"]
+        out = {k: g[k][()] for k in g}
+        out.update(dict(g.attrs))
+        return out
+
+
 def _nml(h, consts, de, order, extra="", n_samples=20000, seed=3, ndof=3, scenes="'flux'"):
     coords = "'q1', 'q2', 'q3'" if ndof == 3 else "'q1', 'q2'"
     moms = "'p1', 'p2', 'p3'" if ndof == 3 else "'p1', 'p2'"
@@ -288,6 +300,9 @@ def test_transition_fraction_on_a_four_dimensional_section(tmp_path, cache):
     assert p.returncode == 0, p.stdout + p.stderr
     assert "the transition fraction on the section q1 = -0.7" in p.stdout
     f = flux_of(tmp)
+    s = _section_of(tmp)
+    assert s["index"] == 1 and s["value"] == -0.7 and s["direction"] == 1
+    assert np.all(s["n_transit"] + s["n_return"] + s["n_undecided"] == s["n_inside"])
     w2, w3, a, b, c, d = 1.3, 2.1, 0.2, 0.1, 0.3, 0.05
     q1 = -0.7
 
@@ -301,9 +316,9 @@ def test_transition_fraction_on_a_four_dimensional_section(tmp_path, cache):
             rmax = optimize.brentq(g, 0, 10.0, xtol=1e-14)
             return integrate.quad(lambda r: (de - v(r * math.cos(phi), r * math.sin(phi))) * r, 0, rmax)[0]
         vol = 2 * math.pi * integrate.quad(inner, 0, 2 * math.pi, limit=200)[0]
-        assert abs(f["section_volume"][k] - vol) < SIGMAS * f["section_volume_err"][k], (f["section_volume"][k], vol)
+        assert abs(s["volume"][k] - vol) < SIGMAS * s["volume_err"][k], (s["volume"][k], vol)
         theory = f["flux_normal_form"][k] / vol
-        assert abs(f["p_trans_section"][k] - theory) < SIGMAS * f["p_trans_section_err"][k], (f["p_trans_section"][k], theory)
+        assert abs(s["p_trans"][k] - theory) < SIGMAS * s["p_trans_err"][k], (s["p_trans"][k], theory)
 
 
 def test_python_section_fraction_is_the_scenes(tmp_path, cache):
@@ -332,8 +347,11 @@ def test_python_section_fraction_is_the_scenes(tmp_path, cache):
             del os.environ["TUBES_CACHE_DIR"]
         else:
             os.environ["TUBES_CACHE_DIR"] = old
-    for k in ("section_volume", "section_volume_err", "p_trans_section", "p_trans_section_err", "p_trans_theory",
-              "flux_normal_form", "flux_sampled"):
+    s = _section_of(tmp)
+    for k, h in (("section_volume", "volume"), ("section_volume_err", "volume_err"), ("p_trans_section", "p_trans"),
+                 ("p_trans_section_err", "p_trans_err"), ("p_trans_theory", "p_trans_theory")):
+        assert np.array_equal(r[k], s[h]), (k, r[k], s[h])
+    for k in ("flux_normal_form", "flux_sampled"):
         assert np.array_equal(r[k], f[k]), (k, r[k], f[k])
 
 

@@ -1367,7 +1367,7 @@ out:
  * standard errors apart: reported, exit 2. */
 static int section_fraction(const tubes_run_t *run, const double *fl, const double *fe, const double *fnf,
                             const double *fch, double *sv, double *sve, double *sf, double *sfe, double *pth,
-                            double *sx, double *sw, int *scls) {
+                            double *sx, double *sw, int *scls, int *counts) {
   const tubes_config_t *c = run->cfg;
   int n = c->flux_nde, rc = 0, ns = c->flux_n_samples;
   printf("flux: the transition fraction on the section q%d = %g (dq%d/dt %s 0): Monte Carlo (%d points) against "
@@ -1376,7 +1376,7 @@ static int section_fraction(const tubes_run_t *run, const double *fl, const doub
   printf("  %10s %14s %10s %12s %12s %10s %9s %9s %9s %9s\n", "dE", "volume", "+-", "flux/volume", "Monte Carlo",
          "+-", "diff/sd", "transits", "returns", "undecided");
   for (int k = 0; k < n; k++) {
-    int cnt[4];
+    int *cnt = counts + 4 * k;   /* inside the shell, transits, returns, undecided */
     double t0 = now();
     int st = tubes_section_transit(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle,
                                    c->flux_de[k], c->sec_index, c->sec_value, c->sec_direction, c->flux_n_samples,
@@ -1689,14 +1689,16 @@ int scene_flux(tubes_run_t *run) {
          *pth = calloc((size_t)n, sizeof(double));
   cut_out_t cut;
   memset(&cut, 0, sizeof cut);
+  int *scnt = calloc(4 * (size_t)n + 1, sizeof(int));
   cut.ns = c->flux_n_samples;
   if (sec) {
     cut.sx = malloc(sizeof(double) * 2 * MD * (size_t)n * cut.ns);
     cut.sw = malloc(sizeof(double) * (size_t)n * cut.ns);
     cut.scls = malloc(sizeof(int) * (size_t)n * cut.ns);
   }
-  if (sec && sv && sve && sf && sfe && pth && cut.sx && cut.sw && cut.scls) {
-    int r3 = section_fraction(run, fl, fe, nfo.flux, nfo.change, sv, sve, sf, sfe, pth, cut.sx, cut.sw, cut.scls);
+  if (sec && sv && sve && sf && sfe && pth && cut.sx && cut.sw && cut.scls && scnt) {
+    int r3 = section_fraction(run, fl, fe, nfo.flux, nfo.change, sv, sve, sf, sfe, pth, cut.sx, cut.sw, cut.scls,
+                              scnt);
     if (r3 && !rc) rc = r3;
     /* the tube's cut: a normal form (its coordinates seed the tube) with every energy's flux */
     int cutok = c->flux_n_cut > 0 && nfo.done && nfo.stat == 0 && nfo.ex;
@@ -1751,14 +1753,26 @@ int scene_flux(tubes_run_t *run) {
     e |= h5_attr_long(g, "order", c->flux_order);
     if (c->flux_order > 0) e |= write_normal_form(g, &nfo, n);
     if (sec) {
-      e |= h5_write_double(g, "section_volume", 1, &dn, sv, "action^(N-1)");
-      e |= h5_write_double(g, "section_volume_err", 1, &dn, sve, "action^(N-1)");
-      e |= h5_write_double(g, "p_trans_section", 1, &dn, sf, "1");
-      e |= h5_write_double(g, "p_trans_section_err", 1, &dn, sfe, "1");
-      e |= h5_write_double(g, "p_trans_theory", 1, &dn, pth, "1");
-      e |= h5_attr_long(g, "section_index", c->sec_index);
-      e |= h5_attr_double(g, "section_value", c->sec_value);
-      e |= h5_attr_long(g, "section_direction", c->sec_direction);
+      hid_t s3 = h5_group(g, "section");    /* the transition fraction on the 4-D section */
+      int *col = malloc(sizeof(int) * (n ? (size_t)n : 1));
+      e |= s3 < 0 || !col;
+      if (s3 >= 0 && col) {
+        e |= h5_write_double(s3, "volume", 1, &dn, sv, "action^(N-1)");
+        e |= h5_write_double(s3, "volume_err", 1, &dn, sve, "action^(N-1)");
+        e |= h5_write_double(s3, "p_trans", 1, &dn, sf, "1");
+        e |= h5_write_double(s3, "p_trans_err", 1, &dn, sfe, "1");
+        e |= h5_write_double(s3, "p_trans_theory", 1, &dn, pth, "1");
+        static const char *const cn[4] = {"n_inside", "n_transit", "n_return", "n_undecided"};
+        for (int j = 0; j < 4; j++) {
+          for (int k = 0; k < n; k++) col[k] = scnt[4 * k + j];
+          e |= h5_write_int(s3, cn[j], dn, col, "1");
+        }
+        e |= h5_attr_long(s3, "index", c->sec_index);
+        e |= h5_attr_double(s3, "value", c->sec_value);
+        e |= h5_attr_long(s3, "direction", c->sec_direction);
+      }
+      free(col);
+      if (s3 >= 0) H5Gclose(s3);
     }
     if (cut.mis) e |= write_tube_cut3(g, &cut, c);
   }
@@ -1768,6 +1782,6 @@ int scene_flux(tubes_run_t *run) {
   free(nfo.energy_err); free(sv); free(sve); free(sf); free(sfe); free(pth); free(nfo.ex); free(nfo.cf);
   free(cut.x); free(cut.t); free(cut.st); free(cut.diag); free(cut.ptrans); free(cut.inside); free(cut.mis);
   free(cut.vex); free(cut.inside_pl); free(cut.mis_pl); free(cut.unres);
-  free(cut.sx); free(cut.sw); free(cut.scls);
+  free(cut.sx); free(cut.sw); free(cut.scls); free(scnt);
   return e ? EXIT_IO : rc;
 }
