@@ -58,13 +58,16 @@ CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -fPIC -fopenmp -Wall -Wextra $(
               -DTUBES_FFLAGS='"$(strip $(OPT_F))"' $(MPI_DEF) $(CFLAGS)
 LDLIBS_ALL := $(HDF5_LIBS) $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) $(LAPACK_LIBS) -lm $(LDLIBS)
 
-F_SRC := $(wildcard src/*.f90 src/models/*.f90 src/c/*.f90 src/io/*.f90)
-C_SRC := $(filter-out src/io/tubes_main.c,$(wildcard src/io/*.c src/c/*.c))
+# src/ in topic folders (docs/development.md): base, models, integrators, orbits, transport,
+# experiment, parallel, workflow, capi (the C API), io (the C driver, namelist and HDF5)
+SRC_DIRS := $(sort $(dir $(wildcard src/*/)))
+F_SRC := $(wildcard $(addsuffix *.f90,$(SRC_DIRS)))
+C_SRC := $(filter-out src/io/tubes_main.c,$(wildcard $(addsuffix *.c,$(SRC_DIRS))))
 F_OBJ := $(patsubst %.f90,$(BUILD)/obj/%.o,$(notdir $(F_SRC)))
 C_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(notdir $(C_SRC)))
 LIB   := $(BUILD)/libtubes.a
-vpath %.f90 src src/models src/c src/io tests
-vpath %.c src/io src/c tests
+vpath %.f90 $(SRC_DIRS) tests
+vpath %.c $(SRC_DIRS) tests
 
 T_F_SRC := $(wildcard tests/test_*.f90)
 T_C_SRC := $(wildcard tests/test_*.c)
@@ -124,7 +127,7 @@ $(BUILD)/deps.mk: $(F_SRC) $(T_F_SRC) Makefile | $(BUILD)/obj
 
 $(BUILD)/obj/%.o: %.f90 | $(BUILD)/obj $(BUILD)/mod
 	$(FC) $(FFLAGS_ALL) -c $< -o $@
-# tubes_par is the one preprocessed source: MPI or the one-rank identity (src/tubes_par.f90)
+# tubes_par is the one preprocessed source: MPI or the one-rank identity (src/parallel/tubes_par.f90)
 $(BUILD)/obj/tubes_par.o: FFLAGS_ALL += -cpp $(MPI_DEF)
 $(BUILD)/obj/%.o: %.c $(wildcard include/*.h) | $(BUILD)/obj
 	$(CC) $(CFLAGS_ALL) -c $< -o $@

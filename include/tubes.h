@@ -1,4 +1,4 @@
-/* tubes: the C view of the bind(C) API (src/c/tubes_capi.f90) and of the namelist reader
+/* tubes: the C view of the bind(C) API (src/capi/tubes_capi.f90) and of the namelist reader
  * Binding labels must differ from every Fortran module name (they share one global namespace).
  * (src/io/tubes_nml.f90). Units: cm, s; energies per unit mass in (cm/s)^2. */
 #ifndef TUBES_H
@@ -8,7 +8,7 @@
 extern "C" {
 #endif
 
-/* Status codes (src/tubes_status.f90, python/tubes/__init__.py). >= 0 success. */
+/* Status codes (src/base/tubes_status.f90, python/tubes/__init__.py). >= 0 success. */
 enum {
   TUBES_OK = 0, TUBES_EVENT = 1,
   TUBES_EINPUT = -1, TUBES_EMAXSTEPS = -2, TUBES_ESTEP = -3, TUBES_EMODEL = -4,
@@ -20,7 +20,7 @@ enum {
   TUBES_ENARROW = -11 /* the slab (&flux gate) is narrower than the NHIM's reach along the reaction coordinate */
 };
 
-/* Integration methods (src/tubes_methods.f90). */
+/* Integration methods (src/integrators/tubes_methods.f90). */
 enum {
   TUBES_METHOD_DOP853 = 1, TUBES_METHOD_RK4 = 2, TUBES_METHOD_TAO2 = 3, TUBES_METHOD_TAO4 = 4,
   TUBES_METHOD_TAO6 = 5, TUBES_METHOD_GAUSS4 = 6, TUBES_METHOD_GAUSS6 = 7, TUBES_METHOD_GAUSS8 = 8,
@@ -32,7 +32,7 @@ enum {
 
 /* A model is chosen by the name of its system (the library, docs/models.md) and its parameter
  * vector params[TUBES_MAXPARAM] in the order of tubes_model_info (the table in
- * src/tubes_models.f90 is the one definition). rolling_ball's order is {alpha [1/cm], beta [1],
+ * src/models/tubes_models.f90 is the one definition). rolling_ball's order is {alpha [1/cm], beta [1],
  * gamma [cm^2], xi [1/cm], h0 [cm], g [cm/s^2], damping_ratio [1]}. */
 enum { TUBES_NMODEL = 7, TUBES_LSYSTEM = 32, TUBES_MAXPARAM = 16, TUBES_LPARAM = 16,
        TUBES_MAXDOF = 3, TUBES_LUNITS = 16, TUBES_LDOC = 96, TUBES_LSUMMARY = 160 };
@@ -223,7 +223,7 @@ int tubes_monte_carlo(const char system[TUBES_LSYSTEM], const double params[TUBE
                       int method, double h, double omega_bind, int solver, int max_iter, int ncut, const double cut_r[], const double cut_pr[], double r[],
                       double pr[], int outcome[], int inside[]);
 
-/* The flux of trajectories through the saddle's bottleneck at de (src/tubes_flux.f90, natural
+/* The flux of trajectories through the saddle's bottleneck at de (src/transport/tubes_flux.f90, natural
  * systems; docs/theory.md): sampled on the dividing surface with nsamp points from seed (flux,
  * its standard error err), each followed to t_max at tolerance tol out of the slab of half-width
  * gate; leading = (2 pi)^(N-1) de^(N-1) / ((N-1)! prod omega_k); counts = {points inside the
@@ -238,7 +238,7 @@ int tubes_flux_sample(const char system[TUBES_LSYSTEM], const double params[TUBE
 /* The energy surface's volume on the plane section q_k = c (k = 1..N, crossed with sign(dq_k/dt)
  * = dir) at de above the saddle, sampled like the flux (natural systems), and the fraction of it
  * that passes the saddle's slab (half-width gate) on the far side before returning to the section:
- * the transition fraction, which tube dynamics predicts as flux / volume (src/tubes_flux.f90;
+ * the transition fraction, which tube dynamics predicts as flux / volume (src/transport/tubes_flux.f90;
  * docs/theory.md). counts = {inside the shell, transits, returns, undecided}. TUBES_EOUTSIDE if the
  * section's point nearest the saddle lies outside the energy shell. */
 int tubes_section_transit(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
@@ -251,7 +251,7 @@ int tubes_section_transit(const char system[TUBES_LSYSTEM], const double params[
  * (the momenta's ellipsoid volume), cls[i] = 1 transit, -1 return, 2 undecided, 3 outside. */
 
 /* The cut of the stable tube of a 3-DOF saddle's NHIM at de with the plane q_k = c (crossed with
- * sign(dq_k/dt) = dir; src/tubes_cut3.f90, docs/theory.md "Tube cuts in 3 DOF"): the normal form of
+ * sign(dq_k/dt) = dir; src/orbits/tubes_cut3.f90, docs/theory.md "Tube cuts in 3 DOF"): the normal form of
  * degree order from the Taylor expansion (n_terms terms: expo[6 t + i], coef[t]) at the saddle's
  * state zs; seeds on n_cut + 1 rings of (2 n_cut)^2 NHIM points, stepped off by eps times the
  * NHIM's radius, followed backwards to their first crossing. Out: xcut[6 m + j] the state of node m
@@ -277,7 +277,7 @@ int tubes_tube_cut3(const char system[TUBES_LSYSTEM], const double params[TUBES_
                     double diag[TUBES_CUT3_NDIAG], char *msg, int lmsg);
 
 /* The Birkhoff normal form of H from its Taylor coefficients at a saddle x centre^(N-1)
- * equilibrium (src/tubes_normal_form.f90; docs/theory.md): n_terms terms, expo[t 2N + i] the
+ * equilibrium (src/orbits/tubes_normal_form.f90; docs/theory.md): n_terms terms, expo[t 2N + i] the
  * exponent of the i-th of (dq_1..dq_N, dp_1..dp_N) in term t, coef[t]; to degree order. The flux
  * at de[0..n_de-1]: flux[k] (NaN and fstat[k] = TUBES_ENOCONV where the truncated normal form has
  * no bounded action region). Out: lambda, omegas[N-1], the normal form H_NF = sum_t nf_coef[t]
@@ -293,7 +293,7 @@ int tubes_birkhoff(int n_dof, int order, int n_terms, const int expo[], const do
                       int lmsg);
 /* Points of the NHIM per energy that tubes_birkhoff maps to the model's coordinates: nhim[(k
  * TUBES_NF_NPTS + j) 2N + i] = component i of z - z_s of point j at de[k]; round_trip[k] the largest
- * |new(old(zeta)) - zeta| of the coordinate change and its inverse there (src/tubes_normal_form.f90). */
+ * |new(old(zeta)) - zeta| of the coordinate change and its inverse there (src/orbits/tubes_normal_form.f90). */
 #define TUBES_NF_NPTS 8
 
 /* Poincare map of the section at de: pts[(j n_iter + k) 2 + {0, 1}] = (r, p_r) of the k-th return
@@ -311,7 +311,7 @@ int tubes_experiment_samples(double duration, double camera_rate);
 /* Release point draws after which tubes_synthetic_experiment gives up (TUBES_EINPUT). */
 enum { TUBES_MAX_RELEASE_DRAWS = 4194304 };
 
-/* Synthetic tracking data (src/tubes_experiment.f90, docs/experiment-data.md): n_tracks balls
+/* Synthetic tracking data (src/experiment/tubes_experiment.f90, docs/experiment-data.md): n_tracks balls
  * released from rest at points drawn uniformly in |x|, |y| <= box [cm] with g H - e_e in
  * [de_min, de_max] [(cm/s)^2], integrated by DOP853 (rtol = atol = rtol) on the model with
  * damping ratio model[6], sampled at ns = tubes_experiment_samples(duration, camera_rate)

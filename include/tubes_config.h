@@ -76,7 +76,7 @@ typedef struct {
   char sec_kind[TUBES_LNAME];
   int sec_index, sec_direction;
   double sec_value;
-  /* resolved by the reader from the library's table (src/tubes_models.f90): the system's degrees
+  /* resolved by the reader from the library's table (src/models/tubes_models.f90): the system's degrees
    * of freedom and parameters in the table's order (nparams = -1: unknown system), the search box,
    * whether the saddle is chosen by position; box_list, box_center, the section's fields, the
    * saddle and mc_gate then hold the effective values */

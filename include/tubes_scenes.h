@@ -46,7 +46,7 @@ int scene_sections(tubes_run_t *run);
 /* Synthetic tracking data (&experiment): writes /tracks, and the CSV file if &experiment csv is
  * set. Returns 0, EXIT_NUMERIC or EXIT_IO. */
 int scene_synthetic_experiment(tubes_run_t *run);
-/* The flux of trajectories through the saddle's bottleneck (/flux; src/tubes_flux.f90). */
+/* The flux of trajectories through the saddle's bottleneck (/flux; src/transport/tubes_flux.f90). */
 int scene_flux(tubes_run_t *run);
 #ifdef __cplusplus
 }

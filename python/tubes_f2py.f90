@@ -1,7 +1,7 @@
 ! The f2py facade of tubes (python/tubes/_core): plain subroutines, iso_c_binding kinds,
 ! explicit shapes, stat first among the outputs. The tubes package (python/tubes/__init__.py)
 ! copies inputs and raises TubesError on stat < 0. A model is (system, params(16)) in the order
-! of the library's table (src/tubes_models.f90, model_info).
+! of the library's table (src/models/tubes_models.f90, model_info).
 
 subroutine model_system(k, stat, name)
   ! the name of built-in system k = 1, 2, ... (stat -1 past the last)
@@ -20,7 +20,7 @@ end subroutine model_system
 
 subroutine model_info(system, stat, ndof, np, names, defaults, summary, saddle, near, sec_kind, &
                       sec_index, sec_value, sec_dir, sec_angle, gate, box, box_center)
-  ! the table entry of a system (src/tubes_models.f90): names is np blocks of 16 characters
+  ! the table entry of a system (src/models/tubes_models.f90): names is np blocks of 16 characters
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_models, only: system_info_t, system_info, MAX_PARAMS, MAX_DOF
   implicit none
@@ -248,7 +248,7 @@ end subroutine trajectory
 
 subroutine section_boundary(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, &
                             dir, de, m, stat, smin, smax, s, pmin, pmax)
-  ! the energy surface's boundary on a section (src/tubes_section_kinds.f90) at E_e(saddle) + de:
+  ! the energy surface's boundary on a section (src/transport/tubes_section_kinds.f90) at E_e(saddle) + de:
   ! its interval [smin, smax] and the p_s range [pmin, pmax] at m points s across it
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_hamiltonian, only: hamiltonian_t
@@ -619,7 +619,7 @@ subroutine poincare(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index,
 end subroutine poincare
 
 subroutine status_text(code, msg)
-  ! the meaning of a TUBES_* status code (src/tubes_status.f90: the one table of them)
+  ! the meaning of a TUBES_* status code (src/base/tubes_status.f90: the one table of them)
   use tubes_status, only: status_message
   implicit none
   integer, intent(in) :: code
@@ -629,7 +629,7 @@ end subroutine status_text
 
 subroutine flux(system, params, lo, hi, n_grid, saddle, nde, des, nsamp, seed, t_max, gate, tol, method, h, &
                 omega_bind, solver, int_max_iter, stat, fl, err, leading, counts)
-  ! the flux through the saddle's bottleneck (as the flux scene; src/tubes_flux.f90)
+  ! the flux through the saddle's bottleneck (as the flux scene; src/transport/tubes_flux.f90)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_equilibria, only: equilibrium_t

@@ -1,4 +1,4 @@
-!> Differentiators for tracked positions (src/tubes_differentiate.f90): Savitzky-Golay and
+!> Differentiators for tracked positions (src/experiment/tubes_differentiate.f90): Savitzky-Golay and
 !> spectral (FFTW) derivatives of analytic signals sampled like the camera (50 Hz), without and
 !> with noise. Checks: exactness (SG on polynomials of degree <= order, spectral on band-limited
 !> periodic signals, the edge modes on the polynomials they remove), convergence orders, the

@@ -1,4 +1,4 @@
-"""The flux scene (src/tubes_flux.f90, docs/theory.md "Flux in N degrees of freedom"), through the
+"""The flux scene (src/transport/tubes_flux.f90, docs/theory.md "Flux in N degrees of freedom"), through the
 executable, against independent references: the closed form of a separable 3-DOF saddle, a 2-D
 quadrature where a coupled 3-DOF model keeps {q1 = p1 = 0} invariant, and in 2 DOF the Lyapunov
 orbit's action (the orbits scene, another computation). Sampled values within 4 standard errors."""

@@ -1,4 +1,4 @@
-"""The Birkhoff normal form and its flux (src/tubes_normal_form.f90, `&flux order`; docs/theory.md,
+"""The Birkhoff normal form and its flux (src/orbits/tubes_normal_form.f90, `&flux order`; docs/theory.md,
 "The normal form"), through the executable, against independent references: the closed form of a
 separable 3-DOF saddle (1e-12), a 2-D quadrature of the NHIM's interior where a quartic coupling
 keeps {q1 = p1 = 0} invariant, the Lyapunov orbit's action in 2 DOF (the orbits scene: shooting,

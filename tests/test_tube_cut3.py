@@ -1,4 +1,4 @@
-"""The stable tube's cut with a 4-D section in 3 DOF (src/tubes_cut3.f90, the flux scene's
+"""The stable tube's cut with a 4-D section in 3 DOF (src/orbits/tubes_cut3.f90, the flux scene's
 /flux/tube_cut; docs/theory.md "Tube cuts in 3 DOF"), through the executable, against independent
 references: the closed form of a separable saddle (the cut is the centres' energy ellipsoid, its
 volume 2 pi^2 dE^2 / (omega_2 omega_3), and a point of the section is inside iff its centres'

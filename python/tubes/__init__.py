@@ -18,14 +18,14 @@ from typing import Any
 
 import numpy as np
 
-# Status codes: the same numbers as src/tubes_status.f90 and include/tubes.h.
+# Status codes: the same numbers as src/base/tubes_status.f90 and include/tubes.h.
 OK, EVENT = 0, 1
 EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV, EFAULT, EOUTSIDE, ENOCROSS, EPASTEND, ENARROW = (
     -1, -2, -3, -4, -5, -6, -7, -8, -9, -10, -11)
 
 
 def status_message(code: int) -> str:
-    """The meaning of a TUBES_* status code, from the library's one table (src/tubes_status.f90)."""
+    """The meaning of a TUBES_* status code, from the library's one table (src/base/tubes_status.f90)."""
     msg = _lib().status_text(int(code))
     return (msg.decode() if isinstance(msg, bytes) else str(msg)).strip()
 
@@ -77,7 +77,7 @@ class Model:
         tubes.Model(surface="expression", height="0.07*(x^2 + y^2) - sqrt(x^2 + 15)")
 
     The parameters, their defaults and their order come from the Fortran table
-    (src/tubes_models.f90): a keyword that is not a parameter of the system is refused with the
+    (src/models/tubes_models.f90): a keyword that is not a parameter of the system is refused with the
     system's parameters named, as the input file refuses it. ``model.alpha`` reads a parameter;
     ``model.parameters`` is the dict of all of them; ``model.params()`` the vector the core
     takes."""
@@ -587,7 +587,7 @@ def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_
 
 
 def _tube_cut3(model, st, de, taylor, xs, ws, cls):
-    """The flux scene's tube cut (src/tubes_cut3.f90, cut3_study) at every dE, the section's Monte
+    """The flux scene's tube cut (src/orbits/tubes_cut3.f90, cut3_study) at every dE, the section's Monte
     Carlo points xs (6, n, nde), weights and classes placed inside or outside it."""
     expo, coef, z = taylor
     nc = int(st["flux_n_cut"])
@@ -674,7 +674,7 @@ def normal_form_map(model: Model, points, order: int = 8, to: str = "model", sad
 
 
 def _normal_form_flux(model, st, de, order):
-    """The flux scene's normal form (src/tubes_normal_form.f90) at orders K and K - 2."""
+    """The flux scene's normal form (src/orbits/tubes_normal_form.f90) at orders K and K - 2."""
     expo, coef, zstate = _taylor_at_saddle(model, st, order, "flux")
     nd = model.ndof
     res = []
@@ -898,14 +898,14 @@ def reference_solution(state0, t_end: float, tol: float = 1e-26, model: Model | 
     return np.asarray(x)
 
 
-EDGES = {"periodic": 0, "odd": 1, "mirror": 2}   # src/tubes_differentiate.f90 EDGE_*
+EDGES = {"periodic": 0, "odd": 1, "mirror": 2}   # src/experiment/tubes_differentiate.f90 EDGE_*
 _DIFF_OPTIONS = {"spectral": {"cutoff": 5.0, "rolloff": 0.5, "edge": "mirror", "end_order": 3,
                               "end_window": None},
                  "savgol": {"order": 3, "window": 15}}
 
 
 def differentiate(x, dt: float, method: str = "spectral", **options):
-    """Velocity and smoothed position of samples x taken every dt [s] (src/tubes_differentiate.f90,
+    """Velocity and smoothed position of samples x taken every dt [s] (src/experiment/tubes_differentiate.f90,
     docs/experiment-data.md). x is 1-D (n,) or 2-D (n, k): each column is one coordinate.
 
     method="spectral" (FFTW): options cutoff [Hz] (half-gain frequency of the raised-cosine

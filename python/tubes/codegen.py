@@ -225,7 +225,7 @@ def function(sp, pr, name, inputs, consts, outputs, comment):
 def reversor(sp, h, qs, ps):
     """Signs r (2N) of a reversor x -> r x (q_i -> s_i q_i, p_i -> -s_i p_i) with H(r x) = H(x),
     the one with the most s_i = +1 (a natural system's (q, -p) first); zeros if none: symmetric
-    periodic orbits are found with it (src/tubes_orbits.f90)."""
+    periodic orbits are found with it (src/orbits/tubes_orbits.f90)."""
     from itertools import product
     n = len(qs)
     for signs in sorted(product((1, -1), repeat=n), key=lambda s: (s.count(-1), [-v for v in s])):
@@ -458,7 +458,7 @@ def taylor(spec, point, order):
     total degree order: [(exponents of (dq, dp), coefficient)]. A polynomial H is expanded exactly
     (rational arithmetic, then rounded); any other by automatic differentiation (_taylor_ad: power
     series arithmetic on the formula's tree, exact up to rounding). No finite differences (the
-    normal form, src/tubes_normal_form.f90)."""
+    normal form, src/orbits/tubes_normal_form.f90)."""
     import sympy as sp
 
     kind, h, qs, ps, csyms, cvals = build(spec, sp)

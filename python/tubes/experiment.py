@@ -631,7 +631,7 @@ def savgol_matrices(window: int, order: int):
 
 def differentiate(x, dt: float, method: str = "spectral", **options):
     """(velocity, smoothed position) of uniformly sampled x ((n,) or (n, k)): tubes.differentiate,
-    the Fortran estimators of src/tubes_differentiate.f90."""
+    the Fortran estimators of src/experiment/tubes_differentiate.f90."""
     import tubes
     if method not in ESTIMATORS:
         raise ExperimentError(f"unknown estimator {method!r}; allowed: {', '.join(ESTIMATORS)}")
@@ -648,7 +648,7 @@ def differentiate(x, dt: float, method: str = "spectral", **options):
 
 
 def differentiator_name() -> str:
-    return "tubes.differentiate (src/tubes_differentiate.f90)"
+    return "tubes.differentiate (src/experiment/tubes_differentiate.f90)"
 
 
 def min_samples_for(method: str, options: dict) -> int:

@@ -545,7 +545,7 @@ static int check_list(const char *path, const nml_where *w, const char *group, c
 }
 
 /* &model: the system exists, every &model variable set in the file is one of its parameters,
- * and the parameters are in range (the library's constructor decides: src/tubes_models.f90). */
+ * and the parameters are in range (the library's constructor decides: src/models/tubes_models.f90). */
 static int validate_model(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int ndof = 0, np = 0, si, sd;
   static char names[TUBES_MAXPARAM * TUBES_LPARAM], units[TUBES_MAXPARAM * TUBES_LUNITS],

@@ -47,7 +47,7 @@ static void usage(FILE *out) {
 }
 
 /* MPI (docs/cluster.md): every rank runs the whole program on the same input; the ensembles
- * are shared out inside the numerics (src/tubes_par.f90). Rank 0 alone prints and writes the
+ * are shared out inside the numerics (src/parallel/tubes_par.f90). Rank 0 alone prints and writes the
  * output file; the other ranks write their copy into an in-memory scratch file and print
  * nothing (TUBES_MPI_VERBOSE=1 lets them print). */
 static int g_rank = 0, g_nranks = 1;

@@ -379,7 +379,7 @@ contains
   end subroutine effective_model
 
   !> The effective model, box, saddle, section and gate: the file's values, else the system's
-  !> defaults from the library's table (src/tubes_models.f90). An unknown system leaves
+  !> defaults from the library's table (src/models/tubes_models.f90). An unknown system leaves
   !> nparams = -1 (nml_validate reports it).
   subroutine resolve(v, cfg, build)
     type(vars_t), intent(in) :: v

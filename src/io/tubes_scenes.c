@@ -1253,7 +1253,7 @@ typedef struct {
   double *cf, z[2 * MD];
 } nf_out_t;
 
-/* The Birkhoff normal form of the formula model at the saddle (&flux order K; src/tubes_normal_form.f90)
+/* The Birkhoff normal form of the formula model at the saddle (&flux order K; src/orbits/tubes_normal_form.f90)
  * and its flux on the &flux energies at orders K and K - 2, against the sampled flux fl +- fe:
  * a refusal (not a formula model: exit 1; degenerate, resonant: exit 2, the sampled flux still
  * written) or a disagreement beyond 5 combined standard errors (exit 2) is reported. */
@@ -1422,7 +1422,7 @@ typedef struct {
   int *st, *inside, *inside_pl, *scls, *mis, *mis_pl, *unres;
 } cut_out_t;
 
-/* The cut of the stable tube with the section q_k = c (src/tubes_cut3.f90): its 4-volume against
+/* The cut of the stable tube with the section q_k = c (src/orbits/tubes_cut3.f90): its 4-volume against
  * the flux, and the Monte Carlo points of section_fraction inside it against their fate. The cut
  * on every other node gives a second volume V_h: the discretisation is second order, so
  * V_x = V + (V - V_h) / 3 is the extrapolated volume. The piecewise-linear cut lacks about

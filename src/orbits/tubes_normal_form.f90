@@ -667,7 +667,7 @@ contains
 
   !> The normal form (normal_form) and its flux at de(:) (nf_flux): flux(k) NaN with fstat(k) its
   !> status where the truncated form has no bounded region; all NaN if the normal form is refused
-  !> (stat, res%message). The one path of the program (src/c/tubes_capi.f90) and of Python.
+  !> (stat, res%message). The one path of the program (src/capi/tubes_capi.f90) and of Python.
   subroutine normal_form_flux(nd, order, expo, coef, de, res, flux, fstat, stat)
     integer, intent(in) :: nd, order
     integer, intent(in) :: expo(:, :)

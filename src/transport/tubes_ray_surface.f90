@@ -24,7 +24,7 @@ module tubes_ray_surface
 
   public :: ray_potential, ray_hr, section_region, section_area, section_darea, boundary_pr, &
             p_theta_from
-  public :: quad_qags, quad_root   !! GSL QAGS and Brent through src/c/tubes_quad.c
+  public :: quad_qags, quad_root   !! GSL QAGS and Brent through src/base/tubes_quad.c
 
   interface
     integer(c_int) function quad_qags(f, user, a, b, epsabs, epsrel, result, abserr) &

@@ -1,4 +1,4 @@
-!> One study's set-up, shared by the C API (src/c/tubes_capi.f90) and the f2py facade
+!> One study's set-up, shared by the C API (src/capi/tubes_capi.f90) and the f2py facade
 !> (python/tubes_f2py.f90): the model by name, its equilibria in the search box and the chosen
 !> rank-1 saddle; the section of the tube-dynamics calls and the saddle's transit gate; the
 !> Lyapunov orbit at one energy. (The start of the workflow layer: each call still computes its

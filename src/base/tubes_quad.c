@@ -1,5 +1,5 @@
-/* GSL quadrature, root finding and periodic splines for the Fortran core (src/tubes_ray_surface.f90,
- * src/tubes_manifold.f90). The integrands are Fortran bind(C) callbacks with a user pointer; no
+/* GSL quadrature, root finding and periodic splines for the Fortran core (src/transport/tubes_ray_surface.f90,
+ * src/orbits/tubes_manifold.f90). The integrands are Fortran bind(C) callbacks with a user pointer; no
  * state outside the call (workspaces are allocated per call), so calls are thread-safe. GSL's
  * error handler is switched off (once) so that failures come back as status codes. */
 #include <math.h>

@@ -1,6 +1,6 @@
 !> One integration as the program and the Python layer run it: the model from the parameter
 !> vector, a method with its options, sampling on a time grid, and optionally every crossing of
-!> a section. The C API (src/c/tubes_capi.f90) and f2py (python/tubes_f2py.f90) both call this.
+!> a section. The C API (src/capi/tubes_capi.f90) and f2py (python/tubes_f2py.f90) both call this.
 module tubes_run
   use tubes_kinds, only: wp, i8
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT

@@ -494,7 +494,7 @@ contains
   end function c_monte_carlo
 
   !> The flux of trajectories through the saddle's bottleneck at excess energy de
-  !> (src/tubes_flux.f90): sampled with nsamp points from seed (its standard error err), and the
+  !> (src/transport/tubes_flux.f90): sampled with nsamp points from seed (its standard error err), and the
   !> leading-order formula; counts = (points inside the shell, reacting, recrossing the other
   !> way, undecided within t_max); box(2, N-1) the sampling box of the dividing surface.
   !> TUBES_EINPUT for a model that is not natural.
@@ -572,7 +572,7 @@ contains
   !> The cut of the stable tube of a 3-DOF saddle's NHIM at de with the plane q_k = c (crossed with
   !> sign(dq_k/dt) = dir), from the normal form of order `order` of the Taylor expansion (expo, coef)
   !> at zs, on a grid of n_cut + 1 rings of (2 n_cut)^2 NHIM points stepped off by eps
-  !> (src/tubes_cut3.f90): the states at the section xcut(6, nodes), times tcut, node status stcut;
+  !> (src/orbits/tubes_cut3.f90): the states at the section xcut(6, nodes), times tcut, node status stcut;
   !> diag = (the seeds' largest |H - E| / dE before their correction, the enclosed 4-volume,
   !> failed nodes); and for the points pts(6, n_pts) of the section: inside(i) = 1 inside the cut,
   !> 0 outside, -1 not a point (NaN). TUBES_ENOCROSS if a node failed, TUBES_EINPUT (msg) if the
@@ -613,7 +613,7 @@ contains
   !> bounded action region). Out: lambda, omegas(N-1), the normal form's terms (at most max_nf:
   !> nf_expo(3, .) the exponents of I_1, J_2, J_3, nf_coef), diag = (symplectic error of the
   !> linear change, largest non-normal coefficient left, largest imaginary part, smallest
-  !> divisor), msg the reason of a refusal. src/tubes_normal_form.f90.
+  !> divisor), msg the reason of a refusal. src/orbits/tubes_normal_form.f90.
   integer(c_int) function c_normal_form(n_dof, order, n_terms, expo, coef, n_de, de, flux, fstat, lambda, &
       omegas, max_nf, n_nf, nf_expo, nf_coef, diag, nhim, round_trip, msg, lmsg) result(stat) &
       bind(C, name='tubes_birkhoff')
@@ -674,7 +674,7 @@ contains
     ns = experiment_samples(duration, camera_rate)
   end function c_experiment_samples
 
-  !> Synthetic tracking data (include/tubes.h, src/tubes_experiment.f90).
+  !> Synthetic tracking data (include/tubes.h, src/experiment/tubes_experiment.f90).
   integer(c_int) function c_synthetic_experiment(params, e_e, n_tracks, duration, camera_rate, &
       pixel, noise, de_min, de_max, box, seed, rtol, ns, t, state, energy, noisy, measured, &
       release, c_damp, n_draws) result(stat) bind(C, name='tubes_synthetic_experiment')

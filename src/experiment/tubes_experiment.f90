@@ -4,7 +4,7 @@
 !> the pixel grid. The truth (noise-free states) is returned beside the measurement.
 !> Model and defaults: docs/experiment-data.md.
 !>
-!> All random numbers come from one GSL MT19937 stream (tubes_rng_uniform, src/c/tubes_quad.c)
+!> All random numbers come from one GSL MT19937 stream (tubes_rng_uniform, src/base/tubes_quad.c)
 !> and are drawn serially before the tracks are integrated in parallel (MPI ranks and OpenMP
 !> threads), each track into its own slice: the result does not depend on either number.
 module tubes_experiment
