@@ -93,6 +93,20 @@ module tubes_integrator
     procedure :: clear => log_clear
   end type crossing_log_t
 
+  !> The step grid of a fixed-step method: t_k = t0 + k hs, one rounding per step (no drift of t
+  !> over many steps); a call that starts where the last step ended with the same step continues it.
+  type, public :: step_grid_t
+    real(wp) :: t0 = 0          !! the grid's origin [s]
+    real(wp) :: hs = 0          !! its signed spacing (0: no grid) [s]
+    integer(i8) :: n = 0        !! the index k of the current t on it
+    real(wp) :: mark = 0        !! t as set by the last step (t changed outside: a new grid)
+    logical :: on = .false.     !! the step being tried is on the grid
+  contains
+    procedure :: begin => grid_begin
+    procedure :: trial => grid_trial
+    procedure :: finish => grid_finish
+  end type step_grid_t
+
   !> Dense-output hook called after every accepted step; owns its own buffers.
   type, abstract, public :: observer_t
   contains
@@ -210,6 +224,64 @@ contains
     integer, intent(in) :: slope   !! sign of dg/dt across the crossing (in time)
     event_orientation = slope
   end function event_orientation
+
+  !> At the start of a step from t with step h in direction dir: continue the grid or start one at t.
+  pure subroutine grid_begin(g, t, dir, h)
+    class(step_grid_t), intent(inout) :: g
+    real(wp), intent(in) :: t, dir, h
+    g%on = t == g%mark .and. dir*h == g%hs
+    if (.not. g%on) then
+      g%t0 = t
+      g%n = 0
+      g%hs = dir*h
+      g%on = .true.
+    end if
+  end subroutine grid_begin
+
+  !> The step to try from t towards tmax with step h: t_full its end, hs its signed size, last if
+  !> it lands on tmax (a full step reaching tmax up to 64 ulps of t); stat TUBES_ESTEP if hs is
+  !> below roundoff of t and not the last.
+  pure subroutine grid_trial(g, t, tmax, dir, h, t_full, hs, last, stat)
+    class(step_grid_t), intent(in) :: g
+    real(wp), intent(in) :: t, tmax, dir, h
+    real(wp), intent(out) :: t_full, hs
+    logical, intent(out) :: last
+    integer, intent(out) :: stat
+    real(wp) :: hmin
+    stat = TUBES_OK
+    if (g%on) then              ! one rounding, no accumulated drift of t
+      t_full = g%t0 + (g%n + 1)*g%hs
+    else
+      t_full = t + dir*h
+    end if
+    last = dir*(tmax - t_full) <= 64*epsilon(1.0_wp)*max(h, abs(t_full))
+    if (last) then
+      hs = tmax - t
+    else
+      hs = t_full - t
+    end if
+    hmin = 16*epsilon(1.0_wp)*max(abs(t), abs(tmax) - abs(tmax - t), 1.0e-300_wp)
+    if (abs(hs) < hmin .and. .not. last) stat = TUBES_ESTEP
+  end subroutine grid_trial
+
+  !> After the accepted step: advance on the grid (or drop it), the new t.
+  function grid_finish(g, last, tmax, t_full) result(t_new)
+    class(step_grid_t), intent(inout) :: g
+    logical, intent(in) :: last
+    real(wp), intent(in) :: tmax, t_full
+    real(wp) :: t_new
+    if (g%on .and. .not. last) then
+      g%n = g%n + 1
+    else
+      g%hs = 0                  ! the next step starts a new grid
+    end if
+    if (last) then
+      t_new = tmax
+    else
+      t_new = t_full
+    end if
+    g%mark = t_new
+  end function grid_finish
 
   !> Forget all recorded crossings (keeps the storage and max_crossings).
   subroutine log_clear(self)

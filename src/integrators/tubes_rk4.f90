@@ -6,7 +6,7 @@
 !> See docs/integrators-tao.md.
 module tubes_rk4
   use tubes_kinds, only: wp, i8
-  use tubes_integrator, only: integrator_t, hermite
+  use tubes_integrator, only: integrator_t, hermite, step_grid_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
   implicit none
   private
@@ -18,10 +18,7 @@ module tubes_rk4
     real(wp), allocatable :: x_old(:)   !! state at t_old
     real(wp), allocatable :: x_new(:)   !! state at t (the value returned by the last step)
     real(wp) :: h_used = 0              !! signed size of the last accepted step [s]
-    real(wp) :: grid_t0 = 0             !! the step grid t_k = grid_t0 + k grid_hs [s] ...
-    real(wp) :: grid_hs = 0             !! ... its signed spacing (0: no grid) [s]
-    integer(i8) :: grid_n = 0           !! ... and the index k of the current t on it
-    real(wp) :: grid_mark = 0           !! t as set by the last step (t changed outside: new grid)
+    type(step_grid_t) :: grid          !! the step grid (tubes_integrator)
   contains
     procedure :: step => rk4_step
     procedure :: interp => rk4_interp
@@ -49,7 +46,7 @@ contains
     end if
     stat = TUBES_OK
     self%x_new = x
-    self%grid_hs = 0
+    self%grid%hs = 0
     self%fresh = .false.
   end subroutine setup
 
@@ -73,10 +70,10 @@ contains
     real(wp), intent(inout) :: x(:)   !! state at t on entry, at the new t on return
     real(wp), intent(in) :: tmax      !! never step past this time [s]
     integer, intent(out) :: stat
-    real(wp) :: dir, h, hs, hmin, t, t_full
+    real(wp) :: dir, h, hs, t, t_full
     real(wp), dimension(size(x)) :: k2, k3, k4, xs, xnew, fnew
     integer :: fs
-    logical :: last, on_grid
+    logical :: last
     stat = TUBES_OK
     if (.not. (self%h > 0) .or. tmax == self%t) then
       stat = TUBES_EINPUT
@@ -89,31 +86,10 @@ contains
     dir = sign(1.0_wp, tmax - self%t)
     h = self%h
     t = self%t
-    on_grid = self%t == self%grid_mark .and. dir*h == self%grid_hs
-    if (.not. on_grid) then   ! start a new grid t_k = grid_t0 + k dir h at the current t
-      self%grid_t0 = t
-      self%grid_n = 0
-      self%grid_hs = dir*h
-      on_grid = .true.
-    end if
+    call self%grid%begin(t, dir, h)
     do
-      if (on_grid) then   ! one rounding, no accumulated drift of t
-        t_full = self%grid_t0 + (self%grid_n + 1)*self%grid_hs
-      else
-        t_full = t + dir*h
-      end if
-      ! last step if a full step reaches tmax, up to roundoff of t (64 ulps)
-      last = dir*(tmax - t_full) <= 64*epsilon(1.0_wp)*max(h, abs(t_full))
-      if (last) then
-        hs = tmax - t
-      else
-        hs = t_full - t
-      end if
-      hmin = 16*epsilon(1.0_wp)*max(abs(t), abs(tmax) - abs(tmax - t), 1.0e-300_wp)
-      if (abs(hs) < hmin .and. .not. last) then
-        stat = TUBES_ESTEP
-        return
-      end if
+      call self%grid%trial(t, tmax, dir, h, t_full, hs, last, stat)
+      if (stat /= TUBES_OK) return
       xs = x + (hs/2)*self%f_cur
       call self%f%eval(t + hs/2, xs, k2, fs)
       self%nfev = self%nfev + 1
@@ -141,25 +117,15 @@ contains
       end if
       if (fs == 0) exit
       h = h/4                   ! the model asks for a smaller step: off the grid
-      on_grid = .false.
+      self%grid%on = .false.
       self%nrejected = self%nrejected + 1
     end do
-    if (on_grid .and. .not. last) then
-      self%grid_n = self%grid_n + 1
-    else
-      self%grid_hs = 0          ! the next step starts a new grid
-    end if
     self%x_old = x
     self%f_old = self%f_cur
     self%x_new = xnew
     self%f_cur = fnew
     self%t_old = t
-    if (last) then
-      self%t = tmax
-    else
-      self%t = t_full
-    end if
-    self%grid_mark = self%t
+    self%t = self%grid%finish(last, tmax, t_full)
     self%h_used = hs
     x = xnew
     self%nsteps = self%nsteps + 1

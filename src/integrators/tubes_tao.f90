@@ -24,7 +24,7 @@
 module tubes_tao
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp, i8
-  use tubes_integrator, only: integrator_t
+  use tubes_integrator, only: integrator_t, step_grid_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
   implicit none
   private
@@ -50,10 +50,7 @@ module tubes_tao
     logical :: f_old_ready = .false.              !! f_old holds f(z_old)
     logical :: f_new_ready = .false.              !! f_new holds f(z_new)
     real(wp) :: h_used = 0                        !! signed size of the last accepted step [s]
-    real(wp) :: grid_t0 = 0                       !! the step grid t_k = grid_t0 + k grid_hs [s]
-    real(wp) :: grid_hs = 0                       !! ... its signed spacing (0: no grid) [s]
-    integer(i8) :: grid_n = 0                     !! ... the index k of the current t on it
-    real(wp) :: grid_mark = 0                     !! t as set by the last step [s]
+    type(step_grid_t) :: grid          !! the step grid (tubes_integrator)
     integer :: nflow = 0                          !! length of the composition
     integer :: built_order = 0                    !! order the composition was built for
     integer :: flow_kind(MAXFLOW) = 0             !! FLOW_A, FLOW_B or FLOW_C
@@ -148,7 +145,7 @@ contains
     self%z_new = z
     self%f_new_ready = .false.
     self%f_old_ready = .false.
-    self%grid_hs = 0
+    self%grid%hs = 0
     self%fresh = .false.
   end subroutine setup
 
@@ -173,11 +170,11 @@ contains
     real(wp), intent(inout) :: x(:)   !! (q, p) at t on entry, at the new t on return
     real(wp), intent(in) :: tmax      !! never step past this time [s]
     integer, intent(out) :: stat
-    real(wp) :: dir, h, hs, hmin, t, t_full, d
+    real(wp) :: dir, h, hs, t, t_full, d
     real(wp) :: q(size(x)/2), p(size(x)/2), xc(size(x)/2), yc(size(x)/2)
     real(wp) :: zm(size(x)), fm(size(x))
     integer :: fs, k, m, n
-    logical :: last, on_grid
+    logical :: last
     stat = TUBES_OK
     n = size(x)
     m = n/2
@@ -199,31 +196,10 @@ contains
     dir = sign(1.0_wp, tmax - self%t)
     h = self%h
     t = self%t
-    on_grid = self%t == self%grid_mark .and. dir*h == self%grid_hs
-    if (.not. on_grid) then   ! start a new grid t_k = grid_t0 + k dir h at the current t
-      self%grid_t0 = t
-      self%grid_n = 0
-      self%grid_hs = dir*h
-      on_grid = .true.
-    end if
+    call self%grid%begin(t, dir, h)
     do
-      if (on_grid) then   ! one rounding, no accumulated drift of t
-        t_full = self%grid_t0 + (self%grid_n + 1)*self%grid_hs
-      else
-        t_full = t + dir*h
-      end if
-      ! last step if a full step reaches tmax, up to roundoff of t (64 ulps)
-      last = dir*(tmax - t_full) <= 64*epsilon(1.0_wp)*max(h, abs(t_full))
-      if (last) then
-        hs = tmax - t
-      else
-        hs = t_full - t
-      end if
-      hmin = 16*epsilon(1.0_wp)*max(abs(t), abs(tmax) - abs(tmax - t), 1.0e-300_wp)
-      if (abs(hs) < hmin .and. .not. last) then
-        stat = TUBES_ESTEP
-        return
-      end if
+      call self%grid%trial(t, tmax, dir, h, t_full, hs, last, stat)
+      if (stat /= TUBES_OK) return
       q = x(1:m)
       p = x(m + 1:n)
       xc = self%x_copy
@@ -262,14 +238,9 @@ contains
       end if
       if (fs == 0) exit
       h = h/4                   ! the model asks for a smaller step: off the grid
-      on_grid = .false.
+      self%grid%on = .false.
       self%nrejected = self%nrejected + 1
     end do
-    if (on_grid .and. .not. last) then
-      self%grid_n = self%grid_n + 1
-    else
-      self%grid_hs = 0          ! the next step starts a new grid
-    end if
     self%z_old = x
     self%f_old_ready = self%f_new_ready
     if (self%f_new_ready) self%f_old = self%f_new
@@ -280,12 +251,7 @@ contains
     self%x_copy = xc
     self%y_copy = yc
     self%t_old = t
-    if (last) then
-      self%t = tmax
-    else
-      self%t = t_full
-    end if
-    self%grid_mark = self%t
+    self%t = self%grid%finish(last, tmax, t_full)
     self%h_used = hs
     self%nsteps = self%nsteps + 1
   end subroutine tao_step

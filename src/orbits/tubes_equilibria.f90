@@ -35,10 +35,25 @@ module tubes_equilibria
     real(wp), allocatable :: evec(:, :) !! rank-1 only: columns u(+lambda), s(-lambda), Re c_k, Im c_k
   end type equilibrium_t
 
-  public :: find_equilibria, linearize, quadrant, rest_jacobian
+  public :: find_equilibria, linearize, quadrant, rest_jacobian, sort_indices
 
 
 contains
+
+  !> idx reordered so that key(idx) ascends (insertion sort: a few eigenvalue pairs).
+  pure subroutine sort_indices(idx, key)
+    integer, intent(inout) :: idx(:)
+    real(wp), intent(in) :: key(:)
+    integer :: k, j, t
+    do k = 2, size(idx)
+      j = k
+      do while (j > 1)
+        if (.not. key(idx(j)) < key(idx(j - 1))) exit
+        t = idx(j); idx(j) = idx(j - 1); idx(j - 1) = t
+        j = j - 1
+      end do
+    end do
+  end subroutine sort_indices
 
   !> Quadrant 1..4 of (x, y), 0 on an axis.
   pure integer function quadrant(q)
@@ -405,18 +420,7 @@ contains
       stat = TUBES_EINPUT    ! not a saddle x centre^(N-1)
       return
     end if
-    ! ascending frequencies (insertion sort of the few pairs)
-    do k = 2, nc
-      j = k
-      do while (j > 1)
-        if (wi(ic(j)) < wi(ic(j - 1))) then
-          info = ic(j); ic(j) = ic(j - 1); ic(j - 1) = info
-          j = j - 1
-        else
-          exit
-        end if
-      end do
-    end do
+    call sort_indices(ic(1:nc), wi)     ! ascending frequencies
     evec = 0
     evec(:, 1) = vr(:, iu)
     evec(:, 2) = vr(:, is)

@@ -22,6 +22,7 @@ module tubes_normal_form
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   use tubes_lapack, only: dgeev
   use tubes_ray_surface, only: quad_qags, quad_root
+  use tubes_equilibria, only: sort_indices
   implicit none
   private
 
@@ -605,18 +606,7 @@ contains
       return
     end if
     res%lambda = wr(ip)
-    ! ascending frequencies
-    do k = 2, nc
-      j = k
-      do while (j > 1)
-        if (wi(ic(j)) < wi(ic(j - 1))) then
-          info = ic(j); ic(j) = ic(j - 1); ic(j - 1) = info
-          j = j - 1
-        else
-          exit
-        end if
-      end do
-    end do
+    call sort_indices(ic(1:nc), wi)     ! ascending frequencies
     do k = 1, nc - 1
       if (wi(ic(k + 1)) - wi(ic(k)) <= 1.0e-9_wp*scale) then
         res%message = 'normal form: two equal frequencies (a 1:1 resonance of the centres): not supported'
