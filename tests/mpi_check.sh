@@ -8,6 +8,8 @@
 #              diagnostics, the run ends (exit 2) without hanging, and the file records it
 #   badinput   a bad namelist: one message (not one per rank), exit 1, no file
 #   badoutput  an output file that cannot be created: exit 3 on every rank, no hang
+#   flux3      the 3-DOF flux scene (flux samples, section points, tube seeds shared out): 2 ranks
+#              x 2 threads write the serial run's file, bit for bit
 #   formula    a model written as a formula, new to an empty cache: 2 ranks build it at once and
 #              write the serial run's file, bit for bit; the cache holds whole libraries only
 set -u
@@ -146,8 +148,28 @@ formula)
   [ "$(ls "$work/cm")" = "$(cd "$work/cm" && ls expr_*.so)" ] && [ "$(ls "$work/cm" | wc -l)" -eq 1 ]
   check $? "the cache holds one whole library and no leftovers ($(ls "$work/cm" | tr '\n' ' '))"
   ;;
+flux3)
+  # the 3-DOF flux scene: dividing-surface samples, section points and tube seeds dealt out
+  cat >"$work/f3.nml" <<'EOF'
+&run scenes = 'flux', output = 'out.h5' /
+&model system = 'expression', hamiltonian = '(p1^2 + p2^2 + p3^2)/2 - q1^2/2 + q1^4/4 + 1.3^2*q2^2/2 + 2.1^2*q3^2/2 + 0.3*q2^2*q3^2',
+  coordinates = 'q1', 'q2', 'q3', momenta = 'p1', 'p2', 'p3' /
+&equilibria box = 1.0, n_grid = 5 /
+&orbits saddle_near = 0, 0, 0 /
+&section kind = 'plane', index = 1, value = -0.7, direction = 1 /
+&flux de = 0.05, order = 6, n_samples = 3001, n_cut = 8 /
+EOF
+  mkdir -p "$work/3s" "$work/3m"
+  (cd "$work/3s" && TUBES_CACHE_DIR="$work/c3" OMP_NUM_THREADS=1 timeout 300 "$root/tubes" ../f3.nml >log 2>&1)
+  check $? "serial run of the 3-DOF flux scene"
+  (cd "$work/3m" && TUBES_CACHE_DIR="$work/c3" OMP_NUM_THREADS=2 timeout 300 "${launch[@]}" -np 2 "$bin" ../f3.nml \
+    >log 2>&1)
+  check $? "MPI 2 ranks x 2 threads"
+  "$py" -m tubes.h5compare "$work/3s/out.h5" "$work/3m/out.h5"
+  check $? "the 3-DOF flux scene (samples, section, tube cut) is identical on 2 ranks"
+  ;;
 *)
-  echo "usage: tests/mpi_check.sh identical|fault|badinput|badoutput|formula" >&2
+  echo "usage: tests/mpi_check.sh identical|fault|badinput|badoutput|formula|flux3" >&2
   exit 2
   ;;
 esac

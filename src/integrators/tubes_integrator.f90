@@ -6,7 +6,7 @@ module tubes_integrator
   use tubes_kinds, only: wp, i8
   use tubes_field, only: vector_field_t
   use tubes_status, only: TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, TUBES_ENOCONV, &
-                          TUBES_EMODEL
+                          TUBES_EMODEL, TUBES_ESTEP
   implicit none
   private
 

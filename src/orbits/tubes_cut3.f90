@@ -21,6 +21,7 @@ module tubes_cut3
   use tubes_integrator, only: integrator_t, plane_t, propagate
   use tubes_methods, only: integ_choice_t, make_integrator
   use tubes_normal_form, only: nf_result_t, nf_change_t, nf_nhim_point, normal_form
+  use tubes_par, only: par_t, par_here, par_share
   use tubes_study, only: setup_model
   use tubes_equilibria, only: equilibrium_t
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
@@ -87,6 +88,7 @@ contains
     real(wp) :: sigma, y1, emax
     real(wp), allocatable :: eerr(:)
     integer :: nd, n, i, j, l, id, nn, a, b
+    type(par_t) :: pp
     stat = TUBES_EINPUT
     nd = model%ndof()
     n = n_theta
@@ -109,16 +111,22 @@ contains
     cut%t = 0
     cut%st = TUBES_OK
     eerr = 0
+    ! the seeds are dealt out over MPI ranks (tubes_par), and over threads inside a rank
+    pp = par_here()
     !$omp parallel do schedule(dynamic) default(shared) private(i, j, l, id) collapse(3)
     do i = 0, n_eta
       do j = 0, n - 1
         do l = 0, n - 1
           id = cut3_node(n_eta, n, i, j, l)
-          if (id == 1 + (i*n + j)*n + l) call one_node(i, j, l, id)
+          if (id == 1 + (i*n + j)*n + l .and. pp%mine(id)) call one_node(i, j, l, id)
         end do
       end do
     end do
     !$omp end parallel do
+    call par_share(cut%x)
+    call par_share(cut%t)
+    call par_share(cut%st)
+    call par_share(eerr)
     do i = 0, n_eta                        ! the poles' copies
       do j = 0, n - 1
         do l = 0, n - 1

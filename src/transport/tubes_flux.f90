@@ -29,6 +29,7 @@ module tubes_flux
   use tubes_integrator, only: integrator_t, observer_t, propagate
   use tubes_methods, only: integ_choice_t, make_integrator
   use tubes_transport, only: rng_uniform
+  use tubes_par, only: par_t, par_here, par_share
   implicit none
   private
 
@@ -331,6 +332,7 @@ contains
     integer, allocatable :: cls(:), st(:)
     integer :: nd, m, j, k, i, rv(2*MAXN)
     logical :: section, natural
+    type(par_t) :: pp
     type(slab_t) :: slab
     type(transit_t) :: tobs
     stat = TUBES_EINPUT
@@ -424,11 +426,17 @@ contains
       val = 0
       cls = 0
       st = TUBES_OK
+      ! the samples are dealt out over MPI ranks (tubes_par), and over threads inside a rank
+      pp = par_here()
       !$omp parallel do schedule(dynamic) default(shared) private(i)
       do i = 1, n
-        call one_sample(i)
+        if (pp%mine(i)) call one_sample(i)
       end do
       !$omp end parallel do
+      call par_share(val)
+      call par_share(cls)
+      call par_share(st)
+      if (section) call par_share(res%x)
       if (any(st /= TUBES_OK)) then
         stat = st(findloc(st /= TUBES_OK, .true., dim=1))
         return
