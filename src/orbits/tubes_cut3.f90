@@ -21,7 +21,7 @@ module tubes_cut3
   use tubes_integrator, only: integrator_t, plane_t, propagate
   use tubes_methods, only: integ_choice_t, make_integrator
   use tubes_normal_form, only: nf_result_t, nf_change_t, nf_nhim_point, normal_form
-  use tubes_par, only: par_t, par_here, par_share
+  use tubes_par, only: par_t, par_here, par_share, par_bcast
   use tubes_study, only: setup_model
   use tubes_equilibria, only: equilibrium_t
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
@@ -252,7 +252,7 @@ contains
     type(cut3_t) :: half
     logical :: ins(size(pts, 2)), ok(size(pts, 2)), unres(size(pts, 2)), dec(size(pts, 2))
     integer :: isad
-    real(wp) :: wall
+    real(wp) :: wall, z0(size(zs)), es
     inside = -1
     inside_pl = -1
     diag = ieee_value(1.0_wp, ieee_quiet_nan)
@@ -264,8 +264,12 @@ contains
       msg = nf%message
       return
     end if
-    call cut3_compute(model, nf, ch, zs, model%energy(zs), de, n_cut, 2*n_cut, eps, k, c, dir, t_max, tol, &
-                      integ, cut, stat)
+    call bcast_normal_form(nf, ch)
+    z0 = zs
+    call par_bcast(z0)
+    es = model%energy(z0)
+    call par_bcast(es)
+    call cut3_compute(model, nf, ch, z0, es, de, n_cut, 2*n_cut, eps, k, c, dir, t_max, tol, integ, cut, stat)
     if (stat == TUBES_EINPUT) then
       msg = 'the plane is parallel to the direction in which the tube leaves the saddle, or passes through it'
       return
@@ -288,6 +292,22 @@ contains
                   real(count(inside == 1), wp), sum(w, mask=inside == 1)/wall, sum(w, mask=ok .and. cls == 1)/wall]
     if (.not. wall > 0) diag(11:12) = ieee_value(1.0_wp, ieee_quiet_nan)     ! no points
   end subroutine cut3_study
+
+  !> The normal form and its change as rank 0 has them: the seeds' inputs come from work every rank
+  !> repeats (docs/cluster.md).
+  subroutine bcast_normal_form(nf, ch)
+    type(nf_result_t), intent(inout) :: nf
+    type(nf_change_t), intent(inout) :: ch
+    real(wp), allocatable :: re(:, :), im(:, :)
+    call par_bcast(nf%coef)
+    call par_bcast(nf%omegas)
+    call par_bcast(ch%c)
+    re = real(ch%fwd, wp)
+    im = aimag(ch%fwd)
+    call par_bcast(re)
+    call par_bcast(im)
+    ch%fwd = cmplx(re, im, wp)
+  end subroutine bcast_normal_form
 
   !> The node of the cut at grid coordinates (m, j, l) of the cut's map continued to all m: the
   !> NHIM's Hopf coordinates cover S^3 twice over eta in [0, 2 pi) with (-eta, theta_2 + pi,

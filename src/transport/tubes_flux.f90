@@ -29,7 +29,7 @@ module tubes_flux
   use tubes_integrator, only: integrator_t, observer_t, propagate
   use tubes_methods, only: integ_choice_t, make_integrator
   use tubes_transport, only: rng_uniform
-  use tubes_par, only: par_t, par_here, par_share
+  use tubes_par, only: par_t, par_here, par_share, par_bcast
   implicit none
   private
 
@@ -419,8 +419,16 @@ contains
         allocate (res%x(2*nd, n))
         res%x = ieee_value(1.0_wp, ieee_quiet_nan)
       end if
+      ! the loop's inputs from the work every rank repeats, as rank 0 has them (docs/cluster.md)
+      call par_bcast(u)
+      call par_bcast(res%box)
+      call par_bcast(vol)
+      call par_bcast(r)
+      call par_bcast(q0)
+      call par_bcast(tobs%ns)
       slab%n = nd
       slab%origin(1:nd) = sad%q
+      call par_bcast(slab%origin)
       slab%normal(1:nd) = r(1, 1:nd)
       slab%dist = gate
       val = 0
