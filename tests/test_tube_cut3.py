@@ -169,3 +169,29 @@ def test_python_gives_the_scenes_cut(tmp_path, cache):
     for k in ("states", "section", "time", "status", "volume", "volume_half", "volume_extrapolated", "misclassified",
               "misclassified_pl", "p_trans_tube", "inside", "inside_pl", "points", "outcome", "weight"):
         assert np.array_equal(np.asarray(r[k]), c[k], equal_nan=True), k
+
+
+def test_the_example_input_file(tmp_path, cache):
+    """input/three_dof.nml (the README's 3-DOF example) runs through; the normal form's flux equals
+    the quadrature of the NHIM's interior (2e-7), the cut's extrapolated volume equals it (1e-3),
+    no section point is misclassified, and python -m tubes.plots draws the cut."""
+    import subprocess
+    import sys
+
+    from test_flux import TIMEOUT_SCALE, TUBES
+    root = TUBES.parent
+    tmp = str(tmp_path)
+    p = subprocess.run([str(TUBES), str(root / "input" / "three_dof.nml"), "-o", "t.h5"], cwd=tmp,
+                       capture_output=True, text=True, timeout=300 * TIMEOUT_SCALE,
+                       env=dict(os.environ, TUBES_CACHE_DIR=cache, OMP_NUM_THREADS="2"))
+    assert p.returncode == 0, p.stdout + p.stderr
+    with h5py.File(os.path.join(tmp, "t.h5")) as f:
+        fnf = f["flux/flux_normal_form"][()]
+        ref = np.array([_nhim_volume(d) for d in f["flux/dE"][()]])
+        assert np.all(np.abs(fnf / ref - 1) < 2e-7), (fnf, ref)
+        g = f["flux/tube_cut"]
+        assert np.all(np.abs(g["volume_extrapolated"][()] / ref - 1) < 1e-3)
+        assert np.all(g["misclassified"][()] == 0)
+    q = subprocess.run([sys.executable, "-m", "tubes.plots", "t.h5", "-o", "fig"], cwd=tmp, capture_output=True,
+                       text=True, timeout=300)
+    assert q.returncode == 0 and os.path.getsize(os.path.join(tmp, "fig", "tube_cut_3dof.png")) > 10000, q.stderr

@@ -353,11 +353,14 @@ def main(argv=None):
     out = pathlib.Path(args.outdir)
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    if "equilibria" in res or "section" in res:
+    if ("equilibria" in res or "section" in res) and "g" in res.model.attrs:   # the rolling ball's surface
         plot_surface(res, out / "surface.png")
         written.append(out / "surface.png")
     if "orbits" in res:
-        for name, fn in [("orbit_family.png", plot_orbit_family), ("orbit_properties.png", plot_orbit_properties)]:
+        figs = [("orbit_properties.png", plot_orbit_properties)]
+        if "g" in res.model.attrs:      # over the rolling ball's zero-velocity curves
+            figs.insert(0, ("orbit_family.png", plot_orbit_family))
+        for name, fn in figs:
             fn(res, out / name)
             written.append(out / name)
     if "sections" in res and "section" in res:
