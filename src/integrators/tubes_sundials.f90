@@ -96,34 +96,33 @@ module tubes_sundials
     type(c_ptr) :: a, c, b, d   ! realtype **A (row pointers), *c, *b, *d
   end type butcher_mem_t
 
-  !> CVODE, Adams-Moulton (method name "cvode_adams").
-  type, extends(integrator_t), public :: cvode_t
-    character(len=16) :: nonlinear = 'fixedpoint'   !! corrector: 'fixedpoint' or 'newton'
-    integer(i8) :: njev = 0                         !! Jacobian evaluations (Newton only)
-    integer :: solver_flag = 0                      !! CVODE return flag of the last failure
-    character(len=MSG_LEN) :: solver_msg = ''       !! its name and CVODE's own message
+  !> What the two backends share: the solver memory, the last failure, one step in one-step mode,
+  !> the dense output; the solver calls themselves are dispatched by the kind (below).
+  type, extends(integrator_t), public :: sun_t
+    integer :: solver_flag = 0                      !! the solver's return flag of the last failure
+    character(len=MSG_LEN) :: solver_msg = ''       !! its name and the solver's own message
     type(sun_mem_t), pointer, private :: mem => null()
   contains
-    procedure :: step => cvode_step
-    procedure :: interp => cvode_interp
-    procedure :: destroy => cvode_destroy
-    procedure :: solver_rhs_evals => cvode_rhs_evals
+    procedure :: step => sun_step
+    procedure :: interp => sun_interp
+    procedure :: destroy => sun_destroy
+    procedure :: solver_rhs_evals => sun_rhs_evals
+  end type sun_t
+
+  !> CVODE, Adams-Moulton (method name "cvode_adams").
+  type, extends(sun_t), public :: cvode_t
+    character(len=16) :: nonlinear = 'fixedpoint'   !! corrector: 'fixedpoint' or 'newton'
+    integer(i8) :: njev = 0                         !! Jacobian evaluations (Newton only)
+  contains
     final :: cvode_final
   end type cvode_t
 
   !> ARKODE ERKStep, Fehlberg 13-stage 8(7) (method name "arkode_erk8").
-  type, extends(integrator_t), public :: arkode_t
+  type, extends(sun_t), public :: arkode_t
     integer :: interp_degree = 4                    !! degree of ARKODE's Hermite dense output,
                                                     !! 0..5 (4: 1 f-evaluation per interp call,
                                                     !! 5: 4; docs/integrators-backends.md)
-    integer :: solver_flag = 0                      !! ARKODE return flag of the last failure
-    character(len=MSG_LEN) :: solver_msg = ''       !! its name and ARKODE's own message
-    type(sun_mem_t), pointer, private :: mem => null()
   contains
-    procedure :: step => arkode_step
-    procedure :: interp => arkode_interp
-    procedure :: destroy => arkode_destroy
-    procedure :: solver_rhs_evals => arkode_rhs_evals
     final :: arkode_final
   end type arkode_t
 
@@ -206,63 +205,6 @@ contains
 
   ! ------------------------------------------------------------------ CVODE
 
-  !> One CVODE step (CV_ONE_STEP, stop time tmax) from (t, x); a new start when fresh.
-  subroutine cvode_step(self, x, tmax, stat)
-    class(cvode_t), intent(inout) :: self
-    real(wp), intent(inout) :: x(:)
-    real(wp), intent(in) :: tmax
-    integer, intent(out) :: stat
-    real(c_double) :: tret(1)
-    integer(c_int) :: flag
-    logical :: restart
-    call begin_step(self%mem, self%fresh, self%t, tmax, size(x), KIND_CVODE, restart, stat)
-    if (stat /= TUBES_OK) return
-    if (restart) then
-      if (associated(self%mem)) then   ! the solver memory cannot be reused for these
-        if (self%mem%n /= size(x) .or. (self%mem%newton .neqv. (self%nonlinear == 'newton'))) &
-          call cvode_destroy(self)
-      end if
-      call cvode_start(self, x, tmax, stat)
-      if (stat /= TUBES_OK) return
-    end if
-    if (sliver(self%mem, self%t, tmax)) then
-      call take_sliver(self%mem, self%t_old, self%t, self%nsteps, self%fresh, tmax)
-      return
-    end if
-    if (self%rtol /= self%mem%rtol .or. self%atol /= self%mem%atol) then
-      flag = FCVodeSStolerances(self%mem%solver, self%rtol, self%atol)
-      if (flag < 0) then
-        call cvode_fail(self, flag, stat)
-        return
-      end if
-      self%mem%rtol = self%rtol
-      self%mem%atol = self%atol
-    end if
-    self%mem%ctx%model_stat = 0
-    flag = FCVodeSetStopTime(self%mem%solver, tmax)
-    if (flag >= 0) flag = FCVode(self%mem%solver, tmax, self%mem%y, tret, CV_ONE_STEP)
-    call cvode_harvest(self)
-    if (flag >= 0 .and. self%mem%ctx%model_stat < 0) then
-      ! The model failed (stat < 0) at a trial state, yet CVODE went on: its fixed-point
-      ! corrector (SUNDIALS 6.4.1) treats any failure of f inside the iteration as a
-      ! convergence failure and retries with a smaller step, so a model that fails past some
-      ! point makes the steps shrink towards it forever. tubes stops at the first fatal
-      ! status, as DOP853 does; the step CVODE took is not accepted.
-      flag = CV_RHSFUNC_FAIL
-      self%mem%ctx%msg = 'the model returned a fatal status (< 0) inside the corrector '// &
-                         'iteration; CVODE retried with a smaller step, tubes stops'
-    end if
-    if (flag < 0) then
-      call cvode_fail(self, flag, stat)
-      return
-    end if
-    call accept(self%mem, self%t_old, self%t, self%nsteps, x, tret(1), self%fresh, stat)
-    if (stat /= TUBES_OK) then
-      self%solver_flag = 0
-      self%solver_msg = 'the solver returned a non-finite state'
-    end if
-  end subroutine cvode_step
-
   !> Create (or re-initialise) CVODE at (self%t, x).
   subroutine cvode_start(self, x, tmax, stat)
     class(cvode_t), intent(inout) :: self
@@ -286,7 +228,7 @@ contains
     end if
     call prepare_mem(self%mem, self%f, x, tmax - self%t, KIND_CVODE, created, stat)
     if (stat /= TUBES_OK) then
-      call cvode_destroy(self)
+      call sun_destroy(self)
       self%solver_flag = 0
       self%solver_msg = 'SUNDIALS could not allocate its context or vectors'
       return
@@ -296,7 +238,7 @@ contains
       m%newton = self%nonlinear == 'newton'
       m%solver = FCVodeCreate(CV_ADAMS, m%sunctx)
       if (.not. c_associated(m%solver)) then
-        call cvode_destroy(self)
+        call sun_destroy(self)
         stat = TUBES_EINPUT
         self%solver_msg = 'CVodeCreate failed'
         return
@@ -372,104 +314,13 @@ contains
     self%fresh = .true.   ! restart from the last accepted (t, x) if stepping resumes
   end subroutine cvode_fail
 
-  !> CVODE's dense output on [t_old, t] (NaN outside: never extrapolates).
-  subroutine cvode_interp(self, s, xs)
-    class(cvode_t), intent(inout) :: self
-    real(wp), intent(in) :: s
-    real(wp), intent(out) :: xs(:)
-    integer(c_int) :: flag
-    if (.not. associated(self%mem)) then
-      xs = ieee_value(1.0_wp, ieee_quiet_nan)
-    else if (self%mem%sliver) then
-      xs = self%mem%yd
-    else
-      flag = FCVodeGetDky(self%mem%solver, s, 0_c_int, self%mem%dky)
-      if (flag < 0) then   ! s outside the last step: never extrapolate silently
-        xs = ieee_value(1.0_wp, ieee_quiet_nan)
-      else
-        xs = self%mem%dkyd
-      end if
-    end if
-  end subroutine cvode_interp
-
-  !> Right-hand-side evaluations CVODE itself counted since its last (re)start.
-  integer(i8) function cvode_rhs_evals(self) result(nfe)
-    class(cvode_t), intent(in) :: self
-    integer(c_long) :: n(1)
-    integer(c_int) :: flag
-    nfe = -1
-    if (.not. associated(self%mem)) return
-    flag = FCVodeGetNumRhsEvals(self%mem%solver, n)
-    if (flag >= 0) nfe = n(1)
-  end function cvode_rhs_evals
-
-  !> Free all solver memory; the instance can be initialised and used again.
-  subroutine cvode_destroy(self)
-    class(cvode_t), intent(inout) :: self
-    if (.not. associated(self%mem)) return
-    if (c_associated(self%mem%solver)) call FCVodeFree(self%mem%solver)
-    call free_mem(self%mem)
-    self%fresh = .true.
-  end subroutine cvode_destroy
-
   !> Finalizer: destroy.
   subroutine cvode_final(self)
     type(cvode_t), intent(inout) :: self
-    call cvode_destroy(self)
+    call sun_destroy(self)
   end subroutine cvode_final
 
   ! ------------------------------------------------------------------ ARKODE ERKStep
-
-  !> One ERKStep step (ARK_ONE_STEP, stop time tmax) from (t, x); a new start when fresh.
-  subroutine arkode_step(self, x, tmax, stat)
-    class(arkode_t), intent(inout) :: self
-    real(wp), intent(inout) :: x(:)
-    real(wp), intent(in) :: tmax
-    integer, intent(out) :: stat
-    real(c_double) :: tret(1)
-    integer(c_int) :: flag
-    logical :: restart
-    call begin_step(self%mem, self%fresh, self%t, tmax, size(x), KIND_ARKODE, restart, stat)
-    if (stat /= TUBES_OK) return
-    if (restart) then
-      if (associated(self%mem)) then   ! the solver memory cannot be reused for these
-        if (self%mem%n /= size(x) .or. self%mem%interp_degree /= self%interp_degree) &
-          call arkode_destroy(self)
-      end if
-      call arkode_start(self, x, tmax, stat)
-      if (stat /= TUBES_OK) return
-    end if
-    if (sliver(self%mem, self%t, tmax)) then
-      call take_sliver(self%mem, self%t_old, self%t, self%nsteps, self%fresh, tmax)
-      return
-    end if
-    if (self%rtol /= self%mem%rtol .or. self%atol /= self%mem%atol) then
-      flag = FERKStepSStolerances(self%mem%solver, self%rtol, self%atol)
-      if (flag < 0) then
-        call arkode_fail(self, flag, stat)
-        return
-      end if
-      self%mem%rtol = self%rtol
-      self%mem%atol = self%atol
-    end if
-    self%mem%ctx%model_stat = 0
-    flag = FERKStepSetStopTime(self%mem%solver, tmax)
-    if (flag >= 0) flag = FERKStepEvolve(self%mem%solver, tmax, self%mem%y, tret, ARK_ONE_STEP)
-    call arkode_harvest(self)
-    if (flag >= 0 .and. self%mem%ctx%model_stat < 0) then   ! as in cvode_step
-      flag = -8   ! ARK_RHSFUNC_FAIL
-      self%mem%ctx%msg = 'the model returned a fatal status (< 0); ARKODE went on, tubes stops'
-    end if
-    if (flag < 0) then
-      call arkode_fail(self, flag, stat)
-      return
-    end if
-    call accept(self%mem, self%t_old, self%t, self%nsteps, x, tret(1), self%fresh, stat)
-    if (stat /= TUBES_OK) then
-      self%solver_flag = 0
-      self%solver_msg = 'the solver returned a non-finite state'
-    end if
-  end subroutine arkode_step
 
   !> Create (or re-initialise) ERKStep at (self%t, x) and choose the first step.
   subroutine arkode_start(self, x, tmax, stat)
@@ -487,7 +338,7 @@ contains
     end if
     call prepare_mem(self%mem, self%f, x, tmax - self%t, KIND_ARKODE, created, stat)
     if (stat /= TUBES_OK) then
-      call arkode_destroy(self)
+      call sun_destroy(self)
       self%solver_flag = 0
       self%solver_msg = 'SUNDIALS could not allocate its context or vectors'
       return
@@ -496,7 +347,7 @@ contains
     if (created) then
       m%solver = FERKStepCreate(c_funloc(sun_rhs), self%t, m%y, m%sunctx)
       if (.not. c_associated(m%solver)) then
-        call arkode_destroy(self)
+        call sun_destroy(self)
         stat = TUBES_EINPUT
         self%solver_msg = 'ERKStepCreate failed'
         return
@@ -568,9 +419,124 @@ contains
     self%fresh = .true.
   end subroutine arkode_fail
 
-  !> ARKODE's dense output on [t_old, t] (NaN outside: never extrapolates).
-  subroutine arkode_interp(self, s, xs)
-    class(arkode_t), intent(inout) :: self
+  !> Finalizer: destroy.
+  subroutine arkode_final(self)
+    type(arkode_t), intent(inout) :: self
+    call sun_destroy(self)
+  end subroutine arkode_final
+
+  ! ------------------------------------------------------------------ shared pieces
+
+  !> One internal step of the solver (one-step mode, stop time tmax) from (t, x); a new start
+  !> when fresh.
+  subroutine sun_step(self, x, tmax, stat)
+    class(sun_t), intent(inout) :: self
+    real(wp), intent(inout) :: x(:)
+    real(wp), intent(in) :: tmax
+    integer, intent(out) :: stat
+    real(c_double) :: tret(1)
+    integer(c_int) :: flag
+    logical :: restart, reuse
+    integer :: kind
+    select type (self)
+    type is (cvode_t)
+      kind = KIND_CVODE
+    class default
+      kind = KIND_ARKODE
+    end select
+    call begin_step(self%mem, self%fresh, self%t, tmax, size(x), kind, restart, stat)
+    if (stat /= TUBES_OK) return
+    if (restart) then
+      if (associated(self%mem)) then   ! the solver memory cannot be reused for these
+        reuse = self%mem%n == size(x)
+        select type (self)
+        type is (cvode_t)
+          reuse = reuse .and. (self%mem%newton .eqv. (self%nonlinear == 'newton'))
+        type is (arkode_t)
+          reuse = reuse .and. self%mem%interp_degree == self%interp_degree
+        end select
+        if (.not. reuse) call sun_destroy(self)
+      end if
+      select type (self)
+      type is (cvode_t)
+        call cvode_start(self, x, tmax, stat)
+      type is (arkode_t)
+        call arkode_start(self, x, tmax, stat)
+      end select
+      if (stat /= TUBES_OK) return
+    end if
+    if (sliver(self%mem, self%t, tmax)) then
+      call take_sliver(self%mem, self%t_old, self%t, self%nsteps, self%fresh, tmax)
+      return
+    end if
+    if (self%rtol /= self%mem%rtol .or. self%atol /= self%mem%atol) then
+      if (kind == KIND_CVODE) then
+        flag = FCVodeSStolerances(self%mem%solver, self%rtol, self%atol)
+      else
+        flag = FERKStepSStolerances(self%mem%solver, self%rtol, self%atol)
+      end if
+      if (flag < 0) then
+        call sun_fail(self, flag, stat)
+        return
+      end if
+      self%mem%rtol = self%rtol
+      self%mem%atol = self%atol
+    end if
+    self%mem%ctx%model_stat = 0
+    select type (self)
+    type is (cvode_t)
+      flag = FCVodeSetStopTime(self%mem%solver, tmax)
+      if (flag >= 0) flag = FCVode(self%mem%solver, tmax, self%mem%y, tret, CV_ONE_STEP)
+      call cvode_harvest(self)
+      if (flag >= 0 .and. self%mem%ctx%model_stat < 0) then
+        ! The model failed (stat < 0) at a trial state, yet CVODE went on: its fixed-point
+        ! corrector (SUNDIALS 6.4.1) treats any failure of f inside the iteration as a
+        ! convergence failure and retries with a smaller step, so a model that fails past some
+        ! point makes the steps shrink towards it forever. tubes stops at the first fatal
+        ! status, as DOP853 does; the step CVODE took is not accepted.
+        flag = CV_RHSFUNC_FAIL
+        self%mem%ctx%msg = 'the model returned a fatal status (< 0) inside the corrector '// &
+                           'iteration; CVODE retried with a smaller step, tubes stops'
+      end if
+    type is (arkode_t)
+      flag = FERKStepSetStopTime(self%mem%solver, tmax)
+      if (flag >= 0) flag = FERKStepEvolve(self%mem%solver, tmax, self%mem%y, tret, ARK_ONE_STEP)
+      call arkode_harvest(self)
+      if (flag >= 0 .and. self%mem%ctx%model_stat < 0) then   ! as with CVODE
+        flag = -8   ! ARK_RHSFUNC_FAIL
+        self%mem%ctx%msg = 'the model returned a fatal status (< 0); ARKODE went on, tubes stops'
+      end if
+    end select
+    if (flag < 0) then
+      call sun_fail(self, flag, stat)
+      return
+    end if
+    call accept(self%mem, self%t_old, self%t, self%nsteps, x, tret(1), self%fresh, stat)
+    if (stat /= TUBES_OK) then
+      self%solver_flag = 0
+      self%solver_msg = 'the solver returned a non-finite state'
+    end if
+  end subroutine sun_step
+
+  !> The failure of flag, by the backend's own mapping.
+  subroutine sun_fail(self, flag, stat)
+    class(sun_t), intent(inout) :: self
+    integer(c_int), intent(in) :: flag
+    integer, intent(out) :: stat
+    stat = TUBES_EINPUT
+    select type (self)
+    type is (cvode_t)
+      call cvode_fail(self, flag, stat)
+    type is (arkode_t)
+      call arkode_fail(self, flag, stat)
+    end select
+  end subroutine sun_fail
+
+  !> The solver's dense output on [t_old, t] (CVodeGetDky: the Nordsieck polynomial;
+  !> ERKStepGetDky: the Hermite interpolant, which may evaluate f); NaN outside: never
+  !> extrapolates.
+  subroutine sun_interp(self, s, xs)
+    class(sun_t), intent(inout) :: self
     real(wp), intent(in) :: s
     real(wp), intent(out) :: xs(:)
     integer(c_int) :: flag
@@ -579,45 +545,50 @@ contains
     else if (self%mem%sliver) then
       xs = self%mem%yd
     else
-      flag = FERKStepGetDky(self%mem%solver, s, 0_c_int, self%mem%dky)
-      ! ARKODE's Hermite interpolant may evaluate f (degree > 3): count those calls
-      self%nfev = self%nfev + self%mem%ctx%nfev
-      self%mem%ctx%nfev = 0
+      if (self%mem%kind == KIND_CVODE) then
+        flag = FCVodeGetDky(self%mem%solver, s, 0_c_int, self%mem%dky)
+      else
+        flag = FERKStepGetDky(self%mem%solver, s, 0_c_int, self%mem%dky)
+        self%nfev = self%nfev + self%mem%ctx%nfev     ! the interpolant's evaluations
+        self%mem%ctx%nfev = 0
+      end if
       if (flag < 0) then
         xs = ieee_value(1.0_wp, ieee_quiet_nan)
       else
         xs = self%mem%dkyd
       end if
     end if
-  end subroutine arkode_interp
+  end subroutine sun_interp
 
-  !> Right-hand-side evaluations ERKStep itself counted since its last (re)start.
-  integer(i8) function arkode_rhs_evals(self) result(nfe)
-    class(arkode_t), intent(in) :: self
+  !> Right-hand-side evaluations the solver itself counted since its last (re)start.
+  integer(i8) function sun_rhs_evals(self) result(nfe)
+    class(sun_t), intent(in) :: self
     integer(c_long) :: n(1)
     integer(c_int) :: flag
     nfe = -1
     if (.not. associated(self%mem)) return
-    flag = FERKStepGetNumRhsEvals(self%mem%solver, n)
+    if (self%mem%kind == KIND_CVODE) then
+      flag = FCVodeGetNumRhsEvals(self%mem%solver, n)
+    else
+      flag = FERKStepGetNumRhsEvals(self%mem%solver, n)
+    end if
     if (flag >= 0) nfe = n(1)
-  end function arkode_rhs_evals
+  end function sun_rhs_evals
 
   !> Free all solver memory; the instance can be initialised and used again.
-  subroutine arkode_destroy(self)
-    class(arkode_t), intent(inout) :: self
+  subroutine sun_destroy(self)
+    class(sun_t), intent(inout) :: self
     if (.not. associated(self%mem)) return
-    if (c_associated(self%mem%solver)) call FERKStepFree(self%mem%solver)
+    if (c_associated(self%mem%solver)) then
+      if (self%mem%kind == KIND_CVODE) then
+        call FCVodeFree(self%mem%solver)
+      else
+        call FERKStepFree(self%mem%solver)
+      end if
+    end if
     call free_mem(self%mem)
     self%fresh = .true.
-  end subroutine arkode_destroy
-
-  !> Finalizer: destroy.
-  subroutine arkode_final(self)
-    type(arkode_t), intent(inout) :: self
-    call arkode_destroy(self)
-  end subroutine arkode_final
-
-  ! ------------------------------------------------------------------ shared pieces
+  end subroutine sun_destroy
 
   !> Name of a CVODE (prefix 'CV') or ARKODE ('ARK') return flag; the two number their
   !> common failures alike (cvode.h, arkode.h). (C*GetReturnFlagName would do, but through
