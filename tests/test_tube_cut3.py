@@ -8,6 +8,7 @@ the cut is resolved); the second-order convergence of the volume; the spatial CR
 gyroscopic model: the cut alone); the refusals; Python's tubes.flux equal to the scene."""
 import math
 import os
+import re
 
 import h5py
 import numpy as np
@@ -174,7 +175,8 @@ def test_python_gives_the_scenes_cut(tmp_path, cache):
 def test_the_example_input_file(tmp_path, cache):
     """input/three_dof.nml (the README's 3-DOF example) runs through; the normal form's flux equals
     the quadrature of the NHIM's interior (2e-7), the cut's extrapolated volume equals it (1e-3),
-    no section point is misclassified, and python -m tubes.plots draws the cut."""
+    no section point is misclassified, every HDF5 object and attribute of the file is in
+    docs/output.md, and python -m tubes.plots draws the cut."""
     import subprocess
     import sys
 
@@ -192,6 +194,13 @@ def test_the_example_input_file(tmp_path, cache):
         g = f["flux/tube_cut"]
         assert np.all(np.abs(g["volume_extrapolated"][()] / ref - 1) < 1e-3)
         assert np.all(g["misclassified"][()] == 0)
+        seen = []
+        f.visit(seen.append)
+        for obj in [f] + [f[k] for k in list(seen)]:
+            seen += list(obj.attrs)
+    doc = (root / "docs" / "output.md").read_text()
+    for name in set(re.sub(r"_\d{3}$", "_<kkk>", s.split("/")[-1]) for s in seen) - {"units"}:
+        assert f"`{name}`" in doc or f"/{name}`" in doc, f"HDF5 object {name} missing from docs/output.md"
     q = subprocess.run([sys.executable, "-m", "tubes.plots", "t.h5", "-o", "fig"], cwd=tmp, capture_output=True,
                        text=True, timeout=300)
     assert q.returncode == 0 and os.path.getsize(os.path.join(tmp, "fig", "tube_cut_3dof.png")) > 10000, q.stderr

@@ -1561,7 +1561,7 @@ static int write_tube_cut3(hid_t g, const cut_out_t *u, const tubes_config_t *c)
     e |= h5_write_double(h, "volume_extrapolated", 1, &dn, u->vex, "action^2");
     if (u->ns > 0) {    /* the section's Monte Carlo points (natural models) */
       e |= h5_write_double(h, "points", 3, dp, px, "state units");
-      e |= h5_write_double(h, "weight", 2, ds, u->sw, "action^2 / length^2");
+      e |= h5_write_double(h, "weight", 2, ds, u->sw, "momentum^2");
       e |= h5_write_int_nd(h, "outcome", 2, ds, u->scls, "1");
       e |= h5_write_int_nd(h, "inside", 2, ds, u->inside, "1");
       e |= h5_write_int_nd(h, "inside_pl", 2, ds, u->inside_pl, "1");
