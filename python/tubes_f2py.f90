@@ -512,7 +512,7 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_orbits, only: orbit_t
   use tubes_manifold, only: tube_opts_t, tube_cut_t
-  use tubes_study, only: study_t, section_choice_t, cut_at
+  use tubes_study, only: study_t, section_choice_t, cut_at, cut_outputs
   use tubes_methods, only: integ_choice_t, method_opts_t
   implicit none
   character(len=*), intent(in) :: system, saddle
@@ -542,19 +542,7 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   opts%n_max = n_max
   call cut_at(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, opts, &
               cut, orb, stat)
-  action = orb%action
-  period = orb%period
-  n_failed = cut%n_failed
-  n = min(cut%n, n_max)
-  if (n > 0) then
-    tau(1:n) = cut%tau(1:n)
-    r(1:n) = cut%r(1:n)
-    pr(1:n) = cut%pr(1:n)
-    time(1:n) = cut%time(1:n)
-    xs(:, 1:n) = cut%x(:, 1:n)
-  end if
-  area = cut%area
-  area_polygon = cut%area_polygon
+  call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
 end subroutine tube_cut
 
 subroutine section_info(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &

@@ -25,7 +25,7 @@ module tubes_capi
   use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
-                         check_at, maps_at
+                         check_at, maps_at, cut_outputs
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long
   implicit none
@@ -449,20 +449,8 @@ contains
     opts%n_init = n_init
     opts%n_max = min(n_max, nout)
     call cut_at(st, sec, de, opts, cut, orb, stat)
-    action = orb%action
-    period = orb%period
-    n_failed = cut%n_failed
+    call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
     fail_tau = cut%fail_tau
-    n = min(cut%n, nout)
-    if (n > 0) then
-      tau(1:n) = cut%tau(1:n)
-      r(1:n) = cut%r(1:n)
-      pr(1:n) = cut%pr(1:n)
-      time(1:n) = cut%time(1:n)
-      xs(:, 1:n) = cut%x(:, 1:n)
-    end if
-    area = cut%area
-    area_polygon = cut%area_polygon
     if (allocated(cut%hist_n)) then
       nhist = min(size(cut%hist_n), 64)
       hist_n(1:nhist) = cut%hist_n(1:nhist)

@@ -23,7 +23,7 @@ module tubes_study
   integer, parameter, public :: SECTION_RAY = 1     !! sec_kind: the ball's polar ray
   integer, parameter, public :: SECTION_PLANE = 2   !! sec_kind: the plane q_index = level
 
-  public :: setup_model, setup_section, orbit_at, saddle_gate, section_info, cut_at, check_at, maps_at
+  public :: setup_model, setup_section, orbit_at, saddle_gate, section_info, cut_at, check_at, maps_at, cut_outputs
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -324,4 +324,27 @@ contains
     end do
     call poincare_map(model, psec, x0, n_iter, t_max, 1.0e-10_wp, st%integ, pts, stat)
   end subroutine maps_at
+
+  !> A tube cut's arrays and numbers as the C API and f2py return them: the first n = min(cut%n,
+  !> size(tau)) points.
+  subroutine cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
+    type(tube_cut_t), intent(in) :: cut
+    type(orbit_t), intent(in) :: orb
+    integer, intent(out) :: n, n_failed
+    real(wp), intent(inout) :: tau(:), r(:), pr(:), time(:), xs(:, :)
+    real(wp), intent(out) :: area, area_polygon, action, period
+    action = orb%action
+    period = orb%period
+    n_failed = cut%n_failed
+    n = min(cut%n, size(tau))
+    if (n > 0) then
+      tau(1:n) = cut%tau(1:n)
+      r(1:n) = cut%r(1:n)
+      pr(1:n) = cut%pr(1:n)
+      time(1:n) = cut%time(1:n)
+      xs(:, 1:n) = cut%x(:, 1:n)
+    end if
+    area = cut%area
+    area_polygon = cut%area_polygon
+  end subroutine cut_outputs
 end module tubes_study
