@@ -180,8 +180,8 @@ def test_the_example_input_file(tmp_path, cache):
     import subprocess
     import sys
 
+    from conftest import ROOT as root
     from test_flux import TIMEOUT_SCALE, TUBES
-    root = TUBES.parent
     tmp = str(tmp_path)
     p = subprocess.run([str(TUBES), str(root / "input" / "three_dof.nml"), "-o", "t.h5"], cwd=tmp,
                        capture_output=True, text=True, timeout=300 * TIMEOUT_SCALE,
