@@ -152,3 +152,17 @@ def test_python_flux_and_families(tmp_path, monkeypatch):
     assert np.allclose(tubes.orbit_family(m, [0.01], family=2)["period"], 2 * math.pi / 2.1, rtol=1e-12)
     with pytest.raises(ValueError, match="family = 3 is out of range"):
         tubes.orbit_family(m, [0.01], family=3)
+
+
+def test_a_hamiltonian_not_quadratic_in_the_momenta_is_not_sampled(tmp_path, cache):
+    """H = sqrt(1 + |p|^2) + V(q): the dividing surface's momenta are no ellipsoid, so the sampler
+    refuses; without &flux order nothing can be computed: exit 2 with the reason."""
+    p = run(str(tmp_path), """
+        &run scenes = 'flux', output = 'f.h5' /
+        &model system = 'expression', hamiltonian = 'sqrt(1 + px^2 + py^2) - x^2/2 + x^4/4 + y^2',
+          coordinates = 'x', 'y', momenta = 'px', 'py' /
+        &equilibria box = 1.0 /
+        &orbits saddle_near = 0, 0 /
+        &flux de = 0.01, n_samples = 200 /
+        """, cache)
+    assert p.returncode == 2 and "not quadratic in the momenta" in p.stderr and "give &flux order" in p.stderr, p.stderr

@@ -145,11 +145,14 @@ def test_spatial_cr3bp_cut_at_l1(tmp_path, cache):
 
 
 def test_cut_refusals(tmp_path, cache):
-    """&flux n_cut odd or out of range: exit 1 naming it; a section crossed by the stable tube the
+    """&flux n_cut odd or out of range, cut_eps out of range: exit 1 naming it; a section crossed by the stable tube the
     other way (direction = -1): exit 2, saying which direction reaches it."""
     tmp = str(tmp_path)
     p = run(tmp, _text(COUPLED, CONSTS, [0.1], 8, 5, n_samples=200), cache)
     assert p.returncode == 1 and "n_cut = 5 is out of range" in p.stderr, p.stderr
+    p = run(tmp, _text(COUPLED, CONSTS, [0.1], 8, 8, n_samples=200).replace("n_cut = 8,", "n_cut = 8, cut_eps = 0.5,"),
+            cache)
+    assert p.returncode == 1 and "cut_eps = 0.5 is out of range" in p.stderr, p.stderr
     p = run(tmp, _text(COUPLED, CONSTS, [0.1], 8, 8, n_samples=2000, direction=-1), cache)
     assert p.returncode == 2 and "asks for the other way: set direction = 1" in p.stderr, p.stderr
 
