@@ -17,7 +17,8 @@ enum {
   TUBES_EOUTSIDE = -8, /* a tube crossed the section outside the region chosen on it */
   TUBES_ENOCROSS = -9, /* no crossing of the section within t_max */
   TUBES_EPASTEND = -10, /* past the end of the Lyapunov orbit family */
-  TUBES_ENARROW = -11 /* the slab (&flux gate) is narrower than the NHIM's reach along the reaction coordinate */
+  TUBES_ENARROW = -11, /* the slab (&flux gate) is narrower than the NHIM's reach along the reaction coordinate */
+  TUBES_ENOJET = -12 /* no Taylor kernel for the model: its code could not be generated or compiled (stderr says why) */
 };
 
 /* Integration methods (src/integrators/tubes_methods.f90). */
@@ -25,7 +26,7 @@ enum {
   TUBES_METHOD_DOP853 = 1, TUBES_METHOD_RK4 = 2, TUBES_METHOD_TAO2 = 3, TUBES_METHOD_TAO4 = 4,
   TUBES_METHOD_TAO6 = 5, TUBES_METHOD_GAUSS4 = 6, TUBES_METHOD_GAUSS6 = 7, TUBES_METHOD_GAUSS8 = 8,
   TUBES_METHOD_GSL_RK8PD = 9, TUBES_METHOD_GSL_RK4IMP = 10, TUBES_METHOD_CVODE_ADAMS = 11,
-  TUBES_METHOD_ARKODE_ERK8 = 12
+  TUBES_METHOD_ARKODE_ERK8 = 12, TUBES_METHOD_TAYLOR = 13
 };
 /* Method options (tubes_run_trajectory): omega_bind [1/s] for tao* (0 = default 200),
  * solver for gauss*: 0 or 1 simplified Newton, 2 fixed point; max_iter for gauss* (0 = default). */
@@ -88,6 +89,25 @@ int tubes_expr_taylor(const char key[TUBES_LSYSTEM], const double *z, int order,
                       char *msg, int lmsg);
 /* The C compiler that builds models ($TUBES_CC, else the build's). */
 const char *tubes_expr_compiler(void);
+/* The spec text of the formula model key (its lines but the compiler's) into buf (len bytes). */
+int tubes_expr_spec(const char key[TUBES_LSYSTEM], char *buf, int len);
+
+/* Taylor jets (src/io/tubes_expr.c, docs/integrators-taylor.md): the kernel computing the
+ * normalised Taylor coefficients of the solution through a state, generated from a model's formula
+ * (python/tubes/codegen.py --jet) and compiled for this processor, once (cached like a model).
+ * Its call: fn(order, par, tc, w): par[0] the damping rate c (dp/dt -= c p); tc[(i*(order+1) + k)*L + l]
+ * the coefficient k of component i in lane l, k = 0 given, 1..order computed; w scratch of
+ * nwork*(order+1)*L doubles. Returns 0, or -1 where a coefficient is not finite. */
+typedef int (*tubes_jet_fn)(int order, const double *par, double *tc, double *w);
+/* flags of tubes_jet_get: the state transition matrix follows the state (column by column), the
+ * action integral of p . dq/dt follows the state (after the state transition matrix, if any) */
+enum { TUBES_JET_VARIATIONAL = 1, TUBES_JET_ACTION = 2 };
+/* The kernel of the model text `model` (the tubes-expression spec of a formula, or of a built-in
+ * written as one) for order 1..60 and L = lanes (1, 2, 4, 8); with TUBES_JET_VARIATIONAL, order 0
+ * and lanes 1: a kernel of any order. dim: the state's dimension. Thread-safe; the first call for
+ * a kernel builds or loads it (and says so on stderr when it builds). */
+int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_fn *fn, int *dim, int *nwork,
+                  char *msg, int lmsg);
 
 /* Copy the text of status `code` into buf (NUL-terminated, at most len bytes). */
 void tubes_status_message(int code, char *buf, int len);

@@ -20,8 +20,8 @@ import numpy as np
 
 # Status codes: the same numbers as src/base/tubes_status.f90 and include/tubes.h.
 OK, EVENT = 0, 1
-EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV, EFAULT, EOUTSIDE, ENOCROSS, EPASTEND, ENARROW = (
-    -1, -2, -3, -4, -5, -6, -7, -8, -9, -10, -11)
+EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV, EFAULT, EOUTSIDE, ENOCROSS, EPASTEND, ENARROW, ENOJET = (
+    -1, -2, -3, -4, -5, -6, -7, -8, -9, -10, -11, -12)
 
 
 def status_message(code: int) -> str:
@@ -32,7 +32,7 @@ def status_message(code: int) -> str:
 
 METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, "gauss6": 7,
            "gauss8": 8, "gsl_rk8pd": 9, "gsl_rk4imp": 10, "cvode_adams": 11,
-           "arkode_erk8": 12}   # include/tubes.h TUBES_METHOD_*
+           "arkode_erk8": 12, "taylor": 13}   # include/tubes.h TUBES_METHOD_*
 FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 
 __all__ = ["Model", "TubesError", "status_message", "systems", "model_info", "energy", "energies", "potentials",

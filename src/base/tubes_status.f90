@@ -16,6 +16,7 @@ module tubes_status
   integer, parameter, public :: TUBES_ENOCROSS = -9  !! no crossing of the section within t_max
   integer, parameter, public :: TUBES_EPASTEND = -10 !! past the end of the Lyapunov orbit family
   integer, parameter, public :: TUBES_ENARROW = -11  !! the slab (&flux gate) is narrower than the NHIM
+  integer, parameter, public :: TUBES_ENOJET = -12   !! no Taylor kernel for the model (stderr says why)
   public :: status_message
 contains
   !> Text for a status code.
@@ -37,6 +38,8 @@ contains
     case (TUBES_EPASTEND);  msg = 'past the end of the Lyapunov orbit family: no orbit at this energy'
     case (TUBES_ENARROW);   msg = 'the slab around the dividing surface is narrower than the NHIM reaches ' // &
                                   'along the reaction coordinate: raise &flux gate'
+    case (TUBES_ENOJET);    msg = 'the Taylor method has no kernel for this model: its code could not be ' // &
+                                  'generated or compiled (the cause is on stderr)'
     case default;           msg = 'unknown status code'
     end select
   end function status_message

@@ -29,6 +29,9 @@ module tubes_integrator
     procedure :: init => integrator_init
     procedure(step_i), deferred :: step
     procedure(interp_i), deferred :: interp
+    !> interior times of the last step at which an event's g is sampled (scan_step); default:
+    !> the event's nsub equally spaced points; the Taylor method isolates the roots instead
+    procedure :: event_samples => integrator_event_samples
   end type integrator_t
 
   abstract interface
@@ -64,6 +67,7 @@ module tubes_integrator
     procedure(g_i), deferred :: g
     procedure :: accept => event_accept            !! filter on the state at a crossing
     procedure :: orientation => event_orientation  !! direction reported for a crossing
+    procedure :: affine => event_affine            !! g = w . x - c? (default: no)
   end type event_t
 
   abstract interface
@@ -80,6 +84,7 @@ module tubes_integrator
     real(wp) :: c = 0       !! level [units of x(k)]
   contains
     procedure :: g => plane_g
+    procedure :: affine => plane_affine
   end type plane_t
 
   !> Every crossing found by propagate, in the order of integration (appended across calls).
@@ -215,6 +220,42 @@ contains
     real(wp), intent(in) :: x(:)   !! state at the crossing
     event_accept = .true.
   end function event_accept
+
+  !> Default: g is not known to be affine in the state.
+  pure subroutine event_affine(self, n, w, c, ok)
+    class(event_t), intent(in) :: self
+    integer, intent(in) :: n           !! state dimension
+    real(wp), intent(out) :: w(n), c   !! g(t, x) = w . x - c when ok
+    logical, intent(out) :: ok
+    w = 0
+    c = 0
+    ok = .false.
+  end subroutine event_affine
+
+  pure subroutine plane_affine(self, n, w, c, ok)
+    class(plane_t), intent(in) :: self
+    integer, intent(in) :: n
+    real(wp), intent(out) :: w(n), c
+    logical, intent(out) :: ok
+    w = 0
+    c = self%c
+    ok = self%k >= 1 .and. self%k <= n
+    if (ok) w(self%k) = 1
+  end subroutine plane_affine
+
+  !> The event's nsub equally spaced interior points of the last step.
+  subroutine integrator_event_samples(self, event, ts, m)
+    class(integrator_t), intent(inout) :: self
+    class(event_t), intent(in) :: event
+    real(wp), allocatable, intent(out) :: ts(:)   !! interior sample times, in the order of integration
+    integer, intent(out) :: m                     !! how many
+    integer :: j
+    m = event%nsub
+    allocate (ts(m))
+    do j = 1, m
+      ts(j) = self%t_old + (self%t - self%t_old)*(real(j, wp)/(m + 1))
+    end do
+  end subroutine integrator_event_samples
 
   !> Default orientation of a crossing: the sign of dg/dt there (`slope`, +1 or -1).
   pure integer function event_orientation(self, t, x, slope)
@@ -416,19 +457,21 @@ contains
     logical, intent(out) :: hit
     integer, intent(out) :: stat
     type(crossing_log_t), intent(inout), optional :: crossings
-    real(wp) :: ts(0:event%nsub + 1), gv(0:event%nsub + 1), xs(size(x)), step_len
+    real(wp), allocatable :: ts(:), gv(:), inner(:)
+    real(wp) :: xs(size(x))
     integer :: j, m, slope, orient
     stat = TUBES_OK
     hit = .false.
     te = ig%t
-    m = event%nsub + 1
+    call ig%event_samples(event, inner, m)
+    m = m + 1
+    allocate (ts(0:m), gv(0:m))
     ts(0) = ig%t_old
     gv(0) = g0
     ts(m) = ig%t
     gv(m) = g1
-    step_len = ig%t - ig%t_old
     do j = 1, m - 1
-      ts(j) = ig%t_old + step_len*(real(j, wp)/m)
+      ts(j) = inner(j)
       call ig%interp(ts(j), xs)
       gv(j) = event%g(ts(j), xs)
     end do

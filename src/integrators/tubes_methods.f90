@@ -9,6 +9,7 @@ module tubes_methods
   use tubes_gauss, only: gauss_t
   use tubes_gsl, only: gsl_t
   use tubes_sundials, only: cvode_t, arkode_t
+  use tubes_taylor, only: taylor_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT
   implicit none
   private
@@ -24,7 +25,8 @@ module tubes_methods
   integer, parameter, public :: METHOD_GSL_RK4IMP = 10   !! GSL odeiv2 rk4imp (implicit), variable step
   integer, parameter, public :: METHOD_CVODE_ADAMS = 11  !! SUNDIALS CVODE, Adams, variable step/order
   integer, parameter, public :: METHOD_ARKODE_ERK8 = 12  !! SUNDIALS ARKODE ERKStep, Fehlberg 13-7-8
-  integer, parameter, public :: METHOD_LAST = 12         !! largest code available
+  integer, parameter, public :: METHOD_TAYLOR = 13       !! Taylor, adaptive order and step, from the formula
+  integer, parameter, public :: METHOD_LAST = 13         !! largest code available
 
   !> Method-specific options; zero or blank means the method's default.
   type, public :: method_opts_t
@@ -85,6 +87,8 @@ contains
       allocate (cvode_t :: ig)
     case (METHOD_ARKODE_ERK8)
       allocate (arkode_t :: ig)
+    case (METHOD_TAYLOR)
+      allocate (taylor_t :: ig)
     case default
       stat = TUBES_EINPUT
     end select

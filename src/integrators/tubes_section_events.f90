@@ -27,6 +27,7 @@ module tubes_section_events
     procedure :: g => theta_g
     procedure :: accept => theta_accept
     procedure :: orientation => theta_orientation
+    procedure :: affine => theta_affine
   end type theta_line_t
 
   public :: polar_canonical, u1_section, x_line, y_line
@@ -38,6 +39,20 @@ contains
     real(wp), intent(in) :: t, x(:)
     theta_g = cos(self%theta0)*x(2) - sin(self%theta0)*x(1)
   end function theta_g
+
+  !> g = w . x with w = (-sin theta0, cos theta0, 0, ...).
+  pure subroutine theta_affine(self, n, w, c, ok)
+    class(theta_line_t), intent(in) :: self
+    integer, intent(in) :: n
+    real(wp), intent(out) :: w(n), c
+    logical, intent(out) :: ok
+    w = 0
+    c = 0
+    ok = n >= 2
+    if (.not. ok) return
+    w(1) = -sin(self%theta0)
+    w(2) = cos(self%theta0)
+  end subroutine theta_affine
 
   !> On the ray r > 0, and p_theta of the requested branch (p_theta = 0 belongs to neither).
   pure logical function theta_accept(self, t, x)

@@ -3,7 +3,7 @@
 !> Layout of the extended state: (x(1:n), Phi(:, 1), ..., Phi(:, n)), n + n^2 components.
 module tubes_variational
   use tubes_kinds, only: wp
-  use tubes_field, only: vector_field_t
+  use tubes_field, only: vector_field_t, jet_spec_t
   implicit none
   private
 
@@ -12,6 +12,7 @@ module tubes_variational
   contains
     procedure :: dim => var_dim
     procedure :: eval => var_eval
+    procedure :: jet_spec => var_jet_spec
   end type variational_t
 
   public :: make_variational, stm_start
@@ -44,6 +45,14 @@ contains
     n = self%base%dim()
     var_dim = n + n*n
   end function var_dim
+
+  !> The base model's formula, with its variational equations.
+  pure function var_jet_spec(self) result(spec)
+    class(variational_t), intent(in) :: self
+    type(jet_spec_t) :: spec
+    spec = self%base%jet_spec()
+    spec%variational = .true.
+  end function var_jet_spec
 
   pure subroutine var_eval(self, t, x, dxdt, stat)
     class(variational_t), intent(in) :: self

@@ -15,6 +15,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
+#include <pthread.h>
 #include <spawn.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -38,9 +39,24 @@ extern char **environ;
 #define TUBES_MODEL_CC_VERSION ""
 #endif
 #define EXPR_CFLAGS "-O2", "-fPIC", "-shared", "-fno-math-errno"
+/* Taylor jets (docs/integrators-taylor.md): for this machine's processor (its name and flags are
+ * in the cache key); contraction of a*b + c into fma is the same in every lane and for one lane */
+#define JET_CFLAGS "-O2", "-march=native", "-ffp-contract=fast", "-fPIC", "-shared", "-fno-math-errno"
 
-static int build(const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg, int lmsg, char *lib,
-                 int llib, int *hit);
+/* What a build makes: a model's library (codegen.py --out) or a Taylor jet's (codegen.py --jet). */
+typedef struct {
+  const char *codegen_flag;   /* codegen.py's mode */
+  const char *text_symbol;    /* the embedded spec, to tell a cached library from another's */
+  const char *abi_symbol;
+  char *const *cflags;        /* NULL-terminated */
+} build_kind_t;
+static char *const model_cflags[] = {EXPR_CFLAGS, NULL};
+static char *const jet_cflags[] = {JET_CFLAGS, NULL};
+static const build_kind_t MODEL_BUILD = {"--out", "tubes_expr_text", "tubes_expr_abi", model_cflags};
+static const build_kind_t JET_BUILD = {"--jet", "tubes_jet_text", "tubes_jet_abi", jet_cflags};
+
+static int build(const build_kind_t *bk, const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg,
+                 int lmsg, char *lib, int llib, int *hit);
 
 static void say(char *msg, int lmsg, const char *fmt, ...) {
   va_list ap;
@@ -159,11 +175,11 @@ static void find_tool(char *buf, size_t n, const char *env, const char *rel, con
 }
 
 /* Is the library at path the model of spec? (its embedded text) */
-static int library_matches(const char *path, const char *spec) {
+static int library_matches(const build_kind_t *bk, const char *path, const char *spec) {
   void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
   if (!h) return 0;
-  const char *text = (const char *)dlsym(h, "tubes_expr_text");
-  const int *abi = (const int *)dlsym(h, "tubes_expr_abi");
+  const char *text = (const char *)dlsym(h, bk->text_symbol);
+  const int *abi = (const int *)dlsym(h, bk->abi_symbol);
   return text && abi && *abi == 1 && !strcmp(text, spec);
 }
 
@@ -181,14 +197,14 @@ int tubes_expr_build(const char *model, char key[TUBES_LSYSTEM], char *var, int 
   char *spec = malloc(ls);
   if (!spec) return TUBES_EIO;
   snprintf(spec, ls, "%scompiler %s %s\n", model, tubes_expr_compiler(), cc_env && cc_env[0] ? "" : TUBES_MODEL_CC_VERSION);
-  int rc = build(spec, key, var, lvar, msg, lmsg, lib, llib, hit);
+  int rc = build(&MODEL_BUILD, spec, key, var, lvar, msg, lmsg, lib, llib, hit);
   free(spec);
   *seconds = now() - t0;
   return rc;
 }
 
-static int build(const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg, int lmsg, char *lib,
-                 int llib, int *hit) {
+static int build(const build_kind_t *bk, const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg,
+                 int lmsg, char *lib, int llib, int *hit) {
   char dir[PATH_MAX], path[PATH_MAX + 64], tmp[PATH_MAX + 64];
   *hit = 0;
   snprintf(var, (size_t)lvar, "system");
@@ -203,7 +219,7 @@ static int build(const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar,
   snprintf(path, sizeof path, "%s/%s.so", dir, key);
   snprintf(lib, (size_t)llib, "%s", path);
   if (exists(path, R_OK)) {
-    if (library_matches(path, spec)) {
+    if (library_matches(bk, path, spec)) {
       *hit = 1;
       return TUBES_OK;
     }
@@ -236,7 +252,7 @@ static int build(const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar,
   find_tool(py, sizeof py, "TUBES_PYTHON", ".venv/bin/python", "python3");
   find_tool(script, sizeof script, "TUBES_CODEGEN", "python/tubes/codegen.py", "codegen.py");
   {
-    char *argv[] = {py, script, "--out", f_c, NULL};
+    char *argv[] = {py, script, (char *)bk->codegen_flag, f_c, NULL};
     int st = run(argv, f_spec, f_log);
     if (st < 0) {
       say(msg, lmsg, "a model written as a formula needs Python 3 with SymPy to generate its code: '%s' cannot be "
@@ -270,7 +286,14 @@ static int build(const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar,
   {
     char cc[PATH_MAX];
     snprintf(cc, sizeof cc, "%s", tubes_expr_compiler());
-    char *argv[] = {cc, EXPR_CFLAGS, "-o", f_so, f_c, "-lm", NULL};
+    char *argv[16] = {cc};
+    int na = 1;
+    for (char *const *f = bk->cflags; *f && na < 11; f++) argv[na++] = *f;
+    argv[na++] = "-o";
+    argv[na++] = f_so;
+    argv[na++] = f_c;
+    argv[na++] = "-lm";
+    argv[na] = NULL;
     int st = run(argv, NULL, f_log);
     if (st < 0) {
       say(msg, lmsg, "a model written as a formula is compiled with the build's C compiler: '%s' cannot be run "
@@ -287,7 +310,7 @@ static int build(const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar,
     say(msg, lmsg, "cannot move the model's library into the cache '%s': %s", path, strerror(errno));
     goto done;
   }
-  if (!library_matches(path, spec)) {
+  if (!library_matches(bk, path, spec)) {
     say(msg, lmsg, "the library just built, '%s', cannot be loaded: %s", path, dlerror());
     goto done;
   }
@@ -449,4 +472,145 @@ int tubes_expr_taylor(const char key[TUBES_LSYSTEM], const double *z, int order,
 done:
   remove_tree(tmp);
   return rc;
+}
+
+/* ------------------------------------------------------------------ Taylor jets */
+
+/* This processor, for the jets' cache key (they are built with -march=native): the model name and
+ * a hash of the flags line of /proc/cpuinfo. */
+static void cpu_id(char *buf, size_t n) {
+  char line[4096], model[256] = "unknown";
+  uint64_t flags = 0;
+  FILE *f = fopen("/proc/cpuinfo", "r");
+  while (f && fgets(line, sizeof line, f)) {
+    char *colon = strchr(line, ':');
+    if (!colon) continue;
+    if (!strncmp(line, "model name", 10) && !strcmp(model, "unknown")) {
+      snprintf(model, sizeof model, "%s", colon + 2);
+      model[strcspn(model, "\n")] = 0;
+    } else if (!strncmp(line, "flags", 5) && !flags) {
+      flags = fnv1a(colon + 1);
+    }
+  }
+  if (f) fclose(f);
+  snprintf(buf, n, "%s %016llx", model, (unsigned long long)flags);
+}
+
+/* The kernels loaded in this process: spec text -> function (one table, under a mutex; a
+ * kernel, once loaded, stays for the life of the process, as its library does). */
+#define JET_TABLE 256
+typedef struct {
+  char *spec;
+  tubes_jet_fn fn;
+  int dim, nwork;
+} jet_entry_t;
+static jet_entry_t jet_table[JET_TABLE];
+static int jet_count;
+static pthread_mutex_t jet_lock = PTHREAD_MUTEX_INITIALIZER;
+
+int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_fn *fn, int *dim, int *nwork,
+                  char *msg, int lmsg) {
+  *fn = NULL;
+  *dim = 0;
+  *nwork = 0;
+  msg[0] = 0;
+  int var = (flags & TUBES_JET_VARIATIONAL) != 0;
+  if ((flags & ~(TUBES_JET_VARIATIONAL | TUBES_JET_ACTION)) || (var && (order != 0 || lanes != 1)) ||
+      (!var && (order < 1 || order > 60 || (lanes != 1 && lanes != 2 && lanes != 4 && lanes != 8)))) {
+    say(msg, lmsg, "a Taylor jet of order %d for %d lanes, flags %d: orders 1 to 60 for lanes 1, 2, 4 or 8, or "
+        "order 0 for the variational kernel (one lane)", order, lanes, flags);
+    return TUBES_EINPUT;
+  }
+  const char *cc_env = getenv("TUBES_CC");
+  static char cpu[512];   /* this processor: read once (under the lock) */
+  char jet[96];
+  pthread_mutex_lock(&jet_lock);
+  if (!cpu[0]) cpu_id(cpu, sizeof cpu);
+  pthread_mutex_unlock(&jet_lock);
+  const char *act = (flags & TUBES_JET_ACTION) ? " action" : "";
+  if (!var)
+    snprintf(jet, sizeof jet, "jet order %d lanes %d%s\n", order, lanes, act);
+  else
+    snprintf(jet, sizeof jet, "jet variational%s\n", act);
+  size_t ls = strlen(model) + strlen(cpu) + 512;
+  char *spec = malloc(ls);
+  if (!spec) return TUBES_EIO;
+  snprintf(spec, ls, "%s%scompiler %s %s\ncpu %s\n", model, jet, tubes_expr_compiler(),
+           cc_env && cc_env[0] ? "" : TUBES_MODEL_CC_VERSION, cpu);
+  int rc = TUBES_OK;
+  pthread_mutex_lock(&jet_lock);
+  for (int i = 0; i < jet_count; i++)
+    if (!strcmp(jet_table[i].spec, spec)) {
+      *fn = jet_table[i].fn;
+      *dim = jet_table[i].dim;
+      *nwork = jet_table[i].nwork;
+      goto out;
+    }
+  if (jet_count == JET_TABLE) {
+    say(msg, lmsg, "more than %d Taylor kernels in one process", JET_TABLE);
+    rc = TUBES_EINPUT;
+    goto out;
+  }
+  {
+    char key[TUBES_LSYSTEM], var[64], lib[PATH_MAX + 64];
+    int hit;
+    double t0 = now();
+    rc = build(&JET_BUILD, spec, key, var, (int)sizeof var, msg, lmsg, lib, (int)sizeof lib, &hit);
+    if (rc != TUBES_OK) goto out;
+    if (!hit) {
+      if (order > 0)
+        fprintf(stderr, "taylor: built the order-%d jet kernel (%d lane%s) in %.1f s: %s\n", order, lanes,
+                lanes > 1 ? "s" : "", now() - t0, lib);
+      else
+        fprintf(stderr, "taylor: built the variational jet kernel in %.1f s: %s\n", now() - t0, lib);
+    }
+    void *h = dlopen(lib, RTLD_NOW | RTLD_LOCAL);
+    const int *d = h ? dlsym(h, "tubes_jet_dim") : NULL, *nw = h ? dlsym(h, "tubes_jet_nwork") : NULL;
+    const int *o = h ? dlsym(h, "tubes_jet_order") : NULL, *l = h ? dlsym(h, "tubes_jet_lanes") : NULL;
+    void *f = h ? dlsym(h, "tubes_jet") : NULL;
+    if (!d || !nw || !o || !l || !f || *o != order || *l != (var ? 1 : lanes)) {
+      say(msg, lmsg, "the Taylor kernel '%s' cannot be loaded or is not the one asked for", lib);
+      rc = TUBES_EIO;
+      goto out;
+    }
+    jet_table[jet_count].spec = spec;
+    *(void **)&jet_table[jet_count].fn = f;
+    jet_table[jet_count].dim = *d;
+    jet_table[jet_count].nwork = *nw;
+    *fn = jet_table[jet_count].fn;
+    *dim = *d;
+    *nwork = *nw;
+    jet_count++;
+    spec = NULL;
+  }
+out:
+  pthread_mutex_unlock(&jet_lock);
+  free(spec);
+  return rc;
+}
+
+int tubes_expr_spec(const char key[TUBES_LSYSTEM], char *buf, int len) {
+  char dir[PATH_MAX], path[PATH_MAX + 64], k[TUBES_LSYSTEM + 1];
+  buf[0] = 0;
+  snprintf(k, sizeof k, "%.*s", TUBES_LSYSTEM, key);
+  k[strcspn(k, " ")] = 0;
+  if (strncmp(k, "expr_", 5) || cache_dir(dir, sizeof dir)) return TUBES_EINPUT;
+  snprintf(path, sizeof path, "%s/%s.so", dir, k);
+  void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+  const char *text = h ? (const char *)dlsym(h, "tubes_expr_text") : NULL;
+  if (!text) return TUBES_EINPUT;
+  /* the model's lines, without the compiler's (a jet adds its own) */
+  size_t n = 0;
+  for (const char *s = text; *s;) {
+    const char *e = strchr(s, '\n');
+    size_t l = e ? (size_t)(e - s) + 1 : strlen(s);
+    if (strncmp(s, "compiler ", 9)) {
+      if (n + l + 1 > (size_t)len) return TUBES_EINPUT;
+      memcpy(buf + n, s, l);
+      n += l;
+    }
+    s += l;
+  }
+  buf[n] = 0;
+  return TUBES_OK;
 }

@@ -5,11 +5,22 @@ module tubes_field
   private
   public :: fd_jacobian
 
+  !> What the Taylor method (src/integrators/tubes_taylor.f90) needs of a vector field: the text
+  !> of its model's formula, a tubes-expression spec (docs/integrators-taylor.md) from which the
+  !> jet kernel is generated, and what the field adds to the model's Hamilton's equations.
+  type, public :: jet_spec_t
+    character(:), allocatable :: text    !! the spec; unallocated: no formula (no Taylor method)
+    real(wp) :: damping = 0              !! c of dp/dt -= c p [1/time]
+    logical :: variational = .false.     !! the state transition matrix follows the state
+    logical :: action = .false.          !! the action integral of p . dq/dt follows the state
+  end type jet_spec_t
+
   type, abstract, public :: vector_field_t
   contains
     procedure(dim_i), deferred :: dim     !! state dimension
     procedure(eval_i), deferred :: eval   !! dx/dt = f(t, x)
     procedure :: jacobian => fd_jacobian  !! df/dx; default: central differences
+    procedure :: jet_spec => field_jet_spec  !! its formula for the Taylor method; default: none
   end type vector_field_t
 
   abstract interface
@@ -27,6 +38,13 @@ module tubes_field
   end interface
 
 contains
+
+  !> No formula: the Taylor method cannot integrate this field.
+  pure function field_jet_spec(self) result(spec)
+    class(vector_field_t), intent(in) :: self
+    type(jet_spec_t) :: spec
+    spec%damping = 0
+  end function field_jet_spec
 
   !> Jacobian by central differences (step sqrt-ish of eps scaled by |x|): a fallback for models
   !> without an analytic one; error ~ 1e-10 relative. Models override it.

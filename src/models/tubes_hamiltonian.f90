@@ -15,7 +15,7 @@
 module tubes_hamiltonian
   use tubes_kinds, only: wp
   use tubes_lapack, only: dgesv
-  use tubes_field, only: vector_field_t
+  use tubes_field, only: vector_field_t, jet_spec_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   implicit none
   private
@@ -31,6 +31,9 @@ module tubes_hamiltonian
 
   !> An autonomous Hamiltonian H(q, p) with N degrees of freedom.
   type, abstract, extends(vector_field_t), public :: hamiltonian_t
+    !> the model as a formula (a tubes-expression spec, set by the library's constructors in
+    !> src/models/tubes_models.f90): the Taylor method's jet is generated from it
+    character(:), allocatable :: formula
   contains
     procedure(ndof_i), deferred :: ndof             !! N
     procedure(energy_i), deferred :: energy         !! H(x)
@@ -45,6 +48,7 @@ module tubes_hamiltonian
     procedure :: length_scale => ham_length_scale   !! typical configuration distance [units of q]
     procedure :: reversor => ham_reversor           !! +1/-1 per component: a time-reversal symmetry
     procedure :: rest_momenta => ham_rest_momenta   !! p with dH/dp(q, p) = 0 (zero velocity)
+    procedure :: jet_spec => ham_jet_spec           !! its formula, if it has one
   end type hamiltonian_t
 
   !> A natural system H = 1/2 p^T A(q) p + potential_scale() shape(q).
@@ -69,6 +73,7 @@ module tubes_hamiltonian
     procedure :: dim => damped_dim
     procedure :: eval => damped_eval
     procedure :: jacobian => damped_jacobian
+    procedure :: jet_spec => damped_jet_spec
   end type damped_t
 
   public :: make_damped
@@ -298,6 +303,20 @@ contains
     call self%base%eval(t, x, dxdt, stat)
     dxdt(n + 1:2*n) = dxdt(n + 1:2*n) - self%c*x(n + 1:2*n)
   end subroutine damped_eval
+
+  pure function ham_jet_spec(self) result(spec)
+    class(hamiltonian_t), intent(in) :: self
+    type(jet_spec_t) :: spec
+    if (allocated(self%formula)) spec%text = self%formula
+  end function ham_jet_spec
+
+  !> The base model's formula with the damping rate.
+  pure function damped_jet_spec(self) result(spec)
+    class(damped_t), intent(in) :: self
+    type(jet_spec_t) :: spec
+    spec = self%base%jet_spec()
+    spec%damping = self%c
+  end function damped_jet_spec
 
   pure subroutine damped_jacobian(self, t, x, jac, stat)
     class(damped_t), intent(in) :: self

@@ -34,6 +34,7 @@ module tubes_models
     real(wp) :: default = 0               !! its default
     character(16) :: units = ''           !! units
     character(96) :: doc = ''             !! meaning
+    character(16) :: symbol = ''          !! its name in the system's formula ('' : not in it)
   end type param_info_t
 
   !> A system of the library with its defaults for the scenes.
@@ -55,6 +56,12 @@ module tubes_models
     integer :: section_direction = 0      !! plane: sign of dq_k/dt; ray: sign of p_theta
     real(wp) :: section_angle = 0         !! ray: angle [deg]
     real(wp) :: gate = 0                  !! default transit gate (distance past the saddle)
+    !> the system as a formula (python/tubes/codegen.py's language), for the Taylor method's jet:
+    !> a Hamiltonian of (coordinates, momenta), or a ball's surface h(x, y) ('' : none)
+    character(400) :: formula = ''
+    character(12) :: formula_kind = ''    !! 'hamiltonian' or 'surface'
+    character(16) :: coordinates = ''     !! their names in the formula
+    character(24) :: momenta = ''
   end type system_info_t
 
   interface
@@ -64,6 +71,13 @@ module tubes_models
       character(kind=c_char), intent(in) :: key(LEN_SYSTEM)
       type(expr_lib_t), intent(out) :: lib
     end function expr_open
+    !> src/io/tubes_expr.c: the spec text of a formula model
+    integer(c_int) function expr_spec(key, buf, len) bind(C, name='tubes_expr_spec')
+      import :: c_int, c_char, LEN_SYSTEM
+      character(kind=c_char), intent(in) :: key(LEN_SYSTEM)
+      character(kind=c_char), intent(out) :: buf(*)
+      integer(c_int), value :: len
+    end function expr_spec
   end interface
 
   public :: system_info, system_name, make_model, make_field, conservative_ball, model_ball, &
@@ -71,14 +85,17 @@ module tubes_models
 
 contains
 
-  pure function p(name, default, units, doc) result(pi)
+  pure function p(name, default, units, doc, symbol) result(pi)
     character(*), intent(in) :: name, units, doc
     real(wp), intent(in) :: default
+    character(*), intent(in), optional :: symbol   !! its name in the formula (default: name)
     type(param_info_t) :: pi
     pi%name = name
     pi%default = default
     pi%units = units
     pi%doc = doc
+    pi%symbol = name
+    if (present(symbol)) pi%symbol = symbol
   end function p
 
   !> The name of system k = 1..NSYSTEMS.
@@ -109,17 +126,22 @@ contains
       info%params(3) = p('gamma', 15.103_wp, 'cm^2', 'smoothing of the ridges (> 0)')
       info%params(4) = p('xi', 0.00656_wp, '1/cm', 'tilt coupling of x and y')
       info%params(5) = p('h0', 12.065_wp, 'cm', 'height offset')
-      info%params(6) = p('g', 981.0_wp, 'cm/s^2', 'gravitational acceleration (> 0)')
-      info%params(7) = p('damping_ratio', 0.0_wp, '1', 'zeta: c = 2 zeta omega_1 (docs/theory.md)')
+      info%params(6) = p('g', 981.0_wp, 'cm/s^2', 'gravitational acceleration (> 0)', symbol='')
+      info%params(7) = p('damping_ratio', 0.0_wp, '1', 'zeta: c = 2 zeta omega_1 (docs/theory.md)', &
+                         symbol='')
       info%length_units = 'cm'
       info%box(1:2) = 20
       info%saddle = 'S12'
+      info%formula_kind = 'surface'
+      info%formula = 'alpha*(x^2 + y^2) - beta*(sqrt(x^2 + gamma) + sqrt(y^2 + gamma)) - xi*x*y + h0'
+      info%coordinates = 'x y'
       info%section_kind = 'ray'
       info%section_angle = 45
       info%section_direction = 1
       info%gate = 1.5_wp
     case ('henon_heiles')
       info%summary = 'H = (px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2 y - y^3/3 (Henon & Heiles 1964)'
+      info%formula = '(px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2*y - y^3/3'
       info%np = 0
       info%length_units = '1'
       info%box(1:2) = 1.5_wp
@@ -136,9 +158,11 @@ contains
       info%params(1) = p('m_a', 8.0_wp, '1', 'mass of the x mode (> 0)')
       info%params(2) = p('m_b', 8.0_wp, '1', 'mass of the y mode (> 0)')
       info%params(3) = p('d', 10.0_wp, '1', 'dissociation energy D of the Morse oscillator')
-      info%params(4) = p('lambda', 1.5_wp, '1', 'range of the Morse oscillator (> 0)')
+      info%params(4) = p('lambda', 1.5_wp, '1', 'range of the Morse oscillator (> 0)', symbol='lam')
       info%params(5) = p('zeta', 1.0_wp, '1', 'decay of the double well along x')
       info%params(6) = p('eps_s', 1.0_wp, '1', 'energy of the saddle')
+      info%formula = 'px^2/(2*m_a) + py^2/(2*m_b) + d*(1 - exp(-lam*x))^2 ' // &
+                     '+ 4*y^2*(y^2 - 1)*exp(-zeta*lam*x) + eps_s'
       info%length_units = '1'
       info%box(1:2) = [1.0_wp, 1.5_wp]
       info%saddle_near(1:2) = 0
@@ -157,6 +181,8 @@ contains
       info%params(4) = p('beta', 1.0_wp, '1', 'quartic stiffness of x (> 0)')
       info%params(5) = p('omega', 1.0_wp, '1', 'stiffness of the y mode')
       info%params(6) = p('eps', 0.1_wp, '1', 'coupling of x and y')
+      info%formula = 'px^2/(2*m_a) + py^2/(2*m_b) - alpha*x^2/2 + beta*x^4/4 + omega*y^2/2 ' // &
+                     '+ eps*(x - y)^2/2'
       info%length_units = '1'
       info%box(1:2) = 2
       info%saddle_near(1:2) = 0
@@ -170,6 +196,8 @@ contains
                      '(px^2 + py^2)/2 + y px - x py - (1 - mu)/r1 - mu/r2'
       info%np = 1
       info%params(1) = p('mu', 0.01215058560962404_wp, '1', 'mass ratio m2/(m1 + m2) in (0, 1/2]')
+      info%formula = '(px^2 + py^2)/2 + y*px - x*py - (1 - mu)/sqrt((x + mu)^2 + y^2) ' // &
+                     '- mu/sqrt((x - 1 + mu)^2 + y^2)'
       info%length_units = '1'
       info%box(1:2) = 1.5_wp
       info%saddle = 'L1'
@@ -181,6 +209,10 @@ contains
       info%ndof = 3
       info%np = 1
       info%params(1) = p('mu', 0.01215058560962404_wp, '1', 'mass ratio m2/(m1 + m2) in (0, 1/2]')
+      info%formula = '(px^2 + py^2 + pz^2)/2 + y*px - x*py - (1 - mu)/sqrt((x + mu)^2 + y^2 + z^2)' // &
+                     ' - mu/sqrt((x - 1 + mu)^2 + y^2 + z^2)'
+      info%coordinates = 'x y z'
+      info%momenta = 'px py pz'
       info%length_units = '1'
       info%box(1:3) = [1.5_wp, 1.5_wp, 0.3_wp]
       info%saddle = 'L1'
@@ -188,8 +220,35 @@ contains
       info%gate = 0.01_wp
     case default
       call expression_info(name, info, stat)
+      return
     end select
+    if (info%formula_kind == '') info%formula_kind = 'hamiltonian'
+    if (info%coordinates == '') info%coordinates = 'x y'
+    if (info%momenta == '' .and. info%formula_kind == 'hamiltonian') info%momenta = 'px py'
   end subroutine system_info
+
+  !> A built-in system with parameters params as a formula spec (the text python/tubes/codegen.py
+  !> reads, as src/io/tubes_nml.f90 writes it for a formula model): the Taylor method's source.
+  function builtin_spec(info, params) result(text)
+    type(system_info_t), intent(in) :: info
+    real(wp), intent(in) :: params(:)
+    character(:), allocatable :: text
+    character(40) :: v
+    character, parameter :: NL = new_line('a')
+    integer :: k
+    text = 'tubes-expression 1' // NL // 'kind ' // trim(info%formula_kind) // NL // &
+           'expr ' // trim(info%formula) // NL // 'coordinates ' // trim(info%coordinates) // NL
+    if (info%momenta /= '') text = text // 'momenta ' // trim(info%momenta) // NL
+    do k = 1, info%np
+      if (info%params(k)%symbol == '') cycle
+      write (v, '(es25.17e3)') params(k)
+      text = text // 'constant ' // trim(info%params(k)%symbol) // ' = ' // trim(adjustl(v)) // NL
+    end do
+    if (info%formula_kind == 'surface') then
+      write (v, '(es25.17e3)') params(6)
+      text = text // 'gravity ' // trim(adjustl(v)) // NL
+    end if
+  end function builtin_spec
 
   !> A model written as a formula (system name expr_<hash>, src/io/tubes_expr.c): its entry is
   !> generic, no default section, the lowest rank-1 saddle S1, a search box of half-width 1
@@ -282,6 +341,7 @@ contains
       call expression_model(system, params, model, stat)
       return
     end select
+    model%formula = builtin_spec(info, params)
     stat = TUBES_OK
   end subroutine make_model
 
@@ -295,10 +355,14 @@ contains
     type(expr_lib_t) :: lib
     type(expr_surface_t) :: surf
     type(ball_t) :: ball
+    character(:), allocatable :: text
+    character(40) :: v
     stat = open_library(system, lib)
     if (stat /= TUBES_OK) return
+    call library_spec(system, text)
     if (lib%kind /= KIND_SURFACE) then
       call expr_model(lib, model, stat)
+      if (stat == TUBES_OK .and. len(text) > 0) model%formula = text
       return
     end if
     stat = TUBES_EINPUT
@@ -306,8 +370,30 @@ contains
     call expr_surface(lib, surf, stat)
     if (stat /= TUBES_OK) return
     call make_ball(ball, surf, params(1), four_well=.false.)
+    if (len(text) > 0) then
+      write (v, '(es25.17e3)') params(1)
+      ball%formula = text // 'gravity ' // trim(adjustl(v)) // new_line('a')
+    end if
     allocate (model, source=ball)
   end subroutine expression_model
+
+  !> The spec text of a formula model's library ('' if it cannot be read).
+  subroutine library_spec(name, text)
+    character(*), intent(in) :: name
+    character(:), allocatable, intent(out) :: text
+    character(kind=c_char) :: key(LEN_SYSTEM), buf(8192)
+    integer :: k
+    key = c_null_char
+    do k = 1, min(len_trim(name), LEN_SYSTEM - 1)
+      key(k) = name(k:k)
+    end do
+    text = ''
+    if (expr_spec(key, buf, size(buf)) /= TUBES_OK) return
+    do k = 1, size(buf)
+      if (buf(k) == c_null_char) exit
+      text = text // buf(k)
+    end do
+  end subroutine library_spec
 
   !> The vector field a scene integrates: the conservative model, or for the rolling ball with
   !> damping_ratio > 0 the damped_t wrapper with c = 2 zeta omega_1. c: the rate used (0 if none).

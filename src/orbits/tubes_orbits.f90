@@ -7,7 +7,7 @@ module tubes_orbits
   use tubes_lapack, only: dgesv, dgels, dgeev
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EFAULT
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
-  use tubes_field, only: vector_field_t
+  use tubes_field, only: vector_field_t, jet_spec_t
   use tubes_hamiltonian, only: hamiltonian_t, natural_t
   use tubes_variational, only: variational_t, make_variational, stm_start
   use tubes_methods, only: integ_choice_t, make_integrator
@@ -73,6 +73,7 @@ module tubes_orbits
   contains
     procedure :: dim => action_dim
     procedure :: eval => action_eval
+    procedure :: jet_spec => action_jet_spec
   end type action_field_t
 
   public :: linear_guess, correct_symmetric, correct_multiple, finish_orbit, orbit_family
@@ -84,6 +85,14 @@ contains
     class(action_field_t), intent(in) :: self
     action_dim = self%model%dim() + 1
   end function action_dim
+
+  !> The model's formula, with the action integral.
+  pure function action_jet_spec(self) result(spec)
+    class(action_field_t), intent(in) :: self
+    type(jet_spec_t) :: spec
+    spec = self%model%jet_spec()
+    spec%action = .true.
+  end function action_jet_spec
 
   pure subroutine action_eval(self, t, x, dxdt, stat)
     class(action_field_t), intent(in) :: self

@@ -1,0 +1,400 @@
+!> The Taylor method (docs/integrators-taylor.md): each step computes the solution's normalised
+!> Taylor coefficients x_k (x(t + s) = sum_k x_k s^k) with a kernel generated from the model's
+!> formula (python/tubes/jetgen.py, compiled and cached by src/io/tubes_expr.c), chooses order and
+!> step in the manner of Jorba & Zou (2005) and of heyoka, and keeps the polynomial as its dense
+!> output. Events that are affine in the state (every section of tubes) are found on the step's
+!> polynomial by root isolation (Descartes' rule of signs with bisection), every crossing in a
+!> step (tubes_integrator's scan_step asks `event_samples`).
+!>
+!> Order and step: with eps = atol where rtol |x|_inf <= atol (absolute) and eps = rtol otherwise
+!> (relative), order p = ceil(-ln(eps)/2 + 1); from the last two coefficients' norms (relative:
+!> divided by |x|_inf) the radius rho = min(|x_{p-1}|^(-1/(p-1)), |x_p|^(-1/p)) and the step
+!> h = rho exp(-2 - 0.7/(p - 1)). No step is rejected: the step is chosen from the series itself.
+module tubes_taylor
+  use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char, c_funptr, c_null_funptr, &
+                                         c_associated, c_f_procpointer
+  use tubes_kinds, only: wp
+  use tubes_field, only: jet_spec_t
+  use tubes_integrator, only: integrator_t, event_t
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_ESTEP, TUBES_ENOJET
+  implicit none
+  private
+
+  integer, parameter, public :: TAYLOR_MAX_ORDER = 60   !! the kernels' largest order
+  integer, parameter :: MAXDEPTH = 40                     ! root isolation: bisections at most
+  integer, parameter :: JET_VARIATIONAL = 1, JET_ACTION = 2   ! include/tubes.h TUBES_JET_*
+
+  abstract interface
+    !> include/tubes.h tubes_jet_fn
+    integer(c_int) function jet_fn_i(order, par, tc, w) bind(C)
+      import :: c_int, c_double
+      integer(c_int), value :: order
+      real(c_double), intent(in) :: par(*)
+      real(c_double), intent(inout) :: tc(*)
+      real(c_double), intent(inout) :: w(*)
+    end function jet_fn_i
+  end interface
+
+  interface
+    integer(c_int) function jet_get(model, order, lanes, flags, fn, dim, nwork, msg, lmsg) &
+        bind(C, name='tubes_jet_get')
+      import :: c_int, c_char, c_funptr
+      character(kind=c_char), intent(in) :: model(*)
+      integer(c_int), value :: order, lanes, flags, lmsg
+      type(c_funptr), intent(out) :: fn
+      integer(c_int), intent(out) :: dim, nwork
+      character(kind=c_char), intent(out) :: msg(*)
+    end function jet_get
+  end interface
+
+  !> A kernel of one order (or, for the variational equations, of any order).
+  type :: kernel_t
+    integer :: order = -1                                  !! its order (0: any)
+    integer :: nwork = 0                                   !! scratch series
+    procedure(jet_fn_i), pointer, nopass :: fn => null()
+  end type kernel_t
+
+  type, extends(integrator_t), public :: taylor_t
+    integer :: order = 0                   !! 0: from the tolerances (above); else fixed
+    integer :: p = 0                       !! order of the last step
+    integer :: n = 0                       !! state dimension
+    real(wp) :: hs = 0                     !! signed size of the last step [time]
+    real(wp) :: par(1) = 0                 !! the kernel's parameters: the damping rate
+    character(:), allocatable :: spec      !! the model's formula (jet_spec_t%text)
+    logical :: variational = .false.
+    integer :: flags = 0                   !! include/tubes.h TUBES_JET_* of the field
+    type(kernel_t) :: kernels(2)           !! the kernels of the (at most two) orders in use
+    real(wp), allocatable :: tc(:)         !! the last step's coefficients at t_old
+    real(wp), allocatable :: w(:)          !! the kernel's scratch
+    character(512) :: msg = ''             !! why the last kernel could not be had
+  contains
+    procedure :: step => taylor_step
+    procedure :: interp => taylor_interp
+    procedure :: event_samples => taylor_event_samples
+  end type taylor_t
+
+  public :: taylor_order, isolate_roots
+
+contains
+
+  !> The order for tolerance eps (Jorba & Zou): ceil(-ln(eps)/2 + 1), within 2..TAYLOR_MAX_ORDER.
+  pure integer function taylor_order(eps)
+    real(wp), intent(in) :: eps
+    taylor_order = max(2, min(TAYLOR_MAX_ORDER, ceiling(-log(max(eps, tiny(1.0_wp)))/2 + 1)))
+  end function taylor_order
+
+  !> The kernel of order p (0: the variational kernel), from the two kept or from the loader.
+  subroutine kernel_of(self, p, k, stat)
+    class(taylor_t), intent(inout) :: self
+    integer, intent(in) :: p
+    integer, intent(out) :: k
+    integer, intent(out) :: stat
+    type(c_funptr) :: fp
+    integer(c_int) :: dim, nwork
+    character(kind=c_char) :: cmsg(512)
+    integer :: i
+    stat = TUBES_OK
+    do k = 1, 2
+      if (self%kernels(k)%order == p) return
+    end do
+    k = 1
+    if (self%kernels(1)%order >= 0) k = 2
+    if (k == 2 .and. self%kernels(2)%order >= 0) then    ! replace the older one
+      self%kernels(1) = self%kernels(2)
+    end if
+    stat = int(jet_get(self%spec // c_null_char, p, 1, self%flags, fp, dim, nwork, cmsg, 512))
+    if (stat /= TUBES_OK .or. .not. c_associated(fp)) then
+      self%msg = ''
+      do i = 1, 512
+        if (cmsg(i) == c_null_char) exit
+        self%msg(i:i) = cmsg(i)
+      end do
+      stat = TUBES_ENOJET
+      return
+    end if
+    if (dim /= self%n) then
+      self%msg = 'the Taylor kernel is not of this state''s dimension'
+      stat = TUBES_ENOJET
+      return
+    end if
+    self%kernels(k)%order = p
+    self%kernels(k)%nwork = nwork
+    call c_f_procpointer(fp, self%kernels(k)%fn)
+  end subroutine kernel_of
+
+  !> Set up on the first step: the model's formula and the state's size.
+  subroutine taylor_setup(self, n, stat)
+    class(taylor_t), intent(inout) :: self
+    integer, intent(in) :: n
+    integer, intent(out) :: stat
+    type(jet_spec_t) :: js
+    stat = TUBES_OK
+    js = self%f%jet_spec()
+    if (.not. allocated(js%text)) then
+      self%msg = 'the model is not written as a formula (method = ''taylor'' needs one)'
+      stat = TUBES_ENOJET
+      return
+    end if
+    if (allocated(self%spec)) then
+      if (self%spec /= js%text .or. self%variational .neqv. js%variational .or. &
+          self%flags /= merge(JET_ACTION, 0, js%action) + merge(JET_VARIATIONAL, 0, js%variational)) &
+        self%kernels = kernel_t()
+    end if
+    self%spec = js%text
+    self%variational = js%variational
+    self%flags = merge(JET_ACTION, 0, js%action) + merge(JET_VARIATIONAL, 0, js%variational)
+    self%par(1) = js%damping
+    self%n = n
+  end subroutine taylor_setup
+
+  !> One step from (t, x) towards tmax (never past it).
+  subroutine taylor_step(self, x, tmax, stat)
+    class(taylor_t), intent(inout) :: self
+    real(wp), intent(inout) :: x(:)
+    real(wp), intent(in) :: tmax
+    integer, intent(out) :: stat
+    real(wp) :: eps, xn, n1, n2, rho, h, dir, hmin
+    integer :: p, k, ik, i, s, st
+    logical :: relative, last
+    stat = TUBES_OK
+    if (.not. allocated(self%spec) .or. self%n /= size(x) .or. self%fresh) then
+      call taylor_setup(self, size(x), stat)
+      if (stat /= TUBES_OK) return
+      self%fresh = .false.
+    end if
+    dir = sign(1.0_wp, tmax - self%t)
+    xn = maxval(abs(x))
+    relative = self%rtol*xn > self%atol
+    eps = merge(self%rtol, self%atol, relative)
+    if (.not. eps > 0) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    p = self%order
+    if (p <= 0) p = taylor_order(eps)
+    if (p < 2 .or. p > TAYLOR_MAX_ORDER) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    call kernel_of(self, merge(0, p, self%variational), ik, stat)
+    if (stat /= TUBES_OK) return
+    s = p + 1
+    if (.not. allocated(self%tc)) allocate (self%tc(0))
+    if (size(self%tc) < self%n*s) then
+      deallocate (self%tc)
+      allocate (self%tc(self%n*s))
+    end if
+    if (.not. allocated(self%w)) allocate (self%w(0))
+    if (size(self%w) < self%kernels(ik)%nwork*s) then
+      deallocate (self%w)
+      allocate (self%w(self%kernels(ik)%nwork*s))
+    end if
+    do i = 1, self%n
+      self%tc((i - 1)*s + 1) = x(i)
+    end do
+    st = int(self%kernels(ik)%fn(p, self%par, self%tc, self%w))
+    self%nfev = self%nfev + 1
+    if (st /= 0) then
+      stat = TUBES_EMODEL
+      return
+    end if
+    n1 = 0
+    n2 = 0
+    do i = 1, self%n
+      n1 = max(n1, abs(self%tc((i - 1)*s + p)))
+      n2 = max(n2, abs(self%tc((i - 1)*s + p + 1)))
+    end do
+    if (relative) then
+      n1 = n1/xn
+      n2 = n2/xn
+    end if
+    rho = huge(1.0_wp)
+    if (n1 > 0) rho = min(rho, (1/n1)**(1.0_wp/(p - 1)))
+    if (n2 > 0) rho = min(rho, (1/n2)**(1.0_wp/p))
+    h = rho*exp(-2 - 0.7_wp/(p - 1))
+    if (self%h > 0) h = min(h, self%h)              ! &integrator h: the largest step
+    last = h >= abs(tmax - self%t)
+    if (last) h = abs(tmax - self%t)
+    hmin = 16*epsilon(1.0_wp)*max(abs(self%t), tiny(1.0_wp))
+    if (.not. last .and. h < hmin) then
+      stat = TUBES_ESTEP
+      return
+    end if
+    self%p = p
+    self%hs = dir*h
+    self%t_old = self%t
+    do i = 1, self%n
+      x(i) = self%tc((i - 1)*s + p + 1)
+      do k = p - 1, 0, -1
+        x(i) = x(i)*self%hs + self%tc((i - 1)*s + k + 1)
+      end do
+    end do
+    if (last) then
+      self%t = tmax
+    else
+      self%t = self%t + self%hs
+    end if
+    self%nsteps = self%nsteps + 1
+    if (.not. all(abs(x) <= huge(1.0_wp))) stat = TUBES_EMODEL
+  end subroutine taylor_step
+
+  !> The step's polynomial at s in [t_old, t].
+  subroutine taylor_interp(self, s, xs)
+    class(taylor_t), intent(inout) :: self
+    real(wp), intent(in) :: s
+    real(wp), intent(out) :: xs(:)
+    real(wp) :: ds
+    integer :: i, k, m
+    ds = s - self%t_old
+    m = self%p + 1
+    do i = 1, self%n
+      xs(i) = self%tc((i - 1)*m + m)
+      do k = self%p - 1, 0, -1
+        xs(i) = xs(i)*ds + self%tc((i - 1)*m + k + 1)
+      end do
+    end do
+  end subroutine taylor_interp
+
+  !> Interior sample times of the last step for an event's scan: for an event affine in the state
+  !> (g = w . x - c), the ends of the intervals that isolate the roots of g's polynomial on the
+  !> step, so that each sign change of g between consecutive samples is one crossing and every
+  !> crossing of odd multiplicity is seen; otherwise the event's nsub equally spaced points.
+  subroutine taylor_event_samples(self, event, ts, m)
+    class(taylor_t), intent(inout) :: self
+    class(event_t), intent(in) :: event
+    real(wp), allocatable, intent(out) :: ts(:)   !! in the order of integration
+    integer, intent(out) :: m
+    real(wp) :: w(self%n), c, a(0:self%p)
+    integer :: i, k, s
+    logical :: ok
+    call event%affine(self%n, w, c, ok)
+    if (.not. ok) then
+      allocate (ts(event%nsub))
+      m = event%nsub
+      do i = 1, m
+        ts(i) = self%t_old + (self%t - self%t_old)*(real(i, wp)/(m + 1))
+      end do
+      return
+    end if
+    s = self%p + 1
+    do k = 0, self%p
+      a(k) = 0
+      do i = 1, self%n
+        if (w(i) /= 0) a(k) = a(k) + w(i)*self%tc((i - 1)*s + k + 1)
+      end do
+    end do
+    a(0) = a(0) - c
+    call isolate_roots(a, self%t - self%t_old, ts, m)
+    ts(1:m) = self%t_old + ts(1:m)
+  end subroutine taylor_event_samples
+
+  !> Points 0 < |s_1| < ... < |s_m| < |h| (the sign of h) that isolate the real roots of
+  !> P(s) = sum_k a(k) s^k in (0, h): each root of odd multiplicity lies in an interval between
+  !> consecutive points (0 and h included) that holds no other root. Descartes' rule of signs on
+  !> [0, 1] after s = h u, with bisection (the Vincent-Collins-Akritas method); an interval still
+  !> holding several roots after MAXDEPTH halvings (a root of even multiplicity, or roots closer
+  !> than h 2^-40) is left as it is.
+  subroutine isolate_roots(a, h, ts, m)
+    real(wp), intent(in) :: a(0:)
+    real(wp), intent(in) :: h
+    real(wp), allocatable, intent(out) :: ts(:)
+    integer, intent(out) :: m
+    real(wp) :: q(0:size(a) - 1), hk
+    real(wp), allocatable :: ends(:)
+    integer :: d, k, ne
+    d = size(a) - 1
+    hk = 1
+    do k = 0, d
+      q(k) = a(k)*hk
+      hk = hk*h
+    end do
+    allocate (ends(2*d + 2))
+    ne = 0
+    call isolate(q, 0.0_wp, 1.0_wp, 0)
+    ! the interior ends, sorted and without repeats, scaled to s
+    call sort(ends(1:ne))
+    allocate (ts(ne))
+    m = 0
+    do k = 1, ne
+      if (ends(k) <= 0 .or. ends(k) >= 1) cycle
+      if (m > 0) then
+        if (ends(k) == ts(m)) cycle
+      end if
+      m = m + 1
+      ts(m) = ends(k)
+    end do
+    ts(1:m) = ts(1:m)*h
+  contains
+    recursive subroutine isolate(qq, lo, hi, depth)
+      real(wp), intent(in) :: qq(0:), lo, hi
+      integer, intent(in) :: depth
+      real(wp) :: ql(0:size(qq) - 1), qr(0:size(qq) - 1), mid
+      integer :: v, j
+      v = sign_variations_01(qq)
+      if (v == 0) return
+      if (v == 1 .or. depth >= MAXDEPTH .or. ne + 2 > size(ends)) then
+        ends(ne + 1) = lo
+        ends(ne + 2) = hi
+        ne = ne + 2
+        return
+      end if
+      mid = lo + (hi - lo)/2
+      do j = 0, size(qq) - 1            ! left half: q(u/2)
+        ql(j) = qq(j)*0.5_wp**j
+      end do
+      qr = ql
+      call taylor_shift(qr)             ! right half: q((1 + u)/2)
+      call isolate(ql, lo, mid, depth + 1)
+      call isolate(qr, mid, hi, depth + 1)
+    end subroutine isolate
+  end subroutine isolate_roots
+
+  !> An upper bound (Descartes) on the number of roots of q in (0, 1), exact when 0 or 1: the
+  !> sign variations of the coefficients of (1 + x)^d q(1/(1 + x)).
+  pure integer function sign_variations_01(q) result(v)
+    real(wp), intent(in) :: q(0:)
+    real(wp) :: r(0:size(q) - 1), last
+    integer :: d, j
+    d = size(q) - 1
+    do j = 0, d
+      r(j) = q(d - j)
+    end do
+    call taylor_shift(r)
+    v = 0
+    last = 0
+    do j = 0, d
+      if (r(j) == 0) cycle
+      if (last /= 0 .and. sign(1.0_wp, r(j)) /= sign(1.0_wp, last)) v = v + 1
+      last = r(j)
+    end do
+  end function sign_variations_01
+
+  !> Coefficients of q(x + 1) from those of q(x) (Horner's scheme, in place).
+  pure subroutine taylor_shift(q)
+    real(wp), intent(inout) :: q(0:)
+    integer :: d, i, j
+    d = size(q) - 1
+    do i = 0, d - 1
+      do j = d - 1, i, -1
+        q(j) = q(j) + q(j + 1)
+      end do
+    end do
+  end subroutine taylor_shift
+
+  !> Insertion sort (a handful of values).
+  pure subroutine sort(v)
+    real(wp), intent(inout) :: v(:)
+    real(wp) :: t
+    integer :: i, j
+    do i = 2, size(v)
+      t = v(i)
+      j = i - 1
+      do while (j >= 1)
+        if (v(j) <= t) exit
+        v(j + 1) = v(j)
+        j = j - 1
+      end do
+      v(j + 1) = t
+    end do
+  end subroutine sort
+end module tubes_taylor
