@@ -81,6 +81,10 @@ int tubes_expr_build(const char *spec, char key[TUBES_LSYSTEM], char *var, int l
                      char *lib, int llib, double *seconds, int *hit);
 /* The loaded library of name key (TUBES_EINPUT if it is not in the cache). */
 int tubes_expr_open(const char key[TUBES_LSYSTEM], tubes_expr_lib_t *lib);
+/* Can method = 'taylor' integrate the model (system, params) at relative tolerance eps? Its kernel
+ * of that order is built or loaded now; TUBES_ENOJET and the reason in msg if not. */
+int tubes_taylor_check(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], double eps, char *msg,
+                       int lmsg);
 /* The Taylor expansion of the Hamiltonian of the formula model key at z = (q, p) to total degree
  * order, from its formula (python/tubes/codegen.py --taylor: SymPy, exact coefficients rounded to
  * double): *n terms, *expo (2N exponents of (dq, dp) per term) and *coef, both malloc'ed. On

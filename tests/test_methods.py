@@ -54,7 +54,7 @@ def test_gauss_counts_iterations(tmp_path):
     assert tr["niter"] >= tr["nsteps"] > 0
 
 
-@pytest.mark.parametrize("method", ["dop853", "gsl_rk8pd", "gsl_rk4imp", "cvode_adams", "arkode_erk8"])
+@pytest.mark.parametrize("method", ["dop853", "gsl_rk8pd", "gsl_rk4imp", "cvode_adams", "arkode_erk8", "taylor"])
 def test_variable_step_methods_against_reference(method, reference):
     """Each variable-step method reaches the real128 reference at its tolerance: the global
     error over 0.5 s is at most the local tolerance times the flow's growth (~e^(9/s * 0.5 s)

@@ -3,7 +3,7 @@
 module tubes_test_models
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
-  use tubes_field, only: vector_field_t
+  use tubes_field, only: vector_field_t, jet_spec_t
   implicit none
   private
   public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval
@@ -14,6 +14,7 @@ module tubes_test_models
     procedure :: dim => osc_dim
     procedure :: eval => osc_eval
     procedure :: jacobian => osc_jacobian
+    procedure :: jet_spec => osc_jet_spec
   end type oscillator_t
 
   !> The oscillator, but x < 1/2 gives NaN and stat = -1 (fatal).
@@ -44,6 +45,15 @@ contains
     dxdt(2) = -x(1)
     stat = 0
   end subroutine osc_eval
+
+  !> Its formula, H = (p^2 + q^2)/2 (the Taylor method's source).
+  pure function osc_jet_spec(self) result(spec)
+    class(oscillator_t), intent(in) :: self
+    type(jet_spec_t) :: spec
+    character, parameter :: NL = new_line('a')
+    spec%text = 'tubes-expression 1' // NL // 'kind hamiltonian' // NL // 'expr (p^2 + q^2)/2' // NL // &
+                'coordinates q' // NL // 'momenta p' // NL
+  end function osc_jet_spec
 
   !> The exact Jacobian [[0, 1], [-1, 0]] (implicit and Newton-corrected methods).
   pure subroutine osc_jacobian(self, t, x, jac, stat)

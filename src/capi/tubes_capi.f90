@@ -6,6 +6,7 @@ module tubes_capi
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EMODEL, &
                           TUBES_EOUTSIDE, status_message
   use tubes_field, only: vector_field_t
+  use tubes_taylor, only: taylor_check
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_ball, only: ball_t
   use tubes_models, only: NMODEL, MAX_PARAMS, MAX_DOF, LEN_SYSTEM, LEN_PARAM, NSYSTEMS, &
@@ -151,6 +152,30 @@ contains
     if (stat /= TUBES_OK) return
     natural = merge(1, 0, model%is_natural())
   end function c_model_natural
+
+  !> Can method = 'taylor' integrate (system, params) at relative tolerance eps? Its kernel is
+  !> built or loaded now (src/integrators/tubes_taylor.f90 taylor_check); on failure TUBES_ENOJET
+  !> and the reason in msg (NUL-terminated).
+  integer(c_int) function c_taylor_check(system, params, eps, msg, lmsg) result(stat) &
+      bind(C, name='tubes_taylor_check')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
+    real(c_double), value :: eps
+    integer(c_int), value :: lmsg
+    character(kind=c_char), intent(out) :: msg(lmsg)
+    class(vector_field_t), allocatable :: field
+    character(512) :: m
+    real(wp) :: c
+    integer :: k
+    msg(1) = c_null_char
+    call make_field(trim(from_c(system, LEN_SYSTEM)), params, field, c, stat)
+    if (stat /= TUBES_OK) return
+    call taylor_check(field, eps, m, stat)
+    do k = 1, min(len_trim(m), lmsg - 1)
+      msg(k) = m(k:k)
+    end do
+    msg(min(len_trim(m), lmsg - 1) + 1) = c_null_char
+  end function c_taylor_check
 
   !> The conservative model of (system, params).
   subroutine model_of(system, params, model, stat)

@@ -14,7 +14,7 @@ module tubes_taylor
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char, c_funptr, c_null_funptr, &
                                          c_associated, c_f_procpointer
   use tubes_kinds, only: wp
-  use tubes_field, only: jet_spec_t
+  use tubes_field, only: jet_spec_t, vector_field_t
   use tubes_integrator, only: integrator_t, event_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_ESTEP, TUBES_ENOJET
   implicit none
@@ -73,7 +73,7 @@ module tubes_taylor
     procedure :: event_samples => taylor_event_samples
   end type taylor_t
 
-  public :: taylor_order, isolate_roots
+  public :: taylor_order, isolate_roots, taylor_check
 
 contains
 
@@ -82,6 +82,23 @@ contains
     real(wp), intent(in) :: eps
     taylor_order = max(2, min(TAYLOR_MAX_ORDER, ceiling(-log(max(eps, tiny(1.0_wp)))/2 + 1)))
   end function taylor_order
+
+  !> Can the Taylor method integrate `field` at relative tolerance eps? Gets (builds, if it must)
+  !> the kernel of that order: stat TUBES_OK, or TUBES_ENOJET with the reason in msg. A driver
+  !> calls it before its scenes, so that a missing compiler or SymPy is reported up front.
+  subroutine taylor_check(field, eps, msg, stat)
+    class(vector_field_t), intent(in) :: field
+    real(wp), intent(in) :: eps
+    character(*), intent(out) :: msg
+    integer, intent(out) :: stat
+    type(taylor_t) :: ig
+    integer :: k
+    msg = ''
+    call ig%init(field, 0.0_wp)
+    call taylor_setup(ig, field%dim(), stat)
+    if (stat == TUBES_OK) call kernel_of(ig, taylor_order(eps), k, stat)
+    if (stat /= TUBES_OK) msg = ig%msg
+  end subroutine taylor_check
 
   !> The kernel of order p (0: the variational kernel), from the two kept or from the loader.
   subroutine kernel_of(self, p, k, stat)
@@ -213,7 +230,8 @@ contains
     if (n2 > 0) rho = min(rho, (1/n2)**(1.0_wp/p))
     h = rho*exp(-2 - 0.7_wp/(p - 1))
     if (self%h > 0) h = min(h, self%h)              ! &integrator h: the largest step
-    last = h >= abs(tmax - self%t)
+    ! the last step: it reaches tmax, or would leave less than 64 ulps of it (no sliver of a step)
+    last = h >= abs(tmax - self%t) - 64*epsilon(1.0_wp)*max(abs(self%t), abs(tmax))
     if (last) h = abs(tmax - self%t)
     hmin = 16*epsilon(1.0_wp)*max(abs(self%t), tiny(1.0_wp))
     if (.not. last .and. h < hmin) then

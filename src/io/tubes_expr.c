@@ -501,8 +501,9 @@ static void cpu_id(char *buf, size_t n) {
 #define JET_TABLE 256
 typedef struct {
   char *spec;
-  tubes_jet_fn fn;
-  int dim, nwork;
+  tubes_jet_fn fn;   /* NULL: it could not be had (rc, msg): asked again, the same answer */
+  int dim, nwork, rc;
+  char *msg;
 } jet_entry_t;
 static jet_entry_t jet_table[JET_TABLE];
 static int jet_count;
@@ -544,6 +545,8 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
       *fn = jet_table[i].fn;
       *dim = jet_table[i].dim;
       *nwork = jet_table[i].nwork;
+      rc = jet_table[i].rc;
+      if (rc != TUBES_OK) say(msg, lmsg, "%s", jet_table[i].msg);
       goto out;
     }
   if (jet_count == JET_TABLE) {
@@ -556,7 +559,13 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
     int hit;
     double t0 = now();
     rc = build(&JET_BUILD, spec, key, var, (int)sizeof var, msg, lmsg, lib, (int)sizeof lib, &hit);
-    if (rc != TUBES_OK) goto out;
+    if (rc != TUBES_OK) {            /* said once, remembered: a parallel loop asks many times */
+      fprintf(stderr, "taylor: no kernel for the model: %s\n", msg);
+      jet_table[jet_count] = (jet_entry_t){spec, NULL, 0, 0, rc, strdup(msg)};
+      jet_count++;
+      spec = NULL;
+      goto out;
+    }
     if (!hit) {
       if (order > 0)
         fprintf(stderr, "taylor: built the order-%d jet kernel (%d lane%s) in %.1f s: %s\n", order, lanes,

@@ -198,6 +198,7 @@ static int run_main(int argc, char **argv) {
   run.input = input;
   run.eq_saddle_line = nml_line(&where, "equilibria", "saddle");
   run.orb_saddle_line = nml_line(&where, "orbits", "saddle");
+  run.method_line = nml_line(&where, "integrator", "method");
   run.rank = g_rank;
   run.nranks = g_nranks;
   int setup = agree(run_setup(&run));

@@ -186,6 +186,14 @@ int run_setup(tubes_run_t *run) {
     fprintf(stderr, "tubes: &model: the parameters are out of range for system %s\n", run->label);
     return EXIT_BADINPUT;
   }
+  if (tubes_method_code(c->method) == TUBES_METHOD_TAYLOR) {   /* its kernel: before any output */
+    char m[1024];
+    if (tubes_taylor_check(run->system, run->params, c->rtol, m, (int)sizeof m) < 0) {
+      fprintf(stderr, "%s:%d: &integrator: method = 'taylor': no Taylor kernel for %s: %s\n", run->input,
+              run->method_line, run->label, m);
+      return EXIT_BADINPUT;
+    }
+  }
   for (int k = 0; k < MD; k++) {
     run->lo[k] = c->box_lo[k];
     run->hi[k] = c->box_hi[k];

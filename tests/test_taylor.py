@@ -1,0 +1,136 @@
+"""The Taylor method through the executable and Python (docs/integrators-taylor.md): the paper's
+scenes (orbits, tube cut, p_trans, Monte Carlo, Poincare map) with method = 'taylor' give
+DOP853's numbers; a formula model; Python's trajectory is the executable's bit for bit; the
+kernel that cannot be built is refused with its reason, the run exits non-zero without a file.
+(tests/test_taylor.f90 checks the method itself: orders, events, the real128 reference.)"""
+import os
+import subprocess
+import textwrap
+
+import h5py
+import numpy as np
+import pytest
+
+import tubes
+from conftest import ROOT, TUBES, TIMEOUT_SCALE
+
+PAPER_SCENES = """\
+&run scenes = 'orbits', 'tubes', 'transition', 'montecarlo', 'sections', output = '{out}' /
+&integrator method = '{method}', rtol = 1e-12, atol = 1e-12 /
+&orbits saddle = 'S12', de = 10, 100, 500 /
+&tubes de = 100 /
+&transition de = 10, 100, 500 /
+&montecarlo de = 100, n_samples = 2000, seed = 7 /
+&sections de = 100, n_seeds = 4, n_iter = 20 /
+"""
+
+
+def run(tmp, name, text, env=None, timeout=600):
+    path = os.path.join(tmp, name)
+    with open(path, "w") as f:
+        f.write(textwrap.dedent(text))
+    e = dict(os.environ, OMP_NUM_THREADS="2", **(env or {}))
+    return subprocess.run([str(TUBES), path], cwd=tmp, capture_output=True, text=True, env=e,
+                          timeout=timeout * TIMEOUT_SCALE)
+
+
+def read(path):
+    """Every dataset by path, and every attribute as path@name."""
+    with h5py.File(path) as f:
+        out = {}
+
+        def take(k, v):
+            if isinstance(v, h5py.Dataset):
+                out[k] = v[()]
+            for a, val in v.attrs.items():
+                out[f"{k}@{a}"] = val
+        f.visititems(take)
+        return out
+
+
+@pytest.fixture(scope="module")
+def paper_runs(tmp_path_factory):
+    tmp = str(tmp_path_factory.mktemp("taylor"))
+    out = {}
+    for method in ("dop853", "taylor"):
+        p = run(tmp, f"{method}.nml", PAPER_SCENES.format(out=f"{method}.h5", method=method))
+        assert p.returncode == 0, p.stdout + p.stderr
+        out[method] = read(os.path.join(tmp, f"{method}.h5"))
+    return out
+
+
+def rel(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300)
+
+
+def test_orbits_as_dop853(paper_runs):
+    """Periods, actions and Floquet multipliers of the S12 family: the two methods integrate the
+    same equations at tol 1e-12 (Newton to 1e-11): agreement to 1e-9 relative."""
+    d, t = paper_runs["dop853"], paper_runs["taylor"]
+    for k in ("orbits/period", "orbits/action", "orbits/energy"):
+        assert rel(t[k], d[k]) < 1e-9, k
+    assert rel(t["orbits/mu_unstable"], d["orbits/mu_unstable"]) < 1e-6   # an exponential of the period
+
+
+def test_tube_and_transition_as_dop853(paper_runs):
+    """The tube's area at dE = 100 equals the action (Green's theorem) with both methods, and
+    p_trans agrees to 1e-9 (area_tol 1e-10 and 1e-8)."""
+    d, t = paper_runs["dop853"], paper_runs["taylor"]
+    assert abs(t["tubes/stable_000@area"] / t["tubes/stable_000@action"] - 1) < 1e-10
+    assert rel(t["tubes/stable_000@area"], d["tubes/stable_000@area"]) < 1e-9
+    assert rel(t["transition/p_trans"], d["transition/p_trans"]) < 1e-8
+
+
+def test_monte_carlo_and_sections_as_dop853(paper_runs):
+    """The same points classified the same way (the integrations agree to ~1e-10; a point that
+    close to the tube's boundary has probability ~1e-8), and the same Poincare returns."""
+    d, t = paper_runs["dop853"], paper_runs["taylor"]
+    for k in ("montecarlo/inside", "montecarlo/transit", "montecarlo@undecided", "montecarlo@misclassified"):
+        assert np.array_equal(t[k], d[k]), k
+    pts_d, pts_t = d["sections/map_000/points"], t["sections/map_000/points"]
+    assert pts_d.shape == pts_t.shape
+    # the first return: the two tol-1e-12 integrations differ by ~3e-10 there (measured); later
+    # returns drift apart as chaos amplifies it (1e-5 by the 5th, O(1) by the 18th)
+    assert np.max(np.abs(pts_t[:, 0] - pts_d[:, 0])) < 1e-8 * np.max(np.abs(pts_d[:, 0]))
+
+
+def test_python_trajectory_is_the_executable_s(tmp_path):
+    """tubes.trajectory(method='taylor') is the executable's trajectory scene bit for bit."""
+    p = run(str(tmp_path), "t.nml", """\
+        &run scenes = 'trajectory', output = 't.h5' /
+        &integrator method = 'taylor', rtol = 1e-10, atol = 1e-10 /
+        &trajectory x0 = 4.0, y0 = 12.614863819914357, at_rest = .true., t_end = 2.0, dt_out = 0.5 /
+        """)
+    assert p.returncode == 0, p.stderr
+    f = read(str(tmp_path / "t.h5"))
+    tr = tubes.trajectory([4.0, 12.614863819914357, 0.0, 0.0], 2.0, dt_out=0.5, method="taylor",
+                          rtol=1e-10, atol=1e-10)
+    assert np.array_equal(tr["state"], f["trajectory/state"])
+
+
+def test_formula_model_as_dop853(tmp_path):
+    """input/expression.nml's model (a formula): p_trans with both methods to 1e-9."""
+    text = open(ROOT / "input" / "expression.nml").read()
+    out = {}
+    for method in ("dop853", "taylor"):
+        t = text.replace("&run", f"&integrator method = '{method}', rtol = 1e-12, atol = 1e-12 /\n&run", 1)
+        t = t.replace("'expression.h5'", f"'{method}.h5'")
+        p = run(str(tmp_path), f"{method}.nml", t)
+        assert p.returncode == 0, p.stdout + p.stderr
+        out[method] = read(str(tmp_path / f"{method}.h5"))
+    assert rel(out["taylor"]["transition/p_trans"], out["dop853"]["transition/p_trans"]) < 1e-9
+
+
+def test_no_kernel_is_refused(tmp_path):
+    """With code generation off and an empty cache the kernel cannot be had: the run says why
+    and exits non-zero, and writes no file."""
+    cache = tmp_path / "empty-cache"
+    cache.mkdir()
+    p = run(str(tmp_path), "n.nml", """\
+        &run scenes = 'trajectory', output = 'n.h5' /
+        &integrator method = 'taylor' /
+        """, env={"TUBES_CACHE_DIR": str(cache), "TUBES_NO_CODEGEN": "1"})
+    assert p.returncode != 0
+    assert "TUBES_NO_CODEGEN" in p.stderr and "Taylor" in p.stderr, p.stderr
+    assert not (tmp_path / "n.h5").exists()
