@@ -621,12 +621,22 @@ def _sched_node(o, idx, nd, k, V):
 
 
 def _prologue(L):
-    return f"""#include <math.h>
-#ifndef TUBES_JET_TYPES_{L}
-#define TUBES_JET_TYPES_{L}
-typedef double vd{L} __attribute__((vector_size({8 * L})));
-#endif
-"""
+    """Types and the fused multiply-add: fma() for one lane and the processor's vector fma for
+    L lanes, each lane rounded as fma() rounds (compiled with -ffp-contract=off, so that nothing
+    else is fused, in either): a lane's numbers do not depend on L."""
+    vec = {2: ("__m128d", "_mm_fmadd_pd", "__FMA__"), 4: ("__m256d", "_mm256_fmadd_pd", "__FMA__"),
+           8: ("__m512d", "_mm512_fmadd_pd", "__AVX512F__")}.get(L)
+    out = ["#include <math.h>", f"#ifndef TUBES_JET_TYPES_{L}", f"#define TUBES_JET_TYPES_{L}",
+           f"typedef double vd{L} __attribute__((vector_size({8 * L})));",
+           f"typedef double vu{L} __attribute__((vector_size({8 * L}), aligned(8)));   /* tc: any alignment */"]
+    if vec:
+        out += [f"#if defined({vec[2]})", "#include <immintrin.h>",
+                f"static inline vd{L} vfma{L}(vd{L} a, vd{L} b, vd{L} c) {{ return ({'vd' + str(L)}){vec[1]}(({vec[0]})a, ({vec[0]})b, ({vec[0]})c); }}",
+                "#else",
+                f"static inline vd{L} vfma{L}(vd{L} a, vd{L} b, vd{L} c) {{ vd{L} r; for (int l = 0; l < {L}; l++) r[l] = fma(a[l], b[l], c[l]); return r; }}",
+                "#endif"]
+    out.append("#endif")
+    return "\n".join(out) + "\n"
 
 
 def generate_scheduled(d, outs, name, order, L=1):
@@ -653,7 +663,7 @@ def generate_scheduled(d, outs, name, order, L=1):
     for cn, ce in d.consts:
         src.append(f"  const double {cn} = {ce};")
     if L == 1:
-        src += ["#define CST(c) (c)", "#define ZERO 0.0", "#define FMA(a, b, c) ((a)*(b) + (c))",
+        src += ["#define CST(c) (c)", "#define ZERO 0.0", "#define FMA(a, b, c) fma(a, b, c)",
                 "#define LOAD(i) tc[i]", "#define SQRT(a) sqrt(a)", "#define POW(a, b) pow(a, b)"]
         for f in ("exp", "log", "sin", "cos", "tan", "sinh", "cosh", "tanh", "atan", "asin", "acos"):
             src.append(f"#define {f.upper()}(a) {f}(a)")
@@ -661,8 +671,8 @@ def generate_scheduled(d, outs, name, order, L=1):
     else:
         src += [f"#define CST(c) (({vt}){{" + ", ".join(["(c)"] * L) + "})",
                 f"#define ZERO (({vt}){{0}})",
-                "#define FMA(a, b, c) ((a)*(b) + (c))",
-                f"#define LOAD(i) (*({vt} *)&tc[(i)*{L}])"]
+                f"#define FMA(a, b, c) vfma{L}(a, b, c)",
+                f"#define LOAD(i) ((vd{L})*(vu{L} *)&tc[(i)*{L}])"]
         for f in ("sqrt", "exp", "log", "sin", "cos", "tan", "sinh", "cosh", "tanh", "atan", "asin", "acos"):
             src.append(f"#define {f.upper()}(a) ({{ {vt} r_; for (int l_ = 0; l_ < {L}; l_++) r_[l_] = {f}((a)[l_]); r_; }})")
         src.append(f"#define POW(a, b) ({{ {vt} r_; for (int l_ = 0; l_ < {L}; l_++) r_[l_] = pow((a)[l_], b); r_; }})")
@@ -670,7 +680,7 @@ def generate_scheduled(d, outs, name, order, L=1):
     for _, _, dst, expr, store in body:
         src.append(f"  const {vt} {dst} = {expr};")
         if store is not None:
-            src.append(f"  tc[{store}] = {dst};" if L == 1 else f"  *({vt} *)&tc[{store * L}] = {dst};")
+            src.append(f"  tc[{store}] = {dst};" if L == 1 else f"  *(vu{L} *)&tc[{store * L}] = {dst};")
     src.append(f"  for (int i = 0; i < {n * S * L}; i++) if (!isfinite(tc[i])) return -1;")
     src += ["#undef CST", "#undef ZERO", "#undef FMA", "#undef LOAD", "#undef SQRT", "#undef POW", "#undef ATAN2"]
     for f in ("exp", "log", "sin", "cos", "tan", "sinh", "cosh", "tanh", "atan", "asin", "acos"):

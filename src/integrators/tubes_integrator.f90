@@ -112,6 +112,15 @@ module tubes_integrator
     procedure :: finish => grid_finish
   end type step_grid_t
 
+  !> A propagate call between its steps (prop_begin, prop_after_step).
+  type, public :: prop_t
+    real(wp) :: dir = 1                    !! +1 forward, -1 backward in time
+    real(wp) :: t_start = 0                !! the call's start [s]
+    real(wp) :: g0 = 0                     !! the event's g at the last step's end
+    integer(i8) :: n = 0                   !! steps taken
+    real(wp), allocatable :: xe(:)         !! the state at a stopping crossing
+  end type prop_t
+
   !> Dense-output hook called after every accepted step; owns its own buffers.
   type, abstract, public :: observer_t
   contains
@@ -137,7 +146,7 @@ module tubes_integrator
   real(wp), parameter, public :: T_RTOL = 4*EPS
   real(wp), parameter, public :: T_ATOL = 1.0e-15_wp
 
-  public :: propagate, start_step, hermite
+  public :: propagate, prop_begin, prop_after_step, start_step, hermite
 
 contains
 
@@ -375,10 +384,31 @@ contains
     class(observer_t), intent(inout), optional :: observer
     !> every accepted crossing is appended to it (ignored without event)
     type(crossing_log_t), intent(inout), optional :: crossings
-    real(wp) :: g0, g1, te, dir, t_start
-    real(wp), allocatable :: xe(:)
-    integer(i8) :: n
-    logical :: stop_now, hit
+    type(prop_t) :: ps
+    logical :: done
+    call prop_begin(ig, x, tend, ps, stat, event, crossings)
+    if (stat /= TUBES_OK) return
+    do while (ps%dir*(tend - ig%t) > 0)
+      if (ps%n >= ig%max_steps) then
+        stat = TUBES_EMAXSTEPS
+        return
+      end if
+      call ig%step(x, tend, stat)
+      if (stat < 0) return
+      call prop_after_step(ig, x, ps, done, stat, event, observer, crossings)
+      if (done) return
+    end do
+  end subroutine propagate
+
+  !> The start of a propagate call: checks, the direction, g at the start. (propagate, and the
+  !> lanes' driver src/integrators/tubes_lanes.f90, which steps several integrations at once.)
+  subroutine prop_begin(ig, x, tend, ps, stat, event, crossings)
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: x(:), tend
+    type(prop_t), intent(out) :: ps
+    integer, intent(out) :: stat
+    class(event_t), intent(in), optional :: event
+    type(crossing_log_t), intent(in), optional :: crossings
     stat = TUBES_OK
     if (size(x) /= ig%f%dim()) then
       stat = TUBES_EINPUT
@@ -402,43 +432,59 @@ contains
         end if
       end if
     end if
-    dir = sign(1.0_wp, tend - ig%t)
-    t_start = ig%t
-    allocate (xe(size(x)))
-    if (present(event)) g0 = event%g(ig%t, x)
-    n = 0
-    do while (dir*(tend - ig%t) > 0)
-      if (n >= ig%max_steps) then
-        stat = TUBES_EMAXSTEPS
+    ps%dir = sign(1.0_wp, tend - ig%t)
+    ps%t_start = ig%t
+    allocate (ps%xe(size(x)))
+    if (present(event)) ps%g0 = event%g(ig%t, x)
+    ps%n = 0
+  end subroutine prop_begin
+
+  !> After an accepted step of a propagate call: the step's crossings and the observer.
+  !> done: the call ends here with stat (TUBES_EVENT at a stopping crossing, x and ig%t moved
+  !> there; TUBES_OK when the observer asks; < 0 on failure); else it goes on (stat TUBES_OK).
+  subroutine prop_after_step(ig, x, ps, done, stat, event, observer, crossings)
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(inout) :: x(:)
+    type(prop_t), intent(inout) :: ps
+    logical, intent(out) :: done
+    integer, intent(out) :: stat
+    class(event_t), intent(in), optional :: event
+    class(observer_t), intent(inout), optional :: observer
+    type(crossing_log_t), intent(inout), optional :: crossings
+    real(wp) :: g1, te
+    logical :: stop_now, hit
+    stat = TUBES_OK
+    done = .false.
+    ps%n = ps%n + 1
+    hit = .false.
+    if (present(event)) then
+      g1 = event%g(ig%t, x)
+      call scan_step(ig, event, x, ps%g0, g1, ps%dir, ps%t_start, te, ps%xe, hit, stat, crossings)
+      if (stat < 0) then
+        done = .true.
         return
       end if
-      call ig%step(x, tend, stat)
-      if (stat < 0) return
-      n = n + 1
-      hit = .false.
-      if (present(event)) then
-        g1 = event%g(ig%t, x)
-        call scan_step(ig, event, x, g0, g1, dir, t_start, te, xe, hit, stat, crossings)
-        if (stat < 0) return
-        g0 = g1
-      end if
-      if (present(observer)) then
-        if (hit) then
-          call observer%on_step(ig, te, stop_now)
-        else
-          call observer%on_step(ig, ig%t, stop_now)
-        end if
-        if (stop_now .and. .not. hit) return
-      end if
+      ps%g0 = g1
+    end if
+    if (present(observer)) then
       if (hit) then
-        ig%t = te
-        x = xe
-        ig%fresh = .true.
-        stat = TUBES_EVENT
+        call observer%on_step(ig, te, stop_now)
+      else
+        call observer%on_step(ig, ig%t, stop_now)
+      end if
+      if (stop_now .and. .not. hit) then
+        done = .true.
         return
       end if
-    end do
-  end subroutine propagate
+    end if
+    if (hit) then
+      ig%t = te
+      x = ps%xe
+      ig%fresh = .true.
+      stat = TUBES_EVENT
+      done = .true.
+    end if
+  end subroutine prop_after_step
 
   !> All crossings of `event` in the last accepted step [t_old, t], in the order of
   !> integration. g is sampled at the step ends (g0, g1) and at nsub equally spaced interior

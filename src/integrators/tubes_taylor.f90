@@ -48,9 +48,10 @@ module tubes_taylor
   end interface
 
   !> A kernel of one order (or, for the variational equations, of any order).
-  type :: kernel_t
+  type, public :: kernel_t
     integer :: order = -1                                  !! its order (0: any)
     integer :: nwork = 0                                   !! scratch series
+    integer :: dim = 0                                     !! the state's dimension
     procedure(jet_fn_i), pointer, nopass :: fn => null()
   end type kernel_t
 
@@ -59,6 +60,8 @@ module tubes_taylor
     integer :: p = 0                       !! order of the last step
     integer :: n = 0                       !! state dimension
     real(wp) :: hs = 0                     !! signed size of the last step [time]
+    real(wp) :: xn = 0                     !! |x|_inf at the step's start
+    logical :: relative = .false.          !! the step's error control is relative
     real(wp) :: par(1) = 0                 !! the kernel's parameters: the damping rate
     character(:), allocatable :: spec      !! the model's formula (jet_spec_t%text)
     logical :: variational = .false.
@@ -73,7 +76,7 @@ module tubes_taylor
     procedure :: event_samples => taylor_event_samples
   end type taylor_t
 
-  public :: taylor_order, isolate_roots, taylor_check
+  public :: taylor_order, isolate_roots, taylor_check, taylor_begin, taylor_end, jet_kernel
 
 contains
 
@@ -100,43 +103,56 @@ contains
     if (stat /= TUBES_OK) msg = ig%msg
   end subroutine taylor_check
 
+  !> The kernel of order p for `lanes` lanes of the model text spec (TUBES_JET_* flags), from the
+  !> loader; stat TUBES_ENOJET with the reason in msg if it cannot be had.
+  subroutine jet_kernel(spec, p, lanes, flags, k, msg, stat)
+    character(*), intent(in) :: spec
+    integer, intent(in) :: p, lanes, flags
+    type(kernel_t), intent(out) :: k
+    character(*), intent(out) :: msg
+    integer, intent(out) :: stat
+    type(c_funptr) :: fp
+    integer(c_int) :: dim, nwork
+    character(kind=c_char) :: cmsg(512)
+    integer :: i
+    msg = ''
+    stat = int(jet_get(spec // c_null_char, p, lanes, flags, fp, dim, nwork, cmsg, 512))
+    if (stat /= TUBES_OK .or. .not. c_associated(fp)) then
+      do i = 1, min(512, len(msg))
+        if (cmsg(i) == c_null_char) exit
+        msg(i:i) = cmsg(i)
+      end do
+      stat = TUBES_ENOJET
+      return
+    end if
+    k%order = p
+    k%nwork = nwork
+    k%dim = dim
+    call c_f_procpointer(fp, k%fn)
+  end subroutine jet_kernel
+
   !> The kernel of order p (0: the variational kernel), from the two kept or from the loader.
   subroutine kernel_of(self, p, k, stat)
     class(taylor_t), intent(inout) :: self
     integer, intent(in) :: p
     integer, intent(out) :: k
     integer, intent(out) :: stat
-    type(c_funptr) :: fp
-    integer(c_int) :: dim, nwork
-    character(kind=c_char) :: cmsg(512)
-    integer :: i
+    type(kernel_t) :: kn
     stat = TUBES_OK
     do k = 1, 2
       if (self%kernels(k)%order == p) return
     end do
-    k = 1
-    if (self%kernels(1)%order >= 0) k = 2
-    if (k == 2 .and. self%kernels(2)%order >= 0) then    ! replace the older one
-      self%kernels(1) = self%kernels(2)
-    end if
-    stat = int(jet_get(self%spec // c_null_char, p, 1, self%flags, fp, dim, nwork, cmsg, 512))
-    if (stat /= TUBES_OK .or. .not. c_associated(fp)) then
-      self%msg = ''
-      do i = 1, 512
-        if (cmsg(i) == c_null_char) exit
-        self%msg(i:i) = cmsg(i)
-      end do
-      stat = TUBES_ENOJET
-      return
-    end if
-    if (dim /= self%n) then
+    call jet_kernel(self%spec, p, 1, self%flags, kn, self%msg, stat)
+    if (stat /= TUBES_OK) return
+    if (kn%dim /= self%n) then
       self%msg = 'the Taylor kernel is not of this state''s dimension'
       stat = TUBES_ENOJET
       return
     end if
-    self%kernels(k)%order = p
-    self%kernels(k)%nwork = nwork
-    call c_f_procpointer(fp, self%kernels(k)%fn)
+    k = 1
+    if (self%kernels(1)%order >= 0) k = 2
+    if (k == 2 .and. self%kernels(2)%order >= 0) self%kernels(1) = self%kernels(2)   ! the older one goes
+    self%kernels(k) = kn
   end subroutine kernel_of
 
   !> Set up on the first step: the model's formula and the state's size.
@@ -170,19 +186,37 @@ contains
     real(wp), intent(inout) :: x(:)
     real(wp), intent(in) :: tmax
     integer, intent(out) :: stat
-    real(wp) :: eps, xn, n1, n2, rho, h, dir, hmin
-    integer :: p, k, ik, i, s, st
-    logical :: relative, last
+    integer :: ik
+    call taylor_begin(self, x, tmax, ik, stat)
+    if (stat /= TUBES_OK) return
+    if (self%kernels(ik)%fn(self%p, self%par, self%tc, self%w) /= 0) then
+      stat = TUBES_EMODEL
+      return
+    end if
+    call taylor_end(self, x, tmax, stat)
+  end subroutine taylor_step
+
+  !> The first half of a step: the order and its kernel (ik, in self%kernels; its order is
+  !> self%p), the coefficients' storage, x as the coefficients of order 0. The kernel then fills
+  !> self%tc (taylor_step, or the lanes' driver for several integrations at once).
+  subroutine taylor_begin(self, x, tmax, ik, stat)
+    class(taylor_t), intent(inout) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(in) :: tmax
+    integer, intent(out) :: ik
+    integer, intent(out) :: stat
+    real(wp) :: eps
+    integer :: p, i, s
     stat = TUBES_OK
+    ik = 1
     if (.not. allocated(self%spec) .or. self%n /= size(x) .or. self%fresh) then
       call taylor_setup(self, size(x), stat)
       if (stat /= TUBES_OK) return
       self%fresh = .false.
     end if
-    dir = sign(1.0_wp, tmax - self%t)
-    xn = maxval(abs(x))
-    relative = self%rtol*xn > self%atol
-    eps = merge(self%rtol, self%atol, relative)
+    self%xn = maxval(abs(x))
+    self%relative = self%rtol*self%xn > self%atol
+    eps = merge(self%rtol, self%atol, self%relative)
     if (.not. eps > 0) then
       stat = TUBES_EINPUT
       return
@@ -195,6 +229,7 @@ contains
     end if
     call kernel_of(self, merge(0, p, self%variational), ik, stat)
     if (stat /= TUBES_OK) return
+    self%p = p
     s = p + 1
     if (.not. allocated(self%tc)) allocate (self%tc(0))
     if (size(self%tc) < self%n*s) then
@@ -209,21 +244,32 @@ contains
     do i = 1, self%n
       self%tc((i - 1)*s + 1) = x(i)
     end do
-    st = int(self%kernels(ik)%fn(p, self%par, self%tc, self%w))
     self%nfev = self%nfev + 1
-    if (st /= 0) then
-      stat = TUBES_EMODEL
-      return
-    end if
+  end subroutine taylor_begin
+
+  !> The second half of a step, the coefficients in self%tc: the step size from the last two
+  !> orders, the new state by Horner's scheme, the new time.
+  subroutine taylor_end(self, x, tmax, stat)
+    class(taylor_t), intent(inout) :: self
+    real(wp), intent(inout) :: x(:)
+    real(wp), intent(in) :: tmax
+    integer, intent(out) :: stat
+    real(wp) :: n1, n2, rho, h, dir, hmin
+    integer :: p, k, i, s
+    logical :: last
+    stat = TUBES_OK
+    p = self%p
+    s = p + 1
+    dir = sign(1.0_wp, tmax - self%t)
     n1 = 0
     n2 = 0
     do i = 1, self%n
       n1 = max(n1, abs(self%tc((i - 1)*s + p)))
       n2 = max(n2, abs(self%tc((i - 1)*s + p + 1)))
     end do
-    if (relative) then
-      n1 = n1/xn
-      n2 = n2/xn
+    if (self%relative) then
+      n1 = n1/self%xn
+      n2 = n2/self%xn
     end if
     rho = huge(1.0_wp)
     if (n1 > 0) rho = min(rho, (1/n1)**(1.0_wp/(p - 1)))
@@ -238,7 +284,6 @@ contains
       stat = TUBES_ESTEP
       return
     end if
-    self%p = p
     self%hs = dir*h
     self%t_old = self%t
     do i = 1, self%n
@@ -254,7 +299,7 @@ contains
     end if
     self%nsteps = self%nsteps + 1
     if (.not. all(abs(x) <= huge(1.0_wp))) stat = TUBES_EMODEL
-  end subroutine taylor_step
+  end subroutine taylor_end
 
   !> The step's polynomial at s in [t_old, t].
   subroutine taylor_interp(self, s, xs)

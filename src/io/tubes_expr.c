@@ -40,8 +40,9 @@ extern char **environ;
 #endif
 #define EXPR_CFLAGS "-O2", "-fPIC", "-shared", "-fno-math-errno"
 /* Taylor jets (docs/integrators-taylor.md): for this machine's processor (its name and flags are
- * in the cache key); contraction of a*b + c into fma is the same in every lane and for one lane */
-#define JET_CFLAGS "-O2", "-march=native", "-ffp-contract=fast", "-fPIC", "-shared", "-fno-math-errno"
+ * in the cache key); the kernels' fused multiply-adds are explicit (the same in every lane and for
+ * one lane), nothing else is contracted */
+#define JET_CFLAGS "-O2", "-march=native", "-ffp-contract=off", "-fPIC", "-shared", "-fno-math-errno"
 
 /* What a build makes: a model's library (codegen.py --out) or a Taylor jet's (codegen.py --jet). */
 typedef struct {
@@ -496,6 +497,28 @@ static void cpu_id(char *buf, size_t n) {
   snprintf(buf, n, "%s %016llx", model, (unsigned long long)flags);
 }
 
+/* The generator's identity for the jets' cache key: a hash of python/tubes/codegen.py and of
+ * jetgen.py beside it (a changed generator builds its kernels anew), and the compiler's flags. */
+static void generator_id(char *buf, size_t n) {
+  char script[PATH_MAX], path[PATH_MAX + 16];
+  find_tool(script, sizeof script, "TUBES_CODEGEN", "python/tubes/codegen.py", "codegen.py");
+  uint64_t h = 1469598103934665603ULL;
+  for (int k = 0; k < 2; k++) {
+    if (k == 0) {
+      snprintf(path, sizeof path, "%s", script);
+    } else {
+      char *slash = strrchr(script, '/');
+      snprintf(path, sizeof path, "%.*sjetgen.py", slash ? (int)(slash - script + 1) : 0, script);
+    }
+    FILE *f = fopen(path, "rb");
+    int c;
+    while (f && (c = fgetc(f)) != EOF) h = (h ^ (unsigned char)c) * 1099511628211ULL;
+    if (f) fclose(f);
+  }
+  int m = snprintf(buf, n, "generator %016llx cflags", (unsigned long long)h);
+  for (char *const *fl = jet_cflags; *fl && m > 0 && (size_t)m < n; fl++) m += snprintf(buf + m, n - (size_t)m, " %s", *fl);
+}
+
 /* The kernels loaded in this process: spec text -> function (one table, under a mutex; a
  * kernel, once loaded, stays for the life of the process, as its library does). */
 #define JET_TABLE 256
@@ -523,21 +546,22 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
     return TUBES_EINPUT;
   }
   const char *cc_env = getenv("TUBES_CC");
-  static char cpu[512];   /* this processor: read once (under the lock) */
+  static char cpu[512], gen[512];   /* this processor and the generator: read once (under the lock) */
   char jet[96];
   pthread_mutex_lock(&jet_lock);
   if (!cpu[0]) cpu_id(cpu, sizeof cpu);
+  if (!gen[0]) generator_id(gen, sizeof gen);
   pthread_mutex_unlock(&jet_lock);
   const char *act = (flags & TUBES_JET_ACTION) ? " action" : "";
   if (!var)
     snprintf(jet, sizeof jet, "jet order %d lanes %d%s\n", order, lanes, act);
   else
     snprintf(jet, sizeof jet, "jet variational%s\n", act);
-  size_t ls = strlen(model) + strlen(cpu) + 512;
+  size_t ls = strlen(model) + strlen(cpu) + strlen(gen) + 512;
   char *spec = malloc(ls);
   if (!spec) return TUBES_EIO;
-  snprintf(spec, ls, "%s%scompiler %s %s\ncpu %s\n", model, jet, tubes_expr_compiler(),
-           cc_env && cc_env[0] ? "" : TUBES_MODEL_CC_VERSION, cpu);
+  snprintf(spec, ls, "%s%scompiler %s %s\ncpu %s\n%s\n", model, jet, tubes_expr_compiler(),
+           cc_env && cc_env[0] ? "" : TUBES_MODEL_CC_VERSION, cpu, gen);
   int rc = TUBES_OK;
   pthread_mutex_lock(&jet_lock);
   for (int i = 0; i < jet_count; i++)
@@ -555,10 +579,10 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
     goto out;
   }
   {
-    char key[TUBES_LSYSTEM], var[64], lib[PATH_MAX + 64];
+    char key[TUBES_LSYSTEM], vname[64], lib[PATH_MAX + 64];
     int hit;
     double t0 = now();
-    rc = build(&JET_BUILD, spec, key, var, (int)sizeof var, msg, lmsg, lib, (int)sizeof lib, &hit);
+    rc = build(&JET_BUILD, spec, key, vname, (int)sizeof vname, msg, lmsg, lib, (int)sizeof lib, &hit);
     if (rc != TUBES_OK) {            /* said once, remembered: a parallel loop asks many times */
       fprintf(stderr, "taylor: no kernel for the model: %s\n", msg);
       jet_table[jet_count] = (jet_entry_t){spec, NULL, 0, 0, rc, strdup(msg)};

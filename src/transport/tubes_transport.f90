@@ -8,8 +8,9 @@ module tubes_transport
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
-  use tubes_methods, only: integ_choice_t, make_integrator
+  use tubes_methods, only: integ_choice_t, make_integrator, METHOD_TAYLOR
   use tubes_integrator, only: event_t
+  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes, LANES
   use tubes_section_kinds, only: poincare_t
   implicit none
   private
@@ -33,6 +34,38 @@ module tubes_transport
   contains
     procedure :: on_step => gate_on_step
   end type gate_t
+
+  !> The Monte Carlo's points as the Taylor method's lanes' items (src/integrators/tubes_lanes.f90):
+  !> each set up and classified as mc_classify does.
+  type, extends(lane_jobs_t) :: mc_jobs_t
+    class(hamiltonian_t), allocatable :: model
+    type(poincare_t) :: psec
+    type(gate_spec_t) :: gspec
+    type(integ_choice_t) :: integ
+    real(wp) :: t_max = 0, tol = 0
+    real(wp), allocatable :: r(:), pr(:)
+    integer, allocatable :: outcome(:), st(:)
+  contains
+    procedure :: start => mc_start
+    procedure :: finish => mc_finish
+  end type mc_jobs_t
+
+  !> The Poincare map's seeds as lanes' items: each as one_map integrates it.
+  type, extends(lane_jobs_t) :: map_jobs_t
+    class(hamiltonian_t), allocatable :: model
+    type(poincare_t) :: psec
+    type(integ_choice_t) :: integ
+    real(wp) :: t_max = 0, tol = 0
+    integer :: n_iter = 0
+    real(wp), allocatable :: x0(:, :), pts(:, :, :)
+    integer, allocatable :: st(:)
+  contains
+    procedure :: start => map_start
+    procedure :: finish => map_finish
+  end type map_jobs_t
+
+  !> Items of an ensemble per call of run_lanes (an OpenMP thread's unit of work)
+  integer, parameter :: LANE_CHUNK = 64
 
   public :: inside_curve, mc_classify, monte_carlo, poincare_map, rng_uniform
 
@@ -184,24 +217,111 @@ contains
     outcome = MC_UNDECIDED
     inside = .false.
     st = TUBES_OK
-    !$omp parallel do schedule(dynamic) default(shared) private(i, x, te)
+    if (integ%method == METHOD_TAYLOR) then
+      call mc_lanes()
+    else
+      !$omp parallel do schedule(dynamic) default(shared) private(i, x, te)
+      do i = 1, n
+        if (.not. pp%mine(i)) cycle
+        if (i == kf) then
+          st(i) = TUBES_EFAULT
+        else
+          call psec%state(r(i), pr(i), x, st(i))
+          if (st(i) == TUBES_OK) call mc_classify(model, psec, x, gspec, t_max, tol, integ, outcome(i), te, st(i))
+        end if
+        if (st(i) < 0) outcome(i) = st(i)
+      end do
+      !$omp end parallel do
+    end if
     do i = 1, n
-      if (.not. pp%mine(i)) cycle
-      if (i == kf) then
-        st(i) = TUBES_EFAULT
-      else
-        call psec%state(r(i), pr(i), x, st(i))
-        if (st(i) == TUBES_OK) call mc_classify(model, psec, x, gspec, t_max, tol, integ, outcome(i), te, st(i))
-      end if
-      if (st(i) < 0) outcome(i) = st(i)
-      inside(i) = inside_curve(r(i), pr(i), cr, cp)
+      if (pp%mine(i)) inside(i) = inside_curve(r(i), pr(i), cr, cp)
     end do
-    !$omp end parallel do
     call par_share(outcome)
     call par_share(inside)
     call par_share(st)
     stat = min(0, minval(st))
+  contains
+    !> The points in the Taylor method's lanes, LANE_CHUNK per call of run_lanes.
+    subroutine mc_lanes()
+      type(mc_jobs_t) :: jobs
+      integer, allocatable :: mine(:)
+      integer :: c, nm
+      allocate (jobs%model, source=model)
+      jobs%psec = psec
+      jobs%gspec = gspec
+      jobs%integ = integ
+      jobs%t_max = t_max
+      jobs%tol = tol
+      jobs%r = r
+      jobs%pr = pr
+      allocate (jobs%outcome(n), jobs%st(n))
+      jobs%outcome = MC_UNDECIDED
+      jobs%st = TUBES_OK
+      mine = pack([(i, i = 1, n)], [(pp%mine(i) .and. i /= kf, i = 1, n)])
+      if (kf >= 1 .and. kf <= n) then
+        if (pp%mine(kf)) jobs%st(kf) = TUBES_EFAULT
+      end if
+      nm = size(mine)
+      !$omp parallel do schedule(dynamic) default(shared) private(c)
+      do c = 1, (nm + LANE_CHUNK - 1)/LANE_CHUNK
+        call run_lanes(jobs, mine((c - 1)*LANE_CHUNK + 1:min(nm, c*LANE_CHUNK)))
+      end do
+      !$omp end parallel do
+      do i = 1, n
+        if (.not. pp%mine(i)) cycle
+        st(i) = jobs%st(i)
+        outcome(i) = jobs%outcome(i)
+        if (st(i) < 0) outcome(i) = st(i)
+      end do
+    end subroutine mc_lanes
   end subroutine monte_carlo
+
+  !> Point k in a lane: mc_classify's set-up (the state on the section, the integrator of the
+  !> choice with rtol = atol = tol, the return to the section as a terminal event, the gate).
+  subroutine mc_start(self, k, lane, stat)
+    class(mc_jobs_t), intent(inout) :: self
+    integer, intent(in) :: k
+    type(lane_t), intent(inout) :: lane
+    integer, intent(out) :: stat
+    class(event_t), allocatable :: ret
+    type(gate_t) :: gate
+    if (.not. allocated(lane%x)) allocate (lane%x(self%model%dim()))
+    call self%psec%state(self%r(k), self%pr(k), lane%x, stat)
+    if (stat /= TUBES_OK) return
+    call lane%ig%init(self%model, 0.0_wp)
+    lane%ig%h = self%integ%h
+    lane%ig%rtol = self%tol
+    lane%ig%atol = self%tol
+    lane%tend = self%t_max
+    call self%psec%return_event(ret)
+    call move_alloc(ret, lane%event)
+    gate%spec = self%gspec
+    allocate (lane%observer, source=gate)
+  end subroutine mc_start
+
+  !> Point k's class, as mc_classify's.
+  subroutine mc_finish(self, k, lane)
+    class(mc_jobs_t), intent(inout) :: self
+    integer, intent(in) :: k
+    type(lane_t), intent(inout) :: lane
+    logical :: passed
+    passed = .false.
+    if (allocated(lane%observer)) then
+      select type (g => lane%observer)
+      type is (gate_t)
+        passed = g%passed
+      end select
+    end if
+    self%st(k) = lane%stat
+    if (lane%stat == TUBES_EVENT) then
+      self%outcome(k) = MC_RETURN
+      self%st(k) = TUBES_OK
+    else if (passed) then
+      self%outcome(k) = MC_TRANSIT
+    else
+      self%outcome(k) = MC_UNDECIDED
+    end if
+  end subroutine mc_finish
 
   !> Poincare map of the section branch: n_iter returns of each start state x0(:, j), recorded
   !> as (r, p_r) in pts(:, k, j) (NaN after a trajectory stops returning within t_max).
@@ -223,21 +343,94 @@ contains
     kf = par_fault_item('map')
     pts = 0
     st = TUBES_OK
-    !$omp parallel do schedule(dynamic) default(shared) private(j)
-    do j = 1, size(x0, 2)
-      if (.not. pp%mine(j)) cycle
-      if (j == kf) then
-        st(j) = TUBES_EFAULT
-        pts(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
-        cycle
-      end if
-      call one_map(ball, psec, xs(:, j), n_iter, t_max, tol, integ, pts(:, :, j), st(j))
-    end do
-    !$omp end parallel do
+    if (integ%method == METHOD_TAYLOR) then
+      call map_lanes()
+    else
+      !$omp parallel do schedule(dynamic) default(shared) private(j)
+      do j = 1, size(x0, 2)
+        if (.not. pp%mine(j)) cycle
+        if (j == kf) then
+          st(j) = TUBES_EFAULT
+          pts(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
+          cycle
+        end if
+        call one_map(ball, psec, xs(:, j), n_iter, t_max, tol, integ, pts(:, :, j), st(j))
+      end do
+      !$omp end parallel do
+    end if
     call par_share(pts)
     call par_share(st)
     stat = min(0, minval(st))
+  contains
+    !> The seeds in the Taylor method's lanes (one seed per item: a few per thread).
+    subroutine map_lanes()
+      type(map_jobs_t) :: jobs
+      integer, allocatable :: mine(:)
+      integer :: c, nm, ns
+      ns = size(x0, 2)
+      allocate (jobs%model, source=ball)
+      jobs%psec = psec
+      jobs%integ = integ
+      jobs%t_max = t_max
+      jobs%tol = tol
+      jobs%n_iter = n_iter
+      jobs%x0 = xs
+      allocate (jobs%pts(2, n_iter, ns), jobs%st(ns))
+      jobs%pts = ieee_value(1.0_wp, ieee_quiet_nan)
+      jobs%st = TUBES_OK
+      mine = pack([(j, j = 1, ns)], [(pp%mine(j) .and. j /= kf, j = 1, ns)])
+      nm = size(mine)
+      !$omp parallel do schedule(dynamic) default(shared) private(c)
+      do c = 1, (nm + LANES - 1)/LANES
+        call run_lanes(jobs, mine((c - 1)*LANES + 1:min(nm, c*LANES)))
+      end do
+      !$omp end parallel do
+      do j = 1, ns
+        if (.not. pp%mine(j)) cycle
+        if (j == kf) then
+          st(j) = TUBES_EFAULT
+          pts(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
+        else
+          st(j) = jobs%st(j)
+          pts(:, :, j) = jobs%pts(:, :, j)
+        end if
+      end do
+    end subroutine map_lanes
   end subroutine poincare_map
+
+  !> Seed k in a lane: one_map's set-up.
+  subroutine map_start(self, k, lane, stat)
+    class(map_jobs_t), intent(inout) :: self
+    integer, intent(in) :: k
+    type(lane_t), intent(inout) :: lane
+    integer, intent(out) :: stat
+    class(event_t), allocatable :: ev
+    stat = TUBES_OK
+    call lane%ig%init(self%model, 0.0_wp)
+    lane%ig%h = self%integ%h
+    lane%ig%rtol = self%tol
+    lane%ig%atol = self%tol
+    lane%ig%max_steps = 100000000
+    lane%x = self%x0(:, k)
+    lane%tend = self%t_max
+    lane%use_log = .true.
+    lane%log%max_crossings = self%n_iter
+    call self%psec%event(.false., ev)
+    call move_alloc(ev, lane%event)
+  end subroutine map_start
+
+  !> Seed k's returns, as one_map's.
+  subroutine map_finish(self, k, lane)
+    class(map_jobs_t), intent(inout) :: self
+    integer, intent(in) :: k
+    type(lane_t), intent(inout) :: lane
+    integer :: j
+    self%st(k) = lane%stat
+    if (lane%stat == TUBES_EVENT) self%st(k) = TUBES_OK
+    do j = 1, min(lane%log%n, self%n_iter)
+      self%pts(:, j, k) = self%psec%coords(lane%log%x(:, j))
+    end do
+  end subroutine map_finish
 
   !> The returns of one trajectory (all locals: thread-private by construction).
   subroutine one_map(ball, psec, x0, n_iter, t_max, tol, integ, pts, stat)

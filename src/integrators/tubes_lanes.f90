@@ -1,0 +1,254 @@
+!> Ensembles in lanes (docs/integrators-taylor.md, "Lanes"): the items of an ensemble (Monte Carlo
+!> points, tube seeds, Poincare seeds) integrated by the Taylor method LANES at a time, in
+!> lockstep: one kernel call computes the Taylor coefficients of every lane (the processor's
+!> vector instructions do the lanes at once), then each lane finishes its own step (its step
+!> size, its events, its observer) exactly as a lone integration would: each lane's arithmetic is
+!> the one-lane kernel's, so an item's numbers do not depend on the lane it falls in, on the
+!> other items, on the number of threads or of MPI ranks (tests/test_lanes.f90). A lane whose
+!> integration ends takes the next item.
+!>
+!> An ensemble describes its items by extending lane_jobs_t: `start` sets up item k in a lane
+!> (its integrator's model and tolerances, state, end time, event, observer, crossing log);
+!> `finish` takes its result. Every lane of a run_lanes call integrates the same model.
+module tubes_lanes
+  use tubes_kinds, only: wp, i8
+  use tubes_integrator, only: event_t, observer_t, crossing_log_t, prop_t, prop_begin, prop_after_step
+  use tubes_taylor, only: taylor_t, kernel_t, taylor_begin, taylor_end, jet_kernel
+  use tubes_status, only: TUBES_OK, TUBES_EMAXSTEPS, TUBES_EMODEL
+  implicit none
+  private
+
+  integer, parameter, public :: LANES = 4   !! integrations per kernel call (4 doubles: AVX2)
+
+  !> One lane: an integration in progress.
+  type, public :: lane_t
+    type(taylor_t) :: ig                          !! its integrator (model, tolerances, t)
+    real(wp), allocatable :: x(:)                 !! its state at ig%t
+    real(wp) :: tend = 0                          !! where it ends [time]
+    class(event_t), allocatable :: event          !! its section, if any
+    class(observer_t), allocatable :: observer    !! its observer, if any
+    type(crossing_log_t) :: log                   !! its crossings (with use_log)
+    logical :: use_log = .false.
+    integer :: stat = TUBES_OK                    !! its propagate status, when it ends
+    integer :: item = 0                           !! the item it integrates
+    logical :: active = .false.
+    type(prop_t) :: ps
+  end type lane_t
+
+  !> The items of an ensemble.
+  type, abstract, public :: lane_jobs_t
+  contains
+    procedure(start_i), deferred :: start
+    procedure(finish_i), deferred :: finish
+  end type lane_jobs_t
+
+  abstract interface
+    !> Set up item k in lane: lane%ig initialised with the model (ig%init) and its tolerances,
+    !> lane%x, lane%tend, and as the item needs lane%event, lane%observer, lane%use_log and
+    !> lane%log%max_crossings. stat < 0: the item failed before any integration (finish is
+    !> then called with lane%stat = stat).
+    subroutine start_i(self, k, lane, stat)
+      import :: lane_jobs_t, lane_t
+      class(lane_jobs_t), intent(inout) :: self
+      integer, intent(in) :: k
+      type(lane_t), intent(inout) :: lane
+      integer, intent(out) :: stat
+    end subroutine start_i
+    !> Item k ended in lane: lane%stat is what propagate would have returned (TUBES_OK at
+    !> tend or when the observer stopped it, TUBES_EVENT at a stopping crossing, < 0 on
+    !> failure), lane%x the state at lane%ig%t.
+    subroutine finish_i(self, k, lane)
+      import :: lane_jobs_t, lane_t
+      class(lane_jobs_t), intent(inout) :: self
+      integer, intent(in) :: k
+      type(lane_t), intent(inout) :: lane
+    end subroutine finish_i
+  end interface
+
+  public :: run_lanes
+
+contains
+
+  !> Integrate the items `items` (in this order into the lanes as they free up).
+  subroutine run_lanes(jobs, items)
+    class(lane_jobs_t), intent(inout) :: jobs
+    integer, intent(in) :: items(:)
+    type(lane_t) :: lane(LANES)
+    type(kernel_t) :: kern(2)
+    real(wp), allocatable :: tcb(:), wb(:)
+    integer :: nxt, l, m, p, s, i, k, ik, st, n, ord(LANES), kslot
+    logical :: grp(LANES), done
+    character(512) :: msg
+    allocate (tcb(0), wb(0))
+    nxt = 1
+    do l = 1, LANES
+      call fill(l)
+    end do
+    do while (any(lane%active))
+      ! the lanes' orders (one, unless rtol and atol make some lanes relative and others not)
+      ord = 0
+      do l = 1, LANES
+        if (.not. lane(l)%active) cycle
+        if (lane(l)%ps%n >= lane(l)%ig%max_steps) then
+          call finish(l, TUBES_EMAXSTEPS)
+          cycle
+        end if
+        call taylor_begin(lane(l)%ig, lane(l)%x, lane(l)%tend, ik, st)
+        if (st /= TUBES_OK) then
+          call finish(l, st)
+          cycle
+        end if
+        ord(l) = lane(l)%ig%p
+      end do
+      do while (any(ord > 0))
+        p = maxval(ord)
+        grp = ord == p
+        ord = merge(0, ord, grp)
+        m = findloc(grp, .true., 1)
+        call batch_kernel(p, kslot, st, msg)
+        if (st /= TUBES_OK) then                ! no lanes kernel: each lane on its own
+          do l = 1, LANES
+            if (grp(l)) call lone_step(l)
+          end do
+          cycle
+        end if
+        s = p + 1
+        n = size(lane(m)%x)
+        if (size(tcb) < n*s*LANES) then
+          deallocate (tcb)
+          allocate (tcb(n*s*LANES))
+        end if
+        if (size(wb) < kern(kslot)%nwork*s*LANES) then
+          deallocate (wb)
+          allocate (wb(kern(kslot)%nwork*s*LANES))
+        end if
+        do l = 1, LANES                         ! a free lane computes a copy of a busy one
+          k = merge(l, m, grp(l))
+          do i = 1, n
+            tcb(((i - 1)*s)*LANES + l) = lane(k)%ig%tc((i - 1)*s + 1)
+          end do
+        end do
+        if (kern(kslot)%fn(p, lane(m)%ig%par, tcb, wb) /= 0) then   ! some lane not finite:
+          do l = 1, LANES                                           ! each on its own says which
+            if (grp(l)) call lone_step(l)
+          end do
+          cycle
+        end if
+        do l = 1, LANES
+          if (.not. grp(l)) cycle
+          do i = 1, n
+            do k = 0, p
+              lane(l)%ig%tc((i - 1)*s + k + 1) = tcb(((i - 1)*s + k)*LANES + l)
+            end do
+          end do
+          call after(l)
+        end do
+      end do
+    end do
+  contains
+    !> Lane l takes the next item, if any.
+    subroutine fill(l)
+      integer, intent(in) :: l
+      integer :: st0
+      do while (nxt <= size(items))
+        lane(l)%item = items(nxt)
+        nxt = nxt + 1
+        if (allocated(lane(l)%event)) deallocate (lane(l)%event)
+        if (allocated(lane(l)%observer)) deallocate (lane(l)%observer)
+        lane(l)%use_log = .false.
+        call lane(l)%log%clear()
+        lane(l)%stat = TUBES_OK
+        call jobs%start(lane(l)%item, lane(l), st0)
+        if (st0 >= 0) then          ! (an unallocated event is an absent argument)
+          if (lane(l)%use_log) then
+            call prop_begin(lane(l)%ig, lane(l)%x, lane(l)%tend, lane(l)%ps, st0, lane(l)%event, lane(l)%log)
+          else
+            call prop_begin(lane(l)%ig, lane(l)%x, lane(l)%tend, lane(l)%ps, st0, lane(l)%event)
+          end if
+        end if
+        if (st0 == TUBES_OK .and. lane(l)%ps%dir*(lane(l)%tend - lane(l)%ig%t) > 0) then
+          lane(l)%active = .true.
+          return
+        end if
+        lane(l)%stat = st0                      ! failed, or nothing to integrate
+        call jobs%finish(lane(l)%item, lane(l))
+      end do
+      lane(l)%active = .false.
+    end subroutine fill
+
+    !> Lane l ends with status st: its result, then the next item.
+    subroutine finish(l, st)
+      integer, intent(in) :: l, st
+      lane(l)%stat = st
+      lane(l)%active = .false.
+      call jobs%finish(lane(l)%item, lane(l))
+      call fill(l)
+    end subroutine finish
+
+    !> The rest of lane l's step (its coefficients in place): as propagate does after ig%step.
+    subroutine after(l)
+      integer, intent(in) :: l
+      integer :: st1
+      call taylor_end(lane(l)%ig, lane(l)%x, lane(l)%tend, st1)
+      if (st1 < 0) then
+        call finish(l, st1)
+        return
+      end if
+      call lane_after_step(lane(l), done, st1)
+      if (done) then
+        call finish(l, st1)
+      else if (.not. lane(l)%ps%dir*(lane(l)%tend - lane(l)%ig%t) > 0) then
+        call finish(l, TUBES_OK)
+      end if
+    end subroutine after
+
+    !> Lane l's step by its own one-lane kernel (taylor_begin was called).
+    subroutine lone_step(l)
+      integer, intent(in) :: l
+      integer :: st1
+      call lane(l)%ig%step(lane(l)%x, lane(l)%tend, st1)
+      lane(l)%ig%nfev = lane(l)%ig%nfev - 1     ! taylor_begin counted this step's evaluation
+      if (st1 < 0) then
+        call finish(l, st1)
+        return
+      end if
+      call lane_after_step(lane(l), done, st1)
+      if (done) then
+        call finish(l, st1)
+      else if (.not. lane(l)%ps%dir*(lane(l)%tend - lane(l)%ig%t) > 0) then
+        call finish(l, TUBES_OK)
+      end if
+    end subroutine lone_step
+
+    !> The kernel of order p for LANES lanes (kept: at most two orders), slot kslot.
+    subroutine batch_kernel(p, kslot, st, msg)
+      integer, intent(in) :: p
+      integer, intent(out) :: kslot, st
+      character(*), intent(out) :: msg
+      st = TUBES_OK
+      msg = ''
+      do kslot = 1, 2
+        if (kern(kslot)%order == p) return
+      end do
+      kslot = merge(2, 1, kern(1)%order >= 0)
+      if (kslot == 2 .and. kern(2)%order >= 0) kern(1) = kern(2)
+      if (lane(m)%ig%variational) then
+        st = TUBES_EMODEL                       ! the variational kernel has no lanes
+        return
+      end if
+      call jet_kernel(lane(m)%ig%spec, p, LANES, lane(m)%ig%flags, kern(kslot), msg, st)
+    end subroutine batch_kernel
+  end subroutine run_lanes
+
+  !> prop_after_step with the lane's own event, observer and log (unallocated: absent).
+  subroutine lane_after_step(ln, done, stat)
+    type(lane_t), intent(inout) :: ln
+    logical, intent(out) :: done
+    integer, intent(out) :: stat
+    if (ln%use_log) then
+      call prop_after_step(ln%ig, ln%x, ln%ps, done, stat, ln%event, ln%observer, ln%log)
+    else
+      call prop_after_step(ln%ig, ln%x, ln%ps, done, stat, ln%event, ln%observer)
+    end if
+  end subroutine lane_after_step
+end module tubes_lanes
