@@ -104,8 +104,9 @@ int tubes_expr_spec(const char key[TUBES_LSYSTEM], char *buf, int len);
  * nwork*(order+1)*L doubles. Returns 0, or -1 where a coefficient is not finite. */
 typedef int (*tubes_jet_fn)(int order, const double *par, double *tc, double *w);
 /* flags of tubes_jet_get: the state transition matrix follows the state (column by column), the
- * action integral of p . dq/dt follows the state (after the state transition matrix, if any) */
-enum { TUBES_JET_VARIATIONAL = 1, TUBES_JET_ACTION = 2 };
+ * action integral of p . dq/dt follows the state (after the state transition matrix, if any), one
+ * tangent vector w with dw/dt = (df/dx) w follows the state (not with the matrix) */
+enum { TUBES_JET_VARIATIONAL = 1, TUBES_JET_ACTION = 2, TUBES_JET_TANGENT = 4 };
 /* The kernel of the model text `model` (the tubes-expression spec of a formula, or of a built-in
  * written as one) for order 1..60 and L = lanes (1, 2, 4, 8); with TUBES_JET_VARIATIONAL, order 0
  * and lanes 1: a kernel of any order. dim: the state's dimension. Thread-safe; the first call for

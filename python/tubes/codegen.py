@@ -498,7 +498,8 @@ def jet_fields(spec, sp):
     """The vector field of spec's model for its Taylor jet: (states, fields, params). The damping
     rate c (dp/dt -= c p, src/models/tubes_hamiltonian.f90 damped_t) is the parameter par[0];
     with `jet variational` the state transition matrix Phi (column by column) follows x, with
-    dPhi/dt = (df/dx) Phi (src/integrators/tubes_variational.f90)."""
+    dPhi/dt = (df/dx) Phi, with `tangent` one vector w, dw/dt = (df/dx) w
+    (src/integrators/tubes_variational.f90), with `action` the integral of p . dq/dt."""
     kind, h, qs, ps, csyms, cvals = build(spec, sp)
     h = h.subs({csyms[n]: v for n, v in cvals})
     c = sp.Symbol("c_damp", real=True)
@@ -525,6 +526,12 @@ def jet_fields(spec, sp):
         f = f + [sum(jac[i][l] * phi[l][j] for l in range(m) if jac[i][l] != 0)
                  for j in range(m) for i in range(m)]
         x = x + [phi[i][j] for j in range(m) for i in range(m)]
+    if "tangent" in spec.get("jet", []):    # src/integrators/tubes_variational.f90 tangent_t
+        m = len(x)
+        w = [sp.Symbol(f"w_{i}", real=True) for i in range(m)]
+        jac = [[sp.diff(fi, xj) for xj in x] for fi in f]
+        f = f + [sum(jac[i][l] * w[l] for l in range(m) if jac[i][l] != 0) for i in range(m)]
+        x = x + w
     if "action" in spec.get("jet", []):     # src/orbits/tubes_orbits.f90 action_field_t
         x = x + [sp.Symbol("action_", real=True)]
         f = f + [sum(pi * vi for pi, vi in zip(ps, qdot))]

@@ -15,14 +15,14 @@ module tubes_taylor
                                          c_associated, c_f_procpointer
   use tubes_kinds, only: wp
   use tubes_field, only: jet_spec_t, vector_field_t
-  use tubes_integrator, only: integrator_t, event_t
+  use tubes_integrator, only: integrator_t, event_t, observer_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_ESTEP, TUBES_ENOJET
   implicit none
   private
 
   integer, parameter, public :: TAYLOR_MAX_ORDER = 60   !! the kernels' largest order
   integer, parameter :: MAXDEPTH = 40                     ! root isolation: bisections at most
-  integer, parameter :: JET_VARIATIONAL = 1, JET_ACTION = 2   ! include/tubes.h TUBES_JET_*
+  integer, parameter :: JET_VARIATIONAL = 1, JET_ACTION = 2, JET_TANGENT = 4   ! include/tubes.h TUBES_JET_*
 
   abstract interface
     !> include/tubes.h tubes_jet_fn
@@ -76,9 +76,93 @@ module tubes_taylor
     procedure :: event_samples => taylor_event_samples
   end type taylor_t
 
+  !> Every step of a Taylor integration, its polynomial: the dense output of the whole
+  !> integration, to be evaluated anywhere in it afterwards (an observer of propagate).
+  type, extends(observer_t), public :: taylor_record_t
+    integer :: n = 0                       !! steps recorded
+    integer :: dim = 0                     !! the state's dimension
+    real(wp), allocatable :: t0(:)         !! each step's start [time]
+    real(wp), allocatable :: hs(:)         !! and signed size
+    integer, allocatable :: p(:), off(:)   !! its order, and where its coefficients start in c
+    real(wp), allocatable :: c(:)          !! the coefficients, step after step
+  contains
+    procedure :: on_step => record_on_step
+    procedure :: eval => record_eval
+  end type taylor_record_t
+
   public :: taylor_order, isolate_roots, taylor_check, taylor_begin, taylor_end, jet_kernel
 
 contains
+
+  !> Keep the step's polynomial (Taylor steps only: another method's step is not recorded).
+  subroutine record_on_step(self, ig, t_hi, stop_now)
+    class(taylor_record_t), intent(inout) :: self
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: t_hi
+    logical, intent(out) :: stop_now
+    integer :: m, need
+    stop_now = .false.
+    select type (ig)
+    class is (taylor_t)
+      if (.not. allocated(self%t0)) then
+        allocate (self%t0(64), self%hs(64), self%p(64), self%off(64), self%c(64*ig%n*(ig%p + 1)))
+        self%n = 0
+        self%dim = ig%n
+      end if
+      m = ig%n*(ig%p + 1)
+      need = 1
+      if (self%n > 0) need = self%off(self%n) + self%dim*(self%p(self%n) + 1)
+      if (self%n == size(self%t0)) then
+        self%t0 = [self%t0, self%t0]
+        self%hs = [self%hs, self%hs]
+        self%p = [self%p, self%p]
+        self%off = [self%off, self%off]
+      end if
+      if (need + m - 1 > size(self%c)) self%c = [self%c, self%c, self%c(1:m)]
+      self%n = self%n + 1
+      self%t0(self%n) = ig%t_old
+      self%hs(self%n) = ig%t - ig%t_old
+      self%p(self%n) = ig%p
+      self%off(self%n) = need
+      self%c(need:need + m - 1) = ig%tc(1:m)
+    end select
+  end subroutine record_on_step
+
+  !> The recorded integration's state at t (within its span): stat TUBES_EINPUT outside it.
+  subroutine record_eval(self, t, z, stat)
+    class(taylor_record_t), intent(in) :: self
+    real(wp), intent(in) :: t
+    real(wp), intent(out) :: z(:)
+    integer, intent(out) :: stat
+    real(wp) :: ds, dir
+    integer :: lo, hi, mid, j, i, k, s, o
+    stat = TUBES_EINPUT
+    z = 0
+    if (self%n < 1 .or. size(z) /= self%dim) return
+    dir = sign(1.0_wp, self%hs(1))
+    if (dir*(t - self%t0(1)) < 0 .or. dir*(t - (self%t0(self%n) + self%hs(self%n))) > 0) return
+    lo = 1                               ! the last step starting at or before t
+    hi = self%n
+    do while (lo < hi)
+      mid = (lo + hi + 1)/2
+      if (dir*(t - self%t0(mid)) >= 0) then
+        lo = mid
+      else
+        hi = mid - 1
+      end if
+    end do
+    j = lo
+    ds = t - self%t0(j)
+    s = self%p(j) + 1
+    o = self%off(j)
+    do i = 1, self%dim
+      z(i) = self%c(o + (i - 1)*s + s - 1)
+      do k = self%p(j) - 1, 0, -1
+        z(i) = z(i)*ds + self%c(o + (i - 1)*s + k)
+      end do
+    end do
+    stat = TUBES_OK
+  end subroutine record_eval
 
   !> The order for tolerance eps (Jorba & Zou): ceil(-ln(eps)/2 + 1), within 2..TAYLOR_MAX_ORDER.
   pure integer function taylor_order(eps)
@@ -161,6 +245,7 @@ contains
     integer, intent(in) :: n
     integer, intent(out) :: stat
     type(jet_spec_t) :: js
+    integer :: flags
     stat = TUBES_OK
     js = self%f%jet_spec()
     if (.not. allocated(js%text)) then
@@ -168,14 +253,14 @@ contains
       stat = TUBES_ENOJET
       return
     end if
+    flags = merge(JET_ACTION, 0, js%action) + merge(JET_VARIATIONAL, 0, js%variational) + &
+            merge(JET_TANGENT, 0, js%tangent)
     if (allocated(self%spec)) then
-      if (self%spec /= js%text .or. self%variational .neqv. js%variational .or. &
-          self%flags /= merge(JET_ACTION, 0, js%action) + merge(JET_VARIATIONAL, 0, js%variational)) &
-        self%kernels = kernel_t()
+      if (self%spec /= js%text .or. self%flags /= flags) self%kernels = kernel_t()
     end if
     self%spec = js%text
     self%variational = js%variational
-    self%flags = merge(JET_ACTION, 0, js%action) + merge(JET_VARIATIONAL, 0, js%variational)
+    self%flags = flags
     self%par(1) = js%damping
     self%n = n
   end subroutine taylor_setup

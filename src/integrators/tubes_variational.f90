@@ -15,7 +15,17 @@ module tubes_variational
     procedure :: jet_spec => var_jet_spec
   end type variational_t
 
-  public :: make_variational, stm_start
+  !> The flow and one tangent vector: d/dt [x, w] = [f(x), J(x) w] (dimension 2n): the
+  !> transport of a vector by the linearised flow at the cost of n, not n^2, more equations.
+  type, extends(vector_field_t), public :: tangent_t
+    class(vector_field_t), allocatable :: base
+  contains
+    procedure :: dim => tan_dim
+    procedure :: eval => tan_eval
+    procedure :: jet_spec => tan_jet_spec
+  end type tangent_t
+
+  public :: make_variational, stm_start, make_tangent
 
 contains
 
@@ -25,6 +35,42 @@ contains
     class(vector_field_t), intent(in) :: base
     allocate (var%base, source=base)
   end subroutine make_variational
+
+  !> Wrap a model.
+  subroutine make_tangent(tan, base)
+    type(tangent_t), intent(out) :: tan
+    class(vector_field_t), intent(in) :: base
+    allocate (tan%base, source=base)
+  end subroutine make_tangent
+
+  pure integer function tan_dim(self)
+    class(tangent_t), intent(in) :: self
+    tan_dim = 2*self%base%dim()
+  end function tan_dim
+
+  pure subroutine tan_eval(self, t, x, dxdt, stat)
+    class(tangent_t), intent(in) :: self
+    real(wp), intent(in)  :: t, x(:)
+    real(wp), intent(out) :: dxdt(:)
+    integer, intent(out)  :: stat
+    real(wp), allocatable :: jac(:, :)
+    integer :: n
+    n = self%base%dim()
+    call self%base%eval(t, x(1:n), dxdt(1:n), stat)
+    if (stat /= 0) return
+    allocate (jac(n, n))
+    call self%base%jacobian(t, x(1:n), jac, stat)
+    if (stat /= 0) return
+    dxdt(n + 1:2*n) = matmul(jac, x(n + 1:2*n))
+  end subroutine tan_eval
+
+  !> The base model's formula, with the tangent vector.
+  pure function tan_jet_spec(self) result(spec)
+    class(tangent_t), intent(in) :: self
+    type(jet_spec_t) :: spec
+    spec = self%base%jet_spec()
+    spec%tangent = .true.
+  end function tan_jet_spec
 
   !> Extended initial state (x0, identity).
   pure function stm_start(x0) result(z)

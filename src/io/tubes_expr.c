@@ -539,7 +539,8 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
   *nwork = 0;
   msg[0] = 0;
   int var = (flags & TUBES_JET_VARIATIONAL) != 0;
-  if ((flags & ~(TUBES_JET_VARIATIONAL | TUBES_JET_ACTION)) || (var && (order != 0 || lanes != 1)) ||
+  if ((flags & ~(TUBES_JET_VARIATIONAL | TUBES_JET_ACTION | TUBES_JET_TANGENT)) ||
+      (var && (order != 0 || lanes != 1 || (flags & TUBES_JET_TANGENT))) ||
       (!var && (order < 1 || order > 60 || (lanes != 1 && lanes != 2 && lanes != 4 && lanes != 8)))) {
     say(msg, lmsg, "a Taylor jet of order %d for %d lanes, flags %d: orders 1 to 60 for lanes 1, 2, 4 or 8, or "
         "order 0 for the variational kernel (one lane)", order, lanes, flags);
@@ -553,8 +554,9 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
   if (!gen[0]) generator_id(gen, sizeof gen);
   pthread_mutex_unlock(&jet_lock);
   const char *act = (flags & TUBES_JET_ACTION) ? " action" : "";
+  const char *tan = (flags & TUBES_JET_TANGENT) ? " tangent" : "";
   if (!var)
-    snprintf(jet, sizeof jet, "jet order %d lanes %d%s\n", order, lanes, act);
+    snprintf(jet, sizeof jet, "jet order %d lanes %d%s%s\n", order, lanes, tan, act);
   else
     snprintf(jet, sizeof jet, "jet variational%s\n", act);
   size_t ls = strlen(model) + strlen(cpu) + strlen(gen) + 512;

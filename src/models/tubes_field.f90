@@ -13,6 +13,7 @@ module tubes_field
     real(wp) :: damping = 0              !! c of dp/dt -= c p [1/time]
     logical :: variational = .false.     !! the state transition matrix follows the state
     logical :: action = .false.          !! the action integral of p . dq/dt follows the state
+    logical :: tangent = .false.         !! one tangent vector w, dw/dt = (df/dx) w, follows the state
   end type jet_spec_t
 
   type, abstract, public :: vector_field_t

@@ -11,8 +11,10 @@ module tubes_manifold
                           TUBES_ENOCROSS
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_variational, only: variational_t, make_variational, stm_start
-  use tubes_methods, only: integ_choice_t, make_integrator
+  use tubes_variational, only: variational_t, make_variational, stm_start, tangent_t, make_tangent
+  use tubes_methods, only: integ_choice_t, make_integrator, METHOD_TAYLOR
+  use tubes_taylor, only: taylor_t, taylor_record_t
+  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes
   use tubes_integrator, only: integrator_t
   use tubes_integrator, only: propagate
   use tubes_section_kinds, only: poincare_t
@@ -21,6 +23,7 @@ module tubes_manifold
   implicit none
   private
 
+  integer, parameter :: SEED_CHUNK = 16         ! tube seeds per call of run_lanes (a thread's unit)
   integer, parameter, public :: STABLE = -1     !! the stable manifold: integrated backwards
   integer, parameter, public :: UNSTABLE = 1    !! the unstable manifold: integrated forwards
 
@@ -60,6 +63,23 @@ module tubes_manifold
     real(wp) :: fail_tau = 0          !! phase on the orbit of the first failed seed [s]
     integer :: fail_stat = 0          !! and its status
   end type tube_cut_t
+
+  !> The seeds of a tube cut as the Taylor method's lanes' items: the orbit and its transported
+  !> eigenvector from one recorded integration (each seed evaluates it at its phase), each seed
+  !> then integrated to the section as one_seed does.
+  type, extends(lane_jobs_t) :: seed_jobs_t
+    class(hamiltonian_t), allocatable :: ball
+    type(taylor_record_t) :: orbit          !! (x, w) along one period: w the transported eigenvector
+    type(poincare_t) :: psec
+    type(tube_opts_t) :: opts
+    real(wp) :: sigma = 1
+    real(wp), allocatable :: tau(:)         !! the seeds' phases
+    real(wp), allocatable :: p(:, :), tc(:), xc(:, :)   !! results, as one_seed's
+    integer, allocatable :: st(:)
+  contains
+    procedure :: start => seed_start
+    procedure :: finish => seed_finish
+  end type seed_jobs_t
 
   public :: tube_cut
 
@@ -147,6 +167,68 @@ contains
     end if
   end subroutine one_seed
 
+  !> Seed k: the orbit's state at its phase, stepped off along the transported eigenvector.
+  subroutine seed_start(self, k, lane, stat)
+    class(seed_jobs_t), intent(inout) :: self
+    integer, intent(in) :: k
+    type(lane_t), intent(inout) :: lane
+    integer, intent(out) :: stat
+    real(wp) :: z(self%orbit%dim)
+    class(event_t), allocatable :: sec
+    integer :: n2
+    n2 = self%orbit%dim/2
+    call self%orbit%eval(self%tau(k), z, stat)
+    if (stat /= TUBES_OK) return
+    lane%x = z(1:n2) + self%sigma*self%opts%eps*z(n2 + 1:)/sqrt(sum(z(n2 + 1:n2 + n2/2)**2))
+    call lane%ig%init(self%ball, 0.0_wp)
+    lane%ig%h = self%opts%integ%h
+    lane%ig%rtol = self%opts%rtol
+    lane%ig%atol = self%opts%atol
+    lane%tend = real(self%opts%kind, wp)*self%opts%t_max
+    call self%psec%event(.true., sec)
+    call move_alloc(sec, lane%event)
+  end subroutine seed_start
+
+  !> Seed k's crossing, as one_seed's.
+  subroutine seed_finish(self, k, lane)
+    class(seed_jobs_t), intent(inout) :: self
+    integer, intent(in) :: k
+    type(lane_t), intent(inout) :: lane
+    self%st(k) = lane%stat
+    self%p(:, k) = 0
+    self%tc(k) = 0
+    self%xc(:, k) = 0
+    if (lane%stat == TUBES_EVENT) then
+      self%st(k) = TUBES_OK
+      self%tc(k) = lane%ig%t
+      self%xc(:, k) = lane%x
+      self%p(:, k) = self%psec%coords(lane%x)
+    else if (lane%stat >= 0) then
+      self%st(k) = TUBES_ENOCROSS
+    end if
+  end subroutine seed_finish
+
+  !> The orbit and the eigenvector v0 transported along one period (tangent equations), every
+  !> step recorded: the seeds' starts for the Taylor method.
+  subroutine record_orbit(ball, orb, v0, opts, rec, stat)
+    class(hamiltonian_t), intent(in) :: ball
+    type(orbit_t), intent(in) :: orb
+    real(wp), intent(in) :: v0(:)
+    type(tube_opts_t), intent(in) :: opts
+    type(taylor_record_t), intent(out) :: rec
+    integer, intent(out) :: stat
+    type(tangent_t) :: tan
+    type(taylor_t) :: ig
+    real(wp) :: z(2*size(v0))
+    call make_tangent(tan, ball)
+    call ig%init(tan, 0.0_wp)
+    ig%h = opts%integ%h
+    ig%rtol = opts%rtol
+    ig%atol = opts%atol
+    z = [orb%x0, v0]
+    call propagate(ig, z, orb%period, stat, observer=rec)
+  end subroutine record_orbit
+
   !> The cut of the tube of orbit orb (period, x0 and monodromy set) with the section of opts.
   !> well_dir: a vector from the saddle towards the well the section lies in; the branch of
   !> the manifold on that side is taken. stat < 0 if a seed failed (no crossing within t_max,
@@ -166,6 +248,7 @@ contains
     logical, allocatable :: split(:)
     integer, allocatable :: st(:)
     integer :: n, i, j, m, info, nconv
+    type(seed_jobs_t) :: jobs
     if (opts%n_init < 8 .or. opts%eps <= 0 .or. orb%period <= 0) then
       stat = TUBES_EINPUT
       return
@@ -180,6 +263,14 @@ contains
     if (stat /= TUBES_OK) return
     call par_bcast(v0, grp)
     sigma = sign(1.0_wp, dot2(v0, well_dir))
+    if (opts%integ%method == METHOD_TAYLOR) then   ! the seeds' starts from one integration
+      allocate (jobs%ball, source=ball)
+      call record_orbit(ball, orb0, v0, opts, jobs%orbit, stat)
+      if (stat < 0) return
+      jobs%psec = psec
+      jobs%opts = opts
+      jobs%sigma = sigma
+    end if
     n = opts%n_init
     allocate (tau(n))
     tau = [((i - 1)*orb0%period/n, i = 1, n)]
@@ -267,7 +358,8 @@ contains
       real(wp), intent(in) :: tt(:)
       integer, intent(in) :: i1, i2
       real(wp) :: p(2, i2 - i1 + 1), tc(i2 - i1 + 1), xc(size(v0), i2 - i1 + 1)
-      integer :: s(i2 - i1 + 1), k, kf
+      integer :: s(i2 - i1 + 1), k, kf, c, nm, nk
+      integer, allocatable :: mine(:)
       type(par_t) :: pp
       pp = grp                           ! seed k - i1 + 1 of this round is computed on its owner
       kf = par_fault_item('seed')
@@ -275,17 +367,43 @@ contains
       tc = 0
       xc = 0
       s = TUBES_OK
-      !$omp parallel do schedule(dynamic) default(shared) private(k)
-      do k = i1, i2
-        if (.not. pp%mine(k - i1 + 1)) cycle
-        if (k == kf) then
-          s(k - i1 + 1) = TUBES_EFAULT
-          cycle
-        end if
-        call one_seed(ball, orb0, v0, sigma, tt(k), psec, opts, p(:, k - i1 + 1), tc(k - i1 + 1), &
-                      xc(:, k - i1 + 1), s(k - i1 + 1))
-      end do
-      !$omp end parallel do
+      if (opts%integ%method == METHOD_TAYLOR) then
+        nk = i2 - i1 + 1                 ! the seeds in the Taylor method's lanes
+        jobs%tau = tt(i1:i2)
+        if (allocated(jobs%p)) deallocate (jobs%p, jobs%tc, jobs%xc, jobs%st)
+        allocate (jobs%p(2, nk), jobs%tc(nk), jobs%xc(size(v0), nk), jobs%st(nk))
+        jobs%st = TUBES_OK
+        mine = pack([(k, k = 1, nk)], [(pp%mine(k) .and. k + i1 - 1 /= kf, k = 1, nk)])
+        nm = size(mine)
+        !$omp parallel do schedule(dynamic) default(shared) private(c)
+        do c = 1, (nm + SEED_CHUNK - 1)/SEED_CHUNK
+          call run_lanes(jobs, mine((c - 1)*SEED_CHUNK + 1:min(nm, c*SEED_CHUNK)))
+        end do
+        !$omp end parallel do
+        do k = 1, nk
+          if (.not. pp%mine(k)) cycle
+          if (k + i1 - 1 == kf) then
+            s(k) = TUBES_EFAULT
+            cycle
+          end if
+          s(k) = jobs%st(k)
+          p(:, k) = jobs%p(:, k)
+          tc(k) = jobs%tc(k)
+          xc(:, k) = jobs%xc(:, k)
+        end do
+      else
+        !$omp parallel do schedule(dynamic) default(shared) private(k)
+        do k = i1, i2
+          if (.not. pp%mine(k - i1 + 1)) cycle
+          if (k == kf) then
+            s(k - i1 + 1) = TUBES_EFAULT
+            cycle
+          end if
+          call one_seed(ball, orb0, v0, sigma, tt(k), psec, opts, p(:, k - i1 + 1), tc(k - i1 + 1), &
+                        xc(:, k - i1 + 1), s(k - i1 + 1))
+        end do
+        !$omp end parallel do
+      end if
       call par_share(p, grp)
       call par_share(tc, grp)
       call par_share(xc, grp)
