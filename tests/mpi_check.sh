@@ -12,6 +12,8 @@
 #              x 2 threads write the serial run's file, bit for bit
 #   formula    a model written as a formula, new to an empty cache: 2 ranks build it at once and
 #              write the serial run's file, bit for bit; the cache holds whole libraries only
+#   taylor     method = 'taylor' (lanes for the tube seeds, Monte Carlo points and Poincare seeds),
+#              its kernels new to an empty cache: 2 ranks x 2 threads write the serial run's file
 set -u
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -168,8 +170,23 @@ EOF
   "$py" -m tubes.h5compare "$work/3s/out.h5" "$work/3m/out.h5"
   check $? "the 3-DOF flux scene (samples, section, tube cut) is identical on 2 ranks"
   ;;
+taylor)
+  # the Taylor method's lanes (tube seeds, Monte Carlo points, Poincare seeds) and its kernels
+  # built at once by 2 ranks into an empty cache: 2 ranks x 2 threads write the serial run's file
+  sed "s/^  output = 'out.h5'/  output = 'out.h5'\n\/\n\&integrator method = 'taylor', rtol = 1e-10, atol = 1e-10/" \
+    "$work/all.nml" | grep -v "synthetic_experiment\|^&experiment\|n_tracks" >"$work/ty.nml"
+  sed -i "s/, 'synthetic_experiment'//" "$work/ty.nml"
+  mkdir -p "$work/ts" "$work/tm"
+  (cd "$work/tm" && TUBES_CACHE_DIR="$work/ct" OMP_NUM_THREADS=2 timeout 600 "${launch[@]}" -np 2 "$bin" ../ty.nml \
+    >log 2>&1)
+  check $? "MPI 2 ranks x 2 threads, Taylor, kernels new to the cache"
+  (cd "$work/ts" && TUBES_CACHE_DIR="$work/ct" OMP_NUM_THREADS=1 timeout 600 "$root/tubes" ../ty.nml >log 2>&1)
+  check $? "serial run, Taylor"
+  "$py" -m tubes.h5compare "$work/ts/out.h5" "$work/tm/out.h5" --ignore git_commit
+  check $? "Taylor: 2 ranks x 2 threads identical to the serial run"
+  ;;
 *)
-  echo "usage: tests/mpi_check.sh identical|fault|badinput|badoutput|formula|flux3" >&2
+  echo "usage: tests/mpi_check.sh identical|fault|badinput|badoutput|formula|flux3|taylor" >&2
   exit 2
   ;;
 esac
