@@ -108,9 +108,10 @@ typedef int (*tubes_jet_fn)(int order, const double *par, double *tc, double *w)
  * tangent vector w with dw/dt = (df/dx) w follows the state (not with the matrix) */
 enum { TUBES_JET_VARIATIONAL = 1, TUBES_JET_ACTION = 2, TUBES_JET_TANGENT = 4 };
 /* The kernel of the model text `model` (the tubes-expression spec of a formula, or of a built-in
- * written as one) for order 1..60 and L = lanes (1, 2, 4, 8); with TUBES_JET_VARIATIONAL, order 0
- * and lanes 1: a kernel of any order. dim: the state's dimension. Thread-safe; the first call for
- * a kernel builds or loads it (and says so on stderr when it builds). */
+ * written as one) for order 1..60 and L = lanes (1, 2, 4, 8) (straight-line code for that order);
+ * with flags (an extended state), order 0 and lanes 1: a kernel of any order (loops: much quicker
+ * to compile). dim: the state's dimension. Thread-safe; the first call for a kernel builds or
+ * loads it (and says so on stderr when it builds). */
 int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_fn *fn, int *dim, int *nwork,
                   char *msg, int lmsg);
 

@@ -173,9 +173,15 @@ EOF
 taylor)
   # the Taylor method's lanes (tube seeds, Monte Carlo points, Poincare seeds) and its kernels
   # built at once by 2 ranks into an empty cache: 2 ranks x 2 threads write the serial run's file
-  sed "s/^  output = 'out.h5'/  output = 'out.h5'\n\/\n\&integrator method = 'taylor', rtol = 1e-10, atol = 1e-10/" \
-    "$work/all.nml" | grep -v "synthetic_experiment\|^&experiment\|n_tracks" >"$work/ty.nml"
-  sed -i "s/, 'synthetic_experiment'//" "$work/ty.nml"
+  cat >"$work/ty.nml" <<'EOF'
+&run scenes = 'orbits', 'tubes', 'transition', 'montecarlo', 'sections', output = 'out.h5' /
+&integrator method = 'taylor', rtol = 1e-10, atol = 1e-10 /
+&orbits saddle = 'S12', de = 10, 100, rtol = 1e-10, atol = 1e-10 /
+&tubes de = 100, kind = 'both', area_tol = 1e-8, n_max = 1024 /
+&transition de = 20, 300, area_tol = 1e-6 /
+&montecarlo de = 100, n_samples = 301, seed = 11 /
+&sections de = 100, n_seeds = 7, n_iter = 15 /
+EOF
   mkdir -p "$work/ts" "$work/tm"
   (cd "$work/tm" && TUBES_CACHE_DIR="$work/ct" OMP_NUM_THREADS=2 timeout 600 "${launch[@]}" -np 2 "$bin" ../ty.nml \
     >log 2>&1)

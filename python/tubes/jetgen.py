@@ -25,9 +25,10 @@ Lanes: L trajectories at once, in lockstep; every lane does exactly the arithmet
 the lane it is in or on L (tests/test_taylor.py checks it bit for bit).
 """
 
-#: the accumulators of a convolution sum: independent chains of fma for instruction-level
-#: parallelism (the sum's order of operations is the same in every lane and for every L)
-NACC = 4
+#: the loop kernels' (the variational equations') accumulators of a convolution sum: one (their
+#: compile time matters more than their speed: they serve the orbits' few Newton iterations;
+#: two independent fma chains ran ~1.5x faster and took 2.5x longer to compile)
+NACC = 1
 
 
 class Node:
@@ -263,7 +264,8 @@ def _emit_node(d, idx, nd, L):
         """s = sum_{j=lo}^{hi} term(j) with NACC accumulators (C code; lo, hi C expressions)."""
         lines = [f"{acc_init}", f"int {step_var} = {lo};"]
         body = " ".join(f"s{a} = {term(f'{step_var} + {a}', f's{a}')};" for a in range(NACC))
-        lines.append(f"for (; {step_var} + {NACC - 1} <= {hi}; {step_var} += {NACC}) {{ {body} }}")
+        if NACC > 1:
+            lines.append(f"for (; {step_var} + {NACC - 1} <= {hi}; {step_var} += {NACC}) {{ {body} }}")
         lines.append(f"for (; {step_var} <= {hi}; {step_var}++) s0 = {term(step_var, 's0')};")
         lines.append(f"const double s = {acc_sum};")
         return lines

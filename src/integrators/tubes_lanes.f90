@@ -232,8 +232,8 @@ contains
       end do
       kslot = merge(2, 1, kern(1)%order >= 0)
       if (kslot == 2 .and. kern(2)%order >= 0) kern(1) = kern(2)
-      if (lane(m)%ig%variational) then
-        st = TUBES_EMODEL                       ! the variational kernel has no lanes
+      if (lane(m)%ig%flags /= 0) then
+        st = TUBES_EMODEL                       ! an extended state's loop kernel has no lanes
         return
       end if
       call jet_kernel(lane(m)%ig%spec, p, LANES, lane(m)%ig%flags, kern(kslot), msg, st)

@@ -47,7 +47,7 @@ module tubes_taylor
     end function jet_get
   end interface
 
-  !> A kernel of one order (or, for the variational equations, of any order).
+  !> A kernel of one order (or, for an extended state, of any order).
   type, public :: kernel_t
     integer :: order = -1                                  !! its order (0: any)
     integer :: nwork = 0                                   !! scratch series
@@ -64,7 +64,6 @@ module tubes_taylor
     logical :: relative = .false.          !! the step's error control is relative
     real(wp) :: par(1) = 0                 !! the kernel's parameters: the damping rate
     character(:), allocatable :: spec      !! the model's formula (jet_spec_t%text)
-    logical :: variational = .false.
     integer :: flags = 0                   !! include/tubes.h TUBES_JET_* of the field
     type(kernel_t) :: kernels(2)           !! the kernels of the (at most two) orders in use
     real(wp), allocatable :: tc(:)         !! the last step's coefficients at t_old
@@ -215,7 +214,7 @@ contains
     call c_f_procpointer(fp, k%fn)
   end subroutine jet_kernel
 
-  !> The kernel of order p (0: the variational kernel), from the two kept or from the loader.
+  !> The kernel of order p (0: an extended state's loop kernel), from the two kept or the loader.
   subroutine kernel_of(self, p, k, stat)
     class(taylor_t), intent(inout) :: self
     integer, intent(in) :: p
@@ -259,7 +258,6 @@ contains
       if (self%spec /= js%text .or. self%flags /= flags) self%kernels = kernel_t()
     end if
     self%spec = js%text
-    self%variational = js%variational
     self%flags = flags
     self%par(1) = js%damping
     self%n = n
@@ -312,7 +310,7 @@ contains
       stat = TUBES_EINPUT
       return
     end if
-    call kernel_of(self, merge(0, p, self%variational), ik, stat)
+    call kernel_of(self, merge(0, p, self%flags /= 0), ik, stat)   ! extras: the loop kernel
     if (stat /= TUBES_OK) return
     self%p = p
     s = p + 1

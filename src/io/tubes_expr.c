@@ -22,6 +22,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -58,6 +59,8 @@ static const build_kind_t JET_BUILD = {"--jet", "tubes_jet_text", "tubes_jet_abi
 
 static int build(const build_kind_t *bk, const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg,
                  int lmsg, char *lib, int llib, int *hit);
+static int build_locked(const build_kind_t *bk, const char *spec, char *var, int lvar, char *msg, int lmsg,
+                        const char *path, const char *dir, const char *key, int *hit);
 
 static void say(char *msg, int lmsg, const char *fmt, ...) {
   va_list ap;
@@ -206,7 +209,7 @@ int tubes_expr_build(const char *model, char key[TUBES_LSYSTEM], char *var, int 
 
 static int build(const build_kind_t *bk, const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg,
                  int lmsg, char *lib, int llib, int *hit) {
-  char dir[PATH_MAX], path[PATH_MAX + 64], tmp[PATH_MAX + 64];
+  char dir[PATH_MAX], path[PATH_MAX + 64];
   *hit = 0;
   snprintf(var, (size_t)lvar, "system");
   msg[0] = 0;
@@ -219,6 +222,26 @@ static int build(const build_kind_t *bk, const char *spec, char key[TUBES_LSYSTE
   }
   snprintf(path, sizeof path, "%s/%s.so", dir, key);
   snprintf(lib, (size_t)llib, "%s", path);
+  /* one build per library at a time, across processes (MPI ranks, runs started together): the
+   * others wait for it and then load it. The lock file goes when its holder is done (a process
+   * still waiting on it then holds the lock of a removed file and finds the library built; a
+   * failed build may then be tried twice at once, which the private directory and the rename
+   * keep safe) */
+  char lockpath[PATH_MAX + 80];
+  snprintf(lockpath, sizeof lockpath, "%s/%s.lock", dir, key);
+  int lockfd = open(lockpath, O_CREAT | O_RDWR, 0666);
+  if (lockfd >= 0) while (flock(lockfd, LOCK_EX) && errno == EINTR) {}
+  int rc0 = build_locked(bk, spec, var, lvar, msg, lmsg, path, dir, key, hit);
+  if (lockfd >= 0) {
+    unlink(lockpath);
+    close(lockfd);
+  }
+  return rc0;
+}
+
+static int build_locked(const build_kind_t *bk, const char *spec, char *var, int lvar, char *msg, int lmsg,
+                        const char *path, const char *dir, const char *key, int *hit) {
+  char tmp[PATH_MAX + 64];
   if (exists(path, R_OK)) {
     if (library_matches(bk, path, spec)) {
       *hit = 1;
@@ -538,12 +561,12 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
   *dim = 0;
   *nwork = 0;
   msg[0] = 0;
-  int var = (flags & TUBES_JET_VARIATIONAL) != 0;
+  int var = flags != 0;   /* an extended state: the loop kernel of any order */
   if ((flags & ~(TUBES_JET_VARIATIONAL | TUBES_JET_ACTION | TUBES_JET_TANGENT)) ||
-      (var && (order != 0 || lanes != 1 || (flags & TUBES_JET_TANGENT))) ||
+      ((flags & TUBES_JET_VARIATIONAL) && (flags & TUBES_JET_TANGENT)) || (var && (order != 0 || lanes != 1)) ||
       (!var && (order < 1 || order > 60 || (lanes != 1 && lanes != 2 && lanes != 4 && lanes != 8)))) {
     say(msg, lmsg, "a Taylor jet of order %d for %d lanes, flags %d: orders 1 to 60 for lanes 1, 2, 4 or 8, or "
-        "order 0 for the variational kernel (one lane)", order, lanes, flags);
+        "with flags order 0 (any order) and one lane", order, lanes, flags);
     return TUBES_EINPUT;
   }
   const char *cc_env = getenv("TUBES_CC");
@@ -553,12 +576,11 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
   if (!cpu[0]) cpu_id(cpu, sizeof cpu);
   if (!gen[0]) generator_id(gen, sizeof gen);
   pthread_mutex_unlock(&jet_lock);
-  const char *act = (flags & TUBES_JET_ACTION) ? " action" : "";
-  const char *tan = (flags & TUBES_JET_TANGENT) ? " tangent" : "";
   if (!var)
-    snprintf(jet, sizeof jet, "jet order %d lanes %d%s%s\n", order, lanes, tan, act);
+    snprintf(jet, sizeof jet, "jet order %d lanes %d\n", order, lanes);
   else
-    snprintf(jet, sizeof jet, "jet variational%s\n", act);
+    snprintf(jet, sizeof jet, "jet loops%s%s%s\n", (flags & TUBES_JET_VARIATIONAL) ? " variational" : "",
+             (flags & TUBES_JET_TANGENT) ? " tangent" : "", (flags & TUBES_JET_ACTION) ? " action" : "");
   size_t ls = strlen(model) + strlen(cpu) + strlen(gen) + 512;
   char *spec = malloc(ls);
   if (!spec) return TUBES_EIO;
@@ -597,7 +619,9 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
         fprintf(stderr, "taylor: built the order-%d jet kernel (%d lane%s) in %.1f s: %s\n", order, lanes,
                 lanes > 1 ? "s" : "", now() - t0, lib);
       else
-        fprintf(stderr, "taylor: built the variational jet kernel in %.1f s: %s\n", now() - t0, lib);
+        fprintf(stderr, "taylor: built the%s%s%s jet kernel of any order in %.1f s: %s\n",
+                (flags & TUBES_JET_VARIATIONAL) ? " variational" : "", (flags & TUBES_JET_TANGENT) ? " tangent" : "",
+                (flags & TUBES_JET_ACTION) ? " action" : "", now() - t0, lib);
     }
     void *h = dlopen(lib, RTLD_NOW | RTLD_LOCAL);
     const int *d = h ? dlsym(h, "tubes_jet_dim") : NULL, *nw = h ? dlsym(h, "tubes_jet_nwork") : NULL;
