@@ -852,7 +852,7 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
         raise ValueError("need dt_out > 0")
     kind, lev, dirn = _section(section, level, direction)
     nmax = int(np.floor(t_end / dt_out * (1 + 1e-12))) + 2
-    mc = max(1, int(max_crossings))
+    mc = max(1, int(max_crossings)) if kind else 1   # no section: no crossings to hold
     n2 = 2 * model.ndof
     if kind == 1 and model.system != "rolling_ball":
         raise ValueError("the polar ray sections (U1, theta) are the rolling ball's; use 'x' or 'y'")

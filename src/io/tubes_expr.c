@@ -546,8 +546,9 @@ static void generator_id(char *buf, size_t n) {
  * kernel, once loaded, stays for the life of the process, as its library does). */
 #define JET_TABLE 256
 typedef struct {
-  char *spec;
-  tubes_jet_fn fn;   /* NULL: it could not be had (rc, msg): asked again, the same answer */
+  char *model;               /* what was asked: the model's text, order, lanes, flags */
+  int order, lanes, flags;
+  tubes_jet_fn fn;           /* NULL: it could not be had (rc, msg): asked again, the same answer */
   int dim, nwork, rc;
   char *msg;
 } jet_entry_t;
@@ -569,6 +570,20 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
         "with flags order 0 (any order) and one lane", order, lanes, flags);
     return TUBES_EINPUT;
   }
+  int rc = TUBES_OK;
+  pthread_mutex_lock(&jet_lock);   /* asked before (the common case: every new integrator asks) */
+  for (int i = 0; i < jet_count; i++)
+    if (jet_table[i].order == order && jet_table[i].lanes == lanes && jet_table[i].flags == flags &&
+        !strcmp(jet_table[i].model, model)) {
+      *fn = jet_table[i].fn;
+      *dim = jet_table[i].dim;
+      *nwork = jet_table[i].nwork;
+      rc = jet_table[i].rc;
+      if (rc != TUBES_OK) say(msg, lmsg, "%s", jet_table[i].msg);
+      pthread_mutex_unlock(&jet_lock);
+      return rc;
+    }
+  pthread_mutex_unlock(&jet_lock);
   const char *cc_env = getenv("TUBES_CC");
   static char cpu[512], gen[512];   /* this processor and the generator: read once (under the lock) */
   char jet[96];
@@ -586,10 +601,10 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
   if (!spec) return TUBES_EIO;
   snprintf(spec, ls, "%s%scompiler %s %s\ncpu %s\n%s\n", model, jet, tubes_expr_compiler(),
            cc_env && cc_env[0] ? "" : TUBES_MODEL_CC_VERSION, cpu, gen);
-  int rc = TUBES_OK;
   pthread_mutex_lock(&jet_lock);
-  for (int i = 0; i < jet_count; i++)
-    if (!strcmp(jet_table[i].spec, spec)) {
+  for (int i = 0; i < jet_count; i++)   /* another thread may have got it meanwhile */
+    if (jet_table[i].order == order && jet_table[i].lanes == lanes && jet_table[i].flags == flags &&
+        !strcmp(jet_table[i].model, model)) {
       *fn = jet_table[i].fn;
       *dim = jet_table[i].dim;
       *nwork = jet_table[i].nwork;
@@ -609,9 +624,8 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
     rc = build(&JET_BUILD, spec, key, vname, (int)sizeof vname, msg, lmsg, lib, (int)sizeof lib, &hit);
     if (rc != TUBES_OK) {            /* said once, remembered: a parallel loop asks many times */
       fprintf(stderr, "taylor: no kernel for the model: %s\n", msg);
-      jet_table[jet_count] = (jet_entry_t){spec, NULL, 0, 0, rc, strdup(msg)};
+      jet_table[jet_count] = (jet_entry_t){strdup(model), order, lanes, flags, NULL, 0, 0, rc, strdup(msg)};
       jet_count++;
-      spec = NULL;
       goto out;
     }
     if (!hit) {
@@ -632,7 +646,11 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
       rc = TUBES_EIO;
       goto out;
     }
-    jet_table[jet_count].spec = spec;
+    jet_table[jet_count].model = strdup(model);
+    jet_table[jet_count].order = order;
+    jet_table[jet_count].lanes = lanes;
+    jet_table[jet_count].flags = flags;
+    jet_table[jet_count].rc = TUBES_OK;
     *(void **)&jet_table[jet_count].fn = f;
     jet_table[jet_count].dim = *d;
     jet_table[jet_count].nwork = *nw;
@@ -640,7 +658,6 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
     *dim = *d;
     *nwork = *nw;
     jet_count++;
-    spec = NULL;
   }
 out:
   pthread_mutex_unlock(&jet_lock);
