@@ -26,7 +26,8 @@ enum {
   TUBES_METHOD_DOP853 = 1, TUBES_METHOD_RK4 = 2, TUBES_METHOD_TAO2 = 3, TUBES_METHOD_TAO4 = 4,
   TUBES_METHOD_TAO6 = 5, TUBES_METHOD_GAUSS4 = 6, TUBES_METHOD_GAUSS6 = 7, TUBES_METHOD_GAUSS8 = 8,
   TUBES_METHOD_GSL_RK8PD = 9, TUBES_METHOD_GSL_RK4IMP = 10, TUBES_METHOD_CVODE_ADAMS = 11,
-  TUBES_METHOD_ARKODE_ERK8 = 12, TUBES_METHOD_TAYLOR = 13
+  TUBES_METHOD_ARKODE_ERK8 = 12, TUBES_METHOD_TAYLOR = 13,
+  TUBES_METHOD_AUTO = 14 /* Taylor for a model's state, DOP853 for the variational equations and the action */
 };
 /* Method options (tubes_run_trajectory): omega_bind [1/s] for tao* (0 = default 200),
  * solver for gauss*: 0 or 1 simplified Newton, 2 fixed point; max_iter for gauss* (0 = default). */

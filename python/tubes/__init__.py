@@ -32,7 +32,7 @@ def status_message(code: int) -> str:
 
 METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, "gauss6": 7,
            "gauss8": 8, "gsl_rk8pd": 9, "gsl_rk4imp": 10, "cvode_adams": 11,
-           "arkode_erk8": 12, "taylor": 13}   # include/tubes.h TUBES_METHOD_*
+           "arkode_erk8": 12, "taylor": 13, "auto": 14}   # include/tubes.h TUBES_METHOD_*
 FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 
 __all__ = ["Model", "TubesError", "status_message", "systems", "model_info", "energy", "energies", "potentials",

@@ -26,7 +26,11 @@ module tubes_methods
   integer, parameter, public :: METHOD_CVODE_ADAMS = 11  !! SUNDIALS CVODE, Adams, variable step/order
   integer, parameter, public :: METHOD_ARKODE_ERK8 = 12  !! SUNDIALS ARKODE ERKStep, Fehlberg 13-7-8
   integer, parameter, public :: METHOD_TAYLOR = 13       !! Taylor, adaptive order and step, from the formula
-  integer, parameter, public :: METHOD_LAST = 13         !! largest code available
+  !> the fastest measured for what is integrated (docs/integrators-taylor.md, "auto"): Taylor for
+  !> a model's state (one trajectory or an ensemble in lanes), DOP853 for an extended state (the
+  !> variational equations, the action), where Taylor's series of the n^2 matrix cost more
+  integer, parameter, public :: METHOD_AUTO = 14
+  integer, parameter, public :: METHOD_LAST = 14         !! largest code available
 
   !> Method-specific options; zero or blank means the method's default.
   type, public :: method_opts_t
@@ -43,7 +47,7 @@ module tubes_methods
     type(method_opts_t) :: opts           !! method options
   end type integ_choice_t
 
-  public :: new_integrator, is_fixed_step, make_integrator
+  public :: new_integrator, is_fixed_step, make_integrator, uses_taylor
 
 contains
 
@@ -87,19 +91,32 @@ contains
       allocate (cvode_t :: ig)
     case (METHOD_ARKODE_ERK8)
       allocate (arkode_t :: ig)
-    case (METHOD_TAYLOR)
+    case (METHOD_TAYLOR, METHOD_AUTO)
       allocate (taylor_t :: ig)
     case default
       stat = TUBES_EINPUT
     end select
   end subroutine new_integrator
 
-  !> Allocate the integrator of a choice, its fixed step set.
-  subroutine make_integrator(choice, ig, stat)
+  !> Does the choice integrate a model's state (the ensembles' lanes) with the Taylor method?
+  pure logical function uses_taylor(choice)
+    type(integ_choice_t), intent(in) :: choice
+    uses_taylor = choice%method == METHOD_TAYLOR .or. choice%method == METHOD_AUTO
+  end function uses_taylor
+
+  !> Allocate the integrator of a choice, its fixed step set. extended: it integrates an extended
+  !> state (variational equations, action), where METHOD_AUTO means DOP853.
+  subroutine make_integrator(choice, ig, stat, extended)
     type(integ_choice_t), intent(in) :: choice
     class(integrator_t), allocatable, intent(out) :: ig
     integer, intent(out) :: stat
-    call new_integrator(choice%method, ig, stat, choice%opts)
+    logical, intent(in), optional :: extended
+    integer :: m
+    m = choice%method
+    if (m == METHOD_AUTO .and. present(extended)) then
+      if (extended) m = METHOD_DOP853
+    end if
+    call new_integrator(m, ig, stat, choice%opts)
     if (stat /= TUBES_OK) return
     if (is_fixed_step(choice%method) .and. .not. choice%h > 0) then
       stat = TUBES_EINPUT

@@ -102,7 +102,7 @@ const nml_var tubes_nml_vars[] = {
     {"trajectory", "max_crossings", NML_INT, 1, "-", "10000", "1 .. 10000000", "crossings recorded at most (then the run stops)"},
     {"trajectory", "stop_at_first", NML_LOGICAL, 1, "-", ".false.", ".true., .false.", "stop at the first crossing"},
     {"integrator", "method", NML_STRING, 1, "-", "'dop853'",
-     "dop853, rk4, tao2, tao4, tao6, gauss4, gauss6, gauss8, gsl_rk8pd, gsl_rk4imp, cvode_adams, arkode_erk8, taylor",
+     "dop853, rk4, tao2, tao4, tao6, gauss4, gauss6, gauss8, gsl_rk8pd, gsl_rk4imp, cvode_adams, arkode_erk8, taylor, auto",
      "integration method (docs/integrators.md)"},
     {"integrator", "rtol", NML_REAL, 1, "1", "1e-12", "1e-15 <= rtol < 1",
      "relative tolerance (variable-step methods)"},
@@ -201,7 +201,7 @@ _Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 192, "nml_whe
 
 int tubes_method_code(const char *name) {
   static const char *names[] = {"dop853", "rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8",
-                                "gsl_rk8pd", "gsl_rk4imp", "cvode_adams", "arkode_erk8", "taylor"};
+                                "gsl_rk8pd", "gsl_rk4imp", "cvode_adams", "arkode_erk8", "taylor", "auto"};
   for (int i = 0; i < (int)(sizeof names / sizeof names[0]); i++)
     if (!strcmp(name, names[i])) return i + 1;   /* = TUBES_METHOD_* */
   return 0;

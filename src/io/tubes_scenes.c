@@ -37,13 +37,21 @@ static void progress_item(const char *fmt, ...) {
 
 static void status_text(int code, char *buf, int len) { tubes_status_message(code, buf, len); }
 
+/* The method the run integrates with: &integrator method, and for 'auto' what it became
+ * ("auto (taylor)": Taylor for the state, DOP853 for the variational equations; "auto (dop853)":
+ * no Taylor kernel). */
+static const char *method_label(const tubes_run_t *run) {
+  if (strcmp(run->cfg->method, "auto")) return run->cfg->method;
+  return run->method == TUBES_METHOD_AUTO ? "auto (taylor)" : "auto (dop853)";
+}
+
 enum { NEQ_MAX = 256, MD = TUBES_MAXDOF };
 /* The leading-order p_trans, (T_po/A0) dE (1 - tau dE/A0), is flagged where |tau dE/A0| exceeds this. */
 #define LEADING_RANGE 0.3
 /* Monte Carlo fraction and p_trans disagree beyond this many standard errors (false alarm 6e-7). */
 enum { MC_SIGMA = 5 };
 /* The &integrator choice as the C API's arguments (include/tubes.h): every analysis uses it. */
-#define INTEGRATOR(c) tubes_method_code((c)->method), (c)->h, (c)->omega_bind, \
+#define INTEGRATOR(c) run->method, (c)->h, (c)->omega_bind, \
                       (strcmp((c)->solver, "fixed_point") ? 1 : 2), (c)->max_iter
 
 /* /model's attributes of a model written as a formula (docs/output.md). */
@@ -186,12 +194,19 @@ int run_setup(tubes_run_t *run) {
     fprintf(stderr, "tubes: &model: the parameters are out of range for system %s\n", run->label);
     return EXIT_BADINPUT;
   }
-  if (tubes_method_code(c->method) == TUBES_METHOD_TAYLOR) {   /* its kernel: before any output */
+  run->method = tubes_method_code(c->method);
+  if (run->method == TUBES_METHOD_TAYLOR || run->method == TUBES_METHOD_AUTO) {   /* the kernel, before output */
     char m[1024];
     if (tubes_taylor_check(run->system, run->params, c->rtol, m, (int)sizeof m) < 0) {
-      fprintf(stderr, "%s:%d: &integrator: method = 'taylor': no Taylor kernel for %s: %s\n", run->input,
-              run->method_line, run->label, m);
-      return EXIT_BADINPUT;
+      if (run->method == TUBES_METHOD_TAYLOR) {
+        fprintf(stderr, "%s:%d: &integrator: method = 'taylor': no Taylor kernel for %s: %s\n", run->input,
+                run->method_line, run->label, m);
+        return EXIT_BADINPUT;
+      }
+      if (run->rank == 0)
+        fprintf(stderr, "tubes: &integrator method = 'auto': DOP853 throughout (no Taylor kernel for %s: %s)\n",
+                run->label, m);
+      run->method = TUBES_METHOD_DOP853;
     }
   }
   for (int k = 0; k < MD; k++) {
@@ -424,7 +439,7 @@ int scene_trajectory(tubes_run_t *run) {
   double cdamp = 0;
   progress_t pr = {c->t_end, now(), now()};
   double t0 = now();
-  int s = tubes_run_trajectory(run->system, run->params, 4, x0, c->t_end, c->dt_out, tubes_method_code(c->method), c->rtol,
+  int s = tubes_run_trajectory(run->system, run->params, 4, x0, c->t_end, c->dt_out, run->method, c->rtol,
                                c->atol, c->h, c->max_steps, c->omega_bind, strcmp(c->solver, "fixed_point") ? 1 : 2,
                                c->max_iter, sk, sl, sd, c->stop_at_first, mc, nmax, &n, t, st, en, &ncross,
                                ct, cx, cd, cnt, &cdamp, progress, &pr);
@@ -440,7 +455,7 @@ int scene_trajectory(tubes_run_t *run) {
             n ? t[n - 1] : 0.0, msg, s, (long long)cnt[1], (long long)cnt[2], (long long)cnt[0]);
   printf("trajectory: %s from (%g, %g, %g, %g), E0 = %.10g (cm/s)^2, to t = %g s: %d samples, "
          "%lld steps (%lld rejected), %lld evaluations, %.3f s\n",
-         c->method, x0[0], x0[1], x0[2], x0[3], e0, n ? t[n - 1] : 0.0, n, (long long)cnt[1],
+         method_label(run), x0[0], x0[1], x0[2], x0[3], e0, n ? t[n - 1] : 0.0, n, (long long)cnt[1],
          (long long)cnt[2], (long long)cnt[0], wall);
   if (sk) printf("  section %s: %d crossings\n", c->section, ncross);
   if (c->damping_ratio > 0)
@@ -456,7 +471,7 @@ int scene_trajectory(tubes_run_t *run) {
     e |= h5_write_double(g, "t", 1, &dn, t, "s");
     e |= h5_write_double(g, "state", 2, d2, st, "cm, cm, cm/s, cm/s");
     e |= h5_write_double(g, "energy", 1, &dn, en, "(cm/s)^2");
-    e |= h5_attr_string(g, "method", c->method);
+    e |= h5_attr_string(g, "method", method_label(run));
     e |= h5_attr_double(g, "rtol", c->rtol);
     e |= h5_attr_double(g, "atol", c->atol);
     e |= h5_attr_double(g, "h", c->h);

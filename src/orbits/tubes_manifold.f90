@@ -12,7 +12,7 @@ module tubes_manifold
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_variational, only: variational_t, make_variational, stm_start, tangent_t, make_tangent
-  use tubes_methods, only: integ_choice_t, make_integrator, METHOD_TAYLOR
+  use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
   use tubes_taylor, only: taylor_t, taylor_record_t
   use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes
   use tubes_integrator, only: integrator_t
@@ -140,7 +140,7 @@ contains
     pc = 0
     tcross = 0
     xc = 0
-    call make_integrator(opts%integ, ig, stat)
+    call make_integrator(opts%integ, ig, stat, extended=.true.)
     if (stat /= TUBES_OK) return
     call make_variational(var, ball)
     call ig%init(var, 0.0_wp)
@@ -263,7 +263,7 @@ contains
     if (stat /= TUBES_OK) return
     call par_bcast(v0, grp)
     sigma = sign(1.0_wp, dot2(v0, well_dir))
-    if (opts%integ%method == METHOD_TAYLOR) then   ! the seeds' starts from one integration
+    if (uses_taylor(opts%integ)) then   ! the seeds' starts from one integration
       allocate (jobs%ball, source=ball)
       call record_orbit(ball, orb0, v0, opts, jobs%orbit, stat)
       if (stat < 0) return
@@ -367,7 +367,7 @@ contains
       tc = 0
       xc = 0
       s = TUBES_OK
-      if (opts%integ%method == METHOD_TAYLOR) then
+      if (uses_taylor(opts%integ)) then
         nk = i2 - i1 + 1                 ! the seeds in the Taylor method's lanes
         jobs%tau = tt(i1:i2)
         if (allocated(jobs%p)) deallocate (jobs%p, jobs%tc, jobs%xc, jobs%st)

@@ -183,7 +183,7 @@ contains
     n2 = size(x0)
     x = 0
     phi = 0
-    call make_integrator(opts%integ, ig, stat)
+    call make_integrator(opts%integ, ig, stat, extended=.true.)
     if (stat /= TUBES_OK) return
     call make_variational(var, model)
     call ig%init(var, 0.0_wp)
@@ -488,7 +488,7 @@ contains
     orb%stability_index = 0.5_wp*(orb%mu_unstable + orb%mu_stable)
     ! action and samples in one pass
     allocate (af%model, source=model)
-    call make_integrator(opts%integ, ig, stat)
+    call make_integrator(opts%integ, ig, stat, extended=.true.)
     if (stat /= TUBES_OK) return
     call ig%init(af, 0.0_wp)
     ig%rtol = opts%rtol

@@ -8,7 +8,7 @@ module tubes_transport
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
-  use tubes_methods, only: integ_choice_t, make_integrator, METHOD_TAYLOR
+  use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
   use tubes_integrator, only: event_t
   use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes, LANES
   use tubes_section_kinds, only: poincare_t
@@ -217,7 +217,7 @@ contains
     outcome = MC_UNDECIDED
     inside = .false.
     st = TUBES_OK
-    if (integ%method == METHOD_TAYLOR) then
+    if (uses_taylor(integ)) then
       call mc_lanes()
     else
       !$omp parallel do schedule(dynamic) default(shared) private(i, x, te)
@@ -343,7 +343,7 @@ contains
     kf = par_fault_item('map')
     pts = 0
     st = TUBES_OK
-    if (integ%method == METHOD_TAYLOR) then
+    if (uses_taylor(integ)) then
       call map_lanes()
     else
       !$omp parallel do schedule(dynamic) default(shared) private(j)
