@@ -61,6 +61,8 @@ module tubes_taylor
     integer :: n = 0                       !! state dimension
     real(wp) :: hs = 0                     !! signed size of the last step [time]
     real(wp) :: xn = 0                     !! |x|_inf at the step's start
+    real(wp) :: eps_last = -1              !! the tolerance of the last order chosen
+    integer :: p_last = 0                  !! and that order
     logical :: relative = .false.          !! the step's error control is relative
     real(wp) :: par(1) = 0                 !! the kernel's parameters: the damping rate
     character(:), allocatable :: spec      !! the model's formula (jet_spec_t%text)
@@ -305,7 +307,13 @@ contains
       return
     end if
     p = self%order
-    if (p <= 0) p = taylor_order(eps)
+    if (p <= 0) then                 ! the order of eps (kept: a log per step otherwise)
+      if (eps /= self%eps_last) then
+        self%eps_last = eps
+        self%p_last = taylor_order(eps)
+      end if
+      p = self%p_last
+    end if
     if (p < 2 .or. p > TAYLOR_MAX_ORDER) then
       stat = TUBES_EINPUT
       return
@@ -337,27 +345,28 @@ contains
     real(wp), intent(inout) :: x(:)
     real(wp), intent(in) :: tmax
     integer, intent(out) :: stat
-    real(wp) :: n1, n2, rho, h, dir, hmin
-    integer :: p, k, i, s
+    real(wp) :: n1, n2, lrho, h, dir, hmin
+    integer :: p, s
     logical :: last
     stat = TUBES_OK
     p = self%p
     s = p + 1
     dir = sign(1.0_wp, tmax - self%t)
-    n1 = 0
-    n2 = 0
-    do i = 1, self%n
-      n1 = max(n1, abs(self%tc((i - 1)*s + p)))
-      n2 = max(n2, abs(self%tc((i - 1)*s + p + 1)))
-    end do
+    call top_norms(self%tc, s, self%n, p, n1, n2)
     if (self%relative) then
       n1 = n1/self%xn
       n2 = n2/self%xn
     end if
-    rho = huge(1.0_wp)
-    if (n1 > 0) rho = min(rho, (1/n1)**(1.0_wp/(p - 1)))
-    if (n2 > 0) rho = min(rho, (1/n2)**(1.0_wp/p))
-    h = rho*exp(-2 - 0.7_wp/(p - 1))
+    ! rho = min(n1^(-1/(p-1)), n2^(-1/p)) and h = rho exp(-2 - 0.7/(p-1)), in logarithms (two
+    ! logs and an exp per step instead of two powers and an exp)
+    lrho = huge(1.0_wp)
+    if (n1 > 0) lrho = -log(n1)/(p - 1)
+    if (n2 > 0) lrho = min(lrho, -log(n2)/p)
+    if (lrho < log(huge(1.0_wp))) then
+      h = exp(lrho - 2 - 0.7_wp/(p - 1))
+    else
+      h = huge(1.0_wp)                              ! a polynomial solution: no limit
+    end if
     if (self%h > 0) h = min(h, self%h)              ! &integrator h: the largest step
     ! the last step: it reaches tmax, or would leave less than 64 ulps of it (no sliver of a step)
     last = h >= abs(tmax - self%t) - 64*epsilon(1.0_wp)*max(abs(self%t), abs(tmax))
@@ -369,12 +378,7 @@ contains
     end if
     self%hs = dir*h
     self%t_old = self%t
-    do i = 1, self%n
-      x(i) = self%tc((i - 1)*s + p + 1)
-      do k = p - 1, 0, -1
-        x(i) = x(i)*self%hs + self%tc((i - 1)*s + k + 1)
-      end do
-    end do
+    call horner(self%tc, s, self%n, p, self%hs, x)
     if (last) then
       self%t = tmax
     else
@@ -384,21 +388,33 @@ contains
     if (.not. all(abs(x) <= huge(1.0_wp))) stat = TUBES_EMODEL
   end subroutine taylor_end
 
+  !> The largest |coefficient| of orders p - 1 and p over the components (coefficients tc(0:p, n)).
+  pure subroutine top_norms(tc, s, n, p, n1, n2)
+    integer, intent(in) :: s, n, p
+    real(wp), intent(in) :: tc(s, n)
+    real(wp), intent(out) :: n1, n2
+    n1 = maxval(abs(tc(p, :)))
+    n2 = maxval(abs(tc(p + 1, :)))
+  end subroutine top_norms
+
+  !> x = sum_k tc(k, :) ds^k by Horner's scheme, all components at once (vectorised across them).
+  pure subroutine horner(tc, s, n, p, ds, x)
+    integer, intent(in) :: s, n, p
+    real(wp), intent(in) :: tc(s, n), ds
+    real(wp), intent(out) :: x(n)
+    integer :: k
+    x = tc(p + 1, :)
+    do k = p, 1, -1
+      x = x*ds + tc(k, :)
+    end do
+  end subroutine horner
+
   !> The step's polynomial at s in [t_old, t].
   subroutine taylor_interp(self, s, xs)
     class(taylor_t), intent(inout) :: self
     real(wp), intent(in) :: s
     real(wp), intent(out) :: xs(:)
-    real(wp) :: ds
-    integer :: i, k, m
-    ds = s - self%t_old
-    m = self%p + 1
-    do i = 1, self%n
-      xs(i) = self%tc((i - 1)*m + m)
-      do k = self%p - 1, 0, -1
-        xs(i) = xs(i)*ds + self%tc((i - 1)*m + k + 1)
-      end do
-    end do
+    call horner(self%tc, self%p + 1, self%n, self%p, s - self%t_old, xs)
   end subroutine taylor_interp
 
   !> Interior sample times of the last step for an event's scan: for an event affine in the state

@@ -5,7 +5,7 @@
 !> as (system name, parameter vector in the order of this table).
 module tubes_models
   use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, i8
   use tubes_lapack, only: dgesv
   use tubes_field, only: vector_field_t
   use tubes_hamiltonian, only: hamiltonian_t, natural_t, damped_t, make_damped
@@ -233,7 +233,6 @@ contains
     type(system_info_t), intent(in) :: info
     real(wp), intent(in) :: params(:)
     character(:), allocatable :: text
-    character(40) :: v
     character, parameter :: NL = new_line('a')
     integer :: k
     text = 'tubes-expression 1' // NL // 'kind ' // trim(info%formula_kind) // NL // &
@@ -241,12 +240,10 @@ contains
     if (info%momenta /= '') text = text // 'momenta ' // trim(info%momenta) // NL
     do k = 1, info%np
       if (info%params(k)%symbol == '') cycle
-      write (v, '(es25.17e3)') params(k)
-      text = text // 'constant ' // trim(info%params(k)%symbol) // ' = ' // trim(adjustl(v)) // NL
+      text = text // 'constant ' // trim(info%params(k)%symbol) // ' = ' // f64(params(k)) // NL
     end do
     if (info%formula_kind == 'surface') then
-      write (v, '(es25.17e3)') params(6)
-      text = text // 'gravity ' // trim(adjustl(v)) // NL
+      text = text // 'gravity ' // f64(params(6)) // NL
     end if
   end function builtin_spec
 
@@ -356,7 +353,6 @@ contains
     type(expr_surface_t) :: surf
     type(ball_t) :: ball
     character(:), allocatable :: text
-    character(40) :: v
     stat = open_library(system, lib)
     if (stat /= TUBES_OK) return
     call library_spec(system, text)
@@ -371,11 +367,18 @@ contains
     if (stat /= TUBES_OK) return
     call make_ball(ball, surf, params(1), four_well=.false.)
     if (len(text) > 0) then
-      write (v, '(es25.17e3)') params(1)
-      ball%formula = text // 'gravity ' // trim(adjustl(v)) // new_line('a')
+      ball%formula = text // 'gravity ' // f64(params(1)) // new_line('a')
     end if
     allocate (model, source=ball)
   end subroutine expression_model
+
+  !> A double as its exact bits, 'f64:' and 16 hexadecimal digits (the formula specs' numbers:
+  !> exact, and cheap to write; python/tubes/codegen.py reads them).
+  pure function f64(x) result(s)
+    real(wp), intent(in) :: x
+    character(20) :: s
+    write (s, '(a, z16.16)') 'f64:', transfer(x, 0_i8)
+  end function f64
 
   !> The spec text of a formula model's library ('' if it cannot be read).
   subroutine library_spec(name, text)
