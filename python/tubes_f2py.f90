@@ -768,3 +768,24 @@ subroutine nf_map(nd, order, nt, expo, coef, to_model, npts, pts, stat, out, rou
   if (stat /= 0) return
   call nf_map_points(ch, to_model /= 0, pts, out, round_trip)
 end subroutine nf_map
+
+subroutine taylor_check(system, params, eps, stat, msg)
+  ! can method = 'taylor' integrate the model at tolerance eps? its kernel built or loaded now
+  ! (src/integrators/tubes_taylor.f90 taylor_check); stat < 0 and the reason in msg if not
+  use, intrinsic :: iso_c_binding, only: c_double
+  use tubes_field, only: vector_field_t
+  use tubes_models, only: make_field
+  use tubes_taylor, only: taylor_check_ => taylor_check
+  implicit none
+  character(len=*), intent(in) :: system
+  real(c_double), intent(in) :: params(16)
+  real(c_double), intent(in) :: eps
+  integer, intent(out) :: stat
+  character(len=512), intent(out) :: msg
+  class(vector_field_t), allocatable :: field
+  real(c_double) :: c
+  msg = ''
+  call make_field(trim(system), params, field, c, stat)
+  if (stat /= 0) return
+  call taylor_check_(field, eps, msg, stat)
+end subroutine taylor_check

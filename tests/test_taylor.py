@@ -153,3 +153,30 @@ def test_lanes_do_not_depend_on_threads(tmp_path):
         out[th] = read(str(tmp_path / f"l{th}.h5"))
     for k in ("montecarlo/inside", "montecarlo/transit", "montecarlo/r", "sections/map_000/points"):
         assert np.array_equal(out["1"][k], out["2"][k], equal_nan=True), k
+
+
+def test_auto_without_a_kernel_falls_back_to_dop853(tmp_path):
+    """The default method, 'auto', where no Taylor kernel can be had (code generation off, an
+    empty cache): the run says so, uses DOP853 throughout and succeeds; its trajectory is DOP853's
+    (rejected steps: a Taylor step is never rejected) and says what 'auto' became. Python warns
+    and does the same."""
+    cache = tmp_path / "empty-cache"
+    cache.mkdir()
+    env = {"TUBES_CACHE_DIR": str(cache), "TUBES_NO_CODEGEN": "1"}
+    p = run(str(tmp_path), "a.nml", """\
+        &run scenes = 'trajectory', output = 'a.h5' /
+        &trajectory t_end = 2.0 /
+        """, env=env)
+    assert p.returncode == 0, p.stderr
+    assert "method = 'auto': DOP853 throughout" in p.stderr and "TUBES_NO_CODEGEN" in p.stderr
+    with h5py.File(tmp_path / "a.h5") as f:
+        assert f["trajectory"].attrs["method"] in (b"auto (dop853)", "auto (dop853)")
+    code = ("import warnings, tubes\n"
+            "with warnings.catch_warnings(record=True) as w:\n"
+            "    warnings.simplefilter('always')\n"
+            "    tr = tubes.integrate([4.0, 12.614863819914357, 0, 0], 1.0)\n"
+            "print(tr['nrejected'] > 0, any('DOP853 throughout' in str(x.message) for x in w))\n")
+    q = subprocess.run([str(ROOT / ".venv" / "bin" / "python"), "-c", code], capture_output=True, text=True,
+                       env=dict(os.environ, **env), timeout=120)
+    assert q.returncode == 0, q.stderr
+    assert q.stdout.split() == ["True", "True"], q.stdout + q.stderr

@@ -497,8 +497,30 @@ def _study(model, st):
     return (model.name, model.params(), st["lo"], st["hi"], int(st["n_grid"]), st["saddle"])
 
 
-def _integ(st):
-    return int(st["method"]), float(st["h"]), float(st["omega_bind"]), int(st["solver"]), int(st["int_max_iter"])
+_TAYLOR_OK = {}   # (model name, parameters) -> can its Taylor kernel be had (_method)
+
+
+def _integ(st, model):
+    return (_method(int(st["method"]), model), float(st["h"]), float(st["omega_bind"]),
+            int(st["solver"]), int(st["int_max_iter"]))
+
+
+def _method(code: int, model, eps: float = 1e-12) -> int:
+    """A method code as the program resolves it: 'auto' becomes DOP853 throughout where the model's
+    Taylor kernel cannot be had (no C compiler or SymPy; the program says so too), with a warning
+    naming the reason (docs/integrators-taylor.md). The answer is kept per model."""
+    if code != METHODS["auto"]:
+        return code
+    key = (model.name, tuple(model.params()))
+    ok = _TAYLOR_OK.get(key)
+    if ok is None:
+        stat, msg = _lib().taylor_check(model.name, model.params(), float(eps))
+        ok = _TAYLOR_OK[key] = stat >= 0
+        if not ok:
+            import warnings
+            warnings.warn("method 'auto': DOP853 throughout (no Taylor kernel for this model: "
+                          + (msg.decode() if isinstance(msg, bytes) else str(msg)).strip() + ")", stacklevel=3)
+    return code if ok else METHODS["dop853"]
 
 
 def _section_args(st):
@@ -516,14 +538,15 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
     family's estimated end, or None). Keywords: saddle or saddle_near, and &orbits' method,
     n_segments, tol, rtol, atol, max_iter, n_samples, family (the k-th centre mode's family in 3
     DOF); integrator: &integrator's method and its options as a dict, e.g. {"method":
-    "arkode_erk8"} (default DOP853)."""
+    "arkode_erk8"} (default the input file's, "auto": Taylor for the state, DOP853 for the
+    variational equations)."""
     model = model or Model()
     de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
     st = _settings(model, saddle, saddle_near, orbits=dict(orbits, de=list(de)), integrator=integrator, equilibria=equilibria)
     n2 = 2 * model.ndof
     (stat, en, per, act, mu, ms, stab, res, clo, it, conv, s0, ts, xs, end_de, reason) = _lib().orbit_family(
         *_study(model, st), de, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]),
-        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st))
+        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model))
     _check(stat, "orbit_family")
     return {"dE": de, "energy": en.copy(), "period": per.copy(), "action": act.copy(),
             "mu_unstable": mu.copy(), "mu_stable": ms.copy(), "stability_index": stab.copy(),
@@ -559,7 +582,7 @@ def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_
         raise ValueError("flux: the model needs 2 or 3 degrees of freedom")
     stat, f, e, lead, cnt = _lib().flux(*_study(model, st), de, int(st["flux_n_samples"]), int(st["flux_seed"]),
                                         float(st["flux_t_max"]), float(st["flux_gate"]), float(st["flux_tol"]),
-                                        *_integ(st))
+                                        *_integ(st, model))
     _check(stat, "flux")
     out = {"dE": de, "flux_sampled": f.copy(), "flux_sampled_err": e.copy(), "flux_leading_order": lead.copy(),
            "n_inside": cnt[0].copy(), "n_reacting": cnt[1].copy(), "n_recrossing": cnt[2].copy(),
@@ -575,7 +598,7 @@ def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_
         stat, v, ve, fr, fre, cnt, xs, ws, cls = _lib().section_transit(
             *_study(model, st), de, int(st["sec_index"]), float(st["sec_level"]), int(st["sec_dir"]),
             int(st["flux_n_samples"]), int(st["flux_seed"]), float(st["flux_t_max"]), float(st["flux_gate"]),
-            float(st["flux_tol"]), *_integ(st))
+            float(st["flux_tol"]), *_integ(st, model))
         _check(stat, "flux (section)")
         f_th = out.get("flux_normal_form", out["flux_sampled"])
         f_th = np.where(np.isfinite(f_th), f_th, out["flux_sampled"])
@@ -603,7 +626,7 @@ def _tube_cut3(model, st, de, taylor, xs, ws, cls):
         (stat, ins, inpl, xc, tc, sc, diag, msg) = _lib().tube_cut3(
             *_study(model, st), int(st["flux_order"]), expo, coef, z, float(d), k3, float(st["sec_level"]),
             int(st["sec_dir"]), nc, float(st["flux_cut_eps"]), float(st["flux_t_max"]), float(st["flux_tol"]),
-            *_integ(st), pts, ws[:, j], cls[:, j])
+            *_integ(st, model), pts, ws[:, j], cls[:, j])
         if stat != 0:
             raise ValueError(f"flux: the tube's cut at dE = {d:g}: {_str(msg) or 'failed'} (status {stat})")
         shape = (nc + 1, 2 * nc, 2 * nc)
@@ -699,7 +722,7 @@ def _cut(model, st, de, kind, area_tol):
     (stat, n, tau, r, pr, tm, xs, area, apoly, act, per, nfail) = _lib().tube_cut(
         *_study(model, st), int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
         float(st["orb_atol"]), *_section_args(st), float(de), int(kind), float(st["tub_eps"]),
-        float(area_tol), float(st["tub_t_max"]), int(st["tub_n_init"]), n_max, *_integ(st))
+        float(area_tol), float(st["tub_t_max"]), int(st["tub_n_init"]), n_max, *_integ(st, model))
     _check(stat, f"tube_cut(dE = {de})")
     return {"dE": float(de), "r": r[:n].copy(), "p_r": pr[:n].copy(), "tau": tau[:n].copy(),
             "time": tm[:n].copy(), "state": xs[:, :n].T.copy(), "area": float(area),
@@ -755,7 +778,7 @@ def monte_carlo(model: Model | None = None, dE: float = 100.0, n_samples: int = 
     _check(stat, "monte_carlo")
     stat, r, pr, outc, ins = _lib().monte_carlo(*_study(model, st), *_section_args(st), float(dE),
                                                 int(n_samples), int(seed), float(st["mc_t_max"]),
-                                                float(st["mc_gate"]), *_integ(st), c["r"], c["p_r"])
+                                                float(st["mc_gate"]), *_integ(st, model), c["r"], c["p_r"])
     _check(stat, "monte_carlo")
     ins = ins.astype(bool)
     f = float(np.mean(outc == 1))
@@ -775,7 +798,7 @@ def poincare(model: Model | None = None, dE: float = 100.0, n_seeds=None, n_iter
     pm = {k: v for k, v in (("n_seeds", n_seeds), ("n_iter", n_iter), ("t_max", t_max)) if v is not None}
     st = _settings(model, saddle, saddle_near, section=section, sections=pm, integrator=integrator, equilibria=equilibria)
     stat, pts = _lib().poincare(*_study(model, st), *_section_args(st), float(dE), int(st["pm_n_seeds"]),
-                                int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st))
+                                int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st, model))
     out = np.moveaxis(pts, [0, 1, 2], [2, 1, 0]).copy()
     if stat < 0:
         err = TubesError(stat, "poincare")
@@ -807,7 +830,7 @@ def _section(section, level, direction):
 
 
 def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | None = None,
-              method: str = "dop853", rtol: float = 1e-12, atol: float = 1e-12, h: float = 0.0,
+              method: str = "auto", rtol: float = 1e-12, atol: float = 1e-12, h: float = 0.0,
               max_steps: int = 10_000_000, omega_bind: float = 0.0, solver: str = "newton",
               max_iter: int = 0, section: str | None = None, level: float = 0.0,
               direction: int = 0, stop_at_first: bool = False, max_crossings: int = 10_000) -> dict:
@@ -857,7 +880,8 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
     if kind == 1 and model.system != "rolling_ball":
         raise ValueError("the polar ray sections (U1, theta) are the rolling ball's; use 'x' or 'y'")
     stat, n, t, st, en, nc, ct, cx, cd, cnt = _lib().trajectory(
-        model.name, model.params(), _vec(state0, n2, "state0"), float(t_end), float(dt_out), METHODS[method],
+        model.name, model.params(), _vec(state0, n2, "state0"), float(t_end), float(dt_out),
+        _method(METHODS[method], model, float(rtol)),
         float(rtol), float(atol), float(h), int(max_steps), float(omega_bind),
         1 if solver == "newton" else 2, int(max_iter), kind, lev, dirn, int(bool(stop_at_first)),
         mc, nmax)

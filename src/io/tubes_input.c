@@ -101,7 +101,7 @@ const nml_var tubes_nml_vars[] = {
      "theta: sign of p_theta; x, y: sign of dx/dt or dy/dt; 0 both"},
     {"trajectory", "max_crossings", NML_INT, 1, "-", "10000", "1 .. 10000000", "crossings recorded at most (then the run stops)"},
     {"trajectory", "stop_at_first", NML_LOGICAL, 1, "-", ".false.", ".true., .false.", "stop at the first crossing"},
-    {"integrator", "method", NML_STRING, 1, "-", "'dop853'",
+    {"integrator", "method", NML_STRING, 1, "-", "'auto'",
      "dop853, rk4, tao2, tao4, tao6, gauss4, gauss6, gauss8, gsl_rk8pd, gsl_rk4imp, cvode_adams, arkode_erk8, taylor, auto",
      "integration method (docs/integrators.md)"},
     {"integrator", "rtol", NML_REAL, 1, "1", "1e-12", "1e-15 <= rtol < 1",

@@ -182,7 +182,7 @@ contains
     v%section_direction = 0
     v%max_crossings = 10000
     v%stop_at_first = .false.
-    v%method = 'dop853'
+    v%method = 'auto'
     v%rtol = 1.0e-12_c_double
     v%atol = 1.0e-12_c_double
     v%h = 0

@@ -195,7 +195,10 @@ int run_setup(tubes_run_t *run) {
     return EXIT_BADINPUT;
   }
   run->method = tubes_method_code(c->method);
-  if (run->method == TUBES_METHOD_TAYLOR || run->method == TUBES_METHOD_AUTO) {   /* the kernel, before output */
+  int integrates = 0;                /* a scene that integrates with &integrator's method */
+  for (int k = 0; k < TUBES_NSCENES; k++)
+    integrates |= c->scenes[k][0] && strcmp(c->scenes[k], "equilibria") && strcmp(c->scenes[k], "synthetic_experiment");
+  if (integrates && (run->method == TUBES_METHOD_TAYLOR || run->method == TUBES_METHOD_AUTO)) {   /* the kernel, before output */
     char m[1024];
     if (tubes_taylor_check(run->system, run->params, c->rtol, m, (int)sizeof m) < 0) {
       if (run->method == TUBES_METHOD_TAYLOR) {
