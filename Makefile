@@ -86,7 +86,7 @@ endif
 APT_PKGS := gfortran gcc make pkg-config libhdf5-dev liblapack-dev libgsl-dev libsundials-dev \
             libsundials-fortran-dev libfftw3-dev libopenmpi-dev openmpi-bin python3-dev python3-venv \
             clang-14 libclang-rt-14-dev
-PY_PKGS  := numpy scipy h5py matplotlib pytest meson ninja pandas xarray hypothesis sympy
+PY_PKGS  := numpy scipy h5py matplotlib pytest pytest-xdist meson ninja pandas xarray hypothesis sympy
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 deps:
 	@missing=$$(for p in $(APT_PKGS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null \
@@ -96,7 +96,7 @@ deps:
 	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq \
 	    --no-install-recommends $$missing || exit 1; \
 	else echo "deps: Debian packages already installed"; fi
-	@if $(VENV)/bin/python -c 'import numpy, scipy, h5py, matplotlib, pytest, mesonbuild, pandas, xarray, hypothesis, sympy' 2>/dev/null \
+	@if $(VENV)/bin/python -c 'import numpy, scipy, h5py, matplotlib, pytest, xdist, mesonbuild, pandas, xarray, hypothesis, sympy' 2>/dev/null \
 	    && [ -x $(VENV)/bin/ninja ]; then echo "deps: $(VENV) already complete"; \
 	else echo "deps: creating $(VENV) with $(PY_PKGS)"; \
 	  $(PYTHON) -m venv $(VENV) && $(VENV)/bin/python -m pip install --quiet --upgrade pip && \

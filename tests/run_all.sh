@@ -43,7 +43,11 @@ else
   echo "SKIP fuzz/namelist (no build/fuzz/fuzz_namelist: no clang-14)"
 fi
 log=build/testlogs/pytest.log
-OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python -m pytest -q -p no:cacheprovider --durations=15 tests >"$log" 2>&1
+# two pytest workers (pytest-xdist, installed by make deps), each test file on one worker (its
+# module fixtures made once); most tests run ./tubes on one thread
+xd=()
+.venv/bin/python -c 'import xdist' 2>/dev/null && xd=(-n "${TUBES_TEST_WORKERS:-2}" --dist loadfile)
+OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python -m pytest -q -p no:cacheprovider "${xd[@]}" --durations=15 tests >"$log" 2>&1
 prc=$?
 tail -3 "$log"
 np=$(grep -Eo '[0-9]+ passed' "$log" | tail -1 | grep -Eo '[0-9]+' || true)

@@ -127,10 +127,10 @@ def test_empty_namelist_is_the_paper(tmp_path, tubes_exe):
     assert "S12" in r.stdout and "T_po" in r.stdout
 
 
-def test_output_override_and_no_temp(tmp_path, tubes_exe):
-    r = run_tubes([str(ROOT / "input" / "paper.nml"), "-o", "x.h5"], tmp_path)
+def test_output_override_and_no_temp(paper_h5):
+    h5, r = paper_h5                      # input/paper.nml -o p.h5, in a directory of its own
     assert r.returncode == 0, r.stderr
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.h5"]
+    assert sorted(p.name for p in h5.parent.iterdir()) == ["p.h5"]
 
 
 def test_numerical_failure_is_reported(tmp_path, tubes_exe):
@@ -146,11 +146,11 @@ def test_numerical_failure_is_reported(tmp_path, tubes_exe):
         assert f.attrs["exit_status"] == 2
 
 
-def test_hdf5_contract(tmp_path, tubes_exe):
+def test_hdf5_contract(paper_h5):
     """Every dataset and attribute docs/output.md promises for the paper's input."""
-    r = run_tubes([str(ROOT / "input" / "paper.nml"), "-o", "p.h5"], tmp_path)
+    h5, r = paper_h5
     assert r.returncode == 0, r.stderr
-    with h5py.File(tmp_path / "p.h5") as f:
+    with h5py.File(h5) as f:
         for a in ["tubes_version", "git_commit", "created", "input_namelist", "compiler"]:
             assert a in f.attrs
         assert "&MODEL" in f.attrs["input_namelist"]

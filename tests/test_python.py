@@ -114,10 +114,10 @@ def test_equilibria_from_python():
         assert eq["lambda"][i] == pytest.approx(np.sqrt(-5 / 7 * GRAV * kmin), rel=1e-12)
 
 
-def test_load_reads_a_run(tmp_path):
-    r = run_tubes([str(ROOT / "input" / "paper.nml"), "-o", "p.h5"], tmp_path)
+def test_load_reads_a_run(paper_h5):
+    h5, r = paper_h5
     assert r.returncode == 0, r.stderr
-    res = tubes.load(str(tmp_path / "p.h5"))
+    res = tubes.load(str(h5))
     assert res.saddle.name == "S12" and res["saddle/name"] == "S12"
     assert res.saddle.T_po == pytest.approx(2 * np.pi / res.saddle.omega, rel=1e-15)
     assert res.equilibria.name[4] == "S12" and isinstance(res.equilibria.x, np.ndarray)
