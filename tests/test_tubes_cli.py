@@ -7,6 +7,7 @@ import subprocess
 
 import h5py
 import numpy as np
+import pytest
 
 import tubes
 from conftest import TUBES, run_tubes
@@ -131,6 +132,29 @@ def test_a_numerical_failure_of_the_monte_carlo_check_is_recorded_in_the_file(tm
         assert g.attrs["status"] == tubes.EFAULT and g.attrs["agrees"] == 0
         assert g["transit"][2] == tubes.EFAULT and "fraction" not in g.attrs
         assert list(f["transition/status"][:]) == [0]
+
+
+def test_the_monte_carlo_check_counts_standard_errors_of_the_tubes_p(tmp_path):
+    """A handful of points without a transit is no disagreement (0 of 3 at p = 0.082 has
+    probability 0.77; the fraction's own standard error, 0 there, called it infinitely many
+    standard errors off); a transit test that can never fire (the gate 30 cm past the saddle, far
+    beyond the well) is one, at 7.3 standard errors sqrt(p(1-p)/n) for 600 points: exit 2."""
+    p = 0.08196                                    # p_trans at dE = 100 (docs/tubes.md)
+    (tmp_path / "a.nml").write_text("&run scenes = 'montecarlo' /\n&montecarlo n_samples = 3 /\n")
+    r = run_tubes(["a.nml", "-o", "a.h5"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    with h5py.File(tmp_path / "a.h5") as f:
+        g = f["montecarlo"]
+        assert g.attrs["agrees"] == 1 and g.attrs["p_trans"] == pytest.approx(p, abs=1e-4)
+        k = round(g.attrs["fraction"] * 3)
+    m = re.search(r"p_trans = [0-9.]+, ([0-9.]+) standard errors", r.stdout)
+    assert m and float(m.group(1)) == pytest.approx(abs(k / 3 - p) / np.sqrt(p * (1 - p) / 3), abs=0.06)
+    (tmp_path / "b.nml").write_text("&run scenes = 'montecarlo' /\n&montecarlo n_samples = 600, gate = 30 /\n")
+    r = run_tubes(["b.nml", "-o", "b.h5"], tmp_path)
+    assert r.returncode == 2, r.stdout
+    assert "the direct check disagrees with the tube" in r.stderr
+    with h5py.File(tmp_path / "b.h5") as f:
+        assert f["montecarlo"].attrs["agrees"] == 0 and f["montecarlo"].attrs["fraction"] == 0
 
 
 def test_progress_lines_for_a_list_of_energies_come_at_most_once_a_second(tmp_path):

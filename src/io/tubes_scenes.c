@@ -1045,10 +1045,14 @@ int scene_montecarlo(tubes_run_t *run) {
       in_nt += ins[k] && out[k] != 1;
       out_t += !ins[k] && out[k] == 1;
     }
-    double f = (double)nt / ns, se = sqrt(f * (1 - f) / ns), p = ar / ae;
+    /* the distance in standard errors of a binomial count of ns points with the tube's p: the
+     * observed fraction's own sqrt(f(1-f)/n) is zero for 0 or ns transits, and would call one
+     * point without a transit a disagreement of infinitely many standard errors */
+    double f = (double)nt / ns, se = sqrt(f * (1 - f) / ns), p = ar / ae, se_p = sqrt(p * (1 - p) / ns);
+    double nsig = se_p > 0 ? fabs(f - p) / se_p : (f == p ? 0.0 : INFINITY);
     printf("montecarlo: dE = %g, %d points: transition fraction %.5f +- %.5f (p_trans = %.5f, %.1f standard errors);"
            " %d inside the tube; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided (%.1f s)\n",
-           de, ns, f, se, p, se > 0 ? fabs(f - p) / se : 0.0, nin, in_nt, out_t, nu, now() - t0);
+           de, ns, f, se, p, nsig, nin, in_nt, out_t, nu, now() - t0);
     int e = 0;
     hsize_t dn = (hsize_t)ns;
     hid_t g = mc_group(run, de, ns, 0, r, pr, out, &e);
@@ -1063,7 +1067,6 @@ int scene_montecarlo(tubes_run_t *run) {
     /* the two answers must agree: the direct count within MC_SIGMA standard errors of the tube's
      * p_trans, few misclassified points (a point within the cut's resolution of its boundary can
      * be), few undecided; else the run says so and exits 2 (docs/tubes.md, "Monte Carlo check") */
-    double nsig = se > 0 ? fabs(f - p) / se : (f == p ? 0.0 : INFINITY);
     int mis_lim = 2 + ns / 1000, und_lim = 2 + ns / 100;
     int agrees = nsig <= MC_SIGMA && in_nt + out_t <= mis_lim && nu <= und_lim;
     e |= h5_attr_long(g, "agrees", agrees);
