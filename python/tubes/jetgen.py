@@ -2,27 +2,29 @@
 automatic differentiation in time, generated as C.
 
 A vector field dx/dt = f(x) written with SymPy is decomposed into elementary operations (the
-nodes: linear combinations, products, squares, quotients, powers, exp, log, the trigonometric
-and hyperbolic functions and their inverses); each node's recurrence for its k-th normalised
-Taylor coefficient u_k (u(t0 + s) = sum_k u_k s^k) from the lower ones is written once below
-(`Node.code`), and the generated function computes, order by order, every node's coefficient k
-and then x_{k+1} = f_k / (k + 1). Sub-expressions are shared (sympy.cse, and hash-consing of the
-nodes), expressions of the parameters alone are computed once per call, and a quotient's and a
-power's division by the operand's constant term is a multiplication by its reciprocal, computed
-once per call.
+nodes, class Decomposition: linear combinations, products, squares, quotients, reciprocals,
+square roots, real powers, exp, log, the trigonometric and hyperbolic functions and their
+inverses, atan2, and the time derivative of a series one order ahead); each node's recurrence
+for its k-th normalised Taylor coefficient u_k (u(t0 + s) = sum_k u_k s^k) from the lower ones is
+written once per kernel kind below (_emit_node for the loop kernels, _sched_node for the
+straight-line ones), and the kernel computes, order by order, every node's coefficient k and then
+x_{k+1} = f_k / (k + 1). Sub-expressions are shared (sympy.cse, the model's own definitions, and
+hash-consing of the nodes), expressions of the parameters alone are computed once per call, and a
+quotient's and a power's division by the operand's constant term is a multiplication by its
+reciprocal, computed once per call.
 
-The generated function (one per lane count L):
-
-    int NAME(int order, const double *restrict par, double *restrict tc, double *restrict w)
-
+Two kernels (python/tubes/codegen.py --jet wraps either as tubes_jet(order, par, tc, w)):
+- generate_scheduled: one order, L lanes, straight-line code, NAME(par, tc);
+- generate_loops: any order, one lane, NAME_L1(order, par, tc, w) with w scratch of
+  NAME_nwork * (order + 1) doubles (the extended states: variational, tangent, action).
 tc holds x's coefficients, tc[(i*(order+1) + k)*L + l] for variable i, order k, lane l; the
-caller fills k = 0 with the state, the function fills k = 1..order. par: the parameters, in the
-order given to `generate`. w: scratch of NAME_nwork * (order+1) * L doubles (the nodes'
-coefficients). Returns 0, or -1 if a coefficient of order `order` or `order`-1 is not finite.
+caller fills k = 0 with the state, the kernel fills k = 1..order. par: the parameters (par[0] the
+damping rate). Both return 0, or -1 if a coefficient is not finite.
 
 Lanes: L trajectories at once, in lockstep; every lane does exactly the arithmetic of L = 1
-(explicit fma(), no reassociation across lanes), so a trajectory's coefficients do not depend on
-the lane it is in or on L (tests/test_taylor.py checks it bit for bit).
+(explicit fused multiply-adds, no other contraction, the same order of every sum), so a
+trajectory's coefficients do not depend on the lane it is in or on L (tests/test_lanes.f90 and
+tests/test_taylor.py check it bit for bit through the integrator).
 """
 
 #: the loop kernels' (the variational equations') accumulators of a convolution sum: one (their
