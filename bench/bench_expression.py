@@ -17,6 +17,7 @@ import time
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 from test_expression import BALL, FOURWELL, HH, PAPER  # noqa: E402  (the formulas the tests check)
+from benchdoc import write_section  # noqa: E402
 
 REPEAT = 5
 CONSTS = ", ".join(f"'{k} = {v}'" for k, v in PAPER.items())
@@ -88,14 +89,7 @@ def main():
     for name, b, h in builds:
         lines.append(f"| {name} | {b:.2f} | {h:.2f} |")
     lines += ["<!-- bench_expression end -->", ""]
-    md = ROOT / "docs" / "benchmarks.md"
-    text = md.read_text()
-    if "<!-- bench_expression begin -->" in text:
-        text = (text.split("<!-- bench_expression begin -->")[0] + "\n".join(lines)
-                + text.split("<!-- bench_expression end -->")[1].lstrip("\n"))
-    else:
-        text = text.rstrip("\n") + "\n\n" + "\n".join(lines)
-    md.write_text(text)
+    write_section("bench_expression", lines)
 
 
 if __name__ == "__main__":

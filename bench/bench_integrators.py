@@ -21,6 +21,7 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "python"))
 import tubes  # noqa: E402
+from benchdoc import write_section  # noqa: E402
 
 X0 = np.array([4.0, 12.614863819914357, 0.0, 0.0])
 T_END = 10.0
@@ -269,16 +270,7 @@ def main():
         lines.append(f"| {label} | {e.max():.2e} | {e[-1]:.2e} | {sec:.1f} |")
     lines += ["", "Symplectic methods (gauss4, tao2) keep the energy error bounded; rk4 and dop853 drift "
               "(linear growth in t).", "<!-- bench_integrators end -->", ""]
-    md = ROOT / "docs" / "benchmarks.md"
-    text = md.read_text() if md.exists() else "# Benchmarks\n"
-    if "<!-- bench_integrators begin -->" in text:
-        pre = text.split("<!-- bench_integrators begin -->")[0]
-        post = text.split("<!-- bench_integrators end -->")[1]
-        text = pre + "\n".join(lines) + post
-    else:
-        text = text.rstrip() + "\n\n" + "\n".join(lines)
-    md.write_text(text)
-    print("updated docs/benchmarks.md")
+    write_section("bench_integrators", lines)
 
 
 if __name__ == "__main__":

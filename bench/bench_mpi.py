@@ -14,6 +14,7 @@ import time
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "python"))
 from tubes.h5compare import compare  # noqa: E402
+from benchdoc import write_section  # noqa: E402
 
 MPI_BIN = ROOT / "build" / "mpi" / "bin" / "tubes"
 # scene: (input, items per synchronisation: the most workers one loop can keep busy)
@@ -127,13 +128,7 @@ def main():
              "|---|---|---|---|---|---|---|---|---|", *model, "<!-- bench_mpi end -->", ""]
     for ln in lines:
         print(ln)
-    md = ROOT / "docs" / "benchmarks.md"
-    text = md.read_text()
-    if "<!-- bench_mpi begin -->" in text:
-        text = text.split("<!-- bench_mpi begin -->")[0] + "\n".join(lines) + text.split("<!-- bench_mpi end -->")[1]
-    else:
-        text = text.rstrip() + "\n\n" + "\n".join(lines)
-    md.write_text(text)
+    write_section("bench_mpi", lines)
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ import tempfile
 import time
 
 import h5py
+from benchdoc import write_section  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
@@ -85,13 +86,7 @@ def main():
               "<!-- bench_tubes end -->", ""]
     for ln in lines:
         print(ln)
-    md = ROOT / "docs" / "benchmarks.md"
-    text = md.read_text()
-    if "<!-- bench_tubes begin -->" in text:
-        text = text.split("<!-- bench_tubes begin -->")[0] + "\n".join(lines) + text.split("<!-- bench_tubes end -->")[1]
-    else:
-        text = text.rstrip() + "\n\n" + "\n".join(lines)
-    md.write_text(text)
+    write_section("bench_tubes", lines)
 
 
 if __name__ == "__main__":

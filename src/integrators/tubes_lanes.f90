@@ -190,16 +190,7 @@ contains
       integer, intent(in) :: l
       integer :: st1
       call taylor_end(lane(l)%ig, lane(l)%x, lane(l)%tend, st1)
-      if (st1 < 0) then
-        call finish(l, st1)
-        return
-      end if
-      call lane_after_step(lane(l), done, st1)
-      if (done) then
-        call finish(l, st1)
-      else if (.not. lane(l)%ps%dir*(lane(l)%tend - lane(l)%ig%t) > 0) then
-        call finish(l, TUBES_OK)
-      end if
+      call stepped(l, st1)
     end subroutine after
 
     !> Lane l's step by its own one-lane kernel (taylor_begin was called).
@@ -208,6 +199,13 @@ contains
       integer :: st1
       call lane(l)%ig%step(lane(l)%x, lane(l)%tend, st1)
       lane(l)%ig%nfev = lane(l)%ig%nfev - 1     ! taylor_begin counted this step's evaluation
+      call stepped(l, st1)
+    end subroutine lone_step
+
+    !> Lane l has taken its step with status st1: its events, observer and end, as propagate's.
+    subroutine stepped(l, st1)
+      integer, intent(in) :: l
+      integer, intent(inout) :: st1
       if (st1 < 0) then
         call finish(l, st1)
         return
@@ -218,7 +216,7 @@ contains
       else if (.not. lane(l)%ps%dir*(lane(l)%tend - lane(l)%ig%t) > 0) then
         call finish(l, TUBES_OK)
       end if
-    end subroutine lone_step
+    end subroutine stepped
 
     !> The kernel of order p for LANES lanes (kept: at most two orders), slot kslot.
     subroutine batch_kernel(p, kslot, st, msg)
