@@ -340,7 +340,8 @@ enum { TUBES_MAX_RELEASE_DRAWS = 4194304 };
 
 /* Synthetic tracking data (src/experiment/tubes_experiment.f90, docs/experiment-data.md): n_tracks balls
  * released from rest at points drawn uniformly in |x|, |y| <= box [cm] with g H - e_e in
- * [de_min, de_max] [(cm/s)^2], integrated by DOP853 (rtol = atol = rtol) on the model with
+ * [de_min, de_max] [(cm/s)^2], integrated by the method given (method .. max_iter as for
+ * tubes_run_trajectory; rtol = atol = rtol) on the model with
  * damping ratio model[6], sampled at ns = tubes_experiment_samples(duration, camera_rate)
  * frames t[ns]; the measured position is the true one plus Gaussian noise of standard deviation
  * noise [cm], rounded to multiples of pixel [cm] (0: no rounding). GSL MT19937 from seed, drawn
@@ -352,6 +353,7 @@ enum { TUBES_MAX_RELEASE_DRAWS = 4194304 };
 int tubes_synthetic_experiment(const double params[TUBES_MAXPARAM], double e_e, int n_tracks,
                                double duration, double camera_rate, double pixel, double noise,
                                double de_min, double de_max, double box, int seed, double rtol,
+                               int method, double h, double omega_bind, int solver, int max_iter,
                                int ns, double t[], double state[], double energy[], double noisy[],
                                double measured[], double release[], double *c_damp, int *n_draws);
 

@@ -689,11 +689,13 @@ contains
 
   !> Synthetic tracking data (include/tubes.h, src/experiment/tubes_experiment.f90).
   integer(c_int) function c_synthetic_experiment(params, e_e, n_tracks, duration, camera_rate, &
-      pixel, noise, de_min, de_max, box, seed, rtol, ns, t, state, energy, noisy, measured, &
-      release, c_damp, n_draws) result(stat) bind(C, name='tubes_synthetic_experiment')
+      pixel, noise, de_min, de_max, box, seed, rtol, method, h, omega_bind, solver, max_iter, ns, t, &
+      state, energy, noisy, measured, release, c_damp, n_draws) result(stat) &
+      bind(C, name='tubes_synthetic_experiment')
     real(c_double), intent(in) :: params(MAX_PARAMS)
-    real(c_double), value :: e_e, duration, camera_rate, pixel, noise, de_min, de_max, box, rtol
-    integer(c_int), value :: n_tracks, seed, ns
+    real(c_double), value :: e_e, duration, camera_rate, pixel, noise, de_min, de_max, box, rtol, h, &
+      omega_bind
+    integer(c_int), value :: n_tracks, seed, ns, method, solver, max_iter
     real(c_double), intent(out) :: t(max(ns, 0)), state(4, max(ns, 0), max(n_tracks, 0)), &
       energy(max(ns, 0), max(n_tracks, 0)), noisy(2, max(ns, 0), max(n_tracks, 0)), &
       measured(2, max(ns, 0), max(n_tracks, 0)), release(3, max(n_tracks, 0)), c_damp
@@ -716,8 +718,8 @@ contains
     opts%seed = int(seed, c_long)
     opts%rtol = rtol
     opts%atol = rtol
-    call synthetic_experiment(params(1:NMODEL), opts, t, state, energy, noisy, measured, release, c_damp, &
-                              n_draws, stat)
+    call synthetic_experiment(params(1:NMODEL), opts, integ_of(method, h, omega_bind, solver, max_iter), t, &
+                              state, energy, noisy, measured, release, c_damp, n_draws, stat)
   end function c_synthetic_experiment
 
   subroutine c_sampler_on_step(self, ig, t_hi, stop_now)

@@ -16,9 +16,9 @@ module tubes_experiment
   use tubes_ball, only: ball_t
   use tubes_models, only: NMODEL, model_ball, conservative_ball
   use tubes_field, only: vector_field_t
-  use tubes_dop853, only: dop853_t
+  use tubes_methods, only: integ_choice_t, make_integrator
   use tubes_sampler, only: sampler_t
-  use tubes_integrator, only: propagate
+  use tubes_integrator, only: integrator_t, propagate
   implicit none
   private
 
@@ -75,10 +75,11 @@ contains
   !> points in the box have an excess energy in [de_min, de_max] after MAX_RELEASE_DRAWS draws;
   !> an integration failure's code (the tracks that failed keep their samples up to the
   !> failure, the rest of them NaN).
-  subroutine synthetic_experiment(params, opts, t, state, energy, noisy, measured, release, &
+  subroutine synthetic_experiment(params, opts, integ, t, state, energy, noisy, measured, release, &
                                   c_damp, n_draws, stat)
     real(wp), intent(in) :: params(NMODEL)
     type(experiment_opts_t), intent(in) :: opts
+    type(integ_choice_t), intent(in) :: integ    !! the integrator (&integrator method)
     real(wp), intent(out) :: t(:)                !! frame times [s] (ns)
     real(wp), intent(out) :: state(:, :, :)      !! true states [cm, cm/s] (4, ns, n_tracks)
     real(wp), intent(out) :: energy(:, :)        !! conservative energy [(cm/s)^2] (ns, n_tracks)
@@ -161,7 +162,7 @@ contains
         state(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
         cycle
       end if
-      call one_track(model, [release(1, j), release(2, j), 0.0_wp, 0.0_wp], dt, ns, opts%rtol, &
+      call one_track(model, integ, [release(1, j), release(2, j), 0.0_wp, 0.0_wp], dt, ns, opts%rtol, &
                      opts%atol, state(:, :, j), st(j))
     end do
     !$omp end parallel do
@@ -199,17 +200,21 @@ contains
     if (any(st /= TUBES_OK)) stat = minval(st)
   end subroutine synthetic_experiment
 
-  !> One track from rest at x0: DOP853 on the (damped) model, sampled every dt by the dense
-  !> output (ns frames from t = 0). On failure the frames not reached are NaN.
-  subroutine one_track(model, x0, dt, ns, rtol, atol, xs, stat)
+  !> One track from rest at x0: the chosen integrator on the (damped) model, sampled every dt by
+  !> the dense output (ns frames from t = 0). On failure the frames not reached are NaN.
+  subroutine one_track(model, integ, x0, dt, ns, rtol, atol, xs, stat)
     class(vector_field_t), intent(in) :: model
+    type(integ_choice_t), intent(in) :: integ
     real(wp), intent(in) :: x0(4), dt, rtol, atol
     integer, intent(in) :: ns
     real(wp), intent(out) :: xs(4, ns)
     integer, intent(out) :: stat
-    type(dop853_t) :: ig
+    class(integrator_t), allocatable :: ig
     type(sampler_t) :: obs
     real(wp) :: x(4)
+    xs = ieee_nan()
+    call make_integrator(integ, ig, stat)
+    if (stat /= TUBES_OK) return
     call ig%init(model, 0.0_wp)
     ig%rtol = rtol
     ig%atol = atol

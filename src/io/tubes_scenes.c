@@ -197,7 +197,7 @@ int run_setup(tubes_run_t *run) {
   run->method = tubes_method_code(c->method);
   int integrates = 0;                /* a scene that integrates with &integrator's method */
   for (int k = 0; k < TUBES_NSCENES; k++)
-    integrates |= c->scenes[k][0] && strcmp(c->scenes[k], "equilibria") && strcmp(c->scenes[k], "synthetic_experiment");
+    integrates |= c->scenes[k][0] && strcmp(c->scenes[k], "equilibria");
   if (integrates && (run->method == TUBES_METHOD_TAYLOR || run->method == TUBES_METHOD_AUTO)) {   /* the kernel, before output */
     char m[1024];
     if (tubes_taylor_check(run->system, run->params, c->rtol, m, (int)sizeof m) < 0) {
@@ -1173,8 +1173,8 @@ int scene_synthetic_experiment(tubes_run_t *run) {
   int ndraw = 0;
   fprintf(stderr, "synthetic_experiment: %d tracks of %g s at %g Hz...\n", nt, c->exp_duration, c->exp_camera_rate);
   st = tubes_synthetic_experiment(model, ee, nt, c->exp_duration, c->exp_camera_rate, c->exp_pixel, c->exp_noise,
-                                  c->exp_de_min, c->exp_de_max, box, c->exp_seed, rtol, ns, t, state, energy, noisy,
-                                  meas, rel, &cd, &ndraw);
+                                  c->exp_de_min, c->exp_de_max, box, c->exp_seed, rtol, INTEGRATOR(c), ns, t, state,
+                                  energy, noisy, meas, rel, &cd, &ndraw);
   if (st == TUBES_EINPUT) {
     fprintf(stderr, "tubes: synthetic_experiment: found fewer than %d release points with g H - E_e in "
             "[%g, %g] (cm/s)^2 in the box |x|, |y| <= %g cm after %d draws (E_e = %.10g (cm/s)^2 of %s); "
@@ -1238,6 +1238,7 @@ int scene_synthetic_experiment(tubes_run_t *run) {
   e |= h5_attr_double(g, "E_e", ee);
   e |= h5_attr_string(g, "saddle", run->saddle);
   e |= h5_attr_double(g, "box", box);
+  e |= h5_attr_string(g, "method", method_label(run));
   e |= h5_attr_double(g, "rtol", rtol);
   e |= h5_attr_long(g, "n_draws", ndraw);
   e |= h5_attr_long(g, "status", st);
