@@ -140,6 +140,30 @@ def work_precision(ref):
             return ta.state.copy()
         sec, x = best_of(prop, 5)
         add(f"tol {tol:.0e}", "heyoka", x, sec, -1)
+    # ensembles: the time per trajectory of NB copies of the start, one thread; tubes.ensemble
+    # (the Taylor method's lanes, 4 wide) against heyoka's batch mode (its recommended SIMD width)
+    nb = 64
+    starts = np.tile(X0, (nb, 1))
+    bw = hy.recommended_simd_size()
+    for tol in [1e-6, 1e-8, 1e-10, 1e-12, 1e-14]:
+        tubes.ensemble(starts[:4], T_END, model=M, method="taylor", rtol=tol, atol=tol, threads=1)
+
+        def ens():
+            return tubes.ensemble(starts, T_END, model=M, method="taylor", rtol=tol, atol=tol, threads=1)
+        sec, e = best_of(ens, 5)
+        add(f"tol {tol:.0e}", "taylor lanes", e["state"][0], sec / nb, -1)
+        tb = hy.taylor_adaptive_batch(heyoka_system(), np.tile(X0[:, None], (1, bw)).copy(), tol=tol)
+
+        def batch():
+            xs = []
+            for _ in range(nb // bw):
+                tb.set_time(0.0)
+                tb.state[:] = X0[:, None]
+                tb.propagate_until(T_END)
+                xs.append(tb.state[:, 0].copy())
+            return xs[0]
+        sec, x = best_of(batch, 5)
+        add(f"tol {tol:.0e}", "heyoka batch", x, sec / nb, -1)
     return rows
 
 
@@ -185,9 +209,9 @@ def main():
     fig, axs = plt.subplots(1, 2, figsize=(13, 5))
     for fam in fams:
         pts = sorted([r for r in rows if r[1] == fam], key=lambda r: r[2])
-        style = "--" if fam in ("scipy DOP853", "heyoka") else "-"
+        style = "--" if fam in ("scipy DOP853", "heyoka", "heyoka batch") else "-"
         axs[0].loglog([p[2] for p in pts], [p[3] for p in pts], style, marker="o", ms=3, label=fam)
-        if fam != "heyoka":
+        if fam not in ("heyoka", "heyoka batch", "taylor lanes"):
             axs[1].loglog([p[2] for p in pts], [p[4] for p in pts], style, marker="o", ms=3, label=fam)
     for ax, lab in zip(axs, ["wall time [s]", "right-hand-side evaluations"]):
         ax.set_xlabel("relative error of the final state at t = 10 s")
@@ -213,12 +237,12 @@ def main():
     levels = [1e-6, 1e-7, 1e-8, 1e-9, 1e-10]
     # the tightest error both tubes' best and heyoka reach in double precision
     reach = max(min(r[2] for r in rows if r[1] == "heyoka"),
-                min(r[2] for r in rows if r[1] not in ("scipy DOP853", "heyoka")))
+                min(r[2] for r in rows if r[1] not in ("scipy DOP853", "heyoka", "taylor lanes", "heyoka batch")))
     levels.append(float(f"{reach * 1.05:.1e}"))
     floor_level = float(f"{max(floor):.1e}")
     if floor_level != levels[-1]:
         levels.insert(-1, floor_level)
-    tubes_fams = [f for f in fams if f not in ("scipy DOP853", "heyoka")]
+    tubes_fams = [f for f in fams if f not in ("scipy DOP853", "heyoka", "taylor lanes", "heyoka batch")]
     lines = ["<!-- bench_integrators begin -->", "## Work-precision (problem 1)", "",
              f"Measured {datetime.date.today().isoformat()} by `make bench` (bench/bench_integrators.py). "
              f"Reference: {ref_label}" + (f" ({ref_unc:.1e})" if ref_unc else "") + ".", "",
@@ -261,7 +285,17 @@ def main():
               "",
               "Times interpolated log-log along each method's curve; heyoka's JIT compilation "
               "(once per tolerance, about a second) is excluded; scipy integrates a numpy right-hand side.",
-              "", "All points:", "", "| method | setting | error | time [ms] | nfev |", "|---|---|---|---|---|"]
+              "", "Ensembles (time per trajectory, 64 copies of the start on one thread): tubes.ensemble, "
+              "the Taylor method in 4 lanes, against heyoka's batch mode (taylor_adaptive_batch, its "
+              "recommended SIMD width, 16 batches):", "",
+              "| error | taylor lanes [ms] | heyoka batch [ms] | heyoka batch / taylor lanes | taylor alone / taylor lanes |",
+              "|---|---|---|---|---|"]
+    for lev in (1e-6, 1e-8, 1e-10):
+        tl, hb = time_at_error(rows, "taylor lanes", lev), time_at_error(rows, "heyoka batch", lev)
+        ta = time_at_error(rows, "taylor", lev)
+        lines.append(f"| {lev:.0e} | {tl * 1e3:.3f} | {hb * 1e3:.3f} | {hb / tl:.2f} | {ta / tl:.2f} |")
+    lines += ["", "All points (the ensembles' times per trajectory):", "",
+              "| method | setting | error | time [ms] | nfev |", "|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r[1]} | {r[0]} | {r[2]:.2e} | {r[3] * 1e3:.3f} | {r[4] if r[4] >= 0 else '-'} |")
     lines += ["", "## Long-time energy error (10^4 s)", "", "![energy](energy_longtime.png)", "",

@@ -246,6 +246,25 @@ subroutine trajectory(system, params, n2, x0, t_end, dt_out, method, rtol, atol,
                       obs, n, t, state, en, n_cross, cross_t, cross_x, cross_dir, counters, c, stat)
 end subroutine trajectory
 
+subroutine ensemble(system, params, n2, m, x0, t_end, method, rtol, atol, h, max_steps, omega_bind, &
+                    solver, max_iter, threads, stat, xs, st, nsteps)
+  ! many integrations of one model from t = 0 to t_end (src/workflow/tubes_run.f90 run_ensemble)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_methods, only: method_opts_t
+  use tubes_run, only: run_ensemble
+  implicit none
+  character(len=*), intent(in) :: system
+  integer(c_int), intent(in) :: n2, m, method, solver, max_iter, threads
+  real(c_double), intent(in) :: params(16), x0(n2, m), t_end, rtol, atol, h, omega_bind
+  integer(c_int64_t), intent(in) :: max_steps
+  integer(c_int), intent(out) :: stat, st(m)
+  real(c_double), intent(out) :: xs(n2, m)
+  integer(c_int64_t), intent(out) :: nsteps(m)
+  call run_ensemble(trim(system), params, x0, t_end, method, rtol, atol, h, max_steps, &
+                    method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter), threads, &
+                    xs, st, nsteps, stat)
+end subroutine ensemble
+
 subroutine section_boundary(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, &
                             dir, de, m, stat, smin, smax, s, pmin, pmax)
   ! the energy surface's boundary on a section (src/transport/tubes_section_kinds.f90) at E_e(saddle) + de:

@@ -182,6 +182,37 @@ def test_lanes_do_not_depend_on_threads(tmp_path):
         assert np.array_equal(out["1"][k], out["2"][k], equal_nan=True), k
 
 
+@pytest.mark.parametrize("method", ["taylor", "dop853"])
+def test_python_ensemble_is_lone_integrations(method):
+    """tubes.ensemble (the lanes for the Taylor method): every row is integrate()'s final state
+    from it bit for bit, in any order of the rows and for 1 or 2 threads; Henon-Heiles too (a
+    model of another dimension of parameters); a row that fails says so (status, TubesError with
+    the partial result) without spoiling the others."""
+    x0 = np.array([4.0, 12.614863819914357, 0.0, 0.0])
+    rng = np.random.default_rng(5)
+    s = np.tile(x0, (23, 1))
+    s[:, 1] += rng.uniform(-0.5, 0.5, 23)
+    s[:, 2] += rng.uniform(-5, 5, 23)
+    m = tubes.Model()
+    kw = dict(model=m, method=method, rtol=1e-10, atol=1e-10)
+    lone = np.array([tubes.integrate(x, 2.5, **kw)["state"][-1] for x in s])
+    e2 = tubes.ensemble(s, 2.5, threads=2, **kw)
+    e1 = tubes.ensemble(s[::-1], 2.5, threads=1, **kw)
+    assert np.array_equal(e2["state"], lone) and np.array_equal(e1["state"][::-1], lone)
+    assert np.all(e2["status"] == 0) and np.all(e2["nsteps"] > 10)
+    hh = tubes.Model(system="henon_heiles")
+    sh = np.array([[0.0, 0.1, 0.35, 0.0], [0.1, 0.0, 0.0, 0.3], [0.0, -0.2, 0.2, 0.1]])
+    eh = tubes.ensemble(sh, 50.0, model=hh, method=method, rtol=1e-10, atol=1e-10)
+    for x, y in zip(sh, eh["state"]):
+        assert np.array_equal(y, tubes.integrate(x, 50.0, model=hh, method=method, rtol=1e-10,
+                                                 atol=1e-10)["state"][-1])
+    with pytest.raises(tubes.TubesError) as err:
+        tubes.ensemble(s[:5], 2.5, max_steps=20, **kw)
+    assert np.all(err.value.partial["status"] == tubes.EMAXSTEPS)
+    with pytest.raises(ValueError, match=r"states must have shape \(m, 4\)"):
+        tubes.ensemble(s[:, :3], 1.0, **kw)
+
+
 def test_auto_without_a_kernel_falls_back_to_dop853(tmp_path):
     """The default method, 'auto', where no Taylor kernel can be had (code generation off, an
     empty cache): the run says so, uses DOP853 throughout and succeeds; its trajectory is DOP853's

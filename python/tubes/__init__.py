@@ -35,7 +35,7 @@ METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, 
            "arkode_erk8": 12, "taylor": 13, "auto": 14}   # include/tubes.h TUBES_METHOD_*
 FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 
-__all__ = ["Model", "TubesError", "status_message", "systems", "model_info", "energy", "energies", "potentials",
+__all__ = ["Model", "TubesError", "ensemble", "status_message", "systems", "model_info", "energy", "energies", "potentials",
            "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
            "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
            "orbit_family", "tube_cut", "transition", "monte_carlo", "poincare", "flux", "normal_form_map",
@@ -829,6 +829,27 @@ def _section(section, level, direction):
     raise ValueError(f"unknown section {section!r}; allowed: none, U1-, U1+, U1, theta, x, y")
 
 
+def _check_integration(method, t_end, rtol, atol, h, max_steps, solver):
+    """The input file's ranges for an integration (docs/input.md, &integrator and &trajectory),
+    with the same messages."""
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; allowed: {', '.join(METHODS)}")
+    if method in FIXED_STEP and not h > 0:
+        raise ValueError(f"method {method!r} is fixed-step: give h > 0")
+    if solver not in ("newton", "fixed_point"):
+        raise ValueError("solver must be 'newton' or 'fixed_point'")
+    if not t_end >= 0:
+        raise ValueError(f"t_end = {t_end} is out of range: allowed >= 0")
+    if not (1e-15 <= rtol < 1):
+        raise ValueError(f"rtol = {rtol} is out of range: allowed 1e-15 <= rtol < 1")
+    if not atol > 0:
+        raise ValueError(f"atol = {atol} is out of range: allowed > 0")
+    if not h >= 0:
+        raise ValueError(f"h = {h} is out of range: allowed >= 0 (0: variable step)")
+    if not max_steps >= 1:
+        raise ValueError(f"max_steps = {max_steps} is out of range: allowed >= 1")
+
+
 def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | None = None,
               method: str = "auto", rtol: float = 1e-12, atol: float = 1e-12, h: float = 0.0,
               max_steps: int = 10_000_000, omega_bind: float = 0.0, solver: str = "newton",
@@ -848,23 +869,7 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
     r, p_r, p_theta (polar canonical coordinates). Raises TubesError on failure.
     """
     model = model or Model()
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}; allowed: {', '.join(METHODS)}")
-    if method in FIXED_STEP and not h > 0:
-        raise ValueError(f"method {method!r} is fixed-step: give h > 0")
-    if solver not in ("newton", "fixed_point"):
-        raise ValueError("solver must be 'newton' or 'fixed_point'")
-    # the input file's ranges (docs/input.md, &integrator and &trajectory), the same messages
-    if not t_end >= 0:
-        raise ValueError(f"t_end = {t_end} is out of range: allowed >= 0")
-    if not (1e-15 <= rtol < 1):
-        raise ValueError(f"rtol = {rtol} is out of range: allowed 1e-15 <= rtol < 1")
-    if not atol > 0:
-        raise ValueError(f"atol = {atol} is out of range: allowed > 0")
-    if not h >= 0:
-        raise ValueError(f"h = {h} is out of range: allowed >= 0 (0: variable step)")
-    if not max_steps >= 1:
-        raise ValueError(f"max_steps = {max_steps} is out of range: allowed >= 1")
+    _check_integration(method, t_end, rtol, atol, h, max_steps, solver)
     if section == "theta" and not -360 <= level <= 360:
         raise ValueError(f"level = {level} is out of range for section 'theta': allowed -360 .. 360 [deg]")
     if direction not in (-1, 0, 1):
@@ -897,6 +902,44 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
         out["crossings"] = cr
     if stat < 0:   # keep what was computed up to the failure: err.partial
         err = TubesError(stat, "integrate")
+        err.partial = out
+        raise err
+    return out
+
+
+def ensemble(states, t_end: float, model: Model | None = None, method: str = "auto",
+             rtol: float = 1e-12, atol: float = 1e-12, h: float = 0.0, max_steps: int = 10_000_000,
+             omega_bind: float = 0.0, solver: str = "newton", max_iter: int = 0, threads: int = 0) -> dict:
+    """Integrate many states of one model from t = 0 to t_end: states (m, 2 ndof), one per row.
+
+    The Taylor method ('auto', 'taylor') integrates them in SIMD lanes, four at a time in
+    lockstep, and OpenMP threads share the lanes' chunks (`threads`, 0: OMP_NUM_THREADS); any
+    other method integrates one state at a time per thread. A row's result does not depend on
+    the threads or the other rows (docs/integrators-taylor.md, "Ensembles in lanes"); with the
+    Taylor method and DOP853 it is bit for bit integrate()'s final state from that row (the other
+    methods' final sample in integrate() is their dense output at t_end, which may differ from
+    the step's end state in the last bits). Options as integrate's.
+
+    Returns a dict: state (m, 2 ndof) at t_end, status (m,) (0, or the TUBES_* code where that
+    row's integration failed: its state is where it stopped), nsteps (m,). Raises TubesError if
+    any row failed (err.partial holds the dict)."""
+    model = model or Model()
+    _check_integration(method, t_end, rtol, atol, h, max_steps, solver)
+    x0 = np.ascontiguousarray(np.asarray(states, dtype=float))
+    n2 = 2 * model.ndof
+    if x0.ndim != 2 or x0.shape[1] != n2 or x0.shape[0] < 1:
+        raise ValueError(f"states must have shape (m, {n2}), m >= 1: got {x0.shape}")
+    if not np.all(np.isfinite(x0)):
+        raise ValueError("states must be finite")
+    stat, xs, st, ns = _lib().ensemble(
+        model.name, model.params(), x0.T, float(t_end),
+        _method(METHODS[method], model, float(rtol)), float(rtol), float(atol), float(h), int(max_steps),
+        float(omega_bind), 1 if solver == "newton" else 2, int(max_iter), int(threads))
+    if stat < 0:
+        raise TubesError(stat, "ensemble")
+    out = {"state": xs.T.copy(), "status": st.copy(), "nsteps": ns.copy()}
+    if np.any(st < 0):
+        err = TubesError(int(st.min()), f"ensemble: {int(np.sum(st < 0))} of {len(st)} rows failed")
         err.partial = out
         raise err
     return out

@@ -397,15 +397,20 @@ contains
     n2 = maxval(abs(tc(p + 1, :)))
   end subroutine top_norms
 
-  !> x = sum_k tc(k, :) ds^k by Horner's scheme, all components at once (vectorised across them).
+  !> x = sum_k tc(k, :) ds^k by Horner's scheme, component by component along its contiguous
+  !> coefficients (the components' chains are independent: the processor overlaps them).
   pure subroutine horner(tc, s, n, p, ds, x)
     integer, intent(in) :: s, n, p
     real(wp), intent(in) :: tc(s, n), ds
     real(wp), intent(out) :: x(n)
-    integer :: k
-    x = tc(p + 1, :)
-    do k = p, 1, -1
-      x = x*ds + tc(k, :)
+    real(wp) :: acc
+    integer :: i, k
+    do i = 1, n
+      acc = tc(p + 1, i)
+      do k = p, 1, -1
+        acc = acc*ds + tc(k, i)
+      end do
+      x(i) = acc
     end do
   end subroutine horner
 

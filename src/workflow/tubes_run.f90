@@ -8,7 +8,9 @@ module tubes_run
   use tubes_models, only: make_field, make_model
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, event_t, plane_t, crossing_log_t, propagate
-  use tubes_methods, only: new_integrator, method_opts_t
+  use tubes_methods, only: new_integrator, method_opts_t, integ_choice_t, uses_taylor
+  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes
+  use omp_lib, only: omp_get_max_threads
   use tubes_sampler, only: sampler_t
   use tubes_section_events, only: theta_line_t
   implicit none
@@ -28,7 +30,23 @@ module tubes_run
     integer :: max_crossings = 10000
   end type section_spec_t
 
-  public :: run_integration, run_trajectory
+  public :: run_integration, run_trajectory, run_ensemble
+
+  !> Items of an ensemble per call of run_lanes (an OpenMP thread's unit of work)
+  integer, parameter :: ENSEMBLE_CHUNK = 64
+
+  !> run_ensemble's states as the lanes' items: each integrated from t = 0 to t_end, no events.
+  type, extends(lane_jobs_t) :: ensemble_jobs_t
+    class(vector_field_t), allocatable :: field
+    real(wp), allocatable :: x0(:, :), xs(:, :)
+    real(wp) :: t_end = 0, rtol = 0, atol = 0, h = 0
+    integer(i8) :: max_steps = 0
+    integer, allocatable :: st(:)
+    integer(i8), allocatable :: nsteps(:)
+  contains
+    procedure :: start => ensemble_start
+    procedure :: finish => ensemble_finish
+  end type ensemble_jobs_t
 
 contains
 
@@ -153,4 +171,116 @@ contains
       end do
     end if
   end subroutine run_trajectory
+
+  !> Many integrations of one model from t = 0 to t_end, each from its own state x0(:, k), to
+  !> xs(:, k) with status st(k) and nsteps(k) steps: the Taylor method ('taylor', 'auto') in the
+  !> lanes (LANES at a time, ENSEMBLE_CHUNK states per thread's unit), any other method one state
+  !> at a time; over `threads` OpenMP threads (0: all). Each state's result is that of a lone
+  !> integration bit for bit, whatever the threads (tubes_lanes). stat: the set-up's status (a
+  !> failed state has its own st(k) < 0 and xs(:, k) where it stopped).
+  subroutine run_ensemble(system, params, x0, t_end, method, rtol, atol, h, max_steps, mopts, threads, &
+                          xs, st, nsteps, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:), x0(:, :), t_end, rtol, atol, h
+    integer, intent(in) :: method, threads
+    integer(i8), intent(in) :: max_steps
+    type(method_opts_t), intent(in) :: mopts
+    real(wp), intent(out) :: xs(:, :)
+    integer, intent(out) :: st(:)
+    integer(i8), intent(out) :: nsteps(:)
+    integer, intent(out) :: stat
+    type(ensemble_jobs_t) :: jobs
+    class(integrator_t), allocatable :: ig
+    real(wp) :: c_damp
+    integer :: m, k, c, nthr, items(ENSEMBLE_CHUNK)
+    xs = x0
+    st = TUBES_EINPUT
+    nsteps = 0
+    m = size(x0, 2)
+    call make_field(system, params, jobs%field, c_damp, stat)
+    if (stat /= TUBES_OK) return
+    if (size(x0, 1) /= jobs%field%dim() .or. t_end < 0 .or. any(shape(xs) /= shape(x0)) .or. &
+        size(st) /= m .or. size(nsteps) /= m) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    call new_integrator(method, ig, stat, mopts)        ! the method exists
+    if (stat /= TUBES_OK) return
+    nthr = threads
+    if (nthr <= 0) nthr = omp_get_max_threads()
+    st = TUBES_OK
+    if (uses_taylor(integ_choice_t(method=method))) then
+      jobs%x0 = x0
+      jobs%xs = x0
+      jobs%t_end = t_end
+      jobs%rtol = rtol
+      jobs%atol = atol
+      jobs%h = h
+      jobs%max_steps = max_steps
+      allocate (jobs%st(m), jobs%nsteps(m))
+      jobs%st = TUBES_OK
+      jobs%nsteps = 0
+      !$omp parallel do schedule(dynamic) default(shared) private(c, k, items) num_threads(nthr)
+      do c = 1, (m + ENSEMBLE_CHUNK - 1)/ENSEMBLE_CHUNK
+        do k = 1, min(ENSEMBLE_CHUNK, m - (c - 1)*ENSEMBLE_CHUNK)
+          items(k) = (c - 1)*ENSEMBLE_CHUNK + k
+        end do
+        call run_lanes(jobs, items(1:min(ENSEMBLE_CHUNK, m - (c - 1)*ENSEMBLE_CHUNK)))
+      end do
+      !$omp end parallel do
+      xs = jobs%xs
+      st = jobs%st
+      nsteps = jobs%nsteps
+    else
+      !$omp parallel do schedule(dynamic) default(shared) private(k) num_threads(nthr)
+      do k = 1, m
+        call lone(k)
+      end do
+      !$omp end parallel do
+    end if
+  contains
+    !> State k by its own integrator (one per call: nothing shared between threads but the model).
+    subroutine lone(k)
+      integer, intent(in) :: k
+      class(integrator_t), allocatable :: ik
+      real(wp) :: x(size(x0, 1))
+      call new_integrator(method, ik, st(k), mopts)
+      if (st(k) /= TUBES_OK) return
+      call ik%init(jobs%field, 0.0_wp)
+      ik%rtol = rtol
+      ik%atol = atol
+      ik%h = h
+      ik%max_steps = max_steps
+      x = x0(:, k)
+      if (t_end > 0) call propagate(ik, x, t_end, st(k))
+      xs(:, k) = x
+      nsteps(k) = ik%nsteps
+    end subroutine lone
+  end subroutine run_ensemble
+
+  !> State k in a lane: the Taylor integrator on the model, its tolerances, from t = 0.
+  subroutine ensemble_start(self, k, lane, stat)
+    class(ensemble_jobs_t), intent(inout) :: self
+    integer, intent(in) :: k
+    type(lane_t), intent(inout) :: lane
+    integer, intent(out) :: stat
+    stat = TUBES_OK
+    call lane%ig%init(self%field, 0.0_wp)
+    lane%ig%rtol = self%rtol
+    lane%ig%atol = self%atol
+    lane%ig%h = self%h
+    lane%ig%max_steps = self%max_steps
+    lane%x = self%x0(:, k)
+    lane%tend = self%t_end
+  end subroutine ensemble_start
+
+  !> State k's end: where it stopped, its status and steps.
+  subroutine ensemble_finish(self, k, lane)
+    class(ensemble_jobs_t), intent(inout) :: self
+    integer, intent(in) :: k
+    type(lane_t), intent(inout) :: lane
+    self%xs(:, k) = lane%x
+    self%st(k) = lane%stat
+    self%nsteps(k) = lane%ig%nsteps
+  end subroutine ensemble_finish
 end module tubes_run
