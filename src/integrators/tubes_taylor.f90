@@ -397,20 +397,37 @@ contains
     n2 = maxval(abs(tc(p + 1, :)))
   end subroutine top_norms
 
-  !> x = sum_k tc(k, :) ds^k by Horner's scheme, component by component along its contiguous
-  !> coefficients (the components' chains are independent: the processor overlaps them).
+  !> x = sum_k tc(k, :) ds^k by Horner's scheme, four components at a time in four independent
+  !> chains (a chain's multiply-add waits for its last one: four in flight hide that latency);
+  !> every component's arithmetic is the plain scheme's.
   pure subroutine horner(tc, s, n, p, ds, x)
     integer, intent(in) :: s, n, p
     real(wp), intent(in) :: tc(s, n), ds
     real(wp), intent(out) :: x(n)
-    real(wp) :: acc
+    real(wp) :: a1, a2, a3, a4
     integer :: i, k
-    do i = 1, n
-      acc = tc(p + 1, i)
+    do i = 1, n - 3, 4
+      a1 = tc(p + 1, i)
+      a2 = tc(p + 1, i + 1)
+      a3 = tc(p + 1, i + 2)
+      a4 = tc(p + 1, i + 3)
       do k = p, 1, -1
-        acc = acc*ds + tc(k, i)
+        a1 = a1*ds + tc(k, i)
+        a2 = a2*ds + tc(k, i + 1)
+        a3 = a3*ds + tc(k, i + 2)
+        a4 = a4*ds + tc(k, i + 3)
       end do
-      x(i) = acc
+      x(i) = a1
+      x(i + 1) = a2
+      x(i + 2) = a3
+      x(i + 3) = a4
+    end do
+    do i = 4*(n/4) + 1, n
+      a1 = tc(p + 1, i)
+      do k = p, 1, -1
+        a1 = a1*ds + tc(k, i)
+      end do
+      x(i) = a1
     end do
   end subroutine horner
 
