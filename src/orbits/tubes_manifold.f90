@@ -14,7 +14,7 @@ module tubes_manifold
   use tubes_variational, only: variational_t, make_variational, stm_start, tangent_t, make_tangent
   use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
   use tubes_taylor, only: taylor_t, taylor_record_t
-  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes
+  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes_chunked
   use tubes_integrator, only: integrator_t
   use tubes_integrator, only: propagate
   use tubes_section_kinds, only: poincare_t
@@ -358,7 +358,7 @@ contains
       real(wp), intent(in) :: tt(:)
       integer, intent(in) :: i1, i2
       real(wp) :: p(2, i2 - i1 + 1), tc(i2 - i1 + 1), xc(size(v0), i2 - i1 + 1)
-      integer :: s(i2 - i1 + 1), k, kf, c, nm, nk
+      integer :: s(i2 - i1 + 1), k, kf, nk
       integer, allocatable :: mine(:)
       type(par_t) :: pp
       pp = grp                           ! seed k - i1 + 1 of this round is computed on its owner
@@ -374,12 +374,7 @@ contains
         allocate (jobs%p(2, nk), jobs%tc(nk), jobs%xc(size(v0), nk), jobs%st(nk))
         jobs%st = TUBES_OK
         mine = pack([(k, k = 1, nk)], [(pp%mine(k) .and. k + i1 - 1 /= kf, k = 1, nk)])
-        nm = size(mine)
-        !$omp parallel do schedule(dynamic) default(shared) private(c)
-        do c = 1, (nm + SEED_CHUNK - 1)/SEED_CHUNK
-          call run_lanes(jobs, mine((c - 1)*SEED_CHUNK + 1:min(nm, c*SEED_CHUNK)))
-        end do
-        !$omp end parallel do
+        call run_lanes_chunked(jobs, mine, SEED_CHUNK)
         do k = 1, nk
           if (.not. pp%mine(k)) cycle
           if (k + i1 - 1 == kf) then

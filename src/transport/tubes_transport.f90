@@ -10,7 +10,7 @@ module tubes_transport
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
   use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
   use tubes_integrator, only: event_t
-  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes, LANES
+  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes_chunked, LANES
   use tubes_section_kinds, only: poincare_t
   implicit none
   private
@@ -245,7 +245,6 @@ contains
     subroutine mc_lanes()
       type(mc_jobs_t) :: jobs
       integer, allocatable :: mine(:)
-      integer :: c, nm
       allocate (jobs%model, source=model)
       jobs%psec = psec
       jobs%gspec = gspec
@@ -261,12 +260,7 @@ contains
       if (kf >= 1 .and. kf <= n) then
         if (pp%mine(kf)) jobs%st(kf) = TUBES_EFAULT
       end if
-      nm = size(mine)
-      !$omp parallel do schedule(dynamic) default(shared) private(c)
-      do c = 1, (nm + LANE_CHUNK - 1)/LANE_CHUNK
-        call run_lanes(jobs, mine((c - 1)*LANE_CHUNK + 1:min(nm, c*LANE_CHUNK)))
-      end do
-      !$omp end parallel do
+      call run_lanes_chunked(jobs, mine, LANE_CHUNK)
       do i = 1, n
         if (.not. pp%mine(i)) cycle
         st(i) = jobs%st(i)
@@ -366,7 +360,7 @@ contains
     subroutine map_lanes()
       type(map_jobs_t) :: jobs
       integer, allocatable :: mine(:)
-      integer :: c, nm, ns
+      integer :: ns
       ns = size(x0, 2)
       allocate (jobs%model, source=ball)
       jobs%psec = psec
@@ -379,12 +373,7 @@ contains
       jobs%pts = ieee_value(1.0_wp, ieee_quiet_nan)
       jobs%st = TUBES_OK
       mine = pack([(j, j = 1, ns)], [(pp%mine(j) .and. j /= kf, j = 1, ns)])
-      nm = size(mine)
-      !$omp parallel do schedule(dynamic) default(shared) private(c)
-      do c = 1, (nm + LANES - 1)/LANES
-        call run_lanes(jobs, mine((c - 1)*LANES + 1:min(nm, c*LANES)))
-      end do
-      !$omp end parallel do
+      call run_lanes_chunked(jobs, mine, LANES)
       do j = 1, ns
         if (.not. pp%mine(j)) cycle
         if (j == kf) then

@@ -9,7 +9,7 @@ module tubes_run
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, event_t, plane_t, crossing_log_t, propagate
   use tubes_methods, only: new_integrator, method_opts_t, integ_choice_t, uses_taylor
-  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes
+  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes_chunked
   use omp_lib, only: omp_get_max_threads
   use tubes_sampler, only: sampler_t
   use tubes_section_events, only: theta_line_t
@@ -192,7 +192,7 @@ contains
     type(ensemble_jobs_t) :: jobs
     class(integrator_t), allocatable :: ig
     real(wp) :: c_damp
-    integer :: m, k, c, nthr, items(ENSEMBLE_CHUNK)
+    integer :: m, k, nthr
     xs = x0
     st = TUBES_EINPUT
     nsteps = 0
@@ -220,14 +220,7 @@ contains
       allocate (jobs%st(m), jobs%nsteps(m))
       jobs%st = TUBES_OK
       jobs%nsteps = 0
-      !$omp parallel do schedule(dynamic) default(shared) private(c, k, items) num_threads(nthr)
-      do c = 1, (m + ENSEMBLE_CHUNK - 1)/ENSEMBLE_CHUNK
-        do k = 1, min(ENSEMBLE_CHUNK, m - (c - 1)*ENSEMBLE_CHUNK)
-          items(k) = (c - 1)*ENSEMBLE_CHUNK + k
-        end do
-        call run_lanes(jobs, items(1:min(ENSEMBLE_CHUNK, m - (c - 1)*ENSEMBLE_CHUNK)))
-      end do
-      !$omp end parallel do
+      call run_lanes_chunked(jobs, [(k, k = 1, m)], ENSEMBLE_CHUNK, nthr)
       xs = jobs%xs
       st = jobs%st
       nsteps = jobs%nsteps
