@@ -127,6 +127,11 @@ $(BUILD)/deps.mk: $(F_SRC) $(T_F_SRC) Makefile | $(BUILD)/obj
 
 $(BUILD)/obj/%.o: %.f90 | $(BUILD)/obj $(BUILD)/mod
 	$(FC) $(FFLAGS_ALL) -c $< -o $@
+# The integrators' and models' automatic arrays and array temporaries, all sized by the state (a
+# few dozen numbers), on the stack: a heap allocation per step and per stage cost 13 % of the
+# paper's run (docs/benchmarks.md). Elsewhere arrays can be large (ensembles, tracks): the heap.
+STACK_OBJ := $(patsubst %.f90,$(BUILD)/obj/%.o,$(notdir $(wildcard src/integrators/*.f90 src/models/*.f90)))
+$(STACK_OBJ): private FFLAGS_ALL += -fstack-arrays
 # tubes_par is the one preprocessed source: MPI or the one-rank identity (src/parallel/tubes_par.f90)
 $(BUILD)/obj/tubes_par.o: FFLAGS_ALL += -cpp $(MPI_DEF)
 $(BUILD)/obj/%.o: %.c $(wildcard include/*.h) | $(BUILD)/obj

@@ -15,10 +15,9 @@ module tubes_manifold
   use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
   use tubes_taylor, only: taylor_t, taylor_record_t
   use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes_chunked
-  use tubes_integrator, only: integrator_t
-  use tubes_integrator, only: propagate
+  use tubes_integrator, only: integrator_t, observer_t, event_t, propagate
+  use tubes_dop853, only: dop853_t
   use tubes_section_kinds, only: poincare_t
-  use tubes_integrator, only: event_t
   use tubes_orbits, only: orbit_t
   implicit none
   private
@@ -81,6 +80,20 @@ module tubes_manifold
     procedure :: finish => seed_finish
   end type seed_jobs_t
 
+  !> The orbit's variational run (state and STM) over one period with DOP853, a copy of the
+  !> integrator after every accepted step. The seeds' own runs from 0 to their phases tau take
+  !> the same steps as this one until a step is shortened to land on tau (DOP853 looks at the
+  !> end time only there), so a seed restarts from the last copy its run would also have
+  !> passed and gets the same bits as integrating from 0, in a step or two instead of tau's.
+  type, extends(observer_t) :: var_snapshots_t
+    type(dop853_t), allocatable :: snap(:)   !! after accepted step j = 1..n
+    real(wp), allocatable :: t(:)            !! t(j): the start of step j + 1 (t(0) = 0)
+    real(wp), allocatable :: h1(:)           !! h1(j): its first attempt (huge: not known)
+    integer :: n = 0
+  contains
+    procedure :: on_step => snapshot_step
+  end type var_snapshots_t
+
   public :: tube_cut
 
   interface
@@ -123,32 +136,38 @@ contains
 
   !> One seed: the orbit state at phase tau stepped off by sigma eps along the transported
   !> eigenvector, propagated to its first crossing of the section branch.
-  subroutine one_seed(ball, orb, v0, sigma, tau, psec, opts, pc, tcross, xc, stat)
+  subroutine one_seed(ball, orb, v0, sigma, tau, psec, opts, snaps, pc, tcross, xc, stat)
     class(hamiltonian_t), intent(in) :: ball
     type(orbit_t), intent(in) :: orb
     real(wp), intent(in) :: v0(:), sigma, tau
     type(poincare_t), intent(in) :: psec
     type(tube_opts_t), intent(in) :: opts
+    type(var_snapshots_t), intent(in) :: snaps   !! the orbit's variational run (may be empty)
     real(wp), intent(out) :: pc(2), tcross, xc(:)
     integer, intent(out) :: stat
-    type(variational_t) :: var
     class(integrator_t), allocatable :: ig
     real(wp) :: z(size(v0) + size(v0)**2), v(size(v0)), x(size(v0))
     class(event_t), allocatable :: sec
-    integer :: n2
+    integer :: n2, j
     n2 = size(v0)
     pc = 0
     tcross = 0
     xc = 0
-    call make_integrator(opts%integ, ig, stat, extended=.true.)
-    if (stat /= TUBES_OK) return
-    call make_variational(var, ball)
-    call ig%init(var, 0.0_wp)
-    ig%rtol = opts%rtol
-    ig%atol = opts%atol
-    z = stm_start(orb%x0)
+    j = 0                 ! the last snapshot this seed's run from 0 passes whole
+    do while (j < snaps%n)
+      if (snaps%h1(j)*(1 + 64*epsilon(1.0_wp)) >= abs(tau - snaps%t(j))) exit   ! as dop853_step
+      j = j + 1
+    end do
+    if (j > 0) then
+      allocate (ig, source=snaps%snap(j))
+      z = snaps%snap(j)%x_new
+    else
+      call var_integrator(ball, opts, ig, stat)
+      if (stat /= TUBES_OK) return
+      z = stm_start(orb%x0)
+    end if
     stat = TUBES_OK
-    if (tau > 0) call propagate(ig, z, tau, stat)
+    if (tau > ig%t) call propagate(ig, z, tau, stat)
     if (stat < 0) return
     v = matmul(reshape(z(n2 + 1:), [n2, n2]), v0)
     x = z(1:n2) + sigma*opts%eps*v/sqrt(sum(v(1:n2/2)**2))
@@ -166,6 +185,80 @@ contains
       stat = TUBES_ENOCROSS    ! no crossing within t_max
     end if
   end subroutine one_seed
+
+  !> The integrator of a seed's variational run (its start at phase 0).
+  subroutine var_integrator(ball, opts, ig, stat)
+    class(hamiltonian_t), intent(in) :: ball
+    type(tube_opts_t), intent(in) :: opts
+    class(integrator_t), allocatable, intent(out) :: ig
+    integer, intent(out) :: stat
+    type(variational_t) :: var
+    call make_integrator(opts%integ, ig, stat, extended=.true.)
+    if (stat /= TUBES_OK) return
+    call make_variational(var, ball)
+    call ig%init(var, 0.0_wp)
+    ig%rtol = opts%rtol
+    ig%atol = opts%atol
+  end subroutine var_integrator
+
+  !> The orbit's variational run over one period, recorded in snaps when the method is DOP853
+  !> with its own step control (else snaps stays empty and every seed starts from 0).
+  subroutine record_variational(ball, orb, opts, snaps, stat)
+    class(hamiltonian_t), intent(in) :: ball
+    type(orbit_t), intent(in) :: orb
+    type(tube_opts_t), intent(in) :: opts
+    type(var_snapshots_t), intent(out) :: snaps
+    integer, intent(out) :: stat
+    class(integrator_t), allocatable :: ig
+    real(wp), allocatable :: z(:)
+    call var_integrator(ball, opts, ig, stat)
+    if (stat /= TUBES_OK) return
+    select type (ig)
+    type is (dop853_t)
+      if (ig%h > 0) return
+    class default
+      return
+    end select
+    allocate (snaps%snap(64), snaps%t(0:64), snaps%h1(0:64))
+    snaps%t(0) = ig%t
+    z = stm_start(orb%x0)
+    call propagate(ig, z, orb%period, stat, observer=snaps)
+    if (stat < 0) snaps%n = 0     ! the seeds then fail (or not) on their own
+    stat = TUBES_OK
+  end subroutine record_variational
+
+  !> After accepted step j: the copy, the step's start time and its first attempt's size.
+  subroutine snapshot_step(self, ig, t_hi, stop_now)
+    class(var_snapshots_t), intent(inout) :: self
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: t_hi
+    logical, intent(out) :: stop_now
+    type(dop853_t), allocatable :: more(:)
+    real(wp), allocatable :: tmore(:), hmore(:)
+    integer :: j
+    stop_now = .false.
+    select type (ig)
+    type is (dop853_t)
+      j = self%n + 1
+      if (j > size(self%snap)) then
+        allocate (more(2*size(self%snap)), tmore(0:2*size(self%snap)), hmore(0:2*size(self%snap)))
+        more(1:self%n) = self%snap(1:self%n)
+        tmore(0:self%n) = self%t(0:self%n)
+        hmore(0:self%n) = self%h1(0:self%n)
+        call move_alloc(more, self%snap)
+        call move_alloc(tmore, self%t)
+        call move_alloc(hmore, self%h1)
+      end if
+      self%snap(j) = ig
+      self%t(j) = ig%t
+      self%h1(j) = ig%h_next        ! the next step's first attempt
+      ! the first step's first attempt (start_step's) is its accepted size unless rejected
+      if (j == 1) self%h1(0) = merge(abs(ig%h_used), huge(1.0_wp), ig%nrejected == 0)
+      self%n = j
+    class default
+      stop_now = .true.
+    end select
+  end subroutine snapshot_step
 
   !> Seed k: the orbit's state at its phase, stepped off along the transported eigenvector.
   subroutine seed_start(self, k, lane, stat)
@@ -249,6 +342,7 @@ contains
     integer, allocatable :: st(:)
     integer :: n, i, j, m, info, nconv
     type(seed_jobs_t) :: jobs
+    type(var_snapshots_t) :: snaps
     if (opts%n_init < 8 .or. opts%eps <= 0 .or. orb%period <= 0) then
       stat = TUBES_EINPUT
       return
@@ -270,6 +364,9 @@ contains
       jobs%psec = psec
       jobs%opts = opts
       jobs%sigma = sigma
+    else
+      call record_variational(ball, orb0, opts, snaps, stat)
+      if (stat < 0) return
     end if
     n = opts%n_init
     allocate (tau(n))
@@ -394,7 +491,7 @@ contains
             s(k - i1 + 1) = TUBES_EFAULT
             cycle
           end if
-          call one_seed(ball, orb0, v0, sigma, tt(k), psec, opts, p(:, k - i1 + 1), tc(k - i1 + 1), &
+          call one_seed(ball, orb0, v0, sigma, tt(k), psec, opts, snaps, p(:, k - i1 + 1), tc(k - i1 + 1), &
                         xc(:, k - i1 + 1), s(k - i1 + 1))
         end do
         !$omp end parallel do
