@@ -39,6 +39,12 @@ enum {
 enum { TUBES_NMODEL = 7, TUBES_LSYSTEM = 32, TUBES_MAXPARAM = 16, TUBES_LPARAM = 16,
        TUBES_MAXDOF = 3, TUBES_LUNITS = 16, TUBES_LDOC = 96, TUBES_LSUMMARY = 160 };
 
+/* on != 0: from now on every tube cut (tubes_tube_cut) keeps its seeds, and a later cut of the
+ * same set-up (model, saddle, orbit options, energy, section, eps, integration) looks up the seeds
+ * at the phases it shares with the earlier ones instead of integrating them again (the same bits).
+ * 0: stop and free them. For one run of one model (the program's). */
+void tubes_reuse_seeds(int on);
+
 /* The name of built-in system k = 0, 1, ... into name (NUL-terminated); TUBES_EINPUT past the
  * last one. */
 int tubes_model_system(int k, char name[TUBES_LSYSTEM]);

@@ -26,7 +26,7 @@ module tubes_capi
   use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
-                         check_at, maps_at, cut_outputs
+                         check_at, maps_at, cut_outputs, reuse_seeds
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long
   implicit none
@@ -52,6 +52,13 @@ module tubes_capi
   end interface
 
 contains
+
+  !> on /= 0: from now on the tube cuts keep their seeds for later cuts of the same set-up
+  !> (tubes_study's reuse_seeds); 0: stop and free them. The program's run.
+  subroutine c_reuse_seeds(on) bind(C, name='tubes_reuse_seeds')
+    integer(c_int), value :: on
+    call reuse_seeds(on /= 0)
+  end subroutine c_reuse_seeds
 
   subroutine c_status_message(code, buf, len) bind(C, name='tubes_status_message')
     integer(c_int), value :: code, len

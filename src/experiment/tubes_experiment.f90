@@ -213,11 +213,8 @@ contains
     type(sampler_t) :: obs
     real(wp) :: x(4)
     xs = ieee_nan()
-    call make_integrator(integ, ig, stat)
+    call make_integrator(integ, ig, stat, f=model, rtol=rtol, atol=atol)
     if (stat /= TUBES_OK) return
-    call ig%init(model, 0.0_wp)
-    ig%rtol = rtol
-    ig%atol = atol
     call obs%start(0.0_wp, dt, x0, ns)
     x = x0
     stat = TUBES_OK

@@ -20,6 +20,7 @@ module tubes_dop853
     real(wp), allocatable :: a(:, :)      !! Runge-Kutta matrix (NSX, NSX)
     real(wp), allocatable :: at(:, :)     !! its transpose: row i of a is the contiguous at(:, i)
     real(wp), allocatable :: e3(:), e5(:), d(:, :)
+    integer, allocatable :: i3(:), i5(:)  !! the stages with non-zero e3, e5 weights
     real(wp) :: h_used = 0                !! size of the last accepted step [s]
     real(wp) :: t_grid0 = 0               !! fixed-step mode: steps end on t_grid0 + k h
     integer(i8) :: k_grid = 0             !! fixed-step mode: steps taken since t_grid0
@@ -36,6 +37,7 @@ contains
     integer, intent(in) :: n
     real(wp), intent(in) :: x(:)
     integer, intent(out) :: stat
+    integer :: i
     if (.not. allocated(self%a)) then
       allocate (self%a(NSX, NSX), self%at(NSX, NSX), self%e3(NS + 1), self%e5(NS + 1), self%d(4, NSX))
       self%a = tableau_a()
@@ -43,6 +45,8 @@ contains
       self%e3 = tableau_e3()
       self%e5 = tableau_e5()
       self%d = tableau_d()
+      self%i3 = pack([(i, i = 1, NS + 1)], self%e3 /= 0)
+      self%i5 = pack([(i, i = 1, NS + 1)], self%e5 /= 0)
     end if
     if (allocated(self%k)) then
       if (size(self%k, 1) /= n) deallocate (self%k, self%f_cur, self%x_old, self%x_new, self%dense)
@@ -61,7 +65,7 @@ contains
     real(wp), intent(in) :: tmax
     integer, intent(out) :: stat
     real(wp) :: dir, h, hmin, err, err3, err5, den, fac, xnew(size(x)), sk, xs(size(x)), e3, e5
-    integer :: i, n, r, fs
+    integer :: i, j, n, r, fs
     logical :: last, reject_prev
     n = size(x)
     stat = TUBES_OK
@@ -134,9 +138,11 @@ contains
         sk = self%atol + self%rtol*max(abs(x(r)), abs(xnew(r)))
         e5 = 0
         e3 = 0
-        do i = 1, NS + 1
-          if (self%e5(i) /= 0) e5 = e5 + self%e5(i)*self%k(r, i)
-          if (self%e3(i) /= 0) e3 = e3 + self%e3(i)*self%k(r, i)
+        do j = 1, size(self%i5)         ! the non-zero weights, in order
+          e5 = e5 + self%e5(self%i5(j))*self%k(r, self%i5(j))
+        end do
+        do j = 1, size(self%i3)
+          e3 = e3 + self%e3(self%i3(j))*self%k(r, self%i3(j))
         end do
         e5 = e5/sk
         e3 = e3/sk
@@ -260,15 +266,14 @@ contains
     th = (s - self%t_old)/h
     th1 = 1 - th
     do r = 1, size(xs)
-      dx = 0
-      do i = 7, 1, -1
-        dx = dx + self%dense(r, i)
-        if (mod(7 - i, 2) == 0) then
-          dx = dx*th
-        else
-          dx = dx*th1
-        end if
-      end do
+      dx = 0          ! Hairer's nesting: th and 1 - th alternate from the inside out
+      dx = (dx + self%dense(r, 7))*th
+      dx = (dx + self%dense(r, 6))*th1
+      dx = (dx + self%dense(r, 5))*th
+      dx = (dx + self%dense(r, 4))*th1
+      dx = (dx + self%dense(r, 3))*th
+      dx = (dx + self%dense(r, 2))*th1
+      dx = (dx + self%dense(r, 1))*th
       xs(r) = self%x_old(r) + dx
     end do
   end subroutine dop853_interp

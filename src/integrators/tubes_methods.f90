@@ -3,6 +3,7 @@
 module tubes_methods
   use tubes_kinds, only: wp
   use tubes_integrator, only: integrator_t
+  use tubes_field, only: vector_field_t
   use tubes_dop853, only: dop853_t
   use tubes_rk4, only: rk4_t
   use tubes_tao, only: tao_t, TAO_OMEGA_DEFAULT
@@ -106,11 +107,13 @@ contains
 
   !> Allocate the integrator of a choice, its fixed step set. extended: it integrates an extended
   !> state (variational equations, action), where METHOD_AUTO means DOP853.
-  subroutine make_integrator(choice, ig, stat, extended)
+  subroutine make_integrator(choice, ig, stat, extended, f, rtol, atol)
     type(integ_choice_t), intent(in) :: choice
     class(integrator_t), allocatable, intent(out) :: ig
     integer, intent(out) :: stat
     logical, intent(in), optional :: extended
+    class(vector_field_t), intent(in), optional :: f   !! the field, the integration starting at t = 0
+    real(wp), intent(in), optional :: rtol, atol       !! the analysis's tolerances
     integer :: m
     m = choice%method
     if (m == METHOD_AUTO .and. present(extended)) then
@@ -123,5 +126,8 @@ contains
       return
     end if
     ig%h = choice%h
+    if (present(f)) call ig%init(f, 0.0_wp)
+    if (present(rtol)) ig%rtol = rtol
+    if (present(atol)) ig%atol = atol
   end subroutine make_integrator
 end module tubes_methods

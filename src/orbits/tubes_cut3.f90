@@ -175,14 +175,11 @@ contains
         end if
         x = x - e*g/sum(g**2)
       end do
-      call make_integrator(integ, ig, st)
+      call make_integrator(integ, ig, st, f=model, rtol=tol, atol=tol)
       if (st /= TUBES_OK) then
         cut%st(id) = st
         return
       end if
-      call ig%init(model, 0.0_wp)
-      ig%rtol = tol
-      ig%atol = tol
       pl%k = k
       pl%c = c
       pl%direction = 0

@@ -94,6 +94,16 @@ module tubes_manifold
     procedure :: on_step => snapshot_step
   end type var_snapshots_t
 
+  !> Seeds already integrated: phase tau -> crossing, for the cuts of one orbit with one section,
+  !> one step-off and one integration (the caller keeps one store per such set-up). A later cut
+  !> looks its seeds up by phase (bit for bit) before integrating them: a seed's crossing
+  !> depends on nothing else, so a looked-up seed has the same bits as an integrated one.
+  type, public :: seed_store_t
+    integer :: n = 0
+    real(wp), allocatable :: tau(:)         !! sorted
+    real(wp), allocatable :: p(:, :), tc(:), xc(:, :)
+  end type seed_store_t
+
   public :: tube_cut
 
   interface
@@ -193,12 +203,8 @@ contains
     class(integrator_t), allocatable, intent(out) :: ig
     integer, intent(out) :: stat
     type(variational_t) :: var
-    call make_integrator(opts%integ, ig, stat, extended=.true.)
-    if (stat /= TUBES_OK) return
     call make_variational(var, ball)
-    call ig%init(var, 0.0_wp)
-    ig%rtol = opts%rtol
-    ig%atol = opts%atol
+    call make_integrator(opts%integ, ig, stat, extended=.true., f=var, rtol=opts%rtol, atol=opts%atol)
   end subroutine var_integrator
 
   !> The orbit's variational run over one period, recorded in snaps when the method is DOP853
@@ -326,7 +332,7 @@ contains
   !> well_dir: a vector from the saddle towards the well the section lies in; the branch of
   !> the manifold on that side is taken. stat < 0 if a seed failed (no crossing within t_max,
   !> integration failure) or the area did not converge within n_max seeds.
-  subroutine tube_cut(ball, orb, well_dir, psec, opts, cut, stat)
+  subroutine tube_cut(ball, orb, well_dir, psec, opts, cut, stat, store)
     class(hamiltonian_t), intent(in) :: ball
     type(orbit_t), intent(in) :: orb
     real(wp), intent(in) :: well_dir(:)      !! from the saddle towards the section's well (N)
@@ -334,6 +340,8 @@ contains
     type(tube_opts_t), intent(in) :: opts
     type(tube_cut_t), intent(out) :: cut
     integer, intent(out) :: stat
+    !> seeds of earlier cuts of this set-up (looked up, and this cut's added; one MPI rank only)
+    type(seed_store_t), intent(inout), optional :: store
     type(orbit_t) :: orb0
     type(par_t) :: grp
     real(wp) :: v0(size(orb%x0)), sigma, a_old, a_new, span_r, span_p
@@ -455,8 +463,9 @@ contains
       real(wp), intent(in) :: tt(:)
       integer, intent(in) :: i1, i2
       real(wp) :: p(2, i2 - i1 + 1), tc(i2 - i1 + 1), xc(size(v0), i2 - i1 + 1)
-      integer :: s(i2 - i1 + 1), k, kf, nk
+      integer :: s(i2 - i1 + 1), k, kf, nk, at(i2 - i1 + 1)
       integer, allocatable :: mine(:)
+      logical :: found(i2 - i1 + 1), keep
       type(par_t) :: pp
       pp = grp                           ! seed k - i1 + 1 of this round is computed on its owner
       kf = par_fault_item('seed')
@@ -464,16 +473,31 @@ contains
       tc = 0
       xc = 0
       s = TUBES_OK
+      found = .false.
+      keep = .false.
+      if (present(store)) keep = grp%nranks == 1 .and. kf == 0
+      if (keep) then
+        do k = i1, i2
+          at(k - i1 + 1) = store_find(store, tt(k))
+        end do
+        found = at > 0
+        do k = 1, i2 - i1 + 1
+          if (.not. found(k)) cycle
+          p(:, k) = store%p(:, at(k))
+          tc(k) = store%tc(at(k))
+          xc(:, k) = store%xc(:, at(k))
+        end do
+      end if
       if (uses_taylor(opts%integ)) then
         nk = i2 - i1 + 1                 ! the seeds in the Taylor method's lanes
         jobs%tau = tt(i1:i2)
         if (allocated(jobs%p)) deallocate (jobs%p, jobs%tc, jobs%xc, jobs%st)
         allocate (jobs%p(2, nk), jobs%tc(nk), jobs%xc(size(v0), nk), jobs%st(nk))
         jobs%st = TUBES_OK
-        mine = pack([(k, k = 1, nk)], [(pp%mine(k) .and. k + i1 - 1 /= kf, k = 1, nk)])
+        mine = pack([(k, k = 1, nk)], [(pp%mine(k) .and. k + i1 - 1 /= kf .and. .not. found(k), k = 1, nk)])
         call run_lanes_chunked(jobs, mine, SEED_CHUNK)
         do k = 1, nk
-          if (.not. pp%mine(k)) cycle
+          if (.not. pp%mine(k) .or. found(k)) cycle
           if (k + i1 - 1 == kf) then
             s(k) = TUBES_EFAULT
             cycle
@@ -486,7 +510,7 @@ contains
       else
         !$omp parallel do schedule(dynamic) default(shared) private(k)
         do k = i1, i2
-          if (.not. pp%mine(k - i1 + 1)) cycle
+          if (.not. pp%mine(k - i1 + 1) .or. found(k - i1 + 1)) cycle
           if (k == kf) then
             s(k - i1 + 1) = TUBES_EFAULT
             cycle
@@ -500,6 +524,7 @@ contains
       call par_share(tc, grp)
       call par_share(xc, grp)
       call par_share(s, grp)
+      if (keep) call store_add(store, tt(i1:i2), p, tc, xc, s == TUBES_OK .and. .not. found)
       pcs = reshape([reshape(pcs, [size(pcs)]), reshape(p, [size(p)])], [2, i2])
       tcs = [tcs, tc]
       xcs = reshape([reshape(xcs, [size(xcs)]), reshape(xc, [size(xc)])], [size(v0), i2])
@@ -555,6 +580,79 @@ contains
 
   !> The configuration part of v (first N of 2N components) dotted with w (N): the side of the
   !> saddle a step along v goes to. Written out for N = 2 as the 2-DOF code always was.
+  !> The index of phase tau in the store (bit for bit), or 0.
+  pure integer function store_find(store, tau) result(i)
+    type(seed_store_t), intent(in) :: store
+    real(wp), intent(in) :: tau
+    integer :: lo, hi, mid
+    i = 0
+    lo = 1
+    hi = store%n
+    do while (lo <= hi)
+      mid = (lo + hi)/2
+      if (store%tau(mid) == tau) then
+        i = mid
+        return
+      else if (store%tau(mid) < tau) then
+        lo = mid + 1
+      else
+        hi = mid - 1
+      end if
+    end do
+  end function store_find
+
+  !> Add the seeds where new is set (phases not in the store, increasing), keeping the store's
+  !> phases sorted.
+  subroutine store_add(store, tau, p, tc, xc, new)
+    type(seed_store_t), intent(inout) :: store
+    real(wp), intent(in) :: tau(:), p(:, :), tc(:), xc(:, :)
+    logical, intent(in) :: new(:)
+    real(wp), allocatable :: t2(:), p2(:, :), tc2(:), xc2(:, :)
+    integer, allocatable :: idx(:)
+    integer :: m, k, a, b, j
+    m = count(new)
+    if (m == 0) return
+    if (.not. allocated(store%tau)) allocate (store%tau(0), store%p(2, 0), store%tc(0), store%xc(size(xc, 1), 0))
+    idx = pack([(k, k = 1, size(tau))], new)
+    if (m > 1) then               ! a round's phases come in increasing order; else keep none
+      if (any(tau(idx(2:)) <= tau(idx(:m - 1)))) return
+    end if
+    allocate (t2(store%n + m), p2(2, store%n + m), tc2(store%n + m), xc2(size(xc, 1), store%n + m))
+    a = 1
+    b = 1
+    do j = 1, store%n + m            ! merge the store's run and the new (sorted) one
+      if (b > m) then
+        call take_old()
+      else if (a > store%n) then
+        call take_new()
+      else if (store%tau(a) < tau(idx(b))) then
+        call take_old()
+      else
+        call take_new()
+      end if
+    end do
+    call move_alloc(t2, store%tau)
+    call move_alloc(p2, store%p)
+    call move_alloc(tc2, store%tc)
+    call move_alloc(xc2, store%xc)
+    store%n = store%n + m
+  contains
+    subroutine take_old()
+      t2(j) = store%tau(a)
+      p2(:, j) = store%p(:, a)
+      tc2(j) = store%tc(a)
+      xc2(:, j) = store%xc(:, a)
+      a = a + 1
+    end subroutine take_old
+    subroutine take_new()
+      t2(j) = tau(idx(b))
+      p2(:, j) = p(:, idx(b))
+      tc2(j) = tc(idx(b))
+      xc2(:, j) = xc(:, idx(b))
+      b = b + 1
+    end subroutine take_new
+  end subroutine store_add
+
   pure real(wp) function dot2(v, w) result(d)
     real(wp), intent(in) :: v(:), w(:)
     integer :: k

@@ -183,12 +183,9 @@ contains
     n2 = size(x0)
     x = 0
     phi = 0
-    call make_integrator(opts%integ, ig, stat, extended=.true.)
-    if (stat /= TUBES_OK) return
     call make_variational(var, model)
-    call ig%init(var, 0.0_wp)
-    ig%rtol = opts%rtol
-    ig%atol = opts%atol
+    call make_integrator(opts%integ, ig, stat, extended=.true., f=var, rtol=opts%rtol, atol=opts%atol)
+    if (stat /= TUBES_OK) return
     z = stm_start(x0)
     call propagate(ig, z, tau, stat)
     x = z(1:n2)
@@ -488,11 +485,8 @@ contains
     orb%stability_index = 0.5_wp*(orb%mu_unstable + orb%mu_stable)
     ! action and samples in one pass
     allocate (af%model, source=model)
-    call make_integrator(opts%integ, ig, stat, extended=.true.)
+    call make_integrator(opts%integ, ig, stat, extended=.true., f=af, rtol=opts%rtol, atol=opts%atol)
     if (stat /= TUBES_OK) return
-    call ig%init(af, 0.0_wp)
-    ig%rtol = opts%rtol
-    ig%atol = opts%atol
     z = [orb%x0, 0.0_wp]
     call obs%start(0.0_wp, orb%period/(opts%n_samples - 1), z, opts%n_samples)
     call propagate(ig, z, orb%period, stat, observer=obs)
@@ -528,11 +522,8 @@ contains
     integer :: i
     x = x0
     nodes(:, 1) = x0
-    call make_integrator(opts%integ, ig, stat)
+    call make_integrator(opts%integ, ig, stat, f=model, rtol=opts%rtol, atol=opts%atol)
     if (stat /= TUBES_OK) return
-    call ig%init(model, 0.0_wp)
-    ig%rtol = opts%rtol
-    ig%atol = opts%atol
     stat = TUBES_OK
     do i = 2, n
       call propagate(ig, x, (i - 1)*period/n, stat)

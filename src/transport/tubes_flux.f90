@@ -142,11 +142,8 @@ contains
     integer, intent(out) :: stat
     class(integrator_t), allocatable :: ig
     real(wp) :: x(size(x0))
-    call make_integrator(integ, ig, stat)
+    call make_integrator(integ, ig, stat, f=model, rtol=tol, atol=tol)
     if (stat /= TUBES_OK) return
-    call ig%init(model, 0.0_wp)
-    ig%rtol = tol
-    ig%atol = tol
     x = x0
     call propagate(ig, x, t_max, stat, observer=obs)
     if (stat < 0) return

@@ -124,12 +124,9 @@ contains
     class(event_t), allocatable :: ret
     outcome = MC_UNDECIDED
     t_end = 0
-    call make_integrator(integ, ig, stat)
+    call make_integrator(integ, ig, stat, f=ball, rtol=tol, atol=tol)
     if (stat /= TUBES_OK) return
     call psec%return_event(ret)
-    call ig%init(ball, 0.0_wp)
-    ig%rtol = tol
-    ig%atol = tol
     x = x0
     gate%spec = gspec
     call propagate(ig, x, t_max, stat, event=ret, observer=gate)
@@ -437,11 +434,8 @@ contains
     real(wp) :: x(size(x0))
     integer :: k
     pts = ieee_value(1.0_wp, ieee_quiet_nan)
-    call make_integrator(integ, ig, stat)
+    call make_integrator(integ, ig, stat, f=ball, rtol=tol, atol=tol)
     if (stat /= TUBES_OK) return
-    call ig%init(ball, 0.0_wp)
-    ig%rtol = tol
-    ig%atol = tol
     ig%max_steps = 100000000
     x = x0
     log%max_crossings = n_iter

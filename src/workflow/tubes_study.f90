@@ -4,15 +4,15 @@
 !> Lyapunov orbit at one energy. (The start of the workflow layer: each call still computes its
 !> pieces afresh.)
 module tubes_study
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, i8
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_ball, only: ball_t
-  use tubes_models, only: make_model
+  use tubes_models, only: make_model, MAX_PARAMS, MAX_DOF
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_PLANE, SEC_RAY
-  use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
+  use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
   use tubes_transport, only: gate_spec_t, monte_carlo, poincare_map
   use tubes_status, only: TUBES_EOUTSIDE
   use tubes_methods, only: integ_choice_t
@@ -23,6 +23,7 @@ module tubes_study
   integer, parameter, public :: SECTION_RAY = 1     !! sec_kind: the ball's polar ray
   integer, parameter, public :: SECTION_PLANE = 2   !! sec_kind: the plane q_index = level
 
+  public :: reuse_seeds
   public :: setup_model, setup_section, orbit_at, saddle_gate, section_info, cut_at, check_at, maps_at, cut_outputs
 
   !> The section of a tube-dynamics call (as &section).
@@ -37,8 +38,8 @@ module tubes_study
   !> &orbits).
   type, public :: study_t
     character(32) :: system = 'rolling_ball'
-    real(wp) :: params(16) = 0
-    real(wp) :: lo(3) = 0, hi(3) = 0
+    real(wp) :: params(MAX_PARAMS) = 0
+    real(wp) :: lo(MAX_DOF) = 0, hi(MAX_DOF) = 0
     integer :: n_grid = 41
     character(8) :: saddle = ''
     integer :: n_segments = 1        !! orbit corrector: 1 single shooting, >= 2 multiple
@@ -46,7 +47,44 @@ module tubes_study
     type(integ_choice_t) :: integ    !! the integrator of every analysis (&integrator)
   end type study_t
 
+  !> The tube seeds of a run's cuts, one store per set-up (model, saddle, orbit options, energy,
+  !> section, step-off, integration): a cut at an energy an earlier scene cut looks its seeds up
+  !> (docs/tubes.md, "Seeds computed once"). Kept only between reuse_seeds(.true.) and
+  !> reuse_seeds(.false.): the program's run, where the model cannot change.
+  integer, parameter :: NKEY = MAX_PARAMS + 2*MAX_DOF + 20   ! seed_key's numbers
+  type :: kept_seeds_t
+    character(32) :: system = ''
+    character(8) :: saddle = ''
+    integer(i8) :: key(NKEY) = 0
+    type(seed_store_t) :: store
+  end type kept_seeds_t
+  type(kept_seeds_t), allocatable, save :: kept(:)
+  logical, save :: keeping = .false.
+
 contains
+
+  !> Start (on) or end (.not. on: the stores are freed) keeping the tube seeds of cut_at.
+  subroutine reuse_seeds(on)
+    logical, intent(in) :: on
+    !$omp critical (tubes_kept_seeds)
+    keeping = on
+    if (allocated(kept)) deallocate (kept)
+    if (on) allocate (kept(0))
+    !$omp end critical (tubes_kept_seeds)
+  end subroutine reuse_seeds
+
+  !> What a tube seed's crossing depends on besides its phase, bit for bit (the strings apart).
+  function seed_key(st, sec, de, o) result(key)
+    type(study_t), intent(in) :: st
+    type(section_choice_t), intent(in) :: sec
+    real(wp), intent(in) :: de
+    type(tube_opts_t), intent(in) :: o
+    integer(i8) :: key(NKEY)
+    key = transfer([st%params, st%lo, st%hi, real([st%n_grid, st%n_segments], wp), st%orb_tol, st%orb_rtol, &
+                    st%orb_atol, real([sec%kind, sec%index, sec%dir], wp), sec%level, de, &
+                    real([o%kind, o%integ%method, o%integ%opts%solver, o%integ%opts%max_iter], wp), o%integ%h, &
+                    o%integ%opts%omega_bind, o%eps, o%t_max, o%rtol, o%atol], key)
+  end function seed_key
 
   !> The model, its equilibria in the box and the rank-1 saddle named `saddle` (with
   !> degenerate_ok, also a degenerate saddle: the sampled flux takes one).
@@ -233,13 +271,43 @@ contains
     if (stat /= TUBES_OK) return
     o = opts
     o%integ = st%integ
-    call tube_cut(model, orb, q_ref - eqs(isad)%q, psec, o, cut, stat)
+    if (keeping) then
+      call cut_kept()
+    else
+      call tube_cut(model, orb, q_ref - eqs(isad)%q, psec, o, cut, stat)
+    end if
     ! a plane crossed outside the section's region (another part of the line) is not a cut of
     ! the section the caller asked for
     if (stat == TUBES_OK .and. psec%kind == SEC_PLANE .and. cut%n > 0) then
       tol_s = 1.0e-9_wp*max(1.0_wp, psec%smax - psec%smin)
       if (any(cut%r(1:cut%n) < psec%smin - tol_s .or. cut%r(1:cut%n) > psec%smax + tol_s)) stat = TUBES_EOUTSIDE
     end if
+  contains
+    subroutine cut_kept()     ! the cut with the store of its set-up (copied in and out)
+      integer(i8) :: key(NKEY)
+      type(seed_store_t) :: store
+      type(kept_seeds_t) :: entry
+      integer :: i, ik
+      key = seed_key(st, sec, de, o)
+      !$omp critical (tubes_kept_seeds)
+      ik = 0
+      do i = 1, size(kept)
+        if (kept(i)%system == st%system .and. kept(i)%saddle == st%saddle .and. all(kept(i)%key == key)) ik = i
+      end do
+      if (ik == 0) then
+        entry%system = st%system
+        entry%saddle = st%saddle
+        entry%key = key
+        kept = [kept, entry]
+        ik = size(kept)
+      end if
+      store = kept(ik)%store
+      !$omp end critical (tubes_kept_seeds)
+      call tube_cut(model, orb, q_ref - eqs(isad)%q, psec, o, cut, stat, store)
+      !$omp critical (tubes_kept_seeds)
+      if (store%n > kept(ik)%store%n) kept(ik)%store = store
+      !$omp end critical (tubes_kept_seeds)
+    end subroutine cut_kept
   end subroutine cut_at
 
   !> The Monte Carlo check at de: n points on the section, classified by the saddle's gate at
