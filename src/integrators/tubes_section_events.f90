@@ -4,12 +4,14 @@
 !> x = c, y = c. Definitions and orientation conventions: docs/events.md.
 module tubes_section_events
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+  use, intrinsic :: iso_fortran_env, only: int64
   use tubes_kinds, only: wp
   use tubes_integrator, only: event_t, plane_t
   implicit none
   private
 
   real(wp), parameter :: PI = acos(-1.0_wp)
+  real(wp), parameter :: QNAN = transfer(int(z'7FF8000000000000', int64), 1.0_wp)   ! a quiet NaN
 
   integer, parameter, public :: U1_MINUS = -1   !! U1^-: -sign(p_theta) = -1, i.e. p_theta > 0
   integer, parameter, public :: U1_PLUS = 1     !! U1^+: -sign(p_theta) = +1, i.e. p_theta < 0
@@ -23,6 +25,9 @@ module tubes_section_events
   type, extends(event_t), public :: theta_line_t
     real(wp) :: theta0 = 0   !! angle of the ray from the +x axis [rad]
     integer :: branch = 0    !! +1: only p_theta > 0; -1: only p_theta < 0; 0: either
+    !> cos(theta0) and sin(theta0), set by the constructor theta_line_t(theta0, ...) (NaN until
+    !> then: g is NaN and propagate reports the event as failed rather than use a wrong ray)
+    real(wp) :: c0 = QNAN, s0 = QNAN
   contains
     procedure :: g => theta_g
     procedure :: accept => theta_accept
@@ -30,14 +35,35 @@ module tubes_section_events
     procedure :: affine => theta_affine
   end type theta_line_t
 
+  !> theta_line_t(theta0, branch, terminal): the ray with its cosine and sine computed once
+  interface theta_line_t
+    module procedure new_theta_line
+  end interface theta_line_t
+
   public :: polar_canonical, u1_section, x_line, y_line
 
 contains
 
+  pure function new_theta_line(theta0, branch, terminal, direction, nsub) result(ev)
+    real(wp), intent(in) :: theta0               !! angle of the ray from the +x axis [rad]
+    integer, intent(in), optional :: branch      !! default 0 (either sign of p_theta)
+    logical, intent(in), optional :: terminal    !! default .true. (as event_t)
+    integer, intent(in), optional :: direction   !! the filter on dg/dt (event_t; default 0)
+    integer, intent(in), optional :: nsub        !! interior samples per step (event_t)
+    type(theta_line_t) :: ev
+    ev%theta0 = theta0
+    ev%c0 = cos(theta0)
+    ev%s0 = sin(theta0)
+    if (present(branch)) ev%branch = branch
+    if (present(terminal)) ev%terminal = terminal
+    if (present(direction)) ev%direction = direction
+    if (present(nsub)) ev%nsub = nsub
+  end function new_theta_line
+
   pure real(wp) function theta_g(self, t, x)
     class(theta_line_t), intent(in) :: self
     real(wp), intent(in) :: t, x(:)
-    theta_g = cos(self%theta0)*x(2) - sin(self%theta0)*x(1)
+    theta_g = self%c0*x(2) - self%s0*x(1)
   end function theta_g
 
   !> g = w . x with w = (-sin theta0, cos theta0, 0, ...).
@@ -50,8 +76,8 @@ contains
     c = 0
     ok = n >= 2
     if (.not. ok) return
-    w(1) = -sin(self%theta0)
-    w(2) = cos(self%theta0)
+    w(1) = -self%s0
+    w(2) = self%c0
   end subroutine theta_affine
 
   !> On the ray r > 0, and p_theta of the requested branch (p_theta = 0 belongs to neither).
@@ -61,7 +87,7 @@ contains
     real(wp) :: pth
     theta_accept = .false.
     if (size(x) < 4) return   ! not a canonical (x, y, px, py) state
-    theta_accept = cos(self%theta0)*x(1) + sin(self%theta0)*x(2) > 0
+    theta_accept = self%c0*x(1) + self%s0*x(2) > 0
     if (.not. theta_accept .or. self%branch == 0) return
     pth = x(1)*x(4) - x(2)*x(3)
     theta_accept = (self%branch > 0 .and. pth > 0) .or. (self%branch < 0 .and. pth < 0)
@@ -104,9 +130,7 @@ contains
     integer, intent(in) :: pm                  !! U1_MINUS, U1_PLUS or 0
     logical, intent(in), optional :: terminal  !! default .true. (as event_t)
     type(theta_line_t) :: ev
-    ev%theta0 = PI/4
-    ev%branch = -pm
-    if (present(terminal)) ev%terminal = terminal
+    ev = theta_line_t(PI/4, -pm, terminal)
   end function u1_section
 
   !> The line x = c (state component 1).
