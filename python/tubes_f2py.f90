@@ -246,6 +246,44 @@ subroutine trajectory(system, params, n2, x0, t_end, dt_out, method, rtol, atol,
                       obs, n, t, state, en, n_cross, cross_t, cross_x, cross_dir, counters, c, stat)
 end subroutine trajectory
 
+subroutine integrator_open(system, params, method, rtol, atol, h, max_steps, omega_bind, solver, &
+                           max_iter, handle, stat)
+  ! a kept integrator (src/workflow/tubes_run.f90 open_integrator): Python's tubes.Integrator
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_methods, only: method_opts_t
+  use tubes_run, only: open_integrator
+  implicit none
+  character(len=*), intent(in) :: system
+  real(c_double), intent(in) :: params(16), rtol, atol, h, omega_bind
+  integer(c_int), intent(in) :: method, solver, max_iter
+  integer(c_int64_t), intent(in) :: max_steps
+  integer(c_int), intent(out) :: handle, stat
+  call open_integrator(trim(system), params, method, rtol, atol, h, max_steps, &
+                       method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter), handle, stat)
+end subroutine integrator_open
+
+subroutine integrator_propagate(handle, n2, x0, t_end, x, counters, stat)
+  ! x0 from t = 0 to t_end with kept integrator handle: the state x reached, the call's counters
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_run, only: propagate_kept
+  implicit none
+  integer(c_int), intent(in) :: handle, n2
+  real(c_double), intent(in) :: x0(n2), t_end
+  real(c_double), intent(out) :: x(n2)
+  integer(c_int64_t), intent(out) :: counters(4)
+  integer(c_int), intent(out) :: stat
+  x = x0
+  call propagate_kept(handle, x, t_end, counters, stat)
+end subroutine integrator_propagate
+
+subroutine integrator_close(handle)
+  use, intrinsic :: iso_c_binding, only: c_int
+  use tubes_run, only: close_integrator
+  implicit none
+  integer(c_int), intent(in) :: handle
+  call close_integrator(handle)
+end subroutine integrator_close
+
 subroutine ensemble(system, params, n2, m, x0, t_end, method, rtol, atol, h, max_steps, omega_bind, &
                     solver, max_iter, threads, stat, xs, st, nsteps)
   ! many integrations of one model from t = 0 to t_end (src/workflow/tubes_run.f90 run_ensemble)

@@ -238,3 +238,39 @@ def test_auto_without_a_kernel_falls_back_to_dop853(tmp_path):
                        env=dict(os.environ, **env), timeout=120)
     assert q.returncode == 0, q.stderr
     assert q.stdout.split() == ["True", "True"], q.stdout + q.stderr
+
+
+@pytest.mark.parametrize("method", [m for m in tubes.METHODS if m != "auto"])
+def test_a_kept_integrator_is_a_new_one_on_every_call(method):
+    """tubes.Integrator (the model, method and kernel set up once): every propagate is a new
+    integration from t = 0, bit for bit a new integrator's (tubes.ensemble's row) whatever came
+    before it on the same Integrator (another start, another end time), with this call's
+    counters; Henon-Heiles too; failures and misuse say so."""
+    x0 = np.array([4.0, 12.614863819914357, 0.0, 0.0])
+    kw = dict(rtol=1e-9, atol=1e-9)
+    if method in tubes.FIXED_STEP:
+        kw = dict(h=1 / 256, solver="fixed_point") if method.startswith("gauss") else dict(h=1 / 256)
+    m = tubes.Model()
+    with tubes.Integrator(m, method=method, **kw) as it:
+        x1, c1 = it.propagate(x0, 1.5)
+        it.propagate(x0 + [0.3, -0.2, 1.0, 0.0], 0.7)
+        x2, c2 = it.propagate(x0, 1.5)
+        e = tubes.ensemble([x0], 1.5, model=m, method=method, **kw)
+        assert np.array_equal(x1, e["state"][0]) and np.array_equal(x2, x1)
+        assert c1[1] == c2[1] == e["nsteps"][0] > 0 and np.array_equal(c1, c2)
+        x0_, c0 = it.propagate(x0, 0.0)
+        assert np.array_equal(x0_, x0) and c0[1] == 0
+        with pytest.raises(ValueError, match="state0 must have 4 components"):
+            it.propagate(x0[:3], 1.0)
+    with pytest.raises(ValueError, match="closed"):
+        it.propagate(x0, 1.0)
+    if method in ("taylor", "dop853"):
+        assert np.array_equal(x1, tubes.integrate(x0, 1.5, model=m, method=method, **kw)["state"][-1])
+        hh = tubes.Model(system="henon_heiles")
+        xh = np.array([0.0, 0.1, 0.35, 0.0])
+        ih = tubes.Integrator(hh, method=method, **kw)
+        assert np.array_equal(ih.propagate(xh, 50.0)[0],
+                              tubes.ensemble([xh], 50.0, model=hh, method=method, **kw)["state"][0])
+        with pytest.raises(tubes.TubesError) as err:
+            tubes.Integrator(m, method=method, max_steps=20, **kw).propagate(x0, 5.0)
+        assert err.value.code == tubes.EMAXSTEPS and err.value.partial[1][1] == 20

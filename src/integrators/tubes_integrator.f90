@@ -27,6 +27,7 @@ module tubes_integrator
     logical :: fresh = .true.                 !! state was set from outside: restart the stepper
   contains
     procedure :: init => integrator_init
+    procedure :: restart => integrator_restart   !! a new integration of the same model
     procedure(step_i), deferred :: step
     procedure(interp_i), deferred :: interp
     !> interior times of the last step at which an event's g is sampled (scan_step); default:
@@ -206,6 +207,14 @@ contains
     real(wp), intent(in) :: t0               !! initial time [s]
     if (allocated(self%f)) deallocate (self%f)
     allocate (self%f, source=f)
+    call self%restart(t0)
+  end subroutine integrator_init
+
+  !> A new integration of the same model from t0: the stepper restarts (as after init), the
+  !> counters are cleared; what the method built for the model (a Taylor kernel) is kept.
+  subroutine integrator_restart(self, t0)
+    class(integrator_t), intent(inout) :: self
+    real(wp), intent(in) :: t0        !! initial time [s]
     self%t = t0
     self%t_old = t0
     self%h_next = 0
@@ -214,7 +223,7 @@ contains
     self%nrejected = 0
     self%niter = 0
     self%fresh = .true.
-  end subroutine integrator_init
+  end subroutine integrator_restart
 
   pure real(wp) function plane_g(self, t, x)
     class(plane_t), intent(in) :: self

@@ -31,6 +31,15 @@ module tubes_run
   end type section_spec_t
 
   public :: run_integration, run_trajectory, run_ensemble
+  public :: open_integrator, propagate_kept, close_integrator
+
+  !> Integrators kept between calls (Python's tubes.Integrator, as heyoka's taylor_adaptive):
+  !> the model's field, the method and, for the Taylor method, its kernel set up once; each
+  !> propagate_kept a fresh integration from t = 0, the same bits as a new integrator's.
+  type :: kept_integrator_t
+    class(integrator_t), allocatable :: ig
+  end type kept_integrator_t
+  type(kept_integrator_t), allocatable, save :: kept(:)
 
   !> Items of an ensemble per call of run_lanes (an OpenMP thread's unit of work)
   integer, parameter :: ENSEMBLE_CHUNK = 64
@@ -67,25 +76,16 @@ contains
     integer(i8), intent(out) :: counters(4)
     real(wp), intent(out) :: c_damp
     integer, intent(out) :: stat
-    class(vector_field_t), allocatable :: field
     class(integrator_t), allocatable :: ig
     class(event_t), allocatable :: ev
     real(wp) :: x(size(x0))
     counters = 0
-    c_damp = 0
-    call make_field(system, params, field, c_damp, stat)
+    call setup_integration(system, params, method, rtol, atol, h, max_steps, mopts, ig, c_damp, stat)
     if (stat /= TUBES_OK) return
-    if (size(x0) /= field%dim()) then
+    if (size(x0) /= ig%f%dim()) then
       stat = TUBES_EINPUT
       return
     end if
-    call new_integrator(method, ig, stat, mopts)
-    if (stat /= TUBES_OK) return
-    call ig%init(field, 0.0_wp)
-    ig%rtol = rtol
-    ig%atol = atol
-    ig%h = h
-    ig%max_steps = max_steps
     x = x0
     log%max_crossings = sec%max_crossings
     select case (sec%kind)
@@ -114,6 +114,92 @@ contains
     if (stat == TUBES_EVENT) stat = TUBES_OK
     counters = [ig%nfev, ig%nsteps, ig%nrejected, ig%niter]
   end subroutine run_integration
+  !> The model's field (c_damp: its damping rate [1/s]) and the method's integrator on it at t = 0.
+  subroutine setup_integration(system, params, method, rtol, atol, h, max_steps, mopts, ig, c_damp, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:), rtol, atol, h
+    integer, intent(in) :: method
+    integer(i8), intent(in) :: max_steps
+    type(method_opts_t), intent(in) :: mopts
+    class(integrator_t), allocatable, intent(out) :: ig
+    real(wp), intent(out) :: c_damp
+    integer, intent(out) :: stat
+    class(vector_field_t), allocatable :: field
+    c_damp = 0
+    call make_field(system, params, field, c_damp, stat)
+    if (stat /= TUBES_OK) return
+    call new_integrator(method, ig, stat, mopts)
+    if (stat /= TUBES_OK) return
+    call ig%init(field, 0.0_wp)
+    ig%rtol = rtol
+    ig%atol = atol
+    ig%h = h
+    ig%max_steps = max_steps
+  end subroutine setup_integration
+
+  !> A kept integrator (as run_integration's, without events): handle > 0 names it.
+  subroutine open_integrator(system, params, method, rtol, atol, h, max_steps, mopts, handle, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:), rtol, atol, h
+    integer, intent(in) :: method
+    integer(i8), intent(in) :: max_steps
+    type(method_opts_t), intent(in) :: mopts
+    integer, intent(out) :: handle, stat
+    class(integrator_t), allocatable :: ig
+    real(wp) :: c_damp
+    integer :: k
+    handle = 0
+    call setup_integration(system, params, method, rtol, atol, h, max_steps, mopts, ig, c_damp, stat)
+    if (stat /= TUBES_OK) return
+    !$omp critical (tubes_kept_integrators)
+    if (.not. allocated(kept)) allocate (kept(0))
+    do k = 1, size(kept)
+      if (.not. allocated(kept(k)%ig)) then
+        handle = k
+        exit
+      end if
+    end do
+    if (handle == 0) then
+      kept = [kept, kept_integrator_t()]
+      handle = size(kept)
+    end if
+    call move_alloc(ig, kept(handle)%ig)
+    !$omp end critical (tubes_kept_integrators)
+  end subroutine open_integrator
+
+  !> Integrate x from t = 0 to t_end with kept integrator `handle` (x: the state reached, also on
+  !> failure); counters = [nfev, nsteps, nrejected, niter] of this call.
+  subroutine propagate_kept(handle, x, t_end, counters, stat)
+    integer, intent(in) :: handle
+    real(wp), intent(inout) :: x(:)
+    real(wp), intent(in) :: t_end
+    integer(i8), intent(out) :: counters(4)
+    integer, intent(out) :: stat
+    counters = 0
+    stat = TUBES_EINPUT
+    if (.not. allocated(kept)) return
+    if (handle < 1 .or. handle > size(kept)) return
+    if (.not. allocated(kept(handle)%ig)) return
+    if (size(x) /= kept(handle)%ig%f%dim() .or. .not. t_end >= 0) return
+    stat = TUBES_OK
+    call kept(handle)%ig%restart(0.0_wp)
+    if (t_end > 0) call propagate(kept(handle)%ig, x, t_end, stat)
+    counters = [kept(handle)%ig%nfev, kept(handle)%ig%nsteps, kept(handle)%ig%nrejected, &
+                kept(handle)%ig%niter]
+  end subroutine propagate_kept
+
+  !> Free kept integrator `handle` (an unknown or freed handle: nothing).
+  subroutine close_integrator(handle)
+    integer, intent(in) :: handle
+    !$omp critical (tubes_kept_integrators)
+    if (allocated(kept)) then
+      if (handle >= 1 .and. handle <= size(kept)) then
+        if (allocated(kept(handle)%ig)) deallocate (kept(handle)%ig)
+      end if
+    end if
+    !$omp end critical (tubes_kept_integrators)
+  end subroutine close_integrator
+
   !> The trajectory scene's whole integration, for the C API and f2py alike: checks, the model,
   !> run_integration into obs (a sampler the caller may extend, e.g. with a progress callback),
   !> then the samples (t, state, the conservative energy of each) and the first crossings copied
