@@ -1,57 +1,3 @@
-!> Test models and a dense-output probe for test_dop853: the harmonic oscillator x'' = -x
-!> (state (x, v), exact solution a rotation), the same oscillator failing with NaN below
-!> x = 1/2, and an observer that samples the interpolant inside every accepted step.
-module test_dop853_models
-  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-  use tubes_kinds, only: wp
-  use tubes_test_models, only: oscillator_t, nan_oscillator_t, rotate
-  use tubes_field, only: vector_field_t
-  use tubes_integrator, only: integrator_t, observer_t
-  use tubes_dop853, only: dop853_t
-  implicit none
-  private
-  public :: oscillator_t, nan_oscillator_t, dense_probe_t, rotate
-
-  !> Samples interp at 3 interior points of each step; largest errors against the exact
-  !> solution from (0, (1, 0)) (global) and against the exact flow from the step's own
-  !> start point interp(t_old) (local: the interpolation error alone).
-  type, extends(observer_t) :: dense_probe_t
-    real(wp) :: err_global = 0    !! max |interp(s) - exact(s)|
-    real(wp) :: err_local = 0     !! max |interp(s) - exact flow from interp(t_old)|
-    real(wp) :: err_ends = 0      !! max |interp(t_old) - x_old|, |interp(t) - x_new|
-    integer :: nsteps = 0
-  contains
-    procedure :: on_step => probe_on_step
-  end type dense_probe_t
-
-contains
-
-  subroutine probe_on_step(self, ig, t_hi, stop_now)
-    class(dense_probe_t), intent(inout) :: self
-    class(integrator_t), intent(inout) :: ig
-    real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
-    real(wp) :: xs(2), x0(2), s
-    integer :: j
-    stop_now = .false.
-    self%nsteps = self%nsteps + 1
-    call ig%interp(ig%t_old, x0)
-    do j = 1, 3
-      s = ig%t_old + j*(t_hi - ig%t_old)/4
-      call ig%interp(s, xs)
-      self%err_global = max(self%err_global, norm2(xs - rotate([1.0_wp, 0.0_wp], s)))
-      self%err_local = max(self%err_local, norm2(xs - rotate(x0, s - ig%t_old)))
-    end do
-    select type (ig)
-    type is (dop853_t)
-      self%err_ends = max(self%err_ends, norm2(x0 - ig%x_old))
-      call ig%interp(ig%t, xs)
-      self%err_ends = max(self%err_ends, norm2(xs - ig%x_new))
-    end select
-  end subroutine probe_on_step
-
-end module test_dop853_models
-
 !> DOP853: tableau order conditions, convergence order with fixed steps (oscillator and
 !> rolling ball), dense output, adaptive mode (energy and tolerance proportionality), an
 !> event, backward integration and failure statuses.
@@ -64,7 +10,7 @@ program test_dop853
   use tubes_fourwell, only: fourwell_t
   use tubes_ball, only: ball_t, make_ball
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
-  use test_dop853_models, only: oscillator_t, nan_oscillator_t, dense_probe_t, rotate
+  use tubes_test_models, only: oscillator_t, nan_oscillator_t, dense_probe_t, rotate
   implicit none
 
   real(wp), parameter :: EPS = epsilon(1.0_wp)

@@ -1,61 +1,3 @@
-!> Test models for test_gauss: the harmonic oscillator x'' = -x (state (x, v), exact solution
-!> a rotation) with its analytic Jacobian, the same oscillator failing with NaN below x = 1/2,
-!> and an observer that samples the dense output inside every accepted step.
-module test_gauss_models
-  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-  use tubes_kinds, only: wp
-  use tubes_test_models, only: oscillator_t, nan_oscillator_t, rotate
-  use tubes_field, only: vector_field_t
-  use tubes_integrator, only: integrator_t, observer_t
-  implicit none
-  private
-  public :: oscillator_t, nan_oscillator_t, dense_probe_t, rotate
-
-  !> Samples interp at theta = 1/16, 2/16, ..., 15/16 of each step: largest error against the exact
-  !> flow from the step's own start interp(t_old) (the interpolation error alone), and the
-  !> largest jump between the end of a step's polynomial and the start of the next one.
-  type, extends(observer_t) :: dense_probe_t
-    real(wp) :: err_local = 0     !! max |interp(s) - exact flow from interp(t_old)|
-    real(wp) :: err_join = 0      !! max |interp_k(t_k) - interp_(k+1)(t_k)|
-    real(wp) :: x_end(2) = 0      !! interp(t) of the previous step
-    integer :: nsteps = 0
-  contains
-    procedure :: on_step => probe_on_step
-  end type dense_probe_t
-
-contains
-
-  pure subroutine osc_jacobian(self, t, x, jac, stat)
-    class(oscillator_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: jac(:, :)
-    integer, intent(out) :: stat
-    jac(1, :) = [0.0_wp, 1.0_wp]
-    jac(2, :) = [-1.0_wp, 0.0_wp]
-    stat = 0
-  end subroutine osc_jacobian
-
-  subroutine probe_on_step(self, ig, t_hi, stop_now)
-    class(dense_probe_t), intent(inout) :: self
-    class(integrator_t), intent(inout) :: ig
-    real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
-    real(wp) :: xs(2), x0(2), s
-    integer :: j
-    stop_now = .false.
-    self%nsteps = self%nsteps + 1
-    call ig%interp(ig%t_old, x0)
-    if (self%nsteps > 1) self%err_join = max(self%err_join, norm2(x0 - self%x_end))
-    do j = 1, 15
-      s = ig%t_old + j*(t_hi - ig%t_old)/16
-      call ig%interp(s, xs)
-      self%err_local = max(self%err_local, norm2(xs - rotate(x0, s - ig%t_old)))
-    end do
-    call ig%interp(ig%t, self%x_end)
-  end subroutine probe_on_step
-
-end module test_gauss_models
-
 !> Gauss-Legendre collocation (tubes_gauss): tableau order conditions, measured convergence
 !> orders (oscillator, rolling ball), conservation of the quadratic invariant, bounded energy
 !> error on the ball over 1000 s against DOP853's drift, time reversibility, the two stage
@@ -72,7 +14,7 @@ program test_gauss
   use tubes_ball, only: ball_t, make_ball
   use tubes_variational, only: variational_t, make_variational, stm_start
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
-  use test_gauss_models, only: oscillator_t, nan_oscillator_t, dense_probe_t, rotate
+  use tubes_test_models, only: oscillator_t, nan_oscillator_t, dense_probe_t, rotate
   implicit none
 
   real(wp), parameter :: EPS = epsilon(1.0_wp)
@@ -493,7 +435,7 @@ program test_gauss
   allocate (probe(2))
   do s = 2, 4
     do i = 1, 2
-      probe(i) = dense_probe_t()
+      probe(i) = dense_probe_t(nsamp=15)
       call start(ig, oscillator_t(), s, 0.5_wp/2**(i - 1))
       x = [1.0_wp, 0.0_wp]
       call propagate(ig, x, 10.0_wp, stat, observer=probe(i))

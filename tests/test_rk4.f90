@@ -1,55 +1,3 @@
-!> Test models for test_rk4: the harmonic oscillator x'' = -x (state (x, v), exact solution
-!> a rotation), the same oscillator failing (NaN, fatal) or asking for smaller steps below
-!> x = 1/2, and an observer that measures the dense output inside every accepted step.
-module test_rk4_models
-  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-  use tubes_kinds, only: wp
-  use tubes_test_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate
-  use tubes_field, only: vector_field_t
-  use tubes_integrator, only: integrator_t, observer_t
-  use tubes_rk4, only: rk4_t
-  implicit none
-  private
-  public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, dense_probe_t, rotate
-
-  !> Samples interp at 7 interior points of each step: the largest error against the exact
-  !> flow from the step's own start point (local: interpolation error plus the step's local
-  !> error) and how far interp is from the step's end values.
-  type, extends(observer_t) :: dense_probe_t
-    real(wp) :: err_local = 0    !! max |interp(s) - exact flow from x_old|
-    real(wp) :: err_ends = 0     !! max |interp(t_old) - x_old|, |interp(t) - x_new|
-    integer :: nsteps = 0
-  contains
-    procedure :: on_step => probe_on_step
-  end type dense_probe_t
-
-contains
-
-  subroutine probe_on_step(self, ig, t_hi, stop_now)
-    class(dense_probe_t), intent(inout) :: self
-    class(integrator_t), intent(inout) :: ig
-    real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
-    real(wp) :: xs(2), s
-    integer :: j
-    stop_now = .false.
-    self%nsteps = self%nsteps + 1
-    select type (ig)
-    type is (rk4_t)
-      do j = 1, 7
-        s = ig%t_old + j*(t_hi - ig%t_old)/8
-        call ig%interp(s, xs)
-        self%err_local = max(self%err_local, norm2(xs - rotate(ig%x_old, s - ig%t_old)))
-      end do
-      call ig%interp(ig%t_old, xs)
-      self%err_ends = max(self%err_ends, norm2(xs - ig%x_old))
-      call ig%interp(ig%t, xs)
-      self%err_ends = max(self%err_ends, norm2(xs - ig%x_new))
-    end select
-  end subroutine probe_on_step
-
-end module test_rk4_models
-
 !> Classical RK4: measured convergence order (oscillator against the exact solution, rolling
 !> ball by Richardson), dense output (Hermite cubic, O(h^4) locally, against the exact
 !> flow), evaluation count (f at the step end reused), landing on tmax without sliver
@@ -63,7 +11,7 @@ program test_rk4
   use tubes_fourwell, only: fourwell_t
   use tubes_ball, only: ball_t, make_ball
   use tubes_check, only: check_close, check_true, check_eq, finish
-  use test_rk4_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, dense_probe_t, &
+  use tubes_test_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, dense_probe_t, &
                              rotate
   implicit none
 
@@ -147,7 +95,7 @@ program test_rk4
     call ig%init(oscillator_t(), t0=0.0_wp)
     ig%h = h
     x = [1.0_wp, 0.0_wp]
-    probe = dense_probe_t()
+    probe = dense_probe_t(nsamp=7)
     call propagate(ig, x, 10.0_wp, stat, observer=probe)
     eloc(i) = probe%err_local
     bound = sqrt(2.0_wp)*h**4/384 + 2*h**5/120

@@ -1,12 +1,33 @@
 !> The test oscillator shared by the integrator and event tests: x'' = -x as the state (x, v),
-!> whose exact flow is a rotation, and two failing variants. (It was written out in six tests.)
+!> whose exact flow is a rotation, and two failing variants (it was written out in six tests);
+!> and the probe of a method's dense output on it (it was written out in three).
 module tubes_test_models
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
   use tubes_field, only: vector_field_t, jet_spec_t
+  use tubes_integrator, only: integrator_t, observer_t
+  use tubes_dop853, only: dop853_t
+  use tubes_rk4, only: rk4_t
   implicit none
   private
-  public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval
+  public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval, dense_probe_t
+
+  !> Samples interp at nsamp interior points of every accepted step (s = t_old + j h/(nsamp + 1))
+  !> of an oscillator integration: the largest errors against the exact solution from (0, (1, 0))
+  !> (global) and against the exact flow from the step's own start interp(t_old) (local: the
+  !> interpolation error alone); the largest jump between a step's interp(t) and the next one's
+  !> interp(t_old) (join); and for DOP853 and RK4, how far interp is from the step's end values.
+  type, extends(observer_t) :: dense_probe_t
+    integer :: nsamp = 3          !! interior samples per step
+    real(wp) :: err_global = 0    !! max |interp(s) - exact(s)|
+    real(wp) :: err_local = 0     !! max |interp(s) - exact flow from interp(t_old)|
+    real(wp) :: err_join = 0      !! max |interp_k(t_k) - interp_(k+1)(t_k)|
+    real(wp) :: err_ends = 0      !! max |interp(t_old) - x_old|, |interp(t) - x_new|
+    real(wp) :: x_end(2) = 0      !! interp(t) of the previous step
+    integer :: nsteps = 0
+  contains
+    procedure :: on_step => probe_on_step
+  end type dense_probe_t
 
   !> x' = v, v' = -x.
   type, extends(vector_field_t) :: oscillator_t
@@ -85,6 +106,32 @@ contains
     call osc_eval(self, t, x, dxdt, stat)
     if (x(1) < 0.5_wp) stat = 1
   end subroutine shy_eval
+
+  subroutine probe_on_step(self, ig, t_hi, stop_now)
+    class(dense_probe_t), intent(inout) :: self
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: t_hi
+    logical, intent(out) :: stop_now
+    real(wp) :: xs(2), x0(2), s
+    integer :: j
+    stop_now = .false.
+    self%nsteps = self%nsteps + 1
+    call ig%interp(ig%t_old, x0)
+    if (self%nsteps > 1) self%err_join = max(self%err_join, norm2(x0 - self%x_end))
+    do j = 1, self%nsamp
+      s = ig%t_old + j*(t_hi - ig%t_old)/(self%nsamp + 1)
+      call ig%interp(s, xs)
+      self%err_global = max(self%err_global, norm2(xs - rotate([1.0_wp, 0.0_wp], s)))
+      self%err_local = max(self%err_local, norm2(xs - rotate(x0, s - ig%t_old)))
+    end do
+    call ig%interp(ig%t, self%x_end)
+    select type (ig)
+    type is (dop853_t)
+      self%err_ends = max(self%err_ends, norm2(x0 - ig%x_old), norm2(self%x_end - ig%x_new))
+    type is (rk4_t)
+      self%err_ends = max(self%err_ends, norm2(x0 - ig%x_old), norm2(self%x_end - ig%x_new))
+    end select
+  end subroutine probe_on_step
 
   !> Exact oscillator flow over time s: (x, v) -> (x cos s + v sin s, -x sin s + v cos s).
   pure function rotate(x, s) result(y)

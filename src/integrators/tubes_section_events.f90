@@ -133,27 +133,33 @@ contains
     ev = theta_line_t(PI/4, -pm, terminal)
   end function u1_section
 
-  !> The line x = c (state component 1).
+  !> The line x = c (state component 1); direction +1: dx/dt > 0, -1: dx/dt < 0, 0 (default).
   pure function x_line(c, direction, terminal) result(ev)
     real(wp), intent(in) :: c                  !! level [cm]
-    integer, intent(in), optional :: direction !! +1: dx/dt > 0, -1: dx/dt < 0, 0 (default)
+    integer, intent(in), optional :: direction
     logical, intent(in), optional :: terminal  !! default .true.
     type(plane_t) :: ev
-    ev%k = 1
-    ev%c = c
-    if (present(direction)) ev%direction = direction
-    if (present(terminal)) ev%terminal = terminal
+    ev = coordinate_line(1, c, direction, terminal)
   end function x_line
 
-  !> The line y = c (state component 2).
+  !> The line y = c (state component 2); direction as x_line's for dy/dt.
   pure function y_line(c, direction, terminal) result(ev)
     real(wp), intent(in) :: c                  !! level [cm]
-    integer, intent(in), optional :: direction !! +1: dy/dt > 0, -1: dy/dt < 0, 0 (default)
+    integer, intent(in), optional :: direction
     logical, intent(in), optional :: terminal  !! default .true.
     type(plane_t) :: ev
-    ev%k = 2
+    ev = coordinate_line(2, c, direction, terminal)
+  end function y_line
+
+  pure function coordinate_line(k, c, direction, terminal) result(ev)
+    integer, intent(in) :: k
+    real(wp), intent(in) :: c
+    integer, intent(in), optional :: direction
+    logical, intent(in), optional :: terminal
+    type(plane_t) :: ev
+    ev%k = k
     ev%c = c
     if (present(direction)) ev%direction = direction
     if (present(terminal)) ev%terminal = terminal
-  end function y_line
+  end function coordinate_line
 end module tubes_section_events

@@ -53,16 +53,26 @@ contains
     real(wp), intent(in)  :: t, x(:)
     real(wp), intent(out) :: dxdt(:)
     integer, intent(out)  :: stat
-    real(wp), allocatable :: jac(:, :)
-    integer :: n
-    n = self%base%dim()
-    call self%base%eval(t, x(1:n), dxdt(1:n), stat)
-    if (stat /= 0) return
-    allocate (jac(n, n))
-    call self%base%jacobian(t, x(1:n), jac, stat)
-    if (stat /= 0) return
-    dxdt(n + 1:2*n) = matmul(jac, x(n + 1:2*n))
+    call eval_with_columns(self%base, t, x, 1, dxdt, stat)
   end subroutine tan_eval
+
+  !> (f(x), J(x) W) for the base model, the n x m matrix W stored column by column after x:
+  !> m = 1 a tangent vector, m = n the state transition matrix.
+  pure subroutine eval_with_columns(base, t, x, m, dxdt, stat)
+    class(vector_field_t), intent(in) :: base
+    real(wp), intent(in)  :: t, x(:)
+    integer, intent(in) :: m
+    real(wp), intent(out) :: dxdt(:)
+    integer, intent(out)  :: stat
+    real(wp) :: jac(base%dim(), base%dim())
+    integer :: n
+    n = base%dim()
+    call base%eval(t, x(1:n), dxdt(1:n), stat)
+    if (stat /= 0) return
+    call base%jacobian(t, x(1:n), jac, stat)
+    if (stat /= 0) return
+    dxdt(n + 1:n + n*m) = reshape(matmul(jac, reshape(x(n + 1:n + n*m), [n, m])), [n*m])
+  end subroutine eval_with_columns
 
   !> The base model's formula, with the tangent vector.
   pure function tan_jet_spec(self) result(spec)
@@ -105,14 +115,6 @@ contains
     real(wp), intent(in)  :: t, x(:)
     real(wp), intent(out) :: dxdt(:)
     integer, intent(out)  :: stat
-    real(wp), allocatable :: jac(:, :)
-    integer :: n
-    n = self%base%dim()
-    call self%base%eval(t, x(1:n), dxdt(1:n), stat)
-    if (stat /= 0) return
-    allocate (jac(n, n))
-    call self%base%jacobian(t, x(1:n), jac, stat)
-    if (stat /= 0) return
-    dxdt(n + 1:n + n*n) = reshape(matmul(jac, reshape(x(n + 1:n + n*n), [n, n])), [n*n])
+    call eval_with_columns(self%base, t, x, self%base%dim(), dxdt, stat)
   end subroutine var_eval
 end module tubes_variational
