@@ -350,14 +350,23 @@ contains
     class(poincare_t), intent(inout) :: self
     real(wp), intent(out) :: area, abserr
     integer, intent(out) :: stat
-    area = 0
+    call sec_quad(self, 0, area, abserr, stat)
+  end subroutine sec_area
+
+  !> The section's own type (not an extension) to quad_impl.
+  subroutine sec_quad(self, mode, res, abserr, stat)
+    class(poincare_t), intent(inout) :: self
+    integer, intent(in) :: mode
+    real(wp), intent(out) :: res, abserr
+    integer, intent(out) :: stat
+    res = 0
     abserr = 0
     stat = TUBES_EINPUT
     select type (self)
     type is (poincare_t)
-      call quad_impl(self, 0, area, abserr, stat)
+      call quad_impl(self, mode, res, abserr, stat)
     end select
-  end subroutine sec_area
+  end subroutine sec_quad
 
   !> mode 0: A_E; mode 1: dA_E/dE.
   subroutine quad_impl(self, mode, res, abserr, stat)
@@ -383,12 +392,6 @@ contains
     class(poincare_t), intent(inout) :: self
     real(wp), intent(out) :: darea, abserr
     integer, intent(out) :: stat
-    darea = 0
-    abserr = 0
-    stat = TUBES_EINPUT
-    select type (self)
-    type is (poincare_t)
-      call quad_impl(self, 1, darea, abserr, stat)
-    end select
+    call sec_quad(self, 1, darea, abserr, stat)
   end subroutine sec_darea
 end module tubes_section_kinds
