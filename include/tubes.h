@@ -39,11 +39,12 @@ enum {
 enum { TUBES_NMODEL = 7, TUBES_LSYSTEM = 32, TUBES_MAXPARAM = 16, TUBES_LPARAM = 16,
        TUBES_MAXDOF = 3, TUBES_LUNITS = 16, TUBES_LDOC = 96, TUBES_LSUMMARY = 160 };
 
-/* on != 0: from now on every tube cut (tubes_tube_cut) keeps its seeds, and a later cut of the
+/* Seed stores for tubes_tube_cut: a cut given one keeps its seeds there, and a later cut of the
  * same set-up (model, saddle, orbit options, energy, section, eps, integration) looks up the seeds
  * at the phases it shares with the earlier ones instead of integrating them again (the same bits).
- * 0: stop and free them. For one run of one model (the program's). */
-void tubes_reuse_seeds(int on);
+ * For one model and one caller at a time (the program's run); NULL: none. */
+void *tubes_seed_stores_new(void);
+void tubes_seed_stores_free(void *stores);
 
 /* The name of built-in system k = 0, 1, ... into name (NUL-terminated); TUBES_EINPUT past the
  * last one. */
@@ -242,7 +243,7 @@ int tubes_tube_cut(const char system[TUBES_LSYSTEM], const double params[TUBES_M
                    int max_iter, int nout, int *n, double tau[], double r[], double pr[],
                    double time[], double xs[], double *area, double *area_polygon,
                    double *action, double *period, int *nhist, int hist_n[64],
-                   double hist_area[64], int *n_failed, double *fail_tau, int local);
+                   double hist_area[64], int *n_failed, double *fail_tau, int local, void *stores);
 
 /* Monte Carlo check at de: nsamp points uniform on the section's energy surface (GSL MT19937,
  * seed), each integrated until it returns to the section (outcome 0), passes the saddle's gate,

@@ -27,6 +27,7 @@ typedef struct {
   int method;                                      /* its TUBES_METHOD_* ('auto' without a Taylor kernel: DOP853) */
   hid_t file;    /* rank 0: the output file; other MPI ranks: an in-memory scratch file */
   int rank;      /* MPI rank (0 without MPI): only rank 0 writes files */
+  void *seeds;   /* the run's tube seeds (tubes_seed_stores_new): later scenes' cuts look them up */
   int nranks;    /* MPI ranks (1 without MPI) */
 } tubes_run_t;
 

@@ -257,7 +257,8 @@ subroutine integrator_open(system, params, method, rtol, atol, h, max_steps, ome
   real(c_double), intent(in) :: params(16), rtol, atol, h, omega_bind
   integer(c_int), intent(in) :: method, solver, max_iter
   integer(c_int64_t), intent(in) :: max_steps
-  integer(c_int), intent(out) :: handle, stat
+  integer(c_int64_t), intent(out) :: handle        ! the integrator's address, owned by the caller
+  integer(c_int), intent(out) :: stat
   call open_integrator(trim(system), params, method, rtol, atol, h, max_steps, &
                        method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter), handle, stat)
 end subroutine integrator_open
@@ -267,7 +268,8 @@ subroutine integrator_propagate(handle, n2, x0, t_end, x, counters, stat)
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_run, only: propagate_kept
   implicit none
-  integer(c_int), intent(in) :: handle, n2
+  integer(c_int64_t), intent(in) :: handle
+  integer(c_int), intent(in) :: n2
   real(c_double), intent(in) :: x0(n2), t_end
   real(c_double), intent(out) :: x(n2)
   integer(c_int64_t), intent(out) :: counters(4)
@@ -277,10 +279,10 @@ subroutine integrator_propagate(handle, n2, x0, t_end, x, counters, stat)
 end subroutine integrator_propagate
 
 subroutine integrator_close(handle)
-  use, intrinsic :: iso_c_binding, only: c_int
+  use, intrinsic :: iso_c_binding, only: c_int64_t
   use tubes_run, only: close_integrator
   implicit none
-  integer(c_int), intent(in) :: handle
+  integer(c_int64_t), intent(in) :: handle
   call close_integrator(handle)
 end subroutine integrator_close
 

@@ -1001,6 +1001,11 @@ class Integrator:
     def __exit__(self, *exc):
         self.close()
 
+    def __copy__(self):   # a copy would free the same Fortran object twice
+        raise TypeError("a tubes.Integrator cannot be copied; make another one")
+
+    __deepcopy__ = __reduce__ = lambda self, *a: self.__copy__()
+
     def __del__(self):
         try:
             self.close()

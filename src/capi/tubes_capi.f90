@@ -1,7 +1,8 @@
 !> The bind(C) API (include/tubes.h): scalars by value, explicit-shape arrays, int status.
 module tubes_capi
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_int64_t, c_ptr, c_funptr, &
-                                         c_null_char, c_associated, c_funloc, c_f_procpointer
+                                         c_null_char, c_associated, c_funloc, c_f_procpointer, &
+                                         c_loc, c_f_pointer
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EMODEL, &
                           TUBES_EOUTSIDE, status_message
@@ -26,7 +27,7 @@ module tubes_capi
   use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
-                         check_at, maps_at, cut_outputs, reuse_seeds
+                         check_at, maps_at, cut_outputs, seed_stores_t
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long
   implicit none
@@ -53,12 +54,21 @@ module tubes_capi
 
 contains
 
-  !> on /= 0: from now on the tube cuts keep their seeds for later cuts of the same set-up
-  !> (tubes_study's reuse_seeds); 0: stop and free them. The program's run.
-  subroutine c_reuse_seeds(on) bind(C, name='tubes_reuse_seeds')
-    integer(c_int), value :: on
-    call reuse_seeds(on /= 0)
-  end subroutine c_reuse_seeds
+  !> A new, empty set of seed stores for tubes_tube_cut (include/tubes.h); free it with
+  !> tubes_seed_stores_free.
+  type(c_ptr) function c_seed_stores_new() result(p) bind(C, name='tubes_seed_stores_new')
+    type(seed_stores_t), pointer :: s
+    allocate (s)
+    p = c_loc(s)
+  end function c_seed_stores_new
+
+  subroutine c_seed_stores_free(p) bind(C, name='tubes_seed_stores_free')
+    type(c_ptr), value :: p
+    type(seed_stores_t), pointer :: s
+    if (.not. c_associated(p)) return
+    call c_f_pointer(p, s)
+    deallocate (s)
+  end subroutine c_seed_stores_free
 
   subroutine c_status_message(code, buf, len) bind(C, name='tubes_status_message')
     integer(c_int), value :: code, len
@@ -449,8 +459,8 @@ contains
   integer(c_int) function c_tube_cut(system, params, lo, hi, n_grid, saddle, de, kind, sec_kind, &
       sec_index, level, dir, eps, area_tol, t_max, n_init, n_max, n_segments, orb_tol, orb_rtol, &
       orb_atol, method, h, omega_bind, solver, max_iter, nout, n, tau, r, pr, time, xs, area, &
-      area_polygon, action, period, nhist, hist_n, hist_area, n_failed, fail_tau, local) result(stat) &
-      bind(C, name='tubes_tube_cut')
+      area_polygon, action, period, nhist, hist_n, hist_area, n_failed, fail_tau, local, stores) &
+      result(stat) bind(C, name='tubes_tube_cut')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, sec_kind, sec_index, dir
@@ -460,6 +470,8 @@ contains
     integer(c_int), intent(out) :: n, nhist, hist_n(64), n_failed
     real(c_double), intent(out) :: tau(nout), r(nout), pr(nout), time(nout), xs(4, nout), area, &
                                    area_polygon, action, period, hist_area(64), fail_tau
+    type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
+    type(seed_stores_t), pointer :: kept
     type(study_t) :: st
     type(section_choice_t) :: sec
     type(orbit_t) :: orb
@@ -480,7 +492,12 @@ contains
     opts%t_max = t_max
     opts%n_init = n_init
     opts%n_max = min(n_max, nout)
-    call cut_at(st, sec, de, opts, cut, orb, stat)
+    if (c_associated(stores)) then
+      call c_f_pointer(stores, kept)
+      call cut_at(st, sec, de, opts, cut, orb, stat, kept)
+    else
+      call cut_at(st, sec, de, opts, cut, orb, stat)
+    end if
     call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
     fail_tau = cut%fail_tau
     if (allocated(cut%hist_n)) then

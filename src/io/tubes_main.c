@@ -248,7 +248,7 @@ static int run_main(int argc, char **argv) {
   }
 
   run.file = f;
-  tubes_reuse_seeds(1);               /* a scene's tube cuts look up the seeds earlier scenes cut */
+  run.seeds = tubes_seed_stores_new();  /* a scene's tube cuts look up the seeds earlier scenes cut */
   int status = agree(scene_model(&run));
   for (int k = 0; k < TUBES_NSCENES && status != EXIT_IO; k++) {
     const char *s = cfg.scenes[k];
@@ -267,7 +267,8 @@ static int run_main(int argc, char **argv) {
     if (r == EXIT_IO) status = EXIT_IO;
     else if (r == EXIT_NUMERIC || (r && !status)) status = r;
   }
-  tubes_reuse_seeds(0);
+  tubes_seed_stores_free(run.seeds);
+  run.seeds = NULL;
   if (g_rank != 0) {                  /* the scratch copy is dropped */
     H5Fclose(f);
     return status;

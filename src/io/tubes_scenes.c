@@ -767,7 +767,7 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
   int st = rc ? -1 : tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, kind, SECTION(c), eps, area_tol,
                                     c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol,
                                     INTEGRATOR(c), nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau,
-                                    local);
+                                    local, run->seeds);
   if (err && errlen) err[0] = 0;
   if (status) *status = rc ? TUBES_EINPUT : st;
   if (st == TUBES_EPASTEND) {
@@ -996,7 +996,7 @@ int scene_montecarlo(tubes_run_t *run) {
   int st = tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, -1, SECTION(c), c->tub_eps, c->mc_area_tol,
                           c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol,
                           INTEGRATOR(c), nout,
-                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau, 0);
+                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau, 0, run->seeds);
   if (st < 0 && nfail > 0)
     fprintf(stderr, "tubes: montecarlo: the tube cut at dE = %g: %d seed(s) failed, the first at orbit phase "
             "tau = %.10g s\n", de, nfail, ftau);

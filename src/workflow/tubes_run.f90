@@ -2,6 +2,7 @@
 !> vector, a method with its options, sampling on a time grid, and optionally every crossing of
 !> a section. The C API (src/capi/tubes_capi.f90) and f2py (python/tubes_f2py.f90) both call this.
 module tubes_run
+  use, intrinsic :: iso_c_binding, only: c_intptr_t, c_loc, c_f_pointer, c_null_ptr
   use tubes_kinds, only: wp, i8
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT
   use tubes_field, only: vector_field_t
@@ -33,13 +34,13 @@ module tubes_run
   public :: run_integration, run_trajectory, run_ensemble
   public :: open_integrator, propagate_kept, close_integrator
 
-  !> Integrators kept between calls (Python's tubes.Integrator, as heyoka's taylor_adaptive):
+  !> An integrator kept between calls (Python's tubes.Integrator, as heyoka's taylor_adaptive):
   !> the model's field, the method and, for the Taylor method, its kernel set up once; each
-  !> propagate_kept a fresh integration from t = 0, the same bits as a new integrator's.
+  !> propagate_kept a fresh integration from t = 0, the same bits as a new integrator's. The
+  !> caller owns it by its address (open_integrator, close_integrator).
   type :: kept_integrator_t
     class(integrator_t), allocatable :: ig
   end type kept_integrator_t
-  type(kept_integrator_t), allocatable, save :: kept(:)
 
   !> Items of an ensemble per call of run_lanes (an OpenMP thread's unit of work)
   integer, parameter :: ENSEMBLE_CHUNK = 64
@@ -137,67 +138,53 @@ contains
     ig%max_steps = max_steps
   end subroutine setup_integration
 
-  !> A kept integrator (as run_integration's, without events): handle > 0 names it.
+  !> A kept integrator (as run_integration's, without events); handle: its address (0 on failure).
   subroutine open_integrator(system, params, method, rtol, atol, h, max_steps, mopts, handle, stat)
     character(*), intent(in) :: system
     real(wp), intent(in) :: params(:), rtol, atol, h
     integer, intent(in) :: method
     integer(i8), intent(in) :: max_steps
     type(method_opts_t), intent(in) :: mopts
-    integer, intent(out) :: handle, stat
+    integer(c_intptr_t), intent(out) :: handle
+    integer, intent(out) :: stat
     class(integrator_t), allocatable :: ig
+    type(kept_integrator_t), pointer :: kept
     real(wp) :: c_damp
-    integer :: k
     handle = 0
     call setup_integration(system, params, method, rtol, atol, h, max_steps, mopts, ig, c_damp, stat)
     if (stat /= TUBES_OK) return
-    !$omp critical (tubes_kept_integrators)
-    if (.not. allocated(kept)) allocate (kept(0))
-    do k = 1, size(kept)
-      if (.not. allocated(kept(k)%ig)) then
-        handle = k
-        exit
-      end if
-    end do
-    if (handle == 0) then
-      kept = [kept, kept_integrator_t()]
-      handle = size(kept)
-    end if
-    call move_alloc(ig, kept(handle)%ig)
-    !$omp end critical (tubes_kept_integrators)
+    allocate (kept)
+    call move_alloc(ig, kept%ig)
+    handle = transfer(c_loc(kept), handle)
   end subroutine open_integrator
 
-  !> Integrate x from t = 0 to t_end with kept integrator `handle` (x: the state reached, also on
-  !> failure); counters = [nfev, nsteps, nrejected, niter] of this call.
+  !> Integrate x from t = 0 to t_end with the kept integrator at `handle` (x: the state reached,
+  !> also on failure); counters = [nfev, nsteps, nrejected, niter] of this call.
   subroutine propagate_kept(handle, x, t_end, counters, stat)
-    integer, intent(in) :: handle
+    integer(c_intptr_t), intent(in) :: handle
     real(wp), intent(inout) :: x(:)
     real(wp), intent(in) :: t_end
     integer(i8), intent(out) :: counters(4)
     integer, intent(out) :: stat
+    type(kept_integrator_t), pointer :: kept
     counters = 0
     stat = TUBES_EINPUT
-    if (.not. allocated(kept)) return
-    if (handle < 1 .or. handle > size(kept)) return
-    if (.not. allocated(kept(handle)%ig)) return
-    if (size(x) /= kept(handle)%ig%f%dim() .or. .not. t_end >= 0) return
+    if (handle == 0) return
+    call c_f_pointer(transfer(handle, c_null_ptr), kept)
+    if (size(x) /= kept%ig%f%dim() .or. .not. t_end >= 0) return
     stat = TUBES_OK
-    call kept(handle)%ig%restart(0.0_wp)
-    if (t_end > 0) call propagate(kept(handle)%ig, x, t_end, stat)
-    counters = [kept(handle)%ig%nfev, kept(handle)%ig%nsteps, kept(handle)%ig%nrejected, &
-                kept(handle)%ig%niter]
+    call kept%ig%restart(0.0_wp)
+    if (t_end > 0) call propagate(kept%ig, x, t_end, stat)
+    counters = [kept%ig%nfev, kept%ig%nsteps, kept%ig%nrejected, kept%ig%niter]
   end subroutine propagate_kept
 
-  !> Free kept integrator `handle` (an unknown or freed handle: nothing).
+  !> Free the kept integrator at `handle` (0: nothing).
   subroutine close_integrator(handle)
-    integer, intent(in) :: handle
-    !$omp critical (tubes_kept_integrators)
-    if (allocated(kept)) then
-      if (handle >= 1 .and. handle <= size(kept)) then
-        if (allocated(kept(handle)%ig)) deallocate (kept(handle)%ig)
-      end if
-    end if
-    !$omp end critical (tubes_kept_integrators)
+    integer(c_intptr_t), intent(in) :: handle
+    type(kept_integrator_t), pointer :: kept
+    if (handle == 0) return
+    call c_f_pointer(transfer(handle, c_null_ptr), kept)
+    deallocate (kept)
   end subroutine close_integrator
 
   !> The trajectory scene's whole integration, for the C API and f2py alike: checks, the model,

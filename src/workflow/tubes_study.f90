@@ -23,7 +23,6 @@ module tubes_study
   integer, parameter, public :: SECTION_RAY = 1     !! sec_kind: the ball's polar ray
   integer, parameter, public :: SECTION_PLANE = 2   !! sec_kind: the plane q_index = level
 
-  public :: reuse_seeds
   public :: setup_model, setup_section, orbit_at, saddle_gate, section_info, cut_at, check_at, maps_at, cut_outputs
 
   !> The section of a tube-dynamics call (as &section).
@@ -47,10 +46,6 @@ module tubes_study
     type(integ_choice_t) :: integ    !! the integrator of every analysis (&integrator)
   end type study_t
 
-  !> The tube seeds of a run's cuts, one store per set-up (model, saddle, orbit options, energy,
-  !> section, step-off, integration): a cut at an energy an earlier scene cut looks its seeds up
-  !> (docs/tubes.md, "Seeds computed once"). Kept only between reuse_seeds(.true.) and
-  !> reuse_seeds(.false.): the program's run, where the model cannot change.
   integer, parameter :: NKEY = MAX_PARAMS + 2*MAX_DOF + 20   ! seed_key's numbers
   type :: kept_seeds_t
     character(32) :: system = ''
@@ -58,20 +53,16 @@ module tubes_study
     integer(i8) :: key(NKEY) = 0
     type(seed_store_t) :: store
   end type kept_seeds_t
-  type(kept_seeds_t), allocatable, save :: kept(:)
-  logical, save :: keeping = .false.
+
+  !> The tube seeds of a run's cuts, one store per set-up (model, saddle, orbit options, energy,
+  !> section, step-off, integration): cut_at with it looks up the seeds an earlier cut of the
+  !> set-up integrated (docs/tubes.md, "Seeds computed once"). Owned by the caller (the program's
+  !> run: include/tubes.h tubes_seed_stores_new), for one model and one caller at a time.
+  type, public :: seed_stores_t
+    type(kept_seeds_t), allocatable :: kept(:)
+  end type seed_stores_t
 
 contains
-
-  !> Start (on) or end (.not. on: the stores are freed) keeping the tube seeds of cut_at.
-  subroutine reuse_seeds(on)
-    logical, intent(in) :: on
-    !$omp critical (tubes_kept_seeds)
-    keeping = on
-    if (allocated(kept)) deallocate (kept)
-    if (on) allocate (kept(0))
-    !$omp end critical (tubes_kept_seeds)
-  end subroutine reuse_seeds
 
   !> What a tube seed's crossing depends on besides its phase, bit for bit (the strings apart).
   function seed_key(st, sec, de, o) result(key)
@@ -248,7 +239,7 @@ contains
   !> The cut of the tube of the saddle's Lyapunov orbit at excess energy de with the section
   !> (opts: kind, eps, area_tol, t_max, n_init, n_max, local). orb is the orbit. A cut that
   !> crosses a plane outside the chosen region is TUBES_EOUTSIDE.
-  subroutine cut_at(st, sec, de, opts, cut, orb, stat)
+  subroutine cut_at(st, sec, de, opts, cut, orb, stat, stores)
     type(study_t), intent(in) :: st
     type(section_choice_t), intent(in) :: sec
     real(wp), intent(in) :: de
@@ -256,6 +247,7 @@ contains
     type(tube_cut_t), intent(out) :: cut
     type(orbit_t), intent(out) :: orb
     integer, intent(out) :: stat
+    type(seed_stores_t), intent(inout), optional :: stores   !! the seeds of earlier cuts
     type(tube_opts_t) :: o
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
@@ -271,8 +263,8 @@ contains
     if (stat /= TUBES_OK) return
     o = opts
     o%integ = st%integ
-    if (keeping) then
-      call cut_kept()
+    if (present(stores)) then
+      call cut_kept(stores%kept)
     else
       call tube_cut(model, orb, q_ref - eqs(isad)%q, psec, o, cut, stat)
     end if
@@ -283,13 +275,13 @@ contains
       if (any(cut%r(1:cut%n) < psec%smin - tol_s .or. cut%r(1:cut%n) > psec%smax + tol_s)) stat = TUBES_EOUTSIDE
     end if
   contains
-    subroutine cut_kept()     ! the cut with the store of its set-up (copied in and out)
+    subroutine cut_kept(kept)     ! the cut with the store of its set-up
+      type(kept_seeds_t), allocatable, intent(inout) :: kept(:)
       integer(i8) :: key(NKEY)
-      type(seed_store_t) :: store
       type(kept_seeds_t) :: entry
       integer :: i, ik
       key = seed_key(st, sec, de, o)
-      !$omp critical (tubes_kept_seeds)
+      if (.not. allocated(kept)) allocate (kept(0))
       ik = 0
       do i = 1, size(kept)
         if (kept(i)%system == st%system .and. kept(i)%saddle == st%saddle .and. all(kept(i)%key == key)) ik = i
@@ -301,12 +293,7 @@ contains
         kept = [kept, entry]
         ik = size(kept)
       end if
-      store = kept(ik)%store
-      !$omp end critical (tubes_kept_seeds)
-      call tube_cut(model, orb, q_ref - eqs(isad)%q, psec, o, cut, stat, store)
-      !$omp critical (tubes_kept_seeds)
-      if (store%n > kept(ik)%store%n) kept(ik)%store = store
-      !$omp end critical (tubes_kept_seeds)
+      call tube_cut(model, orb, q_ref - eqs(isad)%q, psec, o, cut, stat, kept(ik)%store)
     end subroutine cut_kept
   end subroutine cut_at
 
