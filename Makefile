@@ -61,6 +61,7 @@ LDLIBS_ALL := $(HDF5_LIBS) $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) $(LAPACK_LI
 # src/ in topic folders (docs/development.md): base, models, integrators, orbits, transport,
 # experiment, parallel, workflow, capi (the C API), io (the C driver, namelist and HDF5)
 SRC_DIRS := $(sort $(dir $(wildcard src/*/)))
+FFLAGS_ALL += $(addprefix -I,$(SRC_DIRS))   # the kind-generic sources' include lines
 F_SRC := $(wildcard $(addsuffix *.f90,$(SRC_DIRS)))
 C_SRC := $(filter-out src/io/tubes_main.c,$(wildcard $(addsuffix *.c,$(SRC_DIRS))))
 F_OBJ := $(patsubst %.f90,$(BUILD)/obj/%.o,$(notdir $(F_SRC)))
@@ -118,11 +119,14 @@ venv-link:
 $(BUILD)/obj $(BUILD)/mod $(BUILD)/tests:
 	@mkdir -p $@
 
-# Module order from the `use tubes_*` lines (file name = module name, STYLE.md).
+# Module order from the `use tubes_*` lines (file name = module name, STYLE.md); the kind-generic
+# sources (src/*/*.inc, docs/development.md) from the `include '...'` lines.
 $(BUILD)/deps.mk: $(F_SRC) $(T_F_SRC) Makefile | $(BUILD)/obj
 	@for f in $(F_SRC) $(T_F_SRC); do b=$$(basename $$f .f90); \
 	  for m in $$(sed -n 's/^ *use  *\(tubes_[a-z0-9_]*\).*/\1/p' $$f | sort -u); do \
-	    [ "$$m" = "$$b" ] || echo "$(BUILD)/obj/$$b.o: $(BUILD)/obj/$$m.o"; done; done > $@
+	    [ "$$m" = "$$b" ] || echo "$(BUILD)/obj/$$b.o: $(BUILD)/obj/$$m.o"; done; \
+	  for i in $$(sed -n "s/^ *include  *'\([a-z0-9_]*\.inc\)'.*/\1/p" $$f | sort -u); do \
+	    echo "$(BUILD)/obj/$$b.o: $$(ls src/*/$$i)"; done; done > $@
 -include $(BUILD)/deps.mk
 
 $(BUILD)/obj/%.o: %.f90 | $(BUILD)/obj $(BUILD)/mod

@@ -5,11 +5,13 @@ module tubes_dop853
   use tubes_kinds, only: wp, i8
   use tubes_integrator, only: integrator_t, start_step
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
-  use tubes_dop853_tableau, only: NS, NSX, C, tableau_a, tableau_e3, tableau_e5, tableau_d
+  use tubes_dop853_tableau, only: NS, NSX, C, tableau_a, tableau_e3, tableau_e5, tableau_d, &
+                                  DOP853_SAFETY, DOP853_FAC_MIN, DOP853_FAC_MAX
+  use tubes_field, only: field_rk => vector_field_t
   implicit none
   private
 
-  real(wp), parameter :: SAFETY = 0.9_wp, FAC_MIN = 0.333_wp, FAC_MAX = 6.0_wp
+  integer, parameter :: rk = wp   ! the kind of the kind-generic source included below
 
   type, extends(integrator_t), public :: dop853_t
     real(wp), allocatable :: k(:, :)      !! stages of the last accepted step (n, NSX)
@@ -64,9 +66,9 @@ contains
     real(wp), intent(inout) :: x(:)
     real(wp), intent(in) :: tmax
     integer, intent(out) :: stat
-    real(wp) :: dir, h, hmin, err, err3, err5, den, fac, xnew(size(x)), sk, xs(size(x)), e3, e5
-    integer :: i, j, n, r, fs
-    logical :: last, reject_prev
+    real(wp) :: dir, h, h_next, xnew(size(x))
+    integer :: n
+    logical :: last
     n = size(x)
     stat = TUBES_OK
     if (self%fresh .or. .not. allocated(self%k)) then
@@ -82,94 +84,20 @@ contains
       return
     end if
     if (self%h > 0) then
-      h = self%h
+      ! fixed step: end on the grid t_grid0 + k h (no drift of t), the last step on tmax
+      h = abs(self%t_grid0 + dir*(self%k_grid + 1)*self%h - self%t)
     else if (self%h_next > 0) then
       h = self%h_next
     else
       call start_step(self%f, self%t, x, self%f_cur, dir, self%rtol, self%atol, 7, h, self%nfev)
     end if
-    reject_prev = .false.
     self%k(:, 1) = self%f_cur
     self%dense_ready = .false.
-    do
-      hmin = max(16*epsilon(1.0_wp)*max(abs(self%t), abs(tmax)), tiny(1.0_wp))   ! never subnormal
-      if (self%h > 0) then
-        ! fixed step: end on the grid t_grid0 + k h (no drift of t), the last step on tmax
-        h = abs(self%t_grid0 + dir*(self%k_grid + 1)*self%h - self%t)
-        last = h*(1 + 64*epsilon(1.0_wp)) >= abs(tmax - self%t)
-      else
-        last = h*(1 + 64*epsilon(1.0_wp)) >= abs(tmax - self%t)   ! absorb roundoff drift of t
-      end if
-      if (last) h = abs(tmax - self%t)
-      if (h < hmin .and. .not. last) then
-        stat = TUBES_ESTEP
-        return
-      end if
-      ! stages 2..12 and the 8th-order solution
-      do i = 2, NS
-        call combine(x, self%k, self%at(:, i), i - 1, dir*h, xs)
-        call self%f%eval(self%t + dir*C(i)*h, xs, self%k(:, i), fs)
-        if (fs /= 0) exit
-      end do
-      self%nfev = self%nfev + (i - 2 + merge(0, 1, fs == 0))   ! stages 2..i-1, and i if it failed
-      if (fs == 0) then
-        call combine(x, self%k, self%at(:, NS + 1), NS, dir*h, xnew)
-        call self%f%eval(self%t + dir*h, xnew, self%k(:, NS + 1), fs)
-        self%nfev = self%nfev + 1
-      end if
-      if (fs < 0) then
-        stat = TUBES_EMODEL
-        return
-      end if
-      if (fs > 0 .and. self%h > 0) then   ! fixed step cannot honour a request to shrink
-        stat = TUBES_ESTEP
-        return
-      end if
-      if (fs > 0) then            ! the model asks for a smaller step
-        h = h/4
-        self%nrejected = self%nrejected + 1
-        reject_prev = .true.
-        cycle
-      end if
-      if (self%h > 0) exit        ! fixed step: no error control
-      err5 = 0          ! the error estimates, component by component
-      err3 = 0
-      do r = 1, n
-        sk = self%atol + self%rtol*max(abs(x(r)), abs(xnew(r)))
-        e5 = 0
-        e3 = 0
-        do j = 1, size(self%i5)         ! the non-zero weights, in order
-          e5 = e5 + self%e5(self%i5(j))*self%k(r, self%i5(j))
-        end do
-        do j = 1, size(self%i3)
-          e3 = e3 + self%e3(self%i3(j))*self%k(r, self%i3(j))
-        end do
-        e5 = e5/sk
-        e3 = e3/sk
-        err5 = err5 + e5**2
-        err3 = err3 + e3**2
-      end do
-      den = err5 + 0.01_wp*err3
-      if (den > 0) then
-        err = h*err5/sqrt(den*n)
-      else
-        err = 0
-      end if
-      if (.not. (err <= huge(1.0_wp))) then   ! NaN in the estimate
-        stat = TUBES_EMODEL
-        return
-      end if
-      if (err <= 1) then
-        fac = min(FAC_MAX, max(FAC_MIN, SAFETY*err**(-1.0_wp/8)))
-        if (err == 0) fac = FAC_MAX
-        if (reject_prev) fac = min(1.0_wp, fac)
-        self%h_next = h*fac
-        exit
-      end if
-      self%nrejected = self%nrejected + 1
-      reject_prev = .true.
-      h = h*max(FAC_MIN, SAFETY*err**(-1.0_wp/8))
-    end do
+    call dop853_attempt(self%f, self%t, tmax, dir, x, self%k, self%at, C, self%e3, self%e5, &
+                        self%i3, self%i5, self%rtol, self%atol, self%h > 0, h, last, xnew, &
+                        h_next, self%nfev, self%nrejected, stat)
+    if (stat /= TUBES_OK) return
+    if (.not. self%h > 0) self%h_next = h_next
     self%x_old = x
     self%x_new = xnew
     self%t_old = self%t
@@ -187,40 +115,7 @@ contains
     self%nsteps = self%nsteps + 1
   end subroutine dop853_step
 
-  !> y = x + h sum_{j <= m} w_j k(:, j): a stage, without temporaries. Four components at a
-  !> time in independent chains (the adds' latency hidden); each sum in the order of j.
-  pure subroutine combine(x, k, w, m, h, y)
-    real(wp), intent(in) :: x(:), k(:, :), w(:)
-    real(wp), intent(in) :: h
-    integer, intent(in) :: m
-    real(wp), intent(out) :: y(:)
-    real(wp) :: a1, a2, a3, a4, acc1
-    integer :: i, j, n4
-    n4 = size(x) - mod(size(x), 4)
-    do i = 1, n4, 4
-      a1 = 0
-      a2 = 0
-      a3 = 0
-      a4 = 0
-      do j = 1, m
-        a1 = a1 + w(j)*k(i, j)
-        a2 = a2 + w(j)*k(i + 1, j)
-        a3 = a3 + w(j)*k(i + 2, j)
-        a4 = a4 + w(j)*k(i + 3, j)
-      end do
-      y(i) = x(i) + h*a1
-      y(i + 1) = x(i + 1) + h*a2
-      y(i + 2) = x(i + 2) + h*a3
-      y(i + 3) = x(i + 3) + h*a4
-    end do
-    do i = n4 + 1, size(x)
-      acc1 = 0
-      do j = 1, m
-        acc1 = acc1 + w(j)*k(i, j)
-      end do
-      y(i) = x(i) + h*acc1
-    end do
-  end subroutine combine
+  include 'tubes_dop853_step.inc'   ! dop853_attempt and combine in real(wp)
 
   !> 7th-order continuous extension; the 3 extra stages are computed on first use in a step.
   !> Each component's sums run in the tableau's order (the same bits as whole-array matmul).

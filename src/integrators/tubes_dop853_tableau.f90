@@ -8,6 +8,10 @@ module tubes_dop853_tableau
   private
   integer, parameter, public :: NS = 12    !! stages of the 8th-order step
   integer, parameter, public :: NSX = 16   !! stages including the 3 dense-output stages
+  !> Step-size control of dop853.f (safety factor, smallest and largest factor of a new step),
+  !> in real128: real(DOP853_SAFETY, rk) in the kind-generic step (tubes_dop853_step.inc).
+  real(qp), parameter, public :: DOP853_SAFETY = 0.9_qp, DOP853_FAC_MIN = 0.333_qp, &
+                                 DOP853_FAC_MAX = 6.0_qp
   real(qp), parameter :: CQ(NSX) = [ &
     0.0e0_qp,&
     0.526001519587677318785587544488e-1_qp,&

@@ -4,11 +4,13 @@
 !> refined by the Illinois method (docs/events.md). Nothing is ever re-integrated.
 module tubes_integrator
   use tubes_kinds, only: wp, i8
-  use tubes_field, only: vector_field_t
+  use tubes_field, only: vector_field_t, field_rk => vector_field_t
   use tubes_status, only: TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, TUBES_ENOCONV, &
                           TUBES_EMODEL, TUBES_ESTEP
   implicit none
   private
+
+  integer, parameter :: rk = wp   ! the kind of the kind-generic sources included below
 
   !> A time stepper. The last accepted step spans [t_old, t]; interp is valid there.
   type, abstract, public :: integrator_t
@@ -167,38 +169,7 @@ contains
     xs = x0 + th*(x1 - x0) + th*th1*((th1*h)*f0 - (th*h)*f1 + (th - th1)*(x1 - x0))
   end subroutine hermite
 
-  !> Hairer's starting step (Solving ODEs I, II.4) for a method of order p, from |x|, f0 = f(t, x)
-  !> and one trial Euler step (one evaluation of f, added to nfev). The one copy for DOP853 and
-  !> the GSL and SUNDIALS backends. If the trial evaluation fails or is not finite, h0 is the
-  !> cautious first guess.
-  subroutine start_step(f, t, x, f0, dir, rtol, atol, p, h0, nfev)
-    class(vector_field_t), intent(in) :: f
-    real(wp), intent(in) :: t, x(:), f0(:), dir, rtol, atol
-    integer, intent(in) :: p
-    real(wp), intent(out) :: h0
-    integer(i8), intent(inout) :: nfev
-    real(wp) :: sk(size(x)), f1(size(x)), d0, d1, d2, h1
-    integer :: fs
-    sk = atol + rtol*abs(x)
-    d0 = sqrt(sum((x/sk)**2)/size(x))
-    d1 = sqrt(sum((f0/sk)**2)/size(x))
-    if (d0 < 1.0e-5_wp .or. d1 < 1.0e-5_wp) then
-      h0 = 1.0e-6_wp
-    else
-      h0 = 0.01_wp*d0/d1
-    end if
-    call f%eval(t + dir*h0, x + dir*h0*f0, f1, fs)
-    nfev = nfev + 1
-    if (fs /= 0) return
-    if (.not. all(abs(f1) <= huge(1.0_wp))) return      ! not finite: keep the cautious guess
-    d2 = sqrt(sum(((f1 - f0)/sk)**2)/size(x))/h0
-    if (max(d1, d2) <= 1.0e-15_wp) then
-      h1 = max(1.0e-6_wp, h0*1.0e-3_wp)
-    else
-      h1 = (0.01_wp/max(d1, d2))**(1.0_wp/(p + 1))
-    end if
-    h0 = min(100*h0, h1)
-  end subroutine start_step
+  include 'tubes_start_step.inc'   ! start_step in real(wp)
 
   !> Take a copy of the model and reset time and counters.
   subroutine integrator_init(self, f, t0)

@@ -1,7 +1,9 @@
 !> Quad-precision (real128) reference solutions of the conservative rolling ball on the
-!> four-well surface: the surface, the Hamiltonian and Hamilton's equations written again in
-!> real128 from docs/theory.md (not converted from the double code), integrated by adaptive
-!> DOP853 in real128 (tubes_dop853_qp) with rtol = atol = tol. Accuracy and cost are measured in
+!> four-well surface: the surface, the Hamiltonian and Hamilton's equations are the double
+!> model's own source compiled in real128 (tubes_fourwell_formula.inc, tubes_ball_formula.inc;
+!> docs/development.md, "Kind-generic sources"), integrated by DOP853's source in real128
+!> (tubes_dop853_qp) with rtol = atol = tol. What makes it a reference is the precision, not a
+!> second formula: the formula is checked against closed forms and energy conservation. Accuracy and cost are measured in
 !> tests/test_reference.f90 and docs/events.md ("Reference solutions").
 module tubes_reference
   use tubes_kinds, only: wp, qp, i8
@@ -11,7 +13,8 @@ module tubes_reference
   private
 
   integer, parameter :: NMODEL = 7                    ! = tubes_models NMODEL
-  real(qp), parameter :: ROLL_QP = 5.0_qp/7.0_qp      ! v = (5/7) M^-1 p for a solid sphere
+  integer, parameter :: rk = qp   ! the kind of the kind-generic sources included below
+  real(qp), parameter :: ROLL = 5.0_qp/7.0_qp   ! tubes_ball's ROLL in real128 (5/7, a solid sphere)
   !> Smallest tolerance accepted: 50 ulps of real128 (below it roundoff dominates the steps).
   real(qp), parameter, public :: REF_TOL_MIN = 1.0e-32_qp
 
@@ -52,8 +55,7 @@ contains
   pure real(qp) function ball_qp_height(self, x, y) result(h)
     class(ball_qp_t), intent(in) :: self
     real(qp), intent(in) :: x, y   !! position [cm]
-    h = self%alpha*(x*x + y*y) - self%beta*(sqrt(x*x + self%gamma) + sqrt(y*y + self%gamma)) &
-        - self%xi*x*y + self%h0
+    h = fourwell_height_of(self%alpha, self%beta, self%gamma, self%xi, self%h0, x, y)
   end function ball_qp_height
 
   !> Gradient (H_x, H_y) [1] and Hessian [1/cm] (docs/theory.md, "The surface").
@@ -61,26 +63,16 @@ contains
     class(ball_qp_t), intent(in) :: self
     real(qp), intent(in) :: x, y
     real(qp), intent(out) :: grad(2), hess(2, 2)
-    real(qp) :: sx, sy
-    sx = sqrt(x*x + self%gamma)
-    sy = sqrt(y*y + self%gamma)
-    grad(1) = 2*self%alpha*x - self%beta*x/sx - self%xi*y
-    grad(2) = 2*self%alpha*y - self%beta*y/sy - self%xi*x
-    hess(1, 1) = 2*self%alpha - self%beta*self%gamma/(sx*sx*sx)
-    hess(2, 2) = 2*self%alpha - self%beta*self%gamma/(sy*sy*sy)
-    hess(1, 2) = -self%xi
-    hess(2, 1) = -self%xi
+    call fourwell_derivs_of(self%alpha, self%beta, self%gamma, self%xi, x, y, grad, hess)
   end subroutine ball_qp_derivs
 
   !> Energy per unit mass T + g H = (5/14)(|p|^2 - (grad H . p)^2/D) + g H [(cm/s)^2].
   pure real(qp) function ball_qp_energy(self, x) result(e)
     class(ball_qp_t), intent(in) :: self
     real(qp), intent(in) :: x(4)   !! (x, y, px, py)
-    real(qp) :: gr(2), hs(2, 2), s
+    real(qp) :: gr(2), hs(2, 2)
     call self%derivs(x(1), x(2), gr, hs)
-    s = gr(1)*x(3) + gr(2)*x(4)
-    e = ROLL_QP/2*(x(3)**2 + x(4)**2 - s*s/(1 + gr(1)**2 + gr(2)**2)) &
-        + self%g*self%height(x(1), x(2))
+    e = ball_energy_of(gr, self%height(x(1), x(2)), self%g, x)
   end function ball_qp_energy
 
   !> Hamilton's equations: u = grad H . p / D, v = (5/7)(p - u grad H),
@@ -90,17 +82,9 @@ contains
     real(qp), intent(in) :: t, x(:)
     real(qp), intent(out) :: dxdt(:)
     integer, intent(out) :: stat
-    real(qp) :: gr(2), hs(2, 2), u, v(2)
+    real(qp) :: gr(2), hs(2, 2)
     call self%derivs(x(1), x(2), gr, hs)
-    u = (gr(1)*x(3) + gr(2)*x(4))/(1 + gr(1)**2 + gr(2)**2)
-    v(1) = ROLL_QP*(x(3) - u*gr(1))
-    v(2) = ROLL_QP*(x(4) - u*gr(2))
-    dxdt(1) = v(1)
-    dxdt(2) = v(2)
-    dxdt(3) = u*(hs(1, 1)*v(1) + hs(1, 2)*v(2)) - self%g*gr(1)
-    dxdt(4) = u*(hs(2, 1)*v(1) + hs(2, 2)*v(2)) - self%g*gr(2)
-    stat = 0
-    if (.not. all(abs(dxdt(1:4)) <= huge(1.0_qp))) stat = -1
+    call ball_rhs_of(gr, hs, self%g, x, dxdt, stat)
   end subroutine ball_qp_eval
 
   !> The real128 ball of a parameter vector [alpha, beta, gamma, xi, h0, g, zeta] (zeta must
@@ -162,4 +146,7 @@ contains
                                real(tol, qp), xq, stat, nsteps, nfev)
     x_end = real(xq, wp)
   end subroutine reference_solution_wp
+
+  include 'tubes_fourwell_formula.inc'   ! the surface in real(qp)
+  include 'tubes_ball_formula.inc'       ! the ball in real(qp)
 end module tubes_reference

@@ -12,6 +12,8 @@ module tubes_ball
   implicit none
   private
 
+  integer, parameter :: rk = wp   ! the kind of the kind-generic source included below
+
   real(wp), parameter, public :: ROLL = 5.0_wp/7.0_wp  !! v = ROLL M^-1 p for a solid sphere
   real(wp), parameter, public :: MAX_RADIUS = 1.0e6_wp  !! |x| + |y| beyond this is refused [cm]
 
@@ -138,22 +140,9 @@ contains
     real(wp), intent(in)  :: t, x(:)
     real(wp), intent(out) :: dxdt(:)
     integer, intent(out)  :: stat
-    real(wp) :: gr(2), hs(2, 2), u, vx, vy, fx, fy
+    real(wp) :: gr(2), hs(2, 2)
     call self%surf%derivs(x(1), x(2), gr, hs)
-    ! scalar form of v = (5/7)(p - u grad H), dp/dt = u Hess v - g grad H (hot path)
-    u = (gr(1)*x(3) + gr(2)*x(4))/(1 + gr(1)*gr(1) + gr(2)*gr(2))
-    vx = ROLL*(x(3) - u*gr(1))
-    vy = ROLL*(x(4) - u*gr(2))
-    fx = u*(hs(1, 1)*vx + hs(1, 2)*vy) - self%g*gr(1)
-    fy = u*(hs(2, 1)*vx + hs(2, 2)*vy) - self%g*gr(2)
-    dxdt(1) = vx
-    dxdt(2) = vy
-    dxdt(3) = fx
-    dxdt(4) = fy
-    stat = 0
-    if (.not. (abs(fx) + abs(fy) + abs(vx) + abs(vy) <= huge(1.0_wp))) stat = -1   ! NaN or Inf
-    ! a state a million cm from the surface's centre is a blown-up integration, not a ball:
-    ! refuse it so that fixed-step methods report the blow-up instead of finite nonsense
+    call ball_rhs_of(gr, hs, self%g, x, dxdt, stat)
     if (abs(x(1)) + abs(x(2)) > MAX_RADIUS) stat = -1
   end subroutine ball_eval
 
@@ -201,11 +190,9 @@ contains
   pure real(wp) function ball_energy(self, x) result(e)
     class(ball_t), intent(in) :: self
     real(wp), intent(in) :: x(:)   !! (x, y, px, py)
-    real(wp) :: gr(2), hs(2, 2), s
+    real(wp) :: gr(2), hs(2, 2)
     call self%surf%derivs(x(1), x(2), gr, hs)
-    s = gr(1)*x(3) + gr(2)*x(4)
-    e = 0.5_wp*ROLL*(x(3)**2 + x(4)**2 - s*s/(1 + gr(1)**2 + gr(2)**2)) &
-        + self%g*self%surf%height(x(1), x(2))
+    e = ball_energy_of(gr, self%surf%height(x(1), x(2)), self%g, x)
   end function ball_energy
 
   !> Potential energy per unit mass g H(x, y) [(cm/s)^2].
@@ -233,4 +220,6 @@ contains
     call self%surf%derivs(q(1), q(2), gr, hs)
     p = (v + gr*(gr(1)*v(1) + gr(2)*v(2)))/ROLL
   end function ball_momentum
+
+  include 'tubes_ball_formula.inc'   ! ball_rhs_of, ball_energy_of in real(wp)
 end module tubes_ball

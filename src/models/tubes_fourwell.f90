@@ -6,6 +6,8 @@ module tubes_fourwell
   implicit none
   private
 
+  integer, parameter :: rk = wp   ! the kind of the kind-generic source included below
+
   !> Paper parameters are the defaults.
   type, extends(surface_t), public :: fourwell_t
     real(wp) :: alpha = 0.07_wp     !! curvature of the bowl [1/cm]
@@ -25,23 +27,14 @@ contains
     class(fourwell_t), intent(in) :: self
     real(wp), intent(in) :: x, y
     real(wp) :: h
-    h = self%alpha*(x*x + y*y) - self%beta*(sqrt(x*x + self%gamma) + sqrt(y*y + self%gamma)) &
-        - self%xi*x*y + self%h0
+    h = fourwell_height_of(self%alpha, self%beta, self%gamma, self%xi, self%h0, x, y)
   end function fourwell_height
 
   pure subroutine fourwell_derivs(self, x, y, grad, hess)
     class(fourwell_t), intent(in) :: self
     real(wp), intent(in)  :: x, y
     real(wp), intent(out) :: grad(2), hess(2, 2)
-    real(wp) :: sx, sy
-    sx = sqrt(x*x + self%gamma)
-    sy = sqrt(y*y + self%gamma)
-    grad(1) = 2*self%alpha*x - self%beta*x/sx - self%xi*y
-    grad(2) = 2*self%alpha*y - self%beta*y/sy - self%xi*x
-    hess(1, 1) = 2*self%alpha - self%beta*self%gamma/(sx*sx*sx)   ! d/dx (x/sx) = gamma/sx^3
-    hess(2, 2) = 2*self%alpha - self%beta*self%gamma/(sy*sy*sy)
-    hess(1, 2) = -self%xi
-    hess(2, 1) = -self%xi
+    call fourwell_derivs_of(self%alpha, self%beta, self%gamma, self%xi, x, y, grad, hess)
   end subroutine fourwell_derivs
 
   !> Third derivatives: only H_xxx and H_yyy are non-zero (H_xy = -xi is constant).
@@ -53,4 +46,6 @@ contains
     t3(1, 1, 1) = 3*self%beta*self%gamma*x/sqrt(x*x + self%gamma)**5
     t3(2, 2, 2) = 3*self%beta*self%gamma*y/sqrt(y*y + self%gamma)**5
   end subroutine fourwell_third
+
+  include 'tubes_fourwell_formula.inc'   ! the surface in real(wp)
 end module tubes_fourwell
