@@ -342,6 +342,10 @@ int tubes_poincare(const char system[TUBES_LSYSTEM], const double params[TUBES_M
  * (both ends included); 0 if duration or camera_rate is not > 0 or their product > 1e8. */
 int tubes_experiment_samples(double duration, double camera_rate);
 
+/* The synthetic experiment's release box [cm] and its integration tolerance rtol = atol: the
+ * defaults of src/experiment/tubes_experiment.f90 (docs/experiment-data.md). */
+void tubes_experiment_defaults(double *box, double *rtol);
+
 /* Release point draws after which tubes_synthetic_experiment gives up (TUBES_EINPUT). */
 enum { TUBES_MAX_RELEASE_DRAWS = 4194304 };
 

@@ -384,7 +384,9 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
                       sec_index, sec_level, sec_dir, tub_eps, tub_area_tol, tub_t_max, tub_n_init, &
                       tub_n_max, tra_area_tol, mc_t_max, mc_gate, mc_area_tol, pm_n_seeds, pm_n_iter, pm_t_max, &
                       method, h, omega_bind, solver, int_max_iter, orb_family, flux_n_samples, flux_seed, &
-                      flux_t_max, flux_gate, flux_tol, flux_order, flux_n_cut, flux_cut_eps, expr_lib)
+                      flux_t_max, flux_gate, flux_tol, flux_order, flux_n_cut, flux_cut_eps, expr_lib, &
+                      exp_n_tracks, exp_seed, exp_duration, exp_camera_rate, exp_pixel, exp_noise, &
+                      exp_de_min, exp_de_max, exp_damping_ratio)
   ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
   ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
   ! scene calls take their defaults and their checks from here; msg holds the messages
@@ -399,6 +401,9 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   real(c_double), intent(out) :: flux_t_max, flux_gate, flux_tol, flux_cut_eps
   integer(c_int), intent(out) :: flux_order, flux_n_cut
   character(len=1024), intent(out) :: expr_lib
+  integer(c_int), intent(out) :: exp_n_tracks, exp_seed
+  real(c_double), intent(out) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
+                                 exp_de_max, exp_damping_ratio
   character(len=2048), intent(out) :: msg
   character(len=32), intent(out) :: system
   character(len=8), intent(out) :: saddle
@@ -488,6 +493,15 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   flux_n_cut = cfg%flux_n_cut
   flux_cut_eps = cfg%flux_cut_eps
   expr_lib = chars(cfg%expr_lib)   ! a formula model's library file ('' for a built-in)
+  exp_n_tracks = cfg%exp_n_tracks
+  exp_seed = cfg%exp_seed
+  exp_duration = cfg%exp_duration
+  exp_camera_rate = cfg%exp_camera_rate
+  exp_pixel = cfg%exp_pixel
+  exp_noise = cfg%exp_noise
+  exp_de_min = cfg%exp_de_min
+  exp_de_max = cfg%exp_de_max
+  exp_damping_ratio = cfg%exp_damping_ratio
 contains
   function chars(c) result(s)
     character(kind=c_char), intent(in) :: c(:)
@@ -848,3 +862,34 @@ subroutine taylor_check(system, params, eps, stat, msg)
   if (stat /= 0) return
   call taylor_check_(field, eps, msg, stat)
 end subroutine taylor_check
+
+subroutine synthetic_experiment(params, e_e, n_tracks, duration, camera_rate, pixel, noise, de_min, &
+                                de_max, seed, method, h, omega_bind, solver, max_iter, ns, stat, t, &
+                                state, energy, noisy, measured, release, c_damp, n_draws, box, rtol)
+  ! synthetic tracks of the rolling ball (as the synthetic_experiment scene: the same C API call,
+  ! its release box and tolerance experiment_opts_t's defaults); ns = tubes_experiment_samples
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_capi, only: c_synthetic_experiment, c_experiment_defaults
+  implicit none
+  real(c_double), intent(in) :: params(16), e_e, duration, camera_rate, pixel, noise, de_min, de_max, &
+                                h, omega_bind
+  integer(c_int), intent(in) :: n_tracks, seed, method, solver, max_iter, ns
+  integer(c_int), intent(out) :: stat, n_draws
+  real(c_double), intent(out) :: t(ns), state(4, ns, n_tracks), energy(ns, n_tracks), &
+                                 noisy(2, ns, n_tracks), measured(2, ns, n_tracks), release(3, n_tracks), &
+                                 c_damp, box, rtol
+  call c_experiment_defaults(box, rtol)
+  stat = c_synthetic_experiment(params, e_e, n_tracks, duration, camera_rate, pixel, noise, de_min, de_max, &
+                                box, seed, rtol, method, h, omega_bind, solver, max_iter, ns, t, state, &
+                                energy, noisy, measured, release, c_damp, n_draws)
+end subroutine synthetic_experiment
+
+subroutine experiment_samples(duration, camera_rate, ns)
+  ! frames per track of the synthetic experiment (tubes_experiment_samples)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_capi, only: c_experiment_samples
+  implicit none
+  real(c_double), intent(in) :: duration, camera_rate
+  integer(c_int), intent(out) :: ns
+  ns = c_experiment_samples(duration, camera_rate)
+end subroutine experiment_samples

@@ -435,7 +435,8 @@ _SETTINGS = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", 
              "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate", "mc_area_tol", "pm_n_seeds",
              "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter", "orb_family",
              "flux_n_samples", "flux_seed", "flux_t_max", "flux_gate", "flux_tol", "flux_order", "flux_n_cut",
-             "flux_cut_eps", "expr_lib")
+             "flux_cut_eps", "expr_lib", "exp_n_tracks", "exp_seed", "exp_duration", "exp_camera_rate",
+             "exp_pixel", "exp_noise", "exp_de_min", "exp_de_max", "exp_damping_ratio")
 
 
 def _read_namelist(lines: list[str], who: str) -> dict:
@@ -807,8 +808,62 @@ def poincare(model: Model | None = None, dE: float = 100.0, n_seeds=None, n_iter
     return out
 
 
+def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=None, camera_rate=None,
+                         pixel=None, noise=None, de_min=None, de_max=None, damping_ratio=None, seed=None,
+                         saddle=None, integrator: dict | None = None, equilibria: dict | None = None) -> dict:
+    """Synthetic tracks of the rolling ball, as the synthetic_experiment scene (the same call, the
+    same numbers; docs/experiment-data.md): n_tracks balls released from rest at g H - E_e in
+    [de_min, de_max], E_e the saddle's energy, integrated with damping ratio damping_ratio (the
+    model's own is replaced), filmed at camera_rate [Hz] for duration [s] with Gaussian noise [cm]
+    rounded to pixel [cm]. Keywords as &experiment (defaults from the program's reader; the &model
+    damping ratio is the theory's, &experiment's the tracks'). dict as the scene's /tracks: arrays
+    track, t, x, y (measured) per frame; truth (dict: state (n, 4), energy, dE, noisy (n, 2),
+    release (n_tracks, 2), release_dE); and E_e, saddle, damping_rate [1/s], n_draws, n_samples
+    (frames per track), box, rtol and the settings used."""
+    model = model or Model()
+    if model.name != "rolling_ball":
+        raise ValueError(f"synthetic_experiment: the synthetic experiment is the rolling ball's (not {model.system!r})")
+    ex = {k: v for k, v in (("n_tracks", n_tracks), ("duration", duration), ("camera_rate", camera_rate),
+                             ("pixel", pixel), ("noise", noise), ("de_min", de_min), ("de_max", de_max),
+                             ("damping_ratio", damping_ratio), ("seed", seed)) if v is not None}
+    st = _settings(model, saddle, experiment=ex, integrator=integrator, equilibria=equilibria)
+    eq = globals()["equilibria"](model, box=(st["hi"] - st["lo"])[:model.ndof] / 2,
+                                 box_center=((st["hi"] + st["lo"]) / 2)[:model.ndof], n_grid=int(st["n_grid"]))
+    k = [i for i, n in enumerate(eq["name"]) if n == st["saddle"] and eq["rank1"][i]]
+    if not k:
+        raise ValueError(f"synthetic_experiment: the saddle {st['saddle']!r} (E_e) was not found")
+    e_e = float(eq["energy"][k[0]])
+    nt = int(st["exp_n_tracks"])
+    ns = int(_lib().experiment_samples(float(st["exp_duration"]), float(st["exp_camera_rate"])))
+    par = np.array(model.params(), dtype=np.float64)
+    par[6] = float(st["exp_damping_ratio"])
+    (stat, t, state, energy, noisy, meas, rel, c_damp, n_draws, box, rtol) = _lib().synthetic_experiment(
+        par, e_e, nt, float(st["exp_duration"]), float(st["exp_camera_rate"]), float(st["exp_pixel"]),
+        float(st["exp_noise"]), float(st["exp_de_min"]), float(st["exp_de_max"]), int(st["exp_seed"]),
+        *_integ(st, model), ns)
+    if stat == EINPUT:
+        raise ValueError(f"synthetic_experiment: found fewer than {nt} release points with g H - E_e in "
+                         f"[{st['exp_de_min']:g}, {st['exp_de_max']:g}] (cm/s)^2 in the box |x|, |y| <= {box:g} cm "
+                         f"after {n_draws} draws; widen [de_min, de_max]")
+    _check(stat, "synthetic_experiment")
+    n = nt * ns
+    st4 = state.reshape(4, n, order="F").T.copy()
+    en = energy.reshape(n, order="F").copy()
+    return {"track": np.repeat(np.arange(nt, dtype=np.int32), ns), "t": np.tile(t, nt),
+            "x": meas[0].reshape(n, order="F").copy(), "y": meas[1].reshape(n, order="F").copy(),
+            "truth": {"state": st4, "energy": en, "dE": en - e_e,
+                      "noisy": noisy.reshape(2, n, order="F").T.copy(),
+                      "release": rel[:2].T.copy(), "release_dE": rel[2].copy()},
+            "E_e": e_e, "saddle": st["saddle"], "damping_rate": float(c_damp), "n_draws": int(n_draws),
+            "n_samples": ns, "n_tracks": nt, "box": float(box), "rtol": float(rtol),
+            "duration": float(st["exp_duration"]), "camera_rate": float(st["exp_camera_rate"]),
+            "pixel": float(st["exp_pixel"]), "noise": float(st["exp_noise"]), "de_min": float(st["exp_de_min"]),
+            "de_max": float(st["exp_de_max"]), "damping_ratio": float(st["exp_damping_ratio"]),
+            "seed": int(st["exp_seed"])}
+
+
 for _f in (orbit_family, tube_cut, transition, monte_carlo, poincare, flux, equilibria, section_boundary,
-           normal_form_map):
+           normal_form_map, synthetic_experiment):
     setattr(Model, _f.__name__, lambda self, *a, _f=_f, **k: _f(self, *a, **k))
 del _f
 

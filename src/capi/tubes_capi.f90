@@ -32,6 +32,8 @@ module tubes_capi
   use, intrinsic :: iso_c_binding, only: c_long
   implicit none
   private
+  ! the synthetic experiment's entry, called by the f2py facade too (python/tubes_f2py.f90)
+  public :: c_synthetic_experiment, c_experiment_defaults, c_experiment_samples
 
   real(wp), parameter :: PI = acos(-1.0_wp)
 
@@ -710,6 +712,15 @@ contains
     real(c_double), value :: duration, camera_rate
     ns = experiment_samples(duration, camera_rate)
   end function c_experiment_samples
+
+  !> The synthetic experiment's release box [cm] and integration tolerance (rtol = atol), the
+  !> defaults of experiment_opts_t (include/tubes.h).
+  subroutine c_experiment_defaults(box, rtol) bind(C, name='tubes_experiment_defaults')
+    real(c_double), intent(out) :: box, rtol
+    type(experiment_opts_t) :: d
+    box = d%box
+    rtol = d%rtol
+  end subroutine c_experiment_defaults
 
   !> Synthetic tracking data (include/tubes.h, src/experiment/tubes_experiment.f90).
   integer(c_int) function c_synthetic_experiment(params, e_e, n_tracks, duration, camera_rate, &

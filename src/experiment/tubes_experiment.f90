@@ -38,8 +38,8 @@ module tubes_experiment
     real(wp) :: e_e = 0                   !! critical energy E_e of the reference saddle [(cm/s)^2]
     real(wp) :: box = 13                  !! releases in |x|, |y| <= box [cm]
     integer(c_long) :: seed = 1           !! seed of the MT19937 stream
-    real(wp) :: rtol = 1.0e-10_wp         !! DOP853 relative tolerance
-    real(wp) :: atol = 1.0e-10_wp         !! DOP853 absolute tolerance [state units]
+    real(wp) :: rtol = 1.0e-10_wp         !! the integrator's relative tolerance
+    real(wp) :: atol = 1.0e-10_wp         !! its absolute tolerance [state units]
   end type experiment_opts_t
 
   public :: experiment_samples, synthetic_experiment

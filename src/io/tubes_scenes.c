@@ -1144,8 +1144,8 @@ static int write_tracks_csv(const char *path, int nt, int ns, const double *t, c
 
 int scene_synthetic_experiment(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  const double box = 13.0, rtol = 1e-10;   /* docs/experiment-data.md */
-  double ee, tpo;
+  double box, rtol, ee, tpo;
+  tubes_experiment_defaults(&box, &rtol);   /* docs/experiment-data.md */
   int st = saddle_props(run, &ee, &tpo);
   if (st < 0) {
     fprintf(stderr, "tubes: synthetic_experiment: the saddle %s (E_e) was not found (status %d)\n",
