@@ -177,7 +177,7 @@ $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)/tests
 	$(CC) $(CFLAGS_ALL) -o $@ $< $(LIB) -lgfortran $(LDLIBS_ALL) -lm
 $(BUILD)/obj/tubes_check.o: tests/tubes_check.f90 $(F_OBJ) | $(BUILD)/obj $(BUILD)/mod
 	$(FC) $(FFLAGS_ALL) -c $< -o $@
-$(BUILD)/obj/tubes_test_models.o: tests/tubes_test_models.f90 $(F_OBJ) | $(BUILD)/obj $(BUILD)/mod
+$(BUILD)/obj/tubes_test_models.o: tests/tubes_test_models.f90 $(BUILD)/obj/tubes_check.o $(F_OBJ) | $(BUILD)/obj $(BUILD)/mod
 	$(FC) $(FFLAGS_ALL) -c $< -o $@
 
 tests: $(filter-out $(BUILD)/tests/tubes_check,$(T_BIN))
