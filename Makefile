@@ -161,12 +161,13 @@ tubes: $(BUILD)/bin/tubes FORCE
 	@cmp -s $< $@ || { cp $< $@ && echo "tubes: the $(if $(MPI_DEF),MPI,serial) flavour ($<)"; }
 
 # ---------------------------------------------------------------- python extension (f2py, meson)
+# skip: the facade's helper module (tubes_f2py_models: sized_model) is compiled, not wrapped
 python: $(PYEXT_STAMP)
 $(PYEXT_STAMP): python/tubes_f2py.f90 $(LIB)
 	@if [ ! -x $(VPY) ]; then echo "python: no $(VENV); run 'make deps' first" >&2; exit 1; fi
 	@rm -rf $(BUILD)/py && mkdir -p $(BUILD)/py && rm -f python/tubes/_core*.so   # meson does not track .mod files: start clean
 	cd $(BUILD)/py && PATH=$(abspath $(VENV))/bin:$$PATH FFLAGS="-fPIC -fopenmp" \
-	  $(VPY) -m numpy.f2py -c --backend meson -m _core $(abspath python/tubes_f2py.f90) \
+	  $(VPY) -m numpy.f2py -c --backend meson -m _core $(abspath python/tubes_f2py.f90) skip: sized_model : \
 	  -I$(abspath $(BUILD)/mod) -L$(abspath $(BUILD)) -ltubes $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) -llapack -lblas --dep openmp > f2py.log 2>&1 \
 	  || { tail -30 f2py.log; exit 1; }
 	cp $(BUILD)/py/_core*.so python/tubes/
@@ -180,7 +181,7 @@ $(BUILD)/tests/%: tests/%.c $(LIB) | $(BUILD)/tests
 	$(CC) $(CFLAGS_ALL) -o $@ $< $(LIB) -lgfortran $(LDLIBS_ALL) -lm
 $(BUILD)/obj/tubes_check.o: tests/tubes_check.f90 $(F_OBJ) | $(BUILD)/obj $(BUILD)/mod
 	$(FC) $(FFLAGS_ALL) -c $< -o $@
-$(BUILD)/obj/tubes_test_models.o: tests/tubes_test_models.f90 $(F_OBJ) | $(BUILD)/obj $(BUILD)/mod
+$(BUILD)/obj/tubes_test_models.o: tests/tubes_test_models.f90 $(BUILD)/obj/tubes_check.o $(F_OBJ) | $(BUILD)/obj $(BUILD)/mod
 	$(FC) $(FFLAGS_ALL) -c $< -o $@
 
 tests: $(filter-out $(BUILD)/tests/tubes_check,$(T_BIN))

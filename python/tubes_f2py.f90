@@ -1,18 +1,45 @@
 ! The f2py facade of tubes (python/tubes/_core): plain subroutines, iso_c_binding kinds,
 ! explicit shapes, stat first among the outputs. The tubes package (python/tubes/__init__.py)
 ! copies inputs and raises TubesError on stat < 0. A model is (system, params(16)) in the order
-! of the library's table (src/models/tubes_models.f90, model_info).
+! of the library's table (src/models/tubes_models.f90, model_info). The module tubes_f2py_models
+! holds the subroutines' shared helpers; f2py does not wrap it (the Makefile's skip: list).
+
+module tubes_f2py_models
+  ! helpers of the subroutines below (not Python-visible: skip: in the Makefile's f2py call)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_hamiltonian, only: hamiltonian_t
+  use tubes_models, only: make_model
+  use tubes_status, only: TUBES_EINPUT
+  implicit none
+  private
+  public :: sized_model
+contains
+  subroutine sized_model(system, params, n, per_dof, model, stat)
+    ! the conservative model of (system, params); stat TUBES_EINPUT unless n is the size of its
+    ! state, 2N (per_dof: of its configuration, N)
+    character(len=*), intent(in) :: system
+    real(c_double), intent(in) :: params(16)
+    integer(c_int), intent(in) :: n
+    logical, intent(in) :: per_dof
+    class(hamiltonian_t), allocatable, intent(out) :: model
+    integer(c_int), intent(out) :: stat
+    call make_model(trim(system), params, model, stat)
+    if (stat /= 0) return
+    if (n /= merge(model%ndof(), model%dim(), per_dof)) stat = TUBES_EINPUT
+  end subroutine sized_model
+end module tubes_f2py_models
 
 subroutine model_system(k, stat, name)
-  ! the name of built-in system k = 1, 2, ... (stat -1 past the last)
+  ! the name of built-in system k = 1, 2, ... (stat TUBES_EINPUT past the last)
   use, intrinsic :: iso_c_binding, only: c_int
   use tubes_models, only: system_name, NSYSTEMS
+  use tubes_status, only: TUBES_EINPUT
   implicit none
   integer(c_int), intent(in) :: k
   integer(c_int), intent(out) :: stat
   character(len=32), intent(out) :: name
   name = ''
-  stat = -1
+  stat = TUBES_EINPUT
   if (k < 1 .or. k > NSYSTEMS) return
   name = system_name(k)
   stat = 0
@@ -59,7 +86,7 @@ subroutine energies(system, params, n, m, x, stat, e)
   ! H of m states (columns of x, n = 2N components each) of the conservative model
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_models, only: make_model
+  use tubes_f2py_models, only: sized_model
   implicit none
   character(len=*), intent(in) :: system
   integer(c_int), intent(in) :: n, m
@@ -69,12 +96,8 @@ subroutine energies(system, params, n, m, x, stat, e)
   class(hamiltonian_t), allocatable :: model
   integer :: k
   e = 0
-  call make_model(trim(system), params, model, stat)
+  call sized_model(system, params, n, .false., model, stat)
   if (stat /= 0) return
-  if (n /= model%dim()) then
-    stat = -1
-    return
-  end if
   do k = 1, m
     e(k) = model%energy(x(:, k))
   end do
@@ -85,7 +108,7 @@ subroutine vector_field(system, params, n, x, stat, dxdt)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_field, only: vector_field_t
   use tubes_models, only: make_field
-  use tubes_status, only: TUBES_EMODEL
+  use tubes_status, only: TUBES_EINPUT, TUBES_EMODEL
   implicit none
   character(len=*), intent(in) :: system
   integer(c_int), intent(in) :: n
@@ -98,7 +121,7 @@ subroutine vector_field(system, params, n, x, stat, dxdt)
   call make_field(trim(system), params, field, c, stat)
   if (stat /= 0) return
   if (n /= field%dim()) then
-    stat = -1
+    stat = TUBES_EINPUT
     return
   end if
   call field%eval(0.0_c_double, x, dxdt, stat)
@@ -109,7 +132,8 @@ subroutine momentum(system, params, n, q, v, stat, p)
   ! natural systems: the momenta of velocity v at q, p = A(q)^-1 v (the ball: (7/5) M v)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_models, only: make_model, momentum_of
+  use tubes_models, only: momentum_of
+  use tubes_f2py_models, only: sized_model
   implicit none
   character(len=*), intent(in) :: system
   integer(c_int), intent(in) :: n
@@ -118,10 +142,8 @@ subroutine momentum(system, params, n, q, v, stat, p)
   real(c_double), intent(out) :: p(n)
   class(hamiltonian_t), allocatable :: model
   p = 0
-  call make_model(trim(system), params, model, stat)
+  call sized_model(system, params, n, .true., model, stat)
   if (stat /= 0) return
-  stat = -1
-  if (n /= model%ndof()) return
   call momentum_of(model, q, v, p, stat)
 end subroutine momentum
 
@@ -129,7 +151,9 @@ subroutine potentials(system, params, n, m, q, stat, v)
   ! natural systems: V at m configurations (columns of q)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_models, only: make_model, potential_of
+  use tubes_models, only: potential_of
+  use tubes_f2py_models, only: sized_model
+  use tubes_status, only: TUBES_EINPUT
   implicit none
   character(len=*), intent(in) :: system
   integer(c_int), intent(in) :: n, m
@@ -139,10 +163,9 @@ subroutine potentials(system, params, n, m, q, stat, v)
   class(hamiltonian_t), allocatable :: model
   integer :: k
   v = 0
-  call make_model(trim(system), params, model, stat)
+  call sized_model(system, params, n, .true., model, stat)
   if (stat /= 0) return
-  stat = -1
-  if (n /= model%ndof()) return
+  if (m < 1) stat = TUBES_EINPUT   ! no configurations (m = 0): invalid input, tubes.potentials raises
   do k = 1, m
     call potential_of(model, q(:, k), v(k), stat)
     if (stat /= 0) return
@@ -154,7 +177,9 @@ subroutine shape_derivs(system, params, n, m, q, stat, grad, hess)
   ! height H(x, y), V = g H) at m configurations
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_models, only: make_model, shape_derivs_of
+  use tubes_models, only: shape_derivs_of
+  use tubes_f2py_models, only: sized_model
+  use tubes_status, only: TUBES_EINPUT
   implicit none
   character(len=*), intent(in) :: system
   integer(c_int), intent(in) :: n, m
@@ -165,10 +190,9 @@ subroutine shape_derivs(system, params, n, m, q, stat, grad, hess)
   integer :: k
   grad = 0
   hess = 0
-  call make_model(trim(system), params, model, stat)
+  call sized_model(system, params, n, .true., model, stat)
   if (stat /= 0) return
-  stat = -1
-  if (n /= model%ndof()) return
+  if (m < 1) stat = TUBES_EINPUT   ! no configurations (m = 0): invalid input, tubes.potentials raises
   do k = 1, m
     call shape_derivs_of(model, q(:, k), grad(:, k), hess(:, :, k), stat)
     if (stat /= 0) return
@@ -526,6 +550,7 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family_ => orbit_family
   use tubes_study, only: setup_model
   use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_status, only: TUBES_EINPUT
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, nde, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
@@ -542,7 +567,7 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   integer :: isad, k, n2, reason
   energy = 0; period = 0; action = 0; mu_u = 0; mu_s = 0; stab = 0; residual = 0; closure = 0
   iterations = 0; converged = 0; state0 = 0; ts = 0; xs = 0; end_de = -1; end_reason = 0
-  stat = -1
+  stat = TUBES_EINPUT
   if (nde < 1 .or. nsamp < 2 .or. max_iter < 1 .or. n_segments < 1 .or. tol <= 0) return
   call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat)
   if (stat /= 0) return

@@ -10,7 +10,7 @@ program test_dop853
   use tubes_fourwell, only: fourwell_t
   use tubes_ball, only: ball_t, make_ball
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
-  use tubes_test_models, only: oscillator_t, nan_oscillator_t, dense_probe_t, rotate
+  use tubes_test_models, only: oscillator_t, nan_oscillator_t, dense_probe_t, rotate, oscillator_fixed_step
   implicit none
 
   real(wp), parameter :: EPS = epsilon(1.0_wp)
@@ -147,15 +147,7 @@ program test_dop853
   ! [7.5, 8.5] allows for that at omega h ~ 1.
   do i = 1, 3
     h = 1.25_wp/2**(i - 1)
-    call ig%init(oscillator_t(), t0=0.0_wp)
-    ig%h = h
-    x = [1.0_wp, 0.0_wp]
-    call propagate(ig, x, 10.0_wp, stat)
-    write (lbl, '(a,f6.4)') 'fixed step oscillator: status, h = ', h
-    call check_eq(trim(lbl), stat, TUBES_OK)
-    write (lbl, '(a,f6.4)') 'fixed step oscillator: lands on t = 10, h = ', h
-    call check_true(trim(lbl), ig%t == 10.0_wp)
-    err(i) = norm2(x - rotate([1.0_wp, 0.0_wp], 10.0_wp))
+    call oscillator_fixed_step(ig, h, 'fixed step oscillator', 'f6.4', err(i))
     write (*, '(a,f6.4,a,es10.3)') '     h = ', h, '  error at t = 10: ', err(i)
   end do
   do i = 1, 2

@@ -12,7 +12,7 @@ program test_rk4
   use tubes_ball, only: ball_t, make_ball
   use tubes_check, only: check_close, check_true, check_eq, finish
   use tubes_test_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, dense_probe_t, &
-                             rotate
+                             rotate, oscillator_fixed_step
   implicit none
 
   real(wp), parameter :: EPS = epsilon(1.0_wp)
@@ -37,15 +37,7 @@ program test_rk4
   ! measured order by < 0.01: window +-0.1.
   do i = 1, 3
     h = 0.125_wp/2**(i - 1)
-    call ig%init(oscillator_t(), t0=0.0_wp)
-    ig%h = h
-    x = [1.0_wp, 0.0_wp]
-    call propagate(ig, x, 10.0_wp, stat)
-    write (lbl, '(a,f7.5)') 'oscillator: status, h = ', h
-    call check_eq(trim(lbl), stat, TUBES_OK)
-    write (lbl, '(a,f7.5)') 'oscillator: lands on t = 10, h = ', h
-    call check_true(trim(lbl), ig%t == 10.0_wp)
-    err(i) = norm2(x - rotate([1.0_wp, 0.0_wp], 10.0_wp))
+    call oscillator_fixed_step(ig, h, 'oscillator', 'f7.5', err(i))
     write (*, '(a,f7.5,a,es10.3,a,es10.3,a)') '     h = ', h, '  error at t = 10: ', err(i), &
       '  (t h^4/120 = ', 10*h**4/120, ')'
     ! the leading term t h^4/120 itself, within the O(h^2) correction (< 1% at h <= 1/8)

@@ -1,16 +1,20 @@
 !> The test oscillator shared by the integrator and event tests: x'' = -x as the state (x, v),
 !> whose exact flow is a rotation, and two failing variants (it was written out in six tests);
-!> and the probe of a method's dense output on it (it was written out in three).
+!> the probe of a method's dense output on it (it was written out in three); and its fixed-step
+!> run to t = 10 of the convergence-order tests (written out in two).
 module tubes_test_models
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
+  use tubes_status, only: TUBES_OK
   use tubes_field, only: vector_field_t, jet_spec_t
-  use tubes_integrator, only: integrator_t, observer_t
+  use tubes_integrator, only: integrator_t, observer_t, propagate
+  use tubes_check, only: check_eq, check_true
   use tubes_dop853, only: dop853_t
   use tubes_rk4, only: rk4_t
   implicit none
   private
-  public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval, dense_probe_t
+  public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval, dense_probe_t, &
+            oscillator_fixed_step
 
   !> Samples interp at nsamp interior points of every accepted step (s = t_old + j h/(nsamp + 1))
   !> of an oscillator integration: the largest errors against the exact solution from (0, (1, 0))
@@ -132,6 +136,28 @@ contains
       self%err_ends = max(self%err_ends, norm2(x0 - ig%x_old), norm2(self%x_end - ig%x_new))
     end select
   end subroutine probe_on_step
+
+  !> The oscillator from (1, 0) to t = 10 with ig at the fixed step h: checks the status and the
+  !> landing on t = 10 (labels name // ': status, h = ' and ': lands on t = 10, h = ', h written
+  !> with the edit descriptor hfmt) and returns the error at t = 10 against the exact solution.
+  subroutine oscillator_fixed_step(ig, h, name, hfmt, err)
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: h
+    character(*), intent(in) :: name, hfmt
+    real(wp), intent(out) :: err
+    real(wp) :: x(2)
+    integer :: stat
+    character(80) :: lbl
+    call ig%init(oscillator_t(), t0=0.0_wp)
+    ig%h = h
+    x = [1.0_wp, 0.0_wp]
+    call propagate(ig, x, 10.0_wp, stat)
+    write (lbl, '(2a,' // hfmt // ')') name, ': status, h = ', h
+    call check_eq(trim(lbl), stat, TUBES_OK)
+    write (lbl, '(2a,' // hfmt // ')') name, ': lands on t = 10, h = ', h
+    call check_true(trim(lbl), ig%t == 10.0_wp)
+    err = norm2(x - rotate([1.0_wp, 0.0_wp], 10.0_wp))
+  end subroutine oscillator_fixed_step
 
   !> Exact oscillator flow over time s: (x, v) -> (x cos s + v sin s, -x sin s + v cos s).
   pure function rotate(x, s) result(y)

@@ -502,12 +502,16 @@ static int line_of(const nml_where *w, const char *group, const char *name) {
   return i >= 0 ? w->var_line[i] : 0;
 }
 int nml_line(const nml_where *w, const char *group, const char *name) { return line_of(w, group, name); }
+/* The line a message points at: the variable's, or its group's when the file does not set it. */
+static int line_or_group(const nml_where *w, const char *group, const char *name) {
+  int ln = line_of(w, group, name);
+  return ln ? ln : w->group_line[group_index(group)];
+}
 
 static int bad(const char *path, const nml_where *w, const char *group, const char *name,
                FILE *err, const char *fmt, double value) {
   int i = var_index(group, name);
-  int ln = line_of(w, group, name);
-  if (!ln) ln = w->group_line[group_index(group)];
+  int ln = line_or_group(w, group, name);
   /* the value as the user wrote it when it was set in the file (1e-16, not 9.9999999999999998e-17) */
   char shown[112];
   if (i >= 0 && w->var_line[i] && tubes_nml_vars[i].count == 1 && w->var_text[i][0])
@@ -525,8 +529,7 @@ static int bad(const char *path, const nml_where *w, const char *group, const ch
 static int bad_string(const char *path, const nml_where *w, const char *group, const char *name,
                       const char *value, FILE *err) {
   int i = var_index(group, name);
-  int ln = line_of(w, group, name);
-  if (!ln) ln = w->group_line[group_index(group)];
+  int ln = line_or_group(w, group, name);
   fprintf(err, "%s:%d: &%s: %s = '%s' is not allowed: allowed %s\n", path, ln, group, name, value,
           i >= 0 ? tubes_nml_vars[i].allowed : "?");
   return 1;
@@ -553,8 +556,7 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
   char sys[TUBES_LSYSTEM] = "", summary[TUBES_LSUMMARY], lu[8], sad[8], sk[8], surf[TUBES_LSUMMARY];
   double defs[TUBES_MAXPARAM], box[TUBES_MAXDOF], boxc[TUBES_MAXDOF], near[TUBES_MAXDOF], sv, sa, gate;
   snprintf(sys, sizeof sys, "%s", c->model);
-  int ln = line_of(w, "model", "system");
-  if (!ln) ln = w->group_line[group_index("model")];
+  int ln = line_or_group(w, "model", "system");
   int ball = !strcmp(c->system, "rolling_ball"), formula = !strcmp(c->system, "expression");
   if (ball && strcmp(c->surface, "fourwell") && strcmp(c->surface, "expression"))
     return bad_string(path, w, "model", "surface", c->surface, err);
@@ -672,10 +674,9 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
     int natural = 0;
     tubes_model_natural(c->model, c->params, &natural);
     if (!natural) {
-      int ln = line_of(w, "trajectory", "at_rest");
       fprintf(err, "%s:%d: &trajectory: at_rest = .true. (the default) needs a natural system; system '%s' is "
               "gyroscopic: set at_rest = .false. and give px0, py0 (zero velocity is p = (-y0, x0) for cr3bp)\n",
-              path, ln ? ln : w->group_line[group_index("trajectory")], c->system);
+              path, line_or_group(w, "trajectory", "at_rest"), c->system);
       n++;
     }
   }
@@ -701,7 +702,7 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
   } else if (!strcmp(c->sec_kind, "ray")) {
     if (strcmp(c->system, "rolling_ball")) {
       fprintf(err, "%s:%d: &section: kind = 'ray' is the four-well ball's polar section; system '%s' takes "
-              "kind = 'plane' (index, value, direction)\n", path, line_of(w, "section", "kind") ? line_of(w, "section", "kind") : gl,
+              "kind = 'plane' (index, value, direction)\n", path, line_or_group(w, "section", "kind"),
               c->system);
       n++;
     } else if (set_plane) {
@@ -719,9 +720,8 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
       n++;
     }
     if (!(c->sec_index >= 1 && c->sec_index <= nd)) {
-      int ln = line_of(w, "section", "index");
       fprintf(err, "%s:%d: &section: index = %d is out of range: allowed 1 .. %d (the coordinates of system "
-              "'%s')\n", path, ln ? ln : gl, c->sec_index, nd, c->system);
+              "'%s')\n", path, line_or_group(w, "section", "index"), c->sec_index, nd, c->system);
       n++;
     }
     if (!(c->sec_direction == 1 || c->sec_direction == -1))
@@ -818,9 +818,8 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->orb_atol > 0)) n += bad(path, w, "orbits", "atol", err, "", c->orb_atol);
   if (!(c->orb_max_iter >= 1 && c->orb_max_iter <= 200)) n += bad(path, w, "orbits", "max_iter", err, "", c->orb_max_iter);
   if (c->nparams >= 0 && !(c->orb_family >= 1 && c->orb_family <= (c->ndof > 1 ? c->ndof - 1 : 1))) {
-    int ln = line_of(w, "orbits", "family");
     fprintf(err, "%s:%d: &orbits: family = %d is out of range: allowed 1 .. %d (the saddle's centre modes; "
-            "system '%s' has %d degrees of freedom)\n", path, ln ? ln : w->group_line[group_index("orbits")],
+            "system '%s' has %d degrees of freedom)\n", path, line_or_group(w, "orbits", "family"),
             c->orb_family, c->ndof > 1 ? c->ndof - 1 : 1, c->system, c->ndof);
     n++;
   }
