@@ -64,6 +64,8 @@ module tubes_taylor
     real(wp) :: eps_last = -1              !! the tolerance of the last order chosen
     integer :: p_last = 0                  !! and that order
     logical :: relative = .false.          !! the step's error control is relative
+    integer :: p_rule = 0                  !! the order whose step-size constants follow
+    real(wp) :: rule(3) = 0                !! 1/(p - 1), 1/p, -2 - 0.7/(p - 1) of order p_rule
     real(wp) :: par(1) = 0                 !! the kernel's parameters: the damping rate
     character(:), allocatable :: spec      !! the model's formula (jet_spec_t%text)
     integer :: flags = 0                   !! include/tubes.h TUBES_JET_* of the field
@@ -345,7 +347,7 @@ contains
     real(wp), intent(inout) :: x(:)
     real(wp), intent(in) :: tmax
     integer, intent(out) :: stat
-    real(wp) :: n1, n2, lrho, h, dir, hmin
+    real(wp) :: n1, n2, lrho, h, dir, hmin, r
     integer :: p, s
     logical :: last
     stat = TUBES_OK
@@ -354,16 +356,21 @@ contains
     dir = sign(1.0_wp, tmax - self%t)
     call top_norms(self%tc, s, self%n, p, n1, n2)
     if (self%relative) then
-      n1 = n1/self%xn
-      n2 = n2/self%xn
+      r = 1/self%xn
+      n1 = n1*r
+      n2 = n2*r
+    end if
+    if (p /= self%p_rule) then     ! the order's constants, once per order (not a division per step)
+      self%rule = [1.0_wp/(p - 1), 1.0_wp/p, -2 - 0.7_wp/(p - 1)]
+      self%p_rule = p
     end if
     ! rho = min(n1^(-1/(p-1)), n2^(-1/p)) and h = rho exp(-2 - 0.7/(p-1)), in logarithms (two
     ! logs and an exp per step instead of two powers and an exp)
     lrho = huge(1.0_wp)
-    if (n1 > 0) lrho = -log(n1)/(p - 1)
-    if (n2 > 0) lrho = min(lrho, -log(n2)/p)
+    if (n1 > 0) lrho = -log(n1)*self%rule(1)
+    if (n2 > 0) lrho = min(lrho, -log(n2)*self%rule(2))
     if (lrho < log(huge(1.0_wp))) then
-      h = exp(lrho - 2 - 0.7_wp/(p - 1))
+      h = exp(lrho + self%rule(3))
     else
       h = huge(1.0_wp)                              ! a polynomial solution: no limit
     end if
