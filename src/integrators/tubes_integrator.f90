@@ -483,56 +483,62 @@ contains
     logical, intent(out) :: hit
     integer, intent(out) :: stat
     type(crossing_log_t), intent(inout), optional :: crossings
-    real(wp), allocatable :: ts(:), gv(:), inner(:)
-    real(wp) :: xs(size(x))
-    integer :: j, m, slope, orient
+    real(wp), allocatable :: inner(:)
+    integer :: m
     stat = TUBES_OK
     hit = .false.
     te = ig%t
     call ig%event_samples(event, inner, m)
-    m = m + 1
-    allocate (ts(0:m), gv(0:m))
-    ts(0) = ig%t_old
-    gv(0) = g0
-    ts(m) = ig%t
-    gv(m) = g1
-    do j = 1, m - 1
-      ts(j) = inner(j)
-      call ig%interp(ts(j), xs)
-      gv(j) = event%g(ts(j), xs)
-    end do
-    if (.not. all(abs(gv) <= huge(1.0_wp))) then   ! NaN/Inf from the model or the interpolant
-      stat = TUBES_EMODEL
-      return
-    end if
-    do j = 1, m
-      ! a sign change in (ts(j-1), ts(j)]: the left sample nonzero, the right one zero or of
-      ! the other sign. A root exactly on a sample thus belongs to the interval it ends, and a
-      ! step end to its own step only (the next step starts from g = 0: no sign change).
-      if (gv(j - 1) < 0 .and. gv(j) >= 0) then
-        slope = 1
-      else if (gv(j - 1) > 0 .and. gv(j) <= 0) then
-        slope = -1
-      else
-        cycle
+    call scan_samples(m + 1)
+  contains
+    !> The m - 1 interior samples and the two ends (automatic arrays: the stack, not the heap).
+    subroutine scan_samples(m)
+      integer, intent(in) :: m
+      real(wp) :: ts(0:m), gv(0:m)
+      real(wp) :: xs(size(x))
+      integer :: j, slope, orient
+      ts(0) = ig%t_old
+      gv(0) = g0
+      ts(m) = ig%t
+      gv(m) = g1
+      do j = 1, m - 1
+        ts(j) = inner(j)
+        call ig%interp(ts(j), xs)
+        gv(j) = event%g(ts(j), xs)
+      end do
+      if (.not. all(abs(gv) <= huge(1.0_wp))) then   ! NaN/Inf from the model or the interpolant
+        stat = TUBES_EMODEL
+        return
       end if
-      slope = slope*nint(dir)                 ! sign of dg/dt in time
-      if (event%direction /= 0 .and. event%direction /= slope) cycle
-      call refine_root(ig, event, ts(j - 1), ts(j), gv(j - 1), gv(j), j == m, x, te, xe, stat)
-      if (stat < 0) return
-      ! a root at the very start is the event this call was restarted from (g there is
-      ! roundoff of either sign): not a new crossing
-      if (j == 1 .and. ig%t_old == t_start .and. &
-          abs(te - t_start) <= 8*EPS*max(1.0_wp, abs(t_start))) cycle
-      if (.not. event%accept(te, xe)) cycle
-      orient = event%orientation(te, xe, slope)
-      if (present(crossings)) then
-        call log_append(crossings, te, xe, orient)
-        if (crossings%n >= crossings%max_crossings) hit = .true.
-      end if
-      if (event%terminal) hit = .true.
-      if (hit) return
-    end do
+      do j = 1, m
+        ! a sign change in (ts(j-1), ts(j)]: the left sample nonzero, the right one zero or of
+        ! the other sign. A root exactly on a sample thus belongs to the interval it ends, and a
+        ! step end to its own step only (the next step starts from g = 0: no sign change).
+        if (gv(j - 1) < 0 .and. gv(j) >= 0) then
+          slope = 1
+        else if (gv(j - 1) > 0 .and. gv(j) <= 0) then
+          slope = -1
+        else
+          cycle
+        end if
+        slope = slope*nint(dir)                 ! sign of dg/dt in time
+        if (event%direction /= 0 .and. event%direction /= slope) cycle
+        call refine_root(ig, event, ts(j - 1), ts(j), gv(j - 1), gv(j), j == m, x, te, xe, stat)
+        if (stat < 0) return
+        ! a root at the very start is the event this call was restarted from (g there is
+        ! roundoff of either sign): not a new crossing
+        if (j == 1 .and. ig%t_old == t_start .and. &
+            abs(te - t_start) <= 8*EPS*max(1.0_wp, abs(t_start))) cycle
+        if (.not. event%accept(te, xe)) cycle
+        orient = event%orientation(te, xe, slope)
+        if (present(crossings)) then
+          call log_append(crossings, te, xe, orient)
+          if (crossings%n >= crossings%max_crossings) hit = .true.
+        end if
+        if (event%terminal) hit = .true.
+        if (hit) return
+      end do
+    end subroutine scan_samples
   end subroutine scan_step
 
   !> Root of g(s, interp(s)) in the bracket (a, b] of the last step (a, b in the order of
