@@ -366,9 +366,13 @@ contains
     end if
     ! rho = min(n1^(-1/(p-1)), n2^(-1/p)) and h = rho exp(-2 - 0.7/(p-1)), in logarithms (two
     ! logs and an exp per step instead of two powers and an exp)
-    lrho = huge(1.0_wp)
-    if (n1 > 0) lrho = -log(n1)*self%rule(1)
-    if (n2 > 0) lrho = min(lrho, -log(n2)*self%rule(2))
+    if (tiny(1.0_wp) <= min(n1, n2) .and. max(n1, n2) <= huge(1.0_wp)) then
+      lrho = log_rho(n1, n2, self%rule(1), self%rule(2))
+    else
+      lrho = huge(1.0_wp)
+      if (n1 > 0) lrho = -log(n1)*self%rule(1)
+      if (n2 > 0) lrho = min(lrho, -log(n2)*self%rule(2))
+    end if
     if (lrho < log(huge(1.0_wp))) then
       h = exp(lrho + self%rule(3))
     else
@@ -394,6 +398,31 @@ contains
     self%nsteps = self%nsteps + 1
     if (.not. all(abs(x) <= huge(1.0_wp))) stat = TUBES_EMODEL
   end subroutine taylor_end
+
+  !> min(-log(n1) r1, -log(n2) r2) for normal n1, n2 > 0 and r1, r2 > 0, with one logarithm where
+  !> the exponents alone decide which is the smaller (log n lies in [(e - 1) ln 2, e ln 2) for
+  !> n = f 2^e, f in [1/2, 1)): the same value, bit for bit, as taking both and the minimum.
+  pure real(wp) function log_rho(n1, n2, r1, r2) result(l)
+    use, intrinsic :: iso_fortran_env, only: int64
+    real(wp), intent(in) :: n1, n2, r1, r2
+    real(wp), parameter :: LN2 = 0.693147180559945309417232121458_wp
+    real(wp) :: a_lo, a_hi, b_lo, b_hi, gap
+    integer :: e1, e2
+    e1 = int(ishft(transfer(n1, 0_int64), -52)) - 1022   ! frexp's exponent of a normal n > 0
+    e2 = int(ishft(transfer(n2, 0_int64), -52)) - 1022
+    a_lo = -e1*LN2*r1                ! -log(n1) r1 in (a_lo, a_hi]
+    a_hi = (1 - e1)*LN2*r1
+    b_lo = -e2*LN2*r2
+    b_hi = (1 - e2)*LN2*r2
+    gap = 1.0e-9_wp*(abs(a_lo) + abs(b_lo) + 1)   ! far above the rounding of the bounds and logs
+    if (a_hi + gap < b_lo) then
+      l = -log(n1)*r1
+    else if (b_hi + gap < a_lo) then
+      l = -log(n2)*r2
+    else
+      l = min(-log(n1)*r1, -log(n2)*r2)
+    end if
+  end function log_rho
 
   !> The largest |coefficient| of orders p - 1 and p over the components (coefficients tc(0:p, n)).
   pure subroutine top_norms(tc, s, n, p, n1, n2)
