@@ -215,24 +215,15 @@ contains
     type(sun_mem_t), pointer :: m
     logical :: created
     stat = TUBES_OK
-    if (self%nsteps == 0 .and. self%nfev == 0) then   ! counters reset by init: ours too
-      self%njev = 0
-      self%solver_flag = 0
-      self%solver_msg = ''
-    end if
+    if (self%nsteps == 0 .and. self%nfev == 0) self%njev = 0   ! counters reset by init: ours too
     if (self%nonlinear /= 'fixedpoint' .and. self%nonlinear /= 'newton') then
       stat = TUBES_EINPUT
       self%solver_flag = 0
       self%solver_msg = 'cvode_t%nonlinear must be ''fixedpoint'' or ''newton'''
       return
     end if
-    call prepare_mem(self%mem, self%f, x, tmax - self%t, KIND_CVODE, created, stat)
-    if (stat /= TUBES_OK) then
-      call sun_destroy(self)
-      self%solver_flag = 0
-      self%solver_msg = 'SUNDIALS could not allocate its context or vectors'
-      return
-    end if
+    call sun_prepare(self, x, tmax, KIND_CVODE, created, stat)
+    if (stat /= TUBES_OK) return
     m => self%mem
     if (created) then
       m%newton = self%nonlinear == 'newton'
@@ -332,17 +323,8 @@ contains
     integer(c_int) :: flag
     type(sun_mem_t), pointer :: m
     logical :: created
-    if (self%nsteps == 0 .and. self%nfev == 0) then   ! a new init: clear the failure record
-      self%solver_flag = 0
-      self%solver_msg = ''
-    end if
-    call prepare_mem(self%mem, self%f, x, tmax - self%t, KIND_ARKODE, created, stat)
-    if (stat /= TUBES_OK) then
-      call sun_destroy(self)
-      self%solver_flag = 0
-      self%solver_msg = 'SUNDIALS could not allocate its context or vectors'
-      return
-    end if
+    call sun_prepare(self, x, tmax, KIND_ARKODE, created, stat)
+    if (stat /= TUBES_OK) return
     m => self%mem
     if (created) then
       m%solver = FERKStepCreate(c_funloc(sun_rhs), self%t, m%y, m%sunctx)
@@ -648,6 +630,27 @@ contains
 
   !> Allocate the context and vectors (created = .true.), or reuse them for a restart;
   !> in both cases load the model and x.
+  !> The start both backends share: a new init (no step, no evaluation yet) clears the failure
+  !> record; the solver memory is prepared at (self%t, x) (created: made now; else the solver
+  !> is re-initialised by the caller). On failure the memory is destroyed and the record says why.
+  subroutine sun_prepare(self, x, tmax, kind, created, stat)
+    class(sun_t), intent(inout) :: self
+    real(wp), intent(in) :: x(:), tmax
+    integer, intent(in) :: kind               !! KIND_CVODE or KIND_ARKODE
+    logical, intent(out) :: created
+    integer, intent(out) :: stat
+    if (self%nsteps == 0 .and. self%nfev == 0) then
+      self%solver_flag = 0
+      self%solver_msg = ''
+    end if
+    call prepare_mem(self%mem, self%f, x, tmax - self%t, kind, created, stat)
+    if (stat /= TUBES_OK) then
+      call sun_destroy(self)
+      self%solver_flag = 0
+      self%solver_msg = 'SUNDIALS could not allocate its context or vectors'
+    end if
+  end subroutine sun_prepare
+
   subroutine prepare_mem(mem, f, x, dt, kind, created, stat)
     type(sun_mem_t), pointer, intent(inout) :: mem
     class(vector_field_t), intent(in) :: f

@@ -13,12 +13,11 @@
 !> the vertical mode decouples: its frequency omega_v = sqrt(c2) (Koon et al. 2011, ch. 6).
 module tubes_cr3bp
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: hamiltonian_t, NAMES_LAGRANGE
+  use tubes_hamiltonian, only: hamiltonian_t, NAMES_LAGRANGE, BLOWUP_Q
   implicit none
   private
 
   real(wp), parameter :: MIN_R = 1.0e-100_wp   !! closer to a primary than this: a collision, refused
-  real(wp), parameter :: MAX_Q = 1.0e6_wp      !! |x| + |y| beyond this is refused
 
   !> The CR3BP with mass ratio mu (its default lives in tubes_models).
   type, extends(hamiltonian_t), public :: cr3bp_t
@@ -71,7 +70,7 @@ contains
     r2 = hypot(x(1) - 1 + self%mu, x(2))
     stat = 0
     g(1:4) = 0
-    if (.not. (min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) <= MAX_Q)) then
+    if (.not. (min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) <= BLOWUP_Q)) then
       stat = -1
       return
     end if
@@ -103,7 +102,7 @@ contains
     r1 = hypot(d1, y)
     r2 = hypot(d2, y)
     stat = 0
-    if (.not. (min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) <= MAX_Q)) then
+    if (.not. (min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) <= BLOWUP_Q)) then
       stat = -1
       return
     end if
@@ -149,7 +148,7 @@ contains
     r2 = norm2([x(1) - 1 + self%mu, x(2), x(3)])
     stat = 0
     g(1:6) = 0
-    if (.not. (min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) + abs(x(3)) <= MAX_Q)) then
+    if (.not. (min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) + abs(x(3)) <= BLOWUP_Q)) then
       stat = -1
       return
     end if
@@ -179,7 +178,7 @@ contains
     r = [norm2(d(:, 1)), norm2(d(:, 2))]
     m = [1 - self%mu, self%mu]
     stat = 0
-    if (.not. (minval(r) > MIN_R .and. abs(x(1)) + abs(x(2)) + abs(x(3)) <= MAX_Q)) then
+    if (.not. (minval(r) > MIN_R .and. abs(x(1)) + abs(x(2)) + abs(x(3)) <= BLOWUP_Q)) then
       stat = -1
       return
     end if

@@ -8,14 +8,12 @@
 !> orbit is a Morse oscillation along x with a period in closed form (docs/models.md).
 module tubes_de_leon_berne
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: natural_t
+  use tubes_hamiltonian, only: separable_t
   implicit none
   private
 
-  real(wp), parameter :: MAX_Q = 1.0e6_wp   !! |x| + |y| beyond this is refused (a blown-up state)
-
   !> De Leon-Berne; the parameters' defaults live in tubes_models.
-  type, extends(natural_t), public :: de_leon_berne_t
+  type, extends(separable_t), public :: de_leon_berne_t
     real(wp) :: m_a      !! mass of the x mode
     real(wp) :: m_b      !! mass of the y mode
     real(wp) :: d        !! dissociation energy D of the Morse oscillator
@@ -24,12 +22,9 @@ module tubes_de_leon_berne
     real(wp) :: eps_s    !! energy of the saddle
   contains
     procedure :: ndof => dlb_ndof
-    procedure :: energy => dlb_energy
-    procedure :: gradient => dlb_gradient
-    procedure :: hessian => dlb_hessian
     procedure :: shape => dlb_shape
     procedure :: shape_derivs => dlb_shape_derivs
-    procedure :: kinetic_matrix => dlb_kinetic
+    procedure :: masses => dlb_masses
   end type de_leon_berne_t
 
 contains
@@ -68,47 +63,11 @@ contains
     hess(2, 2) = (48*q(2)**2 - 8)*ez
   end subroutine dlb_shape_derivs
 
-  pure subroutine dlb_kinetic(self, q, a)
+  !> The masses of the two modes.
+  pure subroutine dlb_masses(self, m)
     class(de_leon_berne_t), intent(in) :: self
-    real(wp), intent(in) :: q(:)
-    real(wp), intent(out) :: a(:, :)
-    a(1:2, 1:2) = 0
-    a(1, 1) = 1/self%m_a
-    a(2, 2) = 1/self%m_b
-  end subroutine dlb_kinetic
-
-  pure real(wp) function dlb_energy(self, x)
-    class(de_leon_berne_t), intent(in) :: self
-    real(wp), intent(in) :: x(:)
-    dlb_energy = x(3)**2/(2*self%m_a) + x(4)**2/(2*self%m_b) + dlb_shape(self, x(1:2))
-  end function dlb_energy
-
-  pure subroutine dlb_gradient(self, x, g, stat)
-    class(de_leon_berne_t), intent(in) :: self
-    real(wp), intent(in) :: x(:)
-    real(wp), intent(out) :: g(:)
-    integer, intent(out) :: stat
-    real(wp) :: hs(2, 2)
-    call dlb_shape_derivs(self, x(1:2), g(1:2), hs)
-    g(3) = x(3)/self%m_a
-    g(4) = x(4)/self%m_b
-    stat = 0
-    if (.not. all(abs(g(1:4)) <= huge(1.0_wp)) .or. abs(x(1)) + abs(x(2)) > MAX_Q) stat = -1
-  end subroutine dlb_gradient
-
-  pure subroutine dlb_hessian(self, x, h, stat)
-    class(de_leon_berne_t), intent(in) :: self
-    real(wp), intent(in) :: x(:)
-    real(wp), intent(out) :: h(:, :)
-    integer, intent(out) :: stat
-    real(wp) :: gr(2), hs(2, 2)
-    call dlb_shape_derivs(self, x(1:2), gr, hs)
-    h(1:4, 1:4) = 0
-    h(1:2, 1:2) = hs
-    h(3, 3) = 1/self%m_a
-    h(4, 4) = 1/self%m_b
-    stat = 0
-    if (.not. all(abs(hs) <= huge(1.0_wp)) .or. abs(x(1)) + abs(x(2)) > MAX_Q) stat = -1
-  end subroutine dlb_hessian
+    real(wp), intent(out) :: m(:)
+    m(1:2) = [self%m_a, self%m_b]
+  end subroutine dlb_masses
 
 end module tubes_de_leon_berne

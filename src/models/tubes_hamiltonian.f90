@@ -25,6 +25,8 @@ module tubes_hamiltonian
   integer, parameter, public :: NAMES_LAGRANGE = 2   !! the CR3BP: L1..L5
 
   integer, parameter, public :: LEN_NAME = 16        !! length of coordinate names
+  !> |q|_1 beyond this is a blown-up (escaped) state: the models refuse it
+  real(wp), parameter, public :: BLOWUP_Q = 1.0e6_wp
   !> State dimension 2N at most for the default eval and Jacobian: fixed-size locals there,
   !> since gfortran puts automatic arrays on the heap (one malloc per right-hand side)
   integer, parameter :: MAX_STATE = 16
@@ -64,6 +66,18 @@ module tubes_hamiltonian
     procedure :: rest_momenta => nat_rest_momenta       !! p = 0
     procedure :: reversor => nat_reversor               !! (q, p, t) -> (q, -p, -t)
   end type natural_t
+
+  !> A natural system with constant diagonal masses, H = sum_i p_i^2/(2 m_i) + shape(q): its
+  !> energy, gradient, Hessian and kinetic matrix from the masses and the shape (a model gives
+  !> ndof, masses, shape and shape_derivs). A state with |q|_1 > BLOWUP_Q is refused (stat -1).
+  type, abstract, extends(natural_t), public :: separable_t
+  contains
+    procedure(masses_i), deferred :: masses          !! m_i, i = 1..N
+    procedure :: energy => sep_energy
+    procedure :: gradient => sep_gradient
+    procedure :: hessian => sep_hessian
+    procedure :: kinetic_matrix => sep_kinetic
+  end type separable_t
 
   !> Viscous damping -c p on the momenta of any Hamiltonian model.
   type, extends(vector_field_t), public :: damped_t
@@ -119,6 +133,11 @@ module tubes_hamiltonian
       real(wp), intent(in) :: q(:)
       real(wp), intent(out) :: a(:, :)   !! T = 1/2 p^T a p
     end subroutine kinetic_i
+    pure subroutine masses_i(self, m)
+      import :: separable_t, wp
+      class(separable_t), intent(in) :: self
+      real(wp), intent(out) :: m(:)      !! m_i (N)
+    end subroutine masses_i
   end interface
 
 contains
@@ -234,6 +253,67 @@ contains
     end do
     stat = TUBES_ENOCONV
   end subroutine ham_rest_momenta
+
+  pure real(wp) function sep_energy(self, x) result(e)
+    class(separable_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp) :: m(MAX_STATE)
+    integer :: n, i
+    n = self%ndof()
+    call self%masses(m(1:n))
+    e = x(n + 1)**2/(2*m(1))
+    do i = 2, n
+      e = e + x(n + i)**2/(2*m(i))
+    end do
+    e = e + self%shape(x(1:n))
+  end function sep_energy
+
+  pure subroutine sep_gradient(self, x, g, stat)
+    class(separable_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: g(:)
+    integer, intent(out) :: stat
+    real(wp) :: m(MAX_STATE), hs(MAX_STATE, MAX_STATE)
+    integer :: n
+    n = self%ndof()
+    call self%masses(m(1:n))
+    call self%shape_derivs(x(1:n), g(1:n), hs(1:n, 1:n))
+    g(n + 1:2*n) = x(n + 1:2*n)/m(1:n)
+    stat = 0
+    if (.not. all(abs(g(1:2*n)) <= huge(1.0_wp)) .or. sum(abs(x(1:n))) > BLOWUP_Q) stat = -1
+  end subroutine sep_gradient
+
+  pure subroutine sep_hessian(self, x, h, stat)
+    class(separable_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: h(:, :)
+    integer, intent(out) :: stat
+    real(wp) :: m(MAX_STATE), gr(MAX_STATE)
+    integer :: n, i
+    n = self%ndof()
+    call self%masses(m(1:n))
+    h(1:2*n, 1:2*n) = 0
+    call self%shape_derivs(x(1:n), gr(1:n), h(1:n, 1:n))
+    do i = 1, n
+      h(n + i, n + i) = 1/m(i)
+    end do
+    stat = 0
+    if (.not. all(abs(h(1:n, 1:n)) <= huge(1.0_wp)) .or. sum(abs(x(1:n))) > BLOWUP_Q) stat = -1
+  end subroutine sep_hessian
+
+  pure subroutine sep_kinetic(self, q, a)
+    class(separable_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(out) :: a(:, :)
+    real(wp) :: m(MAX_STATE)
+    integer :: n, i
+    n = self%ndof()
+    call self%masses(m(1:n))
+    a(1:n, 1:n) = 0
+    do i = 1, n
+      a(i, i) = 1/m(i)
+    end do
+  end subroutine sep_kinetic
 
   pure real(wp) function nat_potential(self, q)
     class(natural_t), intent(in) :: self

@@ -5,23 +5,18 @@
 !> (0, 1) and (+-sqrt(3)/2, -1/2), each with lambda = 1 and omega = sqrt(3) (docs/models.md).
 module tubes_henon_heiles
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: natural_t
+  use tubes_hamiltonian, only: separable_t, BLOWUP_Q
   implicit none
   private
 
-  real(wp), parameter :: MAX_Q = 1.0e6_wp   !! |x| + |y| beyond this is an escaped orbit: refused
-
   !> Henon-Heiles: a natural system with unit masses.
-  type, extends(natural_t), public :: henon_heiles_t
+  type, extends(separable_t), public :: henon_heiles_t
   contains
     procedure :: ndof => hh_ndof
-    procedure :: energy => hh_energy
-    procedure :: gradient => hh_gradient
-    procedure :: hessian => hh_hessian
     procedure :: eval => hh_eval
     procedure :: shape => hh_shape
     procedure :: shape_derivs => hh_shape_derivs
-    procedure :: kinetic_matrix => hh_kinetic
+    procedure :: masses => hh_masses
   end type henon_heiles_t
 
 contains
@@ -50,49 +45,6 @@ contains
     hess(2, 2) = 1 - 2*q(2)
   end subroutine hh_shape_derivs
 
-  pure subroutine hh_kinetic(self, q, a)
-    class(henon_heiles_t), intent(in) :: self
-    real(wp), intent(in) :: q(:)
-    real(wp), intent(out) :: a(:, :)
-    a(1:2, 1:2) = 0
-    a(1, 1) = 1
-    a(2, 2) = 1
-  end subroutine hh_kinetic
-
-  pure real(wp) function hh_energy(self, x)
-    class(henon_heiles_t), intent(in) :: self
-    real(wp), intent(in) :: x(:)
-    hh_energy = 0.5_wp*(x(3)**2 + x(4)**2) + hh_shape(self, x(1:2))
-  end function hh_energy
-
-  pure subroutine hh_gradient(self, x, g, stat)
-    class(henon_heiles_t), intent(in) :: self
-    real(wp), intent(in) :: x(:)
-    real(wp), intent(out) :: g(:)
-    integer, intent(out) :: stat
-    g(1) = x(1) + 2*x(1)*x(2)
-    g(2) = x(2) + x(1)**2 - x(2)**2
-    g(3) = x(3)
-    g(4) = x(4)
-    stat = 0
-    if (.not. all(abs(g(1:4)) <= huge(1.0_wp)) .or. abs(x(1)) + abs(x(2)) > MAX_Q) stat = -1
-  end subroutine hh_gradient
-
-  pure subroutine hh_hessian(self, x, h, stat)
-    class(henon_heiles_t), intent(in) :: self
-    real(wp), intent(in) :: x(:)
-    real(wp), intent(out) :: h(:, :)
-    integer, intent(out) :: stat
-    real(wp) :: gr(2), hs(2, 2)
-    call hh_shape_derivs(self, x(1:2), gr, hs)
-    h(1:4, 1:4) = 0
-    h(1:2, 1:2) = hs
-    h(3, 3) = 1
-    h(4, 4) = 1
-    stat = 0
-    if (abs(x(1)) + abs(x(2)) > MAX_Q) stat = -1
-  end subroutine hh_hessian
-
   !> Hamilton's equations, scalar form (the hot path).
   pure subroutine hh_eval(self, t, x, dxdt, stat)
     class(henon_heiles_t), intent(in) :: self
@@ -104,7 +56,15 @@ contains
     dxdt(3) = -x(1) - 2*x(1)*x(2)
     dxdt(4) = -x(2) - x(1)**2 + x(2)**2
     stat = 0
-    if (.not. abs(dxdt(3)) + abs(dxdt(4)) <= huge(1.0_wp) .or. abs(x(1)) + abs(x(2)) > MAX_Q) stat = -1
+    if (.not. abs(dxdt(3)) + abs(dxdt(4)) <= huge(1.0_wp) .or. abs(x(1)) + abs(x(2)) > BLOWUP_Q) &
+      stat = -1
   end subroutine hh_eval
+
+  !> Unit masses.
+  pure subroutine hh_masses(self, m)
+    class(henon_heiles_t), intent(in) :: self
+    real(wp), intent(out) :: m(:)
+    m(1:2) = 1.0_wp
+  end subroutine hh_masses
 
 end module tubes_henon_heiles
