@@ -150,6 +150,7 @@ module tubes_integrator
   real(wp), parameter, public :: T_ATOL = 1.0e-15_wp
 
   public :: propagate, prop_begin, prop_after_step, start_step, hermite
+  public :: integrator_init   ! for a method that extends init (tubes_taylor)
 
 contains
 

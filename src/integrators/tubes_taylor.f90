@@ -15,7 +15,7 @@ module tubes_taylor
                                          c_associated, c_f_procpointer
   use tubes_kinds, only: wp
   use tubes_field, only: jet_spec_t, vector_field_t
-  use tubes_integrator, only: integrator_t, event_t, observer_t
+  use tubes_integrator, only: integrator_t, event_t, observer_t, integrator_init
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_ESTEP, TUBES_ENOJET
   implicit none
   private
@@ -74,6 +74,7 @@ module tubes_taylor
     real(wp), allocatable :: w(:)          !! the kernel's scratch
     character(512) :: msg = ''             !! why the last kernel could not be had
   contains
+    procedure :: init => taylor_init
     procedure :: step => taylor_step
     procedure :: interp => taylor_interp
     procedure :: event_samples => taylor_event_samples
@@ -267,6 +268,16 @@ contains
     self%n = n
   end subroutine taylor_setup
 
+  !> A copy of the model and a new integration (integrator_t%init); the model's formula is read
+  !> again on the first step (a restart of the same model does not read it: taylor_begin).
+  subroutine taylor_init(self, f, t0)
+    class(taylor_t), intent(inout) :: self
+    class(vector_field_t), intent(in) :: f
+    real(wp), intent(in) :: t0
+    call integrator_init(self, f, t0)
+    self%n = -1
+  end subroutine taylor_init
+
   !> One step from (t, x) towards tmax (never past it).
   subroutine taylor_step(self, x, tmax, stat)
     class(taylor_t), intent(inout) :: self
@@ -296,11 +307,11 @@ contains
     integer :: p, i, s
     stat = TUBES_OK
     ik = 1
-    if (.not. allocated(self%spec) .or. self%n /= size(x) .or. self%fresh) then
+    if (.not. allocated(self%spec) .or. self%n /= size(x)) then   ! a new model (taylor_init)
       call taylor_setup(self, size(x), stat)
       if (stat /= TUBES_OK) return
-      self%fresh = .false.
     end if
+    self%fresh = .false.
     self%xn = maxval(abs(x))
     self%relative = self%rtol*self%xn > self%atol
     eps = merge(self%rtol, self%atol, self%relative)

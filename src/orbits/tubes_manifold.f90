@@ -279,7 +279,11 @@ contains
     call self%orbit%eval(self%tau(k), z, stat)
     if (stat /= TUBES_OK) return
     lane%x = z(1:n2) + self%sigma*self%opts%eps*z(n2 + 1:)/sqrt(sum(z(n2 + 1:n2 + n2/2)**2))
-    call lane%ig%init(self%ball, 0.0_wp)
+    if (allocated(lane%ig%f)) then   ! the lane's last item had this job's model: restart it
+      call lane%ig%restart(0.0_wp)
+    else
+      call lane%ig%init(self%ball, 0.0_wp)
+    end if
     lane%ig%h = self%opts%integ%h
     lane%ig%rtol = self%opts%rtol
     lane%ig%atol = self%opts%atol

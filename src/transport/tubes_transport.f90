@@ -289,7 +289,11 @@ contains
     if (.not. allocated(lane%x)) allocate (lane%x(self%model%dim()))
     call self%psec%state(self%r(k), self%pr(k), lane%x, stat)
     if (stat /= TUBES_OK) return
-    call lane%ig%init(self%model, 0.0_wp)
+    if (allocated(lane%ig%f)) then   ! the lane's last item had this job's model: restart it
+      call lane%ig%restart(0.0_wp)
+    else
+      call lane%ig%init(self%model, 0.0_wp)
+    end if
     lane%ig%h = self%integ%h
     lane%ig%rtol = self%tol
     lane%ig%atol = self%tol
@@ -402,7 +406,11 @@ contains
     integer, intent(out) :: stat
     class(event_t), allocatable :: ev
     stat = TUBES_OK
-    call lane%ig%init(self%model, 0.0_wp)
+    if (allocated(lane%ig%f)) then   ! the lane's last item had this job's model: restart it
+      call lane%ig%restart(0.0_wp)
+    else
+      call lane%ig%init(self%model, 0.0_wp)
+    end if
     lane%ig%h = self%integ%h
     lane%ig%rtol = self%tol
     lane%ig%atol = self%tol

@@ -331,7 +331,11 @@ contains
     type(lane_t), intent(inout) :: lane
     integer, intent(out) :: stat
     stat = TUBES_OK
-    call lane%ig%init(self%field, 0.0_wp)
+    if (allocated(lane%ig%f)) then   ! the lane's last item had this job's model: restart it
+      call lane%ig%restart(0.0_wp)
+    else
+      call lane%ig%init(self%field, 0.0_wp)
+    end if
     lane%ig%rtol = self%rtol
     lane%ig%atol = self%atol
     lane%ig%h = self%h
