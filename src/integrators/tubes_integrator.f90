@@ -369,6 +369,18 @@ contains
     logical :: done
     call prop_begin(ig, x, tend, ps, stat, event, crossings)
     if (stat /= TUBES_OK) return
+    if (.not. (present(event) .or. present(observer))) then   ! nothing to do between steps
+      do while (ps%dir*(tend - ig%t) > 0)
+        if (ps%n >= ig%max_steps) then
+          stat = TUBES_EMAXSTEPS
+          return
+        end if
+        call ig%step(x, tend, stat)
+        if (stat < 0) return
+        ps%n = ps%n + 1
+      end do
+      return
+    end if
     do while (ps%dir*(tend - ig%t) > 0)
       if (ps%n >= ig%max_steps) then
         stat = TUBES_EMAXSTEPS
