@@ -366,21 +366,10 @@ contains
     !> every accepted crossing is appended to it (ignored without event)
     type(crossing_log_t), intent(inout), optional :: crossings
     type(prop_t) :: ps
-    logical :: done
+    logical :: done, plain
     call prop_begin(ig, x, tend, ps, stat, event, crossings)
     if (stat /= TUBES_OK) return
-    if (.not. (present(event) .or. present(observer))) then   ! nothing to do between steps
-      do while (ps%dir*(tend - ig%t) > 0)
-        if (ps%n >= ig%max_steps) then
-          stat = TUBES_EMAXSTEPS
-          return
-        end if
-        call ig%step(x, tend, stat)
-        if (stat < 0) return
-        ps%n = ps%n + 1
-      end do
-      return
-    end if
+    plain = .not. (present(event) .or. present(observer))   ! nothing to do between steps
     do while (ps%dir*(tend - ig%t) > 0)
       if (ps%n >= ig%max_steps) then
         stat = TUBES_EMAXSTEPS
@@ -388,8 +377,12 @@ contains
       end if
       call ig%step(x, tend, stat)
       if (stat < 0) return
-      call prop_after_step(ig, x, ps, done, stat, event, observer, crossings)
-      if (done) return
+      if (plain) then
+        ps%n = ps%n + 1
+      else
+        call prop_after_step(ig, x, ps, done, stat, event, observer, crossings)
+        if (done) return
+      end if
     end do
   end subroutine propagate
 
