@@ -484,14 +484,20 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, **group
     st = _read_namelist(lines, "tubes")
     st["saddle"] = _str(st["saddle"])
     if st["use_near"]:
-        eq = equilibria(model, box=(st["hi"] - st["lo"])[:model.ndof] / 2,
-                        box_center=((st["hi"] + st["lo"]) / 2)[:model.ndof], n_grid=int(st["n_grid"]))
+        eq = _settings_equilibria(model, st)
         k = [i for i in range(len(eq["name"])) if eq["rank1"][i]]
         if not k:
             raise ValueError(f"system {model.system!r} has no rank-1 saddle in the search box")
         near = np.asarray(st["near"])[:model.ndof]
         st["saddle"] = eq["name"][min(k, key=lambda i: np.sum((eq["q"][i] - near) ** 2))]
     return st
+
+
+def _settings_equilibria(model: Model, st: dict) -> dict:
+    """The equilibria in the settings' search box (&equilibria box, box_center, n_grid), as the
+    program finds them."""
+    return equilibria(model, box=(st["hi"] - st["lo"])[:model.ndof] / 2,
+                      box_center=((st["hi"] + st["lo"]) / 2)[:model.ndof], n_grid=int(st["n_grid"]))
 
 
 def _study(model, st):
@@ -827,8 +833,7 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
                              ("pixel", pixel), ("noise", noise), ("de_min", de_min), ("de_max", de_max),
                              ("damping_ratio", damping_ratio), ("seed", seed)) if v is not None}
     st = _settings(model, saddle, experiment=ex, integrator=integrator, equilibria=equilibria)
-    eq = globals()["equilibria"](model, box=(st["hi"] - st["lo"])[:model.ndof] / 2,
-                                 box_center=((st["hi"] + st["lo"]) / 2)[:model.ndof], n_grid=int(st["n_grid"]))
+    eq = _settings_equilibria(model, st)
     k = [i for i, n in enumerate(eq["name"]) if n == st["saddle"] and eq["rank1"][i]]
     if not k:
         raise ValueError(f"synthetic_experiment: the saddle {st['saddle']!r} (E_e) was not found")

@@ -375,8 +375,8 @@ contains
       self%rule = [1.0_wp/(p - 1), 1.0_wp/p, -2 - 0.7_wp/(p - 1)]
       self%p_rule = p
     end if
-    ! rho = min(n1^(-1/(p-1)), n2^(-1/p)) and h = rho exp(-2 - 0.7/(p-1)), in logarithms (two
-    ! logs and an exp per step instead of two powers and an exp)
+    ! rho = min(n1^(-1/(p-1)), n2^(-1/p)) and h = rho exp(-2 - 0.7/(p-1)), in logarithms (on most
+    ! steps one log and an exp, log_rho, instead of two powers and an exp)
     if (tiny(1.0_wp) <= min(n1, n2) .and. max(n1, n2) <= huge(1.0_wp)) then
       lrho = log_rho(n1, n2, self%rule(1), self%rule(2))
     else
