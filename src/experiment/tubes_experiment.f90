@@ -12,7 +12,7 @@ module tubes_experiment
   use tubes_kinds, only: wp
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EFAULT
-  use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
+  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree
   use tubes_ball, only: ball_t
   use tubes_models, only: NMODEL, model_ball, conservative_ball
   use tubes_field, only: vector_field_t
@@ -25,6 +25,17 @@ module tubes_experiment
   real(wp), parameter :: PI = 3.14159265358979323846264338327950288_wp
   !> Rejection sampling gives up after this many draws of a release point.
   integer, parameter, public :: MAX_RELEASE_DRAWS = 2**22
+
+  !> The noise-free tracks: item j released from rest at release(:, j).
+  type, extends(ensemble_t) :: track_ens_t
+    class(vector_field_t), allocatable :: model
+    type(integ_choice_t) :: integ
+    real(wp), allocatable :: release(:, :)      !! x0, y0 [cm] (2, n_tracks)
+    real(wp) :: dt = 0, rtol = 0, atol = 0
+    integer :: ns = 0
+  contains
+    procedure :: item => track_item
+  end type track_ens_t
 
   !> What to simulate. Defaults are the paper's set-up (docs/experiment-data.md).
   type, public :: experiment_opts_t
@@ -93,9 +104,10 @@ contains
     type(ball_t) :: cons
     real(wp), allocatable :: u(:)
     real(wp) :: dt, de, r, th
-    integer :: ns, nt, nb, j, k, m, off, kf
+    integer :: ns, nt, nb, j, k, m, off
     integer, allocatable :: st(:)
-    type(par_t) :: pp
+    type(track_ens_t) :: tracks
+    type(ens_out_t) :: out
     t = 0; state = 0; energy = 0; noisy = 0; measured = 0; release = 0; c_damp = 0; n_draws = 0
     stat = TUBES_EINPUT
     nt = opts%n_tracks
@@ -146,28 +158,21 @@ contains
       nb = min(4*nb, MAX_RELEASE_DRAWS)
     end do
 
-    ! the noise-free tracks, dealt out over MPI ranks (tubes_par) and threads; each writes
-    ! its own slice
-    call par_bcast(release)
-    pp = par_here()
-    kf = par_fault_item('track')
-    allocate (st(nt))
-    st = TUBES_OK
-    state = 0
-    !$omp parallel do schedule(dynamic) default(shared) private(j)
+    ! the noise-free tracks, dealt out over MPI ranks and threads (tubes_ensemble)
+    call ens_agree(release)
+    allocate (tracks%model, source=model)
+    tracks%integ = integ
+    tracks%release = release(1:2, :)
+    tracks%dt = dt
+    tracks%ns = ns
+    tracks%rtol = opts%rtol
+    tracks%atol = opts%atol
+    call ens_run(tracks, nt, out, 4*ns, 0, fault='track')
+    state = reshape(out%r, [4, ns, nt])
+    st = out%st
     do j = 1, nt
-      if (.not. pp%mine(j)) cycle
-      if (j == kf) then
-        st(j) = TUBES_EFAULT
-        state(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
-        cycle
-      end if
-      call one_track(model, integ, [release(1, j), release(2, j), 0.0_wp, 0.0_wp], dt, ns, opts%rtol, &
-                     opts%atol, state(:, :, j), st(j))
+      if (st(j) == TUBES_EFAULT) state(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
     end do
-    !$omp end parallel do
-    call par_share(state)
-    call par_share(st)
     do k = 1, ns
       t(k) = (k - 1)*dt
     end do
@@ -223,6 +228,14 @@ contains
     xs(:, 1:obs%n) = obs%x(:, 1:obs%n)
     if (stat == TUBES_OK .and. obs%n /= ns) stat = TUBES_EINPUT   ! grid mismatch: cannot happen
   end subroutine one_track
+
+  subroutine track_item(self, k, out)
+    class(track_ens_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(ens_out_t), intent(inout) :: out
+    call one_track(self%model, self%integ, [self%release(:, k), 0.0_wp, 0.0_wp], self%dt, self%ns, &
+                   self%rtol, self%atol, out%r(:, k), out%st(k))
+  end subroutine track_item
 
   pure real(wp) function ieee_nan() result(v)
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan

@@ -9,7 +9,9 @@
 !>
 !> An ensemble describes its items by extending lane_jobs_t: `start` sets up item k in a lane
 !> (its integrator's model and tolerances, state, end time, event, observer, crossing log);
-!> `finish` takes its result. Every lane of a run_lanes call integrates the same model.
+!> `finish` takes its result. Every lane of a run_lanes call integrates the same model. A run_lanes
+!> call is one thread's unit of work: the ensemble layer (src/parallel/tubes_ensemble.f90) deals
+!> the items out over threads and MPI ranks in chunks, each chunk one run_lanes call.
 module tubes_lanes
   use tubes_kinds, only: wp, i8
   use tubes_integrator, only: event_t, observer_t, crossing_log_t, prop_t, prop_begin, prop_after_step
@@ -65,7 +67,7 @@ module tubes_lanes
     end subroutine finish_i
   end interface
 
-  public :: run_lanes, run_lanes_chunked
+  public :: run_lanes
 
 contains
 
@@ -237,27 +239,6 @@ contains
       call jet_kernel(lane(m)%ig%spec, p, LANES, lane(m)%ig%flags, kern(kslot), msg, st)
     end subroutine batch_kernel
   end subroutine run_lanes
-
-  !> The items in chunks of `chunk` (an OpenMP thread's unit of work: one run_lanes call each),
-  !> over the threads (`threads` of them; absent or <= 0: all). An item's result does not depend
-  !> on the chunk or the thread it falls in (run_lanes).
-  subroutine run_lanes_chunked(jobs, items, chunk, threads)
-    use omp_lib, only: omp_get_max_threads
-    class(lane_jobs_t), intent(inout) :: jobs
-    integer, intent(in) :: items(:), chunk
-    integer, intent(in), optional :: threads
-    integer :: c, n, nthr
-    n = size(items)
-    nthr = omp_get_max_threads()
-    if (present(threads)) then
-      if (threads > 0) nthr = threads
-    end if
-    !$omp parallel do schedule(dynamic) default(shared) private(c) num_threads(nthr)
-    do c = 1, (n + chunk - 1)/chunk
-      call run_lanes(jobs, items((c - 1)*chunk + 1:min(n, c*chunk)))
-    end do
-    !$omp end parallel do
-  end subroutine run_lanes_chunked
 
   !> prop_after_step with the lane's own event, observer and log (unallocated: absent).
   subroutine lane_after_step(ln, done, stat)

@@ -21,7 +21,7 @@ module tubes_cut3
   use tubes_integrator, only: integrator_t, plane_t, propagate
   use tubes_methods, only: integ_choice_t, make_integrator
   use tubes_normal_form, only: nf_result_t, nf_change_t, nf_nhim_point, normal_form
-  use tubes_par, only: par_t, par_here, par_share, par_bcast
+  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree
   use tubes_study, only: setup_model
   use tubes_equilibria, only: equilibrium_t
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
@@ -46,6 +46,33 @@ module tubes_cut3
     real(wp) :: volume = 0                 !! the enclosed 4-volume [action^2]
     integer :: n_failed = 0
   end type cut3_t
+
+  !> The cut's seeds as an ensemble (tubes_ensemble): item id the node cut3_node numbers id (the
+  !> poles' copies are not items), its state at the section, its time and its seed's energy error
+  !> (2N + 2 reals). The components are cut3_compute's arguments.
+  type, extends(ensemble_t) :: node_ens_t
+    class(hamiltonian_t), allocatable :: model
+    type(nf_result_t) :: nf
+    type(nf_change_t) :: ch
+    type(integ_choice_t) :: integ
+    real(wp), allocatable :: zs(:)
+    real(wp) :: es = 0, de = 0, y1 = 0, c = 0, t_max = 0, tol = 0
+    integer :: n_eta = 0, n = 0, k = 0, dir = 0
+  contains
+    procedure :: item => node_item
+  end type node_ens_t
+
+  !> cut3_inside's points as an ensemble: the cut's tetrahedra binned on an NBIN^3 grid of
+  !> (p_a, q_b, p_b) (CSR: list(start(b):start(b + 1) - 1) the tetrahedra of bin b).
+  type, extends(ensemble_t) :: inside_ens_t
+    type(cut3_t) :: cut
+    real(wp), allocatable :: pts(:, :), grid(:, :, :)
+    integer, allocatable :: tet(:, :), start(:), list(:)
+    real(wp) :: lo(3) = 0, hi(3) = 0, w(3) = 0
+    logical :: sm = .false.
+  contains
+    procedure :: item => inside_item
+  end type inside_ens_t
 
   public :: cut3_compute, cut3_inside, cut3_node, cut3_half, cut3_study
 
@@ -88,7 +115,9 @@ contains
     real(wp) :: sigma, y1, emax
     real(wp), allocatable :: eerr(:)
     integer :: nd, n, i, j, l, id, nn, a, b
-    type(par_t) :: pp
+    logical, allocatable :: copy(:)
+    type(node_ens_t) :: ens
+    type(ens_out_t) :: out
     stat = TUBES_EINPUT
     nd = model%ndof()
     n = n_theta
@@ -107,26 +136,35 @@ contains
     nn = (n_eta + 1)*n*n
     cut%nnodes = nn
     allocate (cut%x(2*nd, nn), cut%sec(4, nn), cut%t(nn), cut%st(nn), eerr(nn))
-    cut%x = 0
-    cut%t = 0
-    cut%st = TUBES_OK
-    eerr = 0
-    ! the seeds are dealt out over MPI ranks (tubes_par), and over threads inside a rank
-    pp = par_here()
-    !$omp parallel do schedule(dynamic) default(shared) private(i, j, l, id) collapse(3)
+    ! the seeds are dealt out over MPI ranks and threads (tubes_ensemble)
+    allocate (ens%model, source=model)
+    ens%nf = nf
+    ens%ch = ch
+    ens%integ = integ
+    ens%zs = zs
+    ens%es = es
+    ens%de = de
+    ens%y1 = y1
+    ens%c = c
+    ens%t_max = t_max
+    ens%tol = tol
+    ens%n_eta = n_eta
+    ens%n = n
+    ens%k = k
+    ens%dir = dir
+    allocate (copy(nn))
     do i = 0, n_eta
       do j = 0, n - 1
         do l = 0, n - 1
-          id = cut3_node(n_eta, n, i, j, l)
-          if (id == 1 + (i*n + j)*n + l .and. pp%mine(id)) call one_node(i, j, l, id)
+          copy(1 + (i*n + j)*n + l) = cut3_node(n_eta, n, i, j, l) /= 1 + (i*n + j)*n + l
         end do
       end do
     end do
-    !$omp end parallel do
-    call par_share(cut%x)
-    call par_share(cut%t)
-    call par_share(cut%st)
-    call par_share(eerr)
+    call ens_run(ens, nn, out, 2*nd + 2, 0, skip=copy)
+    cut%x = out%r(1:2*nd, :)
+    cut%t = out%r(2*nd + 1, :)
+    eerr = out%r(2*nd + 2, :)
+    cut%st = out%st
     do i = 0, n_eta                        ! the poles' copies
       do j = 0, n - 1
         do l = 0, n - 1
@@ -150,53 +188,65 @@ contains
     cut%volume = enclosed_volume(cut)
     stat = TUBES_OK
 
-  contains
-
-    subroutine one_node(i, j, l, id)
-      integer, intent(in) :: i, j, l, id
-      class(integrator_t), allocatable :: ig
-      type(plane_t) :: pl
-      real(wp) :: dz(2*nd), x(2*nd), g(2*nd), e, th(2), f(2*nd)
-      integer :: it, st
-      th = 2*PI*[real(j, wp), real(l, wp)]/n
-      call nf_nhim_point(nf, ch, de, (PI/2)*i/n_eta, th, y1, dz, st)
-      if (st /= TUBES_OK) then
-        cut%st(id) = st
-        return
-      end if
-      x = zs + dz
-      eerr(id) = abs(model%energy(x) - es - de)/de
-      do it = 1, 4                     ! onto the energy surface: Newton along grad H
-        call model%gradient(x, g, st)
-        e = model%energy(x) - es - de
-        if (st /= 0 .or. .not. sum(g**2) > 0) then
-          cut%st(id) = TUBES_ENOCONV
-          return
-        end if
-        x = x - e*g/sum(g**2)
-      end do
-      call make_integrator(integ, ig, st, f=model, rtol=tol, atol=tol)
-      if (st /= TUBES_OK) then
-        cut%st(id) = st
-        return
-      end if
-      pl%k = k
-      pl%c = c
-      pl%direction = 0
-      pl%terminal = .true.
-      call propagate(ig, x, -t_max, st, event=pl)
-      if (st == TUBES_EVENT) then
-        call model%eval(0.0_wp, x, f, st)
-        cut%x(:, id) = x
-        cut%t(id) = ig%t
-        cut%st(id) = merge(TUBES_OK, CUT_WRONGWAY, dir*f(k) > 0)
-      else if (st >= 0) then
-        cut%st(id) = CUT_NOCROSS
-      else
-        cut%st(id) = st
-      end if
-    end subroutine one_node
   end subroutine cut3_compute
+
+  !> Node id: its seed on the NHIM's sphere at (eta, theta), put on the energy surface and followed
+  !> backwards to the section.
+  subroutine node_item(self, k, out)
+    class(node_ens_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(ens_out_t), intent(inout) :: out
+    class(integrator_t), allocatable :: ig
+    type(plane_t) :: pl
+    real(wp) :: dz(size(self%zs)), x(size(self%zs)), g(size(self%zs)), e, th(2), f(size(self%zs))
+    integer :: it, st, i, j, l, id, nv
+    id = k
+    nv = size(self%zs)
+    i = (id - 1)/(self%n*self%n)
+    j = mod((id - 1)/self%n, self%n)
+    l = mod(id - 1, self%n)
+    associate (model => self%model, nf => self%nf, ch => self%ch, integ => self%integ, zs => self%zs, &
+               es => self%es, de => self%de, y1 => self%y1, c => self%c, t_max => self%t_max, tol => self%tol, &
+               n_eta => self%n_eta, n => self%n, kk => self%k, dir => self%dir)
+    th = 2*PI*[real(j, wp), real(l, wp)]/n
+    call nf_nhim_point(nf, ch, de, (PI/2)*i/n_eta, th, y1, dz, st)
+    if (st /= TUBES_OK) then
+      out%st(id) = st
+      return
+    end if
+    x = zs + dz
+    out%r(nv + 2, id) = abs(model%energy(x) - es - de)/de
+    do it = 1, 4                     ! onto the energy surface: Newton along grad H
+      call model%gradient(x, g, st)
+      e = model%energy(x) - es - de
+      if (st /= 0 .or. .not. sum(g**2) > 0) then
+        out%st(id) = TUBES_ENOCONV
+        return
+      end if
+      x = x - e*g/sum(g**2)
+    end do
+    call make_integrator(integ, ig, st, f=model, rtol=tol, atol=tol)
+    if (st /= TUBES_OK) then
+      out%st(id) = st
+      return
+    end if
+    pl%k = kk
+    pl%c = c
+    pl%direction = 0
+    pl%terminal = .true.
+    call propagate(ig, x, -t_max, st, event=pl)
+    if (st == TUBES_EVENT) then
+      call model%eval(0.0_wp, x, f, st)
+      out%r(1:nv, id) = x
+      out%r(nv + 1, id) = ig%t
+      out%st(id) = merge(TUBES_OK, CUT_WRONGWAY, dir*f(kk) > 0)
+    else if (st >= 0) then
+      out%st(id) = CUT_NOCROSS
+    else
+      out%st(id) = st
+    end if
+    end associate
+  end subroutine node_item
 
   !> The cut on every other node of cut's grid (n_eta and n_theta even): its discretisation error
   !> is about 4 times cut's (second order), so cut - half estimates 3/4 of half's, a third of cut's.
@@ -263,9 +313,9 @@ contains
     end if
     call bcast_normal_form(nf, ch)
     z0 = zs
-    call par_bcast(z0)
+    call ens_agree(z0)
     es = model%energy(z0)
-    call par_bcast(es)
+    call ens_agree(es)
     call cut3_compute(model, nf, ch, z0, es, de, n_cut, 2*n_cut, eps, k, c, dir, t_max, tol, integ, cut, stat)
     if (stat == TUBES_EINPUT) then
       msg = 'the plane is parallel to the direction in which the tube leaves the saddle, or passes through it'
@@ -296,13 +346,13 @@ contains
     type(nf_result_t), intent(inout) :: nf
     type(nf_change_t), intent(inout) :: ch
     real(wp), allocatable :: re(:, :), im(:, :)
-    call par_bcast(nf%coef)
-    call par_bcast(nf%omegas)
-    call par_bcast(ch%c)
+    call ens_agree(nf%coef)
+    call ens_agree(nf%omegas)
+    call ens_agree(ch%c)
     re = real(ch%fwd, wp)
     im = aimag(ch%fwd)
-    call par_bcast(re)
-    call par_bcast(im)
+    call ens_agree(re)
+    call ens_agree(im)
     ch%fwd = cmplx(re, im, wp)
   end subroutine bcast_normal_form
 
@@ -474,6 +524,8 @@ contains
     real(wp) :: lo(3), hi(3), w(3)
     integer :: m, t, i, b(3, 2), i1, i2, i3, nb
     logical :: sm
+    type(inside_ens_t) :: ens
+    type(ens_out_t) :: out
     sm = .false.
     if (present(smooth)) sm = smooth
     if (present(unresolved)) unresolved = .false.
@@ -511,18 +563,21 @@ contains
         end do
       end do
     end do
-    !$omp parallel do schedule(dynamic, 64) default(shared) private(i)
-    do i = 1, size(pts, 2)
-      inside(i) = odd_crossings(pts(:, i), i)
-    end do
-    !$omp end parallel do
+    ens%cut = cut
+    ens%pts = pts
+    ens%lo = lo
+    ens%hi = hi
+    ens%w = w
+    ens%sm = sm
+    ens%tet = tet
+    ens%grid = grid
+    call move_alloc(start, ens%start)
+    call move_alloc(list, ens%list)
+    call ens_run(ens, size(pts, 2), out, 0, 2, local=.true., chunk=64)   ! each rank tests every point
+    inside = out%i(1, :) == 1
+    if (present(unresolved)) unresolved = out%i(2, :) == 1
 
   contains
-
-    pure integer function bin_of(i1, i2, i3)
-      integer, intent(in) :: i1, i2, i3
-      bin_of = 1 + (i1 - 1) + NBIN*((i2 - 1) + NBIN*(i3 - 1))
-    end function bin_of
 
     subroutine bins(t, b)
       integer, intent(in) :: t
@@ -533,44 +588,60 @@ contains
       b(:, 2) = min(NBIN, max(1, 1 + int((maxval(v, dim=2) - lo)/w)))
     end subroutine bins
 
-    logical function odd_crossings(p, ip) result(odd)
-      real(wp), intent(in) :: p(4)
-      integer, intent(in) :: ip
-      real(wp) :: v(4, 4), a(3, 3), r(3), d, bc(3), q1, x0(3), s1
-      integer :: ib(3), bb, s, t, j
-      logical :: ok
-      odd = .false.
-      if (any(p(2:4) < lo) .or. any(p(2:4) > hi)) return
-      ib = min(NBIN, max(1, 1 + int((p(2:4) - lo)/w)))
-      bb = bin_of(ib(1), ib(2), ib(3))
-      do s = start(bb), start(bb + 1) - 1
-        t = list(s)
-        v = cut%sec(:, tet(:, t))
-        if (maxval(v(1, :)) < p(1) - merge(2*(maxval(v(1, :)) - minval(v(1, :))), 0.0_wp, sm)) cycle
-        if (any(p(2:4) < minval(v(2:4, :), dim=2)) .or. any(p(2:4) > maxval(v(2:4, :), dim=2))) cycle
-        do j = 1, 3
-          a(:, j) = v(2:4, j + 1) - v(2:4, 1)
-        end do
-        r = p(2:4) - v(2:4, 1)
-        d = det3(a)
-        if (d == 0) cycle
-        do j = 1, 3                    ! Cramer
-          bc(j) = det3(merge(spread(r, 2, 3), a, spread([1, 2, 3] == j, 1, 3)))/d
-        end do
-        if (any(bc < 0) .or. sum(bc) > 1) cycle
-        q1 = v(1, 1) + sum(bc*(v(1, 2:4) - v(1, 1)))
-        if (q1 > p(1)) odd = .not. odd
-        ! near the point: the crossing of the smooth cut decides its side
-        if (sm .and. abs(q1 - p(1)) <= 2*(maxval(v(1, :)) - minval(v(1, :)))) then
-          x0 = (1 - sum(bc))*grid(:, 1, t) + bc(1)*grid(:, 2, t) + bc(2)*grid(:, 3, t) + bc(3)*grid(:, 4, t)
-          call smooth_crossing(cut, p, x0, s1, ok)
-          if (.not. ok) then
-            if (present(unresolved)) unresolved(ip) = .true.
-          else if ((s1 > 0) .neqv. (q1 > p(1))) then
-            odd = .not. odd
-          end if
-        end if
-      end do
-    end function odd_crossings
   end subroutine cut3_inside
+
+  pure integer function bin_of(i1, i2, i3)
+    integer, intent(in) :: i1, i2, i3
+    bin_of = 1 + (i1 - 1) + NBIN*((i2 - 1) + NBIN*(i3 - 1))
+  end function bin_of
+
+  !> Point k: the parity of the tetrahedra its ray crosses (out%i(1, k) = 1: odd, inside), and
+  !> out%i(2, k) = 1 where the smooth crossing was not found.
+  subroutine inside_item(self, k, out)
+    class(inside_ens_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(ens_out_t), intent(inout) :: out
+    real(wp) :: p(4)
+    logical :: odd
+    real(wp) :: v(4, 4), a(3, 3), r(3), d, bc(3), q1, x0(3), s1
+    integer :: ib(3), bb, s, t, j
+    logical :: ok
+    p = self%pts(:, k)
+    odd = .false.
+    associate (lo => self%lo, hi => self%hi, w => self%w, start => self%start, list => self%list, &
+               cut => self%cut, tet => self%tet, sm => self%sm, grid => self%grid)
+    if (any(p(2:4) < lo) .or. any(p(2:4) > hi)) return
+    ib = min(NBIN, max(1, 1 + int((p(2:4) - lo)/w)))
+    bb = bin_of(ib(1), ib(2), ib(3))
+    do s = start(bb), start(bb + 1) - 1
+      t = list(s)
+      v = cut%sec(:, tet(:, t))
+      if (maxval(v(1, :)) < p(1) - merge(2*(maxval(v(1, :)) - minval(v(1, :))), 0.0_wp, sm)) cycle
+      if (any(p(2:4) < minval(v(2:4, :), dim=2)) .or. any(p(2:4) > maxval(v(2:4, :), dim=2))) cycle
+      do j = 1, 3
+        a(:, j) = v(2:4, j + 1) - v(2:4, 1)
+      end do
+      r = p(2:4) - v(2:4, 1)
+      d = det3(a)
+      if (d == 0) cycle
+      do j = 1, 3                    ! Cramer
+        bc(j) = det3(merge(spread(r, 2, 3), a, spread([1, 2, 3] == j, 1, 3)))/d
+      end do
+      if (any(bc < 0) .or. sum(bc) > 1) cycle
+      q1 = v(1, 1) + sum(bc*(v(1, 2:4) - v(1, 1)))
+      if (q1 > p(1)) odd = .not. odd
+      ! near the point: the crossing of the smooth cut decides its side
+      if (sm .and. abs(q1 - p(1)) <= 2*(maxval(v(1, :)) - minval(v(1, :)))) then
+        x0 = (1 - sum(bc))*grid(:, 1, t) + bc(1)*grid(:, 2, t) + bc(2)*grid(:, 3, t) + bc(3)*grid(:, 4, t)
+        call smooth_crossing(cut, p, x0, s1, ok)
+        if (.not. ok) then
+          out%i(2, k) = 1
+        else if ((s1 > 0) .neqv. (q1 > p(1))) then
+          odd = .not. odd
+        end if
+      end if
+    end do
+    end associate
+    out%i(1, k) = merge(1, 0, odd)
+  end subroutine inside_item
 end module tubes_cut3

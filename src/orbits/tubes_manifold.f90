@@ -9,12 +9,12 @@ module tubes_manifold
   use tubes_lapack, only: dlasrt, dgeev
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT, TUBES_EFAULT, &
                           TUBES_ENOCROSS
-  use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
+  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_chunk_items, ens_agree, ens_reuse_ok
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_variational, only: variational_t, make_variational, stm_start, tangent_t, make_tangent
   use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
   use tubes_taylor, only: taylor_t, taylor_record_t
-  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes_chunked
+  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes
   use tubes_integrator, only: integrator_t, observer_t, event_t, propagate
   use tubes_dop853, only: dop853_t
   use tubes_section_kinds, only: poincare_t
@@ -98,6 +98,20 @@ module tubes_manifold
   !> one step-off and one integration (the caller keeps one store per such set-up). A later cut
   !> looks its seeds up by phase (bit for bit) before integrating them: a seed's crossing
   !> depends on nothing else, so a looked-up seed has the same bits as an integrated one.
+  !> A round's tube seeds as an ensemble (tubes_ensemble): item k from phase jobs%tau(k), its
+  !> crossing's (s, p_s), flight time and state (2 + 1 + 2N reals), as one_seed computes them;
+  !> with the Taylor method a thread's chunk runs in lanes.
+  type, extends(ensemble_t) :: seed_ens_t
+    type(seed_jobs_t) :: jobs                !! the model, section, options, phases (and lanes)
+    type(orbit_t) :: orb                     !! the orbit (rank 0's)
+    real(wp), allocatable :: v0(:)           !! its eigenvector at phase 0
+    type(var_snapshots_t) :: snaps           !! its variational run (DOP853)
+    logical :: lanes = .false.
+  contains
+    procedure :: item => seed_item
+    procedure :: chunk => seeds_chunk
+  end type seed_ens_t
+
   type, public :: seed_store_t
     integer :: n = 0
     real(wp), allocatable :: tau(:)         !! sorted
@@ -311,6 +325,33 @@ contains
     end if
   end subroutine seed_finish
 
+  !> Seed k of the round, as one_seed computes it.
+  subroutine seed_item(self, k, out)
+    class(seed_ens_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(ens_out_t), intent(inout) :: out
+    call one_seed(self%jobs%ball, self%orb, self%v0, self%jobs%sigma, self%jobs%tau(k), self%jobs%psec, &
+                  self%jobs%opts, self%snaps, out%r(1:2, k), out%r(3, k), out%r(4:, k), out%st(k))
+  end subroutine seed_item
+
+  !> A thread's seeds: in lanes (the Taylor method), else one by one.
+  subroutine seeds_chunk(self, ks, out)
+    class(seed_ens_t), intent(inout) :: self
+    integer, intent(in) :: ks(:)
+    type(ens_out_t), intent(inout) :: out
+    integer :: j, k
+    if (.not. self%lanes) then
+      call ens_chunk_items(self, ks, out)
+      return
+    end if
+    call run_lanes(self%jobs, ks)
+    do j = 1, size(ks)
+      k = ks(j)
+      out%st(k) = self%jobs%st(k)
+      out%r(:, k) = [self%jobs%p(:, k), self%jobs%tc(k), self%jobs%xc(:, k)]
+    end do
+  end subroutine seeds_chunk
+
   !> The orbit and the eigenvector v0 transported along one period (tangent equations), every
   !> step recorded: the seeds' starts for the Taylor method.
   subroutine record_orbit(ball, orb, v0, opts, rec, stat)
@@ -347,39 +388,38 @@ contains
     !> seeds of earlier cuts of this set-up (looked up, and this cut's added; one MPI rank only)
     type(seed_store_t), intent(inout), optional :: store
     type(orbit_t) :: orb0
-    type(par_t) :: grp
+    type(seed_ens_t) :: ens
     real(wp) :: v0(size(orb%x0)), sigma, a_old, a_new, span_r, span_p
     real(wp), allocatable :: tau(:), pcs(:, :), tcs(:), xcs(:, :), newtau(:), chord(:), medc
     logical, allocatable :: split(:)
     integer, allocatable :: st(:)
     integer :: n, i, j, m, info, nconv
-    type(seed_jobs_t) :: jobs
-    type(var_snapshots_t) :: snaps
     if (opts%n_init < 8 .or. opts%eps <= 0 .or. orb%period <= 0) then
       stat = TUBES_EINPUT
       return
     end if
-    ! every rank seeds from rank 0's orbit (tubes_par: replicated inputs are broadcast)
-    grp = par_here(opts%local)
+    ! every rank seeds from rank 0's orbit (tubes_ensemble: replicated inputs agree)
     orb0 = orb
-    call par_bcast(orb0%x0, grp)
-    call par_bcast(orb0%period, grp)
-    call par_bcast(orb0%monodromy, grp)
+    call ens_agree(orb0%x0, opts%local)
+    call ens_agree(orb0%period, opts%local)
+    call ens_agree(orb0%monodromy, opts%local)
     call floquet_vector(orb0%monodromy, opts%kind, v0, stat)
     if (stat /= TUBES_OK) return
-    call par_bcast(v0, grp)
+    call ens_agree(v0, opts%local)
     sigma = sign(1.0_wp, dot2(v0, well_dir))
-    if (uses_taylor(opts%integ)) then   ! the seeds' starts from one integration
-      allocate (jobs%ball, source=ball)
-      call record_orbit(ball, orb0, v0, opts, jobs%orbit, stat)
-      if (stat < 0) return
-      jobs%psec = psec
-      jobs%opts = opts
-      jobs%sigma = sigma
+    allocate (ens%jobs%ball, source=ball)
+    ens%jobs%psec = psec
+    ens%jobs%opts = opts
+    ens%jobs%sigma = sigma
+    ens%orb = orb0
+    ens%v0 = v0
+    ens%lanes = uses_taylor(opts%integ)
+    if (ens%lanes) then   ! the seeds' starts from one integration
+      call record_orbit(ball, orb0, v0, opts, ens%jobs%orbit, stat)
     else
-      call record_variational(ball, orb0, opts, snaps, stat)
-      if (stat < 0) return
+      call record_variational(ball, orb0, opts, ens%snaps, stat)
     end if
+    if (stat < 0) return
     n = opts%n_init
     allocate (tau(n))
     tau = [((i - 1)*orb0%period/n, i = 1, n)]
@@ -394,7 +434,7 @@ contains
     nconv = 0
     do
       call area_of(a_new, info)
-      call par_bcast(a_new, grp)      ! the refinement decisions must agree on every rank
+      call ens_agree(a_new, opts%local)   ! the refinement decisions must agree on every rank
       if (info /= 0) then
         stat = TUBES_ENOCONV
         return
@@ -467,67 +507,43 @@ contains
       real(wp), intent(in) :: tt(:)
       integer, intent(in) :: i1, i2
       real(wp) :: p(2, i2 - i1 + 1), tc(i2 - i1 + 1), xc(size(v0), i2 - i1 + 1)
-      integer :: s(i2 - i1 + 1), k, kf, nk, at(i2 - i1 + 1)
-      integer, allocatable :: mine(:)
+      integer :: s(i2 - i1 + 1), k, nk, at(i2 - i1 + 1)
       logical :: found(i2 - i1 + 1), keep
-      type(par_t) :: pp
-      pp = grp                           ! seed k - i1 + 1 of this round is computed on its owner
-      kf = par_fault_item('seed')
+      type(ens_out_t) :: out
+      nk = i2 - i1 + 1                   ! seed k of this round is seed i1 + k - 1 of the cut
       p = 0
       tc = 0
       xc = 0
-      s = TUBES_OK
       found = .false.
       keep = .false.
-      if (present(store)) keep = grp%nranks == 1 .and. kf == 0
+      if (present(store)) keep = ens_reuse_ok('seed', opts%local)
       if (keep) then
         do k = i1, i2
           at(k - i1 + 1) = store_find(store, tt(k))
         end do
         found = at > 0
-        do k = 1, i2 - i1 + 1
+        do k = 1, nk
           if (.not. found(k)) cycle
           p(:, k) = store%p(:, at(k))
           tc(k) = store%tc(at(k))
           xc(:, k) = store%xc(:, at(k))
         end do
       end if
-      if (uses_taylor(opts%integ)) then
-        nk = i2 - i1 + 1                 ! the seeds in the Taylor method's lanes
-        jobs%tau = tt(i1:i2)
-        if (allocated(jobs%p)) deallocate (jobs%p, jobs%tc, jobs%xc, jobs%st)
-        allocate (jobs%p(2, nk), jobs%tc(nk), jobs%xc(size(v0), nk), jobs%st(nk))
-        jobs%st = TUBES_OK
-        mine = pack([(k, k = 1, nk)], [(pp%mine(k) .and. k + i1 - 1 /= kf .and. .not. found(k), k = 1, nk)])
-        call run_lanes_chunked(jobs, mine, SEED_CHUNK)
-        do k = 1, nk
-          if (.not. pp%mine(k) .or. found(k)) cycle
-          if (k + i1 - 1 == kf) then
-            s(k) = TUBES_EFAULT
-            cycle
-          end if
-          s(k) = jobs%st(k)
-          p(:, k) = jobs%p(:, k)
-          tc(k) = jobs%tc(k)
-          xc(:, k) = jobs%xc(:, k)
-        end do
-      else
-        !$omp parallel do schedule(dynamic) default(shared) private(k)
-        do k = i1, i2
-          if (.not. pp%mine(k - i1 + 1) .or. found(k - i1 + 1)) cycle
-          if (k == kf) then
-            s(k - i1 + 1) = TUBES_EFAULT
-            cycle
-          end if
-          call one_seed(ball, orb0, v0, sigma, tt(k), psec, opts, snaps, p(:, k - i1 + 1), tc(k - i1 + 1), &
-                        xc(:, k - i1 + 1), s(k - i1 + 1))
-        end do
-        !$omp end parallel do
+      ens%jobs%tau = tt(i1:i2)
+      if (ens%lanes) then
+        if (allocated(ens%jobs%p)) deallocate (ens%jobs%p, ens%jobs%tc, ens%jobs%xc, ens%jobs%st)
+        allocate (ens%jobs%p(2, nk), ens%jobs%tc(nk), ens%jobs%xc(size(v0), nk), ens%jobs%st(nk))
+        ens%jobs%st = TUBES_OK
       end if
-      call par_share(p, grp)
-      call par_share(tc, grp)
-      call par_share(xc, grp)
-      call par_share(s, grp)
+      call ens_run(ens, nk, out, 3 + size(v0), 0, fault='seed', first=i1, local=opts%local, skip=found, &
+                   chunk=merge(SEED_CHUNK, 1, ens%lanes))
+      do k = 1, nk
+        if (found(k)) cycle
+        p(:, k) = out%r(1:2, k)
+        tc(k) = out%r(3, k)
+        xc(:, k) = out%r(4:, k)
+      end do
+      s = out%st
       if (keep) call store_add(store, tt(i1:i2), p, tc, xc, s == TUBES_OK .and. .not. found)
       pcs = reshape([reshape(pcs, [size(pcs)]), reshape(p, [size(p)])], [2, i2])
       tcs = [tcs, tc]

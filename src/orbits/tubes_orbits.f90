@@ -6,7 +6,7 @@ module tubes_orbits
   use tubes_kinds, only: wp
   use tubes_lapack, only: dgesv, dgels, dgeev
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EFAULT
-  use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
+  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree
   use tubes_field, only: vector_field_t, jet_spec_t
   use tubes_hamiltonian, only: hamiltonian_t, natural_t
   use tubes_variational, only: variational_t, make_variational, stm_start
@@ -40,6 +40,17 @@ module tubes_orbits
     logical :: local = .false.        !! multiple shooting on this MPI rank alone (the caller
                                       !! has dealt out a coarser level); default: all ranks
   end type orbit_opts_t
+
+  !> Multiple shooting's segments: item i flows node i over tau = T/n, into its end state, its
+  !> state transition matrix and the field there.
+  type, extends(ensemble_t) :: segment_ens_t
+    class(hamiltonian_t), allocatable :: model
+    real(wp), allocatable :: nodes(:, :)       !! (2N, n)
+    real(wp) :: tau = 0
+    type(orbit_opts_t) :: opts
+  contains
+    procedure :: item => segment_item
+  end type segment_ens_t
 
   !> One periodic orbit.
   type, public :: orbit_t
@@ -192,6 +203,19 @@ contains
     phi = reshape(z(n2 + 1:), [n2, n2])
   end subroutine flow_stm
 
+  subroutine segment_item(self, k, out)
+    class(segment_ens_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(ens_out_t), intent(inout) :: out
+    real(wp) :: y(size(self%nodes, 1)), phi(size(self%nodes, 1), size(self%nodes, 1)), fy(size(self%nodes, 1))
+    integer :: d
+    d = size(y)
+    fy = 0
+    call flow_stm(self%model, self%nodes(:, k), self%tau, self%opts, y, phi, out%st(k))
+    if (out%st(k) >= 0) call self%model%eval(0.0_wp, y, fy, out%st(k))
+    out%r(:, k) = [y, reshape(phi, [d*d]), fy]
+  end subroutine segment_item
+
   !> Single shooting of an orbit symmetric under the model's reversor R (for natural systems
   !> R: p -> -p, the brake orbit): unknowns the even components of x0 (R = +1; the odd ones are
   !> 0) and the half period tau, conditions: the odd components of x(tau) vanish and H(x0) = E.
@@ -295,8 +319,9 @@ contains
     type(orbit_opts_t) :: o
     type(orbit_t), intent(inout) :: orb
     integer, intent(out) :: stat
-    integer :: n, m, nu, i, j, it, info, lwork, st(size(nodes, 2)), kf, d, i0, j0
-    type(par_t) :: pp
+    integer :: n, m, nu, i, j, it, info, lwork, st(size(nodes, 2)), d, i0, j0
+    type(segment_ens_t) :: segs
+    type(ens_out_t) :: out
     real(wp), allocatable :: a(:, :), b(:), work(:), y(:, :), phis(:, :, :), fy(:, :)
     real(wp) :: xref(size(nodes, 1)), fref(size(nodes, 1)), res, rowmax, pscale, &
                 scale(size(nodes, 1)), xref_grad(size(nodes, 1))
@@ -307,8 +332,8 @@ contains
     o = opts
     lwork = 64*m
     allocate (a(m, nu), b(m), work(lwork), y(d, n), phis(d, d, n), fy(d, n))
-    pp = par_here(opts%local)
-    kf = par_fault_item('segment')
+    allocate (segs%model, source=model)
+    segs%opts = o
     xref = nodes(:, 1)
     call model%eval(0.0_wp, xref, fref, stat)
     if (stat /= 0) then
@@ -323,28 +348,16 @@ contains
     stat = TUBES_OK
     do it = 1, opts%max_iter
       if (diverging(orb%history)) exit
-      ! segments dealt out over MPI ranks (tubes_par) and threads, from rank 0's nodes
-      call par_bcast(nodes, pp)
-      call par_bcast(period, pp)
-      y = 0
-      phis = 0
-      fy = 0
-      st = TUBES_OK
-      !$omp parallel do schedule(static) default(shared) private(i)
-      do i = 1, n
-        if (.not. pp%mine(i)) cycle
-        if (i == kf) then
-          st(i) = TUBES_EFAULT
-          cycle
-        end if
-        call flow_stm(model, nodes(:, i), period/n, o, y(:, i), phis(:, :, i), st(i))
-        if (st(i) >= 0) call model%eval(0.0_wp, y(:, i), fy(:, i), st(i))
-      end do
-      !$omp end parallel do
-      call par_share(y, pp)
-      call par_share(phis, pp)
-      call par_share(fy, pp)
-      call par_share(st, pp)
+      ! segments dealt out over MPI ranks and threads (tubes_ensemble), from rank 0's nodes
+      call ens_agree(nodes, opts%local)
+      call ens_agree(period, opts%local)
+      segs%nodes = nodes
+      segs%tau = period/n
+      call ens_run(segs, n, out, d*(d + 2), 0, fault='segment', local=opts%local)
+      y = out%r(1:d, :)
+      phis = reshape(out%r(d + 1:d + d*d, :), [d, d, n])
+      fy = out%r(d + d*d + 1:, :)
+      st = out%st
       if (any(st < 0)) then
         stat = minval(st)
         return

@@ -34,7 +34,7 @@ module tubes_par
 
   !> Gather the items (the last dimension) computed by their owners to every rank.
   interface par_share
-    module procedure share_r1, share_r2, share_r3, share_i1, share_l1
+    module procedure share_r1, share_r2, share_r3, share_i1, share_i2, share_l1
   end interface par_share
 
   !> Broadcast from rank 0.
@@ -184,6 +184,15 @@ contains
     if (present(p)) q = p
     call share_int(a, 1, size(a), q)
   end subroutine share_i1
+
+  subroutine share_i2(a, p)
+    integer, intent(inout), contiguous :: a(:, :)     !! items along the second dimension
+    type(par_t), intent(in), optional :: p   !! the group that computed the items (default: all ranks)
+    type(par_t) :: q
+    q = par_here()
+    if (present(p)) q = p
+    call share_int(a, size(a, 1), size(a, 2), q)
+  end subroutine share_i2
 
   subroutine share_l1(a, p)
     logical, intent(inout), contiguous :: a(:)

@@ -29,7 +29,7 @@ module tubes_flux
   use tubes_integrator, only: integrator_t, observer_t, propagate
   use tubes_methods, only: integ_choice_t, make_integrator
   use tubes_transport, only: rng_uniform
-  use tubes_par, only: par_t, par_here, par_share, par_bcast
+  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree
   implicit none
   private
 
@@ -54,6 +54,23 @@ module tubes_flux
   contains
     procedure :: on_step => transit_on_step
   end type transit_t
+
+  !> The flux's samples as an ensemble (tubes_ensemble): item i's weighted class (its reals: val,
+  !> then with a section its state, 2N), its class (its integer: 1, -1, 0, 2, or 3 outside the
+  !> shell). The components are flux_sampled's set-up.
+  type, extends(ensemble_t) :: flux_ens_t
+    class(hamiltonian_t), allocatable :: model
+    integer :: nd = 0
+    real(wp), allocatable :: u(:)             !! the uniforms, 2 (N - 1) per sample
+    real(wp), allocatable :: box(:, :)        !! the box of Q' (2, N - 1)
+    real(wp) :: r(MAXN, MAXN) = 0, q0(MAXN) = 0, energy = 0, cball = 0, t_max = 0, tol = 0
+    logical :: section = .false., natural = .false.
+    type(transit_t) :: tobs
+    type(slab_t) :: slab
+    type(integ_choice_t) :: integ
+  contains
+    procedure :: item => flux_item
+  end type flux_ens_t
 
   !> What flux_sampled found.
   type, public :: flux_result_t
@@ -327,9 +344,10 @@ contains
     real(wp) :: r(MAXN, MAXN), energy, vol, ex(2), cball, q0(MAXN), sw
     real(wp), allocatable :: u(:), val(:)
     integer, allocatable :: cls(:), st(:)
-    integer :: nd, m, j, k, i, rv(2*MAXN)
+    integer :: nd, m, j, k, rv(2*MAXN)
     logical :: section, natural
-    type(par_t) :: pp
+    type(flux_ens_t) :: ens
+    type(ens_out_t) :: out
     type(slab_t) :: slab
     type(transit_t) :: tobs
     stat = TUBES_EINPUT
@@ -417,31 +435,41 @@ contains
         res%x = ieee_value(1.0_wp, ieee_quiet_nan)
       end if
       ! the loop's inputs from the work every rank repeats, as rank 0 has them (docs/cluster.md)
-      call par_bcast(u)
-      call par_bcast(res%box)
-      call par_bcast(vol)
-      call par_bcast(r)
-      call par_bcast(q0)
-      call par_bcast(tobs%ns)
+      call ens_agree(u)
+      call ens_agree(res%box)
+      call ens_agree(vol)
+      call ens_agree(r)
+      call ens_agree(q0)
+      call ens_agree(tobs%ns)
       slab%n = nd
       slab%origin(1:nd) = sad%q
-      call par_bcast(slab%origin)
+      call ens_agree(slab%origin)
       slab%normal(1:nd) = r(1, 1:nd)
       slab%dist = gate
       val = 0
       cls = 0
       st = TUBES_OK
-      ! the samples are dealt out over MPI ranks (tubes_par), and over threads inside a rank
-      pp = par_here()
-      !$omp parallel do schedule(dynamic) default(shared) private(i)
-      do i = 1, n
-        if (pp%mine(i)) call one_sample(i)
-      end do
-      !$omp end parallel do
-      call par_share(val)
-      call par_share(cls)
-      call par_share(st)
-      if (section) call par_share(res%x)
+      ! the samples are dealt out over MPI ranks and threads (tubes_ensemble)
+      allocate (ens%model, source=model)
+      ens%nd = nd
+      ens%u = u
+      ens%box = res%box
+      ens%r = r
+      ens%q0 = q0
+      ens%energy = energy
+      ens%cball = cball
+      ens%t_max = t_max
+      ens%tol = tol
+      ens%section = section
+      ens%natural = natural
+      ens%tobs = tobs
+      ens%slab = slab
+      ens%integ = integ
+      call ens_run(ens, n, out, 1 + merge(2*nd, 0, section), 1)
+      val = out%r(1, :)
+      cls = out%i(1, :)
+      st = out%st
+      if (section) res%x = out%r(2:, :)
       if (any(st /= TUBES_OK)) then
         stat = st(findloc(st /= TUBES_OK, .true., dim=1))
         return
@@ -472,100 +500,111 @@ contains
       stat = TUBES_OK
     end block
 
-  contains
+  end subroutine flux_sampled
 
-    !> Sample i: its weight times its class into val(i); cls(i) = 1, -1, 0, 2 (undecided) or
-    !> 3 (outside the shell).
-    subroutine one_sample(i)
-      integer, intent(in) :: i
-      real(wp) :: q(nd), a(nd, nd), ar(nd, nd), s(nd - 1, nd - 1), l(nd - 1, nd - 1), pp(nd - 1), &
-                  bigp(nd), p(nd), x(2*nd), v, w, qa, qb, qc, rad, uu(2*(nd - 1)), pc(nd)
-      integer :: fw, bw, sf, sb, j2
-      uu = u(2*(nd - 1)*(i - 1) + 1:2*(nd - 1)*i)
-      q = q0(1:nd)
-      do j2 = 2, nd
-        q = q + (res%box(1, j2 - 1) + uu(j2 - 1)*(res%box(2, j2 - 1) - res%box(1, j2 - 1)))*r(j2, 1:nd)
-      end do
-      call quadratic_parts(model, q, a, pc, v, j2)
-      if (j2 /= 0 .or. .not. v < energy) then
+  !> Sample k: its weight times its class into val(k); cls(k) = 1, -1, 0, 2 (undecided) or
+  !> 3 (outside the shell).
+  subroutine flux_item(self, k, out)
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+    class(flux_ens_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(ens_out_t), intent(inout) :: out
+    real(wp) :: q(self%nd), a(self%nd, self%nd), ar(self%nd, self%nd), s(self%nd - 1, self%nd - 1), &
+                l(self%nd - 1, self%nd - 1), pp(self%nd - 1), bigp(self%nd), p(self%nd), x(2*self%nd), v, w, &
+                qa, qb, qc, rad, uu(2*(self%nd - 1)), pc(self%nd)
+    integer :: fw, bw, sf, sb, j2, i
+    i = k
+    if (self%section) out%r(2:, i) = ieee_value(1.0_wp, ieee_quiet_nan)
+    associate (model => self%model, nd => self%nd, u => self%u, q0 => self%q0, r => self%r, &
+               energy => self%energy, cball => self%cball, section => self%section, natural => self%natural, &
+               tobs => self%tobs, slab => self%slab, t_max => self%t_max, tol => self%tol, integ => self%integ, &
+               val => out%r(1, :), cls => out%i(1, :), st => out%st, resx => out%r(2:, :))
+    uu = u(2*(nd - 1)*(i - 1) + 1:2*(nd - 1)*i)
+    q = q0(1:nd)
+    do j2 = 2, nd
+      q = q + (self%box(1, j2 - 1) + uu(j2 - 1)*(self%box(2, j2 - 1) - self%box(1, j2 - 1)))*r(j2, 1:nd)
+    end do
+    call quadratic_parts(model, q, a, pc, v, j2)
+    if (j2 /= 0 .or. .not. v < energy) then
+      cls(i) = 3
+      return
+    end if
+    ! only the part of {V < E} on the DS that the saddle sees (star-shaped from it): other
+    ! bottlenecks the hyperplane may cut farther out are not this saddle's
+    do j2 = 1, NSTAR - 1
+      if (.not. veff(model, q0(1:nd) + (real(j2, wp)/NSTAR)*(q - q0(1:nd))) < energy) then
         cls(i) = 3
         return
       end if
-      ! only the part of {V < E} on the DS that the saddle sees (star-shaped from it): other
-      ! bottlenecks the hyperplane may cut farther out are not this saddle's
-      do j2 = 1, NSTAR - 1
-        if (.not. veff(model, q0(1:nd) + (real(j2, wp)/NSTAR)*(q - q0(1:nd))) < energy) then
-          cls(i) = 3
-          return
-        end if
-      end do
-      ar = matmul(matmul(r(1:nd, 1:nd), a), transpose(r(1:nd, 1:nd)))
-      s = ar(2:nd, 2:nd) - spread(ar(2:nd, 1), 2, nd - 1)*spread(ar(1, 2:nd), 1, nd - 1)/ar(1, 1)
-      ! Cholesky s = l l^T (1 x 1 or 2 x 2)
-      l = 0
-      l(1, 1) = sqrt(s(1, 1))
-      if (nd == 3) then
-        l(2, 1) = s(2, 1)/l(1, 1)
-        l(2, 2) = sqrt(s(2, 2) - l(2, 1)**2)
-      end if
-      rad = sqrt(2*(energy - v))
-      w = cball*rad**(nd - 1)/product([(l(j2, j2), j2=1, nd - 1)])
-      if (.not. (w >= 0 .and. w <= huge(1.0_wp))) then
-        st(i) = TUBES_EMODEL
+    end do
+    ar = matmul(matmul(r(1:nd, 1:nd), a), transpose(r(1:nd, 1:nd)))
+    s = ar(2:nd, 2:nd) - spread(ar(2:nd, 1), 2, nd - 1)*spread(ar(1, 2:nd), 1, nd - 1)/ar(1, 1)
+    ! Cholesky s = l l^T (1 x 1 or 2 x 2)
+    l = 0
+    l(1, 1) = sqrt(s(1, 1))
+    if (nd == 3) then
+      l(2, 1) = s(2, 1)/l(1, 1)
+      l(2, 2) = sqrt(s(2, 2) - l(2, 1)**2)
+    end if
+    rad = sqrt(2*(energy - v))
+    w = cball*rad**(nd - 1)/product([(l(j2, j2), j2=1, nd - 1)])
+    if (.not. (w >= 0 .and. w <= huge(1.0_wp))) then
+      st(i) = TUBES_EMODEL
+      return
+    end if
+    ! a point uniform in the unit (N-1)-ball, then P' = rad l^-T ball
+    if (nd == 2) then
+      pp(1) = 2*uu(2) - 1
+    else
+      pp = sqrt(uu(3))*[cos(2*PI*uu(4)), sin(2*PI*uu(4))]
+    end if
+    pp = rad*pp
+    if (nd == 3) then          ! solve l^T y = pp
+      pp(2) = pp(2)/l(2, 2)
+      pp(1) = (pp(1) - l(2, 1)*pp(2))/l(1, 1)
+    else
+      pp(1) = pp(1)/l(1, 1)
+    end if
+    ! P1 on the branch dQ1/dt = ar(1,:) . P > 0: 1/2 ar11 P1^2 + b P1 + c = 0
+    qa = ar(1, 1)/2
+    qb = dot_product(ar(1, 2:nd), pp)
+    qc = dot_product(pp, matmul(ar(2:nd, 2:nd), pp))/2 + v - energy
+    bigp(1) = (-qb + sqrt(max(0.0_wp, qb*qb - 4*qa*qc)))/(2*qa)
+    bigp(2:nd) = pp
+    p = pc + matmul(transpose(r(1:nd, 1:nd)), bigp)    ! the ellipsoid's centre pc (gyroscopic)
+    x(1:nd) = q
+    x(nd + 1:2*nd) = p
+    if (section) then
+      resx(:, i) = x
+      call transit_or_return(model, tobs, x, t_max, tol, integ, fw, sf)
+      if (sf /= TUBES_OK) then
+        st(i) = sf
         return
       end if
-      ! a point uniform in the unit (N-1)-ball, then P' = rad l^-T ball
-      if (nd == 2) then
-        pp(1) = 2*uu(2) - 1
-      else
-        pp = sqrt(uu(3))*[cos(2*PI*uu(4)), sin(2*PI*uu(4))]
-      end if
-      pp = rad*pp
-      if (nd == 3) then          ! solve l^T y = pp
-        pp(2) = pp(2)/l(2, 2)
-        pp(1) = (pp(1) - l(2, 1)*pp(2))/l(1, 1)
-      else
-        pp(1) = pp(1)/l(1, 1)
-      end if
-      ! P1 on the branch dQ1/dt = ar(1,:) . P > 0: 1/2 ar11 P1^2 + b P1 + c = 0
-      qa = ar(1, 1)/2
-      qb = dot_product(ar(1, 2:nd), pp)
-      qc = dot_product(pp, matmul(ar(2:nd, 2:nd), pp))/2 + v - energy
-      bigp(1) = (-qb + sqrt(max(0.0_wp, qb*qb - 4*qa*qc)))/(2*qa)
-      bigp(2:nd) = pp
-      p = pc + matmul(transpose(r(1:nd, 1:nd)), bigp)    ! the ellipsoid's centre pc (gyroscopic)
-      x(1:nd) = q
-      x(nd + 1:2*nd) = p
-      if (section) then
-        res%x(:, i) = x
-        call transit_or_return(model, tobs, x, t_max, tol, integ, fw, sf)
-        if (sf /= TUBES_OK) then
-          st(i) = sf
-          return
-        end if
-        cls(i) = merge(2, fw, fw == 0)
-        val(i) = w
-        return
-      end if
-      call leave_side(model, slab, x, t_max, tol, integ, fw, sf)
-      if (natural) then              ! the past of (q, p) is the future of (q, -p)
-        x(nd + 1:2*nd) = -p
-        call leave_side(model, slab, x, t_max, tol, integ, bw, sb)
-      else                           ! followed backwards
-        call leave_side(model, slab, x, -t_max, tol, integ, bw, sb)
-      end if
-      if (sf /= TUBES_OK .or. sb /= TUBES_OK) then
-        st(i) = merge(sf, sb, sf /= TUBES_OK)
-        return
-      end if
-      if (fw == 0 .or. bw == 0) then
-        cls(i) = 2
-      else if (fw == 1 .and. bw == -1) then
-        cls(i) = 1
-      else if (fw == -1 .and. bw == 1) then
-        cls(i) = -1
-      end if
-      if (cls(i) == 1 .or. cls(i) == -1) val(i) = cls(i)*w
-    end subroutine one_sample
-  end subroutine flux_sampled
+      cls(i) = merge(2, fw, fw == 0)
+      val(i) = w
+      return
+    end if
+    call leave_side(model, slab, x, t_max, tol, integ, fw, sf)
+    if (natural) then              ! the past of (q, p) is the future of (q, -p)
+      x(nd + 1:2*nd) = -p
+      call leave_side(model, slab, x, t_max, tol, integ, bw, sb)
+    else                           ! followed backwards
+      call leave_side(model, slab, x, -t_max, tol, integ, bw, sb)
+    end if
+    if (sf /= TUBES_OK .or. sb /= TUBES_OK) then
+      st(i) = merge(sf, sb, sf /= TUBES_OK)
+      return
+    end if
+    if (fw == 0 .or. bw == 0) then
+      cls(i) = 2
+    else if (fw == 1 .and. bw == -1) then
+      cls(i) = 1
+    else if (fw == -1 .and. bw == 1) then
+      cls(i) = -1
+    end if
+    if (cls(i) == 1 .or. cls(i) == -1) val(i) = cls(i)*w
+    end associate
+  end subroutine flux_item
 end module tubes_flux
+

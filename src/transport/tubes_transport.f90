@@ -5,12 +5,12 @@ module tubes_transport
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_long
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT
-  use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
+  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_chunk_items, ens_agree
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
   use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
   use tubes_integrator, only: event_t
-  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes_chunked, LANES
+  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes, LANES
   use tubes_section_kinds, only: poincare_t
   implicit none
   private
@@ -63,6 +63,28 @@ module tubes_transport
     procedure :: start => map_start
     procedure :: finish => map_finish
   end type map_jobs_t
+
+  !> The Monte Carlo's points as an ensemble (tubes_ensemble): item i's outcome (i(1, :): an MC_*
+  !> class, or its status when it failed) and whether the cut predicts a transit (i(2, :) = 1).
+  !> With the Taylor method a thread's chunk runs in lanes.
+  type, extends(ensemble_t) :: mc_ens_t
+    type(mc_jobs_t) :: jobs            !! the points and how they are integrated
+    real(wp), allocatable :: cr(:), cp(:)   !! the tube's cut
+    real(wp) :: box(4) = 0             !! its bounding box: r min, max, p_r min, max
+    logical :: lanes = .false.
+  contains
+    procedure :: item => mc_item
+    procedure :: chunk => mc_chunk
+  end type mc_ens_t
+
+  !> The Poincare map's seeds as an ensemble: item j's returns (2, n_iter) in its reals.
+  type, extends(ensemble_t) :: map_ens_t
+    type(map_jobs_t) :: jobs
+    logical :: lanes = .false.
+  contains
+    procedure :: item => map_item
+    procedure :: chunk => map_chunk
+  end type map_ens_t
 
   !> Items of an ensemble per call of run_lanes (an OpenMP thread's unit of work)
   integer, parameter :: LANE_CHUNK = 64
@@ -160,9 +182,10 @@ contains
     logical, intent(out) :: inside(n)
     integer, intent(out) :: stat
     real(wp), allocatable :: u(:)
-    real(wp) :: plo, phi_, pl, ph, pc, pmax, rr, pp_, x(model%dim()), te, box(4)
-    integer :: k, m, i, st(n), kf
-    type(par_t) :: pp
+    real(wp) :: plo, phi_, pl, ph, pc, pmax, rr, pp_
+    integer :: k, m, i
+    type(mc_ens_t) :: ens
+    type(ens_out_t) :: out
     stat = TUBES_OK
     if (n < 1) then
       stat = TUBES_EINPUT
@@ -205,77 +228,78 @@ contains
         pr(m) = pp_
       end if
     end do
-    ! the samples are dealt out over MPI ranks (tubes_par), and over threads inside a rank;
-    ! a failed sample keeps its status as its outcome
-    call par_bcast(r)
-    call par_bcast(pr)
-    pp = par_here()
-    kf = par_fault_item('sample')
-    outcome = MC_UNDECIDED
-    inside = .false.
-    st = TUBES_OK
-    if (uses_taylor(integ)) then
-      call mc_lanes()
-    else
-      !$omp parallel do schedule(dynamic) default(shared) private(i, x, te)
-      do i = 1, n
-        if (.not. pp%mine(i)) cycle
-        if (i == kf) then
-          st(i) = TUBES_EFAULT
-        else
-          call psec%state(r(i), pr(i), x, st(i))
-          if (st(i) == TUBES_OK) call mc_classify(model, psec, x, gspec, t_max, tol, integ, outcome(i), te, st(i))
-        end if
-        if (st(i) < 0) outcome(i) = st(i)
-      end do
-      !$omp end parallel do
+    ! the samples are dealt out over MPI ranks and threads (tubes_ensemble); a failed sample
+    ! keeps its status as its outcome
+    call ens_agree(r)
+    call ens_agree(pr)
+    allocate (ens%jobs%model, source=model)
+    ens%jobs%psec = psec
+    ens%jobs%gspec = gspec
+    ens%jobs%integ = integ
+    ens%jobs%t_max = t_max
+    ens%jobs%tol = tol
+    ens%jobs%r = r
+    ens%jobs%pr = pr
+    ens%cr = cr
+    ens%cp = cp
+    ens%box = [minval(cr), maxval(cr), minval(cp), maxval(cp)]
+    ens%lanes = uses_taylor(integ)
+    if (ens%lanes) then
+      allocate (ens%jobs%outcome(n), ens%jobs%st(n))
+      ens%jobs%outcome = MC_UNDECIDED
+      ens%jobs%st = TUBES_OK
     end if
-    ! the cut's bounding box first: a point outside it is outside the curve (no edge straddles
-    ! p, or an even number to its one side), the same answer as the full test's, O(1)
-    box = [minval(cr), maxval(cr), minval(cp), maxval(cp)]
-    !$omp parallel do schedule(static)
-    do i = 1, n
-      if (.not. pp%mine(i)) cycle
-      if (r(i) < box(1) .or. r(i) > box(2) .or. pr(i) < box(3) .or. pr(i) > box(4)) then
-        inside(i) = .false.
-      else
-        inside(i) = inside_curve(r(i), pr(i), cr, cp)
-      end if
-    end do
-    !$omp end parallel do
-    call par_share(outcome)
-    call par_share(inside)
-    call par_share(st)
-    stat = min(0, minval(st))
-  contains
-    !> The points in the Taylor method's lanes, LANE_CHUNK per call of run_lanes.
-    subroutine mc_lanes()
-      type(mc_jobs_t) :: jobs
-      integer, allocatable :: mine(:)
-      allocate (jobs%model, source=model)
-      jobs%psec = psec
-      jobs%gspec = gspec
-      jobs%integ = integ
-      jobs%t_max = t_max
-      jobs%tol = tol
-      jobs%r = r
-      jobs%pr = pr
-      allocate (jobs%outcome(n), jobs%st(n))
-      jobs%outcome = MC_UNDECIDED
-      jobs%st = TUBES_OK
-      mine = pack([(i, i = 1, n)], [(pp%mine(i) .and. i /= kf, i = 1, n)])
-      if (kf >= 1 .and. kf <= n) then
-        if (pp%mine(kf)) jobs%st(kf) = TUBES_EFAULT
-      end if
-      call run_lanes_chunked(jobs, mine, LANE_CHUNK)
-      do i = 1, n
-        if (.not. pp%mine(i)) cycle
-        st(i) = jobs%st(i)
-        outcome(i) = jobs%outcome(i)
-        if (st(i) < 0) outcome(i) = st(i)
-      end do
-    end subroutine mc_lanes
+    call ens_run(ens, n, out, 0, 2, fault='sample', chunk=merge(LANE_CHUNK, 1, ens%lanes))
+    outcome = merge(out%st, out%i(1, :), out%st < 0)
+    inside = out%i(2, :) == 1
+    stat = min(0, minval(out%st))
   end subroutine monte_carlo
+
+  !> Point k, as mc_classify classifies it, and the cut's prediction for it.
+  subroutine mc_item(self, k, out)
+    class(mc_ens_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(ens_out_t), intent(inout) :: out
+    real(wp) :: x(self%jobs%model%dim()), te
+    out%i(1, k) = MC_UNDECIDED
+    call self%jobs%psec%state(self%jobs%r(k), self%jobs%pr(k), x, out%st(k))
+    if (out%st(k) == TUBES_OK) call mc_classify(self%jobs%model, self%jobs%psec, x, self%jobs%gspec, &
+                                                self%jobs%t_max, self%jobs%tol, self%jobs%integ, out%i(1, k), te, out%st(k))
+    out%i(2, k) = merge(1, 0, mc_inside(self, k))
+  end subroutine mc_item
+
+  !> A thread's points: in lanes (the Taylor method), else one by one.
+  subroutine mc_chunk(self, ks, out)
+    class(mc_ens_t), intent(inout) :: self
+    integer, intent(in) :: ks(:)
+    type(ens_out_t), intent(inout) :: out
+    integer :: j, k
+    if (.not. self%lanes) then
+      call ens_chunk_items(self, ks, out)
+      return
+    end if
+    call run_lanes(self%jobs, ks)
+    do j = 1, size(ks)
+      k = ks(j)
+      out%st(k) = self%jobs%st(k)
+      out%i(1, k) = self%jobs%outcome(k)
+      out%i(2, k) = merge(1, 0, mc_inside(self, k))
+    end do
+  end subroutine mc_chunk
+
+  !> Is point k inside the cut? The bounding box first: a point outside it is outside the curve
+  !> (no edge straddles p, or an even number to its one side), the full test's answer, in O(1).
+  logical function mc_inside(self, k) result(inside)
+    class(mc_ens_t), intent(in) :: self
+    integer, intent(in) :: k
+    associate (r => self%jobs%r(k), p => self%jobs%pr(k), box => self%box)
+      if (r < box(1) .or. r > box(2) .or. p < box(3) .or. p > box(4)) then
+        inside = .false.
+      else
+        inside = inside_curve(r, p, self%cr, self%cp)
+      end if
+    end associate
+  end function mc_inside
 
   !> Point k in a lane: mc_classify's set-up (the state on the section, the integrator of the
   !> choice with rtol = atol = tol, the return to the section as a terminal event, the gate).
@@ -339,64 +363,57 @@ contains
     integer, intent(in) :: n_iter
     real(wp), intent(out) :: pts(2, n_iter, size(x0, 2))
     integer, intent(out) :: stat
-    real(wp) :: xs(size(x0, 1), size(x0, 2))
-    integer :: j, st(size(x0, 2)), kf
-    type(par_t) :: pp
-    xs = x0
-    call par_bcast(xs)                  ! seeds dealt out over MPI ranks (tubes_par)
-    pp = par_here()
-    kf = par_fault_item('map')
-    pts = 0
-    st = TUBES_OK
-    if (uses_taylor(integ)) then
-      call map_lanes()
-    else
-      !$omp parallel do schedule(dynamic) default(shared) private(j)
-      do j = 1, size(x0, 2)
-        if (.not. pp%mine(j)) cycle
-        if (j == kf) then
-          st(j) = TUBES_EFAULT
-          pts(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
-          cycle
-        end if
-        call one_map(ball, psec, xs(:, j), n_iter, t_max, tol, integ, pts(:, :, j), st(j))
-      end do
-      !$omp end parallel do
+    type(map_ens_t) :: ens
+    type(ens_out_t) :: out
+    integer :: j, ns
+    ns = size(x0, 2)
+    allocate (ens%jobs%model, source=ball)
+    ens%jobs%psec = psec
+    ens%jobs%integ = integ
+    ens%jobs%t_max = t_max
+    ens%jobs%tol = tol
+    ens%jobs%n_iter = n_iter
+    ens%jobs%x0 = x0
+    call ens_agree(ens%jobs%x0)        ! seeds dealt out over MPI ranks and threads (tubes_ensemble)
+    ens%lanes = uses_taylor(integ)
+    if (ens%lanes) then
+      allocate (ens%jobs%pts(2, n_iter, ns), ens%jobs%st(ns))
+      ens%jobs%pts = ieee_value(1.0_wp, ieee_quiet_nan)
+      ens%jobs%st = TUBES_OK
     end if
-    call par_share(pts)
-    call par_share(st)
-    stat = min(0, minval(st))
-  contains
-    !> The seeds in the Taylor method's lanes (one seed per item: a few per thread).
-    subroutine map_lanes()
-      type(map_jobs_t) :: jobs
-      integer, allocatable :: mine(:)
-      integer :: ns
-      ns = size(x0, 2)
-      allocate (jobs%model, source=ball)
-      jobs%psec = psec
-      jobs%integ = integ
-      jobs%t_max = t_max
-      jobs%tol = tol
-      jobs%n_iter = n_iter
-      jobs%x0 = xs
-      allocate (jobs%pts(2, n_iter, ns), jobs%st(ns))
-      jobs%pts = ieee_value(1.0_wp, ieee_quiet_nan)
-      jobs%st = TUBES_OK
-      mine = pack([(j, j = 1, ns)], [(pp%mine(j) .and. j /= kf, j = 1, ns)])
-      call run_lanes_chunked(jobs, mine, LANES)
-      do j = 1, ns
-        if (.not. pp%mine(j)) cycle
-        if (j == kf) then
-          st(j) = TUBES_EFAULT
-          pts(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
-        else
-          st(j) = jobs%st(j)
-          pts(:, :, j) = jobs%pts(:, :, j)
-        end if
-      end do
-    end subroutine map_lanes
+    call ens_run(ens, ns, out, 2*n_iter, 0, fault='map', chunk=merge(LANES, 1, ens%lanes))
+    pts = reshape(out%r, [2, n_iter, ns])
+    do j = 1, ns
+      if (out%st(j) == TUBES_EFAULT) pts(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)
+    end do
+    stat = min(0, minval(out%st))
   end subroutine poincare_map
+
+  !> Seed k's returns, as one_map integrates them.
+  subroutine map_item(self, k, out)
+    class(map_ens_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(ens_out_t), intent(inout) :: out
+    call one_map(self%jobs%model, self%jobs%psec, self%jobs%x0(:, k), self%jobs%n_iter, self%jobs%t_max, &
+                 self%jobs%tol, self%jobs%integ, out%r(:, k), out%st(k))
+  end subroutine map_item
+
+  !> A thread's seeds: in lanes (the Taylor method), else one by one.
+  subroutine map_chunk(self, ks, out)
+    class(map_ens_t), intent(inout) :: self
+    integer, intent(in) :: ks(:)
+    type(ens_out_t), intent(inout) :: out
+    integer :: j
+    if (.not. self%lanes) then
+      call ens_chunk_items(self, ks, out)
+      return
+    end if
+    call run_lanes(self%jobs, ks)
+    do j = 1, size(ks)
+      out%st(ks(j)) = self%jobs%st(ks(j))
+      out%r(:, ks(j)) = reshape(self%jobs%pts(:, :, ks(j)), [2*self%jobs%n_iter])
+    end do
+  end subroutine map_chunk
 
   !> Seed k in a lane: one_map's set-up.
   subroutine map_start(self, k, lane, stat)

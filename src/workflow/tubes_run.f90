@@ -10,8 +10,8 @@ module tubes_run
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, event_t, plane_t, crossing_log_t, propagate
   use tubes_methods, only: new_integrator, method_opts_t, integ_choice_t, uses_taylor
-  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes_chunked
-  use omp_lib, only: omp_get_max_threads
+  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes
+  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_chunk_items
   use tubes_sampler, only: sampler_t
   use tubes_section_events, only: theta_line_t
   implicit none
@@ -57,6 +57,18 @@ module tubes_run
     procedure :: start => ensemble_start
     procedure :: finish => ensemble_finish
   end type ensemble_jobs_t
+
+  !> run_ensemble's states as an ensemble (tubes_ensemble): item k's end state and its number of
+  !> steps (dim + 1 reals); the Taylor method's in lanes, any other method's one by one.
+  type, extends(ensemble_t) :: states_ens_t
+    type(ensemble_jobs_t) :: jobs
+    integer :: method = 0
+    type(method_opts_t) :: mopts
+    logical :: lanes = .false.
+  contains
+    procedure :: item => states_item
+    procedure :: chunk => states_chunk
+  end type states_ens_t
 
 contains
 
@@ -262,67 +274,87 @@ contains
     integer, intent(out) :: st(:)
     integer(i8), intent(out) :: nsteps(:)
     integer, intent(out) :: stat
-    type(ensemble_jobs_t) :: jobs
+    type(states_ens_t) :: ens
+    type(ens_out_t) :: out
     class(integrator_t), allocatable :: ig
     real(wp) :: c_damp
-    integer :: m, k, nthr
+    integer :: m, d
     xs = x0
     st = TUBES_EINPUT
     nsteps = 0
     m = size(x0, 2)
-    call make_field(system, params, jobs%field, c_damp, stat)
+    call make_field(system, params, ens%jobs%field, c_damp, stat)
     if (stat /= TUBES_OK) return
-    if (size(x0, 1) /= jobs%field%dim() .or. t_end < 0 .or. any(shape(xs) /= shape(x0)) .or. &
+    d = ens%jobs%field%dim()
+    if (size(x0, 1) /= d .or. t_end < 0 .or. any(shape(xs) /= shape(x0)) .or. &
         size(st) /= m .or. size(nsteps) /= m) then
       stat = TUBES_EINPUT
       return
     end if
     call new_integrator(method, ig, stat, mopts)        ! the method exists
     if (stat /= TUBES_OK) return
-    nthr = threads
-    if (nthr <= 0) nthr = omp_get_max_threads()
-    st = TUBES_OK
-    if (uses_taylor(integ_choice_t(method=method))) then
-      jobs%x0 = x0
-      jobs%xs = x0
-      jobs%t_end = t_end
-      jobs%rtol = rtol
-      jobs%atol = atol
-      jobs%h = h
-      jobs%max_steps = max_steps
-      allocate (jobs%st(m), jobs%nsteps(m))
-      jobs%st = TUBES_OK
-      jobs%nsteps = 0
-      call run_lanes_chunked(jobs, [(k, k = 1, m)], ENSEMBLE_CHUNK, nthr)
-      xs = jobs%xs
-      st = jobs%st
-      nsteps = jobs%nsteps
-    else
-      !$omp parallel do schedule(dynamic) default(shared) private(k) num_threads(nthr)
-      do k = 1, m
-        call lone(k)
-      end do
-      !$omp end parallel do
+    ens%method = method
+    ens%mopts = mopts
+    ens%lanes = uses_taylor(integ_choice_t(method=method))
+    ens%jobs%x0 = x0
+    ens%jobs%t_end = t_end
+    ens%jobs%rtol = rtol
+    ens%jobs%atol = atol
+    ens%jobs%h = h
+    ens%jobs%max_steps = max_steps
+    if (ens%lanes) then
+      ens%jobs%xs = x0
+      allocate (ens%jobs%st(m), ens%jobs%nsteps(m))
+      ens%jobs%st = TUBES_OK
+      ens%jobs%nsteps = 0
     end if
-  contains
-    !> State k by its own integrator (one per call: nothing shared between threads but the model).
-    subroutine lone(k)
-      integer, intent(in) :: k
-      class(integrator_t), allocatable :: ik
-      real(wp) :: x(size(x0, 1))
-      call new_integrator(method, ik, st(k), mopts)
-      if (st(k) /= TUBES_OK) return
-      call ik%init(jobs%field, 0.0_wp)
-      ik%rtol = rtol
-      ik%atol = atol
-      ik%h = h
-      ik%max_steps = max_steps
-      x = x0(:, k)
-      if (t_end > 0) call propagate(ik, x, t_end, st(k))
-      xs(:, k) = x
-      nsteps(k) = ik%nsteps
-    end subroutine lone
+    call ens_run(ens, m, out, d + 1, 0, local=.true., chunk=merge(ENSEMBLE_CHUNK, 1, ens%lanes), threads=threads)
+    xs = out%r(1:d, :)
+    nsteps = int(out%r(d + 1, :), i8)
+    st = out%st
   end subroutine run_ensemble
+
+  !> State k by its own integrator (one per call: nothing shared between threads but the model).
+  subroutine states_item(self, k, out)
+    class(states_ens_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(ens_out_t), intent(inout) :: out
+    class(integrator_t), allocatable :: ik
+    real(wp) :: x(size(self%jobs%x0, 1))
+    integer :: d
+    d = size(x)
+    x = self%jobs%x0(:, k)
+    out%r(1:d, k) = x
+    call new_integrator(self%method, ik, out%st(k), self%mopts)
+    if (out%st(k) /= TUBES_OK) return
+    call ik%init(self%jobs%field, 0.0_wp)
+    ik%rtol = self%jobs%rtol
+    ik%atol = self%jobs%atol
+    ik%h = self%jobs%h
+    ik%max_steps = self%jobs%max_steps
+    if (self%jobs%t_end > 0) call propagate(ik, x, self%jobs%t_end, out%st(k))
+    out%r(1:d, k) = x
+    out%r(d + 1, k) = real(ik%nsteps, wp)
+  end subroutine states_item
+
+  !> A thread's states: in lanes (the Taylor method), else one by one.
+  subroutine states_chunk(self, ks, out)
+    class(states_ens_t), intent(inout) :: self
+    integer, intent(in) :: ks(:)
+    type(ens_out_t), intent(inout) :: out
+    integer :: j, d
+    if (.not. self%lanes) then
+      call ens_chunk_items(self, ks, out)
+      return
+    end if
+    call run_lanes(self%jobs, ks)
+    d = size(self%jobs%x0, 1)
+    do j = 1, size(ks)
+      out%r(1:d, ks(j)) = self%jobs%xs(:, ks(j))
+      out%r(d + 1, ks(j)) = real(self%jobs%nsteps(ks(j)), wp)
+      out%st(ks(j)) = self%jobs%st(ks(j))
+    end do
+  end subroutine states_chunk
 
   !> State k in a lane: the Taylor integrator on the model, its tolerances, from t = 0.
   subroutine ensemble_start(self, k, lane, stat)
