@@ -3,25 +3,47 @@
 module test_lanes_jobs
   use tubes_kinds, only: wp
   use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_integrator, only: plane_t
+  use tubes_integrator, only: plane_t, propagate, crossing_log_t
+  use tubes_taylor, only: taylor_t
   use tubes_lanes, only: lane_t, lane_jobs_t
+  use tubes_ensemble, only: ens_out_t
   use tubes_status, only: TUBES_OK
   implicit none
   private
   public :: traj_jobs_t
 
+  integer, parameter, public :: MAXX = 50           !! crossing times kept per item
+  integer, parameter, public :: NR = 4 + 2 + MAXX   !! an item's reals: final state, time, crossings, their times
+
   type, extends(lane_jobs_t) :: traj_jobs_t
     class(hamiltonian_t), allocatable :: model
     real(wp), allocatable :: x0(:, :), tend(:)
     real(wp) :: tol = 1.0e-12_wp
-    real(wp), allocatable :: x(:, :), t(:), tx(:, :)   !! results: final state and time, crossing times
-    integer, allocatable :: stat(:), nx(:)
   contains
+    procedure :: item => traj_item
     procedure :: start => traj_start
     procedure :: finish => traj_finish
   end type traj_jobs_t
 
 contains
+
+  !> Item k alone: the Taylor method's propagate with the same event (the lanes' reference).
+  subroutine traj_item(self, k, out)
+    class(traj_jobs_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(ens_out_t), intent(inout) :: out
+    type(taylor_t) :: ig
+    type(crossing_log_t) :: log
+    real(wp) :: x(4)
+    call ig%init(self%model, 0.0_wp)
+    ig%rtol = self%tol
+    ig%atol = self%tol
+    x = self%x0(:, k)
+    log%max_crossings = MAXX
+    call propagate(ig, x, self%tend(k), out%st(k), event=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0), &
+                   crossings=log)
+    call put(out, k, x, ig%t, log)
+  end subroutine traj_item
 
   subroutine traj_start(self, k, lane, stat)
     class(traj_jobs_t), intent(inout) :: self
@@ -36,86 +58,88 @@ contains
     lane%tend = self%tend(k)
     allocate (lane%event, source=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0))
     lane%use_log = .true.
-    lane%log%max_crossings = 50
+    lane%log%max_crossings = MAXX
   end subroutine traj_start
 
-  subroutine traj_finish(self, k, lane)
-    class(traj_jobs_t), intent(inout) :: self
+  subroutine traj_finish(self, k, lane, out)
+    class(traj_jobs_t), intent(in) :: self
     integer, intent(in) :: k
     type(lane_t), intent(inout) :: lane
-    integer :: n
-    self%stat(k) = lane%stat
-    self%x(:, k) = lane%x
-    self%t(k) = lane%ig%t
-    n = min(lane%log%n, size(self%tx, 1))
-    self%nx(k) = lane%log%n
-    self%tx(:, k) = 0
-    self%tx(1:n, k) = lane%log%t(1:n)
+    type(ens_out_t), intent(inout) :: out
+    out%st(k) = lane%stat
+    call put(out, k, lane%x, lane%ig%t, lane%log)
   end subroutine traj_finish
+
+  subroutine put(out, k, x, t, log)
+    type(ens_out_t), intent(inout) :: out
+    integer, intent(in) :: k
+    real(wp), intent(in) :: x(4), t
+    type(crossing_log_t), intent(in) :: log
+    integer :: n
+    n = min(log%n, MAXX)
+    out%r(:, k) = 0
+    out%r(1:4, k) = x
+    out%r(5, k) = t
+    out%r(6, k) = log%n
+    out%r(7:6 + n, k) = log%t(1:n)
+  end subroutine put
 end module test_lanes_jobs
 
 !> The Taylor method's lanes (src/integrators/tubes_lanes.f90): every item's final state, time,
 !> status and section crossings are those of a lone propagate call of the same integrator, bit
 !> for bit, whatever lane it falls in and whatever the other items (the items in another order,
-!> and a lone item); items that end early (a terminal crossing) hand their lane to the next.
+!> in chunks over 2 threads through the ensemble layer), and the same as the item run alone
+!> (ens_run without lanes); items that end early (a terminal crossing) hand their lane to the next.
 program test_lanes
   use tubes_kinds, only: wp
   use tubes_check, only: check_true, check_eq, finish
   use tubes_status, only: TUBES_OK, TUBES_EVENT
   use tubes_models, only: make_model, MAX_PARAMS
   use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_taylor, only: taylor_t
-  use tubes_integrator, only: propagate, plane_t, crossing_log_t
   use tubes_lanes, only: run_lanes, LANES
-  use test_lanes_jobs, only: traj_jobs_t
+  use tubes_ensemble, only: ens_out_t, ens_run
+  use test_lanes_jobs, only: traj_jobs_t, NR
   implicit none
   integer, parameter :: N = 11                 ! not a multiple of LANES: a lane idles at the end
-  type(traj_jobs_t) :: a, b
-  type(taylor_t) :: ig
-  type(crossing_log_t) :: log
-  real(wp) :: params(MAX_PARAMS), x(4)
-  integer :: k, stat, perm(N), nsame
+  type(traj_jobs_t) :: a
+  type(ens_out_t) :: in_order, reordered, alone, chunked
+  real(wp) :: params(MAX_PARAMS)
+  integer :: k, perm(N)
   params = 0
   params(1:7) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, 981.0_wp, 0.0_wp]
   call setup(a)
-  call setup(b)
-  call run_lanes(a, [(k, k = 1, N)])
+  a%lanes = .true.
+  call ens_run(a, N, in_order, NR, 0, chunk=N)            ! one run_lanes call, items 1..N
   perm = [(N + 1 - k, k = 1, N)]
   perm(1:2) = perm([2, 1])
-  call run_lanes(b, perm)
-  nsame = 0
-  do k = 1, N
-    if (all(a%x(:, k) == b%x(:, k)) .and. a%t(k) == b%t(k) .and. a%stat(k) == b%stat(k) .and. &
-        a%nx(k) == b%nx(k) .and. all(a%tx(:, k) == b%tx(:, k))) nsame = nsame + 1
-  end do
-  call check_eq('lanes: the same numbers in another order of the items', nsame, N)
-  nsame = 0
-  do k = 1, N                                  ! each item alone, by propagate
-    call ig%init(a%model, 0.0_wp)
-    ig%rtol = a%tol
-    ig%atol = a%tol
-    x = a%x0(:, k)
-    call log%clear()
-    log%max_crossings = 50
-    call propagate(ig, x, a%tend(k), stat, event=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0), crossings=log)
-    if (all(x == a%x(:, k)) .and. ig%t == a%t(k) .and. stat == a%stat(k) .and. log%n == a%nx(k)) then
-      if (all(log%t(1:min(log%n, 50)) == a%tx(1:min(log%n, 50), k))) nsame = nsame + 1
-    end if
-  end do
-  call check_eq('lanes: each item as a lone propagate, bit for bit', nsame, N)
-  call check_true('lanes: terminal items stopped at a crossing', all(a%stat(3:N:3) == TUBES_EVENT))
-  call check_true('lanes: the others ran to their end', all(pack(a%stat, [(mod(k, 3) /= 0, k = 1, N)]) == TUBES_OK))
-  call check_true('lanes: crossings found', sum(a%nx) > N)
+  allocate (reordered%r(NR, N), reordered%i(0, N), reordered%st(N))
+  reordered%r = 0
+  reordered%st = TUBES_OK
+  call run_lanes(a, perm, reordered)
+  call check_true('lanes: the same numbers in another order of the items', same(in_order, reordered))
+  call ens_run(a, N, chunked, NR, 0, chunk=3, threads=2)
+  call check_true('lanes: the same numbers in chunks of 3 over 2 threads', same(in_order, chunked))
+  a%lanes = .false.
+  call ens_run(a, N, alone, NR, 0)
+  call check_true('lanes: each item as a lone propagate, bit for bit', same(in_order, alone))
+  call check_true('lanes: terminal items stopped at a crossing', all(in_order%st(3:N:3) == TUBES_EVENT))
+  call check_true('lanes: the others ran to their end', &
+                  all(pack(in_order%st, [(mod(k, 3) /= 0, k = 1, N)]) == TUBES_OK))
+  call check_true('lanes: crossings found', sum(in_order%r(6, :)) > N)
   call check_true('lanes: LANES > 1', LANES > 1)
   call finish('test_lanes')
-
 contains
+  logical function same(u, v)
+    type(ens_out_t), intent(in) :: u, v
+    same = all(u%r == v%r) .and. all(u%st == v%st)
+  end function same
 
   subroutine setup(j)
     type(traj_jobs_t), intent(inout) :: j
-    integer :: i
+    integer :: i, stat
     call make_model('rolling_ball', params, j%model, stat)
-    allocate (j%x0(4, N), j%tend(N), j%x(4, N), j%t(N), j%tx(50, N), j%stat(N), j%nx(N))
+    call check_eq('lanes: the model', stat, TUBES_OK)
+    allocate (j%x0(4, N), j%tend(N))
     do i = 1, N                                ! releases at rest at various heights, various spans
       j%x0(:, i) = [4.0_wp + 0.3_wp*i, 12.6_wp - 0.3_wp*i, 0.0_wp, 0.0_wp]
       j%tend(i) = 0.5_wp + 0.37_wp*i

@@ -7,16 +7,18 @@
 !> other items, on the number of threads or of MPI ranks (tests/test_lanes.f90). A lane whose
 !> integration ends takes the next item.
 !>
-!> An ensemble describes its items by extending lane_jobs_t: `start` sets up item k in a lane
-!> (its integrator's model and tolerances, state, end time, event, observer, crossing log);
-!> `finish` takes its result. Every lane of a run_lanes call integrates the same model. A run_lanes
-!> call is one thread's unit of work: the ensemble layer (src/parallel/tubes_ensemble.f90) deals
-!> the items out over threads and MPI ranks in chunks, each chunk one run_lanes call.
+!> An ensemble whose items can run in lanes extends lane_jobs_t (an ensemble_t of the ensemble
+!> layer, src/parallel/tubes_ensemble.f90): `start` sets up item k in a lane (its integrator's
+!> model and tolerances, state, end time, event, observer, crossing log); `finish` writes its
+!> result into its column of ens_out_t, as `item` would. With `lanes` set, a thread's chunk of
+!> items is one run_lanes call; else the chunk's items run one by one (`item`, any method). Every
+!> lane of a run_lanes call integrates the same model.
 module tubes_lanes
   use tubes_kinds, only: wp, i8
   use tubes_integrator, only: event_t, observer_t, crossing_log_t, prop_t, prop_begin, prop_after_step
   use tubes_taylor, only: taylor_t, kernel_t, taylor_begin, taylor_end, jet_kernel
   use tubes_status, only: TUBES_OK, TUBES_EMAXSTEPS, TUBES_EMODEL
+  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_chunk_items
   implicit none
   private
 
@@ -37,11 +39,13 @@ module tubes_lanes
     type(prop_t) :: ps
   end type lane_t
 
-  !> The items of an ensemble.
-  type, abstract, public :: lane_jobs_t
+  !> The items of an ensemble, in lanes or one by one.
+  type, abstract, extends(ensemble_t), public :: lane_jobs_t
+    logical :: lanes = .false.    !! a chunk in lanes (the Taylor method), else item by item
   contains
     procedure(start_i), deferred :: start
     procedure(finish_i), deferred :: finish
+    procedure :: chunk => lanes_chunk
   end type lane_jobs_t
 
   abstract interface
@@ -58,12 +62,13 @@ module tubes_lanes
     end subroutine start_i
     !> Item k ended in lane: lane%stat is what propagate would have returned (TUBES_OK at
     !> tend or when the observer stopped it, TUBES_EVENT at a stopping crossing, < 0 on
-    !> failure), lane%x the state at lane%ig%t.
-    subroutine finish_i(self, k, lane)
-      import :: lane_jobs_t, lane_t
-      class(lane_jobs_t), intent(inout) :: self
+    !> failure), lane%x the state at lane%ig%t. Its result goes to out's column k only.
+    subroutine finish_i(self, k, lane, out)
+      import :: lane_jobs_t, lane_t, ens_out_t
+      class(lane_jobs_t), intent(in) :: self
       integer, intent(in) :: k
       type(lane_t), intent(inout) :: lane
+      type(ens_out_t), intent(inout) :: out
     end subroutine finish_i
   end interface
 
@@ -71,10 +76,24 @@ module tubes_lanes
 
 contains
 
-  !> Integrate the items `items` (in this order into the lanes as they free up).
-  subroutine run_lanes(jobs, items)
+  !> A thread's unit of work: the items ks in lanes, or one by one.
+  subroutine lanes_chunk(self, ks, out)
+    class(lane_jobs_t), intent(inout) :: self
+    integer, intent(in) :: ks(:)
+    type(ens_out_t), intent(inout) :: out
+    if (self%lanes) then
+      call run_lanes(self, ks, out)
+    else
+      call ens_chunk_items(self, ks, out)
+    end if
+  end subroutine lanes_chunk
+
+  !> Integrate the items `items` (in this order into the lanes as they free up), their results
+  !> into out.
+  subroutine run_lanes(jobs, items, out)
     class(lane_jobs_t), intent(inout) :: jobs
     integer, intent(in) :: items(:)
+    type(ens_out_t), intent(inout) :: out
     type(lane_t) :: lane(LANES)
     type(kernel_t) :: kern(2)
     real(wp), allocatable :: tcb(:), wb(:)
@@ -173,7 +192,7 @@ contains
           return
         end if
         lane(l)%stat = st0                      ! failed, or nothing to integrate
-        call jobs%finish(lane(l)%item, lane(l))
+        call jobs%finish(lane(l)%item, lane(l), out)
       end do
       lane(l)%active = .false.
     end subroutine fill
@@ -183,7 +202,7 @@ contains
       integer, intent(in) :: l, st
       lane(l)%stat = st
       lane(l)%active = .false.
-      call jobs%finish(lane(l)%item, lane(l))
+      call jobs%finish(lane(l)%item, lane(l), out)
       call fill(l)
     end subroutine finish
 

@@ -9,12 +9,12 @@ module tubes_manifold
   use tubes_lapack, only: dlasrt, dgeev
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT, TUBES_EFAULT, &
                           TUBES_ENOCROSS
-  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_chunk_items, ens_agree, ens_reuse_ok
+  use tubes_ensemble, only: ens_out_t, ens_run, ens_agree, ens_reuse_ok
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_variational, only: variational_t, make_variational, stm_start, tangent_t, make_tangent
   use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
   use tubes_taylor, only: taylor_t, taylor_record_t
-  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes
+  use tubes_lanes, only: lane_t, lane_jobs_t
   use tubes_integrator, only: integrator_t, observer_t, event_t, propagate
   use tubes_dop853, only: dop853_t
   use tubes_section_kinds, only: poincare_t
@@ -66,19 +66,6 @@ module tubes_manifold
   !> The seeds of a tube cut as the Taylor method's lanes' items: the orbit and its transported
   !> eigenvector from one recorded integration (each seed evaluates it at its phase), each seed
   !> then integrated to the section as one_seed does.
-  type, extends(lane_jobs_t) :: seed_jobs_t
-    class(hamiltonian_t), allocatable :: ball
-    type(taylor_record_t) :: orbit          !! (x, w) along one period: w the transported eigenvector
-    type(poincare_t) :: psec
-    type(tube_opts_t) :: opts
-    real(wp) :: sigma = 1
-    real(wp), allocatable :: tau(:)         !! the seeds' phases
-    real(wp), allocatable :: p(:, :), tc(:), xc(:, :)   !! results, as one_seed's
-    integer, allocatable :: st(:)
-  contains
-    procedure :: start => seed_start
-    procedure :: finish => seed_finish
-  end type seed_jobs_t
 
   !> The orbit's variational run (state and STM) over one period with DOP853, a copy of the
   !> integrator after every accepted step. The seeds' own runs from 0 to their phases tau take
@@ -98,19 +85,24 @@ module tubes_manifold
   !> one step-off and one integration (the caller keeps one store per such set-up). A later cut
   !> looks its seeds up by phase (bit for bit) before integrating them: a seed's crossing
   !> depends on nothing else, so a looked-up seed has the same bits as an integrated one.
-  !> A round's tube seeds as an ensemble (tubes_ensemble): item k from phase jobs%tau(k), its
-  !> crossing's (s, p_s), flight time and state (2 + 1 + 2N reals), as one_seed computes them;
-  !> with the Taylor method a thread's chunk runs in lanes.
-  type, extends(ensemble_t) :: seed_ens_t
-    type(seed_jobs_t) :: jobs                !! the model, section, options, phases (and lanes)
-    type(orbit_t) :: orb                     !! the orbit (rank 0's)
-    real(wp), allocatable :: v0(:)           !! its eigenvector at phase 0
-    type(var_snapshots_t) :: snaps           !! its variational run (DOP853)
-    logical :: lanes = .false.
+  !> A round's tube seeds as an ensemble (tubes_ensemble; in lanes with the Taylor method,
+  !> tubes_lanes): item k from phase tau(k), its crossing's (s, p_s), flight time and state
+  !> (2 + 1 + 2N reals), as one_seed computes them.
+  type, extends(lane_jobs_t) :: seed_jobs_t
+    class(hamiltonian_t), allocatable :: ball
+    type(orbit_t) :: orb                    !! the orbit (rank 0's)
+    real(wp), allocatable :: v0(:)          !! its eigenvector at phase 0
+    type(var_snapshots_t) :: snaps          !! its variational run (DOP853)
+    type(taylor_record_t) :: orbit          !! (x, w) along one period: w the transported eigenvector (Taylor)
+    type(poincare_t) :: psec
+    type(tube_opts_t) :: opts
+    real(wp) :: sigma = 1
+    real(wp), allocatable :: tau(:)         !! the seeds' phases
   contains
     procedure :: item => seed_item
-    procedure :: chunk => seeds_chunk
-  end type seed_ens_t
+    procedure :: start => seed_start
+    procedure :: finish => seed_finish
+  end type seed_jobs_t
 
   type, public :: seed_store_t
     integer :: n = 0
@@ -307,50 +299,31 @@ contains
   end subroutine seed_start
 
   !> Seed k's crossing, as one_seed's.
-  subroutine seed_finish(self, k, lane)
-    class(seed_jobs_t), intent(inout) :: self
+  subroutine seed_finish(self, k, lane, out)
+    class(seed_jobs_t), intent(in) :: self
     integer, intent(in) :: k
     type(lane_t), intent(inout) :: lane
-    self%st(k) = lane%stat
-    self%p(:, k) = 0
-    self%tc(k) = 0
-    self%xc(:, k) = 0
+    type(ens_out_t), intent(inout) :: out
+    out%st(k) = lane%stat
+    out%r(:, k) = 0
     if (lane%stat == TUBES_EVENT) then
-      self%st(k) = TUBES_OK
-      self%tc(k) = lane%ig%t
-      self%xc(:, k) = lane%x
-      self%p(:, k) = self%psec%coords(lane%x)
+      out%st(k) = TUBES_OK
+      out%r(3, k) = lane%ig%t
+      out%r(4:, k) = lane%x
+      out%r(1:2, k) = self%psec%coords(lane%x)
     else if (lane%stat >= 0) then
-      self%st(k) = TUBES_ENOCROSS
+      out%st(k) = TUBES_ENOCROSS
     end if
   end subroutine seed_finish
 
   !> Seed k of the round, as one_seed computes it.
   subroutine seed_item(self, k, out)
-    class(seed_ens_t), intent(in) :: self
+    class(seed_jobs_t), intent(in) :: self
     integer, intent(in) :: k
     type(ens_out_t), intent(inout) :: out
-    call one_seed(self%jobs%ball, self%orb, self%v0, self%jobs%sigma, self%jobs%tau(k), self%jobs%psec, &
-                  self%jobs%opts, self%snaps, out%r(1:2, k), out%r(3, k), out%r(4:, k), out%st(k))
+    call one_seed(self%ball, self%orb, self%v0, self%sigma, self%tau(k), self%psec, self%opts, self%snaps, &
+                  out%r(1:2, k), out%r(3, k), out%r(4:, k), out%st(k))
   end subroutine seed_item
-
-  !> A thread's seeds: in lanes (the Taylor method), else one by one.
-  subroutine seeds_chunk(self, ks, out)
-    class(seed_ens_t), intent(inout) :: self
-    integer, intent(in) :: ks(:)
-    type(ens_out_t), intent(inout) :: out
-    integer :: j, k
-    if (.not. self%lanes) then
-      call ens_chunk_items(self, ks, out)
-      return
-    end if
-    call run_lanes(self%jobs, ks)
-    do j = 1, size(ks)
-      k = ks(j)
-      out%st(k) = self%jobs%st(k)
-      out%r(:, k) = [self%jobs%p(:, k), self%jobs%tc(k), self%jobs%xc(:, k)]
-    end do
-  end subroutine seeds_chunk
 
   !> The orbit and the eigenvector v0 transported along one period (tangent equations), every
   !> step recorded: the seeds' starts for the Taylor method.
@@ -388,7 +361,7 @@ contains
     !> seeds of earlier cuts of this set-up (looked up, and this cut's added; one MPI rank only)
     type(seed_store_t), intent(inout), optional :: store
     type(orbit_t) :: orb0
-    type(seed_ens_t) :: ens
+    type(seed_jobs_t) :: ens
     real(wp) :: v0(size(orb%x0)), sigma, a_old, a_new, span_r, span_p
     real(wp), allocatable :: tau(:), pcs(:, :), tcs(:), xcs(:, :), newtau(:), chord(:), medc
     logical, allocatable :: split(:)
@@ -407,15 +380,15 @@ contains
     if (stat /= TUBES_OK) return
     call ens_agree(v0, opts%local)
     sigma = sign(1.0_wp, dot2(v0, well_dir))
-    allocate (ens%jobs%ball, source=ball)
-    ens%jobs%psec = psec
-    ens%jobs%opts = opts
-    ens%jobs%sigma = sigma
+    allocate (ens%ball, source=ball)
+    ens%psec = psec
+    ens%opts = opts
+    ens%sigma = sigma
     ens%orb = orb0
     ens%v0 = v0
     ens%lanes = uses_taylor(opts%integ)
     if (ens%lanes) then   ! the seeds' starts from one integration
-      call record_orbit(ball, orb0, v0, opts, ens%jobs%orbit, stat)
+      call record_orbit(ball, orb0, v0, opts, ens%orbit, stat)
     else
       call record_variational(ball, orb0, opts, ens%snaps, stat)
     end if
@@ -529,12 +502,7 @@ contains
           xc(:, k) = store%xc(:, at(k))
         end do
       end if
-      ens%jobs%tau = tt(i1:i2)
-      if (ens%lanes) then
-        if (allocated(ens%jobs%p)) deallocate (ens%jobs%p, ens%jobs%tc, ens%jobs%xc, ens%jobs%st)
-        allocate (ens%jobs%p(2, nk), ens%jobs%tc(nk), ens%jobs%xc(size(v0), nk), ens%jobs%st(nk))
-        ens%jobs%st = TUBES_OK
-      end if
+      ens%tau = tt(i1:i2)
       call ens_run(ens, nk, out, 3 + size(v0), 0, fault='seed', first=i1, local=opts%local, skip=found, &
                    chunk=merge(SEED_CHUNK, 1, ens%lanes))
       do k = 1, nk

@@ -5,12 +5,12 @@ module tubes_transport
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_long
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT
-  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_chunk_items, ens_agree
+  use tubes_ensemble, only: ens_out_t, ens_run, ens_agree
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
   use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
   use tubes_integrator, only: event_t
-  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes, LANES
+  use tubes_lanes, only: lane_t, lane_jobs_t, LANES
   use tubes_section_kinds, only: poincare_t
   implicit none
   private
@@ -35,8 +35,10 @@ module tubes_transport
     procedure :: on_step => gate_on_step
   end type gate_t
 
-  !> The Monte Carlo's points as the Taylor method's lanes' items (src/integrators/tubes_lanes.f90):
-  !> each set up and classified as mc_classify does.
+  !> The Monte Carlo's points as an ensemble (tubes_ensemble; in lanes with the Taylor method,
+  !> tubes_lanes): item i set on the section at (r(i), pr(i)) and classified as mc_classify does,
+  !> its outcome in i(1, :) (an MC_* class, or its status when it failed), and whether the cut
+  !> predicts a transit in i(2, :) (1: inside).
   type, extends(lane_jobs_t) :: mc_jobs_t
     class(hamiltonian_t), allocatable :: model
     type(poincare_t) :: psec
@@ -44,47 +46,28 @@ module tubes_transport
     type(integ_choice_t) :: integ
     real(wp) :: t_max = 0, tol = 0
     real(wp), allocatable :: r(:), pr(:)
-    integer, allocatable :: outcome(:), st(:)
+    real(wp), allocatable :: cr(:), cp(:)   !! the tube's cut
+    real(wp) :: box(4) = 0                  !! its bounding box: r min, max, p_r min, max
   contains
+    procedure :: item => mc_item
     procedure :: start => mc_start
     procedure :: finish => mc_finish
   end type mc_jobs_t
 
-  !> The Poincare map's seeds as lanes' items: each as one_map integrates it.
+  !> The Poincare map's seeds as an ensemble: item j's returns (2, n_iter) in its reals, as
+  !> one_map integrates them.
   type, extends(lane_jobs_t) :: map_jobs_t
     class(hamiltonian_t), allocatable :: model
     type(poincare_t) :: psec
     type(integ_choice_t) :: integ
     real(wp) :: t_max = 0, tol = 0
     integer :: n_iter = 0
-    real(wp), allocatable :: x0(:, :), pts(:, :, :)
-    integer, allocatable :: st(:)
+    real(wp), allocatable :: x0(:, :)
   contains
+    procedure :: item => map_item
     procedure :: start => map_start
     procedure :: finish => map_finish
   end type map_jobs_t
-
-  !> The Monte Carlo's points as an ensemble (tubes_ensemble): item i's outcome (i(1, :): an MC_*
-  !> class, or its status when it failed) and whether the cut predicts a transit (i(2, :) = 1).
-  !> With the Taylor method a thread's chunk runs in lanes.
-  type, extends(ensemble_t) :: mc_ens_t
-    type(mc_jobs_t) :: jobs            !! the points and how they are integrated
-    real(wp), allocatable :: cr(:), cp(:)   !! the tube's cut
-    real(wp) :: box(4) = 0             !! its bounding box: r min, max, p_r min, max
-    logical :: lanes = .false.
-  contains
-    procedure :: item => mc_item
-    procedure :: chunk => mc_chunk
-  end type mc_ens_t
-
-  !> The Poincare map's seeds as an ensemble: item j's returns (2, n_iter) in its reals.
-  type, extends(ensemble_t) :: map_ens_t
-    type(map_jobs_t) :: jobs
-    logical :: lanes = .false.
-  contains
-    procedure :: item => map_item
-    procedure :: chunk => map_chunk
-  end type map_ens_t
 
   !> Items of an ensemble per call of run_lanes (an OpenMP thread's unit of work)
   integer, parameter :: LANE_CHUNK = 64
@@ -184,7 +167,7 @@ contains
     real(wp), allocatable :: u(:)
     real(wp) :: plo, phi_, pl, ph, pc, pmax, rr, pp_
     integer :: k, m, i
-    type(mc_ens_t) :: ens
+    type(mc_jobs_t) :: ens
     type(ens_out_t) :: out
     stat = TUBES_OK
     if (n < 1) then
@@ -232,23 +215,18 @@ contains
     ! keeps its status as its outcome
     call ens_agree(r)
     call ens_agree(pr)
-    allocate (ens%jobs%model, source=model)
-    ens%jobs%psec = psec
-    ens%jobs%gspec = gspec
-    ens%jobs%integ = integ
-    ens%jobs%t_max = t_max
-    ens%jobs%tol = tol
-    ens%jobs%r = r
-    ens%jobs%pr = pr
+    allocate (ens%model, source=model)
+    ens%psec = psec
+    ens%gspec = gspec
+    ens%integ = integ
+    ens%t_max = t_max
+    ens%tol = tol
+    ens%r = r
+    ens%pr = pr
     ens%cr = cr
     ens%cp = cp
     ens%box = [minval(cr), maxval(cr), minval(cp), maxval(cp)]
     ens%lanes = uses_taylor(integ)
-    if (ens%lanes) then
-      allocate (ens%jobs%outcome(n), ens%jobs%st(n))
-      ens%jobs%outcome = MC_UNDECIDED
-      ens%jobs%st = TUBES_OK
-    end if
     call ens_run(ens, n, out, 0, 2, fault='sample', chunk=merge(LANE_CHUNK, 1, ens%lanes))
     outcome = merge(out%st, out%i(1, :), out%st < 0)
     inside = out%i(2, :) == 1
@@ -257,42 +235,23 @@ contains
 
   !> Point k, as mc_classify classifies it, and the cut's prediction for it.
   subroutine mc_item(self, k, out)
-    class(mc_ens_t), intent(in) :: self
+    class(mc_jobs_t), intent(in) :: self
     integer, intent(in) :: k
     type(ens_out_t), intent(inout) :: out
-    real(wp) :: x(self%jobs%model%dim()), te
+    real(wp) :: x(self%model%dim()), te
     out%i(1, k) = MC_UNDECIDED
-    call self%jobs%psec%state(self%jobs%r(k), self%jobs%pr(k), x, out%st(k))
-    if (out%st(k) == TUBES_OK) call mc_classify(self%jobs%model, self%jobs%psec, x, self%jobs%gspec, &
-                                                self%jobs%t_max, self%jobs%tol, self%jobs%integ, out%i(1, k), te, out%st(k))
+    call self%psec%state(self%r(k), self%pr(k), x, out%st(k))
+    if (out%st(k) == TUBES_OK) call mc_classify(self%model, self%psec, x, self%gspec, self%t_max, self%tol, &
+                                                self%integ, out%i(1, k), te, out%st(k))
     out%i(2, k) = merge(1, 0, mc_inside(self, k))
   end subroutine mc_item
-
-  !> A thread's points: in lanes (the Taylor method), else one by one.
-  subroutine mc_chunk(self, ks, out)
-    class(mc_ens_t), intent(inout) :: self
-    integer, intent(in) :: ks(:)
-    type(ens_out_t), intent(inout) :: out
-    integer :: j, k
-    if (.not. self%lanes) then
-      call ens_chunk_items(self, ks, out)
-      return
-    end if
-    call run_lanes(self%jobs, ks)
-    do j = 1, size(ks)
-      k = ks(j)
-      out%st(k) = self%jobs%st(k)
-      out%i(1, k) = self%jobs%outcome(k)
-      out%i(2, k) = merge(1, 0, mc_inside(self, k))
-    end do
-  end subroutine mc_chunk
 
   !> Is point k inside the cut? The bounding box first: a point outside it is outside the curve
   !> (no edge straddles p, or an even number to its one side), the full test's answer, in O(1).
   logical function mc_inside(self, k) result(inside)
-    class(mc_ens_t), intent(in) :: self
+    class(mc_jobs_t), intent(in) :: self
     integer, intent(in) :: k
-    associate (r => self%jobs%r(k), p => self%jobs%pr(k), box => self%box)
+    associate (r => self%r(k), p => self%pr(k), box => self%box)
       if (r < box(1) .or. r > box(2) .or. p < box(3) .or. p > box(4)) then
         inside = .false.
       else
@@ -328,11 +287,12 @@ contains
     allocate (lane%observer, source=gate)
   end subroutine mc_start
 
-  !> Point k's class, as mc_classify's.
-  subroutine mc_finish(self, k, lane)
-    class(mc_jobs_t), intent(inout) :: self
+  !> Point k's class, as mc_classify's, and the cut's prediction.
+  subroutine mc_finish(self, k, lane, out)
+    class(mc_jobs_t), intent(in) :: self
     integer, intent(in) :: k
     type(lane_t), intent(inout) :: lane
+    type(ens_out_t), intent(inout) :: out
     logical :: passed
     passed = .false.
     if (allocated(lane%observer)) then
@@ -341,15 +301,16 @@ contains
         passed = g%passed
       end select
     end if
-    self%st(k) = lane%stat
+    out%st(k) = lane%stat
     if (lane%stat == TUBES_EVENT) then
-      self%outcome(k) = MC_RETURN
-      self%st(k) = TUBES_OK
+      out%i(1, k) = MC_RETURN
+      out%st(k) = TUBES_OK
     else if (passed) then
-      self%outcome(k) = MC_TRANSIT
+      out%i(1, k) = MC_TRANSIT
     else
-      self%outcome(k) = MC_UNDECIDED
+      out%i(1, k) = MC_UNDECIDED
     end if
+    out%i(2, k) = merge(1, 0, mc_inside(self, k))
   end subroutine mc_finish
 
   !> Poincare map of the section branch: n_iter returns of each start state x0(:, j), recorded
@@ -363,24 +324,19 @@ contains
     integer, intent(in) :: n_iter
     real(wp), intent(out) :: pts(2, n_iter, size(x0, 2))
     integer, intent(out) :: stat
-    type(map_ens_t) :: ens
+    type(map_jobs_t) :: ens
     type(ens_out_t) :: out
     integer :: j, ns
     ns = size(x0, 2)
-    allocate (ens%jobs%model, source=ball)
-    ens%jobs%psec = psec
-    ens%jobs%integ = integ
-    ens%jobs%t_max = t_max
-    ens%jobs%tol = tol
-    ens%jobs%n_iter = n_iter
-    ens%jobs%x0 = x0
-    call ens_agree(ens%jobs%x0)        ! seeds dealt out over MPI ranks and threads (tubes_ensemble)
+    allocate (ens%model, source=ball)
+    ens%psec = psec
+    ens%integ = integ
+    ens%t_max = t_max
+    ens%tol = tol
+    ens%n_iter = n_iter
+    ens%x0 = x0
+    call ens_agree(ens%x0)             ! seeds dealt out over MPI ranks and threads (tubes_ensemble)
     ens%lanes = uses_taylor(integ)
-    if (ens%lanes) then
-      allocate (ens%jobs%pts(2, n_iter, ns), ens%jobs%st(ns))
-      ens%jobs%pts = ieee_value(1.0_wp, ieee_quiet_nan)
-      ens%jobs%st = TUBES_OK
-    end if
     call ens_run(ens, ns, out, 2*n_iter, 0, fault='map', chunk=merge(LANES, 1, ens%lanes))
     pts = reshape(out%r, [2, n_iter, ns])
     do j = 1, ns
@@ -391,29 +347,12 @@ contains
 
   !> Seed k's returns, as one_map integrates them.
   subroutine map_item(self, k, out)
-    class(map_ens_t), intent(in) :: self
+    class(map_jobs_t), intent(in) :: self
     integer, intent(in) :: k
     type(ens_out_t), intent(inout) :: out
-    call one_map(self%jobs%model, self%jobs%psec, self%jobs%x0(:, k), self%jobs%n_iter, self%jobs%t_max, &
-                 self%jobs%tol, self%jobs%integ, out%r(:, k), out%st(k))
+    call one_map(self%model, self%psec, self%x0(:, k), self%n_iter, self%t_max, self%tol, self%integ, &
+                 out%r(:, k), out%st(k))
   end subroutine map_item
-
-  !> A thread's seeds: in lanes (the Taylor method), else one by one.
-  subroutine map_chunk(self, ks, out)
-    class(map_ens_t), intent(inout) :: self
-    integer, intent(in) :: ks(:)
-    type(ens_out_t), intent(inout) :: out
-    integer :: j
-    if (.not. self%lanes) then
-      call ens_chunk_items(self, ks, out)
-      return
-    end if
-    call run_lanes(self%jobs, ks)
-    do j = 1, size(ks)
-      out%st(ks(j)) = self%jobs%st(ks(j))
-      out%r(:, ks(j)) = reshape(self%jobs%pts(:, :, ks(j)), [2*self%jobs%n_iter])
-    end do
-  end subroutine map_chunk
 
   !> Seed k in a lane: one_map's set-up.
   subroutine map_start(self, k, lane, stat)
@@ -440,16 +379,19 @@ contains
     call move_alloc(ev, lane%event)
   end subroutine map_start
 
-  !> Seed k's returns, as one_map's.
-  subroutine map_finish(self, k, lane)
-    class(map_jobs_t), intent(inout) :: self
+  !> Seed k's returns, as one_map's (NaN past the last).
+  subroutine map_finish(self, k, lane, out)
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+    class(map_jobs_t), intent(in) :: self
     integer, intent(in) :: k
     type(lane_t), intent(inout) :: lane
+    type(ens_out_t), intent(inout) :: out
     integer :: j
-    self%st(k) = lane%stat
-    if (lane%stat == TUBES_EVENT) self%st(k) = TUBES_OK
+    out%st(k) = lane%stat
+    if (lane%stat == TUBES_EVENT) out%st(k) = TUBES_OK
+    out%r(:, k) = ieee_value(1.0_wp, ieee_quiet_nan)
     do j = 1, min(lane%log%n, self%n_iter)
-      self%pts(:, j, k) = self%psec%coords(lane%log%x(:, j))
+      out%r(2*j - 1:2*j, k) = self%psec%coords(lane%log%x(:, j))
     end do
   end subroutine map_finish
 

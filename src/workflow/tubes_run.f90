@@ -10,8 +10,8 @@ module tubes_run
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, event_t, plane_t, crossing_log_t, propagate
   use tubes_methods, only: new_integrator, method_opts_t, integ_choice_t, uses_taylor
-  use tubes_lanes, only: lane_t, lane_jobs_t, run_lanes
-  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_chunk_items
+  use tubes_lanes, only: lane_t, lane_jobs_t
+  use tubes_ensemble, only: ens_out_t, ens_run
   use tubes_sampler, only: sampler_t
   use tubes_section_events, only: theta_line_t
   implicit none
@@ -45,30 +45,20 @@ module tubes_run
   !> Items of an ensemble per call of run_lanes (an OpenMP thread's unit of work)
   integer, parameter :: ENSEMBLE_CHUNK = 64
 
-  !> run_ensemble's states as the lanes' items: each integrated from t = 0 to t_end, no events.
+  !> run_ensemble's states as an ensemble (tubes_ensemble; in lanes with the Taylor method,
+  !> tubes_lanes): item k's end state and its number of steps (dim + 1 reals).
   type, extends(lane_jobs_t) :: ensemble_jobs_t
     class(vector_field_t), allocatable :: field
-    real(wp), allocatable :: x0(:, :), xs(:, :)
+    real(wp), allocatable :: x0(:, :)
     real(wp) :: t_end = 0, rtol = 0, atol = 0, h = 0
     integer(i8) :: max_steps = 0
-    integer, allocatable :: st(:)
-    integer(i8), allocatable :: nsteps(:)
+    integer :: method = 0
+    type(method_opts_t) :: mopts
   contains
+    procedure :: item => ensemble_item
     procedure :: start => ensemble_start
     procedure :: finish => ensemble_finish
   end type ensemble_jobs_t
-
-  !> run_ensemble's states as an ensemble (tubes_ensemble): item k's end state and its number of
-  !> steps (dim + 1 reals); the Taylor method's in lanes, any other method's one by one.
-  type, extends(ensemble_t) :: states_ens_t
-    type(ensemble_jobs_t) :: jobs
-    integer :: method = 0
-    type(method_opts_t) :: mopts
-    logical :: lanes = .false.
-  contains
-    procedure :: item => states_item
-    procedure :: chunk => states_chunk
-  end type states_ens_t
 
 contains
 
@@ -274,7 +264,7 @@ contains
     integer, intent(out) :: st(:)
     integer(i8), intent(out) :: nsteps(:)
     integer, intent(out) :: stat
-    type(states_ens_t) :: ens
+    type(ensemble_jobs_t) :: ens
     type(ens_out_t) :: out
     class(integrator_t), allocatable :: ig
     real(wp) :: c_damp
@@ -283,9 +273,9 @@ contains
     st = TUBES_EINPUT
     nsteps = 0
     m = size(x0, 2)
-    call make_field(system, params, ens%jobs%field, c_damp, stat)
+    call make_field(system, params, ens%field, c_damp, stat)
     if (stat /= TUBES_OK) return
-    d = ens%jobs%field%dim()
+    d = ens%field%dim()
     if (size(x0, 1) /= d .or. t_end < 0 .or. any(shape(xs) /= shape(x0)) .or. &
         size(st) /= m .or. size(nsteps) /= m) then
       stat = TUBES_EINPUT
@@ -296,18 +286,12 @@ contains
     ens%method = method
     ens%mopts = mopts
     ens%lanes = uses_taylor(integ_choice_t(method=method))
-    ens%jobs%x0 = x0
-    ens%jobs%t_end = t_end
-    ens%jobs%rtol = rtol
-    ens%jobs%atol = atol
-    ens%jobs%h = h
-    ens%jobs%max_steps = max_steps
-    if (ens%lanes) then
-      ens%jobs%xs = x0
-      allocate (ens%jobs%st(m), ens%jobs%nsteps(m))
-      ens%jobs%st = TUBES_OK
-      ens%jobs%nsteps = 0
-    end if
+    ens%x0 = x0
+    ens%t_end = t_end
+    ens%rtol = rtol
+    ens%atol = atol
+    ens%h = h
+    ens%max_steps = max_steps
     call ens_run(ens, m, out, d + 1, 0, local=.true., chunk=merge(ENSEMBLE_CHUNK, 1, ens%lanes), threads=threads)
     xs = out%r(1:d, :)
     nsteps = int(out%r(d + 1, :), i8)
@@ -315,46 +299,27 @@ contains
   end subroutine run_ensemble
 
   !> State k by its own integrator (one per call: nothing shared between threads but the model).
-  subroutine states_item(self, k, out)
-    class(states_ens_t), intent(in) :: self
+  subroutine ensemble_item(self, k, out)
+    class(ensemble_jobs_t), intent(in) :: self
     integer, intent(in) :: k
     type(ens_out_t), intent(inout) :: out
     class(integrator_t), allocatable :: ik
-    real(wp) :: x(size(self%jobs%x0, 1))
+    real(wp) :: x(size(self%x0, 1))
     integer :: d
     d = size(x)
-    x = self%jobs%x0(:, k)
+    x = self%x0(:, k)
     out%r(1:d, k) = x
     call new_integrator(self%method, ik, out%st(k), self%mopts)
     if (out%st(k) /= TUBES_OK) return
-    call ik%init(self%jobs%field, 0.0_wp)
-    ik%rtol = self%jobs%rtol
-    ik%atol = self%jobs%atol
-    ik%h = self%jobs%h
-    ik%max_steps = self%jobs%max_steps
-    if (self%jobs%t_end > 0) call propagate(ik, x, self%jobs%t_end, out%st(k))
+    call ik%init(self%field, 0.0_wp)
+    ik%rtol = self%rtol
+    ik%atol = self%atol
+    ik%h = self%h
+    ik%max_steps = self%max_steps
+    if (self%t_end > 0) call propagate(ik, x, self%t_end, out%st(k))
     out%r(1:d, k) = x
     out%r(d + 1, k) = real(ik%nsteps, wp)
-  end subroutine states_item
-
-  !> A thread's states: in lanes (the Taylor method), else one by one.
-  subroutine states_chunk(self, ks, out)
-    class(states_ens_t), intent(inout) :: self
-    integer, intent(in) :: ks(:)
-    type(ens_out_t), intent(inout) :: out
-    integer :: j, d
-    if (.not. self%lanes) then
-      call ens_chunk_items(self, ks, out)
-      return
-    end if
-    call run_lanes(self%jobs, ks)
-    d = size(self%jobs%x0, 1)
-    do j = 1, size(ks)
-      out%r(1:d, ks(j)) = self%jobs%xs(:, ks(j))
-      out%r(d + 1, ks(j)) = real(self%jobs%nsteps(ks(j)), wp)
-      out%st(ks(j)) = self%jobs%st(ks(j))
-    end do
-  end subroutine states_chunk
+  end subroutine ensemble_item
 
   !> State k in a lane: the Taylor integrator on the model, its tolerances, from t = 0.
   subroutine ensemble_start(self, k, lane, stat)
@@ -377,12 +342,13 @@ contains
   end subroutine ensemble_start
 
   !> State k's end: where it stopped, its status and steps.
-  subroutine ensemble_finish(self, k, lane)
-    class(ensemble_jobs_t), intent(inout) :: self
+  subroutine ensemble_finish(self, k, lane, out)
+    class(ensemble_jobs_t), intent(in) :: self
     integer, intent(in) :: k
     type(lane_t), intent(inout) :: lane
-    self%xs(:, k) = lane%x
-    self%st(k) = lane%stat
-    self%nsteps(k) = lane%ig%nsteps
+    type(ens_out_t), intent(inout) :: out
+    out%r(1:size(lane%x), k) = lane%x
+    out%r(size(lane%x) + 1, k) = real(lane%ig%nsteps, wp)
+    out%st(k) = lane%stat
   end subroutine ensemble_finish
 end module tubes_run
