@@ -160,13 +160,8 @@ contains
 
     ! the noise-free tracks, dealt out over MPI ranks and threads (tubes_ensemble)
     call ens_agree(release)
+    tracks = track_ens_t(integ=integ, release=release(1:2, :), dt=dt, ns=ns, rtol=opts%rtol, atol=opts%atol)
     allocate (tracks%model, source=model)
-    tracks%integ = integ
-    tracks%release = release(1:2, :)
-    tracks%dt = dt
-    tracks%ns = ns
-    tracks%rtol = opts%rtol
-    tracks%atol = opts%atol
     call ens_run(tracks, nt, out, 4*ns, 0, fault='track')
     state = reshape(out%r, [4, ns, nt])
     st = out%st

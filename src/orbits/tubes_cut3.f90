@@ -137,21 +137,9 @@ contains
     cut%nnodes = nn
     allocate (cut%x(2*nd, nn), cut%sec(4, nn), cut%t(nn), cut%st(nn), eerr(nn))
     ! the seeds are dealt out over MPI ranks and threads (tubes_ensemble)
+    ens = node_ens_t(nf=nf, ch=ch, integ=integ, zs=zs, es=es, de=de, y1=y1, c=c, t_max=t_max, tol=tol, &
+                     n_eta=n_eta, n=n, k=k, dir=dir)
     allocate (ens%model, source=model)
-    ens%nf = nf
-    ens%ch = ch
-    ens%integ = integ
-    ens%zs = zs
-    ens%es = es
-    ens%de = de
-    ens%y1 = y1
-    ens%c = c
-    ens%t_max = t_max
-    ens%tol = tol
-    ens%n_eta = n_eta
-    ens%n = n
-    ens%k = k
-    ens%dir = dir
     allocate (copy(nn))
     do i = 0, n_eta
       do j = 0, n - 1

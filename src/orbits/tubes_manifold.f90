@@ -380,13 +380,8 @@ contains
     if (stat /= TUBES_OK) return
     call ens_agree(v0, opts%local)
     sigma = sign(1.0_wp, dot2(v0, well_dir))
+    ens = seed_jobs_t(lanes=uses_taylor(opts%integ), psec=psec, opts=opts, sigma=sigma, orb=orb0, v0=v0)
     allocate (ens%ball, source=ball)
-    ens%psec = psec
-    ens%opts = opts
-    ens%sigma = sigma
-    ens%orb = orb0
-    ens%v0 = v0
-    ens%lanes = uses_taylor(opts%integ)
     if (ens%lanes) then   ! the seeds' starts from one integration
       call record_orbit(ball, orb0, v0, opts, ens%orbit, stat)
     else

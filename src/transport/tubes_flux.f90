@@ -450,21 +450,9 @@ contains
       cls = 0
       st = TUBES_OK
       ! the samples are dealt out over MPI ranks and threads (tubes_ensemble)
+      ens = flux_ens_t(nd=nd, u=u, box=res%box, r=r, q0=q0, energy=energy, cball=cball, t_max=t_max, tol=tol, &
+                       section=section, natural=natural, tobs=tobs, slab=slab, integ=integ)
       allocate (ens%model, source=model)
-      ens%nd = nd
-      ens%u = u
-      ens%box = res%box
-      ens%r = r
-      ens%q0 = q0
-      ens%energy = energy
-      ens%cball = cball
-      ens%t_max = t_max
-      ens%tol = tol
-      ens%section = section
-      ens%natural = natural
-      ens%tobs = tobs
-      ens%slab = slab
-      ens%integ = integ
       call ens_run(ens, n, out, 1 + merge(2*nd, 0, section), 1)
       val = out%r(1, :)
       cls = out%i(1, :)

@@ -215,18 +215,9 @@ contains
     ! keeps its status as its outcome
     call ens_agree(r)
     call ens_agree(pr)
+    ens = mc_jobs_t(lanes=uses_taylor(integ), psec=psec, gspec=gspec, integ=integ, t_max=t_max, tol=tol, r=r, &
+                    pr=pr, cr=cr, cp=cp, box=[minval(cr), maxval(cr), minval(cp), maxval(cp)])
     allocate (ens%model, source=model)
-    ens%psec = psec
-    ens%gspec = gspec
-    ens%integ = integ
-    ens%t_max = t_max
-    ens%tol = tol
-    ens%r = r
-    ens%pr = pr
-    ens%cr = cr
-    ens%cp = cp
-    ens%box = [minval(cr), maxval(cr), minval(cp), maxval(cp)]
-    ens%lanes = uses_taylor(integ)
     call ens_run(ens, n, out, 0, 2, fault='sample', chunk=merge(LANE_CHUNK, 1, ens%lanes))
     outcome = merge(out%st, out%i(1, :), out%st < 0)
     inside = out%i(2, :) == 1
@@ -328,15 +319,9 @@ contains
     type(ens_out_t) :: out
     integer :: j, ns
     ns = size(x0, 2)
+    ens = map_jobs_t(lanes=uses_taylor(integ), psec=psec, integ=integ, t_max=t_max, tol=tol, n_iter=n_iter, x0=x0)
     allocate (ens%model, source=ball)
-    ens%psec = psec
-    ens%integ = integ
-    ens%t_max = t_max
-    ens%tol = tol
-    ens%n_iter = n_iter
-    ens%x0 = x0
     call ens_agree(ens%x0)             ! seeds dealt out over MPI ranks and threads (tubes_ensemble)
-    ens%lanes = uses_taylor(integ)
     call ens_run(ens, ns, out, 2*n_iter, 0, fault='map', chunk=merge(LANES, 1, ens%lanes))
     pts = reshape(out%r, [2, n_iter, ns])
     do j = 1, ns

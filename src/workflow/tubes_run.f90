@@ -266,6 +266,7 @@ contains
     integer, intent(out) :: stat
     type(ensemble_jobs_t) :: ens
     type(ens_out_t) :: out
+    class(vector_field_t), allocatable :: field
     class(integrator_t), allocatable :: ig
     real(wp) :: c_damp
     integer :: m, d
@@ -273,9 +274,9 @@ contains
     st = TUBES_EINPUT
     nsteps = 0
     m = size(x0, 2)
-    call make_field(system, params, ens%field, c_damp, stat)
+    call make_field(system, params, field, c_damp, stat)
     if (stat /= TUBES_OK) return
-    d = ens%field%dim()
+    d = field%dim()
     if (size(x0, 1) /= d .or. t_end < 0 .or. any(shape(xs) /= shape(x0)) .or. &
         size(st) /= m .or. size(nsteps) /= m) then
       stat = TUBES_EINPUT
@@ -283,15 +284,9 @@ contains
     end if
     call new_integrator(method, ig, stat, mopts)        ! the method exists
     if (stat /= TUBES_OK) return
-    ens%method = method
-    ens%mopts = mopts
-    ens%lanes = uses_taylor(integ_choice_t(method=method))
-    ens%x0 = x0
-    ens%t_end = t_end
-    ens%rtol = rtol
-    ens%atol = atol
-    ens%h = h
-    ens%max_steps = max_steps
+    ens = ensemble_jobs_t(lanes=uses_taylor(integ_choice_t(method=method)), x0=x0, t_end=t_end, rtol=rtol, &
+                          atol=atol, h=h, max_steps=max_steps, method=method, mopts=mopts)
+    call move_alloc(field, ens%field)
     call ens_run(ens, m, out, d + 1, 0, local=.true., chunk=merge(ENSEMBLE_CHUNK, 1, ens%lanes), threads=threads)
     xs = out%r(1:d, :)
     nsteps = int(out%r(d + 1, :), i8)
