@@ -54,12 +54,23 @@ module tubes_study
     type(seed_store_t) :: store
   end type kept_seeds_t
 
+  !> A periodic orbit kept for later cuts: what it depends on (orbit_key) and the orbit.
+  type :: kept_orbit_t
+    character(32) :: system = ''
+    character(8) :: saddle = ''
+    integer(i8) :: key(NKEY) = 0
+    type(orbit_t) :: orb
+  end type kept_orbit_t
+
   !> The tube seeds of a run's cuts, one store per set-up (model, saddle, orbit options, energy,
   !> section, step-off, integration): cut_at with it looks up the seeds an earlier cut of the
-  !> set-up integrated (docs/tubes.md, "Seeds computed once"). Owned by the caller (the program's
-  !> run: include/tubes.h tubes_seed_stores_new), for one model and one caller at a time.
+  !> set-up integrated (docs/tubes.md, "Seeds computed once"), and the Lyapunov orbit an earlier
+  !> cut at the energy continued (the same orbit bit for bit: it depends on none of the cut's own
+  !> options). Owned by the caller (the program's run: include/tubes.h tubes_seed_stores_new), for
+  !> one model and one caller at a time.
   type, public :: seed_stores_t
     type(kept_seeds_t), allocatable :: kept(:)
+    type(kept_orbit_t), allocatable :: orbits(:)
   end type seed_stores_t
 
 contains
@@ -76,6 +87,18 @@ contains
                     real([o%kind, o%integ%method, o%integ%opts%solver, o%integ%opts%max_iter], wp), o%integ%h, &
                     o%integ%opts%omega_bind, o%eps, o%t_max, o%rtol, o%atol], key)
   end function seed_key
+
+  !> What the Lyapunov orbit at de depends on, bit for bit (the strings apart).
+  function orbit_key(st, de) result(key)
+    type(study_t), intent(in) :: st
+    real(wp), intent(in) :: de
+    integer(i8) :: key(NKEY)
+    real(wp) :: v(size(st%params) + size(st%lo) + size(st%hi) + 11)
+    v = [st%params, st%lo, st%hi, real([st%n_grid, st%n_segments], wp), st%orb_tol, st%orb_rtol, st%orb_atol, de, &
+         real([st%integ%method, st%integ%opts%solver, st%integ%opts%max_iter], wp), st%integ%h, st%integ%opts%omega_bind]
+    key = 0
+    key(1:size(v)) = transfer(v, key, size(v))
+  end function orbit_key
 
   !> The model, its equilibria in the box and the rank-1 saddle named `saddle` (with
   !> degenerate_ok, also a degenerate saddle: the sampled flux takes one).
@@ -258,8 +281,12 @@ contains
     call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
                        sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat)
     if (stat /= TUBES_OK) return
-    call orbit_at(model, eqs, isad, de, st%n_segments, st%orb_tol, st%orb_rtol, st%orb_atol, orb, stat, &
-                  opts%local, st%integ)
+    if (present(stores)) then
+      call orbit_kept(stores%orbits)
+    else
+      call orbit_at(model, eqs, isad, de, st%n_segments, st%orb_tol, st%orb_rtol, st%orb_atol, orb, stat, &
+                    opts%local, st%integ)
+    end if
     if (stat /= TUBES_OK) return
     o = opts
     o%integ = st%integ
@@ -275,6 +302,23 @@ contains
       if (any(cut%r(1:cut%n) < psec%smin - tol_s .or. cut%r(1:cut%n) > psec%smax + tol_s)) stat = TUBES_EOUTSIDE
     end if
   contains
+    subroutine orbit_kept(kept)   ! the orbit an earlier cut continued, else continued and kept
+      type(kept_orbit_t), allocatable, intent(inout) :: kept(:)
+      integer(i8) :: key(NKEY)
+      integer :: i
+      key = orbit_key(st, de)
+      if (.not. allocated(kept)) allocate (kept(0))
+      do i = 1, size(kept)
+        if (kept(i)%system == st%system .and. kept(i)%saddle == st%saddle .and. all(kept(i)%key == key)) then
+          orb = kept(i)%orb
+          stat = TUBES_OK
+          return
+        end if
+      end do
+      call orbit_at(model, eqs, isad, de, st%n_segments, st%orb_tol, st%orb_rtol, st%orb_atol, orb, stat, &
+                    opts%local, st%integ)
+      if (stat == TUBES_OK) kept = [kept, kept_orbit_t(system=st%system, saddle=st%saddle, key=key, orb=orb)]
+    end subroutine orbit_kept
     subroutine cut_kept(kept)     ! the cut with the store of its set-up
       type(kept_seeds_t), allocatable, intent(inout) :: kept(:)
       integer(i8) :: key(NKEY)
