@@ -704,6 +704,31 @@ subroutine poincare(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index,
                n_iter, t_max, pts, stat)
 end subroutine poincare
 
+subroutine status_code(name, code)
+  ! the number of the status code TUBES_<name> (src/base/tubes_status.f90), 1000 for no such code
+  use tubes_status
+  implicit none
+  character(len=*), intent(in) :: name
+  integer, intent(out) :: code
+  select case (name)
+  case ('OK'); code = TUBES_OK
+  case ('EVENT'); code = TUBES_EVENT
+  case ('EINPUT'); code = TUBES_EINPUT
+  case ('EMAXSTEPS'); code = TUBES_EMAXSTEPS
+  case ('ESTEP'); code = TUBES_ESTEP
+  case ('EMODEL'); code = TUBES_EMODEL
+  case ('EIO'); code = TUBES_EIO
+  case ('ENOCONV'); code = TUBES_ENOCONV
+  case ('EFAULT'); code = TUBES_EFAULT
+  case ('EOUTSIDE'); code = TUBES_EOUTSIDE
+  case ('ENOCROSS'); code = TUBES_ENOCROSS
+  case ('EPASTEND'); code = TUBES_EPASTEND
+  case ('ENARROW'); code = TUBES_ENARROW
+  case ('ENOJET'); code = TUBES_ENOJET
+  case default; code = 1000
+  end select
+end subroutine status_code
+
 subroutine status_text(code, msg)
   ! the meaning of a TUBES_* status code (src/base/tubes_status.f90: the one table of them)
   use tubes_status, only: status_message

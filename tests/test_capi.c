@@ -106,9 +106,18 @@ int main(void) {
                             0.0, 0, 0, 0, 0.0, 0, 0, 0, NS, &ns, t, s, en, &nc, ct, cx, cdir, cnt, &cdamp,
                             NULL, NULL);
   check("unknown method refused", st == TUBES_EINPUT, st, TUBES_EINPUT);
-  char msg[64];
-  tubes_status_message(TUBES_EMAXSTEPS, msg, sizeof msg);
-  check("status message", strstr(msg, "maximum number of steps") != NULL, 0, 0);
+  /* the header's status numbers are the library's (src/base/tubes_status.f90): each one's message */
+  static const struct { int code; const char *word; } codes[] = {
+      {TUBES_OK, "ok"}, {TUBES_EVENT, "terminal event"}, {TUBES_EINPUT, "invalid input"},
+      {TUBES_EMAXSTEPS, "maximum number of steps"}, {TUBES_ESTEP, "step size underflow"},
+      {TUBES_EMODEL, "refused the state"}, {TUBES_EIO, "input/output"}, {TUBES_ENOCONV, "did not converge"},
+      {TUBES_EFAULT, "TUBES_FAULT"}, {TUBES_EOUTSIDE, "outside the region"}, {TUBES_ENOCROSS, "no crossing"},
+      {TUBES_EPASTEND, "past the end"}, {TUBES_ENARROW, "narrower"}, {TUBES_ENOJET, "no kernel"}};
+  char msg[256];
+  for (size_t i = 0; i < sizeof codes / sizeof codes[0]; i++) {
+    tubes_status_message(codes[i].code, msg, sizeof msg);
+    check("status number and message as the library's", strstr(msg, codes[i].word) != NULL, codes[i].code, 0);
+  }
   if (nfail) {
     printf("%d of %d check(s) FAILED in test_capi\n", nfail, nchecks);
     return 1;

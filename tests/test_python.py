@@ -222,3 +222,17 @@ def test_a_copied_tree_imports_its_own_package(tmp_path):
                        capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert r.returncode == 0, r.stderr
     assert pathlib.Path(r.stdout.strip()).resolve() == (copy / "python" / "tubes" / "__init__.py").resolve()
+
+
+def test_status_codes_are_the_library_s():
+    """tubes.OK, tubes.EINPUT, ... come from src/base/tubes_status.f90 (no copy in Python): each
+    name's number has that status's message, and an unknown name is an AttributeError."""
+    words = {"OK": "ok", "EVENT": "terminal event", "EINPUT": "invalid input", "EMAXSTEPS": "maximum number",
+             "ESTEP": "underflow", "EMODEL": "refused the state", "EIO": "input/output", "ENOCONV": "converge",
+             "EFAULT": "TUBES_FAULT", "EOUTSIDE": "outside the region", "ENOCROSS": "no crossing",
+             "EPASTEND": "past the end", "ENARROW": "narrower", "ENOJET": "no kernel"}
+    for name, word in words.items():
+        assert word in tubes.status_message(getattr(tubes, name)), name
+    assert len({getattr(tubes, n) for n in words}) == len(words)
+    with pytest.raises(AttributeError):
+        tubes.ENOSUCHCODE  # noqa: B018

@@ -18,10 +18,15 @@ from typing import Any
 
 import numpy as np
 
-# Status codes: the same numbers as src/base/tubes_status.f90 and include/tubes.h.
-OK, EVENT = 0, 1
-EINPUT, EMAXSTEPS, ESTEP, EMODEL, EIO, ENOCONV, EFAULT, EOUTSIDE, ENOCROSS, EPASTEND, ENARROW, ENOJET = (
-    -1, -2, -3, -4, -5, -6, -7, -8, -9, -10, -11, -12)
+def __getattr__(name: str) -> int:
+    """The status codes tubes.OK, tubes.EVENT, tubes.EINPUT, ... (TUBES_<name>): their numbers from
+    the library's one definition (src/base/tubes_status.f90), looked up on first use."""
+    if name.isupper() and name.isalpha():
+        code = int(_lib().status_code(name))
+        if code != 1000:
+            globals()[name] = code
+            return code
+    raise AttributeError(f"module 'tubes' has no attribute {name!r}")
 
 
 def status_message(code: int) -> str:
@@ -846,7 +851,7 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
         par, e_e, nt, float(st["exp_duration"]), float(st["exp_camera_rate"]), float(st["exp_pixel"]),
         float(st["exp_noise"]), float(st["exp_de_min"]), float(st["exp_de_max"]), int(st["exp_seed"]),
         *_integ(st, model), ns)
-    if stat == EINPUT:
+    if stat == __getattr__("EINPUT"):
         raise ValueError(f"synthetic_experiment: found fewer than {nt} release points with g H - E_e in "
                          f"[{st['exp_de_min']:g}, {st['exp_de_max']:g}] (cm/s)^2 in the box |x|, |y| <= {box:g} cm "
                          f"after {n_draws} draws; widen [de_min, de_max]")

@@ -1,4 +1,6 @@
-!> Status codes shared by Fortran, C (include/tubes.h) and Python (python/tubes/__init__.py).
+!> Status codes shared by Fortran, C (include/tubes.h: its enum, checked against these by
+!> tests/test_capi.c) and Python (tubes.OK, tubes.EINPUT, ...: read from here through the f2py
+!> facade's status_code).
 !> Codes >= 0 are successes, codes < 0 are failures.
 module tubes_status
   implicit none
