@@ -1,5 +1,6 @@
-"""The scenes from Python against the program: the same numbers, bit for bit, for the paper's ball
-and for Henon-Heiles, with the defaults taken from the program's own namelist reader. Every scene
+"""The scenes from Python against the program: the same numbers, bit for bit, for the paper's ball,
+Henon-Heiles, the restricted three-body problem and a 3-DOF formula, with the defaults taken from
+the program's own namelist reader. Every scene
 is here: equilibria, trajectory, orbits, tubes, transition, montecarlo, sections, flux and the
 synthetic experiment."""
 import importlib.util
@@ -78,6 +79,52 @@ def test_henon_heiles_scenes(tmp_path):
     assert np.array_equal(t["p_trans"], f["transition/p_trans"][:])
     mc = hh.monte_carlo(0.02, n_samples=1000, seed=9, saddle_near=(0, 1))
     assert mc["fraction"] == f["montecarlo"].attrs["fraction"] and mc["misclassified"] == 0
+
+
+def test_cr3bp_scenes(tmp_path):
+    """The Earth-Moon restricted three-body problem (gyroscopic, no default section): L1's orbits,
+    tube cut, p_trans, Monte Carlo and Poincare map on the plane x = 0.7, from Python with the
+    section and the saddle as keywords, equal to the program's bit for bit."""
+    sec = "&section kind = 'plane', index = 1, value = 0.7, direction = 1 /\n"
+    f = _run(tmp_path, "&model system = 'cr3bp' /\n&equilibria box = 1.5 /\n" + sec +
+                       "&run scenes = 'equilibria', 'orbits', 'tubes', 'transition', 'montecarlo', 'sections' /\n"
+                       "&orbits saddle_near = 0.84, 0.0, de = 0.001, 0.002 /\n&tubes de = 0.002 /\n"
+                       "&transition de = 0.001, 0.002 /\n&montecarlo de = 0.002, n_samples = 400, seed = 3 /\n"
+                       "&sections de = 0.002, n_seeds = 3, n_iter = 8 /\n")
+    cr = tubes.Model(system="cr3bp")
+    kw = {"saddle_near": (0.84, 0.0), "section": {"kind": "plane", "index": 1, "value": 0.7, "direction": 1},
+          "equilibria": {"box": 1.5}}
+    eq = tubes.equilibria(cr, box=1.5)
+    assert np.array_equal(np.asarray(eq["state"]), f["equilibria/state"][:])
+    o = cr.orbit_family(dE=[0.001, 0.002], saddle_near=(0.84, 0.0), equilibria={"box": 1.5})
+    assert o["saddle"] == "L1"
+    for k in ("period", "action", "mu_unstable"):
+        assert np.array_equal(o[k], f["orbits"][k][:]), k
+    c = cr.tube_cut(0.002, **kw)
+    g = f["tubes/stable_000"]
+    assert c["area"] == g.attrs["area"] and np.array_equal(c["r"], g["r"][:]) and np.array_equal(c["state"], g["state"][:])
+    t = cr.transition(dE=[0.001, 0.002], **kw)
+    for k in ("A_tube", "A_E", "p_trans"):
+        assert np.array_equal(t[k], f["transition"][k][:]), k
+    mc = cr.monte_carlo(0.002, n_samples=400, seed=3, **kw)
+    assert mc["fraction"] == f["montecarlo"].attrs["fraction"] and np.array_equal(mc["transit"], f["montecarlo/transit"][:])
+    pts = cr.poincare(0.002, n_seeds=3, n_iter=8, **kw)
+    assert np.array_equal(pts, f["sections/map_000/points"][:], equal_nan=True)
+
+
+def test_three_dof_orbits(tmp_path):
+    """A 3-DOF model written as a formula: the Lyapunov family of each centre mode (family = 1, 2),
+    from Python equal to the program's bit for bit."""
+    h = "(p1^2 + p2^2 + p3^2)/2 - q1^2/2 + q1^4/4 + 1.3^2*q2^2/2 + 2.1^2*q3^2/2 + 0.3*q2^2*q3^2"
+    model = (f"&model system = 'expression', hamiltonian = '{h}', coordinates = 'q1', 'q2', 'q3', "
+             "momenta = 'p1', 'p2', 'p3' /\n&equilibria box = 1.0, n_grid = 5 /\n&run scenes = 'orbits' /\n")
+    m = tubes.Model(system="expression", hamiltonian=h, coordinates=["q1", "q2", "q3"], momenta=["p1", "p2", "p3"])
+    for fam in (1, 2):
+        f = _run(tmp_path, model + f"&orbits saddle_near = 0, 0, 0, de = 0.02, 0.05, family = {fam} /\n")
+        o = m.orbit_family(dE=[0.02, 0.05], saddle_near=(0, 0, 0), family=fam, equilibria={"box": 1.0, "n_grid": 5})
+        for k in ("period", "action", "mu_unstable", "state0"):
+            assert np.array_equal(o[k], f["orbits"][k][:]), (fam, k)
+        f.close()
 
 
 def test_poincare_maps(tmp_path):
