@@ -47,18 +47,20 @@ module tubes_study
   end type study_t
 
   integer, parameter :: NKEY = MAX_PARAMS + 2*MAX_DOF + 20   ! seed_key's numbers
-  type :: kept_seeds_t
+  !> What a kept result belongs to: the system, the saddle and the numbers it depends on.
+  type :: kept_for_t
     character(32) :: system = ''
     character(8) :: saddle = ''
     integer(i8) :: key(NKEY) = 0
+  end type kept_for_t
+
+  !> The seeds of one set-up (seed_key).
+  type, extends(kept_for_t) :: kept_seeds_t
     type(seed_store_t) :: store
   end type kept_seeds_t
 
-  !> A periodic orbit kept for later cuts: what it depends on (orbit_key) and the orbit.
-  type :: kept_orbit_t
-    character(32) :: system = ''
-    character(8) :: saddle = ''
-    integer(i8) :: key(NKEY) = 0
+  !> A periodic orbit kept for later cuts (orbit_key).
+  type, extends(kept_for_t) :: kept_orbit_t
     type(orbit_t) :: orb
   end type kept_orbit_t
 
@@ -87,6 +89,18 @@ contains
                     real([o%kind, o%integ%method, o%integ%opts%solver, o%integ%opts%max_iter], wp), o%integ%h, &
                     o%integ%opts%omega_bind, o%eps, o%t_max, o%rtol, o%atol], key)
   end function seed_key
+
+  !> The index of the kept result of st's system and saddle with this key (the last), or 0.
+  pure integer function kept_at(kept, st, key) result(ik)
+    class(kept_for_t), intent(in) :: kept(:)
+    type(study_t), intent(in) :: st
+    integer(i8), intent(in) :: key(NKEY)
+    integer :: i
+    ik = 0
+    do i = 1, size(kept)
+      if (kept(i)%system == st%system .and. kept(i)%saddle == st%saddle .and. all(kept(i)%key == key)) ik = i
+    end do
+  end function kept_at
 
   !> What the Lyapunov orbit at de depends on, bit for bit (the strings apart).
   function orbit_key(st, de) result(key)
@@ -308,13 +322,12 @@ contains
       integer :: i
       key = orbit_key(st, de)
       if (.not. allocated(kept)) allocate (kept(0))
-      do i = 1, size(kept)
-        if (kept(i)%system == st%system .and. kept(i)%saddle == st%saddle .and. all(kept(i)%key == key)) then
-          orb = kept(i)%orb
-          stat = TUBES_OK
-          return
-        end if
-      end do
+      i = kept_at(kept, st, key)
+      if (i > 0) then
+        orb = kept(i)%orb
+        stat = TUBES_OK
+        return
+      end if
       call orbit_at(model, eqs, isad, de, st%n_segments, st%orb_tol, st%orb_rtol, st%orb_atol, orb, stat, &
                     opts%local, st%integ)
       if (stat == TUBES_OK) kept = [kept, kept_orbit_t(system=st%system, saddle=st%saddle, key=key, orb=orb)]
@@ -323,13 +336,10 @@ contains
       type(kept_seeds_t), allocatable, intent(inout) :: kept(:)
       integer(i8) :: key(NKEY)
       type(kept_seeds_t) :: entry
-      integer :: i, ik
+      integer :: ik
       key = seed_key(st, sec, de, o)
       if (.not. allocated(kept)) allocate (kept(0))
-      ik = 0
-      do i = 1, size(kept)
-        if (kept(i)%system == st%system .and. kept(i)%saddle == st%saddle .and. all(kept(i)%key == key)) ik = i
-      end do
+      ik = kept_at(kept, st, key)
       if (ik == 0) then
         entry%system = st%system
         entry%saddle = st%saddle
