@@ -318,6 +318,7 @@ contains
   contains
     subroutine orbit_kept(kept)   ! the orbit an earlier cut continued, else continued and kept
       type(kept_orbit_t), allocatable, intent(inout) :: kept(:)
+      type(kept_orbit_t) :: entry
       integer(i8) :: key(NKEY)
       integer :: i
       key = orbit_key(st, de)
@@ -330,7 +331,12 @@ contains
       end if
       call orbit_at(model, eqs, isad, de, st%n_segments, st%orb_tol, st%orb_rtol, st%orb_atol, orb, stat, &
                     opts%local, st%integ)
-      if (stat == TUBES_OK) kept = [kept, kept_orbit_t(system=st%system, saddle=st%saddle, key=key, orb=orb)]
+      if (stat /= TUBES_OK) return
+      entry%system = st%system     ! (a structure constructor inside the array constructor leaks
+      entry%saddle = st%saddle     ! the orbit's arrays with gfortran 12: LeakSanitizer)
+      entry%key = key
+      entry%orb = orb
+      kept = [kept, entry]
     end subroutine orbit_kept
     subroutine cut_kept(kept)     ! the cut with the store of its set-up
       type(kept_seeds_t), allocatable, intent(inout) :: kept(:)
