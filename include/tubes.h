@@ -39,10 +39,12 @@ enum {
 enum { TUBES_NMODEL = 7, TUBES_LSYSTEM = 32, TUBES_MAXPARAM = 16, TUBES_LPARAM = 16,
        TUBES_MAXDOF = 3, TUBES_LUNITS = 16, TUBES_LDOC = 96, TUBES_LSUMMARY = 160 };
 
-/* Seed stores for tubes_tube_cut: a cut given one keeps its seeds there, and a later cut of the
- * same set-up (model, saddle, orbit options, energy, section, eps, integration) looks up the seeds
- * at the phases it shares with the earlier ones instead of integrating them again (the same bits).
- * For one model and one caller at a time (the program's run); NULL: none. */
+/* A run's stores for tubes_tube_cut and tubes_orbit_family: a cut given one keeps its seeds there,
+ * and a later cut of the same set-up (model, saddle, orbit options, energy, section, eps,
+ * integration) looks up the seeds at the phases it shares with the earlier ones instead of
+ * integrating them again (the same bits). Each orbit family (model, saddle, orbit options) is
+ * continued once and each of its orbits found once, for every call given the stores. For one
+ * caller at a time (the program's run); NULL: none. */
 void *tubes_seed_stores_new(void);
 void tubes_seed_stores_free(void *stores);
 
@@ -197,7 +199,10 @@ int tubes_run_trajectory(const char system[TUBES_LSYSTEM], const double params[T
  * monodromy[16] (column-major 4x4), ts[nsamp] and xs[4 nsamp] samples over one period,
  * history[max_iter] (residual after each Newton iteration). *end_de: the estimated end of the
  * family (-1 if none was met); *end_reason: 0 none, 1 another equilibrium, 2 period without
- * bound, 3 correction fails. Orbits past the end have converged = 0. */
+ * bound, 3 correction fails. Orbits past the end have converged = 0. Each orbit is the
+ * continuation to its own energy alone, whatever else des holds; with stores (or NULL), a run's
+ * later calls of the same family take the continuation and the orbits found by earlier ones (and
+ * by tubes_tube_cut's: docs/orbits.md, "One family, each orbit once"). */
 int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                        const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                        const char saddle[8], int nde,
@@ -207,7 +212,7 @@ int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUB
                        double state0[], double mu_u[], double mu_s[], double mu_triv[],
                        double stab[], double residual[], double closure[], int iterations[],
                        int converged[], double mindist[], double monodromy[], double ts[],
-                       double xs[], double history[], double *end_de, int *end_reason);
+                       double xs[], double history[], double *end_de, int *end_reason, void *stores);
 
 /* Sections of the tube-dynamics calls (docs/tubes.md, "Sections"): sec_kind 1 = the rolling
  * ball's ray theta = level [rad], dir = sign of p_theta, coordinates (r, p_r); sec_kind 2 = the

@@ -18,7 +18,7 @@ module tubes_capi
   use tubes_methods, only: new_integrator, method_opts_t, integ_choice_t
   use tubes_run, only: run_trajectory, section_spec_t
   use tubes_sampler, only: sampler_t
-  use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
+  use tubes_orbits, only: orbit_t, orbit_opts_t
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE
   use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t
@@ -27,7 +27,7 @@ module tubes_capi
   use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
-                         check_at, maps_at, cut_outputs, seed_stores_t
+                         check_at, maps_at, cut_outputs, seed_stores_t, family_at
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long
   implicit none
@@ -341,7 +341,7 @@ contains
   integer(c_int) function c_orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, &
       n_segments, family, tol, rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, &
       energy, period, action, state0, mu_u, mu_s, mu_triv, stab, residual, closure, iterations, &
-      converged, mindist, monodromy, ts, xs, history, end_de, end_reason) result(stat) &
+      converged, mindist, monodromy, ts, xs, history, end_de, end_reason, stores) result(stat) &
       bind(C, name='tubes_orbit_family')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
@@ -354,10 +354,14 @@ contains
       closure(nde), mindist(nde), monodromy(4*MAX_DOF*MAX_DOF, nde), ts(nsamp, nde), &
       xs(2*MAX_DOF, nsamp, nde), history(max_iter, nde), end_de
     integer(c_int), intent(out) :: iterations(nde), converged(nde), end_reason
+    type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
     type(orbit_opts_t) :: opts
     type(orbit_t), allocatable :: orbs(:)
+    type(study_t) :: st
+    type(section_choice_t) :: sec
+    type(seed_stores_t), pointer :: kept
     integer :: k, isad, nh, reason, n2
     real(wp) :: ede
     energy = 0; period = 0; action = 0; state0 = 0; mu_u = 0; mu_s = 0; mu_triv = 0; stab = 0
@@ -380,7 +384,13 @@ contains
     opts%family = family
     opts%integ = integ_of(method, h, omega_bind, solver, int_max_iter)
     allocate (orbs(nde))
-    call orbit_family(model, eqs, isad, des, opts, orbs, ede, reason, stat)
+    call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
+    if (c_associated(stores)) then
+      call c_f_pointer(stores, kept)
+      call family_at(st, model, eqs, isad, des, opts, orbs, ede, reason, stat, kept)
+    else
+      call family_at(st, model, eqs, isad, des, opts, orbs, ede, reason, stat)
+    end if
     if (stat < 0) return
     end_de = ede
     end_reason = reason

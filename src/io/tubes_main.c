@@ -248,7 +248,7 @@ static int run_main(int argc, char **argv) {
   }
 
   run.file = f;
-  run.seeds = tubes_seed_stores_new();  /* a scene's tube cuts look up the seeds earlier scenes cut */
+  run.seeds = tubes_seed_stores_new();  /* the seeds and orbit families of earlier scenes */
   int status = agree(scene_model(&run));
   for (int k = 0; k < TUBES_NSCENES && status != EXIT_IO; k++) {
     const char *s = cfg.scenes[k];

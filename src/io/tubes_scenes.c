@@ -555,7 +555,7 @@ int scene_orbits(tubes_run_t *run) {
           c->orb_de[n - 1], nseg > 1 ? "multiple" : "single");
   int st = tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, c->orb_de, nseg, c->orb_family, c->orb_tol, c->orb_rtol,
                               c->orb_atol, mi, ns, INTEGRATOR(c), e, per, act, s0, mu, ms, mt, stab, res, clo, it, conv, md,
-                              mono, ts, xs, hist, &end_de, &reason);
+                              mono, ts, xs, hist, &end_de, &reason, run->seeds);
   if (st < 0) {
     char m[128];
     status_text(st, m, sizeof m);
@@ -742,7 +742,7 @@ static void past_end_message(tubes_run_t *run, double de, char *buf, size_t len)
   if (hist && ts && xs)
     tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, 1, &de, orb_nseg(c), 1,
                        c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c), &e, &per, &act, s0, &mu, &ms, mt,
-                       &stab, &res, &clo, &it, &conv, &md, mono, ts, xs, hist, &end_de, &reason);
+                       &stab, &res, &clo, &it, &conv, &md, mono, ts, xs, hist, &end_de, &reason, run->seeds);
   free(hist); free(ts); free(xs);
   if (end_de > 0)
     snprintf(buf, len, "tubes: dE = %g is past the end of the %s family, which ends at dE ~ %.8g (%s): no orbit, "

@@ -6,7 +6,7 @@ module tubes_orbits
   use tubes_kinds, only: wp
   use tubes_lapack, only: dgesv, dgels, dgeev
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EFAULT
-  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree
+  use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree, ens_reuse_ok
   use tubes_field, only: vector_field_t, jet_spec_t
   use tubes_hamiltonian, only: hamiltonian_t, natural_t
   use tubes_variational, only: variational_t, make_variational, stm_start
@@ -77,6 +77,35 @@ module tubes_orbits
     real(wp), allocatable :: t(:)        !! sample times [s]
     real(wp), allocatable :: x(:, :)     !! samples (2N, n_samples)
   end type orbit_t
+
+  real(wp), parameter :: S_START = 0.5_wp    ! the continuation's first step in sqrt(de), at most
+  real(wp), parameter :: START_AMP = 0.02_wp  ! ... and at most where the linear orbit's amplitude is
+                                              ! this fraction of the distance to the next equilibrium
+
+  !> The continuation's state before an attempt (orbit_family): the next step's s = sqrt(de),
+  !> the step, the last two accepted points and the last three periods.
+  type :: cont_state_t
+    real(wp) :: s = 0, ds = 0, s_last = 0, s_prev = 0, ta = 0, tb = 0
+    real(wp), allocatable :: xa(:), xb(:)   !! the orbits' start points at s_prev and s_last
+    real(wp) :: hist_s(3) = 0, hist_t(3) = 0
+    integer :: nhist = 0
+    integer :: end_reason = END_NONE
+    real(wp) :: last_min_eq = 0   !! the last attempt's closest approach to another equilibrium
+    logical :: have_prev = .false.
+    logical :: ended = .false.    !! the corrector failed for steps below 1e-6 of s: no next attempt
+  end type cont_state_t
+
+  !> One family as a run continues it (orbit_family): the states before each step of the
+  !> continuation towards no target (the ladder), and the orbits found at the energies asked
+  !> for. Kept by the caller between calls of one model, saddle and options.
+  type, public :: family_path_t
+    real(wp) :: s_start = 0                        !! the first step (start_step), 0 until known
+    type(cont_state_t), allocatable :: ladder(:)   !! ladder(j): the state before step j
+    real(wp), allocatable :: des(:)                !! the energies of orbs
+    type(orbit_t), allocatable :: orbs(:)          !! the orbit at des(i) (converged or not)
+    real(wp), allocatable :: end_de(:)             !! where the family ends, for an orbit past it
+    integer, allocatable :: end_reason(:)
+  end type family_path_t
 
   !> Integral of p . dq/dt alongside the flow: dimension 2N + 1.
   type, extends(vector_field_t) :: action_field_t
@@ -597,7 +626,14 @@ contains
   !> equilibrium, or failure of the corrector for steps below 1e-6 of de) the continuation
   !> stops: end_de estimates the limit, end_reason says why, and orbits past it are not
   !> computed (converged = .false.). stat < 0 only for invalid input.
-  recursive subroutine orbit_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
+  !>
+  !> Each orbit is the continuation to its own energy alone, bit for bit, whatever else des
+  !> holds: the continuation follows the family's ladder (its steps towards no target) until the
+  !> ladder's next step would pass de, then steps to de (docs/orbits.md, "One family, each orbit
+  !> once"). With path, a run keeps the ladder and the orbits found between calls: a later call
+  !> of the same family (the caller's key: model, saddle and opts) takes them instead of
+  !> continuing again. path is used only where ens_reuse_ok allows (one MPI rank, or opts%local).
+  recursive subroutine orbit_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat, path)
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: eqs(:)
     integer, intent(in) :: isad
@@ -607,12 +643,10 @@ contains
     real(wp), intent(out) :: end_de
     integer, intent(out) :: end_reason
     integer, intent(out) :: stat
-    type(orbit_t) :: orb
-    real(wp) :: s, s_prev, s_last, ds, tau, ta, tb, s_target, t_po
-    real(wp) :: hist_s(3), hist_t(3), t_pred
-    real(wp), allocatable :: x0(:), xa(:), xb(:)
-    integer :: k, st, nhist
-    logical :: have_prev
+    type(family_path_t), intent(inout), optional :: path   !! the run's path of this family
+    type(family_path_t) :: own
+    integer :: k
+    logical :: ended
     stat = TUBES_OK
     end_de = -1
     end_reason = END_NONE
@@ -641,7 +675,7 @@ contains
         e(isad)%evec(:, [3, 4, 2*j + 1, 2*j + 2]) = e(isad)%evec(:, [2*j + 1, 2*j + 2, 3, 4])
         o = opts
         o%family = 1
-        call orbit_family(model, e, isad, des, o, orbits, end_de, end_reason, stat)
+        call orbit_family(model, e, isad, des, o, orbits, end_de, end_reason, stat, path)
         return
       end block
     end if
@@ -651,82 +685,213 @@ contains
         return
       end if
     end do
-    allocate (x0(model%dim()), xa(model%dim()), xb(model%dim()))
-    t_po = 2*PI/eqs(isad)%omega
-    ! continuation in s = sqrt(de): the start point moves linearly in s near s = 0
-    s_last = 0
-    s = min(sqrt(des(1)), 0.5_wp)
-    call linear_guess(model, eqs(isad), s*s, x0, tau)
-    have_prev = .false.
-    xa = x0; ta = tau; xb = x0; tb = tau; s_prev = 0
-    ds = s
-    k = 1
-    nhist = 0
-    do while (k <= size(des))
-      s_target = sqrt(des(k))
-      if (s > s_target) s = s_target
-      ! predictor
-      if (have_prev) then
-        x0 = xb + (xb - xa)*(s - s_last)/(s_last - s_prev)
-        tau = tb + (tb - ta)*(s - s_last)/(s_last - s_prev)
-      else if (s_last > 0) then
-        x0 = xb + (xb - eqs(isad)%x)*(s - s_last)/s_last
-        tau = tb
-      else
-        call linear_guess(model, eqs(isad), s*s, x0, tau)
-      end if
-      t_pred = 2*tau
-      call solve_orbit(model, eqs(isad), s*s, x0, tau, opts, eqs, isad, orb, st)
-      if (st == TUBES_OK .and. orb%period > opts%period_max*t_po) then
-        end_reason = END_PERIOD
-        st = TUBES_ENOCONV
-      end if
-      ! the corrector may converge to another family past the end: accept only an orbit close
-      ! to the prediction (period within 10 % of the predicted change + 1 % of T)
-      if (st == TUBES_OK .and. have_prev) then
-        if (abs(orb%period - t_pred) > 0.1_wp*abs(t_pred - tb*2) + 0.01_wp*tb*2) st = TUBES_ENOCONV
-      end if
-      if (st /= TUBES_OK) then
-        ds = ds/4
-        s = s_last + ds
-        if (ds < 1.0e-6_wp*max(s_last, 1.0e-3_wp)) then
-          if (end_reason == END_NONE) end_reason = END_NOCONV
-          exit
+    ended = .false.
+    do k = 1, size(des)
+      if (.not. ended) then
+        if (present(path) .and. ens_reuse_ok('segment', opts%local)) then
+          call path_orbit(path)
+        else
+          call path_orbit(own)
         end if
-        cycle
+        ended = .not. orbits(k)%converged
       end if
-      ! accepted
-      nhist = min(nhist + 1, 3)
-      hist_s = [hist_s(2:3), s]
-      hist_t = [hist_t(2:3), orb%period]
-      if (s_last > 0) have_prev = .true.
-      s_prev = s_last; xa = xb; ta = tb
-      s_last = s; xb = x0; tb = tau
-      if (abs(s - s_target) <= 1.0e-14_wp*s_target) then
-        orbits(k) = orb
-        orbits(k)%de = des(k)
-        k = k + 1
-      end if
-      if (orb%iterations <= 4) then
-        ds = min(2*ds, 0.25_wp*s + 0.1_wp)
-      else if (orb%iterations > 8) then
-        ds = ds/2
-      end if
-      s = s_last + ds
+      if (ended .and. .not. orbits(k)%converged) orbits(k) = orbit_t(de=des(k))   ! past the end
     end do
-    if (k <= size(des)) then
-      ! the family ended before des(k): estimate the limit from the last periods
-      if (orb%min_eq_distance < 0.05_wp*model%length_scale() .and. end_reason /= END_PERIOD) &
-        end_reason = END_EQUILIBRIUM
-      if (end_reason == END_NOCONV .and. nhist == 3) end_reason = END_PERIOD
-      end_de = limit_estimate(hist_s, hist_t, nhist, s_last)
-      do while (k <= size(des))
-        orbits(k)%de = des(k)
-        orbits(k)%converged = .false.
-        k = k + 1
+  contains
+    subroutine path_orbit(p)   ! orbits(k) from p, else continued on p and kept
+      type(family_path_t), intent(inout) :: p
+      integer :: i
+      if (.not. allocated(p%des)) allocate (p%des(0), p%orbs(0), p%end_de(0), p%end_reason(0))
+      do i = 1, size(p%des)
+        if (p%des(i) == des(k)) then
+          orbits(k) = p%orbs(i)
+          if (.not. orbits(k)%converged) then
+            end_de = p%end_de(i)
+            end_reason = p%end_reason(i)
+          end if
+          return
+        end if
       end do
-    end if
+      call continue_to(model, eqs, isad, des(k), opts, p, orbits(k), end_de, end_reason)
+      orbits(k)%de = des(k)
+      call keep_orbit(p, des(k), orbits(k), end_de, end_reason)
+    end subroutine path_orbit
   end subroutine orbit_family
+
+  !> Append the orbit at de (and, when it did not converge, where the family ends) to p.
+  subroutine keep_orbit(p, de, orb, end_de, end_reason)
+    type(family_path_t), intent(inout) :: p
+    real(wp), intent(in) :: de, end_de
+    type(orbit_t), intent(in) :: orb
+    integer, intent(in) :: end_reason
+    type(orbit_t), allocatable :: orbs(:)
+    integer :: n
+    n = size(p%des)
+    allocate (orbs(n + 1))
+    orbs(1:n) = p%orbs
+    orbs(n + 1) = orb
+    call move_alloc(orbs, p%orbs)
+    p%des = [p%des, de]
+    p%end_de = [p%end_de, end_de]
+    p%end_reason = [p%end_reason, end_reason]
+  end subroutine keep_orbit
+
+  !> The continuation to de alone, from the state before the ladder's first step that would pass
+  !> de (for de < 1/4, from a start of its own: the first step is sqrt(de)). The ladder grows on p
+  !> as needed. orb%converged = .false. where the family ends first (end_de, end_reason).
+  subroutine continue_to(model, eqs, isad, de, opts, p, orb, end_de, end_reason)
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad
+    real(wp), intent(in) :: de
+    type(orbit_opts_t), intent(in) :: opts
+    type(family_path_t), intent(inout) :: p
+    type(orbit_t), intent(out) :: orb
+    real(wp), intent(out) :: end_de
+    integer, intent(out) :: end_reason
+    type(cont_state_t) :: c
+    type(cont_state_t), allocatable :: grown(:)
+    real(wp) :: s_target
+    integer :: j, n
+    logical :: hit
+    end_de = -1
+    end_reason = END_NONE
+    s_target = sqrt(de)
+    if (p%s_start == 0) p%s_start = start_step(model, eqs, isad)
+    if (s_target < p%s_start) then
+      c = cont_start(model, s_target)
+    else
+      if (.not. allocated(p%ladder)) then
+        allocate (p%ladder(1))
+        p%ladder(1) = cont_start(model, p%s_start)
+      end if
+      j = 1
+      do
+        if (j > size(p%ladder)) then   ! one more step of the ladder
+          n = size(p%ladder)
+          c = p%ladder(n)
+          call cont_step(model, eqs, isad, opts, c, huge(1.0_wp), orb, hit)
+          allocate (grown(n + 1))
+          grown(1:n) = p%ladder
+          grown(n + 1) = c
+          call move_alloc(grown, p%ladder)
+        end if
+        if (p%ladder(j)%ended .or. p%ladder(j)%s > s_target .or. &
+            abs(p%ladder(j)%s - s_target) <= 1.0e-14_wp*s_target) exit
+        j = j + 1
+      end do
+      c = p%ladder(j)
+    end if
+    do while (.not. c%ended)
+      call cont_step(model, eqs, isad, opts, c, s_target, orb, hit)
+      if (hit) return
+    end do
+    ! the family ended before de: estimate the limit from the last periods
+    if (c%last_min_eq < 0.05_wp*model%length_scale() .and. c%end_reason /= END_PERIOD) &
+      c%end_reason = END_EQUILIBRIUM
+    if (c%end_reason == END_NOCONV .and. c%nhist == 3) c%end_reason = END_PERIOD
+    end_de = limit_estimate(c%hist_s, c%hist_t, c%nhist, c%s_last)
+    end_reason = c%end_reason
+    orb = orbit_t(de=de)
+  end subroutine continue_to
+
+  !> The continuation's first step in s = sqrt(de): S_START, or less where the linear orbit's
+  !> amplitude there would exceed START_AMP of the distance from the saddle to the nearest other
+  !> equilibrium (the model's length scale if there is none): a family is continued from small
+  !> amplitudes in the model's own units (docs/orbits.md, "One family, each orbit once").
+  real(wp) function start_step(model, eqs, isad) result(s0)
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad
+    real(wp) :: x0(model%dim()), tau, dist, amp
+    integer :: k
+    dist = huge(1.0_wp)
+    do k = 1, size(eqs)
+      if (k /= isad) dist = min(dist, sqrt(sum((eqs(k)%q - eqs(isad)%q)**2)))
+    end do
+    if (dist == huge(1.0_wp)) dist = model%length_scale()
+    call linear_guess(model, eqs(isad), 1.0_wp, x0, tau)   ! the amplitude at de = 1 (s = 1)
+    amp = sqrt(sum((x0(1:size(eqs(isad)%q)) - eqs(isad)%q)**2))
+    s0 = S_START
+    if (amp > 0) s0 = min(S_START, START_AMP*dist/amp)
+  end function start_step
+
+  !> The continuation's state at its start: the first step to s0 = sqrt(de) from the saddle.
+  function cont_start(model, s0) result(c)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: s0
+    type(cont_state_t) :: c
+    c%s = s0
+    c%ds = s0
+    allocate (c%xa(model%dim()), c%xb(model%dim()))
+    c%xa = 0
+    c%xb = 0
+  end function cont_start
+
+  !> One attempt of the continuation from state c, at c%s or at s_target where c%s passes it:
+  !> predictor, corrector, and the step's acceptance and next size. hit: the attempt was
+  !> accepted at s_target (orb is the orbit there).
+  subroutine cont_step(model, eqs, isad, opts, c, s_target, orb, hit)
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad
+    type(orbit_opts_t), intent(in) :: opts
+    type(cont_state_t), intent(inout) :: c
+    real(wp), intent(in) :: s_target
+    type(orbit_t), intent(out) :: orb
+    logical, intent(out) :: hit
+    real(wp) :: s, tau, t_pred, t_po, x0(model%dim())
+    integer :: st
+    hit = .false.
+    s = c%s
+    if (s > s_target) s = s_target
+    ! predictor
+    if (c%have_prev) then
+      x0 = c%xb + (c%xb - c%xa)*(s - c%s_last)/(c%s_last - c%s_prev)
+      tau = c%tb + (c%tb - c%ta)*(s - c%s_last)/(c%s_last - c%s_prev)
+    else if (c%s_last > 0) then
+      x0 = c%xb + (c%xb - eqs(isad)%x)*(s - c%s_last)/c%s_last
+      tau = c%tb
+    else
+      call linear_guess(model, eqs(isad), s*s, x0, tau)
+    end if
+    t_pred = 2*tau
+    call solve_orbit(model, eqs(isad), s*s, x0, tau, opts, eqs, isad, orb, st)
+    t_po = 2*PI/eqs(isad)%omega
+    if (st == TUBES_OK .and. orb%period > opts%period_max*t_po) then
+      c%end_reason = END_PERIOD
+      st = TUBES_ENOCONV
+    end if
+    ! the corrector may converge to another family past the end: accept only an orbit close
+    ! to the prediction (period within 10 % of the predicted change + 1 % of T)
+    if (st == TUBES_OK .and. c%have_prev) then
+      if (abs(orb%period - t_pred) > 0.1_wp*abs(t_pred - c%tb*2) + 0.01_wp*c%tb*2) st = TUBES_ENOCONV
+    end if
+    c%last_min_eq = orb%min_eq_distance
+    if (st /= TUBES_OK) then
+      c%ds = c%ds/4
+      c%s = c%s_last + c%ds
+      if (c%ds < 1.0e-6_wp*max(c%s_last, 1.0e-3_wp)) then
+        if (c%end_reason == END_NONE) c%end_reason = END_NOCONV
+        c%ended = .true.
+      end if
+      return
+    end if
+    ! accepted
+    c%nhist = min(c%nhist + 1, 3)
+    c%hist_s = [c%hist_s(2:3), s]
+    c%hist_t = [c%hist_t(2:3), orb%period]
+    if (c%s_last > 0) c%have_prev = .true.
+    c%s_prev = c%s_last; c%xa = c%xb; c%ta = c%tb
+    c%s_last = s; c%xb = x0; c%tb = tau
+    hit = abs(s - s_target) <= 1.0e-14_wp*s_target
+    if (orb%iterations <= 4) then
+      c%ds = min(2*c%ds, 0.25_wp*s + 0.1_wp)
+    else if (orb%iterations > 8) then
+      c%ds = c%ds/2
+    end if
+    c%s = c%s_last + c%ds
+  end subroutine cont_step
   !> Limiting de of a family whose period grows like T = a - b ln(L - de): solve the three
   !> equations of the last three accepted points for L (bisection); falls back to the last de.
   pure real(wp) function limit_estimate(hs, ht, n, s_last) result(l)

@@ -10,7 +10,7 @@ module tubes_study
   use tubes_ball, only: ball_t
   use tubes_models, only: make_model, MAX_PARAMS, MAX_DOF
   use tubes_equilibria, only: equilibrium_t, find_equilibria
-  use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
+  use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
   use tubes_transport, only: gate_spec_t, monte_carlo, poincare_map
@@ -23,7 +23,7 @@ module tubes_study
   integer, parameter, public :: SECTION_RAY = 1     !! sec_kind: the ball's polar ray
   integer, parameter, public :: SECTION_PLANE = 2   !! sec_kind: the plane q_index = level
 
-  public :: setup_model, setup_section, orbit_at, saddle_gate, section_info, cut_at, check_at, maps_at, cut_outputs
+  public :: setup_model, setup_section, orbit_at, family_at, saddle_gate, section_info, cut_at, check_at, maps_at, cut_outputs
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -59,20 +59,21 @@ module tubes_study
     type(seed_store_t) :: store
   end type kept_seeds_t
 
-  !> A periodic orbit kept for later cuts (orbit_key).
-  type, extends(kept_for_t) :: kept_orbit_t
-    type(orbit_t) :: orb
-  end type kept_orbit_t
+  !> A family's path kept for later calls (family_key).
+  type, extends(kept_for_t) :: kept_path_t
+    type(family_path_t) :: path
+  end type kept_path_t
 
-  !> The tube seeds of a run's cuts, one store per set-up (model, saddle, orbit options, energy,
-  !> section, step-off, integration): cut_at with it looks up the seeds an earlier cut of the
-  !> set-up integrated (docs/tubes.md, "Seeds computed once"), and the Lyapunov orbit an earlier
-  !> cut at the energy continued (the same orbit bit for bit: it depends on none of the cut's own
-  !> options). Owned by the caller (the program's run: include/tubes.h tubes_seed_stores_new), for
-  !> one model and one caller at a time.
+  !> A run's kept results. The tube seeds of its cuts, one store per set-up (model, saddle, orbit
+  !> options, energy, section, step-off, integration): cut_at with it looks up the seeds an
+  !> earlier cut of the set-up integrated (docs/tubes.md, "Seeds computed once"). The path of
+  !> each orbit family (model, saddle, orbit options): the family is continued once in a run and
+  !> each of its orbits found once, for the orbits scene and every cut (docs/orbits.md, "One
+  !> family, each orbit once"). Owned by the caller (the program's run: include/tubes.h
+  !> tubes_seed_stores_new), for one caller at a time.
   type, public :: seed_stores_t
     type(kept_seeds_t), allocatable :: kept(:)
-    type(kept_orbit_t), allocatable :: orbits(:)
+    type(kept_path_t), allocatable :: paths(:)
   end type seed_stores_t
 
 contains
@@ -102,17 +103,20 @@ contains
     end do
   end function kept_at
 
-  !> What the Lyapunov orbit at de depends on, bit for bit (the strings apart).
-  function orbit_key(st, de) result(key)
+  !> What a family's orbits depend on besides their energies, bit for bit (the strings apart):
+  !> the model's numbers, the search box and the orbit options (all but local: the ensemble
+  !> layer gives the same bits on any ranks).
+  function family_key(st, o) result(key)
     type(study_t), intent(in) :: st
-    real(wp), intent(in) :: de
+    type(orbit_opts_t), intent(in) :: o
     integer(i8) :: key(NKEY)
-    real(wp) :: v(size(st%params) + size(st%lo) + size(st%hi) + 11)
-    v = [st%params, st%lo, st%hi, real([st%n_grid, st%n_segments], wp), st%orb_tol, st%orb_rtol, st%orb_atol, de, &
-         real([st%integ%method, st%integ%opts%solver, st%integ%opts%max_iter], wp), st%integ%h, st%integ%opts%omega_bind]
+    real(wp) :: v(size(st%params) + size(st%lo) + size(st%hi) + 14)
+    v = [st%params, st%lo, st%hi, real([st%n_grid, o%n_segments, o%max_iter, o%n_samples, o%family], wp), o%tol, &
+         o%rtol, o%atol, o%period_max, real([o%integ%method, o%integ%opts%solver, o%integ%opts%max_iter], wp), &
+         o%integ%h, o%integ%opts%omega_bind]
     key = 0
     key(1:size(v)) = transfer(v, key, size(v))
-  end function orbit_key
+  end function family_key
 
   !> The model, its equilibria in the box and the rank-1 saddle named `saddle` (with
   !> degenerate_ok, also a degenerate saddle: the sampled flux takes one).
@@ -205,27 +209,55 @@ contains
     end select
   end subroutine setup_section
 
-  !> The Lyapunov orbit at excess energy de by continuation (options as &orbits).
-  subroutine orbit_at(ball, eqs, isad, de, n_segments, tol, rtol, atol, orb, stat, local, integ)
-    class(hamiltonian_t), intent(in) :: ball
-    logical, intent(in), optional :: local    !! on this MPI rank alone (default: all ranks)
-    type(integ_choice_t), intent(in), optional :: integ   !! the integrator (default DOP853)
+  !> The orbits of the saddle's family at des (orbit_family), on the run's path of this family
+  !> (model, saddle and opts) when stores are given: a family is continued once in a run, and
+  !> each orbit found once (docs/orbits.md, "One family, each orbit once").
+  subroutine family_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores)
+    type(study_t), intent(in) :: st
+    class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: eqs(:)
-    integer, intent(in) :: isad, n_segments
-    real(wp), intent(in) :: de, tol, rtol, atol
+    integer, intent(in) :: isad
+    real(wp), intent(in) :: des(:)
+    type(orbit_opts_t), intent(in) :: opts
+    type(orbit_t), intent(out) :: orbs(size(des))
+    real(wp), intent(out) :: end_de
+    integer, intent(out) :: end_reason, stat
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
+    type(kept_path_t) :: entry
+    integer(i8) :: key(NKEY)
+    integer :: i
+    if (.not. present(stores)) then
+      call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat)
+      return
+    end if
+    key = family_key(st, opts)
+    if (.not. allocated(stores%paths)) allocate (stores%paths(0))
+    i = kept_at(stores%paths, st, key)
+    if (i == 0) then
+      entry%system = st%system
+      entry%saddle = st%saddle
+      entry%key = key
+      stores%paths = [stores%paths, entry]
+      i = size(stores%paths)
+    end if
+    call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores%paths(i)%path)
+  end subroutine family_at
+
+  !> The Lyapunov orbit at excess energy de (the options of st; local: on this MPI rank alone).
+  subroutine orbit_at(st, model, eqs, isad, de, local, orb, stat, stores)
+    type(study_t), intent(in) :: st
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad
+    real(wp), intent(in) :: de
+    logical, intent(in) :: local
     type(orbit_t), intent(out) :: orb
     integer, intent(out) :: stat
-    type(orbit_opts_t) :: opts
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
     type(orbit_t) :: orbs(1)
     real(wp) :: end_de
     integer :: reason
-    opts%n_segments = n_segments
-    opts%tol = tol
-    opts%rtol = rtol
-    opts%atol = atol
-    if (present(local)) opts%local = local
-    if (present(integ)) opts%integ = integ
-    call orbit_family(ball, eqs, isad, [de], opts, orbs, end_de, reason, stat)
+    call family_at(st, model, eqs, isad, [de], study_orbit_opts(st, local), orbs, end_de, reason, stat, stores)
     if (stat /= TUBES_OK) return
     orb = orbs(1)
     if (.not. orb%converged) then
@@ -233,6 +265,19 @@ contains
       if (end_de > 0 .and. de >= end_de*(1 - 1.0e-6_wp)) stat = TUBES_EPASTEND
     end if
   end subroutine orbit_at
+
+  !> The orbit options of a study's cuts (local: on this MPI rank alone).
+  pure function study_orbit_opts(st, local) result(opts)
+    type(study_t), intent(in) :: st
+    logical, intent(in) :: local
+    type(orbit_opts_t) :: opts
+    opts%n_segments = st%n_segments
+    opts%tol = st%orb_tol
+    opts%rtol = st%orb_rtol
+    opts%atol = st%orb_atol
+    opts%local = local
+    opts%integ = st%integ
+  end function study_orbit_opts
 
   !> The transit gate of saddle eqs(isad) seen from q_ref (the section's side): the
   !> configuration hyperplane dist past the saddle along its reaction coordinate, away from q_ref.
@@ -295,12 +340,7 @@ contains
     call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
                        sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat)
     if (stat /= TUBES_OK) return
-    if (present(stores)) then
-      call orbit_kept(stores%orbits)
-    else
-      call orbit_at(model, eqs, isad, de, st%n_segments, st%orb_tol, st%orb_rtol, st%orb_atol, orb, stat, &
-                    opts%local, st%integ)
-    end if
+    call orbit_at(st, model, eqs, isad, de, opts%local, orb, stat, stores)
     if (stat /= TUBES_OK) return
     o = opts
     o%integ = st%integ
@@ -316,28 +356,6 @@ contains
       if (any(cut%r(1:cut%n) < psec%smin - tol_s .or. cut%r(1:cut%n) > psec%smax + tol_s)) stat = TUBES_EOUTSIDE
     end if
   contains
-    subroutine orbit_kept(kept)   ! the orbit an earlier cut continued, else continued and kept
-      type(kept_orbit_t), allocatable, intent(inout) :: kept(:)
-      type(kept_orbit_t) :: entry
-      integer(i8) :: key(NKEY)
-      integer :: i
-      key = orbit_key(st, de)
-      if (.not. allocated(kept)) allocate (kept(0))
-      i = kept_at(kept, st, key)
-      if (i > 0) then
-        orb = kept(i)%orb
-        stat = TUBES_OK
-        return
-      end if
-      call orbit_at(model, eqs, isad, de, st%n_segments, st%orb_tol, st%orb_rtol, st%orb_atol, orb, stat, &
-                    opts%local, st%integ)
-      if (stat /= TUBES_OK) return
-      entry%system = st%system     ! (a structure constructor inside the array constructor leaks
-      entry%saddle = st%saddle     ! the orbit's arrays with gfortran 12: LeakSanitizer)
-      entry%key = key
-      entry%orb = orb
-      kept = [kept, entry]
-    end subroutine orbit_kept
     subroutine cut_kept(kept)     ! the cut with the store of its set-up
       type(kept_seeds_t), allocatable, intent(inout) :: kept(:)
       integer(i8) :: key(NKEY)

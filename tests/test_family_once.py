@@ -1,0 +1,53 @@
+"""One family, each orbit once (src/orbits/tubes_orbits.f90 orbit_family; docs/orbits.md).
+
+An orbit is the continuation to its own energy alone, bit for bit, whatever else a call asks for:
+so the orbits scene and every cut of a run share one continuation of the family and the same
+orbits. Checked against single-energy calls (a second call path: no stored continuation) and
+between the scenes of one run."""
+import h5py
+import numpy as np
+
+import tubes
+from conftest import run_tubes
+
+KEYS = ("period", "action", "mu_unstable", "residual", "closure", "iterations")
+
+
+def _alone(model, des, **kw):
+    """The family at each energy by a call of its own."""
+    rows = [model.orbit_family(dE=[d], **kw) for d in des]
+    return {k: np.array([r[k][0] for r in rows]) for k in KEYS}
+
+
+def test_an_orbit_does_not_depend_on_the_other_energies_asked_for():
+    m = tubes.Model()
+    des = [0.1, 1, 50, 300, 760]   # below and above the first step, up to the family's end
+    fam = m.orbit_family(dE=des)
+    one = _alone(m, des)
+    for k in KEYS:
+        assert np.array_equal(np.asarray(fam[k]), one[k]), k
+    # and in other units: the restricted three-body problem's L1 (energies ~1e-3; the first
+    # step is scaled to the model, not 0.25 (cm/s)^2)
+    cr = tubes.Model(system="cr3bp")
+    kw = {"saddle_near": (0.84, 0.0), "equilibria": {"box": 1.5}}
+    des = [1e-5, 1e-3, 2e-3]
+    fam = cr.orbit_family(dE=des, **kw)
+    one = _alone(cr, des, **kw)
+    for k in KEYS:
+        assert np.array_equal(np.asarray(fam[k]), one[k]), k
+    assert np.all(np.asarray(fam["converged"]))
+
+
+def test_the_orbits_scene_and_the_cuts_take_the_same_orbits(tmp_path):
+    """A run's orbits scene, tube cuts and transition cuts at one energy: the same orbit (its
+    action bit for bit), whichever scene continued the family first."""
+    for scenes in ("'orbits', 'tubes', 'transition'", "'transition', 'tubes', 'orbits'"):
+        (tmp_path / "s.nml").write_text(
+            f"&run scenes = {scenes} /\n&orbits de = 10, 100, 300 /\n"
+            "&tubes de = 100, area_tol = 1e-8 /\n&transition de = 10, 100, 300, area_tol = 1e-6 /\n")
+        r = run_tubes(["s.nml", "-o", "s.h5"], tmp_path, timeout=600)
+        assert r.returncode == 0, r.stderr
+        with h5py.File(tmp_path / "s.h5", "r") as f:
+            assert np.array_equal(f["orbits/dE"][:], f["transition/dE"][:])
+            assert np.array_equal(f["orbits/action"][:], f["transition/action"][:])
+            assert np.array_equal(f["orbits/action"][:], _alone(tubes.Model(), [10, 100, 300])["action"])
