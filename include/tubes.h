@@ -202,7 +202,8 @@ int tubes_run_trajectory(const char system[TUBES_LSYSTEM], const double params[T
  * bound, 3 correction fails. Orbits past the end have converged = 0. Each orbit is the
  * continuation to its own energy alone, whatever else des holds; with stores (or NULL), a run's
  * later calls of the same family take the continuation and the orbits found by earlier ones (and
- * by tubes_tube_cut's: docs/orbits.md, "One family, each orbit once"). */
+ * by tubes_tube_cut's: docs/orbits.md, "One family, each orbit once"). local = 1: computed on
+ * this MPI rank alone (a caller that has dealt out its work), else by all ranks together. */
 int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                        const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                        const char saddle[8], int nde,
@@ -212,7 +213,8 @@ int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUB
                        double state0[], double mu_u[], double mu_s[], double mu_triv[],
                        double stab[], double residual[], double closure[], int iterations[],
                        int converged[], double mindist[], double monodromy[], double ts[],
-                       double xs[], double history[], double *end_de, int *end_reason, void *stores);
+                       double xs[], double history[], double *end_de, int *end_reason, int local,
+                       void *stores);
 
 /* Sections of the tube-dynamics calls (docs/tubes.md, "Sections"): sec_kind 1 = the rolling
  * ball's ray theta = level [rad], dir = sign of p_theta, coordinates (r, p_r); sec_kind 2 = the

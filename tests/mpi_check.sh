@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The MPI flavour's checks (make check runs them through tests/run_all.sh when build/mpi/bin/tubes
-# exists). usage: tests/mpi_check.sh identical|fault|badinput|badoutput
+# exists). usage: tests/mpi_check.sh identical|fault|badinput|badoutput|pastend|flux3|formula|taylor
 #   identical  the serial ./tubes (1 thread) and the MPI build with 1 rank x 2 threads, 2 ranks x
 #              1 thread and 2 ranks x 2 threads write the same file, bit for bit
 #              (python -m tubes.h5compare: every dataset and attribute but the provenance ones)
@@ -8,6 +8,8 @@
 #              diagnostics, the run ends (exit 2) without hanging, and the file records it
 #   badinput   a bad namelist: one message (not one per rank), exit 1, no file
 #   badoutput  an output file that cannot be created: exit 3 on every rank, no hang
+#   pastend    a transition energy past the family's end, dealt to rank 1, with multiple shooting:
+#              rank 1 says where the family ends (the serial run's message), exit 4, no hang
 #   flux3      the 3-DOF flux scene (flux samples, section points, tube seeds shared out): 2 ranks
 #              x 2 threads write the serial run's file, bit for bit
 #   formula    a model written as a formula, new to an empty cache: 2 ranks build it at once and
@@ -124,6 +126,18 @@ badinput)
   check $? "bad input: one message naming the file (found $n)"
   [ ! -e "$work/x.h5" ]
   check $? "bad input: no output file"
+  ;;
+pastend)
+  # the message continues the family on the rank that was dealt the energy, alone: before, that
+  # rank waited for the others in the multiple-shooting corrector (a hang)
+  printf "&run scenes = 'transition', output = 'p.h5' /\n&orbits saddle = 'S12', method = 'multiple', n_segments = 4 /\n&transition de = 100, 790, area_tol = 1e-6 /\n" \
+    >"$work/past.nml"
+  (cd "$work" && OMP_NUM_THREADS=1 timeout 120 "${launch[@]}" -np 2 "$bin" past.nml >log 2>err)
+  rc=$?
+  [ "$rc" -eq 4 ]
+  check $? "an energy past the family's end on rank 1: exit 4 (got $rc; 124 = hung)"
+  grep -q "dE = 790 is past the end of the S12 family, which ends at dE ~ 777.06" "$work/err"
+  check $? "where the family ends is reported"
   ;;
 badoutput)
   (cd "$work" && OMP_NUM_THREADS=1 timeout 60 "${launch[@]}" -np 2 "$bin" all.nml -o "$work/no/such/dir/x.h5" \

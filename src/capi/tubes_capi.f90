@@ -341,7 +341,7 @@ contains
   integer(c_int) function c_orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, &
       n_segments, family, tol, rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, &
       energy, period, action, state0, mu_u, mu_s, mu_triv, stab, residual, closure, iterations, &
-      converged, mindist, monodromy, ts, xs, history, end_de, end_reason, stores) result(stat) &
+      converged, mindist, monodromy, ts, xs, history, end_de, end_reason, local, stores) result(stat) &
       bind(C, name='tubes_orbit_family')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
@@ -354,6 +354,7 @@ contains
       closure(nde), mindist(nde), monodromy(4*MAX_DOF*MAX_DOF, nde), ts(nsamp, nde), &
       xs(2*MAX_DOF, nsamp, nde), history(max_iter, nde), end_de
     integer(c_int), intent(out) :: iterations(nde), converged(nde), end_reason
+    integer(c_int), value :: local        !! 1: on this MPI rank alone
     type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
@@ -383,6 +384,7 @@ contains
     opts%n_samples = nsamp
     opts%family = family
     opts%integ = integ_of(method, h, omega_bind, solver, int_max_iter)
+    opts%local = local /= 0
     allocate (orbs(nde))
     call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
     if (c_associated(stores)) then

@@ -555,7 +555,7 @@ int scene_orbits(tubes_run_t *run) {
           c->orb_de[n - 1], nseg > 1 ? "multiple" : "single");
   int st = tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, c->orb_de, nseg, c->orb_family, c->orb_tol, c->orb_rtol,
                               c->orb_atol, mi, ns, INTEGRATOR(c), e, per, act, s0, mu, ms, mt, stab, res, clo, it, conv, md,
-                              mono, ts, xs, hist, &end_de, &reason, run->seeds);
+                              mono, ts, xs, hist, &end_de, &reason, 0, run->seeds);
   if (st < 0) {
     char m[128];
     status_text(st, m, sizeof m);
@@ -731,9 +731,10 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
   return e ? EXIT_IO : 0;
 }
 
-/* The end of the saddle's orbit family, for a cut asked past it: the family is continued again
- * (on the failure path only) to say where it ends and why, as the orbits scene does. */
-static void past_end_message(tubes_run_t *run, double de, char *buf, size_t len) {
+/* The end of the saddle's orbit family, for a cut asked past it: where it ends and why, as the
+ * orbits scene says (the run's stores hold the continuation the cut made). local = 1: the cut
+ * was this rank's alone (without it, multiple shooting on one rank waited for the others). */
+static void past_end_message(tubes_run_t *run, double de, char *buf, size_t len, int local) {
   const tubes_config_t *c = run->cfg;
   int mi = c->orb_max_iter, ns = c->orb_n_samples, conv = 0, it = 0, reason = 0;
   double e, per, act, s0[2 * MD], mu, ms, mt[4], stab, res, clo, md, mono[4 * MD * MD], end_de = -1,
@@ -742,7 +743,7 @@ static void past_end_message(tubes_run_t *run, double de, char *buf, size_t len)
   if (hist && ts && xs)
     tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, 1, &de, orb_nseg(c), 1,
                        c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c), &e, &per, &act, s0, &mu, &ms, mt,
-                       &stab, &res, &clo, &it, &conv, &md, mono, ts, xs, hist, &end_de, &reason, run->seeds);
+                       &stab, &res, &clo, &it, &conv, &md, mono, ts, xs, hist, &end_de, &reason, local, run->seeds);
   free(hist); free(ts); free(xs);
   if (end_de > 0)
     snprintf(buf, len, "tubes: dE = %g is past the end of the %s family, which ends at dE ~ %.8g (%s): no orbit, "
@@ -772,7 +773,7 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
   if (status) *status = rc ? TUBES_EINPUT : st;
   if (st == TUBES_EPASTEND) {
     char buf[512];
-    past_end_message(run, de, buf, sizeof buf);
+    past_end_message(run, de, buf, sizeof buf, local);
     if (err) snprintf(err, errlen, "%s", buf);
     else fprintf(stderr, "%s\n", buf);
     rc = EXIT_PARTIAL;
@@ -1012,7 +1013,7 @@ int scene_montecarlo(tubes_run_t *run) {
     char m[512];
     status_text(st, m, sizeof m);
     if (st == TUBES_EPASTEND) {
-      past_end_message(run, de, m, sizeof m);
+      past_end_message(run, de, m, sizeof m, 0);
       fprintf(stderr, "%s\n", m);
     } else
       fprintf(stderr, "tubes: montecarlo: failed: %s (status %d)\n", m, st);
