@@ -1,8 +1,9 @@
 !> One study's set-up, shared by the C API (src/capi/tubes_capi.f90) and the f2py facade
 !> (python/tubes_f2py.f90): the model by name, its equilibria in the search box and the chosen
 !> rank-1 saddle; the section of the tube-dynamics calls and the saddle's transit gate; the
-!> Lyapunov orbit at one energy. (The start of the workflow layer: each call still computes its
-!> pieces afresh.)
+!> Lyapunov orbits. Given a run's stores (seed_stores_t), its calls take what earlier calls
+!> computed: each orbit family's continuation and orbits, and each cut set-up's tube seeds. (Each
+!> call still redoes the equilibrium search and the section.)
 module tubes_study
   use tubes_kinds, only: wp, i8
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND
