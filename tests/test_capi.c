@@ -32,7 +32,8 @@ int main(void) {
     check("rolling_ball: alpha first, the paper's 0.07", !strcmp(pn, "alpha") && model[0] == 0.07, model[0], 0.07);
     check("rolling_ball: default saddle S12", !strcmp(sad, "S12"), 0, 0);
     double junk[TUBES_MAXPARAM];
-    st = tubes_model_info("no_such_system", &ndof, &np, pn, junk, pu, pd, sum, lu, box, boxc, sad, near, sk, &si,
+    char unknown[TUBES_LSYSTEM] = "no_such_system";   /* the API reads TUBES_LSYSTEM bytes */
+    st = tubes_model_info(unknown, &ndof, &np, pn, junk, pu, pd, sum, lu, box, boxc, sad, near, sk, &si,
                           &sv, &sd, &sa, &gate, surf);
     check("unknown system refused", st == TUBES_EINPUT, st, TUBES_EINPUT);
     char nm[TUBES_LSYSTEM];

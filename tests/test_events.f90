@@ -4,25 +4,11 @@
 !> tilted plane H = a x for the rolling ball (p = (7/5) M v with M /= I, quadratic motion).
 module test_events_models
   use tubes_kinds, only: wp
-  use tubes_test_models, only: oscillator_t, rotate
-  use tubes_field, only: vector_field_t
+  use tubes_test_models, only: oscillator_t, rotate, fall_field, iso_field
   use tubes_surface, only: surface_t
   implicit none
   private
-  public :: oscillator_t, fall_t, iso_t, tilt_t, rotate
-
-  !> x' = v, v' = -1.
-  type, extends(oscillator_t) :: fall_t
-  contains
-    procedure :: eval => fall_eval
-  end type fall_t
-
-  !> H = (px^2 + py^2)/2 + (x^2 + y^2)/2: q(t) = q0 cos t + p0 sin t.
-  type, extends(vector_field_t) :: iso_t
-  contains
-    procedure :: dim => iso_dim
-    procedure :: eval => iso_eval
-  end type iso_t
+  public :: oscillator_t, fall_field, iso_field, tilt_t, rotate
 
   !> The plane z = a x: gradient (a, 0), no curvature.
   type, extends(surface_t) :: tilt_t
@@ -34,31 +20,6 @@ module test_events_models
   end type tilt_t
 
 contains
-
-  pure subroutine fall_eval(self, t, x, dxdt, stat)
-    class(fall_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    dxdt(1) = x(2)
-    dxdt(2) = -1
-    stat = 0
-  end subroutine fall_eval
-
-  pure integer function iso_dim(self)
-    class(iso_t), intent(in) :: self
-    iso_dim = 4
-  end function iso_dim
-
-  pure subroutine iso_eval(self, t, x, dxdt, stat)
-    class(iso_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    dxdt(1:2) = x(3:4)
-    dxdt(3:4) = -x(1:2)
-    stat = 0
-  end subroutine iso_eval
 
   pure function tilt_height(self, x, y) result(h)
     class(tilt_t), intent(in) :: self
@@ -95,7 +56,7 @@ program test_events
   use tubes_section_events, only: theta_line_t, polar_canonical, u1_section, x_line, y_line, &
                             U1_MINUS, U1_PLUS
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
-  use test_events_models, only: oscillator_t, fall_t, iso_t, tilt_t, rotate
+  use test_events_models, only: oscillator_t, fall_field, iso_field, tilt_t, rotate
   implicit none
 
   real(wp), parameter :: EPS = epsilon(1.0_wp)
@@ -199,7 +160,7 @@ program test_events
   t1 = 0.5_wp - sqrt(0.05_wp)
   t2 = 0.5_wp + sqrt(0.05_wp)
   call log%clear()
-  call ig%init(fall_t(), t0=0.0_wp)
+  call ig%init(fall_field(), t0=0.0_wp)
   ig%h = 1
   x = [0.0_wp, 0.5_wp]
   call propagate(ig, x, 1.0_wp, stat, event=plane_t(k=1, c=0.1_wp, terminal=.false.), crossings=log)
@@ -213,14 +174,14 @@ program test_events
   end if
   ! with the step ends only (nsub = 0) g < 0 at both ends: neither is seen
   call log%clear()
-  call ig%init(fall_t(), t0=0.0_wp)
+  call ig%init(fall_field(), t0=0.0_wp)
   ig%h = 1
   x = [0.0_wp, 0.5_wp]
   call propagate(ig, x, 1.0_wp, stat, event=plane_t(k=1, c=0.1_wp, terminal=.false., nsub=0), &
                  crossings=log)
   call check_eq('two in one step (fall), nsub = 0: none seen (ends only)', log%n, 0)
   ! terminal: the earlier one stops the call, the restart finds the later one
-  call ig%init(fall_t(), t0=0.0_wp)
+  call ig%init(fall_field(), t0=0.0_wp)
   ig%h = 1
   x = [0.0_wp, 0.5_wp]
   call propagate(ig, x, 1.0_wp, stat, event=plane_t(k=1, c=0.1_wp))
@@ -360,7 +321,7 @@ program test_events
   call run_iso([1.0_wp, 0.0_wp, -0.3_wp, -0.8_wp], u1_section(U1_MINUS, terminal=.false.))
   call check_eq('U1^- with p_theta < 0: none', log%n, 0)
   ! terminal U1^-: each call stops at the next crossing of the ray
-  call ig%init(iso_t(), t0=0.0_wp)
+  call ig%init(iso_field(), t0=0.0_wp)
   ig%h = H_FIX
   z = [1.0_wp, 0.0_wp, 0.3_wp, 0.8_wp]
   ok = .true.
@@ -545,7 +506,7 @@ contains
     real(wp), intent(in) :: z0(4)
     type(theta_line_t), intent(in) :: ev
     call log%clear()
-    call ig%init(iso_t(), t0=0.0_wp)
+    call ig%init(iso_field(), t0=0.0_wp)
     ig%h = H_FIX
     z = z0
     call propagate(ig, z, 60.0_wp, stat, event=ev, crossings=log)

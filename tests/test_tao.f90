@@ -1,35 +1,18 @@
 !> Test models for test_tao: the harmonic oscillator H = (q^2 + p^2)/2, its failing variants,
-!> a one-dimensional field (odd dimension: not canonical), the Hamiltonian vector field of
+!> a one-dimensional field (odd dimension: not canonical; tubes_test_models), the Hamiltonian vector field of
 !> omega H_C = omega (|q - x|^2 + |p - y|^2)/2 on (q, p, x, y) written from its gradient
 !> (an independent reference for phi_C), and an observer for the dense output.
 module test_tao_models
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
-  use tubes_test_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate
-  use tubes_field, only: vector_field_t
+  use tubes_test_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, line_field, &
+                               affine_field_t
   use tubes_integrator, only: integrator_t, observer_t
   use tubes_tao, only: tao_t
   implicit none
   private
-  public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, line_t, coupling_t, &
+  public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, line_field, coupling_field, &
             dense_probe_t, rotate
-
-  !> x' = 1 in one dimension (not a canonical (q, p) state).
-  type, extends(vector_field_t) :: line_t
-  contains
-    procedure :: dim => line_dim
-    procedure :: eval => line_eval
-  end type line_t
-
-  !> Hamilton's equations of omega H_C on z = (q, p, x, y), m = 2 (dimension 8):
-  !> dq/dt = dHC/dp = omega (p - y), dp/dt = -dHC/dq = -omega (q - x),
-  !> dx/dt = dHC/dy = -omega (p - y), dy/dt = -dHC/dx = omega (q - x).
-  type, extends(vector_field_t) :: coupling_t
-    real(wp) :: omega = 1   !! binding constant [1/s]
-  contains
-    procedure :: dim => coupling_dim
-    procedure :: eval => coupling_eval
-  end type coupling_t
 
   !> Samples interp at 7 interior points of each step, against the exact flow from the
   !> step's start z_old: the total local error, and the error of the Hermite cubic itself.
@@ -47,37 +30,22 @@ module test_tao_models
 
 contains
 
-  pure integer function line_dim(self)
-    class(line_t), intent(in) :: self
-    line_dim = 1
-  end function line_dim
-
-  pure subroutine line_eval(self, t, x, dxdt, stat)
-    class(line_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    dxdt(1) = 1
-    stat = 0
-  end subroutine line_eval
-
-  pure integer function coupling_dim(self)
-    class(coupling_t), intent(in) :: self
-    coupling_dim = 8
-  end function coupling_dim
-
-  pure subroutine coupling_eval(self, t, x, dxdt, stat)
-    class(coupling_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    ! x = (q1, q2, p1, p2, x1, x2, y1, y2)
-    dxdt(1:2) = self%omega*(x(3:4) - x(7:8))
-    dxdt(3:4) = -self%omega*(x(1:2) - x(5:6))
-    dxdt(5:6) = -self%omega*(x(3:4) - x(7:8))
-    dxdt(7:8) = self%omega*(x(1:2) - x(5:6))
-    stat = 0
-  end subroutine coupling_eval
+  !> Hamilton's equations of omega H_C on z = (q, p, x, y), m = 2 (dimension 8), as dz/dt = A z:
+  !> dq/dt = dHC/dp = omega (p - y), dp/dt = -dHC/dq = -omega (q - x),
+  !> dx/dt = dHC/dy = -omega (p - y), dy/dt = -dHC/dx = omega (q - x).
+  function coupling_field(omega) result(f)
+    real(wp), intent(in) :: omega   !! binding constant [1/s]
+    type(affine_field_t) :: f
+    integer :: i
+    allocate (f%a(8, 8), source=0.0_wp)
+    allocate (f%b(8), source=0.0_wp)
+    do i = 1, 2   ! z = (q1, q2, p1, p2, x1, x2, y1, y2)
+      f%a(i, [2 + i, 6 + i]) = [omega, -omega]          ! dq/dt = omega (p - y)
+      f%a(2 + i, [i, 4 + i]) = [-omega, omega]          ! dp/dt = -omega (q - x)
+      f%a(4 + i, [2 + i, 6 + i]) = [-omega, omega]      ! dx/dt = -omega (p - y)
+      f%a(6 + i, [i, 4 + i]) = [omega, -omega]          ! dy/dt = omega (q - x)
+    end do
+  end function coupling_field
 
   subroutine probe_on_step(self, ig, t_hi, stop_now)
     class(dense_probe_t), intent(inout) :: self
@@ -126,8 +94,8 @@ program test_tao
   use tubes_fourwell, only: fourwell_t
   use tubes_ball, only: ball_t, make_ball
   use tubes_check, only: check_close, check_true, check_eq, finish
-  use test_tao_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, line_t, &
-                             coupling_t, dense_probe_t, rotate
+  use test_tao_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, line_field, &
+                             coupling_field, dense_probe_t, rotate
   implicit none
 
   real(wp), parameter :: EPS = epsilon(1.0_wp)
@@ -198,11 +166,11 @@ program test_tao
   call check_true('nfev per step: 4, 10, 28 for tao2, tao4, tao6', all(nev == [4, 10, 28]))
 
   ! === 2. the coupling flow phi_C ============================================================
-  ! From Hamilton's equations of omega H_C (coupling_t): u = q - x, v = p - y obey
+  ! From Hamilton's equations of omega H_C (coupling_field): u = q - x, v = p - y obey
   ! u' = 2 omega v, v' = -2 omega u (a rotation at rate 2 omega), and q + x, p + y are
   ! constant. tao_flow_c must (a) keep q + x, p + y and H_C = (|u|^2 + |v|^2)/2 (a rotation
   ! and a halving: a few ulps of the values, tolerance 8 eps), (b) agree with DOP853 on
-  ! coupling_t at rtol = atol = 1e-13 (adaptive bound 4 N tol (1 + |w|), as in test_dop853),
+  ! coupling_field at rtol = atol = 1e-13 (adaptive bound 4 N tol (1 + |w|), as in test_dop853),
   ! (c) be a one-parameter group (phi^-d phi^d = id to 8 eps), (d) swap the state and its
   ! copy at 2 omega d = pi (u, v -> -u, -v).
   w = [1.3_wp, -0.4_wp, 2.1_wp, 0.7_wp, 0.9_wp, 0.2_wp, 1.6_wp, -1.1_wp]   ! (q, p, x, y)
@@ -215,7 +183,7 @@ program test_tao
   hc0 = (sum((w(1:2) - w(5:6))**2) + sum((w(3:4) - w(7:8))**2))/2
   call check_close('phi_C keeps H_C', &
                    (sum((wc(1:2) - wc(5:6))**2) + sum((wc(3:4) - wc(7:8))**2))/2, hc0, 8*EPS*hc0)
-  call ref%init(coupling_t(omega=3.0_wp), t0=0.0_wp)
+  call ref%init(coupling_field(3.0_wp), t0=0.0_wp)
   ref%rtol = 1.0e-13_wp
   ref%atol = 1.0e-13_wp
   wr = w
@@ -523,7 +491,7 @@ program test_tao
   call check_eq('order 3 then 2: status', stat, TUBES_OK)
   call check_close('order 3 then 2: the state moved (q(1) = cos 1 to tao2 error)', x(1), &
                    cos(1.0_wp), tol)
-  call start(line_t(), 0.0_wp, 2, OMEGA, 0.1_wp)
+  call start(line_field(), 0.0_wp, 2, OMEGA, 0.1_wp)
   xf(1:1) = 0
   call propagate(ig, xf(1:1), 1.0_wp, stat)
   call check_eq('odd dimension (not (q, p)): TUBES_EINPUT', stat, TUBES_EINPUT)

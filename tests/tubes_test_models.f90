@@ -14,7 +14,7 @@ module tubes_test_models
   implicit none
   private
   public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval, dense_probe_t, &
-            oscillator_fixed_step
+            oscillator_fixed_step, affine_field_t, line_field, fall_field, iso_field
 
   !> Samples interp at nsamp interior points of every accepted step (s = t_old + j h/(nsamp + 1))
   !> of an oscillator integration: the largest errors against the exact solution from (0, (1, 0))
@@ -41,6 +41,16 @@ module tubes_test_models
     procedure :: jacobian => osc_jacobian
     procedure :: jet_spec => osc_jet_spec
   end type oscillator_t
+
+  !> dx/dt = A x + b: the tests' linear fields (line_field, fall_field, iso_field here, and
+  !> test_tao's coupling). With entries 0 and +-1, matmul gives the components written out bit
+  !> for bit.
+  type, extends(vector_field_t) :: affine_field_t
+    real(wp), allocatable :: a(:, :), b(:)
+  contains
+    procedure :: dim => affine_dim
+    procedure :: eval => affine_eval
+  end type affine_field_t
 
   !> The oscillator, but x < 1/2 gives NaN and stat = -1 (fatal).
   type, extends(oscillator_t) :: nan_oscillator_t
@@ -70,6 +80,47 @@ contains
     dxdt(2) = -x(1)
     stat = 0
   end subroutine osc_eval
+
+  pure integer function affine_dim(self)
+    class(affine_field_t), intent(in) :: self
+    affine_dim = size(self%b)
+  end function affine_dim
+
+  pure subroutine affine_eval(self, t, x, dxdt, stat)
+    class(affine_field_t), intent(in) :: self
+    real(wp), intent(in) :: t, x(:)
+    real(wp), intent(out) :: dxdt(:)
+    integer, intent(out) :: stat
+    dxdt = matmul(self%a, x) + self%b
+    stat = 0
+  end subroutine affine_eval
+
+  !> x' = 1 in one dimension (not a canonical (q, p) state).
+  function line_field() result(f)
+    type(affine_field_t) :: f
+    allocate (f%a(1, 1), source=0.0_wp)
+    allocate (f%b(1), source=1.0_wp)
+  end function line_field
+
+  !> Free fall x' = v, v' = -1: its solution is a quadratic.
+  function fall_field() result(f)
+    type(affine_field_t) :: f
+    allocate (f%a(2, 2), source=0.0_wp)
+    f%a(1, 2) = 1
+    allocate (f%b(2), source=[0.0_wp, -1.0_wp])
+  end function fall_field
+
+  !> The 2-D isotropic oscillator H = (px^2 + py^2)/2 + (x^2 + y^2)/2 on (x, y, px, py):
+  !> q(t) = q0 cos t + p0 sin t.
+  function iso_field() result(f)
+    type(affine_field_t) :: f
+    allocate (f%a(4, 4), source=0.0_wp)
+    f%a(1, 3) = 1
+    f%a(2, 4) = 1
+    f%a(3, 1) = -1
+    f%a(4, 2) = -1
+    allocate (f%b(4), source=0.0_wp)
+  end function iso_field
 
   !> Its formula, H = (p^2 + q^2)/2 (the Taylor method's source).
   pure function osc_jet_spec(self) result(spec)

@@ -139,7 +139,7 @@ contains
         ext(n + k) = r(n - k)
       end do
     end select
-    call fft_forward(ext, spec)
+    call fft_real(ext, spec, forward=.true.)
     do k = 0, nn/2
       f = k/(nn*dt)
       gain = lowpass_gain(f, cutoff, rolloff)
@@ -147,51 +147,45 @@ contains
       dspec(k + 1) = spec(k + 1)*cmplx(0.0_wp, 2*PI*f, wp)
     end do
     if (mod(nn, 2) == 0) dspec(nn/2 + 1) = 0   ! the Nyquist mode has no odd-symmetric derivative
-    call fft_backward(spec, ext)
+    call fft_real(ext, spec, forward=.false.)
     xs = trend + ext(1:n)/nn
-    call fft_backward(dspec, ext)
+    call fft_real(ext, dspec, forward=.false.)
     v = dtrend + ext(1:n)/nn
     stat = TUBES_OK
   end subroutine diff_spectral
 
-  !> Unnormalised real-to-complex FFT (FFTW_ESTIMATE: the same plan, and so the same bits,
-  !> on every call). Planning is not thread-safe in FFTW: it is serialised.
-  subroutine fft_forward(x, y)
-    real(wp), intent(in) :: x(:)
-    complex(wp), intent(out) :: y(:)
+  !> Unnormalised FFTs of real data: forward, x into its half spectrum y (real-to-complex);
+  !> backward, the half spectrum y into x (complex-to-real, size(x) points). FFTW_ESTIMATE: the
+  !> same plan, and so the same bits, on every call. Planning is not thread-safe in FFTW: it is
+  !> serialised.
+  subroutine fft_real(x, y, forward)
+    real(wp), intent(inout) :: x(:)
+    complex(wp), intent(inout) :: y(:)
+    logical, intent(in) :: forward
     real(c_double), allocatable :: a(:)
     complex(c_double_complex), allocatable :: b(:)
     type(c_ptr) :: plan
     allocate (a(size(x)), b(size(y)))
     !$omp critical (tubes_fftw_planner)
-    plan = fftw_plan_dft_r2c_1d(int(size(x), c_int), a, b, FFTW_ESTIMATE)
+    if (forward) then
+      plan = fftw_plan_dft_r2c_1d(int(size(x), c_int), a, b, FFTW_ESTIMATE)
+    else
+      plan = fftw_plan_dft_c2r_1d(int(size(x), c_int), b, a, FFTW_ESTIMATE)
+    end if
     !$omp end critical (tubes_fftw_planner)
-    a = x
-    call fftw_execute_dft_r2c(plan, a, b)
-    y = b
+    if (forward) then
+      a = x
+      call fftw_execute_dft_r2c(plan, a, b)
+      y = b
+    else
+      b = y                                ! c2r overwrites its input: b is a copy
+      call fftw_execute_dft_c2r(plan, b, a)
+      x = a
+    end if
     !$omp critical (tubes_fftw_planner)
     call fftw_destroy_plan(plan)
     !$omp end critical (tubes_fftw_planner)
-  end subroutine fft_forward
-
-  !> Unnormalised complex-to-real inverse FFT of the half spectrum y into x (size(x) points).
-  subroutine fft_backward(y, x)
-    complex(wp), intent(in) :: y(:)
-    real(wp), intent(out) :: x(:)
-    real(c_double), allocatable :: a(:)
-    complex(c_double_complex), allocatable :: b(:)
-    type(c_ptr) :: plan
-    allocate (a(size(x)), b(size(y)))
-    !$omp critical (tubes_fftw_planner)
-    plan = fftw_plan_dft_c2r_1d(int(size(x), c_int), b, a, FFTW_ESTIMATE)
-    !$omp end critical (tubes_fftw_planner)
-    b = y                                  ! c2r overwrites its input: b is a copy
-    call fftw_execute_dft_c2r(plan, b, a)
-    x = a
-    !$omp critical (tubes_fftw_planner)
-    call fftw_destroy_plan(plan)
-    !$omp end critical (tubes_fftw_planner)
-  end subroutine fft_backward
+  end subroutine fft_real
 
   !> Savitzky-Golay weights: the least-squares polynomial of degree `order` through m equally
   !> spaced samples (unit spacing), evaluated at sample j (1..m): value = sum w0 x, derivative

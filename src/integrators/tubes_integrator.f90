@@ -113,6 +113,7 @@ module tubes_integrator
     procedure :: begin => grid_begin
     procedure :: trial => grid_trial
     procedure :: finish => grid_finish
+    procedure :: retry => grid_retry
   end type step_grid_t
 
   !> A propagate call between its steps (prop_begin, prop_after_step).
@@ -294,6 +295,23 @@ contains
     hmin = 16*epsilon(1.0_wp)*max(abs(t), abs(tmax) - abs(tmax - t), 1.0e-300_wp)
     if (abs(hs) < hmin .and. .not. last) stat = TUBES_ESTEP
   end subroutine grid_trial
+
+  !> After a trial step whose model evaluations ended with status fs: .false. to accept it
+  !> (fs = 0) or to stop (fs < 0: stat = TUBES_EMODEL); .true. to try again at h/4 off the grid
+  !> (fs > 0: the model asked for a smaller step), the rejection counted.
+  logical function grid_retry(g, fs, h, nrejected, stat) result(again)
+    class(step_grid_t), intent(inout) :: g
+    integer, intent(in) :: fs
+    real(wp), intent(inout) :: h
+    integer(i8), intent(inout) :: nrejected
+    integer, intent(inout) :: stat
+    again = fs > 0
+    if (fs < 0) stat = TUBES_EMODEL
+    if (.not. again) return
+    h = h/4
+    g%on = .false.
+    nrejected = nrejected + 1
+  end function grid_retry
 
   !> After the accepted step: advance on the grid (or drop it), the new t.
   function grid_finish(g, last, tmax, t_full) result(t_new)

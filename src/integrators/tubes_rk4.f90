@@ -111,15 +111,9 @@ contains
         if (fs == 0 .and. .not. (all(abs(xnew) <= huge(1.0_wp)) .and. &
                                  all(abs(fnew) <= huge(1.0_wp)))) fs = -1
       end if
-      if (fs < 0) then
-        stat = TUBES_EMODEL
-        return
-      end if
-      if (fs == 0) exit
-      h = h/4                   ! the model asks for a smaller step: off the grid
-      self%grid%on = .false.
-      self%nrejected = self%nrejected + 1
+      if (.not. self%grid%retry(fs, h, self%nrejected, stat)) exit   ! fs > 0: h/4, off the grid
     end do
+    if (stat /= TUBES_OK) return
     self%x_old = x
     self%f_old = self%f_cur
     self%x_new = xnew

@@ -25,7 +25,7 @@ module tubes_tao
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp, i8
   use tubes_integrator, only: integrator_t, step_grid_t
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP
   implicit none
   private
 
@@ -232,15 +232,9 @@ contains
         if (.not. (all(abs(q) <= huge(1.0_wp)) .and. all(abs(p) <= huge(1.0_wp)) .and. &
                    all(abs(xc) <= huge(1.0_wp)) .and. all(abs(yc) <= huge(1.0_wp)))) fs = -1
       end if
-      if (fs < 0) then
-        stat = TUBES_EMODEL
-        return
-      end if
-      if (fs == 0) exit
-      h = h/4                   ! the model asks for a smaller step: off the grid
-      self%grid%on = .false.
-      self%nrejected = self%nrejected + 1
+      if (.not. self%grid%retry(fs, h, self%nrejected, stat)) exit   ! fs > 0: h/4, off the grid
     end do
+    if (stat /= TUBES_OK) return
     self%z_old = x
     self%f_old_ready = self%f_new_ready
     if (self%f_new_ready) self%f_old = self%f_new

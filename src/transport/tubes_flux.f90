@@ -37,10 +37,16 @@ module tubes_flux
   integer, parameter :: MAXN = 3
   integer, parameter :: NSTAR = 64     !! points checked on the segment from the saddle to a sample
 
-  !> Stops an integration once it leaves the slab |(q - q_s) . n| <= dist; side = +1 or -1.
-  type, extends(observer_t) :: slab_t
+  !> An observer that stops an integration with a class for it (outcome_of).
+  type, abstract, extends(observer_t) :: classifier_t
+    integer :: outcome = 0   !! the class, 0 while none
+  end type classifier_t
+
+  !> Stops an integration once it leaves the slab |(q - q_s) . n| <= dist; outcome = the side,
+  !> +1 or -1.
+  type, extends(classifier_t) :: slab_t
     real(wp) :: origin(MAXN) = 0, normal(MAXN) = 0, dist = 0
-    integer :: n = 0, side = 0
+    integer :: n = 0
   contains
     procedure :: on_step => slab_on_step
   end type slab_t
@@ -48,9 +54,9 @@ module tubes_flux
   !> Integrates until the trajectory passes the saddle's slab on the far side (outcome 1, a
   !> transit) or crosses the section q_k = c again in its direction (outcome -1, a return):
   !> checked at NSUB points of every step on the dense output.
-  type, extends(observer_t) :: transit_t
+  type, extends(classifier_t) :: transit_t
     real(wp) :: qs(MAXN) = 0, ns(MAXN) = 0, gate = 0, c = 0, s_prev = 0, t_prev = 0
-    integer :: n = 0, k = 1, dir = 1, outcome = 0
+    integer :: n = 0, k = 1, dir = 1
   contains
     procedure :: on_step => transit_on_step
   end type transit_t
@@ -119,7 +125,7 @@ contains
     call ig%interp(t_hi, x)
     s = dot_product(x(1:self%n) - self%origin(1:self%n), self%normal(1:self%n))
     stop_now = abs(s) > self%dist
-    if (stop_now) self%side = merge(1, -1, s > 0)
+    if (stop_now) self%outcome = merge(1, -1, s > 0)
   end subroutine slab_on_step
 
   subroutine transit_on_step(self, ig, t_hi, stop_now)
@@ -150,49 +156,28 @@ contains
     self%t_prev = t_hi
   end subroutine transit_on_step
 
-  !> x0's forward trajectory to t_max, or until the observer stops it (its outcome is in obs).
-  subroutine follow(model, obs, x0, t_max, tol, integ, stat)
+  !> The class observer obs0 gives x0's trajectory to t_max (t_max < 0: its past), 0 if it gives
+  !> none by then: for slab_t the side by which it leaves the slab (+1, -1), for transit_t 1 (a
+  !> transit) or -1 (a return to the section).
+  subroutine outcome_of(model, obs0, x0, t_max, tol, integ, outcome, stat)
     class(hamiltonian_t), intent(in) :: model
-    class(observer_t), intent(inout) :: obs
+    class(classifier_t), intent(in) :: obs0
     real(wp), intent(in) :: x0(:), t_max, tol
     type(integ_choice_t), intent(in) :: integ
-    integer, intent(out) :: stat
+    integer, intent(out) :: outcome, stat
+    class(classifier_t), allocatable :: obs
     class(integrator_t), allocatable :: ig
     real(wp) :: x(size(x0))
+    outcome = 0
     call make_integrator(integ, ig, stat, f=model, rtol=tol, atol=tol)
     if (stat /= TUBES_OK) return
+    allocate (obs, source=obs0)
     x = x0
     call propagate(ig, x, t_max, stat, observer=obs)
     if (stat < 0) return
     stat = TUBES_OK
-  end subroutine follow
-
-  !> The outcome of x0's forward trajectory for the section (transit_t): 1, -1 or 0 (t_max).
-  subroutine transit_or_return(model, obs0, x0, t_max, tol, integ, outcome, stat)
-    class(hamiltonian_t), intent(in) :: model
-    type(transit_t), intent(in) :: obs0
-    real(wp), intent(in) :: x0(:), t_max, tol
-    type(integ_choice_t), intent(in) :: integ
-    integer, intent(out) :: outcome, stat
-    type(transit_t) :: obs
-    obs = obs0
-    call follow(model, obs, x0, t_max, tol, integ, stat)
-    outcome = merge(obs%outcome, 0, stat == TUBES_OK)
-  end subroutine transit_or_return
-
-  !> The side (+1, -1) by which x's trajectory leaves the slab, 0 if not within |t_max| (t_max < 0:
-  !> its past).
-  subroutine leave_side(model, slab, x0, t_max, tol, integ, side, stat)
-    class(hamiltonian_t), intent(in) :: model
-    type(slab_t), intent(in) :: slab
-    real(wp), intent(in) :: x0(:), t_max, tol
-    type(integ_choice_t), intent(in) :: integ
-    integer, intent(out) :: side, stat
-    type(slab_t) :: obs
-    obs = slab
-    call follow(model, obs, x0, t_max, tol, integ, stat)
-    side = merge(obs%side, 0, stat == TUBES_OK)
-  end subroutine leave_side
+    outcome = obs%outcome
+  end subroutine outcome_of
 
   !> H(q, p) = 1/2 (p - pc)^T A (p - pc) + V_eff(q) for a model quadratic in the momenta: A(q) =
   !> d2H/dp2, pc(q) = -A^-1 dH/dp(q, 0), V_eff = H(q, 0) - 1/2 pc^T A pc (natural models: their own
@@ -564,7 +549,7 @@ contains
     x(nd + 1:2*nd) = p
     if (section) then
       resx(:, i) = x
-      call transit_or_return(model, tobs, x, t_max, tol, integ, fw, sf)
+      call outcome_of(model, tobs, x, t_max, tol, integ, fw, sf)
       if (sf /= TUBES_OK) then
         st(i) = sf
         return
@@ -573,12 +558,12 @@ contains
       val(i) = w
       return
     end if
-    call leave_side(model, slab, x, t_max, tol, integ, fw, sf)
+    call outcome_of(model, slab, x, t_max, tol, integ, fw, sf)
     if (natural) then              ! the past of (q, p) is the future of (q, -p)
       x(nd + 1:2*nd) = -p
-      call leave_side(model, slab, x, t_max, tol, integ, bw, sb)
+      call outcome_of(model, slab, x, t_max, tol, integ, bw, sb)
     else                           ! followed backwards
-      call leave_side(model, slab, x, -t_max, tol, integ, bw, sb)
+      call outcome_of(model, slab, x, -t_max, tol, integ, bw, sb)
     end if
     if (sf /= TUBES_OK .or. sb /= TUBES_OK) then
       st(i) = merge(sf, sb, sf /= TUBES_OK)
