@@ -39,12 +39,14 @@ enum {
 enum { TUBES_NMODEL = 7, TUBES_LSYSTEM = 32, TUBES_MAXPARAM = 16, TUBES_LPARAM = 16,
        TUBES_MAXDOF = 3, TUBES_LUNITS = 16, TUBES_LDOC = 96, TUBES_LSUMMARY = 160 };
 
-/* A run's stores for tubes_tube_cut and tubes_orbit_family: a cut given one keeps its seeds there,
+/* A run's stores for tubes_tube_cut, tubes_orbit_family, tubes_find_equilibria,
+ * tubes_section_info, tubes_monte_carlo and tubes_poincare: a cut given one keeps its seeds there,
  * and a later cut of the same set-up (model, saddle, orbit options, energy, section, eps,
  * integration) looks up the seeds at the phases it shares with the earlier ones instead of
  * integrating them again (the same bits). Each orbit family (model, saddle, orbit options) is
- * continued once and each of its orbits found once, for every call given the stores. For one
- * caller at a time (the program's run); NULL: none. */
+ * continued once and each of its orbits found once, and each model's equilibria in a box found
+ * once, for every call given the stores. For one caller at a time (the program's run); NULL:
+ * none. */
 void *tubes_seed_stores_new(void);
 void tubes_seed_stores_free(void *stores);
 
@@ -157,12 +159,14 @@ int tubes_damping_rate(const char system[TUBES_LSYSTEM], const double params[TUB
  * eigenvalues of the linearised flow with positive real part), rank1 (1: saddle x centre^(N-1); 2: a degenerate saddle, one real pair and the rest centres or 0),
  * names (blocks of 8 chars). For rank-1 saddles: lambda [1/time], omega (blocks of
  * TUBES_MAXDOF - 1, ascending) and evec (blocks of 4 TUBES_MAXDOF^2; the first (2N)^2 hold the
- * 2N x 2N matrix of columns u, s, Re c_1, Im c_1, ..., column-major); zero for the others. */
+ * 2N x 2N matrix of columns u, s, Re c_1, Im c_1, ..., column-major); zero for the others.
+ * With stores (tubes_seed_stores_new, or NULL), a run's later calls for the same model, box and
+ * grid take the equilibria an earlier call found (the tube-dynamics calls below too). */
 int tubes_find_equilibria(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                           const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                           int nmax, int *n, int *ndof, double q[], double p[], double height[],
                           double energy[], double grad_norm[], int morse[], int rank1[],
-                          char names[], double lambda[], double omega[], double evec[]);
+                          char names[], double lambda[], double omega[], double evec[], void *stores);
 
 /* Progress callback: called every few thousand steps with the current time; return
  * non-zero to stop the integration (the result so far is returned with TUBES_OK). */
@@ -228,7 +232,7 @@ int tubes_section_info(const char system[TUBES_LSYSTEM], const double params[TUB
                        const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                        const char saddle[8], int sec_kind, int sec_index, double level,
                        int dir, double de, double *rmin, double *rmax, double *area,
-                       double *darea);
+                       double *darea, void *stores);
 
 /* The cut of the stable (kind -1) or unstable (kind +1) tube of the saddle's Lyapunov orbit at
  * excess energy de with the section (as tubes_section_info), refined until
@@ -262,7 +266,7 @@ int tubes_monte_carlo(const char system[TUBES_LSYSTEM], const double params[TUBE
                       const char saddle[8], double de, int sec_kind, int sec_index,
                       double level, int dir, int nsamp, int seed, double t_max, double gate,
                       int method, double h, double omega_bind, int solver, int max_iter, int ncut, const double cut_r[], const double cut_pr[], double r[],
-                      double pr[], int outcome[], int inside[]);
+                      double pr[], int outcome[], int inside[], void *stores);
 
 /* The flux of trajectories through the saddle's bottleneck at de (src/transport/tubes_flux.f90, natural
  * systems; docs/theory.md): sampled on the dividing surface with nsamp points from seed (flux,
@@ -343,7 +347,8 @@ int tubes_poincare(const char system[TUBES_LSYSTEM], const double params[TUBES_M
                    const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                    const char saddle[8], double de, int sec_kind, int sec_index,
                    double level, int dir, int n_seeds, int n_iter, double t_max, int method,
-                   double h, double omega_bind, int solver, int max_iter, double pts[]);
+                   double h, double omega_bind, int solver, int max_iter, double pts[],
+                   void *stores);
 
 /* Frames per track of the synthetic experiment: t = 0, 1/camera_rate, ... up to duration [s]
  * (both ends included); 0 if duration or camera_rate is not > 0 or their product > 1e8. */

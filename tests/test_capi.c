@@ -47,7 +47,22 @@ int main(void) {
       om[(MD - 1) * NMAX], ev[4 * MD * MD * NMAX];
   char names[8 * NMAX];
   int st = tubes_find_equilibria(sys, model, lo, hi, 41, NMAX, &n, &ndof, q, pp, h, e, gn, morse, rank1, names,
-                                 lam, om, ev);
+                                 lam, om, ev, NULL);
+  {   /* a run's stores: the first call finds and keeps them, the second takes them: the same bits */
+    void *stores = tubes_seed_stores_new();
+    int n2 = 0, nd2 = 0, m2[NMAX], r2[NMAX], same = 1;
+    double q2[MD * NMAX], p2[MD * NMAX], h2[NMAX], e2[NMAX], g2[NMAX], l2[NMAX], o2[(MD - 1) * NMAX],
+        v2[4 * MD * MD * NMAX];
+    char nm2[8 * NMAX];
+    for (int round = 0; round < 2; round++) {
+      int s2 = tubes_find_equilibria(sys, model, lo, hi, 41, NMAX, &n2, &nd2, q2, p2, h2, e2, g2, m2, r2, nm2, l2,
+                                     o2, v2, stores);
+      same = same && s2 == st && n2 == n && !memcmp(q2, q, sizeof(double) * MD * n) &&
+             !memcmp(e2, e, sizeof(double) * n) && !memcmp(v2, ev, sizeof(double) * 4 * MD * MD * n);
+    }
+    check("equilibria kept in a run's stores: the same bits twice", same, n2, n);
+    tubes_seed_stores_free(stores);
+  }
   for (int k = 0; k < n; k++) {
     x[k] = q[MD * k];
     y[k] = q[MD * k + 1];

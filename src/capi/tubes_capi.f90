@@ -13,7 +13,7 @@ module tubes_capi
   use tubes_models, only: NMODEL, MAX_PARAMS, MAX_DOF, LEN_SYSTEM, LEN_PARAM, NSYSTEMS, &
                           system_info_t, system_info, system_name, make_model, make_field, &
                           conservative_ball
-  use tubes_equilibria, only: equilibrium_t, find_equilibria
+  use tubes_equilibria, only: equilibrium_t
   use tubes_integrator, only: integrator_t, propagate
   use tubes_methods, only: new_integrator, method_opts_t, integ_choice_t
   use tubes_run, only: run_trajectory, section_spec_t
@@ -27,7 +27,8 @@ module tubes_capi
   use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
-                         check_at, maps_at, cut_outputs, seed_stores_t, family_at
+                         check_at, maps_at, cut_outputs, seed_stores_t, family_at, &
+                         equilibria_of
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long
   implicit none
@@ -265,7 +266,7 @@ contains
 
   !> Equilibria of the model in the box [lo, hi] (per coordinate, ndof of them).
   integer(c_int) function c_equilibria(system, params, lo, hi, n_grid, nmax, n, ndof, q, p, height, &
-      energy, grad_norm, morse, rank1, names, lambda, omega, evec) result(stat) &
+      energy, grad_norm, morse, rank1, names, lambda, omega, evec, stores) result(stat) &
       bind(C, name='tubes_find_equilibria')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
@@ -275,8 +276,10 @@ contains
       grad_norm(nmax), lambda(nmax), omega(MAX_DOF - 1, nmax), evec(4*MAX_DOF*MAX_DOF, nmax)
     integer(c_int), intent(out) :: morse(nmax), rank1(nmax)
     character(kind=c_char), intent(out) :: names(8, nmax)
+    type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
+    type(seed_stores_t), pointer :: kept
     integer :: k, nd
     n = 0; ndof = 0; q = 0; p = 0; height = 0; energy = 0; grad_norm = 0; lambda = 0; omega = 0
     evec = 0; morse = -1; rank1 = 0; names = c_null_char
@@ -284,7 +287,12 @@ contains
     if (stat /= TUBES_OK) return
     nd = model%ndof()
     ndof = nd
-    call find_equilibria(model, lo(1:nd), hi(1:nd), n_grid, eqs, stat)
+    if (c_associated(stores)) then
+      call c_f_pointer(stores, kept)
+      call equilibria_of(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, model, eqs, stat, kept)
+    else
+      call equilibria_of(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, model, eqs, stat)
+    end if
     if (stat /= TUBES_OK) return
     if (size(eqs) > nmax) then
       stat = TUBES_EINPUT
@@ -372,8 +380,15 @@ contains
       stat = TUBES_EINPUT
       return
     end if
-    call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
-                     model, eqs, isad, stat)
+    kept => null()
+    if (c_associated(stores)) call c_f_pointer(stores, kept)
+    if (associated(kept)) then
+      call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+                       model, eqs, isad, stat, stores=kept)
+    else
+      call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+                       model, eqs, isad, stat)
+    end if
     if (stat /= TUBES_OK) return
     n2 = model%dim()
     opts%n_segments = n_segments
@@ -387,8 +402,7 @@ contains
     opts%local = local /= 0
     allocate (orbs(nde))
     call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
-    if (c_associated(stores)) then
-      call c_f_pointer(stores, kept)
+    if (associated(kept)) then
       call family_at(st, model, eqs, isad, des, opts, orbs, ede, reason, stat, kept)
     else
       call family_at(st, model, eqs, isad, des, opts, orbs, ede, reason, stat)
@@ -455,18 +469,25 @@ contains
   !> The energy surface on the section at E = E_e + de: its interval [smin, smax], its area
   !> and dA/dE.
   integer(c_int) function c_section_info(system, params, lo, hi, n_grid, saddle, sec_kind, &
-      sec_index, level, dir, de, smin, smax, area, darea) result(stat) &
+      sec_index, level, dir, de, smin, smax, area, darea, stores) result(stat) &
       bind(C, name='tubes_section_info')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, sec_kind, sec_index, dir
     real(c_double), value :: level, de
     real(c_double), intent(out) :: smin, smax, area, darea
+    type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
     type(study_t) :: st
     type(section_choice_t) :: sec
     type(integ_choice_t) :: none
+    type(seed_stores_t), pointer :: kept
     call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, none, st, sec)
-    call section_info(st, sec, de, smin, smax, area, darea, stat)
+    if (c_associated(stores)) then
+      call c_f_pointer(stores, kept)
+      call section_info(st, sec, de, smin, smax, area, darea, stat, kept)
+    else
+      call section_info(st, sec, de, smin, smax, area, darea, stat)
+    end if
   end function c_section_info
 
   !> The cut of the Lyapunov orbit's tube at excess energy de with the section (include/tubes.h).
@@ -524,7 +545,7 @@ contains
   !> Monte Carlo transition check at excess energy de (include/tubes.h).
   integer(c_int) function c_monte_carlo(system, params, lo, hi, n_grid, saddle, de, sec_kind, &
       sec_index, level, dir, nsamp, seed, t_max, gate, method, h, omega_bind, solver, max_iter, ncut, &
-      cut_r, cut_pr, r, pr, outcome, inside) result(stat) bind(C, name='tubes_monte_carlo')
+      cut_r, cut_pr, r, pr, outcome, inside, stores) result(stat) bind(C, name='tubes_monte_carlo')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, sec_kind, sec_index, dir
@@ -534,13 +555,21 @@ contains
     real(c_double), intent(in) :: cut_r(ncut), cut_pr(ncut)
     real(c_double), intent(out) :: r(nsamp), pr(nsamp)
     integer(c_int), intent(out) :: outcome(nsamp), inside(nsamp)
+    type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
     type(study_t) :: st
     type(section_choice_t) :: sec
     logical :: ins(nsamp)
+    type(seed_stores_t), pointer :: kept
     call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
                   integ_of(method, h, omega_bind, solver, max_iter), st, sec)
-    call check_at(st, sec, de, nsamp, int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, &
-                  ins, stat)
+    if (c_associated(stores)) then
+      call c_f_pointer(stores, kept)
+      call check_at(st, sec, de, nsamp, int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, &
+                    ins, stat, kept)
+    else
+      call check_at(st, sec, de, nsamp, int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, &
+                    ins, stat)
+    end if
     inside = merge(1, 0, ins)
   end function c_monte_carlo
 
@@ -702,8 +731,8 @@ contains
   !> n_iter returns each: pts(1:2, k, j) = (s, p_s) of the k-th return of seed j (NaN after it
   !> stops returning).
   integer(c_int) function c_poincare(system, params, lo, hi, n_grid, saddle, de, sec_kind, &
-      sec_index, level, dir, n_seeds, n_iter, t_max, method, h, omega_bind, solver, max_iter, pts) &
-      result(stat) bind(C, name='tubes_poincare')
+      sec_index, level, dir, n_seeds, n_iter, t_max, method, h, omega_bind, solver, max_iter, pts, &
+      stores) result(stat) bind(C, name='tubes_poincare')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, sec_kind, sec_index, dir
@@ -711,11 +740,18 @@ contains
     integer(c_int), value :: n_seeds, n_iter, method, solver, max_iter
     real(c_double), value :: h, omega_bind
     real(c_double), intent(out) :: pts(2, n_iter, n_seeds)
+    type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
     type(study_t) :: st
     type(section_choice_t) :: sec
+    type(seed_stores_t), pointer :: kept
     call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
                   integ_of(method, h, omega_bind, solver, max_iter), st, sec)
-    call maps_at(st, sec, de, n_seeds, n_iter, t_max, pts, stat)
+    if (c_associated(stores)) then
+      call c_f_pointer(stores, kept)
+      call maps_at(st, sec, de, n_seeds, n_iter, t_max, pts, stat, kept)
+    else
+      call maps_at(st, sec, de, n_seeds, n_iter, t_max, pts, stat)
+    end if
   end function c_poincare
 
   !> Frames per track of the synthetic experiment (include/tubes.h).

@@ -201,8 +201,13 @@ static int run_main(int argc, char **argv) {
   run.method_line = nml_line(&where, "integrator", "method");
   run.rank = g_rank;
   run.nranks = g_nranks;
+  run.seeds = tubes_seed_stores_new();  /* what later scenes take from earlier ones: the
+                                          equilibria, orbit families, tube seeds (include/tubes.h) */
   int setup = agree(run_setup(&run));
-  if (setup) return setup;
+  if (setup) {
+    tubes_seed_stores_free(run.seeds);
+    return setup;
+  }
 
   char *tmp = g_tmp;
   errno = 0;
@@ -216,6 +221,7 @@ static int run_main(int argc, char **argv) {
               create_errno ? strerror(create_errno) : "HDF5 refused it");
     else
       fprintf(stderr, "tubes: rank %d cannot create its in-memory scratch file\n", g_rank);
+    tubes_seed_stores_free(run.seeds);
     return EXIT_IO;
   }
   if (g_nranks > 1 && g_rank == 0) h5_set_failure_hook(io_failed_abort);
@@ -244,11 +250,11 @@ static int run_main(int argc, char **argv) {
   if (rc) {
     fprintf(stderr, "tubes: cannot write to '%s'\n", tmp);
     h5_discard(f, tmp);
+    tubes_seed_stores_free(run.seeds);
     return EXIT_IO;
   }
 
   run.file = f;
-  run.seeds = tubes_seed_stores_new();  /* the seeds and orbit families of earlier scenes */
   int status = agree(scene_model(&run));
   for (int k = 0; k < TUBES_NSCENES && status != EXIT_IO; k++) {
     const char *s = cfg.scenes[k];

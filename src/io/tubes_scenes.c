@@ -137,7 +137,7 @@ typedef struct {
 
 static int find_eqs(const tubes_run_t *run, eqlist_t *L) {
   return tubes_find_equilibria(run->system, run->params, run->lo, run->hi, run->n_grid, NEQ_MAX, &L->n, &L->ndof,
-                               L->q, L->p, L->hgt, L->en, L->gn, L->morse, L->rank1, L->names, L->lam, L->om, L->ev);
+                               L->q, L->p, L->hgt, L->en, L->gn, L->morse, L->rank1, L->names, L->lam, L->om, L->ev, run->seeds);
 }
 
 static int find_named(const eqlist_t *L, const char *name) {
@@ -686,7 +686,7 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
   const tubes_config_t *c = run->cfg;
   double ee, tpo, rmin, rmax, a0, tau;
   int st = saddle_props(run, &ee, &tpo);
-  if (!st) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), 0.0, &rmin, &rmax, &a0, &tau);
+  if (!st) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), 0.0, &rmin, &rmax, &a0, &tau, run->seeds);
   if (st < 0) {
     if (sec_is_ray(c))
       fprintf(stderr, "tubes: section: the energy surface on the section could not be computed (status %d)\n", st);
@@ -911,7 +911,7 @@ int scene_transition(tubes_run_t *run) {
     progress_item("transition: dE = %g (%d of %d)...\n", de, k + 1, n);
     int r1 = cut_to(run, -1, "", de, -1, c->tub_eps, c->tra_area_tol, &x->at, &x->act, &per, 1, x->err,
                     sizeof x->err, &x->status);
-    int st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &x->ae, &darea);
+    int st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &x->ae, &darea, run->seeds);
     if (st < 0) {
       char m[128];
       status_text(st, m, sizeof m);
@@ -1001,13 +1001,13 @@ int scene_montecarlo(tubes_run_t *run) {
   if (st < 0 && nfail > 0)
     fprintf(stderr, "tubes: montecarlo: the tube cut at dE = %g: %d seed(s) failed, the first at orbit phase "
             "tau = %.10g s\n", de, nfail, ftau);
-  if (st >= 0) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &ae, &darea);
+  if (st >= 0) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &ae, &darea, run->seeds);
   int mc_ran = 0;
   if (st >= 0) {
     mc_ran = 1;
     fprintf(stderr, "montecarlo: integrating %d points...\n", ns);
     st = tubes_monte_carlo(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, c->mc_seed, c->mc_t_max,
-                           c->mc_gate, INTEGRATOR(c), n, cr, cp, r, pr, out, ins);
+                           c->mc_gate, INTEGRATOR(c), n, cr, cp, r, pr, out, ins, run->seeds);
   }
   if (st < 0) {
     char m[512];
@@ -1097,7 +1097,7 @@ int scene_sections(tubes_run_t *run) {
     double de = c->pm_de[k], t0 = now();
     double *pts = malloc(sizeof(double) * 2 * (size_t)ns * ni);
     fprintf(stderr, "sections: Poincare map at dE = %g (%d trajectories, %d returns)...\n", de, ns, ni);
-    int st = tubes_poincare(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, ni, c->pm_t_max, INTEGRATOR(c), pts);
+    int st = tubes_poincare(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, ni, c->pm_t_max, INTEGRATOR(c), pts, run->seeds);
     if (st < 0) {
       fprintf(stderr, "tubes: sections: the map at dE = %g failed (status %d); the returns found are written\n", de, st);
       rc = EXIT_PARTIAL;

@@ -24,7 +24,8 @@ module tubes_study
   integer, parameter, public :: SECTION_RAY = 1     !! sec_kind: the ball's polar ray
   integer, parameter, public :: SECTION_PLANE = 2   !! sec_kind: the plane q_index = level
 
-  public :: setup_model, setup_section, orbit_at, family_at, saddle_gate, section_info, cut_at, check_at, maps_at, cut_outputs
+  public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, section_info, cut_at, &
+            check_at, maps_at, cut_outputs
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -60,6 +61,11 @@ module tubes_study
     type(seed_store_t) :: store
   end type kept_seeds_t
 
+  !> A model's equilibria kept for later calls (equilibria_of).
+  type, extends(kept_for_t) :: kept_eqs_t
+    type(equilibrium_t), allocatable :: eqs(:)
+  end type kept_eqs_t
+
   !> A family's path kept for later calls (family_key).
   type, extends(kept_for_t) :: kept_path_t
     type(family_path_t) :: path
@@ -70,11 +76,12 @@ module tubes_study
   !> earlier cut of the set-up integrated (docs/tubes.md, "Seeds computed once"). The path of
   !> each orbit family (model, saddle, orbit options): the family is continued once in a run and
   !> each of its orbits found once, for the orbits scene and every cut (docs/orbits.md, "One
-  !> family, each orbit once"). Owned by the caller (the program's run: include/tubes.h
+  !> family, each orbit once"). The equilibria of each model and search box. Owned by the caller (the program's run: include/tubes.h
   !> tubes_seed_stores_new), for one caller at a time.
   type, public :: seed_stores_t
     type(kept_seeds_t), allocatable :: kept(:)
     type(kept_path_t), allocatable :: paths(:)
+    type(kept_eqs_t), allocatable :: eqs(:)
   end type seed_stores_t
 
 contains
@@ -121,7 +128,7 @@ contains
 
   !> The model, its equilibria in the box and the rank-1 saddle named `saddle` (with
   !> degenerate_ok, also a degenerate saddle: the sampled flux takes one).
-  subroutine setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat, degenerate_ok)
+  subroutine setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat, degenerate_ok, stores)
     character(*), intent(in) :: system            !! the system's name
     character(*), intent(in) :: saddle            !! the rank-1 saddle's name
     real(wp), intent(in) :: params(:)             !! its parameters (table order)
@@ -131,14 +138,14 @@ contains
     type(equilibrium_t), allocatable, intent(out) :: eqs(:)
     integer, intent(out) :: isad, stat
     logical, intent(in), optional :: degenerate_ok
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
     character(8) :: name
-    integer :: k, nd
+    integer :: k
     isad = 0
     name = saddle
     call make_model(system, params, model, stat)
     if (stat /= TUBES_OK) return
-    nd = model%ndof()
-    call find_equilibria(model, lo(1:nd), hi(1:nd), n_grid, eqs, stat)
+    call equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat, stores)
     if (stat /= TUBES_OK) return
     do k = 1, size(eqs)
       if (eqs(k)%name == name .and. eqs(k)%rank1) isad = k
@@ -149,6 +156,46 @@ contains
     if (isad == 0) stat = TUBES_EINPUT
   end subroutine setup_model
 
+  !> The equilibria of the model in the box [lo, hi] (n_grid starts per axis): from the run's
+  !> stores where an earlier call found them for the same system, model numbers, box and grid
+  !> (bit for bit), else found and kept there.
+  subroutine equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat, stores)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:), lo(:), hi(:)
+    integer, intent(in) :: n_grid
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), allocatable, intent(out) :: eqs(:)
+    integer, intent(out) :: stat
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
+    type(study_t) :: st
+    type(kept_eqs_t) :: entry
+    integer(i8) :: key(NKEY)
+    integer :: nd, i
+    nd = model%ndof()
+    if (.not. present(stores)) then
+      call find_equilibria(model, lo(1:nd), hi(1:nd), n_grid, eqs, stat)
+      return
+    end if
+    st%system = system
+    st%saddle = ''
+    key = 0
+    key(1:size(params) + 2*nd + 1) = transfer([params, lo(1:nd), hi(1:nd), real(n_grid, wp)], key, &
+                                              size(params) + 2*nd + 1)
+    if (.not. allocated(stores%eqs)) allocate (stores%eqs(0))
+    i = kept_at(stores%eqs, st, key)
+    if (i > 0) then
+      eqs = stores%eqs(i)%eqs
+      stat = TUBES_OK
+      return
+    end if
+    call find_equilibria(model, lo(1:nd), hi(1:nd), n_grid, eqs, stat)
+    if (stat /= TUBES_OK) return
+    entry%system = system
+    entry%key = key
+    entry%eqs = eqs
+    stores%eqs = [stores%eqs, entry]
+  end subroutine equilibria_of
+
   !> The model, the saddle and the section of a tube-dynamics call at energy E_e + de:
   !> sec_kind 1 = the ball's ray theta = level [rad] with sign(p_theta) = dir, 2 = the plane
   !> q_index = level crossed with sign(dq_index/dt) = dir. q_ref is a configuration point of the
@@ -156,7 +203,7 @@ contains
   !> plane's region. stat = TUBES_EINPUT for a section that makes no sense for the model or
   !> does not meet the energy surface.
   subroutine setup_section(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
-                           de, model, eqs, isad, psec, q_ref, stat)
+                           de, model, eqs, isad, psec, q_ref, stat, stores)
     character(*), intent(in) :: system, saddle
     real(wp), intent(in) :: params(:), lo(:), hi(:), level, de
     integer, intent(in) :: n_grid, sec_kind, sec_index, dir
@@ -166,9 +213,10 @@ contains
     type(poincare_t), intent(out) :: psec
     real(wp), allocatable, intent(out) :: q_ref(:)
     integer, intent(out) :: stat
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
     integer :: k, iw, j
     real(wp) :: best, d, span
-    call setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat)
+    call setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat, stores=stores)
     if (stat /= TUBES_OK) return
     stat = TUBES_EINPUT
     if (model%ndof() /= 2 .or. abs(dir) /= 1) return
@@ -296,12 +344,13 @@ contains
   end subroutine saddle_gate
 
   !> The energy surface on the section at E_e + de: its interval [smin, smax], area, dA/dE.
-  subroutine section_info(st, sec, de, smin, smax, area, darea, stat)
+  subroutine section_info(st, sec, de, smin, smax, area, darea, stat, stores)
     type(study_t), intent(in) :: st
     type(section_choice_t), intent(in) :: sec
     real(wp), intent(in) :: de
     real(wp), intent(out) :: smin, smax, area, darea
     integer, intent(out) :: stat
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
     type(poincare_t), target :: psec
@@ -310,7 +359,7 @@ contains
     real(wp) :: err
     smin = 0; smax = 0; area = 0; darea = 0
     call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
-                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat)
+                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat, stores)
     if (stat /= TUBES_OK) return
     smin = psec%smin
     smax = psec%smax
@@ -330,7 +379,7 @@ contains
     type(tube_cut_t), intent(out) :: cut
     type(orbit_t), intent(out) :: orb
     integer, intent(out) :: stat
-    type(seed_stores_t), intent(inout), optional :: stores   !! the seeds of earlier cuts
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
     type(tube_opts_t) :: o
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
@@ -339,7 +388,7 @@ contains
     integer :: isad
     real(wp) :: tol_s
     call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
-                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat)
+                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat, stores)
     if (stat /= TUBES_OK) return
     call orbit_at(st, model, eqs, isad, de, opts%local, orb, stat, stores)
     if (stat /= TUBES_OK) return
@@ -378,7 +427,7 @@ contains
 
   !> The Monte Carlo check at de: n points on the section, classified by the saddle's gate at
   !> distance gate, predicted by the cut (cr, cp).
-  subroutine check_at(st, sec, de, n, seed, t_max, gate, cr, cp, r, pr, outcome, inside, stat)
+  subroutine check_at(st, sec, de, n, seed, t_max, gate, cr, cp, r, pr, outcome, inside, stat, stores)
     use, intrinsic :: iso_c_binding, only: c_long
     type(study_t), intent(in) :: st
     type(section_choice_t), intent(in) :: sec
@@ -389,6 +438,7 @@ contains
     integer, intent(out) :: outcome(n)
     logical, intent(out) :: inside(n)
     integer, intent(out) :: stat
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
     type(poincare_t) :: psec
@@ -397,7 +447,7 @@ contains
     integer :: isad
     r = 0; pr = 0; outcome = -1; inside = .false.
     call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
-                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat)
+                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat, stores)
     if (stat /= TUBES_OK) return
     call saddle_gate(eqs(isad), q_ref, gate, gspec)
     call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, st%integ, cr, cp, r, pr, outcome, &
@@ -406,13 +456,14 @@ contains
   !> Poincare maps of the section at de: n_seeds starts on the section (half at the middle of
   !> the p_s range across the region, half across p_s at the region's middle s), n_iter returns
   !> each: pts(1:2, k, j) = (s, p_s) of the k-th return of seed j (NaN after it stops returning).
-  subroutine maps_at(st, sec, de, n_seeds, n_iter, t_max, pts, stat)
+  subroutine maps_at(st, sec, de, n_seeds, n_iter, t_max, pts, stat, stores)
     type(study_t), intent(in) :: st
     type(section_choice_t), intent(in) :: sec
     real(wp), intent(in) :: de, t_max
     integer, intent(in) :: n_seeds, n_iter
     real(wp), intent(out) :: pts(2, n_iter, n_seeds)
     integer, intent(out) :: stat
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
     type(poincare_t) :: psec
@@ -422,7 +473,7 @@ contains
     pts = 0
     level = sec%level
     call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
-                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat)
+                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat, stores)
     if (stat /= TUBES_OK) return
     allocate (x0(model%dim(), n_seeds))
     h = (n_seeds + 1)/2
