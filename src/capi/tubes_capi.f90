@@ -65,6 +65,15 @@ contains
     p = c_loc(s)
   end function c_seed_stores_new
 
+  !> The stores behind a C pointer, or a disassociated pointer for NULL: passed to an optional
+  !> `stores` dummy, a disassociated pointer is an absent argument (Fortran 2008).
+  function stores_of(p) result(s)
+    type(c_ptr), intent(in) :: p
+    type(seed_stores_t), pointer :: s
+    s => null()
+    if (c_associated(p)) call c_f_pointer(p, s)
+  end function stores_of
+
   subroutine c_seed_stores_free(p) bind(C, name='tubes_seed_stores_free')
     type(c_ptr), value :: p
     type(seed_stores_t), pointer :: s
@@ -287,12 +296,8 @@ contains
     if (stat /= TUBES_OK) return
     nd = model%ndof()
     ndof = nd
-    if (c_associated(stores)) then
-      call c_f_pointer(stores, kept)
-      call equilibria_of(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, model, eqs, stat, kept)
-    else
-      call equilibria_of(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, model, eqs, stat)
-    end if
+    kept => stores_of(stores)
+    call equilibria_of(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, model, eqs, stat, kept)
     if (stat /= TUBES_OK) return
     if (size(eqs) > nmax) then
       stat = TUBES_EINPUT
@@ -380,15 +385,9 @@ contains
       stat = TUBES_EINPUT
       return
     end if
-    kept => null()
-    if (c_associated(stores)) call c_f_pointer(stores, kept)
-    if (associated(kept)) then
-      call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
-                       model, eqs, isad, stat, stores=kept)
-    else
-      call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
-                       model, eqs, isad, stat)
-    end if
+    kept => stores_of(stores)
+    call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+                     model, eqs, isad, stat, stores=kept)
     if (stat /= TUBES_OK) return
     n2 = model%dim()
     opts%n_segments = n_segments
@@ -402,11 +401,7 @@ contains
     opts%local = local /= 0
     allocate (orbs(nde))
     call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
-    if (associated(kept)) then
-      call family_at(st, model, eqs, isad, des, opts, orbs, ede, reason, stat, kept)
-    else
-      call family_at(st, model, eqs, isad, des, opts, orbs, ede, reason, stat)
-    end if
+    call family_at(st, model, eqs, isad, des, opts, orbs, ede, reason, stat, kept)
     if (stat < 0) return
     end_de = ede
     end_reason = reason
@@ -482,12 +477,8 @@ contains
     type(integ_choice_t) :: none
     type(seed_stores_t), pointer :: kept
     call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, none, st, sec)
-    if (c_associated(stores)) then
-      call c_f_pointer(stores, kept)
-      call section_info(st, sec, de, smin, smax, area, darea, stat, kept)
-    else
-      call section_info(st, sec, de, smin, smax, area, darea, stat)
-    end if
+    kept => stores_of(stores)
+    call section_info(st, sec, de, smin, smax, area, darea, stat, kept)
   end function c_section_info
 
   !> The cut of the Lyapunov orbit's tube at excess energy de with the section (include/tubes.h).
@@ -527,12 +518,8 @@ contains
     opts%t_max = t_max
     opts%n_init = n_init
     opts%n_max = min(n_max, nout)
-    if (c_associated(stores)) then
-      call c_f_pointer(stores, kept)
-      call cut_at(st, sec, de, opts, cut, orb, stat, kept)
-    else
-      call cut_at(st, sec, de, opts, cut, orb, stat)
-    end if
+    kept => stores_of(stores)
+    call cut_at(st, sec, de, opts, cut, orb, stat, kept)
     call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
     fail_tau = cut%fail_tau
     if (allocated(cut%hist_n)) then
@@ -562,14 +549,9 @@ contains
     type(seed_stores_t), pointer :: kept
     call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
                   integ_of(method, h, omega_bind, solver, max_iter), st, sec)
-    if (c_associated(stores)) then
-      call c_f_pointer(stores, kept)
-      call check_at(st, sec, de, nsamp, int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, &
-                    ins, stat, kept)
-    else
-      call check_at(st, sec, de, nsamp, int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, &
-                    ins, stat)
-    end if
+    kept => stores_of(stores)
+    call check_at(st, sec, de, nsamp, int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, &
+                  ins, stat, kept)
     inside = merge(1, 0, ins)
   end function c_monte_carlo
 
@@ -746,12 +728,8 @@ contains
     type(seed_stores_t), pointer :: kept
     call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
                   integ_of(method, h, omega_bind, solver, max_iter), st, sec)
-    if (c_associated(stores)) then
-      call c_f_pointer(stores, kept)
-      call maps_at(st, sec, de, n_seeds, n_iter, t_max, pts, stat, kept)
-    else
-      call maps_at(st, sec, de, n_seeds, n_iter, t_max, pts, stat)
-    end if
+    kept => stores_of(stores)
+    call maps_at(st, sec, de, n_seeds, n_iter, t_max, pts, stat, kept)
   end function c_poincare
 
   !> Frames per track of the synthetic experiment (include/tubes.h).
