@@ -551,7 +551,8 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
     n_segments, tol, rtol, atol, max_iter, n_samples, family (the k-th centre mode's family in 3
     DOF); integrator: &integrator's method and its options as a dict, e.g. {"method":
     "arkode_erk8"} (default the input file's, "auto": Taylor for the state, DOP853 for the
-    variational equations)."""
+    variational equations). Each orbit is the continuation to its own energy alone: the same
+    bits whatever else dE holds, and the same as the program's orbits scene and tube cuts."""
     model = model or Model()
     de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
     st = _settings(model, saddle, saddle_near, orbits=dict(orbits, de=list(de)), integrator=integrator, equilibria=equilibria)
