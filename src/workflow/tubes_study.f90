@@ -2,8 +2,8 @@
 !> (python/tubes_f2py.f90): the model by name, its equilibria in the search box and the chosen
 !> rank-1 saddle; the section of the tube-dynamics calls and the saddle's transit gate; the
 !> Lyapunov orbits. Given a run's stores (seed_stores_t), its calls take what earlier calls
-!> computed: each orbit family's continuation and orbits, and each cut set-up's tube seeds. (Each
-!> call still redoes the equilibrium search and the section.)
+!> computed: the model's equilibria, each orbit family's continuation and orbits, and each cut
+!> set-up's tube seeds. (Each call still makes its model object and its section: cheap.)
 module tubes_study
   use tubes_kinds, only: wp, i8
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND
@@ -76,8 +76,9 @@ module tubes_study
   !> earlier cut of the set-up integrated (docs/tubes.md, "Seeds computed once"). The path of
   !> each orbit family (model, saddle, orbit options): the family is continued once in a run and
   !> each of its orbits found once, for the orbits scene and every cut (docs/orbits.md, "One
-  !> family, each orbit once"). The equilibria of each model and search box. Owned by the caller (the program's run: include/tubes.h
-  !> tubes_seed_stores_new), for one caller at a time.
+  !> family, each orbit once"). The equilibria of each model and search box (equilibria_of).
+  !> Owned by the caller (the program's run: include/tubes.h tubes_seed_stores_new), for one
+  !> caller at a time.
   type, public :: seed_stores_t
     type(kept_seeds_t), allocatable :: kept(:)
     type(kept_path_t), allocatable :: paths(:)
