@@ -64,8 +64,12 @@ module tubes_taylor
     real(wp) :: eps_last = -1              !! the tolerance of the last order chosen
     integer :: p_last = 0                  !! and that order
     logical :: relative = .false.          !! the step's error control is relative
-    integer :: p_rule = 0                  !! the order whose step-size constants follow
-    real(wp) :: rule(3) = 0                !! 1/(p - 1), 1/p, -2 - 0.7/(p - 1) of order p_rule
+    integer :: ik = 0                      !! the kernel of order p in kernels (0: none yet)
+    real(wp) :: rule(3) = 0                !! 1/(p - 1), 1/p, -2 - 0.7/(p - 1) of order p
+    real(wp) :: rxn = 0                    !! 1/xn (relative control)
+    real(wp) :: dir = 1                    !! the step's direction, sign(tmax - t)
+    real(wp) :: left = 0                   !! |tmax - t| at the step's start [time]
+    real(wp) :: slack = 0                  !! what may be left of it: 64 ulps of max(|t|, |tmax|)
     real(wp) :: par(1) = 0                 !! the kernel's parameters: the damping rate
     character(:), allocatable :: spec      !! the model's formula (jet_spec_t%text)
     integer :: flags = 0                   !! include/tubes.h TUBES_JET_* of the field
@@ -260,7 +264,10 @@ contains
     flags = merge(JET_ACTION, 0, js%action) + merge(JET_VARIATIONAL, 0, js%variational) + &
             merge(JET_TANGENT, 0, js%tangent)
     if (allocated(self%spec)) then
-      if (self%spec /= js%text .or. self%flags /= flags) self%kernels = kernel_t()
+      if (self%spec /= js%text .or. self%flags /= flags) then
+        self%kernels = kernel_t()
+        self%ik = 0
+      end if
     end if
     self%spec = js%text
     self%flags = flags
@@ -327,24 +334,36 @@ contains
       end if
       p = self%p_last
     end if
-    if (p < 2 .or. p > TAYLOR_MAX_ORDER) then
-      stat = TUBES_EINPUT
-      return
+    if (p /= self%p .or. self%ik == 0) then   ! another order (the kernel, storage, constants)
+      if (p < 2 .or. p > TAYLOR_MAX_ORDER) then
+        stat = TUBES_EINPUT
+        return
+      end if
+      call kernel_of(self, merge(0, p, self%flags /= 0), ik, stat)   ! extras: the loop kernel
+      if (stat /= TUBES_OK) return
+      s = p + 1
+      if (.not. allocated(self%tc)) allocate (self%tc(0))
+      if (size(self%tc) < self%n*s) then
+        deallocate (self%tc)
+        allocate (self%tc(self%n*s))
+      end if
+      if (.not. allocated(self%w)) allocate (self%w(0))
+      if (size(self%w) < self%kernels(ik)%nwork*s) then
+        deallocate (self%w)
+        allocate (self%w(self%kernels(ik)%nwork*s))
+      end if
+      self%rule = [1.0_wp/(p - 1), 1.0_wp/p, -2 - 0.7_wp/(p - 1)]   ! not a division per step
+      self%p = p
+      self%ik = ik
     end if
-    call kernel_of(self, merge(0, p, self%flags /= 0), ik, stat)   ! extras: the loop kernel
-    if (stat /= TUBES_OK) return
-    self%p = p
+    ik = self%ik
     s = p + 1
-    if (.not. allocated(self%tc)) allocate (self%tc(0))
-    if (size(self%tc) < self%n*s) then
-      deallocate (self%tc)
-      allocate (self%tc(self%n*s))
-    end if
-    if (.not. allocated(self%w)) allocate (self%w(0))
-    if (size(self%w) < self%kernels(ik)%nwork*s) then
-      deallocate (self%w)
-      allocate (self%w(self%kernels(ik)%nwork*s))
-    end if
+    ! what taylor_end needs and the coefficients do not decide, computed here, where the kernel's
+    ! time hides it (after the kernel each step's work waits for the one before)
+    if (self%relative) self%rxn = 1/self%xn
+    self%dir = sign(1.0_wp, tmax - self%t)
+    self%left = abs(tmax - self%t)
+    self%slack = 64*epsilon(1.0_wp)*max(abs(self%t), abs(tmax))
     do i = 1, self%n
       self%tc((i - 1)*s + 1) = x(i)
     end do
@@ -358,22 +377,21 @@ contains
     real(wp), intent(inout) :: x(:)
     real(wp), intent(in) :: tmax
     integer, intent(out) :: stat
-    real(wp) :: n1, n2, lrho, h, dir, hmin, r
-    integer :: p, s
+    real(wp) :: n1, n2, lrho, h, hmin
+    integer :: p, s, i
     logical :: last
     stat = TUBES_OK
     p = self%p
     s = p + 1
-    dir = sign(1.0_wp, tmax - self%t)
-    call top_norms(self%tc, s, self%n, p, n1, n2)
+    n1 = 0      ! the largest |coefficient| of orders p - 1 and p over the components
+    n2 = 0
+    do i = 1, self%n
+      n1 = max(n1, abs(self%tc((i - 1)*s + p)))
+      n2 = max(n2, abs(self%tc(i*s)))
+    end do
     if (self%relative) then
-      r = 1/self%xn
-      n1 = n1*r
-      n2 = n2*r
-    end if
-    if (p /= self%p_rule) then     ! the order's constants, once per order (not a division per step)
-      self%rule = [1.0_wp/(p - 1), 1.0_wp/p, -2 - 0.7_wp/(p - 1)]
-      self%p_rule = p
+      n1 = n1*self%rxn
+      n2 = n2*self%rxn
     end if
     ! rho = min(n1^(-1/(p-1)), n2^(-1/p)) and h = rho exp(-2 - 0.7/(p-1)), in logarithms (on most
     ! steps one log and an exp, log_rho, instead of two powers and an exp)
@@ -391,14 +409,14 @@ contains
     end if
     if (self%h > 0) h = min(h, self%h)              ! &integrator h: the largest step
     ! the last step: it reaches tmax, or would leave less than 64 ulps of it (no sliver of a step)
-    last = h >= abs(tmax - self%t) - 64*epsilon(1.0_wp)*max(abs(self%t), abs(tmax))
-    if (last) h = abs(tmax - self%t)
+    last = h >= self%left - self%slack
+    if (last) h = self%left
     hmin = 16*epsilon(1.0_wp)*max(abs(self%t), tiny(1.0_wp))
     if (.not. last .and. h < hmin) then
       stat = TUBES_ESTEP
       return
     end if
-    self%hs = dir*h
+    self%hs = self%dir*h
     self%t_old = self%t
     call horner(self%tc, s, self%n, p, self%hs, x)
     if (last) then
@@ -434,15 +452,6 @@ contains
       l = min(-log(n1)*r1, -log(n2)*r2)
     end if
   end function log_rho
-
-  !> The largest |coefficient| of orders p - 1 and p over the components (coefficients tc(0:p, n)).
-  pure subroutine top_norms(tc, s, n, p, n1, n2)
-    integer, intent(in) :: s, n, p
-    real(wp), intent(in) :: tc(s, n)
-    real(wp), intent(out) :: n1, n2
-    n1 = maxval(abs(tc(p, :)))
-    n2 = maxval(abs(tc(p + 1, :)))
-  end subroutine top_norms
 
   !> x = sum_k tc(k, :) ds^k by Horner's scheme, four components at a time in four independent
   !> chains (a chain's multiply-add waits for its last one: four in flight hide that latency);
