@@ -199,17 +199,20 @@ subroutine shape_derivs(system, params, n, m, q, stat, grad, hess)
   end do
 end subroutine shape_derivs
 
-subroutine equilibria(system, params, lo, hi, n_grid, stat, n, ndof, q, p, height, en, morse, rank1, &
-                      names, lam, om, evec)
-  ! equilibria in the box [lo, hi] (first ndof entries); at most 256
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
+subroutine equilibria(system, params, lo, hi, n_grid, stores, stat, n, ndof, q, p, height, en, morse, &
+                      rank1, names, lam, om, evec)
+  ! equilibria in the box [lo, hi] (first ndof entries); at most 256. stores: stores_open's handle
+  ! (a search kept there is not repeated), or 0
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_models, only: make_model
-  use tubes_equilibria, only: equilibrium_t, find_equilibria
+  use tubes_equilibria, only: equilibrium_t
+  use tubes_study, only: equilibria_of, seed_stores_t, stores_at
   implicit none
   character(len=*), intent(in) :: system
   real(c_double), intent(in) :: params(16), lo(3), hi(3)
   integer(c_int), intent(in) :: n_grid
+  integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: stat, n, ndof
   real(c_double), intent(out) :: q(3, 256), p(3, 256), height(256), en(256), lam(256), om(2, 256), &
                                  evec(6, 6, 256)
@@ -217,6 +220,7 @@ subroutine equilibria(system, params, lo, hi, n_grid, stat, n, ndof, q, p, heigh
   character(len=2304), intent(out) :: names
   class(hamiltonian_t), allocatable :: model
   type(equilibrium_t), allocatable :: eqs(:)
+  type(seed_stores_t), pointer :: kept
   integer :: k, nd
   n = 0; ndof = 0; q = 0; p = 0; height = 0; en = 0; lam = 0; om = 0; evec = 0; morse = -1
   rank1 = 0; names = ''
@@ -224,7 +228,8 @@ subroutine equilibria(system, params, lo, hi, n_grid, stat, n, ndof, q, p, heigh
   if (stat /= 0) return
   nd = model%ndof()
   ndof = nd
-  call find_equilibria(model, lo(1:nd), hi(1:nd), n_grid, eqs, stat)
+  kept => stores_at(stores)
+  call equilibria_of(trim(system), params, lo, hi, n_grid, model, eqs, stat, kept)
   if (stat /= 0) return
   n = min(size(eqs), 256)
   do k = 1, n
@@ -309,6 +314,34 @@ subroutine integrator_close(handle)
   integer(c_int64_t), intent(in) :: handle
   call close_integrator(handle)
 end subroutine integrator_close
+
+subroutine stores_open(handle)
+  ! a new, empty set of stores (src/workflow/tubes_study.f90): Python's tubes.Model keeps one, so
+  ! that its calls take the equilibria, orbit families and tube seeds its earlier calls computed
+  use, intrinsic :: iso_c_binding, only: c_int64_t
+  use tubes_study, only: open_stores
+  implicit none
+  integer(c_int64_t), intent(out) :: handle        ! the stores' address, owned by the caller
+  call open_stores(handle)
+end subroutine stores_open
+
+subroutine stores_close(handle)
+  use, intrinsic :: iso_c_binding, only: c_int64_t
+  use tubes_study, only: close_stores
+  implicit none
+  integer(c_int64_t), intent(in) :: handle
+  call close_stores(handle)
+end subroutine stores_close
+
+subroutine stores_counts(handle, n_eqs, n_families, n_seeds)
+  ! what the stores keep: equilibria searches, orbit families, tube-seed set-ups
+  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
+  use tubes_study, only: counts => stores_counts
+  implicit none
+  integer(c_int64_t), intent(in) :: handle
+  integer(c_int), intent(out) :: n_eqs, n_families, n_seeds
+  call counts(handle, n_eqs, n_families, n_seeds)
+end subroutine stores_counts
 
 subroutine ensemble(system, params, n2, m, x0, t_end, method, rtol, atol, h, max_steps, omega_bind, &
                     solver, max_iter, threads, stat, xs, st, nsteps)
@@ -540,15 +573,15 @@ contains
 end subroutine read_input
 
 subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &
-                        atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, &
+                        atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, &
                         stat, energy, period, action, mu_u, mu_s, stab, &
                         residual, closure, iterations, converged, state0, ts, xs, end_de, end_reason)
-  ! the Lyapunov family of a saddle (as the orbits scene)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  ! the Lyapunov family of a saddle (as the orbits scene, on the family's path in stores)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_equilibria, only: equilibrium_t
-  use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family_ => orbit_family
-  use tubes_study, only: setup_model
+  use tubes_orbits, only: orbit_t, orbit_opts_t
+  use tubes_study, only: setup_model, study_t, family_at, seed_stores_t, stores_at
   use tubes_methods, only: integ_choice_t, method_opts_t
   use tubes_status, only: TUBES_EINPUT
   implicit none
@@ -556,6 +589,7 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   integer(c_int), intent(in) :: n_grid, nde, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
   real(c_double), intent(in) :: h, omega_bind
   real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), tol, rtol, atol
+  integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: stat, iterations(nde), converged(nde), end_reason
   real(c_double), intent(out) :: energy(nde), period(nde), action(nde), mu_u(nde), mu_s(nde), &
                                  stab(nde), residual(nde), closure(nde), state0(6, nde), &
@@ -564,12 +598,14 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   type(equilibrium_t), allocatable :: eqs(:)
   type(orbit_opts_t) :: opts
   type(orbit_t) :: orbs(nde)
+  type(seed_stores_t), pointer :: kept
   integer :: isad, k, n2, reason
   energy = 0; period = 0; action = 0; mu_u = 0; mu_s = 0; stab = 0; residual = 0; closure = 0
   iterations = 0; converged = 0; state0 = 0; ts = 0; xs = 0; end_de = -1; end_reason = 0
   stat = TUBES_EINPUT
   if (nde < 1 .or. nsamp < 2 .or. max_iter < 1 .or. n_segments < 1 .or. tol <= 0) return
-  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat)
+  kept => stores_at(stores)
+  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat, stores=kept)
   if (stat /= 0) return
   n2 = model%dim()
   opts%n_segments = n_segments
@@ -581,7 +617,8 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   opts%family = family
   opts%integ = integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, solver=solver, &
                                                                       max_iter=int_max_iter))
-  call orbit_family_(model, eqs, isad, des, opts, orbs, end_de, reason, stat)
+  call family_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+                         integ=opts%integ), model, eqs, isad, des, opts, orbs, end_de, reason, stat, kept)
   end_reason = reason
   if (stat < 0) return
   do k = 1, nde
@@ -604,13 +641,13 @@ end subroutine orbit_family
 
 subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol, orb_rtol, orb_atol, &
                     sec_kind, sec_index, level, dir, de, kind, eps, area_tol, t_max, n_init, n_max, &
-                    method, h, omega_bind, solver, int_max_iter, stat, n, tau, r, pr, time, &
+                    method, h, omega_bind, solver, int_max_iter, stores, stat, n, tau, r, pr, time, &
                     xs, area, area_polygon, action, period, n_failed)
   ! the cut of the saddle's tube at de with the section (as the tubes scene)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_orbits, only: orbit_t
   use tubes_manifold, only: tube_opts_t, tube_cut_t
-  use tubes_study, only: study_t, section_choice_t, cut_at, cut_outputs
+  use tubes_study, only: study_t, section_choice_t, cut_at, cut_outputs, seed_stores_t, stores_at
   use tubes_methods, only: integ_choice_t, method_opts_t
   implicit none
   character(len=*), intent(in) :: system, saddle
@@ -619,6 +656,7 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   real(c_double), intent(in) :: h, omega_bind
   real(c_double), intent(in) :: params(16), lo(3), hi(3), orb_tol, orb_rtol, orb_atol, level, de, &
                                 eps, area_tol, t_max
+  integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: stat, n, n_failed
   real(c_double), intent(out) :: tau(n_max), r(n_max), pr(n_max), time(n_max), xs(4, n_max), area, &
                                  area_polygon, action, period
@@ -626,6 +664,7 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   type(tube_opts_t) :: opts
   type(tube_cut_t) :: cut
   type(orbit_t) :: orb
+  type(seed_stores_t), pointer :: kept
   n = 0; tau = 0; r = 0; pr = 0; time = 0; xs = 0; area = 0; area_polygon = 0; action = 0; period = 0
   n_failed = 0
   st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
@@ -638,33 +677,37 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   opts%t_max = t_max
   opts%n_init = n_init
   opts%n_max = n_max
+  kept => stores_at(stores)
   call cut_at(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, opts, &
-              cut, orb, stat)
+              cut, orb, stat, kept)
   call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
 end subroutine tube_cut
 
 subroutine section_info(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
-                        stat, smin, smax, area, darea)
+                        stores, stat, smin, smax, area, darea)
   ! the energy surface on the section at E_e + de: interval, A_E, dA_E/dE
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_study, only: study_t, section_choice_t, section_info_ => section_info
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_study, only: study_t, section_choice_t, section_info_ => section_info, seed_stores_t, stores_at
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir
   real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de
+  integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: stat
   real(c_double), intent(out) :: smin, smax, area, darea
+  type(seed_stores_t), pointer :: kept
+  kept => stores_at(stores)
   call section_info_(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle), &
                      section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, smin, &
-                     smax, area, darea, stat)
+                     smax, area, darea, stat, kept)
 end subroutine section_info
 
 subroutine monte_carlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
                        nsamp, seed, t_max, gate, method, h, omega_bind, solver, int_max_iter, ncut, &
-                       cut_r, cut_pr, stat, r, pr, outcome, inside)
+                       cut_r, cut_pr, stores, stat, r, pr, outcome, inside)
   ! the Monte Carlo check at de against the cut (cut_r, cut_pr) (as the montecarlo scene)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_long
-  use tubes_study, only: study_t, section_choice_t, check_at
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_long, c_int64_t
+  use tubes_study, only: study_t, section_choice_t, check_at, seed_stores_t, stores_at
   use tubes_methods, only: integ_choice_t, method_opts_t
   implicit none
   character(len=*), intent(in) :: system, saddle
@@ -672,22 +715,25 @@ subroutine monte_carlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_ind
                                 int_max_iter
   real(c_double), intent(in) :: h, omega_bind
   real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, t_max, gate, cut_r(ncut), cut_pr(ncut)
+  integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: stat, outcome(nsamp), inside(nsamp)
   real(c_double), intent(out) :: r(nsamp), pr(nsamp)
   logical :: ins(nsamp)
+  type(seed_stores_t), pointer :: kept
+  kept => stores_at(stores)
   call check_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
                         integ=integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
                                              solver=solver, max_iter=int_max_iter))), &
                 section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, nsamp, &
-                int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, ins, stat)
+                int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, ins, stat, kept)
   inside = merge(1, 0, ins)
 end subroutine monte_carlo
 
 subroutine poincare(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
-                    n_seeds, n_iter, t_max, method, h, omega_bind, solver, int_max_iter, stat, pts)
+                    n_seeds, n_iter, t_max, method, h, omega_bind, solver, int_max_iter, stores, stat, pts)
   ! Poincare maps of the section at de (as the sections scene)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_study, only: study_t, section_choice_t, maps_at
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_study, only: study_t, section_choice_t, maps_at, seed_stores_t, stores_at
   use tubes_methods, only: integ_choice_t, method_opts_t
   implicit none
   character(len=*), intent(in) :: system, saddle
@@ -695,13 +741,16 @@ subroutine poincare(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index,
                                 int_max_iter
   real(c_double), intent(in) :: h, omega_bind
   real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, t_max
+  integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: stat
   real(c_double), intent(out) :: pts(2, n_iter, n_seeds)
+  type(seed_stores_t), pointer :: kept
+  kept => stores_at(stores)
   call maps_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
                        integ=integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
                                             solver=solver, max_iter=int_max_iter))), &
                section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, n_seeds, &
-               n_iter, t_max, pts, stat)
+               n_iter, t_max, pts, stat, kept)
 end subroutine poincare
 
 subroutine status_code(name, code)

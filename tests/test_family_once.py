@@ -14,8 +14,12 @@ KEYS = ("period", "action", "mu_unstable", "residual", "closure", "iterations")
 
 
 def _alone(model, des, **kw):
-    """The family at each energy by a call of its own."""
-    rows = [model.orbit_family(dE=[d], **kw) for d in des]
+    """The family at each energy by a call of its own, on a model that has kept nothing."""
+    rows = []
+    for d in des:
+        model.forget()
+        rows.append(model.orbit_family(dE=[d], **kw))
+        assert model.kept()["families"] == 1
     return {k: np.array([r[k][0] for r in rows]) for k in KEYS}
 
 
@@ -51,3 +55,32 @@ def test_the_orbits_scene_and_the_cuts_take_the_same_orbits(tmp_path):
             assert np.array_equal(f["orbits/dE"][:], f["transition/dE"][:])
             assert np.array_equal(f["orbits/action"][:], f["transition/action"][:])
             assert np.array_equal(f["orbits/action"][:], _alone(tubes.Model(), [10, 100, 300])["action"])
+
+
+def test_a_model_keeps_what_its_calls_computed():
+    """A Model's calls share its kept results as the program's scenes share the run's: a later
+    call takes the equilibria, the family's orbits and a cut's seeds from them, with the bits of
+    a call on a fresh model."""
+    m = tubes.Model()
+    assert m.kept() == {"equilibria": 0, "families": 0, "seeds": 0}
+    fam = m.orbit_family(dE=[10, 100])
+    assert m.kept() == {"equilibria": 1, "families": 1, "seeds": 0}
+    cut = m.tube_cut(100)
+    again = m.tube_cut(100)
+    assert m.kept() == {"equilibria": 1, "families": 1, "seeds": 1}   # the cut's orbit from the family
+    fresh = tubes.Model().tube_cut(100)
+    for c in (again, fresh):
+        for k in ("r", "p_r", "tau"):
+            assert np.array_equal(cut[k], c[k]), k
+        assert cut["area"] == c["area"] and cut["action"] == c["action"]
+    assert cut["action"] == fam["action"][1]
+    assert m.transition(dE=[100])["p_trans"][0] == tubes.Model().transition(dE=[100])["p_trans"][0]
+    # other options are another family; a copy is the same model without the kept results
+    m.orbit_family(dE=[10], tol=1e-10)
+    assert m.kept()["families"] == 2
+    import copy
+    import pickle
+    for c in (copy.copy(m), copy.deepcopy(m), pickle.loads(pickle.dumps(m))):
+        assert c == m and c.kept() == {"equilibria": 0, "families": 0, "seeds": 0}
+    m.forget()
+    assert m.kept() == {"equilibria": 0, "families": 0, "seeds": 0}

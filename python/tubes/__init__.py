@@ -85,9 +85,15 @@ class Model:
     (src/models/tubes_models.f90): a keyword that is not a parameter of the system is refused with the
     system's parameters named, as the input file refuses it. ``model.alpha`` reads a parameter;
     ``model.parameters`` is the dict of all of them; ``model.params()`` the vector the core
-    takes."""
+    takes.
 
-    __slots__ = ("system", "parameters", "ndof", "_vector", "info", "name", "formula")
+    A Model keeps what its calls compute for later ones, as the program's run does: the
+    equilibria, each orbit family's continuation and orbits, and each tube cut's seeds
+    (src/workflow/tubes_study.f90, seed_stores_t). A second call gives the same bits as a first
+    (a call with another Model, or with model=None, starts afresh); ``model.kept()`` counts what
+    is kept and ``model.forget()`` frees it."""
+
+    __slots__ = ("system", "parameters", "ndof", "_vector", "info", "name", "formula", "_kept")
 
     def __init__(self, system: str = "rolling_ball", *, hamiltonian=None, coordinates=None, momenta=None,
                  constants=None, surface=None, height=None, **parameters):
@@ -118,6 +124,7 @@ class Model:
         object.__setattr__(self, "ndof", info["ndof"])
         object.__setattr__(self, "_vector", vec)
         object.__setattr__(self, "info", info)
+        object.__setattr__(self, "_kept", None)
         # the input file's checks, with its messages (alpha > 0, 0 <= damping_ratio < 1, masses
         # > 0, 0 < mu <= 1/2, ...): the &model group read and validated by the program's reader
         _read_namelist([self._nml()], "Model")
@@ -143,6 +150,10 @@ class Model:
     def __hash__(self):
         return hash((self.system, self.name, tuple(self.parameters.items())))
 
+    def __reduce__(self):
+        # a copy or a pickle is the same model built again, without the kept results
+        return (_model_from, (self.system, dict(self.formula or {}), dict(self.parameters)))
+
     def __repr__(self):
         kw = ", ".join([f"{k}={v!r}" for k, v in (self.formula or {}).items()]
                        + [f"{k}={v!r}" for k, v in self.parameters.items()])
@@ -151,6 +162,23 @@ class Model:
     def params(self) -> np.ndarray:
         """The parameter vector (16) the core takes, in the table's order."""
         return self._vector.copy()
+
+    def _stores(self) -> int:
+        """The handle of this model's kept results (opened on first use)."""
+        if self._kept is None:
+            object.__setattr__(self, "_kept", _Stores())
+        return self._kept.handle
+
+    def kept(self) -> dict:
+        """What this model's calls have kept for later ones: equilibria searches, orbit
+        families (each continued once, each orbit found once) and tube-seed set-ups."""
+        h = self._kept.handle if self._kept is not None else 0
+        n_eqs, n_fam, n_seeds = _lib().stores_counts(h)
+        return {"equilibria": int(n_eqs), "families": int(n_fam), "seeds": int(n_seeds)}
+
+    def forget(self) -> None:
+        """Free what this model's calls have kept (later calls compute it again, the same bits)."""
+        object.__setattr__(self, "_kept", None)
 
     def replace(self, **parameters) -> "Model":
         """A copy with some parameters (or formula variables) changed."""
@@ -178,6 +206,27 @@ class Model:
             return cls(system, constants=consts, **kw)
         names = model_info(system)["parameters"]
         return cls(system, **{k: float(attrs[k]) for k in names if k in attrs})
+
+
+def _model_from(system, formula, parameters):
+    return Model(system, **formula, **parameters)
+
+
+class _Stores:
+    """A Model's kept results in the core (tubes_study's open_stores), freed with the object."""
+    __slots__ = ("handle",)
+
+    def __init__(self):
+        self.handle = 0
+        self.handle = int(_lib().stores_open())
+
+    def __del__(self):
+        h, self.handle = self.handle, 0
+        if h:
+            try:
+                _lib().stores_close(h)
+            except Exception:       # the interpreter shutting down: the process frees it
+                pass
 
 
 def _sympy_text(e) -> str:
@@ -376,7 +425,7 @@ def equilibria(model: Model | None = None, box=None, n_grid: int = 41, box_cente
     model = model or Model()
     lo, hi = _box(model, box, box_center)
     (stat, n, nd, q, p, h, e, morse, rank1, names, lam, om, ev) = _lib().equilibria(
-        model.name, model.params(), lo, hi, int(n_grid))
+        model.name, model.params(), lo, hi, int(n_grid), model._stores())
     _check(stat, "equilibria")
     names = names.decode() if isinstance(names, bytes) else str(names)
     qq = q[:nd, :n].T.copy()
@@ -559,7 +608,8 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
     n2 = 2 * model.ndof
     (stat, en, per, act, mu, ms, stab, res, clo, it, conv, s0, ts, xs, end_de, reason) = _lib().orbit_family(
         *_study(model, st), de, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]),
-        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model))
+        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model),
+        model._stores())
     _check(stat, "orbit_family")
     return {"dE": de, "energy": en.copy(), "period": per.copy(), "action": act.copy(),
             "mu_unstable": mu.copy(), "mu_stable": ms.copy(), "stability_index": stab.copy(),
@@ -735,7 +785,8 @@ def _cut(model, st, de, kind, area_tol):
     (stat, n, tau, r, pr, tm, xs, area, apoly, act, per, nfail) = _lib().tube_cut(
         *_study(model, st), int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
         float(st["orb_atol"]), *_section_args(st), float(de), int(kind), float(st["tub_eps"]),
-        float(area_tol), float(st["tub_t_max"]), int(st["tub_n_init"]), n_max, *_integ(st, model))
+        float(area_tol), float(st["tub_t_max"]), int(st["tub_n_init"]), n_max, *_integ(st, model),
+        model._stores())
     _check(stat, f"tube_cut(dE = {de})")
     return {"dE": float(de), "r": r[:n].copy(), "p_r": pr[:n].copy(), "tau": tau[:n].copy(),
             "time": tm[:n].copy(), "state": xs[:, :n].T.copy(), "area": float(area),
@@ -767,7 +818,8 @@ def transition(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, s
     out = {k: np.full(de.size, np.nan) for k in ("A_tube", "action", "A_E", "p_trans")}
     for i, d in enumerate(de):
         c = _cut(model, st, d, -1, st["tra_area_tol"])
-        stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), float(d))
+        stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), float(d),
+                                                    model._stores())
         _check(stat, f"transition(dE = {d})")
         out["A_tube"][i], out["action"][i], out["A_E"][i] = c["area"], c["action"], ae
         out["p_trans"][i] = c["area"] / ae
@@ -787,11 +839,13 @@ def monte_carlo(model: Model | None = None, dE: float = 100.0, n_samples: int = 
     st = _settings(model, saddle, saddle_near, section=section, orbits=orbits, montecarlo=mc,
                    integrator=integrator, equilibria=equilibria)
     c = _cut(model, st, dE, -1, float(st["mc_area_tol"]))
-    stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), float(dE))
+    stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), float(dE),
+                                                model._stores())
     _check(stat, "monte_carlo")
     stat, r, pr, outc, ins = _lib().monte_carlo(*_study(model, st), *_section_args(st), float(dE),
                                                 int(n_samples), int(seed), float(st["mc_t_max"]),
-                                                float(st["mc_gate"]), *_integ(st, model), c["r"], c["p_r"])
+                                                float(st["mc_gate"]), *_integ(st, model), c["r"], c["p_r"],
+                                                model._stores())
     _check(stat, "monte_carlo")
     ins = ins.astype(bool)
     f = float(np.mean(outc == 1))
@@ -811,7 +865,8 @@ def poincare(model: Model | None = None, dE: float = 100.0, n_seeds=None, n_iter
     pm = {k: v for k, v in (("n_seeds", n_seeds), ("n_iter", n_iter), ("t_max", t_max)) if v is not None}
     st = _settings(model, saddle, saddle_near, section=section, sections=pm, integrator=integrator, equilibria=equilibria)
     stat, pts = _lib().poincare(*_study(model, st), *_section_args(st), float(dE), int(st["pm_n_seeds"]),
-                                int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st, model))
+                                int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st, model),
+                                model._stores())
     out = np.moveaxis(pts, [0, 1, 2], [2, 1, 0]).copy()
     if stat < 0:
         err = TubesError(stat, "poincare")

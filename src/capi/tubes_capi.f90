@@ -28,9 +28,9 @@ module tubes_capi
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, maps_at, cut_outputs, seed_stores_t, family_at, &
-                         equilibria_of
+                         equilibria_of, open_stores, stores_at, close_stores
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
-  use, intrinsic :: iso_c_binding, only: c_long
+  use, intrinsic :: iso_c_binding, only: c_long, c_intptr_t
   implicit none
   private
   ! the synthetic experiment's entry, called by the f2py facade too (python/tubes_f2py.f90)
@@ -60,26 +60,21 @@ contains
   !> A new, empty set of seed stores for tubes_tube_cut (include/tubes.h); free it with
   !> tubes_seed_stores_free.
   type(c_ptr) function c_seed_stores_new() result(p) bind(C, name='tubes_seed_stores_new')
-    type(seed_stores_t), pointer :: s
-    allocate (s)
-    p = c_loc(s)
+    integer(c_intptr_t) :: handle
+    call open_stores(handle)
+    p = transfer(handle, p)
   end function c_seed_stores_new
 
-  !> The stores behind a C pointer, or a disassociated pointer for NULL: passed to an optional
-  !> `stores` dummy, a disassociated pointer is an absent argument (Fortran 2008).
+  !> The stores behind a C pointer, or a disassociated pointer for NULL (stores_at).
   function stores_of(p) result(s)
     type(c_ptr), intent(in) :: p
     type(seed_stores_t), pointer :: s
-    s => null()
-    if (c_associated(p)) call c_f_pointer(p, s)
+    s => stores_at(transfer(p, 0_c_intptr_t))
   end function stores_of
 
   subroutine c_seed_stores_free(p) bind(C, name='tubes_seed_stores_free')
     type(c_ptr), value :: p
-    type(seed_stores_t), pointer :: s
-    if (.not. c_associated(p)) return
-    call c_f_pointer(p, s)
-    deallocate (s)
+    call close_stores(transfer(p, 0_c_intptr_t))
   end subroutine c_seed_stores_free
 
   subroutine c_status_message(code, buf, len) bind(C, name='tubes_status_message')

@@ -5,6 +5,7 @@
 !> computed: the model's equilibria, each orbit family's continuation and orbits, and each cut
 !> set-up's tube seeds. (Each call still makes its model object and its section: cheap.)
 module tubes_study
+  use, intrinsic :: iso_c_binding, only: c_intptr_t, c_loc, c_f_pointer, c_null_ptr
   use tubes_kinds, only: wp, i8
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND
   use tubes_hamiltonian, only: hamiltonian_t
@@ -25,7 +26,7 @@ module tubes_study
   integer, parameter, public :: SECTION_PLANE = 2   !! sec_kind: the plane q_index = level
 
   public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, section_info, cut_at, &
-            check_at, maps_at, cut_outputs
+            check_at, maps_at, cut_outputs, open_stores, stores_at, close_stores, stores_counts
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -77,8 +78,8 @@ module tubes_study
   !> each orbit family (model, saddle, orbit options): the family is continued once in a run and
   !> each of its orbits found once, for the orbits scene and every cut (docs/orbits.md, "One
   !> family, each orbit once"). The equilibria of each model and search box (equilibria_of).
-  !> Owned by the caller (the program's run: include/tubes.h tubes_seed_stores_new), for one
-  !> caller at a time.
+  !> Owned by the caller (the program's run: include/tubes.h tubes_seed_stores_new; a Python
+  !> tubes.Model: open_stores), for one caller at a time.
   type, public :: seed_stores_t
     type(kept_seeds_t), allocatable :: kept(:)
     type(kept_path_t), allocatable :: paths(:)
@@ -86,6 +87,47 @@ module tubes_study
   end type seed_stores_t
 
 contains
+
+  !> A new, empty set of stores; handle: its address (the C API's tubes_seed_stores_new, Python's
+  !> tubes.Model). Free it with close_stores.
+  subroutine open_stores(handle)
+    integer(c_intptr_t), intent(out) :: handle
+    type(seed_stores_t), pointer :: s
+    allocate (s)
+    handle = transfer(c_loc(s), handle)
+  end subroutine open_stores
+
+  !> The stores at handle, or a disassociated pointer for 0: passed to an optional `stores`
+  !> dummy, a disassociated pointer is an absent argument (Fortran 2008).
+  function stores_at(handle) result(s)
+    integer(c_intptr_t), intent(in) :: handle
+    type(seed_stores_t), pointer :: s
+    s => null()
+    if (handle /= 0) call c_f_pointer(transfer(handle, c_null_ptr), s)
+  end function stores_at
+
+  !> Free the stores at handle (0: nothing).
+  subroutine close_stores(handle)
+    integer(c_intptr_t), intent(in) :: handle
+    type(seed_stores_t), pointer :: s
+    s => stores_at(handle)
+    if (associated(s)) deallocate (s)
+  end subroutine close_stores
+
+  !> What the stores at handle keep: equilibria searches, orbit families, tube-seed set-ups.
+  subroutine stores_counts(handle, n_eqs, n_families, n_seeds)
+    integer(c_intptr_t), intent(in) :: handle
+    integer, intent(out) :: n_eqs, n_families, n_seeds
+    type(seed_stores_t), pointer :: s
+    n_eqs = 0
+    n_families = 0
+    n_seeds = 0
+    s => stores_at(handle)
+    if (.not. associated(s)) return
+    if (allocated(s%eqs)) n_eqs = size(s%eqs)
+    if (allocated(s%paths)) n_families = size(s%paths)
+    if (allocated(s%kept)) n_seeds = size(s%kept)
+  end subroutine stores_counts
 
   !> What a tube seed's crossing depends on besides its phase, bit for bit (the strings apart).
   function seed_key(st, sec, de, o) result(key)
