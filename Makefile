@@ -161,13 +161,12 @@ tubes: $(BUILD)/bin/tubes FORCE
 	@cmp -s $< $@ || { cp $< $@ && echo "tubes: the $(if $(MPI_DEF),MPI,serial) flavour ($<)"; }
 
 # ---------------------------------------------------------------- python extension (f2py, meson)
-# skip: the facade's helper module (tubes_f2py_models: sized_model) is compiled, not wrapped
 python: $(PYEXT_STAMP)
 $(PYEXT_STAMP): python/tubes_f2py.f90 $(LIB)
 	@if [ ! -x $(VPY) ]; then echo "python: no $(VENV); run 'make deps' first" >&2; exit 1; fi
 	@rm -rf $(BUILD)/py && mkdir -p $(BUILD)/py && rm -f python/tubes/_core*.so   # meson does not track .mod files: start clean
 	cd $(BUILD)/py && PATH=$(abspath $(VENV))/bin:$$PATH FFLAGS="-fPIC -fopenmp" \
-	  $(VPY) -m numpy.f2py -c --backend meson -m _core $(abspath python/tubes_f2py.f90) skip: sized_model : \
+	  $(VPY) -m numpy.f2py -c --backend meson -m _core $(abspath python/tubes_f2py.f90) \
 	  -I$(abspath $(BUILD)/mod) -L$(abspath $(BUILD)) -ltubes $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) -llapack -lblas --dep openmp > f2py.log 2>&1 \
 	  || { tail -30 f2py.log; exit 1; }
 	cp $(BUILD)/py/_core*.so python/tubes/

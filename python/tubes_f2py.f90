@@ -1,33 +1,8 @@
 ! The f2py facade of tubes (python/tubes/_core): plain subroutines, iso_c_binding kinds,
 ! explicit shapes, stat first among the outputs. The tubes package (python/tubes/__init__.py)
 ! copies inputs and raises TubesError on stat < 0. A model is (system, params(16)) in the order
-! of the library's table (src/models/tubes_models.f90, model_info). The module tubes_f2py_models
-! holds the subroutines' shared helpers; f2py does not wrap it (the Makefile's skip: list).
-
-module tubes_f2py_models
-  ! helpers of the subroutines below (not Python-visible: skip: in the Makefile's f2py call)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_models, only: make_model
-  use tubes_status, only: TUBES_EINPUT
-  implicit none
-  private
-  public :: sized_model
-contains
-  subroutine sized_model(system, params, n, per_dof, model, stat)
-    ! the conservative model of (system, params); stat TUBES_EINPUT unless n is the size of its
-    ! state, 2N (per_dof: of its configuration, N)
-    character(len=*), intent(in) :: system
-    real(c_double), intent(in) :: params(16)
-    integer(c_int), intent(in) :: n
-    logical, intent(in) :: per_dof
-    class(hamiltonian_t), allocatable, intent(out) :: model
-    integer(c_int), intent(out) :: stat
-    call make_model(trim(system), params, model, stat)
-    if (stat /= 0) return
-    if (n /= merge(model%ndof(), model%dim(), per_dof)) stat = TUBES_EINPUT
-  end subroutine sized_model
-end module tubes_f2py_models
+! of the library's table (src/models/tubes_models.f90, model_info). What the C API does too is
+! one routine of src/workflow (tubes_run, tubes_study) that both call.
 
 subroutine model_system(k, stat, name)
   ! the name of built-in system k = 1, 2, ... (stat TUBES_EINPUT past the last)
@@ -86,7 +61,7 @@ subroutine energies(system, params, n, m, x, stat, e)
   ! H of m states (columns of x, n = 2N components each) of the conservative model
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_f2py_models, only: sized_model
+  use tubes_run, only: sized_model
   implicit none
   character(len=*), intent(in) :: system
   integer(c_int), intent(in) :: n, m
@@ -106,26 +81,14 @@ end subroutine energies
 subroutine vector_field(system, params, n, x, stat, dxdt)
   ! Hamilton's equations (damped for the rolling ball with damping_ratio > 0)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_field, only: vector_field_t
-  use tubes_models, only: make_field
-  use tubes_status, only: TUBES_EINPUT, TUBES_EMODEL
+  use tubes_run, only: field_rates
   implicit none
   character(len=*), intent(in) :: system
   integer(c_int), intent(in) :: n
   real(c_double), intent(in) :: params(16), x(n)
   integer(c_int), intent(out) :: stat
   real(c_double), intent(out) :: dxdt(n)
-  class(vector_field_t), allocatable :: field
-  real(c_double) :: c
-  dxdt = 0
-  call make_field(trim(system), params, field, c, stat)
-  if (stat /= 0) return
-  if (n /= field%dim()) then
-    stat = TUBES_EINPUT
-    return
-  end if
-  call field%eval(0.0_c_double, x, dxdt, stat)
-  if (stat /= 0) stat = TUBES_EMODEL
+  call field_rates(system, params, x, dxdt, stat)
 end subroutine vector_field
 
 subroutine momentum(system, params, n, q, v, stat, p)
@@ -133,7 +96,7 @@ subroutine momentum(system, params, n, q, v, stat, p)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_models, only: momentum_of
-  use tubes_f2py_models, only: sized_model
+  use tubes_run, only: sized_model
   implicit none
   character(len=*), intent(in) :: system
   integer(c_int), intent(in) :: n
@@ -152,7 +115,7 @@ subroutine potentials(system, params, n, m, q, stat, v)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_models, only: potential_of
-  use tubes_f2py_models, only: sized_model
+  use tubes_run, only: sized_model
   use tubes_status, only: TUBES_EINPUT
   implicit none
   character(len=*), intent(in) :: system
@@ -178,7 +141,7 @@ subroutine shape_derivs(system, params, n, m, q, stat, grad, hess)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_models, only: shape_derivs_of
-  use tubes_f2py_models, only: sized_model
+  use tubes_run, only: sized_model
   use tubes_status, only: TUBES_EINPUT
   implicit none
   character(len=*), intent(in) :: system
@@ -199,30 +162,31 @@ subroutine shape_derivs(system, params, n, m, q, stat, grad, hess)
   end do
 end subroutine shape_derivs
 
-subroutine equilibria(system, params, lo, hi, n_grid, stores, stat, n, ndof, q, p, height, en, morse, &
-                      rank1, names, lam, om, evec)
-  ! equilibria in the box [lo, hi] (first ndof entries); at most 256. stores: stores_open's handle
-  ! (a search kept there is not repeated), or 0
+subroutine equilibria(system, params, lo, hi, n_grid, stores, stat, n, ndof, q, p, height, en, grad, &
+                      morse, rank1, names, lam, om, evec)
+  ! equilibria in the box [lo, hi] (first ndof entries), as the C API's tubes_find_equilibria
+  ! (tubes_study equilibria_table; evec by columns, 4 ndof^2 each); at most 256. stores:
+  ! stores_open's handle (a search kept there is not repeated), or 0
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_models, only: make_model
   use tubes_equilibria, only: equilibrium_t
-  use tubes_study, only: equilibria_of, seed_stores_t, stores_at
+  use tubes_study, only: equilibria_of, equilibria_table, seed_stores_t, stores_at
   implicit none
   character(len=*), intent(in) :: system
   real(c_double), intent(in) :: params(16), lo(3), hi(3)
   integer(c_int), intent(in) :: n_grid
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: stat, n, ndof
-  real(c_double), intent(out) :: q(3, 256), p(3, 256), height(256), en(256), lam(256), om(2, 256), &
-                                 evec(6, 6, 256)
+  real(c_double), intent(out) :: q(3, 256), p(3, 256), height(256), en(256), grad(256), lam(256), &
+                                 om(2, 256), evec(36, 256)
   integer(c_int), intent(out) :: morse(256), rank1(256)
   character(len=2304), intent(out) :: names
   class(hamiltonian_t), allocatable :: model
   type(equilibrium_t), allocatable :: eqs(:)
   type(seed_stores_t), pointer :: kept
   integer :: k, nd
-  n = 0; ndof = 0; q = 0; p = 0; height = 0; en = 0; lam = 0; om = 0; evec = 0; morse = -1
+  n = 0; ndof = 0; q = 0; p = 0; height = 0; en = 0; grad = 0; lam = 0; om = 0; evec = 0; morse = -1
   rank1 = 0; names = ''
   call make_model(trim(system), params, model, stat)
   if (stat /= 0) return
@@ -232,16 +196,8 @@ subroutine equilibria(system, params, lo, hi, n_grid, stores, stat, n, ndof, q, 
   call equilibria_of(trim(system), params, lo, hi, n_grid, model, eqs, stat, kept)
   if (stat /= 0) return
   n = min(size(eqs), 256)
+  call equilibria_table(eqs(1:n), nd, q, p, height, en, grad, morse, rank1, lam, om, evec)
   do k = 1, n
-    q(1:nd, k) = eqs(k)%q
-    p(1:nd, k) = eqs(k)%x(nd + 1:2*nd)
-    height(k) = eqs(k)%height
-    en(k) = eqs(k)%energy
-    morse(k) = eqs(k)%morse
-    rank1(k) = merge(1, merge(2, 0, eqs(k)%degenerate), eqs(k)%rank1)   ! 2: a degenerate saddle
-    lam(k) = eqs(k)%lambda
-    om(1:nd - 1, k) = eqs(k)%omegas(1:nd - 1)
-    evec(1:2*nd, 1:2*nd, k) = eqs(k)%evec
     names(9*(k - 1) + 1:9*k) = eqs(k)%name
   end do
 end subroutine equilibria
@@ -574,16 +530,17 @@ end subroutine read_input
 
 subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &
                         atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, &
-                        stat, energy, period, action, mu_u, mu_s, stab, &
-                        residual, closure, iterations, converged, state0, ts, xs, end_de, end_reason)
-  ! the Lyapunov family of a saddle (as the orbits scene, on the family's path in stores)
+                        stat, energy, period, action, mu_u, mu_s, mu_triv, stab, residual, closure, &
+                        iterations, converged, mindist, monodromy, history, state0, ts, xs, end_de, &
+                        end_reason)
+  ! the Lyapunov family of a saddle (as the orbits scene and the C API's tubes_orbit_family: the
+  ! same tables, tubes_study family_table), on the family's path in stores
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_equilibria, only: equilibrium_t
   use tubes_orbits, only: orbit_t, orbit_opts_t
-  use tubes_study, only: setup_model, study_t, family_at, seed_stores_t, stores_at
+  use tubes_study, only: study_t, study_family, family_table, seed_stores_t, stores_at
   use tubes_methods, only: integ_choice_t, method_opts_t
-  use tubes_status, only: TUBES_EINPUT
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, nde, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
@@ -592,51 +549,29 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: stat, iterations(nde), converged(nde), end_reason
   real(c_double), intent(out) :: energy(nde), period(nde), action(nde), mu_u(nde), mu_s(nde), &
-                                 stab(nde), residual(nde), closure(nde), state0(6, nde), &
+                                 mu_triv(4, nde), stab(nde), residual(nde), closure(nde), mindist(nde), &
+                                 monodromy(36, nde), history(max_iter, nde), state0(6, nde), &
                                  ts(nsamp, nde), xs(6, nsamp, nde), end_de
   class(hamiltonian_t), allocatable :: model
   type(equilibrium_t), allocatable :: eqs(:)
   type(orbit_opts_t) :: opts
   type(orbit_t) :: orbs(nde)
   type(seed_stores_t), pointer :: kept
-  integer :: isad, k, n2, reason
-  energy = 0; period = 0; action = 0; mu_u = 0; mu_s = 0; stab = 0; residual = 0; closure = 0
-  iterations = 0; converged = 0; state0 = 0; ts = 0; xs = 0; end_de = -1; end_reason = 0
-  stat = TUBES_EINPUT
-  if (nde < 1 .or. nsamp < 2 .or. max_iter < 1 .or. n_segments < 1 .or. tol <= 0) return
+  integer :: isad, reason
+  energy = 0; period = 0; action = 0; mu_u = 0; mu_s = 0; mu_triv = 0; stab = 0; residual = 0
+  closure = 0; mindist = 0; monodromy = 0; history = 0; iterations = 0; converged = 0; state0 = 0
+  ts = 0; xs = 0; end_de = -1; end_reason = 0
+  opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, n_samples=nsamp, &
+                      family=family, integ=integ_choice_t(method=method, h=h, opts=method_opts_t( &
+                      omega_bind=omega_bind, solver=solver, max_iter=int_max_iter)))
   kept => stores_at(stores)
-  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat, stores=kept)
-  if (stat /= 0) return
-  n2 = model%dim()
-  opts%n_segments = n_segments
-  opts%tol = tol
-  opts%rtol = rtol
-  opts%atol = atol
-  opts%max_iter = max_iter
-  opts%n_samples = nsamp
-  opts%family = family
-  opts%integ = integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, solver=solver, &
-                                                                      max_iter=int_max_iter))
-  call family_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-                         integ=opts%integ), model, eqs, isad, des, opts, orbs, end_de, reason, stat, kept)
+  call study_family(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+                            integ=opts%integ), des, opts, model, eqs, isad, orbs, end_de, reason, stat, kept)
   end_reason = reason
   if (stat < 0) return
-  do k = 1, nde
-    energy(k) = eqs(isad)%energy + des(k)
-    iterations(k) = orbs(k)%iterations
-    converged(k) = merge(1, 0, orbs(k)%converged)
-    if (.not. orbs(k)%converged) cycle
-    period(k) = orbs(k)%period
-    action(k) = orbs(k)%action
-    mu_u(k) = orbs(k)%mu_unstable
-    mu_s(k) = orbs(k)%mu_stable
-    stab(k) = orbs(k)%stability_index
-    residual(k) = orbs(k)%residual
-    closure(k) = orbs(k)%closure
-    state0(1:n2, k) = orbs(k)%x0
-    ts(:, k) = orbs(k)%t
-    xs(1:n2, :, k) = orbs(k)%x
-  end do
+  call family_table(orbs, eqs(isad)%energy, des, model%dim(), energy, period, action, state0, mu_u, mu_s, &
+                    mu_triv, stab, residual, closure, iterations, converged, mindist, monodromy, ts, xs, &
+                    history)
 end subroutine orbit_family
 
 subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol, orb_rtol, orb_atol, &

@@ -26,7 +26,8 @@ def test_orbits_transition_montecarlo_ball(tmp_path):
                        "&montecarlo de = 100, n_samples = 1500, seed = 4 /\n")
     m = tubes.Model()
     o = m.orbit_family(dE=[1, 50, 300])
-    for k in ("period", "action", "mu_unstable", "residual", "closure"):
+    for k in ("period", "action", "mu_unstable", "residual", "closure", "mu_trivial", "mu_trivial_imag",
+              "monodromy", "min_eq_distance"):
         assert np.array_equal(o[k], f["orbits"][k][:]), k
     t = m.transition(dE=[10, 100])
     for k in ("A_tube", "action", "A_E", "p_trans"):
@@ -45,7 +46,7 @@ def test_equilibria_trajectory_tubes_flux_ball(tmp_path):
     eq = tubes.equilibria()
     g = f["equilibria"]
     assert [n.decode() for n in g["name"][:]] == list(eq["name"])
-    for k in ("x", "y", "height", "energy", "morse_index", "lambda", "omega", "state"):
+    for k in ("x", "y", "height", "energy", "grad_norm", "morse_index", "lambda", "omega", "state"):
         assert np.array_equal(np.asarray(eq[k]), g[k][:]), k
     g = f["trajectory"]
     tr = tubes.trajectory(g["state"][0], 2.0)       # the scene's start, its method ('auto') and dt
@@ -122,7 +123,7 @@ def test_three_dof_orbits(tmp_path):
     for fam in (1, 2):
         f = _run(tmp_path, model + f"&orbits saddle_near = 0, 0, 0, de = 0.02, 0.05, family = {fam} /\n")
         o = m.orbit_family(dE=[0.02, 0.05], saddle_near=(0, 0, 0), family=fam, equilibria={"box": 1.0, "n_grid": 5})
-        for k in ("period", "action", "mu_unstable", "state0"):
+        for k in ("period", "action", "mu_unstable", "state0", "monodromy"):
             assert np.array_equal(o[k], f["orbits"][k][:]), (fam, k)
         f.close()
 

@@ -421,10 +421,11 @@ def equilibria(model: Model | None = None, box=None, n_grid: int = 41, box_cente
     system's) around box_center: dict of arrays q (n, N), state (n, 2N), x, y (q1, q2), height,
     energy, morse_index (the index: eigenvalues with positive real part), rank1, name,
     lambda, omega (rank-1 saddles; omega the lowest centre frequency), omegas (n, N-1),
-    eigenvectors (n, 2N, 2N)."""
+    grad_norm (Newton's residual: |grad V| for natural systems, else |dx/dt|), eigenvectors
+    (n, 2N, 2N)."""
     model = model or Model()
     lo, hi = _box(model, box, box_center)
-    (stat, n, nd, q, p, h, e, morse, rank1, names, lam, om, ev) = _lib().equilibria(
+    (stat, n, nd, q, p, h, e, grad, morse, rank1, names, lam, om, ev) = _lib().equilibria(
         model.name, model.params(), lo, hi, int(n_grid), model._stores())
     _check(stat, "equilibria")
     names = names.decode() if isinstance(names, bytes) else str(names)
@@ -434,7 +435,8 @@ def equilibria(model: Model | None = None, box=None, n_grid: int = 41, box_cente
             "height": h[:n].copy(), "energy": e[:n].copy(), "morse_index": morse[:n].copy(),
             "rank1": rank1[:n] == 1, "degenerate": rank1[:n] == 2, "name": [names[9 * k:9 * k + 9].strip() for k in range(n)],
             "lambda": lam[:n].copy(), "omega": om[0, :n].copy(), "omegas": om[:nd - 1, :n].T.copy(),
-            "eigenvectors": np.moveaxis(ev[:2 * nd, :2 * nd, :n], 2, 0).copy()}
+            "grad_norm": grad[:n].copy(),
+            "eigenvectors": ev[:4 * nd * nd, :n].T.reshape(n, 2 * nd, 2 * nd).transpose(0, 2, 1).copy()}
 
 
 def section_boundary(model: Model | None = None, de: float = 0.0, saddle: str | None = None,
@@ -595,8 +597,9 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
                  integrator: dict | None = None, equilibria: dict | None = None, **orbits) -> dict:
     """The Lyapunov orbits of a rank-1 saddle at the excess energies dE (as the orbits scene,
     docs/orbits.md): dict of arrays dE, energy, period, action, mu_unstable, mu_stable,
-    stability_index, residual, closure, iterations, converged, state0 (n, 2N), and end_dE (the
-    family's estimated end, or None). Keywords: saddle or saddle_near, and &orbits' method,
+    mu_trivial and mu_trivial_imag (n, 2), stability_index, monodromy (n, 2N, 2N), residual,
+    closure, iterations, min_eq_distance, converged, state0 (n, 2N) (docs/output.md, /orbits),
+    and end_dE (the family's estimated end, or None). Keywords: saddle or saddle_near, and &orbits' method,
     n_segments, tol, rtol, atol, max_iter, n_samples, family (the k-th centre mode's family in 3
     DOF); integrator: &integrator's method and its options as a dict, e.g. {"method":
     "arkode_erk8"} (default the input file's, "auto": Taylor for the state, DOP853 for the
@@ -606,15 +609,18 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
     de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
     st = _settings(model, saddle, saddle_near, orbits=dict(orbits, de=list(de)), integrator=integrator, equilibria=equilibria)
     n2 = 2 * model.ndof
-    (stat, en, per, act, mu, ms, stab, res, clo, it, conv, s0, ts, xs, end_de, reason) = _lib().orbit_family(
+    (stat, en, per, act, mu, ms, mtr, stab, res, clo, it, conv, mind, mono, hist, s0, ts, xs, end_de,
+     reason) = _lib().orbit_family(
         *_study(model, st), de, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]),
         float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model),
         model._stores())
     _check(stat, "orbit_family")
     return {"dE": de, "energy": en.copy(), "period": per.copy(), "action": act.copy(),
-            "mu_unstable": mu.copy(), "mu_stable": ms.copy(), "stability_index": stab.copy(),
+            "mu_unstable": mu.copy(), "mu_stable": ms.copy(), "mu_trivial": mtr[[0, 2], :].T.copy(),
+            "mu_trivial_imag": mtr[[1, 3], :].T.copy(), "stability_index": stab.copy(),
+            "monodromy": mono[:n2 * n2, :].T.reshape(-1, n2, n2).transpose(0, 2, 1).copy(),
             "residual": res.copy(), "closure": clo.copy(), "iterations": it.copy(),
-            "converged": conv.astype(bool), "state0": s0[:n2, :].T.copy(),
+            "min_eq_distance": mind.copy(), "converged": conv.astype(bool), "state0": s0[:n2, :].T.copy(),
             "end_dE": float(end_de) if end_de > 0 else None, "saddle": st["saddle"]}
 
 

@@ -16,7 +16,7 @@ module tubes_capi
   use tubes_equilibria, only: equilibrium_t
   use tubes_integrator, only: integrator_t, propagate
   use tubes_methods, only: new_integrator, method_opts_t, integ_choice_t
-  use tubes_run, only: run_trajectory, section_spec_t
+  use tubes_run, only: run_trajectory, section_spec_t, sized_model, field_rates
   use tubes_sampler, only: sampler_t
   use tubes_orbits, only: orbit_t, orbit_opts_t
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
@@ -28,7 +28,7 @@ module tubes_capi
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, maps_at, cut_outputs, seed_stores_t, family_at, &
-                         equilibria_of, open_stores, stores_at, close_stores
+                         equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, close_stores
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long, c_intptr_t
   implicit none
@@ -218,13 +218,8 @@ contains
     real(c_double), intent(out) :: energy
     class(hamiltonian_t), allocatable :: model
     energy = 0
-    call model_of(system, params, model, stat)
-    if (stat /= TUBES_OK) return
-    if (n /= model%dim()) then
-      stat = TUBES_EINPUT
-      return
-    end if
-    energy = model%energy(x)
+    call sized_model(from_c(system, LEN_SYSTEM), params, n, .false., model, stat)
+    if (stat == TUBES_OK) energy = model%energy(x)
   end function c_energy
 
   integer(c_int) function c_vector_field(system, params, n, x, dxdt) result(stat) &
@@ -234,17 +229,7 @@ contains
     integer(c_int), value :: n
     real(c_double), intent(in) :: x(n)
     real(c_double), intent(out) :: dxdt(n)
-    class(vector_field_t), allocatable :: field
-    real(wp) :: c
-    dxdt = 0
-    call make_field(trim(from_c(system, LEN_SYSTEM)), params, field, c, stat)
-    if (stat /= TUBES_OK) return
-    if (n /= field%dim()) then
-      stat = TUBES_EINPUT
-      return
-    end if
-    call field%eval(0.0_wp, x, dxdt, stat)
-    if (stat /= 0) stat = TUBES_EMODEL
+    call field_rates(from_c(system, LEN_SYSTEM), params, x, dxdt, stat)
   end function c_vector_field
 
   integer(c_int) function c_momentum(system, params, q, v, p) result(stat) bind(C, name='tubes_momentum')
@@ -299,17 +284,8 @@ contains
       return
     end if
     n = size(eqs)
+    call equilibria_table(eqs, nd, q, p, height, energy, grad_norm, morse, rank1, lambda, omega, evec)
     do k = 1, n
-      q(1:nd, k) = eqs(k)%q
-      p(1:nd, k) = eqs(k)%x(nd + 1:2*nd)
-      height(k) = eqs(k)%height
-      energy(k) = eqs(k)%energy
-      grad_norm(k) = eqs(k)%grad_norm
-      morse(k) = eqs(k)%morse
-      rank1(k) = merge(1, merge(2, 0, eqs(k)%degenerate), eqs(k)%rank1)   ! 2: a degenerate saddle
-      lambda(k) = eqs(k)%lambda
-      omega(1:nd - 1, k) = eqs(k)%omegas(1:nd - 1)
-      evec(1:4*nd*nd, k) = reshape(eqs(k)%evec, [4*nd*nd])
       call to_c(eqs(k)%name, names(:, k), 8)
     end do
   end function c_equilibria
@@ -371,59 +347,24 @@ contains
     type(study_t) :: st
     type(section_choice_t) :: sec
     type(seed_stores_t), pointer :: kept
-    integer :: k, isad, nh, reason, n2
+    integer :: isad, reason
     real(wp) :: ede
     energy = 0; period = 0; action = 0; state0 = 0; mu_u = 0; mu_s = 0; mu_triv = 0; stab = 0
     residual = 0; closure = 0; mindist = 0; monodromy = 0; ts = 0; xs = 0; history = 0
     iterations = 0; converged = 0; end_de = -1; end_reason = 0
-    if (nde < 1 .or. nsamp < 2 .or. max_iter < 1 .or. n_segments < 1 .or. tol <= 0) then
-      stat = TUBES_EINPUT
-      return
-    end if
-    kept => stores_of(stores)
-    call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
-                     model, eqs, isad, stat, stores=kept)
-    if (stat /= TUBES_OK) return
-    n2 = model%dim()
-    opts%n_segments = n_segments
-    opts%tol = tol
-    opts%rtol = rtol
-    opts%atol = atol
-    opts%max_iter = max_iter
-    opts%n_samples = nsamp
-    opts%family = family
-    opts%integ = integ_of(method, h, omega_bind, solver, int_max_iter)
-    opts%local = local /= 0
-    allocate (orbs(nde))
+    opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, &
+                        n_samples=nsamp, family=family, local=local /= 0, &
+                        integ=integ_of(method, h, omega_bind, solver, int_max_iter))
     call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
-    call family_at(st, model, eqs, isad, des, opts, orbs, ede, reason, stat, kept)
+    allocate (orbs(nde))
+    kept => stores_of(stores)
+    call study_family(st, des, opts, model, eqs, isad, orbs, ede, reason, stat, kept)
     if (stat < 0) return
     end_de = ede
     end_reason = reason
-    do k = 1, nde
-      energy(k) = eqs(isad)%energy + des(k)
-      if (allocated(orbs(k)%history)) then
-        nh = min(size(orbs(k)%history), max_iter)
-        history(1:nh, k) = orbs(k)%history(1:nh)
-      end if
-      iterations(k) = orbs(k)%iterations
-      converged(k) = merge(1, 0, orbs(k)%converged)
-      if (.not. orbs(k)%converged) cycle
-      period(k) = orbs(k)%period
-      action(k) = orbs(k)%action
-      state0(1:n2, k) = orbs(k)%x0
-      mu_u(k) = orbs(k)%mu_unstable
-      mu_s(k) = orbs(k)%mu_stable
-      mu_triv(:, k) = [orbs(k)%mu_trivial(1), orbs(k)%mu_trivial_imag(1), &
-                       orbs(k)%mu_trivial(2), orbs(k)%mu_trivial_imag(2)]
-      stab(k) = orbs(k)%stability_index
-      residual(k) = orbs(k)%residual
-      closure(k) = orbs(k)%closure
-      mindist(k) = orbs(k)%min_eq_distance
-      monodromy(1:n2*n2, k) = reshape(orbs(k)%monodromy, [n2*n2])
-      ts(:, k) = orbs(k)%t
-      xs(1:n2, :, k) = orbs(k)%x
-    end do
+    call family_table(orbs, eqs(isad)%energy, des, model%dim(), energy, period, action, state0, mu_u, &
+                      mu_s, mu_triv, stab, residual, closure, iterations, converged, mindist, monodromy, &
+                      ts, xs, history)
     stat = TUBES_OK
   end function c_orbit_family
 

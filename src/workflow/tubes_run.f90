@@ -4,7 +4,7 @@
 module tubes_run
   use, intrinsic :: iso_c_binding, only: c_intptr_t, c_loc, c_f_pointer, c_null_ptr
   use tubes_kinds, only: wp, i8
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_EMODEL
   use tubes_field, only: vector_field_t
   use tubes_models, only: make_field, make_model
   use tubes_hamiltonian, only: hamiltonian_t
@@ -33,6 +33,7 @@ module tubes_run
 
   public :: run_integration, run_trajectory, run_ensemble
   public :: open_integrator, propagate_kept, close_integrator
+  public :: sized_model, field_rates
 
   !> An integrator kept between calls (Python's tubes.Integrator, as heyoka's taylor_adaptive):
   !> the model's field, the method and, for the Taylor method, its kernel set up once; each
@@ -346,4 +347,38 @@ contains
     out%r(size(lane%x) + 1, k) = real(lane%ig%nsteps, wp)
     out%st(k) = lane%stat
   end subroutine ensemble_finish
+
+  !> The conservative model of (system, params); stat TUBES_EINPUT unless n is the size of its
+  !> state, 2N (per_dof: of its configuration, N). The C API's and Python's calls on one state.
+  subroutine sized_model(system, params, n, per_dof, model, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:)
+    integer, intent(in) :: n
+    logical, intent(in) :: per_dof
+    class(hamiltonian_t), allocatable, intent(out) :: model
+    integer, intent(out) :: stat
+    call make_model(trim(system), params, model, stat)
+    if (stat /= TUBES_OK) return
+    if (n /= merge(model%ndof(), model%dim(), per_dof)) stat = TUBES_EINPUT
+  end subroutine sized_model
+
+  !> dx/dt of the model's vector field at x (damped for a rolling ball with damping_ratio > 0):
+  !> TUBES_EINPUT if x is not its state's size, TUBES_EMODEL if the field fails there.
+  subroutine field_rates(system, params, x, dxdt, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:), x(:)
+    real(wp), intent(out) :: dxdt(:)
+    integer, intent(out) :: stat
+    class(vector_field_t), allocatable :: field
+    real(wp) :: c
+    dxdt = 0
+    call make_field(trim(system), params, field, c, stat)
+    if (stat /= TUBES_OK) return
+    if (size(x) /= field%dim()) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    call field%eval(0.0_wp, x, dxdt, stat)
+    if (stat /= 0) stat = TUBES_EMODEL
+  end subroutine field_rates
 end module tubes_run

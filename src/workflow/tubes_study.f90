@@ -26,7 +26,8 @@ module tubes_study
   integer, parameter, public :: SECTION_PLANE = 2   !! sec_kind: the plane q_index = level
 
   public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, section_info, cut_at, &
-            check_at, maps_at, cut_outputs, open_stores, stores_at, close_stores, stores_counts
+            check_at, maps_at, cut_outputs, equilibria_table, study_family, family_table, open_stores, &
+            stores_at, close_stores, stores_counts
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -239,6 +240,30 @@ contains
     stores%eqs = [stores%eqs, entry]
   end subroutine equilibria_of
 
+  !> The equilibria as the tables of the C API and the f2py facade: column k of each is eqs(k)
+  !> (nd degrees of freedom; rank1 1 for a rank-1 saddle, 2 for a degenerate one, else 0; evec
+  !> the 2nd x 2nd eigenvector matrix by columns). The arrays' other entries are left alone.
+  subroutine equilibria_table(eqs, nd, q, p, height, energy, grad_norm, morse, rank1, lambda, omega, evec)
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: nd
+    real(wp), intent(inout) :: q(:, :), p(:, :), height(:), energy(:), grad_norm(:), lambda(:), &
+                               omega(:, :), evec(:, :)
+    integer, intent(inout) :: morse(:), rank1(:)
+    integer :: k
+    do k = 1, size(eqs)
+      q(1:nd, k) = eqs(k)%q
+      p(1:nd, k) = eqs(k)%x(nd + 1:2*nd)
+      height(k) = eqs(k)%height
+      energy(k) = eqs(k)%energy
+      grad_norm(k) = eqs(k)%grad_norm
+      morse(k) = eqs(k)%morse
+      rank1(k) = merge(1, merge(2, 0, eqs(k)%degenerate), eqs(k)%rank1)
+      lambda(k) = eqs(k)%lambda
+      omega(1:nd - 1, k) = eqs(k)%omegas(1:nd - 1)
+      evec(1:4*nd*nd, k) = reshape(eqs(k)%evec, [4*nd*nd])
+    end do
+  end subroutine equilibria_table
+
   !> The model, the saddle and the section of a tube-dynamics call at energy E_e + de:
   !> sec_kind 1 = the ball's ray theta = level [rad] with sign(p_theta) = dir, 2 = the plane
   !> q_index = level crossed with sign(dq_index/dt) = dir. q_ref is a configuration point of the
@@ -334,6 +359,71 @@ contains
     end if
     call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores%paths(i)%path)
   end subroutine family_at
+
+  !> The orbits scene's call: the study's model, equilibria and saddle (setup_model), then the
+  !> saddle's family at des (family_at); TUBES_EINPUT for options that make no sense.
+  subroutine study_family(st, des, opts, model, eqs, isad, orbs, end_de, end_reason, stat, stores)
+    type(study_t), intent(in) :: st
+    real(wp), intent(in) :: des(:)
+    type(orbit_opts_t), intent(in) :: opts
+    class(hamiltonian_t), allocatable, intent(out) :: model
+    type(equilibrium_t), allocatable, intent(out) :: eqs(:)
+    integer, intent(out) :: isad
+    type(orbit_t), intent(out) :: orbs(size(des))
+    real(wp), intent(out) :: end_de
+    integer, intent(out) :: end_reason, stat
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
+    end_de = -1
+    end_reason = 0
+    isad = 0
+    stat = TUBES_EINPUT
+    if (size(des) < 1 .or. opts%n_samples < 2 .or. opts%max_iter < 1 .or. opts%n_segments < 1 .or. &
+        .not. opts%tol > 0) return
+    call setup_model(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), model, eqs, &
+                     isad, stat, stores=stores)
+    if (stat /= TUBES_OK) return
+    call family_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores)
+  end subroutine study_family
+
+  !> The orbits as the tables of the C API and the f2py facade (docs/output.md, /orbits): column k
+  !> of each is orbs(k) at energy e_saddle + des(k) (n2 = 2N state components; history: the first
+  !> size(history, 1) Newton residuals). A column of an orbit that did not converge keeps its
+  !> energy, iterations and history; the arrays' other entries are left alone.
+  subroutine family_table(orbs, e_saddle, des, n2, energy, period, action, state0, mu_u, mu_s, mu_triv, &
+                          stab, residual, closure, iterations, converged, mindist, monodromy, ts, xs, history)
+    type(orbit_t), intent(in) :: orbs(:)
+    real(wp), intent(in) :: e_saddle, des(:)
+    integer, intent(in) :: n2
+    real(wp), intent(inout) :: energy(:), period(:), action(:), state0(:, :), mu_u(:), mu_s(:), &
+                               mu_triv(:, :), stab(:), residual(:), closure(:), mindist(:), &
+                               monodromy(:, :), ts(:, :), xs(:, :, :), history(:, :)
+    integer, intent(inout) :: iterations(:), converged(:)
+    integer :: k, nh
+    do k = 1, size(orbs)
+      energy(k) = e_saddle + des(k)
+      if (allocated(orbs(k)%history)) then
+        nh = min(size(orbs(k)%history), size(history, 1))
+        history(1:nh, k) = orbs(k)%history(1:nh)
+      end if
+      iterations(k) = orbs(k)%iterations
+      converged(k) = merge(1, 0, orbs(k)%converged)
+      if (.not. orbs(k)%converged) cycle
+      period(k) = orbs(k)%period
+      action(k) = orbs(k)%action
+      state0(1:n2, k) = orbs(k)%x0
+      mu_u(k) = orbs(k)%mu_unstable
+      mu_s(k) = orbs(k)%mu_stable
+      mu_triv(:, k) = [orbs(k)%mu_trivial(1), orbs(k)%mu_trivial_imag(1), &
+                       orbs(k)%mu_trivial(2), orbs(k)%mu_trivial_imag(2)]
+      stab(k) = orbs(k)%stability_index
+      residual(k) = orbs(k)%residual
+      closure(k) = orbs(k)%closure
+      mindist(k) = orbs(k)%min_eq_distance
+      monodromy(1:n2*n2, k) = reshape(orbs(k)%monodromy, [n2*n2])
+      ts(:, k) = orbs(k)%t
+      xs(1:n2, :, k) = orbs(k)%x
+    end do
+  end subroutine family_table
 
   !> The Lyapunov orbit at excess energy de (the options of st; local: on this MPI rank alone).
   subroutine orbit_at(st, model, eqs, isad, de, local, orb, stat, stores)
