@@ -3,7 +3,7 @@ module tubes_lapack
   use tubes_kinds, only: wp
   implicit none
   private
-  public :: dgesv, dgeev, dsyev, dgels, dlasrt, dgetrf, dgetrs
+  public :: dgesv, dgeev, dsyev, dgels, dlasrt, dgetrf, dgetrs, eigen
 
   interface
     !> Solve A X = B (LU with partial pivoting).
@@ -66,4 +66,26 @@ module tubes_lapack
       integer, intent(out) :: info
     end subroutine dgetrs
   end interface
+contains
+
+  !> The eigenvalues wr + i wi of the general matrix a (a is kept) and, with vr, its right
+  !> eigenvectors (dgeev's layout: a complex pair in columns j (Re) and j + 1 (Im)); stat
+  !> TUBES_ENOCONV if dgeev fails, else TUBES_OK.
+  subroutine eigen(a, wr, wi, stat, vr)
+    use tubes_status, only: TUBES_OK, TUBES_ENOCONV
+    real(wp), intent(in) :: a(:, :)
+    real(wp), intent(out) :: wr(:), wi(:)
+    integer, intent(out) :: stat
+    real(wp), intent(out), optional :: vr(:, :)
+    real(wp) :: b(size(a, 1), size(a, 1)), vl(1, 1), v1(1, 1), work(64*size(a, 1))
+    integer :: n, info
+    n = size(a, 1)
+    b = a
+    if (present(vr)) then
+      call dgeev('N', 'V', n, b, n, wr, wi, vl, 1, vr, n, work, size(work), info)
+    else
+      call dgeev('N', 'N', n, b, n, wr, wi, vl, 1, v1, 1, work, size(work), info)
+    end if
+    stat = merge(TUBES_ENOCONV, TUBES_OK, info /= 0)
+  end subroutine eigen
 end module tubes_lapack

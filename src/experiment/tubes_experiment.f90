@@ -4,12 +4,13 @@
 !> the pixel grid. The truth (noise-free states) is returned beside the measurement.
 !> Model and defaults: docs/experiment-data.md.
 !>
-!> All random numbers come from one GSL MT19937 stream (tubes_rng_uniform, src/base/tubes_quad.c)
+!> All random numbers come from one GSL MT19937 stream (tubes_rng_uniform, src/base/tubes_quad_shim.c)
 !> and are drawn serially before the tracks are integrated in parallel (MPI ranks and OpenMP
 !> threads), each track into its own slice: the result does not depend on either number.
 module tubes_experiment
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_long
   use tubes_kinds, only: wp
+  use tubes_quad, only: rng_uniform
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EFAULT
   use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree
@@ -54,15 +55,6 @@ module tubes_experiment
   end type experiment_opts_t
 
   public :: experiment_samples, synthetic_experiment
-
-  interface
-    integer(c_int) function rng_uniform(seed, n, u) bind(C, name='tubes_rng_uniform')
-      import :: c_int, c_double, c_long
-      integer(c_long), value :: seed
-      integer(c_int), value :: n
-      real(c_double), intent(out) :: u(*)
-    end function rng_uniform
-  end interface
 
 contains
 

@@ -6,7 +6,7 @@
 !> CR3BP): Newton on the 2N-dimensional vector field from (q, rest momenta of q).
 module tubes_equilibria
   use tubes_kinds, only: wp
-  use tubes_lapack, only: dgeev, dsyev, dgesv
+  use tubes_lapack, only: eigen, dsyev, dgesv
   use tubes_hamiltonian, only: hamiltonian_t, natural_t, NAMES_QUADRANT, NAMES_LAGRANGE
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   implicit none
@@ -341,13 +341,9 @@ contains
     real(wp), intent(in) :: x(:)
     real(wp), intent(out) :: wr(:), wi(:)
     integer, intent(out) :: stat
-    real(wp) :: jac(size(x), size(x)), vl(1, 1), vr(1, 1), work(64*size(x))
-    integer :: info, n2
-    n2 = size(x)
+    real(wp) :: jac(size(x), size(x))
     call rest_jacobian(model, x, jac, stat)
-    if (stat /= TUBES_OK) return
-    call dgeev('N', 'N', n2, jac, n2, wr, wi, vl, 1, vr, 1, work, size(work), info)
-    if (info /= 0) stat = TUBES_ENOCONV
+    if (stat == TUBES_OK) call eigen(jac, wr, wi, stat)
   end subroutine spectrum
 
   !> Jacobian of Hamilton's equations at an equilibrium x. Natural systems:
@@ -386,9 +382,9 @@ contains
     real(wp), intent(out) :: lambda, omegas(:), evec(:, :)
     integer, intent(out) :: stat
     logical, intent(in), optional :: degenerate
-    real(wp) :: jac(size(x), size(x)), wr(size(x)), wi(size(x)), vl(1, 1), vr(size(x), size(x))
-    real(wp) :: work(64*size(x)), v(size(x)), nrm, scale
-    integer :: info, k, iu, is, n2, nc, ic(size(x)), j, nz
+    real(wp) :: jac(size(x), size(x)), wr(size(x)), wi(size(x)), vr(size(x), size(x))
+    real(wp) :: v(size(x)), nrm, scale
+    integer :: k, iu, is, n2, nc, ic(size(x)), j, nz
     logical :: deg
     stat = TUBES_OK
     deg = .false.
@@ -396,11 +392,8 @@ contains
     n2 = size(x)
     call rest_jacobian(model, x, jac, stat)
     if (stat /= TUBES_OK) return
-    call dgeev('N', 'V', n2, jac, n2, wr, wi, vl, 1, vr, n2, work, size(work), info)
-    if (info /= 0) then
-      stat = TUBES_ENOCONV
-      return
-    end if
+    call eigen(jac, wr, wi, stat, vr)
+    if (stat /= TUBES_OK) return
     iu = maxloc(wr, 1)
     is = minloc(wr, 1)
     lambda = wr(iu)

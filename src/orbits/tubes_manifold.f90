@@ -6,7 +6,8 @@
 module tubes_manifold
   use, intrinsic :: iso_c_binding, only: c_int, c_double
   use tubes_kinds, only: wp
-  use tubes_lapack, only: dlasrt, dgeev
+  use tubes_lapack, only: dlasrt, eigen
+  use tubes_quad, only: spline_area
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT, TUBES_EFAULT, &
                           TUBES_ENOCROSS
   use tubes_ensemble, only: ens_out_t, ens_run, ens_agree, ens_reuse_ok
@@ -112,16 +113,6 @@ module tubes_manifold
 
   public :: tube_cut
 
-  interface
-    integer(c_int) function spline_area(n, tau, r, p, period, area) bind(C, name='tubes_spline_area')
-      import :: c_int, c_double
-      integer(c_int), value :: n
-      real(c_double), intent(in) :: tau(*), r(*), p(*)
-      real(c_double), value :: period
-      real(c_double), intent(out) :: area
-    end function spline_area
-  end interface
-
 contains
 
   !> Floquet eigenvector of the monodromy for the unstable (kind = UNSTABLE) or stable
@@ -131,16 +122,10 @@ contains
     integer, intent(in) :: kind
     real(wp), intent(out) :: v(:)
     integer, intent(out) :: stat
-    real(wp) :: a(size(v), size(v)), wr(size(v)), wi(size(v)), vl(1, 1), vr(size(v), size(v)), &
-                work(64*size(v))
-    integer :: info, k, n2
-    n2 = size(v)
-    a = mono
-    call dgeev('N', 'V', n2, a, n2, wr, wi, vl, 1, vr, n2, work, size(work), info)
-    if (info /= 0) then
-      stat = TUBES_ENOCONV
-      return
-    end if
+    real(wp) :: wr(size(v)), wi(size(v)), vr(size(v), size(v))
+    integer :: k
+    call eigen(mono, wr, wi, stat, vr)
+    if (stat /= TUBES_OK) return
     if (kind == UNSTABLE) then
       k = maxloc(wr, 1)
     else

@@ -20,8 +20,8 @@ module tubes_normal_form
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
-  use tubes_lapack, only: dgeev
-  use tubes_ray_surface, only: quad_qags, quad_root
+  use tubes_lapack, only: eigen
+  use tubes_quad, only: quad_qags, quad_root
   use tubes_equilibria, only: sort_indices
   implicit none
   private
@@ -572,17 +572,17 @@ contains
     real(wp), intent(out) :: c(:, :)
     type(nf_result_t), intent(inout) :: res
     integer, intent(out) :: stat
-    real(wp) :: a(2*nd, 2*nd), wr(2*nd), wi(2*nd), vl(1, 1), vr(2*nd, 2*nd), work(16*nd), scale, sy
-    integer :: info, ip, im, k, nc, ic(nd), j, nv
+    real(wp) :: wr(2*nd), wi(2*nd), vr(2*nd, 2*nd), scale, sy
+    integer :: ip, im, k, nc, ic(nd), nv
     character(len=24) :: buf
-    stat = TUBES_EINPUT
     nv = 2*nd
-    a = jm
-    call dgeev('N', 'V', nv, a, nv, wr, wi, vl, 1, vr, nv, work, size(work), info)
-    if (info /= 0) then
+    call eigen(jm, wr, wi, stat, vr)
+    if (stat /= TUBES_OK) then
       res%message = 'normal form: the eigenvalues of the linearisation failed (LAPACK dgeev)'
+      stat = TUBES_EINPUT
       return
     end if
+    stat = TUBES_EINPUT
     scale = max(maxval(abs(wr)), maxval(abs(wi)))
     ip = maxloc(wr, 1)
     im = minloc(wr, 1)

@@ -4,7 +4,7 @@
 !> Theory and conventions: docs/orbits.md.
 module tubes_orbits
   use tubes_kinds, only: wp
-  use tubes_lapack, only: dgesv, dgels, dgeev
+  use tubes_lapack, only: dgesv, dgels, eigen
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EFAULT
   use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree, ens_reuse_ok
   use tubes_field, only: vector_field_t, jet_spec_t
@@ -488,25 +488,20 @@ contains
     type(action_field_t) :: af
     class(integrator_t), allocatable :: ig
     type(sampler_t) :: obs
-    real(wp), allocatable :: x(:), phi(:, :), z(:), wr(:), wi(:), work(:), mono(:, :), dist1(:)
-    real(wp) :: vl(1, 1), vr(1, 1), d
-    integer :: info, k, iu, is, j, itr(2), n2, nd
+    real(wp), allocatable :: x(:), phi(:, :), z(:), wr(:), wi(:), dist1(:)
+    real(wp) :: d
+    integer :: k, iu, is, j, itr(2), n2, nd
     logical, allocatable :: free(:)
     n2 = size(orb%x0)
     nd = n2/2
-    allocate (x(n2), phi(n2, n2), z(n2 + 1), wr(n2), wi(n2), work(64*n2), mono(n2, n2), &
-              dist1(n2), free(n2))
+    allocate (x(n2), phi(n2, n2), z(n2 + 1), wr(n2), wi(n2), dist1(n2), free(n2))
     call flow_stm(model, orb%x0, orb%period, opts, x, phi, stat)
     if (stat < 0) return
     orb%monodromy = phi
     orb%closure = maxval(abs(x - orb%x0))
     orb%residual = orb%history(size(orb%history))
-    mono = phi
-    call dgeev('N', 'N', n2, mono, n2, wr, wi, vl, 1, vr, 1, work, size(work), info)
-    if (info /= 0) then
-      stat = TUBES_ENOCONV
-      return
-    end if
+    call eigen(phi, wr, wi, stat)
+    if (stat /= TUBES_OK) return
     iu = maxloc(wr, 1)
     is = minloc(wr, 1)
     orb%mu_unstable = wr(iu)

@@ -28,7 +28,7 @@ module tubes_flux
   use tubes_equilibria, only: equilibrium_t
   use tubes_integrator, only: integrator_t, observer_t, propagate
   use tubes_methods, only: integ_choice_t, make_integrator
-  use tubes_transport, only: rng_uniform
+  use tubes_quad, only: rng_uniform
   use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree
   implicit none
   private

@@ -7,6 +7,7 @@ module tubes_ray_surface
   use tubes_kinds, only: wp
   use tubes_ball, only: ball_t, ROLL
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
+  use tubes_quad, only: quad_qags, quad_root
   implicit none
   private
 
@@ -24,26 +25,6 @@ module tubes_ray_surface
 
   public :: ray_potential, ray_hr, section_region, section_area, section_darea, boundary_pr, &
             p_theta_from
-  public :: quad_qags, quad_root   !! GSL QAGS and Brent through src/base/tubes_quad.c
-
-  interface
-    integer(c_int) function quad_qags(f, user, a, b, epsabs, epsrel, result, abserr) &
-        bind(C, name='tubes_quad_qags')
-      import :: c_int, c_double, c_ptr, c_funptr
-      type(c_funptr), value :: f
-      type(c_ptr), value :: user
-      real(c_double), value :: a, b, epsabs, epsrel
-      real(c_double), intent(out) :: result, abserr
-    end function quad_qags
-    integer(c_int) function quad_root(f, user, a, b, epsabs, epsrel, root) &
-        bind(C, name='tubes_quad_root')
-      import :: c_int, c_double, c_ptr, c_funptr
-      type(c_funptr), value :: f
-      type(c_ptr), value :: user
-      real(c_double), value :: a, b, epsabs, epsrel
-      real(c_double), intent(out) :: root
-    end function quad_root
-  end interface
 
 contains
 

@@ -17,7 +17,8 @@ module tubes_section_kinds
   use tubes_integrator, only: event_t, plane_t
   use tubes_section_events, only: theta_line_t, polar_canonical
   use tubes_ray_surface, only: ray_t, section_region, section_area, section_darea, boundary_pr, &
-                           p_theta_from, quad_qags, quad_root
+                           p_theta_from
+  use tubes_quad, only: quad_qags, quad_root
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   implicit none
   private

@@ -4,6 +4,7 @@
 module tubes_transport
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_long
   use tubes_kinds, only: wp
+  use tubes_quad, only: rng_uniform
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT
   use tubes_ensemble, only: ens_out_t, ens_run, ens_agree
   use tubes_hamiltonian, only: hamiltonian_t
@@ -72,16 +73,7 @@ module tubes_transport
   !> Items of an ensemble per call of run_lanes (an OpenMP thread's unit of work)
   integer, parameter :: LANE_CHUNK = 64
 
-  public :: inside_curve, mc_classify, monte_carlo, poincare_map, rng_uniform
-
-  interface
-    integer(c_int) function rng_uniform(seed, n, u) bind(C, name='tubes_rng_uniform')
-      import :: c_int, c_double, c_long
-      integer(c_long), value :: seed
-      integer(c_int), value :: n
-      real(c_double), intent(out) :: u(*)
-    end function rng_uniform
-  end interface
+  public :: inside_curve, mc_classify, monte_carlo, poincare_map
 
 contains
 

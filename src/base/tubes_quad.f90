@@ -1,0 +1,46 @@
+!> The Fortran interface of src/base/tubes_quad_shim.c: GSL's adaptive quadrature (QAGS), Brent's
+!> root finder, the periodic cubic spline's enclosed area and the MT19937 uniform stream. The
+!> integrands are bind(C) functions f(x, user) of a user pointer; every call is thread-safe.
+module tubes_quad
+  use, intrinsic :: iso_c_binding, only: c_int, c_long, c_double, c_ptr, c_funptr
+  implicit none
+  private
+  public :: quad_qags, quad_root, spline_area, rng_uniform
+
+  interface
+    !> The integral of f over [a, b] to max(epsabs, epsrel |result|): the GSL status.
+    integer(c_int) function quad_qags(f, user, a, b, epsabs, epsrel, result, abserr) &
+        bind(C, name='tubes_quad_qags')
+      import :: c_int, c_double, c_ptr, c_funptr
+      type(c_funptr), value :: f
+      type(c_ptr), value :: user
+      real(c_double), value :: a, b, epsabs, epsrel
+      real(c_double), intent(out) :: result, abserr
+    end function quad_qags
+    !> A root of f in [a, b] (f(a), f(b) of opposite signs) by Brent's method: the GSL status.
+    integer(c_int) function quad_root(f, user, a, b, epsabs, epsrel, root) &
+        bind(C, name='tubes_quad_root')
+      import :: c_int, c_double, c_ptr, c_funptr
+      type(c_funptr), value :: f
+      type(c_ptr), value :: user
+      real(c_double), value :: a, b, epsabs, epsrel
+      real(c_double), intent(out) :: root
+    end function quad_root
+    !> The integral of p dr around the closed curve (r(tau), p(tau)), tau in [tau(1), tau(1) +
+    !> period), through periodic cubic splines of its n samples: 0, or the GSL status.
+    integer(c_int) function spline_area(n, tau, r, p, period, area) bind(C, name='tubes_spline_area')
+      import :: c_int, c_double
+      integer(c_int), value :: n
+      real(c_double), intent(in) :: tau(*), r(*), p(*)
+      real(c_double), value :: period
+      real(c_double), intent(out) :: area
+    end function spline_area
+    !> n uniform numbers in [0, 1) from a new MT19937 stream of seed: 0, or non-zero on failure.
+    integer(c_int) function rng_uniform(seed, n, u) bind(C, name='tubes_rng_uniform')
+      import :: c_int, c_double, c_long
+      integer(c_long), value :: seed
+      integer(c_int), value :: n
+      real(c_double), intent(out) :: u(*)
+    end function rng_uniform
+  end interface
+end module tubes_quad
