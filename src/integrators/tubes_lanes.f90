@@ -15,6 +15,7 @@
 !> lane of a run_lanes call integrates the same model.
 module tubes_lanes
   use tubes_kinds, only: wp, i8
+  use tubes_field, only: vector_field_t
   use tubes_integrator, only: event_t, observer_t, crossing_log_t, prop_t, prop_begin, prop_after_step
   use tubes_taylor, only: taylor_t, kernel_t, taylor_begin, taylor_end, jet_kernel
   use tubes_status, only: TUBES_OK, TUBES_EMAXSTEPS, TUBES_EMODEL
@@ -37,6 +38,8 @@ module tubes_lanes
     integer :: item = 0                           !! the item it integrates
     logical :: active = .false.
     type(prop_t) :: ps
+  contains
+    procedure :: setup => lane_setup
   end type lane_t
 
   !> The items of an ensemble, in lanes or one by one.
@@ -75,6 +78,25 @@ module tubes_lanes
   public :: run_lanes
 
 contains
+
+  !> The lane's integrator for a new item of field, from t = 0 with the item's largest step h,
+  !> tolerances and step budget: restarted (a lane's items all have their job's model), or set
+  !> up on the lane's first item.
+  subroutine lane_setup(self, field, h, rtol, atol, max_steps)
+    class(lane_t), intent(inout) :: self
+    class(vector_field_t), intent(in) :: field
+    real(wp), intent(in) :: h, rtol, atol
+    integer(i8), intent(in), optional :: max_steps
+    if (allocated(self%ig%f)) then
+      call self%ig%restart(0.0_wp)
+    else
+      call self%ig%init(field, 0.0_wp)
+    end if
+    self%ig%h = h
+    self%ig%rtol = rtol
+    self%ig%atol = atol
+    if (present(max_steps)) self%ig%max_steps = max_steps
+  end subroutine lane_setup
 
   !> A thread's unit of work: the items ks in lanes, or one by one.
   subroutine lanes_chunk(self, ks, out)

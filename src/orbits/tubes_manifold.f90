@@ -270,14 +270,7 @@ contains
     call self%orbit%eval(self%tau(k), z, stat)
     if (stat /= TUBES_OK) return
     lane%x = z(1:n2) + self%sigma*self%opts%eps*z(n2 + 1:)/sqrt(sum(z(n2 + 1:n2 + n2/2)**2))
-    if (allocated(lane%ig%f)) then   ! the lane's last item had this job's model: restart it
-      call lane%ig%restart(0.0_wp)
-    else
-      call lane%ig%init(self%ball, 0.0_wp)
-    end if
-    lane%ig%h = self%opts%integ%h
-    lane%ig%rtol = self%opts%rtol
-    lane%ig%atol = self%opts%atol
+    call lane%setup(self%ball, self%opts%integ%h, self%opts%rtol, self%opts%atol)
     lane%tend = real(self%opts%kind, wp)*self%opts%t_max
     call self%psec%event(.true., sec)
     call move_alloc(sec, lane%event)

@@ -3,7 +3,7 @@
 !> integration, and Poincare maps of the section. Theory: docs/tubes.md.
 module tubes_transport
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_long
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, i8
   use tubes_quad, only: rng_uniform
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT
   use tubes_ensemble, only: ens_out_t, ens_run, ens_agree
@@ -255,14 +255,7 @@ contains
     if (.not. allocated(lane%x)) allocate (lane%x(self%model%dim()))
     call self%psec%state(self%r(k), self%pr(k), lane%x, stat)
     if (stat /= TUBES_OK) return
-    if (allocated(lane%ig%f)) then   ! the lane's last item had this job's model: restart it
-      call lane%ig%restart(0.0_wp)
-    else
-      call lane%ig%init(self%model, 0.0_wp)
-    end if
-    lane%ig%h = self%integ%h
-    lane%ig%rtol = self%tol
-    lane%ig%atol = self%tol
+    call lane%setup(self%model, self%integ%h, self%tol, self%tol)
     lane%tend = self%t_max
     call self%psec%return_event(ret)
     call move_alloc(ret, lane%event)
@@ -339,15 +332,7 @@ contains
     integer, intent(out) :: stat
     class(event_t), allocatable :: ev
     stat = TUBES_OK
-    if (allocated(lane%ig%f)) then   ! the lane's last item had this job's model: restart it
-      call lane%ig%restart(0.0_wp)
-    else
-      call lane%ig%init(self%model, 0.0_wp)
-    end if
-    lane%ig%h = self%integ%h
-    lane%ig%rtol = self%tol
-    lane%ig%atol = self%tol
-    lane%ig%max_steps = 100000000
+    call lane%setup(self%model, self%integ%h, self%tol, self%tol, 100000000_i8)
     lane%x = self%x0(:, k)
     lane%tend = self%t_max
     lane%use_log = .true.

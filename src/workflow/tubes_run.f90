@@ -324,15 +324,7 @@ contains
     type(lane_t), intent(inout) :: lane
     integer, intent(out) :: stat
     stat = TUBES_OK
-    if (allocated(lane%ig%f)) then   ! the lane's last item had this job's model: restart it
-      call lane%ig%restart(0.0_wp)
-    else
-      call lane%ig%init(self%field, 0.0_wp)
-    end if
-    lane%ig%rtol = self%rtol
-    lane%ig%atol = self%atol
-    lane%ig%h = self%h
-    lane%ig%max_steps = self%max_steps
+    call lane%setup(self%field, self%h, self%rtol, self%atol, self%max_steps)
     lane%x = self%x0(:, k)
     lane%tend = self%t_end
   end subroutine ensemble_start
