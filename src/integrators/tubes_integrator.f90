@@ -150,7 +150,7 @@ module tubes_integrator
   real(wp), parameter, public :: T_RTOL = 4*EPS
   real(wp), parameter, public :: T_ATOL = 1.0e-15_wp
 
-  public :: propagate, prop_begin, prop_after_step, start_step, hermite
+  public :: propagate, prop_begin, prop_after_step, start_step, hermite, stale_state
   public :: integrator_init   ! for a method that extends init (tubes_taylor)
 
 contains
@@ -257,10 +257,15 @@ contains
     event_orientation = slope
   end function event_orientation
 
-  !> At the start of a step from t with step h in direction dir: continue the grid or start one at t.
-  pure subroutine grid_begin(g, t, dir, h)
+  !> At the start of a step call towards tmax: the step's start t, direction dir and size h, and
+  !> the grid continued or started at t.
+  pure subroutine grid_begin(g, t_now, tmax, h_set, t, dir, h)
     class(step_grid_t), intent(inout) :: g
-    real(wp), intent(in) :: t, dir, h
+    real(wp), intent(in) :: t_now, tmax, h_set   !! the integrator's t and h, the call's end
+    real(wp), intent(out) :: t, dir, h           !! the step's start, direction and size
+    t = t_now
+    dir = sign(1.0_wp, tmax - t_now)
+    h = h_set
     g%on = t == g%mark .and. dir*h == g%hs
     if (.not. g%on) then
       g%t0 = t
@@ -299,6 +304,19 @@ contains
   !> After a trial step whose model evaluations ended with status fs: .false. to accept it
   !> (fs = 0) or to stop (fs < 0: stat = TUBES_EMODEL); .true. to try again at h/4 off the grid
   !> (fs > 0: the model asked for a smaller step), the rejection counted.
+  !> A fixed-step method's kept copies are stale: a fresh start, none yet or of another
+  !> dimension, or the state x changed from outside since the last step (saved: the state that
+  !> step left).
+  pure logical function stale_state(fresh, saved, x) result(stale)
+    logical, intent(in) :: fresh
+    real(wp), allocatable, intent(in) :: saved(:)
+    real(wp), intent(in) :: x(:)
+    stale = .true.
+    if (fresh .or. .not. allocated(saved)) return
+    if (size(saved) /= size(x)) return
+    stale = any(x /= saved)
+  end function stale_state
+
   logical function grid_retry(g, fs, h, nrejected, stat) result(again)
     class(step_grid_t), intent(inout) :: g
     integer, intent(in) :: fs

@@ -6,7 +6,7 @@
 !> See docs/integrators-tao.md.
 module tubes_rk4
   use tubes_kinds, only: wp, i8
-  use tubes_integrator, only: integrator_t, hermite, step_grid_t
+  use tubes_integrator, only: integrator_t, hermite, step_grid_t, stale_state
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
   implicit none
   private
@@ -50,17 +50,6 @@ contains
     self%fresh = .false.
   end subroutine setup
 
-  !> The stored f(t, x) is stale: a fresh start, a new dimension, or x changed from outside
-  !> since the last step (e.g. reset by the caller without setting fresh).
-  pure logical function restart_needed(self, x)
-    class(rk4_t), intent(in) :: self
-    real(wp), intent(in) :: x(:)
-    restart_needed = .true.
-    if (self%fresh .or. .not. allocated(self%f_cur)) return
-    if (size(self%f_cur) /= size(x)) return
-    restart_needed = any(x /= self%x_new)
-  end function restart_needed
-
   !> One RK4 step of ig%h (the last one shortened to land on tmax), in either direction.
   !> A model that asks for a smaller step (stat > 0) gets h/4 for this step (counted in
   !> nrejected; TUBES_ESTEP below 16 eps |t|); stat < 0, NaN or Inf give TUBES_EMODEL.
@@ -79,14 +68,11 @@ contains
       stat = TUBES_EINPUT
       return
     end if
-    if (restart_needed(self, x)) then
+    if (stale_state(self%fresh, self%x_new, x)) then   ! the stored f(t, x) is stale
       call setup(self, x, stat)
       if (stat /= TUBES_OK) return
     end if
-    dir = sign(1.0_wp, tmax - self%t)
-    h = self%h
-    t = self%t
-    call self%grid%begin(t, dir, h)
+    call self%grid%begin(self%t, tmax, self%h, t, dir, h)
     do
       call self%grid%trial(t, tmax, dir, h, t_full, hs, last, stat)
       if (stat /= TUBES_OK) return

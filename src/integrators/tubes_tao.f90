@@ -24,7 +24,7 @@
 module tubes_tao
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp, i8
-  use tubes_integrator, only: integrator_t, step_grid_t
+  use tubes_integrator, only: integrator_t, step_grid_t, stale_state
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP
   implicit none
   private
@@ -149,17 +149,6 @@ contains
     self%fresh = .false.
   end subroutine setup
 
-  !> The copies are stale: a fresh start, a new dimension, or the state was changed from
-  !> outside since the last step.
-  pure logical function restart_needed(self, z)
-    class(tao_t), intent(in) :: self
-    real(wp), intent(in) :: z(:)
-    restart_needed = .true.
-    if (self%fresh .or. .not. allocated(self%z_new)) return
-    if (size(self%z_new) /= size(z)) return
-    restart_needed = any(z /= self%z_new)
-  end function restart_needed
-
   !> One step of ig%h (the last one shortened to land on tmax), in either direction.
   !> TUBES_EINPUT: h <= 0, order not 2/4/6, omega_bind < 0, odd dimension, tmax = t.
   !> A model that asks for a smaller step (stat > 0) gets h/4 for this step (counted in
@@ -192,11 +181,8 @@ contains
       end if
       self%built_order = self%order
     end if
-    if (restart_needed(self, x)) call setup(self, x)
-    dir = sign(1.0_wp, tmax - self%t)
-    h = self%h
-    t = self%t
-    call self%grid%begin(t, dir, h)
+    if (stale_state(self%fresh, self%z_new, x)) call setup(self, x)
+    call self%grid%begin(self%t, tmax, self%h, t, dir, h)
     do
       call self%grid%trial(t, tmax, dir, h, t_full, hs, last, stat)
       if (stat /= TUBES_OK) return
