@@ -5,23 +5,10 @@
 # Ends with one line "N passed, N failed"; exits non-zero if anything failed.
 set -u
 cd "$(dirname "$0")/.."
-mkdir -p build/testlogs
-pass=0
-fail=0
-run() {
-  local name=$1
-  shift
-  local log="build/testlogs/${name//\//_}.log"
-  local t0=$SECONDS
-  if "$@" >"$log" 2>&1; then
-    pass=$((pass + 1))
-    printf 'PASS %-34s (%ds)\n' "$name" $((SECONDS - t0))
-  else
-    fail=$((fail + 1))
-    printf 'FAIL %-34s (log %s)\n' "$name" "$log"
-    grep -E '^FAIL|Error|error' "$log" | head -20
-  fi
-}
+log_dir=build/testlogs
+mkdir -p "$log_dir"
+show_log='^FAIL|Error|error'
+. tests/harness.sh
 for t in build/tests/test_*; do
   [ -x "$t" ] && run "release/$(basename "$t")" "$t"
 done

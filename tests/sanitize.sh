@@ -12,23 +12,11 @@ mkdir -p "$log"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-halt_on_error=1:detect_leaks=1:abort_on_error=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 export OMP_NUM_THREADS=${OMP_NUM_THREADS:-2}
-pass=0
-fail=0
 t0=$SECONDS
-run() {
-  local name=$1
-  shift
-  local f="$log/${name//\//_}.log"
-  local t1=$SECONDS
-  if "$@" >"$f" 2>&1 && ! grep -qE 'ERROR: (AddressSanitizer|LeakSanitizer)|runtime error:' "$f"; then
-    pass=$((pass + 1))
-    printf 'PASS %-40s (%ds)\n' "$name" $((SECONDS - t1))
-  else
-    fail=$((fail + 1))
-    printf 'FAIL %-40s (log %s)\n' "$name" "$f"
-    grep -E 'ERROR: |runtime error:|SUMMARY|^FAIL' "$f" | head -10
-  fi
-}
+log_dir=$log
+bad_log='ERROR: (AddressSanitizer|LeakSanitizer)|runtime error:'   # a sanitizer's report
+show_log='ERROR: |runtime error:|SUMMARY|^FAIL'
+. tests/harness.sh
 # Test programs: no leak check. gfortran frees a main program's allocatables with its stack
 # frame at exit, so LeakSanitizer reports every array a test allocates; the library's own leaks
 # are caught by the executable's runs below (a C main: nothing of the test harness).
