@@ -147,15 +147,13 @@ program test_backends
   use tubes_check, only: check_close, check_true, check_eq, finish
   use test_backends_models, only: oscillator_t, nan_oscillator_t, picky_oscillator_t, &
                                   osc_probe_t, ball_probe_t, rotate
+  use tubes_test_models, only: X0_BALL, PI, EPS
   implicit none
 
   integer, parameter :: NB = 5
   integer, parameter :: RK8PD = 1, RK4IMP = 2, CVODE_FP = 3, CVODE_NEWTON = 4, ERK8 = 5
   character(*), parameter :: NAMES(NB) = [character(18) :: 'gsl_rk8pd', 'gsl_rk4imp', &
                                           'cvode_adams', 'cvode_adams/newton', 'arkode_erk8']
-  real(wp), parameter :: PI = acos(-1.0_wp)
-  real(wp), parameter :: EPS = epsilon(1.0_wp)
-  real(wp), parameter :: X0_BALL(4) = [4.0_wp, 12.614863819914357_wp, 0.0_wp, 0.0_wp]
   real(wp), parameter :: T_BALL = 2.0_wp   ! [s]
   real(wp), parameter :: CB2 = 1.1_wp*sqrt(2.0_wp), CB4 = 1.1_wp*2   ! CB for n = 2, 4
 

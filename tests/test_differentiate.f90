@@ -10,10 +10,9 @@ program test_differentiate
   use tubes_differentiate, only: diff_spectral, diff_savgol, savgol_weights, lowpass_gain, &
                                  EDGE_PERIODIC, EDGE_ODD, EDGE_MIRROR
   use tubes_check, only: check_close, check_true, check_eq, finish
+  use tubes_test_models, only: PI, EPS
   implicit none
 
-  real(wp), parameter :: EPS = epsilon(1.0_wp)
-  real(wp), parameter :: PI = acos(-1.0_wp)
   real(wp), parameter :: DT = 0.02_wp              ! the camera: 50 Hz
   integer, parameter :: NCAM = 501                 ! 10 s of it
   real(wp), allocatable :: t(:), x(:), vt(:), v(:), xs(:), w0(:), w1(:), e(:)

@@ -10,12 +10,9 @@ program test_dop853
   use tubes_fourwell, only: fourwell_t
   use tubes_ball, only: ball_t, make_ball
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
-  use tubes_test_models, only: oscillator_t, nan_oscillator_t, dense_probe_t, rotate, oscillator_fixed_step
+  use tubes_test_models, only: X0_BALL, PI, EPS, oscillator_t, nan_oscillator_t, dense_probe_t, rotate, oscillator_fixed_step
   implicit none
 
-  real(wp), parameter :: EPS = epsilon(1.0_wp)
-  real(wp), parameter :: PI = acos(-1.0_wp)
-  real(wp), parameter :: X0_BALL(4) = [4.0_wp, 12.614863819914357_wp, 0.0_wp, 0.0_wp]
 
   type(dop853_t) :: ig
   type(ball_t) :: ball

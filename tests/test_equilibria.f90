@@ -14,9 +14,9 @@ program test_equilibria
   use tubes_ball, only: ball_t, make_ball
   use tubes_equilibria, only: equilibrium_t, find_equilibria, rest_jacobian, quadrant
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
+  use tubes_test_models, only: EPS
   implicit none
 
-  real(wp), parameter :: EPS = epsilon(1.0_wp)
   real(wp), parameter :: G = 981.0_wp           ! gravity [cm/s^2]
   real(wp), parameter :: RHO = 5.0_wp/7.0_wp    ! v = (5/7) M^-1 p (solid sphere)
   character(len=3), parameter :: NAMES(9) = ['W1 ', 'W2 ', 'W3 ', 'W4 ', 'S12', 'S14', &

@@ -57,10 +57,9 @@ program test_events
                             U1_MINUS, U1_PLUS
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
   use test_events_models, only: oscillator_t, fall_field, iso_field, tilt_t, rotate
+  use tubes_test_models, only: PI, EPS
   implicit none
 
-  real(wp), parameter :: EPS = epsilon(1.0_wp)
-  real(wp), parameter :: PI = acos(-1.0_wp)
   real(wp), parameter :: C_LEVEL = 0.3_wp        ! oscillator level: x = cos t = 0.3
   ! Fixed step of the long runs (exact in binary: the step ends t0 + k h are exact)
   real(wp), parameter :: H_FIX = 0.0625_wp

@@ -14,12 +14,9 @@ program test_gauss
   use tubes_ball, only: ball_t, make_ball
   use tubes_variational, only: variational_t, make_variational, stm_start
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
-  use tubes_test_models, only: oscillator_t, nan_oscillator_t, dense_probe_t, rotate
+  use tubes_test_models, only: X0_BALL, PI, EPS, oscillator_t, nan_oscillator_t, dense_probe_t, rotate
   implicit none
 
-  real(wp), parameter :: EPS = epsilon(1.0_wp)
-  real(wp), parameter :: PI = acos(-1.0_wp)
-  real(wp), parameter :: X0_BALL(4) = [4.0_wp, 12.614863819914357_wp, 0.0_wp, 0.0_wp]
   integer, parameter :: SMAX = 4
   real(wp), parameter :: COND_V(2:4) = [6.2_wp, 35.7_wp, 283.3_wp]   !! cond_inf of Vandermonde
 

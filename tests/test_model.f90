@@ -14,9 +14,9 @@ program test_model
   use tubes_ball, only: ball_t, make_ball
   use tubes_hamiltonian, only: damped_t, make_damped
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
+  use tubes_test_models, only: EPS
   implicit none
 
-  real(wp), parameter :: EPS = epsilon(1.0_wp)
   real(wp), parameter :: G = 981.0_wp          ! gravity [cm/s^2] (paper value)
   integer, parameter :: NPT = 11               ! surface test points
   integer, parameter :: NST = 6                ! phase-space test states

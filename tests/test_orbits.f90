@@ -11,8 +11,8 @@ program test_orbits
   use tubes_dop853, only: dop853_t
   use tubes_integrator, only: propagate
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
+  use tubes_test_models, only: PI
   implicit none
-  real(wp), parameter :: PI = acos(-1.0_wp)
   type(ball_t) :: ball
   type(equilibrium_t), allocatable :: eqs(:)
   type(orbit_opts_t) :: single, multi

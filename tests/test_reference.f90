@@ -48,15 +48,14 @@ program test_reference
   use tubes_integrator, only: propagate
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
   use test_reference_models, only: qp_oscillator_t
+  use tubes_test_models, only: X0_BALL, EPS
   implicit none
 
   integer, parameter :: NSX = 16
   real(qp), parameter :: EPSQ = epsilon(1.0_qp)
-  real(wp), parameter :: EPS = epsilon(1.0_wp)
   ! the paper's parameters as the double values every double run uses (tubes_models)
   real(wp), parameter :: PARAMS(7) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, &
                                       981.0_wp, 0.0_wp]
-  real(wp), parameter :: X0_BALL(4) = [4.0_wp, 12.614863819914357_wp, 0.0_wp, 0.0_wp]
 
   real(qp) :: a(NSX, NSX), e3(QP_NS + 1), e5(QP_NS + 1), cq(NSX), b(QP_NS + 1), res, scale
   real(qp) :: xq(2), x4(4), f4(4), fd(4), xp(4), hq, e0, xs(4, 5), tq, pq(7)

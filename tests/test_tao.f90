@@ -96,11 +96,9 @@ program test_tao
   use tubes_check, only: check_close, check_true, check_eq, finish
   use test_tao_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, line_field, &
                              coupling_field, dense_probe_t, rotate
+  use tubes_test_models, only: X0_BALL, PI, EPS
   implicit none
 
-  real(wp), parameter :: EPS = epsilon(1.0_wp)
-  real(wp), parameter :: PI = acos(-1.0_wp)
-  real(wp), parameter :: X0_BALL(4) = [4.0_wp, 12.614863819914357_wp, 0.0_wp, 0.0_wp]
   real(wp), parameter :: OMEGA_OSC = 2.0_wp   ! oscillator: 4x its binding threshold 1/2 (3.)
   real(wp), parameter :: OMEGA = TAO_OMEGA_DEFAULT
 

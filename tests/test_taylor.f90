@@ -9,7 +9,7 @@ program test_taylor
   use tubes_kinds, only: wp, i8
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
   use tubes_status, only: TUBES_OK, TUBES_EVENT
-  use tubes_test_models, only: oscillator_t
+  use tubes_test_models, only: X0_BALL, PI, oscillator_t
   use tubes_taylor, only: taylor_t, isolate_roots, taylor_order
   use tubes_dop853, only: dop853_t
   use tubes_integrator, only: integrator_t, propagate, plane_t, crossing_log_t
@@ -19,9 +19,7 @@ program test_taylor
   use tubes_reference, only: reference_solution
   use tubes_variational, only: variational_t, make_variational, stm_start
   implicit none
-  real(wp), parameter :: PI = acos(-1.0_wp)
   real(wp), parameter :: PAPER(7) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, 981.0_wp, 0.0_wp]
-  real(wp), parameter :: X0_BALL(4) = [4.0_wp, 12.614863819914357_wp, 0.0_wp, 0.0_wp]
 
   call roots()
   call oscillator_order()

@@ -1,7 +1,8 @@
 !> The test oscillator shared by the integrator and event tests: x'' = -x as the state (x, v),
 !> whose exact flow is a rotation, and two failing variants (it was written out in six tests);
 !> the probe of a method's dense output on it (it was written out in three); and its fixed-step
-!> run to t = 10 of the convergence-order tests (written out in two).
+!> run to t = 10 of the convergence-order tests (written out in two); and the constants the tests
+!> share.
 module tubes_test_models
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
@@ -15,6 +16,12 @@ module tubes_test_models
   private
   public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval, dense_probe_t, &
             oscillator_fixed_step, affine_field_t, line_field, fall_field, iso_field
+
+  real(wp), parameter, public :: PI = acos(-1.0_wp)
+  real(wp), parameter, public :: EPS = epsilon(1.0_wp)
+  !> The rolling ball's benchmark release (docs/benchmarks.md, problem 1): at rest at (4,
+  !> 12.614863819914357) cm, dE = 1500 (cm/s)^2 above the saddles.
+  real(wp), parameter, public :: X0_BALL(4) = [4.0_wp, 12.614863819914357_wp, 0.0_wp, 0.0_wp]
 
   !> Samples interp at nsamp interior points of every accepted step (s = t_old + j h/(nsamp + 1))
   !> of an oscillator integration: the largest errors against the exact solution from (0, (1, 0))
