@@ -301,9 +301,6 @@ contains
     if (abs(hs) < hmin .and. .not. last) stat = TUBES_ESTEP
   end subroutine grid_trial
 
-  !> After a trial step whose model evaluations ended with status fs: .false. to accept it
-  !> (fs = 0) or to stop (fs < 0: stat = TUBES_EMODEL); .true. to try again at h/4 off the grid
-  !> (fs > 0: the model asked for a smaller step), the rejection counted.
   !> A fixed-step method's kept copies are stale: a fresh start, none yet or of another
   !> dimension, or the state x changed from outside since the last step (saved: the state that
   !> step left).
@@ -317,6 +314,9 @@ contains
     stale = any(x /= saved)
   end function stale_state
 
+  !> After a trial step whose model evaluations ended with status fs: .false. to accept it
+  !> (fs = 0) or to stop (fs < 0: stat = TUBES_EMODEL); .true. to try again at h/4 off the grid
+  !> (fs > 0: the model asked for a smaller step), the rejection counted.
   logical function grid_retry(g, fs, h, nrejected, stat) result(again)
     class(step_grid_t), intent(inout) :: g
     integer, intent(in) :: fs

@@ -264,11 +264,9 @@ contains
     flags = merge(JET_ACTION, 0, js%action) + merge(JET_VARIATIONAL, 0, js%variational) + &
             merge(JET_TANGENT, 0, js%tangent)
     if (allocated(self%spec)) then
-      if (self%spec /= js%text .or. self%flags /= flags) then
-        self%kernels = kernel_t()
-        self%ik = 0
-      end if
+      if (self%spec /= js%text .or. self%flags /= flags) self%kernels = kernel_t()
     end if
+    self%ik = 0          ! the next step takes its kernel, storage and constants afresh
     self%spec = js%text
     self%flags = flags
     self%par(1) = js%damping
