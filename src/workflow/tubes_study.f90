@@ -350,14 +350,16 @@ contains
     key = family_key(st, opts)
     if (.not. allocated(stores%paths)) allocate (stores%paths(0))
     i = kept_at(stores%paths, st, key)
-    if (i == 0) then
-      entry%system = st%system
-      entry%saddle = st%saddle
-      entry%key = key
-      stores%paths = [stores%paths, entry]
-      i = size(stores%paths)
+    if (i > 0) then
+      call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores%paths(i)%path)
+      return
     end if
-    call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores%paths(i)%path)
+    call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, entry%path)
+    if (stat == TUBES_EINPUT) return      ! a call that made no sense leaves nothing to keep
+    entry%system = st%system
+    entry%saddle = st%saddle
+    entry%key = key
+    stores%paths = [stores%paths, entry]
   end subroutine family_at
 
   !> The orbits scene's call: the study's model, equilibria and saddle (setup_model), then the
