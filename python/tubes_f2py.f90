@@ -403,7 +403,8 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
   ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
   ! scene calls take their defaults and their checks from here; msg holds the messages
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char, c_null_char
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char
+  use tubes_cstrings, only: c_to_f, f_to_c
   use tubes_nml, only: tubes_config_t
   implicit none
   character(len=*), intent(in) :: path
@@ -438,37 +439,29 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   end interface
   type(tubes_config_t) :: cfg
   character(kind=c_char) :: cpath(len_trim(path) + 1), cmsg(2048)
-  integer :: i
-  do i = 1, len_trim(path)
-    cpath(i) = path(i:i)
-  end do
-  cpath(len_trim(path) + 1) = c_null_char
+  call f_to_c(path, cpath)
   stat = input_check(cpath, cfg, cmsg, 2048)
-  msg = ''
-  do i = 1, 2048
-    if (cmsg(i) == c_null_char) exit
-    msg(i:i) = cmsg(i)
-  end do
-  system = chars(cfg%model)   ! the library's name of the model (expr_<hash> for a formula)
+  msg = c_to_f(cmsg)
+  system = c_to_f(cfg%model)   ! the library's name of the model (expr_<hash> for a formula)
   params = cfg%params
   lo = cfg%box_lo
   hi = cfg%box_hi
   n_grid = cfg%n_grid
-  saddle = chars(cfg%orb_saddle)
+  saddle = c_to_f(cfg%orb_saddle)
   use_near = cfg%orb_use_near
   near = cfg%orb_saddle_near
-  n_segments = merge(cfg%orb_n_segments, 1, chars(cfg%orb_method) == 'multiple')
+  n_segments = merge(cfg%orb_n_segments, 1, c_to_f(cfg%orb_method) == 'multiple')
   orb_tol = cfg%orb_tol
   orb_rtol = cfg%orb_rtol
   orb_atol = cfg%orb_atol
   orb_max_iter = cfg%orb_max_iter
   orb_n_samples = cfg%orb_n_samples
-  if (chars(cfg%sec_kind) == 'ray') then
+  if (c_to_f(cfg%sec_kind) == 'ray') then
     sec_kind = 1
     sec_index = 0
     sec_level = cfg%sec_angle*acos(-1.0_c_double)/180
     sec_dir = cfg%sec_pth_sign
-  else if (chars(cfg%sec_kind) == 'plane') then
+  else if (c_to_f(cfg%sec_kind) == 'plane') then
     sec_kind = 2
     sec_index = cfg%sec_index
     sec_level = cfg%sec_value
@@ -494,7 +487,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   method = method_code(cfg%method)
   h = cfg%h
   omega_bind = cfg%omega_bind
-  solver = merge(2, 1, chars(cfg%solver) == 'fixed_point')
+  solver = merge(2, 1, c_to_f(cfg%solver) == 'fixed_point')
   int_max_iter = cfg%max_iter
   orb_family = cfg%orb_family
   flux_n_samples = cfg%flux_n_samples
@@ -505,7 +498,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   flux_order = cfg%flux_order
   flux_n_cut = cfg%flux_n_cut
   flux_cut_eps = cfg%flux_cut_eps
-  expr_lib = chars(cfg%expr_lib)   ! a formula model's library file ('' for a built-in)
+  expr_lib = c_to_f(cfg%expr_lib)   ! a formula model's library file ('' for a built-in)
   exp_n_tracks = cfg%exp_n_tracks
   exp_seed = cfg%exp_seed
   exp_duration = cfg%exp_duration
@@ -515,17 +508,6 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   exp_de_min = cfg%exp_de_min
   exp_de_max = cfg%exp_de_max
   exp_damping_ratio = cfg%exp_damping_ratio
-contains
-  function chars(c) result(s)
-    character(kind=c_char), intent(in) :: c(:)
-    character(len=size(c)) :: s
-    integer :: k
-    s = ''
-    do k = 1, size(c)
-      if (c(k) == c_null_char) exit
-      s(k:k) = c(k)
-    end do
-  end function chars
 end subroutine read_input
 
 subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &

@@ -36,6 +36,24 @@ fail=0
 check() {   # check CONDITION-EXIT-CODE MESSAGE
   if [ "$1" -eq 0 ]; then echo "ok: $2"; else echo "FAIL: $2"; fail=1; fi
 }
+# run_serial DIR NML CACHE MESSAGE: ./tubes (1 thread) on $work/NML in $work/DIR, its model cache
+# $work/CACHE; run_mpi DIR NML CACHE THREADS MESSAGE: the MPI build, 2 ranks x THREADS threads
+run_serial() {
+  mkdir -p "$work/$1"
+  (cd "$work/$1" && TUBES_CACHE_DIR="$work/$3" OMP_NUM_THREADS=1 timeout 600 "$root/tubes" "../$2" >log 2>&1)
+  check $? "$4"
+}
+run_mpi() {
+  mkdir -p "$work/$1"
+  (cd "$work/$1" && TUBES_CACHE_DIR="$work/$3" OMP_NUM_THREADS=$4 timeout 600 "${launch[@]}" -np 2 "$bin" "../$2" \
+    >log 2>&1)
+  check $? "$5"
+}
+# same_output DIR1 DIR2 MESSAGE: their out.h5 are identical (h5compare, the provenance aside)
+same_output() {
+  "$py" -m tubes.h5compare "$work/$1/out.h5" "$work/$2/out.h5" --ignore git_commit
+  check $? "$3"
+}
 # Every distributed loop: tube seeds with adaptive refinement (tubes, montecarlo), whole energies
 # (transition: dE = 300 is rank 1's), Monte Carlo samples, Poincare seeds, multiple-shooting
 # segments, synthetic tracks.
@@ -153,14 +171,9 @@ formula)
       -e "s/saddle = 'S12', de = 10, 100/saddle_near = 0, 0, de = 0.01, 0.05/" -e "s/de = 100, kind = 'both'/de = 0.05, kind = 'stable'/" \
       -e "s/de = 20, 300/de = 0.02, 0.1/" -e "s/de = 100, n_samples/de = 0.05, n_samples/" \
       -e "s/de = 100, n_seeds/de = 0.05, n_seeds/" -e "s/, 'synthetic_experiment'//" "$work/all.nml" >"$work/f.nml"
-  mkdir -p "$work/fs" "$work/fm"
-  (cd "$work/fs" && TUBES_CACHE_DIR="$work/cs" OMP_NUM_THREADS=1 timeout 300 "$root/tubes" ../f.nml >log 2>&1)
-  check $? "serial run of a formula's model"
-  (cd "$work/fm" && TUBES_CACHE_DIR="$work/cm" OMP_NUM_THREADS=1 timeout 300 "${launch[@]}" -np 2 "$bin" ../f.nml \
-    >log 2>&1)
-  check $? "MPI 2 ranks x 1 thread, building the model in an empty cache at once"
-  "$py" -m tubes.h5compare "$work/fs/out.h5" "$work/fm/out.h5"
-  check $? "the formula's MPI run is identical to the serial run"
+  run_serial fs f.nml cs "serial run of a formula's model"
+  run_mpi fm f.nml cm 1 "MPI 2 ranks x 1 thread, building the model in an empty cache at once"
+  same_output fs fm "the formula's MPI run is identical to the serial run"
   # the model's library and its Taylor kernels (method 'auto'): the ranks' cache holds as many
   # whole libraries as the serial run's (their names differ: the MPI build's compiler is hashed
   # in), and nothing else (no lock, source or partial file)
@@ -178,14 +191,9 @@ flux3)
 &section kind = 'plane', index = 1, value = -0.7, direction = 1 /
 &flux de = 0.05, order = 6, n_samples = 3001, n_cut = 8 /
 EOF
-  mkdir -p "$work/3s" "$work/3m"
-  (cd "$work/3s" && TUBES_CACHE_DIR="$work/c3" OMP_NUM_THREADS=1 timeout 300 "$root/tubes" ../f3.nml >log 2>&1)
-  check $? "serial run of the 3-DOF flux scene"
-  (cd "$work/3m" && TUBES_CACHE_DIR="$work/c3" OMP_NUM_THREADS=2 timeout 300 "${launch[@]}" -np 2 "$bin" ../f3.nml \
-    >log 2>&1)
-  check $? "MPI 2 ranks x 2 threads"
-  "$py" -m tubes.h5compare "$work/3s/out.h5" "$work/3m/out.h5"
-  check $? "the 3-DOF flux scene (samples, section, tube cut) is identical on 2 ranks"
+  run_serial 3s f3.nml c3 "serial run of the 3-DOF flux scene"
+  run_mpi 3m f3.nml c3 2 "MPI 2 ranks x 2 threads"
+  same_output 3s 3m "the 3-DOF flux scene (samples, section, tube cut) is identical on 2 ranks"
   ;;
 taylor)
   # the Taylor method's lanes (tube seeds, Monte Carlo points, Poincare seeds) and its kernels
@@ -199,14 +207,9 @@ taylor)
 &montecarlo de = 100, n_samples = 301, seed = 11 /
 &sections de = 100, n_seeds = 7, n_iter = 15 /
 EOF
-  mkdir -p "$work/ts" "$work/tm"
-  (cd "$work/tm" && TUBES_CACHE_DIR="$work/ct" OMP_NUM_THREADS=2 timeout 600 "${launch[@]}" -np 2 "$bin" ../ty.nml \
-    >log 2>&1)
-  check $? "MPI 2 ranks x 2 threads, Taylor, kernels new to the cache"
-  (cd "$work/ts" && TUBES_CACHE_DIR="$work/ct" OMP_NUM_THREADS=1 timeout 600 "$root/tubes" ../ty.nml >log 2>&1)
-  check $? "serial run, Taylor"
-  "$py" -m tubes.h5compare "$work/ts/out.h5" "$work/tm/out.h5" --ignore git_commit
-  check $? "Taylor: 2 ranks x 2 threads identical to the serial run"
+  run_mpi tm ty.nml ct 2 "MPI 2 ranks x 2 threads, Taylor, kernels new to the cache"
+  run_serial ts ty.nml ct "serial run, Taylor"
+  same_output ts tm "Taylor: 2 ranks x 2 threads identical to the serial run"
   ;;
 *)
   echo "usage: tests/mpi_check.sh identical|fault|badinput|badoutput|formula|flux3|taylor" >&2

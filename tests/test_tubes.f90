@@ -11,7 +11,7 @@ program test_tubes
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
-  use tubes_ray_surface, only: ray_t, section_region, section_area, section_darea, boundary_pr
+  use tubes_ray_surface, only: ray_t, section_region, section_area, boundary_pr
   use tubes_section_kinds, only: poincare_t, make_ray_section
   use tubes_transport, only: gate_spec_t
   use tubes_methods, only: integ_choice_t
@@ -103,7 +103,7 @@ program test_tubes
   ! trapezoid on a smooth periodic-like integrand (vanishing at both ends): error << 1e-8
   call check_rel('A_E by QAGS = trapezoid of the boundary', a, a2, 1.0e-8_wp)
   ! dA_E/dE against a central difference (step 0.5: error ~ h^2 A''' ~ 1e-6 relative)
-  call section_darea(ray, da, err, stat)
+  call section_area(ray, da, err, stat, derivative=.true.)
   ray%energy = eqs(isad)%energy + 100.5_wp
   call section_region(ray, 20.0_wp, stat)
   call section_area(ray, a2, err, stat)

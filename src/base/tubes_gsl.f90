@@ -15,13 +15,14 @@
 !> (free them with destroy; final does it as well) and must not be copied once it holds them.
 module tubes_gsl
   use, intrinsic :: iso_c_binding, only: c_int, c_long, c_size_t, c_double, c_char, c_ptr, &
-                                         c_funptr, c_null_ptr, c_null_char, c_loc, c_funloc, &
+                                         c_funptr, c_null_ptr, c_loc, c_funloc, &
                                          c_f_pointer, c_associated
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
   use tubes_kinds, only: wp, i8
+  use tubes_cstrings, only: c_to_f
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, start_step, hermite
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
+  use tubes_status, only: callback_status, TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
   implicit none
   private
 
@@ -133,7 +134,7 @@ contains
     ctx%nfev = ctx%nfev + 1
     call ctx%f%eval(t, y(1:ctx%n), dydt(1:ctx%n), stat)
     if (stat == 0 .and. .not. all(ieee_is_finite(dydt(1:ctx%n)))) stat = -1
-    ierr = c_status(ctx, stat)
+    ierr = int(callback_status(ctx%model_stat, stat), c_int)
   end function gsl_rhs
 
   !> Jacobian for rk4imp's Newton iteration: dfdy row-major (C), i.e. the transpose of the
@@ -155,16 +156,8 @@ contains
     if (stat == 0 .and. .not. all(ieee_is_finite(jm))) stat = -1
     if (stat == 0) dfdy(1:n*n) = reshape(transpose(jm), [n*n])
     dfdt(1:n) = 0
-    ierr = c_status(ctx, stat)
+    ierr = int(callback_status(ctx%model_stat, stat), c_int)
   end function gsl_jac
-
-  !> The model's status in the callbacks' convention (0, 1 recoverable, -1 fatal).
-  integer(c_int) function c_status(ctx, stat)
-    type(gsl_ctx_t), intent(inout) :: ctx
-    integer, intent(in) :: stat
-    if (stat /= 0) ctx%model_stat = stat
-    c_status = int(merge(0, merge(1, -1, stat > 0), stat == 0), c_int)
-  end function c_status
 
   ! ------------------------------------------------------------------ stepping
 
@@ -366,15 +359,10 @@ contains
     character(*), intent(in), optional :: why
     character(kind=c_char) :: buf(MSG_LEN)
     character(len=MSG_LEN) :: text
-    integer :: k
     stat = code
     self%solver_flag = flag
     call shim_strerror(flag, buf, int(MSG_LEN, c_int))
-    text = ''
-    do k = 1, MSG_LEN
-      if (buf(k) == c_null_char) exit
-      text(k:k) = buf(k)
-    end do
+    text = c_to_f(buf)
     if (present(why) .and. flag == GSL_SUCCESS) then
       self%solver_msg = why
     else if (present(why)) then

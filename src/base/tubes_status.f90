@@ -19,8 +19,17 @@ module tubes_status
   integer, parameter, public :: TUBES_EPASTEND = -10 !! past the end of the Lyapunov orbit family
   integer, parameter, public :: TUBES_ENARROW = -11  !! the slab (&flux gate) is narrower than the NHIM
   integer, parameter, public :: TUBES_ENOJET = -12   !! no Taylor kernel for the model (stderr says why)
-  public :: status_message
+  public :: status_message, callback_status
 contains
+  !> A model's status in the convention of GSL's and SUNDIALS' callbacks (0 success, 1 a
+  !> recoverable failure, -1 a fatal one); a nonzero status is also kept in last, for the report.
+  integer function callback_status(last, stat)
+    integer, intent(inout) :: last   !! the last nonzero status the model returned
+    integer, intent(in) :: stat      !! the model's status
+    if (stat /= 0) last = stat
+    callback_status = merge(0, merge(1, -1, stat > 0), stat == 0)
+  end function callback_status
+
   !> Text for a status code.
   pure function status_message(code) result(msg)
     integer, intent(in) :: code       !! a TUBES_* code

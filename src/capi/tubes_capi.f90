@@ -4,6 +4,7 @@ module tubes_capi
                                          c_null_char, c_associated, c_funloc, c_f_procpointer, &
                                          c_loc, c_f_pointer
   use tubes_kinds, only: wp
+  use tubes_cstrings, only: c_to_f, f_to_c
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EMODEL, &
                           TUBES_EOUTSIDE, status_message
   use tubes_field, only: vector_field_t
@@ -80,40 +81,9 @@ contains
   subroutine c_status_message(code, buf, len) bind(C, name='tubes_status_message')
     integer(c_int), value :: code, len
     character(kind=c_char), intent(out) :: buf(len)
-    character(:), allocatable :: m
-    integer :: i
     if (len < 1) return
-    m = status_message(code)
-    do i = 1, min(len - 1, len_trim(m))
-      buf(i) = m(i:i)
-    end do
-    buf(min(len - 1, len_trim(m)) + 1) = c_null_char
+    call f_to_c(status_message(code), buf)
   end subroutine c_status_message
-
-  !> A C string (NUL-terminated within len) as a Fortran string.
-  pure function from_c(s, len) result(f)
-    integer, intent(in) :: len
-    character(kind=c_char), intent(in) :: s(len)
-    character(len) :: f
-    integer :: k
-    f = ''
-    do k = 1, len
-      if (s(k) == c_null_char) exit
-      f(k:k) = s(k)
-    end do
-  end function from_c
-
-  !> A Fortran string into a C block of len chars (NUL-terminated, NUL-padded).
-  pure subroutine to_c(f, s, len)
-    character(*), intent(in) :: f
-    integer, intent(in) :: len
-    character(kind=c_char), intent(out) :: s(len)
-    integer :: k
-    s = c_null_char
-    do k = 1, min(len - 1, len_trim(f))
-      s(k) = f(k:k)
-    end do
-  end subroutine to_c
 
   integer(c_int) function c_model_system(k, name) result(stat) bind(C, name='tubes_model_system')
     integer(c_int), value :: k
@@ -121,7 +91,7 @@ contains
     name = c_null_char
     stat = TUBES_EINPUT
     if (k < 0 .or. k >= NSYSTEMS) return
-    call to_c(system_name(k + 1), name, LEN_SYSTEM)
+    call f_to_c(system_name(k + 1), name)
     stat = TUBES_OK
   end function c_model_system
 
@@ -137,26 +107,26 @@ contains
       saddle_near(MAX_DOF), section_value, section_angle, gate
     type(system_info_t) :: info
     integer :: k, ist
-    call system_info(trim(from_c(system, LEN_SYSTEM)), info, ist)
+    call system_info(trim(c_to_f(system)), info, ist)
     stat = ist
     ndof = info%ndof
     np = info%np
     defaults = 0
     names = c_null_char; units = c_null_char; docs = c_null_char
     do k = 1, info%np
-      call to_c(info%params(k)%name, names(:, k), LEN_PARAM)
-      call to_c(info%params(k)%units, units(:, k), 16)
-      call to_c(info%params(k)%doc, docs(:, k), 96)
+      call f_to_c(info%params(k)%name, names(:, k))
+      call f_to_c(info%params(k)%units, units(:, k))
+      call f_to_c(info%params(k)%doc, docs(:, k))
       defaults(k) = info%params(k)%default
     end do
-    call to_c(info%summary, summary, 160)
-    call to_c(info%surface, surface, 160)
-    call to_c(info%length_units, length_units, 8)
+    call f_to_c(info%summary, summary)
+    call f_to_c(info%surface, surface)
+    call f_to_c(info%length_units, length_units)
     box = info%box
     box_center = info%box_center
-    call to_c(info%saddle, saddle, 8)
+    call f_to_c(info%saddle, saddle)
     saddle_near = info%saddle_near
-    call to_c(info%section_kind, section_kind, 8)
+    call f_to_c(info%section_kind, section_kind)
     section_index = info%section_index
     section_value = info%section_value
     section_direction = info%section_direction
@@ -190,15 +160,11 @@ contains
     class(vector_field_t), allocatable :: field
     character(512) :: m
     real(wp) :: c
-    integer :: k
     msg(1) = c_null_char
-    call make_field(trim(from_c(system, LEN_SYSTEM)), params, field, c, stat)
+    call make_field(trim(c_to_f(system)), params, field, c, stat)
     if (stat /= TUBES_OK) return
     call taylor_check(field, eps, m, stat)
-    do k = 1, min(len_trim(m), lmsg - 1)
-      msg(k) = m(k:k)
-    end do
-    msg(min(len_trim(m), lmsg - 1) + 1) = c_null_char
+    call f_to_c(m, msg)
   end function c_taylor_check
 
   !> The conservative model of (system, params).
@@ -207,7 +173,7 @@ contains
     real(c_double), intent(in) :: params(MAX_PARAMS)
     class(hamiltonian_t), allocatable, intent(out) :: model
     integer, intent(out) :: stat
-    call make_model(trim(from_c(system, LEN_SYSTEM)), params, model, stat)
+    call make_model(trim(c_to_f(system)), params, model, stat)
   end subroutine model_of
 
   integer(c_int) function c_energy(system, params, n, x, energy) result(stat) bind(C, name='tubes_energy')
@@ -218,7 +184,7 @@ contains
     real(c_double), intent(out) :: energy
     class(hamiltonian_t), allocatable :: model
     energy = 0
-    call sized_model(from_c(system, LEN_SYSTEM), params, n, .false., model, stat)
+    call sized_model(c_to_f(system), params, n, .false., model, stat)
     if (stat == TUBES_OK) energy = model%energy(x)
   end function c_energy
 
@@ -229,7 +195,7 @@ contains
     integer(c_int), value :: n
     real(c_double), intent(in) :: x(n)
     real(c_double), intent(out) :: dxdt(n)
-    call field_rates(from_c(system, LEN_SYSTEM), params, x, dxdt, stat)
+    call field_rates(c_to_f(system), params, x, dxdt, stat)
   end function c_vector_field
 
   integer(c_int) function c_momentum(system, params, q, v, p) result(stat) bind(C, name='tubes_momentum')
@@ -239,7 +205,7 @@ contains
     type(ball_t) :: ball
     p = 0
     stat = TUBES_EINPUT
-    if (trim(from_c(system, LEN_SYSTEM)) /= 'rolling_ball') return
+    if (trim(c_to_f(system)) /= 'rolling_ball') return
     call conservative_ball(params(1:NMODEL), ball, stat)
     if (stat /= TUBES_OK) return
     p = ball%momentum(q, v)
@@ -250,7 +216,7 @@ contains
     real(c_double), intent(in) :: params(MAX_PARAMS)
     real(c_double), intent(out) :: c
     class(vector_field_t), allocatable :: field
-    call make_field(trim(from_c(system, LEN_SYSTEM)), params, field, c, stat)
+    call make_field(trim(c_to_f(system)), params, field, c, stat)
   end function c_damping_rate
 
   !> Equilibria of the model in the box [lo, hi] (per coordinate, ndof of them).
@@ -277,7 +243,7 @@ contains
     nd = model%ndof()
     ndof = nd
     kept => stores_of(stores)
-    call equilibria_of(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, model, eqs, stat, kept)
+    call equilibria_of(trim(c_to_f(system)), params, lo, hi, n_grid, model, eqs, stat, kept)
     if (stat /= TUBES_OK) return
     if (size(eqs) > nmax) then
       stat = TUBES_EINPUT
@@ -286,7 +252,7 @@ contains
     n = size(eqs)
     call equilibria_table(eqs, nd, q, p, height, energy, grad_norm, morse, rank1, lambda, omega, evec)
     do k = 1, n
-      call to_c(eqs(k)%name, names(:, k), 8)
+      call f_to_c(eqs(k)%name, names(:, k))
     end do
   end function c_equilibria
 
@@ -311,7 +277,7 @@ contains
     type(c_sampler_t) :: obs
     obs%cb = progress
     obs%user = user
-    call run_trajectory(trim(from_c(system, LEN_SYSTEM)), params, x0, t_end, dt_out, method, rtol, &
+    call run_trajectory(trim(c_to_f(system)), params, x0, t_end, dt_out, method, rtol, &
                         atol, h, max_steps, &
                         method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter), &
                         section_spec_t(kind=sec_kind, level=sec_level, dir=sec_dir, &
@@ -377,12 +343,12 @@ contains
     type(integ_choice_t), intent(in) :: integ
     type(study_t), intent(out) :: st
     type(section_choice_t), intent(out) :: sec
-    st%system = from_c(system, LEN_SYSTEM)
+    st%system = c_to_f(system)
     st%params = params
     st%lo = lo
     st%hi = hi
     st%n_grid = n_grid
-    st%saddle = from_c(saddle, 8)
+    st%saddle = c_to_f(saddle)
     sec = section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir)
     st%integ = integ
   end subroutine study_of
@@ -510,7 +476,7 @@ contains
     type(flux_result_t) :: res
     integer :: isad, ist
     flux = 0; err = 0; leading = 0; counts = 0; box = 0
-    call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+    call setup_model(trim(c_to_f(system)), params, lo, hi, n_grid, trim(c_to_f(saddle)), &
                      model, eqs, isad, ist, degenerate_ok=.true.)
     stat = ist
     if (ist /= TUBES_OK) return
@@ -547,7 +513,7 @@ contains
     x = ieee_value(1.0_c_double, ieee_quiet_nan)
     w = 0
     cls = 3
-    call setup_model(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), &
+    call setup_model(trim(c_to_f(system)), params, lo, hi, n_grid, trim(c_to_f(saddle)), &
                      model, eqs, isad, ist, degenerate_ok=.true.)
     stat = ist
     if (ist /= TUBES_OK) return
@@ -594,11 +560,11 @@ contains
     stcut = TUBES_EINPUT
     xcut = ieee_value(1.0_c_double, ieee_quiet_nan)
     tcut = xcut(1, 1)
-    call cut3_study(trim(from_c(system, LEN_SYSTEM)), params, lo, hi, n_grid, trim(from_c(saddle, 8)), order, &
+    call cut3_study(trim(c_to_f(system)), params, lo, hi, n_grid, trim(c_to_f(saddle)), order, &
                     expo, coef, zs, de, k, c, dir, n_cut, eps, t_max, tol, integ_of(method, h, omega_bind, &
                     solver, max_iter), pts, w, cls, inside, inside_pl, cut, diag, m, ist)
     stat = ist
-    call to_c(trim(m), msg, lmsg)
+    call f_to_c(trim(m), msg)
     if (.not. allocated(cut%x)) return
     xcut = cut%x
     tcut = cut%t
@@ -628,7 +594,7 @@ contains
     nhim = ieee_value(1.0_c_double, ieee_quiet_nan)
     round_trip = nhim(1, 1, :)
     call normal_form_flux(n_dof, order, expo, coef, de, res, flux, fstat, stat)
-    call to_c(trim(res%message), msg, lmsg)
+    call f_to_c(trim(res%message), msg)
     if (stat /= TUBES_OK) return
     lambda = res%lambda
     omegas(1:n_dof - 1) = res%omegas(1:n_dof - 1)

@@ -16,13 +16,14 @@
 !> (the copy would share the C handles): copy before the first step, or destroy first.
 module tubes_sundials
   use, intrinsic :: iso_c_binding, only: c_int, c_long, c_int64_t, c_double, c_char, c_ptr, &
-                                         c_null_ptr, c_null_char, c_loc, c_funloc, c_f_pointer, &
+                                         c_null_ptr, c_loc, c_funloc, c_f_pointer, &
                                          c_associated
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
   use tubes_kinds, only: wp, i8
+  use tubes_cstrings, only: c_to_f
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, start_step
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL, TUBES_ENOCONV
+  use tubes_status, only: callback_status, TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL, TUBES_ENOCONV
   use fsundials_context_mod, only: FSUNContext_Create, FSUNContext_Free
   use fsundials_nvector_mod, only: N_Vector, FN_VGetArrayPointer, FN_VDestroy
   use fsundials_matrix_mod, only: SUNMatrix, FSUNMatDestroy
@@ -146,7 +147,7 @@ contains
     ctx%nfev = ctx%nfev + 1
     call ctx%f%eval(t, yv, fv, stat)
     if (stat == 0 .and. .not. all(ieee_is_finite(fv))) stat = -1
-    ierr = c_status(ctx, stat)
+    ierr = int(callback_status(ctx%model_stat, stat), c_int)
   end function sun_rhs
 
   !> Dense Jacobian df/dy for CVODE's Newton corrector, from the model's jacobian.
@@ -168,7 +169,7 @@ contains
     ctx%njev = ctx%njev + 1
     call ctx%f%jacobian(t, yv, jd, stat)
     if (stat == 0 .and. .not. all(ieee_is_finite(jd))) stat = -1
-    ierr = c_status(ctx, stat)
+    ierr = int(callback_status(ctx%model_stat, stat), c_int)
   end function sun_jac
 
   !> Error handler: keeps "module:function: message" instead of printing it.
@@ -178,30 +179,9 @@ contains
     type(c_ptr), value :: user_data
     type(rhs_ctx_t), pointer :: ctx
     call c_f_pointer(user_data, ctx)
-    ctx%msg = c_string(module)//':'//c_string(function)//': '//c_string(msg)
+    ctx%msg = c_to_f(module(1:MSG_LEN)) // ':' // c_to_f(function(1:MSG_LEN)) // ': ' // &
+              c_to_f(msg(1:MSG_LEN))
   end subroutine sun_err
-
-  !> The model's status in the callbacks' convention (0, 1 recoverable, -1 fatal).
-  integer(c_int) function c_status(ctx, stat)
-    type(rhs_ctx_t), intent(inout) :: ctx
-    integer, intent(in) :: stat
-    if (stat /= 0) ctx%model_stat = stat
-    c_status = int(merge(0, merge(1, -1, stat > 0), stat == 0), c_int)
-  end function c_status
-
-  !> A NUL-terminated C string (at most MSG_LEN characters of it).
-  function c_string(s) result(r)
-    character(kind=c_char), intent(in) :: s(*)
-    character(:), allocatable :: r
-    integer :: k
-    k = 0
-    do while (k < MSG_LEN)
-      if (s(k + 1) == c_null_char) exit
-      k = k + 1
-    end do
-    allocate (character(k) :: r)
-    r = transfer(s(1:k), r)
-  end function c_string
 
   ! ------------------------------------------------------------------ CVODE
 

@@ -14,6 +14,7 @@ module tubes_taylor
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_null_char, c_funptr, c_null_funptr, &
                                          c_associated, c_f_procpointer
   use tubes_kinds, only: wp
+  use tubes_cstrings, only: c_to_f
   use tubes_field, only: jet_spec_t, vector_field_t
   use tubes_integrator, only: integrator_t, event_t, observer_t, integrator_init
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_ESTEP, TUBES_ENOJET
@@ -206,14 +207,10 @@ contains
     type(c_funptr) :: fp
     integer(c_int) :: dim, nwork
     character(kind=c_char) :: cmsg(512)
-    integer :: i
     msg = ''
     stat = int(jet_get(spec // c_null_char, p, lanes, flags, fp, dim, nwork, cmsg, 512))
     if (stat /= TUBES_OK .or. .not. c_associated(fp)) then
-      do i = 1, min(512, len(msg))
-        if (cmsg(i) == c_null_char) exit
-        msg(i:i) = cmsg(i)
-      end do
+      msg = c_to_f(cmsg)
       stat = TUBES_ENOJET
       return
     end if

@@ -178,6 +178,26 @@ static void find_tool(char *buf, size_t n, const char *env, const char *rel, con
   snprintf(buf, n, "%s", fallback);
 }
 
+/* text into path; 0, or -1 with the file and the reason in msg. */
+static int write_file(const char *path, const char *text, char *msg, int lmsg) {
+  FILE *f = fopen(path, "w");
+  int ok = f && fputs(text, f) >= 0;
+  if (f && fclose(f)) ok = 0;
+  if (!ok) say(msg, lmsg, "cannot write '%s': %s", path, strerror(errno));
+  return ok ? 0 : -1;
+}
+
+/* The code generator's script (find_tool). */
+static void codegen_script(char *script, size_t n) {
+  find_tool(script, n, "TUBES_CODEGEN", "python/tubes/codegen.py", "codegen.py");
+}
+
+/* The Python that runs the code generator, and the generator. */
+static void codegen_tools(char *py, size_t npy, char *script, size_t nscript) {
+  find_tool(py, npy, "TUBES_PYTHON", ".venv/bin/python", "python3");
+  codegen_script(script, nscript);
+}
+
 /* Is the library at path the model of spec? (its embedded text) */
 static int library_matches(const build_kind_t *bk, const char *path, const char *spec) {
   void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
@@ -267,14 +287,9 @@ static int build_locked(const build_kind_t *bk, const char *spec, char *var, int
   snprintf(f_so, sizeof f_so, "%s/model.so", tmp);
   snprintf(f_log, sizeof f_log, "%s/log", tmp);
   int rc = TUBES_EIO;
-  FILE *f = fopen(f_spec, "w");
-  if (!f || fputs(spec, f) < 0 || fclose(f)) {
-    say(msg, lmsg, "cannot write '%s': %s", f_spec, strerror(errno));
-    goto done;
-  }
+  if (write_file(f_spec, spec, msg, lmsg)) goto done;
   char py[PATH_MAX], script[PATH_MAX];
-  find_tool(py, sizeof py, "TUBES_PYTHON", ".venv/bin/python", "python3");
-  find_tool(script, sizeof script, "TUBES_CODEGEN", "python/tubes/codegen.py", "codegen.py");
+  codegen_tools(py, sizeof py, script, sizeof script);
   {
     char *argv[] = {py, script, (char *)bk->codegen_flag, f_c, NULL};
     int st = run(argv, f_spec, f_log);
@@ -431,15 +446,10 @@ int tubes_expr_taylor(const char key[TUBES_LSYSTEM], const double *z, int order,
   snprintf(f_out, sizeof f_out, "%s/taylor", tmp);
   snprintf(f_log, sizeof f_log, "%s/log", tmp);
   int rc = TUBES_EIO;
-  FILE *f = fopen(f_spec, "w");
-  if (!f || fputs(text, f) < 0 || fclose(f)) {
-    say(msg, lmsg, "cannot write '%s': %s", f_spec, strerror(errno));
-    goto done;
-  }
+  if (write_file(f_spec, text, msg, lmsg)) goto done;
   {
     char py[PATH_MAX], script[PATH_MAX], ord[16], zs[2 * TUBES_MAXDOF][32];
-    find_tool(py, sizeof py, "TUBES_PYTHON", ".venv/bin/python", "python3");
-    find_tool(script, sizeof script, "TUBES_CODEGEN", "python/tubes/codegen.py", "codegen.py");
+    codegen_tools(py, sizeof py, script, sizeof script);
     snprintf(ord, sizeof ord, "%d", order);
     char *argv[6 + 2 * TUBES_MAXDOF] = {py, script, "--taylor", f_out, ord};
     for (int i = 0; i < nv; i++) {
@@ -524,7 +534,7 @@ static void cpu_id(char *buf, size_t n) {
  * jetgen.py beside it (a changed generator builds its kernels anew), and the compiler's flags. */
 static void generator_id(char *buf, size_t n) {
   char script[PATH_MAX], path[PATH_MAX + 16];
-  find_tool(script, sizeof script, "TUBES_CODEGEN", "python/tubes/codegen.py", "codegen.py");
+  codegen_script(script, sizeof script);
   uint64_t h = 1469598103934665603ULL;
   for (int k = 0; k < 2; k++) {
     if (k == 0) {

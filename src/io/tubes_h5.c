@@ -84,15 +84,21 @@ int h5_attr_string(hid_t loc, const char *name, const char *s) {
   return rc;
 }
 
-int h5_write_double(hid_t loc, const char *name, int rank, const hsize_t *dims, const double *data,
-                    const char *units) {
+/* A dataset of the given memory type (native double or int), with its units attribute. */
+static int write_data(hid_t loc, const char *name, hid_t type, int rank, const hsize_t *dims, const void *data,
+                      const char *units) {
   hid_t sp = H5Screate_simple(rank, dims, NULL);
-  hid_t d = H5Dcreate2(loc, name, H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  int rc = (d < 0 || H5Dwrite(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) ? -1 : 0;
+  hid_t d = H5Dcreate2(loc, name, type, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  int rc = (d < 0 || H5Dwrite(d, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) ? -1 : 0;
   if (rc == 0 && units) rc = h5_attr_string(d, "units", units);
   if (d >= 0) H5Dclose(d);
   H5Sclose(sp);
   return failed(rc);
+}
+
+int h5_write_double(hid_t loc, const char *name, int rank, const hsize_t *dims, const double *data,
+                    const char *units) {
+  return write_data(loc, name, H5T_NATIVE_DOUBLE, rank, dims, data, units);
 }
 
 int h5_write_int(hid_t loc, const char *name, hsize_t n, const int *data, const char *units) {
@@ -100,13 +106,7 @@ int h5_write_int(hid_t loc, const char *name, hsize_t n, const int *data, const 
 }
 
 int h5_write_int_nd(hid_t loc, const char *name, int rank, const hsize_t *dims, const int *data, const char *units) {
-  hid_t sp = H5Screate_simple(rank, dims, NULL);
-  hid_t d = H5Dcreate2(loc, name, H5T_NATIVE_INT, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  int rc = (d < 0 || H5Dwrite(d, H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) ? -1 : 0;
-  if (rc == 0 && units) rc = h5_attr_string(d, "units", units);
-  if (d >= 0) H5Dclose(d);
-  H5Sclose(sp);
-  return failed(rc);
+  return write_data(loc, name, H5T_NATIVE_INT, rank, dims, data, units);
 }
 
 int h5_write_strings(hid_t loc, const char *name, hsize_t n, const char *const *s) {

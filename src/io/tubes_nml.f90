@@ -4,6 +4,7 @@
 module tubes_nml
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_int64_t, c_null_char
   use, intrinsic :: iso_fortran_env, only: iostat_end
+  use tubes_cstrings, only: c_to_f, f_to_c
   use tubes_models, only: system_info_t, system_info, MAX_PARAMS, MAX_DOF
   implicit none
   private
@@ -254,37 +255,37 @@ contains
     logical, intent(in) :: build   !! build a model written as a formula (not after a read error)
     integer :: k
     do k = 1, NSCENES
-      call put(v%scenes(k), cfg%scenes(:, k))
+      call f_to_c(v%scenes(k), cfg%scenes(:, k))
     end do
-    call put(v%output, cfg%output)
+    call f_to_c(v%output, cfg%output)
     cfg%n_grid = v%n_grid
-    call put(v%saddle, cfg%saddle)
+    call f_to_c(v%saddle, cfg%saddle)
     cfg%x0 = v%x0; cfg%y0 = v%y0; cfg%px0 = v%px0; cfg%py0 = v%py0
     cfg%t_end = v%t_end; cfg%dt_out = v%dt_out
     cfg%at_rest = merge(1, 0, v%at_rest)
     cfg%spatial = merge(1, 0, v%spatial)
-    call put(v%section, cfg%section)
+    call f_to_c(v%section, cfg%section)
     cfg%section_angle = v%section_angle; cfg%section_level = v%section_level
     cfg%section_direction = v%section_direction; cfg%max_crossings = v%max_crossings
     cfg%stop_at_first = merge(1, 0, v%stop_at_first)
-    call put(v%method, cfg%method)
+    call f_to_c(v%method, cfg%method)
     cfg%rtol = v%rtol; cfg%atol = v%atol; cfg%h = v%h; cfg%max_steps = v%max_steps
     cfg%omega_bind = v%omega_bind; cfg%max_iter = v%max_iter
-    call put(v%solver, cfg%solver)
-    call put(v%orb_saddle, cfg%orb_saddle)
+    call f_to_c(v%solver, cfg%solver)
+    call f_to_c(v%orb_saddle, cfg%orb_saddle)
     cfg%orb_de = v%orb_de
     cfg%orb_nde = count(v%orb_de /= UNSET)
     if (cfg%orb_nde == 0) then          ! default list of excess energies
       cfg%orb_de(1:3) = [1.0_c_double, 10.0_c_double, 100.0_c_double]
       cfg%orb_nde = 3
     end if
-    call put(v%orb_method, cfg%orb_method)
+    call f_to_c(v%orb_method, cfg%orb_method)
     cfg%orb_n_segments = v%orb_n_segments; cfg%orb_max_iter = v%orb_max_iter
     cfg%orb_n_samples = v%orb_n_samples
     cfg%orb_family = v%orb_family
     cfg%orb_tol = v%orb_tol; cfg%orb_rtol = v%orb_rtol; cfg%orb_atol = v%orb_atol
     call put_list(v%tub_de, cfg%tub_de, cfg%tub_nde, [10.0_c_double, 100.0_c_double])
-    call put(v%tub_kind, cfg%tub_kind)
+    call f_to_c(v%tub_kind, cfg%tub_kind)
     cfg%tub_eps = v%tub_eps; cfg%tub_area_tol = v%tub_area_tol; cfg%tub_t_max = v%tub_t_max
     cfg%tub_n_init = v%tub_n_init; cfg%tub_n_max = v%tub_n_max
     call put_list(v%tra_de, cfg%tra_de, cfg%tra_nde, [1.0_c_double, 2.0_c_double, 5.0_c_double, &
@@ -304,16 +305,16 @@ contains
     cfg%exp_pixel = v%exp_pixel; cfg%exp_noise = v%exp_noise
     cfg%exp_de_min = v%exp_de_min; cfg%exp_de_max = v%exp_de_max
     cfg%exp_damping_ratio = v%exp_damping_ratio
-    call put(v%exp_csv, cfg%exp_csv)
-    call put(v%hamiltonian, cfg%hamiltonian)
-    call put(v%height, cfg%height)
-    call put(v%surface, cfg%surface)
+    call f_to_c(v%exp_csv, cfg%exp_csv)
+    call f_to_c(v%hamiltonian, cfg%hamiltonian)
+    call f_to_c(v%height, cfg%height)
+    call f_to_c(v%surface, cfg%surface)
     do k = 1, MAX_DOF
-      call put(v%coordinates(k), cfg%coordinates(:, k))
-      call put(v%momenta(k), cfg%momenta(:, k))
+      call f_to_c(v%coordinates(k), cfg%coordinates(:, k))
+      call f_to_c(v%momenta(k), cfg%momenta(:, k))
     end do
     do k = 1, MAXCONST
-      call put(v%constants(k), cfg%constants(:, k))
+      call f_to_c(v%constants(k), cfg%constants(:, k))
     end do
     call resolve(v, cfg, build)   ! last: it fills the effective values of the fields above
   end subroutine to_c
@@ -354,7 +355,7 @@ contains
     v%damping_ratio = UNSET
     v%m_a = UNSET; v%m_b = UNSET; v%d = UNSET; v%lambda = UNSET; v%zeta = UNSET; v%eps_s = UNSET
     v%omega = UNSET; v%eps = UNSET; v%mu = UNSET
-    call system_info(trim(get(cfg%model)), info, st)
+    call system_info(trim(c_to_f(cfg%model)), info, st)
     if (st /= 0) return
     do k = 1, info%np
       select case (trim(info%params(k)%name))
@@ -388,11 +389,11 @@ contains
     type(system_info_t) :: info
     integer :: st, k, nd
     real(c_double) :: x, half(MAX_DOF), centre(MAX_DOF)
-    call put(v%system, cfg%system)
+    call f_to_c(v%system, cfg%system)
     if (v%spatial .and. trim(v%system) == 'cr3bp') then
-      call put('cr3bp_spatial', cfg%model)     ! the spatial problem: its own entry of the library
+      call f_to_c('cr3bp_spatial', cfg%model)     ! the spatial problem: its own entry of the library
     else
-      call put(v%system, cfg%model)
+      call f_to_c(v%system, cfg%model)
     end if
     cfg%expr_var = c_null_char; cfg%expr_msg = c_null_char; cfg%expr_lib = c_null_char
     cfg%expr_seconds = 0
@@ -410,7 +411,7 @@ contains
     cfg%box = 0
     cfg%orb_use_near = 0
     cfg%sec_angle = v%sec_angle; cfg%sec_pth_sign = v%sec_pth_sign
-    call put(v%sec_kind, cfg%sec_kind)
+    call f_to_c(v%sec_kind, cfg%sec_kind)
     cfg%sec_index = v%sec_index; cfg%sec_value = v%sec_value; cfg%sec_direction = v%sec_direction
     cfg%mc_gate = v%mc_gate
     cfg%flux_gate = v%flux_gate
@@ -421,7 +422,7 @@ contains
       call build_expression(v, cfg, st)
       if (st /= 0) return
     end if
-    call system_info(trim(get(cfg%model)), info, st)
+    call system_info(trim(c_to_f(cfg%model)), info, st)
     if (st /= 0) then
       cfg%nparams = -1
       cfg%ndof = 0
@@ -435,7 +436,7 @@ contains
       if (x == UNSET) x = info%params(k)%default
       cfg%params(k) = x
     end do
-    if (trim(get(cfg%model)) == 'rolling_ball') then      ! the scenes still read these by name
+    if (trim(c_to_f(cfg%model)) == 'rolling_ball') then      ! the scenes still read these by name
       cfg%alpha = cfg%params(1); cfg%beta = cfg%params(2); cfg%gamma = cfg%params(3)
       cfg%xi = cfg%params(4); cfg%h0 = cfg%params(5); cfg%g = cfg%params(6)
       cfg%damping_ratio = cfg%params(7)
@@ -464,7 +465,7 @@ contains
     ! the saddle: by name, by position, or the system's default
     if (len_trim(v%orb_saddle) == 0 .and. v%orb_saddle_near(1) == UNSET) then
       if (len_trim(info%saddle) > 0) then
-        call put(info%saddle, cfg%orb_saddle)
+        call f_to_c(info%saddle, cfg%orb_saddle)
       else
         cfg%orb_use_near = 1
         cfg%orb_saddle_near = 0
@@ -475,8 +476,8 @@ contains
       where (cfg%orb_saddle_near == UNSET) cfg%orb_saddle_near = 0
     end if
     ! the section
-    if (len_trim(v%sec_kind) == 0) call put(info%section_kind, cfg%sec_kind)
-    if (get(cfg%sec_kind) == 'ray') then
+    if (len_trim(v%sec_kind) == 0) call f_to_c(info%section_kind, cfg%sec_kind)
+    if (c_to_f(cfg%sec_kind) == 'ray') then
       if (v%sec_angle == UNSET) cfg%sec_angle = info%section_angle
       if (v%sec_angle == UNSET .and. info%section_angle == 0) cfg%sec_angle = 45
       if (v%sec_pth_sign == UNSET_INT) cfg%sec_pth_sign = merge(info%section_direction, 1, &
@@ -554,16 +555,9 @@ contains
       end function expr_build
     end interface
     character(:), allocatable :: spec
-    character(kind=c_char), allocatable :: cspec(:)
-    integer :: k
     spec = expression_spec(v)
-    allocate (cspec(len(spec) + 1))
-    do k = 1, len(spec)
-      cspec(k) = spec(k:k)
-    end do
-    cspec(len(spec) + 1) = c_null_char
     cfg%model = c_null_char
-    st = int(expr_build(cspec, cfg%model, cfg%expr_var, LNAME, cfg%expr_msg, LMSG, cfg%expr_lib, LPATH, &
+    st = int(expr_build(spec // c_null_char, cfg%model, cfg%expr_var, LNAME, cfg%expr_msg, LMSG, cfg%expr_lib, LPATH, &
                         cfg%expr_seconds, cfg%expr_hit))
   end subroutine build_expression
 
@@ -585,10 +579,10 @@ contains
     type(vars_t), intent(out) :: v
     integer :: k
     do k = 1, NSCENES
-      v%scenes(k) = get(cfg%scenes(:, k))
+      v%scenes(k) = c_to_f(cfg%scenes(:, k))
     end do
-    v%output = get(cfg%output)
-    v%system = get(cfg%system)
+    v%output = c_to_f(cfg%output)
+    v%system = c_to_f(cfg%system)
     v%alpha = cfg%alpha; v%beta = cfg%beta; v%gamma = cfg%gamma; v%xi = cfg%xi
     v%h0 = cfg%h0; v%g = cfg%g; v%damping_ratio = cfg%damping_ratio
     v%m_a = cfg%m_a; v%m_b = cfg%m_b; v%d = cfg%d; v%lambda = cfg%lambda; v%zeta = cfg%zeta
@@ -597,43 +591,43 @@ contains
     v%box_list = cfg%box_list
     v%box_center = cfg%box_center
     v%orb_saddle_near = cfg%orb_saddle_near
-    v%sec_kind = get(cfg%sec_kind)
+    v%sec_kind = c_to_f(cfg%sec_kind)
     v%sec_index = cfg%sec_index; v%sec_value = cfg%sec_value; v%sec_direction = cfg%sec_direction
-    v%hamiltonian = get(cfg%hamiltonian)
-    v%height = get(cfg%height)
-    v%surface = get(cfg%surface)
-    v%model_name = get(cfg%model)
+    v%hamiltonian = c_to_f(cfg%hamiltonian)
+    v%height = c_to_f(cfg%height)
+    v%surface = c_to_f(cfg%surface)
+    v%model_name = c_to_f(cfg%model)
     do k = 1, MAX_DOF
-      v%coordinates(k) = get(cfg%coordinates(:, k))
-      v%momenta(k) = get(cfg%momenta(:, k))
+      v%coordinates(k) = c_to_f(cfg%coordinates(:, k))
+      v%momenta(k) = c_to_f(cfg%momenta(:, k))
     end do
     do k = 1, MAXCONST
-      v%constants(k) = get(cfg%constants(:, k))
+      v%constants(k) = c_to_f(cfg%constants(:, k))
     end do
     call effective_model(cfg, v)
-    v%saddle = get(cfg%saddle)
+    v%saddle = c_to_f(cfg%saddle)
     v%x0 = cfg%x0; v%y0 = cfg%y0; v%px0 = cfg%px0; v%py0 = cfg%py0
     v%t_end = cfg%t_end; v%dt_out = cfg%dt_out
     v%at_rest = cfg%at_rest /= 0
     v%spatial = cfg%spatial /= 0
-    v%section = get(cfg%section)
+    v%section = c_to_f(cfg%section)
     v%section_angle = cfg%section_angle; v%section_level = cfg%section_level
     v%section_direction = cfg%section_direction; v%max_crossings = cfg%max_crossings
     v%stop_at_first = cfg%stop_at_first /= 0
-    v%method = get(cfg%method)
+    v%method = c_to_f(cfg%method)
     v%rtol = cfg%rtol; v%atol = cfg%atol; v%h = cfg%h; v%max_steps = cfg%max_steps
     v%omega_bind = cfg%omega_bind; v%max_iter = cfg%max_iter
-    v%solver = get(cfg%solver)
-    v%orb_saddle = get(cfg%orb_saddle)
+    v%solver = c_to_f(cfg%solver)
+    v%orb_saddle = c_to_f(cfg%orb_saddle)
     v%orb_de = cfg%orb_de
-    v%orb_method = get(cfg%orb_method)
+    v%orb_method = c_to_f(cfg%orb_method)
     v%orb_n_segments = cfg%orb_n_segments; v%orb_max_iter = cfg%orb_max_iter
     v%orb_n_samples = cfg%orb_n_samples
     v%orb_family = cfg%orb_family
     v%orb_tol = cfg%orb_tol; v%orb_rtol = cfg%orb_rtol; v%orb_atol = cfg%orb_atol
     v%sec_angle = cfg%sec_angle; v%sec_pth_sign = cfg%sec_pth_sign
     v%tub_de = cfg%tub_de
-    v%tub_kind = get(cfg%tub_kind)
+    v%tub_kind = c_to_f(cfg%tub_kind)
     v%tub_eps = cfg%tub_eps; v%tub_area_tol = cfg%tub_area_tol; v%tub_t_max = cfg%tub_t_max
     v%tub_n_init = cfg%tub_n_init; v%tub_n_max = cfg%tub_n_max
     v%tra_de = cfg%tra_de
@@ -652,30 +646,8 @@ contains
     v%exp_pixel = cfg%exp_pixel; v%exp_noise = cfg%exp_noise
     v%exp_de_min = cfg%exp_de_min; v%exp_de_max = cfg%exp_de_max
     v%exp_damping_ratio = cfg%exp_damping_ratio
-    v%exp_csv = get(cfg%exp_csv)
+    v%exp_csv = c_to_f(cfg%exp_csv)
   end subroutine from_c
-
-  pure subroutine put(s, c)
-    character(*), intent(in) :: s
-    character(kind=c_char), intent(out) :: c(:)
-    integer :: i, n
-    n = min(len_trim(s), size(c) - 1)
-    c = c_null_char
-    do i = 1, n
-      c(i) = s(i:i)
-    end do
-  end subroutine put
-
-  pure function get(c) result(s)
-    character(kind=c_char), intent(in) :: c(:)
-    character(size(c)) :: s
-    integer :: i
-    s = ''
-    do i = 1, size(c)
-      if (c(i) == c_null_char) exit
-      s(i:i) = c(i)
-    end do
-  end function get
 
   subroutine c_defaults(cfg) bind(C, name='tubes_nml_defaults')
     type(tubes_config_t), intent(out) :: cfg
@@ -1088,18 +1060,14 @@ contains
     type(vars_t) :: v
     character(LPATH) :: fname
     character(512) :: iomsg
-    integer :: u, i, grp
+    integer :: u, grp
     call set_defaults(v)
     group = -1
     msg = c_null_char
-    fname = ''
-    do i = 1, LPATH
-      if (path(i) == c_null_char) exit
-      fname(i:i) = path(i)
-    end do
+    fname = c_to_f(path(1:LPATH))
     open (newunit=u, file=trim(fname), status='old', action='read', iostat=ios, iomsg=iomsg)
     if (ios /= 0) then
-      call put(iomsg, msg)
+      call f_to_c(iomsg, msg)
       call to_c(v, cfg, .false.)
       return
     end if
@@ -1110,7 +1078,7 @@ contains
       if (ios == iostat_end) ios = 0       ! group absent (C checks presence separately)
       if (ios /= 0) then
         group = grp
-        call put(iomsg, msg)
+        call f_to_c(iomsg, msg)
         exit
       end if
     end do

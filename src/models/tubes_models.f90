@@ -4,7 +4,8 @@
 !> (tubes_model_info in include/tubes.h). A model travels across the C and Python boundaries
 !> as (system name, parameter vector in the order of this table).
 module tubes_models
-  use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char
+  use, intrinsic :: iso_c_binding, only: c_int, c_char
+  use tubes_cstrings, only: c_to_f, f_to_c
   use tubes_kinds, only: wp, i8
   use tubes_lapack, only: dgesv
   use tubes_field, only: vector_field_t
@@ -256,15 +257,10 @@ contains
     integer, intent(out) :: stat
     type(expr_lib_t) :: lib
     character(len=160) :: formula
-    integer :: k
     stat = TUBES_EINPUT
     if (len_trim(name) /= 21 .or. name(1:min(5, len(name))) /= 'expr_') return
     if (open_library(name, lib) /= TUBES_OK) return
-    formula = ''
-    do k = 1, size(lib%formula)
-      if (lib%formula(k) == c_null_char) exit
-      formula(k:k) = lib%formula(k)
-    end do
+    formula = c_to_f(lib%formula)
     info%saddle = 'S1'
     info%section_kind = ''
     if (lib%kind == KIND_SURFACE) then
@@ -291,11 +287,7 @@ contains
     character(*), intent(in) :: name
     type(expr_lib_t), intent(out) :: lib
     character(kind=c_char) :: key(LEN_SYSTEM)
-    integer :: k
-    key = c_null_char
-    do k = 1, min(len_trim(name), LEN_SYSTEM - 1)
-      key(k) = name(k:k)
-    end do
+    call f_to_c(name, key)
     stat = int(expr_open(key, lib))
   end function open_library
 
@@ -385,17 +377,10 @@ contains
     character(*), intent(in) :: name
     character(:), allocatable, intent(out) :: text
     character(kind=c_char) :: key(LEN_SYSTEM), buf(8192)
-    integer :: k
-    key = c_null_char
-    do k = 1, min(len_trim(name), LEN_SYSTEM - 1)
-      key(k) = name(k:k)
-    end do
+    call f_to_c(name, key)
     text = ''
     if (expr_spec(key, buf, size(buf)) /= TUBES_OK) return
-    do k = 1, size(buf)
-      if (buf(k) == c_null_char) exit
-      text = text // buf(k)
-    end do
+    text = c_to_f(buf)
   end subroutine library_spec
 
   !> The vector field a scene integrates: the conservative model, or for the rolling ball with

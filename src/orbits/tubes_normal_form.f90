@@ -273,14 +273,7 @@ contains
         w(k) = h(k)/dv
       end do
       gens(:, n) = w
-      if (all(w == 0)) cycle
-      t = h
-      do j = 1, order
-        call bracket(s, t, w, order, u)
-        t = u/j
-        if (all(t == 0)) exit
-        h = h + t
-      end do
+      call lie_series(s, h, w, order)
     end do
     ! what is left: the normal part and the residual
     res%residual = 0

@@ -23,7 +23,7 @@ module tubes_ray_surface
     integer :: mode = 0         !! integrand: 0 area, 1 dA/dE
   end type ray_t
 
-  public :: ray_potential, ray_hr, section_region, section_area, section_darea, boundary_pr, &
+  public :: ray_potential, ray_hr, section_region, section_area, boundary_pr, &
             p_theta_from
 
 contains
@@ -166,24 +166,17 @@ contains
     end if
   end function f_area
 
-  !> A_E = area of the permitted region on the ray's section [cm^2/s] (its interval must be
-  !> set by section_region). GSL QAGS to relative 1e-12.
-  subroutine section_area(ray, area, abserr, stat)
+  !> A_E = area of the permitted region on the ray's section [cm^2/s], or with derivative its
+  !> dA_E/dE [s], at the ray's energy (its interval must be set by section_region). GSL QAGS to
+  !> relative 1e-12.
+  subroutine section_area(ray, area, abserr, stat, derivative)
     type(ray_t), intent(inout), target :: ray
     real(wp), intent(out) :: area, abserr
     integer, intent(out) :: stat
+    logical, intent(in), optional :: derivative
     ray%mode = 0
+    if (present(derivative)) ray%mode = merge(1, 0, derivative)
     stat = quad_qags(c_funloc(f_area), c_loc(ray), 0.0_wp, PI, 0.0_wp, 1.0e-12_wp, area, abserr)
     if (stat /= 0) stat = TUBES_ENOCONV
   end subroutine section_area
-
-  !> dA_E/dE [s] at the ray's energy (interval set by section_region).
-  subroutine section_darea(ray, darea, abserr, stat)
-    type(ray_t), intent(inout), target :: ray
-    real(wp), intent(out) :: darea, abserr
-    integer, intent(out) :: stat
-    ray%mode = 1
-    stat = quad_qags(c_funloc(f_area), c_loc(ray), 0.0_wp, PI, 0.0_wp, 1.0e-12_wp, darea, abserr)
-    if (stat /= 0) stat = TUBES_ENOCONV
-  end subroutine section_darea
 end module tubes_ray_surface

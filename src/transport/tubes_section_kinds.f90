@@ -16,7 +16,7 @@ module tubes_section_kinds
   use tubes_ball, only: ball_t
   use tubes_integrator, only: event_t, plane_t
   use tubes_section_events, only: theta_line_t, polar_canonical
-  use tubes_ray_surface, only: ray_t, section_region, section_area, section_darea, boundary_pr, &
+  use tubes_ray_surface, only: ray_t, section_region, section_area, boundary_pr, &
                            p_theta_from
   use tubes_quad, only: quad_qags, quad_root
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
@@ -48,8 +48,7 @@ module tubes_section_kinds
     procedure :: state => sec_state             !! the state at (s, p_s) on the branch
     procedure :: set_energy => sec_set_energy   !! the region's interval at E
     procedure :: bounds => sec_bounds           !! p_s range of the region at s
-    procedure :: area => sec_area               !! A_E
-    procedure :: darea => sec_darea             !! dA_E/dE
+    procedure :: area => sec_area               !! A_E, or dA_E/dE
   end type poincare_t
 
   public :: make_ray_section, make_plane_section
@@ -346,53 +345,37 @@ contains
     end if
   end function f_plane
 
-  !> A_E, the area of the region [units of s x p_s] (GSL QAGS to relative 1e-12).
-  subroutine sec_area(self, area, abserr, stat)
+  !> A_E, the area of the region [units of s x p_s], or with derivative its dA_E/dE [time] (GSL
+  !> QAGS to relative 1e-12).
+  subroutine sec_area(self, area, abserr, stat, derivative)
     class(poincare_t), intent(inout) :: self
     real(wp), intent(out) :: area, abserr
     integer, intent(out) :: stat
-    call sec_quad(self, 0, area, abserr, stat)
-  end subroutine sec_area
-
-  !> The section's own type (not an extension) to quad_impl.
-  subroutine sec_quad(self, mode, res, abserr, stat)
-    class(poincare_t), intent(inout) :: self
-    integer, intent(in) :: mode
-    real(wp), intent(out) :: res, abserr
-    integer, intent(out) :: stat
-    res = 0
+    logical, intent(in), optional :: derivative
+    logical :: d
+    area = 0
     abserr = 0
     stat = TUBES_EINPUT
+    d = .false.
+    if (present(derivative)) d = derivative
     select type (self)
-    type is (poincare_t)
-      call quad_impl(self, mode, res, abserr, stat)
+    type is (poincare_t)                 ! the section's own type (not an extension) to quad_impl
+      call quad_impl(self, d, area, abserr, stat)
     end select
-  end subroutine sec_quad
+  end subroutine sec_area
 
-  !> mode 0: A_E; mode 1: dA_E/dE.
-  subroutine quad_impl(self, mode, res, abserr, stat)
+  !> A_E, or with derivative dA_E/dE.
+  subroutine quad_impl(self, derivative, res, abserr, stat)
     type(poincare_t), intent(inout), target :: self
-    integer, intent(in) :: mode
+    logical, intent(in) :: derivative
     real(wp), intent(out) :: res, abserr
     integer, intent(out) :: stat
     if (self%kind == SEC_RAY) then
-      if (mode == 0) then
-        call section_area(self%ray, res, abserr, stat)
-      else
-        call section_darea(self%ray, res, abserr, stat)
-      end if
+      call section_area(self%ray, res, abserr, stat, derivative)
       return
     end if
-    self%mode = mode
+    self%mode = merge(1, 0, derivative)
     stat = quad_qags(c_funloc(f_plane), c_loc(self), 0.0_wp, PI, 0.0_wp, 1.0e-12_wp, res, abserr)
     if (stat /= 0) stat = TUBES_ENOCONV
   end subroutine quad_impl
-
-  !> dA_E/dE [time].
-  subroutine sec_darea(self, darea, abserr, stat)
-    class(poincare_t), intent(inout) :: self
-    real(wp), intent(out) :: darea, abserr
-    integer, intent(out) :: stat
-    call sec_quad(self, 1, darea, abserr, stat)
-  end subroutine sec_darea
 end module tubes_section_kinds

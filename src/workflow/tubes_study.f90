@@ -500,7 +500,7 @@ contains
     smax = psec%smax
     call psec%area(area, err, stat)
     if (stat /= TUBES_OK) return
-    call psec%darea(darea, err, stat)
+    call psec%area(darea, err, stat, derivative=.true.)
   end subroutine section_info
 
   !> The cut of the tube of the saddle's Lyapunov orbit at excess energy de with the section
