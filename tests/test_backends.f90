@@ -137,6 +137,7 @@ end module test_backends_models
 program test_backends
   use tubes_kinds, only: wp, i8
   use tubes_status, only: TUBES_OK, TUBES_EVENT, TUBES_EMODEL, TUBES_EMAXSTEPS
+  use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, propagate, plane_t
   use tubes_dop853, only: dop853_t
   use tubes_gsl, only: gsl_t
@@ -183,9 +184,12 @@ program test_backends
 contains
 
   !> A new integrator of backend b (integrator_t's default settings).
-  subroutine new_backend(b, ig)
+  !> Back-end b, set to integrate field from t = 0 at rtol = atol = tol.
+  subroutine new_backend(b, ig, field, tol)
     integer, intent(in) :: b
     class(integrator_t), allocatable, intent(out) :: ig
+    class(vector_field_t), intent(in) :: field
+    real(wp), intent(in) :: tol
     select case (b)
     case (RK8PD); allocate (ig, source=gsl_t(kind='gsl_rk8pd'))
     case (RK4IMP); allocate (ig, source=gsl_t(kind='gsl_rk4imp'))
@@ -193,6 +197,9 @@ contains
     case (CVODE_NEWTON); allocate (ig, source=cvode_t(nonlinear='newton'))
     case (ERK8); allocate (arkode_t :: ig)
     end select
+    call ig%init(field, 0.0_wp)
+    ig%rtol = tol
+    ig%atol = tol
   end subroutine new_backend
 
   !> Least-squares slope of y against x.
@@ -238,10 +245,7 @@ contains
     allocate (lh(0), le(0))
     do k = K0, K1
       tol = 10.0_wp**(-k)
-      call new_backend(b, ig)
-      call ig%init(oscillator_t(), 0.0_wp)
-      ig%rtol = tol
-      ig%atol = tol
+      call new_backend(b, ig, oscillator_t(), tol)
       x = [1.0_wp, 0.0_wp]
       probe = osc_probe_t()
       call propagate(ig, x, 10.0_wp, stat, observer=probe)
@@ -308,10 +312,7 @@ contains
     logical, allocatable :: use(:)
     character(100) :: lbl
     tol = 1.0e-8_wp
-    call new_backend(b, ig)
-    call ig%init(oscillator_t(), 0.0_wp)
-    ig%rtol = tol
-    ig%atol = tol
+    call new_backend(b, ig, oscillator_t(), tol)
     x = [1.0_wp, 0.0_wp]
     call propagate(ig, x, 10.0_wp, stat, observer=probe)
     m = probe%n
@@ -369,10 +370,7 @@ contains
     integer :: stat
     character(100) :: lbl
     tol = 1.0e-10_wp
-    call new_backend(b, ig)
-    call ig%init(oscillator_t(), 0.0_wp)
-    ig%rtol = tol
-    ig%atol = tol
+    call new_backend(b, ig, oscillator_t(), tol)
     x = [1.0_wp, 0.0_wp]
     call propagate(ig, x, 10.0_wp, stat, event=plane_t(k=1, c=0.0_wp, direction=-1), &
                    observer=probe)
@@ -448,10 +446,7 @@ contains
     tl = [1.0e-8_wp, 1.0e-11_wp]
     e0 = ball%energy(X0_BALL)
     do i = 1, 2
-      call new_backend(b, ig)
-      call ig%init(ball, 0.0_wp)
-      ig%rtol = tl(i)
-      ig%atol = tl(i)
+      call new_backend(b, ig, ball, tl(i))
       z = X0_BALL
       bp%ball = ball   ! (assignment, not a structure constructor: STYLE.md)
       bp%zprev = X0_BALL
@@ -495,10 +490,7 @@ contains
     character(100) :: lbl
     tol = 1.0e-10_wp
     ! a fatal model failure (NaN, stat < 0 below x = 1/2, i.e. after t = pi/3)
-    call new_backend(b, ig)
-    call ig%init(nan_oscillator_t(), 0.0_wp)
-    ig%rtol = tol
-    ig%atol = tol
+    call new_backend(b, ig, nan_oscillator_t(), tol)
     x = [1.0_wp, 0.0_wp]
     call propagate(ig, x, 10.0_wp, stat)
     write (*, '(a,f9.6,a,i0,a,a)') '     NaN model stopped at t = ', ig%t, ', flag ', &
@@ -514,10 +506,7 @@ contains
     ! a recoverable refusal (stat > 0) of states more than 1e-6 off the unit circle: the
     ! stages of long steps leave it. GSL halves the step, CVODE retries the corrector with a
     ! smaller step; ERKStep (SUNDIALS 6.4.1) cannot recover and stops (ARK_UNREC_RHSFUNC_ERR)
-    call new_backend(b, ig)
-    call ig%init(picky_oscillator_t(r2max=1 + 1.0e-6_wp), 0.0_wp)
-    ig%rtol = tol
-    ig%atol = tol
+    call new_backend(b, ig, picky_oscillator_t(r2max=1 + 1.0e-6_wp), tol)
     x = [1.0_wp, 0.0_wp]
     call propagate(ig, x, 10.0_wp, stat)
     write (*, '(a,i0,a,i0,a,i0,a,es10.3,a,a)') '     picky model: status ', stat, ', steps ', &
@@ -540,10 +529,7 @@ contains
                        2*CB2*ig%nsteps*tol)
     end if
     ! step budget
-    call new_backend(b, ig)
-    call ig%init(oscillator_t(), 0.0_wp)
-    ig%rtol = tol
-    ig%atol = tol
+    call new_backend(b, ig, oscillator_t(), tol)
     ig%max_steps = 3
     x = [1.0_wp, 0.0_wp]
     call propagate(ig, x, 10.0_wp, stat)
@@ -585,19 +571,13 @@ contains
     real(wp) :: x(2), z(4), zf(4)
     integer :: stat, st2
     character(100) :: lbl
-    call new_backend(b, ig)
-    call ig%init(oscillator_t(), 0.0_wp)
-    ig%rtol = 1.0e-9_wp
-    ig%atol = 1.0e-9_wp
+    call new_backend(b, ig, oscillator_t(), 1.0e-9_wp)
     x = [1.0_wp, 0.0_wp]
     call propagate(ig, x, 3.0_wp, stat)
     call ig%init(ball, 0.0_wp)
     z = X0_BALL
     call propagate(ig, z, 0.5_wp, stat)
-    call new_backend(b, fresh_ig)
-    call fresh_ig%init(ball, 0.0_wp)
-    fresh_ig%rtol = 1.0e-9_wp
-    fresh_ig%atol = 1.0e-9_wp
+    call new_backend(b, fresh_ig, ball, 1.0e-9_wp)
     zf = X0_BALL
     call propagate(fresh_ig, zf, 0.5_wp, st2)
     write (lbl, '(a,a)') trim(NAMES(b)), ': init() again (new model, n 2 -> 4) = new instance'
@@ -628,10 +608,7 @@ contains
     integer :: stat
     integer(i8) :: nsolver
     character(100) :: lbl
-    call new_backend(b, ig)
-    call ig%init(oscillator_t(), 0.0_wp)
-    ig%rtol = 1.0e-9_wp
-    ig%atol = 1.0e-9_wp
+    call new_backend(b, ig, oscillator_t(), 1.0e-9_wp)
     x = [1.0_wp, 0.0_wp]
     call propagate(ig, x, 10.0_wp, stat)
     select type (ig)
@@ -703,10 +680,7 @@ contains
     integer(i8), intent(out) :: nfev
     class(integrator_t), allocatable :: a
     integer :: stat
-    call new_backend(b, a)
-    call a%init(oscillator_t(), 0.0_wp)
-    a%rtol = 1.0e-9_wp
-    a%atol = 1.0e-9_wp
+    call new_backend(b, a, oscillator_t(), 1.0e-9_wp)
     x = [1.0_wp, 0.0_wp]
     call propagate(a, x, 10.0_wp, stat, event=plane_t(k=1, c=0.0_wp, direction=1))
     call propagate(a, x, 10.0_wp, stat)
@@ -719,10 +693,7 @@ contains
     integer(i8), intent(out) :: nfev
     class(integrator_t), allocatable :: a
     integer :: stat
-    call new_backend(b, a)
-    call a%init(ball, 0.0_wp)
-    a%rtol = 1.0e-9_wp
-    a%atol = 1.0e-9_wp
+    call new_backend(b, a, ball, 1.0e-9_wp)
     z = X0_BALL
     call propagate(a, z, T_BALL, stat)
     nfev = a%nfev
@@ -735,14 +706,8 @@ contains
     integer(i8), intent(out) :: nfev(2)
     class(integrator_t), allocatable :: a1, a2
     integer :: stat, phase
-    call new_backend(b, a1)
-    call new_backend(b, a2)
-    call a1%init(oscillator_t(), 0.0_wp)
-    call a2%init(ball, 0.0_wp)
-    a1%rtol = 1.0e-9_wp
-    a1%atol = 1.0e-9_wp
-    a2%rtol = 1.0e-9_wp
-    a2%atol = 1.0e-9_wp
+    call new_backend(b, a1, oscillator_t(), 1.0e-9_wp)
+    call new_backend(b, a2, ball, 1.0e-9_wp)
     x = [1.0_wp, 0.0_wp]
     z = X0_BALL
     a1%max_steps = 1

@@ -10,7 +10,8 @@ program test_dop853
   use tubes_fourwell, only: fourwell_t
   use tubes_ball, only: ball_t, make_ball
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
-  use tubes_test_models, only: X0_BALL, PI, EPS, oscillator_t, nan_oscillator_t, dense_probe_t, rotate, oscillator_fixed_step
+  use tubes_test_models, only: X0_BALL, PI, EPS, oscillator_t, nan_oscillator_t, dense_probe_t, rotate, oscillator_fixed_step, &
+                               ball_fixed_step
   implicit none
 
 
@@ -203,17 +204,8 @@ program test_dop853
   ! t = 2 s gives 11.8 at h = 1/40 s for that reason).
   call make_ball(ball, fourwell_t(), 981.0_wp)
   do i = 1, 3
-    h = (1.0_wp/32)/2**(i - 1)
-    call ig%init(ball, t0=0.0_wp)
-    ig%h = h
-    z = X0_BALL
-    do k = 1, 8
-      call propagate(ig, z, 0.25_wp*k, stat)
-      if (stat /= TUBES_OK) exit
-      zs(:, k, i) = z
-    end do
-    write (lbl, '(a,es8.2)') 'ball fixed step: status, h = ', h
-    call check_eq(trim(lbl), stat, TUBES_OK)
+    call ball_fixed_step(ig, (1.0_wp/32)/2**(i - 1), 0.25_wp*[(k, k=1, 8)], 'ball fixed step', 'es8.2', &
+                         zs(:, :, i))
   end do
   dif(1) = abs(zs(1, 8, 1) - zs(1, 8, 2))
   dif(2) = abs(zs(1, 8, 2) - zs(1, 8, 3))
@@ -366,24 +358,26 @@ program test_dop853
   end do
   ! evaluation count: fixed h = 0.1 to t = 1 is 10 steps of 12 new stages (FSAL) plus the
   ! initial f(t0, x0): 121; no extra sliver step from roundoff drift of t
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.1_wp
-  ig%max_steps = 1000
-  x = [1.0_wp, 0.0_wp]
-  call propagate(ig, x, 1.0_wp, stat)
+  call osc_fixed(0.1_wp, 1.0_wp)
   call check_eq('fixed h = 0.1 to t = 1: 10 steps', int(ig%nsteps), 10)
   call check_eq('fixed h = 0.1 to t = 1: nfev = 1 + 12 * 10', int(ig%nfev), 121)
   ! and at large t, where ulp(t) >> 64 eps h: h = 0.02 to t = 1000 is 50000 steps exactly
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.02_wp
-  ig%max_steps = 100000
-  x = [1.0_wp, 0.0_wp]
-  call propagate(ig, x, 1000.0_wp, stat)
+  call osc_fixed(0.02_wp, 1000.0_wp)
   call check_eq('fixed h = 0.02 to t = 1000: 50000 steps, no sliver steps', int(ig%nsteps), 50000)
 
   call finish('test_dop853')
 
 contains
+
+  !> The oscillator from (1, 0) with fixed step h to t_end (a step budget of twice the steps).
+  subroutine osc_fixed(h, t_end)
+    real(wp), intent(in) :: h, t_end
+    call ig%init(oscillator_t(), t0=0.0_wp)
+    ig%h = h
+    ig%max_steps = 2*nint(t_end/h)
+    x = [1.0_wp, 0.0_wp]
+    call propagate(ig, x, t_end, stat)
+  end subroutine osc_fixed
 
   !> All rooted trees with 1..8 vertices: order, density gamma, and the stage vectors
   !> Phi(t) (with A) and Phi_abs(t) (with |A|), by attaching multisets of smaller trees

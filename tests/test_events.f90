@@ -209,12 +209,7 @@ program test_events
   tol = 2*dense_err/sin(0.2_wp) + 1.0e-15_wp
   write (*, '(a,es10.3,a,es10.3)') '     oscillator h = 0.5: dense-output error ', dense_err, &
     ', event-time tolerance ', tol
-  call log%clear()
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.5_wp
-  x = [cos(0.25_wp), sin(0.25_wp)]
-  call propagate(ig, x, 0.5_wp, stat, event=plane_t(k=1, c=cos(0.2_wp), terminal=.false.), &
-                 crossings=log)
+  call run_one_step(cos(0.2_wp), 4)
   call check_eq('two in one step (oscillator): both found', log%n, 2)
   if (log%n == 2) then
     call check_close('two in one step (oscillator): t = 0.05', log%t(1), 0.05_wp, tol)
@@ -225,19 +220,9 @@ program test_events
   ! (c) the documented failure mode (docs/events.md): two crossings inside one sampling
   ! interval h/(nsub+1) are both missed. Level cos(0.03): crossings at 0.22 and 0.28, both
   ! in the fifth [0.2, 0.3] (nsub = 4: missed), in different tenths with nsub = 9 (found).
-  call log%clear()
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.5_wp
-  x = [cos(0.25_wp), sin(0.25_wp)]
-  call propagate(ig, x, 0.5_wp, stat, event=plane_t(k=1, c=cos(0.03_wp), terminal=.false.), &
-                 crossings=log)
+  call run_one_step(cos(0.03_wp), 4)
   call check_eq('known limitation: two crossings 0.06 apart in one 0.1 interval missed', log%n, 0)
-  call log%clear()
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.5_wp
-  x = [cos(0.25_wp), sin(0.25_wp)]
-  call propagate(ig, x, 0.5_wp, stat, event=plane_t(k=1, c=cos(0.03_wp), terminal=.false., &
-                 nsub=9), crossings=log)
+  call run_one_step(cos(0.03_wp), 9)
   call check_eq('... and found with nsub = 9 (intervals of 0.05)', log%n, 2)
   if (log%n == 2) then
     call check_close('nsub = 9: t = 0.22', log%t(1), 0.22_wp, 2*dense_err/sin(0.03_wp) + 1.0e-15_wp)
@@ -499,6 +484,19 @@ contains
     write (*, '(5x,a,a,es10.3)') name, ': worst event-time error ', worst
     call check_eq(name//': times (tolerance) and directions match the analytic list', nbad, 0)
   end subroutine compare_log
+
+  !> The oscillator from (cos 1/4, sin 1/4) over one step of h = 0.5 to t = 0.5, the crossings
+  !> of x = c (nsub samples inside the step) into log.
+  subroutine run_one_step(c, nsub)
+    real(wp), intent(in) :: c
+    integer, intent(in) :: nsub
+    call log%clear()
+    call ig%init(oscillator_t(), t0=0.0_wp)
+    ig%h = 0.5_wp
+    x = [cos(0.25_wp), sin(0.25_wp)]
+    call propagate(ig, x, 0.5_wp, stat, event=plane_t(k=1, c=c, terminal=.false., nsub=nsub), &
+                   crossings=log)
+  end subroutine run_one_step
 
   !> The isotropic oscillator from z0 to t = 60 (fixed h = 1/16), crossings into log.
   subroutine run_iso(z0, ev)

@@ -25,10 +25,11 @@ program test_model
   type(ball_t) :: ball
   type(damped_t) :: dball
   real(wp) :: pts(2, NPT), st(4, NST)
-  real(wp) :: x, y, d, xp, xm, yp, ym, gr(2), hs(2, 2), grp(2), grm(2), fd, tol
+  real(wp) :: x, y, d, xp, xm, yp, ym, gr(2), hs(2, 2), grp(2), grm(2), fd, tol, q_hi(2), q_lo(2)
   real(wp) :: m3, m4, s_h, s_g, mm(2, 2), v(2), p(2), z(4), f(4), a_lag(2), a_fd(2), a_fd2(2)
   real(wp) :: dt, tol_v, e_mine, kin, de, de2, r_e, c_damp
-  integer :: i, stat
+  integer :: i, j, k, stat
+  character, parameter :: XY(2) = ['x', 'y']
   character(64) :: lbl
 
   ! Surface test points spread over |x|, |y| <= 15 cm: corners, axes, near the origin and
@@ -84,20 +85,16 @@ program test_model
     s_g = 2*surf%alpha*max(abs(x), abs(y)) + surf%beta + surf%xi*max(abs(x), abs(y))
     ! ~1.5e-10; at x = 0 (point 1) the truncation bound 8.7e-11 is attained: H_xxxx peaks there
     tol = m4*d**2/6 + 8*EPS*s_g/d
-    xp = x + d; xm = x - d
-    call surf%derivs(xp, y, grp, mm)
-    call surf%derivs(xm, y, grm, mm)
-    write (lbl, '(a,i0)') 'H_xx vs FD of H_x, point ', i
-    call check_close(trim(lbl), hs(1, 1), (grp(1) - grm(1))/(xp - xm), tol)
-    write (lbl, '(a,i0)') 'H_yx vs FD of H_y, point ', i
-    call check_close(trim(lbl), hs(2, 1), (grp(2) - grm(2))/(xp - xm), tol)
-    yp = y + d; ym = y - d
-    call surf%derivs(x, yp, grp, mm)
-    call surf%derivs(x, ym, grm, mm)
-    write (lbl, '(a,i0)') 'H_yy vs FD of H_y, point ', i
-    call check_close(trim(lbl), hs(2, 2), (grp(2) - grm(2))/(yp - ym), tol)
-    write (lbl, '(a,i0)') 'H_xy vs FD of H_x, point ', i
-    call check_close(trim(lbl), hs(1, 2), (grp(1) - grm(1))/(yp - ym), tol)
+    do j = 1, 2                        ! column j of the Hessian: d/dx (j = 1), d/dy (j = 2)
+      q_hi = [x, y]; q_lo = [x, y]
+      q_hi(j) = q_hi(j) + d; q_lo(j) = q_lo(j) - d
+      call surf%derivs(q_hi(1), q_hi(2), grp, mm)
+      call surf%derivs(q_lo(1), q_lo(2), grm, mm)
+      do k = 1, 2
+        write (lbl, '(6a,i0)') 'H_', XY(k), XY(j), ' vs FD of H_', XY(k), ', point ', i
+        call check_close(trim(lbl), hs(k, j), (grp(k) - grm(k))/(q_hi(j) - q_lo(j)), tol)
+      end do
+    end do
     write (lbl, '(a,i0)') 'Hessian symmetric, point ', i
     call check_true(trim(lbl), hs(1, 2) == hs(2, 1))
   end do

@@ -107,24 +107,31 @@ def test_a_coupling_that_moves_the_nhim(tmp_path, cache):
     assert abs(f["flux_normal_form"][0] / _nhim_volume(0.1) - 1) > 100 * rel_change
 
 
-def test_two_dof_normal_form_is_the_lyapunov_action(tmp_path, cache):
-    """Henon-Heiles as a formula: the flux 2 pi J(dE) of the normal form against the action of the
-    Lyapunov orbit of the same energy found by shooting (the orbits scene), the error falling
-    with the order."""
+def _action_errors(tmp_path, cache, orders, des, n_samples, near, model):
+    """|the normal form's flux / the Lyapunov orbit's action (2 pi J) - 1| of a 2-DOF model (its
+    &model and &equilibria groups; the saddle near `near`), a row per order, a column per dE."""
     tmp = str(tmp_path)
     errs = []
-    for order in (4, 6, 8, 10, 12):
+    for order in orders:
         p = run(tmp, f"""
             &run scenes = 'orbits', 'flux', output = 'f.h5' /
-            &model system = 'expression', hamiltonian = '(px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2*y - y^3/3',
-              coordinates = 'x', 'y' /
-            &orbits saddle_near = 0, 1, de = 0.01, 0.1 /
-            &flux de = 0.01, 0.1, order = {order}, n_samples = 4000 /
+            &orbits saddle_near = {near}, de = {des} /
+            &flux de = {des}, order = {order}, n_samples = {n_samples} /
+            {model}
             """, cache)
         assert p.returncode == 0, p.stdout + p.stderr
         f = flux_of(tmp)
         errs.append(np.abs(f["flux_normal_form"] / f["action"] - 1))
-    errs = np.array(errs)
+    return np.array(errs)
+
+
+def test_two_dof_normal_form_is_the_lyapunov_action(tmp_path, cache):
+    """Henon-Heiles as a formula: the flux 2 pi J(dE) of the normal form against the action of the
+    Lyapunov orbit of the same energy found by shooting (the orbits scene), the error falling
+    with the order."""
+    errs = _action_errors(tmp_path, cache, (4, 6, 8, 10, 12), "0.01, 0.1", 4000, "0, 1", """
+        &model system = 'expression', hamiltonian = '(px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2*y - y^3/3',
+          coordinates = 'x', 'y' /""")
     assert np.all(np.diff(errs[:, 1]) < 0), errs          # dE = 0.1: falls at every order
     assert errs[-1, 0] < 1e-9 and errs[-1, 1] < 1e-6, errs
 
@@ -136,20 +143,9 @@ def test_the_four_well_ball_written_as_a_formula(tmp_path, cache):
     below 1e-6 at order 10, dE = 100."""
     from test_expression import BALL, PAPER
     consts = ", ".join(f"'{k} = {v}'" for k, v in PAPER.items())
-    tmp = str(tmp_path)
-    errs = []
-    for order in (4, 6, 8, 10):
-        p = run(tmp, f"""
-            &run scenes = 'orbits', 'flux', output = 'f.h5' /
-            &model system = 'expression', hamiltonian = '{BALL}', constants = {consts} /
-            &equilibria box = 20.0 /
-            &orbits saddle_near = 0.0, 6.1, de = 100, 400 /
-            &flux de = 100, 400, order = {order}, n_samples = 2000 /
-            """, cache)
-        assert p.returncode == 0, p.stdout + p.stderr
-        f = flux_of(tmp)
-        errs.append(np.abs(f["flux_normal_form"] / f["action"] - 1))
-    errs = np.array(errs)
+    errs = _action_errors(tmp_path, cache, (4, 6, 8, 10), "100, 400", 2000, "0.0, 6.1", f"""
+        &model system = 'expression', hamiltonian = '{BALL}', constants = {consts} /
+        &equilibria box = 20.0 /""")
     assert np.all(np.diff(errs, axis=0) < 0), errs
     assert errs[-1, 0] < 1e-6, errs
 

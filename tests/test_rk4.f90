@@ -8,18 +8,15 @@ program test_rk4
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_ESTEP, TUBES_EMAXSTEPS
   use tubes_rk4, only: rk4_t
   use tubes_integrator, only: propagate
-  use tubes_fourwell, only: fourwell_t
-  use tubes_ball, only: ball_t, make_ball
   use tubes_check, only: check_close, check_true, check_eq, finish
-  use tubes_test_models, only: X0_BALL, PI, EPS, oscillator_t, nan_oscillator_t, shy_oscillator_t, dense_probe_t, &
-                             rotate, oscillator_fixed_step
+  use tubes_test_models, only: PI, EPS, oscillator_t, nan_oscillator_t, shy_oscillator_t, dense_probe_t, &
+                             rotate, oscillator_fixed_step, ball_fixed_step
   implicit none
 
 
   type(rk4_t) :: ig
-  type(ball_t) :: ball
   type(dense_probe_t) :: probe
-  real(wp) :: x(2), xf(2), xr(2), err(3), dif(2), order, h, z(4), zs(4, 3), bound, eloc(2), s
+  real(wp) :: x(2), xf(2), xr(2), err(3), dif(2), order, h, zs(4, 3), bound, eloc(2), s
   integer :: i, stat
   character(80) :: lbl
 
@@ -54,16 +51,8 @@ program test_rk4
   ! are far above roundoff (~1e-11 for 512 steps of |z| ~ 60). The error is C h^4 (1 + c h):
   ! the observed drift of the local order is ~0.1 at h = 1/40 and shrinks with h; the window
   ! +-0.3 still separates order 4 from 3 and 5.
-  call make_ball(ball, fourwell_t(), 981.0_wp)
   do i = 1, 3
-    h = (1.0_wp/128)/2**(i - 1)
-    call ig%init(ball, t0=0.0_wp)
-    ig%h = h
-    z = X0_BALL
-    call propagate(ig, z, 1.0_wp, stat)
-    write (lbl, '(a,es9.3)') 'ball: status, h = ', h
-    call check_eq(trim(lbl), stat, TUBES_OK)
-    zs(:, i) = z
+    call ball_fixed_step(ig, (1.0_wp/128)/2**(i - 1), [1.0_wp], 'ball', 'es9.3', zs(:, i:i))
   end do
   dif(1) = norm2(zs(:, 1) - zs(:, 2))
   dif(2) = norm2(zs(:, 2) - zs(:, 3))

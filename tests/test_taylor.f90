@@ -255,18 +255,10 @@ contains
       if (k == 7) call check_true('damped ball: a damping rate', c > 0)
       n = field%dim()
       span = merge(0.5_wp, 2.0_wp, k == 1 .or. k == 7)
-      call tay%init(field, 0.0_wp)
-      tay%rtol = 1.0e-13_wp
-      tay%atol = 1.0e-13_wp
       xt(1:n) = x0(1:n)
-      call propagate(tay, xt(1:n), span, stat)
-      call check_eq('built-in '//trim(NAMES(k))//': taylor status', stat, TUBES_OK)
-      call dop%init(field, 0.0_wp)
-      dop%rtol = 1.0e-13_wp
-      dop%atol = 1.0e-13_wp
+      call run_13(tay, field, xt(1:n), span, 'built-in '//trim(NAMES(k))//': taylor status')
       xd(1:n) = x0(1:n)
-      call propagate(dop, xd(1:n), span, stat)
-      call check_eq('built-in '//trim(NAMES(k))//': dop853 status', stat, TUBES_OK)
+      call run_13(dop, field, xd(1:n), span, 'built-in '//trim(NAMES(k))//': dop853 status')
       call check_close('built-in '//trim(NAMES(k))//': taylor vs dop853', &
                        maxval(abs(xt(1:n) - xd(1:n)))/maxval(abs(xd(1:n))), 0.0_wp, 1.0e-10_wp)
     end do
@@ -286,18 +278,26 @@ contains
     params(1:7) = PAPER
     call make_model('rolling_ball', params, ball, stat)
     call make_variational(var, ball)
-    call tay%init(var, 0.0_wp)
-    tay%rtol = 1.0e-13_wp
-    tay%atol = 1.0e-13_wp
     zt = stm_start([-0.3_wp, 6.1_wp, 3.0_wp, 1.0_wp])
-    call propagate(tay, zt, 0.37_wp, stat)
-    call check_eq('variational: taylor status', stat, TUBES_OK)
-    call dop%init(var, 0.0_wp)
-    dop%rtol = 1.0e-13_wp
-    dop%atol = 1.0e-13_wp
-    zd = stm_start([-0.3_wp, 6.1_wp, 3.0_wp, 1.0_wp])
-    call propagate(dop, zd, 0.37_wp, stat)
+    zd = zt
+    call run_13(tay, var, zt, 0.37_wp, 'variational: taylor status')
+    call run_13(dop, var, zd, 0.37_wp, 'variational: dop853 status')
     call check_close('variational: state', maxval(abs(zt(1:4) - zd(1:4)))/maxval(abs(zd(1:4))), 0.0_wp, 1.0e-10_wp)
     call check_close('variational: matrix', maxval(abs(zt(5:) - zd(5:)))/maxval(abs(zd(5:))), 0.0_wp, 1.0e-10_wp)
   end subroutine variational
+
+  !> x from t = 0 to t_end with ig on field at rtol = atol = 1e-13, the status checked (label).
+  subroutine run_13(ig, field, x, t_end, label)
+    class(integrator_t), intent(inout) :: ig
+    class(vector_field_t), intent(in) :: field
+    real(wp), intent(inout) :: x(:)
+    real(wp), intent(in) :: t_end
+    character(*), intent(in) :: label
+    integer :: stat
+    call ig%init(field, 0.0_wp)
+    ig%rtol = 1.0e-13_wp
+    ig%atol = 1.0e-13_wp
+    call propagate(ig, x, t_end, stat)
+    call check_eq(label, stat, TUBES_OK)
+  end subroutine run_13
 end program test_taylor

@@ -67,11 +67,7 @@ program test_variational
 
   ! STM over 0.5 s from the benchmark start (dE = 1500)
   call make_variational(var, ball)
-  call ig%init(var, 0.0_wp)
-  ig%rtol = 1.0e-12_wp
-  ig%atol = 1.0e-12_wp
-  z = stm_start([4.0_wp, 12.614863819914357_wp, 0.0_wp, 0.0_wp])
-  call propagate(ig, z, 0.5_wp, stat)
+  z = stm_run(var)
   phi = reshape(z(5:20), [4, 4])
   ! symplectic: Phi^T Omega Phi = Omega, Omega = [[0, I], [-I, 0]]. Entries of Phi reach
   ! ~1e2; an integration at tol 1e-12 keeps the invariant to ~1e-12 |Phi|^2 per unit time
@@ -90,26 +86,14 @@ program test_variational
     xp(j) = xp(j) + d
     xm = x
     xm(j) = xm(j) - d
-    call ig%init(ball, 0.0_wp)
-    ig%rtol = 1.0e-13_wp
-    ig%atol = 1.0e-13_wp
-    call propagate(ig, xp, 0.5_wp, stat)
-    call ig%init(ball, 0.0_wp)
-    ig%rtol = 1.0e-13_wp
-    ig%atol = 1.0e-13_wp
-    call propagate(ig, xm, 0.5_wp, stat)
-    phifd(:, j) = (xp - xm)/(2*d)
+    phifd(:, j) = (flow(xp) - flow(xm))/(2*d)
   end do
   call check_close('STM vs finite differences of the flow map, relative', &
                    maxval(abs(phi - phifd))/maxval(abs(phi)), 0.0_wp, 1.0e-6_wp)
 
   ! damped flow: det Phi = exp(trace J t) = exp(-2 c t) exactly (Liouville)
   call make_variational(var, damped)
-  call ig%init(var, 0.0_wp)
-  ig%rtol = 1.0e-12_wp
-  ig%atol = 1.0e-12_wp
-  z = stm_start([4.0_wp, 12.614863819914357_wp, 0.0_wp, 0.0_wp])
-  call propagate(ig, z, 0.5_wp, stat)
+  z = stm_run(var)
   phi = reshape(z(5:20), [4, 4])
   det = det4(phi)
   call check_close('damped: det Phi = exp(-2 c t)', det, exp(-2*0.4_wp*0.5_wp), &
@@ -117,6 +101,29 @@ program test_variational
   call finish('test_variational')
 
 contains
+
+  !> The variational equations v from the benchmark start (dE = 1500) over 0.5 s (DOP853, tol
+  !> 1e-12): the state and the STM in stm_start's layout.
+  function stm_run(v) result(zz)
+    type(variational_t), intent(in) :: v
+    real(wp) :: zz(20)
+    call ig%init(v, 0.0_wp)
+    ig%rtol = 1.0e-12_wp
+    ig%atol = 1.0e-12_wp
+    zz = stm_start([4.0_wp, 12.614863819914357_wp, 0.0_wp, 0.0_wp])
+    call propagate(ig, zz, 0.5_wp, stat)
+  end function stm_run
+
+  !> The ball's flow map over 0.5 s from x0 (DOP853, tol 1e-13).
+  function flow(x0) result(xx)
+    real(wp), intent(in) :: x0(4)
+    real(wp) :: xx(4)
+    call ig%init(ball, 0.0_wp)
+    ig%rtol = 1.0e-13_wp
+    ig%atol = 1.0e-13_wp
+    xx = x0
+    call propagate(ig, xx, 0.5_wp, stat)
+  end function flow
 
   !> Determinant by cofactor expansion (independent of LAPACK).
   pure real(wp) function det4(a)

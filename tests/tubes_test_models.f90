@@ -12,10 +12,12 @@ module tubes_test_models
   use tubes_check, only: check_eq, check_true
   use tubes_dop853, only: dop853_t
   use tubes_rk4, only: rk4_t
+  use tubes_ball, only: ball_t, make_ball
+  use tubes_fourwell, only: fourwell_t
   implicit none
   private
   public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval, dense_probe_t, &
-            oscillator_fixed_step, affine_field_t, line_field, fall_field, iso_field
+            oscillator_fixed_step, ball_fixed_step, affine_field_t, line_field, fall_field, iso_field
 
   real(wp), parameter, public :: PI = acos(-1.0_wp)
   real(wp), parameter, public :: EPS = epsilon(1.0_wp)
@@ -216,6 +218,32 @@ contains
     call check_true(trim(lbl), ig%t == 10.0_wp)
     err = norm2(x - rotate([1.0_wp, 0.0_wp], 10.0_wp))
   end subroutine oscillator_fixed_step
+
+  !> The rolling ball (the four-well, g = 981) from X0_BALL with fixed step h, its states at
+  !> times(k) into zs(:, k) (the Richardson-order tests; written out in two), the status checked
+  !> (label "<name>: status, h = <h in hfmt>").
+  subroutine ball_fixed_step(ig, h, times, name, hfmt, zs)
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: h, times(:)
+    character(*), intent(in) :: name, hfmt
+    real(wp), intent(out) :: zs(:, :)
+    type(ball_t) :: ball
+    real(wp) :: z(4)
+    integer :: k, stat
+    character(80) :: lbl
+    call make_ball(ball, fourwell_t(), 981.0_wp)
+    call ig%init(ball, t0=0.0_wp)
+    ig%h = h
+    z = X0_BALL
+    zs = ieee_value(1.0_wp, ieee_quiet_nan)
+    do k = 1, size(times)
+      call propagate(ig, z, times(k), stat)
+      if (stat /= TUBES_OK) exit
+      zs(:, k) = z
+    end do
+    write (lbl, '(2a,' // hfmt // ')') name, ': status, h = ', h
+    call check_eq(trim(lbl), stat, TUBES_OK)
+  end subroutine ball_fixed_step
 
   !> Exact oscillator flow over time s: (x, v) -> (x cos s + v sin s, -x sin s + v cos s).
   pure function rotate(x, s) result(y)

@@ -615,47 +615,16 @@ def generate_jet(spec):
 
 
 def main(argv):
-    out_path = None
-    if len(argv) == 3 and argv[1] == "--jet":
-        try:
-            import sympy  # noqa: F401
-        except ImportError:
-            sys.stderr.write("-\tSymPy is not installed for this Python (" + sys.executable + "): run make deps\n")
-            return 3
-        text = sys.stdin.read()
-        spec = read_spec(text.splitlines())
-        try:
-            src = generate_jet(spec)
-        except FormulaError as e:
-            sys.stderr.write(f"{e.var}\t{e.msg}\n")
-            return 1
-        except ValueError as e:     # an operation without a recurrence
-            sys.stderr.write(f"-\t{e}\n")
-            return 1
-        with open(argv[2], "w") as f:
-            f.write(src + f'const char tubes_jet_text[] = "{_c_string(text)}";\n')
-        return 0
-    if len(argv) >= 5 and argv[1] == "--taylor":
-        # codegen.py --taylor FILE ORDER z1 .. z2N < SPEC: "e1 .. e2N coefficient" lines
-        try:
-            import sympy  # noqa: F401
-        except ImportError:
-            sys.stderr.write("-\tSymPy is not installed for this Python (" + sys.executable + "): run make deps\n")
-            return 3
-        spec = read_spec(sys.stdin.read().splitlines())
-        try:
-            terms = taylor(spec, [float(v) for v in argv[4:]], int(argv[3]))
-        except FormulaError as e:
-            sys.stderr.write(f"{e.var}\t{e.msg}\n")
-            return 1
-        with open(argv[2], "w") as f:
-            for mon, c in terms:
-                f.write(" ".join(str(m) for m in mon) + f" {c!r}\n")
-        return 0
-    if len(argv) == 3 and argv[1] == "--out":
-        out_path = argv[2]
+    """codegen.py --out FILE < SPEC (a model's library source), --jet FILE < SPEC (a Taylor kernel),
+    --taylor FILE ORDER z1 .. z2N < SPEC ("e1 .. e2N coefficient" lines). Exit 0; 1 the formula
+    (stderr "variable<TAB>message"); 2 usage; 3 no SymPy."""
+    if len(argv) == 3 and argv[1] in ("--out", "--jet"):
+        mode = argv[1]
+    elif len(argv) >= 5 and argv[1] == "--taylor":
+        mode = "--taylor"
     else:
-        sys.stderr.write("usage: codegen.py --out FILE < SPEC, or codegen.py --taylor FILE ORDER z1 .. z2N < SPEC\n")
+        sys.stderr.write("usage: codegen.py --out FILE < SPEC, codegen.py --jet FILE < SPEC, "
+                         "or codegen.py --taylor FILE ORDER z1 .. z2N < SPEC\n")
         return 2
     try:
         import sympy  # noqa: F401
@@ -665,13 +634,24 @@ def main(argv):
     text = sys.stdin.read()
     spec = read_spec(text.splitlines())
     try:
-        src, _ = generate(spec)
+        if mode == "--jet":
+            out = generate_jet(spec) + f'const char tubes_jet_text[] = "{_c_string(text)}";\n'
+        elif mode == "--taylor":
+            terms = taylor(spec, [float(v) for v in argv[4:]], int(argv[3]))
+            out = "".join(" ".join(str(m) for m in mon) + f" {c!r}\n" for mon, c in terms)
+        else:
+            # the whole spec, to tell a cached library from another model's (src/io/tubes_expr.c)
+            out = generate(spec)[0] + f'const char tubes_expr_text[] = "{_c_string(text)}";\n'
     except FormulaError as e:
         sys.stderr.write(f"{e.var}\t{e.msg}\n")
         return 1
-    # the whole spec, to tell a cached library from another model's (src/io/tubes_expr.c)
-    with open(out_path, "w") as f:
-        f.write(src + f'const char tubes_expr_text[] = "{_c_string(text)}";\n')
+    except ValueError as e:
+        if mode != "--jet":
+            raise
+        sys.stderr.write(f"-\t{e}\n")     # an operation without a recurrence
+        return 1
+    with open(argv[2], "w") as f:
+        f.write(out)
     return 0
 
 
