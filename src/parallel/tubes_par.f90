@@ -46,10 +46,20 @@ contains
   logical function par_active(p)
     type(par_t), intent(in), optional :: p   !! the group (default: all ranks)
     type(par_t) :: q
-    q = par_here()
-    if (present(p)) q = p
+    q = group_of(p)
     par_active = q%nranks > 1
   end function par_active
+
+  !> The group p if given, else all ranks (par_here()).
+  function group_of(p) result(q)
+    type(par_t), intent(in), optional :: p
+    type(par_t) :: q
+    if (present(p)) then
+      q = p
+    else
+      q = par_here()
+    end if
+  end function group_of
 
   !> The calling rank and the number of ranks (0 and 1 without MPI, or with local = .true.:
   !> the caller has already dealt out a coarser level, e.g. energies, and this rank works alone).
@@ -128,81 +138,55 @@ contains
 #endif
   end subroutine share_dp
 
-  !> The core of par_share for integers.
+  !> The core of par_share for integers: share_dp on their values as doubles (exact: every
+  !> default integer is a double).
   subroutine share_int(buf, w, n, p)
     integer, intent(in) :: w, n
     integer, intent(inout) :: buf(w, n)
     type(par_t), intent(in) :: p
-#ifdef TUBES_MPI
-    integer, allocatable :: send(:, :), recv(:)
-    integer :: counts(0:p%nranks - 1), displs(0:p%nranks - 1)
-    integer :: r, m
+    real(wp), allocatable :: d(:, :)
     if (p%nranks == 1 .or. n == 0 .or. w == 0) return
-    call layout(w, n, p%nranks, counts, displs)
-    send = buf(:, p%rank + 1:n:p%nranks)
-    allocate (recv(sum(counts)))
-    call MPI_Allgatherv(send, size(send), MPI_INTEGER, recv, counts, displs, MPI_INTEGER, MPI_COMM_WORLD)
-    do r = 0, p%nranks - 1
-      m = n_owned(n, r, p%nranks)
-      if (m > 0) buf(:, r + 1:n:p%nranks) = reshape(recv(displs(r) + 1:displs(r) + counts(r)), [w, m])
-    end do
-#endif
+    d = real(buf, wp)
+    call share_dp(d, w, n, p)
+    buf = nint(d)
   end subroutine share_int
 
   subroutine share_r1(a, p)
     real(wp), intent(inout), contiguous :: a(:)       !! one value per item
     type(par_t), intent(in), optional :: p   !! the group that computed the items (default: all ranks)
-    type(par_t) :: q
-    q = par_here()
-    if (present(p)) q = p
-    call share_dp(a, 1, size(a), q)
+    call share_dp(a, 1, size(a), group_of(p))
   end subroutine share_r1
 
   subroutine share_r2(a, p)
     real(wp), intent(inout), contiguous :: a(:, :)    !! items along the second dimension
     type(par_t), intent(in), optional :: p   !! the group that computed the items (default: all ranks)
-    type(par_t) :: q
-    q = par_here()
-    if (present(p)) q = p
-    call share_dp(a, size(a, 1), size(a, 2), q)
+    call share_dp(a, size(a, 1), size(a, 2), group_of(p))
   end subroutine share_r2
 
   subroutine share_r3(a, p)
     real(wp), intent(inout), contiguous :: a(:, :, :) !! items along the third dimension
     type(par_t), intent(in), optional :: p   !! the group that computed the items (default: all ranks)
-    type(par_t) :: q
-    q = par_here()
-    if (present(p)) q = p
-    call share_dp(a, size(a, 1)*size(a, 2), size(a, 3), q)
+    call share_dp(a, size(a, 1)*size(a, 2), size(a, 3), group_of(p))
   end subroutine share_r3
 
   subroutine share_i1(a, p)
     integer, intent(inout), contiguous :: a(:)
     type(par_t), intent(in), optional :: p   !! the group that computed the items (default: all ranks)
-    type(par_t) :: q
-    q = par_here()
-    if (present(p)) q = p
-    call share_int(a, 1, size(a), q)
+    call share_int(a, 1, size(a), group_of(p))
   end subroutine share_i1
 
   subroutine share_i2(a, p)
     integer, intent(inout), contiguous :: a(:, :)     !! items along the second dimension
     type(par_t), intent(in), optional :: p   !! the group that computed the items (default: all ranks)
-    type(par_t) :: q
-    q = par_here()
-    if (present(p)) q = p
-    call share_int(a, size(a, 1), size(a, 2), q)
+    call share_int(a, size(a, 1), size(a, 2), group_of(p))
   end subroutine share_i2
 
   subroutine share_l1(a, p)
     logical, intent(inout), contiguous :: a(:)
     type(par_t), intent(in), optional :: p
     integer :: b(size(a))
-    type(par_t) :: q
-    q = par_here()
-    if (present(p)) q = p
     b = merge(1, 0, a)
-    call share_int(b, 1, size(b), q)
+    call share_int(b, 1, size(b), group_of(p))
     a = b /= 0
   end subroutine share_l1
 
