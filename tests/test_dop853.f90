@@ -11,7 +11,7 @@ program test_dop853
   use tubes_ball, only: ball_t, make_ball
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
   use tubes_test_models, only: X0_BALL, PI, EPS, oscillator_t, nan_oscillator_t, dense_probe_t, rotate, oscillator_fixed_step, &
-                               ball_fixed_step
+                               ball_fixed_step, oscillator_start
   implicit none
 
 
@@ -163,9 +163,7 @@ program test_dop853
   ! >= 6.5 still rejects a 6th-order interpolant.
   do i = 1, 2
     h = 0.625_wp/2**(i - 1)
-    call ig%init(oscillator_t(), t0=0.0_wp)
-    ig%h = h
-    x = [1.0_wp, 0.0_wp]
+    call oscillator_start(ig, x, h)
     call propagate(ig, x, 10.0_wp, stat, observer=probe(i))
     write (lbl, '(a,f6.4)') 'dense output run: status, h = ', h
     call check_eq(trim(lbl), stat, TUBES_OK)
@@ -257,9 +255,7 @@ program test_dop853
   ! |dx/dt| = 1. Sections 2 and 3 measured, at h = 0.3125, a global error of 6e-11 and an
   ! interpolant error of 1e-10 (to t = 10); at h = 0.1 both are (0.32)^8 ~ 1e-4 times
   ! that (~1e-14), and Illinois stops at a bracket of 4 eps. 1e-12 leaves a factor ~50.
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.1_wp
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.1_wp)
   call propagate(ig, x, 10.0_wp, stat, event=plane_t(k=1, c=0.0_wp, direction=-1))
   call check_eq('event (fixed h): status TUBES_EVENT', stat, TUBES_EVENT)
   call check_close('event (fixed h): time = pi/2', ig%t, PI/2, 1.0e-12_wp)
@@ -279,8 +275,7 @@ program test_dop853
   call check_close('event (adaptive): time = pi/2', ig%t, PI/2, tol)
   call check_close('event (adaptive): x(2) = -1', x(2), -1.0_wp, tol)
   ! rising direction: the first upward crossing of x = 0 is at 3 pi/2
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x)
   call propagate(ig, x, 10.0_wp, stat, event=plane_t(k=1, c=0.0_wp, direction=1))
   call check_eq('event (rising): status TUBES_EVENT', stat, TUBES_EVENT)
   call check_close('event (rising): time = 3 pi/2', ig%t, 1.5_wp*PI, &
@@ -294,8 +289,7 @@ program test_dop853
 
   ! === 7. backward integration ============================================================
   ! x(-3) = (cos 3, sin 3); bound 4 N tol as in 6.
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x)
   call propagate(ig, x, -3.0_wp, stat)
   call check_eq('backward: status', stat, TUBES_OK)
   call check_true('backward: lands on t = -3', ig%t == -3.0_wp)
@@ -308,8 +302,7 @@ program test_dop853
   ! the same numbers up to the order of floating-point operations (4 ulps)
   nsteps_fwd = int(ig%nsteps)
   xf = x
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x)
   call propagate(ig, x, 3.0_wp, stat)
   call check_eq('backward mirrors forward: step count', nsteps_fwd, int(ig%nsteps))
   call check_close('backward mirrors forward: x', xf(1), x(1), 4*EPS)
@@ -330,10 +323,7 @@ program test_dop853
   call check_close('NaN model: x = cos(t) at the last accepted step', x(1), cos(s), &
                    4*(ig%nsteps + 1)*ig%rtol)
   ! step budget: fixed h = 0.1 towards t = 10 with max_steps = 5
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.1_wp
-  ig%max_steps = 5
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.1_wp, 5)
   call propagate(ig, x, 10.0_wp, stat)
   call check_eq('max_steps = 5: status TUBES_EMAXSTEPS', stat, TUBES_EMAXSTEPS)
   call check_eq('max_steps = 5: five steps taken', int(ig%nsteps), 5)
@@ -372,10 +362,7 @@ contains
   !> The oscillator from (1, 0) with fixed step h to t_end (a step budget of twice the steps).
   subroutine osc_fixed(h, t_end)
     real(wp), intent(in) :: h, t_end
-    call ig%init(oscillator_t(), t0=0.0_wp)
-    ig%h = h
-    ig%max_steps = 2*nint(t_end/h)
-    x = [1.0_wp, 0.0_wp]
+    call oscillator_start(ig, x, h, 2*nint(t_end/h))
     call propagate(ig, x, t_end, stat)
   end subroutine osc_fixed
 

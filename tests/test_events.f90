@@ -57,7 +57,7 @@ program test_events
                             U1_MINUS, U1_PLUS
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
   use test_events_models, only: oscillator_t, fall_field, iso_field, tilt_t, rotate
-  use tubes_test_models, only: PI, EPS
+  use tubes_test_models, only: PI, EPS, oscillator_start
   implicit none
 
   real(wp), parameter :: C_LEVEL = 0.3_wp        ! oscillator level: x = cos t = 0.3
@@ -85,9 +85,7 @@ program test_events
     if (acos(C_LEVEL) + 2*PI*k < 100) call add(acos(C_LEVEL) + 2*PI*k, -1)
     if (2*PI - acos(C_LEVEL) + 2*PI*k < 100) call add(2*PI - acos(C_LEVEL) + 2*PI*k, 1)
   end do
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = H_FIX
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, H_FIX)
   call propagate(ig, x, 100.0_wp, stat, event=plane_t(k=1, c=C_LEVEL, terminal=.false.), &
                  crossings=log)
   err_glob = norm2(x - rotate([1.0_wp, 0.0_wp], 100.0_wp))
@@ -108,9 +106,7 @@ program test_events
   ! direction filter on the same run: only the falling ones, only the rising ones
   do k = -1, 1, 2
     call log%clear()
-    call ig%init(oscillator_t(), t0=0.0_wp)
-    ig%h = H_FIX
-    x = [1.0_wp, 0.0_wp]
+    call oscillator_start(ig, x, H_FIX)
     call propagate(ig, x, 100.0_wp, stat, event=plane_t(k=1, c=C_LEVEL, direction=k, &
                    terminal=.false.), crossings=log)
     write (lbl, '(a,i0,a)') 'long run, direction = ', k, ': only those crossings, all found'
@@ -122,9 +118,7 @@ program test_events
   ! never the one it starts on; a log passed to every call ends with each crossing once.
   ! Budget as in 1 (the run is shorter).
   call log%clear()
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = H_FIX
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, H_FIX)
   ok = .true.
   do k = 1, 8
     call propagate(ig, x, 100.0_wp, stat, event=plane_t(k=1, c=C_LEVEL), crossings=log)
@@ -137,9 +131,7 @@ program test_events
                   all(abs(log%t(1:8) - ta(1:8)) <= 1.0e-12_wp) .and. all(log%direction(1:8) == da(1:8)))
   ! falling only, adaptive (rtol = atol = 1e-12): the bound of test_dop853 section 6,
   ! 4 (N + 1) tol for N accepted steps so far (no amplification in the rotation)
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0   ! init keeps h: back to the adaptive mode
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.0_wp)   ! init keeps h: back to the adaptive mode
   do k = 0, 3
     call propagate(ig, x, 100.0_wp, stat, event=plane_t(k=1, c=C_LEVEL, direction=-1))
     write (lbl, '(a,i0)') 'adaptive restart: falling crossing acos(0.3) + 2 pi k, k = ', k
@@ -233,18 +225,13 @@ program test_events
   ! Fixed h = 0.1 from (1, 0) towards t = 2: the state after 10 steps is taken from a run
   ! stopped by max_steps = 10; the same steps with the level c = x(1) there have g = 0
   ! exactly at that step end (the end of step 10 and the start of step 11).
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.1_wp
-  ig%max_steps = 10
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.1_wp, 10)
   call propagate(ig, x, 2.0_wp, stat)
   call check_eq('step-end root: setup run stopped by max_steps', stat, TUBES_EMAXSTEPS)
   x10 = x
   tref = ig%t
   call log%clear()
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.1_wp
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.1_wp)
   call propagate(ig, x, 2.0_wp, stat, event=plane_t(k=1, c=x10(1), terminal=.false.), crossings=log)
   call check_eq('step-end root: recorded once', log%n, 1)
   if (log%n >= 1) then
@@ -252,9 +239,7 @@ program test_events
                     log%t(1) == tref .and. log%direction(1) == -1 .and. all(log%x(:, 1) == x10))
   end if
   ! terminal at that root, then restart: the restart does not stop on it again
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.1_wp
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.1_wp)
   call propagate(ig, x, 2.0_wp, stat, event=plane_t(k=1, c=x10(1)))
   call check_true('step-end root, terminal: stops there', stat == TUBES_EVENT .and. ig%t == tref)
   call propagate(ig, x, 2.0_wp, stat, event=plane_t(k=1, c=x10(1)))
@@ -400,9 +385,7 @@ program test_events
   end do
   call log%clear()
   log%max_crossings = 3
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = H_FIX
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, H_FIX)
   call propagate(ig, x, 100.0_wp, stat, event=plane_t(k=1, c=C_LEVEL, terminal=.false.), crossings=log)
   call check_true('max_crossings = 3: stops (TUBES_EVENT) at the third crossing', &
                   stat == TUBES_EVENT .and. log%n == 3 .and. ig%t == log%t(3) .and. &
@@ -423,33 +406,26 @@ program test_events
     if (acos(C_LEVEL) - 2*PI*(k + 1) > -20) call add(acos(C_LEVEL) - 2*PI*(k + 1), -1)
   end do
   call log%clear()
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = H_FIX
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, H_FIX)
   call propagate(ig, x, -20.0_wp, stat, event=plane_t(k=1, c=C_LEVEL, terminal=.false.), crossings=log)
   call check_eq('backward: 6 crossings in [-20, 0]', log%n, na)
   call compare_log('backward', 1.0e-12_wp)
   call check_true('backward: in the order of integration (decreasing t)', &
                   all(log%t(2:log%n) < log%t(1:log%n - 1)))
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x)
   call propagate(ig, x, 1.0_wp, stat, event=plane_t(k=1, c=C_LEVEL, nsub=-1))
   call check_eq('nsub < 0 refused', stat, TUBES_EINPUT)
   ! cost: DOP853's dense output costs 3 extra f evaluations in a step where it is used.
   ! With nsub = 0 and no crossing it is never used (nfev unchanged); with nsub = 4 it is used
   ! in every step: nfev grows by exactly 3 per step (adaptive mode, rtol = atol = 1e-12).
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.0_wp)
   call propagate(ig, x, 1.0_wp, stat)
   nf0 = int(ig%nfev)
   ns0 = int(ig%nsteps)
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x)
   call propagate(ig, x, 1.0_wp, stat, event=plane_t(k=1, c=-2.0_wp, nsub=0))
   call check_eq('cost: nsub = 0, no crossing: no extra evaluations', int(ig%nfev), nf0)
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x)
   call propagate(ig, x, 1.0_wp, stat, event=plane_t(k=1, c=-2.0_wp))
   call check_eq('cost: nsub = 4: 3 dense-output evaluations per step', int(ig%nfev), nf0 + 3*ns0)
   write (*, '(a,es9.2,a,es9.2,a)') '     refinement bracket: max(', T_RTOL, ' |t|, ', T_ATOL, ') s'

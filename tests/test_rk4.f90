@@ -10,7 +10,7 @@ program test_rk4
   use tubes_integrator, only: propagate
   use tubes_check, only: check_close, check_true, check_eq, finish
   use tubes_test_models, only: PI, EPS, oscillator_t, nan_oscillator_t, shy_oscillator_t, dense_probe_t, &
-                             rotate, oscillator_fixed_step, ball_fixed_step
+                             rotate, oscillator_fixed_step, ball_fixed_step, oscillator_start
   implicit none
 
 
@@ -70,9 +70,7 @@ program test_rk4
   ! bound is 16% of the h^4 term at h = 0.2).
   do i = 1, 2
     h = 0.2_wp/2**(i - 1)
-    call ig%init(oscillator_t(), t0=0.0_wp)
-    ig%h = h
-    x = [1.0_wp, 0.0_wp]
+    call oscillator_start(ig, x, h)
     probe = dense_probe_t(nsamp=7)
     call propagate(ig, x, 10.0_wp, stat, observer=probe)
     eloc(i) = probe%err_local
@@ -93,9 +91,7 @@ program test_rk4
   ! === 4. evaluation count and landing ====================================================
   ! f at the end of a step is the next step's first stage: 4 new evaluations per step plus
   ! the initial f(t0, x0). h = 0.1 to t = 1: 10 steps, 41 evaluations.
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.1_wp
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.1_wp)
   call propagate(ig, x, 1.0_wp, stat)
   call check_eq('h = 0.1 to t = 1: 10 steps', int(ig%nsteps), 10)
   call check_eq('h = 0.1 to t = 1: nfev = 1 + 4 * 10 (end slope reused)', int(ig%nfev), 41)
@@ -105,21 +101,15 @@ program test_rk4
   ! a non-binary h over many steps: t is computed on the grid t0 + k h (one rounding), so
   ! roundoff drift of t never leaves a sliver step: 1e-4 to t = 1 is exactly 10000 steps,
   ! 0.1 to t = 100 exactly 1000
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 1.0e-4_wp
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 1.0e-4_wp)
   call propagate(ig, x, 1.0_wp, stat)
   call check_eq('h = 1e-4 to t = 1: exactly 10000 steps', int(ig%nsteps), 10000)
   call check_true('h = 1e-4 to t = 1: lands on t = 1', ig%t == 1.0_wp)
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.1_wp
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.1_wp)
   call propagate(ig, x, 100.0_wp, stat)
   call check_eq('h = 0.1 to t = 100: exactly 1000 steps', int(ig%nsteps), 1000)
   ! h not dividing the interval: 0.3 to t = 1 is 3 steps of 0.3 and one of 0.1
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.3_wp
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.3_wp)
   call propagate(ig, x, 1.0_wp, stat)
   call check_eq('h = 0.3 to t = 1: 4 steps', int(ig%nsteps), 4)
   call check_close('h = 0.3 to t = 1: last step is 0.1', ig%h_used, 0.1_wp, 4*EPS)
@@ -127,9 +117,7 @@ program test_rk4
   ! === 5. backward integration ============================================================
   ! x(-3) = (cos 3, sin 3); global error t h^4/120 (section 1) = 2.5e-10 at h = 0.01, plus
   ! roundoff ~ 300 steps x 4 eps: tolerance 2 t h^4/120.
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.01_wp
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.01_wp)
   call propagate(ig, x, -3.0_wp, stat)
   call check_eq('backward: status', stat, TUBES_OK)
   call check_true('backward: lands on t = -3', ig%t == -3.0_wp)
@@ -139,9 +127,7 @@ program test_rk4
   ! on the mirrored state performs the same operations with the v signs flipped: the
   ! backward run mirrors the forward one (4 ulps for the differing grid times)
   xf = x
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.01_wp
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.01_wp)
   call propagate(ig, x, 3.0_wp, stat)
   call check_close('backward mirrors forward: x', xf(1), x(1), 4*EPS)
   call check_close('backward mirrors forward: v', xf(2), -x(2), 4*EPS)
@@ -150,8 +136,7 @@ program test_rk4
   call check_close('dense output in a forward step (bound of section 3)', &
                    norm2(xr - rotate(ig%x_old, 0.3_wp*ig%h_used)), 0.0_wp, &
                    sqrt(2.0_wp)*0.01_wp**4/384 + 2*0.01_wp**5/120)
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x)
   call propagate(ig, x, -1.0_wp, stat)
   call ig%interp(ig%t_old + 0.3_wp*ig%h_used, xr)
   call check_true('backward step: h_used < 0', ig%h_used < 0)
@@ -162,9 +147,7 @@ program test_rk4
   ! === 6. restart after an outside change of the state ===================================
   ! The stored f(t, x) belongs to the state the last step returned; if the caller changes
   ! x, the stepper restarts from the new state (bitwise the same as a fresh stepper).
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.1_wp
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.1_wp)
   call propagate(ig, x, 1.0_wp, stat)
   x = [0.0_wp, 2.0_wp]
   call propagate(ig, x, 2.0_wp, stat)
@@ -176,9 +159,7 @@ program test_rk4
   call check_true('state changed outside: same result as a fresh start', all(xf == x))
 
   ! === 7. failure statuses ================================================================
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.0_wp)
   call propagate(ig, x, 1.0_wp, stat)
   call check_eq('h = 0: TUBES_EINPUT', stat, TUBES_EINPUT)
   ig%h = -0.1_wp
@@ -207,10 +188,7 @@ program test_rk4
   call check_close('model refusing x < 1/2: stopped just before t = pi/3', ig%t, PI/3, 0.01_wp)
   call check_true('model refusing x < 1/2: x still >= 1/2', x(1) >= 0.5_wp)
   ! step budget (propagate): 5 steps of 0.1
-  call ig%init(oscillator_t(), t0=0.0_wp)
-  ig%h = 0.1_wp
-  ig%max_steps = 5
-  x = [1.0_wp, 0.0_wp]
+  call oscillator_start(ig, x, 0.1_wp, 5)
   call propagate(ig, x, 10.0_wp, stat)
   call check_eq('max_steps = 5: TUBES_EMAXSTEPS', stat, TUBES_EMAXSTEPS)
   call check_close('max_steps = 5: t = 0.5', ig%t, 0.5_wp, 4*EPS)

@@ -17,7 +17,8 @@ module tubes_test_models
   implicit none
   private
   public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval, dense_probe_t, &
-            oscillator_fixed_step, ball_fixed_step, affine_field_t, line_field, fall_field, iso_field
+            oscillator_fixed_step, ball_fixed_step, oscillator_start, affine_field_t, line_field, &
+            fall_field, iso_field
 
   real(wp), parameter, public :: PI = acos(-1.0_wp)
   real(wp), parameter, public :: EPS = epsilon(1.0_wp)
@@ -200,6 +201,19 @@ contains
   !> The oscillator from (1, 0) to t = 10 with ig at the fixed step h: checks the status and the
   !> landing on t = 10 (labels name // ': status, h = ' and ': lands on t = 10, h = ', h written
   !> with the edit descriptor hfmt) and returns the error at t = 10 against the exact solution.
+  !> ig set to integrate the oscillator from x = (1, 0) at t = 0, with fixed step h and the step
+  !> budget max_steps when they are given (init keeps the previous ones otherwise).
+  subroutine oscillator_start(ig, x, h, max_steps)
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(out) :: x(2)
+    real(wp), intent(in), optional :: h
+    integer, intent(in), optional :: max_steps
+    call ig%init(oscillator_t(), t0=0.0_wp)
+    if (present(h)) ig%h = h
+    if (present(max_steps)) ig%max_steps = max_steps
+    x = [1.0_wp, 0.0_wp]
+  end subroutine oscillator_start
+
   subroutine oscillator_fixed_step(ig, h, name, hfmt, err)
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: h
@@ -208,9 +222,7 @@ contains
     real(wp) :: x(2)
     integer :: stat
     character(80) :: lbl
-    call ig%init(oscillator_t(), t0=0.0_wp)
-    ig%h = h
-    x = [1.0_wp, 0.0_wp]
+    call oscillator_start(ig, x, h)
     call propagate(ig, x, 10.0_wp, stat)
     write (lbl, '(2a,' // hfmt // ')') name, ': status, h = ', h
     call check_eq(trim(lbl), stat, TUBES_OK)
