@@ -1,36 +1,3 @@
-!> The harmonic oscillator x'' = -x in real128, for test_reference: an independently coded
-!> problem with the exact solution cos/sin in real128.
-module test_reference_models
-  use tubes_kinds, only: qp
-  use tubes_dop853_qp, only: qp_field_t
-  implicit none
-  private
-  public :: qp_oscillator_t
-
-  type, extends(qp_field_t) :: qp_oscillator_t
-  contains
-    procedure :: dim => qosc_dim
-    procedure :: eval => qosc_eval
-  end type qp_oscillator_t
-
-contains
-
-  pure integer function qosc_dim(self)
-    class(qp_oscillator_t), intent(in) :: self
-    qosc_dim = 2
-  end function qosc_dim
-
-  pure subroutine qosc_eval(self, t, x, dxdt, stat)
-    class(qp_oscillator_t), intent(in) :: self
-    real(qp), intent(in) :: t, x(:)
-    real(qp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    dxdt(1) = x(2)
-    dxdt(2) = -x(1)
-    stat = 0
-  end subroutine qosc_eval
-end module test_reference_models
-
 !> Quad-precision reference solutions (tubes_reference, tubes_dop853_qp): the real128 tableau,
 !> an oscillator against cos/sin in real128, the real128 ball against the double model and
 !> against its own energy (Hamilton's equations), convergence in tol, energy conservation, and
@@ -47,8 +14,7 @@ program test_reference
   use tubes_dop853, only: dop853_t
   use tubes_integrator, only: propagate
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
-  use test_reference_models, only: qp_oscillator_t
-  use tubes_test_models, only: X0_BALL, EPS
+  use tubes_test_models, only: X0_BALL, EPS, qp_oscillator_t
   implicit none
 
   integer, parameter :: NSX = 16

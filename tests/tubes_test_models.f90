@@ -1,11 +1,13 @@
 !> The test oscillator shared by the integrator and event tests: x'' = -x as the state (x, v),
-!> whose exact flow is a rotation, and two failing variants (it was written out in six tests);
+!> whose exact flow is a rotation (also in real128, for the reference integrator), and two failing
+!> variants (it was written out in six tests);
 !> the probe of a method's dense output on it (it was written out in three); and its fixed-step
 !> run to t = 10 of the convergence-order tests (written out in two); and the constants the tests
 !> share.
 module tubes_test_models
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, qp
+  use tubes_dop853_qp, only: qp_field_t
   use tubes_status, only: TUBES_OK
   use tubes_field, only: vector_field_t, jet_spec_t
   use tubes_integrator, only: integrator_t, observer_t, propagate
@@ -16,7 +18,7 @@ module tubes_test_models
   use tubes_fourwell, only: fourwell_t
   implicit none
   private
-  public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval, dense_probe_t, &
+  public :: oscillator_t, qp_oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval, dense_probe_t, &
             oscillator_fixed_step, ball_fixed_step, oscillator_start, affine_field_t, line_field, &
             fall_field, iso_field
 
@@ -51,6 +53,13 @@ module tubes_test_models
     procedure :: jacobian => osc_jacobian
     procedure :: jet_spec => osc_jet_spec
   end type oscillator_t
+
+  !> The oscillator in real128 (test_reference: against cos/sin in real128).
+  type, extends(qp_field_t) :: qp_oscillator_t
+  contains
+    procedure :: dim => qosc_dim
+    procedure :: eval => qosc_eval
+  end type qp_oscillator_t
 
   !> dx/dt = A x + b: the tests' linear fields (line_field, fall_field, iso_field here, and
   !> test_tao's coupling). With entries 0 and +-1, matmul gives the components written out bit
@@ -90,6 +99,21 @@ contains
     dxdt(2) = -x(1)
     stat = 0
   end subroutine osc_eval
+
+  pure integer function qosc_dim(self)
+    class(qp_oscillator_t), intent(in) :: self
+    qosc_dim = 2
+  end function qosc_dim
+
+  pure subroutine qosc_eval(self, t, x, dxdt, stat)
+    class(qp_oscillator_t), intent(in) :: self
+    real(qp), intent(in) :: t, x(:)
+    real(qp), intent(out) :: dxdt(:)
+    integer, intent(out) :: stat
+    dxdt(1) = x(2)
+    dxdt(2) = -x(1)
+    stat = 0
+  end subroutine qosc_eval
 
   pure integer function affine_dim(self)
     class(affine_field_t), intent(in) :: self
