@@ -23,7 +23,6 @@ module tubes_ball
     real(wp) :: g = 981.0_wp                !! gravitational acceleration [cm/s^2]
     logical :: four_well = .true.           !! name equilibria by quadrant (W1, S12, ...)
   contains
-    procedure :: ndof => ball_ndof
     procedure :: eval => ball_eval
     procedure :: jacobian => ball_jacobian
     procedure :: energy => ball_energy
@@ -54,11 +53,6 @@ contains
     ball%g = g
     if (present(four_well)) ball%four_well = four_well
   end subroutine make_ball
-
-  pure integer function ball_ndof(self)
-    class(ball_t), intent(in) :: self
-    ball_ndof = 2
-  end function ball_ndof
 
   !> The surface's height H(q) [cm] (V = g H).
   pure real(wp) function ball_shape(self, q)
@@ -122,7 +116,6 @@ contains
     h(1:2, 1:4) = -jac(3:4, 1:4)
     h(3:4, 1:4) = jac(1:2, 1:4)
   end subroutine ball_hessian
-
 
   !> V = g H.
   pure real(wp) function ball_potential_scale(self)

@@ -17,18 +17,12 @@ module tubes_coupled_quartic
     real(wp) :: omega    !! stiffness of the y mode
     real(wp) :: eps      !! coupling of x and y
   contains
-    procedure :: ndof => cq_ndof
     procedure :: shape => cq_shape
     procedure :: shape_derivs => cq_shape_derivs
     procedure :: masses => cq_masses
   end type coupled_quartic_t
 
 contains
-
-  pure integer function cq_ndof(self)
-    class(coupled_quartic_t), intent(in) :: self
-    cq_ndof = 2
-  end function cq_ndof
 
   pure real(wp) function cq_shape(self, q)
     class(coupled_quartic_t), intent(in) :: self

@@ -21,10 +21,8 @@ module tubes_cr3bp
 
   !> The CR3BP with mass ratio mu (its default lives in tubes_models).
   type, extends(hamiltonian_t), public :: cr3bp_t
-    real(wp) :: mu   !! mass ratio m2/(m1 + m2), 0 < mu <= 1/2
-    integer :: nd = 2   !! 2: planar; 3: spatial
+    real(wp) :: mu   !! mass ratio m2/(m1 + m2), 0 < mu <= 1/2 (nd, inherited: 2 planar, 3 spatial)
   contains
-    procedure :: ndof => cr_ndof
     procedure :: energy => cr_energy
     procedure :: gradient => cr_gradient
     procedure :: hessian => cr_hessian
@@ -34,11 +32,6 @@ module tubes_cr3bp
   end type cr3bp_t
 
 contains
-
-  pure integer function cr_ndof(self)
-    class(cr3bp_t), intent(in) :: self
-    cr_ndof = self%nd
-  end function cr_ndof
 
   pure real(wp) function cr_energy(self, x)
     class(cr3bp_t), intent(in) :: self

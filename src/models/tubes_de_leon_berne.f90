@@ -21,18 +21,12 @@ module tubes_de_leon_berne
     real(wp) :: zeta     !! decay of the double well along x
     real(wp) :: eps_s    !! energy of the saddle
   contains
-    procedure :: ndof => dlb_ndof
     procedure :: shape => dlb_shape
     procedure :: shape_derivs => dlb_shape_derivs
     procedure :: masses => dlb_masses
   end type de_leon_berne_t
 
 contains
-
-  pure integer function dlb_ndof(self)
-    class(de_leon_berne_t), intent(in) :: self
-    dlb_ndof = 2
-  end function dlb_ndof
 
   pure real(wp) function dlb_shape(self, q)
     class(de_leon_berne_t), intent(in) :: self

@@ -49,7 +49,6 @@ module tubes_expression
   type, extends(hamiltonian_t), public :: expr_hamiltonian_t
     type(expr_fns_t) :: f
   contains
-    procedure :: ndof => gen_ndof
     procedure :: energy => gen_energy
     procedure :: gradient => gen_gradient
     procedure :: hessian => gen_hessian
@@ -61,7 +60,6 @@ module tubes_expression
   type, extends(natural_t), public :: expr_natural_t
     type(expr_fns_t) :: f
   contains
-    procedure :: ndof => nat_ndof
     procedure :: energy => nat_energy
     procedure :: gradient => nat_gradient
     procedure :: hessian => nat_hessian
@@ -106,9 +104,9 @@ contains
       call c_f_procpointer(lib%fn(5), f%shape)
       call c_f_procpointer(lib%fn(6), f%shape_derivs)
       call c_f_procpointer(lib%fn(7), f%kinetic)
-      allocate (model, source=expr_natural_t(f=f))
+      allocate (model, source=expr_natural_t(f=f, nd=f%n))
     else
-      allocate (model, source=expr_hamiltonian_t(f=f))
+      allocate (model, source=expr_hamiltonian_t(f=f, nd=f%n))
     end if
     stat = TUBES_OK
   end subroutine expr_model
@@ -180,11 +178,6 @@ contains
 
   ! ---- expr_hamiltonian_t
 
-  pure integer function gen_ndof(self)
-    class(expr_hamiltonian_t), intent(in) :: self
-    gen_ndof = self%f%n
-  end function gen_ndof
-
   pure real(wp) function gen_energy(self, x)
     class(expr_hamiltonian_t), intent(in) :: self
     real(wp), intent(in) :: x(:)
@@ -230,11 +223,6 @@ contains
   end function gen_reversor
 
   ! ---- expr_natural_t
-
-  pure integer function nat_ndof(self)
-    class(expr_natural_t), intent(in) :: self
-    nat_ndof = self%f%n
-  end function nat_ndof
 
   pure real(wp) function nat_energy(self, x)
     class(expr_natural_t), intent(in) :: self

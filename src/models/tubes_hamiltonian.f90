@@ -36,8 +36,9 @@ module tubes_hamiltonian
     !> the model as a formula (a tubes-expression spec, set by the library's constructors in
     !> src/models/tubes_models.f90): the Taylor method's jet is generated from it
     character(:), allocatable :: formula
+    integer :: nd = 2   !! N, the degrees of freedom (a model's constructor sets it when not 2)
   contains
-    procedure(ndof_i), deferred :: ndof             !! N
+    procedure :: ndof => ham_ndof                   !! N
     procedure(energy_i), deferred :: energy         !! H(x)
     procedure(gradient_i), deferred :: gradient     !! dH/dx (2N)
     procedure(hessian_i), deferred :: hessian       !! d2H/dx2 (2N x 2N)
@@ -69,7 +70,7 @@ module tubes_hamiltonian
 
   !> A natural system with constant diagonal masses, H = sum_i p_i^2/(2 m_i) + shape(q): its
   !> energy, gradient, Hessian and kinetic matrix from the masses and the shape (a model gives
-  !> ndof, masses, shape and shape_derivs). A state with |q|_1 > BLOWUP_Q is refused (stat -1).
+  !> masses, shape and shape_derivs). A state with |q|_1 > BLOWUP_Q is refused (stat -1).
   type, abstract, extends(natural_t), public :: separable_t
   contains
     procedure(masses_i), deferred :: masses          !! m_i, i = 1..N
@@ -93,10 +94,6 @@ module tubes_hamiltonian
   public :: make_damped
 
   abstract interface
-    pure integer function ndof_i(self)
-      import :: hamiltonian_t
-      class(hamiltonian_t), intent(in) :: self
-    end function ndof_i
     pure real(wp) function energy_i(self, x)
       import :: hamiltonian_t, wp
       class(hamiltonian_t), intent(in) :: self
@@ -141,6 +138,11 @@ module tubes_hamiltonian
   end interface
 
 contains
+
+  pure integer function ham_ndof(self)
+    class(hamiltonian_t), intent(in) :: self
+    ham_ndof = self%nd
+  end function ham_ndof
 
   pure integer function ham_dim(self)
     class(hamiltonian_t), intent(in) :: self

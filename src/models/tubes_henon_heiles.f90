@@ -12,7 +12,6 @@ module tubes_henon_heiles
   !> Henon-Heiles: a natural system with unit masses.
   type, extends(separable_t), public :: henon_heiles_t
   contains
-    procedure :: ndof => hh_ndof
     procedure :: eval => hh_eval
     procedure :: shape => hh_shape
     procedure :: shape_derivs => hh_shape_derivs
@@ -20,11 +19,6 @@ module tubes_henon_heiles
   end type henon_heiles_t
 
 contains
-
-  pure integer function hh_ndof(self)
-    class(henon_heiles_t), intent(in) :: self
-    hh_ndof = 2
-  end function hh_ndof
 
   !> V(x, y) = (x^2 + y^2)/2 + x^2 y - y^3/3.
   pure real(wp) function hh_shape(self, q)
