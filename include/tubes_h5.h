@@ -15,6 +15,11 @@ void h5_discard(hid_t f, const char *tmp);
 /* An in-memory file that is never written to disk (the MPI ranks other than 0 write their copy
  * of the output there, so that every rank runs the same code; docs/cluster.md). */
 hid_t h5_create_scratch(void);
+/* A model without physical units (every system but the rolling ball, docs/output.md): the units
+ * the scenes give, the ball's (cm, s), are written as the model's ("1"; "rad/s" as "rad"). */
+void h5_set_dimensionless(int on);
+/* A units text as this file writes it (the ball's as given; a dimensionless model's, above). */
+const char *h5_units(const char *units);
 /* A function called whenever a write fails (before the helper returns -1), or NULL. */
 void h5_set_failure_hook(void (*hook)(void));
 hid_t h5_group(hid_t loc, const char *name);

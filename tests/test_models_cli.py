@@ -87,6 +87,12 @@ def test_henon_heiles_tube_transition_montecarlo(tmp_path):
     assert mc["undecided"] == 0
     cut = f["tubes/stable_000"].attrs
     assert abs(cut["area"] / cut["action"] - 1) < 1e-9
+    # a dimensionless model's datasets say so: none names the ball's cm or s
+    units = set()
+    f.visititems(lambda n, o: units.add(o.attrs["units"]) if "units" in o.attrs else None)
+    units = {u.decode() if isinstance(u, bytes) else u for u in units}
+    assert not any("cm" in u or u in ("s", "1/s", "rad/s") for u in units), units
+    assert f["transition/action"].attrs["units"] in ("1", b"1")
 
 
 # ---------------------------------------------------------------- De Leon-Berne
@@ -249,6 +255,7 @@ def test_the_paper_input_keeps_working_and_records_the_model(tmp_path):
     m = f["model"].attrs
     assert (m["system"].decode() if isinstance(m["system"], bytes) else m["system"]) == "rolling_ball"
     assert m["alpha"] == 0.07 and m["g"] == 981.0 and m["ndof"] == 2
+    assert f["equilibria/x"].attrs["units"] in ("cm", b"cm")      # the ball keeps its units
 
 
 def test_cr3bp_plane_section_gyroscopic_area_and_transit(tmp_path):

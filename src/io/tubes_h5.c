@@ -84,13 +84,26 @@ int h5_attr_string(hid_t loc, const char *name, const char *s) {
   return rc;
 }
 
+/* A dimensionless model's file (set once, before the scenes write): the rolling ball's units that
+ * the scenes name become what they are for it (h5_units). */
+static int dimensionless = 0;
+void h5_set_dimensionless(int on) { dimensionless = on; }
+
+const char *h5_units(const char *units) {
+  if (!dimensionless || !units) return units;
+  if (!strcmp(units, "rad/s")) return "rad";
+  /* cm, s and their products, quotients and powers ("cm, cm/s", "(cm/s)^2", "1/s", ...) */
+  if (strspn(units, "cms/^()0123456789, -") == strlen(units) && strpbrk(units, "cs")) return "1";
+  return units;
+}
+
 /* A dataset of the given memory type (native double or int), with its units attribute. */
 static int write_data(hid_t loc, const char *name, hid_t type, int rank, const hsize_t *dims, const void *data,
                       const char *units) {
   hid_t sp = H5Screate_simple(rank, dims, NULL);
   hid_t d = H5Dcreate2(loc, name, type, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   int rc = (d < 0 || H5Dwrite(d, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) ? -1 : 0;
-  if (rc == 0 && units) rc = h5_attr_string(d, "units", units);
+  if (rc == 0 && units) rc = h5_attr_string(d, "units", h5_units(units));
   if (d >= 0) H5Dclose(d);
   H5Sclose(sp);
   return failed(rc);

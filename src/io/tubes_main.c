@@ -225,6 +225,7 @@ static int run_main(int argc, char **argv) {
     return EXIT_IO;
   }
   if (g_nranks > 1 && g_rank == 0) h5_set_failure_hook(io_failed_abort);
+  h5_set_dimensionless(strcmp(run.length_units, "cm") != 0);
   char created[64], cmd[4096] = "";
   time_t tt = time(NULL);
   strftime(created, sizeof created, "%Y-%m-%dT%H:%M:%SZ", gmtime(&tt));

@@ -16,6 +16,12 @@
 #include <mpi.h>
 #endif
 
+/* " <units>" in a message: the rolling ball's units as given, nothing for a dimensionless model
+ * (h5_units). */
+static const char *in_units(const char *ball_units) {
+  return strcmp(h5_units(ball_units), "1") ? ball_units : "";
+}
+
 static double now(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -456,9 +462,10 @@ int scene_trajectory(tubes_run_t *run) {
     fprintf(stderr, "tubes: trajectory: integration failed at t = %.17g s: %s (status %d) after %lld steps, "
             "%lld rejected, %lld evaluations; the samples up to there are written\n",
             n ? t[n - 1] : 0.0, msg, s, (long long)cnt[1], (long long)cnt[2], (long long)cnt[0]);
-  printf("trajectory: %s from (%g, %g, %g, %g), E0 = %.10g (cm/s)^2, to t = %g s: %d samples, "
+  printf("trajectory: %s from (%g, %g, %g, %g), E0 = %.10g%s, to t = %g%s: %d samples, "
          "%lld steps (%lld rejected), %lld evaluations, %.3f s\n",
-         method_label(run), x0[0], x0[1], x0[2], x0[3], e0, n ? t[n - 1] : 0.0, n, (long long)cnt[1],
+         method_label(run), x0[0], x0[1], x0[2], x0[3], e0, in_units(" (cm/s)^2"), n ? t[n - 1] : 0.0, in_units(" s"), n,
+         (long long)cnt[1],
          (long long)cnt[2], (long long)cnt[0], wall);
   if (sk) printf("  section %s: %d crossings\n", c->section, ncross);
   if (c->damping_ratio > 0)
@@ -565,8 +572,8 @@ int scene_orbits(tubes_run_t *run) {
   }
   printf("orbits: %s Lyapunov family, %s shooting%s (%.2f s)\n", run->saddle, nseg > 1 ? "multiple" : "single",
          nseg > 1 ? "" : (run->natural ? " (brake orbit)" : " (symmetric orbit)"), now() - t0);
-  printf("  %10s %12s %14s %14s %11s %9s %5s\n", "dE", "period [s]", "action", "mu_unstable", "residual",
-         "closure", "iter");
+  printf("  %10s %12s %14s %14s %11s %9s %5s\n", "dE", strcmp(in_units(" s"), "") ? "period [s]" : "period", "action",
+         "mu_unstable", "residual", "closure", "iter");
   int nfail = 0;
   for (int k = 0; k < n; k++) {
     if (conv[k])
@@ -581,11 +588,12 @@ int scene_orbits(tubes_run_t *run) {
     }
   }
   if (end_de > 0) {
-    printf("  family end: dE ~ %.8g (cm/s)^2: %s\n", end_de, end_reason_text(reason));
+    printf("  family end: dE ~ %.8g%s: %s\n", end_de, in_units(" (cm/s)^2"), end_reason_text(reason));
     for (int k = 0; k < n; k++)
       if (!conv[k])
-        fprintf(stderr, "tubes: orbits: dE = %g is past the end of the %s family, which ends at dE ~ %.8g "
-                "(cm/s)^2 (%s); not computed\n", c->orb_de[k], run->saddle, end_de, end_reason_text(reason));
+        fprintf(stderr, "tubes: orbits: dE = %g is past the end of the %s family, which ends at dE ~ %.8g"
+                "%s (%s); not computed\n", c->orb_de[k], run->saddle, end_de, in_units(" (cm/s)^2"),
+                end_reason_text(reason));
   } else {
     for (int k = 0; k < n; k++)
       if (!conv[k]) {
