@@ -1033,8 +1033,9 @@ int scene_montecarlo(tubes_run_t *run) {
       }
     if (first >= 0) {
       status_text(out[first], m, sizeof m);
-      fprintf(stderr, "tubes: montecarlo: %d of %d samples failed; the first, sample %d at (r, p_r) = (%.10g cm, "
-              "%.10g cm/s): %s (status %d)\n", nbad, ns, first + 1, r[first], pr[first], m, out[first]);
+      fprintf(stderr, "tubes: montecarlo: %d of %d samples failed; the first, sample %d at (r, p_r) = (%.10g%s, "
+              "%.10g%s): %s (status %d)\n", nbad, ns, first + 1, r[first], in_units(" cm"), pr[first],
+              in_units(" cm/s"), m, out[first]);
     }
     rc = st == TUBES_EPASTEND ? EXIT_PARTIAL : EXIT_NUMERIC;
     /* the failure is recorded in the file (docs/output.md): the scene's status, no fraction */
