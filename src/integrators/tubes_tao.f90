@@ -24,7 +24,8 @@
 module tubes_tao
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp, i8
-  use tubes_integrator, only: integrator_t, step_grid_t, stale_state
+  use tubes_field, only: vector_field_t
+  use tubes_integrator, only: integrator_t, step_grid_t, stale_state, hermite
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP
   implicit none
   private
@@ -243,35 +244,29 @@ contains
     class(tao_t), intent(inout) :: self
     real(wp), intent(in) :: s       !! time in [t_old, t] [s]
     real(wp), intent(out) :: xs(:)  !! (q, p) at s
-    real(wp) :: th, th1, h
     integer :: fs
-    if (.not. self%f_old_ready) then
-      call self%f%eval(self%t_old, self%z_old, self%f_old, fs)
-      self%nfev = self%nfev + 1
-      if (fs /= 0) then
-        xs = ieee_value(1.0_wp, ieee_quiet_nan)
-        return
-      end if
-      self%f_old_ready = .true.
-    end if
-    if (.not. self%f_new_ready) then
-      call self%f%eval(self%t, self%z_new, self%f_new, fs)
-      self%nfev = self%nfev + 1
-      if (fs /= 0) then
-        xs = ieee_value(1.0_wp, ieee_quiet_nan)
-        return
-      end if
-      self%f_new_ready = .true.
-    end if
-    h = self%h_used
-    if (h == 0) then
-      xs = self%z_new
+    call slope_at(self%f, self%t_old, self%z_old, self%f_old, self%f_old_ready, self%nfev, fs)
+    if (fs == 0) call slope_at(self%f, self%t, self%z_new, self%f_new, self%f_new_ready, self%nfev, fs)
+    if (fs /= 0) then
+      xs = ieee_value(1.0_wp, ieee_quiet_nan)
       return
     end if
-    th = (s - self%t_old)/h
-    th1 = 1 - th
-    associate (x0 => self%z_old, x1 => self%z_new, f0 => self%f_old, f1 => self%f_new)
-      xs = x0 + th*(x1 - x0) + th*th1*((th1*h)*f0 - (th*h)*f1 + (th - th1)*(x1 - x0))
-    end associate
+    call hermite(self%z_old, self%f_old, self%z_new, self%f_new, self%t_old, self%h_used, s, xs)
   end subroutine tao_interp
+
+  !> fz = f(t, z) unless ready already (then ready, and nfev counts the evaluation); fs the model's
+  !> status.
+  subroutine slope_at(f, t, z, fz, ready, nfev, fs)
+    class(vector_field_t), intent(in) :: f
+    real(wp), intent(in) :: t, z(:)
+    real(wp), intent(inout) :: fz(:)
+    logical, intent(inout) :: ready
+    integer(i8), intent(inout) :: nfev
+    integer, intent(out) :: fs
+    fs = 0
+    if (ready) return
+    call f%eval(t, z, fz, fs)
+    nfev = nfev + 1
+    ready = fs == 0
+  end subroutine slope_at
 end module tubes_tao
