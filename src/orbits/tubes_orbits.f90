@@ -299,12 +299,7 @@ contains
         res = max(res, abs(r(k))/pscale)
       end do
       res = max(res, abs(r(no + 1))/abs(energy))
-      orb%history = [orb%history, res]
-      orb%iterations = it
-      if (res <= opts%tol) then
-        orb%converged = .true.
-        exit
-      end if
+      if (newton_met(orb, it, res, opts%tol)) exit
       jac = 0
       jac(1:no, 1:nf) = phi(od, ev)
       jac(1:no, nf + 1) = f(od)
@@ -325,8 +320,7 @@ contains
         return
       end if
     end do
-    if (.not. orb%converged) orb%converged = stagnated(orb%history, opts%tol)
-    stat = merge(TUBES_OK, TUBES_ENOCONV, orb%converged)
+    call newton_verdict(orb, opts%tol, stat)
     orb%x0 = x0
     orb%period = 2*tau
     orb%energy = energy
@@ -415,12 +409,7 @@ contains
         res = max(res, maxval(abs(b(d*(i - 1) + 1:d*i))/scale))
       end do
       res = max(res, abs(b(m - 1))/abs(energy))
-      orb%history = [orb%history, res]
-      orb%iterations = it
-      if (res <= opts%tol) then
-        orb%converged = .true.
-        exit
-      end if
+      if (newton_met(orb, it, res, opts%tol)) exit
       do i = 1, m            ! equilibrate rows (the root is unchanged: the system is consistent)
         rowmax = maxval(abs(a(i, :)))
         if (rowmax > 0) then
@@ -443,8 +432,7 @@ contains
         return
       end if
     end do
-    if (.not. orb%converged) orb%converged = stagnated(orb%history, opts%tol)
-    stat = merge(TUBES_OK, TUBES_ENOCONV, orb%converged)
+    call newton_verdict(orb, opts%tol, stat)
     orb%x0 = nodes(:, 1)
     orb%period = period
     orb%energy = energy
@@ -458,12 +446,28 @@ contains
     if (n >= 5) diverging = minval(h(n - 3:n)) >= h(n - 4)
   end function diverging
 
-  !> Newton stopped at the integration's noise floor: the last residual is within 100 tol.
-  pure logical function stagnated(h, tol)
-    real(wp), intent(in) :: h(:), tol
-    stagnated = .false.
-    if (size(h) > 0) stagnated = h(size(h)) <= 100*tol
-  end function stagnated
+  !> Iteration it's residual res into the orbit's history; true (converged) when it meets tol.
+  logical function newton_met(orb, it, res, tol) result(met)
+    type(orbit_t), intent(inout) :: orb
+    integer, intent(in) :: it
+    real(wp), intent(in) :: res, tol
+    orb%history = [orb%history, res]
+    orb%iterations = it
+    met = res <= tol
+    if (met) orb%converged = .true.
+  end function newton_met
+
+  !> The correctors' verdict: converged, or stopped at the integration's noise floor (the last
+  !> residual within 100 tol); stat TUBES_OK or TUBES_ENOCONV.
+  subroutine newton_verdict(orb, tol, stat)
+    type(orbit_t), intent(inout) :: orb
+    real(wp), intent(in) :: tol
+    integer, intent(out) :: stat
+    integer :: n
+    n = size(orb%history)
+    if (.not. orb%converged .and. n > 0) orb%converged = orb%history(n) <= 100*tol
+    stat = merge(TUBES_OK, TUBES_ENOCONV, orb%converged)
+  end subroutine newton_verdict
 
   pure function identity(n) result(e)
     integer, intent(in) :: n
