@@ -317,3 +317,66 @@ def test_a_read_only_directory_is_refused_before_the_work(tmp_path, tubes_exe):
             subprocess.run(["umount", str(ro)], capture_output=True)
         else:
             ro.chmod(0o755)
+
+
+def _nml_values(text):
+    """The values of a namelist item as written by --check or in the docs: repeats (3*0) expanded,
+    strings unquoted and stripped, logicals as bool, numbers as float."""
+    import re
+    out = []
+    for rep, rval, quoted, plain in re.findall(r"(\d+)\*([^,\s]+)|('[^']*')|([^,\s]+)", text):
+        for v in [rval] * int(rep) if rep else [quoted or plain]:
+            v = v.strip()
+            if v.startswith("'"):
+                out.append(v.strip("'").strip())
+            elif v.upper() in ("T", ".TRUE."):
+                out.append(True)
+            elif v.upper() in ("F", ".FALSE."):
+                out.append(False)
+            else:
+                try:
+                    out.append(float(v.replace("D", "E").replace("d", "e")))
+                except ValueError:
+                    out.append(v)
+    return out
+
+
+def test_documented_defaults_are_the_defaults(tmp_path, tubes_exe):
+    """The defaults --help and docs/input.md state (two texts beside the reader's own values in
+    src/io/tubes_nml.f90) are the values --check prints for a namelist that sets nothing: every
+    plain one (numbers, lists, strings, logicals; not "the system's ...")."""
+    import re
+    (tmp_path / "empty.nml").write_text("&run /\n")
+    r = run_tubes(["--check", "empty.nml"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    effective = {}
+    for g, body in re.findall(r"&(\w+)\s*(.*?)\n\s*/", r.stdout.split("\n", 1)[1], re.S):
+        items = re.findall(r"(\w+)\s*=\s*(.*?)(?=,?\s*\w+\s*=|,?\s*$)", body.replace("\n", " "), re.S)
+        effective[g.lower()] = {k.lower(): _nml_values(v.strip().rstrip(",")) for k, v in items}
+    stated = []       # (where, group, variable, default text)
+    group = None
+    for ln in run_tubes(["--help"], tmp_path).stdout.splitlines():
+        m = re.match(r"  &(\w+)$", ln)
+        group = m.group(1) if m else group
+        m = re.match(r"    (\w+)\s+\w+\s+\[.*?\] default (.*?); ", ln)
+        if m and group:
+            stated.append(("--help", group, m.group(1), m.group(2)))
+    for ln in (ROOT / "docs" / "input.md").read_text().splitlines():
+        m = re.match(r"## `&(\w+)`", ln)
+        group = m.group(1) if m else group
+        cells = [c.strip() for c in ln.split("|")[1:-1]]
+        if len(cells) >= 5 and re.fullmatch(r"`\w+`", cells[0]):
+            stated.append(("docs/input.md", group, cells[0].strip("`"), cells[3]))
+    compared = 0
+    for where, g, var, text in stated:
+        if g not in effective or var not in effective[g]:
+            continue
+        if re.search(r"[()]|\.\.\.|none|the |system|-$|^-|^$", text.strip("`")):
+            continue          # not a plain value: a sentence, an elision, per-system defaults
+        want = _nml_values(text.replace("`", ""))
+        got = effective[g][var][:len(want)]
+        if any(isinstance(v, str) and not re.fullmatch(r"[\w.+-]*", v) for v in want):
+            continue
+        compared += 1
+        assert want == got, f"{where}: &{g} {var}: stated default {text!r}, the reader's {effective[g][var]}"
+    assert compared >= 100, compared
