@@ -20,21 +20,26 @@ subroutine model_system(k, stat, name)
   stat = 0
 end subroutine model_system
 
-subroutine model_info(system, stat, ndof, np, names, defaults, summary, saddle, near, sec_kind, &
-                      sec_index, sec_value, sec_dir, sec_angle, gate, box, box_center)
-  ! the table entry of a system (src/models/tubes_models.f90): names is np blocks of 16 characters
+subroutine model_info(system, stat, ndof, np, names, units, docs, defaults, summary, saddle, near, &
+                      sec_kind, sec_index, sec_value, sec_dir, sec_angle, gate, box, box_center, &
+                      length_units)
+  ! the table entry of a system (src/models/tubes_models.f90): names and units are np blocks of 16
+  ! characters, docs np blocks of 96
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_models, only: system_info_t, system_info, MAX_PARAMS, MAX_DOF
   implicit none
   character(len=*), intent(in) :: system
   integer(c_int), intent(out) :: stat, ndof, np, sec_index, sec_dir
-  character(len=256), intent(out) :: names
+  character(len=256), intent(out) :: names, units
+  character(len=1536), intent(out) :: docs
+  character(len=8), intent(out) :: length_units
   real(c_double), intent(out) :: defaults(16), near(3), sec_value, sec_angle, gate, box(3), box_center(3)
   character(len=160), intent(out) :: summary
   character(len=8), intent(out) :: saddle, sec_kind
   type(system_info_t) :: info
   integer :: k
-  names = ''; defaults = 0; summary = ''; saddle = ''; near = 0; sec_kind = ''; sec_index = 0
+  names = ''; units = ''; docs = ''; length_units = ''; defaults = 0; summary = ''; saddle = ''
+  near = 0; sec_kind = ''; sec_index = 0
   sec_value = 0; sec_dir = 0; sec_angle = 0; gate = 0; box = 0; box_center = 0; ndof = 0; np = 0
   call system_info(trim(system), info, stat)
   if (stat /= 0) return
@@ -42,6 +47,8 @@ subroutine model_info(system, stat, ndof, np, names, defaults, summary, saddle, 
   np = info%np
   do k = 1, info%np
     names(16*(k - 1) + 1:16*k) = info%params(k)%name
+    units(16*(k - 1) + 1:16*k) = info%params(k)%units
+    docs(96*(k - 1) + 1:96*k) = info%params(k)%doc
     defaults(k) = info%params(k)%default
   end do
   summary = info%summary
@@ -55,6 +62,7 @@ subroutine model_info(system, stat, ndof, np, names, defaults, summary, saddle, 
   gate = info%gate
   box = info%box
   box_center = info%box_center
+  length_units = info%length_units
 end subroutine model_info
 
 subroutine energies(system, params, n, m, x, stat, e)

@@ -236,3 +236,21 @@ def test_status_codes_are_the_library_s():
     assert len({getattr(tubes, n) for n in words}) == len(words)
     with pytest.raises(AttributeError):
         tubes.ENOSUCHCODE  # noqa: B018
+
+
+def test_model_info_units_and_meanings(tmp_path):
+    """tubes.model_info gives each parameter's units and meaning and the coordinates' units: the
+    ball's parameters' units are those the namelist table of --help states (another definition,
+    src/io/tubes_input.c); a dimensionless system's coordinates are "1"."""
+    import re
+    ball = tubes.model_info("rolling_ball")
+    assert ball["length_units"] == "cm"
+    assert list(ball["parameter_units"]) == list(ball["parameters"]) == list(ball["parameter_docs"])
+    helped = dict(re.findall(r"^    (\w+)\s+\w+\s+\[(.*?)\]", run_tubes(["--help"], tmp_path).stdout, re.M))
+    for name, units in ball["parameter_units"].items():
+        assert units == helped[name], (name, units, helped[name])
+        assert ball["parameter_docs"][name]
+    for system in ("henon_heiles", "de_leon_berne", "coupled_quartic", "cr3bp"):
+        info = tubes.model_info(system)
+        assert info["length_units"] == "1", system
+        assert all(u == "1" for u in info["parameter_units"].values()), (system, info["parameter_units"])

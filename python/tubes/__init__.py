@@ -311,15 +311,21 @@ def _str(b) -> str:
 
 
 def model_info(system: str) -> dict:
-    """The library's table entry of a system: ndof, parameters (name -> default, in order),
-    summary, and the scenes' defaults (saddle, saddle_near, section, gate, box)."""
-    (stat, ndof, np_, names, defaults, summary, saddle, near, sec_kind, sec_index, sec_value,
-     sec_dir, sec_angle, gate, box, box_center) = _lib().model_info(system)
+    """The library's table entry of a system: ndof, parameters (name -> default, in order), their
+    units and meanings (name -> text), the coordinates' units (``length_units``: "cm" for the
+    ball, "1" for a dimensionless system), summary, and the scenes' defaults (saddle,
+    saddle_near, section, gate, box)."""
+    (stat, ndof, np_, names, units, docs, defaults, summary, saddle, near, sec_kind, sec_index, sec_value,
+     sec_dir, sec_angle, gate, box, box_center, length_units) = _lib().model_info(system)
     if stat < 0:
         raise ValueError(f"unknown system {system!r}; the systems are: {', '.join(systems())}")
-    names = names.decode() if isinstance(names, bytes) else str(names)
-    params = {names[16 * k:16 * k + 16].strip(): float(defaults[k]) for k in range(np_)}
-    return {"system": system, "ndof": int(ndof), "parameters": params, "summary": _str(summary),
+    names, units, docs = (b.decode() if isinstance(b, bytes) else str(b) for b in (names, units, docs))
+    keys = [names[16 * k:16 * k + 16].strip() for k in range(np_)]
+    params = {key: float(defaults[k]) for k, key in enumerate(keys)}
+    return {"system": system, "ndof": int(ndof), "parameters": params,
+            "parameter_units": {key: units[16 * k:16 * k + 16].strip() for k, key in enumerate(keys)},
+            "parameter_docs": {key: docs[96 * k:96 * k + 96].strip() for k, key in enumerate(keys)},
+            "length_units": _str(length_units), "summary": _str(summary),
             "saddle": _str(saddle), "saddle_near": np.array(near[:ndof]),
             "section": {"kind": _str(sec_kind), "index": int(sec_index), "value": float(sec_value),
                         "direction": int(sec_dir), "angle": float(sec_angle)},
