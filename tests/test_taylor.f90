@@ -8,7 +8,7 @@
 program test_taylor
   use tubes_kinds, only: wp, i8
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
-  use tubes_status, only: TUBES_OK, TUBES_EVENT
+  use tubes_status, only: TUBES_OK, TUBES_EVENT, TUBES_EMODEL
   use tubes_test_models, only: X0_BALL, PI, oscillator_t
   use tubes_taylor, only: taylor_t, isolate_roots, taylor_order
   use tubes_dop853, only: dop853_t
@@ -28,6 +28,7 @@ program test_taylor
   call ball_against_reference()
   call builtin_systems()
   call variational()
+  call escape()
   call finish('test_taylor')
 
 contains
@@ -285,6 +286,38 @@ contains
     call check_close('variational: state', maxval(abs(zt(1:4) - zd(1:4)))/maxval(abs(zd(1:4))), 0.0_wp, 1.0e-10_wp)
     call check_close('variational: matrix', maxval(abs(zt(5:) - zd(5:)))/maxval(abs(zd(5:))), 0.0_wp, 1.0e-10_wp)
   end subroutine variational
+
+  !> An escaping Henon-Heiles trajectory (E = 0.22 > 1/6: it reaches infinity in finite time):
+  !> the model refuses |x| + |y| > 1e6 (its eval, under DOP853), and the Taylor method, which
+  !> does not call eval, refuses the same state: both TUBES_EMODEL, the state the last accepted
+  !> one (finite, within the bound, at ig%t).
+  subroutine escape()
+    class(hamiltonian_t), allocatable :: hh
+    type(taylor_t) :: tay
+    type(dop853_t) :: dop
+    real(wp) :: params(MAX_PARAMS), xt(4), xd(4)
+    integer :: stat
+    params = 0
+    call make_model('henon_heiles', params, hh, stat)
+    xt = [0.0_wp, 0.9_wp, 0.0_wp, 0.35_wp]
+    xd = xt
+    call tay%init(hh, 0.0_wp)
+    tay%rtol = 1.0e-10_wp
+    tay%atol = 1.0e-10_wp
+    call propagate(tay, xt, 100.0_wp, stat)
+    call check_eq('escape: taylor refuses the blown-up state', stat, TUBES_EMODEL)
+    call check_true('escape: taylor keeps the last accepted state', &
+                    abs(xt(1)) + abs(xt(2)) <= 1.0e6_wp .and. all(abs(xt) <= huge(1.0_wp)) .and. tay%t < 100)
+    call dop%init(hh, 0.0_wp)
+    dop%rtol = 1.0e-10_wp
+    dop%atol = 1.0e-10_wp
+    call propagate(dop, xd, 100.0_wp, stat)
+    call check_eq('escape: dop853 (the eval of the model) refuses it too', stat, TUBES_EMODEL)
+    ! along the escape y'' ~ y^2, so y ~ 6/(t_b - t)^2 passes 1e6 at t_b - 2.4e-3; each method stops
+    ! at its last step before that, its steps there shorter than the distance to t_b
+    call check_close('escape: both stop just before |q| = 1e6 (2.4e-3 before the blow-up)', tay%t, dop%t, &
+                     2.5e-3_wp)
+  end subroutine escape
 
   !> x from t = 0 to t_end with ig on field at rtol = atol = 1e-13, the status checked (label).
   subroutine run_13(ig, field, x, t_end, label)

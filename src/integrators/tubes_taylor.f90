@@ -72,6 +72,8 @@ module tubes_taylor
     real(wp) :: left = 0                   !! |tmax - t| at the step's start [time]
     real(wp) :: slack = 0                  !! what may be left of it: 64 ulps of max(|t|, |tmax|)
     real(wp) :: par(1) = 0                 !! the kernel's parameters: the damping rate
+    integer :: nq = 0                      !! the model refuses |x(1:nq)|_1 > q_bound (jet_spec_t)
+    real(wp) :: q_bound = huge(1.0_wp)
     character(:), allocatable :: spec      !! the model's formula (jet_spec_t%text)
     integer :: flags = 0                   !! include/tubes.h TUBES_JET_* of the field
     type(kernel_t) :: kernels(2)           !! the kernels of the (at most two) orders in use
@@ -267,6 +269,8 @@ contains
     self%spec = js%text
     self%flags = flags
     self%par(1) = js%damping
+    self%nq = min(js%nq, n)
+    self%q_bound = js%q_bound
     self%n = n
   end subroutine taylor_setup
 
@@ -414,13 +418,20 @@ contains
     self%hs = self%dir*h
     self%t_old = self%t
     call horner(self%tc, s, self%n, p, self%hs, x)
+    ! a state the model refuses (not finite, or escaped: as its eval would): the step is not taken
+    if (.not. (all(abs(x) <= huge(1.0_wp)) .and. sum(abs(x(1:self%nq))) <= self%q_bound)) then
+      do i = 1, self%n
+        x(i) = self%tc((i - 1)*s + 1)
+      end do
+      stat = TUBES_EMODEL
+      return
+    end if
     if (last) then
       self%t = tmax
     else
       self%t = self%t + self%hs
     end if
     self%nsteps = self%nsteps + 1
-    if (.not. all(abs(x) <= huge(1.0_wp))) stat = TUBES_EMODEL
   end subroutine taylor_end
 
   !> min(-log(n1) r1, -log(n2) r2) for normal n1, n2 > 0 and r1, r2 > 0, with one logarithm where

@@ -459,9 +459,9 @@ int scene_trajectory(tubes_run_t *run) {
   double e0 = en[0], maxerr = 0;
   for (int k = 0; k < n; k++) maxerr = fmax(maxerr, fabs(en[k] - e0) / fabs(e0));
   if (s < 0)
-    fprintf(stderr, "tubes: trajectory: integration failed at t = %.17g s: %s (status %d) after %lld steps, "
-            "%lld rejected, %lld evaluations; the samples up to there are written\n",
-            n ? t[n - 1] : 0.0, msg, s, (long long)cnt[1], (long long)cnt[2], (long long)cnt[0]);
+    fprintf(stderr, "tubes: trajectory: integration failed after the sample at t = %.17g%s: %s (status %d) after "
+            "%lld steps, %lld rejected, %lld evaluations; the samples up to there are written\n",
+            n ? t[n - 1] : 0.0, in_units(" s"), msg, s, (long long)cnt[1], (long long)cnt[2], (long long)cnt[0]);
   printf("trajectory: %s from (%g, %g, %g, %g), E0 = %.10g%s, to t = %g%s: %d samples, "
          "%lld steps (%lld rejected), %lld evaluations, %.3f s\n",
          method_label(run), x0[0], x0[1], x0[2], x0[3], e0, in_units(" (cm/s)^2"), n ? t[n - 1] : 0.0, in_units(" s"), n,

@@ -14,6 +14,11 @@ module tubes_field
     logical :: variational = .false.     !! the state transition matrix follows the state
     logical :: action = .false.          !! the action integral of p . dq/dt follows the state
     logical :: tangent = .false.         !! one tangent vector w, dw/dt = (df/dx) w, follows the state
+    !> the model refuses a state whose first nq components (its coordinates) exceed q_bound in
+    !> |.|_1, as its eval does (a blown-up, escaped state): the Taylor method, which does not call
+    !> eval, checks it after each step (0: no bound)
+    integer :: nq = 0
+    real(wp) :: q_bound = huge(1.0_wp)
   end type jet_spec_t
 
   type, abstract, public :: vector_field_t

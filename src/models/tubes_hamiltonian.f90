@@ -390,6 +390,8 @@ contains
     class(hamiltonian_t), intent(in) :: self
     type(jet_spec_t) :: spec
     if (allocated(self%formula)) spec%text = self%formula
+    spec%nq = self%ndof()               ! eval's refusal of an escaped state (BLOWUP_Q)
+    spec%q_bound = BLOWUP_Q
   end function ham_jet_spec
 
   !> The base model's formula with the damping rate.
