@@ -95,6 +95,23 @@ def test_henon_heiles_tube_transition_montecarlo(tmp_path):
     assert f["transition/action"].attrs["units"] in ("1", b"1")
 
 
+def test_henon_heiles_map_above_the_saddles_lets_seeds_escape(tmp_path):
+    """Above E = 1/6 a Poincare seed may escape (to infinity in finite time): under the Taylor
+    method and DOP853 alike it only stops returning (exit 0, NaN after its last return), not a
+    failure; every return lies on the energy surface's disc x^2 + px^2 <= 2E of the section y = 0."""
+    for method in ("taylor", "dop853"):
+        r, f = run(tmp_path, HH + f"&integrator method = '{method}' /\n"
+                   "&run scenes = 'sections' /\n&orbits saddle_near = 0, 1 /\n"
+                   "&sections de = 0.01, n_seeds = 8, n_iter = 30 /\n", name=f"{method}.h5")
+        pts = f["sections/map_000/points"][()]
+        found = np.isfinite(pts[:, :, 0])
+        n = found.sum(axis=1)
+        assert n.min() < 30 and n.max() > 4, n                    # seeds escape after returns
+        assert all(found[j, :n[j]].all() for j in range(len(n)))   # no holes before the escape
+        e = 1 / 6 + 0.01
+        assert np.all(pts[found][:, 0] ** 2 + pts[found][:, 1] ** 2 <= 2 * e * (1 + 1e-9))
+
+
 # ---------------------------------------------------------------- De Leon-Berne
 
 def test_de_leon_berne_morse_period(tmp_path):

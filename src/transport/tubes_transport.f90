@@ -5,7 +5,7 @@ module tubes_transport
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_long
   use tubes_kinds, only: wp, i8
   use tubes_quad, only: rng_uniform
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EMODEL
   use tubes_ensemble, only: ens_out_t, ens_run, ens_agree
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
@@ -72,6 +72,9 @@ module tubes_transport
 
   !> Items of an ensemble per call of run_lanes (an OpenMP thread's unit of work)
   integer, parameter :: LANE_CHUNK = 64
+  !> A Poincare seed the model refuses beyond this many length scales (|q|_1) has escaped
+  !> (map_status)
+  real(wp), parameter :: ESCAPE_SCALES = 1.0e3_wp
 
   public :: inside_curve, mc_classify, monte_carlo, poincare_map
 
@@ -349,8 +352,7 @@ contains
     type(lane_t), intent(inout) :: lane
     type(ens_out_t), intent(inout) :: out
     integer :: j
-    out%st(k) = lane%stat
-    if (lane%stat == TUBES_EVENT) out%st(k) = TUBES_OK
+    out%st(k) = map_status(self%model, lane%stat, lane%x)
     out%r(:, k) = ieee_value(1.0_wp, ieee_quiet_nan)
     do j = 1, min(lane%log%n, self%n_iter)
       out%r(2*j - 1:2*j, k) = self%psec%coords(lane%log%x(:, j))
@@ -380,9 +382,24 @@ contains
     log%max_crossings = n_iter
     call psec%event(.false., ev)
     call propagate(ig, x, t_max, stat, event=ev, crossings=log)
-    if (stat == TUBES_EVENT) stat = TUBES_OK
+    stat = map_status(ball, stat, x)
     do k = 1, min(log%n, n_iter)
       pts(:, k) = psec%coords(log%x(:, k))
     end do
   end subroutine one_map
+
+  !> A Poincare seed's status from its integration's: TUBES_OK at t_max or the last return; also
+  !> TUBES_OK when the model refused a state far outside its region (the last accepted one beyond
+  !> ESCAPE_SCALES length scales: an escape to infinity in finite time, as Henon-Heiles' above
+  !> its saddles), for such a seed has only stopped returning; any other failure as it is.
+  integer function map_status(model, stat, x) result(st)
+    class(hamiltonian_t), intent(in) :: model
+    integer, intent(in) :: stat
+    real(wp), intent(in) :: x(:)
+    st = stat
+    if (stat == TUBES_EVENT) st = TUBES_OK
+    if (stat == TUBES_EMODEL) then
+      if (sum(abs(x(1:model%ndof()))) > ESCAPE_SCALES*model%length_scale()) st = TUBES_OK
+    end if
+  end function map_status
 end module tubes_transport
