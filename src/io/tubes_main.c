@@ -35,7 +35,8 @@
 static void usage(FILE *out) {
   fprintf(out,
           "usage: tubes [options] INPUT.nml\n"
-          "Phase-space transport between potential wells (tube dynamics) for a ball rolling on a surface.\n\n"
+          "Phase-space transport between potential wells (tube dynamics) in Hamiltonian systems: the\n"
+          "built-in models (&model system, docs/models.md) or one written as a formula in the input.\n\n"
           "options:\n"
           "  -o FILE      write the HDF5 output to FILE (overrides &run output)\n"
           "  --check      read and validate INPUT.nml, print the effective namelist, and exit\n"
