@@ -232,6 +232,38 @@ def test_an_output_that_is_a_directory_is_refused_before_the_work(tmp_path):
     assert not list(tmp_path.glob("adir.tmp*")) and not list((tmp_path / "adir").iterdir())
 
 
+def test_an_output_that_is_not_a_regular_file_or_is_the_input_is_refused(tmp_path):
+    """The finished file is renamed over whatever has the output's name: a FIFO, a device or the
+    input file would be replaced by it. Refused before the work; a link is written through."""
+    (tmp_path / "d.nml").write_text("&run scenes = 'equilibria' /\n")
+    os.mkfifo(tmp_path / "fifo")
+    for out, code, words in [("fifo", 3, "'fifo' is a FIFO"), ("/dev/null", 3, "'/dev/null' is a device"),
+                             ("d.nml", 1, "is the input file 'd.nml'"),
+                             ("../" + tmp_path.name + "/d.nml", 1, "is the input file")]:
+        r = run_tubes(["d.nml", "-o", out], tmp_path)
+        assert r.returncode == code and words in r.stderr, (out, r.stderr)
+        assert r.stdout == ""                      # nothing was computed
+    assert (tmp_path / "fifo").is_fifo() and (tmp_path / "d.nml").read_text().startswith("&run")
+    assert pathlib.Path("/dev/null").is_char_device()
+    (tmp_path / "target.h5").write_bytes(b"")
+    (tmp_path / "link.h5").symlink_to(tmp_path / "target.h5")
+    r = run_tubes(["d.nml", "-o", "link.h5"], tmp_path)
+    assert r.returncode == 0 and (tmp_path / "link.h5").is_symlink(), r.stderr
+    assert h5py.is_hdf5(tmp_path / "target.h5")
+
+
+@pytest.mark.parametrize("csv,words", [("e.h5", "is the HDF5 output file"), ("x.nml", "is the input file"),
+                                       ("nodir/t.csv", "its directory does not exist"),
+                                       ("/dev/null", "is not a regular file")])
+def test_a_csv_that_would_clobber_a_file_is_refused_before_the_work(tmp_path, csv, words):
+    (tmp_path / "x.nml").write_text("&run scenes = 'synthetic_experiment', output = 'e.h5' /\n"
+                                    f"&experiment n_tracks = 2,\n csv = '{csv}' /\n")
+    r = run_tubes(["x.nml"], tmp_path)
+    assert r.returncode == 1 and f"x.nml:3: &experiment csv = '{csv}'" in r.stderr and words in r.stderr, r.stderr
+    assert r.stdout == "" and (tmp_path / "x.nml").read_text().startswith("&run")
+    _no_outputs(tmp_path)
+
+
 @pytest.mark.parametrize("sig,code,word", [(2, 130, "SIGINT"), (15, 143, "SIGTERM")])
 def test_a_signal_stops_the_run_and_leaves_no_file(tmp_path, sig, code, word):
     import signal

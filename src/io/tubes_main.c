@@ -1,10 +1,12 @@
 /* tubes: the program entry. Reads and validates the namelist, runs the scenes, writes the HDF5
  * file under a temporary name and renames it when complete. Exit codes: docs/usage.md. */
+#define _XOPEN_SOURCE 700   /* realpath */
 #include "tubes.h"
 #include "tubes_h5.h"
 #include "tubes_input.h"
 #include "tubes_scenes.h"
 #include <errno.h>
+#include <limits.h>
 #include <signal.h>
 #include <stdio.h>
 #include <sys/stat.h>
@@ -95,6 +97,94 @@ static int agree(int r) {
 
 static int run_main(int argc, char **argv);
 
+/* path with its directory made canonical (the file itself need not exist): two names of one
+ * file compare equal. 0 if its directory does not exist. */
+static int canonical_path(const char *path, char *out, size_t n) {
+  char dir[TUBES_LPATH + 2], real[PATH_MAX];
+  const char *slash = strrchr(path, '/');
+  const char *base = slash ? slash + 1 : path;
+  if (slash) {
+    size_t len = (size_t)(slash - path);
+    if (len >= sizeof dir) return 0;
+    memcpy(dir, path, len);
+    dir[len ? len : 1] = '\0';          /* "/name": the root */
+    if (!len) dir[0] = '/';
+  } else {
+    strcpy(dir, ".");
+  }
+  struct stat sb;
+  if (lstat(path, &sb) == 0 && S_ISLNK(sb.st_mode)) {   /* a link: the file it names */
+    if (!realpath(path, real)) return 0;
+    snprintf(out, n, "%s", real);
+    return 1;
+  }
+  if (!realpath(dir, real)) return 0;
+  snprintf(out, n, "%s/%s", strcmp(real, "/") ? real : "", base);
+  return 1;
+}
+
+/* An output file (what: "the output" or "&experiment csv") that the run may write: not a
+ * directory, FIFO, device or socket (the finished file is renamed over what is there, which
+ * would replace it), and not the input file. 0, or the exit code with the reason on stderr. */
+static int check_output(const char *path, const char *what, const char *input, int bad) {
+  struct stat sb;
+  if (stat(path, &sb) == 0 && !S_ISREG(sb.st_mode)) {
+    fprintf(stderr, "tubes: %s '%s' is %s: give the name of a regular file (&run output or -o)\n", what, path,
+            S_ISDIR(sb.st_mode) ? "a directory" : S_ISFIFO(sb.st_mode) ? "a FIFO"
+            : S_ISCHR(sb.st_mode) || S_ISBLK(sb.st_mode) ? "a device" : "not a regular file");
+    return bad;
+  }
+  char a[PATH_MAX + TUBES_LPATH], b[PATH_MAX + TUBES_LPATH];
+  if (canonical_path(path, a, sizeof a) && canonical_path(input, b, sizeof b) && !strcmp(a, b)) {
+    fprintf(stderr, "tubes: %s '%s' is the input file '%s': it would be overwritten; give another name\n",
+            what, path, input);
+    return EXIT_BADINPUT;
+  }
+  return 0;
+}
+
+/* The run's output files before any work: the HDF5 output and the synthetic experiment's CSV. */
+static int check_outputs(const char *input, tubes_config_t *cfg, const nml_where *where) {
+  struct stat lb;
+  if (lstat(cfg->output, &lb) == 0 && S_ISLNK(lb.st_mode)) {   /* a link: write the file it names */
+    char real[PATH_MAX];
+    if (!realpath(cfg->output, real) || strlen(real) >= sizeof cfg->output) {
+      fprintf(stderr, "tubes: the output '%s' is a symbolic link to nothing that exists: give the name of a "
+              "regular file (&run output or -o)\n", cfg->output);
+      return EXIT_IO;
+    }
+    snprintf(cfg->output, sizeof cfg->output, "%s", real);
+  }
+  int rc = check_output(cfg->output, "the output", input, EXIT_IO);
+  if (rc) return rc;
+  int experiment = 0;
+  for (int k = 0; k < TUBES_NSCENES; k++) experiment |= !strcmp(cfg->scenes[k], "synthetic_experiment");
+  if (!experiment || !cfg->exp_csv[0]) return 0;
+  int line = nml_line(where, "experiment", "csv");
+  char where_s[TUBES_LPATH + 32];
+  snprintf(where_s, sizeof where_s, "%s:%d: &experiment csv", input, line);
+  char a[PATH_MAX + TUBES_LPATH], b[PATH_MAX + TUBES_LPATH];
+  if (!canonical_path(cfg->exp_csv, a, sizeof a)) {
+    fprintf(stderr, "%s = '%s': its directory does not exist\n", where_s, cfg->exp_csv);
+    return EXIT_BADINPUT;
+  }
+  if (canonical_path(cfg->output, b, sizeof b) && !strcmp(a, b)) {
+    fprintf(stderr, "%s = '%s' is the HDF5 output file: give the CSV another name\n", where_s, cfg->exp_csv);
+    return EXIT_BADINPUT;
+  }
+  struct stat sb;
+  if (stat(cfg->exp_csv, &sb) == 0 && !S_ISREG(sb.st_mode)) {
+    fprintf(stderr, "%s = '%s' is not a regular file: give the name of one\n", where_s, cfg->exp_csv);
+    return EXIT_BADINPUT;
+  }
+  if (canonical_path(input, b, sizeof b) && !strcmp(a, b)) {
+    fprintf(stderr, "%s = '%s' is the input file: it would be overwritten; give another name\n", where_s,
+            cfg->exp_csv);
+    return EXIT_BADINPUT;
+  }
+  return 0;
+}
+
 int main(int argc, char **argv) {
   setvbuf(stdout, NULL, _IOLBF, 0);   /* whole lines: stdout and stderr do not interleave mid-line */
   /* HDF5's exit handler closes every file still open: after a close that failed (a full disk) it
@@ -183,13 +273,11 @@ static int run_main(int argc, char **argv) {
     return 0;
   }
 
-  /* an output path that is a directory would fail only at the final rename, after the work */
+  /* an output that could not be written, or would replace what it must not, fails only at the
+   * end otherwise, after the work: checked before it (rank 0 alone looks at the file system) */
   {
-    struct stat sb;
-    int isdir = g_rank == 0 && stat(cfg.output, &sb) == 0 && S_ISDIR(sb.st_mode);
-    if (isdir)
-      fprintf(stderr, "tubes: the output '%s' is a directory: give a file name (&run output or -o)\n", cfg.output);
-    if (agree(isdir ? EXIT_IO : 0)) return EXIT_IO;
+    int rc = g_rank == 0 ? check_outputs(input, &cfg, &where) : 0;
+    if (agree(rc)) return rc;
   }
 
   /* the model, the box and the saddle (a saddle that does not exist is bad input): before the
@@ -294,10 +382,13 @@ static int run_main(int argc, char **argv) {
     return EXIT_BADINPUT;
   }
   h5_attr_long(f, "exit_status", status);
+  errno = 0;
   int committed = h5_commit(f, tmp, cfg.output);
+  int committed_errno = errno;
   g_have_tmp = 0;                     /* renamed (or removed by h5_commit on failure) */
   if (committed != 0) {
-    fprintf(stderr, "tubes: cannot rename '%s' to '%s'\n", tmp, cfg.output);
+    fprintf(stderr, "tubes: cannot rename '%s' to '%s': %s; no output file was left\n", tmp, cfg.output,
+            committed_errno ? strerror(committed_errno) : "HDF5 could not close it");
     return EXIT_IO;
   }
   printf("wrote %s\n", cfg.output);
