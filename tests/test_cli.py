@@ -412,3 +412,21 @@ def test_documented_defaults_are_the_defaults(tmp_path, tubes_exe):
         compared += 1
         assert want == got, f"{where}: &{g} {var}: stated default {text!r}, the reader's {effective[g][var]}"
     assert compared >= 100, compared
+
+
+@pytest.mark.parametrize("t_end,dt_out,times", [(0.3, 0.1, [0, 0.1, 0.2, 0.3]), (1.0, 2.0, [0, 1.0]),
+                                                (1.0, 0.3, [0, 0.3, 0.6, 0.9, 1.0])])
+def test_the_trajectory_is_sampled_at_its_end(tmp_path, t_end, dt_out, times):
+    """The end is a sample whatever dt_out: 3 * 0.1 > 0.3 in floating point dropped it, and a
+    dt_out beyond t_end gave the start alone ('to t = 0 s'). The end's state is the integration's
+    own (a second run straight to t_end, sampled at its ends only, gives the same bits)."""
+    (tmp_path / "t.nml").write_text(f"&run scenes = 'trajectory' /\n&trajectory t_end = {t_end}, dt_out = {dt_out} /\n")
+    r = run_tubes(["t.nml", "-o", "t.h5"], tmp_path)
+    assert r.returncode == 0 and f"to t = {t_end:g} s: {len(times)} samples" in r.stdout, r.stdout + r.stderr
+    (tmp_path / "e.nml").write_text(f"&run scenes = 'trajectory' /\n&trajectory t_end = {t_end}, dt_out = {2 * t_end} /\n")
+    assert run_tubes(["e.nml", "-o", "e.h5"], tmp_path).returncode == 0
+    with h5py.File(tmp_path / "t.h5") as f, h5py.File(tmp_path / "e.h5") as g:
+        t = f["trajectory/t"][:]
+        assert np.allclose(t, times, rtol=0, atol=1e-15) and t[-1] == t_end
+        assert list(g["trajectory/t"][:]) == [0, t_end]
+        assert np.array_equal(f["trajectory/state"][-1], g["trajectory/state"][-1])

@@ -92,7 +92,7 @@ const nml_var tubes_nml_vars[] = {
     {"trajectory", "at_rest", NML_LOGICAL, 1, "-", ".true.", ".true., .false.",
      "start from rest at (x0, y0)"},
     {"trajectory", "t_end", NML_REAL, 1, "s", "10", ">= 0", "final time"},
-    {"trajectory", "dt_out", NML_REAL, 1, "s", "0.01", "> 0", "sample spacing of the output"},
+    {"trajectory", "dt_out", NML_REAL, 1, "s", "0.01", "> 0", "sample spacing of the output (t_end is always the last sample)"},
     {"trajectory", "section", NML_STRING, 1, "-", "'none'", "none, U1-, U1+, U1, theta, x, y",
      "Poincare section whose crossings are recorded (docs/events.md)"},
     {"trajectory", "section_angle", NML_REAL, 1, "deg", "45", "-360 .. 360", "section = 'theta': the ray's angle"},

@@ -229,7 +229,7 @@ contains
     end if
     spec = sec
     spec%max_crossings = max(sec%max_crossings, 1)
-    call obs%start(0.0_wp, dt_out, x0, nmax)
+    call obs%start(0.0_wp, dt_out, x0, nmax, t_end=t_end)
     call run_integration(system, params, x0, t_end, method, rtol, atol, h, max_steps, mopts, spec, &
                          obs, log, counters, c_damp, stat)
     n = obs%n
