@@ -134,6 +134,13 @@ void tubes_status_message(int code, char *buf, int len);
 int tubes_model_natural(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                         int *natural);
 
+/* *quadratic = 1 if H is quadratic in the momenta on the plane q_index = value (index 1 or 2) of a
+ * 2-DOF model, over the range of the other coordinate a plane section searches (the box lo, hi
+ * widened by half its width on each side): the plane section's premise (docs/tubes.md). */
+int tubes_plane_quadratic(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                          const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int index, double value,
+                          int *quadratic);
+
 /* Energy H(x) of the state x[n] (n = 2 N) on the conservative model. */
 int tubes_energy(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], int n,
                  const double x[], double *energy);

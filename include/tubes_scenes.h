@@ -24,6 +24,7 @@ typedef struct {
   const char *input;                               /* the input file, for messages */
   int eq_saddle_line, orb_saddle_line;             /* where &equilibria / &orbits saddle were set */
   int method_line;                                 /* where &integrator method was set */
+  int scenes_line, sec_kind_line;                  /* where &run scenes, &section kind were set */
   int method;                                      /* its TUBES_METHOD_* ('auto' without a Taylor kernel: DOP853) */
   hid_t file;    /* rank 0: the output file; other MPI ranks: an in-memory scratch file */
   int rank;      /* MPI rank (0 without MPI): only rank 0 writes files */

@@ -310,3 +310,48 @@ def test_cr3bp_plane_section_gyroscopic_area_and_transit(tmp_path):
     mc = f["montecarlo"].attrs
     assert abs(mc["fraction"] - mc["p_trans"]) < 4 * mc["std_error"]
     assert mc["misclassified"] == 0
+
+
+# ---------------------------------------------------------------- scenes that do not apply
+
+NONQUAD = ("&model system = 'expression', hamiltonian = '(px^2 + py^2)/2 + px^2*py^2/2 + 0.8*px*py^2"
+           " - x^2/2 + x^4/4 + y^2/2' /\n&equilibria box = 2 /\n&orbits saddle_near = 0, 0 /\n")
+
+
+@pytest.mark.parametrize("text,words", [
+    # a plane section's region is {D(p_s) >= 0}, D quadratic in p_s: wrong for this H (A_E was 7 %
+    # off the area of {min over px of H <= E}, exit 0)
+    (NONQUAD + "&section kind = 'plane', index = 1, value = -0.5, direction = 1 /\n&run scenes = 'transition' /\n"
+     "&transition de = 0.05 /\n", ["m.nml:4: &section kind = 'plane'", "quadratic in the momenta", "'transition'"]),
+    # the section scenes of a 3-DOF model (exit 2 with 'does not meet a bounded region' before)
+    ("&model system = 'cr3bp_spatial' /\n&run scenes = 'equilibria', 'tubes' /\n"
+     "&section kind = 'plane', index = 1, value = 0.8, direction = 1 /\n",
+     ["m.nml:2: &run scenes: 'tubes'", "2 degrees of freedom", "has 3"]),
+    # orbits of a 1-DOF model (exit 4, 'did not converge', before)
+    ("&model system = 'expression', hamiltonian = 'px^2/2 - x^2/2 + x^4/4', coordinates = 'x', momenta = 'px' /\n"
+     "&run scenes = 'orbits' /\n&orbits saddle_near = 0 /\n", ["m.nml:2: &run scenes: 'orbits'", "1 degree of freedom"]),
+])
+def test_a_scene_that_does_not_apply_to_the_model_is_refused(tmp_path, text, words):
+    (tmp_path / "m.nml").write_text(text)
+    r = run_tubes(["m.nml", "-o", "out.h5"], tmp_path)
+    assert r.returncode == 1 and all(w in r.stderr for w in words), r.stderr
+    assert r.stdout == "" or "model:" in r.stdout                 # refused before any scene's work
+    assert not (tmp_path / "out.h5").exists()
+
+
+def test_a_quadratic_plane_section_is_still_accepted(tmp_path):
+    """The check passes what it should: the same H without its quartic momentum terms (natural)."""
+    text = NONQUAD.replace(" + px^2*py^2/2 + 0.8*px*py^2", "")
+    r, f = run(tmp_path, text + "&section kind = 'plane', index = 1, value = -0.5, direction = 1 /\n"
+               "&run scenes = 'transition' /\n&transition de = 0.05 /\n")
+    assert 0 < f["transition/p_trans"][0] < 1
+
+
+@pytest.mark.parametrize("model", ["system = 'rolling_ball', beta = 0",
+                                   "system = 'expression', hamiltonian = '(px^2 + py^2)/2 + x^2 + y^2'"])
+def test_equilibria_alone_need_no_saddle(tmp_path, model):
+    """Listing the equilibria of a model without a rank-1 saddle is no failure (exit 2 before: the
+    default saddle, never asked for, was missing)."""
+    r, f = run(tmp_path, f"&model {model} /\n&run scenes = 'equilibria' /\n")
+    assert list(f["equilibria/morse_index"][:]) == [0] and "saddle" not in f
+    assert "no rank-1 saddle named" in r.stdout

@@ -21,7 +21,8 @@ module tubes_capi
   use tubes_sampler, only: sampler_t
   use tubes_orbits, only: orbit_t, orbit_opts_t
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
-  use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE
+  use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE, &
+                                 plane_search_range, plane_quadratic_in_p
   use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t
   use tubes_flux, only: flux_result_t, flux_leading_order, flux_sampled
   use tubes_normal_form, only: nf_result_t, normal_form_flux, NF_NPTS
@@ -146,6 +147,28 @@ contains
     if (stat /= TUBES_OK) return
     natural = merge(1, 0, model%is_natural())
   end function c_model_natural
+
+  !> 1 if H is quadratic in the momenta on the plane q_index = value of a 2-DOF model, over the
+  !> s range a plane section searches (the box lo, hi widened): the plane section's premise.
+  integer(c_int) function c_plane_quadratic(system, params, lo, hi, sec_index, value, quadratic) &
+      result(stat) bind(C, name='tubes_plane_quadratic')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: sec_index
+    real(c_double), value :: value
+    integer(c_int), intent(out) :: quadratic
+    class(hamiltonian_t), allocatable :: model
+    real(wp) :: s_lo, s_hi
+    quadratic = 0
+    call model_of(system, params, model, stat)
+    if (stat /= TUBES_OK) return
+    if (model%ndof() /= 2 .or. sec_index < 1 .or. sec_index > 2) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    call plane_search_range(lo(1:2), hi(1:2), int(sec_index), s_lo, s_hi)
+    quadratic = merge(1, 0, plane_quadratic_in_p(model, int(sec_index), value, s_lo, s_hi))
+  end function c_plane_quadratic
 
   !> Can method = 'taylor' integrate (system, params) at relative tolerance eps? Its kernel is
   !> built or loaded now (src/integrators/tubes_taylor.f90 taylor_check); on failure TUBES_ENOJET

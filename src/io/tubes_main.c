@@ -288,6 +288,8 @@ static int run_main(int argc, char **argv) {
   run.eq_saddle_line = nml_line(&where, "equilibria", "saddle");
   run.orb_saddle_line = nml_line(&where, "orbits", "saddle");
   run.method_line = nml_line(&where, "integrator", "method");
+  run.scenes_line = nml_line(&where, "run", "scenes");
+  run.sec_kind_line = nml_line(&where, "section", "kind");
   run.rank = g_rank;
   run.nranks = g_nranks;
   run.seeds = tubes_seed_stores_new();  /* what later scenes take from earlier ones: the

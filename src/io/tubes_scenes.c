@@ -177,6 +177,61 @@ static int degenerate_ok(const tubes_config_t *c) {
   return 1;
 }
 
+static double sec_angle(const tubes_config_t *c) { return c->sec_angle * M_PI / 180; }
+static int sec_is_ray(const tubes_config_t *c) { return !strcmp(c->sec_kind, "ray"); }
+
+/* Whether the run needs a saddle: &equilibria saddle or &orbits saddle_near given, or a scene
+ * other than equilibria and trajectory. */
+static int saddle_asked(const tubes_config_t *c) {
+  int need = c->saddle[0] != 0 || c->orb_use_near;
+  for (int k = 0; k < TUBES_NSCENES; k++) {
+    const char *sc = c->scenes[k];
+    need |= sc[0] && strcmp(sc, "equilibria") && strcmp(sc, "trajectory");
+  }
+  return need;
+}
+
+/* The scenes the input asks for make sense for the model: those on a 2-DOF Poincare section
+ * (tubes, transition, montecarlo, sections) need 2 degrees of freedom, and a plane section H
+ * quadratic in the momenta (its region is {D(p_s) >= 0}, docs/tubes.md); orbits need at least 2.
+ * Before any work or output: 0, or EXIT_BADINPUT with the reason. */
+static int scenes_apply(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  static const char *on_section[] = {"tubes", "transition", "montecarlo", "sections"};
+  const char *sec = NULL;
+  int orbits = 0;
+  for (int k = 0; k < TUBES_NSCENES; k++) {
+    for (int j = 0; j < 4; j++)
+      if (!sec && !strcmp(c->scenes[k], on_section[j])) sec = on_section[j];
+    orbits |= !strcmp(c->scenes[k], "orbits");
+  }
+  if (sec && run->ndof != 2) {
+    fprintf(stderr, "%s:%d: &run scenes: '%s' cuts tubes with a Poincare section of a model with 2 degrees of "
+            "freedom; system %s has %d (with %d: equilibria, orbits (&orbits family), flux)\n", run->input,
+            run->scenes_line, sec, run->label, run->ndof, run->ndof);
+    return EXIT_BADINPUT;
+  }
+  if (orbits && run->ndof < 2) {
+    fprintf(stderr, "%s:%d: &run scenes: 'orbits' follows the Lyapunov orbits of a saddle's centre directions: "
+            "system %s has 1 degree of freedom and none (its saddles have no periodic orbits)\n", run->input,
+            run->scenes_line, run->label);
+    return EXIT_BADINPUT;
+  }
+  if (sec && !sec_is_ray(c)) {
+    int quadratic = 0;
+    if (tubes_plane_quadratic(run->system, run->params, c->box_lo, c->box_hi, c->sec_index, c->sec_value,
+                              &quadratic) < 0 || !quadratic) {
+      fprintf(stderr, "%s:%d: &section kind = 'plane': the plane q%d = %g needs H quadratic in the momenta "
+              "(H = 1/2 p^T A(q) p + b(q) . p + V(q), A positive definite: its region on the section is "
+              "where a quadratic in p has a root), and H of %s is not, or not defined, along it (checked "
+              "over the &equilibria box); the scenes on a section ('%s') cannot be computed for this model\n",
+              run->input, run->sec_kind_line, c->sec_index, c->sec_value, run->label, sec);
+      return EXIT_BADINPUT;
+    }
+  }
+  return 0;
+}
+
 int run_setup(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   int np = 0, si = 0, sd = 0;
@@ -200,6 +255,8 @@ int run_setup(tubes_run_t *run) {
     fprintf(stderr, "tubes: &model: the parameters are out of range for system %s\n", run->label);
     return EXIT_BADINPUT;
   }
+  int rc = scenes_apply(run);
+  if (rc) return rc;
   run->method = tubes_method_code(c->method);
   int integrates = 0;                /* a scene that integrates with &integrator's method */
   for (int k = 0; k < TUBES_NSCENES; k++)
@@ -226,12 +283,7 @@ int run_setup(tubes_run_t *run) {
   memset(run->saddle, 0, sizeof run->saddle);
   snprintf(run->saddle, sizeof run->saddle, "%s", c->orb_saddle);
   /* the saddle: needed by every scene but equilibria and trajectory; checked here, once */
-  int need = c->saddle[0] != 0;
-  for (int k = 0; k < TUBES_NSCENES; k++) {
-    const char *sc = c->scenes[k];
-    need |= sc[0] && strcmp(sc, "equilibria") && strcmp(sc, "trajectory");
-  }
-  if (!need && !c->orb_use_near) return 0;
+  if (!saddle_asked(c)) return 0;
   static eqlist_t L;
   int st = find_eqs(run, &L);
   if (st < 0) {
@@ -356,6 +408,10 @@ int scene_equilibria(tubes_run_t *run) {
     printf("saddle %s: E_e = %.10g, lambda = %.10g, degenerate (a centre frequency is 0: a mode without "
            "quadratic term): no Lyapunov orbits, no leading-order flux; the flux scene samples it\n", nm[isad],
            fabs(L.en[isad]) < 1e-300 ? 0.0 : L.en[isad], L.lam[isad]);
+    return 0;
+  }
+  if ((isad < 0 || !L.rank1[isad]) && !saddle_asked(c)) {   /* the default saddle, not asked for: none */
+    printf("no rank-1 saddle named %s in the box: /saddle is not written\n", want);
     return 0;
   }
   if (isad < 0 || !L.rank1[isad]) {
@@ -682,8 +738,6 @@ static int saddle_props(tubes_run_t *run, double *ee, double *tpo) {
   return 0;
 }
 
-static double sec_angle(const tubes_config_t *c) { return c->sec_angle * M_PI / 180; }
-static int sec_is_ray(const tubes_config_t *c) { return !strcmp(c->sec_kind, "ray"); }
 /* The section's arguments of the C API: kind, index, level, direction (include/tubes.h). */
 #define SECTION(c) (sec_is_ray(c) ? 1 : 2), (c)->sec_index, (sec_is_ray(c) ? sec_angle(c) : (c)->sec_value), \
                    (sec_is_ray(c) ? (c)->sec_pth_sign : (c)->sec_direction)

@@ -24,7 +24,7 @@ module tubes_flux
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENARROW
-  use tubes_hamiltonian, only: hamiltonian_t, natural_t
+  use tubes_hamiltonian, only: hamiltonian_t, quadratic_parts, veff, quadratic_in_p
   use tubes_equilibria, only: equilibrium_t
   use tubes_integrator, only: integrator_t, observer_t, propagate
   use tubes_methods, only: integ_choice_t, make_integrator
@@ -178,86 +178,6 @@ contains
     stat = TUBES_OK
     outcome = obs%outcome
   end subroutine outcome_of
-
-  !> H(q, p) = 1/2 (p - pc)^T A (p - pc) + V_eff(q) for a model quadratic in the momenta: A(q) =
-  !> d2H/dp2, pc(q) = -A^-1 dH/dp(q, 0), V_eff = H(q, 0) - 1/2 pc^T A pc (natural models: their own
-  !> A, pc = 0, V; gyroscopic ones, the CR3BP: V_eff is the Jacobi effective potential). stat /= 0
-  !> where H is not defined at (q, 0).
-  subroutine quadratic_parts(model, q, a, pc, v, stat)
-    class(hamiltonian_t), intent(in) :: model
-    real(wp), intent(in) :: q(:)
-    real(wp), intent(out) :: a(:, :), pc(:), v
-    integer, intent(out) :: stat
-    real(wp) :: x(2*size(q)), g(2*size(q)), h(2*size(q), 2*size(q)), l(size(q), size(q))
-    integer :: nd, i, j
-    nd = size(q)
-    stat = 0
-    select type (model)
-    class is (natural_t)
-      call model%kinetic_matrix(q, a)
-      pc = 0
-      v = model%potential(q)
-      return
-    end select
-    x = 0
-    x(1:nd) = q
-    call model%gradient(x, g, stat)
-    if (stat /= 0) return
-    call model%hessian(x, h, stat)
-    if (stat /= 0) return
-    a = h(nd + 1:, nd + 1:)
-    ! pc = -A^-1 b by Cholesky (A is positive definite for a kinetic energy)
-    l = 0
-    do j = 1, nd
-      l(j, j) = a(j, j) - sum(l(j, 1:j - 1)**2)
-      if (.not. l(j, j) > 0) then
-        stat = -1
-        return
-      end if
-      l(j, j) = sqrt(l(j, j))
-      do i = j + 1, nd
-        l(i, j) = (a(i, j) - sum(l(i, 1:j - 1)*l(j, 1:j - 1)))/l(j, j)
-      end do
-    end do
-    pc = -g(nd + 1:)
-    do i = 1, nd
-      pc(i) = (pc(i) - sum(l(i, 1:i - 1)*pc(1:i - 1)))/l(i, i)
-    end do
-    do i = nd, 1, -1
-      pc(i) = (pc(i) - sum(l(i + 1:nd, i)*pc(i + 1:nd)))/l(i, i)
-    end do
-    v = model%energy(x) - dot_product(pc, matmul(a, pc))/2
-  end subroutine quadratic_parts
-
-  !> V_eff(q) (quadratic_parts); +huge where H is not defined.
-  real(wp) function veff(model, q) result(v)
-    class(hamiltonian_t), intent(in) :: model
-    real(wp), intent(in) :: q(:)
-    real(wp) :: a(size(q), size(q)), pc(size(q))
-    integer :: st
-    call quadratic_parts(model, q, a, pc, v, st)
-    if (st /= 0) v = huge(1.0_wp)
-  end function veff
-
-  !> Whether H(q, p) is the quadratic of quadratic_parts in p at q (three momenta checked to
-  !> 1e-9 relative): the sampling's premise.
-  logical function quadratic_in_p(model, q) result(ok)
-    class(hamiltonian_t), intent(in) :: model
-    real(wp), intent(in) :: q(:)
-    real(wp) :: a(size(q), size(q)), pc(size(q)), v, x(2*size(q)), p(size(q)), hq
-    integer :: st, k, nd, i
-    nd = size(q)
-    call quadratic_parts(model, q, a, pc, v, st)
-    ok = st == 0
-    if (.not. ok) return
-    do k = 1, 3
-      p = [(0.3_wp*k + 0.17_wp*i, i = 1, nd)]
-      x(1:nd) = q
-      x(nd + 1:) = p
-      hq = dot_product(p - pc, matmul(a, p - pc))/2 + v
-      ok = ok .and. abs(model%energy(x) - hq) <= 1.0e-9_wp*max(1.0_wp, abs(hq), abs(v))
-    end do
-  end function quadratic_in_p
 
   !> The NHIM's reach along n at de (flux_result_t%nhim_reach), from the linearisation.
   pure real(wp) function nhim_reach(sad, nd, de, n) result(ext)

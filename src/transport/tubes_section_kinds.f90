@@ -12,7 +12,7 @@
 module tubes_section_kinds
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_ptr, c_loc, c_f_pointer, c_funptr, c_funloc
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: hamiltonian_t
+  use tubes_hamiltonian, only: hamiltonian_t, quadratic_parts, quadratic_in_p
   use tubes_ball, only: ball_t
   use tubes_integrator, only: event_t, plane_t
   use tubes_section_events, only: theta_line_t, polar_canonical
@@ -51,7 +51,7 @@ module tubes_section_kinds
     procedure :: area => sec_area               !! A_E, or dA_E/dE
   end type poincare_t
 
-  public :: make_ray_section, make_plane_section
+  public :: make_ray_section, make_plane_section, plane_search_range, plane_quadratic_in_p
 
 
 contains
@@ -78,6 +78,7 @@ contains
     integer, intent(out) :: stat
     stat = TUBES_EINPUT
     if (model%ndof() /= 2 .or. k < 1 .or. k > 2 .or. abs(direction) /= 1 .or. .not. s_hi > s_lo) return
+    if (.not. plane_quadratic_in_p(model, k, c, s_lo, s_hi)) return   ! the region's D(p_s) would be wrong
     sec%kind = SEC_PLANE
     allocate (sec%model, source=model)
     sec%k = k
@@ -88,6 +89,43 @@ contains
     sec%s_hi = s_hi
     stat = TUBES_OK
   end subroutine make_plane_section
+
+  !> The interval of s = q_j (j /= k) searched for the region of the plane q_k = c: the
+  !> &equilibria box [lo(j), hi(j)] widened by half its width on each side.
+  pure subroutine plane_search_range(lo, hi, k, s_lo, s_hi)
+    real(wp), intent(in) :: lo(:), hi(:)
+    integer, intent(in) :: k
+    real(wp), intent(out) :: s_lo, s_hi
+    integer :: j
+    j = 3 - k
+    s_lo = lo(j) - (hi(j) - lo(j))/2
+    s_hi = hi(j) + (hi(j) - lo(j))/2
+  end subroutine plane_search_range
+
+  !> Whether H is quadratic in the momenta on the plane q_k = c of a 2-DOF model (the premise of
+  !> the plane's region {D(p_s) >= 0}): quadratic_in_p at 17 points of s in [s_lo, s_hi] where H
+  !> is defined there (a singular point, a primary of the CR3BP, is passed over); .false. if it is
+  !> defined at none.
+  logical function plane_quadratic_in_p(model, k, c, s_lo, s_hi) result(ok)
+    class(hamiltonian_t), intent(in) :: model
+    integer, intent(in) :: k
+    real(wp), intent(in) :: c, s_lo, s_hi
+    integer, parameter :: NPT = 17
+    real(wp) :: q(2), a(2, 2), pc(2), v
+    integer :: i, st, ndef
+    ok = .false.
+    if (model%ndof() /= 2 .or. k < 1 .or. k > 2) return
+    ndef = 0
+    do i = 0, NPT - 1
+      q(k) = c
+      q(3 - k) = s_lo + (s_hi - s_lo)*(i + 0.5_wp)/NPT
+      call quadratic_parts(model, q, a, pc, v, st)
+      if (st /= 0) cycle
+      ndef = ndef + 1
+      if (.not. quadratic_in_p(model, q)) return
+    end do
+    ok = ndef > 0
+  end function plane_quadratic_in_p
 
   !> (A subroutine, not a function: gfortran 12 leaks a polymorphic allocatable function result
   !> after the assignment; make sanitize found 1 MB per paper run.)

@@ -13,7 +13,8 @@ module tubes_study
   use tubes_models, only: make_model, MAX_PARAMS, MAX_DOF
   use tubes_equilibria, only: equilibrium_t, find_equilibria
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t
-  use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_PLANE, SEC_RAY
+  use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, plane_search_range, &
+                                 SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
   use tubes_transport, only: gate_spec_t, monte_carlo, poincare_map
   use tubes_status, only: TUBES_EOUTSIDE
@@ -283,7 +284,7 @@ contains
     integer, intent(out) :: stat
     type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
     integer :: k, iw, j
-    real(wp) :: best, d, span
+    real(wp) :: best, d, s_lo, s_hi
     call setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat, stores=stores)
     if (stat /= TUBES_OK) return
     stat = TUBES_EINPUT
@@ -313,9 +314,8 @@ contains
     case (SECTION_PLANE)
       if (sec_index < 1 .or. sec_index > 2) return
       j = 3 - sec_index
-      span = hi(j) - lo(j)
-      call make_plane_section(psec, model, sec_index, level, dir, eqs(isad)%q(j), lo(j) - span/2, &
-                              hi(j) + span/2, stat)
+      call plane_search_range(lo, hi, sec_index, s_lo, s_hi)
+      call make_plane_section(psec, model, sec_index, level, dir, eqs(isad)%q(j), s_lo, s_hi, stat)
       if (stat /= TUBES_OK) return
       call psec%set_energy(eqs(isad)%energy + de, 0.0_wp, stat)
       if (stat /= TUBES_OK) return
