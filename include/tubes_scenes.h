@@ -25,6 +25,7 @@ typedef struct {
   int eq_saddle_line, orb_saddle_line;             /* where &equilibria / &orbits saddle were set */
   int method_line;                                 /* where &integrator method was set */
   int scenes_line, sec_kind_line;                  /* where &run scenes, &section kind were set */
+  const void *where;                               /* the input's nml_where (tubes_input.h): lines */
   int method;                                      /* its TUBES_METHOD_* ('auto' without a Taylor kernel: DOP853) */
   hid_t file;    /* rank 0: the output file; other MPI ranks: an in-memory scratch file */
   int rank;      /* MPI rank (0 without MPI): only rank 0 writes files */

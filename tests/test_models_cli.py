@@ -355,3 +355,18 @@ def test_equilibria_alone_need_no_saddle(tmp_path, model):
     r, f = run(tmp_path, f"&model {model} /\n&run scenes = 'equilibria' /\n")
     assert list(f["equilibria/morse_index"][:]) == [0] and "saddle" not in f
     assert "no rank-1 saddle named" in r.stdout
+
+
+def test_a_de_the_energy_cannot_resolve_is_refused(tmp_path):
+    """E = E_e + dE is known to about 16 ulps of |E_e|: with the ball's h0 = 1e10 cm (E_e ~ 1e13)
+    dE = 1 was one of 0.035 and the action 0.3 % off, exit 0. Refused now; a moderate offset
+    (h0 = 1e5: dE known to 4e-7 of itself) still gives h0 = 0's action (the offset does not enter
+    Hamilton's equations) to that accuracy."""
+    orb = "&run scenes = 'orbits' /\n&orbits saddle_near = -0.33, 6.1, de = 1, 10, 100 /\n"
+    (tmp_path / "m.nml").write_text("&model h0 = 1e10 /\n" + orb)
+    r = run_tubes(["m.nml", "-o", "out.h5"], tmp_path)
+    assert r.returncode == 1 and "m.nml:3: &orbits de = 1: below what the energy resolves" in r.stderr, r.stderr
+    assert not (tmp_path / "out.h5").exists()
+    _, f = run(tmp_path, "&model h0 = 1e5 /\n" + orb, name="a.h5")
+    _, g = run(tmp_path, orb, name="b.h5")
+    assert np.allclose(f["orbits/action"][:], g["orbits/action"][:], rtol=1e-6, atol=0)

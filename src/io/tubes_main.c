@@ -289,6 +289,7 @@ static int run_main(int argc, char **argv) {
   run.orb_saddle_line = nml_line(&where, "orbits", "saddle");
   run.method_line = nml_line(&where, "integrator", "method");
   run.scenes_line = nml_line(&where, "run", "scenes");
+  run.where = &where;
   run.sec_kind_line = nml_line(&where, "section", "kind");
   run.rank = g_rank;
   run.nranks = g_nranks;

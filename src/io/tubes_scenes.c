@@ -2,6 +2,7 @@
 #include "tubes_scenes.h"
 #include "tubes_h5.h"
 #include "tubes_input.h"
+#include <float.h>
 #include <math.h>
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -232,6 +233,34 @@ static int scenes_apply(tubes_run_t *run) {
   return 0;
 }
 
+/* Every dE the scenes ask for is resolvable against the saddle's energy E_e: E = E_e + dE is
+ * known to about 16 ulps of |E_e| (H's rounding); a dE below 1e6 times that would be known to
+ * worse than 1e-6 of itself (an additive constant in H, the ball's h0 = 1e10, made dE = 1 one of
+ * 0.003 and the action 0.3 % off with exit 0). 0, or EXIT_BADINPUT with the reason. */
+static int de_resolvable(const tubes_run_t *run, double ee) {
+  const tubes_config_t *c = run->cfg;
+  const struct { const char *scene, *group; const double *de; int n; } lists[] = {
+      {"orbits", "orbits", c->orb_de, c->orb_nde},      {"tubes", "tubes", c->tub_de, c->tub_nde},
+      {"transition", "transition", c->tra_de, c->tra_nde}, {"montecarlo", "montecarlo", &c->mc_de, 1},
+      {"sections", "sections", c->pm_de, c->pm_nde},    {"flux", "flux", c->flux_de, c->flux_nde}};
+  double res = 16 * DBL_EPSILON * fabs(ee), need = 1e6 * res;
+  for (size_t j = 0; j < sizeof lists / sizeof lists[0]; j++) {
+    int asked = 0;
+    for (int k = 0; k < TUBES_NSCENES; k++) asked |= !strcmp(c->scenes[k], lists[j].scene);
+    if (!asked) continue;
+    for (int i = 0; i < lists[j].n; i++)
+      if (fabs(lists[j].de[i]) < need) {
+        fprintf(stderr, "%s:%d: &%s de = %g: below what the energy resolves at the saddle %s: E_e = %.10g is "
+                "known to about %.2g (16 ulps), and E_e + dE only to a relative %.2g of dE; dE must be at least %.3g "
+                "(16 ulps a millionth of it), or H's additive constant smaller (a large constant term: the ball's h0)\n",
+                run->input, nml_line(run->where, lists[j].group, "de"), lists[j].group, lists[j].de[i], run->saddle,
+                ee, res, res / fabs(lists[j].de[i]), need);
+        return EXIT_BADINPUT;
+      }
+  }
+  return 0;
+}
+
 int run_setup(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   int np = 0, si = 0, sd = 0;
@@ -315,14 +344,14 @@ int run_setup(tubes_run_t *run) {
       return EXIT_BADINPUT;
     }
     snprintf(run->saddle, sizeof run->saddle, "%s", L.names + 8 * best);
-    return 0;
+    return de_resolvable(run, L.en[best]);
   }
   int k = find_named(&L, run->saddle);
   if (k < 0 || !(L.rank1[k] == 1 || (L.rank1[k] == 2 && degenerate_ok(c)))) {
     report_saddle(run, &L, "orbits", run->saddle, run->orb_saddle_line);
     return EXIT_BADINPUT;
   }
-  return 0;
+  return de_resolvable(run, L.en[k]);
 }
 
 int scene_equilibria(tubes_run_t *run) {

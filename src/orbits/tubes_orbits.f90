@@ -245,6 +245,14 @@ contains
     out%r(:, k) = [y, reshape(phi, [d*d]), fy]
   end subroutine segment_item
 
+  !> The scale of the energy residual H(x0) - E of a Newton step: |E|, but at least dE (E may be 0)
+  !> and at most 1e4 dE: an additive constant in H (the ball's h0, De Leon-Berne's eps_s) must not
+  !> loosen it (relative to |E| = 1e10, tol 1e-11 let dE = 1 drift by 0.1, and the action by 0.3 %).
+  pure real(wp) function energy_scale(energy, de) result(s)
+    real(wp), intent(in) :: energy, de
+    s = max(min(max(abs(energy), abs(de)), 1.0e4_wp*abs(de)), tiny(1.0_wp))
+  end function energy_scale
+
   !> Single shooting of an orbit symmetric under the model's reversor R (for natural systems
   !> R: p -> -p, the brake orbit): unknowns the even components of x0 (R = +1; the odd ones are
   !> 0) and the half period tau, conditions: the odd components of x(tau) vanish and H(x0) = E.
@@ -298,7 +306,7 @@ contains
       do k = 1, no
         res = max(res, abs(r(k))/pscale)
       end do
-      res = max(res, abs(r(no + 1))/abs(energy))
+      res = max(res, abs(r(no + 1))/energy_scale(energy, de))
       if (newton_met(orb, it, res, opts%tol)) exit
       jac = 0
       jac(1:no, 1:nf) = phi(od, ev)
@@ -408,7 +416,7 @@ contains
       do i = 1, n
         res = max(res, maxval(abs(b(d*(i - 1) + 1:d*i))/scale))
       end do
-      res = max(res, abs(b(m - 1))/abs(energy))
+      res = max(res, abs(b(m - 1))/energy_scale(energy, de))
       if (newton_met(orb, it, res, opts%tol)) exit
       do i = 1, m            ! equilibrate rows (the root is unchanged: the system is consistent)
         rowmax = maxval(abs(a(i, :)))
