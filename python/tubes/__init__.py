@@ -422,27 +422,41 @@ def _box(model: Model, box, box_center):
     return lo, hi
 
 
-def equilibria(model: Model | None = None, box=None, n_grid: int = 41, box_center=None) -> dict:
-    """Equilibria with q in the box (half-widths per coordinate, or one for all; default the
-    system's) around box_center: dict of arrays q (n, N), state (n, 2N), x, y (q1, q2), height,
-    energy, morse_index (the index: eigenvalues with positive real part), rank1, name,
-    lambda, omega (rank-1 saddles; omega the lowest centre frequency), omegas (n, N-1),
-    grad_norm (Newton's residual: |grad V| for natural systems, else |dx/dt|), eigenvectors
-    (n, 2N, 2N)."""
+def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, box_center=None) -> dict:
+    """Equilibria with q in the search box (as the equilibria scene; any number of degrees of
+    freedom N, 1 to 3). box: half-widths per coordinate, or one for all, > 0 [units of q: cm for
+    the ball]; box_center: its centre (N values); n_grid: Newton starts per axis, 2 .. 2001 with
+    n_grid^N <= 1e6. Defaults and ranges are &equilibria's, from the program's reader (the
+    system's box, n_grid 41; docs/input.md).
+
+    Returns a dict of arrays q (n, N), state (n, 2N), x, y (q1, q2; y NaN in 1 DOF), height,
+    energy, morse_index (the index: eigenvalues with positive real part), rank1, degenerate,
+    name, lambda, omega (rank-1 saddles; omega the lowest centre frequency, NaN in 1 DOF),
+    omegas (n, N-1), grad_norm (Newton's residual: |grad V| for natural systems, else |dx/dt|),
+    eigenvectors (n, 2N, 2N)."""
     model = model or Model()
-    lo, hi = _box(model, box, box_center)
+    for name, v in (("box", box), ("box_center", box_center)):
+        if v is not None and np.size(v) not in ((1, model.ndof) if name == "box" else (model.ndof,)):
+            raise ValueError(f"equilibria: {name} has {np.size(v)} values: allowed "
+                             + ("1 (every coordinate) or " if name == "box" else "") + f"{model.ndof} (one per coordinate)")
+    eqg = {k: v for k, v in (("box", box), ("box_center", box_center), ("n_grid", n_grid)) if v is not None}
+    # the input file's &equilibria: its defaults, ranges and messages (box > 0, n_grid^N <= 1e6)
+    st = _read_namelist([model._nml()] + (["&equilibria " + ", ".join(f"{k} = {_nml_value(v)}" for k, v in eqg.items())
+                                           + " /"] if eqg else []), "equilibria", {"model", "equilibria"})
+    lo, hi, n_grid = st["lo"], st["hi"], st["n_grid"]
     (stat, n, nd, q, p, h, e, grad, morse, rank1, names, lam, om, ev) = _lib().equilibria(
         model.name, model.params(), lo, hi, int(n_grid), model._stores())
     _check(stat, "equilibria")
     names = names.decode() if isinstance(names, bytes) else str(names)
     qq = q[:nd, :n].T.copy()
     st = np.concatenate([qq, p[:nd, :n].T], axis=1)
-    return {"q": qq, "state": st, "x": qq[:, 0].copy(), "y": qq[:, 1].copy(),
+    out = {"q": qq, "state": st, "x": qq[:, 0].copy(), "y": qq[:, 1].copy() if nd > 1 else np.full(n, np.nan),
             "height": h[:n].copy(), "energy": e[:n].copy(), "morse_index": morse[:n].copy(),
             "rank1": rank1[:n] == 1, "degenerate": rank1[:n] == 2, "name": [names[9 * k:9 * k + 9].strip() for k in range(n)],
-            "lambda": lam[:n].copy(), "omega": om[0, :n].copy(), "omegas": om[:nd - 1, :n].T.copy(),
-            "grad_norm": grad[:n].copy(),
+            "lambda": lam[:n].copy(), "omega": om[0, :n].copy() if nd > 1 else np.full(n, np.nan),
+            "omegas": om[:nd - 1, :n].T.copy(), "grad_norm": grad[:n].copy(),
             "eigenvectors": ev[:4 * nd * nd, :n].T.reshape(n, 2 * nd, 2 * nd).transpose(0, 2, 1).copy()}
+    return out
 
 
 def section_boundary(model: Model | None = None, de: float = 0.0, saddle: str | None = None,
@@ -524,6 +538,7 @@ def _read_namelist(lines: list[str], who: str, groups=None) -> dict:
         if groups:
             own = [m for m in msgs if not m.startswith("&") or m.split(":")[0][1:] in groups]
             msgs = own or msgs
+        msgs = list(dict.fromkeys(msgs))   # a message once
         raise ValueError(f"{who}: " + "\n".join(msgs or ["refused (no message)"]))
     return st
 
