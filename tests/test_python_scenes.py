@@ -184,7 +184,7 @@ def test_synthetic_experiment(tmp_path):
         assert np.array_equal(ex["truth"][k], g["truth"][k][:]), k
     for k in ("E_e", "damping_rate", "n_draws", "n_samples", "box", "rtol", "seed", "damping_ratio", "pixel"):
         assert ex[k] == g.attrs[k], k
-    with pytest.raises(ValueError, match="rolling ball"):
+    with pytest.raises(ValueError, match="it needs system = .rolling_ball. .this file.s system is .henon_heiles."):
         tubes.synthetic_experiment(tubes.Model(system="henon_heiles"))
     with pytest.raises(ValueError, match="widen"):
         tubes.synthetic_experiment(n_tracks=3, de_min=1e5, de_max=2e5, duration=1)   # beyond the box

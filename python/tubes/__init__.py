@@ -44,7 +44,7 @@ __all__ = ["Model", "TubesError", "DisagreementError", "MC_SIGMA", "Integrator",
            "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
            "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
            "orbit_family", "tube_cut", "transition", "monte_carlo", "poincare", "flux", "normal_form_map",
-           "load", "Result"]
+           "synthetic_experiment", "load", "Result"]
 
 
 class TubesError(RuntimeError):
@@ -97,6 +97,14 @@ class Model:
 
     def __init__(self, system: str = "rolling_ball", *, hamiltonian=None, coordinates=None, momenta=None,
                  constants=None, surface=None, height=None, **parameters):
+        if "spatial" in parameters:   # the input file's &model spatial (cr3bp only)
+            spatial = parameters.pop("spatial")
+            if system != "cr3bp":
+                raise ValueError(f"Model: spatial belongs to system 'cr3bp' (spatial=True is system='cr3bp_spatial'), "
+                                 f"not to system {system!r}")
+            if spatial not in (True, False):
+                raise ValueError(f"Model: spatial = {spatial!r}: allowed True (system 'cr3bp_spatial') or False")
+            system = "cr3bp_spatial" if spatial else system
         formula = _formula(system, hamiltonian, coordinates, momenta, constants, surface, height)
         object.__setattr__(self, "formula", formula)
         name = system
@@ -459,13 +467,28 @@ def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, 
     return out
 
 
-def section_boundary(model: Model | None = None, de: float = 0.0, saddle: str | None = None,
-                     section: dict | None = None, m: int = 400, box=None, n_grid: int = 41) -> dict:
-    """The energy surface's boundary on a section at E_e(saddle) + de (docs/tubes.md,
-    "Sections"): dict s (m,), p_min, p_max (m,), s_min, s_max. section: {"kind": "ray", "angle":
-    deg, "p_theta_sign": +-1} or {"kind": "plane", "index": k, "value": c, "direction": +-1};
-    default the system's section and saddle."""
+def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | None = None,
+                     section: dict | None = None, m: int = 400, box=None, n_grid: int = 41, *,
+                     de: float | None = None) -> dict:
+    """The energy surface's boundary on a section at E_e(saddle) + dE (docs/tubes.md,
+    "Sections"; 2 degrees of freedom). dE: the excess energy, >= 0, in the model's energy units
+    ((cm/s)^2 for the ball; default 0: the saddle's energy); ``de`` is its old name, deprecated.
+    saddle: a rank-1 saddle's name (default the system's, else the one nearest its saddle_near);
+    section: {"kind": "ray", "angle": deg, "p_theta_sign": +-1} or {"kind": "plane", "index": k,
+    "value": c, "direction": +-1}, default the system's; m: points on the boundary (>= 2); box,
+    n_grid: the equilibria's search box (as equilibria). Returns a dict s (m,), p_min, p_max
+    (m,), s_min, s_max."""
     model = model or Model()
+    if de is not None:
+        import warnings  # noqa: PLC0415
+        warnings.warn("section_boundary: de is deprecated, use dE (as the other functions)", DeprecationWarning,
+                      stacklevel=2)
+        dE = de
+    _need_2dof(model, "section_boundary")
+    if not (np.isfinite(dE) and dE >= 0):
+        raise ValueError(f"section_boundary: dE = {dE} is out of range: allowed >= 0 (finite), in the model's energy units")
+    if not (isinstance(m, (int, np.integer)) and m >= 2):
+        raise ValueError(f"section_boundary: m = {m!r} is out of range: allowed an integer >= 2")
     info = model.info
     sec = dict(info["section"])
     if section:
@@ -487,7 +510,7 @@ def section_boundary(model: Model | None = None, de: float = 0.0, saddle: str | 
         kind, index, level, dirn = 2, int(sec["index"]), float(sec["value"]), int(sec["direction"])
     stat, smin, smax, s, pmin, pmax = _lib().section_boundary(
         model.name, model.params(), lo, hi, int(n_grid), sad, kind, index, level, dirn,
-        float(de), int(m))
+        float(dE), int(m))
     _check(stat, "section_boundary")
     return {"s": np.asarray(s).copy(), "p_min": np.asarray(pmin).copy(),
             "p_max": np.asarray(pmax).copy(), "s_min": float(smin), "s_max": float(smax)}
@@ -1137,12 +1160,12 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
     release (n_tracks, 2), release_dE); and E_e, saddle, damping_rate [1/s], n_draws, n_samples
     (frames per track), box, rtol and the settings used."""
     model = model or Model()
-    if model.name != "rolling_ball":
-        raise ValueError(f"synthetic_experiment: the synthetic experiment is the rolling ball's (not {model.system!r})")
     ex = {k: v for k, v in (("n_tracks", n_tracks), ("duration", duration), ("camera_rate", camera_rate),
                              ("pixel", pixel), ("noise", noise), ("de_min", de_min), ("de_max", de_max),
                              ("damping_ratio", damping_ratio), ("seed", seed)) if v is not None}
-    st = _settings(model, saddle, experiment=ex, integrator=integrator, equilibria=equilibria)
+    # the program's reader refuses a model other than the ball on its four-well surface, with its message
+    st = _settings(model, saddle, who="synthetic_experiment", run={"scenes": "synthetic_experiment"}, experiment=ex,
+                   integrator=integrator, equilibria=equilibria)
     eq = _settings_equilibria(model, st)
     k = [i for i, n in enumerate(eq["name"]) if n == st["saddle"] and eq["rank1"][i]]
     if not k:
@@ -1177,9 +1200,27 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
             "seed": int(st["exp_seed"])}
 
 
+def _as_method(f):
+    """f(model, ...) as the Model method model.f(...): f's docstring and its signature without
+    the model (help(model.transition) shows the keywords, their defaults and the text)."""
+    import functools  # noqa: PLC0415
+    import inspect  # noqa: PLC0415
+
+    @functools.wraps(f)
+    def method(self, *args, **kwargs):
+        return f(self, *args, **kwargs)
+
+    sig = inspect.signature(f)
+    self_ = inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    method.__signature__ = sig.replace(parameters=[self_] + list(sig.parameters.values())[1:])
+    method.__doc__ = (f"model.{f.__name__}(...) is tubes.{f.__name__}(model, ...) (there, model=None is the "
+                      f"rolling ball, tubes.Model()):\n\n{inspect.cleandoc(f.__doc__)}")
+    return method
+
+
 for _f in (orbit_family, tube_cut, transition, monte_carlo, poincare, flux, equilibria, section_boundary,
            normal_form_map, synthetic_experiment):
-    setattr(Model, _f.__name__, lambda self, *a, _f=_f, **k: _f(self, *a, **k))
+    setattr(Model, _f.__name__, _as_method(_f))
 del _f
 
 
@@ -1225,7 +1266,9 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
               max_steps: int = 10_000_000, omega_bind: float = 0.0, solver: str = "newton",
               max_iter: int = 0, section: str | None = None, level: float = 0.0,
               direction: int = 0, stop_at_first: bool = False, max_crossings: int = 10_000) -> dict:
-    """Integrate from state0 = (x, y, px, py) at t = 0 to t_end with any method of METHODS.
+    """Integrate from state0 = (q, p) (2N components: (x, y, px, py) for the ball) at t = 0 to
+    t_end [the model's time units: s for the ball] with any method of METHODS (default model:
+    the ball).
 
     Samples every dt_out (default: only the end points). Fixed-step methods need h > 0;
     omega_bind is Tao's binding constant, solver and max_iter configure gauss*.
@@ -1234,8 +1277,11 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
     direction = sign of dx/dt or dy/dt or 0). Every crossing is recorded (on the integrator's
     dense output), up to max_crossings; stop_at_first ends the run at the first one.
 
-    Returns a dict: t (n,), state (n, 4), energy (n,), nfev, nsteps, nrejected, niter, and with
-    a section crossings = dict t (m,), state (m, 4), direction (m,), and for theta sections
+    The polar sections (U1*, theta) are the ball's; "x" and "y" are the planes q1 = level and
+    q2 = level of any model.
+
+    Returns a dict: t (n,), state (n, 2N), energy (n,), nfev, nsteps, nrejected, niter, and with
+    a section crossings = dict t (m,), state (m, 2N), direction (m,), and for theta sections
     r, p_r, p_theta (polar canonical coordinates). Raises TubesError on failure.
     """
     model = model or Model()
