@@ -407,7 +407,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
                       method, h, omega_bind, solver, int_max_iter, orb_family, flux_n_samples, flux_seed, &
                       flux_t_max, flux_gate, flux_tol, flux_order, flux_n_cut, flux_cut_eps, expr_lib, &
                       exp_n_tracks, exp_seed, exp_duration, exp_camera_rate, exp_pixel, exp_noise, &
-                      exp_de_min, exp_de_max, exp_damping_ratio)
+                      exp_de_min, exp_de_max, exp_damping_ratio, mc_n_samples, mc_seed, mc_de, des, ndes)
   ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
   ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
   ! scene calls take their defaults and their checks from here; msg holds the messages
@@ -426,6 +426,10 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   integer(c_int), intent(out) :: exp_n_tracks, exp_seed
   real(c_double), intent(out) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
                                  exp_de_max, exp_damping_ratio
+  ! &montecarlo's n_samples, seed and de; the lists of excess energies of &orbits, &tubes,
+  ! &transition, &sections and &flux (columns 1..5, each with its length in ndes)
+  integer(c_int), intent(out) :: mc_n_samples, mc_seed, ndes(5)
+  real(c_double), intent(out) :: mc_de, des(256, 5)
   character(len=2048), intent(out) :: msg
   character(len=32), intent(out) :: system
   character(len=8), intent(out) :: saddle
@@ -516,6 +520,16 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   exp_de_min = cfg%exp_de_min
   exp_de_max = cfg%exp_de_max
   exp_damping_ratio = cfg%exp_damping_ratio
+  mc_n_samples = cfg%mc_n_samples
+  mc_seed = cfg%mc_seed
+  mc_de = cfg%mc_de
+  des = 0
+  des(:, 1) = cfg%orb_de
+  des(:, 2) = cfg%tub_de
+  des(:, 3) = cfg%tra_de
+  des(:, 4) = cfg%pm_de
+  des(:, 5) = cfg%flux_de
+  ndes = [cfg%orb_nde, cfg%tub_nde, cfg%tra_nde, cfg%pm_nde, cfg%flux_nde]
 end subroutine read_input
 
 subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &

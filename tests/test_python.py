@@ -254,3 +254,52 @@ def test_model_info_units_and_meanings(tmp_path):
         info = tubes.model_info(system)
         assert info["length_units"] == "1", system
         assert all(u == "1" for u in info["parameter_units"].values()), (system, info["parameter_units"])
+
+
+def test_equilibria_one_degree_of_freedom_and_its_ranges():
+    """A 1-DOF formula, H = p^2/2 - x^2/2 + x^4/4: wells at x = +-1 (E = -1/4), the saddle at 0
+    (E = 0, lambda = 1, the root of V'' = -1); no y, no centre frequency. The box and n_grid are
+    &equilibria's, refused with its messages."""
+    m = tubes.Model(system="expression", hamiltonian="px^2/2 - x^2/2 + x^4/4", coordinates=["x"])
+    eq = m.equilibria()
+    k = {n: i for i, n in enumerate(eq["name"])}
+    assert sorted(eq["x"][[k["W1"], k["W2"]]]) == pytest.approx([-1.0, 1.0], abs=1e-14)
+    assert eq["energy"][k["W1"]] == pytest.approx(-0.25, abs=1e-15) and eq["x"][k["S1"]] == pytest.approx(0, abs=1e-15)
+    assert eq["lambda"][k["S1"]] == pytest.approx(1.0, rel=1e-14) and eq["rank1"][k["S1"]]
+    assert np.all(np.isnan(eq["y"])) and eq["omegas"].shape == (3, 0)
+    hh = tubes.Model(system="henon_heiles")
+    for kw, msg in (({"box": 0.0}, "equilibria: &equilibria: box = 0 is out of range: allowed > 0"),
+                    ({"n_grid": 1}, r"n_grid = 1 is out of range: allowed 2 \.\. 2001"),
+                    ({"box": [1, 2, 3]}, "box has 3 values: allowed 1 .every coordinate. or 2")):
+        with pytest.raises(ValueError, match=msg):
+            hh.equilibria(**kw)
+
+
+def test_model_methods_have_signatures_and_docs():
+    """help(model.transition) shows the keywords and the text (not (*a, _f=..., **k)); the section
+    scenes' dE is named dE everywhere (section_boundary's old de still works, deprecated)."""
+    import inspect
+    m = tubes.Model()
+    for name in ("orbit_family", "tube_cut", "transition", "monte_carlo", "poincare", "flux", "equilibria",
+                 "section_boundary", "normal_form_map", "synthetic_experiment"):
+        sig = inspect.signature(getattr(m, name))
+        assert "_f" not in sig.parameters and "model" not in sig.parameters, name
+        assert getattr(m, name).__doc__ and len(getattr(m, name).__doc__) > 200, name
+        assert name in tubes.__all__, name
+    for name in ("orbit_family", "tube_cut", "transition", "monte_carlo", "poincare", "section_boundary"):
+        assert "dE" in inspect.signature(getattr(m, name)).parameters, name
+        assert "energy units" in getattr(m, name).__doc__, name
+    a = m.section_boundary(dE=10.0, m=50)
+    with pytest.warns(DeprecationWarning, match="de is deprecated"):
+        b = m.section_boundary(de=10.0, m=50)
+    assert np.array_equal(a["p_max"], b["p_max"])
+
+
+def test_model_refusals_point_to_what_is_allowed():
+    assert tubes.Model(system="cr3bp", spatial=True).system == "cr3bp_spatial"
+    assert tubes.Model(system="cr3bp", spatial=True).ndof == 3
+    with pytest.raises(ValueError, match="spatial=True is system='cr3bp_spatial'"):
+        tubes.Model(system="henon_heiles", spatial=True)
+    m = tubes.Model(surface="expression", height="0.07*(x^2 + y^2) - sqrt(x^2 + 15)")
+    with pytest.raises(ValueError, match="needs surface = 'fourwell'"):
+        m.synthetic_experiment(n_tracks=1)

@@ -14,9 +14,14 @@ from conftest import ROOT, run_tubes
 
 
 def _run(tmp_path, text):
+    return _run_any(tmp_path, text, 0)
+
+
+def _run_any(tmp_path, text, rc):
+    """The program on an input text; its exit code must be rc."""
     (tmp_path / "s.nml").write_text(text)
     r = run_tubes(["s.nml", "-o", "s.h5"], tmp_path, timeout=600)
-    assert r.returncode == 0, r.stderr
+    assert r.returncode == rc, r.stderr
     return h5py.File(tmp_path / "s.h5", "r")
 
 
@@ -179,7 +184,86 @@ def test_synthetic_experiment(tmp_path):
         assert np.array_equal(ex["truth"][k], g["truth"][k][:]), k
     for k in ("E_e", "damping_rate", "n_draws", "n_samples", "box", "rtol", "seed", "damping_ratio", "pixel"):
         assert ex[k] == g.attrs[k], k
-    with pytest.raises(ValueError, match="rolling ball"):
+    with pytest.raises(ValueError, match="it needs system = .rolling_ball. .this file.s system is .henon_heiles."):
         tubes.synthetic_experiment(tubes.Model(system="henon_heiles"))
     with pytest.raises(ValueError, match="widen"):
         tubes.synthetic_experiment(n_tracks=3, de_min=1e5, de_max=2e5, duration=1)   # beyond the box
+
+
+def test_monte_carlo_agreement_is_the_scene_s(tmp_path):
+    """monte_carlo returns the scene's agreement (/montecarlo@agrees) and refuses, as the program
+    exits 2, when the count and the tube disagree: Henon-Heiles with t_max = 1, far too short for
+    its points to transit or return (1933 of 2000 undecided, fraction 0 against p_trans 0.06)."""
+    (tmp_path / "s.nml").write_text("&model system = 'henon_heiles' /\n&run scenes = 'montecarlo' /\n"
+                                    "&montecarlo de = 0.02, n_samples = 2000, t_max = 1.0 /\n")
+    r = run_tubes(["s.nml", "-o", "s.h5"], tmp_path, timeout=600)
+    assert r.returncode == 2 and "disagrees" in r.stderr, r.stderr
+    g = h5py.File(tmp_path / "s.h5", "r")["montecarlo"]
+    hh = tubes.Model(system="henon_heiles")
+    with pytest.raises(tubes.DisagreementError, match="1933 undecided") as err:
+        hh.monte_carlo(0.02, n_samples=2000, t_max=1.0)
+    mc = err.value.partial
+    assert mc["agrees"] is False and g.attrs["agrees"] == 0
+    assert mc["undecided"] == g.attrs["undecided"] and mc["fraction"] == g.attrs["fraction"]
+    assert mc["undecided_limit"] == 2 + 2000 // 100 and mc["sigmas"] > tubes.MC_SIGMA
+    again = hh.monte_carlo(0.02, n_samples=2000, t_max=1.0, check=False)   # no raise, the same numbers
+    assert again["agrees"] is False and np.array_equal(again["transit"], mc["transit"])
+    # a run that agrees: the scene's 1 (the default t_max)
+    ok = tubes.Model().monte_carlo(100.0, n_samples=1000, seed=3)
+    assert ok["agrees"] is True and ok["sigmas"] <= tubes.MC_SIGMA
+
+
+def test_monte_carlo_arguments_are_the_input_file_s():
+    """The &montecarlo ranges of docs/input.md, with messages naming the argument (not f2py's or an
+    OverflowError), and no default dE outside the ball's units."""
+    hh = tubes.Model(system="henon_heiles")
+    for kw, msg in (({"n_samples": -5}, r"n_samples = -5 is out of range: allowed 1 \.\. 10000000"),
+                    ({"n_samples": 2.5}, "value 2.5 of 'n_samples' is not an integer"),
+                    ({"seed": -1}, "seed = -1 is out of range: allowed >= 0"),
+                    ({"seed": 2**40}, "seed = 1099511627776 is out of range"),
+                    ({"dE": -0.01}, "de = -0.01 is out of range: allowed > 0"),
+                    ({"dE": float("nan")}, "'de' is not a finite real number"),
+                    ({"dE": None}, "give dE for system 'henon_heiles'")):
+        with pytest.raises(ValueError, match=msg):
+            hh.monte_carlo(**{"dE": 0.02, "n_samples": 100, **kw})
+    with pytest.raises(ValueError, match="poincare: &sections: de = -0.01 is out of range"):
+        hh.poincare(-0.01, n_seeds=2, n_iter=2)
+
+
+def test_transition_keeps_every_energy_as_the_scene(tmp_path):
+    """A failure at one energy (the ball at dE = 770: the energy surface's iteration) is NaN and a
+    status there, as the scene's /transition, not an exception that loses dE = 760."""
+    f = _run_any(tmp_path, "&run scenes = 'transition' /\n&transition de = 760, 770 /\n", 4)
+    with pytest.warns(RuntimeWarning, match="failed at dE = 770"):
+        t = tubes.Model().transition([760.0, 770.0])
+    g = f["transition"]
+    assert np.array_equal(t["status"], g["status"][:]) and t["status"][0] == 0 and t["status"][1] < 0
+    for k in ("A_tube", "action", "A_E", "p_trans"):
+        assert np.array_equal(t[k], g[k][:], equal_nan=True), k
+    assert np.isnan(t["p_trans"][1]) and np.isfinite(t["p_trans"][0]) and t["message"][0] == ""
+
+
+def test_unconverged_orbits_are_nan():
+    """Past the family's end (the ball's ends near dE = 777) an orbit has no period: NaN, not 0."""
+    o = tubes.Model().orbit_family(dE=[700.0, 800.0])
+    assert list(o["converged"]) == [True, False] and o["end_dE"] < 800
+    for k in ("period", "action", "mu_unstable", "stability_index", "state0", "monodromy"):
+        assert np.all(np.isfinite(o[k][0])) and np.all(np.isnan(o[k][1])), k
+
+
+def test_string_choices_and_saddles_are_checked():
+    hh = tubes.Model(system="henon_heiles")
+    with pytest.raises(ValueError, match="kind = 'stabel' is not allowed: allowed 'stable', 'unstable'"):
+        hh.tube_cut(0.02, kind="stabel")
+    for bad in ("S9", "W1"):
+        with pytest.raises(ValueError, match=f"saddle = '{bad}' is not a rank-1 saddle.*are: S1, S2, S3"):
+            hh.transition([0.01], saddle=bad)
+    with pytest.raises(ValueError, match="needs 2 degrees of freedom .system 'cr3bp_spatial' has 3"):
+        tubes.Model(system="cr3bp_spatial").tube_cut(0.001)
+    for f, msg in ((lambda: hh.tube_cut(-0.01), "tube_cut: &tubes: de = -0.01 is out of range: allowed > 0"),
+                   (lambda: hh.tube_cut(), "tube_cut: give dE"),
+                   (lambda: hh.transition([0.0]), "transition: &transition: de = 0 is out of range"),
+                   (lambda: hh.transition(), "transition: give dE for system 'henon_heiles'"),
+                   (lambda: hh.orbit_family(), "orbit_family: give dE")):
+        with pytest.raises(ValueError, match=msg):
+            f()

@@ -40,11 +40,11 @@ METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, 
            "arkode_erk8": 12, "taylor": 13, "auto": 14}   # include/tubes.h TUBES_METHOD_*
 FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 
-__all__ = ["Model", "TubesError", "Integrator", "ensemble", "status_message", "systems", "model_info", "energy", "energies", "potentials",
+__all__ = ["Model", "TubesError", "DisagreementError", "MC_SIGMA", "Integrator", "ensemble", "status_message", "systems", "model_info", "energy", "energies", "potentials",
            "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
            "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
            "orbit_family", "tube_cut", "transition", "monte_carlo", "poincare", "flux", "normal_form_map",
-           "load", "Result"]
+           "synthetic_experiment", "load", "Result"]
 
 
 class TubesError(RuntimeError):
@@ -97,6 +97,14 @@ class Model:
 
     def __init__(self, system: str = "rolling_ball", *, hamiltonian=None, coordinates=None, momenta=None,
                  constants=None, surface=None, height=None, **parameters):
+        if "spatial" in parameters:   # the input file's &model spatial (cr3bp only)
+            spatial = parameters.pop("spatial")
+            if system != "cr3bp":
+                raise ValueError(f"Model: spatial belongs to system 'cr3bp' (spatial=True is system='cr3bp_spatial'), "
+                                 f"not to system {system!r}")
+            if spatial not in (True, False):
+                raise ValueError(f"Model: spatial = {spatial!r}: allowed True (system 'cr3bp_spatial') or False")
+            system = "cr3bp_spatial" if spatial else system
         formula = _formula(system, hamiltonian, coordinates, momenta, constants, surface, height)
         object.__setattr__(self, "formula", formula)
         name = system
@@ -422,36 +430,65 @@ def _box(model: Model, box, box_center):
     return lo, hi
 
 
-def equilibria(model: Model | None = None, box=None, n_grid: int = 41, box_center=None) -> dict:
-    """Equilibria with q in the box (half-widths per coordinate, or one for all; default the
-    system's) around box_center: dict of arrays q (n, N), state (n, 2N), x, y (q1, q2), height,
-    energy, morse_index (the index: eigenvalues with positive real part), rank1, name,
-    lambda, omega (rank-1 saddles; omega the lowest centre frequency), omegas (n, N-1),
-    grad_norm (Newton's residual: |grad V| for natural systems, else |dx/dt|), eigenvectors
-    (n, 2N, 2N)."""
+def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, box_center=None) -> dict:
+    """Equilibria with q in the search box (as the equilibria scene; any number of degrees of
+    freedom N, 1 to 3). box: half-widths per coordinate, or one for all, > 0 [units of q: cm for
+    the ball]; box_center: its centre (N values); n_grid: Newton starts per axis, 2 .. 2001 with
+    n_grid^N <= 1e6. Defaults and ranges are &equilibria's, from the program's reader (the
+    system's box, n_grid 41; docs/input.md).
+
+    Returns a dict of arrays q (n, N), state (n, 2N), x, y (q1, q2; y NaN in 1 DOF), height,
+    energy, morse_index (the index: eigenvalues with positive real part), rank1, degenerate,
+    name, lambda, omega (rank-1 saddles; omega the lowest centre frequency, NaN in 1 DOF),
+    omegas (n, N-1), grad_norm (Newton's residual: |grad V| for natural systems, else |dx/dt|),
+    eigenvectors (n, 2N, 2N)."""
     model = model or Model()
-    lo, hi = _box(model, box, box_center)
+    for name, v in (("box", box), ("box_center", box_center)):
+        if v is not None and np.size(v) not in ((1, model.ndof) if name == "box" else (model.ndof,)):
+            raise ValueError(f"equilibria: {name} has {np.size(v)} values: allowed "
+                             + ("1 (every coordinate) or " if name == "box" else "") + f"{model.ndof} (one per coordinate)")
+    eqg = {k: v for k, v in (("box", box), ("box_center", box_center), ("n_grid", n_grid)) if v is not None}
+    # the input file's &equilibria: its defaults, ranges and messages (box > 0, n_grid^N <= 1e6)
+    st = _read_namelist([model._nml()] + (["&equilibria " + ", ".join(f"{k} = {_nml_value(v)}" for k, v in eqg.items())
+                                           + " /"] if eqg else []), "equilibria", {"model", "equilibria"})
+    lo, hi, n_grid = st["lo"], st["hi"], st["n_grid"]
     (stat, n, nd, q, p, h, e, grad, morse, rank1, names, lam, om, ev) = _lib().equilibria(
         model.name, model.params(), lo, hi, int(n_grid), model._stores())
     _check(stat, "equilibria")
     names = names.decode() if isinstance(names, bytes) else str(names)
     qq = q[:nd, :n].T.copy()
     st = np.concatenate([qq, p[:nd, :n].T], axis=1)
-    return {"q": qq, "state": st, "x": qq[:, 0].copy(), "y": qq[:, 1].copy(),
+    out = {"q": qq, "state": st, "x": qq[:, 0].copy(), "y": qq[:, 1].copy() if nd > 1 else np.full(n, np.nan),
             "height": h[:n].copy(), "energy": e[:n].copy(), "morse_index": morse[:n].copy(),
             "rank1": rank1[:n] == 1, "degenerate": rank1[:n] == 2, "name": [names[9 * k:9 * k + 9].strip() for k in range(n)],
-            "lambda": lam[:n].copy(), "omega": om[0, :n].copy(), "omegas": om[:nd - 1, :n].T.copy(),
-            "grad_norm": grad[:n].copy(),
+            "lambda": lam[:n].copy(), "omega": om[0, :n].copy() if nd > 1 else np.full(n, np.nan),
+            "omegas": om[:nd - 1, :n].T.copy(), "grad_norm": grad[:n].copy(),
             "eigenvectors": ev[:4 * nd * nd, :n].T.reshape(n, 2 * nd, 2 * nd).transpose(0, 2, 1).copy()}
+    return out
 
 
-def section_boundary(model: Model | None = None, de: float = 0.0, saddle: str | None = None,
-                     section: dict | None = None, m: int = 400, box=None, n_grid: int = 41) -> dict:
-    """The energy surface's boundary on a section at E_e(saddle) + de (docs/tubes.md,
-    "Sections"): dict s (m,), p_min, p_max (m,), s_min, s_max. section: {"kind": "ray", "angle":
-    deg, "p_theta_sign": +-1} or {"kind": "plane", "index": k, "value": c, "direction": +-1};
-    default the system's section and saddle."""
+def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | None = None,
+                     section: dict | None = None, m: int = 400, box=None, n_grid: int = 41, *,
+                     de: float | None = None) -> dict:
+    """The energy surface's boundary on a section at E_e(saddle) + dE (docs/tubes.md,
+    "Sections"; 2 degrees of freedom). dE: the excess energy, >= 0, in the model's energy units
+    ((cm/s)^2 for the ball; default 0: the saddle's energy); ``de`` is its old name, deprecated.
+    saddle: a rank-1 saddle's name (default the system's, else the one nearest its saddle_near);
+    section: {"kind": "ray", "angle": deg, "p_theta_sign": +-1} or {"kind": "plane", "index": k,
+    "value": c, "direction": +-1}, default the system's; m: points on the boundary (>= 2); box,
+    n_grid: the equilibria's search box (as equilibria). Returns a dict s (m,), p_min, p_max
+    (m,), s_min, s_max."""
     model = model or Model()
+    if de is not None:
+        import warnings  # noqa: PLC0415
+        warnings.warn("section_boundary: de is deprecated, use dE (as the other functions)", DeprecationWarning,
+                      stacklevel=2)
+        dE = de
+    _need_2dof(model, "section_boundary")
+    if not (np.isfinite(dE) and dE >= 0):
+        raise ValueError(f"section_boundary: dE = {dE} is out of range: allowed >= 0 (finite), in the model's energy units")
+    if not (isinstance(m, (int, np.integer)) and m >= 2):
+        raise ValueError(f"section_boundary: m = {m!r} is out of range: allowed an integer >= 2")
     info = model.info
     sec = dict(info["section"])
     if section:
@@ -473,7 +510,7 @@ def section_boundary(model: Model | None = None, de: float = 0.0, saddle: str | 
         kind, index, level, dirn = 2, int(sec["index"]), float(sec["value"]), int(sec["direction"])
     stat, smin, smax, s, pmin, pmax = _lib().section_boundary(
         model.name, model.params(), lo, hi, int(n_grid), sad, kind, index, level, dirn,
-        float(de), int(m))
+        float(dE), int(m))
     _check(stat, "section_boundary")
     return {"s": np.asarray(s).copy(), "p_min": np.asarray(pmin).copy(),
             "p_max": np.asarray(pmax).copy(), "s_min": float(smin), "s_max": float(smax)}
@@ -498,13 +535,16 @@ _SETTINGS = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", 
              "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter", "orb_family",
              "flux_n_samples", "flux_seed", "flux_t_max", "flux_gate", "flux_tol", "flux_order", "flux_n_cut",
              "flux_cut_eps", "expr_lib", "exp_n_tracks", "exp_seed", "exp_duration", "exp_camera_rate",
-             "exp_pixel", "exp_noise", "exp_de_min", "exp_de_max", "exp_damping_ratio")
+             "exp_pixel", "exp_noise", "exp_de_min", "exp_de_max", "exp_damping_ratio", "mc_n_samples",
+             "mc_seed", "mc_de", "des", "ndes")
 
 
-def _read_namelist(lines: list[str], who: str) -> dict:
+def _read_namelist(lines: list[str], who: str, groups=None) -> dict:
     """Namelist groups read and validated exactly as the program reads an input file (the C
     lexer, the Fortran reader, the C validator: nml_load); a refusal raises ValueError with the
-    program's messages, the temporary file's name and line taken off."""
+    program's messages, the temporary file's name and line taken off. groups: the groups the
+    caller set (a message about another group, one that took its default from a refused value,
+    as &flux de from &transition de, is left out when one about these is there)."""
     import os
     import tempfile
     fd, path = tempfile.mkstemp(suffix=".nml")
@@ -518,16 +558,29 @@ def _read_namelist(lines: list[str], who: str) -> dict:
     if st["stat"] != 0:
         msgs = [re.sub(r"^\s*" + re.escape(path) + r"(:\d+)?:\s*", "", m)
                 for m in _str(st["msg"]).splitlines() if m.strip()]
+        if groups:
+            own = [m for m in msgs if not m.startswith("&") or m.split(":")[0][1:] in groups]
+            msgs = own or msgs
+        msgs = list(dict.fromkeys(msgs))   # a message once
         raise ValueError(f"{who}: " + "\n".join(msgs or ["refused (no message)"]))
     return st
 
 
-def _settings(model: Model, saddle=None, saddle_near=None, section=None, **groups) -> dict:
+_INT32 = 2**31 - 1   # the input file's integers (C int, Fortran default integer)
+
+
+def _settings(model: Model, saddle=None, saddle_near=None, section=None, who: str = "tubes", **groups) -> dict:
     """The settings of a scene call as the program would use them: the model, the keywords given
     (group -> {variable: value}) written as a namelist and read by the program's own reader
-    (src/io/tubes_nml.f90), so that every default and every system default comes from the one
-    place the input file's come from."""
+    (src/io/tubes_nml.f90), so that every default, every system default and every range check
+    comes from the one place the input file's come from. who: the calling function, the head of
+    every refusal's message."""
     lines = [model._nml()]
+    for g, kv in groups.items():
+        for k, v in (kv or {}).items():
+            if isinstance(v, (int, np.integer)) and not isinstance(v, bool) and abs(int(v)) > _INT32:
+                raise ValueError(f"{who}: {k} = {v} is out of range: the input file's integers are 32-bit, "
+                                 f"allowed |{k}| <= {_INT32} (docs/input.md, &{g})")
     orb = dict(groups.pop("orbits", {}))
     if saddle is not None and saddle_near is not None:
         raise ValueError("give saddle or saddle_near, not both")
@@ -543,7 +596,8 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, **group
     for g, kv in groups.items():
         if kv:
             lines.append(f"&{g} " + ", ".join(f"{k} = {_nml_value(v)}" for k, v in kv.items()) + " /")
-    st = _read_namelist(lines, "tubes")
+    given = {"model"} | {g for g, kv in groups.items() if kv}
+    st = _read_namelist(lines, who, given)
     st["saddle"] = _str(st["saddle"])
     if st["use_near"]:
         eq = _settings_equilibria(model, st)
@@ -552,6 +606,14 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, **group
             raise ValueError(f"system {model.system!r} has no rank-1 saddle in the search box")
         near = np.asarray(st["near"])[:model.ndof]
         st["saddle"] = eq["name"][min(k, key=lambda i: np.sum((eq["q"][i] - near) ** 2))]
+    elif saddle is not None:
+        # the program's check (src/io/tubes_main.c): a name that is not a rank-1 saddle in the box
+        eq = _settings_equilibria(model, st)
+        rank1 = [n for n, r in zip(eq["name"], eq["rank1"]) if r]
+        if st["saddle"] not in rank1:
+            raise ValueError(f"{who}: saddle = {st['saddle']!r} is not a rank-1 saddle of system {model.system!r} "
+                             f"in the equilibria box; its rank-1 saddles are: {', '.join(rank1) or 'none'} "
+                             "(choose one, or give saddle_near)")
     return st
 
 
@@ -599,10 +661,52 @@ def _section_args(st):
     return int(st["sec_kind"]), int(st["sec_index"]), float(st["sec_level"]), int(st["sec_dir"])
 
 
-def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
+def _need_2dof(model: Model, who: str) -> None:
+    """The section scenes (tube_cut, transition, monte_carlo, poincare, section_boundary) are
+    those of 2 degrees of freedom: a cut is a closed curve in the section's (s, p_s) plane."""
+    if model.ndof != 2:
+        raise ValueError(f"{who}: the scene needs 2 degrees of freedom (system {model.system!r} has "
+                         f"{model.ndof}); in 3 degrees of freedom use tubes.flux (with a plane section: "
+                         "the transition fraction on the section) and tubes.orbit_family")
+
+
+def _default_de(model: Model, who: str, group: str) -> None:
+    """The scenes' default excess energies (&<group> de) are the paper's, in the ball's units:
+    a default for the library's rolling ball only; any other model must give dE."""
+    if model.name != "rolling_ball":
+        raise ValueError(f"{who}: give dE for system {model.system!r} (in its energy units): the default "
+                         f"(&{group} de) is the rolling ball's, in (cm/s)^2")
+
+
+def _scalar_de(dE, who: str):
+    """One excess energy as a float (None stays None); the range check is the reader's."""
+    if dE is None:
+        return None
+    a = np.asarray(dE, dtype=float)
+    if a.ndim != 0:
+        raise ValueError(f"{who}: dE must be one number (got shape {a.shape})")
+    return float(a)
+
+
+def _de_list(dE, who: str):
+    """Excess energies as a list of floats (None stays None); the range check is the reader's."""
+    if dE is None:
+        return None
+    a = np.array(dE, dtype=float).reshape(-1)
+    if a.size == 0:
+        raise ValueError(f"{who}: dE is empty: give at least one excess energy > 0")
+    return [float(x) for x in a]
+
+
+def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
                  integrator: dict | None = None, equilibria: dict | None = None, **orbits) -> dict:
     """The Lyapunov orbits of a rank-1 saddle at the excess energies dE (as the orbits scene,
-    docs/orbits.md): dict of arrays dE, energy, period, action, mu_unstable, mu_stable,
+    docs/orbits.md). dE: excess energies above the saddle, > 0 and increasing, in the model's
+    energy units ((cm/s)^2 for the ball); default &orbits de (1, 10, 100 (cm/s)^2): the rolling
+    ball only, required for any other model. Where an orbit did not converge (past the family's
+    end, or Newton failed) its quantities are NaN (the output file's 0) and converged is False;
+    residual and iterations stay (residual NaN where no iteration was made). Returns a
+    dict of arrays dE, energy, period, action, mu_unstable, mu_stable,
     mu_trivial and mu_trivial_imag (n, 2), stability_index, monodromy (n, 2N, 2N), residual,
     closure, iterations, min_eq_distance, converged, state0 (n, 2N) (docs/output.md, /orbits),
     and end_dE (the family's estimated end, or None). Keywords: saddle or saddle_near, and &orbits' method,
@@ -612,8 +716,13 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
     variational equations). Each orbit is the continuation to its own energy alone: the same
     bits whatever else dE holds, and the same as the program's orbits scene and tube cuts."""
     model = model or Model()
-    de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
-    st = _settings(model, saddle, saddle_near, orbits=dict(orbits, de=list(de)), integrator=integrator, equilibria=equilibria)
+    de = _de_list(dE, "orbit_family")
+    if de is None:
+        _default_de(model, "orbit_family", "orbits")
+    orb = dict(orbits) if de is None else dict(orbits, de=de)
+    st = _settings(model, saddle, saddle_near, who="orbit_family", orbits=orb, integrator=integrator,
+                   equilibria=equilibria)
+    de = np.array(st["des"][:int(st["ndes"][0]), 0])
     n2 = 2 * model.ndof
     (stat, en, per, act, mu, ms, mtr, stab, res, clo, it, conv, mind, mono, hist, s0, ts, xs, end_de,
      reason) = _lib().orbit_family(
@@ -621,16 +730,22 @@ def orbit_family(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None,
         float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model),
         model._stores())
     _check(stat, "orbit_family")
-    return {"dE": de, "energy": en.copy(), "period": per.copy(), "action": act.copy(),
-            "mu_unstable": mu.copy(), "mu_stable": ms.copy(), "mu_trivial": mtr[[0, 2], :].T.copy(),
-            "mu_trivial_imag": mtr[[1, 3], :].T.copy(), "stability_index": stab.copy(),
-            "monodromy": mono[:n2 * n2, :].T.reshape(-1, n2, n2).transpose(0, 2, 1).copy(),
-            "residual": res.copy(), "closure": clo.copy(), "iterations": it.copy(),
-            "min_eq_distance": mind.copy(), "converged": conv.astype(bool), "state0": s0[:n2, :].T.copy(),
-            "end_dE": float(end_de) if end_de > 0 else None, "saddle": st["saddle"]}
+    out = {"dE": de, "energy": en.copy(), "period": per.copy(), "action": act.copy(),
+           "mu_unstable": mu.copy(), "mu_stable": ms.copy(), "mu_trivial": mtr[[0, 2], :].T.copy(),
+           "mu_trivial_imag": mtr[[1, 3], :].T.copy(), "stability_index": stab.copy(),
+           "monodromy": mono[:n2 * n2, :].T.reshape(-1, n2, n2).transpose(0, 2, 1).copy(),
+           "residual": res.copy(), "closure": clo.copy(), "iterations": it.copy(),
+           "min_eq_distance": mind.copy(), "converged": conv.astype(bool), "state0": s0[:n2, :].T.copy(),
+           "end_dE": float(end_de) if end_de > 0 else None, "saddle": st["saddle"]}
+    bad = ~out["converged"]
+    for k in ("period", "action", "mu_unstable", "mu_stable", "mu_trivial", "mu_trivial_imag", "stability_index",
+              "monodromy", "closure", "min_eq_distance", "state0"):
+        out[k][bad] = np.nan          # no orbit: not a period of 0
+    out["residual"][bad & (out["iterations"] == 0)] = np.nan
+    return out
 
 
-def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
+def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
          n_samples=None, seed=None, t_max=None, gate=None, tol=None, order=None, section: dict | None = None,
          integrator: dict | None = None, equilibria: dict | None = None, **cut_options) -> dict:
     """The flux of trajectories through a rank-1 saddle's bottleneck (as the flux scene,
@@ -645,14 +760,21 @@ def flux(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_
     /flux/tube_cut: section, states, time, status, volume, volume_half, volume_extrapolated,
     seed_energy_error, misclassified, misclassified_pl, unresolved, p_trans_tube, and the section's
     points, weight, outcome, inside, inside_pl). Keywords as &flux (defaults from the program's
-    reader; n_cut and cut_eps too)."""
+    reader; n_cut and cut_eps too). dE: excess energies above the saddle, > 0 and increasing, in
+    the model's energy units; default &flux de (the &transition list, (cm/s)^2): the rolling ball
+    only, required for any other model."""
     model = model or Model()
-    de = np.array(dE, dtype=np.float64, copy=True).reshape(-1)
+    de = _de_list(dE, "flux")
+    if de is None:
+        _default_de(model, "flux", "flux")
     fl = {k: v for k, v in (("n_samples", n_samples), ("seed", seed), ("t_max", t_max), ("gate", gate),
                              ("tol", tol), ("order", order)) if v is not None}
     fl.update(cut_options)
-    st = _settings(model, saddle, saddle_near, section=section, flux=dict(fl, de=list(de)), integrator=integrator,
+    if de is not None:
+        fl["de"] = de
+    st = _settings(model, saddle, saddle_near, section=section, who="flux", flux=fl, integrator=integrator,
                    equilibria=equilibria)
+    de = np.array(st["des"][:int(st["ndes"][4]), 4])
     if not model.info or model.info.get("ndof", 2) < 2:
         raise ValueError("flux: the model needs 2 or 3 degrees of freedom")
     stat, f, e, lead, cnt = _lib().flux(*_study(model, st), de, int(st["flux_n_samples"]), int(st["flux_seed"]),
@@ -805,78 +927,216 @@ def _cut(model, st, de, kind, area_tol):
             "area_polygon": float(apoly), "action": float(act), "period": float(per)}
 
 
-def tube_cut(model: Model | None = None, dE: float = 100.0, kind: str = "stable", saddle=None,
-             saddle_near=None, section=None, integrator: dict | None = None, equilibria: dict | None = None, **options) -> dict:
+TUBE_KINDS = {"stable": -1, "unstable": 1}   # the tubes scene's kind (src/io/tubes_scenes.c)
+
+
+def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "stable", saddle=None,
+             saddle_near=None, section=None, integrator: dict | None = None, equilibria: dict | None = None,
+             **options) -> dict:
     """The cut of the saddle's stable (or unstable) tube at dE with the section (as the tubes
-    scene, docs/tubes.md): dict r, p_r (the section's s, p_s), tau, time, state, area,
-    area_polygon, action, period. section as in section_boundary (default the system's); options:
-    &tubes' eps, area_tol, t_max, n_init, n_max and &orbits' method, n_segments, tol, rtol, atol."""
+    scene, docs/tubes.md; 2 degrees of freedom).
+
+    dE: the excess energy above the saddle, > 0, in the model's energy units ((cm/s)^2 for the
+    ball); required (the scene's default list, &tubes de = 10, 100, is the ball's and a list).
+    kind: "stable" (default) or "unstable". saddle (a rank-1 saddle's name) or saddle_near (a
+    configuration point; the saddle nearest to it), default the system's; section: a dict as in
+    section_boundary, default the system's; integrator: &integrator's keywords as a dict;
+    equilibria: &equilibria's (box, box_center, n_grid). options: &tubes' eps, area_tol, t_max,
+    n_init, n_max and &orbits' method, n_segments, tol, rtol, atol; defaults and ranges from the
+    program's reader (docs/input.md).
+
+    Returns a dict: dE, r, p_r (the section's s, p_s), tau [time units], time, state (n, 4),
+    area, area_polygon, action, period."""
     model = model or Model()
+    if kind not in TUBE_KINDS:
+        raise ValueError(f"tube_cut: kind = {kind!r} is not allowed: allowed {', '.join(map(repr, TUBE_KINDS))}")
+    _need_2dof(model, "tube_cut")
+    if dE is None:
+        raise ValueError("tube_cut: give dE, the excess energy above the saddle (> 0, in the model's energy units)")
     orb = {k: options.pop(k) for k in list(options) if k in ("method", "n_segments", "tol", "rtol", "atol")}
-    st = _settings(model, saddle, saddle_near, section=section, orbits=orb, tubes=options,
-                   integrator=integrator, equilibria=equilibria)
-    return _cut(model, st, dE, -1 if kind == "stable" else 1, st["tub_area_tol"])
+    st = _settings(model, saddle, saddle_near, section=section, who="tube_cut", orbits=orb,
+                   tubes=dict(options, de=[_scalar_de(dE, "tube_cut")]), integrator=integrator, equilibria=equilibria)
+    return _cut(model, st, float(st["des"][0, 1]), TUBE_KINDS[kind], st["tub_area_tol"])
 
 
-def transition(model: Model | None = None, dE=(1.0, 10.0, 100.0), saddle=None, saddle_near=None,
-               section=None, area_tol=None, integrator: dict | None = None, equilibria: dict | None = None, **orbits) -> dict:
-    """p_trans(dE) = A_tube / A_E (as the transition scene): dict of arrays dE, A_tube, action,
-    A_E, p_trans (NaN where a cut failed)."""
+def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
+               section=None, area_tol=None, integrator: dict | None = None, equilibria: dict | None = None,
+               **orbits) -> dict:
+    """p_trans(dE) = A_tube / A_E (as the transition scene; 2 degrees of freedom).
+
+    dE: excess energies above the saddle, > 0 and increasing, in the model's energy units
+    ((cm/s)^2 for the ball); default &transition de (the paper's 14 energies 1 .. 750 (cm/s)^2):
+    the rolling ball only, required for any other model. area_tol: &transition's (default the
+    reader's); saddle, saddle_near, section, integrator, equilibria and &orbits' keywords as in
+    tube_cut.
+
+    Every energy is computed, as the scene does: where a cut or the energy surface failed (past
+    the end of the orbit family, a cut that did not converge) A_tube, action and p_trans are NaN;
+    where the energy surface on the section failed p_trans is NaN and A_E is what the call
+    returned (the output file's /transition, docs/output.md), status holds the TUBES_* code (0 where it
+    worked; tubes.EPASTEND past the family's end) and message its text, and a RuntimeWarning
+    names the failed energies. Returns a dict of arrays dE, A_tube, action, A_E, p_trans, status,
+    and message (list of str, '' where it worked)."""
     model = model or Model()
+    _need_2dof(model, "transition")
+    de = _de_list(dE, "transition")
+    if de is None:
+        _default_de(model, "transition", "transition")
     tra = {} if area_tol is None else {"area_tol": float(area_tol)}
-    st = _settings(model, saddle, saddle_near, section=section, orbits=orbits, transition=tra,
+    if de is not None:
+        tra["de"] = de
+    st = _settings(model, saddle, saddle_near, section=section, who="transition", orbits=orbits, transition=tra,
                    integrator=integrator, equilibria=equilibria)
-    de = np.array(dE, dtype=np.float64).reshape(-1)
+    de = np.array(st["des"][:int(st["ndes"][2]), 2])
+    sec = _section_args(st)
     out = {k: np.full(de.size, np.nan) for k in ("A_tube", "action", "A_E", "p_trans")}
+    status, message = np.zeros(de.size, dtype=np.int32), [""] * de.size
     for i, d in enumerate(de):
-        c = _cut(model, st, d, -1, st["tra_area_tol"])
-        stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), float(d),
-                                                    model._stores())
-        _check(stat, f"transition(dE = {d})")
-        out["A_tube"][i], out["action"][i], out["A_E"][i] = c["area"], c["action"], ae
-        out["p_trans"][i] = c["area"] / ae
-    out["dE"] = de
+        try:
+            c = _cut(model, st, d, -1, st["tra_area_tol"])
+        except TubesError as err:
+            c, status[i], message[i] = None, err.code, str(err)
+        if c is not None:
+            out["A_tube"][i], out["action"][i] = c["area"], c["action"]
+        stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *sec, float(d), model._stores())
+        out["A_E"][i] = ae      # as the scene writes it, also where the call failed after the area
+        if stat < 0:
+            message[i] = "; ".join(filter(None, (message[i], str(TubesError(stat, f"transition(dE = {d}): the energy surface")))))
+            status[i] = status[i] or stat
+        elif c is not None:
+            out["p_trans"][i] = c["area"] / ae
+    out.update(dE=de, status=status, message=message)
+    if np.any(status != 0):
+        import warnings
+        warnings.warn("transition: failed at dE = " + ", ".join(f"{d:g}" for d in de[status != 0])
+                      + " (NaN there; status and message hold why): " + "; ".join(m for m in message if m),
+                      RuntimeWarning, stacklevel=2)
     return out
 
 
-def monte_carlo(model: Model | None = None, dE: float = 100.0, n_samples: int = 10000,
-                seed: int = 12345, saddle=None, saddle_near=None, section=None, t_max=None,
-                gate=None, area_tol=None, integrator: dict | None = None, equilibria: dict | None = None, **orbits) -> dict:
-    """The Monte Carlo check at dE (as the montecarlo scene): n_samples points uniform on the
-    section's energy surface, each integrated until it passes the saddle's gate (transit) or
-    returns. dict: fraction, std_error, p_trans (A_tube / A_E), misclassified, undecided, and
-    per point r, p_r, transit (0 returned, 1 transited, 2 undecided), inside (the cut)."""
+# The Monte Carlo check's agreement, as the montecarlo scene decides it (src/io/tubes_scenes.c,
+# scene_montecarlo: MC_SIGMA, mis_lim, und_lim; docs/output.md /montecarlo@agrees). A copy: that
+# definition is inline in the scene and not reachable from here; test_python_scenes compares the
+# two on an agreeing and a disagreeing run.
+MC_SIGMA = 5
+
+
+def _mc_agreement(n: int, n_transit: int, n_undecided: int, misclassified: int, p: float) -> dict:
+    """The count of n points against the tube's p: the distance in standard errors of a binomial
+    count with p (sqrt(p(1-p)/n)), and the limits of misclassified (2 + n/1000) and undecided
+    (2 + n/100) points."""
+    f = n_transit / n
+    se_p = np.sqrt(p * (1 - p) / n)
+    sig = abs(f - p) / se_p if se_p > 0 else (0.0 if f == p else np.inf)
+    mis_lim, und_lim = 2 + n // 1000, 2 + n // 100
+    return {"sigmas": float(sig), "misclassified_limit": mis_lim, "undecided_limit": und_lim,
+            "agrees": bool(sig <= MC_SIGMA and misclassified <= mis_lim and n_undecided <= und_lim)}
+
+
+class DisagreementError(RuntimeError):
+    """The Monte Carlo check failed as the montecarlo scene's does (its exit 2): the count and the
+    tube disagree, or too many points are misclassified or undecided. ``partial`` holds the
+    result dict (with ``agrees`` False)."""
+
+    def __init__(self, message: str, partial: dict):
+        self.partial = partial
+        super().__init__(message)
+
+
+def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: int | None = None,
+                seed: int | None = None, saddle=None, saddle_near=None, section=None, t_max=None,
+                gate=None, area_tol=None, integrator: dict | None = None, equilibria: dict | None = None,
+                check: bool = True, **orbits) -> dict:
+    """The Monte Carlo check at dE (as the montecarlo scene; 2 degrees of freedom): n_samples
+    points uniform on the section's energy surface, each integrated until it passes the saddle's
+    gate (transit) or returns, counted against the tube's p_trans = A_tube / A_E.
+
+    dE: the excess energy above the saddle, in the model's energy units ((cm/s)^2 for the ball);
+    > 0. Default &montecarlo de (100 (cm/s)^2, the paper's): the rolling ball only, required for
+    any other model. n_samples (1 .. 10^7, default 10000), seed (>= 0, GSL's MT19937, default
+    12345), t_max [time units] (default the system's), gate [units of q] (default the system's),
+    area_tol: &montecarlo's, defaults and ranges from the program's reader (docs/input.md).
+    saddle or saddle_near, section, integrator, equilibria and &orbits' keywords as in tube_cut.
+
+    check (default True): raise DisagreementError (the result in err.partial) when the check
+    fails as the program's does (it exits 2): the fraction more than MC_SIGMA = 5 standard
+    errors sqrt(p(1-p)/n) from p_trans, more than 2 + n/1000 misclassified or more than
+    2 + n/100 undecided points (t_max too short, or a section or gate that does not fit the
+    saddle). check=False returns the dict with agrees False instead.
+
+    Returns a dict: dE, n_samples, seed, fraction, std_error (sqrt(f(1-f)/n)), p_trans,
+    misclassified, misclassified_inside_no_transit, misclassified_outside_transit, undecided,
+    agrees, sigmas (|fraction - p_trans| in standard errors), misclassified_limit,
+    undecided_limit, and per point r, p_r, transit (0 returned, 1 transited, 2 undecided),
+    inside (the cut)."""
     model = model or Model()
-    mc = {k: v for k, v in (("t_max", t_max), ("gate", gate), ("area_tol", area_tol)) if v is not None}
-    st = _settings(model, saddle, saddle_near, section=section, orbits=orbits, montecarlo=mc,
+    _need_2dof(model, "monte_carlo")
+    mc = {k: v for k, v in (("de", _scalar_de(dE, "monte_carlo")), ("n_samples", n_samples), ("seed", seed),
+                            ("t_max", t_max), ("gate", gate), ("area_tol", area_tol)) if v is not None}
+    if dE is None:
+        _default_de(model, "monte_carlo", "montecarlo")
+    st = _settings(model, saddle, saddle_near, section=section, who="monte_carlo", orbits=orbits, montecarlo=mc,
                    integrator=integrator, equilibria=equilibria)
-    c = _cut(model, st, dE, -1, float(st["mc_area_tol"]))
-    stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), float(dE),
-                                                model._stores())
+    de, ns, seed = float(st["mc_de"]), int(st["mc_n_samples"]), int(st["mc_seed"])
+    c = _cut(model, st, de, -1, float(st["mc_area_tol"]))
+    stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), de,
+                                                    model._stores())
     _check(stat, "monte_carlo")
-    stat, r, pr, outc, ins = _lib().monte_carlo(*_study(model, st), *_section_args(st), float(dE),
-                                                int(n_samples), int(seed), float(st["mc_t_max"]),
+    stat, r, pr, outc, ins = _lib().monte_carlo(*_study(model, st), *_section_args(st), de,
+                                                ns, seed, float(st["mc_t_max"]),
                                                 float(st["mc_gate"]), *_integ(st, model), c["r"], c["p_r"],
                                                 model._stores())
-    _check(stat, "monte_carlo")
+    if stat < 0:   # as the scene: how many samples failed, and the first
+        bad = np.flatnonzero(outc < 0)
+        where = "monte_carlo"
+        if bad.size:
+            k = int(bad[0])
+            where += (f": {bad.size} of {ns} samples failed (the first: sample {k + 1} at (s, p_s) = "
+                      f"({r[k]:.10g}, {pr[k]:.10g}))")
+        err = TubesError(stat, where)
+        err.partial = {"dE": de, "n_samples": ns, "seed": seed, "r": r.copy(), "p_r": pr.copy(),
+                       "transit": outc.copy(), "agrees": False}
+        raise err
     ins = ins.astype(bool)
-    f = float(np.mean(outc == 1))
-    return {"dE": float(dE), "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / n_samples)),
-            "p_trans": c["area"] / ae, "misclassified": int(np.sum(ins & (outc != 1)) + np.sum(~ins & (outc == 1))),
-            "undecided": int(np.sum(outc == 2)), "r": r.copy(), "p_r": pr.copy(),
-            "transit": outc.copy(), "inside": ins}
+    nt, nu = int(np.sum(outc == 1)), int(np.sum(outc == 2))
+    in_nt, out_t = int(np.sum(ins & (outc != 1))), int(np.sum(~ins & (outc == 1)))
+    f, p = nt / ns, c["area"] / ae
+    out = {"dE": de, "n_samples": ns, "seed": seed, "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / ns)),
+           "p_trans": p, "misclassified": in_nt + out_t, "misclassified_inside_no_transit": in_nt,
+           "misclassified_outside_transit": out_t, "undecided": nu,
+           **_mc_agreement(ns, nt, nu, in_nt + out_t, p),
+           "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins}
+    if check and not out["agrees"]:
+        raise DisagreementError(
+            f"monte_carlo: the direct check disagrees with the tube at dE = {de:g}: fraction {f:.5f} +- "
+            f"{out['std_error']:.5f} against p_trans = {p:.5f} ({out['sigmas']:.1f} standard errors, limit "
+            f"{MC_SIGMA}); {in_nt + out_t} misclassified (limit {out['misclassified_limit']}); {nu} undecided "
+            f"(limit {out['undecided_limit']}). The transit test (t_max, gate), the section or the tube does "
+            f"not fit saddle {st['saddle']}; check=False returns the result with agrees False", out)
+    return out
 
 
-def poincare(model: Model | None = None, dE: float = 100.0, n_seeds=None, n_iter=None, t_max=None,
+def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, n_iter=None, t_max=None,
              saddle=None, saddle_near=None, section=None, integrator: dict | None = None, equilibria: dict | None = None) -> np.ndarray:
     """Poincare map of the section at dE (as the sections scene): an array (n_seeds, n_iter, 2)
     of (s, p_s) (the ray's (r, p_r)) of each return of each trajectory, NaN after one stops
     returning within t_max. Raises TubesError if a trajectory failed (the returns are in
-    err.partial)."""
+    err.partial). 2 degrees of freedom.
+
+    dE: the excess energy above the saddle, > 0, in the model's energy units ((cm/s)^2 for the
+    ball); required (the scene's default list, &sections de = 100, 500, is the ball's and a list).
+    n_seeds (1 .. 100000, default 40), n_iter (returns per seed), t_max [time units] per return:
+    &sections', defaults and ranges from the program's reader (docs/input.md); saddle,
+    saddle_near, section, integrator, equilibria as in tube_cut."""
     model = model or Model()
-    pm = {k: v for k, v in (("n_seeds", n_seeds), ("n_iter", n_iter), ("t_max", t_max)) if v is not None}
-    st = _settings(model, saddle, saddle_near, section=section, sections=pm, integrator=integrator, equilibria=equilibria)
-    stat, pts = _lib().poincare(*_study(model, st), *_section_args(st), float(dE), int(st["pm_n_seeds"]),
+    _need_2dof(model, "poincare")
+    if dE is None:
+        raise ValueError("poincare: give dE, the excess energy above the saddle (> 0, in the model's energy units)")
+    pm = {k: v for k, v in (("de", [_scalar_de(dE, "poincare")]), ("n_seeds", n_seeds), ("n_iter", n_iter),
+                            ("t_max", t_max)) if v is not None}
+    st = _settings(model, saddle, saddle_near, section=section, who="poincare", sections=pm, integrator=integrator,
+                   equilibria=equilibria)
+    stat, pts = _lib().poincare(*_study(model, st), *_section_args(st), float(st["des"][0, 3]), int(st["pm_n_seeds"]),
                                 int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st, model),
                                 model._stores())
     out = np.moveaxis(pts, [0, 1, 2], [2, 1, 0]).copy()
@@ -900,12 +1160,12 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
     release (n_tracks, 2), release_dE); and E_e, saddle, damping_rate [1/s], n_draws, n_samples
     (frames per track), box, rtol and the settings used."""
     model = model or Model()
-    if model.name != "rolling_ball":
-        raise ValueError(f"synthetic_experiment: the synthetic experiment is the rolling ball's (not {model.system!r})")
     ex = {k: v for k, v in (("n_tracks", n_tracks), ("duration", duration), ("camera_rate", camera_rate),
                              ("pixel", pixel), ("noise", noise), ("de_min", de_min), ("de_max", de_max),
                              ("damping_ratio", damping_ratio), ("seed", seed)) if v is not None}
-    st = _settings(model, saddle, experiment=ex, integrator=integrator, equilibria=equilibria)
+    # the program's reader refuses a model other than the ball on its four-well surface, with its message
+    st = _settings(model, saddle, who="synthetic_experiment", run={"scenes": "synthetic_experiment"}, experiment=ex,
+                   integrator=integrator, equilibria=equilibria)
     eq = _settings_equilibria(model, st)
     k = [i for i, n in enumerate(eq["name"]) if n == st["saddle"] and eq["rank1"][i]]
     if not k:
@@ -940,9 +1200,27 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
             "seed": int(st["exp_seed"])}
 
 
+def _as_method(f):
+    """f(model, ...) as the Model method model.f(...): f's docstring and its signature without
+    the model (help(model.transition) shows the keywords, their defaults and the text)."""
+    import functools  # noqa: PLC0415
+    import inspect  # noqa: PLC0415
+
+    @functools.wraps(f)
+    def method(self, *args, **kwargs):
+        return f(self, *args, **kwargs)
+
+    sig = inspect.signature(f)
+    self_ = inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    method.__signature__ = sig.replace(parameters=[self_] + list(sig.parameters.values())[1:])
+    method.__doc__ = (f"model.{f.__name__}(...) is tubes.{f.__name__}(model, ...) (there, model=None is the "
+                      f"rolling ball, tubes.Model()):\n\n{inspect.cleandoc(f.__doc__)}")
+    return method
+
+
 for _f in (orbit_family, tube_cut, transition, monte_carlo, poincare, flux, equilibria, section_boundary,
            normal_form_map, synthetic_experiment):
-    setattr(Model, _f.__name__, lambda self, *a, _f=_f, **k: _f(self, *a, **k))
+    setattr(Model, _f.__name__, _as_method(_f))
 del _f
 
 
@@ -988,7 +1266,9 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
               max_steps: int = 10_000_000, omega_bind: float = 0.0, solver: str = "newton",
               max_iter: int = 0, section: str | None = None, level: float = 0.0,
               direction: int = 0, stop_at_first: bool = False, max_crossings: int = 10_000) -> dict:
-    """Integrate from state0 = (x, y, px, py) at t = 0 to t_end with any method of METHODS.
+    """Integrate from state0 = (q, p) (2N components: (x, y, px, py) for the ball) at t = 0 to
+    t_end [the model's time units: s for the ball] with any method of METHODS (default model:
+    the ball).
 
     Samples every dt_out (default: only the end points). Fixed-step methods need h > 0;
     omega_bind is Tao's binding constant, solver and max_iter configure gauss*.
@@ -997,8 +1277,11 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
     direction = sign of dx/dt or dy/dt or 0). Every crossing is recorded (on the integrator's
     dense output), up to max_crossings; stop_at_first ends the run at the first one.
 
-    Returns a dict: t (n,), state (n, 4), energy (n,), nfev, nsteps, nrejected, niter, and with
-    a section crossings = dict t (m,), state (m, 4), direction (m,), and for theta sections
+    The polar sections (U1*, theta) are the ball's; "x" and "y" are the planes q1 = level and
+    q2 = level of any model.
+
+    Returns a dict: t (n,), state (n, 2N), energy (n,), nfev, nsteps, nrejected, niter, and with
+    a section crossings = dict t (m,), state (m, 2N), direction (m,), and for theta sections
     r, p_r, p_theta (polar canonical coordinates). Raises TubesError on failure.
     """
     model = model or Model()
