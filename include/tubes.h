@@ -134,6 +134,14 @@ void tubes_status_message(int code, char *buf, int len);
 int tubes_model_natural(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                         int *natural);
 
+/* The Monte Carlo check's verdict (docs/tubes.md, "Monte Carlo check"): of n points, n_transit
+ * transited, n_undecided undecided and misclassified against the tube's inside; p the tube's
+ * p_trans. *sigmas: the count's distance from p in standard errors of a binomial count with p;
+ * *sigma_limit: the most it may be; *mis_lim, *und_lim: the most misclassified and undecided
+ * points; *agrees: 1 if all three hold. */
+void tubes_mc_agreement(int n, int n_transit, int n_undecided, int misclassified, double p, double *sigmas,
+                        double *sigma_limit, int *mis_lim, int *und_lim, int *agrees);
+
 /* *quadratic = 1 if H is quadratic in the momenta on the plane q_index = value (index 1 or 2) of a
  * 2-DOF model, over the range of the other coordinate a plane section searches (the box lo, hi
  * widened by half its width on each side): the plane section's premise (docs/tubes.md). */

@@ -717,6 +717,26 @@ subroutine status_code(name, code)
   end select
 end subroutine status_code
 
+subroutine mc_agreement(n, n_transit, n_undecided, misclassified, p, sigmas, sigma_limit, mis_lim, und_lim, &
+                        agrees)
+  ! the Monte Carlo check's verdict (src/transport/tubes_transport.f90 mc_agreement, the rule's one
+  ! definition, as the montecarlo scene decides it)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_transport, only: agreement => mc_agreement, MC_SIGMA
+  implicit none
+  integer(c_int), intent(in) :: n, n_transit, n_undecided, misclassified
+  real(c_double), intent(in) :: p
+  real(c_double), intent(out) :: sigmas, sigma_limit
+  integer(c_int), intent(out) :: mis_lim, und_lim, agrees
+  integer :: ml, ul
+  logical :: ok
+  call agreement(int(n), int(n_transit), int(n_undecided), int(misclassified), p, sigmas, ml, ul, ok)
+  mis_lim = ml
+  und_lim = ul
+  agrees = merge(1, 0, ok)
+  sigma_limit = MC_SIGMA
+end subroutine mc_agreement
+
 subroutine status_text(code, msg)
   ! the meaning of a TUBES_* status code (src/base/tubes_status.f90: the one table of them)
   use tubes_status, only: status_message

@@ -18,9 +18,13 @@ from typing import Any
 
 import numpy as np
 
-def __getattr__(name: str) -> int:
+def __getattr__(name: str):
     """The status codes tubes.OK, tubes.EVENT, tubes.EINPUT, ... (TUBES_<name>): their numbers from
-    the library's one definition (src/base/tubes_status.f90), looked up on first use."""
+    the library's one definition (src/base/tubes_status.f90), looked up on first use; and
+    tubes.MC_SIGMA, the Monte Carlo check's limit in standard errors (the program's,
+    src/transport/tubes_transport.f90)."""
+    if name == "MC_SIGMA":
+        return float(_lib().mc_agreement(1, 0, 0, 0, 0.5)[1])
     if name.isupper() and name.isalpha():
         code = int(_lib().status_code(name))
         if code != 1000:
@@ -1014,23 +1018,14 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     return out
 
 
-# The Monte Carlo check's agreement, as the montecarlo scene decides it (src/io/tubes_scenes.c,
-# scene_montecarlo: MC_SIGMA, mis_lim, und_lim; docs/output.md /montecarlo@agrees). A copy: that
-# definition is inline in the scene and not reachable from here; test_python_scenes compares the
-# two on an agreeing and a disagreeing run.
-MC_SIGMA = 5
-
-
 def _mc_agreement(n: int, n_transit: int, n_undecided: int, misclassified: int, p: float) -> dict:
-    """The count of n points against the tube's p: the distance in standard errors of a binomial
-    count with p (sqrt(p(1-p)/n)), and the limits of misclassified (2 + n/1000) and undecided
-    (2 + n/100) points."""
-    f = n_transit / n
-    se_p = np.sqrt(p * (1 - p) / n)
-    sig = abs(f - p) / se_p if se_p > 0 else (0.0 if f == p else np.inf)
-    mis_lim, und_lim = 2 + n // 1000, 2 + n // 100
-    return {"sigmas": float(sig), "misclassified_limit": mis_lim, "undecided_limit": und_lim,
-            "agrees": bool(sig <= MC_SIGMA and misclassified <= mis_lim and n_undecided <= und_lim)}
+    """The Monte Carlo check's verdict on n points against the tube's p, as the montecarlo scene
+    decides it (src/transport/tubes_transport.f90 mc_agreement, the rule's one definition): the
+    distance in standard errors of a binomial count with p, the limits of misclassified and
+    undecided points, and whether the check agrees."""
+    sig, lim, mis_lim, und_lim, agrees = _lib().mc_agreement(n, n_transit, n_undecided, misclassified, p)
+    return {"sigmas": float(sig), "sigma_limit": float(lim), "misclassified_limit": int(mis_lim),
+            "undecided_limit": int(und_lim), "agrees": bool(agrees)}
 
 
 class DisagreementError(RuntimeError):
@@ -1066,8 +1061,8 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
 
     Returns a dict: dE, n_samples, seed, fraction, std_error (sqrt(f(1-f)/n)), p_trans,
     misclassified, misclassified_inside_no_transit, misclassified_outside_transit, undecided,
-    agrees, sigmas (|fraction - p_trans| in standard errors), misclassified_limit,
-    undecided_limit, and per point r, p_r, transit (0 returned, 1 transited, 2 undecided),
+    agrees, sigmas (|fraction - p_trans| in standard errors), sigma_limit (MC_SIGMA),
+    misclassified_limit, undecided_limit, and per point r, p_r, transit (0 returned, 1 transited, 2 undecided),
     inside (the cut)."""
     model = model or Model()
     _need_2dof(model, "monte_carlo")
@@ -1110,7 +1105,7 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
         raise DisagreementError(
             f"monte_carlo: the direct check disagrees with the tube at dE = {de:g}: fraction {f:.5f} +- "
             f"{out['std_error']:.5f} against p_trans = {p:.5f} ({out['sigmas']:.1f} standard errors, limit "
-            f"{MC_SIGMA}); {in_nt + out_t} misclassified (limit {out['misclassified_limit']}); {nu} undecided "
+            f"{out['sigma_limit']:g}); {in_nt + out_t} misclassified (limit {out['misclassified_limit']}); {nu} undecided "
             f"(limit {out['undecided_limit']}). The transit test (t_max, gate), the section or the tube does "
             f"not fit saddle {st['saddle']}; check=False returns the result with agrees False", out)
     return out

@@ -23,7 +23,7 @@ module tubes_capi
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE, &
                                  plane_search_range, plane_quadratic_in_p
-  use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t
+  use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t, mc_agreement, MC_SIGMA
   use tubes_flux, only: flux_result_t, flux_leading_order, flux_sampled
   use tubes_normal_form, only: nf_result_t, normal_form_flux, NF_NPTS
   use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
@@ -147,6 +147,23 @@ contains
     if (stat /= TUBES_OK) return
     natural = merge(1, 0, model%is_natural())
   end function c_model_natural
+
+  !> The Monte Carlo check's verdict (tubes_transport mc_agreement): sigmas, the limits and
+  !> agrees (1 or 0); sigma_limit is MC_SIGMA.
+  subroutine c_mc_agreement(n, n_transit, n_undecided, misclassified, p, sigmas, sigma_limit, mis_lim, &
+                            und_lim, agrees) bind(C, name='tubes_mc_agreement')
+    integer(c_int), value :: n, n_transit, n_undecided, misclassified
+    real(c_double), value :: p
+    real(c_double), intent(out) :: sigmas, sigma_limit
+    integer(c_int), intent(out) :: mis_lim, und_lim, agrees
+    integer :: ml, ul
+    logical :: ok
+    call mc_agreement(int(n), int(n_transit), int(n_undecided), int(misclassified), p, sigmas, ml, ul, ok)
+    mis_lim = ml
+    und_lim = ul
+    agrees = merge(1, 0, ok)
+    sigma_limit = MC_SIGMA
+  end subroutine c_mc_agreement
 
   !> 1 if H is quadratic in the momenta on the plane q_index = value of a 2-DOF model, over the
   !> s range a plane section searches (the box lo, hi widened): the plane section's premise.

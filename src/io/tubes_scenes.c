@@ -55,8 +55,6 @@ static const char *method_label(const tubes_run_t *run) {
 enum { NEQ_MAX = 256, MD = TUBES_MAXDOF };
 /* The leading-order p_trans, (T_po/A0) dE (1 - tau dE/A0), is flagged where |tau dE/A0| exceeds this. */
 #define LEADING_RANGE 0.3
-/* Monte Carlo fraction and p_trans disagree beyond this many standard errors (false alarm 6e-7). */
-enum { MC_SIGMA = 5 };
 /* The &integrator choice as the C API's arguments (include/tubes.h): every analysis uses it. */
 #define INTEGRATOR(c) run->method, (c)->h, (c)->omega_bind, \
                       (strcmp((c)->solver, "fixed_point") ? 1 : 2), (c)->max_iter
@@ -1138,11 +1136,12 @@ int scene_montecarlo(tubes_run_t *run) {
       in_nt += ins[k] && out[k] != 1;
       out_t += !ins[k] && out[k] == 1;
     }
-    /* the distance in standard errors of a binomial count of ns points with the tube's p: the
-     * observed fraction's own sqrt(f(1-f)/n) is zero for 0 or ns transits, and would call one
-     * point without a transit a disagreement of infinitely many standard errors */
-    double f = (double)nt / ns, se = sqrt(f * (1 - f) / ns), p = ar / ae, se_p = sqrt(p * (1 - p) / ns);
-    double nsig = se_p > 0 ? fabs(f - p) / se_p : (f == p ? 0.0 : INFINITY);
+    /* the two answers must agree (tubes_mc_agreement: the rule's one definition): the direct
+     * count within MC_SIGMA standard errors of the tube's p_trans, few misclassified, few
+     * undecided; else the run says so and exits 2 (docs/tubes.md, "Monte Carlo check") */
+    double f = (double)nt / ns, se = sqrt(f * (1 - f) / ns), p = ar / ae, nsig, sig_lim;
+    int mis_lim, und_lim, agrees;
+    tubes_mc_agreement(ns, nt, nu, in_nt + out_t, p, &nsig, &sig_lim, &mis_lim, &und_lim, &agrees);
     printf("montecarlo: dE = %g, %d points: transition fraction %.5f +- %.5f (p_trans = %.5f, %.1f standard errors);"
            " %d inside the tube; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided (%.1f s)\n",
            de, ns, f, se, p, nsig, nin, in_nt, out_t, nu, now() - t0);
@@ -1157,11 +1156,6 @@ int scene_montecarlo(tubes_run_t *run) {
     e |= h5_attr_long(g, "misclassified_outside_transit", out_t);
     e |= h5_attr_long(g, "undecided", nu);
     e |= h5_write_int(g, "inside", dn, ins, "1");
-    /* the two answers must agree: the direct count within MC_SIGMA standard errors of the tube's
-     * p_trans, few misclassified points (a point within the cut's resolution of its boundary can
-     * be), few undecided; else the run says so and exits 2 (docs/tubes.md, "Monte Carlo check") */
-    int mis_lim = 2 + ns / 1000, und_lim = 2 + ns / 100;
-    int agrees = nsig <= MC_SIGMA && in_nt + out_t <= mis_lim && nu <= und_lim;
     e |= h5_attr_long(g, "agrees", agrees);
     if (g >= 0) H5Gclose(g);
     if (e) rc = EXIT_IO;
@@ -1169,7 +1163,7 @@ int scene_montecarlo(tubes_run_t *run) {
       fprintf(stderr, "tubes: montecarlo: the direct check disagrees with the tube at dE = %g: fraction %.5f +- %.5f "
               "against p_trans = %.5f (%.1f standard errors, limit %g); %d misclassified (limit %d); %d undecided "
               "(limit %d). The transit test, the section or the tube does not fit saddle %s: check &section and "
-              "&orbits saddle\n", de, f, se, p, nsig, (double)MC_SIGMA, in_nt + out_t, mis_lim, nu, und_lim, run->saddle);
+              "&orbits saddle\n", de, f, se, p, nsig, sig_lim, in_nt + out_t, mis_lim, nu, und_lim, run->saddle);
       rc = EXIT_NUMERIC;
     }
   }

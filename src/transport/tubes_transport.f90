@@ -76,9 +76,43 @@ module tubes_transport
   !> (map_status)
   real(wp), parameter :: ESCAPE_SCALES = 1.0e3_wp
 
-  public :: inside_curve, mc_classify, monte_carlo, poincare_map
+  public :: inside_curve, mc_classify, monte_carlo, poincare_map, mc_agreement
+
+  !> The Monte Carlo check agrees with the tube within this many standard errors (mc_agreement;
+  !> a false alarm of a correct tube: 6e-7)
+  real(wp), parameter, public :: MC_SIGMA = 5
 
 contains
+
+  !> The Monte Carlo check's verdict (docs/tubes.md, "Monte Carlo check"): of n points, n_transit
+  !> transited, n_undecided stayed undecided and misclassified disagree with the tube's inside;
+  !> against the tube's p = A_tube/A_E: the count's distance from p in standard errors of a binomial
+  !> count with p (sqrt(p (1 - p)/n): the observed fraction's own error is 0 for 0 or n transits,
+  !> and would make one point without a transit a disagreement of infinitely many), the limits of
+  !> misclassified points (2 + n/1000: a point within the cut's resolution of its boundary can be)
+  !> and of undecided ones (2 + n/100), and whether the two answers agree. The one definition: the
+  !> montecarlo scene (src/io/tubes_scenes.c) and Python's monte_carlo call it.
+  pure subroutine mc_agreement(n, n_transit, n_undecided, misclassified, p, sigmas, mis_lim, und_lim, agrees)
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf
+    integer, intent(in) :: n, n_transit, n_undecided, misclassified
+    real(wp), intent(in) :: p
+    real(wp), intent(out) :: sigmas
+    integer, intent(out) :: mis_lim, und_lim
+    logical, intent(out) :: agrees
+    real(wp) :: f, se_p
+    f = real(n_transit, wp)/n
+    se_p = sqrt(p*(1 - p)/n)
+    if (se_p > 0) then
+      sigmas = abs(f - p)/se_p
+    else if (f == p) then
+      sigmas = 0
+    else
+      sigmas = ieee_value(1.0_wp, ieee_positive_inf)
+    end if
+    mis_lim = 2 + n/1000
+    und_lim = 2 + n/100
+    agrees = sigmas <= MC_SIGMA .and. misclassified <= mis_lim .and. n_undecided <= und_lim
+  end subroutine mc_agreement
 
   subroutine gate_on_step(self, ig, t_hi, stop_now)
     class(gate_t), intent(inout) :: self
