@@ -173,7 +173,8 @@ end subroutine shape_derivs
 subroutine equilibria(system, params, lo, hi, n_grid, stores, stat, n, ndof, q, p, height, en, grad, &
                       morse, rank1, names, lam, om, evec)
   ! equilibria in the box [lo, hi] (first ndof entries), as the C API's tubes_find_equilibria
-  ! (tubes_study equilibria_table; evec by columns, 4 ndof^2 each); at most 256. stores:
+  ! (tubes_study equilibria_table; evec by columns, 4 ndof^2 each); at most 256 (more:
+  ! stat -1, TUBES_EINPUT, as the C API's nmax; find_equilibria refuses more than 256 itself). stores:
   ! stores_open's handle (a search kept there is not repeated), or 0
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_hamiltonian, only: hamiltonian_t
@@ -203,8 +204,12 @@ subroutine equilibria(system, params, lo, hi, n_grid, stores, stat, n, ndof, q, 
   kept => stores_at(stores)
   call equilibria_of(trim(system), params, lo, hi, n_grid, model, eqs, stat, kept)
   if (stat /= 0) return
-  n = min(size(eqs), 256)
-  call equilibria_table(eqs(1:n), nd, q, p, height, en, grad, morse, rank1, lam, om, evec)
+  if (size(eqs) > 256) then      ! refuse, as the C API does past nmax: never truncate
+    stat = -1
+    return
+  end if
+  n = size(eqs)
+  call equilibria_table(eqs, nd, q, p, height, en, grad, morse, rank1, lam, om, evec)
   do k = 1, n
     names(9*(k - 1) + 1:9*k) = eqs(k)%name
   end do

@@ -9,12 +9,13 @@
 !> sums of terms of total size S ~ 30 cm, good to a few eps S.
 program test_equilibria
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   use tubes_fourwell, only: fourwell_t
   use tubes_ball, only: ball_t, make_ball
-  use tubes_equilibria, only: equilibrium_t, find_equilibria, rest_jacobian, quadrant
+  use tubes_equilibria, only: equilibrium_t, find_equilibria, rest_jacobian, quadrant, GRAD_TOL, &
+                              MAX_EQUILIBRIA
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
-  use tubes_test_models, only: EPS
+  use tubes_test_models, only: EPS, quartic_bath_t
   implicit none
 
   real(wp), parameter :: G = 981.0_wp           ! gravity [cm/s^2]
@@ -30,6 +31,12 @@ program test_equilibria
   integer :: stat, i, k, j, m
   character(80) :: lbl
   character(len=8) :: nm
+  type(quartic_bath_t) :: qb
+  character(:), allocatable :: emsg
+  real(wp) :: gbound
+  integer :: ig, ib
+  integer, parameter :: GRIDS(5) = [3, 5, 21, 40, 41]
+  real(wp), parameter :: BOXES(3) = [1.5_wp, 2.0_wp, 3.0_wp]
 
   surf = fourwell_t()
   call make_ball(ball, surf, G)
@@ -232,6 +239,107 @@ program test_equilibria
       call check_rel(trim(lbl), eqs(k)%omega, omg, 1.0e-12_wp)
     end if
   end do
+
+  ! --- degenerate equilibria (docs/models.md, "Degenerate equilibria") ----------------------
+  ! V = -x^2/2 + x^4/4 + y^4/4: grad V = (x^3 - x, y^3) vanishes at (0, 0) and (+-1, 0), the
+  ! Hessian diag(3x^2 - 1, 3y^2) is singular there (y: a root of multiplicity 3). Closed form:
+  ! (+-1, 0) at V = -1/4, index 0 with a zero mode (not all centres: R1, R2); (0, 0) at V = 0,
+  ! one real pair lambda = 1 and a zero mode: D1. Before the fix none was found, for every box
+  ! and grid (the singular Hessian stopped Newton). Every box and grid with a start on the
+  ! line x = 0 or near it finds the three, once each.
+  qb = quartic_bath_t()
+  do ib = 1, size(BOXES)
+    do ig = 1, size(GRIDS)
+      call find_equilibria(qb, [-BOXES(ib), -BOXES(ib)], [BOXES(ib), BOXES(ib)], GRIDS(ig), eqs, stat)
+      write (lbl, '(a,f0.1,a,i0,a)') 'y^4/4: box ', BOXES(ib), ', n_grid ', GRIDS(ig), ': 3 equilibria'
+      call check_eq(trim(lbl), merge(size(eqs), -1, stat == TUBES_OK), 3)
+    end do
+  end do
+  call find_equilibria(qb, [-2.0_wp, -2.0_wp], [2.0_wp, 2.0_wp], 41, eqs, stat)
+  call check_eq('y^4/4: status', stat, TUBES_OK)
+  call check_eq('y^4/4: 3 equilibria', size(eqs), 3)
+  if (size(eqs) /= 3) call finish('test_equilibria')
+  call check_true('y^4/4: named R1, R2 (index 0, a zero mode), D1 (degenerate saddle)', &
+                  eqs(1)%name == 'R1' .and. eqs(2)%name == 'R2' .and. eqs(3)%name == 'D1', &
+                  eqs(1)%name//eqs(2)%name//eqs(3)%name)
+  ! x: a simple root, to roundoff; y: a triple root, where Newton shrinks y by 2/3 a step until
+  ! the step is below 1e-14: |y| < 1e-13. The stated bound is (GRAD_TOL G)^(1/3), G = the
+  ! largest |grad V| on the grid (|(6, 8)| = 10 at the corner (2, 2)): 1e-3.
+  gbound = (GRAD_TOL*10.0_wp)**(1.0_wp/3)
+  do k = 1, 3
+    q = [real(2*k - 3, wp), 0.0_wp]
+    if (k == 3) q = 0
+    write (lbl, '(a,a)') 'y^4/4: x = closed form at ', trim(eqs(k)%name)
+    call check_close(trim(lbl), eqs(k)%q(1), q(1), 1.0e-14_wp)
+    write (lbl, '(a,a)') 'y^4/4: |y| < 1e-13 (Newton to its step floor) at ', trim(eqs(k)%name)
+    call check_close(trim(lbl), eqs(k)%q(2), 0.0_wp, 1.0e-13_wp)
+    write (lbl, '(a,a)') 'y^4/4: |y| within the stated (GRAD_TOL G)^(1/3) at ', trim(eqs(k)%name)
+    call check_close(trim(lbl), eqs(k)%q(2), 0.0_wp, gbound)
+    write (lbl, '(a,a)') 'y^4/4: the location error estimate covers |y| at ', trim(eqs(k)%name)
+    call check_true(trim(lbl), abs(eqs(k)%q(2)) <= 2*eqs(k)%location_error + 1.0e-15_wp)
+    write (lbl, '(a,a)') 'y^4/4: energy -1/4 or 0 at ', trim(eqs(k)%name)
+    call check_close(trim(lbl), eqs(k)%energy, merge(0.0_wp, -0.25_wp, k == 3), 4*EPS)
+    write (lbl, '(a,a)') 'y^4/4: one zero mode at ', trim(eqs(k)%name)
+    call check_eq(trim(lbl), eqs(k)%nzero, 1)
+    write (lbl, '(a,a)') 'y^4/4: index at ', trim(eqs(k)%name)
+    call check_eq(trim(lbl), eqs(k)%morse, merge(1, 0, k == 3))
+    write (lbl, '(a,a)') 'y^4/4: residual <= GRAD_TOL G at ', trim(eqs(k)%name)
+    call check_true(trim(lbl), eqs(k)%grad_norm <= GRAD_TOL*10.0_wp)
+  end do
+  call check_true('y^4/4: no rank-1 saddle', .not. any(eqs%rank1))
+  call check_true('y^4/4: D1 degenerate, R1 and R2 not', eqs(3)%degenerate .and. .not. eqs(1)%degenerate &
+                  .and. .not. eqs(2)%degenerate)
+  call check_rel('y^4/4: D1 lambda = sqrt(-V_xx) = 1', eqs(3)%lambda, 1.0_wp, 1.0e-14_wp)
+  call check_close('y^4/4: D1 omega = 0 (the zero mode)', eqs(3)%omega, 0.0_wp, 0.0_wp)
+  call check_close('y^4/4: D1 curvatures -1, 0', maxval(abs(eqs(3)%curv - [-1.0_wp, 0.0_wp])), 0.0_wp, 1.0e-13_wp)
+
+  ! A root of multiplicity 5 off the grid: V = -x^2/2 + x^4/4 + (y - 0.3)^6/6. Newton shrinks
+  ! y - 0.3 by 4/5 a step; the three are found, at y = 0.3 within the stated bound
+  ! (GRAD_TOL G)^(1/5), G = |grad V(2, -2)| = |(6, 2.3^5)| ~ 64.8: ~2e-2 (found: to 1e-13).
+  qb = quartic_bath_t(s=0.3_wp, k=6)
+  call find_equilibria(qb, [-2.0_wp, -2.0_wp], [2.0_wp, 2.0_wp], 41, eqs, stat)
+  call check_eq('(y - 0.3)^6/6: status', stat, TUBES_OK)
+  call check_eq('(y - 0.3)^6/6: 3 equilibria', size(eqs), 3)
+  if (size(eqs) /= 3) call finish('test_equilibria')
+  call check_true('(y - 0.3)^6/6: named R1, R2, D1', &
+                  eqs(1)%name == 'R1' .and. eqs(2)%name == 'R2' .and. eqs(3)%name == 'D1')
+  gbound = (GRAD_TOL*hypot(6.0_wp, 2.3_wp**5))**(1.0_wp/5)
+  do k = 1, 3
+    write (lbl, '(a,a)') '(y - 0.3)^6/6: y = 0.3 within the stated bound at ', trim(eqs(k)%name)
+    call check_close(trim(lbl), eqs(k)%q(2), 0.3_wp, gbound)
+    write (lbl, '(a,a)') '(y - 0.3)^6/6: y = 0.3 to 1e-12 (found) at ', trim(eqs(k)%name)
+    call check_close(trim(lbl), eqs(k)%q(2), 0.3_wp, 1.0e-12_wp)
+    write (lbl, '(a,a)') '(y - 0.3)^6/6: energy -1/4 or 0 at ', trim(eqs(k)%name)
+    call check_close(trim(lbl), eqs(k)%energy, merge(0.0_wp, -0.25_wp, k == 3), 4*EPS)
+  end do
+
+  ! 3 DOF (the quartic bath of tests/test_normal_form.py with a double well in q1): the wells
+  ! (+-1, 0, 0) were dropped by the old search on some grids; now R1, R2 and D1 (omegas 0, w).
+  qb = quartic_bath_t()
+  qb%nd = 3
+  call find_equilibria(qb, [-1.0_wp, -1.0_wp, -1.0_wp], [1.0_wp, 1.0_wp, 1.0_wp], 5, eqs, stat)
+  call check_eq('3 DOF quartic bath: status', stat, TUBES_OK)
+  call check_eq('3 DOF quartic bath: 3 equilibria', size(eqs), 3)
+  if (size(eqs) /= 3) call finish('test_equilibria')
+  call check_true('3 DOF quartic bath: named R1, R2, D1', &
+                  eqs(1)%name == 'R1' .and. eqs(2)%name == 'R2' .and. eqs(3)%name == 'D1')
+  call check_close('3 DOF quartic bath: D1 at the origin', norm2(eqs(3)%q), 0.0_wp, 1.0e-13_wp)
+  call check_close('3 DOF quartic bath: R1 at (-1, 0, 0)', norm2(eqs(1)%q - [-1.0_wp, 0.0_wp, 0.0_wp]), &
+                   0.0_wp, 1.0e-13_wp)
+  call check_close('3 DOF quartic bath: energies -1/4', maxval(abs(eqs(1:2)%energy + 0.25_wp)), 0.0_wp, 4*EPS)
+  call check_close('3 DOF quartic bath: D1 omegas (0, 1.3)', maxval(abs(eqs(3)%omegas - [0.0_wp, 1.3_wp])), &
+                   0.0_wp, 1.0e-13_wp)
+
+  ! Nothing is dropped silently: more than MAX_EQUILIBRIA equilibria (cos x + cos y: one every
+  ! pi, 39^2 in [-60, 60]^2) is TUBES_ENOCONV with errmsg saying so, not a truncated list.
+  qb = quartic_bath_t(cosines=.true.)
+  call find_equilibria(qb, [-60.0_wp, -60.0_wp], [60.0_wp, 60.0_wp], 121, eqs, stat, emsg)
+  call check_eq('cos x + cos y in [-60, 60]^2: more than MAX_EQUILIBRIA is TUBES_ENOCONV', stat, TUBES_ENOCONV)
+  call check_true('... errmsg says more than MAX_EQUILIBRIA', index(emsg, 'more than 256') > 0, emsg)
+  call check_eq('... MAX_EQUILIBRIA is 256 (the C and Python tables)', MAX_EQUILIBRIA, 256)
+  call find_equilibria(qb, [-7.0_wp, -7.0_wp], [7.0_wp, 7.0_wp], 41, eqs, stat)
+  call check_eq('cos x + cos y in [-7, 7]^2: 25 equilibria (k pi, l pi), |k|, |l| <= 2', &
+                merge(size(eqs), -1, stat == TUBES_OK), 25)
 
   call finish('test_equilibria')
 

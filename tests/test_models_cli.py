@@ -6,6 +6,7 @@ on Henon-Heiles' section y = 0), limits (action / (T_po dE) -> 1, ln(mu) / T -> 
 dE -> 0), symmetries (the four-well's four saddles) and the Monte Carlo count (a second method).
 """
 import math
+import re
 
 import h5py
 import numpy as np
@@ -370,3 +371,33 @@ def test_a_de_the_energy_cannot_resolve_is_refused(tmp_path):
     _, f = run(tmp_path, "&model h0 = 1e5 /\n" + orb, name="a.h5")
     _, g = run(tmp_path, orb, name="b.h5")
     assert np.allclose(f["orbits/action"][:], g["orbits/action"][:], rtol=1e-6, atol=0)
+
+
+# ---------------------------------------------------------------- degenerate equilibria
+
+DEGENERATE = ("&model system = 'expression', hamiltonian = '(px^2 + py^2)/2 - x^2/2 + x^4/4 + y^4/4' /\n"
+              "&run scenes = 'equilibria' /\n&orbits saddle_near = 0, 0 /\n")
+
+
+@pytest.mark.parametrize("box,n_grid", [(2.0, 41), (1.5, 40), (3.0, 7)])
+def test_degenerate_equilibria_are_reported(tmp_path, monkeypatch, box, n_grid):
+    """V = -x^2/2 + x^4/4 + y^4/4 (docs/models.md, "Degenerate equilibria"): grad V = (x^3 - x, y^3)
+    vanishes at (0, 0) and (+-1, 0), where the Hessian diag(3x^2 - 1, 3y^2) is singular. Closed
+    form: (+-1, 0) at E = -1/4, index 0 with a zero mode (named R1, R2: not all centres); (0, 0) at
+    E = 0, lambda = sqrt(-V_xx) = 1 and a zero mode: D1. The search printed "0 in the box" for
+    every box and grid before."""
+    monkeypatch.setenv("TUBES_CACHE_DIR", str(tmp_path / "cache"))
+    r, f = run(tmp_path, DEGENERATE + f"&equilibria box = {box}, n_grid = {n_grid} /\n")
+    assert "equilibria of expression: 3 in the box" in r.stdout, r.stdout
+    eq = f["equilibria"]
+    names = [n.decode() if isinstance(n, bytes) else n for n in eq["name"][:]]
+    assert names == ["R1", "R2", "D1"], names
+    q = eq["state"][:, :2]
+    np.testing.assert_allclose(q, [[-1, 0], [1, 0], [0, 0]], rtol=0, atol=1e-13)
+    np.testing.assert_allclose(eq["energy"][:], [-0.25, -0.25, 0], rtol=0, atol=1e-15)
+    assert list(eq["morse_index"][:]) == [0, 0, 1]
+    assert eq["lambda"][2] == pytest.approx(1, rel=1e-14) and eq["omega"][2] == 0
+    # E_e = y^4/4 with |y| < 1e-13 (the triple root y^3 = 0, located by Newton's step floor)
+    m = re.search(r"saddle D1: E_e = (\S+), lambda = 1, degenerate", r.stdout)
+    assert m and abs(float(m.group(1))) < 1e-50, r.stdout
+    assert np.all(eq["grad_norm"][:] <= 1e-10 * np.hypot(box**3 - box, box**3))   # GRAD_TOL G

@@ -16,17 +16,34 @@ module tubes_test_models
   use tubes_rk4, only: rk4_t
   use tubes_ball, only: ball_t, make_ball
   use tubes_fourwell, only: fourwell_t
+  use tubes_hamiltonian, only: separable_t
   implicit none
   private
   public :: oscillator_t, qp_oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval, dense_probe_t, &
             oscillator_fixed_step, ball_fixed_step, oscillator_start, affine_field_t, line_field, &
-            fall_field, iso_field
+            fall_field, iso_field, quartic_bath_t
 
   real(wp), parameter, public :: PI = acos(-1.0_wp)
   real(wp), parameter, public :: EPS = epsilon(1.0_wp)
   !> The rolling ball's benchmark release (docs/benchmarks.md, problem 1): at rest at (4,
   !> 12.614863819914357) cm, dE = 1500 (cm/s)^2 above the saddles.
   real(wp), parameter, public :: X0_BALL(4) = [4.0_wp, 12.614863819914357_wp, 0.0_wp, 0.0_wp]
+
+  !> A double well in q1 with a degenerate last coordinate (docs/models.md, "Degenerate
+  !> equilibria"), unit masses: V = -q1^2/2 + q1^4/4 [+ w^2 q2^2/2 when N = 3] + (qN - s)^k/k,
+  !> a root of dV/dqN of multiplicity m = k - 1 at qN = s. Equilibria: (+-1, 0.., s) at
+  !> V = -1/4 (index 0, one zero mode) and (0, 0.., s) at V = 0 (index 1, one zero mode: D1).
+  !> With cosines = .true. instead V = cos(q1) + cos(q2) (N = 2): an equilibrium every pi.
+  type, extends(separable_t), public :: quartic_bath_t
+    real(wp) :: s = 0          !! the degenerate coordinate's root
+    integer :: k = 4           !! its power (even, >= 4)
+    real(wp) :: w = 1.3_wp     !! the middle coordinate's frequency (N = 3)
+    logical :: cosines = .false.
+  contains
+    procedure :: shape => qb_shape
+    procedure :: shape_derivs => qb_shape_derivs
+    procedure :: masses => qb_masses
+  end type quartic_bath_t
 
   !> Samples interp at nsamp interior points of every accepted step (s = t_old + j h/(nsamp + 1))
   !> of an oscillator integration: the largest errors against the exact solution from (0, (1, 0))
@@ -84,6 +101,49 @@ module tubes_test_models
   end type shy_oscillator_t
 
 contains
+
+  pure real(wp) function qb_shape(self, q)
+    class(quartic_bath_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    integer :: n
+    n = size(q)
+    if (self%cosines) then
+      qb_shape = cos(q(1)) + cos(q(2))
+      return
+    end if
+    qb_shape = -q(1)**2/2 + q(1)**4/4 + (q(n) - self%s)**self%k/self%k
+    if (n == 3) qb_shape = qb_shape + self%w**2*q(2)**2/2
+  end function qb_shape
+
+  pure subroutine qb_shape_derivs(self, q, grad, hess)
+    class(quartic_bath_t), intent(in) :: self
+    real(wp), intent(in) :: q(:)
+    real(wp), intent(out) :: grad(:), hess(:, :)
+    integer :: n
+    n = size(q)
+    grad = 0
+    hess = 0
+    if (self%cosines) then
+      grad(1:2) = -sin(q(1:2))
+      hess(1, 1) = -cos(q(1))
+      hess(2, 2) = -cos(q(2))
+      return
+    end if
+    grad(1) = -q(1) + q(1)**3
+    hess(1, 1) = -1 + 3*q(1)**2
+    grad(n) = (q(n) - self%s)**(self%k - 1)
+    hess(n, n) = (self%k - 1)*(q(n) - self%s)**(self%k - 2)
+    if (n == 3) then
+      grad(2) = self%w**2*q(2)
+      hess(2, 2) = self%w**2
+    end if
+  end subroutine qb_shape_derivs
+
+  pure subroutine qb_masses(self, m)
+    class(quartic_bath_t), intent(in) :: self
+    real(wp), intent(out) :: m(:)
+    m = 1.0_wp
+  end subroutine qb_masses
 
   pure integer function osc_dim(self)
     class(oscillator_t), intent(in) :: self

@@ -4,6 +4,11 @@
 !> linearised flow: lambda, the centre frequencies omega_k and the eigenvectors (LAPACK dgeev).
 !> Natural systems: rest points p = 0 at the critical points of V, by Newton in q. Others (the
 !> CR3BP): Newton on the 2N-dimensional vector field from (q, rest momenta of q).
+!> A degenerate equilibrium (a Hessian eigenvalue 0, a root of grad V of multiplicity m > 1 along
+!> it) is found too: Newton converges only linearly there (by (m - 1)/m an iteration) and, where
+!> the Hessian is singular, takes the pseudo-inverse's step; it is accepted by its residual
+!> (GRAD_TOL) and located to about (residual/c)^(1/m) along the degenerate direction
+!> (docs/models.md, "Degenerate equilibria").
 module tubes_equilibria
   use tubes_kinds, only: wp
   use tubes_lapack, only: eigen, dsyev, dgesv
@@ -14,6 +19,16 @@ module tubes_equilibria
 
   integer, parameter, public :: MAX_EQUILIBRIA = 256   !! equilibria kept at most (more: TUBES_ENOCONV)
   integer, parameter :: MAXN = 8                       !! configuration dimension at most
+  !> Natural systems: q is an equilibrium when Newton from a grid point ends there and
+  !> |grad shape(q)| <= GRAD_TOL G, G the largest |grad shape| on the search grid
+  real(wp), parameter, public :: GRAD_TOL = 1.0e-10_wp
+  !> Natural systems: a Hessian eigenvalue kappa is zero (a degenerate mode) when
+  !> |kappa| <= CURV_TOL K, K = max(max |kappa|, G / (the box's largest half-width))
+  real(wp), parameter, public :: CURV_TOL = 1.0e-8_wp
+  integer, parameter :: NEWTON_FAST = 60    !! iterations before a slow (degenerate) root's own rules
+  integer, parameter :: NEWTON_MAX = 400    !! iterations at most: (m-1)/m per step, 1 -> 1e-14 for m <= 8
+  integer, parameter :: NEWTON_STALL = 20   !! after NEWTON_FAST: stop after this many without a
+                                            !! smaller residual (the roundoff floor)
 
   !> One equilibrium.
   type, public :: equilibrium_t
@@ -22,6 +37,10 @@ module tubes_equilibria
     real(wp) :: height = 0          !! natural: shape(q) (the ball: H(x, y) [cm]); else H
     real(wp) :: energy = 0          !! H at the equilibrium
     real(wp) :: grad_norm = 0       !! Newton residual: |grad shape| (natural) or |f(x)|
+    real(wp) :: location_error = 0  !! estimated distance to the exact equilibrium [units of q]:
+                                    !! Newton's last step, times (m - 1) at a root of multiplicity m
+    integer :: nzero = 0            !! zero modes: Hessian eigenvalues 0 within CURV_TOL (natural),
+                                    !! else zero pairs of the flow's spectrum
     real(wp), allocatable :: curv(:) !! natural: Hessian eigenvalues of shape, ascending
     integer :: morse = -1           !! index: eigenvalues with Re > 0 (natural: Morse index of V)
     logical :: rank1 = .false.      !! one real pair +-lambda, all others +-i omega_k
@@ -93,60 +112,173 @@ contains
     end if
   end subroutine small_solve
 
-  !> Newton's method on grad shape = 0 from q (natural systems); converged when the step is
-  !> below roundoff. Steps are damped to length_scale.
-  subroutine newton_natural(model, q, ok)
+  !> Pseudo-inverse solve of the symmetric a x = b (n <= MAXN): x = sum_i v_i (v_i.b)/kappa_i
+  !> over the eigenpairs (kappa_i, v_i) of a with kappa_i /= 0 and a representable quotient; the
+  !> others (a flat direction) are left out. For a singular Hessian, where small_solve refuses.
+  subroutine pinv_solve(a, b, x, ok)
+    real(wp), intent(in) :: a(:, :), b(:)
+    real(wp), intent(out) :: x(:)
+    logical, intent(out) :: ok          !! .false. only if LAPACK's dsyev failed
+    real(wp) :: aa(MAXN, MAXN), ev(MAXN), work(64), c
+    integer :: n, i, info
+    n = size(b)
+    aa(1:n, 1:n) = a
+    call dsyev('V', 'U', n, aa, MAXN, ev, work, 64, info)
+    ok = info == 0
+    x = 0
+    if (.not. ok) return
+    do i = 1, n
+      c = dot_product(aa(1:n, i), b)
+      if (abs(ev(i)) > 0 .and. abs(c) < abs(ev(i))*1.0e200_wp) x = x + aa(1:n, i)*(c/ev(i))
+    end do
+  end subroutine pinv_solve
+
+  !> Estimated distance to the root after a Newton step of length step whose predecessor was
+  !> step_prev: at a root of multiplicity m the steps shrink by r = (m - 1)/m and the distance
+  !> left is step r/(1 - r) = (m - 1) step; r is capped at 0.95 (m = 20).
+  pure real(wp) function newton_error(step, step_prev)
+    real(wp), intent(in) :: step, step_prev
+    real(wp) :: r
+    r = 0
+    if (step_prev > 0 .and. step_prev < huge(1.0_wp)) r = min(step/step_prev, 0.95_wp)
+    newton_error = step*max(1.0_wp, r/(1 - r))
+  end function newton_error
+
+  !> Newton's method on grad shape = 0 from q (natural systems). Steps are damped to
+  !> length_scale; a singular Hessian takes the pseudo-inverse's step. It ends when the step is
+  !> below roundoff, or, after NEWTON_FAST iterations (a degenerate root: linear convergence),
+  !> when the residual stopped decreasing or after NEWTON_MAX; ok if then |grad shape| <= gtol
+  !> (default 1e-13). err: the estimated distance to the root (newton_error).
+  subroutine newton_natural(model, q, ok, gtol, err)
     class(natural_t), intent(in) :: model
     real(wp), intent(inout) :: q(:)
     logical, intent(out) :: ok
-    real(wp) :: gr(MAXN), hs(MAXN, MAXN), dq(MAXN), scale, ls
-    integer :: it, n
+    real(wp), intent(in), optional :: gtol
+    real(wp), intent(out), optional :: err
+    real(wp) :: gr(MAXN), hs(MAXN, MAXN), dq(MAXN), scale, ls, step, step_prev, gn, gbest, tol
+    integer :: it, n, nstall
+    logical :: converged, solved
     ok = .false.
+    converged = .false.
     n = size(q)
     ls = model%length_scale()
-    do it = 1, 60
+    tol = 1.0e-13_wp
+    if (present(gtol)) tol = gtol
+    if (present(err)) err = huge(1.0_wp)
+    step = huge(1.0_wp)
+    step_prev = huge(1.0_wp)
+    gbest = huge(1.0_wp)
+    nstall = 0
+    do it = 1, NEWTON_MAX
       call model%shape_derivs(q, gr(1:n), hs(1:n, 1:n))
       if (.not. all(abs(gr(1:n)) <= huge(1.0_wp))) return
-      call small_solve(hs(1:n, 1:n), gr(1:n), dq(1:n), ok)
-      if (.not. ok) return
-      ok = .false.
-      scale = max(1.0_wp, sqrt(sum(dq(1:n)**2))/ls)   ! damp long steps to one length scale
+      gn = sqrt(sum(gr(1:n)**2))
+      if (gn < gbest) then
+        gbest = gn
+        nstall = 0
+      else
+        nstall = nstall + 1
+      end if
+      if (it > NEWTON_FAST .and. nstall > NEWTON_STALL) exit
+      call small_solve(hs(1:n, 1:n), gr(1:n), dq(1:n), solved)
+      if (.not. solved) call pinv_solve(hs(1:n, 1:n), gr(1:n), dq(1:n), solved)
+      if (.not. solved) return
+      step_prev = step
+      step = sqrt(sum(dq(1:n)**2))
+      scale = max(1.0_wp, step/ls)   ! damp long steps to one length scale
       q = q - dq(1:n)/scale
-      if (sqrt(sum(dq(1:n)**2)) <= 1.0e-14_wp*max(ls, sqrt(sum(q**2)))) then
-        ok = .true.
-        return
+      if (step <= 1.0e-14_wp*max(ls, sqrt(sum(q**2)))) then
+        converged = .true.
+        exit
       end if
     end do
-    ok = sqrt(sum(gr(1:n)**2)) <= 1.0e-13_wp
+    call model%shape_derivs(q, gr(1:n), hs(1:n, 1:n))
+    gn = sqrt(sum(gr(1:n)**2))
+    ok = gn <= tol
+    if (present(err)) then
+      if (converged) then
+        err = newton_error(step, step_prev)
+      else                               ! stalled at the roundoff floor, or NEWTON_MAX
+        err = newton_error(max(step, step_prev), step_prev)
+      end if
+    end if
   end subroutine newton_natural
 
-  !> Newton's method on f(x) = J grad H = 0 in 2N dimensions (any model).
-  subroutine newton_general(model, x, ok)
+  !> Least-squares step for a singular Jacobian: x minimises |a x - b| with the least norm, from
+  !> the eigenpairs of a^T a (pinv_solve).
+  subroutine lsq_solve(a, b, x, ok)
+    real(wp), intent(in) :: a(:, :), b(:)
+    real(wp), intent(out) :: x(:)
+    logical, intent(out) :: ok
+    real(wp) :: ata(MAXN, MAXN), atb(MAXN)
+    integer :: n
+    n = size(b)
+    if (n > MAXN) then
+      ok = .false.
+      x = 0
+      return
+    end if
+    ata(1:n, 1:n) = matmul(transpose(a), a)
+    atb(1:n) = matmul(transpose(a), b)
+    call pinv_solve(ata(1:n, 1:n), atb(1:n), x, ok)
+  end subroutine lsq_solve
+
+  !> Newton's method on f(x) = J grad H = 0 in 2N dimensions (any model); a singular Jacobian
+  !> takes the least-squares step, a slow (degenerate) root the rules of newton_natural; ok if at
+  !> the end |f| <= 1e-10 max(length_scale, |x|). err as newton_natural's.
+  subroutine newton_general(model, x, ok, err)
     class(hamiltonian_t), intent(in) :: model
     real(wp), intent(inout) :: x(:)
     logical, intent(out) :: ok
-    real(wp) :: f(size(x)), jac(size(x), size(x)), dx(size(x)), scale, ls, xs
-    integer :: it, stat, n
+    real(wp), intent(out), optional :: err
+    real(wp) :: f(size(x)), jac(size(x), size(x)), dx(size(x)), scale, ls, xs, step, step_prev, gn, gbest
+    integer :: it, stat, n, nstall
+    logical :: converged, solved
     ok = .false.
+    converged = .false.
     n = size(x)/2
     ls = model%length_scale()
-    do it = 1, 60
+    if (present(err)) err = huge(1.0_wp)
+    step = huge(1.0_wp)
+    step_prev = huge(1.0_wp)
+    gbest = huge(1.0_wp)
+    nstall = 0
+    do it = 1, NEWTON_MAX
       call model%eval(0.0_wp, x, f, stat)
       if (stat /= 0) return
+      gn = sqrt(sum(f**2))
+      if (gn < gbest) then
+        gbest = gn
+        nstall = 0
+      else
+        nstall = nstall + 1
+      end if
+      if (it > NEWTON_FAST .and. nstall > NEWTON_STALL) exit
       call model%jacobian(0.0_wp, x, jac, stat)
       if (stat /= 0) return
-      call small_solve(jac, f, dx, ok)
-      if (.not. ok) return
-      ok = .false.
+      call small_solve(jac, f, dx, solved)
+      if (.not. solved) call lsq_solve(jac, f, dx, solved)
+      if (.not. solved) return
+      step_prev = step
+      step = sqrt(sum(dx**2))
       scale = max(1.0_wp, sqrt(sum(dx(1:n)**2))/ls)
       x = x - dx/scale
       xs = max(ls, sqrt(sum(x**2)))
-      if (sqrt(sum(dx**2)) <= 1.0e-14_wp*xs) then
-        call model%eval(0.0_wp, x, f, stat)
-        ok = stat == 0 .and. sqrt(sum(f**2)) <= 1.0e-10_wp*xs
-        return
+      if (step <= 1.0e-14_wp*xs) then
+        converged = .true.
+        exit
       end if
     end do
+    call model%eval(0.0_wp, x, f, stat)
+    xs = max(ls, sqrt(sum(x**2)))
+    ok = stat == 0 .and. sqrt(sum(f**2)) <= 1.0e-10_wp*xs
+    if (present(err)) then
+      if (converged) then
+        err = newton_error(step, step_prev)
+      else
+        err = newton_error(max(step, step_prev), step_prev)
+      end if
+    end if
   end subroutine newton_general
 
   !> Steepest descent of shape from q into a minimum (names saddles by their wells); ok =
@@ -188,47 +320,61 @@ contains
   end subroutine hessian_eigs
 
   !> All equilibria with q in the box [lo, hi] (per coordinate), by Newton from an n_grid^N
-  !> grid, deduplicated, classified and named. Sorted: by index, then by name.
-  !> stat: TUBES_EINPUT for a bad box; TUBES_ENOCONV if more than MAX_EQUILIBRIA were found.
-  subroutine find_equilibria(model, lo, hi, n_grid, eqs, stat)
+  !> grid, deduplicated, classified and named. Sorted: by index, then by name. Natural systems:
+  !> a point where |grad shape| <= GRAD_TOL G (G: the largest |grad shape| on the grid);
+  !> others: |f| <= 1e-10 max(length_scale, |x|). Two points are one equilibrium when closer
+  !> than 1e-6 max(1, half-width) plus their location errors (a degenerate one's is larger);
+  !> of such a pair the better located is kept when the first is poorly located (a degenerate
+  !> root's, location_error > 1e-8 max(length_scale, |q|)).
+  !> stat: TUBES_EINPUT for a bad box; TUBES_ENOCONV if more than MAX_EQUILIBRIA were found
+  !> (nothing is dropped silently: errmsg says so).
+  subroutine find_equilibria(model, lo, hi, n_grid, eqs, stat, errmsg)
     class(hamiltonian_t), intent(in) :: model
     real(wp), intent(in) :: lo(:), hi(:)   !! the search box [units of q] (size N)
     integer, intent(in) :: n_grid          !! starting points per axis (>= 2)
     type(equilibrium_t), allocatable, intent(out) :: eqs(:)
     integer, intent(out) :: stat
+    character(:), allocatable, intent(out), optional :: errmsg
     type(equilibrium_t), allocatable :: found(:)
-    real(wp), allocatable :: q(:), x(:), p(:)
-    real(wp) :: dup_tol, tol_box
-    integer :: n, nd, k, m, idx(8), ngrid_total, ig, i, j, st
+    real(wp), allocatable :: q(:), x(:), p(:), gr(:), hs(:, :)
+    real(wp) :: dup_tol, tol_box, gmax, gtol, err, kscale
+    integer :: n, nd, k, m, ngrid_total, ig, i, j, st, kdup
     integer, allocatable :: order(:)
-    logical :: ok, dup
+    logical :: ok
+    character(160) :: msg
     stat = TUBES_OK
     nd = model%ndof()
     if (size(lo) /= nd .or. size(hi) /= nd .or. n_grid < 2 .or. nd > 8) then
       stat = TUBES_EINPUT
+      if (present(errmsg)) errmsg = 'find_equilibria: the box must have N = ndof entries, n_grid >= 2'
       return
     end if
     if (any(.not. (hi > lo))) then
       stat = TUBES_EINPUT
+      if (present(errmsg)) errmsg = 'find_equilibria: the box is empty (hi <= lo)'
       return
     end if
-    allocate (found(MAX_EQUILIBRIA), q(nd), x(2*nd), p(nd))
+    allocate (found(MAX_EQUILIBRIA), q(nd), x(2*nd), p(nd), gr(nd), hs(nd, nd))
     n = 0
     dup_tol = 1.0e-6_wp*max(1.0_wp, maxval(0.5_wp*(hi - lo)))
     ngrid_total = n_grid**nd
+    ! the gradient's scale G on the grid (natural systems): the residual GRAD_TOL G accepts
+    gmax = 0
+    select type (model)
+    class is (natural_t)
+      do ig = 0, ngrid_total - 1
+        call grid_point(ig, q)
+        call model%shape_derivs(q, gr, hs)
+        if (all(abs(gr) <= huge(1.0_wp))) gmax = max(gmax, sqrt(sum(gr**2)))
+      end do
+    end select
+    gtol = GRAD_TOL*gmax
+    kscale = gmax/maxval(0.5_wp*(hi - lo))
     do ig = 0, ngrid_total - 1
-      ! grid point ig: digits in base n_grid, coordinate 1 the slowest (as the 2-D loop i, j)
-      k = ig
-      do i = nd, 1, -1
-        idx(i) = mod(k, n_grid)
-        k = k/n_grid
-      end do
-      do i = 1, nd
-        q(i) = lo(i) + (hi(i) - lo(i))*idx(i)/(n_grid - 1)
-      end do
+      call grid_point(ig, q)
       select type (model)
       class is (natural_t)
-        call newton_natural(model, q, ok)
+        call newton_natural(model, q, ok, gtol, err)
         x(1:nd) = q
         x(nd + 1:) = 0
       class default
@@ -236,29 +382,50 @@ contains
         call model%rest_momenta(q, p, st)
         if (st /= TUBES_OK) cycle
         x = [q, p]
-        call newton_general(model, x, ok)
+        call newton_general(model, x, ok, err)
         q = x(1:nd)
       end select
       if (.not. ok) cycle
       tol_box = 1.0e-12_wp
       if (any(q < lo - tol_box*abs(lo) .or. q > hi + tol_box*abs(hi))) cycle
-      dup = .false.
+      kdup = 0
       do k = 1, n
-        if (sqrt(sum((found(k)%x - x)**2)) < dup_tol) dup = .true.
+        if (sqrt(sum((found(k)%x - x)**2)) < dup_tol + found(k)%location_error + err) then
+          kdup = k
+          exit
+        end if
       end do
-      if (dup) cycle
+      if (kdup > 0) then
+        ! keep the better located of a poorly located (degenerate) pair
+        if (found(kdup)%location_error > 1.0e-8_wp*max(model%length_scale(), sqrt(sum(found(kdup)%q**2))) &
+            .and. err < found(kdup)%location_error) then
+          found(kdup)%q = q
+          found(kdup)%x = x
+          found(kdup)%location_error = err
+        end if
+        cycle
+      end if
       if (n == size(found)) then
         stat = TUBES_ENOCONV      ! more equilibria than MAX_EQUILIBRIA: refuse, do not truncate
+        if (present(errmsg)) then
+          write (msg, '(a,i0,a)') 'find_equilibria: more than ', MAX_EQUILIBRIA, &
+            ' equilibria in the box (none is returned): narrow the box'
+          errmsg = trim(msg)
+        end if
         return
       end if
       n = n + 1
       found(n)%q = q
       found(n)%x = x
+      found(n)%location_error = err
     end do
     ! classify
     do k = 1, n
-      call classify(model, found(k), stat)
-      if (stat /= TUBES_OK) return
+      call classify(model, found(k), kscale, stat)
+      if (stat /= TUBES_OK) then
+        if (present(errmsg)) errmsg = 'find_equilibria: the linearisation at an equilibrium failed'
+        return
+      end if
     end do
     call name_all(model, found(1:n))
     ! sort by (index, name): insertion sort on a short list
@@ -280,29 +447,64 @@ contains
     do i = 1, m
       eqs(i) = found(order(i))
     end do
+  contains
+    !> Grid point ig: digits in base n_grid, coordinate 1 the slowest (as the 2-D loop i, j).
+    subroutine grid_point(ig, q)
+      integer, intent(in) :: ig
+      real(wp), intent(out) :: q(:)
+      integer :: kk, ii, id(8)
+      kk = ig
+      do ii = nd, 1, -1
+        id(ii) = mod(kk, n_grid)
+        kk = kk/n_grid
+      end do
+      do ii = 1, nd
+        q(ii) = lo(ii) + (hi(ii) - lo(ii))*id(ii)/(n_grid - 1)
+      end do
+    end subroutine grid_point
   end subroutine find_equilibria
 
-  !> Energy, residual, index and (rank-1) linearisation of one equilibrium.
-  subroutine classify(model, e, stat)
+  !> Energy, residual, index and (rank-1 or degenerate) linearisation of one equilibrium.
+  !> Natural systems: from the Hessian's eigenvalues kappa, zero when |kappa| <= CURV_TOL
+  !> max(max |kappa|, kscale): index = count(kappa < 0) of the others; degenerate = index 1 with
+  !> zero modes (linearised with the zero modes projected out of the Hessian). Others: from the
+  !> flow's spectrum (1e-8 of its largest modulus).
+  subroutine classify(model, e, kscale, stat)
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(inout) :: e
+    real(wp), intent(in) :: kscale     !! curvature scale G / half-width of the box
     integer, intent(out) :: stat
-    integer :: nd, nreal, ncentre, nzero
+    integer :: nd, nreal, ncentre, nzero, k, nz
     real(wp) :: f(size(e%x)), gr(size(e%q)), hs(size(e%q), size(e%q)), vecs(size(e%q), size(e%q))
-    real(wp) :: wr(size(e%x)), wi(size(e%x)), scale
+    real(wp) :: wr(size(e%x)), wi(size(e%x)), scale, ztol
+    real(wp), allocatable :: zdirs(:, :)
+    logical :: natural
     nd = size(e%q)
     stat = TUBES_OK
+    natural = .false.
+    ztol = 0
     allocate (e%curv(nd))
     e%curv = 0
     select type (model)
     class is (natural_t)
+      natural = .true.
       call model%shape_derivs(e%q, gr, hs)
       e%grad_norm = sqrt(sum(gr**2))
       e%height = model%shape(e%q)
       e%energy = model%potential_scale()*e%height
       call hessian_eigs(model, e%q, e%curv, vecs, stat)
       if (stat /= TUBES_OK) return
-      e%morse = count(e%curv < 0)
+      ztol = CURV_TOL*max(maxval(abs(e%curv)), kscale)
+      e%nzero = count(abs(e%curv) <= ztol)
+      e%morse = count(e%curv < -ztol)
+      allocate (zdirs(nd, e%nzero))
+      nz = 0
+      do k = 1, nd
+        if (abs(e%curv(k)) <= ztol) then
+          nz = nz + 1
+          zdirs(:, nz) = vecs(:, k)
+        end if
+      end do
     class default
       call model%eval(0.0_wp, e%x, f, stat)
       if (stat /= 0) return
@@ -315,17 +517,23 @@ contains
     scale = max(maxval(abs(wr)), maxval(abs(wi)))
     nreal = count(wr > 1.0e-8_wp*scale .and. abs(wi) <= 1.0e-8_wp*scale)
     ncentre = count(abs(wr) <= 1.0e-8_wp*scale .and. wi > 1.0e-8_wp*scale)
-    select type (model)
-    class is (natural_t)
-    class default
+    if (natural) then
+      e%rank1 = e%morse == 1 .and. e%nzero == 0 .and. nreal == 1 .and. ncentre == nd - 1
+      e%degenerate = e%morse == 1 .and. e%nzero > 0
+    else
       e%morse = count(wr > 1.0e-8_wp*scale)
-    end select
-    e%rank1 = e%morse == 1 .and. nreal == 1 .and. ncentre == nd - 1
-    nzero = count(abs(wr) <= 1.0e-8_wp*scale .and. abs(wi) <= 1.0e-8_wp*scale)
-    e%degenerate = e%morse == 1 .and. nreal == 1 .and. nzero > 0 .and. 2*ncentre + nzero == 2*nd - 2
+      e%rank1 = e%morse == 1 .and. nreal == 1 .and. ncentre == nd - 1
+      nzero = count(abs(wr) <= 1.0e-8_wp*scale .and. abs(wi) <= 1.0e-8_wp*scale)
+      e%nzero = nzero/2
+      e%degenerate = e%morse == 1 .and. nreal == 1 .and. nzero > 0 .and. 2*ncentre + nzero == 2*nd - 2
+    end if
     if (e%rank1 .or. e%degenerate) then
       allocate (e%omegas(nd - 1), e%evec(2*nd, 2*nd))
-      call linearize(model, e%x, e%lambda, e%omegas, e%evec, stat, e%degenerate)
+      if (natural .and. e%degenerate) then
+        call linearize(model, e%x, e%lambda, e%omegas, e%evec, stat, .true., zdirs)
+      else
+        call linearize(model, e%x, e%lambda, e%omegas, e%evec, stat, e%degenerate)
+      end if
       if (stat /= TUBES_OK) return
       e%omega = e%omegas(1)
     else
@@ -376,39 +584,80 @@ contains
   !> and s with their largest component positive. stat = TUBES_EINPUT if x is not a saddle x
   !> centre^(N-1). With degenerate = .true., also a saddle whose other eigenvalues are centres or
   !> 0 (a mode without quadratic term): its zero modes come first in omegas (0) with zero columns.
-  subroutine linearize(model, x, lambda, omegas, evec, stat, degenerate)
+  !> zero_dirs (natural systems, with degenerate): the Hessian's eigenvectors of its zero
+  !> eigenvalues (columns), projected out of the Hessian, so that those modes are exactly 0; the
+  !> 2 size(zero_dirs, 2) eigenvalues of least modulus are then the zero modes.
+  subroutine linearize(model, x, lambda, omegas, evec, stat, degenerate, zero_dirs)
     class(hamiltonian_t), intent(in) :: model
     real(wp), intent(in) :: x(:)
     real(wp), intent(out) :: lambda, omegas(:), evec(:, :)
     integer, intent(out) :: stat
     logical, intent(in), optional :: degenerate
+    real(wp), intent(in), optional :: zero_dirs(:, :)
     real(wp) :: jac(size(x), size(x)), wr(size(x)), wi(size(x)), vr(size(x), size(x))
-    real(wp) :: v(size(x)), nrm, scale
-    integer :: k, iu, is, n2, nc, ic(size(x)), j, nz
-    logical :: deg
+    real(wp) :: v(size(x)), nrm, scale, pr(size(x)/2, size(x)/2), hs(size(x)/2, size(x)/2), a(size(x)/2, size(x)/2)
+    real(wp) :: gr(size(x)/2), amod(size(x))
+    integer :: k, iu, is, n2, nc, ic(size(x)), j, nz, nd, iz(size(x))
+    logical :: deg, zero(size(x))
     stat = TUBES_OK
     deg = .false.
     if (present(degenerate)) deg = degenerate
     n2 = size(x)
-    call rest_jacobian(model, x, jac, stat)
-    if (stat /= TUBES_OK) return
+    nd = n2/2
+    zero = .false.
+    if (present(zero_dirs)) then
+      select type (model)
+      class is (natural_t)
+        pr = -matmul(zero_dirs, transpose(zero_dirs))
+        do k = 1, nd
+          pr(k, k) = pr(k, k) + 1
+        end do
+        call model%shape_derivs(x(1:nd), gr, hs)
+        hs = matmul(pr, matmul(hs, pr))
+        hs = 0.5_wp*(hs + transpose(hs))
+        call model%rest_kinetic_matrix(x(1:nd), a)
+        jac = 0
+        jac(1:nd, nd + 1:n2) = a
+        jac(nd + 1:n2, 1:nd) = -model%potential_scale()*hs
+      class default
+        stat = TUBES_EINPUT
+        return
+      end select
+    else
+      call rest_jacobian(model, x, jac, stat)
+      if (stat /= TUBES_OK) return
+    end if
     call eigen(jac, wr, wi, stat, vr)
     if (stat /= TUBES_OK) return
-    iu = maxloc(wr, 1)
-    is = minloc(wr, 1)
-    lambda = wr(iu)
     scale = max(maxval(abs(wr)), maxval(abs(wi)))
+    if (present(zero_dirs)) then      ! the 2 nz eigenvalues of least modulus are the zero modes
+      nz = size(zero_dirs, 2)
+      amod = hypot(wr, wi)
+      iz = [(k, k = 1, n2)]
+      call sort_indices(iz, amod)
+      zero(iz(1:2*nz)) = .true.
+      if (any(amod(iz(1:2*nz)) > 1.0e-6_wp*scale)) then
+        stat = TUBES_EINPUT
+        return
+      end if
+    end if
+    iu = maxloc(wr, 1, mask=.not. zero)
+    is = minloc(wr, 1, mask=.not. zero)
+    lambda = wr(iu)
     ! the centre pairs: dgeev stores a pair as columns j (Re) and j+1 (Im), wi(j) > 0
     nc = 0
     do j = 1, n2
+      if (zero(j)) cycle
       if (wi(j) > 1.0e-8_wp*scale .and. abs(wr(j)) <= 1.0e-8_wp*scale) then
         nc = nc + 1
         ic(nc) = j
       end if
     end do
     ! zero modes (degenerate saddles only): the eigenvalues at 0, two per mode
-    nz = 0
-    if (deg) nz = count(abs(wr) <= 1.0e-8_wp*scale .and. abs(wi) <= 1.0e-8_wp*scale)/2
+    if (.not. present(zero_dirs)) then
+      nz = 0
+      if (deg) nz = count(abs(wr) <= 1.0e-8_wp*scale .and. abs(wi) <= 1.0e-8_wp*scale)/2
+    end if
     if (lambda <= 0 .or. nc + nz /= n2/2 - 1 .or. size(omegas) < nc + nz) then
       stat = TUBES_EINPUT    ! not a saddle x centre^(N-1)
       return
@@ -445,6 +694,7 @@ contains
       class is (natural_t)
         nr = 0
         do k = 1, size(eqs)
+          if (eqs(k)%nzero > 0) cycle   ! a degenerate point: no quadrant name, the generic ones
           select case (eqs(k)%morse)
           case (0)
             write (eqs(k)%name, '(a,i0)') 'W', quadrant(eqs(k)%q)
@@ -486,15 +736,16 @@ contains
     end do
   end function unique_names
 
-  !> W<k> (index 0), S<k> (rank-1), D<k> (degenerate index-1 saddles), R<k> (others), k by
-  !> ascending energy, then q1, then q2.
+  !> W<k> (index 0, no zero mode: all centres), S<k> (rank-1), D<k> (degenerate index-1
+  !> saddles), R<k> (others, a degenerate index-0 point among them), k by ascending energy, then
+  !> q1, then q2.
   subroutine name_generic(eqs)
     type(equilibrium_t), intent(inout) :: eqs(:)
     integer :: i, j, k, cls(size(eqs))
     character, parameter :: LETTER(0:3) = ['W', 'S', 'R', 'D']
     do i = 1, size(eqs)
       cls(i) = 2
-      if (eqs(i)%morse == 0) cls(i) = 0
+      if (eqs(i)%morse == 0 .and. eqs(i)%nzero == 0) cls(i) = 0
       if (eqs(i)%rank1) cls(i) = 1
       if (eqs(i)%degenerate) cls(i) = 3
     end do
