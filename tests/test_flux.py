@@ -166,3 +166,24 @@ def test_a_hamiltonian_not_quadratic_in_the_momenta_is_not_sampled(tmp_path, cac
         &flux de = 0.01, n_samples = 200 /
         """, cache)
     assert p.returncode == 2 and "not quadratic in the momenta" in p.stderr and "give &flux order" in p.stderr, p.stderr
+
+
+def test_past_the_bottleneck_the_flux_is_refused(tmp_path, cache):
+    """The ball's S12 bottleneck is one up to the central maximum R1, 777.06 (cm/s)^2 above the
+    saddle (R1's E - S12's E from the equilibria: the closed-form check is the two energies), where
+    the Lyapunov family ends too. Above it the dividing surface's {V <= E} runs over R1 into the
+    opposite neck, and its 'flux' (1228 at dE = 800, exit 0, before) is not the bottleneck's: NaN,
+    status 'past the end', exit 4 (partial); below it the flux stands."""
+    p = run(str(tmp_path), """
+        &run scenes = 'equilibria', 'flux', output = 'f.h5' /
+        &flux de = 700, 770, 785, 800, n_samples = 200 /
+        """, cache)
+    assert p.returncode == 4 and "dE = 785 is past the bottleneck of S12" in p.stderr, p.stderr
+    with h5py.File(os.path.join(str(tmp_path), "f.h5")) as f:
+        names = [n.decode() for n in f["equilibria/name"][:]]
+        e = f["equilibria/energy"][:]
+        top = e[names.index("R1")] - e[names.index("S12")]
+    assert 770 < top < 785
+    fl = flux_of(str(tmp_path))
+    assert list(fl["status"]) == [0, 0, -10, -10]
+    assert np.all(np.isfinite(fl["flux_sampled"][:2])) and np.all(np.isnan(fl["flux_sampled"][2:]))

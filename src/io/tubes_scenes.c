@@ -1775,8 +1775,15 @@ int scene_flux(tubes_run_t *run) {
     if (st < 0) {
       char m[128];
       status_text(st, m, sizeof m);
-      fprintf(stderr, "tubes: flux: dE = %g failed: %s (status %d)\n", de, m, st);
       fl[k] = fe[k] = NAN;
+      if (st == TUBES_EPASTEND) {   /* the dividing surface passes over a ridge: no single bottleneck */
+        fprintf(stderr, "tubes: flux: dE = %g is past the bottleneck of %s: the dividing surface's {V <= E} runs "
+                "over a ridge into another well or neck (the energy is above a maximum of V beside the saddle, "
+                "where its orbit family ends), so its flux is not the bottleneck's; NaN there\n", de, run->saddle);
+        if (!rc) rc = EXIT_PARTIAL;
+        continue;
+      }
+      fprintf(stderr, "tubes: flux: dE = %g failed: %s (status %d)\n", de, m, st);
       rc = EXIT_NUMERIC;
       continue;
     }

@@ -23,7 +23,8 @@
 module tubes_flux
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENARROW
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENARROW, &
+                         TUBES_EPASTEND
   use tubes_hamiltonian, only: hamiltonian_t, quadratic_parts, veff, quadratic_in_p
   use tubes_equilibria, only: equilibrium_t
   use tubes_integrator, only: integrator_t, observer_t, propagate
@@ -197,8 +198,10 @@ contains
     end do
   end function nhim_reach
 
-  !> The extent of {V <= E} from q_s along +-e: the first t with V(q_s + t e) > E (doubling from
-  !> h0, then bisection); t_cap if V stays below E up to there.
+  !> The extent of {V <= E} from q_s along +-e: the first t with V(q_s + t e) > E (marching in
+  !> steps of h0, then bisection); t_cap if V stays below E up to there. (Doubling the step
+  !> instead could step over a ridge lower than E into the next well or neck: the ball's S12 line
+  !> at dE = 770 ran from 5.8 out to 16 across the centre.)
   real(wp) function extent(model, qs, e, energy, h0, t_cap) result(t)
     class(hamiltonian_t), intent(in) :: model
     real(wp), intent(in) :: qs(:), e(:), energy, h0, t_cap
@@ -208,7 +211,7 @@ contains
     hi = h0
     do while (veff(model, qs + hi*e) <= energy)
       lo = hi
-      hi = 2*hi
+      hi = hi + h0
       if (hi > t_cap) then
         t = t_cap
         return
@@ -224,6 +227,30 @@ contains
     end do
     t = hi
   end function extent
+
+  !> Whether V_eff rises from the saddle qs along e up to the energy surface at t (64 samples; a
+  !> fall below the highest value passed by more than rounding and 1e-6 de is a dip): the dividing
+  !> surface then spans one bottleneck. A dip means it passes over a ridge into another well or
+  !> bottleneck: the ball above its central maximum (dE > 777 at S12, where the orbit family ends),
+  !> whose 'flux' would be the flux over the top and through the opposite neck as well.
+  logical function rises(model, qs, e, t, energy, de) result(ok)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: qs(:), e(:), t, energy, de
+    integer, parameter :: NS = 64
+    real(wp) :: vmax, v, slack
+    integer :: i
+    slack = 1.0e-6_wp*abs(de) + 64*epsilon(1.0_wp)*abs(energy)
+    vmax = veff(model, qs)
+    ok = .true.
+    do i = 1, NS
+      v = veff(model, qs + (t*i/NS)*e)
+      if (v < vmax - slack) then
+        ok = .false.
+        return
+      end if
+      vmax = max(vmax, v)
+    end do
+  end function rises
 
   !> The sampled flux through the saddle sad's bottleneck at E = E_s + de: n points, uniforms
   !> from seed (drawn serially: the same result for any number of threads), t_max and tol for
@@ -325,6 +352,13 @@ contains
       do j = 2, nd
         ex(1) = extent(model, q0(1:nd), -r(j, 1:nd), energy, 1.0e-3_wp*span, span)
         ex(2) = extent(model, q0(1:nd), r(j, 1:nd), energy, 1.0e-3_wp*span, span)
+        if (.not. section) then       ! the dividing surface crosses the bottleneck alone
+          if (.not. (rises(model, q0(1:nd), -r(j, 1:nd), ex(1), energy, de) .and. &
+                     rises(model, q0(1:nd), r(j, 1:nd), ex(2), energy, de))) then
+            stat = TUBES_EPASTEND
+            return
+          end if
+        end if
         res%box(:, j - 1) = [-2*ex(1), 2*ex(2)]
         vol = vol*2*(ex(1) + ex(2))
       end do
