@@ -18,7 +18,8 @@ enum {
   TUBES_ENOCROSS = -9, /* no crossing of the section within t_max */
   TUBES_EPASTEND = -10, /* past the end of the Lyapunov orbit family */
   TUBES_ENARROW = -11, /* the slab (&flux gate) is narrower than the NHIM's reach along the reaction coordinate */
-  TUBES_ENOJET = -12 /* no Taylor kernel for the model: its code could not be generated or compiled (stderr says why) */
+  TUBES_ENOJET = -12, /* no Taylor kernel for the model: its code could not be generated or compiled (stderr says why) */
+  TUBES_EDIRECTION = -13 /* the tube crosses the section in the other direction first: choose the other direction */
 };
 
 /* Integration methods (src/integrators/tubes_methods.f90). */

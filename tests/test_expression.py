@@ -130,7 +130,7 @@ def test_four_well_ball_as_hamiltonian(tmp_path, cache):
                       "&model system = 'rolling_ball' /", """
         &equilibria box = 20.0 /
         &orbits saddle_near = 0.0, 11.0, de = 100.0, 300.0 /
-        &section kind = 'plane', index = 1, value = 8.0, direction = 1 /
+        &section kind = 'plane', index = 1, value = 8.0, direction = -1 /
         &transition de = 100.0, 300.0 /""")
     close(e, b, EQ_KEYS + ORB_KEYS + ["transition/p_trans"])
 

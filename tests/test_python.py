@@ -303,3 +303,12 @@ def test_model_refusals_point_to_what_is_allowed():
     m = tubes.Model(surface="expression", height="0.07*(x^2 + y^2) - sqrt(x^2 + 15)")
     with pytest.raises(ValueError, match="needs surface = 'fourwell'"):
         m.synthetic_experiment(n_tracks=1)
+
+
+def test_the_status_table_of_the_docs_is_the_library_s():
+    """docs/usage.md lists every status code with the library's own text (-11 .. -13 were missing)."""
+    import re
+    rows = dict(re.findall(r"^\| (-?\d+) \| (.+?) \|$", (ROOT / "docs" / "usage.md").read_text(), re.M))
+    for code in range(-13, 2):
+        assert rows.get(str(code)) == tubes.status_message(code), code
+    assert tubes.status_message(-14) == "unknown status code"      # the table ends at -13

@@ -19,6 +19,7 @@ module tubes_status
   integer, parameter, public :: TUBES_EPASTEND = -10 !! past the end of the Lyapunov orbit family
   integer, parameter, public :: TUBES_ENARROW = -11  !! the slab (&flux gate) is narrower than the NHIM
   integer, parameter, public :: TUBES_ENOJET = -12   !! no Taylor kernel for the model (stderr says why)
+  integer, parameter, public :: TUBES_EDIRECTION = -13   !! the tube crosses the section the other way first
   public :: status_message, callback_status
 contains
   !> A model's status in the convention of GSL's and SUNDIALS' callbacks (0 success, 1 a
@@ -51,6 +52,8 @@ contains
                                   'along the reaction coordinate: raise &flux gate'
     case (TUBES_ENOJET);    msg = 'the Taylor method has no kernel for this model: its code could not be ' // &
                                   'generated or compiled (the cause is on stderr)'
+    case (TUBES_EDIRECTION); msg = 'the tube crosses the section in the other direction first: choose ' // &
+                                  'the other direction (or p_theta_sign)'
     case default;           msg = 'unknown status code'
     end select
   end function status_message

@@ -8,7 +8,7 @@ module tubes_manifold
   use tubes_kinds, only: wp
   use tubes_lapack, only: dlasrt, eigen
   use tubes_quad, only: spline_area
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT, TUBES_EFAULT, &
+  use tubes_status, only: TUBES_OK, TUBES_EDIRECTION, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT, TUBES_EFAULT, &
                           TUBES_ENOCROSS
   use tubes_ensemble, only: ens_out_t, ens_run, ens_agree, ens_reuse_ok
   use tubes_hamiltonian, only: hamiltonian_t
@@ -137,7 +137,7 @@ contains
 
   !> One seed: the orbit state at phase tau stepped off by sigma eps along the transported
   !> eigenvector, propagated to its first crossing of the section branch.
-  subroutine one_seed(ball, orb, v0, sigma, tau, psec, opts, snaps, pc, tcross, xc, stat)
+  subroutine one_seed(ball, orb, v0, sigma, tau, psec, opts, snaps, pc, tcross, xc, stat, any_branch)
     class(hamiltonian_t), intent(in) :: ball
     type(orbit_t), intent(in) :: orb
     real(wp), intent(in) :: v0(:), sigma, tau
@@ -146,6 +146,7 @@ contains
     type(var_snapshots_t), intent(in) :: snaps   !! the orbit's variational run (may be empty)
     real(wp), intent(out) :: pc(2), tcross, xc(:)
     integer, intent(out) :: stat
+    logical, intent(in), optional :: any_branch   !! to the first crossing of either direction
     class(integrator_t), allocatable :: ig
     real(wp) :: z(size(v0) + size(v0)**2), v(size(v0)), x(size(v0))
     class(event_t), allocatable :: sec
@@ -172,7 +173,15 @@ contains
     if (stat < 0) return
     v = matmul(reshape(z(n2 + 1:), [n2, n2]), v0)
     x = z(1:n2) + sigma*opts%eps*v/sqrt(sum(v(1:n2/2)**2))
-    call psec%event(.true., sec)
+    if (present(any_branch)) then
+      if (any_branch) then
+        call psec%return_event(sec)
+      else
+        call psec%event(.true., sec)
+      end if
+    else
+      call psec%event(.true., sec)
+    end if
     call ig%init(ball, 0.0_wp)
     ig%rtol = opts%rtol
     ig%atol = opts%atol
@@ -375,6 +384,8 @@ contains
       call report_failed()
       return
     end if
+    call first_crossing(stat)
+    if (stat < 0) return
     allocate (cut%hist_n(0), cut%hist_area(0))
     a_old = huge(1.0_wp)
     nconv = 0
@@ -492,6 +503,17 @@ contains
       st = [st, s]
       if (any(s < 0)) stat = minval(s)
     end subroutine seeds
+    subroutine first_crossing(stat)     ! the tube meets the section on its branch first
+      ! The cut is of the tube's first crossing of the section (the Monte Carlo check's transit
+      ! test ends at any crossing): seed 1 followed to a crossing of either direction must not
+      ! cross the other way earlier (the ball's S14 tube with the ray U1^- took its second
+      ! crossing, p_trans a number and the Monte Carlo check 0 of 52 inside points transiting).
+      integer, intent(out) :: stat
+      real(wp) :: pc1(2), t1, x1(size(v0))
+      call one_seed(ball, orb0, v0, sigma, tau(1), psec, opts, ens%snaps, pc1, t1, x1, stat, any_branch=.true.)
+      if (stat < 0) return
+      if (abs(t1) < abs(tcs(1))*(1 - 1.0e-6_wp)) stat = TUBES_EDIRECTION
+    end subroutine first_crossing
     subroutine sort_by_tau()            ! merge the two sorted runs tau(1:n), tau(n+1:n+m)
       integer :: idx(size(tau)), k, a, b, nt
       nt = size(tau)
