@@ -57,3 +57,18 @@ def test_orbits_identical_for_1_and_2_threads(tmp_path, tubes_exe):
             out[nt] = {k: f["orbits"][k][()] for k in ["period", "action", "state0", "monodromy", "residual"]}
     for k in out[1]:
         assert np.array_equal(out[1][k], out[2][k]), k         # bitwise
+
+
+def test_an_integration_too_coarse_for_the_orbit_is_said(tmp_path):
+    """RK4 with h = 0.05 (15 steps a period) converges the shooting on its own map (residual 3e-12)
+    while one period's closure, mu_unstable times the integration error, is 1.5e-3: the orbit's
+    digits are not the flow's (action 75.7246 against 75.7848 with h = 0.001, whose closure is
+    2e-12). Said on stderr, exit 2; the fine step passes."""
+    for h, code in [(0.05, 2), (0.001, 0)]:
+        (tmp_path / "r.nml").write_text(f"&run scenes = 'orbits' /\n&orbits de = 100 /\n"
+                                        f"&integrator method = 'rk4', h = {h} /\n")
+        r = run_tubes(["r.nml", "-o", f"r{code}.h5"], tmp_path)
+        assert r.returncode == code and (("too coarse" in r.stderr) == (code == 2)), r.stderr
+    with h5py.File(tmp_path / "r2.h5") as f, h5py.File(tmp_path / "r0.h5") as g:
+        assert abs(f["orbits/action"][0] / g["orbits/action"][0] - 1) > 1e-4     # the coarse one is off
+        assert f["orbits/closure"][0] / f["orbits/mu_unstable"][0] > 1e-8 * 6
