@@ -231,11 +231,11 @@ def test_monte_carlo_arguments_are_the_input_file_s():
 
 
 def test_transition_keeps_every_energy_as_the_scene(tmp_path):
-    """A failure at one energy (the ball at dE = 770: the energy surface's iteration) is NaN and a
-    status there, as the scene's /transition, not an exception that loses dE = 760."""
-    f = _run_any(tmp_path, "&run scenes = 'transition' /\n&transition de = 760, 770 /\n", 4)
-    with pytest.warns(RuntimeWarning, match="failed at dE = 770"):
-        t = tubes.Model().transition([760.0, 770.0])
+    """A failure at one energy (the ball at dE = 780: past the end of the orbit family, 777) is NaN
+    and a status there, as the scene's /transition, not an exception that loses dE = 760."""
+    f = _run_any(tmp_path, "&run scenes = 'transition' /\n&transition de = 760, 780 /\n", 4)
+    with pytest.warns(RuntimeWarning, match="failed at dE = 780"):
+        t = tubes.Model().transition([760.0, 780.0])
     g = f["transition"]
     assert np.array_equal(t["status"], g["status"][:]) and t["status"][0] == 0 and t["status"][1] < 0
     for k in ("A_tube", "action", "A_E", "p_trans"):

@@ -188,3 +188,20 @@ def test_seeds_reused_from_an_earlier_scene_give_the_same_bits(tmp_path, method)
     with h5py.File(tmp_path / "a.h5", "a") as f:
         del f["tubes"]                               # the one scene b did not run
     assert compare(str(tmp_path / "a.h5"), str(tmp_path / "b.h5"), ignore=("input_namelist",)) == []
+
+
+def test_the_energy_surface_near_the_central_maximum_has_its_area(tmp_path):
+    """Up to the family's end (777.06 above S12, the central maximum R1) A_E is computed: at
+    dE = 770 and 775 its derivative's quadrature fails (dA_E/dE diverges logarithmically as E
+    nears the maximum the region touches), which failed the area too (status -6, NaN p_trans,
+    exit 4). The area stands; p_trans = A_tube/A_E; A_E grows with dE, more and more steeply."""
+    (tmp_path / "t.nml").write_text("&run scenes = 'transition' /\n&transition de = 760, 770, 775 /\n")
+    r = run_tubes(["t.nml", "-o", "t.h5"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    with h5py.File(tmp_path / "t.h5") as f:
+        g = f["transition"]
+        ae, at, pt = g["A_E"][:], g["A_tube"][:], g["p_trans"][:]
+        assert list(g["status"][:]) == [0, 0, 0] and np.all(np.isfinite(ae))
+        assert np.allclose(pt, at / ae, rtol=1e-15)
+        d = np.diff(ae) / np.diff([760, 770, 775])
+        assert np.all(d > 0) and d[1] > d[0]

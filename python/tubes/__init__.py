@@ -976,8 +976,8 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
 
     Every energy is computed, as the scene does: where a cut or the energy surface failed (past
     the end of the orbit family, a cut that did not converge) A_tube, action and p_trans are NaN;
-    where the energy surface on the section failed p_trans is NaN and A_E is what the call
-    returned (the output file's /transition, docs/output.md), status holds the TUBES_* code (0 where it
+    where the energy surface on the section failed A_E and p_trans are NaN (as in the output
+    file's /transition, docs/output.md), status holds the TUBES_* code (0 where it
     worked; tubes.EPASTEND past the family's end) and message its text, and a RuntimeWarning
     names the failed energies. Returns a dict of arrays dE, A_tube, action, A_E, p_trans, status,
     and message (list of str, '' where it worked)."""
@@ -1003,12 +1003,13 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
         if c is not None:
             out["A_tube"][i], out["action"][i] = c["area"], c["action"]
         stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *sec, float(d), model._stores())
-        out["A_E"][i] = ae      # as the scene writes it, also where the call failed after the area
         if stat < 0:
             message[i] = "; ".join(filter(None, (message[i], str(TubesError(stat, f"transition(dE = {d}): the energy surface")))))
             status[i] = status[i] or stat
-        elif c is not None:
-            out["p_trans"][i] = c["area"] / ae
+        else:
+            out["A_E"][i] = ae
+            if c is not None:
+                out["p_trans"][i] = c["area"] / ae
     out.update(dE=de, status=status, message=message)
     if np.any(status != 0):
         import warnings

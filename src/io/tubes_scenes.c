@@ -803,6 +803,11 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
               3 - c->sec_index, st);
     return EXIT_NUMERIC;
   }
+  if (!isfinite(tau)) {            /* dA_E/dE's quadrature failed (the area stands): no tau to print */
+    fprintf(stderr, "tubes: section: dA_E/dE at E_e of %s could not be computed (its quadrature did not "
+            "converge; the energy surface on the section touches a maximum of V?)\n", run->saddle);
+    return EXIT_NUMERIC;
+  }
   *a0_out = a0; *tau_out = tau; *tpo_out = tpo;
   if (H5Lexists(run->file, "section", H5P_DEFAULT) > 0) return 0;
   if (sec_is_ray(c))
@@ -1027,6 +1032,8 @@ int scene_transition(tubes_run_t *run) {
     }
     x->rc = (r1 || st < 0) ? EXIT_PARTIAL : 0;
     if (x->status >= 0 && st < 0) x->status = st;
+    if (st < 0) x->ae = NAN;          /* the failed call's area is no number of the program's */
+    if (x->status < 0 && x->act == 0) x->act = NAN;   /* no orbit (past the family's end): no action */
     x->pt = (st < 0) ? NAN : x->at / x->ae;
     x->secs = now() - t0;
   }

@@ -6,6 +6,7 @@
 !> set-up's tube seeds. (Each call still makes its model object and its section: cheap.)
 module tubes_study
   use, intrinsic :: iso_c_binding, only: c_intptr_t, c_loc, c_f_pointer, c_null_ptr
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp, i8
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND
   use tubes_hamiltonian, only: hamiltonian_t
@@ -490,7 +491,7 @@ contains
     type(equilibrium_t), allocatable :: eqs(:)
     type(poincare_t), target :: psec
     real(wp), allocatable :: q_ref(:)
-    integer :: isad
+    integer :: isad, st_d
     real(wp) :: err
     smin = 0; smax = 0; area = 0; darea = 0
     call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
@@ -500,7 +501,11 @@ contains
     smax = psec%smax
     call psec%area(area, err, stat)
     if (stat /= TUBES_OK) return
-    call psec%area(darea, err, stat, derivative=.true.)
+    ! dA_E/dE diverges (logarithmically) as E nears a maximum of V the region touches (the ball's
+    ! R1, 777.06 above S12): its quadrature may fail where the area's does not; NaN then, and the
+    ! area stands (the transition needs only A_E; the /section scene refuses a NaN tau)
+    call psec%area(darea, err, st_d, derivative=.true.)
+    if (st_d /= TUBES_OK) darea = ieee_value(1.0_wp, ieee_quiet_nan)
   end subroutine section_info
 
   !> The cut of the tube of the saddle's Lyapunov orbit at excess energy de with the section
