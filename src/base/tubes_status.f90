@@ -43,7 +43,7 @@ contains
     case (TUBES_ESTEP);     msg = 'step size underflow'
     case (TUBES_EMODEL);    msg = 'the model refused the state (NaN, Inf or a blown-up state)'
     case (TUBES_EIO);       msg = 'input/output error'
-    case (TUBES_ENOCONV);   msg = 'iteration did not converge, or too many results (more than 256 equilibria in the box)'
+    case (TUBES_ENOCONV);   msg = 'iteration did not converge'
     case (TUBES_EFAULT);    msg = 'failure injected by TUBES_FAULT (testing)'
     case (TUBES_EOUTSIDE);  msg = 'the tube crosses the section outside the region of the energy surface chosen on it'
     case (TUBES_ENOCROSS);  msg = 'no crossing of the section within t_max: the tube does not reach this section'

@@ -316,8 +316,8 @@ int run_setup(tubes_run_t *run) {
   if (st < 0) {
     char m[128];
     status_text(st, m, sizeof m);
-    fprintf(stderr, "tubes: the equilibria of %s in the &equilibria box could not be found: %s (status %d)\n",
-            run->label, m, st);
+    fprintf(stderr, "tubes: the equilibria of %s in the &equilibria box could not be found: %s (status %d)%s\n",
+            run->label, m, st, st == TUBES_ENOCONV ? "; or the box holds more than 256 of them: a smaller box" : "");
     return EXIT_NUMERIC;
   }
   if (c->saddle[0]) {                /* &equilibria saddle: the saddle the equilibria scene reports */
@@ -360,7 +360,8 @@ int scene_equilibria(tubes_run_t *run) {
   if (st < 0) {
     char m[128];
     status_text(st, m, sizeof m);
-    fprintf(stderr, "tubes: equilibria: failed: %s (status %d)\n", m, st);
+    fprintf(stderr, "tubes: equilibria: failed: %s (status %d)%s\n", m, st,
+            st == TUBES_ENOCONV ? "; or the box holds more than 256 of them: a smaller box" : "");
     return EXIT_NUMERIC;
   }
   int n = L.n, nd = L.ndof, n2 = 2 * nd;
