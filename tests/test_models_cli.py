@@ -401,3 +401,16 @@ def test_degenerate_equilibria_are_reported(tmp_path, monkeypatch, box, n_grid):
     m = re.search(r"saddle D1: E_e = (\S+), lambda = 1, degenerate", r.stdout)
     assert m and abs(float(m.group(1))) < 1e-50, r.stdout
     assert np.all(eq["grad_norm"][:] <= 1e-10 * np.hypot(box**3 - box, box**3))   # GRAD_TOL G
+
+
+def test_a_narrow_plane_region_has_its_closed_form_area(tmp_path):
+    """Henon-Heiles' plane y = 0.9 crosses the energy surface in a narrow ellipse (|x| <= 0.058 at
+    E_e): V(x, 0.9) = 1.4 x^2 + 0.162, so {p_x^2 + 2 V <= 2 E} has area A_E = 2 pi (E - 0.162) /
+    sqrt(2.8) and tau = dA_E/dE = 2 pi / sqrt(2.8). Refused before ('does not meet a bounded
+    region', status -6): QAGS could not certify 1e-12 on the narrow region's tau, though its own
+    error estimate was far below 1e-9."""
+    r, f = run(tmp_path, HH + "&run scenes = 'transition' /\n"
+               "&section kind = 'plane', index = 2, value = 0.9, direction = 1 /\n&transition de = 0.01, 0.02 /\n")
+    e = 1 / 6 + np.array([0.01, 0.02])
+    np.testing.assert_allclose(f["transition/A_E"][:], 2 * np.pi * (e - 0.162) / np.sqrt(2.8), rtol=1e-9)
+    assert f["section"].attrs["tau"] == pytest.approx(2 * np.pi / np.sqrt(2.8), rel=1e-9)

@@ -7,7 +7,7 @@ module tubes_ray_surface
   use tubes_kinds, only: wp
   use tubes_ball, only: ball_t, ROLL
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
-  use tubes_quad, only: quad_qags, quad_root
+  use tubes_quad, only: quad_area, quad_root
   implicit none
   private
 
@@ -176,7 +176,7 @@ contains
     logical, intent(in), optional :: derivative
     ray%mode = 0
     if (present(derivative)) ray%mode = merge(1, 0, derivative)
-    stat = quad_qags(c_funloc(f_area), c_loc(ray), 0.0_wp, PI, 0.0_wp, 1.0e-12_wp, area, abserr)
+    stat = quad_area(c_funloc(f_area), c_loc(ray), 0.0_wp, PI, area, abserr)
     if (stat /= 0) stat = TUBES_ENOCONV
   end subroutine section_area
 end module tubes_ray_surface

@@ -18,7 +18,7 @@ module tubes_section_kinds
   use tubes_section_events, only: theta_line_t, polar_canonical
   use tubes_ray_surface, only: ray_t, section_region, section_area, boundary_pr, &
                            p_theta_from
-  use tubes_quad, only: quad_qags, quad_root
+  use tubes_quad, only: quad_area, quad_root
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   implicit none
   private
@@ -413,7 +413,7 @@ contains
       return
     end if
     self%mode = merge(1, 0, derivative)
-    stat = quad_qags(c_funloc(f_plane), c_loc(self), 0.0_wp, PI, 0.0_wp, 1.0e-12_wp, res, abserr)
+    stat = quad_area(c_funloc(f_plane), c_loc(self), 0.0_wp, PI, res, abserr)
     if (stat /= 0) stat = TUBES_ENOCONV
   end subroutine quad_impl
 end module tubes_section_kinds
