@@ -795,9 +795,12 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
   int st = saddle_props(run, &ee, &tpo);
   if (!st) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), 0.0, &rmin, &rmax, &a0, &tau, run->seeds);
   if (st < 0) {
-    if (sec_is_ray(c))
-      fprintf(stderr, "tubes: section: the energy surface on the section could not be computed (status %d)\n", st);
-    else
+    if (sec_is_ray(c) || st != TUBES_EINPUT) {
+      char m[128];
+      status_text(st, m, sizeof m);
+      fprintf(stderr, "tubes: section: the energy surface on the section could not be computed: %s (status %d)\n",
+              m, st);
+    } else
       fprintf(stderr, "tubes: section: the plane q%d = %g does not meet a bounded region of the energy surface at "
               "E_e of %s (searched q%d over the &equilibria box widened by half its width on each side; status %d): "
               "choose another value, or a box that holds the region\n", c->sec_index, c->sec_value, run->saddle,
