@@ -414,3 +414,19 @@ def test_a_narrow_plane_region_has_its_closed_form_area(tmp_path):
     e = 1 / 6 + np.array([0.01, 0.02])
     np.testing.assert_allclose(f["transition/A_E"][:], 2 * np.pi * (e - 0.162) / np.sqrt(2.8), rtol=1e-9)
     assert f["section"].attrs["tau"] == pytest.approx(2 * np.pi / np.sqrt(2.8), rel=1e-9)
+
+
+def test_one_degree_of_freedom_has_no_centre(tmp_path):
+    """H = p^2/2 - x^2/2 + x^4/4: wells at +-1 (E = -1/4), a saddle at 0 with lambda = 1 and no
+    centre: omega and T_po are NaN (0 and inf before), y NaN (no second coordinate), as Python's."""
+    import tubes
+    text = ("&model system = 'expression', hamiltonian = 'px^2/2 - x^2/2 + x^4/4', coordinates = 'x',"
+            " momenta = 'px' /\n&run scenes = 'equilibria' /\n&orbits saddle_near = 0 /\n")
+    r, f = run(tmp_path, text)
+    assert np.isnan(f["saddle"].attrs["omega"]) and np.isnan(f["saddle"].attrs["T_po"])
+    assert f["saddle"].attrs["lambda"] == pytest.approx(1, rel=1e-12)
+    assert np.all(np.isnan(f["equilibria/omega"][:])) and np.all(np.isnan(f["equilibria/y"][:]))
+    m = tubes.Model(system="expression", hamiltonian="px^2/2 - x^2/2 + x^4/4", coordinates=["x"], momenta=["px"])
+    eq = m.equilibria()
+    np.testing.assert_array_equal(np.sort(eq["x"]), np.sort(f["equilibria/x"][:]))
+    assert np.all(np.isnan(eq["omega"]))

@@ -383,8 +383,8 @@ int scene_equilibria(tubes_run_t *run) {
          *om = malloc(sizeof(double) * (n ? n : 1)), *qq = malloc(sizeof(double) * (n ? n : 1) * n2);
   for (int k = 0; k < n; k++) {
     x[k] = L.q[MD * k];
-    y[k] = L.q[MD * k + 1];
-    om[k] = L.om[(MD - 1) * k];
+    y[k] = nd > 1 ? L.q[MD * k + 1] : NAN;   /* 1 DOF: no second coordinate */
+    om[k] = nd > 1 ? L.om[(MD - 1) * k] : NAN;
     for (int i = 0; i < nd; i++) {
       qq[n2 * k + i] = L.q[MD * k + i];
       qq[n2 * k + nd + i] = L.p[MD * k + i];
@@ -392,7 +392,9 @@ int scene_equilibria(tubes_run_t *run) {
     /* a coordinate that prints as zero prints as 0, not -0 */
     double xp = fabs(x[k]) < 5e-9 ? 0.0 : x[k], yp = fabs(y[k]) < 5e-9 ? 0.0 : y[k],
            ep = fabs(L.en[k]) < 5e-7 ? 0.0 : L.en[k];
-    if (L.rank1[k] == 1)
+    if (L.rank1[k] == 1 && nd < 2)   /* 1 DOF: a saddle without a centre */
+      printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10s %8s", nm[k], xp, yp, ep, L.morse[k], L.lam[k], "-", "-");
+    else if (L.rank1[k] == 1)
       printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10.6f %8.6f", nm[k], xp, yp, ep, L.morse[k],
              L.lam[k], om[k], 2 * M_PI / om[k]);
     else if (L.rank1[k] == 2)   /* degenerate: a zero frequency, no Lyapunov orbit */
@@ -451,7 +453,7 @@ int scene_equilibria(tubes_run_t *run) {
     return EXIT_NUMERIC;
   }
   int k = isad;
-  double omk = L.om[(MD - 1) * k];
+  double omk = nd > 1 ? L.om[(MD - 1) * k] : NAN;   /* 1 DOF: no centre, no Lyapunov orbit (not 0, inf) */
   if (!strcmp(run->system, "rolling_ball"))
     printf("saddle %s: E_e = %.10g (cm/s)^2, lambda = %.10g 1/s, omega = %.10g rad/s, T_po = %.10g s\n",
            nm[k], L.en[k], L.lam[k], omk, 2 * M_PI / omk);
@@ -465,7 +467,7 @@ int scene_equilibria(tubes_run_t *run) {
     for (int j = 0; j < n2; j++) evr[n2 * i + j] = L.ev[4 * MD * MD * k + n2 * j + i];
   rc |= h5_attr_string(g, "name", nm[k]);
   rc |= h5_attr_double(g, "x", L.q[MD * k]);
-  rc |= h5_attr_double(g, "y", L.q[MD * k + 1]);
+  rc |= h5_attr_double(g, "y", nd > 1 ? L.q[MD * k + 1] : NAN);
   rc |= h5_attr_double(g, "energy", L.en[k]);
   rc |= h5_attr_double(g, "lambda", L.lam[k]);
   rc |= h5_attr_double(g, "omega", omk);
