@@ -50,6 +50,11 @@ BAD = [  # (name, namelist text, substrings the message must contain)
     ("scene twice", "&run scenes = 'equilibria', 'orbits', 'equilibria' /\n", ["bad.nml:1", "'equilibria' is named twice"]),
     ("repeat count too large", "&equilibria box = 4*20.0 /\n", ["bad.nml:1", "repeat count 4", "1 to 3"]),
     ("control byte", "&model\x1b g = 981 /\n", ["bad.nml:1", "0x1b", "not text"]),
+    # an integer past 2^31: Fortran's READ said "Integer overflow while reading item 1", no name, no range
+    ("seed past int32", "&montecarlo\n seed = 3000000000 /\n", ["bad.nml:2", "&montecarlo", "'seed'", "allowed >= 0",
+                                                              "2147483647"]),
+    ("n_samples past int32", "&montecarlo n_samples = 3000000000 /\n", ["bad.nml:1", "'n_samples'", "1 .. 10000000"]),
+    ("n_grid past int32", "&equilibria n_grid = -3000000000 /\n", ["bad.nml:1", "'n_grid'", "2 .. 2001", "-2147483648"]),
 ]
 
 

@@ -5,6 +5,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <float.h>
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -258,8 +259,11 @@ static char *slurp(const char *path, size_t *len, FILE *err) {
   return buf;
 }
 
-/* Check one value token against the variable's type. Returns NULL if fine, else a reason. */
-static const char *check_token(nml_type t, const char *tok, size_t len) {
+/* Check one value token against the variable's type (and an integer against the range of the
+ * variable's C type: Fortran's READ would only say "Integer overflow while reading item 1").
+ * Returns NULL if fine, else a reason (in why, for a reason with numbers). */
+static const char *check_token(const nml_var *var, const char *tok, size_t len, char *why, size_t whylen) {
+  nml_type t = var->type;
   char tmp[256];
   if (len >= sizeof tmp) len = sizeof tmp - 1;
   memcpy(tmp, tok, len);
@@ -281,9 +285,16 @@ static const char *check_token(nml_type t, const char *tok, size_t len) {
   case NML_INT: {
     char *end;
     errno = 0;
-    (void)strtoll(v, &end, 10);
+    long long x = strtoll(v, &end, 10);
     if (end == v || *end != '\0') return "is not an integer";
-    if (errno == ERANGE) return "is out of the integer range";
+    /* max_steps is a 64-bit integer (int64_t), every other integer a C int */
+    long long lo = strcmp(var->name, "max_steps") ? INT_MIN : LLONG_MIN;
+    long long hi = strcmp(var->name, "max_steps") ? INT_MAX : LLONG_MAX;
+    if (errno == ERANGE || x < lo || x > hi) {
+      snprintf(why, whylen, "is out of range: allowed %s, and an integer of '%s' lies in %lld .. %lld",
+               var->allowed, var->name, lo, hi);
+      return why;
+    }
     return NULL;
   }
   case NML_LOGICAL: {
@@ -458,7 +469,8 @@ int nml_lex(const char *path, nml_where *w, FILE *err) {
         w->var_text[vi][m] = '\0';
       }
       nvals += (int)rep;
-      const char *why = len ? check_token(v->type, tok, len) : NULL;
+      char whybuf[256];
+      const char *why = len ? check_token(v, tok, len, whybuf, sizeof whybuf) : NULL;
       if (why)
         FAIL("&%s: value %.*s of '%s' %s (%s: %s)", gname, (int)(len > 60 ? 60 : len), tok, name,
              why, v->name, v->doc);
