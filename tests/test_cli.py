@@ -435,3 +435,15 @@ def test_the_trajectory_is_sampled_at_its_end(tmp_path, t_end, dt_out, times):
         assert np.allclose(t, times, rtol=0, atol=1e-15) and t[-1] == t_end
         assert list(g["trajectory/t"][:]) == [0, t_end]
         assert np.array_equal(f["trajectory/state"][-1], g["trajectory/state"][-1])
+
+
+def test_an_unknown_scene_lists_every_scene(tmp_path, tubes_exe):
+    """The scenes a refusal offers are the table's (--help's 'Scenes'): a copy of the list in the
+    message had left out flux."""
+    helptext = run_tubes(["--help"], tmp_path).stdout
+    scenes = [ln.split()[0] for ln in helptext.split("Scenes", 1)[1].split("\n\n")[0].splitlines()[1:]]
+    assert "flux" in scenes and "synthetic_experiment" in scenes, scenes
+    (tmp_path / "s.nml").write_text("&run scenes = 'equilibrium' /\n")
+    r = run_tubes(["s.nml"], tmp_path)
+    assert r.returncode == 1 and "s.nml:1: &run: scenes = 'equilibrium' is not allowed: allowed " in r.stderr, r.stderr
+    assert r.stderr.split("allowed ", 1)[1].strip() == ", ".join(scenes), r.stderr

@@ -36,8 +36,7 @@ const int tubes_nscenes = 9;
 
 const nml_var tubes_nml_vars[] = {
     {"run", "scenes", NML_STRING, TUBES_NSCENES, "-", "'equilibria'",
-     "equilibria, trajectory, orbits, tubes, transition, montecarlo, sections, synthetic_experiment",
-     "scenes to run, in order"},
+     "the scenes of tubes_scene_names (allowed_text lists them)", "scenes to run, in order"},
     {"run", "output", NML_STRING, 1, "-", "'tubes.h5'", "a writable path",
      "HDF5 output file (overridden by -o)"},
     {"model", "system", NML_STRING, 1, "-", "'rolling_ball'",
@@ -538,12 +537,23 @@ static int bad(const char *path, const nml_where *w, const char *group, const ch
   return 1;
 }
 
+/* What variable i allows, for a message: its table entry, or for &run scenes the table of scenes
+ * (tubes_scene_names, the one list the scenes are dispatched by). */
+static void print_allowed(int i, FILE *err) {
+  if (i >= 0 && !strcmp(tubes_nml_vars[i].group, "run") && !strcmp(tubes_nml_vars[i].name, "scenes")) {
+    for (int j = 0; j < tubes_nscenes; j++) fprintf(err, "%s%s", j ? ", " : "", tubes_scene_names[j]);
+  } else {
+    fputs(i >= 0 ? tubes_nml_vars[i].allowed : "?", err);
+  }
+}
+
 static int bad_string(const char *path, const nml_where *w, const char *group, const char *name,
                       const char *value, FILE *err) {
   int i = var_index(group, name);
   int ln = line_or_group(w, group, name);
-  fprintf(err, "%s:%d: &%s: %s = '%s' is not allowed: allowed %s\n", path, ln, group, name, value,
-          i >= 0 ? tubes_nml_vars[i].allowed : "?");
+  fprintf(err, "%s:%d: &%s: %s = '%s' is not allowed: allowed ", path, ln, group, name, value);
+  print_allowed(i, err);
+  fputc('\n', err);
   return 1;
 }
 
