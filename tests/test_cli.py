@@ -54,6 +54,11 @@ BAD = [  # (name, namelist text, substrings the message must contain)
     ("seed past int32", "&montecarlo\n seed = 3000000000 /\n", ["bad.nml:2", "&montecarlo", "'seed'", "allowed >= 0",
                                                               "2147483647"]),
     ("n_samples past int32", "&montecarlo n_samples = 3000000000 /\n", ["bad.nml:1", "'n_samples'", "1 .. 10000000"]),
+    # a gap in a list: the message printed the unset entry, "de = -1.7976931348623157e+308"
+    ("de gap", "&run scenes = 'orbits' /\n&orbits de(1) = 1, de(3) = 10 /\n",
+     ["bad.nml:2", "&orbits: de(2) is not set but de(3) is", "gap"]),
+    ("de null gap", "&tubes de = 10, , 30 /\n", ["bad.nml:1", "&tubes: de(2) is not set"]),
+    ("de not increasing", "&sections de = 1, 5, 3 /\n", ["bad.nml:1", "de(3) = 3", "strictly increasing"]),
     ("n_grid past int32", "&equilibria n_grid = -3000000000 /\n", ["bad.nml:1", "'n_grid'", "2 .. 2001", "-2147483648"]),
 ]
 
@@ -447,3 +452,19 @@ def test_an_unknown_scene_lists_every_scene(tmp_path, tubes_exe):
     r = run_tubes(["s.nml"], tmp_path)
     assert r.returncode == 1 and "s.nml:1: &run: scenes = 'equilibrium' is not allowed: allowed " in r.stderr, r.stderr
     assert r.stderr.split("allowed ", 1)[1].strip() == ", ".join(scenes), r.stderr
+
+
+@pytest.mark.parametrize("text", ["&run scenes = 'orbits' /\n&orbits de(1) = 1, de(3) = 10 /\n",
+                                  "&transition de = -5 /\n", "&transition de = 1, 5, 3 /\n",
+                                  "&montecarlo gate = -1 /\n"],
+                         ids=["gap", "transition de", "transition order", "montecarlo gate"])
+def test_one_message_per_mistake_at_its_line(tmp_path, tubes_exe, text):
+    """One message per mistake, about the variable set, at a real line: a gap printed the unset
+    entry (-1.797e+308); &flux de (default: the &transition list) and &flux gate (the &montecarlo
+    gate) repeated &transition's and &montecarlo's message at line 0."""
+    (tmp_path / "m.nml").write_text(text)
+    r = run_tubes(["m.nml"], tmp_path)
+    lines = r.stderr.splitlines()
+    assert r.returncode == 1 and len(lines) == 1, r.stderr
+    assert lines[0].startswith("m.nml:") and not lines[0].startswith("m.nml:0:"), r.stderr
+    assert "e+308" not in r.stderr and "&flux" not in r.stderr, r.stderr

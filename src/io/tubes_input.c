@@ -519,22 +519,30 @@ static int line_or_group(const nml_where *w, const char *group, const char *name
   return ln ? ln : w->group_line[group_index(group)];
 }
 
-static int bad(const char *path, const nml_where *w, const char *group, const char *name,
-               FILE *err, const char *fmt, double value) {
+/* group.name (element elem of an array, 1-based; 0: the variable) is out of range: the message. */
+static int bad_at(const char *path, const nml_where *w, const char *group, const char *name, int elem,
+                  FILE *err, const char *fmt, double value) {
   int i = var_index(group, name);
   int ln = line_or_group(w, group, name);
   /* the value as the user wrote it when it was set in the file (1e-16, not 9.9999999999999998e-17) */
-  char shown[112];
+  char shown[112], named[48];
   if (i >= 0 && w->var_line[i] && tubes_nml_vars[i].count == 1 && w->var_text[i][0])
     snprintf(shown, sizeof shown, "%s", w->var_text[i]);
   else
     snprintf(shown, sizeof shown, "%.17g", value);
+  if (elem > 0) snprintf(named, sizeof named, "%s(%d)", name, elem);
+  else snprintf(named, sizeof named, "%s", name);
   fprintf(err, "%s:%d: &%s: %s = %s is out of range: allowed %s (%s, %s)", path, ln, group,
-          name, shown, i >= 0 ? tubes_nml_vars[i].allowed : "?", i >= 0 ? tubes_nml_vars[i].doc : "",
+          named, shown, i >= 0 ? tubes_nml_vars[i].allowed : "?", i >= 0 ? tubes_nml_vars[i].doc : "",
           i >= 0 ? tubes_nml_vars[i].units : "");
   if (fmt && *fmt) fprintf(err, "; %s", fmt);
   fputc('\n', err);
   return 1;
+}
+
+static int bad(const char *path, const nml_where *w, const char *group, const char *name,
+               FILE *err, const char *fmt, double value) {
+  return bad_at(path, w, group, name, 0, err, fmt, value);
 }
 
 /* What variable i allows, for a message: its table entry, or for &run scenes the table of scenes
@@ -557,15 +565,24 @@ static int bad_string(const char *path, const nml_where *w, const char *group, c
   return 1;
 }
 
-/* A list of excess energies: positive, strictly increasing, no gaps. */
+/* A list of excess energies (unset entries: the reader's UNSET = -huge): no gaps, positive,
+ * strictly increasing. One message, naming the element. */
 static int check_list(const char *path, const nml_where *w, const char *group, const double *de, int nde,
                       FILE *err) {
+  int last = -1;
+  for (int k = 0; k < TUBES_MAXDE; k++)
+    if (de[k] != -DBL_MAX) last = k;
+  for (int k = 0; k < last; k++)
+    if (de[k] == -DBL_MAX) {
+      fprintf(err, "%s:%d: &%s: de(%d) is not set but de(%d) is: the list has a gap; give its values from "
+              "de(1) on, with none left out\n", path, line_or_group(w, group, "de"), group, k + 1, last + 1);
+      return 1;
+    }
   for (int k = 0; k < nde; k++) {
-    if (!(de[k] > 0)) return bad(path, w, group, "de", err, "every dE must be > 0", de[k]);
-    if (k > 0 && !(de[k] > de[k - 1])) return bad(path, w, group, "de", err, "the list must be strictly increasing", de[k]);
+    if (!(de[k] > 0)) return bad_at(path, w, group, "de", k + 1, err, "every dE must be > 0", de[k]);
+    if (k > 0 && !(de[k] > de[k - 1]))
+      return bad_at(path, w, group, "de", k + 1, err, "the list must be strictly increasing", de[k]);
   }
-  for (int k = nde; k < TUBES_MAXDE; k++)
-    if (de[k] != -DBL_MAX && de[k] != 0) return bad(path, w, group, "de", err, "the list has a gap: give its values from de(1) on", de[k]);
   return 0;
 }
 
@@ -815,22 +832,7 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->atol > 0)) n += bad(path, w, "integrator", "atol", err, "", c->atol);
   if (!(c->h >= 0)) n += bad(path, w, "integrator", "h", err, "", c->h);
   if (!(c->max_steps >= 1)) n += bad(path, w, "integrator", "max_steps", err, "", (double)c->max_steps);
-  for (int k = 0; k < c->orb_nde; k++) {
-    if (!(c->orb_de[k] > 0)) {
-      n += bad(path, w, "orbits", "de", err, "every dE must be > 0", c->orb_de[k]);
-      break;
-    }
-    if (k > 0 && !(c->orb_de[k] > c->orb_de[k - 1])) {
-      n += bad(path, w, "orbits", "de", err, "the list must be strictly increasing", c->orb_de[k]);
-      break;
-    }
-  }
-  for (int k = c->orb_nde; k < TUBES_MAXDE; k++)
-    if (c->orb_de[k] != -DBL_MAX) {   /* the reader's UNSET = -huge */
-      n += bad(path, w, "orbits", "de", err, "the list has a gap: give its values from dE(1) on",
-               c->orb_de[k]);
-      break;
-    }
+  n += check_list(path, w, "orbits", c->orb_de, c->orb_nde, err);
   if (strcmp(c->orb_method, "single") && strcmp(c->orb_method, "multiple"))
     n += bad_string(path, w, "orbits", "method", c->orb_method, err);
   if (!(c->orb_n_segments >= 2 && c->orb_n_segments <= 64))
@@ -866,12 +868,13 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
     n += bad(path, w, "montecarlo", "area_tol", err, "", c->mc_area_tol);
   if (c->nparams >= 0 && !(c->mc_gate > 0 && c->mc_gate < DBL_MAX))
     n += bad(path, w, "montecarlo", "gate", err, "", c->mc_gate);
-  n += check_list(path, w, "flux", c->flux_de, c->flux_nde, err);
+  /* &flux de and gate not set in the file are &transition's de and &montecarlo's gate, checked there */
+  if (line_of(w, "flux", "de")) n += check_list(path, w, "flux", c->flux_de, c->flux_nde, err);
   if (!(c->flux_n_samples >= 2 && c->flux_n_samples <= 10000000))
     n += bad(path, w, "flux", "n_samples", err, "", c->flux_n_samples);
   if (!(c->flux_seed >= 0)) n += bad(path, w, "flux", "seed", err, "", c->flux_seed);
   if (!(c->flux_t_max > 0)) n += bad(path, w, "flux", "t_max", err, "", c->flux_t_max);
-  if (c->nparams >= 0 && !(c->flux_gate > 0 && c->flux_gate < DBL_MAX))
+  if (c->nparams >= 0 && line_of(w, "flux", "gate") && !(c->flux_gate > 0 && c->flux_gate < DBL_MAX))
     n += bad(path, w, "flux", "gate", err, "", c->flux_gate);
   if (!(c->flux_tol >= 1e-14 && c->flux_tol <= 1e-3)) n += bad(path, w, "flux", "tol", err, "", c->flux_tol);
   if (!(c->flux_order == 0 || (c->flux_order >= 2 && c->flux_order <= 16)))
