@@ -59,6 +59,16 @@ BAD = [  # (name, namelist text, substrings the message must contain)
      ["bad.nml:2", "&orbits: de(2) is not set but de(3) is", "gap"]),
     ("de null gap", "&tubes de = 10, , 30 /\n", ["bad.nml:1", "&tubes: de(2) is not set"]),
     ("de not increasing", "&sections de = 1, 5, 3 /\n", ["bad.nml:1", "de(3) = 3", "strictly increasing"]),
+    # a value for a coordinate the model does not have, and a gap in scenes, were silently ignored
+    ("box(3) on 2 DOF", "&equilibria box = 1.5, 1.5, -3 /\n", ["bad.nml:1", "box(3) = -3", "system 'rolling_ball' has 2"]),
+    ("box(3) after a null", "&equilibria\n box = 1.5, , 4 /\n", ["bad.nml:2", "box(3) = 4", "has 2"]),
+    ("box_center(3) on 2 DOF", "&equilibria box_center(3) = 2 /\n", ["bad.nml:1", "box_center(3) = 2", "has 2"]),
+    ("saddle_near(3) on 2 DOF", "&model system = 'henon_heiles' /\n&orbits saddle_near = 0, 1, 1e-3 /\n",
+     ["bad.nml:2", "&orbits: saddle_near(3) = 0.001", "system 'henon_heiles' has 2"]),
+    ("box(2) <= 0", "&equilibria box = 1, -1 /\n", ["bad.nml:1", "box(2) = -1", "> 0"]),
+    ("scenes gap", "&run scenes(1) = 'equilibria', scenes(3) = 'orbits' /\n",
+     ["bad.nml:1", "scenes(2) is empty but scenes(3) = 'orbits' follows"]),
+    ("scenes null gap", "&run scenes = 'equilibria', , 'orbits' /\n", ["bad.nml:1", "scenes(2) is empty"]),
     ("n_grid past int32", "&equilibria n_grid = -3000000000 /\n", ["bad.nml:1", "'n_grid'", "2 .. 2001", "-2147483648"]),
 ]
 
@@ -456,15 +466,28 @@ def test_an_unknown_scene_lists_every_scene(tmp_path, tubes_exe):
 
 @pytest.mark.parametrize("text", ["&run scenes = 'orbits' /\n&orbits de(1) = 1, de(3) = 10 /\n",
                                   "&transition de = -5 /\n", "&transition de = 1, 5, 3 /\n",
-                                  "&montecarlo gate = -1 /\n"],
-                         ids=["gap", "transition de", "transition order", "montecarlo gate"])
+                                  "&montecarlo gate = -1 /\n", "&equilibria box = -1 /\n"],
+                         ids=["gap", "transition de", "transition order", "montecarlo gate", "box"])
 def test_one_message_per_mistake_at_its_line(tmp_path, tubes_exe, text):
     """One message per mistake, about the variable set, at a real line: a gap printed the unset
     entry (-1.797e+308); &flux de (default: the &transition list) and &flux gate (the &montecarlo
-    gate) repeated &transition's and &montecarlo's message at line 0."""
+    gate) repeated &transition's and &montecarlo's message at line 0; box = -1 was refused once per
+    coordinate."""
     (tmp_path / "m.nml").write_text(text)
     r = run_tubes(["m.nml"], tmp_path)
     lines = r.stderr.splitlines()
     assert r.returncode == 1 and len(lines) == 1, r.stderr
     assert lines[0].startswith("m.nml:") and not lines[0].startswith("m.nml:0:"), r.stderr
     assert "e+308" not in r.stderr and "&flux" not in r.stderr, r.stderr
+
+
+def test_one_element_of_box_or_saddle_near_is_used(tmp_path, tubes_exe):
+    """box(2) or saddle_near(2) alone set that coordinate (they were ignored without box(1),
+    saddle_near(1)); a 0 for a coordinate the model lacks is what --check writes there: let through."""
+    (tmp_path / "b.nml").write_text("&model system = 'henon_heiles' /\n&equilibria box(2) = 5, box_center = 0, 0, 0 /\n"
+                                    "&orbits saddle_near(2) = -0.5 /\n")
+    r = run_tubes(["--check", "b.nml"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    eff = r.stdout.replace(" ", "")
+    assert "BOX=1.5000000000000000,5.0000000000000000," in eff, r.stdout
+    assert "SADDLE_NEAR=0.0000000000000000,-0.50000000000000000," in eff, r.stdout

@@ -411,9 +411,11 @@ int nml_lex(const char *path, nml_where *w, FILE *err) {
     int nvals = 0, vline = line;
     char *vstart = NULL;
     for (;;) {
+      int commas = 0;   /* two commas with only blanks between: a null value (the element is left as it is) */
       while (*p == ' ' || *p == '\t' || *p == ',' || *p == '\n' || *p == '\r' || *p == '!') {
         if (*p == '!') { while (*p && *p != '\n') p++; continue; }
         if (*p == '\n') line++;
+        commas += *p == ',';
         p++;
       }
       if (!*p || *p == '/' || *p == '&' || *p == '$') break;
@@ -466,6 +468,22 @@ int nml_lex(const char *path, nml_where *w, FILE *err) {
         size_t m = (size_t)(p - item) < 95 ? (size_t)(p - item) : 95;
         memcpy(w->var_text[vi], item, m);
         w->var_text[vi][m] = '\0';
+      }
+      nvals += vstart == item && nvals == 0 ? commas : (commas > 1 ? commas - 1 : 0);   /* "= , 5": a null first */
+      if (len) {   /* elements first_index + nvals .. + rep - 1 are set: the last, and the last not 0 */
+        int hi = first_index + nvals + (int)rep - 1;
+        if (hi > w->var_last[vi]) w->var_last[vi] = hi;
+        if (v->type == NML_REAL && hi > w->var_nonzero[vi]) {
+          char num[64];
+          size_t m = len < sizeof num - 1 ? len : sizeof num - 1, k;
+          for (k = 0; k < m; k++) num[k] = (tok[k] == 'd' || tok[k] == 'D') ? 'e' : tok[k];
+          num[m] = '\0';
+          double x = strtod(num, NULL);
+          if (x != 0) {
+            w->var_nonzero[vi] = hi;
+            w->var_nonzero_value[vi] = x;
+          }
+        }
       }
       nvals += (int)rep;
       char whybuf[256];
@@ -682,11 +700,30 @@ static int scene_requested(const tubes_config_t *c, const char *name) {
 /* &equilibria box, &orbits saddle / saddle_near, &section for the chosen system. */
 static int validate_geometry(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int n = 0, nd = c->ndof;
-  for (int k = 0; k < nd; k++) {
-    if (!(c->box_list[k] > 0 && c->box_list[k] < DBL_MAX))
-      n += bad(path, w, "equilibria", "box", err, "every half-width must be > 0", c->box_list[k]);
-    if (!isfinite(c->box_center[k])) n += bad(path, w, "equilibria", "box_center", err, "", c->box_center[k]);
+  /* a value for a coordinate the model does not have (0 is let through: the effective namelist
+   * writes 0 there, and it reads back to the same run) */
+  static const char *const per_dof[][2] = {{"equilibria", "box"}, {"equilibria", "box_center"},
+                                           {"orbits", "saddle_near"}};
+  for (int j = 0; j < 3; j++) {
+    int i = var_index(per_dof[j][0], per_dof[j][1]);
+    if (w->var_nonzero[i] > nd) {
+      fprintf(err, "%s:%d: &%s: %s(%d) = %.17g is a value for coordinate %d, but system '%s' has %d: give at "
+              "most %d values%s\n", path, w->var_line[i], per_dof[j][0], per_dof[j][1], w->var_nonzero[i],
+              w->var_nonzero_value[i], w->var_nonzero[i], c->system, nd, nd,
+              j == 0 ? " (one value sets every coordinate)" : "");
+      n++;
+    }
   }
+  /* one value of box is every coordinate's: one message; several, a message per element */
+  int one_box = w->var_last[var_index("equilibria", "box")] <= 1;
+  for (int k = 0; k < nd; k++)
+    if (!(c->box_list[k] > 0 && c->box_list[k] < DBL_MAX)) {
+      n += bad_at(path, w, "equilibria", "box", one_box ? 0 : k + 1, err, "every half-width must be > 0",
+                  c->box_list[k]);
+      if (one_box) break;
+    }
+  for (int k = 0; k < nd; k++)
+    if (!isfinite(c->box_center[k])) n += bad_at(path, w, "equilibria", "box_center", k + 1, err, "", c->box_center[k]);
   if (!(c->n_grid >= 2 && c->n_grid <= 2001 && pow(c->n_grid, nd) <= 1e6))
     n += bad(path, w, "equilibria", "n_grid", err, "n_grid^N Newton starts at most 1e6", c->n_grid);
   if (line_of(w, "orbits", "saddle") && line_of(w, "orbits", "saddle_near")) {
@@ -697,7 +734,7 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
   if (strlen(c->orb_saddle) > 7) n += bad_string(path, w, "orbits", "saddle", c->orb_saddle, err);
   for (int k = 0; k < nd; k++)
     if (c->orb_use_near && !isfinite(c->orb_saddle_near[k]))
-      n += bad(path, w, "orbits", "saddle_near", err, "", c->orb_saddle_near[k]);
+      n += bad_at(path, w, "orbits", "saddle_near", k + 1, err, "", c->orb_saddle_near[k]);
   if (scene_requested(c, "synthetic_experiment") && !strcmp(c->system, "rolling_ball") &&
       strcmp(c->surface, "fourwell")) {
     fprintf(err, "%s:%d: &run: the synthetic_experiment scene models the paper's machined four-well surface: it "
@@ -789,6 +826,16 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
         n++;
         break;
       }
+  }
+  for (int k = 0, last = -1; k < TUBES_NSCENES; k++) {   /* a gap: scenes(1) = ..., scenes(3) = ... */
+    for (int j = k; j < TUBES_NSCENES; j++)
+      if (c->scenes[j][0]) last = j;
+    if (!c->scenes[k][0] && k < last) {
+      fprintf(err, "%s:%d: &run: scenes(%d) is empty but scenes(%d) = '%s' follows: name the scenes from scenes(1) "
+              "on, with none left out\n", path, line_of(w, "run", "scenes"), k + 1, last + 1, c->scenes[last]);
+      n++;
+      break;
+    }
   }
   if (nscenes == 0) {
     fprintf(err, "%s:%d: &run: scenes is empty: name at least one of ", path, line_of(w, "run", "scenes"));
