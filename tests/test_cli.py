@@ -491,3 +491,21 @@ def test_one_element_of_box_or_saddle_near_is_used(tmp_path, tubes_exe):
     eff = r.stdout.replace(" ", "")
     assert "BOX=1.5000000000000000,5.0000000000000000," in eff, r.stdout
     assert "SADDLE_NEAR=0.0000000000000000,-0.50000000000000000," in eff, r.stdout
+
+
+@pytest.mark.parametrize("text,units,not_units", [
+    ("&model system = 'henon_heiles' /\n&orbits de = -1 /\n", "orbits, 1);", "cm"),
+    ("&model system = 'henon_heiles' /\n&montecarlo t_max = -1 /\n", "a point, 1)", " s)"),
+    ("&model system = 'coupled_quartic' /\n&run scenes = 'trajectory' /\n&integrator method = 'rk4' /\n",
+     "(the step [1])", "[s]"),
+    ("&orbits de = -1 /\n", "orbits, (cm/s)^2);", "energy"),
+    ("&flux de = -1 /\n", "flux, (cm/s)^2);", "energy"),
+    ("&flux t_max = -1 /\n", "past, s)", "time"),
+], ids=["henon_heiles de", "henon_heiles t_max", "coupled_quartic h", "ball de", "ball flux de", "ball flux t_max"])
+def test_messages_give_the_models_units(tmp_path, tubes_exe, text, units, not_units):
+    """A dimensionless model's values are in units of 1 (as its output file's units attributes):
+    the dE messages said (cm/s)^2 for Henon-Heiles; the ball's are cm, s, (cm/s)^2 (&flux's table
+    entries say 'energy', 'time' for any model)."""
+    (tmp_path / "u.nml").write_text(text)
+    r = run_tubes(["u.nml"], tmp_path)
+    assert r.returncode == 1 and units in r.stderr and not_units not in r.stderr, r.stderr
