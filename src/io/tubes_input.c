@@ -329,7 +329,7 @@ int nml_lex(const char *path, nml_where *w, FILE *err) {
     unsigned char ch = (unsigned char)s[i];
     if (ch == '\n') line++;
     else if (ch < 32 && ch != '\t' && ch != '\r') {
-      fprintf(err, "%s:%d: byte 0x%02x is not text: an input file holds printable characters, tabs and "
+      fprintf(err, "%s:%d: byte 0x%02x is not text: the input holds printable characters, tabs and "
               "line ends only\n", path, line, ch);
       free(s);
       return 1;
@@ -762,12 +762,12 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
   if (scene_requested(c, "synthetic_experiment") && !strcmp(c->system, "rolling_ball") &&
       strcmp(c->surface, "fourwell")) {
     fprintf(err, "%s:%d: &run: the synthetic_experiment scene models the paper's machined four-well surface: it "
-            "needs surface = 'fourwell' (this file's surface is '%s')\n", path, line_of(w, "run", "scenes"), c->surface);
+            "needs surface = 'fourwell', not '%s'\n", path, line_of(w, "run", "scenes"), c->surface);
     n++;
   }
   if (scene_requested(c, "synthetic_experiment") && strcmp(c->system, "rolling_ball")) {
     fprintf(err, "%s:%d: &run: the synthetic_experiment scene releases balls on the four-well surface: it needs "
-            "system = 'rolling_ball' (this file's system is '%s')\n", path, line_of(w, "run", "scenes"), c->system);
+            "system = 'rolling_ball', not '%s'\n", path, line_of(w, "run", "scenes"), c->system);
     n++;
   }
   if (scene_requested(c, "trajectory") && c->at_rest && strcmp(c->system, "rolling_ball")) {
