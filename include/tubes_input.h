@@ -31,6 +31,9 @@ typedef struct {
   int group_line[16];               /* line of &group, 0 if absent */
   int var_line[192];               /* per tubes_nml_vars entry */
   char var_text[192][96];          /* first characters of the value as written */
+  int var_last[192];               /* arrays: the last element given a value (1-based; nulls are not) */
+  int var_nonzero[192];            /* real arrays: the last element given a value other than 0 ... */
+  double var_nonzero_value[192];   /* ... and that value */
 } nml_where;
 
 /* Lex the file: unknown groups or variables, unterminated groups, malformed values.

@@ -50,6 +50,26 @@ BAD = [  # (name, namelist text, substrings the message must contain)
     ("scene twice", "&run scenes = 'equilibria', 'orbits', 'equilibria' /\n", ["bad.nml:1", "'equilibria' is named twice"]),
     ("repeat count too large", "&equilibria box = 4*20.0 /\n", ["bad.nml:1", "repeat count 4", "1 to 3"]),
     ("control byte", "&model\x1b g = 981 /\n", ["bad.nml:1", "0x1b", "not text"]),
+    # an integer past 2^31: Fortran's READ said "Integer overflow while reading item 1", no name, no range
+    ("seed past int32", "&montecarlo\n seed = 3000000000 /\n", ["bad.nml:2", "&montecarlo", "'seed'", "allowed >= 0",
+                                                              "2147483647"]),
+    ("n_samples past int32", "&montecarlo n_samples = 3000000000 /\n", ["bad.nml:1", "'n_samples'", "1 .. 10000000"]),
+    # a gap in a list: the message printed the unset entry, "de = -1.7976931348623157e+308"
+    ("de gap", "&run scenes = 'orbits' /\n&orbits de(1) = 1, de(3) = 10 /\n",
+     ["bad.nml:2", "&orbits: de(2) is not set but de(3) is", "gap"]),
+    ("de null gap", "&tubes de = 10, , 30 /\n", ["bad.nml:1", "&tubes: de(2) is not set"]),
+    ("de not increasing", "&sections de = 1, 5, 3 /\n", ["bad.nml:1", "de(3) = 3", "strictly increasing"]),
+    # a value for a coordinate the model does not have, and a gap in scenes, were silently ignored
+    ("box(3) on 2 DOF", "&equilibria box = 1.5, 1.5, -3 /\n", ["bad.nml:1", "box(3) = -3", "system 'rolling_ball' has 2"]),
+    ("box(3) after a null", "&equilibria\n box = 1.5, , 4 /\n", ["bad.nml:2", "box(3) = 4", "has 2"]),
+    ("box_center(3) on 2 DOF", "&equilibria box_center(3) = 2 /\n", ["bad.nml:1", "box_center(3) = 2", "has 2"]),
+    ("saddle_near(3) on 2 DOF", "&model system = 'henon_heiles' /\n&orbits saddle_near = 0, 1, 1e-3 /\n",
+     ["bad.nml:2", "&orbits: saddle_near(3) = 0.001", "system 'henon_heiles' has 2"]),
+    ("box(2) <= 0", "&equilibria box = 1, -1 /\n", ["bad.nml:1", "box(2) = -1", "> 0"]),
+    ("scenes gap", "&run scenes(1) = 'equilibria', scenes(3) = 'orbits' /\n",
+     ["bad.nml:1", "scenes(2) is empty but scenes(3) = 'orbits' follows"]),
+    ("scenes null gap", "&run scenes = 'equilibria', , 'orbits' /\n", ["bad.nml:1", "scenes(2) is empty"]),
+    ("n_grid past int32", "&equilibria n_grid = -3000000000 /\n", ["bad.nml:1", "'n_grid'", "2 .. 2001", "-2147483648"]),
 ]
 
 
@@ -430,3 +450,62 @@ def test_the_trajectory_is_sampled_at_its_end(tmp_path, t_end, dt_out, times):
         assert np.allclose(t, times, rtol=0, atol=1e-15) and t[-1] == t_end
         assert list(g["trajectory/t"][:]) == [0, t_end]
         assert np.array_equal(f["trajectory/state"][-1], g["trajectory/state"][-1])
+
+
+def test_an_unknown_scene_lists_every_scene(tmp_path, tubes_exe):
+    """The scenes a refusal offers are the table's (--help's 'Scenes'): a copy of the list in the
+    message had left out flux."""
+    helptext = run_tubes(["--help"], tmp_path).stdout
+    scenes = [ln.split()[0] for ln in helptext.split("Scenes", 1)[1].split("\n\n")[0].splitlines()[1:]]
+    assert "flux" in scenes and "synthetic_experiment" in scenes, scenes
+    (tmp_path / "s.nml").write_text("&run scenes = 'equilibrium' /\n")
+    r = run_tubes(["s.nml"], tmp_path)
+    assert r.returncode == 1 and "s.nml:1: &run: scenes = 'equilibrium' is not allowed: allowed " in r.stderr, r.stderr
+    assert r.stderr.split("allowed ", 1)[1].strip() == ", ".join(scenes), r.stderr
+
+
+@pytest.mark.parametrize("text", ["&run scenes = 'orbits' /\n&orbits de(1) = 1, de(3) = 10 /\n",
+                                  "&transition de = -5 /\n", "&transition de = 1, 5, 3 /\n",
+                                  "&montecarlo gate = -1 /\n", "&equilibria box = -1 /\n"],
+                         ids=["gap", "transition de", "transition order", "montecarlo gate", "box"])
+def test_one_message_per_mistake_at_its_line(tmp_path, tubes_exe, text):
+    """One message per mistake, about the variable set, at a real line: a gap printed the unset
+    entry (-1.797e+308); &flux de (default: the &transition list) and &flux gate (the &montecarlo
+    gate) repeated &transition's and &montecarlo's message at line 0; box = -1 was refused once per
+    coordinate."""
+    (tmp_path / "m.nml").write_text(text)
+    r = run_tubes(["m.nml"], tmp_path)
+    lines = r.stderr.splitlines()
+    assert r.returncode == 1 and len(lines) == 1, r.stderr
+    assert lines[0].startswith("m.nml:") and not lines[0].startswith("m.nml:0:"), r.stderr
+    assert "e+308" not in r.stderr and "&flux" not in r.stderr, r.stderr
+
+
+def test_one_element_of_box_or_saddle_near_is_used(tmp_path, tubes_exe):
+    """box(2) or saddle_near(2) alone set that coordinate (they were ignored without box(1),
+    saddle_near(1)); a 0 for a coordinate the model lacks is what --check writes there: let through."""
+    (tmp_path / "b.nml").write_text("&model system = 'henon_heiles' /\n&equilibria box(2) = 5, box_center = 0, 0, 0 /\n"
+                                    "&orbits saddle_near(2) = -0.5 /\n")
+    r = run_tubes(["--check", "b.nml"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    eff = r.stdout.replace(" ", "")
+    assert "BOX=1.5000000000000000,5.0000000000000000," in eff, r.stdout
+    assert "SADDLE_NEAR=0.0000000000000000,-0.50000000000000000," in eff, r.stdout
+
+
+@pytest.mark.parametrize("text,units,not_units", [
+    ("&model system = 'henon_heiles' /\n&orbits de = -1 /\n", "orbits, 1);", "cm"),
+    ("&model system = 'henon_heiles' /\n&montecarlo t_max = -1 /\n", "a point, 1)", " s)"),
+    ("&model system = 'coupled_quartic' /\n&run scenes = 'trajectory' /\n&integrator method = 'rk4' /\n",
+     "(the step [1])", "[s]"),
+    ("&orbits de = -1 /\n", "orbits, (cm/s)^2);", "energy"),
+    ("&flux de = -1 /\n", "flux, (cm/s)^2);", "energy"),
+    ("&flux t_max = -1 /\n", "past, s)", "time"),
+], ids=["henon_heiles de", "henon_heiles t_max", "coupled_quartic h", "ball de", "ball flux de", "ball flux t_max"])
+def test_messages_give_the_models_units(tmp_path, tubes_exe, text, units, not_units):
+    """A dimensionless model's values are in units of 1 (as its output file's units attributes):
+    the dE messages said (cm/s)^2 for Henon-Heiles; the ball's are cm, s, (cm/s)^2 (&flux's table
+    entries say 'energy', 'time' for any model)."""
+    (tmp_path / "u.nml").write_text(text)
+    r = run_tubes(["u.nml"], tmp_path)
+    assert r.returncode == 1 and units in r.stderr and not_units not in r.stderr, r.stderr

@@ -312,3 +312,18 @@ def test_the_status_table_of_the_docs_is_the_library_s():
     for code in range(-13, 2):
         assert rows.get(str(code)) == tubes.status_message(code), code
     assert tubes.status_message(-14) == "unknown status code"      # the table ends at -13
+
+
+@pytest.mark.parametrize("call,words", [
+    (lambda: tubes.synthetic_experiment(tubes.Model("henon_heiles"), n_tracks=2),
+     "needs system = 'rolling_ball', not 'henon_heiles'"),
+    (lambda: tubes.orbit_family(tubes.Model("henon_heiles"), dE=[-1]), "de(1) = -1 is out of range"),
+], ids=["synthetic_experiment", "orbit_family"])
+def test_the_readers_messages_read_right_from_python(call, words):
+    """The keywords go through the program's reader (a temporary namelist file): its messages must
+    not speak of a file ('this file's system is ...'), nor name the temporary one, nor give the
+    ball's units for a dimensionless model."""
+    with pytest.raises(ValueError) as e:
+        call()
+    msg = str(e.value)
+    assert words in msg and "file" not in msg and ".nml" not in msg and "cm" not in msg, msg

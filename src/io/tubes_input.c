@@ -5,6 +5,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <float.h>
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -35,8 +36,7 @@ const int tubes_nscenes = 9;
 
 const nml_var tubes_nml_vars[] = {
     {"run", "scenes", NML_STRING, TUBES_NSCENES, "-", "'equilibria'",
-     "equilibria, trajectory, orbits, tubes, transition, montecarlo, sections, synthetic_experiment",
-     "scenes to run, in order"},
+     "the scenes of tubes_scene_names (allowed_text lists them)", "scenes to run, in order"},
     {"run", "output", NML_STRING, 1, "-", "'tubes.h5'", "a writable path",
      "HDF5 output file (overridden by -o)"},
     {"model", "system", NML_STRING, 1, "-", "'rolling_ball'",
@@ -258,8 +258,11 @@ static char *slurp(const char *path, size_t *len, FILE *err) {
   return buf;
 }
 
-/* Check one value token against the variable's type. Returns NULL if fine, else a reason. */
-static const char *check_token(nml_type t, const char *tok, size_t len) {
+/* Check one value token against the variable's type (and an integer against the range of the
+ * variable's C type: Fortran's READ would only say "Integer overflow while reading item 1").
+ * Returns NULL if fine, else a reason (in why, for a reason with numbers). */
+static const char *check_token(const nml_var *var, const char *tok, size_t len, char *why, size_t whylen) {
+  nml_type t = var->type;
   char tmp[256];
   if (len >= sizeof tmp) len = sizeof tmp - 1;
   memcpy(tmp, tok, len);
@@ -281,9 +284,16 @@ static const char *check_token(nml_type t, const char *tok, size_t len) {
   case NML_INT: {
     char *end;
     errno = 0;
-    (void)strtoll(v, &end, 10);
+    long long x = strtoll(v, &end, 10);
     if (end == v || *end != '\0') return "is not an integer";
-    if (errno == ERANGE) return "is out of the integer range";
+    /* max_steps is a 64-bit integer (int64_t), every other integer a C int */
+    long long lo = strcmp(var->name, "max_steps") ? INT_MIN : LLONG_MIN;
+    long long hi = strcmp(var->name, "max_steps") ? INT_MAX : LLONG_MAX;
+    if (errno == ERANGE || x < lo || x > hi) {
+      snprintf(why, whylen, "is out of range: allowed %s, and an integer of '%s' lies in %lld .. %lld",
+               var->allowed, var->name, lo, hi);
+      return why;
+    }
     return NULL;
   }
   case NML_LOGICAL: {
@@ -319,7 +329,7 @@ int nml_lex(const char *path, nml_where *w, FILE *err) {
     unsigned char ch = (unsigned char)s[i];
     if (ch == '\n') line++;
     else if (ch < 32 && ch != '\t' && ch != '\r') {
-      fprintf(err, "%s:%d: byte 0x%02x is not text: an input file holds printable characters, tabs and "
+      fprintf(err, "%s:%d: byte 0x%02x is not text: the input holds printable characters, tabs and "
               "line ends only\n", path, line, ch);
       free(s);
       return 1;
@@ -401,9 +411,11 @@ int nml_lex(const char *path, nml_where *w, FILE *err) {
     int nvals = 0, vline = line;
     char *vstart = NULL;
     for (;;) {
+      int commas = 0;   /* two commas with only blanks between: a null value (the element is left as it is) */
       while (*p == ' ' || *p == '\t' || *p == ',' || *p == '\n' || *p == '\r' || *p == '!') {
         if (*p == '!') { while (*p && *p != '\n') p++; continue; }
         if (*p == '\n') line++;
+        commas += *p == ',';
         p++;
       }
       if (!*p || *p == '/' || *p == '&' || *p == '$') break;
@@ -457,8 +469,25 @@ int nml_lex(const char *path, nml_where *w, FILE *err) {
         memcpy(w->var_text[vi], item, m);
         w->var_text[vi][m] = '\0';
       }
+      nvals += vstart == item && nvals == 0 ? commas : (commas > 1 ? commas - 1 : 0);   /* "= , 5": a null first */
+      if (len) {   /* elements first_index + nvals .. + rep - 1 are set: the last, and the last not 0 */
+        int hi = first_index + nvals + (int)rep - 1;
+        if (hi > w->var_last[vi]) w->var_last[vi] = hi;
+        if (v->type == NML_REAL && hi > w->var_nonzero[vi]) {
+          char num[64];
+          size_t m = len < sizeof num - 1 ? len : sizeof num - 1, k;
+          for (k = 0; k < m; k++) num[k] = (tok[k] == 'd' || tok[k] == 'D') ? 'e' : tok[k];
+          num[m] = '\0';
+          double x = strtod(num, NULL);
+          if (x != 0) {
+            w->var_nonzero[vi] = hi;
+            w->var_nonzero_value[vi] = x;
+          }
+        }
+      }
       nvals += (int)rep;
-      const char *why = len ? check_token(v->type, tok, len) : NULL;
+      char whybuf[256];
+      const char *why = len ? check_token(v, tok, len, whybuf, sizeof whybuf) : NULL;
       if (why)
         FAIL("&%s: value %.*s of '%s' %s (%s: %s)", gname, (int)(len > 60 ? 60 : len), tok, name,
              why, v->name, v->doc);
@@ -508,42 +537,94 @@ static int line_or_group(const nml_where *w, const char *group, const char *name
   return ln ? ln : w->group_line[group_index(group)];
 }
 
-static int bad(const char *path, const nml_where *w, const char *group, const char *name,
-               FILE *err, const char *fmt, double value) {
+/* The units of the table (the rolling ball's: cm, s, (cm/s)^2, ...; "energy", "time" and "units of q"
+ * for any model) as they are for the model of c: the ball's as given, "1" for a dimensionless
+ * model (its length units are not cm: the rule of h5_units in src/io/tubes_h5.c), and "the model's
+ * units" when the model is not known. */
+static const char *model_units(const tubes_config_t *c, const char *units) {
+  int dimensioned = strspn(units, "cms/^()0123456789, -") == strlen(units) && strpbrk(units, "cs");
+  int generic = !strcmp(units, "energy") || !strcmp(units, "time") || !strcmp(units, "units of q");
+  if (!dimensioned && !generic) return units;
+  static char names[TUBES_MAXPARAM * TUBES_LPARAM], punits[TUBES_MAXPARAM * TUBES_LUNITS],
+      docs[TUBES_MAXPARAM * TUBES_LDOC];
+  char sys[TUBES_LSYSTEM], summary[TUBES_LSUMMARY], lu[8] = "", sad[8], sk[8], surf[TUBES_LSUMMARY];
+  double defs[TUBES_MAXPARAM], box[TUBES_MAXDOF], boxc[TUBES_MAXDOF], near[TUBES_MAXDOF], sv, sa, gate;
+  int ndof, np, si, sd;
+  snprintf(sys, sizeof sys, "%s", c->model);
+  if (c->nparams < 0 || tubes_model_info(sys, &ndof, &np, names, defs, punits, docs, summary, lu, box, boxc, sad,
+                                         near, sk, &si, &sv, &sd, &sa, &gate, surf) < 0)
+    return "the model's units";
+  if (strcmp(lu, "cm")) return "1";
+  if (!strcmp(units, "energy")) return "(cm/s)^2";
+  if (!strcmp(units, "time")) return "s";
+  if (!strcmp(units, "units of q")) return "cm";
+  return units;
+}
+
+/* group.name (element elem of an array, 1-based; 0: the variable) is out of range: the message. */
+static int bad_at(const char *path, const tubes_config_t *c, const nml_where *w, const char *group,
+                  const char *name, int elem, FILE *err, const char *fmt, double value) {
   int i = var_index(group, name);
   int ln = line_or_group(w, group, name);
   /* the value as the user wrote it when it was set in the file (1e-16, not 9.9999999999999998e-17) */
-  char shown[112];
+  char shown[112], named[48];
   if (i >= 0 && w->var_line[i] && tubes_nml_vars[i].count == 1 && w->var_text[i][0])
     snprintf(shown, sizeof shown, "%s", w->var_text[i]);
   else
     snprintf(shown, sizeof shown, "%.17g", value);
+  if (elem > 0) snprintf(named, sizeof named, "%s(%d)", name, elem);
+  else snprintf(named, sizeof named, "%s", name);
   fprintf(err, "%s:%d: &%s: %s = %s is out of range: allowed %s (%s, %s)", path, ln, group,
-          name, shown, i >= 0 ? tubes_nml_vars[i].allowed : "?", i >= 0 ? tubes_nml_vars[i].doc : "",
-          i >= 0 ? tubes_nml_vars[i].units : "");
+          named, shown, i >= 0 ? tubes_nml_vars[i].allowed : "?", i >= 0 ? tubes_nml_vars[i].doc : "",
+          i >= 0 ? model_units(c, tubes_nml_vars[i].units) : "");
   if (fmt && *fmt) fprintf(err, "; %s", fmt);
   fputc('\n', err);
   return 1;
+}
+
+static int bad(const char *path, const tubes_config_t *c, const nml_where *w, const char *group, const char *name,
+               FILE *err, const char *fmt, double value) {
+  return bad_at(path, c, w, group, name, 0, err, fmt, value);
+}
+
+/* What variable i allows, for a message: its table entry, or for &run scenes the table of scenes
+ * (tubes_scene_names, the one list the scenes are dispatched by). */
+static void print_allowed(int i, FILE *err) {
+  if (i >= 0 && !strcmp(tubes_nml_vars[i].group, "run") && !strcmp(tubes_nml_vars[i].name, "scenes")) {
+    for (int j = 0; j < tubes_nscenes; j++) fprintf(err, "%s%s", j ? ", " : "", tubes_scene_names[j]);
+  } else {
+    fputs(i >= 0 ? tubes_nml_vars[i].allowed : "?", err);
+  }
 }
 
 static int bad_string(const char *path, const nml_where *w, const char *group, const char *name,
                       const char *value, FILE *err) {
   int i = var_index(group, name);
   int ln = line_or_group(w, group, name);
-  fprintf(err, "%s:%d: &%s: %s = '%s' is not allowed: allowed %s\n", path, ln, group, name, value,
-          i >= 0 ? tubes_nml_vars[i].allowed : "?");
+  fprintf(err, "%s:%d: &%s: %s = '%s' is not allowed: allowed ", path, ln, group, name, value);
+  print_allowed(i, err);
+  fputc('\n', err);
   return 1;
 }
 
-/* A list of excess energies: positive, strictly increasing, no gaps. */
-static int check_list(const char *path, const nml_where *w, const char *group, const double *de, int nde,
+/* A list of excess energies (unset entries: the reader's UNSET = -huge): no gaps, positive,
+ * strictly increasing. One message, naming the element. */
+static int check_list(const char *path, const tubes_config_t *c, const nml_where *w, const char *group, const double *de, int nde,
                       FILE *err) {
+  int last = -1;
+  for (int k = 0; k < TUBES_MAXDE; k++)
+    if (de[k] != -DBL_MAX) last = k;
+  for (int k = 0; k < last; k++)
+    if (de[k] == -DBL_MAX) {
+      fprintf(err, "%s:%d: &%s: de(%d) is not set but de(%d) is: the list has a gap; give its values from "
+              "de(1) on, with none left out\n", path, line_or_group(w, group, "de"), group, k + 1, last + 1);
+      return 1;
+    }
   for (int k = 0; k < nde; k++) {
-    if (!(de[k] > 0)) return bad(path, w, group, "de", err, "every dE must be > 0", de[k]);
-    if (k > 0 && !(de[k] > de[k - 1])) return bad(path, w, group, "de", err, "the list must be strictly increasing", de[k]);
+    if (!(de[k] > 0)) return bad_at(path, c, w, group, "de", k + 1, err, "every dE must be > 0", de[k]);
+    if (k > 0 && !(de[k] > de[k - 1]))
+      return bad_at(path, c, w, group, "de", k + 1, err, "the list must be strictly increasing", de[k]);
   }
-  for (int k = nde; k < TUBES_MAXDE; k++)
-    if (de[k] != -DBL_MAX && de[k] != 0) return bad(path, w, group, "de", err, "the list has a gap: give its values from de(1) on", de[k]);
   return 0;
 }
 
@@ -604,23 +685,23 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
   if (n) return n;
   for (int k = 0; k < np; k++)
     if (!isfinite(c->params[k])) {
-      n += bad(path, w, "model", names + TUBES_LPARAM * k, err, "must be finite", c->params[k]);
+      n += bad(path, c, w, "model", names + TUBES_LPARAM * k, err, "must be finite", c->params[k]);
     }
   if (n) return n;
   if (!strcmp(sys, "rolling_ball")) {
-    if (!(c->alpha > 0)) n += bad(path, w, "model", "alpha", err, "", c->alpha);
-    if (!(c->beta >= 0)) n += bad(path, w, "model", "beta", err, "", c->beta);
-    if (!(c->gamma > 0)) n += bad(path, w, "model", "gamma", err, "", c->gamma);
-    if (!(c->g > 0)) n += bad(path, w, "model", "g", err, "", c->g);
+    if (!(c->alpha > 0)) n += bad(path, c, w, "model", "alpha", err, "", c->alpha);
+    if (!(c->beta >= 0)) n += bad(path, c, w, "model", "beta", err, "", c->beta);
+    if (!(c->gamma > 0)) n += bad(path, c, w, "model", "gamma", err, "", c->gamma);
+    if (!(c->g > 0)) n += bad(path, c, w, "model", "g", err, "", c->g);
     if (!(c->damping_ratio >= 0 && c->damping_ratio < 1))
-      n += bad(path, w, "model", "damping_ratio", err, "", c->damping_ratio);
+      n += bad(path, c, w, "model", "damping_ratio", err, "", c->damping_ratio);
     if (n) return n;
   }
   for (int k = 0; k < np && formula; k++) {   /* a ball on a formula's surface: g, damping_ratio */
     const char *nm = names + TUBES_LPARAM * k;
-    if (!strcmp(nm, "g") && !(c->params[k] > 0)) n += bad(path, w, "model", "g", err, "", c->params[k]);
+    if (!strcmp(nm, "g") && !(c->params[k] > 0)) n += bad(path, c, w, "model", "g", err, "", c->params[k]);
     if (!strcmp(nm, "damping_ratio") && !(c->params[k] >= 0 && c->params[k] < 1))
-      n += bad(path, w, "model", "damping_ratio", err, "", c->params[k]);
+      n += bad(path, c, w, "model", "damping_ratio", err, "", c->params[k]);
   }
   if (n) return n;
   int natural = 0;
@@ -643,13 +724,32 @@ static int scene_requested(const tubes_config_t *c, const char *name) {
 /* &equilibria box, &orbits saddle / saddle_near, &section for the chosen system. */
 static int validate_geometry(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int n = 0, nd = c->ndof;
-  for (int k = 0; k < nd; k++) {
-    if (!(c->box_list[k] > 0 && c->box_list[k] < DBL_MAX))
-      n += bad(path, w, "equilibria", "box", err, "every half-width must be > 0", c->box_list[k]);
-    if (!isfinite(c->box_center[k])) n += bad(path, w, "equilibria", "box_center", err, "", c->box_center[k]);
+  /* a value for a coordinate the model does not have (0 is let through: the effective namelist
+   * writes 0 there, and it reads back to the same run) */
+  static const char *const per_dof[][2] = {{"equilibria", "box"}, {"equilibria", "box_center"},
+                                           {"orbits", "saddle_near"}};
+  for (int j = 0; j < 3; j++) {
+    int i = var_index(per_dof[j][0], per_dof[j][1]);
+    if (w->var_nonzero[i] > nd) {
+      fprintf(err, "%s:%d: &%s: %s(%d) = %.17g is a value for coordinate %d, but system '%s' has %d: give at "
+              "most %d values%s\n", path, w->var_line[i], per_dof[j][0], per_dof[j][1], w->var_nonzero[i],
+              w->var_nonzero_value[i], w->var_nonzero[i], c->system, nd, nd,
+              j == 0 ? " (one value sets every coordinate)" : "");
+      n++;
+    }
   }
+  /* one value of box is every coordinate's: one message; several, a message per element */
+  int one_box = w->var_last[var_index("equilibria", "box")] <= 1;
+  for (int k = 0; k < nd; k++)
+    if (!(c->box_list[k] > 0 && c->box_list[k] < DBL_MAX)) {
+      n += bad_at(path, c, w, "equilibria", "box", one_box ? 0 : k + 1, err, "every half-width must be > 0",
+                  c->box_list[k]);
+      if (one_box) break;
+    }
+  for (int k = 0; k < nd; k++)
+    if (!isfinite(c->box_center[k])) n += bad_at(path, c, w, "equilibria", "box_center", k + 1, err, "", c->box_center[k]);
   if (!(c->n_grid >= 2 && c->n_grid <= 2001 && pow(c->n_grid, nd) <= 1e6))
-    n += bad(path, w, "equilibria", "n_grid", err, "n_grid^N Newton starts at most 1e6", c->n_grid);
+    n += bad(path, c, w, "equilibria", "n_grid", err, "n_grid^N Newton starts at most 1e6", c->n_grid);
   if (line_of(w, "orbits", "saddle") && line_of(w, "orbits", "saddle_near")) {
     fprintf(err, "%s:%d: &orbits: saddle and saddle_near are both set: choose the saddle by name or by "
             "position, not both\n", path, line_of(w, "orbits", "saddle_near"));
@@ -658,16 +758,16 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
   if (strlen(c->orb_saddle) > 7) n += bad_string(path, w, "orbits", "saddle", c->orb_saddle, err);
   for (int k = 0; k < nd; k++)
     if (c->orb_use_near && !isfinite(c->orb_saddle_near[k]))
-      n += bad(path, w, "orbits", "saddle_near", err, "", c->orb_saddle_near[k]);
+      n += bad_at(path, c, w, "orbits", "saddle_near", k + 1, err, "", c->orb_saddle_near[k]);
   if (scene_requested(c, "synthetic_experiment") && !strcmp(c->system, "rolling_ball") &&
       strcmp(c->surface, "fourwell")) {
     fprintf(err, "%s:%d: &run: the synthetic_experiment scene models the paper's machined four-well surface: it "
-            "needs surface = 'fourwell' (this file's surface is '%s')\n", path, line_of(w, "run", "scenes"), c->surface);
+            "needs surface = 'fourwell', not '%s'\n", path, line_of(w, "run", "scenes"), c->surface);
     n++;
   }
   if (scene_requested(c, "synthetic_experiment") && strcmp(c->system, "rolling_ball")) {
     fprintf(err, "%s:%d: &run: the synthetic_experiment scene releases balls on the four-well surface: it needs "
-            "system = 'rolling_ball' (this file's system is '%s')\n", path, line_of(w, "run", "scenes"), c->system);
+            "system = 'rolling_ball', not '%s'\n", path, line_of(w, "run", "scenes"), c->system);
     n++;
   }
   if (scene_requested(c, "trajectory") && c->at_rest && strcmp(c->system, "rolling_ball")) {
@@ -710,9 +810,9 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
               "angle and p_theta_sign\n", path, gl);
       n++;
     }
-    if (!(c->sec_angle >= -360 && c->sec_angle <= 360)) n += bad(path, w, "section", "angle", err, "", c->sec_angle);
+    if (!(c->sec_angle >= -360 && c->sec_angle <= 360)) n += bad(path, c, w, "section", "angle", err, "", c->sec_angle);
     if (c->sec_pth_sign != 1 && c->sec_pth_sign != -1)
-      n += bad(path, w, "section", "p_theta_sign", err, "", c->sec_pth_sign);
+      n += bad(path, c, w, "section", "p_theta_sign", err, "", c->sec_pth_sign);
   } else if (!strcmp(c->sec_kind, "plane")) {
     if (set_ray) {
       fprintf(err, "%s:%d: &section: angle and p_theta_sign belong to kind = 'ray'; kind = 'plane' takes "
@@ -725,9 +825,9 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
       n++;
     }
     if (!(c->sec_direction == 1 || c->sec_direction == -1))
-      n += bad(path, w, "section", "direction", err, "", c->sec_direction);
+      n += bad(path, c, w, "section", "direction", err, "", c->sec_direction);
     if (!isfinite(c->sec_value) || c->sec_value == -DBL_MAX)
-      n += bad(path, w, "section", "value", err, "", c->sec_value);
+      n += bad(path, c, w, "section", "value", err, "", c->sec_value);
   } else {
     n += bad_string(path, w, "section", "kind", c->sec_kind, err);
   }
@@ -751,6 +851,16 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
         break;
       }
   }
+  for (int k = 0, last = -1; k < TUBES_NSCENES; k++) {   /* a gap: scenes(1) = ..., scenes(3) = ... */
+    for (int j = k; j < TUBES_NSCENES; j++)
+      if (c->scenes[j][0]) last = j;
+    if (!c->scenes[k][0] && k < last) {
+      fprintf(err, "%s:%d: &run: scenes(%d) is empty but scenes(%d) = '%s' follows: name the scenes from scenes(1) "
+              "on, with none left out\n", path, line_of(w, "run", "scenes"), k + 1, last + 1, c->scenes[last]);
+      n++;
+      break;
+    }
+  }
   if (nscenes == 0) {
     fprintf(err, "%s:%d: &run: scenes is empty: name at least one of ", path, line_of(w, "run", "scenes"));
     for (int j = 0; j < tubes_nscenes; j++) fprintf(err, "%s'%s'", j ? ", " : "", tubes_scene_names[j]);
@@ -761,10 +871,10 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   int nm = validate_model(path, c, w, err);
   n += nm;
   if (!nm && c->nparams >= 0) n += validate_geometry(path, c, w, err);
-  if (!(c->t_end >= 0)) n += bad(path, w, "trajectory", "t_end", err, "", c->t_end);
-  if (!(c->dt_out > 0)) n += bad(path, w, "trajectory", "dt_out", err, "", c->dt_out);
+  if (!(c->t_end >= 0)) n += bad(path, c, w, "trajectory", "t_end", err, "", c->t_end);
+  if (!(c->dt_out > 0)) n += bad(path, c, w, "trajectory", "dt_out", err, "", c->dt_out);
   else if (c->t_end / c->dt_out > 5.0e7)
-    n += bad(path, w, "trajectory", "dt_out", err, "t_end/dt_out exceeds 5e7 samples", c->dt_out);
+    n += bad(path, c, w, "trajectory", "dt_out", err, "t_end/dt_out exceeds 5e7 samples", c->dt_out);
   {
     const char *ok[] = {"none", "U1-", "U1+", "U1", "theta", "x", "y"};
     int found = 0;
@@ -772,51 +882,36 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
     if (!found) n += bad_string(path, w, "trajectory", "section", c->section, err);
   }
   if (!(c->section_angle >= -360 && c->section_angle <= 360))
-    n += bad(path, w, "trajectory", "section_angle", err, "", c->section_angle);
+    n += bad(path, c, w, "trajectory", "section_angle", err, "", c->section_angle);
   if (!(c->section_direction >= -1 && c->section_direction <= 1))
-    n += bad(path, w, "trajectory", "section_direction", err, "", c->section_direction);
+    n += bad(path, c, w, "trajectory", "section_direction", err, "", c->section_direction);
   if (!(c->max_crossings >= 1 && c->max_crossings <= 10000000))
-    n += bad(path, w, "trajectory", "max_crossings", err, "", c->max_crossings);
+    n += bad(path, c, w, "trajectory", "max_crossings", err, "", c->max_crossings);
   if (tubes_method_code(c->method) == 0) n += bad_string(path, w, "integrator", "method", c->method, err);
   else if (tubes_method_code(c->method) >= TUBES_METHOD_RK4 && tubes_method_code(c->method) <= TUBES_METHOD_GAUSS8 &&
            !(c->h > 0)) {
     int ln = line_of(w, "integrator", "h") ? line_of(w, "integrator", "h") : line_of(w, "integrator", "method");
-    fprintf(err, "%s:%d: &integrator: method = '%s' is fixed-step: it needs h > 0 (the step [s]); h = %g\n", path, ln,
-            c->method, c->h);
+    fprintf(err, "%s:%d: &integrator: method = '%s' is fixed-step: it needs h > 0 (the step [%s]); h = %g\n", path,
+            ln, c->method, model_units(c, "s"), c->h);
     n++;
   }
-  if (!(c->omega_bind > 0)) n += bad(path, w, "integrator", "omega_bind", err, "", c->omega_bind);
+  if (!(c->omega_bind > 0)) n += bad(path, c, w, "integrator", "omega_bind", err, "", c->omega_bind);
   if (strcmp(c->solver, "newton") && strcmp(c->solver, "fixed_point"))
     n += bad_string(path, w, "integrator", "solver", c->solver, err);
-  if (!(c->max_iter >= 0 && c->max_iter <= 1000)) n += bad(path, w, "integrator", "max_iter", err, "", c->max_iter);
-  if (!(c->rtol >= 1e-15 && c->rtol < 1)) n += bad(path, w, "integrator", "rtol", err, "", c->rtol);
-  if (!(c->atol > 0)) n += bad(path, w, "integrator", "atol", err, "", c->atol);
-  if (!(c->h >= 0)) n += bad(path, w, "integrator", "h", err, "", c->h);
-  if (!(c->max_steps >= 1)) n += bad(path, w, "integrator", "max_steps", err, "", (double)c->max_steps);
-  for (int k = 0; k < c->orb_nde; k++) {
-    if (!(c->orb_de[k] > 0)) {
-      n += bad(path, w, "orbits", "de", err, "every dE must be > 0", c->orb_de[k]);
-      break;
-    }
-    if (k > 0 && !(c->orb_de[k] > c->orb_de[k - 1])) {
-      n += bad(path, w, "orbits", "de", err, "the list must be strictly increasing", c->orb_de[k]);
-      break;
-    }
-  }
-  for (int k = c->orb_nde; k < TUBES_MAXDE; k++)
-    if (c->orb_de[k] != -DBL_MAX) {   /* the reader's UNSET = -huge */
-      n += bad(path, w, "orbits", "de", err, "the list has a gap: give its values from dE(1) on",
-               c->orb_de[k]);
-      break;
-    }
+  if (!(c->max_iter >= 0 && c->max_iter <= 1000)) n += bad(path, c, w, "integrator", "max_iter", err, "", c->max_iter);
+  if (!(c->rtol >= 1e-15 && c->rtol < 1)) n += bad(path, c, w, "integrator", "rtol", err, "", c->rtol);
+  if (!(c->atol > 0)) n += bad(path, c, w, "integrator", "atol", err, "", c->atol);
+  if (!(c->h >= 0)) n += bad(path, c, w, "integrator", "h", err, "", c->h);
+  if (!(c->max_steps >= 1)) n += bad(path, c, w, "integrator", "max_steps", err, "", (double)c->max_steps);
+  n += check_list(path, c, w, "orbits", c->orb_de, c->orb_nde, err);
   if (strcmp(c->orb_method, "single") && strcmp(c->orb_method, "multiple"))
     n += bad_string(path, w, "orbits", "method", c->orb_method, err);
   if (!(c->orb_n_segments >= 2 && c->orb_n_segments <= 64))
-    n += bad(path, w, "orbits", "n_segments", err, "", c->orb_n_segments);
-  if (!(c->orb_tol >= 1e-14 && c->orb_tol <= 1e-4)) n += bad(path, w, "orbits", "tol", err, "", c->orb_tol);
-  if (!(c->orb_rtol >= 1e-15 && c->orb_rtol < 1e-4)) n += bad(path, w, "orbits", "rtol", err, "", c->orb_rtol);
-  if (!(c->orb_atol > 0)) n += bad(path, w, "orbits", "atol", err, "", c->orb_atol);
-  if (!(c->orb_max_iter >= 1 && c->orb_max_iter <= 200)) n += bad(path, w, "orbits", "max_iter", err, "", c->orb_max_iter);
+    n += bad(path, c, w, "orbits", "n_segments", err, "", c->orb_n_segments);
+  if (!(c->orb_tol >= 1e-14 && c->orb_tol <= 1e-4)) n += bad(path, c, w, "orbits", "tol", err, "", c->orb_tol);
+  if (!(c->orb_rtol >= 1e-15 && c->orb_rtol < 1e-4)) n += bad(path, c, w, "orbits", "rtol", err, "", c->orb_rtol);
+  if (!(c->orb_atol > 0)) n += bad(path, c, w, "orbits", "atol", err, "", c->orb_atol);
+  if (!(c->orb_max_iter >= 1 && c->orb_max_iter <= 200)) n += bad(path, c, w, "orbits", "max_iter", err, "", c->orb_max_iter);
   if (c->nparams >= 0 && !(c->orb_family >= 1 && c->orb_family <= (c->ndof > 1 ? c->ndof - 1 : 1))) {
     fprintf(err, "%s:%d: &orbits: family = %d is out of range: allowed 1 .. %d (the saddle's centre modes; "
             "system '%s' has %d degrees of freedom)\n", path, line_or_group(w, "orbits", "family"),
@@ -824,60 +919,61 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
     n++;
   }
   if (!(c->orb_n_samples >= 2 && c->orb_n_samples <= 100000))
-    n += bad(path, w, "orbits", "n_samples", err, "", c->orb_n_samples);
-  n += check_list(path, w, "tubes", c->tub_de, c->tub_nde, err);
-  n += check_list(path, w, "transition", c->tra_de, c->tra_nde, err);
-  n += check_list(path, w, "sections", c->pm_de, c->pm_nde, err);
+    n += bad(path, c, w, "orbits", "n_samples", err, "", c->orb_n_samples);
+  n += check_list(path, c, w, "tubes", c->tub_de, c->tub_nde, err);
+  n += check_list(path, c, w, "transition", c->tra_de, c->tra_nde, err);
+  n += check_list(path, c, w, "sections", c->pm_de, c->pm_nde, err);
   if (strcmp(c->tub_kind, "stable") && strcmp(c->tub_kind, "unstable") && strcmp(c->tub_kind, "both"))
     n += bad_string(path, w, "tubes", "kind", c->tub_kind, err);
-  if (!(c->tub_eps >= 1e-10 && c->tub_eps <= 1e-2)) n += bad(path, w, "tubes", "eps", err, "", c->tub_eps);
-  if (!(c->tub_area_tol >= 1e-13 && c->tub_area_tol <= 1e-2)) n += bad(path, w, "tubes", "area_tol", err, "", c->tub_area_tol);
-  if (!(c->tub_t_max > 0)) n += bad(path, w, "tubes", "t_max", err, "", c->tub_t_max);
-  if (!(c->tub_n_init >= 8 && c->tub_n_init <= 100000)) n += bad(path, w, "tubes", "n_init", err, "", c->tub_n_init);
-  if (!(c->tub_n_max >= c->tub_n_init && c->tub_n_max <= 1000000)) n += bad(path, w, "tubes", "n_max", err, "", c->tub_n_max);
-  if (!(c->tra_area_tol >= 1e-13 && c->tra_area_tol <= 1e-2)) n += bad(path, w, "transition", "area_tol", err, "", c->tra_area_tol);
-  if (!(c->mc_de > 0)) n += bad(path, w, "montecarlo", "de", err, "", c->mc_de);
-  if (!(c->mc_n_samples >= 1 && c->mc_n_samples <= 10000000)) n += bad(path, w, "montecarlo", "n_samples", err, "", c->mc_n_samples);
-  if (!(c->mc_seed >= 0)) n += bad(path, w, "montecarlo", "seed", err, "", c->mc_seed);
-  if (!(c->mc_t_max > 0)) n += bad(path, w, "montecarlo", "t_max", err, "", c->mc_t_max);
+  if (!(c->tub_eps >= 1e-10 && c->tub_eps <= 1e-2)) n += bad(path, c, w, "tubes", "eps", err, "", c->tub_eps);
+  if (!(c->tub_area_tol >= 1e-13 && c->tub_area_tol <= 1e-2)) n += bad(path, c, w, "tubes", "area_tol", err, "", c->tub_area_tol);
+  if (!(c->tub_t_max > 0)) n += bad(path, c, w, "tubes", "t_max", err, "", c->tub_t_max);
+  if (!(c->tub_n_init >= 8 && c->tub_n_init <= 100000)) n += bad(path, c, w, "tubes", "n_init", err, "", c->tub_n_init);
+  if (!(c->tub_n_max >= c->tub_n_init && c->tub_n_max <= 1000000)) n += bad(path, c, w, "tubes", "n_max", err, "", c->tub_n_max);
+  if (!(c->tra_area_tol >= 1e-13 && c->tra_area_tol <= 1e-2)) n += bad(path, c, w, "transition", "area_tol", err, "", c->tra_area_tol);
+  if (!(c->mc_de > 0)) n += bad(path, c, w, "montecarlo", "de", err, "", c->mc_de);
+  if (!(c->mc_n_samples >= 1 && c->mc_n_samples <= 10000000)) n += bad(path, c, w, "montecarlo", "n_samples", err, "", c->mc_n_samples);
+  if (!(c->mc_seed >= 0)) n += bad(path, c, w, "montecarlo", "seed", err, "", c->mc_seed);
+  if (!(c->mc_t_max > 0)) n += bad(path, c, w, "montecarlo", "t_max", err, "", c->mc_t_max);
   if (!(c->mc_area_tol >= 1e-13 && c->mc_area_tol <= 1e-2))
-    n += bad(path, w, "montecarlo", "area_tol", err, "", c->mc_area_tol);
+    n += bad(path, c, w, "montecarlo", "area_tol", err, "", c->mc_area_tol);
   if (c->nparams >= 0 && !(c->mc_gate > 0 && c->mc_gate < DBL_MAX))
-    n += bad(path, w, "montecarlo", "gate", err, "", c->mc_gate);
-  n += check_list(path, w, "flux", c->flux_de, c->flux_nde, err);
+    n += bad(path, c, w, "montecarlo", "gate", err, "", c->mc_gate);
+  /* &flux de and gate not set in the file are &transition's de and &montecarlo's gate, checked there */
+  if (line_of(w, "flux", "de")) n += check_list(path, c, w, "flux", c->flux_de, c->flux_nde, err);
   if (!(c->flux_n_samples >= 2 && c->flux_n_samples <= 10000000))
-    n += bad(path, w, "flux", "n_samples", err, "", c->flux_n_samples);
-  if (!(c->flux_seed >= 0)) n += bad(path, w, "flux", "seed", err, "", c->flux_seed);
-  if (!(c->flux_t_max > 0)) n += bad(path, w, "flux", "t_max", err, "", c->flux_t_max);
-  if (c->nparams >= 0 && !(c->flux_gate > 0 && c->flux_gate < DBL_MAX))
-    n += bad(path, w, "flux", "gate", err, "", c->flux_gate);
-  if (!(c->flux_tol >= 1e-14 && c->flux_tol <= 1e-3)) n += bad(path, w, "flux", "tol", err, "", c->flux_tol);
+    n += bad(path, c, w, "flux", "n_samples", err, "", c->flux_n_samples);
+  if (!(c->flux_seed >= 0)) n += bad(path, c, w, "flux", "seed", err, "", c->flux_seed);
+  if (!(c->flux_t_max > 0)) n += bad(path, c, w, "flux", "t_max", err, "", c->flux_t_max);
+  if (c->nparams >= 0 && line_of(w, "flux", "gate") && !(c->flux_gate > 0 && c->flux_gate < DBL_MAX))
+    n += bad(path, c, w, "flux", "gate", err, "", c->flux_gate);
+  if (!(c->flux_tol >= 1e-14 && c->flux_tol <= 1e-3)) n += bad(path, c, w, "flux", "tol", err, "", c->flux_tol);
   if (!(c->flux_order == 0 || (c->flux_order >= 2 && c->flux_order <= 16)))
-    n += bad(path, w, "flux", "order", err, "", c->flux_order);
+    n += bad(path, c, w, "flux", "order", err, "", c->flux_order);
   if (!(c->flux_n_cut == 0 || (c->flux_n_cut >= 4 && c->flux_n_cut <= 64 && c->flux_n_cut % 2 == 0)))
-    n += bad(path, w, "flux", "n_cut", err, "", c->flux_n_cut);
-  if (!(c->flux_cut_eps >= 1e-8 && c->flux_cut_eps <= 0.1)) n += bad(path, w, "flux", "cut_eps", err, "", c->flux_cut_eps);
-  if (!(c->pm_n_seeds >= 1 && c->pm_n_seeds <= 100000)) n += bad(path, w, "sections", "n_seeds", err, "", c->pm_n_seeds);
-  if (!(c->pm_n_iter >= 1 && c->pm_n_iter <= 1000000)) n += bad(path, w, "sections", "n_iter", err, "", c->pm_n_iter);
-  if (!(c->pm_t_max > 0)) n += bad(path, w, "sections", "t_max", err, "", c->pm_t_max);
+    n += bad(path, c, w, "flux", "n_cut", err, "", c->flux_n_cut);
+  if (!(c->flux_cut_eps >= 1e-8 && c->flux_cut_eps <= 0.1)) n += bad(path, c, w, "flux", "cut_eps", err, "", c->flux_cut_eps);
+  if (!(c->pm_n_seeds >= 1 && c->pm_n_seeds <= 100000)) n += bad(path, c, w, "sections", "n_seeds", err, "", c->pm_n_seeds);
+  if (!(c->pm_n_iter >= 1 && c->pm_n_iter <= 1000000)) n += bad(path, c, w, "sections", "n_iter", err, "", c->pm_n_iter);
+  if (!(c->pm_t_max > 0)) n += bad(path, c, w, "sections", "t_max", err, "", c->pm_t_max);
   if (!(c->exp_n_tracks >= 1 && c->exp_n_tracks <= 100000))
-    n += bad(path, w, "experiment", "n_tracks", err, "", c->exp_n_tracks);
-  if (!(c->exp_duration > 0)) n += bad(path, w, "experiment", "duration", err, "", c->exp_duration);
-  if (!(c->exp_camera_rate > 0)) n += bad(path, w, "experiment", "camera_rate", err, "", c->exp_camera_rate);
+    n += bad(path, c, w, "experiment", "n_tracks", err, "", c->exp_n_tracks);
+  if (!(c->exp_duration > 0)) n += bad(path, c, w, "experiment", "duration", err, "", c->exp_duration);
+  if (!(c->exp_camera_rate > 0)) n += bad(path, c, w, "experiment", "camera_rate", err, "", c->exp_camera_rate);
   else if (c->exp_duration > 0 && c->exp_duration * c->exp_camera_rate > 1e6)
-    n += bad(path, w, "experiment", "camera_rate", err, "duration*camera_rate exceeds 1e6 frames per track",
+    n += bad(path, c, w, "experiment", "camera_rate", err, "duration*camera_rate exceeds 1e6 frames per track",
              c->exp_camera_rate);
   else if (c->exp_duration > 0 && c->exp_n_tracks >= 1 &&
            (double)tubes_experiment_samples(c->exp_duration, c->exp_camera_rate) * c->exp_n_tracks > 5e7)
-    n += bad(path, w, "experiment", "n_tracks", err, "n_tracks times the frames per track exceeds 5e7",
+    n += bad(path, c, w, "experiment", "n_tracks", err, "n_tracks times the frames per track exceeds 5e7",
              c->exp_n_tracks);
-  if (!(c->exp_pixel >= 0)) n += bad(path, w, "experiment", "pixel", err, "", c->exp_pixel);
-  if (!(c->exp_noise >= 0)) n += bad(path, w, "experiment", "noise", err, "", c->exp_noise);
+  if (!(c->exp_pixel >= 0)) n += bad(path, c, w, "experiment", "pixel", err, "", c->exp_pixel);
+  if (!(c->exp_noise >= 0)) n += bad(path, c, w, "experiment", "noise", err, "", c->exp_noise);
   if (!(c->exp_de_min < c->exp_de_max))
-    n += bad(path, w, "experiment", "de_min", err, "de_min must be below de_max", c->exp_de_min);
+    n += bad(path, c, w, "experiment", "de_min", err, "de_min must be below de_max", c->exp_de_min);
   if (!(c->exp_damping_ratio >= 0 && c->exp_damping_ratio < 1))
-    n += bad(path, w, "experiment", "damping_ratio", err, "", c->exp_damping_ratio);
-  if (!(c->exp_seed >= 0)) n += bad(path, w, "experiment", "seed", err, "", c->exp_seed);
+    n += bad(path, c, w, "experiment", "damping_ratio", err, "", c->exp_damping_ratio);
+  if (!(c->exp_seed >= 0)) n += bad(path, c, w, "experiment", "seed", err, "", c->exp_seed);
   return n;
 }
 

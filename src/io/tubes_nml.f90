@@ -443,14 +443,12 @@ contains
     else
       cfg%damping_ratio = 0
     end if
-    ! the box: one value = every coordinate
+    ! the box: one value = every coordinate; box(k) alone sets coordinate k
     half = info%box
-    if (v%box_list(1) /= UNSET) then
-      half = v%box_list(1)
-      do k = 2, MAX_DOF
-        if (v%box_list(k) /= UNSET) half(k) = v%box_list(k)
-      end do
-    end if
+    if (v%box_list(1) /= UNSET) half = v%box_list(1)
+    do k = 2, MAX_DOF
+      if (v%box_list(k) /= UNSET) half(k) = v%box_list(k)
+    end do
     centre = info%box_center
     do k = 1, MAX_DOF
       if (v%box_center(k) /= UNSET) centre(k) = v%box_center(k)
@@ -463,7 +461,7 @@ contains
     cfg%box_center(1:nd) = centre(1:nd)
     cfg%box = half(1)
     ! the saddle: by name, by position, or the system's default
-    if (len_trim(v%orb_saddle) == 0 .and. v%orb_saddle_near(1) == UNSET) then
+    if (len_trim(v%orb_saddle) == 0 .and. all(v%orb_saddle_near == UNSET)) then
       if (len_trim(info%saddle) > 0) then
         call f_to_c(info%saddle, cfg%orb_saddle)
       else
@@ -471,7 +469,7 @@ contains
         cfg%orb_saddle_near = 0
         cfg%orb_saddle_near(1:nd) = info%saddle_near(1:nd)
       end if
-    else if (v%orb_saddle_near(1) /= UNSET) then
+    else if (any(v%orb_saddle_near /= UNSET)) then
       cfg%orb_use_near = 1
       where (cfg%orb_saddle_near == UNSET) cfg%orb_saddle_near = 0
     end if
