@@ -184,7 +184,7 @@ def test_synthetic_experiment(tmp_path):
         assert np.array_equal(ex["truth"][k], g["truth"][k][:]), k
     for k in ("E_e", "damping_rate", "n_draws", "n_samples", "box", "rtol", "seed", "damping_ratio", "pixel"):
         assert ex[k] == g.attrs[k], k
-    with pytest.raises(ValueError, match="it needs system = .rolling_ball. .this file.s system is .henon_heiles."):
+    with pytest.raises(ValueError, match="it needs system = .rolling_ball., not .henon_heiles."):
         tubes.synthetic_experiment(tubes.Model(system="henon_heiles"))
     with pytest.raises(ValueError, match="widen"):
         tubes.synthetic_experiment(n_tracks=3, de_min=1e5, de_max=2e5, duration=1)   # beyond the box
@@ -221,12 +221,12 @@ def test_monte_carlo_arguments_are_the_input_file_s():
                     ({"n_samples": 2.5}, "value 2.5 of 'n_samples' is not an integer"),
                     ({"seed": -1}, "seed = -1 is out of range: allowed >= 0"),
                     ({"seed": 2**40}, "seed = 1099511627776 is out of range"),
-                    ({"dE": -0.01}, "de = -0.01 is out of range: allowed > 0"),
+                    ({"dE": -0.01}, r"de(\(1\))? = -0.01 is out of range: allowed > 0"),
                     ({"dE": float("nan")}, "'de' is not a finite real number"),
                     ({"dE": None}, "give dE for system 'henon_heiles'")):
         with pytest.raises(ValueError, match=msg):
             hh.monte_carlo(**{"dE": 0.02, "n_samples": 100, **kw})
-    with pytest.raises(ValueError, match="poincare: &sections: de = -0.01 is out of range"):
+    with pytest.raises(ValueError, match=r"poincare: &sections: de\(1\) = -0.01 is out of range"):
         hh.poincare(-0.01, n_seeds=2, n_iter=2)
 
 
@@ -260,9 +260,9 @@ def test_string_choices_and_saddles_are_checked():
             hh.transition([0.01], saddle=bad)
     with pytest.raises(ValueError, match="needs 2 degrees of freedom .system 'cr3bp_spatial' has 3"):
         tubes.Model(system="cr3bp_spatial").tube_cut(0.001)
-    for f, msg in ((lambda: hh.tube_cut(-0.01), "tube_cut: &tubes: de = -0.01 is out of range: allowed > 0"),
+    for f, msg in ((lambda: hh.tube_cut(-0.01), r"tube_cut: &tubes: de\(1\) = -0.01 is out of range: allowed > 0"),
                    (lambda: hh.tube_cut(), "tube_cut: give dE"),
-                   (lambda: hh.transition([0.0]), "transition: &transition: de = 0 is out of range"),
+                   (lambda: hh.transition([0.0]), r"transition: &transition: de\(1\) = 0 is out of range"),
                    (lambda: hh.transition(), "transition: give dE for system 'henon_heiles'"),
                    (lambda: hh.orbit_family(), "orbit_family: give dE")):
         with pytest.raises(ValueError, match=msg):
