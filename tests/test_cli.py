@@ -50,6 +50,10 @@ BAD = [  # (name, namelist text, substrings the message must contain)
     ("scene twice", "&run scenes = 'equilibria', 'orbits', 'equilibria' /\n", ["bad.nml:1", "'equilibria' is named twice"]),
     ("repeat count too large", "&equilibria box = 4*20.0 /\n", ["bad.nml:1", "repeat count 4", "1 to 3"]),
     ("control byte", "&model\x1b g = 981 /\n", ["bad.nml:1", "0x1b", "not text"]),
+    # Tao's coupling flow turns by 2 omega h a step: at pi the method blows up (energy error 0.3 at
+    # h = 0.01, omega_bind = 200, exit 0 before)
+    ("tao beyond its limit", "&integrator method = 'tao2',\n h = 0.01 /\n",
+     ["bad.nml:2", "2 omega_bind h = 4 is not below pi", "h < 0.00785"]),
     # an integer past 2^31: Fortran's READ said "Integer overflow while reading item 1", no name, no range
     ("seed past int32", "&montecarlo\n seed = 3000000000 /\n", ["bad.nml:2", "&montecarlo", "'seed'", "allowed >= 0",
                                                               "2147483647"]),

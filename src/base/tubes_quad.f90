@@ -53,9 +53,9 @@ contains
   !> (area_tol 1e-8 by default, 1e-10 in the tightest runs) need.
   integer function quad_area(f, user, a, b, result, abserr) result(stat)
     use, intrinsic :: iso_c_binding, only: c_double
-    type(c_funptr), intent(in) :: f
-    type(c_ptr), intent(in) :: user
-    real(c_double), intent(in) :: a, b
+    type(c_funptr), value :: f
+    type(c_ptr), value :: user
+    real(c_double), value :: a, b
     real(c_double), intent(out) :: result, abserr
     stat = int(quad_qags(f, user, a, b, 0.0_c_double, 1.0e-12_c_double, result, abserr))
     if (stat /= 0 .and. abs(result) <= huge(1.0_c_double) .and. abserr <= 1.0e-9_c_double*abs(result)) stat = 0

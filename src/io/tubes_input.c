@@ -7,6 +7,9 @@
 #include <float.h>
 #include <limits.h>
 #include <math.h>
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
@@ -896,6 +899,17 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
     n++;
   }
   if (!(c->omega_bind > 0)) n += bad(path, c, w, "integrator", "omega_bind", err, "", c->omega_bind);
+  else if (tubes_method_code(c->method) >= TUBES_METHOD_TAO2 && tubes_method_code(c->method) <= TUBES_METHOD_TAO6 &&
+           c->h > 0 && !(2 * c->omega_bind * c->h < M_PI)) {
+    /* Tao's coupling flow rotates by 2 omega h a step: at pi and beyond the method blows up
+     * (docs/integrators-tao.md, "Hard limit") */
+    int ln = line_of(w, "integrator", "h") ? line_of(w, "integrator", "h") : line_of(w, "integrator", "omega_bind");
+    fprintf(err, "%s:%d: &integrator: method = '%s' with h = %g and omega_bind = %g: 2 omega_bind h = %g is not "
+            "below pi, where Tao's coupling flow makes the method blow up (docs/integrators-tao.md): allowed "
+            "2 omega_bind h < pi (h < %.3g at this omega_bind; its order needs 2 omega_bind h <= ~0.4)\n", path, ln,
+            c->method, c->h, c->omega_bind, 2 * c->omega_bind * c->h, M_PI / (2 * c->omega_bind));
+    n++;
+  }
   if (strcmp(c->solver, "newton") && strcmp(c->solver, "fixed_point"))
     n += bad_string(path, w, "integrator", "solver", c->solver, err);
   if (!(c->max_iter >= 0 && c->max_iter <= 1000)) n += bad(path, c, w, "integrator", "max_iter", err, "", c->max_iter);
