@@ -1062,9 +1062,10 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
 
     Returns a dict: dE, n_samples, seed, fraction, std_error (sqrt(f(1-f)/n)), p_trans,
     misclassified, misclassified_inside_no_transit, misclassified_outside_transit, undecided,
-    agrees, sigmas (|fraction - p_trans| in standard errors), sigma_limit (MC_SIGMA),
-    misclassified_limit, undecided_limit, and per point r, p_r, transit (0 returned, 1 transited, 2 undecided),
-    inside (the cut)."""
+    escaped (left for good through another exit: no transition), agrees, sigmas (|fraction -
+    p_trans| in standard errors), sigma_limit (MC_SIGMA), misclassified_limit, undecided_limit,
+    and per point r, p_r, transit (0 returned, 1 transited, 2 undecided, 3 escaped), inside (the
+    cut)."""
     model = model or Model()
     _need_2dof(model, "monte_carlo")
     mc = {k: v for k, v in (("de", _scalar_de(dE, "monte_carlo")), ("n_samples", n_samples), ("seed", seed),
@@ -1099,7 +1100,7 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     f, p = nt / ns, c["area"] / ae
     out = {"dE": de, "n_samples": ns, "seed": seed, "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / ns)),
            "p_trans": p, "misclassified": in_nt + out_t, "misclassified_inside_no_transit": in_nt,
-           "misclassified_outside_transit": out_t, "undecided": nu,
+           "misclassified_outside_transit": out_t, "undecided": nu, "escaped": int(np.sum(outc == 3)),
            **_mc_agreement(ns, nt, nu, in_nt + out_t, p),
            "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins}
     if check and not out["agrees"]:

@@ -773,6 +773,13 @@ out:
 
 /* ---------------------------------------------------------------- tube dynamics scenes */
 
+/* ", N escaped" for the Monte Carlo line (a static buffer: one line at a time). */
+static const char *escaped_text(int n) {
+  static char b[48];
+  snprintf(b, sizeof b, ", %d escaped (through another exit)", n);
+  return b;
+}
+
 /* E_e, T_po of the saddle named by &orbits saddle. */
 static int saddle_props(tubes_run_t *run, double *ee, double *tpo) {
   static eqlist_t L;
@@ -1158,10 +1165,11 @@ int scene_montecarlo(tubes_run_t *run) {
     if (g >= 0) H5Gclose(g);
     if (e) rc = EXIT_IO;
   } else {
-    int nt = 0, nu = 0, in_nt = 0, out_t = 0, nin = 0;
+    int nt = 0, nu = 0, in_nt = 0, out_t = 0, nin = 0, nesc = 0;
     for (int k = 0; k < ns; k++) {
       nt += out[k] == 1;
       nu += out[k] == 2;
+      nesc += out[k] == 3;   /* left for good through another exit: no transition */
       nin += ins[k];
       in_nt += ins[k] && out[k] != 1;
       out_t += !ins[k] && out[k] == 1;
@@ -1173,8 +1181,8 @@ int scene_montecarlo(tubes_run_t *run) {
     int mis_lim, und_lim, agrees;
     tubes_mc_agreement(ns, nt, nu, in_nt + out_t, p, &nsig, &sig_lim, &mis_lim, &und_lim, &agrees);
     printf("montecarlo: dE = %g, %d points: transition fraction %.5f +- %.5f (p_trans = %.5f, %.1f standard errors);"
-           " %d inside the tube; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided (%.1f s)\n",
-           de, ns, f, se, p, nsig, nin, in_nt, out_t, nu, now() - t0);
+           " %d inside the tube; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided%s (%.1f s)\n",
+           de, ns, f, se, p, nsig, nin, in_nt, out_t, nu, nesc ? escaped_text(nesc) : "", now() - t0);
     int e = 0;
     hsize_t dn = (hsize_t)ns;
     hid_t g = mc_group(run, de, ns, 0, r, pr, out, &e);
@@ -1185,6 +1193,7 @@ int scene_montecarlo(tubes_run_t *run) {
     e |= h5_attr_long(g, "misclassified_inside_no_transit", in_nt);
     e |= h5_attr_long(g, "misclassified_outside_transit", out_t);
     e |= h5_attr_long(g, "undecided", nu);
+    e |= h5_attr_long(g, "escaped", nesc);
     e |= h5_write_int(g, "inside", dn, ins, "1");
     e |= h5_attr_long(g, "agrees", agrees);
     if (g >= 0) H5Gclose(g);

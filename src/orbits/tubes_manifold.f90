@@ -384,8 +384,8 @@ contains
       call report_failed()
       return
     end if
-    call first_crossing(stat)
-    if (stat < 0) return
+    if (opts%kind == STABLE) call first_crossing(stat)   ! (the unstable tube's cut on the branch
+    if (stat < 0) return                                 ! is the Poincare map's image: below)
     allocate (cut%hist_n(0), cut%hist_area(0))
     a_old = huge(1.0_wp)
     nconv = 0
@@ -503,11 +503,15 @@ contains
       st = [st, s]
       if (any(s < 0)) stat = minval(s)
     end subroutine seeds
-    subroutine first_crossing(stat)     ! the tube meets the section on its branch first
-      ! The cut is of the tube's first crossing of the section (the Monte Carlo check's transit
-      ! test ends at any crossing): seed 1 followed to a crossing of either direction must not
-      ! cross the other way earlier (the ball's S14 tube with the ray U1^- took its second
-      ! crossing, p_trans a number and the Monte Carlo check 0 of 52 inside points transiting).
+    subroutine first_crossing(stat)     ! the stable tube meets the section on its branch first
+      ! The stable tube's cut is of its first crossing of the section, as the Monte Carlo check's
+      ! transit test ends at any crossing (p_trans is the fraction of the section that transits
+      ! before it meets the section again): seed 1 followed to a crossing of either direction
+      ! must not cross the other way earlier (the ball's S14 tube with the ray U1^- took its
+      ! second crossing, p_trans a number and the Monte Carlo check 0 of 52 inside points
+      ! transiting). The unstable tube's cut is its first crossing of the branch whatever came
+      ! before: the image the Poincare map of the branch shows (the ball's unstable S12 tube
+      ! meets U1^+ first, then U1^-).
       integer, intent(out) :: stat
       real(wp) :: pc1(2), t1, x1(size(v0))
       call one_seed(ball, orb0, v0, sigma, tau(1), psec, opts, ens%snaps, pc1, t1, x1, stat, any_branch=.true.)

@@ -19,6 +19,9 @@ module tubes_transport
   integer, parameter, public :: MC_RETURN = 0    !! came back to the section: no transition
   integer, parameter, public :: MC_TRANSIT = 1   !! entered the other well through the bottleneck
   integer, parameter, public :: MC_UNDECIDED = 2 !! neither within t_max
+  !> left for good through another exit (a finite-time escape: the model refused the state beyond
+  !> ESCAPE_SCALES length scales) before it transited or came back: no transition
+  integer, parameter, public :: MC_ESCAPE = 3
 
   !> The transit gate of a saddle: the configuration hyperplane (q - q_s) . n = dist, n the
   !> unit configuration part of the saddle's unstable eigenvector (its reaction coordinate)
@@ -142,7 +145,8 @@ contains
   end function inside_curve
 
   !> Follow the state x0 (on the section) forward until it returns to the section (either
-  !> branch: MC_RETURN) or passes the saddle's gate (MC_TRANSIT), or t_max (MC_UNDECIDED).
+  !> branch: MC_RETURN) or passes the saddle's gate (MC_TRANSIT), escapes (MC_ESCAPE), or t_max
+  !> (MC_UNDECIDED): mc_outcome.
   subroutine mc_classify(ball, psec, x0, gspec, t_max, tol, integ, outcome, t_end, stat)
     class(hamiltonian_t), intent(in) :: ball
     type(poincare_t), intent(in) :: psec
@@ -165,15 +169,37 @@ contains
     gate%spec = gspec
     call propagate(ig, x, t_max, stat, event=ret, observer=gate)
     t_end = ig%t
+    call mc_outcome(ball, gate%passed, x, stat, outcome)
+  end subroutine mc_classify
+
+  !> A point's class from the end of its integration (stat, the state x there, whether it passed
+  !> the gate): a return to the section (the terminal event) MC_RETURN, the gate passed
+  !> MC_TRANSIT, an escape (map_status: the model refused a state beyond ESCAPE_SCALES length
+  !> scales; Henon-Heiles' points leaving through another saddle) MC_ESCAPE, else MC_UNDECIDED
+  !> (t_max); stat becomes TUBES_OK for a return and an escape, and stays any other failure.
+  subroutine mc_outcome(model, passed, x, stat, outcome)
+    class(hamiltonian_t), intent(in) :: model
+    logical, intent(in) :: passed
+    real(wp), intent(in) :: x(:)
+    integer, intent(inout) :: stat
+    integer, intent(out) :: outcome
+    integer :: st
     if (stat == TUBES_EVENT) then
       outcome = MC_RETURN
       stat = TUBES_OK
-    else if (gate%passed) then
+      return
+    end if
+    st = map_status(model, stat, x)
+    if (passed) then
       outcome = MC_TRANSIT
+      stat = st                         ! an escape after the transit is no failure either
+    else if (st == TUBES_OK .and. stat /= TUBES_OK) then
+      outcome = MC_ESCAPE
+      stat = TUBES_OK
     else
       outcome = MC_UNDECIDED
     end if
-  end subroutine mc_classify
+  end subroutine mc_outcome
 
   !> Monte Carlo transition fraction: n points uniform in the permitted region of the
   !> section at its energy (rejection in the bounding box, GSL MT19937 from seed, drawn
@@ -315,14 +341,7 @@ contains
       end select
     end if
     out%st(k) = lane%stat
-    if (lane%stat == TUBES_EVENT) then
-      out%i(1, k) = MC_RETURN
-      out%st(k) = TUBES_OK
-    else if (passed) then
-      out%i(1, k) = MC_TRANSIT
-    else
-      out%i(1, k) = MC_UNDECIDED
-    end if
+    call mc_outcome(self%model, passed, lane%x, out%st(k), out%i(1, k))
     out%i(2, k) = merge(1, 0, mc_inside(self, k))
   end subroutine mc_finish
 
