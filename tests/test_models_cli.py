@@ -331,6 +331,12 @@ NONQUAD = ("&model system = 'expression', hamiltonian = '(px^2 + py^2)/2 + px^2*
     # orbits of a 1-DOF model (exit 4, 'did not converge', before)
     ("&model system = 'expression', hamiltonian = 'px^2/2 - x^2/2 + x^4/4', coordinates = 'x', momenta = 'px' /\n"
      "&run scenes = 'orbits' /\n&orbits saddle_near = 0 /\n", ["m.nml:2: &run scenes: 'orbits'", "1 degree of freedom"]),
+    # the trajectory scene of a 3-DOF model (said after the output existed, without the file)
+    ("&model system = 'cr3bp_spatial' /\n&trajectory at_rest = .false. /\n&run scenes = 'trajectory' /\n",
+     ["m.nml:3: &run scenes: 'trajectory'", "has 3"]),
+    # the system's default saddle_near with no saddle in the box (no file, no word of the default)
+    (HH + "&equilibria box = 0.5 /\n&run scenes = 'orbits' /\n",
+     ["m.nml: &orbits saddle_near (the system's default)", "no rank-1 saddle"]),
 ])
 def test_a_scene_that_does_not_apply_to_the_model_is_refused(tmp_path, text, words):
     (tmp_path / "m.nml").write_text(text)

@@ -210,6 +210,14 @@ static int scenes_apply(tubes_run_t *run) {
             run->scenes_line, sec, run->label, run->ndof, run->ndof);
     return EXIT_BADINPUT;
   }
+  int trajectory = 0;
+  for (int k = 0; k < TUBES_NSCENES; k++) trajectory |= !strcmp(c->scenes[k], "trajectory");
+  if (trajectory && run->ndof != 2) {
+    fprintf(stderr, "%s:%d: &run scenes: 'trajectory' takes (x0, y0, px0, py0) of a model with 2 degrees of "
+            "freedom; system %s has %d (Python's tubes.integrate takes any state)\n", run->input, run->scenes_line,
+            run->label, run->ndof);
+    return EXIT_BADINPUT;
+  }
   if (orbits && run->ndof < 2) {
     fprintf(stderr, "%s:%d: &run scenes: 'orbits' follows the Lyapunov orbits of a saddle's centre directions: "
             "system %s has 1 degree of freedom and none (its saddles have no periodic orbits)\n", run->input,
@@ -337,8 +345,12 @@ int run_setup(tubes_run_t *run) {
       if (best < 0 || d < dbest) { best = k; dbest = d; }
     }
     if (best < 0) {
-      fprintf(stderr, "tubes: &orbits saddle_near: system %s has no rank-1 saddle in the &equilibria box\n",
-              run->label);
+      int ln = nml_line(run->where, "orbits", "saddle_near");
+    char at[16] = "";
+    if (ln) snprintf(at, sizeof at, "%d:", ln);
+    fprintf(stderr, "%s:%s &orbits saddle_near%s: system %s has no rank-1 saddle in the &equilibria box "
+            "(its equilibria: the equilibria scene lists them); widen &equilibria box or name a saddle\n",
+            run->input, at, ln ? "" : " (the system's default)", run->label);
       return EXIT_BADINPUT;
     }
     snprintf(run->saddle, sizeof run->saddle, "%s", L.names + 8 * best);
