@@ -535,7 +535,7 @@ contains
         call linearize(model, e%x, e%lambda, e%omegas, e%evec, stat, e%degenerate)
       end if
       if (stat /= TUBES_OK) return
-      e%omega = e%omegas(1)
+      if (nd > 1) e%omega = e%omegas(1)   ! 1 DOF: no centre (omegas is empty)
     else
       allocate (e%omegas(max(nd - 1, 1)), e%evec(2*nd, 2*nd))
       e%omegas = 0
