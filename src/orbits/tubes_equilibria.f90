@@ -136,13 +136,36 @@ contains
   !> Estimated distance to the root after a Newton step of length step whose predecessor was
   !> step_prev: at a root of multiplicity m the steps shrink by r = (m - 1)/m and the distance
   !> left is step r/(1 - r) = (m - 1) step; r is capped at 0.95 (m = 20).
-  pure real(wp) function newton_error(step, step_prev)
+  !> A loop that did not converge (stalled at the roundoff floor, or NEWTON_MAX) counts the
+  !> longer of its last two steps.
+  pure real(wp) function newton_error(converged, step, step_prev)
+    logical, intent(in) :: converged
     real(wp), intent(in) :: step, step_prev
-    real(wp) :: r
+    real(wp) :: r, s
+    s = step
+    if (.not. converged) s = max(step, step_prev)
     r = 0
-    if (step_prev > 0 .and. step_prev < huge(1.0_wp)) r = min(step/step_prev, 0.95_wp)
-    newton_error = step*max(1.0_wp, r/(1 - r))
+    if (step_prev > 0 .and. step_prev < huge(1.0_wp)) r = min(s/step_prev, 0.95_wp)
+    newton_error = s*max(1.0_wp, r/(1 - r))
   end function newton_error
+
+  !> The stall rule of both Newton loops: gbest, nstall track the smallest residual so far and
+  !> the iterations since; stalled once it has not decreased for NEWTON_STALL iterations after
+  !> the first NEWTON_FAST (a degenerate root's linear approach has reached roundoff).
+  pure subroutine track_stall(it, gn, gbest, nstall, stalled)
+    integer, intent(in) :: it
+    real(wp), intent(in) :: gn
+    real(wp), intent(inout) :: gbest
+    integer, intent(inout) :: nstall
+    logical, intent(out) :: stalled
+    if (gn < gbest) then
+      gbest = gn
+      nstall = 0
+    else
+      nstall = nstall + 1
+    end if
+    stalled = it > NEWTON_FAST .and. nstall > NEWTON_STALL
+  end subroutine track_stall
 
   !> Newton's method on grad shape = 0 from q (natural systems). Steps are damped to
   !> length_scale; a singular Hessian takes the pseudo-inverse's step. It ends when the step is
@@ -157,7 +180,7 @@ contains
     real(wp), intent(out), optional :: err
     real(wp) :: gr(MAXN), hs(MAXN, MAXN), dq(MAXN), scale, ls, step, step_prev, gn, gbest, tol
     integer :: it, n, nstall
-    logical :: converged, solved
+    logical :: converged, solved, stalled
     ok = .false.
     converged = .false.
     n = size(q)
@@ -172,14 +195,8 @@ contains
     do it = 1, NEWTON_MAX
       call model%shape_derivs(q, gr(1:n), hs(1:n, 1:n))
       if (.not. all(abs(gr(1:n)) <= huge(1.0_wp))) return
-      gn = sqrt(sum(gr(1:n)**2))
-      if (gn < gbest) then
-        gbest = gn
-        nstall = 0
-      else
-        nstall = nstall + 1
-      end if
-      if (it > NEWTON_FAST .and. nstall > NEWTON_STALL) exit
+      call track_stall(it, sqrt(sum(gr(1:n)**2)), gbest, nstall, stalled)
+      if (stalled) exit
       call small_solve(hs(1:n, 1:n), gr(1:n), dq(1:n), solved)
       if (.not. solved) call pinv_solve(hs(1:n, 1:n), gr(1:n), dq(1:n), solved)
       if (.not. solved) return
@@ -195,13 +212,7 @@ contains
     call model%shape_derivs(q, gr(1:n), hs(1:n, 1:n))
     gn = sqrt(sum(gr(1:n)**2))
     ok = gn <= tol
-    if (present(err)) then
-      if (converged) then
-        err = newton_error(step, step_prev)
-      else                               ! stalled at the roundoff floor, or NEWTON_MAX
-        err = newton_error(max(step, step_prev), step_prev)
-      end if
-    end if
+    if (present(err)) err = newton_error(converged, step, step_prev)
   end subroutine newton_natural
 
   !> Least-squares step for a singular Jacobian: x minimises |a x - b| with the least norm, from
@@ -231,9 +242,9 @@ contains
     real(wp), intent(inout) :: x(:)
     logical, intent(out) :: ok
     real(wp), intent(out), optional :: err
-    real(wp) :: f(size(x)), jac(size(x), size(x)), dx(size(x)), scale, ls, xs, step, step_prev, gn, gbest
+    real(wp) :: f(size(x)), jac(size(x), size(x)), dx(size(x)), scale, ls, xs, step, step_prev, gbest
     integer :: it, stat, n, nstall
-    logical :: converged, solved
+    logical :: converged, solved, stalled
     ok = .false.
     converged = .false.
     n = size(x)/2
@@ -246,14 +257,8 @@ contains
     do it = 1, NEWTON_MAX
       call model%eval(0.0_wp, x, f, stat)
       if (stat /= 0) return
-      gn = sqrt(sum(f**2))
-      if (gn < gbest) then
-        gbest = gn
-        nstall = 0
-      else
-        nstall = nstall + 1
-      end if
-      if (it > NEWTON_FAST .and. nstall > NEWTON_STALL) exit
+      call track_stall(it, sqrt(sum(f**2)), gbest, nstall, stalled)
+      if (stalled) exit
       call model%jacobian(0.0_wp, x, jac, stat)
       if (stat /= 0) return
       call small_solve(jac, f, dx, solved)
@@ -272,13 +277,7 @@ contains
     call model%eval(0.0_wp, x, f, stat)
     xs = max(ls, sqrt(sum(x**2)))
     ok = stat == 0 .and. sqrt(sum(f**2)) <= 1.0e-10_wp*xs
-    if (present(err)) then
-      if (converged) then
-        err = newton_error(step, step_prev)
-      else
-        err = newton_error(max(step, step_prev), step_prev)
-      end if
-    end if
+    if (present(err)) err = newton_error(converged, step, step_prev)
   end subroutine newton_general
 
   !> Steepest descent of shape from q into a minimum (names saddles by their wells); ok =
