@@ -19,7 +19,8 @@ enum {
   TUBES_EPASTEND = -10, /* past the end of the Lyapunov orbit family */
   TUBES_ENARROW = -11, /* the slab (&flux gate) is narrower than the NHIM's reach along the reaction coordinate */
   TUBES_ENOJET = -12, /* no Taylor kernel for the model: its code could not be generated or compiled (stderr says why) */
-  TUBES_EDIRECTION = -13 /* the tube crosses the section in the other direction first: choose the other direction */
+  TUBES_EDIRECTION = -13, /* the tube crosses the section in the other direction first: choose the other direction */
+  TUBES_EUNRESOLVED = -14 /* dE below what the energy resolves at the saddle (tubes_de_floor) */
 };
 
 /* Integration methods (src/integrators/tubes_methods.f90). */
@@ -149,6 +150,11 @@ void tubes_mc_agreement(int n, int n_transit, int n_undecided, int misclassified
 int tubes_plane_quadratic(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                           const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int index, double value,
                           int *quadratic);
+
+/* The smallest |dE| the energy resolves at a saddle of energy e_saddle: E_e + dE is known to about
+ * 16 ulps of |E_e|, and dE to 1e-6 of itself from 1e6 times that on. The calls that take a smaller
+ * dE return TUBES_EUNRESOLVED. */
+double tubes_de_floor(double e_saddle);
 
 /* Energy H(x) of the state x[n] (n = 2 N) on the conservative model. */
 int tubes_energy(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], int n,

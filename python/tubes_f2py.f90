@@ -699,27 +699,11 @@ end subroutine poincare
 
 subroutine status_code(name, code)
   ! the number of the status code TUBES_<name> (src/base/tubes_status.f90), 1000 for no such code
-  use tubes_status
+  use tubes_status, only: status_code_of => status_code
   implicit none
   character(len=*), intent(in) :: name
   integer, intent(out) :: code
-  select case (name)
-  case ('OK'); code = TUBES_OK
-  case ('EVENT'); code = TUBES_EVENT
-  case ('EINPUT'); code = TUBES_EINPUT
-  case ('EMAXSTEPS'); code = TUBES_EMAXSTEPS
-  case ('ESTEP'); code = TUBES_ESTEP
-  case ('EMODEL'); code = TUBES_EMODEL
-  case ('EIO'); code = TUBES_EIO
-  case ('ENOCONV'); code = TUBES_ENOCONV
-  case ('EFAULT'); code = TUBES_EFAULT
-  case ('EOUTSIDE'); code = TUBES_EOUTSIDE
-  case ('ENOCROSS'); code = TUBES_ENOCROSS
-  case ('EPASTEND'); code = TUBES_EPASTEND
-  case ('ENARROW'); code = TUBES_ENARROW
-  case ('ENOJET'); code = TUBES_ENOJET
-  case default; code = 1000
-  end select
+  code = status_code_of(name)
 end subroutine status_code
 
 subroutine mc_agreement(n, n_transit, n_undecided, misclassified, p, sigmas, sigma_limit, mis_lim, und_lim, &
@@ -771,7 +755,8 @@ subroutine flux(system, params, lo, hi, n_grid, saddle, nde, des, nsamp, seed, t
   type(flux_result_t) :: res
   integer :: isad, k, nd
   fl = 0; err = 0; leading = 0; counts = 0
-  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat, degenerate_ok=.true.)
+  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat, degenerate_ok=.true., &
+                   des=des)
   if (stat /= 0) return
   nd = model%ndof()
   do k = 1, nde
@@ -838,7 +823,8 @@ subroutine section_transit(system, params, lo, hi, n_grid, saddle, nde, des, k, 
   integer :: isad, j, nd
   vol = 0; vol_err = 0; frac = 0; frac_err = 0; counts = 0
   x = 0; w = 0; cls = 3
-  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat, degenerate_ok=.true.)
+  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat, degenerate_ok=.true., &
+                   des=des)
   if (stat /= 0) return
   nd = model%ndof()
   do j = 1, nde

@@ -129,7 +129,7 @@ int main(void) {
       {TUBES_EMODEL, "refused the state"}, {TUBES_EIO, "input/output"}, {TUBES_ENOCONV, "did not converge"},
       {TUBES_EFAULT, "TUBES_FAULT"}, {TUBES_EOUTSIDE, "outside the region"}, {TUBES_ENOCROSS, "no crossing"},
       {TUBES_EPASTEND, "past the end"}, {TUBES_ENARROW, "narrower"}, {TUBES_ENOJET, "no kernel"},
-      {TUBES_EDIRECTION, "other direction first"}};
+      {TUBES_EDIRECTION, "other direction first"}, {TUBES_EUNRESOLVED, "below what the energy resolves"}};
   char msg[256];
   for (size_t i = 0; i < sizeof codes / sizeof codes[0]; i++) {
     tubes_status_message(codes[i].code, msg, sizeof msg);

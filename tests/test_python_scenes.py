@@ -287,3 +287,22 @@ def test_cr3bp_action_is_the_gauge_fixed_integral():
         qd = np.array([tubes.vector_field(s, m)[:2] for s in st])
         a = np.sum((st[:, 2:] - ps) * qd) * period / n
         assert abs(o["action"][0] / a - 1) < 1e-9, (de, o["action"][0] / a - 1)
+
+
+def test_an_unresolved_de_is_refused_by_the_library():
+    """The dE-resolution rule is the library's (tubes_study de_floor): Python's calls get it too
+    (orbit_family answered "invalid input" or, with a findable saddle, a 0.3 % wrong action).
+    The ball with h0 = 1e8 cm: E_e ~ 9.8e10 (cm/s)^2 is known to 16 ulps, and a dE below 1e6 times
+    that (349) is refused by every call that takes one, with EUNRESOLVED; a dE above it is computed."""
+    m = tubes.Model(h0=1e8)
+    e_s = m.equilibria()["energy"][list(m.equilibria()["name"]).index("S12")]
+    floor = 1e6 * 16 * np.finfo(float).eps * abs(e_s)
+    assert 340 < floor < 360
+    for call in (lambda: m.orbit_family(dE=[0.99 * floor]), lambda: m.tube_cut(1.0),
+                 lambda: m.monte_carlo(1.0, 10, 1), lambda: m.poincare(1.0), lambda: m.flux(dE=[1.0])):
+        with pytest.raises(tubes.TubesError, match="below what the energy resolves") as e:
+            call()
+        assert e.value.code == tubes.EUNRESOLVED
+    t = m.transition(dE=[1.0])
+    assert list(t["status"]) == [tubes.EUNRESOLVED] and np.isnan(t["p_trans"][0])
+    assert m.orbit_family(dE=[1.01 * floor])["converged"][0]

@@ -20,7 +20,16 @@ module tubes_status
   integer, parameter, public :: TUBES_ENARROW = -11  !! the slab (&flux gate) is narrower than the NHIM
   integer, parameter, public :: TUBES_ENOJET = -12   !! no Taylor kernel for the model (stderr says why)
   integer, parameter, public :: TUBES_EDIRECTION = -13   !! the tube crosses the section the other way first
-  public :: status_message, callback_status
+  integer, parameter, public :: TUBES_EUNRESOLVED = -14  !! dE below what the energy resolves at the saddle
+  !> The codes' names (TUBES_<name>), for the languages that look them up by name (Python).
+  character(len=*), parameter :: STATUS_NAMES(16) = [character(len=11) :: 'OK', 'EVENT', 'EINPUT', &
+      'EMAXSTEPS', 'ESTEP', 'EMODEL', 'EIO', 'ENOCONV', 'EFAULT', 'EOUTSIDE', 'ENOCROSS', 'EPASTEND', &
+      'ENARROW', 'ENOJET', 'EDIRECTION', 'EUNRESOLVED']
+  integer, parameter :: STATUS_CODES(16) = [TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, &
+      TUBES_ESTEP, TUBES_EMODEL, TUBES_EIO, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENOCROSS, &
+      TUBES_EPASTEND, TUBES_ENARROW, TUBES_ENOJET, TUBES_EDIRECTION, TUBES_EUNRESOLVED]
+  integer, parameter, public :: STATUS_UNKNOWN = 1000   !! status_code's answer for no such name
+  public :: status_message, callback_status, status_code
 contains
   !> A model's status in the convention of GSL's and SUNDIALS' callbacks (0 success, 1 a
   !> recoverable failure, -1 a fatal one); a nonzero status is also kept in last, for the report.
@@ -30,6 +39,16 @@ contains
     if (stat /= 0) last = stat
     callback_status = merge(0, merge(1, -1, stat > 0), stat == 0)
   end function callback_status
+
+  !> The code TUBES_<name> of a status name ('OK', 'EINPUT', ...), STATUS_UNKNOWN for none.
+  pure integer function status_code(name)
+    character(*), intent(in) :: name
+    integer :: k
+    status_code = STATUS_UNKNOWN
+    do k = 1, size(STATUS_NAMES)
+      if (trim(STATUS_NAMES(k)) == name) status_code = STATUS_CODES(k)
+    end do
+  end function status_code
 
   !> Text for a status code.
   pure function status_message(code) result(msg)
@@ -54,6 +73,8 @@ contains
                                   'generated or compiled (the cause is on stderr)'
     case (TUBES_EDIRECTION); msg = 'the tube crosses the section in the other direction first: choose ' // &
                                   'the other direction (or p_theta_sign)'
+    case (TUBES_EUNRESOLVED); msg = 'dE is below what the energy resolves at the saddle: E_e + dE is known ' // &
+                                  'to worse than 1e-6 of dE (a larger dE, or a smaller additive constant in H)'
     case default;           msg = 'unknown status code'
     end select
   end function status_message

@@ -30,7 +30,8 @@ module tubes_capi
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, maps_at, cut_outputs, seed_stores_t, family_at, &
-                         equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, close_stores
+                         equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, &
+                         close_stores, de_floor
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long, c_intptr_t
   implicit none
@@ -186,6 +187,13 @@ contains
     call plane_search_range(lo(1:2), hi(1:2), int(sec_index), s_lo, s_hi)
     quadratic = merge(1, 0, plane_quadratic_in_p(model, int(sec_index), value, s_lo, s_hi))
   end function c_plane_quadratic
+
+  !> The smallest |dE| the energy resolves at a saddle of energy e_saddle (de_floor); the calls
+  !> that take a smaller one return TUBES_EUNRESOLVED.
+  real(c_double) function c_de_floor(e_saddle) bind(C, name='tubes_de_floor')
+    real(c_double), value :: e_saddle
+    c_de_floor = de_floor(e_saddle)
+  end function c_de_floor
 
   !> Can method = 'taylor' integrate (system, params) at relative tolerance eps? Its kernel is
   !> built or loaded now (src/integrators/tubes_taylor.f90 taylor_check); on failure TUBES_ENOJET
@@ -517,7 +525,7 @@ contains
     integer :: isad, ist
     flux = 0; err = 0; leading = 0; counts = 0; box = 0
     call setup_model(trim(c_to_f(system)), params, lo, hi, n_grid, trim(c_to_f(saddle)), &
-                     model, eqs, isad, ist, degenerate_ok=.true.)
+                     model, eqs, isad, ist, degenerate_ok=.true., des=[de])
     stat = ist
     if (ist /= TUBES_OK) return
     leading = flux_leading_order(eqs(isad)%omegas, de)
@@ -554,7 +562,7 @@ contains
     w = 0
     cls = 3
     call setup_model(trim(c_to_f(system)), params, lo, hi, n_grid, trim(c_to_f(saddle)), &
-                     model, eqs, isad, ist, degenerate_ok=.true.)
+                     model, eqs, isad, ist, degenerate_ok=.true., des=[de])
     stat = ist
     if (ist /= TUBES_OK) return
     call flux_sampled(model, eqs(isad), de, nsamp, seed, t_max, tol, gate, &

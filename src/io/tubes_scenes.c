@@ -2,7 +2,6 @@
 #include "tubes_scenes.h"
 #include "tubes_h5.h"
 #include "tubes_input.h"
-#include <float.h>
 #include <math.h>
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -239,17 +238,16 @@ static int scenes_apply(tubes_run_t *run) {
   return 0;
 }
 
-/* Every dE the scenes ask for is resolvable against the saddle's energy E_e: E = E_e + dE is
- * known to about 16 ulps of |E_e| (H's rounding); a dE below 1e6 times that would be known to
- * worse than 1e-6 of itself (an additive constant in H, the ball's h0 = 1e10, made dE = 1 one of
- * 0.003 and the action 0.3 % off with exit 0). 0, or EXIT_BADINPUT with the reason. */
+/* Every dE the scenes ask for is resolvable against the saddle's energy E_e (tubes_de_floor, the
+ * library's rule, which its calls also apply: TUBES_EUNRESOLVED), said before any work with the
+ * file and line. 0, or EXIT_BADINPUT with the reason. */
 static int de_resolvable(const tubes_run_t *run, double ee) {
   const tubes_config_t *c = run->cfg;
   const struct { const char *scene, *group; const double *de; int n; } lists[] = {
       {"orbits", "orbits", c->orb_de, c->orb_nde},      {"tubes", "tubes", c->tub_de, c->tub_nde},
       {"transition", "transition", c->tra_de, c->tra_nde}, {"montecarlo", "montecarlo", &c->mc_de, 1},
       {"sections", "sections", c->pm_de, c->pm_nde},    {"flux", "flux", c->flux_de, c->flux_nde}};
-  double res = 16 * DBL_EPSILON * fabs(ee), need = 1e6 * res;
+  double need = tubes_de_floor(ee), res = need / 1e6;
   for (size_t j = 0; j < sizeof lists / sizeof lists[0]; j++) {
     int asked = 0;
     for (int k = 0; k < TUBES_NSCENES; k++) asked |= !strcmp(c->scenes[k], lists[j].scene);

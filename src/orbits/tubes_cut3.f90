@@ -292,7 +292,7 @@ contains
     inside_pl = -1
     diag = ieee_value(1.0_wp, ieee_quiet_nan)
     msg = ''
-    call setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat)
+    call setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat, des=[de])
     if (stat /= TUBES_OK) return
     call normal_form(3, order, expo, coef, nf, stat, change=ch)
     if (stat /= TUBES_OK) then

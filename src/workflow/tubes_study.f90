@@ -8,7 +8,7 @@ module tubes_study
   use, intrinsic :: iso_c_binding, only: c_intptr_t, c_loc, c_f_pointer, c_null_ptr
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp, i8
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND, TUBES_EUNRESOLVED
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_ball, only: ball_t
   use tubes_models, only: make_model, MAX_PARAMS, MAX_DOF
@@ -29,7 +29,7 @@ module tubes_study
 
   public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, section_info, cut_at, &
             check_at, maps_at, cut_outputs, equilibria_table, study_family, family_table, open_stores, &
-            stores_at, close_stores, stores_counts
+            stores_at, close_stores, stores_counts, de_floor
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -174,7 +174,7 @@ contains
 
   !> The model, its equilibria in the box and the rank-1 saddle named `saddle` (with
   !> degenerate_ok, also a degenerate saddle: the sampled flux takes one).
-  subroutine setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat, degenerate_ok, stores)
+  subroutine setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat, degenerate_ok, stores, des)
     character(*), intent(in) :: system            !! the system's name
     character(*), intent(in) :: saddle            !! the rank-1 saddle's name
     real(wp), intent(in) :: params(:)             !! its parameters (table order)
@@ -185,6 +185,7 @@ contains
     integer, intent(out) :: isad, stat
     logical, intent(in), optional :: degenerate_ok
     type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
+    real(wp), intent(in), optional :: des(:)      !! the excess energies the call will take
     character(8) :: name
     integer :: k
     isad = 0
@@ -200,7 +201,27 @@ contains
       end if
     end do
     if (isad == 0) stat = TUBES_EINPUT
+    if (stat == TUBES_OK .and. present(des)) call check_resolved(eqs(isad), des, stat)
   end subroutine setup_model
+
+  !> stat = TUBES_EUNRESOLVED if a dE of des is below de_floor at the saddle sad, else unchanged:
+  !> the rule of the calls whose results scale with dE (orbits, tubes, Monte Carlo, maps, flux;
+  !> not the energy surface on a section, which is E's alone).
+  pure subroutine check_resolved(sad, des, stat)
+    type(equilibrium_t), intent(in) :: sad
+    real(wp), intent(in) :: des(:)
+    integer, intent(inout) :: stat
+    if (any(abs(des) < de_floor(sad%energy))) stat = TUBES_EUNRESOLVED
+  end subroutine check_resolved
+
+  !> The smallest excess energy dE the energy resolves at a saddle of energy e_saddle: E_e + dE
+  !> is known to about 16 ulps of |E_e| (H's rounding), and a dE below 1e6 times that would be
+  !> known to worse than 1e-6 of itself (an additive constant in H, the ball's h0 = 1e10, made
+  !> dE = 1 one of 0.003 and the orbit's action 0.3 % off). TUBES_EUNRESOLVED below it.
+  pure real(wp) function de_floor(e_saddle)
+    real(wp), intent(in) :: e_saddle
+    de_floor = 1.0e6_wp*16*epsilon(1.0_wp)*abs(e_saddle)
+  end function de_floor
 
   !> The equilibria of the model in the box [lo, hi] (n_grid starts per axis): from the run's
   !> stores where an earlier call found them for the same system, model numbers, box and grid
@@ -344,6 +365,11 @@ contains
     type(kept_path_t) :: entry
     integer(i8) :: key(NKEY)
     integer :: i
+    end_de = -1
+    end_reason = 0
+    stat = TUBES_OK
+    call check_resolved(eqs(isad), des, stat)
+    if (stat /= TUBES_OK) return
     if (.not. present(stores)) then
       call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat)
       return
@@ -589,6 +615,8 @@ contains
     call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
                        sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat, stores)
     if (stat /= TUBES_OK) return
+    call check_resolved(eqs(isad), [de], stat)
+    if (stat /= TUBES_OK) return
     call saddle_gate(eqs(isad), q_ref, gate, gspec)
     call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, st%integ, cr, cp, r, pr, outcome, &
                      inside, stat)
@@ -614,6 +642,8 @@ contains
     level = sec%level
     call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
                        sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat, stores)
+    if (stat /= TUBES_OK) return
+    call check_resolved(eqs(isad), [de], stat)
     if (stat /= TUBES_OK) return
     allocate (x0(model%dim(), n_seeds))
     h = (n_seeds + 1)/2
