@@ -513,3 +513,20 @@ def test_messages_give_the_models_units(tmp_path, tubes_exe, text, units, not_un
     (tmp_path / "u.nml").write_text(text)
     r = run_tubes(["u.nml"], tmp_path)
     assert r.returncode == 1 and units in r.stderr and not_units not in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("nml,words", [
+    ("&model h0 = 1e8 /\n&run scenes = 'orbits' /\n&orbits de = 1 /\n", "below what the energy resolves"),
+    ("&model system = 'cr3bp_spatial' /\n&run scenes = 'trajectory' /\n&trajectory at_rest = .false. /\n",
+     "'trajectory' takes (x0, y0, px0, py0)"),
+    ("&run scenes = 'orbits' /\n&orbits saddle = 'S99' /\n", "is not a rank-1 saddle"),
+], ids=["de", "scene", "saddle"])
+def test_check_refuses_what_the_run_refuses(tmp_path, nml, words):
+    """--check said 'valid' for inputs the run then refused before its work (the model's checks:
+    a dE the energy cannot resolve, a scene the model cannot have, a saddle it lacks): it runs the
+    same checks now, with the run's message and exit code, and writes nothing."""
+    (tmp_path / "a.nml").write_text(nml)
+    c = run_tubes(["--check", "a.nml"], tmp_path)
+    r = run_tubes(["a.nml", "-o", "a.h5"], tmp_path)
+    assert c.returncode == r.returncode == 1 and words in c.stderr and c.stderr == r.stderr, (c.stderr, r.stderr)
+    assert "valid" not in c.stdout and not list(tmp_path.glob("*.h5"))

@@ -41,7 +41,7 @@ static void usage(FILE *out) {
           "built-in models (&model system, docs/models.md) or one written as a formula in the input.\n\n"
           "options:\n"
           "  -o FILE      write the HDF5 output to FILE (overrides &run output)\n"
-          "  --check      read and validate INPUT.nml, print the effective namelist, and exit\n"
+          "  --check      validate INPUT.nml as the run does before its work, print the effective namelist, exit\n"
           "  --version    print the version and exit\n"
           "  -h, --help   this help\n\n"
           "exit codes: 0 success; 1 bad input or usage; 2 numerical failure (reported on stderr;\n"
@@ -268,11 +268,6 @@ static int run_main(int argc, char **argv) {
     fprintf(stderr, "tubes: internal error: effective namelist does not fit its buffer\n");
     return EXIT_IO;
   }
-  if (check_only) {
-    printf("%s: valid\n%s", input, nml_text);
-    return 0;
-  }
-
   /* an output that could not be written, or would replace what it must not, fails only at the
    * end otherwise, after the work: checked before it (rank 0 alone looks at the file system) */
   {
@@ -296,8 +291,9 @@ static int run_main(int argc, char **argv) {
   run.seeds = tubes_seed_stores_new();  /* what later scenes take from earlier ones: the
                                           equilibria, orbit families, tube seeds (include/tubes.h) */
   int setup = agree(run_setup(&run));
-  if (setup) {
+  if (setup || check_only) {        /* --check: valid is what the run would start on */
     tubes_seed_stores_free(run.seeds);
+    if (!setup && g_rank == 0) printf("%s: valid\n%s", input, nml_text);
     return setup;
   }
 
