@@ -450,3 +450,24 @@ def test_monte_carlo_points_that_escape_are_classified(tmp_path):
     assert np.sum(g["transit"][:] == 3) == g.attrs["escaped"]
     mc = tubes.Model(system="henon_heiles").monte_carlo(0.05, n_samples=2000, t_max=100)
     assert mc["escaped"] == g.attrs["escaped"] and np.array_equal(mc["transit"], g["transit"][:])
+
+
+@pytest.mark.parametrize("h0", [0.0, 1e10])
+def test_quadrant_names_survive_a_large_additive_constant(tmp_path, h0):
+    """The ball's saddles are named by the wells their unstable directions descend into. With
+    h0 = 1e10 cm (H ~ 1e13) the descent's line search compared values H's rounding cannot tell
+    apart and stalled: the saddles were S1..S4 (the generic names) and &orbits saddle = 'S12' was
+    refused. The names, and the points, must be h0 = 0's (h0 does not enter grad H)."""
+    _, f = run(tmp_path, f"&model h0 = {h0} /\n&run scenes = 'equilibria' /\n")
+    names = sorted(n.decode() if isinstance(n, bytes) else n for n in f["equilibria/name"][:])
+    assert names == ["R1", "S12", "S14", "S23", "S34", "W1", "W2", "W3", "W4"], names
+    k = saddle_index(f, "S12")
+    q = np.array([f["equilibria/x"][k], f["equilibria/y"][k]])
+    assert np.allclose(q, [-0.33226408, 6.11548724], atol=1e-7)    # the paper's S12 (h0 = 0 run)
+
+
+def test_a_well_on_an_axis_has_a_generic_name(tmp_path):
+    """The quadrant scheme names a well W<quadrant>: the ball with beta = 0 has one well, at the
+    origin, in no quadrant (it was W0). Generic names then: W1."""
+    _, f = run(tmp_path, "&model beta = 0 /\n&run scenes = 'equilibria' /\n")
+    assert [n.decode() if isinstance(n, bytes) else n for n in f["equilibria/name"][:]] == ["W1"]

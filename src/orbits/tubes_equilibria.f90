@@ -286,7 +286,7 @@ contains
     class(natural_t), intent(in) :: model
     real(wp), intent(inout) :: q(:)
     logical, intent(out) :: ok
-    real(wp) :: gr(size(q)), hs(size(q), size(q)), a, qn(size(q)), h0
+    real(wp) :: gr(size(q)), hs(size(q), size(q)), a, qn(size(q)), h0, grn(size(q))
     integer :: it
     a = 1.0_wp
     do it = 1, 20000
@@ -296,6 +296,10 @@ contains
       do
         qn = q - a*gr
         if (model%shape(qn) < h0 .or. a < 1.0e-12_wp) exit
+        ! shape's rounding can hide a decrease (a large additive constant: the ball's h0 = 1e10):
+        ! still going down along -gr at qn (grad shape(qn) . gr > 0) is a step downhill too
+        call model%shape_derivs(qn, grn, hs)
+        if (dot_product(grn, gr) > 0) exit
         a = a/2
       end do
       q = qn
@@ -695,8 +699,8 @@ contains
         do k = 1, size(eqs)
           if (eqs(k)%nzero > 0) cycle   ! a degenerate point: no quadrant name, the generic ones
           select case (eqs(k)%morse)
-          case (0)
-            write (eqs(k)%name, '(a,i0)') 'W', quadrant(eqs(k)%q)
+          case (0)       ! a well on an axis has no quadrant: the generic names (W1, ...)
+            if (quadrant(eqs(k)%q) > 0) write (eqs(k)%name, '(a,i0)') 'W', quadrant(eqs(k)%q)
           case (1)
             allocate (vecs(size(eqs(k)%q), size(eqs(k)%q)), ev(size(eqs(k)%q)))
             call hessian_eigs(model, eqs(k)%q, ev, vecs, st)
@@ -707,7 +711,8 @@ contains
             wa = quadrant(qa)
             wb = quadrant(qb)
             ! a failed eigen-solve or descent leaves the name empty: generic names are used
-            if (st == TUBES_OK .and. oka .and. okb) write (eqs(k)%name, '(a,i0,i0)') 'S', min(wa, wb), max(wa, wb)
+            if (st == TUBES_OK .and. oka .and. okb .and. min(wa, wb) > 0) &
+              write (eqs(k)%name, '(a,i0,i0)') 'S', min(wa, wb), max(wa, wb)
             deallocate (vecs, ev)
           case default
             nr = nr + 1
