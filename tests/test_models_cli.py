@@ -471,3 +471,13 @@ def test_a_well_on_an_axis_has_a_generic_name(tmp_path):
     origin, in no quadrant (it was W0). Generic names then: W1."""
     _, f = run(tmp_path, "&model beta = 0 /\n&run scenes = 'equilibria' /\n")
     assert [n.decode() if isinstance(n, bytes) else n for n in f["equilibria/name"][:]] == ["W1"]
+
+
+def test_a_one_degree_of_freedom_table_has_no_second_coordinate(tmp_path):
+    """The equilibria table of a 1-DOF model printed q2 = nan on every row and 'omega = nan,
+    T_po = nan' for its saddle: the column is empty and the saddle's line says why it has none."""
+    r, f = run(tmp_path, "&model system = 'expression', hamiltonian = 'px^2/2 - x^2/2 + x^4/4', "
+               "coordinates = 'x', momenta = 'px' /\n&run scenes = 'equilibria' /\n&orbits saddle_near = 0 /\n")
+    assert "nan" not in r.stdout.lower(), r.stdout
+    assert "lambda = 1 (1 degree of freedom: no centre, no Lyapunov orbit)" in r.stdout, r.stdout
+    assert np.isnan(f["equilibria/y"][:]).all()      # the file's y stays NaN (docs/output.md)

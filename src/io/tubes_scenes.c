@@ -386,8 +386,8 @@ int scene_equilibria(tubes_run_t *run) {
   } else {
     printf("equilibria of %s: %d in the box", run->label, n);
     for (int i = 0; i < nd; i++) printf("%s [%g, %g]", i ? " x" : "", run->lo[i], run->hi[i]);
-    printf(" (%.3f s)\n  %-4s %13s %13s %13s %5s %10s %10s %8s%s\n", now() - t0, "name", "q1", "q2", "E", "index",
-           "lambda", "omega", "T_po", nd > 2 ? "            q3     omega2" : "");
+    printf(" (%.3f s)\n  %-4s %13s %13s %13s %5s %10s %10s %8s%s\n", now() - t0, "name", "q1", nd > 1 ? "q2" : "",
+           "E", "index", "lambda", "omega", "T_po", nd > 2 ? "            q3     omega2" : "");
   }
   double *x = malloc(sizeof(double) * (n ? n : 1)), *y = malloc(sizeof(double) * (n ? n : 1)),
          *om = malloc(sizeof(double) * (n ? n : 1)), *qq = malloc(sizeof(double) * (n ? n : 1) * n2);
@@ -400,17 +400,18 @@ int scene_equilibria(tubes_run_t *run) {
       qq[n2 * k + nd + i] = L.p[MD * k + i];
     }
     /* a coordinate that prints as zero prints as 0, not -0 */
-    double xp = fabs(x[k]) < 5e-9 ? 0.0 : x[k], yp = fabs(y[k]) < 5e-9 ? 0.0 : y[k],
-           ep = fabs(L.en[k]) < 5e-7 ? 0.0 : L.en[k];
+    double xp = fabs(x[k]) < 5e-9 ? 0.0 : x[k], ep = fabs(L.en[k]) < 5e-7 ? 0.0 : L.en[k];
+    char yp[32] = "";                /* 1 DOF: no second coordinate, an empty column */
+    if (nd > 1) snprintf(yp, sizeof yp, "%13.8f", fabs(y[k]) < 5e-9 ? 0.0 : y[k]);
     if (L.rank1[k] == 1 && nd < 2)   /* 1 DOF: a saddle without a centre */
-      printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10s %8s", nm[k], xp, yp, ep, L.morse[k], L.lam[k], "-", "-");
+      printf("  %-4s %13.8f %13s %13.6f %5d %10.6f %10s %8s", nm[k], xp, yp, ep, L.morse[k], L.lam[k], "-", "-");
     else if (L.rank1[k] == 1)
-      printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10.6f %8.6f", nm[k], xp, yp, ep, L.morse[k],
+      printf("  %-4s %13.8f %13s %13.6f %5d %10.6f %10.6f %8.6f", nm[k], xp, yp, ep, L.morse[k],
              L.lam[k], om[k], 2 * M_PI / om[k]);
     else if (L.rank1[k] == 2)   /* degenerate: a zero frequency, no Lyapunov orbit */
-      printf("  %-4s %13.8f %13.8f %13.6f %5d %10.6f %10.6f %8s", nm[k], xp, yp, ep, L.morse[k], L.lam[k], 0.0, "-");
+      printf("  %-4s %13.8f %13s %13.6f %5d %10.6f %10.6f %8s", nm[k], xp, yp, ep, L.morse[k], L.lam[k], 0.0, "-");
     else
-      printf("  %-4s %13.8f %13.8f %13.6f %5d %10s %10s %8s", nm[k], xp, yp, ep, L.morse[k], "-", "-", "-");
+      printf("  %-4s %13.8f %13s %13.6f %5d %10s %10s %8s", nm[k], xp, yp, ep, L.morse[k], "-", "-", "-");
     if (nd > 2 && L.rank1[k] >= 1)   /* 3 DOF: the third coordinate and the second centre's frequency */
       printf(" %13.8f %10.6f", fabs(L.q[MD * k + 2]) < 5e-9 ? 0.0 : L.q[MD * k + 2], L.om[(MD - 1) * k + 1]);
     else if (nd > 2)
@@ -467,6 +468,9 @@ int scene_equilibria(tubes_run_t *run) {
   if (!strcmp(run->system, "rolling_ball"))
     printf("saddle %s: E_e = %.10g (cm/s)^2, lambda = %.10g 1/s, omega = %.10g rad/s, T_po = %.10g s\n",
            nm[k], L.en[k], L.lam[k], omk, 2 * M_PI / omk);
+  else if (nd < 2)
+    printf("saddle %s: E_e = %.10g, lambda = %.10g (1 degree of freedom: no centre, no Lyapunov orbit)\n", nm[k],
+           fabs(L.en[k]) < 1e-300 ? 0.0 : L.en[k], L.lam[k]);
   else
     printf("saddle %s: E_e = %.10g, lambda = %.10g, omega = %.10g, T_po = %.10g\n", nm[k],
            fabs(L.en[k]) < 1e-300 ? 0.0 : L.en[k], L.lam[k], omk, 2 * M_PI / omk);
