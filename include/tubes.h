@@ -20,7 +20,8 @@ enum {
   TUBES_ENARROW = -11, /* the slab (&flux gate) is narrower than the NHIM's reach along the reaction coordinate */
   TUBES_ENOJET = -12, /* no Taylor kernel for the model: its code could not be generated or compiled (stderr says why) */
   TUBES_EDIRECTION = -13, /* the tube crosses the section in the other direction first: choose the other direction */
-  TUBES_EUNRESOLVED = -14 /* dE below what the energy resolves at the saddle (tubes_de_floor) */
+  TUBES_EUNRESOLVED = -14, /* dE below what the energy resolves at the saddle (tubes_de_floor) */
+  TUBES_ENOREGION = -15 /* the energy surface meets the plane section in no bounded region within its search window */
 };
 
 /* Integration methods (src/integrators/tubes_methods.f90). */
@@ -129,7 +130,9 @@ enum { TUBES_JET_VARIATIONAL = 1, TUBES_JET_ACTION = 2, TUBES_JET_TANGENT = 4 };
 int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_fn *fn, int *dim, int *nwork,
                   char *msg, int lmsg);
 
-/* Copy the text of status `code` into buf (NUL-terminated, at most len bytes). */
+/* Copy the text of status `code` into buf (NUL-terminated, at most len bytes; TUBES_LSTATUS holds
+ * every message whole). */
+enum { TUBES_LSTATUS = 320 };
 void tubes_status_message(int code, char *buf, int len);
 
 /* *natural = 1 if the model is natural (H = 1/2 p^T A(q) p + V(q): rest points, brake orbits). */

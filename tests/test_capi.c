@@ -129,11 +129,13 @@ int main(void) {
       {TUBES_EMODEL, "refused the state"}, {TUBES_EIO, "input/output"}, {TUBES_ENOCONV, "did not converge"},
       {TUBES_EFAULT, "TUBES_FAULT"}, {TUBES_EOUTSIDE, "outside the region"}, {TUBES_ENOCROSS, "no crossing"},
       {TUBES_EPASTEND, "past the end"}, {TUBES_ENARROW, "narrower"}, {TUBES_ENOJET, "no kernel"},
-      {TUBES_EDIRECTION, "other direction first"}, {TUBES_EUNRESOLVED, "below what the energy resolves"}};
-  char msg[256];
+      {TUBES_EDIRECTION, "other direction first"}, {TUBES_EUNRESOLVED, "below what the energy resolves"},
+      {TUBES_ENOREGION, "no bounded region"}};
+  char msg[TUBES_LSTATUS];
   for (size_t i = 0; i < sizeof codes / sizeof codes[0]; i++) {
     tubes_status_message(codes[i].code, msg, sizeof msg);
     check("status number and message as the library's", strstr(msg, codes[i].word) != NULL, codes[i].code, 0);
+    check("the message fits TUBES_LSTATUS whole", strlen(msg) < sizeof msg - 1, (double)strlen(msg), 0);
   }
   if (nfail) {
     printf("%d of %d check(s) FAILED in test_capi\n", nfail, nchecks);

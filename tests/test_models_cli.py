@@ -11,6 +11,7 @@ import re
 import h5py
 import numpy as np
 import pytest
+import tubes
 from scipy.optimize import brentq
 
 from conftest import run_tubes
@@ -481,3 +482,21 @@ def test_a_one_degree_of_freedom_table_has_no_second_coordinate(tmp_path):
     assert "nan" not in r.stdout.lower(), r.stdout
     assert "lambda = 1 (1 degree of freedom: no centre, no Lyapunov orbit)" in r.stdout, r.stdout
     assert np.isnan(f["equilibria/y"][:]).all()      # the file's y stays NaN (docs/output.md)
+
+
+def test_a_section_without_a_bounded_region_is_named(tmp_path):
+    """Henon-Heiles at dE = 10 (E = 10.2, far above its saddles): the Lyapunov orbit exists, but the
+    energy surface on the plane q2 = 0 reaches past the search window (x^2/2 <= E: |q1| <= 4.5
+    against the window [-3, 3]). The cut failed with 'invalid input (status -1)', twice (the eps/10
+    repetition), and printed action 0. Now: the reason (status -15), once, and NaN for the action
+    the cut never had; Python's tube_cut raises with the same status."""
+    r, f = run(tmp_path, HH + "&run scenes = 'orbits', 'tubes' /\n&orbits de = 10 /\n&tubes de = 10 /\n", ok=(4,))
+    assert r.stderr.count("the cut at dE = 10 failed: the energy surface meets the plane section in no "
+                          "bounded region") == 1, r.stderr
+    assert "(status -15)" in r.stderr and "invalid input" not in r.stderr
+    row = [ln for ln in r.stdout.splitlines() if ln.split()[:2] == ["10", "stable"]]
+    assert len(row) == 1 and row[0].split()[3] == "nan", r.stdout
+    assert f["orbits/action"][0] == pytest.approx(30.296159, rel=1e-7)   # the orbit itself is fine
+    with pytest.raises(tubes.TubesError, match="no bounded region") as e:
+        tubes.Model(system="henon_heiles").tube_cut(10.0)
+    assert e.value.code == tubes.ENOREGION

@@ -21,13 +21,14 @@ module tubes_status
   integer, parameter, public :: TUBES_ENOJET = -12   !! no Taylor kernel for the model (stderr says why)
   integer, parameter, public :: TUBES_EDIRECTION = -13   !! the tube crosses the section the other way first
   integer, parameter, public :: TUBES_EUNRESOLVED = -14  !! dE below what the energy resolves at the saddle
+  integer, parameter, public :: TUBES_ENOREGION = -15    !! no bounded region of the energy surface on a plane
   !> The codes' names (TUBES_<name>), for the languages that look them up by name (Python).
-  character(len=*), parameter :: STATUS_NAMES(16) = [character(len=11) :: 'OK', 'EVENT', 'EINPUT', &
+  character(len=*), parameter :: STATUS_NAMES(17) = [character(len=11) :: 'OK', 'EVENT', 'EINPUT', &
       'EMAXSTEPS', 'ESTEP', 'EMODEL', 'EIO', 'ENOCONV', 'EFAULT', 'EOUTSIDE', 'ENOCROSS', 'EPASTEND', &
-      'ENARROW', 'ENOJET', 'EDIRECTION', 'EUNRESOLVED']
-  integer, parameter :: STATUS_CODES(16) = [TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, &
+      'ENARROW', 'ENOJET', 'EDIRECTION', 'EUNRESOLVED', 'ENOREGION']
+  integer, parameter :: STATUS_CODES(17) = [TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, &
       TUBES_ESTEP, TUBES_EMODEL, TUBES_EIO, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENOCROSS, &
-      TUBES_EPASTEND, TUBES_ENARROW, TUBES_ENOJET, TUBES_EDIRECTION, TUBES_EUNRESOLVED]
+      TUBES_EPASTEND, TUBES_ENARROW, TUBES_ENOJET, TUBES_EDIRECTION, TUBES_EUNRESOLVED, TUBES_ENOREGION]
   integer, parameter, public :: STATUS_UNKNOWN = 1000   !! status_code's answer for no such name
   public :: status_message, callback_status, status_code
 contains
@@ -75,6 +76,9 @@ contains
                                   'the other direction (or p_theta_sign)'
     case (TUBES_EUNRESOLVED); msg = 'dE is below what the energy resolves at the saddle: E_e + dE is known ' // &
                                   'to worse than 1e-6 of dE (a larger dE, or a smaller additive constant in H)'
+    case (TUBES_ENOREGION); msg = 'the energy surface meets the plane section in no bounded region within its ' // &
+                                  'search window (the &equilibria box widened by half its width on each side): ' // &
+                                  'another energy or section, or a larger box'
     case default;           msg = 'unknown status code'
     end select
   end function status_message

@@ -320,7 +320,7 @@ int run_setup(tubes_run_t *run) {
   static eqlist_t L;
   int st = find_eqs(run, &L);
   if (st < 0) {
-    char m[128];
+    char m[TUBES_LSTATUS];
     status_text(st, m, sizeof m);
     fprintf(stderr, "tubes: the equilibria of %s in the &equilibria box could not be found: %s (status %d)%s\n",
             run->label, m, st, st == TUBES_ENOCONV ? "; or the box holds more than 256 of them: a smaller box" : "");
@@ -368,7 +368,7 @@ int scene_equilibria(tubes_run_t *run) {
   double t0 = now();
   int st = find_eqs(run, &L);
   if (st < 0) {
-    char m[128];
+    char m[TUBES_LSTATUS];
     status_text(st, m, sizeof m);
     fprintf(stderr, "tubes: equilibria: failed: %s (status %d)%s\n", m, st,
             st == TUBES_ENOCONV ? "; or the box holds more than 256 of them: a smaller box" : "");
@@ -664,7 +664,7 @@ int scene_orbits(tubes_run_t *run) {
                               c->orb_atol, mi, ns, INTEGRATOR(c), e, per, act, s0, mu, ms, mt, stab, res, clo, it, conv, md,
                               mono, ts, xs, hist, &end_de, &reason, 0, run->seeds);
   if (st < 0) {
-    char m[128];
+    char m[TUBES_LSTATUS];
     status_text(st, m, sizeof m);
     fprintf(stderr, "tubes: orbits: failed: %s (status %d)\n", m, st);
     rc = EXIT_NUMERIC;
@@ -818,8 +818,8 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
   int st = saddle_props(run, &ee, &tpo);
   if (!st) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), 0.0, &rmin, &rmax, &a0, &tau, run->seeds);
   if (st < 0) {
-    if (sec_is_ray(c) || st != TUBES_EINPUT) {
-      char m[128];
+    if (sec_is_ray(c) || st != TUBES_ENOREGION) {
+      char m[TUBES_LSTATUS];
       status_text(st, m, sizeof m);
       fprintf(stderr, "tubes: section: the energy surface on the section could not be computed: %s (status %d)\n",
               m, st);
@@ -916,7 +916,7 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
     else fprintf(stderr, "%s\n", buf);
     rc = EXIT_PARTIAL;
   } else if (st < 0 && !rc) {
-    char m[128], buf[2048];
+    char m[TUBES_LSTATUS], buf[2048];
     size_t len = 0;
     status_text(st, m, sizeof m);
     len += snprintf(buf + len, sizeof buf - len, "tubes: the cut at dE = %g failed: %s (status %d)", de, m, st);
@@ -990,7 +990,9 @@ int scene_tubes(tubes_run_t *run) {
         rc = EXIT_PARTIAL;
         continue;
       }
-      int r2 = cut_to(run, -1, "", de, kind, c->tub_eps / 10, c->tub_area_tol, &a10, &act, &per, 0, NULL, 0, NULL);
+      /* the eps/10 repetition of a cut that failed would only fail again (and say so twice) */
+      int r2 = r1 ? (a10 = NAN, 0)
+                  : cut_to(run, -1, "", de, kind, c->tub_eps / 10, c->tub_area_tol, &a10, &act, &per, 0, NULL, 0, NULL);
       if (r1 || r2) rc = EXIT_PARTIAL;
       char path[80];
       snprintf(path, sizeof path, "%s", name);
@@ -1051,7 +1053,7 @@ int scene_transition(tubes_run_t *run) {
                     sizeof x->err, &x->status);
     int st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &x->ae, &darea, run->seeds);
     if (st < 0) {
-      char m[128];
+      char m[TUBES_LSTATUS];
       status_text(st, m, sizeof m);
       size_t l = strlen(x->err);
       snprintf(x->err + l, sizeof x->err - l, "%stubes: transition: the energy surface on the section at dE = %g: "
@@ -1323,7 +1325,7 @@ int scene_synthetic_experiment(tubes_run_t *run) {
     goto out;
   }
   if (st < 0) {
-    char m[128];
+    char m[TUBES_LSTATUS];
     status_text(st, m, sizeof m);
     fprintf(stderr, "tubes: synthetic_experiment: an integration failed: %s (status %d); the frames up to "
             "the failure are written, NaN after it\n", m, st);
@@ -1554,7 +1556,7 @@ static int section_fraction(const tubes_run_t *run, const double *fl, const doub
                                    &sve[k], &sf[k], &sfe[k], cnt, sx + (size_t)k * ns * 2 * MD,
                                    sw + (size_t)k * ns, scls + (size_t)k * ns);
     if (st < 0) {
-      char m[128];
+      char m[TUBES_LSTATUS];
       status_text(st, m, sizeof m);
       fprintf(stderr, "tubes: flux: the section q%d = %g at dE = %g: %s (status %d)%s\n", c->sec_index, c->sec_value,
               c->flux_de[k], m, st, st == TUBES_EOUTSIDE ? ": the section's point nearest the saddle lies outside "
@@ -1826,7 +1828,7 @@ int scene_flux(tubes_run_t *run) {
       break;
     }
     if (st < 0) {
-      char m[128];
+      char m[TUBES_LSTATUS];
       status_text(st, m, sizeof m);
       fl[k] = fe[k] = NAN;
       if (st == TUBES_EPASTEND) {   /* the dividing surface passes over a ridge: no single bottleneck */

@@ -19,7 +19,7 @@ module tubes_section_kinds
   use tubes_ray_surface, only: ray_t, section_region, section_area, boundary_pr, &
                            p_theta_from
   use tubes_quad, only: quad_area, quad_root
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_ENOREGION
   implicit none
   private
 
@@ -285,7 +285,9 @@ contains
 
   !> The region's interval at energy E. Ray: around the well on the ray (section_region, out to
   !> rfar). Plane: the intervals where the discriminant is >= 0 on a grid of [s_lo, s_hi],
-  !> refined by Brent; the one holding s_anchor, else the nearest. stat = TUBES_EINPUT if the
+  !> refined by Brent; the one holding s_anchor, else the nearest. Plane: stat = TUBES_ENOREGION if
+  !> no interval, or the one kept reaches an end of [s_lo, s_hi] (unbounded, or wider than the
+  !> window); ray: TUBES_EINPUT if the
   !> energy surface does not meet the section there.
   subroutine sec_set_energy(self, energy, rfar, stat)
     class(poincare_t), intent(inout) :: self
@@ -316,7 +318,7 @@ contains
       self%smax = self%ray%rmax
       return
     end if
-    stat = TUBES_EINPUT
+    stat = TUBES_ENOREGION
     best = huge(1.0_wp)
     inside = .false.
     a = self%s_lo
@@ -342,7 +344,7 @@ contains
     if (inside) stat = TUBES_OK
     ! a region that reaches the ends of the search is unbounded or larger than the box: its
     ! area would be the search window's, not the energy surface's
-    if (inside .and. (self%smin <= self%s_lo .or. self%smax >= self%s_hi)) stat = TUBES_EINPUT
+    if (inside .and. (self%smin <= self%s_lo .or. self%smax >= self%s_hi)) stat = TUBES_ENOREGION
   contains
     subroutine consider(l, h)      ! keep the interval holding, or nearest to, s_anchor
       real(wp), intent(in) :: l, h

@@ -690,6 +690,10 @@ contains
     real(wp), intent(out) :: area, area_polygon, action, period
     action = orb%action
     period = orb%period
+    if (.not. orb%converged) then      ! no orbit (the call failed before it): no action, no period
+      action = ieee_value(1.0_wp, ieee_quiet_nan)
+      period = action
+    end if
     n_failed = cut%n_failed
     n = min(cut%n, size(tau))
     if (n > 0) then
