@@ -26,7 +26,8 @@ subroutine model_info(system, stat, ndof, np, names, units, docs, defaults, summ
   ! the table entry of a system (src/models/tubes_models.f90): names and units are np blocks of 16
   ! characters, docs np blocks of 96
   use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_models, only: system_info_t, system_info, MAX_PARAMS, MAX_DOF
+  use tubes_models, only: system_info_t, system_info
+  use tubes_capi, only: scene_defaults
   implicit none
   character(len=*), intent(in) :: system
   integer(c_int), intent(out) :: stat, ndof, np, sec_index, sec_dir
@@ -53,16 +54,9 @@ subroutine model_info(system, stat, ndof, np, names, units, docs, defaults, summ
   end do
   summary = info%summary
   saddle = info%saddle
-  near = info%saddle_near
   sec_kind = info%section_kind
-  sec_index = info%section_index
-  sec_value = info%section_value
-  sec_dir = info%section_direction
-  sec_angle = info%section_angle
-  gate = info%gate
-  box = info%box
-  box_center = info%box_center
   length_units = info%length_units
+  call scene_defaults(info, box, box_center, near, sec_index, sec_value, sec_dir, sec_angle, gate)
 end subroutine model_info
 
 subroutine energies(system, params, n, m, x, stat, e)
@@ -590,9 +584,10 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   ! the cut of the saddle's tube at de with the section (as the tubes scene)
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_orbits, only: orbit_t
-  use tubes_manifold, only: tube_opts_t, tube_cut_t
+  use tubes_manifold, only: tube_cut_t
   use tubes_study, only: study_t, section_choice_t, cut_at, cut_outputs, seed_stores_t, stores_at
   use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_capi, only: tube_opts_of
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, n_segments, sec_kind, sec_index, dir, kind, n_init, n_max, &
@@ -605,7 +600,6 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   real(c_double), intent(out) :: tau(n_max), r(n_max), pr(n_max), time(n_max), xs(4, n_max), area, &
                                  area_polygon, action, period
   type(study_t) :: st
-  type(tube_opts_t) :: opts
   type(tube_cut_t) :: cut
   type(orbit_t) :: orb
   type(seed_stores_t), pointer :: kept
@@ -615,15 +609,9 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
                n_segments=n_segments, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol, &
                integ=integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
                                     solver=solver, max_iter=int_max_iter)))
-  opts%kind = kind
-  opts%eps = eps
-  opts%area_tol = area_tol
-  opts%t_max = t_max
-  opts%n_init = n_init
-  opts%n_max = n_max
   kept => stores_at(stores)
-  call cut_at(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, opts, &
-              cut, orb, stat, kept)
+  call cut_at(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, &
+              tube_opts_of(kind, eps, area_tol, t_max, n_init, n_max, .false.), cut, orb, stat, kept)
   call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
 end subroutine tube_cut
 
@@ -725,21 +713,15 @@ end subroutine status_code
 subroutine mc_agreement(n, n_transit, n_undecided, misclassified, p, sigmas, sigma_limit, mis_lim, und_lim, &
                         agrees)
   ! the Monte Carlo check's verdict (src/transport/tubes_transport.f90 mc_agreement, the rule's one
-  ! definition, as the montecarlo scene decides it)
+  ! definition, as the montecarlo scene decides it), through the C API's tubes_mc_agreement
   use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_transport, only: agreement => mc_agreement, MC_SIGMA
+  use tubes_capi, only: c_mc_agreement
   implicit none
   integer(c_int), intent(in) :: n, n_transit, n_undecided, misclassified
   real(c_double), intent(in) :: p
   real(c_double), intent(out) :: sigmas, sigma_limit
   integer(c_int), intent(out) :: mis_lim, und_lim, agrees
-  integer :: ml, ul
-  logical :: ok
-  call agreement(int(n), int(n_transit), int(n_undecided), int(misclassified), p, sigmas, ml, ul, ok)
-  mis_lim = ml
-  und_lim = ul
-  agrees = merge(1, 0, ok)
-  sigma_limit = MC_SIGMA
+  call c_mc_agreement(n, n_transit, n_undecided, misclassified, p, sigmas, sigma_limit, mis_lim, und_lim, agrees)
 end subroutine mc_agreement
 
 subroutine status_text(code, msg)
