@@ -35,10 +35,10 @@ module tubes_capi
   use, intrinsic :: iso_c_binding, only: c_long, c_intptr_t
   implicit none
   private
-  ! the synthetic experiment's entry, the Monte Carlo verdict, the tube cut's options and the
-  ! scenes' defaults of a system, called by the f2py facade too (python/tubes_f2py.f90)
+  ! the synthetic experiment's entry, the Monte Carlo verdict, the tube cut's options, the
+  ! scenes' defaults of a system and the integrator choice of a call, called by the f2py facade too (python/tubes_f2py.f90)
   public :: c_synthetic_experiment, c_experiment_defaults, c_experiment_samples, c_mc_agreement, tube_opts_of, &
-            scene_defaults
+            scene_defaults, integ_of
 
   real(wp), parameter :: PI = acos(-1.0_wp)
 
@@ -407,7 +407,8 @@ contains
     st%integ = integ
   end subroutine study_of
 
-  !> The integrator choice of a C call (method code and options as tubes_run_trajectory).
+  !> The integrator choice of a C call or an f2py call (method code and options as
+  !> tubes_run_trajectory).
   pure function integ_of(method, h, omega_bind, solver, max_iter) result(c)
     integer(c_int), intent(in) :: method, solver, max_iter
     real(c_double), intent(in) :: h, omega_bind
