@@ -26,7 +26,8 @@ subroutine model_info(system, stat, ndof, np, names, units, docs, defaults, summ
   ! the table entry of a system (src/models/tubes_models.f90): names and units are np blocks of 16
   ! characters, docs np blocks of 96
   use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_models, only: system_info_t, system_info, MAX_PARAMS, MAX_DOF
+  use tubes_models, only: system_info_t, system_info
+  use tubes_capi, only: scene_defaults
   implicit none
   character(len=*), intent(in) :: system
   integer(c_int), intent(out) :: stat, ndof, np, sec_index, sec_dir
@@ -53,16 +54,9 @@ subroutine model_info(system, stat, ndof, np, names, units, docs, defaults, summ
   end do
   summary = info%summary
   saddle = info%saddle
-  near = info%saddle_near
   sec_kind = info%section_kind
-  sec_index = info%section_index
-  sec_value = info%section_value
-  sec_dir = info%section_direction
-  sec_angle = info%section_angle
-  gate = info%gate
-  box = info%box
-  box_center = info%box_center
   length_units = info%length_units
+  call scene_defaults(info, box, box_center, near, sec_index, sec_value, sec_dir, sec_angle, gate)
 end subroutine model_info
 
 subroutine energies(system, params, n, m, x, stat, e)
@@ -549,7 +543,7 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   use tubes_equilibria, only: equilibrium_t
   use tubes_orbits, only: orbit_t, orbit_opts_t
   use tubes_study, only: study_t, study_family, family_table, seed_stores_t, stores_at
-  use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_capi, only: integ_of
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, nde, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
@@ -571,8 +565,7 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   closure = 0; mindist = 0; monodromy = 0; history = 0; iterations = 0; converged = 0; state0 = 0
   ts = 0; xs = 0; end_de = -1; end_reason = 0
   opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, n_samples=nsamp, &
-                      family=family, integ=integ_choice_t(method=method, h=h, opts=method_opts_t( &
-                      omega_bind=omega_bind, solver=solver, max_iter=int_max_iter)))
+                      family=family, integ=integ_of(method, h, omega_bind, solver, int_max_iter))
   kept => stores_at(stores)
   call study_family(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
                             integ=opts%integ), des, opts, model, eqs, isad, orbs, end_de, reason, stat, kept)
@@ -590,9 +583,9 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   ! the cut of the saddle's tube at de with the section (as the tubes scene)
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_orbits, only: orbit_t
-  use tubes_manifold, only: tube_opts_t, tube_cut_t
+  use tubes_manifold, only: tube_cut_t
   use tubes_study, only: study_t, section_choice_t, cut_at, cut_outputs, seed_stores_t, stores_at
-  use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_capi, only: integ_of, tube_opts_of
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, n_segments, sec_kind, sec_index, dir, kind, n_init, n_max, &
@@ -605,7 +598,6 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   real(c_double), intent(out) :: tau(n_max), r(n_max), pr(n_max), time(n_max), xs(4, n_max), area, &
                                  area_polygon, action, period
   type(study_t) :: st
-  type(tube_opts_t) :: opts
   type(tube_cut_t) :: cut
   type(orbit_t) :: orb
   type(seed_stores_t), pointer :: kept
@@ -613,17 +605,10 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   n_failed = 0
   st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
                n_segments=n_segments, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol, &
-               integ=integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
-                                    solver=solver, max_iter=int_max_iter)))
-  opts%kind = kind
-  opts%eps = eps
-  opts%area_tol = area_tol
-  opts%t_max = t_max
-  opts%n_init = n_init
-  opts%n_max = n_max
+               integ=integ_of(method, h, omega_bind, solver, int_max_iter))
   kept => stores_at(stores)
-  call cut_at(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, opts, &
-              cut, orb, stat, kept)
+  call cut_at(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, &
+              tube_opts_of(kind, eps, area_tol, t_max, n_init, n_max, .false.), cut, orb, stat, kept)
   call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
 end subroutine tube_cut
 
@@ -652,7 +637,7 @@ subroutine monte_carlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_ind
   ! the Monte Carlo check at de against the cut (cut_r, cut_pr) (as the montecarlo scene)
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_long, c_int64_t
   use tubes_study, only: study_t, section_choice_t, check_at, seed_stores_t, stores_at
-  use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_capi, only: integ_of
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, nsamp, seed, ncut, method, solver, &
@@ -666,8 +651,7 @@ subroutine monte_carlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_ind
   type(seed_stores_t), pointer :: kept
   kept => stores_at(stores)
   call check_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-                        integ=integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
-                                             solver=solver, max_iter=int_max_iter))), &
+                        integ=integ_of(method, h, omega_bind, solver, int_max_iter)), &
                 section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, nsamp, &
                 int(seed, c_long), t_max, gate, cut_r, cut_pr, r, pr, outcome, ins, stat, kept)
   inside = merge(1, 0, ins)
@@ -678,7 +662,7 @@ subroutine poincare(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index,
   ! Poincare maps of the section at de (as the sections scene)
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_study, only: study_t, section_choice_t, maps_at, seed_stores_t, stores_at
-  use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_capi, only: integ_of
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, n_seeds, n_iter, method, solver, &
@@ -691,8 +675,7 @@ subroutine poincare(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index,
   type(seed_stores_t), pointer :: kept
   kept => stores_at(stores)
   call maps_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-                       integ=integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
-                                            solver=solver, max_iter=int_max_iter))), &
+                       integ=integ_of(method, h, omega_bind, solver, int_max_iter)), &
                section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, n_seeds, &
                n_iter, t_max, pts, stat, kept)
 end subroutine poincare
@@ -709,21 +692,15 @@ end subroutine status_code
 subroutine mc_agreement(n, n_transit, n_undecided, misclassified, p, sigmas, sigma_limit, mis_lim, und_lim, &
                         agrees)
   ! the Monte Carlo check's verdict (src/transport/tubes_transport.f90 mc_agreement, the rule's one
-  ! definition, as the montecarlo scene decides it)
+  ! definition, as the montecarlo scene decides it), through the C API's tubes_mc_agreement
   use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_transport, only: agreement => mc_agreement, MC_SIGMA
+  use tubes_capi, only: c_mc_agreement
   implicit none
   integer(c_int), intent(in) :: n, n_transit, n_undecided, misclassified
   real(c_double), intent(in) :: p
   real(c_double), intent(out) :: sigmas, sigma_limit
   integer(c_int), intent(out) :: mis_lim, und_lim, agrees
-  integer :: ml, ul
-  logical :: ok
-  call agreement(int(n), int(n_transit), int(n_undecided), int(misclassified), p, sigmas, ml, ul, ok)
-  mis_lim = ml
-  und_lim = ul
-  agrees = merge(1, 0, ok)
-  sigma_limit = MC_SIGMA
+  call c_mc_agreement(n, n_transit, n_undecided, misclassified, p, sigmas, sigma_limit, mis_lim, und_lim, agrees)
 end subroutine mc_agreement
 
 subroutine status_text(code, msg)
@@ -742,7 +719,7 @@ subroutine flux(system, params, lo, hi, n_grid, saddle, nde, des, nsamp, seed, t
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_equilibria, only: equilibrium_t
   use tubes_study, only: setup_model
-  use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_capi, only: integ_of
   use tubes_flux, only: flux_result_t, flux_leading_order, flux_sampled
   implicit none
   character(len=*), intent(in) :: system, saddle
@@ -762,8 +739,7 @@ subroutine flux(system, params, lo, hi, n_grid, saddle, nde, des, nsamp, seed, t
   do k = 1, nde
     leading(k) = flux_leading_order(eqs(isad)%omegas, des(k))
     call flux_sampled(model, eqs(isad), des(k), nsamp, seed, t_max, tol, gate, maxval(hi(1:nd) - lo(1:nd)), &
-                      integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
-                      solver=solver, max_iter=int_max_iter)), res, stat)
+                      integ_of(method, h, omega_bind, solver, int_max_iter), res, stat)
     if (stat /= 0) return
     fl(k) = res%flux
     err(k) = res%err
@@ -807,7 +783,7 @@ subroutine section_transit(system, params, lo, hi, n_grid, saddle, nde, des, k, 
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_equilibria, only: equilibrium_t
   use tubes_study, only: setup_model
-  use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_capi, only: integ_of
   use tubes_flux, only: flux_result_t, flux_sampled
   implicit none
   character(len=*), intent(in) :: system, saddle
@@ -829,8 +805,7 @@ subroutine section_transit(system, params, lo, hi, n_grid, saddle, nde, des, k, 
   nd = model%ndof()
   do j = 1, nde
     call flux_sampled(model, eqs(isad), des(j), nsamp, seed, t_max, tol, gate, maxval(hi(1:nd) - lo(1:nd)), &
-                      integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
-                      solver=solver, max_iter=int_max_iter)), res, stat, [k, dir], c)
+                      integ_of(method, h, omega_bind, solver, int_max_iter), res, stat, [k, dir], c)
     if (stat /= 0) return
     vol(j) = res%volume
     vol_err(j) = res%volume_err
@@ -848,7 +823,7 @@ subroutine tube_cut3(system, params, lo, hi, n_grid, saddle, order, nt, expo, co
                      inside_pl, xcut, tcut, stcut, diag, msg)
   ! the 3-DOF tube's cut with a plane section and the section's points inside it (as the flux scene)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_capi, only: integ_of
   use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
   implicit none
   character(len=*), intent(in) :: system, saddle
@@ -862,8 +837,8 @@ subroutine tube_cut3(system, params, lo, hi, n_grid, saddle, order, nt, expo, co
   type(cut3_t) :: cut
   xcut = 0; tcut = 0; stcut = -1
   call cut3_study(trim(system), params, lo, hi, n_grid, trim(saddle), order, expo, coef, zs, de, k, c, dir, n_cut, &
-                  eps, t_max, tol, integ_choice_t(method=method, h=h, opts=method_opts_t(omega_bind=omega_bind, &
-                  solver=solver, max_iter=int_max_iter)), pts, w, cls, inside, inside_pl, cut, diag, msg, stat)
+                  eps, t_max, tol, integ_of(method, h, omega_bind, solver, int_max_iter), pts, w, cls, inside, &
+                  inside_pl, cut, diag, msg, stat)
   if (.not. allocated(cut%x)) return
   xcut = cut%x
   tcut = cut%t

@@ -207,30 +207,6 @@ def test_threads_do_not_change_the_data(tmp_path, tubes_exe):
         assert not np.array_equal(f1["tracks/x"][()], f2["tracks/x"][()])
 
 
-BAD = [
-    ("de_min > de_max", "&experiment de_min = 3000, de_max = 1000 /\n", ["bad.nml:1", "de_min", "de_max"]),
-    ("n_tracks < 1", "&experiment n_tracks = 0 /\n", ["bad.nml:1", "n_tracks"]),
-    ("duration <= 0", "&experiment duration = 0 /\n", ["bad.nml:1", "duration"]),
-    ("camera_rate <= 0", "&experiment camera_rate = -50 /\n", ["bad.nml:1", "camera_rate"]),
-    ("too many frames", "&experiment camera_rate = 1e6 /\n", ["bad.nml:1", "camera_rate", "1e6"]),
-    ("pixel < 0", "&experiment pixel = -0.1 /\n", ["bad.nml:1", "pixel"]),
-    ("noise < 0", "&experiment noise = -1 /\n", ["bad.nml:1", "noise"]),
-    ("damping >= 1", "&experiment damping_ratio = 1 /\n", ["bad.nml:1", "damping_ratio"]),
-    ("seed < 0", "&experiment seed = -3 /\n", ["bad.nml:1", "seed"]),
-    ("unknown variable", "&experiment fps = 50 /\n", ["bad.nml:1", "'fps'", "camera_rate"]),
-]
-
-
-@pytest.mark.parametrize("name,text,needles", BAD, ids=[b[0] for b in BAD])
-def test_bad_input(tmp_path, tubes_exe, name, text, needles):
-    (tmp_path / "bad.nml").write_text(text)
-    r = run_tubes(["bad.nml", "-o", "out.h5"], tmp_path)
-    assert r.returncode == 1, (r.returncode, r.stderr)
-    for n in needles:
-        assert n in r.stderr, (n, r.stderr)
-    assert not list(tmp_path.glob("*.h5*"))
-
-
 def test_impossible_energy_band(tmp_path, tubes_exe):
     """g H - E_e <= 5756 (cm/s)^2 in the box (its corners (13, -13), (-13, 13)): no release point
     exists above it."""

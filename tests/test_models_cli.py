@@ -219,56 +219,6 @@ def test_cr3bp_sun_jupiter_family_stays_on_the_family(tmp_path):
     assert max(periods) - min(periods) < 1e-7 * periods[0], periods
 
 
-# ---------------------------------------------------------------- bad input of the new variables
-
-BAD = [
-    ("&run scenes = 'equilibria' /\n&model system = 'nope' /\n",
-     ["m.nml:2", "system = 'nope' is not a built-in system", "henon_heiles", "cr3bp"]),
-    ("&run scenes = 'equilibria' /\n&model system = 'henon_heiles', mu = 0.1 /\n",
-     ["m.nml:2", "mu is not a parameter of system 'henon_heiles'", "its parameters: none"]),
-    ("&run scenes = 'equilibria' /\n&model system = 'cr3bp',\n alpha = 0.1 /\n",
-     ["m.nml:3", "alpha is not a parameter of system 'cr3bp'", "its parameters: mu"]),
-    ("&run scenes = 'equilibria' /\n&model system = 'cr3bp', mu = 0.9 /\n",
-     ["m.nml:2", "parameters of system 'cr3bp' are out of range", "mu = 0.9"]),
-    ("&run scenes = 'equilibria' /\n&model system = 'de_leon_berne', m_a = -8 /\n",
-     ["parameters of system 'de_leon_berne' are out of range", "m_a = -8"]),
-    ("&run scenes = 'orbits' /\n&orbits saddle = 'S99' /\n",
-     ["saddle = 'S99' is not a rank-1 saddle of system rolling_ball", "S12, S14, S23, S34"]),
-    ("&run scenes = 'orbits' /\n&model system = 'cr3bp' /\n&orbits saddle = 'L4' /\n",
-     ["saddle = 'L4' is not a rank-1 saddle of system cr3bp", "L1, L2, L3"]),
-    ("&run scenes = 'orbits' /\n&orbits saddle = 'S12',\n saddle_near = 1, 2 /\n",
-     ["m.nml:3", "saddle and saddle_near are both set"]),
-    ("&run scenes = 'tubes' /\n&model system = 'henon_heiles' /\n"
-     "&section kind = 'plane', index = 3, value = 0, direction = 1 /\n",
-     ["m.nml:3", "index = 3 is out of range: allowed 1 .. 2", "henon_heiles"]),
-    ("&run scenes = 'tubes' /\n&model system = 'henon_heiles' /\n&section kind = 'ray' /\n",
-     ["m.nml:3", "kind = 'ray' is the four-well ball's polar section", "kind = 'plane'"]),
-    ("&run scenes = 'tubes' /\n&model system = 'henon_heiles' /\n&section direction = 0 /\n",
-     ["m.nml:3", "direction = 0 is out of range", "-1, 1"]),
-    ("&run scenes = 'tubes' /\n&model system = 'cr3bp' /\n",
-     ["system 'cr3bp' has no default section", "kind = 'plane'"]),
-    ("&run scenes = 'tubes' /\n&section kind = 'plane', angle = 30 /\n",
-     ["angle and p_theta_sign belong to kind = 'ray'"]),
-    ("&run scenes = 'tubes' /\n&section kind = 'cone' /\n",
-     ["kind = 'cone' is not allowed", "ray, plane"]),
-    ("&run scenes = 'synthetic_experiment' /\n&model system = 'henon_heiles' /\n",
-     ["m.nml:1", "synthetic_experiment", "system = 'rolling_ball'"]),
-    ("&run scenes = 'trajectory' /\n&model system = 'cr3bp' /\n",
-     ["at_rest = .true. (the default) needs a natural system", "p = (-y0, x0)"]),
-]
-
-
-@pytest.mark.parametrize("text,expect", BAD)
-def test_bad_input_of_the_model_layer(tmp_path, text, expect):
-    (tmp_path / "m.nml").write_text(text)
-    r = run_tubes(["m.nml", "-o", "bad.h5"], tmp_path)
-    assert r.returncode == 1, r.stdout + r.stderr
-    for e in expect:
-        assert e in r.stderr, (e, r.stderr)
-    assert not (tmp_path / "bad.h5").exists()
-    assert not list(tmp_path.glob("bad.h5.tmp*"))
-
-
 def test_the_paper_input_keeps_working_and_records_the_model(tmp_path):
     r, f = run(tmp_path, "&run scenes = 'equilibria' /\n&model alpha = 0.07, beta = 1.017 /\n")
     m = f["model"].attrs

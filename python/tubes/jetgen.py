@@ -278,6 +278,7 @@ def _emit_node(d, idx, nd, L):
     A = lambda i, j: f"U{i}[({j})*{L} + l]"          # noqa: E731
     out = []
     loop = f"for (int l = 0; l < {L}; l++)"
+    inv = f"R{idx}"                                   # a reciprocal kept by div, sqrt, pow, log, atan, ...
     acc_init = " ".join(f"double s{a} = 0.0;" for a in range(NACC))
     acc_sum = " + ".join(f"s{a}" for a in range(NACC))
 
@@ -290,6 +291,17 @@ def _emit_node(d, idx, nd, L):
         lines.append(f"for (; {step_var} <= {hi}; {step_var}++) s0 = {term(step_var, 's0')};")
         lines.append(f"const double s = {acc_sum};")
         return lines
+
+    def square_sum(t):
+        """v = sum_{j=0}^{k} t_j t_{k-j} from s, the sum over j < k/2 (C code)."""
+        return f"double v = 2.0*s; if ((k & 1) == 0) v = fma({A(t, 'k/2')}, {A(t, 'k/2')}, v);"
+
+    def series(first, lo, hi, term, last):
+        """Coefficient 0 by the C statement first, coefficient k > 0 by s = conv_sum(lo, hi, term)
+        and then the statements last."""
+        out.append(f"if (k == 0) {loop} {first}")
+        out.append(f"else {loop} {{ " + " ".join(conv_sum(lo, hi, term)) + f" {last} }}")
+        return out
 
     k = nd.kind
     a = nd.args
@@ -311,7 +323,7 @@ def _emit_node(d, idx, nd, L):
     if k == "sqr":
         x, = a
         body = conv_sum("0", "(k - 1) >> 1", lambda j, s: f"fma({A(x, j)}, {A(x, f'k - ({j})')}, {s})")
-        out.append(f"{loop} {{ " + " ".join(body) + f" double v = 2.0*s; if ((k & 1) == 0) v = fma({A(x, 'k/2')}, {A(x, 'k/2')}, v); {u}[k*{L} + l] = v; }}")
+        out.append(f"{loop} {{ " + " ".join(body) + f" {square_sum(x)} {u}[k*{L} + l] = v; }}")
         return out
     if k in ("div", "recip"):
         if k == "div":
@@ -320,80 +332,45 @@ def _emit_node(d, idx, nd, L):
         else:
             y, = a
             num0 = None
-        inv = f"R{idx}"
-        out.append(f"if (k == 0) {loop} {{ {inv}[l] = 1.0 / {A(y, 0)}; {u}[l] = {num0 if num0 else nd.data} * {inv}[l]; }}")
-        body = conv_sum("1", "k", lambda j, s: f"fma(-{A(y, j)}, {A(idx, f'k - ({j})')}, {s})")
-        out.append(f"else {loop} {{ " + " ".join(body) + f" {u}[k*{L} + l] = ({num0 + ' + s' if num0 else 's'}) * {inv}[l]; }}")
-        return out
+        return series(f"{{ {inv}[l] = 1.0 / {A(y, 0)}; {u}[l] = {num0 if num0 else nd.data} * {inv}[l]; }}", "1", "k",
+                      lambda j, s: f"fma(-{A(y, j)}, {A(idx, f'k - ({j})')}, {s})",
+                      f"{u}[k*{L} + l] = ({num0 + ' + s' if num0 else 's'}) * {inv}[l];")
     if k == "sqrt":
         x, = a
-        inv = f"R{idx}"
-        out.append(f"if (k == 0) {loop} {{ {u}[l] = sqrt({A(x, 0)}); {inv}[l] = 0.5 / {u}[l]; }}")
-        body = conv_sum("1", "(k - 1) >> 1", lambda j, s: f"fma({A(idx, j)}, {A(idx, f'k - ({j})')}, {s})")
-        out.append(f"else {loop} {{ " + " ".join(body) + f" double v = 2.0*s; if ((k & 1) == 0) v = fma({A(idx, 'k/2')}, {A(idx, 'k/2')}, v); {u}[k*{L} + l] = ({A(x, 'k')} - v) * {inv}[l]; }}")
-        return out
+        return series(f"{{ {u}[l] = sqrt({A(x, 0)}); {inv}[l] = 0.5 / {u}[l]; }}", "1", "(k - 1) >> 1",
+                      lambda j, s: f"fma({A(idx, j)}, {A(idx, f'k - ({j})')}, {s})",
+                      f"{square_sum(idx)} {u}[k*{L} + l] = ({A(x, 'k')} - v) * {inv}[l];")
     if k == "pow":
         x, = a
         al = nd.data
-        inv = f"R{idx}"
-        out.append(f"if (k == 0) {loop} {{ {u}[l] = pow({A(x, 0)}, {al}); {inv}[l] = 1.0 / {A(x, 0)}; }}")
-        body = conv_sum("0", "k - 1", lambda j, s: f"fma(({al}*(double)(k - ({j})) - (double)({j})) * {A(x, f'k - ({j})')}, {A(idx, j)}, {s})")
-        out.append(f"else {loop} {{ " + " ".join(body) + f" {u}[k*{L} + l] = s * {inv}[l] * RK[k]; }}")
-        return out
-    if k == "exp":
-        x, = a
-        out.append(f"if (k == 0) {loop} {u}[l] = exp({A(x, 0)});")
-        body = conv_sum("1", "k", lambda j, s: f"fma((double)({j}) * {A(x, j)}, {A(idx, f'k - ({j})')}, {s})")
-        out.append(f"else {loop} {{ " + " ".join(body) + f" {u}[k*{L} + l] = s * RK[k]; }}")
-        return out
-    if k == "log":
-        x, = a
-        inv = f"R{idx}"
-        out.append(f"if (k == 0) {loop} {{ {u}[l] = log({A(x, 0)}); {inv}[l] = 1.0 / {A(x, 0)}; }}")
-        body = conv_sum("1", "k - 1", lambda j, s: f"fma((double)({j}) * {A(idx, j)}, {A(x, f'k - ({j})')}, {s})")
-        out.append(f"else {loop} {{ " + " ".join(body) + f" {u}[k*{L} + l] = ({A(x, 'k')} - s * RK[k]) * {inv}[l]; }}")
-        return out
-    if k in ("sin", "sinh"):
-        x, = a
-        c = nd.data
-        f0 = "sin" if k == "sin" else "sinh"
-        out.append(f"if (k == 0) {loop} {u}[l] = {f0}({A(x, 0)});")
-        body = conv_sum("1", "k", lambda j, s: f"fma((double)({j}) * {A(x, j)}, {A(c, f'k - ({j})')}, {s})")
-        out.append(f"else {loop} {{ " + " ".join(body) + f" {u}[k*{L} + l] = s * RK[k]; }}")
-        return out
-    if k in ("cos", "cosh"):
-        x, s_ = a
-        f0 = "cos" if k == "cos" else "cosh"
+        return series(f"{{ {u}[l] = pow({A(x, 0)}, {al}); {inv}[l] = 1.0 / {A(x, 0)}; }}", "0", "k - 1",
+                      lambda j, s: f"fma(({al}*(double)(k - ({j})) - (double)({j})) * {A(x, f'k - ({j})')}, {A(idx, j)}, {s})",
+                      f"{u}[k*{L} + l] = s * {inv}[l] * RK[k];")
+    if k in ("exp", "sin", "sinh", "cos", "cosh", "tan", "tanh"):
+        # u' = v x': k u_k = sum_{j=1}^{k} j x_j v_{k-j}, v = u (exp), the partner sinh/cosh, sin/cos
+        # (-sin for cos), w = 1 +- u^2 (tan, tanh)
+        x = a[0]
+        v = idx if k == "exp" else a[1] if k in ("cos", "cosh") else nd.data
         sign = "-" if k == "cos" else ""
-        out.append(f"if (k == 0) {loop} {u}[l] = {f0}({A(x, 0)});")
-        body = conv_sum("1", "k", lambda j, s: f"fma((double)({j}) * {A(x, j)}, {A(s_, f'k - ({j})')}, {s})")
-        out.append(f"else {loop} {{ " + " ".join(body) + f" {u}[k*{L} + l] = {sign}s * RK[k]; }}")
-        return out
-    if k in ("tan", "tanh"):
-        x, = a
-        w = nd.data
-        out.append(f"if (k == 0) {loop} {u}[l] = {k}({A(x, 0)});")
-        body = conv_sum("1", "k", lambda j, s: f"fma((double)({j}) * {A(x, j)}, {A(w, f'k - ({j})')}, {s})")
-        out.append(f"else {loop} {{ " + " ".join(body) + f" {u}[k*{L} + l] = s * RK[k]; }}")
-        return out
+        return series(f"{u}[l] = {k}({A(x, 0)});", "1", "k",
+                      lambda j, s: f"fma((double)({j}) * {A(x, j)}, {A(v, f'k - ({j})')}, {s})",
+                      f"{u}[k*{L} + l] = {sign}s * RK[k];")
     if k == "aux":   # w = 1 +- t^2 of tan/tanh t
         t, = a
         sign = "+" if nd.data == "tan" else "-"
-        out.append(f"if (k == 0) {loop} {u}[l] = 1.0 {sign} {A(t, 0)}*{A(t, 0)};")
-        body = conv_sum("0", "(k - 1) >> 1", lambda j, s: f"fma({A(t, j)}, {A(t, f'k - ({j})')}, {s})")
-        out.append(f"else {loop} {{ " + " ".join(body) + f" double v = 2.0*s; if ((k & 1) == 0) v = fma({A(t, 'k/2')}, {A(t, 'k/2')}, v); {u}[k*{L} + l] = {sign}v; }}")
-        return out
-    if k in ("atan", "asin", "acos"):
-        x, w = a
-        inv = f"R{idx}"
+        return series(f"{u}[l] = 1.0 {sign} {A(t, 0)}*{A(t, 0)};", "0", "(k - 1) >> 1",
+                      lambda j, s: f"fma({A(t, j)}, {A(t, f'k - ({j})')}, {s})",
+                      f"{square_sum(t)} {u}[k*{L} + l] = {sign}v;")
+    if k in ("log", "atan", "asin", "acos"):
+        # w u' = x': k u_k w_0 = k x_k - sum_{j=1}^{k-1} j u_j w_{k-j}, w = x (log), 1 + x^2 (atan),
+        # sqrt(1 - x^2) (asin; acos = -asin + const)
+        x, w = (a[0], a[0]) if k == "log" else a
         sign = "-" if k == "acos" else ""
-        out.append(f"if (k == 0) {loop} {{ {u}[l] = {k}({A(x, 0)}); {inv}[l] = 1.0 / {A(w, 0)}; }}")
-        body = conv_sum("1", "k - 1", lambda j, s: f"fma((double)({j}) * {A(idx, j)}, {A(w, f'k - ({j})')}, {s})")
-        out.append(f"else {loop} {{ " + " ".join(body) + f" {u}[k*{L} + l] = ({sign}{A(x, 'k')} - s * RK[k]) * {inv}[l]; }}")
-        return out
+        return series(f"{{ {u}[l] = {k}({A(x, 0)}); {inv}[l] = 1.0 / {A(w, 0)}; }}", "1", "k - 1",
+                      lambda j, s: f"fma((double)({j}) * {A(idx, j)}, {A(w, f'k - ({j})')}, {s})",
+                      f"{u}[k*{L} + l] = ({sign}{A(x, 'k')} - s * RK[k]) * {inv}[l];")
     if k == "atan2":
         y, x, w = a
-        inv = f"R{idx}"
         out.append(f"if (k == 0) {loop} {{ {u}[l] = atan2({A(y, 0)}, {A(x, 0)}); {inv}[l] = 1.0 / {A(w, 0)}; }}")
         # k c_k w_0 = sum_{j=0}^{k-1} (k-j) (x_j y_{k-j} - y_j x_{k-j}) - sum_{j=1}^{k-1} j c_j w_{k-j}
         body = conv_sum("0", "k - 1", lambda j, s: f"fma((double)(k - ({j})), {A(x, j)}*{A(y, f'k - ({j})')} - {A(y, j)}*{A(x, f'k - ({j})')}, {s})")

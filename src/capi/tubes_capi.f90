@@ -36,8 +36,10 @@ module tubes_capi
   use, intrinsic :: iso_c_binding, only: c_long, c_intptr_t
   implicit none
   private
-  ! the synthetic experiment's entry, called by the f2py facade too (python/tubes_f2py.f90)
-  public :: c_synthetic_experiment, c_experiment_defaults, c_experiment_samples
+  ! the synthetic experiment's entry, the Monte Carlo verdict, the tube cut's options, the
+  ! scenes' defaults of a system and the integrator choice of a call, called by the f2py facade too (python/tubes_f2py.f90)
+  public :: c_synthetic_experiment, c_experiment_defaults, c_experiment_samples, c_mc_agreement, tube_opts_of, &
+            scene_defaults, integ_of
 
   real(wp), parameter :: PI = acos(-1.0_wp)
 
@@ -124,17 +126,29 @@ contains
     call f_to_c(info%summary, summary)
     call f_to_c(info%surface, surface)
     call f_to_c(info%length_units, length_units)
+    call f_to_c(info%saddle, saddle)
+    call f_to_c(info%section_kind, section_kind)
+    call scene_defaults(info, box, box_center, saddle_near, section_index, section_value, section_direction, &
+                        section_angle, gate)
+  end function c_model_info
+
+  !> The numbers of a system's table entry that are the scenes' defaults (tubes_model_info and the
+  !> f2py facade's model_info): the box, the saddle's position, the section, the gate.
+  pure subroutine scene_defaults(info, box, box_center, saddle_near, section_index, section_value, &
+                                 section_direction, section_angle, gate)
+    type(system_info_t), intent(in) :: info
+    real(c_double), intent(out) :: box(MAX_DOF), box_center(MAX_DOF), saddle_near(MAX_DOF), section_value, &
+                                   section_angle, gate
+    integer(c_int), intent(out) :: section_index, section_direction
     box = info%box
     box_center = info%box_center
-    call f_to_c(info%saddle, saddle)
     saddle_near = info%saddle_near
-    call f_to_c(info%section_kind, section_kind)
     section_index = info%section_index
     section_value = info%section_value
     section_direction = info%section_direction
     section_angle = info%section_angle
     gate = info%gate
-  end function c_model_info
+  end subroutine scene_defaults
 
   !> 1 if the system is natural (H = T + V: rest points, brake orbits, zero-velocity curves).
   integer(c_int) function c_model_natural(system, params, natural) result(stat) &
@@ -401,7 +415,8 @@ contains
     st%integ = integ
   end subroutine study_of
 
-  !> The integrator choice of a C call (method code and options as tubes_run_trajectory).
+  !> The integrator choice of a C call or an f2py call (method code and options as
+  !> tubes_run_trajectory).
   pure function integ_of(method, h, omega_bind, solver, max_iter) result(c)
     integer(c_int), intent(in) :: method, solver, max_iter
     real(c_double), intent(in) :: h, omega_bind
@@ -451,7 +466,6 @@ contains
     type(study_t) :: st
     type(section_choice_t) :: sec
     type(orbit_t) :: orb
-    type(tube_opts_t) :: opts
     type(tube_cut_t) :: cut
     n = 0; nhist = 0; hist_n = 0; hist_area = 0; area = 0; area_polygon = 0; action = 0; period = 0
     n_failed = 0; fail_tau = 0
@@ -461,15 +475,9 @@ contains
     st%orb_tol = orb_tol
     st%orb_rtol = orb_rtol
     st%orb_atol = orb_atol
-    opts%local = local /= 0
-    opts%kind = kind
-    opts%eps = eps
-    opts%area_tol = area_tol
-    opts%t_max = t_max
-    opts%n_init = n_init
-    opts%n_max = min(n_max, nout)
     kept => stores_of(stores)
-    call cut_at(st, sec, de, opts, cut, orb, stat, kept)
+    call cut_at(st, sec, de, tube_opts_of(kind, eps, area_tol, t_max, n_init, min(n_max, nout), local /= 0), &
+                cut, orb, stat, kept)
     call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
     fail_tau = cut%fail_tau
     if (allocated(cut%hist_n)) then
@@ -478,6 +486,17 @@ contains
       hist_area(1:nhist) = cut%hist_area(1:nhist)
     end if
   end function c_tube_cut
+
+  !> The options of a tube cut (tubes_tube_cut, the f2py facade's tube_cut): the rest are
+  !> tube_opts_t's defaults.
+  pure function tube_opts_of(kind, eps, area_tol, t_max, n_init, n_max, local) result(o)
+    integer(c_int), intent(in) :: kind, n_init, n_max
+    real(c_double), intent(in) :: eps, area_tol, t_max
+    logical, intent(in) :: local
+    type(tube_opts_t) :: o
+    o = tube_opts_t(kind=kind, eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
+                    local=local)
+  end function tube_opts_of
 
   !> Monte Carlo transition check at excess energy de (include/tubes.h).
   integer(c_int) function c_monte_carlo(system, params, lo, hi, n_grid, saddle, de, sec_kind, &
@@ -717,18 +736,9 @@ contains
     stat = TUBES_EINPUT
     if (n_tracks < 1 .or. ns < 1 .or. seed < 0) return
     if (ns /= experiment_samples(duration, camera_rate)) return
-    opts%n_tracks = n_tracks
-    opts%duration = duration
-    opts%camera_rate = camera_rate
-    opts%pixel = pixel
-    opts%noise = noise
-    opts%de_min = de_min
-    opts%de_max = de_max
-    opts%e_e = e_e
-    opts%box = box
-    opts%seed = int(seed, c_long)
-    opts%rtol = rtol
-    opts%atol = rtol
+    opts = experiment_opts_t(n_tracks=n_tracks, duration=duration, camera_rate=camera_rate, pixel=pixel, &
+                             noise=noise, de_min=de_min, de_max=de_max, e_e=e_e, box=box, &
+                             seed=int(seed, c_long), rtol=rtol, atol=rtol)
     call synthetic_experiment(params(1:NMODEL), opts, integ_of(method, h, omega_bind, solver, max_iter), t, &
                               state, energy, noisy, measured, release, c_damp, n_draws, stat)
   end function c_synthetic_experiment

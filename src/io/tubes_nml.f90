@@ -86,167 +86,78 @@ module tubes_nml
     integer(c_int) :: spatial
   end type tubes_config_t
 
-  !> Namelist variables as Fortran sees them (one instance per call, never saved).
+  !> Namelist variables as Fortran sees them (one instance per call, never saved), with their
+  !> defaults: the values a group the file leaves out keeps (UNSET: the system's, resolve).
   type :: vars_t
-    character(LSCENE) :: scenes(NSCENES)
-    character(LPATH) :: output
-    real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio
-    real(c_double) :: box
-    integer :: n_grid
-    character(8) :: saddle
-    real(c_double) :: x0, y0, px0, py0, t_end, dt_out
-    logical :: at_rest
-    character(LNAME) :: section
-    real(c_double) :: section_angle, section_level
-    integer :: section_direction, max_crossings
-    logical :: stop_at_first
-    character(LNAME) :: method
-    real(c_double) :: rtol, atol, h
-    integer(c_int64_t) :: max_steps
-    real(c_double) :: omega_bind
-    character(LNAME) :: solver
-    integer :: max_iter
-    character(8) :: orb_saddle
-    real(c_double) :: orb_de(MAXDE)
-    character(LNAME) :: orb_method
-    integer :: orb_n_segments, orb_max_iter, orb_n_samples
-    real(c_double) :: orb_tol, orb_rtol, orb_atol
-    real(c_double) :: sec_angle
-    integer :: sec_pth_sign
-    real(c_double) :: tub_de(MAXDE)
-    character(LNAME) :: tub_kind
-    real(c_double) :: tub_eps, tub_area_tol, tub_t_max
-    integer :: tub_n_init, tub_n_max
-    real(c_double) :: tra_de(MAXDE)
-    real(c_double) :: tra_area_tol
-    real(c_double) :: mc_de, mc_t_max, mc_gate, mc_area_tol
-    integer :: mc_n_samples, mc_seed
-    real(c_double) :: pm_de(MAXDE)
-    integer :: pm_n_seeds, pm_n_iter
-    real(c_double) :: pm_t_max
-    integer :: exp_n_tracks, exp_seed
-    real(c_double) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
-                      exp_de_max, exp_damping_ratio
-    character(LPATH) :: exp_csv
-    character(LNAME) :: system
-    real(c_double) :: m_a, m_b, d, lambda, zeta, eps_s, omega, eps, mu
-    real(c_double) :: box_list(MAX_DOF), box_center(MAX_DOF), orb_saddle_near(MAX_DOF)
-    character(LNAME) :: sec_kind
-    integer :: sec_index, sec_direction
-    real(c_double) :: sec_value
-    character(LEXPR) :: hamiltonian, height
-    character(LSYM) :: coordinates(MAX_DOF), momenta(MAX_DOF)
-    character(LCONST) :: constants(MAXCONST)
-    character(LNAME) :: surface
-    character(LNAME) :: model_name   !! the library's name of the model (written only)
-    real(c_double) :: flux_de(MAXDE)
-    integer :: flux_n_samples, flux_seed, flux_order, flux_n_cut
-    real(c_double) :: flux_t_max, flux_gate, flux_tol, flux_cut_eps
-    integer :: orb_family
-    logical :: spatial
+    character(LSCENE) :: scenes(NSCENES) = ''   !! scenes(1) = 'equilibria': set_defaults
+    character(LPATH) :: output = 'tubes.h5'
+    real(c_double) :: alpha = UNSET, beta = UNSET, gamma = UNSET, xi = UNSET, h0 = UNSET, g = UNSET, &
+                      damping_ratio = UNSET
+    real(c_double) :: box = 0
+    integer :: n_grid = 41
+    character(8) :: saddle = ''
+    real(c_double) :: x0 = 4, y0 = 12.614863819914357_c_double, px0 = 0, py0 = 0, t_end = 10, &
+                      dt_out = 0.01_c_double
+    logical :: at_rest = .true.
+    character(LNAME) :: section = 'none'
+    real(c_double) :: section_angle = 45, section_level = 0
+    integer :: section_direction = 0, max_crossings = 10000
+    logical :: stop_at_first = .false.
+    character(LNAME) :: method = 'auto'
+    real(c_double) :: rtol = 1.0e-12_c_double, atol = 1.0e-12_c_double, h = 0
+    integer(c_int64_t) :: max_steps = 10000000_c_int64_t
+    real(c_double) :: omega_bind = 200
+    character(LNAME) :: solver = 'newton'
+    integer :: max_iter = 0
+    character(8) :: orb_saddle = ''
+    real(c_double) :: orb_de(MAXDE) = UNSET
+    character(LNAME) :: orb_method = 'single'
+    integer :: orb_n_segments = 8, orb_max_iter = 25, orb_n_samples = 201
+    real(c_double) :: orb_tol = 1.0e-11_c_double, orb_rtol = 1.0e-13_c_double, orb_atol = 1.0e-13_c_double
+    real(c_double) :: sec_angle = UNSET
+    integer :: sec_pth_sign = UNSET_INT
+    real(c_double) :: tub_de(MAXDE) = UNSET
+    character(LNAME) :: tub_kind = 'stable'
+    real(c_double) :: tub_eps = 1.0e-6_c_double, tub_area_tol = 1.0e-10_c_double, tub_t_max = 30
+    integer :: tub_n_init = 64, tub_n_max = 8192
+    real(c_double) :: tra_de(MAXDE) = UNSET
+    real(c_double) :: tra_area_tol = 1.0e-8_c_double
+    real(c_double) :: mc_de = 100, mc_t_max = 20, mc_gate = UNSET, mc_area_tol = 1.0e-8_c_double
+    integer :: mc_n_samples = 10000, mc_seed = 12345
+    real(c_double) :: pm_de(MAXDE) = UNSET
+    integer :: pm_n_seeds = 40, pm_n_iter = 300
+    real(c_double) :: pm_t_max = 2000
+    integer :: exp_n_tracks = 120, exp_seed = 2018
+    real(c_double) :: exp_duration = 14, exp_camera_rate = 50, exp_pixel = 0.16_c_double, &
+                      exp_noise = 0.05_c_double, exp_de_min = 1000, exp_de_max = 3000, &
+                      exp_damping_ratio = 0.014_c_double
+    character(LPATH) :: exp_csv = ''
+    character(LNAME) :: system = 'rolling_ball'
+    real(c_double) :: m_a = UNSET, m_b = UNSET, d = UNSET, lambda = UNSET, zeta = UNSET, eps_s = UNSET, &
+                      omega = UNSET, eps = UNSET, mu = UNSET
+    real(c_double) :: box_list(MAX_DOF) = UNSET, box_center(MAX_DOF) = UNSET, orb_saddle_near(MAX_DOF) = UNSET
+    character(LNAME) :: sec_kind = ''
+    integer :: sec_index = UNSET_INT, sec_direction = UNSET_INT
+    real(c_double) :: sec_value = UNSET
+    character(LEXPR) :: hamiltonian = '', height = ''
+    character(LSYM) :: coordinates(MAX_DOF) = '', momenta(MAX_DOF) = ''
+    character(LCONST) :: constants(MAXCONST) = ''
+    character(LNAME) :: surface = 'fourwell'
+    character(LNAME) :: model_name = ''   !! the library's name of the model (written only)
+    real(c_double) :: flux_de(MAXDE) = UNSET
+    integer :: flux_n_samples = 4000, flux_seed = 1, flux_order = 0, flux_n_cut = 16
+    real(c_double) :: flux_t_max = 20, flux_gate = UNSET, flux_tol = 1.0e-10_c_double, &
+                      flux_cut_eps = 1.0e-3_c_double
+    integer :: orb_family = 1
+    logical :: spatial = .false.
   end type vars_t
 
 contains
 
+  !> The defaults of every variable: vars_t's, and the one scene run when &run names none.
   subroutine set_defaults(v)
-    type(vars_t), intent(out) :: v
-    v%scenes = ''
+    type(vars_t), intent(out) :: v   ! intent(out): every component takes its default
     v%scenes(1) = 'equilibria'
-    v%output = 'tubes.h5'
-    v%system = 'rolling_ball'
-    v%hamiltonian = ''
-    v%height = ''
-    v%coordinates = ''
-    v%momenta = ''
-    v%constants = ''
-    v%surface = 'fourwell'
-    v%model_name = ''
-    v%alpha = UNSET; v%beta = UNSET; v%gamma = UNSET; v%xi = UNSET; v%h0 = UNSET; v%g = UNSET
-    v%damping_ratio = UNSET
-    v%m_a = UNSET; v%m_b = UNSET; v%d = UNSET; v%lambda = UNSET; v%zeta = UNSET; v%eps_s = UNSET
-    v%omega = UNSET; v%eps = UNSET; v%mu = UNSET
-    v%box = 0
-    v%box_list = UNSET
-    v%box_center = UNSET
-    v%n_grid = 41
-    v%saddle = ''
-    v%x0 = 4
-    v%y0 = 12.614863819914357_c_double
-    v%px0 = 0
-    v%py0 = 0
-    v%t_end = 10
-    v%dt_out = 0.01_c_double
-    v%at_rest = .true.
-    v%section = 'none'
-    v%section_angle = 45
-    v%section_level = 0
-    v%section_direction = 0
-    v%max_crossings = 10000
-    v%stop_at_first = .false.
-    v%method = 'auto'
-    v%rtol = 1.0e-12_c_double
-    v%atol = 1.0e-12_c_double
-    v%h = 0
-    v%max_steps = 10000000_c_int64_t
-    v%omega_bind = 200
-    v%solver = 'newton'
-    v%max_iter = 0
-    v%orb_saddle = ''
-    v%orb_saddle_near = UNSET
-    v%orb_de = UNSET
-    v%orb_method = 'single'
-    v%orb_n_segments = 8
-    v%orb_max_iter = 25
-    v%orb_n_samples = 201
-    v%orb_family = 1
-    v%orb_tol = 1.0e-11_c_double
-    v%orb_rtol = 1.0e-13_c_double
-    v%orb_atol = 1.0e-13_c_double
-    v%sec_angle = UNSET
-    v%sec_pth_sign = UNSET_INT
-    v%sec_kind = ''
-    v%sec_index = UNSET_INT
-    v%sec_value = UNSET
-    v%sec_direction = UNSET_INT
-    v%tub_de = UNSET
-    v%tub_kind = 'stable'
-    v%tub_eps = 1.0e-6_c_double
-    v%tub_area_tol = 1.0e-10_c_double
-    v%tub_t_max = 30
-    v%tub_n_init = 64
-    v%tub_n_max = 8192
-    v%tra_de = UNSET
-    v%tra_area_tol = 1.0e-8_c_double
-    v%mc_de = 100
-    v%mc_t_max = 20
-    v%mc_area_tol = 1.0e-8_c_double
-    v%mc_gate = UNSET
-    v%mc_n_samples = 10000
-    v%mc_seed = 12345
-    v%flux_de = UNSET
-    v%flux_n_samples = 4000
-    v%flux_seed = 1
-    v%flux_t_max = 20
-    v%flux_gate = UNSET
-    v%flux_tol = 1.0e-10_c_double
-    v%flux_order = 0
-    v%flux_n_cut = 16
-    v%flux_cut_eps = 1.0e-3_c_double
-    v%spatial = .false.
-    v%pm_de = UNSET
-    v%pm_n_seeds = 40
-    v%pm_n_iter = 300
-    v%pm_t_max = 2000
-    v%exp_n_tracks = 120
-    v%exp_duration = 14
-    v%exp_camera_rate = 50
-    v%exp_pixel = 0.16_c_double
-    v%exp_noise = 0.05_c_double
-    v%exp_de_min = 1000
-    v%exp_de_max = 3000
-    v%exp_damping_ratio = 0.014_c_double
-    v%exp_seed = 2018
-    v%exp_csv = ''
   end subroutine set_defaults
 
   subroutine to_c(v, cfg, build)

@@ -962,13 +962,21 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
   return rc;
 }
 
-int scene_tubes(tubes_run_t *run) {
-  const tubes_config_t *c = run->cfg;
+/* The start of a scene that draws on the section (tubes, sections): /section (write_section), then
+ * the scene's own group in *g. */
+static int section_scene(tubes_run_t *run, const char *name, hid_t *g) {
   double a0, tau, tpo;
   int rc = write_section(run, &a0, &tau, &tpo);
   if (rc) return rc;
-  hid_t g = h5_group(run->file, "tubes");
-  if (g < 0) return EXIT_IO;
+  *g = h5_group(run->file, name);
+  return *g < 0 ? EXIT_IO : 0;
+}
+
+int scene_tubes(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  hid_t g;
+  int rc = section_scene(run, "tubes", &g);
+  if (rc) return rc;
   printf("tubes: %s manifold cuts on the section (eps = %g %s, area_tol = %g)\n", c->tub_kind, c->tub_eps,
          strcmp(run->length_units, "1") ? run->length_units : "(length units)", c->tub_area_tol);
   printf("  %10s %8s %16s %16s %11s %11s %8s\n", "dE", "kind", "area", "action", "area/action-1", "eps/10 chg", "s");
@@ -1228,11 +1236,9 @@ int scene_montecarlo(tubes_run_t *run) {
 
 int scene_sections(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  double a0, tau, tpo;
-  int rc = write_section(run, &a0, &tau, &tpo);
+  hid_t g;
+  int rc = section_scene(run, "sections", &g);
   if (rc) return rc;
-  hid_t g = h5_group(run->file, "sections");
-  if (g < 0) return EXIT_IO;
   for (int k = 0; k < c->pm_nde; k++) {
     int ns = c->pm_n_seeds, ni = c->pm_n_iter;
     double de = c->pm_de[k], t0 = now();
