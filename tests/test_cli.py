@@ -573,5 +573,6 @@ def test_check_refuses_what_the_run_refuses(tmp_path, nml, words):
     (tmp_path / "a.nml").write_text(nml)
     c = run_tubes(["--check", "a.nml"], tmp_path)
     r = run_tubes(["a.nml", "-o", "a.h5"], tmp_path)
-    assert c.returncode == r.returncode == 1 and words in c.stderr and c.stderr == r.stderr, (c.stderr, r.stderr)
+    said = [[ln for ln in x.stderr.splitlines() if words in ln] for x in (c, r)]   # (a Taylor kernel's build
+    assert c.returncode == r.returncode == 1 and said[0] and said[0] == said[1], (c.stderr, r.stderr)  # may add a line)
     assert "valid" not in c.stdout and not list(tmp_path.glob("*.h5"))
