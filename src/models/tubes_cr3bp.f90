@@ -23,12 +23,8 @@ module tubes_cr3bp
   type, extends(hamiltonian_t), public :: cr3bp_t
     real(wp) :: mu   !! mass ratio m2/(m1 + m2), 0 < mu <= 1/2 (nd, inherited: 2 planar, 3 spatial)
   contains
-    procedure :: energy => cr_energy
-    procedure :: gradient => cr_gradient
-    procedure :: hessian => cr_hessian
-    procedure :: naming => cr_naming
-    procedure :: reversor => cr_reversor
-    procedure :: length_scale => cr_length_scale
+    procedure :: energy => cr_energy, gradient => cr_gradient, hessian => cr_hessian
+    procedure :: naming => cr_naming, reversor => cr_reversor, length_scale => cr_length_scale
   end type cr3bp_t
 
 contains
@@ -105,13 +101,7 @@ contains
     h(1, 2) = -3*m1*d1*y/r1**5 - 3*m2*d2*y/r2**5
     h(2, 1) = h(1, 2)
     h(2, 2) = m1*(1/r1**3 - 3*y**2/r1**5) + m2*(1/r2**3 - 3*y**2/r2**5)
-    h(1, 4) = -1
-    h(4, 1) = -1
-    h(2, 3) = 1
-    h(3, 2) = 1
-    h(3, 3) = 1
-    h(4, 4) = 1
-    if (.not. all(abs(h(1:4, 1:4)) <= huge(1.0_wp))) stat = -1
+    call frame_hessian(2, h, stat)
   end subroutine cr_hessian
 
   pure integer function cr_naming(self)
@@ -183,15 +173,25 @@ contains
         end do
       end do
     end do
-    h(1, 5) = -1
-    h(5, 1) = -1
-    h(2, 4) = 1
-    h(4, 2) = 1
-    h(4, 4) = 1
-    h(5, 5) = 1
-    h(6, 6) = 1
-    if (.not. all(abs(h(1:6, 1:6)) <= huge(1.0_wp))) stat = -1
+    call frame_hessian(3, h, stat)
   end subroutine hessian3
+
+  !> The entries of the Hessian that are the same at every point (nd = 2 or 3): H_{x,py} = -1,
+  !> H_{y,px} = 1, H_{p,p} = I; then stat = -1 if any entry of the (2 nd)^2 block is not finite.
+  pure subroutine frame_hessian(nd, h, stat)
+    integer, intent(in) :: nd
+    real(wp), intent(inout) :: h(:, :)
+    integer, intent(inout) :: stat
+    integer :: k
+    h(1, nd + 2) = -1
+    h(nd + 2, 1) = -1
+    h(2, nd + 1) = 1
+    h(nd + 1, 2) = 1
+    do k = nd + 1, 2*nd
+      h(k, k) = 1
+    end do
+    if (.not. all(abs(h(1:2*nd, 1:2*nd)) <= huge(1.0_wp))) stat = -1
+  end subroutine frame_hessian
 
   !> The Hill radius (mu/3)^(1/3): the distance of L1 and L2 from the secondary.
   pure real(wp) function cr_length_scale(self)
