@@ -658,48 +658,44 @@ contains
     character(100) :: lbl
     write (*, '(/,a)') '=== two instances at once'
     do b = 1, NB
-      call run_osc(b, xs, ns(1))
-      call run_ball(b, zs, ns(2))
+      call run_alone(b, 1, xs, ns(1))
+      call run_alone(b, 2, zs, ns(2))
       call run_interleaved(b, xi, zi, ni)
       write (lbl, '(a,a)') trim(NAMES(b)), ': two instances stepped alternately = one at a time'
       call check_true(trim(lbl), all(xi == xs) .and. all(zi == zs) .and. all(ni == ns))
       !$omp parallel sections num_threads(2)
       !$omp section
-      call run_osc(b, xp, np(1))
+      call run_alone(b, 1, xp, np(1))
       !$omp section
-      call run_ball(b, zp, np(2))
+      call run_alone(b, 2, zp, np(2))
       !$omp end parallel sections
       write (lbl, '(a,a)') trim(NAMES(b)), ': two instances in two threads = one at a time'
       call check_true(trim(lbl), all(xp == xs) .and. all(zp == zs) .and. all(np == ns))
     end do
   end subroutine two_instances
 
-  subroutine run_osc(b, x, nfev)
-    integer, intent(in) :: b
-    real(wp), intent(out) :: x(2)
+  !> One of the two runs alone: k = 1 the oscillator (to its event x = 0 rising, then on to
+  !> t = 10), k = 2 the ball to T_BALL; the final state and the evaluations.
+  subroutine run_alone(b, k, x, nfev)
+    integer, intent(in) :: b, k
+    real(wp), intent(out) :: x(:)
     integer(i8), intent(out) :: nfev
     class(integrator_t), allocatable :: a
     integer :: stat
-    call new_backend(b, a, oscillator_t(), 1.0e-9_wp)
-    x = [1.0_wp, 0.0_wp]
-    call propagate(a, x, 10.0_wp, stat, event=plane_t(k=1, c=0.0_wp, direction=1))
-    call propagate(a, x, 10.0_wp, stat)
+    if (k == 1) then
+      call new_backend(b, a, oscillator_t(), 1.0e-9_wp)
+      x = [1.0_wp, 0.0_wp]
+      call propagate(a, x, 10.0_wp, stat, event=plane_t(k=1, c=0.0_wp, direction=1))
+      call propagate(a, x, 10.0_wp, stat)
+    else
+      call new_backend(b, a, ball, 1.0e-9_wp)
+      x = X0_BALL
+      call propagate(a, x, T_BALL, stat)
+    end if
     nfev = a%nfev
-  end subroutine run_osc
+  end subroutine run_alone
 
-  subroutine run_ball(b, z, nfev)
-    integer, intent(in) :: b
-    real(wp), intent(out) :: z(4)
-    integer(i8), intent(out) :: nfev
-    class(integrator_t), allocatable :: a
-    integer :: stat
-    call new_backend(b, a, ball, 1.0e-9_wp)
-    z = X0_BALL
-    call propagate(a, z, T_BALL, stat)
-    nfev = a%nfev
-  end subroutine run_ball
-
-  !> The two runs above, one step of each in turn (the oscillator's event, restart included).
+  !> run_alone's two runs, one step of each in turn (the oscillator's event, restart included).
   subroutine run_interleaved(b, x, z, nfev)
     integer, intent(in) :: b
     real(wp), intent(out) :: x(2), z(4)
