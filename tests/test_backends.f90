@@ -1,25 +1,17 @@
 !> Test models and probes for test_backends: the harmonic oscillator x'' = -x (state (x, v),
 !> exact flow a rotation), the same oscillator failing (NaN, fatal) below x = 1/2, one that
-!> refuses (recoverably) states off its circle, and observers that measure each step.
+!> refuses (recoverably) states off its circle (shy_oscillator_t with r2max), and observers that measure each step.
 module test_backends_models
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
-  use tubes_test_models, only: oscillator_t, nan_oscillator_t, rotate, osc_eval
+  use tubes_test_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, observer_t
   use tubes_ball, only: ball_t
   implicit none
   private
-  public :: oscillator_t, nan_oscillator_t, picky_oscillator_t, osc_probe_t, ball_probe_t
+  public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, osc_probe_t, ball_probe_t
   public :: rotate
-
-  !> The oscillator, but it refuses states with x^2 + v^2 > r2max: stat = +1 (recoverable:
-  !> "take a smaller step"). The exact solution from (1, 0) stays on the unit circle.
-  type, extends(oscillator_t) :: picky_oscillator_t
-    real(wp) :: r2max = 1
-  contains
-    procedure :: eval => picky_eval
-  end type picky_oscillator_t
 
   !> For each accepted step of an oscillator run: the step h, the local error of the step
   !> (|x_new - exact flow from x_old|, x_old the previous accepted state) and the largest
@@ -45,15 +37,6 @@ module test_backends_models
   end type ball_probe_t
 
 contains
-
-  pure subroutine picky_eval(self, t, x, dxdt, stat)
-    class(picky_oscillator_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    call osc_eval(self, t, x, dxdt, stat)
-    if (x(1)**2 + x(2)**2 > self%r2max) stat = 1
-  end subroutine picky_eval
 
   subroutine osc_on_step(self, ig, t_hi, stop_now)
     class(osc_probe_t), intent(inout) :: self
@@ -146,7 +129,7 @@ program test_backends
   use tubes_ball, only: ball_t, make_ball
   use tubes_variational, only: variational_t, make_variational, stm_start
   use tubes_check, only: check_close, check_true, check_eq, finish
-  use test_backends_models, only: oscillator_t, nan_oscillator_t, picky_oscillator_t, &
+  use test_backends_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, &
                                   osc_probe_t, ball_probe_t, rotate
   use tubes_test_models, only: X0_BALL, PI, EPS
   implicit none
@@ -506,7 +489,7 @@ contains
     ! a recoverable refusal (stat > 0) of states more than 1e-6 off the unit circle: the
     ! stages of long steps leave it. GSL halves the step, CVODE retries the corrector with a
     ! smaller step; ERKStep (SUNDIALS 6.4.1) cannot recover and stops (ARK_UNREC_RHSFUNC_ERR)
-    call new_backend(b, ig, picky_oscillator_t(r2max=1 + 1.0e-6_wp), tol)
+    call new_backend(b, ig, shy_oscillator_t(r2max=1 + 1.0e-6_wp), tol)
     x = [1.0_wp, 0.0_wp]
     call propagate(ig, x, 10.0_wp, stat)
     write (*, '(a,i0,a,i0,a,i0,a,es10.3,a,a)') '     picky model: status ', stat, ', steps ', &
