@@ -25,7 +25,7 @@ module tubes_tao
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp, i8
   use tubes_field, only: vector_field_t
-  use tubes_integrator, only: integrator_t, step_grid_t, stale_state, hermite
+  use tubes_integrator, only: integrator_t, step_grid_t, stale_state, hermite, all_finite
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP
   implicit none
   private
@@ -204,10 +204,8 @@ contains
           call tao_flow_c(self%omega_bind, d, q, p, xc, yc)
         end select
       end do
-      if (fs == 0) then
-        if (.not. (all(abs(q) <= huge(1.0_wp)) .and. all(abs(p) <= huge(1.0_wp)) .and. &
-                   all(abs(xc) <= huge(1.0_wp)) .and. all(abs(yc) <= huge(1.0_wp)))) fs = -1
-      end if
+      if (fs == 0 .and. .not. (all_finite(q) .and. all_finite(p) .and. all_finite(xc) .and. &
+                               all_finite(yc))) fs = -1
       if (.not. self%grid%retry(fs, h, self%nrejected, stat)) exit   ! fs > 0: h/4, off the grid
     end do
     if (stat /= TUBES_OK) return
