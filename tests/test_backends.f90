@@ -1,25 +1,17 @@
 !> Test models and probes for test_backends: the harmonic oscillator x'' = -x (state (x, v),
 !> exact flow a rotation), the same oscillator failing (NaN, fatal) below x = 1/2, one that
-!> refuses (recoverably) states off its circle, and observers that measure each step.
+!> refuses (recoverably) states off its circle (shy_oscillator_t with r2max), and observers that measure each step.
 module test_backends_models
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
-  use tubes_test_models, only: oscillator_t, nan_oscillator_t, rotate, osc_eval
+  use tubes_test_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, observer_t
   use tubes_ball, only: ball_t
   implicit none
   private
-  public :: oscillator_t, nan_oscillator_t, picky_oscillator_t, osc_probe_t, ball_probe_t
+  public :: oscillator_t, nan_oscillator_t, shy_oscillator_t, osc_probe_t, ball_probe_t
   public :: rotate
-
-  !> The oscillator, but it refuses states with x^2 + v^2 > r2max: stat = +1 (recoverable:
-  !> "take a smaller step"). The exact solution from (1, 0) stays on the unit circle.
-  type, extends(oscillator_t) :: picky_oscillator_t
-    real(wp) :: r2max = 1
-  contains
-    procedure :: eval => picky_eval
-  end type picky_oscillator_t
 
   !> For each accepted step of an oscillator run: the step h, the local error of the step
   !> (|x_new - exact flow from x_old|, x_old the previous accepted state) and the largest
@@ -45,15 +37,6 @@ module test_backends_models
   end type ball_probe_t
 
 contains
-
-  pure subroutine picky_eval(self, t, x, dxdt, stat)
-    class(picky_oscillator_t), intent(in) :: self
-    real(wp), intent(in) :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out) :: stat
-    call osc_eval(self, t, x, dxdt, stat)
-    if (x(1)**2 + x(2)**2 > self%r2max) stat = 1
-  end subroutine picky_eval
 
   subroutine osc_on_step(self, ig, t_hi, stop_now)
     class(osc_probe_t), intent(inout) :: self
@@ -146,7 +129,7 @@ program test_backends
   use tubes_ball, only: ball_t, make_ball
   use tubes_variational, only: variational_t, make_variational, stm_start
   use tubes_check, only: check_close, check_true, check_eq, finish
-  use test_backends_models, only: oscillator_t, nan_oscillator_t, picky_oscillator_t, &
+  use test_backends_models, only: oscillator_t, nan_oscillator_t, shy_oscillator_t, &
                                   osc_probe_t, ball_probe_t, rotate
   use tubes_test_models, only: X0_BALL, PI, EPS
   implicit none
@@ -506,7 +489,7 @@ contains
     ! a recoverable refusal (stat > 0) of states more than 1e-6 off the unit circle: the
     ! stages of long steps leave it. GSL halves the step, CVODE retries the corrector with a
     ! smaller step; ERKStep (SUNDIALS 6.4.1) cannot recover and stops (ARK_UNREC_RHSFUNC_ERR)
-    call new_backend(b, ig, picky_oscillator_t(r2max=1 + 1.0e-6_wp), tol)
+    call new_backend(b, ig, shy_oscillator_t(r2max=1 + 1.0e-6_wp), tol)
     x = [1.0_wp, 0.0_wp]
     call propagate(ig, x, 10.0_wp, stat)
     write (*, '(a,i0,a,i0,a,i0,a,es10.3,a,a)') '     picky model: status ', stat, ', steps ', &
@@ -658,48 +641,44 @@ contains
     character(100) :: lbl
     write (*, '(/,a)') '=== two instances at once'
     do b = 1, NB
-      call run_osc(b, xs, ns(1))
-      call run_ball(b, zs, ns(2))
+      call run_alone(b, 1, xs, ns(1))
+      call run_alone(b, 2, zs, ns(2))
       call run_interleaved(b, xi, zi, ni)
       write (lbl, '(a,a)') trim(NAMES(b)), ': two instances stepped alternately = one at a time'
       call check_true(trim(lbl), all(xi == xs) .and. all(zi == zs) .and. all(ni == ns))
       !$omp parallel sections num_threads(2)
       !$omp section
-      call run_osc(b, xp, np(1))
+      call run_alone(b, 1, xp, np(1))
       !$omp section
-      call run_ball(b, zp, np(2))
+      call run_alone(b, 2, zp, np(2))
       !$omp end parallel sections
       write (lbl, '(a,a)') trim(NAMES(b)), ': two instances in two threads = one at a time'
       call check_true(trim(lbl), all(xp == xs) .and. all(zp == zs) .and. all(np == ns))
     end do
   end subroutine two_instances
 
-  subroutine run_osc(b, x, nfev)
-    integer, intent(in) :: b
-    real(wp), intent(out) :: x(2)
+  !> One of the two runs alone: k = 1 the oscillator (to its event x = 0 rising, then on to
+  !> t = 10), k = 2 the ball to T_BALL; the final state and the evaluations.
+  subroutine run_alone(b, k, x, nfev)
+    integer, intent(in) :: b, k
+    real(wp), intent(out) :: x(:)
     integer(i8), intent(out) :: nfev
     class(integrator_t), allocatable :: a
     integer :: stat
-    call new_backend(b, a, oscillator_t(), 1.0e-9_wp)
-    x = [1.0_wp, 0.0_wp]
-    call propagate(a, x, 10.0_wp, stat, event=plane_t(k=1, c=0.0_wp, direction=1))
-    call propagate(a, x, 10.0_wp, stat)
+    if (k == 1) then
+      call new_backend(b, a, oscillator_t(), 1.0e-9_wp)
+      x = [1.0_wp, 0.0_wp]
+      call propagate(a, x, 10.0_wp, stat, event=plane_t(k=1, c=0.0_wp, direction=1))
+      call propagate(a, x, 10.0_wp, stat)
+    else
+      call new_backend(b, a, ball, 1.0e-9_wp)
+      x = X0_BALL
+      call propagate(a, x, T_BALL, stat)
+    end if
     nfev = a%nfev
-  end subroutine run_osc
+  end subroutine run_alone
 
-  subroutine run_ball(b, z, nfev)
-    integer, intent(in) :: b
-    real(wp), intent(out) :: z(4)
-    integer(i8), intent(out) :: nfev
-    class(integrator_t), allocatable :: a
-    integer :: stat
-    call new_backend(b, a, ball, 1.0e-9_wp)
-    z = X0_BALL
-    call propagate(a, z, T_BALL, stat)
-    nfev = a%nfev
-  end subroutine run_ball
-
-  !> The two runs above, one step of each in turn (the oscillator's event, restart included).
+  !> run_alone's two runs, one step of each in turn (the oscillator's event, restart included).
   subroutine run_interleaved(b, x, z, nfev)
     integer, intent(in) :: b
     real(wp), intent(out) :: x(2), z(4)

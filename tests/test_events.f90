@@ -14,9 +14,7 @@ module test_events_models
   type, extends(surface_t) :: tilt_t
     real(wp) :: a = 1   !! slope [1]
   contains
-    procedure :: height => tilt_height
-    procedure :: derivs => tilt_derivs
-    procedure :: third => tilt_third
+    procedure :: height => tilt_height, derivs => tilt_derivs, third => tilt_third
   end type tilt_t
 
 contains

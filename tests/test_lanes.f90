@@ -35,14 +35,15 @@ contains
     type(taylor_t) :: ig
     type(crossing_log_t) :: log
     real(wp) :: x(4)
+    integer :: stat
     call ig%init(self%model, 0.0_wp)
     ig%rtol = self%tol
     ig%atol = self%tol
     x = self%x0(:, k)
     log%max_crossings = MAXX
-    call propagate(ig, x, self%tend(k), out%st(k), event=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0), &
+    call propagate(ig, x, self%tend(k), stat, event=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0), &
                    crossings=log)
-    call put(out, k, x, ig%t, log)
+    call put(out, k, stat, x, ig%t, log)
   end subroutine traj_item
 
   subroutine traj_start(self, k, lane, stat)
@@ -66,17 +67,18 @@ contains
     integer, intent(in) :: k
     type(lane_t), intent(inout) :: lane
     type(ens_out_t), intent(inout) :: out
-    out%st(k) = lane%stat
-    call put(out, k, lane%x, lane%ig%t, lane%log)
+    call put(out, k, lane%stat, lane%x, lane%ig%t, lane%log)
   end subroutine traj_finish
 
-  subroutine put(out, k, x, t, log)
+  !> Item k's outputs: its status, final state and time, and its crossings.
+  subroutine put(out, k, stat, x, t, log)
     type(ens_out_t), intent(inout) :: out
-    integer, intent(in) :: k
+    integer, intent(in) :: k, stat
     real(wp), intent(in) :: x(4), t
     type(crossing_log_t), intent(in) :: log
     integer :: n
     n = min(log%n, MAXX)
+    out%st(k) = stat
     out%r(:, k) = 0
     out%r(1:4, k) = x
     out%r(5, k) = t

@@ -505,7 +505,7 @@ program test_tao
   call check_close('NaN model: x left at the last accepted step', &
                    norm2(x - rotate([1.0_wp, 0.0_wp], ig%t)), 0.0_wp, tol)
   ! a model that keeps asking for smaller steps: h/4 per refusal until the step underflows
-  call start(shy_oscillator_t(), 0.0_wp, 2, OMEGA_OSC, 1.0_wp/64)
+  call start(shy_oscillator_t(x_min=0.5_wp), 0.0_wp, 2, OMEGA_OSC, 1.0_wp/64)
   x = [1.0_wp, 0.0_wp]
   call propagate(ig, x, 10.0_wp, stat)
   call check_eq('model refusing q < 1/2: TUBES_ESTEP', stat, TUBES_ESTEP)

@@ -19,7 +19,7 @@ module tubes_test_models
   use tubes_hamiltonian, only: separable_t
   implicit none
   private
-  public :: oscillator_t, qp_oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, osc_eval, dense_probe_t, &
+  public :: oscillator_t, qp_oscillator_t, nan_oscillator_t, shy_oscillator_t, rotate, dense_probe_t, &
             oscillator_fixed_step, ball_fixed_step, oscillator_start, affine_field_t, line_field, &
             fall_field, iso_field, quartic_bath_t
 
@@ -94,8 +94,12 @@ module tubes_test_models
     procedure :: eval => nan_eval
   end type nan_oscillator_t
 
-  !> The oscillator, but x < 1/2 gives stat = +1 (retry with a smaller step).
+  !> The oscillator, but it refuses states with x < x_min or x^2 + v^2 > r2max: stat = +1
+  !> (recoverable: retry with a smaller step). The exact solution from (1, 0) stays on the unit
+  !> circle. The defaults refuse nothing.
   type, extends(oscillator_t) :: shy_oscillator_t
+    real(wp) :: x_min = -huge(1.0_wp)
+    real(wp) :: r2max = huge(1.0_wp)
   contains
     procedure :: eval => shy_eval
   end type shy_oscillator_t
@@ -253,7 +257,7 @@ contains
     real(wp), intent(out) :: dxdt(:)
     integer, intent(out) :: stat
     call osc_eval(self, t, x, dxdt, stat)
-    if (x(1) < 0.5_wp) stat = 1
+    if (x(1) < self%x_min .or. x(1)**2 + x(2)**2 > self%r2max) stat = 1
   end subroutine shy_eval
 
   subroutine probe_on_step(self, ig, t_hi, stop_now)

@@ -150,7 +150,7 @@ module tubes_integrator
   real(wp), parameter, public :: T_RTOL = 4*EPS
   real(wp), parameter, public :: T_ATOL = 1.0e-15_wp
 
-  public :: propagate, prop_begin, prop_after_step, start_step, hermite, stale_state
+  public :: propagate, prop_begin, prop_after_step, start_step, hermite, stale_state, all_finite
   public :: integrator_init   ! for a method that extends init (tubes_taylor)
 
 contains
@@ -313,6 +313,12 @@ contains
     if (size(saved) /= size(x)) return
     stale = any(x /= saved)
   end function stale_state
+
+  !> Every component of x is finite (no NaN, no Inf).
+  pure logical function all_finite(x)
+    real(wp), intent(in) :: x(:)
+    all_finite = all(abs(x) <= huge(1.0_wp))
+  end function all_finite
 
   !> After a trial step whose model evaluations ended with status fs: .false. to accept it
   !> (fs = 0) or to stop (fs < 0: stat = TUBES_EMODEL); .true. to try again at h/4 off the grid
@@ -548,7 +554,7 @@ contains
         call ig%interp(ts(j), xs)
         gv(j) = event%g(ts(j), xs)
       end do
-      if (.not. all(abs(gv) <= huge(1.0_wp))) then   ! NaN/Inf from the model or the interpolant
+      if (.not. all_finite(gv)) then   ! NaN/Inf from the model or the interpolant
         stat = TUBES_EMODEL
         return
       end if

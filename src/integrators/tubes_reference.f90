@@ -30,8 +30,6 @@ module tubes_reference
   contains
     procedure :: dim => ball_qp_dim
     procedure :: eval => ball_qp_eval
-    procedure :: height => ball_qp_height
-    procedure :: derivs => ball_qp_derivs
     procedure :: energy => ball_qp_energy
   end type ball_qp_t
 
@@ -51,39 +49,25 @@ contains
     ball_qp_dim = 4
   end function ball_qp_dim
 
-  !> Surface height H(x, y) [cm].
-  pure real(qp) function ball_qp_height(self, x, y) result(h)
-    class(ball_qp_t), intent(in) :: self
-    real(qp), intent(in) :: x, y   !! position [cm]
-    h = fourwell_height_of(self%alpha, self%beta, self%gamma, self%xi, self%h0, x, y)
-  end function ball_qp_height
-
-  !> Gradient (H_x, H_y) [1] and Hessian [1/cm] (docs/theory.md, "The surface").
-  pure subroutine ball_qp_derivs(self, x, y, grad, hess)
-    class(ball_qp_t), intent(in) :: self
-    real(qp), intent(in) :: x, y
-    real(qp), intent(out) :: grad(2), hess(2, 2)
-    call fourwell_derivs_of(self%alpha, self%beta, self%gamma, self%xi, x, y, grad, hess)
-  end subroutine ball_qp_derivs
-
   !> Energy per unit mass T + g H = (5/14)(|p|^2 - (grad H . p)^2/D) + g H [(cm/s)^2].
   pure real(qp) function ball_qp_energy(self, x) result(e)
     class(ball_qp_t), intent(in) :: self
     real(qp), intent(in) :: x(4)   !! (x, y, px, py)
     real(qp) :: gr(2), hs(2, 2)
-    call self%derivs(x(1), x(2), gr, hs)
-    e = ball_energy_of(gr, self%height(x(1), x(2)), self%g, x)
+    call fourwell_derivs_of(self%alpha, self%beta, self%gamma, self%xi, x(1), x(2), gr, hs)
+    e = ball_energy_of(gr, fourwell_height_of(self%alpha, self%beta, self%gamma, self%xi, &
+                                              self%h0, x(1), x(2)), self%g, x)
   end function ball_qp_energy
 
   !> Hamilton's equations: u = grad H . p / D, v = (5/7)(p - u grad H),
-  !> dq/dt = v, dp/dt = u Hess(H) v - g grad H.
+  !> dq/dt = v, dp/dt = u Hess(H) v - g grad H (gradient and Hessian: docs/theory.md, "The surface").
   pure subroutine ball_qp_eval(self, t, x, dxdt, stat)
     class(ball_qp_t), intent(in) :: self
     real(qp), intent(in) :: t, x(:)
     real(qp), intent(out) :: dxdt(:)
     integer, intent(out) :: stat
     real(qp) :: gr(2), hs(2, 2)
-    call self%derivs(x(1), x(2), gr, hs)
+    call fourwell_derivs_of(self%alpha, self%beta, self%gamma, self%xi, x(1), x(2), gr, hs)
     call ball_rhs_of(gr, hs, self%g, x, dxdt, stat)
   end subroutine ball_qp_eval
 
@@ -130,17 +114,14 @@ contains
     if (present(nfev)) nfev = nf
   end subroutine reference_solution_qp
 
-  !> Reference state at t_end from x0 at t = 0 for double inputs: the double parameters and
-  !> initial state are converted exactly to real128, the result rounded to double.
+  !> Reference state at t_end from x0 at t = 0 for double inputs (the arguments of
+  !> reference_solution_qp in real(wp)): the double parameters and initial state are converted
+  !> exactly to real128, the result rounded to double.
   subroutine reference_solution_wp(params, x0, t_end, tol, x_end, stat, nsteps, nfev)
-    real(wp), intent(in) :: params(NMODEL)   !! [alpha, beta, gamma, xi, h0, g, 0]
-    real(wp), intent(in) :: x0(4)            !! initial state (x, y, px, py)
-    real(wp), intent(in) :: t_end            !! final time [s]
-    real(wp), intent(in) :: tol              !! rtol = atol of the step control
-    real(wp), intent(out) :: x_end(4)        !! state at t_end
+    real(wp), intent(in) :: params(NMODEL), x0(4), t_end, tol
+    real(wp), intent(out) :: x_end(4)
     integer, intent(out) :: stat
-    integer(i8), intent(out), optional :: nsteps   !! accepted steps
-    integer(i8), intent(out), optional :: nfev     !! right-hand-side evaluations
+    integer(i8), intent(out), optional :: nsteps, nfev
     real(qp) :: xq(4)
     call reference_solution_qp(real(params, qp), real(x0, qp), real(t_end, qp), &
                                real(tol, qp), xq, stat, nsteps, nfev)

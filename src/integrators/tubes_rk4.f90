@@ -6,7 +6,7 @@
 !> See docs/integrators-tao.md.
 module tubes_rk4
   use tubes_kinds, only: wp, i8
-  use tubes_integrator, only: integrator_t, hermite, step_grid_t, stale_state
+  use tubes_integrator, only: integrator_t, hermite, step_grid_t, stale_state, all_finite
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP, TUBES_EMODEL
   implicit none
   private
@@ -40,7 +40,7 @@ contains
                                                self%x_new(n))
     call self%f%eval(self%t, x, self%f_cur, stat)
     self%nfev = self%nfev + 1
-    if (stat /= 0 .or. .not. all(abs(self%f_cur) <= huge(1.0_wp))) then
+    if (stat /= 0 .or. .not. all_finite(self%f_cur)) then
       stat = TUBES_EMODEL
       return
     end if
@@ -94,8 +94,7 @@ contains
         ! f at the new point: the Hermite end slope and the next step's first stage
         call self%f%eval(t + hs, xnew, fnew, fs)
         self%nfev = self%nfev + 1
-        if (fs == 0 .and. .not. (all(abs(xnew) <= huge(1.0_wp)) .and. &
-                                 all(abs(fnew) <= huge(1.0_wp)))) fs = -1
+        if (fs == 0 .and. .not. (all_finite(xnew) .and. all_finite(fnew))) fs = -1
       end if
       if (.not. self%grid%retry(fs, h, self%nrejected, stat)) exit   ! fs > 0: h/4, off the grid
     end do

@@ -208,12 +208,8 @@ contains
     if (created) then
       m%newton = self%nonlinear == 'newton'
       m%solver = FCVodeCreate(CV_ADAMS, m%sunctx)
-      if (.not. c_associated(m%solver)) then
-        call sun_destroy(self)
-        stat = TUBES_EINPUT
-        self%solver_msg = 'CVodeCreate failed'
-        return
-      end if
+      call sun_created(self, 'CVodeCreate', stat)
+      if (stat /= TUBES_OK) return
       flag = FCVodeInit(m%solver, c_funloc(sun_rhs), self%t, m%y)
       if (flag >= 0) flag = FCVodeSetUserData(m%solver, c_loc(m%ctx))
       if (flag >= 0) flag = FCVodeSetErrHandlerFn(m%solver, c_funloc(sun_err), c_loc(m%ctx))
@@ -233,57 +229,8 @@ contains
     end if
     if (flag >= 0) flag = FCVodeSStolerances(m%solver, self%rtol, self%atol)
     if (flag >= 0) flag = FCVodeSetInitStep(m%solver, m%dir*max(self%h, 0.0_wp))
-    if (flag < 0) then
-      call cvode_fail(self, flag, stat)
-      return
-    end if
-    m%rtol = self%rtol
-    m%atol = self%atol
-    m%nrej0 = 0
-    m%nni0 = 0
-    call cvode_harvest(self)   ! counters of the new start (zero after CVodeInit/ReInit)
-    self%fresh = .false.
+    call sun_started(self, flag, stat)
   end subroutine cvode_start
-
-  !> Move the evaluation count and the solver's statistics into the integrator's counters.
-  subroutine cvode_harvest(self)
-    class(cvode_t), intent(inout) :: self
-    integer(c_long) :: netf(1), nsf(1), nni(1)
-    integer(c_int) :: flag
-    self%nfev = self%nfev + self%mem%ctx%nfev
-    self%njev = self%njev + self%mem%ctx%njev
-    self%mem%ctx%nfev = 0
-    self%mem%ctx%njev = 0
-    flag = FCVodeGetNumErrTestFails(self%mem%solver, netf)
-    flag = FCVodeGetNumStepSolveFails(self%mem%solver, nsf)
-    flag = FCVodeGetNumNonlinSolvIters(self%mem%solver, nni)
-    self%nrejected = self%nrejected + (netf(1) + nsf(1) - self%mem%nrej0)
-    self%niter = self%niter + (nni(1) - self%mem%nni0)
-    self%mem%nrej0 = netf(1) + nsf(1)
-    self%mem%nni0 = nni(1)
-  end subroutine cvode_harvest
-
-  !> Map a CVODE flag to a TUBES_* code, keeping the flag and CVODE's message.
-  subroutine cvode_fail(self, flag, stat)
-    class(cvode_t), intent(inout) :: self
-    integer(c_int), intent(in) :: flag
-    integer, intent(out) :: stat
-    self%solver_flag = flag
-    self%solver_msg = flag_name('CV', flag)//': '//trim(self%mem%ctx%msg)
-    select case (flag)
-    case (CV_RHSFUNC_FAIL, CV_FIRST_RHSFUNC_ERR, CV_REPTD_RHSFUNC_ERR, CV_UNREC_RHSFUNC_ERR)
-      stat = TUBES_EMODEL
-    case (CV_LSETUP_FAIL, CV_LSOLVE_FAIL)   ! the Jacobian callback failed, or a singular matrix
-      stat = merge(TUBES_EMODEL, TUBES_ENOCONV, self%mem%ctx%model_stat < 0)
-    case (CV_CONV_FAILURE, CV_NLS_FAIL)
-      stat = TUBES_ENOCONV
-    case (CV_ERR_FAILURE, CV_TOO_MUCH_ACC, CV_TOO_MUCH_WORK, CV_TOO_CLOSE)
-      stat = TUBES_ESTEP
-    case default                            ! illegal input, memory: setup problems
-      stat = TUBES_EINPUT
-    end select
-    self%fresh = .true.   ! restart from the last accepted (t, x) if stepping resumes
-  end subroutine cvode_fail
 
   !> Finalizer: destroy.
   subroutine cvode_final(self)
@@ -308,12 +255,8 @@ contains
     m => self%mem
     if (created) then
       m%solver = FERKStepCreate(c_funloc(sun_rhs), self%t, m%y, m%sunctx)
-      if (.not. c_associated(m%solver)) then
-        call sun_destroy(self)
-        stat = TUBES_EINPUT
-        self%solver_msg = 'ERKStepCreate failed'
-        return
-      end if
+      call sun_created(self, 'ERKStepCreate', stat)
+      if (stat /= TUBES_OK) return
       flag = FERKStepSetErrHandlerFn(m%solver, c_funloc(sun_err), c_loc(m%ctx))
       if (flag >= 0) flag = FERKStepSetUserData(m%solver, c_loc(m%ctx))
       if (flag >= 0) call set_fehlberg_table(m%solver, flag)
@@ -329,7 +272,7 @@ contains
     else
       call initial_step(m%ctx, self%t, x, m%dir, self%rtol, self%atol, 8, h0, stat)
       if (stat /= TUBES_OK) then
-        call arkode_harvest(self)
+        call sun_harvest(self)
         self%solver_flag = 0
         self%solver_msg = 'the model failed at the initial state'
         self%fresh = .true.
@@ -337,49 +280,8 @@ contains
       end if
     end if
     if (flag >= 0) flag = FERKStepSetInitStep(m%solver, m%dir*h0)
-    if (flag < 0) then
-      call arkode_fail(self, flag, stat)
-      return
-    end if
-    m%rtol = self%rtol
-    m%atol = self%atol
-    m%nrej0 = 0
-    call arkode_harvest(self)
-    self%fresh = .false.
+    call sun_started(self, flag, stat)
   end subroutine arkode_start
-
-  !> Move the evaluation count and ERKStep's error-test failures into the counters.
-  subroutine arkode_harvest(self)
-    class(arkode_t), intent(inout) :: self
-    integer(c_long) :: netf(1)
-    integer(c_int) :: flag
-    self%nfev = self%nfev + self%mem%ctx%nfev
-    self%mem%ctx%nfev = 0
-    flag = FERKStepGetNumErrTestFails(self%mem%solver, netf)
-    self%nrejected = self%nrejected + (netf(1) - self%mem%nrej0)
-    self%mem%nrej0 = netf(1)
-  end subroutine arkode_harvest
-
-  !> Map an ARKODE flag to a TUBES_* code, keeping the flag and ARKODE's message.
-  subroutine arkode_fail(self, flag, stat)
-    class(arkode_t), intent(inout) :: self
-    integer(c_int), intent(in) :: flag
-    integer, intent(out) :: stat
-    self%solver_flag = flag
-    self%solver_msg = flag_name('ARK', flag)//': '//trim(self%mem%ctx%msg)
-    ! ARKODE uses CVODE's numbering for these (arkode.h): -8..-11 right-hand side failures,
-    ! -1 too much work, -2 too much accuracy, -3 error test failures, -27 too close
-    select case (flag)
-    case (-11:-8)
-      stat = TUBES_EMODEL
-    case (-3:-1, -27)
-      stat = TUBES_ESTEP
-    case default
-      stat = TUBES_EINPUT
-    end select
-    if (self%mem%ctx%model_stat < 0) stat = TUBES_EMODEL
-    self%fresh = .true.
-  end subroutine arkode_fail
 
   !> Finalizer: destroy.
   subroutine arkode_final(self)
@@ -449,7 +351,7 @@ contains
     type is (cvode_t)
       flag = FCVodeSetStopTime(self%mem%solver, tmax)
       if (flag >= 0) flag = FCVode(self%mem%solver, tmax, self%mem%y, tret, CV_ONE_STEP)
-      call cvode_harvest(self)
+      call sun_harvest(self)
       if (flag >= 0 .and. self%mem%ctx%model_stat < 0) then
         ! The model failed (stat < 0) at a trial state, yet CVODE went on: its fixed-point
         ! corrector (SUNDIALS 6.4.1) treats any failure of f inside the iteration as a
@@ -463,7 +365,7 @@ contains
     type is (arkode_t)
       flag = FERKStepSetStopTime(self%mem%solver, tmax)
       if (flag >= 0) flag = FERKStepEvolve(self%mem%solver, tmax, self%mem%y, tret, ARK_ONE_STEP)
-      call arkode_harvest(self)
+      call sun_harvest(self)
       if (flag >= 0 .and. self%mem%ctx%model_stat < 0) then   ! as with CVODE
         flag = -8   ! ARK_RHSFUNC_FAIL
         self%mem%ctx%msg = 'the model returned a fatal status (< 0); ARKODE went on, tubes stops'
@@ -480,19 +382,103 @@ contains
     end if
   end subroutine sun_step
 
-  !> The failure of flag, by the backend's own mapping.
+  !> The failure of flag: the flag kept, with its name and the solver's message, and mapped to
+  !> a TUBES_* code; stepping, if it resumes, restarts from the last accepted (t, x).
   subroutine sun_fail(self, flag, stat)
     class(sun_t), intent(inout) :: self
     integer(c_int), intent(in) :: flag
     integer, intent(out) :: stat
-    stat = TUBES_EINPUT
+    self%solver_flag = flag
     select type (self)
     type is (cvode_t)
-      call cvode_fail(self, flag, stat)
-    type is (arkode_t)
-      call arkode_fail(self, flag, stat)
+      self%solver_msg = flag_name('CV', flag)//': '//trim(self%mem%ctx%msg)
+      select case (flag)
+      case (CV_RHSFUNC_FAIL, CV_FIRST_RHSFUNC_ERR, CV_REPTD_RHSFUNC_ERR, CV_UNREC_RHSFUNC_ERR)
+        stat = TUBES_EMODEL
+      case (CV_LSETUP_FAIL, CV_LSOLVE_FAIL)   ! the Jacobian callback failed, or a singular matrix
+        stat = merge(TUBES_EMODEL, TUBES_ENOCONV, self%mem%ctx%model_stat < 0)
+      case (CV_CONV_FAILURE, CV_NLS_FAIL)
+        stat = TUBES_ENOCONV
+      case (CV_ERR_FAILURE, CV_TOO_MUCH_ACC, CV_TOO_MUCH_WORK, CV_TOO_CLOSE)
+        stat = TUBES_ESTEP
+      case default                            ! illegal input, memory: setup problems
+        stat = TUBES_EINPUT
+      end select
+    class default
+      self%solver_msg = flag_name('ARK', flag)//': '//trim(self%mem%ctx%msg)
+      ! ARKODE uses CVODE's numbering for these (arkode.h): -8..-11 right-hand side failures,
+      ! -1 too much work, -2 too much accuracy, -3 error test failures, -27 too close
+      select case (flag)
+      case (-11:-8)
+        stat = TUBES_EMODEL
+      case (-3:-1, -27)
+        stat = TUBES_ESTEP
+      case default
+        stat = TUBES_EINPUT
+      end select
+      if (self%mem%ctx%model_stat < 0) stat = TUBES_EMODEL
     end select
+    self%fresh = .true.
   end subroutine sun_fail
+
+  !> Move the evaluation counts and the solver's statistics (CVODE: error-test and corrector
+  !> failures, corrector iterations; ERKStep: error-test failures) into the integrator's counters.
+  subroutine sun_harvest(self)
+    class(sun_t), intent(inout) :: self
+    integer(c_long) :: netf(1), nsf(1), nni(1)
+    integer(c_int) :: flag
+    self%nfev = self%nfev + self%mem%ctx%nfev
+    self%mem%ctx%nfev = 0
+    select type (self)
+    type is (cvode_t)
+      self%njev = self%njev + self%mem%ctx%njev
+      self%mem%ctx%njev = 0
+      flag = FCVodeGetNumErrTestFails(self%mem%solver, netf)
+      flag = FCVodeGetNumStepSolveFails(self%mem%solver, nsf)
+      flag = FCVodeGetNumNonlinSolvIters(self%mem%solver, nni)
+      self%nrejected = self%nrejected + (netf(1) + nsf(1) - self%mem%nrej0)
+      self%niter = self%niter + (nni(1) - self%mem%nni0)
+      self%mem%nrej0 = netf(1) + nsf(1)
+      self%mem%nni0 = nni(1)
+    class default
+      flag = FERKStepGetNumErrTestFails(self%mem%solver, netf)
+      self%nrejected = self%nrejected + (netf(1) - self%mem%nrej0)
+      self%mem%nrej0 = netf(1)
+    end select
+  end subroutine sun_harvest
+
+  !> After the solver's Create call (what): if it returned no memory, stat = TUBES_EINPUT and
+  !> the instance's memory destroyed.
+  subroutine sun_created(self, what, stat)
+    class(sun_t), intent(inout) :: self
+    character(*), intent(in) :: what
+    integer, intent(out) :: stat
+    stat = TUBES_OK
+    if (c_associated(self%mem%solver)) return
+    call sun_destroy(self)
+    stat = TUBES_EINPUT
+    self%solver_msg = what // ' failed'
+  end subroutine sun_created
+
+  !> The end of a (re)start: the failure of flag if it is one, else the tolerances the solver now
+  !> has, its totals counted from zero, and the counters of the new start harvested (zero after
+  !> Init/ReInit).
+  subroutine sun_started(self, flag, stat)
+    class(sun_t), intent(inout) :: self
+    integer(c_int), intent(in) :: flag
+    integer, intent(out) :: stat
+    if (flag < 0) then
+      call sun_fail(self, flag, stat)
+      return
+    end if
+    stat = TUBES_OK
+    self%mem%rtol = self%rtol
+    self%mem%atol = self%atol
+    self%mem%nrej0 = 0
+    self%mem%nni0 = 0
+    call sun_harvest(self)
+    self%fresh = .false.
+  end subroutine sun_started
 
   !> The solver's dense output on [t_old, t] (CVodeGetDky: the Nordsieck polynomial;
   !> ERKStepGetDky: the Hermite interpolant, which may evaluate f); NaN outside: never

@@ -25,7 +25,7 @@ module tubes_tao
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp, i8
   use tubes_field, only: vector_field_t
-  use tubes_integrator, only: integrator_t, step_grid_t, stale_state, hermite
+  use tubes_integrator, only: integrator_t, step_grid_t, stale_state, hermite, all_finite
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ESTEP
   implicit none
   private
@@ -162,7 +162,6 @@ contains
     integer, intent(out) :: stat
     real(wp) :: dir, h, hs, t, t_full, d
     real(wp) :: q(size(x)/2), p(size(x)/2), xc(size(x)/2), yc(size(x)/2)
-    real(wp) :: zm(size(x)), fm(size(x))
     integer :: fs, k, m, n
     logical :: last
     stat = TUBES_OK
@@ -196,29 +195,17 @@ contains
         d = self%flow_coef(k)*hs
         select case (self%flow_kind(k))
         case (FLOW_A)          ! H(q, y): p and x move
-          zm(1:m) = q
-          zm(m + 1:n) = yc
-          call self%f%eval(t, zm, fm, fs)
-          self%nfev = self%nfev + 1
+          call tao_flow_f(self%f, t, d, q, yc, xc, p, self%nfev, fs)
           if (fs /= 0) exit
-          p = p + d*fm(m + 1:n)
-          xc = xc + d*fm(1:m)
         case (FLOW_B)          ! H(x, p): q and y move
-          zm(1:m) = xc
-          zm(m + 1:n) = p
-          call self%f%eval(t, zm, fm, fs)
-          self%nfev = self%nfev + 1
+          call tao_flow_f(self%f, t, d, xc, p, q, yc, self%nfev, fs)
           if (fs /= 0) exit
-          q = q + d*fm(1:m)
-          yc = yc + d*fm(m + 1:n)
         case default           ! omega H_C
           call tao_flow_c(self%omega_bind, d, q, p, xc, yc)
         end select
       end do
-      if (fs == 0) then
-        if (.not. (all(abs(q) <= huge(1.0_wp)) .and. all(abs(p) <= huge(1.0_wp)) .and. &
-                   all(abs(xc) <= huge(1.0_wp)) .and. all(abs(yc) <= huge(1.0_wp)))) fs = -1
-      end if
+      if (fs == 0 .and. .not. (all_finite(q) .and. all_finite(p) .and. all_finite(xc) .and. &
+                               all_finite(yc))) fs = -1
       if (.not. self%grid%retry(fs, h, self%nrejected, stat)) exit   ! fs > 0: h/4, off the grid
     end do
     if (stat /= TUBES_OK) return
@@ -236,6 +223,25 @@ contains
     self%h_used = hs
     self%nsteps = self%nsteps + 1
   end subroutine tao_step
+
+  !> Flow A or B over d: with f = f(t, (a, b)) at the mixed point (one evaluation, counted in
+  !> nfev), u <- u + d f_q and v <- v + d f_p; unchanged if the model refuses (fs /= 0).
+  !> phi_A is (a, b, u, v) = (q, y, x, p), phi_B is (x, p, q, y).
+  subroutine tao_flow_f(f, t, d, a, b, u, v, nfev, fs)
+    class(vector_field_t), intent(in) :: f
+    real(wp), intent(in) :: t, d, a(:), b(:)
+    real(wp), intent(inout) :: u(:), v(:)
+    integer(i8), intent(inout) :: nfev
+    integer, intent(out) :: fs
+    real(wp) :: fm(2*size(a))
+    integer :: m
+    m = size(a)
+    call f%eval(t, [a, b], fm, fs)
+    nfev = nfev + 1
+    if (fs /= 0) return
+    u = u + d*fm(1:m)
+    v = v + d*fm(m + 1:2*m)
+  end subroutine tao_flow_f
 
   !> Cubic Hermite interpolation from (q, p) and f at both ends of the last accepted step;
   !> the two slopes are evaluated on first use (f at the end is kept for the next step).

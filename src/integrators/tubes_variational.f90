@@ -7,22 +7,26 @@ module tubes_variational
   implicit none
   private
 
-  type, extends(vector_field_t), public :: variational_t
+  !> The flow and the n x m matrix W carried by its linearisation, d/dt [x, W] = [f(x), J(x) W],
+  !> W stored column by column after x: the state transition matrix (m = n, variational_t) or
+  !> one tangent vector (m = 1, tangent_t). Both are this type; make_variational and
+  !> make_tangent set which.
+  type, extends(vector_field_t) :: linearised_t
     class(vector_field_t), allocatable :: base   !! the model whose flow is linearised
+    logical :: stm = .true.                      !! W is Phi (m = n), else one vector (m = 1)
   contains
-    procedure :: dim => var_dim
-    procedure :: eval => var_eval
-    procedure :: jet_spec => var_jet_spec
+    procedure :: dim => lin_dim
+    procedure :: eval => lin_eval
+    procedure :: jet_spec => lin_jet_spec
+  end type linearised_t
+
+  !> The state and its state transition matrix Phi (n + n^2 components).
+  type, extends(linearised_t), public :: variational_t
   end type variational_t
 
   !> The flow and one tangent vector: d/dt [x, w] = [f(x), J(x) w] (dimension 2n): the
   !> transport of a vector by the linearised flow at the cost of n, not n^2, more equations.
-  type, extends(vector_field_t), public :: tangent_t
-    class(vector_field_t), allocatable :: base
-  contains
-    procedure :: dim => tan_dim
-    procedure :: eval => tan_eval
-    procedure :: jet_spec => tan_jet_spec
+  type, extends(linearised_t), public :: tangent_t
   end type tangent_t
 
   public :: make_variational, stm_start, make_tangent
@@ -41,20 +45,30 @@ contains
     type(tangent_t), intent(out) :: tan
     class(vector_field_t), intent(in) :: base
     allocate (tan%base, source=base)
+    tan%stm = .false.
   end subroutine make_tangent
 
-  pure integer function tan_dim(self)
-    class(tangent_t), intent(in) :: self
-    tan_dim = 2*self%base%dim()
-  end function tan_dim
+  !> m, the number of columns of W.
+  pure integer function columns(self)
+    class(linearised_t), intent(in) :: self
+    columns = 1
+    if (self%stm) columns = self%base%dim()
+  end function columns
 
-  pure subroutine tan_eval(self, t, x, dxdt, stat)
-    class(tangent_t), intent(in) :: self
+  pure integer function lin_dim(self)
+    class(linearised_t), intent(in) :: self
+    integer :: n
+    n = self%base%dim()
+    lin_dim = n + n*columns(self)
+  end function lin_dim
+
+  pure subroutine lin_eval(self, t, x, dxdt, stat)
+    class(linearised_t), intent(in) :: self
     real(wp), intent(in)  :: t, x(:)
     real(wp), intent(out) :: dxdt(:)
     integer, intent(out)  :: stat
-    call eval_with_columns(self%base, t, x, 1, dxdt, stat)
-  end subroutine tan_eval
+    call eval_with_columns(self%base, t, x, columns(self), dxdt, stat)
+  end subroutine lin_eval
 
   !> (f(x), J(x) W) for the base model, the n x m matrix W stored column by column after x:
   !> m = 1 a tangent vector, m = n the state transition matrix.
@@ -74,13 +88,17 @@ contains
     dxdt(n + 1:n + n*m) = reshape(matmul(jac, reshape(x(n + 1:n + n*m), [n, m])), [n*m])
   end subroutine eval_with_columns
 
-  !> The base model's formula, with the tangent vector.
-  pure function tan_jet_spec(self) result(spec)
-    class(tangent_t), intent(in) :: self
+  !> The base model's formula, with its variational equations or the tangent vector.
+  pure function lin_jet_spec(self) result(spec)
+    class(linearised_t), intent(in) :: self
     type(jet_spec_t) :: spec
     spec = self%base%jet_spec()
-    spec%tangent = .true.
-  end function tan_jet_spec
+    if (self%stm) then
+      spec%variational = .true.
+    else
+      spec%tangent = .true.
+    end if
+  end function lin_jet_spec
 
   !> Extended initial state (x0, identity).
   pure function stm_start(x0) result(z)
@@ -94,27 +112,4 @@ contains
       z(n + (j - 1)*n + j) = 1
     end do
   end function stm_start
-
-  pure integer function var_dim(self)
-    class(variational_t), intent(in) :: self
-    integer :: n
-    n = self%base%dim()
-    var_dim = n + n*n
-  end function var_dim
-
-  !> The base model's formula, with its variational equations.
-  pure function var_jet_spec(self) result(spec)
-    class(variational_t), intent(in) :: self
-    type(jet_spec_t) :: spec
-    spec = self%base%jet_spec()
-    spec%variational = .true.
-  end function var_jet_spec
-
-  pure subroutine var_eval(self, t, x, dxdt, stat)
-    class(variational_t), intent(in) :: self
-    real(wp), intent(in)  :: t, x(:)
-    real(wp), intent(out) :: dxdt(:)
-    integer, intent(out)  :: stat
-    call eval_with_columns(self%base, t, x, self%base%dim(), dxdt, stat)
-  end subroutine var_eval
 end module tubes_variational

@@ -4,22 +4,18 @@
 !> The origin is the rank-1 saddle (E = 0) between two wells on either side of x = 0.
 module tubes_coupled_quartic
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: separable_t
+  use tubes_hamiltonian, only: two_mode_t
   implicit none
   private
 
   !> The coupled quartic; the parameters' defaults live in tubes_models.
-  type, extends(separable_t), public :: coupled_quartic_t
-    real(wp) :: m_a      !! mass of the x mode
-    real(wp) :: m_b      !! mass of the y mode
+  type, extends(two_mode_t), public :: coupled_quartic_t
     real(wp) :: alpha    !! negative curvature of the double well
     real(wp) :: beta     !! quartic stiffness of x
     real(wp) :: omega    !! stiffness of the y mode
     real(wp) :: eps      !! coupling of x and y
   contains
-    procedure :: shape => cq_shape
-    procedure :: shape_derivs => cq_shape_derivs
-    procedure :: masses => cq_masses
+    procedure :: shape => cq_shape, shape_derivs => cq_shape_derivs
   end type coupled_quartic_t
 
 contains
@@ -42,12 +38,5 @@ contains
     hess(2, 1) = -self%eps
     hess(2, 2) = self%omega + self%eps
   end subroutine cq_shape_derivs
-
-  !> The masses of the two modes.
-  pure subroutine cq_masses(self, m)
-    class(coupled_quartic_t), intent(in) :: self
-    real(wp), intent(out) :: m(:)
-    m(1:2) = [self%m_a, self%m_b]
-  end subroutine cq_masses
 
 end module tubes_coupled_quartic

@@ -23,12 +23,8 @@ module tubes_cr3bp
   type, extends(hamiltonian_t), public :: cr3bp_t
     real(wp) :: mu   !! mass ratio m2/(m1 + m2), 0 < mu <= 1/2 (nd, inherited: 2 planar, 3 spatial)
   contains
-    procedure :: energy => cr_energy
-    procedure :: gradient => cr_gradient
-    procedure :: hessian => cr_hessian
-    procedure :: naming => cr_naming
-    procedure :: reversor => cr_reversor
-    procedure :: length_scale => cr_length_scale
+    procedure :: energy => cr_energy, gradient => cr_gradient, hessian => cr_hessian
+    procedure :: naming => cr_naming, reversor => cr_reversor, length_scale => cr_length_scale
   end type cr3bp_t
 
 contains
@@ -48,33 +44,52 @@ contains
     cr_energy = 0.5_wp*(x(3)**2 + x(4)**2) + x(2)*x(3) - x(1)*x(4) - (1 - self%mu)/r1 - self%mu/r2
   end function cr_energy
 
-  !> dH/dx = (-py + U_x, px + U_y, px + y, py - x), U = -(1 - mu)/r1 - mu/r2.
+  !> dH/dx = (-py + U_x, px + U_y, px + y, py - x), U = -(1 - mu)/r1 - mu/r2; spatial:
+  !> (-py + U_x, px + U_y, U_z, px + y, py - x, pz).
   pure subroutine cr_gradient(self, x, g, stat)
     class(cr3bp_t), intent(in) :: self
     real(wp), intent(in) :: x(:)
     real(wp), intent(out) :: g(:)
     integer, intent(out) :: stat
     real(wp) :: r1, r2, a1, a2
-    if (self%nd == 3) then
-      call gradient3(self, x, g, stat)
-      return
-    end if
-    r1 = hypot(x(1) + self%mu, x(2))
-    r2 = hypot(x(1) - 1 + self%mu, x(2))
+    logical :: ok
+    integer :: nd
+    nd = self%nd
+    call cr_distances(self, x, r1, r2, ok)
     stat = 0
-    g(1:4) = 0
-    if (.not. (min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) <= BLOWUP_Q)) then
+    g(1:2*nd) = 0
+    if (.not. ok) then
       stat = -1
       return
     end if
     a1 = (1 - self%mu)/r1**3
     a2 = self%mu/r2**3
-    g(1) = -x(4) + a1*(x(1) + self%mu) + a2*(x(1) - 1 + self%mu)
-    g(2) = x(3) + (a1 + a2)*x(2)
-    g(3) = x(3) + x(2)
-    g(4) = x(4) - x(1)
-    if (.not. all(abs(g(1:4)) <= huge(1.0_wp))) stat = -1
+    g(1) = -x(nd + 2) + a1*(x(1) + self%mu) + a2*(x(1) - 1 + self%mu)
+    g(2) = x(nd + 1) + (a1 + a2)*x(2)
+    if (nd == 3) g(3) = (a1 + a2)*x(3)
+    g(nd + 1) = x(nd + 1) + x(2)
+    g(nd + 2) = x(nd + 2) - x(1)
+    if (nd == 3) g(6) = x(6)
+    if (.not. all(abs(g(1:2*nd)) <= huge(1.0_wp))) stat = -1
   end subroutine cr_gradient
+
+  !> The distances r1, r2 from the primaries (hypot planar, norm2 spatial); ok: neither is a
+  !> collision (MIN_R) and |q|_1 <= BLOWUP_Q.
+  pure subroutine cr_distances(self, x, r1, r2, ok)
+    class(cr3bp_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: r1, r2
+    logical, intent(out) :: ok
+    if (self%nd == 3) then
+      r1 = norm2([x(1) + self%mu, x(2), x(3)])
+      r2 = norm2([x(1) - 1 + self%mu, x(2), x(3)])
+      ok = min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) + abs(x(3)) <= BLOWUP_Q
+    else
+      r1 = hypot(x(1) + self%mu, x(2))
+      r2 = hypot(x(1) - 1 + self%mu, x(2))
+      ok = min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) <= BLOWUP_Q
+    end if
+  end subroutine cr_distances
 
   !> U_xx = sum_i m_i (1/r_i^3 - 3 dx_i^2/r_i^5), U_xy = -sum_i 3 m_i dx_i y/r_i^5,
   !> U_yy = sum_i m_i (1/r_i^3 - 3 y^2/r_i^5); H_{x,py} = -1, H_{y,px} = 1, H_{p,p} = I.
@@ -84,6 +99,7 @@ contains
     real(wp), intent(out) :: h(:, :)
     integer, intent(out) :: stat
     real(wp) :: r1, r2, d1, d2, m1, m2, y
+    logical :: ok
     if (self%nd == 3) then
       call hessian3(self, x, h, stat)
       return
@@ -92,10 +108,9 @@ contains
     d1 = x(1) + self%mu
     d2 = x(1) - 1 + self%mu
     y = x(2)
-    r1 = hypot(d1, y)
-    r2 = hypot(d2, y)
+    call cr_distances(self, x, r1, r2, ok)
     stat = 0
-    if (.not. (min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) <= BLOWUP_Q)) then
+    if (.not. ok) then
       stat = -1
       return
     end if
@@ -105,13 +120,7 @@ contains
     h(1, 2) = -3*m1*d1*y/r1**5 - 3*m2*d2*y/r2**5
     h(2, 1) = h(1, 2)
     h(2, 2) = m1*(1/r1**3 - 3*y**2/r1**5) + m2*(1/r2**3 - 3*y**2/r2**5)
-    h(1, 4) = -1
-    h(4, 1) = -1
-    h(2, 3) = 1
-    h(3, 2) = 1
-    h(3, 3) = 1
-    h(4, 4) = 1
-    if (.not. all(abs(h(1:4, 1:4)) <= huge(1.0_wp))) stat = -1
+    call frame_hessian(2, h, stat)
   end subroutine cr_hessian
 
   pure integer function cr_naming(self)
@@ -130,32 +139,6 @@ contains
     end if
   end function cr_reversor
 
-  !> Spatial: dH/dx = (-py + U_x, px + U_y, U_z, px + y, py - x, pz), U = -(1 - mu)/r1 - mu/r2.
-  pure subroutine gradient3(self, x, g, stat)
-    class(cr3bp_t), intent(in) :: self
-    real(wp), intent(in) :: x(:)
-    real(wp), intent(out) :: g(:)
-    integer, intent(out) :: stat
-    real(wp) :: r1, r2, a1, a2
-    r1 = norm2([x(1) + self%mu, x(2), x(3)])
-    r2 = norm2([x(1) - 1 + self%mu, x(2), x(3)])
-    stat = 0
-    g(1:6) = 0
-    if (.not. (min(r1, r2) > MIN_R .and. abs(x(1)) + abs(x(2)) + abs(x(3)) <= BLOWUP_Q)) then
-      stat = -1
-      return
-    end if
-    a1 = (1 - self%mu)/r1**3
-    a2 = self%mu/r2**3
-    g(1) = -x(5) + a1*(x(1) + self%mu) + a2*(x(1) - 1 + self%mu)
-    g(2) = x(4) + (a1 + a2)*x(2)
-    g(3) = (a1 + a2)*x(3)
-    g(4) = x(4) + x(2)
-    g(5) = x(5) - x(1)
-    g(6) = x(6)
-    if (.not. all(abs(g(1:6)) <= huge(1.0_wp))) stat = -1
-  end subroutine gradient3
-
   !> Spatial: U_ij = sum_k m_k (delta_ij / r_k^3 - 3 d_i d_j / r_k^5) with d = (x - x_k, y, z);
   !> H_{x,py} = -1, H_{y,px} = 1, H_{p,p} = I.
   pure subroutine hessian3(self, x, h, stat)
@@ -165,13 +148,14 @@ contains
     integer, intent(out) :: stat
     real(wp) :: d(3, 2), r(2), m(2)
     integer :: i, j, k
+    logical :: ok
     h(1:6, 1:6) = 0
     d(:, 1) = [x(1) + self%mu, x(2), x(3)]
     d(:, 2) = [x(1) - 1 + self%mu, x(2), x(3)]
-    r = [norm2(d(:, 1)), norm2(d(:, 2))]
+    call cr_distances(self, x, r(1), r(2), ok)
     m = [1 - self%mu, self%mu]
     stat = 0
-    if (.not. (minval(r) > MIN_R .and. abs(x(1)) + abs(x(2)) + abs(x(3)) <= BLOWUP_Q)) then
+    if (.not. ok) then
       stat = -1
       return
     end if
@@ -183,15 +167,25 @@ contains
         end do
       end do
     end do
-    h(1, 5) = -1
-    h(5, 1) = -1
-    h(2, 4) = 1
-    h(4, 2) = 1
-    h(4, 4) = 1
-    h(5, 5) = 1
-    h(6, 6) = 1
-    if (.not. all(abs(h(1:6, 1:6)) <= huge(1.0_wp))) stat = -1
+    call frame_hessian(3, h, stat)
   end subroutine hessian3
+
+  !> The entries of the Hessian that are the same at every point (nd = 2 or 3): H_{x,py} = -1,
+  !> H_{y,px} = 1, H_{p,p} = I; then stat = -1 if any entry of the (2 nd)^2 block is not finite.
+  pure subroutine frame_hessian(nd, h, stat)
+    integer, intent(in) :: nd
+    real(wp), intent(inout) :: h(:, :)
+    integer, intent(inout) :: stat
+    integer :: k
+    h(1, nd + 2) = -1
+    h(nd + 2, 1) = -1
+    h(2, nd + 1) = 1
+    h(nd + 1, 2) = 1
+    do k = nd + 1, 2*nd
+      h(k, k) = 1
+    end do
+    if (.not. all(abs(h(1:2*nd, 1:2*nd)) <= huge(1.0_wp))) stat = -1
+  end subroutine frame_hessian
 
   !> The Hill radius (mu/3)^(1/3): the distance of L1 and L2 from the secondary.
   pure real(wp) function cr_length_scale(self)

@@ -8,22 +8,18 @@
 !> orbit is a Morse oscillation along x with a period in closed form (docs/models.md).
 module tubes_de_leon_berne
   use tubes_kinds, only: wp
-  use tubes_hamiltonian, only: separable_t
+  use tubes_hamiltonian, only: two_mode_t
   implicit none
   private
 
   !> De Leon-Berne; the parameters' defaults live in tubes_models.
-  type, extends(separable_t), public :: de_leon_berne_t
-    real(wp) :: m_a      !! mass of the x mode
-    real(wp) :: m_b      !! mass of the y mode
+  type, extends(two_mode_t), public :: de_leon_berne_t
     real(wp) :: d        !! dissociation energy D of the Morse oscillator
     real(wp) :: lambda   !! range of the Morse oscillator
     real(wp) :: zeta     !! decay of the double well along x
     real(wp) :: eps_s    !! energy of the saddle
   contains
-    procedure :: shape => dlb_shape
-    procedure :: shape_derivs => dlb_shape_derivs
-    procedure :: masses => dlb_masses
+    procedure :: shape => dlb_shape, shape_derivs => dlb_shape_derivs
   end type de_leon_berne_t
 
 contains
@@ -56,12 +52,5 @@ contains
     hess(2, 1) = hess(1, 2)
     hess(2, 2) = (48*q(2)**2 - 8)*ez
   end subroutine dlb_shape_derivs
-
-  !> The masses of the two modes.
-  pure subroutine dlb_masses(self, m)
-    class(de_leon_berne_t), intent(in) :: self
-    real(wp), intent(out) :: m(:)
-    m(1:2) = [self%m_a, self%m_b]
-  end subroutine dlb_masses
 
 end module tubes_de_leon_berne

@@ -16,9 +16,7 @@ module tubes_fourwell
     real(wp) :: xi = 0.00656_wp     !! tilt coupling of x and y [1/cm]
     real(wp) :: h0 = 12.065_wp      !! height offset [cm]
   contains
-    procedure :: height => fourwell_height
-    procedure :: derivs => fourwell_derivs
-    procedure :: third => fourwell_third
+    procedure :: height => fourwell_height, derivs => fourwell_derivs, third => fourwell_third
   end type fourwell_t
 
 contains

@@ -80,6 +80,15 @@ module tubes_hamiltonian
     procedure :: kinetic_matrix => sep_kinetic
   end type separable_t
 
+  !> A separable system of two modes with masses m_a (x) and m_b (y): the masses written once for
+  !> tubes_coupled_quartic and tubes_de_leon_berne.
+  type, abstract, extends(separable_t), public :: two_mode_t
+    real(wp) :: m_a   !! mass of the x mode
+    real(wp) :: m_b   !! mass of the y mode
+  contains
+    procedure :: masses => two_mode_masses
+  end type two_mode_t
+
   !> Viscous damping -c p on the momenta of any Hamiltonian model.
   type, extends(vector_field_t), public :: damped_t
     class(hamiltonian_t), allocatable :: base   !! the conservative model
@@ -316,6 +325,13 @@ contains
       a(i, i) = 1/m(i)
     end do
   end subroutine sep_kinetic
+
+  !> The masses of the two modes.
+  pure subroutine two_mode_masses(self, m)
+    class(two_mode_t), intent(in) :: self
+    real(wp), intent(out) :: m(:)
+    m(1:2) = [self%m_a, self%m_b]
+  end subroutine two_mode_masses
 
   pure real(wp) function nat_potential(self, q)
     class(natural_t), intent(in) :: self

@@ -192,33 +192,29 @@ contains
       info%section_value = -1
       info%section_direction = 1
       info%gate = 0.1_wp
-    case ('cr3bp')
-      info%summary = 'planar circular restricted three-body problem, rotating frame: H = ' // &
-                     '(px^2 + py^2)/2 + y px - x py - (1 - mu)/r1 - mu/r2'
+    case ('cr3bp', 'cr3bp_spatial')
       info%np = 1
       info%params(1) = p('mu', 0.01215058560962404_wp, '1', 'mass ratio m2/(m1 + m2) in (0, 1/2]')
-      info%formula = '(px^2 + py^2)/2 + y*px - x*py - (1 - mu)/sqrt((x + mu)^2 + y^2) ' // &
-                     '- mu/sqrt((x - 1 + mu)^2 + y^2)'
       info%length_units = '1'
-      info%box(1:2) = 1.5_wp
       info%saddle = 'L1'
       info%section_kind = ''
       info%gate = 0.01_wp
-    case ('cr3bp_spatial')
-      info%summary = 'spatial circular restricted three-body problem, rotating frame: H = ' // &
-                     '|p|^2/2 + y px - x py - (1 - mu)/r1 - mu/r2 (also cr3bp with spatial = .true.)'
-      info%ndof = 3
-      info%np = 1
-      info%params(1) = p('mu', 0.01215058560962404_wp, '1', 'mass ratio m2/(m1 + m2) in (0, 1/2]')
-      info%formula = '(px^2 + py^2 + pz^2)/2 + y*px - x*py - (1 - mu)/sqrt((x + mu)^2 + y^2 + z^2)' // &
-                     ' - mu/sqrt((x - 1 + mu)^2 + y^2 + z^2)'
-      info%coordinates = 'x y z'
-      info%momenta = 'px py pz'
-      info%length_units = '1'
-      info%box(1:3) = [1.5_wp, 1.5_wp, 0.3_wp]
-      info%saddle = 'L1'
-      info%section_kind = ''
-      info%gate = 0.01_wp
+      if (name == 'cr3bp') then
+        info%summary = 'planar circular restricted three-body problem, rotating frame: H = ' // &
+                       '(px^2 + py^2)/2 + y px - x py - (1 - mu)/r1 - mu/r2'
+        info%formula = '(px^2 + py^2)/2 + y*px - x*py - (1 - mu)/sqrt((x + mu)^2 + y^2) ' // &
+                       '- mu/sqrt((x - 1 + mu)^2 + y^2)'
+        info%box(1:2) = 1.5_wp
+      else
+        info%summary = 'spatial circular restricted three-body problem, rotating frame: H = ' // &
+                       '|p|^2/2 + y px - x py - (1 - mu)/r1 - mu/r2 (also cr3bp with spatial = .true.)'
+        info%ndof = 3
+        info%formula = '(px^2 + py^2 + pz^2)/2 + y*px - x*py - (1 - mu)/sqrt((x + mu)^2 + y^2 + z^2)' // &
+                       ' - mu/sqrt((x - 1 + mu)^2 + y^2 + z^2)'
+        info%coordinates = 'x y z'
+        info%momenta = 'px py pz'
+        info%box(1:3) = [1.5_wp, 1.5_wp, 0.3_wp]
+      end if
     case default
       call expression_info(name, info, stat)
       return
