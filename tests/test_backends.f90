@@ -38,14 +38,12 @@ module test_backends_models
 
 contains
 
-  subroutine osc_on_step(self, ig, t_hi, stop_now)
+  subroutine osc_on_step(self, ig, t_hi)
     class(osc_probe_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
     real(wp) :: xs(2), xn(2), h, ed
     integer :: j
-    stop_now = .false.
     if (t_hi /= ig%t) then       ! a step cut by an event: not a whole step
       self%h_cut = abs(ig%t - ig%t_old)
       return
@@ -85,14 +83,12 @@ contains
     self%e_dense(self%n) = ed
   end subroutine append
 
-  subroutine ball_on_step(self, ig, t_hi, stop_now)
+  subroutine ball_on_step(self, ig, t_hi)
     class(ball_probe_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
     real(wp) :: zn(4), f0(4), f1(4), w
     integer :: st
-    stop_now = .false.
     call ig%interp(ig%t, zn)
     call self%ball%eval(ig%t_old, self%zprev, f0, st)
     call self%ball%eval(ig%t, zn, f1, st)

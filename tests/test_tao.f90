@@ -47,14 +47,12 @@ contains
     end do
   end function coupling_field
 
-  subroutine probe_on_step(self, ig, t_hi, stop_now)
+  subroutine probe_on_step(self, ig, t_hi)
     class(dense_probe_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
     real(wp) :: xs(2), ex(2), d(2), jd(2), s, th, h
     integer :: j
-    stop_now = .false.
     select type (ig)
     type is (tao_t)
       h = ig%h_used

@@ -260,14 +260,12 @@ contains
     if (x(1) < self%x_min .or. x(1)**2 + x(2)**2 > self%r2max) stat = 1
   end subroutine shy_eval
 
-  subroutine probe_on_step(self, ig, t_hi, stop_now)
+  subroutine probe_on_step(self, ig, t_hi)
     class(dense_probe_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
     real(wp) :: xs(2), x0(2), s
     integer :: j
-    stop_now = .false.
     self%nsteps = self%nsteps + 1
     call ig%interp(ig%t_old, x0)
     if (self%nsteps > 1) self%err_join = max(self%err_join, norm2(x0 - self%x_end))

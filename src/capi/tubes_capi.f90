@@ -743,16 +743,15 @@ contains
                               state, energy, noisy, measured, release, c_damp, n_draws, stat)
   end function c_synthetic_experiment
 
-  subroutine c_sampler_on_step(self, ig, t_hi, stop_now)
+  subroutine c_sampler_on_step(self, ig, t_hi)
     class(c_sampler_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
     procedure(progress_i), pointer :: f
-    call self%sampler_t%on_step(ig, t_hi, stop_now)
+    call self%sampler_t%on_step(ig, t_hi)
     if (mod(self%count, PROGRESS_EVERY) == 0 .and. c_associated(self%cb)) then
       call c_f_procpointer(self%cb, f)
-      stop_now = f(ig%t, self%user) /= 0
+      self%stop_now = f(ig%t, self%user) /= 0
     end if
   end subroutine c_sampler_on_step
 end module tubes_capi

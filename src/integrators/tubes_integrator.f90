@@ -127,18 +127,18 @@ module tubes_integrator
 
   !> Dense-output hook called after every accepted step; owns its own buffers.
   type, abstract, public :: observer_t
+    logical :: stop_now = .false.   !! set by on_step to end propagate with TUBES_OK (reset before each call)
   contains
     procedure(on_step_i), deferred :: on_step
   end type observer_t
 
   abstract interface
     !> Called with the step [ig%t_old, t_hi] (t_hi = ig%t, or the event time).
-    subroutine on_step_i(self, ig, t_hi, stop_now)
+    subroutine on_step_i(self, ig, t_hi)
       import :: observer_t, integrator_t, wp
-      class(observer_t), intent(inout) :: self
+      class(observer_t), intent(inout) :: self   !! its stop_now = .true. ends propagate
       class(integrator_t), intent(inout) :: ig
       real(wp), intent(in) :: t_hi
-      logical, intent(out) :: stop_now   !! .true. ends propagate with TUBES_OK
     end subroutine on_step_i
   end interface
 
@@ -480,7 +480,7 @@ contains
     class(observer_t), intent(inout), optional :: observer
     type(crossing_log_t), intent(inout), optional :: crossings
     real(wp) :: g1, te
-    logical :: stop_now, hit
+    logical :: hit
     stat = TUBES_OK
     done = .false.
     ps%n = ps%n + 1
@@ -495,12 +495,13 @@ contains
       ps%g0 = g1
     end if
     if (present(observer)) then
+      observer%stop_now = .false.
       if (hit) then
-        call observer%on_step(ig, te, stop_now)
+        call observer%on_step(ig, te)
       else
-        call observer%on_step(ig, ig%t, stop_now)
+        call observer%on_step(ig, ig%t)
       end if
-      if (stop_now .and. .not. hit) then
+      if (observer%stop_now .and. .not. hit) then
         done = .true.
         return
       end if

@@ -106,13 +106,11 @@ module tubes_taylor
 contains
 
   !> Keep the step's polynomial (Taylor steps only: another method's step is not recorded).
-  subroutine record_on_step(self, ig, t_hi, stop_now)
+  subroutine record_on_step(self, ig, t_hi)
     class(taylor_record_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
     integer :: m, need
-    stop_now = .false.
     select type (ig)
     class is (taylor_t)
       if (.not. allocated(self%t0)) then

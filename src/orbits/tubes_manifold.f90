@@ -234,15 +234,13 @@ contains
   end subroutine record_variational
 
   !> After accepted step j: the copy, the step's start time and its first attempt's size.
-  subroutine snapshot_step(self, ig, t_hi, stop_now)
+  subroutine snapshot_step(self, ig, t_hi)
     class(var_snapshots_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
     type(dop853_t), allocatable :: more(:)
     real(wp), allocatable :: tmore(:), hmore(:)
     integer :: j
-    stop_now = .false.
     select type (ig)
     type is (dop853_t)
       j = self%n + 1
@@ -262,7 +260,7 @@ contains
       if (j == 1) self%h1(0) = merge(abs(ig%h_used), huge(1.0_wp), ig%nrejected == 0)
       self%n = j
     class default
-      stop_now = .true.
+      self%stop_now = .true.
     end select
   end subroutine snapshot_step
 

@@ -117,27 +117,24 @@ contains
     end do
   end function flux_leading_order
 
-  subroutine slab_on_step(self, ig, t_hi, stop_now)
+  subroutine slab_on_step(self, ig, t_hi)
     class(slab_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
     real(wp) :: x(ig%f%dim()), s
     call ig%interp(t_hi, x)
     s = dot_product(x(1:self%n) - self%origin(1:self%n), self%normal(1:self%n))
-    stop_now = abs(s) > self%dist
-    if (stop_now) self%outcome = merge(1, -1, s > 0)
+    self%stop_now = abs(s) > self%dist
+    if (self%stop_now) self%outcome = merge(1, -1, s > 0)
   end subroutine slab_on_step
 
-  subroutine transit_on_step(self, ig, t_hi, stop_now)
+  subroutine transit_on_step(self, ig, t_hi)
     class(transit_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
     integer, parameter :: NSUB = 8
     real(wp) :: x(ig%f%dim()), t, s, d
     integer :: j
-    stop_now = .false.
     do j = 1, NSUB
       t = self%t_prev + (t_hi - self%t_prev)*j/NSUB
       call ig%interp(t, x)
@@ -150,7 +147,7 @@ contains
       end if
       self%s_prev = s
       if (self%outcome /= 0) then
-        stop_now = .true.
+        self%stop_now = .true.
         exit
       end if
     end do

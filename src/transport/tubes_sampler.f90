@@ -42,13 +42,11 @@ contains
     if (present(t_end)) self%t_end = t_end
   end subroutine sampler_start
 
-  subroutine sampler_on_step(self, ig, t_hi, stop_now)
+  subroutine sampler_on_step(self, ig, t_hi)
     class(sampler_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
     real(wp) :: ts
-    stop_now = .false.
     do while (self%n < size(self%t))
       ts = self%t0 + self%n*self%dt
       if (self%dt*(ts - t_hi) > 0) exit

@@ -117,17 +117,16 @@ contains
     agrees = sigmas <= MC_SIGMA .and. misclassified <= mis_lim .and. n_undecided <= und_lim
   end subroutine mc_agreement
 
-  subroutine gate_on_step(self, ig, t_hi, stop_now)
+  subroutine gate_on_step(self, ig, t_hi)
     class(gate_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    logical, intent(out) :: stop_now
     real(wp) :: x(ig%f%dim())
     integer :: n
     n = size(self%spec%normal)
     call ig%interp(t_hi, x)
-    stop_now = dot_product(x(1:n) - self%spec%origin, self%spec%normal) > self%spec%dist
-    if (stop_now) self%passed = .true.
+    self%stop_now = dot_product(x(1:n) - self%spec%origin, self%spec%normal) > self%spec%dist
+    if (self%stop_now) self%passed = .true.
   end subroutine gate_on_step
 
   !> Point-in-polygon (even-odd rule) for the closed curve (cr, cp).
