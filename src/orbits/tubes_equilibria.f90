@@ -57,6 +57,13 @@ module tubes_equilibria
   public :: find_equilibria, linearize, quadrant, rest_jacobian, sort_indices
 
 
+
+  !> A Newton loop's record: its last two steps' lengths and the stall of its residual.
+  type :: newton_log_t
+    real(wp) :: step = huge(1.0_wp), step_prev = huge(1.0_wp)
+    real(wp) :: gbest = huge(1.0_wp)   !! the smallest residual so far
+    integer :: nstall = 0              !! iterations since it decreased
+  end type newton_log_t
 contains
 
   !> idx reordered so that key(idx) ascends (insertion sort: a few eigenvalue pairs).
@@ -138,33 +145,32 @@ contains
   !> left is step r/(1 - r) = (m - 1) step; r is capped at 0.95 (m = 20).
   !> A loop that did not converge (stalled at the roundoff floor, or NEWTON_MAX) counts the
   !> longer of its last two steps.
-  pure real(wp) function newton_error(converged, step, step_prev)
+  pure real(wp) function newton_error(converged, lg)
     logical, intent(in) :: converged
-    real(wp), intent(in) :: step, step_prev
+    type(newton_log_t), intent(in) :: lg
     real(wp) :: r, s
-    s = step
-    if (.not. converged) s = max(step, step_prev)
+    s = lg%step
+    if (.not. converged) s = max(lg%step, lg%step_prev)
     r = 0
-    if (step_prev > 0 .and. step_prev < huge(1.0_wp)) r = min(s/step_prev, 0.95_wp)
+    if (lg%step_prev > 0 .and. lg%step_prev < huge(1.0_wp)) r = min(s/lg%step_prev, 0.95_wp)
     newton_error = s*max(1.0_wp, r/(1 - r))
   end function newton_error
 
-  !> The stall rule of both Newton loops: gbest, nstall track the smallest residual so far and
-  !> the iterations since; stalled once it has not decreased for NEWTON_STALL iterations after
-  !> the first NEWTON_FAST (a degenerate root's linear approach has reached roundoff).
-  pure subroutine track_stall(it, gn, gbest, nstall, stalled)
+  !> The stall rule of both Newton loops: lg keeps the smallest residual so far and the
+  !> iterations since; stalled once it has not decreased for NEWTON_STALL iterations after the
+  !> first NEWTON_FAST (a degenerate root's linear approach has reached roundoff).
+  pure subroutine track_stall(it, gn, lg, stalled)
     integer, intent(in) :: it
     real(wp), intent(in) :: gn
-    real(wp), intent(inout) :: gbest
-    integer, intent(inout) :: nstall
+    type(newton_log_t), intent(inout) :: lg
     logical, intent(out) :: stalled
-    if (gn < gbest) then
-      gbest = gn
-      nstall = 0
+    if (gn < lg%gbest) then
+      lg%gbest = gn
+      lg%nstall = 0
     else
-      nstall = nstall + 1
+      lg%nstall = lg%nstall + 1
     end if
-    stalled = it > NEWTON_FAST .and. nstall > NEWTON_STALL
+    stalled = it > NEWTON_FAST .and. lg%nstall > NEWTON_STALL
   end subroutine track_stall
 
   !> Newton's method on grad shape = 0 from q (natural systems). Steps are damped to
@@ -178,8 +184,9 @@ contains
     logical, intent(out) :: ok
     real(wp), intent(in), optional :: gtol
     real(wp), intent(out), optional :: err
-    real(wp) :: gr(MAXN), hs(MAXN, MAXN), dq(MAXN), scale, ls, step, step_prev, gn, gbest, tol
-    integer :: it, n, nstall
+    real(wp) :: gr(MAXN), hs(MAXN, MAXN), dq(MAXN), scale, ls, gn, tol
+    type(newton_log_t) :: lg
+    integer :: it, n
     logical :: converged, solved, stalled
     ok = .false.
     converged = .false.
@@ -188,23 +195,19 @@ contains
     tol = 1.0e-13_wp
     if (present(gtol)) tol = gtol
     if (present(err)) err = huge(1.0_wp)
-    step = huge(1.0_wp)
-    step_prev = huge(1.0_wp)
-    gbest = huge(1.0_wp)
-    nstall = 0
     do it = 1, NEWTON_MAX
       call model%shape_derivs(q, gr(1:n), hs(1:n, 1:n))
       if (.not. all(abs(gr(1:n)) <= huge(1.0_wp))) return
-      call track_stall(it, sqrt(sum(gr(1:n)**2)), gbest, nstall, stalled)
+      call track_stall(it, sqrt(sum(gr(1:n)**2)), lg, stalled)
       if (stalled) exit
       call small_solve(hs(1:n, 1:n), gr(1:n), dq(1:n), solved)
       if (.not. solved) call pinv_solve(hs(1:n, 1:n), gr(1:n), dq(1:n), solved)
       if (.not. solved) return
-      step_prev = step
-      step = sqrt(sum(dq(1:n)**2))
-      scale = max(1.0_wp, step/ls)   ! damp long steps to one length scale
+      lg%step_prev = lg%step
+      lg%step = sqrt(sum(dq(1:n)**2))
+      scale = max(1.0_wp, lg%step/ls)   ! damp long steps to one length scale
       q = q - dq(1:n)/scale
-      if (step <= 1.0e-14_wp*max(ls, sqrt(sum(q**2)))) then
+      if (lg%step <= 1.0e-14_wp*max(ls, sqrt(sum(q**2)))) then
         converged = .true.
         exit
       end if
@@ -212,7 +215,7 @@ contains
     call model%shape_derivs(q, gr(1:n), hs(1:n, 1:n))
     gn = sqrt(sum(gr(1:n)**2))
     ok = gn <= tol
-    if (present(err)) err = newton_error(converged, step, step_prev)
+    if (present(err)) err = newton_error(converged, lg)
   end subroutine newton_natural
 
   !> Least-squares step for a singular Jacobian: x minimises |a x - b| with the least norm, from
@@ -242,34 +245,31 @@ contains
     real(wp), intent(inout) :: x(:)
     logical, intent(out) :: ok
     real(wp), intent(out), optional :: err
-    real(wp) :: f(size(x)), jac(size(x), size(x)), dx(size(x)), scale, ls, xs, step, step_prev, gbest
-    integer :: it, stat, n, nstall
+    real(wp) :: f(size(x)), jac(size(x), size(x)), dx(size(x)), scale, ls, xs
+    type(newton_log_t) :: lg
+    integer :: it, stat, n
     logical :: converged, solved, stalled
     ok = .false.
     converged = .false.
     n = size(x)/2
     ls = model%length_scale()
     if (present(err)) err = huge(1.0_wp)
-    step = huge(1.0_wp)
-    step_prev = huge(1.0_wp)
-    gbest = huge(1.0_wp)
-    nstall = 0
     do it = 1, NEWTON_MAX
       call model%eval(0.0_wp, x, f, stat)
       if (stat /= 0) return
-      call track_stall(it, sqrt(sum(f**2)), gbest, nstall, stalled)
+      call track_stall(it, sqrt(sum(f**2)), lg, stalled)
       if (stalled) exit
       call model%jacobian(0.0_wp, x, jac, stat)
       if (stat /= 0) return
       call small_solve(jac, f, dx, solved)
       if (.not. solved) call lsq_solve(jac, f, dx, solved)
       if (.not. solved) return
-      step_prev = step
-      step = sqrt(sum(dx**2))
+      lg%step_prev = lg%step
+      lg%step = sqrt(sum(dx**2))
       scale = max(1.0_wp, sqrt(sum(dx(1:n)**2))/ls)
       x = x - dx/scale
       xs = max(ls, sqrt(sum(x**2)))
-      if (step <= 1.0e-14_wp*xs) then
+      if (lg%step <= 1.0e-14_wp*xs) then
         converged = .true.
         exit
       end if
@@ -277,7 +277,7 @@ contains
     call model%eval(0.0_wp, x, f, stat)
     xs = max(ls, sqrt(sum(x**2)))
     ok = stat == 0 .and. sqrt(sum(f**2)) <= 1.0e-10_wp*xs
-    if (present(err)) err = newton_error(converged, step, step_prev)
+    if (present(err)) err = newton_error(converged, lg)
   end subroutine newton_general
 
   !> Steepest descent of shape from q into a minimum (names saddles by their wells); ok =
