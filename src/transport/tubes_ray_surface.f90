@@ -21,6 +21,7 @@ module tubes_ray_surface
     real(wp) :: rmin = 0        !! the permitted interval on the ray [cm]
     real(wp) :: rmax = 0
     integer :: mode = 0         !! integrand: 0 area, 1 dA/dE
+    integer :: root = 0         !! root function: 0 E - gH, 1 dH/dr (section_region)
   end type ray_t
 
   public :: ray_potential, ray_hr, section_region, section_area, boundary_pr, &
@@ -80,21 +81,18 @@ contains
     pth = s*r
   end subroutine p_theta_from
 
-  real(c_double) function f_gap(r, user) bind(C)
+  !> The function of r whose roots section_region finds (ray%root: 0 E - gH, 1 dH/dr).
+  real(c_double) function f_root(r, user) bind(C)
     real(c_double), value :: r
     type(c_ptr), value :: user
     type(ray_t), pointer :: ray
     call c_f_pointer(user, ray)
-    f_gap = ray%energy - ray_potential(ray, r)
-  end function f_gap
-
-  real(c_double) function f_dvdr(r, user) bind(C)
-    real(c_double), value :: r
-    type(c_ptr), value :: user
-    type(ray_t), pointer :: ray
-    call c_f_pointer(user, ray)
-    f_dvdr = ray_hr(ray, r)
-  end function f_dvdr
+    if (ray%root == 1) then
+      f_root = ray_hr(ray, r)
+    else
+      f_root = ray%energy - ray_potential(ray, r)
+    end if
+  end function f_root
 
   !> The permitted interval [rmin, rmax] of the ray around the well on it: the minimum of gH
   !> along the ray in (0, rfar] (Brent on dH/dr), then the roots of E - gH on either side
@@ -112,7 +110,8 @@ contains
       a = rfar*k/n
       b = rfar*(k + 1)/n
       if (ray_hr(ray, a) < 0 .and. ray_hr(ray, b) >= 0) then
-        stat = quad_root(c_funloc(f_dvdr), c_loc(ray), a, b, 0.0_wp, 1.0e-15_wp, rw)
+        ray%root = 1
+        stat = quad_root(c_funloc(f_root), c_loc(ray), a, b, 0.0_wp, 1.0e-15_wp, rw)
         if (stat /= 0) then
           stat = TUBES_ENOCONV
           return
@@ -124,10 +123,11 @@ contains
       stat = TUBES_EINPUT
       return
     end if
+    ray%root = 0                      ! from here the roots of E - gH
     if (ray%energy >= ray_potential(ray, 0.0_wp)) then
       ray%rmin = 0
     else
-      stat = quad_root(c_funloc(f_gap), c_loc(ray), 0.0_wp, rw, 0.0_wp, 1.0e-15_wp, ray%rmin)
+      stat = quad_root(c_funloc(f_root), c_loc(ray), 0.0_wp, rw, 0.0_wp, 1.0e-15_wp, ray%rmin)
       if (stat /= 0) then
         stat = TUBES_ENOCONV
         return
@@ -141,7 +141,7 @@ contains
         return
       end if
     end do
-    stat = quad_root(c_funloc(f_gap), c_loc(ray), rw, b, 0.0_wp, 1.0e-15_wp, ray%rmax)
+    stat = quad_root(c_funloc(f_root), c_loc(ray), rw, b, 0.0_wp, 1.0e-15_wp, ray%rmax)
     if (stat /= 0) stat = TUBES_ENOCONV
   end subroutine section_region
 
