@@ -1,6 +1,6 @@
-/* tubes: the C view of the bind(C) API (src/capi/tubes_capi.f90) and of the namelist reader
- * Binding labels must differ from every Fortran module name (they share one global namespace).
- * (src/io/tubes_nml.f90). Units: cm, s; energies per unit mass in (cm/s)^2. */
+/* tubes: the C view of the library's bind(C) API (src/capi/tubes_capi.f90); the driver's namelist
+ * reader is include/tubes_input.h. Binding labels must differ from every Fortran module name (they
+ * share one global namespace). Units: cm, s; energies per unit mass in (cm/s)^2. */
 #ifndef TUBES_H
 #define TUBES_H
 #include <stdint.h>
