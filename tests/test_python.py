@@ -195,6 +195,24 @@ def test_load_keeps_units_nested_paths_and_tables(tmp_path):
     assert ds["period"].attrs["units"] == "s" and ds.sizes["row"] == 2
 
 
+def test_the_calls_tables_convert_in_one_call():
+    """The Python calls' tables (orbit_family, transition, equilibria) convert to a DataFrame or an
+    xarray Dataset in one call, as a loaded file's groups do: a row per dE (per equilibrium),
+    the 1-D columns, names and messages among them; the monodromy (n, 4, 4) is left out."""
+    pytest.importorskip("pandas")
+    pytest.importorskip("xarray")
+    m = tubes.Model()
+    o = m.orbit_family(dE=[1.0, 10.0])
+    df = o.to_pandas()
+    assert list(df["dE"]) == [1.0, 10.0] and np.array_equal(df["action"], o["action"])
+    assert "monodromy" not in df.columns and "saddle" not in df.columns
+    assert o.to_xarray().sizes["row"] == 2
+    t = m.transition(dE=[100.0]).to_pandas()
+    assert list(t.columns) == ["A_tube", "action", "A_E", "p_trans", "dE", "status", "message"]
+    e = m.equilibria().to_pandas()
+    assert sorted(e["name"]) == ["R1", "S12", "S14", "S23", "S34", "W1", "W2", "W3", "W4"]
+
+
 def test_integrate_validates_as_the_input_file():
     z0 = [4.0, 12.614863819914357, 0.0, 0.0]
     for kw, msg in (({"rtol": -1}, "rtol = -1 is out of range"), ({"atol": 0}, "atol = 0 is out of range"),

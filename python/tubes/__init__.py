@@ -44,7 +44,7 @@ METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, 
            "arkode_erk8": 12, "taylor": 13, "auto": 14}   # include/tubes.h TUBES_METHOD_*
 FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 
-__all__ = ["Model", "TubesError", "DisagreementError", "MC_SIGMA", "Integrator", "ensemble", "status_message", "systems", "model_info", "energy", "energies", "potentials",
+__all__ = ["Model", "Table", "TubesError", "DisagreementError", "MC_SIGMA", "Integrator", "ensemble", "status_message", "systems", "model_info", "energy", "energies", "potentials",
            "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
            "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
            "orbit_family", "tube_cut", "transition", "monte_carlo", "poincare", "flux", "normal_form_map",
@@ -468,7 +468,7 @@ def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, 
             "lambda": lam[:n].copy(), "omega": om[0, :n].copy() if nd > 1 else np.full(n, np.nan),
             "omegas": om[:nd - 1, :n].T.copy(), "grad_norm": grad[:n].copy(),
             "eigenvectors": ev[:4 * nd * nd, :n].T.reshape(n, 2 * nd, 2 * nd).transpose(0, 2, 1).copy()}
-    return out
+    return Table(out)
 
 
 def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | None = None,
@@ -746,7 +746,7 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
               "monodromy", "closure", "min_eq_distance", "state0"):
         out[k][bad] = np.nan          # no orbit: not a period of 0
     out["residual"][bad & (out["iterations"] == 0)] = np.nan
-    return out
+    return Table(out)
 
 
 def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
@@ -807,7 +807,7 @@ def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
                     "p_trans_section_err": fre.copy(), "p_trans_theory": f_th / v})
         if taylor is not None and int(st["flux_n_cut"]) > 0:
             out["tube_cut"] = _tube_cut3(model, st, de, taylor, xs, ws, cls)
-    return out
+    return Table(out)
 
 
 def _tube_cut3(model, st, de, taylor, xs, ws, cls):
@@ -1016,7 +1016,7 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
         warnings.warn("transition: failed at dE = " + ", ".join(f"{d:g}" for d in de[status != 0])
                       + " (NaN there; status and message hold why): " + "; ".join(m for m in message if m),
                       RuntimeWarning, stacklevel=2)
-    return out
+    return Table(out)
 
 
 def _mc_agreement(n: int, n_transit: int, n_undecided: int, misclassified: int, p: float) -> dict:
@@ -1536,30 +1536,64 @@ class Result:
     def keys(self):
         return list(self._items) + list(self.attrs)
 
-    def _table(self) -> dict:
-        cols = {k: v for k, v in self._items.items() if isinstance(v, np.ndarray) and v.ndim == 1}
-        if not cols:
-            raise ValueError(f"{self._name} has no 1-D datasets to make a table of")
-        n = max(len(v) for v in cols.values())
-        return {k: v for k, v in cols.items() if len(v) == n}
-
     def to_pandas(self):
         """The group's 1-D datasets of the common length as a pandas DataFrame (units in
         ``df.attrs["units"]``)."""
-        import pandas as pd
-        df = pd.DataFrame(self._table())
-        df.attrs["units"] = {k: self.units.get(k, "") for k in df.columns}
-        return df
+        return _to_pandas(_columns(self._items, self._name), self.units)
 
     def to_xarray(self):
         """The group's 1-D datasets of the common length as an xarray Dataset (units as each
         variable's ``units`` attribute)."""
-        import xarray as xr
-        cols = self._table()
-        return xr.Dataset({k: ("row", v, {"units": self.units.get(k, "")}) for k, v in cols.items()})
+        return _to_xarray(_columns(self._items, self._name), self.units)
 
     def __repr__(self) -> str:
         return f"<tubes.Result {self._name}: {', '.join(self.keys())}>"
+
+
+class Table(dict):
+    """A scene's result as the Python calls return it (equilibria, orbit_family, transition,
+    flux): a dict of its columns (numpy arrays, lists of names or messages) and scalars.
+    ``to_pandas()`` and ``to_xarray()`` make one table of its 1-D columns of the common length (a
+    row per dE, or per equilibrium), where pandas / xarray are installed; the units are the
+    model's (docs/output.md lists them for the same datasets of the output file)."""
+
+    def to_pandas(self):
+        """The 1-D columns of the common length as a pandas DataFrame."""
+        return _to_pandas(_columns(self, type(self).__name__, n=_rows(self)), {})
+
+    def to_xarray(self):
+        """The 1-D columns of the common length as an xarray Dataset (dimension ``row``)."""
+        return _to_xarray(_columns(self, type(self).__name__, n=_rows(self)), {})
+
+
+def _rows(t: dict) -> int | None:
+    """A table's row count: its dE grid's length, else its equilibria's."""
+    for k in ("dE", "name"):
+        if k in t and np.ndim(t[k]) == 1:
+            return len(t[k])
+    return None
+
+
+def _columns(items: dict, name: str, n: int | None = None) -> dict:
+    """The 1-D columns (numpy arrays; lists too) of items of the length n (default the longest)."""
+    cols = {k: v for k, v in items.items()
+            if (isinstance(v, np.ndarray) and v.ndim == 1) or (isinstance(v, list) and n is not None)}
+    if not cols:
+        raise ValueError(f"{name} has no 1-D datasets to make a table of")
+    n = max(len(v) for v in cols.values()) if n is None else n
+    return {k: v for k, v in cols.items() if len(v) == n}
+
+
+def _to_pandas(cols: dict, units: dict):
+    import pandas as pd
+    df = pd.DataFrame(cols)
+    df.attrs["units"] = {k: units.get(k, "") for k in df.columns}
+    return df
+
+
+def _to_xarray(cols: dict, units: dict):
+    import xarray as xr
+    return xr.Dataset({k: ("row", np.asarray(v), {"units": units.get(k, "")}) for k, v in cols.items()})
 
 
 def _decode(v: Any) -> Any:
