@@ -576,3 +576,12 @@ def test_check_refuses_what_the_run_refuses(tmp_path, nml, words):
     said = [[ln for ln in x.stderr.splitlines() if words in ln] for x in (c, r)]   # (a Taylor kernel's build
     assert c.returncode == r.returncode == 1 and said[0] and said[0] == said[1], (c.stderr, r.stderr)  # may add a line)
     assert "valid" not in c.stdout and not list(tmp_path.glob("*.h5"))
+
+
+def test_a_default_has_no_line_zero(tmp_path):
+    """A message about a value the file does not set (at_rest's default, in a file without
+    &trajectory) said 'z.nml:0:'; there is no line to name: 'z.nml:'."""
+    (tmp_path / "z.nml").write_text("&model system = 'cr3bp_spatial' /\n&run scenes = 'trajectory' /\n")
+    r = run_tubes(["z.nml", "-o", "z.h5"], tmp_path)
+    assert r.returncode == 1 and r.stderr.startswith("z.nml: &trajectory: at_rest = .true. (the default)"), r.stderr
+    assert ":0:" not in r.stderr

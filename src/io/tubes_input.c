@@ -991,8 +991,8 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   return n;
 }
 
-int nml_load(const char *path, const char *out_override, tubes_config_t *cfg, nml_where *w,
-             FILE *err) {
+static int load_into(const char *path, const char *out_override, tubes_config_t *cfg, nml_where *w,
+                     FILE *err) {
   if (nml_lex(path, w, err)) return 1;
   int group = -1;
   char msg[512];
@@ -1010,6 +1010,29 @@ int nml_load(const char *path, const char *out_override, tubes_config_t *cfg, nm
     snprintf(cfg->output, sizeof cfg->output, "%s", out_override);
   }
   return nml_validate(path, cfg, w, err) != 0;
+}
+
+/* The messages point at "FILE:LINE:", the line of the variable or of its group; a value the file
+ * does not set at all (a default) has no line, and its messages say "FILE:" (not "FILE:0:"). */
+int nml_load(const char *path, const char *out_override, tubes_config_t *cfg, nml_where *w,
+             FILE *err) {
+  char *buf = NULL;
+  size_t len = 0;
+  FILE *mem = open_memstream(&buf, &len);
+  if (!mem) return load_into(path, out_override, cfg, w, err);
+  int rc = load_into(path, out_override, cfg, w, mem);
+  fclose(mem);
+  size_t lp = strlen(path);
+  for (const char *c = buf; c && *c;) {
+    if (!strncmp(c, path, lp) && !strncmp(c + lp, ":0: ", 4)) {
+      fprintf(err, "%s: ", path);
+      c += lp + 4;
+    } else {
+      fputc(*c++, err);
+    }
+  }
+  free(buf);
+  return rc;
 }
 
 int tubes_input_check(const char *path, tubes_config_t *cfg, char *msg, int msglen) {
