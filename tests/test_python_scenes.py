@@ -306,3 +306,13 @@ def test_an_unresolved_de_is_refused_by_the_library():
     t = m.transition(dE=[1.0])
     assert list(t["status"]) == [tubes.EUNRESOLVED] and np.isnan(t["p_trans"][0])
     assert m.orbit_family(dE=[1.01 * floor])["converged"][0]
+
+
+def test_the_default_saddle_is_checked_as_a_named_one():
+    """The ball with beta = 0 has one well and no saddle: its default saddle S12 does not exist.
+    A call that names no saddle said 'invalid input (status -1)'; it says what the named case
+    says, and that the name is the system's default."""
+    m = tubes.Model(beta=0)
+    for call in (lambda: m.orbit_family(dE=[1.0]), lambda: m.tube_cut(1.0)):
+        with pytest.raises(ValueError, match=r"saddle = 'S12' \(the system's default\) is not a rank-1 saddle"):
+            call()

@@ -610,13 +610,16 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, who: st
             raise ValueError(f"system {model.system!r} has no rank-1 saddle in the search box")
         near = np.asarray(st["near"])[:model.ndof]
         st["saddle"] = eq["name"][min(k, key=lambda i: np.sum((eq["q"][i] - near) ** 2))]
-    elif saddle is not None:
-        # the program's check (src/io/tubes_main.c): a name that is not a rank-1 saddle in the box
+    elif who not in ("equilibria", "synthetic_experiment"):
+        # the program's check (src/io/tubes_scenes.c run_setup): a name that is not a rank-1 saddle
+        # in the box, the system's default too (the ball with beta = 0 has none: 'invalid input')
         eq = _settings_equilibria(model, st)
-        rank1 = [n for n, r in zip(eq["name"], eq["rank1"]) if r]
-        if st["saddle"] not in rank1:
-            raise ValueError(f"{who}: saddle = {st['saddle']!r} is not a rank-1 saddle of system {model.system!r} "
-                             f"in the equilibria box; its rank-1 saddles are: {', '.join(rank1) or 'none'} "
+        ok = [n for n, r, d in zip(eq["name"], eq["rank1"], eq["degenerate"]) if r or (d and who == "flux")]
+        if st["saddle"] not in ok:
+            given = "" if saddle is not None else " (the system's default)"
+            raise ValueError(f"{who}: saddle = {st['saddle']!r}{given} is not a rank-1 saddle of system "
+                             f"{model.system!r} in the equilibria box; its rank-1 saddles are: "
+                             f"{', '.join(n for n, r in zip(eq['name'], eq['rank1']) if r) or 'none'} "
                              "(choose one, or give saddle_near)")
     return st
 
@@ -879,7 +882,8 @@ def normal_form_map(model: Model, points, order: int = 8, to: str = "model", sad
     (the truncated series' own check: it grows with the distance from the saddle), saddle_state."""
     if to not in ("model", "normal_form"):
         raise ValueError("normal_form_map: to = 'model' or 'normal_form'")
-    st = _settings(model, saddle, saddle_near, equilibria=equilibria, flux={"order": int(order)})
+    st = _settings(model, saddle, saddle_near, who="normal_form_map", equilibria=equilibria,
+                   flux={"order": int(order)})
     expo, coef, zs = _taylor_at_saddle(model, st, int(order), "normal_form_map")
     nd = model.ndof
     pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
