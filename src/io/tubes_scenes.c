@@ -150,11 +150,17 @@ static int find_named(const eqlist_t *L, const char *name) {
   return -1;
 }
 
-/* A saddle name that is not a rank-1 saddle of the model: the file, line, and the choices. */
-static void report_saddle(const tubes_run_t *run, const eqlist_t *L, const char *group, const char *name, int line) {
+/* A message's head: "FILE:LINE: ", or "FILE: " for a value the file does not set (a default: no
+ * line), or "tubes: " without a file. */
+static void say_at(const tubes_run_t *run, int line) {
   if (run->input && line > 0) fprintf(stderr, "%s:%d: ", run->input, line);
   else if (run->input) fprintf(stderr, "%s: ", run->input);
   else fprintf(stderr, "tubes: ");
+}
+
+/* A saddle name that is not a rank-1 saddle of the model: the file, line, and the choices. */
+static void report_saddle(const tubes_run_t *run, const eqlist_t *L, const char *group, const char *name, int line) {
+  say_at(run, line);
   fprintf(stderr, "&%s: saddle = '%s' is not a rank-1 saddle of system %s in the &equilibria box; its rank-1 "
           "saddles are:", group, name, run->label);
   int any = 0;
@@ -204,34 +210,36 @@ static int scenes_apply(tubes_run_t *run) {
     orbits |= !strcmp(c->scenes[k], "orbits");
   }
   if (sec && run->ndof != 2) {
-    fprintf(stderr, "%s:%d: &run scenes: '%s' cuts tubes with a Poincare section of a model with 2 degrees of "
-            "freedom; system %s has %d (with %d: equilibria, orbits (&orbits family), flux)\n", run->input,
-            run->scenes_line, sec, run->label, run->ndof, run->ndof);
+    say_at(run, run->scenes_line);
+    fprintf(stderr, "&run scenes: '%s' cuts tubes with a Poincare section of a model with 2 degrees of "
+            "freedom; system %s has %d (with %d: equilibria, orbits (&orbits family), flux)\n", sec, run->label,
+            run->ndof, run->ndof);
     return EXIT_BADINPUT;
   }
   int trajectory = 0;
   for (int k = 0; k < TUBES_NSCENES; k++) trajectory |= !strcmp(c->scenes[k], "trajectory");
   if (trajectory && run->ndof != 2) {
-    fprintf(stderr, "%s:%d: &run scenes: 'trajectory' takes (x0, y0, px0, py0) of a model with 2 degrees of "
-            "freedom; system %s has %d (Python's tubes.integrate takes any state)\n", run->input, run->scenes_line,
-            run->label, run->ndof);
+    say_at(run, run->scenes_line);
+    fprintf(stderr, "&run scenes: 'trajectory' takes (x0, y0, px0, py0) of a model with 2 degrees of "
+            "freedom; system %s has %d (Python's tubes.integrate takes any state)\n", run->label, run->ndof);
     return EXIT_BADINPUT;
   }
   if (orbits && run->ndof < 2) {
-    fprintf(stderr, "%s:%d: &run scenes: 'orbits' follows the Lyapunov orbits of a saddle's centre directions: "
-            "system %s has 1 degree of freedom and none (its saddles have no periodic orbits)\n", run->input,
-            run->scenes_line, run->label);
+    say_at(run, run->scenes_line);
+    fprintf(stderr, "&run scenes: 'orbits' follows the Lyapunov orbits of a saddle's centre directions: "
+            "system %s has 1 degree of freedom and none (its saddles have no periodic orbits)\n", run->label);
     return EXIT_BADINPUT;
   }
   if (sec && !sec_is_ray(c)) {
     int quadratic = 0;
     if (tubes_plane_quadratic(run->system, run->params, c->box_lo, c->box_hi, c->sec_index, c->sec_value,
                               &quadratic) < 0 || !quadratic) {
-      fprintf(stderr, "%s:%d: &section kind = 'plane': the plane q%d = %g needs H quadratic in the momenta "
+      say_at(run, run->sec_kind_line);
+      fprintf(stderr, "&section kind = 'plane': the plane q%d = %g needs H quadratic in the momenta "
               "(H = 1/2 p^T A(q) p + b(q) . p + V(q), A positive definite: its region on the section is "
               "where a quadratic in p has a root), and H of %s is not, or not defined, along it (checked "
               "over the &equilibria box); the scenes on a section ('%s') cannot be computed for this model\n",
-              run->input, run->sec_kind_line, c->sec_index, c->sec_value, run->label, sec);
+              c->sec_index, c->sec_value, run->label, sec);
       return EXIT_BADINPUT;
     }
   }
@@ -254,11 +262,11 @@ static int de_resolvable(const tubes_run_t *run, double ee) {
     if (!asked) continue;
     for (int i = 0; i < lists[j].n; i++)
       if (fabs(lists[j].de[i]) < need) {
-        fprintf(stderr, "%s:%d: &%s de = %g: below what the energy resolves at the saddle %s: E_e = %.10g is "
+        say_at(run, nml_line(run->where, lists[j].group, "de"));
+        fprintf(stderr, "&%s de = %g: below what the energy resolves at the saddle %s: E_e = %.10g is "
                 "known to about %.2g (16 ulps), and E_e + dE only to a relative %.2g of dE; dE must be at least %.3g "
                 "(16 ulps a millionth of it), or H's additive constant smaller (a large constant term: the ball's h0)\n",
-                run->input, nml_line(run->where, lists[j].group, "de"), lists[j].group, lists[j].de[i], run->saddle,
-                ee, res, res / fabs(lists[j].de[i]), need);
+                lists[j].group, lists[j].de[i], run->saddle, ee, res, res / fabs(lists[j].de[i]), need);
         return EXIT_BADINPUT;
       }
   }
@@ -298,8 +306,8 @@ int run_setup(tubes_run_t *run) {
     char m[1024];
     if (tubes_taylor_check(run->system, run->params, c->rtol, m, (int)sizeof m) < 0) {
       if (run->method == TUBES_METHOD_TAYLOR) {
-        fprintf(stderr, "%s:%d: &integrator: method = 'taylor': no Taylor kernel for %s: %s\n", run->input,
-                run->method_line, run->label, m);
+        say_at(run, run->method_line);
+        fprintf(stderr, "&integrator: method = 'taylor': no Taylor kernel for %s: %s\n", run->label, m);
         return EXIT_BADINPUT;
       }
       if (run->rank == 0)
@@ -344,11 +352,10 @@ int run_setup(tubes_run_t *run) {
     }
     if (best < 0) {
       int ln = nml_line(run->where, "orbits", "saddle_near");
-    char at[16] = "";
-    if (ln) snprintf(at, sizeof at, "%d:", ln);
-    fprintf(stderr, "%s:%s &orbits saddle_near%s: system %s has no rank-1 saddle in the &equilibria box "
-            "(its equilibria: the equilibria scene lists them); widen &equilibria box or name a saddle\n",
-            run->input, at, ln ? "" : " (the system's default)", run->label);
+      say_at(run, ln);
+      fprintf(stderr, "&orbits saddle_near%s: system %s has no rank-1 saddle in the &equilibria box "
+              "(its equilibria: the equilibria scene lists them); widen &equilibria box or name a saddle\n",
+              ln ? "" : " (the system's default)", run->label);
       return EXIT_BADINPUT;
     }
     snprintf(run->saddle, sizeof run->saddle, "%s", L.names + 8 * best);
