@@ -63,6 +63,10 @@ int tubes_input_check(const char *path, tubes_config_t *cfg, char *msg, int msgl
 /* TUBES_METHOD_* code of a method name, 0 if unknown. */
 int tubes_method_code(const char *name);
 
+/* Are these units the rolling ball's, written with cm and s ("cm, cm/s", "(cm/s)^2", "1/s")? (A
+ * dimensionless model's file and messages name them "1": h5_units, the reader's model_units.) */
+int tubes_units_dimensioned(const char *units);
+
 /* Print the groups, variables and scenes (for --help). */
 void nml_print_help(FILE *out);
 

@@ -183,6 +183,10 @@ def test_load_keeps_units_nested_paths_and_tables(tmp_path):
     assert r.returncode == 0, r.stderr
     res = tubes.load(str(tmp_path / "t.h5"))
     assert res.orbits.units["period"] == "s" and res.orbits.units["action"] == "cm^2/s"
+    assert res.units["orbits/action"] == "cm^2/s" and "orbits/period" in res.units
+    assert "orbits/nothing" not in res.units and res.units.get("nothing/x", "-") == "-"
+    with pytest.raises(KeyError):
+        res.units["orbits/nothing"]
     assert "orbits/period" in res and "orbits/nothing" not in res and "model/alpha" in res
     assert np.array_equal(res["orbits/period"], res.orbits.period)
     try:

@@ -1506,12 +1506,13 @@ class Result:
     """An HDF5 group of a tubes output: attributes and datasets as Python attributes
     (datasets as numpy arrays, strings decoded), subgroups as nested Results. ``units`` maps
     each dataset to its units (the dataset's own ``units`` attribute); ``"orbits/period" in
-    res`` and ``res["orbits/period"]`` take nested paths; ``to_pandas()`` and ``to_xarray()``
-    turn a group's equal-length 1-D datasets into a table (pandas / xarray when installed)."""
+    res``, ``res["orbits/period"]`` and ``res.units["orbits/period"]`` take nested paths;
+    ``to_pandas()`` and ``to_xarray()`` turn a group's equal-length 1-D datasets into a table
+    (pandas / xarray when installed)."""
 
     def __init__(self, name: str, attrs: dict, items: dict, units: dict | None = None):
         self._name, self.attrs, self._items = name, attrs, items
-        self.units = units or {}
+        self.units = _Units(units or {}, self)
 
     def __getattr__(self, key: str) -> Any:
         items = self.__dict__.get("_items", {})
@@ -1552,6 +1553,31 @@ class Result:
 
     def __repr__(self) -> str:
         return f"<tubes.Result {self._name}: {', '.join(self.keys())}>"
+
+
+class _Units(dict):
+    """A group's units by dataset name (``res.orbits.units["action"]``); a nested path looks in
+    the subgroup (``res.units["orbits/action"]``)."""
+
+    def __init__(self, units: dict, group: "Result"):
+        super().__init__(units)
+        self._group = group
+
+    def __missing__(self, key: str) -> str:
+        head, _, rest = key.strip("/").partition("/")
+        sub = self._group._items.get(head) if rest else None
+        if isinstance(sub, Result):
+            return sub.units[rest]
+        raise KeyError(key)
+
+    def get(self, key: str, default: Any = None) -> Any:
+        try:
+            return self[key]
+        except KeyError:
+            return default
+
+    def __contains__(self, key: object) -> bool:
+        return isinstance(key, str) and self.get(key) is not None
 
 
 class Table(dict):

@@ -3,6 +3,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include "tubes_h5.h"
+#include "tubes_input.h"
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
@@ -92,8 +93,7 @@ void h5_set_dimensionless(int on) { dimensionless = on; }
 const char *h5_units(const char *units) {
   if (!dimensionless || !units) return units;
   if (!strcmp(units, "rad/s")) return "rad";
-  /* cm, s and their products, quotients and powers ("cm, cm/s", "(cm/s)^2", "1/s", ...) */
-  if (strspn(units, "cms/^()0123456789, -") == strlen(units) && strpbrk(units, "cs")) return "1";
+  if (tubes_units_dimensioned(units)) return "1";
   return units;
 }
 

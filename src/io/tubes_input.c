@@ -542,10 +542,15 @@ static int line_or_group(const nml_where *w, const char *group, const char *name
 
 /* The units of the table (the rolling ball's: cm, s, (cm/s)^2, ...; "energy", "time" and "units of q"
  * for any model) as they are for the model of c: the ball's as given, "1" for a dimensionless
- * model (its length units are not cm: the rule of h5_units in src/io/tubes_h5.c), and "the model's
+ * model (its length units are not cm: tubes_units_dimensioned, h5_units' rule too), and "the model's
  * units" when the model is not known. */
+int tubes_units_dimensioned(const char *units) {
+  /* cm, s and their products, quotients and powers ("cm, cm/s", "(cm/s)^2", "1/s", ...) */
+  return strspn(units, "cms/^()0123456789, -") == strlen(units) && strpbrk(units, "cs");
+}
+
 static const char *model_units(const tubes_config_t *c, const char *units) {
-  int dimensioned = strspn(units, "cms/^()0123456789, -") == strlen(units) && strpbrk(units, "cs");
+  int dimensioned = tubes_units_dimensioned(units);
   int generic = !strcmp(units, "energy") || !strcmp(units, "time") || !strcmp(units, "units of q");
   if (!dimensioned && !generic) return units;
   static char names[TUBES_MAXPARAM * TUBES_LPARAM], punits[TUBES_MAXPARAM * TUBES_LUNITS],
