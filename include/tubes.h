@@ -17,7 +17,7 @@ enum {
   TUBES_EOUTSIDE = -8, /* a tube crossed the section outside the region chosen on it */
   TUBES_ENOCROSS = -9, /* no crossing of the section within t_max */
   TUBES_EPASTEND = -10, /* past the end of the Lyapunov orbit family */
-  TUBES_ENARROW = -11, /* the slab (&flux gate) is narrower than the NHIM's reach along the reaction coordinate */
+  TUBES_ENARROW = -11, /* the gate (&flux, &montecarlo) lies within twice the NHIM's reach along the reaction coordinate */
   TUBES_ENOJET = -12, /* no Taylor kernel for the model: its code could not be generated or compiled (stderr says why) */
   TUBES_EDIRECTION = -13, /* the tube crosses the section in the other direction first: choose the other direction */
   TUBES_EUNRESOLVED = -14, /* dE below what the energy resolves at the saddle (tubes_de_floor) */
@@ -283,8 +283,8 @@ int tubes_tube_cut(const char system[TUBES_LSYSTEM], const double params[TUBES_M
 
 /* Monte Carlo check at de: nsamp points uniform on the section's energy surface (GSL MT19937,
  * seed), each integrated until it returns to the section (outcome 0), passes the saddle's gate,
- * the hyperplane gate past the saddle along its reaction coordinate (the configuration part of its
- * unstable eigenvector) away from the section's well (outcome 1: transit) or t_max (2); a sample whose integration failed has its (negative)
+ * the hyperplane gate past the saddle across its neck (for a natural model the configuration part
+ * of its unstable eigenvector; docs/input.md) away from the section's well (outcome 1: transit) or t_max (2); a sample whose integration failed has its (negative)
  * status as outcome. inside[k] = 1 if (r, pr) lies inside the cut (cut_r, cut_pr). */
 int tubes_monte_carlo(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                       const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
@@ -292,6 +292,12 @@ int tubes_monte_carlo(const char system[TUBES_LSYSTEM], const double params[TUBE
                       double level, int dir, int nsamp, int seed, double t_max, double gate,
                       int method, double h, double omega_bind, int solver, int max_iter, int ncut, const double cut_r[], const double cut_pr[], double r[],
                       double pr[], int outcome[], int inside[], void *stores);
+
+/* The reach at de of the saddle's NHIM (its Lyapunov orbits) across the saddle's neck, from the
+ * linearisation [units of q]: tubes_monte_carlo refuses a gate within twice it (TUBES_ENARROW). */
+int tubes_gate_reach(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                     const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                     const char saddle[8], double de, double *reach, void *stores);
 
 /* The flux of trajectories through the saddle's bottleneck at de (src/transport/tubes_flux.f90, natural
  * systems; docs/theory.md): sampled on the dividing surface with nsamp points from seed (flux,

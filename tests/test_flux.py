@@ -107,15 +107,15 @@ def test_two_dof_flux_is_the_orbit_action(tmp_path, cache, model, rest):
 def test_gyroscopic_built_in_cr3bp_is_sampled(tmp_path, cache):
     """The built-in planar CR3BP (gyroscopic, no formula: no normal form) is sampled as H quadratic
     in the momenta, its past followed backwards: the flux is the Lyapunov orbit's action (the
-    orbits scene, shooting) within 4 standard errors. At dE = 0.01 its default slab (gate 0.01)
-    is narrower than the Lyapunov orbit reaches along x: refused (exit 2, naming &flux gate)."""
+    orbits scene, shooting) within 4 standard errors. At dE = 0.01 a slab of gate 0.01 is
+    narrower than the Lyapunov orbit reaches along x (0.013): refused (exit 2, naming the gate)."""
     tmp = str(tmp_path)
     p = run(tmp, """
         &run scenes = 'flux', output = 'f.h5' /
         &model system = 'cr3bp' /
-        &flux de = 0.01, n_samples = 200 /
+        &flux de = 0.01, n_samples = 200, gate = 0.01 /
         """, cache)
-    assert p.returncode == 2 and "raise &flux gate" in p.stderr, p.stderr
+    assert p.returncode == 2 and "raise gate (&flux" in p.stderr, p.stderr
     p = run(tmp, """
         &run scenes = 'orbits', 'flux', output = 'f.h5' /
         &model system = 'cr3bp' /

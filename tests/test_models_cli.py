@@ -180,6 +180,59 @@ def test_cr3bp_lagrange_points_and_lyapunov_orbits(tmp_path):
     assert dev[0] < 1e-4 and dev[0] < dev[2]
 
 
+def test_cr3bp_montecarlo_transits_pass_the_neck(tmp_path):
+    """The Monte Carlo check's transit gate at L1 lies across the neck (along x), not across the
+    unstable eigenvector, which leans by 25 degrees: its line then reached back into the Earth's
+    realm and 295 of 2000 points that came back without passing L1 counted as transits (fraction
+    0.21 against p_trans 0.064). Checked independently: each point's fate from scipy's DOP853 on
+    the CR3BP's equations (does it cross x = x_L1 inside the neck before it returns to x = 0.7?).
+    A gate within twice the Lyapunov orbits' reach is refused with the reach named."""
+    text = ("&run scenes = 'montecarlo' /\n&model system = 'cr3bp' /\n"
+            "&section kind = 'plane', index = 1, value = 0.7, direction = 1 /\n"
+            "&montecarlo de = 0.01, n_samples = 2000 /\n")
+    r, f = run(tmp_path, text)
+    mc = f["montecarlo"]
+    a = mc.attrs
+    assert a["agrees"] == 1 and abs(a["fraction"] - a["p_trans"]) < 4 * a["std_error"], dict(a)
+    assert a["misclassified_outside_transit"] <= 2, dict(a)
+    from scipy.integrate import solve_ivp
+    mu, e = MU, f["section"].attrs["E_e"] + 0.01
+    l1 = collinear(mu)[0]
+
+    def rhs(_t, z):
+        x, y, px, py = z
+        r1, r2 = math.hypot(x + mu, y) ** 3, math.hypot(x - 1 + mu, y) ** 3
+        return [px + y, py - x, py - (1 - mu) * (x + mu) / r1 - mu * (x - 1 + mu) / r2,
+                -px - (1 - mu) * y / r1 - mu * y / r2]
+
+    def through_l1(_t, z):
+        return z[0] - l1
+    through_l1.terminal, through_l1.direction = True, 1
+
+    def back(_t, z):
+        return z[0] - 0.7
+    back.terminal, back.direction = True, 1
+    tr, rr, pp = mc["transit"][:], mc["r"][:], mc["p_r"][:]
+    for cls in (1, 0):
+        for k in np.flatnonzero(tr == cls)[:25]:
+            x, y, py = 0.7, rr[k], pp[k]
+            c = py * py / 2 - x * py - (1 - mu) / math.hypot(x + mu, y) - mu / math.hypot(x - 1 + mu, y) - e
+            z0 = [x, y, -y + math.sqrt(y * y - 2 * c), py]        # x' = px + y > 0: the direction
+            s0 = solve_ivp(rhs, (0, 0.05), z0, method="DOP853", rtol=1e-11, atol=1e-12)
+            s = solve_ivp(rhs, (0.05, 40), s0.y[:, -1], method="DOP853", rtol=1e-11, atol=1e-12,
+                          events=(through_l1, back))
+            if cls == 1:     # through the neck (|y| small at x = x_L1) before any return
+                assert len(s.t_events[0]) == 1 and len(s.t_events[1]) == 0, (k, s.t_events)
+                assert abs(s.y_events[0][0][1]) < 0.1, s.y_events[0]
+            else:            # back to the section without reaching x_L1
+                assert len(s.t_events[1]) == 1 and len(s.t_events[0]) == 0, (k, s.t_events)
+    # a gate within twice the reach (0.013 at dE = 0.01) is refused, the reach named
+    (tmp_path / "g.nml").write_text(text.replace("n_samples = 2000", "n_samples = 2000, gate = 0.02"))
+    p = run_tubes(["g.nml", "-o", "g.h5"], tmp_path, timeout=600)
+    assert p.returncode == 2 and "g.nml:4: &montecarlo: gate = 0.02 lies within twice the reach" in p.stderr, p.stderr
+    assert re.search(r"\(0\.013\d?\): .* allowed: gate > 0\.026", p.stderr), p.stderr
+
+
 # ---------------------------------------------------------------- the four-well at all saddles
 
 SADDLE_SECTIONS = [("S12", 45.0, 1), ("S14", 45.0, -1), ("S23", 225.0, -1), ("S34", 225.0, 1)]

@@ -252,7 +252,7 @@ def test_status_codes_are_the_library_s():
     words = {"OK": "ok", "EVENT": "terminal event", "EINPUT": "invalid input", "EMAXSTEPS": "maximum number",
              "ESTEP": "underflow", "EMODEL": "refused the state", "EIO": "input/output", "ENOCONV": "converge",
              "EFAULT": "TUBES_FAULT", "EOUTSIDE": "outside the region", "ENOCROSS": "no crossing",
-             "EPASTEND": "past the end", "ENARROW": "narrower", "ENOJET": "no kernel"}
+             "EPASTEND": "past the end", "ENARROW": "NHIM's reach", "ENOJET": "no kernel"}
     for name, word in words.items():
         assert word in tubes.status_message(getattr(tubes, name)), name
     assert len({getattr(tubes, n) for n in words}) == len(words)

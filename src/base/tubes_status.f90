@@ -68,8 +68,8 @@ contains
     case (TUBES_EOUTSIDE);  msg = 'the tube crosses the section outside the region of the energy surface chosen on it'
     case (TUBES_ENOCROSS);  msg = 'no crossing of the section within t_max: the tube does not reach this section'
     case (TUBES_EPASTEND);  msg = 'past the end of the Lyapunov orbit family: no orbit at this energy'
-    case (TUBES_ENARROW);   msg = 'the slab around the dividing surface is narrower than the NHIM reaches ' // &
-                                  'along the reaction coordinate: raise &flux gate'
+    case (TUBES_ENARROW);   msg = 'the gate lies within twice the NHIM''s reach along the reaction coordinate ' // &
+                                  '(orbits near it would count as passages): raise gate (&flux, &montecarlo)'
     case (TUBES_ENOJET);    msg = 'the Taylor method has no kernel for this model: its code could not be ' // &
                                   'generated or compiled (the cause is on stderr)'
     case (TUBES_EDIRECTION); msg = 'the tube crosses the section in the other direction first: choose ' // &

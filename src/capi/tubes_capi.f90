@@ -29,7 +29,7 @@ module tubes_capi
   use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
-                         check_at, maps_at, cut_outputs, seed_stores_t, family_at, &
+                         check_at, gate_reach, maps_at, cut_outputs, seed_stores_t, family_at, &
                          equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, &
                          close_stores, de_floor
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
@@ -523,6 +523,24 @@ contains
                   ins, stat, kept)
     inside = merge(1, 0, ins)
   end function c_monte_carlo
+
+  !> The reach of the saddle's NHIM across its neck at de (include/tubes.h).
+  integer(c_int) function c_gate_reach(system, params, lo, hi, n_grid, saddle, de, reach, stores) result(stat) &
+      bind(C, name='tubes_gate_reach')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid
+    real(c_double), value :: de
+    real(c_double), intent(out) :: reach
+    type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
+    type(study_t) :: st
+    type(section_choice_t) :: sec
+    type(integ_choice_t) :: none
+    type(seed_stores_t), pointer :: kept
+    call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_wp, 0, none, st, sec)
+    kept => stores_of(stores)
+    call gate_reach(st, de, reach, stat, kept)
+  end function c_gate_reach
 
   !> The flux of trajectories through the saddle's bottleneck at excess energy de
   !> (src/transport/tubes_flux.f90): sampled with nsamp points from seed (its standard error err), and the

@@ -1169,9 +1169,20 @@ int scene_montecarlo(tubes_run_t *run) {
   if (st < 0) {
     char m[512];
     status_text(st, m, sizeof m);
+    double reach = 0;
     if (st == TUBES_EPASTEND) {
       past_end_message(run, de, m, sizeof m, 0);
       fprintf(stderr, "%s\n", m);
+    } else if (st == TUBES_ENARROW &&
+               !tubes_gate_reach(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, &reach,
+                                 run->seeds)) {
+      /* refused before any sample was integrated */
+      mc_ran = 0;
+      say_at(run, nml_line(run->where, "montecarlo", "gate"));
+      fprintf(stderr, "&montecarlo: gate = %g%s lies within twice the reach of the NHIM (the Lyapunov orbits) across "
+              "saddle %s's neck at dE = %g (%.3g%s): orbits near it swing past the gate and back and would count as "
+              "transits; allowed: gate > %.3g%s (docs/input.md)\n", c->mc_gate, in_units(" cm"), run->saddle, de, reach,
+              in_units(" cm"), 2 * reach, in_units(" cm"));
     } else
       fprintf(stderr, "tubes: montecarlo: failed: %s (status %d)\n", m, st);
     int nbad = 0, first = -1;

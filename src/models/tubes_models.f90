@@ -198,7 +198,7 @@ contains
       info%length_units = '1'
       info%saddle = 'L1'
       info%section_kind = ''
-      info%gate = 0.01_wp
+      info%gate = 0.05_wp
       if (name == 'cr3bp') then
         info%summary = 'planar circular restricted three-body problem, rotating frame: H = ' // &
                        '(px^2 + py^2)/2 + y px - x py - (1 - mu)/r1 - mu/r2'

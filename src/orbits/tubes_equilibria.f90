@@ -54,7 +54,7 @@ module tubes_equilibria
     real(wp), allocatable :: evec(:, :) !! rank-1 only: columns u(+lambda), s(-lambda), Re c_k, Im c_k
   end type equilibrium_t
 
-  public :: find_equilibria, linearize, quadrant, rest_jacobian, sort_indices
+  public :: find_equilibria, linearize, quadrant, rest_jacobian, sort_indices, neck_normal, nhim_reach, gate_holds_nhim
 
 
 
@@ -65,6 +65,68 @@ module tubes_equilibria
     integer :: nstall = 0              !! iterations since it decreased
   end type newton_log_t
 contains
+
+  !> The NHIM's reach along the unit vector n (configuration) at de above the saddle, from the
+  !> linearisation: max_k sqrt(2 de / (omega_k |a_k^T J b_k|)) |(n . a_k, n . b_k)|, a_k + i b_k the
+  !> k-th centre eigenvector (docs/theory.md, the flux's slab) [units of q].
+  pure real(wp) function nhim_reach(sad, de, n) result(ext)
+    type(equilibrium_t), intent(in) :: sad
+    real(wp), intent(in) :: de, n(:)
+    real(wp) :: a(size(sad%x)), b(size(sad%x)), sy
+    integer :: k, nd
+    nd = size(n)
+    ext = 0
+    do k = 1, nd - 1
+      if (size(sad%evec, 2) < 2 + 2*k .or. .not. sad%omegas(k) > 0) cycle
+      a = sad%evec(:, 1 + 2*k)
+      b = sad%evec(:, 2 + 2*k)
+      sy = abs(dot_product(a(1:nd), b(nd + 1:)) - dot_product(a(nd + 1:), b(1:nd)))
+      if (.not. sy > 0) cycle
+      ext = max(ext, sqrt(2*de/(sad%omegas(k)*sy))*sqrt(dot_product(n, a(1:nd))**2 + dot_product(n, b(1:nd))**2))
+    end do
+  end function nhim_reach
+
+  !> Does a gate (the flux's slab half-width, the Monte Carlo's transit distance) hold the NHIM of
+  !> that reach? Orbits on or near the NHIM swing by up to the reach either way of the saddle: a
+  !> gate within twice the reach counts their swings as passages (TUBES_ENARROW).
+  pure logical function gate_holds_nhim(reach, gate)
+    real(wp), intent(in) :: reach, gate
+    gate_holds_nhim = 2*reach < gate
+  end function gate_holds_nhim
+
+  !> The unit normal of a rank-1 saddle's neck in configuration space (unoriented): the direction
+  !> of negative curvature of A Hess(V_eff) at the saddle, A = d2H/dp2 and V_eff the effective
+  !> potential (tubes_hamiltonian quadratic_parts; Hess V_eff is the Schur complement
+  !> H_qq - H_qp H_pp^-1 H_pq of the Hessian at the equilibrium). For a natural model that is the
+  !> configuration part of the unstable eigenvector (q'' = -A Hess(V) q), taken from evec. For a
+  !> gyroscopic one (the CR3BP) the eigenvector leans with the Coriolis terms (at the CR3BP's L1 by
+  !> about 25 degrees) while the neck, the part of {V_eff <= E} between the realms, stays across
+  !> V_eff's own saddle direction (the x axis at L1): a gate or transit plane across the lean
+  !> eigenvector cuts a realm away from the neck (docs/theory.md, the flux's dividing surface). Falls
+  !> back to the eigenvector where H_pp is singular or A Hess(V_eff) has no negative eigenvalue.
+  function neck_normal(model, sad) result(n)
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: sad
+    real(wp) :: n(size(sad%q))
+    real(wp) :: h(size(sad%x), size(sad%x)), a(size(sad%q), size(sad%q)), c(size(sad%q), size(sad%q)), &
+                b(size(sad%q), size(sad%q)), vr(size(sad%q), size(sad%q)), wr(size(sad%q)), wi(size(sad%q))
+    integer :: nd, k, st, ipiv(size(sad%q))
+    nd = size(sad%q)
+    n = sad%evec(1:nd, 1)/sqrt(sum(sad%evec(1:nd, 1)**2))
+    if (model%is_natural()) return
+    call model%hessian(sad%x, h, st)
+    if (st /= TUBES_OK) return
+    a = h(nd + 1:, nd + 1:)
+    c = h(nd + 1:, 1:nd)
+    call dgesv(nd, nd, a, nd, ipiv, c, nd, st)              ! c = H_pp^-1 H_pq
+    if (st /= 0) return
+    b = matmul(h(nd + 1:, nd + 1:), h(1:nd, 1:nd) - matmul(h(1:nd, nd + 1:), c))
+    call eigen(b, wr, wi, st, vr)
+    if (st /= TUBES_OK) return
+    k = minloc(wr, 1)
+    if (.not. (wr(k) < 0 .and. wi(k) == 0)) return
+    n = vr(:, k)/sqrt(sum(vr(:, k)**2))
+  end function neck_normal
 
   !> idx reordered so that key(idx) ascends (insertion sort: a few eigenvalue pairs).
   pure subroutine sort_indices(idx, key)

@@ -26,7 +26,7 @@ module tubes_flux
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENARROW, &
                          TUBES_EPASTEND
   use tubes_hamiltonian, only: hamiltonian_t, quadratic_parts, veff, quadratic_in_p
-  use tubes_equilibria, only: equilibrium_t
+  use tubes_equilibria, only: equilibrium_t, neck_normal, nhim_reach, gate_holds_nhim
   use tubes_integrator, only: integrator_t, observer_t, propagate
   use tubes_methods, only: integ_choice_t, make_integrator
   use tubes_quad, only: rng_uniform
@@ -177,24 +177,6 @@ contains
     outcome = obs%outcome
   end subroutine outcome_of
 
-  !> The NHIM's reach along n at de (flux_result_t%nhim_reach), from the linearisation.
-  pure real(wp) function nhim_reach(sad, nd, de, n) result(ext)
-    type(equilibrium_t), intent(in) :: sad
-    integer, intent(in) :: nd
-    real(wp), intent(in) :: de, n(:)
-    real(wp) :: a(2*nd), b(2*nd), sy
-    integer :: k
-    ext = 0
-    do k = 1, nd - 1
-      if (size(sad%evec, 2) < 2 + 2*k .or. .not. sad%omegas(k) > 0) cycle
-      a = sad%evec(:, 1 + 2*k)
-      b = sad%evec(:, 2 + 2*k)
-      sy = abs(dot_product(a(1:nd), b(nd + 1:)) - dot_product(a(nd + 1:), b(1:nd)))
-      if (.not. sy > 0) cycle
-      ext = max(ext, sqrt(2*de/(sad%omegas(k)*sy))*sqrt(dot_product(n, a(1:nd))**2 + dot_product(n, b(1:nd))**2))
-    end do
-  end function nhim_reach
-
   !> The extent of {V <= E} from q_s along +-e: the first t with V(q_s + t e) > E (marching in
   !> steps of h0, then bisection); t_cap if V stays below E up to there. (Doubling the step
   !> instead could step over a ridge lower than E into the next well or neck: the ball's S12 line
@@ -300,7 +282,7 @@ contains
       tobs%c = plane_c
       tobs%gate = gate
       tobs%qs(1:nd) = sad%q
-      tobs%ns(1:nd) = sad%evec(1:nd, 1)/sqrt(sum(sad%evec(1:nd, 1)**2))
+      tobs%ns(1:nd) = neck_normal(model, sad)
       ! towards the far side: away from the section's point
       if (dot_product(q0(1:nd) - sad%q, tobs%ns(1:nd)) > 0) tobs%ns = -tobs%ns
     end if
@@ -332,8 +314,8 @@ contains
     if (.not. quadratic_in_p(model, q0(1:nd))) return
     ! a passage is a leaving of the slab on the far side: the NHIM must lie well inside it, else
     ! orbits on or near it leave the slab both ways without passing (recrossings counted as passages)
-    res%nhim_reach = nhim_reach(sad, nd, de, merge(tobs%ns(1:nd), r(1, 1:nd), section))
-    if (.not. 2*res%nhim_reach < gate) then
+    res%nhim_reach = nhim_reach(sad, de, merge(tobs%ns(1:nd), r(1, 1:nd), section))
+    if (.not. gate_holds_nhim(res%nhim_reach, gate)) then
       stat = TUBES_ENARROW
       return
     end if

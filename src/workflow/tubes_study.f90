@@ -12,13 +12,13 @@ module tubes_study
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_ball, only: ball_t
   use tubes_models, only: make_model, MAX_PARAMS, MAX_DOF
-  use tubes_equilibria, only: equilibrium_t, find_equilibria
+  use tubes_equilibria, only: equilibrium_t, find_equilibria, neck_normal, nhim_reach, gate_holds_nhim
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, plane_search_range, &
                                  SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
   use tubes_transport, only: gate_spec_t, monte_carlo, poincare_map
-  use tubes_status, only: TUBES_EOUTSIDE
+  use tubes_status, only: TUBES_EOUTSIDE, TUBES_ENARROW
   use tubes_methods, only: integ_choice_t
   implicit none
   private
@@ -27,7 +27,7 @@ module tubes_study
   integer, parameter, public :: SECTION_RAY = 1     !! sec_kind: the ball's polar ray
   integer, parameter, public :: SECTION_PLANE = 2   !! sec_kind: the plane q_index = level
 
-  public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, section_info, cut_at, &
+  public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, gate_reach, section_info, cut_at, &
             check_at, maps_at, cut_outputs, equilibria_table, study_family, family_table, open_stores, &
             stores_at, close_stores, stores_counts, de_floor
 
@@ -491,19 +491,36 @@ contains
   end function study_orbit_opts
 
   !> The transit gate of saddle eqs(isad) seen from q_ref (the section's side): the
-  !> configuration hyperplane dist past the saddle along its reaction coordinate, away from q_ref.
-  subroutine saddle_gate(sad, q_ref, dist, gspec)
+  !> configuration hyperplane dist past the saddle across its neck (neck_normal), away from q_ref.
+  subroutine saddle_gate(model, sad, q_ref, dist, gspec)
+    class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: sad
     real(wp), intent(in) :: q_ref(:)
     real(wp), intent(in) :: dist
     type(gate_spec_t), intent(out) :: gspec
-    integer :: nd
-    nd = size(sad%q)
     gspec%origin = sad%q
-    gspec%normal = sad%evec(1:nd, 1)/sqrt(sum(sad%evec(1:nd, 1)**2))
+    gspec%normal = neck_normal(model, sad)
     if (dot_product(gspec%normal, q_ref - sad%q) > 0) gspec%normal = -gspec%normal
     gspec%dist = dist
   end subroutine saddle_gate
+
+  !> The reach at de of the saddle's NHIM across its neck (nhim_reach along neck_normal): a
+  !> Monte Carlo gate must exceed twice it (gate_holds_nhim; check_at refuses it otherwise).
+  subroutine gate_reach(st, de, reach, stat, stores)
+    type(study_t), intent(in) :: st
+    real(wp), intent(in) :: de
+    real(wp), intent(out) :: reach
+    integer, intent(out) :: stat
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    integer :: isad
+    reach = 0
+    call setup_model(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), model, eqs, isad, &
+                     stat, stores=stores)
+    if (stat /= TUBES_OK) return
+    reach = nhim_reach(eqs(isad), de, neck_normal(model, eqs(isad)))
+  end subroutine gate_reach
 
   !> The energy surface on the section at E_e + de: its interval [smin, smax], area, dA/dE.
   subroutine section_info(st, sec, de, smin, smax, area, darea, stat, stores)
@@ -617,7 +634,11 @@ contains
     if (stat /= TUBES_OK) return
     call check_resolved(eqs(isad), [de], stat)
     if (stat /= TUBES_OK) return
-    call saddle_gate(eqs(isad), q_ref, gate, gspec)
+    call saddle_gate(model, eqs(isad), q_ref, gate, gspec)
+    if (.not. gate_holds_nhim(nhim_reach(eqs(isad), de, gspec%normal), gate)) then
+      stat = TUBES_ENARROW       ! orbits near the NHIM would swing past the gate: "transits"
+      return
+    end if
     call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, st%integ, cr, cp, r, pr, outcome, &
                      inside, stat)
   end subroutine check_at
