@@ -466,7 +466,10 @@ def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, 
     energy, morse_index (the index: eigenvalues with positive real part), rank1, degenerate,
     name, lambda, omega (rank-1 saddles; omega the lowest centre frequency, NaN in 1 DOF),
     omegas (n, N-1), grad_norm (Newton's residual: |grad V| for natural systems, else |dx/dt|),
-    eigenvectors (n, 2N, 2N)."""
+    eigenvectors (n, 2N, 2N) (saddles; a degenerate one's zero modes come first, as zero columns):
+    columns u (+lambda), s (-lambda), then per centre a_k, b_k, each of unit length: the real and
+    imaginary parts of the +i omega_k eigenvector normalised separately, a basis of its plane
+    (a_k + i r_k b_k is the eigenvector, r_k = |Im|/|Re|, not 1; docs/output.md, /saddle)."""
     model = model or Model()
     for name, v in (("box", box), ("box_center", box_center)):
         if v is not None and np.size(v) not in ((1, model.ndof) if name == "box" else (model.ndof,)):
