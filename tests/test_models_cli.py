@@ -76,6 +76,33 @@ def test_saddle_eigenvectors_are_as_documented(tmp_path, system, r_expect, rel):
             assert np.linalg.norm(A @ w - 1j * om * w) == pytest.approx(1.46, abs=0.01)
 
 
+# ---------------------------------------------------------------- the trajectory's energy error
+
+
+def test_trajectory_energy_error_is_relative_to_a_scale_that_is_not_zero(tmp_path):
+    """The coupled quartic released at rest at E0 = 4e-17 (its saddle's energy, 0): the relative
+    error was |E - E0|/|E0| = 169 for an absolute 7e-15. Now the scale is max(|E0|, the energy range
+    of E0 and the equilibria in the box) = the wells' depth 0.2066 (closed form below), and the
+    absolute error is printed and written too."""
+    r, f = run(tmp_path, "&run scenes = 'trajectory' /\n&model system = 'coupled_quartic' /\n"
+               "&trajectory x0 = 1.3416407864998738, y0 = 0.0, at_rest = .true., t_end = 20, dt_out = 0.5 /\n")
+    g = f["trajectory"]
+    e = g["energy"][:]
+    assert abs(e[0]) < 1e-15                                       # on the saddle's energy, 0
+    assert g.attrs["max_energy_error"] == np.max(np.abs(e - e[0]))
+    eq = tubes.equilibria(tubes.Model(system="coupled_quartic"))
+    depth = -np.min(eq["energy"])                                  # the wells below the saddle at E = 0
+    assert depth == pytest.approx(0.2066116, rel=1e-6)
+    assert g.attrs["energy_scale"] == pytest.approx(depth - e[0], rel=1e-14)
+    assert g.attrs["max_rel_energy_error"] == g.attrs["max_energy_error"] / g.attrs["energy_scale"]
+    assert g.attrs["max_rel_energy_error"] < 1e-12                 # roundoff of O(0.1) energies, 20 time units
+    m = re.search(r"max energy error \|E - E0\| (\S+), relative (\S+) to the energy scale 0\.206612 "
+                  r"\(the energy range of E0 and the 3 equilibria in the &equilibria box; \|E0\| = ", r.stdout)
+    assert m, r.stdout
+    assert float(m.group(1)) == pytest.approx(g.attrs["max_energy_error"], rel=1e-3)   # printed to 4 digits
+    assert float(m.group(2)) == pytest.approx(g.attrs["max_rel_energy_error"], rel=1e-3)
+
+
 # ---------------------------------------------------------------- Henon-Heiles
 
 HH = "&model system = 'henon_heiles' /\n"
