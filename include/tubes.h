@@ -184,7 +184,9 @@ int tubes_damping_rate(const char system[TUBES_LSYSTEM], const double params[TUB
  * eigenvalues of the linearised flow with positive real part), rank1 (1: saddle x centre^(N-1); 2: a degenerate saddle, one real pair and the rest centres or 0),
  * names (blocks of 8 chars). For rank-1 saddles: lambda [1/time], omega (blocks of
  * TUBES_MAXDOF - 1, ascending) and evec (blocks of 4 TUBES_MAXDOF^2; the first (2N)^2 hold the
- * 2N x 2N matrix of columns u, s, Re c_1, Im c_1, ..., column-major); zero for the others.
+ * 2N x 2N matrix of columns u, s, Re c_1, Im c_1, ..., column-major, each column of unit length:
+ * Re c_k and Im c_k normalised separately span the k-th centre plane, and Re + i r Im is the
+ * eigenvector for r = |Im c_k|/|Re c_k|, not r = 1; docs/output.md, /saddle); zero for the others.
  * With stores (tubes_seed_stores_new, or NULL), a run's later calls for the same model, box and
  * grid take the equilibria an earlier call found (the tube-dynamics calls below too). */
 int tubes_find_equilibria(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],

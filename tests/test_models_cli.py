@@ -29,6 +29,80 @@ def saddle_index(f, name):
     return names.index(name)
 
 
+# ---------------------------------------------------------------- /saddle/eigenvectors
+
+
+@pytest.mark.parametrize("system, r_expect, rel", [
+    ("henon_heiles", [1 / math.sqrt(3)], 1e-9),          # closed form: c = (v, i omega v), omega = sqrt 3
+    ("rolling_ball", [0.0854], 1e-3),                     # docs/output.md's measured values, 3 digits
+    ("cr3bp_spatial", [0.441, 0.511], 1e-3)])
+def test_saddle_eigenvectors_are_as_documented(tmp_path, system, r_expect, rel):
+    """docs/output.md said columns 3-4 were the real and imaginary parts of the centre eigenvector;
+    each is normalised separately, so a + i b is not one: a + i r b is, r = |Im c|/|Re c|, and
+    A a = -omega r b, A b = (omega/r) a with A the Jacobian (central differences of
+    tubes.vector_field here). Checks every statement of the dataset's paragraph."""
+    from conftest import ROOT
+    doc = (ROOT / "docs" / "output.md").read_text()
+    assert "a_k + i r_k b_k" in doc and "-b_k . A a_k / omega_k" in doc
+    r, f = run(tmp_path, f"&model system = '{system}' /\n&run scenes = 'equilibria' /\n")
+    m = tubes.Model(system=system)
+    n2 = 2 * m.ndof
+    sad = f["saddle"]
+    name = sad.attrs["name"]
+    z = f["equilibria/state"][saddle_index(f, name.decode() if isinstance(name, bytes) else name)]
+    ev = sad["eigenvectors"][:]
+    assert ev.shape == (n2, n2)
+    eps = 1e-6
+    A = np.array([(tubes.vector_field(z + eps * e, m) - tubes.vector_field(z - eps * e, m)) / (2 * eps)
+                  for e in np.eye(n2)]).T
+    # central differences: truncation eps^2 |f'''| and roundoff 1e-16 |f| / eps, both below 1e-9 |A|
+    tol = 1e-9 * max(1.0, np.linalg.norm(A))
+    lam = sad.attrs["lambda"]
+    assert np.allclose(np.linalg.norm(ev, axis=0), 1, rtol=0, atol=1e-15)   # unit columns (roundoff)
+    for v, sign in ((ev[:, 0], 1), (ev[:, 1], -1)):
+        assert np.linalg.norm(A @ v - sign * lam * v) < tol
+        assert v[np.argmax(np.abs(v))] > 0
+    omegas = np.sort(np.linalg.eigvals(A).imag)[-(m.ndof - 1):]          # ascending centre frequencies
+    assert omegas[0] == pytest.approx(sad.attrs["omega"], rel=1e-8)
+    for k, om in enumerate(omegas):
+        a, b = ev[:, 2 * k + 2], ev[:, 2 * k + 3]
+        rk = -b @ A @ a / om
+        assert rk == pytest.approx(r_expect[k], rel=rel)
+        assert np.linalg.norm(A @ a + om * rk * b) < tol and np.linalg.norm(A @ b - om / rk * a) < tol
+        w = a + 1j * rk * b
+        assert np.linalg.norm(A @ w - 1j * om * w) < tol                   # a + i r b: the eigenvector
+        if system == "henon_heiles":                                      # a + i b is not (the old claim)
+            w = a + 1j * b
+            assert np.linalg.norm(A @ w - 1j * om * w) == pytest.approx(1.46, abs=0.01)
+
+
+# ---------------------------------------------------------------- the trajectory's energy error
+
+
+def test_trajectory_energy_error_is_relative_to_a_scale_that_is_not_zero(tmp_path):
+    """The coupled quartic released at rest at E0 = 4e-17 (its saddle's energy, 0): the relative
+    error was |E - E0|/|E0| = 169 for an absolute 7e-15. Now the scale is max(|E0|, the energy range
+    of E0 and the equilibria in the box) = the wells' depth 0.2066 (closed form below), and the
+    absolute error is printed and written too."""
+    r, f = run(tmp_path, "&run scenes = 'trajectory' /\n&model system = 'coupled_quartic' /\n"
+               "&trajectory x0 = 1.3416407864998738, y0 = 0.0, at_rest = .true., t_end = 20, dt_out = 0.5 /\n")
+    g = f["trajectory"]
+    e = g["energy"][:]
+    assert abs(e[0]) < 1e-15                                       # on the saddle's energy, 0
+    assert g.attrs["max_energy_error"] == np.max(np.abs(e - e[0]))
+    eq = tubes.equilibria(tubes.Model(system="coupled_quartic"))
+    depth = -np.min(eq["energy"])                                  # the wells below the saddle at E = 0
+    assert depth == pytest.approx(0.2066116, rel=1e-6)
+    assert g.attrs["energy_scale"] == pytest.approx(depth - e[0], rel=1e-14)
+    assert g.attrs["max_rel_energy_error"] == g.attrs["max_energy_error"] / g.attrs["energy_scale"]
+    assert g.attrs["max_rel_energy_error"] < 1e-12                 # roundoff of O(0.1) energies, 20 time units
+    m = re.search(r"max energy error \|E - E0\| (\S+), relative (\S+) to the energy scale 0\.206612 "
+                  r"\(the energy range of E0 and the 3 equilibria in the &equilibria box; \|E0\| = ", r.stdout)
+    assert m, r.stdout
+    assert float(m.group(1)) == pytest.approx(g.attrs["max_energy_error"], rel=1e-3)   # printed to 4 digits
+    assert float(m.group(2)) == pytest.approx(g.attrs["max_rel_energy_error"], rel=1e-3)
+
+
 # ---------------------------------------------------------------- Henon-Heiles
 
 HH = "&model system = 'henon_heiles' /\n"

@@ -148,6 +148,36 @@ def test_models_by_name_and_their_table():
     assert tubes.Model(system="de_leon_berne", m_a=4.0) == tubes.Model(system="de_leon_berne").replace(m_a=4.0)
 
 
+def test_arrays_of_states_are_rows_and_other_layouts_are_refused():
+    """energies, potentials, shape_derivatives and ensemble read one state (or position) per ROW:
+    an array with one per column (scipy's sol.y, (2N, m)) was reshaped to rows of other numbers
+    and gave wrong energies without a word; now it is refused, naming the function, the shape
+    and the layout, and suggesting the transpose."""
+    hh = tubes.Model(system="henon_heiles")
+    s = np.linspace(-0.4, 0.4, 20).reshape(5, 4)                 # 5 states, one per row
+    ref = 0.5 * (s[:, 2] ** 2 + s[:, 3] ** 2) + 0.5 * (s[:, 0] ** 2 + s[:, 1] ** 2) \
+        + s[:, 0] ** 2 * s[:, 1] - s[:, 1] ** 3 / 3
+    assert np.allclose(tubes.energies(s, hh), ref, rtol=1e-15, atol=1e-16)   # roundoff of O(1) sums
+    assert tubes.energies(s[2], hh).shape == (1,) and tubes.energies(s[2], hh)[0] == tubes.energies(s, hh)[2]
+    for call in (lambda a: tubes.energies(a, hh), lambda a: tubes.ensemble(a, 0.1, model=hh)):
+        with pytest.raises(ValueError, match=r"\(m, 4\).*per row.*got shape \(4, 5\).*sol\.y\.T"):
+            call(s.T)                                             # sol.y's layout
+        with pytest.raises(ValueError, match=r"got shape \(2, 5, 4\)"):
+            call(s[None].repeat(2, axis=0))                       # no reshaping of any other layout
+    with pytest.raises(ValueError, match=r"^energies: states must have shape \(m, 4\).*got shape \(20,\)$"):
+        tubes.energies(s.ravel(), hh)
+    q = s[:, :2]
+    v = tubes.potentials(q, hh)
+    assert np.allclose(v, 0.5 * (q[:, 0] ** 2 + q[:, 1] ** 2) + q[:, 0] ** 2 * q[:, 1] - q[:, 1] ** 3 / 3,
+                       rtol=1e-15, atol=1e-16)
+    g, h = tubes.shape_derivatives(q, hh)
+    assert g.shape == (2, 5) and h.shape == (2, 2, 5) and tubes.shape_derivatives(q[0], hh)[0].shape == (2, 1)
+    for name, f in (("potentials", tubes.potentials), ("shape_derivatives", tubes.shape_derivatives)):
+        with pytest.raises(ValueError, match=rf"^{name}: q must have shape \(m, 2\).*got shape \(2, 5\)"
+                                             r".*q\.T \(sol\.y\[:N\]\.T\)"):
+            f(q.T, hh)
+
+
 def test_henon_heiles_from_python_against_closed_forms():
     hh = tubes.Model(system="henon_heiles")
     # H at a state, one by one and vectorised (the same Fortran function)

@@ -349,6 +349,23 @@ def _check(stat: int, where: str) -> None:
         raise TubesError(stat, where)
 
 
+def _as_rows(x, n: int, who: str, name: str, what: str) -> np.ndarray:
+    """x as a float64 copy of shape (m, n), one `what` (a state: n = 2N, or a position: n = N) per
+    row: x is (m, n), or one of them (n,) (m = 1). Any other layout is refused, never reshaped: an
+    (n, m) array, one per column as scipy's sol.y, would otherwise be read as other states. A
+    square (n, n) array is taken as rows."""
+    a = np.array(x, dtype=np.float64, copy=True)
+    if a.ndim in (1, 2) and a.shape[-1] == n:
+        return a.reshape(-1, n)
+    msg = (f"{who}: {name} must have shape (m, {n}), one {what} of {n} components per row, or ({n},) "
+           f"for one {what}: got shape {a.shape}")
+    if a.ndim == 2 and a.shape[0] == n:
+        y = "sol.y[:N]" if what == "position" else "sol.y"
+        msg += (f"; its first axis has length {n}: for one {what} per column (scipy's {y} is "
+                f"({'N' if what == 'position' else '2N'}, m)) pass the transpose, {name}.T ({y}.T)")
+    raise ValueError(msg)
+
+
 def _vec(x, n: int, name: str) -> np.ndarray:
     a = np.array(x, dtype=np.float64, copy=True).reshape(-1)
     if a.size != n:
@@ -368,31 +385,35 @@ def energy(state, model: Model | None = None) -> float:
 
 
 def energies(states, model: Model | None = None) -> np.ndarray:
-    """H of each row of states (m, 2N), in one call to the core."""
+    """H of each row of states (m, 2N) (or of one state (2N,)), in one call to the core; returns
+    (m,) (m = 1 for one state). States are rows: an array (2N, m) (scipy's sol.y) is refused
+    (ValueError; pass sol.y.T)."""
     model = model or Model()
     n = 2 * model.ndof
-    a = np.asfortranarray(np.array(states, dtype=np.float64, copy=True).reshape(-1, n).T)
+    a = np.asfortranarray(_as_rows(states, n, "energies", "states", "state").T)
     stat, e = _lib().energies(model.name, model.params(), a)
     _check(stat, "energies")
     return np.asarray(e).copy()
 
 
 def potentials(q, model: Model | None = None) -> np.ndarray:
-    """V at each row of q (m, N) (natural systems: the ball's g H)."""
+    """V at each row of q (m, N) (or at one position (N,)) (natural systems: the ball's g H);
+    returns (m,). Positions are rows: an array (N, m) is refused (ValueError; pass q.T)."""
     model = model or Model()
     n = model.ndof
-    a = np.asfortranarray(np.array(q, dtype=np.float64, copy=True).reshape(-1, n).T)
+    a = np.asfortranarray(_as_rows(q, n, "potentials", "q", "position").T)
     stat, v = _lib().potentials(model.name, model.params(), a)
     _check(stat, "potentials")
     return np.asarray(v).copy()
 
 
 def shape_derivatives(q, model: Model | None = None):
-    """Gradient (N, m) and Hessian (N, N, m) of the potential's shape at each row of q (m, N)
-    (natural systems; the ball: of the surface's height H(x, y), V = g H)."""
+    """Gradient (N, m) and Hessian (N, N, m) of the potential's shape at each row of q (m, N) (or
+    at one position (N,): m = 1) (natural systems; the ball: of the surface's height H(x, y),
+    V = g H). Positions are rows: an array (N, m) is refused (ValueError; pass q.T)."""
     model = model or Model()
     n = model.ndof
-    a = np.asfortranarray(np.array(q, dtype=np.float64, copy=True).reshape(-1, n).T)
+    a = np.asfortranarray(_as_rows(q, n, "shape_derivatives", "q", "position").T)
     stat, g, h = _lib().shape_derivs(model.name, model.params(), a)
     _check(stat, "shape_derivatives")
     return np.asarray(g).copy(), np.asarray(h).copy()
@@ -445,7 +466,10 @@ def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, 
     energy, morse_index (the index: eigenvalues with positive real part), rank1, degenerate,
     name, lambda, omega (rank-1 saddles; omega the lowest centre frequency, NaN in 1 DOF),
     omegas (n, N-1), grad_norm (Newton's residual: |grad V| for natural systems, else |dx/dt|),
-    eigenvectors (n, 2N, 2N)."""
+    eigenvectors (n, 2N, 2N) (saddles; a degenerate one's zero modes come first, as zero columns):
+    columns u (+lambda), s (-lambda), then per centre a_k, b_k, each of unit length: the real and
+    imaginary parts of the +i omega_k eigenvector normalised separately, a basis of its plane
+    (a_k + i r_k b_k is the eigenvector, r_k = |Im|/|Re|, not 1; docs/output.md, /saddle)."""
     model = model or Model()
     for name, v in (("box", box), ("box_center", box_center)):
         if v is not None and np.size(v) not in ((1, model.ndof) if name == "box" else (model.ndof,)):
@@ -886,9 +910,7 @@ def normal_form_map(model: Model, points, order: int = 8, to: str = "model", sad
                    flux={"order": int(order)})
     expo, coef, zs = _taylor_at_saddle(model, st, int(order), "normal_form_map")
     nd = model.ndof
-    pts = np.atleast_2d(np.asarray(points, dtype=np.float64))
-    if pts.shape[1] != 2 * nd:
-        raise ValueError(f"normal_form_map: points must be (m, {2 * nd})")
+    pts = _as_rows(points, 2 * nd, "normal_form_map", "points", "point")
     if to == "normal_form":
         pts = pts - zs
     stat, out, rt, msg = _lib().nf_map(int(order), expo, coef, 1 if to == "model" else 0,
@@ -1327,7 +1349,8 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
 def ensemble(states, t_end: float, model: Model | None = None, method: str = "auto",
              rtol: float = 1e-12, atol: float = 1e-12, h: float = 0.0, max_steps: int = 10_000_000,
              omega_bind: float = 0.0, solver: str = "newton", max_iter: int = 0, threads: int = 0) -> dict:
-    """Integrate many states of one model from t = 0 to t_end: states (m, 2 ndof), one per row.
+    """Integrate many states of one model from t = 0 to t_end: states (m, 2 ndof), one per row
+    (or one state (2 ndof,); an array with one state per column, as scipy's sol.y, is refused).
 
     The Taylor method ('auto', 'taylor') integrates them in SIMD lanes, four at a time in
     lockstep, and OpenMP threads share the lanes' chunks (`threads`, 0: OMP_NUM_THREADS); any
@@ -1342,10 +1365,10 @@ def ensemble(states, t_end: float, model: Model | None = None, method: str = "au
     any row failed (err.partial holds the dict)."""
     model = model or Model()
     _check_integration(method, t_end, rtol, atol, h, max_steps, solver)
-    x0 = np.ascontiguousarray(np.asarray(states, dtype=float))
     n2 = 2 * model.ndof
-    if x0.ndim != 2 or x0.shape[1] != n2 or x0.shape[0] < 1:
-        raise ValueError(f"states must have shape (m, {n2}), m >= 1: got {x0.shape}")
+    x0 = np.ascontiguousarray(_as_rows(states, n2, "ensemble", "states", "state"))
+    if x0.shape[0] < 1:
+        raise ValueError(f"ensemble: states must have shape (m, {n2}), m >= 1: got {x0.shape}")
     if not np.all(np.isfinite(x0)):
         raise ValueError("states must be finite")
     stat, xs, st, ns = _lib().ensemble(

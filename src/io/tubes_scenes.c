@@ -563,8 +563,27 @@ int scene_trajectory(tubes_run_t *run) {
   char msg[128];
   status_text(s, msg, sizeof msg);
   int rc = 0;
-  double e0 = en[0], maxerr = 0;
-  for (int k = 0; k < n; k++) maxerr = fmax(maxerr, fabs(en[k] - e0) / fabs(e0));
+  double e0 = en[0], abserr = 0;
+  for (int k = 0; k < n; k++) abserr = fmax(abserr, fabs(en[k] - e0));
+  /* the relative error's scale: |E0|, but at least the energy range spanned by E0 and the
+   * equilibria in the &equilibria box (barriers, the start's height above the lowest well), so that
+   * a start near E = 0 (the coupled quartic's saddle) is not measured against ~0 (docs/output.md) */
+  double escale = fabs(e0), range = 0;
+  int neq = 0;
+  if (n) {
+    static eqlist_t L;
+    if (find_eqs(run, &L) >= 0 && L.n > 0) {
+      double lo = e0, hi = e0;
+      for (int k = 0; k < L.n; k++) {
+        lo = fmin(lo, L.en[k]);
+        hi = fmax(hi, L.en[k]);
+      }
+      range = hi - lo;
+      neq = L.n;
+    }
+  }
+  escale = fmax(escale, range);
+  double maxerr = escale > 0 ? abserr / escale : NAN;
   if (s < 0)
     fprintf(stderr, "tubes: trajectory: integration failed after the sample at t = %.17g%s: %s (status %d) after "
             "%lld steps, %lld rejected, %lld evaluations; the samples up to there are written\n",
@@ -578,8 +597,17 @@ int scene_trajectory(tubes_run_t *run) {
   if (c->damping_ratio > 0)
     printf("  damped (zeta = %g, c = %.6g 1/s): energy lost %.6g (cm/s)^2\n", c->damping_ratio, cdamp,
            e0 - en[n - 1]);
-  else
-    printf("  max relative energy error %.3e\n", maxerr);
+  else {
+    printf("  max energy error |E - E0| %.3e%s, relative %.3e to the energy scale %.6g%s", abserr,
+           in_units(" (cm/s)^2"), maxerr, escale, in_units(" (cm/s)^2"));
+    if (escale == fabs(e0) && escale > 0)
+      printf(" (|E0|)\n");
+    else if (escale > 0)
+      printf(" (the energy range of E0 and the %d equilibria in the &equilibria box; |E0| = %.3g)\n", neq,
+             fabs(e0));
+    else
+      printf(" (none: E0 = 0 and no equilibria at other energies)\n");
+  }
   hid_t g = h5_group(run->file, "trajectory");
   if (g < 0) rc = EXIT_IO;
   else {
@@ -601,6 +629,8 @@ int scene_trajectory(tubes_run_t *run) {
     e |= h5_attr_double(g, "wall_seconds", wall);
     e |= h5_attr_double(g, "damping_rate", cdamp);
     e |= h5_attr_double(g, "max_rel_energy_error", maxerr);
+    e |= h5_attr_double(g, "max_energy_error", abserr);
+    e |= h5_attr_double(g, "energy_scale", escale);
     e |= h5_attr_long(g, "status", s);
     e |= h5_attr_string(g, "status_message", msg);
     if (sk) {

@@ -51,7 +51,8 @@ module tubes_equilibria
     real(wp) :: lambda = 0          !! rank-1 only: real eigenvalue of the flow [1/time]
     real(wp), allocatable :: omegas(:) !! rank-1 only: centre frequencies, ascending [rad/time]
     real(wp) :: omega = 0           !! rank-1 only: omegas(1)
-    real(wp), allocatable :: evec(:, :) !! rank-1 only: columns u(+lambda), s(-lambda), Re c_k, Im c_k
+    real(wp), allocatable :: evec(:, :) !! rank-1 only: columns u(+lambda), s(-lambda), Re c_k, Im c_k,
+                                        !! each of unit length (Re, Im: the centre plane; linearize)
   end type equilibrium_t
 
   public :: find_equilibria, linearize, quadrant, rest_jacobian, sort_indices, neck_normal, nhim_reach, gate_holds_nhim
@@ -646,7 +647,9 @@ contains
 
   !> Linearised flow at a rank-1 saddle x: eigenvalues +-lambda, +-i omega_k (LAPACK dgeev,
   !> omegas ascending) and eigenvectors as columns u, s, Re c_1, Im c_1, ..., unit length, u
-  !> and s with their largest component positive. stat = TUBES_EINPUT if x is not a saddle x
+  !> and s with their largest component positive. Re c_k and Im c_k (dgeev's eigenvector of
+  !> +i omega_k) are normalised separately: a basis of the centre plane, and Re + i r Im is the
+  !> eigenvector for r = |Im c_k|/|Re c_k| (before normalising), not r = 1 (docs/output.md). stat = TUBES_EINPUT if x is not a saddle x
   !> centre^(N-1). With degenerate = .true., also a saddle whose other eigenvalues are centres or
   !> 0 (a mode without quadratic term): its zero modes come first in omegas (0) with zero columns.
   !> zero_dirs (natural systems, with degenerate): the Hessian's eigenvectors of its zero
