@@ -7,6 +7,23 @@ import tubes
 from conftest import run_tubes
 
 
+def test_an_energy_short_of_the_extrapolated_end_is_not_called_past_it(tmp_path, tubes_exe):
+    """De Leon-Berne's Morse family ends at dE = D = 10 (the period grows like -log(D - dE)); the
+    continuation stops at its limit on the period, before dE = 9.98 (T = 59.24 by the closed form),
+    and extrapolates the end to about 9.99. dE = 9.98 is below that: not 'past the end' (the
+    message said so, naming an end above it), but not reached."""
+    (tmp_path / "d.nml").write_text("&run scenes = 'orbits' /\n&model system = 'de_leon_berne' /\n"
+                                    "&orbits de = 9.95, 9.98 /\n")
+    r = run_tubes(["d.nml", "-o", "d.h5"], tmp_path)
+    assert r.returncode == 4, r.stderr
+    assert "dE = 9.98 was not reached: the continuation of the S1 family stopped before it" in r.stderr, r.stderr
+    assert "past the end" not in r.stderr, r.stderr
+    with h5py.File(tmp_path / "d.h5") as f:
+        o = f["orbits"]
+        assert list(o["converged"][:]) == [1, 0]
+        assert 9.98 < o.attrs["family_end_dE"] < 10.0 + 1e-9
+
+
 def test_orbits_scene_and_family_end(tmp_path, tubes_exe):
     (tmp_path / "o.nml").write_text("&run scenes = 'equilibria', 'orbits' /\n"
                                     "&orbits de = 1, 100, 800, method = 'multiple', n_segments = 4 /\n")

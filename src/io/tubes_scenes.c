@@ -675,6 +675,21 @@ static const char *end_reason_text(int r) {
   }
 }
 
+/* Why the family has no orbit at de (the continuation ended, at end_de if > 0, for reason): past
+ * the family's end, or short of its extrapolated end (the continuation stopped before de). */
+static void family_stop_text(const tubes_run_t *run, double de, double end_de, int reason, char *buf, size_t len) {
+  if (end_de > 0 && de >= end_de * (1 - 1e-6))
+    snprintf(buf, len, "dE = %g is past the end of the %s family, which ends at dE ~ %.8g%s (%s): no orbit there", de,
+             run->saddle, end_de, in_units(" (cm/s)^2"), end_reason_text(reason));
+  else if (end_de > 0)
+    snprintf(buf, len, "dE = %g was not reached: the continuation of the %s family stopped before it (%s%s); the "
+             "family's end, extrapolated from its last orbits, is at dE ~ %.8g%s, beyond this dE: an orbit may exist "
+             "there that the continuation does not reach", de, run->saddle, end_reason_text(reason),
+             reason == 2 ? ": it passed the continuation's limit on the period" : "", end_de, in_units(" (cm/s)^2"));
+  else
+    snprintf(buf, len, "dE = %g is past the end of the %s family: no orbit there", de, run->saddle);
+}
+
 int scene_orbits(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   int n = c->orb_nde, ns = c->orb_n_samples, mi = c->orb_max_iter;
@@ -727,10 +742,11 @@ int scene_orbits(tubes_run_t *run) {
   if (end_de > 0) {
     printf("  family end: dE ~ %.8g%s: %s\n", end_de, in_units(" (cm/s)^2"), end_reason_text(reason));
     for (int k = 0; k < n; k++)
-      if (!conv[k])
-        fprintf(stderr, "tubes: orbits: dE = %g is past the end of the %s family, which ends at dE ~ %.8g"
-                "%s (%s); not computed\n", c->orb_de[k], run->saddle, end_de, in_units(" (cm/s)^2"),
-                end_reason_text(reason));
+      if (!conv[k]) {
+        char m[512];
+        family_stop_text(run, c->orb_de[k], end_de, reason, m, sizeof m);
+        fprintf(stderr, "tubes: orbits: %s; not computed\n", m);
+      }
   } else {
     for (int k = 0; k < n; k++)
       if (!conv[k]) {
@@ -920,11 +936,9 @@ static void past_end_message(tubes_run_t *run, double de, char *buf, size_t len,
                        c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c), &e, &per, &act, s0, &mu, &ms, mt,
                        &stab, &res, &clo, &it, &conv, &md, mono, ts, xs, hist, &end_de, &reason, local, run->seeds);
   free(hist); free(ts); free(xs);
-  if (end_de > 0)
-    snprintf(buf, len, "tubes: dE = %g is past the end of the %s family, which ends at dE ~ %.8g (%s): no orbit, "
-             "no tube there", de, run->saddle, end_de, end_reason_text(reason));
-  else
-    snprintf(buf, len, "tubes: dE = %g is past the end of the %s family: no orbit, no tube there", de, run->saddle);
+  char m[448];
+  family_stop_text(run, de, end_de, reason, m, sizeof m);
+  snprintf(buf, len, "tubes: %s (and no tube)", m);
 }
 
 /* One tube cut into group loc (none if loc < 0); returns 0 or an exit code; *area gets the area.
