@@ -91,6 +91,11 @@ BAD = [  # (name, namelist text, substrings the message must contain)
      ["saddle = 'L4' is not a rank-1 saddle of system cr3bp", "L1, L2, L3"]),
     ("saddle and saddle_near", "&run scenes = 'orbits' /\n&orbits saddle = 'S12',\n saddle_near = 1, 2 /\n",
      ["bad.nml:3", "saddle and saddle_near are both set"]),
+    # the nearest saddle in the box was taken however far: Henon-Heiles' S at (0.87, -0.5) for (0, 1)
+    ("saddle_near outside the box", "&model system = 'henon_heiles' /\n&equilibria box = 0.9 /\n"
+     "&orbits saddle_near = 0, 1, de = 0.01 /\n",
+     ["bad.nml:3", "saddle_near = (0, 1) lies outside the &equilibria box", "coordinate 2 is 1",
+      "half-width is 0.9", "allowed: within the box"]),
     ("plane index past ndof", "&run scenes = 'tubes' /\n&model system = 'henon_heiles' /\n"
      "&section kind = 'plane', index = 3, value = 0, direction = 1 /\n",
      ["bad.nml:3", "index = 3 is out of range: allowed 1 .. 2", "henon_heiles"]),

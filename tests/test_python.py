@@ -381,3 +381,12 @@ def test_the_readers_messages_read_right_from_python(call, words):
         call()
     msg = str(e.value)
     assert words in msg and "file" not in msg and ".nml" not in msg and "cm" not in msg, msg
+
+
+def test_saddle_near_outside_the_box_is_refused_as_the_program_does():
+    """The reader's rule, shared with the input file: a saddle_near outside the &equilibria box
+    (where the saddles are searched) took the nearest saddle inside it, however far."""
+    m = tubes.Model(system="henon_heiles")
+    with pytest.raises(ValueError, match=r"orbit_family: &orbits: saddle_near = \(0, 1\) lies outside the &equilibria box"):
+        tubes.orbit_family(m, dE=0.01, saddle_near=(0, 1), equilibria={"box": 0.9})
+    assert tubes.orbit_family(m, dE=0.01, saddle_near=(0, 1))["converged"][0]

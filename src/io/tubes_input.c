@@ -767,6 +767,20 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
   for (int k = 0; k < nd; k++)
     if (c->orb_use_near && !isfinite(c->orb_saddle_near[k]))
       n += bad_at(path, c, w, "orbits", "saddle_near", k + 1, err, "", c->orb_saddle_near[k]);
+  /* the saddles are searched in the box: a point outside it would get the nearest saddle inside it, however far */
+  for (int k = 0; k < nd && c->orb_use_near; k++)
+    if (isfinite(c->orb_saddle_near[k]) && fabs(c->orb_saddle_near[k] - c->box_center[k]) > c->box_list[k]) {
+      int ln = line_of(w, "orbits", "saddle_near");
+      fprintf(err, "%s:%d: &orbits: saddle_near%s = (", path, ln ? ln : line_of(w, "equilibria", "box"),
+              ln ? "" : " (the system's default)");
+      for (int i = 0; i < nd; i++) fprintf(err, "%s%.10g", i ? ", " : "", c->orb_saddle_near[i]);
+      fprintf(err, ") lies outside the &equilibria box, where the saddles are searched: coordinate %d is %.10g from "
+              "the box's centre %.10g, the box's half-width is %.10g; allowed: within the box (widen &equilibria box, "
+              "or move box_center)\n", k + 1, fabs(c->orb_saddle_near[k] - c->box_center[k]), c->box_center[k],
+              c->box_list[k]);
+      n++;
+      break;
+    }
   if (scene_requested(c, "synthetic_experiment") && !strcmp(c->system, "rolling_ball") &&
       strcmp(c->surface, "fourwell")) {
     fprintf(err, "%s:%d: &run: the synthetic_experiment scene models the paper's machined four-well surface: it "
