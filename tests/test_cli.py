@@ -91,6 +91,10 @@ BAD = [  # (name, namelist text, substrings the message must contain)
      ["saddle = 'L4' is not a rank-1 saddle of system cr3bp", "L1, L2, L3"]),
     ("saddle and saddle_near", "&run scenes = 'orbits' /\n&orbits saddle = 'S12',\n saddle_near = 1, 2 /\n",
      ["bad.nml:3", "saddle and saddle_near are both set"]),
+    # refused only after the flux was sampled (exit 1 after the numbers)
+    ("flux order on a built-in", "&run scenes = 'flux' /\n&model system = 'cr3bp', spatial = .true. /\n"
+     "&flux de = 0.001, order = 6 /\n",
+     ["bad.nml:3", "&flux: order = 6: the normal form needs the model written as a formula", "'cr3bp' is built in"]),
     # the nearest saddle in the box was taken however far: Henon-Heiles' S at (0.87, -0.5) for (0, 1)
     ("saddle_near outside the box", "&model system = 'henon_heiles' /\n&equilibria box = 0.9 /\n"
      "&orbits saddle_near = 0, 1, de = 0.01 /\n",

@@ -983,6 +983,15 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->flux_tol >= 1e-14 && c->flux_tol <= 1e-3)) n += bad(path, c, w, "flux", "tol", err, "", c->flux_tol);
   if (!(c->flux_order == 0 || (c->flux_order >= 2 && c->flux_order <= 16)))
     n += bad(path, c, w, "flux", "order", err, "", c->flux_order);
+  else if (c->flux_order > 0 && strcmp(c->system, "expression") &&
+           !(!strcmp(c->system, "rolling_ball") && !strcmp(c->surface, "expression"))) {
+    /* refused before the run samples the flux (tubes_expr_taylor's own check comes after it) */
+    fprintf(err, "%s:%d: &flux: order = %d: the normal form needs the model written as a formula (&model system = "
+            "'expression', or the ball's surface = 'expression'): its Taylor expansion comes from the formula; "
+            "system '%s' is built in; allowed: order = 0 (docs/models.md)\n", path, line_or_group(w, "flux", "order"),
+            c->flux_order, c->system);
+    n++;
+  }
   if (!(c->flux_n_cut == 0 || (c->flux_n_cut >= 4 && c->flux_n_cut <= 64 && c->flux_n_cut % 2 == 0)))
     n += bad(path, c, w, "flux", "n_cut", err, "", c->flux_n_cut);
   if (!(c->flux_cut_eps >= 1e-8 && c->flux_cut_eps <= 0.1)) n += bad(path, c, w, "flux", "cut_eps", err, "", c->flux_cut_eps);
