@@ -256,6 +256,10 @@ def test_calibration_by_options_and_by_known_points(canon, tmp_path):
     fit = ex.read_calibration(str(tmp_path / "cal.csv"))
     assert fit.flip_y and abs(fit.angle - 7.0) < 1e-9 and np.allclose(fit.origin, (15.0, 15.0), atol=1e-9)
     assert fit.residual < 1e-9 and fit.n_points == 4
+    cp, sp = np.array([p[2:4] for p in pts]), np.array(known)
+    assert np.allclose(ex.fit_calibration(cp, sp).origin, fit.origin)
+    with pytest.raises(ex.ExperimentError, match=r"camera points must have shape \(n, 2\).*got shape \(2, 4\)"):
+        ex.fit_calibration(cp.T, sp.T)           # one point per column: refused, not read as other points
     _same(ex.read_tracks(str(tmp_path / "cam.csv"), calibration=fit), rows)
     base = [str(tmp_path / "cam.csv"), "--bootstrap", "0", "--resamples", "0"]
     r = _run(base + ["--calibration", str(tmp_path / "cal.csv")], tmp_path)

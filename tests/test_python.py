@@ -176,6 +176,10 @@ def test_arrays_of_states_are_rows_and_other_layouts_are_refused():
         with pytest.raises(ValueError, match=rf"^{name}: q must have shape \(m, 2\).*got shape \(2, 5\)"
                                              r".*q\.T \(sol\.y\[:N\]\.T\)"):
             f(q.T, hh)
+    # one state: (4,) or one row, never another shape with 4 elements
+    assert tubes.energy(s[0].reshape(1, 4), hh) == tubes.energy(s[0], hh)
+    with pytest.raises(ValueError, match=r"state must have 4 components, one vector of shape \(4,\): got shape \(2, 2\)"):
+        tubes.energy(s[0].reshape(2, 2), hh)
 
 
 def test_henon_heiles_from_python_against_closed_forms():

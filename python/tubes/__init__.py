@@ -367,10 +367,12 @@ def _as_rows(x, n: int, who: str, name: str, what: str) -> np.ndarray:
 
 
 def _vec(x, n: int, name: str) -> np.ndarray:
-    a = np.array(x, dtype=np.float64, copy=True).reshape(-1)
-    if a.size != n:
-        raise ValueError(f"{name} must have {n} components, got {a.size}")
-    return a
+    """x as one vector of n components: shape (n,) (or (1, n), one row); any other shape with n
+    elements ((2, 2) for a state of 4) is refused, not flattened."""
+    a = np.array(x, dtype=np.float64, copy=True)
+    if a.shape not in ((n,), (1, n)):
+        raise ValueError(f"{name} must have {n} components, one vector of shape ({n},): got shape {a.shape}")
+    return a.reshape(-1)
 
 
 def energy(state, model: Model | None = None) -> float:

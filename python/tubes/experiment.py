@@ -343,8 +343,12 @@ def fit_calibration(camera, surface, length_unit: str = "cm", pixel_size: float 
     """The rotation, origin and y flip taking known camera points (n, 2; in length_unit) to their
     surface positions (n, 2) [cm], n >= 2: least squares (Procrustes, the scale fixed by the
     units), with and without the flip; the better fit is kept and its rms residual reported."""
-    cam = np.asarray(camera, float).reshape(-1, 2) * _length_scale(length_unit, pixel_size)
-    srf = np.asarray(surface, float).reshape(-1, 2)
+    cam, srf = np.asarray(camera, float), np.asarray(surface, float)
+    for name, a in (("camera", cam), ("surface", srf)):
+        if a.ndim != 2 or a.shape[1] != 2:     # (2, n) would be read as other points if reshaped
+            raise ExperimentError(f"calibration: {name} points must have shape (n, 2), one point (x, y) per row: "
+                                  f"got shape {a.shape}")
+    cam = cam * _length_scale(length_unit, pixel_size)
     if cam.shape[0] < 2 or cam.shape != srf.shape or not (np.all(np.isfinite(cam)) and np.all(np.isfinite(srf))):
         raise ExperimentError("calibration: need at least two finite known points (camera x, y; surface x, y)")
     best = None
@@ -383,7 +387,7 @@ def read_calibration(path: str, length_unit: str = "cm", pixel_size: float | Non
                     raise ExperimentError(f"{path}:{n}: need camera_x,camera_y,surface_x,surface_y")
     except OSError as exc:
         raise ExperimentError(f"{path}: cannot read the calibration file ({exc.strerror})") from exc
-    a = np.array(rows, float).reshape(-1, 4)
+    a = np.array(rows, float).reshape(-1, 4)    # rows of four (checked above), or none
     return fit_calibration(a[:, :2], a[:, 2:], length_unit, pixel_size)
 
 

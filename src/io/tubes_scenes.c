@@ -563,7 +563,7 @@ int scene_trajectory(tubes_run_t *run) {
   char msg[128];
   status_text(s, msg, sizeof msg);
   int rc = 0;
-  double e0 = en[0], abserr = 0;
+  double e0 = n > 0 ? en[0] : NAN, abserr = 0;   /* no sample (a start the model refuses): none */
   for (int k = 0; k < n; k++) abserr = fmax(abserr, fabs(en[k] - e0));
   /* the relative error's scale: |E0|, but at least the energy range spanned by E0 and the
    * equilibria in the &equilibria box (barriers, the start's height above the lowest well), so that
@@ -596,7 +596,7 @@ int scene_trajectory(tubes_run_t *run) {
   if (sk) printf("  section %s: %d crossings\n", c->section, ncross);
   if (c->damping_ratio > 0)
     printf("  damped (zeta = %g, c = %.6g 1/s): energy lost %.6g (cm/s)^2\n", c->damping_ratio, cdamp,
-           e0 - en[n - 1]);
+           n > 0 ? e0 - en[n - 1] : NAN);
   else {
     printf("  max energy error |E - E0| %.3e%s, relative %.3e to the energy scale %.6g%s", abserr,
            in_units(" (cm/s)^2"), maxerr, escale, in_units(" (cm/s)^2"));
