@@ -128,7 +128,7 @@ int main(void) {
       {TUBES_EMAXSTEPS, "maximum number of steps"}, {TUBES_ESTEP, "step size underflow"},
       {TUBES_EMODEL, "refused the state"}, {TUBES_EIO, "input/output"}, {TUBES_ENOCONV, "did not converge"},
       {TUBES_EFAULT, "TUBES_FAULT"}, {TUBES_EOUTSIDE, "outside the region"}, {TUBES_ENOCROSS, "no crossing"},
-      {TUBES_EPASTEND, "past the end"}, {TUBES_ENARROW, "narrower"}, {TUBES_ENOJET, "no kernel"},
+      {TUBES_EPASTEND, "past the end"}, {TUBES_ENARROW, "NHIM's reach"}, {TUBES_ENOJET, "no kernel"},
       {TUBES_EDIRECTION, "other direction first"}, {TUBES_EUNRESOLVED, "below what the energy resolves"},
       {TUBES_ENOREGION, "no bounded region"}};
   char msg[TUBES_LSTATUS];

@@ -412,9 +412,12 @@ NONQUAD = ("&model system = 'expression', hamiltonian = '(px^2 + py^2)/2 + px^2*
     # the trajectory scene of a 3-DOF model (said after the output existed, without the file)
     ("&model system = 'cr3bp_spatial' /\n&trajectory at_rest = .false. /\n&run scenes = 'trajectory' /\n",
      ["m.nml:3: &run scenes: 'trajectory'", "has 3"]),
-    # the system's default saddle_near with no saddle in the box (no file, no word of the default)
+    # the system's default saddle_near outside the box: the reader says so at the box's line
     (HH + "&equilibria box = 0.5 /\n&run scenes = 'orbits' /\n",
-     ["m.nml: &orbits saddle_near (the system's default)", "no rank-1 saddle"]),
+     ["m.nml:2: &orbits: saddle_near (the system's default) = (0, 1) lies outside the &equilibria box"]),
+    # a saddle_near in a box with no saddle
+    (HH + "&equilibria box = 0.1, box_center = 0, 0.8 /\n&orbits saddle_near = 0, 0.8 /\n&run scenes = 'orbits' /\n",
+     ["m.nml:3: &orbits saddle_near: system henon_heiles has no rank-1 saddle in the &equilibria box"]),
 ])
 def test_a_scene_that_does_not_apply_to_the_model_is_refused(tmp_path, text, words):
     (tmp_path / "m.nml").write_text(text)
