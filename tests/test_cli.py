@@ -91,6 +91,9 @@ BAD = [  # (name, namelist text, substrings the message must contain)
      ["saddle = 'L4' is not a rank-1 saddle of system cr3bp", "L1, L2, L3"]),
     ("saddle and saddle_near", "&run scenes = 'orbits' /\n&orbits saddle = 'S12',\n saddle_near = 1, 2 /\n",
      ["bad.nml:3", "saddle and saddle_near are both set"]),
+    # dop853 with h > 0 is fixed-step: tolerances set too were silently not used
+    ("dop853 fixed step with rtol", "&integrator method = 'dop853', h = 1.0,\n rtol = 1e-12 /\n",
+     ["bad.nml:1", "method = 'dop853' with h = 1 takes fixed steps of h without error control", "rtol or atol"]),
     # refused only after the flux was sampled (exit 1 after the numbers)
     ("flux order on a built-in", "&run scenes = 'flux' /\n&model system = 'cr3bp', spatial = .true. /\n"
      "&flux de = 0.001, order = 6 /\n",

@@ -7,6 +7,20 @@ import tubes
 from conftest import run_tubes
 
 
+def test_auto_with_h_keeps_the_variational_integration_adaptive(tmp_path, tubes_exe):
+    """Under method = 'auto', &integrator h is the Taylor method's largest step; the orbits'
+    variational equations run DOP853, which took h as a fixed step without error control (the
+    action at dE = 10 off by 3e-6 relative at h = 0.15, exit 0). Now the same orbits as h = 0."""
+    acts = []
+    for h in (0.0, 0.15):
+        (tmp_path / "a.nml").write_text(f"&run scenes = 'orbits' /\n&integrator h = {h} /\n&orbits de = 1, 10 /\n")
+        r = run_tubes(["a.nml", "-o", "a.h5"], tmp_path)
+        assert r.returncode == 0, r.stderr
+        with h5py.File(tmp_path / "a.h5") as f:
+            acts.append(f["orbits/action"][:])
+    assert np.allclose(acts[0], acts[1], rtol=1e-9, atol=0), acts
+
+
 def test_an_energy_short_of_the_extrapolated_end_is_not_called_past_it(tmp_path, tubes_exe):
     """De Leon-Berne's Morse family ends at dE = D = 10 (the period grows like -log(D - dE)); the
     continuation stops at its limit on the period, before dE = 9.98 (T = 59.24 by the closed form),

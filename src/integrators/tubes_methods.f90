@@ -126,6 +126,9 @@ contains
       return
     end if
     ig%h = choice%h
+    ! under auto, h is the Taylor method's largest step; DOP853 would take it as a fixed step
+    ! without error control (its h's meaning): the extended state keeps its tolerances
+    if (choice%method == METHOD_AUTO .and. m == METHOD_DOP853) ig%h = 0
     if (present(f)) call ig%init(f, 0.0_wp)
     if (present(rtol)) ig%rtol = rtol
     if (present(atol)) ig%atol = atol

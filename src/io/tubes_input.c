@@ -917,6 +917,16 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
             ln, c->method, model_units(c, "s"), c->h);
     n++;
   }
+  if (tubes_method_code(c->method) == TUBES_METHOD_DOP853 && c->h > 0 &&
+      (line_of(w, "integrator", "rtol") || line_of(w, "integrator", "atol"))) {
+    /* DOP853 with h > 0 takes fixed steps of h (to measure its order): tolerances asked for too are
+     * a request it would silently not honour */
+    int ln = line_of(w, "integrator", "h") ? line_of(w, "integrator", "h") : line_of(w, "integrator", "method");
+    fprintf(err, "%s:%d: &integrator: method = 'dop853' with h = %g takes fixed steps of h without error control, "
+            "but rtol or atol is set too and would not be used: allowed h = 0 (steps controlled by rtol and atol) or "
+            "h > 0 without rtol and atol\n", path, ln, c->h);
+    n++;
+  }
   if (!(c->omega_bind > 0)) n += bad(path, c, w, "integrator", "omega_bind", err, "", c->omega_bind);
   else if (tubes_method_code(c->method) >= TUBES_METHOD_TAO2 && tubes_method_code(c->method) <= TUBES_METHOD_TAO6 &&
            c->h > 0 && !(2 * c->omega_bind * c->h < M_PI)) {
