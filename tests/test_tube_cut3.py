@@ -207,3 +207,23 @@ def test_the_example_input_file(tmp_path, cache):
     q = subprocess.run([sys.executable, "-m", "tubes.plots", "t.h5", "-o", "fig"], cwd=tmp, capture_output=True,
                        text=True, timeout=300)
     assert q.returncode == 0 and os.path.getsize(os.path.join(tmp, "fig", "tube_cut_3dof.png")) > 10000, q.stderr
+
+
+def test_no_transit_where_half_of_one_is_expected_is_agreement(tmp_path, cache):
+    """The section's Monte Carlo against flux / volume at dE = 0.002 on the example's model: about
+    0.5 transits are expected among its 3847 points, and none is seen (probability e^-0.48, 62 %).
+    The check used the sample's own standard error, 0 with no transit, and failed the run by
+    -58 standard errors; now the error under the prediction, sqrt(p (1 - p) sum w^2) / sum w."""
+    import subprocess
+
+    from conftest import ROOT as root
+    from test_flux import TIMEOUT_SCALE, TUBES
+    text = (root / "input" / "three_dof.nml").read_text()
+    text = text.split("&flux")[0] + "&flux de = 0.002, n_samples = 20000, seed = 3, n_cut = 0, t_max = 100 /\n"
+    (tmp_path / "q.nml").write_text(text)
+    p = subprocess.run([str(TUBES), "q.nml", "-o", "q.h5"], cwd=str(tmp_path), capture_output=True, text=True,
+                       timeout=300 * TIMEOUT_SCALE, env=dict(os.environ, TUBES_CACHE_DIR=cache, OMP_NUM_THREADS="2"))
+    assert p.returncode == 0 and "disagree" not in p.stderr, p.stdout + p.stderr
+    line = [ln for ln in p.stdout.splitlines() if ln.strip().startswith("0.002") and "(" in ln][-1].split()
+    p_pred, frac, z, transits = float(line[3]), float(line[4]), float(line[6]), int(line[7])
+    assert transits == 0 and frac == 0 and 0 < p_pred < 1e-3 and -1.5 < z < 0, line

@@ -1637,7 +1637,16 @@ static int section_fraction(const tubes_run_t *run, const double *fl, const doub
     double f = use_nf ? fnf[k] : fl[k], ferr = use_nf ? (isfinite(fch[k]) ? fch[k] : 0.0) : fe[k];
     pth[k] = f / sv[k];
     double sp = pth[k] * sqrt(pow(ferr / f, 2) + pow(sve[k] / sv[k], 2));
-    double z = (sf[k] - pth[k]) / sqrt(sfe[k] * sfe[k] + sp * sp);
+    /* the fraction's standard error under the prediction p (a score test, as the montecarlo scene's
+     * sqrt(p (1 - p) / n)): sqrt(p (1 - p) sum w^2) / sum w. The sample's own, sfe, is 0 with no
+     * transit and too small with one or two: 0 transits where 0.5 are expected was "58 standard errors" */
+    double sw1 = 0, sw2 = 0;
+    for (int i = 0; i < ns; i++) {
+      double wi = sw[(size_t)k * ns + i];
+      if (isfinite(wi)) { sw1 += wi; sw2 += wi * wi; }
+    }
+    double se0 = sw1 > 0 ? sqrt(fmax(pth[k] * (1 - pth[k]), 0) * sw2) / sw1 : sfe[k];
+    double z = (sf[k] - pth[k]) / sqrt(se0 * se0 + sp * sp);
     printf("  %10.4g %14.8g %10.3g %12.6f %12.6f %10.2g %9.2f %9d %9d %9d   (%.1f s)\n", c->flux_de[k], sv[k], sve[k],
            pth[k], sf[k], sfe[k], z, cnt[1], cnt[2], cnt[3], now() - t0);
     if (cnt[3] > 0.01 * cnt[0]) {
