@@ -340,6 +340,8 @@ def test_cli_malformed_tracks_are_reported(tmp_path):
     r3[80] = (3, r3[79][1], r3[80][2], r3[80][3])      # repeated time
     r4 = rows[4]
     r4[60], r4[61] = r4[61], r4[60]                    # two rows swapped: any row order is read
+    rows[10] = [(10, t, x, y) for (_, t, x, y) in rows[0][::-1]]   # a track listed backwards in time:
+    # sorted, it would be a ball gaining energy (its damping biased, nothing said): rejected
     rows[5] = rows[5][:30]                             # too short
     r6 = rows[6]
     for i in range(90, 94):                            # off the plate
@@ -354,7 +356,7 @@ def test_cli_malformed_tracks_are_reported(tmp_path):
     r9 = rows[9]
     for i in range(100, 110):                          # the tracker sticks to a spot for 0.2 s
         r9[i] = (9, r9[i][1], 13.0, 13.0)
-    _write_csv(tmp_path / "bad.csv", [row for k in range(10) for row in rows[k]])
+    _write_csv(tmp_path / "bad.csv", [row for k in range(11) for row in rows[k]])
     r = _run_cli(["bad.csv", "-o", "an.h5"], tmp_path)
     assert r.returncode == 0, r.stderr
     err = r.stderr
@@ -363,15 +365,15 @@ def test_cli_malformed_tracks_are_reported(tmp_path):
                  "fewer than the",
                  "track 6: 4 sample(s) off the plate", "track 7: sample at t = 2.2 s jumps",
                  "track 8:", "higher than the energy of the track allows", "track 9:",
-                 "jump more than 1 cm off the track"):
+                 "jump more than 1 cm off the track", "track 10: decreasing time"):
         assert text in err, (text, err)
     assert "track 0" not in err and "track 4" not in err
     with h5py.File(tmp_path / "an.h5") as f:
         v = f["experiment/validation"]
         a = dict(v.attrs)
-        assert a["n_tracks"] == 10 and a["n_tracks_rejected"] == 1   # track 3 (repeated time)
+        assert a["n_tracks"] == 11 and a["n_tracks_rejected"] == 2   # track 3 (repeated time), 10 (backwards)
         assert a["count_nan"] == 1 and a["samples_nan"] == 3
-        assert a["count_gap"] >= 1 and a["count_time_order"] == 1 and a["count_short"] >= 1
+        assert a["count_gap"] >= 1 and a["count_time_order"] == 2 and a["count_short"] >= 1
         assert a["count_off_plate"] == 1 and a["samples_off_plate"] == 4
         assert a["count_jump"] == 2 and a["count_impossible_height"] >= 1
         kinds = [k.decode() for k in v["kind"][()]]

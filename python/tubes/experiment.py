@@ -431,7 +431,17 @@ def read_tracks(path: str, columns: dict | None = None, time_unit: str = "s",
         tr.y = tr.y * lscale
     if calibration is not None:
         tr.x, tr.y = calibration.apply(tr.x, tr.y)
-    order = np.lexsort((tr.t, tr.track))
+    # rows grouped by track and sorted by time within it (a file may list its rows in any order),
+    # except a track whose time decreases over most of its rows in the file's order: a reversed or
+    # negated time column, which sorting would turn into a ball gaining energy (its damping biased,
+    # nothing said); it keeps the file's order, so that the check rejects it (time_order)
+    order = np.argsort(tr.track, kind="stable")
+    bounds = np.flatnonzero(np.diff(tr.track[order])) + 1
+    for a, b in zip(np.r_[0, bounds], np.r_[bounds, order.size]):
+        idx = order[a:b]
+        dt = np.diff(tr.t[idx])
+        if not np.count_nonzero(dt < 0) > dt.size / 2:
+            order[a:b] = idx[np.argsort(tr.t[idx], kind="stable")]
     moved = int(np.count_nonzero(order != np.arange(order.size)))
     if moved:
         tr.track, tr.t, tr.x, tr.y = tr.track[order], tr.t[order], tr.x[order], tr.y[order]
@@ -1330,7 +1340,12 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
     rate = opt.rate or float(tracks.attrs.get("camera_rate", 0) or 0)
     if not rate > 0:
         d = np.diff(tracks.t)
-        d = d[(np.diff(tracks.track) == 0) & np.isfinite(d) & (d > 0)]
+        same = (np.diff(tracks.track) == 0) & np.isfinite(d)
+        if d[same].size and np.count_nonzero(d[same] < 0) > d[same].size / 2:
+            raise ExperimentError(f"{tracks.source}: time decreases within the tracks ({np.count_nonzero(d[same] < 0)} "
+                                  f"of {d[same].size} steps): times must increase within a track (a reversed or "
+                                  "negated time column?)")
+        d = d[same & (d > 0)]
         if d.size == 0:
             raise ExperimentError(f"{tracks.source}: cannot infer the camera rate (give --rate)")
         rate = 1.0 / float(np.median(d))
@@ -2133,7 +2148,8 @@ def _main(args, orig) -> int:
           f"{args.time_unit}, lengths in {args.length_unit}")
     if tracks.attrs.get("rows_reordered"):
         print(f"note: {tracks.attrs['rows_reordered']} rows were not in (track, time) order: sorted "
-              f"(a file may list its rows in any order)", file=sys.stderr)
+              f"(a file may list its rows in any order; a track whose time decreases over most of it is rejected)",
+              file=sys.stderr)
     _print_issues(rep, args.all_issues)
     a = an.attrs
     print(rep.summary())
