@@ -31,6 +31,7 @@ typedef struct {
   int rank;      /* MPI rank (0 without MPI): only rank 0 writes files */
   void *seeds;   /* the run's tube seeds (tubes_seed_stores_new): later scenes' cuts look them up */
   int nranks;    /* MPI ranks (1 without MPI) */
+  double zeta;   /* the model's damping ratio (its parameter damping_ratio, 0 if none): scene_model */
 } tubes_run_t;
 
 /* Fill the model, the box and the saddle of run from run->cfg; resolves &orbits saddle_near to

@@ -1,7 +1,9 @@
 """The tubes executable: options, bad input paths (message, exit code, no output file),
 numerical failure, and the HDF5 contract of docs/output.md."""
+import math
 import os
 import pathlib
+import re
 import subprocess
 import textwrap
 
@@ -602,3 +604,20 @@ def test_a_default_has_no_line_zero(tmp_path, nml, head):
     r = run_tubes(["z.nml", "-o", "z.h5"], tmp_path)
     assert r.returncode == 1 and any(ln.startswith(head) for ln in r.stderr.splitlines()), r.stderr
     assert ":0:" not in r.stderr                         # (a Taylor kernel's first build may say a line before)
+
+
+def test_a_damped_ball_on_a_formula_surface_reports_its_loss(tmp_path, tubes_exe):
+    """A formula surface's damping_ratio is the model's parameter, not &model's variable of the
+    built-in ball: the trajectory scene took the loss for an energy error (relative 0.9998). The
+    loss is the closed form's: c = 2 zeta omega_1 at the lowest well, E0 - E(t_end) > 0."""
+    (tmp_path / "d.nml").write_text(
+        "&run scenes = 'trajectory' /\n"
+        "&model system = 'rolling_ball', surface = 'expression', height = 'k*y^2/2 + c*(x^4/4 - a^2*x^2/2)',\n"
+        " constants = 'k = 0.1', 'c = 0.002', 'a = 5', damping_ratio = 0.05 /\n"
+        "&equilibria box = 10 /\n&trajectory x0 = 3, y0 = 4, t_end = 10, dt_out = 0.5 /\n")
+    r = run_tubes(["d.nml", "-o", "d.h5"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    m = re.search(r"damped \(zeta = 0.05, c = (\S+) 1/s\): energy lost (\S+)", r.stdout)
+    assert m and "max energy error" not in r.stdout, r.stdout
+    # the wells at x = +-5: h_xx = c (3 x^2 - a^2) = 0.1 = h_yy, omega_1^2 = (5/7) g 0.1
+    assert abs(float(m.group(1)) - 2 * 0.05 * math.sqrt(5 / 7 * 981 * 0.1)) < 1e-5 and float(m.group(2)) > 0

@@ -117,6 +117,7 @@ int scene_model(tubes_run_t *run) {
   double zeta = 0;
   for (int k = 0; k < np; k++)
     if (!strcmp(names + TUBES_LPARAM * k, "damping_ratio")) zeta = run->params[k];
+  run->zeta = zeta;    /* the built-in ball's &model damping_ratio, or a formula surface's */
   if (zeta > 0) {
     double cd = 0;
     int st = tubes_damping_rate(run->system, run->params, &cd);
@@ -594,8 +595,8 @@ int scene_trajectory(tubes_run_t *run) {
          (long long)cnt[1],
          (long long)cnt[2], (long long)cnt[0], wall);
   if (sk) printf("  section %s: %d crossings\n", c->section, ncross);
-  if (c->damping_ratio > 0)
-    printf("  damped (zeta = %g, c = %.6g 1/s): energy lost %.6g (cm/s)^2\n", c->damping_ratio, cdamp,
+  if (run->zeta > 0)
+    printf("  damped (zeta = %g, c = %.6g 1/s): energy lost %.6g (cm/s)^2\n", run->zeta, cdamp,
            n > 0 ? e0 - en[n - 1] : NAN);
   else {
     printf("  max energy error |E - E0| %.3e%s, relative %.3e to the energy scale %.6g%s", abserr,
