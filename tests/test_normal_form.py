@@ -227,6 +227,24 @@ def test_a_quartic_bath_is_sampled_not_normalised(tmp_path, cache):
     exact = 8 * math.pi * c / (7 * 1.3) * f["dE"] ** 1.75
     assert np.all(np.abs(f["flux_sampled"] - exact) < SIGMAS * f["flux_sampled_err"]), (f["flux_sampled"], exact)
     assert np.all(np.isnan(f["flux_normal_form"])) and np.all(np.isnan(f["flux_leading_order"]))
+    # Python's saddle_near takes the degenerate saddle for the flux, as the program does (it said
+    # "no rank-1 saddle in the search box"): the same sampled flux, bit for bit
+    import os
+
+    import tubes
+    old = os.environ.get("TUBES_CACHE_DIR")
+    os.environ["TUBES_CACHE_DIR"] = cache
+    try:
+        m = tubes.Model(system="expression", hamiltonian=h, coordinates=["q1", "q2", "q3"],
+                        momenta=["p1", "p2", "p3"], constants={"w2": 1.3})
+        r = tubes.flux(m, dE=[0.1, 0.5], saddle_near=[0, 0, 0], n_samples=20000, seed=3,
+                       equilibria={"box": 1.0, "n_grid": 5})
+    finally:
+        if old is None:
+            del os.environ["TUBES_CACHE_DIR"]
+        else:
+            os.environ["TUBES_CACHE_DIR"] = old
+    assert np.array_equal(r["flux_sampled"], f["flux_sampled"]), (r["flux_sampled"], f["flux_sampled"])
     p = run(tmp, _nml(h, "'w2 = 1.3'", [0.1], 0, scenes="'orbits'").replace("saddle_near = 0, 0, 0", "saddle = 'D1'"),
             cache)
     assert p.returncode == 1 and "D1 is a degenerate saddle" in p.stderr, p.stderr

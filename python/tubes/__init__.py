@@ -631,9 +631,10 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, who: st
     st["saddle"] = _str(st["saddle"])
     if st["use_near"]:
         eq = _settings_equilibria(model, st)
-        k = [i for i in range(len(eq["name"])) if eq["rank1"][i]]
+        # as the program (run_setup): the flux takes a degenerate saddle too (D<k>)
+        k = [i for i in range(len(eq["name"])) if eq["rank1"][i] or (eq["degenerate"][i] and who == "flux")]
         if not k:
-            raise ValueError(f"system {model.system!r} has no rank-1 saddle in the search box")
+            raise ValueError(f"{who}: system {model.system!r} has no rank-1 saddle in the search box")
         near = np.asarray(st["near"])[:model.ndof]
         st["saddle"] = eq["name"][min(k, key=lambda i: np.sum((eq["q"][i] - near) ** 2))]
     elif who not in ("equilibria", "synthetic_experiment"):
