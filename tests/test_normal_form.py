@@ -169,7 +169,7 @@ def test_refusals(tmp_path, cache):
     assert np.isfinite(f["flux_sampled"][0]) and np.isnan(f["flux_normal_form"][0])
 
 
-def test_python_gives_the_scenes_numbers(tmp_path, cache):
+def test_python_gives_the_scenes_numbers(tmp_path, cache, monkeypatch):
     """tubes.flux(..., order=K): the scene's flux_normal_form and its change, bitwise (one path:
     the program's reader, the formula's library, the same Fortran), and the normal form's terms;
     a built-in model is refused."""
@@ -188,18 +188,11 @@ def test_python_gives_the_scenes_numbers(tmp_path, cache):
         """, cache)
     assert p.returncode == 0, p.stderr
     f = flux_of(tmp)
-    old = os.environ.get("TUBES_CACHE_DIR")
-    os.environ["TUBES_CACHE_DIR"] = cache
-    try:
-        r = tubes.flux(tubes.Model(system="expression", hamiltonian=hh, coordinates=["x", "y"]), dE=[0.01, 0.05],
-                       saddle_near=[0, 1], n_samples=2000, order=8)
-        with pytest.raises(ValueError, match="written as a formula"):
-            tubes.flux(tubes.Model(system="henon_heiles"), dE=[0.01], order=6)
-    finally:
-        if old is None:
-            del os.environ["TUBES_CACHE_DIR"]
-        else:
-            os.environ["TUBES_CACHE_DIR"] = old
+    monkeypatch.setenv("TUBES_CACHE_DIR", cache)
+    r = tubes.flux(tubes.Model(system="expression", hamiltonian=hh, coordinates=["x", "y"]), dE=[0.01, 0.05],
+                   saddle_near=[0, 1], n_samples=2000, order=8)
+    with pytest.raises(ValueError, match="written as a formula"):
+        tubes.flux(tubes.Model(system="henon_heiles"), dE=[0.01], order=6)
     assert np.array_equal(r["flux_normal_form"], f["flux_normal_form"])
     assert np.array_equal(r["flux_normal_form_change"], f["flux_normal_form_change"])
     nf = r["normal_form"]
@@ -210,7 +203,7 @@ def test_python_gives_the_scenes_numbers(tmp_path, cache):
         assert np.array_equal(nf["powers"][:, 1], g["power_J2"][()])
 
 
-def test_a_quartic_bath_is_sampled_not_normalised(tmp_path, cache):
+def test_a_quartic_bath_is_sampled_not_normalised(tmp_path, cache, monkeypatch):
     """H = |p|^2/2 - q1^2/2 + w2^2 q2^2/2 + q3^4/4: the bath mode has no quadratic term, the saddle
     is degenerate (named D1). The normal form is refused naming that (exit 2); the sampled flux
     still works and matches the closed form (2 pi / w2) int_0^dE A3(e) de = (8 pi C / (7 w2))
@@ -229,21 +222,12 @@ def test_a_quartic_bath_is_sampled_not_normalised(tmp_path, cache):
     assert np.all(np.isnan(f["flux_normal_form"])) and np.all(np.isnan(f["flux_leading_order"]))
     # Python's saddle_near takes the degenerate saddle for the flux, as the program does (it said
     # "no rank-1 saddle in the search box"): the same sampled flux, bit for bit
-    import os
-
     import tubes
-    old = os.environ.get("TUBES_CACHE_DIR")
-    os.environ["TUBES_CACHE_DIR"] = cache
-    try:
-        m = tubes.Model(system="expression", hamiltonian=h, coordinates=["q1", "q2", "q3"],
-                        momenta=["p1", "p2", "p3"], constants={"w2": 1.3})
-        r = tubes.flux(m, dE=[0.1, 0.5], saddle_near=[0, 0, 0], n_samples=20000, seed=3,
-                       equilibria={"box": 1.0, "n_grid": 5})
-    finally:
-        if old is None:
-            del os.environ["TUBES_CACHE_DIR"]
-        else:
-            os.environ["TUBES_CACHE_DIR"] = old
+    monkeypatch.setenv("TUBES_CACHE_DIR", cache)
+    m = tubes.Model(system="expression", hamiltonian=h, coordinates=["q1", "q2", "q3"],
+                    momenta=["p1", "p2", "p3"], constants={"w2": 1.3})
+    r = tubes.flux(m, dE=[0.1, 0.5], saddle_near=[0, 0, 0], n_samples=20000, seed=3,
+                   equilibria={"box": 1.0, "n_grid": 5})
     assert np.array_equal(r["flux_sampled"], f["flux_sampled"]), (r["flux_sampled"], f["flux_sampled"])
     p = run(tmp, _nml(h, "'w2 = 1.3'", [0.1], 0, scenes="'orbits'").replace("saddle_near = 0, 0, 0", "saddle = 'D1'"),
             cache)
@@ -335,7 +319,7 @@ def test_transition_fraction_on_a_four_dimensional_section(tmp_path, cache):
         assert abs(s["p_trans"][k] - theory) < SIGMAS * s["p_trans_err"][k], (s["p_trans"][k], theory)
 
 
-def test_python_section_fraction_is_the_scenes(tmp_path, cache):
+def test_python_section_fraction_is_the_scenes(tmp_path, cache, monkeypatch):
     """tubes.flux(..., section={...}) gives the scene's section volume, Monte Carlo fraction and
     flux / volume bitwise (one Fortran path)."""
     import os
@@ -348,19 +332,12 @@ def test_python_section_fraction_is_the_scenes(tmp_path, cache):
     assert p.returncode == 0, p.stdout + p.stderr
     f = flux_of(tmp)
     consts = {"w2": 1.3, "w3": 2.1, "a": 0.2, "b": 0.1, "c": 0.3, "d": 0.05}
-    old = os.environ.get("TUBES_CACHE_DIR")
-    os.environ["TUBES_CACHE_DIR"] = cache
-    try:
-        m = tubes.Model(system="expression", hamiltonian=COUPLED, coordinates=["q1", "q2", "q3"],
-                        momenta=["p1", "p2", "p3"], constants=consts)
-        r = tubes.flux(m, dE=[0.05], saddle_near=[0, 0, 0], n_samples=4000, seed=3, order=6,
-                       section={"kind": "plane", "index": 1, "value": -0.7, "direction": 1},
-                       equilibria={"box": 1.0, "n_grid": 5})
-    finally:
-        if old is None:
-            del os.environ["TUBES_CACHE_DIR"]
-        else:
-            os.environ["TUBES_CACHE_DIR"] = old
+    monkeypatch.setenv("TUBES_CACHE_DIR", cache)
+    m = tubes.Model(system="expression", hamiltonian=COUPLED, coordinates=["q1", "q2", "q3"],
+                    momenta=["p1", "p2", "p3"], constants=consts)
+    r = tubes.flux(m, dE=[0.05], saddle_near=[0, 0, 0], n_samples=4000, seed=3, order=6,
+                   section={"kind": "plane", "index": 1, "value": -0.7, "direction": 1},
+                   equilibria={"box": 1.0, "n_grid": 5})
     s = _section_of(tmp)
     for k, h in (("section_volume", "volume"), ("section_volume_err", "volume_err"), ("p_trans_section", "p_trans"),
                  ("p_trans_section_err", "p_trans_err"), ("p_trans_theory", "p_trans_theory")):
