@@ -21,7 +21,10 @@ enum {
   TUBES_ENOJET = -12, /* no Taylor kernel for the model: its code could not be generated or compiled (stderr says why) */
   TUBES_EDIRECTION = -13, /* the tube crosses the section in the other direction first: choose the other direction */
   TUBES_EUNRESOLVED = -14, /* dE below what the energy resolves at the saddle (tubes_de_floor) */
-  TUBES_ENOREGION = -15 /* the energy surface meets the plane section in no bounded region within its search window */
+  TUBES_ENOREGION = -15, /* the energy surface meets the plane section in no bounded region within its search window */
+  TUBES_ESHAPE = -16, /* the transition region is not one star-shaped piece, or reaches the energy surface's edge */
+  TUBES_EUNDECIDED = -17, /* a section point neither passed the gate nor returned within t_max */
+  TUBES_EDISSIPATIVE = -18 /* a conservative-only computation asked of a dissipative model */
 };
 
 /* Integration methods (src/integrators/tubes_methods.f90). */
@@ -294,6 +297,32 @@ int tubes_monte_carlo(const char system[TUBES_LSYSTEM], const double params[TUBE
                       double level, int dir, int nsamp, int seed, double t_max, double gate,
                       int method, double h, double omega_bind, int solver, int max_iter, int ncut, const double cut_r[], const double cut_pr[], double r[],
                       double pr[], int outcome[], int inside[], void *stores);
+
+/* The transition region at de (docs/dissipation.md): the points of the section's energy surface
+ * whose trajectory under the model with its dissipation (&model damping_ratio) passes the saddle's
+ * gate (a distance gate past it, as tubes_monte_carlo's) before it meets the section again, each
+ * integrated to at most t_max. Its boundary is traced along rays from a point inside (found on a
+ * scan of the section, which also checks the traced region), the rays doubled until the area
+ * changes by at most area_tol (relative); the other options are src/transport/tubes_region.f90's
+ * (region_opts_t). Out: the *n <= nout rays: phi[] (angle in the scaled coordinates), rho[]
+ * (radius), s[], p[] (the boundary point), t_in[] (flight time of the last transiting point of
+ * the ray's bisection: it lingers at the saddle); the boundary interpolated at *m = mcurve angles
+ * cs[], cp[] (0 when empty); res[12] = {area, area_polygon, centre s, p_s, scale s, p_s, damping
+ * rate c [1/time], A_E, de_lo, de_hi, area_hi, area_change}; counts[8] = {scan points, their
+ * transits, undecided, points the traced region puts on the wrong side, points integrated,
+ * rounds, empty (1: no transit), the failed ray's status}. An empty region (counts[6] = 1) has
+ * its threshold: no transit at or below de_lo, a region of area area_hi at de_hi (de_hi - de_lo
+ * <= 1e-6 de_hi; de_hi NaN: none found up to de_lo). TUBES_ESHAPE: not one star-shaped piece (or
+ * the scan disagrees); TUBES_EUNDECIDED: a point neither transited nor returned within t_max;
+ * TUBES_ENOCONV: not converged within min(nout, its n_max) rays; TUBES_ENARROW: gate within twice
+ * the NHIM's reach. local as tubes_tube_cut. */
+int tubes_transition_region(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                            const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                            const char saddle[8], double de, int sec_kind, int sec_index, double level, int dir,
+                            double gate, double t_max, double area_tol, int method, double h, double omega_bind,
+                            int solver, int max_iter, int nout, int mcurve, int *n, double phi[], double rho[],
+                            double s[], double p[], double t_in[], int *m, double cs[], double cp[],
+                            double res[12], int counts[8], int local, void *stores);
 
 /* The reach at de of the saddle's NHIM (its Lyapunov orbits) across the saddle's neck, from the
  * linearisation [units of q]: tubes_monte_carlo refuses a gate within twice it (TUBES_ENARROW). */

@@ -733,7 +733,7 @@ subroutine flux(system, params, lo, hi, n_grid, saddle, nde, des, nsamp, seed, t
   integer :: isad, k, nd
   fl = 0; err = 0; leading = 0; counts = 0
   call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat, degenerate_ok=.true., &
-                   des=des)
+                   des=des, conservative=.true.)
   if (stat /= 0) return
   nd = model%ndof()
   do k = 1, nde
@@ -917,3 +917,42 @@ subroutine experiment_samples(duration, camera_rate, ns)
   integer(c_int), intent(out) :: ns
   ns = c_experiment_samples(duration, camera_rate)
 end subroutine experiment_samples
+
+subroutine transition_region(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
+                             gate, t_max, area_tol, n_init, n_scan, xtol, method, h, omega_bind, solver, &
+                             int_max_iter, nout, mcurve, stores, stat, n, phi, rho, s, p, t_in, m, cs, cp, res, counts)
+  ! the transition region at de of the model with its dissipation (as the transition scene of a
+  ! dissipative model): the section points that pass the saddle's gate before they return. n_init
+  ! (rays), n_scan (scan grid) and xtol (bisection): 0 for the program's (tubes_region's) defaults
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_region, only: region_opts_t, region_t
+  use tubes_study, only: study_t, section_choice_t, region_at, region_outputs, region_numbers, region_info_t, &
+                         seed_stores_t, stores_at
+  use tubes_capi, only: integ_of
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, n_init, n_scan, method, solver, &
+                                int_max_iter, nout, mcurve
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, gate, t_max, area_tol, xtol, h, omega_bind
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: stat, n, m, counts(8)
+  real(c_double), intent(out) :: phi(nout), rho(nout), s(nout), p(nout), t_in(nout), cs(mcurve), cp(mcurve), &
+                                 res(12)
+  type(region_t) :: reg
+  type(region_info_t) :: info
+  type(region_opts_t) :: o
+  type(seed_stores_t), pointer :: kept
+  phi = 0; rho = 0; s = 0; p = 0; t_in = 0; cs = 0; cp = 0
+  kept => stores_at(stores)
+  o = region_opts_t(area_tol=area_tol, t_max=t_max)
+  o%n_max = min(o%n_max, nout)
+  if (n_init > 0) o%n_init = n_init
+  if (n_scan > 0) o%n_scan = n_scan
+  if (xtol > 0) o%xtol = xtol
+  call region_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+                         integ=integ_of(method, h, omega_bind, solver, int_max_iter)), &
+                 section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, gate, o, reg, info, &
+                 stat, kept)
+  call region_outputs(reg, n, phi, rho, s, p, t_in, m, cs, cp)
+  call region_numbers(reg, info, res, counts)
+end subroutine transition_region

@@ -130,7 +130,8 @@ int main(void) {
       {TUBES_EFAULT, "TUBES_FAULT"}, {TUBES_EOUTSIDE, "outside the region"}, {TUBES_ENOCROSS, "no crossing"},
       {TUBES_EPASTEND, "past the end"}, {TUBES_ENARROW, "NHIM's reach"}, {TUBES_ENOJET, "no kernel"},
       {TUBES_EDIRECTION, "other direction first"}, {TUBES_EUNRESOLVED, "below what the energy resolves"},
-      {TUBES_ENOREGION, "no bounded region"}};
+      {TUBES_ENOREGION, "no bounded region"}, {TUBES_ESHAPE, "star-shaped"},
+      {TUBES_EUNDECIDED, "neither passed the gate"}, {TUBES_EDISSIPATIVE, "dissipative"}};
   char msg[TUBES_LSTATUS];
   for (size_t i = 0; i < sizeof codes / sizeof codes[0]; i++) {
     tubes_status_message(codes[i].code, msg, sizeof msg);

@@ -47,7 +47,8 @@ FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 __all__ = ["Model", "Table", "TubesError", "DisagreementError", "MC_SIGMA", "Integrator", "ensemble", "status_message", "systems", "model_info", "energy", "energies", "potentials",
            "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
            "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
-           "orbit_family", "tube_cut", "transition", "monte_carlo", "poincare", "flux", "normal_form_map",
+           "orbit_family", "tube_cut", "transition", "transition_region", "monte_carlo", "poincare", "flux",
+           "normal_form_map",
            "synthetic_experiment", "load", "Result"]
 
 
@@ -992,6 +993,76 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
     return _cut(model, st, float(st["des"][0, 1]), TUBE_KINDS[kind], st["tub_area_tol"])
 
 
+def _damping_ratio(model: Model) -> float:
+    """The model's viscous damping ratio (its parameter damping_ratio; 0 for a model without one)."""
+    return float(model.parameters.get("damping_ratio", 0.0))
+
+
+_REGION_NOUT, _REGION_CURVE = 4096, 4096
+
+
+def _region(model, st, de, area_tol, n_init=0, n_scan=0, xtol=0.0):
+    """The core's transition region at de (tubes_study region_at) with the settings st."""
+    (stat, n, phi, rho, s, p, t_in, m, cs, cp, res, counts) = _lib().transition_region(
+        *_study(model, st), *_section_args(st), float(de), float(st["mc_gate"]), float(st["mc_t_max"]),
+        float(area_tol), int(n_init), int(n_scan), float(xtol), *_integ(st, model), _REGION_NOUT, _REGION_CURVE,
+        model._stores())
+    empty = bool(counts[6])
+    out = {"dE": float(de), "status": int(stat), "empty": empty, "area": 0.0 if empty else float(res[0]),
+           "area_polygon": float(res[1]), "A_E": float(res[7]), "centre": res[2:4].copy(), "scale": res[4:6].copy(),
+           "damping_rate": float(res[6]), "dE_threshold": (float(res[8]), float(res[9])),
+           "area_at_threshold": float(res[10]), "area_change": float(res[11]),
+           "phi": phi[:n].copy(), "rho": rho[:n].copy(), "r": s[:n].copy(), "p_r": p[:n].copy(),
+           "t_in": t_in[:n].copy(), "curve_r": cs[:m].copy(), "curve_p_r": cp[:m].copy(),
+           "n_scan": int(counts[0]), "n_scan_transit": int(counts[1]), "n_scan_undecided": int(counts[2]),
+           "n_inconsistent": int(counts[3]), "n_integrated": int(counts[4]), "rounds": int(counts[5])}
+    out["p_trans"] = out["area"] / out["A_E"] if out["A_E"] > 0 else float("nan")
+    return out
+
+
+def transition_region(model: Model | None = None, dE: float | None = None, saddle=None, saddle_near=None,
+                      section=None, area_tol=None, t_max=None, gate=None, integrator: dict | None = None,
+                      equilibria: dict | None = None, n_init: int = 0, n_scan: int = 0, xtol: float = 0.0) -> dict:
+    """The transition region at dE (docs/dissipation.md; 2 degrees of freedom): the points of the
+    section's energy surface at E_e + dE whose trajectory under the model, with its dissipation
+    (damping_ratio), passes the saddle's gate before it meets the section again. Its boundary is
+    the cut of the section with the stable manifold of the (damped) saddle equilibrium; for a
+    conservative model it is the tube's cut (tube_cut), found here by a second method: shooting
+    along rays from a point inside, each boundary point bisected between a transit and a return.
+
+    dE: the excess energy above the saddle (> 0, the model's energy units), required. gate and
+    t_max: the transit test's (&montecarlo's, their defaults); area_tol: the area's relative
+    accuracy (&transition's default); n_init (rays of the first round), n_scan (the scan grid's
+    points per axis), xtol (the bisection's relative accuracy): 0 for the program's defaults
+    (src/transport/tubes_region.f90). saddle, saddle_near, section, integrator, equilibria as in
+    tube_cut.
+
+    Returns a dict: dE, area, p_trans (area / A_E), A_E, empty (no point transits; then
+    dE_threshold = (lo, hi): none at or below lo, a region of area_at_threshold at hi), the
+    rays phi, rho (scaled coordinates about centre, scale), r, p_r (the boundary points), t_in
+    (flight time of the last transit of each ray's bisection), curve_r, curve_p_r (the boundary
+    interpolated at 4096 angles), area_polygon, damping_rate, n_scan, n_scan_transit,
+    n_scan_undecided, n_inconsistent (scan points on the wrong side: 0), n_integrated, rounds,
+    status. Raises TubesError where the program's scenes fail (err.partial holds the dict)."""
+    model = model or Model()
+    _need_2dof(model, "transition_region")
+    if dE is None:
+        raise ValueError("transition_region: give dE, the excess energy above the saddle (> 0, in the model's "
+                         "energy units)")
+    mc = {k: v for k, v in (("t_max", t_max), ("gate", gate)) if v is not None}
+    tra = {"de": [_scalar_de(dE, "transition_region")]}
+    if area_tol is not None:
+        tra["area_tol"] = float(area_tol)
+    st = _settings(model, saddle, saddle_near, section=section, who="transition_region", montecarlo=mc,
+                   transition=tra, integrator=integrator, equilibria=equilibria)
+    out = _region(model, st, float(st["des"][0, 2]), st["tra_area_tol"], n_init, n_scan, xtol)
+    if out["status"] < 0:
+        err = TubesError(out["status"], f"transition_region(dE = {out['dE']:g})")
+        err.partial = out
+        raise err
+    return out
+
+
 def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
                section=None, area_tol=None, integrator: dict | None = None, equilibria: dict | None = None,
                **orbits) -> dict:
@@ -1024,6 +1095,9 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     sec = _section_args(st)
     out = {k: np.full(de.size, np.nan) for k in ("A_tube", "action", "A_E", "p_trans")}
     status, message = np.zeros(de.size, dtype=np.int32), [""] * de.size
+    zeta = _damping_ratio(model)
+    if zeta > 0:
+        return _transition_damped(model, st, de, sec, zeta)
     for i, d in enumerate(de):
         try:
             c = _cut(model, st, d, -1, st["tra_area_tol"])
@@ -1046,6 +1120,46 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
                       + " (NaN there; status and message hold why): " + "; ".join(m for m in message if m),
                       RuntimeWarning, stacklevel=2)
     return Table(out)
+
+
+def _transition_damped(model, st, de, sec, zeta):
+    """transition() of a dissipative model, as the transition scene's: p_trans = A_region / A_E, the
+    conservative model's A_tube / A_E beside it (p_trans_conservative)."""
+    cols = {k: np.full(de.size, np.nan) for k in ("A_region", "A_tube", "action", "A_E", "p_trans",
+                                                  "p_trans_conservative")}
+    status, status_c = np.zeros(de.size, dtype=np.int32), np.zeros(de.size, dtype=np.int32)
+    rays, message = np.zeros(de.size, dtype=np.int32), [""] * de.size
+    lo = hi = np.nan
+    rate = np.nan
+    for i, d in enumerate(de):
+        try:
+            c = _cut(model, st, d, -1, st["tra_area_tol"])
+            cols["A_tube"][i], cols["action"][i] = c["area"], c["action"]
+        except TubesError as err:
+            status_c[i] = err.code
+        stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *sec, float(d), model._stores())
+        if stat >= 0:
+            cols["A_E"][i] = ae
+            cols["p_trans_conservative"][i] = cols["A_tube"][i] / ae
+        r = _region(model, st, d, st["tra_area_tol"])
+        rate = r["damping_rate"]
+        status[i] = r["status"] if r["status"] < 0 else (stat if stat < 0 else 0)
+        if r["status"] < 0:
+            message[i] = str(TubesError(r["status"], f"transition(dE = {d:g}): the transition region"))
+            continue
+        cols["A_region"][i] = r["area"]
+        rays[i] = r["phi"].size
+        if stat >= 0:
+            cols["p_trans"][i] = r["area"] / ae
+        if r["empty"] and not np.isnan(r["dE_threshold"][0]) and not (r["dE_threshold"][0] <= lo):
+            lo, hi = r["dE_threshold"]
+    if np.any(status != 0):
+        import warnings
+        warnings.warn("transition: failed at dE = " + ", ".join(f"{d:g}" for d in de[status != 0])
+                      + " (NaN there; status and message hold why): " + "; ".join(m for m in message if m),
+                      RuntimeWarning, stacklevel=3)
+    return Table(dE=de, **cols, status=status, status_conservative=status_c, region_rays=rays, message=message,
+                 dissipation="viscous", damping_ratio=zeta, damping_rate=rate, dE_threshold=(lo, hi))
 
 
 def _mc_agreement(n: int, n_transit: int, n_undecided: int, misclassified: int, p: float) -> dict:
@@ -1108,9 +1222,21 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), de,
                                                     model._stores())
     _check(stat, "monte_carlo")
+    zeta = _damping_ratio(model)
+    damped = {}
+    cut_r, cut_p, area = c["r"], c["p_r"], c["area"]
+    if zeta > 0:    # the dissipative model's prediction: its transition region (the scene's)
+        reg = _region(model, st, de, float(st["mc_area_tol"]))
+        if reg["status"] < 0:
+            err = TubesError(reg["status"], f"monte_carlo(dE = {de:g}): the transition region")
+            err.partial = reg
+            raise err
+        cut_r, cut_p, area = reg["curve_r"], reg["curve_p_r"], reg["area"]
+        damped = {"dissipation": "viscous", "damping_ratio": zeta, "damping_rate": reg["damping_rate"],
+                  "p_trans_conservative": c["area"] / ae, "predicted_by": "region"}
     stat, r, pr, outc, ins = _lib().monte_carlo(*_study(model, st), *_section_args(st), de,
                                                 ns, seed, float(st["mc_t_max"]),
-                                                float(st["mc_gate"]), *_integ(st, model), c["r"], c["p_r"],
+                                                float(st["mc_gate"]), *_integ(st, model), cut_r, cut_p,
                                                 model._stores())
     if stat < 0:   # as the scene: how many samples failed, and the first
         bad = np.flatnonzero(outc < 0)
@@ -1126,9 +1252,9 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     ins = ins.astype(bool)
     nt, nu = int(np.sum(outc == 1)), int(np.sum(outc == 2))
     in_nt, out_t = int(np.sum(ins & (outc != 1))), int(np.sum(~ins & (outc == 1)))
-    f, p = nt / ns, c["area"] / ae
+    f, p = nt / ns, area / ae
     out = {"dE": de, "n_samples": ns, "seed": seed, "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / ns)),
-           "p_trans": p, "misclassified": in_nt + out_t, "misclassified_inside_no_transit": in_nt,
+           "p_trans": p, **damped, "misclassified": in_nt + out_t, "misclassified_inside_no_transit": in_nt,
            "misclassified_outside_transit": out_t, "undecided": nu, "escaped": int(np.sum(outc == 3)),
            **_mc_agreement(ns, nt, nu, in_nt + out_t, p),
            "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins}
@@ -1244,8 +1370,8 @@ def _as_method(f):
     return method
 
 
-for _f in (orbit_family, tube_cut, transition, monte_carlo, poincare, flux, equilibria, section_boundary,
-           normal_form_map, synthetic_experiment):
+for _f in (orbit_family, tube_cut, transition, transition_region, monte_carlo, poincare, flux, equilibria,
+           section_boundary, normal_form_map, synthetic_experiment):
     setattr(Model, _f.__name__, _as_method(_f))
 del _f
 

@@ -22,13 +22,18 @@ module tubes_status
   integer, parameter, public :: TUBES_EDIRECTION = -13   !! the tube crosses the section the other way first
   integer, parameter, public :: TUBES_EUNRESOLVED = -14  !! dE below what the energy resolves at the saddle
   integer, parameter, public :: TUBES_ENOREGION = -15    !! no bounded region of the energy surface on a plane
+  integer, parameter, public :: TUBES_ESHAPE = -16       !! the transition region is not one star-shaped piece
+  integer, parameter, public :: TUBES_EUNDECIDED = -17   !! a point neither transited nor returned within t_max
+  integer, parameter, public :: TUBES_EDISSIPATIVE = -18 !! a conservative-only scene asked of a dissipative model
   !> The codes' names (TUBES_<name>), for the languages that look them up by name (Python).
-  character(len=*), parameter :: STATUS_NAMES(17) = [character(len=11) :: 'OK', 'EVENT', 'EINPUT', &
+  character(len=*), parameter :: STATUS_NAMES(20) = [character(len=11) :: 'OK', 'EVENT', 'EINPUT', &
       'EMAXSTEPS', 'ESTEP', 'EMODEL', 'EIO', 'ENOCONV', 'EFAULT', 'EOUTSIDE', 'ENOCROSS', 'EPASTEND', &
-      'ENARROW', 'ENOJET', 'EDIRECTION', 'EUNRESOLVED', 'ENOREGION']
-  integer, parameter :: STATUS_CODES(17) = [TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, &
+      'ENARROW', 'ENOJET', 'EDIRECTION', 'EUNRESOLVED', 'ENOREGION', 'ESHAPE', 'EUNDECIDED', &
+      'EDISSIPATIVE']
+  integer, parameter :: STATUS_CODES(20) = [TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, &
       TUBES_ESTEP, TUBES_EMODEL, TUBES_EIO, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENOCROSS, &
-      TUBES_EPASTEND, TUBES_ENARROW, TUBES_ENOJET, TUBES_EDIRECTION, TUBES_EUNRESOLVED, TUBES_ENOREGION]
+      TUBES_EPASTEND, TUBES_ENARROW, TUBES_ENOJET, TUBES_EDIRECTION, TUBES_EUNRESOLVED, TUBES_ENOREGION, &
+      TUBES_ESHAPE, TUBES_EUNDECIDED, TUBES_EDISSIPATIVE]
   integer, parameter, public :: STATUS_UNKNOWN = 1000   !! status_code's answer for no such name
   public :: status_message, callback_status, status_code
 contains
@@ -79,6 +84,14 @@ contains
     case (TUBES_ENOREGION); msg = 'the energy surface meets the plane section in no bounded region within its ' // &
                                   'search window (the &equilibria box widened by half its width on each side): ' // &
                                   'another energy or section, or a larger box'
+    case (TUBES_ESHAPE);    msg = 'the transition region is not one piece star-shaped about its centre, or it ' // &
+                                  'reaches the edge of the energy surface (a ray crosses its boundary more than ' // &
+                                  'once, or the scan of the section disagrees with the traced boundary)'
+    case (TUBES_EUNDECIDED); msg = 'a section point neither passed the gate nor returned to the section within ' // &
+                                  't_max: raise t_max (&montecarlo)'
+    case (TUBES_EDISSIPATIVE); msg = 'the model is dissipative (damping_ratio > 0) and this computation is ' // &
+                                  'conservative only (the flux through the NHIM needs a Hamiltonian flow): ' // &
+                                  'damping_ratio = 0, or the transition and montecarlo scenes (docs/dissipation.md)'
     case default;           msg = 'unknown status code'
     end select
   end function status_message

@@ -31,7 +31,8 @@ module tubes_capi
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, gate_reach, maps_at, cut_outputs, seed_stores_t, family_at, &
                          equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, &
-                         close_stores, de_floor
+                         close_stores, de_floor, region_at, region_outputs, region_numbers, region_info_t
+  use tubes_region, only: region_opts_t, region_t
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long, c_intptr_t
   implicit none
@@ -524,6 +525,34 @@ contains
     inside = merge(1, 0, ins)
   end function c_monte_carlo
 
+  !> The transition region at de of the model with its dissipation (include/tubes.h).
+  integer(c_int) function c_transition_region(system, params, lo, hi, n_grid, saddle, de, sec_kind, sec_index, &
+      level, dir, gate, t_max, area_tol, method, h, omega_bind, solver, max_iter, nout, mcurve, n, phi, rho, s, p, &
+      t_in, m, cs, cp, res, counts, local, stores) result(stat) bind(C, name='tubes_transition_region')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, method, solver, max_iter, nout, mcurve, local
+    real(c_double), value :: de, level, gate, t_max, area_tol, h, omega_bind
+    integer(c_int), intent(out) :: n, m, counts(8)
+    real(c_double), intent(out) :: phi(nout), rho(nout), s(nout), p(nout), t_in(nout), cs(mcurve), cp(mcurve), &
+                                   res(12)
+    type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
+    type(study_t) :: st
+    type(section_choice_t) :: sec
+    type(region_t) :: reg
+    type(region_info_t) :: info
+    type(seed_stores_t), pointer :: kept
+    type(region_opts_t) :: o
+    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+                  integ_of(method, h, omega_bind, solver, max_iter), st, sec)
+    kept => stores_of(stores)
+    o = region_opts_t(area_tol=area_tol, t_max=t_max, local=local /= 0)
+    o%n_max = min(o%n_max, nout)
+    call region_at(st, sec, de, gate, o, reg, info, stat, kept)
+    call region_outputs(reg, n, phi, rho, s, p, t_in, m, cs, cp)
+    call region_numbers(reg, info, res, counts)
+  end function c_transition_region
+
   !> The reach of the saddle's NHIM across its neck at de (include/tubes.h).
   integer(c_int) function c_gate_reach(system, params, lo, hi, n_grid, saddle, de, reach, stores) result(stat) &
       bind(C, name='tubes_gate_reach')
@@ -562,7 +591,7 @@ contains
     integer :: isad, ist
     flux = 0; err = 0; leading = 0; counts = 0; box = 0
     call setup_model(trim(c_to_f(system)), params, lo, hi, n_grid, trim(c_to_f(saddle)), &
-                     model, eqs, isad, ist, degenerate_ok=.true., des=[de])
+                     model, eqs, isad, ist, degenerate_ok=.true., des=[de], conservative=.true.)
     stat = ist
     if (ist /= TUBES_OK) return
     leading = flux_leading_order(eqs(isad)%omegas, de)
@@ -599,7 +628,7 @@ contains
     w = 0
     cls = 3
     call setup_model(trim(c_to_f(system)), params, lo, hi, n_grid, trim(c_to_f(saddle)), &
-                     model, eqs, isad, ist, degenerate_ok=.true., des=[de])
+                     model, eqs, isad, ist, degenerate_ok=.true., des=[de], conservative=.true.)
     stat = ist
     if (ist /= TUBES_OK) return
     call flux_sampled(model, eqs(isad), de, nsamp, seed, t_max, tol, gate, &

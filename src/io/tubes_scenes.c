@@ -723,8 +723,10 @@ int scene_orbits(tubes_run_t *run) {
     rc = EXIT_NUMERIC;
     goto out;
   }
-  printf("orbits: %s Lyapunov family, %s shooting%s (%.2f s)\n", run->saddle, nseg > 1 ? "multiple" : "single",
-         nseg > 1 ? "" : (run->natural ? " (brake orbit)" : " (symmetric orbit)"), now() - t0);
+  printf("orbits: %s Lyapunov family, %s shooting%s%s (%.2f s)\n", run->saddle, nseg > 1 ? "multiple" : "single",
+         nseg > 1 ? "" : (run->natural ? " (brake orbit)" : " (symmetric orbit)"),
+         run->zeta > 0 ? ", of the conservative model (damping_ratio > 0 has no periodic orbits: they are the limit "
+                         "the damped model's transition regions start from)" : "", now() - t0);
   printf("  %10s %12s %14s %14s %11s %9s %5s\n", "dE", strcmp(in_units(" s"), "") ? "period [s]" : "period", "action",
          "mu_unstable", "residual", "closure", "iter");
   int nfail = 0;
@@ -810,6 +812,7 @@ int scene_orbits(tubes_run_t *run) {
   h |= h5_attr_long(g, "n_segments", nseg);
   h |= h5_attr_double(g, "tol", c->orb_tol);
   h |= h5_attr_long(g, "family", c->orb_family);
+  if (run->zeta > 0) h |= h5_attr_string(g, "model", "conservative");
   if (end_de > 0) {
     h |= h5_attr_double(g, "family_end_dE", end_de);
     h |= h5_attr_string(g, "family_end_reason", end_reason_text(reason));
@@ -1024,13 +1027,115 @@ static int section_scene(tubes_run_t *run, const char *name, hid_t *g) {
   return *g < 0 ? EXIT_IO : 0;
 }
 
+/* A transition region of the run's model with its dissipation (tubes_transition_region): the
+ * Monte Carlo's transit test (&montecarlo gate, t_max), area_tol relative. */
+enum { REGION_NOUT = 4096, REGION_CURVE = 4096 };
+typedef struct {
+  int st, n, m, counts[8];
+  double res[12], phi[REGION_NOUT], rho[REGION_NOUT], s[REGION_NOUT], p[REGION_NOUT], t_in[REGION_NOUT],
+      cs[REGION_CURVE], cp[REGION_CURVE];
+} region_out_t;
+
+static int region_run(const tubes_run_t *run, double de, double area_tol, int local, region_out_t *o) {
+  const tubes_config_t *c = run->cfg;
+  o->st = tubes_transition_region(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c),
+                                  c->mc_gate, c->mc_t_max, area_tol, INTEGRATOR(c), REGION_NOUT, REGION_CURVE, &o->n,
+                                  o->phi, o->rho, o->s, o->p, o->t_in, &o->m, o->cs, o->cp, o->res, o->counts, local,
+                                  run->seeds);
+  return o->st;
+}
+
+/* The region's failure (or its empty threshold) in words, into buf. */
+static void region_text(const tubes_run_t *run, double de, const region_out_t *o, char *buf, size_t len) {
+  char m[TUBES_LSTATUS];
+  buf[0] = 0;
+  if (o->st == TUBES_ENARROW) {
+    snprintf(buf, len, "tubes: the transition region at dE = %g: &montecarlo gate = %g%s lies within twice the "
+             "reach of the NHIM across saddle %s's neck (raise gate; docs/input.md)", de, run->cfg->mc_gate,
+             in_units(" cm"), run->saddle);
+  } else if (o->st < 0) {
+    status_text(o->st, m, sizeof m);
+    snprintf(buf, len, "tubes: the transition region at dE = %g failed: %s (status %d); %d scan points, %d transit, "
+             "%d undecided, %d on the wrong side of the traced boundary", de, m, o->st, o->counts[0], o->counts[1],
+             o->counts[2], o->counts[3]);
+  }
+}
+
+/* The damped model's transition regions at &tubes de, into /tubes/region_<k> (docs/output.md). */
+static int tubes_regions(tubes_run_t *run, hid_t g) {
+  const tubes_config_t *c = run->cfg;
+  region_out_t *reg = malloc(sizeof *reg);
+  if (!reg) return EXIT_NUMERIC;
+  int rc = 0;
+  printf("tubes: the damped model (damping_ratio = %g): its transition regions, the section points that pass the "
+         "saddle's gate (the cut of the damped saddle's stable manifold; area_tol %g)\n", run->zeta, c->tub_area_tol);
+  printf("  %10s %16s %12s %6s %10s %8s\n", "dE", "area", "p_trans", "rays", "scan", "s");
+  for (int k = 0; k < c->tub_nde; k++) {
+    double de = c->tub_de[k], t0 = now();
+    progress_item("tubes: the damped region at dE = %g (%d of %d)...\n", de, k + 1, c->tub_nde);
+    int st = region_run(run, de, c->tub_area_tol, 0, reg);
+    if (st < 0) {
+      char m[1024];
+      region_text(run, de, reg, m, sizeof m);
+      fprintf(stderr, "%s\n", m);
+      printf("  %10.4g   failed (status %d)\n", de, st);
+      rc = EXIT_PARTIAL;
+      continue;
+    }
+    int empty = reg->counts[6];
+    double area = empty ? 0 : reg->res[0], ae = reg->res[7];
+    if (empty)
+      printf("  %10.4g %16.12g %12.6g %6s %4d/%-5d %8.2f   no point transits (none at dE <= %.8g)\n", de, 0.0, 0.0, "-",
+             reg->counts[1], reg->counts[0], now() - t0, reg->res[8]);
+    else
+      printf("  %10.4g %16.12g %12.6g %6d %4d/%-5d %8.2f\n", de, area, area / ae, reg->n, reg->counts[1],
+             reg->counts[0], now() - t0);
+    char name[32];
+    snprintf(name, sizeof name, "region_%03d", k);
+    hid_t o = h5_group(g, name);
+    hsize_t dn = (hsize_t)reg->n, dm = (hsize_t)reg->m;
+    int e = o < 0;
+    if (reg->n > 0) {
+      e |= h5_write_double(o, "r", 1, &dn, reg->s, "cm");
+      e |= h5_write_double(o, "p_r", 1, &dn, reg->p, "cm/s");
+      e |= h5_write_double(o, "phi", 1, &dn, reg->phi, "rad");
+      e |= h5_write_double(o, "rho", 1, &dn, reg->rho, "1");
+      e |= h5_write_double(o, "t_in", 1, &dn, reg->t_in, "s");
+      e |= h5_write_double(o, "curve_r", 1, &dm, reg->cs, "cm");
+      e |= h5_write_double(o, "curve_p_r", 1, &dm, reg->cp, "cm/s");
+    }
+    e |= h5_attr_double(o, "dE", de);
+    e |= h5_attr_double(o, "area", area);
+    e |= h5_attr_double(o, "area_polygon", reg->res[1]);
+    e |= h5_attr_double(o, "A_E", ae);
+    e |= h5_attr_double(o, "p_trans", area / ae);
+    e |= h5_attr_long(o, "empty", empty);
+    e |= h5_attr_double(o, "dE_threshold_lo", reg->res[8]);
+    e |= h5_attr_double(o, "dE_threshold_hi", reg->res[9]);
+    double cen[2] = {reg->res[2], reg->res[3]}, sc[2] = {reg->res[4], reg->res[5]};
+    hsize_t d2 = 2;
+    e |= h5_write_double(o, "centre", 1, &d2, cen, "cm, cm/s");
+    e |= h5_write_double(o, "scale", 1, &d2, sc, "cm, cm/s");
+    e |= h5_attr_long(o, "n_scan", reg->counts[0]);
+    e |= h5_attr_long(o, "n_scan_transit", reg->counts[1]);
+    e |= h5_attr_long(o, "n_inconsistent", reg->counts[3]);
+    e |= h5_attr_double(o, "damping_ratio", run->zeta);
+    e |= h5_attr_double(o, "damping_rate", reg->res[6]);
+    if (o >= 0) H5Gclose(o);
+    if (e) { rc = EXIT_IO; break; }
+  }
+  free(reg);
+  return rc;
+}
+
 int scene_tubes(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   hid_t g;
   int rc = section_scene(run, "tubes", &g);
   if (rc) return rc;
-  printf("tubes: %s manifold cuts on the section (eps = %g %s, area_tol = %g)\n", c->tub_kind, c->tub_eps,
-         strcmp(run->length_units, "1") ? run->length_units : "(length units)", c->tub_area_tol);
+  printf("tubes: %s manifold cuts on the section (eps = %g %s, area_tol = %g)%s\n", c->tub_kind, c->tub_eps,
+         strcmp(run->length_units, "1") ? run->length_units : "(length units)", c->tub_area_tol,
+         run->zeta > 0 ? ": the conservative model's Lyapunov orbits and tubes (a damped model has neither)" : "");
   printf("  %10s %8s %16s %16s %11s %11s %8s\n", "dE", "kind", "area", "action", "area/action-1", "eps/10 chg", "s");
   for (int k = 0; k < c->tub_nde; k++) {
     for (int kind = -1; kind <= 1; kind += 2) {
@@ -1066,6 +1171,11 @@ int scene_tubes(tubes_run_t *run) {
              a / act - 1, fabs(a - a10), now() - t0);
     }
   }
+  if (run->zeta > 0) {
+    int r2 = tubes_regions(run, g);
+    if (r2 == EXIT_IO) rc = EXIT_IO;
+    else if (r2 && !rc) rc = r2;
+  }
   H5Gclose(g);
   return rc;
 }
@@ -1077,6 +1187,9 @@ typedef struct {
   double at, act, ae, pt, secs;
   int rc, status;
   char err[2048];
+  /* a dissipative model: its region's area and fraction, threshold, status, rays */
+  double ar, pd, de_lo, de_hi, area_hi;
+  int rstatus, empty, nrays;
 } transition_item_t;
 
 static void share_from(void *buf, int bytes, int owner, const tubes_run_t *run) {
@@ -1092,18 +1205,22 @@ int scene_transition(tubes_run_t *run) {
   double a0, tau, tpo;
   int rc = write_section(run, &a0, &tau, &tpo);
   if (rc) return rc;
-  int n = c->tra_nde;
+  int n = c->tra_nde, damped = run->zeta > 0;
   double *at = calloc(n, sizeof(double)), *act = calloc(n, sizeof(double)), *ae = calloc(n, sizeof(double)),
-         *pt = calloc(n, sizeof(double)), *pl = calloc(n, sizeof(double));
+         *pt = calloc(n, sizeof(double)), *pl = calloc(n, sizeof(double)), *ar = calloc(n, sizeof(double)),
+         *pd = calloc(n, sizeof(double));
   transition_item_t *it = calloc(n, sizeof(transition_item_t));
-  int *stat = calloc(n, sizeof(int));
-  if (!at || !act || !ae || !pt || !pl || !it || !stat) {
+  int *stat = calloc(n, sizeof(int)), *rstat = calloc(n, sizeof(int)), *nrays = calloc(n, sizeof(int));
+  region_out_t *reg = damped ? malloc(sizeof *reg) : NULL;
+  if (!at || !act || !ae || !pt || !pl || !ar || !pd || !it || !stat || !rstat || !nrays || (damped && !reg)) {
     fprintf(stderr, "tubes: transition: out of memory\n");
-    free(at); free(act); free(ae); free(pt); free(pl); free(it); free(stat);
+    free(at); free(act); free(ae); free(pt); free(pl); free(ar); free(pd); free(it); free(stat); free(rstat);
+    free(nrays); free(reg);
     return EXIT_NUMERIC;
   }
   if (run->nranks > 1)
     fprintf(stderr, "transition: %d energies dealt out to %d MPI ranks\n", n, run->nranks);
+  double cdamp = 0;
   for (int k = 0; k < n; k++) {
     if (k % run->nranks != run->rank) continue;
     transition_item_t *x = &it[k];
@@ -1124,20 +1241,64 @@ int scene_transition(tubes_run_t *run) {
     if (st < 0) x->ae = NAN;          /* the failed call's area is no number of the program's */
     if (x->status < 0 && x->act == 0) x->act = NAN;   /* no orbit (past the family's end): no action */
     x->pt = (st < 0) ? NAN : x->at / x->ae;
+    x->ar = x->pd = x->de_lo = x->de_hi = x->area_hi = NAN;
+    if (damped) {            /* the dissipative model's region: p_trans is its fraction */
+      int rs = region_run(run, de, c->tra_area_tol, 1, reg);
+      x->rstatus = rs;
+      x->empty = reg->counts[6];
+      x->nrays = reg->n;
+      x->de_lo = reg->res[8]; x->de_hi = reg->res[9]; x->area_hi = reg->res[10];
+      if (rs >= 0) {
+        x->ar = x->empty ? 0 : reg->res[0];
+        x->pd = st < 0 ? NAN : x->ar / x->ae;
+      } else {
+        char m[1024];
+        size_t l = strlen(x->err);
+        region_text(run, de, reg, m, sizeof m);
+        snprintf(x->err + l, sizeof x->err - l, "%s%s", l ? "\n" : "", m);
+        x->rc = EXIT_PARTIAL;
+      }
+    }
     x->secs = now() - t0;
   }
-  printf("transition: p_trans(dE) = A_tube / A_E on %d energies (area_tol %g)\n", n, c->tra_area_tol);
-  printf("  %10s %14s %14s %14s %12s %12s\n", "dE", "A_tube", "action", "A_E", "p_trans", "leading");
+  for (int k = 0; k < n; k++) share_from(&it[k], (int)sizeof it[k], k % run->nranks, run);
+  if (damped) {
+    if (tubes_damping_rate(run->system, run->params, &cdamp) < 0) cdamp = NAN;
+    printf("transition: the damped model (damping_ratio = %g, c = %.6g%s): p_trans(dE) = A_region / A_E on %d "
+           "energies, A_region the section points that pass the saddle's gate (area_tol %g); beside it the "
+           "conservative model's A_tube / A_E\n", run->zeta, cdamp, in_units(" 1/s"), n, c->tra_area_tol);
+    printf("  %10s %14s %14s %14s %12s %12s %6s\n", "dE", "A_region", "A_tube", "A_E", "p_trans", "conservative",
+           "rays");
+  } else {
+    printf("transition: p_trans(dE) = A_tube / A_E on %d energies (area_tol %g)\n", n, c->tra_area_tol);
+    printf("  %10s %14s %14s %14s %12s %12s\n", "dE", "A_tube", "action", "A_E", "p_trans", "leading");
+  }
   int beyond = 0;   /* energies where the leading order's correction tau dE / A0 exceeds LEADING_RANGE */
+  double th_lo = NAN, th_hi = NAN, th_area = NAN;   /* the damped region's threshold, where one was found */
   for (int k = 0; k < n; k++) {
-    share_from(&it[k], (int)sizeof it[k], k % run->nranks, run);
     double de = c->tra_de[k];
     at[k] = it[k].at; act[k] = it[k].act; ae[k] = it[k].ae; pt[k] = it[k].pt;
+    ar[k] = it[k].ar; pd[k] = it[k].pd; rstat[k] = it[k].rstatus; nrays[k] = it[k].nrays;
     pl[k] = tpo / a0 * de * (1 - tau / a0 * de);
     if (it[k].err[0]) fprintf(stderr, "%s\n", it[k].err);
     if (it[k].rc) rc = EXIT_PARTIAL;
     stat[k] = it[k].status;
-    if (it[k].status == TUBES_EPASTEND)
+    if (damped) {
+      if (it[k].empty && !isnan(it[k].de_lo) && (isnan(th_lo) || it[k].de_lo > th_lo)) {
+        th_lo = it[k].de_lo; th_hi = it[k].de_hi; th_area = it[k].area_hi;
+      }
+      char cons[16];
+      if (it[k].status == TUBES_EPASTEND) snprintf(cons, sizeof cons, "%12s", "past end");
+      else snprintf(cons, sizeof cons, "%12.6g", pt[k]);
+      if (rstat[k] < 0)
+        printf("  %10.4g   failed (status %d, stderr says why)%25s %s  (%.1f s)\n", de, rstat[k], "", cons, it[k].secs);
+      else if (it[k].empty)
+        printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %s %6s  (%.1f s)\n", de, 0.0, at[k], ae[k], pd[k], cons, "-",
+               it[k].secs);
+      else
+        printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %s %6d  (%.1f s)\n", de, ar[k], at[k], ae[k], pd[k], cons,
+               nrays[k], it[k].secs);
+    } else if (it[k].status == TUBES_EPASTEND)
       printf("  %10.4g   refused: past the end of the family (no orbit at this energy)\n", de);
     else {
       int out = fabs(tau / a0 * de) > LEADING_RANGE;
@@ -1145,6 +1306,13 @@ int scene_transition(tubes_run_t *run) {
       printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %12.6g%s  (%.1f s)\n", de, at[k], act[k], ae[k], pt[k], pl[k],
              out ? "*" : " ", it[k].secs);
     }
+  }
+  if (damped && !isnan(th_lo)) {
+    if (isnan(th_hi))
+      printf("  no point of the section transits at dE <= %g: none found up to there\n", th_lo);
+    else
+      printf("  no point of the section transits at dE <= %.8g: the region appears between dE = %.8g and %.8g "
+             "(area %.3g there)\n", th_lo, th_lo, th_hi, th_area);
   }
   if (beyond)
     printf("  * the leading order (T_po/A0) dE (1 - tau dE/A0) is outside its range there: tau dE/A0 > %g "
@@ -1156,11 +1324,23 @@ int scene_transition(tubes_run_t *run) {
   e |= h5_write_double(g, "A_tube", 1, &dn, at, "cm^2/s");
   e |= h5_write_double(g, "action", 1, &dn, act, "cm^2/s");
   e |= h5_write_double(g, "A_E", 1, &dn, ae, "cm^2/s");
-  e |= h5_write_double(g, "p_trans", 1, &dn, pt, "1");
+  e |= h5_write_double(g, "p_trans", 1, &dn, damped ? pd : pt, "1");
   e |= h5_write_double(g, "p_trans_leading", 1, &dn, pl, "1");
-  e |= h5_write_int(g, "status", dn, stat, "1");
+  e |= h5_write_int(g, "status", dn, damped ? rstat : stat, "1");
+  if (damped) {
+    e |= h5_write_double(g, "A_region", 1, &dn, ar, "cm^2/s");
+    e |= h5_write_double(g, "p_trans_conservative", 1, &dn, pt, "1");
+    e |= h5_write_int(g, "status_conservative", dn, stat, "1");
+    e |= h5_write_int(g, "region_rays", dn, nrays, "1");
+    e |= h5_attr_string(g, "dissipation", "viscous");
+    e |= h5_attr_double(g, "damping_ratio", run->zeta);
+    e |= h5_attr_double(g, "damping_rate", cdamp);
+    e |= h5_attr_double(g, "dE_threshold_lo", th_lo);
+    e |= h5_attr_double(g, "dE_threshold_hi", th_hi);
+  }
   if (g >= 0) H5Gclose(g);
-  free(at); free(act); free(ae); free(pt); free(pl); free(it); free(stat);
+  free(at); free(act); free(ae); free(pt); free(pl); free(ar); free(pd); free(it); free(stat); free(rstat);
+  free(nrays); free(reg);
   return e ? EXIT_IO : rc;
 }
 
@@ -1192,9 +1372,10 @@ int scene_montecarlo(tubes_run_t *run) {
   double ftau = 0, de = c->mc_de, *tau_ = malloc(sizeof(double) * nout), *cr = malloc(sizeof(double) * nout),
          *cp = malloc(sizeof(double) * nout), *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 4 * nout),
          ha[64], ar = 0, ap = 0, act = 0, per = 0, rmin, rmax, ae, darea, t0 = now();
-  int ns = c->mc_n_samples;
-  double *r = malloc(sizeof(double) * ns), *pr = malloc(sizeof(double) * ns);
+  int ns = c->mc_n_samples, damped = run->zeta > 0;
+  double *r = malloc(sizeof(double) * ns), *pr = malloc(sizeof(double) * ns), p_cons = NAN, cdamp = 0;
   int *out = malloc(sizeof(int) * ns), *ins = malloc(sizeof(int) * ns);
+  region_out_t *reg = damped ? malloc(sizeof *reg) : NULL;
   fprintf(stderr, "montecarlo: the tube cut at dE = %g...\n", de);
   int st = tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, -1, SECTION(c), c->tub_eps, c->mc_area_tol,
                           c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol,
@@ -1204,6 +1385,25 @@ int scene_montecarlo(tubes_run_t *run) {
     fprintf(stderr, "tubes: montecarlo: the tube cut at dE = %g: %d seed(s) failed, the first at orbit phase "
             "tau = %.10g s\n", de, nfail, ftau);
   if (st >= 0) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &ae, &darea, run->seeds);
+  if (st >= 0 && damped) {
+    /* the dissipative model's prediction: its transition region (the conservative tube's fraction
+     * beside it); the points are sorted by the region's boundary */
+    p_cons = ar / ae;
+    fprintf(stderr, "montecarlo: the damped model's transition region at dE = %g...\n", de);
+    if (!reg) st = TUBES_EINPUT;
+    else if (region_run(run, de, c->mc_area_tol, 0, reg) < 0) {
+      char m[1024];
+      region_text(run, de, reg, m, sizeof m);
+      fprintf(stderr, "%s\n", m);
+      st = reg->st;
+    } else {
+      cdamp = reg->res[6];
+      ar = reg->counts[6] ? 0 : reg->res[0];
+      n = reg->counts[6] ? 0 : reg->m;
+      for (int k = 0; k < n && k < nout; k++) { cr[k] = reg->cs[k]; cp[k] = reg->cp[k]; }
+      if (n > nout) n = nout;
+    }
+  }
   int mc_ran = 0;
   if (st >= 0) {
     mc_ran = 1;
@@ -1267,12 +1467,26 @@ int scene_montecarlo(tubes_run_t *run) {
     double f = (double)nt / ns, se = sqrt(f * (1 - f) / ns), p = ar / ae, nsig, sig_lim;
     int mis_lim, und_lim, agrees;
     tubes_mc_agreement(ns, nt, nu, in_nt + out_t, p, &nsig, &sig_lim, &mis_lim, &und_lim, &agrees);
-    printf("montecarlo: dE = %g, %d points: transition fraction %.5f +- %.5f (p_trans = %.5f, %.1f standard errors);"
-           " %d inside the tube; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided%s (%.1f s)\n",
-           de, ns, f, se, p, nsig, nin, in_nt, out_t, nu, nesc ? escaped_text(nesc) : "", now() - t0);
+    if (damped)
+      printf("montecarlo: the damped model (damping_ratio = %g, c = %.6g%s), dE = %g, %d points: transition fraction "
+             "%.5f +- %.5f (p_trans = A_region/A_E = %.5f, %.1f standard errors; conservative A_tube/A_E = %.5f); %d "
+             "inside the region; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided%s (%.1f s)\n",
+             run->zeta, cdamp, in_units(" 1/s"), de, ns, f, se, p, nsig, p_cons, nin, in_nt, out_t, nu,
+             nesc ? escaped_text(nesc) : "", now() - t0);
+    else
+      printf("montecarlo: dE = %g, %d points: transition fraction %.5f +- %.5f (p_trans = %.5f, %.1f standard errors);"
+             " %d inside the tube; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided%s (%.1f s)\n",
+             de, ns, f, se, p, nsig, nin, in_nt, out_t, nu, nesc ? escaped_text(nesc) : "", now() - t0);
     int e = 0;
     hsize_t dn = (hsize_t)ns;
     hid_t g = mc_group(run, de, ns, 0, r, pr, out, &e);
+    if (damped) {
+      e |= h5_attr_string(g, "dissipation", "viscous");
+      e |= h5_attr_double(g, "damping_ratio", run->zeta);
+      e |= h5_attr_double(g, "damping_rate", cdamp);
+      e |= h5_attr_double(g, "p_trans_conservative", p_cons);
+      e |= h5_attr_string(g, "predicted_by", "region");
+    }
     e |= h5_attr_double(g, "fraction", f);
     e |= h5_attr_double(g, "std_error", se);
     e |= h5_attr_double(g, "p_trans", p);
@@ -1293,7 +1507,7 @@ int scene_montecarlo(tubes_run_t *run) {
       rc = EXIT_NUMERIC;
     }
   }
-  free(tau_); free(cr); free(cp); free(tm); free(xs); free(r); free(pr); free(out); free(ins);
+  free(tau_); free(cr); free(cp); free(tm); free(xs); free(r); free(pr); free(out); free(ins); free(reg);
   return rc;
 }
 
@@ -1314,7 +1528,8 @@ int scene_sections(tubes_run_t *run) {
     }
     long npts = 0;
     for (long i = 0; i < (long)ns * ni; i++) npts += !isnan(pts[2 * i]);
-    printf("sections: dE = %g: %ld returns of %d trajectories (%.1f s)\n", de, npts, ns, now() - t0);
+    printf("sections: dE = %g: %ld returns of %d trajectories%s (%.1f s)\n", de, npts, ns,
+           run->zeta > 0 ? " of the damped model (released at dE; each return has less energy)" : "", now() - t0);
     char name[32];
     snprintf(name, sizeof name, "map_%03d", k);
     hid_t m = h5_group(g, name);
@@ -1322,6 +1537,10 @@ int scene_sections(tubes_run_t *run) {
     int e = m < 0;
     e |= h5_write_double(m, "points", 3, d3, pts, "cm, cm/s");
     e |= h5_attr_double(m, "dE", de);
+    if (run->zeta > 0) {
+      e |= h5_attr_string(m, "dissipation", "viscous");
+      e |= h5_attr_double(m, "damping_ratio", run->zeta);
+    }
     if (m >= 0) H5Gclose(m);
     free(pts);
     if (e) { H5Gclose(g); return EXIT_IO; }

@@ -82,7 +82,7 @@ module tubes_models
   end interface
 
   public :: system_info, system_name, make_model, make_field, conservative_ball, model_ball, &
-            damping_rate, momentum_of, potential_of, shape_derivs_of
+            damping_rate, momentum_of, potential_of, shape_derivs_of, damping_ratio_of
 
 contains
 
@@ -379,6 +379,21 @@ contains
     text = c_to_f(buf)
   end subroutine library_spec
 
+  !> The damping ratio zeta of a system's parameters (its parameter damping_ratio; 0 for a system
+  !> without one): > 0 makes the model dissipative (make_field).
+  real(wp) function damping_ratio_of(system, params) result(zeta)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:)
+    type(system_info_t) :: info
+    integer :: k, stat
+    zeta = 0
+    call system_info(system, info, stat)
+    if (stat /= TUBES_OK) return
+    do k = 1, min(info%np, size(params))
+      if (info%params(k)%name == 'damping_ratio') zeta = params(k)
+    end do
+  end function damping_ratio_of
+
   !> The vector field a scene integrates: the conservative model, or for the rolling ball with
   !> damping_ratio > 0 the damped_t wrapper with c = 2 zeta omega_1. c: the rate used (0 if none).
   subroutine make_field(system, params, field, c, stat)
@@ -389,17 +404,11 @@ contains
     integer, intent(out) :: stat
     class(hamiltonian_t), allocatable :: model
     type(damped_t) :: damped
-    type(system_info_t) :: info
     real(wp) :: zeta
-    integer :: k
     c = 0
     call make_model(system, params, model, stat)
     if (stat /= TUBES_OK) return
-    call system_info(system, info, stat)
-    zeta = 0
-    do k = 1, info%np
-      if (info%params(k)%name == 'damping_ratio') zeta = params(k)
-    end do
+    zeta = damping_ratio_of(system, params)
     select type (model)
     type is (ball_t)
       if (zeta > 0) then

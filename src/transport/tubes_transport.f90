@@ -8,6 +8,7 @@ module tubes_transport
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EMODEL
   use tubes_ensemble, only: ens_out_t, ens_run, ens_agree
   use tubes_hamiltonian, only: hamiltonian_t
+  use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
   use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
   use tubes_integrator, only: event_t
@@ -45,6 +46,8 @@ module tubes_transport
   !> predicts a transit in i(2, :) (1: inside).
   type, extends(lane_jobs_t) :: mc_jobs_t
     class(hamiltonian_t), allocatable :: model
+    !> the field integrated: the model with its dissipation (unallocated: the model itself)
+    class(vector_field_t), allocatable :: field
     type(poincare_t) :: psec
     type(gate_spec_t) :: gspec
     type(integ_choice_t) :: integ
@@ -62,6 +65,7 @@ module tubes_transport
   !> one_map integrates them.
   type, extends(lane_jobs_t) :: map_jobs_t
     class(hamiltonian_t), allocatable :: model
+    class(vector_field_t), allocatable :: field   !! what is integrated (unallocated: the model)
     type(poincare_t) :: psec
     type(integ_choice_t) :: integ
     real(wp) :: t_max = 0, tol = 0
@@ -79,7 +83,7 @@ module tubes_transport
   !> (map_status)
   real(wp), parameter :: ESCAPE_SCALES = 1.0e3_wp
 
-  public :: inside_curve, mc_classify, monte_carlo, poincare_map, mc_agreement
+  public :: inside_curve, mc_classify, monte_carlo, poincare_map, mc_agreement, classify_points
 
   !> The Monte Carlo check agrees with the tube within this many standard errors (mc_agreement;
   !> a false alarm of a correct tube: 6e-7)
@@ -145,8 +149,9 @@ contains
 
   !> Follow the state x0 (on the section) forward until it returns to the section (either
   !> branch: MC_RETURN) or passes the saddle's gate (MC_TRANSIT), escapes (MC_ESCAPE), or t_max
-  !> (MC_UNDECIDED): mc_outcome.
-  subroutine mc_classify(ball, psec, x0, gspec, t_max, tol, integ, outcome, t_end, stat)
+  !> (MC_UNDECIDED): mc_outcome. field: the vector field integrated (the model with its
+  !> dissipation; default the model ball itself).
+  subroutine mc_classify(ball, psec, x0, gspec, t_max, tol, integ, outcome, t_end, stat, field)
     class(hamiltonian_t), intent(in) :: ball
     type(poincare_t), intent(in) :: psec
     real(wp), intent(in) :: x0(:), t_max, tol
@@ -155,13 +160,18 @@ contains
     integer, intent(out) :: outcome
     real(wp), intent(out) :: t_end
     integer, intent(out) :: stat
+    class(vector_field_t), intent(in), optional :: field
     class(integrator_t), allocatable :: ig
     type(gate_t) :: gate
     real(wp) :: x(size(x0))
     class(event_t), allocatable :: ret
     outcome = MC_UNDECIDED
     t_end = 0
-    call make_integrator(integ, ig, stat, f=ball, rtol=tol, atol=tol)
+    if (present(field)) then
+      call make_integrator(integ, ig, stat, f=field, rtol=tol, atol=tol)
+    else
+      call make_integrator(integ, ig, stat, f=ball, rtol=tol, atol=tol)
+    end if
     if (stat /= TUBES_OK) return
     call psec%return_event(ret)
     x = x0
@@ -204,9 +214,10 @@ contains
   !> section at its energy (rejection in the bounding box, GSL MT19937 from seed, drawn
   !> serially), each on the section's branch, integrated in parallel (OpenMP) and classified by
   !> the saddle's gate gspec. The cut (cr, cp) gives each point's predicted class (inside =
-  !> transit).
+  !> transit). field: the vector field integrated (the model with its dissipation; default the
+  !> model).
   subroutine monte_carlo(model, psec, n, seed, gspec, t_max, tol, integ, cr, cp, r, pr, outcome, &
-                         inside, stat)
+                         inside, stat, field)
     class(hamiltonian_t), intent(in) :: model
     type(integ_choice_t), intent(in) :: integ   !! the integrator
     type(poincare_t), intent(in) :: psec
@@ -218,11 +229,10 @@ contains
     integer, intent(out) :: outcome(n)
     logical, intent(out) :: inside(n)
     integer, intent(out) :: stat
+    class(vector_field_t), intent(in), optional :: field
     real(wp), allocatable :: u(:)
     real(wp) :: plo, phi_, pl, ph, pc, pmax, rr, pp_
     integer :: k, m, i
-    type(mc_jobs_t) :: ens
-    type(ens_out_t) :: out
     stat = TUBES_OK
     if (n < 1) then
       stat = TUBES_EINPUT
@@ -269,14 +279,43 @@ contains
     ! keeps its status as its outcome
     call ens_agree(r)
     call ens_agree(pr)
-    ens = mc_jobs_t(lanes=uses_taylor(integ), psec=psec, gspec=gspec, integ=integ, t_max=t_max, tol=tol, r=r, &
-                    pr=pr, cr=cr, cp=cp, box=[minval(cr), maxval(cr), minval(cp), maxval(cp)])
-    allocate (ens%model, source=model)
-    call ens_run(ens, n, out, 0, 2, fault='sample', chunk=merge(LANE_CHUNK, 1, ens%lanes))
-    outcome = merge(out%st, out%i(1, :), out%st < 0)
-    inside = out%i(2, :) == 1
-    stat = min(0, minval(out%st))
+    call classify_points(model, psec, r, pr, gspec, t_max, tol, integ, outcome, stat, cr, cp, inside, field)
   end subroutine monte_carlo
+
+  !> The points (r(k), pr(k)) of the section, each set on its branch at the section's energy and
+  !> classified as mc_classify does (in parallel: tubes_ensemble; in lanes with the Taylor
+  !> method), outcome(k) an MC_* class or its status where it failed; with the cut (cr, cp), inside(k)
+  !> whether the cut holds it. field: the vector field integrated (default the model). stat: the
+  !> lowest failure, or TUBES_OK.
+  subroutine classify_points(model, psec, r, pr, gspec, t_max, tol, integ, outcome, stat, cr, cp, inside, field)
+    class(hamiltonian_t), intent(in) :: model
+    type(poincare_t), intent(in) :: psec
+    real(wp), intent(in) :: r(:), pr(:), t_max, tol
+    type(gate_spec_t), intent(in) :: gspec
+    type(integ_choice_t), intent(in) :: integ
+    integer, intent(out) :: outcome(size(r))
+    integer, intent(out) :: stat
+    real(wp), intent(in), optional :: cr(:), cp(:)
+    logical, intent(out), optional :: inside(size(r))
+    class(vector_field_t), intent(in), optional :: field
+    type(mc_jobs_t) :: ens
+    type(ens_out_t) :: out
+    ens = mc_jobs_t(lanes=uses_taylor(integ), psec=psec, gspec=gspec, integ=integ, t_max=t_max, tol=tol, r=r, &
+                    pr=pr)
+    if (present(cr) .and. present(cp)) then
+      ens%cr = cr
+      ens%cp = cp
+      if (size(cr) > 0) ens%box = [minval(cr), maxval(cr), minval(cp), maxval(cp)]
+    else
+      allocate (ens%cr(0), ens%cp(0))
+    end if
+    allocate (ens%model, source=model)
+    if (present(field)) allocate (ens%field, source=field)
+    call ens_run(ens, size(r), out, 0, 2, fault='sample', chunk=merge(LANE_CHUNK, 1, ens%lanes))
+    outcome = merge(out%st, out%i(1, :), out%st < 0)
+    if (present(inside)) inside = out%i(2, :) == 1
+    stat = min(0, minval(out%st))
+  end subroutine classify_points
 
   !> Point k, as mc_classify classifies it, and the cut's prediction for it.
   subroutine mc_item(self, k, out)
@@ -286,8 +325,15 @@ contains
     real(wp) :: x(self%model%dim()), te
     out%i(1, k) = MC_UNDECIDED
     call self%psec%state(self%r(k), self%pr(k), x, out%st(k))
-    if (out%st(k) == TUBES_OK) call mc_classify(self%model, self%psec, x, self%gspec, self%t_max, self%tol, &
-                                                self%integ, out%i(1, k), te, out%st(k))
+    if (out%st(k) /= TUBES_OK) then
+      continue
+    else if (allocated(self%field)) then
+      call mc_classify(self%model, self%psec, x, self%gspec, self%t_max, self%tol, self%integ, out%i(1, k), te, &
+                       out%st(k), self%field)
+    else
+      call mc_classify(self%model, self%psec, x, self%gspec, self%t_max, self%tol, self%integ, out%i(1, k), te, &
+                       out%st(k))
+    end if
     out%i(2, k) = merge(1, 0, mc_inside(self, k))
   end subroutine mc_item
 
@@ -317,7 +363,11 @@ contains
     if (.not. allocated(lane%x)) allocate (lane%x(self%model%dim()))
     call self%psec%state(self%r(k), self%pr(k), lane%x, stat)
     if (stat /= TUBES_OK) return
-    call lane%setup(self%model, self%integ%h, self%tol, self%tol)
+    if (allocated(self%field)) then
+      call lane%setup(self%field, self%integ%h, self%tol, self%tol)
+    else
+      call lane%setup(self%model, self%integ%h, self%tol, self%tol)
+    end if
     lane%tend = self%t_max
     call self%psec%return_event(ret)
     call move_alloc(ret, lane%event)
@@ -345,8 +395,9 @@ contains
   end subroutine mc_finish
 
   !> Poincare map of the section branch: n_iter returns of each start state x0(:, j), recorded
-  !> as (r, p_r) in pts(:, k, j) (NaN after a trajectory stops returning within t_max).
-  subroutine poincare_map(ball, psec, x0, n_iter, t_max, tol, integ, pts, stat)
+  !> as (r, p_r) in pts(:, k, j) (NaN after a trajectory stops returning within t_max). field: the
+  !> vector field integrated (the model with its dissipation; default the model).
+  subroutine poincare_map(ball, psec, x0, n_iter, t_max, tol, integ, pts, stat, field)
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     class(hamiltonian_t), intent(in) :: ball
     type(poincare_t), intent(in) :: psec
@@ -355,12 +406,14 @@ contains
     integer, intent(in) :: n_iter
     real(wp), intent(out) :: pts(2, n_iter, size(x0, 2))
     integer, intent(out) :: stat
+    class(vector_field_t), intent(in), optional :: field
     type(map_jobs_t) :: ens
     type(ens_out_t) :: out
     integer :: j, ns
     ns = size(x0, 2)
     ens = map_jobs_t(lanes=uses_taylor(integ), psec=psec, integ=integ, t_max=t_max, tol=tol, n_iter=n_iter, x0=x0)
     allocate (ens%model, source=ball)
+    if (present(field)) allocate (ens%field, source=field)
     call ens_agree(ens%x0)             ! seeds dealt out over MPI ranks and threads (tubes_ensemble)
     call ens_run(ens, ns, out, 2*n_iter, 0, fault='map', chunk=merge(LANES, 1, ens%lanes))
     pts = reshape(out%r, [2, n_iter, ns])
@@ -375,8 +428,13 @@ contains
     class(map_jobs_t), intent(in) :: self
     integer, intent(in) :: k
     type(ens_out_t), intent(inout) :: out
-    call one_map(self%model, self%psec, self%x0(:, k), self%n_iter, self%t_max, self%tol, self%integ, &
-                 out%r(:, k), out%st(k))
+    if (allocated(self%field)) then
+      call one_map(self%model, self%psec, self%x0(:, k), self%n_iter, self%t_max, self%tol, self%integ, &
+                   out%r(:, k), out%st(k), self%field)
+    else
+      call one_map(self%model, self%psec, self%x0(:, k), self%n_iter, self%t_max, self%tol, self%integ, &
+                   out%r(:, k), out%st(k))
+    end if
   end subroutine map_item
 
   !> Seed k in a lane: one_map's set-up.
@@ -387,7 +445,11 @@ contains
     integer, intent(out) :: stat
     class(event_t), allocatable :: ev
     stat = TUBES_OK
-    call lane%setup(self%model, self%integ%h, self%tol, self%tol, 100000000_i8)
+    if (allocated(self%field)) then
+      call lane%setup(self%field, self%integ%h, self%tol, self%tol, 100000000_i8)
+    else
+      call lane%setup(self%model, self%integ%h, self%tol, self%tol, 100000000_i8)
+    end if
     lane%x = self%x0(:, k)
     lane%tend = self%t_max
     lane%use_log = .true.
@@ -412,7 +474,7 @@ contains
   end subroutine map_finish
 
   !> The returns of one trajectory (all locals: thread-private by construction).
-  subroutine one_map(ball, psec, x0, n_iter, t_max, tol, integ, pts, stat)
+  subroutine one_map(ball, psec, x0, n_iter, t_max, tol, integ, pts, stat, field)
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     class(hamiltonian_t), intent(in) :: ball
     type(poincare_t), intent(in) :: psec
@@ -421,13 +483,18 @@ contains
     integer, intent(in) :: n_iter
     real(wp), intent(out) :: pts(2, n_iter)
     integer, intent(out) :: stat
+    class(vector_field_t), intent(in), optional :: field
     type(crossing_log_t) :: log
     class(integrator_t), allocatable :: ig
     class(event_t), allocatable :: ev
     real(wp) :: x(size(x0))
     integer :: k
     pts = ieee_value(1.0_wp, ieee_quiet_nan)
-    call make_integrator(integ, ig, stat, f=ball, rtol=tol, atol=tol)
+    if (present(field)) then
+      call make_integrator(integ, ig, stat, f=field, rtol=tol, atol=tol)
+    else
+      call make_integrator(integ, ig, stat, f=ball, rtol=tol, atol=tol)
+    end if
     if (stat /= TUBES_OK) return
     ig%max_steps = 100000000
     x = x0

@@ -11,14 +11,16 @@ module tubes_study
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND, TUBES_EUNRESOLVED
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_ball, only: ball_t
-  use tubes_models, only: make_model, MAX_PARAMS, MAX_DOF
+  use tubes_models, only: make_model, make_field, damping_ratio_of, MAX_PARAMS, MAX_DOF
+  use tubes_field, only: vector_field_t
+  use tubes_region, only: region_opts_t, region_t, transition_region, region_curve
   use tubes_equilibria, only: equilibrium_t, find_equilibria, neck_normal, nhim_reach, gate_holds_nhim
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, plane_search_range, &
                                  SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
   use tubes_transport, only: gate_spec_t, monte_carlo, poincare_map
-  use tubes_status, only: TUBES_EOUTSIDE, TUBES_ENARROW
+  use tubes_status, only: TUBES_EOUTSIDE, TUBES_ENARROW, TUBES_ESHAPE, TUBES_EDISSIPATIVE
   use tubes_methods, only: integ_choice_t
   implicit none
   private
@@ -29,7 +31,7 @@ module tubes_study
 
   public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, gate_reach, section_info, cut_at, &
             check_at, maps_at, cut_outputs, equilibria_table, study_family, family_table, open_stores, &
-            stores_at, close_stores, stores_counts, de_floor
+            stores_at, close_stores, stores_counts, de_floor, region_at, region_outputs, region_numbers, dissipation_of
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -83,11 +85,30 @@ module tubes_study
   !> family, each orbit once"). The equilibria of each model and search box (equilibria_of).
   !> Owned by the caller (the program's run: include/tubes.h tubes_seed_stores_new; a Python
   !> tubes.Model: open_stores), for one caller at a time.
+  !> A transition region's threshold kept for later calls (region_at): below de_lo no point of
+  !> the section transits.
+  type, extends(kept_for_t) :: kept_threshold_t
+    real(wp) :: de_lo = 0, de_hi = 0, area_hi = 0
+    real(wp), allocatable :: hints(:, :)   !! points inside the region at de_hi
+  end type kept_threshold_t
+
   type, public :: seed_stores_t
     type(kept_seeds_t), allocatable :: kept(:)
     type(kept_path_t), allocatable :: paths(:)
     type(kept_eqs_t), allocatable :: eqs(:)
+    type(kept_threshold_t), allocatable :: thresholds(:)
   end type seed_stores_t
+
+  !> What a transition region's call adds to the region: the dissipation used and, where the
+  !> region is empty, the threshold below which it is (region_at).
+  type, public :: region_info_t
+    real(wp) :: damping_rate = 0   !! c of the viscous damping -c p [1/time] (0: none)
+    real(wp) :: area_e = 0         !! A_E, the area of the energy surface on the section
+    !> the excess energy at which the region appears: above de_lo (no transit at or below it),
+    !> at or below de_hi (a region of area area_hi there); NaN when not searched (the region at
+    !> de is not empty), de_hi NaN when no region was found up to de_lo
+    real(wp) :: de_lo = 0, de_hi = 0, area_hi = 0
+  end type region_info_t
 
 contains
 
@@ -174,7 +195,8 @@ contains
 
   !> The model, its equilibria in the box and the rank-1 saddle named `saddle` (with
   !> degenerate_ok, also a degenerate saddle: the sampled flux takes one).
-  subroutine setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat, degenerate_ok, stores, des)
+  subroutine setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat, degenerate_ok, stores, des, &
+                         conservative)
     character(*), intent(in) :: system            !! the system's name
     character(*), intent(in) :: saddle            !! the rank-1 saddle's name
     real(wp), intent(in) :: params(:)             !! its parameters (table order)
@@ -186,10 +208,16 @@ contains
     logical, intent(in), optional :: degenerate_ok
     type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
     real(wp), intent(in), optional :: des(:)      !! the excess energies the call will take
+    !> a conservative-only computation: TUBES_EDISSIPATIVE for a model with dissipation
+    logical, intent(in), optional :: conservative
     character(8) :: name
     integer :: k
     isad = 0
     name = saddle
+    if (present(conservative)) then
+      stat = TUBES_EDISSIPATIVE
+      if (conservative .and. damping_ratio_of(system, params) > 0) return
+    end if
     call make_model(system, params, model, stat)
     if (stat /= TUBES_OK) return
     call equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat, stores)
@@ -627,6 +655,8 @@ contains
     type(poincare_t) :: psec
     real(wp), allocatable :: q_ref(:)
     type(gate_spec_t) :: gspec
+    class(vector_field_t), allocatable :: field
+    real(wp) :: c
     integer :: isad
     r = 0; pr = 0; outcome = -1; inside = .false.
     call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
@@ -639,8 +669,15 @@ contains
       stat = TUBES_ENARROW       ! orbits near the NHIM would swing past the gate: "transits"
       return
     end if
-    call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, st%integ, cr, cp, r, pr, outcome, &
-                     inside, stat)
+    call make_field(trim(st%system), st%params, field, c, stat)
+    if (stat /= TUBES_OK) return
+    if (c > 0) then                  ! the dissipative model's trajectories
+      call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, st%integ, cr, cp, r, pr, outcome, &
+                       inside, stat, field)
+    else
+      call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, st%integ, cr, cp, r, pr, outcome, &
+                       inside, stat)
+    end if
   end subroutine check_at
   !> Poincare maps of the section at de: n_seeds starts on the section (half at the middle of
   !> the p_s range across the region, half across p_s at the region's middle s), n_iter returns
@@ -657,7 +694,8 @@ contains
     type(equilibrium_t), allocatable :: eqs(:)
     type(poincare_t) :: psec
     real(wp), allocatable :: q_ref(:), x0(:, :)
-    real(wp) :: rr, pp, rmid, pm, plo, phi_, pmid, level
+    class(vector_field_t), allocatable :: field
+    real(wp) :: rr, pp, rmid, pm, plo, phi_, pmid, level, c
     integer :: isad, j, h, s
     pts = 0
     level = sec%level
@@ -698,8 +736,238 @@ contains
         end if
       end if
     end do
-    call poincare_map(model, psec, x0, n_iter, t_max, 1.0e-10_wp, st%integ, pts, stat)
+    call make_field(trim(st%system), st%params, field, c, stat)
+    if (stat /= TUBES_OK) return
+    if (c > 0) then                  ! the dissipative model's returns (their energy falls)
+      call poincare_map(model, psec, x0, n_iter, t_max, 1.0e-10_wp, st%integ, pts, stat, field)
+    else
+      call poincare_map(model, psec, x0, n_iter, t_max, 1.0e-10_wp, st%integ, pts, stat)
+    end if
   end subroutine maps_at
+
+  !> The dissipation of the study's model: its damping rate c (0 for a conservative model), the
+  !> field a dissipative scene integrates (make_field).
+  subroutine dissipation_of(st, field, c, stat)
+    type(study_t), intent(in) :: st
+    class(vector_field_t), allocatable, intent(out) :: field
+    real(wp), intent(out) :: c
+    integer, intent(out) :: stat
+    call make_field(trim(st%system), st%params, field, c, stat)
+  end subroutine dissipation_of
+
+  !> The transition region at excess energy de (tubes_region): the section points whose
+  !> trajectory under the model with its dissipation (make_field) passes the saddle's gate at
+  !> distance gate before it returns to the section. Where no point transits (reg%empty), the
+  !> threshold is searched: a region at a higher energy, then bisection in energy down to where
+  !> it vanishes (info%de_lo, de_hi; kept in the stores for later calls). opts: the region's
+  !> options (its integ is the study's).
+  subroutine region_at(st, sec, de, gate, opts, reg, info, stat, stores)
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+    type(study_t), intent(in) :: st
+    type(section_choice_t), intent(in) :: sec
+    real(wp), intent(in) :: de, gate
+    type(region_opts_t), intent(in) :: opts
+    type(region_t), intent(out) :: reg
+    type(region_info_t), intent(out) :: info
+    integer, intent(out) :: stat
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
+    !> the threshold's bisection in energy ends at this relative width
+    real(wp), parameter :: DE_REL = 1.0e-6_wp
+    type(region_opts_t) :: o, coarse
+    type(region_t) :: r1, rhi
+    type(region_info_t) :: i1
+    real(wp) :: lo, hi, mid, nan, a_e
+    integer :: k, s1, ik
+    integer(i8) :: key(NKEY)
+    nan = ieee_value(1.0_wp, ieee_quiet_nan)
+    info%de_lo = nan
+    info%de_hi = nan
+    info%area_hi = nan
+    o = opts
+    o%integ = st%integ
+    call region_core(de, o, reg, info, stat)
+    if (stat /= TUBES_OK .or. .not. reg%empty) return
+    ! empty as far as the scan sees: where does the region appear?
+    key = threshold_key()
+    ik = 0
+    if (present(stores)) then
+      if (.not. allocated(stores%thresholds)) allocate (stores%thresholds(0))
+      ik = kept_at(stores%thresholds, st, key)
+      if (ik > 0) then
+        if (de <= stores%thresholds(ik)%de_lo) then
+          info%de_lo = stores%thresholds(ik)%de_lo
+          info%de_hi = stores%thresholds(ik)%de_hi
+          info%area_hi = stores%thresholds(ik)%area_hi
+          return
+        end if
+      end if
+    end if
+    a_e = info%area_e
+    coarse = o
+    coarse%n_init = 16
+    coarse%one_round = .true.
+    coarse%xtol = 1.0e-6_wp
+    ! upward: double dE until the scan finds a transit
+    hi = de
+    rhi%empty = .true.
+    do k = 1, 20
+      hi = 2*hi
+      call region_core(hi, coarse, r1, i1, s1)
+      if (.not. r1%empty) then
+        rhi = r1
+        exit
+      end if
+      if (s1 /= TUBES_OK) exit            ! no energy surface on the section there, or a failure
+    end do
+    if (rhi%empty) then                  ! no transit found up to hi
+      info%de_lo = hi/2
+      if (s1 /= TUBES_OK) info%de_lo = hi/2
+      call keep(info%de_lo, nan, nan)
+      return
+    end if
+    ! down: bisection between the empty de and the non-empty hi, the region's inside as hints
+    lo = de
+    coarse%n_scan = 0
+    do while (hi - lo > DE_REL*hi)
+      mid = 0.5_wp*(lo + hi)
+      coarse%hints = hints_of(rhi)
+      call region_core(mid, coarse, r1, i1, s1)
+      if (s1 /= TUBES_OK .and. .not. r1%empty) then
+        stat = s1                          ! a failure of the coarse trace
+        reg%fail_stat = s1
+        return
+      end if
+      if (r1%empty) then
+        lo = mid
+      else
+        hi = mid
+        rhi = r1
+      end if
+    end do
+    if (lo == de) then                   ! never empty: the region at de is there, smaller than the scan
+      o%hints = hints_of(rhi)
+      call region_core(de, o, reg, info, stat)
+      if (.not. reg%empty) return
+      stat = TUBES_ESHAPE                ! a region at de the hints do not find: cannot happen
+      return
+    end if
+    info%area_e = a_e
+    info%de_lo = lo
+    info%de_hi = hi
+    info%area_hi = rhi%area
+    call keep(lo, hi, rhi%area, hints_of(rhi))
+  contains
+    subroutine region_core(d, oo, rr, ii, ss)    ! the region at excess energy d
+      real(wp), intent(in) :: d
+      type(region_opts_t), intent(in) :: oo
+      type(region_t), intent(out) :: rr
+      type(region_info_t), intent(inout) :: ii
+      integer, intent(out) :: ss
+      class(hamiltonian_t), allocatable :: model
+      class(vector_field_t), allocatable :: field
+      type(equilibrium_t), allocatable :: eqs(:)
+      type(poincare_t) :: psec
+      real(wp), allocatable :: q_ref(:)
+      type(gate_spec_t) :: gspec
+      real(wp) :: err
+      integer :: isad
+      call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
+                         sec%index, sec%level, sec%dir, d, model, eqs, isad, psec, q_ref, ss, stores)
+      if (ss /= TUBES_OK) return
+      call check_resolved(eqs(isad), [d], ss)
+      if (ss /= TUBES_OK) return
+      call psec%area(ii%area_e, err, ss)
+      if (ss /= TUBES_OK) return
+      call make_field(trim(st%system), st%params, field, ii%damping_rate, ss)
+      if (ss /= TUBES_OK) return
+      call saddle_gate(model, eqs(isad), q_ref, gate, gspec)
+      if (.not. gate_holds_nhim(nhim_reach(eqs(isad), d, gspec%normal), gate)) then
+        ss = TUBES_ENARROW
+        return
+      end if
+      call transition_region(model, field, psec, gspec, oo, rr, ss)
+    end subroutine region_core
+    function threshold_key() result(kk)
+      integer(i8) :: kk(NKEY)
+      real(wp) :: v(size(st%params) + size(st%lo) + size(st%hi) + 13)
+      v = [st%params, st%lo, st%hi, real([st%n_grid, sec%kind, sec%index, sec%dir, st%integ%method, &
+           o%n_scan], wp), sec%level, gate, o%t_max, o%tol, st%integ%h, st%integ%opts%omega_bind, &
+           real(st%integ%opts%solver, wp)]
+      kk = 0
+      kk(1:size(v)) = transfer(v, kk, size(v))
+    end function threshold_key
+    subroutine keep(dlo, dhi, ahi, h)
+      real(wp), intent(in) :: dlo, dhi, ahi
+      real(wp), intent(in), optional :: h(:, :)
+      type(kept_threshold_t) :: entry
+      if (.not. present(stores)) return
+      entry%system = st%system
+      entry%saddle = st%saddle
+      entry%key = key
+      entry%de_lo = dlo
+      entry%de_hi = dhi
+      entry%area_hi = ahi
+      if (present(h)) entry%hints = h
+      stores%thresholds = [stores%thresholds, entry]
+    end subroutine keep
+  end subroutine region_at
+
+  !> Points inside a traced region to start the next one from: its centre, and each ray's
+  !> point at 1/3 and 2/3 of the boundary.
+  pure function hints_of(r) result(h)
+    type(region_t), intent(in) :: r
+    real(wp), allocatable :: h(:, :)
+    integer :: k
+    allocate (h(2, 1 + 2*r%n))
+    h(:, 1) = r%centre
+    do k = 1, r%n
+      h(:, 2*k) = r%centre + r%rho(k)/3*[r%scale(1)*cos(r%phi(k)), r%scale(2)*sin(r%phi(k))]
+      h(:, 2*k + 1) = r%centre + 2*r%rho(k)/3*[r%scale(1)*cos(r%phi(k)), r%scale(2)*sin(r%phi(k))]
+    end do
+  end function hints_of
+
+  !> A transition region's boundary as the C API and f2py return it: the first n = min(reg%n,
+  !> size(phi)) rays (angle, radius, point, flight time of the last transit), and the boundary
+  !> interpolated at m = size(cs) equally spaced angles (a polygon for the Monte Carlo check's
+  !> inside test and the plots; m = 0 when empty).
+  subroutine region_outputs(reg, n, phi, rho, s, p, t_in, m, cs, cp)
+    type(region_t), intent(in) :: reg
+    integer, intent(out) :: n, m
+    real(wp), intent(inout) :: phi(:), rho(:), s(:), p(:), t_in(:), cs(:), cp(:)
+    real(wp), allocatable :: a(:), b(:)
+    n = 0
+    m = 0
+    if (reg%empty .or. reg%n == 0) return
+    n = min(reg%n, size(phi))
+    phi(1:n) = reg%phi(1:n)
+    rho(1:n) = reg%rho(1:n)
+    s(1:n) = reg%s(1:n)
+    p(1:n) = reg%p(1:n)
+    t_in(1:n) = reg%t_in(1:n)
+    m = size(cs)
+    if (m < 3) then
+      m = 0
+      return
+    end if
+    call region_curve(reg, m, a, b)
+    cs = a
+    cp = b
+  end subroutine region_outputs
+
+  !> A transition region's numbers as the C API and f2py return them (include/tubes.h,
+  !> tubes_transition_region): res = area, area_polygon, centre (s, p_s), scale (s, p_s), damping
+  !> rate, A_E, de_lo, de_hi, area_hi, area_change; counts = scan points, scan transits, scan
+  !> undecided, inconsistent, points integrated, rounds, empty (1/0), the failed ray's status.
+  pure subroutine region_numbers(reg, info, res, counts)
+    type(region_t), intent(in) :: reg
+    type(region_info_t), intent(in) :: info
+    real(wp), intent(out) :: res(12)
+    integer, intent(out) :: counts(8)
+    res = [reg%area, reg%area_polygon, reg%centre, reg%scale, info%damping_rate, info%area_e, info%de_lo, &
+           info%de_hi, info%area_hi, reg%area_change]
+    counts = [reg%n_scan, reg%n_scan_transit, reg%n_scan_undecided, reg%n_inconsistent, reg%n_classified, &
+              reg%rounds, merge(1, 0, reg%empty), reg%fail_stat]
+  end subroutine region_numbers
 
   !> A tube cut's arrays and numbers as the C API and f2py return them: the first n = min(cut%n,
   !> size(tau)) points.
