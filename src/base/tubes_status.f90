@@ -26,7 +26,7 @@ module tubes_status
   integer, parameter, public :: TUBES_EUNDECIDED = -17   !! a point neither transited nor returned within t_max
   integer, parameter, public :: TUBES_EDISSIPATIVE = -18 !! a conservative-only scene asked of a dissipative model
   !> The codes' names (TUBES_<name>), for the languages that look them up by name (Python).
-  character(len=*), parameter :: STATUS_NAMES(20) = [character(len=11) :: 'OK', 'EVENT', 'EINPUT', &
+  character(len=*), parameter :: STATUS_NAMES(20) = [character(len=12) :: 'OK', 'EVENT', 'EINPUT', &
       'EMAXSTEPS', 'ESTEP', 'EMODEL', 'EIO', 'ENOCONV', 'EFAULT', 'EOUTSIDE', 'ENOCROSS', 'EPASTEND', &
       'ENARROW', 'ENOJET', 'EDIRECTION', 'EUNRESOLVED', 'ENOREGION', 'ESHAPE', 'EUNDECIDED', &
       'EDISSIPATIVE']
