@@ -298,6 +298,13 @@ int tubes_monte_carlo(const char system[TUBES_LSYSTEM], const double params[TUBE
                       int method, double h, double omega_bind, int solver, int max_iter, int ncut, const double cut_r[], const double cut_pr[], double r[],
                       double pr[], int outcome[], int inside[], void *stores);
 
+/* The eigenvalues wr[k] + i wi[k] (k < 2N, ascending real part) of the named saddle linearised with
+ * the model's dissipation (&model damping_ratio), *c its damping rate (0: the conservative spectrum). */
+int tubes_saddle_spectrum(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                          const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                          const char saddle[8], double wr[2 * TUBES_MAXDOF], double wi[2 * TUBES_MAXDOF], double *c,
+                          void *stores);
+
 /* The transition region at de (docs/dissipation.md): the points of the section's energy surface
  * whose trajectory under the model with its dissipation (&model damping_ratio) passes the saddle's
  * gate (a distance gate past it, as tubes_monte_carlo's) before it meets the section again, each

@@ -288,8 +288,20 @@ def test_docs_cover_every_variable_and_dataset(tmp_path, tubes_exe):
         f.visit(seen.append)
         for obj in [f] + [f[k] for k in seen]:
             seen += list(obj.attrs)
+    # and a damped model's (docs/dissipation.md)
+    (tmp_path / "damped.nml").write_text("&run scenes = 'equilibria', 'orbits', 'tubes', 'transition', "
+                                         "'montecarlo', 'sections' /\n&model damping_ratio = 0.025 /\n"
+                                         "&orbits de = 100 /\n&tubes de = 50, 100, area_tol = 1e-6 /\n"
+                                         "&transition de = 50, 100 /\n&montecarlo n_samples = 50 /\n"
+                                         "&sections de = 100, n_seeds = 2, n_iter = 3 /\n")
+    assert run_tubes(["damped.nml", "-o", "d.h5"], tmp_path).returncode == 0
+    with h5py.File(tmp_path / "d.h5") as f:
+        more = []
+        f.visit(more.append)
+        for obj in [f] + [f[k] for k in more]:
+            seen += list(obj.attrs) + [obj.name]
     import re
-    for name in set(re.sub(r"_\d{3}$", "_<kkk>", s.split("/")[-1]) for s in seen) - {"units"}:
+    for name in set(re.sub(r"_\d{3}$", "_<kkk>", s.split("/")[-1]) for s in seen) - {"units", ""}:
         assert f"`{name}`" in out or f"`/{name}`" in out, f"HDF5 object {name} missing from docs/output.md"
 
 

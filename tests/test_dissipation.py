@@ -131,6 +131,23 @@ def _brute_fraction(zeta, de, n, seed):
     return np.mean(out == 1)
 
 
+def test_the_damped_saddles_eigenvalues_are_the_closed_form(tmp_path):
+    """At a rest point dq/dt = (5/7) p, dp/dt = -g K q - c p: each Hessian eigenvalue kappa gives
+    mu^2 + c mu + (5/7) g kappa = 0. The equilibria scene's /saddle/damped_eigenvalues against it."""
+    (tmp_path / "e.nml").write_text("&run scenes = 'equilibria' /\n&model damping_ratio = 0.025 /\n")
+    r = run_tubes(["e.nml", "-o", "e.h5"], tmp_path)
+    assert r.returncode == 0 and "with damping" in r.stdout, r.stderr
+    _, _, _, hxx, hxy, hyy = _surface(QS[0], QS[1])
+    kap = np.linalg.eigvalsh(np.array([[hxx, hxy], [hxy, hyy]]))
+    c = 2 * 0.025 * _omega1()
+    want = np.concatenate([np.roots([1, c, 5 / 7 * GRAV * k]) for k in kap])
+    want = want[np.lexsort((want.imag, want.real))]
+    with h5py.File(tmp_path / "e.h5") as f:
+        got = f["saddle/damped_eigenvalues"][()]
+        assert f["saddle"].attrs["damping_rate"] == pytest.approx(c, rel=1e-12)
+    assert np.allclose(got[:, 0] + 1j * got[:, 1], want, rtol=1e-9, atol=1e-9), (got, want)
+
+
 def test_the_independent_ball_is_the_programs():
     """The test's ball against the program's: the saddle energy, the damping rate."""
     eq = tubes.equilibria()

@@ -127,15 +127,21 @@ def plot_sections(res, outdir):
         ax.plot(pts[:, :, 0].ravel(), pts[:, :, 1].ravel(), ",", color="k", alpha=0.6)
         br, bp = energy_boundary(res, de)
         ax.plot(br, bp, color="m", lw=1.2, label="energy surface boundary")
+        damped = "damping_ratio" in m.attrs
         if "tubes" in res:
             for k in res.tubes.keys():
                 cut = getattr(res.tubes, k)
                 if k.startswith("stable") and abs(cut.attrs["dE"] - de) < 1e-9:
-                    ax.fill(cut.r, cut.p_r, color="c", alpha=0.5, label="stable tube (transition)")
+                    ax.fill(cut.r, cut.p_r, color="c", alpha=0.5,
+                            label="stable tube (conservative model)" if damped else "stable tube (transition)")
                     ax.plot(np.append(cut.r, cut.r[0]), np.append(cut.p_r, cut.p_r[0]), "b", lw=1)
+                if k.startswith("region") and abs(cut.attrs["dE"] - de) < 1e-9 and "curve_r" in cut:
+                    ax.fill(cut.curve_r, cut.curve_p_r, color="orange", alpha=0.6,
+                            label=f"damped region (transition, damping_ratio {cut.attrs['damping_ratio']:g})")
         ax.set_xlabel("r [cm]")
         ax.set_ylabel("p_r [cm/s]")
-        ax.set_title(f"Poincare section U1^- at dE = {de:g} (cm/s)^2")
+        ax.set_title(f"Poincare section U1^- at dE = {de:g} (cm/s)^2"
+                     + (f": the damped ball (damping_ratio {m.attrs['damping_ratio']:g})" if damped else ""))
         ax.legend(fontsize=8, loc="upper right")
         fig.tight_layout()
         p = pathlib.Path(outdir) / f"section_dE{de:g}.png"
@@ -146,12 +152,19 @@ def plot_sections(res, outdir):
 
 
 def plot_transition(res, path):
-    """p_trans(dE) = A_tube / A_E beside the leading-order formula (and the Monte Carlo point)."""
+    """p_trans(dE) = A_tube / A_E beside the leading-order formula (and the Monte Carlo point); for a
+    damped model its A_region / A_E, with the conservative model's beside it (docs/dissipation.md)."""
     plt = _mpl()
     tr = res.transition
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    ax.plot(tr.dE, tr.p_trans, "o-", label="A_tube / A_E (tubes)")
-    ax.plot(tr.dE, tr.p_trans_leading, "--", label="(T_po/A0) dE (1 - tau dE/A0)")
+    if "p_trans_conservative" in tr:
+        z = tr.attrs["damping_ratio"]
+        ax.plot(tr.dE, tr.p_trans, "o-", label=f"A_region / A_E (damped, damping_ratio {z:g})")
+        ax.plot(tr.dE, tr.p_trans_conservative, "^-", color="gray", label="A_tube / A_E (conservative model)")
+        ax.plot(tr.dE, tr.p_trans_leading, "--", label="(T_po/A0) dE (1 - tau dE/A0) (conservative)")
+    else:
+        ax.plot(tr.dE, tr.p_trans, "o-", label="A_tube / A_E (tubes)")
+        ax.plot(tr.dE, tr.p_trans_leading, "--", label="(T_po/A0) dE (1 - tau dE/A0)")
     if "montecarlo" in res:
         mc = res.montecarlo.attrs
         ax.errorbar([mc["dE"]], [mc["fraction"]], yerr=[2 * mc["std_error"]], fmt="s", color="r", capsize=3,
@@ -171,6 +184,9 @@ def plot_tube_trajectories(res, path):
     from . import Model, integrate, velocity
     plt = _mpl()
     model = Model.of(res)
+    damped = model.parameters.get("damping_ratio", 0) > 0
+    if damped:     # the tube is the conservative model's (docs/dissipation.md): its trajectories too
+        model = model.replace(damping_ratio=0.0)
     name = sorted(k for k in res.tubes.keys() if k.startswith("stable"))[0]
     cut = getattr(res.tubes, name)
     de = cut.attrs["dE"]
@@ -217,7 +233,7 @@ def plot_tube_trajectories(res, path):
     ax1.set_xlabel("x [cm]")
     ax1.set_ylabel("y [cm]")
     ax1.legend(fontsize=7)
-    ax1.set_title(f"stable tube at dE = {de:g} and two trajectories")
+    ax1.set_title(f"stable tube at dE = {de:g} and two trajectories" + (" (conservative model)" if damped else ""))
     ax2.set_xlabel("x")
     ax2.set_ylabel("y")
     ax2.set_zlabel("v_y [cm/s]")

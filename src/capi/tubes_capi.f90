@@ -31,7 +31,8 @@ module tubes_capi
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, gate_reach, maps_at, cut_outputs, seed_stores_t, family_at, &
                          equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, &
-                         close_stores, de_floor, region_at, region_outputs, region_numbers, region_info_t
+                         close_stores, de_floor, region_at, region_outputs, region_numbers, region_info_t, &
+                         damped_spectrum
   use tubes_region, only: region_opts_t, region_t
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long, c_intptr_t
@@ -524,6 +525,23 @@ contains
                   ins, stat, kept)
     inside = merge(1, 0, ins)
   end function c_monte_carlo
+
+  !> The eigenvalues of the saddle linearised with the model's dissipation (include/tubes.h).
+  integer(c_int) function c_saddle_spectrum(system, params, lo, hi, n_grid, saddle, wr, wi, c, stores) &
+      result(stat) bind(C, name='tubes_saddle_spectrum')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid
+    real(c_double), intent(out) :: wr(2*MAX_DOF), wi(2*MAX_DOF), c
+    type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
+    type(study_t) :: st
+    type(section_choice_t) :: sec
+    type(integ_choice_t) :: none
+    type(seed_stores_t), pointer :: kept
+    call study_of(system, params, lo, hi, n_grid, saddle, 1, 0, 0.0_c_double, 1, none, st, sec)
+    kept => stores_of(stores)
+    call damped_spectrum(st, wr, wi, c, stat, kept)
+  end function c_saddle_spectrum
 
   !> The transition region at de of the model with its dissipation (include/tubes.h).
   integer(c_int) function c_transition_region(system, params, lo, hi, n_grid, saddle, de, sec_kind, sec_index, &

@@ -495,6 +495,29 @@ int scene_equilibria(tubes_run_t *run) {
   rc |= h5_attr_double(g, "omega", omk);
   rc |= h5_attr_double(g, "T_po", 2 * M_PI / omk);
   rc |= h5_write_double(g, "eigenvectors", 2, d44, evr, "1");
+  if (run->zeta > 0) {        /* the damped saddle: its own spectrum (docs/dissipation.md) */
+    double wr[2 * MD], wi[2 * MD], cd = 0, ev[4 * MD];
+    int st = tubes_saddle_spectrum(run->system, run->params, run->lo, run->hi, run->n_grid, nm[k], wr, wi, &cd,
+                                   run->seeds);
+    if (st < 0) {
+      char m[TUBES_LSTATUS];
+      status_text(st, m, sizeof m);
+      fprintf(stderr, "tubes: equilibria: the damped saddle's eigenvalues: %s (status %d)\n", m, st);
+      H5Gclose(g);
+      return EXIT_NUMERIC;
+    }
+    printf("  with damping (damping_ratio = %g, c = %.6g%s) its eigenvalues are", run->zeta, cd, in_units(" 1/s"));
+    for (int i = n2 - 1; i >= 0; i--) {
+      if (wi[i] < 0) continue;
+      if (wi[i] > 0) printf(" %.8g +- %.8g i", wr[i], wi[i]);
+      else printf(" %.8g", wr[i]);
+    }
+    printf(" (the conservative +-lambda, +-i omega above)\n");
+    for (int i = 0; i < n2; i++) { ev[2 * i] = wr[i]; ev[2 * i + 1] = wi[i]; }
+    hsize_t de2[2] = {(hsize_t)n2, 2};
+    rc |= h5_write_double(g, "damped_eigenvalues", 2, de2, ev, "1/s");
+    rc |= h5_attr_double(g, "damping_rate", cd);
+  }
   H5Gclose(g);
   return rc ? EXIT_IO : 0;
 }

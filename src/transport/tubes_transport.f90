@@ -7,7 +7,7 @@ module tubes_transport
   use tubes_quad, only: rng_uniform
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EMODEL
   use tubes_ensemble, only: ens_out_t, ens_run, ens_agree
-  use tubes_hamiltonian, only: hamiltonian_t
+  use tubes_hamiltonian, only: hamiltonian_t, veff
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
   use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
@@ -25,17 +25,28 @@ module tubes_transport
   integer, parameter, public :: MC_ESCAPE = 3
 
   !> The transit gate of a saddle: the configuration hyperplane (q - q_s) . n = dist, n the
-  !> unit configuration part of the saddle's unstable eigenvector (its reaction coordinate)
-  !> pointing away from the section's well. Stops an integration once a step ends beyond it.
+  !> saddle's neck direction pointing away from the section's well, bounded (gate_bound, 2 DOF) to
+  !> the neck: the segment of the line through the saddle's side of {V_eff <= E}. A trajectory has
+  !> transited when a step crosses the line from the saddle's side within the segment; it stops at
+  !> that step's end.
   type, public :: gate_spec_t
     real(wp), allocatable :: origin(:)   !! the saddle's configuration q_s
     real(wp), allocatable :: normal(:)   !! unit normal n, towards the other side
     real(wp) :: dist = 0                 !! distance past the saddle [units of q]
+    !> the neck's segment: a crossing point q counts when (q - origin - dist n) . tangent lies in
+    !> [seg_lo, seg_hi] (unbounded: no tangent)
+    real(wp), allocatable :: tangent(:)
+    real(wp) :: seg_lo = -huge(1.0_wp), seg_hi = huge(1.0_wp)
   end type gate_spec_t
 
-  type, extends(observer_t) :: gate_t
+  !> The gate as an observer of an integration (propagate): passed once a step crosses it in the
+  !> neck; the integration stops at that step's end.
+  type, extends(observer_t), public :: gate_t
     type(gate_spec_t) :: spec
     logical :: passed = .false.
+    integer :: outside = 0               !! crossings of the line outside the neck's segment
+    real(wp) :: g_prev = 0               !! (q - q_s) . n - dist at the last step's end
+    logical :: started = .false.
   contains
     procedure :: on_step => gate_on_step
   end type gate_t
@@ -83,7 +94,7 @@ module tubes_transport
   !> (map_status)
   real(wp), parameter :: ESCAPE_SCALES = 1.0e3_wp
 
-  public :: inside_curve, mc_classify, monte_carlo, poincare_map, mc_agreement, classify_points
+  public :: inside_curve, mc_classify, monte_carlo, poincare_map, mc_agreement, classify_points, gate_bound
 
   !> The Monte Carlo check agrees with the tube within this many standard errors (mc_agreement;
   !> a false alarm of a correct tube: 6e-7)
@@ -125,13 +136,100 @@ contains
     class(gate_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    real(wp) :: x(ig%f%dim())
-    integer :: n
+    real(wp) :: x(ig%f%dim()), g, g0, a, b, m, gm
+    integer :: n, k
     n = size(self%spec%normal)
     call ig%interp(t_hi, x)
-    self%stop_now = dot_product(x(1:n) - self%spec%origin, self%spec%normal) > self%spec%dist
-    if (self%stop_now) self%passed = .true.
+    g = dot_product(x(1:n) - self%spec%origin, self%spec%normal) - self%spec%dist
+    if (.not. allocated(self%spec%tangent)) then      ! unbounded: a step that ends beyond the line
+      self%stop_now = g > 0
+      if (self%stop_now) self%passed = .true.
+      return
+    end if
+    if (.not. self%started) then                      ! the side at the start
+      call ig%interp(ig%t_old, x)
+      self%g_prev = dot_product(x(1:n) - self%spec%origin, self%spec%normal) - self%spec%dist
+      self%started = .true.
+    end if
+    g0 = self%g_prev
+    self%g_prev = g
+    if (.not. (g0 <= 0 .and. g > 0)) return
+    ! the crossing in [t_old, t_hi] by bisection on the dense output, and where it lies on the line
+    a = ig%t_old
+    b = t_hi
+    do k = 1, 60
+      m = 0.5_wp*(a + b)
+      if (m == a .or. m == b) exit
+      call ig%interp(m, x)
+      gm = dot_product(x(1:n) - self%spec%origin, self%spec%normal) - self%spec%dist
+      if (gm > 0) then
+        b = m
+      else
+        a = m
+      end if
+    end do
+    call ig%interp(b, x)
+    m = dot_product(x(1:n) - self%spec%origin - self%spec%dist*self%spec%normal, self%spec%tangent)
+    if (m >= self%spec%seg_lo .and. m <= self%spec%seg_hi) then
+      self%stop_now = .true.
+      self%passed = .true.
+    else
+      self%outside = self%outside + 1                 ! through another opening of the line
+    end if
   end subroutine gate_on_step
+
+  !> Bound the gate to the neck at energy e (2 DOF): the segment of the gate line around its point
+  !> q_s + dist n where V_eff <= e, found by marching out along the line in steps of
+  !> max(dist, length scale)/64 and bisection (a singular point of H bounds it too). A crossing of
+  !> the line elsewhere, through another opening of {V_eff <= e}, is then no transit. Where the
+  !> line's point itself lies above e (a gate beyond the neck's end) the segment is empty: no
+  !> crossing counts (the Monte Carlo check then disagrees with any tube). stat = TUBES_EINPUT
+  !> outside 2 DOF.
+  subroutine gate_bound(model, gspec, e, stat)
+    class(hamiltonian_t), intent(in) :: model
+    type(gate_spec_t), intent(inout) :: gspec
+    real(wp), intent(in) :: e
+    integer, intent(out) :: stat
+    integer, parameter :: MAX_MARCH = 200000
+    real(wp) :: c0(2), t(2), h, a, b, m
+    integer :: side, k
+    stat = TUBES_EINPUT
+    if (model%ndof() /= 2 .or. size(gspec%normal) /= 2) return
+    c0 = gspec%origin + gspec%dist*gspec%normal
+    t = [-gspec%normal(2), gspec%normal(1)]
+    gspec%tangent = t
+    stat = TUBES_OK
+    if (.not. veff(model, c0) <= e) then
+      gspec%seg_lo = 1
+      gspec%seg_hi = -1
+      return
+    end if
+    h = max(gspec%dist, model%length_scale())/64
+    do side = -1, 1, 2
+      a = 0
+      b = huge(1.0_wp)
+      do k = 1, MAX_MARCH
+        if (.not. veff(model, c0 + side*k*h*t) <= e) then
+          b = k*h
+          exit
+        end if
+        a = k*h
+      end do
+      if (b < huge(1.0_wp)) then
+        do k = 1, 80
+          m = 0.5_wp*(a + b)
+          if (m == a .or. m == b) exit
+          if (veff(model, c0 + side*m*t) <= e) then
+            a = m
+          else
+            b = m
+          end if
+        end do
+      end if
+      if (side < 0) gspec%seg_lo = -b
+      if (side > 0) gspec%seg_hi = b
+    end do
+  end subroutine gate_bound
 
   !> Point-in-polygon (even-odd rule) for the closed curve (cr, cp).
   pure logical function inside_curve(r, p, cr, cp) result(inside)

@@ -19,7 +19,7 @@ module tubes_study
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, plane_search_range, &
                                  SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
-  use tubes_transport, only: gate_spec_t, monte_carlo, poincare_map
+  use tubes_transport, only: gate_spec_t, monte_carlo, poincare_map, gate_bound
   use tubes_status, only: TUBES_EOUTSIDE, TUBES_ENARROW, TUBES_ESHAPE, TUBES_EDISSIPATIVE
   use tubes_methods, only: integ_choice_t
   implicit none
@@ -31,7 +31,8 @@ module tubes_study
 
   public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, gate_reach, section_info, cut_at, &
             check_at, maps_at, cut_outputs, equilibria_table, study_family, family_table, open_stores, &
-            stores_at, close_stores, stores_counts, de_floor, region_at, region_outputs, region_numbers, dissipation_of
+            stores_at, close_stores, stores_counts, de_floor, region_at, region_outputs, region_numbers, dissipation_of, &
+            damped_spectrum
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -519,17 +520,23 @@ contains
   end function study_orbit_opts
 
   !> The transit gate of saddle eqs(isad) seen from q_ref (the section's side): the
-  !> configuration hyperplane dist past the saddle across its neck (neck_normal), away from q_ref.
-  subroutine saddle_gate(model, sad, q_ref, dist, gspec)
+  !> configuration hyperplane dist past the saddle across its neck (neck_normal), away from q_ref,
+  !> bounded at energy e to the neck's segment of it in 2 DOF (gate_bound: a crossing of the line
+  !> through another opening of the energy surface is no transit).
+  subroutine saddle_gate(model, sad, q_ref, dist, e, gspec, stat)
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: sad
     real(wp), intent(in) :: q_ref(:)
     real(wp), intent(in) :: dist
+    real(wp), intent(in) :: e                !! the energy the segment is bounded at
     type(gate_spec_t), intent(out) :: gspec
+    integer, intent(out) :: stat
     gspec%origin = sad%q
     gspec%normal = neck_normal(model, sad)
     if (dot_product(gspec%normal, q_ref - sad%q) > 0) gspec%normal = -gspec%normal
     gspec%dist = dist
+    stat = TUBES_OK
+    if (model%ndof() == 2) call gate_bound(model, gspec, e, stat)
   end subroutine saddle_gate
 
   !> The reach at de of the saddle's NHIM across its neck (nhim_reach along neck_normal): a
@@ -664,11 +671,12 @@ contains
     if (stat /= TUBES_OK) return
     call check_resolved(eqs(isad), [de], stat)
     if (stat /= TUBES_OK) return
-    call saddle_gate(model, eqs(isad), q_ref, gate, gspec)
-    if (.not. gate_holds_nhim(nhim_reach(eqs(isad), de, gspec%normal), gate)) then
+    if (.not. gate_holds_nhim(nhim_reach(eqs(isad), de, neck_normal(model, eqs(isad))), gate)) then
       stat = TUBES_ENARROW       ! orbits near the NHIM would swing past the gate: "transits"
       return
     end if
+    call saddle_gate(model, eqs(isad), q_ref, gate, eqs(isad)%energy + de, gspec, stat)
+    if (stat /= TUBES_OK) return
     call make_field(trim(st%system), st%params, field, c, stat)
     if (stat /= TUBES_OK) return
     if (c > 0) then                  ! the dissipative model's trajectories
@@ -754,6 +762,48 @@ contains
     integer, intent(out) :: stat
     call make_field(trim(st%system), st%params, field, c, stat)
   end subroutine dissipation_of
+
+  !> The eigenvalues (wr + i wi, ascending real part) of the study's saddle linearised with the
+  !> model's dissipation (make_field; c its damping rate, 0 for a conservative model: then the
+  !> conservative spectrum).
+  subroutine damped_spectrum(st, wr, wi, c, stat, stores)
+    use tubes_lapack, only: eigen, dlasrt
+    type(study_t), intent(in) :: st
+    real(wp), intent(out) :: wr(:), wi(:)
+    real(wp), intent(out) :: c
+    integer, intent(out) :: stat
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
+    class(hamiltonian_t), allocatable :: model
+    class(vector_field_t), allocatable :: field
+    type(equilibrium_t), allocatable :: eqs(:)
+    real(wp), allocatable :: jac(:, :)
+    integer :: isad, n, i, j
+    wr = 0
+    wi = 0
+    c = 0
+    call setup_model(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), model, eqs, isad, &
+                     stat, stores=stores)
+    if (stat /= TUBES_OK) return
+    call make_field(trim(st%system), st%params, field, c, stat)
+    if (stat /= TUBES_OK) return
+    n = field%dim()
+    stat = TUBES_EINPUT
+    if (size(wr) < n .or. size(wi) < n) return
+    allocate (jac(n, n))
+    call field%jacobian(0.0_wp, eqs(isad)%x, jac, stat)
+    if (stat /= TUBES_OK) return
+    call eigen(jac, wr(1:n), wi(1:n), stat)
+    if (stat /= TUBES_OK) return
+    do i = 2, n                      ! ascending real part, then imaginary part (insertion sort)
+      j = i
+      do while (j > 1)
+        if (wr(j - 1) < wr(j) .or. (wr(j - 1) == wr(j) .and. wi(j - 1) <= wi(j))) exit
+        wr(j - 1:j) = wr(j:j - 1:-1)
+        wi(j - 1:j) = wi(j:j - 1:-1)
+        j = j - 1
+      end do
+    end do
+  end subroutine damped_spectrum
 
   !> The transition region at excess energy de (tubes_region): the section points whose
   !> trajectory under the model with its dissipation (make_field) passes the saddle's gate at
@@ -880,11 +930,12 @@ contains
       if (ss /= TUBES_OK) return
       call make_field(trim(st%system), st%params, field, ii%damping_rate, ss)
       if (ss /= TUBES_OK) return
-      call saddle_gate(model, eqs(isad), q_ref, gate, gspec)
-      if (.not. gate_holds_nhim(nhim_reach(eqs(isad), d, gspec%normal), gate)) then
+      if (.not. gate_holds_nhim(nhim_reach(eqs(isad), d, neck_normal(model, eqs(isad))), gate)) then
         ss = TUBES_ENARROW
         return
       end if
+      call saddle_gate(model, eqs(isad), q_ref, gate, eqs(isad)%energy + d, gspec, ss)
+      if (ss /= TUBES_OK) return
       call transition_region(model, field, psec, gspec, oo, rr, ss)
     end subroutine region_core
     function threshold_key() result(kk)
