@@ -41,8 +41,8 @@ enum {
 /* A model is chosen by the name of its system (the library, docs/models.md) and its parameter
  * vector params[TUBES_MAXPARAM] in the order of tubes_model_info (the table in
  * src/models/tubes_models.f90 is the one definition). rolling_ball's order is {alpha [1/cm], beta [1],
- * gamma [cm^2], xi [1/cm], h0 [cm], g [cm/s^2], damping_ratio [1]}. */
-enum { TUBES_NMODEL = 7, TUBES_LSYSTEM = 32, TUBES_MAXPARAM = 16, TUBES_LPARAM = 16,
+ * gamma [cm^2], xi [1/cm], h0 [cm], g [cm/s^2], damping_ratio [1], rolling_resistance [1]}. */
+enum { TUBES_NMODEL = 8, TUBES_LSYSTEM = 32, TUBES_MAXPARAM = 16, TUBES_LPARAM = 24,
        TUBES_MAXDOF = 3, TUBES_LUNITS = 16, TUBES_LDOC = 96, TUBES_LSUMMARY = 160 };
 
 /* A run's stores for tubes_tube_cut, tubes_orbit_family, tubes_find_equilibria,
@@ -179,6 +179,11 @@ int tubes_momentum(const char system[TUBES_LSYSTEM], const double params[TUBES_M
  * damping_ratio = zeta; 0 for conservative models). */
 int tubes_damping_rate(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                        double *c);
+
+/* The dissipation of the field the scenes integrate (docs/dissipation.md): *c the viscous rate
+ * [1/s] (damping_ratio), *f the rolling drag C_rr g [cm/s^2] (rolling_resistance); 0 for none. */
+int tubes_dissipation(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], double *c,
+                      double *f);
 
 /* Equilibria of Hamilton's equations with q in the box lo[k] <= q_k <= hi[k] (k < ndof) from an
  * n_grid^ndof Newton grid; *n of them (at most nmax, else TUBES_EINPUT), *ndof = N. Per point k

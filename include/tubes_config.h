@@ -17,7 +17,7 @@ typedef struct {
   char scenes[TUBES_NSCENES][TUBES_LSCENE];
   char output[TUBES_LPATH];
   /* &model */
-  double alpha, beta, gamma, xi, h0, g, damping_ratio;
+  double alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance;
   /* &equilibria */
   double box;
   int n_grid;
@@ -65,7 +65,7 @@ typedef struct {
   /* &experiment */
   int exp_n_tracks, exp_seed;
   double exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, exp_de_max,
-      exp_damping_ratio;
+      exp_damping_ratio, exp_rolling_resistance;
   char exp_csv[TUBES_LPATH];
   /* the any-Hamiltonian additions: &model system and the other systems' parameters (unset:
    * -DBL_MAX), &equilibria box (list) and box_center, &orbits saddle_near, &section kind, index,

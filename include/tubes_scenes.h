@@ -32,6 +32,10 @@ typedef struct {
   void *seeds;   /* the run's tube seeds (tubes_seed_stores_new): later scenes' cuts look them up */
   int nranks;    /* MPI ranks (1 without MPI) */
   double zeta;   /* the model's damping ratio (its parameter damping_ratio, 0 if none): scene_model */
+  double crr;    /* its rolling resistance coefficient (rolling_resistance, 0 if none): scene_model */
+  double c_damp, f_roll;   /* the viscous rate [1/s] and the rolling drag C_rr g [cm/s^2] they make */
+  char dissip[128];        /* the dissipation in words ("" for a conservative model) */
+  const char *law;         /* "viscous", "rolling" or "viscous+rolling" (NULL: conservative) */
 } tubes_run_t;
 
 /* Fill the model, the box and the saddle of run from run->cfg; resolves &orbits saddle_near to

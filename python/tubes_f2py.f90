@@ -23,15 +23,16 @@ end subroutine model_system
 subroutine model_info(system, stat, ndof, np, names, units, docs, defaults, summary, saddle, near, &
                       sec_kind, sec_index, sec_value, sec_dir, sec_angle, gate, box, box_center, &
                       length_units)
-  ! the table entry of a system (src/models/tubes_models.f90): names and units are np blocks of 16
-  ! characters, docs np blocks of 96
+  ! the table entry of a system (src/models/tubes_models.f90): names np blocks of 24 characters
+  ! (LEN_PARAM), units of 16, docs of 96
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_models, only: system_info_t, system_info
   use tubes_capi, only: scene_defaults
   implicit none
   character(len=*), intent(in) :: system
   integer(c_int), intent(out) :: stat, ndof, np, sec_index, sec_dir
-  character(len=256), intent(out) :: names, units
+  character(len=384), intent(out) :: names
+  character(len=256), intent(out) :: units
   character(len=1536), intent(out) :: docs
   character(len=8), intent(out) :: length_units
   real(c_double), intent(out) :: defaults(16), near(3), sec_value, sec_angle, gate, box(3), box_center(3)
@@ -47,7 +48,7 @@ subroutine model_info(system, stat, ndof, np, names, units, docs, defaults, summ
   ndof = info%ndof
   np = info%np
   do k = 1, info%np
-    names(16*(k - 1) + 1:16*k) = info%params(k)%name
+    names(24*(k - 1) + 1:24*k) = info%params(k)%name
     units(16*(k - 1) + 1:16*k) = info%params(k)%units
     docs(96*(k - 1) + 1:96*k) = info%params(k)%doc
     defaults(k) = info%params(k)%default
@@ -361,7 +362,7 @@ subroutine reference_solution(params, x0, t_end, tol, stat, x_end, nsteps, nfev)
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_reference, only: ref => reference_solution
   implicit none
-  real(c_double), intent(in) :: params(7), x0(4), t_end, tol
+  real(c_double), intent(in) :: params(8), x0(4), t_end, tol
   integer(c_int), intent(out) :: stat
   real(c_double), intent(out) :: x_end(4)
   integer(c_int64_t), intent(out) :: nsteps, nfev
@@ -406,7 +407,8 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
                       method, h, omega_bind, solver, int_max_iter, orb_family, flux_n_samples, flux_seed, &
                       flux_t_max, flux_gate, flux_tol, flux_order, flux_n_cut, flux_cut_eps, expr_lib, &
                       exp_n_tracks, exp_seed, exp_duration, exp_camera_rate, exp_pixel, exp_noise, &
-                      exp_de_min, exp_de_max, exp_damping_ratio, mc_n_samples, mc_seed, mc_de, des, ndes)
+                      exp_de_min, exp_de_max, exp_damping_ratio, exp_rolling_resistance, mc_n_samples, mc_seed, &
+                      mc_de, des, ndes)
   ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
   ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
   ! scene calls take their defaults and their checks from here; msg holds the messages
@@ -424,7 +426,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   character(len=1024), intent(out) :: expr_lib
   integer(c_int), intent(out) :: exp_n_tracks, exp_seed
   real(c_double), intent(out) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
-                                 exp_de_max, exp_damping_ratio
+                                 exp_de_max, exp_damping_ratio, exp_rolling_resistance
   ! &montecarlo's n_samples, seed and de; the lists of excess energies of &orbits, &tubes,
   ! &transition, &sections and &flux (columns 1..5, each with its length in ndes)
   integer(c_int), intent(out) :: mc_n_samples, mc_seed, ndes(5)
@@ -519,6 +521,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   exp_de_min = cfg%exp_de_min
   exp_de_max = cfg%exp_de_max
   exp_damping_ratio = cfg%exp_damping_ratio
+  exp_rolling_resistance = cfg%exp_rolling_resistance
   mc_n_samples = cfg%mc_n_samples
   mc_seed = cfg%mc_seed
   mc_de = cfg%mc_de

@@ -20,11 +20,11 @@ program test_reference
   integer, parameter :: NSX = 16
   real(qp), parameter :: EPSQ = epsilon(1.0_qp)
   ! the paper's parameters as the double values every double run uses (tubes_models)
-  real(wp), parameter :: PARAMS(7) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, &
-                                      981.0_wp, 0.0_wp]
+  real(wp), parameter :: PARAMS(8) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, &
+                                      981.0_wp, 0.0_wp, 0.0_wp]
 
   real(qp) :: a(NSX, NSX), e3(QP_NS + 1), e5(QP_NS + 1), cq(NSX), b(QP_NS + 1), res, scale
-  real(qp) :: xq(2), x4(4), f4(4), fd(4), xp(4), hq, e0, xs(4, 5), tq, pq(7)
+  real(qp) :: xq(2), x4(4), f4(4), fd(4), xp(4), hq, e0, xs(4, 5), tq, pq(8)
   real(qp) :: tols(5), ratio
   real(wp) :: xd(4), xr(4), xr2(4), f_d(4), err12, err14, est, tol_d, xdd(4, 2), x_wp(4)
   real(wp) :: bw(QP_NS + 1)
@@ -177,6 +177,10 @@ program test_reference
   pq(7) = 0.025_qp
   call reference_solution(pq, real(X0_BALL, qp), 1.0_qp, 1.0e-20_qp, x4, stat)
   call check_eq('damped model refused (conservative only)', stat, TUBES_EINPUT)
+  pq(7) = 0
+  pq(8) = 0.002_qp
+  call reference_solution(pq, real(X0_BALL, qp), 1.0_qp, 1.0e-20_qp, x4, stat)
+  call check_eq('rolling resistance refused (conservative only)', stat, TUBES_EINPUT)
   call reference_solution(PARAMS, X0_BALL, 1.0_wp, 0.0_wp, x_wp, stat)
   call check_eq('tol = 0 refused', stat, TUBES_EINPUT)
   call reference_solution(PARAMS, X0_BALL, 1.0_wp, real(REF_TOL_MIN/10, wp), x_wp, stat)

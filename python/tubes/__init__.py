@@ -44,7 +44,7 @@ METHODS = {"dop853": 1, "rk4": 2, "tao2": 3, "tao4": 4, "tao6": 5, "gauss4": 6, 
            "arkode_erk8": 12, "taylor": 13, "auto": 14}   # include/tubes.h TUBES_METHOD_*
 FIXED_STEP = {"rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8"}
 
-__all__ = ["Model", "Table", "TubesError", "DisagreementError", "MC_SIGMA", "Integrator", "ensemble", "status_message", "systems", "model_info", "energy", "energies", "potentials",
+__all__ = ["Model", "Table", "TubesError", "DisagreementError", "MC_SIGMA", "conservative", "Integrator", "ensemble", "status_message", "systems", "model_info", "energy", "energies", "potentials",
            "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
            "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
            "orbit_family", "tube_cut", "transition", "transition_region", "monte_carlo", "poincare", "flux",
@@ -333,7 +333,7 @@ def model_info(system: str) -> dict:
     if stat < 0:
         raise ValueError(f"unknown system {system!r}; the systems are: {', '.join(systems())}")
     names, units, docs = (b.decode() if isinstance(b, bytes) else str(b) for b in (names, units, docs))
-    keys = [names[16 * k:16 * k + 16].strip() for k in range(np_)]
+    keys = [names[24 * k:24 * k + 24].strip() for k in range(np_)]
     params = {key: float(defaults[k]) for k, key in enumerate(keys)}
     return {"system": system, "ndof": int(ndof), "parameters": params,
             "parameter_units": {key: units[16 * k:16 * k + 16].strip() for k, key in enumerate(keys)},
@@ -566,7 +566,8 @@ _SETTINGS = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", 
              "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter", "orb_family",
              "flux_n_samples", "flux_seed", "flux_t_max", "flux_gate", "flux_tol", "flux_order", "flux_n_cut",
              "flux_cut_eps", "expr_lib", "exp_n_tracks", "exp_seed", "exp_duration", "exp_camera_rate",
-             "exp_pixel", "exp_noise", "exp_de_min", "exp_de_max", "exp_damping_ratio", "mc_n_samples",
+             "exp_pixel", "exp_noise", "exp_de_min", "exp_de_max", "exp_damping_ratio", "exp_rolling_resistance",
+             "mc_n_samples",
              "mc_seed", "mc_de", "des", "ndes")
 
 
@@ -993,9 +994,27 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
     return _cut(model, st, float(st["des"][0, 1]), TUBE_KINDS[kind], st["tub_area_tol"])
 
 
-def _damping_ratio(model: Model) -> float:
-    """The model's viscous damping ratio (its parameter damping_ratio; 0 for a model without one)."""
-    return float(model.parameters.get("damping_ratio", 0.0))
+def _dissipation(model: Model) -> dict:
+    """The model's dissipation as the scenes record it (src/io/tubes_scenes.c dissipation_attrs):
+    {} for a conservative model, else dissipation (the law: viscous, rolling, viscous+rolling) and
+    damping_ratio and rolling_resistance where they act (docs/dissipation.md)."""
+    z = float(model.parameters.get("damping_ratio", 0.0))
+    r = float(model.parameters.get("rolling_resistance", 0.0))
+    if not (z > 0 or r > 0):
+        return {}
+    out = {"dissipation": "viscous+rolling" if z > 0 and r > 0 else "viscous" if z > 0 else "rolling"}
+    if z > 0:
+        out["damping_ratio"] = z
+    if r > 0:
+        out["rolling_resistance"] = r
+    return out
+
+
+def conservative(model: Model) -> Model:
+    """The model without its dissipation (damping_ratio and rolling_resistance 0): the one whose
+    orbits and tubes a dissipative run's orbits and tubes scenes compute."""
+    off = {k: 0.0 for k in ("damping_ratio", "rolling_resistance") if k in model.parameters}
+    return model.replace(**off) if off else model
 
 
 _REGION_NOUT, _REGION_CURVE = 4096, 4096
@@ -1095,9 +1114,9 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     sec = _section_args(st)
     out = {k: np.full(de.size, np.nan) for k in ("A_tube", "action", "A_E", "p_trans")}
     status, message = np.zeros(de.size, dtype=np.int32), [""] * de.size
-    zeta = _damping_ratio(model)
-    if zeta > 0:
-        return _transition_damped(model, st, de, sec, zeta)
+    diss = _dissipation(model)
+    if diss:
+        return _transition_damped(model, st, de, sec, diss)
     for i, d in enumerate(de):
         try:
             c = _cut(model, st, d, -1, st["tra_area_tol"])
@@ -1122,7 +1141,7 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     return Table(out)
 
 
-def _transition_damped(model, st, de, sec, zeta):
+def _transition_damped(model, st, de, sec, diss):
     """transition() of a dissipative model, as the transition scene's: p_trans = A_region / A_E, the
     conservative model's A_tube / A_E beside it (p_trans_conservative)."""
     cols = {k: np.full(de.size, np.nan) for k in ("A_region", "A_tube", "action", "A_E", "p_trans",
@@ -1159,7 +1178,7 @@ def _transition_damped(model, st, de, sec, zeta):
                       + " (NaN there; status and message hold why): " + "; ".join(m for m in message if m),
                       RuntimeWarning, stacklevel=3)
     return Table(dE=de, **cols, status=status, status_conservative=status_c, region_rays=rays, message=message,
-                 dissipation="viscous", damping_ratio=zeta, damping_rate=rate, dE_threshold=(lo, hi))
+                 **diss, damping_rate=rate, dE_threshold=(lo, hi))
 
 
 def _mc_agreement(n: int, n_transit: int, n_undecided: int, misclassified: int, p: float) -> dict:
@@ -1222,17 +1241,17 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), de,
                                                     model._stores())
     _check(stat, "monte_carlo")
-    zeta = _damping_ratio(model)
+    diss = _dissipation(model)
     damped = {}
     cut_r, cut_p, area = c["r"], c["p_r"], c["area"]
-    if zeta > 0:    # the dissipative model's prediction: its transition region (the scene's)
+    if diss:        # the dissipative model's prediction: its transition region (the scene's)
         reg = _region(model, st, de, float(st["mc_area_tol"]))
         if reg["status"] < 0:
             err = TubesError(reg["status"], f"monte_carlo(dE = {de:g}): the transition region")
             err.partial = reg
             raise err
         cut_r, cut_p, area = reg["curve_r"], reg["curve_p_r"], reg["area"]
-        damped = {"dissipation": "viscous", "damping_ratio": zeta, "damping_rate": reg["damping_rate"],
+        damped = {**diss, "damping_rate": reg["damping_rate"],
                   "p_trans_conservative": c["area"] / ae, "predicted_by": "region"}
     stat, r, pr, outc, ins = _lib().monte_carlo(*_study(model, st), *_section_args(st), de,
                                                 ns, seed, float(st["mc_t_max"]),
@@ -1327,6 +1346,7 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
     ns = int(_lib().experiment_samples(float(st["exp_duration"]), float(st["exp_camera_rate"])))
     par = np.array(model.params(), dtype=np.float64)
     par[6] = float(st["exp_damping_ratio"])
+    par[7] = float(st["exp_rolling_resistance"])
     (stat, t, state, energy, noisy, meas, rel, c_damp, n_draws, box, rtol) = _lib().synthetic_experiment(
         par, e_e, nt, float(st["exp_duration"]), float(st["exp_camera_rate"]), float(st["exp_pixel"]),
         float(st["exp_noise"]), float(st["exp_de_min"]), float(st["exp_de_max"]), int(st["exp_seed"]),
@@ -1349,7 +1369,7 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
             "duration": float(st["exp_duration"]), "camera_rate": float(st["exp_camera_rate"]),
             "pixel": float(st["exp_pixel"]), "noise": float(st["exp_noise"]), "de_min": float(st["exp_de_min"]),
             "de_max": float(st["exp_de_max"]), "damping_ratio": float(st["exp_damping_ratio"]),
-            "seed": int(st["exp_seed"])}
+            "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": int(st["exp_seed"])}
 
 
 def _as_method(f):
@@ -1596,7 +1616,7 @@ def reference_solution(state0, t_end: float, tol: float = 1e-26, model: Model | 
         raise ValueError("reference_solution: the real128 reference exists for rolling_ball only")
     if model.damping_ratio != 0:
         raise ValueError("reference_solution: conservative model only")
-    stat, x, _, _ = _lib().reference_solution(model.params()[:7], _vec(state0, 4, "state0"),
+    stat, x, _, _ = _lib().reference_solution(model.params()[:8], _vec(state0, 4, "state0"),
                                               float(t_end), float(tol))
     _check(stat, "reference_solution")
     return np.asarray(x)

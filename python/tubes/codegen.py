@@ -157,6 +157,8 @@ def read_spec(lines):
             spec[key] = rest
         elif key == "jet":
             spec["jet"] = rest.split()
+        elif key == "rolling":       # rolling resistance: sigma, v_reg^2 (src/models/tubes_hamiltonian.f90)
+            spec["rolling"] = rest.split()
     return spec
 
 
@@ -524,7 +526,8 @@ def ball_field_defs(sp, h, q, p, g):
 
 def jet_fields(spec, sp, structured=False):
     """The vector field of spec's model for its Taylor jet: (states, fields, params). The damping
-    rate c (dp/dt -= c p, src/models/tubes_hamiltonian.f90 damped_t) is the parameter par[0];
+    rate c (dp/dt -= c p, src/models/tubes_hamiltonian.f90 damped_t) is the parameter par[0], and
+    with a 'rolling SIGMA VREG2' line the rolling drag's rate k = f sigma par[1];
     with `jet variational` the state transition matrix Phi (column by column) follows x, with
     dPhi/dt = (df/dx) Phi, with `tangent` one vector w, dw/dt = (df/dx) w
     (src/integrators/tubes_variational.f90), with `action` the integral of p . dq/dt. structured
@@ -551,6 +554,13 @@ def jet_fields(spec, sp, structured=False):
         f = grad[n:] + [-gq for gq in grad[:n]]
     n = len(qs)
     f = f[:n] + [fp - c * pp for fp, pp in zip(f[n:], ps)]
+    params = [c]
+    if "rolling" in spec:   # dp/dt -= k p / sqrt(sigma p . dq/dt + v_reg^2), k = par[1] (damped_t)
+        sig, vr2 = (_f64(v, sp) for v in spec["rolling"])
+        k = sp.Symbol("k_roll", real=True)
+        r = sp.sqrt(sig * sum(pp * qd for pp, qd in zip(ps, f[:n])) + vr2)
+        f = f[:n] + [fp - k * pp / r for fp, pp in zip(f[n:], ps)]
+        params = [c, k]
     x = qs + ps
     qdot = f[:n]
     if "variational" in spec.get("jet", []):
@@ -570,8 +580,8 @@ def jet_fields(spec, sp, structured=False):
         x = x + [sp.Symbol("action_", real=True)]
         f = f + [sum(pi * vi for pi, vi in zip(ps, qdot))]
     if structured:
-        return x, f, [c], defs
-    return x, f, [c]
+        return x, f, params, defs
+    return x, f, params
 
 
 def generate_jet(spec):

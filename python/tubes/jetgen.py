@@ -1005,11 +1005,11 @@ def _build(d, outs, order, age, smin, fwd_reads, rev_reads):
                     cur[0] = k - 1
                     o.node = (i, k)
                     terms = []
-                    for c, s in zip(nd.data[:-1], nd.args):
+                    for t, (c, s) in enumerate(zip(nd.data[:-1], nd.args)):
                         if c is None or _num(f"CST({c})") is not None:
                             f = _cst((1.0 if c is None else float(c)) / k)
-                        else:
-                            f = o.once(f"K{i}_{k}", lambda nm: o.mul(f"CST({c})", _cst(1.0 / k), nm))
+                        else:   # one constant per term: two parameters' terms are two constants
+                            f = o.once(f"K{i}_{k}_{t}", lambda nm: o.mul(f"CST({c})", _cst(1.0 / k), nm))
                         terms.append((V(s, k - 1), f))
                     off = nd.data[-1]
                     init = f"CST({off})" if off is not None and k == 1 else None

@@ -127,7 +127,7 @@ def plot_sections(res, outdir):
         ax.plot(pts[:, :, 0].ravel(), pts[:, :, 1].ravel(), ",", color="k", alpha=0.6)
         br, bp = energy_boundary(res, de)
         ax.plot(br, bp, color="m", lw=1.2, label="energy surface boundary")
-        damped = "damping_ratio" in m.attrs
+        damped = "dissipation" in m.attrs
         if "tubes" in res:
             for k in res.tubes.keys():
                 cut = getattr(res.tubes, k)
@@ -137,11 +137,11 @@ def plot_sections(res, outdir):
                     ax.plot(np.append(cut.r, cut.r[0]), np.append(cut.p_r, cut.p_r[0]), "b", lw=1)
                 if k.startswith("region") and abs(cut.attrs["dE"] - de) < 1e-9 and "curve_r" in cut:
                     ax.fill(cut.curve_r, cut.curve_p_r, color="orange", alpha=0.6,
-                            label=f"damped region (transition, damping_ratio {cut.attrs['damping_ratio']:g})")
+                            label=f"damped region (transition, {_dissipation_text(cut.attrs)})")
         ax.set_xlabel("r [cm]")
         ax.set_ylabel("p_r [cm/s]")
         ax.set_title(f"Poincare section U1^- at dE = {de:g} (cm/s)^2"
-                     + (f": the damped ball (damping_ratio {m.attrs['damping_ratio']:g})" if damped else ""))
+                     + (f": the damped ball ({_dissipation_text(m.attrs)})" if damped else ""))
         ax.legend(fontsize=8, loc="upper right")
         fig.tight_layout()
         p = pathlib.Path(outdir) / f"section_dE{de:g}.png"
@@ -151,6 +151,12 @@ def plot_sections(res, outdir):
     return paths
 
 
+def _dissipation_text(attrs) -> str:
+    """A dissipative run's laws and coefficients from a group's attributes (docs/output.md)."""
+    parts = [f"{k} {attrs[k]:g}" for k in ("damping_ratio", "rolling_resistance") if k in attrs]
+    return ", ".join(parts)
+
+
 def plot_transition(res, path):
     """p_trans(dE) = A_tube / A_E beside the leading-order formula (and the Monte Carlo point); for a
     damped model its A_region / A_E, with the conservative model's beside it (docs/dissipation.md)."""
@@ -158,8 +164,7 @@ def plot_transition(res, path):
     tr = res.transition
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     if "p_trans_conservative" in tr:
-        z = tr.attrs["damping_ratio"]
-        ax.plot(tr.dE, tr.p_trans, "o-", label=f"A_region / A_E (damped, damping_ratio {z:g})")
+        ax.plot(tr.dE, tr.p_trans, "o-", label=f"A_region / A_E (damped, {_dissipation_text(tr.attrs)})")
         ax.plot(tr.dE, tr.p_trans_conservative, "^-", color="gray", label="A_tube / A_E (conservative model)")
         ax.plot(tr.dE, tr.p_trans_leading, "--", label="(T_po/A0) dE (1 - tau dE/A0) (conservative)")
     else:
@@ -184,9 +189,10 @@ def plot_tube_trajectories(res, path):
     from . import Model, integrate, velocity
     plt = _mpl()
     model = Model.of(res)
-    damped = model.parameters.get("damping_ratio", 0) > 0
+    from . import conservative
+    damped = conservative(model) is not model
     if damped:     # the tube is the conservative model's (docs/dissipation.md): its trajectories too
-        model = model.replace(damping_ratio=0.0)
+        model = conservative(model)
     name = sorted(k for k in res.tubes.keys() if k.startswith("stable"))[0]
     cut = getattr(res.tubes, name)
     de = cut.attrs["dE"]

@@ -89,7 +89,8 @@ contains
                                   'once, or the scan of the section disagrees with the traced boundary)'
     case (TUBES_EUNDECIDED); msg = 'a section point neither passed the gate nor returned to the section within ' // &
                                   't_max: raise t_max (&montecarlo)'
-    case (TUBES_EDISSIPATIVE); msg = 'the model is dissipative (damping_ratio > 0) and this computation is ' // &
+    case (TUBES_EDISSIPATIVE); msg = 'the model is dissipative (damping_ratio or rolling_resistance > 0) ' // &
+                                  'and this computation is ' // &
                                   'conservative only (the flux through the NHIM needs a Hamiltonian flow): ' // &
                                   'damping_ratio = 0, or the transition and montecarlo scenes (docs/dissipation.md)'
     case default;           msg = 'unknown status code'

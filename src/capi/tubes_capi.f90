@@ -283,6 +283,15 @@ contains
     call make_field(trim(c_to_f(system)), params, field, c, stat)
   end function c_damping_rate
 
+  !> The model's dissipation: its viscous rate c [1/s] and rolling drag f [cm/s^2] (include/tubes.h).
+  integer(c_int) function c_dissipation(system, params, c, f) result(stat) bind(C, name='tubes_dissipation')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
+    real(c_double), intent(out) :: c, f
+    class(vector_field_t), allocatable :: field
+    call make_field(trim(c_to_f(system)), params, field, c, stat, f)
+  end function c_dissipation
+
   !> Equilibria of the model in the box [lo, hi] (per coordinate, ndof of them).
   integer(c_int) function c_equilibria(system, params, lo, hi, n_grid, nmax, n, ndof, q, p, height, &
       energy, grad_norm, morse, rank1, names, lambda, omega, evec, stores) result(stat) &

@@ -71,7 +71,7 @@ module tubes_taylor
     real(wp) :: dir = 1                    !! the step's direction, sign(tmax - t)
     real(wp) :: left = 0                   !! |tmax - t| at the step's start [time]
     real(wp) :: slack = 0                  !! what may be left of it: 64 ulps of max(|t|, |tmax|)
-    real(wp) :: par(1) = 0                 !! the kernel's parameters: the damping rate
+    real(wp) :: par(2) = 0                 !! the kernel's parameters: the damping rate, the rolling drag
     integer :: nq = 0                      !! the model refuses |x(1:nq)|_1 > q_bound (jet_spec_t)
     real(wp) :: q_bound = huge(1.0_wp)
     character(:), allocatable :: spec      !! the model's formula (jet_spec_t%text)
@@ -267,6 +267,7 @@ contains
     self%spec = js%text
     self%flags = flags
     self%par(1) = js%damping
+    self%par(2) = js%rolling
     self%nq = min(js%nq, n)
     self%q_bound = js%q_bound
     self%n = n

@@ -55,6 +55,8 @@ const nml_var tubes_nml_vars[] = {
     {"model", "g", NML_REAL, 1, "cm/s^2", "981", "> 0", "rolling_ball: gravitational acceleration"},
     {"model", "damping_ratio", NML_REAL, 1, "1", "0", "0 <= zeta < 1",
      "rolling_ball: viscous damping ratio zeta of the lowest well's slow mode (0 = conservative)"},
+    {"model", "rolling_resistance", NML_REAL, 1, "1", "0", "0 <= C_rr < 1",
+     "rolling_ball: rolling resistance coefficient C_rr, a drag C_rr g opposing the velocity (0 = none)"},
     {"model", "m_a", NML_REAL, 1, "1", "8 (de_leon_berne), 1 (coupled_quartic)", "> 0",
      "de_leon_berne, coupled_quartic: mass of the x mode"},
     {"model", "m_b", NML_REAL, 1, "1", "8 (de_leon_berne), 1 (coupled_quartic)", "> 0",
@@ -180,6 +182,8 @@ const nml_var tubes_nml_vars[] = {
      "release excess energy: upper bound"},
     {"experiment", "damping_ratio", NML_REAL, 1, "1", "0.014", "0 <= zeta < 1",
      "damping ratio of the experiment's ball (docs/theory.md#damping)"},
+    {"experiment", "rolling_resistance", NML_REAL, 1, "1", "0", "0 <= C_rr < 1",
+     "rolling resistance coefficient of the experiment's ball (docs/dissipation.md)"},
     {"experiment", "seed", NML_INT, 1, "-", "2018", ">= 0", "seed of GSL's MT19937"},
     {"experiment", "csv", NML_STRING, 1, "-", "''", "a writable path or ''",
      "also write the tracks as CSV (track,t,x,y) to this file; '' = no CSV"},
@@ -703,6 +707,8 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
     if (!(c->g > 0)) n += bad(path, c, w, "model", "g", err, "", c->g);
     if (!(c->damping_ratio >= 0 && c->damping_ratio < 1))
       n += bad(path, c, w, "model", "damping_ratio", err, "", c->damping_ratio);
+    if (!(c->rolling_resistance >= 0 && c->rolling_resistance < 1))
+      n += bad(path, c, w, "model", "rolling_resistance", err, "", c->rolling_resistance);
     if (n) return n;
   }
   for (int k = 0; k < np && formula; k++) {   /* a ball on a formula's surface: g, damping_ratio */
@@ -710,6 +716,8 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
     if (!strcmp(nm, "g") && !(c->params[k] > 0)) n += bad(path, c, w, "model", "g", err, "", c->params[k]);
     if (!strcmp(nm, "damping_ratio") && !(c->params[k] >= 0 && c->params[k] < 1))
       n += bad(path, c, w, "model", "damping_ratio", err, "", c->params[k]);
+    if (!strcmp(nm, "rolling_resistance") && !(c->params[k] >= 0 && c->params[k] < 1))
+      n += bad(path, c, w, "model", "rolling_resistance", err, "", c->params[k]);
   }
   if (n) return n;
   int natural = 0;
@@ -1025,6 +1033,8 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
     n += bad(path, c, w, "experiment", "de_min", err, "de_min must be below de_max", c->exp_de_min);
   if (!(c->exp_damping_ratio >= 0 && c->exp_damping_ratio < 1))
     n += bad(path, c, w, "experiment", "damping_ratio", err, "", c->exp_damping_ratio);
+  if (!(c->exp_rolling_resistance >= 0 && c->exp_rolling_resistance < 1))
+    n += bad(path, c, w, "experiment", "rolling_resistance", err, "", c->exp_rolling_resistance);
   if (!(c->exp_seed >= 0)) n += bad(path, c, w, "experiment", "seed", err, "", c->exp_seed);
   return n;
 }

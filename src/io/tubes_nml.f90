@@ -24,7 +24,7 @@ module tubes_nml
   type, bind(C), public :: tubes_config_t
     character(kind=c_char) :: scenes(LSCENE, NSCENES)
     character(kind=c_char) :: output(LPATH)
-    real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio
+    real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance
     real(c_double) :: box
     integer(c_int) :: n_grid
     character(kind=c_char) :: saddle(8)
@@ -62,7 +62,7 @@ module tubes_nml
     real(c_double) :: pm_t_max
     integer(c_int) :: exp_n_tracks, exp_seed
     real(c_double) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
-                      exp_de_max, exp_damping_ratio
+                      exp_de_max, exp_damping_ratio, exp_rolling_resistance
     character(kind=c_char) :: exp_csv(LPATH)
     ! the any-Hamiltonian additions (docs/input.md); the resolved values follow
     character(kind=c_char) :: system(LNAME)
@@ -92,7 +92,7 @@ module tubes_nml
     character(LSCENE) :: scenes(NSCENES) = ''   !! scenes(1) = 'equilibria': set_defaults
     character(LPATH) :: output = 'tubes.h5'
     real(c_double) :: alpha = UNSET, beta = UNSET, gamma = UNSET, xi = UNSET, h0 = UNSET, g = UNSET, &
-                      damping_ratio = UNSET
+                      damping_ratio = UNSET, rolling_resistance = UNSET
     real(c_double) :: box = 0
     integer :: n_grid = 41
     character(8) :: saddle = ''
@@ -130,7 +130,7 @@ module tubes_nml
     integer :: exp_n_tracks = 120, exp_seed = 2018
     real(c_double) :: exp_duration = 14, exp_camera_rate = 50, exp_pixel = 0.16_c_double, &
                       exp_noise = 0.05_c_double, exp_de_min = 1000, exp_de_max = 3000, &
-                      exp_damping_ratio = 0.014_c_double
+                      exp_damping_ratio = 0.014_c_double, exp_rolling_resistance = 0
     character(LPATH) :: exp_csv = ''
     character(LNAME) :: system = 'rolling_ball'
     real(c_double) :: m_a = UNSET, m_b = UNSET, d = UNSET, lambda = UNSET, zeta = UNSET, eps_s = UNSET, &
@@ -216,6 +216,7 @@ contains
     cfg%exp_pixel = v%exp_pixel; cfg%exp_noise = v%exp_noise
     cfg%exp_de_min = v%exp_de_min; cfg%exp_de_max = v%exp_de_max
     cfg%exp_damping_ratio = v%exp_damping_ratio
+    cfg%exp_rolling_resistance = v%exp_rolling_resistance
     call f_to_c(v%exp_csv, cfg%exp_csv)
     call f_to_c(v%hamiltonian, cfg%hamiltonian)
     call f_to_c(v%height, cfg%height)
@@ -242,6 +243,7 @@ contains
     case ('h0'); x = v%h0
     case ('g'); x = v%g
     case ('damping_ratio'); x = v%damping_ratio
+    case ('rolling_resistance'); x = v%rolling_resistance
     case ('m_a'); x = v%m_a
     case ('m_b'); x = v%m_b
     case ('d'); x = v%d
@@ -264,6 +266,7 @@ contains
     integer :: st, k
     v%alpha = UNSET; v%beta = UNSET; v%gamma = UNSET; v%xi = UNSET; v%h0 = UNSET; v%g = UNSET
     v%damping_ratio = UNSET
+    v%rolling_resistance = UNSET
     v%m_a = UNSET; v%m_b = UNSET; v%d = UNSET; v%lambda = UNSET; v%zeta = UNSET; v%eps_s = UNSET
     v%omega = UNSET; v%eps = UNSET; v%mu = UNSET
     call system_info(trim(c_to_f(cfg%model)), info, st)
@@ -277,6 +280,7 @@ contains
       case ('h0'); v%h0 = cfg%params(k)
       case ('g'); v%g = cfg%params(k)
       case ('damping_ratio'); v%damping_ratio = cfg%params(k)
+      case ('rolling_resistance'); v%rolling_resistance = cfg%params(k)
       case ('m_a'); v%m_a = cfg%params(k)
       case ('m_b'); v%m_b = cfg%params(k)
       case ('d'); v%d = cfg%params(k)
@@ -311,6 +315,7 @@ contains
     cfg%expr_hit = 0
     cfg%alpha = v%alpha; cfg%beta = v%beta; cfg%gamma = v%gamma; cfg%xi = v%xi
     cfg%h0 = v%h0; cfg%g = v%g; cfg%damping_ratio = v%damping_ratio
+    cfg%rolling_resistance = v%rolling_resistance
     cfg%m_a = v%m_a; cfg%m_b = v%m_b; cfg%d = v%d; cfg%lambda = v%lambda; cfg%zeta = v%zeta
     cfg%eps_s = v%eps_s; cfg%omega = v%omega; cfg%eps = v%eps; cfg%mu = v%mu
     cfg%box_list = v%box_list
@@ -351,8 +356,10 @@ contains
       cfg%alpha = cfg%params(1); cfg%beta = cfg%params(2); cfg%gamma = cfg%params(3)
       cfg%xi = cfg%params(4); cfg%h0 = cfg%params(5); cfg%g = cfg%params(6)
       cfg%damping_ratio = cfg%params(7)
+      cfg%rolling_resistance = cfg%params(8)
     else
       cfg%damping_ratio = 0
+      cfg%rolling_resistance = 0
     end if
     ! the box: one value = every coordinate; box(k) alone sets coordinate k
     half = info%box
@@ -494,6 +501,7 @@ contains
     v%system = c_to_f(cfg%system)
     v%alpha = cfg%alpha; v%beta = cfg%beta; v%gamma = cfg%gamma; v%xi = cfg%xi
     v%h0 = cfg%h0; v%g = cfg%g; v%damping_ratio = cfg%damping_ratio
+    v%rolling_resistance = cfg%rolling_resistance
     v%m_a = cfg%m_a; v%m_b = cfg%m_b; v%d = cfg%d; v%lambda = cfg%lambda; v%zeta = cfg%zeta
     v%eps_s = cfg%eps_s; v%omega = cfg%omega; v%eps = cfg%eps; v%mu = cfg%mu
     v%box = cfg%box; v%n_grid = cfg%n_grid
@@ -555,6 +563,7 @@ contains
     v%exp_pixel = cfg%exp_pixel; v%exp_noise = cfg%exp_noise
     v%exp_de_min = cfg%exp_de_min; v%exp_de_max = cfg%exp_de_max
     v%exp_damping_ratio = cfg%exp_damping_ratio
+    v%exp_rolling_resistance = cfg%exp_rolling_resistance
     v%exp_csv = c_to_f(cfg%exp_csv)
   end subroutine from_c
 
@@ -622,13 +631,13 @@ contains
     end subroutine io_run
     subroutine io_model()
       character(LNAME) :: system, surface
-      real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, m_a, m_b, d, lambda, zeta, &
-                        eps_s, omega, eps, mu
+      real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, m_a, m_b, d, &
+                        lambda, zeta, eps_s, omega, eps, mu
       logical :: spatial
       character(LEXPR) :: hamiltonian, height
       character(LSYM) :: coordinates(MAX_DOF), momenta(MAX_DOF)
       character(LCONST) :: constants(MAXCONST)
-      namelist /model/ system, alpha, beta, gamma, xi, h0, g, damping_ratio, m_a, m_b, d, lambda, &
+      namelist /model/ system, alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, m_a, m_b, d, lambda, &
         zeta, eps_s, omega, eps, mu, hamiltonian, coordinates, momenta, constants, surface, height, spatial
       system = v%system
       spatial = v%spatial
@@ -636,6 +645,7 @@ contains
       coordinates = v%coordinates; momenta = v%momenta; constants = v%constants
       alpha = v%alpha; beta = v%beta; gamma = v%gamma; xi = v%xi; h0 = v%h0; g = v%g
       damping_ratio = v%damping_ratio; m_a = v%m_a; m_b = v%m_b; d = v%d; lambda = v%lambda
+      rolling_resistance = v%rolling_resistance
       zeta = v%zeta; eps_s = v%eps_s; omega = v%omega; eps = v%eps; mu = v%mu
       if (mode == 'r') then
         read (u, nml=model, iostat=ios, iomsg=iomsg)
@@ -643,6 +653,7 @@ contains
         v%spatial = spatial
         v%alpha = alpha; v%beta = beta; v%gamma = gamma; v%xi = xi; v%h0 = h0; v%g = g
         v%damping_ratio = damping_ratio; v%m_a = m_a; v%m_b = m_b; v%d = d; v%lambda = lambda
+        v%rolling_resistance = rolling_resistance
         v%zeta = zeta; v%eps_s = eps_s; v%omega = omega; v%eps = eps; v%mu = mu
         v%hamiltonian = hamiltonian; v%height = height; v%surface = surface
         v%coordinates = coordinates; v%momenta = momenta; v%constants = constants
@@ -936,14 +947,15 @@ contains
     end subroutine io_sections
     subroutine io_experiment()
       integer :: n_tracks, seed
-      real(c_double) :: duration, camera_rate, pixel, noise, de_min, de_max, damping_ratio
+      real(c_double) :: duration, camera_rate, pixel, noise, de_min, de_max, damping_ratio, rolling_resistance
       character(:), allocatable :: csv
       character(LPATH) :: buf
       namelist /experiment/ n_tracks, duration, camera_rate, pixel, noise, de_min, de_max, &
-        damping_ratio, seed, csv
+        damping_ratio, rolling_resistance, seed, csv
       n_tracks = v%exp_n_tracks; seed = v%exp_seed; duration = v%exp_duration
       camera_rate = v%exp_camera_rate; pixel = v%exp_pixel; noise = v%exp_noise
       de_min = v%exp_de_min; de_max = v%exp_de_max; damping_ratio = v%exp_damping_ratio
+      rolling_resistance = v%exp_rolling_resistance
       if (mode == 'r') then
         buf = v%exp_csv
         csv = buf
@@ -956,6 +968,7 @@ contains
       v%exp_n_tracks = n_tracks; v%exp_seed = seed; v%exp_duration = duration
       v%exp_camera_rate = camera_rate; v%exp_pixel = pixel; v%exp_noise = noise
       v%exp_de_min = de_min; v%exp_de_max = de_max; v%exp_damping_ratio = damping_ratio
+      v%exp_rolling_resistance = rolling_resistance
     end subroutine io_experiment
   end subroutine group_io
 

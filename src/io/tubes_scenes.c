@@ -43,6 +43,24 @@ static void progress_item(const char *fmt, ...) {
 
 static void status_text(int code, char *buf, int len) { tubes_status_message(code, buf, len); }
 
+/* Does the run's model dissipate (damping_ratio or rolling_resistance > 0; scene_model)? */
+static int dissipative(const tubes_run_t *run) { return run->law != NULL; }
+
+/* The dissipation's attributes of a group: dissipation (the law), damping_ratio, damping_rate,
+ * rolling_resistance, rolling_drag (those of the laws in use). Returns the write errors. */
+static int dissipation_attrs(hid_t g, const tubes_run_t *run) {
+  int e = h5_attr_string(g, "dissipation", run->law);
+  if (run->zeta > 0) {
+    e |= h5_attr_double(g, "damping_ratio", run->zeta);
+    e |= h5_attr_double(g, "damping_rate", run->c_damp);
+  }
+  if (run->crr > 0) {
+    e |= h5_attr_double(g, "rolling_resistance", run->crr);
+    e |= h5_attr_double(g, "rolling_drag", run->f_roll);
+  }
+  return e;
+}
+
 /* The method the run integrates with: &integrator method, and for 'auto' what it became
  * ("auto (taylor)": Taylor for the state, DOP853 for the variational equations; "auto (dop853)":
  * no Taylor kernel). */
@@ -114,19 +132,33 @@ int scene_model(tubes_run_t *run) {
            "code generated (SymPy) and compiled in", c->expr_hit ? 1 : 2, c->expr_seconds * (c->expr_hit ? 1e3 : 1),
            c->expr_hit ? "ms" : "s", c->expr_lib);
   }
-  double zeta = 0;
-  for (int k = 0; k < np; k++)
+  double zeta = 0, crr = 0;
+  for (int k = 0; k < np; k++) {
     if (!strcmp(names + TUBES_LPARAM * k, "damping_ratio")) zeta = run->params[k];
+    if (!strcmp(names + TUBES_LPARAM * k, "rolling_resistance")) crr = run->params[k];
+  }
   run->zeta = zeta;    /* the built-in ball's &model damping_ratio, or a formula surface's */
-  if (zeta > 0) {
-    double cd = 0;
-    int st = tubes_damping_rate(run->system, run->params, &cd);
+  run->crr = crr;
+  run->c_damp = run->f_roll = 0;
+  run->dissip[0] = 0;
+  run->law = NULL;
+  if (zeta > 0 || crr > 0) {
+    int st = tubes_dissipation(run->system, run->params, &run->c_damp, &run->f_roll);
     if (st < 0) {
       fprintf(stderr, "tubes: model: cannot define the damping rate (no well found), status %d\n", st);
       H5Gclose(g);
       return EXIT_NUMERIC;
     }
-    rc |= h5_attr_double(g, "damping_rate", cd);
+    run->law = zeta > 0 && crr > 0 ? "viscous+rolling" : zeta > 0 ? "viscous" : "rolling";
+    if (zeta > 0)
+      snprintf(run->dissip, sizeof run->dissip, "damping_ratio = %g, c = %.6g%s", zeta, run->c_damp,
+               in_units(" 1/s"));
+    if (crr > 0)
+      snprintf(run->dissip + strlen(run->dissip), sizeof run->dissip - strlen(run->dissip),
+               "%srolling_resistance = %g, f = %.6g%s", zeta > 0 ? "; " : "", crr, run->f_roll, in_units(" cm/s^2"));
+    if (zeta > 0) rc |= h5_attr_double(g, "damping_rate", run->c_damp);
+    if (crr > 0) rc |= h5_attr_double(g, "rolling_drag", run->f_roll);
+    rc |= h5_attr_string(g, "dissipation", run->law);
   }
   H5Gclose(g);
   return rc ? EXIT_IO : 0;
@@ -495,7 +527,7 @@ int scene_equilibria(tubes_run_t *run) {
   rc |= h5_attr_double(g, "omega", omk);
   rc |= h5_attr_double(g, "T_po", 2 * M_PI / omk);
   rc |= h5_write_double(g, "eigenvectors", 2, d44, evr, "1");
-  if (run->zeta > 0) {        /* the damped saddle: its own spectrum (docs/dissipation.md) */
+  if (dissipative(run)) {     /* the damped saddle: its own spectrum (docs/dissipation.md) */
     double wr[2 * MD], wi[2 * MD], cd = 0, ev[4 * MD];
     int st = tubes_saddle_spectrum(run->system, run->params, run->lo, run->hi, run->n_grid, nm[k], wr, wi, &cd,
                                    run->seeds);
@@ -506,7 +538,7 @@ int scene_equilibria(tubes_run_t *run) {
       H5Gclose(g);
       return EXIT_NUMERIC;
     }
-    printf("  with damping (damping_ratio = %g, c = %.6g%s) its eigenvalues are", run->zeta, cd, in_units(" 1/s"));
+    printf("  with its dissipation (%s) its eigenvalues are", run->dissip);
     for (int i = n2 - 1; i >= 0; i--) {
       if (wi[i] < 0) continue;
       if (wi[i] > 0) printf(" %.8g +- %.8g i", wr[i], wi[i]);
@@ -516,7 +548,7 @@ int scene_equilibria(tubes_run_t *run) {
     for (int i = 0; i < n2; i++) { ev[2 * i] = wr[i]; ev[2 * i + 1] = wi[i]; }
     hsize_t de2[2] = {(hsize_t)n2, 2};
     rc |= h5_write_double(g, "damped_eigenvalues", 2, de2, ev, "1/s");
-    rc |= h5_attr_double(g, "damping_rate", cd);
+    rc |= dissipation_attrs(g, run);
   }
   H5Gclose(g);
   return rc ? EXIT_IO : 0;
@@ -618,9 +650,11 @@ int scene_trajectory(tubes_run_t *run) {
          (long long)cnt[1],
          (long long)cnt[2], (long long)cnt[0], wall);
   if (sk) printf("  section %s: %d crossings\n", c->section, ncross);
-  if (run->zeta > 0)
+  if (run->zeta > 0 && !(run->crr > 0))
     printf("  damped (zeta = %g, c = %.6g 1/s): energy lost %.6g (cm/s)^2\n", run->zeta, cdamp,
            n > 0 ? e0 - en[n - 1] : NAN);
+  else if (dissipative(run))
+    printf("  damped (%s): energy lost %.6g%s\n", run->dissip, n > 0 ? e0 - en[n - 1] : NAN, in_units(" (cm/s)^2"));
   else {
     printf("  max energy error |E - E0| %.3e%s, relative %.3e to the energy scale %.6g%s", abserr,
            in_units(" (cm/s)^2"), maxerr, escale, in_units(" (cm/s)^2"));
@@ -652,6 +686,7 @@ int scene_trajectory(tubes_run_t *run) {
     e |= h5_attr_string(g, "solver", c->solver);
     e |= h5_attr_double(g, "wall_seconds", wall);
     e |= h5_attr_double(g, "damping_rate", cdamp);
+    if (run->crr > 0) e |= h5_attr_double(g, "rolling_drag", run->f_roll);
     e |= h5_attr_double(g, "max_rel_energy_error", maxerr);
     e |= h5_attr_double(g, "max_energy_error", abserr);
     e |= h5_attr_double(g, "energy_scale", escale);
@@ -748,7 +783,7 @@ int scene_orbits(tubes_run_t *run) {
   }
   printf("orbits: %s Lyapunov family, %s shooting%s%s (%.2f s)\n", run->saddle, nseg > 1 ? "multiple" : "single",
          nseg > 1 ? "" : (run->natural ? " (brake orbit)" : " (symmetric orbit)"),
-         run->zeta > 0 ? ", of the conservative model (damping_ratio > 0 has no periodic orbits: they are the limit "
+         dissipative(run) ? ", of the conservative model (a dissipative model has no periodic orbits: they are the limit "
                          "the damped model's transition regions start from)" : "", now() - t0);
   printf("  %10s %12s %14s %14s %11s %9s %5s\n", "dE", strcmp(in_units(" s"), "") ? "period [s]" : "period", "action",
          "mu_unstable", "residual", "closure", "iter");
@@ -835,7 +870,7 @@ int scene_orbits(tubes_run_t *run) {
   h |= h5_attr_long(g, "n_segments", nseg);
   h |= h5_attr_double(g, "tol", c->orb_tol);
   h |= h5_attr_long(g, "family", c->orb_family);
-  if (run->zeta > 0) h |= h5_attr_string(g, "model", "conservative");
+  if (dissipative(run)) h |= h5_attr_string(g, "model", "conservative");
   if (end_de > 0) {
     h |= h5_attr_double(g, "family_end_dE", end_de);
     h |= h5_attr_string(g, "family_end_reason", end_reason_text(reason));
@@ -1090,8 +1125,8 @@ static int tubes_regions(tubes_run_t *run, hid_t g) {
   region_out_t *reg = malloc(sizeof *reg);
   if (!reg) return EXIT_NUMERIC;
   int rc = 0;
-  printf("tubes: the damped model (damping_ratio = %g): its transition regions, the section points that pass the "
-         "saddle's gate (the cut of the damped saddle's stable manifold; area_tol %g)\n", run->zeta, c->tub_area_tol);
+  printf("tubes: the dissipative model (%s): its transition regions, the section points that pass the "
+         "saddle's gate (the cut of the damped saddle's stable manifold; area_tol %g)\n", run->dissip, c->tub_area_tol);
   printf("  %10s %16s %12s %6s %10s %8s\n", "dE", "area", "p_trans", "rays", "scan", "s");
   for (int k = 0; k < c->tub_nde; k++) {
     double de = c->tub_de[k], t0 = now();
@@ -1142,8 +1177,7 @@ static int tubes_regions(tubes_run_t *run, hid_t g) {
     e |= h5_attr_long(o, "n_scan", reg->counts[0]);
     e |= h5_attr_long(o, "n_scan_transit", reg->counts[1]);
     e |= h5_attr_long(o, "n_inconsistent", reg->counts[3]);
-    e |= h5_attr_double(o, "damping_ratio", run->zeta);
-    e |= h5_attr_double(o, "damping_rate", reg->res[6]);
+    e |= dissipation_attrs(o, run);
     if (o >= 0) H5Gclose(o);
     if (e) { rc = EXIT_IO; break; }
   }
@@ -1158,7 +1192,7 @@ int scene_tubes(tubes_run_t *run) {
   if (rc) return rc;
   printf("tubes: %s manifold cuts on the section (eps = %g %s, area_tol = %g)%s\n", c->tub_kind, c->tub_eps,
          strcmp(run->length_units, "1") ? run->length_units : "(length units)", c->tub_area_tol,
-         run->zeta > 0 ? ": the conservative model's Lyapunov orbits and tubes (a damped model has neither)" : "");
+         dissipative(run) ? ": the conservative model's Lyapunov orbits and tubes (a damped model has neither)" : "");
   printf("  %10s %8s %16s %16s %11s %11s %8s\n", "dE", "kind", "area", "action", "area/action-1", "eps/10 chg", "s");
   for (int k = 0; k < c->tub_nde; k++) {
     for (int kind = -1; kind <= 1; kind += 2) {
@@ -1194,7 +1228,7 @@ int scene_tubes(tubes_run_t *run) {
              a / act - 1, fabs(a - a10), now() - t0);
     }
   }
-  if (run->zeta > 0) {
+  if (dissipative(run)) {
     int r2 = tubes_regions(run, g);
     if (r2 == EXIT_IO) rc = EXIT_IO;
     else if (r2 && !rc) rc = r2;
@@ -1228,7 +1262,7 @@ int scene_transition(tubes_run_t *run) {
   double a0, tau, tpo;
   int rc = write_section(run, &a0, &tau, &tpo);
   if (rc) return rc;
-  int n = c->tra_nde, damped = run->zeta > 0;
+  int n = c->tra_nde, damped = dissipative(run);
   double *at = calloc(n, sizeof(double)), *act = calloc(n, sizeof(double)), *ae = calloc(n, sizeof(double)),
          *pt = calloc(n, sizeof(double)), *pl = calloc(n, sizeof(double)), *ar = calloc(n, sizeof(double)),
          *pd = calloc(n, sizeof(double));
@@ -1243,7 +1277,6 @@ int scene_transition(tubes_run_t *run) {
   }
   if (run->nranks > 1)
     fprintf(stderr, "transition: %d energies dealt out to %d MPI ranks\n", n, run->nranks);
-  double cdamp = 0;
   for (int k = 0; k < n; k++) {
     if (k % run->nranks != run->rank) continue;
     transition_item_t *x = &it[k];
@@ -1286,10 +1319,9 @@ int scene_transition(tubes_run_t *run) {
   }
   for (int k = 0; k < n; k++) share_from(&it[k], (int)sizeof it[k], k % run->nranks, run);
   if (damped) {
-    if (tubes_damping_rate(run->system, run->params, &cdamp) < 0) cdamp = NAN;
-    printf("transition: the damped model (damping_ratio = %g, c = %.6g%s): p_trans(dE) = A_region / A_E on %d "
-           "energies, A_region the section points that pass the saddle's gate (area_tol %g); beside it the "
-           "conservative model's A_tube / A_E\n", run->zeta, cdamp, in_units(" 1/s"), n, c->tra_area_tol);
+    printf("transition: the dissipative model (%s): p_trans(dE) = A_region / A_E on %d energies, A_region the "
+           "section points that pass the saddle's gate (area_tol %g); beside it the conservative model's A_tube / A_E\n",
+           run->dissip, n, c->tra_area_tol);
     printf("  %10s %14s %14s %14s %12s %12s %6s\n", "dE", "A_region", "A_tube", "A_E", "p_trans", "conservative",
            "rays");
   } else {
@@ -1355,9 +1387,7 @@ int scene_transition(tubes_run_t *run) {
     e |= h5_write_double(g, "p_trans_conservative", 1, &dn, pt, "1");
     e |= h5_write_int(g, "status_conservative", dn, stat, "1");
     e |= h5_write_int(g, "region_rays", dn, nrays, "1");
-    e |= h5_attr_string(g, "dissipation", "viscous");
-    e |= h5_attr_double(g, "damping_ratio", run->zeta);
-    e |= h5_attr_double(g, "damping_rate", cdamp);
+    e |= dissipation_attrs(g, run);
     e |= h5_attr_double(g, "dE_threshold_lo", th_lo);
     e |= h5_attr_double(g, "dE_threshold_hi", th_hi);
   }
@@ -1395,8 +1425,8 @@ int scene_montecarlo(tubes_run_t *run) {
   double ftau = 0, de = c->mc_de, *tau_ = malloc(sizeof(double) * nout), *cr = malloc(sizeof(double) * nout),
          *cp = malloc(sizeof(double) * nout), *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 4 * nout),
          ha[64], ar = 0, ap = 0, act = 0, per = 0, rmin, rmax, ae, darea, t0 = now();
-  int ns = c->mc_n_samples, damped = run->zeta > 0;
-  double *r = malloc(sizeof(double) * ns), *pr = malloc(sizeof(double) * ns), p_cons = NAN, cdamp = 0;
+  int ns = c->mc_n_samples, damped = dissipative(run);
+  double *r = malloc(sizeof(double) * ns), *pr = malloc(sizeof(double) * ns), p_cons = NAN;
   int *out = malloc(sizeof(int) * ns), *ins = malloc(sizeof(int) * ns);
   region_out_t *reg = damped ? malloc(sizeof *reg) : NULL;
   fprintf(stderr, "montecarlo: the tube cut at dE = %g...\n", de);
@@ -1420,7 +1450,6 @@ int scene_montecarlo(tubes_run_t *run) {
       fprintf(stderr, "%s\n", m);
       st = reg->st;
     } else {
-      cdamp = reg->res[6];
       ar = reg->counts[6] ? 0 : reg->res[0];
       n = reg->counts[6] ? 0 : reg->m;
       for (int k = 0; k < n && k < nout; k++) { cr[k] = reg->cs[k]; cp[k] = reg->cp[k]; }
@@ -1491,10 +1520,10 @@ int scene_montecarlo(tubes_run_t *run) {
     int mis_lim, und_lim, agrees;
     tubes_mc_agreement(ns, nt, nu, in_nt + out_t, p, &nsig, &sig_lim, &mis_lim, &und_lim, &agrees);
     if (damped)
-      printf("montecarlo: the damped model (damping_ratio = %g, c = %.6g%s), dE = %g, %d points: transition fraction "
+      printf("montecarlo: the dissipative model (%s), dE = %g, %d points: transition fraction "
              "%.5f +- %.5f (p_trans = A_region/A_E = %.5f, %.1f standard errors; conservative A_tube/A_E = %.5f); %d "
              "inside the region; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided%s (%.1f s)\n",
-             run->zeta, cdamp, in_units(" 1/s"), de, ns, f, se, p, nsig, p_cons, nin, in_nt, out_t, nu,
+             run->dissip, de, ns, f, se, p, nsig, p_cons, nin, in_nt, out_t, nu,
              nesc ? escaped_text(nesc) : "", now() - t0);
     else
       printf("montecarlo: dE = %g, %d points: transition fraction %.5f +- %.5f (p_trans = %.5f, %.1f standard errors);"
@@ -1504,9 +1533,7 @@ int scene_montecarlo(tubes_run_t *run) {
     hsize_t dn = (hsize_t)ns;
     hid_t g = mc_group(run, de, ns, 0, r, pr, out, &e);
     if (damped) {
-      e |= h5_attr_string(g, "dissipation", "viscous");
-      e |= h5_attr_double(g, "damping_ratio", run->zeta);
-      e |= h5_attr_double(g, "damping_rate", cdamp);
+      e |= dissipation_attrs(g, run);
       e |= h5_attr_double(g, "p_trans_conservative", p_cons);
       e |= h5_attr_string(g, "predicted_by", "region");
     }
@@ -1552,7 +1579,7 @@ int scene_sections(tubes_run_t *run) {
     long npts = 0;
     for (long i = 0; i < (long)ns * ni; i++) npts += !isnan(pts[2 * i]);
     printf("sections: dE = %g: %ld returns of %d trajectories%s (%.1f s)\n", de, npts, ns,
-           run->zeta > 0 ? " of the damped model (released at dE; each return has less energy)" : "", now() - t0);
+           dissipative(run) ? " of the dissipative model (released at dE; each return has less energy)" : "", now() - t0);
     char name[32];
     snprintf(name, sizeof name, "map_%03d", k);
     hid_t m = h5_group(g, name);
@@ -1560,10 +1587,7 @@ int scene_sections(tubes_run_t *run) {
     int e = m < 0;
     e |= h5_write_double(m, "points", 3, d3, pts, "cm, cm/s");
     e |= h5_attr_double(m, "dE", de);
-    if (run->zeta > 0) {
-      e |= h5_attr_string(m, "dissipation", "viscous");
-      e |= h5_attr_double(m, "damping_ratio", run->zeta);
-    }
+    if (dissipative(run)) e |= dissipation_attrs(m, run);
     if (m >= 0) H5Gclose(m);
     free(pts);
     if (e) { H5Gclose(g); return EXIT_IO; }
@@ -1623,6 +1647,7 @@ int scene_synthetic_experiment(tubes_run_t *run) {
   double model[TUBES_MAXPARAM], cd = 0, t0 = now();
   memcpy(model, run->params, sizeof model);
   model[6] = c->exp_damping_ratio;
+  model[7] = c->exp_rolling_resistance;
   int ndraw = 0;
   fprintf(stderr, "synthetic_experiment: %d tracks of %g s at %g Hz...\n", nt, c->exp_duration, c->exp_camera_rate);
   st = tubes_synthetic_experiment(model, ee, nt, c->exp_duration, c->exp_camera_rate, c->exp_pixel, c->exp_noise,
@@ -1665,10 +1690,14 @@ int scene_synthetic_experiment(tubes_run_t *run) {
       de[i] = energy[i] - ee;
     }
   }
+  char roll[64] = "";
+  if (c->exp_rolling_resistance > 0)
+    snprintf(roll, sizeof roll, ", rolling resistance %g (%.6g cm/s^2)", c->exp_rolling_resistance,
+             c->exp_rolling_resistance * run->params[5]);
   printf("synthetic_experiment: %d tracks x %d frames (%g Hz, %g s), releases at dE in [%g, %g] (cm/s)^2 "
-         "(%d of %d draws accepted), zeta = %g (c = %.6g 1/s), noise %g cm, pixel %g cm (%.2f s)\n",
+         "(%d of %d draws accepted), zeta = %g (c = %.6g 1/s)%s, noise %g cm, pixel %g cm (%.2f s)\n",
          nt, ns, c->exp_camera_rate, c->exp_duration, c->exp_de_min, c->exp_de_max, nt, ndraw,
-         c->exp_damping_ratio, cd, c->exp_noise, c->exp_pixel, now() - t0);
+         c->exp_damping_ratio, cd, roll, c->exp_noise, c->exp_pixel, now() - t0);
   hid_t g = h5_group(run->file, "tracks");
   int e = g < 0;
   hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, 4}, d2[2] = {(hsize_t)n, 2}, dr[2] = {(hsize_t)nt, 2},
@@ -1682,6 +1711,7 @@ int scene_synthetic_experiment(tubes_run_t *run) {
   e |= h5_attr_double(g, "noise", c->exp_noise);
   e |= h5_attr_double(g, "damping_ratio", c->exp_damping_ratio);
   e |= h5_attr_double(g, "damping_rate", cd);
+  if (c->exp_rolling_resistance > 0) e |= h5_attr_double(g, "rolling_resistance", c->exp_rolling_resistance);
   e |= h5_attr_long(g, "seed", c->exp_seed);
   e |= h5_attr_long(g, "n_tracks", nt);
   e |= h5_attr_long(g, "n_samples", ns);

@@ -11,6 +11,9 @@ module tubes_field
   type, public :: jet_spec_t
     character(:), allocatable :: text    !! the spec; unallocated: no formula (no Taylor method)
     real(wp) :: damping = 0              !! c of dp/dt -= c p [1/time]
+    !> f sigma of the rolling drag dp/dt -= f sigma p / sqrt(sigma p . dq/dt + v_reg^2) (its sigma and
+    !> v_reg^2 are in the text's 'rolling' line) [length/time^2]
+    real(wp) :: rolling = 0
     logical :: variational = .false.     !! the state transition matrix follows the state
     logical :: action = .false.          !! the action integral of p . dq/dt follows the state
     logical :: tangent = .false.         !! one tangent vector w, dw/dt = (df/dx) w, follows the state

@@ -13,6 +13,7 @@
 !> - damped_t: any Hamiltonian with the viscous force -c p added to dp/dt (not Hamiltonian:
 !>   a vector field for integration only, dE/dt = -c p . dH/dp).
 module tubes_hamiltonian
+  use, intrinsic :: iso_fortran_env, only: int64
   use tubes_kinds, only: wp
   use tubes_lapack, only: dgesv
   use tubes_field, only: vector_field_t, jet_spec_t
@@ -89,10 +90,17 @@ module tubes_hamiltonian
     procedure :: masses => two_mode_masses
   end type two_mode_t
 
-  !> Viscous damping -c p on the momenta of any Hamiltonian model.
+  !> Dissipation on the momenta of a Hamiltonian model: viscous damping -c p, and rolling
+  !> resistance, a force of magnitude f opposing the velocity in the kinetic metric, -f sigma p /
+  !> sqrt(s^2 + v_reg^2) with s^2 = sigma p . dH/dp the squared path speed (sigma = 1/m_eff: 5/7
+  !> for the ball, whose p = (7/5) M v; docs/dissipation.md): dE/dt = -2 c T - f s^2/sqrt(s^2 +
+  !> v_reg^2), an energy loss of f per unit path length where s >> v_reg.
   type, extends(vector_field_t), public :: damped_t
     class(hamiltonian_t), allocatable :: base   !! the conservative model
     real(wp) :: c = 0                           !! damping rate [1/time]
+    real(wp) :: f = 0                           !! rolling drag [length/time^2] (0: none)
+    real(wp) :: sigma = 1                       !! 1/m_eff of the path speed
+    real(wp) :: v_reg = 0                       !! regularisation speed at rest [length/time]
   contains
     procedure :: dim => damped_dim
     procedure :: eval => damped_eval
@@ -397,9 +405,14 @@ contains
     real(wp), intent(out) :: dxdt(:)
     integer, intent(out)  :: stat
     integer :: n
+    real(wp) :: r
     n = size(x)/2
     call self%base%eval(t, x, dxdt, stat)
     dxdt(n + 1:2*n) = dxdt(n + 1:2*n) - self%c*x(n + 1:2*n)
+    if (self%f > 0) then
+      r = sqrt(max(self%sigma*dot_product(x(n + 1:2*n), dxdt(1:n)), 0.0_wp) + self%v_reg**2)
+      dxdt(n + 1:2*n) = dxdt(n + 1:2*n) - (self%f*self%sigma/r)*x(n + 1:2*n)
+    end if
   end subroutine damped_eval
 
   pure function ham_jet_spec(self) result(spec)
@@ -410,12 +423,20 @@ contains
     spec%q_bound = BLOWUP_Q
   end function ham_jet_spec
 
-  !> The base model's formula with the damping rate.
+  !> The base model's formula with the damping rate, and with rolling resistance the line
+  !> 'rolling SIGMA VREG2' (python/tubes/codegen.py adds the drag; its rate f sigma is a parameter).
   pure function damped_jet_spec(self) result(spec)
     class(damped_t), intent(in) :: self
     type(jet_spec_t) :: spec
+    character(20) :: a, b
     spec = self%base%jet_spec()
     spec%damping = self%c
+    if (self%f > 0 .and. allocated(spec%text)) then
+      write (a, '(a, z16.16)') 'f64:', transfer(self%sigma, 0_int64)
+      write (b, '(a, z16.16)') 'f64:', transfer(self%v_reg**2, 0_int64)
+      spec%text = spec%text // 'rolling ' // a // ' ' // b // new_line('a')
+      spec%rolling = self%f*self%sigma
+    end if
   end function damped_jet_spec
 
   pure subroutine damped_jacobian(self, t, x, jac, stat)
@@ -424,10 +445,27 @@ contains
     real(wp), intent(out) :: jac(:, :)
     integer, intent(out)  :: stat
     integer :: n, k
+    real(wp) :: v(size(x)), du(size(x)), r, kf
     n = size(x)/2
     call self%base%jacobian(t, x, jac, stat)
+    if (stat /= 0) return
     do k = n + 1, 2*n
       jac(k, k) = jac(k, k) - self%c
+    end do
+    if (.not. self%f > 0) return
+    ! F = -kf p / r, r = sqrt(u + v_reg^2), u = sigma p . v (v = dq/dt, its derivatives the base
+    ! Jacobian's first n rows): dF/dx = -kf I_p / r + kf p (du/dx)^T / (2 r^3)
+    call self%base%eval(t, x, v, stat)
+    if (stat /= 0) return
+    kf = self%f*self%sigma
+    r = sqrt(max(self%sigma*dot_product(x(n + 1:2*n), v(1:n)), 0.0_wp) + self%v_reg**2)
+    du = self%sigma*matmul(x(n + 1:2*n), jac(1:n, :))
+    du(n + 1:2*n) = du(n + 1:2*n) + self%sigma*v(1:n)
+    do k = 1, 2*n
+      jac(n + 1:2*n, k) = jac(n + 1:2*n, k) + kf*x(n + 1:2*n)*du(k)/(2*r**3)
+    end do
+    do k = n + 1, 2*n
+      jac(k, k) = jac(k, k) - kf/r
     end do
   end subroutine damped_jacobian
   !> H(q, p) = 1/2 (p - pc)^T A (p - pc) + V_eff(q) for a model quadratic in the momenta: A(q) =

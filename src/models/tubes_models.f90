@@ -25,9 +25,12 @@ module tubes_models
   integer, parameter, public :: MAX_PARAMS = 16   !! parameters of one system at most
   integer, parameter, public :: MAX_DOF = 3       !! degrees of freedom of a built-in system at most
   integer, parameter, public :: LEN_SYSTEM = 32   !! length of a system's name
-  integer, parameter, public :: LEN_PARAM = 16    !! length of a parameter's name
+  integer, parameter, public :: LEN_PARAM = 24    !! length of a parameter's name
   integer, parameter, public :: NSYSTEMS = 6      !! built-in systems
-  integer, parameter, public :: NMODEL = 7        !! rolling_ball's parameters (the old vector)
+  integer, parameter, public :: NMODEL = 8        !! rolling_ball's parameters (the old vector)
+  !> Rolling resistance is regularised at rest: the drag C_rr g s / sqrt(s^2 + V_ROLL^2) at path
+  !> speed s [cm/s] (docs/dissipation.md): within 0.5 % of C_rr g above 1 cm/s
+  real(wp), parameter, public :: V_ROLL = 0.1_wp
 
   !> One parameter of a system.
   type, public :: param_info_t
@@ -82,7 +85,7 @@ module tubes_models
   end interface
 
   public :: system_info, system_name, make_model, make_field, conservative_ball, model_ball, &
-            damping_rate, momentum_of, potential_of, shape_derivs_of, damping_ratio_of
+            damping_rate, momentum_of, potential_of, shape_derivs_of, damping_ratio_of, dissipative, param_of
 
 contains
 
@@ -121,7 +124,7 @@ contains
       info%summary = 'a ball rolling on the four-well surface z = H(x, y) (Ross et al. 2018)'
       info%surface = 'fourwell: H = alpha (x^2+y^2) - beta (sqrt(x^2+gamma) + sqrt(y^2+gamma)) ' // &
                      '- xi x y + h0'
-      info%np = 7
+      info%np = 8
       info%params(1) = p('alpha', 0.07_wp, '1/cm', 'curvature of the bowl')
       info%params(2) = p('beta', 1.017_wp, '1', 'depth of the wells')
       info%params(3) = p('gamma', 15.103_wp, 'cm^2', 'smoothing of the ridges (> 0)')
@@ -130,6 +133,8 @@ contains
       info%params(6) = p('g', 981.0_wp, 'cm/s^2', 'gravitational acceleration (> 0)', symbol='')
       info%params(7) = p('damping_ratio', 0.0_wp, '1', 'zeta: c = 2 zeta omega_1 (docs/theory.md)', &
                          symbol='')
+      info%params(8) = p('rolling_resistance', 0.0_wp, '1', 'C_rr: a drag C_rr g opposing the velocity ' // &
+                         '(docs/dissipation.md)', symbol='')
       info%length_units = 'cm'
       info%box(1:2) = 20
       info%saddle = 'S12'
@@ -262,9 +267,11 @@ contains
     if (lib%kind == KIND_SURFACE) then
       info%summary = 'a ball rolling on z = ' // formula
       info%surface = formula
-      info%np = 2
+      info%np = 3
       info%params(1) = p('g', 981.0_wp, 'cm/s^2', 'gravitational acceleration (> 0)')
       info%params(2) = p('damping_ratio', 0.0_wp, '1', 'zeta: c = 2 zeta omega_1 (docs/theory.md)')
+      info%params(3) = p('rolling_resistance', 0.0_wp, '1', 'C_rr: a drag C_rr g opposing the velocity ' // &
+                         '(docs/dissipation.md)')
       info%length_units = 'cm'
       info%box(1:2) = 20
       info%gate = 1.5_wp
@@ -380,41 +387,67 @@ contains
   end subroutine library_spec
 
   !> The damping ratio zeta of a system's parameters (its parameter damping_ratio; 0 for a system
-  !> without one): > 0 makes the model dissipative (make_field).
+  !> without one).
   real(wp) function damping_ratio_of(system, params) result(zeta)
     character(*), intent(in) :: system
     real(wp), intent(in) :: params(:)
+    zeta = param_of(system, params, 'damping_ratio')
+  end function damping_ratio_of
+
+  !> The parameter `name` of a system's parameters (0 for a system without it).
+  real(wp) function param_of(system, params, name) result(x)
+    character(*), intent(in) :: system, name
+    real(wp), intent(in) :: params(:)
     type(system_info_t) :: info
     integer :: k, stat
-    zeta = 0
+    x = 0
     call system_info(system, info, stat)
     if (stat /= TUBES_OK) return
     do k = 1, min(info%np, size(params))
-      if (info%params(k)%name == 'damping_ratio') zeta = params(k)
+      if (info%params(k)%name == name) x = params(k)
     end do
-  end function damping_ratio_of
+  end function param_of
+
+  !> Is the model of these parameters dissipative (damping_ratio > 0 or rolling_resistance > 0)?
+  logical function dissipative(system, params)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:)
+    dissipative = param_of(system, params, 'damping_ratio') > 0 .or. &
+                  param_of(system, params, 'rolling_resistance') > 0
+  end function dissipative
 
   !> The vector field a scene integrates: the conservative model, or for the rolling ball with
-  !> damping_ratio > 0 the damped_t wrapper with c = 2 zeta omega_1. c: the rate used (0 if none).
-  subroutine make_field(system, params, field, c, stat)
+  !> damping_ratio > 0 or rolling_resistance > 0 the damped_t wrapper: the viscous rate c = 2 zeta
+  !> omega_1 and the rolling drag f = C_rr g (docs/dissipation.md). c: the viscous rate used (0 if
+  !> none); f_roll: the rolling drag [cm/s^2] (0 if none).
+  subroutine make_field(system, params, field, c, stat, f_roll)
     character(*), intent(in) :: system
     real(wp), intent(in) :: params(:)
     class(vector_field_t), allocatable, intent(out) :: field
     real(wp), intent(out) :: c
     integer, intent(out) :: stat
+    real(wp), intent(out), optional :: f_roll
     class(hamiltonian_t), allocatable :: model
     type(damped_t) :: damped
-    real(wp) :: zeta
+    real(wp) :: zeta, crr
     c = 0
+    if (present(f_roll)) f_roll = 0
     call make_model(system, params, model, stat)
     if (stat /= TUBES_OK) return
-    zeta = damping_ratio_of(system, params)
+    zeta = param_of(system, params, 'damping_ratio')
+    crr = param_of(system, params, 'rolling_resistance')
     select type (model)
     type is (ball_t)
-      if (zeta > 0) then
-        call damping_rate(model, zeta, c, stat)
+      if (zeta > 0 .or. crr > 0) then
+        if (zeta > 0) call damping_rate(model, zeta, c, stat)
         if (stat /= TUBES_OK) return
         call make_damped(damped, model, c)
+        if (crr > 0) then               ! |v3| = sqrt(ROLL p . v), M v = ROLL p (docs/dissipation.md)
+          damped%f = crr*model%g
+          damped%sigma = ROLL
+          damped%v_reg = V_ROLL
+        end if
+        if (present(f_roll)) f_roll = damped%f
         allocate (field, source=damped)
         return
       end if

@@ -11,7 +11,7 @@ module tubes_study
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND, TUBES_EUNRESOLVED
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_ball, only: ball_t
-  use tubes_models, only: make_model, make_field, damping_ratio_of, MAX_PARAMS, MAX_DOF
+  use tubes_models, only: make_model, make_field, dissipative, MAX_PARAMS, MAX_DOF
   use tubes_field, only: vector_field_t
   use tubes_region, only: region_opts_t, region_t, transition_region, region_curve
   use tubes_equilibria, only: equilibrium_t, find_equilibria, neck_normal, nhim_reach, gate_holds_nhim
@@ -217,7 +217,7 @@ contains
     name = saddle
     if (present(conservative)) then
       stat = TUBES_EDISSIPATIVE
-      if (conservative .and. damping_ratio_of(system, params) > 0) return
+      if (conservative .and. dissipative(system, params)) return
     end if
     call make_model(system, params, model, stat)
     if (stat /= TUBES_OK) return
@@ -679,7 +679,7 @@ contains
     if (stat /= TUBES_OK) return
     call make_field(trim(st%system), st%params, field, c, stat)
     if (stat /= TUBES_OK) return
-    if (c > 0) then                  ! the dissipative model's trajectories
+    if (dissipative(trim(st%system), st%params)) then   ! the dissipative model's trajectories
       call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, st%integ, cr, cp, r, pr, outcome, &
                        inside, stat, field)
     else
@@ -746,7 +746,7 @@ contains
     end do
     call make_field(trim(st%system), st%params, field, c, stat)
     if (stat /= TUBES_OK) return
-    if (c > 0) then                  ! the dissipative model's returns (their energy falls)
+    if (dissipative(trim(st%system), st%params)) then   ! the dissipative model's returns (their energy falls)
       call poincare_map(model, psec, x0, n_iter, t_max, 1.0e-10_wp, st%integ, pts, stat, field)
     else
       call poincare_map(model, psec, x0, n_iter, t_max, 1.0e-10_wp, st%integ, pts, stat)
