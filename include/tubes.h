@@ -24,7 +24,8 @@ enum {
   TUBES_ENOREGION = -15, /* the energy surface meets the plane section in no bounded region within its search window */
   TUBES_ESHAPE = -16, /* the transition region is not one star-shaped piece, or reaches the energy surface's edge */
   TUBES_EUNDECIDED = -17, /* a section point neither passed the gate nor returned within t_max */
-  TUBES_EDISSIPATIVE = -18 /* a conservative-only computation asked of a dissipative model */
+  TUBES_EDISSIPATIVE = -18, /* a conservative-only computation asked of a dissipative model */
+  TUBES_ENOISE = -19 /* a deterministic computation asked of a noisy model */
 };
 
 /* Integration methods (src/integrators/tubes_methods.f90). */
@@ -41,8 +42,9 @@ enum {
 /* A model is chosen by the name of its system (the library, docs/models.md) and its parameter
  * vector params[TUBES_MAXPARAM] in the order of tubes_model_info (the table in
  * src/models/tubes_models.f90 is the one definition). rolling_ball's order is {alpha [1/cm], beta [1],
- * gamma [cm^2], xi [1/cm], h0 [cm], g [cm/s^2], damping_ratio [1], rolling_resistance [1]}. */
-enum { TUBES_NMODEL = 8, TUBES_LSYSTEM = 32, TUBES_MAXPARAM = 16, TUBES_LPARAM = 24,
+ * gamma [cm^2], xi [1/cm], h0 [cm], g [cm/s^2], damping_ratio [1], rolling_resistance [1],
+ * noise [(cm/s)^2/s], temperature [(cm/s)^2]}. */
+enum { TUBES_NMODEL = 10, TUBES_LSYSTEM = 32, TUBES_MAXPARAM = 16, TUBES_LPARAM = 24,
        TUBES_MAXDOF = 3, TUBES_LUNITS = 16, TUBES_LDOC = 96, TUBES_LSUMMARY = 160 };
 
 /* A run's stores for tubes_tube_cut, tubes_orbit_family, tubes_find_equilibria,
@@ -327,14 +329,15 @@ int tubes_saddle_spectrum(const char system[TUBES_LSYSTEM], const double params[
  * <= 1e-6 de_hi; de_hi NaN: none found up to de_lo). TUBES_ESHAPE: not one star-shaped piece (or
  * the scan disagrees); TUBES_EUNDECIDED: a point neither transited nor returned within t_max;
  * TUBES_ENOCONV: not converged within min(nout, its n_max) rays; TUBES_ENARROW: gate within twice
- * the NHIM's reach. local as tubes_tube_cut. */
+ * the NHIM's reach; TUBES_ENOISE for a model with noise unless noiseless = 1 (then the region of
+ * the model without its noise: the Monte Carlo check's D -> 0 limit). local as tubes_tube_cut. */
 int tubes_transition_region(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                             const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                             const char saddle[8], double de, int sec_kind, int sec_index, double level, int dir,
                             double gate, double t_max, double area_tol, int method, double h, double omega_bind,
                             int solver, int max_iter, int nout, int mcurve, int *n, double phi[], double rho[],
                             double s[], double p[], double t_in[], int *m, double cs[], double cp[],
-                            double res[12], int counts[8], int local, void *stores);
+                            double res[12], int counts[8], int local, int noiseless, void *stores);
 
 /* The reach at de of the saddle's NHIM (its Lyapunov orbits) across the saddle's neck, from the
  * linearisation [units of q]: tubes_monte_carlo refuses a gate within twice it (TUBES_ENARROW). */

@@ -17,7 +17,7 @@ typedef struct {
   char scenes[TUBES_NSCENES][TUBES_LSCENE];
   char output[TUBES_LPATH];
   /* &model */
-  double alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance;
+  double alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, noise_d, temperature;
   /* &equilibria */
   double box;
   int n_grid;

@@ -35,7 +35,9 @@ typedef struct {
   double crr;    /* its rolling resistance coefficient (rolling_resistance, 0 if none): scene_model */
   double c_damp, f_roll;   /* the viscous rate [1/s] and the rolling drag C_rr g [cm/s^2] they make */
   char dissip[128];        /* the dissipation in words ("" for a conservative model) */
-  const char *law;         /* "viscous", "rolling" or "viscous+rolling" (NULL: conservative) */
+  const char *law;         /* "viscous", "rolling", "noise" joined by "+" (NULL: conservative) */
+  int noisy;               /* noise or temperature > 0: the Monte Carlo integrates the noisy model */
+  double noise, temperature;   /* its noise D [(cm/s)^2/s] and temperature [(cm/s)^2] */
 } tubes_run_t;
 
 /* Fill the model, the box and the saddle of run from run->cfg; resolves &orbits saddle_near to

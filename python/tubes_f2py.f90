@@ -362,7 +362,7 @@ subroutine reference_solution(params, x0, t_end, tol, stat, x_end, nsteps, nfev)
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_reference, only: ref => reference_solution
   implicit none
-  real(c_double), intent(in) :: params(8), x0(4), t_end, tol
+  real(c_double), intent(in) :: params(10), x0(4), t_end, tol
   integer(c_int), intent(out) :: stat
   real(c_double), intent(out) :: x_end(4)
   integer(c_int64_t), intent(out) :: nsteps, nfev
@@ -923,7 +923,8 @@ end subroutine experiment_samples
 
 subroutine transition_region(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
                              gate, t_max, area_tol, n_init, n_scan, xtol, method, h, omega_bind, solver, &
-                             int_max_iter, nout, mcurve, stores, stat, n, phi, rho, s, p, t_in, m, cs, cp, res, counts)
+                             int_max_iter, nout, mcurve, noiseless, stores, stat, n, phi, rho, s, p, t_in, m, cs, cp, &
+                             res, counts)
   ! the transition region at de of the model with its dissipation (as the transition scene of a
   ! dissipative model): the section points that pass the saddle's gate before they return. n_init
   ! (rays), n_scan (scan grid) and xtol (bisection): 0 for the program's (tubes_region's) defaults
@@ -935,7 +936,7 @@ subroutine transition_region(system, params, lo, hi, n_grid, saddle, sec_kind, s
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, n_init, n_scan, method, solver, &
-                                int_max_iter, nout, mcurve
+                                int_max_iter, nout, mcurve, noiseless
   real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, gate, t_max, area_tol, xtol, h, omega_bind
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: stat, n, m, counts(8)
@@ -955,7 +956,7 @@ subroutine transition_region(system, params, lo, hi, n_grid, saddle, sec_kind, s
   call region_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
                          integ=integ_of(method, h, omega_bind, solver, int_max_iter)), &
                  section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, gate, o, reg, info, &
-                 stat, kept)
+                 stat, kept, noiseless /= 0)
   call region_outputs(reg, n, phi, rho, s, p, t_in, m, cs, cp)
   call region_numbers(reg, info, res, counts)
 end subroutine transition_region

@@ -28,7 +28,7 @@ int main(void) {
     int st = tubes_model_info(sys, &ndof, &np, pn, model, pu, pd, sum, lu, box, boxc, sad, near, sk, &si, &sv,
                               &sd, &sa, &gate, surf);
     check("model info status", st == TUBES_OK, st, 0);
-    check("rolling_ball has 7 parameters, 2 dof", np == 7 && ndof == 2, np, 7);
+    check("rolling_ball has TUBES_NMODEL parameters, 2 dof", np == TUBES_NMODEL && ndof == 2, np, TUBES_NMODEL);
     check("rolling_ball: alpha first, the paper's 0.07", !strcmp(pn, "alpha") && model[0] == 0.07, model[0], 0.07);
     check("rolling_ball: default saddle S12", !strcmp(sad, "S12"), 0, 0);
     double junk[TUBES_MAXPARAM];
@@ -131,7 +131,8 @@ int main(void) {
       {TUBES_EPASTEND, "past the end"}, {TUBES_ENARROW, "NHIM's reach"}, {TUBES_ENOJET, "no kernel"},
       {TUBES_EDIRECTION, "other direction first"}, {TUBES_EUNRESOLVED, "below what the energy resolves"},
       {TUBES_ENOREGION, "no bounded region"}, {TUBES_ESHAPE, "star-shaped"},
-      {TUBES_EUNDECIDED, "neither passed the gate"}, {TUBES_EDISSIPATIVE, "dissipative"}};
+      {TUBES_EUNDECIDED, "neither passed the gate"}, {TUBES_EDISSIPATIVE, "dissipative"},
+      {TUBES_ENOISE, "carries noise"}};
   char msg[TUBES_LSTATUS];
   for (size_t i = 0; i < sizeof codes / sizeof codes[0]; i++) {
     tubes_status_message(codes[i].code, msg, sizeof msg);

@@ -345,3 +345,68 @@ def test_the_rolling_region_is_the_brute_force_count(tmp_path):
         se = math.sqrt(p[k] * (1 - p[k]) / 10000)
         print(f"rolling dE {de:g}: program {p[k]:.6f}, brute force {fb:.5f} ({(fb - p[k]) / se:+.2f} se)")
         assert abs(fb - p[k]) <= 4 * se and p[k] < pc[k]
+
+
+# ---------------------------------------------------------------- noise
+
+def _mc(tmp_path, name, model, threads=2, n=4000, seed=12345):
+    (tmp_path / f"{name}.nml").write_text(f"&run scenes = 'montecarlo' /\n&model {model} /\n"
+                                          f"&montecarlo de = 100, n_samples = {n}, seed = {seed} /\n")
+    r = run_tubes([f"{name}.nml", "-o", f"{name}.h5"], tmp_path, threads=threads)
+    assert r.returncode == 0, r.stderr
+    with h5py.File(tmp_path / f"{name}.h5") as f:
+        g = f["montecarlo"]
+        return {k: g.attrs[k] for k in g.attrs} | {"transit": g["transit"][()]}, r.stdout
+
+
+def test_p_trans_under_noise_tends_to_the_deterministic_value(tmp_path):
+    """Must show: the Monte Carlo under noise D -> 0 gives the noise-free region's p_trans (D = 1e-4:
+    within 4 standard errors, a handful of points on the other side of its boundary), and noise
+    that matters moves it (D = 1e4 (cm/s)^2/s: more than 5 standard errors). The file says the
+    noise, and that there is no deterministic prediction."""
+    small, out = _mc(tmp_path, "small", "damping_ratio = 0.014, noise = 1e-4")
+    assert "under noise" in out and small["noise"] == 1e-4 and small["agrees"] == 1
+    p, f, n = small["p_trans"], small["fraction"], small["n_samples"]
+    se = math.sqrt(p * (1 - p) / n)
+    assert abs(f - p) <= 4 * se and small["misclassified"] <= 10, (f, p, small["misclassified"])
+    big, _ = _mc(tmp_path, "big", "damping_ratio = 0.014, noise = 1e4")
+    assert big["p_trans"] == p and (big["fraction"] - p) / se > 5
+
+
+def test_noise_is_reproducible_for_a_seed_on_any_number_of_threads(tmp_path):
+    """Deterministic: the same seed gives the same fate of every point on 1 and 2 threads; another
+    seed other noise; Python's monte_carlo the program's, bit for bit."""
+    a, _ = _mc(tmp_path, "a", "damping_ratio = 0.014, noise = 100", threads=1, n=1000)
+    b, _ = _mc(tmp_path, "b", "damping_ratio = 0.014, noise = 100", threads=2, n=1000)
+    c, _ = _mc(tmp_path, "c", "damping_ratio = 0.014, noise = 100", threads=2, n=1000, seed=777)
+    assert np.array_equal(a["transit"], b["transit"]) and a["fraction"] == b["fraction"]
+    assert c["fraction"] != a["fraction"] or not np.array_equal(c["transit"], a["transit"])
+    py = tubes.Model(damping_ratio=0.014, noise=100.0).monte_carlo(dE=100.0, n_samples=1000)
+    assert np.array_equal(py["transit"], a["transit"]) and py["dissipation"] == "viscous+noise"
+
+
+def test_the_fluctuation_dissipation_relation_gives_equipartition():
+    """temperature theta with damping: the noise 2 c theta A^-1 (A = d2H/dp2 = (5/7) M^-1 for the
+    ball) makes exp(-H/theta) stationary, so <T> = N theta / 2 = theta in 2 DOF whatever the
+    position. 1500 s in the well W1 at theta = 200 (cm/s)^2, zeta = 0.2: the time average within 4
+    standard errors of block means (100 blocks, the first tenth dropped). Isotropic noise 2 c theta I
+    would give (5/7) theta = 143."""
+    m = tubes.Model(damping_ratio=0.2, temperature=200.0)
+    eq = tubes.equilibria(m)
+    q = eq["q"][list(eq["name"]).index("W1")]
+    tr = tubes.integrate([q[0], q[1], 0.0, 0.0], 1500.0, dt_out=0.05, model=m)
+    T = (tr["energy"] - tubes.potentials(tr["state"][:, :2], m))[len(tr["t"]) // 10:]
+    blocks = T[:len(T) // 100 * 100].reshape(100, -1).mean(1)
+    assert abs(T.mean() - 200.0) <= 4 * blocks.std() / 10, (T.mean(), blocks.std() / 10)
+
+
+@pytest.mark.parametrize("text,words", [
+    ("temperature = 10 /", "needs damping_ratio > 0"),
+    ("damping_ratio = 0.01, noise = 1, temperature = 10 /", "give one"),
+    ("noise = -1 /", "noise = -1"),
+])
+def test_the_reader_refuses_noise_that_makes_no_sense(tmp_path, text, words):
+    (tmp_path / "n.nml").write_text(f"&run scenes = 'montecarlo' /\n&model {text}\n")
+    r = run_tubes(["n.nml", "-o", "n.h5"], tmp_path)
+    assert r.returncode == 1 and words in r.stderr and "n.nml:2" in r.stderr, r.stderr
+    assert not (tmp_path / "n.h5").exists()

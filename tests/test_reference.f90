@@ -20,11 +20,11 @@ program test_reference
   integer, parameter :: NSX = 16
   real(qp), parameter :: EPSQ = epsilon(1.0_qp)
   ! the paper's parameters as the double values every double run uses (tubes_models)
-  real(wp), parameter :: PARAMS(8) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, &
-                                      981.0_wp, 0.0_wp, 0.0_wp]
+  real(wp), parameter :: PARAMS(10) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, &
+                                       981.0_wp, 0.0_wp, 0.0_wp, 0.0_wp, 0.0_wp]
 
   real(qp) :: a(NSX, NSX), e3(QP_NS + 1), e5(QP_NS + 1), cq(NSX), b(QP_NS + 1), res, scale
-  real(qp) :: xq(2), x4(4), f4(4), fd(4), xp(4), hq, e0, xs(4, 5), tq, pq(8)
+  real(qp) :: xq(2), x4(4), f4(4), fd(4), xp(4), hq, e0, xs(4, 5), tq, pq(10)
   real(qp) :: tols(5), ratio
   real(wp) :: xd(4), xr(4), xr2(4), f_d(4), err12, err14, est, tol_d, xdd(4, 2), x_wp(4)
   real(wp) :: bw(QP_NS + 1)

@@ -19,8 +19,8 @@ program test_taylor
   use tubes_reference, only: reference_solution
   use tubes_variational, only: variational_t, make_variational, stm_start
   implicit none
-  real(wp), parameter :: PAPER(8) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, 981.0_wp, 0.0_wp, &
-                                     0.0_wp]
+  real(wp), parameter :: PAPER(10) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, 981.0_wp, 0.0_wp, &
+                                      0.0_wp, 0.0_wp, 0.0_wp]
 
   call roots()
   call oscillator_order()
@@ -178,7 +178,7 @@ contains
     integer :: stat, k
     integer(i8) :: ns
     params = 0
-    params(1:8) = PAPER
+    params(1:10) = PAPER
     call make_model('rolling_ball', params, ball, stat)
     call check_eq('ball: model', stat, TUBES_OK)
     call reference_solution(PAPER, X0_BALL, 1.0_wp, 1.0e-24_wp, ref, stat, nsteps=ns)
@@ -233,7 +233,7 @@ contains
       params = 0
       select case (k)
       case (1, 7)
-        params(1:8) = PAPER
+        params(1:10) = PAPER
         if (k == 7) params(7) = 0.05_wp
         x0(1:4) = [4.0_wp, 11.0_wp, 5.0_wp, -3.0_wp]
       case (2)
@@ -277,7 +277,7 @@ contains
     real(wp) :: params(MAX_PARAMS), zt(20), zd(20)
     integer :: stat
     params = 0
-    params(1:8) = PAPER
+    params(1:10) = PAPER
     call make_model('rolling_ball', params, ball, stat)
     call make_variational(var, ball)
     zt = stm_start([-0.3_wp, 6.1_wp, 3.0_wp, 1.0_wp])

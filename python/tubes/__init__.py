@@ -998,34 +998,32 @@ def _dissipation(model: Model) -> dict:
     """The model's dissipation as the scenes record it (src/io/tubes_scenes.c dissipation_attrs):
     {} for a conservative model, else dissipation (the law: viscous, rolling, viscous+rolling) and
     damping_ratio and rolling_resistance where they act (docs/dissipation.md)."""
-    z = float(model.parameters.get("damping_ratio", 0.0))
-    r = float(model.parameters.get("rolling_resistance", 0.0))
-    if not (z > 0 or r > 0):
+    par = {k: float(model.parameters.get(k, 0.0)) for k in ("damping_ratio", "rolling_resistance", "noise",
+                                                             "temperature")}
+    laws = [law for law, on in (("viscous", par["damping_ratio"] > 0), ("rolling", par["rolling_resistance"] > 0),
+                                ("noise", par["noise"] > 0 or par["temperature"] > 0)) if on]
+    if not laws:
         return {}
-    out = {"dissipation": "viscous+rolling" if z > 0 and r > 0 else "viscous" if z > 0 else "rolling"}
-    if z > 0:
-        out["damping_ratio"] = z
-    if r > 0:
-        out["rolling_resistance"] = r
-    return out
+    return {"dissipation": "+".join(laws), **{k: v for k, v in par.items() if v > 0}}
 
 
 def conservative(model: Model) -> Model:
     """The model without its dissipation (damping_ratio and rolling_resistance 0): the one whose
     orbits and tubes a dissipative run's orbits and tubes scenes compute."""
-    off = {k: 0.0 for k in ("damping_ratio", "rolling_resistance") if k in model.parameters}
+    off = {k: 0.0 for k in ("damping_ratio", "rolling_resistance", "noise", "temperature") if k in model.parameters}
     return model.replace(**off) if off else model
 
 
 _REGION_NOUT, _REGION_CURVE = 4096, 4096
 
 
-def _region(model, st, de, area_tol, n_init=0, n_scan=0, xtol=0.0):
-    """The core's transition region at de (tubes_study region_at) with the settings st."""
+def _region(model, st, de, area_tol, n_init=0, n_scan=0, xtol=0.0, noiseless=False):
+    """The core's transition region at de (tubes_study region_at) with the settings st (noiseless: the
+    region of the model without its noise, the Monte Carlo's D -> 0 limit)."""
     (stat, n, phi, rho, s, p, t_in, m, cs, cp, res, counts) = _lib().transition_region(
         *_study(model, st), *_section_args(st), float(de), float(st["mc_gate"]), float(st["mc_t_max"]),
         float(area_tol), int(n_init), int(n_scan), float(xtol), *_integ(st, model), _REGION_NOUT, _REGION_CURVE,
-        model._stores())
+        int(bool(noiseless)), model._stores())
     empty = bool(counts[6])
     out = {"dE": float(de), "status": int(stat), "empty": empty, "area": 0.0 if empty else float(res[0]),
            "area_polygon": float(res[1]), "A_E": float(res[7]), "centre": res[2:4].copy(), "scale": res[4:6].copy(),
@@ -1244,15 +1242,16 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     diss = _dissipation(model)
     damped = {}
     cut_r, cut_p, area = c["r"], c["p_r"], c["area"]
-    if diss:        # the dissipative model's prediction: its transition region (the scene's)
-        reg = _region(model, st, de, float(st["mc_area_tol"]))
+    noisy = "noise" in diss.get("dissipation", "")
+    if diss:        # the dissipative model's prediction: its transition region (the scene's; noise-free)
+        reg = _region(model, st, de, float(st["mc_area_tol"]), noiseless=True)
         if reg["status"] < 0:
             err = TubesError(reg["status"], f"monte_carlo(dE = {de:g}): the transition region")
             err.partial = reg
             raise err
         cut_r, cut_p, area = reg["curve_r"], reg["curve_p_r"], reg["area"]
-        damped = {**diss, "damping_rate": reg["damping_rate"],
-                  "p_trans_conservative": c["area"] / ae, "predicted_by": "region"}
+        damped = {**diss, "damping_rate": reg["damping_rate"], "p_trans_conservative": c["area"] / ae,
+                  "predicted_by": "none (noise): p_trans is the noise-free region's" if noisy else "region"}
     stat, r, pr, outc, ins = _lib().monte_carlo(*_study(model, st), *_section_args(st), de,
                                                 ns, seed, float(st["mc_t_max"]),
                                                 float(st["mc_gate"]), *_integ(st, model), cut_r, cut_p,
@@ -1277,6 +1276,8 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
            "misclassified_outside_transit": out_t, "undecided": nu, "escaped": int(np.sum(outc == 3)),
            **_mc_agreement(ns, nt, nu, in_nt + out_t, p),
            "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins}
+    if noisy:       # no deterministic prediction to hold it to (as the scene): the undecided count alone
+        out["agrees"] = nu <= out["undecided_limit"]
     if check and not out["agrees"]:
         raise DisagreementError(
             f"monte_carlo: the direct check disagrees with the tube at dE = {de:g}: fraction {f:.5f} +- "
@@ -1347,6 +1348,7 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
     par = np.array(model.params(), dtype=np.float64)
     par[6] = float(st["exp_damping_ratio"])
     par[7] = float(st["exp_rolling_resistance"])
+    par[8] = par[9] = 0.0     # no noise: the experiment's ball has its own dissipation alone (the scene's)
     (stat, t, state, energy, noisy, meas, rel, c_damp, n_draws, box, rtol) = _lib().synthetic_experiment(
         par, e_e, nt, float(st["exp_duration"]), float(st["exp_camera_rate"]), float(st["exp_pixel"]),
         float(st["exp_noise"]), float(st["exp_de_min"]), float(st["exp_de_max"]), int(st["exp_seed"]),
@@ -1616,7 +1618,7 @@ def reference_solution(state0, t_end: float, tol: float = 1e-26, model: Model | 
         raise ValueError("reference_solution: the real128 reference exists for rolling_ball only")
     if model.damping_ratio != 0:
         raise ValueError("reference_solution: conservative model only")
-    stat, x, _, _ = _lib().reference_solution(model.params()[:8], _vec(state0, 4, "state0"),
+    stat, x, _, _ = _lib().reference_solution(model.params()[:10], _vec(state0, 4, "state0"),
                                               float(t_end), float(tol))
     _check(stat, "reference_solution")
     return np.asarray(x)

@@ -25,15 +25,16 @@ module tubes_status
   integer, parameter, public :: TUBES_ESHAPE = -16       !! the transition region is not one star-shaped piece
   integer, parameter, public :: TUBES_EUNDECIDED = -17   !! a point neither transited nor returned within t_max
   integer, parameter, public :: TUBES_EDISSIPATIVE = -18 !! a conservative-only scene asked of a dissipative model
+  integer, parameter, public :: TUBES_ENOISE = -19       !! a deterministic computation asked of a noisy model
   !> The codes' names (TUBES_<name>), for the languages that look them up by name (Python).
-  character(len=*), parameter :: STATUS_NAMES(20) = [character(len=12) :: 'OK', 'EVENT', 'EINPUT', &
+  character(len=*), parameter :: STATUS_NAMES(21) = [character(len=12) :: 'OK', 'EVENT', 'EINPUT', &
       'EMAXSTEPS', 'ESTEP', 'EMODEL', 'EIO', 'ENOCONV', 'EFAULT', 'EOUTSIDE', 'ENOCROSS', 'EPASTEND', &
       'ENARROW', 'ENOJET', 'EDIRECTION', 'EUNRESOLVED', 'ENOREGION', 'ESHAPE', 'EUNDECIDED', &
-      'EDISSIPATIVE']
-  integer, parameter :: STATUS_CODES(20) = [TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, &
+      'EDISSIPATIVE', 'ENOISE']
+  integer, parameter :: STATUS_CODES(21) = [TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, &
       TUBES_ESTEP, TUBES_EMODEL, TUBES_EIO, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENOCROSS, &
       TUBES_EPASTEND, TUBES_ENARROW, TUBES_ENOJET, TUBES_EDIRECTION, TUBES_EUNRESOLVED, TUBES_ENOREGION, &
-      TUBES_ESHAPE, TUBES_EUNDECIDED, TUBES_EDISSIPATIVE]
+      TUBES_ESHAPE, TUBES_EUNDECIDED, TUBES_EDISSIPATIVE, TUBES_ENOISE]
   integer, parameter, public :: STATUS_UNKNOWN = 1000   !! status_code's answer for no such name
   public :: status_message, callback_status, status_code
 contains
@@ -93,6 +94,9 @@ contains
                                   'and this computation is ' // &
                                   'conservative only (the flux through the NHIM needs a Hamiltonian flow): ' // &
                                   'damping_ratio = 0, or the transition and montecarlo scenes (docs/dissipation.md)'
+    case (TUBES_ENOISE);    msg = 'the model carries noise (noise or temperature > 0) and this computation is ' // &
+                                  'deterministic (a transition region, a Poincare map): with noise the ' // &
+                                  'montecarlo scene gives p_trans (docs/dissipation.md)'
     case default;           msg = 'unknown status code'
     end select
   end function status_message

@@ -555,10 +555,10 @@ contains
   !> The transition region at de of the model with its dissipation (include/tubes.h).
   integer(c_int) function c_transition_region(system, params, lo, hi, n_grid, saddle, de, sec_kind, sec_index, &
       level, dir, gate, t_max, area_tol, method, h, omega_bind, solver, max_iter, nout, mcurve, n, phi, rho, s, p, &
-      t_in, m, cs, cp, res, counts, local, stores) result(stat) bind(C, name='tubes_transition_region')
+      t_in, m, cs, cp, res, counts, local, noiseless, stores) result(stat) bind(C, name='tubes_transition_region')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, method, solver, max_iter, nout, mcurve, local
+    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, method, solver, max_iter, nout, mcurve, local, noiseless
     real(c_double), value :: de, level, gate, t_max, area_tol, h, omega_bind
     integer(c_int), intent(out) :: n, m, counts(8)
     real(c_double), intent(out) :: phi(nout), rho(nout), s(nout), p(nout), t_in(nout), cs(mcurve), cp(mcurve), &
@@ -575,7 +575,7 @@ contains
     kept => stores_of(stores)
     o = region_opts_t(area_tol=area_tol, t_max=t_max, local=local /= 0)
     o%n_max = min(o%n_max, nout)
-    call region_at(st, sec, de, gate, o, reg, info, stat, kept)
+    call region_at(st, sec, de, gate, o, reg, info, stat, kept, noiseless /= 0)
     call region_outputs(reg, n, phi, rho, s, p, t_in, m, cs, cp)
     call region_numbers(reg, info, res, counts)
   end function c_transition_region

@@ -11,6 +11,8 @@ module tubes_methods
   use tubes_gsl, only: gsl_t
   use tubes_sundials, only: cvode_t, arkode_t
   use tubes_taylor, only: taylor_t
+  use tubes_sde, only: sde_t
+  use tubes_hamiltonian, only: damped_t
   use tubes_status, only: TUBES_OK, TUBES_EINPUT
   implicit none
   private
@@ -48,7 +50,7 @@ module tubes_methods
     type(method_opts_t) :: opts           !! method options
   end type integ_choice_t
 
-  public :: new_integrator, is_fixed_step, make_integrator, uses_taylor
+  public :: new_integrator, is_fixed_step, make_integrator, uses_taylor, noisy, noise_stream
 
 contains
 
@@ -106,7 +108,9 @@ contains
   end function uses_taylor
 
   !> Allocate the integrator of a choice, its fixed step set. extended: it integrates an extended
-  !> state (variational equations, action), where METHOD_AUTO means DOP853.
+  !> state (variational equations, action), where METHOD_AUTO means DOP853. A noisy field (damped_t
+  !> with noise) is integrated by the stochastic method (tubes_sde) whatever the choice, with step
+  !> choice%h if > 0, else the field's h_noise; stream: its trajectory's number (noise_stream).
   subroutine make_integrator(choice, ig, stat, extended, f, rtol, atol)
     type(integ_choice_t), intent(in) :: choice
     class(integrator_t), allocatable, intent(out) :: ig
@@ -115,6 +119,18 @@ contains
     class(vector_field_t), intent(in), optional :: f   !! the field, the integration starting at t = 0
     real(wp), intent(in), optional :: rtol, atol       !! the analysis's tolerances
     integer :: m
+    if (present(f) .and. noisy(f)) then
+      select type (f)
+      type is (damped_t)
+        allocate (sde_t :: ig)
+        ig%h = merge(choice%h, f%h_noise, choice%h > 0)
+        stat = TUBES_EINPUT
+        if (.not. ig%h > 0) return
+        call ig%init(f, 0.0_wp)
+        stat = TUBES_OK
+      end select
+      return
+    end if
     m = choice%method
     if (m == METHOD_AUTO .and. present(extended)) then
       if (extended) m = METHOD_DOP853
@@ -133,4 +149,24 @@ contains
     if (present(rtol)) ig%rtol = rtol
     if (present(atol)) ig%atol = atol
   end subroutine make_integrator
+
+  !> Is f a noisy field (integrated by the stochastic method; not in the Taylor method's lanes)?
+  pure logical function noisy(f)
+    class(vector_field_t), intent(in) :: f
+    noisy = .false.
+    select type (f)
+    type is (damped_t)
+      noisy = f%noisy()
+    end select
+  end function noisy
+
+  !> Set the stochastic integrator's trajectory number (its noise stream); others: nothing.
+  subroutine noise_stream(ig, k)
+    class(integrator_t), intent(inout) :: ig
+    integer, intent(in) :: k
+    select type (ig)
+    class is (sde_t)
+      ig%stream = k
+    end select
+  end subroutine noise_stream
 end module tubes_methods

@@ -12,7 +12,7 @@ module tubes_reference
   implicit none
   private
 
-  integer, parameter :: NMODEL = 8                    ! = tubes_models NMODEL
+  integer, parameter :: NMODEL = 10                   ! = tubes_models NMODEL
   integer, parameter :: rk = qp   ! the kind of the kind-generic sources included below
   real(qp), parameter :: ROLL = 5.0_qp/7.0_qp   ! tubes_ball's ROLL in real128 (5/7, a solid sphere)
   !> Smallest tolerance accepted: 50 ulps of real128 (below it roundoff dominates the steps).
@@ -71,14 +71,14 @@ contains
     call ball_rhs_of(gr, hs, self%g, x, dxdt, stat)
   end subroutine ball_qp_eval
 
-  !> The real128 ball of a parameter vector [alpha, beta, gamma, xi, h0, g, zeta, C_rr] (zeta and
-  !> C_rr must be 0: conservative only; gamma > 0, g > 0).
+  !> The real128 ball of a parameter vector [alpha, beta, gamma, xi, h0, g, zeta, C_rr, noise,
+  !> temperature] (the last four must be 0: conservative only; gamma > 0, g > 0).
   subroutine ball_qp_from_params(params, ball, stat)
     real(qp), intent(in) :: params(NMODEL)
     type(ball_qp_t), intent(out) :: ball
     integer, intent(out) :: stat
     stat = TUBES_OK
-    if (.not. (params(3) > 0 .and. params(6) > 0 .and. params(7) == 0 .and. params(8) == 0)) then
+    if (.not. (params(3) > 0 .and. params(6) > 0 .and. all(params(7:10) == 0))) then
       stat = TUBES_EINPUT
       return
     end if

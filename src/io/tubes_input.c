@@ -57,6 +57,10 @@ const nml_var tubes_nml_vars[] = {
      "rolling_ball: viscous damping ratio zeta of the lowest well's slow mode (0 = conservative)"},
     {"model", "rolling_resistance", NML_REAL, 1, "1", "0", "0 <= C_rr < 1",
      "rolling_ball: rolling resistance coefficient C_rr, a drag C_rr g opposing the velocity (0 = none)"},
+    {"model", "noise", NML_REAL, 1, "(cm/s)^2/s", "0", ">= 0; not with temperature",
+     "rolling_ball: white noise D on the momenta, dp = ... + sqrt(2 D) dW (0 = none; docs/dissipation.md)"},
+    {"model", "temperature", NML_REAL, 1, "(cm/s)^2", "0", ">= 0; needs damping_ratio > 0",
+     "rolling_ball: noise by fluctuation-dissipation, covariance 2 c theta A^-1 (0 = none)"},
     {"model", "m_a", NML_REAL, 1, "1", "8 (de_leon_berne), 1 (coupled_quartic)", "> 0",
      "de_leon_berne, coupled_quartic: mass of the x mode"},
     {"model", "m_b", NML_REAL, 1, "1", "8 (de_leon_berne), 1 (coupled_quartic)", "> 0",
@@ -710,6 +714,28 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
     if (!(c->rolling_resistance >= 0 && c->rolling_resistance < 1))
       n += bad(path, c, w, "model", "rolling_resistance", err, "", c->rolling_resistance);
     if (n) return n;
+  }
+  for (int k = 0, kz = -1, kn = -1, kt = -1; k <= np; k++) {   /* noise (any ball: built-in or formula surface) */
+    const char *nm = k < np ? names + TUBES_LPARAM * k : "";
+    if (!strcmp(nm, "damping_ratio")) kz = k;
+    if (!strcmp(nm, "noise")) kn = k;
+    if (!strcmp(nm, "temperature")) kt = k;
+    if (k < np) continue;
+    if (kn >= 0 && !(c->params[kn] >= 0)) n += bad(path, c, w, "model", "noise", err, "", c->params[kn]);
+    if (kt >= 0 && !(c->params[kt] >= 0)) n += bad(path, c, w, "model", "temperature", err, "", c->params[kt]);
+    if (n) return n;
+    if (kn >= 0 && kt >= 0 && c->params[kn] > 0 && c->params[kt] > 0) {
+      fprintf(err, "%s:%d: &model: noise = %g and temperature = %g: give one (noise: its strength D; temperature: the "
+              "noise the fluctuation-dissipation relation gives with damping_ratio)\n", path,
+              line_or_group(w, "model", "temperature"), c->params[kn], c->params[kt]);
+      return 1;
+    }
+    if (kt >= 0 && c->params[kt] > 0 && !(kz >= 0 && c->params[kz] > 0)) {
+      fprintf(err, "%s:%d: &model: temperature = %g needs damping_ratio > 0: the fluctuation-dissipation relation's "
+              "noise is 2 c theta A^-1 with c the viscous rate (or give noise = D instead)\n", path,
+              line_or_group(w, "model", "temperature"), c->params[kt]);
+      return 1;
+    }
   }
   for (int k = 0; k < np && formula; k++) {   /* a ball on a formula's surface: g, damping_ratio */
     const char *nm = names + TUBES_LPARAM * k;

@@ -24,7 +24,7 @@ module tubes_nml
   type, bind(C), public :: tubes_config_t
     character(kind=c_char) :: scenes(LSCENE, NSCENES)
     character(kind=c_char) :: output(LPATH)
-    real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance
+    real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, noise_d, temperature
     real(c_double) :: box
     integer(c_int) :: n_grid
     character(kind=c_char) :: saddle(8)
@@ -92,7 +92,7 @@ module tubes_nml
     character(LSCENE) :: scenes(NSCENES) = ''   !! scenes(1) = 'equilibria': set_defaults
     character(LPATH) :: output = 'tubes.h5'
     real(c_double) :: alpha = UNSET, beta = UNSET, gamma = UNSET, xi = UNSET, h0 = UNSET, g = UNSET, &
-                      damping_ratio = UNSET, rolling_resistance = UNSET
+                      damping_ratio = UNSET, rolling_resistance = UNSET, noise_d = UNSET, temperature = UNSET
     real(c_double) :: box = 0
     integer :: n_grid = 41
     character(8) :: saddle = ''
@@ -244,6 +244,8 @@ contains
     case ('g'); x = v%g
     case ('damping_ratio'); x = v%damping_ratio
     case ('rolling_resistance'); x = v%rolling_resistance
+    case ('noise'); x = v%noise_d
+    case ('temperature'); x = v%temperature
     case ('m_a'); x = v%m_a
     case ('m_b'); x = v%m_b
     case ('d'); x = v%d
@@ -267,6 +269,8 @@ contains
     v%alpha = UNSET; v%beta = UNSET; v%gamma = UNSET; v%xi = UNSET; v%h0 = UNSET; v%g = UNSET
     v%damping_ratio = UNSET
     v%rolling_resistance = UNSET
+    v%noise_d = UNSET
+    v%temperature = UNSET
     v%m_a = UNSET; v%m_b = UNSET; v%d = UNSET; v%lambda = UNSET; v%zeta = UNSET; v%eps_s = UNSET
     v%omega = UNSET; v%eps = UNSET; v%mu = UNSET
     call system_info(trim(c_to_f(cfg%model)), info, st)
@@ -281,6 +285,8 @@ contains
       case ('g'); v%g = cfg%params(k)
       case ('damping_ratio'); v%damping_ratio = cfg%params(k)
       case ('rolling_resistance'); v%rolling_resistance = cfg%params(k)
+      case ('noise'); v%noise_d = cfg%params(k)
+      case ('temperature'); v%temperature = cfg%params(k)
       case ('m_a'); v%m_a = cfg%params(k)
       case ('m_b'); v%m_b = cfg%params(k)
       case ('d'); v%d = cfg%params(k)
@@ -316,6 +322,8 @@ contains
     cfg%alpha = v%alpha; cfg%beta = v%beta; cfg%gamma = v%gamma; cfg%xi = v%xi
     cfg%h0 = v%h0; cfg%g = v%g; cfg%damping_ratio = v%damping_ratio
     cfg%rolling_resistance = v%rolling_resistance
+    cfg%noise_d = v%noise_d
+    cfg%temperature = v%temperature
     cfg%m_a = v%m_a; cfg%m_b = v%m_b; cfg%d = v%d; cfg%lambda = v%lambda; cfg%zeta = v%zeta
     cfg%eps_s = v%eps_s; cfg%omega = v%omega; cfg%eps = v%eps; cfg%mu = v%mu
     cfg%box_list = v%box_list
@@ -357,9 +365,13 @@ contains
       cfg%xi = cfg%params(4); cfg%h0 = cfg%params(5); cfg%g = cfg%params(6)
       cfg%damping_ratio = cfg%params(7)
       cfg%rolling_resistance = cfg%params(8)
+      cfg%noise_d = cfg%params(9)
+      cfg%temperature = cfg%params(10)
     else
       cfg%damping_ratio = 0
       cfg%rolling_resistance = 0
+      cfg%noise_d = 0
+      cfg%temperature = 0
     end if
     ! the box: one value = every coordinate; box(k) alone sets coordinate k
     half = info%box
@@ -502,6 +514,8 @@ contains
     v%alpha = cfg%alpha; v%beta = cfg%beta; v%gamma = cfg%gamma; v%xi = cfg%xi
     v%h0 = cfg%h0; v%g = cfg%g; v%damping_ratio = cfg%damping_ratio
     v%rolling_resistance = cfg%rolling_resistance
+    v%noise_d = cfg%noise_d
+    v%temperature = cfg%temperature
     v%m_a = cfg%m_a; v%m_b = cfg%m_b; v%d = cfg%d; v%lambda = cfg%lambda; v%zeta = cfg%zeta
     v%eps_s = cfg%eps_s; v%omega = cfg%omega; v%eps = cfg%eps; v%mu = cfg%mu
     v%box = cfg%box; v%n_grid = cfg%n_grid
@@ -631,13 +645,14 @@ contains
     end subroutine io_run
     subroutine io_model()
       character(LNAME) :: system, surface
-      real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, m_a, m_b, d, &
-                        lambda, zeta, eps_s, omega, eps, mu
+      real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, noise, temperature, &
+                        m_a, m_b, d, lambda, zeta, eps_s, omega, eps, mu
       logical :: spatial
       character(LEXPR) :: hamiltonian, height
       character(LSYM) :: coordinates(MAX_DOF), momenta(MAX_DOF)
       character(LCONST) :: constants(MAXCONST)
-      namelist /model/ system, alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, m_a, m_b, d, lambda, &
+      namelist /model/ system, alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, noise, temperature, &
+        m_a, m_b, d, lambda, &
         zeta, eps_s, omega, eps, mu, hamiltonian, coordinates, momenta, constants, surface, height, spatial
       system = v%system
       spatial = v%spatial
@@ -646,6 +661,8 @@ contains
       alpha = v%alpha; beta = v%beta; gamma = v%gamma; xi = v%xi; h0 = v%h0; g = v%g
       damping_ratio = v%damping_ratio; m_a = v%m_a; m_b = v%m_b; d = v%d; lambda = v%lambda
       rolling_resistance = v%rolling_resistance
+      noise = v%noise_d
+      temperature = v%temperature
       zeta = v%zeta; eps_s = v%eps_s; omega = v%omega; eps = v%eps; mu = v%mu
       if (mode == 'r') then
         read (u, nml=model, iostat=ios, iomsg=iomsg)
@@ -654,6 +671,8 @@ contains
         v%alpha = alpha; v%beta = beta; v%gamma = gamma; v%xi = xi; v%h0 = h0; v%g = g
         v%damping_ratio = damping_ratio; v%m_a = m_a; v%m_b = m_b; v%d = d; v%lambda = lambda
         v%rolling_resistance = rolling_resistance
+        v%noise_d = noise
+        v%temperature = temperature
         v%zeta = zeta; v%eps_s = eps_s; v%omega = omega; v%eps = eps; v%mu = mu
         v%hamiltonian = hamiltonian; v%height = height; v%surface = surface
         v%coordinates = coordinates; v%momenta = momenta; v%constants = constants

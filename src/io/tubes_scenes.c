@@ -58,6 +58,8 @@ static int dissipation_attrs(hid_t g, const tubes_run_t *run) {
     e |= h5_attr_double(g, "rolling_resistance", run->crr);
     e |= h5_attr_double(g, "rolling_drag", run->f_roll);
   }
+  if (run->noise > 0) e |= h5_attr_double(g, "noise", run->noise);
+  if (run->temperature > 0) e |= h5_attr_double(g, "temperature", run->temperature);
   return e;
 }
 
@@ -132,30 +134,42 @@ int scene_model(tubes_run_t *run) {
            "code generated (SymPy) and compiled in", c->expr_hit ? 1 : 2, c->expr_seconds * (c->expr_hit ? 1e3 : 1),
            c->expr_hit ? "ms" : "s", c->expr_lib);
   }
-  double zeta = 0, crr = 0;
+  double zeta = 0, crr = 0, dn = 0, theta = 0;
   for (int k = 0; k < np; k++) {
     if (!strcmp(names + TUBES_LPARAM * k, "damping_ratio")) zeta = run->params[k];
     if (!strcmp(names + TUBES_LPARAM * k, "rolling_resistance")) crr = run->params[k];
+    if (!strcmp(names + TUBES_LPARAM * k, "noise")) dn = run->params[k];
+    if (!strcmp(names + TUBES_LPARAM * k, "temperature")) theta = run->params[k];
   }
+  run->noisy = dn > 0 || theta > 0;
+  run->noise = dn;
+  run->temperature = theta;
   run->zeta = zeta;    /* the built-in ball's &model damping_ratio, or a formula surface's */
   run->crr = crr;
   run->c_damp = run->f_roll = 0;
   run->dissip[0] = 0;
   run->law = NULL;
-  if (zeta > 0 || crr > 0) {
+  if (zeta > 0 || crr > 0 || run->noisy) {
     int st = tubes_dissipation(run->system, run->params, &run->c_damp, &run->f_roll);
     if (st < 0) {
       fprintf(stderr, "tubes: model: cannot define the damping rate (no well found), status %d\n", st);
       H5Gclose(g);
       return EXIT_NUMERIC;
     }
-    run->law = zeta > 0 && crr > 0 ? "viscous+rolling" : zeta > 0 ? "viscous" : "rolling";
+    static char law[48];
+    snprintf(law, sizeof law, "%s%s%s%s%s", zeta > 0 ? "viscous" : "", zeta > 0 && crr > 0 ? "+" : "",
+             crr > 0 ? "rolling" : "", run->noisy && (zeta > 0 || crr > 0) ? "+" : "", run->noisy ? "noise" : "");
+    run->law = law;
     if (zeta > 0)
       snprintf(run->dissip, sizeof run->dissip, "damping_ratio = %g, c = %.6g%s", zeta, run->c_damp,
                in_units(" 1/s"));
     if (crr > 0)
       snprintf(run->dissip + strlen(run->dissip), sizeof run->dissip - strlen(run->dissip),
                "%srolling_resistance = %g, f = %.6g%s", zeta > 0 ? "; " : "", crr, run->f_roll, in_units(" cm/s^2"));
+    if (run->noisy)
+      snprintf(run->dissip + strlen(run->dissip), sizeof run->dissip - strlen(run->dissip), "%s%s = %g%s",
+               run->dissip[0] ? "; " : "", dn > 0 ? "noise" : "temperature", dn > 0 ? dn : theta,
+               dn > 0 ? in_units(" (cm/s)^2/s") : in_units(" (cm/s)^2"));
     if (zeta > 0) rc |= h5_attr_double(g, "damping_rate", run->c_damp);
     if (crr > 0) rc |= h5_attr_double(g, "rolling_drag", run->f_roll);
     rc |= h5_attr_string(g, "dissipation", run->law);
@@ -1094,12 +1108,13 @@ typedef struct {
       cs[REGION_CURVE], cp[REGION_CURVE];
 } region_out_t;
 
-static int region_run(const tubes_run_t *run, double de, double area_tol, int local, region_out_t *o) {
+static int region_run(const tubes_run_t *run, double de, double area_tol, int local, region_out_t *o,
+                      int noiseless) {
   const tubes_config_t *c = run->cfg;
   o->st = tubes_transition_region(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c),
                                   c->mc_gate, c->mc_t_max, area_tol, INTEGRATOR(c), REGION_NOUT, REGION_CURVE, &o->n,
                                   o->phi, o->rho, o->s, o->p, o->t_in, &o->m, o->cs, o->cp, o->res, o->counts, local,
-                                  run->seeds);
+                                  noiseless, run->seeds);
   return o->st;
 }
 
@@ -1111,6 +1126,9 @@ static void region_text(const tubes_run_t *run, double de, const region_out_t *o
     snprintf(buf, len, "tubes: the transition region at dE = %g: &montecarlo gate = %g%s lies within twice the "
              "reach of the NHIM across saddle %s's neck (raise gate; docs/input.md)", de, run->cfg->mc_gate,
              in_units(" cm"), run->saddle);
+  } else if (o->st < 0 && o->counts[0] == 0) {
+    status_text(o->st, m, sizeof m);
+    snprintf(buf, len, "tubes: the transition region at dE = %g failed: %s (status %d)", de, m, o->st);
   } else if (o->st < 0) {
     status_text(o->st, m, sizeof m);
     snprintf(buf, len, "tubes: the transition region at dE = %g failed: %s (status %d); %d scan points, %d transit, "
@@ -1131,7 +1149,7 @@ static int tubes_regions(tubes_run_t *run, hid_t g) {
   for (int k = 0; k < c->tub_nde; k++) {
     double de = c->tub_de[k], t0 = now();
     progress_item("tubes: the damped region at dE = %g (%d of %d)...\n", de, k + 1, c->tub_nde);
-    int st = region_run(run, de, c->tub_area_tol, 0, reg);
+    int st = region_run(run, de, c->tub_area_tol, 0, reg, 0);
     if (st < 0) {
       char m[1024];
       region_text(run, de, reg, m, sizeof m);
@@ -1299,7 +1317,7 @@ int scene_transition(tubes_run_t *run) {
     x->pt = (st < 0) ? NAN : x->at / x->ae;
     x->ar = x->pd = x->de_lo = x->de_hi = x->area_hi = NAN;
     if (damped) {            /* the dissipative model's region: p_trans is its fraction */
-      int rs = region_run(run, de, c->tra_area_tol, 1, reg);
+      int rs = region_run(run, de, c->tra_area_tol, 1, reg, 0);
       x->rstatus = rs;
       x->empty = reg->counts[6];
       x->nrays = reg->n;
@@ -1444,7 +1462,7 @@ int scene_montecarlo(tubes_run_t *run) {
     p_cons = ar / ae;
     fprintf(stderr, "montecarlo: the damped model's transition region at dE = %g...\n", de);
     if (!reg) st = TUBES_EINPUT;
-    else if (region_run(run, de, c->mc_area_tol, 0, reg) < 0) {
+    else if (region_run(run, de, c->mc_area_tol, 0, reg, 1) < 0) {
       char m[1024];
       region_text(run, de, reg, m, sizeof m);
       fprintf(stderr, "%s\n", m);
@@ -1519,7 +1537,15 @@ int scene_montecarlo(tubes_run_t *run) {
     double f = (double)nt / ns, se = sqrt(f * (1 - f) / ns), p = ar / ae, nsig, sig_lim;
     int mis_lim, und_lim, agrees;
     tubes_mc_agreement(ns, nt, nu, in_nt + out_t, p, &nsig, &sig_lim, &mis_lim, &und_lim, &agrees);
-    if (damped)
+    if (run->noisy) {   /* no deterministic prediction to hold it to: the fraction under noise, beside the
+                         * noise-free region's (its D -> 0 limit); only the undecided count is checked */
+      agrees = nu <= und_lim;
+      printf("montecarlo: the noisy model (%s), dE = %g, %d points: transition fraction %.5f +- %.5f under noise "
+             "(the noise-free region's p_trans = %.5f, %+.1f standard errors from it; conservative A_tube/A_E = %.5f); "
+             "%d points end otherwise than the noise-free region says; %d undecided%s (%.1f s)\n",
+             run->dissip, de, ns, f, se, p, se > 0 ? (f - p) / se : 0.0, p_cons, in_nt + out_t, nu,
+             nesc ? escaped_text(nesc) : "", now() - t0);
+    } else if (damped)
       printf("montecarlo: the dissipative model (%s), dE = %g, %d points: transition fraction "
              "%.5f +- %.5f (p_trans = A_region/A_E = %.5f, %.1f standard errors; conservative A_tube/A_E = %.5f); %d "
              "inside the region; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided%s (%.1f s)\n",
@@ -1535,7 +1561,7 @@ int scene_montecarlo(tubes_run_t *run) {
     if (damped) {
       e |= dissipation_attrs(g, run);
       e |= h5_attr_double(g, "p_trans_conservative", p_cons);
-      e |= h5_attr_string(g, "predicted_by", "region");
+      e |= h5_attr_string(g, "predicted_by", run->noisy ? "none (noise): p_trans is the noise-free region's" : "region");
     }
     e |= h5_attr_double(g, "fraction", f);
     e |= h5_attr_double(g, "std_error", se);
@@ -1549,7 +1575,11 @@ int scene_montecarlo(tubes_run_t *run) {
     e |= h5_attr_long(g, "agrees", agrees);
     if (g >= 0) H5Gclose(g);
     if (e) rc = EXIT_IO;
-    else if (!agrees) {
+    else if (!agrees && run->noisy) {
+      fprintf(stderr, "tubes: montecarlo: %d of %d points neither transited nor returned within t_max (limit %d): "
+              "raise &montecarlo t_max\n", nu, ns, und_lim);
+      rc = EXIT_NUMERIC;
+    } else if (!agrees) {
       fprintf(stderr, "tubes: montecarlo: the direct check disagrees with the tube at dE = %g: fraction %.5f +- %.5f "
               "against p_trans = %.5f (%.1f standard errors, limit %g); %d misclassified (limit %d); %d undecided "
               "(limit %d). The transit test, the section or the tube does not fit saddle %s: check &section and "
@@ -1648,6 +1678,7 @@ int scene_synthetic_experiment(tubes_run_t *run) {
   memcpy(model, run->params, sizeof model);
   model[6] = c->exp_damping_ratio;
   model[7] = c->exp_rolling_resistance;
+  model[8] = model[9] = 0;           /* no noise: the experiment's ball has its own dissipation alone */
   int ndraw = 0;
   fprintf(stderr, "synthetic_experiment: %d tracks of %g s at %g Hz...\n", nt, c->exp_duration, c->exp_camera_rate);
   st = tubes_synthetic_experiment(model, ee, nt, c->exp_duration, c->exp_camera_rate, c->exp_pixel, c->exp_noise,

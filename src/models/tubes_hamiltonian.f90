@@ -101,11 +101,20 @@ module tubes_hamiltonian
     real(wp) :: f = 0                           !! rolling drag [length/time^2] (0: none)
     real(wp) :: sigma = 1                       !! 1/m_eff of the path speed
     real(wp) :: v_reg = 0                       !! regularisation speed at rest [length/time]
+    !> white noise on the momenta, dp = ... dt + S(q) dW: S S^T = 2 noise I, or with temperature > 0
+    !> the fluctuation-dissipation relation S S^T = 2 c temperature A(q)^-1 (A = d2H/dp2); an
+    !> integrator of this field is then the stochastic one (tubes_sde)
+    real(wp) :: noise = 0                       !! D [momentum^2/time]
+    real(wp) :: temperature = 0                 !! theta [energy] (with c > 0)
+    real(wp) :: h_noise = 0                     !! the stochastic method's default step [time]
+    integer(int64) :: seed = 0                  !! the noise's key (the run's seed)
   contains
     procedure :: dim => damped_dim
     procedure :: eval => damped_eval
     procedure :: jacobian => damped_jacobian
     procedure :: jet_spec => damped_jet_spec
+    procedure :: noisy => damped_noisy
+    procedure :: noise_factor => damped_noise_factor
   end type damped_t
 
   public :: make_damped, quadratic_parts, veff, quadratic_in_p
@@ -438,6 +447,54 @@ contains
       spec%rolling = self%f*self%sigma
     end if
   end function damped_jet_spec
+
+  !> Does the field carry noise (an integrator of it is the stochastic one)?
+  pure logical function damped_noisy(self)
+    class(damped_t), intent(in) :: self
+    damped_noisy = self%noise > 0 .or. self%temperature > 0
+  end function damped_noisy
+
+  !> The noise's factor S at state x: dp = ... dt + S dW (S lower triangular, n x n, n = N): S =
+  !> sqrt(2 noise) I, or with the fluctuation-dissipation relation S S^T = 2 c temperature A(q)^-1
+  !> (its Cholesky factor), whose stationary density is exp(-H/temperature). stat /= 0 where A is
+  !> not defined or not positive definite.
+  subroutine damped_noise_factor(self, x, s, stat)
+    class(damped_t), intent(in) :: self
+    real(wp), intent(in) :: x(:)
+    real(wp), intent(out) :: s(:, :)
+    integer, intent(out) :: stat
+    real(wp) :: a(size(s, 1), size(s, 1)), ai(size(s, 1), size(s, 1)), pc(size(s, 1)), v
+    integer :: n, i, j, ipiv(size(s, 1))
+    n = size(s, 1)
+    s = 0
+    stat = 0
+    if (.not. self%temperature > 0) then
+      do i = 1, n
+        s(i, i) = sqrt(2*self%noise)
+      end do
+      return
+    end if
+    call quadratic_parts(self%base, x(1:n), a, pc, v, stat)
+    if (stat /= 0) return
+    ai = 0
+    do i = 1, n
+      ai(i, i) = 1
+    end do
+    call dgesv(n, n, a, n, ipiv, ai, n, stat)        ! A^-1
+    if (stat /= 0) return
+    ai = 2*self%c*self%temperature*ai
+    do j = 1, n                                       ! Cholesky: S S^T = 2 c theta A^-1
+      s(j, j) = ai(j, j) - sum(s(j, 1:j - 1)**2)
+      if (.not. s(j, j) > 0) then
+        stat = -1
+        return
+      end if
+      s(j, j) = sqrt(s(j, j))
+      do i = j + 1, n
+        s(i, j) = (ai(i, j) - sum(s(i, 1:j - 1)*s(j, 1:j - 1)))/s(j, j)
+      end do
+    end do
+  end subroutine damped_noise_factor
 
   pure subroutine damped_jacobian(self, t, x, jac, stat)
     class(damped_t), intent(in) :: self

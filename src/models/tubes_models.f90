@@ -27,7 +27,7 @@ module tubes_models
   integer, parameter, public :: LEN_SYSTEM = 32   !! length of a system's name
   integer, parameter, public :: LEN_PARAM = 24    !! length of a parameter's name
   integer, parameter, public :: NSYSTEMS = 6      !! built-in systems
-  integer, parameter, public :: NMODEL = 8        !! rolling_ball's parameters (the old vector)
+  integer, parameter, public :: NMODEL = 10       !! rolling_ball's parameters (the old vector)
   !> Rolling resistance is regularised at rest: the drag C_rr g s / sqrt(s^2 + V_ROLL^2) at path
   !> speed s [cm/s] (docs/dissipation.md): within 0.5 % of C_rr g above 1 cm/s
   real(wp), parameter, public :: V_ROLL = 0.1_wp
@@ -85,7 +85,7 @@ module tubes_models
   end interface
 
   public :: system_info, system_name, make_model, make_field, conservative_ball, model_ball, &
-            damping_rate, momentum_of, potential_of, shape_derivs_of, damping_ratio_of, dissipative, param_of
+            damping_rate, momentum_of, potential_of, shape_derivs_of, damping_ratio_of, dissipative, param_of, noisy_params
 
 contains
 
@@ -124,7 +124,7 @@ contains
       info%summary = 'a ball rolling on the four-well surface z = H(x, y) (Ross et al. 2018)'
       info%surface = 'fourwell: H = alpha (x^2+y^2) - beta (sqrt(x^2+gamma) + sqrt(y^2+gamma)) ' // &
                      '- xi x y + h0'
-      info%np = 8
+      info%np = 10
       info%params(1) = p('alpha', 0.07_wp, '1/cm', 'curvature of the bowl')
       info%params(2) = p('beta', 1.017_wp, '1', 'depth of the wells')
       info%params(3) = p('gamma', 15.103_wp, 'cm^2', 'smoothing of the ridges (> 0)')
@@ -135,6 +135,10 @@ contains
                          symbol='')
       info%params(8) = p('rolling_resistance', 0.0_wp, '1', 'C_rr: a drag C_rr g opposing the velocity ' // &
                          '(docs/dissipation.md)', symbol='')
+      info%params(9) = p('noise', 0.0_wp, '(cm/s)^2/s', 'D: white noise sqrt(2 D) dW on each momentum ' // &
+                         '(docs/dissipation.md)', symbol='')
+      info%params(10) = p('temperature', 0.0_wp, '(cm/s)^2', 'theta: noise by fluctuation-dissipation, ' // &
+                          '2 c theta A^-1 (docs/dissipation.md)', symbol='')
       info%length_units = 'cm'
       info%box(1:2) = 20
       info%saddle = 'S12'
@@ -267,11 +271,15 @@ contains
     if (lib%kind == KIND_SURFACE) then
       info%summary = 'a ball rolling on z = ' // formula
       info%surface = formula
-      info%np = 3
+      info%np = 5
       info%params(1) = p('g', 981.0_wp, 'cm/s^2', 'gravitational acceleration (> 0)')
       info%params(2) = p('damping_ratio', 0.0_wp, '1', 'zeta: c = 2 zeta omega_1 (docs/theory.md)')
       info%params(3) = p('rolling_resistance', 0.0_wp, '1', 'C_rr: a drag C_rr g opposing the velocity ' // &
                          '(docs/dissipation.md)')
+      info%params(4) = p('noise', 0.0_wp, '(cm/s)^2/s', 'D: white noise sqrt(2 D) dW on each momentum ' // &
+                         '(docs/dissipation.md)')
+      info%params(5) = p('temperature', 0.0_wp, '(cm/s)^2', 'theta: noise by fluctuation-dissipation, ' // &
+                         '2 c theta A^-1 (docs/dissipation.md)')
       info%length_units = 'cm'
       info%box(1:2) = 20
       info%gate = 1.5_wp
@@ -408,45 +416,67 @@ contains
     end do
   end function param_of
 
-  !> Is the model of these parameters dissipative (damping_ratio > 0 or rolling_resistance > 0)?
+  !> Is the model of these parameters dissipative (damping_ratio, rolling_resistance, noise or
+  !> temperature > 0)?
   logical function dissipative(system, params)
     character(*), intent(in) :: system
     real(wp), intent(in) :: params(:)
     dissipative = param_of(system, params, 'damping_ratio') > 0 .or. &
-                  param_of(system, params, 'rolling_resistance') > 0
+                  param_of(system, params, 'rolling_resistance') > 0 .or. noisy_params(system, params)
   end function dissipative
 
+  !> Does the model of these parameters carry noise (noise or temperature > 0)?
+  logical function noisy_params(system, params)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:)
+    noisy_params = param_of(system, params, 'noise') > 0 .or. param_of(system, params, 'temperature') > 0
+  end function noisy_params
+
   !> The vector field a scene integrates: the conservative model, or for the rolling ball with
-  !> damping_ratio > 0 or rolling_resistance > 0 the damped_t wrapper: the viscous rate c = 2 zeta
-  !> omega_1 and the rolling drag f = C_rr g (docs/dissipation.md). c: the viscous rate used (0 if
-  !> none); f_roll: the rolling drag [cm/s^2] (0 if none).
-  subroutine make_field(system, params, field, c, stat, f_roll)
+  !> dissipation (damping_ratio, rolling_resistance, noise, temperature) the damped_t wrapper: the
+  !> viscous rate c = 2 zeta omega_1, the rolling drag f = C_rr g, the noise and its stochastic
+  !> step 2 pi / omega_1 / 1000 (docs/dissipation.md). noiseless: without the noise (the
+  !> deterministic model: the transition region). c: the viscous rate used (0 if none); f_roll: the
+  !> rolling drag [cm/s^2] (0 if none).
+  subroutine make_field(system, params, field, c, stat, f_roll, noiseless)
     character(*), intent(in) :: system
     real(wp), intent(in) :: params(:)
     class(vector_field_t), allocatable, intent(out) :: field
     real(wp), intent(out) :: c
     integer, intent(out) :: stat
     real(wp), intent(out), optional :: f_roll
+    logical, intent(in), optional :: noiseless
     class(hamiltonian_t), allocatable :: model
     type(damped_t) :: damped
-    real(wp) :: zeta, crr
+    real(wp) :: zeta, crr, d, theta, w1
     c = 0
     if (present(f_roll)) f_roll = 0
     call make_model(system, params, model, stat)
     if (stat /= TUBES_OK) return
     zeta = param_of(system, params, 'damping_ratio')
     crr = param_of(system, params, 'rolling_resistance')
+    d = param_of(system, params, 'noise')
+    theta = param_of(system, params, 'temperature')
+    if (present(noiseless)) then
+      if (noiseless) d = 0
+      if (noiseless) theta = 0
+    end if
     select type (model)
     type is (ball_t)
-      if (zeta > 0 .or. crr > 0) then
-        if (zeta > 0) call damping_rate(model, zeta, c, stat)
+      if (zeta > 0 .or. crr > 0 .or. d > 0 .or. theta > 0) then
+        w1 = 0
+        if (zeta > 0 .or. d > 0 .or. theta > 0) call slow_frequency(model, w1, stat)
         if (stat /= TUBES_OK) return
+        c = 2*zeta*w1
         call make_damped(damped, model, c)
         if (crr > 0) then               ! |v3| = sqrt(ROLL p . v), M v = ROLL p (docs/dissipation.md)
           damped%f = crr*model%g
           damped%sigma = ROLL
           damped%v_reg = V_ROLL
         end if
+        damped%noise = d
+        damped%temperature = theta
+        if (d > 0 .or. theta > 0) damped%h_noise = 2*acos(-1.0_wp)/w1/1000
         if (present(f_roll)) f_roll = damped%f
         allocate (field, source=damped)
         return
@@ -535,10 +565,21 @@ contains
     real(wp), intent(in) :: zeta   !! damping ratio [1]
     real(wp), intent(out) :: c     !! damping rate [1/s]
     integer, intent(out) :: stat
+    real(wp) :: w1
+    call slow_frequency(ball, w1, stat)
+    c = 2*zeta*w1
+  end subroutine damping_rate
+
+  !> omega_1 [rad/s], the slow small-oscillation frequency of the lowest well (docs/theory.md,
+  !> "Damping"), its wells searched in the table's box for rolling_ball.
+  subroutine slow_frequency(ball, w1, stat)
+    type(ball_t), intent(in) :: ball
+    real(wp), intent(out) :: w1
+    integer, intent(out) :: stat
     type(equilibrium_t), allocatable :: eqs(:)
     type(system_info_t) :: info
     integer :: k, kbest
-    c = 0
+    w1 = 0
     call system_info('rolling_ball', info, stat)
     call find_equilibria(ball, info%box_center(1:2) - info%box(1:2), info%box_center(1:2) + info%box(1:2), &
                          41, eqs, stat)
@@ -556,8 +597,8 @@ contains
       stat = TUBES_EINPUT   ! no well to define the damping ratio against
       return
     end if
-    c = 2*zeta*sqrt(ROLL*ball%g*eqs(kbest)%curv(1))
-  end subroutine damping_rate
+    w1 = sqrt(ROLL*ball%g*eqs(kbest)%curv(1))
+  end subroutine slow_frequency
 
   !> The rolling ball a scene integrates: conservative unless params(7) (zeta) > 0.
   subroutine model_ball(params, model, c, stat)

@@ -10,7 +10,7 @@ module tubes_transport
   use tubes_hamiltonian, only: hamiltonian_t, veff
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
-  use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
+  use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor, noisy, noise_stream
   use tubes_integrator, only: event_t
   use tubes_lanes, only: lane_t, lane_jobs_t, LANES
   use tubes_section_kinds, only: poincare_t
@@ -249,7 +249,7 @@ contains
   !> branch: MC_RETURN) or passes the saddle's gate (MC_TRANSIT), escapes (MC_ESCAPE), or t_max
   !> (MC_UNDECIDED): mc_outcome. field: the vector field integrated (the model with its
   !> dissipation; default the model ball itself).
-  subroutine mc_classify(ball, psec, x0, gspec, t_max, tol, integ, outcome, t_end, stat, field)
+  subroutine mc_classify(ball, psec, x0, gspec, t_max, tol, integ, outcome, t_end, stat, field, stream)
     class(hamiltonian_t), intent(in) :: ball
     type(poincare_t), intent(in) :: psec
     real(wp), intent(in) :: x0(:), t_max, tol
@@ -259,6 +259,7 @@ contains
     real(wp), intent(out) :: t_end
     integer, intent(out) :: stat
     class(vector_field_t), intent(in), optional :: field
+    integer, intent(in), optional :: stream      !! a noisy field's trajectory number (its noise)
     class(integrator_t), allocatable :: ig
     type(gate_t) :: gate
     real(wp) :: x(size(x0))
@@ -271,6 +272,7 @@ contains
       call make_integrator(integ, ig, stat, f=ball, rtol=tol, atol=tol)
     end if
     if (stat /= TUBES_OK) return
+    if (present(stream)) call noise_stream(ig, stream)
     call psec%return_event(ret)
     x = x0
     gate%spec = gspec
@@ -400,6 +402,7 @@ contains
     type(ens_out_t) :: out
     ens = mc_jobs_t(lanes=uses_taylor(integ), psec=psec, gspec=gspec, integ=integ, t_max=t_max, tol=tol, r=r, &
                     pr=pr)
+    if (present(field)) ens%lanes = ens%lanes .and. .not. noisy(field)   ! a noisy field: one by one
     if (present(cr) .and. present(cp)) then
       ens%cr = cr
       ens%cp = cp
@@ -427,7 +430,7 @@ contains
       continue
     else if (allocated(self%field)) then
       call mc_classify(self%model, self%psec, x, self%gspec, self%t_max, self%tol, self%integ, out%i(1, k), te, &
-                       out%st(k), self%field)
+                       out%st(k), self%field, k)
     else
       call mc_classify(self%model, self%psec, x, self%gspec, self%t_max, self%tol, self%integ, out%i(1, k), te, &
                        out%st(k))
@@ -512,6 +515,7 @@ contains
     ens = map_jobs_t(lanes=uses_taylor(integ), psec=psec, integ=integ, t_max=t_max, tol=tol, n_iter=n_iter, x0=x0)
     allocate (ens%model, source=ball)
     if (present(field)) allocate (ens%field, source=field)
+    if (present(field)) ens%lanes = ens%lanes .and. .not. noisy(field)
     call ens_agree(ens%x0)             ! seeds dealt out over MPI ranks and threads (tubes_ensemble)
     call ens_run(ens, ns, out, 2*n_iter, 0, fault='map', chunk=merge(LANES, 1, ens%lanes))
     pts = reshape(out%r, [2, n_iter, ns])
@@ -528,7 +532,7 @@ contains
     type(ens_out_t), intent(inout) :: out
     if (allocated(self%field)) then
       call one_map(self%model, self%psec, self%x0(:, k), self%n_iter, self%t_max, self%tol, self%integ, &
-                   out%r(:, k), out%st(k), self%field)
+                   out%r(:, k), out%st(k), self%field, k)
     else
       call one_map(self%model, self%psec, self%x0(:, k), self%n_iter, self%t_max, self%tol, self%integ, &
                    out%r(:, k), out%st(k))
@@ -572,7 +576,7 @@ contains
   end subroutine map_finish
 
   !> The returns of one trajectory (all locals: thread-private by construction).
-  subroutine one_map(ball, psec, x0, n_iter, t_max, tol, integ, pts, stat, field)
+  subroutine one_map(ball, psec, x0, n_iter, t_max, tol, integ, pts, stat, field, stream)
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     class(hamiltonian_t), intent(in) :: ball
     type(poincare_t), intent(in) :: psec
@@ -582,6 +586,7 @@ contains
     real(wp), intent(out) :: pts(2, n_iter)
     integer, intent(out) :: stat
     class(vector_field_t), intent(in), optional :: field
+    integer, intent(in), optional :: stream      !! a noisy field's trajectory number (its noise)
     type(crossing_log_t) :: log
     class(integrator_t), allocatable :: ig
     class(event_t), allocatable :: ev
@@ -594,6 +599,7 @@ contains
       call make_integrator(integ, ig, stat, f=ball, rtol=tol, atol=tol)
     end if
     if (stat /= TUBES_OK) return
+    if (present(stream)) call noise_stream(ig, stream)
     ig%max_steps = 100000000
     x = x0
     log%max_crossings = n_iter

@@ -9,7 +9,7 @@ module tubes_run
   use tubes_models, only: make_field, make_model
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, event_t, plane_t, crossing_log_t, propagate
-  use tubes_methods, only: new_integrator, method_opts_t, integ_choice_t, uses_taylor
+  use tubes_methods, only: new_integrator, method_opts_t, integ_choice_t, uses_taylor, make_integrator, noisy, noise_stream
   use tubes_lanes, only: lane_t, lane_jobs_t
   use tubes_ensemble, only: ens_out_t, ens_run
   use tubes_sampler, only: sampler_t
@@ -132,12 +132,17 @@ contains
     c_damp = 0
     call make_field(system, params, field, c_damp, stat)
     if (stat /= TUBES_OK) return
-    call new_integrator(method, ig, stat, mopts)
+    if (noisy(field)) then          ! the stochastic method (tubes_sde), whatever the method asked
+      call make_integrator(integ_choice_t(method=method, h=h, opts=mopts), ig, stat, f=field)
+    else
+      call new_integrator(method, ig, stat, mopts)
+      if (stat /= TUBES_OK) return
+      call ig%init(field, 0.0_wp)
+      ig%h = h
+    end if
     if (stat /= TUBES_OK) return
-    call ig%init(field, 0.0_wp)
     ig%rtol = rtol
     ig%atol = atol
-    ig%h = h
     ig%max_steps = max_steps
   end subroutine setup_integration
 
@@ -285,8 +290,8 @@ contains
     end if
     call new_integrator(method, ig, stat, mopts)        ! the method exists
     if (stat /= TUBES_OK) return
-    ens = ensemble_jobs_t(lanes=uses_taylor(integ_choice_t(method=method)), x0=x0, t_end=t_end, rtol=rtol, &
-                          atol=atol, h=h, max_steps=max_steps, method=method, mopts=mopts)
+    ens = ensemble_jobs_t(lanes=uses_taylor(integ_choice_t(method=method)) .and. .not. noisy(field), x0=x0, &
+                          t_end=t_end, rtol=rtol, atol=atol, h=h, max_steps=max_steps, method=method, mopts=mopts)
     call move_alloc(field, ens%field)
     call ens_run(ens, m, out, d + 1, 0, local=.true., chunk=merge(ENSEMBLE_CHUNK, 1, ens%lanes), threads=threads)
     xs = out%r(1:d, :)
@@ -305,12 +310,19 @@ contains
     d = size(x)
     x = self%x0(:, k)
     out%r(1:d, k) = x
-    call new_integrator(self%method, ik, out%st(k), self%mopts)
-    if (out%st(k) /= TUBES_OK) return
-    call ik%init(self%field, 0.0_wp)
+    if (noisy(self%field)) then       ! the stochastic method, row k's own noise
+      call make_integrator(integ_choice_t(method=self%method, h=self%h, opts=self%mopts), ik, out%st(k), &
+                           f=self%field)
+      if (out%st(k) /= TUBES_OK) return
+      call noise_stream(ik, k)
+    else
+      call new_integrator(self%method, ik, out%st(k), self%mopts)
+      if (out%st(k) /= TUBES_OK) return
+      call ik%init(self%field, 0.0_wp)
+      ik%h = self%h
+    end if
     ik%rtol = self%rtol
     ik%atol = self%atol
-    ik%h = self%h
     ik%max_steps = self%max_steps
     if (self%t_end > 0) call propagate(ik, x, self%t_end, out%st(k))
     out%r(1:d, k) = x

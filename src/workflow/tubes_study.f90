@@ -9,9 +9,9 @@ module tubes_study
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp, i8
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND, TUBES_EUNRESOLVED
-  use tubes_hamiltonian, only: hamiltonian_t
+  use tubes_hamiltonian, only: hamiltonian_t, damped_t
   use tubes_ball, only: ball_t
-  use tubes_models, only: make_model, make_field, dissipative, MAX_PARAMS, MAX_DOF
+  use tubes_models, only: make_model, make_field, dissipative, noisy_params, MAX_PARAMS, MAX_DOF
   use tubes_field, only: vector_field_t
   use tubes_region, only: region_opts_t, region_t, transition_region, region_curve
   use tubes_equilibria, only: equilibrium_t, find_equilibria, neck_normal, nhim_reach, gate_holds_nhim
@@ -20,7 +20,7 @@ module tubes_study
                                  SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
   use tubes_transport, only: gate_spec_t, monte_carlo, poincare_map, gate_bound
-  use tubes_status, only: TUBES_EOUTSIDE, TUBES_ENARROW, TUBES_ESHAPE, TUBES_EDISSIPATIVE
+  use tubes_status, only: TUBES_EOUTSIDE, TUBES_ENARROW, TUBES_ESHAPE, TUBES_EDISSIPATIVE, TUBES_ENOISE
   use tubes_methods, only: integ_choice_t
   implicit none
   private
@@ -679,6 +679,10 @@ contains
     if (stat /= TUBES_OK) return
     call make_field(trim(st%system), st%params, field, c, stat)
     if (stat /= TUBES_OK) return
+    select type (field)
+    type is (damped_t)                 ! a noisy model's noise: the run's seed, each point its stream
+      field%seed = seed
+    end select
     if (dissipative(trim(st%system), st%params)) then   ! the dissipative model's trajectories
       call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, st%integ, cr, cp, r, pr, outcome, &
                        inside, stat, field)
@@ -744,6 +748,11 @@ contains
         end if
       end if
     end do
+    if (noisy_params(trim(st%system), st%params)) then
+      stat = TUBES_ENOISE                ! the map of a noisy model: not built (no returns)
+      pts = ieee_value(1.0_wp, ieee_quiet_nan)
+      return
+    end if
     call make_field(trim(st%system), st%params, field, c, stat)
     if (stat /= TUBES_OK) return
     if (dissipative(trim(st%system), st%params)) then   ! the dissipative model's returns (their energy falls)
@@ -811,7 +820,7 @@ contains
   !> threshold is searched: a region at a higher energy, then bisection in energy down to where
   !> it vanishes (info%de_lo, de_hi; kept in the stores for later calls). opts: the region's
   !> options (its integ is the study's).
-  subroutine region_at(st, sec, de, gate, opts, reg, info, stat, stores)
+  subroutine region_at(st, sec, de, gate, opts, reg, info, stat, stores, noiseless)
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
     type(study_t), intent(in) :: st
     type(section_choice_t), intent(in) :: sec
@@ -821,6 +830,9 @@ contains
     type(region_info_t), intent(out) :: info
     integer, intent(out) :: stat
     type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
+    !> the noise-free model's region (the Monte Carlo's D -> 0 limit); without it a noisy model
+    !> is TUBES_ENOISE (its region is not defined)
+    logical, intent(in), optional :: noiseless
     !> the threshold's bisection in energy ends at this relative width
     real(wp), parameter :: DE_REL = 1.0e-6_wp
     type(region_opts_t) :: o, coarse
@@ -835,6 +847,11 @@ contains
     info%area_hi = nan
     o = opts
     o%integ = st%integ
+    if (noisy_params(trim(st%system), st%params)) then
+      stat = TUBES_ENOISE
+      if (.not. present(noiseless)) return
+      if (.not. noiseless) return
+    end if
     call region_core(de, o, reg, info, stat)
     if (stat /= TUBES_OK .or. .not. reg%empty) return
     ! empty as far as the scan sees: where does the region appear?
@@ -928,7 +945,7 @@ contains
       if (ss /= TUBES_OK) return
       call psec%area(ii%area_e, err, ss)
       if (ss /= TUBES_OK) return
-      call make_field(trim(st%system), st%params, field, ii%damping_rate, ss)
+      call make_field(trim(st%system), st%params, field, ii%damping_rate, ss, noiseless=.true.)
       if (ss /= TUBES_OK) return
       if (.not. gate_holds_nhim(nhim_reach(eqs(isad), d, neck_normal(model, eqs(isad))), gate)) then
         ss = TUBES_ENARROW
