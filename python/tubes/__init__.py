@@ -1274,6 +1274,7 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     out = {"dE": de, "n_samples": ns, "seed": seed, "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / ns)),
            "p_trans": p, **damped, "misclassified": in_nt + out_t, "misclassified_inside_no_transit": in_nt,
            "misclassified_outside_transit": out_t, "undecided": nu, "escaped": int(np.sum(outc == 3)),
+           **({"trapped": int(np.sum(outc == 4))} if diss else {}),
            **_mc_agreement(ns, nt, nu, in_nt + out_t, p),
            "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins}
     if noisy:       # no deterministic prediction to hold it to (as the scene): the undecided count alone

@@ -119,7 +119,10 @@ contains
     class(vector_field_t), intent(in), optional :: f   !! the field, the integration starting at t = 0
     real(wp), intent(in), optional :: rtol, atol       !! the analysis's tolerances
     integer :: m
-    if (present(f) .and. noisy(f)) then
+    logical :: stochastic
+    stochastic = .false.
+    if (present(f)) stochastic = noisy(f)      ! (not in one .and.: Fortran does not short-circuit)
+    if (stochastic) then
       select type (f)
       type is (damped_t)
         allocate (sde_t :: ig)

@@ -1522,11 +1522,12 @@ int scene_montecarlo(tubes_run_t *run) {
     if (g >= 0) H5Gclose(g);
     if (e) rc = EXIT_IO;
   } else {
-    int nt = 0, nu = 0, in_nt = 0, out_t = 0, nin = 0, nesc = 0;
+    int nt = 0, nu = 0, in_nt = 0, out_t = 0, nin = 0, nesc = 0, ntrap = 0;
     for (int k = 0; k < ns; k++) {
       nt += out[k] == 1;
       nu += out[k] == 2;
       nesc += out[k] == 3;   /* left for good through another exit: no transition */
+      ntrap += out[k] == 4;  /* fell below the saddle's energy (dissipative): no transition */
       nin += ins[k];
       in_nt += ins[k] && out[k] != 1;
       out_t += !ins[k] && out[k] == 1;
@@ -1548,8 +1549,9 @@ int scene_montecarlo(tubes_run_t *run) {
     } else if (damped)
       printf("montecarlo: the dissipative model (%s), dE = %g, %d points: transition fraction "
              "%.5f +- %.5f (p_trans = A_region/A_E = %.5f, %.1f standard errors; conservative A_tube/A_E = %.5f); %d "
-             "inside the region; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided%s (%.1f s)\n",
-             run->dissip, de, ns, f, se, p, nsig, p_cons, nin, in_nt, out_t, nu,
+             "inside the region; misclassified %d (inside, no transit) + %d (outside, transit); %d fell below E_e; %d "
+             "undecided%s (%.1f s)\n",
+             run->dissip, de, ns, f, se, p, nsig, p_cons, nin, in_nt, out_t, ntrap, nu,
              nesc ? escaped_text(nesc) : "", now() - t0);
     else
       printf("montecarlo: dE = %g, %d points: transition fraction %.5f +- %.5f (p_trans = %.5f, %.1f standard errors);"
@@ -1571,6 +1573,7 @@ int scene_montecarlo(tubes_run_t *run) {
     e |= h5_attr_long(g, "misclassified_outside_transit", out_t);
     e |= h5_attr_long(g, "undecided", nu);
     e |= h5_attr_long(g, "escaped", nesc);
+    if (damped) e |= h5_attr_long(g, "trapped", ntrap);
     e |= h5_write_int(g, "inside", dn, ins, "1");
     e |= h5_attr_long(g, "agrees", agrees);
     if (g >= 0) H5Gclose(g);

@@ -17,7 +17,7 @@ module tubes_region
   use tubes_field, only: vector_field_t
   use tubes_methods, only: integ_choice_t
   use tubes_section_kinds, only: poincare_t
-  use tubes_transport, only: gate_spec_t, mc_classify, classify_points, MC_TRANSIT, MC_RETURN, MC_ESCAPE, &
+  use tubes_transport, only: gate_spec_t, mc_classify, classify_points, MC_TRANSIT, MC_RETURN, MC_ESCAPE, MC_TRAPPED, &
                              MC_UNDECIDED
   implicit none
   private
@@ -226,7 +226,7 @@ contains
     call interpolant(reg)
     ! the scan against the traced region
     do i = 1, ns
-      if (outc(i) /= MC_TRANSIT .and. outc(i) /= MC_RETURN .and. outc(i) /= MC_ESCAPE) cycle
+      if (outc(i) /= MC_TRANSIT .and. outc(i) /= MC_RETURN .and. outc(i) /= MC_ESCAPE .and. outc(i) /= MC_TRAPPED) cycle
       if (near_boundary(reg, ss(i), pp(i))) cycle
       if (region_inside(reg, ss(i), pp(i)) .neqv. (outc(i) == MC_TRANSIT)) reg%n_inconsistent = reg%n_inconsistent + 1
     end do

@@ -7,7 +7,7 @@ module tubes_transport
   use tubes_quad, only: rng_uniform
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EMODEL
   use tubes_ensemble, only: ens_out_t, ens_run, ens_agree
-  use tubes_hamiltonian, only: hamiltonian_t, veff
+  use tubes_hamiltonian, only: hamiltonian_t, veff, damped_t
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
   use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor, noisy, noise_stream
@@ -23,6 +23,9 @@ module tubes_transport
   !> left for good through another exit (a finite-time escape: the model refused the state beyond
   !> ESCAPE_SCALES length scales) before it transited or came back: no transition
   integer, parameter, public :: MC_ESCAPE = 3
+  !> its energy fell below the saddle's (a dissipative model without noise): it can no longer pass
+  !> the neck, no transition
+  integer, parameter, public :: MC_TRAPPED = 4
 
   !> The transit gate of a saddle: the configuration hyperplane (q - q_s) . n = dist, n the
   !> saddle's neck direction pointing away from the section's well, bounded (gate_bound, 2 DOF) to
@@ -37,6 +40,9 @@ module tubes_transport
     !> [seg_lo, seg_hi] (unbounded: no tangent)
     real(wp), allocatable :: tangent(:)
     real(wp) :: seg_lo = -huge(1.0_wp), seg_hi = huge(1.0_wp)
+    !> a dissipative field without noise: the saddle's energy, below which a trajectory can no
+    !> longer pass the neck (its energy does not rise again): it stops there, trapped (-huge: off)
+    real(wp) :: e_floor = -huge(1.0_wp)
   end type gate_spec_t
 
   !> The gate as an observer of an integration (propagate): passed once a step crosses it in the
@@ -44,6 +50,7 @@ module tubes_transport
   type, extends(observer_t), public :: gate_t
     type(gate_spec_t) :: spec
     logical :: passed = .false.
+    logical :: trapped = .false.         !! its energy fell below spec%e_floor
     integer :: outside = 0               !! crossings of the line outside the neck's segment
     real(wp) :: g_prev = 0               !! (q - q_s) . n - dist at the last step's end
     logical :: started = .false.
@@ -144,8 +151,10 @@ contains
     if (.not. allocated(self%spec%tangent)) then      ! unbounded: a step that ends beyond the line
       self%stop_now = g > 0
       if (self%stop_now) self%passed = .true.
+      call gate_floor(self, ig, x)
       return
     end if
+    call gate_floor(self, ig, x)
     if (.not. self%started) then                      ! the side at the start
       call ig%interp(ig%t_old, x)
       self%g_prev = dot_product(x(1:n) - self%spec%origin, self%spec%normal) - self%spec%dist
@@ -177,6 +186,26 @@ contains
       self%outside = self%outside + 1                 ! through another opening of the line
     end if
   end subroutine gate_on_step
+
+  !> A dissipative field's energy at the step's end against the gate's floor: on the section's side
+  !> of the saddle ((q - q_s) . n < 0: the neck still to pass) and below the saddle's energy, trapped.
+  !> (Past the saddle the energy may fall below E_e on the way down to the gate.)
+  subroutine gate_floor(self, ig, x)
+    class(gate_t), intent(inout) :: self
+    class(integrator_t), intent(in) :: ig
+    real(wp), intent(in) :: x(:)
+    integer :: n
+    if (self%passed .or. self%spec%e_floor == -huge(1.0_wp)) return
+    n = size(self%spec%normal)
+    if (dot_product(x(1:n) - self%spec%origin, self%spec%normal) >= 0) return
+    select type (f => ig%f)
+    type is (damped_t)
+      if (f%base%energy(x) < self%spec%e_floor) then
+        self%trapped = .true.
+        self%stop_now = .true.
+      end if
+    end select
+  end subroutine gate_floor
 
   !> Bound the gate to the neck at energy e (2 DOF): the segment of the gate line around its point
   !> q_s + dist n where V_eff <= e, found by marching out along the line in steps of
@@ -278,7 +307,7 @@ contains
     gate%spec = gspec
     call propagate(ig, x, t_max, stat, event=ret, observer=gate)
     t_end = ig%t
-    call mc_outcome(ball, gate%passed, x, stat, outcome)
+    call mc_outcome(ball, gate%passed, x, stat, outcome, gate%trapped)
   end subroutine mc_classify
 
   !> A point's class from the end of its integration (stat, the state x there, whether it passed
@@ -286,13 +315,20 @@ contains
   !> MC_TRANSIT, an escape (map_status: the model refused a state beyond ESCAPE_SCALES length
   !> scales; Henon-Heiles' points leaving through another saddle) MC_ESCAPE, else MC_UNDECIDED
   !> (t_max); stat becomes TUBES_OK for a return and an escape, and stays any other failure.
-  subroutine mc_outcome(model, passed, x, stat, outcome)
+  subroutine mc_outcome(model, passed, x, stat, outcome, trapped)
     class(hamiltonian_t), intent(in) :: model
     logical, intent(in) :: passed
     real(wp), intent(in) :: x(:)
     integer, intent(inout) :: stat
     integer, intent(out) :: outcome
+    logical, intent(in), optional :: trapped     !! stopped below the saddle's energy (MC_TRAPPED)
     integer :: st
+    if (present(trapped)) then
+      if (trapped .and. stat == TUBES_OK) then
+        outcome = MC_TRAPPED
+        return
+      end if
+    end if
     if (stat == TUBES_EVENT) then
       outcome = MC_RETURN
       stat = TUBES_OK
@@ -482,16 +518,18 @@ contains
     integer, intent(in) :: k
     type(lane_t), intent(inout) :: lane
     type(ens_out_t), intent(inout) :: out
-    logical :: passed
+    logical :: passed, trapped
     passed = .false.
+    trapped = .false.
     if (allocated(lane%observer)) then
       select type (g => lane%observer)
       type is (gate_t)
         passed = g%passed
+        trapped = g%trapped
       end select
     end if
     out%st(k) = lane%stat
-    call mc_outcome(self%model, passed, lane%x, out%st(k), out%i(1, k))
+    call mc_outcome(self%model, passed, lane%x, out%st(k), out%i(1, k), trapped)
     out%i(2, k) = merge(1, 0, mc_inside(self, k))
   end subroutine mc_finish
 

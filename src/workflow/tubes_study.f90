@@ -539,6 +539,18 @@ contains
     if (model%ndof() == 2) call gate_bound(model, gspec, e, stat)
   end subroutine saddle_gate
 
+  !> A dissipative field without noise loses energy for good: below the saddle's energy a
+  !> trajectory cannot pass the neck, and the gate stops it there (MC_TRAPPED: no transition).
+  subroutine gate_floor_of(field, sad, gspec)
+    class(vector_field_t), intent(in) :: field
+    type(equilibrium_t), intent(in) :: sad
+    type(gate_spec_t), intent(inout) :: gspec
+    select type (field)
+    type is (damped_t)
+      if (.not. field%noisy()) gspec%e_floor = sad%energy
+    end select
+  end subroutine gate_floor_of
+
   !> The reach at de of the saddle's NHIM across its neck (nhim_reach along neck_normal): a
   !> Monte Carlo gate must exceed twice it (gate_holds_nhim; check_at refuses it otherwise).
   subroutine gate_reach(st, de, reach, stat, stores)
@@ -683,6 +695,7 @@ contains
     type is (damped_t)                 ! a noisy model's noise: the run's seed, each point its stream
       field%seed = seed
     end select
+    call gate_floor_of(field, eqs(isad), gspec)
     if (dissipative(trim(st%system), st%params)) then   ! the dissipative model's trajectories
       call monte_carlo(model, psec, n, seed, gspec, t_max, 1.0e-10_wp, st%integ, cr, cp, r, pr, outcome, &
                        inside, stat, field)
@@ -953,6 +966,7 @@ contains
       end if
       call saddle_gate(model, eqs(isad), q_ref, gate, eqs(isad)%energy + d, gspec, ss)
       if (ss /= TUBES_OK) return
+      call gate_floor_of(field, eqs(isad), gspec)
       call transition_region(model, field, psec, gspec, oo, rr, ss)
     end subroutine region_core
     function threshold_key() result(kk)
