@@ -155,6 +155,7 @@ contains
       end if
     end if
     reg%empty = .false.
+    reg%centre = c                                ! a point that transits (also where the trace fails)
     ! the scale: the transits' extent on the scan (one cell at least), else the box's
     half = [(box(2) - box(1)), (box(4) - box(3))]/2
     if (reg%n_scan_transit > 0) then

@@ -50,7 +50,8 @@ module tubes_transport
   type, extends(observer_t), public :: gate_t
     type(gate_spec_t) :: spec
     logical :: passed = .false.
-    logical :: trapped = .false.         !! its energy fell below spec%e_floor
+    logical :: trapped = .false.         !! its energy fell below spec%e_floor, or it stalled
+    real(wp) :: t_slow = -1              !! rolling resistance: since when it crawls (-1: it does not)
     integer :: outside = 0               !! crossings of the line outside the neck's segment
     real(wp) :: g_prev = 0               !! (q - q_s) . n - dist at the last step's end
     logical :: started = .false.
@@ -95,6 +96,9 @@ module tubes_transport
     procedure :: finish => map_finish
   end type map_jobs_t
 
+  !> A rolling ball crawling slower than the drag's regularisation speed for this long [time] has come
+  !> to rest (gate_floor)
+  real(wp), parameter :: STALL_TIME = 1
   !> Items of an ensemble per call of run_lanes (an OpenMP thread's unit of work)
   integer, parameter :: LANE_CHUNK = 64
   !> A Poincare seed the model refuses beyond this many length scales (|q|_1) has escaped
@@ -151,10 +155,10 @@ contains
     if (.not. allocated(self%spec%tangent)) then      ! unbounded: a step that ends beyond the line
       self%stop_now = g > 0
       if (self%stop_now) self%passed = .true.
-      call gate_floor(self, ig, x)
+      call gate_floor(self, ig, x, t_hi)
       return
     end if
-    call gate_floor(self, ig, x)
+    call gate_floor(self, ig, x, t_hi)
     if (.not. self%started) then                      ! the side at the start
       call ig%interp(ig%t_old, x)
       self%g_prev = dot_product(x(1:n) - self%spec%origin, self%spec%normal) - self%spec%dist
@@ -187,22 +191,40 @@ contains
     end if
   end subroutine gate_on_step
 
-  !> A dissipative field's energy at the step's end against the gate's floor: on the section's side
-  !> of the saddle ((q - q_s) . n < 0: the neck still to pass) and below the saddle's energy, trapped.
-  !> (Past the saddle the energy may fall below E_e on the way down to the gate.)
-  subroutine gate_floor(self, ig, x)
+  !> A dissipative field's trajectory at the step's end t, before the gate, is trapped when on the
+  !> section's side of the saddle ((q - q_s) . n < 0: the neck still to pass) its energy is below the
+  !> saddle's (past the saddle it may fall below E_e on the way down to the gate), or, with rolling
+  !> resistance, anywhere before the gate when it has crawled at a path speed below the drag's
+  !> regularisation speed for STALL_TIME: it has come to rest where the slope is gentler than the
+  !> drag (on the saddle's plateau, or at a well's bottom: a Coulomb drag stops a ball there; the
+  !> regularised one lets it creep on, for tens of seconds).
+  subroutine gate_floor(self, ig, x, t)
     class(gate_t), intent(inout) :: self
-    class(integrator_t), intent(in) :: ig
-    real(wp), intent(in) :: x(:)
-    integer :: n
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: x(:), t
+    real(wp) :: v(size(x))
+    integer :: n, st
     if (self%passed .or. self%spec%e_floor == -huge(1.0_wp)) return
     n = size(self%spec%normal)
-    if (dot_product(x(1:n) - self%spec%origin, self%spec%normal) >= 0) return
     select type (f => ig%f)
     type is (damped_t)
-      if (f%base%energy(x) < self%spec%e_floor) then
+      if (f%base%energy(x) < self%spec%e_floor .and. &
+          dot_product(x(1:n) - self%spec%origin, self%spec%normal) < 0) then
         self%trapped = .true.
         self%stop_now = .true.
+        return
+      end if
+      if (.not. f%f > 0) return
+      call f%base%eval(t, x, v, st)
+      if (st /= 0) return
+      if (f%sigma*dot_product(x(n + 1:2*n), v(1:n)) < f%v_reg**2) then
+        if (self%t_slow < 0) self%t_slow = t
+        if (t - self%t_slow >= STALL_TIME) then
+          self%trapped = .true.
+          self%stop_now = .true.
+        end if
+      else
+        self%t_slow = -1
       end if
     end select
   end subroutine gate_floor

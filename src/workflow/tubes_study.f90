@@ -11,7 +11,7 @@ module tubes_study
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND, TUBES_EUNRESOLVED
   use tubes_hamiltonian, only: hamiltonian_t, damped_t
   use tubes_ball, only: ball_t
-  use tubes_models, only: make_model, make_field, dissipative, noisy_params, MAX_PARAMS, MAX_DOF
+  use tubes_models, only: make_model, make_field, dissipative, noisy_params, param_of, MAX_PARAMS, MAX_DOF
   use tubes_field, only: vector_field_t
   use tubes_region, only: region_opts_t, region_t, transition_region, region_curve
   use tubes_equilibria, only: equilibrium_t, find_equilibria, neck_normal, nhim_reach, gate_holds_nhim
@@ -848,6 +848,8 @@ contains
     logical, intent(in), optional :: noiseless
     !> the threshold's bisection in energy ends at this relative width
     real(wp), parameter :: DE_REL = 1.0e-6_wp
+    !> the area's accuracy with rolling resistance (its boundary's resolution)
+    real(wp), parameter :: ROLL_AREA_TOL = 1.0e-4_wp
     type(region_opts_t) :: o, coarse
     type(region_t) :: r1, rhi
     type(region_info_t) :: i1
@@ -860,6 +862,10 @@ contains
     info%area_hi = nan
     o = opts
     o%integ = st%integ
+    ! rolling resistance: a ball that stalls before the gate does not transit (gate_floor); where
+    ! it stalls depends on the drag's regularisation and the stall time, and the boundary is known
+    ! to ~1e-4 of its radius: the area to ROLL_AREA_TOL (docs/dissipation.md)
+    if (param_of(trim(st%system), st%params, 'rolling_resistance') > 0) o%area_tol = max(o%area_tol, ROLL_AREA_TOL)
     if (noisy_params(trim(st%system), st%params)) then
       stat = TUBES_ENOISE
       if (.not. present(noiseless)) return
@@ -913,9 +919,13 @@ contains
       coarse%hints = hints_of(rhi)
       call region_core(mid, coarse, r1, i1, s1)
       if (s1 /= TUBES_OK .and. .not. r1%empty) then
-        stat = s1                          ! a failure of the coarse trace
-        reg%fail_stat = s1
-        return
+        ! a point transits but the coarse trace failed (a region too small or ragged for 16 rays,
+        ! the rolling drag's stalls): not empty; the next step starts from the point alone
+        r1%n = 0
+        r1%area = rhi%area
+        if (allocated(r1%rho)) deallocate (r1%rho)
+        if (allocated(r1%phi)) deallocate (r1%phi)
+        allocate (r1%rho(0), r1%phi(0))
       end if
       if (r1%empty) then
         lo = mid
