@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The MPI flavour's checks (make check runs them through tests/run_all.sh when build/mpi/bin/tubes
-# exists). usage: tests/mpi_check.sh identical|fault|badinput|badoutput|pastend|flux3|formula|taylor
+# exists). usage: tests/mpi_check.sh identical|fault|badinput|badoutput|pastend|flux3|formula|taylor|damped
 #   identical  the serial ./tubes (1 thread) and the MPI build with 1 rank x 2 threads, 2 ranks x
 #              1 thread and 2 ranks x 2 threads write the same file, bit for bit
 #              (python -m tubes.h5compare: every dataset and attribute but the provenance ones)
@@ -16,6 +16,8 @@
 #              write the serial run's file, bit for bit; the cache holds the serial run's whole libraries only
 #   taylor     method = 'taylor' (lanes for the tube seeds, Monte Carlo points and Poincare seeds),
 #              its kernels new to an empty cache: 2 ranks x 2 threads write the serial run's file
+#   damped     the dissipative scenes (viscous: threshold search, regions, Monte Carlo; rolling
+#              resistance: stalls): 2 ranks x 2 threads write the serial run's file, bit for bit
 set -u
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -211,8 +213,27 @@ EOF
   run_serial ts ty.nml ct "serial run, Taylor"
   same_output ts tm "Taylor: 2 ranks x 2 threads identical to the serial run"
   ;;
+damped)
+  # the dissipative scenes: viscous damping (an empty energy whose threshold search runs on
+  # rank 0 while rank 1 traces a region; the region's scan shared out; Monte Carlo points) and
+  # rolling resistance (stalls, trapped points): 2 ranks x 2 threads write the serial run's file
+  cat >"$work/dv.nml" <<'EOF'
+&run scenes = 'tubes', 'transition', 'montecarlo', output = 'out.h5' /
+&model damping_ratio = 0.025 /
+&tubes de = 100 /
+&transition de = 50, 300, area_tol = 1e-6 /
+&montecarlo de = 300, n_samples = 301, seed = 11 /
+EOF
+  sed -e "s/damping_ratio = 0.025/rolling_resistance = 0.013/" -e "s/de = 50, 300/de = 60, 100/" \
+      -e "s/de = 300, n_samples/de = 100, n_samples/" "$work/dv.nml" >"$work/dr.nml"
+  for k in dv dr; do
+    run_serial ${k}s $k.nml c$k "serial run, $k"
+    run_mpi ${k}m $k.nml c$k 2 "MPI 2 ranks x 2 threads, $k"
+    same_output ${k}s ${k}m "$k (dissipative scenes): 2 ranks x 2 threads identical to the serial run"
+  done
+  ;;
 *)
-  echo "usage: tests/mpi_check.sh identical|fault|badinput|badoutput|formula|flux3|taylor" >&2
+  echo "usage: tests/mpi_check.sh identical|fault|badinput|badoutput|pastend|formula|flux3|taylor|damped" >&2
   exit 2
   ;;
 esac

@@ -17,7 +17,7 @@ for t in build/debug/tests/test_*; do
 done
 # the MPI flavour (built by make check when mpifort exists): 2-rank runs against the serial one
 if [ -x build/mpi/bin/tubes ]; then
-  for t in identical fault badinput badoutput pastend formula flux3 taylor; do
+  for t in identical fault badinput badoutput pastend formula flux3 taylor damped; do
     run "mpi/$t" bash tests/mpi_check.sh "$t"
   done
 else

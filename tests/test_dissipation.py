@@ -207,6 +207,8 @@ def test_the_region_appears_at_its_threshold():
     assert r["empty"]
     lo, hi = r["dE_threshold"]
     assert 0 < hi - lo <= 1e-6 * hi and 95 < lo < 100     # 97.5057 (cm/s)^2 (docs/dissipation.md)
+    # the bracket is the model's, not the start's: from dE = 30 the search takes another path up
+    assert tuple(tubes.Model(damping_ratio=0.025).transition_region(dE=30.0)["dE_threshold"]) == (lo, hi)
     above = m.transition_region(dE=hi + 0.5)
     assert not above["empty"] and above["n_inconsistent"] == 0
     rng = np.random.default_rng(5)

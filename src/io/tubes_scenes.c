@@ -1382,10 +1382,11 @@ int scene_transition(tubes_run_t *run) {
   }
   if (damped && !isnan(th_lo)) {
     if (isnan(th_hi))
-      printf("  no point of the section transits at dE <= %g: none found up to there\n", th_lo);
+      printf("  no point of the section found to transit at dE <= %g (the scan and the search up to there)\n",
+             th_lo);
     else
-      printf("  no point of the section transits at dE <= %.8g: the region appears between dE = %.8g and %.8g "
-             "(area %.3g there)\n", th_lo, th_lo, th_hi, th_area);
+      printf("  the region closes between dE = %.8g and %.8g (area %.3g at the upper end): the search from its "
+             "centre finds no point that transits at dE <= %.8g\n", th_lo, th_hi, th_area, th_lo);
   }
   if (beyond)
     printf("  * the leading order (T_po/A0) dE (1 - tau dE/A0) is outside its range there: tau dE/A0 > %g "

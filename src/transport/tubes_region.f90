@@ -271,7 +271,8 @@ contains
       allocate (outc(ns))
       reg%n_scan = ns
       if (ns == 0) return
-      call classify_points(model, psec, ss, pp, gspec, opts%t_max, opts%tol, opts%integ, outc, stat, field=field)
+      call classify_points(model, psec, ss, pp, gspec, opts%t_max, opts%tol, opts%integ, outc, stat, field=field, &
+                           local=opts%local)
       reg%n_classified = reg%n_classified + ns
       if (stat < 0) return
       reg%n_scan_transit = count(outc == MC_TRANSIT)

@@ -445,7 +445,8 @@ contains
   !> method), outcome(k) an MC_* class or its status where it failed; with the cut (cr, cp), inside(k)
   !> whether the cut holds it. field: the vector field integrated (default the model). stat: the
   !> lowest failure, or TUBES_OK.
-  subroutine classify_points(model, psec, r, pr, gspec, t_max, tol, integ, outcome, stat, cr, cp, inside, field)
+  subroutine classify_points(model, psec, r, pr, gspec, t_max, tol, integ, outcome, stat, cr, cp, inside, field, &
+                             local)
     class(hamiltonian_t), intent(in) :: model
     type(poincare_t), intent(in) :: psec
     real(wp), intent(in) :: r(:), pr(:), t_max, tol
@@ -456,6 +457,7 @@ contains
     real(wp), intent(in), optional :: cr(:), cp(:)
     logical, intent(out), optional :: inside(size(r))
     class(vector_field_t), intent(in), optional :: field
+    logical, intent(in), optional :: local       !! this MPI rank alone (the caller dealt out a coarser level)
     type(mc_jobs_t) :: ens
     type(ens_out_t) :: out
     ens = mc_jobs_t(lanes=uses_taylor(integ), psec=psec, gspec=gspec, integ=integ, t_max=t_max, tol=tol, r=r, &
@@ -470,7 +472,7 @@ contains
     end if
     allocate (ens%model, source=model)
     if (present(field)) allocate (ens%field, source=field)
-    call ens_run(ens, size(r), out, 0, 2, fault='sample', chunk=merge(LANE_CHUNK, 1, ens%lanes))
+    call ens_run(ens, size(r), out, 0, 2, fault='sample', chunk=merge(LANE_CHUNK, 1, ens%lanes), local=local)
     outcome = merge(out%st, out%i(1, :), out%st < 0)
     if (present(inside)) inside = out%i(2, :) == 1
     stat = min(0, minval(out%st))

@@ -853,7 +853,7 @@ contains
     type(region_opts_t) :: o, coarse
     type(region_t) :: r1, rhi
     type(region_info_t) :: i1
-    real(wp) :: lo, hi, mid, nan, a_e
+    real(wp) :: lo, hi, mid, p2, nan, a_e
     integer :: k, s1, ik
     integer(i8) :: key(NKEY)
     nan = ieee_value(1.0_wp, ieee_quiet_nan)
@@ -911,22 +911,31 @@ contains
       call keep(info%de_lo, nan, nan)
       return
     end if
-    ! down: bisection between the empty de and the non-empty hi, the region's inside as hints
-    lo = de
+    ! a bracket that does not depend on de (the same threshold from any empty energy, on any MPI
+    ! rank): the smallest power of two (in the energy's units) with a region, found by halving
     coarse%n_scan = 0
+    p2 = 2.0_wp**ceiling(log(hi)/log(2.0_wp))
+    coarse%hints = hints_of(rhi)
+    call region_core(p2, coarse, r1, i1, s1)
+    if (.not. r1%empty) then             ! (above a non-empty energy: empty only if the hints miss it;
+      hi = p2                            ! then the bracket starts at the scan's hi)
+      rhi = r1
+    end if
+    do k = 1, 64                         ! halving ends: below the saddle's resolution the region is empty
+      coarse%hints = hints_of(rhi)
+      call region_core(hi/2, coarse, r1, i1, s1)
+      if (r1%empty) exit
+      if (s1 /= TUBES_OK) call point_only(r1)
+      hi = hi/2
+      rhi = r1
+    end do
+    ! down: bisection between the empty hi/2 and the non-empty hi, the region's inside as hints
+    lo = hi/2
     do while (hi - lo > DE_REL*hi)
       mid = 0.5_wp*(lo + hi)
       coarse%hints = hints_of(rhi)
       call region_core(mid, coarse, r1, i1, s1)
-      if (s1 /= TUBES_OK .and. .not. r1%empty) then
-        ! a point transits but the coarse trace failed (a region too small or ragged for 16 rays,
-        ! the rolling drag's stalls): not empty; the next step starts from the point alone
-        r1%n = 0
-        r1%area = rhi%area
-        if (allocated(r1%rho)) deallocate (r1%rho)
-        if (allocated(r1%phi)) deallocate (r1%phi)
-        allocate (r1%rho(0), r1%phi(0))
-      end if
+      if (s1 /= TUBES_OK .and. .not. r1%empty) call point_only(r1)
       if (r1%empty) then
         lo = mid
       else
@@ -934,7 +943,7 @@ contains
         rhi = r1
       end if
     end do
-    if (lo == de) then                   ! never empty: the region at de is there, smaller than the scan
+    if (de > lo) then                    ! the region at de is there, smaller than the scan
       o%hints = hints_of(rhi)
       call region_core(de, o, reg, info, stat)
       if (.not. reg%empty) return
@@ -947,6 +956,14 @@ contains
     info%area_hi = rhi%area
     call keep(lo, hi, rhi%area, hints_of(rhi))
   contains
+    subroutine point_only(r)        ! a point transits but the coarse trace failed (a region too small or
+      type(region_t), intent(inout) :: r   ! ragged for 16 rays, the rolling drag's stalls): not empty;
+      r%n = 0                              ! the next step starts from the point alone
+      r%area = rhi%area
+      if (allocated(r%rho)) deallocate (r%rho)
+      if (allocated(r%phi)) deallocate (r%phi)
+      allocate (r%rho(0), r%phi(0))
+    end subroutine point_only
     subroutine region_core(d, oo, rr, ii, ss)    ! the region at excess energy d
       real(wp), intent(in) :: d
       type(region_opts_t), intent(in) :: oo
