@@ -17,7 +17,8 @@
 #   taylor     method = 'taylor' (lanes for the tube seeds, Monte Carlo points and Poincare seeds),
 #              its kernels new to an empty cache: 2 ranks x 2 threads write the serial run's file
 #   damped     the dissipative scenes (viscous: threshold search, regions, Monte Carlo; rolling
-#              resistance: stalls): 2 ranks x 2 threads write the serial run's file, bit for bit
+#              resistance: stalls; noise: the Monte Carlo's streams): 2 ranks x 2 threads write the
+#              serial run's file, bit for bit
 set -u
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -226,7 +227,10 @@ damped)
 EOF
   sed -e "s/damping_ratio = 0.025/rolling_resistance = 0.013/" -e "s/de = 50, 300/de = 60, 100/" \
       -e "s/de = 300, n_samples/de = 100, n_samples/" "$work/dv.nml" >"$work/dr.nml"
-  for k in dv dr; do
+  # noise: each Monte Carlo point's own Philox stream, whichever rank and thread integrates it
+  printf "&run scenes = 'montecarlo', output = 'out.h5' /\n&model damping_ratio = 0.014, noise = 100 /\n&montecarlo de = 100, n_samples = 301, seed = 11 /\n" \
+    >"$work/dn.nml"
+  for k in dv dr dn; do
     run_serial ${k}s $k.nml c$k "serial run, $k"
     run_mpi ${k}m $k.nml c$k 2 "MPI 2 ranks x 2 threads, $k"
     same_output ${k}s ${k}m "$k (dissipative scenes): 2 ranks x 2 threads identical to the serial run"
