@@ -80,7 +80,7 @@ BAD = [  # (name, namelist text, substrings the message must contain)
     ("unknown system", "&run scenes = 'equilibria' /\n&model system = 'nope' /\n",
      ["bad.nml:2", "system = 'nope' is not a built-in system", "henon_heiles", "cr3bp"]),
     ("parameter of another system", "&run scenes = 'equilibria' /\n&model system = 'henon_heiles', mu = 0.1 /\n",
-     ["bad.nml:2", "mu is not a parameter of system 'henon_heiles'", "its parameters: none"]),
+     ["bad.nml:2", "mu is not a parameter of system 'henon_heiles'", "its parameters: damping_ratio, noise, temperature"]),
     ("cr3bp with alpha", "&run scenes = 'equilibria' /\n&model system = 'cr3bp',\n alpha = 0.1 /\n",
      ["bad.nml:3", "alpha is not a parameter of system 'cr3bp'", "its parameters: mu"]),
     ("cr3bp mu out of range", "&run scenes = 'equilibria' /\n&model system = 'cr3bp', mu = 0.9 /\n",

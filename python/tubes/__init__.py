@@ -215,7 +215,9 @@ class Model:
                       "momenta": _decode(attrs.get("momenta", "")).split() or None}
             else:
                 kw = {"surface": "expression", "height": _decode(attrs["formula"])}
-                kw.update({k: float(attrs[k]) for k in ("g", "damping_ratio") if k in attrs})
+            # its parameters besides the formula's constants: g (a surface) and the dissipation
+            kw.update({k: float(attrs[k]) for k in ("g", "damping_ratio", "rolling_resistance", "noise",
+                                                    "temperature") if k in attrs and float(attrs[k]) != 0})
             return cls(system, constants=consts, **kw)
         names = model_info(system)["parameters"]
         return cls(system, **{k: float(attrs[k]) for k in names if k in attrs})

@@ -54,13 +54,13 @@ const nml_var tubes_nml_vars[] = {
     {"model", "h0", NML_REAL, 1, "cm", "12.065", "finite", "rolling_ball: height offset of H"},
     {"model", "g", NML_REAL, 1, "cm/s^2", "981", "> 0", "rolling_ball: gravitational acceleration"},
     {"model", "damping_ratio", NML_REAL, 1, "1", "0", "0 <= zeta < 1",
-     "rolling_ball: viscous damping ratio zeta of the lowest well's slow mode (0 = conservative)"},
+     "natural models: viscous damping ratio zeta of the lowest well's slow mode (0 = conservative)"},
     {"model", "rolling_resistance", NML_REAL, 1, "1", "0", "0 <= C_rr < 1",
-     "rolling_ball: rolling resistance coefficient C_rr, a drag C_rr g opposing the velocity (0 = none)"},
+     "a ball (rolling_ball, a formula's surface): rolling resistance C_rr, a drag C_rr g opposing the velocity"},
     {"model", "noise", NML_REAL, 1, "(cm/s)^2/s", "0", ">= 0; not with temperature",
-     "rolling_ball: white noise D on the momenta, dp = ... + sqrt(2 D) dW (0 = none; docs/dissipation.md)"},
+     "natural models: white noise D on the momenta, dp = ... + sqrt(2 D) dW (the ball's units; 0 = none)"},
     {"model", "temperature", NML_REAL, 1, "(cm/s)^2", "0", ">= 0; needs damping_ratio > 0",
-     "rolling_ball: noise by fluctuation-dissipation, covariance 2 c theta A^-1 (0 = none)"},
+     "natural models: noise by fluctuation-dissipation, covariance 2 c theta A^-1 (the ball's units; 0 = none)"},
     {"model", "m_a", NML_REAL, 1, "1", "8 (de_leon_berne), 1 (coupled_quartic)", "> 0",
      "de_leon_berne, coupled_quartic: mass of the x mode"},
     {"model", "m_b", NML_REAL, 1, "1", "8 (de_leon_berne), 1 (coupled_quartic)", "> 0",
@@ -709,13 +709,18 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
     if (!(c->beta >= 0)) n += bad(path, c, w, "model", "beta", err, "", c->beta);
     if (!(c->gamma > 0)) n += bad(path, c, w, "model", "gamma", err, "", c->gamma);
     if (!(c->g > 0)) n += bad(path, c, w, "model", "g", err, "", c->g);
-    if (!(c->damping_ratio >= 0 && c->damping_ratio < 1))
-      n += bad(path, c, w, "model", "damping_ratio", err, "", c->damping_ratio);
-    if (!(c->rolling_resistance >= 0 && c->rolling_resistance < 1))
-      n += bad(path, c, w, "model", "rolling_resistance", err, "", c->rolling_resistance);
     if (n) return n;
   }
-  for (int k = 0, kz = -1, kn = -1, kt = -1; k <= np; k++) {   /* noise (any ball: built-in or formula surface) */
+  for (int k = 0; k < np; k++) {   /* the dissipation of any model that has it (its table's entries) */
+    const char *nm = names + TUBES_LPARAM * k;
+    if (!strcmp(nm, "g") && formula && !(c->params[k] > 0)) n += bad(path, c, w, "model", "g", err, "", c->params[k]);
+    if (!strcmp(nm, "damping_ratio") && !(c->params[k] >= 0 && c->params[k] < 1))
+      n += bad(path, c, w, "model", "damping_ratio", err, "", c->params[k]);
+    if (!strcmp(nm, "rolling_resistance") && !(c->params[k] >= 0 && c->params[k] < 1))
+      n += bad(path, c, w, "model", "rolling_resistance", err, "", c->params[k]);
+  }
+  if (n) return n;
+  for (int k = 0, kz = -1, kn = -1, kt = -1; k <= np; k++) {   /* noise */
     const char *nm = k < np ? names + TUBES_LPARAM * k : "";
     if (!strcmp(nm, "damping_ratio")) kz = k;
     if (!strcmp(nm, "noise")) kn = k;
@@ -737,15 +742,6 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
       return 1;
     }
   }
-  for (int k = 0; k < np && formula; k++) {   /* a ball on a formula's surface: g, damping_ratio */
-    const char *nm = names + TUBES_LPARAM * k;
-    if (!strcmp(nm, "g") && !(c->params[k] > 0)) n += bad(path, c, w, "model", "g", err, "", c->params[k]);
-    if (!strcmp(nm, "damping_ratio") && !(c->params[k] >= 0 && c->params[k] < 1))
-      n += bad(path, c, w, "model", "damping_ratio", err, "", c->params[k]);
-    if (!strcmp(nm, "rolling_resistance") && !(c->params[k] >= 0 && c->params[k] < 1))
-      n += bad(path, c, w, "model", "rolling_resistance", err, "", c->params[k]);
-  }
-  if (n) return n;
   int natural = 0;
   if (tubes_model_natural(sys, c->params, &natural) < 0) {
     fprintf(err, "%s:%d: &model: the parameters of system '%s' are out of range:", path, ln, sys);

@@ -345,7 +345,8 @@ static int run_main(int argc, char **argv) {
 
   run.file = f;
   int status = agree(scene_model(&run));
-  for (int k = 0; k < TUBES_NSCENES && status != EXIT_IO; k++) {
+  int model_ok = status == 0;          /* no scene of a model that failed */
+  for (int k = 0; k < TUBES_NSCENES && model_ok && status != EXIT_IO; k++) {
     const char *s = cfg.scenes[k];
     int r = 0;
     if (!s[0]) continue;

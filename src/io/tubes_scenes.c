@@ -151,10 +151,17 @@ int scene_model(tubes_run_t *run) {
   run->law = NULL;
   if (zeta > 0 || crr > 0 || run->noisy) {
     int st = tubes_dissipation(run->system, run->params, &run->c_damp, &run->f_roll);
-    if (st < 0) {
-      fprintf(stderr, "tubes: model: cannot define the damping rate (no well found), status %d\n", st);
+    if (st < 0) {   /* c = 2 zeta omega_1 (and the noise's step) need the lowest well's slow mode */
+      if (st == TUBES_EINPUT)
+        fprintf(stderr, "%s: &model %s: the model has no well (a minimum of its potential with a positive "
+                "frequency) in its search box, and its dissipation is defined by the lowest well's slow mode "
+                "omega_1 (docs/dissipation.md#other-models)\n", run->input ? run->input : "tubes",
+                zeta > 0 ? "damping_ratio" : (dn > 0 ? "noise" : "temperature"));
+      else
+        fprintf(stderr, "tubes: &model: the lowest well's slow mode omega_1 (its dissipation's rate) failed, "
+                "status %d\n", st);
       H5Gclose(g);
-      return EXIT_NUMERIC;
+      return st == TUBES_EINPUT ? EXIT_BADINPUT : EXIT_NUMERIC;
     }
     static char law[48];
     snprintf(law, sizeof law, "%s%s%s%s%s", zeta > 0 ? "viscous" : "", zeta > 0 && crr > 0 ? "+" : "",
@@ -1384,9 +1391,13 @@ int scene_transition(tubes_run_t *run) {
     if (isnan(th_hi))
       printf("  no point of the section found to transit at dE <= %g (the scan and the search up to there)\n",
              th_lo);
-    else
+    else if (th_area > 0)
       printf("  the region closes between dE = %.8g and %.8g (area %.3g at the upper end): the search from its "
              "centre finds no point that transits at dE <= %.8g\n", th_lo, th_hi, th_area, th_lo);
+    else   /* the upper end's region: a point that transits, too small or ragged to trace */
+      printf("  the region closes between dE = %.8g and %.8g (at the upper end a point transits, its region "
+             "too small to trace): the search from its centre finds no point that transits at dE <= %.8g\n",
+             th_lo, th_hi, th_lo);
   }
   if (beyond)
     printf("  * the leading order (T_po/A0) dE (1 - tau dE/A0) is outside its range there: tau dE/A0 > %g "

@@ -7,7 +7,7 @@ module tubes_models
   use, intrinsic :: iso_c_binding, only: c_int, c_char
   use tubes_cstrings, only: c_to_f, f_to_c
   use tubes_kinds, only: wp, i8
-  use tubes_lapack, only: dgesv
+  use tubes_lapack, only: dgesv, eigen
   use tubes_field, only: vector_field_t
   use tubes_hamiltonian, only: hamiltonian_t, natural_t, damped_t, make_damped
   use tubes_ball, only: ball_t, make_ball, ROLL
@@ -102,6 +102,31 @@ contains
     if (present(symbol)) pi%symbol = symbol
   end function p
 
+  !> The dissipation parameters of a natural model, appended to its table from entry k0 on: the
+  !> viscous damping ratio, the noise and its fluctuation-dissipation form, and for a ball (rolling)
+  !> the rolling resistance; units in the model's (u_p2t: momentum^2/time, u_e: energy). None is in
+  !> the formula (the field adds them: damped_t). np becomes k0 - 1 + 3 (4 with rolling).
+  pure subroutine dissipation_params(info, k0, rolling, u_p2t, u_e)
+    type(system_info_t), intent(inout) :: info
+    integer, intent(in) :: k0
+    logical, intent(in) :: rolling
+    character(*), intent(in) :: u_p2t, u_e
+    integer :: k
+    k = k0
+    info%params(k) = p('damping_ratio', 0.0_wp, '1', 'zeta: c = 2 zeta omega_1, omega_1 the lowest well''s ' // &
+                       'slow mode (docs/dissipation.md)', symbol='')
+    if (rolling) then
+      k = k + 1
+      info%params(k) = p('rolling_resistance', 0.0_wp, '1', 'C_rr: a drag C_rr g opposing the velocity ' // &
+                         '(docs/dissipation.md)', symbol='')
+    end if
+    info%params(k + 1) = p('noise', 0.0_wp, u_p2t, 'D: white noise sqrt(2 D) dW on each momentum ' // &
+                           '(docs/dissipation.md)', symbol='')
+    info%params(k + 2) = p('temperature', 0.0_wp, u_e, 'theta: noise by fluctuation-dissipation, ' // &
+                           '2 c theta A^-1 (docs/dissipation.md)', symbol='')
+    info%np = k + 2
+  end subroutine dissipation_params
+
   !> The name of system k = 1..NSYSTEMS.
   pure function system_name(k) result(name)
     integer, intent(in) :: k
@@ -124,21 +149,13 @@ contains
       info%summary = 'a ball rolling on the four-well surface z = H(x, y) (Ross et al. 2018)'
       info%surface = 'fourwell: H = alpha (x^2+y^2) - beta (sqrt(x^2+gamma) + sqrt(y^2+gamma)) ' // &
                      '- xi x y + h0'
-      info%np = 10
       info%params(1) = p('alpha', 0.07_wp, '1/cm', 'curvature of the bowl')
       info%params(2) = p('beta', 1.017_wp, '1', 'depth of the wells')
       info%params(3) = p('gamma', 15.103_wp, 'cm^2', 'smoothing of the ridges (> 0)')
       info%params(4) = p('xi', 0.00656_wp, '1/cm', 'tilt coupling of x and y')
       info%params(5) = p('h0', 12.065_wp, 'cm', 'height offset')
       info%params(6) = p('g', 981.0_wp, 'cm/s^2', 'gravitational acceleration (> 0)', symbol='')
-      info%params(7) = p('damping_ratio', 0.0_wp, '1', 'zeta: c = 2 zeta omega_1 (docs/theory.md)', &
-                         symbol='')
-      info%params(8) = p('rolling_resistance', 0.0_wp, '1', 'C_rr: a drag C_rr g opposing the velocity ' // &
-                         '(docs/dissipation.md)', symbol='')
-      info%params(9) = p('noise', 0.0_wp, '(cm/s)^2/s', 'D: white noise sqrt(2 D) dW on each momentum ' // &
-                         '(docs/dissipation.md)', symbol='')
-      info%params(10) = p('temperature', 0.0_wp, '(cm/s)^2', 'theta: noise by fluctuation-dissipation, ' // &
-                          '2 c theta A^-1 (docs/dissipation.md)', symbol='')
+      call dissipation_params(info, 7, .true., '(cm/s)^2/s', '(cm/s)^2')
       info%length_units = 'cm'
       info%box(1:2) = 20
       info%saddle = 'S12'
@@ -152,7 +169,7 @@ contains
     case ('henon_heiles')
       info%summary = 'H = (px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2 y - y^3/3 (Henon & Heiles 1964)'
       info%formula = '(px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2*y - y^3/3'
-      info%np = 0
+      call dissipation_params(info, 1, .false., '1', '1')
       info%length_units = '1'
       info%box(1:2) = 1.5_wp
       info%saddle_near(1:2) = [0.0_wp, 1.0_wp]
@@ -164,13 +181,13 @@ contains
     case ('de_leon_berne')
       info%summary = 'H = px^2/(2 m_a) + py^2/(2 m_b) + D (1 - exp(-lambda x))^2 ' // &
                      '+ 4 y^2 (y^2 - 1) exp(-zeta lambda x) + eps_s (De Leon & Berne 1981)'
-      info%np = 6
       info%params(1) = p('m_a', 8.0_wp, '1', 'mass of the x mode (> 0)')
       info%params(2) = p('m_b', 8.0_wp, '1', 'mass of the y mode (> 0)')
       info%params(3) = p('d', 10.0_wp, '1', 'dissociation energy D of the Morse oscillator')
       info%params(4) = p('lambda', 1.5_wp, '1', 'range of the Morse oscillator (> 0)', symbol='lam')
       info%params(5) = p('zeta', 1.0_wp, '1', 'decay of the double well along x')
       info%params(6) = p('eps_s', 1.0_wp, '1', 'energy of the saddle')
+      call dissipation_params(info, 7, .false., '1', '1')
       info%formula = 'px^2/(2*m_a) + py^2/(2*m_b) + d*(1 - exp(-lam*x))^2 ' // &
                      '+ 4*y^2*(y^2 - 1)*exp(-zeta*lam*x) + eps_s'
       info%length_units = '1'
@@ -184,13 +201,13 @@ contains
     case ('coupled_quartic')
       info%summary = 'H = px^2/(2 m_a) + py^2/(2 m_b) - alpha x^2/2 + beta x^4/4 + omega y^2/2 ' // &
                      '+ eps (x - y)^2/2 (UPOsHam)'
-      info%np = 6
       info%params(1) = p('m_a', 1.0_wp, '1', 'mass of the x mode (> 0)')
       info%params(2) = p('m_b', 1.0_wp, '1', 'mass of the y mode (> 0)')
       info%params(3) = p('alpha', 1.0_wp, '1', 'negative curvature of the x double well')
       info%params(4) = p('beta', 1.0_wp, '1', 'quartic stiffness of x (> 0)')
       info%params(5) = p('omega', 1.0_wp, '1', 'stiffness of the y mode')
       info%params(6) = p('eps', 0.1_wp, '1', 'coupling of x and y')
+      call dissipation_params(info, 7, .false., '1', '1')
       info%formula = 'px^2/(2*m_a) + py^2/(2*m_b) - alpha*x^2/2 + beta*x^4/4 + omega*y^2/2 ' // &
                      '+ eps*(x - y)^2/2'
       info%length_units = '1'
@@ -271,15 +288,8 @@ contains
     if (lib%kind == KIND_SURFACE) then
       info%summary = 'a ball rolling on z = ' // formula
       info%surface = formula
-      info%np = 5
       info%params(1) = p('g', 981.0_wp, 'cm/s^2', 'gravitational acceleration (> 0)')
-      info%params(2) = p('damping_ratio', 0.0_wp, '1', 'zeta: c = 2 zeta omega_1 (docs/theory.md)')
-      info%params(3) = p('rolling_resistance', 0.0_wp, '1', 'C_rr: a drag C_rr g opposing the velocity ' // &
-                         '(docs/dissipation.md)')
-      info%params(4) = p('noise', 0.0_wp, '(cm/s)^2/s', 'D: white noise sqrt(2 D) dW on each momentum ' // &
-                         '(docs/dissipation.md)')
-      info%params(5) = p('temperature', 0.0_wp, '(cm/s)^2', 'theta: noise by fluctuation-dissipation, ' // &
-                         '2 c theta A^-1 (docs/dissipation.md)')
+      call dissipation_params(info, 2, .true., '(cm/s)^2/s', '(cm/s)^2')
       info%length_units = 'cm'
       info%box(1:2) = 20
       info%gate = 1.5_wp
@@ -287,6 +297,7 @@ contains
       info%summary = 'H = ' // formula
       info%ndof = lib%ndof
       info%np = 0
+      if (lib%natural /= 0) call dissipation_params(info, 1, .false., '1', '1')
       info%length_units = '1'
       info%box(1:lib%ndof) = 1
       info%gate = 0.1_wp
@@ -481,9 +492,63 @@ contains
         allocate (field, source=damped)
         return
       end if
+    class is (natural_t)             ! any other natural model: viscous damping and noise
+      if (zeta > 0 .or. d > 0 .or. theta > 0) then
+        call well_frequency(model, system, w1, stat)
+        if (stat /= TUBES_OK) return
+        c = 2*zeta*w1
+        call make_damped(damped, model, c)
+        damped%noise = d
+        damped%temperature = theta
+        if (d > 0 .or. theta > 0) damped%h_noise = 2*acos(-1.0_wp)/w1/1000
+        allocate (field, source=damped)
+        return
+      end if
     end select
     allocate (field, source=model)
   end subroutine make_field
+
+  !> omega_1, the slowest small-oscillation frequency of the lowest well of a natural model
+  !> [rad/time]: the smallest sqrt of the eigenvalues of A K at the minimum (A the kinetic matrix,
+  !> K the potential's Hessian; the ball's sqrt(5/7 g kappa_1)), its wells searched in the
+  !> table's box. stat = TUBES_EINPUT without a well there.
+  subroutine well_frequency(model, system, w1, stat)
+    class(natural_t), intent(in) :: model
+    character(*), intent(in) :: system
+    real(wp), intent(out) :: w1
+    integer, intent(out) :: stat
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(system_info_t) :: info
+    real(wp), allocatable :: a(:, :), k(:, :), grad(:), wr(:), wi(:)
+    integer :: i, kbest, n
+    w1 = 0
+    call system_info(system, info, stat)
+    if (stat /= TUBES_OK) return
+    n = model%ndof()
+    call find_equilibria(model, info%box_center(1:n) - info%box(1:n), info%box_center(1:n) + info%box(1:n), &
+                         41, eqs, stat)
+    if (stat /= TUBES_OK) return
+    kbest = 0
+    do i = 1, size(eqs)
+      if (eqs(i)%morse /= 0) cycle
+      if (kbest == 0) then
+        kbest = i
+      else if (eqs(i)%energy < eqs(kbest)%energy) then
+        kbest = i
+      end if
+    end do
+    stat = TUBES_EINPUT               ! no well to define the damping ratio against
+    if (kbest == 0) return
+    allocate (a(n, n), k(n, n), grad(n), wr(n), wi(n))
+    call model%rest_kinetic_matrix(eqs(kbest)%q, a)
+    call model%shape_derivs(eqs(kbest)%q, grad, k)
+    call eigen(matmul(a, model%potential_scale()*k), wr, wi, stat)
+    if (stat /= TUBES_OK) return
+    stat = TUBES_EINPUT
+    if (.not. all(wr > 0)) return     ! a flat mode (zero curvature): no frequency
+    w1 = sqrt(minval(wr))
+    stat = TUBES_OK
+  end subroutine well_frequency
 
   !> Natural systems: the momenta of velocity v at q, p = A(q)^-1 v (the ball: its own
   !> (7/5) M v). stat = TUBES_EINPUT for other models.

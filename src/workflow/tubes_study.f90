@@ -958,8 +958,8 @@ contains
   contains
     subroutine point_only(r)        ! a point transits but the coarse trace failed (a region too small or
       type(region_t), intent(inout) :: r   ! ragged for 16 rays, the rolling drag's stalls): not empty;
-      r%n = 0                              ! the next step starts from the point alone
-      r%area = rhi%area
+      r%n = 0                              ! the next step starts from the point alone; its
+      r%area = 0                           ! area is not known (0: a point, docs/output.md)
       if (allocated(r%rho)) deallocate (r%rho)
       if (allocated(r%phi)) deallocate (r%phi)
       allocate (r%rho(0), r%phi(0))
@@ -976,7 +976,8 @@ contains
       type(poincare_t) :: psec
       real(wp), allocatable :: q_ref(:)
       type(gate_spec_t) :: gspec
-      real(wp) :: err
+      type(region_opts_t) :: o2
+      real(wp) :: err, lam
       integer :: isad
       call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
                          sec%index, sec%level, sec%dir, d, model, eqs, isad, psec, q_ref, ss, stores)
@@ -994,7 +995,13 @@ contains
       call saddle_gate(model, eqs(isad), q_ref, gate, eqs(isad)%energy + d, gspec, ss)
       if (ss /= TUBES_OK) return
       call gate_floor_of(field, eqs(isad), gspec)
-      call transition_region(model, field, psec, gspec, oo, rr, ss)
+      ! a boundary point xtol from the manifold lingers ln(1/xtol)/lambda_d at the saddle (lambda_d
+      ! = sqrt(lambda^2 + c^2/4) - c/2, the damped saddle's unstable rate): each integration lasts
+      ! at least twice that (the ball's 6.6 s is within the default 20 s; Henon-Heiles' 60)
+      o2 = oo
+      lam = sqrt(eqs(isad)%lambda**2 + ii%damping_rate**2/4) - ii%damping_rate/2
+      if (lam > 0) o2%t_max = max(oo%t_max, 2*log(1/oo%xtol)/lam)
+      call transition_region(model, field, psec, gspec, o2, rr, ss)
     end subroutine region_core
     function threshold_key() result(kk)
       integer(i8) :: kk(NKEY)
