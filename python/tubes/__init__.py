@@ -1324,11 +1324,12 @@ def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, 
 
 def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=None, camera_rate=None,
                          pixel=None, noise=None, de_min=None, de_max=None, damping_ratio=None, seed=None,
-                         saddle=None, integrator: dict | None = None, equilibria: dict | None = None) -> dict:
+                         saddle=None, integrator: dict | None = None, equilibria: dict | None = None,
+                         rolling_resistance=None) -> dict:
     """Synthetic tracks of the rolling ball, as the synthetic_experiment scene (the same call, the
     same numbers; docs/experiment-data.md): n_tracks balls released from rest at g H - E_e in
-    [de_min, de_max], E_e the saddle's energy, integrated with damping ratio damping_ratio (the
-    model's own is replaced), filmed at camera_rate [Hz] for duration [s] with Gaussian noise [cm]
+    [de_min, de_max], E_e the saddle's energy, integrated with damping ratio damping_ratio and
+    rolling resistance rolling_resistance (the model's own are replaced), filmed at camera_rate [Hz] for duration [s] with Gaussian noise [cm]
     rounded to pixel [cm]. Keywords as &experiment (defaults from the program's reader; the &model
     damping ratio is the theory's, &experiment's the tracks'). dict as the scene's /tracks: arrays
     track, t, x, y (measured) per frame; truth (dict: state (n, 4), energy, dE, noisy (n, 2),
@@ -1337,7 +1338,8 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
     model = model or Model()
     ex = {k: v for k, v in (("n_tracks", n_tracks), ("duration", duration), ("camera_rate", camera_rate),
                              ("pixel", pixel), ("noise", noise), ("de_min", de_min), ("de_max", de_max),
-                             ("damping_ratio", damping_ratio), ("seed", seed)) if v is not None}
+                             ("damping_ratio", damping_ratio), ("rolling_resistance", rolling_resistance),
+                             ("seed", seed)) if v is not None}
     # the program's reader refuses a model other than the ball on its four-well surface, with its message
     st = _settings(model, saddle, who="synthetic_experiment", run={"scenes": "synthetic_experiment"}, experiment=ex,
                    integrator=integrator, equilibria=equilibria)

@@ -1,7 +1,8 @@
 """Transition fractions from tracked trajectories: the experiment of Ross et al. (2018), Sec. IV-V.
 
     python -m tubes.experiment TRACKS --theory RESULT.h5 -o ANALYSIS.h5 [--figure FIG.png]
-                               [--estimator spectral|savgol] [--bins -40:400:40] ...
+                               [--estimator spectral|savgol] [--bins -40:400:40]
+                               [--dissipation-figure LOSS.png] [--decay-drift] ...
 
 TRACKS is a CSV file (header ``track,t,x,y``; s and cm) or an HDF5 file with the group /tracks
 (datasets track, t, x, y). The pipeline: read and validate the tracks (NaNs, gaps, time order,
@@ -11,7 +12,10 @@ differentiation), momenta and energies (tubes.momentum, tubes.energy), locate th
 (the ray theta = pi/4, x > 0) on cubic splines, classify every U1^- crossing by its fate (through
 the S12 bottleneck before the next U1 crossing, back to U1, or censored), bin by dE, give Wilson
 intervals, fit the small-dE slope and compare with the tube theory of a tubes RESULT.h5 (p_trans
-and the tube cuts). docs/experiment.md describes every step, the output and the measured errors.
+and the tube cuts). From the energy's decay along the tracks: the loss against time and against
+path length, and which dissipation law the ball follows (viscous damping, rolling resistance,
+both), with the coefficients and their intervals (_decay_fits). docs/experiment.md describes
+every step, the output and the measured errors.
 Units: cm, s; energies per unit mass in (cm/s)^2.
 """
 from __future__ import annotations
@@ -46,6 +50,8 @@ DEFAULT_OPTIONS = {"savgol": {"window": 15, "order": 4}, "spectral": {"cutoff": 
 ENERGY_WINDOW = 1.0     # [s] half-width of the windowed energy regression (tuned likewise)
 EDGE = 0.1              # [s] crossings this close to a segment end are not classified
 TRIM = 0.2              # [s] samples this close to a segment end stay out of energy windows
+DECAY_TRIM = TRIM       # [s] ... and out of the regressions of the energy's decay (_decay_fits)
+LAW_PRESENT = 4.0       # a dissipation coefficient more than this many standard errors above 0 is present
 ENERGY_BALANCE_TOL = 0.1  # refuse when g H trades with T (median over segments) further than this from 1
 SEGMENT_BALANCE_TOL = 0.25  # drop a segment whose own ratio is further than this from 1
 MATCH_TOL = 0.1         # [s] two crossings of one branch and track this close are the same one
@@ -76,8 +82,9 @@ __all__ = ["ExperimentError", "Tracks", "Issue", "ValidationReport", "Segment", 
            "read_tracks", "write_tracks_csv", "write_tracks_h5", "validate", "differentiate", "estimate_segment",
            "find_crossings", "analyse", "load_theory", "Calibration", "fit_calibration", "read_calibration",
            "wilson", "fit_slope", "inside_polygon",
-           "synthetic_tracks", "tune", "write_analysis", "plot_analysis", "main", "Options", "Analysis",
-           "window_energy", "classify", "truth_crossings", "noise_estimate"]
+           "synthetic_tracks", "tune", "write_analysis", "plot_analysis", "plot_dissipation", "main", "Options",
+           "Analysis",
+           "window_energy", "classify", "truth_crossings", "noise_estimate", "noise_kinetic_energy"]
 
 
 class ExperimentError(RuntimeError):
@@ -725,7 +732,31 @@ def estimate_segment(seg: Segment, method: str, options: dict, model: Model) -> 
     fq = np.array([1.4 * gv * (hs[0, 0] * vx + hs[0, 1] * vy) + model.g * gr[0],
                    1.4 * gv * (hs[1, 0] * vx + hs[1, 1] * vy) + model.g * gr[1]])
     return {"t": seg.t, "dt": dt, "x": xs, "y": ys, "vx": vx, "vy": vy, "px": px, "py": py,
-            "E": E, "T": T, "dEdq": fq, "method": method, "options": dict(options)}
+            "E": E, "T": T, "dEdq": fq, "gradH": gr, "method": method, "options": dict(options)}
+
+
+@functools.lru_cache(maxsize=16)
+def _velocity_noise_gain(dt: float, method: str, options: str) -> float:
+    """The variance of an estimated velocity component per unit variance of white position noise
+    [1/s^2] (the estimator is linear): the estimator (options as JSON) applied to 16 series of
+    4096 standard normal samples (a fixed seed: the analysis' own random numbers are not drawn),
+    over their samples more than 64 from the ends."""
+    z = np.random.default_rng(20180214).normal(size=(4096, 16))
+    v, _ = differentiate(z, dt, method, **json.loads(options))
+    return float(np.mean(v[64:-64] ** 2))
+
+
+def noise_kinetic_energy(est: dict, sigma: float) -> np.ndarray:
+    """The mean that white position noise of standard deviation sigma [cm] adds to the estimated
+    kinetic energy at each sample of an estimated segment [(cm/s)^2]: T = (7/10) v^T M v with
+    M = I + grad H grad H^T, so the velocity noise dv (variance s_v^2 per component, the two
+    independent) adds (7/10) s_v^2 tr M = (7/10) s_v^2 (2 + |grad H|^2) on average (0.4-1
+    (cm/s)^2 at the default 0.068 cm and 5 Hz); 0 when sigma is unknown."""
+    if not (math.isfinite(sigma) and sigma > 0):
+        return np.zeros(est["t"].size)
+    gain = _velocity_noise_gain(round(float(est["dt"]), 12), est["method"], json.dumps(est["options"], sort_keys=True))
+    g2 = est["gradH"][0] ** 2 + est["gradH"][1] ** 2
+    return 0.7 * gain * sigma ** 2 * (2.0 + g2)
 
 
 def _noise_response(seg: Segment, est: dict, sigma: float, k: int, rng) -> np.ndarray:
@@ -1093,6 +1124,7 @@ class Options:
     jump_tol: float = 0.0                # [cm]; 0: max(1 cm, 12 noise)
     seed: int = 20180214
     max_impossible: float = 0.005        # refuse when more samples than this fraction lie too high
+    decay_drift: bool = False            # the law's decay fits also take beta t (_decay_fits)
     fold: str = "none"                   # 'none' (U1^- only), 'exact' (Q1, Q3, both ways), 'all'
 
 
@@ -1123,8 +1155,12 @@ def _analyse_segments(segs, opt: Options, method: str, model: Model, x_gate: flo
                       energies: list | None = None):
     """Crossings of all segments with one estimator. The energetic check (heights above the
     energy available) drops samples and splits segments (reported in rep). decay, if given,
-    receives per segment (track, S_DE, S_DD): the within-segment sums of the energy's decay
-    regression E = a - c D (D = the integral of 2 T dt; _damping)."""
+    receives per segment (track, XX, XE, EE, n, samples): the within-segment sums of the energy's
+    decay regressions (_decay_fits) over its n samples more than DECAY_TRIM from its ends, XX (3, 3)
+    and XE (3,) the products of the centred regressors X = (D, S, t) (D = the integral of 2 T dt,
+    S = the path length of the centre, the integral of |v3| dt, both from the segment's start)
+    with themselves and with the centred energy, EE = the sum of its squares; samples = (time since
+    the segment's start, D, S, E) at those samples (for plot_dissipation)."""
     out = []
     queue = list(segs)
     final = []
@@ -1164,13 +1200,20 @@ def _analyse_segments(segs, opt: Options, method: str, model: Model, x_gate: flo
                 continue
         final.append(s)
         if decay is not None:
-            d = _dissipation(s.t, est["T"])
-            e = est["E"]
-            ok = np.isfinite(d) & np.isfinite(e)
+            b = noise_kinetic_energy(est, sigma)        # the noise's mean in T and E, taken out
+            d = _dissipation(s.t, est["T"] - b)
+            sp = _path_length(s.t, est["T"] - b)
+            e = est["E"] - b
+            ok = np.isfinite(d) & np.isfinite(sp) & np.isfinite(e)
+            inner = ok & (s.t - s.t[0] >= DECAY_TRIM) & (s.t[-1] - s.t >= DECAY_TRIM)
+            if inner.sum() >= 10:
+                ok = inner
             if ok.sum() >= 3:
-                dc, ec, tc = d[ok] - d[ok].mean(), e[ok] - e[ok].mean(), s.t[ok] - s.t[ok].mean()
-                decay.append((s.track, np.array([[dc @ dc, dc @ tc], [dc @ tc, tc @ tc]]),
-                              np.array([dc @ ec, tc @ ec])))
+                ec = e[ok] - e[ok].mean()
+                cols = [v[ok] - v[ok].mean() for v in (d, sp, s.t)]
+                decay.append((s.track, np.array([[a @ b for b in cols] for a in cols]),
+                              np.array([a @ ec for a in cols]), float(ec @ ec), int(ok.sum()),
+                              (s.t[ok] - s.t[0], d[ok], sp[ok], e[ok], b[ok])))
         parts = []
         for k in FOLDS[opt.fold]:
             c, tg = find_crossings(est, model, x_gate, k)
@@ -1203,43 +1246,183 @@ def _analyse_segments(segs, opt: Options, method: str, model: Model, x_gate: flo
     return {k: np.concatenate([c[k] for c in out]) for k in keys}, final
 
 
-def _damping(decay: list, model: Model, opt: Options, rng) -> dict:
-    """The damping rate c [1/s] from the energy's decay along the tracks, dE/dt = -2 c T: the
-    regression E = a_s - c D + beta t within every segment s (its own intercept a_s; D = the
-    integral of 2 T dt), pooled over the segments. The term beta t takes up the position noise:
-    it adds a constant b to the estimated T, hence b to E and b t to D, which would otherwise
-    bias c low by b / T (0.2 % at 0.05 cm noise). Its standard error from a track bootstrap
-    (opt.bootstrap replicates, at least 200), and zeta = c / (2 omega_1) (docs/theory.md)."""
-    nan = {"damping_rate": math.nan, "damping_rate_err": math.nan, "damping_ratio": math.nan,
-           "damping_ratio_err": math.nan}
+def _decay_forms(drift: bool) -> dict:
+    """The regressions of the energy's decay (_decay_fits): name -> the indices of their regressors
+    among X = (D, S, t) (_analyse_segments). The viscous one is the damping fit of old (with its
+    drift term beta t); the law's forms take it too when drift is set."""
+    return {"viscous": (0, 2), "viscous_law": (0, 2) if drift else (0,), "rolling": (1, 2) if drift else (1,),
+            "combined": (0, 1, 2) if drift else (0, 1), "time": (2,), "path": (1,)}
+
+
+def _decay_fits(decay: list, model: Model, opt: Options, rng) -> dict:
+    """The energy's decay along the tracks against the model's two dissipation laws
+    (docs/dissipation.md): viscous damping, dE/dt = -2 c T, and rolling resistance, dE/dt = -f |v3|
+    (a loss of f per unit path length of the ball's centre, f = C_rr g). Least squares within
+    every segment s (its own intercept a_s), pooled over the segments, of
+
+        viscous   E = a_s - c D + beta t          D = the integral of 2 T dt
+        rolling   E = a_s - f S                   S = the integral of |v3| dt, |v3| = sqrt(10 T / 7)
+        combined  E = a_s - c D - f S
+
+    with T and |v3| from the estimated velocities (_analyse_segments), the mean b that the position
+    noise adds to T (noise_kinetic_energy) taken out of T and E, over the samples more than
+    DECAY_TRIM = 0.2 s from the segment's ends (where the estimators err most: their errors there
+    biased c and f by about a standard error). In the viscous fit (damping_rate, damping_ratio), as
+    before, the term beta t takes up what remains of the noise: b in E and 2 b t in D, which biased c
+    low by b / T (0.1-0.2 % at 0.05 cm noise). The law's forms leave it out unless opt.decay_drift:
+    the path length grows almost linearly in time, so beta t takes up most of a rolling loss and
+    multiplies the standard error of f by ~6 and, in the combined fit, those of c and f by 3-8
+    (docs/experiment.md); without b taken out, 2 c b t made a spurious f of -4 se on 120 tracks
+    at zeta = 0.025. Each coefficient's standard error is from a track bootstrap (opt.bootstrap
+    replicates, at least 200; the same resampled sets for every fit); zeta = c / (2 omega_1)
+    (docs/theory.md), C_rr = f / g. The
+    residual rms of each law's fit [(cm/s)^2] over its samples (n - segments - regressors degrees
+    of freedom) tells how well that law alone describes the decay; the viscous law's is of
+    E = a_s - c D (+ beta t with opt.decay_drift), whose c is viscous_law_damping_rate.
+
+    The loss against time and against path length: the pooled slopes of E on t alone and on S
+    alone, energy_loss_rate = -dE/dt [(cm/s)^2/s] and energy_loss_per_length = -dE/ds [cm/s^2]:
+    the mean loss per second and per cm of the centre's path (rolling resistance alone gives
+    -dE/ds = f at any speed; viscous damping alone -dE/dt = 2 c <T>, and -dE/ds growing with the
+    speed). Without opt.decay_drift the second is the rolling fit.
+
+    The law (dissipation_law), from the combined fit: a coefficient is present when it lies more
+    than LAW_PRESENT = 4 standard errors above 0, absent when its interval at opt.confidence
+    (+- z se) contains 0. 'viscous': c present and f absent; 'rolling': f present and c absent;
+    'both': both present; else 'undetermined': a coefficient between absent and present, or below 0
+    beyond its interval (an energy gain, which neither law gives), or both absent (a ball without
+    dissipation), or a single track (no bootstrap error)."""
+    keys = ("damping_rate", "damping_rate_err", "damping_ratio", "damping_ratio_err", "rolling_drag",
+            "rolling_drag_err", "rolling_resistance", "rolling_resistance_err", "combined_damping_rate",
+            "combined_damping_rate_err", "combined_damping_ratio", "combined_damping_ratio_err",
+            "combined_rolling_drag", "combined_rolling_drag_err", "combined_rolling_resistance",
+            "combined_rolling_resistance_err", "residual_rms_viscous", "residual_rms_rolling",
+            "residual_rms_combined", "viscous_law_damping_rate", "viscous_law_damping_rate_err", "energy_loss_rate",
+            "energy_loss_rate_err", "energy_loss_per_length", "energy_loss_per_length_err")
+    out = dict.fromkeys(keys, math.nan)
+    out.update({"dissipation_law": "undetermined", "dissipation_law_threshold": LAW_PRESENT,
+                "decay_drift": int(opt.decay_drift), "decay_trim": DECAY_TRIM})
     if not decay:
-        return nan
+        return out
+    forms = _decay_forms(opt.decay_drift)
     tr = np.array([d[0] for d in decay])
     tracks = np.unique(tr)
-    mats = np.array([sum(d[1] for d in decay if d[0] == k) for k in tracks])   # (n_tracks, 2, 2)
-    rhs = np.array([sum(d[2] for d in decay if d[0] == k) for k in tracks])    # (n_tracks, 2)
+    mats = np.array([sum(d[1] for d in decay if d[0] == k) for k in tracks])   # (n_tracks, 3, 3)
+    rhs = np.array([sum(d[2] for d in decay if d[0] == k) for k in tracks])    # (n_tracks, 3)
+    ee = float(sum(d[3] for d in decay))
+    n_free = sum(d[4] for d in decay) - len(decay)
 
-    def solve(m, r):
+    def solve(m, r, ix):
+        """The coefficients of the regressors ix: dE/dD = -c, dE/dS = -f, beta."""
         try:
-            return -np.linalg.solve(m, r)[0]
+            return np.linalg.solve(m[np.ix_(ix, ix)], r[list(ix)])
         except np.linalg.LinAlgError:
-            return math.nan
-    c = float(solve(mats.sum(0), rhs.sum(0)))
-    if not math.isfinite(c):
-        return nan
-    err = math.nan
+            return np.full(len(ix), math.nan)
+    m_all, r_all = mats.sum(0), rhs.sum(0)
+    coef = {name: solve(m_all, r_all, ix) for name, ix in forms.items()}
+    err = {name: np.full(len(ix), math.nan) for name, ix in forms.items()}
     if tracks.size > 1:
         w = rng.multinomial(tracks.size, np.full(tracks.size, 1.0 / tracks.size), size=max(opt.bootstrap, 200))
-        cb = np.array([solve(np.tensordot(wi, mats, 1), wi @ rhs) for wi in w])
-        err = float(np.std(cb[np.isfinite(cb)]))
-    w1 = _slow_frequency(model)
-    return {"damping_rate": c, "damping_rate_err": err, "damping_ratio": c / (2 * w1),
-            "damping_ratio_err": err / (2 * w1)}
+        boot = {name: [] for name in forms}
+        for wi in w:
+            mb, rb = np.tensordot(wi, mats, 1), wi @ rhs
+            for name, ix in forms.items():
+                boot[name].append(solve(mb, rb, ix))
+        for name in forms:
+            cb = np.array(boot[name])
+            cb = cb[np.all(np.isfinite(cb), axis=1)]
+            if cb.shape[0] > 1:
+                err[name] = np.std(cb, axis=0)
+    if not np.all(np.isfinite(coef["viscous"])):
+        return out
+    w1, g = _slow_frequency(model), model.g
+    for law, name in (("viscous", "viscous_law"), ("rolling", "rolling"), ("combined", "combined")):
+        dof = n_free - len(forms[name])
+        rss = ee - float(coef[name] @ r_all[list(forms[name])])
+        out[f"residual_rms_{law}"] = math.sqrt(max(rss, 0.0) / dof) if dof > 0 else math.nan
+    c, c_err = -float(coef["viscous"][0]), float(err["viscous"][0])
+    f, f_err = -float(coef["rolling"][0]), float(err["rolling"][0])
+    cc, cc_err = -float(coef["combined"][0]), float(err["combined"][0])
+    fc, fc_err = -float(coef["combined"][1]), float(err["combined"][1])
+    out.update({
+        "damping_rate": c, "damping_rate_err": c_err, "damping_ratio": c / (2 * w1),
+        "damping_ratio_err": c_err / (2 * w1), "rolling_drag": f, "rolling_drag_err": f_err,
+        "rolling_resistance": f / g, "rolling_resistance_err": f_err / g, "combined_damping_rate": cc,
+        "combined_damping_rate_err": cc_err, "combined_damping_ratio": cc / (2 * w1),
+        "combined_damping_ratio_err": cc_err / (2 * w1), "combined_rolling_drag": fc,
+        "combined_rolling_drag_err": fc_err, "combined_rolling_resistance": fc / g,
+        "combined_rolling_resistance_err": fc_err / g, "viscous_law_damping_rate": -float(coef["viscous_law"][0]),
+        "viscous_law_damping_rate_err": float(err["viscous_law"][0]),
+        "energy_loss_rate": -float(coef["time"][0]), "energy_loss_rate_err": float(err["time"][0]),
+        "energy_loss_per_length": -float(coef["path"][0]), "energy_loss_per_length_err": float(err["path"][0]),
+        "dissipation_law": _law(cc, cc_err, fc, fc_err, _z(opt.confidence))})
+    return out
+
+
+def _dissipation_summary(a: dict) -> list:
+    """The summary's lines on the dissipation law, from an analysis' attrs (_decay_fits)."""
+    z = _z(a["confidence"])
+    drift = " + beta t" if a.get("decay_drift") else ""
+    thr = a["dissipation_law_threshold"]
+
+    def coef(v, e):
+        return (f"{v / e:.1f} se: {_presence(v, e, z, thr)}" if e > 0 else "no se")
+    law = a["dissipation_law"]
+    what = {"viscous": "viscous damping (dE/dt = -2 c T)", "rolling": "rolling resistance (dE/dt = -f |v3|)",
+            "both": "viscous damping and rolling resistance", "undetermined": "undetermined"}[law]
+    c, ce = a["combined_damping_rate"], a["combined_damping_rate_err"]
+    f, fe = a["combined_rolling_drag"], a["combined_rolling_drag_err"]
+    if law == "undetermined" and ce > 0 and fe > 0 and _presence(c, ce, z, thr) == _presence(f, fe, z, thr) == "absent":
+        what += " (neither law: no dissipation found)"
+    cz, cze = a["combined_damping_ratio"], a["combined_damping_ratio_err"]
+    cr, cre = a["combined_rolling_resistance"], a["combined_rolling_resistance_err"]
+    r, re_ = a["rolling_resistance"], a["rolling_resistance_err"]
+    return [
+        f"dissipation from the energy's decay: {what}",
+        f"  combined fit E = a - c D - f S{drift}: c = {c:.4g} +- {ce:.2g} 1/s (zeta {cz:.4g} +- {cze:.2g}; "
+        f"{coef(c, ce)}), f = {f:.4g} +- {fe:.2g} cm/s^2 (C_rr {cr:.4g} +- {cre:.2g}; {coef(f, fe)}) [present: "
+        f"more than {thr:g} se above 0; absent: 0 inside the {a['confidence']:.0%} interval]",
+        f"  rolling fit E = a - f S{drift} (S the centre's path): f = {a['rolling_drag']:.5g} +- "
+        f"{a['rolling_drag_err']:.2g} cm/s^2, C_rr = f/g = {r:.5g} +- {re_:.2g} ({a['confidence']:.0%}: "
+        f"{r - z * re_:.5g} .. {r + z * re_:.5g})",
+        f"  residual rms: viscous (E = a - c D{drift}) {a['residual_rms_viscous']:.2f}, rolling (E = a - f S{drift}) "
+        f"{a['residual_rms_rolling']:.2f}, combined {a['residual_rms_combined']:.2f} (cm/s)^2",
+        f"  energy loss against time -dE/dt = {a['energy_loss_rate']:.4g} +- {a['energy_loss_rate_err']:.2g} "
+        f"(cm/s)^2/s, against path length -dE/ds = {a['energy_loss_per_length']:.4g} +- "
+        f"{a['energy_loss_per_length_err']:.2g} cm/s^2 (mean slopes)"]
+
+
+def _presence(v: float, e: float, z: float, threshold: float = LAW_PRESENT) -> str:
+    """A coefficient v of standard error e: 'present' more than threshold e above 0, 'absent' within
+    +- z e of 0, else 'unclear' ('unknown' without a finite e > 0)."""
+    if not (math.isfinite(v) and math.isfinite(e) and e > 0):
+        return "unknown"
+    return "present" if v > threshold * e else "absent" if abs(v) <= z * e else "unclear"
+
+
+def _law(c: float, c_err: float, f: float, f_err: float, z: float) -> str:
+    """The dissipation law of the combined fit's coefficients c, f and their standard errors
+    (_decay_fits): each present above LAW_PRESENT standard errors, absent within +- z of 0."""
+    sc, sf = _presence(c, c_err, z), _presence(f, f_err, z)
+    if sc == "present" and sf == "present":
+        return "both"
+    if sc == "present" and sf == "absent":
+        return "viscous"
+    if sf == "present" and sc == "absent":
+        return "rolling"
+    return "undetermined"
 
 
 def _dissipation(t, T):
     """D(t) = integral of 2 T dt (trapezoidal) [(cm/s)^2 s]: dE/dt = -c dD/dt for viscous damping."""
     return np.concatenate([[0.0], np.cumsum((T[1:] + T[:-1]) * np.diff(t))])
+
+
+def _path_length(t, T):
+    """S(t) = integral of |v3| dt (trapezoidal) [cm], the path length of the ball's centre, with
+    |v3| = sqrt(10 T / 7) (T = (7/10) |v3|^2): dE/dt = -f dS/dt for rolling resistance."""
+    v = np.sqrt(np.maximum(10.0 / 7.0 * np.asarray(T, float), 0.0))
+    return np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
 
 
 def _impossible_heights(s: Segment, est: dict, model: Model, sigma: float):
@@ -1279,7 +1462,7 @@ def _segment_balance(t, T, E) -> float:
     """The factor s in g H = a - s T - c D + beta t over one segment (least squares): along a track
     the potential energy g H falls by what the kinetic energy T gains, s = 1, up to the damping
     (c D, D the integral of 2 T dt) and the constant the noise adds to T (beta t), as in
-    _damping. Velocities off by a factor k (a time or length unit, a wrong frame period) give
+    _decay_fits. Velocities off by a factor k (a time or length unit, a wrong frame period) give
     s = 1/k^2. NaN for fewer than 8 usable samples."""
     D = _dissipation(t, T)
     ok = np.isfinite(T) & np.isfinite(E) & np.isfinite(D)
@@ -1299,6 +1482,7 @@ class Analysis:
     bins: dict                 # per-bin arrays
     attrs: dict                # scalars
     theory: Theory | None
+    decay: list = dataclasses.field(default_factory=list)   # per segment (track, t - t_start, D, S, E)
 
 
 def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = None,
@@ -1460,10 +1644,12 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
         "damping_rate_estimate": c_hat,
         "damping_ratio_estimate": c_hat / (2 * _slow_frequency(model)) if math.isfinite(c_hat) else math.nan,
     })
-    attrs.update(_damping(decay, model, opt, rng))
+    attrs.update(_decay_fits(decay, model, opt, rng))
+    nk = np.concatenate([d[5][4] for d in decay]) if decay else np.zeros(0)
+    attrs["noise_kinetic_energy"] = float(np.mean(nk)) if nk.size else math.nan
     attrs["energy_balance"] = balance
     attrs.update(truth_attrs)
-    return Analysis(opt, rep, cm, bins, attrs, theory)
+    return Analysis(opt, rep, cm, bins, attrs, theory, [(d[0], *d[5][:4]) for d in decay])
 
 
 def _match(a: dict, b: dict, key: str, tol: float, fill=np.nan):
@@ -1770,6 +1956,49 @@ def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0)) -> None:
     plt.close(fig)
 
 
+def plot_dissipation(path: str, an: Analysis, max_segments: int = 300) -> None:
+    """The energy lost since each segment's start against the time since that start, the path
+    length S of the ball's centre and D = the integral of 2 T dt (one thin line per segment, at
+    most max_segments of them, evenly chosen): a_s - E, a_s the segment's starting energy by the
+    combined fit (E + c D + f S averaged over the segment). Rolling resistance puts the segments on
+    one line against S (slope f, the rolling fit, drawn), viscous damping against D (slope c of
+    the viscous law's fit, viscous_law_damping_rate, drawn); against time the slope is the mean loss
+    rate (drawn)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    a = an.attrs
+    fig, axes = plt.subplots(1, 3, figsize=(15.0, 4.6), sharey=True)
+    c, f = a.get("combined_damping_rate", math.nan), a.get("combined_rolling_drag", math.nan)
+    segs = an.decay
+    if len(segs) > max_segments:
+        segs = [segs[i] for i in np.linspace(0, len(segs) - 1, max_segments).round().astype(int)]
+    top = [0.0, 0.0, 0.0]
+    for _, t, D, S, E in segs:
+        a_s = float(np.mean(E + (c if math.isfinite(c) else 0.0) * D + (f if math.isfinite(f) else 0.0) * S))
+        for k, x in enumerate((t, S, D)):
+            axes[k].plot(x, a_s - E, "-", color="0.3", lw=0.4, alpha=0.5)
+            top[k] = max(top[k], float(np.max(x)))
+    lines = ((a.get("energy_loss_rate", math.nan), "mean rate -dE/dt = {:.4g} (cm/s)^2/s"),
+             (a.get("rolling_drag", math.nan), "rolling fit f = {:.4g} cm/s^2"),
+             (a.get("viscous_law_damping_rate", math.nan), "viscous fit c = {:.4g} 1/s"))
+    labels = ("time since the segment's start [s]", "path length of the centre S [cm]",
+              "D = integral of 2 T dt [(cm/s)^2 s]")
+    for ax, (slope, text), xl, x_top in zip(axes, lines, labels, top):
+        if math.isfinite(slope):
+            xx = np.linspace(0.0, x_top, 2)
+            ax.plot(xx, slope * xx, "r--", lw=1.2, label=text.format(slope))
+            ax.legend(fontsize=8, loc="upper left")
+        ax.set_xlabel(xl)
+        ax.grid(True, lw=0.3)
+    axes[0].set_ylabel("energy lost since the segment's start [(cm/s)^2]")
+    fig.suptitle(f"the energy's decay along {len(an.decay)} segments: law {a.get('dissipation_law', '?')}",
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 # --------------------------------------------------------------------------------------------
 # Synthetic tracks and tuning
 # --------------------------------------------------------------------------------------------
@@ -1815,16 +2044,18 @@ def _microcanonical(E, model, rng, box=14.0):
 
 def synthetic_tracks(n_tracks: int, duration: float = 10.0, rate: float = 50.0, noise: float = 0.05,
                      pixel: float = 0.16, damping_ratio: float = 0.0, ensemble: str = "rest",
-                     dE_range=(1000.0, 2000.0), seed: int = 1, model: Model | None = None) -> Tracks:
+                     dE_range=(1000.0, 2000.0), seed: int = 1, model: Model | None = None,
+                     rolling_resistance: float = 0.0) -> Tracks:
     """Tracks integrated with tubes.integrate (DOP853, rtol 1e-10), sampled at rate [Hz], with
-    Gaussian position noise [cm] and then quantised to pixel [cm]. ensemble 'rest': released from
-    rest on the outer zero-velocity curve at E_e + dE (dE uniform in dE_range), as in the
-    experiment; 'microcanonical': a state uniform on that energy surface. truth holds the exact
-    states, energies and dE at the samples."""
-    model = model or Model(damping_ratio=damping_ratio)
-    if model.damping_ratio != damping_ratio:
-        model = model.replace(damping_ratio=damping_ratio)
-    cons = model.replace(damping_ratio=0.0)
+    Gaussian position noise [cm] and then quantised to pixel [cm]. The ball's dissipation: viscous
+    damping of ratio damping_ratio and rolling resistance of coefficient rolling_resistance (the
+    model's own are replaced; docs/dissipation.md). ensemble 'rest': released from rest on the
+    outer zero-velocity curve at E_e + dE (dE uniform in dE_range), as in the experiment;
+    'microcanonical': a state uniform on that energy surface. truth holds the exact states,
+    energies and dE at the samples."""
+    model = model or Model()
+    model = model.replace(damping_ratio=damping_ratio, rolling_resistance=rolling_resistance)
+    cons = model.replace(damping_ratio=0.0, rolling_resistance=0.0)
     _, _, E_e = _gate_geometry(cons)
     rng = np.random.default_rng(seed)
     tk, tt, xx, yy, st = [], [], [], [], []
@@ -1852,7 +2083,7 @@ def synthetic_tracks(n_tracks: int, duration: float = 10.0, rate: float = 50.0, 
     state = np.concatenate(st)
     en = energy_of_states(state, cons)
     attrs = {"camera_rate": rate, "pixel": pixel, "noise": noise, "damping_ratio": damping_ratio,
-             "seed": seed, "n_tracks": n_tracks, "E_e": E_e}
+             "rolling_resistance": rolling_resistance, "seed": seed, "n_tracks": n_tracks, "E_e": E_e}
     return Tracks(np.concatenate(tk).astype(np.int64), np.concatenate(tt), np.concatenate(xx),
                   np.concatenate(yy), attrs, {"state": state, "energy": en, "dE": en - E_e},
                   "synthetic")
@@ -2035,6 +2266,11 @@ def main(argv=None) -> int:
                          "'S23', &section angle = 135) for the q24 table's theory")
     ap.add_argument("--section-range", type=_parse_range, default=(40.0, 140.0),
                     help="dE range of the section plot (default 40,140)")
+    ap.add_argument("--decay-drift", action="store_true",
+                    help="the rolling and combined fits of the energy's decay also take a drift beta t, as the "
+                         "viscous one (robust to a slow drift of the energy estimate; 4-7 times the errors)")
+    ap.add_argument("--dissipation-figure", default=None,
+                    help="draw the energy loss against time, path length and D per segment into this PNG file")
     ap.add_argument("--strict", action="store_true",
                     help="exit with status 1 if any track was rejected or any sample dropped")
     ap.add_argument("--all-issues", action="store_true",
@@ -2118,7 +2354,7 @@ def _main(args, orig) -> int:
                       plate=args.plate, rate=args.rate, noise=args.noise,
                       confidence=args.confidence, fit_max=args.fit_max, guard=args.guard,
                       resamples=args.resamples, bootstrap=args.bootstrap, cut_rule=args.cut_rule,
-                      max_impossible=args.max_impossible, fold=args.fold)
+                      max_impossible=args.max_impossible, fold=args.fold, decay_drift=args.decay_drift)
         if args.bins is not None:
             opt.bins = args.bins
         cal = None
@@ -2196,6 +2432,9 @@ def _main(args, orig) -> int:
               f"{a['damping_rate_err']:.2g} 1/s, zeta = {a['damping_ratio']:.5g} +- {a['damping_ratio_err']:.2g} "
               f"({a['confidence']:.0%}: {a['damping_ratio'] - z * a['damping_ratio_err']:.5g} .. "
               f"{a['damping_ratio'] + z * a['damping_ratio_err']:.5g})")
+    if math.isfinite(a.get("combined_damping_rate", math.nan)):
+        for line in _dissipation_summary(a):
+            print(line)
     print(f"energy balance along the tracks: g H falls by {a['energy_balance']:.4f} times what T gains "
           f"(1 for positions, times and surface that agree)")
     if "truth_dE_rms" in a:
@@ -2219,6 +2458,9 @@ def _main(args, orig) -> int:
         if args.figure:
             plot_analysis(args.figure, an, args.section_range)
             print(f"wrote {args.figure}")
+        if args.dissipation_figure:
+            plot_dissipation(args.dissipation_figure, an)
+            print(f"wrote {args.dissipation_figure}")
     except OSError as exc:
         print(f"error: cannot write the output: {exc}", file=sys.stderr)
         return 3
