@@ -89,6 +89,9 @@ typedef struct {
    * the build or the cache lookup took, expr_hit 1 for a cache hit */
   char hamiltonian[TUBES_LEXPR], coordinates[TUBES_MAXDOF][TUBES_LSYM], momenta[TUBES_MAXDOF][TUBES_LSYM],
       constants[TUBES_MAXCONST][TUBES_LCONST], surface[TUBES_LNAME], height[TUBES_LEXPR];
+  /* &model dissipation: the laws the input declares ('' : not declared; checked against the
+   * coefficients by nml_validate) */
+  char dissipation[TUBES_LNAME];
   char model[TUBES_LNAME], expr_var[TUBES_LNAME], expr_msg[TUBES_LMSG], expr_lib[TUBES_LPATH];
   double expr_seconds;
   int expr_hit;

@@ -412,3 +412,35 @@ def test_the_reader_refuses_noise_that_makes_no_sense(tmp_path, text, words):
     r = run_tubes(["n.nml", "-o", "n.h5"], tmp_path)
     assert r.returncode == 1 and words in r.stderr and "n.nml:2" in r.stderr, r.stderr
     assert not (tmp_path / "n.h5").exists()
+
+
+@pytest.mark.parametrize("text,words", [
+    ("dissipation = 'rolling', damping_ratio = 0.01 /", "leaves out viscous, but damping_ratio is > 0"),
+    ("dissipation = 'viscous+rolling', damping_ratio = 0.01 /", "names rolling, but rolling_resistance is 0"),
+    ("dissipation = 'none', noise = 2 /", "leaves out noise, but noise or temperature is > 0"),
+    ("dissipation = 'viscus', damping_ratio = 0.01 /", "'viscus' is not allowed: allowed none, or viscous, rolling"),
+    ("dissipation = 'viscous+viscous', damping_ratio = 0.01 /", "is not allowed"),
+    ("system = 'henon_heiles', dissipation = 'rolling' /", "system 'henon_heiles' has no rolling_resistance"),
+])
+def test_a_declared_dissipation_must_be_the_coefficients(tmp_path, text, words):
+    """&model dissipation names the laws; the reader holds it against the coefficients, with one
+    message naming the file, the line and the way to agree; no output file."""
+    (tmp_path / "d.nml").write_text(f"&run scenes = 'transition' /\n&model {text}\n&transition de = 100 /\n")
+    r = run_tubes(["d.nml", "-o", "d.h5"], tmp_path)
+    assert r.returncode == 1 and words in r.stderr and "d.nml:2: &model: dissipation" in r.stderr, r.stderr
+    assert not (tmp_path / "d.h5").exists()
+
+
+def test_a_declared_dissipation_changes_no_number(tmp_path):
+    """dissipation = 'viscous+rolling' with both coefficients: the same transition numbers as without
+    the declaration, which the effective namelist keeps."""
+    base = "&run scenes = 'transition' /\n&transition de = 100 /\n&model damping_ratio = 0.005, rolling_resistance = 0.002"
+    (tmp_path / "a.nml").write_text(base + " /\n")
+    (tmp_path / "b.nml").write_text(base + ", dissipation = 'rolling+viscous' /\n")
+    for k in "ab":
+        assert run_tubes([f"{k}.nml", "-o", f"{k}.h5"], tmp_path).returncode == 0
+    with h5py.File(tmp_path / "a.h5") as a, h5py.File(tmp_path / "b.h5") as b:
+        assert a["transition/p_trans"][0] > 0
+        assert np.array_equal(a["transition/p_trans"][()], b["transition/p_trans"][()])
+        assert "DISSIPATION='rolling+viscous'" in b.attrs["input_namelist"]
+        assert "DISSIPATION" not in a.attrs["input_namelist"]

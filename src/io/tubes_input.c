@@ -83,6 +83,10 @@ const nml_var tubes_nml_vars[] = {
      "expression: the names of p_1..p_N, in the coordinates' order"},
     {"model", "constants", NML_STRING, TUBES_MAXCONST, "-", "none", "'name = value'",
      "expression, or surface = 'expression': named constants; a value may use the constants before it"},
+    {"model", "dissipation", NML_STRING, 1, "-", "'' (the coefficients' laws)",
+     "none, or viscous, rolling, noise joined by + (viscous+rolling)",
+     "the dissipation laws the model follows, a check of its coefficients: each law named needs its coefficient "
+     "(damping_ratio; rolling_resistance; noise or temperature) > 0, each coefficient > 0 its law named"},
     {"model", "surface", NML_STRING, 1, "-", "'fourwell'", "fourwell, expression",
      "rolling_ball: the surface: the paper's four-well (alpha..h0), or the formula height"},
     {"model", "height", NML_STRING, 1, "cm", "-", "a formula in x, y [cm]",
@@ -623,6 +627,54 @@ static int bad_string(const char *path, const nml_where *w, const char *group, c
   return 1;
 }
 
+/* &model dissipation, when given: the laws it names ('none', or viscous, rolling, noise joined by
+ * '+') must be those the model's coefficients set (names, np: the system's parameters in the
+ * table's order; c->params their values). One message: what was declared, what the coefficients
+ * say, and how to make them agree. Returns 1 on a mismatch. */
+static int check_dissipation(const char *path, const tubes_config_t *c, const nml_where *w, const char *names,
+                             int np, FILE *err) {
+  if (!c->dissipation[0]) return 0;
+  static const char *const law[3] = {"viscous", "rolling", "noise"};
+  static const char *const coef[3] = {"damping_ratio", "rolling_resistance", "noise or temperature"};
+  int said[3] = {0, 0, 0}, has[3] = {0, 0, 0}, owns[3] = {0, 0, 0};
+  char buf[TUBES_LNAME + 1];
+  snprintf(buf, sizeof buf, "%s", c->dissipation);
+  if (strcmp(buf, "none")) {
+    for (char *tok = strtok(buf, "+"); tok; tok = strtok(NULL, "+")) {
+      int k = 0;
+      while (k < 3 && strcmp(tok, law[k])) k++;
+      if (k == 3 || said[k]) return bad_string(path, w, "model", "dissipation", c->dissipation, err);
+      said[k] = 1;
+    }
+    if (!said[0] && !said[1] && !said[2]) return bad_string(path, w, "model", "dissipation", c->dissipation, err);
+  }
+  for (int k = 0; k < np; k++) {
+    const char *nm = names + TUBES_LPARAM * k;
+    int j = !strcmp(nm, "damping_ratio") ? 0 : !strcmp(nm, "rolling_resistance") ? 1
+            : (!strcmp(nm, "noise") || !strcmp(nm, "temperature")) ? 2 : -1;
+    if (j < 0) continue;
+    owns[j] = 1;
+    has[j] |= c->params[k] > 0;
+  }
+  int ln = line_or_group(w, "model", "dissipation");
+  for (int j = 0; j < 3; j++) {
+    if (said[j] && !owns[j]) {
+      fprintf(err, "%s:%d: &model: dissipation = '%s' names %s, but system '%s' has no %s (%s)\n", path, ln,
+              c->dissipation, law[j], c->system, coef[j],
+              j == 1 ? "rolling resistance is a ball's: rolling_ball or a formula's surface"
+                     : "dissipation is defined for natural models: docs/dissipation.md#other-models");
+      return 1;
+    }
+    if (said[j] != has[j]) {
+      fprintf(err, "%s:%d: &model: dissipation = '%s' %s %s, but %s %s: %s\n", path, ln, c->dissipation,
+              said[j] ? "names" : "leaves out", law[j], coef[j], said[j] ? "is 0" : "is > 0",
+              said[j] ? "give its coefficient, or leave the law out" : "name the law too, or set the coefficient to 0");
+      return 1;
+    }
+  }
+  return 0;
+}
+
 /* A list of excess energies (unset entries: the reader's UNSET = -huge): no gaps, positive,
  * strictly increasing. One message, naming the element. */
 static int check_list(const char *path, const tubes_config_t *c, const nml_where *w, const char *group, const double *de, int nde,
@@ -687,6 +739,7 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
     static const char *const ham_vars[] = {"hamiltonian", "coordinates", "momenta", "constants"};
     for (int k = 0; k < 4 && formula && !ball; k++) mine |= !strcmp(v->name, ham_vars[k]);
     mine |= ball && !strcmp(v->name, "surface");
+    mine |= !strcmp(v->name, "dissipation");
     mine |= !strcmp(v->name, "spatial") && !strcmp(c->system, "cr3bp");
     mine |= ball && formula && (!strcmp(v->name, "height") || !strcmp(v->name, "constants"));
     if (mine) continue;
@@ -742,6 +795,7 @@ static int validate_model(const char *path, const tubes_config_t *c, const nml_w
       return 1;
     }
   }
+  if (check_dissipation(path, c, w, names, np, err)) return 1;
   int natural = 0;
   if (tubes_model_natural(sys, c->params, &natural) < 0) {
     fprintf(err, "%s:%d: &model: the parameters of system '%s' are out of range:", path, ln, sys);

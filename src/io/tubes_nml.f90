@@ -76,6 +76,7 @@ module tubes_nml
     ! models written as formulas (docs/models.md), then what building them gave
     character(kind=c_char) :: hamiltonian(LEXPR), coordinates(LSYM, MAX_DOF), momenta(LSYM, MAX_DOF), &
       constants(LCONST, MAXCONST), surface(LNAME), height(LEXPR)
+    character(kind=c_char) :: dissipation(LNAME)   !! &model dissipation as declared ('' : not)
     character(kind=c_char) :: model(LNAME), expr_var(LNAME), expr_msg(LMSG), expr_lib(LPATH)
     real(c_double) :: expr_seconds
     integer(c_int) :: expr_hit
@@ -143,6 +144,7 @@ module tubes_nml
     character(LSYM) :: coordinates(MAX_DOF) = '', momenta(MAX_DOF) = ''
     character(LCONST) :: constants(MAXCONST) = ''
     character(LNAME) :: surface = 'fourwell'
+    character(LNAME) :: dissipation = ''
     character(LNAME) :: model_name = ''   !! the library's name of the model (written only)
     real(c_double) :: flux_de(MAXDE) = UNSET
     integer :: flux_n_samples = 4000, flux_seed = 1, flux_order = 0, flux_n_cut = 16
@@ -221,6 +223,7 @@ contains
     call f_to_c(v%hamiltonian, cfg%hamiltonian)
     call f_to_c(v%height, cfg%height)
     call f_to_c(v%surface, cfg%surface)
+    call f_to_c(v%dissipation, cfg%dissipation)
     do k = 1, MAX_DOF
       call f_to_c(v%coordinates(k), cfg%coordinates(:, k))
       call f_to_c(v%momenta(k), cfg%momenta(:, k))
@@ -527,6 +530,7 @@ contains
     v%hamiltonian = c_to_f(cfg%hamiltonian)
     v%height = c_to_f(cfg%height)
     v%surface = c_to_f(cfg%surface)
+    v%dissipation = c_to_f(cfg%dissipation)
     v%model_name = c_to_f(cfg%model)
     do k = 1, MAX_DOF
       v%coordinates(k) = c_to_f(cfg%coordinates(:, k))
@@ -644,7 +648,7 @@ contains
       end if
     end subroutine io_run
     subroutine io_model()
-      character(LNAME) :: system, surface
+      character(LNAME) :: system, surface, dissipation
       real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, noise, temperature, &
                         m_a, m_b, d, lambda, zeta, eps_s, omega, eps, mu
       logical :: spatial
@@ -653,10 +657,12 @@ contains
       character(LCONST) :: constants(MAXCONST)
       namelist /model/ system, alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, noise, temperature, &
         m_a, m_b, d, lambda, &
-        zeta, eps_s, omega, eps, mu, hamiltonian, coordinates, momenta, constants, surface, height, spatial
+        zeta, eps_s, omega, eps, mu, hamiltonian, coordinates, momenta, constants, surface, height, spatial, &
+        dissipation
       system = v%system
       spatial = v%spatial
       hamiltonian = v%hamiltonian; height = v%height; surface = v%surface
+      dissipation = v%dissipation
       coordinates = v%coordinates; momenta = v%momenta; constants = v%constants
       alpha = v%alpha; beta = v%beta; gamma = v%gamma; xi = v%xi; h0 = v%h0; g = v%g
       damping_ratio = v%damping_ratio; m_a = v%m_a; m_b = v%m_b; d = v%d; lambda = v%lambda
@@ -675,6 +681,7 @@ contains
         v%temperature = temperature
         v%zeta = zeta; v%eps_s = eps_s; v%omega = omega; v%eps = eps; v%mu = mu
         v%hamiltonian = hamiltonian; v%height = height; v%surface = surface
+        v%dissipation = dissipation
         v%coordinates = coordinates; v%momenta = momenta; v%constants = constants
       else
         call write_model()
@@ -698,6 +705,7 @@ contains
         call write_string('HEIGHT', v%height)
       end if
       if (is_expression(v)) call write_list('CONSTANTS', v%constants)
+      if (v%dissipation /= '') call write_string('DISSIPATION', v%dissipation)
       call system_info(trim(v%model_name), info, st)
       if (st /= 0) info%np = 0
       do k = 1, info%np
