@@ -8,7 +8,9 @@
 extern "C" {
 #endif
 
-enum { TUBES_NSCENES = 16, TUBES_LSCENE = 32, TUBES_LPATH = 1024, TUBES_LNAME = 32, TUBES_MAXDE = 256 };
+enum { TUBES_NSCENES = 16, TUBES_LSCENE = 32, TUBES_LPATH = 1024, TUBES_LNAME = 32, TUBES_MAXDE = 256,
+       TUBES_LSADDLE = 8 /* an equilibrium's name (tubes_equilibria.f90) */,
+       TUBES_MAX_INPUT = 1 << 20 /* bytes of an input file at most */ };
 /* models written as formulas: a formula, a name, a constant 'name = value', how many, a message */
 enum { TUBES_LEXPR = 2048, TUBES_LSYM = 16, TUBES_LCONST = 128, TUBES_MAXCONST = 32, TUBES_LMSG = 1024 };
 
@@ -21,7 +23,7 @@ typedef struct {
   /* &equilibria */
   double box;
   int n_grid;
-  char saddle[8];
+  char saddle[TUBES_LSADDLE];
   /* &trajectory */
   double x0, y0, px0, py0, t_end, dt_out;
   int at_rest;
@@ -36,7 +38,7 @@ typedef struct {
   char solver[TUBES_LNAME];
   int max_iter;
   /* &orbits */
-  char orb_saddle[8];
+  char orb_saddle[TUBES_LSADDLE];
   double orb_de[TUBES_MAXDE];
   int orb_nde;
   char orb_method[TUBES_LNAME];

@@ -13,6 +13,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 const char *const tubes_nml_groups[] = {"run", "model", "equilibria", "trajectory", "integrator",
                                         "orbits", "section", "tubes", "transition", "montecarlo",
@@ -256,9 +258,20 @@ static char *slurp(const char *path, size_t *len, FILE *err) {
   size_t r;
   while (buf && (r = fread(buf + n, 1, cap - n - 1, f)) > 0) {
     n += r;
+    if (n > TUBES_MAX_INPUT) {   /* a namelist is a few kB; /dev/zero or a wrong file is not one */
+      fprintf(err, "tubes: input file '%s' is larger than %d bytes (the limit): a namelist is text of a few "
+              "kilobytes; is it the right file?\n", path, TUBES_MAX_INPUT);
+      free(buf);
+      fclose(f);
+      return NULL;
+    }
     if (n + 1 >= cap) {
       char *nb = realloc(buf, cap *= 2);
-      if (!nb) { free(buf); buf = NULL; }
+      if (!nb) {
+        fprintf(err, "tubes: cannot read input file '%s': %s\n", path, strerror(errno));
+        free(buf);
+        buf = NULL;
+      }
       else buf = nb;
     }
   }
@@ -285,6 +298,23 @@ static const char *check_token(const nml_var *var, const char *tok, size_t len, 
   const char *v = tmp;                       /* the lexer has taken off a repeat count */
   switch (t) {
   case NML_REAL: {
+    /* Fortran's form only: [sign] digits [. digits] [e|d [sign] digits]. strtod alone would take
+     * C's hex (0x1p-4), which Fortran's READ does not read: before a '/' it kept the default. */
+    const char *q = v + (*v == '+' || *v == '-');
+    int mant = 0;
+    while (isdigit((unsigned char)*q)) { q++; mant++; }
+    if (*q == '.') for (q++; isdigit((unsigned char)*q); q++) mant++;
+    if (mant && strchr("eEdD", *q) && *q) {
+      q++;
+      q += *q == '+' || *q == '-';
+      if (!isdigit((unsigned char)*q)) return "is not a real number (Fortran's form: 1.5, -2, 3e-4 or 3d-4)";
+      while (isdigit((unsigned char)*q)) q++;
+    }
+    if (!mant || *q) {
+      if (!strncasecmp(v + (*v == '+' || *v == '-'), "inf", 3) || !strncasecmp(v + (*v == '+' || *v == '-'), "nan", 3))
+        return "is not a finite real number";
+      return "is not a real number (Fortran's form: 1.5, -2, 3e-4 or 3d-4)";
+    }
     char num[256];
     size_t k = 0;
     for (const char *p = v; *p && k < sizeof num - 1; p++) num[k++] = (*p == 'd' || *p == 'D') ? 'e' : *p;
@@ -330,6 +360,7 @@ static int string_cap(const nml_var *v) {
   if (!strcmp(v->name, "coordinates") || !strcmp(v->name, "momenta")) return TUBES_LSYM - 1;
   if (!strcmp(v->name, "constants")) return TUBES_LCONST - 1;
   if (!strcmp(v->name, "output") || !strcmp(v->name, "csv")) return TUBES_LPATH - 1;
+  if (!strcmp(v->name, "saddle")) return TUBES_LSADDLE - 1;
   return TUBES_LNAME - 1;
 }
 
@@ -940,6 +971,45 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
   return n;
 }
 
+/* The memory a scene's arrays take, from the input's sizes (the largest arrays the scene holds at
+ * once: the C buffers the scenes allocate, docs/input.md "Memory"), against the machine's memory:
+ * a request larger than the machine is refused here, by --check and before any work, not by a
+ * failed allocation hours later. */
+static int check_memory(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
+  double mem = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGE_SIZE);
+  struct rlimit rl;
+  if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY && (double)rl.rlim_cur < mem)
+    mem = (double)rl.rlim_cur;
+  if (!(mem > 0)) return 0;   /* not known here: the allocations' own checks remain */
+  double nout = c->dt_out > 0 ? floor(c->t_end / c->dt_out) + 2 : 0;
+  double frames = c->exp_duration > 0 && c->exp_camera_rate > 0 && c->exp_duration * c->exp_camera_rate <= 1e6
+                      ? (double)tubes_experiment_samples(c->exp_duration, c->exp_camera_rate) * c->exp_n_tracks : 0;
+  struct { const char *scene, *group, *name, *what, *lower; double bytes; } need[] = {
+      {"trajectory", "trajectory", "dt_out", "t_end/dt_out samples (48 bytes each) and max_crossings crossings (44)",
+       "t_end or max_crossings, or raise dt_out",
+       48 * nout + 44.0 * c->max_crossings},
+      {"orbits", "orbits", "n_samples", "n_samples x (number of de) x max_iter (56 and 8 bytes each)",
+       "n_samples or max_iter",
+       56.0 * c->orb_n_samples * c->orb_nde + 8.0 * c->orb_max_iter * c->orb_nde},
+      {"montecarlo", "montecarlo", "n_samples", "n_samples points (24 bytes each)", "n_samples", 24.0 * c->mc_n_samples},
+      {"sections", "sections", "n_iter", "n_seeds x n_iter returns (16 bytes each)", "n_seeds or n_iter",
+       16.0 * c->pm_n_seeds * c->pm_n_iter},
+      {"synthetic_experiment", "experiment", "n_tracks", "n_tracks x duration x camera_rate frames (108 bytes each)",
+       "n_tracks, duration or camera_rate",
+       108 * frames},
+  };
+  int n = 0;
+  for (size_t k = 0; k < sizeof need / sizeof need[0]; k++) {
+    if (!scene_requested(c, need[k].scene) || need[k].bytes <= mem) continue;
+    fprintf(err, "%s:%d: &%s: the %s scene needs %.3g GB of memory for its %s; this machine has %.3g GB (the "
+            "physical memory, or the address-space limit if lower): lower %s\n", path,
+            line_or_group(w, need[k].group, need[k].name), need[k].group, need[k].scene, need[k].bytes / 1e9,
+            need[k].what, mem / 1e9, need[k].lower);
+    n++;
+  }
+  return n;
+}
+
 int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int n = 0, nscenes = 0;
   for (int k = 0; k < TUBES_NSCENES; k++) {
@@ -1112,6 +1182,7 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->exp_rolling_resistance >= 0 && c->exp_rolling_resistance < 1))
     n += bad(path, c, w, "experiment", "rolling_resistance", err, "", c->exp_rolling_resistance);
   if (!(c->exp_seed >= 0)) n += bad(path, c, w, "experiment", "seed", err, "", c->exp_seed);
+  if (!n) n += check_memory(path, c, w, err);
   return n;
 }
 

@@ -12,7 +12,7 @@ module tubes_nml
   !> run, model, equilibria, trajectory, integrator, orbits, section, tubes, transition,
   !> montecarlo, sections, experiment
   integer, parameter :: NGROUPS = 13
-  integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32, MAXDE = 256
+  integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32, MAXDE = 256, LSADDLE = 8
   !> models written as formulas: a formula, a name, a constant 'name = value', how many
   integer, parameter :: LEXPR = 2048, LSYM = 16, LCONST = 128, MAXCONST = 32, LMSG = 1024
   !> An unset entry of a list (dE): any value a user cannot mean.
@@ -27,7 +27,7 @@ module tubes_nml
     real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, noise_d, temperature
     real(c_double) :: box
     integer(c_int) :: n_grid
-    character(kind=c_char) :: saddle(8)
+    character(kind=c_char) :: saddle(LSADDLE)
     real(c_double) :: x0, y0, px0, py0, t_end, dt_out
     integer(c_int) :: at_rest
     character(kind=c_char) :: section(LNAME)
@@ -39,7 +39,7 @@ module tubes_nml
     real(c_double) :: omega_bind
     character(kind=c_char) :: solver(LNAME)
     integer(c_int) :: max_iter
-    character(kind=c_char) :: orb_saddle(8)
+    character(kind=c_char) :: orb_saddle(LSADDLE)
     real(c_double) :: orb_de(MAXDE)
     integer(c_int) :: orb_nde
     character(kind=c_char) :: orb_method(LNAME)
@@ -96,7 +96,7 @@ module tubes_nml
                       damping_ratio = UNSET, rolling_resistance = UNSET, noise_d = UNSET, temperature = UNSET
     real(c_double) :: box = 0
     integer :: n_grid = 41
-    character(8) :: saddle = ''
+    character(LSADDLE) :: saddle = ''
     real(c_double) :: x0 = 4, y0 = 12.614863819914357_c_double, px0 = 0, py0 = 0, t_end = 10, &
                       dt_out = 0.01_c_double
     logical :: at_rest = .true.
@@ -110,7 +110,7 @@ module tubes_nml
     real(c_double) :: omega_bind = 200
     character(LNAME) :: solver = 'newton'
     integer :: max_iter = 0
-    character(8) :: orb_saddle = ''
+    character(LSADDLE) :: orb_saddle = ''
     real(c_double) :: orb_de(MAXDE) = UNSET
     character(LNAME) :: orb_method = 'single'
     integer :: orb_n_segments = 8, orb_max_iter = 25, orb_n_samples = 201

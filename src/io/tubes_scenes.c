@@ -2,6 +2,8 @@
 #include "tubes_scenes.h"
 #include "tubes_h5.h"
 #include "tubes_input.h"
+#include <errno.h>
+#include <float.h>
 #include <math.h>
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -1615,6 +1617,12 @@ int scene_sections(tubes_run_t *run) {
     int ns = c->pm_n_seeds, ni = c->pm_n_iter;
     double de = c->pm_de[k], t0 = now();
     double *pts = malloc(sizeof(double) * 2 * (size_t)ns * ni);
+    if (!pts) {
+      fprintf(stderr, "tubes: sections: cannot allocate %.3g GB for the map at dE = %g (n_seeds x n_iter = %d x %d): "
+              "%s\n", 16.0 * ns * ni / 1e9, c->pm_de[k], ns, ni, strerror(errno));
+      H5Gclose(g);
+      return EXIT_NUMERIC;
+    }
     fprintf(stderr, "sections: Poincare map at dE = %g (%d trajectories, %d returns)...\n", de, ns, ni);
     int st = tubes_poincare(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, ni, c->pm_t_max, INTEGRATOR(c), pts, run->seeds);
     if (st < 0) {
@@ -1952,8 +1960,20 @@ static int section_fraction(const tubes_run_t *run, const double *fl, const doub
       rc = EXIT_NUMERIC;
       continue;
     }
-    int use_nf = fnf && isfinite(fnf[k]);
-    double f = use_nf ? fnf[k] : fl[k], ferr = use_nf ? (isfinite(fch[k]) ? fch[k] : 0.0) : fe[k];
+    /* the normal form's flux where its own error (the change from order K - 2) is within 10 % of
+     * it; beyond its reach (4.48 at dE = 1e6, order 4) the sampled flux */
+    int nf_finite = fnf && isfinite(fnf[k]);
+    int use_nf = nf_finite && isfinite(fch[k]) && fabs(fch[k]) <= 0.1 * fabs(fnf[k]);
+    if (nf_finite && !use_nf && isfinite(fl[k]))
+      printf("  (dE = %g: flux / volume from the sampled flux: the normal form's change from order K - 2, %.3g, "
+             "exceeds 10 %% of its flux %.6g)\n", c->flux_de[k], fch[k], fnf[k]);
+    double f = use_nf ? fnf[k] : fl[k], ferr = use_nf ? fch[k] : fe[k];
+    if (!(isfinite(f) && f > 0)) {   /* no flux there (failed, past the bottleneck, or too small) */
+      printf("  %10.4g %14.8g %10.3g %12s %12.6f %10.2g %9s %9d %9d %9d   (%.1f s)\n", c->flux_de[k], sv[k], sve[k],
+             "-", sf[k], sfe[k], "-", cnt[1], cnt[2], cnt[3], now() - t0);
+      pth[k] = NAN;
+      continue;
+    }
     pth[k] = f / sv[k];
     double sp = pth[k] * sqrt(pow(ferr / f, 2) + pow(sve[k] / sv[k], 2));
     /* the fraction's standard error under the prediction p (a score test, as the montecarlo scene's
@@ -1965,14 +1985,19 @@ static int section_fraction(const tubes_run_t *run, const double *fl, const doub
       if (isfinite(wi)) { sw1 += wi; sw2 += wi * wi; }
     }
     double se0 = sw1 > 0 ? sqrt(fmax(pth[k] * (1 - pth[k]), 0) * sw2) / sw1 : sfe[k];
-    double z = (sf[k] - pth[k]) / sqrt(se0 * se0 + sp * sp);
+    double z = sf[k] == pth[k] ? 0 : (sf[k] - pth[k]) / sqrt(se0 * se0 + sp * sp);
     printf("  %10.4g %14.8g %10.3g %12.6f %12.6f %10.2g %9.2f %9d %9d %9d   (%.1f s)\n", c->flux_de[k], sv[k], sve[k],
            pth[k], sf[k], sfe[k], z, cnt[1], cnt[2], cnt[3], now() - t0);
     if (cnt[3] > 0.01 * cnt[0]) {
       fprintf(stderr, "tubes: flux: the section at dE = %g: %d of %d points neither transited nor returned within "
               "t_max = %g: raise &flux t_max\n", c->flux_de[k], cnt[3], cnt[0], c->flux_t_max);
       rc = EXIT_NUMERIC;
-    } else if (isfinite(z) && fabs(z) > 5) {
+    } else if (pth[k] - 1 > 5 * sp) {
+      fprintf(stderr, "tubes: flux: the section at dE = %g: flux / volume = %.6g +- %.2g exceeds 1 (a fraction of the "
+              "section's points): the %s flux or the volume is wrong there\n", c->flux_de[k], pth[k], sp,
+              use_nf ? "normal form's" : "sampled");
+      rc = EXIT_NUMERIC;
+    } else if (!isfinite(z) || fabs(z) > 5) {
       fprintf(stderr, "tubes: flux: the section at dE = %g: the Monte Carlo transition fraction %.6g +- %.2g and "
               "flux / volume %.6g disagree by %.1f standard errors (a section crossed by the tube more than once?)\n",
               c->flux_de[k], sf[k], sfe[k], pth[k], z);
@@ -2235,6 +2260,13 @@ int scene_flux(tubes_run_t *run) {
         continue;
       }
       fprintf(stderr, "tubes: flux: dE = %g failed: %s (status %d)\n", de, m, st);
+      rc = EXIT_NUMERIC;
+      continue;
+    }
+    if (!(lo[k] > DBL_MIN)) {   /* dE^(N-1) below the smallest double: 0 +- 0 and NaN ratios before */
+      fprintf(stderr, "tubes: flux: dE = %g is too small: the flux, of order dE^%d, is below the smallest double "
+              "(leading order %g); NaN there: raise dE\n", de, run->ndof - 1, lo[k]);
+      fl[k] = fe[k] = NAN;
       rc = EXIT_NUMERIC;
       continue;
     }
