@@ -25,8 +25,18 @@ enum {
   TUBES_ESHAPE = -16, /* the transition region is not one star-shaped piece, or reaches the energy surface's edge */
   TUBES_EUNDECIDED = -17, /* a section point neither passed the gate nor returned within t_max */
   TUBES_EDISSIPATIVE = -18, /* a conservative-only computation asked of a dissipative model */
-  TUBES_ENOISE = -19 /* a deterministic computation asked of a noisy model */
+  TUBES_ENOISE = -19, /* a deterministic computation asked of a noisy model */
+  TUBES_EINTERRUPT = -20 /* stopped by the caller: tubes_cancel_begin's SIGINT handler (Ctrl-C) */
 };
+
+/* Interrupting a call of the library (Python's Ctrl-C; src/base/tubes_cancel_shim.c): between
+ * tubes_cancel_begin() and tubes_cancel_end(), SIGINT sets a flag instead of the caller's handler;
+ * every ensemble (tubes_ensemble.f90) checks it before each unit of work and marks the items left
+ * TUBES_EINTERRUPT, so the call returns within one unit. tubes_cancel_end() restores the caller's
+ * handler and returns 1 if SIGINT came. Main thread only, not nested. */
+void tubes_cancel_begin(void);
+int tubes_cancel_end(void);
+int tubes_cancel_requested(void);
 
 /* Integration methods (src/integrators/tubes_methods.f90). */
 enum {

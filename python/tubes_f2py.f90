@@ -692,6 +692,29 @@ subroutine status_code(name, code)
   code = status_code_of(name)
 end subroutine status_code
 
+subroutine cancel_begin()
+  ! SIGINT (Ctrl-C) stops the core's ensembles until cancel_end (src/base/tubes_cancel_shim.c)
+  implicit none
+  interface
+    subroutine c_cancel_begin() bind(C, name='tubes_cancel_begin')
+    end subroutine c_cancel_begin
+  end interface
+  call c_cancel_begin()
+end subroutine cancel_begin
+
+subroutine cancel_end(requested)
+  ! the caller's SIGINT handler back; requested = 1 if SIGINT came since cancel_begin
+  use, intrinsic :: iso_c_binding, only: c_int
+  implicit none
+  integer, intent(out) :: requested
+  interface
+    integer(c_int) function c_cancel_end() bind(C, name='tubes_cancel_end')
+      import :: c_int
+    end function c_cancel_end
+  end interface
+  requested = c_cancel_end()
+end subroutine cancel_end
+
 subroutine mc_agreement(n, n_transit, n_undecided, misclassified, p, sigmas, sigma_limit, mis_lim, und_lim, &
                         agrees)
   ! the Monte Carlo check's verdict (src/transport/tubes_transport.f90 mc_agreement, the rule's one

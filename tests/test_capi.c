@@ -132,7 +132,7 @@ int main(void) {
       {TUBES_EDIRECTION, "other direction first"}, {TUBES_EUNRESOLVED, "below what the energy resolves"},
       {TUBES_ENOREGION, "no bounded region"}, {TUBES_ESHAPE, "star-shaped"},
       {TUBES_EUNDECIDED, "neither passed the gate"}, {TUBES_EDISSIPATIVE, "dissipative"},
-      {TUBES_ENOISE, "carries noise"}};
+      {TUBES_ENOISE, "carries noise"}, {TUBES_EINTERRUPT, "interrupted"}};
   char msg[TUBES_LSTATUS];
   for (size_t i = 0; i < sizeof codes / sizeof codes[0]; i++) {
     tubes_status_message(codes[i].code, msg, sizeof msg);

@@ -63,11 +63,55 @@ class TubesError(RuntimeError):
 
 
 def _lib():
-    try:
-        from . import _core as core  # noqa: PLC0415
-    except ImportError as exc:  # pragma: no cover - message for users who skipped `make`
-        raise ImportError("tubes._core is not built: run `make` in the tubes directory") from exc
-    return core
+    global _CORE
+    if _CORE is None:
+        try:
+            from . import _core as core  # noqa: PLC0415
+        except ImportError as exc:  # pragma: no cover - message for users who skipped `make`
+            raise ImportError("tubes._core is not built: run `make` in the tubes directory") from exc
+        _CORE = _Interruptible(core)
+    return _CORE
+
+
+_CORE = None
+
+
+class _Interruptible:
+    """The core's calls with Ctrl-C. While the core computes, Python's SIGINT handler only notes
+    the signal (the KeyboardInterrupt came when the call ended: 66 s after Ctrl-C on a 10^7-point
+    Monte Carlo). A call from the main thread installs the core's handler for its duration
+    (src/base/tubes_cancel_shim.c): the ensembles stop dealing out work, the call returns within
+    one unit of work, and KeyboardInterrupt is raised here. What the models had kept is dropped
+    then (an orbit continuation cut short must not be kept as the family's end)."""
+
+    def __init__(self, core):
+        self._core = core
+
+    def __getattr__(self, name):
+        f = getattr(self._core, name)
+        if not callable(f) or name.startswith("cancel_"):
+            return f
+        core = self._core
+
+        def call(*args, **kwargs):
+            import threading  # noqa: PLC0415
+            if threading.current_thread() is not threading.main_thread() or _Interruptible.depth:
+                return f(*args, **kwargs)
+            _Interruptible.depth += 1
+            core.cancel_begin()
+            try:
+                result = f(*args, **kwargs)
+            finally:
+                _Interruptible.depth -= 1
+                hit = core.cancel_end()
+                if hit:
+                    _Stores.drop_all()
+            if hit:
+                raise KeyboardInterrupt
+            return result
+        return call
+
+    depth = 0
 
 
 class Model:
@@ -229,11 +273,25 @@ def _model_from(system, formula, parameters):
 
 class _Stores:
     """A Model's kept results in the core (tubes_study's open_stores), freed with the object."""
-    __slots__ = ("handle",)
+    __slots__ = ("handle", "__weakref__")
+    live = None      # every open _Stores (a WeakSet): drop_all empties them after a Ctrl-C
 
     def __init__(self):
+        import weakref  # noqa: PLC0415
         self.handle = 0
         self.handle = int(_lib().stores_open())
+        if _Stores.live is None:
+            _Stores.live = weakref.WeakSet()
+        _Stores.live.add(self)
+
+    @staticmethod
+    def drop_all():
+        """Empty every model's kept results (each gets a new, empty store)."""
+        for s in list(_Stores.live or ()):
+            h, s.handle = s.handle, 0
+            if h:
+                _lib().stores_close(h)
+            s.handle = int(_lib().stores_open())
 
     def __del__(self):
         h, self.handle = self.handle, 0

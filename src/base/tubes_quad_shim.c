@@ -93,13 +93,22 @@ int tubes_spline_area(int n, const double *tau, const double *r, const double *p
 
 #include <gsl/gsl_rng.h>
 
+int tubes_cancel_requested(void);   /* include/tubes.h: Ctrl-C in Python */
+
 /* n uniform deviates in [0, 1) from GSL's MT19937 seeded with `seed`: one stream, drawn
- * serially, so that the samples do not depend on how the work is later shared out. */
+ * serially, so that the samples do not depend on how the work is later shared out. GSL_EFAILED
+ * when the caller asked to stop (8 x 10^7 deviates take a second). */
 int tubes_rng_uniform(unsigned long seed, int n, double *u) {
   gsl_rng *r = gsl_rng_alloc(gsl_rng_mt19937);
   if (!r) return GSL_ENOMEM;
   gsl_rng_set(r, seed);
-  for (int i = 0; i < n; i++) u[i] = gsl_rng_uniform(r);
+  for (int i = 0; i < n; i++) {
+    if (!(i & 0xfffff) && tubes_cancel_requested()) {
+      gsl_rng_free(r);
+      return GSL_EFAILED;
+    }
+    u[i] = gsl_rng_uniform(r);
+  }
   gsl_rng_free(r);
   return 0;
 }

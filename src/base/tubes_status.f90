@@ -26,15 +26,16 @@ module tubes_status
   integer, parameter, public :: TUBES_EUNDECIDED = -17   !! a point neither transited nor returned within t_max
   integer, parameter, public :: TUBES_EDISSIPATIVE = -18 !! a conservative-only scene asked of a dissipative model
   integer, parameter, public :: TUBES_ENOISE = -19       !! a deterministic computation asked of a noisy model
+  integer, parameter, public :: TUBES_EINTERRUPT = -20   !! stopped by the caller (Ctrl-C: tubes_cancel_shim.c)
   !> The codes' names (TUBES_<name>), for the languages that look them up by name (Python).
-  character(len=*), parameter :: STATUS_NAMES(21) = [character(len=12) :: 'OK', 'EVENT', 'EINPUT', &
+  character(len=*), parameter :: STATUS_NAMES(22) = [character(len=12) :: 'OK', 'EVENT', 'EINPUT', &
       'EMAXSTEPS', 'ESTEP', 'EMODEL', 'EIO', 'ENOCONV', 'EFAULT', 'EOUTSIDE', 'ENOCROSS', 'EPASTEND', &
       'ENARROW', 'ENOJET', 'EDIRECTION', 'EUNRESOLVED', 'ENOREGION', 'ESHAPE', 'EUNDECIDED', &
-      'EDISSIPATIVE', 'ENOISE']
-  integer, parameter :: STATUS_CODES(21) = [TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, &
+      'EDISSIPATIVE', 'ENOISE', 'EINTERRUPT']
+  integer, parameter :: STATUS_CODES(22) = [TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, &
       TUBES_ESTEP, TUBES_EMODEL, TUBES_EIO, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENOCROSS, &
       TUBES_EPASTEND, TUBES_ENARROW, TUBES_ENOJET, TUBES_EDIRECTION, TUBES_EUNRESOLVED, TUBES_ENOREGION, &
-      TUBES_ESHAPE, TUBES_EUNDECIDED, TUBES_EDISSIPATIVE, TUBES_ENOISE]
+      TUBES_ESHAPE, TUBES_EUNDECIDED, TUBES_EDISSIPATIVE, TUBES_ENOISE, TUBES_EINTERRUPT]
   integer, parameter, public :: STATUS_UNKNOWN = 1000   !! status_code's answer for no such name
   public :: status_message, callback_status, status_code
 contains
@@ -97,6 +98,7 @@ contains
     case (TUBES_ENOISE);    msg = 'the model carries noise (noise or temperature > 0) and this computation is ' // &
                                   'deterministic (a transition region, a Poincare map): with noise the ' // &
                                   'montecarlo scene gives p_trans (docs/dissipation.md)'
+    case (TUBES_EINTERRUPT); msg = 'interrupted: the caller asked the computation to stop (Ctrl-C)'
     case default;           msg = 'unknown status code'
     end select
   end function status_message

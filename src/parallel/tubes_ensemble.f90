@@ -16,9 +16,17 @@
 module tubes_ensemble
   use tubes_kinds, only: wp
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
-  use tubes_status, only: TUBES_OK, TUBES_EFAULT
+  use tubes_status, only: TUBES_OK, TUBES_EFAULT, TUBES_EINTERRUPT
+  use, intrinsic :: iso_c_binding, only: c_int
   implicit none
   private
+
+  interface
+    !> 1 once the caller asked the computation to stop (src/base/tubes_cancel_shim.c)
+    integer(c_int) function cancel_requested() bind(C, name='tubes_cancel_requested')
+      import :: c_int
+    end function cancel_requested
+  end interface
 
   !> The results of items 1..n, item k's in column k.
   type, public :: ens_out_t
@@ -50,7 +58,7 @@ module tubes_ensemble
     module procedure agree_r0, agree_r1, agree_r2
   end interface ens_agree
 
-  public :: ens_run, ens_chunk_items, ens_agree, ens_reuse_ok
+  public :: ens_run, ens_chunk_items, ens_agree, ens_reuse_ok, ens_cancelled
 contains
 
   !> Compute items 1..n of ens: this rank's share over its threads, then every item's results on
@@ -97,6 +105,12 @@ contains
     end if
     !$omp parallel do schedule(dynamic) default(shared) private(c) num_threads(nthr)
     do c = 1, nc
+      ! Ctrl-C in Python (tubes_cancel_begin): the units left are not computed, their items
+      ! TUBES_EINTERRUPT (the caller raises KeyboardInterrupt; no store keeps a failed item)
+      if (cancel_requested() /= 0) then
+        out%st(todo((c - 1)*m + 1:min(size(todo), c*m))) = TUBES_EINTERRUPT
+        cycle
+      end if
       call ens%chunk(todo((c - 1)*m + 1:min(size(todo), c*m)), out)
     end do
     !$omp end parallel do
@@ -115,6 +129,12 @@ contains
       call self%item(ks(j), out)
     end do
   end subroutine ens_chunk_items
+
+  !> Has the caller asked the computation to stop (Ctrl-C in Python: tubes_cancel_begin)? For a
+  !> long serial loop outside ens_run (it returns TUBES_EINTERRUPT then).
+  logical function ens_cancelled()
+    ens_cancelled = cancel_requested() /= 0
+  end function ens_cancelled
 
   !> May a loop take earlier results (a cache) for items instead of computing them? Only on one
   !> rank (the caches of several would have to agree) and without an injected fault for it.

@@ -5,8 +5,8 @@ module tubes_transport
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_long
   use tubes_kinds, only: wp, i8
   use tubes_quad, only: rng_uniform
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EMODEL
-  use tubes_ensemble, only: ens_out_t, ens_run, ens_agree
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EMODEL, TUBES_EINTERRUPT
+  use tubes_ensemble, only: ens_out_t, ens_run, ens_agree, ens_cancelled
   use tubes_hamiltonian, only: hamiltonian_t, veff, damped_t
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
@@ -390,7 +390,7 @@ contains
     class(vector_field_t), intent(in), optional :: field
     real(wp), allocatable :: u(:)
     real(wp) :: plo, phi_, pl, ph, pc, pmax, rr, pp_
-    integer :: k, m, i
+    integer :: k, m, i, ntry
     stat = TUBES_OK
     if (n < 1) then
       stat = TUBES_EINPUT
@@ -408,13 +408,19 @@ contains
     pmax = (ph - pl)/2*1.01_wp
     m = 0
     k = 0
+    ntry = 0
     allocate (u(8*n + 64))
     stat = rng_uniform(seed, size(u), u)
     if (stat /= 0) then
-      stat = TUBES_EINPUT                  ! GSL refused the seed or the size
+      stat = merge(TUBES_EINTERRUPT, TUBES_EINPUT, ens_cancelled())   ! else GSL refused the seed or the size
       return
     end if
     do while (m < n)
+      ntry = ntry + 1
+      if (iand(ntry, 4095) == 0 .and. ens_cancelled()) then   ! 10^7 points: seconds of drawing
+        stat = TUBES_EINTERRUPT
+        return
+      end if
       if (k + 2 > size(u)) then            ! rare: draw more from the same stream's seed + 1
         stat = rng_uniform(seed + k, size(u), u)
         if (stat /= 0) then
