@@ -11,6 +11,7 @@ extern "C" {
 /* Status codes (src/base/tubes_status.f90, python/tubes/__init__.py). >= 0 success. */
 enum {
   TUBES_OK = 0, TUBES_EVENT = 1,
+  TUBES_FULL = 2, /* success, but before t_end: max_crossings crossings were recorded */
   TUBES_EINPUT = -1, TUBES_EMAXSTEPS = -2, TUBES_ESTEP = -3, TUBES_EMODEL = -4,
   TUBES_EIO = -5, TUBES_ENOCONV = -6,
   TUBES_EFAULT = -7, /* a failure injected by TUBES_FAULT (tests only) */

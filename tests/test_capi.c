@@ -124,7 +124,7 @@ int main(void) {
   check("unknown method refused", st == TUBES_EINPUT, st, TUBES_EINPUT);
   /* the header's status numbers are the library's (src/base/tubes_status.f90): each one's message */
   static const struct { int code; const char *word; } codes[] = {
-      {TUBES_OK, "ok"}, {TUBES_EVENT, "terminal event"}, {TUBES_EINPUT, "invalid input"},
+      {TUBES_OK, "ok"}, {TUBES_EVENT, "terminal event"}, {TUBES_FULL, "max_crossings"}, {TUBES_EINPUT, "invalid input"},
       {TUBES_EMAXSTEPS, "maximum number of steps"}, {TUBES_ESTEP, "step size underflow"},
       {TUBES_EMODEL, "refused the state"}, {TUBES_EIO, "input/output"}, {TUBES_ENOCONV, "did not converge"},
       {TUBES_EFAULT, "TUBES_FAULT"}, {TUBES_EOUTSIDE, "outside the region"}, {TUBES_ENOCROSS, "no crossing"},

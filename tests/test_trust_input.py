@@ -111,3 +111,24 @@ def test_the_3dof_fraction_does_not_take_a_normal_form_beyond_its_reach(tmp_path
     frac, mc = float(row.split()[3]), float(row.split()[4])
     assert abs(frac - 1) < 1e-5 and mc == 1.0
     assert " 4.482" not in r.stdout
+
+
+def test_a_trajectory_cut_short_by_max_crossings_says_so(tmp_path):
+    # t_end = 200000, section = 'theta' stopped at t = 24,488 s on max_crossings, exit 0, nothing said
+    (tmp_path / "t.nml").write_text("&run scenes = 'trajectory', output = 't.h5' /\n"
+                                    "&trajectory t_end = 2000, section = 'theta', max_crossings = 20 /\n")
+    r = run_tubes(["t.nml"], tmp_path)
+    assert r.returncode == 4
+    assert "before t_end = 2000 s" in r.stderr and "max_crossings" in r.stderr
+    with h5py.File(tmp_path / "t.h5") as f:
+        g = f["trajectory"]
+        assert g.attrs["status"] == 2 and len(g["crossings/t"]) == 20 and g["t"][-1] < 2000
+    # the same in Python: a RuntimeWarning and status 2; room for every crossing: status 0, t_end reached
+    import tubes
+    with pytest.warns(RuntimeWarning, match="before t_end = 2000"):
+        out = tubes.integrate([4.0, 12.614863819914357, 0, 0], 2000.0, 1.0, section="theta", level=45.0,
+                              max_crossings=20)
+    assert out["status"] == tubes.FULL == 2 and len(out["crossings"]["t"]) == 20
+    out = tubes.integrate([4.0, 12.614863819914357, 0, 0], 50.0, 1.0, section="theta", level=45.0,
+                          max_crossings=1000)
+    assert out["status"] == 0 and out["t"][-1] == 50.0

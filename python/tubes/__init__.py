@@ -1517,7 +1517,8 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
     The polar sections (U1*, theta) are the ball's; "x" and "y" are the planes q1 = level and
     q2 = level of any model.
 
-    Returns a dict: t (n,), state (n, 2N), energy (n,), nfev, nsteps, nrejected, niter, and with
+    Returns a dict: t (n,), state (n, 2N), energy (n,), nfev, nsteps, nrejected, niter, status
+    (0, or 2 = tubes.FULL with a RuntimeWarning: max_crossings crossings recorded before t_end), and with
     a section crossings = dict t (m,), state (m, 2N), direction (m,), and for theta sections
     r, p_r, p_theta (polar canonical coordinates). Raises TubesError on failure.
     """
@@ -1557,6 +1558,12 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
         err = TubesError(stat, "integrate")
         err.partial = out
         raise err
+    out["status"] = int(stat)
+    if stat == 2:   # TUBES_FULL: the crossing log full before t_end, said as the program says it
+        import warnings  # noqa: PLC0415
+        warnings.warn(f"integrate: stopped at t = {out['t'][-1]:g}, before t_end = {t_end:g}: the {mc} crossings "
+                      f"max_crossings allows were recorded (raise max_crossings, or stop_at_first=True)",
+                      RuntimeWarning, stacklevel=2)
     return out
 
 

@@ -7,6 +7,7 @@ module tubes_status
   private
   integer, parameter, public :: TUBES_OK = 0         !! success
   integer, parameter, public :: TUBES_EVENT = 1      !! success: stopped at a terminal event
+  integer, parameter, public :: TUBES_FULL = 2       !! success, before t_end: max_crossings crossings recorded
   integer, parameter, public :: TUBES_EINPUT = -1    !! invalid argument
   integer, parameter, public :: TUBES_EMAXSTEPS = -2 !! step budget exhausted
   integer, parameter, public :: TUBES_ESTEP = -3     !! step size underflow
@@ -28,11 +29,11 @@ module tubes_status
   integer, parameter, public :: TUBES_ENOISE = -19       !! a deterministic computation asked of a noisy model
   integer, parameter, public :: TUBES_EINTERRUPT = -20   !! stopped by the caller (Ctrl-C: tubes_cancel_shim.c)
   !> The codes' names (TUBES_<name>), for the languages that look them up by name (Python).
-  character(len=*), parameter :: STATUS_NAMES(22) = [character(len=12) :: 'OK', 'EVENT', 'EINPUT', &
+  character(len=*), parameter :: STATUS_NAMES(23) = [character(len=12) :: 'OK', 'EVENT', 'FULL', 'EINPUT', &
       'EMAXSTEPS', 'ESTEP', 'EMODEL', 'EIO', 'ENOCONV', 'EFAULT', 'EOUTSIDE', 'ENOCROSS', 'EPASTEND', &
       'ENARROW', 'ENOJET', 'EDIRECTION', 'EUNRESOLVED', 'ENOREGION', 'ESHAPE', 'EUNDECIDED', &
       'EDISSIPATIVE', 'ENOISE', 'EINTERRUPT']
-  integer, parameter :: STATUS_CODES(22) = [TUBES_OK, TUBES_EVENT, TUBES_EINPUT, TUBES_EMAXSTEPS, &
+  integer, parameter :: STATUS_CODES(23) = [TUBES_OK, TUBES_EVENT, TUBES_FULL, TUBES_EINPUT, TUBES_EMAXSTEPS, &
       TUBES_ESTEP, TUBES_EMODEL, TUBES_EIO, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENOCROSS, &
       TUBES_EPASTEND, TUBES_ENARROW, TUBES_ENOJET, TUBES_EDIRECTION, TUBES_EUNRESOLVED, TUBES_ENOREGION, &
       TUBES_ESHAPE, TUBES_EUNDECIDED, TUBES_EDISSIPATIVE, TUBES_ENOISE, TUBES_EINTERRUPT]
@@ -65,6 +66,7 @@ contains
     select case (code)
     case (TUBES_OK);        msg = 'ok'
     case (TUBES_EVENT);     msg = 'stopped at a terminal event'
+    case (TUBES_FULL);      msg = 'stopped before t_end: max_crossings crossings were recorded (raise max_crossings)'
     case (TUBES_EINPUT);    msg = 'invalid input'
     case (TUBES_EMAXSTEPS); msg = 'maximum number of steps reached'
     case (TUBES_ESTEP);     msg = 'step size underflow'

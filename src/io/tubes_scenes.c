@@ -673,6 +673,10 @@ int scene_trajectory(tubes_run_t *run) {
          (long long)cnt[1],
          (long long)cnt[2], (long long)cnt[0], wall);
   if (sk) printf("  section %s: %d crossings\n", c->section, ncross);
+  if (s == TUBES_FULL)   /* before, t_end = 200000 s ended at 24,488 s, exit 0, nothing said */
+    fprintf(stderr, "tubes: trajectory: stopped at t = %g%s, before t_end = %g%s: the %d crossings max_crossings "
+            "allows were recorded; the samples up to there are written (raise &trajectory max_crossings, at most "
+            "1e7, or set stop_at_first)\n", n ? t[n - 1] : 0.0, in_units(" s"), c->t_end, in_units(" s"), mc);
   if (run->zeta > 0 && !(run->crr > 0))
     printf("  damped (zeta = %g, c = %.6g 1/s): energy lost %.6g (cm/s)^2\n", run->zeta, cdamp,
            n > 0 ? e0 - en[n - 1] : NAN);
@@ -745,7 +749,7 @@ int scene_trajectory(tubes_run_t *run) {
   }
   free(t); free(st); free(en); free(ct); free(cx); free(cd);
   if (rc) return rc;
-  return s < 0 ? EXIT_NUMERIC : 0;
+  return s < 0 ? EXIT_NUMERIC : s == TUBES_FULL ? EXIT_PARTIAL : 0;
 }
 
 static const char *end_reason_text(int r) {

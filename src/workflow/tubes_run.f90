@@ -4,7 +4,7 @@
 module tubes_run
   use, intrinsic :: iso_c_binding, only: c_intptr_t, c_loc, c_f_pointer, c_null_ptr
   use tubes_kinds, only: wp, i8
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_EMODEL
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_EMODEL, TUBES_FULL
   use tubes_field, only: vector_field_t
   use tubes_models, only: make_field, make_model
   use tubes_hamiltonian, only: hamiltonian_t
@@ -238,6 +238,11 @@ contains
     call run_integration(system, params, x0, t_end, method, rtol, atol, h, max_steps, mopts, spec, &
                          obs, log, counters, c_damp, stat)
     n = obs%n
+    ! the crossing log full before t_end: said (TUBES_FULL), not a silent stop (t_end = 200000 s
+    ! ended at 24,488 s with status 0)
+    if (stat == TUBES_OK .and. sec%kind /= SECTION_NONE .and. .not. sec%stop_at_first .and. n > 0) then
+      if (log%n >= spec%max_crossings .and. obs%t(n) < t_end) stat = TUBES_FULL
+    end if
     t(1:n) = obs%t(1:n)
     state(:, 1:n) = obs%x(:, 1:n)
     do k = 1, n
