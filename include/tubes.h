@@ -35,6 +35,11 @@ enum {
  * every ensemble (tubes_ensemble.f90) checks it before each unit of work and marks the items left
  * TUBES_EINTERRUPT, so the call returns within one unit. tubes_cancel_end() restores the caller's
  * handler and returns 1 if SIGINT came. Main thread only, not nested. */
+/* Progress lines of the ensembles on stderr, at most once a second once a loop has run a second
+ * (src/base/tubes_progress_shim.c): off until turned on (the program does; the library and Python
+ * are silent). */
+void tubes_progress_enable(int on);
+
 void tubes_cancel_begin(void);
 int tubes_cancel_end(void);
 int tubes_cancel_requested(void);

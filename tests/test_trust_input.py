@@ -1,8 +1,10 @@
 """Issue 39, the input side: nothing silently misread, no work larger than the machine, no NaN
 column in the 3-DOF flux scene. Each case failed before (the value, exit code or output it gave
 then is in the comment) and is refused, or reported, now."""
+import os
 import resource
 import subprocess
+import sys
 
 import h5py
 import numpy as np
@@ -132,3 +134,21 @@ def test_a_trajectory_cut_short_by_max_crossings_says_so(tmp_path):
     out = tubes.integrate([4.0, 12.614863819914357, 0, 0], 50.0, 1.0, section="theta", level=45.0,
                           max_crossings=1000)
     assert out["status"] == 0 and out["t"][-1] == 50.0
+
+
+def test_a_long_ensemble_reports_its_progress(tmp_path):
+    # a Monte Carlo printed nothing between "integrating N points..." and its result
+    import re
+    (tmp_path / "m.nml").write_text("&run scenes = 'montecarlo', output = 'm.h5' /\n&montecarlo n_samples = 200000 /\n")
+    r = run_tubes(["m.nml"], tmp_path, threads=1)
+    assert r.returncode == 0, r.stderr
+    lines = re.findall(r"^  (\d+) of 200000 points \((\d+)%\), ([\d.]+) s, about (\d+) s left$", r.stderr, re.M)
+    assert lines, r.stderr
+    done = [int(x[0]) for x in lines]
+    assert done == sorted(done) and all(0 < d < 200000 for d in done)
+    assert all(float(x[2]) >= 1.0 for x in lines)      # none before the loop has run a second
+    # Python is silent
+    code = "import tubes; tubes.Model().monte_carlo(100.0, n_samples=100000)"
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                       env={**os.environ, "OMP_NUM_THREADS": "1"})
+    assert p.returncode == 0 and "points (" not in p.stderr

@@ -337,6 +337,7 @@ int run_setup(tubes_run_t *run) {
   char summary[TUBES_LSUMMARY], lu[8], dsad[8], skind[8], surf[TUBES_LSUMMARY];
   double defs[TUBES_MAXPARAM], box[MD], boxc[MD], near[MD], sv, sa, gate;
   memset(run->system, 0, sizeof run->system);
+  tubes_progress_enable(1);   /* the ensembles' progress lines (src/base/tubes_progress_shim.c) */
   snprintf(run->system, sizeof run->system, "%s", c->model);   /* the library's name of the model */
   int formula = !strncmp(c->model, "expr_", 5);
   snprintf(run->label, sizeof run->label, "%s%s", formula ? c->system : c->model,

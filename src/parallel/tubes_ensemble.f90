@@ -17,7 +17,7 @@ module tubes_ensemble
   use tubes_kinds, only: wp
   use tubes_par, only: par_t, par_here, par_share, par_bcast, par_fault_item
   use tubes_status, only: TUBES_OK, TUBES_EFAULT, TUBES_EINTERRUPT
-  use, intrinsic :: iso_c_binding, only: c_int
+  use, intrinsic :: iso_c_binding, only: c_int, c_long, c_char
   implicit none
   private
 
@@ -26,6 +26,16 @@ module tubes_ensemble
     integer(c_int) function cancel_requested() bind(C, name='tubes_cancel_requested')
       import :: c_int
     end function cancel_requested
+    !> progress lines on stderr (src/base/tubes_progress_shim.c; on in the program only)
+    subroutine progress_begin(fault, n) bind(C, name='tubes_progress_begin')
+      import :: c_char, c_int
+      character(kind=c_char), intent(in) :: fault(*)
+      integer(c_int), value :: n
+    end subroutine progress_begin
+    subroutine progress_tick(done, total) bind(C, name='tubes_progress_tick')
+      import :: c_long
+      integer(c_long), value :: done, total
+    end subroutine progress_tick
   end interface
 
   !> The results of items 1..n, item k's in column k.
@@ -65,7 +75,7 @@ contains
   !> every rank. The loop's fault name (fault) makes item k = par_fault_item(fault) - first + 1
   !> fail with TUBES_EFAULT (tests only), without computing it.
   subroutine ens_run(ens, n, out, nr, ni, fault, first, local, skip, chunk, threads)
-    use omp_lib, only: omp_get_max_threads
+    use omp_lib, only: omp_get_max_threads, omp_in_parallel
     class(ensemble_t), intent(inout) :: ens
     integer, intent(in) :: n                    !! number of items
     type(ens_out_t), intent(out) :: out
@@ -81,6 +91,8 @@ contains
     integer, allocatable :: todo(:)
     logical :: doit(n)
     integer :: k, kf, c, m, nc, nthr
+    integer(c_long) :: done, now_done
+    logical :: report
     allocate (out%r(nr, n), out%i(ni, n), out%st(n))
     out%r = 0
     out%i = 0
@@ -103,7 +115,16 @@ contains
     if (present(threads)) then
       if (threads > 0) nthr = threads
     end if
-    !$omp parallel do schedule(dynamic) default(shared) private(c) num_threads(nthr)
+    report = .not. omp_in_parallel() .and. nc > 1   ! a nested loop's progress is its caller's
+    done = 0
+    if (report) then
+      if (present(fault)) then
+        call progress_begin(fault, len(fault))
+      else
+        call progress_begin('', 0)
+      end if
+    end if
+    !$omp parallel do schedule(dynamic) default(shared) private(c, now_done) num_threads(nthr)
     do c = 1, nc
       ! Ctrl-C in Python (tubes_cancel_begin): the units left are not computed, their items
       ! TUBES_EINTERRUPT (the caller raises KeyboardInterrupt; no store keeps a failed item)
@@ -112,6 +133,13 @@ contains
         cycle
       end if
       call ens%chunk(todo((c - 1)*m + 1:min(size(todo), c*m)), out)
+      if (report) then
+        !$omp atomic capture
+        done = done + (min(size(todo), c*m) - (c - 1)*m)
+        now_done = done
+        !$omp end atomic
+        call progress_tick(now_done, int(size(todo), c_long))
+      end if
     end do
     !$omp end parallel do
     call par_share(out%r, grp)
