@@ -92,7 +92,13 @@ static int expr_attrs(hid_t g, const tubes_config_t *c) {
     buf[0] = 0;
     for (int k = 0; k < TUBES_MAXDOF && c->momenta[k][0]; k++)
       snprintf(buf + strlen(buf), sizeof buf - strlen(buf), "%s%s", k ? " " : "", c->momenta[k]);
-    if (buf[0]) rc |= h5_attr_string(g, "momenta", buf);
+    if (!buf[0]) {   /* the default: 'p' + each coordinate (docs/input.md) */
+      const char *dq[] = {"x", "y"};
+      for (int k = 0; k < TUBES_MAXDOF && (c->coordinates[0][0] ? c->coordinates[k][0] != 0 : k < 2); k++)
+        snprintf(buf + strlen(buf), sizeof buf - strlen(buf), "%sp%s", k ? " " : "",
+                 c->coordinates[0][0] ? c->coordinates[k] : dq[k]);
+    }
+    rc |= h5_attr_string(g, "momenta", buf);
   } else {
     rc |= h5_attr_string(g, "formula", c->height);
   }
