@@ -38,6 +38,7 @@ import numpy as np
 
 from . import (Model, TubesError, energies, energy, equilibria, integrate, momentum, potentials,
                shape_derivatives, vector_field)
+from . import _output
 
 PLATE = 15.0            # [cm] half-width of the machined plate: |x|, |y| <= PLATE
 T_SKIP = 0.4            # [s] the paper's Lyapunov time, dropped at the start of every track
@@ -1845,61 +1846,63 @@ def _truth_check(tracks: Tracks, cm: dict, model: Model, E_e: float, x_gate: flo
 # Output
 # --------------------------------------------------------------------------------------------
 
-def write_analysis(path: str, an: Analysis, argv=None, tracks_path: str = "") -> None:
-    """Write /experiment (bins, attributes), /experiment/crossings, /experiment/validation."""
+def write_analysis(path: str, an: Analysis, argv=None, tracks_path: str = "", option: str | None = None) -> None:
+    """Write /experiment (bins, attributes), /experiment/crossings, /experiment/validation into
+    path by the writer rule of tubes._output (made in memory, written to PATH.tmp.<pid>, renamed;
+    tubes._output.OutputError naming path or option on failure, nothing left)."""
+    _output.emit(path, analysis_image(an, argv, tracks_path), option)
+
+
+def analysis_image(an: Analysis, argv=None, tracks_path: str = "") -> bytes:
+    """The bytes of the HDF5 file write_analysis writes."""
     import h5py
-    tmp = f"{path}.tmp.{os.getpid()}"
     str_dt = h5py.string_dtype()
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-            f.attrs["command_line"] = " ".join(argv) if argv else ""
-            f.attrs["tracks_file"] = tracks_path
-            f.attrs["theory_file"] = an.theory.path if an.theory else ""
-            if an.theory is not None and an.theory.result is not None:
-                f.attrs["theory_git_commit"] = str(an.theory.result.attrs.get("git_commit", ""))
-            g = f.create_group("experiment")
-            units = {"dE_low": "(cm/s)^2", "dE_high": "(cm/s)^2", "dE_center": "(cm/s)^2",
-                     "dE_err": "(cm/s)^2", "q24_dE_center": "(cm/s)^2", "q24_dE_err": "(cm/s)^2"}
-            for k, v in an.bins.items():
-                d = g.create_dataset(k, data=np.asarray(v))
-                d.attrs["units"] = units.get(k, "1")
-            for k, v in an.attrs.items():
-                g.attrs[k] = v
-            c = g.create_group("crossings")
-            cu = {"t": "s", "r": "cm", "p_r": "cm/s", "p_theta": "cm^2/s", "x": "cm", "y": "cm",
-                  "vx": "cm/s", "vy": "cm/s", "px": "cm/s", "py": "cm/s", "E": "(cm/s)^2",
-                  "dE": "(cm/s)^2", "dE_err": "(cm/s)^2", "dE_noise": "(cm/s)^2",
-                  "dE_other": "(cm/s)^2", "dE_truth": "(cm/s)^2", "E_instant": "(cm/s)^2",
-                  "cut_dE": "(cm/s)^2", "damping_slope": "1/s"}
-            for k, v in an.crossings.items():
-                d = c.create_dataset(k, data=np.asarray(v))
-                d.attrs["units"] = cu.get(k, "1")
-            v = g.create_group("validation")
-            rep = an.report
-            for k in ("n_tracks", "n_tracks_rejected", "n_samples", "n_samples_skipped",
-                      "n_samples_used", "n_segments"):
-                v.attrs[k] = getattr(rep, k)
-            for k, n in rep.counts().items():
-                v.attrs[f"count_{k}"] = n
-            for k, n in rep.samples_dropped().items():
-                v.attrs[f"samples_{k}"] = n
-            iss = rep.issues
-            v.create_dataset("track", data=np.array([i.track for i in iss], dtype=np.int64))
-            v.create_dataset("t_start", data=np.array([i.t_start for i in iss], float))
-            v.create_dataset("t_end", data=np.array([i.t_end for i in iss], float))
-            v.create_dataset("n_samples", data=np.array([i.n_samples for i in iss], dtype=np.int64))
-            v.create_dataset("kind", data=[i.kind for i in iss], dtype=str_dt)
-            v.create_dataset("severity", data=[i.severity for i in iss], dtype=str_dt)
-            v.create_dataset("message", data=[i.message for i in iss], dtype=str_dt)
-        os.replace(tmp, path)
-    except OSError:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
+
+    def fill(f):
+        f.attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+        f.attrs["command_line"] = " ".join(argv) if argv else ""
+        f.attrs["tracks_file"] = tracks_path
+        f.attrs["theory_file"] = an.theory.path if an.theory else ""
+        if an.theory is not None and an.theory.result is not None:
+            f.attrs["theory_git_commit"] = str(an.theory.result.attrs.get("git_commit", ""))
+        g = f.create_group("experiment")
+        units = {"dE_low": "(cm/s)^2", "dE_high": "(cm/s)^2", "dE_center": "(cm/s)^2",
+                 "dE_err": "(cm/s)^2", "q24_dE_center": "(cm/s)^2", "q24_dE_err": "(cm/s)^2"}
+        for k, v in an.bins.items():
+            d = g.create_dataset(k, data=np.asarray(v))
+            d.attrs["units"] = units.get(k, "1")
+        for k, v in an.attrs.items():
+            g.attrs[k] = v
+        c = g.create_group("crossings")
+        cu = {"t": "s", "r": "cm", "p_r": "cm/s", "p_theta": "cm^2/s", "x": "cm", "y": "cm",
+              "vx": "cm/s", "vy": "cm/s", "px": "cm/s", "py": "cm/s", "E": "(cm/s)^2",
+              "dE": "(cm/s)^2", "dE_err": "(cm/s)^2", "dE_noise": "(cm/s)^2",
+              "dE_other": "(cm/s)^2", "dE_truth": "(cm/s)^2", "E_instant": "(cm/s)^2",
+              "cut_dE": "(cm/s)^2", "damping_slope": "1/s"}
+        for k, v in an.crossings.items():
+            d = c.create_dataset(k, data=np.asarray(v))
+            d.attrs["units"] = cu.get(k, "1")
+        v = g.create_group("validation")
+        rep = an.report
+        for k in ("n_tracks", "n_tracks_rejected", "n_samples", "n_samples_skipped",
+                  "n_samples_used", "n_segments"):
+            v.attrs[k] = getattr(rep, k)
+        for k, n in rep.counts().items():
+            v.attrs[f"count_{k}"] = n
+        for k, n in rep.samples_dropped().items():
+            v.attrs[f"samples_{k}"] = n
+        iss = rep.issues
+        v.create_dataset("track", data=np.array([i.track for i in iss], dtype=np.int64))
+        v.create_dataset("t_start", data=np.array([i.t_start for i in iss], float))
+        v.create_dataset("t_end", data=np.array([i.t_end for i in iss], float))
+        v.create_dataset("n_samples", data=np.array([i.n_samples for i in iss], dtype=np.int64))
+        v.create_dataset("kind", data=[i.kind for i in iss], dtype=str_dt)
+        v.create_dataset("severity", data=[i.severity for i in iss], dtype=str_dt)
+        v.create_dataset("message", data=[i.message for i in iss], dtype=str_dt)
+    return _output.h5_image(fill)
 
 
-def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0)) -> None:
+def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0), option: str | None = None) -> None:
     """The paper's Fig. 4: (a) U1^- crossings with dE in section_range by outcome, with the tube
     cut at or above the range's upper end and the energy boundary there; (b) the transition
     fraction against dE with its intervals, the fit and the theory."""
@@ -1952,11 +1955,13 @@ def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0)) -> None:
     ax2.legend(fontsize=7, loc="upper left")
     ax2.grid(True, lw=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    try:
+        _output.save_figure(fig, path, option, dpi=130)
+    finally:
+        plt.close(fig)
 
 
-def plot_dissipation(path: str, an: Analysis, max_segments: int = 300) -> None:
+def plot_dissipation(path: str, an: Analysis, max_segments: int = 300, option: str | None = None) -> None:
     """The energy lost since each segment's start against the time since that start, the path
     length S of the ball's centre and D = the integral of 2 T dt (one thin line per segment, at
     most max_segments of them, evenly chosen): a_s - E, a_s the segment's starting energy by the
@@ -1995,8 +2000,10 @@ def plot_dissipation(path: str, an: Analysis, max_segments: int = 300) -> None:
     fig.suptitle(f"the energy's decay along {len(an.decay)} segments: law {a.get('dissipation_law', '?')}",
                  fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    try:
+        _output.save_figure(fig, path, option, dpi=120)
+    finally:
+        plt.close(fig)
 
 
 # --------------------------------------------------------------------------------------------
@@ -2325,7 +2332,46 @@ def _print_issues(rep: "ValidationReport", all_issues: bool) -> None:
                   "are in the output's /experiment/validation)", file=sys.stderr)
 
 
+def _outputs(args) -> list:
+    """The run's output files [(option, path)], checked before any work: each a regular file or
+    new (tubes._output.check_target: OutputError, exit 3), none of them an input file or another
+    output (ExperimentError, exit 1)."""
+    outs = [(o, p) for o, p in (("-o", args.output), ("--figure", args.figure),
+                                ("--dissipation-figure", args.dissipation_figure)) if p]
+    seen = {}
+    inputs = [(o, p) for o, p in (("TRACKS", args.tracks), ("--theory", args.theory),
+                                  ("--theory-q24", args.theory_q24), ("--calibration", args.calibration)) if p]
+    for o, p in outs:
+        real = os.path.realpath(_output.check_target(p, o))
+        for io_, ip in inputs:
+            if os.path.exists(ip) and os.path.realpath(ip) == real:
+                raise ExperimentError(f"{o} '{p}' is the input file {ip} ({io_}): it would be overwritten; "
+                                      "give another name")
+        if real in seen:
+            raise ExperimentError(f"{o} '{p}' and {seen[real]} name the same file: give each output its own name")
+        seen[real] = f"{o} '{p}'"
+        if o != "-o":
+            _output.check_figure_format(p, o)
+    return outs
+
+
 def _main(args, orig) -> int:
+    try:
+        _outputs(args)
+    except _output.OutputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return _output.EXIT_IO
+    except ExperimentError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    try:
+        return _run(args, orig)
+    except KeyboardInterrupt:
+        print("python -m tubes.experiment: interrupted; no output file was written", file=sys.stderr)
+        return 130
+
+
+def _run(args, orig) -> int:
     try:
         if not 0 < args.confidence < 1:
             raise ExperimentError("--confidence must lie in (0, 1)")
@@ -2452,18 +2498,19 @@ def _main(args, orig) -> int:
               (f"   |      {b['q24_count'][j]:7d} {b['q24_transitions'][j]:6d}  {b['q24_fraction'][j]:8.4f}  "
                f"{b['q24_p_theory'][j]:8.4f}" if q24 else ""))
     try:
-        if args.output:
-            write_analysis(args.output, an, ["python -m tubes.experiment", *orig], args.tracks)
-            print(f"wrote {args.output}")
-        if args.figure:
-            plot_analysis(args.figure, an, args.section_range)
-            print(f"wrote {args.figure}")
-        if args.dissipation_figure:
-            plot_dissipation(args.dissipation_figure, an)
-            print(f"wrote {args.dissipation_figure}")
-    except OSError as exc:
-        print(f"error: cannot write the output: {exc}", file=sys.stderr)
-        return 3
+        with _output.batch():      # every output made first, then written all or none
+            if args.output:
+                write_analysis(args.output, an, ["python -m tubes.experiment", *orig], args.tracks, option="-o")
+            if args.figure:
+                plot_analysis(args.figure, an, args.section_range, option="--figure")
+            if args.dissipation_figure:
+                plot_dissipation(args.dissipation_figure, an, option="--dissipation-figure")
+    except _output.OutputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return _output.EXIT_IO
+    for p in (args.output, args.figure, args.dissipation_figure):
+        if p:
+            print(f"wrote {p}")
     if args.strict and rep.issues:
         print(f"error: --strict: {len(rep.issues)} issue(s) in the tracks", file=sys.stderr)
         return 1

@@ -1,0 +1,248 @@
+"""Issue 39 ("trust"), the Python side: every file the Python tools write follows the C program's
+rule (tubes._output: a regular file or none yet, written to FILE.tmp.<pid> and renamed, on failure
+exit 3 with the system's reason and nothing left), no `python -m` tool ends in a traceback, the
+track reader takes ASCII numbers only, and the lab options refuse what they cannot honour.
+
+The full-disk cases mount a small tmpfs (root only; skipped, with the reason, where mount is
+refused) and unmount it afterwards."""
+import os
+import stat
+import subprocess
+
+import numpy as np
+import pytest
+
+import tubes._output as out
+import tubes.experiment as ex
+from conftest import ROOT, run_tubes
+
+PY = str(ROOT / ".venv" / "bin" / "python")
+
+
+def _run(module, args, cwd, timeout=300):
+    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=str(ROOT / "python"), MPLBACKEND="Agg")
+    return subprocess.run([PY, "-m", module, *args], cwd=cwd, capture_output=True, text=True,
+                          timeout=timeout, env=env)
+
+
+def _no_traceback(r):
+    assert "Traceback" not in r.stderr and "Exception ignored" not in r.stderr, r.stderr
+    assert r.returncode not in (0, 139, -11), (r.returncode, r.stderr)
+
+
+@pytest.fixture(scope="module")
+def tracks_csv(tmp_path_factory):
+    """Six microcanonical tracks of 4 s (the lab tests' canonical file): analysed in ~2 s."""
+    d = tmp_path_factory.mktemp("trust")
+    tr = ex.synthetic_tracks(6, duration=4.0, ensemble="microcanonical", dE_range=(100.0, 300.0),
+                             seed=5, noise=0.05, pixel=0.16, rate=50.0)
+    p = d / "canon.csv"
+    ex.write_tracks_csv(str(p), tr)
+    return p
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory, tubes_exe):
+    """Two small tubes outputs: e.h5 (the equilibria: python -m tubes.plots draws surface.png) and
+    s.h5 (6 synthetic tracks: python -m tubes.figures analyses them)."""
+    d = tmp_path_factory.mktemp("results")
+    (d / "e.nml").write_text("&run scenes = 'equilibria' /\n")
+    (d / "s.nml").write_text("&run scenes = 'synthetic_experiment' /\n&experiment n_tracks = 6, duration = 4.0, "
+                             "seed = 3 /\n")
+    for n in ("e", "s"):
+        r = run_tubes([f"{n}.nml", "-o", f"{n}.h5"], d)
+        assert r.returncode == 0, r.stderr
+    return d
+
+
+@pytest.fixture
+def full_disk(tmp_path):
+    """A 16 KiB tmpfs: every output of the tools here is larger (the analysis ~35 KB, a figure
+    60-80 KB)."""
+    d = tmp_path / "full"
+    d.mkdir()
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=16k", "tmpfs", str(d)], capture_output=True, text=True)
+    if r.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs to fill (needs root): {r.stderr.strip()}")
+    try:
+        yield d
+    finally:
+        subprocess.run(["umount", str(d)], check=True)
+
+
+# ------------------------------------------------------------------------------------------------
+# 1. One writer rule
+# ------------------------------------------------------------------------------------------------
+
+def _fifo(path):
+    os.mkfifo(path)
+    return lambda: stat.S_ISFIFO(os.stat(path).st_mode)
+
+
+def _device(path):
+    """A character device node (the numbers of /dev/null) in the test's directory, or /dev/null
+    itself where mknod is not permitted."""
+    try:
+        os.mknod(path, 0o666 | stat.S_IFCHR, os.makedev(1, 3))
+    except (PermissionError, OSError):
+        path = "/dev/null"
+    st0 = os.stat(path)
+    return path, lambda: stat.S_ISCHR(os.stat(path).st_mode) and os.stat(path).st_rdev == st0.st_rdev
+
+
+@pytest.mark.parametrize("option", ["-o", "--figure", "--dissipation-figure"])
+@pytest.mark.parametrize("kind", ["fifo", "device"])
+def test_experiment_refuses_a_target_that_is_not_a_regular_file(tracks_csv, tmp_path, option, kind):
+    target = str(tmp_path / "target")
+    if kind == "fifo":
+        still = _fifo(target)
+    else:
+        target, still = _device(target)
+    r = _run("tubes.experiment", [str(tracks_csv), option, target], tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 3
+    assert option in r.stderr and ("a FIFO" if kind == "fifo" else "a device") in r.stderr
+    assert "regular file" in r.stderr
+    assert "camera rate" not in r.stdout      # refused before the work
+    assert still()
+    assert not [p for p in os.listdir(tmp_path) if ".tmp." in p]
+
+
+def test_plots_and_figures_refuse_a_fifo_among_their_files(results, tmp_path):
+    d = tmp_path / "figs"
+    d.mkdir()
+    still = _fifo(d / "surface.png")
+    r = _run("tubes.plots", [str(results / "e.h5"), "-o", str(d)], tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 3 and "a FIFO" in r.stderr and still()
+    os.remove(d / "surface.png")
+    still = _fifo(d / "experiment.png")
+    r = _run("tubes.figures", [str(results / "s.h5"), "-o", str(d)], tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 3 and "a FIFO" in r.stderr and still()
+    assert sorted(os.listdir(d)) == ["experiment.png"]      # experiment.h5 not written either
+
+
+def test_experiment_refuses_an_output_that_is_an_input(tracks_csv, tmp_path):
+    p = tmp_path / "t.csv"
+    p.write_bytes(tracks_csv.read_bytes())
+    r = _run("tubes.experiment", [str(p), "-o", str(p)], tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 1 and "input file" in r.stderr
+    assert p.read_bytes() == tracks_csv.read_bytes()
+    r = _run("tubes.experiment", [str(p), "-o", "a.png", "--figure", "a.png"], tmp_path)
+    assert r.returncode == 1 and "same file" in r.stderr
+
+
+def test_a_figure_format_matplotlib_cannot_write_is_refused_first(tracks_csv, tmp_path):
+    r = _run("tubes.experiment", [str(tracks_csv), "--figure", "fig.xyz"], tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 3 and ".xyz" in r.stderr and ".png" in r.stderr
+    assert "camera rate" not in r.stdout and os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("options", [["-o", "a.h5"], ["--figure", "a.png"], ["--dissipation-figure", "l.png"],
+                                     ["-o", "a.h5", "--figure", "a.png"]])
+def test_experiment_on_a_full_disk(tracks_csv, full_disk, options):
+    """Before: -o gave HDF5 tracebacks, a RuntimeError traceback (exit 1) or a segfault at exit
+    (139) with a.h5.tmp.PID left; --figure left nothing but a.h5 written beside a failed figure."""
+    args = [str(tracks_csv)] + [v if v.startswith("-") else str(full_disk / v) for v in options]
+    r = _run("tubes.experiment", args, full_disk.parent)
+    _no_traceback(r)
+    assert r.returncode == 3, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "No space left on device" in lines[0] and "no output file was left" in lines[0]
+    assert os.listdir(full_disk) == []
+
+
+def test_experiment_on_an_8k_disk_does_not_crash(tracks_csv, tmp_path):
+    """8 KiB: where h5py writing in place failed while creating the datasets and the interpreter
+    then died of SIGSEGV in HDF5's exit handler."""
+    d = tmp_path / "tiny"
+    d.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=8k", "tmpfs", str(d)], capture_output=True).returncode:
+        pytest.skip("cannot mount a tmpfs (needs root)")
+    try:
+        r = _run("tubes.experiment", [str(tracks_csv), "-o", str(d / "a.h5")], tmp_path)
+        _no_traceback(r)
+        assert r.returncode == 3 and "No space left on device" in r.stderr
+        assert os.listdir(d) == []
+    finally:
+        subprocess.run(["umount", str(d)], check=True)
+
+
+def test_plots_and_figures_on_a_full_disk(results, full_disk):
+    r = _run("tubes.plots", [str(results / "e.h5"), "-o", str(full_disk / "p")], full_disk.parent)
+    _no_traceback(r)
+    assert r.returncode == 3 and "No space left on device" in r.stderr
+    assert os.listdir(full_disk / "p") == []
+    r = _run("tubes.figures", [str(results / "s.h5"), "-o", str(full_disk)], full_disk.parent)
+    _no_traceback(r)
+    assert r.returncode == 3 and "No space left on device" in r.stderr
+    assert sorted(os.listdir(full_disk)) == ["p"]
+
+
+def test_the_writer_removes_its_temporary_file_on_any_exception(tmp_path):
+    target = tmp_path / "x.bin"
+    target.write_bytes(b"old")
+    for exc in (KeyboardInterrupt, RuntimeError, OSError):
+        with pytest.raises((exc, out.OutputError)):
+            with out.atomic_path(target) as tmp:
+                assert os.path.dirname(tmp) == str(tmp_path)
+                with open(tmp, "wb") as f:
+                    f.write(b"partial")
+                raise exc("stop")
+        assert sorted(os.listdir(tmp_path)) == ["x.bin"] and target.read_bytes() == b"old"
+    with out.atomic_path(target) as tmp:
+        with open(tmp, "wb") as f:
+            f.write(b"new")
+    assert sorted(os.listdir(tmp_path)) == ["x.bin"] and target.read_bytes() == b"new"
+
+
+def test_the_writer_refuses_before_the_block_runs(tmp_path):
+    _fifo(tmp_path / "f")
+    ran = []
+    with pytest.raises(out.OutputError, match="a FIFO"):
+        with out.atomic_path(tmp_path / "f", "--x"):
+            ran.append(1)
+    assert ran == []
+    with pytest.raises(out.OutputError, match="a directory"):
+        out.check_target(tmp_path)
+    with pytest.raises(out.OutputError, match="does not exist"):
+        out.check_target(tmp_path / "no" / "x.h5")
+    os.symlink(tmp_path / "nothing", tmp_path / "dangling")
+    with pytest.raises(out.OutputError, match="symbolic link to nothing"):
+        out.check_target(tmp_path / "dangling")
+
+
+def test_a_symbolic_link_writes_the_file_it_names(tmp_path):
+    (tmp_path / "real.bin").write_bytes(b"old")
+    os.symlink("real.bin", tmp_path / "link.bin")
+    out.write_bytes(tmp_path / "link.bin", b"new")
+    assert os.path.islink(tmp_path / "link.bin") and (tmp_path / "real.bin").read_bytes() == b"new"
+
+
+def test_a_batch_writes_all_or_none(tmp_path):
+    _fifo(tmp_path / "b")
+    with pytest.raises(out.OutputError):
+        with out.batch():
+            out.emit(tmp_path / "a", b"a")
+            out.emit(tmp_path / "b", b"b")
+    assert sorted(os.listdir(tmp_path)) == ["b"]
+    with out.batch():
+        out.emit(tmp_path / "a", b"a")
+        out.emit(tmp_path / "c", b"c")
+    assert (tmp_path / "a").read_bytes() == b"a" and (tmp_path / "c").read_bytes() == b"c"
+
+
+def test_the_analysis_file_is_unchanged_in_content(tracks_csv, tmp_path):
+    """The in-memory HDF5 image reads back as the analysis (the same bins and crossings)."""
+    import h5py
+    an = ex.analyse(ex.read_tracks(str(tracks_csv)))
+    ex.write_analysis(str(tmp_path / "a.h5"), an)
+    with h5py.File(tmp_path / "a.h5", "r") as f:
+        for k, v in an.bins.items():
+            np.testing.assert_array_equal(f["experiment"][k][()], np.asarray(v))
+        for k, v in an.crossings.items():
+            np.testing.assert_array_equal(f["experiment/crossings"][k][()], np.asarray(v))
+    assert os.listdir(tmp_path) == ["a.h5"]
