@@ -246,3 +246,168 @@ def test_the_analysis_file_is_unchanged_in_content(tracks_csv, tmp_path):
         for k, v in an.crossings.items():
             np.testing.assert_array_equal(f["experiment/crossings"][k][()], np.asarray(v))
     assert os.listdir(tmp_path) == ["a.h5"]
+
+
+# ------------------------------------------------------------------------------------------------
+# 2. No traceback: sizes bounded before allocating, a dataset of the wrong type named
+# ------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("args,needles", [
+    (["--bins", "0:1e9:1e-3"], ["--bins", "1e+12 bins", f"at most {ex.MAX_BINS}"]),
+    (["--bins", "0:1e400:1"], ["--bins", "finite"]),
+    (["--resamples", "100000000"], ["--resamples", f"0 to {ex.MAX_RESAMPLES}"]),
+    (["--bootstrap", "1000000000"], ["--bootstrap", f"0 to {ex.MAX_BOOTSTRAP}"]),
+    (["--resamples", "-1"], ["--resamples", "0 to"]),
+])
+def test_sizes_are_bounded_before_allocating(tracks_csv, tmp_path, args, needles):
+    """Before: numpy's MemoryError (or an endless bootstrap) as a traceback."""
+    r = _run("tubes.experiment", [str(tracks_csv), *args], tmp_path, timeout=60)
+    _no_traceback(r)
+    for n in needles:
+        assert n in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("column,data,needle", [
+    ("t", np.array([b"0", b"0.02", b"0.04"]), "/tracks/t holds byte strings"),
+    ("x", np.array(["a", "b", "c"], dtype=object), "/tracks/x holds strings"),
+    ("track", np.array([1 + 1j, 2, 3]), "/tracks/track holds complex numbers"),
+])
+def test_a_tracks_dataset_of_another_type_is_named(tmp_path, column, data, needle):
+    import h5py
+    cols = {"track": np.zeros(3, int), "t": np.array([0.0, 0.02, 0.04]), "x": np.zeros(3), "y": np.zeros(3)}
+    cols[column] = data
+    with h5py.File(tmp_path / "bad.h5", "w") as f:
+        g = f.create_group("tracks")
+        for k, v in cols.items():
+            g.create_dataset(k, data=v, dtype=h5py.string_dtype() if v.dtype == object else None)
+    r = _run("tubes.experiment", [str(tmp_path / "bad.h5")], tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 1 and needle in r.stderr and "must hold" in r.stderr, r.stderr
+
+
+# ------------------------------------------------------------------------------------------------
+# 3. Track numbers in ASCII only
+# ------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("cell,column", [
+    ("\u0660.02", "t"),          # Arabic-Indic zero
+    ("\uff10.02", "t"),          # full-width zero
+    ("0.0_2", "t"),              # an underscore
+    ("\u0661", "track"),         # Arabic-Indic one as a track id
+    ("1_0", "x"),
+    ("0.02\u00a0", "t"),         # a no-break space after the number
+])
+def test_track_numbers_are_ascii_only(tracks_csv, tmp_path, cell, column):
+    """float() and int() take these; before, they were read as numbers."""
+    lines = tracks_csv.read_text().splitlines()
+    fields = lines[2].split(",")
+    k = ["track", "t", "x", "y"].index(column)
+    fields[k] = cell
+    lines[2] = ",".join(fields)
+    p = tmp_path / "odd.csv"
+    p.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(ex.ExperimentError) as e:
+        ex.read_tracks(str(p))
+    msg = str(e.value)
+    assert f"odd.csv:3: column {column!r} (field {k + 1})" in msg and "ASCII digits" in msg, msg
+    r = _run("tubes.experiment", [str(p)], tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 1 and "odd.csv:3" in r.stderr
+
+
+def test_ascii_numbers_of_every_form_are_still_read(tmp_path):
+    p = tmp_path / "forms.csv"
+    p.write_text("track,t,x,y\n0,0,1.5,-2\n0,.02,+1.5e0,-2.E0\n0,2e-2,nan,\n")
+    tr = ex.read_tracks(str(p))
+    np.testing.assert_array_equal(tr.t, [0.0, 0.02, 0.02])
+    assert tr.x[0] == 1.5 and tr.y[1] == -2.0 and np.isnan(tr.x[2]) and np.isnan(tr.y[2])
+
+
+@pytest.mark.parametrize("args", [["--rate", "\u0665\u0660"], ["--window", "1_5", "--estimator", "savgol"],
+                                  ["--bins", "0,\uff14\uff10,80"], ["--origin", "1_0,0"]])
+def test_option_numbers_are_ascii_only(tracks_csv, tmp_path, args):
+    r = _run("tubes.experiment", [str(tracks_csv), *args], tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 2 and args[0] in r.stderr, r.stderr
+
+
+# ------------------------------------------------------------------------------------------------
+# 4. Lab options
+# ------------------------------------------------------------------------------------------------
+
+def test_pixel_size_without_pixels_is_a_conflict(tracks_csv, tmp_path):
+    """Before: --pixel-size silently ignored with --length-unit mm."""
+    r = _run("tubes.experiment", [str(tracks_csv), "--length-unit", "mm", "--pixel-size", "0.1"], tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 1 and "--pixel-size" in r.stderr and "--length-unit mm" in r.stderr, r.stderr
+    with pytest.raises(ex.ExperimentError, match="--pixel-size"):
+        ex.read_tracks(str(tracks_csv), length_unit="cm", pixel_size=0.16)
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+def test_rotate_must_be_finite(tracks_csv, tmp_path, value):
+    """Before: --rotate nan was taken, every sample dropped, the message silent on why."""
+    r = _run("tubes.experiment", [str(tracks_csv), f"--rotate={value}"], tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 2 and "--rotate" in r.stderr and "finite" in r.stderr, r.stderr
+    with pytest.raises(ex.ExperimentError, match="finite"):
+        ex.read_tracks(str(tracks_csv), calibration=ex.Calibration((0.0, 0.0), float(value), False))
+
+
+@pytest.mark.parametrize("spec,twice", [("x=t", "'t'"), ("track=id,t=id", "'id'"), ("y=X", "'x'")])
+def test_one_column_for_two_roles_is_named(tracks_csv, tmp_path, spec, twice):
+    """Before: 'cannot infer the camera rate' (the times read from the x column, or the like)."""
+    r = _run("tubes.experiment", [str(tracks_csv), "--columns", spec], tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 1 and f"the column {twice} is named for two roles" in r.stderr, r.stderr
+
+
+def _cal(tmp_path, header, points):
+    p = tmp_path / "cal.csv"
+    p.write_text((header + "\n" if header else "") + "".join(",".join(map(repr, q)) + "\n" for q in points))
+    return str(p)
+
+
+WELLS = [(6.5, 6.5, 6.5, 6.5), (-5.7, 5.7, -5.7, 5.7), (-6.5, -6.5, -6.5, -6.5), (5.7, -5.7, 5.7, -5.7)]
+
+
+@pytest.mark.parametrize("header,needle", [
+    ("x,y,sx,sy", "the header must be camera_x,camera_y,surface_x,surface_y"),
+    ("surface_x,surface_y,camera_x,camera_y", "the header must be"),
+    ("camera_x,camera_y,surface_x", "the header must be"),
+    ("camera_x_mm,camera_y_mm,surface_x_cm,surface_y_cm", "give --length-unit mm"),
+    ("camera_x,camera_y,surface_x_mm,surface_y_mm", "surface positions are in cm"),
+])
+def test_a_calibration_header_is_checked(tmp_path, header, needle):
+    """Before: any first line that was not four numbers was skipped as a header."""
+    with pytest.raises(ex.ExperimentError, match="cal.csv:1: ") as e:
+        ex.read_calibration(_cal(tmp_path, header, WELLS))
+    assert needle in str(e.value)
+
+
+def test_calibration_headers_that_are_right_are_read(tmp_path):
+    for h in ("camera_x,camera_y,surface_x,surface_y", "Camera_X_cm,camera_y_cm,surface_x_cm,surface_y_cm", None):
+        cal = ex.read_calibration(_cal(tmp_path, h, WELLS))
+        assert cal.residual < 1e-12 and cal.n_points == 4
+    cal = ex.read_calibration(str(ROOT / "input" / "lab_calibration.csv"), length_unit="mm")
+    assert cal.residual < 1e-5 and cal.flip_y
+
+
+@pytest.mark.parametrize("points,rank", [
+    ([(10.0, 10.0, 6.5, 6.5)] * 4, 0),                                        # 4 identical points
+    ([(0.0, 0.0, 0.0, 0.0), (1.0, 1.0, 1.0, 1.0), (2.0, 2.0, 2.0, 2.0), (3.0, 3.0, 3.0, 3.0)], 1),
+    ([(0.0, 0.0, 0.0, 0.0), (4.0, 0.0, 4.0, 0.0)], None),                    # two points: too few
+])
+def test_degenerate_calibration_points_are_refused(tmp_path, points, rank):
+    """Before: 4 identical points gave a 'fit' (rotation 0, residual 0)."""
+    with pytest.raises(ex.ExperimentError) as e:
+        ex.read_calibration(_cal(tmp_path, "camera_x,camera_y,surface_x,surface_y", points))
+    msg = str(e.value)
+    if rank is None:
+        assert "at least three" in msg, msg
+    else:
+        assert f"(rank {rank} of 2, {len(points)} points)" in msg, msg
+    r = _run("tubes.experiment", [str(ROOT / "input" / "lab_tracks.csv"), "--calibration", str(tmp_path / "cal.csv")],
+             tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 1 and "calibration" in r.stderr
