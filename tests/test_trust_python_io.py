@@ -411,3 +411,28 @@ def test_degenerate_calibration_points_are_refused(tmp_path, points, rank):
              tmp_path)
     _no_traceback(r)
     assert r.returncode == 1 and "calibration" in r.stderr
+
+
+def test_a_position_noise_larger_than_the_plate_is_refused(tracks_csv, tmp_path):
+    """Before: --noise 1e300 ended in an OverflowError traceback."""
+    r = _run("tubes.experiment", [str(tracks_csv), "--noise", "1e300"], tmp_path)
+    _no_traceback(r)
+    assert r.returncode == 1 and "--noise" in r.stderr and "--plate" in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("sig,status", [("INT", 130), ("TERM", 143)])
+def test_a_signal_during_the_run_leaves_no_file(tracks_csv, tmp_path, sig, status):
+    """SIGINT or SIGTERM while the analysis runs: one message, 128 + the signal, no file, no
+    FILE.tmp.<pid> (SIGTERM used to end the process where it was)."""
+    import signal
+    import time
+    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=str(ROOT / "python"), MPLBACKEND="Agg")
+    p = subprocess.Popen([PY, "-m", "tubes.experiment", str(tracks_csv), "-o", "a.h5", "--figure", "a.png",
+                          "--bootstrap", "100000"], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    time.sleep(2.5)          # imports and reading done (~1 s), the analysis under way
+    p.send_signal(getattr(signal, f"SIG{sig}"))
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == status, err
+    assert "Traceback" not in err and "interrupted" in err
+    assert os.listdir(tmp_path) == []

@@ -26,6 +26,29 @@ import stat
 EXIT_IO = 3   # an output that could not be written (the C program's code)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the program is (handle_sigterm), so that a temporary file is removed
+    as on Ctrl-C; exit status 128 + 15."""
+    status = 143
+
+
+def handle_sigterm() -> None:
+    """SIGTERM raises Terminated (the default would end the process with FILE.tmp.<pid> left)."""
+    import signal
+
+    def raise_terminated(signum, frame):
+        raise Terminated()
+    signal.signal(signal.SIGTERM, raise_terminated)
+
+
+def interrupted(exc: BaseException, prog: str) -> int:
+    """The message and exit status for Ctrl-C (130) or SIGTERM (143)."""
+    import sys
+    sig = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
+    print(f"{prog}: interrupted ({sig}); no output file was written", file=sys.stderr)
+    return getattr(exc, "status", 130)
+
+
 class OutputError(Exception):
     """An output file refused or not written: the message names the file (and the option) and
     the reason; nothing was left behind."""

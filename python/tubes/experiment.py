@@ -2506,11 +2506,11 @@ def _main(args, orig) -> int:
     except ExperimentError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
+    _output.handle_sigterm()
     try:
         return _run(args, orig)
-    except KeyboardInterrupt:
-        print("python -m tubes.experiment: interrupted; no output file was written", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        return _output.interrupted(exc, "python -m tubes.experiment")
 
 
 def _run(args, orig) -> int:
@@ -2519,6 +2519,9 @@ def _run(args, orig) -> int:
             raise ExperimentError("--confidence must lie in (0, 1)")
         if args.resamples < 0 or args.bootstrap < 0:
             raise ExperimentError("--resamples and --bootstrap must be >= 0")
+        if not args.noise <= args.plate:
+            raise ExperimentError(f"--noise {args.noise:g}: the position noise [cm] must lie in 0 .. the plate's "
+                                  f"half-width {args.plate:g} cm (--plate)")
         est_opts = dict(DEFAULT_OPTIONS[args.estimator])
         if args.estimator == "savgol":
             if args.window is not None:

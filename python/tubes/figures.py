@@ -165,6 +165,7 @@ def main(argv=None) -> int:
     except (OSError, KeyError, ValueError) as exc:
         print(f"error: {args.result}: cannot read it as a tubes result file ({exc})", file=sys.stderr)
         return 1
+    _output.handle_sigterm()
     try:
         with _output.batch():      # every figure and experiment.h5 made first, then written all or none
             written = plots._draw_all(res, args.outdir)
@@ -176,9 +177,8 @@ def main(argv=None) -> int:
     except _output.OutputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return _output.EXIT_IO
-    except KeyboardInterrupt:
-        print("python -m tubes.figures: interrupted; no file was written", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        return _output.interrupted(exc, "python -m tubes.figures")
     for p in written:
         print(p)
     if not written:

@@ -377,15 +377,15 @@ def main(argv=None):
     except (OSError, KeyError, ValueError) as exc:
         print(f"error: {args.result}: cannot read it as a tubes result file ({exc})", file=sys.stderr)
         return 1
+    _output.handle_sigterm()
     try:
         with _output.batch():          # every figure drawn first, then written all or none
             written = _draw_all(res, args.outdir)
     except _output.OutputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return _output.EXIT_IO
-    except KeyboardInterrupt:
-        print("python -m tubes.plots: interrupted; no figure was written", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        return _output.interrupted(exc, "python -m tubes.plots")
     for p in written:
         print(p)
     if not written:
