@@ -14,7 +14,7 @@ inside HDF5. (h5py writing to a full disk directly fails in the middle of HDF5's
 the file is left half-closed, h5py prints an "Exception ignored" traceback per open object, and
 HDF5's exit handler then walks the half-closed file and the interpreter dies of SIGSEGV at exit,
 the FILE.tmp.<pid> left behind; the C program avoids the same crash with H5dont_atexit.)
-docs/experiment.md, "Exit status and output files".
+docs/experiment.md, "Output files: the writer rule".
 """
 from __future__ import annotations
 
