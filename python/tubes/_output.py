@@ -89,10 +89,10 @@ def check_target(path, option: str | None = None) -> str:
     except FileNotFoundError:
         d = os.path.dirname(target) or "."
         if not os.path.isdir(d):
-            raise OutputError(f"{what}: its directory '{d}' does not exist") from None
+            raise OutputError(f"cannot write {what}: its directory '{d}' does not exist") from None
         return target
     except OSError as exc:
-        raise OutputError(f"{what}: {exc.strerror}") from None
+        raise OutputError(f"cannot write {what}: {exc.strerror}") from None
     if not stat.S_ISREG(st.st_mode):
         raise OutputError(f"{what} is {_kind(st.st_mode)}: give the name of a regular file (it was left untouched)")
     return target
