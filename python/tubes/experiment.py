@@ -2569,9 +2569,9 @@ def _run(args, orig) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     except MemoryError:
-        print(f"error: not enough memory for the analysis of {args.tracks} (--bins {len(args.bins or Options.bins) - 1} bins, "
-              f"--resamples {args.resamples}, --bootstrap {args.bootstrap}: smaller values need less)",
-              file=sys.stderr)
+        nb = len(args.bins or Options.bins) - 1
+        print(f"error: not enough memory for the analysis of {args.tracks} (--bins {nb} bins, --resamples "
+              f"{args.resamples}, --bootstrap {args.bootstrap}: smaller values need less)", file=sys.stderr)
         return 1
     rep = an.report
     if cal is not None:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import pathlib
 import sys
 
 import numpy as np
