@@ -436,3 +436,11 @@ def test_a_signal_during_the_run_leaves_no_file(tracks_csv, tmp_path, sig, statu
     assert p.returncode == status, err
     assert "Traceback" not in err and "interrupted" in err
     assert os.listdir(tmp_path) == []
+
+
+def test_output_errors_are_still_oserrors(tmp_path):
+    """Library callers of write_analysis that caught OSError before still catch the refusal."""
+    _fifo(tmp_path / "f")
+    with pytest.raises(OSError, match="a FIFO"):
+        ex.write_tracks_csv(str(tmp_path / "f"), ex.Tracks(np.zeros(1, int), np.zeros(1), np.zeros(1),
+                                                            np.zeros(1), {}, None, ""))

@@ -49,9 +49,9 @@ def interrupted(exc: BaseException, prog: str) -> int:
     return getattr(exc, "status", 130)
 
 
-class OutputError(Exception):
+class OutputError(OSError):
     """An output file refused or not written: the message names the file (and the option) and
-    the reason; nothing was left behind."""
+    the reason; nothing was left behind. An OSError, as the errors of the writers were before."""
 
 
 def _kind(mode: int) -> str:
@@ -90,12 +90,20 @@ def check_target(path, option: str | None = None) -> str:
         d = os.path.dirname(target) or "."
         if not os.path.isdir(d):
             raise OutputError(f"cannot write {what}: its directory '{d}' does not exist") from None
+        _check_directory(target, what)
         return target
     except OSError as exc:
         raise OutputError(f"cannot write {what}: {exc.strerror}") from None
     if not stat.S_ISREG(st.st_mode):
         raise OutputError(f"{what} is {_kind(st.st_mode)}: give the name of a regular file (it was left untouched)")
+    _check_directory(target, what)      # the temporary file is made there, then renamed
     return target
+
+
+def _check_directory(target: str, what: str) -> None:
+    d = os.path.dirname(target) or "."
+    if not os.access(d, os.W_OK | os.X_OK):
+        raise OutputError(f"cannot write {what}: no permission to create files in its directory '{d}'")
 
 
 def _remove(tmp: str) -> None:
@@ -119,6 +127,9 @@ def atomic_path(path, option: str | None = None):
     try:
         yield tmp
         os.replace(tmp, target)
+    except OutputError:
+        _remove(tmp)
+        raise
     except OSError as exc:
         _remove(tmp)
         raise OutputError(f"writing {_label(path, option)} failed: {exc.strerror or exc}; "
