@@ -120,6 +120,7 @@ def test_plots_and_figures_refuse_a_fifo_among_their_files(results, tmp_path):
     r = _run("tubes.figures", [str(results / "s.h5"), "-o", str(d)], tmp_path)
     _no_traceback(r)
     assert r.returncode == 3 and "a FIFO" in r.stderr and still()
+    assert "experiment (synthetic tracks)" not in r.stdout          # refused before the analysis
     assert sorted(os.listdir(d)) == ["experiment.png"]      # experiment.h5 not written either
 
 

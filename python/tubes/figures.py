@@ -160,6 +160,11 @@ def main(argv=None) -> int:
     from . import experiment as ex
     from . import load
     try:
+        plots.check_outdir(args.outdir)
+    except _output.OutputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return _output.EXIT_IO
+    try:
         res = load(args.result)
     except (OSError, KeyError, ValueError) as exc:
         print(f"error: {args.result}: cannot read it as a tubes result file ({exc})", file=sys.stderr)

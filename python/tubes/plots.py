@@ -7,6 +7,7 @@ draws every figure the file has data for and prints the paths written.
 from __future__ import annotations
 
 import argparse
+import os
 import pathlib
 import sys
 
@@ -373,6 +374,11 @@ def main(argv=None):
     ap.add_argument("-o", "--outdir", default="figures", help="directory for the PNG files (default figures)")
     args = ap.parse_args(argv)
     try:
+        check_outdir(args.outdir)
+    except _output.OutputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return _output.EXIT_IO
+    try:
         res = load(args.result)
     except (OSError, KeyError, ValueError) as exc:
         print(f"error: {args.result}: cannot read it as a tubes result file ({exc})", file=sys.stderr)
@@ -393,8 +399,23 @@ def main(argv=None):
     return 0
 
 
+FIGURE_NAMES = ("surface.png", "orbit_family.png", "orbit_properties.png", "p_trans.png", "tube_trajectories.png",
+                "tube_cut_3dof.png", "experiment.png", "experiment.h5")   # and section_dE*.png
+
+
+def check_outdir(outdir) -> None:
+    """Before the work: the files these tools may write into outdir that exist already must be
+    regular files (tubes._output.check_target); OutputError otherwise."""
+    if not os.path.isdir(outdir):
+        return
+    for name in sorted(os.listdir(outdir)):
+        if name in FIGURE_NAMES or (name.startswith("section_dE") and name.endswith(".png")):
+            _output.check_target(os.path.join(outdir, name), "-o")
+
+
 def _draw_all(res, outdir) -> list:
     """Every figure the result file res has data for, into the directory outdir; the paths."""
+    check_outdir(outdir)
     out = _output.out_dir(outdir, "-o")
     written = []
     if ("equilibria" in res or "section" in res) and "g" in res.model.attrs:   # the rolling ball's surface
