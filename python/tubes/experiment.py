@@ -31,6 +31,7 @@ import json
 import math
 import os
 import pathlib
+import re
 import sys
 import warnings
 
@@ -38,6 +39,7 @@ import numpy as np
 
 from . import (Model, TubesError, energies, energy, equilibria, integrate, momentum, potentials,
                shape_derivatives, vector_field)
+from . import _output
 
 PLATE = 15.0            # [cm] half-width of the machined plate: |x|, |y| <= PLATE
 T_SKIP = 0.4            # [s] the paper's Lyapunov time, dropped at the start of every track
@@ -179,6 +181,24 @@ CAL_RESIDUAL_MAX = 0.5   # [cm] a fitted calibration worse than this is refused
 LENGTH_UNITS = {"cm": 1.0, "mm": 0.1, "m": 100.0, "px": None}   # -> cm (px: --pixel-size)
 
 
+# Numbers in a tracks or calibration file and in the options: ASCII digits only. Python's float()
+# and int() also take other scripts' digits ('\u0661' Arabic-Indic, '\uff11' full-width) and
+# underscores ('1_000'): a file holding them is refused (file, line, column), not read as numbers.
+_ASCII_FLOAT = re.compile(r"[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|nan|inf|infinity)",
+                          re.IGNORECASE | re.ASCII)
+_ASCII_INT = re.compile(r"[+-]?[0-9]+", re.ASCII)
+ASCII_NUMBER = "ASCII digits 0-9 with an optional sign, '.' and exponent, e.g. -1.25e3"
+
+
+def _ascii_float(s: str) -> float:
+    """float(s) for a number written in ASCII (ASCII_NUMBER; spaces and tabs around it); ValueError
+    otherwise."""
+    t = s.strip(" \t\r\n")
+    if not _ASCII_FLOAT.fullmatch(t):
+        raise ValueError(f"{s!r} is not a number in {ASCII_NUMBER}")
+    return float(t)
+
+
 def _sniff_delimiter(path: str) -> str | None:
     """The separator of a tracks file, from its first line that is not a comment: ',', ';', a tab,
     or None (runs of spaces)."""
@@ -201,6 +221,20 @@ class _SpaceDialect(csv.Dialect):
     doublequote = True
     lineterminator = "\n"
     quoting = csv.QUOTE_MINIMAL
+
+
+def _check_columns(columns: dict) -> None:
+    """--columns: each of track, t, x, y read from its own column of the file (a role without a
+    name keeps its own name: x=t would read the times twice)."""
+    names = {}
+    for c in ("track", "t", "x", "y"):
+        v = str(columns.get(c, c)).strip().lower()
+        if v in names:
+            given = ", ".join(f"{k}={columns[k]}" if k in columns else f"{k} (its default name)"
+                              for k in (names[v], c))
+            raise ExperimentError(f"--columns: the column {v!r} is named for two roles, {given}: each of "
+                                  "track, t, x, y needs its own column")
+        names[v] = c
 
 
 def _read_csv(path: str, columns: dict | None = None) -> Tracks:
@@ -233,6 +267,7 @@ def _read_csv_rows(path: str, f, cols: dict, names: dict, delim: str | None):
     rows = csv.reader(f, delimiter=delim) if delim else csv.reader(f, _SpaceDialect())
     header = None
     lineno = 0
+    pos = {}
     for lineno, row in enumerate(rows, start=1):
         if not row or (row[0].strip().startswith("#")) or all(not c.strip() for c in row):
             continue
@@ -251,26 +286,34 @@ def _read_csv_rows(path: str, f, cols: dict, names: dict, delim: str | None):
             raise ExperimentError(f"{path}:{lineno}: {len(row)} fields, the header has "
                                   f"{len(header)}")
         for c in ("track", "t", "x", "y"):
-            s = row[pos[c]].strip()
+            s = row[pos[c]].strip(" \t\r\n")
+            where = f"{path}:{lineno}: column {c!r} (field {pos[c] + 1})"
             if c == "track":
                 try:
-                    v = float(s)
+                    v = _ascii_float(s)
                 except ValueError:
                     v = math.nan
                 if not (math.isfinite(v) and v == int(v) and abs(v) < 2.0**53):
-                    raise ExperimentError(f"{path}:{lineno}: column 'track': {s!r} is not "
-                                          f"an integer track id (|id| < 2^53)")
+                    raise ExperimentError(f"{where}: {s!r} is not an integer track id (|id| < 2^53, "
+                                          f"{ASCII_NUMBER})")
                 cols[c].append(int(v))
             else:
                 if s == "":
                     cols[c].append(math.nan)    # a lost frame: reported as NaN
                     continue
                 try:
-                    cols[c].append(float(s))
+                    cols[c].append(_ascii_float(s))
                 except ValueError:
-                    raise ExperimentError(f"{path}:{lineno}: column {c!r}: cannot read "
-                                          f"{s!r} as a number") from None
+                    raise ExperimentError(f"{where}: cannot read {s!r} as a number: allowed "
+                                          f"{ASCII_NUMBER}") from None
     return header, lineno
+
+
+def _dtype_text(dt) -> str:
+    kind = {"S": "byte strings", "U": "strings", "O": "strings (variable length)", "b": "booleans",
+            "c": "complex numbers", "V": "compound or opaque records", "f": "reals", "i": "integers",
+            "u": "integers", "M": "dates", "m": "time deltas"}
+    return f"{kind.get(dt.kind, 'values')} (dtype {dt})"
 
 
 def _read_h5(path: str) -> Tracks:
@@ -287,9 +330,15 @@ def _read_h5(path: str) -> Tracks:
         for c in ("track", "t", "x", "y"):
             if c not in g or not isinstance(g[c], h5py.Dataset):
                 raise ExperimentError(f"{path}: /tracks has no dataset {c!r}")
-            a = np.asarray(g[c][()])
-            if a.ndim != 1:
-                raise ExperimentError(f"{path}: /tracks/{c} must be one-dimensional, shape {a.shape}")
+            d = g[c]
+            if d.dtype.kind not in "iuf":
+                raise ExperimentError(
+                    f"{path}: /tracks/{c} holds {_dtype_text(d.dtype)}: it must hold "
+                    + ("integer track ids (int32, int64, or reals with integer values)" if c == "track" else
+                       f"real numbers (float64, {'s' if c == 't' else 'cm'}; integers allowed)"))
+            if len(d.shape) != 1:
+                raise ExperimentError(f"{path}: /tracks/{c} must be one-dimensional, shape {d.shape}")
+            a = np.asarray(d[()])
             arrs[c] = a
         n = arrs["t"].size
         for c in arrs:
@@ -356,8 +405,16 @@ def fit_calibration(camera, surface, length_unit: str = "cm", pixel_size: float 
             raise ExperimentError(f"calibration: {name} points must have shape (n, 2), one point (x, y) per row: "
                                   f"got shape {a.shape}")
     cam = cam * _length_scale(length_unit, pixel_size)
-    if cam.shape[0] < 2 or cam.shape != srf.shape or not (np.all(np.isfinite(cam)) and np.all(np.isfinite(srf))):
-        raise ExperimentError("calibration: need at least two finite known points (camera x, y; surface x, y)")
+    if cam.shape[0] < 3 or cam.shape != srf.shape or not (np.all(np.isfinite(cam)) and np.all(np.isfinite(srf))):
+        raise ExperimentError("calibration: need at least three finite known points, not on one line "
+                              f"(camera x, y; surface x, y): got {min(cam.shape[0], srf.shape[0])}")
+    for name, a in (("camera", cam), ("surface", srf)):
+        rank = _point_rank(a)
+        if rank < 2:
+            raise ExperimentError(
+                f"calibration: the {name} points {'coincide' if rank == 0 else 'lie on one line'} (rank {rank} of "
+                f"2, {cam.shape[0]} points): the rotation and the y flip cannot be fitted; give at least three "
+                "known points not on one line (e.g. three or four of the wells)")
     best = None
     for flip in (False, True):
         c = cam * np.array([1.0, -1.0 if flip else 1.0])
@@ -374,10 +431,45 @@ def fit_calibration(camera, surface, length_unit: str = "cm", pixel_size: float 
     return best
 
 
+CAL_RANK_TOL = 1e-6   # points whose spread across their best line is below this fraction of its length: collinear
+
+
+def _point_rank(a) -> int:
+    """The rank of points (n, 2) about their mean: 0 (one point), 1 (on a line) or 2; spreads
+    [cm] below 1e-9 cm, or the smaller below CAL_RANK_TOL times the larger, count as none."""
+    sv = np.linalg.svd(a - a.mean(0), compute_uv=False)
+    if not sv[0] > 1e-9:
+        return 0
+    return 1 if not sv[1] > CAL_RANK_TOL * sv[0] else 2
+
+
+CAL_HEADER = ("camera_x", "camera_y", "surface_x", "surface_y")   # each name may end in _UNIT
+
+
+def _check_calibration_header(path: str, n: int, cells: list, length_unit: str) -> None:
+    """A calibration file's header line: the four names of CAL_HEADER in that order, each
+    optionally with a unit (camera_x_mm); a camera unit must be length_unit, a surface unit cm."""
+    want = ",".join(CAL_HEADER)
+    names = [c.lower() for c in cells]
+    ok = len(names) == 4 and all(re.fullmatch(rf"{w}(_[a-z]+)?", c) for w, c in zip(CAL_HEADER, names))
+    if not ok:
+        raise ExperimentError(f"{path}:{n}: the header must be {want} (each name may end in a unit, e.g. "
+                              f"camera_x_mm); got {','.join(cells)!s}")
+    units = [c[len(w) + 1:] for w, c in zip(CAL_HEADER, names)]
+    for w, u in zip(CAL_HEADER[:2], units[:2]):
+        if u and u in LENGTH_UNITS and u != length_unit:
+            raise ExperimentError(f"{path}:{n}: the column {w}_{u} is in {u}, the lengths are read in {length_unit}: "
+                                  f"give --length-unit {u}, or the header {w}_{length_unit}")
+    for w, u in zip(CAL_HEADER[2:], units[2:]):
+        if u and u != "cm":
+            raise ExperimentError(f"{path}:{n}: the column {w}_{u}: surface positions are in cm ({w} or {w}_cm)")
+
+
 def read_calibration(path: str, length_unit: str = "cm", pixel_size: float | None = None) -> Calibration:
     """A calibration file: CSV rows camera_x,camera_y,surface_x,surface_y of known points (for
     example the wells where damped balls come to rest), a header line allowed; fitted."""
     rows = []
+    header = False
     try:
         with open(path, newline="", encoding="utf-8") as f:
             for n, line in enumerate(f, 1):
@@ -385,15 +477,21 @@ def read_calibration(path: str, length_unit: str = "cm", pixel_size: float | Non
                 if not line.strip() or line.lstrip().startswith("#"):
                     continue
                 try:
-                    rows.append([float(c) for c in cells])
+                    rows.append([_ascii_float(c) for c in cells])
                 except ValueError:
-                    if rows or n > 1:
-                        raise ExperimentError(f"{path}:{n}: not four numbers: {line.strip()!r}") from None
-                    continue                                              # a header
+                    if rows or header:
+                        raise ExperimentError(f"{path}:{n}: not four numbers ({ASCII_NUMBER}): "
+                                              f"{line.strip()!r}") from None
+                    _check_calibration_header(path, n, cells, length_unit)
+                    header = True
+                    continue
                 if len(rows[-1]) != 4:
                     raise ExperimentError(f"{path}:{n}: need camera_x,camera_y,surface_x,surface_y")
     except OSError as exc:
         raise ExperimentError(f"{path}: cannot read the calibration file ({exc.strerror})") from exc
+    except UnicodeDecodeError as exc:
+        raise ExperimentError(f"{path}: not UTF-8 text (byte {exc.object[exc.start]:#04x}): a calibration file "
+                              "is text") from None
     a = np.array(rows, float).reshape(-1, 4)    # rows of four (checked above), or none
     return fit_calibration(a[:, :2], a[:, 2:], length_unit, pixel_size)
 
@@ -401,6 +499,9 @@ def read_calibration(path: str, length_unit: str = "cm", pixel_size: float | Non
 def _length_scale(length_unit: str, pixel_size: float | None) -> float:
     if length_unit not in LENGTH_UNITS:
         raise ExperimentError(f"length unit {length_unit!r}: allowed {', '.join(LENGTH_UNITS)}")
+    if pixel_size is not None and length_unit != "px":
+        raise ExperimentError(f"--pixel-size {pixel_size:g} is for lengths in pixels (--length-unit px), but the "
+                              f"lengths are read in {length_unit} (--length-unit {length_unit}): give one of the two")
     if length_unit == "px":
         if not (pixel_size is not None and math.isfinite(pixel_size) and pixel_size > 0):
             raise ExperimentError("length unit px needs --pixel-size (cm per pixel, > 0)")
@@ -421,13 +522,12 @@ def read_tracks(path: str, columns: dict | None = None, time_unit: str = "s",
         raise ExperimentError(f"{path}: no such file")
     if time_unit not in TIME_UNITS:
         raise ExperimentError(f"time unit {time_unit!r}: allowed {', '.join(TIME_UNITS)}")
-    if length_unit not in LENGTH_UNITS:
-        raise ExperimentError(f"length unit {length_unit!r}: allowed {', '.join(LENGTH_UNITS)}")
-    lscale = LENGTH_UNITS[length_unit]
-    if length_unit == "px":
-        if not (pixel_size is not None and math.isfinite(pixel_size) and pixel_size > 0):
-            raise ExperimentError("length unit px needs --pixel-size (cm per pixel, > 0)")
-        lscale = pixel_size
+    lscale = _length_scale(length_unit, pixel_size)
+    if calibration is not None and not (np.all(np.isfinite(calibration.origin)) and math.isfinite(calibration.angle)):
+        raise ExperimentError(f"calibration: origin {calibration.origin} and rotation {calibration.angle} deg must be "
+                              "finite numbers (--origin, --rotate)")
+    if columns:
+        _check_columns(columns)
     with open(p, "rb") as f:
         magic = f.read(8)
     tr = _read_h5(path) if magic == b"\x89HDF\r\n\x1a\n" else _read_csv(path, columns)
@@ -460,17 +560,15 @@ def read_tracks(path: str, columns: dict | None = None, time_unit: str = "s",
 
 def write_tracks_csv(path: str, tr: Tracks) -> None:
     """Write tracks as CSV (header track,t,x,y)."""
-    with open(path, "w", encoding="utf-8") as f:
-        f.write("track,t,x,y\n")
-        for k, t, x, y in zip(tr.track, tr.t, tr.x, tr.y):
-            f.write(f"{k},{t:.6f},{x:.6f},{y:.6f}\n")
+    text = "track,t,x,y\n" + "".join(f"{k},{t:.6f},{x:.6f},{y:.6f}\n"
+                                      for k, t, x, y in zip(tr.track, tr.t, tr.x, tr.y))
+    _output.emit(path, text.encode("utf-8"))     # the writer rule: FILE.tmp.<pid>, renamed
 
 
 def write_tracks_h5(path: str, tr: Tracks) -> None:
     """Write tracks in the HDF5 layout read_tracks reads (the synthetic_experiment scene's):
     /tracks/{track, t, x, y}, its attributes, and /tracks/truth when tr.truth is set."""
-    import h5py
-    with h5py.File(path, "w") as f:
+    def fill(f):
         g = f.create_group("tracks")
         for k, u in (("track", "1"), ("t", "s"), ("x", "cm"), ("y", "cm")):
             d = g.create_dataset(k, data=getattr(tr, k))
@@ -481,6 +579,7 @@ def write_tracks_h5(path: str, tr: Tracks) -> None:
             h = g.create_group("truth")
             for k, v in tr.truth.items():
                 h.create_dataset(k, data=v)
+    _output.emit(path, _output.h5_image(fill))   # made in memory, written by the writer rule
 
 
 def _runs(mask: np.ndarray):
@@ -1845,61 +1944,63 @@ def _truth_check(tracks: Tracks, cm: dict, model: Model, E_e: float, x_gate: flo
 # Output
 # --------------------------------------------------------------------------------------------
 
-def write_analysis(path: str, an: Analysis, argv=None, tracks_path: str = "") -> None:
-    """Write /experiment (bins, attributes), /experiment/crossings, /experiment/validation."""
+def write_analysis(path: str, an: Analysis, argv=None, tracks_path: str = "", option: str | None = None) -> None:
+    """Write /experiment (bins, attributes), /experiment/crossings, /experiment/validation into
+    path by the writer rule of tubes._output (made in memory, written to PATH.tmp.<pid>, renamed;
+    tubes._output.OutputError naming path or option on failure, nothing left)."""
+    _output.emit(path, analysis_image(an, argv, tracks_path), option)
+
+
+def analysis_image(an: Analysis, argv=None, tracks_path: str = "") -> bytes:
+    """The bytes of the HDF5 file write_analysis writes."""
     import h5py
-    tmp = f"{path}.tmp.{os.getpid()}"
     str_dt = h5py.string_dtype()
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-            f.attrs["command_line"] = " ".join(argv) if argv else ""
-            f.attrs["tracks_file"] = tracks_path
-            f.attrs["theory_file"] = an.theory.path if an.theory else ""
-            if an.theory is not None and an.theory.result is not None:
-                f.attrs["theory_git_commit"] = str(an.theory.result.attrs.get("git_commit", ""))
-            g = f.create_group("experiment")
-            units = {"dE_low": "(cm/s)^2", "dE_high": "(cm/s)^2", "dE_center": "(cm/s)^2",
-                     "dE_err": "(cm/s)^2", "q24_dE_center": "(cm/s)^2", "q24_dE_err": "(cm/s)^2"}
-            for k, v in an.bins.items():
-                d = g.create_dataset(k, data=np.asarray(v))
-                d.attrs["units"] = units.get(k, "1")
-            for k, v in an.attrs.items():
-                g.attrs[k] = v
-            c = g.create_group("crossings")
-            cu = {"t": "s", "r": "cm", "p_r": "cm/s", "p_theta": "cm^2/s", "x": "cm", "y": "cm",
-                  "vx": "cm/s", "vy": "cm/s", "px": "cm/s", "py": "cm/s", "E": "(cm/s)^2",
-                  "dE": "(cm/s)^2", "dE_err": "(cm/s)^2", "dE_noise": "(cm/s)^2",
-                  "dE_other": "(cm/s)^2", "dE_truth": "(cm/s)^2", "E_instant": "(cm/s)^2",
-                  "cut_dE": "(cm/s)^2", "damping_slope": "1/s"}
-            for k, v in an.crossings.items():
-                d = c.create_dataset(k, data=np.asarray(v))
-                d.attrs["units"] = cu.get(k, "1")
-            v = g.create_group("validation")
-            rep = an.report
-            for k in ("n_tracks", "n_tracks_rejected", "n_samples", "n_samples_skipped",
-                      "n_samples_used", "n_segments"):
-                v.attrs[k] = getattr(rep, k)
-            for k, n in rep.counts().items():
-                v.attrs[f"count_{k}"] = n
-            for k, n in rep.samples_dropped().items():
-                v.attrs[f"samples_{k}"] = n
-            iss = rep.issues
-            v.create_dataset("track", data=np.array([i.track for i in iss], dtype=np.int64))
-            v.create_dataset("t_start", data=np.array([i.t_start for i in iss], float))
-            v.create_dataset("t_end", data=np.array([i.t_end for i in iss], float))
-            v.create_dataset("n_samples", data=np.array([i.n_samples for i in iss], dtype=np.int64))
-            v.create_dataset("kind", data=[i.kind for i in iss], dtype=str_dt)
-            v.create_dataset("severity", data=[i.severity for i in iss], dtype=str_dt)
-            v.create_dataset("message", data=[i.message for i in iss], dtype=str_dt)
-        os.replace(tmp, path)
-    except OSError:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
+
+    def fill(f):
+        f.attrs["created"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+        f.attrs["command_line"] = " ".join(argv) if argv else ""
+        f.attrs["tracks_file"] = tracks_path
+        f.attrs["theory_file"] = an.theory.path if an.theory else ""
+        if an.theory is not None and an.theory.result is not None:
+            f.attrs["theory_git_commit"] = str(an.theory.result.attrs.get("git_commit", ""))
+        g = f.create_group("experiment")
+        units = {"dE_low": "(cm/s)^2", "dE_high": "(cm/s)^2", "dE_center": "(cm/s)^2",
+                 "dE_err": "(cm/s)^2", "q24_dE_center": "(cm/s)^2", "q24_dE_err": "(cm/s)^2"}
+        for k, v in an.bins.items():
+            d = g.create_dataset(k, data=np.asarray(v))
+            d.attrs["units"] = units.get(k, "1")
+        for k, v in an.attrs.items():
+            g.attrs[k] = v
+        c = g.create_group("crossings")
+        cu = {"t": "s", "r": "cm", "p_r": "cm/s", "p_theta": "cm^2/s", "x": "cm", "y": "cm",
+              "vx": "cm/s", "vy": "cm/s", "px": "cm/s", "py": "cm/s", "E": "(cm/s)^2",
+              "dE": "(cm/s)^2", "dE_err": "(cm/s)^2", "dE_noise": "(cm/s)^2",
+              "dE_other": "(cm/s)^2", "dE_truth": "(cm/s)^2", "E_instant": "(cm/s)^2",
+              "cut_dE": "(cm/s)^2", "damping_slope": "1/s"}
+        for k, v in an.crossings.items():
+            d = c.create_dataset(k, data=np.asarray(v))
+            d.attrs["units"] = cu.get(k, "1")
+        v = g.create_group("validation")
+        rep = an.report
+        for k in ("n_tracks", "n_tracks_rejected", "n_samples", "n_samples_skipped",
+                  "n_samples_used", "n_segments"):
+            v.attrs[k] = getattr(rep, k)
+        for k, n in rep.counts().items():
+            v.attrs[f"count_{k}"] = n
+        for k, n in rep.samples_dropped().items():
+            v.attrs[f"samples_{k}"] = n
+        iss = rep.issues
+        v.create_dataset("track", data=np.array([i.track for i in iss], dtype=np.int64))
+        v.create_dataset("t_start", data=np.array([i.t_start for i in iss], float))
+        v.create_dataset("t_end", data=np.array([i.t_end for i in iss], float))
+        v.create_dataset("n_samples", data=np.array([i.n_samples for i in iss], dtype=np.int64))
+        v.create_dataset("kind", data=[i.kind for i in iss], dtype=str_dt)
+        v.create_dataset("severity", data=[i.severity for i in iss], dtype=str_dt)
+        v.create_dataset("message", data=[i.message for i in iss], dtype=str_dt)
+    return _output.h5_image(fill)
 
 
-def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0)) -> None:
+def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0), option: str | None = None) -> None:
     """The paper's Fig. 4: (a) U1^- crossings with dE in section_range by outcome, with the tube
     cut at or above the range's upper end and the energy boundary there; (b) the transition
     fraction against dE with its intervals, the fit and the theory."""
@@ -1952,11 +2053,13 @@ def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0)) -> None:
     ax2.legend(fontsize=7, loc="upper left")
     ax2.grid(True, lw=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    try:
+        _output.save_figure(fig, path, option, dpi=130)
+    finally:
+        plt.close(fig)
 
 
-def plot_dissipation(path: str, an: Analysis, max_segments: int = 300) -> None:
+def plot_dissipation(path: str, an: Analysis, max_segments: int = 300, option: str | None = None) -> None:
     """The energy lost since each segment's start against the time since that start, the path
     length S of the ball's centre and D = the integral of 2 T dt (one thin line per segment, at
     most max_segments of them, evenly chosen): a_s - E, a_s the segment's starting energy by the
@@ -1995,8 +2098,10 @@ def plot_dissipation(path: str, an: Analysis, max_segments: int = 300) -> None:
     fig.suptitle(f"the energy's decay along {len(an.decay)} segments: law {a.get('dissipation_law', '?')}",
                  fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    try:
+        _output.save_figure(fig, path, option, dpi=120)
+    finally:
+        plt.close(fig)
 
 
 # --------------------------------------------------------------------------------------------
@@ -2138,26 +2243,68 @@ def tune(tracks: Tracks, grid: dict | None = None, windows=(0.0, 0.5, 1.0, 2.0),
 # Command line
 # --------------------------------------------------------------------------------------------
 
+MAX_BINS = 1000            # --bins: at most this many dE bins (the paper's figure has 11)
+MAX_RESAMPLES = 1000       # --resamples: noise realisations (16 give dE_noise to ~18 %; 1000 to ~2 %)
+MAX_BOOTSTRAP = 100000     # --bootstrap: track bootstrap replicates (400 by default)
+
+
 def _parse_bins(s: str) -> tuple:
     try:
         if ":" in s:
-            a, b, c = (float(v) for v in s.split(":"))
-            if not c > 0 or not b > a:
+            a, b, c = (_ascii_float(v) for v in s.split(":"))
+            if not (math.isfinite(a) and math.isfinite(b) and c > 0 and b > a):
                 raise ValueError
+            n = math.ceil((b + 0.5 * c - a) / c)      # the edges np.arange would make
+            if not n <= MAX_BINS + 1:
+                raise argparse.ArgumentTypeError(
+                    f"bins {s!r}: {n - 1:.3g} bins; at most {MAX_BINS} are allowed (a larger STEP)")
             e = np.arange(a, b + 0.5 * c, c)
         else:
-            e = np.array([float(v) for v in s.split(",")])
+            e = np.array([_ascii_float(v) for v in s.split(",")])
+            if e.size > MAX_BINS + 1:
+                raise argparse.ArgumentTypeError(f"bins: {e.size - 1} bins; at most {MAX_BINS} are allowed")
     except ValueError:
-        raise argparse.ArgumentTypeError(f"bins {s!r}: give START:STOP:STEP or increasing edges "
-                                         f"e1,e2,... in (cm/s)^2") from None
+        raise argparse.ArgumentTypeError(f"bins {s!r}: give START:STOP:STEP (finite, STOP > START, STEP > 0) or "
+                                         f"increasing edges e1,e2,... in (cm/s)^2") from None
     if e.size < 2 or np.any(np.diff(e) <= 0) or not np.all(np.isfinite(e)):
         raise argparse.ArgumentTypeError(f"bins {s!r}: need at least two increasing finite edges")
     return tuple(e)
 
 
+def _count(limit: int):
+    """An argparse type: an integer in 0 .. limit."""
+    def parse(s: str) -> int:
+        try:
+            v = int(s) if _ASCII_INT.fullmatch(s.strip()) else None
+        except ValueError:
+            v = None
+        if v is None or not 0 <= v <= limit:
+            raise argparse.ArgumentTypeError(f"{s!r}: give an integer from 0 to {limit}")
+        return v
+    return parse
+
+
+def _number(s: str) -> float:
+    """An argparse type: a finite number written in ASCII."""
+    try:
+        v = _ascii_float(s)
+    except ValueError:
+        v = math.nan
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"{s!r}: give a finite number ({ASCII_NUMBER})")
+    return v
+
+
+def _integer(s: str) -> int:
+    """An argparse type: an integer written in ASCII digits."""
+    if not _ASCII_INT.fullmatch(s.strip(" \t")):
+        raise argparse.ArgumentTypeError(f"{s!r}: give an integer (ASCII digits 0-9, optional sign)")
+    return int(s)
+
+
 def _parse_pair(s: str) -> tuple:
     try:
-        a, b = (float(v) for v in s.split(","))
+        a, b = (_ascii_float(v) for v in s.split(","))
         if not (math.isfinite(a) and math.isfinite(b)):
             raise ValueError
     except ValueError:
@@ -2179,19 +2326,19 @@ def _parse_columns(s: str) -> dict:
 
 def _parse_range(s: str) -> tuple:
     try:
-        a, b = (float(v) for v in s.split(","))
+        a, b = (_ascii_float(v) for v in s.split(","))
     except ValueError:
         raise argparse.ArgumentTypeError(f"{s!r}: give LOW,HIGH") from None
-    if not b > a:
+    if not (math.isfinite(a) and math.isfinite(b) and b > a):
         raise argparse.ArgumentTypeError(f"{s!r}: need LOW < HIGH")
     return a, b
 
 
 def _positive(s: str) -> float:
     try:
-        v = float(s)
+        v = _ascii_float(s)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{s!r} is not a number") from None
+        raise argparse.ArgumentTypeError(f"{s!r} is not a number ({ASCII_NUMBER})") from None
     if not v >= 0 or not math.isfinite(v):
         raise argparse.ArgumentTypeError(f"{s!r} must be >= 0")
     return v
@@ -2213,9 +2360,9 @@ def main(argv=None) -> int:
     ap.add_argument("-o", "--output", help="write the analysis to this HDF5 file")
     ap.add_argument("--figure", help="draw the paper's Fig. 4 into this PNG file")
     ap.add_argument("--estimator", choices=ESTIMATORS, default="spectral")
-    ap.add_argument("--window", type=int, help="savgol window [samples, odd] (default 15)")
-    ap.add_argument("--order", type=int, help="savgol polynomial order (default 4)")
-    ap.add_argument("--cutoff", type=float, help="spectral low-pass cutoff [Hz] (default 5)")
+    ap.add_argument("--window", type=_integer, help="savgol window [samples, odd] (default 15)")
+    ap.add_argument("--order", type=_integer, help="savgol polynomial order (default 4)")
+    ap.add_argument("--cutoff", type=_number, help="spectral low-pass cutoff [Hz] (default 5)")
     ap.add_argument("--edge", choices=("odd", "mirror", "periodic"),
                     help="spectral edge handling (default odd)")
     ap.add_argument("--energy", choices=("window", "instant"), default="window",
@@ -2226,7 +2373,7 @@ def main(argv=None) -> int:
                     help="dE bin edges: START:STOP:STEP or e1,e2,... [(cm/s)^2] (default -40:400:40)")
     ap.add_argument("--fit-max", type=_positive, default=160.0,
                     help="bins within (0, FIT_MAX] enter the slope fit (default 160)")
-    ap.add_argument("--confidence", type=float, default=0.95, help="interval level (default 0.95)")
+    ap.add_argument("--confidence", type=_number, default=0.95, help="interval level (default 0.95)")
     ap.add_argument("--t-skip", type=_positive, default=T_SKIP, help="dropped at each track start [s]")
     ap.add_argument("--gate", type=_positive, default=GATE, help="transition: x < x_S12 - GATE [cm]")
     ap.add_argument("--rate", type=_positive, default=0.0, help="camera rate [Hz] (default: file)")
@@ -2238,7 +2385,7 @@ def main(argv=None) -> int:
     ap.add_argument("--pixel-size", type=_positive, default=None, help="cm per pixel (--length-unit px)")
     ap.add_argument("--origin", type=_parse_pair, default=None,
                     help="the plate centre X,Y in the file's frame and length unit")
-    ap.add_argument("--rotate", type=float, default=None,
+    ap.add_argument("--rotate", type=_number, default=None,
                     help="rotate the file's frame by this angle [deg, counter-clockwise] onto the surface's")
     ap.add_argument("--flip-y", action="store_true", help="the file's y axis points down (image rows)")
     ap.add_argument("--max-impossible", type=_positive, default=0.005,
@@ -2252,8 +2399,10 @@ def main(argv=None) -> int:
     ap.add_argument("--plate", type=_positive, default=PLATE, help="plate half-width [cm]")
     ap.add_argument("--guard", type=_positive, default=0.0,
                     help="crossings within GUARD s of a segment end count as censored (default 0)")
-    ap.add_argument("--resamples", type=int, default=16, help="noise realisations for dE_err")
-    ap.add_argument("--bootstrap", type=int, default=400, help="track bootstrap replicates")
+    ap.add_argument("--resamples", type=_count(MAX_RESAMPLES), default=16,
+                    help=f"noise realisations for dE_err (default 16, at most {MAX_RESAMPLES})")
+    ap.add_argument("--bootstrap", type=_count(MAX_BOOTSTRAP), default=400,
+                    help=f"track bootstrap replicates (default 400, at most {MAX_BOOTSTRAP})")
     ap.add_argument("--cut-rule", choices=("at-or-above", "nearest", "bin-top"), default="at-or-above",
                     help="tube cut for a crossing: the first at or above its dE (default), the "
                          "nearest, or the first at or above its bin's upper edge (the paper's)")
@@ -2325,12 +2474,54 @@ def _print_issues(rep: "ValidationReport", all_issues: bool) -> None:
                   "are in the output's /experiment/validation)", file=sys.stderr)
 
 
+def _outputs(args) -> list:
+    """The run's output files [(option, path)], checked before any work: each a regular file or
+    new (tubes._output.check_target: OutputError, exit 3), none of them an input file or another
+    output (ExperimentError, exit 1)."""
+    outs = [(o, p) for o, p in (("-o", args.output), ("--figure", args.figure),
+                                ("--dissipation-figure", args.dissipation_figure)) if p]
+    seen = {}
+    inputs = [(o, p) for o, p in (("TRACKS", args.tracks), ("--theory", args.theory),
+                                  ("--theory-q24", args.theory_q24), ("--calibration", args.calibration)) if p]
+    for o, p in outs:
+        real = os.path.realpath(_output.check_target(p, o))
+        for io_, ip in inputs:
+            if os.path.exists(ip) and os.path.realpath(ip) == real:
+                raise ExperimentError(f"{o} '{p}' is the input file {ip} ({io_}): it would be overwritten; "
+                                      "give another name")
+        if real in seen:
+            raise ExperimentError(f"{o} '{p}' and {seen[real]} name the same file: give each output its own name")
+        seen[real] = f"{o} '{p}'"
+        if o != "-o":
+            _output.check_figure_format(p, o)
+    return outs
+
+
 def _main(args, orig) -> int:
+    try:
+        _outputs(args)
+    except _output.OutputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return _output.EXIT_IO
+    except ExperimentError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    _output.handle_sigterm()
+    try:
+        return _run(args, orig)
+    except KeyboardInterrupt as exc:
+        return _output.interrupted(exc, "python -m tubes.experiment")
+
+
+def _run(args, orig) -> int:
     try:
         if not 0 < args.confidence < 1:
             raise ExperimentError("--confidence must lie in (0, 1)")
         if args.resamples < 0 or args.bootstrap < 0:
             raise ExperimentError("--resamples and --bootstrap must be >= 0")
+        if not args.noise <= args.plate:
+            raise ExperimentError(f"--noise {args.noise:g}: the position noise [cm] must lie in 0 .. the plate's "
+                                  f"half-width {args.plate:g} cm (--plate)")
         est_opts = dict(DEFAULT_OPTIONS[args.estimator])
         if args.estimator == "savgol":
             if args.window is not None:
@@ -2376,6 +2567,11 @@ def _main(args, orig) -> int:
         an = analyse(tracks, theory, opt, theory_q24=theory_q24)
     except ExperimentError as exc:
         print(f"error: {exc}", file=sys.stderr)
+        return 1
+    except MemoryError:
+        nb = len(args.bins or Options.bins) - 1
+        print(f"error: not enough memory for the analysis of {args.tracks} (--bins {nb} bins, --resamples "
+              f"{args.resamples}, --bootstrap {args.bootstrap}: smaller values need less)", file=sys.stderr)
         return 1
     rep = an.report
     if cal is not None:
@@ -2452,18 +2648,19 @@ def _main(args, orig) -> int:
               (f"   |      {b['q24_count'][j]:7d} {b['q24_transitions'][j]:6d}  {b['q24_fraction'][j]:8.4f}  "
                f"{b['q24_p_theory'][j]:8.4f}" if q24 else ""))
     try:
-        if args.output:
-            write_analysis(args.output, an, ["python -m tubes.experiment", *orig], args.tracks)
-            print(f"wrote {args.output}")
-        if args.figure:
-            plot_analysis(args.figure, an, args.section_range)
-            print(f"wrote {args.figure}")
-        if args.dissipation_figure:
-            plot_dissipation(args.dissipation_figure, an)
-            print(f"wrote {args.dissipation_figure}")
-    except OSError as exc:
-        print(f"error: cannot write the output: {exc}", file=sys.stderr)
-        return 3
+        with _output.batch():      # every output made first, then written all or none
+            if args.output:
+                write_analysis(args.output, an, ["python -m tubes.experiment", *orig], args.tracks, option="-o")
+            if args.figure:
+                plot_analysis(args.figure, an, args.section_range, option="--figure")
+            if args.dissipation_figure:
+                plot_dissipation(args.dissipation_figure, an, option="--dissipation-figure")
+    except _output.OutputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return _output.EXIT_IO
+    for p in (args.output, args.figure, args.dissipation_figure):
+        if p:
+            print(f"wrote {p}")
     if args.strict and rep.issues:
         print(f"error: --strict: {len(rep.issues)} issue(s) in the tracks", file=sys.stderr)
         return 1

@@ -11,12 +11,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import pathlib
 import sys
 
 import numpy as np
 
-from . import plots
+from . import _output, plots
 
 SECTION_RANGE = (40.0, 140.0)   # [(cm/s)^2] the paper's Fig. 4(a): crossings in (40, 140), the cut at 140
 
@@ -107,8 +106,10 @@ def plot_experiment(path, an, tracks_attrs: dict, section_range=SECTION_RANGE) -
     fig.suptitle("Synthetic tracks (tubes' synthetic_experiment scene, not the paper's data): "
                  + _describe_tracks(tracks_attrs), fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    try:
+        _output.save_figure(fig, path, dpi=130)
+    finally:
+        plt.close(fig)
 
 
 def experiment_figures(result: str, outdir, opt=None, quiet: bool = False) -> list:
@@ -124,8 +125,7 @@ def experiment_figures(result: str, outdir, opt=None, quiet: bool = False) -> li
     if not has_tracks:
         print(f"experiment: {result} has no /tracks (scene synthetic_experiment): figure skipped")
         return []
-    out = pathlib.Path(outdir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = _output.out_dir(outdir, "-o")
     tracks = ex.read_tracks(result)
     theory = ex.load_theory(result) if has_theory else None
     if theory is None:
@@ -133,8 +133,9 @@ def experiment_figures(result: str, outdir, opt=None, quiet: bool = False) -> li
     an = ex.analyse(tracks, theory, opt)
     h5 = out / "experiment.h5"
     png = out / "experiment.png"
-    ex.write_analysis(str(h5), an, ["python -m tubes.figures", result, "-o", str(outdir)], result)
-    plot_experiment(png, an, tracks.attrs)
+    with _output.batch():      # both or neither
+        ex.write_analysis(str(h5), an, ["python -m tubes.figures", result, "-o", str(outdir)], result)
+        plot_experiment(png, an, tracks.attrs)
     if not quiet:
         a = an.attrs
         line = f"experiment (synthetic tracks): {a['n_crossings']} U1^- crossings, {a['n_transitions']} transitions"
@@ -157,15 +158,35 @@ def main(argv=None) -> int:
     ap.add_argument("-o", "--outdir", default="figures", help="directory for the PNG files (default figures)")
     args = ap.parse_args(argv)
     from . import experiment as ex
-    rc = plots.main([args.result, "-o", args.outdir])
-    if rc:
-        return rc
+    from . import load
     try:
-        for p in experiment_figures(args.result, args.outdir):
-            print(p)
+        plots.check_outdir(args.outdir)
+    except _output.OutputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return _output.EXIT_IO
+    try:
+        res = load(args.result)
+    except (OSError, KeyError, ValueError) as exc:
+        print(f"error: {args.result}: cannot read it as a tubes result file ({exc})", file=sys.stderr)
+        return 1
+    _output.handle_sigterm()
+    try:
+        with _output.batch():      # every figure and experiment.h5 made first, then written all or none
+            written = plots._draw_all(res, args.outdir)
+            del res
+            written += experiment_figures(args.result, args.outdir)
     except ex.ExperimentError as exc:
         print(f"error: experiment figure: {exc}", file=sys.stderr)
         return 1
+    except _output.OutputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return _output.EXIT_IO
+    except KeyboardInterrupt as exc:
+        return _output.interrupted(exc, "python -m tubes.figures")
+    for p in written:
+        print(p)
+    if not written:
+        print("nothing to plot in", args.result)
     return 0
 
 

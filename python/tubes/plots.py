@@ -7,11 +7,13 @@ draws every figure the file has data for and prints the paths written.
 from __future__ import annotations
 
 import argparse
+import os
 import pathlib
+import sys
 
 import numpy as np
 
-from . import load
+from . import _output, load
 
 
 def _mpl():
@@ -58,7 +60,7 @@ def plot_orbit_family(res, path):
     ax.set_title(f"Lyapunov orbits of {orb.saddle} over their zero-velocity curves (dashed)")
     ax.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    _output.save_figure(fig, path, dpi=130)
     plt.close(fig)
 
 
@@ -86,7 +88,7 @@ def plot_orbit_properties(res, path):
         ax.set_ylabel(lab)
         ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    _output.save_figure(fig, path, dpi=130)
     plt.close(fig)
 
 
@@ -145,7 +147,7 @@ def plot_sections(res, outdir):
         ax.legend(fontsize=8, loc="upper right")
         fig.tight_layout()
         p = pathlib.Path(outdir) / f"section_dE{de:g}.png"
-        fig.savefig(p, dpi=130)
+        _output.save_figure(fig, p, dpi=130)
         plt.close(fig)
         paths.append(p)
     return paths
@@ -179,7 +181,7 @@ def plot_transition(res, path):
     ax.legend(fontsize=8)
     ax.grid(True, lw=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    _output.save_figure(fig, path, dpi=130)
     plt.close(fig)
 
 
@@ -244,7 +246,7 @@ def plot_tube_trajectories(res, path):
     ax2.set_ylabel("y")
     ax2.set_zlabel("v_y [cm/s]")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    _output.save_figure(fig, path, dpi=120)
     plt.close(fig)
 
 
@@ -274,7 +276,7 @@ def plot_surface(res, path):
         ax.set_xlabel("x [cm]")
         ax.set_ylabel("y [cm]")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    _output.save_figure(fig, path, dpi=120)
     plt.close(fig)
 
 
@@ -362,7 +364,7 @@ def plot_tube_cut3(res, path, k=-1, slice_width=0.05, max_points=3000):
     fig.suptitle(f"stable tube's cut with the section {sec_name} = "
                  f"{float(g.attrs['section_value']):g} (dE = {de:g}): a 3-sphere in 4-D{mc}")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    _output.save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -371,9 +373,50 @@ def main(argv=None):
     ap.add_argument("result", help="a tubes HDF5 output file")
     ap.add_argument("-o", "--outdir", default="figures", help="directory for the PNG files (default figures)")
     args = ap.parse_args(argv)
-    res = load(args.result)
-    out = pathlib.Path(args.outdir)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        check_outdir(args.outdir)
+    except _output.OutputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return _output.EXIT_IO
+    try:
+        res = load(args.result)
+    except (OSError, KeyError, ValueError) as exc:
+        print(f"error: {args.result}: cannot read it as a tubes result file ({exc})", file=sys.stderr)
+        return 1
+    _output.handle_sigterm()
+    try:
+        with _output.batch():          # every figure drawn first, then written all or none
+            written = _draw_all(res, args.outdir)
+    except _output.OutputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return _output.EXIT_IO
+    except KeyboardInterrupt as exc:
+        return _output.interrupted(exc, "python -m tubes.plots")
+    for p in written:
+        print(p)
+    if not written:
+        print("nothing to plot in", args.result)
+    return 0
+
+
+FIGURE_NAMES = ("surface.png", "orbit_family.png", "orbit_properties.png", "p_trans.png", "tube_trajectories.png",
+                "tube_cut_3dof.png", "experiment.png", "experiment.h5")   # and section_dE*.png
+
+
+def check_outdir(outdir) -> None:
+    """Before the work: the files these tools may write into outdir that exist already must be
+    regular files (tubes._output.check_target); OutputError otherwise."""
+    if not os.path.isdir(outdir):
+        return
+    for name in sorted(os.listdir(outdir)):
+        if name in FIGURE_NAMES or (name.startswith("section_dE") and name.endswith(".png")):
+            _output.check_target(os.path.join(outdir, name), "-o")
+
+
+def _draw_all(res, outdir) -> list:
+    """Every figure the result file res has data for, into the directory outdir; the paths."""
+    check_outdir(outdir)
+    out = _output.out_dir(outdir, "-o")
     written = []
     if ("equilibria" in res or "section" in res) and "g" in res.model.attrs:   # the rolling ball's surface
         plot_surface(res, out / "surface.png")
@@ -396,11 +439,7 @@ def main(argv=None):
     if "flux" in res and "tube_cut" in res["flux"]:
         plot_tube_cut3(res, out / "tube_cut_3dof.png")
         written.append(out / "tube_cut_3dof.png")
-    for p in written:
-        print(p)
-    if not written:
-        print("nothing to plot in", args.result)
-    return 0
+    return written
 
 
 if __name__ == "__main__":
