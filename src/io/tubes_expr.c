@@ -418,6 +418,19 @@ static int recorded_hash(const char *path, char hex[65], char *why, int lwhy) {
   return 0;
 }
 
+/* The files loaded by load_trusted (their device and inode, and the handle). The loader knows a
+ * library by the name it was opened with, /proc/self/fd/N: the descriptor N stays open as long as
+ * its library (the life of the process), so that no other file is ever opened under that name;
+ * a file loaded again is found here and costs no descriptor. */
+#define LOADED_TABLE 256
+static struct {
+  dev_t dev;
+  ino_t ino;
+  void *h;
+} loaded[LOADED_TABLE];
+static int nloaded;
+static pthread_mutex_t loaded_lock = PTHREAD_MUTEX_INITIALIZER;
+
 /* The library at path loaded if it can be trusted (the file and its hash record the user's or
  * root's and writable by no one else, the bytes opened hashing to the record): the handle of
  * that very file (dlopen of /proc/self/fd/N: what was checked is what runs), or NULL with the
@@ -440,13 +453,32 @@ static void *load_trusted(const char *path, char *why, int lwhy) {
     } else if (strcmp(got, want)) {
       say(why, lwhy, "its SHA-256 does not match the one recorded when it was built (a damaged or foreign file)");
     } else {
+      pthread_mutex_lock(&loaded_lock);
+      for (int i = 0; i < nloaded && !h; i++)
+        if (loaded[i].dev == sb.st_dev && loaded[i].ino == sb.st_ino) h = loaded[i].h;
+      if (h) {
+        pthread_mutex_unlock(&loaded_lock);
+        close(fd);
+        return h;
+      }
       char self[64];
       snprintf(self, sizeof self, "/proc/self/fd/%d", fd);
       h = dlopen(self, RTLD_NOW | RTLD_LOCAL);
-      if (!h) say(why, lwhy, "it cannot be loaded (%s)", dlerror());
+      if (!h) {
+        say(why, lwhy, "it cannot be loaded (%s)", dlerror());
+      } else {
+        if (nloaded < LOADED_TABLE) {
+          loaded[nloaded].dev = sb.st_dev;
+          loaded[nloaded].ino = sb.st_ino;
+          loaded[nloaded].h = h;
+          nloaded++;
+        }
+        fd = -1;                     /* kept: its number names the library (above) */
+      }
+      pthread_mutex_unlock(&loaded_lock);
     }
   }
-  close(fd);
+  if (fd >= 0) close(fd);
   return h;
 }
 
