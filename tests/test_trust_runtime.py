@@ -247,7 +247,8 @@ def test_a_closed_reader_of_stdout_stops_the_run_cleanly(tmp_path):
     err = p.stderr.read()
     p.wait(timeout=120 * TIMEOUT_SCALE)
     assert p.returncode == 141, (p.returncode, err)
-    lines = [x for x in err.splitlines() if x.strip()]
+    # one message (beside the scenes' progress lines, which go to stderr as the run goes)
+    lines = [x for x in err.splitlines() if "SIGPIPE" in x or "Broken pipe" in x or "tubes: stopped" in x]
     assert len(lines) == 1 and "standard output was closed" in lines[0] and "no output written" in lines[0], err
     assert list(tmp_path.iterdir()) == []
 
@@ -274,7 +275,7 @@ def test_a_signal_just_after_the_rename_reports_the_output_complete(tmp_path):
               env={"LD_PRELOAD": str(tmp_path / "shim.so")})
     out, err = p.communicate(timeout=60)
     assert p.returncode == 143, (p.returncode, err)
-    assert "stopped by SIGTERM" in err and f"output complete: {tmp_path / 's.h5'}" in err, err
+    assert "stopped by SIGTERM" in err and "output complete: s.h5" in err, err
     assert "no output written" not in err
     with h5py.File(tmp_path / "s.h5") as f:
         assert f.attrs["exit_status"] == 0 and "equilibria" in f
