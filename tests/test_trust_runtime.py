@@ -191,6 +191,24 @@ def test_a_damaged_taylor_kernel_is_rebuilt_or_auto_falls_back(tmp_path, how, co
         assert "DOP853 throughout" in p.stderr and method == "auto (dop853)", (method, p.stderr)
 
 
+@pytest.mark.parametrize("how", ["truncated", "4 bytes zeroed"])
+def test_python_rebuilds_a_damaged_taylor_kernel(tmp_path, how):
+    """tubes.integrate (method 'auto') loads its kernel through the same C code as ./tubes."""
+    c = fresh_cache(tmp_path)
+    code = ("import tubes; r = tubes.integrate([1.0, 0.5, 0.0, 0.0], 0.5, method='auto'); "
+            "print(repr(float(r['state'][-1][0])), r.get('method', ''))")
+    e = dict(os.environ, OMP_NUM_THREADS="1", TUBES_CACHE_DIR=str(c))
+    first = subprocess.run([PY, "-c", code], capture_output=True, text=True, env=e, timeout=300 * TIMEOUT_SCALE)
+    assert first.returncode == 0, first.stderr
+    jets = sorted(c.glob("expr_*.so"), key=lambda f: f.stat().st_mtime)
+    assert jets, list(c.iterdir())
+    damage(jets[-1], how)
+    again = subprocess.run([PY, "-c", code], capture_output=True, text=True, env=e, timeout=300 * TIMEOUT_SCALE)
+    assert again.returncode == 0, (again.returncode, again.stderr)
+    assert str(jets[-1]) in again.stderr and "does not match" in again.stderr and "built anew" in again.stderr
+    assert again.stdout == first.stdout        # the same kernel, rebuilt: the same numbers
+
+
 # ------------------------------------------------------------------ defect 3: signals
 
 SECTIONS = ("&run scenes = 'sections', output = 's.h5' /\n"
