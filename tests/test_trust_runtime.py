@@ -370,6 +370,22 @@ def test_python_stops_a_code_generator_past_its_time(tmp_path):
     assert list(c.iterdir()) == [], list(c.iterdir())
 
 
+def test_ctrl_c_in_python_stops_the_code_generator(tmp_path):
+    """The generator has its own process group (the terminal's Ctrl-C does not reach it): a
+    SIGINT to Python kills it and Python raises KeyboardInterrupt at once, not after the limit."""
+    c = fresh_cache(tmp_path)
+    code = "import tubes; tubes.Model(system='expression', hamiltonian=%r)" % HH
+    e = dict(os.environ, OMP_NUM_THREADS="1", TUBES_CACHE_DIR=str(c), **slow_env(tmp_path))
+    p = subprocess.Popen([PY, "-c", code], env=e, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    wait_for(lambda: (tmp_path / "slow.pid").exists() and (tmp_path / "slow.pid").read_text())
+    t0 = time.time()
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=60)
+    assert time.time() - t0 < 20 and "KeyboardInterrupt" in err, err   # the limit is 120 s
+    assert gone(int((tmp_path / "slow.pid").read_text()))
+    assert list(c.iterdir()) == [], list(c.iterdir())
+
+
 # ------------------------------------------------------------------ defect 5: a full cache disk
 
 

@@ -153,6 +153,52 @@ int tubes_expr_abort(void) {
   return had;
 }
 
+/* While a tool runs, SIGINT, SIGTERM and SIGHUP kill its process group before going on to the
+ * handler the host had (the program's on_signal, Python's KeyboardInterrupt, or the default
+ * action): the tool's own group does not get the terminal's Ctrl-C, so it is passed on here. A
+ * signal the host ignores is left alone. */
+#define FORWARDED 3
+static const int forwarded[FORWARDED] = {SIGINT, SIGTERM, SIGHUP};
+static struct sigaction g_prev[FORWARDED];
+static volatile sig_atomic_t g_interrupted = 0;
+
+static void on_host_signal(int sig, siginfo_t *info, void *ctx) {
+  if (g_child_pgid > 0) kill(-(pid_t)g_child_pgid, SIGKILL);
+  g_interrupted = sig;
+  for (int i = 0; i < FORWARDED; i++) {
+    if (forwarded[i] != sig) continue;
+    const struct sigaction *o = &g_prev[i];
+    if (o->sa_flags & SA_SIGINFO) {
+      o->sa_sigaction(sig, info, ctx);
+    } else if (o->sa_handler == SIG_DFL) {   /* the default: end the process by the signal */
+      sigaction(sig, o, NULL);
+      raise(sig);
+    } else if (o->sa_handler != SIG_IGN) {
+      o->sa_handler(sig);
+    }
+  }
+}
+
+/* Install (on = 1) or remove the forwarding above. */
+static void forward_signals(int on) {
+  for (int i = 0; i < FORWARDED; i++) {
+    if (on) {
+      struct sigaction sa;
+      memset(&sa, 0, sizeof sa);
+      sa.sa_sigaction = on_host_signal;
+      sa.sa_flags = SA_SIGINFO;
+      sigfillset(&sa.sa_mask);
+      if (sigaction(forwarded[i], NULL, &g_prev[i]) == 0 && g_prev[i].sa_handler != SIG_IGN &&
+          !((g_prev[i].sa_flags & SA_SIGINFO) && g_prev[i].sa_sigaction == on_host_signal))
+        sigaction(forwarded[i], &sa, NULL);
+    } else {
+      struct sigaction cur;
+      if (sigaction(forwarded[i], NULL, &cur) == 0 && (cur.sa_flags & SA_SIGINFO) && cur.sa_sigaction == on_host_signal)
+        sigaction(forwarded[i], &g_prev[i], NULL);
+    }
+  }
+}
+
 /* The code generator's time limit [s]: TUBES_CODEGEN_TIMEOUT, else 120. 0, or -1 with the reason. */
 static int codegen_timeout(double *seconds, char *msg, int lmsg) {
   const char *e = getenv("TUBES_CODEGEN_TIMEOUT");
@@ -204,16 +250,20 @@ static int run(char *const argv[], const char *in, char *out, size_t lout, doubl
   posix_spawnattr_setsigdefault(&at, &dfl);
   posix_spawnattr_setflags(&at, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
   pid_t pid;
+  g_interrupted = 0;
+  forward_signals(1);
   int e = posix_spawnp(&pid, argv[0], &fa, &at, argv, environ);
   posix_spawn_file_actions_destroy(&fa);
   posix_spawnattr_destroy(&at);
   close(p[1]);
   if (e) {
+    forward_signals(0);
     close(p[0]);
     errno = e;
     return -1;
   }
   g_child_pgid = pid;
+  if (g_interrupted) kill(-pid, SIGKILL);          /* a signal came while it started */
   double deadline = limit > 0 ? now() + limit : 0;
   size_t n = 0;
   char drop[4096];
@@ -249,6 +299,7 @@ static int run(char *const argv[], const char *in, char *out, size_t lout, doubl
     }
   }
   g_child_pgid = 0;
+  forward_signals(0);
   close(p[0]);
   return tool_status(st);
 }
@@ -634,6 +685,10 @@ static int build_locked(const build_kind_t *bk, const char *spec, char *var, int
       rc = TUBES_EINPUT;
       goto done;
     }
+    if (g_interrupted) {
+      say(msg, lmsg, "interrupted by a signal (%d): the code generator was stopped", (int)g_interrupted);
+      goto done;
+    }
     if (st < 0) {
       say(msg, lmsg, "a model written as a formula needs Python 3 with SymPy to generate its code: '%s' cannot be "
           "run (%s); run make deps, or set TUBES_PYTHON", py, strerror(errno));
@@ -669,6 +724,10 @@ static int build_locked(const build_kind_t *bk, const char *spec, char *var, int
     argv[na] = NULL;
     int timed_out;
     int st = run(argv, NULL, out, sizeof out, 0, &timed_out);
+    if (g_interrupted) {
+      say(msg, lmsg, "interrupted by a signal (%d): the compiler was stopped", (int)g_interrupted);
+      goto done;
+    }
     if (st < 0) {
       say(msg, lmsg, "a model written as a formula is compiled with the build's C compiler: '%s' cannot be run "
           "(%s); install it, or set TUBES_CC", cc, strerror(errno));
