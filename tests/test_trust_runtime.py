@@ -326,9 +326,18 @@ def slow_env(tmp):
             "SLOW_PID": str(tmp / "slow.pid")}
 
 
-def test_a_code_generator_past_its_time_is_stopped(tmp_path):
+@pytest.fixture
+def slow(tmp_path):
+    """The slow generator's environment; at the end its process is killed if a failed test left it."""
+    yield slow_env(tmp_path)
+    pid = (tmp_path / "slow.pid").read_text() if (tmp_path / "slow.pid").exists() else ""
+    if pid and not gone(int(pid)):
+        os.kill(int(pid), signal.SIGKILL)
+
+
+def test_a_code_generator_past_its_time_is_stopped(tmp_path, slow):
     c = fresh_cache(tmp_path)
-    env = dict(slow_env(tmp_path), TUBES_CODEGEN_TIMEOUT="2")
+    env = dict(slow, TUBES_CODEGEN_TIMEOUT="2")
     t0 = time.time()
     p = run(tmp_path, HH_NML, c, env=env, timeout=60)
     took = time.time() - t0
@@ -341,17 +350,17 @@ def test_a_code_generator_past_its_time_is_stopped(tmp_path):
     assert not (tmp_path / "e.h5").exists()
 
 
-def test_a_bad_code_generator_timeout_is_refused(tmp_path):
+def test_a_bad_code_generator_timeout_is_refused(tmp_path, slow):
     c = fresh_cache(tmp_path)
-    p = run(tmp_path, HH_NML, c, env=dict(slow_env(tmp_path), TUBES_CODEGEN_TIMEOUT="soon"), timeout=60)
+    p = run(tmp_path, HH_NML, c, env=dict(slow, TUBES_CODEGEN_TIMEOUT="soon"), timeout=60)
     assert p.returncode == 1 and "TUBES_CODEGEN_TIMEOUT = 'soon'" in p.stderr, p.stderr
     assert "seconds > 0" in p.stderr and not (tmp_path / "slow.pid").exists()
 
 
 @pytest.mark.parametrize("name", ["SIGINT", "SIGTERM", "SIGHUP"])
-def test_a_signal_stops_the_code_generator_with_the_program(tmp_path, name):
+def test_a_signal_stops_the_code_generator_with_the_program(tmp_path, name, slow):
     c = fresh_cache(tmp_path)
-    p = start(tmp_path, HH_NML.replace("e.h5", "s.h5"), env=dict(slow_env(tmp_path), TUBES_CACHE_DIR=str(c)))
+    p = start(tmp_path, HH_NML.replace("e.h5", "s.h5"), env=dict(slow, TUBES_CACHE_DIR=str(c)))
     wait_for(lambda: (tmp_path / "slow.pid").exists() and (tmp_path / "slow.pid").read_text())
     p.send_signal(getattr(signal, name))
     out, err = p.communicate(timeout=60)
@@ -362,20 +371,20 @@ def test_a_signal_stops_the_code_generator_with_the_program(tmp_path, name):
     assert list(c.iterdir()) == [], list(c.iterdir())
 
 
-def test_python_stops_a_code_generator_past_its_time(tmp_path):
+def test_python_stops_a_code_generator_past_its_time(tmp_path, slow):
     c = fresh_cache(tmp_path)
-    p = python_energy(c, env=dict(slow_env(tmp_path), TUBES_CODEGEN_TIMEOUT="2"))
+    p = python_energy(c, env=dict(slow, TUBES_CODEGEN_TIMEOUT="2"))
     assert p.returncode == 1 and "TUBES_CODEGEN_TIMEOUT" in p.stderr, p.stderr
     assert gone(int((tmp_path / "slow.pid").read_text()))
     assert list(c.iterdir()) == [], list(c.iterdir())
 
 
-def test_ctrl_c_in_python_stops_the_code_generator(tmp_path):
+def test_ctrl_c_in_python_stops_the_code_generator(tmp_path, slow):
     """The generator has its own process group (the terminal's Ctrl-C does not reach it): a
     SIGINT to Python kills it and Python raises KeyboardInterrupt at once, not after the limit."""
     c = fresh_cache(tmp_path)
     code = "import tubes; tubes.Model(system='expression', hamiltonian=%r)" % HH
-    e = dict(os.environ, OMP_NUM_THREADS="1", TUBES_CACHE_DIR=str(c), **slow_env(tmp_path))
+    e = dict(os.environ, OMP_NUM_THREADS="1", TUBES_CACHE_DIR=str(c), **slow)
     p = subprocess.Popen([PY, "-c", code], env=e, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     wait_for(lambda: (tmp_path / "slow.pid").exists() and (tmp_path / "slow.pid").read_text())
     t0 = time.time()

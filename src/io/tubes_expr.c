@@ -129,9 +129,9 @@ static int exists(const char *path, int mode) { return access(path, mode) == 0; 
  * and the build directory with the files a build makes in it (their paths made beforehand: the
  * handler only calls kill, unlink and rmdir), and the build's lock file. One build runs at a time
  * in a process (the model's build in the reader, the jets' under jet_lock). */
-#define TRACKED_FILES 6
+#define TRACKED_FILES 5
 static const char *const tracked_names[TRACKED_FILES] = {"model.spec", "model.c", "model.so", "model.so.sha256",
-                                                         "taylor", "log"};
+                                                         "taylor"};
 static volatile sig_atomic_t g_child_pgid = 0;      /* the running tool's process group, or 0 */
 static volatile sig_atomic_t g_have_dir = 0, g_have_lock = 0;
 static char g_dir[PATH_MAX + 64], g_files[TRACKED_FILES][PATH_MAX + 96], g_lock[PATH_MAX + 80];
@@ -417,9 +417,12 @@ static int cache_dir_trusted(const char *dir, char *msg, int lmsg) {
   struct stat sb;
   const char *how = getenv("TUBES_CACHE_DIR") && getenv("TUBES_CACHE_DIR")[0] ? "TUBES_CACHE_DIR"
                                                                                : "the default; TUBES_CACHE_DIR sets another";
-  if (stat(dir, &sb) || !S_ISDIR(sb.st_mode)) {
-    say(msg, lmsg, "the model cache directory '%s' (%s) %s", dir, how,
-        errno ? strerror(errno) : "is not a directory");
+  if (stat(dir, &sb)) {
+    say(msg, lmsg, "the model cache directory '%s' (%s): %s", dir, how, strerror(errno));
+    return -1;
+  }
+  if (!S_ISDIR(sb.st_mode)) {
+    say(msg, lmsg, "the model cache directory '%s' (%s) is not a directory", dir, how);
     return -1;
   }
   uid_t me = geteuid();
