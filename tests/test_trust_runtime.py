@@ -244,6 +244,21 @@ def test_every_terminating_signal_removes_the_temporary_file(tmp_path, name):
     assert not list(tmp_path.glob("s.h5*"))
 
 
+@pytest.mark.parametrize("name,word", [("SIGSEGV", "segmentation fault"), ("SIGBUS", "bus error"),
+                                       ("SIGABRT", "aborted"), ("SIGFPE", "arithmetic exception")])
+def test_a_fault_removes_the_temporary_file_and_still_dies_by_its_signal(tmp_path, name, word):
+    sig = getattr(signal, name)
+    p = start(tmp_path, SECTIONS, preexec_fn=lambda: __import__("resource").setrlimit(
+        __import__("resource").RLIMIT_CORE, (0, 0)))                     # no core file in the test's directory
+    wait_for(lambda: list(tmp_path.glob("s.h5.tmp*")))
+    time.sleep(0.3)
+    p.send_signal(sig)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == -sig, (p.returncode, err)                    # died by it, as without the handler
+    assert f"tubes: {name} (" in err and word in err and "no output written" in err, err
+    assert not list(tmp_path.glob("s.h5*"))
+
+
 def test_a_signal_ignored_at_the_start_stays_ignored(tmp_path):
     """nohup: a SIGHUP the caller ignores does not stop the run."""
     p = start(tmp_path, "&run scenes = 'equilibria', output = 's.h5' /\n",

@@ -285,7 +285,7 @@ static int run(char *const argv[], const char *in, char *out, size_t lout, doubl
       continue;
     }
     struct pollfd pf = {p[0], POLLIN, 0};
-    int r = poll(&pf, 1, deadline > 0 ? (int)(left * 1000) + 1 : -1);
+    int r = poll(&pf, 1, deadline > 0 ? (left < 60 ? (int)(left * 1000) + 1 : 60000) : -1);
     if (r <= 0) continue;                           /* EINTR or the deadline: looked at above */
     ssize_t k = n + 1 < lout ? read(p[0], out + n, lout - 1 - n) : read(p[0], drop, sizeof drop);
     if (k < 0 && errno == EINTR) continue;
