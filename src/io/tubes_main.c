@@ -65,7 +65,8 @@ static char g_tmp[TUBES_LPATH + 64];
  * of standard output (./tubes in.nml | head). Once the finished file has been renamed into place
  * the message says "output complete: FILE". A signal the caller ignores (nohup) stays ignored.
  * The faults (SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT, SIGSYS) clean up the same way and then die
- * by their signal as before (a core dump where enabled). Only async-signal-safe calls in the
+ * by their signal as before (a core dump where enabled), unless a runtime (a sanitizer) handles
+ * them already. Only async-signal-safe calls in the
  * handler: write, unlink, kill, rmdir, sigaction, raise, _exit. */
 typedef struct {
   int sig;
@@ -146,7 +147,8 @@ static void on_signal(int sig) {
   _exit(128 + sig);
 }
 
-/* The handler for every signal above that the caller does not ignore. */
+/* The handler for every signal above that the caller does not ignore; for a fault only where
+ * nothing else handles it (a sanitizer's or a debugger's runtime keeps its own report). */
 static void catch_signals(void) {
   struct sigaction sa, old;
   memset(&sa, 0, sizeof sa);
@@ -154,7 +156,9 @@ static void catch_signals(void) {
   sigfillset(&sa.sa_mask);           /* one handler at a time (a SIGPIPE from its own message waits) */
   for (int k = 0; k < NSTOP + NFAULT; k++) {
     int sig = k < NSTOP ? STOP_SIGNALS[k].sig : FAULT_SIGNALS[k - NSTOP].sig;
-    if (sigaction(sig, NULL, &old) == 0 && old.sa_handler == SIG_IGN) continue;   /* nohup */
+    if (sigaction(sig, NULL, &old)) continue;
+    if (old.sa_handler == SIG_IGN && !(old.sa_flags & SA_SIGINFO)) continue;   /* nohup */
+    if (k >= NSTOP && ((old.sa_flags & SA_SIGINFO) || old.sa_handler != SIG_DFL)) continue;
     sigaction(sig, &sa, NULL);
   }
 }
