@@ -286,6 +286,18 @@ def test_a_closed_reader_of_stdout_stops_the_run_cleanly(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_the_auditors_pipe_into_head(tmp_path):
+    """The shell pipeline itself: ./tubes input/paper.nml | head (pipefail gives tubes' status)."""
+    e = dict(os.environ, OMP_NUM_THREADS="1")
+    cmd = f"set -o pipefail; '{TUBES}' '{ROOT / 'input' / 'paper.nml'}' -o p.h5 | head -n 2"
+    r = subprocess.run(["bash", "-c", cmd], cwd=tmp_path, env=e, capture_output=True, text=True,
+                       timeout=300 * TIMEOUT_SCALE)
+    assert r.returncode == 141, (r.returncode, r.stderr)
+    assert len(r.stdout.splitlines()) == 2
+    assert r.stderr.count("tubes: stopped by SIGPIPE (standard output was closed") == 1, r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_signal_just_after_the_rename_reports_the_output_complete(tmp_path):
     """SIGTERM between the rename and the program's end (a shim raises it inside rename): the file
     is complete and the message says so."""
