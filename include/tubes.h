@@ -115,8 +115,13 @@ typedef struct {
  * and the reason into msg. seconds: time taken; hit: 1 if it came from the cache. */
 int tubes_expr_build(const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg, int lmsg,
                      char *lib, int llib, double *seconds, int *hit);
-/* The loaded library of name key (TUBES_EINPUT if it is not in the cache). */
+/* The loaded library of name key (TUBES_EINPUT if it is not in the cache, or is refused: its
+ * recorded SHA-256, owner or mode, docs/cluster.md "The model cache"; the reason on stderr). */
 int tubes_expr_open(const char key[TUBES_LSYSTEM], tubes_expr_lib_t *lib);
+/* For a signal handler (async-signal-safe: kill, unlink, rmdir): stop the code generator or
+ * compiler running now (SIGKILL to its process group) and remove its build directory and lock
+ * file. 1 if a tool was running. */
+int tubes_expr_abort(void);
 /* Can method = 'taylor' integrate the model (system, params) at relative tolerance eps? Its kernel
  * of that order is built or loaded now; TUBES_ENOJET and the reason in msg if not. */
 int tubes_taylor_check(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], double eps, char *msg,

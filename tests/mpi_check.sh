@@ -180,7 +180,7 @@ formula)
   # the model's library and its Taylor kernels (method 'auto'): the ranks' cache holds as many
   # whole libraries as the serial run's (their names differ: the MPI build's compiler is hashed
   # in), and nothing else (no lock, source or partial file)
-  [ "$(ls "$work/cm")" = "$(cd "$work/cm" && ls expr_*.so)" ] && [ "$(ls "$work/cm" | wc -l)" -eq "$(ls "$work/cs" | wc -l)" ]
+  [ "$(ls "$work/cm")" = "$(cd "$work/cm" && ls expr_*.so expr_*.so.sha256)" ] && [ "$(ls "$work/cm" | wc -l)" -eq "$(ls "$work/cs" | wc -l)" ]
   check $? "the cache holds as many whole libraries as the serial run's, and no leftovers ($(ls "$work/cm" | tr '\n' ' '))"
   ;;
 flux3)

@@ -8,14 +8,27 @@
  * python/tubes/codegen.py (SymPy) and the build's C compiler in a private temporary directory of
  * the cache and renames the library into place, so that runs and MPI ranks starting at once each
  * build or load a whole library, never a half-written one.
- * open: the library of a name, through dlopen (the loader keeps it: no state here). */
+ * trust (docs/cluster.md "The model cache"): the builder records the library's SHA-256 beside it
+ * (<name>.so.sha256, sha256sum's format); a library is loaded only from a cache directory others
+ * cannot write (or a sticky one of the user's or root's), only if it and its record are the user's
+ * or root's and writable by no one else, and only if the bytes opened hash to the record; dlopen
+ * then loads that open file (/proc/self/fd), so what was checked is what runs. A library refused
+ * is built anew (with a message), or the build's failure says why.
+ * tools: the code generator and the compiler run in their own process group, their output read
+ * through a pipe; the generator has a time limit (TUBES_CODEGEN_TIMEOUT, default 120 s), and a
+ * signal that stops the program stops them too (tubes_expr_abort).
+ * open: the library of a name, through the same check (the loader keeps it: no state here). */
 #include "tubes.h"
+#include "tubes_sha256.h"
 #include <dirent.h>
 #include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
+#include <math.h>
+#include <poll.h>
 #include <pthread.h>
+#include <signal.h>
 #include <spawn.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -24,6 +37,7 @@
 #include <string.h>
 #include <sys/file.h>
 #include <sys/stat.h>
+#include <sys/types.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -80,7 +94,7 @@ static int cache_dir(char *buf, size_t n) {
   return snprintf(buf, n, "%s/.cache/tubes", d) >= (int)n ? -1 : 0;
 }
 
-/* mkdir -p */
+/* mkdir -p; the last directory (the cache) only the user's (0700) */
 static int make_dirs(const char *path) {
   char p[PATH_MAX];
   snprintf(p, sizeof p, "%s", path);
@@ -90,7 +104,7 @@ static int make_dirs(const char *path) {
       if (mkdir(p, 0777) && errno != EEXIST) return -1;
       *s = '/';
     }
-  return mkdir(p, 0777) && errno != EEXIST ? -1 : 0;
+  return mkdir(p, 0700) && errno != EEXIST ? -1 : 0;
 }
 
 static uint64_t fnv1a(const char *s) {
@@ -107,37 +121,218 @@ static double now(void) {
 
 static int exists(const char *path, int mode) { return access(path, mode) == 0; }
 
-/* Run argv with stdin from in (or /dev/null) and stdout+stderr into out; the exit status, or -1
- * with errno when it could not start. */
-static int run(char *const argv[], const char *in, const char *out) {
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 0, in ? in : "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&fa, 1, out, O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  posix_spawn_file_actions_adddup2(&fa, 1, 2);
-  pid_t pid;
-  int e = posix_spawnp(&pid, argv[0], &fa, NULL, argv, environ);
-  posix_spawn_file_actions_destroy(&fa);
-  if (e) {
-    errno = e;
+#ifndef S_ISVTX
+#define S_ISVTX 01000
+#endif
+
+/* What a signal handler must undo while a tool runs (tubes_expr_abort): the tool's process group
+ * and the build directory with the files a build makes in it (their paths made beforehand: the
+ * handler only calls kill, unlink and rmdir), and the build's lock file. One build runs at a time
+ * in a process (the model's build in the reader, the jets' under jet_lock). */
+#define TRACKED_FILES 5
+static const char *const tracked_names[TRACKED_FILES] = {"model.spec", "model.c", "model.so", "model.so.sha256",
+                                                         "taylor"};
+static volatile sig_atomic_t g_child_pgid = 0;      /* the running tool's process group, or 0 */
+static volatile sig_atomic_t g_have_dir = 0, g_have_lock = 0;
+static char g_dir[PATH_MAX + 64], g_files[TRACKED_FILES][PATH_MAX + 96], g_lock[PATH_MAX + 80];
+
+static void track_dir(const char *dir) {
+  snprintf(g_dir, sizeof g_dir, "%s", dir);
+  for (int i = 0; i < TRACKED_FILES; i++) snprintf(g_files[i], sizeof g_files[i], "%s/%s", dir, tracked_names[i]);
+  g_have_dir = 1;
+}
+
+int tubes_expr_abort(void) {
+  int had = g_child_pgid > 0;
+  if (had) kill(-(pid_t)g_child_pgid, SIGKILL);
+  if (g_have_dir) {
+    for (int i = 0; i < TRACKED_FILES; i++) unlink(g_files[i]);
+    rmdir(g_dir);
+  }
+  if (g_have_lock) unlink(g_lock);
+  return had;
+}
+
+/* While a tool runs, SIGINT, SIGTERM and SIGHUP kill its process group before going on to the
+ * handler the host had (the program's on_signal, Python's KeyboardInterrupt, or the default
+ * action): the tool's own group does not get the terminal's Ctrl-C, so it is passed on here. A
+ * signal the host ignores is left alone. */
+#define FORWARDED 3
+static const int forwarded[FORWARDED] = {SIGINT, SIGTERM, SIGHUP};
+static struct sigaction g_prev[FORWARDED];
+static volatile sig_atomic_t g_interrupted = 0;
+
+static void on_host_signal(int sig, siginfo_t *info, void *ctx) {
+  if (g_child_pgid > 0) kill(-(pid_t)g_child_pgid, SIGKILL);
+  g_interrupted = sig;
+  for (int i = 0; i < FORWARDED; i++) {
+    if (forwarded[i] != sig) continue;
+    const struct sigaction *o = &g_prev[i];
+    if (o->sa_flags & SA_SIGINFO) {
+      o->sa_sigaction(sig, info, ctx);
+    } else if (o->sa_handler == SIG_DFL) {   /* the default: end the process by the signal */
+      sigaction(sig, o, NULL);
+      raise(sig);
+    } else if (o->sa_handler != SIG_IGN) {
+      o->sa_handler(sig);
+    }
+  }
+}
+
+/* Install (on = 1) or remove the forwarding above. */
+static void forward_signals(int on) {
+  for (int i = 0; i < FORWARDED; i++) {
+    if (on) {
+      struct sigaction sa;
+      memset(&sa, 0, sizeof sa);
+      sa.sa_sigaction = on_host_signal;
+      sa.sa_flags = SA_SIGINFO;
+      sigfillset(&sa.sa_mask);
+      if (sigaction(forwarded[i], NULL, &g_prev[i]) == 0 && g_prev[i].sa_handler != SIG_IGN &&
+          !((g_prev[i].sa_flags & SA_SIGINFO) && g_prev[i].sa_sigaction == on_host_signal))
+        sigaction(forwarded[i], &sa, NULL);
+    } else {
+      struct sigaction cur;
+      if (sigaction(forwarded[i], NULL, &cur) == 0 && (cur.sa_flags & SA_SIGINFO) && cur.sa_sigaction == on_host_signal)
+        sigaction(forwarded[i], &g_prev[i], NULL);
+    }
+  }
+}
+
+/* The code generator's time limit [s]: TUBES_CODEGEN_TIMEOUT, else 120. 0, or -1 with the reason. */
+static int codegen_timeout(double *seconds, char *msg, int lmsg) {
+  const char *e = getenv("TUBES_CODEGEN_TIMEOUT");
+  *seconds = 120;
+  if (!e || !e[0]) return 0;
+  char *end;
+  double v = strtod(e, &end);
+  if (end == e || *end || !isfinite(v) || v <= 0) {
+    say(msg, lmsg, "TUBES_CODEGEN_TIMEOUT = '%s' is not a time: allowed a number of seconds > 0 (the code "
+        "generator's time limit; unset: 120)", e);
     return -1;
   }
-  int st;
-  while (waitpid(pid, &st, 0) < 0)
-    if (errno != EINTR) return -1;
+  *seconds = v;
+  return 0;
+}
+
+/* The exit status of a tool that ended (st from waitpid): its code, 128 + the signal that ended
+ * it, or -1 with errno = ENOENT when it could not be run (127, the shell's convention). */
+static int tool_status(int st) {
   if (WIFEXITED(st)) return WEXITSTATUS(st) == 127 ? (errno = ENOENT, -1) : WEXITSTATUS(st);
   return 128 + (WIFSIGNALED(st) ? WTERMSIG(st) : 0);
 }
 
-/* The first lines of a file (a tool's complaint) into msg after its current text. */
-static void append_file(char *msg, int lmsg, const char *path) {
-  FILE *f = fopen(path, "r");
-  if (!f) return;
+/* Run argv in its own process group with stdin from in (or /dev/null); its stdout and stderr are
+ * read through a pipe into out (the first lout - 1 bytes; the rest is read and dropped). With
+ * limit > 0 [s] the group is killed when the tool has not ended by then (*timed_out = 1). The
+ * exit status (tool_status), or -1 with errno when it could not start. */
+static int run(char *const argv[], const char *in, char *out, size_t lout, double limit, int *timed_out) {
+  int p[2];
+  out[0] = 0;
+  *timed_out = 0;
+  if (pipe(p)) return -1;
+  fcntl(p[0], F_SETFD, FD_CLOEXEC);
+  fcntl(p[1], F_SETFD, FD_CLOEXEC);
+  posix_spawn_file_actions_t fa;
+  posix_spawnattr_t at;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 0, in ? in : "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_adddup2(&fa, p[1], 1);
+  posix_spawn_file_actions_adddup2(&fa, p[1], 2);
+  posix_spawnattr_init(&at);
+  posix_spawnattr_setpgroup(&at, 0);              /* its own group: killed as one */
+  sigset_t none, dfl;                             /* the tool starts with default signal handling */
+  sigemptyset(&none);
+  sigfillset(&dfl);
+  sigdelset(&dfl, SIGKILL);
+  sigdelset(&dfl, SIGSTOP);
+  posix_spawnattr_setsigmask(&at, &none);
+  posix_spawnattr_setsigdefault(&at, &dfl);
+  posix_spawnattr_setflags(&at, POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
+  pid_t pid;
+  g_interrupted = 0;
+  forward_signals(1);
+  int e = posix_spawnp(&pid, argv[0], &fa, &at, argv, environ);
+  posix_spawn_file_actions_destroy(&fa);
+  posix_spawnattr_destroy(&at);
+  close(p[1]);
+  if (e) {
+    forward_signals(0);
+    close(p[0]);
+    errno = e;
+    return -1;
+  }
+  g_child_pgid = pid;
+  if (g_interrupted) kill(-pid, SIGKILL);          /* a signal came while it started */
+  double deadline = limit > 0 ? now() + limit : 0;
+  size_t n = 0;
+  char drop[4096];
+  int st = 0, open_pipe = 1;
+  for (;;) {
+    double left = deadline > 0 ? deadline - now() : 1;
+    if (left <= 0) {                                /* past its time: the whole group goes */
+      kill(-pid, SIGKILL);
+      *timed_out = 1;
+      while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {}
+      break;
+    }
+    if (!open_pipe) {                               /* its output closed: wait for its end */
+      pid_t w = waitpid(pid, &st, deadline > 0 ? WNOHANG : 0);
+      if (w == pid) break;
+      if (w < 0 && errno != EINTR) break;
+      struct timespec ts = {0, 10000000};
+      nanosleep(&ts, NULL);
+      continue;
+    }
+    struct pollfd pf = {p[0], POLLIN, 0};
+    int r = poll(&pf, 1, deadline > 0 ? (left < 60 ? (int)(left * 1000) + 1 : 60000) : -1);
+    if (r <= 0) continue;                           /* EINTR or the deadline: looked at above */
+    ssize_t k = n + 1 < lout ? read(p[0], out + n, lout - 1 - n) : read(p[0], drop, sizeof drop);
+    if (k < 0 && errno == EINTR) continue;
+    if (k <= 0) {
+      open_pipe = 0;
+      continue;
+    }
+    if (n + 1 < lout) {
+      n += (size_t)k;
+      out[n] = 0;
+    }
+  }
+  g_child_pgid = 0;
+  forward_signals(0);
+  close(p[0]);
+  return tool_status(st);
+}
+
+/* A tool's output (its complaint) into msg after its current text, without trailing blanks. */
+static void append_out(char *msg, int lmsg, const char *out) {
   size_t k = strlen(msg);
-  size_t n = fread(msg + k, 1, (size_t)lmsg - k - 1, f);
-  msg[k + n] = 0;
-  for (size_t i = k + n; i > k && (msg[i - 1] == '\n' || msg[i - 1] == ' '); i--) msg[i - 1] = 0;
-  fclose(f);
+  snprintf(msg + k, (size_t)lmsg - k, "%s", out);
+  for (size_t i = strlen(msg); i > k && (msg[i - 1] == '\n' || msg[i - 1] == ' '); i--) msg[i - 1] = 0;
+}
+
+/* The last line of a tool's output that is not blank (an exception's own line, after its
+ * traceback), into buf. */
+static void last_line(const char *out, char *buf, size_t n) {
+  const char *end = out + strlen(out);
+  while (end > out && (end[-1] == '\n' || end[-1] == ' ')) end--;
+  const char *b = end;
+  while (b > out && b[-1] != '\n') b--;
+  snprintf(buf, n, "%.*s", (int)(end - b), b);
+}
+
+/* The formula of a spec (its "expr " line, shortened to fit a message) and the variable that
+ * holds it (hamiltonian or height; "system" for a spec without one, a built-in model's jet). */
+static void spec_formula(const char *spec, char *formula, size_t n, char *var, int lvar) {
+  formula[0] = 0;
+  const char *e = strstr(spec, "\nexpr ");
+  if (e) {
+    e += 6;
+    size_t l = strcspn(e, "\n");
+    snprintf(formula, n, "%.*s%s", (int)(l < 300 ? l : 300), e, l > 300 ? "..." : "");
+  }
+  if (var)
+    snprintf(var, (size_t)lvar, "%s", !e ? "system" : strstr(spec, "\nkind surface") ? "height" : "hamiltonian");
 }
 
 /* rm -r of the build's temporary directory (flat) */
@@ -154,6 +349,7 @@ static void remove_tree(const char *dir) {
     closedir(d);
   }
   rmdir(dir);
+  g_have_dir = 0;
 }
 
 /* A tool: $ENV, else a path relative to the program's directory, else one relative to the
@@ -198,10 +394,168 @@ static void codegen_tools(char *py, size_t npy, char *script, size_t nscript) {
   codegen_script(script, nscript);
 }
 
-/* Is the library at path the model of spec? (its embedded text) */
-static int library_matches(const build_kind_t *bk, const char *path, const char *spec) {
-  void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-  if (!h) return 0;
+/* Is a file or directory (sb) one this program may trust: the user's or root's, and writable by
+ * no one else? 0, or -1 with the reason in why (what names it). */
+static int owned_safely(const struct stat *sb, const char *what, char *why, int lwhy) {
+  uid_t me = geteuid();
+  if (sb->st_uid != me && sb->st_uid != 0) {
+    say(why, lwhy, "%s is owned by uid %u, not by you (uid %u) or root", what, (unsigned)sb->st_uid, (unsigned)me);
+    return -1;
+  }
+  if (sb->st_mode & (S_IWGRP | S_IWOTH)) {
+    say(why, lwhy, "%s is writable by %s (mode %04o)", what, sb->st_mode & S_IWOTH ? "others" : "its group",
+        (unsigned)(sb->st_mode & 07777));
+    return -1;
+  }
+  return 0;
+}
+
+/* The cache directory, checked: the user's or root's, and writable by no one else unless it is
+ * sticky (as /tmp: others cannot then remove or replace what is yours). 0, or -1 with the
+ * reason in msg. */
+static int cache_dir_trusted(const char *dir, char *msg, int lmsg) {
+  struct stat sb;
+  const char *how = getenv("TUBES_CACHE_DIR") && getenv("TUBES_CACHE_DIR")[0] ? "TUBES_CACHE_DIR"
+                                                                               : "the default; TUBES_CACHE_DIR sets another";
+  if (stat(dir, &sb)) {
+    say(msg, lmsg, "the model cache directory '%s' (%s): %s", dir, how, strerror(errno));
+    return -1;
+  }
+  if (!S_ISDIR(sb.st_mode)) {
+    say(msg, lmsg, "the model cache directory '%s' (%s) is not a directory", dir, how);
+    return -1;
+  }
+  uid_t me = geteuid();
+  if (sb.st_uid != me && sb.st_uid != 0) {
+    say(msg, lmsg, "the model cache directory '%s' (%s) is owned by uid %u: a library its owner puts there would "
+        "run in this program; allowed a directory of yours (uid %u) or root's", dir, how, (unsigned)sb.st_uid,
+        (unsigned)me);
+    return -1;
+  }
+  if ((sb.st_mode & (S_IWGRP | S_IWOTH)) && !(sb.st_mode & S_ISVTX)) {
+    say(msg, lmsg, "the model cache directory '%s' (%s) is writable by %s (mode %04o) and not sticky: a library "
+        "another user puts there would run in this program; allowed a directory only you can write (chmod 700 "
+        "or 755), or a sticky one (chmod 1777, as /tmp; docs/cluster.md)", dir, how,
+        sb.st_mode & S_IWOTH ? "others" : "its group", (unsigned)(sb.st_mode & 07777));
+    return -1;
+  }
+  return 0;
+}
+
+/* The recorded SHA-256 of the library at path (path.sha256, written by the process that built
+ * it) into hex; 0, or -1 with the reason in why. */
+static int recorded_hash(const char *path, char hex[65], char *why, int lwhy) {
+  char rec[PATH_MAX + 96], line[160];
+  snprintf(rec, sizeof rec, "%s.sha256", path);
+  int fd = open(rec, O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) {
+    say(why, lwhy, "its recorded hash '%s' cannot be read (%s)", rec, strerror(errno));
+    return -1;
+  }
+  struct stat sb;
+  char what[PATH_MAX + 128];
+  snprintf(what, sizeof what, "its recorded hash '%s'", rec);
+  if (fstat(fd, &sb) || !S_ISREG(sb.st_mode) || owned_safely(&sb, what, why, lwhy)) {
+    if (!why[0]) say(why, lwhy, "%s is not a regular file", what);
+    close(fd);
+    return -1;
+  }
+  ssize_t n = read(fd, line, sizeof line - 1);
+  close(fd);
+  line[n > 0 ? n : 0] = 0;
+  size_t k = strspn(line, "0123456789abcdef");
+  if (k != 64) {
+    say(why, lwhy, "%s is not a SHA-256", what);
+    return -1;
+  }
+  snprintf(hex, 65, "%.64s", line);
+  return 0;
+}
+
+/* The files loaded by load_trusted (their device and inode, and the handle). The loader knows a
+ * library by the name it was opened with, /proc/self/fd/N: the descriptor N stays open as long as
+ * its library (the life of the process), so that no other file is ever opened under that name;
+ * a file loaded again is found here and costs no descriptor. */
+#define LOADED_TABLE 256
+static struct {
+  dev_t dev;
+  ino_t ino;
+  void *h;
+} loaded[LOADED_TABLE];
+static int nloaded;
+static pthread_mutex_t loaded_lock = PTHREAD_MUTEX_INITIALIZER;
+
+/* The library at path loaded if it can be trusted (the file and its hash record the user's or
+ * root's and writable by no one else, the bytes opened hashing to the record): the handle of
+ * that very file (dlopen of /proc/self/fd/N: what was checked is what runs), or NULL with the
+ * reason in why. The directory is checked by the caller (cache_dir_trusted). */
+static void *load_trusted(const char *path, char *why, int lwhy) {
+  why[0] = 0;
+  int fd = open(path, O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) {
+    say(why, lwhy, "it cannot be opened (%s)", strerror(errno));
+    return NULL;
+  }
+  struct stat sb;
+  char want[65], got[65];
+  void *h = NULL;
+  if (fstat(fd, &sb) || !S_ISREG(sb.st_mode)) {
+    say(why, lwhy, "it is not a regular file");
+  } else if (!owned_safely(&sb, "it", why, lwhy) && !recorded_hash(path, want, why, lwhy)) {
+    if (tubes_sha256_fd(fd, got)) {
+      say(why, lwhy, "it cannot be read (%s)", strerror(errno));
+    } else if (strcmp(got, want)) {
+      say(why, lwhy, "its SHA-256 does not match the one recorded when it was built (a damaged or foreign file)");
+    } else {
+      pthread_mutex_lock(&loaded_lock);
+      for (int i = 0; i < nloaded && !h; i++)
+        if (loaded[i].dev == sb.st_dev && loaded[i].ino == sb.st_ino) h = loaded[i].h;
+      if (h) {
+        pthread_mutex_unlock(&loaded_lock);
+        close(fd);
+        return h;
+      }
+      char self[64];
+      snprintf(self, sizeof self, "/proc/self/fd/%d", fd);
+      h = dlopen(self, RTLD_NOW | RTLD_LOCAL);
+      if (!h) {
+        say(why, lwhy, "it cannot be loaded (%s)", dlerror());
+      } else {
+        if (nloaded < LOADED_TABLE) {
+          loaded[nloaded].dev = sb.st_dev;
+          loaded[nloaded].ino = sb.st_ino;
+          loaded[nloaded].h = h;
+          nloaded++;
+        }
+        fd = -1;                     /* kept: its number names the library (above) */
+      }
+      pthread_mutex_unlock(&loaded_lock);
+    }
+  }
+  if (fd >= 0) close(fd);
+  return h;
+}
+
+/* The library of a key in the cache, checked and loaded (load_trusted); NULL with the reason in
+ * msg (the path named). */
+static void *open_cached(const char key[TUBES_LSYSTEM], char *path, size_t lpath, char *msg, int lmsg) {
+  char dir[PATH_MAX], k[TUBES_LSYSTEM + 1], why[1024];
+  snprintf(k, sizeof k, "%.*s", TUBES_LSYSTEM, key);
+  k[strcspn(k, " ")] = 0;
+  path[0] = 0;
+  if (strncmp(k, "expr_", 5) || cache_dir(dir, sizeof dir)) {
+    say(msg, lmsg, "'%s' is not the name of a model written as a formula", k);
+    return NULL;
+  }
+  snprintf(path, lpath, "%s/%s.so", dir, k);
+  if (cache_dir_trusted(dir, msg, lmsg)) return NULL;
+  void *h = load_trusted(path, why, (int)sizeof why);
+  if (!h) say(msg, lmsg, "the cached library '%s' is refused: %s", path, why);
+  return h;
+}
+
+/* Is the loaded library h the one of spec? (its embedded text) */
+static int library_matches(const build_kind_t *bk, void *h, const char *spec) {
   const char *text = (const char *)dlsym(h, bk->text_symbol);
   const int *abi = (const int *)dlsym(h, bk->abi_symbol);
   return text && abi && *abi == 1 && !strcmp(text, spec);
@@ -235,11 +589,13 @@ static int build(const build_kind_t *bk, const char *spec, char key[TUBES_LSYSTE
   msg[0] = 0;
   lib[0] = 0;
   snprintf(key, TUBES_LSYSTEM, "expr_%016llx", (unsigned long long)fnv1a(spec));
+  errno = 0;
   if (cache_dir(dir, sizeof dir) || make_dirs(dir) || !exists(dir, W_OK | X_OK)) {
     say(msg, lmsg, "the model cache directory '%s' cannot be created or written (%s): set TUBES_CACHE_DIR to a "
         "writable directory", dir, strerror(errno ? errno : EACCES));
     return TUBES_EIO;
   }
+  if (cache_dir_trusted(dir, msg, lmsg)) return TUBES_EINPUT;
   snprintf(path, sizeof path, "%s/%s.so", dir, key);
   snprintf(lib, (size_t)llib, "%s", path);
   /* one build per library at a time, across processes (MPI ranks, runs started together): the
@@ -247,78 +603,114 @@ static int build(const build_kind_t *bk, const char *spec, char key[TUBES_LSYSTE
    * still waiting on it then holds the lock of a removed file and finds the library built; a
    * failed build may then be tried twice at once, which the private directory and the rename
    * keep safe) */
-  char lockpath[PATH_MAX + 80];
-  snprintf(lockpath, sizeof lockpath, "%s/%s.lock", dir, key);
-  int lockfd = open(lockpath, O_CREAT | O_RDWR, 0666);
-  if (lockfd >= 0) while (flock(lockfd, LOCK_EX) && errno == EINTR) {}
+  snprintf(g_lock, sizeof g_lock, "%s/%s.lock", dir, key);
+  int lockfd = open(g_lock, O_CREAT | O_RDWR | O_NOFOLLOW | O_CLOEXEC, 0600);
+  if (lockfd >= 0) {
+    g_have_lock = 1;
+    while (flock(lockfd, LOCK_EX) && errno == EINTR) {}
+  }
   int rc0 = build_locked(bk, spec, var, lvar, msg, lmsg, path, dir, key, hit);
   if (lockfd >= 0) {
-    unlink(lockpath);
+    unlink(g_lock);
+    g_have_lock = 0;
     close(lockfd);
   }
   return rc0;
 }
 
+/* The SHA-256 of the library built at so recorded in rec (sha256sum's format, naming the
+ * library as name); 0, or -1 with the reason in msg. */
+static int record_hash(const char *so, const char *rec, const char *name, char *msg, int lmsg) {
+  char hex[65], text[128];
+  int fd = open(so, O_RDONLY | O_CLOEXEC);
+  if (fd < 0 || tubes_sha256_fd(fd, hex)) {
+    say(msg, lmsg, "cannot read the library just built, '%s': %s", so, strerror(errno));
+    if (fd >= 0) close(fd);
+    return -1;
+  }
+  close(fd);
+  snprintf(text, sizeof text, "%s  %s\n", hex, name);
+  return write_file(rec, text, msg, lmsg);
+}
+
 static int build_locked(const build_kind_t *bk, const char *spec, char *var, int lvar, char *msg, int lmsg,
                         const char *path, const char *dir, const char *key, int *hit) {
-  char tmp[PATH_MAX + 64];
-  if (exists(path, R_OK)) {
-    if (library_matches(bk, path, spec)) {
+  char tmp[PATH_MAX + 64], why[1024] = "";
+  struct stat lb;
+  const char *off = getenv("TUBES_NO_CODEGEN");
+  int codegen_off = off && off[0];
+  if (lstat(path, &lb) == 0) {     /* a cached library: loaded only if it is the one its builder recorded */
+    void *h = load_trusted(path, why, (int)sizeof why);
+    if (h && library_matches(bk, h, spec)) {
       *hit = 1;
       return TUBES_OK;
     }
-    say(msg, lmsg, "the cached library '%s' is not this model's (a damaged file, or another model with the same "
-        "hash): remove it and run again", path);
-    return TUBES_EIO;
-  }
-  const char *off = getenv("TUBES_NO_CODEGEN");
-  if (off && off[0]) {
+    if (h) say(why, (int)sizeof why, "it is another model's (the same hash of a different text)");
+    if (codegen_off) {
+      say(msg, lmsg, "the cached library '%s' is refused: %s; and code generation is off (TUBES_NO_CODEGEN is set)",
+          path, why);
+      return TUBES_EINPUT;
+    }
+    fprintf(stderr, "tubes: the cached library '%s' is refused: %s; it is built anew\n", path, why);
+  } else if (codegen_off) {
     say(msg, lmsg, "the model is not in the cache and code generation is off (TUBES_NO_CODEGEN is set)");
     return TUBES_EINPUT;
   }
+  double limit;
+  if (codegen_timeout(&limit, msg, lmsg)) return TUBES_EINPUT;
   snprintf(tmp, sizeof tmp, "%s/%s.XXXXXX", dir, key);
   if (!mkdtemp(tmp)) {
     say(msg, lmsg, "cannot create a build directory in '%s': %s", dir, strerror(errno));
     return TUBES_EIO;
   }
-  char f_spec[PATH_MAX + 80], f_c[PATH_MAX + 80], f_so[PATH_MAX + 80], f_log[PATH_MAX + 80];
+  track_dir(tmp);
+  char f_spec[PATH_MAX + 80], f_c[PATH_MAX + 80], f_so[PATH_MAX + 80], f_rec[PATH_MAX + 96], rec[PATH_MAX + 96];
   snprintf(f_spec, sizeof f_spec, "%s/model.spec", tmp);
   snprintf(f_c, sizeof f_c, "%s/model.c", tmp);
   snprintf(f_so, sizeof f_so, "%s/model.so", tmp);
-  snprintf(f_log, sizeof f_log, "%s/log", tmp);
+  snprintf(f_rec, sizeof f_rec, "%s/model.so.sha256", tmp);
+  snprintf(rec, sizeof rec, "%s.sha256", path);
+  static char out[16384];          /* a tool's output (one build at a time: see track_dir) */
   int rc = TUBES_EIO;
   if (write_file(f_spec, spec, msg, lmsg)) goto done;
   char py[PATH_MAX], script[PATH_MAX];
   codegen_tools(py, sizeof py, script, sizeof script);
   {
     char *argv[] = {py, script, (char *)bk->codegen_flag, f_c, NULL};
-    int st = run(argv, f_spec, f_log);
+    int timed_out;
+    int st = run(argv, f_spec, out, sizeof out, limit, &timed_out);
+    if (timed_out) {
+      char formula[512];
+      spec_formula(spec, formula, sizeof formula, var, lvar);
+      say(msg, lmsg, "generating the code of %s%s%s did not finish within %g s (TUBES_CODEGEN_TIMEOUT; unset: "
+          "120): the generator (%s %s) was stopped; simplify the formula, or allow more time", formula[0] ? "'" : "",
+          formula[0] ? formula : "the model", formula[0] ? "'" : "", limit, py, script);
+      rc = TUBES_EINPUT;
+      goto done;
+    }
+    if (g_interrupted) {
+      say(msg, lmsg, "interrupted by a signal (%d): the code generator was stopped", (int)g_interrupted);
+      goto done;
+    }
     if (st < 0) {
       say(msg, lmsg, "a model written as a formula needs Python 3 with SymPy to generate its code: '%s' cannot be "
           "run (%s); run make deps, or set TUBES_PYTHON", py, strerror(errno));
       goto done;
     }
-    if (st == 1) {   /* the formula: "variable<TAB>message" */
-      FILE *g = fopen(f_log, "r");
-      char line[2048] = "";
-      if (g && fgets(line, sizeof line, g)) {
-        char *tab = strchr(line, '\t');
-        line[strcspn(line, "\n")] = 0;
-        if (tab) {
-          *tab = 0;
-          snprintf(var, (size_t)lvar, "%s", line);
-          say(msg, lmsg, "%s", tab + 1);
-        } else {
-          say(msg, lmsg, "%s", line);
-        }
-      }
-      if (g) fclose(g);
+    char *tab = strchr(out, '\t');
+    if (st == 1 && tab && tab < out + strcspn(out, "\n")) {   /* the formula: "variable<TAB>message" */
+      out[strcspn(out, "\n")] = 0;
+      *tab = 0;
+      snprintf(var, (size_t)lvar, "%s", out);
+      say(msg, lmsg, "%s", tab + 1);
       rc = TUBES_EINPUT;
       goto done;
     }
-    if (st != 0) {
-      say(msg, lmsg, "generating the model's code failed (%s %s, exit %d): ", py, script, st);
-      append_file(msg, lmsg, f_log);
+    if (st != 0) {   /* the generator failed (a traceback: its last line says why, e.g. a full disk) */
+      char last[1024];
+      last_line(out, last, sizeof last);
+      say(msg, lmsg, "generating the model's code failed (%s %s, exit %d): %s", py, script, st,
+          last[0] ? last : "it said nothing");
       goto done;
     }
   }
@@ -333,7 +725,12 @@ static int build_locked(const build_kind_t *bk, const char *spec, char *var, int
     argv[na++] = f_c;
     argv[na++] = "-lm";
     argv[na] = NULL;
-    int st = run(argv, NULL, f_log);
+    int timed_out;
+    int st = run(argv, NULL, out, sizeof out, 0, &timed_out);
+    if (g_interrupted) {
+      say(msg, lmsg, "interrupted by a signal (%d): the compiler was stopped", (int)g_interrupted);
+      goto done;
+    }
     if (st < 0) {
       say(msg, lmsg, "a model written as a formula is compiled with the build's C compiler: '%s' cannot be run "
           "(%s); install it, or set TUBES_CC", cc, strerror(errno));
@@ -341,17 +738,28 @@ static int build_locked(const build_kind_t *bk, const char *spec, char *var, int
     }
     if (st != 0) {
       say(msg, lmsg, "compiling the model's code failed (%s, exit %d): ", cc, st);
-      append_file(msg, lmsg, f_log);
+      append_out(msg, lmsg, out);
       goto done;
     }
   }
-  if (rename(f_so, path)) {
+  /* readable by all, writable by this user alone (whatever the umask), and its hash recorded;
+   * the record goes into place first: a reader that meets the new record with the old library
+   * refuses it (and builds), never loads a library the record does not name */
+  if (chmod(f_so, 0644) || record_hash(f_so, f_rec, strrchr(path, '/') + 1, msg, lmsg)) {
+    if (!msg[0]) say(msg, lmsg, "cannot set the mode of '%s': %s", f_so, strerror(errno));
+    goto done;
+  }
+  if (rename(f_rec, rec) || rename(f_so, path)) {
     say(msg, lmsg, "cannot move the model's library into the cache '%s': %s", path, strerror(errno));
     goto done;
   }
-  if (!library_matches(bk, path, spec)) {
-    say(msg, lmsg, "the library just built, '%s', cannot be loaded: %s", path, dlerror());
-    goto done;
+  {
+    void *h = load_trusted(path, why, (int)sizeof why);
+    if (!h || !library_matches(bk, h, spec)) {
+      say(msg, lmsg, "the library just built, '%s', cannot be used: %s", path,
+          h ? "it does not carry the model's text" : why);
+      goto done;
+    }
   }
   rc = TUBES_OK;
 done:
@@ -360,14 +768,16 @@ done:
 }
 
 int tubes_expr_open(const char key[TUBES_LSYSTEM], tubes_expr_lib_t *m) {
-  char dir[PATH_MAX], path[PATH_MAX + 64], k[TUBES_LSYSTEM + 1];
+  char path[PATH_MAX + 64], k[TUBES_LSYSTEM + 1], msg[2048];
   memset(m, 0, sizeof *m);
   snprintf(k, sizeof k, "%.*s", TUBES_LSYSTEM, key);
   k[strcspn(k, " ")] = 0;
-  if (strncmp(k, "expr_", 5) || strlen(k) != 21 || cache_dir(dir, sizeof dir)) return TUBES_EINPUT;
-  snprintf(path, sizeof path, "%s/%s.so", dir, k);
-  void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-  if (!h) return TUBES_EINPUT;
+  if (strncmp(k, "expr_", 5) || strlen(k) != 21) return TUBES_EINPUT;
+  void *h = open_cached(key, path, sizeof path, msg, (int)sizeof msg);
+  if (!h) {
+    fprintf(stderr, "tubes: %s\n", msg);
+    return TUBES_EINPUT;
+  }
   const int *abi = dlsym(h, "tubes_expr_abi"), *kind = dlsym(h, "tubes_expr_kind"),
             *ndof = dlsym(h, "tubes_expr_ndof"), *nat = dlsym(h, "tubes_expr_natural");
   const char *text = dlsym(h, "tubes_expr_text");
@@ -421,13 +831,13 @@ int tubes_expr_taylor(const char key[TUBES_LSYSTEM], const double *z, int order,
         "its Taylor expansion comes from the formula (docs/models.md)");
     return TUBES_EINPUT;
   }
-  snprintf(path, sizeof path, "%s/%s.so", dir, k);
-  void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-  const char *text = h ? (const char *)dlsym(h, "tubes_expr_text") : NULL;
-  const int *ndof = h ? (const int *)dlsym(h, "tubes_expr_ndof") : NULL;
-  const int *kind = h ? (const int *)dlsym(h, "tubes_expr_kind") : NULL;
+  void *h = open_cached(key, path, sizeof path, msg, lmsg);
+  if (!h) return TUBES_EINPUT;
+  const char *text = (const char *)dlsym(h, "tubes_expr_text");
+  const int *ndof = (const int *)dlsym(h, "tubes_expr_ndof");
+  const int *kind = (const int *)dlsym(h, "tubes_expr_kind");
   if (!text || !ndof || !kind) {
-    say(msg, lmsg, "cannot load the model's library '%s'", path);
+    say(msg, lmsg, "the model's library '%s' lacks its text, degrees of freedom or kind", path);
     return TUBES_EINPUT;
   }
   if (*kind != 1) {
@@ -441,10 +851,10 @@ int tubes_expr_taylor(const char key[TUBES_LSYSTEM], const double *z, int order,
     say(msg, lmsg, "cannot create a directory in '%s': %s", dir, strerror(errno));
     return TUBES_EIO;
   }
-  char f_spec[PATH_MAX + 80], f_out[PATH_MAX + 80], f_log[PATH_MAX + 80];
+  track_dir(tmp);
+  char f_spec[PATH_MAX + 80], f_out[PATH_MAX + 80];
   snprintf(f_spec, sizeof f_spec, "%s/model.spec", tmp);
   snprintf(f_out, sizeof f_out, "%s/taylor", tmp);
-  snprintf(f_log, sizeof f_log, "%s/log", tmp);
   int rc = TUBES_EIO;
   if (write_file(f_spec, text, msg, lmsg)) goto done;
   {
@@ -457,10 +867,24 @@ int tubes_expr_taylor(const char key[TUBES_LSYSTEM], const double *z, int order,
       argv[5 + i] = zs[i];
     }
     argv[5 + nv] = NULL;
-    int st = run(argv, f_spec, f_log);
+    static char out[16384];
+    double limit;
+    int timed_out;
+    if (codegen_timeout(&limit, msg, lmsg)) {
+      rc = TUBES_EINPUT;
+      goto done;
+    }
+    int st = run(argv, f_spec, out, sizeof out, limit, &timed_out);
+    if (timed_out) {
+      char formula[512];
+      spec_formula(text, formula, sizeof formula, NULL, 0);
+      say(msg, lmsg, "the Taylor expansion of '%s' did not finish within %g s (TUBES_CODEGEN_TIMEOUT; unset: 120): "
+          "the generator (%s %s --taylor) was stopped", formula, limit, py, script);
+      goto done;
+    }
     if (st != 0) {
       say(msg, lmsg, "the Taylor expansion of the formula failed (%s %s --taylor, exit %d): ", py, script, st);
-      append_file(msg, lmsg, f_log);
+      append_out(msg, lmsg, out);
       goto done;
     }
   }
@@ -647,7 +1071,13 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
                 (flags & TUBES_JET_VARIATIONAL) ? " variational" : "", (flags & TUBES_JET_TANGENT) ? " tangent" : "",
                 (flags & TUBES_JET_ACTION) ? " action" : "", now() - t0, lib);
     }
-    void *h = dlopen(lib, RTLD_NOW | RTLD_LOCAL);
+    char why[1024];
+    void *h = load_trusted(lib, why, (int)sizeof why);
+    if (!h) {
+      say(msg, lmsg, "the Taylor kernel '%s' is refused: %s", lib, why);
+      rc = TUBES_EIO;
+      goto out;
+    }
     const int *d = h ? dlsym(h, "tubes_jet_dim") : NULL, *nw = h ? dlsym(h, "tubes_jet_nwork") : NULL;
     const int *o = h ? dlsym(h, "tubes_jet_order") : NULL, *l = h ? dlsym(h, "tubes_jet_lanes") : NULL;
     void *f = h ? dlsym(h, "tubes_jet") : NULL;
@@ -681,8 +1111,8 @@ int tubes_expr_spec(const char key[TUBES_LSYSTEM], char *buf, int len) {
   snprintf(k, sizeof k, "%.*s", TUBES_LSYSTEM, key);
   k[strcspn(k, " ")] = 0;
   if (strncmp(k, "expr_", 5) || cache_dir(dir, sizeof dir)) return TUBES_EINPUT;
-  snprintf(path, sizeof path, "%s/%s.so", dir, k);
-  void *h = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+  char msg[2048];
+  void *h = open_cached(key, path, sizeof path, msg, (int)sizeof msg);
   const char *text = h ? (const char *)dlsym(h, "tubes_expr_text") : NULL;
   if (!text) return TUBES_EINPUT;
   /* the model's lines, without the compiler's (a jet adds its own) */

@@ -46,7 +46,8 @@ static void usage(FILE *out) {
           "  -h, --help   this help\n\n"
           "exit codes: 0 success; 1 bad input or usage; 2 numerical failure (reported on stderr;\n"
           "the file is still written with the failure recorded); 3 output could not be written;\n"
-          "4 partial: some orbits failed or lie past the end of their family (the rest is written)\n\n");
+          "4 partial: some orbits failed or lie past the end of their family (the rest is written);\n"
+          "128 + N stopped by signal N (130 Ctrl-C, 141 a closed reader of stdout, 143 SIGTERM; no output file)\n\n");
 }
 
 /* MPI (docs/cluster.md): every rank runs the whole program on the same input; the ensembles
@@ -56,21 +57,110 @@ static void usage(FILE *out) {
 static int g_rank = 0, g_nranks = 1;
 static char g_tmp[TUBES_LPATH + 64];
 
-/* SIGINT (Ctrl-C) and SIGTERM (a batch system's kill): a run stops at once, removes its
- * temporary output file (so no partial or corrupt file is left), says what happened and exits
- * 128 + the signal (130, 143). Only async-signal-safe calls here: write, unlink, _exit. */
-static volatile sig_atomic_t g_have_tmp = 0;
-static void on_signal(int sig) {
-  const char *what = sig == SIGINT ? "SIGINT (interrupted)" : "SIGTERM (terminated)";
-  const char *head = "\ntubes: stopped by ";
-  const char *tail = g_have_tmp ? "; the temporary output file was removed, no output written\n"
-                                : "; no output written\n";
-  ssize_t r = write(STDERR_FILENO, head, strlen(head));
-  r = write(STDERR_FILENO, what, strlen(what));
-  r = write(STDERR_FILENO, tail, strlen(tail));
+/* Signals (docs/output.md "Exit codes and signals"). Every catchable signal whose default is to
+ * end the program stops a run at once: the code generator or compiler running for a formula is
+ * stopped with its build directory (tubes_expr_abort), the temporary output file is removed (so no
+ * partial or corrupt file is left), one message says what happened, and the exit code is 128 +
+ * the signal (SIGHUP 129, SIGINT 130, SIGPIPE 141, SIGTERM 143, ...). SIGPIPE is a closed reader
+ * of standard output (./tubes in.nml | head). Once the finished file has been renamed into place
+ * the message says "output complete: FILE". A signal the caller ignores (nohup) stays ignored.
+ * The faults (SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT, SIGSYS) clean up the same way and then die
+ * by their signal as before (a core dump where enabled), unless a runtime (a sanitizer) handles
+ * them already. Only async-signal-safe calls in the
+ * handler: write, unlink, kill, rmdir, sigaction, raise, _exit. */
+typedef struct {
+  int sig;
+  const char *name, *what;
+} signal_name_t;
+static const signal_name_t STOP_SIGNALS[] = {
+    {SIGHUP, "SIGHUP", "hangup"}, {SIGINT, "SIGINT", "interrupted"}, {SIGQUIT, "SIGQUIT", "quit"},
+    {SIGTERM, "SIGTERM", "terminated"}, {SIGALRM, "SIGALRM", "alarm clock"},
+    {SIGUSR1, "SIGUSR1", "user signal 1"}, {SIGUSR2, "SIGUSR2", "user signal 2"},
+    {SIGPIPE, "SIGPIPE", "standard output was closed: its reader went away"},
+    {SIGXCPU, "SIGXCPU", "CPU time limit exceeded"}, {SIGXFSZ, "SIGXFSZ", "file size limit exceeded"},
+    {SIGVTALRM, "SIGVTALRM", "virtual timer expired"}, {SIGPROF, "SIGPROF", "profiling timer expired"},
+#ifdef SIGPOLL
+    {SIGPOLL, "SIGPOLL", "I/O possible"},
+#endif
+#ifdef SIGPWR
+    {SIGPWR, "SIGPWR", "power failure"},
+#endif
+#ifdef SIGSTKFLT
+    {SIGSTKFLT, "SIGSTKFLT", "stack fault"},
+#endif
+};
+static const signal_name_t FAULT_SIGNALS[] = {
+    {SIGSEGV, "SIGSEGV", "crashed: segmentation fault"}, {SIGBUS, "SIGBUS", "crashed: bus error"},
+    {SIGILL, "SIGILL", "crashed: illegal instruction"}, {SIGFPE, "SIGFPE", "crashed: arithmetic exception"},
+    {SIGABRT, "SIGABRT", "aborted"}, {SIGSYS, "SIGSYS", "crashed: bad system call"},
+};
+#define NSTOP ((int)(sizeof STOP_SIGNALS / sizeof STOP_SIGNALS[0]))
+#define NFAULT ((int)(sizeof FAULT_SIGNALS / sizeof FAULT_SIGNALS[0]))
+
+/* The output file's state, for the handler: none yet; the temporary file g_tmp exists; being
+ * closed and renamed to g_out (the handler finds which by unlinking g_tmp); complete (renamed). */
+enum { OUT_NONE = 0, OUT_TMP = 1, OUT_COMMITTING = 2, OUT_COMPLETE = 3 };
+static volatile sig_atomic_t g_out_state = OUT_NONE;
+static char g_out[TUBES_LPATH + 64];
+
+static void say_raw(const char *s) {
+  ssize_t r = write(STDERR_FILENO, s, strlen(s));
   (void)r;
-  if (g_have_tmp) unlink(g_tmp);
+}
+
+static void on_signal(int sig) {
+  const signal_name_t *n = NULL;
+  int fault = 0;
+  for (int i = 0; i < NSTOP; i++)
+    if (STOP_SIGNALS[i].sig == sig) n = &STOP_SIGNALS[i];
+  for (int i = 0; i < NFAULT; i++)
+    if (FAULT_SIGNALS[i].sig == sig) n = &FAULT_SIGNALS[i], fault = 1;
+  int tool = tubes_expr_abort();     /* first: the code generator goes at once */
+  int state = g_out_state, complete = state == OUT_COMPLETE;
+  int removed = 0;
+  if (state == OUT_TMP || state == OUT_COMMITTING) {
+    removed = unlink(g_tmp) == 0;
+    complete = state == OUT_COMMITTING && !removed && errno == ENOENT;   /* renamed already */
+  }
+  say_raw(fault ? "\ntubes: " : "\ntubes: stopped by ");
+  say_raw(n ? n->name : "a signal");
+  say_raw(" (");
+  say_raw(n ? n->what : "?");
+  say_raw(")");
+  if (tool) say_raw("; the code generator was stopped and its build directory removed");
+  if (complete) {
+    say_raw("; output complete: ");
+    say_raw(g_out);
+    say_raw("\n");
+  } else {
+    say_raw(removed ? "; the temporary output file was removed, no output written\n" : "; no output written\n");
+  }
+  if (fault) {                       /* die by the signal, as without this handler */
+    struct sigaction dfl;
+    memset(&dfl, 0, sizeof dfl);
+    dfl.sa_handler = SIG_DFL;
+    sigemptyset(&dfl.sa_mask);
+    sigaction(sig, &dfl, NULL);
+    raise(sig);
+    return;
+  }
   _exit(128 + sig);
+}
+
+/* The handler for every signal above that the caller does not ignore; for a fault only where
+ * nothing else handles it (a sanitizer's or a debugger's runtime keeps its own report). */
+static void catch_signals(void) {
+  struct sigaction sa, old;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_signal;
+  sigfillset(&sa.sa_mask);           /* one handler at a time (a SIGPIPE from its own message waits) */
+  for (int k = 0; k < NSTOP + NFAULT; k++) {
+    int sig = k < NSTOP ? STOP_SIGNALS[k].sig : FAULT_SIGNALS[k - NSTOP].sig;
+    if (sigaction(sig, NULL, &old)) continue;
+    if (old.sa_handler == SIG_IGN && !(old.sa_flags & SA_SIGINFO)) continue;   /* nohup */
+    if (k >= NSTOP && ((old.sa_flags & SA_SIGINFO) || old.sa_handler != SIG_DFL)) continue;
+    sigaction(sig, &sa, NULL);
+  }
 }
 
 static void io_failed_abort(void) {
@@ -191,12 +281,7 @@ int main(int argc, char **argv) {
    * walks a half-closed file and crashes (SIGSEGV in H5F__close_cb). Every file here is closed
    * (or discarded) explicitly, so the handler has nothing to do: switch it off. */
   H5dont_atexit();
-  struct sigaction sa;
-  memset(&sa, 0, sizeof sa);
-  sa.sa_handler = on_signal;
-  sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, NULL);
-  sigaction(SIGTERM, &sa, NULL);
+  catch_signals();
 #ifdef TUBES_MPI
   int provided = 0;
   if (MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
@@ -301,8 +386,12 @@ static int run_main(int argc, char **argv) {
   errno = 0;
   hid_t f = g_rank == 0 ? h5_create_tmp(cfg.output, tmp, sizeof g_tmp) : h5_create_scratch();
   int create_errno = errno;
-  if (g_rank == 0 && f >= 0) g_have_tmp = 1;
+  if (g_rank == 0 && f >= 0) {
+    snprintf(g_out, sizeof g_out, "%s", cfg.output);
+    g_out_state = OUT_TMP;
+  }
   if (agree(f < 0 ? EXIT_IO : 0) == EXIT_IO) {
+    g_out_state = OUT_NONE;
     if (f >= 0) h5_discard(f, g_rank == 0 ? tmp : "");
     if (g_rank == 0)
       fprintf(stderr, "tubes: cannot create output file '%s' (via '%s'): %s\n", cfg.output, tmp,
@@ -338,6 +427,7 @@ static int run_main(int argc, char **argv) {
 #endif
   if (rc) {
     fprintf(stderr, "tubes: cannot write to '%s'\n", tmp);
+    g_out_state = OUT_NONE;
     h5_discard(f, tmp);
     tubes_seed_stores_free(run.seeds);
     return EXIT_IO;
@@ -373,19 +463,21 @@ static int run_main(int argc, char **argv) {
     int e = errno;   /* the reason HDF5's write or close met, when it was the system's */
     fprintf(stderr, "tubes: writing '%s' failed%s%s; no output file was left\n", tmp, e ? ": " : "",
             e ? strerror(e) : "");
+    g_out_state = OUT_NONE;
     h5_discard(f, tmp);
     return EXIT_IO;
   }
   if (status == EXIT_BADINPUT) {       /* a request the model cannot meet: no output (docs/usage.md) */
+    g_out_state = OUT_NONE;
     h5_discard(f, tmp);
-    g_have_tmp = 0;
     return EXIT_BADINPUT;
   }
   h5_attr_long(f, "exit_status", status);
   errno = 0;
+  g_out_state = OUT_COMMITTING;       /* a signal now: the handler finds whether the rename happened */
   int committed = h5_commit(f, tmp, cfg.output);
   int committed_errno = errno;
-  g_have_tmp = 0;                     /* renamed (or removed by h5_commit on failure) */
+  g_out_state = committed == 0 ? OUT_COMPLETE : OUT_NONE;   /* renamed, or removed by h5_commit */
   if (committed != 0) {
     fprintf(stderr, "tubes: cannot rename '%s' to '%s': %s; no output file was left\n", tmp, cfg.output,
             committed_errno ? strerror(committed_errno) : "HDF5 could not close it");
