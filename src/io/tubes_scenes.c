@@ -2274,7 +2274,7 @@ int scene_flux(tubes_run_t *run) {
       rc = EXIT_NUMERIC;
       continue;
     }
-    if (!(lo[k] > DBL_MIN)) {   /* dE^(N-1) below the smallest double: 0 +- 0 and NaN ratios before */
+    if (isfinite(lo[k]) && !(lo[k] > DBL_MIN)) {   /* dE^(N-1) below the smallest double (NaN: no leading order) */
       fprintf(stderr, "tubes: flux: dE = %g is too small: the flux, of order dE^%d, is below the smallest double "
               "(leading order %g); NaN there: raise dE\n", de, run->ndof - 1, lo[k]);
       fl[k] = fe[k] = NAN;
