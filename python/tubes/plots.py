@@ -389,13 +389,13 @@ def orbit_family(res, ax=None, model=None):
     return ax
 
 
-def _orbit_columns(orb, units):
+def _orbit_columns(orb):
     conv = np.asarray(_get(orb, "converged"), dtype=bool)
     return conv, np.asarray(_get(orb, "dE"), dtype=float)[conv]
 
 
-def _orbit_panel(orb, col, name, ax, units, saddle=None, log=False):
-    conv, de = _orbit_columns(orb, units)
+def _orbit_panel(orb, col, name, ax, units, log=False):
+    conv, de = _orbit_columns(orb)
     ax = _ax(ax, (4.5, 3.8))
     y = np.asarray(_get(orb, col), dtype=float)[conv]
     (ax.semilogy if log else ax.plot)(de, y, "o-", label=name)
@@ -720,8 +720,8 @@ def tube_trajectories(res, ax=None, ax3d=None, n_manifold=60):
     ax.legend(fontsize=7)
     ax.set_title(f"stable tube at dE = {de:g} and two trajectories" + (" (conservative model)" if damped else ""))
     if ax3d is not None:
-        ax3d.set_xlabel(qn[0])
-        ax3d.set_ylabel(qn[1])
+        ax3d.set_xlabel(label(qn[0], lu))
+        ax3d.set_ylabel(label(qn[1], lu))
         ax3d.set_zlabel(label(f"v_{qn[1]}", units.get("momentum", "")))
     return ax
 
