@@ -170,10 +170,11 @@ $(PYEXT_STAMP): $(PYEXT_BUILT)
 	@rm -f python/tubes/_core*.so
 	cp $(BUILD)/py/_core*.so python/tubes/
 	@touch $@
+# (MAKEFLAGS= : f2py's ninja, handed make's jobserver, warns "Jobserver 'pipe' mode detected")
 $(PYEXT_BUILT): python/tubes_f2py.f90 $(LIB)
 	@if [ ! -x $(PYEXT_PYTHON) ]; then echo "python: no $(PYEXT_PYTHON); run 'make deps' first" >&2; exit 1; fi
 	@rm -rf $(BUILD)/py && mkdir -p $(BUILD)/py   # meson does not track .mod files: start clean
-	cd $(BUILD)/py && PATH=$(dir $(PYEXT_PYTHON)):$$PATH FFLAGS="-fPIC -fopenmp" \
+	cd $(BUILD)/py && MAKEFLAGS= PATH=$(dir $(PYEXT_PYTHON)):$$PATH FFLAGS="-fPIC -fopenmp" \
 	  $(PYEXT_PYTHON) -m numpy.f2py -c --backend meson -m _core $(abspath python/tubes_f2py.f90) \
 	  -I$(abspath $(BUILD)/mod) -L$(abspath $(BUILD)) -ltubes $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) -llapack -lblas --dep openmp > f2py.log 2>&1 \
 	  || { tail -30 f2py.log; exit 1; }
