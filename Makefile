@@ -76,7 +76,7 @@ T_BIN   := $(patsubst tests/%.f90,$(BUILD)/tests/%,$(T_F_SRC)) $(patsubst tests/
 
 PYEXT_STAMP := $(BUILD)/pyext.stamp
 
-.PHONY: venv-link all deps check tests lint bench docs clean install python paper fuzz sanitize FORCE
+.PHONY: wheel-products print-version venv-link all deps check tests lint bench docs clean install python paper fuzz sanitize FORCE
 ifeq ($(MPI),1)
 all: tubes $(LIB)           # the Python extension is built by the serial flavour only
 else
@@ -161,16 +161,37 @@ tubes: $(BUILD)/bin/tubes FORCE
 	@cmp -s $< $@ || { cp $< $@ && echo "tubes: the $(if $(MPI_DEF),MPI,serial) flavour ($<)"; }
 
 # ---------------------------------------------------------------- python extension (f2py, meson)
+# PYEXT_PYTHON: the Python (with numpy, meson and ninja) that builds the extension, and whose
+# version it is for: the project's .venv, or pip's build environment (`pip install .`, below).
+PYEXT_PYTHON ?= $(VPY)
+PYEXT_BUILT  := $(BUILD)/py/built.stamp
 python: $(PYEXT_STAMP)
-$(PYEXT_STAMP): python/tubes_f2py.f90 $(LIB)
-	@if [ ! -x $(VPY) ]; then echo "python: no $(VENV); run 'make deps' first" >&2; exit 1; fi
-	@rm -rf $(BUILD)/py && mkdir -p $(BUILD)/py && rm -f python/tubes/_core*.so   # meson does not track .mod files: start clean
-	cd $(BUILD)/py && PATH=$(abspath $(VENV))/bin:$$PATH FFLAGS="-fPIC -fopenmp" \
-	  $(VPY) -m numpy.f2py -c --backend meson -m _core $(abspath python/tubes_f2py.f90) \
-	  -I$(abspath $(BUILD)/mod) -L$(abspath $(BUILD)) -ltubes $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) -llapack -lblas --dep openmp > f2py.log 2>&1 \
-	  || { tail -30 f2py.log; exit 1; }
+$(PYEXT_STAMP): $(PYEXT_BUILT)
+	@rm -f python/tubes/_core*.so
 	cp $(BUILD)/py/_core*.so python/tubes/
 	@touch $@
+# (MAKEFLAGS= : f2py's ninja, handed make's jobserver, warns "Jobserver 'pipe' mode detected")
+$(PYEXT_BUILT): python/tubes_f2py.f90 $(LIB)
+	@if [ ! -x $(PYEXT_PYTHON) ]; then echo "python: no $(PYEXT_PYTHON); run 'make deps' first" >&2; exit 1; fi
+	@rm -rf $(BUILD)/py && mkdir -p $(BUILD)/py   # meson does not track .mod files: start clean
+	cd $(BUILD)/py && MAKEFLAGS= PATH=$(dir $(PYEXT_PYTHON)):$$PATH FFLAGS="-fPIC -fopenmp" \
+	  $(PYEXT_PYTHON) -m numpy.f2py -c --backend meson -m _core $(abspath python/tubes_f2py.f90) \
+	  -I$(abspath $(BUILD)/mod) -L$(abspath $(BUILD)) -ltubes $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) -llapack -lblas --dep openmp > f2py.log 2>&1 \
+	  || { tail -30 f2py.log; exit 1; }
+	@touch $@
+
+# ---------------------------------------------------------------- pip install . (docs/development.md)
+# pyproject.toml names meson-python; meson.build runs this target, which builds the serial
+# flavour's executable and the extension into BUILD and copies them to WHEEL_DIR, whence meson
+# installs them into the wheel's tubes/ (the executable as tubes/bin/tubes, run by the `tubes`
+# console script, python/tubes/_program.py). The source lists and flags stay here, in one place.
+WHEEL_DIR ?= $(BUILD)/wheel
+wheel-products: $(BUILD)/bin/tubes $(PYEXT_BUILT)
+	@mkdir -p $(WHEEL_DIR)
+	cp $(BUILD)/bin/tubes $(WHEEL_DIR)/tubes
+	cp $(BUILD)/py/_core*.so $(WHEEL_DIR)/
+print-version:
+	@echo $(VERSION)
 
 # ---------------------------------------------------------------- tests
 T_HELPERS := $(BUILD)/obj/tubes_check.o $(BUILD)/obj/tubes_test_models.o

@@ -69,6 +69,7 @@ def _lib():
             from . import _core as core  # noqa: PLC0415
         except ImportError as exc:  # pragma: no cover - message for users who skipped `make`
             raise ImportError("tubes._core is not built: run `make` in the tubes directory") from exc
+        _codegen_env()   # the Taylor method's kernels of any model are generated too (pip install)
         _CORE = _Interruptible(core)
     return _CORE
 
@@ -360,11 +361,16 @@ def _formula_nml(system: str, f: dict) -> str:
 
 
 def _codegen_env() -> None:
-    """The code generator this process runs for a new formula: this Python (it has SymPy if the
-    package's tests pass) and the package's codegen.py, unless the environment says otherwise."""
+    """The code generator this process (and the program, python/tubes/_program.py) runs for a new
+    formula or Taylor kernel: this Python, if it has SymPy (a pip-installed package's environment
+    has it), and the package's codegen.py, unless the environment says otherwise. A Python without
+    SymPy leaves TUBES_PYTHON to the program's search (src/io/tubes_expr.c, find_tool: the source
+    tree's .venv)."""
+    import importlib.util  # noqa: PLC0415
     import os  # noqa: PLC0415
     import sys  # noqa: PLC0415
-    os.environ.setdefault("TUBES_PYTHON", sys.executable)
+    if importlib.util.find_spec("sympy") is not None:
+        os.environ.setdefault("TUBES_PYTHON", sys.executable)
     os.environ.setdefault("TUBES_CODEGEN", os.path.join(os.path.dirname(os.path.abspath(__file__)), "codegen.py"))
 
 
