@@ -76,7 +76,7 @@ T_BIN   := $(patsubst tests/%.f90,$(BUILD)/tests/%,$(T_F_SRC)) $(patsubst tests/
 
 PYEXT_STAMP := $(BUILD)/pyext.stamp
 
-.PHONY: wheel-products print-version venv-link all deps check tests lint bench docs clean install python paper fuzz sanitize FORCE
+.PHONY: wheel-products print-version venv-link all deps check tests lint bench docs clean install python paper fuzz sanitize pipcheck FORCE
 ifeq ($(MPI),1)
 all: tubes $(LIB)           # the Python extension is built by the serial flavour only
 else
@@ -239,6 +239,11 @@ $(FUZZ_BIN): tests/fuzz/fuzz_namelist.c src/io/tubes_input.c include/tubes_input
 	$(FUZZ_CC) -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -std=c11 \
 	  -D_POSIX_C_SOURCE=200809L -Iinclude -o $@ tests/fuzz/fuzz_namelist.c src/io/tubes_input.c \
 	  $(LIB) $(LDLIBS_ALL) -lgfortran -lgomp
+# pip install . into a fresh venv, its outputs against ./tubes' (docs/development.md); .ci/run runs it
+pipcheck: all
+	@if why=$$(bash tests/pip_check.sh --probe); then bash tests/pip_check.sh; \
+	else echo "SKIP pip/install: $$why"; fi
+
 fuzz: $(FUZZ_BIN)
 	@bash tests/fuzz/run.sh $(FUZZ_BIN) $(FUZZ_TIME) $(if $(FUZZ_MERGE),merge)
 
