@@ -9,7 +9,6 @@ skipped with a one-line note. docs/paper.md lists every figure.
 """
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 
@@ -153,23 +152,10 @@ def experiment_figures(result: str, outdir, opt=None, quiet: bool = False) -> li
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m tubes.figures", description=__doc__.splitlines()[0])
-    ap.add_argument("result", help="a tubes HDF5 output file")
-    ap.add_argument("-o", "--outdir", default="figures", help="directory for the PNG files (default figures)")
-    args = ap.parse_args(argv)
     from . import experiment as ex
-    from . import load
-    try:
-        plots.check_outdir(args.outdir)
-    except _output.OutputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return _output.EXIT_IO
-    try:
-        res = load(args.result)
-    except (OSError, KeyError, ValueError) as exc:
-        print(f"error: {args.result}: cannot read it as a tubes result file ({exc})", file=sys.stderr)
-        return 1
-    _output.handle_sigterm()
+    args, res, rc = plots.open_result("python -m tubes.figures", __doc__.splitlines()[0], argv)
+    if res is None:
+        return rc
     try:
         with _output.batch():      # every figure and experiment.h5 made first, then written all or none
             written = plots._draw_all(res, args.outdir)

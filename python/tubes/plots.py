@@ -894,8 +894,11 @@ def plot_tube_cut3(res, path, k=-1, slice_width=0.05, max_points=3000):
     plt.close(fig)
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(prog="python -m tubes.plots", description=__doc__.splitlines()[0])
+def open_result(prog, description, argv):
+    """The command line of python -m tubes.plots and tubes.figures: (args, the loaded result, 0), or
+    (args, None, exit code) after the message (an output directory refused, exit 3; an unreadable
+    result, exit 1). SIGTERM is then handled as Ctrl-C (the writer rule)."""
+    ap = argparse.ArgumentParser(prog=prog, description=description)
     ap.add_argument("result", help="a tubes HDF5 output file")
     ap.add_argument("-o", "--outdir", default="figures", help="directory for the PNG files (default figures)")
     args = ap.parse_args(argv)
@@ -903,13 +906,20 @@ def main(argv=None):
         check_outdir(args.outdir)
     except _output.OutputError as exc:
         print(f"error: {exc}", file=sys.stderr)
-        return _output.EXIT_IO
+        return args, None, _output.EXIT_IO
     try:
         res = load(args.result)
     except (OSError, KeyError, ValueError) as exc:
         print(f"error: {args.result}: cannot read it as a tubes result file ({exc})", file=sys.stderr)
-        return 1
+        return args, None, 1
     _output.handle_sigterm()
+    return args, res, 0
+
+
+def main(argv=None):
+    args, res, rc = open_result("python -m tubes.plots", __doc__.splitlines()[0], argv)
+    if res is None:
+        return rc
     try:
         with _output.batch():          # every figure drawn first, then written all or none
             written = _draw_all(res, args.outdir)
