@@ -89,6 +89,19 @@ module tubes_models
 
 contains
 
+  !> s in n characters: as it is when it fits, else cut with '...' at the end (a one-line
+  !> summary: /model@hamiltonian and @surface; a formula's full text is /model@formula).
+  pure function clip(s, n) result(c)
+    character(*), intent(in) :: s
+    integer, intent(in) :: n
+    character(len=n) :: c
+    if (len(s) <= n) then
+      c = s
+    else
+      c = s(1:n - 3) // '...'
+    end if
+  end function clip
+
   pure function p(name, default, units, doc, symbol) result(pi)
     character(*), intent(in) :: name, units, doc
     real(wp), intent(in) :: default
@@ -278,7 +291,7 @@ contains
     type(system_info_t), intent(inout) :: info
     integer, intent(out) :: stat
     type(expr_lib_t) :: lib
-    character(len=160) :: formula
+    character(len=160) :: formula           ! the library's own copy is 160 characters (tubes_expression)
     stat = TUBES_EINPUT
     if (len_trim(name) /= 21 .or. name(1:min(5, len(name))) /= 'expr_') return
     if (open_library(name, lib) /= TUBES_OK) return
@@ -286,15 +299,15 @@ contains
     info%saddle = 'S1'
     info%section_kind = ''
     if (lib%kind == KIND_SURFACE) then
-      info%summary = 'a ball rolling on z = ' // formula
-      info%surface = formula
+      info%summary = clip('a ball rolling on z = ' // trim(formula), len(info%summary))
+      info%surface = clip(trim(formula), len(info%surface))
       info%params(1) = p('g', 981.0_wp, 'cm/s^2', 'gravitational acceleration (> 0)')
       call dissipation_params(info, 2, .true., '(cm/s)^2/s', '(cm/s)^2')
       info%length_units = 'cm'
       info%box(1:2) = 20
       info%gate = 1.5_wp
     else
-      info%summary = 'H = ' // formula
+      info%summary = clip('H = ' // trim(formula), len(info%summary))
       info%ndof = lib%ndof
       info%np = 0
       if (lib%natural /= 0) call dissipation_params(info, 1, .false., '1', '1')

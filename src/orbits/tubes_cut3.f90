@@ -414,7 +414,7 @@ contains
     do it = 1, 30
       call smooth_map(cut, u, f, df)
       g = f(2:4) - p(2:4)
-      if (maxval(abs(g)) <= 1.0e-13_wp*scale) then
+      if (all(abs(g) <= 1.0e-13_wp*scale)) then   ! all(): a NaN fails it (maxval may skip one)
         ok = maxval(abs(u - x0)) <= 1.5_wp
         s = f(1) - p(1)
         return
@@ -425,7 +425,7 @@ contains
         du(j) = det3(merge(spread(g, 2, 3), df(2:4, :), spread([1, 2, 3] == j, 1, 3)))/d
       end do
       u = u - du
-      if (maxval(abs(u - x0)) > 3) return
+      if (.not. all(abs(u - x0) <= 3)) return
     end do
   end subroutine smooth_crossing
 

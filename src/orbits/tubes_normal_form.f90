@@ -17,7 +17,7 @@
 !>    area (GSL QAGS over J_2 of the root J_3 by Brent) in 3 DOF.
 module tubes_normal_form
   use, intrinsic :: iso_c_binding, only: c_double, c_ptr, c_loc, c_f_pointer, c_funloc
-  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   use tubes_lapack, only: eigen
@@ -295,6 +295,11 @@ contains
       res%expo(:, res%nterms) = e(1:nd)
       res%coef(res%nterms) = real(dv, wp)
     end do
+    ! max() above may drop a NaN coefficient: report it (the diagnostics are printed and written)
+    if (.not. all(ieee_is_finite(real(h, wp)) .and. ieee_is_finite(aimag(h)))) then
+      res%residual = ieee_value(1.0_wp, ieee_quiet_nan)
+      res%imaginary = res%residual
+    end if
     if (res%smallest_divisor == huge(1.0_wp)) res%smallest_divisor = 0
     stat = TUBES_OK
     if (.not. (present(nhim_de) .or. present(change))) return
@@ -349,6 +354,7 @@ contains
     complex(wp), intent(in) :: zn(:)
     real(wp) :: dz(ch%s%nv)
     complex(wp) :: zo(ch%s%nv), w(ch%s%nv)
+    real(wp) :: wr(ch%s%nv)
     integer :: i, nd
     nd = ch%s%nd
     do i = 1, ch%s%nv
@@ -360,7 +366,8 @@ contains
       w(i) = (zo(i) + IU*zo(nd + i))/sqrt(2.0_wp)
       w(nd + i) = (IU*zo(i) + zo(nd + i))/sqrt(2.0_wp)
     end do
-    dz = matmul(ch%c, real(w, wp))
+    wr = real(w, wp)            ! a named array: matmul of real(w) drew gfortran 12's -Wuninitialized
+    dz = matmul(ch%c, wr)
   end function complex_to_model
 
   !> dz = z - z_s of the point with real normal-form coordinates w (x_1..x_N, y_1..y_N).

@@ -3,6 +3,7 @@
 !> parallel with OpenMP), continuation in energy, monodromy, Floquet multipliers and action.
 !> Theory and conventions: docs/orbits.md.
 module tubes_orbits
+  use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
   use tubes_kinds, only: wp
   use tubes_lapack, only: dgesv, dgels, eigen
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EFAULT
@@ -302,11 +303,7 @@ contains
       end if
       r(1:no) = x(od)
       r(no + 1) = model%energy(x0) - energy
-      res = 0
-      do k = 1, no
-        res = max(res, abs(r(k))/pscale)
-      end do
-      res = max(res, abs(r(no + 1))/energy_scale(energy, de))
+      res = max(res_norm(r(1:no)/pscale), res_norm(r(no + 1:no + 1)/energy_scale(energy, de)))
       if (newton_met(orb, it, res, opts%tol)) exit
       jac = 0
       jac(1:no, 1:nf) = phi(od, ev)
@@ -412,11 +409,10 @@ contains
       a(m - 1, 1:d) = xref_grad
       b(m) = dot_product(nodes(:, 1) - xref, fref)
       a(m, 1:d) = fref
-      res = 0
+      res = res_norm(b(m - 1:m - 1)/energy_scale(energy, de))
       do i = 1, n
-        res = max(res, maxval(abs(b(d*(i - 1) + 1:d*i))/scale))
+        res = max(res, res_norm(b(d*(i - 1) + 1:d*i)/scale))
       end do
-      res = max(res, abs(b(m - 1))/energy_scale(energy, de))
       if (newton_met(orb, it, res, opts%tol)) exit
       do i = 1, m            ! equilibrate rows (the root is unchanged: the system is consistent)
         rowmax = maxval(abs(a(i, :)))
@@ -454,7 +450,20 @@ contains
     if (n >= 5) diverging = minval(h(n - 3:n)) >= h(n - 4)
   end function diverging
 
-  !> Iteration it's residual res into the orbit's history; true (converged) when it meets tol.
+  !> The residual norm max_k |r(k)|, +Inf when any r(k) is NaN or infinite: Fortran's max()
+  !> and maxval() may drop a NaN (gfortran's max(0, NaN) is 0), which would read as converged.
+  pure real(wp) function res_norm(r)
+    real(wp), intent(in) :: r(:)
+    if (all(ieee_is_finite(r))) then
+      res_norm = 0
+      if (size(r) > 0) res_norm = maxval(abs(r))
+    else
+      res_norm = ieee_value(1.0_wp, ieee_positive_inf)
+    end if
+  end function res_norm
+
+  !> Iteration it's residual res into the orbit's history; true when the iteration stops:
+  !> converged (res meets tol, orb%converged set) or a non-finite residual (not converged).
   logical function newton_met(orb, it, res, tol) result(met)
     type(orbit_t), intent(inout) :: orb
     integer, intent(in) :: it
@@ -463,6 +472,7 @@ contains
     orb%iterations = it
     met = res <= tol
     if (met) orb%converged = .true.
+    if (.not. ieee_is_finite(res)) met = .true.
   end function newton_met
 
   !> The correctors' verdict: converged, or stopped at the integration's noise floor (the last
