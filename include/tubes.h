@@ -43,6 +43,9 @@ void tubes_progress_enable(int on);
 void tubes_cancel_begin(void);
 int tubes_cancel_end(void);
 int tubes_cancel_requested(void);
+/* Sets the flag from the program's own signal handler (tubes_main.c: the first SIGINT or SIGTERM
+ * during the scenes stops the run after the current unit and keeps the finished scenes). */
+void tubes_cancel_request(void);
 
 /* Integration methods (src/integrators/tubes_methods.f90). */
 enum {

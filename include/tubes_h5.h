@@ -23,6 +23,10 @@ const char *h5_units(const char *units);
 /* A function called whenever a write fails (before the helper returns -1), or NULL. */
 void h5_set_failure_hook(void (*hook)(void));
 hid_t h5_group(hid_t loc, const char *name);
+/* The names of f's root links, joined by '\n' into buf (0; -1 when they do not fit), and the removal
+ * of every root link not in such a list (what an interrupted scene wrote; 0 or -1). */
+int h5_root_links(hid_t f, char *buf, size_t len);
+int h5_drop_links_since(hid_t f, const char *before);
 int h5_attr_double(hid_t loc, const char *name, double v);
 int h5_attr_long(hid_t loc, const char *name, long long v);
 int h5_attr_string(hid_t loc, const char *name, const char *s);

@@ -37,3 +37,6 @@ int tubes_cancel_end(void) {
 }
 
 int tubes_cancel_requested(void) { return atomic_load(&requested); }
+
+/* From a signal handler of the program (src/io/tubes_main.c): the same flag, async-signal-safe. */
+void tubes_cancel_request(void) { atomic_store(&requested, 1); }

@@ -59,6 +59,59 @@ hid_t h5_group(hid_t loc, const char *name) {
   return g;
 }
 
+typedef struct {
+  char *buf;
+  size_t len, used;
+  int full;
+} link_list_t;
+
+static herr_t add_link(hid_t g, const char *name, const H5L_info_t *info, void *data) {
+  (void)g, (void)info;
+  link_list_t *l = data;
+  size_t n = strlen(name);
+  if (l->used + n + 2 > l->len) {
+    l->full = 1;
+    return 1;
+  }
+  memcpy(l->buf + l->used, name, n);
+  l->used += n;
+  l->buf[l->used++] = '\n';
+  l->buf[l->used] = 0;
+  return 0;
+}
+
+int h5_root_links(hid_t f, char *buf, size_t len) {
+  link_list_t l = {buf, len, 0, 0};
+  if (len < 2) return -1;
+  buf[0] = 0;
+  if (H5Literate(f, H5_INDEX_NAME, H5_ITER_NATIVE, NULL, add_link, &l) < 0 || l.full) return -1;
+  return 0;
+}
+
+static int listed(const char *list, const char *name) {
+  size_t n = strlen(name);
+  for (const char *p = list; *p;) {
+    const char *e = strchr(p, '\n');
+    if (!e) break;
+    if ((size_t)(e - p) == n && !strncmp(p, name, n)) return 1;
+    p = e + 1;
+  }
+  return 0;
+}
+
+int h5_drop_links_since(hid_t f, const char *before) {
+  char now[4096];
+  if (h5_root_links(f, now, sizeof now)) return -1;
+  int rc = 0;
+  for (char *p = now; *p;) {
+    char *e = strchr(p, '\n');
+    *e = 0;
+    if (!listed(before, p) && H5Ldelete(f, p, H5P_DEFAULT) < 0) rc = -1;
+    p = e + 1;
+  }
+  return rc;
+}
+
 static int attr(hid_t loc, const char *name, hid_t type, const void *v) {
   hid_t sp = H5Screate(H5S_SCALAR);
   hid_t a = H5Acreate2(loc, name, type, sp, H5P_DEFAULT, H5P_DEFAULT);

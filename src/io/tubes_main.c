@@ -67,7 +67,11 @@ static char g_tmp[TUBES_LPATH + 64];
  * The faults (SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT, SIGSYS) clean up the same way and then die
  * by their signal as before (a core dump where enabled), unless a runtime (a sanitizer) handles
  * them already. Only async-signal-safe calls in the
- * handler: write, unlink, kill, rmdir, sigaction, raise, _exit. */
+ * handler: write, unlink, kill, rmdir, sigaction, raise, _exit.
+ * One exception: the first SIGINT or SIGTERM while the scenes run (one process, not under MPI)
+ * asks the run to stop (tubes_cancel_request: the ensembles stop within one unit of work); the
+ * scene it interrupted is dropped and the finished ones are kept in a file marked incomplete
+ * (/@incomplete), exit 128 + the signal. A second signal stops at once as above. */
 typedef struct {
   int sig;
   const char *name, *what;
@@ -108,6 +112,8 @@ static void say_raw(const char *s) {
   (void)r;
 }
 
+static volatile sig_atomic_t g_in_scenes = 0, g_stop_sig = 0;   /* the scenes run; the stopping signal */
+
 static void on_signal(int sig) {
   const signal_name_t *n = NULL;
   int fault = 0;
@@ -115,6 +121,17 @@ static void on_signal(int sig) {
     if (STOP_SIGNALS[i].sig == sig) n = &STOP_SIGNALS[i];
   for (int i = 0; i < NFAULT; i++)
     if (FAULT_SIGNALS[i].sig == sig) n = &FAULT_SIGNALS[i], fault = 1;
+  if ((sig == SIGINT || sig == SIGTERM) && g_in_scenes && !g_stop_sig && g_out_state == OUT_TMP) {
+    g_stop_sig = sig;                /* stop after the current unit of work; keep the finished scenes */
+    tubes_cancel_request();
+    say_raw("\ntubes: stopped by ");
+    say_raw(n->name);
+    say_raw(" (");
+    say_raw(n->what);
+    say_raw("): ending the current scene; the finished scenes will be kept (send it again to stop at once, "
+            "without output)\n");
+    return;
+  }
   int tool = tubes_expr_abort();     /* first: the code generator goes at once */
   int state = g_out_state, complete = state == OUT_COMPLETE;
   int removed = 0;
@@ -436,10 +453,19 @@ static int run_main(int argc, char **argv) {
   run.file = f;
   int status = agree(scene_model(&run));
   int model_ok = status == 0;          /* no scene of a model that failed */
+  char before[4096], done[TUBES_NSCENES * 32] = "";
+  const char *stopped_in = NULL;       /* the scene a signal stopped (or had not started) */
+  int started = 0;
+  g_in_scenes = g_nranks == 1;         /* a signal now may keep the finished scenes (on_signal) */
   for (int k = 0; k < TUBES_NSCENES && model_ok && status != EXIT_IO; k++) {
     const char *s = cfg.scenes[k];
     int r = 0;
     if (!s[0]) continue;
+    if (g_stop_sig) {                  /* between two scenes: the next one is not started */
+      stopped_in = s;
+      break;
+    }
+    if (h5_root_links(f, before, sizeof before)) g_in_scenes = 0;   /* cannot tell its groups: stop at once */
     if (!strcmp(s, "equilibria")) r = scene_equilibria(&run);
     else if (!strcmp(s, "trajectory")) r = scene_trajectory(&run);
     else if (!strcmp(s, "orbits")) r = scene_orbits(&run);
@@ -449,9 +475,34 @@ static int run_main(int argc, char **argv) {
     else if (!strcmp(s, "sections")) r = scene_sections(&run);
     else if (!strcmp(s, "synthetic_experiment")) r = scene_synthetic_experiment(&run);
     else if (!strcmp(s, "flux")) r = scene_flux(&run);
+    if (g_stop_sig) {                  /* interrupted during s: what it wrote goes */
+      stopped_in = s;
+      started = 1;
+      if (h5_drop_links_since(f, before)) status = EXIT_IO;
+      break;
+    }
     r = agree(r);
     if (r == EXIT_IO) status = EXIT_IO;
     else if (r == EXIT_NUMERIC || (r && !status)) status = r;
+    snprintf(done + strlen(done), sizeof done - strlen(done), "%s%s", done[0] ? " " : "", s);
+  }
+  g_in_scenes = 0;
+  int stop = g_stop_sig;
+  if (stop && status != EXIT_IO && g_rank == 0 && stopped_in) {
+    if (!done[0]) {
+      fprintf(stderr, "tubes: no scene had finished (the scene '%s' was stopped); no output written\n", stopped_in);
+      g_out_state = OUT_NONE;
+      h5_discard(f, tmp);
+      tubes_seed_stores_free(run.seeds);
+      return 128 + stop;
+    }
+    char why[256];
+    snprintf(why, sizeof why, "stopped by %s %s the scene '%s'", stop == SIGINT ? "SIGINT" : "SIGTERM",
+             started ? "during" : "before", stopped_in);
+    if (h5_attr_string(f, "incomplete", why) || h5_attr_string(f, "scenes_complete", done)) status = EXIT_IO;
+    else status = 128 + stop;
+  } else if (stop && status == 0) {
+    status = 128 + stop;               /* the signal came after the last scene: the output is complete */
   }
   tubes_seed_stores_free(run.seeds);
   run.seeds = NULL;
@@ -482,6 +533,15 @@ static int run_main(int argc, char **argv) {
     fprintf(stderr, "tubes: cannot rename '%s' to '%s': %s; no output file was left\n", tmp, cfg.output,
             committed_errno ? strerror(committed_errno) : "HDF5 could not close it");
     return EXIT_IO;
+  }
+  if (stop && stopped_in) {
+    fprintf(stderr, "tubes: kept the finished scenes (%s) in %s, marked incomplete (/@incomplete: the scene "
+            "'%s' was %s)\n", done, cfg.output, stopped_in, started ? "stopped and left out" : "not started");
+    return status;
+  }
+  if (stop) {
+    fprintf(stderr, "tubes: the signal came after the last scene: output complete: %s\n", cfg.output);
+    return status;
   }
   printf("wrote %s\n", cfg.output);
   return status;

@@ -1526,6 +1526,7 @@ int scene_montecarlo(tubes_run_t *run) {
     } else
       fprintf(stderr, "tubes: montecarlo: failed: %s (status %d)\n", m, st);
     int nbad = 0, first = -1;
+    if (st == TUBES_EINTERRUPT) mc_ran = 0;   /* stopped: the samples not drawn did not fail */
     for (int k = 0; k < ns && mc_ran; k++)
       if (out[k] < 0) {
         if (first < 0) first = k;
