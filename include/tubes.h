@@ -228,6 +228,11 @@ int tubes_find_equilibria(const char system[TUBES_LSYSTEM], const double params[
                           int nmax, int *n, int *ndof, double q[], double p[], double height[],
                           double energy[], double grad_norm[], int morse[], int rank1[],
                           char names[], double lambda[], double omega[], double evec[], void *stores);
+/* What the equilibrium search box may hide (docs/models.md "The search box"): an equilibrium on a
+ * face of [lo, hi], or a natural model without a well in the box whose potential on the faces is
+ * lower than at every equilibrium found. note: one line, or "" when nothing (lnote bytes). */
+int tubes_box_note(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
+                   char *note, int lnote, void *stores);
 
 /* Progress callback: called every few thousand steps with the current time; return
  * non-zero to stop the integration (the result so far is returned with TUBES_OK). */

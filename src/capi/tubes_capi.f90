@@ -32,7 +32,7 @@ module tubes_capi
                          check_at, gate_reach, maps_at, cut_outputs, seed_stores_t, family_at, &
                          equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, &
                          close_stores, de_floor, region_at, region_outputs, region_numbers, region_info_t, &
-                         damped_spectrum
+                         damped_spectrum, box_note
   use tubes_region, only: region_opts_t, region_t
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long, c_intptr_t
@@ -328,6 +328,30 @@ contains
       call f_to_c(eqs(k)%name, names(:, k))
     end do
   end function c_equilibria
+
+  !> What the search box may hide (tubes_study box_note): note '' (NUL) when nothing.
+  integer(c_int) function c_box_note(system, params, lo, hi, n_grid, note, lnote, stores) result(stat) &
+      bind(C, name='tubes_box_note')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, lnote
+    character(kind=c_char), intent(out) :: note(lnote)
+    type(c_ptr), value :: stores
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(seed_stores_t), pointer :: kept
+    character(512) :: text
+    integer :: nd
+    note = c_null_char
+    call model_of(system, params, model, stat)
+    if (stat /= TUBES_OK) return
+    nd = model%ndof()
+    kept => stores_of(stores)
+    call equilibria_of(trim(c_to_f(system)), params, lo, hi, n_grid, model, eqs, stat, kept)
+    if (stat /= TUBES_OK) return
+    call box_note(model, lo(1:nd), hi(1:nd), eqs, text)
+    call f_to_c(text, note)
+  end function c_box_note
 
   integer(c_int) function c_trajectory(system, params, n2, x0, t_end, dt_out, method, rtol, atol, h, &
       max_steps, omega_bind, solver, max_iter, sec_kind, sec_level, sec_dir, stop_first, &

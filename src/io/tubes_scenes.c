@@ -488,6 +488,10 @@ int scene_equilibria(tubes_run_t *run) {
       printf(" %13.8f %10s", fabs(L.q[MD * k + 2]) < 5e-9 ? 0.0 : L.q[MD * k + 2], "-");
     putchar('\n');
   }
+  char note[512] = "";   /* what the box may hide: an equilibrium on its face, wells beyond it */
+  if (tubes_box_note(run->system, run->params, run->lo, run->hi, run->n_grid, note, sizeof note, run->seeds) == 0 &&
+      note[0])
+    fprintf(stderr, "tubes: equilibria: note: %s\n", note);
   hid_t g = h5_group(run->file, "equilibria");
   if (g < 0) { free(x); free(y); free(om); free(qq); return EXIT_IO; }
   hsize_t dn = (hsize_t)n, dst[2] = {(hsize_t)n, (hsize_t)n2}, d44[2] = {(hsize_t)n2, (hsize_t)n2};
@@ -512,6 +516,7 @@ int scene_equilibria(tubes_run_t *run) {
   }
   rc |= h5_attr_double(g, "box", c->box);
   rc |= h5_attr_long(g, "n_grid", c->n_grid);
+  if (note[0]) rc |= h5_attr_string(g, "box_note", note);
   H5Gclose(g);
   free(x); free(y); free(om); free(qq);
   if (rc) return EXIT_IO;

@@ -32,7 +32,7 @@ module tubes_study
   public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, gate_reach, section_info, cut_at, &
             check_at, maps_at, cut_outputs, equilibria_table, study_family, family_table, open_stores, &
             stores_at, close_stores, stores_counts, de_floor, region_at, region_outputs, region_numbers, dissipation_of, &
-            damped_spectrum
+            damped_spectrum, box_note
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -291,6 +291,79 @@ contains
     entry%eqs = eqs
     stores%eqs = [stores%eqs, entry]
   end subroutine equilibria_of
+
+  !> What the equilibrium search box [lo, hi] may hide (docs/models.md, "The search box"): '' when
+  !> nothing, else one line. (a) An equilibrium on a face of the box: the search ends there, and
+  !> what lies beyond is not searched. (b) A natural model without a minimum (a well) in the box
+  !> whose potential on the box's faces (a grid of 33 points per side) is lower than at every
+  !> equilibrium found: it falls on across the face, where wells (or an open exit) may lie.
+  subroutine box_note(model, lo, hi, eqs, note)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: lo(:), hi(:)
+    type(equilibrium_t), intent(in) :: eqs(:)
+    character(*), intent(out) :: note
+    integer, parameter :: NS = 33
+    real(wp) :: q(size(lo)), x(2*size(lo)), qmin(size(lo)), v, vmin, emin, tol
+    character(160) :: at
+    integer :: nd, k, i, face, m, j, idx(max(size(lo) - 1, 1))
+    nd = size(lo)
+    note = ''
+    do k = 1, size(eqs)
+      do i = 1, nd
+        tol = 1.0e-6_wp*(hi(i) - lo(i))
+        if (abs(eqs(k)%q(i) - lo(i)) <= tol .or. abs(eqs(k)%q(i) - hi(i)) <= tol) then
+          write (note, '(3a,i0,a,g0.6,a,g0.6,a,g0.6,a)') 'the equilibrium ', trim(eqs(k)%name), &
+            ' lies on a face of the search box (q', i, ' = ', eqs(k)%q(i), ', the box [', lo(i), ', ', hi(i), &
+            ']): the search ends there and what lies beyond is not searched; widen &equilibria box to see it'
+          return
+        end if
+      end do
+    end do
+    if (.not. model%is_natural()) return
+    if (any([(eqs(k)%morse == 0, k = 1, size(eqs))])) return
+    emin = huge(1.0_wp)
+    do k = 1, size(eqs)
+      emin = min(emin, eqs(k)%energy)
+    end do
+    vmin = huge(1.0_wp)
+    x = 0
+    do face = 1, 2*nd                  ! q(i) = lo(i) or hi(i), the other coordinates on a grid
+      i = (face + 1)/2
+      idx = 0
+      do m = 1, NS**(nd - 1)
+        j = m - 1
+        do k = 1, nd - 1
+          idx(k) = mod(j, NS)
+          j = j/NS
+        end do
+        j = 0
+        do k = 1, nd
+          if (k == i) then
+            q(k) = merge(lo(k), hi(k), mod(face, 2) == 1)
+          else
+            j = j + 1
+            q(k) = lo(k) + (hi(k) - lo(k))*idx(j)/real(NS - 1, wp)
+          end if
+        end do
+        x(1:nd) = q
+        v = model%energy(x)
+        if (v < vmin) then
+          vmin = v
+          qmin = q
+        end if
+      end do
+    end do
+    if (.not. (vmin < emin - 1.0e-9_wp*max(1.0_wp, abs(emin)))) return
+    write (at, '(*(g0.6,:,", "))') qmin
+    if (size(eqs) == 0) then
+      write (note, '(a,g0.6,a)') 'no equilibrium in the search box, and the potential falls across its faces (V = ', &
+        vmin, ' at ('//trim(at)//')): widen &equilibria box to find the wells'
+    else
+      write (note, '(a,g0.6,a,g0.6,a)') 'no well (minimum) in the search box, and the potential on its faces is ' // &
+        'lower (V = ', vmin, ' at ('//trim(at)//')) than at every equilibrium found (lowest E = ', emin, &
+        '): wells, or an open exit, lie beyond the box; widen &equilibria box to see them'
+    end if
+  end subroutine box_note
 
   !> The equilibria as the tables of the C API and the f2py facade: column k of each is eqs(k)
   !> (nd degrees of freedom; rank1 1 for a rank-1 saddle, 2 for a degenerate one, else 0; evec
