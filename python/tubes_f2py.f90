@@ -211,13 +211,10 @@ subroutine equilibria(system, params, lo, hi, n_grid, stores, stat, n, ndof, q, 
 end subroutine equilibria
 
 subroutine box_note(system, params, lo, hi, n_grid, stores, stat, note)
-  ! what the equilibrium search box may hide (tubes_study box_note, as the C API's tubes_box_note):
-  ! one line, or '' when nothing
+  ! what the equilibrium search box may hide (tubes_study box_note_of, as the C API's
+  ! tubes_box_note): one line, or '' when nothing
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_models, only: make_model
-  use tubes_equilibria, only: equilibrium_t
-  use tubes_study, only: equilibria_of, seed_stores_t, stores_at, box_note_of => box_note
+  use tubes_study, only: box_note_of, seed_stores_t, stores_at
   implicit none
   character(len=*), intent(in) :: system
   real(c_double), intent(in) :: params(16), lo(3), hi(3)
@@ -225,18 +222,9 @@ subroutine box_note(system, params, lo, hi, n_grid, stores, stat, note)
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: stat
   character(len=512), intent(out) :: note
-  class(hamiltonian_t), allocatable :: model
-  type(equilibrium_t), allocatable :: eqs(:)
   type(seed_stores_t), pointer :: kept
-  integer :: nd
-  note = ''
-  call make_model(trim(system), params, model, stat)
-  if (stat /= 0) return
-  nd = model%ndof()
   kept => stores_at(stores)
-  call equilibria_of(trim(system), params, lo, hi, n_grid, model, eqs, stat, kept)
-  if (stat /= 0) return
-  call box_note_of(model, lo(1:nd), hi(1:nd), eqs, note)
+  call box_note_of(trim(system), params, lo, hi, n_grid, kept, note, stat)
 end subroutine box_note
 
 subroutine trajectory(system, params, n2, x0, t_end, dt_out, method, rtol, atol, h, max_steps, &

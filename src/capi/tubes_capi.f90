@@ -32,7 +32,7 @@ module tubes_capi
                          check_at, gate_reach, maps_at, cut_outputs, seed_stores_t, family_at, &
                          equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, &
                          close_stores, de_floor, region_at, region_outputs, region_numbers, region_info_t, &
-                         damped_spectrum, box_note
+                         damped_spectrum, box_note_of
   use tubes_region, only: region_opts_t, region_t
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long, c_intptr_t
@@ -337,19 +337,10 @@ contains
     integer(c_int), value :: n_grid, lnote
     character(kind=c_char), intent(out) :: note(lnote)
     type(c_ptr), value :: stores
-    class(hamiltonian_t), allocatable :: model
-    type(equilibrium_t), allocatable :: eqs(:)
     type(seed_stores_t), pointer :: kept
     character(512) :: text
-    integer :: nd
-    note = c_null_char
-    call model_of(system, params, model, stat)
-    if (stat /= TUBES_OK) return
-    nd = model%ndof()
     kept => stores_of(stores)
-    call equilibria_of(trim(c_to_f(system)), params, lo, hi, n_grid, model, eqs, stat, kept)
-    if (stat /= TUBES_OK) return
-    call box_note(model, lo(1:nd), hi(1:nd), eqs, text)
+    call box_note_of(trim(c_to_f(system)), params, lo, hi, n_grid, kept, text, stat)
     call f_to_c(text, note)
   end function c_box_note
 

@@ -32,7 +32,7 @@ module tubes_study
   public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, gate_reach, section_info, cut_at, &
             check_at, maps_at, cut_outputs, equilibria_table, study_family, family_table, open_stores, &
             stores_at, close_stores, stores_counts, de_floor, region_at, region_outputs, region_numbers, dissipation_of, &
-            damped_spectrum, box_note
+            damped_spectrum, box_note, box_note_of
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -364,6 +364,31 @@ contains
         '): wells, or an open exit, lie beyond the box; widen &equilibria box to see them'
     end if
   end subroutine box_note
+
+  !> box_note for the system's equilibria in [lo, hi] (the front ends' one call: the C API's
+  !> tubes_box_note and the f2py box_note); stores: the run's kept results, or a null pointer.
+  subroutine box_note_of(system, params, lo, hi, n_grid, stores, note, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:), lo(:), hi(:)
+    integer, intent(in) :: n_grid
+    type(seed_stores_t), pointer, intent(in) :: stores
+    character(*), intent(out) :: note
+    integer, intent(out) :: stat
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    integer :: nd
+    note = ''
+    call make_model(system, params, model, stat)
+    if (stat /= TUBES_OK) return
+    nd = model%ndof()
+    if (associated(stores)) then
+      call equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat, stores)
+    else
+      call equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat)
+    end if
+    if (stat /= TUBES_OK) return
+    call box_note(model, lo(1:nd), hi(1:nd), eqs, note)
+  end subroutine box_note_of
 
   !> The equilibria as the tables of the C API and the f2py facade: column k of each is eqs(k)
   !> (nd degrees of freedom; rank1 1 for a rank-1 saddle, 2 for a degenerate one, else 0; evec
