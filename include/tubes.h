@@ -228,6 +228,11 @@ int tubes_find_equilibria(const char system[TUBES_LSYSTEM], const double params[
                           int nmax, int *n, int *ndof, double q[], double p[], double height[],
                           double energy[], double grad_norm[], int morse[], int rank1[],
                           char names[], double lambda[], double omega[], double evec[], void *stores);
+/* The centre frequencies of every equilibrium found by tubes_find_equilibria with the same
+ * arguments, in its order: freqs[TUBES_MAXDOF * k + i] the k-th's i-th, ascending (NaN where fewer
+ * than N pairs are centres), stable[k] 1 when all N pairs are centres (linearly stable). */
+int tubes_equilibria_centres(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
+                             int nmax, int *n, double freqs[], int stable[], void *stores);
 /* What the equilibrium search box may hide (docs/models.md "The search box"): an equilibrium on a
  * face of [lo, hi], or a natural model without a well in the box whose potential on the faces is
  * lower than at every equilibrium found. note: one line, or "" when nothing (lnote bytes). */

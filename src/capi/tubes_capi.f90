@@ -32,7 +32,7 @@ module tubes_capi
                          check_at, gate_reach, maps_at, cut_outputs, seed_stores_t, family_at, &
                          equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, &
                          close_stores, de_floor, region_at, region_outputs, region_numbers, region_info_t, &
-                         damped_spectrum, box_note_of
+                         damped_spectrum, box_note_of, centres_of
   use tubes_region, only: region_opts_t, region_t
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use, intrinsic :: iso_c_binding, only: c_long, c_intptr_t
@@ -328,6 +328,24 @@ contains
       call f_to_c(eqs(k)%name, names(:, k))
     end do
   end function c_equilibria
+
+  !> The equilibria's centre frequencies (freqs(MAX_DOF, nmax), NaN-padded) and linear stability
+  !> (tubes_study centres_of), in tubes_find_equilibria's order.
+  integer(c_int) function c_equilibria_centres(system, params, lo, hi, n_grid, nmax, n, freqs, stable, stores) &
+      result(stat) bind(C, name='tubes_equilibria_centres')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, nmax
+    integer(c_int), intent(out) :: n, stable(nmax)
+    real(c_double), intent(out) :: freqs(MAX_DOF, nmax)
+    type(c_ptr), value :: stores
+    type(seed_stores_t), pointer :: kept
+    integer :: nn, st(nmax)
+    kept => stores_of(stores)
+    call centres_of(trim(c_to_f(system)), params, lo, hi, n_grid, kept, nn, freqs, st, stat)
+    n = nn
+    stable = st
+  end function c_equilibria_centres
 
   !> What the search box may hide (tubes_study box_note): note '' (NUL) when nothing.
   integer(c_int) function c_box_note(system, params, lo, hi, n_grid, note, lnote, stores) result(stat) &

@@ -459,6 +459,15 @@ int scene_equilibria(tubes_run_t *run) {
     printf(" (%.3f s)\n  %-4s %13s %13s %13s %5s %10s %10s %8s%s\n", now() - t0, "name", "q1", nd > 1 ? "q2" : "",
            "E", "index", "lambda", "omega", "T_po", nd > 2 ? "            q3     omega2" : "");
   }
+  /* every equilibrium's centre frequencies and linear stability (wells, L4/L5: all centres) */
+  static double fq[MD * NEQ_MAX];
+  static int stab[NEQ_MAX];
+  int nc = 0;
+  if (tubes_equilibria_centres(run->system, run->params, run->lo, run->hi, run->n_grid, NEQ_MAX, &nc, fq, stab,
+                               run->seeds) < 0 || nc != n) {
+    fprintf(stderr, "tubes: equilibria: the centre frequencies could not be computed\n");
+    return EXIT_NUMERIC;
+  }
   double *x = malloc(sizeof(double) * (n ? n : 1)), *y = malloc(sizeof(double) * (n ? n : 1)),
          *om = malloc(sizeof(double) * (n ? n : 1)), *qq = malloc(sizeof(double) * (n ? n : 1) * n2);
   for (int k = 0; k < n; k++) {
@@ -480,6 +489,8 @@ int scene_equilibria(tubes_run_t *run) {
              L.lam[k], om[k], 2 * M_PI / om[k]);
     else if (L.rank1[k] == 2)   /* degenerate: a zero frequency, no Lyapunov orbit */
       printf("  %-4s %13.8f %13s %13.6f %5d %10.6f %10.6f %8s", nm[k], xp, yp, ep, L.morse[k], L.lam[k], 0.0, "-");
+    else if (stab[k])   /* all centres (a well, L4/L5): the lowest frequency; no saddle, no T_po */
+      printf("  %-4s %13.8f %13s %13.6f %5d %10s %10.6f %8s", nm[k], xp, yp, ep, L.morse[k], "-", fq[MD * k], "-");
     else
       printf("  %-4s %13.8f %13s %13.6f %5d %10s %10s %8s", nm[k], xp, yp, ep, L.morse[k], "-", "-", "-");
     if (nd > 2 && L.rank1[k] >= 1)   /* 3 DOF: the third coordinate and the second centre's frequency */
@@ -513,6 +524,15 @@ int scene_equilibria(tubes_run_t *run) {
     hsize_t dom[2] = {(hsize_t)n, (hsize_t)(nd - 1)};
     rc |= h5_write_double(g, "omegas", 2, dom, oa, "rad/s");
     free(oa);
+  }
+  {   /* the centre frequencies (n, N), NaN-padded, and linear stability */
+    double *fa = malloc(sizeof(double) * (n ? n : 1) * nd);
+    for (int k = 0; k < n; k++)
+      for (int i = 0; i < nd; i++) fa[nd * k + i] = fq[MD * k + i];
+    hsize_t dfr[2] = {(hsize_t)n, (hsize_t)nd};
+    rc |= h5_write_double(g, "frequencies", 2, dfr, fa, "rad/s");
+    rc |= h5_write_int(g, "stable", dn, stab, "1");
+    free(fa);
   }
   rc |= h5_attr_double(g, "box", c->box);
   rc |= h5_attr_long(g, "n_grid", c->n_grid);

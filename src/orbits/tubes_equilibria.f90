@@ -10,6 +10,7 @@
 !> (GRAD_TOL) and located to about (residual/c)^(1/m) along the degenerate direction
 !> (docs/models.md, "Degenerate equilibria").
 module tubes_equilibria
+  use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
   use tubes_lapack, only: eigen, dsyev, dgesv
   use tubes_hamiltonian, only: hamiltonian_t, natural_t, NAMES_QUADRANT, NAMES_LAGRANGE
@@ -53,6 +54,9 @@ module tubes_equilibria
     real(wp) :: omega = 0           !! rank-1 only: omegas(1)
     real(wp), allocatable :: evec(:, :) !! rank-1 only: columns u(+lambda), s(-lambda), Re c_k, Im c_k,
                                         !! each of unit length (Re, Im: the centre plane; linearize)
+    real(wp), allocatable :: freqs(:) !! every equilibrium: the frequencies omega of its centre pairs
+                                      !! +-i omega, ascending, NaN-padded to N [rad/time]
+    logical :: stable = .false.     !! linearly (spectrally) stable: all N pairs are centres
   end type equilibrium_t
 
   public :: find_equilibria, linearize, quadrant, rest_jacobian, sort_indices, neck_normal, nhim_reach, gate_holds_nhim
@@ -543,7 +547,8 @@ contains
     integer :: nd, nreal, ncentre, nzero, k, nz
     real(wp) :: f(size(e%x)), gr(size(e%q)), hs(size(e%q), size(e%q)), vecs(size(e%q), size(e%q))
     real(wp) :: wr(size(e%x)), wi(size(e%x)), scale, ztol
-    real(wp), allocatable :: zdirs(:, :)
+    real(wp), allocatable :: zdirs(:, :), fr(:)
+    integer, allocatable :: ic(:)
     logical :: natural
     nd = size(e%q)
     stat = TUBES_OK
@@ -583,6 +588,14 @@ contains
     scale = max(maxval(abs(wr)), maxval(abs(wi)))
     nreal = count(wr > 1.0e-8_wp*scale .and. abs(wi) <= 1.0e-8_wp*scale)
     ncentre = count(abs(wr) <= 1.0e-8_wp*scale .and. wi > 1.0e-8_wp*scale)
+    ! the full linear spectrum's centres, at every equilibrium (a well, L4/L5: centre x centre)
+    allocate (e%freqs(nd))
+    e%freqs = ieee_value(1.0_wp, ieee_quiet_nan)
+    fr = pack(wi, abs(wr) <= 1.0e-8_wp*scale .and. wi > 1.0e-8_wp*scale)
+    ic = [(k, k = 1, size(fr))]
+    call sort_indices(ic, fr)
+    e%freqs(1:min(size(fr), nd)) = fr(ic(1:min(size(fr), nd)))
+    e%stable = ncentre == nd
     if (natural) then
       e%rank1 = e%morse == 1 .and. e%nzero == 0 .and. nreal == 1 .and. ncentre == nd - 1
       e%degenerate = e%morse == 1 .and. e%nzero > 0

@@ -32,7 +32,7 @@ module tubes_study
   public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, gate_reach, section_info, cut_at, &
             check_at, maps_at, cut_outputs, equilibria_table, study_family, family_table, open_stores, &
             stores_at, close_stores, stores_counts, de_floor, region_at, region_outputs, region_numbers, dissipation_of, &
-            damped_spectrum, box_note, box_note_of
+            damped_spectrum, box_note, box_note_of, centres_of
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -389,6 +389,43 @@ contains
     if (stat /= TUBES_OK) return
     call box_note(model, lo(1:nd), hi(1:nd), eqs, note)
   end subroutine box_note_of
+
+  !> The centre frequencies and linear stability of the system's equilibria in [lo, hi] (the front
+  !> ends' one call: the C API's tubes_equilibria_centres and the f2py equilibria_centres), in the
+  !> order of equilibria_table: freqs(1:nd, k) the k-th's centre frequencies, ascending, NaN where
+  !> fewer than nd pairs are centres; stable(k) 1 when all nd are (linearly stable), else 0.
+  subroutine centres_of(system, params, lo, hi, n_grid, stores, n, freqs, stable, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:), lo(:), hi(:)
+    integer, intent(in) :: n_grid
+    type(seed_stores_t), pointer, intent(in) :: stores
+    integer, intent(out) :: n, stable(:), stat
+    real(wp), intent(out) :: freqs(:, :)
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    integer :: nd, k
+    n = 0
+    freqs = ieee_value(1.0_wp, ieee_quiet_nan)
+    stable = 0
+    call make_model(system, params, model, stat)
+    if (stat /= TUBES_OK) return
+    nd = model%ndof()
+    if (associated(stores)) then
+      call equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat, stores)
+    else
+      call equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat)
+    end if
+    if (stat /= TUBES_OK) return
+    if (size(eqs) > size(stable) .or. nd > size(freqs, 1)) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    n = size(eqs)
+    do k = 1, n
+      if (allocated(eqs(k)%freqs)) freqs(1:nd, k) = eqs(k)%freqs
+      stable(k) = merge(1, 0, eqs(k)%stable)
+    end do
+  end subroutine centres_of
 
   !> The equilibria as the tables of the C API and the f2py facade: column k of each is eqs(k)
   !> (nd degrees of freedom; rank1 1 for a rank-1 saddle, 2 for a degenerate one, else 0; evec
