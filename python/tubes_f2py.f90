@@ -210,6 +210,26 @@ subroutine equilibria(system, params, lo, hi, n_grid, stores, stat, n, ndof, q, 
   end do
 end subroutine equilibria
 
+subroutine equilibria_centres(system, params, lo, hi, n_grid, stores, stat, n, freqs, stable)
+  ! the centre frequencies and linear stability of equilibria's points, in its order (tubes_study
+  ! centres_of, as the C API's tubes_equilibria_centres)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_study, only: centres_of, seed_stores_t, stores_at
+  implicit none
+  character(len=*), intent(in) :: system
+  real(c_double), intent(in) :: params(16), lo(3), hi(3)
+  integer(c_int), intent(in) :: n_grid
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: stat, n, stable(256)
+  real(c_double), intent(out) :: freqs(3, 256)
+  type(seed_stores_t), pointer :: kept
+  integer :: nn, st(256)
+  kept => stores_at(stores)
+  call centres_of(trim(system), params, lo, hi, n_grid, kept, nn, freqs, st, stat)
+  n = nn
+  stable = st
+end subroutine equilibria_centres
+
 subroutine box_note(system, params, lo, hi, n_grid, stores, stat, note)
   ! what the equilibrium search box may hide (tubes_study box_note_of, as the C API's
   ! tubes_box_note): one line, or '' when nothing
