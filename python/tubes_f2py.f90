@@ -739,6 +739,20 @@ subroutine cancel_begin()
   call c_cancel_begin()
 end subroutine cancel_begin
 
+subroutine progress_enable(on)
+  ! progress lines of the core's ensembles on stderr (src/base/tubes_progress_shim.c): 1 on, 0 off
+  use, intrinsic :: iso_c_binding, only: c_int
+  implicit none
+  integer, intent(in) :: on
+  interface
+    subroutine c_progress_enable(o) bind(C, name='tubes_progress_enable')
+      import :: c_int
+      integer(c_int), value :: o
+    end subroutine c_progress_enable
+  end interface
+  call c_progress_enable(int(on, c_int))
+end subroutine progress_enable
+
 subroutine cancel_end(requested)
   ! the caller's SIGINT handler back; requested = 1 if SIGINT came since cancel_begin
   use, intrinsic :: iso_c_binding, only: c_int
