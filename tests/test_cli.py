@@ -401,7 +401,7 @@ def test_a_full_disk_is_an_io_error_without_a_crash_or_a_file(tmp_path):
 @pytest.mark.parametrize("text", [
     "",
     "&run scenes = 'orbits' /\n&orbits saddle_near = 1, 1 /\n",
-    "&run scenes = 'orbits', 'tubes' /\n&model system = 'henon_heiles' /\n",
+    "&run scenes = 'orbits', 'tubes' /\n&model system = 'henon_heiles' /\n&orbits de = 0.01 /\n&tubes de = 0.01 /\n",
     "&section kind = 'ray', angle = 225, p_theta_sign = 1 /\n",
     "&run scenes = 1*'orbits', 'equilibria' /\n",
     "&equilibria box = 2*15.0, box_center = 2*, 0.0 /\n",

@@ -246,6 +246,12 @@ static int degenerate_ok(const tubes_config_t *c) {
 static double sec_angle(const tubes_config_t *c) { return c->sec_angle * M_PI / 180; }
 static int sec_is_ray(const tubes_config_t *c) { return !strcmp(c->sec_kind, "ray"); }
 
+static int scene_asked(const tubes_config_t *c, const char *name) {
+  for (int k = 0; k < TUBES_NSCENES; k++)
+    if (!strcmp(c->scenes[k], name)) return 1;
+  return 0;
+}
+
 /* Whether the run needs a saddle: &equilibria saddle or &orbits saddle_near given, or a scene
  * other than equilibria and trajectory. */
 static int saddle_asked(const tubes_config_t *c) {
@@ -311,17 +317,54 @@ static int scenes_apply(tubes_run_t *run) {
 /* Every dE the scenes ask for is resolvable against the saddle's energy E_e (tubes_de_floor, the
  * library's rule, which its calls also apply: TUBES_EUNRESOLVED), said before any work with the
  * file and line. 0, or EXIT_BADINPUT with the reason. */
+/* The scenes' default excess energies and the trajectory's default start are the paper's, in the
+ * four-well ball's units and place: any other model (another system, or the ball on a formula
+ * surface) sets them, as Python's calls require (tubes._default_de). Before, a formula model ran
+ * the ball's 15 energies 1 .. 750 (NaN rows, exit 4) and Henon-Heiles' trajectory started at the
+ * ball's (4, 12.6) cm and blew up. des: the excess energies (else the trajectory's start). Checked
+ * after the scene and saddle checks, whose messages say more. */
+static int defaults_given(const tubes_run_t *run, int des) {
+  const tubes_config_t *c = run->cfg;
+  if (!strcmp(c->system, "rolling_ball") && strcmp(c->surface, "expression")) return 0;
+  int n = 0;
+  if (!des) {
+    if (scene_asked(c, "trajectory") && !nml_line(run->where, "trajectory", "x0") &&
+        !nml_line(run->where, "trajectory", "y0")) {
+      say_at(run, nml_line(run->where, "run", "scenes"));
+      fprintf(stderr, "&trajectory: x0, y0 are not set: system %s has no default start (the default, (4, "
+              "12.614863819914357) cm, is on the four-well ball's surface); give x0, y0 (and px0, py0 or at_rest) "
+              "in the model's units (docs/input.md)\n", run->label);
+      n++;
+    }
+    return n ? EXIT_BADINPUT : 0;
+  }
+  static const char *groups[] = {"orbits", "tubes", "transition", "montecarlo", "sections", "flux"};
+  for (size_t k = 0; k < sizeof groups / sizeof groups[0]; k++) {
+    const char *g = groups[k];
+    if (!scene_asked(c, g) || nml_line(run->where, g, "de")) continue;
+    if (!strcmp(g, "flux") && nml_line(run->where, "transition", "de")) continue;   /* &flux de defaults to it */
+    const char *def = "?";
+    for (int j = 0; j < tubes_nml_nvars; j++)
+      if (!strcmp(tubes_nml_vars[j].group, g) && !strcmp(tubes_nml_vars[j].name, "de")) def = tubes_nml_vars[j].deflt;
+    say_at(run, nml_line(run->where, "run", "scenes"));
+    fprintf(stderr, "&%s: de is not set: system %s has no default excess energies (the default, %s, is the four-well "
+            "ball's, in (cm/s)^2); give de in the model's energy units for the scene '%s' (docs/input.md)\n", g,
+            run->label, def, g);
+    n++;
+  }
+  return n ? EXIT_BADINPUT : 0;
+}
+
 static int de_resolvable(const tubes_run_t *run, double ee) {
   const tubes_config_t *c = run->cfg;
+  if (defaults_given(run, 1)) return EXIT_BADINPUT;
   const struct { const char *scene, *group; const double *de; int n; } lists[] = {
       {"orbits", "orbits", c->orb_de, c->orb_nde},      {"tubes", "tubes", c->tub_de, c->tub_nde},
       {"transition", "transition", c->tra_de, c->tra_nde}, {"montecarlo", "montecarlo", &c->mc_de, 1},
       {"sections", "sections", c->pm_de, c->pm_nde},    {"flux", "flux", c->flux_de, c->flux_nde}};
   double need = tubes_de_floor(ee), res = need / 1e6;
   for (size_t j = 0; j < sizeof lists / sizeof lists[0]; j++) {
-    int asked = 0;
-    for (int k = 0; k < TUBES_NSCENES; k++) asked |= !strcmp(c->scenes[k], lists[j].scene);
-    if (!asked) continue;
+    if (!scene_asked(c, lists[j].scene)) continue;
     for (int i = 0; i < lists[j].n; i++)
       if (fabs(lists[j].de[i]) < need) {
         say_at(run, nml_line(run->where, lists[j].group, "de"));
@@ -361,6 +404,7 @@ int run_setup(tubes_run_t *run) {
   }
   int rc = scenes_apply(run);
   if (rc) return rc;
+  if ((rc = defaults_given(run, 0))) return rc;
   run->method = tubes_method_code(c->method);
   int integrates = 0;                /* a scene that integrates with &integrator's method */
   for (int k = 0; k < TUBES_NSCENES; k++)
