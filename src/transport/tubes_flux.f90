@@ -23,7 +23,7 @@
 module tubes_flux
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENARROW, &
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENARROW, TUBES_ENOREGION, &
                          TUBES_EPASTEND
   use tubes_hamiltonian, only: hamiltonian_t, quadratic_parts, veff, quadratic_in_p
   use tubes_equilibria, only: equilibrium_t, neck_normal, nhim_reach, gate_holds_nhim
@@ -331,6 +331,10 @@ contains
       do j = 2, nd
         ex(1) = extent(model, q0(1:nd), -r(j, 1:nd), energy, 1.0e-3_wp*span, span)
         ex(2) = extent(model, q0(1:nd), r(j, 1:nd), energy, 1.0e-3_wp*span, span)
+        if (any(ex >= span)) then     ! the shell reaches past the window: its volume would be cut
+          stat = TUBES_ENOREGION      ! (before: a box-dependent volume and flux, exit 0)
+          return
+        end if
         if (.not. section) then       ! the dividing surface crosses the bottleneck alone
           if (.not. (rises(model, q0(1:nd), -r(j, 1:nd), ex(1), energy, de) .and. &
                      rises(model, q0(1:nd), r(j, 1:nd), ex(2), energy, de))) then
