@@ -27,6 +27,13 @@ import sys
 
 ABI = 1
 MAX_DOF = 3
+#: bounds on a formula (docs/models.md, "Limits"): its syntax tree's nodes and nesting depth, the
+#: integer power of an expression with variables (the derivatives and the normal form's series
+#: expand it), and the size of a constant part (2^MAX_LOG2 is beyond any double: 2^1024)
+MAX_NODES = 5000
+MAX_DEPTH = 1000
+MAX_POWER = 32
+MAX_LOG2 = 1100
 
 #: functions allowed in a formula, with their number of arguments
 FUNCTIONS = {"sqrt": 1, "exp": 1, "log": 1, "sin": 1, "cos": 1, "tan": 1, "atan2": 2, "sinh": 1,
@@ -64,10 +71,39 @@ def _caret(text):
     return "".join(out), cols
 
 
-def parse(text, var, symbols, sp):
-    """The SymPy expression of formula `text`; symbols: name -> SymPy symbol or value."""
+def _real(name, fn, args, col):
+    """The float value of a function of constant arguments, or a FormulaError's message."""
+    import math
+    try:
+        v = fn(*args)
+    except (ValueError, ZeroDivisionError):
+        what = {"sqrt": "the square root of a negative number", "log": "the logarithm of a number <= 0",
+                "asin": "asin of a number outside [-1, 1]", "acos": "acos of a number outside [-1, 1]",
+                "atan2": "atan2(0, 0)"}.get(name, "outside its domain")
+        return None, f"{name}({', '.join(f'{a:.17g}' for a in args)}) at column {col} is {what}: not a real number"
+    except OverflowError:
+        return None, f"{name}({', '.join(f'{a:.6g}' for a in args)}) at column {col} overflows a double (above 1.8e308)"
+    if not math.isfinite(v):
+        return None, f"{name}(...) at column {col} is not finite (above 1.8e308)"
+    return v, None
+
+
+def parse(text, var, symbols, sp, values=None):
+    """The SymPy expression of formula `text`; symbols: name -> SymPy symbol or value; values: name
+    -> float of the constants among them. Every constant part of the formula is also evaluated in
+    doubles as it is built, so that a number beyond a double (1e400, 2^2^2^2^2, exp(exp(exp(10)))),
+    a division by zero and a complex value (sqrt(-1)) are refused with their column, before SymPy
+    works on them (10^10^10 as an exact integer hung the generator; sqrt(-1) reached the C compiler)."""
+    import math
+    values = values or {}
+    # a sum of n terms is a chain n deep in the syntax tree: room for what MAX_DEPTH allows
+    sys.setrecursionlimit(max(sys.getrecursionlimit(), 4 * MAX_DEPTH + 1000))
     if not text.strip():
         raise FormulaError(var, "is empty: write the formula")
+    hashes = [i for i, ch in enumerate(text) if ch == "#"]
+    if hashes:    # Python's ast would read the rest as a comment and drop it
+        raise FormulaError(var, f"'#' at column {hashes[0] + 1} is not allowed: a formula has no comments "
+                                f"(in '{text.strip()}')")
     src, cols = _caret(text)
 
     def col(node_or_offset):
@@ -81,25 +117,91 @@ def parse(text, var, symbols, sp):
         what = (e.msg or "invalid syntax").replace("invalid syntax. Perhaps you forgot a comma?",
                                                    "invalid syntax")
         raise FormulaError(var, f"syntax error at column {col(off)}: {what} (in '{text.strip()}')")
+    except (RecursionError, MemoryError):
+        raise FormulaError(var, f"is nested too deeply to be read (at most {MAX_DEPTH} levels)")
+    nodes = sum(1 for _ in ast.walk(tree))
+    if nodes > MAX_NODES:
+        raise FormulaError(var, f"has {nodes} terms and operators: at most {MAX_NODES}")
+    depth, stack = 0, [(tree, 1)]
+    while stack:
+        node, d = stack.pop()
+        depth = max(depth, d)
+        stack += [(c, d + 1) for c in ast.iter_child_nodes(node)]
+    if depth > MAX_DEPTH:
+        raise FormulaError(var, f"is nested {depth} levels deep: at most {MAX_DEPTH}")
 
     ops = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult: lambda a, b: a * b,
            ast.Div: lambda a, b: a / b, ast.Pow: lambda a, b: a**b}
 
+    def literal(node):
+        """A number as written: its SymPy value and its double."""
+        v = node.value
+        seg = ast.get_source_segment(src, node) or repr(v)
+        if isinstance(v, int):
+            if v.bit_length() > 1024:
+                raise FormulaError(var, f"the number {seg[:20]}{'...' if len(seg) > 20 else ''} at column "
+                                        f"{col(node)} is beyond a double (above 1.8e308)")
+            return sp.Integer(v), float(v)
+        if not math.isfinite(v):
+            raise FormulaError(var, f"the number {seg} at column {col(node)} is beyond a double (above 1.8e308)")
+        if v == 0 and any(ch in "123456789" for ch in seg.lower().split("e")[0]):
+            raise FormulaError(var, f"the number {seg} at column {col(node)} is below the smallest double "
+                                    "(about 4.9e-324): it would be read as 0")
+        return sp.Rational(repr(v)), v
+
+    def binop(node, a, fa, b, fb):
+        """node's SymPy value and its double (None unless both sides are constant)."""
+        c = col(node)
+        op = type(node.op)
+        if op is ast.Div and fb == 0:
+            raise FormulaError(var, f"division by zero at column {c}")
+        if op is ast.Pow:
+            if fb is not None and fa is None and float(fb).is_integer() and abs(fb) > MAX_POWER:
+                raise FormulaError(var, f"the power ^{fb:g} at column {c} of an expression with variables: the "
+                                        f"exponent may be at most {MAX_POWER} in size (the derivatives and the normal "
+                                        "form's series expand it); write exp(n*log(...)) for a general power")
+            if fa is not None and fb is not None:
+                if fa == 0 and fb < 0:
+                    raise FormulaError(var, f"division by zero at column {c}: 0 to the power {fb:g}")
+                if fa < 0 and not float(fb).is_integer():
+                    raise FormulaError(var, f"the power ({fa:g})^{fb:g} at column {c} is complex: a negative "
+                                            "number to a non-integer power")
+                if fa != 0 and abs(fb) * abs(math.log2(abs(fa))) > MAX_LOG2:
+                    raise FormulaError(var, f"the power ({fa:.6g})^({fb:.6g}) at column {c} is beyond a double "
+                                            f"(about 2^{fb * math.log2(abs(fa)):.3g}; doubles reach 2^1024)")
+        e = ops[op](a, b)
+        if fa is None or fb is None:
+            return e, None
+        try:
+            v = {ast.Add: fa + fb, ast.Sub: fa - fb, ast.Mult: fa * fb}.get(op)
+            if v is None:
+                v = fa / fb if op is ast.Div else math.pow(fa, fb)
+        except OverflowError:
+            v = math.inf
+        if not math.isfinite(v):
+            raise FormulaError(var, f"the constant part '{ast.get_source_segment(src, node)}' at column {c} is "
+                                    "beyond a double (above 1.8e308)")
+        return e, v
+
     def build(node):
+        """(SymPy expression, its double if the node is constant, else None)."""
         if isinstance(node, ast.Expression):
             return build(node.body)
         if isinstance(node, ast.BinOp) and type(node.op) in ops:
-            return ops[type(node.op)](build(node.left), build(node.right))
+            a, fa = build(node.left)
+            b, fb = build(node.right)
+            return binop(node, a, fa, b, fb)
         if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
-            v = build(node.operand)
-            return -v if isinstance(node.op, ast.USub) else v
+            v, fv = build(node.operand)
+            neg = isinstance(node.op, ast.USub)
+            return (-v if neg else v), (None if fv is None else (-fv if neg else fv))
         if isinstance(node, ast.Constant) and type(node.value) in (int, float):
-            return sp.Integer(node.value) if isinstance(node.value, int) else sp.Rational(repr(node.value))
+            return literal(node)
         if isinstance(node, ast.Name):
             if node.id in symbols:
-                return symbols[node.id]
+                return symbols[node.id], values.get(node.id)
             if node.id == "pi":
-                return sp.pi
+                return sp.pi, math.pi
             if node.id in FUNCTIONS or node.id in REFUSED:
                 raise FormulaError(var, f"'{node.id}' at column {col(node)} is a function: write {node.id}(...)")
             known = ", ".join(k for k in symbols) or "none"
@@ -115,8 +217,13 @@ def parse(text, var, symbols, sp):
             if node.keywords or len(node.args) != FUNCTIONS[name]:
                 raise FormulaError(var, f"{name} at column {col(node)} takes {FUNCTIONS[name]} argument"
                                         f"{'s' if FUNCTIONS[name] > 1 else ''}")
-            args = [build(a) for a in node.args]
-            return getattr(sp, name)(*args)
+            built = [build(a) for a in node.args]
+            fv = None
+            if all(f is not None for _, f in built):
+                fv, msg = _real(name, getattr(math, name), [f for _, f in built], col(node))
+                if msg:
+                    raise FormulaError(var, msg)
+            return getattr(sp, name)(*[e for e, _ in built]), fv
         what = {ast.Compare: "a comparison", ast.IfExp: "a conditional", ast.BoolOp: "a logical operator",
                 ast.Attribute: "an attribute", ast.Subscript: "an index", ast.Lambda: "a lambda"}.get(
                     type(node), f"'{ast.unparse(node)}'")
@@ -129,7 +236,13 @@ def parse(text, var, symbols, sp):
         raise FormulaError(var, f"{what} at column {col(node)} is not allowed: a formula uses numbers, "
                                 "names, + - * / ^ ** and the functions " + ", ".join(FUNCTIONS))
 
-    return build(tree)
+    e, _ = build(tree)
+    if e.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+        raise FormulaError(var, "is not finite: a division by an expression that is identically 0 "
+                                f"(SymPy reads it as {sp.sstr(e)[:80]})")
+    if e.has(sp.I) or (e.is_number and e.is_real is False):
+        raise FormulaError(var, "is complex: H must be real for real coordinates and momenta")
+    return e
 
 
 def _f64(text, sp):
@@ -240,13 +353,34 @@ def function(sp, pr, name, inputs, consts, outputs, comment):
 def reversor(sp, h, qs, ps):
     """Signs r (2N) of a reversor x -> r x (q_i -> s_i q_i, p_i -> -s_i p_i) with H(r x) = H(x),
     the one with the most s_i = +1 (a natural system's (q, -p) first); zeros if none: symmetric
-    periodic orbits are found with it (src/orbits/tubes_orbits.f90)."""
+    periodic orbits are found with it (src/orbits/tubes_orbits.f90). H(r x) - H(x) is tested at 4
+    fixed rational points of the coordinates, momenta and constants, to 30 digits (zero within 1e-20
+    of |H| + 1 at all of them), unless it is 0 as written: expanding it symbolically, as before,
+    took minutes for (x + y + px + py)^30."""
+    import random
     from itertools import product
     n = len(qs)
+    # the constants too get random values: H(r x) = H(x) for every value of them, as the symbolic
+    # test required (a reversor that holds only for the constants' values is not taken)
+    syms = list(qs) + list(ps) + sorted(h.free_symbols - set(qs) - set(ps), key=str)
+    rng = random.Random(20261129)            # the same points in every run
+    pts = [{s: sp.Rational(rng.randint(-997, 997), 1009) for s in syms} for _ in range(4)]
+    href = [abs(sp.N(h.subs(pt), 30)) + 1 for pt in pts]
+
+    def invariant(sub):
+        d = h.subs(sub, simultaneous=True) - h
+        if d == 0:
+            return True
+        for pt, hr in zip(pts, href):
+            v = sp.N(d.subs(pt), 30)
+            if not (v.is_number and abs(v) <= sp.Float("1e-20") * hr):
+                return False
+        return True
+
     for signs in sorted(product((1, -1), repeat=n), key=lambda s: (s.count(-1), [-v for v in s])):
         sub = {q: s * q for q, s in zip(qs, signs)}
         sub.update({p: -s * p for p, s in zip(ps, signs)})
-        if sp.simplify(sp.expand(h.subs(sub, simultaneous=True) - h)) == 0:
+        if invariant(sub):
             return list(signs) + [-s for s in signs]
     return [0] * (2 * n)
 
@@ -269,12 +403,16 @@ def build(spec, sp):
                                           "momentum per coordinate, in the same order")
     consts = check_names(spec)
     # constants: each a number, or a formula of numbers and the constants before it
-    csyms, cvals, table = {}, [], {}
+    csyms, cvals, table, floats = {}, [], {}, {}
     for name, text, k in consts:
-        e = _f64(text, sp) if text.startswith("f64:") else parse(text, "constants", dict(table), sp)
+        try:
+            e = _f64(text, sp) if text.startswith("f64:") else parse(text, "constants", dict(table), sp, floats)
+        except FormulaError as err:
+            raise FormulaError("constants", f"constants({k}): {name} = {text}: {err.msg}")
         v = sp.N(e.subs({csyms[n]: val for n, val in cvals}), 30)
-        if not (v.is_real and v.is_finite):
+        if not (v.is_real and v.is_finite and abs(float(v)) < float("inf")):
             raise FormulaError("constants", f"constants({k}): {name} = {text} is not a finite real number")
+        floats[name] = float(v)
         c_name = f"k_{name}"
         csyms[name] = sp.Symbol(c_name, real=True)
         cvals.append((name, v))
@@ -284,7 +422,7 @@ def build(spec, sp):
     names = dict(zip(coords, qs))
     names.update(zip(moms, ps))
     names.update(table)
-    h = parse(spec.get("expr", ""), var, names, sp)
+    h = parse(spec.get("expr", ""), var, names, sp, floats)
     free = h.free_symbols
     for n, s in list(zip(coords, qs)) + list(zip(moms, ps)):
         if s not in free:
@@ -641,6 +779,15 @@ def main(argv):
     except ImportError:
         sys.stderr.write("-\tSymPy is not installed for this Python (" + sys.executable + "): run make deps\n")
         return 3
+    try:
+        return _main(mode, argv)
+    except Exception as e:      # never a traceback: one line the driver (src/io/tubes_expr.c) prints
+        msg = " ".join(str(e).split())[:300]
+        sys.stderr.write(f"-\tinternal error in the code generator: {type(e).__name__}: {msg} (please report it)\n")
+        return 1
+
+
+def _main(mode, argv):
     text = sys.stdin.read()
     spec = read_spec(text.splitlines())
     try:

@@ -71,6 +71,7 @@ static char *const jet_cflags[] = {JET_CFLAGS, NULL};
 static const build_kind_t MODEL_BUILD = {"--out", "tubes_expr_text", "tubes_expr_abi", model_cflags};
 static const build_kind_t JET_BUILD = {"--jet", "tubes_jet_text", "tubes_jet_abi", jet_cflags};
 
+static void generator_id(char *buf, size_t n);
 static int build(const build_kind_t *bk, const char *spec, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg,
                  int lmsg, char *lib, int llib, int *hit);
 static int build_locked(const build_kind_t *bk, const char *spec, char *var, int lvar, char *msg, int lmsg,
@@ -569,12 +570,16 @@ const char *tubes_expr_compiler(void) {
 int tubes_expr_build(const char *model, char key[TUBES_LSYSTEM], char *var, int lvar, char *msg, int lmsg,
                      char *lib, int llib, double *seconds, int *hit) {
   double t0 = now();
-  /* the spec: the model and the compiler that builds it (both in the hash) */
+  /* the spec: the model, the compiler that builds it and the code generator (all in the hash: a
+   * changed generator, one that now refuses a formula or prints it otherwise, builds anew) */
   const char *cc_env = getenv("TUBES_CC");
-  size_t ls = strlen(model) + 256;
+  char gen[512];
+  generator_id(gen, sizeof gen);
+  size_t ls = strlen(model) + 256 + sizeof gen;
   char *spec = malloc(ls);
   if (!spec) return TUBES_EIO;
-  snprintf(spec, ls, "%scompiler %s %s\n", model, tubes_expr_compiler(), cc_env && cc_env[0] ? "" : TUBES_MODEL_CC_VERSION);
+  snprintf(spec, ls, "%scompiler %s %s\n%s\n", model, tubes_expr_compiler(), cc_env && cc_env[0] ? "" : TUBES_MODEL_CC_VERSION,
+           gen);
   int rc = build(&MODEL_BUILD, spec, key, var, lvar, msg, lmsg, lib, llib, hit);
   free(spec);
   *seconds = now() - t0;
@@ -954,8 +959,9 @@ static void cpu_id(char *buf, size_t n) {
   snprintf(buf, n, "%s %016llx", model, (unsigned long long)flags);
 }
 
-/* The generator's identity for the jets' cache key: a hash of python/tubes/codegen.py and of
- * jetgen.py beside it (a changed generator builds its kernels anew), and the compiler's flags. */
+/* The generator's identity for the cache keys of the models and the jets: a hash of
+ * python/tubes/codegen.py and of jetgen.py beside it (a changed generator builds anew), and the
+ * jets' compiler flags. */
 static void generator_id(char *buf, size_t n) {
   char script[PATH_MAX], path[PATH_MAX + 16];
   codegen_script(script, sizeof script);
