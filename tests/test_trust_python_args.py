@@ -128,3 +128,14 @@ def test_sweep(who, call, name, value):
 def test_state_arrays_of_non_numbers(call, who, name):
     with pytest.raises(TypeError, match=rf"^{re.escape(who)}: {name} must be an array of real numbers"):
         call()
+
+
+def test_saddle_near_of_bools():
+    """saddle_near=[True, 0] was read as (1, 0)."""
+    with pytest.raises(TypeError, match=r"^transition: saddle_near\[0\] = True is not a real number"):
+        tubes.transition(M, dE=[1.0], saddle_near=[True, 0.0])
+
+
+def test_monte_carlo_check_flag():
+    """check='no' was taken as True (a non-empty string)."""
+    refused(lambda: tubes.monte_carlo(M, dE=100.0, n_samples=10, check="no"), "monte_carlo", "check", "no")

@@ -683,7 +683,7 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, who: st
     if saddle is not None:
         orb["saddle"] = str(saddle)
     if saddle_near is not None:
-        orb["saddle_near"] = [float(x) for x in saddle_near]
+        orb["saddle_near"] = _args.reals(who, "saddle_near", saddle_near)
     if orb:
         groups["orbits"] = orb
     if section:
@@ -1291,6 +1291,7 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     cut)."""
     model = model or Model()
     _need_2dof(model, "monte_carlo")
+    check = _args.flag("monte_carlo", "check", check)
     mc = {k: v for k, v in (("de", _scalar_de(dE, "monte_carlo")), ("n_samples", n_samples), ("seed", seed),
                             ("t_max", t_max), ("gate", gate), ("area_tol", area_tol)) if v is not None}
     if dE is None:
