@@ -607,8 +607,8 @@ def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | 
         model.name, model.params(), lo, hi, int(n_grid), sad, kind, index, level, dirn,
         float(dE), int(m))
     _check(stat, "section_boundary")
-    return {"s": np.asarray(s).copy(), "p_min": np.asarray(pmin).copy(),
-            "p_max": np.asarray(pmax).copy(), "s_min": float(smin), "s_max": float(smax)}
+    return Table({"s": np.asarray(s).copy(), "p_min": np.asarray(pmin).copy(),
+                  "p_max": np.asarray(pmax).copy(), "s_min": float(smin), "s_max": float(smax)})
 
 
 # ---------------------------------------------------------------- scenes from Python
@@ -988,7 +988,7 @@ def normal_form_map(model: Model, points, order: int = 8, to: str = "model", sad
     mapped = out.T.copy()
     if to == "model":
         mapped += zs
-    return {"points": mapped, "round_trip": rt.copy(), "saddle_state": zs}
+    return Table({"points": mapped, "round_trip": rt.copy(), "saddle_state": zs})
 
 
 def _normal_form_flux(model, st, de, order):
@@ -1054,7 +1054,7 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
     orb = {k: options.pop(k) for k in list(options) if k in ("method", "n_segments", "tol", "rtol", "atol")}
     st = _settings(model, saddle, saddle_near, section=section, who="tube_cut", orbits=orb,
                    tubes=dict(options, de=[_scalar_de(dE, "tube_cut")]), integrator=integrator, equilibria=equilibria)
-    return _cut(model, st, float(st["des"][0, 1]), TUBE_KINDS[kind], st["tub_area_tol"])
+    return Table(_cut(model, st, float(st["des"][0, 1]), TUBE_KINDS[kind], st["tub_area_tol"]))
 
 
 def _dissipation(model: Model) -> dict:
@@ -1132,10 +1132,13 @@ def transition_region(model: Model | None = None, dE: float | None = None, saddl
     mc = {k: v for k, v in (("t_max", t_max), ("gate", gate)) if v is not None}
     tra = {"de": [_scalar_de(dE, "transition_region")]}
     if area_tol is not None:
-        tra["area_tol"] = float(area_tol)
+        tra["area_tol"] = _args.real("transition_region", "area_tol", area_tol)   # its range: the reader's
+    n_init = _args.integer("transition_region", "n_init", n_init, lo=0)
+    n_scan = _args.integer("transition_region", "n_scan", n_scan, lo=0)
+    xtol = _args.real("transition_region", "xtol", xtol, lo=0)
     st = _settings(model, saddle, saddle_near, section=section, who="transition_region", montecarlo=mc,
                    transition=tra, integrator=integrator, equilibria=equilibria)
-    out = _region(model, st, float(st["des"][0, 2]), st["tra_area_tol"], n_init, n_scan, xtol)
+    out = Table(_region(model, st, float(st["des"][0, 2]), st["tra_area_tol"], n_init, n_scan, xtol))
     if out["status"] < 0:
         err = TubesError(out["status"], f"transition_region(dE = {out['dE']:g})")
         err.partial = out
@@ -1328,19 +1331,19 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
             where += (f": {bad.size} of {ns} samples failed (the first: sample {k + 1} at (s, p_s) = "
                       f"({r[k]:.10g}, {pr[k]:.10g}))")
         err = TubesError(stat, where)
-        err.partial = {"dE": de, "n_samples": ns, "seed": seed, "r": r.copy(), "p_r": pr.copy(),
-                       "transit": outc.copy(), "agrees": False}
+        err.partial = Table({"dE": de, "n_samples": ns, "seed": seed, "r": r.copy(), "p_r": pr.copy(),
+                             "transit": outc.copy(), "agrees": False})
         raise err
     ins = ins.astype(bool)
     nt, nu = int(np.sum(outc == 1)), int(np.sum(outc == 2))
     in_nt, out_t = int(np.sum(ins & (outc != 1))), int(np.sum(~ins & (outc == 1)))
     f, p = nt / ns, area / ae
-    out = {"dE": de, "n_samples": ns, "seed": seed, "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / ns)),
+    out = Table({"dE": de, "n_samples": ns, "seed": seed, "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / ns)),
            "p_trans": p, **damped, "misclassified": in_nt + out_t, "misclassified_inside_no_transit": in_nt,
            "misclassified_outside_transit": out_t, "undecided": nu, "escaped": int(np.sum(outc == 3)),
            **({"trapped": int(np.sum(outc == 4))} if diss else {}),
            **_mc_agreement(ns, nt, nu, in_nt + out_t, p),
-           "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins}
+           "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins})
     if noisy:       # no deterministic prediction to hold it to (as the scene): the undecided count alone
         out["agrees"] = nu <= out["undecided_limit"]
     if check and not out["agrees"]:
@@ -1428,7 +1431,7 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
     n = nt * ns
     st4 = state.reshape(4, n, order="F").T.copy()
     en = energy.reshape(n, order="F").copy()
-    return {"track": np.repeat(np.arange(nt, dtype=np.int32), ns), "t": np.tile(t, nt),
+    return Table({"track": np.repeat(np.arange(nt, dtype=np.int32), ns), "t": np.tile(t, nt),
             "x": meas[0].reshape(n, order="F").copy(), "y": meas[1].reshape(n, order="F").copy(),
             "truth": {"state": st4, "energy": en, "dE": en - e_e,
                       "noisy": noisy.reshape(2, n, order="F").T.copy(),
@@ -1438,7 +1441,7 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
             "duration": float(st["exp_duration"]), "camera_rate": float(st["exp_camera_rate"]),
             "pixel": float(st["exp_pixel"]), "noise": float(st["exp_noise"]), "de_min": float(st["exp_de_min"]),
             "de_max": float(st["exp_de_max"]), "damping_ratio": float(st["exp_damping_ratio"]),
-            "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": int(st["exp_seed"])}
+            "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": int(st["exp_seed"])})
 
 
 def _as_method(f):
@@ -1854,18 +1857,31 @@ class _Units(dict):
 
 
 class Table(dict):
-    """A scene's result as the Python calls return it (equilibria, orbit_family, transition,
-    flux): a dict of its columns (numpy arrays, lists of names or messages) and scalars.
-    ``to_pandas()`` and ``to_xarray()`` make one table of its 1-D columns of the common length (a
-    row per dE, or per equilibrium), where pandas / xarray are installed; the units are the
-    model's (docs/output.md lists them for the same datasets of the output file)."""
+    """A scene's result as every Python scene call returns it (equilibria, orbit_family, flux,
+    tube_cut, transition, transition_region, monte_carlo, section_boundary, normal_form_map,
+    synthetic_experiment): a dict of its columns (numpy arrays, lists of names or messages) and
+    scalars, read as ``t["period"]`` or as ``t.period``. ``to_pandas()`` and ``to_xarray()`` make
+    one table of its 1-D columns of the common length, where pandas / xarray are installed: a
+    row per dE (the index, and the xarray coordinate), or per equilibrium (``name``); the units
+    are the model's (docs/output.md lists them for the same datasets of the output file)."""
+
+    def __getattr__(self, key: str) -> Any:
+        try:
+            return self[key]
+        except KeyError:
+            raise AttributeError(f"this tubes.Table has no column {key!r} (its columns: "
+                                 f"{', '.join(map(str, self))})") from None
+
+    def __dir__(self):
+        return list(super().__dir__()) + [k for k in self if isinstance(k, str) and k.isidentifier()]
 
     def to_pandas(self):
-        """The 1-D columns of the common length as a pandas DataFrame."""
+        """The 1-D columns of the common length as a pandas DataFrame indexed by dE (or name)."""
         return _to_pandas(_columns(self, type(self).__name__, n=_rows(self)), {})
 
     def to_xarray(self):
-        """The 1-D columns of the common length as an xarray Dataset (dimension ``row``)."""
+        """The 1-D columns of the common length as an xarray Dataset with the coordinate dE (or
+        name; ``row`` where there is neither)."""
         return _to_xarray(_columns(self, type(self).__name__, n=_rows(self)), {})
 
 
@@ -1887,16 +1903,29 @@ def _columns(items: dict, name: str, n: int | None = None) -> dict:
     return {k: v for k, v in cols.items() if len(v) == n}
 
 
+def _index(cols: dict) -> str | None:
+    """The column a table's rows are labelled by: dE (a row per excess energy), else name (a row
+    per equilibrium), else none."""
+    return next((k for k in ("dE", "name") if k in cols), None)
+
+
 def _to_pandas(cols: dict, units: dict):
     import pandas as pd
     df = pd.DataFrame(cols)
-    df.attrs["units"] = {k: units.get(k, "") for k in df.columns}
+    key = _index(cols)
+    if key:
+        df = df.set_index(key)
+    df.attrs["units"] = {k: units.get(k, "") for k in cols}
     return df
 
 
 def _to_xarray(cols: dict, units: dict):
     import xarray as xr
-    return xr.Dataset({k: ("row", np.asarray(v), {"units": units.get(k, "")}) for k, v in cols.items()})
+    key = _index(cols)
+    dim = key or "row"
+    data = {k: (dim, np.asarray(v), {"units": units.get(k, "")}) for k, v in cols.items() if k != key}
+    coords = {key: (key, np.asarray(cols[key]), {"units": units.get(key, "")})} if key else None
+    return xr.Dataset(data, coords=coords)
 
 
 def _decode(v: Any) -> Any:
