@@ -98,6 +98,7 @@ SWEEP += [("integrate", _INTEG[0][1], "max_crossings", [True, 2.5, "10", NAN, 0,
           ("section_boundary", _p(tubes.section_boundary, M), "dE", [True, "1"]),   # NaN, inf, < 0 were refused before
           ("section_boundary", _p(tubes.section_boundary, M), "m", [True, "400"]),
           ("section_boundary", _p(tubes.section_boundary, M), "n_grid", [True, 2.5, -1, 1]),
+          ("section_boundary", _p(tubes.section_boundary, M, dE=1.0), "box", [True, NAN, -2.0, "3"]),
           ("monte_carlo", _p(tubes.monte_carlo, M), "dE", [True, "100", NAN, INF]),
           ("transition", _p(tubes.transition, M), "dE", [True, "100", NAN]),
           ("orbit_family", _p(tubes.orbit_family, M), "dE", [True, "1", NAN]),
@@ -139,3 +140,10 @@ def test_saddle_near_of_bools():
 def test_monte_carlo_check_flag():
     """check='no' was taken as True (a non-empty string)."""
     refused(lambda: tubes.monte_carlo(M, dE=100.0, n_samples=10, check="no"), "monte_carlo", "check", "no")
+
+
+@pytest.mark.parametrize("key, value", [("index", 0.5), ("index", 7), ("direction", 0.5), ("value", NAN)])
+def test_section_boundary_plane_section(key, value):
+    """A plane section's index 0.5 was read as 0 (int()), 7 and NaN ended in 'invalid input'."""
+    sec = dict({"kind": "plane", "index": 0, "value": 0.0, "direction": 1}, **{key: value})
+    refused(lambda: tubes.section_boundary(M, dE=1.0, section=sec), "section_boundary", f"section['{key}']", value)

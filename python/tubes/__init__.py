@@ -590,6 +590,8 @@ def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | 
         sec.update(section)
     if not sec["kind"]:
         raise ValueError(f"system {model.system!r} has no default section: give one")
+    if box is not None:   # half-widths > 0, one or one per coordinate (the count: equilibria's check)
+        box = [_args.real("section_boundary", "box", b, lo=0, lo_open=True) for b in np.ravel(np.asarray(box, dtype=object))]
     sad = saddle or info["saddle"]
     if not sad:
         eq = equilibria(model, box=box, n_grid=n_grid)
@@ -598,11 +600,15 @@ def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | 
                 key=lambda i: np.sum((eq["q"][i] - near) ** 2))
         sad = eq["name"][k]
     lo, hi = _box(model, box, None)
+    who = "section_boundary"
     if sec["kind"] == "ray":
-        kind, index, level = 1, 0, np.radians(sec.get("angle", 45.0))
-        dirn = int(sec.get("p_theta_sign", sec.get("direction", 1)))
+        kind, index, level = 1, 0, np.radians(_args.real(who, "section['angle']", sec.get("angle", 45.0)))
+        dirn = _args.integer(who, "section['p_theta_sign']", sec.get("p_theta_sign", sec.get("direction", 1)),
+                             lo=-1, hi=1)
     else:
-        kind, index, level, dirn = 2, int(sec["index"]), float(sec["value"]), int(sec["direction"])
+        kind, index = 2, _args.integer(who, "section['index']", sec["index"], lo=0, hi=2 * model.ndof - 1)
+        level = _args.real(who, "section['value']", sec["value"])
+        dirn = _args.integer(who, "section['direction']", sec["direction"], lo=-1, hi=1)
     stat, smin, smax, s, pmin, pmax = _lib().section_boundary(
         model.name, model.params(), lo, hi, int(n_grid), sad, kind, index, level, dirn,
         float(dE), int(m))
