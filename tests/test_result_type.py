@@ -59,3 +59,8 @@ def test_equilibria_are_labelled_by_name():
     eq = M.equilibria()
     df = eq.to_pandas()
     assert df.index.name == "name" and df.loc["S12", "energy"] == eq.energy[eq.name.index("S12")]
+
+
+def test_monte_carlo_has_the_file_s_status(mc):
+    """/montecarlo@status (0 where the check was made) is in the Python result too."""
+    assert mc.status == 0

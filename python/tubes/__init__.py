@@ -1292,7 +1292,8 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     2 + n/100 undecided points (t_max too short, or a section or gate that does not fit the
     saddle). check=False returns the dict with agrees False instead.
 
-    Returns a dict: dE, n_samples, seed, fraction, std_error (sqrt(f(1-f)/n)), p_trans,
+    Returns a tubes.Table (a dict; its keys also attributes): dE, n_samples, seed, status (0; the
+    file's /montecarlo@status), fraction, std_error (sqrt(f(1-f)/n)), p_trans,
     misclassified, misclassified_inside_no_transit, misclassified_outside_transit, undecided,
     escaped (left for good through another exit: no transition), agrees, sigmas (|fraction -
     p_trans| in standard errors), sigma_limit (MC_SIGMA), misclassified_limit, undecided_limit,
@@ -1337,14 +1338,14 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
             where += (f": {bad.size} of {ns} samples failed (the first: sample {k + 1} at (s, p_s) = "
                       f"({r[k]:.10g}, {pr[k]:.10g}))")
         err = TubesError(stat, where)
-        err.partial = Table({"dE": de, "n_samples": ns, "seed": seed, "r": r.copy(), "p_r": pr.copy(),
+        err.partial = Table({"dE": de, "n_samples": ns, "seed": seed, "status": int(stat), "r": r.copy(), "p_r": pr.copy(),
                              "transit": outc.copy(), "agrees": False})
         raise err
     ins = ins.astype(bool)
     nt, nu = int(np.sum(outc == 1)), int(np.sum(outc == 2))
     in_nt, out_t = int(np.sum(ins & (outc != 1))), int(np.sum(~ins & (outc == 1)))
     f, p = nt / ns, area / ae
-    out = Table({"dE": de, "n_samples": ns, "seed": seed, "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / ns)),
+    out = Table({"dE": de, "n_samples": ns, "seed": seed, "status": 0, "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / ns)),
            "p_trans": p, **damped, "misclassified": in_nt + out_t, "misclassified_inside_no_transit": in_nt,
            "misclassified_outside_transit": out_t, "undecided": nu, "escaped": int(np.sum(outc == 3)),
            **({"trapped": int(np.sum(outc == 4))} if diss else {}),
@@ -1438,16 +1439,16 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
     st4 = state.reshape(4, n, order="F").T.copy()
     en = energy.reshape(n, order="F").copy()
     return Table({"track": np.repeat(np.arange(nt, dtype=np.int32), ns), "t": np.tile(t, nt),
-            "x": meas[0].reshape(n, order="F").copy(), "y": meas[1].reshape(n, order="F").copy(),
-            "truth": {"state": st4, "energy": en, "dE": en - e_e,
-                      "noisy": noisy.reshape(2, n, order="F").T.copy(),
-                      "release": rel[:2].T.copy(), "release_dE": rel[2].copy()},
-            "E_e": e_e, "saddle": st["saddle"], "damping_rate": float(c_damp), "n_draws": int(n_draws),
-            "n_samples": ns, "n_tracks": nt, "box": float(box), "rtol": float(rtol),
-            "duration": float(st["exp_duration"]), "camera_rate": float(st["exp_camera_rate"]),
-            "pixel": float(st["exp_pixel"]), "noise": float(st["exp_noise"]), "de_min": float(st["exp_de_min"]),
-            "de_max": float(st["exp_de_max"]), "damping_ratio": float(st["exp_damping_ratio"]),
-            "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": int(st["exp_seed"])})
+                  "x": meas[0].reshape(n, order="F").copy(), "y": meas[1].reshape(n, order="F").copy(),
+                  "truth": {"state": st4, "energy": en, "dE": en - e_e,
+                            "noisy": noisy.reshape(2, n, order="F").T.copy(),
+                            "release": rel[:2].T.copy(), "release_dE": rel[2].copy()},
+                  "E_e": e_e, "saddle": st["saddle"], "damping_rate": float(c_damp), "n_draws": int(n_draws),
+                  "n_samples": ns, "n_tracks": nt, "box": float(box), "rtol": float(rtol),
+                  "duration": float(st["exp_duration"]), "camera_rate": float(st["exp_camera_rate"]),
+                  "pixel": float(st["exp_pixel"]), "noise": float(st["exp_noise"]), "de_min": float(st["exp_de_min"]),
+                  "de_max": float(st["exp_de_max"]), "damping_ratio": float(st["exp_damping_ratio"]),
+                  "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": int(st["exp_seed"])})
 
 
 def _as_method(f):
