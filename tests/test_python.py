@@ -228,9 +228,9 @@ def test_load_keeps_units_nested_paths_and_tables(tmp_path):
     except ImportError:
         pytest.skip("pandas is not installed")
     df = res.orbits.to_pandas()
-    assert list(df["dE"]) == [1.0, 10.0] and df.attrs["units"]["period"] == "s"
+    assert list(df.index) == [1.0, 10.0] and df.index.name == "dE" and df.attrs["units"]["period"] == "s"
     ds = res.orbits.to_xarray()
-    assert ds["period"].attrs["units"] == "s" and ds.sizes["row"] == 2
+    assert ds["period"].attrs["units"] == "s" and ds.sizes["dE"] == 2 and list(ds["dE"].values) == [1.0, 10.0]
 
 
 def test_the_calls_tables_convert_in_one_call():
@@ -242,13 +242,13 @@ def test_the_calls_tables_convert_in_one_call():
     m = tubes.Model()
     o = m.orbit_family(dE=[1.0, 10.0])
     df = o.to_pandas()
-    assert list(df["dE"]) == [1.0, 10.0] and np.array_equal(df["action"], o["action"])
+    assert list(df.index) == [1.0, 10.0] and np.array_equal(df["action"], o["action"])
     assert "monodromy" not in df.columns and "saddle" not in df.columns
-    assert o.to_xarray().sizes["row"] == 2
+    assert o.to_xarray().sizes["dE"] == 2
     t = m.transition(dE=[100.0]).to_pandas()
-    assert list(t.columns) == ["A_tube", "action", "A_E", "p_trans", "dE", "status", "message"]
+    assert list(t.columns) == ["A_tube", "action", "A_E", "p_trans", "status", "message"] and t.index.name == "dE"
     e = m.equilibria().to_pandas()
-    assert sorted(e["name"]) == ["R1", "S12", "S14", "S23", "S34", "W1", "W2", "W3", "W4"]
+    assert sorted(e.index) == ["R1", "S12", "S14", "S23", "S34", "W1", "W2", "W3", "W4"]
 
 
 def test_integrate_validates_as_the_input_file():

@@ -222,7 +222,7 @@ def test_monte_carlo_arguments_are_the_input_file_s():
                     ({"seed": -1}, "seed = -1 is out of range: allowed >= 0"),
                     ({"seed": 2**40}, "seed = 1099511627776 is out of range"),
                     ({"dE": -0.01}, r"de(\(1\))? = -0.01 is out of range: allowed > 0"),
-                    ({"dE": float("nan")}, "'de' is not a finite real number"),
+                    ({"dE": float("nan")}, "monte_carlo: dE = nan is out of range: allowed a finite real number"),
                     ({"dE": None}, "give dE for system 'henon_heiles'")):
         with pytest.raises(ValueError, match=msg):
             hh.monte_carlo(**{"dE": 0.02, "n_samples": 100, **kw})

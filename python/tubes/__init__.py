@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from . import _args
+
 def __getattr__(name: str):
     """The status codes tubes.OK, tubes.EVENT, tubes.EINPUT, ... (TUBES_<name>): their numbers from
     the library's one definition (src/base/tubes_status.f90), looked up on first use; and
@@ -170,10 +172,7 @@ class Model:
                              f"(its parameters: {allowed})")
         values = dict(info["parameters"])
         for k, v in parameters.items():
-            v = float(v)
-            if not np.isfinite(v):
-                raise ValueError(f"Model: {k} = {v} must be finite")
-            values[k] = v
+            values[k] = _args.real("Model", k, v)
         vec = np.zeros(16)
         vec[:len(values)] = list(values.values())
         object.__setattr__(self, "system", system)
@@ -421,7 +420,7 @@ def _as_rows(x, n: int, who: str, name: str, what: str) -> np.ndarray:
     row: x is (m, n), or one of them (n,) (m = 1). Any other layout is refused, never reshaped: an
     (n, m) array, one per column as scipy's sol.y, would otherwise be read as other states. A
     square (n, n) array is taken as rows."""
-    a = np.array(x, dtype=np.float64, copy=True)
+    a = _args.floats(who, name, x)
     if a.ndim in (1, 2) and a.shape[-1] == n:
         return a.reshape(-1, n)
     msg = (f"{who}: {name} must have shape (m, {n}), one {what} of {n} components per row, or ({n},) "
@@ -433,12 +432,12 @@ def _as_rows(x, n: int, who: str, name: str, what: str) -> np.ndarray:
     raise ValueError(msg)
 
 
-def _vec(x, n: int, name: str) -> np.ndarray:
+def _vec(x, n: int, name: str, who: str) -> np.ndarray:
     """x as one vector of n components: shape (n,) (or (1, n), one row); any other shape with n
     elements ((2, 2) for a state of 4) is refused, not flattened."""
-    a = np.array(x, dtype=np.float64, copy=True)
+    a = _args.floats(who, name, x)
     if a.shape not in ((n,), (1, n)):
-        raise ValueError(f"{name} must have {n} components, one vector of shape ({n},): got shape {a.shape}")
+        raise ValueError(f"{who}: {name} must have {n} components, one vector of shape ({n},): got shape {a.shape}")
     return a.reshape(-1)
 
 
@@ -448,7 +447,7 @@ def energy(state, model: Model | None = None) -> float:
     model = model or Model()
     n = 2 * model.ndof
     stat, e = _lib().energies(model.name, model.params(),
-                              _vec(state, n, "state").reshape(n, 1, order="F"))
+                              _vec(state, n, "state", "energy").reshape(n, 1, order="F"))
     _check(stat, "energy")
     return float(e[0])
 
@@ -492,7 +491,7 @@ def vector_field(state, model: Model | None = None) -> np.ndarray:
     """Hamilton's equations dx/dt at a state (damped for the ball with damping_ratio > 0)."""
     model = model or Model()
     n = 2 * model.ndof
-    stat, f = _lib().vector_field(model.name, model.params(), _vec(state, n, "state"))
+    stat, f = _lib().vector_field(model.name, model.params(), _vec(state, n, "state", "vector_field"))
     _check(stat, "vector_field")
     return np.asarray(f)
 
@@ -509,7 +508,7 @@ def momentum(q, v, model: Model | None = None) -> np.ndarray:
     """Natural systems: the momenta of velocity v at q (the ball: p = (7/5) M v [cm/s])."""
     model = model or Model()
     n = model.ndof
-    stat, p = _lib().momentum(model.name, model.params(), _vec(q, n, "q"), _vec(v, n, "v"))
+    stat, p = _lib().momentum(model.name, model.params(), _vec(q, n, "q", "momentum"), _vec(v, n, "v", "momentum"))
     _check(stat, "momentum")
     return np.asarray(p)
 
@@ -582,16 +581,17 @@ def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | 
                       stacklevel=2)
         dE = de
     _need_2dof(model, "section_boundary")
-    if not (np.isfinite(dE) and dE >= 0):
-        raise ValueError(f"section_boundary: dE = {dE} is out of range: allowed >= 0 (finite), in the model's energy units")
-    if not (isinstance(m, (int, np.integer)) and m >= 2):
-        raise ValueError(f"section_boundary: m = {m!r} is out of range: allowed an integer >= 2")
+    dE = _args.real("section_boundary", "dE", dE, lo=0)
+    m = _args.integer("section_boundary", "m", m, lo=2)
+    n_grid = _args.integer("section_boundary", "n_grid", n_grid, lo=2, hi=2001)   # &equilibria n_grid's range
     info = model.info
     sec = dict(info["section"])
     if section:
         sec.update(section)
     if not sec["kind"]:
         raise ValueError(f"system {model.system!r} has no default section: give one")
+    if box is not None:   # half-widths > 0, one or one per coordinate (the count: equilibria's check)
+        box = [_args.real("section_boundary", "box", b, lo=0, lo_open=True) for b in np.ravel(np.asarray(box, dtype=object))]
     sad = saddle or info["saddle"]
     if not sad:
         eq = equilibria(model, box=box, n_grid=n_grid)
@@ -600,17 +600,21 @@ def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | 
                 key=lambda i: np.sum((eq["q"][i] - near) ** 2))
         sad = eq["name"][k]
     lo, hi = _box(model, box, None)
+    who = "section_boundary"
     if sec["kind"] == "ray":
-        kind, index, level = 1, 0, np.radians(sec.get("angle", 45.0))
-        dirn = int(sec.get("p_theta_sign", sec.get("direction", 1)))
+        kind, index, level = 1, 0, np.radians(_args.real(who, "section['angle']", sec.get("angle", 45.0)))
+        dirn = _args.integer(who, "section['p_theta_sign']", sec.get("p_theta_sign", sec.get("direction", 1)),
+                             lo=-1, hi=1)
     else:
-        kind, index, level, dirn = 2, int(sec["index"]), float(sec["value"]), int(sec["direction"])
+        kind, index = 2, _args.integer(who, "section['index']", sec["index"], lo=0, hi=2 * model.ndof - 1)
+        level = _args.real(who, "section['value']", sec["value"])
+        dirn = _args.integer(who, "section['direction']", sec["direction"], lo=-1, hi=1)
     stat, smin, smax, s, pmin, pmax = _lib().section_boundary(
         model.name, model.params(), lo, hi, int(n_grid), sad, kind, index, level, dirn,
         float(dE), int(m))
     _check(stat, "section_boundary")
-    return {"s": np.asarray(s).copy(), "p_min": np.asarray(pmin).copy(),
-            "p_max": np.asarray(pmax).copy(), "s_min": float(smin), "s_max": float(smax)}
+    return Table({"s": np.asarray(s).copy(), "p_min": np.asarray(pmin).copy(),
+                  "p_max": np.asarray(pmax).copy(), "s_min": float(smin), "s_max": float(smax)})
 
 
 # ---------------------------------------------------------------- scenes from Python
@@ -685,7 +689,7 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, who: st
     if saddle is not None:
         orb["saddle"] = str(saddle)
     if saddle_near is not None:
-        orb["saddle_near"] = [float(x) for x in saddle_near]
+        orb["saddle_near"] = _args.reals(who, "saddle_near", saddle_near)
     if orb:
         groups["orbits"] = orb
     if section:
@@ -784,20 +788,18 @@ def _scalar_de(dE, who: str):
     """One excess energy as a float (None stays None); the range check is the reader's."""
     if dE is None:
         return None
-    a = np.asarray(dE, dtype=float)
-    if a.ndim != 0:
-        raise ValueError(f"{who}: dE must be one number (got shape {a.shape})")
-    return float(a)
+    if np.ndim(dE) != 0:
+        raise ValueError(f"{who}: dE must be one number (got shape {np.shape(dE)})")
+    return _args.real(who, "dE", dE)
 
 
 def _de_list(dE, who: str):
     """Excess energies as a list of floats (None stays None); the range check is the reader's."""
     if dE is None:
         return None
-    a = np.array(dE, dtype=float).reshape(-1)
-    if a.size == 0:
+    if np.size(dE) == 0:
         raise ValueError(f"{who}: dE is empty: give at least one excess energy > 0")
-    return [float(x) for x in a]
+    return _args.reals(who, "dE", dE)
 
 
 def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
@@ -977,9 +979,10 @@ def normal_form_map(model: Model, points, order: int = 8, to: str = "model", sad
     (the truncated series' own check: it grows with the distance from the saddle), saddle_state."""
     if to not in ("model", "normal_form"):
         raise ValueError("normal_form_map: to = 'model' or 'normal_form'")
+    order = _args.integer("normal_form_map", "order", order)
     st = _settings(model, saddle, saddle_near, who="normal_form_map", equilibria=equilibria,
-                   flux={"order": int(order)})
-    expo, coef, zs = _taylor_at_saddle(model, st, int(order), "normal_form_map")
+                   flux={"order": order})
+    expo, coef, zs = _taylor_at_saddle(model, st, order, "normal_form_map")
     nd = model.ndof
     pts = _as_rows(points, 2 * nd, "normal_form_map", "points", "point")
     if to == "normal_form":
@@ -991,7 +994,7 @@ def normal_form_map(model: Model, points, order: int = 8, to: str = "model", sad
     mapped = out.T.copy()
     if to == "model":
         mapped += zs
-    return {"points": mapped, "round_trip": rt.copy(), "saddle_state": zs}
+    return Table({"points": mapped, "round_trip": rt.copy(), "saddle_state": zs})
 
 
 def _normal_form_flux(model, st, de, order):
@@ -1057,7 +1060,7 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
     orb = {k: options.pop(k) for k in list(options) if k in ("method", "n_segments", "tol", "rtol", "atol")}
     st = _settings(model, saddle, saddle_near, section=section, who="tube_cut", orbits=orb,
                    tubes=dict(options, de=[_scalar_de(dE, "tube_cut")]), integrator=integrator, equilibria=equilibria)
-    return _cut(model, st, float(st["des"][0, 1]), TUBE_KINDS[kind], st["tub_area_tol"])
+    return Table(_cut(model, st, float(st["des"][0, 1]), TUBE_KINDS[kind], st["tub_area_tol"]))
 
 
 def _dissipation(model: Model) -> dict:
@@ -1135,10 +1138,13 @@ def transition_region(model: Model | None = None, dE: float | None = None, saddl
     mc = {k: v for k, v in (("t_max", t_max), ("gate", gate)) if v is not None}
     tra = {"de": [_scalar_de(dE, "transition_region")]}
     if area_tol is not None:
-        tra["area_tol"] = float(area_tol)
+        tra["area_tol"] = _args.real("transition_region", "area_tol", area_tol)   # its range: the reader's
+    n_init = _args.integer("transition_region", "n_init", n_init, lo=0)
+    n_scan = _args.integer("transition_region", "n_scan", n_scan, lo=0)
+    xtol = _args.real("transition_region", "xtol", xtol, lo=0)
     st = _settings(model, saddle, saddle_near, section=section, who="transition_region", montecarlo=mc,
                    transition=tra, integrator=integrator, equilibria=equilibria)
-    out = _region(model, st, float(st["des"][0, 2]), st["tra_area_tol"], n_init, n_scan, xtol)
+    out = Table(_region(model, st, float(st["des"][0, 2]), st["tra_area_tol"], n_init, n_scan, xtol))
     if out["status"] < 0:
         err = TubesError(out["status"], f"transition_region(dE = {out['dE']:g})")
         err.partial = out
@@ -1286,7 +1292,8 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     2 + n/100 undecided points (t_max too short, or a section or gate that does not fit the
     saddle). check=False returns the dict with agrees False instead.
 
-    Returns a dict: dE, n_samples, seed, fraction, std_error (sqrt(f(1-f)/n)), p_trans,
+    Returns a tubes.Table (a dict; its keys also attributes): dE, n_samples, seed, status (0; the
+    file's /montecarlo@status), fraction, std_error (sqrt(f(1-f)/n)), p_trans,
     misclassified, misclassified_inside_no_transit, misclassified_outside_transit, undecided,
     escaped (left for good through another exit: no transition), agrees, sigmas (|fraction -
     p_trans| in standard errors), sigma_limit (MC_SIGMA), misclassified_limit, undecided_limit,
@@ -1294,6 +1301,7 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     cut)."""
     model = model or Model()
     _need_2dof(model, "monte_carlo")
+    check = _args.flag("monte_carlo", "check", check)
     mc = {k: v for k, v in (("de", _scalar_de(dE, "monte_carlo")), ("n_samples", n_samples), ("seed", seed),
                             ("t_max", t_max), ("gate", gate), ("area_tol", area_tol)) if v is not None}
     if dE is None:
@@ -1330,19 +1338,19 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
             where += (f": {bad.size} of {ns} samples failed (the first: sample {k + 1} at (s, p_s) = "
                       f"({r[k]:.10g}, {pr[k]:.10g}))")
         err = TubesError(stat, where)
-        err.partial = {"dE": de, "n_samples": ns, "seed": seed, "r": r.copy(), "p_r": pr.copy(),
-                       "transit": outc.copy(), "agrees": False}
+        err.partial = Table({"dE": de, "n_samples": ns, "seed": seed, "status": int(stat), "r": r.copy(), "p_r": pr.copy(),
+                             "transit": outc.copy(), "agrees": False})
         raise err
     ins = ins.astype(bool)
     nt, nu = int(np.sum(outc == 1)), int(np.sum(outc == 2))
     in_nt, out_t = int(np.sum(ins & (outc != 1))), int(np.sum(~ins & (outc == 1)))
     f, p = nt / ns, area / ae
-    out = {"dE": de, "n_samples": ns, "seed": seed, "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / ns)),
+    out = Table({"dE": de, "n_samples": ns, "seed": seed, "status": 0, "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / ns)),
            "p_trans": p, **damped, "misclassified": in_nt + out_t, "misclassified_inside_no_transit": in_nt,
            "misclassified_outside_transit": out_t, "undecided": nu, "escaped": int(np.sum(outc == 3)),
            **({"trapped": int(np.sum(outc == 4))} if diss else {}),
            **_mc_agreement(ns, nt, nu, in_nt + out_t, p),
-           "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins}
+           "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins})
     if noisy:       # no deterministic prediction to hold it to (as the scene): the undecided count alone
         out["agrees"] = nu <= out["undecided_limit"]
     if check and not out["agrees"]:
@@ -1430,17 +1438,17 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
     n = nt * ns
     st4 = state.reshape(4, n, order="F").T.copy()
     en = energy.reshape(n, order="F").copy()
-    return {"track": np.repeat(np.arange(nt, dtype=np.int32), ns), "t": np.tile(t, nt),
-            "x": meas[0].reshape(n, order="F").copy(), "y": meas[1].reshape(n, order="F").copy(),
-            "truth": {"state": st4, "energy": en, "dE": en - e_e,
-                      "noisy": noisy.reshape(2, n, order="F").T.copy(),
-                      "release": rel[:2].T.copy(), "release_dE": rel[2].copy()},
-            "E_e": e_e, "saddle": st["saddle"], "damping_rate": float(c_damp), "n_draws": int(n_draws),
-            "n_samples": ns, "n_tracks": nt, "box": float(box), "rtol": float(rtol),
-            "duration": float(st["exp_duration"]), "camera_rate": float(st["exp_camera_rate"]),
-            "pixel": float(st["exp_pixel"]), "noise": float(st["exp_noise"]), "de_min": float(st["exp_de_min"]),
-            "de_max": float(st["exp_de_max"]), "damping_ratio": float(st["exp_damping_ratio"]),
-            "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": int(st["exp_seed"])}
+    return Table({"track": np.repeat(np.arange(nt, dtype=np.int32), ns), "t": np.tile(t, nt),
+                  "x": meas[0].reshape(n, order="F").copy(), "y": meas[1].reshape(n, order="F").copy(),
+                  "truth": {"state": st4, "energy": en, "dE": en - e_e,
+                            "noisy": noisy.reshape(2, n, order="F").T.copy(),
+                            "release": rel[:2].T.copy(), "release_dE": rel[2].copy()},
+                  "E_e": e_e, "saddle": st["saddle"], "damping_rate": float(c_damp), "n_draws": int(n_draws),
+                  "n_samples": ns, "n_tracks": nt, "box": float(box), "rtol": float(rtol),
+                  "duration": float(st["exp_duration"]), "camera_rate": float(st["exp_camera_rate"]),
+                  "pixel": float(st["exp_pixel"]), "noise": float(st["exp_noise"]), "de_min": float(st["exp_de_min"]),
+                  "de_max": float(st["exp_de_max"]), "damping_ratio": float(st["exp_damping_ratio"]),
+                  "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": int(st["exp_seed"])})
 
 
 def _as_method(f):
@@ -1483,9 +1491,16 @@ def _section(section, level, direction):
     raise ValueError(f"unknown section {section!r}; allowed: none, U1-, U1+, U1, theta, x, y")
 
 
-def _check_integration(method, t_end, rtol, atol, h, max_steps, solver):
+def _check_integration(who, method, t_end, rtol, atol, h, max_steps, solver, omega_bind, max_iter):
     """The input file's ranges for an integration (docs/input.md, &integrator and &trajectory),
-    with the same messages."""
+    with the same messages; returns (t_end, rtol, atol, h, max_steps, omega_bind, max_iter) checked."""
+    t_end = _args.real(who, "t_end", t_end, lo=0)
+    rtol = _args.real(who, "rtol", rtol, lo=1e-15, hi=1, hi_open=True)
+    atol = _args.real(who, "atol", atol, lo=0, lo_open=True)
+    h = _args.real(who, "h", h, lo=0)
+    max_steps = _args.integer(who, "max_steps", max_steps, lo=1)
+    omega_bind = _args.real(who, "omega_bind", omega_bind, lo=0)   # Tao's binding; 0: its default
+    max_iter = _args.integer(who, "max_iter", max_iter, lo=0)      # gauss*; 0: its default
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; allowed: {', '.join(METHODS)}")
     if method in FIXED_STEP and not h > 0:
@@ -1502,6 +1517,7 @@ def _check_integration(method, t_end, rtol, atol, h, max_steps, solver):
         raise ValueError(f"h = {h} is out of range: allowed >= 0 (0: variable step)")
     if not max_steps >= 1:
         raise ValueError(f"max_steps = {max_steps} is out of range: allowed >= 1")
+    return t_end, rtol, atol, h, max_steps, omega_bind, max_iter
 
 
 def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | None = None,
@@ -1529,23 +1545,27 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
     r, p_r, p_theta (polar canonical coordinates). Raises TubesError on failure.
     """
     model = model or Model()
-    _check_integration(method, t_end, rtol, atol, h, max_steps, solver)
+    t_end, rtol, atol, h, max_steps, omega_bind, max_iter = _check_integration(
+        "integrate", method, t_end, rtol, atol, h, max_steps, solver, omega_bind, max_iter)
+    level = _args.real("integrate", "level", level)
+    direction = _args.integer("integrate", "direction", direction, lo=-1, hi=1)
+    max_crossings = _args.integer("integrate", "max_crossings", max_crossings, lo=1)
+    stop_at_first = _args.flag("integrate", "stop_at_first", stop_at_first)
     if section == "theta" and not -360 <= level <= 360:
         raise ValueError(f"level = {level} is out of range for section 'theta': allowed -360 .. 360 [deg]")
     if direction not in (-1, 0, 1):
         raise ValueError(f"direction = {direction} is out of range: allowed -1, 0, 1")
     if dt_out is None:
         dt_out = max(t_end, 1e-300)
-    if not dt_out > 0:
-        raise ValueError("need dt_out > 0")
+    dt_out = _args.real("integrate", "dt_out", dt_out, lo=0, lo_open=True)
     kind, lev, dirn = _section(section, level, direction)
     nmax = int(np.floor(t_end / dt_out * (1 + 1e-12))) + 2
-    mc = max(1, int(max_crossings)) if kind else 1   # no section: no crossings to hold
+    mc = max_crossings if kind else 1   # no section: no crossings to hold
     n2 = 2 * model.ndof
     if kind == 1 and model.system != "rolling_ball":
         raise ValueError("the polar ray sections (U1, theta) are the rolling ball's; use 'x' or 'y'")
     stat, n, t, st, en, nc, ct, cx, cd, cnt = _lib().trajectory(
-        model.name, model.params(), _vec(state0, n2, "state0"), float(t_end), float(dt_out),
+        model.name, model.params(), _vec(state0, n2, "state0", "integrate"), float(t_end), float(dt_out),
         _method(METHODS[method], model, float(rtol)),
         float(rtol), float(atol), float(h), int(max_steps), float(omega_bind),
         1 if solver == "newton" else 2, int(max_iter), kind, lev, dirn, int(bool(stop_at_first)),
@@ -1591,7 +1611,9 @@ def ensemble(states, t_end: float, model: Model | None = None, method: str = "au
     row's integration failed: its state is where it stopped), nsteps (m,). Raises TubesError if
     any row failed (err.partial holds the dict)."""
     model = model or Model()
-    _check_integration(method, t_end, rtol, atol, h, max_steps, solver)
+    t_end, rtol, atol, h, max_steps, omega_bind, max_iter = _check_integration(
+        "ensemble", method, t_end, rtol, atol, h, max_steps, solver, omega_bind, max_iter)
+    threads = _args.integer("ensemble", "threads", threads, lo=0)
     n2 = 2 * model.ndof
     x0 = np.ascontiguousarray(_as_rows(states, n2, "ensemble", "states", "state"))
     if x0.shape[0] < 1:
@@ -1630,7 +1652,8 @@ class Integrator:
                  omega_bind: float = 0.0, solver: str = "newton", max_iter: int = 0):
         self._handle = 0
         self.model = model or Model()
-        _check_integration(method, 0.0, rtol, atol, h, max_steps, solver)
+        _, rtol, atol, h, max_steps, omega_bind, max_iter = _check_integration(
+            "Integrator", method, 0.0, rtol, atol, h, max_steps, solver, omega_bind, max_iter)
         self.method = method
         self._n2 = 2 * self.model.ndof
         handle, stat = _lib().integrator_open(
@@ -1647,9 +1670,8 @@ class Integrator:
         TubesError on failure (err.partial = (state where it stopped, counters))."""
         if not self._handle:
             raise ValueError("this Integrator is closed")
-        if not t_end >= 0:
-            raise ValueError(f"t_end = {t_end} is out of range: allowed >= 0")
-        x, counters, stat = self._propagate(self._handle, _vec(state0, self._n2, "state0"), float(t_end))
+        t_end = _args.real("Integrator.propagate", "t_end", t_end, lo=0)
+        x, counters, stat = self._propagate(self._handle, _vec(state0, self._n2, "state0", "Integrator.propagate"), float(t_end))
         if stat < 0:
             err = TubesError(stat, "Integrator.propagate")
             err.partial = (x, counters)
@@ -1694,7 +1716,9 @@ def reference_solution(state0, t_end: float, tol: float = 1e-26, model: Model | 
         raise ValueError("reference_solution: the real128 reference exists for rolling_ball only")
     if model.damping_ratio != 0:
         raise ValueError("reference_solution: conservative model only")
-    stat, x, _, _ = _lib().reference_solution(model.params()[:10], _vec(state0, 4, "state0"),
+    t_end = _args.real("reference_solution", "t_end", t_end, lo=0)
+    tol = _args.real("reference_solution", "tol", tol, lo=0, lo_open=True)
+    stat, x, _, _ = _lib().reference_solution(model.params()[:10], _vec(state0, 4, "state0", "reference_solution"),
                                               float(t_end), float(tol))
     _check(stat, "reference_solution")
     return np.asarray(x)
@@ -1728,6 +1752,16 @@ def differentiate(x, dt: float, method: str = "spectral", **options):
         raise TypeError(f"differentiate({method!r}): unknown option(s) {sorted(unknown)}; "
                         f"allowed: {sorted(_DIFF_OPTIONS[method])}")
     opt = dict(_DIFF_OPTIONS[method], **options)
+    who = f"differentiate({method!r})"
+    dt = _args.real(who, "dt", dt, lo=0, lo_open=True)
+    if method == "spectral":
+        opt["cutoff"] = 0.0 if opt["cutoff"] is None else _args.real(who, "cutoff", opt["cutoff"], lo=0)
+        opt["rolloff"] = _args.real(who, "rolloff", opt["rolloff"], lo=0, hi=2, hi_open=True)
+        opt["end_order"] = _args.integer(who, "end_order", opt["end_order"], lo=0)
+        opt["end_window"] = 0 if opt["end_window"] is None else _args.integer(who, "end_window", opt["end_window"], lo=1)
+    else:
+        opt["order"] = _args.integer(who, "order", opt["order"], lo=0)
+        opt["window"] = _args.integer(who, "window", opt["window"], lo=1)
     a = np.array(x, dtype=np.float64, copy=True)
     if a.ndim not in (1, 2):
         raise ValueError("x must be 1-D (n,) or 2-D (n, k)")
@@ -1740,8 +1774,7 @@ def differentiate(x, dt: float, method: str = "spectral", **options):
         if method == "spectral":
             if opt["edge"] not in EDGES:
                 raise ValueError(f"unknown edge {opt['edge']!r}; allowed: {', '.join(EDGES)}")
-            cutoff = 0.0 if opt["cutoff"] is None else float(opt["cutoff"])
-            ew = 0 if opt["end_window"] is None else int(opt["end_window"])
+            cutoff, ew = opt["cutoff"], opt["end_window"]
             stat, vj, xj = lib.differentiate_spectral(c, float(dt), cutoff, float(opt["rolloff"]),
                                                       EDGES[opt["edge"]], int(opt["end_order"]), ew)
         else:
@@ -1831,18 +1864,31 @@ class _Units(dict):
 
 
 class Table(dict):
-    """A scene's result as the Python calls return it (equilibria, orbit_family, transition,
-    flux): a dict of its columns (numpy arrays, lists of names or messages) and scalars.
-    ``to_pandas()`` and ``to_xarray()`` make one table of its 1-D columns of the common length (a
-    row per dE, or per equilibrium), where pandas / xarray are installed; the units are the
-    model's (docs/output.md lists them for the same datasets of the output file)."""
+    """A scene's result as every Python scene call returns it (equilibria, orbit_family, flux,
+    tube_cut, transition, transition_region, monte_carlo, section_boundary, normal_form_map,
+    synthetic_experiment): a dict of its columns (numpy arrays, lists of names or messages) and
+    scalars, read as ``t["period"]`` or as ``t.period``. ``to_pandas()`` and ``to_xarray()`` make
+    one table of its 1-D columns of the common length, where pandas / xarray are installed: a
+    row per dE (the index, and the xarray coordinate), or per equilibrium (``name``); the units
+    are the model's (docs/output.md lists them for the same datasets of the output file)."""
+
+    def __getattr__(self, key: str) -> Any:
+        try:
+            return self[key]
+        except KeyError:
+            raise AttributeError(f"this tubes.Table has no column {key!r} (its columns: "
+                                 f"{', '.join(map(str, self))})") from None
+
+    def __dir__(self):
+        return list(super().__dir__()) + [k for k in self if isinstance(k, str) and k.isidentifier()]
 
     def to_pandas(self):
-        """The 1-D columns of the common length as a pandas DataFrame."""
+        """The 1-D columns of the common length as a pandas DataFrame indexed by dE (or name)."""
         return _to_pandas(_columns(self, type(self).__name__, n=_rows(self)), {})
 
     def to_xarray(self):
-        """The 1-D columns of the common length as an xarray Dataset (dimension ``row``)."""
+        """The 1-D columns of the common length as an xarray Dataset with the coordinate dE (or
+        name; ``row`` where there is neither)."""
         return _to_xarray(_columns(self, type(self).__name__, n=_rows(self)), {})
 
 
@@ -1864,16 +1910,29 @@ def _columns(items: dict, name: str, n: int | None = None) -> dict:
     return {k: v for k, v in cols.items() if len(v) == n}
 
 
+def _index(cols: dict) -> str | None:
+    """The column a table's rows are labelled by: dE (a row per excess energy), else name (a row
+    per equilibrium), else none."""
+    return next((k for k in ("dE", "name") if k in cols), None)
+
+
 def _to_pandas(cols: dict, units: dict):
     import pandas as pd
     df = pd.DataFrame(cols)
-    df.attrs["units"] = {k: units.get(k, "") for k in df.columns}
+    key = _index(cols)
+    if key:
+        df = df.set_index(key)
+    df.attrs["units"] = {k: units.get(k, "") for k in cols}
     return df
 
 
 def _to_xarray(cols: dict, units: dict):
     import xarray as xr
-    return xr.Dataset({k: ("row", np.asarray(v), {"units": units.get(k, "")}) for k, v in cols.items()})
+    key = _index(cols)
+    dim = key or "row"
+    data = {k: (dim, np.asarray(v), {"units": units.get(k, "")}) for k, v in cols.items() if k != key}
+    coords = {key: (key, np.asarray(cols[key]), {"units": units.get(key, "")})} if key else None
+    return xr.Dataset(data, coords=coords)
 
 
 def _decode(v: Any) -> Any:
