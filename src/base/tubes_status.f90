@@ -86,10 +86,8 @@ contains
     case (TUBES_EUNRESOLVED); msg = 'dE is below what the energy resolves at the saddle: E_e + dE is known ' // &
                                   'to worse than 1e-6 of dE (a larger dE, or a smaller additive constant in H)'
     case (TUBES_ENOREGION); msg = 'the energy surface meets the plane section (or the flux''s dividing surface) ' // &
-                                  'in no bounded region within its search window (set by the &equilibria box: ' // &
-                                  'for a plane, the box widened by half its width on each side; for the flux, ' // &
-                                  'the box''s width around the saddle or the section''s point): another energy ' // &
-                                  'or section, or a larger box'
+                                  'in no bounded region within its search window (set by the &equilibria box): ' // &
+                                  'another energy or section, or a larger box'
     case (TUBES_ESHAPE);    msg = 'the transition region is not one piece star-shaped about its centre, or it ' // &
                                   'reaches the edge of the energy surface (a ray crosses its boundary more than ' // &
                                   'once, or the scan of the section disagrees with the traced boundary)'
