@@ -1,0 +1,47 @@
+"""Atheris (libFuzzer for Python) target: the experiment's file readers, tubes.experiment
+.read_tracks (CSV or HDF5 tracks, with the --columns roles, time and length units, pixel size)
+and read_calibration, on arbitrary bytes written to a file. Only the module's input error,
+ExperimentError, may escape (the CLI turns it into a message and exit 1); any other exception is a
+finding. Run by tests/fuzz/run_py.sh (make fuzz; docs/development.md "Fuzzing").
+The first input byte chooses the reader and its options, the rest is the file."""
+import os
+import sys
+import tempfile
+
+import atheris
+
+with atheris.instrument_imports():
+    from tubes.experiment import ExperimentError, read_calibration, read_tracks
+
+# one file per process, rewritten per input, on a RAM disk when there is one
+_DIR = "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else None
+_FD, _PATH = tempfile.mkstemp(prefix="fuzz_tracks_", suffix=".csv", dir=_DIR)
+os.close(_FD)
+COLUMNS = [None, {"track": "id", "t": "time_ms", "x": "x_mm", "y": "y_mm"}, {"t": "frame"}, {"x": "y", "y": "x"}]
+TIME_UNITS = ["s", "ms", "us", "min"]          # "min" is not allowed: the error path
+LENGTHS = [("cm", None), ("mm", None), ("px", 0.01), ("px", None)]   # px without a size: error
+
+
+def TestOneInput(data: bytes) -> None:
+    if not data:
+        return
+    opt, body = data[0], data[1:]
+    with open(_PATH, "wb") as f:
+        f.write(body)
+    unit, psize = LENGTHS[(opt >> 4) & 3]
+    try:
+        if opt & 0x80:
+            read_calibration(_PATH, length_unit=unit, pixel_size=psize)
+        else:
+            read_tracks(_PATH, columns=COLUMNS[opt & 3], time_unit=TIME_UNITS[(opt >> 2) & 3],
+                        length_unit=unit, pixel_size=psize)
+    except ExperimentError:
+        pass
+
+
+if __name__ == "__main__":
+    try:
+        atheris.Setup(sys.argv, TestOneInput)
+        atheris.Fuzz()
+    finally:
+        os.unlink(_PATH)
