@@ -13,10 +13,12 @@ import atheris
 with atheris.instrument_imports():
     from tubes.experiment import ExperimentError, read_calibration, read_tracks
 
-# one file per process, rewritten per input, on a RAM disk when there is one
-_DIR = "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else None
-_FD, _PATH = tempfile.mkstemp(prefix="fuzz_tracks_", suffix=".csv", dir=_DIR)
-os.close(_FD)
+# one file per process, rewritten per input (on a RAM disk when there is one), unlinked at once and
+# read through /proc/self/fd: libFuzzer ends the process with exit(), which runs no Python clean-up
+_DIR = "/dev/shm" if os.access("/dev/shm", os.W_OK) else None
+_FD, _name = tempfile.mkstemp(prefix="fuzz_tracks_", dir=_DIR)
+os.unlink(_name)
+_PATH = f"/proc/self/fd/{_FD}"
 COLUMNS = [None, {"track": "id", "t": "time_ms", "x": "x_mm", "y": "y_mm"}, {"t": "frame"}, {"x": "y", "y": "x"}]
 TIME_UNITS = ["s", "ms", "us", "min"]          # "min" is not allowed: the error path
 LENGTHS = [("cm", None), ("mm", None), ("px", 0.01), ("px", None)]   # px without a size: error
@@ -26,8 +28,8 @@ def TestOneInput(data: bytes) -> None:
     if not data:
         return
     opt, body = data[0], data[1:]
-    with open(_PATH, "wb") as f:
-        f.write(body)
+    os.ftruncate(_FD, 0)
+    os.pwrite(_FD, body, 0)
     unit, psize = LENGTHS[(opt >> 4) & 3]
     try:
         if opt & 0x80:
@@ -40,8 +42,5 @@ def TestOneInput(data: bytes) -> None:
 
 
 if __name__ == "__main__":
-    try:
-        atheris.Setup(sys.argv, TestOneInput)
-        atheris.Fuzz()
-    finally:
-        os.unlink(_PATH)
+    atheris.Setup(sys.argv, TestOneInput)
+    atheris.Fuzz()
