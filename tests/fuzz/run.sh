@@ -22,7 +22,17 @@ case $target in
     if ! "$py" -c 'import atheris' 2>/dev/null; then
       echo "SKIP fuzz/$name: atheris is not installed in $py (make deps installs it)"; exit 0
     fi
-    cmd=("$py" "$target"); seeds=tests/fuzz/corpus-$name; new=$work/corpus-$name ;;
+    # libFuzzer's -merge (and -fork) re-run argv[0], which Atheris sets to the script's path: the
+    # target runs through an executable wrapper, build/fuzz/fuzz_<name>, that Python sees as argv[0]
+    mkdir -p "$work"
+    wrap=$work/fuzz_$name
+    case $py in /*) ;; */*) py=$PWD/$py ;; esac    # absolute, not resolved: a venv's python is a link
+    printf '#!/usr/bin/env bash\nexec %q -c %q "$0" %q "$@"\n' "$py" \
+      'import sys; w, t = sys.argv[1:3]; sys.argv = [w] + sys.argv[3:]
+exec(compile(open(t, "rb").read(), t, "exec"), {"__name__": "__main__", "__file__": t})' \
+      "$(realpath "$target")" >"$wrap"
+    chmod +x "$wrap"
+    cmd=("$wrap"); repro="$py $target"; seeds=tests/fuzz/corpus-$name; new=$work/corpus-$name ;;
   *)
     name=$(basename "$target"); name=${name#fuzz_}
     cmd=("$target"); seeds=tests/fuzz/corpus; new=$work/corpus
@@ -47,9 +57,13 @@ echo "fuzz/$name: ${execs:-0} executions in $((t1 - t0)) s ($(( ${execs:-0} / ( 
 if [ "$rc" -ne 0 ]; then
   grep -a -E '^(fuzz:|==[0-9]+==ERROR|SUMMARY|[A-Za-z]*Error)|nml:[0-9]+:|^ +File ' "$log" | head -20
   for f in $(find "$work/findings" -type f -newer "$log.start"); do
-    echo "finding: $f (reproduce: ${cmd[*]} $f)"
+    echo "finding: $f (reproduce: ${repro:-${cmd[*]}} $f)"
   done
-  echo "fuzz/$name: the fuzzer stopped on a finding (exit $rc); full log in $log" >&2
+  if [ $((crashes + hangs + leaks)) -gt 0 ]; then
+    echo "fuzz/$name: the fuzzer stopped on a finding (exit $rc); full log in $log" >&2
+  else
+    tail -5 "$log"; echo "fuzz/$name: the fuzzer failed (exit $rc) without a finding; full log in $log" >&2
+  fi
   exit 1
 fi
 if [ "$mode" = merge ]; then
