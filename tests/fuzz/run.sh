@@ -4,8 +4,9 @@
 #   TARGET is the libFuzzer binary build/fuzz/fuzz_namelist (seed corpus tests/fuzz/corpus) or an
 #   Atheris target tests/fuzz/fuzz_<name>.py (seed corpus tests/fuzz/corpus-<name>), run by the
 #   .venv's python; SECONDS 0 only replays the corpus. Both corpora are kept in git; new inputs
-#   go to build/fuzz/corpus-<name>. With 'merge', the inputs that add coverage are merged back
-#   into the kept corpus. FUZZ_PYTHON overrides the Python (default .venv/bin/python).
+#   go to build/fuzz/corpus-<name> (build/fuzz/corpus for the namelist). With 'merge', the inputs that add coverage are merged back
+#   into the kept corpus. FUZZ_PYTHON overrides the Python (default .venv/bin/python); FUZZ_FLAGS
+#   adds libFuzzer flags (e.g. -runs=1000000: stop after that many executions).
 # Prints one line "fuzz/<name>: N executions in T s (R/s), C crashes, H hangs, ..." and exits 1 on
 # a finding, with the input saved under build/fuzz/findings/ and the command that reproduces it.
 # A Python target without atheris installed prints SKIP and exits 0.
