@@ -87,7 +87,12 @@ endif
 APT_PKGS := gfortran gcc make pkg-config libhdf5-dev liblapack-dev libgsl-dev libsundials-dev \
             libsundials-fortran-dev libfftw3-dev libopenmpi-dev openmpi-bin python3-dev python3-venv \
             clang-14 libclang-rt-14-dev
-PY_PKGS  := numpy scipy h5py matplotlib pytest pytest-xdist meson ninja pandas xarray hypothesis sympy
+# the venv's packages as module:package, checked by importability; what is missing is installed.
+# atheris (Python fuzz targets, make fuzz) is optional: if pip cannot get it, those targets SKIP.
+PY_MODS  := numpy:numpy scipy:scipy h5py:h5py matplotlib:matplotlib pytest:pytest xdist:pytest-xdist \
+            mesonbuild:meson ninja:ninja pandas:pandas xarray:xarray hypothesis:hypothesis sympy:sympy
+PY_PKGS  := $(foreach m,$(PY_MODS),$(lastword $(subst :, ,$(m))))
+PY_FUZZ_PKGS := atheris==3.0.0
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 deps:
 	@missing=$$(for p in $(APT_PKGS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null \
@@ -97,11 +102,16 @@ deps:
 	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq \
 	    --no-install-recommends $$missing || exit 1; \
 	else echo "deps: Debian packages already installed"; fi
-	@if $(VENV)/bin/python -c 'import numpy, scipy, h5py, matplotlib, pytest, xdist, mesonbuild, pandas, xarray, hypothesis, sympy' 2>/dev/null \
-	    && [ -x $(VENV)/bin/ninja ]; then echo "deps: $(VENV) already complete"; \
-	else echo "deps: creating $(VENV) with $(PY_PKGS)"; \
-	  $(PYTHON) -m venv $(VENV) && $(VENV)/bin/python -m pip install --quiet --upgrade pip && \
-	  $(VENV)/bin/python -m pip install --quiet $(PY_PKGS) || exit 1; fi
+	@if ! $(VENV)/bin/python -c '' 2>/dev/null; then echo "deps: creating $(VENV)"; \
+	  $(PYTHON) -m venv --clear $(VENV) && $(VENV)/bin/python -m pip install --quiet --upgrade pip || exit 1; fi
+	@missing=$$($(VENV)/bin/python -c 'import importlib.util as u, sys; \
+	    print(*[p for m, p in (a.split(":") for a in sys.argv[1:]) if u.find_spec(m) is None])' $(PY_MODS)); \
+	if [ -z "$$missing" ] && [ -x $(VENV)/bin/ninja ]; then echo "deps: $(VENV) already complete"; \
+	else echo "deps: installing into $(VENV):" $${missing:-ninja}; \
+	  $(VENV)/bin/python -m pip install --quiet $${missing:-ninja} || exit 1; fi
+	@$(VENV)/bin/python -c 'import importlib.util as u; assert u.find_spec("atheris")' 2>/dev/null \
+	  || $(VENV)/bin/python -m pip install --quiet $(PY_FUZZ_PKGS) \
+	  || echo "deps: pip could not install $(PY_FUZZ_PKGS): the Python fuzz targets will SKIP (make fuzz, make check)"
 	@$(MAKE) --no-print-directory venv-link
 
 # The .venv finds this tree's python/ through tubes-dev.pth, a path relative to its site-packages
@@ -230,7 +240,8 @@ sanitize:
 
 # ---------------------------------------------------------------- fuzzing (docs/development.md)
 # libFuzzer (clang) on nml_load: the C lexer and validator instrumented, under ASan and UBSan;
-# the Fortran reader and the rest of the library linked as built. FUZZ_TIME seconds (make check: 60).
+# the Fortran reader and the rest of the library linked as built. FUZZ_TIME seconds per target
+# (make check: 60 for the namelist, 10 for each Python target).
 FUZZ_CC   ?= clang-14
 FUZZ_TIME ?= 600
 FUZZ_BIN  := $(BUILD)/fuzz/fuzz_namelist
@@ -244,8 +255,11 @@ pipcheck: all
 	@if why=$$(bash tests/pip_check.sh --probe); then bash tests/pip_check.sh; \
 	else echo "SKIP pip/install: $$why"; fi
 
+# Python targets: Atheris, tests/fuzz/fuzz_<name>.py with seed corpus tests/fuzz/corpus-<name>
+FUZZ_PY   := $(sort $(wildcard tests/fuzz/fuzz_*.py))
 fuzz: $(FUZZ_BIN)
-	@bash tests/fuzz/run.sh $(FUZZ_BIN) $(FUZZ_TIME) $(if $(FUZZ_MERGE),merge)
+	@rc=0; for t in $(FUZZ_BIN) $(FUZZ_PY); do \
+	  bash tests/fuzz/run.sh $$t $(FUZZ_TIME) $(if $(FUZZ_MERGE),merge) || rc=1; done; exit $$rc
 
 bench: all
 	@bash bench/run.sh

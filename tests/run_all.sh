@@ -29,6 +29,16 @@ if [ -x build/fuzz/fuzz_namelist ]; then
 else
   echo "SKIP fuzz/namelist (no build/fuzz/fuzz_namelist: no clang-14)"
 fi
+# each Python (Atheris) target: its corpus replayed, then 10 s of fuzzing; SKIP without atheris
+for t in tests/fuzz/fuzz_*.py; do
+  [ -f "$t" ] || continue
+  n=$(basename "$t" .py); n=${n#fuzz_}
+  if .venv/bin/python -c 'import atheris' 2>/dev/null; then
+    run "fuzz/$n (10 s)" bash tests/fuzz/run.sh "$t" 10
+  else
+    echo "SKIP fuzz/$n (atheris is not installed in .venv: make deps installs it)"
+  fi
+done
 # pip install . into a fresh venv (tests/pip_check.sh, about 2 minutes): make pipcheck, run by .ci/run
 # (kept out of make check's 10-minute budget)
 log=build/testlogs/pytest.log

@@ -3,9 +3,12 @@
 input error (ExperimentError, which `python -m tubes.experiment` turns into a message and exit 1),
 never another exception. TUBES_FUZZ_EXAMPLES sets the number of examples per property (default
 300; docs/development.md records a long run)."""
+import base64
 import os
+import zlib
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from tubes.experiment import ExperimentError, read_tracks
@@ -64,3 +67,25 @@ def test_a_well_formed_file_is_read_back_exactly(tmp_path_factory, rows):
     assert tr is not None
     got = sorted(zip(tr.track.tolist(), tr.t.tolist(), tr.x.tolist(), tr.y.tolist()))
     assert got == sorted((k, t, x, y) for k, t, x, y in rows)
+
+
+# Found by the Atheris target tests/fuzz/fuzz_tracks.py (docs/development.md "Fuzzing"): HDF5 files
+# of tracks whose structure is damaged, on which h5py raised RuntimeError ("bad symbol table node
+# signature") and ValueError ("Insufficient precision in available types") through read_tracks.
+# The files are the fuzzer's inputs (less its first, option byte), zlib-compressed and base64-coded.
+DAMAGED_H5 = {
+    "bad_symbol_table_node": (
+        'eNrr9HBx4+WS4mIAAQ4OBhYGAQZk8B8KBHhR+TD5BCjNCKU7oPQKJpg4I1hOAiouCDUfXV1IkKsrSPV/NACz5wErhOZgGAUjEXi4OgaA6AgoH5ZKTzChqispSkzOLkakRw8K7cWVfj2YIfwMVuLSbwA04SqMRuVo+gUCDVh5yYol/YJoKL8CSleilbMGDAzKCsn5ubmpeSVcYE0KJQoVCpVcBgoGCoYKRlwgEkjbcvm7gFIwrNxUYEY1Bz0djwJc5QArJMwYYXxIicDICBGABiMSLQBWKsABq7McwCQrkAcSZ2JiYoTUZxBzmBktoFEkgWbzhCESPhAQ7AdKb4hWxAxO/Ppg6VKDHb86WKgc4MKvDla+vuAeaelNAqxUUMEent5MuBlM/kMV4E53K7iwp7uOQRw6H+zpH04XuIdOOMHDxwGayxzoF04/eIZeekKEGwDDpGXw'),
+    "unknown_float_type": (
+        'eNrr9HBx4+WS4mIAAQ4OBhYGAQZk8B8KBHhR+TD5BCjNCKU7oPQKJpg4I1hOAiouCDUfXV1IkKsrSPV/NACz5wErhOZgGAUjEXi4OgaA6AgoH5ZKTzChqispSkzOLkakRw8K7cWVfj2YIfwMVuLSbwA04SqMRuVo+gUCDVh5yYol/YJoKL8CSleilbMGRNob7OfvAkrBsHJTgRnVHPR0PApwlQOskDBjhPEhJQIjI0QAGoxItABYqQAHrM5yAJOsQB5InImJiRFSn0HMYWa0gEaRBJrNE4ZI+CCnN0QrYgYnfn2wdKnBjl8dLFQOcOFXBytfX3CPtPQmAVYqqGAPT28m3Awm/6EKcKe7FVzY013HIA6dD/Y0CCcm/OF0gXvohBM8fBygucyBfunpB8/QS0+IcAMAf2Rc1w=='),
+}
+
+
+@pytest.mark.parametrize("name", sorted(DAMAGED_H5))
+def test_a_damaged_hdf5_file_gives_a_clean_error(tmp_path, name):
+    data = zlib.decompress(base64.b64decode(DAMAGED_H5[name]))
+    assert data[:8] == b"\x89HDF\r\n\x1a\n"
+    p = tmp_path / "tracks.h5"
+    p.write_bytes(data)
+    with pytest.raises(ExperimentError, match="damaged HDF5 file"):
+        read_tracks(str(p))

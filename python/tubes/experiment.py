@@ -322,52 +322,59 @@ def _read_h5(path: str) -> Tracks:
         f = h5py.File(path, "r")
     except OSError as exc:
         raise ExperimentError(f"{path}: not a readable HDF5 file ({exc})") from exc
-    with f:
-        if "tracks" not in f or not isinstance(f["tracks"], h5py.Group):
-            raise ExperimentError(f"{path}: no group /tracks (expected datasets track, t, x, y)")
-        g = f["tracks"]
-        arrs = {}
-        for c in ("track", "t", "x", "y"):
-            if c not in g or not isinstance(g[c], h5py.Dataset):
-                raise ExperimentError(f"{path}: /tracks has no dataset {c!r}")
-            d = g[c]
-            if d.dtype.kind not in "iuf":
-                raise ExperimentError(
-                    f"{path}: /tracks/{c} holds {_dtype_text(d.dtype)}: it must hold "
-                    + ("integer track ids (int32, int64, or reals with integer values)" if c == "track" else
-                       f"real numbers (float64, {'s' if c == 't' else 'cm'}; integers allowed)"))
-            if len(d.shape) != 1:
-                raise ExperimentError(f"{path}: /tracks/{c} must be one-dimensional, shape {d.shape}")
-            a = np.asarray(d[()])
-            arrs[c] = a
-        n = arrs["t"].size
-        for c in arrs:
-            if arrs[c].size != n:
-                raise ExperimentError(f"{path}: /tracks/{c} has {arrs[c].size} values, /tracks/t {n}")
-        if n == 0:
-            raise ExperimentError(f"{path}: /tracks is empty")
-        tr = arrs["track"]
-        if tr.dtype.kind == "f":
-            if not np.all(np.isfinite(tr)) or np.any(tr != np.round(tr)):
-                raise ExperimentError(f"{path}: /tracks/track must hold integer track ids")
-        elif tr.dtype.kind not in "iu":
+    try:
+        with f:
+            return _read_h5_tracks(path, f, h5py)
+    except (OSError, RuntimeError, KeyError, ValueError) as exc:   # h5py on a damaged file or an unknown type
+        raise ExperimentError(f"{path}: a damaged HDF5 file ({exc})") from None
+
+
+def _read_h5_tracks(path: str, f, h5py) -> Tracks:
+    if "tracks" not in f or not isinstance(f["tracks"], h5py.Group):
+        raise ExperimentError(f"{path}: no group /tracks (expected datasets track, t, x, y)")
+    g = f["tracks"]
+    arrs = {}
+    for c in ("track", "t", "x", "y"):
+        if c not in g or not isinstance(g[c], h5py.Dataset):
+            raise ExperimentError(f"{path}: /tracks has no dataset {c!r}")
+        d = g[c]
+        if d.dtype.kind not in "iuf":
+            raise ExperimentError(
+                f"{path}: /tracks/{c} holds {_dtype_text(d.dtype)}: it must hold "
+                + ("integer track ids (int32, int64, or reals with integer values)" if c == "track" else
+                   f"real numbers (float64, {'s' if c == 't' else 'cm'}; integers allowed)"))
+        if len(d.shape) != 1:
+            raise ExperimentError(f"{path}: /tracks/{c} must be one-dimensional, shape {d.shape}")
+        a = np.asarray(d[()])
+        arrs[c] = a
+    n = arrs["t"].size
+    for c in arrs:
+        if arrs[c].size != n:
+            raise ExperimentError(f"{path}: /tracks/{c} has {arrs[c].size} values, /tracks/t {n}")
+    if n == 0:
+        raise ExperimentError(f"{path}: /tracks is empty")
+    tr = arrs["track"]
+    if tr.dtype.kind == "f":
+        if not np.all(np.isfinite(tr)) or np.any(tr != np.round(tr)):
             raise ExperimentError(f"{path}: /tracks/track must hold integer track ids")
-        attrs = {k: (v.decode() if isinstance(v, bytes) else (v.item() if isinstance(v, np.generic) else v))
-                 for k, v in g.attrs.items()}
-        if "model" in f:   # a tubes file: the surface the tracks were made on (checked against a theory)
-            m = f["model"].attrs
-            sysname = m.get("system", b"rolling_ball")
-            sysname = sysname.decode() if isinstance(sysname, bytes) else str(sysname)
-            attrs["surface_model"] = json.dumps(
-                {"system": sysname, **{k: float(m[k]) for k in SURFACE_PARAMS if k in m}})
-        truth = None
-        if "truth" in g:
-            t = g["truth"]
-            truth = {k: np.asarray(t[k][()]) for k in ("state", "energy", "dE") if k in t}
-            if "state" not in truth or truth["state"].shape != (n, 4):
-                truth = None
-        return Tracks(tr.astype(np.int64), arrs["t"].astype(float), arrs["x"].astype(float),
-                      arrs["y"].astype(float), attrs, truth, path)
+    elif tr.dtype.kind not in "iu":
+        raise ExperimentError(f"{path}: /tracks/track must hold integer track ids")
+    attrs = {k: (v.decode() if isinstance(v, bytes) else (v.item() if isinstance(v, np.generic) else v))
+             for k, v in g.attrs.items()}
+    if "model" in f:   # a tubes file: the surface the tracks were made on (checked against a theory)
+        m = f["model"].attrs
+        sysname = m.get("system", b"rolling_ball")
+        sysname = sysname.decode() if isinstance(sysname, bytes) else str(sysname)
+        attrs["surface_model"] = json.dumps(
+            {"system": sysname, **{k: float(m[k]) for k in SURFACE_PARAMS if k in m}})
+    truth = None
+    if "truth" in g:
+        t = g["truth"]
+        truth = {k: np.asarray(t[k][()]) for k in ("state", "energy", "dE") if k in t}
+        if "state" not in truth or truth["state"].shape != (n, 4):
+            truth = None
+    return Tracks(tr.astype(np.int64), arrs["t"].astype(float), arrs["x"].astype(float),
+                  arrs["y"].astype(float), attrs, truth, path)
 
 
 @dataclasses.dataclass
