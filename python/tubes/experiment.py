@@ -176,6 +176,9 @@ class Segment:
 
 
 TIME_UNITS = {"s": 1.0, "ms": 1.0e-3, "us": 1.0e-6}          # -> s
+TIME_UNIT_CHOICES = (*TIME_UNITS, "frame")                      # frame: frame index / --rate -> s
+FRAME_NAMES = ("frame", "frames", "frame_number", "framenumber", "frame_no", "frame_index", "frame_id",
+               "image", "image_number", "slice")               # a time column by these names counts frames
 SURFACE_PARAMS = ("alpha", "beta", "gamma", "xi", "h0", "g")   # the surface and gravity of a track file
 CAL_RESIDUAL_MAX = 0.5   # [cm] a fitted calibration worse than this is refused
 LENGTH_UNITS = {"cm": 1.0, "mm": 0.1, "m": 100.0, "px": None}   # -> cm (px: --pixel-size)
@@ -509,19 +512,37 @@ def _length_scale(length_unit: str, pixel_size: float | None) -> float:
     return LENGTH_UNITS[length_unit]
 
 
+def _looks_like_frames(t: np.ndarray, track: np.ndarray) -> bool:
+    """Times that are frame indices: all integers, increasing within a track in steps that are
+    whole multiples of the most common step 1 (a frame index read as seconds: 1 Hz)."""
+    ok = np.isfinite(t)
+    t, track = t[ok], track[ok]
+    if t.size < 3 or not np.all(t == np.round(t)):
+        return False
+    d = np.diff(t)[np.diff(track) == 0]
+    d = d[d > 0]
+    return d.size > 0 and float(np.median(d)) == 1.0
+
+
 def read_tracks(path: str, columns: dict | None = None, time_unit: str = "s",
                 length_unit: str = "cm", pixel_size: float | None = None,
-                calibration: Calibration | None = None) -> Tracks:
+                calibration: Calibration | None = None, rate: float | None = None) -> Tracks:
     """Read a CSV (header track,t,x,y, or the names given in columns = {'track': ..., 't': ...,
     'x': ..., 'y': ...}; separated by ',', ';', tabs or spaces) or HDF5 (/tracks) file of tracked
-    positions, with times in time_unit (s, ms, us) and lengths in length_unit (cm, mm, m, or px
+    positions, with times in time_unit (s, ms, us, or frame: frame indices, divided by rate in
+    frames per second, which is then required) and lengths in length_unit (cm, mm, m, or px
     with pixel_size in cm per pixel). Returned in s and cm, sorted by track, then time, whatever
-    the rows' order in the file; calibration, if given, maps camera to surface coordinates."""
+    the rows' order in the file; calibration, if given, maps camera to surface coordinates.
+    A time column that looks like frame indices (named frame, ..., or integers in steps of 1
+    read as seconds) is refused unless time_unit is frame."""
     p = pathlib.Path(path)
     if not p.exists():
         raise ExperimentError(f"{path}: no such file")
-    if time_unit not in TIME_UNITS:
-        raise ExperimentError(f"time unit {time_unit!r}: allowed {', '.join(TIME_UNITS)}")
+    if time_unit not in TIME_UNIT_CHOICES:
+        raise ExperimentError(f"time unit {time_unit!r}: allowed {', '.join(TIME_UNIT_CHOICES)}")
+    if time_unit == "frame" and not (rate is not None and math.isfinite(rate) and rate > 0):
+        raise ExperimentError("time unit frame (times are frame indices) needs --rate: the camera's frames "
+                              "per second (> 0), by which the frame indices are divided")
     lscale = _length_scale(length_unit, pixel_size)
     if calibration is not None and not (np.all(np.isfinite(calibration.origin)) and math.isfinite(calibration.angle)):
         raise ExperimentError(f"calibration: origin {calibration.origin} and rotation {calibration.angle} deg must be "
@@ -531,7 +552,19 @@ def read_tracks(path: str, columns: dict | None = None, time_unit: str = "s",
     with open(p, "rb") as f:
         magic = f.read(8)
     tr = _read_h5(path) if magic == b"\x89HDF\r\n\x1a\n" else _read_csv(path, columns)
-    if TIME_UNITS[time_unit] != 1.0:
+    tname = str((columns or {}).get("t", "t")).strip()
+    if time_unit == "frame":
+        tr.t = tr.t / rate
+        tr.attrs = dict(tr.attrs, camera_rate=rate)
+    else:
+        named = tname.lower() in FRAME_NAMES
+        if named or time_unit == "s" and _looks_like_frames(tr.t, tr.track):
+            why = (f"is named {tname!r}" if named else
+                   f"{tname!r} holds integers in steps of 1 (a camera at 1 Hz if read as seconds)")
+            raise ExperimentError(f"{path}: the time column {why}: it looks like frame indices, not times in "
+                                  f"{time_unit}: give --time-unit frame --rate R (R the camera's frames per "
+                                  "second)")
+    if TIME_UNITS.get(time_unit, 1.0) != 1.0:
         tr.t = tr.t * TIME_UNITS[time_unit]
     if lscale != 1.0:
         tr.x = tr.x * lscale
@@ -1679,11 +1712,17 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
             f"the theory's surface is not the tracks'; --max-impossible {opt.max_impossible:g} is the limit")
     balance = float(np.nanmedian(energies)) if np.any(np.isfinite(energies)) else math.nan
     if math.isfinite(balance) and abs(balance - 1) > ENERGY_BALANCE_TOL:
-        k = 1 / math.sqrt(balance) if balance > 0 else math.nan
+        # velocities k times the right ones give balance = 1/k^2: said as a factor >= 1, the right way round
+        if balance > 0:
+            k = 1 / math.sqrt(balance)
+            look = (f"the velocities look {k:.3g} times too large" if k >= 1 else
+                    f"the velocities look {1 / k:.3g} times too small")
+        else:
+            look = "g H does not fall as T grows, which no scale of the velocities explains (the y axis upside down?)"
         raise ExperimentError(
             f"{tracks.source}: the kinetic and potential energies do not trade one for one along the tracks: "
             f"g H falls by {balance:.3g} times what T gains (1 on this surface; tolerance "
-            f"{ENERGY_BALANCE_TOL:g}): the velocities look {k:.3g} times too large for the positions: check "
+            f"{ENERGY_BALANCE_TOL:g}): {look} for the positions: check "
             f"--time-unit, --rate, --length-unit and --pixel-size, or the surface (--theory)")
     if cr is None:
         raise ExperimentError(f"{tracks.source}: no crossing of U1 in the analysed data\n{rep.summary()}")
@@ -2000,6 +2039,21 @@ def analysis_image(an: Analysis, argv=None, tracks_path: str = "") -> bytes:
     return _output.h5_image(fill)
 
 
+def slope_text(a: dict, digits: int = 3) -> str | None:
+    """The fitted transition slope of an analysis' attrs as text, never with a NaN: with its error,
+    or why the fit is undefined (no transition in the fit range: slope 0 and its 95 % upper limit;
+    no bin in the fit range: None)."""
+    if "slope_upper_95" in a:
+        return (f"no transition at 0 < dE <= {a['fit_max']:g}: the fit is undefined (slope 0, no error); "
+                f"95 % upper limit {a['slope_upper_95'] * 1e3:.{digits}f}e-3 (s/cm)^2")
+    s, se = a.get("slope", math.nan), a.get("slope_err", math.nan)
+    if not math.isfinite(s):
+        return None
+    if not math.isfinite(se):
+        return f"slope {s * 1e3:.{digits}f}e-3 (s/cm)^2 (its error undefined: the binomial weights are)"
+    return f"slope ({s * 1e3:.{digits}f} +- {se * 1e3:.{digits}f})e-3 (s/cm)^2"
+
+
 def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0), option: str | None = None) -> None:
     """The paper's Fig. 4: (a) U1^- crossings with dE in section_range by outcome, with the tube
     cut at or above the range's upper end and the energy boundary there; (b) the transition
@@ -2044,8 +2098,7 @@ def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0), option: 
         ax2.plot(dd, th.growth_rate * dd, "b:", lw=0.8, label="(T_po / A0) dE")
     if math.isfinite(a.get("slope", math.nan)):
         dd = np.linspace(0, a["fit_max"], 50)
-        ax2.plot(dd, a["slope"] * dd, "r--",
-                 label=f"fit: slope ({a['slope'] * 1e3:.2f} +- {a['slope_err'] * 1e3:.2f})e-3 (s/cm)^2")
+        ax2.plot(dd, a["slope"] * dd, "r--", label=f"fit: {slope_text(a, 2)}")
     ax2.axhline(0, color="0.5", lw=0.5)
     ax2.set_xlabel("dE [(cm/s)^2]")
     ax2.set_ylabel("transition fraction")
@@ -2379,7 +2432,8 @@ def main(argv=None) -> int:
     ap.add_argument("--rate", type=_positive, default=0.0, help="camera rate [Hz] (default: file)")
     ap.add_argument("--columns", type=_parse_columns, default=None,
                     help="the file's column names: track=NAME,t=NAME,x=NAME,y=NAME (any subset)")
-    ap.add_argument("--time-unit", choices=tuple(TIME_UNITS), default="s", help="unit of the times")
+    ap.add_argument("--time-unit", choices=TIME_UNIT_CHOICES, default="s",
+                    help="unit of the times: s, ms, us, or frame (frame indices; needs --rate, frames per second)")
     ap.add_argument("--length-unit", choices=tuple(LENGTH_UNITS), default="cm",
                     help="unit of x and y (px needs --pixel-size)")
     ap.add_argument("--pixel-size", type=_positive, default=None, help="cm per pixel (--length-unit px)")
@@ -2563,7 +2617,8 @@ def _run(args, orig) -> int:
             o = args.origin or (0.0, 0.0)
             cal = Calibration((o[0] * sc, o[1] * sc), args.rotate or 0.0, args.flip_y)
         tracks = read_tracks(args.tracks, columns=args.columns, time_unit=args.time_unit,
-                             length_unit=args.length_unit, pixel_size=args.pixel_size, calibration=cal)
+                             length_unit=args.length_unit, pixel_size=args.pixel_size, calibration=cal,
+                             rate=args.rate or None)
         an = analyse(tracks, theory, opt, theory_q24=theory_q24)
     except ExperimentError as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -2577,7 +2632,8 @@ def _run(args, orig) -> int:
     if cal is not None:
         print(cal.describe())
     print(f"camera rate {an.attrs['camera_rate']:.6g} Hz ({'--rate' if args.rate else 'from the file'}); times in "
-          f"{args.time_unit}, lengths in {args.length_unit}")
+          f"{'frames (divided by --rate)' if args.time_unit == 'frame' else args.time_unit}, lengths in "
+          f"{args.length_unit}")
     if tracks.attrs.get("rows_reordered"):
         print(f"note: {tracks.attrs['rows_reordered']} rows were not in (track, time) order: sorted "
               f"(a file may list its rows in any order; a track whose time decreases over most of it is rejected)",
@@ -2606,11 +2662,9 @@ def _run(args, orig) -> int:
           f"{a['energy_method']}; position noise {a['noise_used']:.4f} cm; design effect "
           f"{a['design_effect']:.2f}")
     if "slope_upper_95" in a:
-        print(f"no transition at 0 < dE <= {a['fit_max']:g}: slope 0, 95 % upper limit "
-              f"{a['slope_upper_95'] * 1e3:.3f}e-3 (s/cm)^2")
+        print(slope_text(a))
     elif math.isfinite(a.get("slope", math.nan)):
-        line = f"slope (through the origin, dE <= {a['fit_max']:g}): ({a['slope'] * 1e3:.3f} +- " \
-               f"{a['slope_err'] * 1e3:.3f})e-3 (s/cm)^2"
+        line = f"slope (through the origin, dE <= {a['fit_max']:g}): " + slope_text(a).removeprefix("slope ")
         if "slope_theory" in a:
             line += f"; theory with the same weights {a['slope_theory'] * 1e3:.3f}e-3, T_po/A0 = " \
                     f"{a['growth_rate'] * 1e3:.4f}e-3"
@@ -2641,12 +2695,16 @@ def _run(args, orig) -> int:
     q24 = "q24_count" in b
     print("      dE bin     center   count  trans  fraction     interval        theory" +
           ("   | Q2+Q4: count  trans  fraction    theory" if q24 else ""))
+    def cell(v, width=8):       # an empty bin has no fraction, a bin outside the theory's range no p: "-", not nan
+        return f"{v:{width}.4f}" if math.isfinite(v) else f"{'-':>{width}}"
+
     for j in range(b["count"].size):
+        ci = (f"[{b['ci_low'][j]:.4f}, {b['ci_high'][j]:.4f}]" if math.isfinite(b["ci_low"][j])
+              else f"{'-':^16}")
         print(f"{b['dE_low'][j]:7.0f}..{b['dE_high'][j]:<5.0f} {b['dE_center'][j]:8.1f} {b['count'][j]:7d} "
-              f"{b['transitions'][j]:6d}  {b['fraction'][j]:8.4f}  [{b['ci_low'][j]:.4f}, "
-              f"{b['ci_high'][j]:.4f}]  {b['p_theory'][j]:8.4f}" +
-              (f"   |      {b['q24_count'][j]:7d} {b['q24_transitions'][j]:6d}  {b['q24_fraction'][j]:8.4f}  "
-               f"{b['q24_p_theory'][j]:8.4f}" if q24 else ""))
+              f"{b['transitions'][j]:6d}  {cell(b['fraction'][j])}  {ci}  {cell(b['p_theory'][j])}" +
+              (f"   |      {b['q24_count'][j]:7d} {b['q24_transitions'][j]:6d}  {cell(b['q24_fraction'][j])}  "
+               f"{cell(b['q24_p_theory'][j])}" if q24 else ""))
     try:
         with _output.batch():      # every output made first, then written all or none
             if args.output:
