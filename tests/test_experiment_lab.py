@@ -412,3 +412,16 @@ def test_no_nan_in_the_printout_or_the_legend(canon, tmp_path, monkeypatch):
     r = _run([str(d / "canon.csv"), "--bins", "0:200:200", "--fit-max", "200", "--resamples", "0", "--bootstrap", "0"],
              tmp_path)
     assert r.returncode == 0 and "the fit is undefined" in r.stdout and "nan" not in r.stdout.lower(), r.stdout
+
+
+def test_a_single_track_prints_no_nan(tmp_path):
+    """One track: the decay's coefficients have no bootstrap error (it needs two tracks); the
+    summary prints the values, "(no error)" and a note why, never "+- nan" or "(95%: nan .. nan)"."""
+    tr = ex.synthetic_tracks(1, duration=2.0, ensemble="microcanonical", dE_range=(100.0, 300.0), seed=5,
+                             noise=0.05, pixel=0.16, rate=50.0)
+    ex.write_tracks_csv(str(tmp_path / "one.csv"), tr)
+    r = _run(["one.csv", "--resamples", "0", "--bootstrap", "0"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "damping from the energy's decay" in r.stdout and "(no error)" in r.stdout, r.stdout
+    assert "bootstrap over the tracks, which needs two or more" in r.stdout
+    assert "nan" not in r.stdout.lower(), r.stdout

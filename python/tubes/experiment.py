@@ -1509,19 +1509,31 @@ def _dissipation_summary(a: dict) -> list:
     cz, cze = a["combined_damping_ratio"], a["combined_damping_ratio_err"]
     cr, cre = a["combined_rolling_resistance"], a["combined_rolling_resistance_err"]
     r, re_ = a["rolling_resistance"], a["rolling_resistance_err"]
+    conf = a["confidence"]
     return [
         f"dissipation from the energy's decay: {what}",
-        f"  combined fit E = a - c D - f S{drift}: c = {c:.4g} +- {ce:.2g} 1/s (zeta {cz:.4g} +- {cze:.2g}; "
-        f"{coef(c, ce)}), f = {f:.4g} +- {fe:.2g} cm/s^2 (C_rr {cr:.4g} +- {cre:.2g}; {coef(f, fe)}) [present: "
-        f"more than {thr:g} se above 0; absent: 0 inside the {a['confidence']:.0%} interval]",
-        f"  rolling fit E = a - f S{drift} (S the centre's path): f = {a['rolling_drag']:.5g} +- "
-        f"{a['rolling_drag_err']:.2g} cm/s^2, C_rr = f/g = {r:.5g} +- {re_:.2g} ({a['confidence']:.0%}: "
-        f"{r - z * re_:.5g} .. {r + z * re_:.5g})",
+        f"  combined fit E = a - c D - f S{drift}: c = {_pm(c, ce, '.4g', unit=' 1/s')} (zeta {_pm(cz, cze, '.4g')}; "
+        f"{coef(c, ce)}), f = {_pm(f, fe, '.4g', unit=' cm/s^2')} (C_rr {_pm(cr, cre, '.4g')}; {coef(f, fe)}) "
+        f"[present: more than {thr:g} se above 0; absent: 0 inside the {conf:.0%} interval]",
+        f"  rolling fit E = a - f S{drift} (S the centre's path): f = "
+        f"{_pm(a['rolling_drag'], a['rolling_drag_err'], '.5g', unit=' cm/s^2')}, C_rr = f/g = "
+        f"{_pm(r, re_, '.5g', z=z, conf=conf)}",
         f"  residual rms: viscous (E = a - c D{drift}) {a['residual_rms_viscous']:.2f}, rolling (E = a - f S{drift}) "
         f"{a['residual_rms_rolling']:.2f}, combined {a['residual_rms_combined']:.2f} (cm/s)^2",
-        f"  energy loss against time -dE/dt = {a['energy_loss_rate']:.4g} +- {a['energy_loss_rate_err']:.2g} "
-        f"(cm/s)^2/s, against path length -dE/ds = {a['energy_loss_per_length']:.4g} +- "
-        f"{a['energy_loss_per_length_err']:.2g} cm/s^2 (mean slopes)"]
+        f"  energy loss against time -dE/dt = "
+        f"{_pm(a['energy_loss_rate'], a['energy_loss_rate_err'], '.4g', unit=' (cm/s)^2/s')}, against path "
+        f"length -dE/ds = {_pm(a['energy_loss_per_length'], a['energy_loss_per_length_err'], '.4g', unit=' cm/s^2')} "
+        f"(mean slopes)"]
+
+
+def _pm(v: float, e: float, fv: str, fe: str = ".2g", unit: str = "", z: float | None = None,
+        conf: float = 0.95) -> str:
+    """'v +- e unit' (and, with z, the interval at conf), never with a NaN: an error that is not a
+    finite number (a single track: no bootstrap; the summary says why once) is said in words."""
+    if not (math.isfinite(e) and e >= 0):
+        return f"{v:{fv}}{unit} (no error)"
+    out = f"{v:{fv}} +- {e:{fe}}{unit}"
+    return out + (f" ({conf:.0%}: {v - z * e:{fv}} .. {v + z * e:{fv}})" if z is not None else "")
 
 
 def _presence(v: float, e: float, z: float, threshold: float = LAW_PRESENT) -> str:
@@ -2678,15 +2690,20 @@ def _run(args, orig) -> int:
               f"{a['n_inside_evaluated']} = {a['inside_fraction']:.3%}")
     if math.isfinite(a.get("damping_rate", math.nan)):
         z = _z(a["confidence"])
-        print(f"damping from the energy's decay (dE/dt = -2 c T): c = {a['damping_rate']:.5g} +- "
-              f"{a['damping_rate_err']:.2g} 1/s, zeta = {a['damping_ratio']:.5g} +- {a['damping_ratio_err']:.2g} "
-              f"({a['confidence']:.0%}: {a['damping_ratio'] - z * a['damping_ratio_err']:.5g} .. "
-              f"{a['damping_ratio'] + z * a['damping_ratio_err']:.5g})")
+        print(f"damping from the energy's decay (dE/dt = -2 c T): c = "
+              f"{_pm(a['damping_rate'], a['damping_rate_err'], '.5g', unit=' 1/s')}, zeta = "
+              f"{_pm(a['damping_ratio'], a['damping_ratio_err'], '.5g', z=z, conf=a['confidence'])}")
     if math.isfinite(a.get("combined_damping_rate", math.nan)):
         for line in _dissipation_summary(a):
             print(line)
-    print(f"energy balance along the tracks: g H falls by {a['energy_balance']:.4f} times what T gains "
-          f"(1 for positions, times and surface that agree)")
+    if math.isfinite(a.get("damping_rate", math.nan)) and not math.isfinite(a.get("damping_rate_err", math.nan)):
+        print("note: no error on the decay's coefficients: they come from a bootstrap over the tracks, which "
+              "needs two or more")
+    if math.isfinite(a["energy_balance"]):
+        print(f"energy balance along the tracks: g H falls by {a['energy_balance']:.4f} times what T gains "
+              f"(1 for positions, times and surface that agree)")
+    else:
+        print("energy balance along the tracks: undetermined (no segment with 8 usable samples of T and E)")
     if "truth_dE_rms" in a:
         print(f"against the truth: dE rms {a['truth_dE_rms']:.2f}, bias {a['truth_dE_bias']:+.2f} "
               f"(cm/s)^2, z rms {a['truth_dE_z_rms']:.2f}; outcome agreement "
