@@ -40,3 +40,16 @@ def test_double_well(tmp_path):
         assert p == pytest.approx(d / (d + 0.109375), rel=1e-5)
     m = re.search(r"Monte Carlo at dE = 0.05: (\S+) \+- (\S+) against A_tube/A_E = (\S+)", out)
     assert m and abs(float(m.group(1)) - 0.05 / 0.159375) < 4 * float(m.group(2)), out
+
+
+def test_henon_heiles(tmp_path):
+    """The three saddles at energy 1/6 on the unit circle and the well at 0 (closed form), and a
+    section with returns."""
+    out = _run("henon_heiles.py", tmp_path)
+    assert (tmp_path / "henon_heiles.png").stat().st_size > 0
+    sad = re.findall(r"^S\d: .* energy (\S+), index 1, \|q\| = (\S+)$", out, re.M)
+    assert len(sad) == 3, out
+    for e, r in sad:
+        assert float(e) == pytest.approx(1 / 6, abs=1e-10) and float(r) == pytest.approx(1.0, abs=1e-6)
+    m = re.search(r"(\d+) returns, (\d+) of 30 seeds escaped", out)
+    assert m and int(m.group(1)) > 0, out
