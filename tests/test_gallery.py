@@ -53,3 +53,15 @@ def test_henon_heiles(tmp_path):
         assert float(e) == pytest.approx(1 / 6, abs=1e-10) and float(r) == pytest.approx(1.0, abs=1e-6)
     m = re.search(r"(\d+) returns, (\d+) of 30 seeds escaped", out)
     assert m and int(m.group(1)) > 0, out
+
+
+def test_parameter_scan(tmp_path):
+    """At dE = 2 the tube's cut is the Lyapunov orbit's action to leading order, 2 pi dE / omega:
+    the ratio within 1e-3 of 1 for every alpha; p_trans grows with dE (2 -> 20) by about 10."""
+    out = _run("parameter_scan.py", tmp_path)
+    assert (tmp_path / "parameter_scan.png").stat().st_size > 0
+    rows = re.findall(r"^\s*(0\.\d+)\s+\S+\s+\S+\s+(\S+)\s+(\S+)\s+(\S+)$", out, re.M)
+    assert len(rows) == 4, out
+    for a, p2, p20, ratio in rows:
+        assert abs(float(ratio) - 1) < 1e-3, (a, ratio)
+        assert 8 < float(p20) / float(p2) < 11, (a, p2, p20)
