@@ -2410,6 +2410,9 @@ def _positive(s: str) -> float:
 
 
 def main(argv=None) -> int:
+    """The command line, python -m tubes.experiment TRACKS [options] (docs/experiment.md): argv
+    without the program's name (default sys.argv[1:]); returns the exit status (docs/experiment.md:
+    0 ok, 1 bad input, an output error's code); a bad option exits with argparse's 2."""
     argv = list(sys.argv[1:] if argv is None else argv)
     orig = list(argv)
     for i in range(len(argv) - 1):      # "--bins -40:400:40": a value, not an option
