@@ -65,3 +65,14 @@ def test_parameter_scan(tmp_path):
     for a, p2, p20, ratio in rows:
         assert abs(float(ratio) - 1) < 1e-3, (a, ratio)
         assert 8 < float(p20) / float(p2) < 11, (a, p2, p20)
+
+
+def test_lab_data(tmp_path):
+    """A trackpy-style export read with time_unit='frame': the energy balance within 0.02 of 1 and
+    the true damping ratio 0.025 inside the printed 95 % interval."""
+    out = _run("lab_data.py", tmp_path)
+    assert (tmp_path / "lab_data.png").stat().st_size > 0 and (tmp_path / "lab_tracks.csv").exists()
+    m = re.search(r"g H falls by (\S+) times", out)
+    assert m and abs(float(m.group(1)) - 1) < 0.02, out
+    m = re.search(r"\(95 %: (\S+) \.\. (\S+); true 0.025\)", out)
+    assert m and float(m.group(1)) <= 0.025 <= float(m.group(2)), out
