@@ -76,3 +76,22 @@ def test_lab_data(tmp_path):
     assert m and abs(float(m.group(1)) - 1) < 0.02, out
     m = re.search(r"\(95 %: (\S+) \.\. (\S+); true 0.025\)", out)
     assert m and float(m.group(1)) <= 0.025 <= float(m.group(2)), out
+
+
+def test_cr3bp_l1(tmp_path):
+    """L1 against the collinear quintic's root between the primaries (scipy's brentq) and its
+    energy U_eff(L1); the cut's area equal to the action (1e-8) and within 1 % of its leading
+    order 2 pi dE / omega; the polygon area within 1e-5."""
+    from scipy.optimize import brentq
+    out = _run("cr3bp_l1.py", tmp_path)
+    assert (tmp_path / "cr3bp_l1.png").stat().st_size > 0
+    m = re.search(r"mu = (\S+): L1 at x = (\S+), energy (\S+),", out)
+    assert m, out
+    mu, x, e = (float(v) for v in m.groups())
+    xl1 = brentq(lambda x: x - (1 - mu) / (x + mu) ** 2 + mu / (x - 1 + mu) ** 2, 0.5, 1 - mu - 1e-3, xtol=1e-15)
+    assert x == pytest.approx(xl1, abs=1e-9)
+    assert e == pytest.approx(-xl1 ** 2 / 2 - (1 - mu) / (xl1 + mu) - mu / (1 - mu - xl1), abs=1e-9)
+    m = re.search(r"area (\S+) \(polygon (\S+)\), action (\S+), .*= (\S+)$", out, re.M)
+    area, poly, action, lead = (float(v) for v in m.groups())
+    assert area == pytest.approx(action, rel=1e-8) and poly == pytest.approx(area, rel=1e-5)
+    assert area == pytest.approx(lead, rel=1e-2)
