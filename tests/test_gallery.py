@@ -111,3 +111,13 @@ def test_flux_3dof(tmp_path):
         if e == 0.0:
             assert abs(s - lo) < 4 * se, (d, s, se, lo)
     assert rows[5][2] < rows[2][2]
+
+
+def test_damped_region(tmp_path):
+    """Continuity as zeta -> 0 (the region at zeta = 1e-6 within 1e-3 of the conservative cut's
+    area) and the region shrinking as the damping grows."""
+    out = _run("damped_region.py", tmp_path)
+    assert (tmp_path / "damped_region.png").stat().st_size > 0
+    ratios = [float(v) for v in re.findall(r"ratio to the cut (\S+),", out)]
+    assert len(ratios) == 3, out
+    assert abs(ratios[0] - 1) < 1e-3 and ratios[0] > ratios[1] > ratios[2] > 0, ratios
