@@ -271,8 +271,12 @@ paper: all
 
 docs:
 	@$(VENV)/bin/python -c 'import ford' 2>/dev/null || { echo "docs: installing FORD into $(VENV)"; \
-	  $(VENV)/bin/pip install --quiet ford; }
+	  $(VENV)/bin/python -m pip install --quiet ford; }
 	PATH=$(abspath $(VENV))/bin:$$PATH $(VENV)/bin/ford -q docs/ford.md && echo "docs: API documentation in build/doc/index.html"
+	@$(VENV)/bin/python -c 'import sphinx' 2>/dev/null || { echo "docs: installing Sphinx into $(VENV)"; \
+	  $(VENV)/bin/python -m pip install --quiet sphinx; }
+	$(VENV)/bin/python -m sphinx -q -W -b html docs/api build/doc/python && \
+	  echo "docs: Python API reference in build/doc/python/index.html"
 
 install: all
 	install -d $(PREFIX)/bin $(PREFIX)/lib $(PREFIX)/include

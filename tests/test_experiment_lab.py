@@ -331,3 +331,97 @@ def test_velocities_that_do_not_fit_the_surface_are_refused(canon, tmp_path):
     assert "do not trade one for one" in r.stderr and "--rate" in r.stderr and "--time-unit" in r.stderr
     m = re.search(r"g H falls by ([0-9.]+) times", r.stderr)
     assert m and abs(float(m.group(1)) - 1.2**2) < 0.05, r.stderr
+
+
+@pytest.mark.parametrize("tscale,side", [(1.25, "small"), (0.8, "large")])
+def test_the_velocity_factor_is_said_the_right_way_round(canon, tmp_path, tscale, side):
+    """Times stretched by 1.25 make the velocities 1.25 times too small (g H trades at 1.25^2 T);
+    times shrunk by 0.8 make them 1.25 times too large: the message gives the factor >= 1 and the
+    side (it said "0.8 times too large" for 1.25 times too small)."""
+    d, rows = canon
+    _lab(tmp_path / "lab.csv", rows, tscale=tscale)
+    r = _run([str(tmp_path / "lab.csv"), "--resamples", "0", "--bootstrap", "0"], tmp_path)
+    assert r.returncode == 1, r.stdout + r.stderr
+    m = re.search(r"the velocities look ([0-9.]+) times too (small|large)", r.stderr)
+    assert m, r.stderr
+    assert m.group(2) == side and abs(float(m.group(1)) - 1.25) < 0.03, r.stderr
+
+
+def _trackpy(path, rows, rate=50.0, name="frame"):
+    """A trackpy-style export: frame, particle, x, y in pixels (0.16 cm), y down."""
+    with open(path, "w") as f:
+        f.write(f"{name},particle,x,y\n")
+        f.writelines(f"{int(round(t * rate))},{k},{x / 0.16!r},{-y / 0.16!r}\n" for k, t, x, y in rows)
+
+
+def test_frame_numbers_with_time_unit_frame(canon, tmp_path):
+    """--time-unit frame --rate 50 divides the frame indices by the rate: the same samples as the
+    canonical file (its times are frame / 50 to round-off) and the same analysis."""
+    d, rows = canon
+    _trackpy(tmp_path / "tp.csv", rows)
+    tr = ex.read_tracks(str(tmp_path / "tp.csv"), columns={"t": "frame", "track": "particle"}, time_unit="frame",
+                        rate=50.0, length_unit="px", pixel_size=0.16, calibration=ex.Calibration((0.0, 0.0), 0.0, True))
+    k, t, x, y = (np.array(c) for c in zip(*rows))
+    np.testing.assert_allclose(tr.t, t, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(tr.x, x, rtol=1e-12, atol=1e-12)
+    args = ["tp.csv", "--columns", "t=frame,track=particle", "--length-unit", "px", "--pixel-size", "0.16",
+            "--flip-y", "--resamples", "0", "--bootstrap", "0"]
+    r = _run(args + ["--time-unit", "frame", "--rate", "50"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "camera rate 50 Hz (--rate); times in frames (divided by --rate)" in r.stdout
+    ref = _run([str(d / "canon.csv"), "--resamples", "0", "--bootstrap", "0"], tmp_path)
+    m = [re.search(r"U1 crossings: .*", o.stdout).group(0) for o in (r, ref)]
+    assert m[0] == m[1], m
+    # --time-unit frame without --rate: refused, naming --rate
+    r = _run(args + ["--time-unit", "frame"], tmp_path)
+    assert r.returncode == 1 and "--rate" in r.stderr and "frames per second" in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("name", ["frame", "f"])
+def test_frame_numbers_read_as_seconds_are_refused(canon, tmp_path, name):
+    """Frame indices read as seconds (with --rate 60 they made 36,000 gap issues and "no usable
+    track segment"): refused, suggesting --time-unit frame --rate R, whether the column is named
+    frame or only holds integers in steps of 1."""
+    d, rows = canon
+    _trackpy(tmp_path / "tp.csv", rows, name=name)
+    r = _run(["tp.csv", "--columns", f"t={name},track=particle", "--length-unit", "px", "--pixel-size", "0.16",
+              "--flip-y", "--rate", "50", "-o", "an.h5"], tmp_path)
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert "looks like frame indices" in r.stderr and "--time-unit frame --rate R" in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr and not (tmp_path / "an.h5").exists()
+
+
+def test_no_nan_in_the_printout_or_the_legend(canon, tmp_path, monkeypatch):
+    """One bin (0, 200] with crossings and no transition: the fit is undefined; the printout says
+    so with the 95 % upper limit, and neither it (the empty bins' fractions, intervals, theory)
+    nor the figure's legend (it drew "slope (0.00 +- nan)e-3") shows a nan."""
+    d, rows = canon
+    an = ex.analyse(ex.read_tracks(str(d / "canon.csv")), None,
+                    ex.Options(bins=(0.0, 200.0), fit_max=200.0, bootstrap=0, resamples=0, compare=False))
+    assert an.attrs["n_crossings"] > 0 and an.attrs["n_transitions"] == 0
+    texts = []
+
+    def grab(fig, path, option=None, **kw):
+        texts.extend(t.get_text() for ax in fig.axes for t in ax.findobj(lambda o: hasattr(o, "get_text")))
+    monkeypatch.setattr(ex._output, "save_figure", grab)
+    ex.plot_analysis(str(tmp_path / "f.png"), an)
+    assert texts and not any("nan" in t.lower() for t in texts), [t for t in texts if "nan" in t.lower()]
+    r = _run([str(d / "canon.csv"), "--bins", "-40:400:40", "--resamples", "0", "--bootstrap", "0"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "nan" not in r.stdout.lower(), r.stdout
+    r = _run([str(d / "canon.csv"), "--bins", "0:200:200", "--fit-max", "200", "--resamples", "0", "--bootstrap", "0"],
+             tmp_path)
+    assert r.returncode == 0 and "the fit is undefined" in r.stdout and "nan" not in r.stdout.lower(), r.stdout
+
+
+def test_a_single_track_prints_no_nan(tmp_path):
+    """One track: the decay's coefficients have no bootstrap error (it needs two tracks); the
+    summary prints the values, "(no error)" and a note why, never "+- nan" or "(95%: nan .. nan)"."""
+    tr = ex.synthetic_tracks(1, duration=2.0, ensemble="microcanonical", dE_range=(100.0, 300.0), seed=5,
+                             noise=0.05, pixel=0.16, rate=50.0)
+    ex.write_tracks_csv(str(tmp_path / "one.csv"), tr)
+    r = _run(["one.csv", "--resamples", "0", "--bootstrap", "0"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "damping from the energy's decay" in r.stdout and "(no error)" in r.stdout, r.stdout
+    assert "bootstrap over the tracks, which needs two or more" in r.stdout
+    assert "nan" not in r.stdout.lower(), r.stdout

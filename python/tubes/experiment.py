@@ -176,6 +176,9 @@ class Segment:
 
 
 TIME_UNITS = {"s": 1.0, "ms": 1.0e-3, "us": 1.0e-6}          # -> s
+TIME_UNIT_CHOICES = (*TIME_UNITS, "frame")                      # frame: frame index / --rate -> s
+FRAME_NAMES = ("frame", "frames", "frame_number", "framenumber", "frame_no", "frame_index", "frame_id",
+               "image", "image_number", "slice")               # a time column by these names counts frames
 SURFACE_PARAMS = ("alpha", "beta", "gamma", "xi", "h0", "g")   # the surface and gravity of a track file
 CAL_RESIDUAL_MAX = 0.5   # [cm] a fitted calibration worse than this is refused
 LENGTH_UNITS = {"cm": 1.0, "mm": 0.1, "m": 100.0, "px": None}   # -> cm (px: --pixel-size)
@@ -516,19 +519,37 @@ def _length_scale(length_unit: str, pixel_size: float | None) -> float:
     return LENGTH_UNITS[length_unit]
 
 
+def _looks_like_frames(t: np.ndarray, track: np.ndarray) -> bool:
+    """Times that are frame indices: all integers, increasing within a track in steps that are
+    whole multiples of the most common step 1 (a frame index read as seconds: 1 Hz)."""
+    ok = np.isfinite(t)
+    t, track = t[ok], track[ok]
+    if t.size < 3 or not np.all(t == np.round(t)):
+        return False
+    d = np.diff(t)[np.diff(track) == 0]
+    d = d[d > 0]
+    return d.size > 0 and float(np.median(d)) == 1.0
+
+
 def read_tracks(path: str, columns: dict | None = None, time_unit: str = "s",
                 length_unit: str = "cm", pixel_size: float | None = None,
-                calibration: Calibration | None = None) -> Tracks:
+                calibration: Calibration | None = None, rate: float | None = None) -> Tracks:
     """Read a CSV (header track,t,x,y, or the names given in columns = {'track': ..., 't': ...,
     'x': ..., 'y': ...}; separated by ',', ';', tabs or spaces) or HDF5 (/tracks) file of tracked
-    positions, with times in time_unit (s, ms, us) and lengths in length_unit (cm, mm, m, or px
+    positions, with times in time_unit (s, ms, us, or frame: frame indices, divided by rate in
+    frames per second, which is then required) and lengths in length_unit (cm, mm, m, or px
     with pixel_size in cm per pixel). Returned in s and cm, sorted by track, then time, whatever
-    the rows' order in the file; calibration, if given, maps camera to surface coordinates."""
+    the rows' order in the file; calibration, if given, maps camera to surface coordinates.
+    A time column that looks like frame indices (named frame, ..., or integers in steps of 1
+    read as seconds) is refused unless time_unit is frame."""
     p = pathlib.Path(path)
     if not p.exists():
         raise ExperimentError(f"{path}: no such file")
-    if time_unit not in TIME_UNITS:
-        raise ExperimentError(f"time unit {time_unit!r}: allowed {', '.join(TIME_UNITS)}")
+    if time_unit not in TIME_UNIT_CHOICES:
+        raise ExperimentError(f"time unit {time_unit!r}: allowed {', '.join(TIME_UNIT_CHOICES)}")
+    if time_unit == "frame" and not (rate is not None and math.isfinite(rate) and rate > 0):
+        raise ExperimentError("time unit frame (times are frame indices) needs --rate: the camera's frames "
+                              "per second (> 0), by which the frame indices are divided")
     lscale = _length_scale(length_unit, pixel_size)
     if calibration is not None and not (np.all(np.isfinite(calibration.origin)) and math.isfinite(calibration.angle)):
         raise ExperimentError(f"calibration: origin {calibration.origin} and rotation {calibration.angle} deg must be "
@@ -538,7 +559,19 @@ def read_tracks(path: str, columns: dict | None = None, time_unit: str = "s",
     with open(p, "rb") as f:
         magic = f.read(8)
     tr = _read_h5(path) if magic == b"\x89HDF\r\n\x1a\n" else _read_csv(path, columns)
-    if TIME_UNITS[time_unit] != 1.0:
+    tname = str((columns or {}).get("t", "t")).strip()
+    if time_unit == "frame":
+        tr.t = tr.t / rate
+        tr.attrs = dict(tr.attrs, camera_rate=rate)
+    else:
+        named = tname.lower() in FRAME_NAMES
+        if named or time_unit == "s" and _looks_like_frames(tr.t, tr.track):
+            why = (f"is named {tname!r}" if named else
+                   f"{tname!r} holds integers in steps of 1 (a camera at 1 Hz if read as seconds)")
+            raise ExperimentError(f"{path}: the time column {why}: it looks like frame indices, not times in "
+                                  f"{time_unit}: give --time-unit frame --rate R (R the camera's frames per "
+                                  "second)")
+    if TIME_UNITS.get(time_unit, 1.0) != 1.0:
         tr.t = tr.t * TIME_UNITS[time_unit]
     if lscale != 1.0:
         tr.x = tr.x * lscale
@@ -1483,19 +1516,31 @@ def _dissipation_summary(a: dict) -> list:
     cz, cze = a["combined_damping_ratio"], a["combined_damping_ratio_err"]
     cr, cre = a["combined_rolling_resistance"], a["combined_rolling_resistance_err"]
     r, re_ = a["rolling_resistance"], a["rolling_resistance_err"]
+    conf = a["confidence"]
     return [
         f"dissipation from the energy's decay: {what}",
-        f"  combined fit E = a - c D - f S{drift}: c = {c:.4g} +- {ce:.2g} 1/s (zeta {cz:.4g} +- {cze:.2g}; "
-        f"{coef(c, ce)}), f = {f:.4g} +- {fe:.2g} cm/s^2 (C_rr {cr:.4g} +- {cre:.2g}; {coef(f, fe)}) [present: "
-        f"more than {thr:g} se above 0; absent: 0 inside the {a['confidence']:.0%} interval]",
-        f"  rolling fit E = a - f S{drift} (S the centre's path): f = {a['rolling_drag']:.5g} +- "
-        f"{a['rolling_drag_err']:.2g} cm/s^2, C_rr = f/g = {r:.5g} +- {re_:.2g} ({a['confidence']:.0%}: "
-        f"{r - z * re_:.5g} .. {r + z * re_:.5g})",
+        f"  combined fit E = a - c D - f S{drift}: c = {_pm(c, ce, '.4g', unit=' 1/s')} (zeta {_pm(cz, cze, '.4g')}; "
+        f"{coef(c, ce)}), f = {_pm(f, fe, '.4g', unit=' cm/s^2')} (C_rr {_pm(cr, cre, '.4g')}; {coef(f, fe)}) "
+        f"[present: more than {thr:g} se above 0; absent: 0 inside the {conf:.0%} interval]",
+        f"  rolling fit E = a - f S{drift} (S the centre's path): f = "
+        f"{_pm(a['rolling_drag'], a['rolling_drag_err'], '.5g', unit=' cm/s^2')}, C_rr = f/g = "
+        f"{_pm(r, re_, '.5g', z=z, conf=conf)}",
         f"  residual rms: viscous (E = a - c D{drift}) {a['residual_rms_viscous']:.2f}, rolling (E = a - f S{drift}) "
         f"{a['residual_rms_rolling']:.2f}, combined {a['residual_rms_combined']:.2f} (cm/s)^2",
-        f"  energy loss against time -dE/dt = {a['energy_loss_rate']:.4g} +- {a['energy_loss_rate_err']:.2g} "
-        f"(cm/s)^2/s, against path length -dE/ds = {a['energy_loss_per_length']:.4g} +- "
-        f"{a['energy_loss_per_length_err']:.2g} cm/s^2 (mean slopes)"]
+        f"  energy loss against time -dE/dt = "
+        f"{_pm(a['energy_loss_rate'], a['energy_loss_rate_err'], '.4g', unit=' (cm/s)^2/s')}, against path "
+        f"length -dE/ds = {_pm(a['energy_loss_per_length'], a['energy_loss_per_length_err'], '.4g', unit=' cm/s^2')} "
+        f"(mean slopes)"]
+
+
+def _pm(v: float, e: float, fv: str, fe: str = ".2g", unit: str = "", z: float | None = None,
+        conf: float = 0.95) -> str:
+    """'v +- e unit' (and, with z, the interval at conf), never with a NaN: an error that is not a
+    finite number (a single track: no bootstrap; the summary says why once) is said in words."""
+    if not (math.isfinite(e) and e >= 0):
+        return f"{v:{fv}}{unit} (no error)"
+    out = f"{v:{fv}} +- {e:{fe}}{unit}"
+    return out + (f" ({conf:.0%}: {v - z * e:{fv}} .. {v + z * e:{fv}})" if z is not None else "")
 
 
 def _presence(v: float, e: float, z: float, threshold: float = LAW_PRESENT) -> str:
@@ -1686,11 +1731,17 @@ def analyse(tracks: Tracks, theory: Theory | None = None, opt: Options | None = 
             f"the theory's surface is not the tracks'; --max-impossible {opt.max_impossible:g} is the limit")
     balance = float(np.nanmedian(energies)) if np.any(np.isfinite(energies)) else math.nan
     if math.isfinite(balance) and abs(balance - 1) > ENERGY_BALANCE_TOL:
-        k = 1 / math.sqrt(balance) if balance > 0 else math.nan
+        # velocities k times the right ones give balance = 1/k^2: said as a factor >= 1, the right way round
+        if balance > 0:
+            k = 1 / math.sqrt(balance)
+            look = (f"the velocities look {k:.3g} times too large" if k >= 1 else
+                    f"the velocities look {1 / k:.3g} times too small")
+        else:
+            look = "g H does not fall as T grows, which no scale of the velocities explains (the y axis upside down?)"
         raise ExperimentError(
             f"{tracks.source}: the kinetic and potential energies do not trade one for one along the tracks: "
             f"g H falls by {balance:.3g} times what T gains (1 on this surface; tolerance "
-            f"{ENERGY_BALANCE_TOL:g}): the velocities look {k:.3g} times too large for the positions: check "
+            f"{ENERGY_BALANCE_TOL:g}): {look} for the positions: check "
             f"--time-unit, --rate, --length-unit and --pixel-size, or the surface (--theory)")
     if cr is None:
         raise ExperimentError(f"{tracks.source}: no crossing of U1 in the analysed data\n{rep.summary()}")
@@ -2007,6 +2058,21 @@ def analysis_image(an: Analysis, argv=None, tracks_path: str = "") -> bytes:
     return _output.h5_image(fill)
 
 
+def slope_text(a: dict, digits: int = 3) -> str | None:
+    """The fitted transition slope of an analysis' attrs as text, never with a NaN: with its error,
+    or why the fit is undefined (no transition in the fit range: slope 0 and its 95 % upper limit;
+    no bin in the fit range: None)."""
+    if "slope_upper_95" in a:
+        return (f"no transition at 0 < dE <= {a['fit_max']:g}: the fit is undefined (slope 0, no error); "
+                f"95 % upper limit {a['slope_upper_95'] * 1e3:.{digits}f}e-3 (s/cm)^2")
+    s, se = a.get("slope", math.nan), a.get("slope_err", math.nan)
+    if not math.isfinite(s):
+        return None
+    if not math.isfinite(se):
+        return f"slope {s * 1e3:.{digits}f}e-3 (s/cm)^2 (its error undefined: the binomial weights are)"
+    return f"slope ({s * 1e3:.{digits}f} +- {se * 1e3:.{digits}f})e-3 (s/cm)^2"
+
+
 def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0), option: str | None = None) -> None:
     """The paper's Fig. 4: (a) U1^- crossings with dE in section_range by outcome, with the tube
     cut at or above the range's upper end and the energy boundary there; (b) the transition
@@ -2051,8 +2117,7 @@ def plot_analysis(path: str, an: Analysis, section_range=(40.0, 140.0), option: 
         ax2.plot(dd, th.growth_rate * dd, "b:", lw=0.8, label="(T_po / A0) dE")
     if math.isfinite(a.get("slope", math.nan)):
         dd = np.linspace(0, a["fit_max"], 50)
-        ax2.plot(dd, a["slope"] * dd, "r--",
-                 label=f"fit: slope ({a['slope'] * 1e3:.2f} +- {a['slope_err'] * 1e3:.2f})e-3 (s/cm)^2")
+        ax2.plot(dd, a["slope"] * dd, "r--", label=f"fit: {slope_text(a, 2)}")
     ax2.axhline(0, color="0.5", lw=0.5)
     ax2.set_xlabel("dE [(cm/s)^2]")
     ax2.set_ylabel("transition fraction")
@@ -2352,6 +2417,9 @@ def _positive(s: str) -> float:
 
 
 def main(argv=None) -> int:
+    """The command line, python -m tubes.experiment TRACKS [options] (docs/experiment.md): argv
+    without the program's name (default sys.argv[1:]); returns the exit status (docs/experiment.md:
+    0 ok, 1 bad input, an output error's code); a bad option exits with argparse's 2."""
     argv = list(sys.argv[1:] if argv is None else argv)
     orig = list(argv)
     for i in range(len(argv) - 1):      # "--bins -40:400:40": a value, not an option
@@ -2386,7 +2454,8 @@ def main(argv=None) -> int:
     ap.add_argument("--rate", type=_positive, default=0.0, help="camera rate [Hz] (default: file)")
     ap.add_argument("--columns", type=_parse_columns, default=None,
                     help="the file's column names: track=NAME,t=NAME,x=NAME,y=NAME (any subset)")
-    ap.add_argument("--time-unit", choices=tuple(TIME_UNITS), default="s", help="unit of the times")
+    ap.add_argument("--time-unit", choices=TIME_UNIT_CHOICES, default="s",
+                    help="unit of the times: s, ms, us, or frame (frame indices; needs --rate, frames per second)")
     ap.add_argument("--length-unit", choices=tuple(LENGTH_UNITS), default="cm",
                     help="unit of x and y (px needs --pixel-size)")
     ap.add_argument("--pixel-size", type=_positive, default=None, help="cm per pixel (--length-unit px)")
@@ -2570,7 +2639,8 @@ def _run(args, orig) -> int:
             o = args.origin or (0.0, 0.0)
             cal = Calibration((o[0] * sc, o[1] * sc), args.rotate or 0.0, args.flip_y)
         tracks = read_tracks(args.tracks, columns=args.columns, time_unit=args.time_unit,
-                             length_unit=args.length_unit, pixel_size=args.pixel_size, calibration=cal)
+                             length_unit=args.length_unit, pixel_size=args.pixel_size, calibration=cal,
+                             rate=args.rate or None)
         an = analyse(tracks, theory, opt, theory_q24=theory_q24)
     except ExperimentError as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -2584,7 +2654,8 @@ def _run(args, orig) -> int:
     if cal is not None:
         print(cal.describe())
     print(f"camera rate {an.attrs['camera_rate']:.6g} Hz ({'--rate' if args.rate else 'from the file'}); times in "
-          f"{args.time_unit}, lengths in {args.length_unit}")
+          f"{'frames (divided by --rate)' if args.time_unit == 'frame' else args.time_unit}, lengths in "
+          f"{args.length_unit}")
     if tracks.attrs.get("rows_reordered"):
         print(f"note: {tracks.attrs['rows_reordered']} rows were not in (track, time) order: sorted "
               f"(a file may list its rows in any order; a track whose time decreases over most of it is rejected)",
@@ -2613,11 +2684,9 @@ def _run(args, orig) -> int:
           f"{a['energy_method']}; position noise {a['noise_used']:.4f} cm; design effect "
           f"{a['design_effect']:.2f}")
     if "slope_upper_95" in a:
-        print(f"no transition at 0 < dE <= {a['fit_max']:g}: slope 0, 95 % upper limit "
-              f"{a['slope_upper_95'] * 1e3:.3f}e-3 (s/cm)^2")
+        print(slope_text(a))
     elif math.isfinite(a.get("slope", math.nan)):
-        line = f"slope (through the origin, dE <= {a['fit_max']:g}): ({a['slope'] * 1e3:.3f} +- " \
-               f"{a['slope_err'] * 1e3:.3f})e-3 (s/cm)^2"
+        line = f"slope (through the origin, dE <= {a['fit_max']:g}): " + slope_text(a).removeprefix("slope ")
         if "slope_theory" in a:
             line += f"; theory with the same weights {a['slope_theory'] * 1e3:.3f}e-3, T_po/A0 = " \
                     f"{a['growth_rate'] * 1e3:.4f}e-3"
@@ -2631,15 +2700,20 @@ def _run(args, orig) -> int:
               f"{a['n_inside_evaluated']} = {a['inside_fraction']:.3%}")
     if math.isfinite(a.get("damping_rate", math.nan)):
         z = _z(a["confidence"])
-        print(f"damping from the energy's decay (dE/dt = -2 c T): c = {a['damping_rate']:.5g} +- "
-              f"{a['damping_rate_err']:.2g} 1/s, zeta = {a['damping_ratio']:.5g} +- {a['damping_ratio_err']:.2g} "
-              f"({a['confidence']:.0%}: {a['damping_ratio'] - z * a['damping_ratio_err']:.5g} .. "
-              f"{a['damping_ratio'] + z * a['damping_ratio_err']:.5g})")
+        print(f"damping from the energy's decay (dE/dt = -2 c T): c = "
+              f"{_pm(a['damping_rate'], a['damping_rate_err'], '.5g', unit=' 1/s')}, zeta = "
+              f"{_pm(a['damping_ratio'], a['damping_ratio_err'], '.5g', z=z, conf=a['confidence'])}")
     if math.isfinite(a.get("combined_damping_rate", math.nan)):
         for line in _dissipation_summary(a):
             print(line)
-    print(f"energy balance along the tracks: g H falls by {a['energy_balance']:.4f} times what T gains "
-          f"(1 for positions, times and surface that agree)")
+    if math.isfinite(a.get("damping_rate", math.nan)) and not math.isfinite(a.get("damping_rate_err", math.nan)):
+        print("note: no error on the decay's coefficients: they come from a bootstrap over the tracks, which "
+              "needs two or more")
+    if math.isfinite(a["energy_balance"]):
+        print(f"energy balance along the tracks: g H falls by {a['energy_balance']:.4f} times what T gains "
+              f"(1 for positions, times and surface that agree)")
+    else:
+        print("energy balance along the tracks: undetermined (no segment with 8 usable samples of T and E)")
     if "truth_dE_rms" in a:
         print(f"against the truth: dE rms {a['truth_dE_rms']:.2f}, bias {a['truth_dE_bias']:+.2f} "
               f"(cm/s)^2, z rms {a['truth_dE_z_rms']:.2f}; outcome agreement "
@@ -2648,12 +2722,16 @@ def _run(args, orig) -> int:
     q24 = "q24_count" in b
     print("      dE bin     center   count  trans  fraction     interval        theory" +
           ("   | Q2+Q4: count  trans  fraction    theory" if q24 else ""))
+    def cell(v, width=8):       # an empty bin has no fraction, a bin outside the theory's range no p: "-", not nan
+        return f"{v:{width}.4f}" if math.isfinite(v) else f"{'-':>{width}}"
+
     for j in range(b["count"].size):
+        ci = (f"[{b['ci_low'][j]:.4f}, {b['ci_high'][j]:.4f}]" if math.isfinite(b["ci_low"][j])
+              else f"{'-':^16}")
         print(f"{b['dE_low'][j]:7.0f}..{b['dE_high'][j]:<5.0f} {b['dE_center'][j]:8.1f} {b['count'][j]:7d} "
-              f"{b['transitions'][j]:6d}  {b['fraction'][j]:8.4f}  [{b['ci_low'][j]:.4f}, "
-              f"{b['ci_high'][j]:.4f}]  {b['p_theory'][j]:8.4f}" +
-              (f"   |      {b['q24_count'][j]:7d} {b['q24_transitions'][j]:6d}  {b['q24_fraction'][j]:8.4f}  "
-               f"{b['q24_p_theory'][j]:8.4f}" if q24 else ""))
+              f"{b['transitions'][j]:6d}  {cell(b['fraction'][j])}  {ci}  {cell(b['p_theory'][j])}" +
+              (f"   |      {b['q24_count'][j]:7d} {b['q24_transitions'][j]:6d}  {cell(b['q24_fraction'][j])}  "
+               f"{cell(b['q24_p_theory'][j])}" if q24 else ""))
     try:
         with _output.batch():      # every output made first, then written all or none
             if args.output:

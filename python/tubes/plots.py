@@ -917,6 +917,8 @@ def open_result(prog, description, argv):
 
 
 def main(argv=None):
+    """The command line, python -m tubes.plots RESULT.h5 [options]: argv without the program's
+    name (default sys.argv[1:]); returns the exit status."""
     args, res, rc = open_result("python -m tubes.plots", __doc__.splitlines()[0], argv)
     if res is None:
         return rc
