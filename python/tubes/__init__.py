@@ -14,6 +14,7 @@ cm and s, energies per unit mass in (cm/s)^2.
 from __future__ import annotations
 
 import re
+import sys
 from typing import Any
 
 import numpy as np
@@ -79,6 +80,22 @@ def _lib():
 _CORE = None
 
 
+#: progress lines of the long ensembles on stderr during a call ("  400000 of 4000000 points (10%),
+#: 1.0 s, about 9 s left", at most once a second once a loop has run a second; the program's lines,
+#: src/base/tubes_progress_shim.c): None (the default) shows them when stderr is a terminal, True
+#: always, False never (docs/python.md, "Progress").
+progress = None
+
+
+def _progress_on() -> bool:
+    if progress is None:
+        try:
+            return sys.stderr.isatty()
+        except (AttributeError, ValueError):
+            return False
+    return bool(progress)
+
+
 class _Interruptible:
     """The core's calls with Ctrl-C. While the core computes, Python's SIGINT handler only notes
     the signal (the KeyboardInterrupt came when the call ended: 66 s after Ctrl-C on a 10^7-point
@@ -102,10 +119,15 @@ class _Interruptible:
                 return f(*args, **kwargs)
             _Interruptible.depth += 1
             core.cancel_begin()
+            shown = _progress_on()
+            if shown:
+                core.progress_enable(1)
             try:
                 result = f(*args, **kwargs)
             finally:
                 _Interruptible.depth -= 1
+                if shown:
+                    core.progress_enable(0)
                 hit = core.cancel_end()
                 if hit:
                     _Stores.drop_all()
