@@ -49,3 +49,12 @@ def test_a_box_that_holds_the_wells_finds_them_without_a_note(tmp_path, a, box):
 def test_the_built_in_models_default_boxes_need_no_note(tmp_path, system):
     err, note, _ = run(tmp_path, 0, system=system)
     assert "note:" not in err and note is None, err
+
+
+def test_python_warns_with_the_programs_note(tmp_path):
+    import tubes
+    err, note, _ = run(tmp_path, 1)
+    m = tubes.Model(system="expression", hamiltonian="(px^2 + py^2)/2 + (x^2 - 1^2)^2 + y^2/2")
+    with pytest.warns(RuntimeWarning) as w:
+        tubes.equilibria(m)
+    assert any(str(x.message) == f"equilibria: {note}" for x in w), [str(x.message) for x in w]

@@ -76,3 +76,13 @@ def test_henon_heiles(tmp_path):
     for s in ("S1", "S2", "S3"):   # V's Hessian at (0, 1): Vxx = 1 + 2y = 3, Vyy = 1 - 2y = -1
         k = names.index(s)
         assert t["frequencies"][k][0] == pytest.approx(np.sqrt(3), rel=1e-12) and t["stable"][k] == 0
+
+
+def test_python_gives_the_files_frequencies(tmp_path):
+    import tubes
+    t, names, _ = equilibria(tmp_path, "&model system = 'cr3bp' /\n")
+    eq = tubes.equilibria(tubes.Model(system="cr3bp"))
+    assert list(eq["name"]) == names
+    np.testing.assert_array_equal(eq["frequencies"], t["frequencies"])
+    assert list(eq["stable"]) == [bool(s) for s in t["stable"]]
+    np.testing.assert_allclose(eq["frequencies"][names.index("L4")], l4_frequencies(0.01215058560962404), rtol=1e-10)

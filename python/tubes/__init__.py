@@ -559,7 +559,10 @@ def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, 
     eigenvectors (n, 2N, 2N) (saddles; a degenerate one's zero modes come first, as zero columns):
     columns u (+lambda), s (-lambda), then per centre a_k, b_k, each of unit length: the real and
     imaginary parts of the +i omega_k eigenvector normalised separately, a basis of its plane
-    (a_k + i r_k b_k is the eigenvector, r_k = |Im|/|Re|, not 1; docs/output.md, /saddle)."""
+    (a_k + i r_k b_k is the eigenvector, r_k = |Im|/|Re|, not 1; docs/output.md, /saddle);
+    frequencies (n, N): every point's centre frequencies, ascending, NaN-padded, and stable (all N
+    pairs centres), as /equilibria's. What the box may hide (an equilibrium on its face, wells
+    beyond it: docs/models.md, "The search box") is a RuntimeWarning with the program's note."""
     model = model or Model()
     for name, v in (("box", box), ("box_center", box_center)):
         if v is not None and np.size(v) not in ((1, model.ndof) if name == "box" else (model.ndof,)):
@@ -582,6 +585,20 @@ def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, 
             "lambda": lam[:n].copy(), "omega": om[0, :n].copy() if nd > 1 else np.full(n, np.nan),
             "omegas": om[:nd - 1, :n].T.copy(), "grad_norm": grad[:n].copy(),
             "eigenvectors": ev[:4 * nd * nd, :n].T.reshape(n, 2 * nd, 2 * nd).transpose(0, 2, 1).copy()}
+    # every point's centre frequencies and linear stability, and what the box may hide: the core's
+    # calls of the equilibria scene (tubes_study centres_of, box_note), on the same kept search
+    (stat, nc, fq, stab) = _lib().equilibria_centres(model.name, model.params(), lo, hi, int(n_grid), model._stores())
+    _check(stat, "equilibria")
+    if nc != n:
+        raise TubesError(-1, f"equilibria ({nc} points have centre frequencies, {n} were found)")
+    out["frequencies"] = fq[:nd, :n].T.copy()
+    out["stable"] = stab[:n] == 1
+    (stat, note) = _lib().box_note(model.name, model.params(), lo, hi, int(n_grid), model._stores())
+    _check(stat, "equilibria")
+    note = (note.decode() if isinstance(note, bytes) else str(note)).strip()
+    if note:
+        import warnings  # noqa: PLC0415
+        warnings.warn(f"equilibria: {note}", RuntimeWarning, stacklevel=2)
     return Table(out)
 
 
