@@ -40,6 +40,18 @@ NAMED = {"pi"}
 RESERVED = set(keyword.kwlist)
 NAME_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
 
+#: bounds on the work a formula may ask for (docs/models.md, "Limits"): its length in characters,
+#: the nodes of its syntax tree and their nesting depth, the magnitude of a numeric exponent of a
+#: non-constant base (SymPy expands such powers symbolically), log2 of a constant power's value
+#: (about the largest double, 2^1024: a larger power is refused before it is computed), and the
+#: nodes of the expressions after differentiation (counted before sharing subexpressions)
+MAX_CHARS = 20000
+MAX_NODES = 20000
+MAX_DEPTH = 100
+MAX_POWER = 100
+MAX_LOG2 = 1100
+MAX_TREE = 2000000
+
 
 class FormulaError(Exception):
     """A message about one namelist variable."""
@@ -64,10 +76,128 @@ def _caret(text):
     return "".join(out), cols
 
 
-def parse(text, var, symbols, sp):
-    """The SymPy expression of formula `text`; symbols: name -> SymPy symbol or value."""
+def _check_size(tree, var, col):
+    """Refuse a syntax tree of more than MAX_NODES nodes or deeper than MAX_DEPTH (no recursion)."""
+    stack, nodes = [(tree, 0)], 0
+    while stack:
+        node, depth = stack.pop()
+        nodes += 1
+        if nodes > MAX_NODES:
+            raise FormulaError(var, f"has more than {MAX_NODES} terms, operators and numbers: a formula has at "
+                                    f"most {MAX_NODES}")
+        if depth > MAX_DEPTH:
+            raise FormulaError(var, f"is nested more than {MAX_DEPTH} levels deep at column {col(node)}: a "
+                                    f"formula nests at most {MAX_DEPTH}")
+        stack += [(c, depth + 1) for c in ast.iter_child_nodes(node)]
+
+
+#: the functions on floats, for the constant parts of a formula
+_MATH = {"sqrt": "sqrt", "exp": "exp", "log": "log", "sin": "sin", "cos": "cos", "tan": "tan",
+         "atan2": "atan2", "sinh": "sinh", "cosh": "cosh", "tanh": "tanh", "asin": "asin", "acos": "acos",
+         "atan": "atan"}
+_DOMAIN = {"sqrt": "an argument >= 0", "log": "an argument > 0", "asin": "an argument in [-1, 1]",
+           "acos": "an argument in [-1, 1]", "atan2": "arguments not both 0"}
+
+
+def _check_numbers(tree, var, col, segment, symbols, values):
+    """Evaluate the constant parts of the formula (numbers, pi, constants) in floating point, before
+    SymPy sees them: refuse a number that overflows, a division by zero, a function outside its
+    domain (a complex value), and a power too large to compute (log2 of its value above MAX_LOG2,
+    checked before computing it); refuse a numeric exponent above MAX_POWER of a non-constant base.
+    Returns nothing; raises FormulaError naming the column."""
+    import math
+
+    def bad(node, what, allowed):
+        raise FormulaError(var, f"'{segment(node)}' at column {col(node)} {what}: {allowed}")
+
+    fin = "the constant parts of a formula must be finite real numbers"
+
+    def ev(node):   # a float, or None where the value depends on a coordinate or momentum
+        if isinstance(node, ast.Expression):
+            return ev(node.body)
+        if isinstance(node, ast.Constant):
+            if type(node.value) not in (int, float):
+                return None          # refused by build, with its message
+            try:
+                v = float(node.value)
+            except OverflowError:
+                v = math.inf
+            if not math.isfinite(v):
+                bad(node, "overflows a double (above 1.8e308)", fin)
+            return v
+        if isinstance(node, ast.Name):
+            if node.id in values:
+                return values[node.id]
+            return math.pi if node.id == "pi" and node.id not in symbols else None
+        if isinstance(node, ast.UnaryOp):
+            v = ev(node.operand)
+            return -v if v is not None and isinstance(node.op, ast.USub) else v
+        if isinstance(node, ast.BinOp):
+            a, b = ev(node.left), ev(node.right)
+            if isinstance(node.op, ast.Pow):
+                if a is None and b is not None and abs(b) > MAX_POWER:
+                    bad(node, f"raises a formula to the power {b:g}",
+                        f"the exponent of a non-constant base is at most {MAX_POWER} in magnitude (SymPy "
+                        "expands such powers symbolically)")
+                if a is None or b is None:
+                    return None
+                if a == 0 and b < 0:
+                    bad(node, "divides by zero (0 to a negative power)", fin)
+                if a < 0 and b != int(b):
+                    bad(node, "is not a real number (a negative number to a non-integer power)", fin)
+                if a != 0 and abs(b) * abs(math.log2(abs(a))) > MAX_LOG2:
+                    bad(node, f"is about 2^{abs(b) * math.log2(abs(a)):.3g}, too large or too small",
+                        f"a constant power is at most 2^{MAX_LOG2} (a double ends at 2^1024)")
+                try:
+                    v = a ** b
+                except (OverflowError, ZeroDivisionError):
+                    v = math.inf
+            else:
+                if a is None or b is None:
+                    return None
+                if isinstance(node.op, ast.Div) and b == 0:
+                    bad(node, "divides by zero", fin)
+                op = {ast.Add: lambda: a + b, ast.Sub: lambda: a - b, ast.Mult: lambda: a * b,
+                      ast.Div: lambda: a / b}.get(type(node.op))
+                if op is None:
+                    return None      # refused by build, with its message
+                v = op()
+            if isinstance(v, complex) or not math.isfinite(v):
+                bad(node, "overflows a double (above 1.8e308)", fin)
+            return v
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _MATH:
+            args = [ev(a) for a in node.args]
+            if node.keywords or len(args) != FUNCTIONS[node.func.id] or any(a is None for a in args):
+                return None
+            name = node.func.id
+            if name == "atan2" and args[0] == 0 and args[1] == 0:
+                bad(node, "is undefined (atan2(0, 0))", fin)
+            try:
+                v = getattr(math, _MATH[name])(*args)
+            except ValueError:
+                bad(node, "is not a real number", f"{name} needs {_DOMAIN.get(name, 'a finite argument')}; " + fin)
+            except OverflowError:
+                v = math.inf
+            if not math.isfinite(v):
+                bad(node, "overflows a double (above 1.8e308)", fin)
+            return v
+        for c in ast.iter_child_nodes(node):   # anything else: refused by build; check its parts
+            ev(c)
+        return None
+
+    ev(tree)
+
+
+def parse(text, var, symbols, sp, values=None):
+    """The SymPy expression of formula `text`; symbols: name -> SymPy symbol or value; values: the
+    constants' floating-point values (for checking the formula's constant parts)."""
     if not text.strip():
         raise FormulaError(var, "is empty: write the formula")
+    if len(text) > MAX_CHARS:
+        raise FormulaError(var, f"is {len(text)} characters long: a formula has at most {MAX_CHARS}")
+    if "#" in text:    # Python's ast would read the rest as a comment and drop it
+        raise FormulaError(var, f"'#' at column {text.index('#') + 1} is not allowed: a formula uses numbers, "
+                                "names, ( ) + - * / ^ ** and the functions " + ", ".join(FUNCTIONS))
     src, cols = _caret(text)
 
     def col(node_or_offset):
@@ -81,6 +211,15 @@ def parse(text, var, symbols, sp):
         what = (e.msg or "invalid syntax").replace("invalid syntax. Perhaps you forgot a comma?",
                                                    "invalid syntax")
         raise FormulaError(var, f"syntax error at column {col(off)}: {what} (in '{text.strip()}')")
+    except ValueError as e:     # e.g. an integer literal of more than 4300 digits
+        raise FormulaError(var, f"{e}: a number in a formula has at most 308 digits")
+    except (RecursionError, MemoryError):
+        raise FormulaError(var, f"is nested too deeply: a formula nests at most {MAX_DEPTH} levels")
+    _check_size(tree, var, col)
+    def segment(node):   # the user's text of node
+        return text[col(node) - 1:col(node.end_col_offset) - 1]
+
+    _check_numbers(tree, var, col, segment, symbols, values or {})
 
     ops = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult: lambda a, b: a * b,
            ast.Div: lambda a, b: a / b, ast.Pow: lambda a, b: a**b}
@@ -237,6 +376,18 @@ def function(sp, pr, name, inputs, consts, outputs, comment):
     return "\n".join(lines)
 
 
+def _is_zero(sp, e):
+    """Whether e is identically zero: its expansion, which is canonical for a polynomial (then
+    sp.simplify, slow on a large nonzero polynomial, is not needed: (x + y + px + py)^30 took
+    minutes in it); sp.simplify for anything else."""
+    e = sp.expand(e)
+    if e == 0:
+        return True
+    if e.is_polynomial():
+        return False
+    return sp.simplify(e) == 0
+
+
 def reversor(sp, h, qs, ps):
     """Signs r (2N) of a reversor x -> r x (q_i -> s_i q_i, p_i -> -s_i p_i) with H(r x) = H(x),
     the one with the most s_i = +1 (a natural system's (q, -p) first); zeros if none: symmetric
@@ -246,9 +397,40 @@ def reversor(sp, h, qs, ps):
     for signs in sorted(product((1, -1), repeat=n), key=lambda s: (s.count(-1), [-v for v in s])):
         sub = {q: s * q for q, s in zip(qs, signs)}
         sub.update({p: -s * p for p, s in zip(ps, signs)})
-        if sp.simplify(sp.expand(h.subs(sub, simultaneous=True) - h)) == 0:
+        if _is_zero(sp, h.subs(sub, simultaneous=True) - h):
             return list(signs) + [-s for s in signs]
     return [0] * (2 * n)
+
+
+def _check_expression(sp, h, var):
+    """Refuse what SymPy made of the formula when it is not finite and real for real inputs (zoo,
+    oo, nan, I: e.g. tan(pi/2), x/(x - x)) or has a power of a non-constant base above MAX_POWER
+    (e.g. ((x + y)^30)^30, which SymPy folds into one power)."""
+    for bad, what in ((sp.zoo, "an infinity of unknown sign (zoo)"), (sp.nan, "an undefined value (nan)"),
+                      (sp.oo, "an infinity"), (-sp.oo, "an infinity"), (sp.I, "the imaginary unit")):
+        if h.has(bad):
+            raise FormulaError(var, f"is not finite and real: SymPy reduces it to an expression with {what}, "
+                                    f"e.g. from a division by zero or tan(pi/2); a formula must be finite and "
+                                    f"real for real coordinates and momenta")
+    for e in sp.preorder_traversal(h):
+        if e.is_Pow and e.exp.is_Number and not e.base.is_Number and abs(e.exp) > MAX_POWER:
+            raise FormulaError(var, f"has the power {e.exp} of a non-constant base: the exponent of a "
+                                    f"non-constant base is at most {MAX_POWER} in magnitude (SymPy expands "
+                                    "such powers symbolically)")
+
+
+def _check_tree(outputs, var, what):
+    """Refuse derivatives of more than MAX_TREE nodes in all (counted before SymPy shares their common
+    subexpressions, and the count stops there: bounded work)."""
+    import sympy as sp
+    n = 0
+    for e in outputs:
+        for _ in sp.preorder_traversal(e):
+            n += 1
+            if n > MAX_TREE:
+                raise FormulaError(var, f"is too large after differentiation: its {what} have more than "
+                                        f"{MAX_TREE} nodes (the limit; write a smaller formula)")
+    return n
 
 
 def build(spec, sp):
@@ -271,7 +453,12 @@ def build(spec, sp):
     # constants: each a number, or a formula of numbers and the constants before it
     csyms, cvals, table = {}, [], {}
     for name, text, k in consts:
-        e = _f64(text, sp) if text.startswith("f64:") else parse(text, "constants", dict(table), sp)
+        try:
+            e = _f64(text, sp) if text.startswith("f64:") else parse(text, "constants", dict(table), sp,
+                                                                     {n: float(val) for n, val in cvals})
+        except FormulaError as err:
+            raise FormulaError("constants", f"constants({k}): {name} = {text}: {err.msg}")
+        # finite and of bounded size (parse checked its parts in floating point): sp.N is cheap
         v = sp.N(e.subs({csyms[n]: val for n, val in cvals}), 30)
         if not (v.is_real and v.is_finite):
             raise FormulaError("constants", f"constants({k}): {name} = {text} is not a finite real number")
@@ -284,7 +471,8 @@ def build(spec, sp):
     names = dict(zip(coords, qs))
     names.update(zip(moms, ps))
     names.update(table)
-    h = parse(spec.get("expr", ""), var, names, sp)
+    h = parse(spec.get("expr", ""), var, names, sp, {n: float(val) for n, val in cvals})
+    _check_expression(sp, h, var)
     free = h.free_symbols
     for n, s in list(zip(coords, qs)) + list(zip(moms, ps)):
         if s not in free:
@@ -308,6 +496,7 @@ def generate(spec):
         d1 = [sp.diff(h, a) for a in x]
         d2 = [sp.diff(h, a, b) for b in x for a in x]
         d3 = [sp.diff(h, a, b, c) for c in x for b in x for a in x]
+        _check_tree([h] + d1 + d2 + d3, "height", "first, second and third derivatives")
         out += ["const int tubes_expr_kind = 2;", "const int tubes_expr_ndof = 2;",
                 "const int tubes_expr_natural = 1;",
                 function(sp, pr, "tubes_expr_height", x, cdecl, [h], "h(x, y)"),
@@ -319,12 +508,13 @@ def generate(spec):
     n = len(qs)
     grad = [sp.diff(h, a) for a in x]
     hess = [sp.diff(g, a) for a in x for g in grad]
+    _check_tree([h] + grad + hess, "hamiltonian", "gradient and Hessian")
     field = grad[n:] + [-g for g in grad[:n]]
     zero = {p: 0 for p in ps}
     v = h.subs(zero)
     t = sp.expand(h - v)
-    natural = all(sp.simplify(sp.diff(t, p).subs(zero)) == 0 for p in ps) and all(
-        sp.simplify(sp.diff(t, a, b, c)) == 0 for a in ps for b in ps for c in ps)
+    natural = all(_is_zero(sp, sp.diff(t, p).subs(zero)) for p in ps) and all(
+        _is_zero(sp, sp.diff(t, a, b, c)) for a in ps for b in ps for c in ps)
     rev = reversor(sp, h, qs, ps)
     out += ["const int tubes_expr_kind = 1;", f"const int tubes_expr_ndof = {n};",
             f"const int tubes_expr_natural = {int(natural)};",
@@ -641,6 +831,15 @@ def main(argv):
     except ImportError:
         sys.stderr.write("-\tSymPy is not installed for this Python (" + sys.executable + "): run make deps\n")
         return 3
+    try:
+        return _main(argv, mode)
+    except Exception as e:      # never a traceback: one line the driver prints (src/io/tubes_expr.c)
+        msg = " ".join(str(e).split())[:300]
+        sys.stderr.write(f"-\tinternal error in the code generator: {type(e).__name__}: {msg} (please report)\n")
+        return 1
+
+
+def _main(argv, mode):
     text = sys.stdin.read()
     spec = read_spec(text.splitlines())
     try:
