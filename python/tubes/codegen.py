@@ -44,13 +44,16 @@ NAME_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
 #: the nodes of its syntax tree and their nesting depth, the magnitude of a numeric exponent of a
 #: non-constant base (SymPy expands such powers symbolically), log2 of a constant power's value
 #: (about the largest double, 2^1024: a larger power is refused before it is computed), and the
-#: nodes of the expressions after differentiation (counted before sharing subexpressions)
+#: nodes of the expressions after differentiation (counted before sharing subexpressions), and the
+#: terms of a polynomial Hamiltonian once expanded (estimated before expanding)
 MAX_CHARS = 20000
 MAX_NODES = 20000
 MAX_DEPTH = 100
 MAX_POWER = 100
 MAX_LOG2 = 1100
 MAX_TREE = 2000000
+MAX_TERMS = 20000
+MAX_SIMPLIFY = 200
 
 
 class FormulaError(Exception):
@@ -376,6 +379,34 @@ def function(sp, pr, name, inputs, consts, outputs, comment):
     return "\n".join(lines)
 
 
+def _terms(sp, e, x):
+    """An upper bound of the number of monomials of the polynomial e in the variables x, expanded
+    (without expanding it): the multinomial count of sums, products and powers, and the number of
+    monomials of e's degree."""
+    from math import comb
+
+    def walk(e):   # (terms, degree)
+        if not e.free_symbols & set(x):
+            return 1, 0
+        if e in x:
+            return 1, 1
+        if e.is_Add or e.is_Mul:
+            parts = [walk(a) for a in e.args]
+            if e.is_Add:
+                return sum(t for t, _ in parts), max(d for _, d in parts)
+            t, d = 1, 0
+            for ta, da in parts:
+                t, d = t * ta, d + da
+            return t, d
+        if e.is_Pow and e.exp.is_Integer and e.exp > 0:
+            t, d = walk(e.base)
+            k = int(e.exp)
+            return comb(t + k - 1, k), d * k
+        return MAX_TERMS + 1, 1
+    t, d = walk(e)
+    return min(t, comb(d + len(x), len(x)))
+
+
 def _is_zero(sp, e):
     """Whether e is identically zero: its expansion, which is canonical for a polynomial (then
     sp.simplify, slow on a large nonzero polynomial, is not needed: (x + y + px + py)^30 took
@@ -385,16 +416,28 @@ def _is_zero(sp, e):
         return True
     if e.is_polynomial():
         return False
+    # sp.simplify has no bound on its work (minutes on sqrt(x^2 + y^2 + px^2 + py^2)^-3's third
+    # derivatives): only on small expressions; a larger one counts as nonzero, the safe side (a
+    # Hamiltonian is then treated as not natural, or without that reversor)
+    if sum(1 for _ in zip(range(MAX_SIMPLIFY + 1), sp.preorder_traversal(e))) > MAX_SIMPLIFY:
+        return False
     return sp.simplify(e) == 0
 
 
-def reversor(sp, h, qs, ps):
+def reversor(sp, h, qs, ps, mons=None):
     """Signs r (2N) of a reversor x -> r x (q_i -> s_i q_i, p_i -> -s_i p_i) with H(r x) = H(x),
     the one with the most s_i = +1 (a natural system's (q, -p) first); zeros if none: symmetric
-    periodic orbits are found with it (src/orbits/tubes_orbits.f90)."""
+    periodic orbits are found with it (src/orbits/tubes_orbits.f90). mons: the exponents of a
+    polynomial H's monomials in (q, p), if it is one (then H(r x) = H(x) when every monomial keeps
+    its sign)."""
     from itertools import product
     n = len(qs)
     for signs in sorted(product((1, -1), repeat=n), key=lambda s: (s.count(-1), [-v for v in s])):
+        if mons is not None:
+            r = list(signs) + [-s for s in signs]
+            if all(sum(e for e, ri in zip(m, r) if ri < 0) % 2 == 0 for m in mons):
+                return r
+            continue
         sub = {q: s * q for q, s in zip(qs, signs)}
         sub.update({p: -s * p for p, s in zip(ps, signs)})
         if _is_zero(sp, h.subs(sub, simultaneous=True) - h):
@@ -512,10 +555,21 @@ def generate(spec):
     field = grad[n:] + [-g for g in grad[:n]]
     zero = {p: 0 for p in ps}
     v = h.subs(zero)
-    t = sp.expand(h - v)
-    natural = all(_is_zero(sp, sp.diff(t, p).subs(zero)) for p in ps) and all(
-        _is_zero(sp, sp.diff(t, a, b, c)) for a in ps for b in ps for c in ps)
-    rev = reversor(sp, h, qs, ps)
+    if h.is_polynomial(*x):   # from its monomials: SymPy's diff and expand are slow on large sums
+        terms = _terms(sp, h, x)
+        if terms > MAX_TERMS:
+            raise FormulaError("hamiltonian", f"expands to about {terms} terms: a polynomial Hamiltonian has at "
+                                              f"most {MAX_TERMS} (the limit; it is expanded to find its "
+                                              "symmetry and whether it is natural)")
+        mons = sp.Poly(h, *x).monoms()
+        natural = all(sum(m[n:]) in (0, 2) for m in mons)    # H = V(q) + p^T A(q) p / 2
+        t = sp.expand(h - v) if natural else None
+    else:
+        mons = None
+        t = sp.expand(h - v)
+        natural = all(_is_zero(sp, sp.diff(t, p).subs(zero)) for p in ps) and all(
+            _is_zero(sp, sp.diff(t, a, b, c)) for a in ps for b in ps for c in ps)
+    rev = reversor(sp, h, qs, ps, mons)
     out += ["const int tubes_expr_kind = 1;", f"const int tubes_expr_ndof = {n};",
             f"const int tubes_expr_natural = {int(natural)};",
             "/* a time-reversal symmetry (q_i, p_i) -> (s_i q_i, -s_i p_i) of H, or zeros */",
