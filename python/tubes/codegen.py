@@ -24,6 +24,7 @@ import ast
 import keyword
 import re
 import sys
+import warnings
 
 ABI = 1
 MAX_DOF = 3
@@ -208,7 +209,9 @@ def parse(text, var, symbols, sp, values=None):
         return cols[min(max(off, 0), len(cols) - 1)]
 
     try:
-        tree = ast.parse(src.strip() and src, mode="eval")
+        with warnings.catch_warnings():   # a SyntaxWarning ("invalid decimal literal") on stderr would
+            warnings.simplefilter("ignore")   # come before the message line the driver reads
+            tree = ast.parse(src.strip() and src, mode="eval")
     except SyntaxError as e:
         off = (e.offset or 1) - 1
         what = (e.msg or "invalid syntax").replace("invalid syntax. Perhaps you forgot a comma?",
