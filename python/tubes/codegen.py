@@ -92,7 +92,13 @@ def _check_size(tree, var, col):
         if depth > MAX_DEPTH:
             raise FormulaError(var, f"is nested more than {MAX_DEPTH} levels deep at column {col(node)}: a "
                                     f"formula nests at most {MAX_DEPTH}")
-        stack += [(c, depth + 1) for c in ast.iter_child_nodes(node)]
+        for c in ast.iter_child_nodes(node):     # a chain a + b - c ... (or * /) is one level
+            chain = (isinstance(node, ast.BinOp) and isinstance(c, ast.BinOp) and c is node.left
+                     and _CHAIN.get(type(c.op), 0) == _CHAIN.get(type(node.op), -1))
+            stack.append((c, depth if chain else depth + 1))
+
+
+_CHAIN = {ast.Add: 1, ast.Sub: 1, ast.Mult: 2, ast.Div: 2}
 
 
 #: the functions on floats, for the constant parts of a formula
@@ -208,17 +214,24 @@ def parse(text, var, symbols, sp, values=None):
         off = node_or_offset if isinstance(node_or_offset, int) else node_or_offset.col_offset
         return cols[min(max(off, 0), len(cols) - 1)]
 
+    # a sum of n terms is a tree n deep: parsing it (and our recursive walks) needs a recursion limit
+    # above MAX_NODES (Python 3.11 does not use the C stack for these)
+    sys.setrecursionlimit(max(sys.getrecursionlimit(), 3 * MAX_NODES))
     try:
         with warnings.catch_warnings():   # a SyntaxWarning ("invalid decimal literal") on stderr would
             warnings.simplefilter("ignore")   # come before the message line the driver reads
             tree = ast.parse(src.strip() and src, mode="eval")
     except SyntaxError as e:
+        if "digits" in (e.msg or ""):   # Python's advice (sys.set_int_max_str_digits) is not the user's
+            raise FormulaError(var, "has an integer of more than 4300 digits: a number in a formula is at most "
+                                    "1.8e308 (a double)")
         off = (e.offset or 1) - 1
         what = (e.msg or "invalid syntax").replace("invalid syntax. Perhaps you forgot a comma?",
                                                    "invalid syntax")
         raise FormulaError(var, f"syntax error at column {col(off)}: {what} (in '{text.strip()}')")
-    except ValueError as e:     # e.g. an integer literal of more than 4300 digits
-        raise FormulaError(var, f"{e}: a number in a formula has at most 308 digits")
+    except ValueError:     # an integer literal of more than 4300 digits (older Pythons)
+        raise FormulaError(var, "has an integer of more than 4300 digits: a number in a formula is at most "
+                                "1.8e308 (a double)")
     except (RecursionError, MemoryError):
         raise FormulaError(var, f"is nested too deeply: a formula nests at most {MAX_DEPTH} levels")
     _check_size(tree, var, col)
@@ -448,7 +461,7 @@ def reversor(sp, h, qs, ps, mons=None):
     return [0] * (2 * n)
 
 
-def _check_expression(sp, h, var):
+def _check_expression(sp, h, var, names):
     """Refuse what SymPy made of the formula when it is not finite and real for real inputs (zoo,
     oo, nan, I: e.g. tan(pi/2), x/(x - x)) or has a power of a non-constant base above MAX_POWER
     (e.g. ((x + y)^30)^30, which SymPy folds into one power)."""
@@ -458,6 +471,13 @@ def _check_expression(sp, h, var):
             raise FormulaError(var, f"is not finite and real: SymPy reduces it to an expression with {what}, "
                                     f"e.g. from a division by zero or tan(pi/2); a formula must be finite and "
                                     f"real for real coordinates and momenta")
+    allowed = {getattr(sp, name) for name in FUNCTIONS if name != "sqrt"}
+    for f in sorted(h.atoms(sp.Function), key=str):
+        if f.func not in allowed:   # e.g. Abs: SymPy writes sqrt(u^2) as |u| for a real u
+            shown = f.subs({s: sp.Symbol(n) for n, s in names.items()}, simultaneous=True)
+            raise FormulaError(var, f"becomes {shown} in SymPy ({f.func.__name__}, e.g. |u| from sqrt(u^2)), which is "
+                                    "not differentiable everywhere (tubes needs the Hessian everywhere): write "
+                                    "the formula without it, e.g. sqrt(u^2 + eps^2) or u itself")
     for e in sp.preorder_traversal(h):
         if e.is_Pow and e.exp.is_Number and not e.base.is_Number and abs(e.exp) > MAX_POWER:
             raise FormulaError(var, f"has the power {e.exp} of a non-constant base: the exponent of a "
@@ -518,7 +538,7 @@ def build(spec, sp):
     names.update(zip(moms, ps))
     names.update(table)
     h = parse(spec.get("expr", ""), var, names, sp, {n: float(val) for n, val in cvals})
-    _check_expression(sp, h, var)
+    _check_expression(sp, h, var, names)
     free = h.free_symbols
     for n, s in list(zip(coords, qs)) + list(zip(moms, ps)):
         if s not in free:
