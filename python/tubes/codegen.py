@@ -155,9 +155,11 @@ def _check_numbers(tree, var, col, segment, symbols, values):
                     bad(node, "divides by zero (0 to a negative power)", fin)
                 if a < 0 and b != int(b):
                     bad(node, "is not a real number (a negative number to a non-integer power)", fin)
-                if a != 0 and abs(b) * abs(math.log2(abs(a))) > MAX_LOG2:
-                    bad(node, f"is about 2^{abs(b) * math.log2(abs(a)):.3g}, too large or too small",
-                        f"a constant power is at most 2^{MAX_LOG2} (a double ends at 2^1024)")
+                if a != 0 and abs(b * math.log2(abs(a))) > MAX_LOG2:
+                    e2 = b * math.log2(abs(a))
+                    bad(node, f"is about 2^{e2:.3g}, too {'large' if e2 > 0 else 'small'}",
+                        f"a constant power lies between 2^-{MAX_LOG2} and 2^{MAX_LOG2} (a double ends at "
+                        "2^1024)")
                 try:
                     v = a ** b
                 except (OverflowError, ZeroDivisionError):
