@@ -398,12 +398,14 @@ def function(sp, pr, name, inputs, consts, outputs, comment):
 
 
 def _terms(sp, e, x):
-    """An upper bound of the number of monomials of the polynomial e in the variables x, expanded
-    (without expanding it): the multinomial count of sums, products and powers, and the number of
-    monomials of e's degree."""
+    """An upper bound of the number of terms of sp.expand(e), without expanding it: the multinomial
+    count of sums, products and positive integer powers; any other node (a function, a negative or
+    fractional power) is one term, its arguments counted on their own (expand goes inside them);
+    the largest count anywhere. For a polynomial, also at most the number of monomials of its degree."""
     from math import comb
+    worst = [0]
 
-    def walk(e):   # (terms, degree)
+    def walk(e):   # (terms, degree or None when not a polynomial)
         if not e.free_symbols & set(x):
             return 1, 0
         if e in x:
@@ -411,18 +413,25 @@ def _terms(sp, e, x):
         if e.is_Add or e.is_Mul:
             parts = [walk(a) for a in e.args]
             if e.is_Add:
-                return sum(t for t, _ in parts), max(d for _, d in parts)
-            t, d = 1, 0
-            for ta, da in parts:
-                t, d = t * ta, d + da
-            return t, d
-        if e.is_Pow and e.exp.is_Integer and e.exp > 0:
-            t, d = walk(e.base)
+                t = sum(t for t, _ in parts)
+                d = None if any(d is None for _, d in parts) else max(d for _, d in parts)
+            else:
+                t, d = 1, 0
+                for ta, da in parts:
+                    t, d = t * ta, (None if d is None or da is None else d + da)
+        elif e.is_Pow and e.exp.is_Integer and e.exp > 0:
+            tb, db = walk(e.base)
             k = int(e.exp)
-            return comb(t + k - 1, k), d * k
-        return MAX_TERMS + 1, 1
-    t, d = walk(e)
-    return min(t, comb(d + len(x), len(x)))
+            t, d = comb(tb + k - 1, k), (None if db is None else db * k)
+        else:
+            for a in e.args:
+                walk(a)
+            t, d = 1, None
+        worst[0] = max(worst[0], t if d is None else min(t, comb(d + len(x), len(x))))
+        return t, d
+
+    walk(e)
+    return worst[0]
 
 
 def _is_zero(sp, e):
@@ -580,12 +589,12 @@ def generate(spec):
     field = grad[n:] + [-g for g in grad[:n]]
     zero = {p: 0 for p in ps}
     v = h.subs(zero)
+    terms = _terms(sp, h, x)
+    if terms > MAX_TERMS:
+        raise FormulaError("hamiltonian", f"expands to about {terms} terms: a Hamiltonian has at most "
+                                          f"{MAX_TERMS} once expanded (the limit; it is expanded to find its "
+                                          "symmetry and whether it is natural)")
     if h.is_polynomial(*x):   # from its monomials: SymPy's diff and expand are slow on large sums
-        terms = _terms(sp, h, x)
-        if terms > MAX_TERMS:
-            raise FormulaError("hamiltonian", f"expands to about {terms} terms: a polynomial Hamiltonian has at "
-                                              f"most {MAX_TERMS} (the limit; it is expanded to find its "
-                                              "symmetry and whether it is natural)")
         mons = sp.Poly(h, *x).monoms()
         natural = all(sum(m[n:]) in (0, 2) for m in mons)    # H = V(q) + p^T A(q) p / 2
         t = sp.expand(h - v) if natural else None
