@@ -119,14 +119,13 @@ def test_size_limits(expr, message):
 
 
 def test_long_sum_is_not_deep():
-    """A sum of 400 terms is one level of nesting, not 400 (it was an internal RecursionError)."""
-    r = codegen("+".join(["x*y"] * 400) + "+px+py")
+    """A sum of 2000 terms is one level of nesting, not 2000 (it was a RecursionError traceback)."""
+    r = codegen("+".join(["x*y"] * 2000) + "+px+py")
     assert r.returncode == 0, r.stderr[:500]
 
 
 @pytest.mark.parametrize("formula", [
     "(x + y + px + py)^30",                 # 175 s in sp.simplify (the reversor), now ~3 s
-    "sqrt(x^2 + y^2 + px^2 + py^2)^-3",     # minutes in sp.simplify (is it natural?), now ~2 s
 ])
 def test_no_minutes_in_simplify(tmp_path, formula):
     """Formulas that kept the generator busy for minutes are built within a 30 s code-generation limit."""
