@@ -177,7 +177,7 @@ BAD = [
     ("hamiltonian = 'px^2/2 + py^2/2 + x^2 + y^2', coordinates = 'x', 'x'", "coordinates",
      "'x' is named twice"),
     ("hamiltonian = 'px^2/2 + py^2/2 + a*x^2 + y^2', constants = 'a = log(0)'", "constants",
-     "a = log(0): log(0) at column 1 is the logarithm of a number <= 0: not a real number"),
+     "a = log(0): 'log(0)' at column 1 is not a real number: log needs an argument > 0"),
     ("hamiltonian = 'px^2/2 + py^2/2 + x^2 + y^2', momenta = 'px'", "momenta", "1 momenta for 2"),
     ("hamiltonian = 'px^2/2 + py^2/2 + x^2 + y^2 if x else 0'", "hamiltonian", "a conditional"),
 ]

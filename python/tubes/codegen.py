@@ -24,16 +24,10 @@ import ast
 import keyword
 import re
 import sys
+import warnings
 
 ABI = 1
 MAX_DOF = 3
-#: bounds on a formula (docs/models.md, "Limits"): its syntax tree's nodes and nesting depth, the
-#: integer power of an expression with variables (the derivatives and the normal form's series
-#: expand it), and the size of a constant part (2^MAX_LOG2 is beyond any double: 2^1024)
-MAX_NODES = 5000
-MAX_DEPTH = 1000
-MAX_POWER = 32
-MAX_LOG2 = 1100
 
 #: functions allowed in a formula, with their number of arguments
 FUNCTIONS = {"sqrt": 1, "exp": 1, "log": 1, "sin": 1, "cos": 1, "tan": 1, "atan2": 2, "sinh": 1,
@@ -46,6 +40,21 @@ NAMED = {"pi"}
 #: words the formula parser (Python's ast) keeps for itself
 RESERVED = set(keyword.kwlist)
 NAME_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
+
+#: bounds on the work a formula may ask for (docs/models.md, "Limits"): its length in characters,
+#: the nodes of its syntax tree and their nesting depth, the magnitude of a numeric exponent of a
+#: non-constant base (SymPy expands such powers symbolically), log2 of a constant power's value
+#: (about the largest double, 2^1024: a larger power is refused before it is computed), and the
+#: nodes of the expressions after differentiation (counted before sharing subexpressions), and the
+#: terms of a polynomial Hamiltonian once expanded (estimated before expanding)
+MAX_CHARS = 20000
+MAX_NODES = 20000
+MAX_DEPTH = 100
+MAX_POWER = 100
+MAX_LOG2 = 1100
+MAX_TREE = 2000000
+MAX_TERMS = 20000
+MAX_SIMPLIFY = 200
 
 
 class FormulaError(Exception):
@@ -71,137 +80,186 @@ def _caret(text):
     return "".join(out), cols
 
 
-def _real(name, fn, args, col):
-    """The float value of a function of constant arguments, or a FormulaError's message."""
+def _check_size(tree, var, col):
+    """Refuse a syntax tree of more than MAX_NODES nodes or deeper than MAX_DEPTH (no recursion)."""
+    stack, nodes = [(tree, 0)], 0
+    while stack:
+        node, depth = stack.pop()
+        nodes += 1
+        if nodes > MAX_NODES:
+            raise FormulaError(var, f"has more than {MAX_NODES} terms, operators and numbers: a formula has at "
+                                    f"most {MAX_NODES}")
+        if depth > MAX_DEPTH:
+            raise FormulaError(var, f"is nested more than {MAX_DEPTH} levels deep at column {col(node)}: a "
+                                    f"formula nests at most {MAX_DEPTH}")
+        for c in ast.iter_child_nodes(node):     # a chain a + b - c ... (or * /) is one level
+            chain = (isinstance(node, ast.BinOp) and isinstance(c, ast.BinOp) and c is node.left
+                     and _CHAIN.get(type(c.op), 0) == _CHAIN.get(type(node.op), -1))
+            stack.append((c, depth if chain else depth + 1))
+
+
+_CHAIN = {ast.Add: 1, ast.Sub: 1, ast.Mult: 2, ast.Div: 2}
+
+
+#: the functions on floats, for the constant parts of a formula
+_MATH = {"sqrt": "sqrt", "exp": "exp", "log": "log", "sin": "sin", "cos": "cos", "tan": "tan",
+         "atan2": "atan2", "sinh": "sinh", "cosh": "cosh", "tanh": "tanh", "asin": "asin", "acos": "acos",
+         "atan": "atan"}
+_DOMAIN = {"sqrt": "an argument >= 0", "log": "an argument > 0", "asin": "an argument in [-1, 1]",
+           "acos": "an argument in [-1, 1]", "atan2": "arguments not both 0"}
+
+
+def _check_numbers(tree, var, col, segment, symbols, values):
+    """Evaluate the constant parts of the formula (numbers, pi, constants) in floating point, before
+    SymPy sees them: refuse a number that overflows, a division by zero, a function outside its
+    domain (a complex value), and a power too large to compute (log2 of its value above MAX_LOG2,
+    checked before computing it); refuse a numeric exponent above MAX_POWER of a non-constant base.
+    Returns nothing; raises FormulaError naming the column."""
     import math
-    try:
-        v = fn(*args)
-    except (ValueError, ZeroDivisionError):
-        what = {"sqrt": "the square root of a negative number", "log": "the logarithm of a number <= 0",
-                "asin": "asin of a number outside [-1, 1]", "acos": "acos of a number outside [-1, 1]",
-                "atan2": "atan2(0, 0)"}.get(name, "outside its domain")
-        return None, f"{name}({', '.join(f'{a:.17g}' for a in args)}) at column {col} is {what}: not a real number"
-    except OverflowError:
-        return None, f"{name}({', '.join(f'{a:.6g}' for a in args)}) at column {col} overflows a double (above 1.8e308)"
-    if not math.isfinite(v):
-        return None, f"{name}(...) at column {col} is not finite (above 1.8e308)"
-    return v, None
+
+    def bad(node, what, allowed):
+        raise FormulaError(var, f"'{segment(node)}' at column {col(node)} {what}: {allowed}")
+
+    fin = "the constant parts of a formula must be finite real numbers"
+
+    def ev(node):   # a float, or None where the value depends on a coordinate or momentum
+        if isinstance(node, ast.Expression):
+            return ev(node.body)
+        if isinstance(node, ast.Constant):
+            if type(node.value) not in (int, float):
+                return None          # refused by build, with its message
+            try:
+                v = float(node.value)
+            except OverflowError:
+                v = math.inf
+            if not math.isfinite(v):
+                bad(node, "overflows a double (above 1.8e308)", fin)
+            return v
+        if isinstance(node, ast.Name):
+            if node.id in values:
+                return values[node.id]
+            return math.pi if node.id == "pi" and node.id not in symbols else None
+        if isinstance(node, ast.UnaryOp):
+            v = ev(node.operand)
+            return -v if v is not None and isinstance(node.op, ast.USub) else v
+        if isinstance(node, ast.BinOp):
+            a, b = ev(node.left), ev(node.right)
+            if isinstance(node.op, ast.Pow):
+                if a is None and b is not None and abs(b) > MAX_POWER:
+                    bad(node, f"raises a formula to the power {b:g}",
+                        f"the exponent of a non-constant base is at most {MAX_POWER} in magnitude (SymPy "
+                        "expands such powers symbolically)")
+                if a is None or b is None:
+                    return None
+                if a == 0 and b < 0:
+                    bad(node, "divides by zero (0 to a negative power)", fin)
+                if a < 0 and b != int(b):
+                    bad(node, "is not a real number (a negative number to a non-integer power)", fin)
+                if a != 0 and abs(b * math.log2(abs(a))) > MAX_LOG2:
+                    e2 = b * math.log2(abs(a))
+                    bad(node, f"is about 2^{e2:.3g}, too {'large' if e2 > 0 else 'small'}",
+                        f"a constant power lies between 2^-{MAX_LOG2} and 2^{MAX_LOG2} (a double ends at "
+                        "2^1024)")
+                try:
+                    v = a ** b
+                except (OverflowError, ZeroDivisionError):
+                    v = math.inf
+            else:
+                if a is None or b is None:
+                    return None
+                if isinstance(node.op, ast.Div) and b == 0:
+                    bad(node, "divides by zero", fin)
+                op = {ast.Add: lambda: a + b, ast.Sub: lambda: a - b, ast.Mult: lambda: a * b,
+                      ast.Div: lambda: a / b}.get(type(node.op))
+                if op is None:
+                    return None      # refused by build, with its message
+                v = op()
+            if isinstance(v, complex) or not math.isfinite(v):
+                bad(node, "overflows a double (above 1.8e308)", fin)
+            return v
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _MATH:
+            args = [ev(a) for a in node.args]
+            if node.keywords or len(args) != FUNCTIONS[node.func.id] or any(a is None for a in args):
+                return None
+            name = node.func.id
+            if name == "atan2" and args[0] == 0 and args[1] == 0:
+                bad(node, "is undefined (atan2(0, 0))", fin)
+            try:
+                v = getattr(math, _MATH[name])(*args)
+            except ValueError:
+                bad(node, "is not a real number", f"{name} needs {_DOMAIN.get(name, 'a finite argument')}; " + fin)
+            except OverflowError:
+                v = math.inf
+            if not math.isfinite(v):
+                bad(node, "overflows a double (above 1.8e308)", fin)
+            return v
+        for c in ast.iter_child_nodes(node):   # anything else: refused by build; check its parts
+            ev(c)
+        return None
+
+    ev(tree)
 
 
 def parse(text, var, symbols, sp, values=None):
-    """The SymPy expression of formula `text`; symbols: name -> SymPy symbol or value; values: name
-    -> float of the constants among them. Every constant part of the formula is also evaluated in
-    doubles as it is built, so that a number beyond a double (1e400, 2^2^2^2^2, exp(exp(exp(10)))),
-    a division by zero and a complex value (sqrt(-1)) are refused with their column, before SymPy
-    works on them (10^10^10 as an exact integer hung the generator; sqrt(-1) reached the C compiler)."""
-    import math
-    values = values or {}
-    # a sum of n terms is a chain n deep in the syntax tree: room for what MAX_DEPTH allows
-    sys.setrecursionlimit(max(sys.getrecursionlimit(), 4 * MAX_DEPTH + 1000))
+    """The SymPy expression of formula `text`; symbols: name -> SymPy symbol or value; values: the
+    constants' floating-point values (for checking the formula's constant parts)."""
     if not text.strip():
         raise FormulaError(var, "is empty: write the formula")
-    hashes = [i for i, ch in enumerate(text) if ch == "#"]
-    if hashes:    # Python's ast would read the rest as a comment and drop it
-        raise FormulaError(var, f"'#' at column {hashes[0] + 1} is not allowed: a formula has no comments "
-                                f"(in '{text.strip()}')")
+    if len(text) > MAX_CHARS:
+        raise FormulaError(var, f"is {len(text)} characters long: a formula has at most {MAX_CHARS}")
+    if "#" in text:    # Python's ast would read the rest as a comment and drop it
+        raise FormulaError(var, f"'#' at column {text.index('#') + 1} is not allowed: a formula uses numbers, "
+                                "names, ( ) + - * / ^ ** and the functions " + ", ".join(FUNCTIONS))
     src, cols = _caret(text)
 
     def col(node_or_offset):
         off = node_or_offset if isinstance(node_or_offset, int) else node_or_offset.col_offset
         return cols[min(max(off, 0), len(cols) - 1)]
 
+    # a sum of n terms is a tree n deep: parsing it (and our recursive walks) needs a recursion limit
+    # above MAX_NODES (Python 3.11 does not use the C stack for these)
+    sys.setrecursionlimit(max(sys.getrecursionlimit(), 3 * MAX_NODES))
     try:
-        tree = ast.parse(src.strip() and src, mode="eval")
+        with warnings.catch_warnings():   # a SyntaxWarning ("invalid decimal literal") on stderr would
+            warnings.simplefilter("ignore")   # come before the message line the driver reads
+            tree = ast.parse(src.strip() and src, mode="eval")
     except SyntaxError as e:
+        if "digits" in (e.msg or ""):   # Python's advice (sys.set_int_max_str_digits) is not the user's
+            raise FormulaError(var, "has an integer of more than 4300 digits: a number in a formula is at most "
+                                    "1.8e308 (a double)")
         off = (e.offset or 1) - 1
         what = (e.msg or "invalid syntax").replace("invalid syntax. Perhaps you forgot a comma?",
                                                    "invalid syntax")
         raise FormulaError(var, f"syntax error at column {col(off)}: {what} (in '{text.strip()}')")
+    except ValueError:     # an integer literal of more than 4300 digits (older Pythons)
+        raise FormulaError(var, "has an integer of more than 4300 digits: a number in a formula is at most "
+                                "1.8e308 (a double)")
     except (RecursionError, MemoryError):
-        raise FormulaError(var, f"is nested too deeply to be read (at most {MAX_DEPTH} levels)")
-    nodes = sum(1 for _ in ast.walk(tree))
-    if nodes > MAX_NODES:
-        raise FormulaError(var, f"has {nodes} terms and operators: at most {MAX_NODES}")
-    depth, stack = 0, [(tree, 1)]
-    while stack:
-        node, d = stack.pop()
-        depth = max(depth, d)
-        stack += [(c, d + 1) for c in ast.iter_child_nodes(node)]
-    if depth > MAX_DEPTH:
-        raise FormulaError(var, f"is nested {depth} levels deep: at most {MAX_DEPTH}")
+        raise FormulaError(var, f"is nested too deeply: a formula nests at most {MAX_DEPTH} levels")
+    _check_size(tree, var, col)
+    def segment(node):   # the user's text of node
+        return text[col(node) - 1:col(node.end_col_offset) - 1]
+
+    _check_numbers(tree, var, col, segment, symbols, values or {})
 
     ops = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult: lambda a, b: a * b,
            ast.Div: lambda a, b: a / b, ast.Pow: lambda a, b: a**b}
 
-    def literal(node):
-        """A number as written: its SymPy value and its double."""
-        v = node.value
-        seg = ast.get_source_segment(src, node) or repr(v)
-        if isinstance(v, int):
-            if v.bit_length() > 1024:
-                raise FormulaError(var, f"the number {seg[:20]}{'...' if len(seg) > 20 else ''} at column "
-                                        f"{col(node)} is beyond a double (above 1.8e308)")
-            return sp.Integer(v), float(v)
-        if not math.isfinite(v):
-            raise FormulaError(var, f"the number {seg} at column {col(node)} is beyond a double (above 1.8e308)")
-        if v == 0 and any(ch in "123456789" for ch in seg.lower().split("e")[0]):
-            raise FormulaError(var, f"the number {seg} at column {col(node)} is below the smallest double "
-                                    "(about 4.9e-324): it would be read as 0")
-        return sp.Rational(repr(v)), v
-
-    def binop(node, a, fa, b, fb):
-        """node's SymPy value and its double (None unless both sides are constant)."""
-        c = col(node)
-        op = type(node.op)
-        if op is ast.Div and fb == 0:
-            raise FormulaError(var, f"division by zero at column {c}")
-        if op is ast.Pow:
-            if fb is not None and fa is None and float(fb).is_integer() and abs(fb) > MAX_POWER:
-                raise FormulaError(var, f"the power ^{fb:g} at column {c} of an expression with variables: the "
-                                        f"exponent may be at most {MAX_POWER} in size (the derivatives and the normal "
-                                        "form's series expand it); write exp(n*log(...)) for a general power")
-            if fa is not None and fb is not None:
-                if fa == 0 and fb < 0:
-                    raise FormulaError(var, f"division by zero at column {c}: 0 to the power {fb:g}")
-                if fa < 0 and not float(fb).is_integer():
-                    raise FormulaError(var, f"the power ({fa:g})^{fb:g} at column {c} is complex: a negative "
-                                            "number to a non-integer power")
-                if fa != 0 and abs(fb) * abs(math.log2(abs(fa))) > MAX_LOG2:
-                    raise FormulaError(var, f"the power ({fa:.6g})^({fb:.6g}) at column {c} is beyond a double "
-                                            f"(about 2^{fb * math.log2(abs(fa)):.3g}; doubles reach 2^1024)")
-        e = ops[op](a, b)
-        if fa is None or fb is None:
-            return e, None
-        try:
-            v = {ast.Add: fa + fb, ast.Sub: fa - fb, ast.Mult: fa * fb}.get(op)
-            if v is None:
-                v = fa / fb if op is ast.Div else math.pow(fa, fb)
-        except OverflowError:
-            v = math.inf
-        if not math.isfinite(v):
-            raise FormulaError(var, f"the constant part '{ast.get_source_segment(src, node)}' at column {c} is "
-                                    "beyond a double (above 1.8e308)")
-        return e, v
-
     def build(node):
-        """(SymPy expression, its double if the node is constant, else None)."""
         if isinstance(node, ast.Expression):
             return build(node.body)
         if isinstance(node, ast.BinOp) and type(node.op) in ops:
-            a, fa = build(node.left)
-            b, fb = build(node.right)
-            return binop(node, a, fa, b, fb)
+            return ops[type(node.op)](build(node.left), build(node.right))
         if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
-            v, fv = build(node.operand)
-            neg = isinstance(node.op, ast.USub)
-            return (-v if neg else v), (None if fv is None else (-fv if neg else fv))
+            v = build(node.operand)
+            return -v if isinstance(node.op, ast.USub) else v
         if isinstance(node, ast.Constant) and type(node.value) in (int, float):
-            return literal(node)
+            return sp.Integer(node.value) if isinstance(node.value, int) else sp.Rational(repr(node.value))
         if isinstance(node, ast.Name):
             if node.id in symbols:
-                return symbols[node.id], values.get(node.id)
+                return symbols[node.id]
             if node.id == "pi":
-                return sp.pi, math.pi
+                return sp.pi
             if node.id in FUNCTIONS or node.id in REFUSED:
                 raise FormulaError(var, f"'{node.id}' at column {col(node)} is a function: write {node.id}(...)")
             known = ", ".join(k for k in symbols) or "none"
@@ -217,13 +275,8 @@ def parse(text, var, symbols, sp, values=None):
             if node.keywords or len(node.args) != FUNCTIONS[name]:
                 raise FormulaError(var, f"{name} at column {col(node)} takes {FUNCTIONS[name]} argument"
                                         f"{'s' if FUNCTIONS[name] > 1 else ''}")
-            built = [build(a) for a in node.args]
-            fv = None
-            if all(f is not None for _, f in built):
-                fv, msg = _real(name, getattr(math, name), [f for _, f in built], col(node))
-                if msg:
-                    raise FormulaError(var, msg)
-            return getattr(sp, name)(*[e for e, _ in built]), fv
+            args = [build(a) for a in node.args]
+            return getattr(sp, name)(*args)
         what = {ast.Compare: "a comparison", ast.IfExp: "a conditional", ast.BoolOp: "a logical operator",
                 ast.Attribute: "an attribute", ast.Subscript: "an index", ast.Lambda: "a lambda"}.get(
                     type(node), f"'{ast.unparse(node)}'")
@@ -236,13 +289,7 @@ def parse(text, var, symbols, sp, values=None):
         raise FormulaError(var, f"{what} at column {col(node)} is not allowed: a formula uses numbers, "
                                 "names, + - * / ^ ** and the functions " + ", ".join(FUNCTIONS))
 
-    e, _ = build(tree)
-    if e.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
-        raise FormulaError(var, "is not finite: a division by an expression that is identically 0 "
-                                f"(SymPy reads it as {sp.sstr(e)[:80]})")
-    if e.has(sp.I) or (e.is_number and e.is_real is False):
-        raise FormulaError(var, "is complex: H must be real for real coordinates and momenta")
-    return e
+    return build(tree)
 
 
 def _f64(text, sp):
@@ -350,39 +397,117 @@ def function(sp, pr, name, inputs, consts, outputs, comment):
     return "\n".join(lines)
 
 
-def reversor(sp, h, qs, ps):
+def _terms(sp, e, x):
+    """An upper bound of the number of terms of sp.expand(e), without expanding it: the multinomial
+    count of sums, products and positive integer powers; any other node (a function, a negative or
+    fractional power) is one term, its arguments counted on their own (expand goes inside them);
+    the largest count anywhere. For a polynomial, also at most the number of monomials of its degree."""
+    from math import comb
+    worst = [0]
+
+    def walk(e):   # (terms, degree or None when not a polynomial)
+        if not e.free_symbols & set(x):
+            return 1, 0
+        if e in x:
+            return 1, 1
+        if e.is_Add or e.is_Mul:
+            parts = [walk(a) for a in e.args]
+            if e.is_Add:
+                t = sum(t for t, _ in parts)
+                d = None if any(d is None for _, d in parts) else max(d for _, d in parts)
+            else:
+                t, d = 1, 0
+                for ta, da in parts:
+                    t, d = t * ta, (None if d is None or da is None else d + da)
+        elif e.is_Pow and e.exp.is_Integer and e.exp > 0:
+            tb, db = walk(e.base)
+            k = int(e.exp)
+            t, d = comb(tb + k - 1, k), (None if db is None else db * k)
+        else:
+            for a in e.args:
+                walk(a)
+            t, d = 1, None
+        worst[0] = max(worst[0], t if d is None else min(t, comb(d + len(x), len(x))))
+        return t, d
+
+    walk(e)
+    return worst[0]
+
+
+def _is_zero(sp, e):
+    """Whether e is identically zero: its expansion, which is canonical for a polynomial (then
+    sp.simplify, slow on a large nonzero polynomial, is not needed: (x + y + px + py)^30 took
+    minutes in it); sp.simplify for anything else."""
+    e = sp.expand(e)
+    if e == 0:
+        return True
+    if e.is_polynomial():
+        return False
+    # sp.simplify has no bound on its work (minutes on sqrt(x^2 + y^2 + px^2 + py^2)^-3's third
+    # derivatives): only on small expressions; a larger one counts as nonzero, the safe side (a
+    # Hamiltonian is then treated as not natural, or without that reversor)
+    if sum(1 for _ in zip(range(MAX_SIMPLIFY + 1), sp.preorder_traversal(e))) > MAX_SIMPLIFY:
+        return False
+    return sp.simplify(e) == 0
+
+
+def reversor(sp, h, qs, ps, mons=None):
     """Signs r (2N) of a reversor x -> r x (q_i -> s_i q_i, p_i -> -s_i p_i) with H(r x) = H(x),
     the one with the most s_i = +1 (a natural system's (q, -p) first); zeros if none: symmetric
-    periodic orbits are found with it (src/orbits/tubes_orbits.f90). H(r x) - H(x) is tested at 4
-    fixed rational points of the coordinates, momenta and constants, to 30 digits (zero within 1e-20
-    of |H| + 1 at all of them), unless it is 0 as written: expanding it symbolically, as before,
-    took minutes for (x + y + px + py)^30."""
-    import random
+    periodic orbits are found with it (src/orbits/tubes_orbits.f90). mons: the exponents of a
+    polynomial H's monomials in (q, p), if it is one (then H(r x) = H(x) when every monomial keeps
+    its sign)."""
     from itertools import product
     n = len(qs)
-    # the constants too get random values: H(r x) = H(x) for every value of them, as the symbolic
-    # test required (a reversor that holds only for the constants' values is not taken)
-    syms = list(qs) + list(ps) + sorted(h.free_symbols - set(qs) - set(ps), key=str)
-    rng = random.Random(20261129)            # the same points in every run
-    pts = [{s: sp.Rational(rng.randint(-997, 997), 1009) for s in syms} for _ in range(4)]
-    href = [abs(sp.N(h.subs(pt), 30)) + 1 for pt in pts]
-
-    def invariant(sub):
-        d = h.subs(sub, simultaneous=True) - h
-        if d == 0:
-            return True
-        for pt, hr in zip(pts, href):
-            v = sp.N(d.subs(pt), 30)
-            if not (v.is_number and abs(v) <= sp.Float("1e-20") * hr):
-                return False
-        return True
-
     for signs in sorted(product((1, -1), repeat=n), key=lambda s: (s.count(-1), [-v for v in s])):
+        if mons is not None:
+            r = list(signs) + [-s for s in signs]
+            if all(sum(e for e, ri in zip(m, r) if ri < 0) % 2 == 0 for m in mons):
+                return r
+            continue
         sub = {q: s * q for q, s in zip(qs, signs)}
         sub.update({p: -s * p for p, s in zip(ps, signs)})
-        if invariant(sub):
+        if _is_zero(sp, h.subs(sub, simultaneous=True) - h):
             return list(signs) + [-s for s in signs]
     return [0] * (2 * n)
+
+
+def _check_expression(sp, h, var, names):
+    """Refuse what SymPy made of the formula when it is not finite and real for real inputs (zoo,
+    oo, nan, I: e.g. tan(pi/2), x/(x - x)) or has a power of a non-constant base above MAX_POWER
+    (e.g. ((x + y)^30)^30, which SymPy folds into one power)."""
+    for bad, what in ((sp.zoo, "an infinity of unknown sign (zoo)"), (sp.nan, "an undefined value (nan)"),
+                      (sp.oo, "an infinity"), (-sp.oo, "an infinity"), (sp.I, "the imaginary unit")):
+        if h.has(bad):
+            raise FormulaError(var, f"is not finite and real: SymPy reduces it to an expression with {what}, "
+                                    f"e.g. from a division by zero or tan(pi/2); a formula must be finite and "
+                                    f"real for real coordinates and momenta")
+    allowed = {getattr(sp, name) for name in FUNCTIONS if name != "sqrt"}
+    for f in sorted(h.atoms(sp.Function), key=str):
+        if f.func not in allowed:   # e.g. Abs: SymPy writes sqrt(u^2) as |u| for a real u
+            shown = f.subs({s: sp.Symbol(n) for n, s in names.items()}, simultaneous=True)
+            raise FormulaError(var, f"becomes {shown} in SymPy ({f.func.__name__}, e.g. |u| from sqrt(u^2)), which is "
+                                    "not differentiable everywhere (tubes needs the Hessian everywhere): write "
+                                    "the formula without it, e.g. sqrt(u^2 + eps^2) or u itself")
+    for e in sp.preorder_traversal(h):
+        if e.is_Pow and e.exp.is_Number and not e.base.is_Number and abs(e.exp) > MAX_POWER:
+            raise FormulaError(var, f"has the power {e.exp} of a non-constant base: the exponent of a "
+                                    f"non-constant base is at most {MAX_POWER} in magnitude (SymPy expands "
+                                    "such powers symbolically)")
+
+
+def _check_tree(outputs, var, what):
+    """Refuse derivatives of more than MAX_TREE nodes in all (counted before SymPy shares their common
+    subexpressions, and the count stops there: bounded work)."""
+    import sympy as sp
+    n = 0
+    for e in outputs:
+        for _ in sp.preorder_traversal(e):
+            n += 1
+            if n > MAX_TREE:
+                raise FormulaError(var, f"is too large after differentiation: its {what} have more than "
+                                        f"{MAX_TREE} nodes (the limit; write a smaller formula)")
+    return n
 
 
 def build(spec, sp):
@@ -403,16 +528,17 @@ def build(spec, sp):
                                           "momentum per coordinate, in the same order")
     consts = check_names(spec)
     # constants: each a number, or a formula of numbers and the constants before it
-    csyms, cvals, table, floats = {}, [], {}, {}
+    csyms, cvals, table = {}, [], {}
     for name, text, k in consts:
         try:
-            e = _f64(text, sp) if text.startswith("f64:") else parse(text, "constants", dict(table), sp, floats)
+            e = _f64(text, sp) if text.startswith("f64:") else parse(text, "constants", dict(table), sp,
+                                                                     {n: float(val) for n, val in cvals})
         except FormulaError as err:
             raise FormulaError("constants", f"constants({k}): {name} = {text}: {err.msg}")
+        # finite and of bounded size (parse checked its parts in floating point): sp.N is cheap
         v = sp.N(e.subs({csyms[n]: val for n, val in cvals}), 30)
-        if not (v.is_real and v.is_finite and abs(float(v)) < float("inf")):
+        if not (v.is_real and v.is_finite):
             raise FormulaError("constants", f"constants({k}): {name} = {text} is not a finite real number")
-        floats[name] = float(v)
         c_name = f"k_{name}"
         csyms[name] = sp.Symbol(c_name, real=True)
         cvals.append((name, v))
@@ -422,7 +548,8 @@ def build(spec, sp):
     names = dict(zip(coords, qs))
     names.update(zip(moms, ps))
     names.update(table)
-    h = parse(spec.get("expr", ""), var, names, sp, floats)
+    h = parse(spec.get("expr", ""), var, names, sp, {n: float(val) for n, val in cvals})
+    _check_expression(sp, h, var, names)
     free = h.free_symbols
     for n, s in list(zip(coords, qs)) + list(zip(moms, ps)):
         if s not in free:
@@ -446,6 +573,7 @@ def generate(spec):
         d1 = [sp.diff(h, a) for a in x]
         d2 = [sp.diff(h, a, b) for b in x for a in x]
         d3 = [sp.diff(h, a, b, c) for c in x for b in x for a in x]
+        _check_tree([h] + d1 + d2 + d3, "height", "first, second and third derivatives")
         out += ["const int tubes_expr_kind = 2;", "const int tubes_expr_ndof = 2;",
                 "const int tubes_expr_natural = 1;",
                 function(sp, pr, "tubes_expr_height", x, cdecl, [h], "h(x, y)"),
@@ -457,13 +585,25 @@ def generate(spec):
     n = len(qs)
     grad = [sp.diff(h, a) for a in x]
     hess = [sp.diff(g, a) for a in x for g in grad]
+    _check_tree([h] + grad + hess, "hamiltonian", "gradient and Hessian")
     field = grad[n:] + [-g for g in grad[:n]]
     zero = {p: 0 for p in ps}
     v = h.subs(zero)
-    t = sp.expand(h - v)
-    natural = all(sp.simplify(sp.diff(t, p).subs(zero)) == 0 for p in ps) and all(
-        sp.simplify(sp.diff(t, a, b, c)) == 0 for a in ps for b in ps for c in ps)
-    rev = reversor(sp, h, qs, ps)
+    terms = _terms(sp, h, x)
+    if terms > MAX_TERMS:
+        raise FormulaError("hamiltonian", f"expands to about {terms} terms: a Hamiltonian has at most "
+                                          f"{MAX_TERMS} once expanded (the limit; it is expanded to find its "
+                                          "symmetry and whether it is natural)")
+    if h.is_polynomial(*x):   # from its monomials: SymPy's diff and expand are slow on large sums
+        mons = sp.Poly(h, *x).monoms()
+        natural = all(sum(m[n:]) in (0, 2) for m in mons)    # H = V(q) + p^T A(q) p / 2
+        t = sp.expand(h - v) if natural else None
+    else:
+        mons = None
+        t = sp.expand(h - v)
+        natural = all(_is_zero(sp, sp.diff(t, p).subs(zero)) for p in ps) and all(
+            _is_zero(sp, sp.diff(t, a, b, c)) for a in ps for b in ps for c in ps)
+    rev = reversor(sp, h, qs, ps, mons)
     out += ["const int tubes_expr_kind = 1;", f"const int tubes_expr_ndof = {n};",
             f"const int tubes_expr_natural = {int(natural)};",
             "/* a time-reversal symmetry (q_i, p_i) -> (s_i q_i, -s_i p_i) of H, or zeros */",
@@ -780,14 +920,14 @@ def main(argv):
         sys.stderr.write("-\tSymPy is not installed for this Python (" + sys.executable + "): run make deps\n")
         return 3
     try:
-        return _main(mode, argv)
-    except Exception as e:      # never a traceback: one line the driver (src/io/tubes_expr.c) prints
+        return _main(argv, mode)
+    except Exception as e:      # never a traceback: one line the driver prints (src/io/tubes_expr.c)
         msg = " ".join(str(e).split())[:300]
-        sys.stderr.write(f"-\tinternal error in the code generator: {type(e).__name__}: {msg} (please report it)\n")
+        sys.stderr.write(f"-\tinternal error in the code generator: {type(e).__name__}: {msg} (please report)\n")
         return 1
 
 
-def _main(mode, argv):
+def _main(argv, mode):
     text = sys.stdin.read()
     spec = read_spec(text.splitlines())
     try:

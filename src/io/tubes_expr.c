@@ -706,7 +706,12 @@ static int build_locked(const build_kind_t *bk, const char *spec, char *var, int
     if (st == 1 && tab && tab < out + strcspn(out, "\n")) {   /* the formula: "variable<TAB>message" */
       out[strcspn(out, "\n")] = 0;
       *tab = 0;
-      snprintf(var, (size_t)lvar, "%s", out);
+      if (strcmp(out, "-") != 0)
+        snprintf(var, (size_t)lvar, "%s", out);
+      else {   /* not one variable's fault (codegen.main: an internal error): the formula's variable */
+        char formula[512];
+        spec_formula(spec, formula, sizeof formula, var, lvar);
+      }
       say(msg, lmsg, "%s", tab + 1);
       rc = TUBES_EINPUT;
       goto done;
