@@ -126,6 +126,10 @@ def test_long_sum_is_not_deep():
 
 @pytest.mark.parametrize("formula", [
     "(x + y + px + py)^30",                 # 175 s in sp.simplify (the reversor), now ~3 s
+    # found by tests/fuzz/fuzz_formula.py: 45 s expanding the third derivatives (the naturalness
+    # test), and over 120 s working out a rational to a rational power exactly (now at float points)
+    "sqrt(x^2 + y^2 + px^2 + y^2^2 + py^2)^-3",
+    "sqrt(x^2 + y^2 + px^3 + py^1)^ + px^3 + -3",
 ])
 def test_no_minutes_in_simplify(tmp_path, formula):
     """Formulas that kept the generator busy for minutes are built within a 30 s code-generation limit."""
@@ -146,3 +150,15 @@ def test_a_changed_generator_rebuilds_the_cached_model(tmp_path):
     assert "code generated" in p1.stdout and "code generated" in p2.stdout    # built twice, not a cache hit
     p3 = run(tmp_path, "0.7*x^2" + P)
     assert "loaded from the cache" in p3.stdout                              # the same generator: a hit
+
+
+def test_a_deep_formula_found_by_the_fuzzer_is_refused_not_a_traceback():
+    """tests/fuzz/fuzz_formula.py: the depth check named the column of an operator node, which
+    has none (AttributeError: 'Load' object has no attribute 'col_offset')."""
+    import sympy as sp
+    sys.path.insert(0, str(ROOT / "python" / "tubes"))
+    import codegen
+    text = (ROOT / "tests" / "fuzz" / "corpus-formula" / "crash-deep-unary-column").read_text()
+    syms = {n: sp.Symbol(n) for n in ("x", "y", "px", "py")}
+    with pytest.raises(codegen.FormulaError, match=r"nested more than 100 levels deep at column \d+"):
+        codegen.parse(text, "hamiltonian", syms, sp)

@@ -82,20 +82,21 @@ def _caret(text):
 
 def _check_size(tree, var, col):
     """Refuse a syntax tree of more than MAX_NODES nodes or deeper than MAX_DEPTH (no recursion)."""
-    stack, nodes = [(tree, 0)], 0
+    stack, nodes = [(tree, 0, 0)], 0
     while stack:
-        node, depth = stack.pop()
+        node, depth, off = stack.pop()
+        off = getattr(node, "col_offset", off)   # an operator or a context node: its parent's column
         nodes += 1
         if nodes > MAX_NODES:
             raise FormulaError(var, f"has more than {MAX_NODES} terms, operators and numbers: a formula has at "
                                     f"most {MAX_NODES}")
         if depth > MAX_DEPTH:
-            raise FormulaError(var, f"is nested more than {MAX_DEPTH} levels deep at column {col(node)}: a "
+            raise FormulaError(var, f"is nested more than {MAX_DEPTH} levels deep at column {col(off)}: a "
                                     f"formula nests at most {MAX_DEPTH}")
         for c in ast.iter_child_nodes(node):     # a chain a + b - c ... (or * /) is one level
             chain = (isinstance(node, ast.BinOp) and isinstance(c, ast.BinOp) and c is node.left
                      and _CHAIN.get(type(c.op), 0) == _CHAIN.get(type(node.op), -1))
-            stack.append((c, depth if chain else depth + 1))
+            stack.append((c, depth if chain else depth + 1, off))
 
 
 _CHAIN = {ast.Add: 1, ast.Sub: 1, ast.Mult: 2, ast.Div: 2}
@@ -435,18 +436,41 @@ def _terms(sp, e, x):
 
 
 def _is_zero(sp, e):
-    """Whether e is identically zero: its expansion, which is canonical for a polynomial (then
-    sp.simplify, slow on a large nonzero polynomial, is not needed: (x + y + px + py)^30 took
-    minutes in it); sp.simplify for anything else."""
+    """Whether e is identically zero. First numerically, at fixed points of its symbols
+    (the coordinates, momenta and constants) to 30 digits: a value clearly off zero proves it
+    nonzero in milliseconds, where expanding it took minutes ((x + y + px + py)^30, and the third
+    derivatives of sqrt(x^2 + y^2 + px^2 + y^4 + py^2)^-3: found by the fuzz target). Zero at every
+    point: the expansion, canonical for a polynomial, or sp.simplify, on an expression of at most
+    MAX_SIMPLIFY nodes; a larger one that vanishes at all the points is taken as zero (a nonzero
+    analytic function vanishes on a set of measure zero)."""
+    import random
+    if e == 0:
+        return True
+    syms = sorted(e.free_symbols, key=str)
+    rng = random.Random(20261129)             # the same points in every run
+    tried = 0
+    for _ in range(12):
+        # floats of 30 digits, not rationals: a rational to a rational power is worked out exactly
+        # (its roots sought), which took minutes on (px^3 + ...)^(px^3/2)
+        pt = {v: sp.Float(rng.randint(-997, 997), 30) / 1009 for v in syms}
+        try:
+            val = sp.N(e.subs(pt), 30)
+            parts = [abs(sp.N(t.subs(pt), 30)) for t in (e.args if e.is_Add else (e,))]
+        except (ZeroDivisionError, ValueError, TypeError):
+            continue
+        if not (val.is_real and val.is_finite and all(q.is_real and q.is_finite for q in parts)):
+            continue                          # a singular point: inconclusive, take another
+        tried += 1
+        if abs(val) > sp.Float("1e-20") * (1 + sum(parts)):
+            return False
+        if tried == 4:
+            break
+    if sum(1 for _ in zip(range(MAX_SIMPLIFY + 1), sp.preorder_traversal(e))) > MAX_SIMPLIFY:
+        return tried > 0
     e = sp.expand(e)
     if e == 0:
         return True
     if e.is_polynomial():
-        return False
-    # sp.simplify has no bound on its work (minutes on sqrt(x^2 + y^2 + px^2 + py^2)^-3's third
-    # derivatives): only on small expressions; a larger one counts as nonzero, the safe side (a
-    # Hamiltonian is then treated as not natural, or without that reversor)
-    if sum(1 for _ in zip(range(MAX_SIMPLIFY + 1), sp.preorder_traversal(e))) > MAX_SIMPLIFY:
         return False
     return sp.simplify(e) == 0
 
