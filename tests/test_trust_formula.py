@@ -134,7 +134,9 @@ def test_long_sum_is_not_deep():
 def test_no_minutes_in_simplify(tmp_path, formula):
     """Formulas that kept the generator busy for minutes are built within a 30 s code-generation limit."""
     p = run(tmp_path, formula, env={"TUBES_CODEGEN_TIMEOUT": "30"}, timeout=200)
-    assert p.returncode == 0, p.stderr
+    # built (the equilibria of the fuzzer's odd Hamiltonians may not converge: exit 2, said)
+    assert "code generated" in p.stdout and "did not finish" not in p.stderr, p.stderr
+    assert p.returncode in (0, 2), p.stderr
 
 
 def test_a_changed_generator_rebuilds_the_cached_model(tmp_path):
