@@ -130,6 +130,7 @@ def test_long_sum_is_not_deep():
     # test), and over 120 s working out a rational to a rational power exactly (now at float points)
     "sqrt(x^2 + y^2 + px^2 + y^2^2 + py^2)^-3",
     "sqrt(x^2 + y^2 + px^3 + py^1)^ + px^3 + -3",
+    "((x+2^2)/2 + +-+-x / y + px )^34+  py+ +  + py",   # minutes expanding H - V (the naturalness test)
 ])
 def test_no_minutes_in_simplify(tmp_path, formula):
     """Formulas that kept the generator busy for minutes are built within a 30 s code-generation limit."""
