@@ -131,6 +131,7 @@ def test_long_sum_is_not_deep():
     "sqrt(x^2 + y^2 + px^2 + y^2^2 + py^2)^-3",
     "sqrt(x^2 + y^2 + px^3 + py^1)^ + px^3 + -3",
     "((x+2^2)/2 + +-+-x / y + px )^34+  py+ +  + py",   # minutes expanding H - V (the naturalness test)
+    "sqrt(x^3 + y^1 + px^1 *pi-pi--pi---pi-pi-------pi--pi-- py^3)^-33",   # minutes in expand + simplify
 ])
 def test_no_minutes_in_simplify(tmp_path, formula):
     """Formulas that kept the generator busy for minutes are built within a 30 s code-generation limit."""

@@ -54,7 +54,6 @@ MAX_POWER = 100
 MAX_LOG2 = 1100
 MAX_TREE = 2000000
 MAX_TERMS = 20000
-MAX_SIMPLIFY = 200
 
 
 class FormulaError(Exception):
@@ -436,13 +435,12 @@ def _terms(sp, e, x):
 
 
 def _is_zero(sp, e):
-    """Whether e is identically zero. First numerically, at fixed points of its symbols
-    (the coordinates, momenta and constants) to 30 digits: a value clearly off zero proves it
-    nonzero in milliseconds, where expanding it took minutes ((x + y + px + py)^30, and the third
-    derivatives of sqrt(x^2 + y^2 + px^2 + y^4 + py^2)^-3: found by the fuzz target). Zero at every
-    point: the expansion, canonical for a polynomial, or sp.simplify, on an expression of at most
-    MAX_SIMPLIFY nodes; a larger one that vanishes at all the points is taken as zero (a nonzero
-    analytic function vanishes on a set of measure zero)."""
+    """Whether e is identically zero, numerically: at 4 fixed points of its symbols (the
+    coordinates, momenta and constants; points where e is singular are skipped), to 30 digits. A
+    value clearly off zero proves it nonzero; zero at all four is taken as zero (a nonzero analytic
+    function vanishes on a set of measure zero). Expanding it or sp.simplify, as before, took
+    minutes on (x + y + px + py)^30, sqrt(x^2 + y^2 + px^2 + y^4 + py^2)^-3's third derivatives and
+    sqrt(x^3 + y + px*pi + py^3)^-33 (the last two found by the fuzz target)."""
     import random
     if e == 0:
         return True
@@ -465,14 +463,10 @@ def _is_zero(sp, e):
             return False
         if tried == 4:
             break
-    if sum(1 for _ in zip(range(MAX_SIMPLIFY + 1), sp.preorder_traversal(e))) > MAX_SIMPLIFY:
-        return tried > 0
-    e = sp.expand(e)
-    if e == 0:
-        return True
-    if e.is_polynomial():
-        return False
-    return sp.simplify(e) == 0
+    # zero at every point: zero (no sp.expand or sp.simplify: a small expression such as
+    # sqrt(x^3 + y + px*pi + py^3)^-33 expands without bound, found by the fuzz target); no point
+    # where it could be evaluated: not zero, the safe side
+    return tried > 0
 
 
 def reversor(sp, h, qs, ps, mons=None):
