@@ -23,18 +23,18 @@ if [ -x build/mpi/bin/tubes ]; then
 else
   echo "SKIP mpi/* (no build/mpi/bin/tubes: no MPI compiler wrapper)"
 fi
-# a minute of the namelist fuzzer (make fuzz runs it longer; docs/development.md)
+# 20 s of the namelist fuzzer (make fuzz runs it longer; docs/development.md)
 if [ -x build/fuzz/fuzz_namelist ]; then
-  run "fuzz/namelist (60 s)" bash tests/fuzz/run.sh build/fuzz/fuzz_namelist 60
+  run "fuzz/namelist (20 s)" bash tests/fuzz/run.sh build/fuzz/fuzz_namelist 20
 else
   echo "SKIP fuzz/namelist (no build/fuzz/fuzz_namelist: no clang-14)"
 fi
-# each Python (Atheris) target: its corpus replayed, then 10 s of fuzzing; SKIP without atheris
+# each Python (Atheris) target: its corpus replayed, then 5 s of fuzzing; SKIP without atheris
 for t in tests/fuzz/fuzz_*.py; do
   [ -f "$t" ] || continue
   n=$(basename "$t" .py); n=${n#fuzz_}
   if .venv/bin/python -c 'import atheris' 2>/dev/null; then
-    run "fuzz/$n (10 s)" bash tests/fuzz/run.sh "$t" 10
+    run "fuzz/$n (5 s)" bash tests/fuzz/run.sh "$t" 5
   else
     echo "SKIP fuzz/$n (atheris is not installed in .venv: make deps installs it)"
   fi
