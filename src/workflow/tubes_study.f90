@@ -365,6 +365,25 @@ contains
     end if
   end subroutine box_note
 
+  !> The model of system and its equilibria in [lo, hi], the search kept in stores when they are
+  !> associated (box_note_of, centres_of: the front ends' calls after the equilibria scene's).
+  subroutine model_equilibria(system, params, lo, hi, n_grid, stores, model, eqs, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:), lo(:), hi(:)
+    integer, intent(in) :: n_grid
+    type(seed_stores_t), pointer, intent(in) :: stores
+    class(hamiltonian_t), allocatable, intent(out) :: model
+    type(equilibrium_t), allocatable, intent(out) :: eqs(:)
+    integer, intent(out) :: stat
+    call make_model(system, params, model, stat)
+    if (stat /= TUBES_OK) return
+    if (associated(stores)) then
+      call equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat, stores)
+    else
+      call equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat)
+    end if
+  end subroutine model_equilibria
+
   !> box_note for the system's equilibria in [lo, hi] (the front ends' one call: the C API's
   !> tubes_box_note and the f2py box_note); stores: the run's kept results, or a null pointer.
   subroutine box_note_of(system, params, lo, hi, n_grid, stores, note, stat)
@@ -378,15 +397,9 @@ contains
     type(equilibrium_t), allocatable :: eqs(:)
     integer :: nd
     note = ''
-    call make_model(system, params, model, stat)
+    call model_equilibria(system, params, lo, hi, n_grid, stores, model, eqs, stat)
     if (stat /= TUBES_OK) return
     nd = model%ndof()
-    if (associated(stores)) then
-      call equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat, stores)
-    else
-      call equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat)
-    end if
-    if (stat /= TUBES_OK) return
     call box_note(model, lo(1:nd), hi(1:nd), eqs, note)
   end subroutine box_note_of
 
@@ -407,15 +420,9 @@ contains
     n = 0
     freqs = ieee_value(1.0_wp, ieee_quiet_nan)
     stable = 0
-    call make_model(system, params, model, stat)
+    call model_equilibria(system, params, lo, hi, n_grid, stores, model, eqs, stat)
     if (stat /= TUBES_OK) return
     nd = model%ndof()
-    if (associated(stores)) then
-      call equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat, stores)
-    else
-      call equilibria_of(system, params, lo, hi, n_grid, model, eqs, stat)
-    end if
-    if (stat /= TUBES_OK) return
     if (size(eqs) > size(stable) .or. nd > size(freqs, 1)) then
       stat = TUBES_EINPUT
       return
