@@ -305,6 +305,11 @@ int tubes_section_info(const char system[TUBES_LSYSTEM], const double params[TUB
                        int dir, double de, double *rmin, double *rmax, double *area,
                        double *darea, void *stores);
 
+/* The leading order of p_trans at small de: (tpo/a0) de (1 - tau de/a0), tpo = 2 pi/omega of the
+ * saddle, a0 and tau = dA_E/dE the energy surface's area and its derivative on the section at the
+ * saddle's energy (tubes_section_info at de = 0). */
+double tubes_p_trans_leading(double tpo, double a0, double tau, double de);
+
 /* The cut of the stable (kind -1) or unstable (kind +1) tube of the saddle's Lyapunov orbit at
  * excess energy de with the section (as tubes_section_info), refined until
  * the area changes by < area_tol (relative) or n_max (<= nout) seeds. Outputs: *n points tau, r,

@@ -619,8 +619,9 @@ end subroutine orbit_family
 subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol, orb_rtol, orb_atol, &
                     sec_kind, sec_index, level, dir, de, kind, eps, area_tol, t_max, n_init, n_max, &
                     method, h, omega_bind, solver, int_max_iter, stores, stat, n, tau, r, pr, time, &
-                    xs, area, area_polygon, action, period, n_failed)
-  ! the cut of the saddle's tube at de with the section (as the tubes scene)
+                    xs, area, area_polygon, action, period, n_failed, nhist, hist_n, hist_area)
+  ! the cut of the saddle's tube at de with the section (as the tubes scene); its refinement
+  ! history: the points and area after each of nhist rounds
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_orbits, only: orbit_t
   use tubes_manifold, only: tube_cut_t
@@ -634,22 +635,23 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   real(c_double), intent(in) :: params(16), lo(3), hi(3), orb_tol, orb_rtol, orb_atol, level, de, &
                                 eps, area_tol, t_max
   integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: stat, n, n_failed
+  integer(c_int), intent(out) :: stat, n, n_failed, nhist, hist_n(64)
   real(c_double), intent(out) :: tau(n_max), r(n_max), pr(n_max), time(n_max), xs(4, n_max), area, &
-                                 area_polygon, action, period
+                                 area_polygon, action, period, hist_area(64)
   type(study_t) :: st
   type(tube_cut_t) :: cut
   type(orbit_t) :: orb
   type(seed_stores_t), pointer :: kept
   n = 0; tau = 0; r = 0; pr = 0; time = 0; xs = 0; area = 0; area_polygon = 0; action = 0; period = 0
-  n_failed = 0
+  n_failed = 0; hist_n = 0; hist_area = 0
   st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
                n_segments=n_segments, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol, &
                integ=integ_of(method, h, omega_bind, solver, int_max_iter))
   kept => stores_at(stores)
   call cut_at(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, &
               tube_opts_of(kind, eps, area_tol, t_max, n_init, n_max, .false.), cut, orb, stat, kept)
-  call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
+  call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed, &
+                   nhist, hist_n, hist_area)
 end subroutine tube_cut
 
 subroutine section_info(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
@@ -670,6 +672,30 @@ subroutine section_info(system, params, lo, hi, n_grid, saddle, sec_kind, sec_in
                      section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, smin, &
                      smax, area, darea, stat, kept)
 end subroutine section_info
+
+subroutine transition_leading(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, n, de, &
+                              stores, stat, p)
+  ! the leading order of p_trans at the energies de (as the transition scene's p_trans_leading)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_study, only: study_t, section_choice_t, leading_order_at, p_trans_leading, seed_stores_t, stores_at
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, n
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de(n)
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: stat
+  real(c_double), intent(out) :: p(n)
+  type(seed_stores_t), pointer :: kept
+  real(c_double) :: tpo, a0, tau
+  integer :: k
+  kept => stores_at(stores)
+  call leading_order_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle), &
+                        section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), tpo, a0, tau, &
+                        stat, kept)
+  do k = 1, n
+    p(k) = p_trans_leading(tpo, a0, tau, de(k))
+  end do
+end subroutine transition_leading
 
 subroutine monte_carlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
                        nsamp, seed, t_max, gate, method, h, omega_bind, solver, int_max_iter, ncut, &
@@ -788,6 +814,35 @@ subroutine status_text(code, msg)
   character(len=256), intent(out) :: msg
   msg = status_message(code)
 end subroutine status_text
+
+subroutine dataset_units(group, name, dimensionless, stat, units)
+  ! the units of dataset (or attribute) name of group in the output file (src/io/tubes_units.c: the
+  ! writer's one table), as a model with or without physical units writes them; stat -1: no row
+  use, intrinsic :: iso_c_binding, only: c_int, c_char, c_null_char
+  implicit none
+  character(len=*), intent(in) :: group, name
+  integer, intent(in) :: dimensionless
+  integer, intent(out) :: stat
+  character(len=64), intent(out) :: units
+  interface
+    function tubes_units_c(g, n, dl, out, ln) result(r) bind(C, name='tubes_units_c')
+      import :: c_int, c_char
+      character(kind=c_char), intent(in) :: g(*), n(*)
+      integer(c_int), value :: dl, ln
+      character(kind=c_char), intent(out) :: out(*)
+      integer(c_int) :: r
+    end function tubes_units_c
+  end interface
+  character(kind=c_char) :: buf(64)
+  integer :: k
+  buf = c_null_char
+  stat = tubes_units_c(trim(group) // c_null_char, trim(name) // c_null_char, int(dimensionless, c_int), buf, 64_c_int)
+  units = ''
+  do k = 1, 64
+    if (buf(k) == c_null_char) exit
+    units(k:k) = buf(k)
+  end do
+end subroutine dataset_units
 
 subroutine flux(system, params, lo, hi, n_grid, saddle, nde, des, nsamp, seed, t_max, gate, tol, method, h, &
                 omega_bind, solver, int_max_iter, stat, fl, err, leading, counts)

@@ -287,8 +287,8 @@ def test_no_conservative_number_under_a_damped_name(tmp_path):
         assert 0 < g.attrs["p_trans"] < f["tubes/stable_000"].attrs["area"] / g.attrs["A_E"]
         pts = f["sections/map_000/points"][()]
     # the map is the damped ball's (Python's call, bit for bit), not the conservative one's
-    damped = tubes.poincare(tubes.Model(damping_ratio=0.01), dE=100.0, n_seeds=2, n_iter=20)
-    cons = tubes.poincare(tubes.Model(), dE=100.0, n_seeds=2, n_iter=20)
+    damped = tubes.poincare(tubes.Model(damping_ratio=0.01), dE=100.0, n_seeds=2, n_iter=20).points
+    cons = tubes.poincare(tubes.Model(), dE=100.0, n_seeds=2, n_iter=20).points
     assert np.array_equal(damped, pts, equal_nan=True) and not np.allclose(damped[:, 1:], cons[:, 1:])
 
 

@@ -246,7 +246,7 @@ def test_the_calls_tables_convert_in_one_call():
     assert "monodromy" not in df.columns and "saddle" not in df.columns
     assert o.to_xarray().sizes["dE"] == 2
     t = m.transition(dE=[100.0]).to_pandas()
-    assert list(t.columns) == ["A_tube", "action", "A_E", "p_trans", "status", "message"] and t.index.name == "dE"
+    assert list(t.columns) == ["A_tube", "action", "A_E", "p_trans", "p_trans_leading", "status", "message"] and t.index.name == "dE"
     e = m.equilibria().to_pandas()
     assert sorted(e.index) == ["R1", "S12", "S14", "S23", "S34", "W1", "W2", "W3", "W4"]
 

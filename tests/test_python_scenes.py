@@ -115,7 +115,7 @@ def test_cr3bp_scenes(tmp_path):
     mc = cr.monte_carlo(0.002, n_samples=400, seed=3, **kw)
     assert mc["fraction"] == f["montecarlo"].attrs["fraction"] and np.array_equal(mc["transit"], f["montecarlo/transit"][:])
     pts = cr.poincare(0.002, n_seeds=3, n_iter=8, **kw)
-    assert np.array_equal(pts, f["sections/map_000/points"][:], equal_nan=True)
+    assert np.array_equal(pts.points, f["sections/map_000/points"][:], equal_nan=True)
 
 
 def test_three_dof_orbits(tmp_path):
@@ -136,7 +136,8 @@ def test_three_dof_orbits(tmp_path):
 def test_poincare_maps(tmp_path):
     f = _run(tmp_path, "&run scenes = 'sections' /\n&sections de = 100, n_seeds = 4, n_iter = 30 /\n")
     pts = tubes.Model().poincare(100, n_seeds=4, n_iter=30)
-    assert np.array_equal(pts, f["sections/map_000/points"][:], equal_nan=True)
+    assert np.array_equal(pts.points, f["sections/map_000/points"][:], equal_nan=True)
+    assert pts.dE == f["sections/map_000"].attrs["dE"] and pts.units["points"] == "cm, cm/s"
 
 
 def test_the_integrator_is_the_inputs_choice(tmp_path):

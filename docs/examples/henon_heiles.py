@@ -21,7 +21,7 @@ def main(outdir="."):
     eq = tubes.equilibria(m)
     for name, e, k, x, y in zip(eq["name"], eq["energy"], eq["morse_index"], eq["x"], eq["y"]):
         print(f"{name}: ({x:+.6f}, {y:+.6f}), energy {e:.10f}, index {k}, |q| = {np.hypot(x, y):.6f}")
-    P = tubes.poincare(m, dE=0.002, n_seeds=30, n_iter=150)
+    P = tubes.poincare(m, dE=0.002, n_seeds=30, n_iter=150).points
     escaped = int(np.sum(~np.isfinite(P[:, -1, 0])))
     print(f"section y = 0 at dE = 0.002: {int(np.isfinite(P[..., 0]).sum())} returns, {escaped} of "
           f"{P.shape[0]} seeds escaped")

@@ -13,6 +13,7 @@ cm and s, energies per unit mass in (cm/s)^2.
 """
 from __future__ import annotations
 
+import functools
 import re
 import sys
 from typing import Any
@@ -593,13 +594,14 @@ def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, 
         raise TubesError(-1, f"equilibria ({nc} points have centre frequencies, {n} were found)")
     out["frequencies"] = fq[:nd, :n].T.copy()
     out["stable"] = stab[:n] == 1
+    out.update(box=((hi - lo) / 2)[:nd].copy(), box_center=((hi + lo) / 2)[:nd].copy(), n_grid=int(n_grid))
     (stat, note) = _lib().box_note(model.name, model.params(), lo, hi, int(n_grid), model._stores())
     _check(stat, "equilibria")
     note = (note.decode() if isinstance(note, bytes) else str(note)).strip()
     if note:
         import warnings  # noqa: PLC0415
         warnings.warn(f"equilibria: {note}", RuntimeWarning, stacklevel=2)
-    return Table(out)
+    return _table(out, "/equilibria", model)
 
 
 def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | None = None,
@@ -879,13 +881,15 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
            "monodromy": mono[:n2 * n2, :].T.reshape(-1, n2, n2).transpose(0, 2, 1).copy(),
            "residual": res.copy(), "closure": clo.copy(), "iterations": it.copy(),
            "min_eq_distance": mind.copy(), "converged": conv.astype(bool), "state0": s0[:n2, :].T.copy(),
-           "end_dE": float(end_de) if end_de > 0 else None, "saddle": st["saddle"]}
+           "end_dE": float(end_de) if end_de > 0 else None, "saddle": st["saddle"],
+           "family": int(st["orb_family"]), "method": "multiple" if int(st["n_segments"]) > 1 else "single",
+           "n_segments": int(st["n_segments"]), "tol": float(st["orb_tol"])}
     bad = ~out["converged"]
     for k in ("period", "action", "mu_unstable", "mu_stable", "mu_trivial", "mu_trivial_imag", "stability_index",
               "monodromy", "closure", "min_eq_distance", "state0"):
         out[k][bad] = np.nan          # no orbit: not a period of 0
     out["residual"][bad & (out["iterations"] == 0)] = np.nan
-    return Table(out)
+    return _table(out, "/orbits", model)
 
 
 def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
@@ -946,7 +950,7 @@ def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
                     "p_trans_section_err": fre.copy(), "p_trans_theory": f_th / v})
         if taylor is not None and int(st["flux_n_cut"]) > 0:
             out["tube_cut"] = _tube_cut3(model, st, de, taylor, xs, ws, cls)
-    return Table(out)
+    return _table(out, "/flux", model)
 
 
 def _tube_cut3(model, st, de, taylor, xs, ws, cls):
@@ -1057,17 +1061,20 @@ def _normal_form_flux(model, st, de, order):
                             "smallest_divisor": float(diag[3])}}
 
 
-def _cut(model, st, de, kind, area_tol):
+def _cut(model, st, de, kind, area_tol, eps=None):
     n_max = int(st["tub_n_max"])
-    (stat, n, tau, r, pr, tm, xs, area, apoly, act, per, nfail) = _lib().tube_cut(
+    eps = float(st["tub_eps"]) if eps is None else eps
+    (stat, n, tau, r, pr, tm, xs, area, apoly, act, per, nfail, nh, hn, ha) = _lib().tube_cut(
         *_study(model, st), int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
-        float(st["orb_atol"]), *_section_args(st), float(de), int(kind), float(st["tub_eps"]),
+        float(st["orb_atol"]), *_section_args(st), float(de), int(kind), eps,
         float(area_tol), float(st["tub_t_max"]), int(st["tub_n_init"]), n_max, *_integ(st, model),
         model._stores())
     _check(stat, f"tube_cut(dE = {de})")
     return {"dE": float(de), "r": r[:n].copy(), "p_r": pr[:n].copy(), "tau": tau[:n].copy(),
             "time": tm[:n].copy(), "state": xs[:, :n].T.copy(), "area": float(area),
-            "area_polygon": float(apoly), "action": float(act), "period": float(per)}
+            "area_polygon": float(apoly), "action": float(act), "period": float(per),
+            "kind": "stable" if kind < 0 else "unstable", "eps": eps, "converged": int(stat >= 0),
+            "history_n": hn[:nh].astype(np.int32), "history_area": ha[:nh].copy()}
 
 
 TUBE_KINDS = {"stable": -1, "unstable": 1}   # the tubes scene's kind (src/io/tubes_scenes.c)
@@ -1075,7 +1082,7 @@ TUBE_KINDS = {"stable": -1, "unstable": 1}   # the tubes scene's kind (src/io/tu
 
 def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "stable", saddle=None,
              saddle_near=None, section=None, integrator: dict | None = None, equilibria: dict | None = None,
-             **options) -> dict:
+             check_eps: bool = True, **options) -> Table:
     """The cut of the saddle's stable (or unstable) tube at dE with the section (as the tubes
     scene, docs/tubes.md; 2 degrees of freedom).
 
@@ -1088,8 +1095,12 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
     n_init, n_max and &orbits' method, n_segments, tol, rtol, atol; defaults and ranges from the
     program's reader (docs/input.md).
 
-    Returns a dict: dE, r, p_r (the section's s, p_s), tau [time units], time, state (n, 4),
-    area, area_polygon, action, period."""
+    Returns a tubes.Table: dE, r, p_r (the section's s, p_s), tau [time units], time, state (n, 4),
+    area, area_polygon, action, period, kind, eps, converged, history_n and history_area (the
+    points and area after each refinement round), and, as the scene, area_eps10 and
+    area_eps_change: the area of the cut repeated with eps/10 and its change (the check that the
+    start's distance eps from the orbit does not matter; check_eps=False skips it, half the
+    cost)."""
     model = model or Model()
     if kind not in TUBE_KINDS:
         raise ValueError(f"tube_cut: kind = {kind!r} is not allowed: allowed {', '.join(map(repr, TUBE_KINDS))}")
@@ -1099,7 +1110,12 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
     orb = {k: options.pop(k) for k in list(options) if k in ("method", "n_segments", "tol", "rtol", "atol")}
     st = _settings(model, saddle, saddle_near, section=section, who="tube_cut", orbits=orb,
                    tubes=dict(options, de=[_scalar_de(dE, "tube_cut")]), integrator=integrator, equilibria=equilibria)
-    return Table(_cut(model, st, float(st["des"][0, 1]), TUBE_KINDS[kind], st["tub_area_tol"]))
+    de = float(st["des"][0, 1])
+    out = _cut(model, st, de, TUBE_KINDS[kind], st["tub_area_tol"])
+    if _args.flag("tube_cut", "check_eps", check_eps):
+        a10 = _cut(model, st, de, TUBE_KINDS[kind], st["tub_area_tol"], eps=out["eps"] / 10)["area"]
+        out.update(area_eps10=a10, area_eps_change=abs(out["area"] - a10))
+    return _table(out, f"/tubes/{kind}_0", model)
 
 
 def _dissipation(model: Model) -> dict:
@@ -1183,7 +1199,8 @@ def transition_region(model: Model | None = None, dE: float | None = None, saddl
     xtol = _args.real("transition_region", "xtol", xtol, lo=0)
     st = _settings(model, saddle, saddle_near, section=section, who="transition_region", montecarlo=mc,
                    transition=tra, integrator=integrator, equilibria=equilibria)
-    out = Table(_region(model, st, float(st["des"][0, 2]), st["tra_area_tol"], n_init, n_scan, xtol))
+    out = _table(_region(model, st, float(st["des"][0, 2]), st["tra_area_tol"], n_init, n_scan, xtol), "/tubes/region_0",
+                 model)
     if out["status"] < 0:
         err = TubesError(out["status"], f"transition_region(dE = {out['dE']:g})")
         err.partial = out
@@ -1241,13 +1258,19 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
             out["A_E"][i] = ae
             if c is not None:
                 out["p_trans"][i] = c["area"] / ae
-    out.update(dE=de, status=status, message=message)
+    out.update(dE=de, p_trans_leading=_leading(model, st, sec, de), status=status, message=message)
     if np.any(status != 0):
         import warnings
         warnings.warn("transition: failed at dE = " + ", ".join(f"{d:g}" for d in de[status != 0])
                       + " (NaN there; status and message hold why): " + "; ".join(m for m in message if m),
                       RuntimeWarning, stacklevel=2)
-    return Table(out)
+    return _table(out, "/transition", model)
+
+
+def _leading(model, st, sec, de):
+    """p_trans_leading at the energies de (the transition scene's): NaN where its T_po, A0 or tau failed."""
+    stat, p = _lib().transition_leading(*_study(model, st), *sec, de, model._stores())
+    return np.asarray(p).copy() if stat >= 0 else np.full(de.size, np.nan)
 
 
 def _transition_damped(model, st, de, sec, diss):
@@ -1286,8 +1309,9 @@ def _transition_damped(model, st, de, sec, diss):
         warnings.warn("transition: failed at dE = " + ", ".join(f"{d:g}" for d in de[status != 0])
                       + " (NaN there; status and message hold why): " + "; ".join(m for m in message if m),
                       RuntimeWarning, stacklevel=3)
-    return Table(dE=de, **cols, status=status, status_conservative=status_c, region_rays=rays, message=message,
-                 **diss, damping_rate=rate, dE_threshold=(lo, hi))
+    return _table(dict(dE=de, **cols, p_trans_leading=_leading(model, st, sec, de), status=status,
+                       status_conservative=status_c, region_rays=rays, message=message, **diss, damping_rate=rate,
+                       dE_threshold=(lo, hi)), "/transition", model)
 
 
 def _mc_agreement(n: int, n_transit: int, n_undecided: int, misclassified: int, p: float) -> dict:
@@ -1390,6 +1414,7 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
            **({"trapped": int(np.sum(outc == 4))} if diss else {}),
            **_mc_agreement(ns, nt, nu, in_nt + out_t, p),
            "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins})
+    out = _table(out, "/montecarlo", model)
     if noisy:       # no deterministic prediction to hold it to (as the scene): the undecided count alone
         out["agrees"] = nu <= out["undecided_limit"]
     if check and not out["agrees"]:
@@ -1403,10 +1428,11 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
 
 
 def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, n_iter=None, t_max=None,
-             saddle=None, saddle_near=None, section=None, integrator: dict | None = None, equilibria: dict | None = None) -> np.ndarray:
-    """Poincare map of the section at dE (as the sections scene): an array (n_seeds, n_iter, 2)
-    of (s, p_s) (the ray's (r, p_r)) of each return of each trajectory, NaN after one stops
-    returning within t_max. Raises TubesError if a trajectory failed (the returns are in
+             saddle=None, saddle_near=None, section=None, integrator: dict | None = None, equilibria: dict | None = None) -> Table:
+    """Poincare map of the section at dE (as the sections scene, a group /sections/map_K of the
+    output file): a tubes.Table with points, an array (n_seeds, n_iter, 2) of (s, p_s) (the ray's
+    (r, p_r)) of each return of each trajectory, NaN after one stops returning within t_max, and
+    dE, n_seeds, n_iter, t_max. Raises TubesError if a trajectory failed (the Table is in
     err.partial). 2 degrees of freedom.
 
     dE: the excess energy above the saddle, > 0, in the model's energy units ((cm/s)^2 for the
@@ -1425,7 +1451,9 @@ def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, 
     stat, pts = _lib().poincare(*_study(model, st), *_section_args(st), float(st["des"][0, 3]), int(st["pm_n_seeds"]),
                                 int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st, model),
                                 model._stores())
-    out = np.moveaxis(pts, [0, 1, 2], [2, 1, 0]).copy()
+    out = _table({"dE": float(st["des"][0, 3]), "points": np.moveaxis(pts, [0, 1, 2], [2, 1, 0]).copy(),
+                  "n_seeds": int(st["pm_n_seeds"]), "n_iter": int(st["pm_n_iter"]), "t_max": float(st["pm_t_max"])},
+                 "/sections/map_0", model)
     if stat < 0:
         err = TubesError(stat, "poincare")
         err.partial = out
@@ -1477,7 +1505,7 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
     n = nt * ns
     st4 = state.reshape(4, n, order="F").T.copy()
     en = energy.reshape(n, order="F").copy()
-    return Table({"track": np.repeat(np.arange(nt, dtype=np.int32), ns), "t": np.tile(t, nt),
+    return _table({"track": np.repeat(np.arange(nt, dtype=np.int32), ns), "t": np.tile(t, nt),
                   "x": meas[0].reshape(n, order="F").copy(), "y": meas[1].reshape(n, order="F").copy(),
                   "truth": {"state": st4, "energy": en, "dE": en - e_e,
                             "noisy": noisy.reshape(2, n, order="F").T.copy(),
@@ -1487,7 +1515,7 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
                   "duration": float(st["exp_duration"]), "camera_rate": float(st["exp_camera_rate"]),
                   "pixel": float(st["exp_pixel"]), "noise": float(st["exp_noise"]), "de_min": float(st["exp_de_min"]),
                   "de_max": float(st["exp_de_max"]), "damping_ratio": float(st["exp_damping_ratio"]),
-                  "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": int(st["exp_seed"])})
+                  "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": int(st["exp_seed"])}, "/tracks", model)
 
 
 def _as_method(f):
@@ -1911,6 +1939,8 @@ class Table(dict):
     row per dE (the index, and the xarray coordinate), or per equilibrium (``name``); the units
     are the model's (docs/output.md lists them for the same datasets of the output file)."""
 
+    units: dict = {}   #: the units of its columns (and scalars) as the output file writes them
+
     def __getattr__(self, key: str) -> Any:
         try:
             return self[key]
@@ -1923,12 +1953,29 @@ class Table(dict):
 
     def to_pandas(self):
         """The 1-D columns of the common length as a pandas DataFrame indexed by dE (or name)."""
-        return _to_pandas(_columns(self, type(self).__name__, n=_rows(self)), {})
+        return _to_pandas(_columns(self, type(self).__name__, n=_rows(self)), self.units)
 
     def to_xarray(self):
         """The 1-D columns of the common length as an xarray Dataset with the coordinate dE (or
         name; ``row`` where there is neither)."""
-        return _to_xarray(_columns(self, type(self).__name__, n=_rows(self)), {})
+        return _to_xarray(_columns(self, type(self).__name__, n=_rows(self)), self.units)
+
+
+@functools.lru_cache(maxsize=None)
+def _units_of(group: str, name: str, dimensionless: bool) -> str | None:
+    """The units of dataset (or attribute) name of group as the output file writes them, from the
+    writer's one table (src/io/tubes_units.c), or None where it has no row."""
+    stat, u = _lib().dataset_units(group, name, int(dimensionless))
+    return _str(u) if stat == 0 else None
+
+
+def _table(items: dict, group: str, model: "Model") -> Table:
+    """items as the Table of the scene whose output group is group (its units: the file's)."""
+    t = Table(items)
+    dimensionless = str(model.info.get("length_units", "1")) != "cm"
+    t.units = {k: u for k in t if isinstance(k, str)
+               for u in [_units_of(group, k, dimensionless)] if u is not None}
+    return t
 
 
 def _rows(t: dict) -> int | None:

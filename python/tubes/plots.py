@@ -28,9 +28,13 @@ import sys
 
 import numpy as np
 
-from . import _output, load
+from . import _output, _units_of, load
 
-BALL_UNITS = {"length": "cm", "time": "s", "momentum": "cm/s", "energy": "(cm/s)^2", "action": "cm^2/s"}
+# the rolling ball's units of each kind of quantity: those of a quantity of that kind in the output's
+# units table (src/io/tubes_units.c), the one definition the writer and tubes.Table use
+BALL_UNITS = {kind: _units_of(group, name, False) for kind, (group, name) in
+              {"length": ("/equilibria", "x"), "time": ("/orbits", "period"), "momentum": ("/montecarlo", "p_r"),
+               "energy": ("/transition", "dE"), "action": ("/transition", "action")}.items()}
 # the kind of quantity of each dataset or attribute name (its units: the model's, BALL_UNITS for the ball)
 _KIND = {"dE": "energy", "energy": "energy", "E_e": "energy", "period": "time", "time": "time", "T_po": "time",
          "t": "time", "action": "action", "A_tube": "action", "A_E": "action", "A0": "action", "area": "action",
@@ -115,11 +119,11 @@ def _unit(d, key, units=None) -> str:
     """The units of dataset key of d: its own `units` attribute, else units (model_units) by
     the quantity's kind; "" for a dimensionless quantity."""
     u = None
-    if d is not None and not isinstance(d, dict):
+    if d is not None:
         if _is_h5(d):
             if key in d and "units" in d[key].attrs:
                 u = _dec(d[key].attrs["units"])
-        elif isinstance(getattr(d, "units", None), dict):
+        elif isinstance(getattr(d, "units", None), dict):   # a loaded group, a tubes.Table
             u = d.units.get(key)
     if u is None and units:
         u = units.get(_KIND.get(key, key))

@@ -522,13 +522,9 @@ contains
     kept => stores_of(stores)
     call cut_at(st, sec, de, tube_opts_of(kind, eps, area_tol, t_max, n_init, min(n_max, nout), local /= 0), &
                 cut, orb, stat, kept)
-    call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
+    call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed, &
+                     nhist, hist_n, hist_area)
     fail_tau = cut%fail_tau
-    if (allocated(cut%hist_n)) then
-      nhist = min(size(cut%hist_n), 64)
-      hist_n(1:nhist) = cut%hist_n(1:nhist)
-      hist_area(1:nhist) = cut%hist_area(1:nhist)
-    end if
   end function c_tube_cut
 
   !> The options of a tube cut (tubes_tube_cut, the f2py facade's tube_cut): the rest are

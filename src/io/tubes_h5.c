@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include "tubes_h5.h"
 #include "tubes_input.h"
+#include "tubes_units.h"
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
@@ -143,16 +144,17 @@ int h5_attr_string(hid_t loc, const char *name, const char *s) {
 static int dimensionless = 0;
 void h5_set_dimensionless(int on) { dimensionless = on; }
 
-const char *h5_units(const char *units) {
-  if (!dimensionless || !units) return units;
-  if (!strcmp(units, "rad/s")) return "rad";
-  if (tubes_units_dimensioned(units)) return "1";
-  return units;
-}
+const char *h5_units(const char *units) { return tubes_units_as(units, dimensionless); }
 
-/* A dataset of the given memory type (native double or int), with its units attribute. */
+/* A dataset of the given memory type (native double or int), with its units attribute: units, or
+ * with units NULL its row of the units table (tubes_units_of; a dataset without a row has none). */
 static int write_data(hid_t loc, const char *name, hid_t type, int rank, const hsize_t *dims, const void *data,
                       const char *units) {
+  if (!units) {
+    char group[256];
+    ssize_t n = H5Iget_name(loc, group, sizeof group);
+    if (n > 0 && (size_t)n < sizeof group) units = tubes_units_of(group, name);
+  }
   hid_t sp = H5Screate_simple(rank, dims, NULL);
   hid_t d = H5Dcreate2(loc, name, type, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   int rc = (d < 0 || H5Dwrite(d, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) ? -1 : 0;

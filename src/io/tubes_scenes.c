@@ -551,22 +551,22 @@ int scene_equilibria(tubes_run_t *run) {
   if (g < 0) { free(x); free(y); free(om); free(qq); return EXIT_IO; }
   hsize_t dn = (hsize_t)n, dst[2] = {(hsize_t)n, (hsize_t)n2}, d44[2] = {(hsize_t)n2, (hsize_t)n2};
   int rc = 0;
-  rc |= h5_write_double(g, "x", 1, &dn, x, "cm");
-  rc |= h5_write_double(g, "y", 1, &dn, y, "cm");
+  rc |= h5_write_double(g, "x", 1, &dn, x, NULL);
+  rc |= h5_write_double(g, "y", 1, &dn, y, NULL);
   rc |= h5_write_double(g, "state", 2, dst, qq, "state units");
-  rc |= h5_write_double(g, "height", 1, &dn, L.hgt, "cm");
-  rc |= h5_write_double(g, "energy", 1, &dn, L.en, "(cm/s)^2");
-  rc |= h5_write_double(g, "grad_norm", 1, &dn, L.gn, "1");
-  rc |= h5_write_int(g, "morse_index", dn, L.morse, "1");
+  rc |= h5_write_double(g, "height", 1, &dn, L.hgt, NULL);
+  rc |= h5_write_double(g, "energy", 1, &dn, L.en, NULL);
+  rc |= h5_write_double(g, "grad_norm", 1, &dn, L.gn, NULL);
+  rc |= h5_write_int(g, "morse_index", dn, L.morse, NULL);
   rc |= h5_write_strings(g, "name", dn, nm);
-  rc |= h5_write_double(g, "lambda", 1, &dn, L.lam, "1/s");
-  rc |= h5_write_double(g, "omega", 1, &dn, om, "rad/s");
+  rc |= h5_write_double(g, "lambda", 1, &dn, L.lam, NULL);
+  rc |= h5_write_double(g, "omega", 1, &dn, om, NULL);
   if (nd > 2) {   /* every centre frequency of a rank-1 saddle, (n, N - 1) */
     double *oa = malloc(sizeof(double) * (n ? n : 1) * (nd - 1));
     for (int k = 0; k < n; k++)
       for (int i = 0; i < nd - 1; i++) oa[(nd - 1) * k + i] = L.om[(MD - 1) * k + i];
     hsize_t dom[2] = {(hsize_t)n, (hsize_t)(nd - 1)};
-    rc |= h5_write_double(g, "omegas", 2, dom, oa, "rad/s");
+    rc |= h5_write_double(g, "omegas", 2, dom, oa, NULL);
     free(oa);
   }
   {   /* the centre frequencies (n, N), NaN-padded, and linear stability */
@@ -574,8 +574,8 @@ int scene_equilibria(tubes_run_t *run) {
     for (int k = 0; k < n; k++)
       for (int i = 0; i < nd; i++) fa[nd * k + i] = fq[MD * k + i];
     hsize_t dfr[2] = {(hsize_t)n, (hsize_t)nd};
-    rc |= h5_write_double(g, "frequencies", 2, dfr, fa, "rad/s");
-    rc |= h5_write_int(g, "stable", dn, stab, "1");
+    rc |= h5_write_double(g, "frequencies", 2, dfr, fa, NULL);
+    rc |= h5_write_int(g, "stable", dn, stab, NULL);
     free(fa);
   }
   rc |= h5_attr_double(g, "box", c->box);
@@ -625,7 +625,7 @@ int scene_equilibria(tubes_run_t *run) {
   rc |= h5_attr_double(g, "lambda", L.lam[k]);
   rc |= h5_attr_double(g, "omega", omk);
   rc |= h5_attr_double(g, "T_po", 2 * M_PI / omk);
-  rc |= h5_write_double(g, "eigenvectors", 2, d44, evr, "1");
+  rc |= h5_write_double(g, "eigenvectors", 2, d44, evr, NULL);
   if (dissipative(run)) {     /* the damped saddle: its own spectrum (docs/dissipation.md) */
     double wr[2 * MD], wi[2 * MD], cd = 0, ev[4 * MD];
     int st = tubes_saddle_spectrum(run->system, run->params, run->lo, run->hi, run->n_grid, nm[k], wr, wi, &cd,
@@ -646,7 +646,7 @@ int scene_equilibria(tubes_run_t *run) {
     printf(" (the conservative +-lambda, +-i omega above)\n");
     for (int i = 0; i < n2; i++) { ev[2 * i] = wr[i]; ev[2 * i + 1] = wi[i]; }
     hsize_t de2[2] = {(hsize_t)n2, 2};
-    rc |= h5_write_double(g, "damped_eigenvalues", 2, de2, ev, "1/s");
+    rc |= h5_write_double(g, "damped_eigenvalues", 2, de2, ev, NULL);
     rc |= dissipation_attrs(g, run);
   }
   H5Gclose(g);
@@ -774,9 +774,9 @@ int scene_trajectory(tubes_run_t *run) {
   else {
     hsize_t dn = (hsize_t)n, d2[2] = {(hsize_t)n, 4};
     int e = 0;
-    e |= h5_write_double(g, "t", 1, &dn, t, "s");
+    e |= h5_write_double(g, "t", 1, &dn, t, NULL);
     e |= h5_write_double(g, "state", 2, d2, st, "cm, cm, cm/s, cm/s");
-    e |= h5_write_double(g, "energy", 1, &dn, en, "(cm/s)^2");
+    e |= h5_write_double(g, "energy", 1, &dn, en, NULL);
     e |= h5_attr_string(g, "method", method_label(run));
     e |= h5_attr_double(g, "rtol", c->rtol);
     e |= h5_attr_double(g, "atol", c->atol);
@@ -799,9 +799,9 @@ int scene_trajectory(tubes_run_t *run) {
       hid_t cg = h5_group(g, "crossings");
       hsize_t dc = (hsize_t)ncross, dc4[2] = {(hsize_t)ncross, 4};
       e |= cg < 0;
-      e |= h5_write_double(cg, "t", 1, &dc, ct, "s");
+      e |= h5_write_double(cg, "t", 1, &dc, ct, NULL);
       e |= h5_write_double(cg, "state", 2, dc4, cx, "cm, cm, cm/s, cm/s");
-      e |= h5_write_int(cg, "direction", dc, cd, "1");
+      e |= h5_write_int(cg, "direction", dc, cd, NULL);
       e |= h5_attr_string(cg, "section", c->section);
       e |= h5_attr_double(cg, "level", sk == 1 ? sl : c->section_level);
       if (sk == 1) {   /* polar canonical coordinates on the ray (docs/events.md) */
@@ -813,9 +813,9 @@ int scene_trajectory(tubes_run_t *run) {
           pr[k] = (z[0] * z[2] + z[1] * z[3]) / rr[k];
           pth[k] = z[0] * z[3] - z[1] * z[2];
         }
-        e |= h5_write_double(cg, "r", 1, &dc, rr, "cm");
-        e |= h5_write_double(cg, "p_r", 1, &dc, pr, "cm/s");
-        e |= h5_write_double(cg, "p_theta", 1, &dc, pth, "cm^2/s");
+        e |= h5_write_double(cg, "r", 1, &dc, rr, NULL);
+        e |= h5_write_double(cg, "p_r", 1, &dc, pr, NULL);
+        e |= h5_write_double(cg, "p_theta", 1, &dc, pth, NULL);
         free(pr); free(pth); free(rr);
       }
       if (cg >= 0) H5Gclose(cg);
@@ -952,22 +952,22 @@ int scene_orbits(tubes_run_t *run) {
       for (int i = 0; i < n2; i++) xs[(size_t)n2 * (k * ns + j) + i] = xs[(size_t)6 * (k * ns + j) + i];
   }
   int h = 0;
-  h |= h5_write_double(g, "dE", 1, &dn, c->orb_de, "(cm/s)^2");
-  h |= h5_write_double(g, "energy", 1, &dn, e, "(cm/s)^2");
-  h |= h5_write_double(g, "period", 1, &dn, per, "s");
-  h |= h5_write_double(g, "action", 1, &dn, act, "cm^2/s");
-  h |= h5_write_double(g, "mu_unstable", 1, &dn, mu, "1");
-  h |= h5_write_double(g, "mu_stable", 1, &dn, ms, "1");
-  h |= h5_write_double(g, "mu_trivial", 2, d2, mre, "1");
-  h |= h5_write_double(g, "mu_trivial_imag", 2, d2, mim, "1");
-  h |= h5_write_double(g, "stability_index", 1, &dn, stab, "1");
+  h |= h5_write_double(g, "dE", 1, &dn, c->orb_de, NULL);
+  h |= h5_write_double(g, "energy", 1, &dn, e, NULL);
+  h |= h5_write_double(g, "period", 1, &dn, per, NULL);
+  h |= h5_write_double(g, "action", 1, &dn, act, NULL);
+  h |= h5_write_double(g, "mu_unstable", 1, &dn, mu, NULL);
+  h |= h5_write_double(g, "mu_stable", 1, &dn, ms, NULL);
+  h |= h5_write_double(g, "mu_trivial", 2, d2, mre, NULL);
+  h |= h5_write_double(g, "mu_trivial_imag", 2, d2, mim, NULL);
+  h |= h5_write_double(g, "stability_index", 1, &dn, stab, NULL);
   h |= h5_write_double(g, "state0", 2, d4, s0, n2 == 4 ? "cm, cm, cm/s, cm/s" : "state units");
-  h |= h5_write_int(g, "converged", dn, conv, "1");
-  h |= h5_write_double(g, "residual", 1, &dn, res, "cm, cm/s");
-  h |= h5_write_double(g, "closure", 1, &dn, clo, "cm, cm/s");
-  h |= h5_write_int(g, "iterations", dn, it, "1");
-  h |= h5_write_double(g, "min_eq_distance", 1, &dn, md, "cm");
-  h |= h5_write_double(g, "monodromy", 3, d44, monot, "1");
+  h |= h5_write_int(g, "converged", dn, conv, NULL);
+  h |= h5_write_double(g, "residual", 1, &dn, res, NULL);
+  h |= h5_write_double(g, "closure", 1, &dn, clo, NULL);
+  h |= h5_write_int(g, "iterations", dn, it, NULL);
+  h |= h5_write_double(g, "min_eq_distance", 1, &dn, md, NULL);
+  h |= h5_write_double(g, "monodromy", 3, d44, monot, NULL);
   h |= h5_attr_string(g, "saddle", run->saddle);
   h |= h5_attr_string(g, "method", nseg > 1 ? "multiple" : "single");
   h |= h5_attr_long(g, "n_segments", nseg);
@@ -986,9 +986,9 @@ int scene_orbits(tubes_run_t *run) {
     hsize_t dsn = (hsize_t)ns, dx[2] = {(hsize_t)ns, (hsize_t)n2}, dh = (hsize_t)(it[k] < mi ? it[k] : mi);
     h |= h5_attr_double(o, "dE", c->orb_de[k]);
     h |= h5_attr_long(o, "converged", conv[k]);
-    if (dh > 0) h |= h5_write_double(o, "history", 1, &dh, hist + (size_t)k * mi, "cm, cm/s");
+    if (dh > 0) h |= h5_write_double(o, "history", 1, &dh, hist + (size_t)k * mi, NULL);
     if (conv[k]) {
-      h |= h5_write_double(o, "t", 1, &dsn, ts + (size_t)k * ns, "s");
+      h |= h5_write_double(o, "t", 1, &dsn, ts + (size_t)k * ns, NULL);
       h |= h5_write_double(o, "state", 2, dx, xs + (size_t)n2 * k * ns, n2 == 4 ? "cm, cm, cm/s, cm/s" : "state units");
     }
     H5Gclose(o);
@@ -1151,14 +1151,14 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
     hid_t g = h5_group(loc, name);
     hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, 4}, dh = (hsize_t)nh;
     int e = g < 0;
-    e |= h5_write_double(g, "r", 1, &dn, r, "cm");
-    e |= h5_write_double(g, "p_r", 1, &dn, pr, "cm/s");
-    e |= h5_write_double(g, "time", 1, &dn, tm, "s");
-    e |= h5_write_double(g, "tau", 1, &dn, tau, "s");
+    e |= h5_write_double(g, "r", 1, &dn, r, NULL);
+    e |= h5_write_double(g, "p_r", 1, &dn, pr, NULL);
+    e |= h5_write_double(g, "time", 1, &dn, tm, NULL);
+    e |= h5_write_double(g, "tau", 1, &dn, tau, NULL);
     e |= h5_write_double(g, "state", 2, d4, xs, "cm, cm, cm/s, cm/s");
     if (nh > 0) {
-      e |= h5_write_int(g, "history_n", dh, hn, "1");
-      e |= h5_write_double(g, "history_area", 1, &dh, ha, "cm^2/s");
+      e |= h5_write_int(g, "history_n", dh, hn, NULL);
+      e |= h5_write_double(g, "history_area", 1, &dh, ha, NULL);
     }
     e |= h5_attr_double(g, "dE", de);
     e |= h5_attr_string(g, "kind", kind < 0 ? "stable" : "unstable");
@@ -1261,13 +1261,13 @@ static int tubes_regions(tubes_run_t *run, hid_t g) {
     hsize_t dn = (hsize_t)reg->n, dm = (hsize_t)reg->m;
     int e = o < 0;
     if (reg->n > 0) {
-      e |= h5_write_double(o, "r", 1, &dn, reg->s, "cm");
-      e |= h5_write_double(o, "p_r", 1, &dn, reg->p, "cm/s");
-      e |= h5_write_double(o, "phi", 1, &dn, reg->phi, "rad");
-      e |= h5_write_double(o, "rho", 1, &dn, reg->rho, "1");
-      e |= h5_write_double(o, "t_in", 1, &dn, reg->t_in, "s");
-      e |= h5_write_double(o, "curve_r", 1, &dm, reg->cs, "cm");
-      e |= h5_write_double(o, "curve_p_r", 1, &dm, reg->cp, "cm/s");
+      e |= h5_write_double(o, "r", 1, &dn, reg->s, NULL);
+      e |= h5_write_double(o, "p_r", 1, &dn, reg->p, NULL);
+      e |= h5_write_double(o, "phi", 1, &dn, reg->phi, NULL);
+      e |= h5_write_double(o, "rho", 1, &dn, reg->rho, NULL);
+      e |= h5_write_double(o, "t_in", 1, &dn, reg->t_in, NULL);
+      e |= h5_write_double(o, "curve_r", 1, &dm, reg->cs, NULL);
+      e |= h5_write_double(o, "curve_p_r", 1, &dm, reg->cp, NULL);
     }
     e |= h5_attr_double(o, "dE", de);
     e |= h5_attr_double(o, "area", area);
@@ -1279,8 +1279,8 @@ static int tubes_regions(tubes_run_t *run, hid_t g) {
     e |= h5_attr_double(o, "dE_threshold_hi", reg->res[9]);
     double cen[2] = {reg->res[2], reg->res[3]}, sc[2] = {reg->res[4], reg->res[5]};
     hsize_t d2 = 2;
-    e |= h5_write_double(o, "centre", 1, &d2, cen, "cm, cm/s");
-    e |= h5_write_double(o, "scale", 1, &d2, sc, "cm, cm/s");
+    e |= h5_write_double(o, "centre", 1, &d2, cen, NULL);
+    e |= h5_write_double(o, "scale", 1, &d2, sc, NULL);
     e |= h5_attr_long(o, "n_scan", reg->counts[0]);
     e |= h5_attr_long(o, "n_scan_transit", reg->counts[1]);
     e |= h5_attr_long(o, "n_inconsistent", reg->counts[3]);
@@ -1441,7 +1441,7 @@ int scene_transition(tubes_run_t *run) {
     double de = c->tra_de[k];
     at[k] = it[k].at; act[k] = it[k].act; ae[k] = it[k].ae; pt[k] = it[k].pt;
     ar[k] = it[k].ar; pd[k] = it[k].pd; rstat[k] = it[k].rstatus; nrays[k] = it[k].nrays;
-    pl[k] = tpo / a0 * de * (1 - tau / a0 * de);
+    pl[k] = tubes_p_trans_leading(tpo, a0, tau, de);
     if (it[k].err[0]) fprintf(stderr, "%s\n", it[k].err);
     if (it[k].rc) rc = EXIT_PARTIAL;
     stat[k] = it[k].status;
@@ -1487,18 +1487,18 @@ int scene_transition(tubes_run_t *run) {
   hid_t g = h5_group(run->file, "transition");
   int e = g < 0;
   hsize_t dn = (hsize_t)n;
-  e |= h5_write_double(g, "dE", 1, &dn, c->tra_de, "(cm/s)^2");
-  e |= h5_write_double(g, "A_tube", 1, &dn, at, "cm^2/s");
-  e |= h5_write_double(g, "action", 1, &dn, act, "cm^2/s");
-  e |= h5_write_double(g, "A_E", 1, &dn, ae, "cm^2/s");
-  e |= h5_write_double(g, "p_trans", 1, &dn, damped ? pd : pt, "1");
-  e |= h5_write_double(g, "p_trans_leading", 1, &dn, pl, "1");
-  e |= h5_write_int(g, "status", dn, damped ? rstat : stat, "1");
+  e |= h5_write_double(g, "dE", 1, &dn, c->tra_de, NULL);
+  e |= h5_write_double(g, "A_tube", 1, &dn, at, NULL);
+  e |= h5_write_double(g, "action", 1, &dn, act, NULL);
+  e |= h5_write_double(g, "A_E", 1, &dn, ae, NULL);
+  e |= h5_write_double(g, "p_trans", 1, &dn, damped ? pd : pt, NULL);
+  e |= h5_write_double(g, "p_trans_leading", 1, &dn, pl, NULL);
+  e |= h5_write_int(g, "status", dn, damped ? rstat : stat, NULL);
   if (damped) {
-    e |= h5_write_double(g, "A_region", 1, &dn, ar, "cm^2/s");
-    e |= h5_write_double(g, "p_trans_conservative", 1, &dn, pt, "1");
-    e |= h5_write_int(g, "status_conservative", dn, stat, "1");
-    e |= h5_write_int(g, "region_rays", dn, nrays, "1");
+    e |= h5_write_double(g, "A_region", 1, &dn, ar, NULL);
+    e |= h5_write_double(g, "p_trans_conservative", 1, &dn, pt, NULL);
+    e |= h5_write_int(g, "status_conservative", dn, stat, NULL);
+    e |= h5_write_int(g, "region_rays", dn, nrays, NULL);
     e |= dissipation_attrs(g, run);
     e |= h5_attr_double(g, "dE_threshold_lo", th_lo);
     e |= h5_attr_double(g, "dE_threshold_hi", th_hi);
@@ -1521,9 +1521,9 @@ static hid_t mc_group(tubes_run_t *run, double de, int ns, int st, const double 
   *e |= h5_attr_long(g, "seed", run->cfg->mc_seed);
   *e |= h5_attr_long(g, "status", st);
   if (r) {
-    *e |= h5_write_double(g, "r", 1, &dn, r, "cm");
-    *e |= h5_write_double(g, "p_r", 1, &dn, pr, "cm/s");
-    *e |= h5_write_int(g, "transit", dn, out, "1");
+    *e |= h5_write_double(g, "r", 1, &dn, r, NULL);
+    *e |= h5_write_double(g, "p_r", 1, &dn, pr, NULL);
+    *e |= h5_write_int(g, "transit", dn, out, NULL);
   }
   return g;
 }
@@ -1669,7 +1669,7 @@ int scene_montecarlo(tubes_run_t *run) {
     e |= h5_attr_long(g, "undecided", nu);
     e |= h5_attr_long(g, "escaped", nesc);
     if (damped) e |= h5_attr_long(g, "trapped", ntrap);
-    e |= h5_write_int(g, "inside", dn, ins, "1");
+    e |= h5_write_int(g, "inside", dn, ins, NULL);
     e |= h5_attr_long(g, "agrees", agrees);
     if (g >= 0) H5Gclose(g);
     if (e) rc = EXIT_IO;
@@ -1719,7 +1719,7 @@ int scene_sections(tubes_run_t *run) {
     hid_t m = h5_group(g, name);
     hsize_t d3[3] = {(hsize_t)ns, (hsize_t)ni, 2};
     int e = m < 0;
-    e |= h5_write_double(m, "points", 3, d3, pts, "cm, cm/s");
+    e |= h5_write_double(m, "points", 3, d3, pts, NULL);
     e |= h5_attr_double(m, "dE", de);
     if (dissipative(run)) e |= dissipation_attrs(m, run);
     if (m >= 0) H5Gclose(m);
@@ -1837,10 +1837,10 @@ int scene_synthetic_experiment(tubes_run_t *run) {
   int e = g < 0;
   hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, 4}, d2[2] = {(hsize_t)n, 2}, dr[2] = {(hsize_t)nt, 2},
           dnt = (hsize_t)nt;
-  e |= h5_write_int(g, "track", dn, track, "1");
-  e |= h5_write_double(g, "t", 1, &dn, tt, "s");
-  e |= h5_write_double(g, "x", 1, &dn, x, "cm");
-  e |= h5_write_double(g, "y", 1, &dn, y, "cm");
+  e |= h5_write_int(g, "track", dn, track, NULL);
+  e |= h5_write_double(g, "t", 1, &dn, tt, NULL);
+  e |= h5_write_double(g, "x", 1, &dn, x, NULL);
+  e |= h5_write_double(g, "y", 1, &dn, y, NULL);
   e |= h5_attr_double(g, "camera_rate", c->exp_camera_rate);
   e |= h5_attr_double(g, "pixel", c->exp_pixel);
   e |= h5_attr_double(g, "noise", c->exp_noise);
@@ -1863,11 +1863,11 @@ int scene_synthetic_experiment(tubes_run_t *run) {
   hid_t tg = g < 0 ? -1 : h5_group(g, "truth");
   e |= tg < 0;
   e |= h5_write_double(tg, "state", 2, d4, state, "cm, cm, cm/s, cm/s");
-  e |= h5_write_double(tg, "energy", 1, &dn, energy, "(cm/s)^2");
-  e |= h5_write_double(tg, "dE", 1, &dn, de, "(cm/s)^2");
-  e |= h5_write_double(tg, "noisy", 2, d2, noisy, "cm");
-  e |= h5_write_double(tg, "release", 2, dr, rxy, "cm");
-  e |= h5_write_double(tg, "release_dE", 1, &dnt, rde, "(cm/s)^2");
+  e |= h5_write_double(tg, "energy", 1, &dn, energy, NULL);
+  e |= h5_write_double(tg, "dE", 1, &dn, de, NULL);
+  e |= h5_write_double(tg, "noisy", 2, d2, noisy, NULL);
+  e |= h5_write_double(tg, "release", 2, dr, rxy, NULL);
+  e |= h5_write_double(tg, "release_dE", 1, &dnt, rde, NULL);
   if (tg >= 0) H5Gclose(tg);
   if (g >= 0) H5Gclose(g);
   if (e) {
@@ -2223,22 +2223,22 @@ static int write_tube_cut3(hid_t g, const cut_out_t *u, const tubes_config_t *c)
     e |= h5_write_double(h, "states", 5, dx, u->x, "state units");
     dx[4] = 4;
     e |= h5_write_double(h, "section", 5, dx, sec, "state units");
-    e |= h5_write_double(h, "time", 4, dx, u->t, "time");
-    e |= h5_write_int_nd(h, "status", 4, dx, u->st, "1");
-    e |= h5_write_double(h, "volume", 1, &dn, vol, "action^2");
-    e |= h5_write_double(h, "volume_half", 1, &dn, vh, "action^2");
-    e |= h5_write_double(h, "seed_energy_error", 1, &dn, een, "1");
-    e |= h5_write_double(h, "p_trans_tube", 1, &dn, u->ptrans, "1");
-    e |= h5_write_int(h, "misclassified", dn, u->mis, "1");
-    e |= h5_write_int(h, "misclassified_pl", dn, u->mis_pl, "1");
-    e |= h5_write_int(h, "unresolved", dn, u->unres, "1");
-    e |= h5_write_double(h, "volume_extrapolated", 1, &dn, u->vex, "action^2");
+    e |= h5_write_double(h, "time", 4, dx, u->t, NULL);
+    e |= h5_write_int_nd(h, "status", 4, dx, u->st, NULL);
+    e |= h5_write_double(h, "volume", 1, &dn, vol, NULL);
+    e |= h5_write_double(h, "volume_half", 1, &dn, vh, NULL);
+    e |= h5_write_double(h, "seed_energy_error", 1, &dn, een, NULL);
+    e |= h5_write_double(h, "p_trans_tube", 1, &dn, u->ptrans, NULL);
+    e |= h5_write_int(h, "misclassified", dn, u->mis, NULL);
+    e |= h5_write_int(h, "misclassified_pl", dn, u->mis_pl, NULL);
+    e |= h5_write_int(h, "unresolved", dn, u->unres, NULL);
+    e |= h5_write_double(h, "volume_extrapolated", 1, &dn, u->vex, NULL);
     if (u->ns > 0) {    /* the section's Monte Carlo points (natural models) */
       e |= h5_write_double(h, "points", 3, dp, px, "state units");
-      e |= h5_write_double(h, "weight", 2, ds, u->sw, "momentum^2");
-      e |= h5_write_int_nd(h, "outcome", 2, ds, u->scls, "1");
-      e |= h5_write_int_nd(h, "inside", 2, ds, u->inside, "1");
-      e |= h5_write_int_nd(h, "inside_pl", 2, ds, u->inside_pl, "1");
+      e |= h5_write_double(h, "weight", 2, ds, u->sw, NULL);
+      e |= h5_write_int_nd(h, "outcome", 2, ds, u->scls, NULL);
+      e |= h5_write_int_nd(h, "inside", 2, ds, u->inside, NULL);
+      e |= h5_write_int_nd(h, "inside_pl", 2, ds, u->inside_pl, NULL);
     }
     e |= h5_attr_long(h, "section_index", c->sec_index);
     e |= h5_attr_double(h, "section_value", c->sec_value);
@@ -2257,10 +2257,10 @@ static int write_tube_cut3(hid_t g, const cut_out_t *u, const tubes_config_t *c)
 
 static int write_normal_form(hid_t g, const nf_out_t *o, int n) {
   hsize_t dn = (hsize_t)n;
-  int e = h5_write_double(g, "flux_normal_form", 1, &dn, o->flux, "action^(N-1)");
-  e |= h5_write_double(g, "flux_normal_form_change", 1, &dn, o->change, "action^(N-1)");
-  e |= h5_write_double(g, "nhim_energy_error", 1, &dn, o->energy_err, "1");
-  e |= h5_write_double(g, "round_trip_error", 1, &dn, o->round_trip, "1");
+  int e = h5_write_double(g, "flux_normal_form", 1, &dn, o->flux, NULL);
+  e |= h5_write_double(g, "flux_normal_form_change", 1, &dn, o->change, NULL);
+  e |= h5_write_double(g, "nhim_energy_error", 1, &dn, o->energy_err, NULL);
+  e |= h5_write_double(g, "round_trip_error", 1, &dn, o->round_trip, NULL);
   e |= h5_attr_long(g, "normal_form_status", o->stat);
   e |= h5_attr_string(g, "normal_form_message", o->msg);
   if (!o->done || o->stat) return e;
@@ -2268,19 +2268,19 @@ static int write_normal_form(hid_t g, const nf_out_t *o, int n) {
   if (h < 0) return 1;
   hsize_t nm = (hsize_t)(o->ndof - 1), nt = (hsize_t)o->n_nf;
   e |= h5_attr_double(h, "lambda", o->lambda);
-  e |= h5_write_double(h, "omegas", 1, &nm, o->omegas, "1/time");
+  e |= h5_write_double(h, "omegas", 1, &nm, o->omegas, NULL);
   e |= h5_attr_double(h, "symplectic_error", o->diag[0]);
   e |= h5_attr_double(h, "residual", o->diag[1]);
   e |= h5_attr_double(h, "imaginary", o->diag[2]);
   e |= h5_attr_double(h, "smallest_divisor", o->diag[3]);
-  e |= h5_write_double(h, "coefficients", 1, &nt, o->coef, "energy / action^|powers|");
+  e |= h5_write_double(h, "coefficients", 1, &nt, o->coef, NULL);
   hsize_t dp[3] = {(hsize_t)n, TUBES_NF_NPTS, (hsize_t)(2 * o->ndof)};
   e |= h5_write_double(h, "nhim_points", 3, dp, o->nhim, "state units");
   int *col = malloc(sizeof(int) * (o->n_nf ? (size_t)o->n_nf : 1));
   static const char *const names[3] = {"power_I1", "power_J2", "power_J3"};
   for (int j = 0; col && j < o->ndof; j++) {
     for (int t = 0; t < o->n_nf; t++) col[t] = o->pw[3 * t + j];
-    e |= h5_write_int(h, names[j], nt, col, "1");
+    e |= h5_write_int(h, names[j], nt, col, NULL);
   }
   e |= !col;
   free(col);
@@ -2423,15 +2423,15 @@ int scene_flux(tubes_run_t *run) {
   }
   e |= !nin || !nre || !nrc || !nun;
   if (!e) {
-    e |= h5_write_double(g, "dE", 1, &dn, c->flux_de, "energy");
-    e |= h5_write_double(g, "flux_sampled", 1, &dn, fl, "action^(N-1)");
-    e |= h5_write_double(g, "flux_sampled_err", 1, &dn, fe, "action^(N-1)");
-    e |= h5_write_double(g, "flux_leading_order", 1, &dn, lo, "action^(N-1)");
-    e |= h5_write_int(g, "n_inside", dn, nin, "1");
-    e |= h5_write_int(g, "n_reacting", dn, nre, "1");
-    e |= h5_write_int(g, "n_recrossing", dn, nrc, "1");
-    e |= h5_write_int(g, "n_undecided", dn, nun, "1");
-    e |= h5_write_int(g, "status", dn, stat, "1");
+    e |= h5_write_double(g, "dE", 1, &dn, c->flux_de, NULL);
+    e |= h5_write_double(g, "flux_sampled", 1, &dn, fl, NULL);
+    e |= h5_write_double(g, "flux_sampled_err", 1, &dn, fe, NULL);
+    e |= h5_write_double(g, "flux_leading_order", 1, &dn, lo, NULL);
+    e |= h5_write_int(g, "n_inside", dn, nin, NULL);
+    e |= h5_write_int(g, "n_reacting", dn, nre, NULL);
+    e |= h5_write_int(g, "n_recrossing", dn, nrc, NULL);
+    e |= h5_write_int(g, "n_undecided", dn, nun, NULL);
+    e |= h5_write_int(g, "status", dn, stat, NULL);
     e |= h5_attr_long(g, "n_samples", c->flux_n_samples);
     e |= h5_attr_long(g, "seed", c->flux_seed);
     e |= h5_attr_double(g, "t_max", c->flux_t_max);
@@ -2445,15 +2445,15 @@ int scene_flux(tubes_run_t *run) {
       int *col = malloc(sizeof(int) * (n ? (size_t)n : 1));
       e |= s3 < 0 || !col;
       if (s3 >= 0 && col) {
-        e |= h5_write_double(s3, "volume", 1, &dn, sv, "action^(N-1)");
-        e |= h5_write_double(s3, "volume_err", 1, &dn, sve, "action^(N-1)");
-        e |= h5_write_double(s3, "p_trans", 1, &dn, sf, "1");
-        e |= h5_write_double(s3, "p_trans_err", 1, &dn, sfe, "1");
-        e |= h5_write_double(s3, "p_trans_theory", 1, &dn, pth, "1");
+        e |= h5_write_double(s3, "volume", 1, &dn, sv, NULL);
+        e |= h5_write_double(s3, "volume_err", 1, &dn, sve, NULL);
+        e |= h5_write_double(s3, "p_trans", 1, &dn, sf, NULL);
+        e |= h5_write_double(s3, "p_trans_err", 1, &dn, sfe, NULL);
+        e |= h5_write_double(s3, "p_trans_theory", 1, &dn, pth, NULL);
         static const char *const cn[4] = {"n_inside", "n_transit", "n_return", "n_undecided"};
         for (int j = 0; j < 4; j++) {
           for (int k = 0; k < n; k++) col[k] = scnt[4 * k + j];
-          e |= h5_write_int(s3, cn[j], dn, col, "1");
+          e |= h5_write_int(s3, cn[j], dn, col, NULL);
         }
         e |= h5_attr_long(s3, "index", c->sec_index);
         e |= h5_attr_double(s3, "value", c->sec_value);

@@ -32,7 +32,7 @@ module tubes_study
   public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, gate_reach, section_info, cut_at, &
             check_at, maps_at, cut_outputs, equilibria_table, study_family, family_table, open_stores, &
             stores_at, close_stores, stores_counts, de_floor, region_at, region_outputs, region_numbers, dissipation_of, &
-            damped_spectrum, box_note, box_note_of, centres_of
+            damped_spectrum, box_note, box_note_of, centres_of, p_trans_leading, leading_order_at
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t
@@ -740,6 +740,38 @@ contains
     if (st_d /= TUBES_OK) darea = ieee_value(1.0_wp, ieee_quiet_nan)
   end subroutine section_info
 
+  !> The leading order of p_trans at small dE (docs/theory.md): p = (T_po/A0) dE (1 - tau dE/A0),
+  !> T_po = 2 pi/omega the saddle's Lyapunov period at dE -> 0, A0 the energy surface's area on the
+  !> section at the saddle's energy and tau = dA_E/dE there. The transition scene (C) and Python
+  !> call it.
+  pure function p_trans_leading(tpo, a0, tau, de) result(p) bind(C, name='tubes_p_trans_leading')
+    use, intrinsic :: iso_c_binding, only: c_double
+    real(c_double), value, intent(in) :: tpo, a0, tau, de
+    real(c_double) :: p
+    p = tpo/a0*de*(1 - tau/a0*de)
+  end function p_trans_leading
+
+  !> T_po, A0 and tau (p_trans_leading) of the study's saddle and section.
+  subroutine leading_order_at(st, sec, tpo, a0, tau, stat, stores)
+    type(study_t), intent(in) :: st
+    type(section_choice_t), intent(in) :: sec
+    real(wp), intent(out) :: tpo, a0, tau
+    integer, intent(out) :: stat
+    type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(poincare_t) :: psec
+    real(wp), allocatable :: q_ref(:)
+    real(wp) :: smin, smax
+    integer :: isad
+    tpo = ieee_value(1.0_wp, ieee_quiet_nan); a0 = tpo; tau = tpo
+    call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
+                       sec%index, sec%level, sec%dir, 0.0_wp, model, eqs, isad, psec, q_ref, stat, stores)
+    if (stat /= TUBES_OK) return
+    tpo = 2*PI/eqs(isad)%omega
+    call section_info(st, sec, 0.0_wp, smin, smax, a0, tau, stat, stores)
+  end subroutine leading_order_at
+
   !> The cut of the tube of the saddle's Lyapunov orbit at excess energy de with the section
   !> (opts: kind, eps, area_tol, t_max, n_init, n_max, local). orb is the orbit. A cut that
   !> crosses a plane outside the chosen region is TUBES_EOUTSIDE.
@@ -1229,12 +1261,22 @@ contains
 
   !> A tube cut's arrays and numbers as the C API and f2py return them: the first n = min(cut%n,
   !> size(tau)) points.
-  subroutine cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed)
+  subroutine cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed, &
+                         nhist, hist_n, hist_area)
     type(tube_cut_t), intent(in) :: cut
     type(orbit_t), intent(in) :: orb
     integer, intent(out) :: n, n_failed
     real(wp), intent(inout) :: tau(:), r(:), pr(:), time(:), xs(:, :)
     real(wp), intent(out) :: area, area_polygon, action, period
+    integer, intent(out) :: nhist             !! refinement rounds in hist_n, hist_area (at most their size)
+    integer, intent(inout) :: hist_n(:)       !! the cut's points after each round
+    real(wp), intent(inout) :: hist_area(:)   !! its area after each round
+    nhist = 0
+    if (allocated(cut%hist_n)) then
+      nhist = min(size(cut%hist_n), size(hist_n))
+      hist_n(1:nhist) = cut%hist_n(1:nhist)
+      hist_area(1:nhist) = cut%hist_area(1:nhist)
+    end if
     action = orb%action
     period = orb%period
     if (.not. orb%converged) then      ! no orbit (the call failed before it): no action, no period
