@@ -310,6 +310,18 @@ int tubes_section_info(const char system[TUBES_LSYSTEM], const double params[TUB
  * saddle's energy (tubes_section_info at de = 0). */
 double tubes_p_trans_leading(double tpo, double a0, double tau, double de);
 
+/* The flux scene's verdicts (src/workflow/tubes_verdicts.f90, which Python's tubes.flux calls too):
+ * 0 where the check holds, 2 (the exit code) where it fails, its message then in msg (len bytes). */
+int tubes_verdict_flux_too_small(double de, int ndof, double lead, char *msg, int len);
+int tubes_verdict_flux_undecided(double de, const int counts[4], double gate, double t_max, char *msg, int len);
+int tubes_verdict_flux_normal_form(double de, int order, double nf, double change, double fl, double fe, double *z,
+                                   char *msg, int len);
+int tubes_verdict_section(double de, double nf, double nfc, double fl, double fe, double sv, double sve, double sf,
+                          double sfe, int ns, const double *w, const int counts[4], double t_max, int *use_nf,
+                          double *p_theory, double *z, char *msg, int len);
+int tubes_verdict_cut3(double de, double vol, double vol_half, double vol_x, double f, double sv, int n_decided,
+                       int n_misclassified, char *msg, int len);
+
 /* The cut of the stable (kind -1) or unstable (kind +1) tube of the saddle's Lyapunov orbit at
  * excess energy de with the section (as tubes_section_info), refined until
  * the area changes by < area_tol (relative) or n_max (<= nout) seeds. Outputs: *n points tau, r,

@@ -815,6 +815,63 @@ subroutine status_text(code, msg)
   msg = status_message(code)
 end subroutine status_text
 
+subroutine verdict_flux_sample(de, ndof, lead, counts, gate, t_max, code, which, msg)
+  ! the sampled flux's verdicts at de (src/workflow/tubes_verdicts.f90, the flux scene's): too small
+  ! for a double (which 1: no number there), then too many undecided points (which 2); code 2 and
+  ! the message where one fails
+  use tubes_verdicts, only: flux_too_small, flux_undecided
+  implicit none
+  real(8), intent(in) :: de, lead, gate, t_max
+  integer, intent(in) :: ndof, counts(4)
+  integer, intent(out) :: code, which
+  character(len=1024), intent(out) :: msg
+  which = 1
+  code = flux_too_small(de, ndof, lead, msg)
+  if (code /= 0) return
+  which = 2
+  code = flux_undecided(de, counts, gate, t_max, msg)
+  if (code == 0) which = 0
+end subroutine verdict_flux_sample
+
+subroutine verdict_flux_normal_form(de, order, nf, change, fl, fe, code, z, msg)
+  ! the normal form's flux against the sampled flux (tubes_verdicts.f90, as the flux scene)
+  use tubes_verdicts, only: flux_normal_form_check
+  implicit none
+  real(8), intent(in) :: de, nf, change, fl, fe
+  integer, intent(in) :: order
+  integer, intent(out) :: code
+  real(8), intent(out) :: z
+  character(len=1024), intent(out) :: msg
+  code = flux_normal_form_check(de, order, nf, change, fl, fe, z, msg)
+end subroutine verdict_flux_normal_form
+
+subroutine verdict_section(de, nf, nfc, fl, fe, sv, sve, sf, sfe, ns, w, counts, t_max, code, use_nf, &
+                           p_theory, z, msg)
+  ! flux / volume on the section against its Monte Carlo fraction (tubes_verdicts.f90, as the flux scene)
+  use tubes_verdicts, only: section_check
+  implicit none
+  real(8), intent(in) :: de, nf, nfc, fl, fe, sv, sve, sf, sfe, t_max
+  integer, intent(in) :: ns, counts(4)
+  real(8), intent(in) :: w(ns)
+  integer, intent(out) :: code, use_nf
+  real(8), intent(out) :: p_theory, z
+  character(len=1024), intent(out) :: msg
+  logical :: u
+  code = section_check(de, nf, nfc, fl, fe, sv, sve, sf, sfe, w, counts, t_max, u, p_theory, z, msg)
+  use_nf = merge(1, 0, u)
+end subroutine verdict_section
+
+subroutine verdict_cut3(de, vol, vol_half, vol_x, f, sv, n_decided, n_misclassified, code, msg)
+  ! the 3-DOF tube cut's volume and misclassified points (tubes_verdicts.f90, as the flux scene)
+  use tubes_verdicts, only: cut3_check
+  implicit none
+  real(8), intent(in) :: de, vol, vol_half, vol_x, f, sv
+  integer, intent(in) :: n_decided, n_misclassified
+  integer, intent(out) :: code
+  character(len=1024), intent(out) :: msg
+  code = cut3_check(de, vol, vol_half, vol_x, f, sv, n_decided, n_misclassified, msg)
+end subroutine verdict_cut3
+
 subroutine dataset_units(group, name, dimensionless, stat, units)
   ! the units of dataset (or attribute) name of group in the output file (src/io/tubes_units.c: the
   ! writer's one table), as a model with or without physical units writes them; stat -1: no row

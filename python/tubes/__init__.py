@@ -894,7 +894,8 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
 
 def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
          n_samples=None, seed=None, t_max=None, gate=None, tol=None, order=None, section: dict | None = None,
-         integrator: dict | None = None, equilibria: dict | None = None, **cut_options) -> dict:
+         integrator: dict | None = None, equilibria: dict | None = None, check: bool = True,
+         **cut_options) -> Table:
     """The flux of trajectories through a rank-1 saddle's bottleneck (as the flux scene,
     docs/theory.md "Flux in N degrees of freedom"; natural systems, 2 or 3 DOF): dict of arrays
     dE, flux_sampled, flux_sampled_err, flux_leading_order, n_inside, n_reacting, n_recrossing,
@@ -909,7 +910,16 @@ def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
     points, weight, outcome, inside, inside_pl). Keywords as &flux (defaults from the program's
     reader; n_cut and cut_eps too). dE: excess energies above the saddle, > 0 and increasing, in
     the model's energy units; default &flux de (the &transition list, (cm/s)^2): the rolling ball
-    only, required for any other model."""
+    only, required for any other model.
+
+    The scene's checks (src/workflow/tubes_verdicts.f90, the same functions as ./tubes): a flux
+    below the smallest double (NaN there), more than 1 % undecided points, the normal form without a
+    flux or more than 5 standard errors from the sampled flux, flux / volume (the normal form's
+    where its change from order K - 2 is within 10 %, else the sampled) above 1 or more than 5
+    standard errors from the section's Monte Carlo fraction, the tube cut's volume or misclassified
+    points beyond its resolution. Where ./tubes exits 2 on one of them this raises
+    DisagreementError (its ``partial`` the Table); check=False returns the Table with the messages
+    in ``verdicts`` (empty where every check holds)."""
     model = model or Model()
     de = _de_list(dE, "flux")
     if de is None:
@@ -928,13 +938,28 @@ def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
                                         float(st["flux_t_max"]), float(st["flux_gate"]), float(st["flux_tol"]),
                                         *_integ(st, model))
     _check(stat, "flux")
-    out = {"dE": de, "flux_sampled": f.copy(), "flux_sampled_err": e.copy(), "flux_leading_order": lead.copy(),
+    f, e = f.copy(), e.copy()
+    verdicts = []      # the scene's checks (src/workflow/tubes_verdicts.f90): where ./tubes exits 2
+    for k, d in enumerate(de):
+        code, which, msg = _lib().verdict_flux_sample(d, model.ndof, lead[k], cnt[:, k], float(st["flux_gate"]),
+                                                      float(st["flux_t_max"]))
+        if code:
+            verdicts.append(_str(msg))
+            if which == 1:          # below the smallest double: no number there
+                f[k] = e[k] = np.nan
+    out = {"dE": de, "flux_sampled": f, "flux_sampled_err": e, "flux_leading_order": lead.copy(),
            "n_inside": cnt[0].copy(), "n_reacting": cnt[1].copy(), "n_recrossing": cnt[2].copy(),
            "n_undecided": cnt[3].copy()}
     taylor = None
-    if int(st["flux_order"]) > 0:
-        out.update(_normal_form_flux(model, st, de, int(st["flux_order"])))
+    order = int(st["flux_order"])
+    if order > 0:
+        out.update(_normal_form_flux(model, st, de, order))
         taylor = out.pop("_taylor")
+        for k, d in enumerate(de):
+            code, _z, msg = _lib().verdict_flux_normal_form(d, order, out["flux_normal_form"][k],
+                                                            out["flux_normal_form_change"][k], f[k], e[k])
+            if code:
+                verdicts.append(_str(msg))
     if section is not None:
         if model.ndof != 3 or int(st["sec_kind"]) != 2:
             raise ValueError("flux: section: the transition fraction on a section is for a plane section in 3 "
@@ -944,13 +969,29 @@ def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
             int(st["flux_n_samples"]), int(st["flux_seed"]), float(st["flux_t_max"]), float(st["flux_gate"]),
             float(st["flux_tol"]), *_integ(st, model))
         _check(stat, "flux (section)")
-        f_th = out.get("flux_normal_form", out["flux_sampled"])
-        f_th = np.where(np.isfinite(f_th), f_th, out["flux_sampled"])
+        nf = out.get("flux_normal_form", np.full(de.size, np.nan))
+        nfc = out.get("flux_normal_form_change", np.full(de.size, np.nan))
+        p_th = np.full(de.size, np.nan)
+        for k, d in enumerate(de):       # flux / volume against the Monte Carlo fraction
+            code, _u, p_th[k], _z, msg = _lib().verdict_section(d, nf[k], nfc[k], f[k], e[k], v[k], ve[k], fr[k],
+                                                                fre[k], ws[:, k], cnt[:, k], float(st["flux_t_max"]))
+            if code:
+                verdicts.append(_str(msg))
         out.update({"section_volume": v.copy(), "section_volume_err": ve.copy(), "p_trans_section": fr.copy(),
-                    "p_trans_section_err": fre.copy(), "p_trans_theory": f_th / v})
+                    "p_trans_section_err": fre.copy(), "p_trans_theory": p_th})
         if taylor is not None and int(st["flux_n_cut"]) > 0:
-            out["tube_cut"] = _tube_cut3(model, st, de, taylor, xs, ws, cls)
-    return _table(out, "/flux", model)
+            out["tube_cut"] = tc = _tube_cut3(model, st, de, taylor, xs, ws, cls)
+            for k, d in enumerate(de):
+                code, msg = _lib().verdict_cut3(d, tc["volume"][k], tc["volume_half"][k], tc["volume_extrapolated"][k],
+                                                nf[k], v[k], tc["n_decided"][k], tc["misclassified"][k])
+                if code:
+                    verdicts.append(_str(msg))
+    out["verdicts"] = verdicts
+    out = _table(out, "/flux", model)
+    if verdicts and _args.flag("flux", "check", check):
+        raise DisagreementError("; ".join(verdicts) + " (check=False returns the result, its "
+                                "verdicts in 'verdicts')", out)
+    return out
 
 
 def _tube_cut3(model, st, de, taylor, xs, ws, cls):

@@ -1986,18 +1986,14 @@ static int flux_normal_form(const tubes_run_t *run, const double *fl, const doub
   printf("  %10s %18s %12s %16s %12s %9s %12s %12s\n", "dE", "normal form", "change K-2", "sampled", "+-", "diff/sd",
          "NHIM dE err", "round trip");
   for (int k = 0; k < n; k++) {
-    double sd = sqrt(fe[k] * fe[k] + (isfinite(o->change[k]) ? o->change[k] * o->change[k] : 0.0));
-    double z_ = (o->flux[k] - fl[k]) / sd;
+    double z_;
+    char vm[1024];
+    int v = tubes_verdict_flux_normal_form(c->flux_de[k], K, o->flux[k], o->change[k], fl[k], fe[k], &z_, vm,
+                                           sizeof vm);
     printf("  %10.4g %18.12g %12.3g %16.10g %12.4g %9.2f %12.3g %12.3g\n", c->flux_de[k], o->flux[k], o->change[k], fl[k],
            fe[k], z_, o->energy_err[k], o->round_trip[k]);
-    if (!isfinite(o->flux[k])) {
-      fprintf(stderr, "tubes: flux: dE = %g: the normal form of order %d has no bounded region of actions there "
-              "(beyond the series' reach): lower dE\n", c->flux_de[k], K);
-      rc = EXIT_NUMERIC;
-    } else if (isfinite(fl[k]) && fabs(z_) > 5) {
-      fprintf(stderr, "tubes: flux: dE = %g: the normal form (%.10g, change %.3g from order %d) and the sampled "
-              "flux (%.10g +- %.3g) disagree by %.1f standard errors\n", c->flux_de[k], o->flux[k], o->change[k],
-              K - 2, fl[k], fe[k], z_);
+    if (v) {
+      fprintf(stderr, "%s\n", vm);
       rc = EXIT_NUMERIC;
     }
   }
@@ -2041,47 +2037,27 @@ static int section_fraction(const tubes_run_t *run, const double *fl, const doub
       rc = EXIT_NUMERIC;
       continue;
     }
-    /* the normal form's flux where its own error (the change from order K - 2) is within 10 % of
-     * it; beyond its reach (4.48 at dE = 1e6, order 4) the sampled flux */
-    int nf_finite = fnf && isfinite(fnf[k]);
-    int use_nf = nf_finite && isfinite(fch[k]) && fabs(fch[k]) <= 0.1 * fabs(fnf[k]);
-    if (nf_finite && !use_nf && isfinite(fl[k]))
+    /* flux / volume, the normal form's flux where its own error (the change from order K - 2) is
+     * within 10 % of it, beyond its reach (4.48 at dE = 1e6, order 4) the sampled flux; against the
+     * Monte Carlo fraction (tubes_verdicts.f90 section_check) */
+    double z;
+    int use_nf;
+    char vm[1024];
+    int v = tubes_verdict_section(c->flux_de[k], fnf ? fnf[k] : NAN, fch ? fch[k] : NAN, fl[k], fe[k], sv[k], sve[k],
+                                  sf[k], sfe[k], ns, sw + (size_t)k * ns, cnt, c->flux_t_max, &use_nf, &pth[k], &z,
+                                  vm, sizeof vm);
+    if (fnf && isfinite(fnf[k]) && !use_nf && isfinite(fl[k]))
       printf("  (dE = %g: flux / volume from the sampled flux: the normal form's change from order K - 2, %.3g, "
              "exceeds 10 %% of its flux %.6g)\n", c->flux_de[k], fch[k], fnf[k]);
-    double f = use_nf ? fnf[k] : fl[k], ferr = use_nf ? fch[k] : fe[k];
-    if (!(isfinite(f) && f > 0)) {   /* no flux there (failed, past the bottleneck, or too small) */
+    if (isnan(pth[k])) {   /* no flux there (failed, past the bottleneck, or too small) */
       printf("  %10.4g %14.8g %10.3g %12s %12.6f %10.2g %9s %9d %9d %9d   (%.1f s)\n", c->flux_de[k], sv[k], sve[k],
              "-", sf[k], sfe[k], "-", cnt[1], cnt[2], cnt[3], now() - t0);
-      pth[k] = NAN;
       continue;
     }
-    pth[k] = f / sv[k];
-    double sp = pth[k] * sqrt(pow(ferr / f, 2) + pow(sve[k] / sv[k], 2));
-    /* the fraction's standard error under the prediction p (a score test, as the montecarlo scene's
-     * sqrt(p (1 - p) / n)): sqrt(p (1 - p) sum w^2) / sum w. The sample's own, sfe, is 0 with no
-     * transit and too small with one or two: 0 transits where 0.5 are expected was "58 standard errors" */
-    double sw1 = 0, sw2 = 0;
-    for (int i = 0; i < ns; i++) {
-      double wi = sw[(size_t)k * ns + i];
-      if (isfinite(wi)) { sw1 += wi; sw2 += wi * wi; }
-    }
-    double se0 = sw1 > 0 ? sqrt(fmax(pth[k] * (1 - pth[k]), 0) * sw2) / sw1 : sfe[k];
-    double z = sf[k] == pth[k] ? 0 : (sf[k] - pth[k]) / sqrt(se0 * se0 + sp * sp);
     printf("  %10.4g %14.8g %10.3g %12.6f %12.6f %10.2g %9.2f %9d %9d %9d   (%.1f s)\n", c->flux_de[k], sv[k], sve[k],
            pth[k], sf[k], sfe[k], z, cnt[1], cnt[2], cnt[3], now() - t0);
-    if (cnt[3] > 0.01 * cnt[0]) {
-      fprintf(stderr, "tubes: flux: the section at dE = %g: %d of %d points neither transited nor returned within "
-              "t_max = %g: raise &flux t_max\n", c->flux_de[k], cnt[3], cnt[0], c->flux_t_max);
-      rc = EXIT_NUMERIC;
-    } else if (pth[k] - 1 > 5 * sp) {
-      fprintf(stderr, "tubes: flux: the section at dE = %g: flux / volume = %.6g +- %.2g exceeds 1 (a fraction of the "
-              "section's points): the %s flux or the volume is wrong there\n", c->flux_de[k], pth[k], sp,
-              use_nf ? "normal form's" : "sampled");
-      rc = EXIT_NUMERIC;
-    } else if (!isfinite(z) || fabs(z) > 5) {
-      fprintf(stderr, "tubes: flux: the section at dE = %g: the Monte Carlo transition fraction %.6g +- %.2g and "
-              "flux / volume %.6g disagree by %.1f standard errors (a section crossed by the tube more than once?)\n",
-              c->flux_de[k], sf[k], sfe[k], pth[k], z);
+    if (v) {
+      fprintf(stderr, "%s\n", vm);
       rc = EXIT_NUMERIC;
     }
   }
@@ -2169,7 +2145,7 @@ static int tube_cut3(const tubes_run_t *run, const nf_out_t *o, const double *sv
     /* d: seed error, V, failed, V_h, V_x, unresolved, misclassified, by the linear cut, decided, inside,
      * p_trans of the tube, of the Monte Carlo */
     int ndec = (int)d[8], nin = (int)d[9], mis = (int)d[6], mispl = (int)d[7];
-    double f = o->flux[k], mc = d[11], mu = ndec * fabs(d[4] - d[1]) / sv[k];
+    double f = o->flux[k], mc = d[11];
     u->mis[k] = mis;
     u->mis_pl[k] = mispl;
     u->unres[k] = (int)d[5];
@@ -2178,17 +2154,9 @@ static int tube_cut3(const tubes_run_t *run, const nf_out_t *o, const double *sv
     printf("  %10.4g %13.8g %13.8g %13.8g %11.2e %11.2e %12.6f %12.6f %8d %8d %11d %9d %10d   (%.1f s)\n",
            c->flux_de[k], d[1], u->vex[k], f, u->vex[k] / f - 1, d[0], u->ptrans[k], mc, nin, ndec, mispl, mis,
            u->unres[k], now() - t0);
-    if (!(fabs(u->vex[k] - f) <= 0.25 * fabs(d[1] - d[3]) + 1e-6 * f)) {
-      fprintf(stderr, "tubes: flux: the tube's cut at dE = %g: its 4-volume %.8g (%.8g on every other node, "
-              "extrapolated %.8g) and the normal form's flux %.8g differ by more than the grid explains: the cut "
-              "is under-resolved (raise &flux n_cut) or the normal form does not reach dE (raise &flux order, "
-              "lower dE)\n", c->flux_de[k], d[1], d[3], u->vex[k], f);
-      rc = EXIT_NUMERIC;
-    } else if (mis > mu + 5 * sqrt(mu) + 2) {
-      fprintf(stderr, "tubes: flux: the tube's cut at dE = %g: %d of the %d decided Monte Carlo points lie on the "
-              "wrong side of it for their fate, more than its resolution explains (about %.1f lie in the shell the "
-              "piecewise-linear cut misses): the tube does not separate transit from return on this section\n",
-              c->flux_de[k], mis, ndec, mu);
+    char vm[1024];
+    if (tubes_verdict_cut3(c->flux_de[k], d[1], d[3], u->vex[k], f, sv[k], ndec, mis, vm, sizeof vm)) {
+      fprintf(stderr, "%s\n", vm);
       rc = EXIT_NUMERIC;
     }
   }
@@ -2344,19 +2312,17 @@ int scene_flux(tubes_run_t *run) {
       rc = EXIT_NUMERIC;
       continue;
     }
-    if (isfinite(lo[k]) && !(lo[k] > DBL_MIN)) {   /* dE^(N-1) below the smallest double (NaN: no leading order) */
-      fprintf(stderr, "tubes: flux: dE = %g is too small: the flux, of order dE^%d, is below the smallest double "
-              "(leading order %g); NaN there: raise dE\n", de, run->ndof - 1, lo[k]);
+    char vm[1024];
+    if (tubes_verdict_flux_too_small(de, run->ndof, lo[k], vm, sizeof vm)) {   /* below the smallest double */
+      fprintf(stderr, "%s\n", vm);
       fl[k] = fe[k] = NAN;
       rc = EXIT_NUMERIC;
       continue;
     }
     printf("  %10.4g %16.10g %12.4g %16.10g %9.6f %9d %9d %9d   (%.1f s)\n", de, fl[k], fe[k], lo[k], fl[k] / lo[k],
            ct[1], ct[2], ct[3], now() - t0);
-    if (ct[3] > 0.01 * ct[0]) {
-      fprintf(stderr, "tubes: flux: dE = %g: %d of %d points on the dividing surface neither left the slab "
-              "|(q - q_s) . n| <= %g forwards nor backwards within t_max = %g: raise &flux t_max (or lower gate)\n",
-              de, ct[3], ct[0], c->flux_gate, c->flux_t_max);
+    if (tubes_verdict_flux_undecided(de, ct, c->flux_gate, c->flux_t_max, vm, sizeof vm)) {
+      fprintf(stderr, "%s\n", vm);
       rc = EXIT_NUMERIC;
     }
   }
