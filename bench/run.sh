@@ -14,6 +14,7 @@ OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python bench/bench_integrators.p
 .venv/bin/python bench/bench_expression.py
 if [ -f bench/bench_stability.py ]; then .venv/bin/python bench/bench_stability.py; fi
 .venv/bin/python bench/bench_taylor.py
+.venv/bin/python bench/bench_percall.py
 # the MPI flavour's scaling (docs/cluster.md), when an MPI compiler wrapper is installed
 if command -v mpifort >/dev/null 2>&1; then
   make --no-print-directory MPI=1 build/mpi/bin/tubes

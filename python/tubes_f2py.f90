@@ -276,6 +276,29 @@ subroutine trajectory(system, params, n2, x0, t_end, dt_out, method, rtol, atol,
                       obs, n, t, state, en, n_cross, cross_t, cross_x, cross_dir, counters, c, stat)
 end subroutine trajectory
 
+subroutine integrator_trajectory(handle, n2, x0, t_end, dt_out, sec_kind, sec_level, sec_dir, stop_first, &
+                                 max_cross, nmax, stat, n, t, state, en, n_cross, cross_t, cross_x, cross_dir, &
+                                 counters)
+  ! trajectory's integration with kept integrator handle (tubes.integrate's cache): the same outputs
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_run, only: trajectory_kept, section_spec_t
+  use tubes_sampler, only: sampler_t
+  implicit none
+  integer(c_int64_t), intent(in) :: handle
+  integer(c_int), intent(in) :: n2
+  real(c_double), intent(in) :: x0(n2), t_end, dt_out, sec_level
+  integer(c_int), intent(in) :: nmax, sec_kind, sec_dir, stop_first, max_cross
+  integer(c_int), intent(out) :: stat, n, n_cross
+  real(c_double), intent(out) :: t(nmax), state(n2, nmax), en(nmax)
+  real(c_double), intent(out) :: cross_t(max_cross), cross_x(n2, max_cross)
+  integer(c_int), intent(out) :: cross_dir(max_cross)
+  integer(c_int64_t), intent(out) :: counters(4)
+  type(sampler_t) :: obs
+  call trajectory_kept(handle, x0, t_end, dt_out, section_spec_t(kind=sec_kind, level=sec_level, dir=sec_dir, &
+                       stop_at_first=stop_first /= 0, max_crossings=max_cross), obs, n, t, state, en, n_cross, &
+                       cross_t, cross_x, cross_dir, counters, stat)
+end subroutine integrator_trajectory
+
 subroutine integrator_open(system, params, method, rtol, atol, h, max_steps, omega_bind, solver, &
                            max_iter, handle, stat)
   ! a kept integrator (src/workflow/tubes_run.f90 open_integrator): Python's tubes.Integrator

@@ -14,8 +14,10 @@ cm and s, energies per unit mass in (cm/s)^2.
 from __future__ import annotations
 
 import functools
+import math
 import re
 import sys
+import threading
 from typing import Any
 
 import numpy as np
@@ -776,6 +778,36 @@ def _study(model, st):
 
 
 _TAYLOR_OK = {}   # (model name, parameters) -> can its Taylor kernel be had (_method)
+
+# integrate()'s kept integrators, per thread (one thread at a time per integrator): (model, method,
+# options) -> handle. Making the model and finding its Taylor kernel cost ~30 us a call; a kept
+# integrator restarted at t = 0 gives the same bits as a new one for the methods below (their state
+# is the integrator's own, reset by restart; tests/test_percall.py), not for a noisy model (its
+# noise stream).
+_KEPT = threading.local()
+_KEPT_METHODS = (METHODS["taylor"], METHODS["dop853"])
+_KEPT_MAX = 16
+
+
+def _kept_integrator(model, code: int, opts: tuple) -> int:
+    """The kept integrator of integrate() for the model and options, opened on first use (0: none
+    for this method or model, integrate() makes its own)."""
+    par = model.parameters
+    if code not in _KEPT_METHODS or par.get("noise", 0.0) != 0 or par.get("temperature", 0.0) != 0:
+        return 0
+    cache = getattr(_KEPT, "cache", None)
+    if cache is None:
+        cache = _KEPT.cache = {}
+    key = (model.name, model._vector.tobytes(), code, opts)
+    handle = cache.get(key)
+    if handle is None:
+        h, stat = _lib().integrator_open(model.name, model.params(), code, *opts)
+        if stat < 0:
+            return 0                         # integrate() makes its own and says why
+        if len(cache) >= _KEPT_MAX:          # the oldest out
+            _lib().integrator_close(cache.pop(next(iter(cache))))
+        handle = cache[key] = int(h)
+    return handle
 
 
 def _integ(st, model):
@@ -1667,17 +1699,23 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
         dt_out = max(t_end, 1e-300)
     dt_out = _args.real("integrate", "dt_out", dt_out, lo=0, lo_open=True)
     kind, lev, dirn = _section(section, level, direction)
-    nmax = int(np.floor(t_end / dt_out * (1 + 1e-12))) + 2
+    nmax = math.floor(t_end / dt_out * (1 + 1e-12)) + 2
     mc = max_crossings if kind else 1   # no section: no crossings to hold
     n2 = 2 * model.ndof
     if kind == 1 and model.system != "rolling_ball":
         raise ValueError("the polar ray sections (U1, theta) are the rolling ball's; use 'x' or 'y'")
-    stat, n, t, st, en, nc, ct, cx, cd, cnt = _lib().trajectory(
-        model.name, model.params(), _vec(state0, n2, "state0", "integrate"), float(t_end), float(dt_out),
-        _method(METHODS[method], model, float(rtol)),
-        float(rtol), float(atol), float(h), int(max_steps), float(omega_bind),
-        1 if solver == "newton" else 2, int(max_iter), kind, lev, dirn, int(bool(stop_at_first)),
-        mc, nmax)
+    code = _method(METHODS[method], model, float(rtol))
+    x0 = _vec(state0, n2, "state0", "integrate")
+    opts = (float(rtol), float(atol), float(h), int(max_steps), float(omega_bind), 1 if solver == "newton" else 2,
+            int(max_iter))
+    handle = _kept_integrator(model, code, opts)
+    if handle:
+        stat, n, t, st, en, nc, ct, cx, cd, cnt = _lib().integrator_trajectory(
+            handle, x0, float(t_end), float(dt_out), kind, lev, dirn, int(bool(stop_at_first)), mc, nmax)
+    else:
+        stat, n, t, st, en, nc, ct, cx, cd, cnt = _lib().trajectory(
+            model.name, model.params(), x0, float(t_end), float(dt_out), code, *opts, kind, lev, dirn,
+            int(bool(stop_at_first)), mc, nmax)
     out = {"t": t[:n].copy(), "state": st[:, :n].T.copy(), "energy": en[:n].copy(),
            "nfev": int(cnt[0]), "nsteps": int(cnt[1]), "nrejected": int(cnt[2]), "niter": int(cnt[3])}
     if kind:
@@ -1745,8 +1783,10 @@ def ensemble(states, t_end: float, model: Model | None = None, method: str = "au
 class Integrator:
     """One model's integrator kept between calls, as heyoka's taylor_adaptive: the model, the
     method and (for the Taylor method) its compiled kernel are set up once, and each propagate()
-    is a new integration from t = 0, without integrate()'s set-up on every call (about 25 us: the
-    model from its name, the checks, the output arrays). The options are integrate()'s.
+    is a new integration from t = 0 returning the end state only. integrate() keeps such an
+    integrator per model, method and options itself (for 'taylor', 'dop853' and 'auto'; a noisy
+    model's is made anew) and costs ~15 us more a call: its checks, samples and arrays
+    (docs/benchmarks.md, "One call of tubes.integrate"). The options are integrate()'s.
 
         it = tubes.Integrator(tubes.Model(), method="taylor", rtol=1e-10, atol=1e-10)
         x, counters = it.propagate(state0, 10.0)

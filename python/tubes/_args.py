@@ -25,6 +25,9 @@ def real(who: str, name: str, v, *, lo=None, hi=None, lo_open: bool = False, hi_
          finite: bool = True) -> float:
     """v as a float: a real number (int, float, numpy scalar or 0-d array; not a bool, not a
     string), finite unless finite=False, within [lo, hi] (open ends with lo_open / hi_open)."""
+    if type(v) is float and (lo is None or (v > lo if lo_open else v >= lo)) \
+            and (hi is None or (v < hi if hi_open else v <= hi)) and (v - v == 0 or (not finite and v == v)):
+        return v            # the common case, without the checks below (a call's cost: issue 36)
     what = "a finite real number" if finite else "a real number"
     if isinstance(v, np.ndarray) and v.ndim == 0:
         v = v[()]
@@ -41,6 +44,8 @@ def real(who: str, name: str, v, *, lo=None, hi=None, lo_open: bool = False, hi_
 def integer(who: str, name: str, v, *, lo=None, hi=None) -> int:
     """v as an int: an integer (int, numpy integer, or a float with an integral value such as
     1e4; not a bool, not a string, not 2.5) within [lo, hi]."""
+    if type(v) is int and (lo is None or v >= lo) and (hi is None or v <= hi):
+        return v            # the common case
     if isinstance(v, np.ndarray) and v.ndim == 0:
         v = v[()]
     ok = (isinstance(v, numbers.Integral) or (isinstance(v, numbers.Real) and math.isfinite(float(v))

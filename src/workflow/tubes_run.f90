@@ -32,7 +32,7 @@ module tubes_run
   end type section_spec_t
 
   public :: run_integration, run_trajectory, run_ensemble
-  public :: open_integrator, propagate_kept, close_integrator
+  public :: open_integrator, propagate_kept, close_integrator, trajectory_kept
   public :: sized_model, field_rates
 
   !> An integrator kept between calls (Python's tubes.Integrator, as heyoka's taylor_adaptive):
@@ -41,6 +41,7 @@ module tubes_run
   !> caller owns it by its address (open_integrator, close_integrator).
   type :: kept_integrator_t
     class(integrator_t), allocatable :: ig
+    class(hamiltonian_t), allocatable :: cons   !! the conservative model: a trajectory's energies
   end type kept_integrator_t
 
   !> Items of an ensemble per call of run_lanes (an OpenMP thread's unit of work)
@@ -81,11 +82,26 @@ contains
     real(wp), intent(out) :: c_damp
     integer, intent(out) :: stat
     class(integrator_t), allocatable :: ig
-    class(event_t), allocatable :: ev
-    real(wp) :: x(size(x0))
     counters = 0
     call setup_integration(system, params, method, rtol, atol, h, max_steps, mopts, ig, c_damp, stat)
     if (stat /= TUBES_OK) return
+    call integrate_with(ig, x0, t_end, sec, obs, log, counters, stat)
+  end subroutine run_integration
+
+  !> run_integration's integration with an integrator set up at t = 0 (a new one, or a kept one
+  !> restarted).
+  subroutine integrate_with(ig, x0, t_end, sec, obs, log, counters, stat)
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: x0(:), t_end
+    type(section_spec_t), intent(in) :: sec
+    class(sampler_t), intent(inout) :: obs
+    type(crossing_log_t), intent(inout) :: log
+    integer(i8), intent(out) :: counters(4)
+    integer, intent(out) :: stat
+    class(event_t), allocatable :: ev
+    real(wp) :: x(size(x0))
+    counters = 0
+    stat = TUBES_OK
     if (size(x0) /= ig%f%dim()) then
       stat = TUBES_EINPUT
       return
@@ -117,7 +133,7 @@ contains
     end if
     if (stat == TUBES_EVENT) stat = TUBES_OK
     counters = [ig%nfev, ig%nsteps, ig%nrejected, ig%niter]
-  end subroutine run_integration
+  end subroutine integrate_with
   !> The model's field (c_damp: its damping rate [1/s]) and the method's integrator on it at t = 0.
   subroutine setup_integration(system, params, method, rtol, atol, h, max_steps, mopts, ig, c_damp, stat)
     character(*), intent(in) :: system
@@ -163,6 +179,11 @@ contains
     if (stat /= TUBES_OK) return
     allocate (kept)
     call move_alloc(ig, kept%ig)
+    call make_model(system, params, kept%cons, stat)
+    if (stat /= TUBES_OK) then
+      deallocate (kept)
+      return
+    end if
     handle = transfer(c_loc(kept), handle)
   end subroutine open_integrator
 
@@ -216,13 +237,11 @@ contains
     real(wp), intent(out) :: c_damp
     integer, intent(out) :: stat
     class(hamiltonian_t), allocatable :: cons
-    type(crossing_log_t) :: log
-    type(section_spec_t) :: spec
-    integer :: k, nmax
+    class(integrator_t), allocatable :: ig
+    integer :: k
     n = 0; n_cross = 0; counters = 0; c_damp = 0
     t = 0; state = 0; energy = 0; cross_t = 0; cross_x = 0; cross_dir = 0
-    nmax = size(t)
-    if (dt_out <= 0 .or. t_end < 0 .or. nmax < 2 .or. sec%max_crossings < 0) then
+    if (dt_out <= 0 .or. t_end < 0 .or. size(t) < 2 .or. sec%max_crossings < 0) then
       stat = TUBES_EINPUT
       return
     end if
@@ -232,11 +251,43 @@ contains
       stat = TUBES_EINPUT
       return
     end if
+    call setup_integration(system, params, method, rtol, atol, h, max_steps, mopts, ig, c_damp, stat)
+    if (stat /= TUBES_OK) then          ! no integrator (no Taylor kernel, ...): the start sample alone
+      call obs%start(0.0_wp, dt_out, x0, size(t), t_end=t_end)
+      n = obs%n
+      t(1:n) = obs%t(1:n)
+      state(:, 1:n) = obs%x(:, 1:n)
+      do k = 1, n
+        energy(k) = cons%energy(state(:, k))
+      end do
+      return
+    end if
+    call trajectory_with(ig, cons, x0, t_end, dt_out, sec, obs, n, t, state, energy, n_cross, cross_t, cross_x, &
+                         cross_dir, counters, stat)
+  end subroutine run_trajectory
+
+  !> run_trajectory with an integrator set up at t = 0 and the conservative model cons (the
+  !> samples' energies); the arguments checked by the caller.
+  subroutine trajectory_with(ig, cons, x0, t_end, dt_out, sec, obs, n, t, state, energy, n_cross, cross_t, &
+                             cross_x, cross_dir, counters, stat)
+    class(integrator_t), intent(inout) :: ig
+    class(hamiltonian_t), intent(in) :: cons
+    real(wp), intent(in) :: x0(:), t_end, dt_out
+    type(section_spec_t), intent(in) :: sec
+    class(sampler_t), intent(inout) :: obs
+    integer, intent(out) :: n, n_cross
+    real(wp), intent(inout) :: t(:), state(:, :), energy(:), cross_t(:), cross_x(:, :)
+    integer, intent(inout) :: cross_dir(:)
+    integer(i8), intent(out) :: counters(4)
+    integer, intent(out) :: stat
+    type(crossing_log_t) :: log
+    type(section_spec_t) :: spec
+    integer :: k
+    n = 0; n_cross = 0
     spec = sec
     spec%max_crossings = max(sec%max_crossings, 1)
-    call obs%start(0.0_wp, dt_out, x0, nmax, t_end=t_end)
-    call run_integration(system, params, x0, t_end, method, rtol, atol, h, max_steps, mopts, spec, &
-                         obs, log, counters, c_damp, stat)
+    call obs%start(0.0_wp, dt_out, x0, size(t), t_end=t_end)
+    call integrate_with(ig, x0, t_end, spec, obs, log, counters, stat)
     n = obs%n
     ! the crossing log full before t_end: said (TUBES_FULL), not a silent stop (t_end = 200000 s
     ! ended at 24,488 s with status 0)
@@ -256,7 +307,35 @@ contains
         cross_dir(k) = log%direction(k)
       end do
     end if
-  end subroutine run_trajectory
+  end subroutine trajectory_with
+
+  !> run_trajectory with the kept integrator at handle (open_integrator), restarted at t = 0: the
+  !> model and, for the Taylor method, its kernel are not made again (Python's tubes.integrate
+  !> keeps one per model and options: tens of microseconds a call).
+  subroutine trajectory_kept(handle, x0, t_end, dt_out, sec, obs, n, t, state, energy, n_cross, cross_t, &
+                             cross_x, cross_dir, counters, stat)
+    integer(c_intptr_t), intent(in) :: handle
+    real(wp), intent(in) :: x0(:), t_end, dt_out
+    type(section_spec_t), intent(in) :: sec
+    class(sampler_t), intent(inout) :: obs
+    integer, intent(out) :: n, n_cross
+    real(wp), intent(out) :: t(:), state(:, :), energy(:), cross_t(:), cross_x(:, :)
+    integer, intent(out) :: cross_dir(:)
+    integer(i8), intent(out) :: counters(4)
+    integer, intent(out) :: stat
+    type(kept_integrator_t), pointer :: kept
+    n = 0; n_cross = 0; counters = 0
+    t = 0; state = 0; energy = 0; cross_t = 0; cross_x = 0; cross_dir = 0
+    stat = TUBES_EINPUT
+    if (handle == 0) return
+    call c_f_pointer(transfer(handle, c_null_ptr), kept)
+    if (dt_out <= 0 .or. .not. t_end >= 0 .or. size(t) < 2 .or. sec%max_crossings < 0) return
+    if (.not. allocated(kept%cons)) return
+    if (size(x0) /= kept%cons%dim()) return
+    call kept%ig%restart(0.0_wp)
+    call trajectory_with(kept%ig, kept%cons, x0, t_end, dt_out, sec, obs, n, t, state, energy, n_cross, cross_t, &
+                         cross_x, cross_dir, counters, stat)
+  end subroutine trajectory_kept
 
   !> Many integrations of one model from t = 0 to t_end, each from its own state x0(:, k), to
   !> xs(:, k) with status st(k) and nsteps(k) steps: the Taylor method ('taylor', 'auto') in the
