@@ -475,6 +475,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char
   use tubes_cstrings, only: c_to_f, f_to_c
   use tubes_nml, only: tubes_config_t
+  use tubes_kinds, only: PI
   implicit none
   character(len=*), intent(in) :: path
   integer(c_int), intent(out) :: stat, n_grid, use_near, n_segments, orb_max_iter, orb_n_samples, &
@@ -532,7 +533,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   if (c_to_f(cfg%sec_kind) == 'ray') then
     sec_kind = 1
     sec_index = 0
-    sec_level = cfg%sec_angle*acos(-1.0_c_double)/180
+    sec_level = cfg%sec_angle*PI/180
     sec_dir = cfg%sec_pth_sign
   else if (c_to_f(cfg%sec_kind) == 'plane') then
     sec_kind = 2

@@ -67,7 +67,8 @@ def test_a_model_keeps_what_its_calls_computed():
     assert m.kept() == {"equilibria": 1, "families": 1, "seeds": 0}
     cut = m.tube_cut(100)
     again = m.tube_cut(100)
-    assert m.kept() == {"equilibria": 1, "families": 1, "seeds": 1}   # the cut's orbit from the family
+    # the cut's orbit from the family; its seeds at eps and at eps / 10 (the scene's check, area_eps10)
+    assert m.kept() == {"equilibria": 1, "families": 1, "seeds": 2}
     fresh = tubes.Model().tube_cut(100)
     for c in (again, fresh):
         for k in ("r", "p_r", "tau"):

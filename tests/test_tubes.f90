@@ -5,7 +5,7 @@
 !> dA_E/dE matches a finite difference, and the Monte Carlo classification matches the cut.
 program test_tubes
   use, intrinsic :: iso_c_binding, only: c_long
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   use tubes_ball, only: ball_t, make_ball
   use tubes_fourwell, only: fourwell_t
   use tubes_equilibria, only: equilibrium_t, find_equilibria
@@ -41,7 +41,7 @@ program test_tubes
     if (eqs(k)%name == 'W1') iw = k
   end do
   wd = eqs(iw)%q - eqs(isad)%q
-  call make_ray_section(psec, ball, acos(-1.0_wp)/4, 1)   ! U1^-
+  call make_ray_section(psec, ball, PI/4, 1)   ! U1^-
   call orbit_family(ball, eqs, isad, [10.0_wp, 100.0_wp], oo, orbs, end_de, reason, stat)
 
   ! area = action (the issue's bound: 1e-8 relative; the quadrature reaches ~1e-12)
@@ -95,11 +95,11 @@ program test_tubes
   n = 20000
   a2 = 0
   do k = 1, n - 1
-    s = acos(-1.0_wp)*k/n
+    s = PI*k/n
     h = ray%rmin + (ray%rmax - ray%rmin)*(1 - cos(s))/2
     a2 = a2 + 2*boundary_pr(ray, h)*(ray%rmax - ray%rmin)*sin(s)/2
   end do
-  a2 = a2*acos(-1.0_wp)/n
+  a2 = a2*PI/n
   ! trapezoid on a smooth periodic-like integrand (vanishing at both ends): error << 1e-8
   call check_rel('A_E by QAGS = trapezoid of the boundary', a, a2, 1.0e-8_wp)
   ! dA_E/dE against a central difference (step 0.5: error ~ h^2 A''' ~ 1e-6 relative)

@@ -6,7 +6,7 @@
 !> share.
 module tubes_test_models
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-  use tubes_kinds, only: wp, qp
+  use tubes_kinds, only: wp, qp, PI
   use tubes_dop853_qp, only: qp_field_t
   use tubes_status, only: TUBES_OK
   use tubes_field, only: vector_field_t, jet_spec_t
@@ -23,7 +23,7 @@ module tubes_test_models
             oscillator_fixed_step, ball_fixed_step, oscillator_start, affine_field_t, line_field, &
             fall_field, iso_field, quartic_bath_t
 
-  real(wp), parameter, public :: PI = acos(-1.0_wp)
+  public :: PI   !! tubes_kinds'
   real(wp), parameter, public :: EPS = epsilon(1.0_wp)
   !> The rolling ball's benchmark release (docs/benchmarks.md, problem 1): at rest at (4,
   !> 12.614863819914357) cm, dE = 1500 (cm/s)^2 above the saddles.

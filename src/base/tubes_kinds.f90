@@ -6,4 +6,5 @@ module tubes_kinds
   integer, parameter, public :: wp = real64   !! every real in tubes (== c_double on our targets)
   integer, parameter, public :: qp = real128  !! quad precision, reference solutions only
   integer, parameter, public :: i8 = int64    !! step and sample counters
+  real(wp), parameter, public :: PI = acos(-1.0_wp)   !! pi, the double nearest it (the one definition)
 end module tubes_kinds

@@ -6,7 +6,7 @@
 !> Unsigned 64-bit words are held in integer(16) in [0, 2^64). tests/test_noise.f90 checks the
 !> words against numpy's Philox.
 module tubes_philox
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   implicit none
   private
 
@@ -15,7 +15,6 @@ module tubes_philox
   integer(I16), parameter :: TWO64 = TWO32*TWO32
   integer(I16), parameter :: M0 = int(z'D2E7470EE14C6C93', I16), M1 = int(z'CA5A826395121157', I16)
   integer(I16), parameter :: W0 = int(z'9E3779B97F4A7C15', I16), W1 = int(z'BB67AE8584CAA73B', I16)
-  real(wp), parameter :: TWOPI = 2*acos(-1.0_wp)
 
   public :: philox4x64, philox_normals, I16
 
@@ -62,8 +61,8 @@ contains
     u = (real(w/2048_I16, wp) + 1)*2.0_wp**(-53)   ! (0, 1]
     do j = 1, 3, 2
       r = sqrt(-2*log(u(j)))
-      z(j) = r*cos(TWOPI*u(j + 1))
-      z(j + 1) = r*sin(TWOPI*u(j + 1))
+      z(j) = r*cos(2*PI*u(j + 1))
+      z(j + 1) = r*sin(2*PI*u(j + 1))
     end do
   end function philox_normals
 end module tubes_philox

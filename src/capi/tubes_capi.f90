@@ -3,7 +3,7 @@ module tubes_capi
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_int64_t, c_ptr, c_funptr, &
                                          c_null_char, c_associated, c_funloc, c_f_procpointer, &
                                          c_loc, c_f_pointer
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   use tubes_cstrings, only: c_to_f, f_to_c
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EMODEL, &
                           TUBES_EOUTSIDE, status_message
@@ -43,7 +43,6 @@ module tubes_capi
   public :: c_synthetic_experiment, c_experiment_defaults, c_experiment_samples, c_mc_agreement, tube_opts_of, &
             scene_defaults, integ_of
 
-  real(wp), parameter :: PI = acos(-1.0_wp)
 
   !> Sampler that also calls a C progress callback every PROGRESS_EVERY steps.
   type, extends(sampler_t) :: c_sampler_t

@@ -12,7 +12,7 @@
 !> docs/experiment-data.md.
 module tubes_differentiate
   use, intrinsic :: iso_c_binding   ! all of it: fftw3.f03 declares its interfaces with many C kinds
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   use tubes_status, only: TUBES_OK, TUBES_EINPUT
   implicit none
   private
@@ -24,7 +24,6 @@ module tubes_differentiate
   !> subtract a quadratic whose end slopes are local least-squares estimates of x' at the ends,
   !> extend the residual evenly (a cosine series); the default
   integer, parameter, public :: EDGE_MIRROR = 2
-  real(wp), parameter :: PI = 3.14159265358979323846264338327950288_wp
 
   public :: diff_spectral, diff_savgol, savgol_weights, lowpass_gain
 

@@ -9,7 +9,7 @@
 !> threads), each track into its own slice: the result does not depend on either number.
 module tubes_experiment
   use, intrinsic :: iso_c_binding, only: c_int, c_double, c_long
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   use tubes_quad, only: rng_uniform
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EFAULT
@@ -23,7 +23,6 @@ module tubes_experiment
   implicit none
   private
 
-  real(wp), parameter :: PI = 3.14159265358979323846264338327950288_wp
   !> Rejection sampling gives up after this many draws of a release point.
   integer, parameter, public :: MAX_RELEASE_DRAWS = 2**22
 

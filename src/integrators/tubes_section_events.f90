@@ -5,12 +5,11 @@
 module tubes_section_events
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use, intrinsic :: iso_fortran_env, only: int64
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   use tubes_integrator, only: event_t, plane_t
   implicit none
   private
 
-  real(wp), parameter :: PI = acos(-1.0_wp)
   real(wp), parameter :: QNAN = transfer(int(z'7FF8000000000000', int64), 1.0_wp)   ! a quiet NaN
 
   integer, parameter, public :: U1_MINUS = -1   !! U1^-: -sign(p_theta) = -1, i.e. p_theta > 0

@@ -6,7 +6,7 @@
 module tubes_models
   use, intrinsic :: iso_c_binding, only: c_int, c_char
   use tubes_cstrings, only: c_to_f, f_to_c
-  use tubes_kinds, only: wp, i8
+  use tubes_kinds, only: wp, i8, PI
   use tubes_lapack, only: dgesv, eigen
   use tubes_field, only: vector_field_t
   use tubes_hamiltonian, only: hamiltonian_t, natural_t, damped_t, make_damped
@@ -500,7 +500,7 @@ contains
         end if
         damped%noise = d
         damped%temperature = theta
-        if (d > 0 .or. theta > 0) damped%h_noise = 2*acos(-1.0_wp)/w1/1000
+        if (d > 0 .or. theta > 0) damped%h_noise = 2*PI/w1/1000
         if (present(f_roll)) f_roll = damped%f
         allocate (field, source=damped)
         return
@@ -513,7 +513,7 @@ contains
         call make_damped(damped, model, c)
         damped%noise = d
         damped%temperature = theta
-        if (d > 0 .or. theta > 0) damped%h_noise = 2*acos(-1.0_wp)/w1/1000
+        if (d > 0 .or. theta > 0) damped%h_noise = 2*PI/w1/1000
         allocate (field, source=damped)
         return
       end if

@@ -15,7 +15,7 @@
 !> paper's test (the points of the cut over the point's (q_b, p_b) form a circle in (q_a, p_a);
 !> inside that circle is inside), done on the piecewise-linear cut.
 module tubes_cut3
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCROSS, TUBES_ENOCONV
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: integrator_t, plane_t, propagate
@@ -28,7 +28,6 @@ module tubes_cut3
   implicit none
   private
 
-  real(wp), parameter :: PI = acos(-1.0_wp)
   integer, parameter, public :: CUT_NOCROSS = 1    !! node status: no crossing within t_max
   integer, parameter, public :: CUT_WRONGWAY = 2   !! node status: first crossing the other way
   integer, parameter :: NBIN = 12                  !! bins per axis of the inside test's grid

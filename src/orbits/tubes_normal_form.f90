@@ -18,7 +18,7 @@
 module tubes_normal_form
   use, intrinsic :: iso_c_binding, only: c_double, c_ptr, c_loc, c_f_pointer, c_funloc
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_is_finite
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   use tubes_lapack, only: eigen
   use tubes_quad, only: quad_qags, quad_root
@@ -26,7 +26,6 @@ module tubes_normal_form
   implicit none
   private
 
-  real(wp), parameter :: PI = acos(-1.0_wp)
   complex(wp), parameter :: IU = (0.0_wp, 1.0_wp)
   integer, parameter, public :: NF_MAX_DOF = 3
   integer, parameter :: MAX_KEYS = 20000000    !! (K+1)^(2N) monomial keys at most

@@ -4,7 +4,7 @@
 !> Theory and conventions: docs/orbits.md.
 module tubes_orbits
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   use tubes_lapack, only: dgesv, dgels, eigen
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EFAULT
   use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree, ens_reuse_ok
@@ -19,7 +19,6 @@ module tubes_orbits
   implicit none
   private
 
-  real(wp), parameter :: PI = acos(-1.0_wp)
 
   integer, parameter, public :: END_NONE = 0        !! the family did not end in the range
   integer, parameter, public :: END_EQUILIBRIUM = 1 !! the orbit runs into another equilibrium

@@ -22,7 +22,7 @@
 !>   bottleneck, exact whatever the choice of DS (in 2 DOF: the Lyapunov orbit's action).
 module tubes_flux
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EMODEL, TUBES_EFAULT, TUBES_EOUTSIDE, TUBES_ENARROW, TUBES_ENOREGION, &
                          TUBES_EPASTEND
   use tubes_hamiltonian, only: hamiltonian_t, quadratic_parts, veff, quadratic_in_p
@@ -34,7 +34,6 @@ module tubes_flux
   implicit none
   private
 
-  real(wp), parameter :: PI = acos(-1.0_wp)
   integer, parameter :: MAXN = 3
   integer, parameter :: NSTAR = 64     !! points checked on the segment from the saddle to a sample
 

@@ -4,14 +4,13 @@
 !> the energy. Derivation: docs/theory.md, "The energy surface on U1".
 module tubes_ray_surface
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_ptr, c_loc, c_f_pointer, c_funptr, c_funloc
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   use tubes_ball, only: ball_t, ROLL
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV
   use tubes_quad, only: quad_area, quad_root
   implicit none
   private
 
-  real(wp), parameter :: PI = acos(-1.0_wp)
 
   !> A ball, an energy and a ray: the context of the quadrature callbacks.
   type, public :: ray_t

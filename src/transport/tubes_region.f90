@@ -10,7 +10,7 @@
 !> the section on a grid finds the inside point and checks the traced region: every scan point
 !> that transits must lie inside it, every one that returns outside. Theory: docs/dissipation.md.
 module tubes_region
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_ESHAPE, TUBES_EUNDECIDED
   use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree
   use tubes_hamiltonian, only: hamiltonian_t
@@ -22,7 +22,6 @@ module tubes_region
   implicit none
   private
 
-  real(wp), parameter :: PI = acos(-1.0_wp)
   !> A scan point within this relative distance of the traced boundary (along its ray) is not
   !> held against the region (the boundary is known to the bisection's xtol and the interpolation
   !> between rays to area_tol)

@@ -11,7 +11,7 @@
 !> Theory: docs/tubes.md, "Sections".
 module tubes_section_kinds
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_ptr, c_loc, c_f_pointer, c_funptr, c_funloc
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, PI
   use tubes_hamiltonian, only: hamiltonian_t, quadratic_parts, quadratic_in_p
   use tubes_ball, only: ball_t
   use tubes_integrator, only: event_t, plane_t
@@ -23,7 +23,6 @@ module tubes_section_kinds
   implicit none
   private
 
-  real(wp), parameter :: PI = acos(-1.0_wp)
   integer, parameter, public :: SEC_RAY = 1     !! the ball's polar ray
   integer, parameter, public :: SEC_PLANE = 2   !! the plane q_k = c
 

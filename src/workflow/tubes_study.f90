@@ -7,7 +7,7 @@
 module tubes_study
   use, intrinsic :: iso_c_binding, only: c_intptr_t, c_loc, c_f_pointer, c_null_ptr
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-  use tubes_kinds, only: wp, i8
+  use tubes_kinds, only: wp, i8, PI
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EPASTEND, TUBES_EUNRESOLVED
   use tubes_hamiltonian, only: hamiltonian_t, damped_t
   use tubes_ball, only: ball_t
@@ -25,7 +25,6 @@ module tubes_study
   implicit none
   private
 
-  real(wp), parameter :: PI = acos(-1.0_wp)
   integer, parameter, public :: SECTION_RAY = 1     !! sec_kind: the ball's polar ray
   integer, parameter, public :: SECTION_PLANE = 2   !! sec_kind: the plane q_index = level
 
