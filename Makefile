@@ -76,7 +76,7 @@ T_BIN   := $(patsubst tests/%.f90,$(BUILD)/tests/%,$(T_F_SRC)) $(patsubst tests/
 
 PYEXT_STAMP := $(BUILD)/pyext.stamp
 
-.PHONY: wheel-products print-version venv-link all deps check tests lint bench docs clean install python paper fuzz sanitize pipcheck FORCE
+.PHONY: wheel-products print-version venv-link all deps check quick tests lint bench docs clean install python paper fuzz sanitize pipcheck FORCE
 ifeq ($(MPI),1)
 all: tubes $(LIB)           # the Python extension is built by the serial flavour only
 else
@@ -226,6 +226,11 @@ check: all tests
 	@if command -v $(FUZZ_CC) >/dev/null 2>&1; then $(MAKE) --no-print-directory $(FUZZ_BIN); \
 	else echo "check: no $(FUZZ_CC): the namelist fuzzer is not built or run"; fi
 	@bash tests/run_all.sh
+
+# The fast inner loop (docs/development.md, "make quick"): the optimised build's Fortran and C test
+# programs and the Python tests not marked slow (tests/conftest.py SLOW), on 2 pytest workers.
+quick: all tests
+	@QUICK=1 bash tests/run_all.sh
 
 lint:
 	@bash tests/lint.sh

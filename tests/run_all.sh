@@ -3,6 +3,7 @@
 # build in build/debug), the MPI flavour's 2-rank checks (tests/mpi_check.sh), then pytest
 # (Python layer and the tubes executable).
 # Ends with one line "N passed, N failed"; exits non-zero if anything failed.
+# QUICK=1 (make quick): the optimised build's test programs and the Python tests not marked slow only.
 set -u
 cd "$(dirname "$0")/.."
 log_dir=build/testlogs
@@ -12,11 +13,15 @@ show_log='^FAIL|Error|error'
 for t in build/tests/test_*; do
   [ -x "$t" ] && run "release/$(basename "$t")" "$t"
 done
+quick=${QUICK:-0}
 for t in build/debug/tests/test_*; do
+  [ "$quick" = 1 ] && break
   [ -x "$t" ] && run "debug/$(basename "$t")" "$t"
 done
 # the MPI flavour (built by make check when mpifort exists): 2-rank runs against the serial one
-if [ -x build/mpi/bin/tubes ]; then
+if [ "$quick" = 1 ]; then
+  echo "SKIP debug/*, mpi/*, fuzz/* and the slow Python tests (make quick; make check runs them)"
+elif [ -x build/mpi/bin/tubes ]; then
   for t in identical fault badinput badoutput pastend formula flux3 taylor damped; do
     run "mpi/$t" bash tests/mpi_check.sh "$t"
   done
@@ -24,13 +29,16 @@ else
   echo "SKIP mpi/* (no build/mpi/bin/tubes: no MPI compiler wrapper)"
 fi
 # 20 s of the namelist fuzzer (make fuzz runs it longer; docs/development.md)
-if [ -x build/fuzz/fuzz_namelist ]; then
+if [ "$quick" = 1 ]; then
+  :
+elif [ -x build/fuzz/fuzz_namelist ]; then
   run "fuzz/namelist (20 s)" bash tests/fuzz/run.sh build/fuzz/fuzz_namelist 20
 else
   echo "SKIP fuzz/namelist (no build/fuzz/fuzz_namelist: no clang-14)"
 fi
 # each Python (Atheris) target: its corpus replayed, then 5 s of fuzzing; SKIP without atheris
 for t in tests/fuzz/fuzz_*.py; do
+  [ "$quick" = 1 ] && break
   [ -f "$t" ] || continue
   n=$(basename "$t" .py); n=${n#fuzz_}
   if .venv/bin/python -c 'import atheris' 2>/dev/null; then
@@ -46,7 +54,9 @@ log=build/testlogs/pytest.log
 # module fixtures made once); most tests run ./tubes on one thread
 xd=()
 .venv/bin/python -c 'import xdist' 2>/dev/null && xd=(-n "${TUBES_TEST_WORKERS:-2}" --dist loadfile)
-OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python -m pytest -q -p no:cacheprovider "${xd[@]}" --durations=15 tests >"$log" 2>&1
+sel=()
+[ "$quick" = 1 ] && sel=(-m "not slow")
+OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python -m pytest -q -p no:cacheprovider "${xd[@]}" "${sel[@]}" --durations=15 tests >"$log" 2>&1
 prc=$?
 tail -3 "$log"
 np=$(grep -Eo '[0-9]+ passed' "$log" | tail -1 | grep -Eo '[0-9]+' || true)
