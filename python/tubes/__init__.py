@@ -2020,7 +2020,10 @@ class Table(dict):
     row per dE (the index, and the xarray coordinate), or per equilibrium (``name``); the units
     are the model's (docs/output.md lists them for the same datasets of the output file)."""
 
-    units: dict = {}   #: the units of its columns (and scalars) as the output file writes them
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.units: dict = dict(getattr(args[0], "units", {})) if args else {}
+        """the units of its columns (and scalars) as the output file writes them (docs/python.md)"""
 
     def __getattr__(self, key: str) -> Any:
         try:
