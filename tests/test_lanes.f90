@@ -19,6 +19,7 @@ module test_lanes_jobs
     class(hamiltonian_t), allocatable :: model
     real(wp), allocatable :: x0(:, :), tend(:)
     real(wp) :: tol = 1.0e-12_wp
+    logical :: sections = .true.      !! the items' section (else none: no dense output needed)
   contains
     procedure :: item => traj_item
     procedure :: start => traj_start
@@ -41,8 +42,12 @@ contains
     ig%atol = self%tol
     x = self%x0(:, k)
     log%max_crossings = MAXX
-    call propagate(ig, x, self%tend(k), stat, event=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0), &
-                   crossings=log)
+    if (self%sections) then
+      call propagate(ig, x, self%tend(k), stat, event=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0), &
+                     crossings=log)
+    else
+      call propagate(ig, x, self%tend(k), stat)
+    end if
     call put(out, k, stat, x, ig%t, log)
   end subroutine traj_item
 
@@ -57,6 +62,7 @@ contains
     lane%ig%rtol = self%tol
     lane%ig%atol = self%tol
     lane%tend = self%tend(k)
+    if (.not. self%sections) return
     allocate (lane%event, source=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0))
     lane%use_log = .true.
     lane%log%max_crossings = MAXX
@@ -111,7 +117,7 @@ program test_lanes
   real(wp) :: params(MAX_PARAMS)
   integer :: k, perm(N), w, stat
   character(512) :: msg
-  character(64) :: name
+  character(128) :: name
   params = 0
   params(1:7) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, 981.0_wp, 0.0_wp]
   call setup(a)
@@ -142,6 +148,17 @@ program test_lanes
     call check_true(trim(name), same(wide, alone))
     call ens_run(a, N, wide, NR, 0, chunk=5, threads=2)
     write (name, '(a,i0,a)') 'lanes: width ', WIDTHS(k), ' in chunks of 5 over 2 threads, bit for bit'
+    call check_true(trim(name), same(wide, alone))
+  end do
+  a%lanes = .false.                          ! no section: the lanes never copy their coefficients
+  a%sections = .false.
+  call ens_run(a, N, alone, NR, 0)
+  call check_true('lanes: no section, the items ran to their end', all(alone%st == TUBES_OK))
+  do k = 1, size(WIDTHS)
+    a%lanes = .true.
+    a%width = WIDTHS(k)
+    call ens_run(a, N, wide, NR, 0, chunk=N)
+    write (name, '(a,i0,a)') 'lanes: no section, width ', WIDTHS(k), ', each item as a lone propagate, bit for bit'
     call check_true(trim(name), same(wide, alone))
   end do
   a%width = 0                                ! the processor's width (TUBES_LANES unset, or forced)

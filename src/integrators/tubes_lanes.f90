@@ -160,6 +160,8 @@ contains
       allocate (lane(1))                        ! (the reason is on stderr: tubes_expr.c)
       do i = 1, size(items)
         lane(1)%item = items(i)
+        if (allocated(lane(1)%event)) deallocate (lane(1)%event)
+        if (allocated(lane(1)%observer)) deallocate (lane(1)%observer)
         call jobs%start(items(i), lane(1), k)
         lane(1)%stat = TUBES_EINPUT
         call jobs%finish(items(i), lane(1), out)
