@@ -213,8 +213,8 @@ contains
         end if
         do l = 1, nl                         ! a free lane computes a copy of a busy one
           k = merge(l, m, grp(l))
-          do i = 1, n
-            tcb(((i - 1)*s)*nl + l) = lane(k)%ig%tc((i - 1)*s + 1)
+          do i = 1, n                           ! (its state: taylor_begin's order 0)
+            tcb(((i - 1)*s)*nl + l) = lane(k)%x(i)
           end do
         end do
         if (kern(kslot)%fn(p, lane(m)%ig%par, tcb, wb) /= 0) then   ! some lane not finite:
@@ -242,7 +242,9 @@ contains
         do l = 1, nl
           if (.not. grp(l)) cycle
           if (sts(l) == TUBES_OK) then
-            lane(l)%x = xb(l, 1:n)
+            do i = 1, n                         ! (no reallocation test: x has its size)
+              lane(l)%x(i) = xb(l, i)
+            end do
             call taylor_advance(lane(l)%ig, tcb(l:), nl, lane(l)%x, lane(l)%tend, lst(l), sts(l))
             if (allocated(lane(l)%event) .or. allocated(lane(l)%observer)) then   ! the dense output
               do i = 1, n
@@ -327,10 +329,10 @@ contains
       integer, intent(out) :: kslot, st
       character(*), intent(out) :: msg
       st = TUBES_OK
-      msg = ''
       do kslot = 1, 2
         if (kern(kslot)%order == p) return
       end do
+      msg = ''                                  ! (512 blanks: not on every step)
       kslot = merge(2, 1, kern(1)%order >= 0)
       if (kslot == 2 .and. kern(2)%order >= 0) kern(1) = kern(2)
       if (lane(m)%ig%flags /= 0) then
