@@ -99,6 +99,8 @@ def ulp_floor(ref):
 
 
 ENSEMBLE_TOLS = [1e-6, 1e-8, 1e-10, 1e-12, 1e-14]
+# the ensembles' families (times per trajectory; no nfev)
+ENSEMBLE_FAMS = ("taylor lanes", "heyoka batch", "taylor alone (64 starts)", "heyoka scalar (64 starts)")
 N_SPREAD = 32   # nearby starts of the rounding regime's spread (rounding_spread)
 # The Taylor method and heyoka at the same tolerances: every decade to 1e-13, then nine points from
 # 1e-13 to 1e-15 (the rounding regime below the double-precision floor, where the error depends on
@@ -174,35 +176,18 @@ def work_precision(ref):
         add(f"tol {tol:.2g}", "taylor", xt, st, nf)
         add(f"tol {tol:.2g}", "heyoka", x, sh, -1)
         add(f"tol {tol:.2g}", "taylor (per call)", xi, si, nfi)
-    # ensembles: the time per trajectory of NB copies of the start on one thread, tubes.ensemble
-    # (the Taylor method's lanes, 4 wide) against heyoka's batch mode (its recommended SIMD
-    # width), interleaved round by round (this machine's speed drifts by tens of per cent within
-    # a minute), the best of 9 rounds each
-    nb = 64
-    starts = np.tile(X0, (nb, 1))
-    bw = hy.recommended_simd_size()
+    # ensembles (issue 36): the time per trajectory of 64 distinct starts near the benchmark's
+    # (bench_lanes.py: the first is the benchmark's own, whose error is known) on one thread:
+    # tubes.ensemble (the Taylor method's lanes, the processor's width), tubes' kept integrator
+    # over the starts one after another, heyoka's batch mode (its recommended SIMD width) and its
+    # scalar integrator, interleaved round by round (this machine's speed drifts by tens of per
+    # cent within a minute), the best of 7 rounds each
+    from bench_lanes import measure
     for tol in ENSEMBLE_TOLS:
-        tubes.ensemble(starts[:4], T_END, model=M, method="taylor", rtol=tol, atol=tol, threads=1)
-        tb = hy.taylor_adaptive_batch(heyoka_system(), np.tile(X0[:, None], (1, bw)).copy(), tol=tol)
-
-        def ens():
-            return tubes.ensemble(starts, T_END, model=M, method="taylor", rtol=tol, atol=tol, threads=1)
-
-        def batch():
-            xs = []
-            for _ in range(nb // bw):
-                tb.set_time(0.0)
-                tb.state[:] = X0[:, None]
-                tb.propagate_until(T_END)
-                xs.append(tb.state[:, 0].copy())
-            return xs[0]
-        se = sb = np.inf
-        for _ in range(9):
-            s1, e = best_of(ens, 1)
-            s2, x = best_of(batch, 1)
-            se, sb = min(se, s1), min(sb, s2)
-        add(f"tol {tol:.0e}", "taylor lanes", e["state"][0], se / nb, -1)
-        add(f"tol {tol:.0e}", "heyoka batch", x, sb / nb, -1)
+        best, res = measure(tol, rounds=7)
+        for fam, key in (("taylor lanes", "tubes lanes"), ("taylor alone (64 starts)", "tubes alone"),
+                         ("heyoka batch", "heyoka batch"), ("heyoka scalar (64 starts)", "heyoka scalar")):
+            add(f"tol {tol:.0e}", fam, res[key][0], best[key], -1)
     return rows
 
 
@@ -297,9 +282,9 @@ def main():
     fig, axs = plt.subplots(1, 2, figsize=(13, 5))
     for fam in fams:
         pts = sorted([r for r in rows if r[1] == fam], key=lambda r: r[2])
-        style = "--" if fam in ("scipy DOP853", "heyoka", "heyoka batch") else "-"
+        style = "--" if fam in ("scipy DOP853", "heyoka", "heyoka batch", "heyoka scalar (64 starts)") else "-"
         axs[0].loglog([p[2] for p in pts], [p[3] for p in pts], style, marker="o", ms=3, label=fam)
-        if fam not in ("heyoka", "heyoka batch", "taylor lanes"):
+        if fam not in ("heyoka",) + ENSEMBLE_FAMS:
             axs[1].loglog([p[2] for p in pts], [p[4] for p in pts], style, marker="o", ms=3, label=fam)
     for ax, lab in zip(axs, ["wall time [s]", "right-hand-side evaluations"]):
         ax.set_xlabel("relative error of the final state at t = 10 s")
@@ -335,8 +320,7 @@ def main():
     e_both = max(min(r[2] for r in tay), min(r[2] for r in hey))
     run_t = min((r for r in tay if r[2] <= e_both), key=lambda r: r[3])
     run_h = min((r for r in hey if r[2] <= e_both), key=lambda r: r[3])
-    tubes_fams = [f for f in fams if f not in ("scipy DOP853", "heyoka", "taylor lanes", "heyoka batch",
-                                               "taylor (per call)")]
+    tubes_fams = [f for f in fams if f not in ("scipy DOP853", "heyoka", "taylor (per call)") + ENSEMBLE_FAMS]
     lines = ["<!-- bench_integrators begin -->", "## Work-precision (problem 1)", "",
              f"Measured {datetime.date.today().isoformat()} by `make bench` (bench/bench_integrators.py). "
              f"Reference: {ref_label}" + (f" ({ref_unc:.1e})" if ref_unc else "") + ".", "",
@@ -411,16 +395,21 @@ def main():
               "",
               "Times interpolated log-log along each method's curve; heyoka's JIT compilation "
               "(once per tolerance, about a second) is excluded; scipy integrates a numpy right-hand side.",
-              "", "Ensembles (time per trajectory, 64 copies of the start on one thread): tubes.ensemble, "
-              "the Taylor method in 4 lanes, against heyoka's batch mode (taylor_adaptive_batch, its "
-              "recommended SIMD width, 16 batches):", "",
-              "| error | taylor lanes [ms] | heyoka batch [ms] | heyoka batch / taylor lanes (same rounds) | taylor alone / taylor lanes |",
-              "|---|---|---|---|---|"]
+              "", "Ensembles (issue 36; time per trajectory, 64 distinct starts near the benchmark's, the first "
+              "its own, 10 s each, one thread; bench/bench_lanes.py): tubes.ensemble, the Taylor method in lanes "
+              "of the processor's width (8 with AVX-512; TUBES_LANES forces 1, 2, 4, 8), against heyoka's batch "
+              "mode (taylor_adaptive_batch at its recommended SIMD width), tubes' kept integrator and heyoka's "
+              "scalar one over the same starts one after another; the ratios of the same rounds at the same "
+              "tolerance, interpolated to the first start's error. Targets: lanes / heyoka batch <= 0.5, "
+              "alone / lanes >= 3:", "",
+              "| error | taylor lanes [ms] | heyoka batch [ms] | taylor lanes / heyoka batch | taylor alone / taylor lanes | heyoka scalar / heyoka batch |",
+              "|---|---|---|---|---|---|"]
     for lev in (1e-6, 1e-8, 1e-10):
         tl, hb = time_at_error(rows, "taylor lanes", lev), time_at_error(rows, "heyoka batch", lev)
-        ta = time_at_error(rows, "taylor", lev)
-        q = paired_ratio(rows, "heyoka batch", "taylor lanes", lev)
-        lines.append(f"| {lev:.0e} | {tl * 1e3:.3f} | {hb * 1e3:.3f} | {q:.2f} | {ta / tl:.2f} |")
+        q = paired_ratio(rows, "taylor lanes", "heyoka batch", lev)
+        qa = paired_ratio(rows, "taylor alone (64 starts)", "taylor lanes", lev)
+        qh = paired_ratio(rows, "heyoka scalar (64 starts)", "heyoka batch", lev)
+        lines.append(f"| {lev:.0e} | {tl * 1e3:.3f} | {hb * 1e3:.3f} | {q:.2f} | {qa:.2f} | {qh:.2f} |")
     lines += ["", "All points (the ensembles' times per trajectory):", "",
               "| method | setting | error | time [ms] | nfev |", "|---|---|---|---|---|"]
     for fam in fams:

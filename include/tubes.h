@@ -158,6 +158,10 @@ enum { TUBES_JET_VARIATIONAL = 1, TUBES_JET_ACTION = 2, TUBES_JET_TANGENT = 4 };
  * loads it (and says so on stderr when it builds). */
 int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_fn *fn, int *dim, int *nwork,
                   char *msg, int lmsg);
+/* The lanes' width (integrations per kernel call) of ensembles on this processor: $TUBES_LANES if
+ * set (1, 2, 4 or 8), else 8 with AVX-512F, 4 with AVX, 2 otherwise. Returns the width, or
+ * TUBES_EINPUT with the reason in msg (an invalid TUBES_LANES). */
+int tubes_jet_lanes_default(char *msg, int lmsg);
 
 /* Copy the text of status `code` into buf (NUL-terminated, at most len bytes; TUBES_LSTATUS holds
  * every message whole). */

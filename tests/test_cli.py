@@ -197,6 +197,18 @@ def test_check_only(tmp_path, tubes_exe):
     _no_outputs(tmp_path)
 
 
+def test_bad_lanes_width_refused(tmp_path, tubes_exe):
+    """An invalid TUBES_LANES (the Taylor method's lanes' width) stops the run before anything runs,
+    with the variable, its value and what is allowed named."""
+    for bad in ("3", "16", "four"):
+        env = dict(os.environ, OMP_NUM_THREADS="1", TUBES_LANES=bad)
+        r = subprocess.run([str(TUBES), "--check", str(ROOT / "input" / "paper.nml")], cwd=tmp_path,
+                           capture_output=True, text=True, timeout=120, env=env)
+        assert r.returncode == 1, (bad, r.returncode, r.stderr)
+        assert f"TUBES_LANES='{bad}'" in r.stderr and "1, 2, 4 or 8" in r.stderr, r.stderr
+    _no_outputs(tmp_path)
+
+
 def test_empty_namelist_is_the_paper(tmp_path, tubes_exe):
     """An empty file runs with the paper's parameters: E_e and T_po as in the paper's model."""
     (tmp_path / "empty.nml").write_text("")
@@ -234,8 +246,9 @@ def test_hdf5_contract(paper_h5):
     h5, r = paper_h5
     assert r.returncode == 0, r.stderr
     with h5py.File(h5) as f:
-        for a in ["tubes_version", "git_commit", "created", "input_namelist", "compiler"]:
+        for a in ["tubes_version", "git_commit", "created", "input_namelist", "compiler", "taylor_lanes"]:
             assert a in f.attrs
+        assert int(f.attrs["taylor_lanes"]) in (1, 2, 4, 8)
         assert "&MODEL" in f.attrs["input_namelist"]
         for a in ["alpha", "beta", "gamma", "xi", "h0", "g", "damping_ratio"]:
             assert a in f["model"].attrs

@@ -19,6 +19,7 @@ module test_lanes_jobs
     class(hamiltonian_t), allocatable :: model
     real(wp), allocatable :: x0(:, :), tend(:)
     real(wp) :: tol = 1.0e-12_wp
+    logical :: sections = .true.      !! the items' section (else none: no dense output needed)
   contains
     procedure :: item => traj_item
     procedure :: start => traj_start
@@ -41,8 +42,12 @@ contains
     ig%atol = self%tol
     x = self%x0(:, k)
     log%max_crossings = MAXX
-    call propagate(ig, x, self%tend(k), stat, event=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0), &
-                   crossings=log)
+    if (self%sections) then
+      call propagate(ig, x, self%tend(k), stat, event=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0), &
+                     crossings=log)
+    else
+      call propagate(ig, x, self%tend(k), stat)
+    end if
     call put(out, k, stat, x, ig%t, log)
   end subroutine traj_item
 
@@ -57,6 +62,7 @@ contains
     lane%ig%rtol = self%tol
     lane%ig%atol = self%tol
     lane%tend = self%tend(k)
+    if (.not. self%sections) return
     allocate (lane%event, source=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0))
     lane%use_log = .true.
     lane%log%max_crossings = MAXX
@@ -92,25 +98,31 @@ end module test_lanes_jobs
 !> for bit, whatever lane it falls in and whatever the other items (the items in another order,
 !> in chunks over 2 threads through the ensemble layer), and the same as the item run alone
 !> (ens_run without lanes); items that end early (a terminal crossing) hand their lane to the next.
+!> The same at every width (1, 2, 4, 8 lanes per kernel call, forced through jobs%width), and the
+!> processor's width (lane_width) is one of them.
 program test_lanes
   use tubes_kinds, only: wp
   use tubes_check, only: check_true, check_eq, finish
   use tubes_status, only: TUBES_OK, TUBES_EVENT
   use tubes_models, only: make_model, MAX_PARAMS
   use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_lanes, only: run_lanes, LANES
+  use tubes_lanes, only: run_lanes, lane_width
   use tubes_ensemble, only: ens_out_t, ens_run
   use test_lanes_jobs, only: traj_jobs_t, NR
   implicit none
-  integer, parameter :: N = 11                 ! not a multiple of LANES: a lane idles at the end
+  integer, parameter :: N = 11                 ! not a multiple of 2, 4, 8: lanes idle at the end
+  integer, parameter :: WIDTHS(4) = [1, 2, 4, 8]
   type(traj_jobs_t) :: a
-  type(ens_out_t) :: in_order, reordered, alone, chunked
+  type(ens_out_t) :: in_order, reordered, alone, chunked, wide
   real(wp) :: params(MAX_PARAMS)
-  integer :: k, perm(N)
+  integer :: k, perm(N), w, stat
+  character(512) :: msg
+  character(128) :: name
   params = 0
   params(1:7) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, 981.0_wp, 0.0_wp]
   call setup(a)
   a%lanes = .true.
+  a%width = 4
   call ens_run(a, N, in_order, NR, 0, chunk=N)            ! one run_lanes call, items 1..N
   perm = [(N + 1 - k, k = 1, N)]
   perm(1:2) = perm([2, 1])
@@ -128,7 +140,34 @@ program test_lanes
   call check_true('lanes: the others ran to their end', &
                   all(pack(in_order%st, [(mod(k, 3) /= 0, k = 1, N)]) == TUBES_OK))
   call check_true('lanes: crossings found', sum(in_order%r(6, :)) > N)
-  call check_true('lanes: LANES > 1', LANES > 1)
+  do k = 1, size(WIDTHS)                     ! every width: the lone propagate's numbers
+    a%lanes = .true.
+    a%width = WIDTHS(k)
+    call ens_run(a, N, wide, NR, 0, chunk=N)
+    write (name, '(a,i0,a)') 'lanes: width ', WIDTHS(k), ', each item as a lone propagate, bit for bit'
+    call check_true(trim(name), same(wide, alone))
+    call ens_run(a, N, wide, NR, 0, chunk=5, threads=2)
+    write (name, '(a,i0,a)') 'lanes: width ', WIDTHS(k), ' in chunks of 5 over 2 threads, bit for bit'
+    call check_true(trim(name), same(wide, alone))
+  end do
+  a%lanes = .false.                          ! no section: the lanes never copy their coefficients
+  a%sections = .false.
+  call ens_run(a, N, alone, NR, 0)
+  call check_true('lanes: no section, the items ran to their end', all(alone%st == TUBES_OK))
+  do k = 1, size(WIDTHS)
+    a%lanes = .true.
+    a%width = WIDTHS(k)
+    call ens_run(a, N, wide, NR, 0, chunk=N)
+    write (name, '(a,i0,a)') 'lanes: no section, width ', WIDTHS(k), ', each item as a lone propagate, bit for bit'
+    call check_true(trim(name), same(wide, alone))
+  end do
+  a%width = 0                                ! the processor's width (TUBES_LANES unset, or forced)
+  call ens_run(a, N, wide, NR, 0, chunk=N)
+  call check_true('lanes: the processor''s width, bit for bit', same(wide, alone))
+  call lane_width(w, stat, msg)
+  call check_eq('lanes: lane_width status', stat, TUBES_OK)
+  call check_true('lanes: lane_width is 1, 2, 4 or 8', any(w == WIDTHS))
+  write (*, '(a,i0)') 'lanes: this processor''s width ', w
   call finish('test_lanes')
 contains
   logical function same(u, v)

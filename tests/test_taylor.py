@@ -165,8 +165,9 @@ def test_no_kernel_is_refused(tmp_path):
 
 
 def test_lanes_do_not_depend_on_threads(tmp_path):
-    """The Monte Carlo and the Poincare map in the Taylor method's lanes: 1 and 2 OpenMP threads
-    write the same numbers bit for bit (items fall into other lanes and chunks)."""
+    """The Monte Carlo and the Poincare map in the Taylor method's lanes: 1 and 2 OpenMP threads,
+    and lanes of forced widths 2 and 8 (TUBES_LANES), write the same numbers bit for bit (items
+    fall into other lanes and chunks); the file records the width."""
     text = """\
         &run scenes = 'montecarlo', 'sections', output = '{out}' /
         &integrator method = 'taylor', rtol = 1e-10, atol = 1e-10 /
@@ -174,12 +175,35 @@ def test_lanes_do_not_depend_on_threads(tmp_path):
         &sections de = 100, n_seeds = 7, n_iter = 15 /
         """
     out = {}
-    for th in ("1", "2"):
-        p = run(str(tmp_path), f"l{th}.nml", text.format(out=f"l{th}.h5"), env={"OMP_NUM_THREADS": th})
+    for th, w in (("1", "8"), ("2", "2")):
+        p = run(str(tmp_path), f"l{th}.nml", text.format(out=f"l{th}.h5"),
+                env={"OMP_NUM_THREADS": th, "TUBES_LANES": w})
         assert p.returncode == 0, p.stdout + p.stderr
         out[th] = read(str(tmp_path / f"l{th}.h5"))
+        with h5py.File(tmp_path / f"l{th}.h5") as f:
+            assert int(f.attrs["taylor_lanes"]) == int(w)
     for k in ("montecarlo/inside", "montecarlo/transit", "montecarlo/r", "sections/map_000/points"):
         assert np.array_equal(out["1"][k], out["2"][k], equal_nan=True), k
+
+
+def test_python_ensemble_at_every_lanes_width(monkeypatch):
+    """tubes.ensemble's rows at the lanes' widths 1, 2, 4 and 8 (TUBES_LANES, read at each call):
+    each row the kept integrator's from it, bit for bit; an invalid width fails every row with
+    TUBES_EINPUT."""
+    x0 = np.array([4.0, 12.614863819914357, 0.0, 0.0])
+    rng = np.random.default_rng(36)
+    s = np.tile(x0, (13, 1))                      # 13: no width divides it
+    s[:, :2] += rng.uniform(-0.1, 0.1, (13, 2))
+    kw = dict(model=tubes.Model(), method="taylor", rtol=1e-8, atol=1e-8)
+    it = tubes.Integrator(**kw)
+    lone = np.array([it.propagate(x, 3.0)[0] for x in s])
+    for w in ("1", "2", "4", "8"):
+        monkeypatch.setenv("TUBES_LANES", w)
+        assert np.array_equal(tubes.ensemble(s, 3.0, threads=1, **kw)["state"], lone), w
+    monkeypatch.setenv("TUBES_LANES", "3")
+    with pytest.raises(tubes.TubesError) as err:
+        tubes.ensemble(s, 3.0, threads=1, **kw)
+    assert np.all(err.value.partial["status"] == tubes.EINPUT)
 
 
 @pytest.mark.parametrize("method", ["taylor", "dop853"])

@@ -1745,10 +1745,12 @@ def ensemble(states, t_end: float, model: Model | None = None, method: str = "au
     """Integrate many states of one model from t = 0 to t_end: states (m, 2 ndof), one per row
     (or one state (2 ndof,); an array with one state per column, as scipy's sol.y, is refused).
 
-    The Taylor method ('auto', 'taylor') integrates them in SIMD lanes, four at a time in
-    lockstep, and OpenMP threads share the lanes' chunks (`threads`, 0: OMP_NUM_THREADS); any
-    other method integrates one state at a time per thread. A row's result does not depend on
-    the threads or the other rows (docs/integrators-taylor.md, "Ensembles in lanes"); with the
+    The Taylor method ('auto', 'taylor') integrates them in SIMD lanes, the processor's width at
+    a time in lockstep (8 with AVX-512, 4 with AVX, 2 otherwise; the environment variable
+    TUBES_LANES forces 1, 2, 4 or 8), and OpenMP threads share the lanes' chunks (`threads`, 0:
+    OMP_NUM_THREADS); any other method integrates one state at a time per thread. A row's result
+    does not depend on the width, the threads or the other rows (docs/integrators-taylor.md,
+    "Ensembles in lanes"); with the
     Taylor method and DOP853 it is bit for bit integrate()'s final state from that row (the other
     methods' final sample in integrate() is their dense output at t_end, which may differ from
     the step's end state in the last bits). Options as integrate's.

@@ -17,7 +17,7 @@ import sys
 import h5py
 import numpy as np
 
-PROVENANCE = ("created", "command_line", "compiler", "fflags", "mpi_ranks", "omp_threads",
+PROVENANCE = ("created", "command_line", "compiler", "fflags", "mpi_ranks", "omp_threads", "taylor_lanes",
               "input_file", "wall_seconds", "git_commit",
               # a formula's compiled library: where it is cached, its name (a hash that includes the
               # compiler: mpicc and gcc builds differ), how long building or loading it took

@@ -1,5 +1,6 @@
 !> Ensembles in lanes (docs/integrators-taylor.md, "Lanes"): the items of an ensemble (Monte Carlo
-!> points, tube seeds, Poincare seeds) integrated by the Taylor method LANES at a time, in
+!> points, tube seeds, Poincare seeds) integrated by the Taylor method W at a time (the width:
+!> from the processor, 8 with AVX-512, 4 with AVX, 2 otherwise, or forced: lane_width), in
 !> lockstep: one kernel call computes the Taylor coefficients of every lane (the processor's
 !> vector instructions do the lanes at once), then each lane finishes its own step (its step
 !> size, its events, its observer) exactly as a lone integration would: each lane's arithmetic is
@@ -17,13 +18,23 @@ module tubes_lanes
   use tubes_kinds, only: wp, i8
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: event_t, observer_t, crossing_log_t, prop_t, prop_begin, prop_after_step
-  use tubes_taylor, only: taylor_t, kernel_t, taylor_begin, taylor_end, jet_kernel
-  use tubes_status, only: TUBES_OK, TUBES_EMAXSTEPS, TUBES_EMODEL
+  use tubes_taylor, only: taylor_t, kernel_t, taylor_begin, taylor_size, taylor_advance, horner_lanes, jet_kernel
+  use tubes_status, only: TUBES_OK, TUBES_EMAXSTEPS, TUBES_EMODEL, TUBES_EINPUT
+  use, intrinsic :: iso_c_binding, only: c_int, c_char
+  use tubes_cstrings, only: c_to_f
   use tubes_ensemble, only: ensemble_t, ens_out_t, ens_chunk_items
   implicit none
   private
 
-  integer, parameter, public :: LANES = 4   !! integrations per kernel call (4 doubles: AVX2)
+  integer, parameter, public :: MAX_LANES = 8   !! the widest lanes (8 doubles: AVX-512)
+
+  interface
+    integer(c_int) function jet_lanes_default(msg, lmsg) bind(C, name='tubes_jet_lanes_default')
+      import :: c_int, c_char
+      character(kind=c_char), intent(out) :: msg(*)
+      integer(c_int), value :: lmsg
+    end function jet_lanes_default
+  end interface
 
   !> One lane: an integration in progress.
   type, public :: lane_t
@@ -45,6 +56,7 @@ module tubes_lanes
   !> The items of an ensemble, in lanes or one by one.
   type, abstract, extends(ensemble_t), public :: lane_jobs_t
     logical :: lanes = .false.    !! a chunk in lanes (the Taylor method), else item by item
+    integer :: width = 0          !! integrations per kernel call, 1, 2, 4 or 8; 0: lane_width()
   contains
     procedure(start_i), deferred :: start
     procedure(finish_i), deferred :: finish
@@ -75,7 +87,7 @@ module tubes_lanes
     end subroutine finish_i
   end interface
 
-  public :: run_lanes
+  public :: run_lanes, lane_width
 
 contains
 
@@ -110,27 +122,61 @@ contains
     end if
   end subroutine lanes_chunk
 
+  !> The lanes' width of this processor: $TUBES_LANES if set (1, 2, 4 or 8: forced), else 8 with
+  !> AVX-512F, 4 with AVX, 2 otherwise (src/io/tubes_expr.c). stat TUBES_EINPUT with the reason in
+  !> msg for any other TUBES_LANES.
+  subroutine lane_width(w, stat, msg)
+    integer, intent(out) :: w, stat
+    character(*), intent(out) :: msg
+    character(kind=c_char) :: cmsg(512)
+    w = int(jet_lanes_default(cmsg, 512))
+    msg = ''
+    stat = TUBES_OK
+    if (w < 1) then
+      msg = c_to_f(cmsg)
+      stat = TUBES_EINPUT
+      w = 0
+    end if
+  end subroutine lane_width
+
   !> Integrate the items `items` (in this order into the lanes as they free up), their results
-  !> into out.
+  !> into out. An item's numbers are the same for every width (jobs%width).
   subroutine run_lanes(jobs, items, out)
     class(lane_jobs_t), intent(inout) :: jobs
     integer, intent(in) :: items(:)
     type(ens_out_t), intent(inout) :: out
-    type(lane_t) :: lane(LANES)
+    type(lane_t), allocatable :: lane(:)
     type(kernel_t) :: kern(2)
-    real(wp), allocatable :: tcb(:), wb(:)
-    integer :: nxt, l, m, p, s, i, k, ik, st, n, ord(LANES), kslot
-    logical :: grp(LANES), done
+    real(wp), allocatable :: tcb(:), wb(:), ds(:), xb(:, :)
+    integer :: nxt, l, m, p, s, i, k, ik, st, n, kslot, nl
+    integer, allocatable :: ord(:), sts(:)
+    logical, allocatable :: grp(:), lst(:)
+    logical :: done
     character(512) :: msg
-    allocate (tcb(0), wb(0))
+    nl = jobs%width
+    st = TUBES_OK
+    if (nl == 0) call lane_width(nl, st, msg)
+    if (st /= TUBES_OK .or. .not. any(nl == [1, 2, 4, 8])) then   ! no width: every item fails
+      allocate (lane(1))                        ! (the reason is on stderr: tubes_expr.c)
+      do i = 1, size(items)
+        lane(1)%item = items(i)
+        if (allocated(lane(1)%event)) deallocate (lane(1)%event)
+        if (allocated(lane(1)%observer)) deallocate (lane(1)%observer)
+        call jobs%start(items(i), lane(1), k)
+        lane(1)%stat = TUBES_EINPUT
+        call jobs%finish(items(i), lane(1), out)
+      end do
+      return
+    end if
+    allocate (lane(nl), ord(nl), grp(nl), tcb(0), wb(0), ds(nl), sts(nl), lst(nl), xb(nl, 0))
     nxt = 1
-    do l = 1, LANES
+    do l = 1, nl
       call fill(l)
     end do
     do while (any(lane%active))
       ! the lanes' orders (one, unless rtol and atol make some lanes relative and others not)
       ord = 0
-      do l = 1, LANES
+      do l = 1, nl
         if (.not. lane(l)%active) cycle
         if (lane(l)%ps%n >= lane(l)%ig%max_steps) then
           call finish(l, TUBES_EMAXSTEPS)
@@ -150,41 +196,65 @@ contains
         m = findloc(grp, .true., 1)
         call batch_kernel(p, kslot, st, msg)
         if (st /= TUBES_OK) then                ! no lanes kernel: each lane on its own
-          do l = 1, LANES
+          do l = 1, nl
             if (grp(l)) call lone_step(l)
           end do
           cycle
         end if
         s = p + 1
         n = size(lane(m)%x)
-        if (size(tcb) < n*s*LANES) then
+        if (size(tcb) < n*s*nl) then
           deallocate (tcb)
-          allocate (tcb(n*s*LANES))
+          allocate (tcb(n*s*nl))
         end if
-        if (size(wb) < kern(kslot)%nwork*s*LANES) then
+        if (size(wb) < kern(kslot)%nwork*s*nl) then
           deallocate (wb)
-          allocate (wb(kern(kslot)%nwork*s*LANES))
+          allocate (wb(kern(kslot)%nwork*s*nl))
         end if
-        do l = 1, LANES                         ! a free lane computes a copy of a busy one
+        do l = 1, nl                         ! a free lane computes a copy of a busy one
           k = merge(l, m, grp(l))
-          do i = 1, n
-            tcb(((i - 1)*s)*LANES + l) = lane(k)%ig%tc((i - 1)*s + 1)
+          do i = 1, n                           ! (its state: taylor_begin's order 0)
+            tcb(((i - 1)*s)*nl + l) = lane(k)%x(i)
           end do
         end do
         if (kern(kslot)%fn(p, lane(m)%ig%par, tcb, wb) /= 0) then   ! some lane not finite:
-          do l = 1, LANES                                           ! each on its own says which
+          do l = 1, nl                                           ! each on its own says which
             if (grp(l)) call lone_step(l)
           end do
           cycle
         end if
-        do l = 1, LANES
+        ! the rest of the lanes' steps, as taylor_end's: each lane's size, then the new states of
+        ! all (one Horner's scheme, the lanes side by side), then each lane's end, events and
+        ! observer (their coefficients read in place in tcb; copied to the lane's integrator only
+        ! where its dense output is needed)
+        if (size(xb, 2) < n) then
+          deallocate (xb)
+          allocate (xb(nl, n))
+        end if
+        ds = 0
+        do l = 1, nl
+          sts(l) = TUBES_OK
           if (.not. grp(l)) cycle
-          do i = 1, n
-            do k = 0, p
-              lane(l)%ig%tc((i - 1)*s + k + 1) = tcb(((i - 1)*s + k)*LANES + l)
+          call taylor_size(lane(l)%ig, tcb(l:), nl, lst(l), sts(l))
+          if (sts(l) == TUBES_OK) ds(l) = lane(l)%ig%hs
+        end do
+        call horner_lanes(tcb, nl, s, n, p, ds, xb)
+        do l = 1, nl
+          if (.not. grp(l)) cycle
+          if (sts(l) == TUBES_OK) then
+            do i = 1, n                         ! (no reallocation test: x has its size)
+              lane(l)%x(i) = xb(l, i)
             end do
-          end do
-          call after(l)
+            call taylor_advance(lane(l)%ig, tcb(l:), nl, lane(l)%x, lane(l)%tend, lst(l), sts(l))
+            if (allocated(lane(l)%event) .or. allocated(lane(l)%observer)) then   ! the dense output
+              do i = 1, n
+                do k = 1, p
+                  lane(l)%ig%tc((i - 1)*s + k + 1) = tcb(((i - 1)*s + k)*nl + l)
+                end do
+              end do
+            end if
+          end if
+          call stepped(l, sts(l))
         end do
       end do
     end do
@@ -228,14 +298,6 @@ contains
       call fill(l)
     end subroutine finish
 
-    !> The rest of lane l's step (its coefficients in place): as propagate does after ig%step.
-    subroutine after(l)
-      integer, intent(in) :: l
-      integer :: st1
-      call taylor_end(lane(l)%ig, lane(l)%x, lane(l)%tend, st1)
-      call stepped(l, st1)
-    end subroutine after
-
     !> Lane l's step by its own one-lane kernel (taylor_begin was called).
     subroutine lone_step(l)
       integer, intent(in) :: l
@@ -261,23 +323,23 @@ contains
       end if
     end subroutine stepped
 
-    !> The kernel of order p for LANES lanes (kept: at most two orders), slot kslot.
+    !> The kernel of order p for nl lanes (kept: at most two orders), slot kslot.
     subroutine batch_kernel(p, kslot, st, msg)
       integer, intent(in) :: p
       integer, intent(out) :: kslot, st
       character(*), intent(out) :: msg
       st = TUBES_OK
-      msg = ''
       do kslot = 1, 2
         if (kern(kslot)%order == p) return
       end do
+      msg = ''                                  ! (512 blanks: not on every step)
       kslot = merge(2, 1, kern(1)%order >= 0)
       if (kslot == 2 .and. kern(2)%order >= 0) kern(1) = kern(2)
       if (lane(m)%ig%flags /= 0) then
         st = TUBES_EMODEL                       ! an extended state's loop kernel has no lanes
         return
       end if
-      call jet_kernel(lane(m)%ig%spec, p, LANES, lane(m)%ig%flags, kern(kslot), msg, st)
+      call jet_kernel(lane(m)%ig%spec, p, nl, lane(m)%ig%flags, kern(kslot), msg, st)
     end subroutine batch_kernel
   end subroutine run_lanes
 

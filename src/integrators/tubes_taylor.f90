@@ -101,7 +101,8 @@ module tubes_taylor
     procedure :: eval => record_eval
   end type taylor_record_t
 
-  public :: taylor_order, isolate_roots, taylor_check, taylor_begin, taylor_end, jet_kernel
+  public :: taylor_order, isolate_roots, taylor_check, taylor_begin, taylor_end, taylor_size, taylor_advance, &
+            horner_lanes, jet_kernel
 
 contains
 
@@ -375,17 +376,46 @@ contains
     real(wp), intent(inout) :: x(:)
     real(wp), intent(in) :: tmax
     integer, intent(out) :: stat
+    call taylor_end_from(self, self%tc, 1, x, tmax, stat)
+  end subroutine taylor_end
+
+  !> taylor_end with the step's coefficients in tc, coefficient k of component i at
+  !> tc(1 + ((i - 1)(p + 1) + k) ld): self%tc (ld = 1), or one lane of the lanes' kernel array
+  !> (ld the lanes' width), read in place. In three parts: taylor_size, Horner's scheme,
+  !> taylor_advance (the lanes' driver, tubes_lanes, does the middle one for all its lanes at
+  !> once, horner_lanes).
+  subroutine taylor_end_from(self, tc, ld, x, tmax, stat)
+    class(taylor_t), intent(inout) :: self
+    real(wp), intent(in) :: tc(*)
+    integer, intent(in) :: ld
+    real(wp), intent(inout) :: x(:)
+    real(wp), intent(in) :: tmax
+    integer, intent(out) :: stat
+    logical :: last
+    call taylor_size(self, tc, ld, last, stat)
+    if (stat /= TUBES_OK) return
+    call horner(tc, ld, self%p + 1, self%n, self%p, self%hs, x)
+    call taylor_advance(self, tc, ld, x, tmax, last, stat)
+  end subroutine taylor_end_from
+
+  !> The step's size from its coefficients (tc, ld: as taylor_end_from): self%hs (signed) and
+  !> self%t_old; last: the step reaches tmax. stat TUBES_ESTEP if it is too small to be taken.
+  subroutine taylor_size(self, tc, ld, last, stat)
+    class(taylor_t), intent(inout) :: self
+    real(wp), intent(in) :: tc(*)
+    integer, intent(in) :: ld
+    logical, intent(out) :: last
+    integer, intent(out) :: stat
     real(wp) :: n1, n2, lrho, h, hmin
     integer :: p, s, i
-    logical :: last
     stat = TUBES_OK
     p = self%p
     s = p + 1
     n1 = 0      ! the largest |coefficient| of orders p - 1 and p over the components
     n2 = 0
     do i = 1, self%n
-      n1 = max(n1, abs(self%tc((i - 1)*s + p)))
-      n2 = max(n2, abs(self%tc(i*s)))
+      n1 = max(n1, abs(tc(1 + ((i - 1)*s + p - 1)*ld)))
+      n2 = max(n2, abs(tc(1 + (i*s - 1)*ld)))
     end do
     if (self%relative) then
       n1 = n1*self%rxn
@@ -416,11 +446,26 @@ contains
     end if
     self%hs = self%dir*h
     self%t_old = self%t
-    call horner(self%tc, s, self%n, p, self%hs, x)
+  end subroutine taylor_size
+
+  !> The end of a step whose new state x is the step's polynomial at self%hs (taylor_size, then
+  !> Horner's scheme): refused (x back to the step's start, stat TUBES_EMODEL) if the model would
+  !> refuse it, else the new time (tmax on the last step).
+  subroutine taylor_advance(self, tc, ld, x, tmax, last, stat)
+    class(taylor_t), intent(inout) :: self
+    real(wp), intent(in) :: tc(*)
+    integer, intent(in) :: ld
+    real(wp), intent(inout) :: x(:)
+    real(wp), intent(in) :: tmax
+    logical, intent(in) :: last
+    integer, intent(out) :: stat
+    integer :: s, i
+    stat = TUBES_OK
+    s = self%p + 1
     ! a state the model refuses (not finite, or escaped: as its eval would): the step is not taken
     if (.not. (all(abs(x) <= huge(1.0_wp)) .and. sum(abs(x(1:self%nq))) <= self%q_bound)) then
       do i = 1, self%n
-        x(i) = self%tc((i - 1)*s + 1)
+        x(i) = tc(1 + (i - 1)*s*ld)
       end do
       stat = TUBES_EMODEL
       return
@@ -431,7 +476,7 @@ contains
       self%t = self%t + self%hs
     end if
     self%nsteps = self%nsteps + 1
-  end subroutine taylor_end
+  end subroutine taylor_advance
 
   !> min(-log(n1) r1, -log(n2) r2) for normal n1, n2 > 0 and r1, r2 > 0, with one logarithm where
   !> the exponents alone decide which is the smaller (log n lies in [(e - 1) ln 2, e ln 2) for
@@ -458,25 +503,26 @@ contains
     end if
   end function log_rho
 
-  !> x = sum_k tc(k, :) ds^k by Horner's scheme, four components at a time in four independent
+  !> x = sum_k tc(1, k, :) ds^k by Horner's scheme, four components at a time in four independent
   !> chains (a chain's multiply-add waits for its last one: four in flight hide that latency);
-  !> every component's arithmetic is the plain scheme's.
-  pure subroutine horner(tc, s, n, p, ds, x)
-    integer, intent(in) :: s, n, p
-    real(wp), intent(in) :: tc(s, n), ds
+  !> every component's arithmetic is the plain scheme's. ld: the coefficients' stride (1, or a
+  !> lane of the lanes' array).
+  pure subroutine horner(tc, ld, s, n, p, ds, x)
+    integer, intent(in) :: ld, s, n, p
+    real(wp), intent(in) :: tc(ld, s, n), ds
     real(wp), intent(out) :: x(n)
     real(wp) :: a1, a2, a3, a4
     integer :: i, k
     do i = 1, n - 3, 4
-      a1 = tc(p + 1, i)
-      a2 = tc(p + 1, i + 1)
-      a3 = tc(p + 1, i + 2)
-      a4 = tc(p + 1, i + 3)
+      a1 = tc(1, p + 1, i)
+      a2 = tc(1, p + 1, i + 1)
+      a3 = tc(1, p + 1, i + 2)
+      a4 = tc(1, p + 1, i + 3)
       do k = p, 1, -1
-        a1 = a1*ds + tc(k, i)
-        a2 = a2*ds + tc(k, i + 1)
-        a3 = a3*ds + tc(k, i + 2)
-        a4 = a4*ds + tc(k, i + 3)
+        a1 = a1*ds + tc(1, k, i)
+        a2 = a2*ds + tc(1, k, i + 1)
+        a3 = a3*ds + tc(1, k, i + 2)
+        a4 = a4*ds + tc(1, k, i + 3)
       end do
       x(i) = a1
       x(i + 1) = a2
@@ -484,20 +530,57 @@ contains
       x(i + 3) = a4
     end do
     do i = 4*(n/4) + 1, n
-      a1 = tc(p + 1, i)
+      a1 = tc(1, p + 1, i)
       do k = p, 1, -1
-        a1 = a1*ds + tc(k, i)
+        a1 = a1*ds + tc(1, k, i)
       end do
       x(i) = a1
     end do
   end subroutine horner
+
+  !> Horner's scheme for the lanes of the lanes' kernel array (tc(l, k + 1, i): coefficient k of
+  !> component i in lane l), each lane at its own ds(l): x(l, :) = sum_k tc(l, k + 1, :) ds(l)^k.
+  !> The lanes are independent chains (the vector unit takes several at once, and their latencies
+  !> overlap); each lane's arithmetic is horner's, bit for bit.
+  pure subroutine horner_lanes(tc, nl, s, n, p, ds, x)
+    integer, intent(in) :: nl, s, n, p
+    real(wp), intent(in) :: tc(nl, s, n), ds(nl)
+    real(wp), intent(out) :: x(nl, n)
+    real(wp) :: a1, a2, a3, a4
+    integer :: i, k, l
+    do i = 1, n                        ! four lanes at a time in registers (as horner's components)
+      do l = 1, nl - 3, 4
+        a1 = tc(l, p + 1, i)
+        a2 = tc(l + 1, p + 1, i)
+        a3 = tc(l + 2, p + 1, i)
+        a4 = tc(l + 3, p + 1, i)
+        do k = p, 1, -1
+          a1 = a1*ds(l) + tc(l, k, i)
+          a2 = a2*ds(l + 1) + tc(l + 1, k, i)
+          a3 = a3*ds(l + 2) + tc(l + 2, k, i)
+          a4 = a4*ds(l + 3) + tc(l + 3, k, i)
+        end do
+        x(l, i) = a1
+        x(l + 1, i) = a2
+        x(l + 2, i) = a3
+        x(l + 3, i) = a4
+      end do
+      do l = 4*(nl/4) + 1, nl
+        a1 = tc(l, p + 1, i)
+        do k = p, 1, -1
+          a1 = a1*ds(l) + tc(l, k, i)
+        end do
+        x(l, i) = a1
+      end do
+    end do
+  end subroutine horner_lanes
 
   !> The step's polynomial at s in [t_old, t].
   subroutine taylor_interp(self, s, xs)
     class(taylor_t), intent(inout) :: self
     real(wp), intent(in) :: s
     real(wp), intent(out) :: xs(:)
-    call horner(self%tc, self%p + 1, self%n, self%p, s - self%t_old, xs)
+    call horner(self%tc, 1, self%p + 1, self%n, self%p, s - self%t_old, xs)
   end subroutine taylor_interp
 
   !> Interior sample times of the last step for an event's scan: for an event affine in the state

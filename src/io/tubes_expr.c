@@ -1001,6 +1001,38 @@ static jet_entry_t jet_table[JET_TABLE];
 static int jet_count;
 static pthread_mutex_t jet_lock = PTHREAD_MUTEX_INITIALIZER;
 
+/* The lanes' width for this processor: $TUBES_LANES if set (1, 2, 4 or 8: a forced width, for
+ * tests and comparisons), else the doubles of its widest vector registers that the kernels'
+ * -march=native can use: 8 with AVX-512F, 4 with AVX, 2 otherwise (SSE2, every x86-64); 4 on a
+ * processor that is not x86 (a width the kernels' loops vectorise on 128- or 256-bit units).
+ * TUBES_EINPUT with the reason in msg when TUBES_LANES is set to anything else. */
+int tubes_jet_lanes_default(char *msg, int lmsg) {
+  msg[0] = 0;
+  const char *env = getenv("TUBES_LANES");
+  if (env && env[0]) {
+    char *end;
+    long w = strtol(env, &end, 10);
+    if (*end || (w != 1 && w != 2 && w != 4 && w != 8)) {
+      static int said;               /* on stderr once: the ensembles' items fail with TUBES_EINPUT */
+      say(msg, lmsg, "TUBES_LANES='%s': the lanes' width must be 1, 2, 4 or 8 (unset: from the processor)", env);
+      pthread_mutex_lock(&jet_lock);
+      if (!said) fprintf(stderr, "taylor: %s\n", msg);
+      said = 1;
+      pthread_mutex_unlock(&jet_lock);
+      return TUBES_EINPUT;
+    }
+    return (int)w;
+  }
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx512f")) return 8;
+  if (__builtin_cpu_supports("avx")) return 4;
+  return 2;
+#else
+  return 4;
+#endif
+}
+
 int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_fn *fn, int *dim, int *nwork,
                   char *msg, int lmsg) {
   *fn = NULL;

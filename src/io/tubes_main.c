@@ -364,6 +364,11 @@ static int run_main(int argc, char **argv) {
   static nml_where where;
   static tubes_config_t cfg;
   if (nml_load(input, out_override, &cfg, &where, stderr)) return EXIT_BADINPUT;
+  /* the Taylor method's lanes' width (TUBES_LANES, else the processor's): recorded in the output
+   * file; an invalid TUBES_LANES stops the run here (tubes_jet_lanes_default says why on stderr) */
+  char lanes_msg[512];
+  int lanes = tubes_jet_lanes_default(lanes_msg, (int)sizeof lanes_msg);
+  if (lanes < 0) return EXIT_BADINPUT;
 
   static char nml_text[65536];
   if (tubes_nml_write(&cfg, nml_text, (int)sizeof nml_text) < 0) {
@@ -437,6 +442,7 @@ static int run_main(int argc, char **argv) {
   rc |= h5_attr_string(f, "compiler", TUBES_COMPILER);
   rc |= h5_attr_string(f, "fflags", TUBES_FFLAGS);
   rc |= h5_attr_long(f, "mpi_ranks", g_nranks);
+  rc |= h5_attr_long(f, "taylor_lanes", lanes);
 #ifdef _OPENMP
   rc |= h5_attr_long(f, "omp_threads", omp_get_max_threads());
 #else

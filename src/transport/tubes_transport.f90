@@ -12,7 +12,7 @@ module tubes_transport
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
   use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor, noisy, noise_stream
   use tubes_integrator, only: event_t
-  use tubes_lanes, only: lane_t, lane_jobs_t, LANES
+  use tubes_lanes, only: lane_t, lane_jobs_t, MAX_LANES
   use tubes_section_kinds, only: poincare_t
   implicit none
   private
@@ -585,7 +585,7 @@ contains
     if (present(field)) allocate (ens%field, source=field)
     if (present(field)) ens%lanes = ens%lanes .and. .not. noisy(field)
     call ens_agree(ens%x0)             ! seeds dealt out over MPI ranks and threads (tubes_ensemble)
-    call ens_run(ens, ns, out, 2*n_iter, 0, fault='map', chunk=merge(LANES, 1, ens%lanes))
+    call ens_run(ens, ns, out, 2*n_iter, 0, fault='map', chunk=merge(MAX_LANES, 1, ens%lanes))
     pts = reshape(out%r, [2, n_iter, ns])
     do j = 1, ns
       if (out%st(j) == TUBES_EFAULT) pts(:, :, j) = ieee_value(1.0_wp, ieee_quiet_nan)

@@ -339,7 +339,7 @@ contains
 
   !> Many integrations of one model from t = 0 to t_end, each from its own state x0(:, k), to
   !> xs(:, k) with status st(k) and nsteps(k) steps: the Taylor method ('taylor', 'auto') in the
-  !> lanes (LANES at a time, ENSEMBLE_CHUNK states per thread's unit), any other method one state
+  !> lanes (lane_width() at a time, ENSEMBLE_CHUNK states per thread's unit), any other method one state
   !> at a time; over `threads` OpenMP threads (0: all). Each state's result is that of a lone
   !> integration bit for bit, whatever the threads (tubes_lanes). stat: the set-up's status (a
   !> failed state has its own st(k) < 0 and xs(:, k) where it stopped).
