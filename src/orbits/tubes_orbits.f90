@@ -117,7 +117,7 @@ module tubes_orbits
     procedure :: jet_spec => action_jet_spec
   end type action_field_t
 
-  public :: linear_guess, correct_symmetric, correct_multiple, finish_orbit, orbit_family
+  public :: linear_guess, correct_symmetric, correct_multiple, finish_orbit, orbit_family, floquet_indices
 
 
 contains
@@ -571,6 +571,104 @@ contains
     end do
     stat = TUBES_OK
   end subroutine finish_orbit
+
+  !> The Floquet (stability) indices nu_i = (lambda + 1/lambda)/2 of the N - 1 nontrivial
+  !> multiplier pairs of the monodromy m (2N x 2N) of a periodic orbit of an autonomous
+  !> Hamiltonian system (docs/orbits.md, "Bifurcations"): nu > 1 a hyperbolic pair, -1 <= nu <= 1
+  !> an elliptic one (lambda = exp(+-i theta), nu = cos theta), nu < -1 an inverse hyperbolic one,
+  !> nu complex (nre +- i nim) a complex quartet off the unit circle. They are the roots of a
+  !> polynomial whose coefficients come from the traces of m, m^2, ..., m^(N-1), the trivial pair
+  !> taken as exactly 1: tr m^j = 2 + 2 sum_i T_j(nu_i), T_j the Chebyshev polynomials. Unlike
+  !> m's eigenvalues near 1 (the trivial Jordan block, where an index crossing +1 makes a 4-fold
+  !> eigenvalue) the traces are smooth functions of m. Ordered by descending real part.
+  subroutine floquet_indices(m, nre, nim, stat)
+    real(wp), intent(in) :: m(:, :)
+    real(wp), intent(out) :: nre(:), nim(:)   !! (N - 1)
+    integer, intent(out) :: stat
+    real(wp), allocatable :: mj(:, :), c(:), pw(:), e(:), tc(:, :), comp(:, :), wr(:), wi(:)
+    real(wp) :: d, s
+    integer :: np, j, k, i
+    np = size(m, 1)/2 - 1
+    stat = TUBES_OK
+    nre = 0
+    nim = 0
+    if (np < 1) return
+    allocate (mj(size(m, 1), size(m, 1)), c(np), pw(0:np), e(0:np), tc(0:np, 0:np))
+    ! c_j = (tr m^j - 2)/2 = sum_i T_j(nu_i)
+    mj = m
+    do j = 1, np
+      if (j > 1) mj = matmul(mj, m)
+      c(j) = 0
+      do i = 1, size(m, 1)
+        c(j) = c(j) + mj(i, i)
+      end do
+      c(j) = (c(j) - 2)/2
+    end do
+    ! the Chebyshev coefficients tc(j, k) of x^k in T_j
+    tc = 0
+    tc(0, 0) = 1
+    if (np >= 1) tc(1, 1) = 1
+    do j = 2, np
+      tc(j, 1:np) = 2*tc(j - 1, 0:np - 1)
+      tc(j, :) = tc(j, :) - tc(j - 2, :)
+    end do
+    ! the power sums pw(k) = sum_i nu_i^k (triangular: T_j's leading coefficient is 2^(j-1))
+    pw(0) = np
+    do j = 1, np
+      pw(j) = (c(j) - dot_product(tc(j, 0:j - 1), pw(0:j - 1)))/tc(j, j)
+    end do
+    ! Newton's identities: the elementary symmetric polynomials e(k) of the nu_i
+    e(0) = 1
+    do k = 1, np
+      s = 0
+      do i = 1, k
+        s = s + (-1)**(i - 1)*e(k - i)*pw(i)
+      end do
+      e(k) = s/k
+    end do
+    select case (np)
+    case (1)
+      nre(1) = e(1)
+    case (2)
+      ! z^2 - e1 z + e2: d = ((nu1 - nu2)/2)^2 from the power sums (no e2 cancellation)
+      d = (2*pw(2) - pw(1)**2)/4
+      if (d >= 0) then
+        nre = [pw(1)/2 + sqrt(d), pw(1)/2 - sqrt(d)]
+      else
+        nre = pw(1)/2
+        nim = [sqrt(-d), -sqrt(-d)]
+      end if
+      ! a strongly hyperbolic pair (|nu| > 10: the L1 Lyapunov orbits' ~1e3) takes the other
+      ! index's digits out of tr m^2 (rounding ~1e-16 nu^2): then nu_1 from m's largest real
+      ! eigenvalue (well separated, well conditioned) and nu_2 = c_1 - nu_1 from tr m alone
+      if (max(abs(nre(1)), abs(nre(2))) > 10 .and. all(nim == 0)) then
+        allocate (wr(size(m, 1)), wi(size(m, 1)))
+        call eigen(m, wr, wi, stat)
+        if (stat /= TUBES_OK) return
+        i = maxloc(abs(wr), 1, mask=wi == 0)
+        s = (wr(i) + 1/wr(i))/2
+        nre = [s, c(1) - s]
+        if (nre(2) > nre(1)) nre = nre([2, 1])
+      end if
+    case default
+      allocate (comp(np, np), wr(np), wi(np))
+      comp = 0
+      do k = 1, np   ! the companion matrix of z^np - e1 z^(np-1) + e2 z^(np-2) - ...
+        comp(1, k) = (-1)**(k - 1)*e(k)
+      end do
+      do k = 2, np
+        comp(k, k - 1) = 1
+      end do
+      call eigen(comp, wr, wi, stat)
+      if (stat /= TUBES_OK) return
+      do k = 1, np   ! descending real part
+        i = maxloc(wr, 1)
+        nre(k) = wr(i)
+        nim(k) = wi(i)
+        wr(i) = -huge(1.0_wp)
+      end do
+    end select
+  end subroutine floquet_indices
 
   !> Nodes for multiple shooting: n points a period apart/n along the trajectory from x0.
   subroutine nodes_from(model, x0, period, n, opts, nodes, stat)
