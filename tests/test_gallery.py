@@ -121,3 +121,15 @@ def test_damped_region(tmp_path):
     ratios = [float(v) for v in re.findall(r"ratio to the cut (\S+),", out)]
     assert len(ratios) == 3, out
     assert abs(ratios[0] - 1) < 1e-3 and ratios[0] > ratios[1] > ratios[2] > 0, ratios
+
+
+def test_halo_branch(tmp_path):
+    """The L1 and L2 halo branch points as the example prints them: one each, nu_v = 1 there, C
+    within 1e-10 of tests/test_bifurcations.py's scipy values (3.174351954078, 3.152118903101;
+    that test states the agreement) plus the program's own 7.6e-11."""
+    out = _run("halo_branch.py", tmp_path)
+    assert (tmp_path / "halo_branch.png").stat().st_size > 0
+    rows = re.findall(r"^(L[12]): kind 1 \(branch point\) at dE = \S+, C = (\S+), period \S+, nu = \S+, (\S+)$", out, re.M)
+    assert [r[0] for r in rows] == ["L1", "L2"], out
+    for (_, c, nu), ref in zip(rows, (3.174351954078, 3.152118903101)):
+        assert abs(float(c) - ref) < 2e-10 and abs(float(nu) - 1) < 1e-8
