@@ -300,14 +300,16 @@ int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUB
  * in dE to a bracket <= *bif_tol dE (1e-11). *nbif: how many were found (the first max_bif are returned); per
  * bifurcation j: kind, after (0-based: between orbits after and after + 1), bde (dE, the bracket's
  * midpoint), bwidth (the bracket), benergy, bperiod, bnu[4j ..] (the indices there, as nu),
- * bconv (1: the orbit at bde converged; 0: the corrector failed inside the bracket, which stopped). */
+ * bconv (1: the orbit at bde converged; 0: the corrector failed inside the bracket, which stopped),
+ * bx0[6j ..] that orbit's start (state0) and btan[6j ..] the monodromy's eigenvector there for the
+ * multiplier +1 (kind 1, orthogonal to the flow) or -1 (kind 2): the new family's tangent (0 for kind 3). */
 int tubes_orbit_bifurcations(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                              const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                              const char saddle[8], int nde, const double des[], int n_segments, int family,
                              double tol, double rtol, double atol, int max_iter, int nsamp, int method, double h,
                              double omega_bind, int solver, int int_max_iter, double nu[], int max_bif, int *nbif,
                              int kind[], int after[], double bde[], double bwidth[], double benergy[],
-                             double bperiod[], double bnu[], int bconv[], double *bif_tol, int local,
+                             double bperiod[], double bnu[], int bconv[], double bx0[], double btan[], double *bif_tol, int local,
                              void *stores);
 
 /* Sections of the tube-dynamics calls (docs/tubes.md, "Sections"): sec_kind 1 = the rolling

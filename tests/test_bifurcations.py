@@ -80,13 +80,18 @@ def lyapunov(x0, vy_guess):
     return vy
 
 
-def vertical_index(x0, vy0):
-    """Period, energy and nu_v = tr(M_v)/2 of the orbit (full period: the 2x2 vertical monodromy)."""
+def vertical_monodromy(x0, vy0):
+    """Period, energy, the 2x2 vertical monodromy (of (z, vz)) and the closure of the orbit."""
     th, _ = half_crossing(x0, vy0)
     r = solve_ivp(rhs, (0, 2 * th), [x0, 0, 0, vy0, 1, 0, 0, 1], **TOL)
-    mv = r.y[4:8, -1].reshape(2, 2)
     closure = np.max(np.abs(r.y[:4, -1] - [x0, 0, 0, vy0]))
-    return 2 * th, energy(x0, 0, 0, vy0), np.trace(mv) / 2, closure
+    return 2 * th, energy(x0, 0, 0, vy0), r.y[4:8, -1].reshape(2, 2), closure
+
+
+def vertical_index(x0, vy0):
+    """Period, energy and nu_v = tr(M_v)/2 of the orbit (full period: the 2x2 vertical monodromy)."""
+    t, e, mv, closure = vertical_monodromy(x0, vy0)
+    return t, e, np.trace(mv) / 2, closure
 
 
 def collinear(k):
@@ -141,6 +146,17 @@ def test_halo_branch_point_against_scipy(tmp_path, saddle, des, c_lit):
     assert b["period"][0] == pytest.approx(t, abs=2e-9)
     assert b["floquet_index"][0, 1] == pytest.approx(1, abs=1e-8)
     assert c_prog == pytest.approx(c_lit, abs=1e-4)                       # orientation only
+    # the branch's tangent: the monodromy's eigenvector for +1 off the flow direction, here the
+    # kernel of the vertical block's M_v - I (z, pz = vz), with no planar component
+    x0 = x_b
+    vy = lyapunov(x0, vya + (vyb - vya) * (x0 - xa) / (xb - xa))
+    mv = vertical_monodromy(x0, vy)[2]
+    ker = np.linalg.svd(mv - np.eye(2))[2][-1]
+    tan = b["tangent"][0]
+    assert np.linalg.norm(tan) == pytest.approx(1, abs=1e-12)
+    assert np.max(np.abs(tan[[0, 1, 3, 4]])) < 1e-6
+    assert abs(abs(np.dot(tan[[2, 5]], ker)) - 1) < 1e-8, (tan, ker)
+    assert b["state0"][0][0] == pytest.approx(x0, abs=1e-8)
 
 
 def test_floquet_indices_against_the_variational_equations(tmp_path):

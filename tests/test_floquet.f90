@@ -1,16 +1,17 @@
 !> The Floquet indices nu = (lambda + 1/lambda)/2 of floquet_indices against matrices built with
 !> known spectra: block-diagonal symplectic matrices (a trivial Jordan pair, 2x2 blocks of
-!> determinant 1 with trace 2 nu (boosts and rotations: the norm of a monodromy, ~2 nu), a complex quartet diag(A, A^-T)) mixed by a symplectic change of
-!> basis, in 2, 3 and 4 degrees of freedom; and the counts orbit_crossings takes from them.
+!> determinant 1 with trace 2 nu (boosts and rotations: the norm of a monodromy, ~2 nu), a
+!> complex quartet diag(A, A^-T)) mixed by a symplectic change of basis, in 2, 3 and 4 degrees
+!> of freedom; the counts orbit_crossings takes from them; and the tangents floquet_tangent finds at +1 and -1 (Jordan pairs with known kernels).
 program test_floquet
   use tubes_kinds, only: wp
-  use tubes_orbits, only: floquet_indices
+  use tubes_orbits, only: floquet_indices, floquet_tangent
   use tubes_study, only: orbit_crossings, BIF_BRANCH, BIF_PERIOD_DOUBLING, BIF_KREIN
   use tubes_lapack, only: dgesv
   use tubes_check, only: check_close, check_rel, check_eq, finish
   implicit none
   real(wp), allocatable :: m(:, :)
-  real(wp) :: nre(3), nim(3), r, th
+  real(wp) :: nre(3), nim(3), r, th, m0(6, 6), sm(6, 6), v(6), want(6)
   complex(wp) :: lam, nuq
   integer :: stat, c(3)
 
@@ -57,6 +58,22 @@ program test_floquet
   call check_close('4 DOF: nu = 0.3', nre(2), 0.3_wp, 1.0e-11_wp)
   call check_close('4 DOF: nu = -2', nre(3), -2.0_wp, 1.0e-11_wp)
   call check_close('4 DOF: real', maxval(abs(nim)), 0.0_wp, 1.0e-11_wp)
+  ! the tangents: a Jordan pair at -1 on pair 2 and one at +1 on pair 3 beside the trivial pair on
+  ! pair 1 (flow direction e_q1): kernels e_q2 of m + I and e_q3 of m - I off the flow, carried by S
+  m0 = 0
+  m0(1, 1) = 1; m0(4, 4) = 1; m0(1, 4) = 0.7_wp
+  m0(2, 2) = -1; m0(5, 5) = -1; m0(2, 5) = 0.5_wp
+  m0(3, 3) = 1; m0(6, 6) = 1; m0(3, 6) = 0.3_wp
+  m = conjugated(m0, 3, sm)
+  call floquet_tangent(m, sm(:, 1), -1, v, stat)
+  want = sm(:, 2)/norm2(sm(:, 2))
+  call check_close('tangent at -1: the kernel of m + I', abs(dot_product(v, want)), 1.0_wp, 1.0e-10_wp)
+  call floquet_tangent(m, sm(:, 1), 1, v, stat)
+  want = sm(:, 3) - dot_product(sm(:, 3), sm(:, 1))/sum(sm(:, 1)**2)*sm(:, 1)   ! off the flow
+  want = want/norm2(want)
+  call check_close('tangent at +1: the kernel of m - I off the flow', abs(dot_product(v, want)), 1.0_wp, &
+                   1.0e-10_wp)
+  call check_close('tangent: unit', norm2(v), 1.0_wp, 1.0e-14_wp)
   call finish('test_floquet')
 contains
   !> diag over the pairs (q_i, p_i): the trivial Jordan pair on pair 1, [[nu, a], [d, nu]] with
@@ -91,9 +108,10 @@ contains
   end function quartet
 
   !> S m S^-1, S = [[G, 0], [0, G^-T]] [[I, K], [0, I]] (K symmetric): symplectic.
-  function conjugated(mm, n) result(out)
+  function conjugated(mm, n, s_out) result(out)
     real(wp), intent(in) :: mm(:, :)
     integer, intent(in) :: n
+    real(wp), intent(out), optional :: s_out(2*n, 2*n)   !! S
     real(wp) :: out(2*n, 2*n), s(2*n, 2*n), g(n, n), gi(n, n), k(n, n), sh(2*n, 2*n), b(2*n, 2*n)
     integer :: i, j, ipiv(2*n), info, ipn(n)
     do j = 1, n
@@ -118,6 +136,7 @@ contains
     s(1:n, 1:n) = g
     s(n + 1:2*n, n + 1:2*n) = transpose(gi)
     s = matmul(s, sh)
+    if (present(s_out)) s_out = s
     ! out = S m S^-1: solve S^T out^T = (S m)^T
     out = transpose(matmul(s, mm))
     b = transpose(s)

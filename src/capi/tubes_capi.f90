@@ -446,7 +446,8 @@ contains
   !> and the bifurcations located between them (tubes_study: family_bifurcations).
   integer(c_int) function c_orbit_bifurcations(system, params, lo, hi, n_grid, saddle, nde, des, &
       n_segments, family, tol, rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, &
-      nu, max_bif, nbif, kind, after, bde, bwidth, benergy, bperiod, bnu, bconv, bracket_tol, local, stores) &
+      nu, max_bif, nbif, kind, after, bde, bwidth, benergy, bperiod, bnu, bconv, bx0, btan, bracket_tol, local, &
+      stores) &
       result(stat) &
       bind(C, name='tubes_orbit_bifurcations')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
@@ -459,7 +460,8 @@ contains
     integer(c_int), value :: max_bif
     integer(c_int), intent(out) :: nbif, kind(max_bif), after(max_bif), bconv(max_bif)
     real(c_double), intent(out) :: bde(max_bif), bwidth(max_bif), benergy(max_bif), bperiod(max_bif), &
-                                   bnu(2*MAX_DOF - 2, max_bif), bracket_tol
+                                   bnu(2*MAX_DOF - 2, max_bif), bracket_tol, bx0(2*MAX_DOF, max_bif), &
+                                   btan(2*MAX_DOF, max_bif)
     integer(c_int), value :: local
     type(c_ptr), value :: stores
     class(hamiltonian_t), allocatable :: model
@@ -474,6 +476,7 @@ contains
     integer :: isad, reason, k, np
     real(wp) :: ede
     nu = 0; nbif = 0; kind = 0; after = 0; bconv = 0; bde = 0; bwidth = 0; benergy = 0; bperiod = 0; bnu = 0
+    bx0 = 0; btan = 0
     bracket_tol = BIF_TOL
     opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, &
                         n_samples=nsamp, family=family, local=local /= 0, &
@@ -500,6 +503,8 @@ contains
       bperiod(k) = bifs(k)%period
       bnu(1:np, k) = bifs(k)%nre
       bnu(MAX_DOF:MAX_DOF + np - 1, k) = bifs(k)%nim
+      if (allocated(bifs(k)%x0)) bx0(1:2*np + 2, k) = bifs(k)%x0
+      if (allocated(bifs(k)%tangent)) btan(1:2*np + 2, k) = bifs(k)%tangent
     end do
     stat = TUBES_OK
   end function c_orbit_bifurcations

@@ -940,13 +940,13 @@ int scene_orbits(tubes_run_t *run) {
    * the bifurcations located between them, on the family the run's stores hold */
   enum { MAXBIF = 64 };
   int nbif = 0, bkind[MAXBIF], bafter[MAXBIF], bconv[MAXBIF];
-  double bde[MAXBIF], bwid[MAXBIF], ben[MAXBIF], bper[MAXBIF], bnu[4 * MAXBIF];
+  double bde[MAXBIF], bwid[MAXBIF], ben[MAXBIF], bper[MAXBIF], bnu[4 * MAXBIF], bx0[6 * MAXBIF], btan[6 * MAXBIF];
   double *nu = calloc(4 * (size_t)n, sizeof(double));
   if (!nu) { fprintf(stderr, "tubes: orbits: out of memory\n"); rc = EXIT_NUMERIC; goto out; }
   double tb = now(), btol = 0;
   int sb = tubes_orbit_bifurcations(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, c->orb_de,
                                     nseg, c->orb_family, c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c),
-                                    nu, MAXBIF, &nbif, bkind, bafter, bde, bwid, ben, bper, bnu, bconv, &btol, 0,
+                                    nu, MAXBIF, &nbif, bkind, bafter, bde, bwid, ben, bper, bnu, bconv, bx0, btan, &btol, 0,
                                     run->seeds);
   if (sb < 0) {
     char m[TUBES_LSTATUS];
@@ -1054,6 +1054,11 @@ int scene_orbits(tubes_run_t *run) {
         h |= h5_write_double(bg, "period", 1, &db, bper, "s");
         h |= h5_write_double(bg, "floquet_index", 2, dbp, re, "1");
         h |= h5_write_double(bg, "floquet_index_imag", 2, dbp, im, "1");
+        hsize_t dbs[2] = {(hsize_t)nbif, (hsize_t)n2};
+        for (int j = 0; j < nbif; j++)
+          for (int i = 0; i < n2; i++) { bx0[n2 * j + i] = bx0[6 * j + i]; btan[n2 * j + i] = btan[6 * j + i]; }
+        h |= h5_write_double(bg, "state0", 2, dbs, bx0, n2 == 4 ? "cm, cm, cm/s, cm/s" : "state units");
+        h |= h5_write_double(bg, "tangent", 2, dbs, btan, "1");
         h |= h5_attr_string(bg, "kinds", "1 branch_point (an index crosses +1), 2 period_doubling (-1), "
                             "3 krein_collision (a pair of indices turns complex or real)");
         h |= h5_attr_double(bg, "tol", btol);

@@ -5,7 +5,7 @@
 module tubes_orbits
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
   use tubes_kinds, only: wp
-  use tubes_lapack, only: dgesv, dgels, eigen
+  use tubes_lapack, only: dgesv, dgels, eigen, dsyev
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EFAULT
   use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree, ens_reuse_ok
   use tubes_field, only: vector_field_t, jet_spec_t
@@ -117,7 +117,8 @@ module tubes_orbits
     procedure :: jet_spec => action_jet_spec
   end type action_field_t
 
-  public :: linear_guess, correct_symmetric, correct_multiple, finish_orbit, orbit_family, floquet_indices
+  public :: linear_guess, correct_symmetric, correct_multiple, finish_orbit, orbit_family, floquet_indices, &
+            floquet_tangent
 
 
 contains
@@ -669,6 +670,39 @@ contains
       end do
     end select
   end subroutine floquet_indices
+
+  !> The eigenvector of the monodromy m for the multiplier sgn (+1: a branch point, -1: a period
+  !> doubling) at a bifurcation, the new family's tangent there: the unit vector v with
+  !> (m - sgn I) v = 0, for sgn = +1 also orthogonal to the flow direction f (the trivial
+  !> eigenvector); the right singular vector of the smallest singular value of that (2N + 1) x 2N
+  !> (or 2N x 2N) matrix, from the eigenvectors of its normal matrix (accurate to ~1e-16 |m|^2 over
+  !> the gap to the next singular value squared). Its largest component is positive.
+  subroutine floquet_tangent(m, f, sgn, v, stat)
+    real(wp), intent(in) :: m(:, :), f(:)
+    integer, intent(in) :: sgn
+    real(wp), intent(out) :: v(:)
+    integer, intent(out) :: stat
+    real(wp), allocatable :: a(:, :), b(:, :), w(:), work(:)
+    integer :: n2, i, info, nr
+    n2 = size(m, 1)
+    nr = n2 + merge(1, 0, sgn > 0)
+    allocate (a(nr, n2), b(n2, n2), w(n2), work(max(1, 66*n2)))
+    a(1:n2, :) = m
+    do i = 1, n2
+      a(i, i) = a(i, i) - sgn
+    end do
+    if (sgn > 0) a(nr, :) = f*(maxval(abs(m))/max(sqrt(sum(f**2)), tiny(1.0_wp)))
+    b = matmul(transpose(a), a)
+    call dsyev('V', 'U', n2, b, n2, w, work, size(work), info)
+    stat = TUBES_OK
+    if (info /= 0) then
+      stat = TUBES_ENOCONV
+      return
+    end if
+    v = b(:, 1)   ! ascending eigenvalues: the smallest first
+    i = maxloc(abs(v), 1)
+    if (v(i) < 0) v = -v
+  end subroutine floquet_tangent
 
   !> Nodes for multiple shooting: n points a period apart/n along the trajectory from x0.
   subroutine nodes_from(model, x0, period, n, opts, nodes, stat)

@@ -15,7 +15,7 @@ module tubes_study
   use tubes_field, only: vector_field_t
   use tubes_region, only: region_opts_t, region_t, transition_region, region_curve
   use tubes_equilibria, only: equilibrium_t, find_equilibria, neck_normal, nhim_reach, gate_holds_nhim
-  use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t, floquet_indices
+  use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t, floquet_indices, floquet_tangent
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, plane_search_range, &
                                  SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
@@ -122,6 +122,10 @@ module tubes_study
     logical :: converged = .false. !! the orbit at de converged (else the bisection stopped where
                                    !! the corrector did: width says how far it got)
     real(wp), allocatable :: nre(:), nim(:)   !! the Floquet indices of the orbit at de
+    real(wp), allocatable :: x0(:)            !! that orbit's start (state0)
+    !> kinds 1, 2: the eigenvector of its monodromy for the multiplier +1 (orthogonal to the flow)
+    !> or -1, the new family's tangent at x0 (floquet_tangent); kind 3: 0
+    real(wp), allocatable :: tangent(:)
   end type bifurcation_t
 
   integer, parameter, public :: BIF_BRANCH = 1           !! a nontrivial index crosses +1
@@ -747,6 +751,20 @@ contains
       if (.not. b%converged) return
       b%period = o(1)%period
       call floquet_indices(o(1)%monodromy, b%nre, b%nim, stat)
+      if (stat /= TUBES_OK) return
+      b%x0 = o(1)%x0
+      allocate (b%tangent(size(b%x0)))
+      b%tangent = 0
+      if (kind == BIF_KREIN) return
+      block
+        real(wp) :: fx(size(b%x0))
+        call model%eval(0.0_wp, b%x0, fx, stat)
+        if (stat /= TUBES_OK) then
+          stat = TUBES_ENOCONV
+          return
+        end if
+        call floquet_tangent(o(1)%monodromy, fx, merge(1, -1, kind == BIF_BRANCH), b%tangent, stat)
+      end block
     end subroutine locate
   end subroutine family_bifurcations
 
