@@ -2,7 +2,8 @@
 !> known spectra: block-diagonal symplectic matrices (a trivial Jordan pair, 2x2 blocks of
 !> determinant 1 with trace 2 nu (boosts and rotations: the norm of a monodromy, ~2 nu), a
 !> complex quartet diag(A, A^-T)) mixed by a symplectic change of basis, in 2, 3 and 4 degrees
-!> of freedom; the counts orbit_crossings takes from them; and the tangents floquet_tangent finds at +1 and -1 (Jordan pairs with known kernels).
+!> of freedom; the counts orbit_crossings takes from them; and the tangents floquet_tangent
+!> finds at +1 and -1 (Jordan pairs with known kernels).
 program test_floquet
   use tubes_kinds, only: wp
   use tubes_orbits, only: floquet_indices, floquet_tangent
