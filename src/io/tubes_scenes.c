@@ -833,6 +833,8 @@ static const char *end_reason_text(int r) {
   case 1: return "the orbits run into another equilibrium";
   case 2: return "the period grows without bound";
   case 3: return "the correction fails for ever smaller steps";
+  case 4: return "the branch's energy turns back (a fold)";
+  case 5: return "the family has no branch point below the largest dE";
   default: return "none";
   }
 }
@@ -884,7 +886,8 @@ int scene_orbits(tubes_run_t *run) {
     rc = EXIT_NUMERIC;
     goto out;
   }
-  printf("orbits: %s Lyapunov family, %s shooting%s%s (%.2f s)\n", run->saddle, nseg > 1 ? "multiple" : "single",
+  const char *famname = c->orb_family == -1 ? "halo_north" : c->orb_family == -2 ? "halo_south" : "Lyapunov";
+  printf("orbits: %s %s family, %s shooting%s%s (%.2f s)\n", run->saddle, famname, nseg > 1 ? "multiple" : "single",
          nseg > 1 ? "" : (run->natural ? " (brake orbit)" : " (symmetric orbit)"),
          dissipative(run) ? ", of the conservative model (a dissipative model has no periodic orbits: they are the limit "
                          "the damped model's transition regions start from)" : "", now() - t0);
@@ -903,7 +906,17 @@ int scene_orbits(tubes_run_t *run) {
         printf("  %10.4g   not converged\n", c->orb_de[k]);
     }
   }
-  if (end_de > 0) {
+  if (c->orb_family < 0 && reason == 5) {
+    printf("  no %s family: %s (dE = %g)\n", famname, end_reason_text(reason), c->orb_de[n - 1]);
+    fprintf(stderr, "tubes: orbits: no %s orbits: the %s's family %d (its planar Lyapunov family in the CR3BP) has no "
+            "branch point below dE = %g; not computed\n", famname, run->saddle, run->ndof - 1, c->orb_de[n - 1]);
+  } else if (c->orb_family < 0 && nfail && end_de <= 0) {
+    for (int k = 0; k < n; k++)
+      if (!conv[k])
+        fprintf(stderr, "tubes: orbits: dE = %g: no %s orbit: below the branch point (the branch starts at the "
+                "energy of the planar family's first branch point, /orbits/bifurcations of that family)\n",
+                c->orb_de[k], famname);
+  } else if (end_de > 0) {
     printf("  family end: dE ~ %.8g%s: %s\n", end_de, in_units(" (cm/s)^2"), end_reason_text(reason));
     for (int k = 0; k < n; k++)
       if (!conv[k]) {
@@ -964,7 +977,9 @@ int scene_orbits(tubes_run_t *run) {
   }
   static const char *bif_name[] = {"", "branch_point", "period_doubling", "krein_collision"};
   int np = run->ndof - 1;
-  if (nbif == 0)
+  if (c->orb_family < 0)
+    printf("  bifurcations: not located along a branch family (its orbits' Floquet indices are written)\n");
+  else if (nbif == 0)
     printf("  bifurcations: none between the requested energies (Floquet indices: %d pair%s)\n", np, np > 1 ? "s" : "");
   else {
     printf("  bifurcations (located by bisection to a bracket of %.0e dE; %.2f s):\n", btol, now() - tb);
@@ -1022,6 +1037,8 @@ int scene_orbits(tubes_run_t *run) {
   h |= h5_attr_long(g, "n_segments", nseg);
   h |= h5_attr_double(g, "tol", c->orb_tol);
   h |= h5_attr_long(g, "family", c->orb_family);
+  h |= h5_attr_string(g, "family_name", c->orb_family == -1 ? "halo_north" : c->orb_family == -2 ? "halo_south"
+                                                                                                   : "lyapunov");
   if (dissipative(run)) h |= h5_attr_string(g, "model", "conservative");
   if (end_de > 0) {
     h |= h5_attr_double(g, "family_end_dE", end_de);

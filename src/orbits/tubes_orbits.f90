@@ -25,6 +25,13 @@ module tubes_orbits
   integer, parameter, public :: END_EQUILIBRIUM = 1 !! the orbit runs into another equilibrium
   integer, parameter, public :: END_PERIOD = 2      !! period grows without bound
   integer, parameter, public :: END_NOCONV = 3      !! correction fails even for tiny steps
+  integer, parameter, public :: END_FOLD = 4        !! the branch's energy turns back (a fold)
+  integer, parameter, public :: END_NOBRANCH = 5    !! no branch point below the largest dE
+  !> opts%family codes of the family that branches off the highest-frequency centre mode's
+  !> family (N - 1) at its first branch point (the spatial CR3BP's halo family off the planar
+  !> Lyapunov family): PLUS starts along +tangent (q_N > 0 at the orbit's start: 'halo_north'),
+  !> MINUS along -tangent ('halo_south'). docs/orbits.md, "Branch switching".
+  integer, parameter, public :: FAMILY_BRANCH_PLUS = -1, FAMILY_BRANCH_MINUS = -2
 
   !> Options of the corrector and the continuation.
   type, public :: orbit_opts_t
@@ -812,6 +819,10 @@ contains
       stat = TUBES_EINPUT
       return
     end if
+    if (opts%family == FAMILY_BRANCH_PLUS .or. opts%family == FAMILY_BRANCH_MINUS) then
+      call branch_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
+      return
+    end if
     if (opts%family /= 1) then   ! another centre mode's family: that mode first, then as family 1
       if (opts%family < 1 .or. opts%family > size(eqs(isad)%omegas)) then
         stat = TUBES_EINPUT
@@ -870,6 +881,231 @@ contains
       call keep_orbit(p, des(k), orbits(k), end_de, end_reason)
     end subroutine path_orbit
   end subroutine orbit_family
+
+  !> The symmetric family branching off family N - 1 at its first branch point (opts%family =
+  !> FAMILY_BRANCH_PLUS or _MINUS), at the ascending excess energies des (docs/orbits.md, "Branch
+  !> switching"): (1) family N - 1 at a geometric grid of 16 energies up to des(n) and its first
+  !> change in the count of indices above +1, bisected to 1e-11 dE; (2) there the monodromy's
+  !> eigenvector for +1 off the flow (floquet_tangent), its part on the reversor's fixed set the
+  !> tangent of the new branch; (3) pseudo-arclength continuation along the branch in the
+  !> symmetric unknowns w = (x0 on the fixed set, tau), conditions: the odd components of
+  !> x(tau) vanish and (w - w_pred) . t = 0 (the energy free), the step adapted (x1.5 after <= 3
+  !> iterations, /2 on failure, down to 1e-6 of the first); (4) each requested energy passed
+  !> between two steps: correct_symmetric at that energy from the chord between them. The
+  !> continuation ends when the energy turns back (a fold: END_FOLD), the step falls below its
+  !> floor (END_NOCONV), the period passes period_max T_po (END_PERIOD) or after 2000 steps.
+  !> Needs a model with a reversor whose fixed set holds N components (single shooting).
+  subroutine branch_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad
+    real(wp), intent(in) :: des(:)
+    type(orbit_opts_t), intent(in) :: opts
+    type(orbit_t), intent(out) :: orbits(size(des))
+    real(wp), intent(out) :: end_de
+    integer, intent(out) :: end_reason, stat
+    type(orbit_opts_t) :: po
+    type(orbit_t), allocatable :: grid(:)
+    type(orbit_t) :: ob(1)
+    real(wp), allocatable :: dg(:), w(:), wp_(:), wn(:), t(:), tn(:), wprev(:), jac(:, :), rr(:), xx(:), &
+                             phi(:, :), fx(:), v(:), b(:, :)
+    real(wp) :: lo, hi, mid, e_sad, h, h0, e_prev, e_now, xi, tau
+    integer :: n2, nd, k, c_lo, np, it, j, nstep, info
+    integer, allocatable :: ev(:), od(:), rev(:), cnt(:), ipiv(:)
+    real(wp) :: nre(size(eqs(isad)%x)/2 - 1), nim(size(eqs(isad)%x)/2 - 1)
+    logical :: ok
+    stat = TUBES_OK
+    end_de = -1
+    end_reason = END_NONE
+    n2 = model%dim()
+    nd = n2/2
+    np = nd - 1
+    if (np < 1 .or. .not. has_reversor(model)) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    e_sad = eqs(isad)%energy
+    rev = model%reversor()
+    ev = pack([(k, k = 1, n2)], rev > 0)
+    od = pack([(k, k = 1, n2)], rev < 0)
+    po = opts
+    po%family = np
+    po%n_segments = 1
+    ! (1) the first branch point of family N - 1 below des(n)
+    allocate (dg(16), grid(16), cnt(16))
+    dg = [(des(size(des))*10.0_wp**(-3 + 3*real(k - 1, wp)/15), k = 1, 16)]
+    call orbit_family(model, eqs, isad, dg, po, grid, end_de, end_reason, stat)
+    if (stat < 0) return
+    cnt = -1
+    do k = 1, 16
+      if (.not. grid(k)%converged) exit
+      call floquet_indices(grid(k)%monodromy, nre, nim, stat)
+      if (stat /= TUBES_OK) return
+      cnt(k) = count(nre > 1 .and. nim == 0)
+    end do
+    j = 0
+    do k = 1, 15
+      if (cnt(k) >= 0 .and. cnt(k + 1) >= 0 .and. cnt(k) /= cnt(k + 1)) then
+        j = k
+        exit
+      end if
+    end do
+    end_de = -1
+    end_reason = END_NONE
+    if (j == 0) then        ! no branch point below the largest energy: no branch to follow
+      end_reason = END_NOBRANCH
+      orbits(:)%de = des
+      return
+    end if
+    lo = dg(j)
+    hi = dg(j + 1)
+    c_lo = cnt(j)
+    do while (hi - lo > 1.0e-11_wp*hi)
+      mid = lo + (hi - lo)/2
+      call orbit_family(model, eqs, isad, [mid], po, ob, end_de, end_reason, stat)
+      if (stat < 0) return
+      if (.not. ob(1)%converged) then
+        stat = TUBES_ENOCONV
+        return
+      end if
+      call floquet_indices(ob(1)%monodromy, nre, nim, stat)
+      if (count(nre > 1 .and. nim == 0) == c_lo) then
+        lo = mid
+      else
+        hi = mid
+      end if
+    end do
+    call orbit_family(model, eqs, isad, [lo + (hi - lo)/2], po, ob, end_de, end_reason, stat)
+    if (stat < 0) return
+    if (.not. ob(1)%converged) then
+      stat = TUBES_ENOCONV
+      return
+    end if
+    ! (2) the tangent on the fixed set
+    allocate (fx(n2), v(n2))
+    call model%eval(0.0_wp, ob(1)%x0, fx, stat)
+    if (stat /= TUBES_OK) then
+      stat = TUBES_ENOCONV
+      return
+    end if
+    call floquet_tangent(ob(1)%monodromy, fx, 1, v, stat)
+    if (stat /= TUBES_OK) return
+    allocate (t(nd + 1), tn(nd + 1), w(nd + 1), wp_(nd + 1), wn(nd + 1), wprev(nd + 1))
+    t = [v(ev), 0.0_wp]
+    t = t/sqrt(sum(t**2))
+    if (t(nd) < 0) t = -t                                  ! q_N > 0 along +t
+    if (opts%family == FAMILY_BRANCH_MINUS) t = -t
+    w = [ob(1)%x0(ev), ob(1)%period/2]
+    ! (3) pseudo-arclength along the branch
+    allocate (jac(nd + 1, nd + 1), rr(nd + 1), xx(n2), phi(n2, n2), b(nd, nd + 1), ipiv(nd + 1))
+    h0 = 1.0e-2_wp*model%length_scale()
+    h = h0
+    e_prev = model%energy(state_of(w))
+    k = 1
+    orbits(:)%de = des
+    do nstep = 1, 2000
+      if (k > size(des)) exit
+      wp_ = w + h*t
+      wn = wp_
+      ok = .false.
+      do it = 1, opts%max_iter
+        call flow_stm(model, state_of(wn), wn(nd + 1), opts, xx, phi, stat)
+        if (stat < 0) exit
+        call model%eval(0.0_wp, xx, fx, stat)
+        if (stat /= 0) exit
+        rr(1:nd) = xx(od)
+        rr(nd + 1) = dot_product(t, wn - wp_)
+        if (maxval(abs(rr)) < opts%tol) then
+          ok = .true.
+          exit
+        end if
+        jac = 0
+        jac(1:nd, 1:nd) = phi(od, ev)
+        jac(1:nd, nd + 1) = fx(od)
+        jac(nd + 1, :) = t
+        b = jac(1:nd, :)   ! kept for the tangent
+        rr = -rr
+        call dgesv(nd + 1, 1, jac, nd + 1, ipiv, rr, nd + 1, info)
+        if (info /= 0) exit
+        wn = wn + rr
+      end do
+      stat = TUBES_OK
+      if (.not. ok) then
+        h = h/2
+        if (h < 1.0e-6_wp*h0) then
+          end_reason = END_NOCONV
+          exit
+        end if
+        cycle
+      end if
+      ! the new tangent: the null vector of the nd x (nd + 1) Jacobian, oriented along t
+      b(1:nd, 1:nd) = phi(od, ev)
+      b(1:nd, nd + 1) = fx(od)
+      call null_vector(b, tn, info)
+      if (info /= 0) then
+        stat = TUBES_ENOCONV
+        return
+      end if
+      if (dot_product(tn, t) < 0) tn = -tn
+      wprev = w
+      w = wn
+      t = tn
+      e_now = model%energy(state_of(w))
+      if (e_now < e_prev) then            ! the energy turns back: a fold
+        end_reason = END_FOLD
+        end_de = e_prev - e_sad
+        exit
+      end if
+      if (w(nd + 1) > 0.5_wp*opts%period_max*2*PI/eqs(isad)%omega) then
+        end_reason = END_PERIOD
+        end_de = e_now - e_sad
+        exit
+      end if
+      ! (4) the requested energies passed in this step
+      do while (k <= size(des))
+        if (e_sad + des(k) > e_now) exit
+        if (e_sad + des(k) < e_prev) then   ! below the branch point: not on this branch
+          orbits(k) = orbit_t(de=des(k))
+          k = k + 1
+          cycle
+        end if
+        xi = (e_sad + des(k) - e_prev)/(e_now - e_prev)
+        xx = state_of(wprev + xi*(w - wprev))
+        tau = wprev(nd + 1) + xi*(w(nd + 1) - wprev(nd + 1))
+        orbits(k)%de = des(k)
+        call correct_symmetric(model, e_sad + des(k), des(k), xx, tau, opts, orbits(k), stat)
+        if (stat < 0) return
+        orbits(k)%de = des(k)
+        if (stat == TUBES_OK) call finish_orbit(model, orbits(k), opts, eqs, isad, stat)
+        if (stat < 0) return
+        stat = TUBES_OK
+        k = k + 1
+      end do
+      e_prev = e_now
+      if (it <= 3) h = min(1.5_wp*h, 20*h0)
+    end do
+    if (end_reason /= END_NONE .and. end_de < 0) end_de = e_prev - e_sad
+    stat = TUBES_OK
+  contains
+    function state_of(u) result(x)   ! the state of the fixed-set unknowns
+      real(wp), intent(in) :: u(:)
+      real(wp) :: x(n2)
+      x = 0
+      x(ev) = u(1:nd)
+    end function state_of
+  end subroutine branch_family
+
+  !> The unit null vector of the m x (m + 1) matrix a (full rank m): the eigenvector of a^T a for
+  !> its smallest eigenvalue.
+  subroutine null_vector(a, v, info)
+    real(wp), intent(in) :: a(:, :)
+    real(wp), intent(out) :: v(:)
+    integer, intent(out) :: info
+    real(wp) :: g(size(a, 2), size(a, 2)), w(size(a, 2)), work(66*size(a, 2))
+    g = matmul(transpose(a), a)
+    call dsyev('V', 'U', size(g, 1), g, size(g, 1), w, work, size(work), info)
+    v = g(:, 1)
+  end subroutine null_vector
 
   !> Append the orbit at de (and, when it did not converge, where the family ends) to p.
   subroutine keep_orbit(p, de, orb, end_de, end_reason)

@@ -697,6 +697,7 @@ contains
     end do
     stat = TUBES_OK
     do k = 1, size(des) - 1
+      if (opts%family < 0) exit   ! a branch family (branch_family): its orbits' indices only
       if (cnt(1, k) < 0 .or. cnt(1, k + 1) < 0) cycle
       do kind = 1, 3
         if (cnt(kind, k) == cnt(kind, k + 1)) cycle
