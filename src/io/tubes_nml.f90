@@ -855,9 +855,10 @@ contains
           if (len_trim(buf(k)) == 0) cycle
           if (by_name .and. index(buf(k), ' SADDLE_NEAR=') == 1) cycle
           if (.not. by_name .and. index(buf(k), ' SADDLE=') == 1) cycle
-          ! a numbered family is an integer (the text is read back by the same rules)
+          ! a numbered family is an integer (the text is read back by the same rules), in the
+          ! layout of an integer's (i0 in 11 columns: the effective namelist as before)
           if (index(buf(k), " FAMILY='") == 1 .and. verify(trim(family), '0123456789') == 0) &
-            buf(k) = ' FAMILY=' // trim(family) // ','
+            buf(k) = ' FAMILY=' // family(1:11) // ','   ! as gfortran writes an integer
           write (u, '(a)', iostat=ios) trim(buf(k))
         end do
       end if
