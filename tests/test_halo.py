@@ -113,6 +113,10 @@ def test_halo_refused_where_it_makes_no_sense(tmp_path):
                                     "&orbits family = 'halo_east', de = 0.01 /\n")
     r = run_tubes(["b.nml"], cwd=tmp_path)
     assert r.returncode != 0 and "family: the name is not one of the families" in r.stderr
+    (tmp_path / "c.nml").write_text("&run scenes = 'orbits' /\n&model system = 'cr3bp', spatial = .true. /\n"
+                                    "&orbits family = 'halo_south', method = 'multiple', de = 0.01 /\n")
+    r = run_tubes(["c.nml"], cwd=tmp_path)
+    assert r.returncode != 0 and "method = 'multiple' is not supported" in r.stderr
 
 
 def test_halo_below_the_branch_point(tmp_path):

@@ -1122,6 +1122,11 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
             "planar Lyapunov family): system '%s' has %d\n", path, line_or_group(w, "orbits", "family"),
             c->orb_family == -1 ? "halo_north" : "halo_south", c->system, c->ndof);
     n++;
+  } else if (c->orb_family < 0 && !strcmp(c->orb_method, "multiple")) {
+    fprintf(err, "%s:%d: &orbits: family = '%s' is continued by single shooting of the symmetric orbit: "
+            "method = 'multiple' is not supported for it (allowed: method = 'single')\n", path,
+            line_or_group(w, "orbits", "method"), c->orb_family == -1 ? "halo_north" : "halo_south");
+    n++;
   } else if (c->orb_family >= 0 && c->nparams >= 0 &&
              !(c->orb_family >= 1 && c->orb_family <= (c->ndof > 1 ? c->ndof - 1 : 1))) {
     fprintf(err, "%s:%d: &orbits: family = %d is out of range: allowed 1 .. %d (the saddle's centre modes; "
