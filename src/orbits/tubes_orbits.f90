@@ -29,8 +29,8 @@ module tubes_orbits
   integer, parameter, public :: END_NOBRANCH = 5    !! no branch point below the largest dE
   !> opts%family codes of the family that branches off the highest-frequency centre mode's
   !> family (N - 1) at its first branch point (the spatial CR3BP's halo family off the planar
-  !> Lyapunov family): PLUS starts along +tangent (q_N > 0 at the orbit's start: 'halo_north'),
-  !> MINUS along -tangent ('halo_south'). docs/orbits.md, "Branch switching".
+  !> Lyapunov family): PLUS the side whose orbits' larger excursion in q_N is positive
+  !> ('halo_north'), MINUS negative ('halo_south'). docs/orbits.md, "Branch switching".
   integer, parameter, public :: FAMILY_BRANCH_PLUS = -1, FAMILY_BRANCH_MINUS = -2
 
   !> Options of the corrector and the continuation.
@@ -909,8 +909,10 @@ contains
     type(orbit_t) :: ob(1)
     real(wp), allocatable :: dg(:), w(:), wp_(:), wn(:), t(:), tn(:), wprev(:), jac(:, :), rr(:), xx(:), &
                              phi(:, :), fx(:), v(:), b(:, :)
-    real(wp) :: lo, hi, mid, e_sad, h, h0, e_prev, e_now, xi, tau
-    integer :: n2, nd, k, c_lo, np, it, j, nstep, info
+    real(wp) :: lo, hi, mid, e_sad, h, h0, e_prev, e_now, xi, tau, zbig
+    real(wp), allocatable :: wb(:), tb(:)
+    logical :: oriented
+    integer :: n2, nd, k, c_lo, np, it, j, nstep, info, iz
     integer, allocatable :: ev(:), od(:), rev(:), cnt(:), ipiv(:)
     real(wp) :: nre(size(eqs(isad)%x)/2 - 1), nim(size(eqs(isad)%x)/2 - 1)
     logical :: ok
@@ -928,6 +930,11 @@ contains
     rev = model%reversor()
     ev = pack([(k, k = 1, n2)], rev > 0)
     od = pack([(k, k = 1, n2)], rev < 0)
+    iz = findloc(ev, nd, 1)          ! q_N among the fixed-set unknowns
+    if (iz == 0) then
+      stat = TUBES_EINPUT
+      return
+    end if
     po = opts
     po%family = np
     po%n_segments = 1
@@ -993,9 +1000,10 @@ contains
     allocate (t(nd + 1), tn(nd + 1), w(nd + 1), wp_(nd + 1), wn(nd + 1), wprev(nd + 1))
     t = [v(ev), 0.0_wp]
     t = t/sqrt(sum(t**2))
-    if (t(nd) < 0) t = -t                                  ! q_N > 0 along +t
-    if (opts%family == FAMILY_BRANCH_MINUS) t = -t
     w = [ob(1)%x0(ev), ob(1)%period/2]
+    wb = w                                                 ! the branch point, for a restart
+    tb = t
+    oriented = .false.
     ! (3) pseudo-arclength along the branch
     allocate (jac(nd + 1, nd + 1), rr(nd + 1), xx(n2), phi(n2, n2), b(nd, nd + 1), ipiv(nd + 1))
     h0 = 1.0e-2_wp*model%length_scale()
@@ -1047,6 +1055,19 @@ contains
         return
       end if
       if (dot_product(tn, t) < 0) tn = -tn
+      if (.not. oriented) then
+        ! north: the orbit's larger excursion in q_N (at one of its two fixed-set points, x0 and
+        ! x(tau)) is positive; south: negative. The first step decides (its asymmetry ~15 %)
+        oriented = .true.
+        zbig = wn(iz)
+        if (abs(xx(nd)) > abs(wn(iz))) zbig = xx(nd)
+        if ((zbig < 0) .eqv. (opts%family == FAMILY_BRANCH_PLUS)) then
+          w = wb
+          t = -tb
+          h = h0
+          cycle
+        end if
+      end if
       wprev = w
       w = wn
       t = tn
