@@ -133,3 +133,22 @@ def test_halo_branch(tmp_path):
     assert [r[0] for r in rows] == ["L1", "L2"], out
     for (_, c, nu), ref in zip(rows, (3.174351954078, 3.152118903101)):
         assert abs(float(c) - ref) < 2e-10 and abs(float(nu) - 1) < 1e-8
+
+
+def test_halo_l1(tmp_path):
+    """The L1 halo families as the example prints them: north and south mirror images (z0 -> -z0,
+    the same C and period), C = -2 (E_L1 + dE) with E_L1 = -1.594170558874... (C(dE) - C(dE') =
+    -2 (dE - dE')), the period growing with dE; tests/test_halo.py checks the orbits against scipy."""
+    out = _run("halo_l1.py", tmp_path)
+    assert (tmp_path / "halo_l1.png").stat().st_size > 0
+    rows = re.findall(r"^(halo_\w+): dE = (\S+), C = (\S+), period (\S+), z0 = (\S+)$", out, re.M)
+    n = [r for r in rows if r[0] == "halo_north"]
+    s = [r for r in rows if r[0] == "halo_south"]
+    assert len(n) == len(s) == 6, out
+    for a, b in zip(n, s):
+        assert a[1:4] == b[1:4] and float(a[4]) == pytest.approx(-float(b[4]), abs=1e-8)
+    de = [float(r[1]) for r in n]
+    c = [float(r[2]) for r in n]
+    for k in range(1, 6):
+        assert c[k] - c[0] == pytest.approx(-2 * (de[k] - de[0]), abs=1e-9)
+    assert all(float(n[k][3]) > float(n[k - 1][3]) for k in range(1, 6))
