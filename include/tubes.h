@@ -295,6 +295,27 @@ int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUB
                        double xs[], double history[], double *end_de, int *end_reason, int local,
                        void *stores);
 
+/* Bifurcation monitoring of the family of tubes_orbit_family (the same arguments up to
+ * int_max_iter; docs/orbits.md, "Bifurcations"). nu[4 nde]: per orbit k the Floquet indices
+ * (lambda + 1/lambda)/2 of its N - 1 nontrivial multiplier pairs, Re in nu[4k + 0 .. N-2], Im in
+ * nu[4k + 2 .. 2 + N-2] (descending real part; 0 where not converged). Between consecutive converged
+ * orbits, each change in the count of real indices above +1 (kind 1, a branch point or fold), below
+ * -1 (kind 2, period doubling) or of complex ones (kind 3, a Krein collision) is located by bisection
+ * in dE to a bracket <= *bif_tol dE (1e-11). *nbif: how many were found (the first max_bif are returned); per
+ * bifurcation j: kind, after (0-based: between orbits after and after + 1), bde (dE, the bracket's
+ * midpoint), bwidth (the bracket), benergy, bperiod, bnu[4j ..] (the indices there, as nu),
+ * bconv (1: the orbit at bde converged; 0: the corrector failed inside the bracket, which stopped),
+ * bx0[6j ..] that orbit's start (state0) and btan[6j ..] the monodromy's eigenvector there for the
+ * multiplier +1 (kind 1, orthogonal to the flow) or -1 (kind 2): the new family's tangent (0 for kind 3). */
+int tubes_orbit_bifurcations(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                             const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                             const char saddle[8], int nde, const double des[], int n_segments, int family,
+                             double tol, double rtol, double atol, int max_iter, int nsamp, int method, double h,
+                             double omega_bind, int solver, int int_max_iter, double nu[], int max_bif, int *nbif,
+                             int kind[], int after[], double bde[], double bwidth[], double benergy[],
+                             double bperiod[], double bnu[], int bconv[], double bx0[], double btan[], double *bif_tol, int local,
+                             void *stores);
+
 /* Sections of the tube-dynamics calls (docs/tubes.md, "Sections"): sec_kind 1 = the rolling
  * ball's ray theta = level [rad], dir = sign of p_theta, coordinates (r, p_r); sec_kind 2 = the
  * plane q_{sec_index} = level (sec_index 1..N), dir = sign of dq/dt at the crossing,

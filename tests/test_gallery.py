@@ -121,3 +121,34 @@ def test_damped_region(tmp_path):
     ratios = [float(v) for v in re.findall(r"ratio to the cut (\S+),", out)]
     assert len(ratios) == 3, out
     assert abs(ratios[0] - 1) < 1e-3 and ratios[0] > ratios[1] > ratios[2] > 0, ratios
+
+
+def test_halo_branch(tmp_path):
+    """The L1 and L2 halo branch points as the example prints them: one each, nu_v = 1 there, C
+    within 1e-10 of tests/test_bifurcations.py's scipy values (3.174351954078, 3.152118903101;
+    that test states the agreement) plus the program's own 7.6e-11."""
+    out = _run("halo_branch.py", tmp_path)
+    assert (tmp_path / "halo_branch.png").stat().st_size > 0
+    rows = re.findall(r"^(L[12]): kind 1 \(branch point\) at dE = \S+, C = (\S+), period \S+, nu = \S+, (\S+)$", out, re.M)
+    assert [r[0] for r in rows] == ["L1", "L2"], out
+    for (_, c, nu), ref in zip(rows, (3.174351954078, 3.152118903101)):
+        assert abs(float(c) - ref) < 2e-10 and abs(float(nu) - 1) < 1e-8
+
+
+def test_halo_l1(tmp_path):
+    """The L1 halo families as the example prints them: north and south mirror images (z0 -> -z0,
+    the same C and period), C = -2 (E_L1 + dE) with E_L1 = -1.594170558874... (C(dE) - C(dE') =
+    -2 (dE - dE')), the period growing with dE; tests/test_halo.py checks the orbits against scipy."""
+    out = _run("halo_l1.py", tmp_path)
+    assert (tmp_path / "halo_l1.png").stat().st_size > 0
+    rows = re.findall(r"^(halo_\w+): dE = (\S+), C = (\S+), period (\S+), z0 = (\S+)$", out, re.M)
+    n = [r for r in rows if r[0] == "halo_north"]
+    s = [r for r in rows if r[0] == "halo_south"]
+    assert len(n) == len(s) == 6, out
+    for a, b in zip(n, s):
+        assert a[1:4] == b[1:4] and float(a[4]) == pytest.approx(-float(b[4]), abs=1e-8)
+    de = [float(r[1]) for r in n]
+    c = [float(r[2]) for r in n]
+    for k in range(1, 6):
+        assert c[k] - c[0] == pytest.approx(-2 * (de[k] - de[0]), abs=1e-9)
+    assert all(float(n[k][3]) > float(n[k - 1][3]) for k in range(1, 6))

@@ -28,6 +28,7 @@ module tubes_capi
   use tubes_normal_form, only: nf_result_t, normal_form_flux, NF_NPTS
   use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
+  use tubes_study, only: family_bifurcations, bifurcation_t, BIF_TOL
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, gate_reach, maps_at, cut_outputs, seed_stores_t, family_at, &
                          equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, &
@@ -438,6 +439,74 @@ contains
                       ts, xs, history)
     stat = TUBES_OK
   end function c_orbit_family
+
+  !> Bifurcation monitoring of the family of tubes_orbit_family (the same arguments up to
+  !> int_max_iter, include/tubes.h: tubes_orbit_bifurcations): the Floquet indices of each orbit
+  !> and the bifurcations located between them (tubes_study: family_bifurcations).
+  integer(c_int) function c_orbit_bifurcations(system, params, lo, hi, n_grid, saddle, nde, des, &
+      n_segments, family, tol, rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, &
+      nu, max_bif, nbif, kind, after, bde, bwidth, benergy, bperiod, bnu, bconv, bx0, btan, bracket_tol, local, &
+      stores) &
+      result(stat) &
+      bind(C, name='tubes_orbit_bifurcations')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, nde, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
+    real(c_double), value :: h, omega_bind
+    real(c_double), intent(in) :: des(nde)
+    real(c_double), value :: tol, rtol, atol
+    real(c_double), intent(out) :: nu(2*MAX_DOF - 2, nde)
+    integer(c_int), value :: max_bif
+    integer(c_int), intent(out) :: nbif, kind(max_bif), after(max_bif), bconv(max_bif)
+    real(c_double), intent(out) :: bde(max_bif), bwidth(max_bif), benergy(max_bif), bperiod(max_bif), &
+                                   bnu(2*MAX_DOF - 2, max_bif), bracket_tol, bx0(2*MAX_DOF, max_bif), &
+                                   btan(2*MAX_DOF, max_bif)
+    integer(c_int), value :: local
+    type(c_ptr), value :: stores
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(orbit_opts_t) :: opts
+    type(orbit_t), allocatable :: orbs(:)
+    type(bifurcation_t), allocatable :: bifs(:)
+    type(study_t) :: st
+    type(section_choice_t) :: sec
+    type(seed_stores_t), pointer :: kept
+    real(wp), allocatable :: nu1(:, :)
+    integer :: isad, reason, k, np
+    real(wp) :: ede
+    nu = 0; nbif = 0; kind = 0; after = 0; bconv = 0; bde = 0; bwidth = 0; benergy = 0; bperiod = 0; bnu = 0
+    bx0 = 0; btan = 0
+    bracket_tol = BIF_TOL
+    opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, &
+                        n_samples=nsamp, family=family, local=local /= 0, &
+                        integ=integ_of(method, h, omega_bind, solver, int_max_iter))
+    call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
+    allocate (orbs(nde))
+    kept => stores_of(stores)
+    call study_family(st, des, opts, model, eqs, isad, orbs, ede, reason, stat, kept)
+    if (stat < 0) return
+    np = model%ndof() - 1
+    allocate (nu1(2*np, nde))
+    call family_bifurcations(st, model, eqs, isad, des, orbs, opts, nu1, bifs, stat, kept)
+    if (stat < 0) return
+    nu(1:np, :) = nu1(1:np, :)
+    nu(MAX_DOF:MAX_DOF + np - 1, :) = nu1(np + 1:2*np, :)
+    nbif = size(bifs)
+    do k = 1, min(nbif, max_bif)
+      kind(k) = bifs(k)%kind
+      after(k) = bifs(k)%after - 1
+      bconv(k) = merge(1, 0, bifs(k)%converged)
+      bde(k) = bifs(k)%de
+      bwidth(k) = bifs(k)%width
+      benergy(k) = bifs(k)%energy
+      bperiod(k) = bifs(k)%period
+      bnu(1:np, k) = bifs(k)%nre
+      bnu(MAX_DOF:MAX_DOF + np - 1, k) = bifs(k)%nim
+      if (allocated(bifs(k)%x0)) bx0(1:2*np + 2, k) = bifs(k)%x0
+      if (allocated(bifs(k)%tangent)) btan(1:2*np + 2, k) = bifs(k)%tangent
+    end do
+    stat = TUBES_OK
+  end function c_orbit_bifurcations
 
   !> The study (model, box, saddle, orbit corrector) and the section of a C call.
   subroutine study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, integ, st, &

@@ -145,8 +145,9 @@ const nml_var tubes_nml_vars[] = {
     {"orbits", "atol", NML_REAL, 1, "state units", "1e-13", "> 0", "integration tolerance (absolute)"},
     {"orbits", "max_iter", NML_INT, 1, "-", "25", "1 .. 200", "Newton iterations per orbit"},
     {"orbits", "n_samples", NML_INT, 1, "-", "201", "2 .. 100000", "samples along each orbit in the output"},
-    {"orbits", "family", NML_INT, 1, "-", "1", "1 .. N-1",
-     "the Lyapunov family of the saddle's k-th centre frequency (ascending; N = 3: 2 families)"},
+    {"orbits", "family", NML_INT, 1, "-", "1", "1 .. N-1, 'lyapunov', 'halo_north', 'halo_south'",
+     "the Lyapunov family of the saddle's k-th centre frequency (ascending; N = 3: 2 families), or the halo "
+     "branch off family N-1"},
     {"section", "kind", NML_STRING, 1, "-", "the system's ('ray' for the ball)", "ray, plane",
      "ray: the ball's polar ray theta = angle; plane: q_index = value (docs/tubes.md, Sections)"},
     {"section", "angle", NML_REAL, 1, "deg", "45", "-360 .. 360", "kind = 'ray': the ray theta = angle (U1: 45)"},
@@ -328,6 +329,8 @@ static const char *check_token(const nml_var *var, const char *tok, size_t len, 
   }
   case NML_INT: {
     char *end;
+    /* &orbits family also takes a branch's name (docs/orbits.md, "Branch switching") */
+    if (!strcmp(var->name, "family") && (v[0] == '\'' || v[0] == '"')) return NULL;
     errno = 0;
     long long x = strtoll(v, &end, 10);
     if (end == v || *end != '\0') return "is not an integer";
@@ -1109,10 +1112,26 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->orb_rtol >= 1e-15 && c->orb_rtol < 1e-4)) n += bad(path, c, w, "orbits", "rtol", err, "", c->orb_rtol);
   if (!(c->orb_atol > 0)) n += bad(path, c, w, "orbits", "atol", err, "", c->orb_atol);
   if (!(c->orb_max_iter >= 1 && c->orb_max_iter <= 200)) n += bad(path, c, w, "orbits", "max_iter", err, "", c->orb_max_iter);
-  if (c->nparams >= 0 && !(c->orb_family >= 1 && c->orb_family <= (c->ndof > 1 ? c->ndof - 1 : 1))) {
+  if (c->orb_family == -99) {
+    fprintf(err, "%s:%d: &orbits: family: the name is not one of the families: allowed 1 .. N-1 (the saddle's "
+            "centre modes), 'lyapunov' (1), 'halo_north', 'halo_south' (the branch off family N-1 at its first "
+            "branch point, 3 degrees of freedom)\n", path, line_or_group(w, "orbits", "family"));
+    n++;
+  } else if (c->orb_family < 0 && c->nparams >= 0 && c->ndof != 3) {
+    fprintf(err, "%s:%d: &orbits: family = '%s' needs 3 degrees of freedom (the halo family branches off the "
+            "planar Lyapunov family): system '%s' has %d\n", path, line_or_group(w, "orbits", "family"),
+            c->orb_family == -1 ? "halo_north" : "halo_south", c->system, c->ndof);
+    n++;
+  } else if (c->orb_family < 0 && !strcmp(c->orb_method, "multiple")) {
+    fprintf(err, "%s:%d: &orbits: family = '%s' is continued by single shooting of the symmetric orbit: "
+            "method = 'multiple' is not supported for it (allowed: method = 'single')\n", path,
+            line_or_group(w, "orbits", "method"), c->orb_family == -1 ? "halo_north" : "halo_south");
+    n++;
+  } else if (c->orb_family >= 0 && c->nparams >= 0 &&
+             !(c->orb_family >= 1 && c->orb_family <= (c->ndof > 1 ? c->ndof - 1 : 1))) {
     fprintf(err, "%s:%d: &orbits: family = %d is out of range: allowed 1 .. %d (the saddle's centre modes; "
-            "system '%s' has %d degrees of freedom)\n", path, line_or_group(w, "orbits", "family"),
-            c->orb_family, c->ndof > 1 ? c->ndof - 1 : 1, c->system, c->ndof);
+            "system '%s' has %d degrees of freedom), or 'halo_north', 'halo_south'\n", path,
+            line_or_group(w, "orbits", "family"), c->orb_family, c->ndof > 1 ? c->ndof - 1 : 1, c->system, c->ndof);
     n++;
   }
   if (!(c->orb_n_samples >= 2 && c->orb_n_samples <= 100000))

@@ -814,7 +814,8 @@ contains
       character(8) :: saddle
       real(c_double), allocatable :: de(:)
       character(LNAME) :: method
-      integer :: n_segments, max_iter, n_samples, m, family
+      integer :: n_segments, max_iter, n_samples, m, ifam, iosf
+      character(LNAME) :: family
       real(c_double) :: tol, rtol, atol
       real(c_double), allocatable :: saddle_near(:)
       character(512) :: buf(40)
@@ -823,7 +824,14 @@ contains
       namelist /orbits/ saddle, saddle_near, de, method, n_segments, tol, rtol, atol, max_iter, &
         n_samples, family
       saddle = v%orb_saddle; method = v%orb_method; n_segments = v%orb_n_segments
-      family = v%orb_family
+      select case (v%orb_family)
+      case (-1)
+        family = 'halo_north'
+      case (-2)
+        family = 'halo_south'
+      case default
+        write (family, '(i0)') v%orb_family
+      end select
       call list_io(v%orb_saddle_near, saddle_near)
       tol = v%orb_tol; rtol = v%orb_rtol; atol = v%orb_atol; max_iter = v%orb_max_iter
       n_samples = v%orb_n_samples
@@ -847,13 +855,29 @@ contains
           if (len_trim(buf(k)) == 0) cycle
           if (by_name .and. index(buf(k), ' SADDLE_NEAR=') == 1) cycle
           if (.not. by_name .and. index(buf(k), ' SADDLE=') == 1) cycle
+          ! a numbered family is an integer (the text is read back by the same rules), in the
+          ! layout of an integer's (i0 in 11 columns: the effective namelist as before)
+          if (index(buf(k), " FAMILY='") == 1 .and. verify(trim(family), '0123456789') == 0) &
+            buf(k) = ' FAMILY=' // family(1:11) // ','   ! as gfortran writes an integer
           write (u, '(a)', iostat=ios) trim(buf(k))
         end do
       end if
       v%orb_saddle = saddle; v%orb_method = method; v%orb_n_segments = n_segments
       v%orb_tol = tol; v%orb_rtol = rtol; v%orb_atol = atol; v%orb_max_iter = max_iter
       v%orb_n_samples = n_samples
-      v%orb_family = family
+      select case (trim(family))
+      case ('halo_north')
+        v%orb_family = -1
+      case ('halo_south')
+        v%orb_family = -2
+      case ('lyapunov')
+        v%orb_family = 1
+      case default
+        read (family, *, iostat=iosf) ifam
+        v%orb_family = ifam
+        if (iosf /= 0 .or. verify(trim(family), '0123456789+-') /= 0) v%orb_family = -99
+        if (v%orb_family < 0 .and. v%orb_family /= -99) v%orb_family = 0   ! out of range, said as a number
+      end select
     end subroutine io_orbits
     !> A list (dE) in read mode keeps its unset entries; in write mode only the set ones.
     subroutine list_io(a, out)

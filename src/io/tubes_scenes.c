@@ -833,6 +833,8 @@ static const char *end_reason_text(int r) {
   case 1: return "the orbits run into another equilibrium";
   case 2: return "the period grows without bound";
   case 3: return "the correction fails for ever smaller steps";
+  case 4: return "the branch's energy turns back (a fold)";
+  case 5: return "the family has no branch point below the largest dE";
   default: return "none";
   }
 }
@@ -884,7 +886,8 @@ int scene_orbits(tubes_run_t *run) {
     rc = EXIT_NUMERIC;
     goto out;
   }
-  printf("orbits: %s Lyapunov family, %s shooting%s%s (%.2f s)\n", run->saddle, nseg > 1 ? "multiple" : "single",
+  const char *famname = c->orb_family == -1 ? "halo_north" : c->orb_family == -2 ? "halo_south" : "Lyapunov";
+  printf("orbits: %s %s family, %s shooting%s%s (%.2f s)\n", run->saddle, famname, nseg > 1 ? "multiple" : "single",
          nseg > 1 ? "" : (run->natural ? " (brake orbit)" : " (symmetric orbit)"),
          dissipative(run) ? ", of the conservative model (a dissipative model has no periodic orbits: they are the limit "
                          "the damped model's transition regions start from)" : "", now() - t0);
@@ -903,7 +906,17 @@ int scene_orbits(tubes_run_t *run) {
         printf("  %10.4g   not converged\n", c->orb_de[k]);
     }
   }
-  if (end_de > 0) {
+  if (c->orb_family < 0 && reason == 5) {
+    printf("  no %s family: %s (dE = %g)\n", famname, end_reason_text(reason), c->orb_de[n - 1]);
+    fprintf(stderr, "tubes: orbits: no %s orbits: the %s's family %d (its planar Lyapunov family in the CR3BP) has no "
+            "branch point below dE = %g; not computed\n", famname, run->saddle, run->ndof - 1, c->orb_de[n - 1]);
+  } else if (c->orb_family < 0 && nfail && end_de <= 0) {
+    for (int k = 0; k < n; k++)
+      if (!conv[k])
+        fprintf(stderr, "tubes: orbits: dE = %g: no %s orbit: below the branch point (the branch starts at the "
+                "energy of the planar family's first branch point, /orbits/bifurcations of that family)\n",
+                c->orb_de[k], famname);
+  } else if (end_de > 0) {
     printf("  family end: dE ~ %.8g%s: %s\n", end_de, in_units(" (cm/s)^2"), end_reason_text(reason));
     for (int k = 0; k < n; k++)
       if (!conv[k]) {
@@ -936,8 +949,59 @@ int scene_orbits(tubes_run_t *run) {
       rc = EXIT_NUMERIC;
     }
   }
+  /* bifurcation monitoring (docs/orbits.md, "Bifurcations"): the Floquet indices of each orbit and
+   * the bifurcations located between them, on the family the run's stores hold */
+  enum { MAXBIF = 64 };
+  int nbif = 0, bkind[MAXBIF], bafter[MAXBIF], bconv[MAXBIF];
+  double bde[MAXBIF], bwid[MAXBIF], ben[MAXBIF], bper[MAXBIF], bnu[4 * MAXBIF], bx0[6 * MAXBIF], btan[6 * MAXBIF];
+  double *nu = calloc(4 * (size_t)n, sizeof(double));
+  if (!nu) { fprintf(stderr, "tubes: orbits: out of memory\n"); rc = EXIT_NUMERIC; goto out; }
+  double tb = now(), btol = 0;
+  int sb = tubes_orbit_bifurcations(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, c->orb_de,
+                                    nseg, c->orb_family, c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c),
+                                    nu, MAXBIF, &nbif, bkind, bafter, bde, bwid, ben, bper, bnu, bconv, bx0, btan, &btol, 0,
+                                    run->seeds);
+  if (sb < 0) {
+    char m[TUBES_LSTATUS];
+    status_text(sb, m, sizeof m);
+    fprintf(stderr, "tubes: orbits: bifurcation monitoring failed: %s (status %d)\n", m, sb);
+    free(nu);
+    rc = EXIT_NUMERIC;
+    goto out;
+  }
+  if (nbif > MAXBIF) {
+    fprintf(stderr, "tubes: orbits: %d bifurcations between the requested energies; the first %d are kept: ask for "
+            "fewer dE at a time\n", nbif, MAXBIF);
+    nbif = MAXBIF;
+    if (!rc) rc = EXIT_PARTIAL;
+  }
+  static const char *bif_name[] = {"", "branch_point", "period_doubling", "krein_collision"};
+  int np = run->ndof - 1;
+  if (c->orb_family < 0)
+    printf("  bifurcations: not located along a branch family (its orbits' Floquet indices are written)\n");
+  else if (nbif == 0)
+    printf("  bifurcations: none between the requested energies (Floquet indices: %d pair%s)\n", np, np > 1 ? "s" : "");
+  else {
+    printf("  bifurcations (located by bisection to a bracket of %.0e dE; %.2f s):\n", btol, now() - tb);
+    printf("  %-16s %18s %11s %18s %14s  %s\n", "kind", "dE", "bracket", "energy", "period", "Floquet indices (nu)");
+    for (int j = 0; j < nbif; j++) {
+      if (!bconv[j]) {
+        printf("  %-16s %18.12g %11.2e   the corrector failed inside the bracket\n", bif_name[bkind[j]], bde[j], bwid[j]);
+        fprintf(stderr, "tubes: orbits: the %s between dE = %g and %g: the corrector failed inside the bisection's "
+                "bracket [%.12g +- %.2g]; not located further\n", bif_name[bkind[j]], c->orb_de[bafter[j]],
+                c->orb_de[bafter[j] + 1], bde[j], bwid[j] / 2);
+        if (!rc) rc = EXIT_PARTIAL;
+        continue;
+      }
+      printf("  %-16s %18.12g %11.2e %18.12f %14.10f ", bif_name[bkind[j]], bde[j], bwid[j], ben[j], bper[j]);
+      for (int i = 0; i < np; i++)
+        if (bnu[4 * j + 2 + i] != 0) printf(" %.10g%+.3gi", bnu[4 * j + i], bnu[4 * j + 2 + i]);
+        else printf(" %.10g", bnu[4 * j + i]);
+      putchar('\n');
+    }
+  }
   hid_t g = h5_group(run->file, "orbits");
-  if (g < 0) { rc = EXIT_IO; goto out; }
+  if (g < 0) { free(nu); rc = EXIT_IO; goto out; }
   int n2 = 2 * run->ndof;   /* state components: 2N */
   hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, (hsize_t)n2}, d2[2] = {(hsize_t)n, 2},
           d44[3] = {(hsize_t)n, (hsize_t)n2, (hsize_t)n2};
@@ -973,10 +1037,52 @@ int scene_orbits(tubes_run_t *run) {
   h |= h5_attr_long(g, "n_segments", nseg);
   h |= h5_attr_double(g, "tol", c->orb_tol);
   h |= h5_attr_long(g, "family", c->orb_family);
+  h |= h5_attr_string(g, "family_name", c->orb_family == -1 ? "halo_north" : c->orb_family == -2 ? "halo_south"
+                                                                                                   : "lyapunov");
   if (dissipative(run)) h |= h5_attr_string(g, "model", "conservative");
   if (end_de > 0) {
     h |= h5_attr_double(g, "family_end_dE", end_de);
     h |= h5_attr_string(g, "family_end_reason", end_reason_text(reason));
+  }
+  {
+    hsize_t dnp[2] = {(hsize_t)n, (hsize_t)np}, dbp[2] = {(hsize_t)nbif, (hsize_t)np}, db = (hsize_t)nbif;
+    double *re = malloc(sizeof(double) * (size_t)np * (n > nbif ? n : nbif) + 1),
+           *im = malloc(sizeof(double) * (size_t)np * (n > nbif ? n : nbif) + 1);
+    int *kd = malloc(sizeof(int) * (size_t)nbif + 1), *af = malloc(sizeof(int) * (size_t)nbif + 1);
+    if (!re || !im || !kd || !af) h = 1;
+    else {
+      for (int k = 0; k < n; k++)
+        for (int i = 0; i < np; i++) { re[np * k + i] = nu[4 * k + i]; im[np * k + i] = nu[4 * k + 2 + i]; }
+      h |= h5_write_double(g, "floquet_index", 2, dnp, re, "1");
+      h |= h5_write_double(g, "floquet_index_imag", 2, dnp, im, "1");
+      hid_t bg = h5_group(g, "bifurcations");
+      if (bg < 0) h = 1;
+      else {
+        for (int j = 0; j < nbif; j++) {
+          kd[j] = bkind[j]; af[j] = bafter[j];
+          for (int i = 0; i < np; i++) { re[np * j + i] = bnu[4 * j + i]; im[np * j + i] = bnu[4 * j + 2 + i]; }
+        }
+        h |= h5_write_int(bg, "kind", db, kd, "1");
+        h |= h5_write_int(bg, "after", db, af, "1");
+        h |= h5_write_int(bg, "converged", db, bconv, "1");
+        h |= h5_write_double(bg, "dE", 1, &db, bde, "(cm/s)^2");
+        h |= h5_write_double(bg, "bracket", 1, &db, bwid, "(cm/s)^2");
+        h |= h5_write_double(bg, "energy", 1, &db, ben, "(cm/s)^2");
+        h |= h5_write_double(bg, "period", 1, &db, bper, "s");
+        h |= h5_write_double(bg, "floquet_index", 2, dbp, re, "1");
+        h |= h5_write_double(bg, "floquet_index_imag", 2, dbp, im, "1");
+        hsize_t dbs[2] = {(hsize_t)nbif, (hsize_t)n2};
+        for (int j = 0; j < nbif; j++)
+          for (int i = 0; i < n2; i++) { bx0[n2 * j + i] = bx0[6 * j + i]; btan[n2 * j + i] = btan[6 * j + i]; }
+        h |= h5_write_double(bg, "state0", 2, dbs, bx0, n2 == 4 ? "cm, cm, cm/s, cm/s" : "state units");
+        h |= h5_write_double(bg, "tangent", 2, dbs, btan, "1");
+        h |= h5_attr_string(bg, "kinds", "1 branch_point (an index crosses +1), 2 period_doubling (-1), "
+                            "3 krein_collision (a pair of indices turns complex or real)");
+        h |= h5_attr_double(bg, "tol", btol);
+        H5Gclose(bg);
+      }
+    }
+    free(re); free(im); free(kd); free(af);
   }
   for (int k = 0; k < n && !h; k++) {
     char name[32];
@@ -993,7 +1099,7 @@ int scene_orbits(tubes_run_t *run) {
     }
     H5Gclose(o);
   }
-  free(mre); free(mim); free(monot);
+  free(mre); free(mim); free(monot); free(nu);
   H5Gclose(g);
   if (h) rc = EXIT_IO;
   else if (nfail && !rc) rc = EXIT_PARTIAL;

@@ -5,7 +5,7 @@
 module tubes_orbits
   use, intrinsic :: ieee_arithmetic, only: ieee_is_finite, ieee_value, ieee_positive_inf
   use tubes_kinds, only: wp, PI
-  use tubes_lapack, only: dgesv, dgels, eigen
+  use tubes_lapack, only: dgesv, dgels, eigen, dsyev
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EFAULT
   use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree, ens_reuse_ok
   use tubes_field, only: vector_field_t, jet_spec_t
@@ -24,6 +24,13 @@ module tubes_orbits
   integer, parameter, public :: END_EQUILIBRIUM = 1 !! the orbit runs into another equilibrium
   integer, parameter, public :: END_PERIOD = 2      !! period grows without bound
   integer, parameter, public :: END_NOCONV = 3      !! correction fails even for tiny steps
+  integer, parameter, public :: END_FOLD = 4        !! the branch's energy turns back (a fold)
+  integer, parameter, public :: END_NOBRANCH = 5    !! no branch point below the largest dE
+  !> opts%family codes of the family that branches off the highest-frequency centre mode's
+  !> family (N - 1) at its first branch point (the spatial CR3BP's halo family off the planar
+  !> Lyapunov family): PLUS the side whose orbits' larger excursion in q_N is positive
+  !> ('halo_north'), MINUS negative ('halo_south'). docs/orbits.md, "Branch switching".
+  integer, parameter, public :: FAMILY_BRANCH_PLUS = -1, FAMILY_BRANCH_MINUS = -2
 
   !> Options of the corrector and the continuation.
   type, public :: orbit_opts_t
@@ -116,7 +123,8 @@ module tubes_orbits
     procedure :: jet_spec => action_jet_spec
   end type action_field_t
 
-  public :: linear_guess, correct_symmetric, correct_multiple, finish_orbit, orbit_family
+  public :: linear_guess, correct_symmetric, correct_multiple, finish_orbit, orbit_family, floquet_indices, &
+            floquet_tangent
 
 
 contains
@@ -571,6 +579,137 @@ contains
     stat = TUBES_OK
   end subroutine finish_orbit
 
+  !> The Floquet (stability) indices nu_i = (lambda + 1/lambda)/2 of the N - 1 nontrivial
+  !> multiplier pairs of the monodromy m (2N x 2N) of a periodic orbit of an autonomous
+  !> Hamiltonian system (docs/orbits.md, "Bifurcations"): nu > 1 a hyperbolic pair, -1 <= nu <= 1
+  !> an elliptic one (lambda = exp(+-i theta), nu = cos theta), nu < -1 an inverse hyperbolic one,
+  !> nu complex (nre +- i nim) a complex quartet off the unit circle. They are the roots of a
+  !> polynomial whose coefficients come from the traces of m, m^2, ..., m^(N-1), the trivial pair
+  !> taken as exactly 1: tr m^j = 2 + 2 sum_i T_j(nu_i), T_j the Chebyshev polynomials. Unlike
+  !> m's eigenvalues near 1 (the trivial Jordan block, where an index crossing +1 makes a 4-fold
+  !> eigenvalue) the traces are smooth functions of m. Ordered by descending real part.
+  subroutine floquet_indices(m, nre, nim, stat)
+    real(wp), intent(in) :: m(:, :)
+    real(wp), intent(out) :: nre(:), nim(:)   !! (N - 1)
+    integer, intent(out) :: stat
+    real(wp), allocatable :: mj(:, :), c(:), pw(:), e(:), tc(:, :), comp(:, :), wr(:), wi(:)
+    real(wp) :: d, s
+    integer :: np, j, k, i
+    np = size(m, 1)/2 - 1
+    stat = TUBES_OK
+    nre = 0
+    nim = 0
+    if (np < 1) return
+    allocate (mj(size(m, 1), size(m, 1)), c(np), pw(0:np), e(0:np), tc(0:np, 0:np))
+    ! c_j = (tr m^j - 2)/2 = sum_i T_j(nu_i)
+    mj = m
+    do j = 1, np
+      if (j > 1) mj = matmul(mj, m)
+      c(j) = 0
+      do i = 1, size(m, 1)
+        c(j) = c(j) + mj(i, i)
+      end do
+      c(j) = (c(j) - 2)/2
+    end do
+    ! the Chebyshev coefficients tc(j, k) of x^k in T_j
+    tc = 0
+    tc(0, 0) = 1
+    if (np >= 1) tc(1, 1) = 1
+    do j = 2, np
+      tc(j, 1:np) = 2*tc(j - 1, 0:np - 1)
+      tc(j, :) = tc(j, :) - tc(j - 2, :)
+    end do
+    ! the power sums pw(k) = sum_i nu_i^k (triangular: T_j's leading coefficient is 2^(j-1))
+    pw(0) = np
+    do j = 1, np
+      pw(j) = (c(j) - dot_product(tc(j, 0:j - 1), pw(0:j - 1)))/tc(j, j)
+    end do
+    ! Newton's identities: the elementary symmetric polynomials e(k) of the nu_i
+    e(0) = 1
+    do k = 1, np
+      s = 0
+      do i = 1, k
+        s = s + (-1)**(i - 1)*e(k - i)*pw(i)
+      end do
+      e(k) = s/k
+    end do
+    select case (np)
+    case (1)
+      nre(1) = e(1)
+    case (2)
+      ! z^2 - e1 z + e2: d = ((nu1 - nu2)/2)^2 from the power sums (no e2 cancellation)
+      d = (2*pw(2) - pw(1)**2)/4
+      if (d >= 0) then
+        nre = [pw(1)/2 + sqrt(d), pw(1)/2 - sqrt(d)]
+      else
+        nre = pw(1)/2
+        nim = [sqrt(-d), -sqrt(-d)]
+      end if
+      ! a strongly hyperbolic pair (|nu| > 10: the L1 Lyapunov orbits' ~1e3) takes the other
+      ! index's digits out of tr m^2 (rounding ~1e-16 nu^2): then nu_1 from m's largest real
+      ! eigenvalue (well separated, well conditioned) and nu_2 = c_1 - nu_1 from tr m alone
+      if (max(abs(nre(1)), abs(nre(2))) > 10 .and. all(nim == 0)) then
+        allocate (wr(size(m, 1)), wi(size(m, 1)))
+        call eigen(m, wr, wi, stat)
+        if (stat /= TUBES_OK) return
+        i = maxloc(abs(wr), 1, mask=wi == 0)
+        s = (wr(i) + 1/wr(i))/2
+        nre = [s, c(1) - s]
+        if (nre(2) > nre(1)) nre = nre([2, 1])
+      end if
+    case default
+      allocate (comp(np, np), wr(np), wi(np))
+      comp = 0
+      do k = 1, np   ! the companion matrix of z^np - e1 z^(np-1) + e2 z^(np-2) - ...
+        comp(1, k) = (-1)**(k - 1)*e(k)
+      end do
+      do k = 2, np
+        comp(k, k - 1) = 1
+      end do
+      call eigen(comp, wr, wi, stat)
+      if (stat /= TUBES_OK) return
+      do k = 1, np   ! descending real part
+        i = maxloc(wr, 1)
+        nre(k) = wr(i)
+        nim(k) = wi(i)
+        wr(i) = -huge(1.0_wp)
+      end do
+    end select
+  end subroutine floquet_indices
+
+  !> The eigenvector of the monodromy m for the multiplier sgn (+1: a branch point, -1: a period
+  !> doubling) at a bifurcation, the new family's tangent there: the unit vector v with
+  !> (m - sgn I) v = 0, for sgn = +1 also orthogonal to the flow direction f (the trivial
+  !> eigenvector); the right singular vector of the smallest singular value of that (2N + 1) x 2N
+  !> (or 2N x 2N) matrix, from the eigenvectors of its normal matrix (accurate to ~1e-16 |m|^2 over
+  !> the gap to the next singular value squared). Its largest component is positive.
+  subroutine floquet_tangent(m, f, sgn, v, stat)
+    real(wp), intent(in) :: m(:, :), f(:)
+    integer, intent(in) :: sgn
+    real(wp), intent(out) :: v(:)
+    integer, intent(out) :: stat
+    real(wp), allocatable :: a(:, :), b(:, :), w(:), work(:)
+    integer :: n2, i, info, nr
+    n2 = size(m, 1)
+    nr = n2 + merge(1, 0, sgn > 0)
+    allocate (a(nr, n2), b(n2, n2), w(n2), work(max(1, 66*n2)))
+    a(1:n2, :) = m
+    do i = 1, n2
+      a(i, i) = a(i, i) - sgn
+    end do
+    if (sgn > 0) a(nr, :) = f*(maxval(abs(m))/max(sqrt(sum(f**2)), tiny(1.0_wp)))
+    b = matmul(transpose(a), a)
+    call dsyev('V', 'U', n2, b, n2, w, work, size(work), info)
+    stat = TUBES_OK
+    if (info /= 0) then
+      stat = TUBES_ENOCONV
+      return
+    end if
+    v = b(:, 1)   ! ascending eigenvalues: the smallest first
+    i = maxloc(abs(v), 1)
+    if (v(i) < 0) v = -v
+  end subroutine floquet_tangent
+
   !> Nodes for multiple shooting: n points a period apart/n along the trajectory from x0.
   subroutine nodes_from(model, x0, period, n, opts, nodes, stat)
     class(hamiltonian_t), intent(in) :: model
@@ -679,6 +818,10 @@ contains
       stat = TUBES_EINPUT
       return
     end if
+    if (opts%family == FAMILY_BRANCH_PLUS .or. opts%family == FAMILY_BRANCH_MINUS) then
+      call branch_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
+      return
+    end if
     if (opts%family /= 1) then   ! another centre mode's family: that mode first, then as family 1
       if (opts%family < 1 .or. opts%family > size(eqs(isad)%omegas)) then
         stat = TUBES_EINPUT
@@ -737,6 +880,252 @@ contains
       call keep_orbit(p, des(k), orbits(k), end_de, end_reason)
     end subroutine path_orbit
   end subroutine orbit_family
+
+  !> The symmetric family branching off family N - 1 at its first branch point (opts%family =
+  !> FAMILY_BRANCH_PLUS or _MINUS), at the ascending excess energies des (docs/orbits.md, "Branch
+  !> switching"): (1) family N - 1 at a geometric grid of 16 energies up to des(n) and its first
+  !> change in the count of indices above +1, bisected to 1e-11 dE; (2) there the monodromy's
+  !> eigenvector for +1 off the flow (floquet_tangent), its part on the reversor's fixed set the
+  !> tangent of the new branch; (3) pseudo-arclength continuation along the branch in the
+  !> symmetric unknowns w = (x0 on the fixed set, tau), conditions: the odd components of
+  !> x(tau) vanish and (w - w_pred) . t = 0 (the energy free), the step adapted (x1.5 after <= 3
+  !> iterations, /2 on failure, down to 1e-6 of the first); (4) each requested energy passed
+  !> between two steps: correct_symmetric at that energy from the chord between them. The
+  !> continuation ends when the energy turns back (a fold: END_FOLD), the step falls below its
+  !> floor (END_NOCONV), the period passes period_max T_po (END_PERIOD) or after 2000 steps.
+  !> Needs a model with a reversor whose fixed set holds N components (single shooting).
+  subroutine branch_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad
+    real(wp), intent(in) :: des(:)
+    type(orbit_opts_t), intent(in) :: opts
+    type(orbit_t), intent(out) :: orbits(size(des))
+    real(wp), intent(out) :: end_de
+    integer, intent(out) :: end_reason, stat
+    type(orbit_opts_t) :: po
+    type(orbit_t), allocatable :: grid(:)
+    type(orbit_t) :: ob(1)
+    real(wp), allocatable :: dg(:), w(:), wp_(:), wn(:), t(:), tn(:), wprev(:), jac(:, :), rr(:), xx(:), &
+                             phi(:, :), fx(:), v(:), b(:, :)
+    real(wp) :: lo, hi, mid, e_sad, h, h0, e_prev, e_now, xi, tau, zbig
+    real(wp), allocatable :: wb(:), tb(:)
+    logical :: oriented
+    integer :: n2, nd, k, c_lo, np, it, j, nstep, info, iz
+    integer, allocatable :: ev(:), od(:), rev(:), cnt(:), ipiv(:)
+    real(wp) :: nre(size(eqs(isad)%x)/2 - 1), nim(size(eqs(isad)%x)/2 - 1)
+    logical :: ok
+    stat = TUBES_OK
+    end_de = -1
+    end_reason = END_NONE
+    n2 = model%dim()
+    nd = n2/2
+    np = nd - 1
+    if (np < 1 .or. .not. has_reversor(model)) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    e_sad = eqs(isad)%energy
+    rev = model%reversor()
+    ev = pack([(k, k = 1, n2)], rev > 0)
+    od = pack([(k, k = 1, n2)], rev < 0)
+    iz = findloc(ev, nd, 1)          ! q_N among the fixed-set unknowns
+    if (iz == 0) then
+      stat = TUBES_EINPUT
+      return
+    end if
+    po = opts
+    po%family = np
+    po%n_segments = 1
+    ! (1) the first branch point of family N - 1 below des(n)
+    allocate (dg(16), grid(16), cnt(16))
+    dg = [(des(size(des))*10.0_wp**(-3 + 3*real(k - 1, wp)/15), k = 1, 16)]
+    call orbit_family(model, eqs, isad, dg, po, grid, end_de, end_reason, stat)
+    if (stat < 0) return
+    cnt = -1
+    do k = 1, 16
+      if (.not. grid(k)%converged) exit
+      call floquet_indices(grid(k)%monodromy, nre, nim, stat)
+      if (stat /= TUBES_OK) return
+      cnt(k) = count(nre > 1 .and. nim == 0)
+    end do
+    j = 0
+    do k = 1, 15
+      if (cnt(k) >= 0 .and. cnt(k + 1) >= 0 .and. cnt(k) /= cnt(k + 1)) then
+        j = k
+        exit
+      end if
+    end do
+    end_de = -1
+    end_reason = END_NONE
+    if (j == 0) then        ! no branch point below the largest energy: no branch to follow
+      end_reason = END_NOBRANCH
+      orbits(:)%de = des
+      return
+    end if
+    lo = dg(j)
+    hi = dg(j + 1)
+    c_lo = cnt(j)
+    do while (hi - lo > 1.0e-11_wp*hi)
+      mid = lo + (hi - lo)/2
+      call orbit_family(model, eqs, isad, [mid], po, ob, end_de, end_reason, stat)
+      if (stat < 0) return
+      if (.not. ob(1)%converged) then
+        stat = TUBES_ENOCONV
+        return
+      end if
+      call floquet_indices(ob(1)%monodromy, nre, nim, stat)
+      if (count(nre > 1 .and. nim == 0) == c_lo) then
+        lo = mid
+      else
+        hi = mid
+      end if
+    end do
+    call orbit_family(model, eqs, isad, [lo + (hi - lo)/2], po, ob, end_de, end_reason, stat)
+    if (stat < 0) return
+    if (.not. ob(1)%converged) then
+      stat = TUBES_ENOCONV
+      return
+    end if
+    ! (2) the tangent on the fixed set
+    allocate (fx(n2), v(n2))
+    call model%eval(0.0_wp, ob(1)%x0, fx, stat)
+    if (stat /= TUBES_OK) then
+      stat = TUBES_ENOCONV
+      return
+    end if
+    call floquet_tangent(ob(1)%monodromy, fx, 1, v, stat)
+    if (stat /= TUBES_OK) return
+    allocate (t(nd + 1), tn(nd + 1), w(nd + 1), wp_(nd + 1), wn(nd + 1), wprev(nd + 1))
+    t = [v(ev), 0.0_wp]
+    t = t/sqrt(sum(t**2))
+    w = [ob(1)%x0(ev), ob(1)%period/2]
+    wb = w                                                 ! the branch point, for a restart
+    tb = t
+    oriented = .false.
+    ! (3) pseudo-arclength along the branch
+    allocate (jac(nd + 1, nd + 1), rr(nd + 1), xx(n2), phi(n2, n2), b(nd, nd + 1), ipiv(nd + 1))
+    h0 = 1.0e-2_wp*model%length_scale()
+    h = h0
+    e_prev = model%energy(state_of(w))
+    k = 1
+    orbits(:)%de = des
+    do nstep = 1, 2000
+      if (k > size(des)) exit
+      wp_ = w + h*t
+      wn = wp_
+      ok = .false.
+      do it = 1, opts%max_iter
+        call flow_stm(model, state_of(wn), wn(nd + 1), opts, xx, phi, stat)
+        if (stat < 0) exit
+        call model%eval(0.0_wp, xx, fx, stat)
+        if (stat /= 0) exit
+        rr(1:nd) = xx(od)
+        rr(nd + 1) = dot_product(t, wn - wp_)
+        if (maxval(abs(rr)) < opts%tol) then
+          ok = .true.
+          exit
+        end if
+        jac = 0
+        jac(1:nd, 1:nd) = phi(od, ev)
+        jac(1:nd, nd + 1) = fx(od)
+        jac(nd + 1, :) = t
+        b = jac(1:nd, :)   ! kept for the tangent
+        rr = -rr
+        call dgesv(nd + 1, 1, jac, nd + 1, ipiv, rr, nd + 1, info)
+        if (info /= 0) exit
+        wn = wn + rr
+      end do
+      stat = TUBES_OK
+      if (.not. ok) then
+        h = h/2
+        if (h < 1.0e-6_wp*h0) then
+          end_reason = END_NOCONV
+          exit
+        end if
+        cycle
+      end if
+      ! the new tangent: the null vector of the nd x (nd + 1) Jacobian, oriented along t
+      b(1:nd, 1:nd) = phi(od, ev)
+      b(1:nd, nd + 1) = fx(od)
+      call null_vector(b, tn, info)
+      if (info /= 0) then
+        stat = TUBES_ENOCONV
+        return
+      end if
+      if (dot_product(tn, t) < 0) tn = -tn
+      if (.not. oriented) then
+        ! north: the orbit's larger excursion in q_N (at one of its two fixed-set points, x0 and
+        ! x(tau)) is positive; south: negative. The first step decides (its asymmetry ~15 %)
+        oriented = .true.
+        zbig = wn(iz)
+        if (abs(xx(nd)) > abs(wn(iz))) zbig = xx(nd)
+        if ((zbig < 0) .eqv. (opts%family == FAMILY_BRANCH_PLUS)) then
+          w = wb
+          t = -tb
+          h = h0
+          cycle
+        end if
+      end if
+      wprev = w
+      w = wn
+      t = tn
+      e_now = model%energy(state_of(w))
+      if (e_now < e_prev) then            ! the energy turns back: a fold
+        end_reason = END_FOLD
+        end_de = e_prev - e_sad
+        exit
+      end if
+      if (w(nd + 1) > 0.5_wp*opts%period_max*2*PI/eqs(isad)%omega) then
+        end_reason = END_PERIOD
+        end_de = e_now - e_sad
+        exit
+      end if
+      ! (4) the requested energies passed in this step
+      do while (k <= size(des))
+        if (e_sad + des(k) > e_now) exit
+        if (e_sad + des(k) < e_prev) then   ! below the branch point: not on this branch
+          orbits(k) = orbit_t(de=des(k))
+          k = k + 1
+          cycle
+        end if
+        xi = (e_sad + des(k) - e_prev)/(e_now - e_prev)
+        xx = state_of(wprev + xi*(w - wprev))
+        tau = wprev(nd + 1) + xi*(w(nd + 1) - wprev(nd + 1))
+        orbits(k)%de = des(k)
+        call correct_symmetric(model, e_sad + des(k), des(k), xx, tau, opts, orbits(k), stat)
+        if (stat < 0) return
+        orbits(k)%de = des(k)
+        if (stat == TUBES_OK) call finish_orbit(model, orbits(k), opts, eqs, isad, stat)
+        if (stat < 0) return
+        stat = TUBES_OK
+        k = k + 1
+      end do
+      e_prev = e_now
+      if (it <= 3) h = min(1.5_wp*h, 20*h0)
+    end do
+    if (end_reason /= END_NONE .and. end_de < 0) end_de = e_prev - e_sad
+    stat = TUBES_OK
+  contains
+    function state_of(u) result(x)   ! the state of the fixed-set unknowns
+      real(wp), intent(in) :: u(:)
+      real(wp) :: x(n2)
+      x = 0
+      x(ev) = u(1:nd)
+    end function state_of
+  end subroutine branch_family
+
+  !> The unit null vector of the m x (m + 1) matrix a (full rank m): the eigenvector of a^T a for
+  !> its smallest eigenvalue.
+  subroutine null_vector(a, v, info)
+    real(wp), intent(in) :: a(:, :)
+    real(wp), intent(out) :: v(:)
+    integer, intent(out) :: info
+    real(wp) :: g(size(a, 2), size(a, 2)), w(size(a, 2)), work(66*size(a, 2))
+    g = matmul(transpose(a), a)
+    call dsyev('V', 'U', size(g, 1), g, size(g, 1), w, work, size(work), info)
+    v = g(:, 1)
+  end subroutine null_vector
 
   !> Append the orbit at de (and, when it did not converge, where the family ends) to p.
   subroutine keep_orbit(p, de, orb, end_de, end_reason)

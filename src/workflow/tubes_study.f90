@@ -15,7 +15,7 @@ module tubes_study
   use tubes_field, only: vector_field_t
   use tubes_region, only: region_opts_t, region_t, transition_region, region_curve
   use tubes_equilibria, only: equilibrium_t, find_equilibria, neck_normal, nhim_reach, gate_holds_nhim
-  use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t
+  use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t, floquet_indices, floquet_tangent
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, plane_search_range, &
                                  SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
@@ -30,6 +30,7 @@ module tubes_study
 
   public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, gate_reach, section_info, cut_at, &
             check_at, maps_at, cut_outputs, equilibria_table, study_family, family_table, open_stores, &
+            family_bifurcations, orbit_crossings, &
             stores_at, close_stores, stores_counts, de_floor, region_at, region_outputs, region_numbers, dissipation_of, &
             damped_spectrum, box_note, box_note_of, centres_of, p_trans_leading, leading_order_at
 
@@ -109,6 +110,31 @@ module tubes_study
     !> de is not empty), de_hi NaN when no region was found up to de_lo
     real(wp) :: de_lo = 0, de_hi = 0, area_hi = 0
   end type region_info_t
+
+  !> A bifurcation of a family (family_bifurcations): where a count of orbit_crossings changes.
+  type, public :: bifurcation_t
+    integer :: kind = 0            !! BIF_BRANCH, BIF_PERIOD_DOUBLING or BIF_KREIN
+    integer :: after = 0           !! between the requested orbits after and after + 1
+    real(wp) :: de = 0             !! the located excess energy (the bracket's midpoint)
+    real(wp) :: width = 0          !! the final bracket's width in dE
+    real(wp) :: energy = 0, period = 0
+    logical :: converged = .false. !! the orbit at de converged (else the bisection stopped where
+                                   !! the corrector did: width says how far it got)
+    real(wp), allocatable :: nre(:), nim(:)   !! the Floquet indices of the orbit at de
+    real(wp), allocatable :: x0(:)            !! that orbit's start (state0)
+    !> kinds 1, 2: the eigenvector of its monodromy for the multiplier +1 (orthogonal to the flow)
+    !> or -1, the new family's tangent at x0 (floquet_tangent); kind 3: 0
+    real(wp), allocatable :: tangent(:)
+  end type bifurcation_t
+
+  integer, parameter, public :: BIF_BRANCH = 1           !! a nontrivial index crosses +1
+  integer, parameter, public :: BIF_PERIOD_DOUBLING = 2  !! an index crosses -1
+  integer, parameter, public :: BIF_KREIN = 3            !! two elliptic pairs collide and leave the
+                                                         !! unit circle (or return to it)
+  real(wp), parameter, public :: BIF_TOL = 1.0e-11_wp    !! the bisection's bracket: width <= BIF_TOL dE
+  !> an index is complex (a quartet off the unit circle) when |Im nu| > BIF_COMPLEX (1 + |Re nu|):
+  !> above the traces' rounding (1e-16 |m|^2 in (nu1 - nu2)^2), below any collision one can see
+  real(wp), parameter :: BIF_COMPLEX = 1.0e-6_wp
 
 contains
 
@@ -623,6 +649,124 @@ contains
       xs(1:n2, :, k) = orbs(k)%x
     end do
   end subroutine family_table
+
+  !> The counts of an orbit's Floquet indices (floquet_indices) that bifurcations change:
+  !> c(BIF_BRANCH) real indices above +1, c(BIF_PERIOD_DOUBLING) real ones below -1,
+  !> c(BIF_KREIN) complex ones.
+  pure function orbit_crossings(nre, nim) result(c)
+    real(wp), intent(in) :: nre(:), nim(:)
+    integer :: c(3)
+    logical :: cplx(size(nre))
+    cplx = abs(nim) > BIF_COMPLEX*(1 + abs(nre))
+    c(BIF_BRANCH) = count(.not. cplx .and. nre > 1)
+    c(BIF_PERIOD_DOUBLING) = count(.not. cplx .and. nre < -1)
+    c(BIF_KREIN) = count(cplx)
+  end function orbit_crossings
+
+  !> Bifurcation monitoring of a family (docs/orbits.md, "Bifurcations"): between consecutive
+  !> converged orbits orbs(k), orbs(k + 1) at des(k) < des(k + 1), each count of orbit_crossings
+  !> that differs is located by bisection in dE, every midpoint a corrected orbit of the family
+  !> (family_at: the continuation to that energy alone), to a bracket of width <= BIF_TOL dE;
+  !> the orbit at the final midpoint gives the energy, period and indices. A change and its
+  !> reversal between two requested energies are not seen (the requested energies set the
+  !> resolution). nu(:, k): the indices of orbs(k) (Re in 1:N-1, Im in N:2N-2; 0 if not converged).
+  subroutine family_bifurcations(st, model, eqs, isad, des, orbs, opts, nu, bifs, stat, stores)
+    type(study_t), intent(in) :: st
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad
+    real(wp), intent(in) :: des(:)
+    type(orbit_t), intent(in) :: orbs(:)
+    type(orbit_opts_t), intent(in) :: opts
+    real(wp), intent(out) :: nu(:, :)                      !! (2N - 2, size(des))
+    type(bifurcation_t), allocatable, intent(out) :: bifs(:)
+    integer, intent(out) :: stat
+    type(seed_stores_t), intent(inout), optional :: stores
+    integer :: k, kind, np, cnt(3, size(des))
+    type(bifurcation_t) :: b
+    np = model%ndof() - 1
+    allocate (bifs(0))
+    nu = 0
+    cnt = -1
+    do k = 1, size(des)
+      if (.not. orbs(k)%converged) cycle
+      call floquet_indices(orbs(k)%monodromy, nu(1:np, k), nu(np + 1:2*np, k), stat)
+      if (stat /= TUBES_OK) return
+      cnt(:, k) = orbit_crossings(nu(1:np, k), nu(np + 1:2*np, k))
+    end do
+    stat = TUBES_OK
+    do k = 1, size(des) - 1
+      if (opts%family < 0) exit   ! a branch family (branch_family): its orbits' indices only
+      if (cnt(1, k) < 0 .or. cnt(1, k + 1) < 0) cycle
+      do kind = 1, 3
+        if (cnt(kind, k) == cnt(kind, k + 1)) cycle
+        call locate(k, kind, b)
+        if (stat < 0) return
+        bifs = [bifs, b]
+      end do
+    end do
+    stat = TUBES_OK
+  contains
+    subroutine locate(k, kind, b)
+      integer, intent(in) :: k, kind
+      type(bifurcation_t), intent(out) :: b
+      type(orbit_t) :: o(1)
+      real(wp) :: lo, hi, mid, end_de, r(np), im(np)
+      integer :: reason, c_lo, c(3)
+      lo = des(k)
+      hi = des(k + 1)
+      c_lo = cnt(kind, k)
+      b%kind = kind
+      b%after = k
+      b%converged = .true.
+      do while (hi - lo > BIF_TOL*hi)
+        mid = lo + (hi - lo)/2
+        call family_at(st, model, eqs, isad, [mid], opts, o, end_de, reason, stat, stores)
+        if (stat < 0) return
+        if (.not. o(1)%converged) then
+          b%converged = .false.
+          exit
+        end if
+        call floquet_indices(o(1)%monodromy, r, im, stat)
+        if (stat /= TUBES_OK) return
+        c = orbit_crossings(r, im)
+        if (c(kind) == c_lo) then
+          lo = mid
+        else
+          hi = mid
+        end if
+      end do
+      b%de = lo + (hi - lo)/2
+      b%width = hi - lo
+      b%energy = eqs(isad)%energy + b%de
+      allocate (b%nre(np), b%nim(np))
+      b%nre = 0
+      b%nim = 0
+      stat = TUBES_OK
+      if (.not. b%converged) return
+      call family_at(st, model, eqs, isad, [b%de], opts, o, end_de, reason, stat, stores)
+      if (stat < 0) return
+      b%converged = o(1)%converged
+      stat = TUBES_OK
+      if (.not. b%converged) return
+      b%period = o(1)%period
+      call floquet_indices(o(1)%monodromy, b%nre, b%nim, stat)
+      if (stat /= TUBES_OK) return
+      b%x0 = o(1)%x0
+      allocate (b%tangent(size(b%x0)))
+      b%tangent = 0
+      if (kind == BIF_KREIN) return
+      block
+        real(wp) :: fx(size(b%x0))
+        call model%eval(0.0_wp, b%x0, fx, stat)
+        if (stat /= TUBES_OK) then
+          stat = TUBES_ENOCONV
+          return
+        end if
+        call floquet_tangent(o(1)%monodromy, fx, merge(1, -1, kind == BIF_BRANCH), b%tangent, stat)
+      end block
+    end subroutine locate
+  end subroutine family_bifurcations
 
   !> The Lyapunov orbit at excess energy de (the options of st; local: on this MPI rank alone).
   subroutine orbit_at(st, model, eqs, isad, de, local, orb, stat, stores)
