@@ -595,6 +595,36 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   ndes = [cfg%orb_nde, cfg%tub_nde, cfg%tra_nde, cfg%pm_nde, cfg%flux_nde]
 end subroutine read_input
 
+subroutine orbit_bifurcations(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &
+                              atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, &
+                              stat, nu, nbif, kind, after, bconv, bde, bwidth, benergy, bperiod, bnu, bx0, btan, &
+                              bracket_tol)
+  ! the family's Floquet indices and bifurcations (as the orbits scene's /orbits/floquet_index and
+  ! /orbits/bifurcations: tubes_study bifurcation_table); at most 64 bifurcations
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_orbits, only: orbit_opts_t
+  use tubes_study, only: study_t, bifurcation_table, seed_stores_t, stores_at, BIF_TOL
+  use tubes_capi, only: integ_of
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, nde, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
+  real(c_double), intent(in) :: h, omega_bind
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), tol, rtol, atol
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: stat, nbif, kind(64), after(64), bconv(64)
+  real(c_double), intent(out) :: nu(4, nde), bde(64), bwidth(64), benergy(64), bperiod(64), bnu(4, 64), &
+                                 bx0(6, 64), btan(6, 64), bracket_tol
+  type(orbit_opts_t) :: opts
+  type(seed_stores_t), pointer :: kept
+  opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, n_samples=nsamp, &
+                      family=family, integ=integ_of(method, h, omega_bind, solver, int_max_iter))
+  kept => stores_at(stores)
+  bracket_tol = BIF_TOL
+  call bifurcation_table(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+                                 integ=opts%integ), des, opts, nu, nbif, kind, after, bconv, bde, bwidth, benergy, &
+                         bperiod, bnu, bx0, btan, stat, kept)
+end subroutine orbit_bifurcations
+
 subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &
                         atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, &
                         stat, energy, period, action, mu_u, mu_s, mu_triv, stab, residual, closure, &

@@ -143,3 +143,26 @@ def test_plots_of_a_table_are_labelled_with_its_units():
     assert "cm" not in ax.get_xlabel() + ax.get_ylabel() and "[s]" not in ax.get_ylabel()
     ax = plots.p_trans(tubes.Model().transition(dE=[10.0, 100.0]))
     assert "(cm/s)^2" in ax.get_xlabel()
+
+
+def test_the_orbit_family_s_bifurcations_are_the_file_s(tmp_path):
+    """The spatial Earth-Moon CR3BP's L1 Lyapunov family across its halo branch point (issue 38):
+    orbit_family's floquet_index and bifurcations (a dict of the file's /orbits/bifurcations) are
+    the orbits scene's, bit for bit; the halo family by name too."""
+    f = _run(tmp_path, "&run scenes = 'orbits' /\n&model system = 'cr3bp', spatial = .true. /\n"
+                       "&orbits saddle = 'L1', family = 2, de = 0.004, 0.006, 0.008 /\n")
+    m = tubes.Model(system="cr3bp", spatial=True)
+    o = m.orbit_family(dE=[0.004, 0.006, 0.008], saddle="L1", family=2)
+    _compare(o, f["orbits"], "/orbits")
+    b, g = o.bifurcations, f["orbits/bifurcations"]
+    assert list(b["kind"]) == [1]                                   # the branch point, found by both
+    for k in g:
+        assert np.array_equal(b[k], g[k][()]), k
+    assert b["tol"] == g.attrs["tol"]
+    (tmp_path / "halo").mkdir()
+    f2 = _run(tmp_path / "halo", "&run scenes = 'orbits' /\n&model system = 'cr3bp', spatial = .true. /\n"
+                               "&orbits saddle = 'L1', family = 'halo_north', de = 0.01 /\n")
+    h = m.orbit_family(dE=[0.01], saddle="L1", family="halo_north")
+    assert h.family_name == "halo_north" == f2["orbits"].attrs["family_name"]
+    for k in ("period", "state0", "energy"):
+        assert np.array_equal(h[k], f2["orbits"][k][()]), k

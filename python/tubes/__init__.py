@@ -921,6 +921,22 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
               "monodromy", "closure", "min_eq_distance", "state0"):
         out[k][bad] = np.nan          # no orbit: not a period of 0
     out["residual"][bad & (out["iterations"] == 0)] = np.nan
+    # the Floquet indices and the bifurcations between the orbits (tubes_study bifurcation_table)
+    (stat, nu, nb, kind, after, bconv, bde, bwid, ben, bper, bnu, bx0, btan, btol) = _lib().orbit_bifurcations(
+        *_study(model, st), de, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]),
+        float(st["orb_rtol"]), float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]),
+        *_integ(st, model), model._stores())
+    _check(stat, "orbit_family (bifurcations)")
+    npair = model.ndof - 1
+    out["floquet_index"], out["floquet_index_imag"] = nu[:npair].T.copy(), nu[2:2 + npair].T.copy()
+    nb = min(int(nb), 64)
+    out["bifurcations"] = {"kind": kind[:nb].copy(), "after": after[:nb].copy(), "converged": bconv[:nb].copy(),
+                           "dE": bde[:nb].copy(), "bracket": bwid[:nb].copy(), "energy": ben[:nb].copy(),
+                           "period": bper[:nb].copy(), "floquet_index": bnu[:npair, :nb].T.copy(),
+                           "floquet_index_imag": bnu[2:2 + npair, :nb].T.copy(), "state0": bx0[:n2, :nb].T.copy(),
+                           "tangent": btan[:n2, :nb].T.copy(), "tol": float(btol)}
+    fam = int(st["orb_family"])
+    out["family_name"] = {-1: "halo_north", -2: "halo_south"}.get(fam, "lyapunov")
     return _table(out, "/orbits", model)
 
 

@@ -28,7 +28,7 @@ module tubes_capi
   use tubes_normal_form, only: nf_result_t, normal_form_flux, NF_NPTS
   use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-  use tubes_study, only: family_bifurcations, bifurcation_t, BIF_TOL
+  use tubes_study, only: bifurcation_table, BIF_TOL
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, gate_reach, maps_at, cut_outputs, seed_stores_t, family_at, &
                          equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, &
@@ -463,49 +463,18 @@ contains
                                    btan(2*MAX_DOF, max_bif)
     integer(c_int), value :: local
     type(c_ptr), value :: stores
-    class(hamiltonian_t), allocatable :: model
-    type(equilibrium_t), allocatable :: eqs(:)
     type(orbit_opts_t) :: opts
-    type(orbit_t), allocatable :: orbs(:)
-    type(bifurcation_t), allocatable :: bifs(:)
     type(study_t) :: st
     type(section_choice_t) :: sec
     type(seed_stores_t), pointer :: kept
-    real(wp), allocatable :: nu1(:, :)
-    integer :: isad, reason, k, np
-    real(wp) :: ede
-    nu = 0; nbif = 0; kind = 0; after = 0; bconv = 0; bde = 0; bwidth = 0; benergy = 0; bperiod = 0; bnu = 0
-    bx0 = 0; btan = 0
     bracket_tol = BIF_TOL
     opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, &
                         n_samples=nsamp, family=family, local=local /= 0, &
                         integ=integ_of(method, h, omega_bind, solver, int_max_iter))
     call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
-    allocate (orbs(nde))
     kept => stores_of(stores)
-    call study_family(st, des, opts, model, eqs, isad, orbs, ede, reason, stat, kept)
-    if (stat < 0) return
-    np = model%ndof() - 1
-    allocate (nu1(2*np, nde))
-    call family_bifurcations(st, model, eqs, isad, des, orbs, opts, nu1, bifs, stat, kept)
-    if (stat < 0) return
-    nu(1:np, :) = nu1(1:np, :)
-    nu(MAX_DOF:MAX_DOF + np - 1, :) = nu1(np + 1:2*np, :)
-    nbif = size(bifs)
-    do k = 1, min(nbif, max_bif)
-      kind(k) = bifs(k)%kind
-      after(k) = bifs(k)%after - 1
-      bconv(k) = merge(1, 0, bifs(k)%converged)
-      bde(k) = bifs(k)%de
-      bwidth(k) = bifs(k)%width
-      benergy(k) = bifs(k)%energy
-      bperiod(k) = bifs(k)%period
-      bnu(1:np, k) = bifs(k)%nre
-      bnu(MAX_DOF:MAX_DOF + np - 1, k) = bifs(k)%nim
-      if (allocated(bifs(k)%x0)) bx0(1:2*np + 2, k) = bifs(k)%x0
-      if (allocated(bifs(k)%tangent)) btan(1:2*np + 2, k) = bifs(k)%tangent
-    end do
-    stat = TUBES_OK
+    call bifurcation_table(st, des, opts, nu, nbif, kind, after, bconv, bde, bwidth, benergy, bperiod, bnu, bx0, &
+                           btan, stat, kept)
   end function c_orbit_bifurcations
 
   !> The study (model, box, saddle, orbit corrector) and the section of a C call.

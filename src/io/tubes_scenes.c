@@ -1053,8 +1053,8 @@ int scene_orbits(tubes_run_t *run) {
     else {
       for (int k = 0; k < n; k++)
         for (int i = 0; i < np; i++) { re[np * k + i] = nu[4 * k + i]; im[np * k + i] = nu[4 * k + 2 + i]; }
-      h |= h5_write_double(g, "floquet_index", 2, dnp, re, "1");
-      h |= h5_write_double(g, "floquet_index_imag", 2, dnp, im, "1");
+      h |= h5_write_double(g, "floquet_index", 2, dnp, re, NULL);
+      h |= h5_write_double(g, "floquet_index_imag", 2, dnp, im, NULL);
       hid_t bg = h5_group(g, "bifurcations");
       if (bg < 0) h = 1;
       else {
@@ -1062,20 +1062,20 @@ int scene_orbits(tubes_run_t *run) {
           kd[j] = bkind[j]; af[j] = bafter[j];
           for (int i = 0; i < np; i++) { re[np * j + i] = bnu[4 * j + i]; im[np * j + i] = bnu[4 * j + 2 + i]; }
         }
-        h |= h5_write_int(bg, "kind", db, kd, "1");
-        h |= h5_write_int(bg, "after", db, af, "1");
-        h |= h5_write_int(bg, "converged", db, bconv, "1");
-        h |= h5_write_double(bg, "dE", 1, &db, bde, "(cm/s)^2");
-        h |= h5_write_double(bg, "bracket", 1, &db, bwid, "(cm/s)^2");
-        h |= h5_write_double(bg, "energy", 1, &db, ben, "(cm/s)^2");
-        h |= h5_write_double(bg, "period", 1, &db, bper, "s");
-        h |= h5_write_double(bg, "floquet_index", 2, dbp, re, "1");
-        h |= h5_write_double(bg, "floquet_index_imag", 2, dbp, im, "1");
+        h |= h5_write_int(bg, "kind", db, kd, NULL);
+        h |= h5_write_int(bg, "after", db, af, NULL);
+        h |= h5_write_int(bg, "converged", db, bconv, NULL);
+        h |= h5_write_double(bg, "dE", 1, &db, bde, NULL);
+        h |= h5_write_double(bg, "bracket", 1, &db, bwid, NULL);
+        h |= h5_write_double(bg, "energy", 1, &db, ben, NULL);
+        h |= h5_write_double(bg, "period", 1, &db, bper, NULL);
+        h |= h5_write_double(bg, "floquet_index", 2, dbp, re, NULL);
+        h |= h5_write_double(bg, "floquet_index_imag", 2, dbp, im, NULL);
         hsize_t dbs[2] = {(hsize_t)nbif, (hsize_t)n2};
         for (int j = 0; j < nbif; j++)
           for (int i = 0; i < n2; i++) { bx0[n2 * j + i] = bx0[6 * j + i]; btan[n2 * j + i] = btan[6 * j + i]; }
         h |= h5_write_double(bg, "state0", 2, dbs, bx0, n2 == 4 ? "cm, cm, cm/s, cm/s" : "state units");
-        h |= h5_write_double(bg, "tangent", 2, dbs, btan, "1");
+        h |= h5_write_double(bg, "tangent", 2, dbs, btan, NULL);
         h |= h5_attr_string(bg, "kinds", "1 branch_point (an index crosses +1), 2 period_doubling (-1), "
                             "3 krein_collision (a pair of indices turns complex or real)");
         h |= h5_attr_double(bg, "tol", btol);

@@ -40,6 +40,12 @@ static const unit_row_t ROWS[] = {
   {"/orbits", "mu_stable", "1"}, {"/orbits", "mu_unstable", "1"}, {"/orbits", "mu_trivial", "1"},
   {"/orbits", "mu_trivial_imag", "1"}, {"/orbits", "stability_index", "1"}, {"/orbits", "monodromy", "1"},
   {"/orbits", "end_dE", "(cm/s)^2"}, {"/orbits/orbit_#", "history", "cm, cm/s"}, {"/orbits/orbit_#", "t", "s"},
+  {"/orbits", "floquet_index", "1"}, {"/orbits", "floquet_index_imag", "1"},
+  {"/orbits/bifurcations", "kind", "1"}, {"/orbits/bifurcations", "after", "1"},
+  {"/orbits/bifurcations", "converged", "1"}, {"/orbits/bifurcations", "dE", "(cm/s)^2"},
+  {"/orbits/bifurcations", "bracket", "(cm/s)^2"}, {"/orbits/bifurcations", "energy", "(cm/s)^2"},
+  {"/orbits/bifurcations", "period", "s"}, {"/orbits/bifurcations", "floquet_index", "1"},
+  {"/orbits/bifurcations", "floquet_index_imag", "1"}, {"/orbits/bifurcations", "tangent", "1"},
   /* the transition scene */
   TRANSITION_ROWS("/transition"),
   /* the Monte Carlo scene */

@@ -30,7 +30,7 @@ module tubes_study
 
   public :: setup_model, setup_section, equilibria_of, orbit_at, family_at, saddle_gate, gate_reach, section_info, cut_at, &
             check_at, maps_at, cut_outputs, equilibria_table, study_family, family_table, open_stores, &
-            family_bifurcations, orbit_crossings, &
+            family_bifurcations, bifurcation_table, orbit_crossings, &
             stores_at, close_stores, stores_counts, de_floor, region_at, region_outputs, region_numbers, dissipation_of, &
             damped_spectrum, box_note, box_note_of, centres_of, p_trans_leading, leading_order_at
 
@@ -767,6 +767,56 @@ contains
       end block
     end subroutine locate
   end subroutine family_bifurcations
+
+  !> The family at des and its bifurcations as tables (the orbits scene's /orbits/floquet_index and
+  !> /orbits/bifurcations, for the C API and f2py alike): nu(1:N-1, k), nu(MD:MD+N-2, k) the Re and
+  !> Im of orbit k's indices (MD = size(nu, 1)/2 + 1 rows of each); bifurcation j (j <= nbif,
+  !> at most size(kind)): kind, after (0-based: between orbits after and after + 1), bconv, bde,
+  !> bwidth, benergy, bperiod, bnu (as nu), bx0 and btan (2N rows).
+  subroutine bifurcation_table(st, des, opts, nu, nbif, kind, after, bconv, bde, bwidth, benergy, bperiod, bnu, &
+                               bx0, btan, stat, stores)
+    type(study_t), intent(in) :: st
+    real(wp), intent(in) :: des(:)
+    type(orbit_opts_t), intent(in) :: opts
+    real(wp), intent(out) :: nu(:, :), bde(:), bwidth(:), benergy(:), bperiod(:), bnu(:, :), bx0(:, :), btan(:, :)
+    integer, intent(out) :: nbif, kind(:), after(:), bconv(:)
+    integer, intent(out) :: stat
+    type(seed_stores_t), intent(inout), optional :: stores
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    type(orbit_t), allocatable :: orbs(:)
+    type(bifurcation_t), allocatable :: bifs(:)
+    real(wp), allocatable :: nu1(:, :)
+    integer :: isad, reason, k, np, md
+    real(wp) :: ede
+    nu = 0; nbif = 0; kind = 0; after = 0; bconv = 0; bde = 0; bwidth = 0; benergy = 0; bperiod = 0; bnu = 0
+    bx0 = 0; btan = 0
+    md = size(nu, 1)/2 + 1
+    allocate (orbs(size(des)))
+    call study_family(st, des, opts, model, eqs, isad, orbs, ede, reason, stat, stores)
+    if (stat < 0) return
+    np = model%ndof() - 1
+    allocate (nu1(2*np, size(des)))
+    call family_bifurcations(st, model, eqs, isad, des, orbs, opts, nu1, bifs, stat, stores)
+    if (stat < 0) return
+    nu(1:np, :) = nu1(1:np, :)
+    nu(md:md + np - 1, :) = nu1(np + 1:2*np, :)
+    nbif = size(bifs)
+    do k = 1, min(nbif, size(kind))
+      kind(k) = bifs(k)%kind
+      after(k) = bifs(k)%after - 1
+      bconv(k) = merge(1, 0, bifs(k)%converged)
+      bde(k) = bifs(k)%de
+      bwidth(k) = bifs(k)%width
+      benergy(k) = bifs(k)%energy
+      bperiod(k) = bifs(k)%period
+      bnu(1:np, k) = bifs(k)%nre
+      bnu(md:md + np - 1, k) = bifs(k)%nim
+      if (allocated(bifs(k)%x0)) bx0(1:2*np + 2, k) = bifs(k)%x0
+      if (allocated(bifs(k)%tangent)) btan(1:2*np + 2, k) = bifs(k)%tangent
+    end do
+    stat = TUBES_OK
+  end subroutine bifurcation_table
 
   !> The Lyapunov orbit at excess energy de (the options of st; local: on this MPI rank alone).
   subroutine orbit_at(st, model, eqs, isad, de, local, orb, stat, stores)
