@@ -886,9 +886,12 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     dict of arrays dE, energy, period, action, mu_unstable, mu_stable,
     mu_trivial and mu_trivial_imag (n, 2), stability_index, monodromy (n, 2N, 2N), residual,
     closure, iterations, min_eq_distance, converged, state0 (n, 2N) (docs/output.md, /orbits),
-    and end_dE (the family's estimated end, or None). Keywords: saddle or saddle_near, and &orbits' method,
-    n_segments, tol, rtol, atol, max_iter, n_samples, family (the k-th centre mode's family in 3
-    DOF); integrator: &integrator's method and its options as a dict, e.g. {"method":
+    and end_dE (the family's estimated end, or None); floquet_index and floquet_index_imag (n, N-1)
+    and bifurcations (a dict of /orbits/bifurcations: kind, after, converged, dE, bracket, energy,
+    period, floquet_index(_imag), state0, tangent, tol; docs/orbits.md "Bifurcations"),
+    family_name. Keywords: saddle or saddle_near, and &orbits' method, n_segments, tol, rtol, atol,
+    max_iter, n_samples, family (the k-th centre mode's family in 3 DOF, or 'halo_north' /
+    'halo_south'); integrator: &integrator's method and its options as a dict, e.g. {"method":
     "arkode_erk8"} (default the input file's, "auto": Taylor for the state, DOP853 for the
     variational equations). Each orbit is the continuation to its own energy alone: the same
     bits whatever else dE holds, and the same as the program's orbits scene and tube cuts."""
