@@ -358,6 +358,17 @@ def test_an_output_that_is_not_a_regular_file_or_is_the_input_is_refused(tmp_pat
     r = run_tubes(["d.nml", "-o", "link.h5"], tmp_path)
     assert r.returncode == 0 and (tmp_path / "link.h5").is_symlink(), r.stderr
     assert h5py.is_hdf5(tmp_path / "target.h5")
+    # a link whose target's path is longer than the output name can hold (1023 characters): named
+    # so, not "a symbolic link to nothing"
+    deep = tmp_path
+    for k in range(5):
+        deep = deep / (f"{k}" * 240)
+    deep.mkdir(parents=True)
+    (deep / "far.h5").write_bytes(b"")
+    (tmp_path / "far.h5").symlink_to(deep / "far.h5")
+    r = run_tubes(["d.nml", "-o", "far.h5"], tmp_path)
+    assert r.returncode == 3 and "whose path is longer than 1023 characters" in r.stderr, r.stderr
+    assert r.stdout == "" and (deep / "far.h5").read_bytes() == b""
 
 
 @pytest.mark.parametrize("csv,words", [("e.h5", "is the HDF5 output file"), ("x.nml", "is the input file"),

@@ -255,12 +255,19 @@ static int check_outputs(const char *input, tubes_config_t *cfg, const nml_where
   struct stat lb;
   if (lstat(cfg->output, &lb) == 0 && S_ISLNK(lb.st_mode)) {   /* a link: write the file it names */
     char real[PATH_MAX];
-    if (!realpath(cfg->output, real) || strlen(real) >= sizeof cfg->output) {
+    if (!realpath(cfg->output, real)) {
       fprintf(stderr, "tubes: the output '%s' is a symbolic link to nothing that exists: give the name of a "
               "regular file (&run output or -o)\n", cfg->output);
       return EXIT_IO;
     }
-    snprintf(cfg->output, sizeof cfg->output, "%s", real);
+    size_t len = strlen(real);
+    if (len >= sizeof cfg->output) {
+      fprintf(stderr, "tubes: the output '%s' is a symbolic link to '%s', whose path is longer than %zu "
+              "characters: give the name of a regular file (&run output or -o)\n", cfg->output, real,
+              sizeof cfg->output - 1);
+      return EXIT_IO;
+    }
+    memcpy(cfg->output, real, len + 1);
   }
   int rc = check_output(cfg->output, "the output", input, EXIT_IO);
   if (rc) return rc;
