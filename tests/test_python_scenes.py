@@ -233,10 +233,14 @@ def test_monte_carlo_arguments_are_the_input_file_s():
 
 def test_transition_keeps_every_energy_as_the_scene(tmp_path):
     """A failure at one energy (the ball at dE = 780: past the end of the orbit family, 777) is NaN
-    and a status there, as the scene's /transition, not an exception that loses dE = 760."""
+    and a status there, as the scene's /transition: the program exits 4, Python raises TubesError
+    with the whole Table (dE = 760 kept) as its partial; check=False returns it with a warning."""
     f = _run_any(tmp_path, "&run scenes = 'transition' /\n&transition de = 760, 780 /\n", 4)
+    with pytest.raises(tubes.TubesError, match="failed at dE = 780") as e:
+        tubes.Model().transition([760.0, 780.0])
+    assert e.value.code == tubes.EPASTEND and np.isfinite(e.value.partial["p_trans"][0])
     with pytest.warns(RuntimeWarning, match="failed at dE = 780"):
-        t = tubes.Model().transition([760.0, 780.0])
+        t = tubes.Model().transition([760.0, 780.0], check=False)
     g = f["transition"]
     assert np.array_equal(t["status"], g["status"][:]) and t["status"][0] == 0 and t["status"][1] < 0
     for k in ("A_tube", "action", "A_E", "p_trans"):
@@ -304,7 +308,10 @@ def test_an_unresolved_de_is_refused_by_the_library():
         with pytest.raises(tubes.TubesError, match="below what the energy resolves") as e:
             call()
         assert e.value.code == tubes.EUNRESOLVED
-    t = m.transition(dE=[1.0])
+    with pytest.raises(tubes.TubesError, match="below what the energy resolves") as e:
+        m.transition(dE=[1.0])
+    t = e.value.partial
+    assert e.value.code == tubes.EUNRESOLVED
     assert list(t["status"]) == [tubes.EUNRESOLVED] and np.isnan(t["p_trans"][0])
     assert m.orbit_family(dE=[1.01 * floor])["converged"][0]
 

@@ -1302,7 +1302,7 @@ def transition_region(model: Model | None = None, dE: float | None = None, saddl
 
 def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
                section=None, area_tol=None, integrator: dict | None = None, equilibria: dict | None = None,
-               **orbits) -> dict:
+               check: bool = True, **orbits) -> dict:
     """p_trans(dE) = A_tube / A_E (as the transition scene; 2 degrees of freedom).
 
     dE: excess energies above the saddle, > 0 and increasing, in the model's energy units
@@ -1315,9 +1315,12 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     the end of the orbit family, a cut that did not converge) A_tube, action and p_trans are NaN;
     where the energy surface on the section failed A_E and p_trans are NaN (as in the output
     file's /transition, docs/output.md), status holds the TUBES_* code (0 where it
-    worked; tubes.EPASTEND past the family's end) and message its text, and a RuntimeWarning
-    names the failed energies. Returns a dict of arrays dE, A_tube, action, A_E, p_trans, status,
-    and message (list of str, '' where it worked)."""
+    worked; tubes.EPASTEND past the family's end) and message its text.
+
+    check (default True): where an energy failed, raise TubesError (its code the first failed
+    energy's status, its ``partial`` the whole Table) as ./tubes exits 4 there; check=False returns
+    the Table with a RuntimeWarning naming the failed energies. Returns a tubes.Table of arrays dE,
+    A_tube, action, A_E, p_trans, status, and message (list of str, '' where it worked)."""
     model = model or Model()
     _need_2dof(model, "transition")
     de = _de_list(dE, "transition")
@@ -1332,9 +1335,10 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     sec = _section_args(st)
     out = {k: np.full(de.size, np.nan) for k in ("A_tube", "action", "A_E", "p_trans")}
     status, message = np.zeros(de.size, dtype=np.int32), [""] * de.size
+    check = _args.flag("transition", "check", check)
     diss = _dissipation(model)
     if diss:
-        return _transition_damped(model, st, de, sec, diss)
+        return _failed_energies(_transition_damped(model, st, de, sec, diss), check)
     for i, d in enumerate(de):
         try:
             c = _cut(model, st, d, -1, st["tra_area_tol"])
@@ -1351,12 +1355,25 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
             if c is not None:
                 out["p_trans"][i] = c["area"] / ae
     out.update(dE=de, p_trans_leading=_leading(model, st, sec, de), status=status, message=message)
-    if np.any(status != 0):
-        import warnings
-        warnings.warn("transition: failed at dE = " + ", ".join(f"{d:g}" for d in de[status != 0])
-                      + " (NaN there; status and message hold why): " + "; ".join(m for m in message if m),
-                      RuntimeWarning, stacklevel=2)
-    return _table(out, "/transition", model)
+    return _failed_energies(_table(out, "/transition", model), check)
+
+
+def _failed_energies(t, check):
+    """transition()'s end: where an energy failed, the TubesError of ./tubes' exit 4 (check) or a
+    RuntimeWarning (check=False); the Table is the error's partial."""
+    bad = np.flatnonzero(t["status"] != 0)
+    if bad.size == 0:
+        return t
+    at = "transition: failed at dE = " + ", ".join(f"{d:g}" for d in t["dE"][bad])
+    if check:
+        err = TubesError(int(t["status"][bad[0]]), at + " (NaN there; the Table, its status and message per "
+                         f"energy, in partial; check=False returns it); at dE = {t['dE'][bad[0]]:g}")
+        err.partial = t
+        raise err
+    import warnings
+    warnings.warn(at + " (NaN there; status and message hold why): " + "; ".join(m for m in t["message"] if m),
+                  RuntimeWarning, stacklevel=3)
+    return t
 
 
 def _leading(model, st, sec, de):
@@ -1396,11 +1413,6 @@ def _transition_damped(model, st, de, sec, diss):
             cols["p_trans"][i] = r["area"] / ae
         if r["empty"] and not np.isnan(r["dE_threshold"][0]) and not (r["dE_threshold"][0] <= lo):
             lo, hi = r["dE_threshold"]
-    if np.any(status != 0):
-        import warnings
-        warnings.warn("transition: failed at dE = " + ", ".join(f"{d:g}" for d in de[status != 0])
-                      + " (NaN there; status and message hold why): " + "; ".join(m for m in message if m),
-                      RuntimeWarning, stacklevel=3)
     return _table(dict(dE=de, **cols, p_trans_leading=_leading(model, st, sec, de), status=status,
                        status_conservative=status_c, region_rays=rays, message=message, **diss, damping_rate=rate,
                        dE_threshold=(lo, hi)), "/transition", model)
