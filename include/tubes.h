@@ -346,6 +346,12 @@ int tubes_verdict_section(double de, double nf, double nfc, double fl, double fe
                           double *p_theory, double *z, char *msg, int len);
 int tubes_verdict_cut3(double de, double vol, double vol_half, double vol_x, double f, double sv, int n_decided,
                        int n_misclassified, char *msg, int len);
+/* an orbit's closure over mu_unstable against its state's size (scale): 2 and the message where the
+ * integration is too coarse for the orbit */
+int tubes_verdict_orbit_coarse(double de, double closure, double mu, double scale, char *msg, int len);
+/* the Monte Carlo check (the rule tubes_mc_agreement's): 2 and the message where it fails; *agrees 0/1 */
+int tubes_verdict_montecarlo(double de, int n, int n_transit, int n_undecided, int misclassified, double p, int noisy,
+                             const char saddle[8], double *sigmas, int *agrees, char *msg, int len);
 
 /* The cut of the stable (kind -1) or unstable (kind +1) tube of the saddle's Lyapunov orbit at
  * excess energy de with the section (as tubes_section_info), refined until

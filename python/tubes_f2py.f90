@@ -926,6 +926,32 @@ subroutine verdict_cut3(de, vol, vol_half, vol_x, f, sv, n_decided, n_misclassif
   code = cut3_check(de, vol, vol_half, vol_x, f, sv, n_decided, n_misclassified, msg)
 end subroutine verdict_cut3
 
+subroutine verdict_orbit_coarse(de, closure, mu, scale, code, msg)
+  ! an orbit integrated too coarsely (tubes_verdicts.f90, as the orbits scene)
+  use tubes_verdicts, only: orbit_coarse
+  implicit none
+  real(8), intent(in) :: de, closure, mu, scale
+  integer, intent(out) :: code
+  character(len=1024), intent(out) :: msg
+  code = orbit_coarse(de, closure, mu, scale, msg)
+end subroutine verdict_orbit_coarse
+
+subroutine verdict_montecarlo(de, n, n_transit, n_undecided, misclassified, p, noisy, saddle, code, sigmas, agrees, &
+                              msg)
+  ! the Monte Carlo check (tubes_verdicts.f90, as the montecarlo scene)
+  use tubes_verdicts, only: mc_check
+  implicit none
+  real(8), intent(in) :: de, p
+  integer, intent(in) :: n, n_transit, n_undecided, misclassified, noisy
+  character(len=*), intent(in) :: saddle
+  integer, intent(out) :: code, agrees
+  real(8), intent(out) :: sigmas
+  character(len=1024), intent(out) :: msg
+  logical :: ok
+  code = mc_check(de, n, n_transit, n_undecided, misclassified, p, noisy /= 0, saddle, sigmas, ok, msg)
+  agrees = merge(1, 0, ok)
+end subroutine verdict_montecarlo
+
 subroutine dataset_units(group, name, dimensionless, stat, units)
   ! the units of dataset (or attribute) name of group in the output file (src/io/tubes_units.c: the
   ! writer's one table), as a model with or without physical units writes them; stat -1: no row

@@ -2,10 +2,13 @@
 run both ways: the program (an input file) must exit with the code given, and the Python call
 with the same settings must raise: ValueError where the program refuses the input (exit 1),
 TubesError or DisagreementError where a computation failed or a check disagreed (exit 2 or 4).
-Where both take the message from the program's reader, the message is the same text.
+Where both take the message from one place (the program's reader, or a check of
+src/workflow/tubes_verdicts.f90), it is the same text.
 
 Before this table, m.transition returned (with a RuntimeWarning) the energies on which the program
-exits 4: past the end of the orbit family, or a noisy model's transition region."""
+exits 4 (past the end of the orbit family, a noisy model's transition region), and m.orbit_family
+returned orbits the program refuses: integrated too coarsely (exit 2), past the family's end or
+below the halo branch point (exit 4)."""
 import re
 
 import pytest
@@ -76,7 +79,7 @@ CASES = {
         lambda: ball().monte_carlo(dE=800.0, n_samples=100), False),
     "monte_carlo with t_max too short": (
         "&run scenes = 'montecarlo' /\n&montecarlo de = 100, n_samples = 300, t_max = 0.05 /\n", 2,
-        lambda: ball().monte_carlo(dE=100.0, n_samples=300, t_max=0.05), False),
+        lambda: ball().monte_carlo(dE=100.0, n_samples=300, t_max=0.05), True),
     "monte_carlo on a section the tube crosses the other way": (
         "&run scenes = 'montecarlo' /\n&montecarlo de = 100, n_samples = 300 /\n&section angle = 135 /\n", 2,
         lambda: ball().monte_carlo(dE=100.0, n_samples=300, section={"angle": 135}), False),
@@ -96,6 +99,18 @@ CASES = {
         "&model system = 'cr3bp', spatial = .true. /\n&run scenes = 'montecarlo' /\n"
         "&montecarlo de = 0.01, n_samples = 10 /\n&section kind = 'plane', index = 1, value = 0.8, direction = 1 /\n",
         1, lambda: tubes.Model("cr3bp", spatial=True).monte_carlo(dE=0.01, n_samples=10, section=SEC), False),
+    # the orbits scene
+    "orbits past the family's end": (
+        "&run scenes = 'orbits' /\n&orbits de = 100, 800 /\n", 4,
+        lambda: ball().orbit_family(dE=[100.0, 800.0]), False),
+    "orbits integrated too coarsely": (
+        "&run scenes = 'orbits' /\n&orbits de = 10 /\n&integrator method = 'rk4', h = 0.05 /\n", 2,
+        lambda: ball().orbit_family(dE=[10.0], integrator={"method": "rk4", "h": 0.05}), True),
+    "halo orbits below the branch point": (
+        "&model system = 'cr3bp', spatial = .true. /\n&run scenes = 'orbits' /\n"
+        "&orbits saddle = 'L1', family = 'halo_north', de = 0.005, 0.008 /\n", 4,
+        lambda: tubes.Model("cr3bp", spatial=True).orbit_family(dE=[0.005, 0.008], saddle="L1", family="halo_north"),
+        False),
     # the flux scene
     "flux of a damped model": (
         "&model damping_ratio = 0.1 /\n&run scenes = 'flux' /\n&flux de = 5, n_samples = 100 /\n", 2,
@@ -112,9 +127,11 @@ CASES = {
 }
 
 
-def _reader_message(stderr):
-    """The reader's refusal without its 'FILE:LINE: ' head."""
-    lines = [ln for ln in stderr.splitlines() if re.match(r"f\.nml(:\d+)?: ", ln)]
+def _program_message(stderr, code):
+    """The reader's refusal without its 'FILE:LINE: ' head (exit 1), or a check's verdict (exit 2:
+    the 'tubes: ' line, src/workflow/tubes_verdicts.f90)."""
+    head = r"f\.nml(:\d+)?: " if code == 1 else r"tubes: "
+    lines = [ln for ln in stderr.splitlines() if re.match(head, ln)]
     return re.sub(r"^f\.nml(:\d+)?: ", "", lines[0]) if lines else None
 
 
@@ -133,5 +150,5 @@ def test_python_refuses_where_the_program_exits_non_zero(tmp_path, case):
     with pytest.raises(want) as e:
         call()
     if same:
-        msg = _reader_message(r.stderr)
+        msg = _program_message(r.stderr, code)
         assert msg and msg in str(e.value), (msg, str(e.value))

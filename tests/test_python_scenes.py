@@ -249,8 +249,12 @@ def test_transition_keeps_every_energy_as_the_scene(tmp_path):
 
 
 def test_unconverged_orbits_are_nan():
-    """Past the family's end (the ball's ends near dE = 777) an orbit has no period: NaN, not 0."""
-    o = tubes.Model().orbit_family(dE=[700.0, 800.0])
+    """Past the family's end (the ball's ends near dE = 777) an orbit has no period: NaN, not 0.
+    The orbits scene exits 4 there: Python raises EPASTEND with the Table as its partial."""
+    with pytest.raises(tubes.TubesError, match="no orbit at dE = 800") as e:
+        tubes.Model().orbit_family(dE=[700.0, 800.0])
+    assert e.value.code == tubes.EPASTEND and list(e.value.partial["converged"]) == [True, False]
+    o = tubes.Model().orbit_family(dE=[700.0, 800.0], check=False)
     assert list(o["converged"]) == [True, False] and o["end_dE"] < 800
     for k in ("period", "action", "mu_unstable", "stability_index", "state0", "monodromy"):
         assert np.all(np.isfinite(o[k][0])) and np.all(np.isnan(o[k][1])), k

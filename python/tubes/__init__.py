@@ -876,7 +876,8 @@ def _de_list(dE, who: str):
 
 
 def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
-                 integrator: dict | None = None, equilibria: dict | None = None, **orbits) -> dict:
+                 integrator: dict | None = None, equilibria: dict | None = None, check: bool = True,
+                 **orbits) -> dict:
     """The Lyapunov orbits of a rank-1 saddle at the excess energies dE (as the orbits scene,
     docs/orbits.md). dE: excess energies above the saddle, > 0 and increasing, in the model's
     energy units ((cm/s)^2 for the ball); default &orbits de (1, 10, 100 (cm/s)^2): the rolling
@@ -894,8 +895,16 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     'halo_south'); integrator: &integrator's method and its options as a dict, e.g. {"method":
     "arkode_erk8"} (default the input file's, "auto": Taylor for the state, DOP853 for the
     variational equations). Each orbit is the continuation to its own energy alone: the same
-    bits whatever else dE holds, and the same as the program's orbits scene and tube cuts."""
+    bits whatever else dE holds, and the same as the program's orbits scene and tube cuts.
+
+    check (default True): raise where the orbits scene exits non-zero: DisagreementError where an
+    orbit's integration is too coarse for it (closure / mu_unstable above 1e-8 of the state;
+    src/workflow/tubes_verdicts.f90, the scene's check; exit 2), TubesError where an orbit was
+    not found (past the family's end: EPASTEND; else ENOCONV) or a bifurcation's bisection failed
+    (exit 4); the Table is the error's partial. check=False returns it, the messages of the
+    first kind in ``verdicts``."""
     model = model or Model()
+    check = _args.flag("orbit_family", "check", check)
     de = _de_list(dE, "orbit_family")
     if de is None:
         _default_de(model, "orbit_family", "orbits")
@@ -940,7 +949,35 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
                            "tangent": btan[:n2, :nb].T.copy(), "tol": float(btol)}
     fam = int(st["orb_family"])
     out["family_name"] = {-1: "halo_north", -2: "halo_south"}.get(fam, "lyapunov")
-    return _table(out, "/orbits", model)
+    # the scene's checks (src/workflow/tubes_verdicts.f90 orbit_coarse), then what it exits 4 on
+    out["verdicts"] = []
+    for k in np.flatnonzero(out["converged"]):
+        code, msg = _lib().verdict_orbit_coarse(float(de[k]), float(out["closure"][k]), float(out["mu_unstable"][k]),
+                                                float(np.max(np.abs(out["state0"][k]))))
+        if code:
+            out["verdicts"].append(_str(msg))
+    t = _table(out, "/orbits", model)
+    if not check:
+        return t
+    if t["verdicts"]:
+        raise DisagreementError("; ".join(t["verdicts"]) + " (check=False returns the Table, its verdicts in "
+                                "'verdicts')", t)
+    bad = np.flatnonzero(~t["converged"])
+    if bad.size:
+        past = t["end_dE"] is not None and de[bad[0]] >= t["end_dE"] * (1 - 1e-6)
+        err = TubesError(_lib().status_code("EPASTEND" if past else "ENOCONV"),
+                         "orbit_family: no orbit at dE = " + ", ".join(f"{d:g}" for d in de[bad])
+                         + " (NaN there; the Table in partial; check=False returns it); at dE = " + f"{de[bad[0]]:g}")
+        err.partial = t
+        raise err
+    nb = np.flatnonzero(t["bifurcations"]["converged"] == 0)
+    if nb.size:
+        err = TubesError(_lib().status_code("ENOCONV"), "orbit_family: the corrector failed inside the bisection's "
+                         f"bracket of {nb.size} bifurcation(s), the first near dE = {t['bifurcations']['dE'][nb[0]]:.12g} "
+                         "(the Table in partial; check=False returns it)")
+        err.partial = t
+        raise err
+    return t
 
 
 def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
@@ -1519,15 +1556,12 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
            **_mc_agreement(ns, nt, nu, in_nt + out_t, p),
            "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins})
     out = _table(out, "/montecarlo", model)
-    if noisy:       # no deterministic prediction to hold it to (as the scene): the undecided count alone
-        out["agrees"] = nu <= out["undecided_limit"]
-    if check and not out["agrees"]:
-        raise DisagreementError(
-            f"monte_carlo: the direct check disagrees with the tube at dE = {de:g}: fraction {f:.5f} +- "
-            f"{out['std_error']:.5f} against p_trans = {p:.5f} ({out['sigmas']:.1f} standard errors, limit "
-            f"{out['sigma_limit']:g}); {in_nt + out_t} misclassified (limit {out['misclassified_limit']}); {nu} undecided "
-            f"(limit {out['undecided_limit']}). The transit test (t_max, gate), the section or the tube does "
-            f"not fit saddle {st['saddle']}; check=False returns the result with agrees False", out)
+    # the scene's check (src/workflow/tubes_verdicts.f90 mc_check; a noisy model: the undecided count alone)
+    code, _sig, agrees, msg = _lib().verdict_montecarlo(de, ns, nt, nu, in_nt + out_t, p, int(noisy), st["saddle"])
+    out["agrees"] = bool(agrees)
+    out["verdicts"] = [_str(msg)] if code else []
+    if check and code:
+        raise DisagreementError(_str(msg) + " (check=False returns the result with agrees False)", out)
     return out
 
 

@@ -932,20 +932,14 @@ int scene_orbits(tubes_run_t *run) {
         fputc('\n', stderr);
       }
   }
-  /* the integration's own accuracy: one period's closure |x(T) - x(0)| grows like mu_unstable times
-   * the integration error, which bounds every quantity of the orbit (the Newton residual measures
-   * the integrator's map, not the flow's): above 1e-8 of the state the printed digits are not the
-   * orbit's (rk4 with h = 0.05: 1.4e-6, residual 3e-12) */
+  /* the integration's own accuracy (tubes_verdicts orbit_coarse, Python's orbit_family's too) */
   for (int k = 0; k < n; k++) {
-    if (!conv[k] || !(mu[k] > 1)) continue;
+    if (!conv[k]) continue;
     double scale = 0;
+    char m[1024];
     for (int i = 0; i < 2 * run->ndof; i++) scale = fmax(scale, fabs(s0[6 * k + i]));
-    double est = clo[k] / mu[k];
-    if (est > 1e-8 * fmax(scale, 1e-300)) {
-      fprintf(stderr, "tubes: orbits: dE = %g: the integration is too coarse for the orbit: one period's closure "
-              "%.2g over mu_unstable %.6g is an integration error of ~%.2g, %.2g of the state (the limit: 1e-8); "
-              "the period, action and multipliers are only that good: tighten &integrator (rtol, atol, or h)\n",
-              c->orb_de[k], clo[k], mu[k], est, est / scale);
+    if (tubes_verdict_orbit_coarse(c->orb_de[k], clo[k], mu[k], scale, m, (int)sizeof m)) {
+      fprintf(stderr, "%s\n", m);
       rc = EXIT_NUMERIC;
     }
   }
@@ -1733,15 +1727,16 @@ int scene_montecarlo(tubes_run_t *run) {
       in_nt += ins[k] && out[k] != 1;
       out_t += !ins[k] && out[k] == 1;
     }
-    /* the two answers must agree (tubes_mc_agreement: the rule's one definition): the direct
+    /* the two answers must agree (tubes_verdicts mc_check, Python's monte_carlo's too): the direct
      * count within MC_SIGMA standard errors of the tube's p_trans, few misclassified, few
      * undecided; else the run says so and exits 2 (docs/tubes.md, "Monte Carlo check") */
-    double f = (double)nt / ns, se = sqrt(f * (1 - f) / ns), p = ar / ae, nsig, sig_lim;
-    int mis_lim, und_lim, agrees;
-    tubes_mc_agreement(ns, nt, nu, in_nt + out_t, p, &nsig, &sig_lim, &mis_lim, &und_lim, &agrees);
+    double f = (double)nt / ns, se = sqrt(f * (1 - f) / ns), p = ar / ae, nsig;
+    int agrees;
+    char verdict[1024];
+    tubes_verdict_montecarlo(de, ns, nt, nu, in_nt + out_t, p, run->noisy, run->saddle, &nsig, &agrees, verdict,
+                             (int)sizeof verdict);
     if (run->noisy) {   /* no deterministic prediction to hold it to: the fraction under noise, beside the
                          * noise-free region's (its D -> 0 limit); only the undecided count is checked */
-      agrees = nu <= und_lim;
       printf("montecarlo: the noisy model (%s), dE = %g, %d points: transition fraction %.5f +- %.5f under noise "
              "(the noise-free region's p_trans = %.5f, %+.1f standard errors from it; conservative A_tube/A_E = %.5f); "
              "%d points end otherwise than the noise-free region says; %d undecided%s (%.1f s)\n",
@@ -1779,15 +1774,8 @@ int scene_montecarlo(tubes_run_t *run) {
     e |= h5_attr_long(g, "agrees", agrees);
     if (g >= 0) H5Gclose(g);
     if (e) rc = EXIT_IO;
-    else if (!agrees && run->noisy) {
-      fprintf(stderr, "tubes: montecarlo: %d of %d points neither transited nor returned within t_max (limit %d): "
-              "raise &montecarlo t_max\n", nu, ns, und_lim);
-      rc = EXIT_NUMERIC;
-    } else if (!agrees) {
-      fprintf(stderr, "tubes: montecarlo: the direct check disagrees with the tube at dE = %g: fraction %.5f +- %.5f "
-              "against p_trans = %.5f (%.1f standard errors, limit %g); %d misclassified (limit %d); %d undecided "
-              "(limit %d). The transit test, the section or the tube does not fit saddle %s: check &section and "
-              "&orbits saddle\n", de, f, se, p, nsig, sig_lim, in_nt + out_t, mis_lim, nu, und_lim, run->saddle);
+    else if (!agrees) {
+      fprintf(stderr, "%s\n", verdict);
       rc = EXIT_NUMERIC;
     }
   }

@@ -1,6 +1,6 @@
-!> The flux scene's verdicts: the checks whose failure makes the program exit 2 and Python's
-!> tubes.flux raise. One definition for both front ends: src/io/tubes_scenes.c (scene_flux and its
-!> helpers) calls the bind(C) entries, python/tubes_f2py.f90 the Fortran ones. Each takes the
+!> The scenes' verdicts: the checks whose failure makes the program exit 2 and Python's calls
+!> (tubes.flux, tubes.monte_carlo, tubes.orbit_family) raise. One definition for both front ends:
+!> src/io/tubes_scenes.c calls the bind(C) entries, python/tubes_f2py.f90 the Fortran ones. Each takes the
 !> numbers the scene computed and returns 0 (holds) or 2 (fails) with the message; the limits are
 !> the parameters below (docs/flux.md, docs/theory.md "Flux in N degrees of freedom").
 module tubes_verdicts
@@ -16,8 +16,11 @@ module tubes_verdicts
   real(wp), parameter, public :: SIGMA_MAX = 5                    !! standard errors two estimates may differ by
   real(wp), parameter, public :: NF_CHANGE_MAX = 0.1_wp           !! the normal form's change from order K - 2
                                                                   !! allowed (share of it) to be used for a flux
+  real(wp), parameter, public :: ORBIT_ERROR_MAX = 1e-8_wp        !! an orbit's integration error allowed
+                                                                  !! (share of its state's largest component)
 
   public :: flux_too_small, flux_undecided, flux_normal_form_check, section_check, cut3_check
+  public :: orbit_coarse, mc_check
 
 contains
 
@@ -166,7 +169,96 @@ contains
     end if
   end function cut3_check
 
+  !> The orbit at de integrated too coarsely: one period's closure |x(T) - x(0)| grows like
+  !> mu_unstable times the integration error, which bounds every quantity of the orbit (the Newton
+  !> residual measures the integrator's map, not the flow's). Fails where closure / mu_unstable
+  !> exceeds ORBIT_ERROR_MAX of the state's largest component (scale); an orbit that did not
+  !> converge or is not unstable (mu <= 1, NaN) is not judged (rk4 with h = 0.05 on the ball:
+  !> 1.4e-6 of the state with a residual of 3e-12).
+  integer function orbit_coarse(de, closure, mu, scale, msg) result(code)
+    real(wp), intent(in) :: de, closure, mu, scale
+    character(*), intent(out) :: msg
+    real(wp) :: est
+    code = 0
+    msg = ''
+    if (.not. (mu > 1)) return
+    est = closure/mu
+    if (est > ORBIT_ERROR_MAX*max(scale, 1e-300_wp)) then
+      msg = 'tubes: orbits: dE = ' // num(de) // ': the integration is too coarse for the orbit: one period''s ' // &
+        'closure ' // num(closure, '.2g') // ' over mu_unstable ' // num(mu, '.6g') // ' is an integration error ' // &
+        'of ~' // num(est, '.2g') // ', ' // num(est/scale, '.2g') // ' of the state (the limit: ' // &
+        num(ORBIT_ERROR_MAX, 'g') // '); the period, action and multipliers are only that good: tighten ' // &
+        '&integrator (rtol, atol, or h)'
+      code = VERDICT_FAILS
+    end if
+  end function orbit_coarse
+
+  !> The Monte Carlo check at de: of n points n_transit transited, n_undecided neither transited
+  !> nor returned within t_max, misclassified ended otherwise than the prediction p (the tube's or
+  !> the damped region's A / A_E) says; the rule is tubes_transport's mc_agreement (the fraction
+  !> within MC_SIGMA standard errors of p, few misclassified, few undecided). A noisy model has no
+  !> deterministic prediction: only its undecided count is held to the limit. sigmas and agrees as
+  !> mc_agreement's (agrees the undecided count's alone for a noisy model).
+  integer function mc_check(de, n, n_transit, n_undecided, misclassified, p, noisy, saddle, sigmas, agrees, msg) &
+      result(code)
+    use tubes_transport, only: mc_agreement, MC_SIGMA
+    real(wp), intent(in) :: de, p
+    integer, intent(in) :: n, n_transit, n_undecided, misclassified
+    logical, intent(in) :: noisy
+    character(*), intent(in) :: saddle
+    real(wp), intent(out) :: sigmas
+    logical, intent(out) :: agrees
+    character(*), intent(out) :: msg
+    integer :: mis_lim, und_lim
+    real(wp) :: f, se
+    code = 0
+    msg = ''
+    call mc_agreement(n, n_transit, n_undecided, misclassified, p, sigmas, mis_lim, und_lim, agrees)
+    if (noisy) agrees = n_undecided <= und_lim
+    if (agrees) return
+    code = VERDICT_FAILS
+    if (noisy) then
+      write (msg, '(a,i0,a,i0,a,i0,a)') 'tubes: montecarlo: ', n_undecided, ' of ', n, &
+        ' points neither transited nor returned within t_max (limit ', und_lim, '): raise &montecarlo t_max'
+      return
+    end if
+    f = real(n_transit, wp)/n
+    se = sqrt(f*(1 - f)/n)
+    write (msg, '(a,i0,a,i0,a,i0,a,i0,a)') 'tubes: montecarlo: the direct check disagrees with the tube at dE = ' // &
+      num(de) // ': fraction ' // num(f, '.5f') // ' +- ' // num(se, '.5f') // ' against p_trans = ' // &
+      num(p, '.5f') // ' (' // num(sigmas, '.1f') // ' standard errors, limit ' // num(MC_SIGMA, 'g') // '); ', &
+      misclassified, ' misclassified (limit ', mis_lim, '); ', n_undecided, ' undecided (limit ', und_lim, &
+      '). The transit test, the section or the tube does not fit saddle ' // trim(saddle) // &
+      ': check &section and &orbits saddle'
+  end function mc_check
+
   ! ---------------------------------------------------------------- the C entries (src/io/tubes_scenes.c)
+
+  integer(c_int) function c_orbit_coarse(de, closure, mu, scale, msg, len) result(code) &
+      bind(C, name='tubes_verdict_orbit_coarse')
+    real(c_double), value :: de, closure, mu, scale
+    integer(c_int), value :: len
+    character(kind=c_char), intent(out) :: msg(len)
+    character(1024) :: m
+    code = orbit_coarse(de, closure, mu, scale, m)
+    call f_to_c(m, msg)
+  end function c_orbit_coarse
+
+  integer(c_int) function c_mc_check(de, n, n_transit, n_undecided, misclassified, p, noisy, saddle, sigmas, agrees, &
+                                     msg, len) result(code) bind(C, name='tubes_verdict_montecarlo')
+    use tubes_cstrings, only: c_to_f
+    real(c_double), value :: de, p
+    integer(c_int), value :: n, n_transit, n_undecided, misclassified, noisy, len
+    character(kind=c_char), intent(in) :: saddle(8)
+    real(c_double), intent(out) :: sigmas
+    integer(c_int), intent(out) :: agrees
+    character(kind=c_char), intent(out) :: msg(len)
+    character(1024) :: m
+    logical :: ok
+    code = mc_check(de, n, n_transit, n_undecided, misclassified, p, noisy /= 0, c_to_f(saddle(1:8)), sigmas, ok, m)
+    agrees = merge(1, 0, ok)
+    call f_to_c(m, msg)
+  end function c_mc_check
 
   integer(c_int) function c_flux_too_small(de, ndof, lead, msg, len) result(code) &
       bind(C, name='tubes_verdict_flux_too_small')
