@@ -353,6 +353,15 @@ int tubes_verdict_orbit_coarse(double de, double closure, double mu, double scal
 int tubes_verdict_montecarlo(double de, int n, int n_transit, int n_undecided, int misclassified, double p, int noisy,
                              const char saddle[8], double *sigmas, int *agrees, char *msg, int len);
 
+/* The run's saddle (src/workflow/tubes_setup.f90 choose_saddle, which Python's calls use too): among n
+ * equilibria (names 8 bytes each, kinds 1 rank-1 / 2 degenerate / 0 other, positions q[stride * i + j],
+ * j < ndof) the one named name, or (use_near) the nearest to near of those the scenes take (a degenerate
+ * one where degenerate_ok). 0 and *k (0-based), else 1 (name not one) or 2 (none in the box) with the
+ * message's body in msg (len bytes; label the model's name, dflt: the name is the system's default). */
+int tubes_choose_saddle(int n, const char *names, const int *kinds, int stride, int ndof, const double *q,
+                        const char name[8], int use_near, const double *near, int degenerate_ok, const char *label,
+                        int dflt, int *k, char *msg, int len);
+
 /* The cut of the stable (kind -1) or unstable (kind +1) tube of the saddle's Lyapunov orbit at
  * excess energy de with the section (as tubes_section_info), refined until
  * the area changes by < area_tol (relative) or n_max (<= nout) seeds. Outputs: *n points tau, r,

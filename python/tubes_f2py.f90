@@ -926,6 +926,24 @@ subroutine verdict_cut3(de, vol, vol_half, vol_x, f, sv, n_decided, n_misclassif
   code = cut3_check(de, vol, vol_half, vol_x, f, sv, n_decided, n_misclassified, msg)
 end subroutine verdict_cut3
 
+subroutine saddle_choice(n, nd, names, kinds, q, name, use_near, near, degenerate_ok, label, dflt, code, k, msg)
+  ! the run's saddle among the equilibria (src/workflow/tubes_setup.f90 choose_saddle, as ./tubes):
+  ! names the n names, 8 characters each; k 1-based (0 where none)
+  use tubes_setup, only: choose_saddle
+  implicit none
+  integer, intent(in) :: n, nd, kinds(n), use_near, degenerate_ok, dflt
+  character(len=*), intent(in) :: names, name, label
+  real(8), intent(in) :: q(nd, n), near(nd)
+  integer, intent(out) :: code, k
+  character(len=2048), intent(out) :: msg
+  character(8) :: nm(n)
+  integer :: i
+  do i = 1, n
+    nm(i) = names(8*i - 7:8*i)
+  end do
+  code = choose_saddle(nm, kinds, q, name, use_near /= 0, near, degenerate_ok /= 0, label, dflt /= 0, k, msg)
+end subroutine saddle_choice
+
 subroutine verdict_orbit_coarse(de, closure, mu, scale, code, msg)
   ! an orbit integrated too coarsely (tubes_verdicts.f90, as the orbits scene)
   use tubes_verdicts, only: orbit_coarse

@@ -744,25 +744,23 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, who: st
     given = {"model"} | {g for g, kv in groups.items() if kv}
     st = _read_namelist(lines, who, given)
     st["saddle"] = _str(st["saddle"])
-    if st["use_near"]:
+    if st["use_near"] or who not in ("equilibria", "synthetic_experiment"):
+        # the program's rule (src/workflow/tubes_setup.f90 choose_saddle): by name (the system's
+        # default too: the ball with beta = 0 has none), or the nearest to saddle_near; the flux
+        # takes a degenerate saddle (D<k>) too
         eq = _settings_equilibria(model, st)
-        # as the program (run_setup): the flux takes a degenerate saddle too (D<k>)
-        k = [i for i in range(len(eq["name"])) if eq["rank1"][i] or (eq["degenerate"][i] and who == "flux")]
-        if not k:
-            raise ValueError(f"{who}: system {model.system!r} has no rank-1 saddle in the search box")
-        near = np.asarray(st["near"])[:model.ndof]
-        st["saddle"] = eq["name"][min(k, key=lambda i: np.sum((eq["q"][i] - near) ** 2))]
-    elif who not in ("equilibria", "synthetic_experiment"):
-        # the program's check (src/io/tubes_scenes.c run_setup): a name that is not a rank-1 saddle
-        # in the box, the system's default too (the ball with beta = 0 has none: 'invalid input')
-        eq = _settings_equilibria(model, st)
-        ok = [n for n, r, d in zip(eq["name"], eq["rank1"], eq["degenerate"]) if r or (d and who == "flux")]
-        if st["saddle"] not in ok:
-            given = "" if saddle is not None else " (the system's default)"
-            raise ValueError(f"{who}: saddle = {st['saddle']!r}{given} is not a rank-1 saddle of system "
-                             f"{model.system!r} in the equilibria box; its rank-1 saddles are: "
-                             f"{', '.join(n for n, r in zip(eq['name'], eq['rank1']) if r) or 'none'} "
-                             "(choose one, or give saddle_near)")
+        names, nd = list(eq["name"]), model.ndof
+        kinds = [1 if r else 2 if d else 0 for r, d in zip(eq["rank1"], eq["degenerate"])]
+        q = np.reshape(eq["q"], (len(names), nd))
+        if not names:       # none found: one that no rule takes (f2py's arrays are not empty)
+            names, kinds, q = ["\x01"], [0], np.zeros((1, nd))
+        code, k, msg = _lib().saddle_choice(
+            "".join(f"{x:<8s}" for x in names), np.array(kinds, dtype=np.int32), np.asfortranarray(q.T),
+            st["saddle"], int(bool(st["use_near"])), np.asarray(st["near"], dtype=float)[:nd], int(who == "flux"),
+            model.system, int(saddle is None and not st["use_near"]))
+        if code:
+            raise ValueError(f"{who}: {_str(msg)}")
+        st["saddle"] = eq["name"][k - 1]
     return st
 
 

@@ -220,22 +220,6 @@ static void say_at(const tubes_run_t *run, int line) {
   else fprintf(stderr, "tubes: ");
 }
 
-/* A saddle name that is not a rank-1 saddle of the model: the file, line, and the choices. */
-static void report_saddle(const tubes_run_t *run, const eqlist_t *L, const char *group, const char *name, int line) {
-  say_at(run, line);
-  fprintf(stderr, "&%s: saddle = '%s' is not a rank-1 saddle of system %s in the &equilibria box; its rank-1 "
-          "saddles are:", group, name, run->label);
-  int any = 0;
-  for (int j = 0; j < L->n; j++)
-    if (L->rank1[j] == 1) { fprintf(stderr, "%s %s", any ? "," : "", L->names + 8 * j); any = 1; }
-  fprintf(stderr, "%s (choose one, or set &orbits saddle_near)", any ? "" : " none");
-  int k = find_named(L, name);
-  if (k >= 0 && L->rank1[k] == 2)
-    fprintf(stderr, "; %s is a degenerate saddle (a mode without quadratic term): only the scenes equilibria "
-            "and flux (sampled) take it", name);
-  fputc('\n', stderr);
-}
-
 /* 1 if every scene of the run takes a degenerate saddle (equilibria, flux). */
 static int degenerate_ok(const tubes_config_t *c) {
   for (int i = 0; i < TUBES_NSCENES && c->scenes[i][0]; i++)
@@ -441,38 +425,27 @@ int run_setup(tubes_run_t *run) {
             run->label, m, st, st == TUBES_ENOCONV ? "; or the box holds more than 256 of them: a smaller box" : "");
     return EXIT_NUMERIC;
   }
-  if (c->saddle[0]) {                /* &equilibria saddle: the saddle the equilibria scene reports */
-    int k = find_named(&L, c->saddle);
-    if (k < 0 || !(L.rank1[k] == 1 || (L.rank1[k] == 2 && degenerate_ok(c)))) {
-      report_saddle(run, &L, "equilibria", c->saddle, run->eq_saddle_line);
-      return EXIT_BADINPUT;
-    }
-  }
-  if (c->orb_use_near) {
-    int best = -1;
-    double dbest = 0;
-    for (int k = 0; k < L.n; k++) {
-      if (!(L.rank1[k] == 1 || (L.rank1[k] == 2 && degenerate_ok(c)))) continue;
-      double d = 0;
-      for (int i = 0; i < L.ndof; i++) d += pow(L.q[MD * k + i] - c->orb_saddle_near[i], 2);
-      if (best < 0 || d < dbest) { best = k; dbest = d; }
-    }
-    if (best < 0) {
-      int ln = nml_line(run->where, "orbits", "saddle_near");
-      say_at(run, ln);
-      fprintf(stderr, "&orbits saddle_near%s: system %s has no rank-1 saddle in the &equilibria box "
-              "(its equilibria: the equilibria scene lists them); widen &equilibria box or name a saddle\n",
-              ln ? "" : " (the system's default)", run->label);
-      return EXIT_BADINPUT;
-    }
-    snprintf(run->saddle, sizeof run->saddle, "%s", L.names + 8 * best);
-    return de_resolvable(run, L.en[best]);
-  }
-  int k = find_named(&L, run->saddle);
-  if (k < 0 || !(L.rank1[k] == 1 || (L.rank1[k] == 2 && degenerate_ok(c)))) {
-    report_saddle(run, &L, "orbits", run->saddle, run->orb_saddle_line);
+  /* the saddle by name, or the nearest to saddle_near (tubes_setup choose_saddle, Python's too) */
+  int kinds[NEQ_MAX], k;
+  char m[2048];
+  for (int j = 0; j < L.n; j++) kinds[j] = L.rank1[j] == 1 ? 1 : L.rank1[j] == 2 ? 2 : 0;
+  if (c->saddle[0] &&                /* &equilibria saddle: the saddle the equilibria scene reports */
+      tubes_choose_saddle(L.n, L.names, kinds, MD, L.ndof, L.q, c->saddle, 0, c->orb_saddle_near, degenerate_ok(c),
+                          run->label, 0, &k, m, (int)sizeof m)) {
+    say_at(run, run->eq_saddle_line);
+    fprintf(stderr, "&equilibria: %s\n", m);
     return EXIT_BADINPUT;
   }
+  if (tubes_choose_saddle(L.n, L.names, kinds, MD, L.ndof, L.q, run->saddle, c->orb_use_near, c->orb_saddle_near,
+                          degenerate_ok(c), run->label, !c->orb_use_near && !run->orb_saddle_line, &k, m,
+                          (int)sizeof m)) {
+    int ln = c->orb_use_near ? nml_line(run->where, "orbits", "saddle_near") : run->orb_saddle_line;
+    say_at(run, ln);
+    if (c->orb_use_near) fprintf(stderr, "&orbits saddle_near%s: %s\n", ln ? "" : " (the system's default)", m);
+    else fprintf(stderr, "&orbits: %s\n", m);
+    return EXIT_BADINPUT;
+  }
+  snprintf(run->saddle, sizeof run->saddle, "%s", L.names + 8 * k);
   return de_resolvable(run, L.en[k]);
 }
 

@@ -1,0 +1,115 @@
+!> The run's set-up rules, one definition for both front ends: src/io/tubes_scenes.c (run_setup)
+!> calls the bind(C) entries, python/tubes_f2py.f90 (tubes._settings) the Fortran ones. Each
+!> returns a code and, where the rule refuses, the body of the message; the front end adds its
+!> head (the input file and line, or the calling function).
+module tubes_setup
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char
+  use tubes_kinds, only: wp
+  use tubes_cstrings, only: c_to_f, f_to_c
+  implicit none
+  private
+
+  integer, parameter, public :: SADDLE_FOUND = 0       !! the saddle chosen
+  integer, parameter, public :: SADDLE_NOT_ONE = 1     !! the name is not a saddle the scenes take
+  integer, parameter, public :: SADDLE_NONE_NEAR = 2   !! no saddle the scenes take in the box
+
+  public :: choose_saddle
+
+contains
+
+  !> The run's saddle among the equilibria found in the &equilibria box: names(i), kinds(i) (1 a
+  !> rank-1 saddle, 2 a degenerate one: a mode without quadratic term, 0 anything else) and
+  !> positions q(:, i) (ndof rows). By name, or (use_near) the nearest to near (squared distance;
+  !> the first of equal ones) of those the scenes take: a rank-1 saddle, or a degenerate one where
+  !> every scene takes it (degenerate_ok: equilibria and the sampled flux). k: the index chosen
+  !> (0 where none). label: the model's name in the message; dflt: the name is the system's
+  !> default (not given).
+  integer function choose_saddle(names, kinds, q, name, use_near, near, degenerate_ok, label, dflt, k, msg) &
+      result(code)
+    character(*), intent(in) :: names(:), name, label
+    integer, intent(in) :: kinds(:)
+    real(wp), intent(in) :: q(:, :), near(:)
+    logical, intent(in) :: use_near, degenerate_ok, dflt
+    integer, intent(out) :: k
+    character(*), intent(out) :: msg
+    integer :: i, nd
+    real(wp) :: d, dbest
+    character(:), allocatable :: listed
+    code = SADDLE_FOUND
+    msg = ''
+    k = 0
+    nd = size(q, 1)
+    if (use_near) then
+      dbest = 0
+      do i = 1, size(names)
+        if (.not. takes(i)) cycle
+        d = sum((q(1:nd, i) - near(1:nd))**2)
+        if (k == 0 .or. d < dbest) then
+          k = i
+          dbest = d
+        end if
+      end do
+      if (k == 0) then
+        code = SADDLE_NONE_NEAR
+        msg = 'system ' // trim(label) // ' has no rank-1 saddle in the &equilibria box (its equilibria: the ' // &
+          'equilibria scene lists them); widen &equilibria box or name a saddle'
+      end if
+      return
+    end if
+    do i = 1, size(names)
+      if (trim(names(i)) == trim(name)) k = i
+    end do
+    if (k > 0) then
+      if (takes(k)) return
+    end if
+    code = SADDLE_NOT_ONE
+    listed = ''
+    do i = 1, size(names)
+      if (kinds(i) /= 1) cycle
+      if (len(listed) > 0) listed = listed // ','
+      listed = listed // ' ' // trim(names(i))
+    end do
+    if (len(listed) == 0) listed = ' none'
+    msg = 'saddle = ''' // trim(name) // ''''
+    if (dflt) msg = trim(msg) // ' (the system''s default)'
+    msg = trim(msg) // ' is not a rank-1 saddle of system ' // trim(label) // ' in the &equilibria box; its ' // &
+      'rank-1 saddles are:' // listed // ' (choose one, or set &orbits saddle_near)'
+    if (k > 0) then
+      if (kinds(k) == 2) msg = trim(msg) // '; ' // trim(name) // ' is a degenerate saddle (a mode without ' // &
+        'quadratic term): only the scenes equilibria and flux (sampled) take it'
+    end if
+    k = 0
+
+  contains
+
+    logical function takes(j)
+      integer, intent(in) :: j
+      takes = kinds(j) == 1 .or. (kinds(j) == 2 .and. degenerate_ok)
+    end function takes
+  end function choose_saddle
+
+  ! ---------------------------------------------------------------- the C entry (src/io/tubes_scenes.c)
+
+  !> choose_saddle on the C equilibria list: n names of 8 bytes each (NUL-padded), kinds(n),
+  !> q(stride, n) with the first ndof rows the position; name and label NUL-terminated. Returns the
+  !> code; *k the index (0-based, -1 where none), the message in msg (len bytes).
+  integer(c_int) function c_choose_saddle(n, names, kinds, stride, ndof, q, name, use_near, near, degenerate_ok, &
+                                          label, dflt, k, msg, len) result(code) bind(C, name='tubes_choose_saddle')
+    integer(c_int), value :: n, stride, ndof, use_near, degenerate_ok, dflt, len
+    character(kind=c_char), intent(in) :: names(8*n), name(8), label(*)
+    integer(c_int), intent(in) :: kinds(n)
+    real(c_double), intent(in) :: q(stride, n), near(ndof)
+    integer(c_int), intent(out) :: k
+    character(kind=c_char), intent(out) :: msg(len)
+    character(8) :: nm(n)
+    character(2048) :: m
+    integer :: i, kk
+    do i = 1, n
+      nm(i) = c_to_f(names(8*i - 7:8*i))
+    end do
+    code = choose_saddle(nm, kinds, q(1:ndof, :), c_to_f(name(1:8)), use_near /= 0, near, degenerate_ok /= 0, &
+                         c_to_f(label(1:64)), dflt /= 0, kk, m)
+    k = kk - 1
+    call f_to_c(m, msg)
+  end function c_choose_saddle
+end module tubes_setup
