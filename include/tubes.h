@@ -347,11 +347,14 @@ int tubes_verdict_section(double de, double nf, double nfc, double fl, double fe
 int tubes_verdict_cut3(double de, double vol, double vol_half, double vol_x, double f, double sv, int n_decided,
                        int n_misclassified, char *msg, int len);
 
-/* The cut of the stable (kind -1) or unstable (kind +1) tube of the saddle's Lyapunov orbit at
- * excess energy de with the section (as tubes_section_info), refined until
+/* The cut of the stable (kind -1) or unstable (kind +1) tube of the saddle's periodic orbit of
+ * family `family` (as &orbits family: 1 .. N-1, -1 halo_north, -2 halo_south) at
+ * excess energy de with the section (as tubes_section_info; N > 2: a plane q_index = level for its
+ * crossings alone, r and pr its first pair (q_j, p_j), j != index), refined until
  * the area changes by < area_tol (relative) or n_max (<= nout) seeds. Outputs: *n points tau, r,
- * pr (the section's s, p_s), time (flight time to the section, signed), xs[4 n]; *area (Green's theorem on periodic
- * splines), *area_polygon, the orbit's *action and *period, and the refinement history
+ * pr (the section's s, p_s), time (flight time to the section, signed), xs[2N n] (room for
+ * 2 TUBES_MAXDOF nout); *area (Green's theorem on periodic splines; N > 2 the loop integral of
+ * p . dq, the sum over the pairs), *area_polygon, the orbit's *action and *period, and the refinement history
  * hist_n[64], hist_area[64] (*nhist rounds). Orbit options as &orbits. When seeds fail (no
  * crossing within t_max, an integration failure), *n_failed counts them and *fail_tau is the
  * orbit phase [s] of the first. local = 0: the seeds (and multiple-shooting segments) are
@@ -362,7 +365,7 @@ int tubes_tube_cut(const char system[TUBES_LSYSTEM], const double params[TUBES_M
                    const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                    const char saddle[8], double de, int kind, int sec_kind, int sec_index,
                    double level, int dir, double eps, double area_tol, double t_max,
-                   int n_init, int n_max, int n_segments, double orb_tol, double orb_rtol,
+                   int n_init, int n_max, int n_segments, int family, double orb_tol, double orb_rtol,
                    double orb_atol, int method, double h, double omega_bind, int solver,
                    int max_iter, int nout, int *n, double tau[], double r[], double pr[],
                    double time[], double xs[], double *area, double *area_polygon,
