@@ -357,7 +357,9 @@ int tubes_verdict_cut3(double de, double vol, double vol_half, double vol_x, dou
  * p . dq, the sum over the pairs), *area_polygon, the orbit's *action and *period, and the refinement history
  * hist_n[64], hist_area[64] (*nhist rounds). Orbit options as &orbits. When seeds fail (no
  * crossing within t_max, an integration failure), *n_failed counts them and *fail_tau is the
- * orbit phase [s] of the first. local = 0: the seeds (and multiple-shooting segments) are
+ * orbit phase [s] of the first. floquet[2N]: the unit eigenvector of the orbit's monodromy for
+ * the manifold's multiplier at its x0, *sigma the branch (+-1): the seed at phase tau is
+ * x(tau) + sigma eps v(tau)/|v_q(tau)|, v(tau) = Phi(tau) floquet. local = 0: the seeds (and multiple-shooting segments) are
  * shared among all MPI ranks, which must all call; local = 1: this rank computes the cut alone
  * (the caller deals out whole cuts, e.g. energies, to ranks). TUBES_EOUTSIDE: the tube crosses
  * the plane outside the region chosen on it (first on another part of the line). */
@@ -370,7 +372,8 @@ int tubes_tube_cut(const char system[TUBES_LSYSTEM], const double params[TUBES_M
                    int max_iter, int nout, int *n, double tau[], double r[], double pr[],
                    double time[], double xs[], double *area, double *area_polygon,
                    double *action, double *period, int *nhist, int hist_n[64],
-                   double hist_area[64], int *n_failed, double *fail_tau, int local, void *stores);
+                   double hist_area[64], int *n_failed, double *fail_tau,
+                   double floquet[2 * TUBES_MAXDOF], double *sigma, int local, void *stores);
 
 /* Monte Carlo check at de: nsamp points uniform on the section's energy surface (GSL MT19937,
  * seed), each integrated until it returns to the section (outcome 0), passes the saddle's gate,

@@ -532,8 +532,8 @@ contains
   integer(c_int) function c_tube_cut(system, params, lo, hi, n_grid, saddle, de, kind, sec_kind, &
       sec_index, level, dir, eps, area_tol, t_max, n_init, n_max, n_segments, family, orb_tol, orb_rtol, &
       orb_atol, method, h, omega_bind, solver, max_iter, nout, n, tau, r, pr, time, xs, area, &
-      area_polygon, action, period, nhist, hist_n, hist_area, n_failed, fail_tau, local, stores) &
-      result(stat) bind(C, name='tubes_tube_cut')
+      area_polygon, action, period, nhist, hist_n, hist_area, n_failed, fail_tau, floquet, sigma, local, &
+      stores) result(stat) bind(C, name='tubes_tube_cut')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, sec_kind, sec_index, dir
@@ -544,6 +544,8 @@ contains
     real(c_double), intent(out) :: tau(nout), r(nout), pr(nout), time(nout), area, &
                                    area_polygon, action, period, hist_area(64), fail_tau
     real(c_double), intent(out) :: xs(2*MAX_DOF*nout)   !! the states, 2N per point (point k at 2N (k - 1) + 1)
+    real(c_double), intent(out) :: floquet(2*MAX_DOF)   !! the orbit's unit Floquet vector at x0 (2N; 0: none)
+    real(c_double), intent(out) :: sigma                !! the branch's sign (tube_cut_t)
     real(c_double), allocatable :: xl(:, :)
     type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
     type(seed_stores_t), pointer :: kept
@@ -572,6 +574,9 @@ contains
                      nhist, hist_n, hist_area)
     if (n > 0) xs(1:size(xl, 1)*n) = reshape(xl(:, 1:n), [size(xl, 1)*n])
     fail_tau = cut%fail_tau
+    floquet = 0
+    if (allocated(cut%floquet)) floquet(1:size(cut%floquet)) = cut%floquet
+    sigma = cut%sigma
   end function c_tube_cut
 
   !> The options of a tube cut (tubes_tube_cut, the f2py facade's tube_cut): the rest are

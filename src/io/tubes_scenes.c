@@ -1253,13 +1253,13 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
   int nout = c->tub_n_max, n = 0, nh = 0, hn[64], nfail = 0;
   double *tau = malloc(sizeof(double) * nout), *r = malloc(sizeof(double) * nout), *pr = malloc(sizeof(double) * nout),
          *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 2 * MD * nout), ha[64], ar = 0, ap = 0, act = 0, per = 0,
-         ftau = 0;
+         ftau = 0, floq[2 * MD], sigma = 0;
   int rc = 0;
   if (!tau || !r || !pr || !tm || !xs) rc = EXIT_NUMERIC;
   int st = rc ? -1 : tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, kind, SECTION(c), eps, area_tol,
                                     c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol, c->orb_atol,
                                     INTEGRATOR(c), nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau,
-                                    local, run->seeds);
+                                    floq, &sigma, local, run->seeds);
   if (err && errlen) err[0] = 0;
   if (status) *status = rc ? TUBES_EINPUT : st;
   if (st == TUBES_EPASTEND) {
@@ -1273,6 +1273,10 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
     size_t len = 0;
     status_text(st, m, sizeof m);
     len += snprintf(buf + len, sizeof buf - len, "tubes: the cut at dE = %g failed: %s (status %d)", de, m, st);
+    if (st == TUBES_EINPUT && run->ndof > 2 && len < sizeof buf)
+      len += snprintf(buf + len, sizeof buf - len, ": the plane q%d = %g passes through the saddle %s (no side for "
+                      "the manifold's branch to go to), or the orbit has no hyperbolic multiplier (no stable and "
+                      "unstable manifolds)", c->sec_index, c->sec_value, run->saddle);
     if (st == TUBES_ENOCROSS && !sec_is_ray(c) && len < sizeof buf)
       len += snprintf(buf + len, sizeof buf - len, ": the %s manifold's branch towards the plane q%d = %g does not "
                       "reach it (crossing it with dq%d/dt %s 0) within &tubes t_max = %g; raise t_max or choose "
@@ -1333,7 +1337,12 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
     e |= h5_attr_double(g, "period", per);
     e |= h5_attr_double(g, "eps", eps);
     e |= h5_attr_long(g, "converged", st >= 0);
-    if (nd > 2) e |= h5_attr_long(g, "family", c->orb_family);   /* 2 DOF: the Lyapunov family alone */
+    if (nd > 2) {   /* (2 DOF: the Lyapunov family alone, the paper's cuts as they were) */
+      hsize_t d2n = (hsize_t)(2 * nd);
+      e |= h5_attr_long(g, "family", c->orb_family);
+      e |= h5_write_double(g, "floquet_vector", 1, &d2n, floq, NULL);
+      e |= h5_attr_double(g, "sigma", sigma);
+    }
     if (g >= 0) H5Gclose(g);
     if (e) rc = EXIT_IO;
   }
@@ -1700,7 +1709,7 @@ int scene_montecarlo(tubes_run_t *run) {
   int rc = write_section(run, &a0, &tau, &tpo);
   if (rc) return rc;
   int nout = c->tub_n_max, n = 0, nh = 0, hn[64], nfail = 0;
-  double ftau = 0, de = c->mc_de, *tau_ = malloc(sizeof(double) * nout), *cr = malloc(sizeof(double) * nout),
+  double ftau = 0, floq[2 * MD], sigma = 0, de = c->mc_de, *tau_ = malloc(sizeof(double) * nout), *cr = malloc(sizeof(double) * nout),
          *cp = malloc(sizeof(double) * nout), *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 2 * MD * nout),
          ha[64], ar = 0, ap = 0, act = 0, per = 0, rmin, rmax, ae, darea, t0 = now();
   int ns = c->mc_n_samples, damped = dissipative(run);
@@ -1711,7 +1720,8 @@ int scene_montecarlo(tubes_run_t *run) {
   int st = tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, -1, SECTION(c), c->tub_eps, c->mc_area_tol,
                           c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol,
                           c->orb_atol, INTEGRATOR(c), nout,
-                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau, 0, run->seeds);
+                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau, floq, &sigma, 0,
+                          run->seeds);
   if (st < 0 && nfail > 0)
     fprintf(stderr, "tubes: montecarlo: the tube cut at dE = %g: %d seed(s) failed, the first at orbit phase "
             "tau = %.10g s\n", de, nfail, ftau);

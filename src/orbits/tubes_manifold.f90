@@ -58,6 +58,9 @@ module tubes_manifold
     real(wp), allocatable :: time(:)  !! flight time from the seed to the section [time] (signed)
     real(wp), allocatable :: x(:, :)  !! the state at the crossing (2N)
     real(wp), allocatable :: sec(:, :) !! the section's coordinates at the crossing (2N - 2)
+    real(wp), allocatable :: floquet(:) !! the monodromy's unit eigenvector at the orbit's x0 (2N)
+    real(wp) :: sigma = 0             !! the branch: the seed at phase tau is x(tau) + sigma eps
+                                      !! v(tau) / |v_q(tau)|, v(tau) = Phi(tau) floquet
     real(wp) :: area = 0              !! Green's theorem on periodic splines [cm^2/s] (N > 2: the
                                       !! sum over the section's pairs, the loop integral of p . dq)
     real(wp) :: area_polygon = 0      !! the polygon's (shoelace) area [cm^2/s]
@@ -386,6 +389,8 @@ contains
     if (stat /= TUBES_OK) return
     call ens_agree(v0, opts%local)
     sigma = sign(1.0_wp, dot2(v0, well_dir))
+    cut%floquet = v0
+    cut%sigma = sigma
     ens = seed_jobs_t(lanes=uses_taylor(opts%integ), psec=psec, opts=opts, sigma=sigma, orb=orb0, v0=v0)
     allocate (ens%ball, source=ball)
     if (ens%lanes) then   ! the seeds' starts from one integration
