@@ -108,7 +108,7 @@ def run_cut(tmp, name, kind, direction, **kw):
         out.update({k: g.attrs[k] for k in g.attrs})
         o = f["orbits"]
         out.update(orbit_state0=o["state0"][0], orbit_period=o["period"][0], orbit_energy=o["energy"][0],
-                   orbit_action=o["action"][0], stdout=r.stdout)
+                   orbit_action=o["action"][0], stdout=r.stdout, path=tmp / f"{name}.h5")
     return out
 
 
@@ -346,3 +346,15 @@ def test_gallery_halo_tubes(tmp_path):
     for row in rows:
         area, action, dc = float(row[4]), float(row[5]), float(row[8])
         assert abs(area / action - 1) < 1e-9 and dc < 1e-10
+
+
+def test_outputs_documented(cuts):
+    """Every dataset and attribute of the 3-DOF /tubes and /section is in docs/output.md."""
+    from conftest import ROOT
+    doc = (ROOT / "docs" / "output.md").read_text()
+    names = []
+    with h5py.File(cuts["unstable"]["path"]) as f:
+        for grp in (f["section"], f["tubes/unstable_000"]):
+            names += list(grp.attrs) + list(grp.keys())
+    for n in set(names):
+        assert f"`{n}`" in doc, f"{n} missing from docs/output.md"
