@@ -358,3 +358,18 @@ def test_outputs_documented(cuts):
             names += list(grp.attrs) + list(grp.keys())
     for n in set(names):
         assert f"`{n}`" in doc, f"{n} missing from docs/output.md"
+
+
+def test_python_tube_cut_is_the_scene(cuts):
+    """tubes.Model.tube_cut on the spatial CR3BP with family='halo_north' and the same plane gives
+    the scene's cut bit for bit (the same code: tubes_study cut_at)."""
+    import tubes
+    m = tubes.Model(system="cr3bp_spatial")
+    c = m.tube_cut(0.01, kind="unstable", family="halo_north", check_eps=False, t_max=20,
+                   section=dict(kind="plane", index=1, value=PLANE, direction=1))
+    u = cuts["unstable"]
+    for k in ("state", "section", "tau", "time", "floquet_vector"):
+        np.testing.assert_array_equal(c[k], u[k])
+    assert c["area"] == u["area"] and c["axes"] == u["axes"] and c["sigma"] == u["sigma"] and c["family"] == -1
+    with pytest.raises(ValueError, match="needs 2 degrees of freedom"):
+        m.tube_cut(0.01, section=dict(kind="ray"))
