@@ -704,6 +704,8 @@ contains
     end subroutine take_new
   end subroutine store_add
 
+  !> The configuration part of v (first N of 2N components) dotted with w (N): the side of the
+  !> saddle a step along v goes to. Written out as the 2-DOF code always was (the same bits).
   pure real(wp) function dot2(v, w) result(d)
     real(wp), intent(in) :: v(:), w(:)
     integer :: k
