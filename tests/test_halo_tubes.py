@@ -297,6 +297,10 @@ def test_refusals(tmp_path):
     (tmp_path / "c.nml").write_text(nml("c", "stable", -1).replace("'orbits', 'tubes'", "'tubes', 'transition'"))
     r = run_tubes(["c.nml"], cwd=tmp_path, timeout=60)
     assert r.returncode == 1 and "'transition' works on the region of a Poincare section" in r.stderr
+    # a halo tube below the halo branch point (L1: dE = 0.00699): no orbit, said, exit 4
+    (tmp_path / "e.nml").write_text(nml("e", "stable", -1, de=0.005).replace("'orbits', 'tubes'", "'tubes'"))
+    r = run_tubes(["e.nml"], cwd=tmp_path, timeout=120)
+    assert r.returncode == 4 and "no orbit of the halo_north family" in r.stderr and "below the branch point" in r.stderr
     # the plane y = 0 through the saddle: no side for the tube to go to
     (tmp_path / "d.nml").write_text(nml("d", "stable", -1).replace(f"index = 1, value = {PLANE!r}",
                                                                    "index = 2, value = 0"))

@@ -1273,6 +1273,12 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
     size_t len = 0;
     status_text(st, m, sizeof m);
     len += snprintf(buf + len, sizeof buf - len, "tubes: the cut at dE = %g failed: %s (status %d)", de, m, st);
+    if (st == TUBES_ENOCONV && isnan(per) && len < sizeof buf)   /* the orbit, not the cut, failed */
+      len += snprintf(buf + len, sizeof buf - len, ": no orbit of the %s family at this dE%s",
+                      c->orb_family == -1 ? "halo_north" : c->orb_family == -2 ? "halo_south" : "saddle's",
+                      c->orb_family < 0 ? " (below the branch point of the planar family, where the halo branch "
+                                          "starts: the orbits scene locates it, /orbits/bifurcations; or beyond the "
+                                          "branch's continuation)" : "");
     if (st == TUBES_EINPUT && run->ndof > 2 && len < sizeof buf)
       len += snprintf(buf + len, sizeof buf - len, ": the plane q%d = %g passes through the saddle %s (no side for "
                       "the manifold's branch to go to), or the orbit has no hyperbolic multiplier (no stable and "
