@@ -362,14 +362,19 @@ int tubes_choose_saddle(int n, const char *names, const int *kinds, int stride, 
                         const char name[8], int use_near, const double *near, int degenerate_ok, const char *label,
                         int dflt, int *k, char *msg, int len);
 
-/* The cut of the stable (kind -1) or unstable (kind +1) tube of the saddle's Lyapunov orbit at
- * excess energy de with the section (as tubes_section_info), refined until
+/* The cut of the stable (kind -1) or unstable (kind +1) tube of the saddle's periodic orbit of
+ * family `family` (as &orbits family: 1 .. N-1, -1 halo_north, -2 halo_south) at
+ * excess energy de with the section (as tubes_section_info; N > 2: a plane q_index = level for its
+ * crossings alone, r and pr its first pair (q_j, p_j), j != index), refined until
  * the area changes by < area_tol (relative) or n_max (<= nout) seeds. Outputs: *n points tau, r,
- * pr (the section's s, p_s), time (flight time to the section, signed), xs[4 n]; *area (Green's theorem on periodic
- * splines), *area_polygon, the orbit's *action and *period, and the refinement history
+ * pr (the section's s, p_s), time (flight time to the section, signed), xs[2N n] (room for
+ * 2 TUBES_MAXDOF nout); *area (Green's theorem on periodic splines; N > 2 the loop integral of
+ * p . dq, the sum over the pairs), *area_polygon, the orbit's *action and *period, and the refinement history
  * hist_n[64], hist_area[64] (*nhist rounds). Orbit options as &orbits. When seeds fail (no
  * crossing within t_max, an integration failure), *n_failed counts them and *fail_tau is the
- * orbit phase [s] of the first. local = 0: the seeds (and multiple-shooting segments) are
+ * orbit phase [s] of the first. floquet[2N]: the unit eigenvector of the orbit's monodromy for
+ * the manifold's multiplier at its x0, *sigma the branch (+-1): the seed at phase tau is
+ * x(tau) + sigma eps v(tau)/|v_q(tau)|, v(tau) = Phi(tau) floquet. local = 0: the seeds (and multiple-shooting segments) are
  * shared among all MPI ranks, which must all call; local = 1: this rank computes the cut alone
  * (the caller deals out whole cuts, e.g. energies, to ranks). TUBES_EOUTSIDE: the tube crosses
  * the plane outside the region chosen on it (first on another part of the line). */
@@ -377,12 +382,13 @@ int tubes_tube_cut(const char system[TUBES_LSYSTEM], const double params[TUBES_M
                    const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                    const char saddle[8], double de, int kind, int sec_kind, int sec_index,
                    double level, int dir, double eps, double area_tol, double t_max,
-                   int n_init, int n_max, int n_segments, double orb_tol, double orb_rtol,
+                   int n_init, int n_max, int n_segments, int family, double orb_tol, double orb_rtol,
                    double orb_atol, int method, double h, double omega_bind, int solver,
                    int max_iter, int nout, int *n, double tau[], double r[], double pr[],
                    double time[], double xs[], double *area, double *area_polygon,
                    double *action, double *period, int *nhist, int hist_n[64],
-                   double hist_area[64], int *n_failed, double *fail_tau, int local, void *stores);
+                   double hist_area[64], int *n_failed, double *fail_tau,
+                   double floquet[2 * TUBES_MAXDOF], double *sigma, int local, void *stores);
 
 /* Monte Carlo check at de: nsamp points uniform on the section's energy surface (GSL MT19937,
  * seed), each integrated until it returns to the section (outcome 0), passes the saddle's gate,

@@ -670,12 +670,14 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
                     history)
 end subroutine orbit_family
 
-subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol, orb_rtol, orb_atol, &
+subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, family, orb_tol, orb_rtol, orb_atol, &
                     sec_kind, sec_index, level, dir, de, kind, eps, area_tol, t_max, n_init, n_max, &
                     method, h, omega_bind, solver, int_max_iter, stores, stat, n, tau, r, pr, time, &
-                    xs, area, area_polygon, action, period, n_failed, nhist, hist_n, hist_area)
-  ! the cut of the saddle's tube at de with the section (as the tubes scene); its refinement
-  ! history: the points and area after each of nhist rounds
+                    xs, area, area_polygon, action, period, n_failed, nhist, hist_n, hist_area, floquet, sigma)
+  ! the cut of the tube of the saddle's orbit of family `family` (as &orbits family) at de with the
+  ! section (as the tubes scene; 3 DOF: a plane); its refinement history: the points and area after
+  ! each of nhist rounds; xs(1:2N, :) the states, floquet(1:2N) and sigma the step-off's eigenvector
+  ! and branch
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_orbits, only: orbit_t
   use tubes_manifold, only: tube_cut_t
@@ -683,29 +685,39 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, orb_tol,
   use tubes_capi, only: integ_of, tube_opts_of
   implicit none
   character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, n_segments, sec_kind, sec_index, dir, kind, n_init, n_max, &
+  integer(c_int), intent(in) :: n_grid, n_segments, family, sec_kind, sec_index, dir, kind, n_init, n_max, &
                                 method, solver, int_max_iter
   real(c_double), intent(in) :: h, omega_bind
   real(c_double), intent(in) :: params(16), lo(3), hi(3), orb_tol, orb_rtol, orb_atol, level, de, &
                                 eps, area_tol, t_max
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: stat, n, n_failed, nhist, hist_n(64)
-  real(c_double), intent(out) :: tau(n_max), r(n_max), pr(n_max), time(n_max), xs(4, n_max), area, &
-                                 area_polygon, action, period, hist_area(64)
+  real(c_double), intent(out) :: tau(n_max), r(n_max), pr(n_max), time(n_max), xs(6, n_max), area, &
+                                 area_polygon, action, period, hist_area(64), floquet(6), sigma
+  real(c_double), allocatable :: xl(:, :)
   type(study_t) :: st
   type(tube_cut_t) :: cut
   type(orbit_t) :: orb
   type(seed_stores_t), pointer :: kept
   n = 0; tau = 0; r = 0; pr = 0; time = 0; xs = 0; area = 0; area_polygon = 0; action = 0; period = 0
-  n_failed = 0; hist_n = 0; hist_area = 0
+  n_failed = 0; hist_n = 0; hist_area = 0; floquet = 0; sigma = 0
   st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-               n_segments=n_segments, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol, &
+               n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol, &
                integ=integ_of(method, h, omega_bind, solver, int_max_iter))
   kept => stores_at(stores)
   call cut_at(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, &
               tube_opts_of(kind, eps, area_tol, t_max, n_init, n_max, .false.), cut, orb, stat, kept)
-  call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed, &
+  if (allocated(cut%x)) then
+    allocate (xl(size(cut%x, 1), n_max))
+  else
+    allocate (xl(4, n_max))
+  end if
+  xl = 0
+  call cut_outputs(cut, orb, n, tau, r, pr, time, xl, area, area_polygon, action, period, n_failed, &
                    nhist, hist_n, hist_area)
+  xs(1:size(xl, 1), :) = xl
+  if (allocated(cut%floquet)) floquet(1:size(cut%floquet)) = cut%floquet
+  sigma = cut%sigma
 end subroutine tube_cut
 
 subroutine section_info(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &

@@ -402,10 +402,11 @@ NONQUAD = ("&model system = 'expression', hamiltonian = '(px^2 + py^2)/2 + px^2*
     # off the area of {min over px of H <= E}, exit 0)
     (NONQUAD + "&section kind = 'plane', index = 1, value = -0.5, direction = 1 /\n&run scenes = 'transition' /\n"
      "&transition de = 0.05 /\n", ["m.nml:4: &section kind = 'plane'", "quadratic in the momenta", "'transition'"]),
-    # the section scenes of a 3-DOF model (exit 2 with 'does not meet a bounded region' before)
-    ("&model system = 'cr3bp_spatial' /\n&run scenes = 'equilibria', 'tubes' /\n"
+    # the section scenes of a 3-DOF model (exit 2 with 'does not meet a bounded region' before); the
+    # tubes scene takes a 3-DOF plane (docs/tubes.md, "Tubes of halo orbits"), the region's do not
+    ("&model system = 'cr3bp_spatial' /\n&run scenes = 'equilibria', 'transition' /\n"
      "&section kind = 'plane', index = 1, value = 0.8, direction = 1 /\n",
-     ["m.nml:2: &run scenes: 'tubes'", "2 degrees of freedom", "has 3"]),
+     ["m.nml:2: &run scenes: 'transition'", "2 degrees of freedom", "has 3"]),
     # orbits of a 1-DOF model (exit 4, 'did not converge', before)
     ("&model system = 'expression', hamiltonian = 'px^2/2 - x^2/2 + x^4/4', coordinates = 'x', momenta = 'px' /\n"
      "&run scenes = 'orbits' /\n&orbits saddle_near = 0 /\n", ["m.nml:2: &run scenes: 'orbits'", "1 degree of freedom"]),

@@ -267,8 +267,11 @@ def test_string_choices_and_saddles_are_checked():
     for bad in ("S9", "W1"):
         with pytest.raises(ValueError, match=f"saddle = '{bad}' is not a rank-1 saddle.*are: S1, S2, S3"):
             hh.transition([0.01], saddle=bad)
-    with pytest.raises(ValueError, match="needs 2 degrees of freedom .system 'cr3bp_spatial' has 3"):
+    # 3 DOF: tube_cut takes a plane (docs/tubes.md, "Tubes of halo orbits"); the CR3BP has no default
+    with pytest.raises(ValueError, match="this system has no default section: give section="):
         tubes.Model(system="cr3bp_spatial").tube_cut(0.001)
+    with pytest.raises(ValueError, match="needs 2 degrees of freedom .system 'cr3bp_spatial' has 3"):
+        tubes.Model(system="cr3bp_spatial").transition([0.001])
     for f, msg in ((lambda: hh.tube_cut(-0.01), r"tube_cut: &tubes: de\(1\) = -0.01 is out of range: allowed > 0"),
                    (lambda: hh.tube_cut(), "tube_cut: give dE"),
                    (lambda: hh.transition([0.0]), r"transition: &transition: de\(1\) = 0 is out of range"),

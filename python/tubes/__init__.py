@@ -1191,17 +1191,26 @@ def _normal_form_flux(model, st, de, order):
 def _cut(model, st, de, kind, area_tol, eps=None):
     n_max = int(st["tub_n_max"])
     eps = float(st["tub_eps"]) if eps is None else eps
-    (stat, n, tau, r, pr, tm, xs, area, apoly, act, per, nfail, nh, hn, ha) = _lib().tube_cut(
-        *_study(model, st), int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
+    (stat, n, tau, r, pr, tm, xs, area, apoly, act, per, nfail, nh, hn, ha, floq, sigma) = _lib().tube_cut(
+        *_study(model, st), int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]),
         float(st["orb_atol"]), *_section_args(st), float(de), int(kind), eps,
         float(area_tol), float(st["tub_t_max"]), int(st["tub_n_init"]), n_max, *_integ(st, model),
         model._stores())
     _check(stat, f"tube_cut(dE = {de})")
-    return {"dE": float(de), "r": r[:n].copy(), "p_r": pr[:n].copy(), "tau": tau[:n].copy(),
-            "time": tm[:n].copy(), "state": xs[:, :n].T.copy(), "area": float(area),
-            "area_polygon": float(apoly), "action": float(act), "period": float(per),
-            "kind": "stable" if kind < 0 else "unstable", "eps": eps, "converged": int(stat >= 0),
-            "history_n": hn[:nh].astype(np.int32), "history_area": ha[:nh].copy()}
+    nd = model.ndof
+    out = {"dE": float(de), "r": r[:n].copy(), "p_r": pr[:n].copy(), "tau": tau[:n].copy(),
+           "time": tm[:n].copy(), "state": xs[:2 * nd, :n].T.copy(), "area": float(area),
+           "area_polygon": float(apoly), "action": float(act), "period": float(per),
+           "kind": "stable" if kind < 0 else "unstable", "eps": eps, "converged": int(stat >= 0),
+           "history_n": hn[:nh].astype(np.int32), "history_area": ha[:nh].copy()}
+    if nd > 2:   # as the scene's 3-DOF /tubes/<kind>_<k> (docs/output.md)
+        k = int(st["sec_index"])
+        pairs = [j for j in range(1, nd + 1) if j != k]
+        out.update(section=np.stack([out["state"][:, c] for j in pairs for c in (j - 1, nd + j - 1)], axis=1),
+                   axes=" ".join(f"q{j} p{j}" for j in pairs), floquet_vector=floq[:2 * nd].copy(),
+                   sigma=float(sigma), family=int(st["orb_family"]), section_index=k,
+                   section_value=float(st["sec_level"]), section_direction=int(st["sec_dir"]))
+    return out
 
 
 TUBE_KINDS = {"stable": -1, "unstable": 1}   # the tubes scene's kind (src/io/tubes_scenes.c)
@@ -1211,7 +1220,7 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
              saddle_near=None, section=None, integrator: dict | None = None, equilibria: dict | None = None,
              check_eps: bool = True, **options) -> Table:
     """The cut of the saddle's stable (or unstable) tube at dE with the section (as the tubes
-    scene, docs/tubes.md; 2 degrees of freedom).
+    scene, docs/tubes.md; 2 degrees of freedom, or 3 with a plane section: "Tubes of halo orbits").
 
     dE: the excess energy above the saddle, > 0, in the model's energy units ((cm/s)^2 for the
     ball); required (the scene's default list, &tubes de = 10, 100, is the ball's and a list).
@@ -1219,22 +1228,28 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
     configuration point; the saddle nearest to it), default the system's; section: a dict as in
     section_boundary, default the system's; integrator: &integrator's keywords as a dict;
     equilibria: &equilibria's (box, box_center, n_grid). options: &tubes' eps, area_tol, t_max,
-    n_init, n_max and &orbits' method, n_segments, tol, rtol, atol; defaults and ranges from the
-    program's reader (docs/input.md).
+    n_init, n_max and &orbits' method, n_segments, tol, rtol, atol, family (the orbit's family, as
+    orbit_family's: with 3 degrees of freedom 'halo_north', 'halo_south' too); defaults and ranges
+    from the program's reader (docs/input.md).
 
-    Returns a tubes.Table: dE, r, p_r (the section's s, p_s), tau [time units], time, state (n, 4),
+    Returns a tubes.Table: dE, r, p_r (the section's s, p_s), tau [time units], time, state (n, 2N),
     area, area_polygon, action, period, kind, eps, converged, history_n and history_area (the
     points and area after each refinement round), and, as the scene, area_eps10 and
     area_eps_change: the area of the cut repeated with eps/10 and its change (the check that the
     start's distance eps from the orbit does not matter; check_eps=False skips it, half the
-    cost)."""
+    cost). With 3 degrees of freedom also section (n, 4) (the plane's pairs (q_a, p_a, q_b, p_b):
+    r, p_r are the first), axes, floquet_vector, sigma, family and the plane's section_index,
+    section_value, section_direction, as the scene's /tubes group (docs/output.md); area is then the
+    loop integral of p . dq over the cut."""
     model = model or Model()
     if kind not in TUBE_KINDS:
         raise ValueError(f"tube_cut: kind = {kind!r} is not allowed: allowed {', '.join(map(repr, TUBE_KINDS))}")
-    _need_2dof(model, "tube_cut")
+    if model.ndof != 2:       # 3 DOF: the tubes of any family on a plane (docs/tubes.md, "Tubes of halo orbits")
+        if model.ndof != 3 or (section or {}).get("kind", "plane") != "plane":
+            _need_2dof(model, "tube_cut")
     if dE is None:
         raise ValueError("tube_cut: give dE, the excess energy above the saddle (> 0, in the model's energy units)")
-    orb = {k: options.pop(k) for k in list(options) if k in ("method", "n_segments", "tol", "rtol", "atol")}
+    orb = {k: options.pop(k) for k in list(options) if k in ("method", "n_segments", "tol", "rtol", "atol", "family")}
     st = _settings(model, saddle, saddle_near, section=section, who="tube_cut", orbits=orb,
                    tubes=dict(options, de=[_scalar_de(dE, "tube_cut")]), integrator=integrator, equilibria=equilibria)
     de = float(st["des"][0, 1])

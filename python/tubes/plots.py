@@ -898,6 +898,48 @@ def plot_tube_cut3(res, path, k=-1, slice_width=0.05, max_points=3000):
     plt.close(fig)
 
 
+def manifold_cut(cut, ax=None, pairs=(0, 1), label=None, **plot_kw):
+    """A tube's cut with a plane in 3 degrees of freedom (a /tubes/<kind>_<k> group of the tubes
+    scene, docs/output.md; or a dict with its `section` and `axes`): the closed curve's projection on
+    two of the section's coordinates (q_a, p_a, q_b, p_b), columns pairs of `section` (default
+    (q_a, p_a)), closed back to its first point. label: the legend entry (default the kind and dE);
+    plot_kw go to matplotlib's plot. Returns the axes."""
+    sec = np.asarray(_get(cut, "section"))
+    at = _attrs(cut)
+    names = str(_dec(at.get("axes", "q_a p_a q_b p_b"))).split()
+    i, j = pairs
+    ax = _ax(ax, (5.5, 4.5))
+    if label is None:
+        label = f"{_dec(at.get('kind', ''))} (dE = {float(at.get('dE', np.nan)):g})"
+    ax.plot(np.append(sec[:, i], sec[0, i]), np.append(sec[:, j], sec[0, j]), label=label, **plot_kw)
+    ax.set_xlabel(names[i])
+    ax.set_ylabel(names[j])
+    return ax
+
+
+def plot_manifold_cuts(res, path):
+    """tube_cut_plane.png: every cut of the tubes scene of a model with 3 degrees of freedom (a
+    plane section: /tubes/<kind>_<k>/section), projected on (q_a, p_a), (q_b, p_b) and (q_a, q_b)."""
+    plt = _mpl()
+    tg = _get(res, "tubes")
+    names = sorted(k for k in tg.keys() if str(k).startswith(("stable_", "unstable_")))
+    fig, axs = plt.subplots(1, 3, figsize=(15, 4.6))
+    first = None
+    for n, k in enumerate(names):
+        cut = _get(tg, k)
+        if not _has(cut, "section"):
+            continue
+        first = first if first is not None else cut
+        for ax, pairs in zip(axs, ((0, 1), (2, 3), (0, 2))):
+            manifold_cut(cut, ax=ax, pairs=pairs, color=f"C{n}", lw=1)
+    if first is not None:
+        at = _attrs(first)
+        axs[0].legend(fontsize=8)
+        fig.suptitle(f"the tubes' cuts with the plane q{int(at['section_index'])} = {float(at['section_value']):.10g} "
+                     f"(family {int(at.get('family', 1))}): closed curves in the section's 4 coordinates")
+    _save(fig, path, 110)
+
+
 def open_result(prog, description, argv):
     """The command line of python -m tubes.plots and tubes.figures: (args, the loaded result, 0), or
     (args, None, exit code) after the message (an output directory refused, exit 3; an unreadable
@@ -942,7 +984,8 @@ def main(argv=None):
 
 
 FIGURE_NAMES = ("surface.png", "orbit_family.png", "orbit_properties.png", "p_trans.png", "tube_trajectories.png",
-                "montecarlo.png", "tube_cut_3dof.png", "experiment.png", "experiment.h5")   # and section_dE*.png
+                "montecarlo.png", "tube_cut_3dof.png", "tube_cut_plane.png", "experiment.png",
+                "experiment.h5")   # and section_dE*.png
 
 
 def check_outdir(outdir) -> None:
@@ -984,6 +1027,9 @@ def _draw_all(res, outdir) -> list:
     if two and _has(res, "tubes") and _has(res, "section"):
         plot_tube_trajectories(res, out / "tube_trajectories.png")
         written.append(out / "tube_trajectories.png")
+    if not two and _has(res, "tubes"):
+        plot_manifold_cuts(res, out / "tube_cut_plane.png")
+        written.append(out / "tube_cut_plane.png")
     if _has(res, "flux") and _has(_get(res, "flux"), "tube_cut"):
         plot_tube_cut3(res, out / "tube_cut_3dof.png")
         written.append(out / "tube_cut_3dof.png")

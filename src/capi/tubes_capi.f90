@@ -527,21 +527,26 @@ contains
     call section_info(st, sec, de, smin, smax, area, darea, stat, kept)
   end function c_section_info
 
-  !> The cut of the Lyapunov orbit's tube at excess energy de with the section (include/tubes.h).
+  !> The cut of the tube of the saddle's periodic orbit of family `family` (as &orbits family)
+  !> at excess energy de with the section (include/tubes.h).
   integer(c_int) function c_tube_cut(system, params, lo, hi, n_grid, saddle, de, kind, sec_kind, &
-      sec_index, level, dir, eps, area_tol, t_max, n_init, n_max, n_segments, orb_tol, orb_rtol, &
+      sec_index, level, dir, eps, area_tol, t_max, n_init, n_max, n_segments, family, orb_tol, orb_rtol, &
       orb_atol, method, h, omega_bind, solver, max_iter, nout, n, tau, r, pr, time, xs, area, &
-      area_polygon, action, period, nhist, hist_n, hist_area, n_failed, fail_tau, local, stores) &
-      result(stat) bind(C, name='tubes_tube_cut')
+      area_polygon, action, period, nhist, hist_n, hist_area, n_failed, fail_tau, floquet, sigma, local, &
+      stores) result(stat) bind(C, name='tubes_tube_cut')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, sec_kind, sec_index, dir
     real(c_double), value :: de, level, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol
-    integer(c_int), value :: kind, n_init, n_max, n_segments, nout, local, method, solver, max_iter
+    integer(c_int), value :: kind, n_init, n_max, n_segments, family, nout, local, method, solver, max_iter
     real(c_double), value :: h, omega_bind
     integer(c_int), intent(out) :: n, nhist, hist_n(64), n_failed
-    real(c_double), intent(out) :: tau(nout), r(nout), pr(nout), time(nout), xs(4, nout), area, &
+    real(c_double), intent(out) :: tau(nout), r(nout), pr(nout), time(nout), area, &
                                    area_polygon, action, period, hist_area(64), fail_tau
+    real(c_double), intent(out) :: xs(2*MAX_DOF*nout)   !! the states, 2N per point (point k at 2N (k - 1) + 1)
+    real(c_double), intent(out) :: floquet(2*MAX_DOF)   !! the orbit's unit Floquet vector at x0 (2N; 0: none)
+    real(c_double), intent(out) :: sigma                !! the branch's sign (tube_cut_t)
+    real(c_double), allocatable :: xl(:, :)
     type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
     type(seed_stores_t), pointer :: kept
     type(study_t) :: st
@@ -553,15 +558,25 @@ contains
     call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
                   integ_of(method, h, omega_bind, solver, max_iter), st, sec)
     st%n_segments = n_segments
+    st%family = family
     st%orb_tol = orb_tol
     st%orb_rtol = orb_rtol
     st%orb_atol = orb_atol
     kept => stores_of(stores)
     call cut_at(st, sec, de, tube_opts_of(kind, eps, area_tol, t_max, n_init, min(n_max, nout), local /= 0), &
                 cut, orb, stat, kept)
-    call cut_outputs(cut, orb, n, tau, r, pr, time, xs, area, area_polygon, action, period, n_failed, &
+    if (allocated(cut%x)) then
+      allocate (xl(size(cut%x, 1), nout))
+    else
+      allocate (xl(4, nout))
+    end if
+    call cut_outputs(cut, orb, n, tau, r, pr, time, xl, area, area_polygon, action, period, n_failed, &
                      nhist, hist_n, hist_area)
+    if (n > 0) xs(1:size(xl, 1)*n) = reshape(xl(:, 1:n), [size(xl, 1)*n])
     fail_tau = cut%fail_tau
+    floquet = 0
+    if (allocated(cut%floquet)) floquet(1:size(cut%floquet)) = cut%floquet
+    sigma = cut%sigma
   end function c_tube_cut
 
   !> The options of a tube cut (tubes_tube_cut, the f2py facade's tube_cut): the rest are

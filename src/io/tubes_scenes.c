@@ -255,17 +255,24 @@ static int scenes_apply(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   static const char *on_section[] = {"tubes", "transition", "montecarlo", "sections"};
   const char *sec = NULL;
-  int orbits = 0;
+  int orbits = 0, tubes3 = 0;
   for (int k = 0; k < TUBES_NSCENES; k++) {
     for (int j = 0; j < 4; j++)
-      if (!sec && !strcmp(c->scenes[k], on_section[j])) sec = on_section[j];
+      if (!sec && !strcmp(c->scenes[k], on_section[j]) && !(j == 0 && run->ndof > 2)) sec = on_section[j];
     orbits |= !strcmp(c->scenes[k], "orbits");
+    tubes3 |= !strcmp(c->scenes[k], "tubes") && run->ndof > 2;
   }
   if (sec && run->ndof != 2) {
     say_at(run, run->scenes_line);
-    fprintf(stderr, "&run scenes: '%s' cuts tubes with a Poincare section of a model with 2 degrees of "
-            "freedom; system %s has %d (with %d: equilibria, orbits (&orbits family), flux)\n", sec, run->label,
-            run->ndof, run->ndof);
+    fprintf(stderr, "&run scenes: '%s' works on the region of a Poincare section of a model with 2 degrees of "
+            "freedom; system %s has %d (with %d: equilibria, orbits (&orbits family), tubes (on a plane), flux)\n",
+            sec, run->label, run->ndof, run->ndof);
+    return EXIT_BADINPUT;
+  }
+  if (tubes3 && sec_is_ray(c)) {   /* (the reader allows the ray for the ball alone) */
+    say_at(run, run->sec_kind_line);
+    fprintf(stderr, "&section: the tubes scene of system %s (%d degrees of freedom) cuts the manifolds with a "
+            "plane: set kind = 'plane', index, value and direction\n", run->label, run->ndof);
     return EXIT_BADINPUT;
   }
   int trajectory = 0;
@@ -1106,6 +1113,29 @@ static int orb_nseg(const tubes_config_t *c) { return strcmp(c->orb_method, "mul
 static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, double *tpo_out) {
   const tubes_config_t *c = run->cfg;
   double ee, tpo, rmin, rmax, a0, tau;
+  if (run->ndof > 2) {   /* the tubes scene's plane, for its crossings alone: no region, no A0 */
+    int s3 = saddle_props(run, &ee, &tpo);
+    if (s3 < 0) {
+      fprintf(stderr, "tubes: section: the saddle %s could not be found (status %d)\n", run->saddle, s3);
+      return EXIT_NUMERIC;
+    }
+    *a0_out = *tau_out = NAN;
+    *tpo_out = tpo;
+    if (H5Lexists(run->file, "section", H5P_DEFAULT) > 0) return 0;
+    printf("section q%d = %.10g (dq%d/dt %s 0), %d degrees of freedom: the tubes' crossings of the plane (no "
+           "region: the transition scenes are 2-DOF)\n", c->sec_index, c->sec_value, c->sec_index,
+           c->sec_direction > 0 ? ">" : "<", run->ndof);
+    hid_t g = h5_group(run->file, "section");
+    if (g < 0) return EXIT_IO;
+    int e = h5_attr_string(g, "kind", "plane");
+    e |= h5_attr_long(g, "index", c->sec_index);
+    e |= h5_attr_double(g, "value", c->sec_value);
+    e |= h5_attr_long(g, "direction", c->sec_direction);
+    e |= h5_attr_double(g, "E_e", ee);
+    e |= h5_attr_string(g, "saddle", run->saddle);
+    H5Gclose(g);
+    return e ? EXIT_IO : 0;
+  }
   int st = saddle_props(run, &ee, &tpo);
   if (!st) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), 0.0, &rmin, &rmax, &a0, &tau, run->seeds);
   if (st < 0) {
@@ -1170,7 +1200,8 @@ static void past_end_message(tubes_run_t *run, double de, char *buf, size_t len,
       *hist = calloc(mi > 0 ? mi : 1, sizeof(double)), *ts = calloc(ns, sizeof(double)),
       *xs = calloc((size_t)2 * MD * ns, sizeof(double));
   if (hist && ts && xs)
-    tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, 1, &de, orb_nseg(c), 1,
+    tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, 1, &de, orb_nseg(c),
+                       c->orb_family,
                        c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c), &e, &per, &act, s0, &mu, &ms, mt,
                        &stab, &res, &clo, &it, &conv, &md, mono, ts, xs, hist, &end_de, &reason, local, run->seeds);
   free(hist); free(ts); free(xs);
@@ -1188,14 +1219,14 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
   const tubes_config_t *c = run->cfg;
   int nout = c->tub_n_max, n = 0, nh = 0, hn[64], nfail = 0;
   double *tau = malloc(sizeof(double) * nout), *r = malloc(sizeof(double) * nout), *pr = malloc(sizeof(double) * nout),
-         *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 4 * nout), ha[64], ar = 0, ap = 0, act = 0, per = 0,
-         ftau = 0;
+         *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 2 * MD * nout), ha[64], ar = 0, ap = 0, act = 0, per = 0,
+         ftau = 0, floq[2 * MD], sigma = 0;
   int rc = 0;
   if (!tau || !r || !pr || !tm || !xs) rc = EXIT_NUMERIC;
   int st = rc ? -1 : tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, kind, SECTION(c), eps, area_tol,
-                                    c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol,
+                                    c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol, c->orb_atol,
                                     INTEGRATOR(c), nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau,
-                                    local, run->seeds);
+                                    floq, &sigma, local, run->seeds);
   if (err && errlen) err[0] = 0;
   if (status) *status = rc ? TUBES_EINPUT : st;
   if (st == TUBES_EPASTEND) {
@@ -1209,6 +1240,21 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
     size_t len = 0;
     status_text(st, m, sizeof m);
     len += snprintf(buf + len, sizeof buf - len, "tubes: the cut at dE = %g failed: %s (status %d)", de, m, st);
+    if (st == TUBES_ENOCONV && isnan(per) && len < sizeof buf)   /* the orbit, not the cut, failed */
+      len += snprintf(buf + len, sizeof buf - len, ": no orbit of the %s family at this dE%s",
+                      c->orb_family == -1 ? "halo_north" : c->orb_family == -2 ? "halo_south" : "saddle's",
+                      c->orb_family < 0 ? " (below the branch point of the planar family, where the halo branch "
+                                          "starts: the orbits scene locates it, /orbits/bifurcations; or beyond the "
+                                          "branch's continuation)" : "");
+    if (st == TUBES_EINPUT && run->ndof > 2 && len < sizeof buf)
+      len += snprintf(buf + len, sizeof buf - len, ": the plane q%d = %g passes through the saddle %s (no side for "
+                      "the manifold's branch to go to), or the orbit has no hyperbolic multiplier (no stable and "
+                      "unstable manifolds)", c->sec_index, c->sec_value, run->saddle);
+    if (st == TUBES_ENOCROSS && !sec_is_ray(c) && len < sizeof buf)
+      len += snprintf(buf + len, sizeof buf - len, ": the %s manifold's branch towards the plane q%d = %g does not "
+                      "reach it (crossing it with dq%d/dt %s 0) within &tubes t_max = %g; raise t_max or choose "
+                      "another plane or direction", kind < 0 ? "stable" : "unstable", c->sec_index, c->sec_value,
+                      c->sec_index, c->sec_direction > 0 ? ">" : "<", c->tub_t_max);
     if (nfail > 0 && len < sizeof buf)
       len += snprintf(buf + len, sizeof buf - len, "; %d seed(s) failed, the first at orbit phase tau = %.10g s of "
                       "T = %.10g s", nfail, ftau, per);
@@ -1222,13 +1268,36 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
   }
   if (loc >= 0 && n > 0) {
     hid_t g = h5_group(loc, name);
-    hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, 4}, dh = (hsize_t)nh;
+    int nd = run->ndof;
+    hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, (hsize_t)(2 * nd)}, dh = (hsize_t)nh;
     int e = g < 0;
     e |= h5_write_double(g, "r", 1, &dn, r, NULL);
     e |= h5_write_double(g, "p_r", 1, &dn, pr, NULL);
     e |= h5_write_double(g, "time", 1, &dn, tm, NULL);
     e |= h5_write_double(g, "tau", 1, &dn, tau, NULL);
-    e |= h5_write_double(g, "state", 2, d4, xs, "cm, cm, cm/s, cm/s");
+    e |= h5_write_double(g, "state", 2, d4, xs, nd == 2 ? "cm, cm, cm/s, cm/s" : NULL);
+    if (nd > 2) {   /* the plane's pairs (q_j, p_j), j != index: the cut is a closed curve in them */
+      double *sc = malloc(sizeof(double) * (size_t)n * 2 * (nd - 1));
+      hsize_t ds[2] = {(hsize_t)n, (hsize_t)(2 * (nd - 1))};
+      char axes[64] = "";
+      for (int j = 1, l = 0; j <= nd; j++) {
+        if (j == c->sec_index) continue;
+        for (int i = 0; sc && i < n; i++) {
+          sc[(size_t)i * 2 * (nd - 1) + l] = xs[(size_t)i * 2 * nd + j - 1];
+          sc[(size_t)i * 2 * (nd - 1) + l + 1] = xs[(size_t)i * 2 * nd + nd + j - 1];
+        }
+        l += 2;
+        size_t al = strlen(axes);
+        snprintf(axes + al, sizeof axes - al, "%sq%d p%d", al ? " " : "", j, j);
+      }
+      e |= !sc;
+      if (sc) e |= h5_write_double(g, "section", 2, ds, sc, NULL);
+      free(sc);
+      e |= h5_attr_string(g, "axes", axes);
+      e |= h5_attr_long(g, "section_index", c->sec_index);
+      e |= h5_attr_double(g, "section_value", c->sec_value);
+      e |= h5_attr_long(g, "section_direction", c->sec_direction);
+    }
     if (nh > 0) {
       e |= h5_write_int(g, "history_n", dh, hn, NULL);
       e |= h5_write_double(g, "history_area", 1, &dh, ha, NULL);
@@ -1241,6 +1310,12 @@ static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int 
     e |= h5_attr_double(g, "period", per);
     e |= h5_attr_double(g, "eps", eps);
     e |= h5_attr_long(g, "converged", st >= 0);
+    if (nd > 2) {   /* (2 DOF: the Lyapunov family alone, the paper's cuts as they were) */
+      hsize_t d2n = (hsize_t)(2 * nd);
+      e |= h5_attr_long(g, "family", c->orb_family);
+      e |= h5_write_double(g, "floquet_vector", 1, &d2n, floq, NULL);
+      e |= h5_attr_double(g, "sigma", sigma);
+    }
     if (g >= 0) H5Gclose(g);
     if (e) rc = EXIT_IO;
   }
@@ -1607,8 +1682,8 @@ int scene_montecarlo(tubes_run_t *run) {
   int rc = write_section(run, &a0, &tau, &tpo);
   if (rc) return rc;
   int nout = c->tub_n_max, n = 0, nh = 0, hn[64], nfail = 0;
-  double ftau = 0, de = c->mc_de, *tau_ = malloc(sizeof(double) * nout), *cr = malloc(sizeof(double) * nout),
-         *cp = malloc(sizeof(double) * nout), *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 4 * nout),
+  double ftau = 0, floq[2 * MD], sigma = 0, de = c->mc_de, *tau_ = malloc(sizeof(double) * nout), *cr = malloc(sizeof(double) * nout),
+         *cp = malloc(sizeof(double) * nout), *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 2 * MD * nout),
          ha[64], ar = 0, ap = 0, act = 0, per = 0, rmin, rmax, ae, darea, t0 = now();
   int ns = c->mc_n_samples, damped = dissipative(run);
   double *r = malloc(sizeof(double) * ns), *pr = malloc(sizeof(double) * ns), p_cons = NAN;
@@ -1616,9 +1691,10 @@ int scene_montecarlo(tubes_run_t *run) {
   region_out_t *reg = damped ? malloc(sizeof *reg) : NULL;
   fprintf(stderr, "montecarlo: the tube cut at dE = %g...\n", de);
   int st = tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, -1, SECTION(c), c->tub_eps, c->mc_area_tol,
-                          c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_tol, c->orb_rtol, c->orb_atol,
-                          INTEGRATOR(c), nout,
-                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau, 0, run->seeds);
+                          c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol,
+                          c->orb_atol, INTEGRATOR(c), nout,
+                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau, floq, &sigma, 0,
+                          run->seeds);
   if (st < 0 && nfail > 0)
     fprintf(stderr, "tubes: montecarlo: the tube cut at dE = %g: %d seed(s) failed, the first at orbit phase "
             "tau = %.10g s\n", de, nfail, ftau);

@@ -3,6 +3,10 @@
 !> propagated (in parallel, OpenMP) to their first crossing of the section's p_theta branch,
 !> refined adaptively until the area enclosed by the cut, by Green's theorem on periodic cubic
 !> splines (GSL), converges. Theory: docs/tubes.md.
+!> Any number of degrees of freedom N: with N > 2 the section is a plane q_k = c (poincare_t of
+!> kind SEC_PLANE, its region not used), the cut a closed curve in its 2N - 2 coordinates (the
+!> conjugate pairs (q_j, p_j), j /= k, ascending j), and the area the loop integral of p . dq over
+!> it, the sum of the pairs' Green areas (docs/tubes.md, "Tubes of halo orbits").
 module tubes_manifold
   use, intrinsic :: iso_c_binding, only: c_int, c_double
   use tubes_kinds, only: wp
@@ -45,7 +49,7 @@ module tubes_manifold
   end type tube_opts_t
 
   !> The cut: a closed curve in the section's (s, p_s) (the ray's (r, p_r)), ordered by the
-  !> seeds' phase tau on the orbit.
+  !> seeds' phase tau on the orbit. N > 2: (r, pr) the first pair of the section's coordinates.
   type, public :: tube_cut_t
     integer :: n = 0                  !! points
     real(wp), allocatable :: tau(:)   !! seed phase on the orbit [time]
@@ -53,7 +57,12 @@ module tubes_manifold
     real(wp), allocatable :: pr(:)    !! p_s at the crossing (ray: p_r [cm/s])
     real(wp), allocatable :: time(:)  !! flight time from the seed to the section [time] (signed)
     real(wp), allocatable :: x(:, :)  !! the state at the crossing (2N)
-    real(wp) :: area = 0              !! Green's theorem on periodic splines [cm^2/s]
+    real(wp), allocatable :: sec(:, :) !! the section's coordinates at the crossing (2N - 2)
+    real(wp), allocatable :: floquet(:) !! the monodromy's unit eigenvector at the orbit's x0 (2N)
+    real(wp) :: sigma = 0             !! the branch: the seed at phase tau is x(tau) + sigma eps
+                                      !! v(tau) / |v_q(tau)|, v(tau) = Phi(tau) floquet
+    real(wp) :: area = 0              !! Green's theorem on periodic splines [cm^2/s] (N > 2: the
+                                      !! sum over the section's pairs, the loop integral of p . dq)
     real(wp) :: area_polygon = 0      !! the polygon's (shoelace) area [cm^2/s]
     real(wp) :: area_change = 0       !! |last - previous refinement| [cm^2/s]
     integer :: rounds = 0             !! refinement rounds
@@ -111,12 +120,15 @@ module tubes_manifold
     real(wp), allocatable :: p(:, :), tc(:), xc(:, :)
   end type seed_store_t
 
-  public :: tube_cut
+  public :: tube_cut, floquet_vector, cut_coords
 
 contains
 
   !> Floquet eigenvector of the monodromy for the unstable (kind = UNSTABLE) or stable
-  !> multiplier, unit length.
+  !> multiplier, unit length: of the real multipliers the largest in modulus, or the smallest
+  !> (in 3 DOF an elliptic pair exp(+-i theta) may have a real part below the stable one's).
+  !> TUBES_EINPUT when that multiplier is not hyperbolic (|mu| within 1e-6 of 1: the orbit has no
+  !> stable and unstable manifolds).
   subroutine floquet_vector(mono, kind, v, stat)
     real(wp), intent(in) :: mono(:, :)
     integer, intent(in) :: kind
@@ -124,13 +136,20 @@ contains
     integer, intent(out) :: stat
     real(wp) :: wr(size(v)), wi(size(v)), vr(size(v), size(v))
     integer :: k
+    real(wp) :: modulus(size(v))
+    logical :: real_mu(size(v))
     call eigen(mono, wr, wi, stat, vr)
     if (stat /= TUBES_OK) return
+    real_mu = wi == 0
+    modulus = abs(wr)
     if (kind == UNSTABLE) then
-      k = maxloc(wr, 1)
+      k = maxloc(modulus, 1, mask=real_mu)
     else
-      k = minloc(wr, 1)
+      k = minloc(modulus, 1, mask=real_mu)
     end if
+    stat = TUBES_EINPUT
+    if (k < 1) return
+    if (abs(modulus(k) - 1) <= 1.0e-6_wp) return
     v = vr(:, k)/sqrt(sum(vr(:, k)**2))
     stat = TUBES_OK
   end subroutine floquet_vector
@@ -144,7 +163,7 @@ contains
     type(poincare_t), intent(in) :: psec
     type(tube_opts_t), intent(in) :: opts
     type(var_snapshots_t), intent(in) :: snaps   !! the orbit's variational run (may be empty)
-    real(wp), intent(out) :: pc(2), tcross, xc(:)
+    real(wp), intent(out) :: pc(:), tcross, xc(:)   !! pc: the section's coordinates (cut_coords)
     integer, intent(out) :: stat
     logical, intent(in), optional :: any_branch   !! to the first crossing of either direction
     class(integrator_t), allocatable :: ig
@@ -190,7 +209,7 @@ contains
       stat = TUBES_OK
       tcross = ig%t
       xc = x
-      pc = psec%coords(x)
+      pc = cut_coords(psec, x)
     else if (stat >= 0) then
       stat = TUBES_ENOCROSS    ! no crossing within t_max
     end if
@@ -289,13 +308,15 @@ contains
     integer, intent(in) :: k
     type(lane_t), intent(inout) :: lane
     type(ens_out_t), intent(inout) :: out
+    integer :: nc
+    nc = size(lane%x) - 2
     out%st(k) = lane%stat
     out%r(:, k) = 0
     if (lane%stat == TUBES_EVENT) then
       out%st(k) = TUBES_OK
-      out%r(3, k) = lane%ig%t
-      out%r(4:, k) = lane%x
-      out%r(1:2, k) = self%psec%coords(lane%x)
+      out%r(nc + 1, k) = lane%ig%t
+      out%r(nc + 2:, k) = lane%x
+      out%r(1:nc, k) = cut_coords(self%psec, lane%x)
     else if (lane%stat >= 0) then
       out%st(k) = TUBES_ENOCROSS
     end if
@@ -306,8 +327,10 @@ contains
     class(seed_jobs_t), intent(in) :: self
     integer, intent(in) :: k
     type(ens_out_t), intent(inout) :: out
+    integer :: nc
+    nc = size(self%v0) - 2
     call one_seed(self%ball, self%orb, self%v0, self%sigma, self%tau(k), self%psec, self%opts, self%snaps, &
-                  out%r(1:2, k), out%r(3, k), out%r(4:, k), out%st(k))
+                  out%r(1:nc, k), out%r(nc + 1, k), out%r(nc + 2:, k), out%st(k))
   end subroutine seed_item
 
   !> The orbit and the eigenvector v0 transported along one period (tangent equations), every
@@ -347,11 +370,12 @@ contains
     type(seed_store_t), intent(inout), optional :: store
     type(orbit_t) :: orb0
     type(seed_jobs_t) :: ens
-    real(wp) :: v0(size(orb%x0)), sigma, a_old, a_new, span_r, span_p
+    real(wp) :: v0(size(orb%x0)), sigma, a_old, a_new, span(size(orb%x0) - 2), dc
     real(wp), allocatable :: tau(:), pcs(:, :), tcs(:), xcs(:, :), newtau(:), chord(:), medc
     logical, allocatable :: split(:)
     integer, allocatable :: st(:)
-    integer :: n, i, j, m, info, nconv
+    integer :: n, i, j, m, info, nconv, nc, l
+    nc = size(orb%x0) - 2     ! the section's coordinates: (s, p_s) in 2 DOF
     if (opts%n_init < 8 .or. opts%eps <= 0 .or. orb%period <= 0) then
       stat = TUBES_EINPUT
       return
@@ -365,6 +389,8 @@ contains
     if (stat /= TUBES_OK) return
     call ens_agree(v0, opts%local)
     sigma = sign(1.0_wp, dot2(v0, well_dir))
+    cut%floquet = v0
+    cut%sigma = sigma
     ens = seed_jobs_t(lanes=uses_taylor(opts%integ), psec=psec, opts=opts, sigma=sigma, orb=orb0, v0=v0)
     allocate (ens%ball, source=ball)
     if (ens%lanes) then   ! the seeds' starts from one integration
@@ -376,7 +402,7 @@ contains
     n = opts%n_init
     allocate (tau(n))
     tau = [((i - 1)*orb0%period/n, i = 1, n)]
-    allocate (pcs(2, 0), tcs(0), xcs(size(v0), 0), st(0))
+    allocate (pcs(nc, 0), tcs(0), xcs(size(v0), 0), st(0))
     call seeds(tau, 1, n)
     if (stat < 0) then
       call report_failed()
@@ -411,11 +437,20 @@ contains
       a_old = a_new
       ! refine: intervals whose chord (scaled) exceeds twice the median, or all of them
       allocate (chord(n), split(n))
-      span_r = max(1.0e-300_wp, maxval(pcs(1, :)) - minval(pcs(1, :)))   ! the cut's extent in r
-      span_p = max(1.0e-300_wp, maxval(pcs(2, :)) - minval(pcs(2, :)))   ! and in p_r
+      do l = 1, nc       ! the cut's extent in each coordinate (2 DOF: r, p_r)
+        span(l) = max(1.0e-300_wp, maxval(pcs(l, :)) - minval(pcs(l, :)))
+      end do
+      if (nc > 2) then   ! N > 2: one scale for the positions, one for the momenta (a pair that
+        span(1:nc:2) = maxval(span(1:nc:2))   ! stays ~0, z of a planar orbit, is no rounding
+        span(2:nc:2) = maxval(span(2:nc:2))   ! noise blown up to the cut's size)
+      end if
       do i = 1, n
         j = mod(i, n) + 1
-        chord(i) = hypot((pcs(1, j) - pcs(1, i))/span_r, (pcs(2, j) - pcs(2, i))/span_p)
+        chord(i) = hypot((pcs(1, j) - pcs(1, i))/span(1), (pcs(2, j) - pcs(2, i))/span(2))
+        do l = 3, nc - 1, 2            ! N > 2: the other pairs
+          dc = hypot((pcs(l, j) - pcs(l, i))/span(l), (pcs(l + 1, j) - pcs(l + 1, i))/span(l + 1))
+          chord(i) = hypot(chord(i), dc)
+        end do
       end do
       medc = median(chord)
       split = chord > 2*medc
@@ -454,14 +489,19 @@ contains
     cut%pr = pcs(2, :)
     cut%time = tcs
     cut%x = xcs
+    cut%sec = pcs
     cut%area = abs(a_new)
-    cut%area_polygon = abs(polygon(pcs(1, :), pcs(2, :)))
+    cut%area_polygon = polygon(pcs(1, :), pcs(2, :))
+    do l = 3, nc - 1, 2
+      cut%area_polygon = cut%area_polygon + polygon(pcs(l, :), pcs(l + 1, :))
+    end do
+    cut%area_polygon = abs(cut%area_polygon)
     if (stat == TUBES_ENOCONV .and. cut%area_change <= 1.0e3_wp*opts%area_tol*abs(a_new)) stat = TUBES_OK
   contains
     subroutine seeds(tt, i1, i2)
       real(wp), intent(in) :: tt(:)
       integer, intent(in) :: i1, i2
-      real(wp) :: p(2, i2 - i1 + 1), tc(i2 - i1 + 1), xc(size(v0), i2 - i1 + 1)
+      real(wp) :: p(nc, i2 - i1 + 1), tc(i2 - i1 + 1), xc(size(v0), i2 - i1 + 1)
       integer :: s(i2 - i1 + 1), k, nk, at(i2 - i1 + 1)
       logical :: found(i2 - i1 + 1), keep
       type(ens_out_t) :: out
@@ -485,17 +525,17 @@ contains
         end do
       end if
       ens%tau = tt(i1:i2)
-      call ens_run(ens, nk, out, 3 + size(v0), 0, fault='seed', first=i1, local=opts%local, skip=found, &
+      call ens_run(ens, nk, out, nc + 1 + size(v0), 0, fault='seed', first=i1, local=opts%local, skip=found, &
                    chunk=merge(SEED_CHUNK, 1, ens%lanes))
       do k = 1, nk
         if (found(k)) cycle
-        p(:, k) = out%r(1:2, k)
-        tc(k) = out%r(3, k)
-        xc(:, k) = out%r(4:, k)
+        p(:, k) = out%r(1:nc, k)
+        tc(k) = out%r(nc + 1, k)
+        xc(:, k) = out%r(nc + 2:, k)
       end do
       s = out%st
       if (keep) call store_add(store, tt(i1:i2), p, tc, xc, s == TUBES_OK .and. .not. found)
-      pcs = reshape([reshape(pcs, [size(pcs)]), reshape(p, [size(p)])], [2, i2])
+      pcs = reshape([reshape(pcs, [size(pcs)]), reshape(p, [size(p)])], [nc, i2])
       tcs = [tcs, tc]
       xcs = reshape([reshape(xcs, [size(xcs)]), reshape(xc, [size(xc)])], [size(v0), i2])
       st = [st, s]
@@ -511,7 +551,7 @@ contains
       ! before: the image the Poincare map of the branch shows (the ball's unstable S12 tube
       ! meets U1^+ first, then U1^-).
       integer, intent(out) :: stat
-      real(wp) :: pc1(2), t1, x1(size(v0))
+      real(wp) :: pc1(nc), t1, x1(size(v0))
       call one_seed(ball, orb0, v0, sigma, tau(1), psec, opts, ens%snaps, pc1, t1, x1, stat, any_branch=.true.)
       if (stat < 0) return
       if (abs(t1) < abs(tcs(1))*(1 - 1.0e-6_wp)) stat = TUBES_EDIRECTION
@@ -545,10 +585,18 @@ contains
     subroutine area_of(a, info)
       real(wp), intent(out) :: a
       integer, intent(out) :: info
-      real(wp) :: rr(size(tau)), pp(size(tau))
+      real(wp) :: rr(size(tau)), pp(size(tau)), a2
+      integer :: l2
       rr = pcs(1, :)      ! contiguous copies for the C side
       pp = pcs(2, :)
       info = spline_area(size(tau), tau, rr, pp, orb0%period, a)
+      do l2 = 3, nc - 1, 2          ! N > 2: p . dq summed over the section's pairs
+        if (info /= 0) return
+        rr = pcs(l2, :)
+        pp = pcs(l2 + 1, :)
+        info = spline_area(size(tau), tau, rr, pp, orb0%period, a2)
+        a = a + a2
+      end do
     end subroutine area_of
     subroutine report_failed()         ! the failed seeds, for the caller's diagnostics
       integer :: k
@@ -563,8 +611,26 @@ contains
     end subroutine report_failed
   end subroutine tube_cut
 
-  !> The configuration part of v (first N of 2N components) dotted with w (N): the side of the
-  !> saddle a step along v goes to. Written out for N = 2 as the 2-DOF code always was.
+  !> The section's coordinates of a state x (2N) on it: 2 DOF the section's (s, p_s) (the ray's
+  !> (r, p_r)); N > 2 (a plane q_k = c) the conjugate pairs (q_j, p_j), j /= k, ascending j.
+  pure function cut_coords(psec, x) result(pc)
+    type(poincare_t), intent(in) :: psec
+    real(wp), intent(in) :: x(:)
+    real(wp) :: pc(size(x) - 2)
+    integer :: nd, j, l
+    nd = size(x)/2
+    if (nd == 2) then
+      pc = psec%coords(x)
+      return
+    end if
+    l = 0
+    do j = 1, nd
+      if (j == psec%k) cycle
+      pc(l + 1:l + 2) = [x(j), x(nd + j)]
+      l = l + 2
+    end do
+  end function cut_coords
+
   !> The index of phase tau in the store (bit for bit), or 0.
   pure integer function store_find(store, tau) result(i)
     type(seed_store_t), intent(in) :: store
@@ -597,12 +663,12 @@ contains
     integer :: m, k, a, b, j
     m = count(new)
     if (m == 0) return
-    if (.not. allocated(store%tau)) allocate (store%tau(0), store%p(2, 0), store%tc(0), store%xc(size(xc, 1), 0))
+    if (.not. allocated(store%tau)) allocate (store%tau(0), store%p(size(p, 1), 0), store%tc(0), store%xc(size(xc, 1), 0))
     idx = pack([(k, k = 1, size(tau))], new)
     if (m > 1) then               ! a round's phases come in increasing order; else keep none
       if (any(tau(idx(2:)) <= tau(idx(:m - 1)))) return
     end if
-    allocate (t2(store%n + m), p2(2, store%n + m), tc2(store%n + m), xc2(size(xc, 1), store%n + m))
+    allocate (t2(store%n + m), p2(size(p, 1), store%n + m), tc2(store%n + m), xc2(size(xc, 1), store%n + m))
     a = 1
     b = 1
     do j = 1, store%n + m            ! merge the store's run and the new (sorted) one
@@ -638,6 +704,8 @@ contains
     end subroutine take_new
   end subroutine store_add
 
+  !> The configuration part of v (first N of 2N components) dotted with w (N): the side of the
+  !> saddle a step along v goes to. Written out as the 2-DOF code always was (the same bits).
   pure real(wp) function dot2(v, w) result(d)
     real(wp), intent(in) :: v(:), w(:)
     integer :: k

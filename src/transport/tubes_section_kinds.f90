@@ -50,7 +50,7 @@ module tubes_section_kinds
     procedure :: area => sec_area               !! A_E, or dA_E/dE
   end type poincare_t
 
-  public :: make_ray_section, make_plane_section, plane_search_range, plane_quadratic_in_p
+  public :: make_ray_section, make_plane_section, plane_search_range, plane_quadratic_in_p, make_plane_crossing
 
 
 contains
@@ -88,6 +88,24 @@ contains
     sec%s_hi = s_hi
     stat = TUBES_OK
   end subroutine make_plane_section
+
+  !> The plane q_k = c of a model with any number N of degrees of freedom, crossed with
+  !> sign(dq_k/dt) = direction, for its crossings alone (event, return_event): no region, no
+  !> energy, no (s, p_s) (the tube cuts of N > 2 take the pairs (q_j, p_j), j /= k:
+  !> tubes_manifold cut_coords). TUBES_EINPUT for k outside 1 .. N or a direction not +-1.
+  subroutine make_plane_crossing(sec, ndof, k, c, direction, stat)
+    type(poincare_t), intent(out) :: sec
+    integer, intent(in) :: ndof, k, direction
+    real(wp), intent(in) :: c
+    integer, intent(out) :: stat
+    stat = TUBES_EINPUT
+    if (k < 1 .or. k > ndof .or. abs(direction) /= 1) return
+    sec%kind = SEC_PLANE
+    sec%k = k
+    sec%c = c
+    sec%branch = direction
+    stat = TUBES_OK
+  end subroutine make_plane_crossing
 
   !> The interval of s = q_j (j /= k) searched for the region of the plane q_k = c: the
   !> &equilibria box [lo(j), hi(j)] widened by half its width on each side.

@@ -17,7 +17,7 @@ module tubes_study
   use tubes_equilibria, only: equilibrium_t, find_equilibria, neck_normal, nhim_reach, gate_holds_nhim
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t, floquet_indices, floquet_tangent
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, plane_search_range, &
-                                 SEC_PLANE, SEC_RAY
+                                 make_plane_crossing, SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
   use tubes_transport, only: gate_spec_t, monte_carlo, poincare_map, gate_bound
   use tubes_status, only: TUBES_EOUTSIDE, TUBES_ENARROW, TUBES_ESHAPE, TUBES_EDISSIPATIVE, TUBES_ENOISE
@@ -51,11 +51,14 @@ module tubes_study
     integer :: n_grid = 41
     character(8) :: saddle = ''
     integer :: n_segments = 1        !! orbit corrector: 1 single shooting, >= 2 multiple
+    !> the orbit family of the tube cuts (as &orbits family: 1 .. N-1 a centre mode's Lyapunov
+    !> family, FAMILY_BRANCH_PLUS/_MINUS the halo branch; tubes_orbits orbit_opts_t%family)
+    integer :: family = 1
     real(wp) :: orb_tol = 1.0e-11_wp, orb_rtol = 1.0e-13_wp, orb_atol = 1.0e-13_wp
     type(integ_choice_t) :: integ    !! the integrator of every analysis (&integrator)
   end type study_t
 
-  integer, parameter :: NKEY = MAX_PARAMS + 2*MAX_DOF + 20   ! seed_key's numbers
+  integer, parameter :: NKEY = MAX_PARAMS + 2*MAX_DOF + 21   ! seed_key's numbers
   !> What a kept result belongs to: the system, the saddle and the numbers it depends on.
   type :: kept_for_t
     character(32) :: system = ''
@@ -189,7 +192,7 @@ contains
     key = transfer([st%params, st%lo, st%hi, real([st%n_grid, st%n_segments], wp), st%orb_tol, st%orb_rtol, &
                     st%orb_atol, real([sec%kind, sec%index, sec%dir], wp), sec%level, de, &
                     real([o%kind, o%integ%method, o%integ%opts%solver, o%integ%opts%max_iter], wp), o%integ%h, &
-                    o%integ%opts%omega_bind, o%eps, o%t_max, o%rtol, o%atol], key)
+                    o%integ%opts%omega_bind, o%eps, o%t_max, o%rtol, o%atol, real(st%family, wp)], key)
   end function seed_key
 
   !> The index of the kept result of st's system and saddle with this key (the last), or 0.
@@ -488,9 +491,11 @@ contains
   !> q_index = level crossed with sign(dq_index/dt) = dir. q_ref is a configuration point of the
   !> section's side of the saddle: the well nearest the ray's direction, or the middle of the
   !> plane's region. stat = TUBES_EINPUT for a section that makes no sense for the model or
-  !> does not meet the energy surface.
+  !> does not meet the energy surface. crossing_only (the tube cuts): a model with N > 2 degrees
+  !> of freedom takes a plane for its crossings alone (make_plane_crossing: no region), q_ref
+  !> the saddle's q moved onto the plane (the plane through the saddle is TUBES_EINPUT).
   subroutine setup_section(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
-                           de, model, eqs, isad, psec, q_ref, stat, stores)
+                           de, model, eqs, isad, psec, q_ref, stat, stores, crossing_only)
     character(*), intent(in) :: system, saddle
     real(wp), intent(in) :: params(:), lo(:), hi(:), level, de
     integer, intent(in) :: n_grid, sec_kind, sec_index, dir
@@ -501,11 +506,23 @@ contains
     real(wp), allocatable, intent(out) :: q_ref(:)
     integer, intent(out) :: stat
     type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
+    logical, intent(in), optional :: crossing_only
     integer :: k, iw, j
     real(wp) :: best, d, s_lo, s_hi
     call setup_model(system, params, lo, hi, n_grid, saddle, model, eqs, isad, stat, stores=stores)
     if (stat /= TUBES_OK) return
     stat = TUBES_EINPUT
+    if (present(crossing_only)) then
+      if (crossing_only .and. model%ndof() > 2) then
+        if (sec_kind /= SECTION_PLANE) return
+        call make_plane_crossing(psec, model%ndof(), sec_index, level, dir, stat)
+        if (stat /= TUBES_OK) return
+        q_ref = eqs(isad)%q
+        q_ref(sec_index) = level
+        if (level == eqs(isad)%q(sec_index)) stat = TUBES_EINPUT   ! through the saddle: no side
+        return
+      end if
+    end if
     if (model%ndof() /= 2 .or. abs(dir) /= 1) return
     select case (sec_kind)
     case (SECTION_RAY)
@@ -852,6 +869,7 @@ contains
     opts%atol = st%orb_atol
     opts%local = local
     opts%integ = st%integ
+    opts%family = st%family
   end function study_orbit_opts
 
   !> The transit gate of saddle eqs(isad) seen from q_ref (the section's side): the
@@ -965,9 +983,12 @@ contains
     call section_info(st, sec, 0.0_wp, smin, smax, a0, tau, stat, stores)
   end subroutine leading_order_at
 
-  !> The cut of the tube of the saddle's Lyapunov orbit at excess energy de with the section
-  !> (opts: kind, eps, area_tol, t_max, n_init, n_max, local). orb is the orbit. A cut that
-  !> crosses a plane outside the chosen region is TUBES_EOUTSIDE.
+  !> The cut of the tube of the saddle's periodic orbit at excess energy de with the section
+  !> (opts: kind, eps, area_tol, t_max, n_init, n_max, local): the orbit of family st%family (the
+  !> Lyapunov family by default; any the orbits scene computes, the halo branch included). orb is
+  !> the orbit. A cut that crosses a plane outside the chosen region is TUBES_EOUTSIDE. N > 2: the
+  !> section is a plane q_k = c for its crossings alone (setup_section crossing_only), the branch
+  !> of the manifold the one towards it from the saddle.
   subroutine cut_at(st, sec, de, opts, cut, orb, stat, stores)
     type(study_t), intent(in) :: st
     type(section_choice_t), intent(in) :: sec
@@ -985,7 +1006,8 @@ contains
     integer :: isad
     real(wp) :: tol_s
     call setup_section(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), sec%kind, &
-                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat, stores)
+                       sec%index, sec%level, sec%dir, de, model, eqs, isad, psec, q_ref, stat, stores, &
+                       crossing_only=.true.)
     if (stat /= TUBES_OK) return
     call orbit_at(st, model, eqs, isad, de, opts%local, orb, stat, stores)
     if (stat /= TUBES_OK) return
@@ -998,7 +1020,7 @@ contains
     end if
     ! a plane crossed outside the section's region (another part of the line) is not a cut of
     ! the section the caller asked for
-    if (stat == TUBES_OK .and. psec%kind == SEC_PLANE .and. cut%n > 0) then
+    if (stat == TUBES_OK .and. psec%kind == SEC_PLANE .and. cut%n > 0 .and. model%ndof() == 2) then
       tol_s = 1.0e-9_wp*max(1.0_wp, psec%smax - psec%smin)
       if (any(cut%r(1:cut%n) < psec%smin - tol_s .or. cut%r(1:cut%n) > psec%smax + tol_s)) stat = TUBES_EOUTSIDE
     end if
