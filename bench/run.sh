@@ -15,6 +15,7 @@ OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python bench/bench_integrators.p
 if [ -f bench/bench_stability.py ]; then .venv/bin/python bench/bench_stability.py; fi
 .venv/bin/python bench/bench_taylor.py
 .venv/bin/python bench/bench_percall.py
+OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python bench/bench_paper_method.py
 # the MPI flavour's scaling (docs/cluster.md), when an MPI compiler wrapper is installed
 if command -v mpifort >/dev/null 2>&1; then
   make --no-print-directory MPI=1 build/mpi/bin/tubes

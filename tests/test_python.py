@@ -122,7 +122,7 @@ def test_load_reads_a_run(paper_h5):
     assert res.saddle.T_po == pytest.approx(2 * np.pi / res.saddle.omega, rel=1e-15)
     assert res.equilibria.name[4] == "S12" and isinstance(res.equilibria.x, np.ndarray)
     assert res.trajectory.state.shape == (len(res.trajectory.t), 4)
-    assert res.trajectory.method == "dop853"
+    assert res.trajectory.method == "auto (taylor)"            # input/paper.nml's method
     assert "&MODEL" in res.input_namelist
     with pytest.raises(AttributeError):
         _ = res.nonexistent

@@ -4,11 +4,11 @@ p_trans(dE) = A_tube / A_E: the area of the stable tube's cut with the section U
 of the energy surface on it (Ross et al. 2018, eq. (p_trans); docs/theory.md), at the energies of
 input/paper.nml's &transition, with the Monte Carlo check at dE = 100 of its &montecarlo. No input
 file, no HDF5: tubes.Model() is the paper's four-well ball and every default (the saddle S12, the
-section U1^-, the tolerances) is the program's own. input/paper.nml chooses DOP853 (&integrator
-method), and so does this script: with the default method ('auto', the Taylor method where the
-model has a kernel) the areas agree with DOP853's to ~2e-13 relative, but not in the last bits.
-With it, the numbers are the program's to the last bit (tests/test_python_scenes.py runs this
-script against ./tubes input/paper.nml).
+section U1^-, the tolerances) is the program's own. input/paper.nml chooses method 'auto' (the
+Taylor method for the states, DOP853 for the variational equations), the default, and so does
+this script: the numbers are the program's to the last bit (tests/test_python_scenes.py runs this
+script against ./tubes input/paper.nml). With {"method": "dop853"} they are the paper run's before
+2026-11-29, the areas within 6e-12 relative of these (docs/paper.md).
 
     .venv/bin/python docs/examples/p_trans.py [p_trans.png]
 """
@@ -19,7 +19,7 @@ import numpy as np
 import tubes
 
 DE = [1, 5, 10, 20, 40, 60, 80, 100, 140, 200, 300, 400, 500, 600, 700]   # (cm/s)^2
-INTEGRATOR = {"method": "dop853"}                                          # input/paper.nml's
+INTEGRATOR = {"method": "auto"}                                            # input/paper.nml's
 
 
 def compute(dE=DE, mc_dE=100.0, n_samples=10000, seed=12345):
