@@ -353,6 +353,10 @@ int tubes_verdict_orbit_coarse(double de, double closure, double mu, double scal
 int tubes_verdict_montecarlo(double de, int n, int n_transit, int n_undecided, int misclassified, double p, int noisy,
                              const char saddle[8], double *sigmas, int *agrees, char *msg, int len);
 
+/* Whether a scene applies to a model of ndof degrees of freedom (plane: a plane section, not the ray):
+ * 0, or 1 (not with this many degrees of freedom) / 2 (a 3-DOF tubes scene needs a plane) with the
+ * message's body (src/workflow/tubes_setup.f90 scene_refused, which Python's calls use too). */
+int tubes_scene_refused(const char *scene, int ndof, int plane, const char *label, char *msg, int len);
 /* The run's saddle (src/workflow/tubes_setup.f90 choose_saddle, which Python's calls use too): among n
  * equilibria (names 8 bytes each, kinds 1 rank-1 / 2 degenerate / 0 other, positions q[stride * i + j],
  * j < ndof) the one named name, or (use_near) the nearest to near of those the scenes take (a degenerate

@@ -956,6 +956,18 @@ subroutine saddle_choice(n, nd, names, kinds, q, name, use_near, near, degenerat
   code = choose_saddle(nm, kinds, q, name, use_near /= 0, near, degenerate_ok /= 0, label, dflt /= 0, k, msg)
 end subroutine saddle_choice
 
+subroutine scene_check(scene, ndof, plane, label, code, msg)
+  ! whether a scene applies to a model of ndof degrees of freedom (src/workflow/tubes_setup.f90
+  ! scene_refused, as ./tubes): 0, else the refusal's code and message
+  use tubes_setup, only: scene_refused
+  implicit none
+  character(len=*), intent(in) :: scene, label
+  integer, intent(in) :: ndof, plane
+  integer, intent(out) :: code
+  character(len=1024), intent(out) :: msg
+  code = scene_refused(scene, ndof, plane /= 0, label, msg)
+end subroutine scene_check
+
 subroutine verdict_orbit_coarse(de, closure, mu, scale, code, msg)
   ! an orbit integrated too coarsely (tubes_verdicts.f90, as the orbits scene)
   use tubes_verdicts, only: orbit_coarse

@@ -375,5 +375,5 @@ def test_python_tube_cut_is_the_scene(cuts):
     for k in ("state", "section", "tau", "time", "floquet_vector"):
         np.testing.assert_array_equal(c[k], u[k])
     assert c["area"] == u["area"] and c["axes"] == u["axes"] and c["sigma"] == u["sigma"] and c["family"] == -1
-    with pytest.raises(ValueError, match="needs 2 degrees of freedom"):
+    with pytest.raises(ValueError, match="cuts the manifolds with a plane: set kind = .plane."):
         m.tube_cut(0.01, section=dict(kind="ray"))

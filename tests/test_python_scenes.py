@@ -270,8 +270,14 @@ def test_string_choices_and_saddles_are_checked():
     # 3 DOF: tube_cut takes a plane (docs/tubes.md, "Tubes of halo orbits"); the CR3BP has no default
     with pytest.raises(ValueError, match="this system has no default section: give section="):
         tubes.Model(system="cr3bp_spatial").tube_cut(0.001)
-    with pytest.raises(ValueError, match="needs 2 degrees of freedom .system 'cr3bp_spatial' has 3"):
+    with pytest.raises(ValueError, match="transition: 'transition' works on the region of a Poincare section of a "
+                       "model with 2 degrees of freedom; system cr3bp_spatial has 3"):
         tubes.Model(system="cr3bp_spatial").transition([0.001])
+    with pytest.raises(ValueError, match="poincare: 'sections' works on the region of a Poincare section"):
+        tubes.Model(system="cr3bp_spatial").poincare(0.001)
+    with pytest.raises(ValueError, match=r"tube_cut: the tubes scene of system cr3bp_spatial \(3 degrees of freedom\) "
+                       "cuts the manifolds with a plane"):
+        tubes.Model(system="cr3bp_spatial").tube_cut(0.001, section={"kind": "ray"})
     for f, msg in ((lambda: hh.tube_cut(-0.01), r"tube_cut: &tubes: de\(1\) = -0.01 is out of range: allowed > 0"),
                    (lambda: hh.tube_cut(), "tube_cut: give dE"),
                    (lambda: hh.transition([0.0]), r"transition: &transition: de\(1\) = 0 is out of range"),

@@ -623,7 +623,7 @@ def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | 
         warnings.warn("section_boundary: de is deprecated, use dE (as the other functions)", DeprecationWarning,
                       stacklevel=2)
         dE = de
-    _need_2dof(model, "section_boundary")
+    _need_2dof(model, "section_boundary", "transition")
     dE = _args.real("section_boundary", "dE", dE, lo=0)
     m = _args.integer("section_boundary", "m", m, lo=2)
     n_grid = _args.integer("section_boundary", "n_grid", n_grid, lo=2, hi=2001)   # &equilibria n_grid's range
@@ -838,13 +838,14 @@ def _section_args(st):
     return int(st["sec_kind"]), int(st["sec_index"]), float(st["sec_level"]), int(st["sec_dir"])
 
 
-def _need_2dof(model: Model, who: str) -> None:
-    """The section scenes (tube_cut, transition, monte_carlo, poincare, section_boundary) are
-    those of 2 degrees of freedom: a cut is a closed curve in the section's (s, p_s) plane."""
-    if model.ndof != 2:
-        raise ValueError(f"{who}: the scene needs 2 degrees of freedom (system {model.system!r} has "
-                         f"{model.ndof}); in 3 degrees of freedom use tubes.flux (with a plane section: "
-                         "the transition fraction on the section) and tubes.orbit_family")
+def _need_2dof(model: Model, who: str, scene: str, plane: bool = True) -> None:
+    """Whether the scene (the program's name: tubes, transition, montecarlo, sections) applies to
+    the model: the program's rule (src/workflow/tubes_setup.f90 scene_refused): the scenes on a
+    section's region need 2 degrees of freedom, the tubes 2 or 3 with a plane (plane False: the
+    ball's ray)."""
+    code, msg = _lib().scene_check(scene, model.ndof, int(plane), model.system)
+    if code:
+        raise ValueError(f"{who}: {_str(msg)}")
 
 
 def _default_de(model: Model, who: str, group: str) -> None:
@@ -1244,9 +1245,8 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
     model = model or Model()
     if kind not in TUBE_KINDS:
         raise ValueError(f"tube_cut: kind = {kind!r} is not allowed: allowed {', '.join(map(repr, TUBE_KINDS))}")
-    if model.ndof != 2:       # 3 DOF: the tubes of any family on a plane (docs/tubes.md, "Tubes of halo orbits")
-        if model.ndof != 3 or (section or {}).get("kind", "plane") != "plane":
-            _need_2dof(model, "tube_cut")
+    # 3 DOF: the tubes of any family on a plane (docs/tubes.md, "Tubes of halo orbits")
+    _need_2dof(model, "tube_cut", "tubes", (section or {}).get("kind", "plane") == "plane")
     if dE is None:
         raise ValueError("tube_cut: give dE, the excess energy above the saddle (> 0, in the model's energy units)")
     orb = {k: options.pop(k) for k in list(options) if k in ("method", "n_segments", "tol", "rtol", "atol", "family")}
@@ -1328,7 +1328,7 @@ def transition_region(model: Model | None = None, dE: float | None = None, saddl
     n_scan_undecided, n_inconsistent (scan points on the wrong side: 0), n_integrated, rounds,
     status. Raises TubesError where the program's scenes fail (err.partial holds the dict)."""
     model = model or Model()
-    _need_2dof(model, "transition_region")
+    _need_2dof(model, "transition_region", "transition")
     if dE is None:
         raise ValueError("transition_region: give dE, the excess energy above the saddle (> 0, in the model's "
                          "energy units)")
@@ -1372,7 +1372,7 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     the Table with a RuntimeWarning naming the failed energies. Returns a tubes.Table of arrays dE,
     A_tube, action, A_E, p_trans, status, and message (list of str, '' where it worked)."""
     model = model or Model()
-    _need_2dof(model, "transition")
+    _need_2dof(model, "transition", "transition")
     de = _de_list(dE, "transition")
     if de is None:
         _default_de(model, "transition", "transition")
@@ -1517,7 +1517,7 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     and per point r, p_r, transit (0 returned, 1 transited, 2 undecided, 3 escaped), inside (the
     cut)."""
     model = model or Model()
-    _need_2dof(model, "monte_carlo")
+    _need_2dof(model, "monte_carlo", "montecarlo")
     check = _args.flag("monte_carlo", "check", check)
     mc = {k: v for k, v in (("de", _scalar_de(dE, "monte_carlo")), ("n_samples", n_samples), ("seed", seed),
                             ("t_max", t_max), ("gate", gate), ("area_tol", area_tol)) if v is not None}
@@ -1592,7 +1592,7 @@ def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, 
     &sections', defaults and ranges from the program's reader (docs/input.md); saddle,
     saddle_near, section, integrator, equilibria as in tube_cut."""
     model = model or Model()
-    _need_2dof(model, "poincare")
+    _need_2dof(model, "poincare", "sections")
     if dE is None:
         raise ValueError("poincare: give dE, the excess energy above the saddle (> 0, in the model's energy units)")
     pm = {k: v for k, v in (("de", [_scalar_de(dE, "poincare")]), ("n_seeds", n_seeds), ("n_iter", n_iter),

@@ -255,39 +255,17 @@ static int scenes_apply(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   static const char *on_section[] = {"tubes", "transition", "montecarlo", "sections"};
   const char *sec = NULL;
-  int orbits = 0, tubes3 = 0;
-  for (int k = 0; k < TUBES_NSCENES; k++) {
-    for (int j = 0; j < 4; j++)
-      if (!sec && !strcmp(c->scenes[k], on_section[j]) && !(j == 0 && run->ndof > 2)) sec = on_section[j];
-    orbits |= !strcmp(c->scenes[k], "orbits");
-    tubes3 |= !strcmp(c->scenes[k], "tubes") && run->ndof > 2;
-  }
-  if (sec && run->ndof != 2) {
-    say_at(run, run->scenes_line);
-    fprintf(stderr, "&run scenes: '%s' works on the region of a Poincare section of a model with 2 degrees of "
-            "freedom; system %s has %d (with %d: equilibria, orbits (&orbits family), tubes (on a plane), flux)\n",
-            sec, run->label, run->ndof, run->ndof);
-    return EXIT_BADINPUT;
-  }
-  if (tubes3 && sec_is_ray(c)) {   /* (the reader allows the ray for the ball alone) */
-    say_at(run, run->sec_kind_line);
-    fprintf(stderr, "&section: the tubes scene of system %s (%d degrees of freedom) cuts the manifolds with a "
-            "plane: set kind = 'plane', index, value and direction\n", run->label, run->ndof);
-    return EXIT_BADINPUT;
-  }
-  int trajectory = 0;
-  for (int k = 0; k < TUBES_NSCENES; k++) trajectory |= !strcmp(c->scenes[k], "trajectory");
-  if (trajectory && run->ndof != 2) {
-    say_at(run, run->scenes_line);
-    fprintf(stderr, "&run scenes: 'trajectory' takes (x0, y0, px0, py0) of a model with 2 degrees of "
-            "freedom; system %s has %d (Python's tubes.integrate takes any state)\n", run->label, run->ndof);
-    return EXIT_BADINPUT;
-  }
-  if (orbits && run->ndof < 2) {
-    say_at(run, run->scenes_line);
-    fprintf(stderr, "&run scenes: 'orbits' follows the Lyapunov orbits of a saddle's centre directions: "
-            "system %s has 1 degree of freedom and none (its saddles have no periodic orbits)\n", run->label);
-    return EXIT_BADINPUT;
+  char m[1024];
+  for (int k = 0; k < TUBES_NSCENES && c->scenes[k][0]; k++) {   /* tubes_setup scene_refused, Python's too */
+    int r = tubes_scene_refused(c->scenes[k], run->ndof, !sec_is_ray(c), run->label, m, (int)sizeof m);
+    if (r) {
+      say_at(run, r == 2 ? run->sec_kind_line : run->scenes_line);
+      fprintf(stderr, "%s %s\n", r == 2 ? "&section:" : "&run scenes:", m);
+      return EXIT_BADINPUT;
+    }
+    for (int j = 1; j < 4; j++)   /* the scenes on a section's region: their plane is checked below */
+      if (!sec && !strcmp(c->scenes[k], on_section[j])) sec = on_section[j];
+    if (!sec && !strcmp(c->scenes[k], "tubes") && run->ndof == 2) sec = on_section[0];
   }
   if (sec && !sec_is_ray(c)) {
     int quadratic = 0;

@@ -13,7 +13,11 @@ module tubes_setup
   integer, parameter, public :: SADDLE_NOT_ONE = 1     !! the name is not a saddle the scenes take
   integer, parameter, public :: SADDLE_NONE_NEAR = 2   !! no saddle the scenes take in the box
 
-  public :: choose_saddle
+  public :: choose_saddle, scene_refused
+
+  integer, parameter, public :: SCENE_TAKEN = 0           !! the scene applies to the model
+  integer, parameter, public :: SCENE_NOT_FOR_MODEL = 1   !! not with this many degrees of freedom
+  integer, parameter, public :: SCENE_NEEDS_PLANE = 2     !! a 3-DOF tubes scene with a ray section
 
 contains
 
@@ -88,7 +92,58 @@ contains
     end function takes
   end function choose_saddle
 
-  ! ---------------------------------------------------------------- the C entry (src/io/tubes_scenes.c)
+  !> Whether the scene applies to a model with ndof degrees of freedom (plane: the section is a
+  !> plane, not the ball's ray): the scenes on a Poincare section's region (transition, montecarlo,
+  !> sections) and the trajectory scene need 2; the tubes scene 2, or 3 with a plane (it cuts the
+  !> manifolds of any family there: docs/tubes.md, "Tubes of halo orbits"); the orbits scene at
+  !> least 2. label: the model's name in the message.
+  integer function scene_refused(scene, ndof, plane, label, msg) result(code)
+    character(*), intent(in) :: scene, label
+    integer, intent(in) :: ndof
+    logical, intent(in) :: plane
+    character(*), intent(out) :: msg
+    character(12) :: n
+    code = SCENE_TAKEN
+    msg = ''
+    write (n, '(i0)') ndof
+    select case (scene)
+    case ('transition', 'montecarlo', 'sections', 'tubes')
+      if (ndof == 2 .or. (scene == 'tubes' .and. ndof == 3 .and. plane)) return
+      if (scene == 'tubes' .and. ndof == 3) then
+        code = SCENE_NEEDS_PLANE
+        msg = 'the tubes scene of system ' // trim(label) // ' (' // trim(n) // ' degrees of freedom) cuts the ' // &
+          'manifolds with a plane: set kind = ''plane'', index, value and direction'
+        return
+      end if
+      code = SCENE_NOT_FOR_MODEL
+      msg = '''' // trim(scene) // ''' works on the region of a Poincare section of a model with 2 degrees of ' // &
+        'freedom; system ' // trim(label) // ' has ' // trim(n) // ' (with ' // trim(n) // ': equilibria, ' // &
+        'orbits (&orbits family), tubes (on a plane), flux)'
+    case ('trajectory')
+      if (ndof == 2) return
+      code = SCENE_NOT_FOR_MODEL
+      msg = '''trajectory'' takes (x0, y0, px0, py0) of a model with 2 degrees of freedom; system ' // &
+        trim(label) // ' has ' // trim(n) // ' (Python''s tubes.integrate takes any state)'
+    case ('orbits')
+      if (ndof >= 2) return
+      code = SCENE_NOT_FOR_MODEL
+      msg = '''orbits'' follows the Lyapunov orbits of a saddle''s centre directions: system ' // trim(label) // &
+        ' has 1 degree of freedom and none (its saddles have no periodic orbits)'
+    end select
+  end function scene_refused
+
+  ! ---------------------------------------------------------------- the C entries (src/io/tubes_scenes.c)
+
+  integer(c_int) function c_scene_refused(scene, ndof, plane, label, msg, len) result(code) &
+      bind(C, name='tubes_scene_refused')
+    character(kind=c_char), intent(in) :: scene(*), label(*)
+    integer(c_int), value :: ndof, plane, len
+    character(kind=c_char), intent(out) :: msg(len)
+    character(1024) :: m
+    code = scene_refused(c_to_f(scene(1:32)), ndof, plane /= 0, c_to_f(label(1:64)), m)
+    call f_to_c(m, msg)
+  end function c_scene_refused
+
 
   !> choose_saddle on the C equilibria list: n names of 8 bytes each (NUL-padded), kinds(n),
   !> q(stride, n) with the first ndof rows the position; name and label NUL-terminated. Returns the
