@@ -1135,7 +1135,8 @@ subroutine tube_cut3(system, params, lo, hi, n_grid, saddle, order, nt, expo, co
   ! the 3-DOF tube's cut with a plane section and the section's points inside it (as the flux scene)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_capi, only: integ_of
-  use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
+  use tubes_cut3, only: cut3_t, CUT3_NDIAG
+  use tubes_flux3, only: cut3_study
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, order, nt, k, dir, n_cut, method, solver, int_max_iter, npts

@@ -24,5 +24,18 @@ for f in src/*/*.f90 src/*/*.inc; do
 done
 # 4. no mutable module variables in src/ numerics: 'save' statements
 while IFS= read -r hit; do report "save in src/: $hit"; done < <(grep -nEi '^\s*save\b|,\s*save\s*::' $(ls src/*/*.f90 src/*/*.inc | grep -v '^src/io/') 2>/dev/null)
+# 5. the layers of docs/development.md: a Fortran module uses only modules of its own layer or below
+#    (base < models < integrators, parallel < orbits, transport, experiment < workflow < capi < io)
+while IFS= read -r hit; do report "layer: $hit"; done < <(awk '
+  function layer(d) { return d == "base" ? 0 : d == "models" ? 1 : (d == "integrators" || d == "parallel") ? 2 : \
+                      (d == "orbits" || d == "transport" || d == "experiment") ? 3 : d == "workflow" ? 4 : \
+                      d == "capi" ? 5 : 6 }
+  FNR == 1 { split(FILENAME, p, "/"); dir = p[2] }
+  tolower($0) ~ /^[ \t]*module[ \t]+[a-z_0-9]+[ \t]*$/ { m = tolower($2); home[m] = dir }
+  tolower($0) ~ /^[ \t]*use[ \t,]/ && tolower($0) !~ /intrinsic/ {
+    u = tolower($0); sub(/^[ \t]*use[ \t]*/, "", u); sub(/[ \t,!].*/, "", u)
+    n++; uf[n] = FILENAME; ul[n] = FNR; ud[n] = dir; um[n] = u }
+  END { for (i = 1; i <= n; i++) if (um[i] in home && layer(home[um[i]]) > layer(ud[i]))
+          printf "%s:%d uses %s (src/%s, a higher layer)\n", uf[i], ul[i], um[i], home[um[i]] }' src/*/*.f90)
 if [ $bad -eq 0 ]; then echo "lint: clean"; fi
 exit $bad

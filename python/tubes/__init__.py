@@ -1082,7 +1082,7 @@ def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
 
 
 def _tube_cut3(model, st, de, taylor, xs, ws, cls):
-    """The flux scene's tube cut (src/orbits/tubes_cut3.f90, cut3_study) at every dE, the section's Monte
+    """The flux scene's tube cut (src/workflow/tubes_flux3.f90, cut3_study) at every dE, the section's Monte
     Carlo points xs (6, n, nde), weights and classes placed inside or outside it."""
     expo, coef, z = taylor
     nc = int(st["flux_n_cut"])

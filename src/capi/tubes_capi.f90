@@ -26,7 +26,8 @@ module tubes_capi
   use tubes_transport, only: monte_carlo, poincare_map, gate_spec_t, mc_agreement, MC_SIGMA
   use tubes_flux, only: flux_result_t, flux_leading_order, flux_sampled
   use tubes_normal_form, only: nf_result_t, normal_form_flux, NF_NPTS
-  use tubes_cut3, only: cut3_t, cut3_study, CUT3_NDIAG
+  use tubes_cut3, only: cut3_t, CUT3_NDIAG
+  use tubes_flux3, only: cut3_study
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: bifurcation_table, BIF_TOL
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &

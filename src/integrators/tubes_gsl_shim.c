@@ -1,4 +1,4 @@
-/* C shim between src/base/tubes_gsl.f90 and GSL odeiv2 (gsl_rk8pd, gsl_rk4imp backends).
+/* C shim between src/integrators/tubes_gsl.f90 and GSL odeiv2 (gsl_rk8pd, gsl_rk4imp backends).
  *
  * GSL has no Fortran interface and its objects are C structs, so this file owns them: one
  * tubes_gsl_work per integrator instance holds the gsl_odeiv2_system and a driver (which

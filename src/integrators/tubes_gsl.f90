@@ -1,4 +1,4 @@
-!> GSL odeiv2 backends of integrator_t (through the C shim src/base/tubes_gsl_shim.c):
+!> GSL odeiv2 backends of integrator_t (through the C shim src/integrators/tubes_gsl_shim.c):
 !>   kind = 'gsl_rk8pd':  gsl_odeiv2_step_rk8pd, Prince-Dormand 8(7), 13 stages, explicit;
 !>   kind = 'gsl_rk4imp': gsl_odeiv2_step_rk4imp, 2-stage Gauss-Legendre (implicit, order 4,
 !>                        symplectic), modified Newton with the model's Jacobian, error by
