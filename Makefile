@@ -56,6 +56,11 @@ CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -fPIC -fopenmp -Wall -Wextra $(
               $(HDF5_CFLAGS) -DTUBES_VERSION='"$(VERSION)"' -DTUBES_GIT='"$(GIT_HASH)"' \
               -DTUBES_COMPILER='"$(FC) $(shell $(FC) -dumpfullversion 2>/dev/null)"' \
               -DTUBES_FFLAGS='"$(strip $(OPT_F))"' $(MPI_DEF) $(CFLAGS)
+# WERROR=1 (.ci/run): a warning of the compilers fails the build of the project's own sources
+ifeq ($(WERROR),1)
+FFLAGS_ALL += -Werror
+CFLAGS_ALL += -Werror
+endif
 LDLIBS_ALL := $(HDF5_LIBS) $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) $(LAPACK_LIBS) -lm $(LDLIBS)
 
 # src/ in topic folders (docs/development.md): base, models, integrators, orbits, transport,
