@@ -4,14 +4,14 @@
 !> lambda and centre frequencies, and its Lyapunov orbits at the requested excess energies
 !> (each corrected from the previous step's orbit); folds (an equilibrium meeting another and
 !> disappearing, or its Jacobian's determinant changing sign) located by bisection. One core for
-!> the C API (tubes_scan, the program's scan scene) and the f2py facade (Python's Model.scan).
+!> the C API (tubes_parameter_scan, the program's scan scene) and the f2py facade (Python's Model.scan).
 module tubes_scan
   use, intrinsic :: iso_c_binding, only: c_char, c_int, c_long
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EINPUT
   use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_models, only: make_model, system_info, system_info_t, MAX_DOF
+  use tubes_models, only: make_model, system_info, system_info_t, MAX_DOF, LEN_PARAM
   use tubes_equilibria, only: equilibrium_t, find_equilibria, continue_equilibria, rest_jacobian
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, correct_symmetric, correct_multiple, finish_orbit
   use tubes_study, only: study_t, de_floor
@@ -26,7 +26,7 @@ module tubes_scan
   !> the bisection's bracket: width <= SCAN_FOLD_TOL |to - from|
   real(wp), parameter, public :: SCAN_FOLD_TOL = 1.0e-13_wp
 
-  public :: scan_table, scan_parameter
+  public :: scan_table, scan_parameter, scan_index
 
   interface
     subroutine progress_begin(fault, n) bind(C, name='tubes_progress_begin')
@@ -51,22 +51,28 @@ contains
     character(*), intent(in) :: system, name
     integer, intent(out) :: ipar
     character(*), intent(out) :: allowed
+    ipar = scan_index(system, name, allowed)
+  end subroutine scan_parameter
+
+  !> scan_parameter's index (allowed: as scan_parameter's).
+  integer function scan_index(system, name, allowed) result(ipar)
+    character(*), intent(in) :: system, name
+    character(*), intent(out) :: allowed
     type(system_info_t) :: info
     integer :: k, stat
+    character(len(allowed)) :: a
     ipar = 0
-    allowed = ''
+    a = ''
     call system_info(system, info, stat)
-    if (stat /= TUBES_OK) return
-    do k = 1, info%np
-      select case (trim(info%params(k)%name))
-      case ('damping_ratio', 'rolling_resistance', 'noise', 'temperature')
-        cycle          ! dissipation: the scan's equilibria and orbits are the conservative model's
-      end select
-      if (trim(info%params(k)%name) == trim(name)) ipar = k
-      allowed = trim(allowed) // ' ' // trim(info%params(k)%name)
+    do k = 1, merge(info%np, 0, stat == TUBES_OK)
+      ! dissipation: the scan's equilibria and orbits are the conservative model's
+      if (any(info%params(k)%name == [character(LEN_PARAM) :: 'damping_ratio', 'rolling_resistance', 'noise', &
+                                      'temperature'])) cycle
+      if (info%params(k)%name == name) ipar = k
+      a = trim(a) // ' ' // trim(info%params(k)%name)
     end do
-    allowed = adjustl(allowed)
-  end subroutine scan_parameter
+    allowed = adjustl(a)
+  end function scan_index
 
   !> The sign of det(a) (-1, 0 or 1), by Gaussian elimination with partial pivoting.
   pure integer function det_sign(a) result(s)
