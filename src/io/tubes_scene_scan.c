@@ -192,7 +192,9 @@ int scene_scan(tubes_run_t *run) {
       e |= h5_write_double(fg, "value", 1, &nfr, fval, pu);
       e |= h5_write_double(fg, "bracket", 1, &nfr, fwid, pu);
       e |= h5_write_int(fg, "kind", nfr, fkind, NULL);
-      e |= h5_write_int(fg, "step", nfr, fstep, NULL);
+      int rows[SCAN_MAXFOLD];   /* 0-based: the first row after the fold */
+      for (hsize_t k = 0; k < nfr; k++) rows[k] = fstep[k] - 1;
+      e |= h5_write_int(fg, "step", nfr, rows, NULL);
       e |= h5_write_double(fg, "q", 2, dfq, fq, NULL);
       if (nfr > 0) {
         e |= h5_write_strings(fg, "name", nfr, fn);
