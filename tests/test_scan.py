@@ -148,3 +148,13 @@ def test_formula_constant_refused():
     with pytest.raises(ValueError) as e:
         m.scan("a", -1.0, 4)
     assert "compiled into its model" in str(e.value)
+
+
+def test_model_scan_has_its_signature_and_doc():
+    import inspect
+    m = tubes.Model()
+    sig = inspect.signature(m.scan)
+    assert list(sig.parameters)[:4] == ["parameter", "to", "n", "dE"]   # the bound method: no self
+    assert len(m.scan.__doc__) > 200 and "scan" in tubes.__all__
+    r = tubes.Model(system="coupled_quartic").scan("alpha", 0.5, 2)
+    assert "period" not in r and r.units["saddle_energy"] == "1" and len(r.value) == 3
