@@ -123,7 +123,7 @@ contains
   !>   saddle_found, saddle_q, saddle_energy, lambda, omega (N - 1 centre frequencies);
   !>   period, action, stability (the orbits' stability index), converged (1), restarted (1:
   !>   continued in energy from the saddle, as the orbits scene, not corrected from the previous
-  !>   step's orbit: the first step, or where that failed).
+  !>   step's orbit: the first step, a step searched anew, or where the correction failed).
   !> Folds: n_fold (all found; the first SCAN_MAXFOLD are recorded), fold_step (between steps
   !> fold_step - 1 and fold_step, 1-based columns), fold_value (the bracket's midpoint),
   !> fold_width, fold_kind (FOLD_MEET or FOLD_INDEX), fold_q (the equilibrium at the bracket's
@@ -200,6 +200,8 @@ contains
       do k = 1, size(eqs)
         if (eqs(k)%name == st%saddle .and. eqs(k)%rank1) isad = k
       end do
+      ! after a new search the names are the search's: the orbits start afresh from the saddle
+      if (researched(i) == 1) prev_orbs = orbit_t()
       if (isad > 0) then
         saddle_found(i) = 1
         saddle_q(1:nd, i) = eqs(isad)%q
