@@ -158,3 +158,20 @@ def test_model_scan_has_its_signature_and_doc():
     assert len(m.scan.__doc__) > 200 and "scan" in tubes.__all__
     r = tubes.Model(system="coupled_quartic").scan("alpha", 0.5, 2)
     assert "period" not in r and r.units["saddle_energy"] == "1" and len(r.value) == 3
+
+
+def test_scan_ends_on_the_direct_run_de_leon_berne():
+    """A second model (its equilibria in another box, dimensionless): De Leon-Berne's zeta from 1 to
+    1.2 in 6 steps, orbits at dE = 0.01, 0.05. Measured: positions 8e-17, E_e and lambda bit for bit,
+    periods 2e-15, actions 5e-13 relative."""
+    r = tubes.Model(system="de_leon_berne").scan("zeta", 1.2, 6, dE=[0.01, 0.05])
+    end = tubes.Model(system="de_leon_berne", zeta=1.2)
+    eq, fam = end.equilibria(), end.orbit_family(dE=[0.01, 0.05])
+    n = r.n_equilibria[-1]
+    i = eq.name.index(r.saddle)
+    assert r.eq_name[-1] == eq.name
+    assert close(r.eq_q[-1][:n], eq.q, floor=1.0)
+    assert close(r.saddle_energy[-1], eq.energy[i]) and close(r["lambda"][-1], eq["lambda"][i])
+    assert close(r.omega[-1], eq.omegas[i])
+    assert close(r.period[-1], fam.period) and close(r.action[-1], fam.action)
+    assert not r.restarted[1:].any()
