@@ -120,6 +120,7 @@ def test_fold_in_the_program(tmp_path, tubes_exe):
     ("parameter = 'damping_ratio', to = 0.1", "dissipation parameters are not scanned"),
     ("to = 0.5", "parameter is not set"),
     ("parameter = 'alpha'", "to is not set"),
+    ("parameter = 'beta', to = -1.0", "to = -1: system 'coupled_quartic' refuses beta = -1"),
 ])
 def test_bad_input_program(tmp_path, tubes_exe, scan, message):
     (tmp_path / "b.nml").write_text(f"&run scenes = 'scan' /\n&model system = 'coupled_quartic' /\n&scan {scan} /\n")

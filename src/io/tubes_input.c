@@ -1053,6 +1053,17 @@ static int validate_scan(const char *path, const tubes_config_t *c, const nml_wh
     fprintf(err, "%s:%d: &scan: to = %.17g equals the start value %s = %.17g (&model): allowed any other value\n",
             path, line_or_group(w, "scan", "to"), c->scan_to, c->scan_parameter, c->params[c->scan_ipar - 1]);
     n++;
+  } else if (c->scan_ipar >= 1 && c->nparams > 0) {   /* the end value: the model's own check */
+    double p[TUBES_MAXPARAM];
+    int natural = 0;
+    memcpy(p, c->params, sizeof p);
+    p[c->scan_ipar - 1] = c->scan_to;
+    if (tubes_model_natural(c->model, p, &natural) < 0) {
+      fprintf(err, "%s:%d: &scan: to = %.10g: system '%s' refuses %s = %.10g (its range: docs/models.md, "
+              "--help's &model)\n", path, line_or_group(w, "scan", "to"), c->scan_to, c->system,
+              c->scan_parameter, c->scan_to);
+      n++;
+    }
   }
   if (line_of(w, "scan", "de")) n += check_list(path, c, w, "scan", c->scan_de, c->scan_nde, err);
   return n;

@@ -408,15 +408,18 @@ contains
     character(:), allocatable, intent(out), optional :: errmsg
     real(wp), allocatable :: starts(:, :)
     integer, allocatable :: origin(:)
+    character(:), allocatable :: msg   ! (errmsg passed on twice lost its text at -O0 with gfortran 12)
     integer :: nd, ig
     nd = model%ndof()
-    call check_box(model, lo, hi, n_grid, stat, errmsg)
-    if (stat /= TUBES_OK) return
-    allocate (starts(nd, n_grid**nd))
-    do ig = 0, n_grid**nd - 1
-      call grid_point(lo, hi, n_grid, ig, starts(:, ig + 1))
-    end do
-    call equilibria_from(model, lo, hi, n_grid, starts, eqs, origin, stat, errmsg)
+    call check_box(model, lo, hi, n_grid, stat, msg)
+    if (stat == TUBES_OK) then
+      allocate (starts(nd, n_grid**nd))
+      do ig = 0, n_grid**nd - 1
+        call grid_point(lo, hi, n_grid, ig, starts(:, ig + 1))
+      end do
+      call equilibria_from(model, lo, hi, n_grid, starts, eqs, origin, stat, msg)
+    end if
+    if (present(errmsg) .and. allocated(msg)) errmsg = msg
   end subroutine find_equilibria
 
   !> The equilibria continued from the configurations starts(:, k) (a parameter scan's previous
@@ -434,9 +437,10 @@ contains
     integer, allocatable, intent(out) :: origin(:)
     integer, intent(out) :: stat
     character(:), allocatable, intent(out), optional :: errmsg
-    call check_box(model, lo, hi, n_grid, stat, errmsg)
-    if (stat /= TUBES_OK) return
-    call equilibria_from(model, lo, hi, n_grid, starts, eqs, origin, stat, errmsg)
+    character(:), allocatable :: msg
+    call check_box(model, lo, hi, n_grid, stat, msg)
+    if (stat == TUBES_OK) call equilibria_from(model, lo, hi, n_grid, starts, eqs, origin, stat, msg)
+    if (present(errmsg) .and. allocated(msg)) errmsg = msg
   end subroutine continue_equilibria
 
   !> find_equilibria's check of the box: TUBES_EINPUT with a message, else TUBES_OK.
