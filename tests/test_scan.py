@@ -176,3 +176,13 @@ def test_scan_ends_on_the_direct_run_de_leon_berne():
     assert close(r.omega[-1], eq.omegas[i])
     assert close(r.period[-1], fam.period) and close(r.action[-1], fam.action)
     assert not r.restarted[1:].any()
+
+
+def test_an_equilibrium_leaving_the_box_is_not_a_fold():
+    """The coupled quartic's wells x = +-sqrt((alpha - alpha_c)/beta) (alpha = 1, alpha_c = 1/11) reach
+    the search box's faces x = +-2 at beta = (1 - 1/11)/4 = 10/44: reported as leaving the box
+    (kind 'box', no partner), not as a fold."""
+    r = tubes.Model(system="coupled_quartic").scan("beta", 0.1, 9)
+    assert r.n_folds == 2 and r.fold_kind == ["box", "box"] and r.fold_partner == ["", ""]
+    assert np.all(np.abs(r.fold_value - 10 / 44) <= 1e-8 * 10 / 44), r.fold_value
+    assert r.n_equilibria[0] == 3 and r.n_equilibria[-1] == 1

@@ -1630,7 +1630,8 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
     equilibria per step (eq_q (n + 1, 64, N), eq_energy, eq_index, eq_det, eq_name: lists of
     names), saddle_found, saddle_q, saddle_energy, lambda, omega (n + 1, N - 1), and with dE:
     dE, period, action, stability_index, converged, restarted (n + 1, len(dE)); the folds:
-    fold_value, fold_bracket, fold_kind ('meet' or 'index'), fold_step (the first row after the fold,
+    fold_value, fold_bracket, fold_kind ('meet', 'index' or 'box': not a fold, it leaves the search
+    box), fold_step (the first row after the fold,
     0-based), fold_q, fold_name,
     fold_partner, n_folds (all found; at most 32 recorded), fold_tol. Keywords: &orbits' method,
     n_segments, tol, rtol, atol, max_iter, n_samples; integrator and equilibria as dicts of their
@@ -1678,7 +1679,7 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
            "saddle_found": sfound.astype(bool), "saddle_q": sq[:nd].T.copy(), "saddle_energy": sen.copy(),
            "lambda": lam.copy(), "omega": om[:max(nd - 1, 0)].T.copy(),
            "n_folds": int(nf), "fold_value": fval[:nfr].copy(), "fold_bracket": fwid[:nfr].copy(),
-           "fold_kind": [{1: "meet", 2: "index"}[int(k)] for k in fkind[:nfr]], "fold_step": fstep[:nfr] - 1,
+           "fold_kind": [{1: "meet", 2: "index", 3: "box"}[int(k)] for k in fkind[:nfr]], "fold_step": fstep[:nfr] - 1,
            "fold_q": fq[:nd, :nfr].T.copy(), "fold_name": [_codes(fname[:, k]) for k in range(nfr)],
            "fold_partner": [_codes(fpart[:, k]) for k in range(nfr)], "fold_tol": float(ftol)}
     if len(des):

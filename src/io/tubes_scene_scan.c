@@ -113,8 +113,11 @@ int scene_scan(tubes_run_t *run) {
     char a[9], b[9];
     name_of(fname + 8 * k, a);
     name_of(fpart + 8 * k, b);
-    printf("  fold: %s = %.15g (+- %.1e): %s %s %s at q = (", c->scan_parameter, fval[k], 0.5 * fwid[k], a,
-           fkind[k] == 1 ? "meets" : "changes its index near", b[0] ? b : "(none)");
+    if (fkind[k] == 3)
+      printf("  %s = %.15g (+- %.1e): %s leaves the search box at q = (", c->scan_parameter, fval[k], 0.5 * fwid[k], a);
+    else
+      printf("  fold: %s = %.15g (+- %.1e): %s %s %s at q = (", c->scan_parameter, fval[k], 0.5 * fwid[k], a,
+             fkind[k] == 1 ? "meets" : "changes its index near", b[0] ? b : "(none)");
     for (int d = 0; d < nd; d++) printf("%s%.8g", d ? ", " : "", fq[MD * k + d]);
     printf(")\n");
   }

@@ -23,6 +23,8 @@ module tubes_scan
   integer, parameter, public :: SCAN_MAXSTEPS = 100000  !! n at most
   integer, parameter, public :: FOLD_MEET = 1       !! two equilibria meet and disappear
   integer, parameter, public :: FOLD_INDEX = 2      !! the determinant changes sign, no partner lost
+  integer, parameter, public :: FOLD_BOX = 3        !! not a fold: it leaves the search box (lost
+                                                    !! within 1e-3 of the box's width of a face)
   !> the bisection's bracket: width <= SCAN_FOLD_TOL |to - from|
   real(wp), parameter, public :: SCAN_FOLD_TOL = 1.0e-13_wp
 
@@ -126,7 +128,7 @@ contains
   !>   step's orbit: the first step, a step searched anew, or where the correction failed).
   !> Folds: n_fold (all found; the first SCAN_MAXFOLD are recorded), fold_step (between steps
   !> fold_step - 1 and fold_step, 1-based columns), fold_value (the bracket's midpoint),
-  !> fold_width, fold_kind (FOLD_MEET or FOLD_INDEX), fold_q (the equilibrium at the bracket's
+  !> fold_width, fold_kind (FOLD_MEET, FOLD_INDEX or FOLD_BOX), fold_q (the equilibrium at the bracket's
   !> good end), fold_name, fold_partner (names as eq_name: the equilibrium it meets, the nearest
   !> other at the bracket's good end). stat: TUBES_EINPUT for bad arguments (ipar, n, to equal
   !> to the start, a model refused at a step's value), else the first failure's status.
@@ -299,6 +301,9 @@ contains
           end if
         end if
       end do
+      if (kind == FOLD_MEET .and. jmeet == 0 .and. &
+          any(min(qlo(:, k) - st%lo(1:nd), st%hi(1:nd) - qlo(:, k)) <= 1.0e-3_wp*(st%hi(1:nd) - st%lo(1:nd)))) &
+        kind = FOLD_BOX                      ! lost at a face of the box: it left the box
       ! the partner: the one it met at the bracket's bad end, else the nearest other at the good end
       jp = jmeet
       best = huge(1.0_wp)
@@ -327,7 +332,7 @@ contains
       fold_kind(n_fold) = kind
       fold_q(1:nd, n_fold) = qlo(:, k)
       call put_name(prev(k)%name, fold_name(:, n_fold))
-      if (jp > 0) call put_name(prev(jp)%name, fold_partner(:, n_fold))
+      if (jp > 0 .and. kind /= FOLD_BOX) call put_name(prev(jp)%name, fold_partner(:, n_fold))
     end subroutine locate_fold
 
     !> Is prev(k) continued into e (its start's origin org(k)) as itself: found, met by no other
