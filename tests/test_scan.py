@@ -186,3 +186,28 @@ def test_an_equilibrium_leaving_the_box_is_not_a_fold():
     assert r.n_folds == 2 and r.fold_kind == ["box", "box"] and r.fold_partner == ["", ""]
     assert np.all(np.abs(r.fold_value - 10 / 44) <= 1e-8 * 10 / 44), r.fold_value
     assert r.n_equilibria[0] == 3 and r.n_equilibria[-1] == 1
+
+
+def test_a_saddle_node_against_scipy():
+    """A generic fold (a saddle-node, not a pitchfork): De Leon-Berne's wells on y = +-1/sqrt(2), where
+    V = D (1 - e^(-lambda x))^2 - e^(-zeta lambda x) (w(y) = -1, dw/dy = 0, V_xy = 0, V_yy > 0), meet
+    an index-1 point on their line as zeta grows: g = V_x/lambda = 2 D e1 (1 - e1) + zeta ez = 0 and
+    dg/dx = 0, solved here for (x, zeta) with scipy's fsolve. In the default box the partner lies
+    outside it, so the well is seen to change its index (kind 'index'). Measured: 1.3e-9 relative
+    (the search's acceptance of a root, |grad V| <= 1e-10 of the largest on its grid, near the
+    fold); asserted 1e-8."""
+    from scipy.optimize import fsolve
+    d, lam = 10.0, 1.5
+
+    def g(v):
+        x, z = v
+        e1, ez = np.exp(-lam * x), np.exp(-z * lam * x)
+        return [2 * d * (1 - e1) * e1 + z * ez, 2 * d * lam * (2 * e1**2 - e1) - z * z * lam * ez]
+
+    r = tubes.Model(system="de_leon_berne").scan("zeta", 4.0, 20)
+    assert r.n_folds == 2 and set(r.fold_name) == {"W1", "W2"}
+    x_c, zeta_c = fsolve(g, [-0.3, 3.5], xtol=1e-14)
+    assert np.max(np.abs(g([x_c, zeta_c]))) < 1e-12
+    assert np.all(np.abs(r.fold_value - zeta_c) <= 1e-8 * zeta_c), (r.fold_value, zeta_c)
+    assert np.allclose(np.abs(r.fold_q[:, 1]), 1 / np.sqrt(2), rtol=1e-12)
+    assert np.all(np.abs(r.fold_q[:, 0] - x_c) < 1e-3)     # the equilibrium ~sqrt(dzeta) from the fold
