@@ -211,3 +211,12 @@ def test_a_saddle_node_against_scipy():
     assert np.all(np.abs(r.fold_value - zeta_c) <= 1e-8 * zeta_c), (r.fold_value, zeta_c)
     assert np.allclose(np.abs(r.fold_q[:, 1]), 1 / np.sqrt(2), rtol=1e-12)
     assert np.all(np.abs(r.fold_q[:, 0] - x_c) < 1e-3)     # the equilibrium ~sqrt(dzeta) from the fold
+
+
+def test_another_family_is_refused(tmp_path, tubes_exe):
+    with pytest.raises(ValueError, match="follows the orbits of family 1"):
+        tubes.Model(system="cr3bp", spatial=True).scan("mu", 0.0125, 2, dE=[1e-4], family=2)
+    (tmp_path / "h.nml").write_text("&run scenes = 'scan' /\n&model system = 'cr3bp', spatial = .true. /\n"
+                                    "&orbits de = 1e-4, family = 2 /\n&scan parameter = 'mu', to = 0.0125, n = 2 /\n")
+    p = run_tubes(["h.nml", "-o", "h.h5"], tmp_path)
+    assert p.returncode == 1 and "the scan scene follows the orbits of family 1" in p.stderr, p.stderr

@@ -1660,6 +1660,9 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
     orb = dict(orbits) if de is None else dict(orbits, de=de)
     st = _settings(model, saddle, saddle_near, who=who, orbits=orb, integrator=integrator, equilibria=equilibria)
     des = np.array(st["des"][:int(st["ndes"][0]), 0]) if de is not None else np.zeros(0)
+    if len(des) and int(st["orb_family"]) != 1:
+        raise ValueError(f"{who}: family = {orbits.get('family')!r}: the scan follows the orbits of family 1 (the "
+                         "saddle's lowest centre frequency; docs/scan.md): allowed family=1, or no dE")
     (stat, value, n_eq, res, eq_q, eq_en, eq_ix, eq_nm, eq_det, sfound, sq, sen, lam, om, per, act, stab, conv,
      rest, nf, fstep, fval, fwid, fkind, fq, fname, fpart, ftol) = _lib().param_scan(
         *_study(model, st), ipar, to, n, des, int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),

@@ -1066,6 +1066,12 @@ static int validate_scan(const char *path, const tubes_config_t *c, const nml_wh
     }
   }
   if (line_of(w, "scan", "de")) n += check_list(path, c, w, "scan", c->scan_de, c->scan_nde, err);
+  if (asked && c->orb_family != 1 && c->scan_nde > 0) {
+    fprintf(err, "%s:%d: &orbits: family: the scan scene follows the orbits of family 1 (the saddle's lowest centre "
+            "frequency; docs/scan.md): allowed family = 1 with the scan, or no orbits (no &scan de or &orbits de)\n",
+            path, line_or_group(w, "orbits", "family"));
+    n++;
+  }
   return n;
 }
 
