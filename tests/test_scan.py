@@ -220,3 +220,23 @@ def test_another_family_is_refused(tmp_path, tubes_exe):
                                     "&orbits de = 1e-4, family = 2 /\n&scan parameter = 'mu', to = 0.0125, n = 2 /\n")
     p = run_tubes(["h.nml", "-o", "h.h5"], tmp_path)
     assert p.returncode == 1 and "the scan scene follows the orbits of family 1" in p.stderr, p.stderr
+
+
+def test_every_scan_dataset_is_documented(tmp_path, tubes_exe):
+    """Every dataset and attribute of /scan (with orbits and a fold) has its row in docs/output.md's
+    /scan section, and every dataset a units attribute."""
+    from conftest import ROOT
+    doc = (ROOT / "docs" / "output.md").read_text()
+    sec = doc[doc.index("## `/scan`"):]
+    sec = sec[:sec.index("\n## ", 5)]
+    (tmp_path / "f.nml").write_text("&run scenes = 'scan' /\n&model system = 'coupled_quartic' /\n"
+                                    "&orbits de = 0.01 /\n&scan parameter = 'alpha', to = 0.05, n = 4 /\n")
+    assert run_tubes(["f.nml", "-o", "f.h5"], tmp_path).returncode == 0
+    names = []
+    with h5py.File(tmp_path / "f.h5") as f:
+        f["scan"].visititems(lambda n, o: names.append((n.split("/")[-1], o)))
+        names += [(a, None) for a in f["scan"].attrs] + [(a, None) for a in f["scan/folds"].attrs]
+        for n, o in names:
+            assert f"`{n}`" in sec, f"/scan: {n} missing from docs/output.md"
+            if isinstance(o, h5py.Dataset) and o.dtype.kind in "fi":
+                assert "units" in o.attrs, n
