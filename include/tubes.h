@@ -316,6 +316,36 @@ int tubes_orbit_bifurcations(const char system[TUBES_LSYSTEM], const double para
                              double bperiod[], double bnu[], int bconv[], double bx0[], double btan[], double *bif_tol, int local,
                              void *stores);
 
+/* Continuation in a model parameter (docs/scan.md; src/workflow/tubes_scan.f90): parameter ipar
+ * (1-based, the table's order; tubes_scan_parameter) moves from params[ipar - 1] to `to` in n equal
+ * steps. Per step j (0 .. n): value[j]; the equilibria (n_eq[j], at most TUBES_SCAN_MAXEQ; continued by
+ * Newton from step j - 1's, researched[j] = 1 where they were searched anew after a fold):
+ * eq_q[3 (TUBES_SCAN_MAXEQ j + k) ..], eq_energy[TUBES_SCAN_MAXEQ j + k], eq_index (the index),
+ * eq_det (the sign of the Jacobian's determinant), eq_name[8 (TUBES_SCAN_MAXEQ j + k) ..] (ASCII codes,
+ * blank-padded); the saddle (saddle_found[j]): saddle_q[3 j ..], saddle_energy, lambda, omega[2 j ..];
+ * its orbits at des[nde] (nde may be 0): period, action, stability, converged, restarted [max(nde, 1)
+ * j + i] (restarted 1: continued in energy from the saddle, not corrected from step j - 1's orbit).
+ * Folds (n_fold found, the first max_fold recorded): fold_step (between steps fold_step - 1 and
+ * fold_step, 1-based), fold_value, fold_width (the bisection's bracket), fold_kind (1: two equilibria
+ * meet and disappear; 2: the determinant changes sign), fold_q[3 i ..], fold_name[8 i ..] and
+ * fold_partner[8 i ..] (names as eq_name); fold_tol: the bracket's width over |to - start|.
+ * NaN (reals), -1 (eq_index) or 0 where there is nothing. TUBES_EINPUT for bad arguments (ipar, n < 1,
+ * to equal to the start, a model refused at a step's value, more than TUBES_SCAN_MAXEQ equilibria). */
+enum { TUBES_SCAN_MAXEQ = 64 };
+int tubes_parameter_scan(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+               const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid, const char saddle[8],
+                         int ipar, double to, int n, int nde, const double des[], int n_segments, double tol, double rtol,
+               double atol, int max_iter, int nsamp, int method, double h, double omega_bind, int solver,
+               int int_max_iter, double value[], int n_eq[], int researched[], double eq_q[], double eq_energy[],
+               int eq_index[], int eq_name[], int eq_det[], int saddle_found[], double saddle_q[],
+               double saddle_energy[], double lambda[], double omega[], double period[], double action[],
+               double stability[], int converged[], int restarted[], int max_fold, int *n_fold, int fold_step[],
+               double fold_value[], double fold_width[], int fold_kind[], double fold_q[], int fold_name[],
+               int fold_partner[], double *fold_tol);
+/* The index (1-based) of the parameter `name` of system that a scan takes, 0 if none (a dissipation
+ * parameter, a formula's constant, an unknown name); allowed[len]: those it takes, blank-separated. */
+int tubes_scan_parameter(const char system[TUBES_LSYSTEM], const char name[TUBES_LPARAM], char *allowed, int len);
+
 /* Sections of the tube-dynamics calls (docs/tubes.md, "Sections"): sec_kind 1 = the rolling
  * ball's ray theta = level [rad], dir = sign of p_theta, coordinates (r, p_r); sec_kind 2 = the
  * plane q_{sec_index} = level (sec_index 1..N), dir = sign of dq/dt at the crossing,

@@ -103,6 +103,13 @@ typedef struct {
   double flux_t_max, flux_gate, flux_tol, flux_cut_eps;
   int orb_family;   /* &orbits family: which centre mode's Lyapunov family (1 .. N-1) */
   int spatial;      /* &model spatial: the cr3bp in three dimensions (model cr3bp_spatial) */
+  /* &scan (docs/scan.md): the parameter, its end value (unset: -DBL_MAX), the steps, the orbits' dE
+   * (scan_nde 0: none; &orbits de when &scan de is not set and &orbits de is); scan_ipar resolved by
+   * the reader: the parameter's index (1-based) in params, 0 when the scan does not take it */
+  char scan_parameter[TUBES_LNAME];
+  double scan_to;
+  double scan_de[TUBES_MAXDE];
+  int scan_n, scan_nde, scan_ipar;
 } tubes_config_t;
 
 /* Set every variable to its default. */

@@ -1269,3 +1269,55 @@ subroutine transition_region(system, params, lo, hi, n_grid, saddle, sec_kind, s
   call region_outputs(reg, n, phi, rho, s, p, t_in, m, cs, cp)
   call region_numbers(reg, info, res, counts)
 end subroutine transition_region
+
+subroutine scan_parameter_index(system, name, ipar, allowed)
+  ! the index (1-based, table order) of the parameter `name` of system, 0 if none; allowed: the
+  ! system's parameters, blank-separated (tubes_scan scan_parameter)
+  use, intrinsic :: iso_c_binding, only: c_int
+  use tubes_scan, only: scan_parameter
+  implicit none
+  character(len=*), intent(in) :: system, name
+  integer(c_int), intent(out) :: ipar
+  character(len=512), intent(out) :: allowed
+  integer :: k
+  call scan_parameter(trim(system), trim(name), k, allowed)
+  ipar = k
+end subroutine scan_parameter_index
+
+subroutine param_scan(system, params, lo, hi, n_grid, saddle, ipar, to, n, nde, des, n_segments, tol, rtol, &
+                      atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stat, value, n_eq, &
+                      researched, eq_q, eq_energy, eq_index, eq_name, eq_det, saddle_found, saddle_q, &
+                      saddle_energy, lam, omega, period, action, stability, converged, restarted, n_fold, &
+                      fold_step, fold_value, fold_width, fold_kind, fold_q, fold_name, fold_partner, fold_tol)
+  ! the parameter scan (as the scan scene and the C API's tubes_scan: tubes_scan scan_table);
+  ! n + 1 steps, at most 64 equilibria per step and 32 folds recorded
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_orbits, only: orbit_opts_t
+  use tubes_study, only: study_t
+  use tubes_scan, only: scan_table, SCAN_FOLD_TOL
+  use tubes_capi, only: integ_of
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, ipar, n, nde, n_segments, max_iter, nsamp, method, solver, int_max_iter
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), to, des(nde), tol, rtol, atol, h, omega_bind
+  integer(c_int), intent(out) :: stat, n_eq(n + 1), researched(n + 1), eq_index(64, n + 1), &
+                                 eq_name(8, 64, n + 1), eq_det(64, n + 1), saddle_found(n + 1), &
+                                 converged(nde, n + 1), restarted(nde, n + 1), n_fold, fold_step(32), &
+                                 fold_kind(32), fold_name(8, 32), fold_partner(8, 32)
+  real(c_double), intent(out) :: value(n + 1), eq_q(3, 64, n + 1), eq_energy(64, n + 1), saddle_q(3, n + 1), &
+                                 saddle_energy(n + 1), lam(n + 1), omega(2, n + 1), period(nde, n + 1), &
+                                 action(nde, n + 1), stability(nde, n + 1), fold_value(32), fold_width(32), &
+                                 fold_q(3, 32), fold_tol
+  type(orbit_opts_t) :: opts
+  integer :: s, nf
+  opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, n_samples=nsamp, &
+                      integ=integ_of(method, h, omega_bind, solver, int_max_iter))
+  fold_tol = SCAN_FOLD_TOL
+  call scan_table(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+                          integ=opts%integ), ipar, to, n, des, opts, value, n_eq, researched, eq_q, eq_energy, &
+                  eq_index, eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lam, omega, period, action, &
+                  stability, converged, restarted, nf, fold_step, fold_value, fold_width, fold_kind, fold_q, &
+                  fold_name, fold_partner, s)
+  stat = s
+  n_fold = nf
+end subroutine param_scan

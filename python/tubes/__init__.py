@@ -54,7 +54,7 @@ __all__ = ["Model", "Table", "TubesError", "DisagreementError", "MC_SIGMA", "con
            "shape_derivatives", "vector_field", "velocity", "momentum", "equilibria",
            "section_boundary", "integrate", "trajectory", "reference_solution", "differentiate",
            "orbit_family", "tube_cut", "transition", "transition_region", "monte_carlo", "poincare", "flux",
-           "normal_form_map",
+           "normal_form_map", "scan",
            "synthetic_experiment", "load", "Result"]
 
 
@@ -1669,6 +1669,88 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
                   "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": int(st["exp_seed"])}, "/tracks", model)
 
 
+def _codes(a) -> str:
+    """A name from the core's ASCII codes (blank-padded)."""
+    return bytes(int(c) for c in a).decode("ascii", "replace").strip()
+
+
+def scan(model: Model | None = None, parameter: str | None = None, to=None, n=None, dE=None, saddle=None,
+         saddle_near=None, integrator: dict | None = None, equilibria: dict | None = None, **orbits) -> Table:
+    """Continuation in a model parameter (as the scan scene, docs/scan.md): parameter (a name of
+    the model's table, not one of dissipation) moves from its value in the model to `to` in n
+    equal steps (n + 1 values). At each step the equilibria are continued by Newton from the
+    previous step's (searched anew after a fold), the saddle's (saddle or saddle_near; the
+    system's default) energy, lambda and centre frequencies are taken, and its Lyapunov orbits
+    at the excess energies dE (optional; > 0, increasing) are corrected from the previous step's
+    orbits. Folds (an equilibrium meeting another and disappearing, or its Jacobian's
+    determinant changing sign) are located by bisection to fold_tol |to - start|.
+
+    Returns a Table (docs/output.md, /scan): value (n + 1), n_equilibria, researched, the
+    equilibria per step (eq_q (n + 1, 64, N), eq_energy, eq_index, eq_det, eq_name: lists of
+    names), saddle_found, saddle_q, saddle_energy, lambda, omega (n + 1, N - 1), and with dE:
+    dE, period, action, stability_index, converged, restarted (n + 1, len(dE)); the folds:
+    fold_value, fold_bracket, fold_kind ('meet', 'index' or 'box': not a fold, it leaves the search
+    box), fold_step (the first row after the fold,
+    0-based), fold_q, fold_name,
+    fold_partner, n_folds (all found; at most 32 recorded), fold_tol. Keywords: &orbits' method,
+    n_segments, tol, rtol, atol, max_iter, n_samples; integrator and equilibria as dicts of their
+    groups (as orbit_family's)."""
+    model = model or Model()
+    who = "scan"
+    if not isinstance(parameter, str):
+        raise TypeError(f"{who}: parameter = {parameter!r} is not a name: give one of the model's parameters")
+    ipar, allowed = _lib().scan_parameter_index(model.name, parameter)
+    allowed = _str(allowed).strip()
+    if ipar < 1:
+        extra = (" (a formula's constants are compiled into its model and cannot be scanned; "
+                 "dissipation parameters are not scanned)" if model.formula else
+                 " (dissipation parameters are not scanned: the scan follows the conservative model)")
+        raise ValueError(f"{who}: parameter = {parameter!r} is not a parameter the scan takes for system "
+                         f"{model.system!r}; allowed: {', '.join(allowed.split()) or 'none'}{extra}")
+    if to is None or n is None:
+        raise ValueError(f"{who}: give to (the parameter's end value) and n (steps, >= 1)")
+    to = _args.real(who, "to", to)
+    n = _args.integer(who, "n", n, lo=1, hi=100000)
+    start = float(model.parameters[parameter])
+    if to == start:
+        raise ValueError(f"{who}: to = {to!r} equals the start value {parameter} = {start!r}: allowed any other value")
+    end = model.replace(**{parameter: to})   # the reader's checks of the end value (alpha > 0, ...)
+    de = _de_list(dE, who)
+    orb = dict(orbits) if de is None else dict(orbits, de=de)
+    st = _settings(model, saddle, saddle_near, who=who, orbits=orb, integrator=integrator, equilibria=equilibria)
+    des = np.array(st["des"][:int(st["ndes"][0]), 0]) if de is not None else np.zeros(0)
+    if len(des) and int(st["orb_family"]) != 1:
+        raise ValueError(f"{who}: family = {orbits.get('family')!r}: the scan follows the orbits of family 1 (the "
+                         "saddle's lowest centre frequency; docs/scan.md): allowed family=1, or no dE")
+    (stat, value, n_eq, res, eq_q, eq_en, eq_ix, eq_nm, eq_det, sfound, sq, sen, lam, om, per, act, stab, conv,
+     rest, nf, fstep, fval, fwid, fkind, fq, fname, fpart, ftol) = _lib().param_scan(
+        *_study(model, st), ipar, to, n, des, int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
+        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model))
+    if stat == -1:
+        raise ValueError(f"{who}: the model refused a value of {parameter} between {start!r} and {to!r} "
+                         f"(its range: Model({parameter}=...) says which), or more than 64 equilibria in the box")
+    _check(stat, who)
+    nd = model.ndof
+    m = n + 1
+    nfr = min(int(nf), 32)
+    out = {"parameter": parameter, "start": start, "to": to, "n": n, "saddle": st["saddle"],
+           "value": value.copy(), "n_equilibria": n_eq.copy(), "researched": res.astype(bool),
+           "eq_q": eq_q[:nd].transpose(2, 1, 0).copy(), "eq_energy": eq_en.T.copy(), "eq_index": eq_ix.T.copy(),
+           "eq_det": eq_det.T.copy(),
+           "eq_name": [[_codes(eq_nm[:, k, i]) for k in range(int(n_eq[i]))] for i in range(m)],
+           "saddle_found": sfound.astype(bool), "saddle_q": sq[:nd].T.copy(), "saddle_energy": sen.copy(),
+           "lambda": lam.copy(), "omega": om[:max(nd - 1, 0)].T.copy(),
+           "n_folds": int(nf), "fold_value": fval[:nfr].copy(), "fold_bracket": fwid[:nfr].copy(),
+           "fold_kind": [{1: "meet", 2: "index", 3: "box"}[int(k)] for k in fkind[:nfr]], "fold_step": fstep[:nfr] - 1,
+           "fold_q": fq[:nd, :nfr].T.copy(), "fold_name": [_codes(fname[:, k]) for k in range(nfr)],
+           "fold_partner": [_codes(fpart[:, k]) for k in range(nfr)], "fold_tol": float(ftol)}
+    if len(des):
+        out.update({"dE": des, "period": per.T.copy(), "action": act.T.copy(), "stability_index": stab.T.copy(),
+                    "converged": conv.T.astype(bool), "restarted": rest.T.astype(bool)})
+    del end
+    return _table(out, "/scan", model)
+
+
 def _as_method(f):
     """f(model, ...) as the Model method model.f(...): f's docstring and its signature without
     the model (help(model.transition) shows the keywords, their defaults and the text)."""
@@ -1688,7 +1770,7 @@ def _as_method(f):
 
 
 for _f in (orbit_family, tube_cut, transition, transition_region, monte_carlo, poincare, flux, equilibria,
-           section_boundary, normal_form_map, synthetic_experiment):
+           section_boundary, normal_form_map, synthetic_experiment, scan):
     setattr(Model, _f.__name__, _as_method(_f))
 del _f
 

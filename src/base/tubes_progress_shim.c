@@ -28,7 +28,7 @@ void tubes_progress_enable(int on) { atomic_store(&enabled, on != 0); }
 static const char *noun(const char *fault, int len) {
   static const struct { const char *fault, *noun; } names[] = {
       {"sample", "points"}, {"seed", "tube seeds"}, {"map", "map trajectories"}, {"track", "tracks"},
-      {"segment", "segments"}};
+      {"segment", "segments"}, {"scan", "parameter steps"}};
   for (size_t k = 0; k < sizeof names / sizeof names[0]; k++)
     if ((int)strlen(names[k].fault) == len && !strncmp(fault, names[k].fault, (size_t)len)) return names[k].noun;
   return "items";

@@ -30,6 +30,7 @@ module tubes_capi
   use tubes_flux3, only: cut3_study
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: bifurcation_table, BIF_TOL
+  use tubes_scan, only: scan_table, scan_index, SCAN_MAXEQ, SCAN_FOLD_TOL
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, gate_reach, maps_at, cut_outputs, seed_stores_t, family_at, &
                          equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, &
@@ -477,6 +478,61 @@ contains
     call bifurcation_table(st, des, opts, nu, nbif, kind, after, bconv, bde, bwidth, benergy, bperiod, bnu, bx0, &
                            btan, stat, kept)
   end function c_orbit_bifurcations
+
+  !> The parameter scan (include/tubes.h: tubes_parameter_scan; tubes_scan scan_table): the tables of
+  !> n + 1 steps (maxeq = SCAN_MAXEQ equilibria, MAX_DOF coordinates, names as 8 ASCII codes
+  !> each), at most max_fold folds recorded (n_fold counts all).
+  integer(c_int) function c_scan(system, params, lo, hi, n_grid, saddle, ipar, to, n, nde, des, n_segments, tol, &
+      rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, value, n_eq, researched, eq_q, &
+      eq_energy, eq_index, eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period, action, &
+      stability, converged, restarted, max_fold, n_fold, fold_step, fold_value, fold_width, fold_kind, fold_q, &
+      fold_name, fold_partner, fold_tol) result(stat) bind(C, name='tubes_parameter_scan')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, ipar, n, nde, n_segments, max_iter, nsamp, method, solver, int_max_iter, &
+                             max_fold
+    real(c_double), value :: to, tol, rtol, atol, h, omega_bind
+    real(c_double), intent(in) :: des(*)
+    real(c_double), intent(out) :: value(n + 1), eq_q(MAX_DOF, SCAN_MAXEQ, n + 1), eq_energy(SCAN_MAXEQ, n + 1), &
+                                   saddle_q(MAX_DOF, n + 1), saddle_energy(n + 1), lambda(n + 1), &
+                                   omega(MAX_DOF - 1, n + 1), period(max(nde, 1), n + 1), &
+                                   action(max(nde, 1), n + 1), stability(max(nde, 1), n + 1), &
+                                   fold_value(max_fold), fold_width(max_fold), fold_q(MAX_DOF, max_fold), fold_tol
+    integer(c_int), intent(out) :: n_eq(n + 1), researched(n + 1), eq_index(SCAN_MAXEQ, n + 1), &
+                                   eq_name(8, SCAN_MAXEQ, n + 1), eq_det(SCAN_MAXEQ, n + 1), saddle_found(n + 1), &
+                                   converged(max(nde, 1), n + 1), restarted(max(nde, 1), n + 1), n_fold, &
+                                   fold_step(max_fold), fold_kind(max_fold), fold_name(8, max_fold), &
+                                   fold_partner(8, max_fold)
+    type(orbit_opts_t) :: opts
+    type(study_t) :: st
+    type(section_choice_t) :: sec
+    integer :: nf, s
+    fold_tol = SCAN_FOLD_TOL
+    n_fold = 0
+    stat = TUBES_EINPUT
+    if (n < 1 .or. nde < 0 .or. max_fold < 1) return
+    opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, &
+                        n_samples=nsamp, integ=integ_of(method, h, omega_bind, solver, int_max_iter))
+    call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
+    call scan_table(st, ipar, to, n, des(1:nde), opts, value, n_eq, researched, eq_q, eq_energy, eq_index, &
+                    eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period(1:nde, :), &
+                    action(1:nde, :), stability(1:nde, :), converged(1:nde, :), restarted(1:nde, :), nf, fold_step, &
+                    fold_value, fold_width, fold_kind, fold_q, fold_name, fold_partner, s)
+    n_fold = nf
+    stat = s
+  end function c_scan
+
+  !> The index (1-based) of parameter `name` of system that a scan takes, 0 if none; allowed:
+  !> those parameters, blank-separated, NUL-terminated (include/tubes.h: tubes_scan_parameter).
+  integer(c_int) function c_scan_parameter(system, name, allowed, len) result(ipar) &
+      bind(C, name='tubes_scan_parameter')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), name(LEN_PARAM)
+    integer(c_int), value :: len
+    character(kind=c_char), intent(out) :: allowed(len)
+    character(512) :: a
+    ipar = scan_index(c_to_f(system), c_to_f(name), a)
+    call f_to_c(a, allowed)
+  end function c_scan_parameter
 
   !> The study (model, box, saddle, orbit corrector) and the section of a C call.
   subroutine study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, integ, st, &

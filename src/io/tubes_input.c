@@ -18,11 +18,11 @@
 
 const char *const tubes_nml_groups[] = {"run", "model", "equilibria", "trajectory", "integrator",
                                         "orbits", "section", "tubes", "transition", "montecarlo",
-                                        "sections", "experiment", "flux"};
-const int tubes_nml_ngroups = 13;
+                                        "sections", "experiment", "flux", "scan"};
+const int tubes_nml_ngroups = 14;
 
 const char *const tubes_scene_names[] = {"equilibria", "trajectory", "orbits", "tubes", "transition",
-                                         "montecarlo", "sections", "synthetic_experiment", "flux"};
+                                         "montecarlo", "sections", "synthetic_experiment", "flux", "scan"};
 const char *const tubes_scene_docs[] = {
     "critical points of H, Morse index, names, saddle linearization (lambda, omega, T_po)",
     "one trajectory with sampled output and its energy error",
@@ -36,8 +36,10 @@ const char *const tubes_scene_docs[] = {
     "synthetic tracking data like the paper's experiment: balls released from rest, filmed with "
     "noise and pixel rounding (docs/experiment-data.md)",
     "the flux of trajectories through the saddle's bottleneck in N degrees of freedom: sampled on the "
-    "dividing surface, beside the leading-order formula (docs/theory.md)"};
-const int tubes_nscenes = 9;
+    "dividing surface, beside the leading-order formula (docs/theory.md)",
+    "continuation in a model parameter (&scan): equilibria, the saddle's data and its orbits followed, "
+    "folds located (docs/scan.md)"};
+const int tubes_nscenes = 10;
 
 const nml_var tubes_nml_vars[] = {
     {"run", "scenes", NML_STRING, TUBES_NSCENES, "-", "'equilibria'",
@@ -213,6 +215,14 @@ const nml_var tubes_nml_vars[] = {
      "(2 n_cut)^2 NHIM points; 0 = none"},
     {"flux", "cut_eps", NML_REAL, 1, "1", "1e-3", "1e-8 .. 0.1",
      "step-off of the tube's seeds from the NHIM, in units of its radius sqrt(2 dE / omega_2)"},
+    {"scan", "parameter", NML_STRING, 1, "-", "- (required)",
+     "a parameter of the system (&model), not a dissipation one; not a formula's constant",
+     "the model parameter the scan scene moves (docs/scan.md)"},
+    {"scan", "to", NML_REAL, 1, "the parameter's", "- (required)", "finite, not the start value; the model's range",
+     "the parameter's end value (the start: its &model value)"},
+    {"scan", "n", NML_INT, 1, "-", "10", "1 .. 100000", "steps (n + 1 parameter values, equally spaced)"},
+    {"scan", "de", NML_REAL, TUBES_MAXDE, "energy", "&orbits de if set there, else none", "> 0, increasing",
+     "excess energies of the saddle's Lyapunov orbits followed along the scan (none: no orbits)"},
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 _Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 192, "nml_where holds 192 variables");
@@ -1013,6 +1023,58 @@ static int check_memory(const char *path, const tubes_config_t *c, const nml_whe
   return n;
 }
 
+/* &scan (docs/scan.md): checked where the scan scene is asked for or the group is given. */
+static int validate_scan(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
+  int asked = 0, n = 0;
+  for (int i = 0; i < TUBES_NSCENES; i++) asked |= !strcmp(c->scenes[i], "scan");
+  if (!asked && !w->group_line[group_index("scan")]) return 0;
+  if (!c->scan_parameter[0]) {
+    fprintf(err, "%s:%d: &scan: parameter is not set: the scan scene needs the name of the parameter to move "
+            "(a parameter of system '%s' in &model)\n", path, line_or_group(w, "scan", "parameter"), c->system);
+    n++;
+  } else if (c->nparams >= 0 && c->scan_ipar < 1) {
+    char allowed[512];
+    tubes_scan_parameter(c->model, c->scan_parameter, allowed, (int)sizeof allowed);
+    fprintf(err, "%s:%d: &scan: parameter = '%s' is not a parameter the scan takes for system '%s'; allowed: %s%s\n",
+            path, line_or_group(w, "scan", "parameter"), c->scan_parameter, c->system,
+            allowed[0] ? allowed : "none",
+            c->nparams == 0 || !strcmp(c->system, "expression") || !strcmp(c->surface, "expression")
+                ? " (a formula's constants are compiled into its model and cannot be scanned; dissipation "
+                  "parameters are not scanned)"
+                : " (dissipation parameters are not scanned: the scan follows the conservative model)");
+    n++;
+  }
+  if (!(c->scan_n >= 1 && c->scan_n <= 100000)) n += bad(path, c, w, "scan", "n", err, "", c->scan_n);
+  if (c->scan_to == -DBL_MAX) {
+    fprintf(err, "%s:%d: &scan: to is not set: the scan scene needs the parameter's end value\n", path,
+            line_or_group(w, "scan", "to"));
+    n++;
+  } else if (c->scan_ipar >= 1 && c->scan_to == c->params[c->scan_ipar - 1]) {
+    fprintf(err, "%s:%d: &scan: to = %.17g equals the start value %s = %.17g (&model): allowed any other value\n",
+            path, line_or_group(w, "scan", "to"), c->scan_to, c->scan_parameter, c->params[c->scan_ipar - 1]);
+    n++;
+  } else if (c->scan_ipar >= 1 && c->nparams > 0) {   /* the end value: the model's own check */
+    double p[TUBES_MAXPARAM];
+    int natural = 0;
+    memcpy(p, c->params, sizeof p);
+    p[c->scan_ipar - 1] = c->scan_to;
+    if (tubes_model_natural(c->model, p, &natural) < 0) {
+      fprintf(err, "%s:%d: &scan: to = %.10g: system '%s' refuses %s = %.10g (its range: docs/models.md, "
+              "--help's &model)\n", path, line_or_group(w, "scan", "to"), c->scan_to, c->system,
+              c->scan_parameter, c->scan_to);
+      n++;
+    }
+  }
+  if (line_of(w, "scan", "de")) n += check_list(path, c, w, "scan", c->scan_de, c->scan_nde, err);
+  if (asked && c->orb_family != 1 && c->scan_nde > 0) {
+    fprintf(err, "%s:%d: &orbits: family: the scan scene follows the orbits of family 1 (the saddle's lowest centre "
+            "frequency; docs/scan.md): allowed family = 1 with the scan, or no orbits (no &scan de or &orbits de)\n",
+            path, line_or_group(w, "orbits", "family"));
+    n++;
+  }
+  return n;
+}
+
 int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int n = 0, nscenes = 0;
   for (int k = 0; k < TUBES_NSCENES; k++) {
@@ -1164,6 +1226,7 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (c->nparams >= 0 && line_of(w, "flux", "gate") && !(c->flux_gate > 0 && c->flux_gate < DBL_MAX))
     n += bad(path, c, w, "flux", "gate", err, "", c->flux_gate);
   if (!(c->flux_tol >= 1e-14 && c->flux_tol <= 1e-3)) n += bad(path, c, w, "flux", "tol", err, "", c->flux_tol);
+  n += validate_scan(path, c, w, err);
   if (!(c->flux_order == 0 || (c->flux_order >= 2 && c->flux_order <= 16)))
     n += bad(path, c, w, "flux", "order", err, "", c->flux_order);
   else if (c->flux_order > 0 && strcmp(c->system, "expression") &&

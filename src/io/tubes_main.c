@@ -488,6 +488,7 @@ static int run_main(int argc, char **argv) {
     else if (!strcmp(s, "sections")) r = scene_sections(&run);
     else if (!strcmp(s, "synthetic_experiment")) r = scene_synthetic_experiment(&run);
     else if (!strcmp(s, "flux")) r = scene_flux(&run);
+    else if (!strcmp(s, "scan")) r = scene_scan(&run);
     if (g_stop_sig) {                  /* interrupted during s: what it wrote goes */
       stopped_in = s;
       started = 1;

@@ -6,12 +6,13 @@ module tubes_nml
   use, intrinsic :: iso_fortran_env, only: iostat_end
   use tubes_cstrings, only: c_to_f, f_to_c
   use tubes_models, only: system_info_t, system_info, MAX_PARAMS, MAX_DOF
+  use tubes_scan, only: scan_index
   implicit none
   private
 
   !> run, model, equilibria, trajectory, integrator, orbits, section, tubes, transition,
-  !> montecarlo, sections, experiment
-  integer, parameter :: NGROUPS = 13
+  !> montecarlo, sections, experiment, flux, scan
+  integer, parameter :: NGROUPS = 14
   integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32, MAXDE = 256, LSADDLE = 8
   !> models written as formulas: a formula, a name, a constant 'name = value', how many
   integer, parameter :: LEXPR = 2048, LSYM = 16, LCONST = 128, MAXCONST = 32, LMSG = 1024
@@ -85,6 +86,10 @@ module tubes_nml
     real(c_double) :: flux_t_max, flux_gate, flux_tol, flux_cut_eps
     integer(c_int) :: orb_family
     integer(c_int) :: spatial
+    character(kind=c_char) :: scan_parameter(LNAME)
+    real(c_double) :: scan_to
+    real(c_double) :: scan_de(MAXDE)
+    integer(c_int) :: scan_n, scan_nde, scan_ipar
   end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved), with their
@@ -152,6 +157,10 @@ module tubes_nml
                       flux_cut_eps = 1.0e-3_c_double
     integer :: orb_family = 1
     logical :: spatial = .false.
+    character(LNAME) :: scan_parameter = ''
+    real(c_double) :: scan_to = UNSET
+    real(c_double) :: scan_de(MAXDE) = UNSET
+    integer :: scan_n = 10
   end type vars_t
 
 contains
@@ -231,7 +240,21 @@ contains
     do k = 1, MAXCONST
       call f_to_c(v%constants(k), cfg%constants(:, k))
     end do
+    call f_to_c(v%scan_parameter, cfg%scan_parameter)
+    cfg%scan_to = v%scan_to
+    cfg%scan_n = v%scan_n
+    cfg%scan_de = v%scan_de
+    cfg%scan_nde = count(v%scan_de /= UNSET)
+    if (cfg%scan_nde == 0 .and. count(v%orb_de /= UNSET) > 0) then   ! &orbits de, as given
+      cfg%scan_de = v%orb_de
+      cfg%scan_nde = count(v%orb_de /= UNSET)
+    end if
     call resolve(v, cfg, build)   ! last: it fills the effective values of the fields above
+    block
+      character(512) :: allowed
+      cfg%scan_ipar = 0
+      if (cfg%nparams >= 0) cfg%scan_ipar = scan_index(trim(c_to_f(cfg%model)), trim(v%scan_parameter), allowed)
+    end block
   end subroutine to_c
 
   !> The value of &model variable `name` in v (UNSET if not set in the file).
@@ -583,6 +606,10 @@ contains
     v%exp_damping_ratio = cfg%exp_damping_ratio
     v%exp_rolling_resistance = cfg%exp_rolling_resistance
     v%exp_csv = c_to_f(cfg%exp_csv)
+    v%scan_parameter = c_to_f(cfg%scan_parameter)
+    v%scan_to = cfg%scan_to
+    v%scan_n = cfg%scan_n
+    v%scan_de = cfg%scan_de
   end subroutine from_c
 
   subroutine c_defaults(cfg) bind(C, name='tubes_nml_defaults')
@@ -616,6 +643,7 @@ contains
     case (10); call io_sections()
     case (11); call io_experiment()
     case (12); call io_flux()
+    case (13); call io_scan()
     end select
   contains
     subroutine io_run()
@@ -981,6 +1009,27 @@ contains
       v%flux_n_samples = n_samples; v%flux_seed = seed; v%flux_t_max = t_max; v%flux_order = order
       v%flux_gate = gate; v%flux_tol = tol; v%flux_n_cut = n_cut; v%flux_cut_eps = cut_eps
     end subroutine io_flux
+    subroutine io_scan()
+      character(LNAME) :: parameter
+      real(c_double) :: to
+      real(c_double), allocatable :: de(:)
+      integer :: n
+      namelist /scan/ parameter, to, n, de
+      if (mode /= 'r' .and. len_trim(v%scan_parameter) == 0) return   ! echoed only when set
+      parameter = v%scan_parameter
+      to = v%scan_to
+      n = v%scan_n
+      call list_io(v%scan_de, de)
+      if (mode == 'r') then
+        read (u, nml=scan, iostat=ios, iomsg=iomsg)
+        v%scan_de = de
+      else
+        write (u, nml=scan, iostat=ios, iomsg=iomsg)
+      end if
+      v%scan_parameter = parameter
+      v%scan_to = to
+      v%scan_n = n
+    end subroutine io_scan
     subroutine io_sections()
       real(c_double), allocatable :: de(:)
       integer :: n_seeds, n_iter

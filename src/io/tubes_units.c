@@ -46,6 +46,14 @@ static const unit_row_t ROWS[] = {
   {"/orbits/bifurcations", "bracket", "(cm/s)^2"}, {"/orbits/bifurcations", "energy", "(cm/s)^2"},
   {"/orbits/bifurcations", "period", "s"}, {"/orbits/bifurcations", "floquet_index", "1"},
   {"/orbits/bifurcations", "floquet_index_imag", "1"}, {"/orbits/bifurcations", "tangent", "1"},
+  /* the scan scene (value and folds/value, bracket: the parameter's units, written with them) */
+  {"/scan", "n_equilibria", "1"}, {"/scan", "researched", "1"}, {"/scan", "eq_q", "cm"},
+  {"/scan", "eq_energy", "(cm/s)^2"}, {"/scan", "eq_index", "1"}, {"/scan", "eq_det", "1"},
+  {"/scan", "saddle_found", "1"}, {"/scan", "saddle_q", "cm"}, {"/scan", "saddle_energy", "(cm/s)^2"},
+  {"/scan", "lambda", "1/s"}, {"/scan", "omega", "rad/s"}, {"/scan", "dE", "(cm/s)^2"}, {"/scan", "period", "s"},
+  {"/scan", "action", "cm^2/s"}, {"/scan", "stability_index", "1"}, {"/scan", "converged", "1"},
+  {"/scan", "restarted", "1"}, {"/scan/folds", "kind", "1"}, {"/scan/folds", "step", "1"},
+  {"/scan/folds", "q", "cm"},
   /* the transition scene */
   TRANSITION_ROWS("/transition"),
   /* the Monte Carlo scene */

@@ -59,7 +59,8 @@ module tubes_equilibria
     logical :: stable = .false.     !! linearly (spectrally) stable: all N pairs are centres
   end type equilibrium_t
 
-  public :: find_equilibria, linearize, quadrant, rest_jacobian, sort_indices, neck_normal, nhim_reach, gate_holds_nhim
+  public :: find_equilibria, continue_equilibria, linearize, quadrant, rest_jacobian, sort_indices, neck_normal, &
+            nhim_reach, gate_holds_nhim
 
 
 
@@ -405,13 +406,51 @@ contains
     type(equilibrium_t), allocatable, intent(out) :: eqs(:)
     integer, intent(out) :: stat
     character(:), allocatable, intent(out), optional :: errmsg
-    type(equilibrium_t), allocatable :: found(:)
-    real(wp), allocatable :: q(:), x(:), p(:), gr(:), hs(:, :)
-    real(wp) :: dup_tol, tol_box, gmax, gtol, err, kscale
-    integer :: n, nd, k, m, ngrid_total, ig, i, j, st, kdup
-    integer, allocatable :: order(:)
-    logical :: ok
-    character(160) :: msg
+    real(wp), allocatable :: starts(:, :)
+    integer, allocatable :: origin(:)
+    character(:), allocatable :: msg   ! (errmsg passed on twice lost its text at -O0 with gfortran 12)
+    integer :: nd, ig
+    nd = model%ndof()
+    call check_box(model, lo, hi, n_grid, stat, msg)
+    if (stat == TUBES_OK) then
+      allocate (starts(nd, n_grid**nd))
+      do ig = 0, n_grid**nd - 1
+        call grid_point(lo, hi, n_grid, ig, starts(:, ig + 1))
+      end do
+      call equilibria_from(model, lo, hi, n_grid, starts, eqs, origin, stat, msg)
+    end if
+    if (present(errmsg) .and. allocated(msg)) errmsg = msg
+  end subroutine find_equilibria
+
+  !> The equilibria continued from the configurations starts(:, k) (a parameter scan's previous
+  !> step: docs/scan.md): Newton from each start, as find_equilibria's from its grid points (the
+  !> same tolerances, from the same n_grid grid's gradient scale), then deduplicated, classified,
+  !> named and sorted as find_equilibria's. origin(k): the index in eqs of the equilibrium start
+  !> k converged to, 0 if its Newton failed or it left the box [lo, hi]; two starts with one
+  !> origin have met (a fold passed). stat as find_equilibria's.
+  subroutine continue_equilibria(model, lo, hi, n_grid, starts, eqs, origin, stat, errmsg)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: lo(:), hi(:)   !! the search box [units of q] (size N)
+    integer, intent(in) :: n_grid          !! the grid of the gradient's scale (as find_equilibria's)
+    real(wp), intent(in) :: starts(:, :)   !! (N, m) configurations
+    type(equilibrium_t), allocatable, intent(out) :: eqs(:)
+    integer, allocatable, intent(out) :: origin(:)
+    integer, intent(out) :: stat
+    character(:), allocatable, intent(out), optional :: errmsg
+    character(:), allocatable :: msg
+    call check_box(model, lo, hi, n_grid, stat, msg)
+    if (stat == TUBES_OK) call equilibria_from(model, lo, hi, n_grid, starts, eqs, origin, stat, msg)
+    if (present(errmsg) .and. allocated(msg)) errmsg = msg
+  end subroutine continue_equilibria
+
+  !> find_equilibria's check of the box: TUBES_EINPUT with a message, else TUBES_OK.
+  subroutine check_box(model, lo, hi, n_grid, stat, errmsg)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: lo(:), hi(:)
+    integer, intent(in) :: n_grid
+    integer, intent(out) :: stat
+    character(:), allocatable, intent(out), optional :: errmsg
+    integer :: nd
     stat = TUBES_OK
     nd = model%ndof()
     if (size(lo) /= nd .or. size(hi) /= nd .or. n_grid < 2 .or. nd > 8) then
@@ -422,9 +461,49 @@ contains
     if (any(.not. (hi > lo))) then
       stat = TUBES_EINPUT
       if (present(errmsg)) errmsg = 'find_equilibria: the box is empty (hi <= lo)'
-      return
     end if
-    allocate (found(MAX_EQUILIBRIA), q(nd), x(2*nd), p(nd), gr(nd), hs(nd, nd))
+  end subroutine check_box
+
+  !> Grid point ig of the n_grid^N grid of [lo, hi]: digits in base n_grid, coordinate 1 the
+  !> slowest (as the 2-D loop i, j).
+  pure subroutine grid_point(lo, hi, n_grid, ig, q)
+    real(wp), intent(in) :: lo(:), hi(:)
+    integer, intent(in) :: n_grid, ig
+    real(wp), intent(out) :: q(:)
+    integer :: kk, ii, id(8), nd
+    nd = size(q)
+    kk = ig
+    do ii = nd, 1, -1
+      id(ii) = mod(kk, n_grid)
+      kk = kk/n_grid
+    end do
+    do ii = 1, nd
+      q(ii) = lo(ii) + (hi(ii) - lo(ii))*id(ii)/(n_grid - 1)
+    end do
+  end subroutine grid_point
+
+  !> The equilibria Newton finds from the configurations starts(:, k) (find_equilibria's rules),
+  !> origin(k) as continue_equilibria's.
+  subroutine equilibria_from(model, lo, hi, n_grid, starts, eqs, origin, stat, errmsg)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: lo(:), hi(:)
+    integer, intent(in) :: n_grid
+    real(wp), intent(in) :: starts(:, :)
+    type(equilibrium_t), allocatable, intent(out) :: eqs(:)
+    integer, allocatable, intent(out) :: origin(:)
+    integer, intent(out) :: stat
+    character(:), allocatable, intent(out), optional :: errmsg
+    type(equilibrium_t), allocatable :: found(:)
+    real(wp), allocatable :: q(:), x(:), p(:), gr(:), hs(:, :)
+    real(wp) :: dup_tol, tol_box, gmax, gtol, err, kscale
+    integer :: n, nd, k, m, ngrid_total, ig, i, j, st, kdup
+    integer, allocatable :: order(:), pos(:)
+    logical :: ok
+    character(160) :: msg
+    stat = TUBES_OK
+    nd = model%ndof()
+    allocate (found(MAX_EQUILIBRIA), q(nd), x(2*nd), p(nd), gr(nd), hs(nd, nd), origin(size(starts, 2)))
+    origin = 0
     n = 0
     dup_tol = 1.0e-6_wp*max(1.0_wp, maxval(0.5_wp*(hi - lo)))
     ngrid_total = n_grid**nd
@@ -433,15 +512,15 @@ contains
     select type (model)
     class is (natural_t)
       do ig = 0, ngrid_total - 1
-        call grid_point(ig, q)
+        call grid_point(lo, hi, n_grid, ig, q)
         call model%shape_derivs(q, gr, hs)
         if (all(abs(gr) <= huge(1.0_wp))) gmax = max(gmax, sqrt(sum(gr**2)))
       end do
     end select
     gtol = GRAD_TOL*gmax
     kscale = gmax/maxval(0.5_wp*(hi - lo))
-    do ig = 0, ngrid_total - 1
-      call grid_point(ig, q)
+    do ig = 1, size(starts, 2)
+      q = starts(:, ig)
       select type (model)
       class is (natural_t)
         call newton_natural(model, q, ok, gtol, err)
@@ -466,6 +545,7 @@ contains
         end if
       end do
       if (kdup > 0) then
+        origin(ig) = kdup
         ! keep the better located of a poorly located (degenerate) pair
         if (found(kdup)%location_error > 1.0e-8_wp*max(model%length_scale(), sqrt(sum(found(kdup)%q**2))) &
             .and. err < found(kdup)%location_error) then
@@ -488,6 +568,7 @@ contains
       found(n)%q = q
       found(n)%x = x
       found(n)%location_error = err
+      origin(ig) = n
     end do
     ! classify
     do k = 1, n
@@ -500,7 +581,7 @@ contains
     call name_all(model, found(1:n))
     ! sort by (index, name): insertion sort on a short list
     m = n
-    allocate (order(m))
+    allocate (order(m), pos(m))
     order = [(i, i = 1, m)]
     do i = 2, m
       j = i
@@ -516,23 +597,12 @@ contains
     allocate (eqs(m))
     do i = 1, m
       eqs(i) = found(order(i))
+      pos(order(i)) = i
     end do
-  contains
-    !> Grid point ig: digits in base n_grid, coordinate 1 the slowest (as the 2-D loop i, j).
-    subroutine grid_point(ig, q)
-      integer, intent(in) :: ig
-      real(wp), intent(out) :: q(:)
-      integer :: kk, ii, id(8)
-      kk = ig
-      do ii = nd, 1, -1
-        id(ii) = mod(kk, n_grid)
-        kk = kk/n_grid
-      end do
-      do ii = 1, nd
-        q(ii) = lo(ii) + (hi(ii) - lo(ii))*id(ii)/(n_grid - 1)
-      end do
-    end subroutine grid_point
-  end subroutine find_equilibria
+    do i = 1, size(origin)
+      if (origin(i) > 0) origin(i) = pos(origin(i))
+    end do
+  end subroutine equilibria_from
 
   !> Energy, residual, index and (rank-1 or degenerate) linearisation of one equilibrium.
   !> Natural systems: from the Hessian's eigenvalues kappa, zero when |kappa| <= CURV_TOL

@@ -1,0 +1,158 @@
+!> The parameter scan's core (src/workflow/tubes_scan.f90, docs/scan.md) without the front ends:
+!> (1) continue_equilibria from find_equilibria's own positions returns them (names, order, the
+!> origin map the identity) and, from the positions at alpha = 0.07, the rolling ball's equilibria
+!> at alpha = 0.0705 as find_equilibria finds them from its grid (Newton from another start: the
+!> positions agree to roundoff, ~1e-14 cm; asserted 1e-12 cm); (2) scan_table on the coupled quartic
+!> with omega = 1.5, eps = 0.3 locates the fold where its two wells meet the saddle at the origin,
+!> alpha_c = eps omega/(omega + eps) = 0.25 (grad V = 0 on y = eps x/(omega + eps) with
+!> x (beta x^2 - alpha + alpha_c) = 0), to 1e-8 (measured ~1e-12: the equilibria's merge distance);
+!> the saddle's lambda^2 omega^2 = -det Hess V(0) = -(eps - alpha)(omega + eps) + eps^2 (unit
+!> masses) at every step before it, to 1e-12 relative; (3) bad arguments give TUBES_EINPUT.
+program test_scan
+  use tubes_kinds, only: wp
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT
+  use tubes_hamiltonian, only: hamiltonian_t
+  use tubes_models, only: make_model, MAX_PARAMS, MAX_DOF
+  use tubes_equilibria, only: equilibrium_t, find_equilibria, continue_equilibria
+  use tubes_orbits, only: orbit_opts_t
+  use tubes_study, only: study_t
+  use tubes_scan, only: scan_table, SCAN_MAXEQ, FOLD_MEET
+  use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
+  implicit none
+
+  class(hamiltonian_t), allocatable :: model
+  type(equilibrium_t), allocatable :: eqs(:), cont(:), direct(:)
+  integer, allocatable :: origin(:)
+  real(wp), allocatable :: starts(:, :)
+  real(wp) :: params(MAX_PARAMS), lo(2), hi(2), dmax
+  integer :: stat, k
+
+  ! (1) the rolling ball: its defaults (the paper's) in the table's order
+  params = 0
+  params(1:6) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, 981.0_wp]
+  lo = -20
+  hi = 20
+  call make_model('rolling_ball', params, model, stat)
+  call check_eq('ball model', stat, TUBES_OK)
+  call find_equilibria(model, lo, hi, 41, eqs, stat)
+  call check_eq('ball equilibria', size(eqs), 9)
+  allocate (starts(2, size(eqs)))
+  do k = 1, size(eqs)
+    starts(:, k) = eqs(k)%q
+  end do
+  call continue_equilibria(model, lo, hi, 41, starts, cont, origin, stat)
+  call check_eq('continued from themselves: status', stat, TUBES_OK)
+  call check_eq('continued from themselves: count', size(cont), size(eqs))
+  call check_true('continued from themselves: origin is the identity', all(origin == [(k, k = 1, size(eqs))]))
+  call check_true('continued from themselves: names', all([(cont(k)%name == eqs(k)%name, k = 1, size(eqs))]))
+  dmax = 0
+  do k = 1, size(eqs)
+    dmax = max(dmax, maxval(abs(cont(k)%q - eqs(k)%q)))
+  end do
+  call check_close('continued from themselves: positions [cm]', dmax, 0.0_wp, 1.0e-12_wp)
+  params(1) = 0.0705_wp
+  call make_model('rolling_ball', params, model, stat)
+  call continue_equilibria(model, lo, hi, 41, starts, cont, origin, stat)
+  call find_equilibria(model, lo, hi, 41, direct, stat)
+  call check_eq('alpha 0.0705: continued count', size(cont), size(direct))
+  call check_true('alpha 0.0705: each start its own equilibrium', all(origin > 0) .and. &
+                  all([(count(origin == origin(k)) == 1, k = 1, size(origin))]))
+  call check_true('alpha 0.0705: names as the search', all([(cont(k)%name == direct(k)%name, k = 1, size(direct))]))
+  dmax = 0
+  do k = 1, size(direct)
+    dmax = max(dmax, maxval(abs(cont(k)%q - direct(k)%q)))
+  end do
+  call check_close('alpha 0.0705: positions as the search [cm]', dmax, 0.0_wp, 1.0e-12_wp)
+  call check_rel('alpha 0.0705: S12 lambda as the search', cont(5)%lambda, direct(5)%lambda, 1.0e-12_wp)
+
+  call fold_case()
+  call bad_arguments()
+  call finish('test_scan')
+
+contains
+
+  subroutine fold_case()
+    integer, parameter :: N = 9
+    real(wp), parameter :: OMG = 1.5_wp, EPS_C = 0.3_wp, ALPHA_C = EPS_C*OMG/(OMG + EPS_C)
+    type(study_t) :: st
+    type(orbit_opts_t) :: opts
+    real(wp) :: value(N + 1), eq_q(MAX_DOF, SCAN_MAXEQ, N + 1), eq_energy(SCAN_MAXEQ, N + 1), &
+                saddle_q(MAX_DOF, N + 1), saddle_energy(N + 1), lambda(N + 1), omega(MAX_DOF - 1, N + 1), &
+                period(1, N + 1), action(1, N + 1), stability(1, N + 1), fold_value(8), fold_width(8), &
+                fold_q(MAX_DOF, 8), det
+    integer :: n_eq(N + 1), researched(N + 1), eq_index(SCAN_MAXEQ, N + 1), eq_name(8, SCAN_MAXEQ, N + 1), &
+               eq_det(SCAN_MAXEQ, N + 1), saddle_found(N + 1), converged(1, N + 1), restarted(1, N + 1), &
+               n_fold, fold_step(8), fold_kind(8), fold_name(8, 8), fold_partner(8, 8), stat, i
+    st%system = 'coupled_quartic'
+    st%params = 0
+    st%params(1:6) = [1.0_wp, 1.0_wp, 1.0_wp, 1.0_wp, OMG, EPS_C]
+    st%lo = -2
+    st%hi = 2
+    st%n_grid = 41
+    st%saddle = 'S1'
+    call scan_table(st, 3, 0.1_wp, N, [0.01_wp], opts, value, n_eq, researched, eq_q, eq_energy, eq_index, &
+                    eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period, action, &
+                    stability, converged, restarted, n_fold, fold_step, fold_value, fold_width, fold_kind, fold_q, &
+                    fold_name, fold_partner, stat)
+    call check_eq('fold: status', stat, TUBES_OK)
+    call check_true('fold: found', n_fold >= 1)
+    do i = 1, min(n_fold, 8)
+      call check_rel('fold: alpha_c = eps omega/(omega + eps)', fold_value(i), ALPHA_C, 1.0e-8_wp)
+      call check_eq('fold: the wells meet the saddle', fold_kind(i), FOLD_MEET)
+      call check_true('fold: between the steps on either side of it', value(fold_step(i) - 1) > ALPHA_C .and. &
+                      value(fold_step(i)) < ALPHA_C)
+    end do
+    do i = 1, N + 1
+      if (value(i) > ALPHA_C) then
+        call check_eq('fold: three equilibria before it', n_eq(i), 3)
+        det = (EPS_C - value(i))*(OMG + EPS_C) - EPS_C**2
+        call check_rel('fold: lambda^2 omega^2 = -det Hess V(0)', (lambda(i)*omega(1, i))**2, -det, 1.0e-12_wp)
+        call check_eq('fold: the orbit continued', converged(1, i), 1)
+      else
+        call check_eq('fold: one equilibrium after it', n_eq(i), 1)
+        call check_eq('fold: no saddle after it', saddle_found(i), 0)
+      end if
+    end do
+    call check_eq('fold: the first step continues the orbit in energy', restarted(1, 1), 1)
+    call check_eq('fold: later steps correct the previous orbit', sum(restarted(1, 2:)), 0)
+  end subroutine fold_case
+
+  subroutine bad_arguments()
+    type(study_t) :: st
+    type(orbit_opts_t) :: opts
+    integer :: stat
+    st%system = 'coupled_quartic'
+    st%params = 0
+    st%params(1:6) = [1.0_wp, 1.0_wp, 1.0_wp, 1.0_wp, 1.0_wp, 0.1_wp]
+    st%lo = -2
+    st%hi = 2
+    st%saddle = 'S1'
+    call try(st, opts, 0, 0.5_wp, 2, stat)
+    call check_eq('bad: parameter index 0', stat, TUBES_EINPUT)
+    call try(st, opts, 3, 0.5_wp, 0, stat)
+    call check_eq('bad: n = 0', stat, TUBES_EINPUT)
+    call try(st, opts, 3, 1.0_wp, 2, stat)
+    call check_eq('bad: to equal to the start', stat, TUBES_EINPUT)
+    call try(st, opts, 1, -1.0_wp, 2, stat)
+    call check_eq('bad: a mass the model refuses on the way', stat, TUBES_EINPUT)
+  end subroutine bad_arguments
+
+  !> scan_table of st with (ipar, to, n), dE = 0.01: its status.
+  subroutine try(st, opts, ipar, to, n, stat)
+      type(study_t), intent(in) :: st
+      type(orbit_opts_t), intent(in) :: opts
+      integer, intent(in) :: ipar, n
+      real(wp), intent(in) :: to
+      integer, intent(out) :: stat
+      real(wp) :: value(3), eq_q(MAX_DOF, SCAN_MAXEQ, 3), eq_energy(SCAN_MAXEQ, 3), saddle_q(MAX_DOF, 3), &
+                  saddle_energy(3), lambda(3), omega(MAX_DOF - 1, 3), period(1, 3), action(1, 3), &
+                  stability(1, 3), fold_value(8), fold_width(8), fold_q(MAX_DOF, 8)
+      integer :: n_eq(3), researched(3), eq_index(SCAN_MAXEQ, 3), eq_name(8, SCAN_MAXEQ, 3), &
+                 eq_det(SCAN_MAXEQ, 3), saddle_found(3), converged(1, 3), restarted(1, 3), n_fold, fold_step(8), &
+                 fold_kind(8), fold_name(8, 8), fold_partner(8, 8)
+      call scan_table(st, ipar, to, n, [0.01_wp], opts, value, n_eq, researched, eq_q, eq_energy, eq_index, &
+                      eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period, action, &
+                      stability, converged, restarted, n_fold, fold_step, fold_value, fold_width, fold_kind, fold_q, &
+                      fold_name, fold_partner, stat)
+  end subroutine try
+end program test_scan
