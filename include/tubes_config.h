@@ -103,6 +103,12 @@ typedef struct {
   double flux_t_max, flux_gate, flux_tol, flux_cut_eps;
   int orb_family;   /* &orbits family: which centre mode's Lyapunov family (1 .. N-1) */
   int spatial;      /* &model spatial: the cr3bp in three dimensions (model cr3bp_spatial) */
+  /* &orbits guess, period: a family from a guess (docs/orbits.md, "Orbits from a guess"); orb_nguess
+   * the number of values given (0: none; the first 2 TUBES_MAXDOF kept); family = 'branch:K' is
+   * orb_family = -100 - K */
+  double orb_guess[2 * TUBES_MAXDOF];
+  int orb_nguess;
+  double orb_period;
 } tubes_config_t;
 
 /* Set every variable to its default. */
