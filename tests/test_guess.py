@@ -108,7 +108,6 @@ def runs(tmp_path_factory, tubes_exe):
     return out
 
 
-@pytest.mark.slow
 def test_guess_family_periods(runs):
     r, h5 = runs["family"]
     assert r.returncode == 0, r.stderr
@@ -125,7 +124,6 @@ def test_guess_family_periods(runs):
             assert o["closure"][k] < 1e-10
 
 
-@pytest.mark.slow
 def test_period_doubling_located(runs):
     r, h5 = runs["family"]
     e_pd = brentq(yaxis_trace, 0.13, 0.14, xtol=1e-14)
@@ -142,7 +140,6 @@ def test_period_doubling_located(runs):
     assert "period_doubling" in r.stdout
 
 
-@pytest.mark.slow
 def test_doubled_family(runs):
     r, h5 = runs["doubled"]
     assert r.returncode == 4, r.stderr                   # the energies below the doubling: not on it

@@ -580,7 +580,7 @@ contains
     call check_resolved(eqs(isad), des, stat)
     if (stat /= TUBES_OK) return
     if (opts%branch > 0) then
-      call branch_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores)
+      call branch_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores, folds)
       return
     end if
     if (.not. present(stores)) then
@@ -607,7 +607,7 @@ contains
   !> a branch point or a period doubling, continued by branch_arc from the orbit there along the
   !> monodromy's eigenvector (docs/orbits.md, "Period doubling and the doubled family").
   !> END_NOBRANCH (no orbit) when the parent has fewer bifurcations or that one is not a branch.
-  recursive subroutine branch_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores)
+  recursive subroutine branch_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores, folds)
     type(study_t), intent(in) :: st
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: eqs(:)
@@ -618,6 +618,7 @@ contains
     real(wp), intent(out) :: end_de
     integer, intent(out) :: end_reason, stat
     type(seed_stores_t), intent(inout), optional :: stores
+    type(fold_t), allocatable, intent(inout), optional :: folds(:)   !! the branch's folds
     type(orbit_opts_t) :: po
     type(orbit_t) :: parent(size(des))
     type(bifurcation_t), allocatable :: bifs(:)
@@ -640,9 +641,10 @@ contains
     if (k > size(bifs)) return
     if (.not. bifs(k)%converged .or. (bifs(k)%kind /= BIF_BRANCH .and. bifs(k)%kind /= BIF_PERIOD_DOUBLING)) return
     deallocate (fl)
-    allocate (fl(0))   ! the branch's own folds (not reported: branch families are not monitored)
+    allocate (fl(0))   ! the branch's own folds
     call branch_arc(model, eqs, isad, bifs(k)%x0, bifs(k)%period, bifs(k)%tangent, &
                     merge(1, -1, bifs(k)%kind == BIF_BRANCH), des, opts, orbs, end_de, end_reason, fl, stat)
+    if (present(folds)) call move_alloc(fl, folds)
   end subroutine branch_at
 
   !> The orbits scene's call: the study's model, equilibria and saddle (setup_model), then the
