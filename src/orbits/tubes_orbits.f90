@@ -88,6 +88,17 @@ module tubes_orbits
     end subroutine arc_rows_i
   end interface
 
+  !> The symmetric orbit with the energy free (branch_family): w = (x0's components on the
+  !> reversor's fixed set ev, the half period tau); rows: x(tau)'s odd components od (nd rows), the
+  !> Jacobian (nd x (nd + 1)) phi(od, ev) and f(x(tau))(od).
+  type, extends(arc_system_t) :: symmetric_arc_t
+    class(hamiltonian_t), allocatable :: model
+    type(orbit_opts_t) :: opts
+    integer, allocatable :: ev(:), od(:)
+  contains
+    procedure :: rows => symmetric_rows
+  end type symmetric_arc_t
+
   !> Multiple shooting with the energy free: w = (the n nodes (2N each), the period T); rows:
   !> x_{i+1} - phi_{T/n}(x_i) (cyclic, 2N n), and the phase (x_1 - x_ref) . f(x_ref) / |f(x_ref)|
   !> (x_ref wref's first node). One periodicity row is redundant (energy conservation): the
@@ -527,6 +538,31 @@ contains
       a(i0 + 1:i0 + d, d*n + 1) = -fy(:, i)/n
     end do
   end subroutine periodicity_rows
+
+  !> The rows of symmetric_arc_t (wref unused: the symmetry fixes the phase).
+  subroutine symmetric_rows(self, w, wref, f, jac, stat)
+    class(symmetric_arc_t), intent(in) :: self
+    real(wp), intent(in) :: w(:), wref(:)
+    real(wp), allocatable, intent(out) :: f(:), jac(:, :)
+    integer, intent(out) :: stat
+    real(wp) :: x0(size(self%ev) + size(self%od)), x(size(x0)), phi(size(x0), size(x0)), fx(size(x0))
+    integer :: nd
+    nd = size(self%od)
+    allocate (f(nd), jac(nd, nd + 1))
+    x0 = 0
+    x0(self%ev) = w(1:nd)
+    call flow_stm(self%model, x0, w(nd + 1), self%opts, x, phi, stat)
+    if (stat < 0) return
+    call self%model%eval(0.0_wp, x, fx, stat)
+    if (stat /= 0) then
+      stat = TUBES_ENOCONV
+      return
+    end if
+    f = x(self%od)
+    jac(:, 1:nd) = phi(self%od, self%ev)
+    jac(:, nd + 1) = fx(self%od)
+    stat = TUBES_OK
+  end subroutine symmetric_rows
 
   !> The rows of shooting_arc_t: periodicity (periodicity_rows) and the phase condition.
   subroutine shooting_rows(self, w, wref, f, jac, stat)
@@ -1035,13 +1071,13 @@ contains
     type(orbit_opts_t) :: po
     type(orbit_t), allocatable :: grid(:)
     type(orbit_t) :: ob(1)
-    real(wp), allocatable :: dg(:), w(:), wp_(:), wn(:), t(:), tn(:), wprev(:), jac(:, :), rr(:), xx(:), &
-                             phi(:, :), fx(:), v(:), b(:, :)
+    real(wp), allocatable :: dg(:), w(:), wn(:), t(:), tn(:), wprev(:), xx(:), phi(:, :), fx(:), v(:)
+    type(symmetric_arc_t) :: sys
     real(wp) :: lo, hi, mid, e_sad, h, h0, e_prev, e_now, xi, tau, zbig
     real(wp), allocatable :: wb(:), tb(:)
     logical :: oriented
-    integer :: n2, nd, k, c_lo, np, it, j, nstep, info, iz
-    integer, allocatable :: ev(:), od(:), rev(:), cnt(:), ipiv(:)
+    integer :: n2, nd, k, c_lo, np, it, j, nstep, iz
+    integer, allocatable :: ev(:), od(:), rev(:), cnt(:)
     real(wp) :: nre(size(eqs(isad)%x)/2 - 1), nim(size(eqs(isad)%x)/2 - 1)
     logical :: ok
     stat = TUBES_OK
@@ -1125,7 +1161,7 @@ contains
     end if
     call floquet_tangent(ob(1)%monodromy, fx, 1, v, stat)
     if (stat /= TUBES_OK) return
-    allocate (t(nd + 1), tn(nd + 1), w(nd + 1), wp_(nd + 1), wn(nd + 1), wprev(nd + 1))
+    allocate (t(nd + 1), tn(nd + 1), w(nd + 1), wn(nd + 1), wprev(nd + 1))
     t = [v(ev), 0.0_wp]
     t = t/sqrt(sum(t**2))
     w = [ob(1)%x0(ev), ob(1)%period/2]
@@ -1133,7 +1169,11 @@ contains
     tb = t
     oriented = .false.
     ! (3) pseudo-arclength along the branch
-    allocate (jac(nd + 1, nd + 1), rr(nd + 1), xx(n2), phi(n2, n2), b(nd, nd + 1), ipiv(nd + 1))
+    allocate (xx(n2), phi(n2, n2))
+    allocate (sys%model, source=model)
+    sys%opts = opts
+    sys%ev = ev
+    sys%od = od
     h0 = 1.0e-2_wp*model%length_scale()
     h = h0
     e_prev = model%energy(state_of(w))
@@ -1141,30 +1181,7 @@ contains
     orbits(:)%de = des
     do nstep = 1, 2000
       if (k > size(des)) exit
-      wp_ = w + h*t
-      wn = wp_
-      ok = .false.
-      do it = 1, opts%max_iter
-        call flow_stm(model, state_of(wn), wn(nd + 1), opts, xx, phi, stat)
-        if (stat < 0) exit
-        call model%eval(0.0_wp, xx, fx, stat)
-        if (stat /= 0) exit
-        rr(1:nd) = xx(od)
-        rr(nd + 1) = dot_product(t, wn - wp_)
-        if (maxval(abs(rr)) < opts%tol) then
-          ok = .true.
-          exit
-        end if
-        jac = 0
-        jac(1:nd, 1:nd) = phi(od, ev)
-        jac(1:nd, nd + 1) = fx(od)
-        jac(nd + 1, :) = t
-        b = jac(1:nd, :)   ! kept for the tangent
-        rr = -rr
-        call dgesv(nd + 1, 1, jac, nd + 1, ipiv, rr, nd + 1, info)
-        if (info /= 0) exit
-        wn = wn + rr
-      end do
+      call arc_step(sys, w, t, h, opts, wn, tn, it, ok)   ! the predictor, the corrector, the tangent
       stat = TUBES_OK
       if (.not. ok) then
         h = h/2
@@ -1174,19 +1191,12 @@ contains
         end if
         cycle
       end if
-      ! the new tangent: the null vector of the nd x (nd + 1) Jacobian, oriented along t
-      b(1:nd, 1:nd) = phi(od, ev)
-      b(1:nd, nd + 1) = fx(od)
-      call null_vector(b, tn, info)
-      if (info /= 0) then
-        stat = TUBES_ENOCONV
-        return
-      end if
-      if (dot_product(tn, t) < 0) tn = -tn
       if (.not. oriented) then
         ! north: the orbit's larger excursion in q_N (at one of its two fixed-set points, x0 and
         ! x(tau)) is positive; south: negative. The first step decides (its asymmetry ~15 %)
         oriented = .true.
+        call flow_stm(model, state_of(wn), wn(nd + 1), opts, xx, phi, stat)
+        if (stat < 0) return
         zbig = wn(iz)
         if (abs(xx(nd)) > abs(wn(iz))) zbig = xx(nd)
         if ((zbig < 0) .eqv. (opts%family == FAMILY_BRANCH_PLUS)) then
