@@ -175,3 +175,13 @@ def test_guess_bad_input(tmp_path, tubes_exe):
         assert r.returncode == 1, (text, r.returncode, r.stderr)
         assert msg in r.stderr, (text, r.stderr)
         assert "guess" in r.stderr or "period" in r.stderr
+
+
+def test_python_refuses_guess():
+    """Python's orbit_family has no guess (yet): refused with a message, never silently the Lyapunov
+    family."""
+    import tubes
+    m = tubes.Model(system="henon_heiles")
+    for kw in ({"guess": [0, 0, 0, 0.4], "period": 6.9}, {"family": "branch:1"}):
+        with pytest.raises(ValueError, match="guess, period and family = 'branch:K'"):
+            tubes.orbit_family(m, dE=[0.01], **kw)
