@@ -185,3 +185,64 @@ def test_python_refuses_guess():
     for kw in ({"guess": [0, 0, 0, 0.4], "period": 6.9}, {"family": "branch:1"}):
         with pytest.raises(ValueError, match="guess, period and family = 'branch:K'"):
             tubes.orbit_family(m, dE=[0.01], **kw)
+
+
+def test_fold_of_l2_halo_family(tmp_path, tubes_exe):
+    """A fold: the Earth-Moon L2 halo family's energy has a maximum (the halo branch stops there,
+    docs/orbits.md "Branch switching"). The family through a halo orbit (the program's own
+    halo_north orbit at dE = 0.05 as the guess) passes it, reports it as kind 4 and stops when the
+    energy has come back to the start's; the fold's energy against scipy: the symmetric halo orbit
+    corrected at fixed x0 (test_halo's conditions, its functions), E(x0) maximised by bounded Brent.
+    Measured: E_fold -1.507588796943 against scipy's -1.507588796943304 (to ~1e-12; asserted 1e-9);
+    x0 there 1.08286764 against 1.08286765; the index of the pair through +1 at the fold 1 - 1e-10
+    (asserted 1e-6)."""
+    import test_halo as th
+    from scipy.optimize import minimize_scalar
+    (tmp_path / "h.nml").write_text("&run scenes = 'orbits' /\n&model system = 'cr3bp', spatial = .true. /\n"
+                                    "&orbits saddle = 'L2', family = 'halo_north', de = 0.05 /\n")
+    r = run_tubes(["h.nml", "-o", "h.h5"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    with h5py.File(tmp_path / "h.h5") as f:
+        s0, t0, e_sad = f["orbits/state0"][0], f["orbits/period"][0], f["orbits/energy"][0] - 0.05
+    guess = ", ".join(repr(float(v)) for v in s0)
+    (tmp_path / "g.nml").write_text("&run scenes = 'orbits' /\n&model system = 'cr3bp', spatial = .true. /\n"
+                                    f"&orbits saddle = 'L2', guess = {guess}, period = {float(t0)!r}, "
+                                    "de = 0.05, 0.07, 0.09 /\n")
+    r = run_tubes(["g.nml", "-o", "g.h5"], tmp_path)
+    assert r.returncode == 4, r.stderr                   # dE = 0.09 is above the fold: not reached
+    with h5py.File(tmp_path / "g.h5") as f:
+        o, b = f["orbits"], f["orbits/bifurcations"]
+        assert list(o["converged"][:]) == [1, 1, 0]
+        reason = o.attrs["family_end_reason"]
+        assert "returned to the start" in (reason.decode() if isinstance(reason, bytes) else reason)
+        folds = [j for j, k in enumerate(b["kind"][:]) if k == 4]
+        assert len(folds) == 1
+        j = folds[0]
+        de_fold, nu = b["dE"][j], b["floquet_index"][j]
+        x0 = b["state0"][j]
+
+    def g(u, xx):
+        return th.half([xx, u[0], u[1]])[1][[3, 5]]
+
+    def energy_at(xx, u0=(x0[2], x0[4] - x0[0])):   # momentum form: vy = py - x at y = 0
+        """E of the symmetric halo orbit through x = xx: (z0, vy0) with vx = vz = 0 at the y = 0
+        crossing (x, not z: z turns back near the fold too)."""
+        u = np.array(u0, float)
+        for _ in range(30):
+            f0 = g(u, xx)
+            if np.max(np.abs(f0)) < 1e-13:
+                break
+            jm = np.empty((2, 2))
+            for i in range(2):
+                du = np.zeros(2)
+                du[i] = 1e-7
+                jm[:, i] = (g(u + du, xx) - g(u - du, xx)) / 2e-7
+            u = u - np.linalg.solve(jm, f0)
+        assert np.max(np.abs(g(u, xx))) < 1e-11
+        return th.energy([xx, 0, u[0], 0, u[1], 0])
+
+    res = minimize_scalar(lambda xx: -energy_at(xx), bounds=(x0[0] - 0.01, x0[0] + 0.01), method="bounded",
+                          options={"xatol": 1e-7})
+    e_fold = -res.fun - e_sad
+    assert abs(de_fold - e_fold) < 1e-9, (de_fold, e_fold)
+    assert abs(max(nu) - 1) < 1e-6, nu

@@ -911,8 +911,10 @@ int scene_orbits(tubes_run_t *run) {
              clo[k], it[k]);
     else {
       nfail++;
-      if (end_de > 0 && c->orb_de[k] >= end_de * (1 - 1e-6))
+      if (!guessed && end_de > 0 && c->orb_de[k] >= end_de * (1 - 1e-6))
         printf("  %10.4g   refused: past the end of the family (dE ~ %.6g)\n", c->orb_de[k], end_de);
+      else if (guessed && it[k] == 0)
+        printf("  %10.4g   not reached (the family stop below)\n", c->orb_de[k]);
       else
         printf("  %10.4g   not converged\n", c->orb_de[k]);
     }
