@@ -149,6 +149,7 @@ def test_doubled_family(runs):
         assert o.attrs["family_name"] in ("branch:1", b"branch:1")
         conv = o["converged"][:]
         assert list(conv) == [0, 0, 1, 1]                # the doubled family lies above E_pd
+        assert 4 not in list(f["orbits/bifurcations/kind"][:])   # no fold (none at the branch's start)
         k = 2
         z0, t = o["state0"][k], o["period"][k]
         assert o["closure"][k] < 1e-10

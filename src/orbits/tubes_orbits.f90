@@ -1397,7 +1397,9 @@ contains
           exit
         end if
       end if
-      if (g_now*g_prev < 0) then   ! a fold inside this step
+      ! a fold inside this step (not in a branch's first: at the bifurcation dE/ds = 0, the energy
+      ! moving quadratically off it, so the sign there is noise)
+      if (g_now*g_prev < 0 .and. .not. (dir == 0 .and. naccept == 1)) then
         call locate_fold(w, t, h, g_prev, wf, tf, fo)
         folds = [folds, fo]
         nfold = nfold + 1
