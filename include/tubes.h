@@ -282,7 +282,14 @@ int tubes_run_trajectory(const char system[TUBES_LSYSTEM], const double params[T
  * continuation to its own energy alone, whatever else des holds; with stores (or NULL), a run's
  * later calls of the same family take the continuation and the orbits found by earlier ones (and
  * by tubes_tube_cut's: docs/orbits.md, "One family, each orbit once"). local = 1: computed on
- * this MPI rank alone (a caller that has dealt out its work), else by all ranks together. */
+ * this MPI rank alone (a caller that has dealt out its work), else by all ranks together.
+ * nguess > 0: the family through the state guess[nguess] (nguess = 2N) of period guess_period,
+ * corrected by multiple shooting (n_segments segments) at its own energy and continued by
+ * pseudo-arclength (des of any sign; docs/orbits.md, "Orbits from a guess"); *end_reason then also
+ * 6 the arc's step limit, 7 back past the start after a fold, 8 the guess did not converge, 9 no
+ * requested energy on the branch's side. family <= -101: the family branching off at the
+ * (-100 - family)-th bifurcation of the guess's family (tubes_orbit_bifurcations; without a guess,
+ * of family 1). */
 int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                        const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                        const char saddle[8], int nde,
@@ -293,7 +300,7 @@ int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUB
                        double stab[], double residual[], double closure[], int iterations[],
                        int converged[], double mindist[], double monodromy[], double ts[],
                        double xs[], double history[], double *end_de, int *end_reason, int local,
-                       void *stores);
+                       void *stores, int nguess, const double guess[], double guess_period);
 
 /* Bifurcation monitoring of the family of tubes_orbit_family (the same arguments up to
  * int_max_iter; docs/orbits.md, "Bifurcations"). nu[4 nde]: per orbit k the Floquet indices
@@ -306,7 +313,10 @@ int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUB
  * midpoint), bwidth (the bracket), benergy, bperiod, bnu[4j ..] (the indices there, as nu),
  * bconv (1: the orbit at bde converged; 0: the corrector failed inside the bracket, which stopped),
  * bx0[6j ..] that orbit's start (state0) and btan[6j ..] the monodromy's eigenvector there for the
- * multiplier +1 (kind 1, orthogonal to the flow) or -1 (kind 2): the new family's tangent (0 for kind 3). */
+ * multiplier +1 (kind 1, orthogonal to the flow) or -1 (kind 2): the new family's tangent (0 for kind 3).
+ * Along a guess's family also kind 4, a fold (the energy along the family turns back; found by the
+ * continuation, located by bisection in arclength): after = the number of requested energies below it
+ * minus 1, bwidth the bracket in arclength, btan the family's tangent there. Not along branch families. */
 int tubes_orbit_bifurcations(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                              const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                              const char saddle[8], int nde, const double des[], int n_segments, int family,
@@ -314,7 +324,7 @@ int tubes_orbit_bifurcations(const char system[TUBES_LSYSTEM], const double para
                              double omega_bind, int solver, int int_max_iter, double nu[], int max_bif, int *nbif,
                              int kind[], int after[], double bde[], double bwidth[], double benergy[],
                              double bperiod[], double bnu[], int bconv[], double bx0[], double btan[], double *bif_tol, int local,
-                             void *stores);
+                             void *stores, int nguess, const double guess[], double guess_period);
 
 /* Continuation in a model parameter (docs/scan.md; src/workflow/tubes_scan.f90): parameter ipar
  * (1-based, the table's order; tubes_scan_parameter) moves from params[ipar - 1] to `to` in n equal

@@ -110,6 +110,12 @@ typedef struct {
   double scan_to;
   double scan_de[TUBES_MAXDE];
   int scan_n, scan_nde, scan_ipar;
+  /* &orbits guess, period: a family from a guess (docs/orbits.md, "Orbits from a guess"); orb_nguess
+   * the number of values given (0: none; the first 2 TUBES_MAXDOF kept); family = 'branch:K' is
+   * orb_family = -100 - K */
+  double orb_guess[2 * TUBES_MAXDOF];
+  int orb_nguess;
+  double orb_period;
 } tubes_config_t;
 
 /* Set every variable to its default. */

@@ -904,6 +904,12 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     first kind in ``verdicts``."""
     model = model or Model()
     check = _args.flag("orbit_family", "check", check)
+    # a family from a guess and 'branch:K' (docs/orbits.md, "Orbits from a guess") are the program's
+    # (&orbits guess, period, family = 'branch:K') only: refused here rather than silently ignored
+    fam = orbits.get("family")
+    if "guess" in orbits or "period" in orbits or (isinstance(fam, str) and fam.startswith("branch:")):
+        raise ValueError("orbit_family: guess, period and family = 'branch:K' are not available from Python "
+                         "(allowed: the program's &orbits guess, period, family; docs/orbits.md)")
     de = _de_list(dE, "orbit_family")
     if de is None:
         _default_de(model, "orbit_family", "orbits")

@@ -399,8 +399,8 @@ contains
   integer(c_int) function c_orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, &
       n_segments, family, tol, rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, &
       energy, period, action, state0, mu_u, mu_s, mu_triv, stab, residual, closure, iterations, &
-      converged, mindist, monodromy, ts, xs, history, end_de, end_reason, local, stores) result(stat) &
-      bind(C, name='tubes_orbit_family')
+      converged, mindist, monodromy, ts, xs, history, end_de, end_reason, local, stores, nguess, guess, &
+      guess_period) result(stat) bind(C, name='tubes_orbit_family')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, nde, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
@@ -414,6 +414,9 @@ contains
     integer(c_int), intent(out) :: iterations(nde), converged(nde), end_reason
     integer(c_int), value :: local        !! 1: on this MPI rank alone
     type(c_ptr), value :: stores          !! from tubes_seed_stores_new, or NULL
+    integer(c_int), value :: nguess       !! > 0: the family through guess (2N values)
+    real(c_double), intent(in) :: guess(*)
+    real(c_double), value :: guess_period
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
     type(orbit_opts_t) :: opts
@@ -429,6 +432,7 @@ contains
     opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, &
                         n_samples=nsamp, family=family, local=local /= 0, &
                         integ=integ_of(method, h, omega_bind, solver, int_max_iter))
+    call guess_opts(nguess, guess, guess_period, opts)
     call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
     allocate (orbs(nde))
     kept => stores_of(stores)
@@ -448,7 +452,7 @@ contains
   integer(c_int) function c_orbit_bifurcations(system, params, lo, hi, n_grid, saddle, nde, des, &
       n_segments, family, tol, rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, &
       nu, max_bif, nbif, kind, after, bde, bwidth, benergy, bperiod, bnu, bconv, bx0, btan, bracket_tol, local, &
-      stores) &
+      stores, nguess, guess, guess_period) &
       result(stat) &
       bind(C, name='tubes_orbit_bifurcations')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
@@ -465,6 +469,9 @@ contains
                                    btan(2*MAX_DOF, max_bif)
     integer(c_int), value :: local
     type(c_ptr), value :: stores
+    integer(c_int), value :: nguess
+    real(c_double), intent(in) :: guess(*)
+    real(c_double), value :: guess_period
     type(orbit_opts_t) :: opts
     type(study_t) :: st
     type(section_choice_t) :: sec
@@ -473,6 +480,7 @@ contains
     opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, &
                         n_samples=nsamp, family=family, local=local /= 0, &
                         integ=integ_of(method, h, omega_bind, solver, int_max_iter))
+    call guess_opts(nguess, guess, guess_period, opts)
     call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
     kept => stores_of(stores)
     call bifurcation_table(st, des, opts, nu, nbif, kind, after, bconv, bde, bwidth, benergy, bperiod, bnu, bx0, &
@@ -533,6 +541,21 @@ contains
     ipar = scan_index(c_to_f(system), c_to_f(name), a)
     call f_to_c(a, allowed)
   end function c_scan_parameter
+  !> A C call's guess (nguess > 0: the family through it) and branch (family <= -101: 'branch:K',
+  !> K = -100 - family) into opts.
+  subroutine guess_opts(nguess, guess, guess_period, opts)
+    integer(c_int), intent(in) :: nguess
+    real(c_double), intent(in) :: guess(*), guess_period
+    type(orbit_opts_t), intent(inout) :: opts
+    if (nguess > 0) then
+      opts%guess = guess(1:nguess)
+      opts%guess_period = guess_period
+    end if
+    if (opts%family <= -101) then
+      opts%branch = -100 - opts%family
+      opts%family = 1
+    end if
+  end subroutine guess_opts
 
   !> The study (model, box, saddle, orbit corrector) and the section of a C call.
   subroutine study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, integ, st, &

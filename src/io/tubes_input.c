@@ -136,7 +136,7 @@ const nml_var tubes_nml_vars[] = {
      "the rank-1 saddle of every scene that needs one"},
     {"orbits", "saddle_near", NML_REAL, TUBES_MAXDOF, "units of q", "the system's (henon_heiles: 0, 1)",
      "finite; not with saddle", "choose the rank-1 saddle nearest this configuration point instead"},
-    {"orbits", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 10, 100", "> 0, increasing",
+    {"orbits", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 10, 100", "> 0, increasing (with guess: any sign)",
      "excess energies dE = E - E_e of the orbits"},
     {"orbits", "method", NML_STRING, 1, "-", "'single'", "single, multiple",
      "single shooting of the brake orbit, or multiple shooting"},
@@ -147,9 +147,12 @@ const nml_var tubes_nml_vars[] = {
     {"orbits", "atol", NML_REAL, 1, "state units", "1e-13", "> 0", "integration tolerance (absolute)"},
     {"orbits", "max_iter", NML_INT, 1, "-", "25", "1 .. 200", "Newton iterations per orbit"},
     {"orbits", "n_samples", NML_INT, 1, "-", "201", "2 .. 100000", "samples along each orbit in the output"},
-    {"orbits", "family", NML_INT, 1, "-", "1", "1 .. N-1, 'lyapunov', 'halo_north', 'halo_south'",
-     "the Lyapunov family of the saddle's k-th centre frequency (ascending; N = 3: 2 families), or the halo "
-     "branch off family N-1"},
+    {"orbits", "family", NML_INT, 1, "-", "1", "1 .. N-1, 'lyapunov', 'halo_north', 'halo_south', 'branch:K'",
+     "the Lyapunov family of the saddle's k-th centre frequency (ascending; N = 3: 2 families), the halo "
+     "branch off family N-1, or the family from the K-th bifurcation of the guess's family (else family 1)"},
+    {"orbits", "guess", NML_REAL, 64, "state units", "none", "exactly 2N finite values",
+     "a state on (or near) a periodic orbit: the family through it (docs/orbits.md, Orbits from a guess)"},
+    {"orbits", "period", NML_REAL, 1, "s", "none", "> 0 (with guess only)", "the guess's period"},
     {"section", "kind", NML_STRING, 1, "-", "the system's ('ray' for the ball)", "ray, plane",
      "ray: the ball's polar ray theta = angle; plane: q_index = value (docs/tubes.md, Sections)"},
     {"section", "angle", NML_REAL, 1, "deg", "45", "-360 .. 360", "kind = 'ray': the ray theta = angle (U1: 45)"},
@@ -721,8 +724,17 @@ static int check_dissipation(const char *path, const tubes_config_t *c, const nm
 
 /* A list of excess energies (unset entries: the reader's UNSET = -huge): no gaps, positive,
  * strictly increasing. One message, naming the element. */
+static int check_list_sign(const char *path, const tubes_config_t *c, const nml_where *w, const char *group,
+                           const double *de, int nde, FILE *err, int positive);
 static int check_list(const char *path, const tubes_config_t *c, const nml_where *w, const char *group, const double *de, int nde,
                       FILE *err) {
+  return check_list_sign(path, c, w, group, de, nde, err, 1);
+}
+
+/* As check_list; positive = 0 also allows dE <= 0 (&orbits with a guess: the orbits need not lie
+ * above the saddle). */
+static int check_list_sign(const char *path, const tubes_config_t *c, const nml_where *w, const char *group,
+                           const double *de, int nde, FILE *err, int positive) {
   int last = -1;
   for (int k = 0; k < TUBES_MAXDE; k++)
     if (de[k] != -DBL_MAX) last = k;
@@ -733,7 +745,7 @@ static int check_list(const char *path, const tubes_config_t *c, const nml_where
       return 1;
     }
   for (int k = 0; k < nde; k++) {
-    if (!(de[k] > 0)) return bad_at(path, c, w, group, "de", k + 1, err, "every dE must be > 0", de[k]);
+    if (positive && !(de[k] > 0)) return bad_at(path, c, w, group, "de", k + 1, err, "every dE must be > 0", de[k]);
     if (k > 0 && !(de[k] > de[k - 1]))
       return bad_at(path, c, w, group, "de", k + 1, err, "the list must be strictly increasing", de[k]);
   }
@@ -1165,7 +1177,29 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->atol > 0)) n += bad(path, c, w, "integrator", "atol", err, "", c->atol);
   if (!(c->h >= 0)) n += bad(path, c, w, "integrator", "h", err, "", c->h);
   if (!(c->max_steps >= 1)) n += bad(path, c, w, "integrator", "max_steps", err, "", (double)c->max_steps);
-  n += check_list(path, c, w, "orbits", c->orb_de, c->orb_nde, err);
+  n += check_list_sign(path, c, w, "orbits", c->orb_de, c->orb_nde, err, c->orb_nguess == 0);
+  /* a family from a guess (docs/orbits.md, "Orbits from a guess") */
+  if (c->orb_nguess > 0 && c->nparams >= 0 && c->orb_nguess != 2 * c->ndof) {
+    fprintf(err, "%s:%d: &orbits: guess has %d value%s: allowed exactly 2N = %d (the state: the %d coordinates, "
+            "then the %d momenta, of system '%s')\n", path, line_or_group(w, "orbits", "guess"), c->orb_nguess,
+            c->orb_nguess == 1 ? "" : "s", 2 * c->ndof, c->ndof, c->ndof, c->system);
+    n++;
+  }
+  if (c->orb_nguess > 0 && !(c->orb_period > 0)) {
+    fprintf(err, "%s:%d: &orbits: period = %g: the guess's period must be > 0 (allowed: a time > 0)\n", path,
+            line_or_group(w, "orbits", "period"), c->orb_period);
+    n++;
+  } else if (c->orb_nguess == 0 && c->orb_period != 0) {
+    fprintf(err, "%s:%d: &orbits: period = %g is the period of a guess, but guess is not set (allowed: both, or "
+            "neither)\n", path, line_or_group(w, "orbits", "period"), c->orb_period);
+    n++;
+  }
+  if (c->orb_nguess > 0 && (c->orb_family == -1 || c->orb_family == -2)) {
+    fprintf(err, "%s:%d: &orbits: family = '%s' with a guess: the halo family starts at its branch point, not from "
+            "a guess (allowed with guess: family = 1 (the guess's own family) or 'branch:K')\n", path,
+            line_or_group(w, "orbits", "family"), c->orb_family == -1 ? "halo_north" : "halo_south");
+    n++;
+  }
   if (strcmp(c->orb_method, "single") && strcmp(c->orb_method, "multiple"))
     n += bad_string(path, w, "orbits", "method", c->orb_method, err);
   if (!(c->orb_n_segments >= 2 && c->orb_n_segments <= 64))
@@ -1177,8 +1211,12 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (c->orb_family == -99) {
     fprintf(err, "%s:%d: &orbits: family: the name is not one of the families: allowed 1 .. N-1 (the saddle's "
             "centre modes), 'lyapunov' (1), 'halo_north', 'halo_south' (the branch off family N-1 at its first "
-            "branch point, 3 degrees of freedom)\n", path, line_or_group(w, "orbits", "family"));
+            "branch point, 3 degrees of freedom), 'branch:K' (K >= 1: the family from the K-th bifurcation "
+            "detected along the guess's family, or without a guess family 1)\n", path,
+            line_or_group(w, "orbits", "family"));
     n++;
+  } else if (c->orb_family <= -101) {
+    /* branch:K: any model (multiple shooting, no symmetry) */
   } else if (c->orb_family < 0 && c->nparams >= 0 && c->ndof != 3) {
     fprintf(err, "%s:%d: &orbits: family = '%s' needs 3 degrees of freedom (the halo family branches off the "
             "planar Lyapunov family): system '%s' has %d\n", path, line_or_group(w, "orbits", "family"),

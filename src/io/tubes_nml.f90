@@ -13,7 +13,7 @@ module tubes_nml
   !> run, model, equilibria, trajectory, integrator, orbits, section, tubes, transition,
   !> montecarlo, sections, experiment, flux, scan
   integer, parameter :: NGROUPS = 14
-  integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32, MAXDE = 256, LSADDLE = 8
+  integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32, MAXDE = 256, LSADDLE = 8, MAXGUESS = 64
   !> models written as formulas: a formula, a name, a constant 'name = value', how many
   integer, parameter :: LEXPR = 2048, LSYM = 16, LCONST = 128, MAXCONST = 32, LMSG = 1024
   !> An unset entry of a list (dE): any value a user cannot mean.
@@ -90,6 +90,9 @@ module tubes_nml
     real(c_double) :: scan_to
     real(c_double) :: scan_de(MAXDE)
     integer(c_int) :: scan_n, scan_nde, scan_ipar
+    real(c_double) :: orb_guess(2*MAX_DOF)   !! &orbits guess (the first 2 MAX_DOF values)
+    integer(c_int) :: orb_nguess             !! how many values guess was given (0: none)
+    real(c_double) :: orb_period             !! &orbits period (of the guess)
   end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved), with their
@@ -161,6 +164,8 @@ module tubes_nml
     real(c_double) :: scan_to = UNSET
     real(c_double) :: scan_de(MAXDE) = UNSET
     integer :: scan_n = 10
+    real(c_double) :: orb_guess(MAXGUESS) = UNSET   !! &orbits guess (a longer list is said so)
+    real(c_double) :: orb_period = 0
   end type vars_t
 
 contains
@@ -205,6 +210,10 @@ contains
     cfg%orb_n_segments = v%orb_n_segments; cfg%orb_max_iter = v%orb_max_iter
     cfg%orb_n_samples = v%orb_n_samples
     cfg%orb_family = v%orb_family
+    cfg%orb_nguess = count(v%orb_guess /= UNSET)
+    cfg%orb_guess = 0
+    cfg%orb_guess(1:min(cfg%orb_nguess, 2*MAX_DOF)) = v%orb_guess(1:min(cfg%orb_nguess, 2*MAX_DOF))
+    cfg%orb_period = v%orb_period
     cfg%orb_tol = v%orb_tol; cfg%orb_rtol = v%orb_rtol; cfg%orb_atol = v%orb_atol
     call put_list(v%tub_de, cfg%tub_de, cfg%tub_nde, [10.0_c_double, 100.0_c_double])
     call f_to_c(v%tub_kind, cfg%tub_kind)
@@ -582,6 +591,9 @@ contains
     v%orb_n_segments = cfg%orb_n_segments; v%orb_max_iter = cfg%orb_max_iter
     v%orb_n_samples = cfg%orb_n_samples
     v%orb_family = cfg%orb_family
+    v%orb_guess = UNSET
+    v%orb_guess(1:min(cfg%orb_nguess, 2*MAX_DOF)) = cfg%orb_guess(1:min(cfg%orb_nguess, 2*MAX_DOF))
+    v%orb_period = cfg%orb_period
     v%orb_tol = cfg%orb_tol; v%orb_rtol = cfg%orb_rtol; v%orb_atol = cfg%orb_atol
     v%sec_angle = cfg%sec_angle; v%sec_pth_sign = cfg%sec_pth_sign
     v%tub_de = cfg%tub_de
@@ -845,18 +857,23 @@ contains
       integer :: n_segments, max_iter, n_samples, m, ifam, iosf
       character(LNAME) :: family
       real(c_double) :: tol, rtol, atol
-      real(c_double), allocatable :: saddle_near(:)
+      real(c_double), allocatable :: saddle_near(:), guess(:)
+      real(c_double) :: period
       character(512) :: buf(40)
       logical :: by_name
       integer :: k
       namelist /orbits/ saddle, saddle_near, de, method, n_segments, tol, rtol, atol, max_iter, &
-        n_samples, family
+        n_samples, family, guess, period
       saddle = v%orb_saddle; method = v%orb_method; n_segments = v%orb_n_segments
+      period = v%orb_period
+      call list_io(v%orb_guess, guess)
       select case (v%orb_family)
       case (-1)
         family = 'halo_north'
       case (-2)
         family = 'halo_south'
+      case (:-101)
+        write (family, '(a,i0)') 'branch:', -100 - v%orb_family
       case default
         write (family, '(i0)') v%orb_family
       end select
@@ -869,6 +886,7 @@ contains
         read (u, nml=orbits, iostat=ios, iomsg=iomsg)
         v%orb_de = de
         v%orb_saddle_near = saddle_near
+        v%orb_guess = guess
       else
         m = count(v%orb_de /= UNSET)
         allocate (de(max(m, 1)))
@@ -883,6 +901,9 @@ contains
           if (len_trim(buf(k)) == 0) cycle
           if (by_name .and. index(buf(k), ' SADDLE_NEAR=') == 1) cycle
           if (.not. by_name .and. index(buf(k), ' SADDLE=') == 1) cycle
+          ! guess and period only when a guess is given (the effective namelist as before)
+          if (count(v%orb_guess /= UNSET) == 0 .and. (index(buf(k), ' GUESS=') == 1 .or. &
+              index(buf(k), ' PERIOD=') == 1)) cycle
           ! a numbered family is an integer (the text is read back by the same rules), in the
           ! layout of an integer's (i0 in 11 columns: the effective namelist as before)
           if (index(buf(k), " FAMILY='") == 1 .and. verify(trim(family), '0123456789') == 0) &
@@ -893,6 +914,7 @@ contains
       v%orb_saddle = saddle; v%orb_method = method; v%orb_n_segments = n_segments
       v%orb_tol = tol; v%orb_rtol = rtol; v%orb_atol = atol; v%orb_max_iter = max_iter
       v%orb_n_samples = n_samples
+      v%orb_period = period
       select case (trim(family))
       case ('halo_north')
         v%orb_family = -1
@@ -900,6 +922,10 @@ contains
         v%orb_family = -2
       case ('lyapunov')
         v%orb_family = 1
+      case ('branch:1':'branch:99999')   ! 'branch:K', K >= 1 (a bad K is said as a bad name)
+        read (family(8:), *, iostat=iosf) ifam
+        v%orb_family = -100 - ifam
+        if (iosf /= 0 .or. verify(trim(family(8:)), '0123456789') /= 0 .or. ifam < 1) v%orb_family = -99
       case default
         read (family, *, iostat=iosf) ifam
         v%orb_family = ifam

@@ -793,6 +793,10 @@ static const char *end_reason_text(int r) {
   case 3: return "the correction fails for ever smaller steps";
   case 4: return "the branch's energy turns back (a fold)";
   case 5: return "the family has no branch point below the largest dE";
+  case 6: return "the continuation took its 2000 steps";
+  case 7: return "past a fold the energy returned to the start's";
+  case 8: return "the guess did not converge";
+  case 9: return "no requested energy lies on the branch's side of the bifurcation";
   default: return "none";
   }
 }
@@ -836,7 +840,8 @@ int scene_orbits(tubes_run_t *run) {
           c->orb_de[n - 1], nseg > 1 ? "multiple" : "single");
   int st = tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, c->orb_de, nseg, c->orb_family, c->orb_tol, c->orb_rtol,
                               c->orb_atol, mi, ns, INTEGRATOR(c), e, per, act, s0, mu, ms, mt, stab, res, clo, it, conv, md,
-                              mono, ts, xs, hist, &end_de, &reason, 0, run->seeds);
+                              mono, ts, xs, hist, &end_de, &reason, 0, run->seeds, c->orb_nguess, c->orb_guess,
+                              c->orb_period);
   if (st < 0) {
     char m[TUBES_LSTATUS];
     status_text(st, m, sizeof m);
@@ -845,8 +850,14 @@ int scene_orbits(tubes_run_t *run) {
     goto out;
   }
   const char *famname = c->orb_family == -1 ? "halo_north" : c->orb_family == -2 ? "halo_south" : "Lyapunov";
+  char fambuf[32];
+  int guessed = c->orb_nguess > 0 || c->orb_family <= -101;   /* a guess's family or a branch: any dE */
+  if (c->orb_family <= -101) {
+    snprintf(fambuf, sizeof fambuf, "branch:%d", -100 - c->orb_family);
+    famname = fambuf;
+  } else if (c->orb_nguess > 0) famname = "guess";
   printf("orbits: %s %s family, %s shooting%s%s (%.2f s)\n", run->saddle, famname, nseg > 1 ? "multiple" : "single",
-         nseg > 1 ? "" : (run->natural ? " (brake orbit)" : " (symmetric orbit)"),
+         guessed ? " (no symmetry assumed; continued in arclength)" : nseg > 1 ? "" : (run->natural ? " (brake orbit)" : " (symmetric orbit)"),
          dissipative(run) ? ", of the conservative model (a dissipative model has no periodic orbits: they are the limit "
                          "the damped model's transition regions start from)" : "", now() - t0);
   printf("  %10s %12s %14s %14s %11s %9s %5s\n", "dE", strcmp(in_units(" s"), "") ? "period [s]" : "period", "action",
@@ -858,13 +869,37 @@ int scene_orbits(tubes_run_t *run) {
              clo[k], it[k]);
     else {
       nfail++;
-      if (end_de > 0 && c->orb_de[k] >= end_de * (1 - 1e-6))
+      if (!guessed && end_de > 0 && c->orb_de[k] >= end_de * (1 - 1e-6))
         printf("  %10.4g   refused: past the end of the family (dE ~ %.6g)\n", c->orb_de[k], end_de);
+      else if (guessed && it[k] == 0)
+        printf("  %10.4g   not reached (the family stop below)\n", c->orb_de[k]);
       else
         printf("  %10.4g   not converged\n", c->orb_de[k]);
     }
   }
-  if (c->orb_family < 0 && reason == 5) {
+  if (guessed) {
+    /* a guess's family or a branch (docs/orbits.md, "Orbits from a guess"): the arc's stopping rule */
+    if (reason == 8) {
+      fprintf(stderr, "tubes: orbits: &orbits guess = (");
+      for (int i = 0; i < c->orb_nguess; i++) fprintf(stderr, "%s%.10g", i ? ", " : "", c->orb_guess[i]);
+      fprintf(stderr, "), period = %g: the guess did not converge to a periodic orbit (multiple shooting at the "
+              "guess's own energy, %d segment%s); no orbit computed: give a state and period closer to a periodic "
+              "orbit\n", c->orb_period, nseg, nseg > 1 ? "s" : "");
+      rc = EXIT_BADINPUT;
+    } else if (reason == 5) {
+      fprintf(stderr, "tubes: orbits: family = '%s': the parent family has no branch point or period doubling as "
+              "its bifurcation %d between the requested energies (/orbits/bifurcations of the run without it); not "
+              "computed\n", famname, -100 - c->orb_family);
+    }
+    printf("  family stop: %s", end_reason_text(reason));
+    if (reason && reason != 5 && reason != 8) printf(" (at dE = %.10g)", end_de);
+    putchar('\n');
+    for (int k = 0; k < n; k++)
+      if (!conv[k] && reason != 8 && reason != 5)
+        fprintf(stderr, "tubes: orbits: dE = %g: no %s orbit: %s\n", c->orb_de[k], famname,
+                reason == 9 || reason == 0 ? "not on this side of the start (each energy is taken where the "
+                "continuation first crosses it)" : end_reason_text(reason));
+  } else if (c->orb_family < 0 && reason == 5) {
     printf("  no %s family: %s (dE = %g)\n", famname, end_reason_text(reason), c->orb_de[n - 1]);
     fprintf(stderr, "tubes: orbits: no %s orbits: the %s's family %d (its planar Lyapunov family in the CR3BP) has no "
             "branch point below dE = %g; not computed\n", famname, run->saddle, run->ndof - 1, c->orb_de[n - 1]);
@@ -912,7 +947,7 @@ int scene_orbits(tubes_run_t *run) {
   int sb = tubes_orbit_bifurcations(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, c->orb_de,
                                     nseg, c->orb_family, c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c),
                                     nu, MAXBIF, &nbif, bkind, bafter, bde, bwid, ben, bper, bnu, bconv, bx0, btan, &btol, 0,
-                                    run->seeds);
+                                    run->seeds, c->orb_nguess, c->orb_guess, c->orb_period);
   if (sb < 0) {
     char m[TUBES_LSTATUS];
     status_text(sb, m, sizeof m);
@@ -927,7 +962,7 @@ int scene_orbits(tubes_run_t *run) {
     nbif = MAXBIF;
     if (!rc) rc = EXIT_PARTIAL;
   }
-  static const char *bif_name[] = {"", "branch_point", "period_doubling", "krein_collision"};
+  static const char *bif_name[] = {"", "branch_point", "period_doubling", "krein_collision", "fold"};
   int np = run->ndof - 1;
   if (c->orb_family < 0)
     printf("  bifurcations: not located along a branch family (its orbits' Floquet indices are written)\n");
@@ -990,9 +1025,18 @@ int scene_orbits(tubes_run_t *run) {
   h |= h5_attr_double(g, "tol", c->orb_tol);
   h |= h5_attr_long(g, "family", c->orb_family);
   h |= h5_attr_string(g, "family_name", c->orb_family == -1 ? "halo_north" : c->orb_family == -2 ? "halo_south"
-                                                                                                   : "lyapunov");
+                                         : guessed ? famname : "lyapunov");
+  if (guessed) {
+    h |= h5_attr_string(g, "family_end_reason", end_reason_text(reason));
+    if (reason && reason != 5 && reason != 8) h |= h5_attr_double(g, "family_end_dE", end_de);
+    if (c->orb_nguess > 0) {
+      hsize_t dg = (hsize_t)c->orb_nguess;
+      h |= h5_write_double(g, "guess", 1, &dg, c->orb_guess, "state units");
+      h |= h5_attr_double(g, "guess_period", c->orb_period);
+    }
+  }
   if (dissipative(run)) h |= h5_attr_string(g, "model", "conservative");
-  if (end_de > 0) {
+  if (end_de > 0 && !guessed) {
     h |= h5_attr_double(g, "family_end_dE", end_de);
     h |= h5_attr_string(g, "family_end_reason", end_reason_text(reason));
   }
@@ -1028,8 +1072,10 @@ int scene_orbits(tubes_run_t *run) {
           for (int i = 0; i < n2; i++) { bx0[n2 * j + i] = bx0[6 * j + i]; btan[n2 * j + i] = btan[6 * j + i]; }
         h |= h5_write_double(bg, "state0", 2, dbs, bx0, n2 == 4 ? "cm, cm, cm/s, cm/s" : "state units");
         h |= h5_write_double(bg, "tangent", 2, dbs, btan, NULL);
-        h |= h5_attr_string(bg, "kinds", "1 branch_point (an index crosses +1), 2 period_doubling (-1), "
-                            "3 krein_collision (a pair of indices turns complex or real)");
+        h |= h5_attr_string(bg, "kinds", guessed ? "1 branch_point (an index crosses +1), 2 period_doubling (-1), "
+                            "3 krein_collision (a pair of indices turns complex or real), 4 fold (the energy along "
+                            "a guess's family turns back)" : "1 branch_point (an index crosses +1), 2 period_doubling "
+                            "(-1), 3 krein_collision (a pair of indices turns complex or real)");
         h |= h5_attr_double(bg, "tol", btol);
         H5Gclose(bg);
       }
@@ -1181,7 +1227,8 @@ static void past_end_message(tubes_run_t *run, double de, char *buf, size_t len,
     tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, 1, &de, orb_nseg(c),
                        c->orb_family,
                        c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c), &e, &per, &act, s0, &mu, &ms, mt,
-                       &stab, &res, &clo, &it, &conv, &md, mono, ts, xs, hist, &end_de, &reason, local, run->seeds);
+                       &stab, &res, &clo, &it, &conv, &md, mono, ts, xs, hist, &end_de, &reason, local, run->seeds, 0,
+                       NULL, 0.0);
   free(hist); free(ts); free(xs);
   char m[448];
   family_stop_text(run, de, end_de, reason, m, sizeof m);

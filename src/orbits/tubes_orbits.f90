@@ -26,6 +26,11 @@ module tubes_orbits
   integer, parameter, public :: END_NOCONV = 3      !! correction fails even for tiny steps
   integer, parameter, public :: END_FOLD = 4        !! the branch's energy turns back (a fold)
   integer, parameter, public :: END_NOBRANCH = 5    !! no branch point below the largest dE
+  integer, parameter, public :: END_STEPS = 6       !! an arc (guess_family, branch_arc) took ARC_MAX_STEPS
+  integer, parameter, public :: END_RETURN = 7      !! past a fold, the arc's energy returned to its start's
+  integer, parameter, public :: END_NOGUESS = 8     !! the guess (opts%guess) did not converge
+  integer, parameter, public :: END_NOTBRANCH = 9   !! no requested energy on the branch's side
+  integer, parameter, public :: ARC_MAX_STEPS = 2000 !! steps of one pseudo-arclength arc, at most
   !> opts%family codes of the family that branches off the highest-frequency centre mode's
   !> family (N - 1) at its first branch point (the spatial CR3BP's halo family off the planar
   !> Lyapunov family): PLUS the side whose orbits' larger excursion in q_N is positive
@@ -46,7 +51,66 @@ module tubes_orbits
     type(integ_choice_t) :: integ     !! the integrator (default DOP853)
     logical :: local = .false.        !! multiple shooting on this MPI rank alone (the caller
                                       !! has dealt out a coarser level); default: all ranks
+    !> a family from a guess (guess_family) when allocated: the start state (2N) and its period
+    !> guess_period [time]; corrected by multiple shooting (n_segments segments) at H(guess)
+    real(wp), allocatable :: guess(:)
+    real(wp) :: guess_period = 0
+    integer :: branch = 0             !! K > 0: the family branching off the parent family (this
+                                      !! one with branch = 0) at its K-th bifurcation (tubes_study)
   end type orbit_opts_t
+
+  !> A fold of an arc: the energy along the family turns back (dE/ds = 0 in arclength s).
+  type, public :: fold_t
+    real(wp) :: de = 0                !! excess energy at the fold [energy]
+    real(wp) :: period = 0            !! period there [time]
+    real(wp) :: width = 0             !! the final bracket in arclength (units of the unknowns)
+    real(wp), allocatable :: x0(:)    !! the orbit's start there (2N)
+    real(wp), allocatable :: tangent(:) !! the family's tangent's state part at x0 (unit)
+    real(wp), allocatable :: monodromy(:, :) !! its monodromy (2N, 2N)
+  end type fold_t
+
+  !> The equations of a pseudo-arclength arc in unknowns w (arc_step): rows(w, wref) gives the
+  !> residual f(w) (m rows) and its Jacobian (m x size(w)) whose null space is the family's
+  !> tangent; wref is the last accepted point (for a phase condition).
+  type, abstract :: arc_system_t
+    integer :: n_raw = 0   !! the first n_raw rows are not equilibrated (one segment's I - M)
+  contains
+    procedure(arc_rows_i), deferred :: rows
+  end type arc_system_t
+
+  abstract interface
+    subroutine arc_rows_i(self, w, wref, f, jac, stat)
+      import :: arc_system_t, wp
+      class(arc_system_t), intent(in) :: self
+      real(wp), intent(in) :: w(:), wref(:)
+      real(wp), allocatable, intent(out) :: f(:), jac(:, :)
+      integer, intent(out) :: stat
+    end subroutine arc_rows_i
+  end interface
+
+  !> The symmetric orbit with the energy free (branch_family): w = (x0's components on the
+  !> reversor's fixed set ev, the half period tau); rows: x(tau)'s odd components od (nd rows), the
+  !> Jacobian (nd x (nd + 1)) phi(od, ev) and f(x(tau))(od).
+  type, extends(arc_system_t) :: symmetric_arc_t
+    class(hamiltonian_t), allocatable :: model
+    type(orbit_opts_t) :: opts
+    integer, allocatable :: ev(:), od(:)
+  contains
+    procedure :: rows => symmetric_rows
+  end type symmetric_arc_t
+
+  !> Multiple shooting with the energy free: w = (the n nodes (2N each), the period T); rows:
+  !> x_{i+1} - phi_{T/n}(x_i) (cyclic, 2N n), and the phase (x_1 - x_ref) . f(x_ref) / |f(x_ref)|
+  !> (x_ref wref's first node). One periodicity row is redundant (energy conservation): the
+  !> (2N n + 1) x (2N n + 1) Jacobian has rank 2N n at a regular orbit, its null vector the
+  !> family's tangent.
+  type, extends(arc_system_t) :: shooting_arc_t
+    class(hamiltonian_t), allocatable :: model
+    type(orbit_opts_t) :: opts
+    integer :: n = 1
+  contains
+    procedure :: rows => shooting_rows
+  end type shooting_arc_t
 
   !> Multiple shooting's segments: item i flows node i over tau = T/n, into its end state, its
   !> state transition matrix and the field there.
@@ -124,7 +188,7 @@ module tubes_orbits
   end type action_field_t
 
   public :: linear_guess, correct_symmetric, correct_multiple, finish_orbit, orbit_family, floquet_indices, &
-            floquet_tangent
+            floquet_tangent, branch_arc
 
 
 contains
@@ -354,21 +418,17 @@ contains
     type(orbit_opts_t) :: o
     type(orbit_t), intent(inout) :: orb
     integer, intent(out) :: stat
-    integer :: n, m, nu, i, j, it, info, lwork, st(size(nodes, 2)), d, i0, j0
-    type(segment_ens_t) :: segs
-    type(ens_out_t) :: out
-    real(wp), allocatable :: a(:, :), b(:), work(:), y(:, :), phis(:, :, :), fy(:, :)
+    integer :: n, m, nu, i, it, info, lwork, d
+    real(wp), allocatable :: a(:, :), b(:), work(:)
     real(wp) :: xref(size(nodes, 1)), fref(size(nodes, 1)), res, rowmax, pscale, &
-                scale(size(nodes, 1)), xref_grad(size(nodes, 1))
+                scale(size(nodes, 1)), xref_grad(size(nodes, 1)), amax
     d = size(nodes, 1)
     n = size(nodes, 2)
     m = d*n + 2
     nu = d*n + 1
     o = opts
     lwork = 64*m
-    allocate (a(m, nu), b(m), work(lwork), y(d, n), phis(d, d, n), fy(d, n))
-    allocate (segs%model, source=model)
-    segs%opts = o
+    allocate (a(m, nu), b(m), work(lwork))
     xref = nodes(:, 1)
     call model%eval(0.0_wp, xref, fref, stat)
     if (stat /= 0) then
@@ -383,47 +443,33 @@ contains
     stat = TUBES_OK
     do it = 1, opts%max_iter
       if (diverging(orb%history)) exit
-      ! segments dealt out over MPI ranks and threads (tubes_ensemble), from rank 0's nodes
-      call ens_agree(nodes, opts%local)
-      call ens_agree(period, opts%local)
-      segs%nodes = nodes
-      segs%tau = period/n
-      call ens_run(segs, n, out, d*(d + 2), 0, fault='segment', local=opts%local)
-      y = out%r(1:d, :)
-      phis = reshape(out%r(d + 1:d + d*d, :), [d, d, n])
-      fy = out%r(d + d*d + 1:, :)
-      st = out%st
-      if (any(st < 0)) then
-        stat = minval(st)
-        return
-      end if
-      a = 0
-      do i = 1, n
-        j = mod(i, n) + 1
-        i0 = d*(i - 1)
-        j0 = d*(j - 1)
-        b(i0 + 1:i0 + d) = nodes(:, j) - y(:, i)
-        a(i0 + 1:i0 + d, i0 + 1:i0 + d) = -phis(:, :, i)
-        a(i0 + 1:i0 + d, j0 + 1:j0 + d) = a(i0 + 1:i0 + d, j0 + 1:j0 + d) + identity(d)
-        a(i0 + 1:i0 + d, nu) = -fy(:, i)/n
-      end do
+      call periodicity_rows(model, nodes, period, o, a, b, stat)
+      if (stat < 0) return
       b(m - 1) = model%energy(nodes(:, 1)) - energy
       call model%gradient(nodes(:, 1), xref_grad, stat)
       if (stat /= 0) then
         stat = TUBES_ENOCONV
         return
       end if
+      a(m - 1, :) = 0
       a(m - 1, 1:d) = xref_grad
       b(m) = dot_product(nodes(:, 1) - xref, fref)
+      a(m, :) = 0
       a(m, 1:d) = fref
       res = res_norm(b(m - 1:m - 1)/energy_scale(energy, de))
       do i = 1, n
         res = max(res, res_norm(b(d*(i - 1) + 1:d*i)/scale))
       end do
       if (newton_met(orb, it, res, opts%tol)) exit
-      do i = 1, m            ! equilibrate rows (the root is unchanged: the system is consistent)
+      ! equilibrate rows (the root is unchanged: the system is consistent); with one segment the
+      ! periodicity rows (I - M) are left alone: their redundant row vanishes at the orbit (for a
+      ! 1-DOF motion identically) and, scaled up, weighed its linearisation's error as much as the
+      ! others (Newton converged linearly, by ~0.27 per iteration, on Henon-Heiles' y-axis orbit)
+      amax = maxval(abs(a))
+      do i = 1, m
         rowmax = maxval(abs(a(i, :)))
-        if (rowmax > 0) then
+        if (n == 1 .and. i <= d) rowmax = 0
+        if (rowmax > 1.0e-6_wp*amax) then
           a(i, :) = a(i, :)/rowmax
           b(i) = b(i)/rowmax
         end if
@@ -448,6 +494,106 @@ contains
     orb%period = period
     orb%energy = energy
   end subroutine correct_multiple
+
+  !> Multiple shooting's periodicity rows (correct_multiple, shooting_arc_t): a(1:dn, 1:dn + 1)
+  !> and b(1:dn) (d = 2N, n nodes) of x_{i+1} - phi_{T/n}(x_i) (cyclic) in the unknowns (nodes,
+  !> T), the other entries of a and b untouched. The segments are propagated in parallel
+  !> (OpenMP and MPI ranks: tubes_ensemble), each with its own integrator, from rank 0's nodes.
+  subroutine periodicity_rows(model, nodes, period, opts, a, b, stat)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(inout) :: nodes(:, :), period
+    type(orbit_opts_t), intent(in) :: opts
+    real(wp), intent(inout) :: a(:, :), b(:)
+    integer, intent(out) :: stat
+    type(segment_ens_t) :: segs
+    type(ens_out_t) :: out
+    real(wp) :: y(size(nodes, 1), size(nodes, 2)), phis(size(nodes, 1), size(nodes, 1), size(nodes, 2)), &
+                fy(size(nodes, 1), size(nodes, 2))
+    integer :: d, n, i, j, i0, j0
+    d = size(nodes, 1)
+    n = size(nodes, 2)
+    allocate (segs%model, source=model)
+    segs%opts = opts
+    call ens_agree(nodes, opts%local)
+    call ens_agree(period, opts%local)
+    segs%nodes = nodes
+    segs%tau = period/n
+    call ens_run(segs, n, out, d*(d + 2), 0, fault='segment', local=opts%local)
+    y = out%r(1:d, :)
+    phis = reshape(out%r(d + 1:d + d*d, :), [d, d, n])
+    fy = out%r(d + d*d + 1:, :)
+    if (any(out%st < 0)) then
+      stat = minval(out%st)
+      return
+    end if
+    stat = TUBES_OK
+    a(1:d*n, 1:d*n + 1) = 0
+    do i = 1, n
+      j = mod(i, n) + 1
+      i0 = d*(i - 1)
+      j0 = d*(j - 1)
+      b(i0 + 1:i0 + d) = nodes(:, j) - y(:, i)
+      a(i0 + 1:i0 + d, i0 + 1:i0 + d) = -phis(:, :, i)
+      a(i0 + 1:i0 + d, j0 + 1:j0 + d) = a(i0 + 1:i0 + d, j0 + 1:j0 + d) + identity(d)
+      a(i0 + 1:i0 + d, d*n + 1) = -fy(:, i)/n
+    end do
+  end subroutine periodicity_rows
+
+  !> The rows of symmetric_arc_t (wref unused: the symmetry fixes the phase).
+  subroutine symmetric_rows(self, w, wref, f, jac, stat)
+    class(symmetric_arc_t), intent(in) :: self
+    real(wp), intent(in) :: w(:), wref(:)
+    real(wp), allocatable, intent(out) :: f(:), jac(:, :)
+    integer, intent(out) :: stat
+    real(wp) :: x0(size(self%ev) + size(self%od)), x(size(x0)), phi(size(x0), size(x0)), fx(size(x0))
+    integer :: nd
+    nd = size(self%od)
+    allocate (f(nd), jac(nd, nd + 1))
+    x0 = 0
+    x0(self%ev) = w(1:nd)
+    call flow_stm(self%model, x0, w(nd + 1), self%opts, x, phi, stat)
+    if (stat < 0) return
+    call self%model%eval(0.0_wp, x, fx, stat)
+    if (stat /= 0) then
+      stat = TUBES_ENOCONV
+      return
+    end if
+    f = x(self%od)
+    jac(:, 1:nd) = phi(self%od, self%ev)
+    jac(:, nd + 1) = fx(self%od)
+    stat = TUBES_OK
+  end subroutine symmetric_rows
+
+  !> The rows of shooting_arc_t: periodicity (periodicity_rows) and the phase condition.
+  subroutine shooting_rows(self, w, wref, f, jac, stat)
+    class(shooting_arc_t), intent(in) :: self
+    real(wp), intent(in) :: w(:), wref(:)
+    real(wp), allocatable, intent(out) :: f(:), jac(:, :)
+    integer, intent(out) :: stat
+    real(wp) :: nodes(size(wref) - 1), period, fref(size(wref) - 1)
+    integer :: d, n
+    n = self%n
+    d = (size(w) - 1)/n
+    allocate (f(d*n + 1), jac(d*n + 1, d*n + 1))
+    nodes = w(1:d*n)
+    period = w(d*n + 1)
+    block
+      real(wp) :: nd(d, n)
+      nd = reshape(nodes, [d, n])
+      call periodicity_rows(self%model, nd, period, self%opts, jac, f, stat)
+    end block
+    if (stat < 0) return
+    call self%model%eval(0.0_wp, wref(1:d), fref(1:d), stat)
+    if (stat /= 0) then
+      stat = TUBES_ENOCONV
+      return
+    end if
+    fref(1:d) = fref(1:d)/max(sqrt(sum(fref(1:d)**2)), tiny(1.0_wp))
+    jac(d*n + 1, :) = 0
+    jac(d*n + 1, 1:d) = fref(1:d)
+    f(d*n + 1) = dot_product(w(1:d) - wref(1:d), fref(1:d))
+    stat = TUBES_OK
+  end subroutine shooting_rows
   !> A Newton sequence is hopeless when it has not reduced its residual for 4 iterations.
   pure logical function diverging(h)
     real(wp), intent(in) :: h(:)
@@ -792,7 +938,7 @@ contains
   !> once"). With path, a run keeps the ladder and the orbits found between calls: a later call
   !> of the same family (the caller's key: model, saddle and opts) takes them instead of
   !> continuing again. path is used only where ens_reuse_ok allows (one MPI rank, or opts%local).
-  recursive subroutine orbit_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat, path)
+  recursive subroutine orbit_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat, path, folds)
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: eqs(:)
     integer, intent(in) :: isad
@@ -803,13 +949,32 @@ contains
     integer, intent(out) :: end_reason
     integer, intent(out) :: stat
     type(family_path_t), intent(inout), optional :: path   !! the run's path of this family
+    type(fold_t), allocatable, intent(out), optional :: folds(:)  !! a guess's family: its folds
     type(family_path_t) :: own
+    type(fold_t), allocatable :: fl(:)
     integer :: k
     logical :: ended
     stat = TUBES_OK
     end_de = -1
     end_reason = END_NONE
+    if (present(folds)) allocate (folds(0))
     if (size(des) == 0) return
+    if (allocated(opts%guess)) then   ! a family from a guess: any energies, ascending
+      if (isad < 1 .or. isad > size(eqs)) then
+        stat = TUBES_EINPUT
+        return
+      end if
+      do k = 2, size(des)
+        if (des(k) <= des(k - 1)) then
+          stat = TUBES_EINPUT
+          return
+        end if
+      end do
+      allocate (fl(0))
+      call guess_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, fl, stat)
+      if (present(folds)) call move_alloc(fl, folds)
+      return
+    end if
     if (any(des <= 0) .or. isad < 1 .or. isad > size(eqs)) then
       stat = TUBES_EINPUT
       return
@@ -838,7 +1003,7 @@ contains
         e(isad)%evec(:, [3, 4, 2*j + 1, 2*j + 2]) = e(isad)%evec(:, [2*j + 1, 2*j + 2, 3, 4])
         o = opts
         o%family = 1
-        call orbit_family(model, e, isad, des, o, orbits, end_de, end_reason, stat, path)
+        call orbit_family(model, e, isad, des, o, orbits, end_de, end_reason, stat, path, folds)
         return
       end block
     end if
@@ -906,13 +1071,13 @@ contains
     type(orbit_opts_t) :: po
     type(orbit_t), allocatable :: grid(:)
     type(orbit_t) :: ob(1)
-    real(wp), allocatable :: dg(:), w(:), wp_(:), wn(:), t(:), tn(:), wprev(:), jac(:, :), rr(:), xx(:), &
-                             phi(:, :), fx(:), v(:), b(:, :)
+    real(wp), allocatable :: dg(:), w(:), wn(:), t(:), tn(:), wprev(:), xx(:), phi(:, :), fx(:), v(:)
+    type(symmetric_arc_t) :: sys
     real(wp) :: lo, hi, mid, e_sad, h, h0, e_prev, e_now, xi, tau, zbig
     real(wp), allocatable :: wb(:), tb(:)
     logical :: oriented
-    integer :: n2, nd, k, c_lo, np, it, j, nstep, info, iz
-    integer, allocatable :: ev(:), od(:), rev(:), cnt(:), ipiv(:)
+    integer :: n2, nd, k, c_lo, np, it, j, nstep, iz
+    integer, allocatable :: ev(:), od(:), rev(:), cnt(:)
     real(wp) :: nre(size(eqs(isad)%x)/2 - 1), nim(size(eqs(isad)%x)/2 - 1)
     logical :: ok
     stat = TUBES_OK
@@ -996,7 +1161,7 @@ contains
     end if
     call floquet_tangent(ob(1)%monodromy, fx, 1, v, stat)
     if (stat /= TUBES_OK) return
-    allocate (t(nd + 1), tn(nd + 1), w(nd + 1), wp_(nd + 1), wn(nd + 1), wprev(nd + 1))
+    allocate (t(nd + 1), tn(nd + 1), w(nd + 1), wn(nd + 1), wprev(nd + 1))
     t = [v(ev), 0.0_wp]
     t = t/sqrt(sum(t**2))
     w = [ob(1)%x0(ev), ob(1)%period/2]
@@ -1004,7 +1169,11 @@ contains
     tb = t
     oriented = .false.
     ! (3) pseudo-arclength along the branch
-    allocate (jac(nd + 1, nd + 1), rr(nd + 1), xx(n2), phi(n2, n2), b(nd, nd + 1), ipiv(nd + 1))
+    allocate (xx(n2), phi(n2, n2))
+    allocate (sys%model, source=model)
+    sys%opts = opts
+    sys%ev = ev
+    sys%od = od
     h0 = 1.0e-2_wp*model%length_scale()
     h = h0
     e_prev = model%energy(state_of(w))
@@ -1012,30 +1181,7 @@ contains
     orbits(:)%de = des
     do nstep = 1, 2000
       if (k > size(des)) exit
-      wp_ = w + h*t
-      wn = wp_
-      ok = .false.
-      do it = 1, opts%max_iter
-        call flow_stm(model, state_of(wn), wn(nd + 1), opts, xx, phi, stat)
-        if (stat < 0) exit
-        call model%eval(0.0_wp, xx, fx, stat)
-        if (stat /= 0) exit
-        rr(1:nd) = xx(od)
-        rr(nd + 1) = dot_product(t, wn - wp_)
-        if (maxval(abs(rr)) < opts%tol) then
-          ok = .true.
-          exit
-        end if
-        jac = 0
-        jac(1:nd, 1:nd) = phi(od, ev)
-        jac(1:nd, nd + 1) = fx(od)
-        jac(nd + 1, :) = t
-        b = jac(1:nd, :)   ! kept for the tangent
-        rr = -rr
-        call dgesv(nd + 1, 1, jac, nd + 1, ipiv, rr, nd + 1, info)
-        if (info /= 0) exit
-        wn = wn + rr
-      end do
+      call arc_step(sys, w, t, h, opts, wn, tn, it, ok)   ! the predictor, the corrector, the tangent
       stat = TUBES_OK
       if (.not. ok) then
         h = h/2
@@ -1045,19 +1191,12 @@ contains
         end if
         cycle
       end if
-      ! the new tangent: the null vector of the nd x (nd + 1) Jacobian, oriented along t
-      b(1:nd, 1:nd) = phi(od, ev)
-      b(1:nd, nd + 1) = fx(od)
-      call null_vector(b, tn, info)
-      if (info /= 0) then
-        stat = TUBES_ENOCONV
-        return
-      end if
-      if (dot_product(tn, t) < 0) tn = -tn
       if (.not. oriented) then
         ! north: the orbit's larger excursion in q_N (at one of its two fixed-set points, x0 and
         ! x(tau)) is positive; south: negative. The first step decides (its asymmetry ~15 %)
         oriented = .true.
+        call flow_stm(model, state_of(wn), wn(nd + 1), opts, xx, phi, stat)
+        if (stat < 0) return
         zbig = wn(iz)
         if (abs(xx(nd)) > abs(wn(iz))) zbig = xx(nd)
         if ((zbig < 0) .eqv. (opts%family == FAMILY_BRANCH_PLUS)) then
@@ -1115,8 +1254,386 @@ contains
     end function state_of
   end subroutine branch_family
 
-  !> The unit null vector of the m x (m + 1) matrix a (full rank m): the eigenvector of a^T a for
-  !> its smallest eigenvalue.
+  !> One pseudo-arclength step of the arc system sys from the corrected point w with unit
+  !> tangent t (docs/orbits.md, "Orbits from a guess"): the predictor w + h t, corrected by
+  !> Gauss-Newton least squares on [f(w'); t . (w' - w - h t)] (rows equilibrated, LAPACK dgels)
+  !> until max |f| <= tol (or, when Newton stalls, <= 100 tol: the integration's noise floor);
+  !> the new tangent the null vector of f's Jacobian at the corrected point, oriented along t.
+  !> ok false when Newton fails.
+  subroutine arc_step(sys, w, t, h, opts, wn, tn, iters, ok)
+    class(arc_system_t), intent(in) :: sys
+    real(wp), intent(in) :: w(:), t(:), h
+    type(orbit_opts_t), intent(in) :: opts
+    real(wp), intent(out) :: wn(:), tn(:)
+    integer, intent(out) :: iters
+    logical, intent(out) :: ok
+    real(wp), allocatable :: f(:), jac(:, :), a(:, :), b(:), work(:), hist(:)
+    real(wp) :: wpred(size(w)), rowmax, res, amax
+    integer :: m, nw, it, i, info, st
+    nw = size(w)
+    wpred = w + h*t
+    wn = wpred
+    tn = t
+    ok = .false.
+    iters = 0
+    allocate (hist(0))
+    do it = 1, opts%max_iter
+      iters = it
+      call sys%rows(wn, w, f, jac, st)
+      if (st /= TUBES_OK) return
+      res = res_norm(f)
+      hist = [hist, res]
+      if (res <= opts%tol) then
+        ok = .true.
+        exit
+      end if
+      if (diverging(hist) .or. it == opts%max_iter) then
+        ok = res <= 100*opts%tol
+        if (ok) exit
+        return
+      end if
+      m = size(f) + 1
+      if (allocated(a)) deallocate (a, b, work)
+      allocate (a(m, nw), b(max(m, nw)), work(64*(m + nw)))
+      a(1:m - 1, :) = jac
+      a(m, :) = t
+      b(1:m - 1) = f
+      b(m) = dot_product(t, wn - wpred)
+      amax = maxval(abs(a))
+      do i = 1, m     ! equilibrated as in correct_multiple (one segment's periodicity rows left alone)
+        rowmax = maxval(abs(a(i, :)))
+        if (i <= sys%n_raw) rowmax = 0
+        if (rowmax > 1.0e-6_wp*amax) then
+          a(i, :) = a(i, :)/rowmax
+          b(i) = b(i)/rowmax
+        end if
+      end do
+      b = -b
+      call dgels('N', m, nw, 1, a, m, b, size(b), work, size(work), info)
+      if (info /= 0) return
+      wn = wn + b(1:nw)
+      if (.not. wn(nw) > 0) return            ! the period (the last unknown) must stay positive
+    end do
+    if (.not. ok) return
+    call null_vector(jac, tn, info)
+    if (info /= 0) then
+      ok = .false.
+      return
+    end if
+    if (dot_product(tn, t) < 0) tn = -tn
+  end subroutine arc_step
+
+  !> Pseudo-arclength continuation of the multiple-shooting arc sys (n nodes) from the corrected
+  !> point w0 along the unit tangent t0, the energy free (docs/orbits.md, "Orbits from a guess").
+  !> Each requested energy e_sad + des(k) with want(k) is taken at its first crossing along the
+  !> arc: correct_multiple at that energy from the chord between the two arc points around it,
+  !> then finish_orbit. dir: the energy's direction at the start (+1, -1); 0: the first step
+  !> decides and the energies on the other side are dropped (a branch: they are not on it).
+  !> Folds (the energy's derivative along the arc, grad H . t, changes sign) are located by
+  !> bisection in the step's length to 1e-9 of it and appended to folds. The arc stops when every
+  !> wanted energy is taken (END_NONE), the step falls below 1e-6 of the first (END_NOCONV), the
+  !> period passes period_max times the start's (END_PERIOD), the energy after a fold returns
+  !> past the start's (END_RETURN), or after ARC_MAX_STEPS steps (END_STEPS); end_de: the energy
+  !> reached then (excess). stat < 0 only for a fault of the integration of an orbit taken.
+  subroutine arc_run(sys, model, eqs, isad, w0, t0, n, dir, des, want, opts, orbits, end_de, end_reason, &
+                     folds, stat)
+    class(arc_system_t), intent(in) :: sys
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad, n, dir
+    real(wp), intent(in) :: w0(:), t0(:), des(:)
+    logical, intent(inout) :: want(:)
+    type(orbit_opts_t), intent(in) :: opts
+    type(orbit_t), intent(inout) :: orbits(:)
+    real(wp), intent(out) :: end_de
+    integer, intent(out) :: end_reason, stat
+    type(fold_t), allocatable, intent(inout) :: folds(:)
+    real(wp) :: w(size(w0)), t(size(w0)), wn(size(w0)), tn(size(w0)), wf(size(w0)), tf(size(w0))
+    real(wp) :: h, h0, e_sad, e_start, e_prev, e_now, g_prev, g_now, ef
+    integer :: d, nw, nstep, it, sgn0, nfold, naccept
+    logical :: ok, found(size(des))
+    type(fold_t) :: fo
+    d = model%dim()
+    nw = size(w0)
+    e_sad = eqs(isad)%energy
+    stat = TUBES_OK
+    end_de = -1
+    end_reason = END_NONE
+    found = .false.
+    w = w0
+    t = t0
+    h0 = 1.0e-2_wp*model%length_scale()*sqrt(real(n, wp))
+    h = h0
+    e_start = model%energy(w(1:d))
+    e_prev = e_start
+    g_prev = slope(w, t)
+    sgn0 = dir
+    nfold = 0
+    naccept = 0
+    if (sgn0 /= 0) where ((e_sad + des - e_start)*sgn0 < 0) want = .false.
+    end_reason = END_STEPS
+    do nstep = 1, ARC_MAX_STEPS
+      if (.not. any(want .and. .not. found)) then
+        end_reason = END_NONE
+        exit
+      end if
+      call arc_step(sys, w, t, h, opts, wn, tn, it, ok)
+      if (.not. ok) then
+        h = h/2
+        if (h < 1.0e-6_wp*h0) then
+          end_reason = END_NOCONV
+          exit
+        end if
+        cycle
+      end if
+      naccept = naccept + 1
+      e_now = model%energy(wn(1:d))
+      g_now = slope(wn, tn)
+      if (sgn0 == 0) then         ! a branch: its side of the start energy
+        sgn0 = merge(1, -1, e_now >= e_start)
+        where ((e_sad + des - e_start)*sgn0 < 0) want = .false.
+        if (.not. any(want)) then
+          end_reason = END_NOTBRANCH
+          exit
+        end if
+      end if
+      ! a fold inside this step (not in a branch's first: at the bifurcation dE/ds = 0, the energy
+      ! moving quadratically off it, so the sign there is noise)
+      if (g_now*g_prev < 0 .and. .not. (dir == 0 .and. naccept == 1)) then
+        call locate_fold(w, t, h, g_prev, wf, tf, fo)
+        folds = [folds, fo]
+        nfold = nfold + 1
+        ef = model%energy(wf(1:d))
+        call take(w, e_prev, wf, ef)
+        if (stat < 0) return
+        call take(wf, ef, wn, e_now)
+      else
+        call take(w, e_prev, wn, e_now)
+      end if
+      if (stat < 0) return
+      e_prev = e_now
+      g_prev = g_now
+      w = wn
+      t = tn
+      if (w(nw) > opts%period_max*w0(nw)) then
+        end_reason = END_PERIOD
+        exit
+      end if
+      if (nfold > 0 .and. (e_now - e_start)*sgn0 < 0) then
+        end_reason = END_RETURN
+        exit
+      end if
+      if (it <= 3) h = min(1.5_wp*h, 20*h0)
+    end do
+    if (end_reason /= END_NONE) end_de = e_prev - e_sad
+    where (want .and. .not. found) want = .false.   ! said by their orbits (not converged)
+    stat = TUBES_OK
+  contains
+    real(wp) function slope(u, tu)   ! dE/ds along the arc: grad H(x_1) . t's first node
+      real(wp), intent(in) :: u(:), tu(:)
+      real(wp) :: gr(d)
+      integer :: st
+      call model%gradient(u(1:d), gr, st)
+      slope = dot_product(gr, tu(1:d))
+      if (st /= 0) slope = 0
+    end function slope
+
+    subroutine locate_fold(wa, ta, ha, ga, wf, tf, fo)   ! bisection in the step's length
+      real(wp), intent(in) :: wa(:), ta(:), ha, ga
+      real(wp), intent(out) :: wf(:), tf(:)
+      type(fold_t), intent(out) :: fo
+      real(wp) :: lo, hi, mid, wm(size(wa)), tm(size(wa)), phi(d, d), xe(d)
+      integer :: itf, st
+      logical :: okm
+      lo = 0
+      hi = ha
+      wf = wn
+      tf = tn
+      do while (hi - lo > 1.0e-9_wp*ha)
+        mid = lo + (hi - lo)/2
+        call arc_step(sys, wa, ta, mid, opts, wm, tm, itf, okm)
+        if (.not. okm) exit
+        if (slope(wm, tm)*ga > 0) then
+          lo = mid
+        else
+          hi = mid
+          wf = wm
+          tf = tm
+        end if
+      end do
+      mid = lo + (hi - lo)/2
+      call arc_step(sys, wa, ta, mid, opts, wm, tm, itf, okm)
+      if (okm) then
+        wf = wm
+        tf = tm
+      end if
+      fo%de = model%energy(wf(1:d)) - e_sad
+      fo%period = wf(nw)
+      fo%width = hi - lo
+      fo%x0 = wf(1:d)
+      fo%tangent = tf(1:d)/max(sqrt(sum(tf(1:d)**2)), tiny(1.0_wp))
+      call flow_stm(model, fo%x0, fo%period, opts, xe, phi, st)
+      fo%monodromy = phi
+    end subroutine locate_fold
+
+    subroutine take(wa, ea, wb, eb)   ! the wanted energies between ea and eb, from the chord
+      real(wp), intent(in) :: wa(:), ea, wb(:), eb
+      real(wp) :: xi, wc(size(wa)), nodes(d, n), period, ek
+      integer :: k, st
+      do k = 1, size(des)
+        if (.not. want(k) .or. found(k)) cycle
+        ek = e_sad + des(k)
+        if (ek < min(ea, eb) .or. ek > max(ea, eb)) cycle
+        xi = 0
+        if (eb /= ea) xi = (ek - ea)/(eb - ea)
+        wc = wa + xi*(wb - wa)
+        nodes = reshape(wc(1:d*n), [d, n])
+        period = wc(nw)
+        found(k) = .true.
+        call correct_multiple(model, ek, des(k), nodes, period, opts, orbits(k), st)
+        orbits(k)%de = des(k)
+        if (st < 0 .and. st /= TUBES_ENOCONV) then
+          stat = st
+          return
+        end if
+        if (st == TUBES_OK) call finish_orbit(model, orbits(k), opts, eqs, isad, st)
+        if (st < 0 .and. st /= TUBES_ENOCONV) then
+          stat = st
+          return
+        end if
+        if (st /= TUBES_OK) orbits(k)%converged = .false.
+      end do
+    end subroutine take
+  end subroutine arc_run
+
+  !> The family through a guess (opts%guess, opts%guess_period; docs/orbits.md, "Orbits from a
+  !> guess"): n = opts%n_segments nodes along the guess's trajectory over guess_period, corrected
+  !> by correct_multiple at the guess's own energy H(guess) (no symmetry assumed), then continued
+  !> by pseudo-arclength in (nodes, T), the energy free (arc_run): upwards in energy to the
+  !> requested energies at or above H(guess), downwards to those below it. A guess that does not
+  !> converge: end_reason END_NOGUESS, no orbit.
+  subroutine guess_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, folds, stat)
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad
+    real(wp), intent(in) :: des(:)
+    type(orbit_opts_t), intent(in) :: opts
+    type(orbit_t), intent(out) :: orbits(size(des))
+    real(wp), intent(out) :: end_de
+    integer, intent(out) :: end_reason, stat
+    type(fold_t), allocatable, intent(inout) :: folds(:)
+    type(shooting_arc_t) :: sys
+    type(orbit_t) :: ob
+    real(wp), allocatable :: nodes(:, :), w0(:), t0(:), f(:), jac(:, :), gr(:)
+    real(wp) :: e0, period, ede
+    integer :: n2, ns, info, reason, k
+    logical :: want(size(des))
+    n2 = model%dim()
+    ns = max(opts%n_segments, 1)
+    end_de = -1
+    end_reason = END_NONE
+    do k = 1, size(des)
+      orbits(k)%de = des(k)
+    end do
+    stat = TUBES_EINPUT
+    if (size(opts%guess) /= n2 .or. .not. opts%guess_period > 0) return
+    e0 = model%energy(opts%guess)
+    allocate (nodes(n2, ns))
+    call nodes_from(model, opts%guess, opts%guess_period, ns, opts, nodes, stat)
+    period = opts%guess_period
+    if (stat == TUBES_OK) call correct_multiple(model, e0, e0 - eqs(isad)%energy, nodes, period, opts, ob, stat)
+    if (stat /= TUBES_OK) then
+      end_reason = END_NOGUESS
+      stat = TUBES_OK
+      return
+    end if
+    allocate (sys%model, source=model)
+    sys%opts = opts
+    sys%n = ns
+    if (ns == 1) sys%n_raw = n2
+    w0 = [reshape(nodes, [n2*ns]), period]
+    call sys%rows(w0, w0, f, jac, stat)
+    if (stat /= TUBES_OK) then
+      end_reason = END_NOGUESS
+      stat = TUBES_OK
+      return
+    end if
+    allocate (t0(size(w0)), gr(n2))
+    call null_vector(jac, t0, info)
+    call model%gradient(w0(1:n2), gr, stat)
+    if (info /= 0 .or. stat /= 0) then
+      end_reason = END_NOGUESS
+      stat = TUBES_OK
+      return
+    end if
+    if (dot_product(gr, t0(1:n2)) < 0) t0 = -t0
+    want = eqs(isad)%energy + des >= e0
+    if (any(want)) then
+      call arc_run(sys, model, eqs, isad, w0, t0, ns, 1, des, want, opts, orbits, end_de, end_reason, folds, stat)
+      if (stat < 0) return
+    end if
+    want = eqs(isad)%energy + des < e0
+    if (any(want)) then
+      call arc_run(sys, model, eqs, isad, w0, -t0, ns, -1, des, want, opts, orbits, ede, reason, folds, stat)
+      if (stat < 0) return
+      if (end_reason == END_NONE) then
+        end_de = ede
+        end_reason = reason
+      end if
+    end if
+  end subroutine guess_family
+
+  !> The family branching off a parent family's orbit (x0, period) at a bifurcation whose
+  !> multiplier is sgn (+1 a branch point, -1 a period doubling) along the monodromy's
+  !> eigenvector v (floquet_tangent; docs/orbits.md, "Branch switching"): n = opts%n_segments
+  !> nodes along the orbit over T' = period (sgn = +1) or 2 period (sgn = -1), the tangent
+  !> phi(t_i) v at node i (the period's component 0), continued by pseudo-arclength (arc_run) to
+  !> the requested energies on the side the first step goes to.
+  subroutine branch_arc(model, eqs, isad, x0, period, v, sgn, des, opts, orbits, end_de, end_reason, folds, stat)
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad, sgn
+    real(wp), intent(in) :: x0(:), period, v(:), des(:)
+    type(orbit_opts_t), intent(in) :: opts
+    type(orbit_t), intent(out) :: orbits(size(des))
+    real(wp), intent(out) :: end_de
+    integer, intent(out) :: end_reason, stat
+    type(fold_t), allocatable, intent(inout) :: folds(:)
+    type(shooting_arc_t) :: sys
+    real(wp), allocatable :: nodes(:, :), w0(:), t0(:)
+    real(wp) :: tp, xx(size(x0)), phi(size(x0), size(x0))
+    integer :: n2, ns, i, k
+    logical :: want(size(des))
+    n2 = size(x0)
+    ns = max(opts%n_segments, 1)
+    end_de = -1
+    end_reason = END_NONE
+    do k = 1, size(des)
+      orbits(k)%de = des(k)
+    end do
+    tp = merge(1, 2, sgn > 0)*period
+    allocate (nodes(n2, ns), t0(n2*ns + 1))
+    call nodes_from(model, x0, tp, ns, opts, nodes, stat)
+    if (stat /= TUBES_OK) return
+    t0 = 0
+    t0(1:n2) = v
+    do i = 2, ns
+      call flow_stm(model, x0, (i - 1)*tp/ns, opts, xx, phi, stat)
+      if (stat /= TUBES_OK) return
+      t0(n2*(i - 1) + 1:n2*i) = matmul(phi, v)
+    end do
+    t0 = t0/sqrt(sum(t0**2))
+    allocate (sys%model, source=model)
+    sys%opts = opts
+    sys%n = ns
+    if (ns == 1) sys%n_raw = n2
+    w0 = [reshape(nodes, [n2*ns]), tp]
+    want = .true.
+    call arc_run(sys, model, eqs, isad, w0, t0, ns, 0, des, want, opts, orbits, end_de, end_reason, folds, stat)
+  end subroutine branch_arc
+
+  !> The unit null vector of the m x n matrix a of rank n - 1 (m x (m + 1) of full rank m, or square
+  !> with a one-dimensional null space): the eigenvector of a^T a for its smallest eigenvalue.
   subroutine null_vector(a, v, info)
     real(wp), intent(in) :: a(:, :)
     real(wp), intent(out) :: v(:)

@@ -15,7 +15,8 @@ module tubes_study
   use tubes_field, only: vector_field_t
   use tubes_region, only: region_opts_t, region_t, transition_region, region_curve
   use tubes_equilibria, only: equilibrium_t, find_equilibria, neck_normal, nhim_reach, gate_holds_nhim
-  use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t, floquet_indices, floquet_tangent
+  use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t, floquet_indices, floquet_tangent, &
+                          fold_t, branch_arc, END_NOBRANCH
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, plane_search_range, &
                                  make_plane_crossing, SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
@@ -58,7 +59,7 @@ module tubes_study
     type(integ_choice_t) :: integ    !! the integrator of every analysis (&integrator)
   end type study_t
 
-  integer, parameter :: NKEY = MAX_PARAMS + 2*MAX_DOF + 21   ! seed_key's numbers
+  integer, parameter :: NKEY = MAX_PARAMS + 4*MAX_DOF + 24   ! seed_key's and family_key's numbers (the longer)
   !> What a kept result belongs to: the system, the saddle and the numbers it depends on.
   type :: kept_for_t
     character(32) :: system = ''
@@ -134,6 +135,7 @@ module tubes_study
   integer, parameter, public :: BIF_PERIOD_DOUBLING = 2  !! an index crosses -1
   integer, parameter, public :: BIF_KREIN = 3            !! two elliptic pairs collide and leave the
                                                          !! unit circle (or return to it)
+  integer, parameter, public :: BIF_FOLD = 4             !! the energy along a guess's family turns back
   real(wp), parameter, public :: BIF_TOL = 1.0e-11_wp    !! the bisection's bracket: width <= BIF_TOL dE
   !> an index is complex (a quartet off the unit circle) when |Im nu| > BIF_COMPLEX (1 + |Re nu|):
   !> above the traces' rounding (1e-16 |m|^2 in (nu1 - nu2)^2), below any collision one can see
@@ -189,10 +191,13 @@ contains
     real(wp), intent(in) :: de
     type(tube_opts_t), intent(in) :: o
     integer(i8) :: key(NKEY)
-    key = transfer([st%params, st%lo, st%hi, real([st%n_grid, st%n_segments], wp), st%orb_tol, st%orb_rtol, &
-                    st%orb_atol, real([sec%kind, sec%index, sec%dir], wp), sec%level, de, &
-                    real([o%kind, o%integ%method, o%integ%opts%solver, o%integ%opts%max_iter], wp), o%integ%h, &
-                    o%integ%opts%omega_bind, o%eps, o%t_max, o%rtol, o%atol, real(st%family, wp)], key)
+    real(wp) :: v(size(st%params) + size(st%lo) + size(st%hi) + 21)
+    v = [st%params, st%lo, st%hi, real([st%n_grid, st%n_segments], wp), st%orb_tol, st%orb_rtol, &
+         st%orb_atol, real([sec%kind, sec%index, sec%dir], wp), sec%level, de, &
+         real([o%kind, o%integ%method, o%integ%opts%solver, o%integ%opts%max_iter], wp), o%integ%h, &
+         o%integ%opts%omega_bind, o%eps, o%t_max, o%rtol, o%atol, real(st%family, wp)]
+    key = 0      ! (NKEY is the longer of the two keys: family_key's)
+    key(1:size(v)) = transfer(v, key, size(v))
   end function seed_key
 
   !> The index of the kept result of st's system and saddle with this key (the last), or 0.
@@ -215,11 +220,20 @@ contains
     type(orbit_opts_t), intent(in) :: o
     integer(i8) :: key(NKEY)
     real(wp) :: v(size(st%params) + size(st%lo) + size(st%hi) + 14)
+    real(wp) :: g(2*MAX_DOF + 3)
     v = [st%params, st%lo, st%hi, real([st%n_grid, o%n_segments, o%max_iter, o%n_samples, o%family], wp), o%tol, &
          o%rtol, o%atol, o%period_max, real([o%integ%method, o%integ%opts%solver, o%integ%opts%max_iter], wp), &
          o%integ%h, o%integ%opts%omega_bind]
     key = 0
     key(1:size(v)) = transfer(v, key, size(v))
+    g = 0      ! a guess's family and a branch: their own paths
+    g(1) = o%branch
+    if (allocated(o%guess)) then
+      g(2) = size(o%guess)
+      g(3) = o%guess_period
+      g(4:3 + min(size(o%guess), 2*MAX_DOF)) = o%guess(1:min(size(o%guess), 2*MAX_DOF))
+    end if
+    key(size(v) + 1:size(v) + size(g)) = transfer(g, key, size(g))
   end function family_key
 
   !> The model, its equilibria in the box and the rank-1 saddle named `saddle` (with
@@ -564,7 +578,7 @@ contains
   !> The orbits of the saddle's family at des (orbit_family), on the run's path of this family
   !> (model, saddle and opts) when stores are given: a family is continued once in a run, and
   !> each orbit found once (docs/orbits.md, "One family, each orbit once").
-  subroutine family_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores)
+  recursive subroutine family_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores, folds)
     type(study_t), intent(in) :: st
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: eqs(:)
@@ -575,26 +589,32 @@ contains
     real(wp), intent(out) :: end_de
     integer, intent(out) :: end_reason, stat
     type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
+    type(fold_t), allocatable, intent(out), optional :: folds(:)  !! a guess's family: its folds
     type(kept_path_t) :: entry
     integer(i8) :: key(NKEY)
     integer :: i
     end_de = -1
     end_reason = 0
     stat = TUBES_OK
+    if (present(folds)) allocate (folds(0))
     call check_resolved(eqs(isad), des, stat)
     if (stat /= TUBES_OK) return
+    if (opts%branch > 0) then
+      call branch_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores, folds)
+      return
+    end if
     if (.not. present(stores)) then
-      call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat)
+      call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, folds=folds)
       return
     end if
     key = family_key(st, opts)
     if (.not. allocated(stores%paths)) allocate (stores%paths(0))
     i = kept_at(stores%paths, st, key)
     if (i > 0) then
-      call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores%paths(i)%path)
+      call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores%paths(i)%path, folds)
       return
     end if
-    call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, entry%path)
+    call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, entry%path, folds)
     if (stat == TUBES_EINPUT) return      ! a call that made no sense leaves nothing to keep
     entry%system = st%system
     entry%saddle = st%saddle
@@ -602,9 +622,54 @@ contains
     stores%paths = [stores%paths, entry]
   end subroutine family_at
 
+  !> The family branching off at the opts%branch-th bifurcation (family_bifurcations) of the parent
+  !> family (opts with branch = 0: the guess's family, or the saddle's family opts%family) at des:
+  !> a branch point or a period doubling, continued by branch_arc from the orbit there along the
+  !> monodromy's eigenvector (docs/orbits.md, "Period doubling and the doubled family").
+  !> END_NOBRANCH (no orbit) when the parent has fewer bifurcations or that one is not a branch.
+  recursive subroutine branch_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores, folds)
+    type(study_t), intent(in) :: st
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad
+    real(wp), intent(in) :: des(:)
+    type(orbit_opts_t), intent(in) :: opts
+    type(orbit_t), intent(out) :: orbs(size(des))
+    real(wp), intent(out) :: end_de
+    integer, intent(out) :: end_reason, stat
+    type(seed_stores_t), intent(inout), optional :: stores
+    type(fold_t), allocatable, intent(inout), optional :: folds(:)   !! the branch's folds
+    type(orbit_opts_t) :: po
+    type(orbit_t) :: parent(size(des))
+    type(bifurcation_t), allocatable :: bifs(:)
+    type(fold_t), allocatable :: fl(:)
+    real(wp) :: nu(2*model%ndof() - 2, size(des))
+    integer :: k
+    po = opts
+    po%branch = 0
+    do k = 1, size(des)
+      orbs(k)%de = des(k)
+    end do
+    call family_at(st, model, eqs, isad, des, po, parent, end_de, end_reason, stat, stores, fl)
+    if (stat < 0) return
+    call family_bifurcations(st, model, eqs, isad, des, parent, po, nu, bifs, stat, stores, fl)
+    if (stat < 0) return
+    end_de = -1
+    end_reason = END_NOBRANCH
+    stat = TUBES_OK
+    k = opts%branch
+    if (k > size(bifs)) return
+    if (.not. bifs(k)%converged .or. (bifs(k)%kind /= BIF_BRANCH .and. bifs(k)%kind /= BIF_PERIOD_DOUBLING)) return
+    deallocate (fl)
+    allocate (fl(0))   ! the branch's own folds
+    call branch_arc(model, eqs, isad, bifs(k)%x0, bifs(k)%period, bifs(k)%tangent, &
+                    merge(1, -1, bifs(k)%kind == BIF_BRANCH), des, opts, orbs, end_de, end_reason, fl, stat)
+    if (present(folds)) call move_alloc(fl, folds)
+  end subroutine branch_at
+
   !> The orbits scene's call: the study's model, equilibria and saddle (setup_model), then the
   !> saddle's family at des (family_at); TUBES_EINPUT for options that make no sense.
-  subroutine study_family(st, des, opts, model, eqs, isad, orbs, end_de, end_reason, stat, stores)
+  subroutine study_family(st, des, opts, model, eqs, isad, orbs, end_de, end_reason, stat, stores, folds)
     type(study_t), intent(in) :: st
     real(wp), intent(in) :: des(:)
     type(orbit_opts_t), intent(in) :: opts
@@ -615,16 +680,18 @@ contains
     real(wp), intent(out) :: end_de
     integer, intent(out) :: end_reason, stat
     type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
+    type(fold_t), allocatable, intent(out), optional :: folds(:)  !! a guess's family: its folds
     end_de = -1
     end_reason = 0
     isad = 0
+    if (present(folds)) allocate (folds(0))
     stat = TUBES_EINPUT
     if (size(des) < 1 .or. opts%n_samples < 2 .or. opts%max_iter < 1 .or. opts%n_segments < 1 .or. &
         .not. opts%tol > 0) return
     call setup_model(trim(st%system), st%params, st%lo, st%hi, st%n_grid, trim(st%saddle), model, eqs, &
                      isad, stat, stores=stores)
     if (stat /= TUBES_OK) return
-    call family_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores)
+    call family_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores, folds)
   end subroutine study_family
 
   !> The orbits as the tables of the C API and the f2py facade (docs/output.md, /orbits): column k
@@ -687,7 +754,7 @@ contains
   !> the orbit at the final midpoint gives the energy, period and indices. A change and its
   !> reversal between two requested energies are not seen (the requested energies set the
   !> resolution). nu(:, k): the indices of orbs(k) (Re in 1:N-1, Im in N:2N-2; 0 if not converged).
-  subroutine family_bifurcations(st, model, eqs, isad, des, orbs, opts, nu, bifs, stat, stores)
+  recursive subroutine family_bifurcations(st, model, eqs, isad, des, orbs, opts, nu, bifs, stat, stores, folds)
     type(study_t), intent(in) :: st
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: eqs(:)
@@ -699,6 +766,7 @@ contains
     type(bifurcation_t), allocatable, intent(out) :: bifs(:)
     integer, intent(out) :: stat
     type(seed_stores_t), intent(inout), optional :: stores
+    type(fold_t), intent(in), optional :: folds(:)   !! the family's folds (a guess's family): kind BIF_FOLD
     integer :: k, kind, np, cnt(3, size(des))
     type(bifurcation_t) :: b
     np = model%ndof() - 1
@@ -713,7 +781,7 @@ contains
     end do
     stat = TUBES_OK
     do k = 1, size(des) - 1
-      if (opts%family < 0) exit   ! a branch family (branch_family): its orbits' indices only
+      if (opts%family < 0 .or. opts%branch > 0) exit   ! a branch family: its orbits' indices only
       if (cnt(1, k) < 0 .or. cnt(1, k + 1) < 0) cycle
       do kind = 1, 3
         if (cnt(kind, k) == cnt(kind, k + 1)) cycle
@@ -722,6 +790,18 @@ contains
         bifs = [bifs, b]
       end do
     end do
+    if (present(folds)) then
+      do k = 1, size(folds)
+        b = bifurcation_t(kind=BIF_FOLD, after=count(des < folds(k)%de), de=folds(k)%de, width=folds(k)%width, &
+                          energy=eqs(isad)%energy + folds(k)%de, period=folds(k)%period, converged=.true.)
+        allocate (b%nre(np), b%nim(np))
+        call floquet_indices(folds(k)%monodromy, b%nre, b%nim, stat)
+        if (stat /= TUBES_OK) return
+        b%x0 = folds(k)%x0
+        b%tangent = folds(k)%tangent
+        bifs = [bifs, b]
+      end do
+    end if
     stat = TUBES_OK
   contains
     subroutine locate(k, kind, b)
@@ -736,7 +816,7 @@ contains
       b%kind = kind
       b%after = k
       b%converged = .true.
-      do while (hi - lo > BIF_TOL*hi)
+      do while (hi - lo > BIF_TOL*max(abs(lo), abs(hi)))
         mid = lo + (hi - lo)/2
         call family_at(st, model, eqs, isad, [mid], opts, o, end_de, reason, stat, stores)
         if (stat < 0) return
@@ -803,6 +883,7 @@ contains
     type(equilibrium_t), allocatable :: eqs(:)
     type(orbit_t), allocatable :: orbs(:)
     type(bifurcation_t), allocatable :: bifs(:)
+    type(fold_t), allocatable :: fl(:)
     real(wp), allocatable :: nu1(:, :)
     integer :: isad, reason, k, np, md
     real(wp) :: ede
@@ -810,11 +891,11 @@ contains
     bx0 = 0; btan = 0
     md = size(nu, 1)/2 + 1
     allocate (orbs(size(des)))
-    call study_family(st, des, opts, model, eqs, isad, orbs, ede, reason, stat, stores)
+    call study_family(st, des, opts, model, eqs, isad, orbs, ede, reason, stat, stores, fl)
     if (stat < 0) return
     np = model%ndof() - 1
     allocate (nu1(2*np, size(des)))
-    call family_bifurcations(st, model, eqs, isad, des, orbs, opts, nu1, bifs, stat, stores)
+    call family_bifurcations(st, model, eqs, isad, des, orbs, opts, nu1, bifs, stat, stores, fl)
     if (stat < 0) return
     nu(1:np, :) = nu1(1:np, :)
     nu(md:md + np - 1, :) = nu1(np + 1:2*np, :)
