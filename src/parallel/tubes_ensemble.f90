@@ -69,6 +69,7 @@ module tubes_ensemble
   end interface ens_agree
 
   public :: ens_run, ens_chunk_items, ens_agree, ens_reuse_ok, ens_cancelled
+  public :: progress_begin, progress_tick   ! the progress lines' C entries (a scene's own loop too)
 contains
 
   !> Compute items 1..n of ens: this rank's share over its threads, then every item's results on

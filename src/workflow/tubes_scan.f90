@@ -15,6 +15,7 @@ module tubes_scan
   use tubes_equilibria, only: equilibrium_t, find_equilibria, continue_equilibria, rest_jacobian
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, correct_symmetric, correct_multiple, finish_orbit
   use tubes_study, only: study_t, de_floor
+  use tubes_ensemble, only: progress_begin, progress_tick
   implicit none
   private
 
@@ -29,18 +30,6 @@ module tubes_scan
   real(wp), parameter, public :: SCAN_FOLD_TOL = 1.0e-13_wp
 
   public :: scan_table, scan_parameter, scan_index
-
-  interface
-    subroutine progress_begin(fault, n) bind(C, name='tubes_progress_begin')
-      import :: c_char, c_int
-      character(kind=c_char), intent(in) :: fault(*)
-      integer(c_int), value :: n
-    end subroutine progress_begin
-    subroutine progress_tick(done, total) bind(C, name='tubes_progress_tick')
-      import :: c_long
-      integer(c_long), value :: done, total
-    end subroutine progress_tick
-  end interface
 
 contains
 
