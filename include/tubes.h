@@ -243,6 +243,28 @@ int tubes_equilibria_centres(const char *system, const double *params, const dou
 int tubes_box_note(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
                    char *note, int lnote, void *stores);
 
+/* Scenes and their records (docs/development.md, "Scenes and their records"): a scene of the
+ * core (src/workflow/tubes_scene_*.f90) returns a record's handle; its items are datasets and
+ * attributes (kind TUBES_REC_*, a group path, a name, units, a rank and C-order dims), its lines
+ * the console's (stream 1 stdout, 2 stderr), its code the worst verdict's exit code. The C driver
+ * walks it (src/io/tubes_record_write.c); tubes_record_free forgets it. */
+enum { TUBES_REC_REAL = 1, TUBES_REC_INT = 2, TUBES_REC_STRINGS = 3, TUBES_REC_ATTR_REAL = 4, TUBES_REC_ATTR_INT = 5,
+       TUBES_REC_ATTR_STRING = 6 };
+/* The equilibria scene: the saddle want (asked: the input names it), label (the model in
+ * messages), dissip (the dissipation in words, "" conservative), box (&equilibria box). */
+int tubes_equilibria_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
+                           double box, const char *want, int asked, const char *label, const char *dissip,
+                           void *stores);
+int tubes_record_code(int h);
+void tubes_record_sizes(int h, int *n_items, int *n_lines);
+int tubes_record_line(int h, int j, int *stream, char *buf, int len);
+int tubes_record_item(int h, int k, int *kind, char group[256], char name[64], char units[32], int *rank,
+                      long long dims[4], int *slen);
+void tubes_record_reals(int h, int k, int n, double *v);
+void tubes_record_ints(int h, int k, int n, int *v);
+void tubes_record_string(int h, int k, int j, char *buf, int len);
+void tubes_record_free(int h);
+
 /* Progress callback: called every few thousand steps with the current time; return
  * non-zero to stop the integration (the result so far is returned with TUBES_OK). */
 typedef int (*tubes_progress_fn)(double t, void *user);

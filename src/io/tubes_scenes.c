@@ -1,5 +1,6 @@
 /* Scene drivers (include/tubes_scenes.h). */
 #include "tubes_scenes.h"
+#include "tubes_record.h"
 #include "tubes_h5.h"
 #include "tubes_input.h"
 #include <errno.h>
@@ -434,179 +435,18 @@ int run_setup(tubes_run_t *run) {
   return de_resolvable(run, L.en[k]);
 }
 
+/* The equilibria scene: src/workflow/tubes_scene_equilibria.f90 (its record written by
+ * record_emit); with dissipation, /saddle takes the dissipation's attributes. */
 int scene_equilibria(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  static eqlist_t L;
-  double t0 = now();
-  int st = find_eqs(run, &L);
-  if (st < 0) {
-    char m[TUBES_LSTATUS];
-    status_text(st, m, sizeof m);
-    fprintf(stderr, "tubes: equilibria: failed: %s (status %d)%s\n", m, st,
-            st == TUBES_ENOCONV ? "; or the box holds more than 256 of them: a smaller box" : "");
-    return EXIT_NUMERIC;
-  }
-  int n = L.n, nd = L.ndof, n2 = 2 * nd;
-  const char *nm[NEQ_MAX];
-  for (int k = 0; k < n; k++) nm[k] = L.names + 8 * k;
-  const char *want = c->saddle[0] ? c->saddle : run->saddle;
-  int isad = find_named(&L, want);
-  if (!strcmp(run->system, "rolling_ball")) {
-    printf("equilibria: %d critical points of H in |x|, |y| <= %g cm (%.3f s)\n", n, c->box, now() - t0);
-    printf("  %-4s %13s %13s %13s %5s %10s %10s %8s\n", "name", "x [cm]", "y [cm]", "E [(cm/s)^2]",
-           "index", "lambda[1/s]", "omega[1/s]", "T_po [s]");
-  } else {
-    printf("equilibria of %s: %d in the box", run->label, n);
-    for (int i = 0; i < nd; i++) printf("%s [%g, %g]", i ? " x" : "", run->lo[i], run->hi[i]);
-    printf(" (%.3f s)\n  %-4s %13s %13s %13s %5s %10s %10s %8s%s\n", now() - t0, "name", "q1", nd > 1 ? "q2" : "",
-           "E", "index", "lambda", "omega", "T_po", nd > 2 ? "            q3     omega2" : "");
-  }
-  /* every equilibrium's centre frequencies and linear stability (wells, L4/L5: all centres) */
-  static double fq[MD * NEQ_MAX];
-  static int stab[NEQ_MAX];
-  int nc = 0;
-  if (tubes_equilibria_centres(run->system, run->params, run->lo, run->hi, run->n_grid, NEQ_MAX, &nc, fq, stab,
-                               run->seeds) < 0 || nc != n) {
-    fprintf(stderr, "tubes: equilibria: the centre frequencies could not be computed\n");
-    return EXIT_NUMERIC;
-  }
-  double *x = malloc(sizeof(double) * (n ? n : 1)), *y = malloc(sizeof(double) * (n ? n : 1)),
-         *om = malloc(sizeof(double) * (n ? n : 1)), *qq = malloc(sizeof(double) * (n ? n : 1) * n2);
-  for (int k = 0; k < n; k++) {
-    x[k] = L.q[MD * k];
-    y[k] = nd > 1 ? L.q[MD * k + 1] : NAN;   /* 1 DOF: no second coordinate */
-    om[k] = nd > 1 ? L.om[(MD - 1) * k] : NAN;
-    for (int i = 0; i < nd; i++) {
-      qq[n2 * k + i] = L.q[MD * k + i];
-      qq[n2 * k + nd + i] = L.p[MD * k + i];
-    }
-    /* a coordinate that prints as zero prints as 0, not -0 */
-    double xp = fabs(x[k]) < 5e-9 ? 0.0 : x[k], ep = fabs(L.en[k]) < 5e-7 ? 0.0 : L.en[k];
-    char yp[32] = "";                /* 1 DOF: no second coordinate, an empty column */
-    if (nd > 1) snprintf(yp, sizeof yp, "%13.8f", fabs(y[k]) < 5e-9 ? 0.0 : y[k]);
-    if (L.rank1[k] == 1 && nd < 2)   /* 1 DOF: a saddle without a centre */
-      printf("  %-4s %13.8f %13s %13.6f %5d %10.6f %10s %8s", nm[k], xp, yp, ep, L.morse[k], L.lam[k], "-", "-");
-    else if (L.rank1[k] == 1)
-      printf("  %-4s %13.8f %13s %13.6f %5d %10.6f %10.6f %8.6f", nm[k], xp, yp, ep, L.morse[k],
-             L.lam[k], om[k], 2 * M_PI / om[k]);
-    else if (L.rank1[k] == 2)   /* degenerate: a zero frequency, no Lyapunov orbit */
-      printf("  %-4s %13.8f %13s %13.6f %5d %10.6f %10.6f %8s", nm[k], xp, yp, ep, L.morse[k], L.lam[k], 0.0, "-");
-    else if (stab[k])   /* all centres (a well, L4/L5): the lowest frequency; no saddle, no T_po */
-      printf("  %-4s %13.8f %13s %13.6f %5d %10s %10.6f %8s", nm[k], xp, yp, ep, L.morse[k], "-", fq[MD * k], "-");
-    else
-      printf("  %-4s %13.8f %13s %13.6f %5d %10s %10s %8s", nm[k], xp, yp, ep, L.morse[k], "-", "-", "-");
-    if (nd > 2 && L.rank1[k] >= 1)   /* 3 DOF: the third coordinate and the second centre's frequency */
-      printf(" %13.8f %10.6f", fabs(L.q[MD * k + 2]) < 5e-9 ? 0.0 : L.q[MD * k + 2], L.om[(MD - 1) * k + 1]);
-    else if (nd > 2)
-      printf(" %13.8f %10s", fabs(L.q[MD * k + 2]) < 5e-9 ? 0.0 : L.q[MD * k + 2], "-");
-    putchar('\n');
-  }
-  char note[512] = "";   /* what the box may hide: an equilibrium on its face, wells beyond it */
-  if (tubes_box_note(run->system, run->params, run->lo, run->hi, run->n_grid, note, sizeof note, run->seeds) == 0 &&
-      note[0])
-    fprintf(stderr, "tubes: equilibria: note: %s\n", note);
-  hid_t g = h5_group(run->file, "equilibria");
-  if (g < 0) { free(x); free(y); free(om); free(qq); return EXIT_IO; }
-  hsize_t dn = (hsize_t)n, dst[2] = {(hsize_t)n, (hsize_t)n2}, d44[2] = {(hsize_t)n2, (hsize_t)n2};
-  int rc = 0;
-  rc |= h5_write_double(g, "x", 1, &dn, x, NULL);
-  rc |= h5_write_double(g, "y", 1, &dn, y, NULL);
-  rc |= h5_write_double(g, "state", 2, dst, qq, "state units");
-  rc |= h5_write_double(g, "height", 1, &dn, L.hgt, NULL);
-  rc |= h5_write_double(g, "energy", 1, &dn, L.en, NULL);
-  rc |= h5_write_double(g, "grad_norm", 1, &dn, L.gn, NULL);
-  rc |= h5_write_int(g, "morse_index", dn, L.morse, NULL);
-  rc |= h5_write_strings(g, "name", dn, nm);
-  rc |= h5_write_double(g, "lambda", 1, &dn, L.lam, NULL);
-  rc |= h5_write_double(g, "omega", 1, &dn, om, NULL);
-  if (nd > 2) {   /* every centre frequency of a rank-1 saddle, (n, N - 1) */
-    double *oa = malloc(sizeof(double) * (n ? n : 1) * (nd - 1));
-    for (int k = 0; k < n; k++)
-      for (int i = 0; i < nd - 1; i++) oa[(nd - 1) * k + i] = L.om[(MD - 1) * k + i];
-    hsize_t dom[2] = {(hsize_t)n, (hsize_t)(nd - 1)};
-    rc |= h5_write_double(g, "omegas", 2, dom, oa, NULL);
-    free(oa);
-  }
-  {   /* the centre frequencies (n, N), NaN-padded, and linear stability */
-    double *fa = malloc(sizeof(double) * (n ? n : 1) * nd);
-    for (int k = 0; k < n; k++)
-      for (int i = 0; i < nd; i++) fa[nd * k + i] = fq[MD * k + i];
-    hsize_t dfr[2] = {(hsize_t)n, (hsize_t)nd};
-    rc |= h5_write_double(g, "frequencies", 2, dfr, fa, NULL);
-    rc |= h5_write_int(g, "stable", dn, stab, NULL);
-    free(fa);
-  }
-  rc |= h5_attr_double(g, "box", c->box);
-  rc |= h5_attr_long(g, "n_grid", c->n_grid);
-  if (note[0]) rc |= h5_attr_string(g, "box_note", note);
-  H5Gclose(g);
-  free(x); free(y); free(om); free(qq);
-  if (rc) return EXIT_IO;
-  if (isad >= 0 && L.rank1[isad] == 2) {
-    printf("saddle %s: E_e = %.10g, lambda = %.10g, degenerate (a centre frequency is 0: a mode without "
-           "quadratic term): no Lyapunov orbits, no leading-order flux; the flux scene samples it\n", nm[isad],
-           fabs(L.en[isad]) < 1e-300 ? 0.0 : L.en[isad], L.lam[isad]);
-    return 0;
-  }
-  if ((isad < 0 || !L.rank1[isad]) && !saddle_asked(c)) {   /* the default saddle, not asked for: none */
-    printf("no rank-1 saddle named %s in the box: /saddle is not written\n", want);
-    return 0;
-  }
-  if (isad < 0 || !L.rank1[isad]) {
-    fprintf(stderr, "tubes: equilibria: saddle %s is not a rank-1 saddle of %s in the &equilibria box "
-            "(found:", want, run->label);
-    for (int k = 0; k < n; k++)
-      if (L.rank1[k] == 1) fprintf(stderr, " %s", nm[k]);
-    fprintf(stderr, ")\n");
-    return EXIT_NUMERIC;
-  }
-  int k = isad;
-  double omk = nd > 1 ? L.om[(MD - 1) * k] : NAN;   /* 1 DOF: no centre, no Lyapunov orbit (not 0, inf) */
-  if (!strcmp(run->system, "rolling_ball"))
-    printf("saddle %s: E_e = %.10g (cm/s)^2, lambda = %.10g 1/s, omega = %.10g rad/s, T_po = %.10g s\n",
-           nm[k], L.en[k], L.lam[k], omk, 2 * M_PI / omk);
-  else if (nd < 2)
-    printf("saddle %s: E_e = %.10g, lambda = %.10g (1 degree of freedom: no centre, no Lyapunov orbit)\n", nm[k],
-           fabs(L.en[k]) < 1e-300 ? 0.0 : L.en[k], L.lam[k]);
-  else
-    printf("saddle %s: E_e = %.10g, lambda = %.10g, omega = %.10g, T_po = %.10g\n", nm[k],
-           fabs(L.en[k]) < 1e-300 ? 0.0 : L.en[k], L.lam[k], omk, 2 * M_PI / omk);
-  g = h5_group(run->file, "saddle");
+  int h = tubes_equilibria_scene(run->system, run->params, run->lo, run->hi, run->n_grid, c->box,
+                                 c->saddle[0] ? c->saddle : run->saddle, saddle_asked(c), run->label,
+                                 dissipative(run) ? run->dissip : "", run->seeds);
+  int rc = record_emit(run->file, h);
+  if (rc || !dissipative(run) || H5Lexists(run->file, "saddle", H5P_DEFAULT) <= 0) return rc;
+  hid_t g = H5Gopen2(run->file, "saddle", H5P_DEFAULT);
   if (g < 0) return EXIT_IO;
-  double evr[36];   /* C order: row i = component i, columns u, s, Re c, Im c */
-  for (int i = 0; i < n2; i++)
-    for (int j = 0; j < n2; j++) evr[n2 * i + j] = L.ev[4 * MD * MD * k + n2 * j + i];
-  rc |= h5_attr_string(g, "name", nm[k]);
-  rc |= h5_attr_double(g, "x", L.q[MD * k]);
-  rc |= h5_attr_double(g, "y", nd > 1 ? L.q[MD * k + 1] : NAN);
-  rc |= h5_attr_double(g, "energy", L.en[k]);
-  rc |= h5_attr_double(g, "lambda", L.lam[k]);
-  rc |= h5_attr_double(g, "omega", omk);
-  rc |= h5_attr_double(g, "T_po", 2 * M_PI / omk);
-  rc |= h5_write_double(g, "eigenvectors", 2, d44, evr, NULL);
-  if (dissipative(run)) {     /* the damped saddle: its own spectrum (docs/dissipation.md) */
-    double wr[2 * MD], wi[2 * MD], cd = 0, ev[4 * MD];
-    int st = tubes_saddle_spectrum(run->system, run->params, run->lo, run->hi, run->n_grid, nm[k], wr, wi, &cd,
-                                   run->seeds);
-    if (st < 0) {
-      char m[TUBES_LSTATUS];
-      status_text(st, m, sizeof m);
-      fprintf(stderr, "tubes: equilibria: the damped saddle's eigenvalues: %s (status %d)\n", m, st);
-      H5Gclose(g);
-      return EXIT_NUMERIC;
-    }
-    printf("  with its dissipation (%s) its eigenvalues are", run->dissip);
-    for (int i = n2 - 1; i >= 0; i--) {
-      if (wi[i] < 0) continue;
-      if (wi[i] > 0) printf(" %.8g +- %.8g i", wr[i], wi[i]);
-      else printf(" %.8g", wr[i]);
-    }
-    printf(" (the conservative +-lambda, +-i omega above)\n");
-    for (int i = 0; i < n2; i++) { ev[2 * i] = wr[i]; ev[2 * i + 1] = wi[i]; }
-    hsize_t de2[2] = {(hsize_t)n2, 2};
-    rc |= h5_write_double(g, "damped_eigenvalues", 2, de2, ev, NULL);
-    rc |= dissipation_attrs(g, run);
-  }
+  rc = dissipation_attrs(g, run);
   H5Gclose(g);
   return rc ? EXIT_IO : 0;
 }

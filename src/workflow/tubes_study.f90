@@ -33,7 +33,7 @@ module tubes_study
             check_at, maps_at, cut_outputs, equilibria_table, study_family, family_table, open_stores, &
             family_bifurcations, bifurcation_table, orbit_crossings, &
             stores_at, close_stores, stores_counts, de_floor, region_at, region_outputs, region_numbers, dissipation_of, &
-            damped_spectrum, box_note, box_note_of, centres_of, p_trans_leading, leading_order_at
+            damped_spectrum, box_note, box_note_of, centres_of, p_trans_leading, leading_order_at, model_equilibria
 
   !> The section of a tube-dynamics call (as &section).
   type, public :: section_choice_t

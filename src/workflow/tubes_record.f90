@@ -1,0 +1,247 @@
+!> A scene's result record (docs/development.md, "Scenes and their records"): what a scene
+!> computed and decided, in the order it did, for a front end to print and write:
+!>
+!> - items: datasets (real or integer, any rank, with units) and strings, and attributes (real,
+!>   integer, string), each with its group's path ('equilibria', 'orbits/bifurcations') and its
+!>   name; arrays in C order (row-major: the last index fastest), as the HDF5 file holds them;
+!> - lines: the console's lines, each to stdout or stderr;
+!> - the exit code: the worst verdict's (0: none), docs/usage.md's EXIT_*.
+!>
+!> The scene procedures (src/workflow/tubes_scenes.f90) fill a record; the C driver walks it into
+!> the output file and onto the console (src/io/tubes_record_write.c), Python reads it
+!> (python/tubes_f2py.f90): one procedure, two thin front ends. Records between the Fortran core
+!> and a front end are kept by handle (record_keep, record_at, record_drop).
+module tubes_record
+  use tubes_kinds, only: wp, i8
+  implicit none
+  private
+
+  integer, parameter, public :: REC_REAL = 1, REC_INT = 2, REC_STRINGS = 3, REC_ATTR_REAL = 4, &
+                                REC_ATTR_INT = 5, REC_ATTR_STRING = 6
+  integer, parameter, public :: REC_STDOUT = 1, REC_STDERR = 2
+  !> the program's exit codes (include/tubes_scenes.h, docs/usage.md)
+  integer, parameter, public :: EXIT_BADINPUT = 1, EXIT_NUMERIC = 2, EXIT_IO = 3, EXIT_PARTIAL = 4
+
+  !> One dataset or attribute.
+  type, public :: rec_item_t
+    integer :: kind = 0
+    character(:), allocatable :: group, name, units   !! units '' : none written
+    integer :: rank = 0
+    integer(i8) :: dims(4) = 0
+    real(wp), allocatable :: r(:)
+    integer, allocatable :: i(:)
+    character(:), allocatable :: s(:)                 !! strings (REC_STRINGS, REC_ATTR_STRING)
+  end type rec_item_t
+
+  type, public :: rec_line_t
+    integer :: stream = REC_STDOUT
+    character(:), allocatable :: text
+  end type rec_line_t
+
+  type, public :: record_t
+    type(rec_item_t), allocatable :: items(:)
+    type(rec_line_t), allocatable :: lines(:)
+    integer :: n_items = 0, n_lines = 0
+    integer :: code = 0            !! the worst verdict's exit code
+  contains
+    procedure :: real => add_real
+    procedure :: int => add_int
+    procedure :: strings => add_strings
+    procedure :: attr_real => add_attr_real
+    procedure :: attr_int => add_attr_int
+    procedure :: attr_string => add_attr_string
+    procedure :: out => add_out
+    procedure :: err => add_err
+    procedure :: verdict => add_verdict
+  end type record_t
+
+  type :: kept_t
+    type(record_t), allocatable :: rec
+  end type kept_t
+  type(kept_t), allocatable, target :: kept(:)   ! (a module variable: kept between calls)
+
+  public :: record_keep, record_at, record_drop
+
+contains
+
+  !> A new item's slot.
+  function next_item(self) result(k)
+    class(record_t), intent(inout) :: self
+    integer :: k
+    type(rec_item_t), allocatable :: more(:)
+    if (.not. allocated(self%items)) allocate (self%items(16))
+    if (self%n_items == size(self%items)) then
+      allocate (more(2*size(self%items)))
+      more(1:self%n_items) = self%items(1:self%n_items)
+      call move_alloc(more, self%items)
+    end if
+    self%n_items = self%n_items + 1
+    k = self%n_items
+  end function next_item
+
+  subroutine named(it, kind, group, name, units)
+    type(rec_item_t), intent(inout) :: it
+    integer, intent(in) :: kind
+    character(*), intent(in) :: group, name
+    character(*), intent(in), optional :: units
+    it%kind = kind
+    it%group = group
+    it%name = name
+    it%units = ''
+    if (present(units)) it%units = units
+  end subroutine named
+
+  !> A real dataset of shape dims (C order: data holds the last index fastest).
+  subroutine add_real(self, group, name, data, dims, units)
+    class(record_t), intent(inout) :: self
+    character(*), intent(in) :: group, name
+    real(wp), intent(in) :: data(:)
+    integer, intent(in) :: dims(:)
+    character(*), intent(in), optional :: units
+    integer :: k
+    k = next_item(self)
+    call named(self%items(k), REC_REAL, group, name, units)
+    self%items(k)%rank = size(dims)
+    self%items(k)%dims(1:size(dims)) = dims
+    self%items(k)%r = data
+  end subroutine add_real
+
+  !> An integer dataset of shape dims (C order).
+  subroutine add_int(self, group, name, data, dims, units)
+    class(record_t), intent(inout) :: self
+    character(*), intent(in) :: group, name
+    integer, intent(in) :: data(:)
+    integer, intent(in) :: dims(:)
+    character(*), intent(in), optional :: units
+    integer :: k
+    k = next_item(self)
+    call named(self%items(k), REC_INT, group, name, units)
+    self%items(k)%rank = size(dims)
+    self%items(k)%dims(1:size(dims)) = dims
+    self%items(k)%i = data
+  end subroutine add_int
+
+  !> A dataset of strings (trailing blanks are not part of a string).
+  subroutine add_strings(self, group, name, s)
+    class(record_t), intent(inout) :: self
+    character(*), intent(in) :: group, name
+    character(*), intent(in) :: s(:)
+    integer :: k
+    k = next_item(self)
+    call named(self%items(k), REC_STRINGS, group, name)
+    self%items(k)%rank = 1
+    self%items(k)%dims(1) = size(s)
+    self%items(k)%s = s
+  end subroutine add_strings
+
+  subroutine add_attr_real(self, group, name, v)
+    class(record_t), intent(inout) :: self
+    character(*), intent(in) :: group, name
+    real(wp), intent(in) :: v
+    integer :: k
+    k = next_item(self)
+    call named(self%items(k), REC_ATTR_REAL, group, name)
+    self%items(k)%r = [v]
+  end subroutine add_attr_real
+
+  subroutine add_attr_int(self, group, name, v)
+    class(record_t), intent(inout) :: self
+    character(*), intent(in) :: group, name
+    integer, intent(in) :: v
+    integer :: k
+    k = next_item(self)
+    call named(self%items(k), REC_ATTR_INT, group, name)
+    self%items(k)%i = [v]
+  end subroutine add_attr_int
+
+  subroutine add_attr_string(self, group, name, v)
+    class(record_t), intent(inout) :: self
+    character(*), intent(in) :: group, name, v
+    integer :: k
+    k = next_item(self)
+    call named(self%items(k), REC_ATTR_STRING, group, name)
+    allocate (character(len(v)) :: self%items(k)%s(1))
+    self%items(k)%s(1) = v
+  end subroutine add_attr_string
+
+  subroutine add_line(self, stream, text)
+    class(record_t), intent(inout) :: self
+    integer, intent(in) :: stream
+    character(*), intent(in) :: text
+    type(rec_line_t), allocatable :: more(:)
+    if (.not. allocated(self%lines)) allocate (self%lines(16))
+    if (self%n_lines == size(self%lines)) then
+      allocate (more(2*size(self%lines)))
+      more(1:self%n_lines) = self%lines(1:self%n_lines)
+      call move_alloc(more, self%lines)
+    end if
+    self%n_lines = self%n_lines + 1
+    self%lines(self%n_lines)%stream = stream
+    self%lines(self%n_lines)%text = text
+  end subroutine add_line
+
+  !> A line of the console's stdout.
+  subroutine add_out(self, text)
+    class(record_t), intent(inout) :: self
+    character(*), intent(in) :: text
+    call add_line(self, REC_STDOUT, text)
+  end subroutine add_out
+
+  !> A line of stderr that is not a verdict (a note).
+  subroutine add_err(self, text)
+    class(record_t), intent(inout) :: self
+    character(*), intent(in) :: text
+    call add_line(self, REC_STDERR, text)
+  end subroutine add_err
+
+  !> A verdict: its message on stderr, and the run's exit code at least code.
+  subroutine add_verdict(self, code, text)
+    class(record_t), intent(inout) :: self
+    integer, intent(in) :: code
+    character(*), intent(in) :: text
+    call add_line(self, REC_STDERR, text)
+    self%code = max(self%code, code)
+  end subroutine add_verdict
+
+  !> Keep rec (moved in) for a front end: its handle (>= 1).
+  integer function record_keep(rec) result(h)
+    type(record_t), allocatable, intent(inout) :: rec
+    type(kept_t), allocatable :: more(:)
+    integer :: k
+    if (.not. allocated(kept)) allocate (kept(4))
+    h = 0
+    do k = 1, size(kept)
+      if (.not. allocated(kept(k)%rec)) then
+        h = k
+        exit
+      end if
+    end do
+    if (h == 0) then
+      allocate (more(2*size(kept)))
+      do k = 1, size(kept)
+        call move_alloc(kept(k)%rec, more(k)%rec)
+      end do
+      h = size(kept) + 1
+      call move_alloc(more, kept)
+    end if
+    call move_alloc(rec, kept(h)%rec)
+  end function record_keep
+
+  !> The record of handle h (null if none).
+  function record_at(h) result(p)
+    integer, intent(in) :: h
+    type(record_t), pointer :: p
+    p => null()
+    if (.not. allocated(kept)) return
+    if (h < 1 .or. h > size(kept)) return
+    if (allocated(kept(h)%rec)) p => kept(h)%rec
+  end function record_at
+
+  !> Forget the record of handle h.
+  subroutine record_drop(h)
+    integer, intent(in) :: h
+    if (.not. allocated(kept)) return
+    if (h < 1 .or. h > size(kept)) return
+    if (allocated(kept(h)%rec)) deallocate (kept(h)%rec)
+  end subroutine record_drop
+end module tubes_record
