@@ -340,7 +340,13 @@ int tubes_orbit_bifurcations(const char system[TUBES_LSYSTEM], const double para
  * meet and disappear; 2: the determinant changes sign), fold_q[3 i ..], fold_name[8 i ..] and
  * fold_partner[8 i ..] (names as eq_name); fold_tol: the bracket's width over |to - start|.
  * NaN (reals), -1 (eq_index) or 0 where there is nothing. TUBES_EINPUT for bad arguments (ipar, n < 1,
- * to equal to the start, a model refused at a step's value, more than TUBES_SCAN_MAXEQ equilibria). */
+ * to equal to the start, a model refused at a step's value, more than TUBES_SCAN_MAXEQ equilibria).
+ * p_trans_on != 0 (docs/scan.md, "p_trans along the scan"): at each step with the saddle and each dE,
+ * the transition scene's p_trans = A_tube/A_E at the step's parameters (the cut on the section
+ * sec_kind, sec_index, level, dir with the stable tube's eps, area_tol, t_max, n_init, n_max, as
+ * tubes_tube_cut; A_E as tubes_section_info): a_tube, a_e, p_trans, p_status [max(nde, 1) j + i]
+ * (p_status: the cut's status, else the energy surface's; TUBES_EINPUT where the step has no saddle;
+ * NaN where either failed). p_trans_on == 0: those four are not touched (may be NULL). */
 enum { TUBES_SCAN_MAXEQ = 64 };
 int tubes_parameter_scan(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid, const char saddle[8],
@@ -351,7 +357,9 @@ int tubes_parameter_scan(const char system[TUBES_LSYSTEM], const double params[T
                double saddle_energy[], double lambda[], double omega[], double period[], double action[],
                double stability[], int converged[], int restarted[], int max_fold, int *n_fold, int fold_step[],
                double fold_value[], double fold_width[], int fold_kind[], double fold_q[], int fold_name[],
-               int fold_partner[], double *fold_tol);
+               int fold_partner[], double *fold_tol, int p_trans_on, int sec_kind, int sec_index, double level,
+               int dir, double eps, double area_tol, double t_max, int n_init, int n_max, double a_tube[],
+               double a_e[], double p_trans[], int p_status[]);
 /* The index (1-based) of the parameter `name` of system that a scan takes, 0 if none (a dissipation
  * parameter, a formula's constant, an unknown name); allowed[len]: those it takes, blank-separated. */
 int tubes_scan_parameter(const char system[TUBES_LSYSTEM], const char name[TUBES_LPARAM], char *allowed, int len);

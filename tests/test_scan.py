@@ -223,15 +223,19 @@ def test_another_family_is_refused(tmp_path, tubes_exe):
 
 
 def test_every_scan_dataset_is_documented(tmp_path, tubes_exe):
-    """Every dataset and attribute of /scan (with orbits and a fold) has its row in docs/output.md's
+    """Every dataset and attribute of /scan (with orbits, p_trans and a fold) has its row in docs/output.md's
     /scan section, and every dataset a units attribute."""
     from conftest import ROOT
     doc = (ROOT / "docs" / "output.md").read_text()
     sec = doc[doc.index("## `/scan`"):]
     sec = sec[:sec.index("\n## ", 5)]
     (tmp_path / "f.nml").write_text("&run scenes = 'scan' /\n&model system = 'coupled_quartic' /\n"
-                                    "&orbits de = 0.01 /\n&scan parameter = 'alpha', to = 0.05, n = 4 /\n")
-    assert run_tubes(["f.nml", "-o", "f.h5"], tmp_path).returncode == 0
+                                    "&orbits de = 0.01 /\n&integrator method = 'dop853' /\n"
+                                    "&scan parameter = 'alpha', to = 0.05, n = 4, p_trans = .true. /\n")
+    p = run_tubes(["f.nml", "-o", "f.h5"], tmp_path)
+    # the default section x = 1/2 lies beyond the wells once alpha < 0.6: those steps' p_trans fail,
+    # NaN with their status, said on stderr, exit 4 (the orbits and the rest are written)
+    assert p.returncode == 4 and "tubes: scan: p_trans at alpha = 0.525, dE = 0.01 failed" in p.stderr, p.stderr
     names = []
     with h5py.File(tmp_path / "f.h5") as f:
         f["scan"].visititems(lambda n, o: names.append((n.split("/")[-1], o)))
@@ -240,3 +244,89 @@ def test_every_scan_dataset_is_documented(tmp_path, tubes_exe):
             assert f"`{n}`" in sec, f"/scan: {n} missing from docs/output.md"
             if isinstance(o, h5py.Dataset) and o.dtype.kind in "fi":
                 assert "units" in o.attrs, n
+
+
+# ---------------------------------------------------------------- p_trans(dE) along the scan
+# The coupled quartic without coupling (eps = 0): x = 0 is invariant and the saddle's Lyapunov
+# orbit is the y oscillator at x = 0 (frequency sqrt(omega/m_b)), action T dE; the energy surface
+# on the section x = 1/2 is the ellipse py^2/(2 m_b) + omega y^2/2 <= E - V_x(1/2), area
+# 2 pi sqrt(m_b/omega) (E - V_x(1/2)), V_x(x) = -alpha x^2/2 + beta x^4/4. Since the tube's cut
+# has the orbit's action as its area (docs/theory.md), p_trans = dE / (dE + alpha/8 - beta/64)
+# at E_e = 0, for every alpha: a closed form, written here from that algebra.
+P_SEC = {"kind": "plane", "index": 1, "value": 0.5, "direction": -1}
+P_DE = np.array([0.01, 0.05])
+P_KW = dict(section=P_SEC, equilibria={"box": 2.0}, integrator={"method": "dop853"})
+P_NML = ("&model system = 'coupled_quartic', eps = {eps} /\n&equilibria box = 2.0 /\n&integrator method = 'dop853' /\n"
+         "&section kind = 'plane', index = 1, value = 0.5, direction = -1 /\n")
+
+
+@pytest.fixture(scope="module")
+def p_scan():
+    return tubes.Model(system="coupled_quartic", eps=0.0).scan("alpha", 1.5, 4, dE=P_DE, p_trans=True, **P_KW)
+
+
+def test_p_trans_along_the_scan_in_closed_form(p_scan):
+    """Measured (DOP853): 7.2e-12 relative at most over the steps and dE (the cut's area against the
+    orbit's action, A_tube / (2 pi dE) - 1 the same; 4e-12 with the Taylor method); asserted 1e-9."""
+    r = p_scan
+    assert r.p_trans.shape == (5, 2) and np.all(r.p_trans_status == 0)
+    closed = P_DE / (P_DE + r.value[:, None] / 8 - 1 / 64)
+    assert np.all(np.abs(r.p_trans / closed - 1) <= 1e-9), r.p_trans / closed - 1
+    assert np.array_equal(r.p_trans, r.A_tube / r.A_E)
+    assert r.units["p_trans"] == "1"
+
+
+@pytest.mark.parametrize("step", [2, 4])
+def test_p_trans_is_the_direct_transition_run(p_scan, step):
+    """At the scan's end (alpha = 1.5 exactly) and at an intermediate step (its value as the scan
+    computed it, 1 + 0.5*2/4), p_trans, A_tube and A_E are transition()'s at that model: the same
+    calls (the saddle found anew, its family continued in energy, the cut), so bit for bit
+    (measured); asserted 1e-10 relative (the issue's)."""
+    r = p_scan
+    t = tubes.Model(system="coupled_quartic", eps=0.0, alpha=float(r.value[step])).transition(P_DE, **P_KW)
+    for k in ("p_trans", "A_tube", "A_E"):
+        assert close(r[k][step], t[k]), (k, r[k][step], t[k])
+
+
+def test_p_trans_in_the_program(p_scan, tmp_path, tubes_exe):
+    """./tubes' /scan p_trans is Python's (one core), and its end row the transition scene's at
+    alpha = 1.5 (bit for bit, measured; asserted 1e-10)."""
+    (tmp_path / "s.nml").write_text("&run scenes = 'scan' /\n" + P_NML.format(eps=0.0) +
+                                    "&scan parameter = 'alpha', to = 1.5, n = 4, de = 0.01, 0.05, p_trans = .true. /\n")
+    (tmp_path / "t.nml").write_text("&run scenes = 'transition' /\n" +
+                                    P_NML.format(eps=0.0).replace("eps = 0.0", "eps = 0.0, alpha = 1.5") +
+                                    "&transition de = 0.01, 0.05 /\n")
+    p = run_tubes(["s.nml", "-o", "s.h5"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert "p(dE=0.01)" in p.stdout
+    assert run_tubes(["t.nml", "-o", "t.h5"], tmp_path).returncode == 0
+    with h5py.File(tmp_path / "s.h5") as f, h5py.File(tmp_path / "t.h5") as g:
+        s = f["scan"]
+        assert np.array_equal(s["p_trans"][()], p_scan.p_trans)
+        assert np.array_equal(s["A_tube"][()], p_scan.A_tube) and np.array_equal(s["A_E"][()], p_scan.A_E)
+        assert np.all(s["p_trans_status"][()] == 0)
+        assert close(s["p_trans"][-1], g["transition/p_trans"][()])
+        assert close(s["A_E"][-1], g["transition/A_E"][()])
+
+
+def test_p_trans_refused_where_the_transition_is(tmp_path, tubes_exe):
+    """The transition scene's rule (tubes_setup scene_refused) by name; no dE; a dissipative model."""
+    with pytest.raises(ValueError, match="p_trans is the transition scene's: 'transition' works on the region"):
+        tubes.Model(system="cr3bp", spatial=True).scan("mu", 0.0125, 2, dE=[1e-4], p_trans=True,
+                                                       section=P_SEC)
+    with pytest.raises(ValueError, match="p_trans=True needs the excess energies"):
+        tubes.Model(system="coupled_quartic").scan("alpha", 1.5, 2, p_trans=True, section=P_SEC)
+    with pytest.raises(ValueError, match="the scan follows the conservative model"):
+        tubes.Model(damping_ratio=0.01).scan("alpha", 0.08, 2, dE=[10.0], p_trans=True)
+    cases = [("&model system = 'cr3bp', spatial = .true. /\n&section kind = 'plane', index = 1, value = 0.8, "
+              "direction = 1 /\n&scan parameter = 'mu', to = 0.0125, n = 2, de = 1e-4, p_trans = .true. /\n",
+              "&scan p_trans: p_trans is the transition scene's: 'transition' works on the region of a Poincare "
+              "section of a model with 2 degrees of freedom; system cr3bp_spatial has 3"),
+             ("&model system = 'coupled_quartic' /\n&scan parameter = 'alpha', to = 1.5, n = 2, p_trans = .true. /\n",
+              "&scan: p_trans = .true. needs the excess energies"),
+             ("&model damping_ratio = 0.01 /\n&scan parameter = 'alpha', to = 0.08, n = 2, de = 10, p_trans = .true. /\n",
+              "the scan follows the conservative model")]
+    for body, message in cases:
+        (tmp_path / "b.nml").write_text("&run scenes = 'scan' /\n" + body)
+        p = run_tubes(["b.nml", "-o", "b.h5"], tmp_path)
+        assert p.returncode == 1 and message in p.stderr, p.stderr

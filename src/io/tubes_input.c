@@ -226,6 +226,9 @@ const nml_var tubes_nml_vars[] = {
     {"scan", "n", NML_INT, 1, "-", "10", "1 .. 100000", "steps (n + 1 parameter values, equally spaced)"},
     {"scan", "de", NML_REAL, TUBES_MAXDE, "energy", "&orbits de if set there, else none", "> 0, increasing",
      "excess energies of the saddle's Lyapunov orbits followed along the scan (none: no orbits)"},
+    {"scan", "p_trans", NML_LOGICAL, 1, "-", ".false.", ".true., .false. (2 degrees of freedom, as the transition scene)",
+     "p_trans(dE) = A_tube/A_E at each step and each de, as the transition scene computes it (costs a tube cut "
+     "per step and dE: docs/scan.md)"},
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 _Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 192, "nml_where holds 192 variables");
@@ -950,7 +953,8 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
     }
   }
   int need_section = scene_requested(c, "tubes") || scene_requested(c, "transition") ||
-                     scene_requested(c, "montecarlo") || scene_requested(c, "sections");
+                     scene_requested(c, "montecarlo") || scene_requested(c, "sections") ||
+                     (scene_requested(c, "scan") && c->scan_p_trans);
   int set_ray = line_of(w, "section", "angle") || line_of(w, "section", "p_theta_sign");
   int set_plane = line_of(w, "section", "index") || line_of(w, "section", "value") ||
                   line_of(w, "section", "direction");
@@ -1078,6 +1082,11 @@ static int validate_scan(const char *path, const tubes_config_t *c, const nml_wh
     }
   }
   if (line_of(w, "scan", "de")) n += check_list(path, c, w, "scan", c->scan_de, c->scan_nde, err);
+  if (c->scan_p_trans && c->scan_nde == 0) {
+    fprintf(err, "%s:%d: &scan: p_trans = .true. needs the excess energies: set &scan de (or &orbits de), > 0 and "
+            "increasing\n", path, line_or_group(w, "scan", "p_trans"));
+    n++;
+  }
   if (asked && c->orb_family != 1 && c->scan_nde > 0) {
     fprintf(err, "%s:%d: &orbits: family: the scan scene follows the orbits of family 1 (the saddle's lowest centre "
             "frequency; docs/scan.md): allowed family = 1 with the scan, or no orbits (no &scan de or &orbits de)\n",

@@ -14,7 +14,8 @@ module tubes_scan
   use tubes_models, only: make_model, system_info, system_info_t, MAX_DOF, LEN_PARAM
   use tubes_equilibria, only: equilibrium_t, find_equilibria, continue_equilibria, rest_jacobian
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, correct_symmetric, correct_multiple, finish_orbit
-  use tubes_study, only: study_t, de_floor
+  use tubes_study, only: study_t, de_floor, section_choice_t, cut_at, section_info
+  use tubes_manifold, only: tube_opts_t, tube_cut_t
   use tubes_ensemble, only: progress_begin, progress_tick
   implicit none
   private
@@ -121,10 +122,17 @@ contains
   !> good end), fold_name, fold_partner (names as eq_name: the equilibrium it meets, the nearest
   !> other at the bracket's good end). stat: TUBES_EINPUT for bad arguments (ipar, n, to equal
   !> to the start, a model refused at a step's value), else the first failure's status.
+  !> p_trans (optional, with sec, topts, a_tube, a_e and p_stat): at each step and each dE of des,
+  !> the transition scene's p_trans = A_tube/A_E at the step's parameters (cut_at with the tube
+  !> options topts on the section sec, section_info: the calls of a direct run, from the saddle
+  !> found anew and its family continued in energy, so a step's numbers are those of the
+  !> transition scene run at its value); a_tube, a_e the areas, p_stat the cut's status (else the
+  !> energy surface's; 0: both worked; TUBES_EINPUT where the step has no saddle). NaN where
+  !> either failed.
   subroutine scan_table(st, ipar, to, n, des, opts, value, n_eq, researched, eq_q, eq_energy, eq_index, eq_name, &
                         eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period, action, stability, &
                         converged, restarted, n_fold, fold_step, fold_value, fold_width, fold_kind, fold_q, &
-                        fold_name, fold_partner, stat)
+                        fold_name, fold_partner, stat, sec, topts, a_tube, a_e, p_trans, p_stat)
     type(study_t), intent(in) :: st
     integer, intent(in) :: ipar, n
     real(wp), intent(in) :: to, des(:)
@@ -135,17 +143,31 @@ contains
     integer, intent(out) :: n_eq(:), researched(:), eq_index(:, :), eq_name(:, :, :), eq_det(:, :), &
                             saddle_found(:), converged(:, :), restarted(:, :), n_fold, fold_step(:), &
                             fold_kind(:), fold_name(:, :), fold_partner(:, :), stat
+    type(section_choice_t), intent(in), optional :: sec
+    type(tube_opts_t), intent(in), optional :: topts
+    real(wp), intent(out), optional :: a_tube(:, :), a_e(:, :), p_trans(:, :)
+    integer, intent(out), optional :: p_stat(:, :)
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:), prev(:)
     type(orbit_t), allocatable :: orbs(:), prev_orbs(:)
     real(wp) :: params(size(st%params)), nan, p0, v
     integer, allocatable :: origin(:), sgn(:)
     integer :: nd, k, i, isad, ns
+    logical :: want_p
     nan = ieee_value(1.0_wp, ieee_quiet_nan)
     value = nan; eq_q = nan; eq_energy = nan; saddle_q = nan; saddle_energy = nan; lambda = nan; omega = nan
     period = nan; action = nan; stability = nan; fold_value = nan; fold_width = nan; fold_q = nan
     n_eq = 0; researched = 0; eq_index = -1; eq_name = ichar(' '); eq_det = 0; saddle_found = 0; converged = 0
     restarted = 0; n_fold = 0; fold_step = 0; fold_kind = 0; fold_name = ichar(' '); fold_partner = ichar(' ')
+    want_p = present(p_trans)
+    if (want_p) then
+      want_p = present(sec) .and. present(topts) .and. present(a_tube) .and. present(a_e) .and. present(p_stat)
+      stat = TUBES_EINPUT
+      if (.not. want_p) return
+      p_trans = nan; a_tube = nan; a_e = nan; p_stat = TUBES_EINPUT
+      if (size(p_trans, 1) < size(des) .or. size(p_trans, 2) < n + 1 .or. any(shape(a_tube) /= shape(p_trans)) .or. &
+          any(shape(a_e) /= shape(p_trans)) .or. any(shape(p_stat) /= shape(p_trans))) return
+    end if
     stat = TUBES_EINPUT
     if (ipar < 1 .or. ipar > size(st%params) .or. n < 1 .or. n > SCAN_MAXSTEPS) return
     if (size(value) < n + 1 .or. size(period, 1) < size(des) .or. size(period, 2) < n + 1) return
@@ -200,6 +222,7 @@ contains
         lambda(i) = eqs(isad)%lambda
         if (nd > 1) omega(1:nd - 1, i) = eqs(isad)%omegas(1:nd - 1)
         if (size(des) > 0) call step_orbits(i)
+        if (want_p) call step_p_trans(i)
       else
         prev_orbs = orbit_t()                ! no saddle: the next orbits start afresh
       end if
@@ -209,6 +232,34 @@ contains
     end do
     stat = TUBES_OK
   contains
+
+    !> Step i's p_trans at each dE: the transition scene's calls (a direct run's) at the step's
+    !> parameters, the orbit options of opts (as the study's: n_segments, tol, rtol, atol, the
+    !> integrator; family 1).
+    subroutine step_p_trans(i)
+      integer, intent(in) :: i
+      type(study_t) :: sp
+      type(tube_cut_t) :: cut
+      type(orbit_t) :: orb
+      real(wp) :: smin, smax, area, darea
+      integer :: j, sc, se
+      sp = st
+      sp%params = params
+      sp%n_segments = opts%n_segments
+      sp%orb_tol = opts%tol
+      sp%orb_rtol = opts%rtol
+      sp%orb_atol = opts%atol
+      sp%integ = opts%integ
+      sp%family = 1
+      do j = 1, size(des)
+        call cut_at(sp, sec, des(j), topts, cut, orb, sc)
+        if (sc >= TUBES_OK) a_tube(j, i) = cut%area
+        call section_info(sp, sec, des(j), smin, smax, area, darea, se)
+        if (se >= TUBES_OK) a_e(j, i) = area
+        p_stat(j, i) = merge(min(se, TUBES_OK), sc, sc >= TUBES_OK)
+        if (sc >= TUBES_OK .and. se >= TUBES_OK) p_trans(j, i) = cut%area/area
+      end do
+    end subroutine step_p_trans
 
     !> Step i's equilibria: continued from prev's positions; where one was lost, met another or
     !> changed the sign of its determinant, the fold located and the step's equilibria searched
