@@ -139,6 +139,16 @@ int tubes_expr_taylor(const char key[TUBES_LSYSTEM], const double *z, int order,
 const char *tubes_expr_compiler(void);
 /* The spec text of the formula model key (its lines but the compiler's) into buf (len bytes). */
 int tubes_expr_spec(const char key[TUBES_LSYSTEM], char *buf, int len);
+/* A formula's constants as a scan's parameter (docs/scan.md): the value of constant `name` of the
+ * formula model key (0; TUBES_EINPUT if it has none of that name; 1 if its value is a formula of
+ * others, not a number); the names of those given as numbers, blank-separated, into buf (len
+ * bytes); and the library of key's spec with that constant set to value (written as the shortest
+ * decimal that reads back as it), built or loaded like any formula model: its name into newkey,
+ * on failure the reason in msg (lmsg bytes). */
+int tubes_expr_constant(const char key[TUBES_LSYSTEM], const char *name, double *value);
+int tubes_expr_constant_names(const char key[TUBES_LSYSTEM], char *buf, int len);
+int tubes_expr_with_constant(const char key[TUBES_LSYSTEM], const char *name, double value,
+                             char newkey[TUBES_LSYSTEM], char *msg, int lmsg);
 
 /* Taylor jets (src/io/tubes_expr.c, docs/integrators-taylor.md): the kernel computing the
  * normalised Taylor coefficients of the solution through a state, generated from a model's formula
@@ -361,8 +371,14 @@ int tubes_parameter_scan(const char system[TUBES_LSYSTEM], const double params[T
                int dir, double eps, double area_tol, double t_max, int n_init, int n_max, double a_tube[],
                double a_e[], double p_trans[], int p_status[]);
 /* The index (1-based) of the parameter `name` of system that a scan takes, 0 if none (a dissipation
- * parameter, a formula's constant, an unknown name); allowed[len]: those it takes, blank-separated. */
+ * parameter, a formula's constant defined by a formula of others, an unknown name); a formula's
+ * constant given as a number is TUBES_SCAN_CONSTANT + k (the k-th of them); allowed[len]: those it
+ * takes, blank-separated. */
 int tubes_scan_parameter(const char system[TUBES_LSYSTEM], const char name[TUBES_LPARAM], char *allowed, int len);
+/* The start value of the scan's parameter ipar (tubes_scan_parameter's index; a formula's constant:
+ * above TUBES_SCAN_CONSTANT) of system with params: params[ipar - 1] or the constant's value. */
+enum { TUBES_SCAN_CONSTANT = 1000 };
+int tubes_scan_start(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], int ipar, double *start);
 
 /* Sections of the tube-dynamics calls (docs/tubes.md, "Sections"): sec_kind 1 = the rolling
  * ball's ray theta = level [rad], dir = sign of p_theta, coordinates (r, p_r); sec_kind 2 = the

@@ -1284,6 +1284,23 @@ subroutine scan_parameter_index(system, name, ipar, allowed)
   ipar = k
 end subroutine scan_parameter_index
 
+subroutine scan_start_value(system, params, ipar, stat, start)
+  ! the start value of the scan's parameter ipar (scan_parameter_index's): params(ipar), or a
+  ! formula's constant's value (tubes_scan scan_start)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_study, only: study_t
+  use tubes_scan, only: scan_start
+  implicit none
+  character(len=*), intent(in) :: system
+  real(c_double), intent(in) :: params(16)
+  integer(c_int), intent(in) :: ipar
+  integer(c_int), intent(out) :: stat
+  real(c_double), intent(out) :: start
+  integer :: s
+  call scan_start(study_t(system=system, params=params), ipar, start, s)
+  stat = s
+end subroutine scan_start_value
+
 subroutine param_scan(system, params, lo, hi, n_grid, saddle, ipar, to, n, nde, des, n_segments, tol, rtol, &
                       atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stat, value, n_eq, &
                       researched, eq_q, eq_energy, eq_index, eq_name, eq_det, saddle_found, saddle_q, &

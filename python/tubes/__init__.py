@@ -1680,6 +1680,9 @@ def _codes(a) -> str:
     return bytes(int(c) for c in a).decode("ascii", "replace").strip()
 
 
+SCAN_CONSTANT = 1000   # a formula's constant k is the scan's parameter SCAN_CONSTANT + k (src/workflow/tubes_scan.f90)
+
+
 def scan(model: Model | None = None, parameter: str | None = None, to=None, n=None, dE=None, saddle=None,
          saddle_near=None, integrator: dict | None = None, equilibria: dict | None = None, p_trans: bool = False,
          section=None, area_tol=None, **orbits) -> Table:
@@ -1718,8 +1721,8 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
     ipar, allowed = _lib().scan_parameter_index(model.name, parameter)
     allowed = _str(allowed).strip()
     if ipar < 1:
-        extra = (" (a formula's constants are compiled into its model and cannot be scanned; "
-                 "dissipation parameters are not scanned)" if model.formula else
+        extra = (" (a formula's constants given as numbers are scanned, not one defined by a formula of "
+                 "others; dissipation parameters are not scanned)" if model.formula else
                  " (dissipation parameters are not scanned: the scan follows the conservative model)")
         raise ValueError(f"{who}: parameter = {parameter!r} is not a parameter the scan takes for system "
                          f"{model.system!r}; allowed: {', '.join(allowed.split()) or 'none'}{extra}")
@@ -1727,10 +1730,14 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
         raise ValueError(f"{who}: give to (the parameter's end value) and n (steps, >= 1)")
     to = _args.real(who, "to", to)
     n = _args.integer(who, "n", n, lo=1, hi=100000)
-    start = float(model.parameters[parameter])
+    sstat, start = _lib().scan_start_value(model.name, model.params(), ipar)
+    _check(sstat, who)
+    start = float(start)
+    constant = ipar > SCAN_CONSTANT     # a formula's constant: each step's model its own library
     if to == start:
         raise ValueError(f"{who}: to = {to!r} equals the start value {parameter} = {start!r}: allowed any other value")
-    end = model.replace(**{parameter: to})   # the reader's checks of the end value (alpha > 0, ...)
+    # the reader's checks of the end value (alpha > 0, ...); a constant's is the build at each step
+    end = None if constant else model.replace(**{parameter: to})
     de = _de_list(dE, who)
     p_on = _args.flag(who, "p_trans", p_trans)
     if p_on:

@@ -30,7 +30,7 @@ module tubes_capi
   use tubes_flux3, only: cut3_study
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: bifurcation_table, BIF_TOL
-  use tubes_scan, only: scan_table, scan_index, SCAN_MAXEQ, SCAN_FOLD_TOL
+  use tubes_scan, only: scan_table, scan_index, scan_start, SCAN_MAXEQ, SCAN_FOLD_TOL
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, gate_reach, maps_at, cut_outputs, seed_stores_t, family_at, &
                          equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, &
@@ -563,6 +563,21 @@ contains
     ipar = scan_index(c_to_f(system), c_to_f(name), a)
     call f_to_c(a, allowed)
   end function c_scan_parameter
+  !> The start value of the scan's parameter ipar (tubes_scan_parameter's index) of system with
+  !> params (include/tubes.h: tubes_scan_start): params(ipar), or a formula's constant's value.
+  integer(c_int) function c_scan_start(system, params, ipar, start) result(stat) bind(C, name='tubes_scan_start')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
+    integer(c_int), value :: ipar
+    real(c_double), intent(out) :: start
+    type(study_t) :: st
+    integer :: s
+    st%system = c_to_f(system)
+    st%params = params
+    call scan_start(st, ipar, start, s)
+    stat = s
+  end function c_scan_start
+
   !> A C call's guess (nguess > 0: the family through it) and branch (family <= -101: 'branch:K',
   !> K = -100 - family) into opts.
   subroutine guess_opts(nguess, guess, guess_period, opts)

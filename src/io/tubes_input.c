@@ -1042,6 +1042,7 @@ static int check_memory(const char *path, const tubes_config_t *c, const nml_whe
 /* &scan (docs/scan.md): checked where the scan scene is asked for or the group is given. */
 static int validate_scan(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int asked = 0, n = 0;
+  double start = 0;
   for (int i = 0; i < TUBES_NSCENES; i++) asked |= !strcmp(c->scenes[i], "scan");
   if (!asked && !w->group_line[group_index("scan")]) return 0;
   if (!c->scan_parameter[0]) {
@@ -1055,8 +1056,8 @@ static int validate_scan(const char *path, const tubes_config_t *c, const nml_wh
             path, line_or_group(w, "scan", "parameter"), c->scan_parameter, c->system,
             allowed[0] ? allowed : "none",
             c->nparams == 0 || !strcmp(c->system, "expression") || !strcmp(c->surface, "expression")
-                ? " (a formula's constants are compiled into its model and cannot be scanned; dissipation "
-                  "parameters are not scanned)"
+                ? " (a formula's constants given as numbers are scanned, not one defined by a formula of "
+                  "others; dissipation parameters are not scanned)"
                 : " (dissipation parameters are not scanned: the scan follows the conservative model)");
     n++;
   }
@@ -1065,11 +1066,12 @@ static int validate_scan(const char *path, const tubes_config_t *c, const nml_wh
     fprintf(err, "%s:%d: &scan: to is not set: the scan scene needs the parameter's end value\n", path,
             line_or_group(w, "scan", "to"));
     n++;
-  } else if (c->scan_ipar >= 1 && c->scan_to == c->params[c->scan_ipar - 1]) {
+  } else if (c->scan_ipar >= 1 && tubes_scan_start(c->model, c->params, c->scan_ipar, &start) == 0 &&
+             c->scan_to == start) {
     fprintf(err, "%s:%d: &scan: to = %.17g equals the start value %s = %.17g (&model): allowed any other value\n",
-            path, line_or_group(w, "scan", "to"), c->scan_to, c->scan_parameter, c->params[c->scan_ipar - 1]);
+            path, line_or_group(w, "scan", "to"), c->scan_to, c->scan_parameter, start);
     n++;
-  } else if (c->scan_ipar >= 1 && c->nparams > 0) {   /* the end value: the model's own check */
+  } else if (c->scan_ipar >= 1 && c->scan_ipar <= c->nparams) {   /* the end value: the model's own check */
     double p[TUBES_MAXPARAM];
     int natural = 0;
     memcpy(p, c->params, sizeof p);

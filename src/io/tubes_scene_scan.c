@@ -77,7 +77,8 @@ int scene_scan(tubes_run_t *run) {
     goto out;
   }
   int ipar = c->scan_ipar;
-  double start = run->params[ipar - 1], t0 = wall();
+  double start = 0, t0 = wall();
+  tubes_scan_start(run->system, run->params, ipar, &start);   /* the reader resolved ipar: it has one */
   char pu[TUBES_LUNITS + 1];
   param_units(run, ipar, pu, sizeof pu);
   fprintf(stderr, "scan: %s from %.10g to %.10g in %d steps (saddle %s, %d orbit%s%s)...\n", c->scan_parameter, start,
