@@ -1687,8 +1687,9 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
          saddle_near=None, integrator: dict | None = None, equilibria: dict | None = None, p_trans: bool = False,
          section=None, area_tol=None, **orbits) -> Table:
     """Continuation in a model parameter (as the scan scene, docs/scan.md): parameter (a name of
-    the model's table, not one of dissipation) moves from its value in the model to `to` in n
-    equal steps (n + 1 values). At each step the equilibria are continued by Newton from the
+    the model's table, not one of dissipation; or a formula model's constant given as a number,
+    each step then the formula's library at that value, built or loaded from the cache) moves
+    from its value in the model to `to` in n equal steps (n + 1 values). At each step the equilibria are continued by Newton from the
     previous step's (searched anew after a fold), the saddle's (saddle or saddle_near; the
     system's default) energy, lambda and centre frequencies are taken, and its Lyapunov orbits
     at the excess energies dE (optional; > 0, increasing) are corrected from the previous step's
