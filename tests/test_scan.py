@@ -397,3 +397,20 @@ def test_formula_constant_scan_in_the_program(q_scans, tmp_path, tubes_exe):
     (tmp_path / "b.nml").write_text((tmp_path / "f.nml").read_text().replace("'eps', to = 0.2", "'k', to = 0.2"))
     p = run_tubes(["b.nml", "-o", "b.h5"], tmp_path)
     assert p.returncode == 1 and "allowed: alpha beta omega eps" in p.stderr, p.stderr
+
+
+def test_formula_constant_end_value_refused(tmp_path, tubes_exe):
+    """The end value of a formula's constant: its library is built before the scan, and a value the
+    formula refuses is said with the code generator's reason (exit 1, no output)."""
+    (tmp_path / "c.nml").write_text(
+        "&run scenes = 'scan' /\n&model system = 'expression', hamiltonian = '(px^2 + py^2)/2 - x^2/2 + x^4/4 + "
+        "sqrt(b)*y^2/2', constants = 'b = 1' /\n&equilibria box = 2.0 /\n&scan parameter = 'b', to = -1, n = 2 /\n")
+    p = run_tubes(["c.nml", "-o", "c.h5"], tmp_path)
+    assert p.returncode == 1, p.stderr
+    assert "c.nml:4: &scan: to = -1: the formula's library with b = -1: 'sqrt(b)'" in p.stderr, p.stderr
+    assert "sqrt needs an argument >= 0" in p.stderr
+    assert not (tmp_path / "c.h5").exists()
+    m = tubes.Model(system="expression", hamiltonian="(px^2 + py^2)/2 - x^2/2 + x^4/4 + sqrt(b)*y^2/2",
+                    constants={"b": 1.0})
+    with pytest.raises(ValueError, match="to = -1.0: the formula's library with b = -1: 'sqrt"):
+        m.scan("b", -1.0, 2, equilibria={"box": 2.0})

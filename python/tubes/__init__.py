@@ -1737,8 +1737,14 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
     constant = ipar > SCAN_CONSTANT     # a formula's constant: each step's model its own library
     if to == start:
         raise ValueError(f"{who}: to = {to!r} equals the start value {parameter} = {start!r}: allowed any other value")
-    # the reader's checks of the end value (alpha > 0, ...); a constant's is the build at each step
-    end = None if constant else model.replace(**{parameter: to})
+    # the reader's checks of the end value (alpha > 0, ...); a formula's constant: its library at `to`
+    if constant:
+        cstat, _, cmsg = _lib().formula_with_constant(model.name, parameter, to)
+        if cstat != 0:
+            raise ValueError(f"{who}: to = {to!r}: the formula's library with {_str(cmsg).strip()}")
+        end = None
+    else:
+        end = model.replace(**{parameter: to})
     de = _de_list(dE, who)
     p_on = _args.flag(who, "p_trans", p_trans)
     if p_on:
@@ -1763,6 +1769,10 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
         float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model),
         int(p_on), *sec, float(st["tub_eps"]), float(st["tra_area_tol"]), float(st["tub_t_max"]),
         int(st["tub_n_init"]), int(st["tub_n_max"]))
+    if stat == -1 and constant:
+        raise ValueError(f"{who}: the formula's library with a value of {parameter} between {start!r} and {to!r} "
+                         f"was not built (Model(constants=...) with that value says why), or more than 64 "
+                         "equilibria in the box")
     if stat == -1:
         raise ValueError(f"{who}: the model refused a value of {parameter} between {start!r} and {to!r} "
                          f"(its range: Model({parameter}=...) says which), or more than 64 equilibria in the box")

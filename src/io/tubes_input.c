@@ -1071,6 +1071,13 @@ static int validate_scan(const char *path, const tubes_config_t *c, const nml_wh
     fprintf(err, "%s:%d: &scan: to = %.17g equals the start value %s = %.17g (&model): allowed any other value\n",
             path, line_or_group(w, "scan", "to"), c->scan_to, c->scan_parameter, start);
     n++;
+  } else if (c->scan_ipar > TUBES_SCAN_CONSTANT) {   /* a formula's constant: its library at the end value */
+    char key[TUBES_LSYSTEM], msg[2048];
+    if (tubes_expr_with_constant(c->model, c->scan_parameter, c->scan_to, key, msg, (int)sizeof msg)) {
+      fprintf(err, "%s:%d: &scan: to = %.10g: the formula's library with %s\n", path, line_or_group(w, "scan", "to"),
+              c->scan_to, msg);
+      n++;
+    }
   } else if (c->scan_ipar >= 1 && c->scan_ipar <= c->nparams) {   /* the end value: the model's own check */
     double p[TUBES_MAXPARAM];
     int natural = 0;

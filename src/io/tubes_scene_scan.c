@@ -98,8 +98,12 @@ int scene_scan(tubes_run_t *run) {
     char msg[TUBES_LSTATUS];
     tubes_status_message(st, msg, sizeof msg);
     fprintf(stderr, "tubes: scan: failed: %s (status %d)%s\n", msg, st,
-            st == TUBES_EINPUT ? ": the model refuses a value of the parameter between the start and `to` "
-                                 "(docs/models.md gives its range), or more than 64 equilibria lie in the box" : "");
+            st != TUBES_EINPUT ? ""
+            : ipar > TUBES_SCAN_CONSTANT ? ": the formula's library with a value of the constant between the start "
+                                           "and `to` was not built (the model line of this input with that value says "
+                                           "why), or more than 64 equilibria lie in the box"
+                                         : ": the model refuses a value of the parameter between the start and `to` "
+                                           "(docs/models.md gives its range), or more than 64 equilibria lie in the box");
     rc = EXIT_NUMERIC;
     goto out;
   }
