@@ -37,8 +37,8 @@ const char *const tubes_scene_docs[] = {
     "noise and pixel rounding (docs/experiment-data.md)",
     "the flux of trajectories through the saddle's bottleneck in N degrees of freedom: sampled on the "
     "dividing surface, beside the leading-order formula (docs/theory.md)",
-    "continuation in a model parameter (&scan): equilibria, the saddle's data and its orbits followed, "
-    "folds located (docs/scan.md)"};
+    "continuation in a model parameter or a formula's constant (&scan): equilibria, the saddle's data, "
+    "its orbits and p_trans followed, folds located (docs/scan.md)"};
 const int tubes_nscenes = 10;
 
 const nml_var tubes_nml_vars[] = {
