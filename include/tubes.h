@@ -139,6 +139,16 @@ int tubes_expr_taylor(const char key[TUBES_LSYSTEM], const double *z, int order,
 const char *tubes_expr_compiler(void);
 /* The spec text of the formula model key (its lines but the compiler's) into buf (len bytes). */
 int tubes_expr_spec(const char key[TUBES_LSYSTEM], char *buf, int len);
+/* A formula's constants as a scan's parameter (docs/scan.md): the value of constant `name` of the
+ * formula model key (0; TUBES_EINPUT if it has none of that name; 1 if its value is a formula of
+ * others, not a number); the names of those given as numbers, blank-separated, into buf (len
+ * bytes); and the library of key's spec with that constant set to value (written as the shortest
+ * decimal that reads back as it), built or loaded like any formula model: its name into newkey,
+ * on failure the reason in msg (lmsg bytes). */
+int tubes_expr_constant(const char key[TUBES_LSYSTEM], const char *name, double *value);
+int tubes_expr_constant_names(const char key[TUBES_LSYSTEM], char *buf, int len);
+int tubes_expr_with_constant(const char key[TUBES_LSYSTEM], const char *name, double value,
+                             char newkey[TUBES_LSYSTEM], char *msg, int lmsg);
 
 /* Taylor jets (src/io/tubes_expr.c, docs/integrators-taylor.md): the kernel computing the
  * normalised Taylor coefficients of the solution through a state, generated from a model's formula
@@ -362,7 +372,13 @@ int tubes_orbit_bifurcations(const char system[TUBES_LSYSTEM], const double para
  * meet and disappear; 2: the determinant changes sign), fold_q[3 i ..], fold_name[8 i ..] and
  * fold_partner[8 i ..] (names as eq_name); fold_tol: the bracket's width over |to - start|.
  * NaN (reals), -1 (eq_index) or 0 where there is nothing. TUBES_EINPUT for bad arguments (ipar, n < 1,
- * to equal to the start, a model refused at a step's value, more than TUBES_SCAN_MAXEQ equilibria). */
+ * to equal to the start, a model refused at a step's value, more than TUBES_SCAN_MAXEQ equilibria).
+ * p_trans_on != 0 (docs/scan.md, "p_trans along the scan"): at each step with the saddle and each dE,
+ * the transition scene's p_trans = A_tube/A_E at the step's parameters (the cut on the section
+ * sec_kind, sec_index, level, dir with the stable tube's eps, area_tol, t_max, n_init, n_max, as
+ * tubes_tube_cut; A_E as tubes_section_info): a_tube, a_e, p_trans, p_status [max(nde, 1) j + i]
+ * (p_status: the cut's status, else the energy surface's; TUBES_EINPUT where the step has no saddle;
+ * NaN where either failed). p_trans_on == 0: those four are not touched (may be NULL). */
 enum { TUBES_SCAN_MAXEQ = 64 };
 int tubes_parameter_scan(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid, const char saddle[8],
@@ -373,10 +389,18 @@ int tubes_parameter_scan(const char system[TUBES_LSYSTEM], const double params[T
                double saddle_energy[], double lambda[], double omega[], double period[], double action[],
                double stability[], int converged[], int restarted[], int max_fold, int *n_fold, int fold_step[],
                double fold_value[], double fold_width[], int fold_kind[], double fold_q[], int fold_name[],
-               int fold_partner[], double *fold_tol);
+               int fold_partner[], double *fold_tol, int p_trans_on, int sec_kind, int sec_index, double level,
+               int dir, double eps, double area_tol, double t_max, int n_init, int n_max, double a_tube[],
+               double a_e[], double p_trans[], int p_status[]);
 /* The index (1-based) of the parameter `name` of system that a scan takes, 0 if none (a dissipation
- * parameter, a formula's constant, an unknown name); allowed[len]: those it takes, blank-separated. */
+ * parameter, a formula's constant defined by a formula of others, an unknown name); a formula's
+ * constant given as a number is TUBES_SCAN_CONSTANT + k (the k-th of them); allowed[len]: those it
+ * takes, blank-separated. */
 int tubes_scan_parameter(const char system[TUBES_LSYSTEM], const char name[TUBES_LPARAM], char *allowed, int len);
+/* The start value of the scan's parameter ipar (tubes_scan_parameter's index; a formula's constant:
+ * above TUBES_SCAN_CONSTANT) of system with params: params[ipar - 1] or the constant's value. */
+enum { TUBES_SCAN_CONSTANT = 1000 };
+int tubes_scan_start(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], int ipar, double *start);
 
 /* Sections of the tube-dynamics calls (docs/tubes.md, "Sections"): sec_kind 1 = the rolling
  * ball's ray theta = level [rad], dir = sign of p_theta, coordinates (r, p_r); sec_kind 2 = the

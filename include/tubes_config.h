@@ -116,6 +116,7 @@ typedef struct {
   double orb_guess[2 * TUBES_MAXDOF];
   int orb_nguess;
   double orb_period;
+  int scan_p_trans;   /* &scan p_trans: 1 = p_trans(dE) at each step (docs/scan.md) */
 } tubes_config_t;
 
 /* Set every variable to its default. */

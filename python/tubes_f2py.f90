@@ -1284,18 +1284,67 @@ subroutine scan_parameter_index(system, name, ipar, allowed)
   ipar = k
 end subroutine scan_parameter_index
 
+subroutine scan_start_value(system, params, ipar, stat, start)
+  ! the start value of the scan's parameter ipar (scan_parameter_index's): params(ipar), or a
+  ! formula's constant's value (tubes_scan scan_start)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_study, only: study_t
+  use tubes_scan, only: scan_start
+  implicit none
+  character(len=*), intent(in) :: system
+  real(c_double), intent(in) :: params(16)
+  integer(c_int), intent(in) :: ipar
+  integer(c_int), intent(out) :: stat
+  real(c_double), intent(out) :: start
+  integer :: s
+  call scan_start(study_t(system=system, params=params), ipar, start, s)
+  stat = s
+end subroutine scan_start_value
+
+subroutine formula_with_constant(system, name, value, stat, key, msg)
+  ! the library of the formula model system with its constant `name` set to value (built or loaded:
+  ! include/tubes.h tubes_expr_with_constant); its name in key, on failure the reason in msg
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char
+  use tubes_cstrings, only: c_to_f, f_to_c
+  implicit none
+  character(len=*), intent(in) :: system, name
+  real(c_double), intent(in) :: value
+  integer(c_int), intent(out) :: stat
+  character(len=32), intent(out) :: key
+  character(len=2048), intent(out) :: msg
+  interface
+    integer(c_int) function expr_with_constant(key, name, value, newkey, msg, lmsg) &
+        bind(C, name='tubes_expr_with_constant')
+      import :: c_int, c_char, c_double
+      character(kind=c_char), intent(in) :: key(*), name(*)
+      real(c_double), value :: value
+      character(kind=c_char), intent(out) :: newkey(*), msg(*)
+      integer(c_int), value :: lmsg
+    end function expr_with_constant
+  end interface
+  character(kind=c_char) :: k(33), n(65), nk(33), m(2048)
+  call f_to_c(trim(system), k)
+  call f_to_c(trim(name), n)
+  stat = expr_with_constant(k, n, value, nk, m, size(m))
+  key = c_to_f(nk)
+  msg = c_to_f(m)
+end subroutine formula_with_constant
+
 subroutine param_scan(system, params, lo, hi, n_grid, saddle, ipar, to, n, nde, des, n_segments, tol, rtol, &
                       atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stat, value, n_eq, &
                       researched, eq_q, eq_energy, eq_index, eq_name, eq_det, saddle_found, saddle_q, &
                       saddle_energy, lam, omega, period, action, stability, converged, restarted, n_fold, &
-                      fold_step, fold_value, fold_width, fold_kind, fold_q, fold_name, fold_partner, fold_tol)
+                      fold_step, fold_value, fold_width, fold_kind, fold_q, fold_name, fold_partner, fold_tol, &
+                      p_trans_on, sec_kind, sec_index, level, dir, eps, area_tol, t_max, n_init, n_max, a_tube, &
+                      a_e, p_trans, p_status)
   ! the parameter scan (as the scan scene and the C API's tubes_scan: tubes_scan scan_table);
-  ! n + 1 steps, at most 64 equilibria per step and 32 folds recorded
+  ! n + 1 steps, at most 64 equilibria per step and 32 folds recorded; p_trans_on /= 0: p_trans at
+  ! each step and dE (the transition scene's: the section and the stable tube's options as tube_cut)
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_orbits, only: orbit_opts_t
-  use tubes_study, only: study_t
+  use tubes_study, only: study_t, section_choice_t
   use tubes_scan, only: scan_table, SCAN_FOLD_TOL
-  use tubes_capi, only: integ_of
+  use tubes_capi, only: integ_of, tube_opts_of
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, ipar, n, nde, n_segments, max_iter, nsamp, method, solver, int_max_iter
@@ -1308,16 +1357,29 @@ subroutine param_scan(system, params, lo, hi, n_grid, saddle, ipar, to, n, nde, 
                                  saddle_energy(n + 1), lam(n + 1), omega(2, n + 1), period(nde, n + 1), &
                                  action(nde, n + 1), stability(nde, n + 1), fold_value(32), fold_width(32), &
                                  fold_q(3, 32), fold_tol
+  integer(c_int), intent(in) :: p_trans_on, sec_kind, sec_index, dir, n_init, n_max
+  real(c_double), intent(in) :: level, eps, area_tol, t_max
+  real(c_double), intent(out) :: a_tube(nde, n + 1), a_e(nde, n + 1), p_trans(nde, n + 1)
+  integer(c_int), intent(out) :: p_status(nde, n + 1)
   type(orbit_opts_t) :: opts
+  type(study_t) :: st
   integer :: s, nf
   opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, n_samples=nsamp, &
                       integ=integ_of(method, h, omega_bind, solver, int_max_iter))
   fold_tol = SCAN_FOLD_TOL
-  call scan_table(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-                          integ=opts%integ), ipar, to, n, des, opts, value, n_eq, researched, eq_q, eq_energy, &
-                  eq_index, eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lam, omega, period, action, &
-                  stability, converged, restarted, nf, fold_step, fold_value, fold_width, fold_kind, fold_q, &
-                  fold_name, fold_partner, s)
+  st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, integ=opts%integ)
+  if (p_trans_on /= 0) then
+    call scan_table(st, ipar, to, n, des, opts, value, n_eq, researched, eq_q, eq_energy, eq_index, eq_name, &
+                    eq_det, saddle_found, saddle_q, saddle_energy, lam, omega, period, action, stability, converged, &
+                    restarted, nf, fold_step, fold_value, fold_width, fold_kind, fold_q, fold_name, fold_partner, s, &
+                    section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), &
+                    tube_opts_of(-1, eps, area_tol, t_max, n_init, n_max, .true.), a_tube, a_e, p_trans, p_status)
+  else
+    a_tube = 0; a_e = 0; p_trans = 0; p_status = 0
+    call scan_table(st, ipar, to, n, des, opts, value, n_eq, researched, eq_q, eq_energy, eq_index, eq_name, &
+                    eq_det, saddle_found, saddle_q, saddle_energy, lam, omega, period, action, stability, converged, &
+                    restarted, nf, fold_step, fold_value, fold_width, fold_kind, fold_q, fold_name, fold_partner, s)
+  end if
   stat = s
   n_fold = nf
 end subroutine param_scan

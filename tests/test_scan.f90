@@ -7,7 +7,11 @@
 !> alpha_c = eps omega/(omega + eps) = 0.25 (grad V = 0 on y = eps x/(omega + eps) with
 !> x (beta x^2 - alpha + alpha_c) = 0), to 1e-8 (measured ~1e-12: the equilibria's merge distance);
 !> the saddle's lambda^2 omega^2 = -det Hess V(0) = -(eps - alpha)(omega + eps) + eps^2 (unit
-!> masses) at every step before it, to 1e-12 relative; (3) bad arguments give TUBES_EINPUT.
+!> masses) at every step before it, to 1e-12 relative; (3) bad arguments give TUBES_EINPUT; (4) p_trans
+!> along the scan (the optional arguments) on the uncoupled quartic (eps = 0), where x = 0 is invariant
+!> and the saddle's orbit is the y oscillator: the cut's area is its action T dE and the energy
+!> surface on x = 1/2 an ellipse of area T (E - V_x(1/2)), so p_trans = dE/(dE + alpha/8 - beta/64)
+!> (measured 7e-12 relative with DOP853; asserted 1e-9); mismatched p_trans arrays give TUBES_EINPUT.
 program test_scan
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EINPUT
@@ -15,8 +19,9 @@ program test_scan
   use tubes_models, only: make_model, MAX_PARAMS, MAX_DOF
   use tubes_equilibria, only: equilibrium_t, find_equilibria, continue_equilibria
   use tubes_orbits, only: orbit_opts_t
-  use tubes_study, only: study_t
-  use tubes_scan, only: scan_table, SCAN_MAXEQ, FOLD_MEET
+  use tubes_study, only: study_t, section_choice_t
+  use tubes_manifold, only: tube_opts_t
+  use tubes_scan, only: scan_table, SCAN_MAXEQ, FOLD_MEET, SCAN_CONSTANT
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
   implicit none
 
@@ -67,6 +72,7 @@ program test_scan
 
   call fold_case()
   call bad_arguments()
+  call p_trans_case()
   call finish('test_scan')
 
 contains
@@ -135,7 +141,62 @@ contains
     call check_eq('bad: to equal to the start', stat, TUBES_EINPUT)
     call try(st, opts, 1, -1.0_wp, 2, stat)
     call check_eq('bad: a mass the model refuses on the way', stat, TUBES_EINPUT)
+    call try(st, opts, MAX_PARAMS + 1, 0.5_wp, 2, stat)
+    call check_eq('bad: an index past the table', stat, TUBES_EINPUT)
+    call try(st, opts, SCAN_CONSTANT + 1, 0.5_wp, 2, stat)
+    call check_eq('bad: a formula constant of a built-in system', stat, TUBES_EINPUT)
   end subroutine bad_arguments
+
+  subroutine p_trans_case()
+    integer, parameter :: N = 4, NDE = 2
+    real(wp), parameter :: DES(NDE) = [0.01_wp, 0.05_wp]
+    type(study_t) :: st
+    type(orbit_opts_t) :: opts
+    type(section_choice_t) :: sec
+    real(wp) :: value(N + 1), eq_q(MAX_DOF, SCAN_MAXEQ, N + 1), eq_energy(SCAN_MAXEQ, N + 1), &
+                saddle_q(MAX_DOF, N + 1), saddle_energy(N + 1), lambda(N + 1), omega(MAX_DOF - 1, N + 1), &
+                period(NDE, N + 1), action(NDE, N + 1), stability(NDE, N + 1), fold_value(8), fold_width(8), &
+                fold_q(MAX_DOF, 8), a_tube(NDE, N + 1), a_e(NDE, N + 1), p(NDE, N + 1), short(NDE, N), closed
+    integer :: n_eq(N + 1), researched(N + 1), eq_index(SCAN_MAXEQ, N + 1), eq_name(8, SCAN_MAXEQ, N + 1), &
+               eq_det(SCAN_MAXEQ, N + 1), saddle_found(N + 1), converged(NDE, N + 1), restarted(NDE, N + 1), &
+               n_fold, fold_step(8), fold_kind(8), fold_name(8, 8), fold_partner(8, 8), stat, p_stat(NDE, N + 1), &
+               i, j
+    real(wp) :: worst
+    st%system = 'coupled_quartic'
+    st%params = 0
+    st%params(1:6) = [1.0_wp, 1.0_wp, 1.0_wp, 1.0_wp, 1.0_wp, 0.0_wp]   ! eps = 0: uncoupled
+    st%lo = -2
+    st%hi = 2
+    st%n_grid = 41
+    st%saddle = 'S1'
+    sec = section_choice_t(kind=2, index=1, level=0.5_wp, dir=-1)   ! the plane x = 1/2, dx/dt < 0
+    call scan_table(st, 3, 1.5_wp, N, DES, opts, value, n_eq, researched, eq_q, eq_energy, eq_index, &
+                    eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period, action, &
+                    stability, converged, restarted, n_fold, fold_step, fold_value, fold_width, fold_kind, fold_q, &
+                    fold_name, fold_partner, stat, sec, tube_opts_t(kind=-1, area_tol=1.0e-8_wp), a_tube, a_e, p, &
+                    p_stat)
+    call check_eq('p_trans: status', stat, TUBES_OK)
+    call check_true('p_trans: every cut', all(p_stat == TUBES_OK))
+    worst = 0
+    do i = 1, N + 1
+      do j = 1, NDE
+        closed = DES(j)/(DES(j) + value(i)/8 - 1.0_wp/64)
+        worst = max(worst, abs(p(j, i)/closed - 1))
+      end do
+    end do
+    call check_close('p_trans: dE/(dE + alpha/8 - beta/64), relative', worst, 0.0_wp, 1.0e-9_wp)
+    call check_true('p_trans: A_tube/A_E', all(p == a_tube/a_e))
+    call scan_table(st, 3, 1.5_wp, N, DES, opts, value, n_eq, researched, eq_q, eq_energy, eq_index, &
+                    eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period, action, &
+                    stability, converged, restarted, n_fold, fold_step, fold_value, fold_width, fold_kind, fold_q, &
+                    fold_name, fold_partner, stat, sec, tube_opts_t(kind=-1), a_tube, a_e, short, p_stat)
+    call check_eq('p_trans: arrays of another shape', stat, TUBES_EINPUT)
+    call scan_table(st, 3, 1.5_wp, N, DES, opts, value, n_eq, researched, eq_q, eq_energy, eq_index, &
+                    eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period, action, &
+                    stability, converged, restarted, n_fold, fold_step, fold_value, fold_width, fold_kind, fold_q, &
+                    fold_name, fold_partner, stat, p_trans=p)
+    call check_eq('p_trans: without its section and areas', stat, TUBES_EINPUT)
+  end subroutine p_trans_case
 
   !> scan_table of st with (ipar, to, n), dE = 0.01: its status.
   subroutine try(st, opts, ipar, to, n, stat)

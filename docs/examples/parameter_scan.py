@@ -1,11 +1,12 @@
 """A parameter scan: the paper's ball with the bowl's curvature alpha varied (docs/models.md).
 
-For each alpha: the saddle S12's energy E_e and its centre frequency omega (tubes.equilibria),
-and the transition fraction p_trans at dE = 2 and 20 (cm/s)^2 (Model.transition). Close to the
-saddle the tube's cut is the Lyapunov orbit's action, A_tube = 2 pi dE / omega to leading order
-(docs/theory.md): the script prints the ratio of the computed A_tube to it at dE = 2, 1 to
-~1e-4. DOP853 (integrator={'method': 'dop853'}) is used so that no Taylor kernel is compiled per
-alpha: four values of alpha, about 4 s.
+One call, Model.scan with p_trans=True (docs/scan.md): for each alpha the saddle S12's energy
+E_e and its centre frequency omega, and the transition fraction p_trans at dE = 2 and 20 (cm/s)^2,
+each what Model(alpha=...).transition gives there. Close to the saddle the tube's cut is the
+Lyapunov orbit's action, A_tube = 2 pi dE / omega to leading order (docs/theory.md): the script
+prints the ratio of the computed A_tube to it at dE = 2, 1 to ~1e-4. DOP853
+(integrator={'method': 'dop853'}) is used so that no Taylor kernel is compiled per alpha: four
+values of alpha, about 2 s.
 
     .venv/bin/python docs/examples/parameter_scan.py [OUTDIR]   (writes OUTDIR/parameter_scan.png)
 """
@@ -17,22 +18,19 @@ import numpy as np
 
 import tubes
 
-ALPHAS = [0.06, 0.07, 0.08, 0.09]
 DE = [2.0, 20.0]                      # (cm/s)^2
 
 
 def main(outdir="."):
     rows = []
     print(f"{'alpha':>6} {'E_e':>12} {'omega':>10} {'p(dE=2)':>10} {'p(dE=20)':>10} {'A_tube/(2 pi dE/omega)':>24}")
-    for a in ALPHAS:
-        m = tubes.Model(alpha=a)
-        eq = tubes.equilibria(m)
-        i = list(eq["name"]).index("S12")
-        w = float(eq["omega"][i])
-        tr = m.transition(dE=DE, integrator={"method": "dop853"})
-        ratio = tr["A_tube"][0] / (2 * math.pi * DE[0] / w)
-        rows.append((a, eq["energy"][i], w, *tr["p_trans"], ratio))
-        print(f"{a:6.3f} {eq['energy'][i]:12.4f} {w:10.6f} {tr['p_trans'][0]:10.6f} {tr['p_trans'][1]:10.6f} "
+    s = tubes.Model(alpha=0.06).scan("alpha", 0.09, 3, dE=DE, p_trans=True, saddle="S12",
+                                     integrator={"method": "dop853"})
+    for k, a in enumerate(s.value):
+        w = float(s.omega[k, 0])
+        ratio = s.A_tube[k, 0] / (2 * math.pi * DE[0] / w)
+        rows.append((a, s.saddle_energy[k], w, *s.p_trans[k], ratio))
+        print(f"{a:6.3f} {s.saddle_energy[k]:12.4f} {w:10.6f} {s.p_trans[k, 0]:10.6f} {s.p_trans[k, 1]:10.6f} "
               f"{ratio:24.6f}")
     r = np.array(rows)
 

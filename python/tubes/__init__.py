@@ -1680,11 +1680,16 @@ def _codes(a) -> str:
     return bytes(int(c) for c in a).decode("ascii", "replace").strip()
 
 
+SCAN_CONSTANT = 1000   # a formula's constant k is the scan's parameter SCAN_CONSTANT + k (src/workflow/tubes_scan.f90)
+
+
 def scan(model: Model | None = None, parameter: str | None = None, to=None, n=None, dE=None, saddle=None,
-         saddle_near=None, integrator: dict | None = None, equilibria: dict | None = None, **orbits) -> Table:
+         saddle_near=None, integrator: dict | None = None, equilibria: dict | None = None, p_trans: bool = False,
+         section=None, area_tol=None, **orbits) -> Table:
     """Continuation in a model parameter (as the scan scene, docs/scan.md): parameter (a name of
-    the model's table, not one of dissipation) moves from its value in the model to `to` in n
-    equal steps (n + 1 values). At each step the equilibria are continued by Newton from the
+    the model's table, not one of dissipation; or a formula model's constant given as a number,
+    each step then the formula's library at that value, built or loaded from the cache) moves
+    from its value in the model to `to` in n equal steps (n + 1 values). At each step the equilibria are continued by Newton from the
     previous step's (searched anew after a fold), the saddle's (saddle or saddle_near; the
     system's default) energy, lambda and centre frequencies are taken, and its Lyapunov orbits
     at the excess energies dE (optional; > 0, increasing) are corrected from the previous step's
@@ -1700,7 +1705,16 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
     0-based), fold_q, fold_name,
     fold_partner, n_folds (all found; at most 32 recorded), fold_tol. Keywords: &orbits' method,
     n_segments, tol, rtol, atol, max_iter, n_samples; integrator and equilibria as dicts of their
-    groups (as orbit_family's)."""
+    groups (as orbit_family's).
+
+    p_trans (default False; needs dE; 2 degrees of freedom, a conservative model, as transition()):
+    at each step and each dE, the transition fraction p_trans = A_tube / A_E that transition()
+    gives at the step's parameter value (the same calls: the saddle found anew, its family
+    continued in energy, the stable tube's cut on the section (section, as transition's; area_tol
+    &transition's)); adds p_trans, A_tube, A_E (n + 1, len(dE); NaN where the cut or the energy
+    surface failed) and p_trans_status (the TUBES_* code, 0 where it worked, -1 where the step has
+    no saddle); a failed step gives a RuntimeWarning naming it. Costs a tube cut per step and dE
+    (docs/scan.md)."""
     model = model or Model()
     who = "scan"
     if not isinstance(parameter, str):
@@ -1708,8 +1722,8 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
     ipar, allowed = _lib().scan_parameter_index(model.name, parameter)
     allowed = _str(allowed).strip()
     if ipar < 1:
-        extra = (" (a formula's constants are compiled into its model and cannot be scanned; "
-                 "dissipation parameters are not scanned)" if model.formula else
+        extra = (" (a formula's constants given as numbers are scanned, not one defined by a formula of "
+                 "others; dissipation parameters are not scanned)" if model.formula else
                  " (dissipation parameters are not scanned: the scan follows the conservative model)")
         raise ValueError(f"{who}: parameter = {parameter!r} is not a parameter the scan takes for system "
                          f"{model.system!r}; allowed: {', '.join(allowed.split()) or 'none'}{extra}")
@@ -1717,21 +1731,48 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
         raise ValueError(f"{who}: give to (the parameter's end value) and n (steps, >= 1)")
     to = _args.real(who, "to", to)
     n = _args.integer(who, "n", n, lo=1, hi=100000)
-    start = float(model.parameters[parameter])
+    sstat, start = _lib().scan_start_value(model.name, model.params(), ipar)
+    _check(sstat, who)
+    start = float(start)
+    constant = ipar > SCAN_CONSTANT     # a formula's constant: each step's model its own library
     if to == start:
         raise ValueError(f"{who}: to = {to!r} equals the start value {parameter} = {start!r}: allowed any other value")
-    end = model.replace(**{parameter: to})   # the reader's checks of the end value (alpha > 0, ...)
+    # the reader's checks of the end value (alpha > 0, ...); a formula's constant: its library at `to`
+    if constant:
+        cstat, _, cmsg = _lib().formula_with_constant(model.name, parameter, to)
+        if cstat != 0:
+            raise ValueError(f"{who}: to = {to!r}: the formula's library with {_str(cmsg).strip()}")
+        end = None
+    else:
+        end = model.replace(**{parameter: to})
     de = _de_list(dE, who)
+    p_on = _args.flag(who, "p_trans", p_trans)
+    if p_on:
+        _need_2dof(model, f"{who}: p_trans=True: p_trans is the transition scene's", "transition")
+        if de is None:
+            raise ValueError(f"{who}: p_trans=True needs the excess energies: give dE (> 0, increasing)")
+        if _dissipation(model):
+            raise ValueError(f"{who}: p_trans=True: the scan follows the conservative model, and the dissipative "
+                             "model's p_trans is its transition region's: call transition() at the values of interest")
     orb = dict(orbits) if de is None else dict(orbits, de=de)
-    st = _settings(model, saddle, saddle_near, who=who, orbits=orb, integrator=integrator, equilibria=equilibria)
+    tra = {} if area_tol is None else {"area_tol": float(area_tol)}
+    st = _settings(model, saddle, saddle_near, who=who, orbits=orb, integrator=integrator, equilibria=equilibria,
+                   **({"section": section, "transition": tra} if p_on else {}))
     des = np.array(st["des"][:int(st["ndes"][0]), 0]) if de is not None else np.zeros(0)
     if len(des) and int(st["orb_family"]) != 1:
         raise ValueError(f"{who}: family = {orbits.get('family')!r}: the scan follows the orbits of family 1 (the "
                          "saddle's lowest centre frequency; docs/scan.md): allowed family=1, or no dE")
+    sec = _section_args(st) if p_on else (0, 0, 0.0, 0)
     (stat, value, n_eq, res, eq_q, eq_en, eq_ix, eq_nm, eq_det, sfound, sq, sen, lam, om, per, act, stab, conv,
-     rest, nf, fstep, fval, fwid, fkind, fq, fname, fpart, ftol) = _lib().param_scan(
+     rest, nf, fstep, fval, fwid, fkind, fq, fname, fpart, ftol, pat, pae, ptr, pst) = _lib().param_scan(
         *_study(model, st), ipar, to, n, des, int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
-        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model))
+        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model),
+        int(p_on), *sec, float(st["tub_eps"]), float(st["tra_area_tol"]), float(st["tub_t_max"]),
+        int(st["tub_n_init"]), int(st["tub_n_max"]))
+    if stat == -1 and constant:
+        raise ValueError(f"{who}: the formula's library with a value of {parameter} between {start!r} and {to!r} "
+                         f"was not built (Model(constants=...) with that value says why), or more than 64 "
+                         "equilibria in the box")
     if stat == -1:
         raise ValueError(f"{who}: the model refused a value of {parameter} between {start!r} and {to!r} "
                          f"(its range: Model({parameter}=...) says which), or more than 64 equilibria in the box")
@@ -1753,6 +1794,15 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
     if len(des):
         out.update({"dE": des, "period": per.T.copy(), "action": act.T.copy(), "stability_index": stab.T.copy(),
                     "converged": conv.T.astype(bool), "restarted": rest.T.astype(bool)})
+    if p_on:
+        out.update({"p_trans": ptr.T.copy(), "A_tube": pat.T.copy(), "A_E": pae.T.copy(),
+                    "p_trans_status": pst.T.copy()})
+        bad = [(i, j) for i in range(m) for j in range(len(des)) if sfound[i] and pst[j, i] < 0]
+        if bad:
+            import warnings  # noqa: PLC0415
+            warnings.warn(f"{who}: p_trans failed at " + ", ".join(
+                f"{parameter} = {value[i]:.10g}, dE = {des[j]:g} (status {int(pst[j, i])})" for i, j in bad)
+                + " (NaN there; transition() at that value says more)", RuntimeWarning, stacklevel=3)
     del end
     return _table(out, "/scan", model)
 

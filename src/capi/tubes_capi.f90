@@ -30,7 +30,7 @@ module tubes_capi
   use tubes_flux3, only: cut3_study
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_study, only: bifurcation_table, BIF_TOL
-  use tubes_scan, only: scan_table, scan_index, SCAN_MAXEQ, SCAN_FOLD_TOL
+  use tubes_scan, only: scan_table, scan_index, scan_start, SCAN_MAXEQ, SCAN_FOLD_TOL
   use tubes_study, only: setup_model, setup_section, study_t, section_choice_t, section_info, cut_at, &
                          check_at, gate_reach, maps_at, cut_outputs, seed_stores_t, family_at, &
                          equilibria_of, equilibria_table, study_family, family_table, open_stores, stores_at, &
@@ -494,7 +494,8 @@ contains
       rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, value, n_eq, researched, eq_q, &
       eq_energy, eq_index, eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period, action, &
       stability, converged, restarted, max_fold, n_fold, fold_step, fold_value, fold_width, fold_kind, fold_q, &
-      fold_name, fold_partner, fold_tol) result(stat) bind(C, name='tubes_parameter_scan')
+      fold_name, fold_partner, fold_tol, p_trans_on, sec_kind, sec_index, level, dir, eps, area_tol, t_max, &
+      n_init, n_max, a_tube_p, a_e_p, p_trans_p, p_status_p) result(stat) bind(C, name='tubes_parameter_scan')
     character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
     real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
     integer(c_int), value :: n_grid, ipar, n, nde, n_segments, max_iter, nsamp, method, solver, int_max_iter, &
@@ -511,21 +512,42 @@ contains
                                    converged(max(nde, 1), n + 1), restarted(max(nde, 1), n + 1), n_fold, &
                                    fold_step(max_fold), fold_kind(max_fold), fold_name(8, max_fold), &
                                    fold_partner(8, max_fold)
+    integer(c_int), value :: p_trans_on, sec_kind, sec_index, dir, n_init, n_max
+    real(c_double), value :: level, eps, area_tol, t_max
+    type(c_ptr), value :: a_tube_p, a_e_p, p_trans_p, p_status_p   !! [max(nde, 1), n + 1] each, or NULL
+    real(c_double), pointer :: a_tube(:, :), a_e(:, :), p_trans(:, :)
+    integer(c_int), pointer :: p_status(:, :)
     type(orbit_opts_t) :: opts
     type(study_t) :: st
     type(section_choice_t) :: sec
-    integer :: nf, s
+    integer :: nf, s, w
     fold_tol = SCAN_FOLD_TOL
     n_fold = 0
     stat = TUBES_EINPUT
     if (n < 1 .or. nde < 0 .or. max_fold < 1) return
     opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, &
                         n_samples=nsamp, integ=integ_of(method, h, omega_bind, solver, int_max_iter))
-    call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
-    call scan_table(st, ipar, to, n, des(1:nde), opts, value, n_eq, researched, eq_q, eq_energy, eq_index, &
-                    eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period(1:nde, :), &
-                    action(1:nde, :), stability(1:nde, :), converged(1:nde, :), restarted(1:nde, :), nf, fold_step, &
-                    fold_value, fold_width, fold_kind, fold_q, fold_name, fold_partner, s)
+    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, opts%integ, st, sec)
+    if (p_trans_on /= 0) then
+      if (.not. (c_associated(a_tube_p) .and. c_associated(a_e_p) .and. c_associated(p_trans_p) .and. &
+                 c_associated(p_status_p))) return
+      w = max(nde, 1)
+      call c_f_pointer(a_tube_p, a_tube, [w, n + 1])
+      call c_f_pointer(a_e_p, a_e, [w, n + 1])
+      call c_f_pointer(p_trans_p, p_trans, [w, n + 1])
+      call c_f_pointer(p_status_p, p_status, [w, n + 1])
+      call scan_table(st, ipar, to, n, des(1:nde), opts, value, n_eq, researched, eq_q, eq_energy, eq_index, &
+                      eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period(1:nde, :), &
+                      action(1:nde, :), stability(1:nde, :), converged(1:nde, :), restarted(1:nde, :), nf, &
+                      fold_step, fold_value, fold_width, fold_kind, fold_q, fold_name, fold_partner, s, sec, &
+                      tube_opts_of(-1, eps, area_tol, t_max, n_init, n_max, .true.), a_tube(1:nde, :), &
+                      a_e(1:nde, :), p_trans(1:nde, :), p_status(1:nde, :))
+    else
+      call scan_table(st, ipar, to, n, des(1:nde), opts, value, n_eq, researched, eq_q, eq_energy, eq_index, &
+                      eq_name, eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period(1:nde, :), &
+                      action(1:nde, :), stability(1:nde, :), converged(1:nde, :), restarted(1:nde, :), nf, &
+                      fold_step, fold_value, fold_width, fold_kind, fold_q, fold_name, fold_partner, s)
+    end if
     n_fold = nf
     stat = s
   end function c_scan
@@ -541,6 +563,21 @@ contains
     ipar = scan_index(c_to_f(system), c_to_f(name), a)
     call f_to_c(a, allowed)
   end function c_scan_parameter
+  !> The start value of the scan's parameter ipar (tubes_scan_parameter's index) of system with
+  !> params (include/tubes.h: tubes_scan_start): params(ipar), or a formula's constant's value.
+  integer(c_int) function c_scan_start(system, params, ipar, start) result(stat) bind(C, name='tubes_scan_start')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
+    integer(c_int), value :: ipar
+    real(c_double), intent(out) :: start
+    type(study_t) :: st
+    integer :: s
+    st%system = c_to_f(system)
+    st%params = params
+    call scan_start(st, ipar, start, s)
+    stat = s
+  end function c_scan_start
+
   !> A C call's guess (nguess > 0: the family through it) and branch (family <= -101: 'branch:K',
   !> K = -100 - family) into opts.
   subroutine guess_opts(nguess, guess, guess_period, opts)

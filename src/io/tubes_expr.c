@@ -1173,3 +1173,142 @@ int tubes_expr_spec(const char key[TUBES_LSYSTEM], char *buf, int len) {
   buf[n] = 0;
   return TUBES_OK;
 }
+
+/* ---------------------------------------------------------------- a formula's constants as a
+ * scan's parameter (docs/scan.md, "A formula's constant"): the library of the same spec with one
+ * constant's value changed, built like any formula model (its own name and cache entry; the
+ * generated code depends on the constants' values, which SymPy sees as numbers). */
+
+/* The model lines of the spec embedded in library key (those before the compiler's line, the text
+ * tubes_expr_build was given), malloc'ed; NULL if the library cannot be read. */
+static char *model_spec(const char key[TUBES_LSYSTEM]) {
+  char path[PATH_MAX + 64], msg[2048];
+  void *h = open_cached(key, path, sizeof path, msg, (int)sizeof msg);
+  const char *text = h ? (const char *)dlsym(h, MODEL_BUILD.text_symbol) : NULL;
+  if (!text) return NULL;
+  const char *end = text;
+  while (*end && strncmp(end, "compiler ", 9)) {
+    const char *e = strchr(end, '\n');
+    end = e ? e + 1 : end + strlen(end);
+  }
+  size_t n = (size_t)(end - text);
+  char *s = malloc(n + 1);
+  if (!s) return NULL;
+  memcpy(s, text, n);
+  s[n] = 0;
+  return s;
+}
+
+/* The line "constant <name> = <rhs>" of spec: its start, and *rhs, *rhs_end the value's text
+ * (blanks trimmed); NULL if there is none. */
+static const char *constant_line(const char *spec, const char *name, const char **rhs, const char **rhs_end) {
+  size_t ln = strlen(name);
+  for (const char *s = spec; *s;) {
+    const char *e = strchr(s, '\n');
+    if (!e) e = s + strlen(s);
+    if (!strncmp(s, "constant ", 9)) {
+      const char *p = s + 9;
+      while (*p == ' ') p++;
+      if (!strncmp(p, name, ln)) {
+        const char *q = p + ln;
+        while (*q == ' ') q++;
+        if (*q == '=' && ln > 0) {
+          q++;
+          while (q < e && *q == ' ') q++;
+          const char *r = e;
+          while (r > q && (r[-1] == ' ' || r[-1] == '\r')) r--;
+          *rhs = q;
+          *rhs_end = r;
+          return s;
+        }
+      }
+    }
+    s = *e ? e + 1 : e;
+  }
+  return NULL;
+}
+
+/* The rhs as a number: 0 and *value if the whole text is one (strtod's syntax), else 1. */
+static int plain_number(const char *rhs, const char *end, double *value) {
+  char buf[256], *stop;
+  size_t n = (size_t)(end - rhs);
+  if (n == 0 || n >= sizeof buf) return 1;
+  memcpy(buf, rhs, n);
+  buf[n] = 0;
+  errno = 0;
+  double v = strtod(buf, &stop);
+  if (*stop || errno || !isfinite(v)) return 1;
+  *value = v;
+  return 0;
+}
+
+int tubes_expr_constant(const char key[TUBES_LSYSTEM], const char *name, double *value) {
+  char *spec = model_spec(key);
+  const char *rhs, *end;
+  int rc = TUBES_EINPUT;
+  if (spec && constant_line(spec, name, &rhs, &end)) rc = plain_number(rhs, end, value) ? 1 : TUBES_OK;
+  free(spec);
+  return rc;
+}
+
+int tubes_expr_constant_names(const char key[TUBES_LSYSTEM], char *buf, int len) {
+  char *spec = model_spec(key);
+  size_t n = 0;
+  buf[0] = 0;
+  if (!spec) return TUBES_EINPUT;
+  for (const char *s = spec; *s;) {
+    const char *e = strchr(s, '\n');
+    if (!e) e = s + strlen(s);
+    if (!strncmp(s, "constant ", 9)) {
+      const char *p = s + 9, *q;
+      while (*p == ' ') p++;
+      for (q = p; q < e && *q != ' ' && *q != '='; q++) {}
+      char name[128];
+      const char *rhs, *rend;
+      double v;
+      snprintf(name, sizeof name, "%.*s", (int)(q - p), p);
+      if (constant_line(spec, name, &rhs, &rend) && !plain_number(rhs, rend, &v) &&
+          n + strlen(name) + 2 < (size_t)len)
+        n += (size_t)snprintf(buf + n, (size_t)len - n, "%s%s", n ? " " : "", name);
+    }
+    s = *e ? e + 1 : e;
+  }
+  free(spec);
+  return TUBES_OK;
+}
+
+int tubes_expr_with_constant(const char key[TUBES_LSYSTEM], const char *name, double value,
+                             char newkey[TUBES_LSYSTEM], char *msg, int lmsg) {
+  char *spec = model_spec(key);
+  const char *rhs, *end, *line;
+  if (msg && lmsg > 0) msg[0] = 0;
+  if (!spec || !(line = constant_line(spec, name, &rhs, &end)) || !isfinite(value)) {
+    if (msg) say(msg, lmsg, "model %.*s has no constant %s given as a number", TUBES_LSYSTEM, key, name);
+    free(spec);
+    return TUBES_EINPUT;
+  }
+  /* the shortest decimal that reads back as value (a file's 'a = 1.5' and Python's repr: the same
+   * spec, the same library, where the value is written so) */
+  char num[40];
+  for (int p = 1; p <= 17; p++) {
+    snprintf(num, sizeof num, "%.*g", p, value);
+    if (strtod(num, NULL) == value) break;
+  }
+  const char *eol = strchr(rhs, '\n');
+  if (!eol) eol = rhs + strlen(rhs);
+  size_t ls = strlen(spec) + strlen(name) + sizeof num + 32;
+  char *out = malloc(ls);
+  if (!out) {
+    free(spec);
+    return TUBES_EIO;
+  }
+  snprintf(out, ls, "%.*sconstant %s = %s%s", (int)(line - spec), spec, name, num, eol);
+  char var[64], lib[PATH_MAX + 64], m[4096];
+  double secs;
+  int hit;
+  int rc = tubes_expr_build(out, newkey, var, (int)sizeof var, m, (int)sizeof m, lib, (int)sizeof lib, &secs, &hit);
+  if (rc && msg) say(msg, lmsg, "%s = %s: %s", name, num, m);
+  free(out);
+  free(spec);
+  return rc;
+}

@@ -37,8 +37,8 @@ const char *const tubes_scene_docs[] = {
     "noise and pixel rounding (docs/experiment-data.md)",
     "the flux of trajectories through the saddle's bottleneck in N degrees of freedom: sampled on the "
     "dividing surface, beside the leading-order formula (docs/theory.md)",
-    "continuation in a model parameter (&scan): equilibria, the saddle's data and its orbits followed, "
-    "folds located (docs/scan.md)"};
+    "continuation in a model parameter or a formula's constant (&scan): equilibria, the saddle's data, "
+    "its orbits and p_trans followed, folds located (docs/scan.md)"};
 const int tubes_nscenes = 10;
 
 const nml_var tubes_nml_vars[] = {
@@ -226,6 +226,9 @@ const nml_var tubes_nml_vars[] = {
     {"scan", "n", NML_INT, 1, "-", "10", "1 .. 100000", "steps (n + 1 parameter values, equally spaced)"},
     {"scan", "de", NML_REAL, TUBES_MAXDE, "energy", "&orbits de if set there, else none", "> 0, increasing",
      "excess energies of the saddle's Lyapunov orbits followed along the scan (none: no orbits)"},
+    {"scan", "p_trans", NML_LOGICAL, 1, "-", ".false.", ".true., .false. (2 degrees of freedom, as the transition scene)",
+     "p_trans(dE) = A_tube/A_E at each step and each de, as the transition scene computes it (costs a tube cut "
+     "per step and dE: docs/scan.md)"},
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 _Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 192, "nml_where holds 192 variables");
@@ -950,7 +953,8 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
     }
   }
   int need_section = scene_requested(c, "tubes") || scene_requested(c, "transition") ||
-                     scene_requested(c, "montecarlo") || scene_requested(c, "sections");
+                     scene_requested(c, "montecarlo") || scene_requested(c, "sections") ||
+                     (scene_requested(c, "scan") && c->scan_p_trans);
   int set_ray = line_of(w, "section", "angle") || line_of(w, "section", "p_theta_sign");
   int set_plane = line_of(w, "section", "index") || line_of(w, "section", "value") ||
                   line_of(w, "section", "direction");
@@ -1038,6 +1042,7 @@ static int check_memory(const char *path, const tubes_config_t *c, const nml_whe
 /* &scan (docs/scan.md): checked where the scan scene is asked for or the group is given. */
 static int validate_scan(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int asked = 0, n = 0;
+  double start = 0;
   for (int i = 0; i < TUBES_NSCENES; i++) asked |= !strcmp(c->scenes[i], "scan");
   if (!asked && !w->group_line[group_index("scan")]) return 0;
   if (!c->scan_parameter[0]) {
@@ -1051,8 +1056,8 @@ static int validate_scan(const char *path, const tubes_config_t *c, const nml_wh
             path, line_or_group(w, "scan", "parameter"), c->scan_parameter, c->system,
             allowed[0] ? allowed : "none",
             c->nparams == 0 || !strcmp(c->system, "expression") || !strcmp(c->surface, "expression")
-                ? " (a formula's constants are compiled into its model and cannot be scanned; dissipation "
-                  "parameters are not scanned)"
+                ? " (a formula's constants given as numbers are scanned, not one defined by a formula of "
+                  "others; dissipation parameters are not scanned)"
                 : " (dissipation parameters are not scanned: the scan follows the conservative model)");
     n++;
   }
@@ -1061,11 +1066,19 @@ static int validate_scan(const char *path, const tubes_config_t *c, const nml_wh
     fprintf(err, "%s:%d: &scan: to is not set: the scan scene needs the parameter's end value\n", path,
             line_or_group(w, "scan", "to"));
     n++;
-  } else if (c->scan_ipar >= 1 && c->scan_to == c->params[c->scan_ipar - 1]) {
+  } else if (c->scan_ipar >= 1 && tubes_scan_start(c->model, c->params, c->scan_ipar, &start) == 0 &&
+             c->scan_to == start) {
     fprintf(err, "%s:%d: &scan: to = %.17g equals the start value %s = %.17g (&model): allowed any other value\n",
-            path, line_or_group(w, "scan", "to"), c->scan_to, c->scan_parameter, c->params[c->scan_ipar - 1]);
+            path, line_or_group(w, "scan", "to"), c->scan_to, c->scan_parameter, start);
     n++;
-  } else if (c->scan_ipar >= 1 && c->nparams > 0) {   /* the end value: the model's own check */
+  } else if (c->scan_ipar > TUBES_SCAN_CONSTANT) {   /* a formula's constant: its library at the end value */
+    char key[TUBES_LSYSTEM], msg[2048];
+    if (tubes_expr_with_constant(c->model, c->scan_parameter, c->scan_to, key, msg, (int)sizeof msg)) {
+      fprintf(err, "%s:%d: &scan: to = %.10g: the formula's library with %s\n", path, line_or_group(w, "scan", "to"),
+              c->scan_to, msg);
+      n++;
+    }
+  } else if (c->scan_ipar >= 1 && c->scan_ipar <= c->nparams) {   /* the end value: the model's own check */
     double p[TUBES_MAXPARAM];
     int natural = 0;
     memcpy(p, c->params, sizeof p);
@@ -1078,6 +1091,11 @@ static int validate_scan(const char *path, const tubes_config_t *c, const nml_wh
     }
   }
   if (line_of(w, "scan", "de")) n += check_list(path, c, w, "scan", c->scan_de, c->scan_nde, err);
+  if (c->scan_p_trans && c->scan_nde == 0) {
+    fprintf(err, "%s:%d: &scan: p_trans = .true. needs the excess energies: set &scan de (or &orbits de), > 0 and "
+            "increasing\n", path, line_or_group(w, "scan", "p_trans"));
+    n++;
+  }
   if (asked && c->orb_family != 1 && c->scan_nde > 0) {
     fprintf(err, "%s:%d: &orbits: family: the scan scene follows the orbits of family 1 (the saddle's lowest centre "
             "frequency; docs/scan.md): allowed family = 1 with the scan, or no orbits (no &scan de or &orbits de)\n",

@@ -93,6 +93,7 @@ module tubes_nml
     real(c_double) :: orb_guess(2*MAX_DOF)   !! &orbits guess (the first 2 MAX_DOF values)
     integer(c_int) :: orb_nguess             !! how many values guess was given (0: none)
     real(c_double) :: orb_period             !! &orbits period (of the guess)
+    integer(c_int) :: scan_p_trans           !! &scan p_trans (1: .true.)
   end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved), with their
@@ -166,6 +167,7 @@ module tubes_nml
     integer :: scan_n = 10
     real(c_double) :: orb_guess(MAXGUESS) = UNSET   !! &orbits guess (a longer list is said so)
     real(c_double) :: orb_period = 0
+    logical :: scan_p_trans = .false.
   end type vars_t
 
 contains
@@ -253,6 +255,7 @@ contains
     cfg%scan_to = v%scan_to
     cfg%scan_n = v%scan_n
     cfg%scan_de = v%scan_de
+    cfg%scan_p_trans = merge(1, 0, v%scan_p_trans)
     cfg%scan_nde = count(v%scan_de /= UNSET)
     if (cfg%scan_nde == 0 .and. count(v%orb_de /= UNSET) > 0) then   ! &orbits de, as given
       cfg%scan_de = v%orb_de
@@ -622,6 +625,7 @@ contains
     v%scan_to = cfg%scan_to
     v%scan_n = cfg%scan_n
     v%scan_de = cfg%scan_de
+    v%scan_p_trans = cfg%scan_p_trans /= 0
   end subroutine from_c
 
   subroutine c_defaults(cfg) bind(C, name='tubes_nml_defaults')
@@ -1040,11 +1044,13 @@ contains
       real(c_double) :: to
       real(c_double), allocatable :: de(:)
       integer :: n
-      namelist /scan/ parameter, to, n, de
+      logical :: p_trans
+      namelist /scan/ parameter, to, n, de, p_trans
       if (mode /= 'r' .and. len_trim(v%scan_parameter) == 0) return   ! echoed only when set
       parameter = v%scan_parameter
       to = v%scan_to
       n = v%scan_n
+      p_trans = v%scan_p_trans
       call list_io(v%scan_de, de)
       if (mode == 'r') then
         read (u, nml=scan, iostat=ios, iomsg=iomsg)
@@ -1055,6 +1061,7 @@ contains
       v%scan_parameter = parameter
       v%scan_to = to
       v%scan_n = n
+      v%scan_p_trans = p_trans
     end subroutine io_scan
     subroutine io_sections()
       real(c_double), allocatable :: de(:)

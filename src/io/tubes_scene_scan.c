@@ -9,6 +9,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
 
 enum { SCAN_MAXFOLD = 32, MEQ = TUBES_SCAN_MAXEQ, MD = TUBES_MAXDOF };
 
@@ -54,32 +57,53 @@ int scene_scan(tubes_run_t *run) {
       *eq_nm = malloc(sizeof(int) * 8 * MEQ * sm), *eq_det = malloc(sizeof(int) * MEQ * sm),
       *sfound = malloc(sizeof(int) * sm), *conv = malloc(sizeof(int) * nd1 * sm),
       *rest = malloc(sizeof(int) * nd1 * sm);
+  int pon = c->scan_p_trans != 0 && nde > 0;
+  if (pon && run->law) {   /* the scan's model is the conservative one (scan_table) */
+    fprintf(stderr, "%s: &scan p_trans: the scan follows the conservative model, and the dissipative model's (%s) "
+            "p_trans is its transition region's: run the transition scene at the values of interest\n",
+            run->input ? run->input : "tubes", run->dissip);
+    return EXIT_BADINPUT;
+  }
+  double *pat = pon ? malloc(sizeof(double) * nd1 * sm) : NULL, *pae = pon ? malloc(sizeof(double) * nd1 * sm) : NULL,
+         *ptr = pon ? malloc(sizeof(double) * nd1 * sm) : NULL;
+  int *pst = pon ? malloc(sizeof(int) * nd1 * sm) : NULL;
   double fval[SCAN_MAXFOLD], fwid[SCAN_MAXFOLD], fq[MD * SCAN_MAXFOLD], ftol = 0;
   int fstep[SCAN_MAXFOLD], fkind[SCAN_MAXFOLD], fname[8 * SCAN_MAXFOLD], fpart[8 * SCAN_MAXFOLD], nf = 0;
   int rc = 0;
   if (!value || !eq_q || !eq_en || !sq || !sen || !lam || !om || !per || !act || !stab || !neq || !res || !eq_ix ||
-      !eq_nm || !eq_det || !sfound || !conv || !rest) {
+      !eq_nm || !eq_det || !sfound || !conv || !rest || (pon && (!pat || !pae || !ptr || !pst))) {
     fprintf(stderr, "tubes: scan: out of memory (%d steps)\n", m);
     rc = EXIT_NUMERIC;
     goto out;
   }
   int ipar = c->scan_ipar;
-  double start = run->params[ipar - 1], t0 = wall();
+  double start = 0, t0 = wall();
+  tubes_scan_start(run->system, run->params, ipar, &start);   /* the reader resolved ipar: it has one */
   char pu[TUBES_LUNITS + 1];
   param_units(run, ipar, pu, sizeof pu);
-  fprintf(stderr, "scan: %s from %.10g to %.10g in %d steps (saddle %s, %d orbit%s)...\n", c->scan_parameter, start,
-          c->scan_to, n, run->saddle, nde, nde == 1 ? "" : "s");
+  fprintf(stderr, "scan: %s from %.10g to %.10g in %d steps (saddle %s, %d orbit%s%s)...\n", c->scan_parameter, start,
+          c->scan_to, n, run->saddle, nde, nde == 1 ? "" : "s", pon ? ", p_trans: a tube cut per step and dE" : "");
+  /* the section of p_trans: the transition scene's (&section; tubes_scenes.c SECTION) */
+  int ray = !strcmp(c->sec_kind, "ray");
+  int skind = ray ? 1 : 2, sdir = ray ? c->sec_pth_sign : c->sec_direction;
+  double slevel = ray ? c->sec_angle * M_PI / 180 : c->sec_value;
   int st = tubes_parameter_scan(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, ipar, c->scan_to, n, nde,
                       c->scan_de, nseg, c->orb_tol, c->orb_rtol, c->orb_atol, c->orb_max_iter, c->orb_n_samples,
                       run->method, c->h, c->omega_bind, strcmp(c->solver, "fixed_point") ? 1 : 2, c->max_iter, value,
                       neq, res, eq_q, eq_en, eq_ix, eq_nm, eq_det, sfound, sq, sen, lam, om, per, act, stab, conv,
-                      rest, SCAN_MAXFOLD, &nf, fstep, fval, fwid, fkind, fq, fname, fpart, &ftol);
+                      rest, SCAN_MAXFOLD, &nf, fstep, fval, fwid, fkind, fq, fname, fpart, &ftol, pon, skind,
+                      c->sec_index, slevel, sdir, c->tub_eps, c->tra_area_tol, c->tub_t_max, c->tub_n_init,
+                      c->tub_n_max, pat, pae, ptr, pst);
   if (st < 0) {
     char msg[TUBES_LSTATUS];
     tubes_status_message(st, msg, sizeof msg);
     fprintf(stderr, "tubes: scan: failed: %s (status %d)%s\n", msg, st,
-            st == TUBES_EINPUT ? ": the model refuses a value of the parameter between the start and `to` "
-                                 "(docs/models.md gives its range), or more than 64 equilibria lie in the box" : "");
+            st != TUBES_EINPUT ? ""
+            : ipar > TUBES_SCAN_CONSTANT ? ": the formula's library with a value of the constant between the start "
+                                           "and `to` was not built (the model line of this input with that value says "
+                                           "why), or more than 64 equilibria lie in the box"
+                                         : ": the model refuses a value of the parameter between the start and `to` "
+                                           "(docs/models.md gives its range), or more than 64 equilibria lie in the box");
     rc = EXIT_NUMERIC;
     goto out;
   }
@@ -90,6 +114,11 @@ int scene_scan(tubes_run_t *run) {
   for (int i = 0; i < nde; i++) {
     char h[32];
     snprintf(h, sizeof h, "T(dE=%.4g)", c->scan_de[i]);
+    printf("  %15s", h);
+  }
+  for (int i = 0; pon && i < nde; i++) {
+    char h[32];
+    snprintf(h, sizeof h, "p(dE=%.4g)", c->scan_de[i]);
     printf("  %15s", h);
   }
   printf("\n");
@@ -105,8 +134,21 @@ int scene_scan(tubes_run_t *run) {
       else printf("  %15s", "-");
       nlost += sfound[j] && !conv[nd1 * j + i];   /* past a fold that took the saddle: none to find */
     }
+    for (int i = 0; pon && i < nde; i++) {
+      if (!isnan(ptr[nd1 * j + i])) printf("  %15.10g", ptr[nd1 * j + i]);
+      else printf("  %15s", "-");
+      nlost += sfound[j] && pst[nd1 * j + i] < 0;
+    }
     printf("\n");
   }
+  for (int j = 0; pon && j < m; j++)
+    for (int i = 0; i < nde; i++)
+      if (sfound[j] && pst[nd1 * j + i] < 0) {
+        char msg[TUBES_LSTATUS];
+        tubes_status_message(pst[nd1 * j + i], msg, sizeof msg);
+        fprintf(stderr, "tubes: scan: p_trans at %s = %.10g, dE = %g failed: %s (status %d; the transition scene "
+                "at that value says more)\n", c->scan_parameter, value[j], c->scan_de[i], msg, pst[nd1 * j + i]);
+      }
   if (nf == 0) printf("  no fold between %.10g and %.10g (equilibria continued by Newton; * a new search)\n", start,
                       c->scan_to);
   for (int k = 0; k < nf && k < SCAN_MAXFOLD; k++) {
@@ -178,6 +220,18 @@ int scene_scan(tubes_run_t *run) {
           for (int i = 0; i < nde; i++) irow[(size_t)nde * j + i] = isrc[q][(size_t)nd1 * j + i];
         e |= h5_write_int_nd(g, in[q], 2, dor, irow, NULL);
       }
+      if (pon) {   /* p_trans along the scan (docs/output.md) */
+        double *psrc[3] = {ptr, pat, pae};
+        const char *pn[3] = {"p_trans", "A_tube", "A_E"};
+        for (int q = 0; q < 3; q++) {
+          for (int j = 0; j < m; j++)
+            for (int i = 0; i < nde; i++) orow[(size_t)nde * j + i] = psrc[q][(size_t)nd1 * j + i];
+          e |= h5_write_double(g, pn[q], 2, dor, orow, NULL);
+        }
+        for (int j = 0; j < m; j++)
+          for (int i = 0; i < nde; i++) irow[(size_t)nde * j + i] = pst[(size_t)nd1 * j + i];
+        e |= h5_write_int_nd(g, "p_trans_status", 2, dor, irow, NULL);
+      }
     }
     free(orow);
     free(irow);
@@ -220,5 +274,6 @@ int scene_scan(tubes_run_t *run) {
 out:
   free(value); free(eq_q); free(eq_en); free(sq); free(sen); free(lam); free(om); free(per); free(act); free(stab);
   free(neq); free(res); free(eq_ix); free(eq_nm); free(eq_det); free(sfound); free(conv); free(rest);
+  free(pat); free(pae); free(ptr); free(pst);
   return rc;
 }

@@ -264,6 +264,15 @@ static int scenes_apply(tubes_run_t *run) {
       fprintf(stderr, "%s %s\n", r == 2 ? "&section:" : "&run scenes:", m);
       return EXIT_BADINPUT;
     }
+    if (!strcmp(c->scenes[k], "scan") && c->scan_p_trans) {   /* p_trans: the transition scene's rule */
+      r = tubes_scene_refused("transition", run->ndof, !sec_is_ray(c), run->label, m, (int)sizeof m);
+      if (r) {
+        say_at(run, nml_line(run->where, "scan", "p_trans"));
+        fprintf(stderr, "&scan p_trans: p_trans is the transition scene's: %s\n", m);
+        return EXIT_BADINPUT;
+      }
+      if (!sec) sec = on_section[1];
+    }
     for (int j = 1; j < 4; j++)   /* the scenes on a section's region: their plane is checked below */
       if (!sec && !strcmp(c->scenes[k], on_section[j])) sec = on_section[j];
     if (!sec && !strcmp(c->scenes[k], "tubes") && run->ndof == 2) sec = on_section[0];

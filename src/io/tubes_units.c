@@ -53,7 +53,8 @@ static const unit_row_t ROWS[] = {
   {"/scan", "lambda", "1/s"}, {"/scan", "omega", "rad/s"}, {"/scan", "dE", "(cm/s)^2"}, {"/scan", "period", "s"},
   {"/scan", "action", "cm^2/s"}, {"/scan", "stability_index", "1"}, {"/scan", "converged", "1"},
   {"/scan", "restarted", "1"}, {"/scan/folds", "kind", "1"}, {"/scan/folds", "step", "1"},
-  {"/scan/folds", "q", "cm"},
+  {"/scan/folds", "q", "cm"}, {"/scan", "p_trans", "1"}, {"/scan", "A_tube", "cm^2/s"}, {"/scan", "A_E", "cm^2/s"},
+  {"/scan", "p_trans_status", "1"},
   /* the transition scene */
   TRANSITION_ROWS("/transition"),
   /* the Monte Carlo scene */

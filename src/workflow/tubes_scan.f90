@@ -6,15 +6,17 @@
 !> disappearing, or its Jacobian's determinant changing sign) located by bisection. One core for
 !> the C API (tubes_parameter_scan, the program's scan scene) and the f2py facade (Python's Model.scan).
 module tubes_scan
-  use, intrinsic :: iso_c_binding, only: c_char, c_int, c_long
+  use, intrinsic :: iso_c_binding, only: c_char, c_int, c_long, c_double
+  use tubes_cstrings, only: c_to_f, f_to_c
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
   use tubes_kinds, only: wp
   use tubes_status, only: TUBES_OK, TUBES_EINPUT
   use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_models, only: make_model, system_info, system_info_t, MAX_DOF, LEN_PARAM
+  use tubes_models, only: make_model, system_info, system_info_t, MAX_DOF, LEN_PARAM, LEN_SYSTEM
   use tubes_equilibria, only: equilibrium_t, find_equilibria, continue_equilibria, rest_jacobian
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, correct_symmetric, correct_multiple, finish_orbit
-  use tubes_study, only: study_t, de_floor
+  use tubes_study, only: study_t, de_floor, section_choice_t, cut_at, section_info
+  use tubes_manifold, only: tube_opts_t, tube_cut_t
   use tubes_ensemble, only: progress_begin, progress_tick
   implicit none
   private
@@ -28,16 +30,43 @@ module tubes_scan
                                                     !! within 1e-3 of the box's width of a face)
   !> the bisection's bracket: width <= SCAN_FOLD_TOL |to - from|
   real(wp), parameter, public :: SCAN_FOLD_TOL = 1.0e-13_wp
+  !> a formula's constant k (the k-th given as a number) is the scan's parameter SCAN_CONSTANT + k
+  integer, parameter, public :: SCAN_CONSTANT = 1000
+  integer, parameter :: MAX_CONSTANTS = 64          !! constants listed at most (the reader takes fewer)
 
-  public :: scan_table, scan_parameter, scan_index
+  public :: scan_table, scan_parameter, scan_index, scan_start
+
+  ! src/io/tubes_expr.c (include/tubes.h): a formula model's constants
+  interface
+    integer(c_int) function expr_constant(key, name, value) bind(C, name='tubes_expr_constant')
+      import :: c_int, c_char, c_double
+      character(kind=c_char), intent(in) :: key(*), name(*)
+      real(c_double), intent(out) :: value
+    end function expr_constant
+    integer(c_int) function expr_constant_names(key, buf, len) bind(C, name='tubes_expr_constant_names')
+      import :: c_int, c_char
+      character(kind=c_char), intent(in) :: key(*)
+      character(kind=c_char), intent(out) :: buf(*)
+      integer(c_int), value :: len
+    end function expr_constant_names
+    integer(c_int) function expr_with_constant(key, name, value, newkey, msg, lmsg) &
+        bind(C, name='tubes_expr_with_constant')
+      import :: c_int, c_char, c_double
+      character(kind=c_char), intent(in) :: key(*), name(*)
+      real(c_double), value :: value
+      character(kind=c_char), intent(out) :: newkey(*), msg(*)
+      integer(c_int), value :: lmsg
+    end function expr_with_constant
+  end interface
 
 contains
 
   !> The index of parameter `name` of system in the parameter vector (table order), 0 if the
   !> system has no such parameter or it is one of dissipation (damping_ratio, rolling_resistance,
   !> noise, temperature: the scan follows the conservative model); allowed: the parameters a scan
-  !> takes, blank-separated (for the message that refuses another name). A formula's constants
-  !> are compiled into its model (docs/models.md) and are not parameters.
+  !> takes, blank-separated (for the message that refuses another name). A formula model's
+  !> constants given as numbers are taken too (SCAN_CONSTANT + k for the k-th of them): each
+  !> step's model is the library of the formula with that constant's value (docs/scan.md).
   subroutine scan_parameter(system, name, ipar, allowed)
     character(*), intent(in) :: system, name
     integer, intent(out) :: ipar
@@ -62,8 +91,74 @@ contains
       if (info%params(k)%name == name) ipar = k
       a = trim(a) // ' ' // trim(info%params(k)%name)
     end do
+    if (stat == TUBES_OK .and. system(1:min(5, len(system))) == 'expr_') then
+      block
+        character(len=1024) :: names
+        integer :: j
+        names = constant_names(system)
+        do j = 1, MAX_CONSTANTS
+          if (len_trim(word(names, j)) == 0) exit
+          if (word(names, j) == name .and. ipar == 0) ipar = SCAN_CONSTANT + j
+          a = trim(a) // ' ' // trim(word(names, j))
+        end do
+      end block
+    end if
     allowed = adjustl(a)
   end function scan_index
+
+  !> The names of the formula model system's constants given as numbers, blank-separated.
+  function constant_names(system) result(names)
+    character(*), intent(in) :: system
+    character(len=1024) :: names
+    character(kind=c_char) :: key(LEN_SYSTEM + 1), buf(1024)
+    call f_to_c(system, key)
+    names = ''
+    if (expr_constant_names(key, buf, size(buf)) == TUBES_OK) names = c_to_f(buf)
+  end function constant_names
+
+  !> The j-th blank-separated word of s ('' if none).
+  pure function word(s, j) result(w)
+    character(*), intent(in) :: s
+    integer, intent(in) :: j
+    character(len=64) :: w
+    integer :: i, k, b
+    w = ''
+    i = 1
+    do k = 1, j
+      do while (i <= len(s))
+        if (s(i:i) /= ' ') exit
+        i = i + 1
+      end do
+      if (i > len(s)) return
+      b = index(s(i:), ' ')
+      if (b == 0) b = len(s) - i + 2
+      if (k == j) w = s(i:i + b - 2)
+      i = i + b - 1
+    end do
+  end function word
+
+  !> The start value p0 of the scan's parameter ipar in study st: st%params(ipar), or the value of
+  !> the formula's constant (ipar > SCAN_CONSTANT). stat: TUBES_EINPUT if there is none.
+  subroutine scan_start(st, ipar, p0, stat)
+    type(study_t), intent(in) :: st
+    integer, intent(in) :: ipar
+    real(wp), intent(out) :: p0
+    integer, intent(out) :: stat
+    character(kind=c_char) :: key(LEN_SYSTEM + 1), cname(65)
+    real(c_double) :: v
+    p0 = 0
+    stat = TUBES_EINPUT
+    if (ipar >= 1 .and. ipar <= size(st%params)) then
+      p0 = st%params(ipar)
+      stat = TUBES_OK
+    else if (ipar > SCAN_CONSTANT) then
+      call f_to_c(trim(st%system), key)
+      call f_to_c(trim(word(constant_names(trim(st%system)), ipar - SCAN_CONSTANT)), cname)
+      if (expr_constant(key, cname, v) /= TUBES_OK) return
+      p0 = v
+      stat = TUBES_OK
+    end if
+  end subroutine scan_start
 
   !> The sign of det(a) (-1, 0 or 1), by Gaussian elimination with partial pivoting.
   pure integer function det_sign(a) result(s)
@@ -121,10 +216,17 @@ contains
   !> good end), fold_name, fold_partner (names as eq_name: the equilibrium it meets, the nearest
   !> other at the bracket's good end). stat: TUBES_EINPUT for bad arguments (ipar, n, to equal
   !> to the start, a model refused at a step's value), else the first failure's status.
+  !> p_trans (optional, with sec, topts, a_tube, a_e and p_stat): at each step and each dE of des,
+  !> the transition scene's p_trans = A_tube/A_E at the step's parameters (cut_at with the tube
+  !> options topts on the section sec, section_info: the calls of a direct run, from the saddle
+  !> found anew and its family continued in energy, so a step's numbers are those of the
+  !> transition scene run at its value); a_tube, a_e the areas, p_stat the cut's status (else the
+  !> energy surface's; 0: both worked; TUBES_EINPUT where the step has no saddle). NaN where
+  !> either failed.
   subroutine scan_table(st, ipar, to, n, des, opts, value, n_eq, researched, eq_q, eq_energy, eq_index, eq_name, &
                         eq_det, saddle_found, saddle_q, saddle_energy, lambda, omega, period, action, stability, &
                         converged, restarted, n_fold, fold_step, fold_value, fold_width, fold_kind, fold_q, &
-                        fold_name, fold_partner, stat)
+                        fold_name, fold_partner, stat, sec, topts, a_tube, a_e, p_trans, p_stat)
     type(study_t), intent(in) :: st
     integer, intent(in) :: ipar, n
     real(wp), intent(in) :: to, des(:)
@@ -135,22 +237,39 @@ contains
     integer, intent(out) :: n_eq(:), researched(:), eq_index(:, :), eq_name(:, :, :), eq_det(:, :), &
                             saddle_found(:), converged(:, :), restarted(:, :), n_fold, fold_step(:), &
                             fold_kind(:), fold_name(:, :), fold_partner(:, :), stat
+    type(section_choice_t), intent(in), optional :: sec
+    type(tube_opts_t), intent(in), optional :: topts
+    real(wp), intent(out), optional :: a_tube(:, :), a_e(:, :), p_trans(:, :)
+    integer, intent(out), optional :: p_stat(:, :)
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:), prev(:)
     type(orbit_t), allocatable :: orbs(:), prev_orbs(:)
     real(wp) :: params(size(st%params)), nan, p0, v
     integer, allocatable :: origin(:), sgn(:)
     integer :: nd, k, i, isad, ns
+    logical :: want_p
+    character(LEN_SYSTEM) :: sys          ! the step's model (a formula's constant: its own library)
     nan = ieee_value(1.0_wp, ieee_quiet_nan)
     value = nan; eq_q = nan; eq_energy = nan; saddle_q = nan; saddle_energy = nan; lambda = nan; omega = nan
     period = nan; action = nan; stability = nan; fold_value = nan; fold_width = nan; fold_q = nan
     n_eq = 0; researched = 0; eq_index = -1; eq_name = ichar(' '); eq_det = 0; saddle_found = 0; converged = 0
     restarted = 0; n_fold = 0; fold_step = 0; fold_kind = 0; fold_name = ichar(' '); fold_partner = ichar(' ')
+    want_p = present(p_trans)
+    if (want_p) then
+      want_p = present(sec) .and. present(topts) .and. present(a_tube) .and. present(a_e) .and. present(p_stat)
+      stat = TUBES_EINPUT
+      if (.not. want_p) return
+      p_trans = nan; a_tube = nan; a_e = nan; p_stat = TUBES_EINPUT
+      if (size(p_trans, 1) < size(des) .or. size(p_trans, 2) < n + 1 .or. any(shape(a_tube) /= shape(p_trans)) .or. &
+          any(shape(a_e) /= shape(p_trans)) .or. any(shape(p_stat) /= shape(p_trans))) return
+    end if
     stat = TUBES_EINPUT
-    if (ipar < 1 .or. ipar > size(st%params) .or. n < 1 .or. n > SCAN_MAXSTEPS) return
+    if (n < 1 .or. n > SCAN_MAXSTEPS) return
     if (size(value) < n + 1 .or. size(period, 1) < size(des) .or. size(period, 2) < n + 1) return
     if (.not. (abs(to) <= huge(1.0_wp))) return
-    p0 = st%params(ipar)
+    call scan_start(st, ipar, p0, stat)
+    if (stat /= TUBES_OK) return
+    stat = TUBES_EINPUT
     if (to == p0) return
     do k = 2, size(des)
       if (.not. des(k) > des(k - 1)) return
@@ -163,8 +282,7 @@ contains
       v = p0 + (to - p0)*real(i - 1, wp)/n
       if (i == n + 1) v = to                 ! the end value exactly: the direct run's bits
       value(i) = v
-      params(ipar) = v
-      call make_model(trim(st%system), params, model, stat)
+      call model_at(v, params, sys, model, stat)
       if (stat /= TUBES_OK) then
         stat = TUBES_EINPUT                  ! the model refuses this value (alpha <= 0, ...)
         return
@@ -200,6 +318,7 @@ contains
         lambda(i) = eqs(isad)%lambda
         if (nd > 1) omega(1:nd - 1, i) = eqs(isad)%omegas(1:nd - 1)
         if (size(des) > 0) call step_orbits(i)
+        if (want_p) call step_p_trans(i)
       else
         prev_orbs = orbit_t()                ! no saddle: the next orbits start afresh
       end if
@@ -209,6 +328,58 @@ contains
     end do
     stat = TUBES_OK
   contains
+
+    !> The model at parameter value v: p(ipar) = v and make_model of st's system, or (a formula's
+    !> constant) the library of st's formula with the constant set to v (tubes_expr_with_constant:
+    !> built or loaded from the cache); sy its system name.
+    subroutine model_at(v, p, sy, m, stat)
+      real(wp), intent(in) :: v
+      real(wp), intent(inout) :: p(:)
+      character(LEN_SYSTEM), intent(out) :: sy
+      class(hamiltonian_t), allocatable, intent(out) :: m
+      integer, intent(out) :: stat
+      character(kind=c_char) :: key(LEN_SYSTEM + 1), cname(65), newkey(LEN_SYSTEM + 1), msg(2048)
+      sy = st%system
+      if (ipar <= size(p)) then
+        p(ipar) = v
+      else
+        call f_to_c(trim(st%system), key)
+        call f_to_c(trim(word(constant_names(trim(st%system)), ipar - SCAN_CONSTANT)), cname)
+        stat = expr_with_constant(key, cname, v, newkey, msg, size(msg))
+        if (stat /= TUBES_OK) return
+        sy = c_to_f(newkey)
+      end if
+      call make_model(trim(sy), p, m, stat)
+    end subroutine model_at
+
+    !> Step i's p_trans at each dE: the transition scene's calls (a direct run's) at the step's
+    !> parameters, the orbit options of opts (as the study's: n_segments, tol, rtol, atol, the
+    !> integrator; family 1).
+    subroutine step_p_trans(i)
+      integer, intent(in) :: i
+      type(study_t) :: sp
+      type(tube_cut_t) :: cut
+      type(orbit_t) :: orb
+      real(wp) :: smin, smax, area, darea
+      integer :: j, sc, se
+      sp = st
+      sp%system = sys
+      sp%params = params
+      sp%n_segments = opts%n_segments
+      sp%orb_tol = opts%tol
+      sp%orb_rtol = opts%rtol
+      sp%orb_atol = opts%atol
+      sp%integ = opts%integ
+      sp%family = 1
+      do j = 1, size(des)
+        call cut_at(sp, sec, des(j), topts, cut, orb, sc)
+        if (sc >= TUBES_OK) a_tube(j, i) = cut%area
+        call section_info(sp, sec, des(j), smin, smax, area, darea, se)
+        if (se >= TUBES_OK) a_e(j, i) = area
+        p_stat(j, i) = merge(min(se, TUBES_OK), sc, sc >= TUBES_OK)
+        if (sc >= TUBES_OK .and. se >= TUBES_OK) p_trans(j, i) = cut%area/area
+      end do
+    end subroutine step_p_trans
 
     !> Step i's equilibria: continued from prev's positions; where one was lost, met another or
     !> changed the sign of its determinant, the fold located and the step's equilibria searched
@@ -236,7 +407,7 @@ contains
       end do
       researched(i) = 1
       ! the model at step i again (locate_fold made others) and a new search
-      call make_model(trim(st%system), params, model, stat)
+      call make_model(trim(sys), params, model, stat)
       if (stat /= TUBES_OK) return
       call find_equilibria(model, st%lo(1:nd), st%hi(1:nd), st%n_grid, eqs, stat)
     end subroutine step_equilibria
@@ -252,6 +423,7 @@ contains
       integer, allocatable :: org(:)
       real(wp) :: lo_v, hi_v, mid, qlo(nd, size(prev)), pm(size(params)), d, best
       integer :: j, jp, kind, it, jmeet
+      character(LEN_SYSTEM) :: sm
       lo_v = value(i - 1)
       hi_v = value(i)
       do j = 1, size(prev)
@@ -263,8 +435,7 @@ contains
       do it = 1, 200
         if (abs(hi_v - lo_v) <= SCAN_FOLD_TOL*abs(to - p0)) exit
         mid = 0.5_wp*(lo_v + hi_v)
-        pm(ipar) = mid
-        call make_model(trim(st%system), pm, m, stat)
+        call model_at(mid, pm, sm, m, stat)
         if (stat /= TUBES_OK) then
           stat = TUBES_EINPUT
           return
