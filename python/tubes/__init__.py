@@ -934,7 +934,11 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     period, floquet_index(_imag), state0, tangent, tol; docs/orbits.md "Bifurcations"),
     family_name. Keywords: saddle or saddle_near, and &orbits' method, n_segments, tol, rtol, atol,
     max_iter, n_samples, family (the k-th centre mode's family in 3 DOF, or 'halo_north' /
-    'halo_south'); integrator: &integrator's method and its options as a dict, e.g. {"method":
+    'halo_south'); jacobi=[C, ...] or periods=[T, ...] instead of dE (&orbits jacobi, periods,
+    docs/orbits.md "Orbits by Jacobi constant or period": one of dE, jacobi, periods; the orbits are
+    those at the dE the program's Fortran finds for them; the Table adds jacobi (C of each orbit,
+    a model with a Jacobi constant), parameter and requested_jacobi or requested_period; a period
+    the family does not reach: TubesError EPASTEND); integrator: &integrator's method and its options as a dict, e.g. {"method":
     "arkode_erk8"} (default the input file's, "auto": Taylor for the state, DOP853 for the
     variational equations). Each orbit is the continuation to its own energy alone: the same
     bits whatever else dE holds, and the same as the program's orbits scene and tube cuts.
