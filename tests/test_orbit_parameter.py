@@ -162,6 +162,14 @@ def test_bad_input_cli(tmp_path, model, orbits, code, says):
     assert says in r.stderr, r.stderr
 
 
+def test_scan_refuses_jacobi(tmp_path):
+    """The scan scene follows the orbits at &scan de (else &orbits de): jacobi alone is refused."""
+    (tmp_path / "s.nml").write_text("&run scenes = 'scan', output = 's.h5' /\n" + CR3BP +
+                                    "&orbits saddle = 'L1', jacobi = 3.17 /\n&scan parameter = 'mu', to = 0.02, n = 2 /\n")
+    r = run_tubes(["s.nml"], cwd=tmp_path, timeout=60)
+    assert r.returncode == 1 and "the scan scene follows the orbits at &orbits de only" in r.stderr, r.stderr
+
+
 def test_bad_input_python():
     m = tubes.Model("cr3bp", mu=MU)
     with pytest.raises(ValueError, match="dE and jacobi are both given"):

@@ -1147,7 +1147,7 @@ static int check_orbit_parameter(const char *path, const tubes_config_t *c, cons
     for (int k = 0; k < TUBES_NSCENES; k++)
       if (!strcmp(c->scenes[k], "scan")) {
         fprintf(err, "%s:%d: &orbits: %s: the scan scene follows the orbits at &orbits de only (docs/scan.md): "
-                "give &scan de (or &orbits de) for its orbits\n", path,
+                "give &scan de for its orbits (the scan takes &orbits de, not jacobi or periods)\n", path,
                 line_or_group(w, "orbits", c->orb_njacobi ? "jacobi" : "periods"), c->orb_njacobi ? "jacobi" : "periods");
         n++;
         break;
