@@ -183,3 +183,44 @@ def test_bad_input_python():
     with pytest.raises(tubes.TubesError, match="not reached") as e:
         tubes.orbit_family(m, saddle="L1", periods=[2.6])
     assert e.value.code == tubes.EPASTEND
+
+
+def figures():
+    """The figures of docs/orbits.md ("Orbits by Jacobi constant or period"), printed:
+    .venv/bin/python tests/test_orbit_parameter.py (from the tree's root, with the program built)."""
+    import pathlib
+    import sys
+    import tempfile
+    T = sys.modules[__name__]
+    tmp = pathlib.Path(tempfile.mkdtemp())
+    r, o = T.scene(tmp, T.CR3BP, "saddle = 'L1', jacobi = 3.18, 3.17", "c")
+    xl = T.x_l1(); el = -T.omega_eff(xl)
+    print("C_L1 program", -2*o["E_e"], "scipy", 2*T.omega_eff(xl), "diff", -2*o["E_e"] - 2*T.omega_eff(xl))
+    print("dE program", o["dE"], "minus -C/2-E_L1(scipy)", o["dE"] - np.array([-3.18/2 - el, -3.17/2 - el]))
+    des = [float(-c / 2 - o["E_e"]) for c in (3.18, 3.17)]
+    r2, o2 = T.scene(tmp, T.CR3BP, "saddle = 'L1', de = " + ", ".join(map(repr, des)), "d")
+    print("by C vs by dE: state0", np.max(np.abs(o["state0"] - o2["state0"])), "period", o["period"] - o2["period"], "periods", o["period"])
+    r, o = T.scene(tmp, T.CR3BP, "saddle = 'L1', periods = 2.72, 2.75", "p")
+    for k, t in enumerate([2.72, 2.75]):
+        x0p = o["state0"][k, 0]; vyp = o["state0"][k, 3] - x0p
+        x0, vy0, per, clo = T.cr3bp_orbit_at_energy(o["energy"][k], x0p, np.sign(vyp))
+        print(f"CR3BP T={t}: dE {o['dE'][k]:.15g} program T - T* {o['period'][k]-t:.2g}, scipy T - T* {per-t:.2g}, x0 diff {x0-x0p:.2g}, vy0 diff {vy0-vyp:.2g}, scipy closure {clo:.2g}")
+    r, o = T.scene(tmp, "&model system = 'henon_heiles' /\n", "periods = 3.5, 3.0", "h")
+    for k, tt in enumerate([3.5, 3.0]):
+        e = o["energy"][k]
+        def resid(u):
+            s = solve_ivp(T.hh_rhs, (0, u[2]), [u[0], u[1], 0, 0], **T.TOL)
+            return np.array([s.y[2, -1], s.y[3, -1], T.hh_v(u[:2]) - e])
+        u = np.array([o["state0"][k, 0] + 1e-6, o["state0"][k, 1] - 1e-6, tt / 2 * (1 + 1e-6)])
+        for _ in range(12):
+            f = resid(u)
+            jac = np.column_stack([(resid(u + h) - f) / 1e-7 for h in np.eye(3) * 1e-7])
+            du = np.linalg.solve(jac, -f); u += du
+            if np.max(np.abs(du)) < 1e-13: break
+        print(f"HH T={tt}: dE {o['dE'][k]:.15g} program T - T* {o['period'][k]-tt:.2g} scipy T - T* {2*u[2]-tt:.2g} q0 diff {np.max(np.abs(u[:2]-o['state0'][k,:2])):.2g} resid {np.max(np.abs(resid(u))):.2g}")
+    r, o = T.scene(tmp, "", "periods = 0.76, 0.8", "b")
+    print("ball", o["dE"], o["period"] - [0.76, 0.8])
+
+
+if __name__ == "__main__":
+    figures()
