@@ -901,18 +901,25 @@ static int orbit_parameter_des(tubes_run_t *run, int pkind, int n, int nseg, dou
 
 int scene_orbits(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  int ns = c->orb_n_samples, mi = c->orb_max_iter;
-  int nseg = strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments;
-  /* the orbits asked for by Jacobi constant or period: their dE first (orbit_parameter_des) */
+  /* the orbits asked for by Jacobi constant or period (orbit_parameter_des): a copy of the settings
+   * whose orb_de holds their dE, the scene's as with de */
   int pkind = c->orb_njacobi > 0 ? 1 : c->orb_nperiods > 0 ? 2 : 0;
-  int n = pkind == 1 ? c->orb_njacobi : pkind == 2 ? c->orb_nperiods : c->orb_nde;
-  double *de_param = NULL;
-  const double *de = c->orb_de;
+  tubes_config_t *cp = NULL;
   if (pkind) {
-    int prc = orbit_parameter_des(run, pkind, n, nseg, &de_param);
+    double *dp = NULL;
+    int np = pkind == 1 ? c->orb_njacobi : c->orb_nperiods;
+    int prc = orbit_parameter_des(run, pkind, np, strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments, &dp);
     if (prc) return prc;
-    de = de_param;
+    cp = malloc(sizeof *cp);
+    if (!cp) { free(dp); fprintf(stderr, "tubes: orbits: out of memory\n"); return EXIT_NUMERIC; }
+    *cp = *c;
+    memcpy(cp->orb_de, dp, sizeof(double) * np);
+    cp->orb_nde = np;
+    free(dp);
+    c = cp;
   }
+  int n = c->orb_nde, ns = c->orb_n_samples, mi = c->orb_max_iter;
+  int nseg = strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments;
   /* the Jacobi constant of each orbit, for a model that defines one (the CR3BP) */
   double *jac = calloc(n, sizeof(double));
   int has_jacobi = 0;
@@ -937,8 +944,8 @@ int scene_orbits(tubes_run_t *run) {
   double end_de = -1, t0 = now();
   int reason = 0;
   fprintf(stderr, "orbits: continuing the %s family to dE = %g (%s shooting)...\n", run->saddle,
-          de[n - 1], nseg > 1 ? "multiple" : "single");
-  int st = tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, de, nseg, c->orb_family, c->orb_tol, c->orb_rtol,
+          c->orb_de[n - 1], nseg > 1 ? "multiple" : "single");
+  int st = tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, c->orb_de, nseg, c->orb_family, c->orb_tol, c->orb_rtol,
                               c->orb_atol, mi, ns, INTEGRATOR(c), e, per, act, s0, mu, ms, mt, stab, res, clo, it, conv, md,
                               mono, ts, xs, hist, &end_de, &reason, 0, run->seeds, c->orb_nguess, c->orb_guess,
                               c->orb_period);
@@ -967,19 +974,19 @@ int scene_orbits(tubes_run_t *run) {
   for (int k = 0; k < n; k++) {
     if (conv[k])
     {
-      printf("  %10.4g %12.9f %14.8g %14.8g %11.2e %9.1e %5d", de[k], per[k], act[k], mu[k], res[k],
+      printf("  %10.4g %12.9f %14.8g %14.8g %11.2e %9.1e %5d", c->orb_de[k], per[k], act[k], mu[k], res[k],
              clo[k], it[k]);
       if (has_jacobi) printf(" %17.12f", jac[k]);
       putchar('\n');
     }
     else {
       nfail++;
-      if (!guessed && end_de > 0 && de[k] >= end_de * (1 - 1e-6))
-        printf("  %10.4g   refused: past the end of the family (dE ~ %.6g)\n", de[k], end_de);
+      if (!guessed && end_de > 0 && c->orb_de[k] >= end_de * (1 - 1e-6))
+        printf("  %10.4g   refused: past the end of the family (dE ~ %.6g)\n", c->orb_de[k], end_de);
       else if (guessed && it[k] == 0)
-        printf("  %10.4g   not reached (the family stop below)\n", de[k]);
+        printf("  %10.4g   not reached (the family stop below)\n", c->orb_de[k]);
       else
-        printf("  %10.4g   not converged\n", de[k]);
+        printf("  %10.4g   not converged\n", c->orb_de[k]);
     }
   }
   if (guessed) {
@@ -1001,31 +1008,31 @@ int scene_orbits(tubes_run_t *run) {
     putchar('\n');
     for (int k = 0; k < n; k++)
       if (!conv[k] && reason != 8 && reason != 5)
-        fprintf(stderr, "tubes: orbits: dE = %g: no %s orbit: %s\n", de[k], famname,
+        fprintf(stderr, "tubes: orbits: dE = %g: no %s orbit: %s\n", c->orb_de[k], famname,
                 reason == 9 || reason == 0 ? "not on this side of the start (each energy is taken where the "
                 "continuation first crosses it)" : end_reason_text(reason));
   } else if (c->orb_family < 0 && reason == 5) {
-    printf("  no %s family: %s (dE = %g)\n", famname, end_reason_text(reason), de[n - 1]);
+    printf("  no %s family: %s (dE = %g)\n", famname, end_reason_text(reason), c->orb_de[n - 1]);
     fprintf(stderr, "tubes: orbits: no %s orbits: the %s's family %d (its planar Lyapunov family in the CR3BP) has no "
-            "branch point below dE = %g; not computed\n", famname, run->saddle, run->ndof - 1, de[n - 1]);
+            "branch point below dE = %g; not computed\n", famname, run->saddle, run->ndof - 1, c->orb_de[n - 1]);
   } else if (c->orb_family < 0 && nfail && end_de <= 0) {
     for (int k = 0; k < n; k++)
       if (!conv[k])
         fprintf(stderr, "tubes: orbits: dE = %g: no %s orbit: below the branch point (the branch starts at the "
                 "energy of the planar family's first branch point, /orbits/bifurcations of that family)\n",
-                de[k], famname);
+                c->orb_de[k], famname);
   } else if (end_de > 0) {
     printf("  family end: dE ~ %.8g%s: %s\n", end_de, in_units(" (cm/s)^2"), end_reason_text(reason));
     for (int k = 0; k < n; k++)
       if (!conv[k]) {
         char m[512];
-        family_stop_text(run, de[k], end_de, reason, m, sizeof m);
+        family_stop_text(run, c->orb_de[k], end_de, reason, m, sizeof m);
         fprintf(stderr, "tubes: orbits: %s; not computed\n", m);
       }
   } else {
     for (int k = 0; k < n; k++)
       if (!conv[k]) {
-        fprintf(stderr, "tubes: orbits: dE = %g: the correction did not converge; residual history:", de[k]);
+        fprintf(stderr, "tubes: orbits: dE = %g: the correction did not converge; residual history:", c->orb_de[k]);
         for (int j = 0; j < it[k] && j < mi; j++) fprintf(stderr, " %.2e", hist[(size_t)k * mi + j]);
         fputc('\n', stderr);
       }
@@ -1036,7 +1043,7 @@ int scene_orbits(tubes_run_t *run) {
     double scale = 0;
     char m[1024];
     for (int i = 0; i < 2 * run->ndof; i++) scale = fmax(scale, fabs(s0[6 * k + i]));
-    if (tubes_verdict_orbit_coarse(de[k], clo[k], mu[k], scale, m, (int)sizeof m)) {
+    if (tubes_verdict_orbit_coarse(c->orb_de[k], clo[k], mu[k], scale, m, (int)sizeof m)) {
       fprintf(stderr, "%s\n", m);
       rc = EXIT_NUMERIC;
     }
@@ -1049,7 +1056,7 @@ int scene_orbits(tubes_run_t *run) {
   double *nu = calloc(4 * (size_t)n, sizeof(double));
   if (!nu) { fprintf(stderr, "tubes: orbits: out of memory\n"); rc = EXIT_NUMERIC; goto out; }
   double tb = now(), btol = 0;
-  int sb = tubes_orbit_bifurcations(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, de,
+  int sb = tubes_orbit_bifurcations(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, n, c->orb_de,
                                     nseg, c->orb_family, c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c),
                                     nu, MAXBIF, &nbif, bkind, bafter, bde, bwid, ben, bper, bnu, bconv, bx0, btan, &btol, 0,
                                     run->seeds, c->orb_nguess, c->orb_guess, c->orb_period);
@@ -1080,8 +1087,8 @@ int scene_orbits(tubes_run_t *run) {
       if (!bconv[j]) {
         printf("  %-16s %18.12g %11.2e   the corrector failed inside the bracket\n", bif_name[bkind[j]], bde[j], bwid[j]);
         fprintf(stderr, "tubes: orbits: the %s between dE = %g and %g: the corrector failed inside the bisection's "
-                "bracket [%.12g +- %.2g]; not located further\n", bif_name[bkind[j]], de[bafter[j]],
-                de[bafter[j] + 1], bde[j], bwid[j] / 2);
+                "bracket [%.12g +- %.2g]; not located further\n", bif_name[bkind[j]], c->orb_de[bafter[j]],
+                c->orb_de[bafter[j] + 1], bde[j], bwid[j] / 2);
         if (!rc) rc = EXIT_PARTIAL;
         continue;
       }
@@ -1108,13 +1115,12 @@ int scene_orbits(tubes_run_t *run) {
       for (int i = 0; i < n2; i++) xs[(size_t)n2 * (k * ns + j) + i] = xs[(size_t)6 * (k * ns + j) + i];
   }
   int h = 0;
-  h |= h5_write_double(g, "dE", 1, &dn, de, NULL);
+  h |= h5_write_double(g, "dE", 1, &dn, c->orb_de, NULL);
   h |= h5_write_double(g, "energy", 1, &dn, e, NULL);
   if (has_jacobi) h |= h5_write_double(g, "jacobi", 1, &dn, jac, "1");
   if (pkind) {
     h |= h5_attr_string(g, "parameter", pkind == 1 ? "jacobi" : "periods");
-    hsize_t dq = (hsize_t)n;
-    h |= h5_write_double(g, pkind == 1 ? "requested_jacobi" : "requested_period", 1, &dq,
+    h |= h5_write_double(g, pkind == 1 ? "requested_jacobi" : "requested_period", 1, &dn,
                          pkind == 1 ? c->orb_jacobi : c->orb_periods, NULL);
   }
   h |= h5_write_double(g, "period", 1, &dn, per, NULL);
@@ -1200,7 +1206,7 @@ int scene_orbits(tubes_run_t *run) {
     hid_t o = h5_group(g, name);
     if (o < 0) { h = 1; break; }
     hsize_t dsn = (hsize_t)ns, dx[2] = {(hsize_t)ns, (hsize_t)n2}, dh = (hsize_t)(it[k] < mi ? it[k] : mi);
-    h |= h5_attr_double(o, "dE", de[k]);
+    h |= h5_attr_double(o, "dE", c->orb_de[k]);
     h |= h5_attr_long(o, "converged", conv[k]);
     if (dh > 0) h |= h5_write_double(o, "history", 1, &dh, hist + (size_t)k * mi, NULL);
     if (conv[k]) {
@@ -1214,7 +1220,7 @@ int scene_orbits(tubes_run_t *run) {
   if (h) rc = EXIT_IO;
   else if (nfail && !rc) rc = EXIT_PARTIAL;
 out:
-  free(de_param); free(jac);
+  free(cp); free(jac);
   free(e); free(per); free(act); free(s0); free(mu); free(ms); free(mt); free(stab); free(res); free(clo);
   free(md); free(mono); free(ts); free(xs); free(hist); free(it); free(conv);
   return rc;
