@@ -334,6 +334,28 @@ int tubes_orbit_family(const char system[TUBES_LSYSTEM], const double params[TUB
                        double xs[], double history[], double *end_de, int *end_reason, int local,
                        void *stores, int nguess, const double guess[], double guess_period);
 
+/* The orbits asked for by a parameter other than dE (docs/orbits.md, "Orbits by Jacobi constant or
+ * period"; src/workflow/tubes_orbit_parameter.f90): the excess energies des[k] of the family's (the
+ * arguments of tubes_orbit_family up to int_max_iter, then local, stores and the guess) orbits at
+ * values[k], n of them, of kind 1 (the Jacobi constant: dE = E(C) - E_e, the model's definition) or 2
+ * (the period: the first crossing of T(dE) = T from the saddle, located by GSL's Brent to |T - T*| <=
+ * 1e-12 T*; the Lyapunov families 1 .. N-1 only, else TUBES_EINPUT). found[k]: 0 found, 1 the family
+ * does not reach it, 2 the root finder or the orbit there failed, 3 the model has no Jacobi constant;
+ * t_po the saddle's limit 2 pi / omega, t_reach and de_reach the last period (and its dE) the search
+ * reached, e_saddle E_e. */
+int tubes_orbit_by_parameter(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                             const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                             const char saddle[8], int kind, int n, const double values[], int n_segments, int family,
+                             double tol, double rtol, double atol, int max_iter, int nsamp, int method, double h,
+                             double omega_bind, int solver, int int_max_iter, int local, void *stores, int nguess,
+                             const double guess[], double guess_period, double des[], int found[], double *t_po,
+                             double *t_reach, double *de_reach, double *e_saddle);
+
+/* The Jacobi constants c[k] at the energies energy[k] of a model that defines one (C = -2 H for the
+ * CR3BP; src/models/tubes_cr3bp.f90): TUBES_EINPUT (c = 0) for a model without one. */
+int tubes_jacobi_constant(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], int n,
+                          const double energy[], double c[]);
+
 /* Bifurcation monitoring of the family of tubes_orbit_family (the same arguments up to
  * int_max_iter; docs/orbits.md, "Bifurcations"). nu[4 nde]: per orbit k the Floquet indices
  * (lambda + 1/lambda)/2 of its N - 1 nontrivial multiplier pairs, Re in nu[4k + 0 .. N-2], Im in

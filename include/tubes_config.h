@@ -117,6 +117,12 @@ typedef struct {
   int orb_nguess;
   double orb_period;
   int scan_p_trans;   /* &scan p_trans: 1 = p_trans(dE) at each step (docs/scan.md) */
+  /* &orbits jacobi, periods: the orbits by Jacobi constant or by period instead of dE (docs/orbits.md,
+   * "Orbits by Jacobi constant or period"); orb_njacobi, orb_nperiods the number of values given (0:
+   * none); orb_de_given 1 when &orbits de was given (else orb_de holds its default) */
+  double orb_jacobi[TUBES_MAXDE];
+  double orb_periods[TUBES_MAXDE];
+  int orb_njacobi, orb_nperiods, orb_de_given;
 } tubes_config_t;
 
 /* Set every variable to its default. */

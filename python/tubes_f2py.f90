@@ -468,7 +468,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
                       flux_t_max, flux_gate, flux_tol, flux_order, flux_n_cut, flux_cut_eps, expr_lib, &
                       exp_n_tracks, exp_seed, exp_duration, exp_camera_rate, exp_pixel, exp_noise, &
                       exp_de_min, exp_de_max, exp_damping_ratio, exp_rolling_resistance, mc_n_samples, mc_seed, &
-                      mc_de, des, ndes)
+                      mc_de, des, ndes, orb_pkind, orb_pvalues, orb_npvalues)
   ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
   ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
   ! scene calls take their defaults and their checks from here; msg holds the messages
@@ -492,6 +492,9 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   ! &transition, &sections and &flux (columns 1..5, each with its length in ndes)
   integer(c_int), intent(out) :: mc_n_samples, mc_seed, ndes(5)
   real(c_double), intent(out) :: mc_de, des(256, 5)
+  ! &orbits jacobi or periods (orb_pkind 1 or 2; 0: by de): the orb_npvalues values given
+  integer(c_int), intent(out) :: orb_pkind, orb_npvalues
+  real(c_double), intent(out) :: orb_pvalues(256)
   character(len=2048), intent(out) :: msg
   character(len=32), intent(out) :: system
   character(len=8), intent(out) :: saddle
@@ -593,7 +596,76 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   des(:, 4) = cfg%pm_de
   des(:, 5) = cfg%flux_de
   ndes = [cfg%orb_nde, cfg%tub_nde, cfg%tra_nde, cfg%pm_nde, cfg%flux_nde]
+  orb_pvalues = 0
+  orb_pkind = 0
+  orb_npvalues = 0
+  if (cfg%orb_njacobi > 0) then
+    orb_pkind = 1
+    orb_npvalues = cfg%orb_njacobi
+    orb_pvalues = cfg%orb_jacobi
+  else if (cfg%orb_nperiods > 0) then
+    orb_pkind = 2
+    orb_npvalues = cfg%orb_nperiods
+    orb_pvalues = cfg%orb_periods
+  end if
 end subroutine read_input
+
+subroutine orbit_parameter(system, params, lo, hi, n_grid, saddle, kind, n, values, n_segments, family, tol, rtol, &
+                           atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, stat, des, &
+                           found, t_po, t_reach, de_reach, e_saddle)
+  ! the excess energies of the family's orbits at n Jacobi constants (kind 1) or periods (kind 2), as
+  ! the orbits scene's &orbits jacobi, periods (tubes_orbit_parameter family_parameter_des)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_orbits, only: orbit_opts_t
+  use tubes_study, only: study_t, seed_stores_t, stores_at
+  use tubes_orbit_parameter, only: family_parameter_des
+  use tubes_capi, only: integ_of
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  integer(c_int), intent(in) :: n_grid, kind, n, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), values(n), tol, rtol, atol, h, omega_bind
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: stat, found(n)
+  real(c_double), intent(out) :: des(n), t_po, t_reach, de_reach, e_saddle
+  type(orbit_opts_t) :: opts
+  type(seed_stores_t), pointer :: kept
+  integer :: fnd(n)
+  opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, n_samples=nsamp, &
+                      family=family, integ=integ_of(method, h, omega_bind, solver, int_max_iter))
+  kept => stores_at(stores)
+  call family_parameter_des(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+                                    integ=opts%integ), opts, int(kind), values, des, fnd, t_po, t_reach, de_reach, &
+                            e_saddle, stat, kept)
+  found = fnd
+end subroutine orbit_parameter
+
+subroutine jacobi_constant(system, params, n, energy, stat, c)
+  ! the model's Jacobi constants at the energies (tubes_hamiltonian jacobi_of_energy; the CR3BP's
+  ! C = -2 H); stat = TUBES_EINPUT (c = 0) for a model without one
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_hamiltonian, only: hamiltonian_t, jacobi_of_energy
+  use tubes_models, only: make_model
+  use tubes_status, only: TUBES_OK, TUBES_EINPUT
+  implicit none
+  character(len=*), intent(in) :: system
+  integer(c_int), intent(in) :: n
+  real(c_double), intent(in) :: params(16), energy(n)
+  integer(c_int), intent(out) :: stat
+  real(c_double), intent(out) :: c(n)
+  class(hamiltonian_t), allocatable :: model
+  integer :: k, st
+  c = 0
+  call make_model(trim(system), params, model, st)
+  stat = st
+  if (st /= TUBES_OK) return
+  if (model%jacobi_factor() == 0) then
+    stat = TUBES_EINPUT
+    return
+  end if
+  do k = 1, n
+    c(k) = jacobi_of_energy(model, energy(k))
+  end do
+end subroutine jacobi_constant
 
 subroutine orbit_bifurcations(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &
                               atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, &

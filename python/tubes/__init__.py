@@ -681,7 +681,7 @@ _SETTINGS = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", 
              "flux_cut_eps", "expr_lib", "exp_n_tracks", "exp_seed", "exp_duration", "exp_camera_rate",
              "exp_pixel", "exp_noise", "exp_de_min", "exp_de_max", "exp_damping_ratio", "exp_rolling_resistance",
              "mc_n_samples",
-             "mc_seed", "mc_de", "des", "ndes")
+             "mc_seed", "mc_de", "des", "ndes", "orb_pkind", "orb_pvalues", "orb_npvalues")
 
 
 def _read_namelist(lines: list[str], who: str, groups=None) -> dict:
@@ -874,6 +874,49 @@ def _de_list(dE, who: str):
     return _args.reals(who, "dE", dE)
 
 
+def _orbit_parameter_des(model: Model, st: dict, name: str) -> np.ndarray:
+    """The excess energies of the orbits of &orbits jacobi or periods (st: the settings read; name:
+    which), located by the program's Fortran (tubes_orbit_parameter family_parameter_des, as the
+    orbits scene): ValueError where the model has no Jacobi constant, a C is not below the saddle's or
+    the orbits' dE do not increase along the list; TubesError EPASTEND for a period the family does
+    not reach (the program's exit 4), ENOCONV where the root finder failed."""
+    kind, npv = int(st["orb_pkind"]), int(st["orb_npvalues"])
+    vals = np.array(st["orb_pvalues"][:npv], dtype=float)
+    stat, des, found, t_po, t_reach, de_reach, e_sad = _lib().orbit_parameter(
+        *_study(model, st), kind, vals, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]),
+        float(st["orb_rtol"]), float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]),
+        *_integ(st, model), model._stores())
+    if stat == _lib().status_code("EINPUT"):
+        raise ValueError(f"orbit_family: {name}: not available for this family (allowed: periods with family 1 .. "
+                         "N-1; jacobi for a model with a Jacobi constant)")
+    _check(stat, "orbit_family")
+    for k, f in enumerate(found):
+        if f == 3:
+            raise ValueError(f"orbit_family: jacobi: system {model.system!r} has no Jacobi constant (give dE)")
+        if f == 1:
+            err = TubesError(_lib().status_code("EPASTEND"), f"orbit_family: periods[{k}] = {vals[k]:.12g}")
+            err.args = (f"orbit_family: periods[{k}] = {vals[k]:.12g}: not reached: the family's period runs from "
+                        f"T_po = {t_po:.12g} at the saddle to {t_reach:.12g} (at dE = {de_reach:.10g}) without taking "
+                        "this value",)
+            raise err
+        if f == 2:
+            raise TubesError(_lib().status_code("ENOCONV"), f"orbit_family: periods[{k}] = {vals[k]:.12g}: the root "
+                             "finder on T(dE) did not locate it to 1e-12 of the period")
+    if kind == 1:
+        e0 = np.array([e_sad])
+        c0 = float(_lib().jacobi_constant(model.name, model.params(), e0)[1][0])
+        bad = np.flatnonzero(~(des > 0))
+        if bad.size:
+            raise ValueError(f"orbit_family: jacobi[{bad[0]}] = {vals[bad[0]]:.12g} is not below the saddle's "
+                             f"C = {c0:.12g}: no orbit of its Lyapunov family there (allowed: C < {c0:.12g})")
+    dn = np.flatnonzero(np.diff(des) <= 0)
+    if dn.size:
+        raise ValueError(f"orbit_family: {name}[{dn[0] + 1}] = {vals[dn[0] + 1]:.12g}: its orbit (dE = "
+                         f"{des[dn[0] + 1]:.12g}) lies below the previous one's: give the {name} in the order the "
+                         "family reaches them (dE increasing)")
+    return np.array(des, dtype=float)
+
+
 def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
                  integrator: dict | None = None, equilibria: dict | None = None, check: bool = True,
                  **orbits) -> dict:
@@ -891,7 +934,11 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     period, floquet_index(_imag), state0, tangent, tol; docs/orbits.md "Bifurcations"),
     family_name. Keywords: saddle or saddle_near, and &orbits' method, n_segments, tol, rtol, atol,
     max_iter, n_samples, family (the k-th centre mode's family in 3 DOF, or 'halo_north' /
-    'halo_south'); integrator: &integrator's method and its options as a dict, e.g. {"method":
+    'halo_south'); jacobi=[C, ...] or periods=[T, ...] instead of dE (&orbits jacobi, periods,
+    docs/orbits.md "Orbits by Jacobi constant or period": one of dE, jacobi, periods; the orbits are
+    those at the dE the program's Fortran finds for them; the Table adds jacobi (C of each orbit,
+    a model with a Jacobi constant), parameter and requested_jacobi or requested_period; a period
+    the family does not reach: TubesError EPASTEND); integrator: &integrator's method and its options as a dict, e.g. {"method":
     "arkode_erk8"} (default the input file's, "auto": Taylor for the state, DOP853 for the
     variational equations). Each orbit is the continuation to its own energy alone: the same
     bits whatever else dE holds, and the same as the program's orbits scene and tube cuts.
@@ -910,13 +957,28 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     if "guess" in orbits or "period" in orbits or (isinstance(fam, str) and fam.startswith("branch:")):
         raise ValueError("orbit_family: guess, period and family = 'branch:K' are not available from Python "
                          "(allowed: the program's &orbits guess, period, family; docs/orbits.md)")
+    # the orbits by Jacobi constant or by period (docs/orbits.md, "Orbits by Jacobi constant or period"):
+    # the program's &orbits jacobi, periods, read and checked by its reader, located by its Fortran
+    byp = {k: orbits.pop(k) for k in ("jacobi", "periods") if orbits.get(k) is not None}
+    for k in ("jacobi", "periods"):
+        orbits.pop(k, None)
+    named = (["dE"] if dE is not None else []) + list(byp)
+    if len(named) > 1:
+        raise ValueError(f"orbit_family: {named[0]} and {named[1]} are both given: the orbits are asked for by one "
+                         "parameter (allowed: exactly one of dE, jacobi (the Jacobi constant C), periods)")
+    for k, v in byp.items():
+        if np.size(v) == 0:
+            raise ValueError(f"orbit_family: {k} is empty: give at least one value")
+        byp[k] = _args.reals("orbit_family", k, v)
     de = _de_list(dE, "orbit_family")
-    if de is None:
+    if de is None and not byp:
         _default_de(model, "orbit_family", "orbits")
-    orb = dict(orbits) if de is None else dict(orbits, de=de)
+    orb = dict(orbits, **byp) if de is None else dict(orbits, de=de)
     st = _settings(model, saddle, saddle_near, who="orbit_family", orbits=orb, integrator=integrator,
                    equilibria=equilibria)
     de = np.array(st["des"][:int(st["ndes"][0]), 0])
+    if byp:
+        de = _orbit_parameter_des(model, st, next(iter(byp)))
     n2 = 2 * model.ndof
     (stat, en, per, act, mu, ms, mtr, stab, res, clo, it, conv, mind, mono, hist, s0, ts, xs, end_de,
      reason) = _lib().orbit_family(
@@ -954,6 +1016,13 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
                            "tangent": btan[:n2, :nb].T.copy(), "tol": float(btol)}
     fam = int(st["orb_family"])
     out["family_name"] = {-1: "halo_north", -2: "halo_south"}.get(fam, "lyapunov")
+    # C of each orbit for a model that defines a Jacobi constant (the model's definition, Fortran)
+    stj, cj = _lib().jacobi_constant(model.name, model.params(), out["energy"])
+    if stj >= 0:
+        out["jacobi"] = cj.copy()
+    if byp:
+        out["parameter"] = next(iter(byp))
+        out["requested_jacobi" if "jacobi" in byp else "requested_period"] = np.array(next(iter(byp.values())))
     # the scene's checks (src/workflow/tubes_verdicts.f90 orbit_coarse), then what it exits 4 on
     out["verdicts"] = []
     for k in np.flatnonzero(out["converged"]):

@@ -45,6 +45,8 @@ module tubes_capi
   ! scenes' defaults of a system and the integrator choice of a call, called by the f2py facade too (python/tubes_f2py.f90)
   public :: c_synthetic_experiment, c_experiment_defaults, c_experiment_samples, c_mc_agreement, tube_opts_of, &
             scene_defaults, integ_of
+  ! a C call's study, stores and guess options, for the C API's other modules (tubes_capi_parameter)
+  public :: study_of, stores_of, guess_opts
 
 
   !> Sampler that also calls a C progress callback every PROGRESS_EVERY steps.

@@ -153,6 +153,12 @@ const nml_var tubes_nml_vars[] = {
     {"orbits", "guess", NML_REAL, 64, "state units", "none", "exactly 2N finite values",
      "a state on (or near) a periodic orbit: the family through it (docs/orbits.md, Orbits from a guess)"},
     {"orbits", "period", NML_REAL, 1, "s", "none", "> 0 (with guess only)", "the guess's period"},
+    {"orbits", "jacobi", NML_REAL, TUBES_MAXDE, "1", "none", "finite, strictly decreasing (the energies "
+     "increasing); a model with a Jacobi constant (cr3bp); not with de or periods",
+     "the orbits at these Jacobi constants C = -2 H instead of de (docs/orbits.md, Orbits by Jacobi constant or period)"},
+    {"orbits", "periods", NML_REAL, TUBES_MAXDE, "time", "none", "> 0, in the order the family reaches them; "
+     "families 1 .. N-1; not with de or jacobi",
+     "the orbits with these periods instead of de (the first crossing from the saddle; docs/orbits.md)"},
     {"section", "kind", NML_STRING, 1, "-", "the system's ('ray' for the ball)", "ray, plane",
      "ray: the ball's polar ray theta = angle; plane: q_index = value (docs/tubes.md, Sections)"},
     {"section", "angle", NML_REAL, 1, "deg", "45", "-360 .. 360", "kind = 'ray': the ray theta = angle (U1: 45)"},
@@ -1105,6 +1111,68 @@ static int validate_scan(const char *path, const tubes_config_t *c, const nml_wh
   return n;
 }
 
+/* &orbits jacobi, periods (docs/orbits.md, "Orbits by Jacobi constant or period"): at most one of de,
+ * jacobi, periods; jacobi for a model with a Jacobi constant (the model's, tubes_jacobi_constant),
+ * decreasing; periods > 0, for the Lyapunov families 1 .. N-1; the scan scene takes &orbits de only. */
+static int check_orbit_parameter(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
+  const char *given[3];
+  int ng = 0, n = 0;
+  if (c->orb_de_given) given[ng++] = "de";
+  if (c->orb_njacobi > 0) given[ng++] = "jacobi";
+  if (c->orb_nperiods > 0) given[ng++] = "periods";
+  if (ng > 1) {
+    fprintf(err, "%s:%d: &orbits: %s and %s are both given: the orbits are asked for by one parameter (allowed: "
+            "exactly one of de (the excess energy), jacobi (the Jacobi constant C), periods)\n", path,
+            line_or_group(w, "orbits", given[1]), given[0], given[1]);
+    return 1;
+  }
+  if (c->orb_njacobi > 0 && c->nparams >= 0) {
+    double e = 0, cc = 0;
+    if (tubes_jacobi_constant(c->model, c->params, 1, &e, &cc) < 0) {
+      fprintf(err, "%s:%d: &orbits: jacobi: system '%s' has no Jacobi constant (allowed: a model that defines one, "
+              "system 'cr3bp' (C = -2 H, planar or spatial); for this model give de)\n", path,
+              line_or_group(w, "orbits", "jacobi"), c->system);
+      n++;
+    }
+    for (int k = 0; k < c->orb_njacobi; k++) {
+      if (c->orb_jacobi[k] == -DBL_MAX)
+        return n + bad_at(path, c, w, "orbits", "jacobi", k + 1, err, "not set but a later value is: the list has a "
+                          "gap; give its values from jacobi(1) on", c->orb_jacobi[k]);
+      if (!isfinite(c->orb_jacobi[k]))
+        return n + bad_at(path, c, w, "orbits", "jacobi", k + 1, err, "every C must be finite", c->orb_jacobi[k]);
+      if (k > 0 && !(c->orb_jacobi[k] < c->orb_jacobi[k - 1]))
+        return n + bad_at(path, c, w, "orbits", "jacobi", k + 1, err, "the list must be strictly decreasing (the "
+                          "orbits' energies E = -C/2 increasing)", c->orb_jacobi[k]);
+    }
+  }
+  if (c->orb_nperiods > 0) {
+    for (int k = 0; k < c->orb_nperiods; k++)
+      if (c->orb_periods[k] == -DBL_MAX)
+        return n + bad_at(path, c, w, "orbits", "periods", k + 1, err, "not set but a later value is: the list has "
+                          "a gap; give its values from periods(1) on", c->orb_periods[k]);
+      else if (!(c->orb_periods[k] > 0) || !isfinite(c->orb_periods[k]))
+
+        return n + bad_at(path, c, w, "orbits", "periods", k + 1, err, "every period must be > 0", c->orb_periods[k]);
+    if (c->orb_nguess > 0 || c->orb_family < 0) {
+      fprintf(err, "%s:%d: &orbits: periods: the orbits by period are those of a saddle's Lyapunov family (family "
+              "1 .. N-1); the family of a guess, a branch ('branch:K') or a halo family is asked for by de or "
+              "jacobi (allowed: periods with family 1 .. N-1 and no guess)\n", path,
+              line_or_group(w, "orbits", "periods"));
+      n++;
+    }
+  }
+  if (c->orb_njacobi + c->orb_nperiods > 0 && c->scan_nde == 0)
+    for (int k = 0; k < TUBES_NSCENES; k++)
+      if (!strcmp(c->scenes[k], "scan")) {
+        fprintf(err, "%s:%d: &orbits: %s: the scan scene follows the orbits at &orbits de only (docs/scan.md): "
+                "give &scan de for its orbits (the scan takes &orbits de, not jacobi or periods)\n", path,
+                line_or_group(w, "orbits", c->orb_njacobi ? "jacobi" : "periods"), c->orb_njacobi ? "jacobi" : "periods");
+        n++;
+        break;
+      }
+  return n;
+}
+
 int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int n = 0, nscenes = 0;
   for (int k = 0; k < TUBES_NSCENES; k++) {
@@ -1218,6 +1286,7 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
             line_or_group(w, "orbits", "family"), c->orb_family == -1 ? "halo_north" : "halo_south");
     n++;
   }
+  n += check_orbit_parameter(path, c, w, err);
   if (strcmp(c->orb_method, "single") && strcmp(c->orb_method, "multiple"))
     n += bad_string(path, w, "orbits", "method", c->orb_method, err);
   if (!(c->orb_n_segments >= 2 && c->orb_n_segments <= 64))

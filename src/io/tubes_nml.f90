@@ -94,6 +94,9 @@ module tubes_nml
     integer(c_int) :: orb_nguess             !! how many values guess was given (0: none)
     real(c_double) :: orb_period             !! &orbits period (of the guess)
     integer(c_int) :: scan_p_trans           !! &scan p_trans (1: .true.)
+    real(c_double) :: orb_jacobi(MAXDE)      !! &orbits jacobi (the first orb_njacobi)
+    real(c_double) :: orb_periods(MAXDE)     !! &orbits periods (the first orb_nperiods)
+    integer(c_int) :: orb_njacobi, orb_nperiods, orb_de_given
   end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved), with their
@@ -168,6 +171,7 @@ module tubes_nml
     real(c_double) :: orb_guess(MAXGUESS) = UNSET   !! &orbits guess (a longer list is said so)
     real(c_double) :: orb_period = 0
     logical :: scan_p_trans = .false.
+    real(c_double) :: orb_jacobi(MAXDE) = UNSET, orb_periods(MAXDE) = UNSET   !! &orbits jacobi, periods
   end type vars_t
 
 contains
@@ -216,6 +220,13 @@ contains
     cfg%orb_guess = 0
     cfg%orb_guess(1:min(cfg%orb_nguess, 2*MAX_DOF)) = v%orb_guess(1:min(cfg%orb_nguess, 2*MAX_DOF))
     cfg%orb_period = v%orb_period
+    cfg%orb_de_given = merge(1, 0, count(v%orb_de /= UNSET) > 0)
+    cfg%orb_njacobi = findloc(v%orb_jacobi /= UNSET, .true., dim=1, back=.true.)   ! the last set (a gap: said)
+    cfg%orb_jacobi = 0
+    cfg%orb_jacobi(1:cfg%orb_njacobi) = v%orb_jacobi(1:cfg%orb_njacobi)
+    cfg%orb_nperiods = findloc(v%orb_periods /= UNSET, .true., dim=1, back=.true.)
+    cfg%orb_periods = 0
+    cfg%orb_periods(1:cfg%orb_nperiods) = v%orb_periods(1:cfg%orb_nperiods)
     cfg%orb_tol = v%orb_tol; cfg%orb_rtol = v%orb_rtol; cfg%orb_atol = v%orb_atol
     call put_list(v%tub_de, cfg%tub_de, cfg%tub_nde, [10.0_c_double, 100.0_c_double])
     call f_to_c(v%tub_kind, cfg%tub_kind)
@@ -597,6 +608,11 @@ contains
     v%orb_guess = UNSET
     v%orb_guess(1:min(cfg%orb_nguess, 2*MAX_DOF)) = cfg%orb_guess(1:min(cfg%orb_nguess, 2*MAX_DOF))
     v%orb_period = cfg%orb_period
+    v%orb_jacobi = UNSET
+    v%orb_jacobi(1:cfg%orb_njacobi) = cfg%orb_jacobi(1:cfg%orb_njacobi)
+    v%orb_periods = UNSET
+    v%orb_periods(1:cfg%orb_nperiods) = cfg%orb_periods(1:cfg%orb_nperiods)
+    if (cfg%orb_de_given == 0 .and. cfg%orb_njacobi + cfg%orb_nperiods > 0) v%orb_de = UNSET   ! the default's not written
     v%orb_tol = cfg%orb_tol; v%orb_rtol = cfg%orb_rtol; v%orb_atol = cfg%orb_atol
     v%sec_angle = cfg%sec_angle; v%sec_pth_sign = cfg%sec_pth_sign
     v%tub_de = cfg%tub_de
@@ -863,14 +879,17 @@ contains
       real(c_double) :: tol, rtol, atol
       real(c_double), allocatable :: saddle_near(:), guess(:)
       real(c_double) :: period
+      real(c_double), allocatable :: jacobi(:), periods(:)
       character(512) :: buf(40)
       logical :: by_name
       integer :: k
       namelist /orbits/ saddle, saddle_near, de, method, n_segments, tol, rtol, atol, max_iter, &
-        n_samples, family, guess, period
+        n_samples, family, guess, period, jacobi, periods
       saddle = v%orb_saddle; method = v%orb_method; n_segments = v%orb_n_segments
       period = v%orb_period
       call list_io(v%orb_guess, guess)
+      call list_io(v%orb_jacobi, jacobi)
+      call list_io(v%orb_periods, periods)
       select case (v%orb_family)
       case (-1)
         family = 'halo_north'
@@ -891,6 +910,8 @@ contains
         v%orb_de = de
         v%orb_saddle_near = saddle_near
         v%orb_guess = guess
+        v%orb_jacobi = jacobi
+        v%orb_periods = periods
       else
         m = count(v%orb_de /= UNSET)
         allocate (de(max(m, 1)))
@@ -908,6 +929,10 @@ contains
           ! guess and period only when a guess is given (the effective namelist as before)
           if (count(v%orb_guess /= UNSET) == 0 .and. (index(buf(k), ' GUESS=') == 1 .or. &
               index(buf(k), ' PERIOD=') == 1)) cycle
+          ! jacobi and periods only when given; de not when they replace it
+          if (count(v%orb_jacobi /= UNSET) == 0 .and. index(buf(k), ' JACOBI=') == 1) cycle
+          if (count(v%orb_periods /= UNSET) == 0 .and. index(buf(k), ' PERIODS=') == 1) cycle
+          if (count(v%orb_de /= UNSET) == 0 .and. index(buf(k), ' DE=') == 1) cycle
           ! a numbered family is an integer (the text is read back by the same rules), in the
           ! layout of an integer's (i0 in 11 columns: the effective namelist as before)
           if (index(buf(k), " FAMILY='") == 1 .and. verify(trim(family), '0123456789') == 0) &

@@ -322,6 +322,7 @@ static int defaults_given(const tubes_run_t *run, int des) {
     const char *g = groups[k];
     if (!scene_asked(c, g) || nml_line(run->where, g, "de")) continue;
     if (!strcmp(g, "flux") && nml_line(run->where, "transition", "de")) continue;   /* &flux de defaults to it */
+    if (!strcmp(g, "orbits") && c->orb_njacobi + c->orb_nperiods > 0) continue;   /* by C or period instead */
     const char *def = "?";
     for (int j = 0; j < tubes_nml_nvars; j++)
       if (!strcmp(tubes_nml_vars[j].group, g) && !strcmp(tubes_nml_vars[j].name, "de")) def = tubes_nml_vars[j].deflt;
@@ -338,7 +339,8 @@ static int de_resolvable(const tubes_run_t *run, double ee) {
   const tubes_config_t *c = run->cfg;
   if (defaults_given(run, 1)) return EXIT_BADINPUT;
   const struct { const char *scene, *group; const double *de; int n; } lists[] = {
-      {"orbits", "orbits", c->orb_de, c->orb_nde},      {"tubes", "tubes", c->tub_de, c->tub_nde},
+      {"orbits", "orbits", c->orb_de, c->orb_njacobi + c->orb_nperiods > 0 ? 0 : c->orb_nde},
+      {"tubes", "tubes", c->tub_de, c->tub_nde},
       {"transition", "transition", c->tra_de, c->tra_nde}, {"montecarlo", "montecarlo", &c->mc_de, 1},
       {"sections", "sections", c->pm_de, c->pm_nde},    {"flux", "flux", c->flux_de, c->flux_nde}};
   double need = tubes_de_floor(ee), res = need / 1e6;
@@ -665,10 +667,115 @@ static void family_stop_text(const tubes_run_t *run, double de, double end_de, i
     snprintf(buf, len, "dE = %g is past the end of the %s family: no orbit there", de, run->saddle);
 }
 
+/* The dE of the orbits asked for by &orbits jacobi (pkind 1) or periods (2) (docs/orbits.md, "Orbits by
+ * Jacobi constant or period"; tubes_orbit_by_parameter) into *des (n, malloc'd): 0, or the exit code with
+ * the message: EXIT_BADINPUT for a value with no orbit of the family by its nature (C at or above the
+ * saddle's, dE not increasing along the list), EXIT_PARTIAL for a period the family does not reach
+ * or one the root finder could not locate, EXIT_NUMERIC when the family could not be set up. */
+static int orbit_parameter_des(tubes_run_t *run, int pkind, int n, int nseg, double **des) {
+  const tubes_config_t *c = run->cfg;
+  const double *val = pkind == 1 ? c->orb_jacobi : c->orb_periods;
+  const char *name = pkind == 1 ? "jacobi" : "periods";
+  double *d = calloc(n, sizeof(double));
+  int *found = calloc(n, sizeof(int));
+  double t_po = 0, t_reach = 0, de_reach = 0, e_sad = 0, t0 = now();
+  int rc = 0;
+  *des = NULL;
+  if (!d || !found) {
+    fprintf(stderr, "tubes: orbits: out of memory\n");
+    free(d); free(found);
+    return EXIT_NUMERIC;
+  }
+  if (pkind == 2)
+    fprintf(stderr, "orbits: locating the %s family's orbits of the %d period%s (Brent on T(dE))...\n", run->saddle,
+            n, n > 1 ? "s" : "");
+  int st = tubes_orbit_by_parameter(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, pkind, n, val,
+                                 nseg, c->orb_family, c->orb_tol, c->orb_rtol, c->orb_atol, c->orb_max_iter,
+                                 c->orb_n_samples, INTEGRATOR(c), 0, run->seeds, c->orb_nguess, c->orb_guess,
+                                 c->orb_period, d, found, &t_po, &t_reach, &de_reach, &e_sad);
+  if (st < 0) {
+    char m[TUBES_LSTATUS];
+    status_text(st, m, sizeof m);
+    fprintf(stderr, "tubes: orbits: &orbits %s: the family's orbits could not be located: %s (status %d)\n", name,
+            m, st);
+    free(d); free(found);
+    return st == TUBES_EINPUT ? EXIT_BADINPUT : EXIT_NUMERIC;
+  }
+  int guessed = c->orb_nguess > 0 || c->orb_family <= -101;   /* a guess's family or a branch: any dE */
+  double c_sad = 0;                                             /* the saddle's Jacobi constant (the model's) */
+  if (pkind == 1) tubes_jacobi_constant(run->system, run->params, 1, &e_sad, &c_sad);
+  for (int k = 0; k < n && !rc; k++) {
+    if (found[k] == 3) {
+      fprintf(stderr, "tubes: orbits: &orbits jacobi: system '%s' has no Jacobi constant (give de)\n", c->system);
+      rc = EXIT_BADINPUT;
+    } else if (found[k] == 1) {
+      fprintf(stderr, "tubes: orbits: &orbits periods(%d) = %.12g: not reached: the %s family's period runs from "
+              "T_po = 2 pi/omega = %.12g at the saddle to %.12g (at dE = %.10g, where the search along the family "
+              "ended) without taking this value; no orbit computed\n", k + 1, val[k], run->saddle, t_po, t_reach,
+              de_reach);
+      rc = EXIT_PARTIAL;
+    } else if (found[k] == 2) {
+      fprintf(stderr, "tubes: orbits: &orbits periods(%d) = %.12g: the root finder on T(dE) did not locate it to "
+              "1e-12 of the period (the orbits inside the bracket did not converge); no orbit computed\n", k + 1,
+              val[k]);
+      rc = EXIT_PARTIAL;
+    } else if (!guessed && !(d[k] > 0)) {
+      fprintf(stderr, "tubes: orbits: &orbits jacobi(%d) = %.12g is not below the saddle %s's C = %.12g: no orbit of "
+              "its Lyapunov family there (allowed: C < %.12g: the orbits' dE = E(C) - E_e > 0)\n", k + 1, val[k],
+              run->saddle, c_sad, c_sad);
+      rc = EXIT_BADINPUT;
+    } else if (k > 0 && !(d[k] > d[k - 1])) {
+      fprintf(stderr, "tubes: orbits: &orbits %s(%d) = %.12g: its orbit (dE = %.12g) lies below the previous one's "
+              "(dE = %.12g): give the %s in the order the family reaches them (dE increasing)\n", name, k + 1, val[k],
+              d[k], d[k - 1], name);
+      rc = EXIT_BADINPUT;
+    }
+  }
+  if (rc) {
+    free(d); free(found);
+    return rc;
+  }
+  if (pkind == 2) {
+    printf("orbits: by period: T_po = 2 pi/omega = %.12g at the saddle; the first crossing of each period from the "
+           "saddle, Brent on T(dE) to |T - T*| <= 1e-12 T* (%.2f s)\n", t_po, now() - t0);
+    for (int k = 0; k < n; k++) printf("  period %.12g -> dE = %.15g\n", val[k], d[k]);
+  } else {
+    printf("orbits: by Jacobi constant (saddle %s: C = %.12g)\n", run->saddle, c_sad);
+    for (int k = 0; k < n; k++) printf("  C = %.12g -> dE = %.15g\n", val[k], d[k]);
+  }
+  free(found);
+  *des = d;
+  return 0;
+}
+
 int scene_orbits(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
+  /* the orbits asked for by Jacobi constant or period (orbit_parameter_des): a copy of the settings
+   * whose orb_de holds their dE, the scene's as with de */
+  int pkind = c->orb_njacobi > 0 ? 1 : c->orb_nperiods > 0 ? 2 : 0;
+  tubes_config_t *cp = NULL;
+  if (pkind) {
+    double *dp = NULL;
+    int np = pkind == 1 ? c->orb_njacobi : c->orb_nperiods;
+    int prc = orbit_parameter_des(run, pkind, np, strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments, &dp);
+    if (prc) return prc;
+    cp = malloc(sizeof *cp);
+    if (!cp) { free(dp); fprintf(stderr, "tubes: orbits: out of memory\n"); return EXIT_NUMERIC; }
+    *cp = *c;
+    memcpy(cp->orb_de, dp, sizeof(double) * np);
+    cp->orb_nde = np;
+    free(dp);
+    c = cp;
+  }
   int n = c->orb_nde, ns = c->orb_n_samples, mi = c->orb_max_iter;
   int nseg = strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments;
+  /* the Jacobi constant of each orbit, for a model that defines one (the CR3BP) */
+  double *jac = calloc(n, sizeof(double));
+  int has_jacobi = 0;
+  if (jac) {
+    double z = 0, cz = 0;
+    has_jacobi = tubes_jacobi_constant(run->system, run->params, 1, &z, &cz) >= 0;
+  }
   double *e = calloc(n, sizeof(double)), *per = calloc(n, sizeof(double)), *act = calloc(n, sizeof(double)),
          *s0 = calloc(6 * n, sizeof(double)), *mu = calloc(n, sizeof(double)), *ms = calloc(n, sizeof(double)),
          *mt = calloc(4 * n, sizeof(double)), *stab = calloc(n, sizeof(double)), *res = calloc(n, sizeof(double)),
@@ -709,13 +816,18 @@ int scene_orbits(tubes_run_t *run) {
          guessed ? " (no symmetry assumed; continued in arclength)" : nseg > 1 ? "" : (run->natural ? " (brake orbit)" : " (symmetric orbit)"),
          dissipative(run) ? ", of the conservative model (a dissipative model has no periodic orbits: they are the limit "
                          "the damped model's transition regions start from)" : "", now() - t0);
-  printf("  %10s %12s %14s %14s %11s %9s %5s\n", "dE", strcmp(in_units(" s"), "") ? "period [s]" : "period", "action",
-         "mu_unstable", "residual", "closure", "iter");
+  if (has_jacobi) tubes_jacobi_constant(run->system, run->params, n, e, jac);   /* C of E = E_e + dE */
+  printf("  %10s %12s %14s %14s %11s %9s %5s%s\n", "dE", strcmp(in_units(" s"), "") ? "period [s]" : "period", "action",
+         "mu_unstable", "residual", "closure", "iter", has_jacobi ? "        C (Jacobi)" : "");
   int nfail = 0;
   for (int k = 0; k < n; k++) {
     if (conv[k])
-      printf("  %10.4g %12.9f %14.8g %14.8g %11.2e %9.1e %5d\n", c->orb_de[k], per[k], act[k], mu[k], res[k],
+    {
+      printf("  %10.4g %12.9f %14.8g %14.8g %11.2e %9.1e %5d", c->orb_de[k], per[k], act[k], mu[k], res[k],
              clo[k], it[k]);
+      if (has_jacobi) printf(" %17.12f", jac[k]);
+      putchar('\n');
+    }
     else {
       nfail++;
       if (!guessed && end_de > 0 && c->orb_de[k] >= end_de * (1 - 1e-6))
@@ -854,6 +966,12 @@ int scene_orbits(tubes_run_t *run) {
   int h = 0;
   h |= h5_write_double(g, "dE", 1, &dn, c->orb_de, NULL);
   h |= h5_write_double(g, "energy", 1, &dn, e, NULL);
+  if (has_jacobi) h |= h5_write_double(g, "jacobi", 1, &dn, jac, "1");
+  if (pkind) {
+    h |= h5_attr_string(g, "parameter", pkind == 1 ? "jacobi" : "periods");
+    h |= h5_write_double(g, pkind == 1 ? "requested_jacobi" : "requested_period", 1, &dn,
+                         pkind == 1 ? c->orb_jacobi : c->orb_periods, NULL);
+  }
   h |= h5_write_double(g, "period", 1, &dn, per, NULL);
   h |= h5_write_double(g, "action", 1, &dn, act, NULL);
   h |= h5_write_double(g, "mu_unstable", 1, &dn, mu, NULL);
@@ -951,6 +1069,7 @@ int scene_orbits(tubes_run_t *run) {
   if (h) rc = EXIT_IO;
   else if (nfail && !rc) rc = EXIT_PARTIAL;
 out:
+  free(cp); free(jac);
   free(e); free(per); free(act); free(s0); free(mu); free(ms); free(mt); free(stab); free(res); free(clo);
   free(md); free(mono); free(ts); free(xs); free(hist); free(it); free(conv);
   return rc;

@@ -25,6 +25,7 @@ module tubes_cr3bp
   contains
     procedure :: energy => cr_energy, gradient => cr_gradient, hessian => cr_hessian
     procedure :: naming => cr_naming, reversor => cr_reversor, length_scale => cr_length_scale
+    procedure :: jacobi_factor => cr_jacobi_factor
   end type cr3bp_t
 
 contains
@@ -186,6 +187,13 @@ contains
     end do
     if (.not. all(abs(h(1:2*nd, 1:2*nd)) <= huge(1.0_wp))) stat = -1
   end subroutine frame_hessian
+
+  !> The Jacobi constant C = -2 H (Szebehely 1967; Koon et al. 2011, without their constant
+  !> mu (1 - mu)/2 in the effective potential): Earth-Moon C(L1) = 3.18834.
+  pure real(wp) function cr_jacobi_factor(self)
+    class(cr3bp_t), intent(in) :: self
+    cr_jacobi_factor = -2
+  end function cr_jacobi_factor
 
   !> The Hill radius (mu/3)^(1/3): the distance of L1 and L2 from the secondary.
   pure real(wp) function cr_length_scale(self)

@@ -53,6 +53,7 @@ module tubes_hamiltonian
     procedure :: reversor => ham_reversor           !! +1/-1 per component: a time-reversal symmetry
     procedure :: rest_momenta => ham_rest_momenta   !! p with dH/dp(q, p) = 0 (zero velocity)
     procedure :: jet_spec => ham_jet_spec           !! its formula, if it has one
+    procedure :: jacobi_factor => ham_jacobi_factor !! C = factor H (0: no Jacobi constant)
   end type hamiltonian_t
 
   !> A natural system H = 1/2 p^T A(q) p + potential_scale() shape(q).
@@ -118,6 +119,7 @@ module tubes_hamiltonian
   end type damped_t
 
   public :: make_damped, quadratic_parts, veff, quadratic_in_p
+  public :: jacobi_of_energy, energy_of_jacobi
 
   abstract interface
     pure real(wp) function energy_i(self, x)
@@ -242,6 +244,27 @@ contains
     class(hamiltonian_t), intent(in) :: self
     ham_length_scale = 1
   end function ham_length_scale
+
+  !> The Jacobi constant C = factor H of a model that defines one (the CR3BP: -2); 0 for a model
+  !> that does not (the default). jacobi_of_energy and energy_of_jacobi are the only conversions.
+  pure real(wp) function ham_jacobi_factor(self)
+    class(hamiltonian_t), intent(in) :: self
+    ham_jacobi_factor = 0
+  end function ham_jacobi_factor
+
+  !> The Jacobi constant at energy e: C = jacobi_factor e (0 for a model without one).
+  pure real(wp) function jacobi_of_energy(model, e) result(c)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: e
+    c = model%jacobi_factor()*e
+  end function jacobi_of_energy
+
+  !> The energy at Jacobi constant c: E = c / jacobi_factor (a model with one only).
+  pure real(wp) function energy_of_jacobi(model, c) result(e)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: c
+    e = c/model%jacobi_factor()
+  end function energy_of_jacobi
 
   !> No known reversor: all zeros.
   pure function ham_reversor(self) result(r)
