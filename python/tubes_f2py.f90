@@ -1455,3 +1455,136 @@ subroutine param_scan(system, params, lo, hi, n_grid, saddle, ipar, to, n, nde, 
   stat = s
   n_fold = nf
 end subroutine param_scan
+
+subroutine scene_equilibria(system, params, lo, hi, n_grid, box, want, asked, label, dissip, stores, h)
+  ! the equilibria scene (src/workflow/tubes_scene_equilibria.f90), as the program's: the handle of
+  ! its result record (read with record_sizes, record_item, record_reals, record_ints,
+  ! record_string, record_line, record_code; forget it with record_free)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_study, only: seed_stores_t, stores_at
+  use tubes_record, only: record_t, record_keep
+  use tubes_scene_equilibria, only: scene_run => scene_equilibria
+  implicit none
+  character(len=*), intent(in) :: system, want, label, dissip
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), box
+  integer(c_int), intent(in) :: n_grid, asked
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: h
+  type(record_t), allocatable :: rec
+  type(seed_stores_t), pointer :: kept
+  allocate (rec)
+  kept => stores_at(stores)
+  call scene_run(trim(system), params, lo, hi, n_grid, box, trim(want), asked /= 0, trim(label), trim(dissip), &
+                 kept, rec)
+  h = record_keep(rec)
+end subroutine scene_equilibria
+
+subroutine record_sizes(h, code, n_items, n_lines)
+  ! a result record's exit code (-1: no record), numbers of items and of console lines
+  use, intrinsic :: iso_c_binding, only: c_int
+  use tubes_record, only: record_t, record_at
+  implicit none
+  integer(c_int), intent(in) :: h
+  integer(c_int), intent(out) :: code, n_items, n_lines
+  type(record_t), pointer :: r
+  r => record_at(h)
+  code = -1; n_items = 0; n_lines = 0
+  if (.not. associated(r)) return
+  code = r%code; n_items = r%n_items; n_lines = r%n_lines
+end subroutine record_sizes
+
+subroutine record_item(h, k, kind, group, name, units, rank, dims, n)
+  ! item k (1-based) of a record: its kind (tubes_record REC_*), group, name, units, rank, dims
+  ! (C order) and number of values (strings: their count)
+  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
+  use tubes_record, only: record_t, record_at
+  implicit none
+  integer(c_int), intent(in) :: h, k
+  integer(c_int), intent(out) :: kind, rank, n
+  character(len=256), intent(out) :: group
+  character(len=64), intent(out) :: name
+  character(len=32), intent(out) :: units
+  integer(c_int64_t), intent(out) :: dims(4)
+  type(record_t), pointer :: r
+  r => record_at(h)
+  kind = 0; rank = 0; n = -1; group = ''; name = ''; units = ''; dims = 0
+  if (.not. associated(r)) return
+  if (k < 1 .or. k > r%n_items) return
+  kind = r%items(k)%kind; group = r%items(k)%group; name = r%items(k)%name; units = r%items(k)%units
+  rank = r%items(k)%rank; dims = r%items(k)%dims
+  if (allocated(r%items(k)%r)) n = size(r%items(k)%r)
+  if (allocated(r%items(k)%i)) n = size(r%items(k)%i)
+  if (allocated(r%items(k)%s)) n = size(r%items(k)%s)
+end subroutine record_item
+
+subroutine record_reals(h, k, n, v)
+  ! item k's n real values (C order)
+  use, intrinsic :: iso_c_binding, only: c_int, c_double
+  use tubes_record, only: record_t, record_at
+  implicit none
+  integer(c_int), intent(in) :: h, k, n
+  real(c_double), intent(out) :: v(n)
+  type(record_t), pointer :: r
+  r => record_at(h)
+  v = 0
+  if (.not. associated(r)) return
+  if (k < 1 .or. k > r%n_items) return
+  if (allocated(r%items(k)%r)) v = r%items(k)%r(1:n)
+end subroutine record_reals
+
+subroutine record_ints(h, k, n, v)
+  ! item k's n integer values (C order)
+  use, intrinsic :: iso_c_binding, only: c_int
+  use tubes_record, only: record_t, record_at
+  implicit none
+  integer(c_int), intent(in) :: h, k, n
+  integer(c_int), intent(out) :: v(n)
+  type(record_t), pointer :: r
+  r => record_at(h)
+  v = 0
+  if (.not. associated(r)) return
+  if (k < 1 .or. k > r%n_items) return
+  if (allocated(r%items(k)%i)) v = r%items(k)%i(1:n)
+end subroutine record_ints
+
+subroutine record_string(h, k, j, s)
+  ! string j (1-based) of item k
+  use, intrinsic :: iso_c_binding, only: c_int
+  use tubes_record, only: record_t, record_at
+  implicit none
+  integer(c_int), intent(in) :: h, k, j
+  character(len=1024), intent(out) :: s
+  type(record_t), pointer :: r
+  r => record_at(h)
+  s = ''
+  if (.not. associated(r)) return
+  if (k < 1 .or. k > r%n_items) return
+  if (.not. allocated(r%items(k)%s)) return
+  if (j >= 1 .and. j <= size(r%items(k)%s)) s = r%items(k)%s(j)
+end subroutine record_string
+
+subroutine record_line(h, j, stream, s)
+  ! console line j (1-based) of a record: stream 1 stdout, 2 stderr
+  use, intrinsic :: iso_c_binding, only: c_int
+  use tubes_record, only: record_t, record_at
+  implicit none
+  integer(c_int), intent(in) :: h, j
+  integer(c_int), intent(out) :: stream
+  character(len=4096), intent(out) :: s
+  type(record_t), pointer :: r
+  r => record_at(h)
+  s = ''; stream = 0
+  if (.not. associated(r)) return
+  if (j < 1 .or. j > r%n_lines) return
+  stream = r%lines(j)%stream
+  s = r%lines(j)%text
+end subroutine record_line
+
+subroutine record_free(h)
+  ! forget a record
+  use, intrinsic :: iso_c_binding, only: c_int
+  use tubes_record, only: record_drop
+  implicit none
+  integer(c_int), intent(in) :: h
+  call record_drop(h)
+end subroutine record_free

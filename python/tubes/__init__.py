@@ -548,6 +548,39 @@ def _box(model: Model, box, box_center):
     return lo, hi
 
 
+def _record(h: int) -> dict:
+    """A scene's result record (docs/development.md, "Scenes and their records") read and freed:
+    {"code": its exit code, "lines": [(stream, text)] (1 stdout, 2 stderr), "data": {group: {name:
+    array or list of str}}, "attrs": {group: {name: value}}}, arrays in the file's shapes."""
+    lib = _lib()
+    code, ni, nl = lib.record_sizes(h)
+    out = {"code": int(code), "lines": [], "data": {}, "attrs": {}}
+    try:
+        for j in range(1, nl + 1):
+            stream, text = lib.record_line(h, j)
+            out["lines"].append((int(stream), _str(text).rstrip()))
+        for k in range(1, ni + 1):
+            kind, group, name, units, rank, dims, n = lib.record_item(h, k)
+            group, name = _str(group).strip(), _str(name).strip()
+            shape = tuple(int(d) for d in dims[:rank])
+            if kind == 1:
+                v = lib.record_reals(h, k, n).reshape(shape)
+            elif kind == 2:
+                v = lib.record_ints(h, k, n).reshape(shape)
+            elif kind == 3:
+                v = [_str(lib.record_string(h, k, j)).rstrip() for j in range(1, n + 1)]
+            elif kind == 4:
+                v = float(lib.record_reals(h, k, 1)[0])
+            elif kind == 5:
+                v = int(lib.record_ints(h, k, 1)[0])
+            else:
+                v = _str(lib.record_string(h, k, 1)).rstrip()
+            out["data" if kind <= 3 else "attrs"].setdefault(group, {})[name] = v
+    finally:
+        lib.record_free(h)
+    return out
+
+
 def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, box_center=None) -> dict:
     """Equilibria with q in the search box (as the equilibria scene; any number of degrees of
     freedom N, 1 to 3). box: half-widths per coordinate, or one for all, > 0 [units of q: cm for
@@ -576,33 +609,26 @@ def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, 
     st = _read_namelist([model._nml()] + (["&equilibria " + ", ".join(f"{k} = {_nml_value(v)}" for k, v in eqg.items())
                                            + " /"] if eqg else []), "equilibria", {"model", "equilibria"})
     lo, hi, n_grid = st["lo"], st["hi"], st["n_grid"]
-    (stat, n, nd, q, p, h, e, grad, morse, rank1, names, lam, om, ev) = _lib().equilibria(
-        model.name, model.params(), lo, hi, int(n_grid), model._stores())
-    _check(stat, "equilibria")
-    names = names.decode() if isinstance(names, bytes) else str(names)
-    qq = q[:nd, :n].T.copy()
-    st = np.concatenate([qq, p[:nd, :n].T], axis=1)
-    out = {"q": qq, "state": st, "x": qq[:, 0].copy(), "y": qq[:, 1].copy() if nd > 1 else np.full(n, np.nan),
-            "height": h[:n].copy(), "energy": e[:n].copy(), "morse_index": morse[:n].copy(),
-            "rank1": rank1[:n] == 1, "degenerate": rank1[:n] == 2, "name": [names[9 * k:9 * k + 9].strip() for k in range(n)],
-            "lambda": lam[:n].copy(), "omega": om[0, :n].copy() if nd > 1 else np.full(n, np.nan),
-            "omegas": om[:nd - 1, :n].T.copy(), "grad_norm": grad[:n].copy(),
-            "eigenvectors": ev[:4 * nd * nd, :n].T.reshape(n, 2 * nd, 2 * nd).transpose(0, 2, 1).copy()}
-    # every point's centre frequencies and linear stability, and what the box may hide: the core's
-    # calls of the equilibria scene (tubes_study centres_of, box_note), on the same kept search
-    (stat, nc, fq, stab) = _lib().equilibria_centres(model.name, model.params(), lo, hi, int(n_grid), model._stores())
-    _check(stat, "equilibria")
-    if nc != n:
-        raise TubesError(-1, f"equilibria ({nc} points have centre frequencies, {n} were found)")
-    out["frequencies"] = fq[:nd, :n].T.copy()
-    out["stable"] = stab[:n] == 1
+    # the program's equilibria scene (src/workflow/tubes_scene_equilibria.f90): its record's
+    # /equilibria, its note on what the box may hide, its verdict
+    rec = _record(_lib().scene_equilibria(model.name, model.params(), lo, hi, int(n_grid), float((hi[0] - lo[0]) / 2), "", 0,
+                                          model.name, "", model._stores()))
+    if rec["code"]:
+        raise TubesError(-1, "; ".join(t for s, t in rec["lines"] if s == 2))
+    g = rec["data"]["equilibria"]
+    nd = model.ndof
+    rank1 = g["rank1"]
+    out = {"q": g["state"][:, :nd].copy(), "state": g["state"], "x": g["x"], "y": g["y"], "height": g["height"],
+           "energy": g["energy"], "morse_index": g["morse_index"], "rank1": rank1 == 1, "degenerate": rank1 == 2,
+           "name": g["name"], "lambda": g["lambda"], "omega": g["omega"],
+           "omegas": g["omegas"] if nd > 2 else g["omega"][:, None].copy() if nd > 1 else np.zeros((len(rank1), 0)),
+           "grad_norm": g["grad_norm"], "eigenvectors": g["eigenvectors"], "frequencies": g["frequencies"],
+           "stable": g["stable"] == 1}
     out.update(box=((hi - lo) / 2)[:nd].copy(), box_center=((hi + lo) / 2)[:nd].copy(), n_grid=int(n_grid))
-    (stat, note) = _lib().box_note(model.name, model.params(), lo, hi, int(n_grid), model._stores())
-    _check(stat, "equilibria")
-    note = (note.decode() if isinstance(note, bytes) else str(note)).strip()
-    if note:
-        import warnings  # noqa: PLC0415
-        warnings.warn(f"equilibria: {note}", RuntimeWarning, stacklevel=2)
+    for s, t in rec["lines"]:
+        if s == 2 and t.startswith("tubes: equilibria: note: "):
+            import warnings  # noqa: PLC0415
+            warnings.warn("equilibria: " + t[len("tubes: equilibria: note: "):], RuntimeWarning, stacklevel=2)
     return _table(out, "/equilibria", model)
 
 

@@ -966,7 +966,7 @@ int scene_orbits(tubes_run_t *run) {
   int h = 0;
   h |= h5_write_double(g, "dE", 1, &dn, c->orb_de, NULL);
   h |= h5_write_double(g, "energy", 1, &dn, e, NULL);
-  if (has_jacobi) h |= h5_write_double(g, "jacobi", 1, &dn, jac, "1");
+  if (has_jacobi) h |= h5_write_double(g, "jacobi", 1, &dn, jac, NULL);
   if (pkind) {
     h |= h5_attr_string(g, "parameter", pkind == 1 ? "jacobi" : "periods");
     h |= h5_write_double(g, pkind == 1 ? "requested_jacobi" : "requested_period", 1, &dn,

@@ -31,7 +31,8 @@ static const unit_row_t ROWS[] = {
   {"/equilibria", "x", "cm"}, {"/equilibria", "y", "cm"}, {"/equilibria", "height", "cm"},
   {"/equilibria", "energy", "(cm/s)^2"}, {"/equilibria", "lambda", "1/s"}, {"/equilibria", "omega", "rad/s"},
   {"/equilibria", "frequencies", "rad/s"}, {"/equilibria", "morse_index", "1"}, {"/equilibria", "grad_norm", "1"},
-  {"/equilibria", "stable", "1"}, {"/equilibria", "omegas", "rad/s"},
+  {"/equilibria", "stable", "1"}, {"/equilibria", "omegas", "rad/s"}, {"/equilibria", "rank1", "1"},
+  {"/equilibria", "eigenvectors", "1"},
   {"/saddle", "eigenvectors", "1"}, {"/saddle", "damped_eigenvalues", "1/s"},
   /* the orbits scene */
   {"/orbits", "dE", "(cm/s)^2"}, {"/orbits", "energy", "(cm/s)^2"}, {"/orbits", "period", "s"},
@@ -41,6 +42,7 @@ static const unit_row_t ROWS[] = {
   {"/orbits", "mu_trivial_imag", "1"}, {"/orbits", "stability_index", "1"}, {"/orbits", "monodromy", "1"},
   {"/orbits", "end_dE", "(cm/s)^2"}, {"/orbits/orbit_#", "history", "cm, cm/s"}, {"/orbits/orbit_#", "t", "s"},
   {"/orbits", "floquet_index", "1"}, {"/orbits", "floquet_index_imag", "1"},
+  {"/orbits", "jacobi", "(cm/s)^2"}, {"/orbits", "requested_jacobi", "(cm/s)^2"}, {"/orbits", "requested_period", "s"},
   {"/orbits/bifurcations", "kind", "1"}, {"/orbits/bifurcations", "after", "1"},
   {"/orbits/bifurcations", "converged", "1"}, {"/orbits/bifurcations", "dE", "(cm/s)^2"},
   {"/orbits/bifurcations", "bracket", "(cm/s)^2"}, {"/orbits/bifurcations", "energy", "(cm/s)^2"},

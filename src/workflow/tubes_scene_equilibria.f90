@@ -37,7 +37,7 @@ contains
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
     real(wp), allocatable :: q(:, :), p(:, :), hgt(:), en(:), gn(:), lam(:), om(:, :), ev(:, :), fq(:, :), &
-                             xs(:), ys(:), oms(:), st2(:, :)
+                             xs(:), ys(:), oms(:), st2(:, :), eva(:, :, :)
     integer, allocatable :: morse(:), rank1(:), stab(:)
     character(8), allocatable :: nm(:)
     character(512) :: note
@@ -140,6 +140,14 @@ contains
     if (nd > 2) call rec%real('equilibria', 'omegas', reshape(om(1:nd - 1, :), [n*(nd - 1)]), [n, nd - 1])
     call rec%real('equilibria', 'frequencies', reshape(fq(1:nd, :), [n*nd]), [n, nd])
     call rec%int('equilibria', 'stable', stab, [n])
+    ! each point's kind (1 a rank-1 saddle, 2 a degenerate one, 0 else) and its eigenvectors (as
+    ! /saddle's, row i = component i; zero for a point that is not a saddle)
+    call rec%int('equilibria', 'rank1', rank1, [n])
+    allocate (eva(n2, n2, n))
+    do k = 1, n
+      eva(:, :, k) = transpose(reshape(ev(1:n2*n2, k), [n2, n2]))
+    end do
+    call rec%real('equilibria', 'eigenvectors', reshape(eva, [n*n2*n2]), [n, n2, n2])
     call rec%attr_real('equilibria', 'box', box)
     call rec%attr_int('equilibria', 'n_grid', n_grid)
     if (len_trim(note) > 0) call rec%attr_string('equilibria', 'box_note', trim(note))
