@@ -953,7 +953,7 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
                            "floquet_index_imag": bnu[2:2 + npair, :nb].T.copy(), "state0": bx0[:n2, :nb].T.copy(),
                            "tangent": btan[:n2, :nb].T.copy(), "tol": float(btol)}
     fam = int(st["orb_family"])
-    out["family_name"] = {-1: "halo_north", -2: "halo_south"}.get(fam, "lyapunov")
+    out["family_name"] = {-1: "halo_north", -2: "halo_south", -3: "vertical", -5: "axial"}.get(fam, "lyapunov")
     # the scene's checks (src/workflow/tubes_verdicts.f90 orbit_coarse), then what it exits 4 on
     out["verdicts"] = []
     for k in np.flatnonzero(out["converged"]):
