@@ -114,6 +114,7 @@ def families(tmp_path_factory):
             "planar": run(d, "p", "lyapunov", [0.05, 0.1])}
 
 
+@pytest.mark.slow   # the three runs of the fixture: ~7 s on 2 cores
 def test_axial_against_scipy(families):
     r, a = families["axial"]
     # 0.0834 is below the planar family's branch point (not on the branch), 0.1 above the vertical's
@@ -135,6 +136,7 @@ def test_axial_against_scipy(families):
         assert a["yz"][k] > 0                              # the naming: positive tilt
 
 
+@pytest.mark.slow   # the three runs of the fixture: ~7 s on 2 cores
 def test_axial_ends_at_the_two_branch_points(families):
     _, a = families["axial"]
     rv, v = families["vertical"]
@@ -154,6 +156,7 @@ def test_axial_ends_at_the_two_branch_points(families):
     assert a["attrs"]["family_end_dE"] == pytest.approx(bv[0], abs=2e-9)
 
 
+@pytest.mark.slow   # the three runs of the fixture: ~7 s on 2 cores
 def test_vertical_against_scipy(families):
     _, v = families["vertical"]
     assert np.all(v["converged"] == 1)
