@@ -222,3 +222,17 @@ def test_names_refused_where_they_mean_nothing(tmp_path):
                                     "de = 0.09 /\n")
     r = run_tubes(["f.nml"], cwd=tmp_path)
     assert r.returncode == 1 and "family = 'axial' with a guess" in r.stderr
+
+
+@pytest.mark.slow
+def test_python_orbit_family_by_name(families):
+    """orbit_family(family='vertical' | 'axial') goes through the program's reader: the same orbits."""
+    import tubes
+    m = tubes.Model("cr3bp", spatial=True)
+    _, v = families["vertical"]
+    r = tubes.orbit_family(m, dE=[0.05], saddle="L1", family="vertical")
+    assert r["family_name"] == "vertical" and r["period"][0] == v["period"][1]
+    _, a = families["axial"]
+    r = tubes.orbit_family(m, dE=[0.09], saddle="L1", family="axial")
+    assert r["family_name"] == "axial"
+    assert r["period"][0] == pytest.approx(a["period"][2], abs=1e-12)

@@ -890,8 +890,8 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     and bifurcations (a dict of /orbits/bifurcations: kind, after, converged, dE, bracket, energy,
     period, floquet_index(_imag), state0, tangent, tol; docs/orbits.md "Bifurcations"),
     family_name. Keywords: saddle or saddle_near, and &orbits' method, n_segments, tol, rtol, atol,
-    max_iter, n_samples, family (the k-th centre mode's family in 3 DOF, or 'halo_north' /
-    'halo_south'); integrator: &integrator's method and its options as a dict, e.g. {"method":
+    max_iter, n_samples, family (the k-th centre mode's family in 3 DOF, or 'lyapunov', 'vertical',
+    'halo_north' / 'halo_south', 'axial': docs/orbits.md "Branch switching"); integrator: &integrator's method and its options as a dict, e.g. {"method":
     "arkode_erk8"} (default the input file's, "auto": Taylor for the state, DOP853 for the
     variational equations). Each orbit is the continuation to its own energy alone: the same
     bits whatever else dE holds, and the same as the program's orbits scene and tube cuts.
