@@ -54,7 +54,8 @@ module tubes_study
     character(8) :: saddle = ''
     integer :: n_segments = 1        !! orbit corrector: 1 single shooting, >= 2 multiple
     !> the orbit family of the tube cuts (as &orbits family: 1 .. N-1 a centre mode's Lyapunov
-    !> family, FAMILY_BRANCH_PLUS/_MINUS the halo branch; tubes_orbits orbit_opts_t%family)
+    !> family, FAMILY_BRANCH_PLUS/_MINUS the halo branch, FAMILY_VERTICAL, _PLANAR, _AXIAL the
+    !> families by name; tubes_orbits orbit_opts_t%family)
     integer :: family = 1
     real(wp) :: orb_tol = 1.0e-11_wp, orb_rtol = 1.0e-13_wp, orb_atol = 1.0e-13_wp
     type(integ_choice_t) :: integ    !! the integrator of every analysis (&integrator)
@@ -691,8 +692,8 @@ contains
   end subroutine branch_at
 
   !> The axial family ('axial'; docs/orbits.md, "Branch switching"): the planar family ('lyapunov',
-  !> named_mode) at 16 energies geometrically spaced from 1e-3 to 1 times the largest of des and its
-  !> bifurcations (family_bifurcations); from the first branch point whose tangent (the monodromy's
+  !> named_mode) at 16 energies geometrically spaced from 1e-3 to 1 times the largest of des, upwards
+  !> until its bifurcations (family_bifurcations) hold the first branch point whose tangent (the monodromy's
   !> eigenvector for +1) lies mostly on the reversor's odd components (the branch keeps the symmetry
   !> q_2, q_N -> -q_2, -q_N, t -> -t; the halo branch point's tangent is even), branch_arc along the
   !> tangent's side of positive tilt (tilt_of: the mean of q_2 q_N grows), stopped at the branch's
@@ -718,7 +719,7 @@ contains
     type(fold_t), allocatable :: fl(:)
     real(wp) :: dg(16), nu(2*model%ndof() - 2, 16), tl, v(model%dim())
     integer :: rev(model%dim())
-    integer :: k, j, jp
+    integer :: k, j, jp, i
     end_de = -1
     end_reason = END_NOMODE
     stat = TUBES_OK
@@ -734,21 +735,31 @@ contains
     po%family = jp
     po%branch = 0
     dg = [(maxval(des)*10.0_wp**(-3 + 3*real(k - 1, wp)/15), k = 1, 16)]
-    call family_at(st, model, eqs, isad, dg, po, grid, end_de, end_reason, stat, stores)
-    if (stat < 0) return
-    call family_bifurcations(st, model, eqs, isad, dg, grid, po, nu, bifs, stat, stores)
-    if (stat < 0) return
+    ! the grid upwards, one energy at a time (on the run's path of the planar family), each interval's
+    ! bifurcations located as soon as it is known, until the first odd branch point: the family is not
+    ! continued further than needed (L1: to the 13th energy of de = 0.1's grid; a grid up to 0.2 at L2
+    ! continued the planar family to its end near dE = 0.165, 3 minutes)
+    j = 0
+    do k = 1, 16
+      call family_at(st, model, eqs, isad, dg(k:k), po, grid(k:k), end_de, end_reason, stat, stores)
+      if (stat < 0) return
+      if (.not. grid(k)%converged) exit
+      if (k == 1) cycle
+      call family_bifurcations(st, model, eqs, isad, dg(k - 1:k), grid(k - 1:k), po, nu(:, k - 1:k), bifs, &
+                               stat, stores)
+      if (stat < 0) return
+      do i = 1, size(bifs)
+        if (bifs(i)%kind /= BIF_BRANCH .or. .not. bifs(i)%converged) cycle
+        if (sum(bifs(i)%tangent**2, mask=rev < 0) > sum(bifs(i)%tangent**2, mask=rev > 0)) then
+          j = i
+          exit
+        end if
+      end do
+      if (j > 0) exit
+    end do
     end_de = -1
     end_reason = END_NOBRANCH
     stat = TUBES_OK
-    j = 0
-    do k = 1, size(bifs)
-      if (bifs(k)%kind /= BIF_BRANCH .or. .not. bifs(k)%converged) cycle
-      if (sum(bifs(k)%tangent**2, mask=rev < 0) > sum(bifs(k)%tangent**2, mask=rev > 0)) then
-        j = k
-        exit
-      end if
-    end do
     if (j == 0) return
     v = bifs(j)%tangent
     tl = tilt_of(model, bifs(j)%x0, bifs(j)%period, v, opts, stat)
