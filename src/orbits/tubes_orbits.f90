@@ -1672,7 +1672,7 @@ contains
     real(wp) :: wt, tot
     integer :: k, jv, jp
     j = 0
-    if (code == FAMILY_PLANAR .and. nd <= 2) j = min(nd - 1, 1)
+    if (code == FAMILY_PLANAR .and. nd <= 2) j = 1   ! as family = 1, whatever that gives
     if (nd /= 3 .or. .not. allocated(sad%evec) .or. .not. allocated(sad%omegas)) return
     if (size(sad%evec, 2) < 2*nd) return
     jv = 0
