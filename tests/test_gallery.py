@@ -152,3 +152,20 @@ def test_halo_l1(tmp_path):
     for k in range(1, 6):
         assert c[k] - c[0] == pytest.approx(-2 * (de[k] - de[0]), abs=1e-9)
     assert all(float(n[k][3]) > float(n[k - 1][3]) for k in range(1, 6))
+
+
+def test_axial_l1(tmp_path):
+    """The L1 axial family as the example prints it: six orbits between the two branch points, C =
+    -2 (E_L1 + dE) (C(dE) - C(dE') = -2 (dE - dE')), the period growing with dE, out of the plane
+    with vz0 < 0 (the positive tilt's side); the period at dE = 0.09 the one tests/test_axial.py
+    checks against scipy (3.999031411744, to 1e-9)."""
+    out = _run("axial_l1.py", tmp_path)
+    assert (tmp_path / "axial_l1.png").stat().st_size > 0
+    rows = re.findall(r"^axial: dE = (\S+), C = (\S+), period (\S+), x0 = \S+, vy0 = \S+, vz0 = (\S+)$", out, re.M)
+    assert len(rows) == 6, out
+    de, c, t, vz = ([float(r[i]) for r in rows] for i in range(4))
+    for k in range(1, 6):
+        assert c[k] - c[0] == pytest.approx(-2 * (de[k] - de[0]), abs=1e-9)
+        assert t[k] > t[k - 1]
+    assert all(v < -0.1 for v in vz)
+    assert t[de.index(0.09)] == pytest.approx(3.999031411744, abs=1e-9)

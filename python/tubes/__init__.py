@@ -959,8 +959,9 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     and bifurcations (a dict of /orbits/bifurcations: kind, after, converged, dE, bracket, energy,
     period, floquet_index(_imag), state0, tangent, tol; docs/orbits.md "Bifurcations"),
     family_name. Keywords: saddle or saddle_near, and &orbits' method, n_segments, tol, rtol, atol,
-    max_iter, n_samples, family (the k-th centre mode's family in 3 DOF, or 'halo_north' /
-    'halo_south'); jacobi=[C, ...] or periods=[T, ...] instead of dE (&orbits jacobi, periods,
+    max_iter, n_samples, family (the k-th centre mode's family in 3 DOF, or 'lyapunov', 'vertical',
+    'halo_north' / 'halo_south', 'axial': docs/orbits.md "Branch switching"); jacobi=[C, ...] or
+    periods=[T, ...] instead of dE (&orbits jacobi, periods,
     docs/orbits.md "Orbits by Jacobi constant or period": one of dE, jacobi, periods; the orbits are
     those at the dE the program's Fortran finds for them; the Table adds jacobi (C of each orbit,
     a model with a Jacobi constant), parameter and requested_jacobi or requested_period; a period
@@ -1041,7 +1042,7 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
                            "floquet_index_imag": bnu[2:2 + npair, :nb].T.copy(), "state0": bx0[:n2, :nb].T.copy(),
                            "tangent": btan[:n2, :nb].T.copy(), "tol": float(btol)}
     fam = int(st["orb_family"])
-    out["family_name"] = {-1: "halo_north", -2: "halo_south"}.get(fam, "lyapunov")
+    out["family_name"] = {-1: "halo_north", -2: "halo_south", -3: "vertical", -5: "axial"}.get(fam, "lyapunov")
     # C of each orbit for a model that defines a Jacobi constant (the model's definition, Fortran)
     stj, cj = _lib().jacobi_constant(model.name, model.params(), out["energy"])
     if stj >= 0:

@@ -147,9 +147,12 @@ const nml_var tubes_nml_vars[] = {
     {"orbits", "atol", NML_REAL, 1, "state units", "1e-13", "> 0", "integration tolerance (absolute)"},
     {"orbits", "max_iter", NML_INT, 1, "-", "25", "1 .. 200", "Newton iterations per orbit"},
     {"orbits", "n_samples", NML_INT, 1, "-", "201", "2 .. 100000", "samples along each orbit in the output"},
-    {"orbits", "family", NML_INT, 1, "-", "1", "1 .. N-1, 'lyapunov', 'halo_north', 'halo_south', 'branch:K'",
-     "the Lyapunov family of the saddle's k-th centre frequency (ascending; N = 3: 2 families), the halo "
-     "branch off family N-1, or the family from the K-th bifurcation of the guess's family (else family 1)"},
+    {"orbits", "family", NML_INT, 1, "-", "1",
+     "1 .. N-1, 'lyapunov', 'vertical', 'halo_north', 'halo_south', 'axial', 'branch:K'",
+     "the Lyapunov family of the saddle's k-th centre frequency (ascending; N = 3: 2 families), the planar "
+     "('lyapunov'; N < 3: family 1) or out-of-plane ('vertical') one, the halo branch off family N-1, the "
+     "axial branch off the planar family, or the family from the K-th bifurcation of the guess's family (else "
+     "family 1)"},
     {"orbits", "guess", NML_REAL, 64, "state units", "none", "exactly 2N finite values",
      "a state on (or near) a periodic orbit: the family through it (docs/orbits.md, Orbits from a guess)"},
     {"orbits", "period", NML_REAL, 1, "s", "none", "> 0 (with guess only)", "the guess's period"},
@@ -735,6 +738,17 @@ static int check_dissipation(const char *path, const tubes_config_t *c, const nm
  * strictly increasing. One message, naming the element. */
 static int check_list_sign(const char *path, const tubes_config_t *c, const nml_where *w, const char *group,
                            const double *de, int nde, FILE *err, int positive);
+/* &orbits family's name for its code (tubes_nml io_orbits; tubes_orbits FAMILY_*) */
+static const char *family_name(int code) {
+  switch (code) {
+  case -1: return "halo_north";
+  case -2: return "halo_south";
+  case -3: return "vertical";
+  case -4: return "lyapunov";
+  case -5: return "axial";
+  default: return "?";
+  }
+}
 static int check_list(const char *path, const tubes_config_t *c, const nml_where *w, const char *group, const double *de, int nde,
                       FILE *err) {
   return check_list_sign(path, c, w, group, de, nde, err, 1);
@@ -1280,10 +1294,10 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
             "neither)\n", path, line_or_group(w, "orbits", "period"), c->orb_period);
     n++;
   }
-  if (c->orb_nguess > 0 && (c->orb_family == -1 || c->orb_family == -2)) {
-    fprintf(err, "%s:%d: &orbits: family = '%s' with a guess: the halo family starts at its branch point, not from "
-            "a guess (allowed with guess: family = 1 (the guess's own family) or 'branch:K')\n", path,
-            line_or_group(w, "orbits", "family"), c->orb_family == -1 ? "halo_north" : "halo_south");
+  if (c->orb_nguess > 0 && c->orb_family < 0 && c->orb_family >= -5) {
+    fprintf(err, "%s:%d: &orbits: family = '%s' with a guess: a family by name starts at its saddle or branch point, "
+            "not from a guess (allowed with guess: family = 1 (the guess's own family) or 'branch:K')\n", path,
+            line_or_group(w, "orbits", "family"), family_name(c->orb_family));
     n++;
   }
   n += check_orbit_parameter(path, c, w, err);
@@ -1297,19 +1311,22 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->orb_max_iter >= 1 && c->orb_max_iter <= 200)) n += bad(path, c, w, "orbits", "max_iter", err, "", c->orb_max_iter);
   if (c->orb_family == -99) {
     fprintf(err, "%s:%d: &orbits: family: the name is not one of the families: allowed 1 .. N-1 (the saddle's "
-            "centre modes), 'lyapunov' (1), 'halo_north', 'halo_south' (the branch off family N-1 at its first "
-            "branch point, 3 degrees of freedom), 'branch:K' (K >= 1: the family from the K-th bifurcation "
-            "detected along the guess's family, or without a guess family 1)\n", path,
-            line_or_group(w, "orbits", "family"));
+            "centre modes), 'lyapunov' (family 1; in 3 degrees of freedom the planar one), 'vertical' (the centre "
+            "mode out of the plane, in q_N, p_N), 'halo_north', 'halo_south' (the branch off family N-1 at its "
+            "first branch point), 'axial' (the branch off the planar family that ends on the vertical one; these "
+            "four: 3 degrees of freedom), 'branch:K' (K >= 1: the family from the K-th bifurcation detected along "
+            "the guess's family, or without a guess family 1)\n", path, line_or_group(w, "orbits", "family"));
     n++;
-  } else if (c->orb_family <= -101) {
-    /* branch:K: any model (multiple shooting, no symmetry) */
+  } else if (c->orb_family <= -101 || c->orb_family == -4) {
+    /* branch:K: any model (multiple shooting, no symmetry); 'lyapunov': any number of degrees of freedom */
   } else if (c->orb_family < 0 && c->nparams >= 0 && c->ndof != 3) {
-    fprintf(err, "%s:%d: &orbits: family = '%s' needs 3 degrees of freedom (the halo family branches off the "
-            "planar Lyapunov family): system '%s' has %d\n", path, line_or_group(w, "orbits", "family"),
-            c->orb_family == -1 ? "halo_north" : "halo_south", c->system, c->ndof);
+    fprintf(err, "%s:%d: &orbits: family = '%s' needs 3 degrees of freedom (%s): system '%s' has %d\n", path,
+            line_or_group(w, "orbits", "family"), family_name(c->orb_family),
+            c->orb_family == -3 ? "the vertical family is the centre mode out of the plane q_N = p_N = 0"
+            : c->orb_family == -5 ? "the axial family branches off the planar Lyapunov family out of the plane"
+            : "the halo family branches off the planar Lyapunov family", c->system, c->ndof);
     n++;
-  } else if (c->orb_family < 0 && !strcmp(c->orb_method, "multiple")) {
+  } else if ((c->orb_family == -1 || c->orb_family == -2) && !strcmp(c->orb_method, "multiple")) {
     fprintf(err, "%s:%d: &orbits: family = '%s' is continued by single shooting of the symmetric orbit: "
             "method = 'multiple' is not supported for it (allowed: method = 'single')\n", path,
             line_or_group(w, "orbits", "method"), c->orb_family == -1 ? "halo_north" : "halo_south");

@@ -895,6 +895,12 @@ contains
         family = 'halo_north'
       case (-2)
         family = 'halo_south'
+      case (-3)
+        family = 'vertical'
+      case (-4)
+        family = 'lyapunov'
+      case (-5)
+        family = 'axial'
       case (:-101)
         write (family, '(a,i0)') 'branch:', -100 - v%orb_family
       case default
@@ -949,8 +955,12 @@ contains
         v%orb_family = -1
       case ('halo_south')
         v%orb_family = -2
+      case ('vertical')   ! the families by name (tubes_orbits FAMILY_VERTICAL, _PLANAR, _AXIAL)
+        v%orb_family = -3
       case ('lyapunov')
-        v%orb_family = 1
+        v%orb_family = -4
+      case ('axial')
+        v%orb_family = -5
       case ('branch:1':'branch:99999')   ! 'branch:K', K >= 1 (a bad K is said as a bad name)
         read (family(8:), *, iostat=iosf) ifam
         v%orb_family = -100 - ifam

@@ -648,6 +648,8 @@ static const char *end_reason_text(int r) {
   case 7: return "past a fold the energy returned to the start's";
   case 8: return "the guess did not converge";
   case 9: return "no requested energy lies on the branch's side of the bifurcation";
+  case 10: return "the arc closed into a loop (a fold at its start's energy; the energies not taken are not on it)";
+  case 11: return "the saddle's centre modes do not define the family by this name";
   default: return "none";
   }
 }
@@ -806,8 +808,12 @@ int scene_orbits(tubes_run_t *run) {
     goto out;
   }
   const char *famname = c->orb_family == -1 ? "halo_north" : c->orb_family == -2 ? "halo_south" : "Lyapunov";
+  if (c->orb_family == -3) famname = "vertical";
+  else if (c->orb_family == -4) famname = "lyapunov";
+  else if (c->orb_family == -5) famname = "axial";
   char fambuf[32];
-  int guessed = c->orb_nguess > 0 || c->orb_family <= -101;   /* a guess's family or a branch: any dE */
+  /* a guess's family or a branch by the general arc ('branch:K', 'axial'): any dE */
+  int guessed = c->orb_nguess > 0 || c->orb_family <= -101 || c->orb_family == -5;
   if (c->orb_family <= -101) {
     snprintf(fambuf, sizeof fambuf, "branch:%d", -100 - c->orb_family);
     famname = fambuf;
@@ -847,19 +853,25 @@ int scene_orbits(tubes_run_t *run) {
               "guess's own energy, %d segment%s); no orbit computed: give a state and period closer to a periodic "
               "orbit\n", c->orb_period, nseg, nseg > 1 ? "s" : "");
       rc = EXIT_BADINPUT;
+    } else if (reason == 5 && c->orb_family == -5) {
+      fprintf(stderr, "tubes: orbits: family = 'axial': the %s's planar Lyapunov family ('lyapunov') has no branch "
+              "point with a tangent odd under the reversor (the axial one) below dE = %g; not computed\n",
+              run->saddle, c->orb_de[n - 1]);
     } else if (reason == 5) {
       fprintf(stderr, "tubes: orbits: family = '%s': the parent family has no branch point or period doubling as "
               "its bifurcation %d between the requested energies (/orbits/bifurcations of the run without it); not "
               "computed\n", famname, -100 - c->orb_family);
     }
     printf("  family stop: %s", end_reason_text(reason));
-    if (reason && reason != 5 && reason != 8) printf(" (at dE = %.10g)", end_de);
+    if (reason && reason != 5 && reason != 8 && reason != 11) printf(" (at dE = %.10g)", end_de);
     putchar('\n');
     for (int k = 0; k < n; k++)
-      if (!conv[k] && reason != 8 && reason != 5)
+      if (!conv[k] && reason != 8 && reason != 5 && reason != 11)
         fprintf(stderr, "tubes: orbits: dE = %g: no %s orbit: %s\n", c->orb_de[k], famname,
                 reason == 9 || reason == 0 ? "not on this side of the start (each energy is taken where the "
                 "continuation first crosses it)" : end_reason_text(reason));
+  } else if (reason == 11) {
+    /* handled below with the axial family's (a family by name the saddle's modes do not define) */
   } else if (c->orb_family < 0 && reason == 5) {
     printf("  no %s family: %s (dE = %g)\n", famname, end_reason_text(reason), c->orb_de[n - 1]);
     fprintf(stderr, "tubes: orbits: no %s orbits: the %s's family %d (its planar Lyapunov family in the CR3BP) has no "
@@ -885,6 +897,13 @@ int scene_orbits(tubes_run_t *run) {
         for (int j = 0; j < it[k] && j < mi; j++) fprintf(stderr, " %.2e", hist[(size_t)k * mi + j]);
         fputc('\n', stderr);
       }
+  }
+  if (reason == 11) {   /* END_NOMODE: 'vertical', 'lyapunov' or 'axial' where the modes do not define it */
+    fprintf(stderr, "tubes: orbits: family = '%s': no centre mode of the %s of system '%s' lies out of the plane "
+            "(an eigenvector with all its weight on q%d, p%d) beside a planar one, so the %s family is not defined "
+            "here (allowed: family = 1 .. %d by number, docs/orbits.md \"Branch switching\")\n", famname, run->saddle,
+            c->system, run->ndof, run->ndof, famname, run->ndof > 1 ? run->ndof - 1 : 1);
+    rc = EXIT_BADINPUT;
   }
   /* the integration's own accuracy (tubes_verdicts orbit_coarse, Python's orbit_family's too) */
   for (int k = 0; k < n; k++) {
@@ -925,7 +944,7 @@ int scene_orbits(tubes_run_t *run) {
   }
   static const char *bif_name[] = {"", "branch_point", "period_doubling", "krein_collision", "fold"};
   int np = run->ndof - 1;
-  if (c->orb_family < 0)
+  if (c->orb_family < 0 && c->orb_family != -3 && c->orb_family != -4)
     printf("  bifurcations: not located along a branch family (its orbits' Floquet indices are written)\n");
   else if (nbif == 0)
     printf("  bifurcations: none between the requested energies (Floquet indices: %d pair%s)\n", np, np > 1 ? "s" : "");
@@ -992,6 +1011,7 @@ int scene_orbits(tubes_run_t *run) {
   h |= h5_attr_double(g, "tol", c->orb_tol);
   h |= h5_attr_long(g, "family", c->orb_family);
   h |= h5_attr_string(g, "family_name", c->orb_family == -1 ? "halo_north" : c->orb_family == -2 ? "halo_south"
+                                         : c->orb_family == -3 ? "vertical"
                                          : guessed ? famname : "lyapunov");
   if (guessed) {
     h |= h5_attr_string(g, "family_end_reason", end_reason_text(reason));

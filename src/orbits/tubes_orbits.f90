@@ -30,12 +30,20 @@ module tubes_orbits
   integer, parameter, public :: END_RETURN = 7      !! past a fold, the arc's energy returned to its start's
   integer, parameter, public :: END_NOGUESS = 8     !! the guess (opts%guess) did not converge
   integer, parameter, public :: END_NOTBRANCH = 9   !! no requested energy on the branch's side
+  integer, parameter, public :: END_LOOP = 10       !! a branch's arc closed: a fold at its start's energy
+  integer, parameter, public :: END_NOMODE = 11     !! a family by name ('vertical', 'lyapunov', 'axial')
+                                                    !! the saddle's centre modes do not define
   integer, parameter, public :: ARC_MAX_STEPS = 2000 !! steps of one pseudo-arclength arc, at most
   !> opts%family codes of the family that branches off the highest-frequency centre mode's
   !> family (N - 1) at its first branch point (the spatial CR3BP's halo family off the planar
   !> Lyapunov family): PLUS the side whose orbits' larger excursion in q_N is positive
   !> ('halo_north'), MINUS negative ('halo_south'). docs/orbits.md, "Branch switching".
   integer, parameter, public :: FAMILY_BRANCH_PLUS = -1, FAMILY_BRANCH_MINUS = -2
+  !> opts%family codes of the families by name (docs/orbits.md, "Branch switching"): 'vertical' the
+  !> centre mode whose eigenvector lies in (q_N, p_N) (3 DOF), 'lyapunov' the planar one (3 DOF; else
+  !> family 1), 'axial' the family off the planar one at its first branch point whose tangent is odd
+  !> under the reversor (the spatial CR3BP's axial family, which ends on the vertical family)
+  integer, parameter, public :: FAMILY_VERTICAL = -3, FAMILY_PLANAR = -4, FAMILY_AXIAL = -5
 
   !> Options of the corrector and the continuation.
   type, public :: orbit_opts_t
@@ -188,7 +196,7 @@ module tubes_orbits
   end type action_field_t
 
   public :: linear_guess, correct_symmetric, correct_multiple, finish_orbit, orbit_family, floquet_indices, &
-            floquet_tangent, branch_arc
+            floquet_tangent, branch_arc, named_mode, tilt_of
 
 
 contains
@@ -1336,7 +1344,7 @@ contains
   !> past the start's (END_RETURN), or after ARC_MAX_STEPS steps (END_STEPS); end_de: the energy
   !> reached then (excess). stat < 0 only for a fault of the integration of an orbit taken.
   subroutine arc_run(sys, model, eqs, isad, w0, t0, n, dir, des, want, opts, orbits, end_de, end_reason, &
-                     folds, stat)
+                     folds, stat, end_at_fold)
     class(arc_system_t), intent(in) :: sys
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: eqs(:)
@@ -1348,6 +1356,7 @@ contains
     real(wp), intent(out) :: end_de
     integer, intent(out) :: end_reason, stat
     type(fold_t), allocatable, intent(inout) :: folds(:)
+    logical, intent(in), optional :: end_at_fold   !! stop at the first fold (END_FOLD, end_de the fold's)
     real(wp) :: w(size(w0)), t(size(w0)), wn(size(w0)), tn(size(w0)), wf(size(w0)), tf(size(w0))
     real(wp) :: h, h0, e_sad, e_start, e_prev, e_now, g_prev, g_now, ef
     integer :: d, nw, nstep, it, sgn0, nfold, naccept
@@ -1406,6 +1415,23 @@ contains
         ef = model%energy(wf(1:d))
         call take(w, e_prev, wf, ef)
         if (stat < 0) return
+        if (present(end_at_fold)) then
+          if (end_at_fold) then
+            end_reason = END_FOLD
+            e_prev = ef
+            exit
+          end if
+        end if
+        ! a branch's arc back at its start's energy at a fold: the start is the bifurcation, where
+        ! the energy is extremal, and the arc has come round to it (the branch and its mirror image
+        ! close into a loop, as the axial family through the vertical and planar families' branch
+        ! points): the energies it has not taken are not on it
+        if (dir == 0 .and. nfold >= 2 .and. abs(ef - e_start) <= 1.0e-8_wp*max(abs(e_start - e_sad), &
+            abs(e_start - e_prev), tiny(1.0_wp))) then
+          end_reason = END_LOOP
+          e_prev = ef
+          exit
+        end if
         call take(wf, ef, wn, e_now)
       else
         call take(w, e_prev, wn, e_now)
@@ -1589,7 +1615,8 @@ contains
   !> nodes along the orbit over T' = period (sgn = +1) or 2 period (sgn = -1), the tangent
   !> phi(t_i) v at node i (the period's component 0), continued by pseudo-arclength (arc_run) to
   !> the requested energies on the side the first step goes to.
-  subroutine branch_arc(model, eqs, isad, x0, period, v, sgn, des, opts, orbits, end_de, end_reason, folds, stat)
+  subroutine branch_arc(model, eqs, isad, x0, period, v, sgn, des, opts, orbits, end_de, end_reason, folds, stat, &
+                        end_at_fold)
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: eqs(:)
     integer, intent(in) :: isad, sgn
@@ -1599,6 +1626,7 @@ contains
     real(wp), intent(out) :: end_de
     integer, intent(out) :: end_reason, stat
     type(fold_t), allocatable, intent(inout) :: folds(:)
+    logical, intent(in), optional :: end_at_fold   !! stop at the first fold (arc_run)
     type(shooting_arc_t) :: sys
     real(wp), allocatable :: nodes(:, :), w0(:), t0(:)
     real(wp) :: tp, xx(size(x0)), phi(size(x0), size(x0))
@@ -1629,8 +1657,65 @@ contains
     if (ns == 1) sys%n_raw = n2
     w0 = [reshape(nodes, [n2*ns]), tp]
     want = .true.
-    call arc_run(sys, model, eqs, isad, w0, t0, ns, 0, des, want, opts, orbits, end_de, end_reason, folds, stat)
+    call arc_run(sys, model, eqs, isad, w0, t0, ns, 0, des, want, opts, orbits, end_de, end_reason, folds, stat, &
+                 end_at_fold)
   end subroutine branch_arc
+
+  !> The saddle's centre mode of a family by name (code FAMILY_VERTICAL or FAMILY_PLANAR; docs/orbits.md,
+  !> "Branch switching"): in 3 DOF (nd = 3) 'vertical' is the centre mode whose eigenvector (Re and Im
+  !> parts, evec(:, 2j+1:2j+2)) has all its weight on (q_N, p_N) (to 1e-8 of its square norm), and
+  !> 'lyapunov' the planar one, with none there, when a vertical one exists; in 1 or 2 DOF 'lyapunov'
+  !> is family 1 and 'vertical' does not exist. 0 when the modes do not define the family.
+  pure integer function named_mode(sad, nd, code) result(j)
+    type(equilibrium_t), intent(in) :: sad
+    integer, intent(in) :: nd, code
+    real(wp) :: wt, tot
+    integer :: k, jv, jp
+    j = 0
+    if (code == FAMILY_PLANAR .and. nd <= 2) j = 1   ! as family = 1, whatever that gives
+    if (nd /= 3 .or. .not. allocated(sad%evec) .or. .not. allocated(sad%omegas)) return
+    if (size(sad%evec, 2) < 2*nd) return
+    jv = 0
+    jp = 0
+    do k = 1, size(sad%omegas)
+      if (.not. sad%omegas(k) > 0) cycle
+      tot = sum(sad%evec(:, 2*k + 1:2*k + 2)**2)
+      wt = sum(sad%evec([nd, 2*nd], 2*k + 1:2*k + 2)**2)
+      if (.not. tot > 0) cycle
+      if (wt >= (1 - 1.0e-8_wp)*tot) jv = k
+      if (wt <= 1.0e-8_wp*tot) jp = k
+    end do
+    if (jv == 0) return
+    if (code == FAMILY_VERTICAL) j = jv
+    if (code == FAMILY_PLANAR) j = jp
+  end function named_mode
+
+  !> The tilt of the branch leaving the orbit (x0, period) along v (a unit tangent of its state):
+  !> the mean over the period of q_2(t) (phi(t) v)_N, the first-order change of the mean of
+  !> q_2 q_N when q_N = 0 on the orbit (64 samples; docs/orbits.md, "Branch switching": 'axial' is
+  !> the side of positive tilt). stat < 0 for a fault of the integration.
+  real(wp) function tilt_of(model, x0, period, v, opts, stat) result(tl)
+    class(hamiltonian_t), intent(in) :: model
+    real(wp), intent(in) :: x0(:), period, v(:)
+    type(orbit_opts_t), intent(in) :: opts
+    integer, intent(out) :: stat
+    integer, parameter :: M = 64
+    real(wp) :: x(size(x0)), y(size(x0)), dv(size(x0)), phi(size(x0), size(x0))
+    integer :: k, nd
+    nd = size(x0)/2
+    tl = 0
+    x = x0
+    dv = v
+    stat = TUBES_OK
+    do k = 1, M
+      tl = tl + x(2)*dv(nd)/M
+      call flow_stm(model, x, period/M, opts, y, phi, stat)
+      if (stat < 0) return
+      x = y
+      dv = matmul(phi, dv)
+    end do
+    stat = TUBES_OK
+  end function tilt_of
 
   !> The unit null vector of the m x n matrix a of rank n - 1 (m x (m + 1) of full rank m, or square
   !> with a one-dimensional null space): the eigenvector of a^T a for its smallest eigenvalue.

@@ -16,7 +16,8 @@ module tubes_study
   use tubes_region, only: region_opts_t, region_t, transition_region, region_curve
   use tubes_equilibria, only: equilibrium_t, find_equilibria, neck_normal, nhim_reach, gate_holds_nhim
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t, floquet_indices, floquet_tangent, &
-                          fold_t, branch_arc, END_NOBRANCH
+                          fold_t, branch_arc, END_NOBRANCH, END_NOMODE, named_mode, tilt_of, FAMILY_VERTICAL, &
+                          FAMILY_PLANAR, FAMILY_AXIAL
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, plane_search_range, &
                                  make_plane_crossing, SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
@@ -53,7 +54,8 @@ module tubes_study
     character(8) :: saddle = ''
     integer :: n_segments = 1        !! orbit corrector: 1 single shooting, >= 2 multiple
     !> the orbit family of the tube cuts (as &orbits family: 1 .. N-1 a centre mode's Lyapunov
-    !> family, FAMILY_BRANCH_PLUS/_MINUS the halo branch; tubes_orbits orbit_opts_t%family)
+    !> family, FAMILY_BRANCH_PLUS/_MINUS the halo branch, FAMILY_VERTICAL, _PLANAR, _AXIAL the
+    !> families by name; tubes_orbits orbit_opts_t%family)
     integer :: family = 1
     real(wp) :: orb_tol = 1.0e-11_wp, orb_rtol = 1.0e-13_wp, orb_atol = 1.0e-13_wp
     type(integ_choice_t) :: integ    !! the integrator of every analysis (&integrator)
@@ -603,6 +605,28 @@ contains
       call branch_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores, folds)
       return
     end if
+    ! a family by name (docs/orbits.md, "Branch switching"): 'vertical' and 'lyapunov' are a centre
+    ! mode's family, the same (and kept as the same) as that mode's number
+    if (opts%family == FAMILY_VERTICAL .or. opts%family == FAMILY_PLANAR) then
+      i = 0
+      if (isad >= 1 .and. isad <= size(eqs)) i = named_mode(eqs(isad), model%ndof(), opts%family)
+      if (i == 0) then
+        end_reason = END_NOMODE
+        orbs(:)%de = des
+        return
+      end if
+      block
+        type(orbit_opts_t) :: o
+        o = opts
+        o%family = i
+        call family_at(st, model, eqs, isad, des, o, orbs, end_de, end_reason, stat, stores, folds)
+      end block
+      return
+    end if
+    if (opts%family == FAMILY_AXIAL) then
+      call axial_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores, folds)
+      return
+    end if
     if (.not. present(stores)) then
       call orbit_family(model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, folds=folds)
       return
@@ -666,6 +690,91 @@ contains
                     merge(1, -1, bifs(k)%kind == BIF_BRANCH), des, opts, orbs, end_de, end_reason, fl, stat)
     if (present(folds)) call move_alloc(fl, folds)
   end subroutine branch_at
+
+  !> The axial family ('axial'; docs/orbits.md, "Branch switching"): the planar family ('lyapunov',
+  !> named_mode) at 16 energies geometrically spaced from 1e-3 to 1 times the largest of des, upwards
+  !> until its bifurcations (family_bifurcations) hold the first branch point whose tangent (the monodromy's
+  !> eigenvector for +1) lies mostly on the reversor's odd components (the branch keeps the symmetry
+  !> q_2, q_N -> -q_2, -q_N, t -> -t; the halo branch point's tangent is even), branch_arc along the
+  !> tangent's side of positive tilt (tilt_of: the mean of q_2 q_N grows), stopped at the branch's
+  !> first fold (at the vertical family's branch point in the spatial CR3BP), by multiple shooting
+  !> (n_segments, at least 4). END_NOMODE without a
+  !> planar/vertical split (or a reversor), END_NOBRANCH without such a branch point below max(des).
+  recursive subroutine axial_at(st, model, eqs, isad, des, opts, orbs, end_de, end_reason, stat, stores, folds)
+    type(study_t), intent(in) :: st
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad
+    real(wp), intent(in) :: des(:)
+    type(orbit_opts_t), intent(in) :: opts
+    type(orbit_t), intent(out) :: orbs(size(des))
+    real(wp), intent(out) :: end_de
+    integer, intent(out) :: end_reason, stat
+    type(seed_stores_t), intent(inout), optional :: stores
+    type(fold_t), allocatable, intent(inout), optional :: folds(:)   !! the branch's folds
+    integer, parameter :: AXIAL_SEGMENTS = 4
+    type(orbit_opts_t) :: po, ao
+    type(orbit_t) :: grid(16)
+    type(bifurcation_t), allocatable :: bifs(:)
+    type(fold_t), allocatable :: fl(:)
+    real(wp) :: dg(16), nu(2*model%ndof() - 2, 16), tl, v(model%dim())
+    integer :: rev(model%dim())
+    integer :: k, j, jp, i
+    end_de = -1
+    end_reason = END_NOMODE
+    stat = TUBES_OK
+    do k = 1, size(des)
+      orbs(k)%de = des(k)
+    end do
+    jp = named_mode(eqs(isad), model%ndof(), FAMILY_PLANAR)
+    rev = model%reversor()
+    if (jp == 0 .or. model%ndof() /= 3 .or. count(rev > 0) /= 3 .or. count(rev < 0) /= 3) return
+    end_reason = END_NOBRANCH
+    if (.not. maxval(des) > 0) return
+    po = opts
+    po%family = jp
+    po%branch = 0
+    dg = [(maxval(des)*10.0_wp**(-3 + 3*real(k - 1, wp)/15), k = 1, 16)]
+    ! the grid upwards, one energy at a time (on the run's path of the planar family), each interval's
+    ! bifurcations located as soon as it is known, until the first odd branch point: the family is not
+    ! continued further than needed (L1: to the 13th energy of de = 0.1's grid; a grid up to 0.2 at L2
+    ! continued the planar family to its end near dE = 0.165, 3 minutes)
+    j = 0
+    do k = 1, 16
+      call family_at(st, model, eqs, isad, dg(k:k), po, grid(k:k), end_de, end_reason, stat, stores)
+      if (stat < 0) return
+      if (.not. grid(k)%converged) exit
+      if (k == 1) cycle
+      call family_bifurcations(st, model, eqs, isad, dg(k - 1:k), grid(k - 1:k), po, nu(:, k - 1:k), bifs, &
+                               stat, stores)
+      if (stat < 0) return
+      do i = 1, size(bifs)
+        if (bifs(i)%kind /= BIF_BRANCH .or. .not. bifs(i)%converged) cycle
+        if (sum(bifs(i)%tangent**2, mask=rev < 0) > sum(bifs(i)%tangent**2, mask=rev > 0)) then
+          j = i
+          exit
+        end if
+      end do
+      if (j > 0) exit
+    end do
+    end_de = -1
+    end_reason = END_NOBRANCH
+    stat = TUBES_OK
+    if (j == 0) return
+    v = bifs(j)%tangent
+    tl = tilt_of(model, bifs(j)%x0, bifs(j)%period, v, opts, stat)
+    if (stat < 0) return
+    if (tl < 0) v = -v
+    ! the arc by multiple shooting: n_segments (method = 'multiple'), at least AXIAL_SEGMENTS (with
+    ! one segment, I - M of the branch point's orbit (multipliers ~400 at L1) left the first step's
+    ! Newton iteration without convergence for h down to 1/4 of the first step; with 4 it takes 3)
+    ao = opts
+    ao%n_segments = max(opts%n_segments, AXIAL_SEGMENTS)
+    allocate (fl(0))
+    call branch_arc(model, eqs, isad, bifs(j)%x0, bifs(j)%period, v, 1, des, ao, orbs, end_de, end_reason, fl, &
+                    stat, end_at_fold=.true.)
+    if (present(folds)) call move_alloc(fl, folds)
+  end subroutine axial_at
 
   !> The orbits scene's call: the study's model, equilibria and saddle (setup_model), then the
   !> saddle's family at des (family_at); TUBES_EINPUT for options that make no sense.
@@ -781,7 +890,8 @@ contains
     end do
     stat = TUBES_OK
     do k = 1, size(des) - 1
-      if (opts%family < 0 .or. opts%branch > 0) exit   ! a branch family: its orbits' indices only
+      if ((opts%family < 0 .and. opts%family /= FAMILY_VERTICAL .and. opts%family /= FAMILY_PLANAR) .or. &
+          opts%branch > 0) exit   ! a branch family: its orbits' indices only
       if (cnt(1, k) < 0 .or. cnt(1, k + 1) < 0) cycle
       do kind = 1, 3
         if (cnt(kind, k) == cnt(kind, k + 1)) cycle
