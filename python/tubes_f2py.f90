@@ -468,7 +468,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
                       flux_t_max, flux_gate, flux_tol, flux_order, flux_n_cut, flux_cut_eps, expr_lib, &
                       exp_n_tracks, exp_seed, exp_duration, exp_camera_rate, exp_pixel, exp_noise, &
                       exp_de_min, exp_de_max, exp_damping_ratio, exp_rolling_resistance, mc_n_samples, mc_seed, &
-                      mc_de, des, ndes, orb_pkind, orb_pvalues, orb_npvalues)
+                      mc_de, des, ndes, orb_pkind, orb_pvalues, orb_npvalues, orb_guess, orb_nguess, orb_period)
   ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
   ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
   ! scene calls take their defaults and their checks from here; msg holds the messages
@@ -495,6 +495,9 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   ! &orbits jacobi or periods (orb_pkind 1 or 2; 0: by de): the orb_npvalues values given
   integer(c_int), intent(out) :: orb_pkind, orb_npvalues
   real(c_double), intent(out) :: orb_pvalues(256)
+  ! &orbits guess (its orb_nguess values; 0: none) and period
+  real(c_double), intent(out) :: orb_guess(6), orb_period
+  integer(c_int), intent(out) :: orb_nguess
   character(len=2048), intent(out) :: msg
   character(len=32), intent(out) :: system
   character(len=8), intent(out) :: saddle
@@ -608,6 +611,9 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
     orb_npvalues = cfg%orb_nperiods
     orb_pvalues = cfg%orb_periods
   end if
+  orb_guess = cfg%orb_guess(1:6)
+  orb_nguess = cfg%orb_nguess
+  orb_period = cfg%orb_period
 end subroutine read_input
 
 subroutine orbit_parameter(system, params, lo, hi, n_grid, saddle, kind, n, values, n_segments, family, tol, rtol, &
@@ -669,20 +675,23 @@ end subroutine jacobi_constant
 
 subroutine orbit_bifurcations(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &
                               atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, &
-                              stat, nu, nbif, kind, after, bconv, bde, bwidth, benergy, bperiod, bnu, bx0, btan, &
+                              nguess, guess, guess_period, stat, nu, nbif, kind, after, bconv, bde, bwidth, &
+                              benergy, bperiod, bnu, bx0, btan, &
                               bracket_tol)
   ! the family's Floquet indices and bifurcations (as the orbits scene's /orbits/floquet_index and
   ! /orbits/bifurcations: tubes_study bifurcation_table); at most 64 bifurcations
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
   use tubes_orbits, only: orbit_opts_t
   use tubes_study, only: study_t, bifurcation_table, seed_stores_t, stores_at, BIF_TOL
-  use tubes_capi, only: integ_of
+  use tubes_capi, only: integ_of, guess_opts
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, nde, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
   real(c_double), intent(in) :: h, omega_bind
   real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), tol, rtol, atol
   integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(in) :: nguess          ! &orbits guess: its values (0: none), and period
+  real(c_double), intent(in) :: guess(6), guess_period
   integer(c_int), intent(out) :: stat, nbif, kind(64), after(64), bconv(64)
   real(c_double), intent(out) :: nu(4, nde), bde(64), bwidth(64), benergy(64), bperiod(64), bnu(4, 64), &
                                  bx0(6, 64), btan(6, 64), bracket_tol
@@ -690,6 +699,7 @@ subroutine orbit_bifurcations(system, params, lo, hi, n_grid, saddle, nde, des, 
   type(seed_stores_t), pointer :: kept
   opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, n_samples=nsamp, &
                       family=family, integ=integ_of(method, h, omega_bind, solver, int_max_iter))
+  call guess_opts(nguess, guess, guess_period, opts)   ! (and family 'branch:K', as the C API's)
   kept => stores_at(stores)
   bracket_tol = BIF_TOL
   call bifurcation_table(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
@@ -699,7 +709,8 @@ end subroutine orbit_bifurcations
 
 subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &
                         atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, &
-                        stat, energy, period, action, mu_u, mu_s, mu_triv, stab, residual, closure, &
+                        nguess, guess, guess_period, stat, energy, period, action, mu_u, mu_s, mu_triv, stab, &
+                        residual, closure, &
                         iterations, converged, mindist, monodromy, history, state0, ts, xs, end_de, &
                         end_reason)
   ! the Lyapunov family of a saddle (as the orbits scene and the C API's tubes_orbit_family: the
@@ -709,13 +720,15 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   use tubes_equilibria, only: equilibrium_t
   use tubes_orbits, only: orbit_t, orbit_opts_t
   use tubes_study, only: study_t, study_family, family_table, seed_stores_t, stores_at
-  use tubes_capi, only: integ_of
+  use tubes_capi, only: integ_of, guess_opts
   implicit none
   character(len=*), intent(in) :: system, saddle
   integer(c_int), intent(in) :: n_grid, nde, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
   real(c_double), intent(in) :: h, omega_bind
   real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), tol, rtol, atol
   integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(in) :: nguess          ! &orbits guess: its values (0: none), and period
+  real(c_double), intent(in) :: guess(6), guess_period
   integer(c_int), intent(out) :: stat, iterations(nde), converged(nde), end_reason
   real(c_double), intent(out) :: energy(nde), period(nde), action(nde), mu_u(nde), mu_s(nde), &
                                  mu_triv(4, nde), stab(nde), residual(nde), closure(nde), mindist(nde), &
@@ -732,6 +745,7 @@ subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segm
   ts = 0; xs = 0; end_de = -1; end_reason = 0
   opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, n_samples=nsamp, &
                       family=family, integ=integ_of(method, h, omega_bind, solver, int_max_iter))
+  call guess_opts(nguess, guess, guess_period, opts)   ! (and family 'branch:K', as the C API's)
   kept => stores_at(stores)
   call study_family(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
                             integ=opts%integ), des, opts, model, eqs, isad, orbs, end_de, reason, stat, kept)

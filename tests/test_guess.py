@@ -178,14 +178,35 @@ def test_guess_bad_input(tmp_path, tubes_exe):
         assert "guess" in r.stderr or "period" in r.stderr
 
 
-def test_python_refuses_guess():
-    """Python's orbit_family has no guess (yet): refused with a message, never silently the Lyapunov
-    family."""
+def test_python_guess_and_branch_are_the_program_s(runs):
+    """Python's orbit_family(guess=, period=) and family='branch:K' call the program's Fortran with
+    the settings its reader read: the orbits and the bifurcations are the file's, bit for bit; the
+    doubled family's energies below the doubling raise as the program exits 4; bad input raises
+    ValueError with the reader's message."""
     import tubes
     m = tubes.Model(system="henon_heiles")
-    for kw in ({"guess": [0, 0, 0, 0.4], "period": 6.9}, {"family": "branch:1"}):
-        with pytest.raises(ValueError, match="guess, period and family = 'branch:K'"):
-            tubes.orbit_family(m, dE=[0.01], **kw)
+    de = [e - E_SAD for e in ENERGIES]
+    kw = {"guess": [0, 0, 0, 0.4], "period": 6.9}
+    for name, extra in (("family", {}), ("doubled", {"family": "branch:1"})):
+        _, h5 = runs[name]
+        t = tubes.orbit_family(m, dE=de, check=name == "family", **kw, **extra)
+        with h5py.File(h5) as f:
+            o = f["orbits"]
+            conv = o["converged"][:] == 1
+            assert list(t["converged"]) == list(conv)
+            for k in ("energy", "period", "action", "state0", "closure"):
+                assert np.array_equal(np.asarray(t[k])[conv], o[k][:][conv]), k
+            assert t["family_name"] == (o.attrs["family_name"].decode() if isinstance(o.attrs["family_name"], bytes)
+                                        else o.attrs["family_name"])
+            b = f["orbits/bifurcations"]
+            assert list(t["bifurcations"]["kind"]) == list(b["kind"][:])
+            assert np.array_equal(t["bifurcations"]["energy"], b["energy"][:])
+    with pytest.raises(tubes.TubesError):
+        tubes.orbit_family(m, dE=de, family="branch:1", **kw)
+    with pytest.raises(ValueError, match="guess has 3 values"):
+        tubes.orbit_family(m, dE=de, guess=[0, 0, 0.4], period=6.9)
+    with pytest.raises(ValueError, match="guess is not set"):
+        tubes.orbit_family(m, dE=de, period=6.9)
 
 
 def test_fold_of_l2_halo_family(tmp_path, tubes_exe):

@@ -707,7 +707,8 @@ _SETTINGS = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", 
              "flux_cut_eps", "expr_lib", "exp_n_tracks", "exp_seed", "exp_duration", "exp_camera_rate",
              "exp_pixel", "exp_noise", "exp_de_min", "exp_de_max", "exp_damping_ratio", "exp_rolling_resistance",
              "mc_n_samples",
-             "mc_seed", "mc_de", "des", "ndes", "orb_pkind", "orb_pvalues", "orb_npvalues")
+             "mc_seed", "mc_de", "des", "ndes", "orb_pkind", "orb_pvalues", "orb_npvalues", "orb_guess", "orb_nguess",
+             "orb_period")
 
 
 def _read_namelist(lines: list[str], who: str, groups=None) -> dict:
@@ -900,6 +901,11 @@ def _de_list(dE, who: str):
     return _args.reals(who, "dE", dE)
 
 
+def _guess(st: dict) -> tuple:
+    """&orbits guess and period as the core's orbit calls take them (nguess 0: none)."""
+    return int(st["orb_nguess"]), np.asarray(st["orb_guess"], float), float(st["orb_period"])
+
+
 def _orbit_parameter_des(model: Model, st: dict, name: str) -> np.ndarray:
     """The excess energies of the orbits of &orbits jacobi or periods (st: the settings read; name:
     which), located by the program's Fortran (tubes_orbit_parameter family_parameter_des, as the
@@ -960,7 +966,9 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     period, floquet_index(_imag), state0, tangent, tol; docs/orbits.md "Bifurcations"),
     family_name. Keywords: saddle or saddle_near, and &orbits' method, n_segments, tol, rtol, atol,
     max_iter, n_samples, family (the k-th centre mode's family in 3 DOF, or 'lyapunov', 'vertical',
-    'halo_north' / 'halo_south', 'axial': docs/orbits.md "Branch switching"); jacobi=[C, ...] or
+    'halo_north' / 'halo_south', 'axial': docs/orbits.md "Branch switching"; 'branch:K', the family
+    off the K-th bifurcation); guess=[2N reals], period=T (a family through a guess: docs/orbits.md
+    "Orbits from a guess"; dE may then be of any sign); jacobi=[C, ...] or
     periods=[T, ...] instead of dE (&orbits jacobi, periods,
     docs/orbits.md "Orbits by Jacobi constant or period": one of dE, jacobi, periods; the orbits are
     those at the dE the program's Fortran finds for them; the Table adds jacobi (C of each orbit,
@@ -978,12 +986,8 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     first kind in ``verdicts``."""
     model = model or Model()
     check = _args.flag("orbit_family", "check", check)
-    # a family from a guess and 'branch:K' (docs/orbits.md, "Orbits from a guess") are the program's
-    # (&orbits guess, period, family = 'branch:K') only: refused here rather than silently ignored
-    fam = orbits.get("family")
-    if "guess" in orbits or "period" in orbits or (isinstance(fam, str) and fam.startswith("branch:")):
-        raise ValueError("orbit_family: guess, period and family = 'branch:K' are not available from Python "
-                         "(allowed: the program's &orbits guess, period, family; docs/orbits.md)")
+    # a family from a guess (guess=[2N reals], period=T) and 'branch:K' (docs/orbits.md, "Orbits from a
+    # guess"): the program's &orbits guess, period, family, read and checked by its reader
     # the orbits by Jacobi constant or by period (docs/orbits.md, "Orbits by Jacobi constant or period"):
     # the program's &orbits jacobi, periods, read and checked by its reader, located by its Fortran
     byp = {k: orbits.pop(k) for k in ("jacobi", "periods") if orbits.get(k) is not None}
@@ -1011,7 +1015,7 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
      reason) = _lib().orbit_family(
         *_study(model, st), de, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]),
         float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model),
-        model._stores())
+        model._stores(), *_guess(st))
     _check(stat, "orbit_family")
     out = {"dE": de, "energy": en.copy(), "period": per.copy(), "action": act.copy(),
            "mu_unstable": mu.copy(), "mu_stable": ms.copy(), "mu_trivial": mtr[[0, 2], :].T.copy(),
@@ -1031,7 +1035,7 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     (stat, nu, nb, kind, after, bconv, bde, bwid, ben, bper, bnu, bx0, btan, btol) = _lib().orbit_bifurcations(
         *_study(model, st), de, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]),
         float(st["orb_rtol"]), float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]),
-        *_integ(st, model), model._stores())
+        *_integ(st, model), model._stores(), *_guess(st))
     _check(stat, "orbit_family (bifurcations)")
     npair = model.ndof - 1
     out["floquet_index"], out["floquet_index_imag"] = nu[:npair].T.copy(), nu[2:2 + npair].T.copy()
@@ -1042,7 +1046,9 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
                            "floquet_index_imag": bnu[2:2 + npair, :nb].T.copy(), "state0": bx0[:n2, :nb].T.copy(),
                            "tangent": btan[:n2, :nb].T.copy(), "tol": float(btol)}
     fam = int(st["orb_family"])
-    out["family_name"] = {-1: "halo_north", -2: "halo_south", -3: "vertical", -5: "axial"}.get(fam, "lyapunov")
+    out["family_name"] = ({-1: "halo_north", -2: "halo_south", -3: "vertical", -5: "axial"}.get(fam, "lyapunov")
+                          if fam > -101 and not int(st["orb_nguess"]) else
+                          f"branch:{-100 - fam}" if fam <= -101 else "guess")
     # C of each orbit for a model that defines a Jacobi constant (the model's definition, Fortran)
     stj, cj = _lib().jacobi_constant(model.name, model.params(), out["energy"])
     if stj >= 0:
