@@ -1496,22 +1496,18 @@ end subroutine scene_equilibria
 subroutine record_sizes(h, code, n_items, n_lines)
   ! a result record's exit code (-1: no record), numbers of items and of console lines
   use, intrinsic :: iso_c_binding, only: c_int
-  use tubes_record, only: record_t, record_at
+  use tubes_record, only: sizes => record_sizes
   implicit none
   integer(c_int), intent(in) :: h
   integer(c_int), intent(out) :: code, n_items, n_lines
-  type(record_t), pointer :: r
-  r => record_at(h)
-  code = -1; n_items = 0; n_lines = 0
-  if (.not. associated(r)) return
-  code = r%code; n_items = r%n_items; n_lines = r%n_lines
+  call sizes(h, code, n_items, n_lines)
 end subroutine record_sizes
 
 subroutine record_item(h, k, kind, group, name, units, rank, dims, n)
   ! item k (1-based) of a record: its kind (tubes_record REC_*), group, name, units, rank, dims
   ! (C order) and number of values (strings: their count)
   use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
-  use tubes_record, only: record_t, record_at
+  use tubes_record, only: record_item_info
   implicit none
   integer(c_int), intent(in) :: h, k
   integer(c_int), intent(out) :: kind, rank, n
@@ -1519,79 +1515,55 @@ subroutine record_item(h, k, kind, group, name, units, rank, dims, n)
   character(len=64), intent(out) :: name
   character(len=32), intent(out) :: units
   integer(c_int64_t), intent(out) :: dims(4)
-  type(record_t), pointer :: r
-  r => record_at(h)
-  kind = 0; rank = 0; n = -1; group = ''; name = ''; units = ''; dims = 0
-  if (.not. associated(r)) return
-  if (k < 1 .or. k > r%n_items) return
-  kind = r%items(k)%kind; group = r%items(k)%group; name = r%items(k)%name; units = r%items(k)%units
-  rank = r%items(k)%rank; dims = r%items(k)%dims
-  if (allocated(r%items(k)%r)) n = size(r%items(k)%r)
-  if (allocated(r%items(k)%i)) n = size(r%items(k)%i)
-  if (allocated(r%items(k)%s)) n = size(r%items(k)%s)
+  character(:), allocatable :: g, nm, u
+  integer :: slen
+  call record_item_info(h, k, kind, g, nm, u, rank, dims, n, slen)
+  group = g
+  name = nm
+  units = u
 end subroutine record_item
 
 subroutine record_reals(h, k, n, v)
   ! item k's n real values (C order)
   use, intrinsic :: iso_c_binding, only: c_int, c_double
-  use tubes_record, only: record_t, record_at
+  use tubes_record, only: reals => record_reals
   implicit none
   integer(c_int), intent(in) :: h, k, n
   real(c_double), intent(out) :: v(n)
-  type(record_t), pointer :: r
-  r => record_at(h)
-  v = 0
-  if (.not. associated(r)) return
-  if (k < 1 .or. k > r%n_items) return
-  if (allocated(r%items(k)%r)) v = r%items(k)%r(1:n)
+  call reals(h, k, v)
 end subroutine record_reals
 
 subroutine record_ints(h, k, n, v)
   ! item k's n integer values (C order)
   use, intrinsic :: iso_c_binding, only: c_int
-  use tubes_record, only: record_t, record_at
+  use tubes_record, only: ints => record_ints
   implicit none
   integer(c_int), intent(in) :: h, k, n
   integer(c_int), intent(out) :: v(n)
-  type(record_t), pointer :: r
-  r => record_at(h)
-  v = 0
-  if (.not. associated(r)) return
-  if (k < 1 .or. k > r%n_items) return
-  if (allocated(r%items(k)%i)) v = r%items(k)%i(1:n)
+  call ints(h, k, v)
 end subroutine record_ints
 
 subroutine record_string(h, k, j, s)
   ! string j (1-based) of item k
   use, intrinsic :: iso_c_binding, only: c_int
-  use tubes_record, only: record_t, record_at
+  use tubes_record, only: string => record_string
   implicit none
   integer(c_int), intent(in) :: h, k, j
   character(len=1024), intent(out) :: s
-  type(record_t), pointer :: r
-  r => record_at(h)
-  s = ''
-  if (.not. associated(r)) return
-  if (k < 1 .or. k > r%n_items) return
-  if (.not. allocated(r%items(k)%s)) return
-  if (j >= 1 .and. j <= size(r%items(k)%s)) s = r%items(k)%s(j)
+  s = string(h, k, j)
 end subroutine record_string
 
 subroutine record_line(h, j, stream, s)
   ! console line j (1-based) of a record: stream 1 stdout, 2 stderr
   use, intrinsic :: iso_c_binding, only: c_int
-  use tubes_record, only: record_t, record_at
+  use tubes_record, only: line => record_line
   implicit none
   integer(c_int), intent(in) :: h, j
   integer(c_int), intent(out) :: stream
   character(len=4096), intent(out) :: s
-  type(record_t), pointer :: r
-  r => record_at(h)
-  s = ''; stream = 0
-  if (.not. associated(r)) return
-  if (j < 1 .or. j > r%n_lines) return
-  stream = r%lines(j)%stream
-  s = r%lines(j)%text
+  character(:), allocatable :: text
+  call line(h, j, stream, text)
+  s = text
 end subroutine record_line
 
 subroutine record_free(h)

@@ -60,7 +60,8 @@ module tubes_record
   end type kept_t
   type(kept_t), allocatable, target :: kept(:)   ! (a module variable: kept between calls)
 
-  public :: record_keep, record_at, record_drop
+  public :: record_keep, record_at, record_drop, record_sizes, record_item_info, record_reals, record_ints, &
+            record_string, record_line
 
 contains
 
@@ -244,4 +245,111 @@ contains
     if (h < 1 .or. h > size(kept)) return
     if (allocated(kept(h)%rec)) deallocate (kept(h)%rec)
   end subroutine record_drop
+
+  !> Record h's exit code (-1: no record) and its numbers of items and of console lines.
+  subroutine record_sizes(h, code, n_items, n_lines)
+    integer, intent(in) :: h
+    integer, intent(out) :: code, n_items, n_lines
+    type(record_t), pointer :: r
+    r => record_at(h)
+    code = -1
+    n_items = 0
+    n_lines = 0
+    if (.not. associated(r)) return
+    code = r%code
+    n_items = r%n_items
+    n_lines = r%n_lines
+  end subroutine record_sizes
+
+  !> Item k of record h (null if none).
+  function item_at(h, k) result(it)
+    integer, intent(in) :: h, k
+    type(rec_item_t), pointer :: it
+    type(record_t), pointer :: r
+    it => null()
+    r => record_at(h)
+    if (.not. associated(r)) return
+    if (k >= 1 .and. k <= r%n_items) it => r%items(k)
+  end function item_at
+
+  !> Item k of record h: its kind (REC_*), group, name, units, rank, dims (C order), its number of
+  !> values n (strings: their count, slen the longest's length); n = -1: no such item.
+  subroutine record_item_info(h, k, kind, group, name, units, rank, dims, n, slen)
+    integer, intent(in) :: h, k
+    integer, intent(out) :: kind, rank, n, slen
+    character(:), allocatable, intent(out) :: group, name, units
+    integer(i8), intent(out) :: dims(4)
+    type(rec_item_t), pointer :: it
+    kind = 0
+    rank = 0
+    n = -1
+    slen = 0
+    dims = 0
+    group = ''
+    name = ''
+    units = ''
+    it => item_at(h, k)
+    if (.not. associated(it)) return
+    kind = it%kind
+    group = it%group
+    name = it%name
+    units = it%units
+    rank = it%rank
+    dims = it%dims
+    if (allocated(it%r)) n = size(it%r)
+    if (allocated(it%i)) n = size(it%i)
+    if (allocated(it%s)) then
+      n = size(it%s)
+      slen = len(it%s)
+    end if
+  end subroutine record_item_info
+
+  !> Item k's real values (v's size of them, C order; 0 where it has none).
+  subroutine record_reals(h, k, v)
+    integer, intent(in) :: h, k
+    real(wp), intent(out) :: v(:)
+    type(rec_item_t), pointer :: it
+    v = 0
+    it => item_at(h, k)
+    if (.not. associated(it)) return
+    if (allocated(it%r)) v = it%r(1:min(size(v), size(it%r)))
+  end subroutine record_reals
+
+  !> Item k's integer values (v's size of them, C order).
+  subroutine record_ints(h, k, v)
+    integer, intent(in) :: h, k
+    integer, intent(out) :: v(:)
+    type(rec_item_t), pointer :: it
+    v = 0
+    it => item_at(h, k)
+    if (.not. associated(it)) return
+    if (allocated(it%i)) v = it%i(1:min(size(v), size(it%i)))
+  end subroutine record_ints
+
+  !> String j of item k ('' if none).
+  function record_string(h, k, j) result(s)
+    integer, intent(in) :: h, k, j
+    character(:), allocatable :: s
+    type(rec_item_t), pointer :: it
+    s = ''
+    it => item_at(h, k)
+    if (.not. associated(it)) return
+    if (.not. allocated(it%s)) return
+    if (j >= 1 .and. j <= size(it%s)) s = trim(it%s(j))
+  end function record_string
+
+  !> Console line j of record h: its stream (REC_STDOUT, REC_STDERR; 0: no such line) and text.
+  subroutine record_line(h, j, stream, text)
+    integer, intent(in) :: h, j
+    integer, intent(out) :: stream
+    character(:), allocatable, intent(out) :: text
+    type(record_t), pointer :: r
+    stream = 0
+    text = ''
+    r => record_at(h)
+    if (.not. associated(r)) return
+    if (j < 1 .or. j > r%n_lines) return
+    stream = r%lines(j)%stream
+    text = r%lines(j)%text
+  end subroutine record_line
 end module tubes_record
