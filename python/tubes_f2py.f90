@@ -1390,30 +1390,15 @@ end subroutine scan_start_value
 subroutine formula_with_constant(system, name, value, stat, key, msg)
   ! the library of the formula model system with its constant `name` set to value (built or loaded:
   ! include/tubes.h tubes_expr_with_constant); its name in key, on failure the reason in msg
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char
-  use tubes_cstrings, only: c_to_f, f_to_c
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_scan, only: with_constant => formula_with_constant
   implicit none
   character(len=*), intent(in) :: system, name
   real(c_double), intent(in) :: value
   integer(c_int), intent(out) :: stat
   character(len=32), intent(out) :: key
   character(len=2048), intent(out) :: msg
-  interface
-    integer(c_int) function expr_with_constant(key, name, value, newkey, msg, lmsg) &
-        bind(C, name='tubes_expr_with_constant')
-      import :: c_int, c_char, c_double
-      character(kind=c_char), intent(in) :: key(*), name(*)
-      real(c_double), value :: value
-      character(kind=c_char), intent(out) :: newkey(*), msg(*)
-      integer(c_int), value :: lmsg
-    end function expr_with_constant
-  end interface
-  character(kind=c_char) :: k(33), n(65), nk(33), m(2048)
-  call f_to_c(trim(system), k)
-  call f_to_c(trim(name), n)
-  stat = expr_with_constant(k, n, value, nk, m, size(m))
-  key = c_to_f(nk)
-  msg = c_to_f(m)
+  call with_constant(trim(system), trim(name), value, key, msg, stat)
 end subroutine formula_with_constant
 
 subroutine param_scan(system, params, lo, hi, n_grid, saddle, ipar, to, n, nde, des, n_segments, tol, rtol, &

@@ -34,7 +34,7 @@ module tubes_scan
   integer, parameter, public :: SCAN_CONSTANT = 1000
   integer, parameter :: MAX_CONSTANTS = 64          !! constants listed at most (the reader takes fewer)
 
-  public :: scan_table, scan_parameter, scan_index, scan_start
+  public :: scan_table, scan_parameter, scan_index, scan_start, formula_with_constant
 
   ! src/io/tubes_expr.c (include/tubes.h): a formula model's constants
   interface
@@ -338,16 +338,14 @@ contains
       character(LEN_SYSTEM), intent(out) :: sy
       class(hamiltonian_t), allocatable, intent(out) :: m
       integer, intent(out) :: stat
-      character(kind=c_char) :: key(LEN_SYSTEM + 1), cname(65), newkey(LEN_SYSTEM + 1), msg(2048)
+      character(2048) :: msg
       sy = st%system
       if (ipar <= size(p)) then
         p(ipar) = v
       else
-        call f_to_c(trim(st%system), key)
-        call f_to_c(trim(word(constant_names(trim(st%system)), ipar - SCAN_CONSTANT)), cname)
-        stat = expr_with_constant(key, cname, v, newkey, msg, size(msg))
+        call formula_with_constant(trim(st%system), trim(word(constant_names(trim(st%system)), ipar - SCAN_CONSTANT)), &
+                                   v, sy, msg, stat)
         if (stat /= TUBES_OK) return
-        sy = c_to_f(newkey)
       end if
       call make_model(trim(sy), p, m, stat)
     end subroutine model_at
@@ -601,4 +599,20 @@ contains
     call put_name(name, c)
     same_name = all(c == codes)
   end function same_name
+
+  !> The library of the formula model `system` with its constant `name` set to v, built or loaded
+  !> from the cache (include/tubes.h tubes_expr_with_constant): its system name in sy; on failure
+  !> stat < 0 and the reason in msg.
+  subroutine formula_with_constant(system, name, v, sy, msg, stat)
+    character(*), intent(in) :: system, name
+    real(wp), intent(in) :: v
+    character(*), intent(out) :: sy, msg
+    integer, intent(out) :: stat
+    character(kind=c_char) :: key(LEN_SYSTEM + 1), cname(65), newkey(LEN_SYSTEM + 1), cmsg(2048)
+    call f_to_c(system, key)
+    call f_to_c(name, cname)
+    stat = expr_with_constant(key, cname, v, newkey, cmsg, size(cmsg))
+    sy = c_to_f(newkey)
+    msg = c_to_f(cmsg)
+  end subroutine formula_with_constant
 end module tubes_scan
