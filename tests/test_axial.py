@@ -24,39 +24,17 @@ joins L1's planar Lyapunov family to its vertical family."""
 import h5py
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 
 from conftest import run_tubes
+from cr3bp_velocity import energy, flow
 
-MU = 0.01215058560962404
-TOL = dict(method="DOP853", rtol=1e-13, atol=1e-13)
 DE_AXIAL = [0.0834, 0.085, 0.09, 0.095, 0.1]
-
-
-def rhs(t, s):
-    x, y, z, vx, vy, vz = s
-    r1 = np.sqrt((x + MU) ** 2 + y * y + z * z)
-    r2 = np.sqrt((x - 1 + MU) ** 2 + y * y + z * z)
-    a1, a2 = (1 - MU) / r1**3, MU / r2**3
-    return [vx, vy, vz, x - a1 * (x + MU) - a2 * (x - 1 + MU) + 2 * vy, y - (a1 + a2) * y - 2 * vx,
-            -(a1 + a2) * z]
-
-
-def energy(s):
-    x, y, z, vx, vy, vz = s
-    r1 = np.sqrt((x + MU) ** 2 + y * y + z * z)
-    r2 = np.sqrt((x - 1 + MU) ** 2 + y * y + z * z)
-    return (vx * vx + vy * vy + vz * vz) / 2 - (x * x + y * y) / 2 - (1 - MU) / r1 - MU / r2
 
 
 def velocity_form(q):
     """The program's canonical state (x, y, z, px, py, pz) -> (x, y, z, vx, vy, vz)."""
     x, y, z, px, py, pz = q
     return np.array([x, y, z, px + y, py - x, pz])
-
-
-def flow(s0, t):
-    return solve_ivp(rhs, (0, t), s0, **TOL).y[:, -1]
 
 
 def correct(start, odd, u, e):

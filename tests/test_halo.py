@@ -15,25 +15,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from conftest import run_tubes
-
-MU = 0.01215058560962404
-TOL = dict(method="DOP853", rtol=1e-13, atol=1e-13)
-
-
-def rhs(t, s):
-    x, y, z, vx, vy, vz = s
-    r1 = np.sqrt((x + MU) ** 2 + y * y + z * z)
-    r2 = np.sqrt((x - 1 + MU) ** 2 + y * y + z * z)
-    a1, a2 = (1 - MU) / r1**3, MU / r2**3
-    return [vx, vy, vz, x - a1 * (x + MU) - a2 * (x - 1 + MU) + 2 * vy, y - (a1 + a2) * y - 2 * vx,
-            -(a1 + a2) * z]
-
-
-def energy(s):
-    x, y, z, vx, vy, vz = s
-    r1 = np.sqrt((x + MU) ** 2 + y * y + z * z)
-    r2 = np.sqrt((x - 1 + MU) ** 2 + y * y + z * z)
-    return (vx * vx + vy * vy + vz * vz) / 2 - (x * x + y * y) / 2 - (1 - MU) / r1 - MU / r2
+from cr3bp_velocity import MU, TOL, energy, rhs
 
 
 def half(u):

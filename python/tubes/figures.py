@@ -10,7 +10,6 @@ skipped with a one-line note. docs/paper.md lists every figure.
 from __future__ import annotations
 
 import math
-import sys
 
 import numpy as np
 
@@ -156,24 +155,14 @@ def main(argv=None) -> int:
     args, res, rc = plots.open_result("python -m tubes.figures", __doc__.splitlines()[0], argv)
     if res is None:
         return rc
-    try:
-        with _output.batch():      # every figure and experiment.h5 made first, then written all or none
-            written = plots._draw_all(res, args.outdir)
-            del res
-            written += experiment_figures(args.result, args.outdir)
-    except ex.ExperimentError as exc:
-        print(f"error: experiment figure: {exc}", file=sys.stderr)
-        return 1
-    except _output.OutputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return _output.EXIT_IO
-    except KeyboardInterrupt as exc:
-        return _output.interrupted(exc, "python -m tubes.figures")
-    for p in written:
-        print(p)
-    if not written:
-        print("nothing to plot in", args.result)
-    return 0
+
+    def draw():     # every figure and experiment.h5 made first, then written all or none
+        nonlocal res
+        written = plots._draw_all(res, args.outdir)
+        res = None
+        return written + experiment_figures(args.result, args.outdir)
+    return plots.draw_and_write("python -m tubes.figures", args.result, draw,
+                                {ex.ExperimentError: "experiment figure: "})
 
 
 if __name__ == "__main__":

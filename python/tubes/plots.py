@@ -962,25 +962,36 @@ def open_result(prog, description, argv):
     return args, res, 0
 
 
+def draw_and_write(prog: str, result, draw, errors: dict | None = None) -> int:
+    """A figure command's run (python -m tubes.plots, python -m tubes.figures): draw() makes every
+    figure first and returns their paths, all written or none (_output.batch); the paths printed.
+    errors: exception class -> its message's prefix, each an exit 1. Returns the exit status."""
+    try:
+        with _output.batch():
+            written = draw()
+    except _output.OutputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return _output.EXIT_IO
+    except KeyboardInterrupt as exc:
+        return _output.interrupted(exc, prog)
+    except tuple(errors or {}) as exc:
+        prefix = next(p for k, p in errors.items() if isinstance(exc, k))
+        print(f"error: {prefix}{exc}", file=sys.stderr)
+        return 1
+    for p in written:
+        print(p)
+    if not written:
+        print("nothing to plot in", result)
+    return 0
+
+
 def main(argv=None):
     """The command line, python -m tubes.plots RESULT.h5 [options]: argv without the program's
     name (default sys.argv[1:]); returns the exit status."""
     args, res, rc = open_result("python -m tubes.plots", __doc__.splitlines()[0], argv)
     if res is None:
         return rc
-    try:
-        with _output.batch():          # every figure drawn first, then written all or none
-            written = _draw_all(res, args.outdir)
-    except _output.OutputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return _output.EXIT_IO
-    except KeyboardInterrupt as exc:
-        return _output.interrupted(exc, "python -m tubes.plots")
-    for p in written:
-        print(p)
-    if not written:
-        print("nothing to plot in", args.result)
-    return 0
+    return draw_and_write("python -m tubes.plots", args.result, lambda: _draw_all(res, args.outdir))
 
 
 FIGURE_NAMES = ("surface.png", "orbit_family.png", "orbit_properties.png", "p_trans.png", "tube_trajectories.png",
