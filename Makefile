@@ -52,7 +52,7 @@ OPT_C := -O2 -g
 endif
 FFLAGS_ALL := -std=f2018 -fPIC -fopenmp -Wall -Wno-unused-dummy-argument -Wno-compare-reals \
               -Wno-maybe-uninitialized $(OPT_F) -J $(BUILD)/mod -I $(BUILD)/mod $(SUNDIALS_INC) $(FFTW_INC) $(FFLAGS)
-CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -fPIC -fopenmp -Wall -Wextra $(OPT_C) -Iinclude \
+CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -fPIC -fopenmp -Wall -Wextra $(OPT_C) -Iinclude -I$(BUILD)/include \
               $(HDF5_CFLAGS) -DTUBES_VERSION='"$(VERSION)"' -DTUBES_GIT='"$(GIT_HASH)"' \
               -DTUBES_COMPILER='"$(FC) $(shell $(FC) -dumpfullversion 2>/dev/null)"' \
               -DTUBES_FFLAGS='"$(strip $(OPT_F))"' $(MPI_DEF) $(CFLAGS)
@@ -68,6 +68,7 @@ LDLIBS_ALL := $(HDF5_LIBS) $(SUNDIALS_LIBS) $(GSL_LIBS) $(FFTW_LIBS) $(LAPACK_LI
 SRC_DIRS := $(sort $(dir $(wildcard src/*/)))
 FFLAGS_ALL += $(addprefix -I,$(SRC_DIRS))   # the kind-generic sources' include lines
 F_SRC := $(wildcard $(addsuffix *.f90,$(SRC_DIRS)))
+CONFIG_H := $(BUILD)/include/tubes_config_fields.h
 C_SRC := $(filter-out src/io/tubes_main.c,$(wildcard $(addsuffix *.c,$(SRC_DIRS))))
 F_OBJ := $(patsubst %.f90,$(BUILD)/obj/%.o,$(notdir $(F_SRC)))
 C_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(notdir $(C_SRC)))
@@ -153,8 +154,12 @@ STACK_OBJ := $(patsubst %.f90,$(BUILD)/obj/%.o,$(notdir $(wildcard src/integrato
 $(STACK_OBJ): private FFLAGS_ALL += -fstack-arrays
 # tubes_par is the one preprocessed source: MPI or the one-rank identity (src/parallel/tubes_par.f90)
 $(BUILD)/obj/tubes_par.o: FFLAGS_ALL += -cpp $(MPI_DEF)
-$(BUILD)/obj/%.o: %.c $(wildcard include/*.h) | $(BUILD)/obj
+$(BUILD)/obj/%.o: %.c $(wildcard include/*.h) $(CONFIG_H) | $(BUILD)/obj
 	$(CC) $(CFLAGS_ALL) -c $< -o $@
+# C's tubes_config_t, generated from its one definition in src/io/tubes_nml.f90 (include/tubes_config.h)
+$(CONFIG_H): src/io/tubes_nml.f90 src/io/tubes_config_gen.awk
+	@mkdir -p $(@D)
+	awk -f src/io/tubes_config_gen.awk src/io/tubes_nml.f90 > $@.tmp && mv $@.tmp $@
 
 # The commit recorded in every output file: tubes_main.o is rebuilt whenever it changes (a commit,
 # or the tree turning dirty or clean), not only when tubes_main.c does.
@@ -255,10 +260,10 @@ sanitize:
 FUZZ_CC   ?= clang-14
 FUZZ_TIME ?= 600
 FUZZ_BIN  := $(BUILD)/fuzz/fuzz_namelist
-$(FUZZ_BIN): tests/fuzz/fuzz_namelist.c src/io/tubes_input.c include/tubes_input.h include/tubes_config.h $(LIB)
+$(FUZZ_BIN): tests/fuzz/fuzz_namelist.c src/io/tubes_input.c include/tubes_input.h include/tubes_config.h $(CONFIG_H) $(LIB)
 	@mkdir -p $(@D)
 	$(FUZZ_CC) -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -std=c11 \
-	  -D_POSIX_C_SOURCE=200809L -Iinclude -o $@ tests/fuzz/fuzz_namelist.c src/io/tubes_input.c \
+	  -D_POSIX_C_SOURCE=200809L -Iinclude -I$(BUILD)/include -o $@ tests/fuzz/fuzz_namelist.c src/io/tubes_input.c \
 	  $(LIB) $(LDLIBS_ALL) -lgfortran -lgomp
 # pip install . into a fresh venv, its outputs against ./tubes' (docs/development.md); .ci/run runs it
 pipcheck: all

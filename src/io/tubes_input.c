@@ -1412,6 +1412,12 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
 
 static int load_into(const char *path, const char *out_override, tubes_config_t *cfg, nml_where *w,
                      FILE *err) {
+  if (tubes_nml_config_size() != (int)sizeof *cfg) {   /* the generated struct against its definition */
+    fprintf(err, "tubes: internal error: the settings' layout is %d bytes in Fortran (src/io/tubes_nml.f90) "
+            "and %zu in C (build/include/tubes_config_fields.h): rebuild (make clean && make)\n",
+            tubes_nml_config_size(), sizeof *cfg);
+    return 1;
+  }
   if (nml_lex(path, w, err)) return 1;
   int group = -1;
   char msg[512];
