@@ -1042,6 +1042,24 @@ subroutine saddle_choice(n, nd, names, kinds, q, name, use_near, near, degenerat
   code = choose_saddle(nm, kinds, q, name, use_near /= 0, near, degenerate_ok /= 0, label, dflt /= 0, k, msg)
 end subroutine saddle_choice
 
+subroutine dissipation_of(system, params, law, text, v, stat)
+  ! the model's dissipation (src/workflow/tubes_setup.f90 model_dissipation, as ./tubes): its law,
+  ! its sentence, v = (damping_ratio, rolling_resistance, noise, temperature, c, f)
+  use tubes_setup, only: dissipation_t, model_dissipation
+  implicit none
+  character(len=*), intent(in) :: system
+  real(8), intent(in) :: params(16)
+  character(len=128), intent(out) :: law
+  character(len=256), intent(out) :: text
+  real(8), intent(out) :: v(6)
+  integer, intent(out) :: stat
+  type(dissipation_t) :: d
+  call model_dissipation(trim(system), params, .true., d, stat)
+  law = d%law
+  text = d%text
+  v = [d%zeta, d%crr, d%noise, d%temperature, d%c, d%f]
+end subroutine dissipation_of
+
 subroutine scene_check(scene, ndof, plane, label, code, msg)
   ! whether a scene applies to a model of ndof degrees of freedom (src/workflow/tubes_setup.f90
   ! scene_refused, as ./tubes): 0, else the refusal's code and message

@@ -1369,16 +1369,19 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
 
 
 def _dissipation(model: Model) -> dict:
-    """The model's dissipation as the scenes record it (src/io/tubes_scenes.c dissipation_attrs):
-    {} for a conservative model, else dissipation (the law: viscous, rolling, viscous+rolling) and
-    damping_ratio and rolling_resistance where they act (docs/dissipation.md)."""
-    par = {k: float(model.parameters.get(k, 0.0)) for k in ("damping_ratio", "rolling_resistance", "noise",
-                                                             "temperature")}
-    laws = [law for law, on in (("viscous", par["damping_ratio"] > 0), ("rolling", par["rolling_resistance"] > 0),
-                                ("noise", par["noise"] > 0 or par["temperature"] > 0)) if on]
-    if not laws:
+    """The model's dissipation as the scenes record it (src/workflow/tubes_setup.f90 model_dissipation,
+    the program's): {} for a conservative model, else dissipation (the law: viscous, rolling, noise,
+    joined by '+') and damping_ratio, rolling_resistance, noise, temperature where they act
+    (docs/dissipation.md)."""
+    law, _text, v, stat = _lib().dissipation_of(model.name, model.params())
+    law = _str(law)
+    if stat < 0 and law:
+        raise ValueError(f"&model: the model's dissipation ({law}) is defined by its lowest well's slow mode "
+                         f"omega_1, which failed: {status_message(int(stat))} (docs/dissipation.md#other-models)")
+    if not law:
         return {}
-    return {"dissipation": "+".join(laws), **{k: v for k, v in par.items() if v > 0}}
+    names = ("damping_ratio", "rolling_resistance", "noise", "temperature")
+    return {"dissipation": law, **{k: float(x) for k, x in zip(names, v[:4]) if x > 0}}
 
 
 def conservative(model: Model) -> Model:

@@ -143,51 +143,34 @@ int scene_model(tubes_run_t *run) {
            "code generated (SymPy) and compiled in", c->expr_hit ? 1 : 2, c->expr_seconds * (c->expr_hit ? 1e3 : 1),
            c->expr_hit ? "ms" : "s", c->expr_lib);
   }
-  double zeta = 0, crr = 0, dn = 0, theta = 0;
-  for (int k = 0; k < np; k++) {
-    if (!strcmp(names + TUBES_LPARAM * k, "damping_ratio")) zeta = run->params[k];
-    if (!strcmp(names + TUBES_LPARAM * k, "rolling_resistance")) crr = run->params[k];
-    if (!strcmp(names + TUBES_LPARAM * k, "noise")) dn = run->params[k];
-    if (!strcmp(names + TUBES_LPARAM * k, "temperature")) theta = run->params[k];
+  /* the dissipation (src/workflow/tubes_setup.f90 model_dissipation: its law, rates and sentence) */
+  static char law[128];
+  double v[6];
+  int st = tubes_model_dissipation(run->system, run->params, in_units(" 1/s")[0] != 0, law, run->dissip,
+                                   (int)sizeof run->dissip, v);
+  run->zeta = v[0];    /* the built-in ball's &model damping_ratio, or a formula surface's */
+  run->crr = v[1];
+  run->noise = v[2];
+  run->temperature = v[3];
+  run->noisy = v[2] > 0 || v[3] > 0;
+  run->c_damp = v[4];
+  run->f_roll = v[5];
+  run->law = law[0] ? law : NULL;
+  if (st < 0) {   /* c = 2 zeta omega_1 (and the noise's step) need the lowest well's slow mode */
+    if (st == TUBES_EINPUT)
+      fprintf(stderr, "%s: &model %s: the model has no well (a minimum of its potential with a positive "
+              "frequency) in its search box, and its dissipation is defined by the lowest well's slow mode "
+              "omega_1 (docs/dissipation.md#other-models)\n", run->input ? run->input : "tubes",
+              run->zeta > 0 ? "damping_ratio" : (run->noise > 0 ? "noise" : "temperature"));
+    else
+      fprintf(stderr, "tubes: &model: the lowest well's slow mode omega_1 (its dissipation's rate) failed, "
+              "status %d\n", st);
+    H5Gclose(g);
+    return st == TUBES_EINPUT ? EXIT_BADINPUT : EXIT_NUMERIC;
   }
-  run->noisy = dn > 0 || theta > 0;
-  run->noise = dn;
-  run->temperature = theta;
-  run->zeta = zeta;    /* the built-in ball's &model damping_ratio, or a formula surface's */
-  run->crr = crr;
-  run->c_damp = run->f_roll = 0;
-  run->dissip[0] = 0;
-  run->law = NULL;
-  if (zeta > 0 || crr > 0 || run->noisy) {
-    int st = tubes_dissipation(run->system, run->params, &run->c_damp, &run->f_roll);
-    if (st < 0) {   /* c = 2 zeta omega_1 (and the noise's step) need the lowest well's slow mode */
-      if (st == TUBES_EINPUT)
-        fprintf(stderr, "%s: &model %s: the model has no well (a minimum of its potential with a positive "
-                "frequency) in its search box, and its dissipation is defined by the lowest well's slow mode "
-                "omega_1 (docs/dissipation.md#other-models)\n", run->input ? run->input : "tubes",
-                zeta > 0 ? "damping_ratio" : (dn > 0 ? "noise" : "temperature"));
-      else
-        fprintf(stderr, "tubes: &model: the lowest well's slow mode omega_1 (its dissipation's rate) failed, "
-                "status %d\n", st);
-      H5Gclose(g);
-      return st == TUBES_EINPUT ? EXIT_BADINPUT : EXIT_NUMERIC;
-    }
-    static char law[48];
-    snprintf(law, sizeof law, "%s%s%s%s%s", zeta > 0 ? "viscous" : "", zeta > 0 && crr > 0 ? "+" : "",
-             crr > 0 ? "rolling" : "", run->noisy && (zeta > 0 || crr > 0) ? "+" : "", run->noisy ? "noise" : "");
-    run->law = law;
-    if (zeta > 0)
-      snprintf(run->dissip, sizeof run->dissip, "damping_ratio = %g, c = %.6g%s", zeta, run->c_damp,
-               in_units(" 1/s"));
-    if (crr > 0)
-      snprintf(run->dissip + strlen(run->dissip), sizeof run->dissip - strlen(run->dissip),
-               "%srolling_resistance = %g, f = %.6g%s", zeta > 0 ? "; " : "", crr, run->f_roll, in_units(" cm/s^2"));
-    if (run->noisy)
-      snprintf(run->dissip + strlen(run->dissip), sizeof run->dissip - strlen(run->dissip), "%s%s = %g%s",
-               run->dissip[0] ? "; " : "", dn > 0 ? "noise" : "temperature", dn > 0 ? dn : theta,
-               dn > 0 ? in_units(" (cm/s)^2/s") : in_units(" (cm/s)^2"));
-    if (zeta > 0) rc |= h5_attr_double(g, "damping_rate", run->c_damp);
-    if (crr > 0) rc |= h5_attr_double(g, "rolling_drag", run->f_roll);
+  if (run->law) {
+    if (run->zeta > 0) rc |= h5_attr_double(g, "damping_rate", run->c_damp);
+    if (run->crr > 0) rc |= h5_attr_double(g, "rolling_drag", run->f_roll);
     rc |= h5_attr_string(g, "dissipation", run->law);
   }
   H5Gclose(g);

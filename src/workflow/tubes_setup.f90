@@ -5,15 +5,28 @@
 module tubes_setup
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char
   use tubes_kinds, only: wp
-  use tubes_cstrings, only: c_to_f, f_to_c
+  use tubes_cstrings, only: c_to_f, f_to_c, num
+  use tubes_status, only: TUBES_OK
+  use tubes_field, only: vector_field_t
+  use tubes_models, only: system_info_t, system_info, make_field, MAX_PARAMS, LEN_SYSTEM
   implicit none
   private
+
+  !> A model's dissipation (docs/dissipation.md), from its parameters damping_ratio (zeta),
+  !> rolling_resistance (crr), noise and temperature: the law, the rates they give (c = 2 zeta
+  !> omega_1 [1/s], the rolling drag f = crr g [cm/s^2]) and the run's sentence about it. The one
+  !> definition of what the scenes say and record of it (src/io/tubes_scenes.c, tubes._dissipation).
+  type, public :: dissipation_t
+    character(:), allocatable :: law    !! 'viscous', 'rolling', 'noise' joined by '+' ('': conservative)
+    character(:), allocatable :: text   !! "damping_ratio = 0.025, c = 0.123 1/s; ..." ('': conservative)
+    real(wp) :: zeta = 0, crr = 0, noise = 0, temperature = 0, c = 0, f = 0
+  end type dissipation_t
 
   integer, parameter, public :: SADDLE_FOUND = 0       !! the saddle chosen
   integer, parameter, public :: SADDLE_NOT_ONE = 1     !! the name is not a saddle the scenes take
   integer, parameter, public :: SADDLE_NONE_NEAR = 2   !! no saddle the scenes take in the box
 
-  public :: choose_saddle, scene_refused
+  public :: choose_saddle, scene_refused, model_dissipation
 
   integer, parameter, public :: SCENE_TAKEN = 0           !! the scene applies to the model
   integer, parameter, public :: SCENE_NOT_FOR_MODEL = 1   !! not with this many degrees of freedom
@@ -132,6 +145,62 @@ contains
     end select
   end function scene_refused
 
+  !> The dissipation of system (params): d. dimensioned: the model has the ball's units (the text
+  !> gives them). stat: TUBES_OK, or make_field's status where the law needs the lowest well's slow
+  !> mode omega_1 and it failed (TUBES_EINPUT: the model has no well in its box).
+  subroutine model_dissipation(system, params, dimensioned, d, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:)
+    logical, intent(in) :: dimensioned
+    type(dissipation_t), intent(out) :: d
+    integer, intent(out) :: stat
+    type(system_info_t) :: info
+    class(vector_field_t), allocatable :: field
+    real(wp) :: p(MAX_PARAMS)
+    integer :: k
+    d%law = ''
+    d%text = ''
+    call system_info(system, info, stat)
+    if (stat /= TUBES_OK) return
+    do k = 1, info%np
+      select case (trim(info%params(k)%name))
+      case ('damping_ratio'); d%zeta = params(k)
+      case ('rolling_resistance'); d%crr = params(k)
+      case ('noise'); d%noise = params(k)
+      case ('temperature'); d%temperature = params(k)
+      end select
+    end do
+    if (d%zeta > 0) d%law = 'viscous'
+    if (d%crr > 0) d%law = join(d%law, 'rolling', '+')
+    if (d%noise > 0 .or. d%temperature > 0) d%law = join(d%law, 'noise', '+')
+    if (d%law == '') return
+    p = 0
+    p(1:min(size(params), MAX_PARAMS)) = params(1:min(size(params), MAX_PARAMS))
+    call make_field(system, p, field, d%c, stat, d%f)
+    if (stat /= TUBES_OK) return
+    if (d%zeta > 0) d%text = 'damping_ratio = ' // num(d%zeta) // ', c = ' // num(d%c, '%.6g') // units(' 1/s')
+    if (d%crr > 0) d%text = join(d%text, 'rolling_resistance = ' // num(d%crr) // ', f = ' // num(d%f, '%.6g') // &
+                                 units(' cm/s^2'), '; ')
+    if (d%noise > 0) then
+      d%text = join(d%text, 'noise = ' // num(d%noise) // units(' (cm/s)^2/s'), '; ')
+    else if (d%temperature > 0) then
+      d%text = join(d%text, 'temperature = ' // num(d%temperature) // units(' (cm/s)^2'), '; ')
+    end if
+  contains
+    pure function join(a, b, sep) result(r)
+      character(*), intent(in) :: a, b, sep
+      character(:), allocatable :: r
+      r = b
+      if (len(a) > 0) r = a // sep // b
+    end function join
+    function units(u) result(r)
+      character(*), intent(in) :: u
+      character(:), allocatable :: r
+      r = ''
+      if (dimensioned) r = u
+    end function units
+  end subroutine model_dissipation
+
   ! ---------------------------------------------------------------- the C entries (src/io/tubes_scenes.c)
 
   integer(c_int) function c_scene_refused(scene, ndof, plane, label, msg, len) result(code) &
@@ -144,6 +213,24 @@ contains
     call f_to_c(m, msg)
   end function c_scene_refused
 
+
+  !> model_dissipation for C: law and text NUL-terminated (lens bytes each), v = (zeta, crr, noise,
+  !> temperature, c, f). Returns its stat.
+  integer(c_int) function c_model_dissipation(system, params, dimensioned, law, text, lens, v) result(stat) &
+      bind(C, name='tubes_model_dissipation')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
+    integer(c_int), value :: dimensioned, lens
+    character(kind=c_char), intent(out) :: law(lens), text(lens)
+    real(c_double), intent(out) :: v(6)
+    type(dissipation_t) :: d
+    integer :: st
+    call model_dissipation(trim(c_to_f(system)), params, dimensioned /= 0, d, st)
+    stat = st
+    call f_to_c(d%law, law)
+    call f_to_c(d%text, text)
+    v = [d%zeta, d%crr, d%noise, d%temperature, d%c, d%f]
+  end function c_model_dissipation
 
   !> choose_saddle on the C equilibria list: n names of 8 bytes each (NUL-padded), kinds(n),
   !> q(stride, n) with the first ndof rows the position; name and label NUL-terminated. Returns the
