@@ -220,6 +220,12 @@ int tubes_momentum(const char system[TUBES_LSYSTEM], const double params[TUBES_M
 int tubes_damping_rate(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
                        double *c);
 
+/* The method a run integrates with (src/workflow/tubes_setup.f90 method_resolved): code itself; for
+ * 'taylor' and 'auto' without the model's Taylor kernel at tolerance eps, DOP853 ('auto') or 0
+ * ('taylor': refused), the reason in why (NUL-terminated, lwhy bytes). */
+int tubes_method_resolved(int code, const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], double eps,
+                          char *why, int lwhy);
+
 /* The model's dissipation (src/workflow/tubes_setup.f90 model_dissipation): its law ("viscous",
  * "rolling", "noise" joined by "+"; "" conservative) and the run's sentence about it, NUL-terminated in
  * lens bytes each (dimensioned: with the ball's units); v = (damping_ratio, rolling_resistance, noise,

@@ -1042,6 +1042,18 @@ subroutine saddle_choice(n, nd, names, kinds, q, name, use_near, near, degenerat
   code = choose_saddle(nm, kinds, q, name, use_near /= 0, near, degenerate_ok /= 0, label, dflt /= 0, k, msg)
 end subroutine saddle_choice
 
+subroutine method_choice(code, system, params, eps, m, why)
+  ! the method a run integrates with (src/workflow/tubes_setup.f90 method_resolved, as ./tubes)
+  use tubes_setup, only: method_resolved
+  implicit none
+  integer, intent(in) :: code
+  character(len=*), intent(in) :: system
+  real(8), intent(in) :: params(16), eps
+  integer, intent(out) :: m
+  character(len=1024), intent(out) :: why
+  m = method_resolved(code, trim(system), params, eps, why)
+end subroutine method_choice
+
 subroutine dissipation_of(system, params, law, text, v, stat)
   ! the model's dissipation (src/workflow/tubes_setup.f90 model_dissipation, as ./tubes): its law,
   ! its sentence, v = (damping_ratio, rolling_resistance, noise, temperature, c, f)
@@ -1281,27 +1293,6 @@ subroutine nf_map(nd, order, nt, expo, coef, to_model, npts, pts, stat, out, rou
   if (stat /= 0) return
   call nf_map_points(ch, to_model /= 0, pts, out, round_trip)
 end subroutine nf_map
-
-subroutine taylor_check(system, params, eps, stat, msg)
-  ! can method = 'taylor' integrate the model at tolerance eps? its kernel built or loaded now
-  ! (src/integrators/tubes_taylor.f90 taylor_check); stat < 0 and the reason in msg if not
-  use, intrinsic :: iso_c_binding, only: c_double
-  use tubes_field, only: vector_field_t
-  use tubes_models, only: make_field
-  use tubes_taylor, only: taylor_check_ => taylor_check
-  implicit none
-  character(len=*), intent(in) :: system
-  real(c_double), intent(in) :: params(16)
-  real(c_double), intent(in) :: eps
-  integer, intent(out) :: stat
-  character(len=512), intent(out) :: msg
-  class(vector_field_t), allocatable :: field
-  real(c_double) :: c
-  msg = ''
-  call make_field(trim(system), params, field, c, stat)
-  if (stat /= 0) return
-  call taylor_check_(field, eps, msg, stat)
-end subroutine taylor_check
 
 subroutine synthetic_experiment(params, e_e, n_tracks, duration, camera_rate, pixel, noise, de_min, &
                                 de_max, seed, method, h, omega_bind, solver, max_iter, ns, stat, t, &

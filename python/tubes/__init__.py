@@ -802,7 +802,7 @@ def _study(model, st):
     return (model.name, model.params(), st["lo"], st["hi"], int(st["n_grid"]), st["saddle"])
 
 
-_TAYLOR_OK = {}   # (model name, parameters) -> can its Taylor kernel be had (_method)
+_TAYLOR_OK = {}   # (model name, parameters, method) -> (the method resolved, why) (_method)
 
 # integrate()'s kept integrators, per thread (one thread at a time per integrator): (model, method,
 # options) -> handle. Making the model and finding its Taylor kernel cost ~30 us a call; a kept
@@ -841,21 +841,24 @@ def _integ(st, model):
 
 
 def _method(code: int, model, eps: float = 1e-12) -> int:
-    """A method code as the program resolves it: 'auto' becomes DOP853 throughout where the model's
-    Taylor kernel cannot be had (no C compiler or SymPy; the program says so too), with a warning
-    naming the reason (docs/integrators-taylor.md). The answer is kept per model."""
-    if code != METHODS["auto"]:
+    """A method code as the program resolves it (src/workflow/tubes_setup.f90 method_resolved):
+    'auto' becomes DOP853 throughout where the model's Taylor kernel cannot be had (no C compiler or
+    SymPy), with a warning naming the reason; 'taylor' without it is refused (ValueError), as the
+    program refuses it (docs/integrators-taylor.md). The answer is kept per model."""
+    if code not in (METHODS["auto"], METHODS["taylor"]):
         return code
-    key = (model.name, tuple(model.params()))
-    ok = _TAYLOR_OK.get(key)
-    if ok is None:
-        stat, msg = _lib().taylor_check(model.name, model.params(), float(eps))
-        ok = _TAYLOR_OK[key] = stat >= 0
-        if not ok:
+    key = (model.name, tuple(model.params()), code)
+    got = _TAYLOR_OK.get(key)
+    if got is None:
+        m, why = _lib().method_choice(code, model.name, model.params(), float(eps))
+        got = _TAYLOR_OK[key] = (int(m), _str(why).strip())
+        if got[0] not in (0, code):
             import warnings
-            warnings.warn("method 'auto': DOP853 throughout (no Taylor kernel for this model: "
-                          + (msg.decode() if isinstance(msg, bytes) else str(msg)).strip() + ")", stacklevel=3)
-    return code if ok else METHODS["dop853"]
+            warnings.warn(f"method 'auto': DOP853 throughout (no Taylor kernel for this model: {got[1]})",
+                          stacklevel=3)
+    if got[0] == 0:
+        raise ValueError(f"method 'taylor': no Taylor kernel for system {model.system!r}: {got[1]}")
+    return got[0]
 
 
 def _section_args(st):

@@ -373,19 +373,18 @@ int run_setup(tubes_run_t *run) {
   int integrates = 0;                /* a scene that integrates with &integrator's method */
   for (int k = 0; k < TUBES_NSCENES; k++)
     integrates |= c->scenes[k][0] && strcmp(c->scenes[k], "equilibria");
-  if (integrates && (run->method == TUBES_METHOD_TAYLOR || run->method == TUBES_METHOD_AUTO)) {   /* the kernel, before output */
+  if (integrates) {   /* 'taylor' and 'auto' need the model's kernel: built before any output */
     char m[1024];
-    if (tubes_taylor_check(run->system, run->params, c->rtol, m, (int)sizeof m) < 0) {
-      if (run->method == TUBES_METHOD_TAYLOR) {
-        say_at(run, run->method_line);
-        fprintf(stderr, "&integrator: method = 'taylor': no Taylor kernel for %s: %s\n", run->label, m);
-        return EXIT_BADINPUT;
-      }
-      if (run->rank == 0)
-        fprintf(stderr, "tubes: &integrator method = 'auto': DOP853 throughout (no Taylor kernel for %s: %s)\n",
-                run->label, m);
-      run->method = TUBES_METHOD_DOP853;
+    int code = tubes_method_resolved(run->method, run->system, run->params, c->rtol, m, (int)sizeof m);
+    if (code == 0) {
+      say_at(run, run->method_line);
+      fprintf(stderr, "&integrator: method = 'taylor': no Taylor kernel for %s: %s\n", run->label, m);
+      return EXIT_BADINPUT;
     }
+    if (code != run->method && run->rank == 0)
+      fprintf(stderr, "tubes: &integrator method = 'auto': DOP853 throughout (no Taylor kernel for %s: %s)\n",
+              run->label, m);
+    run->method = code;
   }
   for (int k = 0; k < MD; k++) {
     run->lo[k] = c->box_lo[k];

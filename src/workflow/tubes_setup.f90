@@ -9,6 +9,8 @@ module tubes_setup
   use tubes_status, only: TUBES_OK
   use tubes_field, only: vector_field_t
   use tubes_models, only: system_info_t, system_info, make_field, MAX_PARAMS, LEN_SYSTEM
+  use tubes_methods, only: METHOD_AUTO, METHOD_TAYLOR, METHOD_DOP853
+  use tubes_taylor, only: taylor_check
   implicit none
   private
 
@@ -26,7 +28,7 @@ module tubes_setup
   integer, parameter, public :: SADDLE_NOT_ONE = 1     !! the name is not a saddle the scenes take
   integer, parameter, public :: SADDLE_NONE_NEAR = 2   !! no saddle the scenes take in the box
 
-  public :: choose_saddle, scene_refused, model_dissipation
+  public :: choose_saddle, scene_refused, model_dissipation, method_resolved
 
   integer, parameter, public :: SCENE_TAKEN = 0           !! the scene applies to the model
   integer, parameter, public :: SCENE_NOT_FOR_MODEL = 1   !! not with this many degrees of freedom
@@ -201,6 +203,30 @@ contains
     end function units
   end subroutine model_dissipation
 
+  !> The method a run integrates with (docs/integrators-taylor.md): code itself, but 'taylor' and
+  !> 'auto' need the model's Taylor kernel at relative tolerance eps (built or loaded now): without
+  !> it 'auto' becomes DOP853 throughout (why: the reason, for the run's warning) and 'taylor' is
+  !> refused (result 0; why: the reason).
+  integer function method_resolved(code, system, params, eps, why) result(m)
+    integer, intent(in) :: code
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:), eps
+    character(*), intent(out) :: why
+    class(vector_field_t), allocatable :: field
+    real(wp) :: c, p(MAX_PARAMS)
+    integer :: stat
+    m = code
+    why = ''
+    if (code /= METHOD_AUTO .and. code /= METHOD_TAYLOR) return
+    p = 0
+    p(1:min(size(params), MAX_PARAMS)) = params(1:min(size(params), MAX_PARAMS))
+    call make_field(system, p, field, c, stat)
+    if (stat == TUBES_OK) call taylor_check(field, eps, why, stat)
+    if (stat == TUBES_OK) return
+    if (why == '') why = 'the model could not be made'
+    m = merge(METHOD_DOP853, 0, code == METHOD_AUTO)
+  end function method_resolved
+
   ! ---------------------------------------------------------------- the C entries (src/io/tubes_scenes.c)
 
   integer(c_int) function c_scene_refused(scene, ndof, plane, label, msg, len) result(code) &
@@ -231,6 +257,19 @@ contains
     call f_to_c(d%text, text)
     v = [d%zeta, d%crr, d%noise, d%temperature, d%c, d%f]
   end function c_model_dissipation
+
+  !> method_resolved for C (why: NUL-terminated, lwhy bytes).
+  integer(c_int) function c_method_resolved(code, system, params, eps, why, lwhy) result(m) &
+      bind(C, name='tubes_method_resolved')
+    integer(c_int), value :: code, lwhy
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
+    real(c_double), value :: eps
+    character(kind=c_char), intent(out) :: why(lwhy)
+    character(1024) :: w
+    m = method_resolved(code, trim(c_to_f(system)), params, eps, w)
+    call f_to_c(w, why)
+  end function c_method_resolved
 
   !> choose_saddle on the C equilibria list: n names of 8 bytes each (NUL-padded), kinds(n),
   !> q(stride, n) with the first ndof rows the position; name and label NUL-terminated. Returns the
