@@ -226,6 +226,16 @@ int tubes_damping_rate(const char system[TUBES_LSYSTEM], const double params[TUB
 int tubes_method_resolved(int code, const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], double eps,
                           char *why, int lwhy);
 
+/* The run's saddle (src/workflow/tubes_setup.f90 run_saddle): the equilibria in the box [lo, hi] (kept
+ * in stores), then the one by name, or (use_near) the nearest to near, that the scenes take
+ * (degenerate_ok: a degenerate one too); label the model's name in messages, dflt: name is the
+ * system's default. Returns 0 (chosen, e_saddle: its name and energy), a refusal's code > 0, or the
+ * equilibria search's status < 0; msg says why (len bytes). */
+int tubes_run_saddle(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], const double lo[TUBES_MAXDOF],
+                     const double hi[TUBES_MAXDOF], int n_grid, void *stores, const char name[8], int use_near,
+                     const double near[TUBES_MAXDOF], int degenerate_ok, const char *label, int dflt, char chosen[8],
+                     double *e_saddle, char *msg, int len);
+
 /* The model's dissipation (src/workflow/tubes_setup.f90 model_dissipation): its law ("viscous",
  * "rolling", "noise" joined by "+"; "" conservative) and the run's sentence about it, NUL-terminated in
  * lens bytes each (dimensioned: with the ball's units); v = (damping_ratio, rolling_resistance, noise,
@@ -479,14 +489,6 @@ int tubes_verdict_montecarlo(double de, int n, int n_transit, int n_undecided, i
  * 0, or 1 (not with this many degrees of freedom) / 2 (a 3-DOF tubes scene needs a plane) with the
  * message's body (src/workflow/tubes_setup.f90 scene_refused, which Python's calls use too). */
 int tubes_scene_refused(const char *scene, int ndof, int plane, const char *label, char *msg, int len);
-/* The run's saddle (src/workflow/tubes_setup.f90 choose_saddle, which Python's calls use too): among n
- * equilibria (names 8 bytes each, kinds 1 rank-1 / 2 degenerate / 0 other, positions q[stride * i + j],
- * j < ndof) the one named name, or (use_near) the nearest to near of those the scenes take (a degenerate
- * one where degenerate_ok). 0 and *k (0-based), else 1 (name not one) or 2 (none in the box) with the
- * message's body in msg (len bytes; label the model's name, dflt: the name is the system's default). */
-int tubes_choose_saddle(int n, const char *names, const int *kinds, int stride, int ndof, const double *q,
-                        const char name[8], int use_near, const double *near, int degenerate_ok, const char *label,
-                        int dflt, int *k, char *msg, int len);
 
 /* The cut of the stable (kind -1) or unstable (kind +1) tube of the saddle's periodic orbit of
  * family `family` (as &orbits family: 1 .. N-1, -1 halo_north, -2 halo_south) at

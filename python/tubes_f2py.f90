@@ -1024,24 +1024,6 @@ subroutine verdict_cut3(de, vol, vol_half, vol_x, f, sv, n_decided, n_misclassif
   code = cut3_check(de, vol, vol_half, vol_x, f, sv, n_decided, n_misclassified, msg)
 end subroutine verdict_cut3
 
-subroutine saddle_choice(n, nd, names, kinds, q, name, use_near, near, degenerate_ok, label, dflt, code, k, msg)
-  ! the run's saddle among the equilibria (src/workflow/tubes_setup.f90 choose_saddle, as ./tubes):
-  ! names the n names, 8 characters each; k 1-based (0 where none)
-  use tubes_setup, only: choose_saddle
-  implicit none
-  integer, intent(in) :: n, nd, kinds(n), use_near, degenerate_ok, dflt
-  character(len=*), intent(in) :: names, name, label
-  real(8), intent(in) :: q(nd, n), near(nd)
-  integer, intent(out) :: code, k
-  character(len=2048), intent(out) :: msg
-  character(8) :: nm(n)
-  integer :: i
-  do i = 1, n
-    nm(i) = names(8*i - 7:8*i)
-  end do
-  code = choose_saddle(nm, kinds, q, name, use_near /= 0, near, degenerate_ok /= 0, label, dflt /= 0, k, msg)
-end subroutine saddle_choice
-
 subroutine method_choice(code, system, params, eps, m, why)
   ! the method a run integrates with (src/workflow/tubes_setup.f90 method_resolved, as ./tubes)
   use tubes_setup, only: method_resolved
@@ -1071,6 +1053,28 @@ subroutine dissipation_of(system, params, law, text, v, stat)
   text = d%text
   v = [d%zeta, d%crr, d%noise, d%temperature, d%c, d%f]
 end subroutine dissipation_of
+
+subroutine saddle_of_run(system, params, lo, hi, n_grid, stores, name, use_near, near, degenerate_ok, label, dflt, &
+                         code, chosen, e_saddle, msg)
+  ! the run's saddle among the equilibria in the box (src/workflow/tubes_setup.f90 run_saddle, as
+  ! ./tubes): code 0 (chosen, e_saddle), a refusal's code > 0, or the search's status < 0; msg why
+  use, intrinsic :: iso_c_binding, only: c_int64_t
+  use tubes_setup, only: run_saddle
+  use tubes_study, only: seed_stores_t, stores_at
+  implicit none
+  character(len=*), intent(in) :: system, name, label
+  real(8), intent(in) :: params(16), lo(3), hi(3), near(3)
+  integer, intent(in) :: n_grid, use_near, degenerate_ok, dflt
+  integer(c_int64_t), intent(in) :: stores
+  integer, intent(out) :: code
+  character(len=8), intent(out) :: chosen
+  real(8), intent(out) :: e_saddle
+  character(len=2048), intent(out) :: msg
+  type(seed_stores_t), pointer :: kept
+  kept => stores_at(stores)
+  code = run_saddle(trim(system), params, lo, hi, n_grid, kept, name, use_near /= 0, near, degenerate_ok /= 0, &
+                    label, dflt /= 0, chosen, e_saddle, msg)
+end subroutine saddle_of_run
 
 subroutine scene_check(scene, ndof, plane, label, code, msg)
   ! whether a scene applies to a model of ndof degrees of freedom (src/workflow/tubes_setup.f90

@@ -772,22 +772,20 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, who: st
     st = _read_namelist(lines, who, given)
     st["saddle"] = _str(st["saddle"])
     if st["use_near"] or who not in ("equilibria", "synthetic_experiment"):
-        # the program's rule (src/workflow/tubes_setup.f90 choose_saddle): by name (the system's
+        # the program's rule (src/workflow/tubes_setup.f90 run_saddle, choose_saddle): by name (the system's
         # default too: the ball with beta = 0 has none), or the nearest to saddle_near; the flux
         # takes a degenerate saddle (D<k>) too
-        eq = _settings_equilibria(model, st)
-        names, nd = list(eq["name"]), model.ndof
-        kinds = [1 if r else 2 if d else 0 for r, d in zip(eq["rank1"], eq["degenerate"])]
-        q = np.reshape(eq["q"], (len(names), nd))
-        if not names:       # none found: one that no rule takes (f2py's arrays are not empty)
-            names, kinds, q = ["\x01"], [0], np.zeros((1, nd))
-        code, k, msg = _lib().saddle_choice(
-            "".join(f"{x:<8s}" for x in names), np.array(kinds, dtype=np.int32), np.asfortranarray(q.T),
-            st["saddle"], int(bool(st["use_near"])), np.asarray(st["near"], dtype=float)[:nd], int(who == "flux"),
-            model.system, int(saddle is None and not st["use_near"]))
+        code, chosen, _e, msg = _lib().saddle_of_run(
+            model.name, model.params(), st["lo"], st["hi"], int(st["n_grid"]), model._stores(), st["saddle"],
+            int(bool(st["use_near"])), np.asarray(st["near"], dtype=float), int(who == "flux"), model.system,
+            int(saddle is None and not st["use_near"]))
+        if code < 0:                     # the equilibria search failed: the program's message
+            err = TubesError(int(code), who)
+            err.args = (f"{who}: {_str(msg)}",)
+            raise err
         if code:
             raise ValueError(f"{who}: {_str(msg)}")
-        st["saddle"] = eq["name"][k - 1]
+        st["saddle"] = _str(chosen)
     return st
 
 

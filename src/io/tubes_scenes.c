@@ -395,37 +395,37 @@ int run_setup(tubes_run_t *run) {
   snprintf(run->saddle, sizeof run->saddle, "%s", c->orb_saddle);
   /* the saddle: needed by every scene but equilibria and trajectory; checked here, once */
   if (!saddle_asked(c)) return 0;
-  static eqlist_t L;
-  int st = find_eqs(run, &L);
-  if (st < 0) {
-    char m[TUBES_LSTATUS];
-    status_text(st, m, sizeof m);
-    fprintf(stderr, "tubes: the equilibria of %s in the &equilibria box could not be found: %s (status %d)%s\n",
-            run->label, m, st, st == TUBES_ENOCONV ? "; or the box holds more than 256 of them: a smaller box" : "");
+  /* the saddle by name, or the nearest to saddle_near, among the equilibria in the box (tubes_setup
+   * run_saddle, Python's too); &equilibria saddle, the one the equilibria scene reports, is checked too */
+  char m[2048], chosen[8];
+  double e_saddle;
+  int code = 0;
+  if (c->saddle[0]) {
+    code = tubes_run_saddle(run->system, run->params, run->lo, run->hi, run->n_grid, run->seeds, c->saddle, 0,
+                            c->orb_saddle_near, degenerate_ok(c), run->label, 0, chosen, &e_saddle, m, (int)sizeof m);
+    if (code > 0) {
+      say_at(run, run->eq_saddle_line);
+      fprintf(stderr, "&equilibria: %s\n", m);
+      return EXIT_BADINPUT;
+    }
+  }
+  if (code == 0)
+    code = tubes_run_saddle(run->system, run->params, run->lo, run->hi, run->n_grid, run->seeds, run->saddle,
+                            c->orb_use_near, c->orb_saddle_near, degenerate_ok(c), run->label,
+                            !c->orb_use_near && !run->orb_saddle_line, chosen, &e_saddle, m, (int)sizeof m);
+  if (code < 0) {
+    fprintf(stderr, "tubes: %s\n", m);
     return EXIT_NUMERIC;
   }
-  /* the saddle by name, or the nearest to saddle_near (tubes_setup choose_saddle, Python's too) */
-  int kinds[NEQ_MAX], k;
-  char m[2048];
-  for (int j = 0; j < L.n; j++) kinds[j] = L.rank1[j] == 1 ? 1 : L.rank1[j] == 2 ? 2 : 0;
-  if (c->saddle[0] &&                /* &equilibria saddle: the saddle the equilibria scene reports */
-      tubes_choose_saddle(L.n, L.names, kinds, MD, L.ndof, L.q, c->saddle, 0, c->orb_saddle_near, degenerate_ok(c),
-                          run->label, 0, &k, m, (int)sizeof m)) {
-    say_at(run, run->eq_saddle_line);
-    fprintf(stderr, "&equilibria: %s\n", m);
-    return EXIT_BADINPUT;
-  }
-  if (tubes_choose_saddle(L.n, L.names, kinds, MD, L.ndof, L.q, run->saddle, c->orb_use_near, c->orb_saddle_near,
-                          degenerate_ok(c), run->label, !c->orb_use_near && !run->orb_saddle_line, &k, m,
-                          (int)sizeof m)) {
+  if (code > 0) {
     int ln = c->orb_use_near ? nml_line(run->where, "orbits", "saddle_near") : run->orb_saddle_line;
     say_at(run, ln);
     if (c->orb_use_near) fprintf(stderr, "&orbits saddle_near%s: %s\n", ln ? "" : " (the system's default)", m);
     else fprintf(stderr, "&orbits: %s\n", m);
     return EXIT_BADINPUT;
   }
-  snprintf(run->saddle, sizeof run->saddle, "%s", L.names + 8 * k);
-  return de_resolvable(run, L.en[k]);
+  snprintf(run->saddle, sizeof run->saddle, "%s", chosen);
+  return de_resolvable(run, e_saddle);
 }
 
 /* The equilibria scene: src/workflow/tubes_scene_equilibria.f90 (its record written by

@@ -1,14 +1,18 @@
 !> The run's set-up rules, one definition for both front ends: src/io/tubes_scenes.c (run_setup)
-!> calls the bind(C) entries, python/tubes_f2py.f90 (tubes._settings) the Fortran ones. Each
+!> calls the bind(C) entries, python/tubes_f2py.f90 (tubes._settings, _method, _dissipation) the
+!> Fortran ones. Each
 !> returns a code and, where the rule refuses, the body of the message; the front end adds its
 !> head (the input file and line, or the calling function).
 module tubes_setup
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char, c_ptr, c_intptr_t
   use tubes_kinds, only: wp
   use tubes_cstrings, only: c_to_f, f_to_c, num
-  use tubes_status, only: TUBES_OK
+  use tubes_status, only: TUBES_OK, TUBES_ENOCONV, status_message
+  use tubes_hamiltonian, only: hamiltonian_t
+  use tubes_equilibria, only: equilibrium_t
+  use tubes_study, only: seed_stores_t, model_equilibria, stores_at
   use tubes_field, only: vector_field_t
-  use tubes_models, only: system_info_t, system_info, make_field, MAX_PARAMS, LEN_SYSTEM
+  use tubes_models, only: system_info_t, system_info, make_field, MAX_PARAMS, MAX_DOF, LEN_SYSTEM
   use tubes_methods, only: METHOD_AUTO, METHOD_TAYLOR, METHOD_DOP853
   use tubes_taylor, only: taylor_check
   implicit none
@@ -28,7 +32,7 @@ module tubes_setup
   integer, parameter, public :: SADDLE_NOT_ONE = 1     !! the name is not a saddle the scenes take
   integer, parameter, public :: SADDLE_NONE_NEAR = 2   !! no saddle the scenes take in the box
 
-  public :: choose_saddle, scene_refused, model_dissipation, method_resolved
+  public :: choose_saddle, scene_refused, model_dissipation, method_resolved, run_saddle
 
   integer, parameter, public :: SCENE_TAKEN = 0           !! the scene applies to the model
   integer, parameter, public :: SCENE_NOT_FOR_MODEL = 1   !! not with this many degrees of freedom
@@ -106,6 +110,55 @@ contains
       takes = kinds(j) == 1 .or. (kinds(j) == 2 .and. degenerate_ok)
     end function takes
   end function choose_saddle
+
+  !> The run's saddle: the model's equilibria in the box [lo, hi] (n_grid starts per axis; kept in
+  !> stores), then choose_saddle among them (name, use_near, near, degenerate_ok, label, dflt as
+  !> there). Returns choose_saddle's code, or the equilibria search's status (< 0) with msg saying
+  !> so; chosen, e_saddle: the saddle's name and energy where found.
+  integer function run_saddle(system, params, lo, hi, n_grid, stores, name, use_near, near, degenerate_ok, label, &
+                              dflt, chosen, e_saddle, msg) result(code)
+    character(*), intent(in) :: system, name, label
+    real(wp), intent(in) :: params(:), lo(:), hi(:), near(:)
+    integer, intent(in) :: n_grid
+    type(seed_stores_t), pointer, intent(in) :: stores
+    logical, intent(in) :: use_near, degenerate_ok, dflt
+    character(*), intent(out) :: chosen, msg
+    real(wp), intent(out) :: e_saddle
+    class(hamiltonian_t), allocatable :: model
+    type(equilibrium_t), allocatable :: eqs(:)
+    character(8), allocatable :: names(:)
+    real(wp), allocatable :: q(:, :)
+    integer :: stat, k, i, nd
+    chosen = ''
+    e_saddle = 0
+    call model_equilibria(system, params, lo, hi, n_grid, stores, model, eqs, stat)
+    if (stat /= TUBES_OK) then
+      code = stat
+      msg = 'the equilibria of ' // trim(label) // ' in the &equilibria box could not be found: ' // &
+            status_message(stat) // ' (status ' // itoa(stat) // ')'
+      if (stat == TUBES_ENOCONV) msg = trim(msg) // '; or the box holds more than 256 of them: a smaller box'
+      return
+    end if
+    nd = model%ndof()
+    allocate (names(size(eqs)), q(nd, size(eqs)))
+    do i = 1, size(eqs)
+      names(i) = eqs(i)%name
+      q(:, i) = eqs(i)%q(1:nd)
+    end do
+    code = choose_saddle(names, [(merge(1, merge(2, 0, eqs(i)%degenerate), eqs(i)%rank1), i = 1, size(eqs))], q, &
+                         name, use_near, near(1:nd), degenerate_ok, label, dflt, k, msg)
+    if (k < 1) return
+    chosen = eqs(k)%name
+    e_saddle = eqs(k)%energy
+  contains
+    pure function itoa(i) result(t)
+      integer, intent(in) :: i
+      character(:), allocatable :: t
+      character(16) :: b
+      write (b, '(i0)') i
+      t = trim(b)
+    end function itoa
+  end function run_saddle
 
   !> Whether the scene applies to a model with ndof degrees of freedom (plane: the section is a
   !> plane, not the ball's ray): the scenes on a Poincare section's region (transition, montecarlo,
@@ -271,26 +324,22 @@ contains
     call f_to_c(w, why)
   end function c_method_resolved
 
-  !> choose_saddle on the C equilibria list: n names of 8 bytes each (NUL-padded), kinds(n),
-  !> q(stride, n) with the first ndof rows the position; name and label NUL-terminated. Returns the
-  !> code; *k the index (0-based, -1 where none), the message in msg (len bytes).
-  integer(c_int) function c_choose_saddle(n, names, kinds, stride, ndof, q, name, use_near, near, degenerate_ok, &
-                                          label, dflt, k, msg, len) result(code) bind(C, name='tubes_choose_saddle')
-    integer(c_int), value :: n, stride, ndof, use_near, degenerate_ok, dflt, len
-    character(kind=c_char), intent(in) :: names(8*n), name(8), label(*)
-    integer(c_int), intent(in) :: kinds(n)
-    real(c_double), intent(in) :: q(stride, n), near(ndof)
-    integer(c_int), intent(out) :: k
-    character(kind=c_char), intent(out) :: msg(len)
-    character(8) :: nm(n)
+  !> run_saddle for C: name, label NUL-terminated; chosen (8 bytes) and msg (len bytes) NUL-terminated.
+  integer(c_int) function c_run_saddle(system, params, lo, hi, n_grid, stores, name, use_near, near, degenerate_ok, &
+                                       label, dflt, chosen, e_saddle, msg, len) result(code) bind(C, name='tubes_run_saddle')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), name(8), label(*)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF), near(MAX_DOF)
+    integer(c_int), value :: n_grid, use_near, degenerate_ok, dflt, len
+    type(c_ptr), value :: stores
+    character(kind=c_char), intent(out) :: chosen(8), msg(len)
+    real(c_double), intent(out) :: e_saddle
+    type(seed_stores_t), pointer :: kept
     character(2048) :: m
-    integer :: i, kk
-    do i = 1, n
-      nm(i) = c_to_f(names(8*i - 7:8*i))
-    end do
-    code = choose_saddle(nm, kinds, q(1:ndof, :), c_to_f(name(1:8)), use_near /= 0, near, degenerate_ok /= 0, &
-                         c_to_f(label(1:64)), dflt /= 0, kk, m)
-    k = kk - 1
+    character(8) :: ch
+    kept => stores_at(transfer(stores, 0_c_intptr_t))
+    code = run_saddle(trim(c_to_f(system)), params, lo, hi, n_grid, kept, c_to_f(name), use_near /= 0, near, &
+                      degenerate_ok /= 0, c_to_f(label(1:64)), dflt /= 0, ch, e_saddle, m)
+    call f_to_c(ch, chosen)
     call f_to_c(m, msg)
-  end function c_choose_saddle
+  end function c_run_saddle
 end module tubes_setup
