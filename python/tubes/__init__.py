@@ -1473,12 +1473,19 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     the end of the orbit family, a cut that did not converge) A_tube, action and p_trans are NaN;
     where the energy surface on the section failed A_E and p_trans are NaN (as in the output
     file's /transition, docs/output.md), status holds the TUBES_* code (0 where it
-    worked; tubes.EPASTEND past the family's end) and message its text.
+    worked; tubes.EPASTEND past the family's end) and message the program's messages on it.
+    The numbers, statuses and messages are the program's transition scene's
+    (src/workflow/tubes_scene_transition.f90, its result record), bit for bit; where the energy
+    surface at the saddle's energy fails (the scene's /section) it raises TubesError with the
+    program's message, as ./tubes exits 2 there. A dissipative model's Table adds A_region,
+    p_trans_conservative, status_conservative, region_rays, its dissipation, damping_rate and
+    dE_threshold (lo, hi), as /transition (status: the region's).
 
     check (default True): where an energy failed, raise TubesError (its code the first failed
     energy's status, its ``partial`` the whole Table) as ./tubes exits 4 there; check=False returns
     the Table with a RuntimeWarning naming the failed energies. Returns a tubes.Table of arrays dE,
-    A_tube, action, A_E, p_trans, status, and message (list of str, '' where it worked)."""
+    A_tube, action, A_E, p_trans, p_trans_leading, status, and message (list of str, '' where it
+    worked)."""
     model = model or Model()
     _need_2dof(model, "transition", "transition")
     de = _de_list(dE, "transition")
@@ -1490,90 +1497,67 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     st = _settings(model, saddle, saddle_near, section=section, who="transition", orbits=orbits, transition=tra,
                    integrator=integrator, equilibria=equilibria)
     de = np.array(st["des"][:int(st["ndes"][2]), 2])
-    sec = _section_args(st)
-    out = {k: np.full(de.size, np.nan) for k in ("A_tube", "action", "A_E", "p_trans")}
-    status, message = np.zeros(de.size, dtype=np.int32), [""] * de.size
     check = _args.flag("transition", "check", check)
     diss = _dissipation(model)
+    # the program's transition scene (src/workflow/tubes_scene_transition.f90): its record's
+    # /transition, its messages per energy, its verdicts
+    kind, index, level, direction = _section_args(st)
+    units = str(model.info.get("length_units", "1")) == "cm"
+    rec = _record(_lib().scene_transition(
+        *_study(model, st), kind, index, level, direction, float(np.degrees(level)) if kind == 1 else 0.0, de,
+        float(st["tub_eps"]), float(st["tra_area_tol"]), float(st["tub_t_max"]), int(st["tub_n_init"]),
+        int(st["tub_n_max"]), int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]),
+        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model),
+        float(st["mc_gate"]), float(st["mc_t_max"]), ", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation"),
+        " cm" if units else "", " (cm/s)^2" if units else "", model._stores()))
+    errs = [t for s, t in rec["lines"] if s == 2]
+    if "transition" not in rec["data"]:       # the section failed: the scene stopped there
+        codes = [int(c) for c in re.findall(r"\(status (-?\d+)\)", " ".join(errs))]
+        raise TubesError(codes[0] if codes else -1, "transition: " + "; ".join(errs))
+    g = rec["data"]["transition"]
+    out = {k: g[k] for k in ("dE", "A_tube", "action", "A_E", "p_trans", "p_trans_leading", "status")}
+    out["message"] = _energy_messages(de, errs)
     if diss:
-        return _failed_energies(_transition_damped(model, st, de, sec, diss), check)
-    for i, d in enumerate(de):
-        try:
-            c = _cut(model, st, d, -1, st["tra_area_tol"])
-        except TubesError as err:
-            c, status[i], message[i] = None, err.code, str(err)
-        if c is not None:
-            out["A_tube"][i], out["action"][i] = c["area"], c["action"]
-        stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *sec, float(d), model._stores())
-        if stat < 0:
-            message[i] = "; ".join(filter(None, (message[i], str(TubesError(stat, f"transition(dE = {d}): the energy surface")))))
-            status[i] = status[i] or stat
-        else:
-            out["A_E"][i] = ae
-            if c is not None:
-                out["p_trans"][i] = c["area"] / ae
-    out.update(dE=de, p_trans_leading=_leading(model, st, sec, de), status=status, message=message)
-    return _failed_energies(_table(out, "/transition", model), check)
+        a = rec["attrs"]["transition"]
+        stat, rate, _ = _lib().dissipation_rates(model.name, model.params())
+        out.update(A_region=g["A_region"], p_trans_conservative=g["p_trans_conservative"],
+                   status_conservative=g["status_conservative"], region_rays=g["region_rays"], **diss,
+                   damping_rate=float(rate) if stat >= 0 else np.nan,
+                   dE_threshold=(a["dE_threshold_lo"], a["dE_threshold_hi"]))
+    return _failed_energies(_table(out, "/transition", model), check, rec["code"] != 0)
 
 
-def _failed_energies(t, check):
-    """transition()'s end: where an energy failed, the TubesError of ./tubes' exit 4 (check) or a
-    RuntimeWarning (check=False); the Table is the error's partial."""
-    bad = np.flatnonzero(t["status"] != 0)
+def _energy_messages(de, errs):
+    """The scene's stderr lines per energy (each names its energy "dE = %g"), '; '-joined; '' where
+    the energy worked."""
+    msg = [[] for _ in de]
+    at = {f"{d:g}": i for i, d in enumerate(de)}
+    for t in errs:
+        m = re.search(r"dE = ([-+0-9.e]+)[ :]", t)
+        if m and m.group(1) in at:
+            msg[at[m.group(1)]].append(t)
+    return ["; ".join(m) for m in msg]
+
+
+def _failed_energies(t, check, failed):
+    """transition()'s end: where the scene failed at an energy (failed: the program exits non-zero;
+    the energies with a message), the TubesError of ./tubes' exit 4 (check) or a RuntimeWarning
+    (check=False); the Table is the error's partial."""
+    bad = np.flatnonzero([bool(m) for m in t["message"]]) if failed else np.zeros(0, dtype=int)
     if bad.size == 0:
         return t
     at = "transition: failed at dE = " + ", ".join(f"{d:g}" for d in t["dE"][bad])
     if check:
-        err = TubesError(int(t["status"][bad[0]]), at + " (NaN there; the Table, its status and message per "
-                         f"energy, in partial; check=False returns it); at dE = {t['dE'][bad[0]]:g}")
+        k = bad[0]
+        code = int(t["status"][k]) or int(t.get("status_conservative", t["status"])[k]) or -1
+        err = TubesError(code, at + " (NaN there; the Table, its status and message per "
+                         f"energy, in partial; check=False returns it); at dE = {t['dE'][k]:g}: {t['message'][k]}")
         err.partial = t
         raise err
     import warnings
     warnings.warn(at + " (NaN there; status and message hold why): " + "; ".join(m for m in t["message"] if m),
                   RuntimeWarning, stacklevel=3)
     return t
-
-
-def _leading(model, st, sec, de):
-    """p_trans_leading at the energies de (the transition scene's): NaN where its T_po, A0 or tau failed."""
-    stat, p = _lib().transition_leading(*_study(model, st), *sec, de, model._stores())
-    return np.asarray(p).copy() if stat >= 0 else np.full(de.size, np.nan)
-
-
-def _transition_damped(model, st, de, sec, diss):
-    """transition() of a dissipative model, as the transition scene's: p_trans = A_region / A_E, the
-    conservative model's A_tube / A_E beside it (p_trans_conservative)."""
-    cols = {k: np.full(de.size, np.nan) for k in ("A_region", "A_tube", "action", "A_E", "p_trans",
-                                                  "p_trans_conservative")}
-    status, status_c = np.zeros(de.size, dtype=np.int32), np.zeros(de.size, dtype=np.int32)
-    rays, message = np.zeros(de.size, dtype=np.int32), [""] * de.size
-    lo = hi = np.nan
-    rate = np.nan
-    for i, d in enumerate(de):
-        try:
-            c = _cut(model, st, d, -1, st["tra_area_tol"])
-            cols["A_tube"][i], cols["action"][i] = c["area"], c["action"]
-        except TubesError as err:
-            status_c[i] = err.code
-        stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *sec, float(d), model._stores())
-        if stat >= 0:
-            cols["A_E"][i] = ae
-            cols["p_trans_conservative"][i] = cols["A_tube"][i] / ae
-        r = _region(model, st, d, st["tra_area_tol"])
-        rate = r["damping_rate"]
-        status[i] = r["status"] if r["status"] < 0 else (stat if stat < 0 else 0)
-        if r["status"] < 0:
-            message[i] = str(TubesError(r["status"], f"transition(dE = {d:g}): the transition region"))
-            continue
-        cols["A_region"][i] = r["area"]
-        rays[i] = r["phi"].size
-        if stat >= 0:
-            cols["p_trans"][i] = r["area"] / ae
-        if r["empty"] and not np.isnan(r["dE_threshold"][0]) and not (r["dE_threshold"][0] <= lo):
-            lo, hi = r["dE_threshold"]
-    return _table(dict(dE=de, **cols, p_trans_leading=_leading(model, st, sec, de), status=status,
-                       status_conservative=status_c, region_rays=rays, message=message, **diss, damping_rate=rate,
-                       dE_threshold=(lo, hi)), "/transition", model)
 
 
 def _mc_agreement(n: int, n_transit: int, n_undecided: int, misclassified: int, p: float) -> dict:

@@ -34,14 +34,14 @@ static double now(void) {
 /* A progress line for one item of a scene's list (an energy): at most one a second, the first
  * always (docs/usage.md); the lines that report a scene's own long step are printed as they come. */
 static void progress_item(const char *fmt, ...) {
-  static double last = -1e300;
-  double t = now();
-  if (t - last < 1.0) return;
-  last = t;
+  char buf[512];
   va_list ap;
   va_start(ap, fmt);
-  vfprintf(stderr, fmt, ap);
+  int n = vsnprintf(buf, sizeof buf, fmt, ap);
   va_end(ap);
+  if (n > (int)sizeof buf - 1) n = (int)sizeof buf - 1;
+  if (n > 0 && buf[n - 1] == '\n') n--;   /* the shim ends the line */
+  tubes_progress_line(buf, n, 1);           /* one clock with the Fortran scenes' lines */
 }
 
 static void status_text(int code, char *buf, int len) { tubes_status_message(code, buf, len); }
@@ -75,8 +75,6 @@ static const char *method_label(const tubes_run_t *run) {
 }
 
 enum { NEQ_MAX = 256, MD = TUBES_MAXDOF };
-/* The leading-order p_trans, (T_po/A0) dE (1 - tau dE/A0), is flagged where |tau dE/A0| exceeds this. */
-#define LEADING_RANGE 0.3
 /* The &integrator choice as the C API's arguments (include/tubes.h): every analysis uses it. */
 #define INTEGRATOR(c) run->method, (c)->h, (c)->omega_bind, \
                       (strcmp((c)->solver, "fixed_point") ? 1 : 2), (c)->max_iter
@@ -1505,168 +1503,23 @@ int scene_tubes(tubes_run_t *run) {
   return rc;
 }
 
-/* Whole energies are dealt out to the MPI ranks (energy k on rank k mod nranks), each computed by
- * the rank alone with its OpenMP threads; the results and messages are then shared from each
- * energy's owner, and rank 0 prints them in energy order. */
-typedef struct {
-  double at, act, ae, pt, secs;
-  int rc, status;
-  char err[2048];
-  /* a dissipative model: its region's area and fraction, threshold, status, rays */
-  double ar, pd, de_lo, de_hi, area_hi;
-  int rstatus, empty, nrays;
-} transition_item_t;
-
-static void share_from(void *buf, int bytes, int owner, const tubes_run_t *run) {
-#ifdef TUBES_MPI
-  if (run->nranks > 1) MPI_Bcast(buf, bytes, MPI_BYTE, owner, MPI_COMM_WORLD);
-#else
-  (void)buf; (void)bytes; (void)owner; (void)run;
-#endif
-}
-
+/* The transition scene: src/workflow/tubes_scene_transition.f90 (its record written by record_emit;
+ * its energies dealt out over the MPI ranks there); with dissipation, /transition takes the
+ * dissipation's attributes. */
 int scene_transition(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  double a0, tau, tpo;
-  int rc = write_section(run, &a0, &tau, &tpo);
-  if (rc) return rc;
-  int n = c->tra_nde, damped = dissipative(run);
-  double *at = calloc(n, sizeof(double)), *act = calloc(n, sizeof(double)), *ae = calloc(n, sizeof(double)),
-         *pt = calloc(n, sizeof(double)), *pl = calloc(n, sizeof(double)), *ar = calloc(n, sizeof(double)),
-         *pd = calloc(n, sizeof(double));
-  transition_item_t *it = calloc(n, sizeof(transition_item_t));
-  int *stat = calloc(n, sizeof(int)), *rstat = calloc(n, sizeof(int)), *nrays = calloc(n, sizeof(int));
-  region_out_t *reg = damped ? malloc(sizeof *reg) : NULL;
-  if (!at || !act || !ae || !pt || !pl || !ar || !pd || !it || !stat || !rstat || !nrays || (damped && !reg)) {
-    fprintf(stderr, "tubes: transition: out of memory\n");
-    free(at); free(act); free(ae); free(pt); free(pl); free(ar); free(pd); free(it); free(stat); free(rstat);
-    free(nrays); free(reg);
-    return EXIT_NUMERIC;
-  }
-  if (run->nranks > 1)
-    fprintf(stderr, "transition: %d energies dealt out to %d MPI ranks\n", n, run->nranks);
-  for (int k = 0; k < n; k++) {
-    if (k % run->nranks != run->rank) continue;
-    transition_item_t *x = &it[k];
-    double de = c->tra_de[k], rmin, rmax, darea, per, t0 = now();
-    progress_item("transition: dE = %g (%d of %d)...\n", de, k + 1, n);
-    int r1 = cut_to(run, -1, "", de, -1, c->tub_eps, c->tra_area_tol, &x->at, &x->act, &per, 1, x->err,
-                    sizeof x->err, &x->status);
-    int st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &x->ae, &darea, run->seeds);
-    if (st < 0) {
-      char m[TUBES_LSTATUS];
-      status_text(st, m, sizeof m);
-      size_t l = strlen(x->err);
-      snprintf(x->err + l, sizeof x->err - l, "%stubes: transition: the energy surface on the section at dE = %g: "
-               "%s (status %d)", l ? "\n" : "", de, m, st);
-    }
-    x->rc = (r1 || st < 0) ? EXIT_PARTIAL : 0;
-    if (x->status >= 0 && st < 0) x->status = st;
-    if (st < 0) x->ae = NAN;          /* the failed call's area is no number of the program's */
-    if (x->status < 0 && x->act == 0) x->act = NAN;   /* no orbit (past the family's end): no action */
-    x->pt = (st < 0) ? NAN : x->at / x->ae;
-    x->ar = x->pd = x->de_lo = x->de_hi = x->area_hi = NAN;
-    if (damped) {            /* the dissipative model's region: p_trans is its fraction */
-      int rs = region_run(run, de, c->tra_area_tol, 1, reg, 0);
-      x->rstatus = rs;
-      x->empty = reg->counts[6];
-      x->nrays = reg->n;
-      x->de_lo = reg->res[8]; x->de_hi = reg->res[9]; x->area_hi = reg->res[10];
-      if (rs >= 0) {
-        x->ar = x->empty ? 0 : reg->res[0];
-        x->pd = st < 0 ? NAN : x->ar / x->ae;
-      } else {
-        char m[1024];
-        size_t l = strlen(x->err);
-        region_text(run, de, reg, m, sizeof m);
-        snprintf(x->err + l, sizeof x->err - l, "%s%s", l ? "\n" : "", m);
-        x->rc = EXIT_PARTIAL;
-      }
-    }
-    x->secs = now() - t0;
-  }
-  for (int k = 0; k < n; k++) share_from(&it[k], (int)sizeof it[k], k % run->nranks, run);
-  if (damped) {
-    printf("transition: the dissipative model (%s): p_trans(dE) = A_region / A_E on %d energies, A_region the "
-           "section points that pass the saddle's gate (area_tol %g); beside it the conservative model's A_tube / A_E\n",
-           run->dissip, n, c->tra_area_tol);
-    printf("  %10s %14s %14s %14s %12s %12s %6s\n", "dE", "A_region", "A_tube", "A_E", "p_trans", "conservative",
-           "rays");
-  } else {
-    printf("transition: p_trans(dE) = A_tube / A_E on %d energies (area_tol %g)\n", n, c->tra_area_tol);
-    printf("  %10s %14s %14s %14s %12s %12s\n", "dE", "A_tube", "action", "A_E", "p_trans", "leading");
-  }
-  int beyond = 0;   /* energies where the leading order's correction tau dE / A0 exceeds LEADING_RANGE */
-  double th_lo = NAN, th_hi = NAN, th_area = NAN;   /* the damped region's threshold, where one was found */
-  for (int k = 0; k < n; k++) {
-    double de = c->tra_de[k];
-    at[k] = it[k].at; act[k] = it[k].act; ae[k] = it[k].ae; pt[k] = it[k].pt;
-    ar[k] = it[k].ar; pd[k] = it[k].pd; rstat[k] = it[k].rstatus; nrays[k] = it[k].nrays;
-    pl[k] = tubes_p_trans_leading(tpo, a0, tau, de);
-    if (it[k].err[0]) fprintf(stderr, "%s\n", it[k].err);
-    if (it[k].rc) rc = EXIT_PARTIAL;
-    stat[k] = it[k].status;
-    if (damped) {
-      if (it[k].empty && !isnan(it[k].de_lo) && (isnan(th_lo) || it[k].de_lo > th_lo)) {
-        th_lo = it[k].de_lo; th_hi = it[k].de_hi; th_area = it[k].area_hi;
-      }
-      char cons[16];
-      if (it[k].status == TUBES_EPASTEND) snprintf(cons, sizeof cons, "%12s", "past end");
-      else snprintf(cons, sizeof cons, "%12.6g", pt[k]);
-      if (rstat[k] < 0)
-        printf("  %10.4g   failed (status %d, stderr says why)%25s %s  (%.1f s)\n", de, rstat[k], "", cons, it[k].secs);
-      else if (it[k].empty)
-        printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %s %6s  (%.1f s)\n", de, 0.0, at[k], ae[k], pd[k], cons, "-",
-               it[k].secs);
-      else
-        printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %s %6d  (%.1f s)\n", de, ar[k], at[k], ae[k], pd[k], cons,
-               nrays[k], it[k].secs);
-    } else if (it[k].status == TUBES_EPASTEND)
-      printf("  %10.4g   refused: past the end of the family (no orbit at this energy)\n", de);
-    else {
-      int out = fabs(tau / a0 * de) > LEADING_RANGE;
-      beyond += out;
-      printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %12.6g%s  (%.1f s)\n", de, at[k], act[k], ae[k], pt[k], pl[k],
-             out ? "*" : " ", it[k].secs);
-    }
-  }
-  if (damped && !isnan(th_lo)) {
-    if (isnan(th_hi))
-      printf("  no point of the section found to transit at dE <= %g (the scan and the search up to there)\n",
-             th_lo);
-    else if (th_area > 0)
-      printf("  the region closes between dE = %.8g and %.8g (area %.3g at the upper end): the search from its "
-             "centre finds no point that transits at dE <= %.8g\n", th_lo, th_hi, th_area, th_lo);
-    else   /* the upper end's region: a point that transits, too small or ragged to trace */
-      printf("  the region closes between dE = %.8g and %.8g (at the upper end a point transits, its region "
-             "too small to trace): the search from its centre finds no point that transits at dE <= %.8g\n",
-             th_lo, th_hi, th_lo);
-  }
-  if (beyond)
-    printf("  * the leading order (T_po/A0) dE (1 - tau dE/A0) is outside its range there: tau dE/A0 > %g "
-           "(p_trans is A_tube/A_E, computed)\n", LEADING_RANGE);
-  hid_t g = h5_group(run->file, "transition");
-  int e = g < 0;
-  hsize_t dn = (hsize_t)n;
-  e |= h5_write_double(g, "dE", 1, &dn, c->tra_de, NULL);
-  e |= h5_write_double(g, "A_tube", 1, &dn, at, NULL);
-  e |= h5_write_double(g, "action", 1, &dn, act, NULL);
-  e |= h5_write_double(g, "A_E", 1, &dn, ae, NULL);
-  e |= h5_write_double(g, "p_trans", 1, &dn, damped ? pd : pt, NULL);
-  e |= h5_write_double(g, "p_trans_leading", 1, &dn, pl, NULL);
-  e |= h5_write_int(g, "status", dn, damped ? rstat : stat, NULL);
-  if (damped) {
-    e |= h5_write_double(g, "A_region", 1, &dn, ar, NULL);
-    e |= h5_write_double(g, "p_trans_conservative", 1, &dn, pt, NULL);
-    e |= h5_write_int(g, "status_conservative", dn, stat, NULL);
-    e |= h5_write_int(g, "region_rays", dn, nrays, NULL);
-    e |= dissipation_attrs(g, run);
-    e |= h5_attr_double(g, "dE_threshold_lo", th_lo);
-    e |= h5_attr_double(g, "dE_threshold_hi", th_hi);
-  }
-  if (g >= 0) H5Gclose(g);
-  free(at); free(act); free(ae); free(pt); free(pl); free(ar); free(pd); free(it); free(stat); free(rstat);
-  free(nrays); free(reg);
+  int h = tubes_transition_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
+                                 c->sec_angle, c->tra_nde, c->tra_de, c->tub_eps, c->tra_area_tol, c->tub_t_max,
+                                 c->tub_n_init, c->tub_n_max, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol,
+                                 c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c), c->mc_gate,
+                                 c->mc_t_max, dissipative(run) ? run->dissip : "", in_units(" cm"),
+                                 in_units(" (cm/s)^2"), H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
+  int rc = record_emit(run->file, h);
+  if (rc == EXIT_IO || !dissipative(run) || H5Lexists(run->file, "transition", H5P_DEFAULT) <= 0) return rc;
+  hid_t g = H5Gopen2(run->file, "transition", H5P_DEFAULT);
+  if (g < 0) return EXIT_IO;
+  int e = dissipation_attrs(g, run);
+  H5Gclose(g);
   return e ? EXIT_IO : rc;
 }
 
