@@ -280,6 +280,17 @@ int tubes_transition_scene(const char *system, const double *params, const doubl
                            int orb_max_iter, int orb_n_samples, int method, double h, double omega_bind, int solver,
                            int max_iter, double gate, double mc_t_max, const char *dissip, const char *gate_units,
                            const char *energy_units, int written, void *stores);
+/* The montecarlo scene (src/workflow/tubes_scene_montecarlo.f90): as tubes_transition_scene, at de
+ * with n points from seed; area_tol &montecarlo's; noisy: the model carries noise; gate_at: the
+ * head of a message about &montecarlo gate ("FILE:LINE: "); speed_units " cm/s" or "". */
+int tubes_montecarlo_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
+                           const char *saddle, int sec_kind, int sec_index, double level, int dir, double angle_deg,
+                           double de, int n, int seed, double eps, double area_tol, double t_max, int n_init,
+                           int n_max, int n_segments, int family, double orb_tol, double orb_rtol, double orb_atol,
+                           int orb_max_iter, int orb_n_samples, int method, double h, double omega_bind, int solver,
+                           int max_iter, double gate, double mc_t_max, const char *dissip, int noisy,
+                           const char *gate_at, const char *gate_units, const char *energy_units,
+                           const char *speed_units, int written, void *stores);
 int tubes_record_code(int h);
 void tubes_record_sizes(int h, int *n_items, int *n_lines);
 int tubes_record_line(int h, int j, int *stream, char *buf, int len);

@@ -1618,56 +1618,55 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     st = _settings(model, saddle, saddle_near, section=section, who="monte_carlo", orbits=orbits, montecarlo=mc,
                    integrator=integrator, equilibria=equilibria)
     de, ns, seed = float(st["mc_de"]), int(st["mc_n_samples"]), int(st["mc_seed"])
-    c = _cut(model, st, de, -1, float(st["mc_area_tol"]))
-    stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), de,
-                                                    model._stores())
-    _check(stat, "monte_carlo")
     diss = _dissipation(model)
-    damped = {}
-    cut_r, cut_p, area = c["r"], c["p_r"], c["area"]
     noisy = "noise" in diss.get("dissipation", "")
-    if diss:        # the dissipative model's prediction: its transition region (the scene's; noise-free)
-        reg = _region(model, st, de, float(st["mc_area_tol"]), noiseless=True)
-        if reg["status"] < 0:
-            err = TubesError(reg["status"], f"monte_carlo(dE = {de:g}): the transition region")
-            err.partial = reg
-            raise err
-        cut_r, cut_p, area = reg["curve_r"], reg["curve_p_r"], reg["area"]
-        damped = {**diss, "damping_rate": reg["damping_rate"], "p_trans_conservative": c["area"] / ae,
-                  "predicted_by": "none (noise): p_trans is the noise-free region's" if noisy else "region"}
-    stat, r, pr, outc, ins = _lib().monte_carlo(*_study(model, st), *_section_args(st), de,
-                                                ns, seed, float(st["mc_t_max"]),
-                                                float(st["mc_gate"]), *_integ(st, model), cut_r, cut_p,
-                                                model._stores())
-    if stat < 0:   # as the scene: how many samples failed, and the first
-        bad = np.flatnonzero(outc < 0)
-        where = "monte_carlo"
-        if bad.size:
-            k = int(bad[0])
-            where += (f": {bad.size} of {ns} samples failed (the first: sample {k + 1} at (s, p_s) = "
-                      f"({r[k]:.10g}, {pr[k]:.10g}))")
-        err = TubesError(stat, where)
-        err.partial = Table({"dE": de, "n_samples": ns, "seed": seed, "status": int(stat), "r": r.copy(), "p_r": pr.copy(),
-                             "transit": outc.copy(), "agrees": False})
+    # the program's montecarlo scene (src/workflow/tubes_scene_montecarlo.f90): its record's
+    # /montecarlo, its messages, its verdict
+    rec = _record(_lib().scene_montecarlo(*_study(model, st), *_scene_args(model, st, de, ns, seed, diss, noisy)))
+    errs = [t for s, t in rec["lines"] if s == 2]
+    a = rec["attrs"].get("montecarlo")
+    if a is None:       # the section failed: the scene stopped there
+        codes = [int(c) for c in re.findall(r"\(status (-?\d+)\)", " ".join(errs))]
+        raise TubesError(codes[0] if codes else -1, "monte_carlo: " + "; ".join(errs))
+    g = rec["data"].get("montecarlo", {})
+    if a["status"] < 0:     # as the scene: why, how many samples failed, and the first
+        err = TubesError(a["status"], "monte_carlo: " + "; ".join(errs))
+        err.partial = Table({"dE": de, "n_samples": ns, "seed": seed, "status": int(a["status"]),
+                             **{k: g[k].copy() for k in ("r", "p_r", "transit") if k in g}, "agrees": False})
         raise err
-    ins = ins.astype(bool)
-    nt, nu = int(np.sum(outc == 1)), int(np.sum(outc == 2))
-    in_nt, out_t = int(np.sum(ins & (outc != 1))), int(np.sum(~ins & (outc == 1)))
-    f, p = nt / ns, area / ae
-    out = Table({"dE": de, "n_samples": ns, "seed": seed, "status": 0, "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / ns)),
-           "p_trans": p, **damped, "misclassified": in_nt + out_t, "misclassified_inside_no_transit": in_nt,
-           "misclassified_outside_transit": out_t, "undecided": nu, "escaped": int(np.sum(outc == 3)),
-           **({"trapped": int(np.sum(outc == 4))} if diss else {}),
-           **_mc_agreement(ns, nt, nu, in_nt + out_t, p),
-           "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins})
+    ins = g["inside"] == 1
+    damped = {}
+    if diss:
+        stat, rate, _ = _lib().dissipation_rates(model.name, model.params())
+        damped = {**diss, "damping_rate": float(rate) if stat >= 0 else np.nan,
+                  "p_trans_conservative": a["p_trans_conservative"], "predicted_by": a["predicted_by"]}
+    nt, nu = int(np.sum(g["transit"] == 1)), a["undecided"]
+    out = Table({"dE": de, "n_samples": ns, "seed": seed, "status": 0, "fraction": a["fraction"],
+                 "std_error": a["std_error"], "p_trans": a["p_trans"], **damped, "misclassified": a["misclassified"],
+                 "misclassified_inside_no_transit": a["misclassified_inside_no_transit"],
+                 "misclassified_outside_transit": a["misclassified_outside_transit"], "undecided": nu,
+                 "escaped": a["escaped"], **({"trapped": a["trapped"]} if diss else {}),
+                 **_mc_agreement(ns, nt, nu, a["misclassified"], a["p_trans"]),
+                 "r": g["r"], "p_r": g["p_r"], "transit": g["transit"], "inside": ins})
     out = _table(out, "/montecarlo", model)
-    # the scene's check (src/workflow/tubes_verdicts.f90 mc_check; a noisy model: the undecided count alone)
-    code, _sig, agrees, msg = _lib().verdict_montecarlo(de, ns, nt, nu, in_nt + out_t, p, int(noisy), st["saddle"])
-    out["agrees"] = bool(agrees)
-    out["verdicts"] = [_str(msg)] if code else []
-    if check and code:
-        raise DisagreementError(_str(msg) + " (check=False returns the result with agrees False)", out)
+    out["agrees"] = bool(a["agrees"])
+    out["verdicts"] = errs if rec["code"] else []
+    if check and rec["code"]:
+        raise DisagreementError("; ".join(errs) + " (check=False returns the result with agrees False)", out)
     return out
+
+
+def _scene_args(model, st, de, ns, seed, diss, noisy):
+    """The montecarlo scene's arguments after the study's (python/tubes_f2py.f90 scene_montecarlo)."""
+    kind, index, level, direction = _section_args(st)
+    units = str(model.info.get("length_units", "1")) == "cm"
+    return (kind, index, level, direction, float(np.degrees(level)) if kind == 1 else 0.0, de, ns, seed,
+            float(st["tub_eps"]), float(st["mc_area_tol"]), float(st["tub_t_max"]), int(st["tub_n_init"]),
+            int(st["tub_n_max"]), int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]),
+            float(st["orb_rtol"]), float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]),
+            *_integ(st, model), float(st["mc_gate"]), float(st["mc_t_max"]),
+            ", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation"), int(noisy), "monte_carlo: ",
+            " cm" if units else "", " (cm/s)^2" if units else "", " cm/s" if units else "", model._stores())
 
 
 def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, n_iter=None, t_max=None,

@@ -1095,13 +1095,6 @@ out:
 
 /* ---------------------------------------------------------------- tube dynamics scenes */
 
-/* ", N escaped" for the Monte Carlo line (a static buffer: one line at a time). */
-static const char *escaped_text(int n) {
-  static char b[48];
-  snprintf(b, sizeof b, ", %d escaped (through another exit)", n);
-  return b;
-}
-
 /* E_e, T_po of the saddle named by &orbits saddle. */
 static int saddle_props(tubes_run_t *run, double *ee, double *tpo) {
   static eqlist_t L;
@@ -1523,179 +1516,29 @@ int scene_transition(tubes_run_t *run) {
   return e ? EXIT_IO : rc;
 }
 
-/* The /montecarlo group with what every outcome records: dE, n_samples, seed, status, and the
- * points (r, p_r, transit) when they were integrated (r != NULL). *e collects write errors. */
-static hid_t mc_group(tubes_run_t *run, double de, int ns, int st, const double *r, const double *pr,
-                      const int *out, int *e) {
-  hid_t g = h5_group(run->file, "montecarlo");
-  hsize_t dn = (hsize_t)ns;
-  *e |= g < 0;
-  *e |= h5_attr_double(g, "dE", de);
-  *e |= h5_attr_long(g, "n_samples", ns);
-  *e |= h5_attr_long(g, "seed", run->cfg->mc_seed);
-  *e |= h5_attr_long(g, "status", st);
-  if (r) {
-    *e |= h5_write_double(g, "r", 1, &dn, r, NULL);
-    *e |= h5_write_double(g, "p_r", 1, &dn, pr, NULL);
-    *e |= h5_write_int(g, "transit", dn, out, NULL);
-  }
-  return g;
-}
-
+/* The montecarlo scene: src/workflow/tubes_scene_montecarlo.f90 (its record written by record_emit);
+ * a dissipative model's /montecarlo takes the dissipation's attributes where the check ran. */
 int scene_montecarlo(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  double a0, tau, tpo;
-  int rc = write_section(run, &a0, &tau, &tpo);
-  if (rc) return rc;
-  int nout = c->tub_n_max, n = 0, nh = 0, hn[64], nfail = 0;
-  double ftau = 0, floq[2 * MD], sigma = 0, de = c->mc_de, *tau_ = malloc(sizeof(double) * nout), *cr = malloc(sizeof(double) * nout),
-         *cp = malloc(sizeof(double) * nout), *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 2 * MD * nout),
-         ha[64], ar = 0, ap = 0, act = 0, per = 0, rmin, rmax, ae, darea, t0 = now();
-  int ns = c->mc_n_samples, damped = dissipative(run);
-  double *r = malloc(sizeof(double) * ns), *pr = malloc(sizeof(double) * ns), p_cons = NAN;
-  int *out = malloc(sizeof(int) * ns), *ins = malloc(sizeof(int) * ns);
-  region_out_t *reg = damped ? malloc(sizeof *reg) : NULL;
-  fprintf(stderr, "montecarlo: the tube cut at dE = %g...\n", de);
-  int st = tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, -1, SECTION(c), c->tub_eps, c->mc_area_tol,
-                          c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol,
-                          c->orb_atol, INTEGRATOR(c), nout,
-                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau, floq, &sigma, 0,
-                          run->seeds);
-  if (st < 0 && nfail > 0)
-    fprintf(stderr, "tubes: montecarlo: the tube cut at dE = %g: %d seed(s) failed, the first at orbit phase "
-            "tau = %.10g s\n", de, nfail, ftau);
-  if (st >= 0) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &ae, &darea, run->seeds);
-  if (st >= 0 && damped) {
-    /* the dissipative model's prediction: its transition region (the conservative tube's fraction
-     * beside it); the points are sorted by the region's boundary */
-    p_cons = ar / ae;
-    fprintf(stderr, "montecarlo: the damped model's transition region at dE = %g...\n", de);
-    if (!reg) st = TUBES_EINPUT;
-    else if (region_run(run, de, c->mc_area_tol, 0, reg, 1) < 0) {
-      char m[1024];
-      region_text(run, de, reg, m, sizeof m);
-      fprintf(stderr, "%s\n", m);
-      st = reg->st;
-    } else {
-      ar = reg->counts[6] ? 0 : reg->res[0];
-      n = reg->counts[6] ? 0 : reg->m;
-      for (int k = 0; k < n && k < nout; k++) { cr[k] = reg->cs[k]; cp[k] = reg->cp[k]; }
-      if (n > nout) n = nout;
-    }
-  }
-  int mc_ran = 0;
-  if (st >= 0) {
-    mc_ran = 1;
-    fprintf(stderr, "montecarlo: integrating %d points...\n", ns);
-    st = tubes_monte_carlo(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, c->mc_seed, c->mc_t_max,
-                           c->mc_gate, INTEGRATOR(c), n, cr, cp, r, pr, out, ins, run->seeds);
-  }
-  if (st < 0) {
-    char m[512];
-    status_text(st, m, sizeof m);
-    double reach = 0;
-    if (st == TUBES_EPASTEND) {
-      past_end_message(run, de, m, sizeof m, 0);
-      fprintf(stderr, "%s\n", m);
-    } else if (st == TUBES_ENARROW &&
-               !tubes_gate_reach(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, &reach,
-                                 run->seeds)) {
-      /* refused before any sample was integrated */
-      mc_ran = 0;
-      say_at(run, nml_line(run->where, "montecarlo", "gate"));
-      fprintf(stderr, "&montecarlo: gate = %g%s lies within twice the reach of the NHIM (the Lyapunov orbits) across "
-              "saddle %s's neck at dE = %g (%.3g%s): orbits near it swing past the gate and back and would count as "
-              "transits; allowed: gate > %.3g%s (docs/input.md)\n", c->mc_gate, in_units(" cm"), run->saddle, de, reach,
-              in_units(" cm"), 2 * reach, in_units(" cm"));
-    } else
-      fprintf(stderr, "tubes: montecarlo: failed: %s (status %d)\n", m, st);
-    int nbad = 0, first = -1;
-    if (st == TUBES_EINTERRUPT) mc_ran = 0;   /* stopped: the samples not drawn did not fail */
-    for (int k = 0; k < ns && mc_ran; k++)
-      if (out[k] < 0) {
-        if (first < 0) first = k;
-        nbad++;
-      }
-    if (first >= 0) {
-      status_text(out[first], m, sizeof m);
-      fprintf(stderr, "tubes: montecarlo: %d of %d samples failed; the first, sample %d at (r, p_r) = (%.10g%s, "
-              "%.10g%s): %s (status %d)\n", nbad, ns, first + 1, r[first], in_units(" cm"), pr[first],
-              in_units(" cm/s"), m, out[first]);
-    }
-    rc = st == TUBES_EPASTEND ? EXIT_PARTIAL : EXIT_NUMERIC;
-    /* the failure is recorded in the file (docs/output.md): the scene's status, no fraction */
-    int e = 0;
-    hid_t g = mc_group(run, de, ns, st, mc_ran ? r : NULL, pr, out, &e);
-    status_text(st, m, sizeof m);
-    e |= h5_attr_string(g, "status_message", m);
-    e |= h5_attr_long(g, "agrees", 0);
-    if (g >= 0) H5Gclose(g);
-    if (e) rc = EXIT_IO;
-  } else {
-    int nt = 0, nu = 0, in_nt = 0, out_t = 0, nin = 0, nesc = 0, ntrap = 0;
-    for (int k = 0; k < ns; k++) {
-      nt += out[k] == 1;
-      nu += out[k] == 2;
-      nesc += out[k] == 3;   /* left for good through another exit: no transition */
-      ntrap += out[k] == 4;  /* fell below the saddle's energy (dissipative): no transition */
-      nin += ins[k];
-      in_nt += ins[k] && out[k] != 1;
-      out_t += !ins[k] && out[k] == 1;
-    }
-    /* the two answers must agree (tubes_verdicts mc_check, Python's monte_carlo's too): the direct
-     * count within MC_SIGMA standard errors of the tube's p_trans, few misclassified, few
-     * undecided; else the run says so and exits 2 (docs/tubes.md, "Monte Carlo check") */
-    double f = (double)nt / ns, se = sqrt(f * (1 - f) / ns), p = ar / ae, nsig;
-    int agrees;
-    char verdict[1024];
-    tubes_verdict_montecarlo(de, ns, nt, nu, in_nt + out_t, p, run->noisy, run->saddle, &nsig, &agrees, verdict,
-                             (int)sizeof verdict);
-    if (run->noisy) {   /* no deterministic prediction to hold it to: the fraction under noise, beside the
-                         * noise-free region's (its D -> 0 limit); only the undecided count is checked */
-      printf("montecarlo: the noisy model (%s), dE = %g, %d points: transition fraction %.5f +- %.5f under noise "
-             "(the noise-free region's p_trans = %.5f, %+.1f standard errors from it; conservative A_tube/A_E = %.5f); "
-             "%d points end otherwise than the noise-free region says; %d undecided%s (%.1f s)\n",
-             run->dissip, de, ns, f, se, p, se > 0 ? (f - p) / se : 0.0, p_cons, in_nt + out_t, nu,
-             nesc ? escaped_text(nesc) : "", now() - t0);
-    } else if (damped)
-      printf("montecarlo: the dissipative model (%s), dE = %g, %d points: transition fraction "
-             "%.5f +- %.5f (p_trans = A_region/A_E = %.5f, %.1f standard errors; conservative A_tube/A_E = %.5f); %d "
-             "inside the region; misclassified %d (inside, no transit) + %d (outside, transit); %d fell below E_e; %d "
-             "undecided%s (%.1f s)\n",
-             run->dissip, de, ns, f, se, p, nsig, p_cons, nin, in_nt, out_t, ntrap, nu,
-             nesc ? escaped_text(nesc) : "", now() - t0);
-    else
-      printf("montecarlo: dE = %g, %d points: transition fraction %.5f +- %.5f (p_trans = %.5f, %.1f standard errors);"
-             " %d inside the tube; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided%s (%.1f s)\n",
-             de, ns, f, se, p, nsig, nin, in_nt, out_t, nu, nesc ? escaped_text(nesc) : "", now() - t0);
-    int e = 0;
-    hsize_t dn = (hsize_t)ns;
-    hid_t g = mc_group(run, de, ns, 0, r, pr, out, &e);
-    if (damped) {
-      e |= dissipation_attrs(g, run);
-      e |= h5_attr_double(g, "p_trans_conservative", p_cons);
-      e |= h5_attr_string(g, "predicted_by", run->noisy ? "none (noise): p_trans is the noise-free region's" : "region");
-    }
-    e |= h5_attr_double(g, "fraction", f);
-    e |= h5_attr_double(g, "std_error", se);
-    e |= h5_attr_double(g, "p_trans", p);
-    e |= h5_attr_long(g, "misclassified", in_nt + out_t);
-    e |= h5_attr_long(g, "misclassified_inside_no_transit", in_nt);
-    e |= h5_attr_long(g, "misclassified_outside_transit", out_t);
-    e |= h5_attr_long(g, "undecided", nu);
-    e |= h5_attr_long(g, "escaped", nesc);
-    if (damped) e |= h5_attr_long(g, "trapped", ntrap);
-    e |= h5_write_int(g, "inside", dn, ins, NULL);
-    e |= h5_attr_long(g, "agrees", agrees);
-    if (g >= 0) H5Gclose(g);
-    if (e) rc = EXIT_IO;
-    else if (!agrees) {
-      fprintf(stderr, "%s\n", verdict);
-      rc = EXIT_NUMERIC;
-    }
-  }
-  free(tau_); free(cr); free(cp); free(tm); free(xs); free(r); free(pr); free(out); free(ins); free(reg);
-  return rc;
+  char at[1024];   /* the head of a message about &montecarlo gate (say_at's) */
+  int ln = nml_line(run->where, "montecarlo", "gate");
+  if (run->input && ln > 0) snprintf(at, sizeof at, "%s:%d: ", run->input, ln);
+  else if (run->input) snprintf(at, sizeof at, "%s: ", run->input);
+  else snprintf(at, sizeof at, "tubes: ");
+  int h = tubes_montecarlo_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
+                                 c->sec_angle, c->mc_de, c->mc_n_samples, c->mc_seed, c->tub_eps, c->mc_area_tol,
+                                 c->tub_t_max, c->tub_n_init, c->tub_n_max, orb_nseg(c), c->orb_family, c->orb_tol,
+                                 c->orb_rtol, c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c),
+                                 c->mc_gate, c->mc_t_max, dissipative(run) ? run->dissip : "", run->noisy, at,
+                                 in_units(" cm"), in_units(" (cm/s)^2"), in_units(" cm/s"),
+                                 H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
+  int rc = record_emit(run->file, h);
+  if (rc == EXIT_IO || !dissipative(run) || H5Lexists(run->file, "montecarlo", H5P_DEFAULT) <= 0) return rc;
+  hid_t g = H5Gopen2(run->file, "montecarlo", H5P_DEFAULT);
+  if (g < 0) return EXIT_IO;
+  int e = H5Aexists(g, "fraction") > 0 ? dissipation_attrs(g, run) : 0;
+  H5Gclose(g);
+  return e ? EXIT_IO : rc;
 }
 
 int scene_sections(tubes_run_t *run) {

@@ -28,7 +28,7 @@ module tubes_scene_transition
   implicit none
   private
 
-  public :: scene_transition, transition_opts_t, family_stop_text
+  public :: scene_transition, family_stop_text, past_end_message, region_text
 
   !> The scene's settings beyond the study's (&tubes, &transition, &orbits, &montecarlo).
   type, public :: transition_opts_t
@@ -41,6 +41,7 @@ module tubes_scene_transition
     real(wp) :: angle_deg = 0          !! &section angle [deg] (the ray's, as given)
     character(16) :: gate_units = ''   !! ' cm' (the ball's), or '' for a dimensionless model
     character(16) :: energy_units = '' !! ' (cm/s)^2', or ''
+    character(16) :: speed_units = ''  !! ' cm/s', or ''
   end type transition_opts_t
 
   !> The leading-order p_trans is flagged where |tau dE/A0| exceeds this.
@@ -194,7 +195,6 @@ contains
     end if
 
   contains
-
     !> Energy k on this rank: its numbers x, its codes c and its messages e (character codes, 0 ended).
     subroutine energy(k, x, c, e)
       integer, intent(in) :: k
@@ -243,7 +243,7 @@ contains
           x(6) = merge(0.0_wp, res(1), counts(7) /= 0)
           if (sst >= 0) x(7) = x(6)/ae
         else
-          m = region_text(de, stat, counts)
+          m = region_text(st, o, de, stat, counts)
           if (len(msg) > 0) m = new_line('a') // m
           msg = msg // m
           c(1) = EXIT_PARTIAL
@@ -257,26 +257,29 @@ contains
       end do
     end subroutine energy
 
-    !> The region's failure in words.
-    function region_text(de, stat, counts) result(m)
-      real(wp), intent(in) :: de
-      integer, intent(in) :: stat, counts(8)
-      character(:), allocatable :: m
-      if (stat == TUBES_ENARROW) then
-        m = 'tubes: the transition region at dE = ' // num(de) // ': &montecarlo gate = ' // num(o%gate) // &
-            trim(o%gate_units) // " lies within twice the reach of the NHIM across saddle " // trim(st%saddle) // &
-            "'s neck (raise gate; docs/input.md)"
-      else if (counts(1) == 0) then
-        m = 'tubes: the transition region at dE = ' // num(de) // ' failed: ' // status_message(stat) // &
-            ' (status ' // itoa(stat) // ')'
-      else
-        m = 'tubes: the transition region at dE = ' // num(de) // ' failed: ' // status_message(stat) // &
-            ' (status ' // itoa(stat) // '); ' // itoa(counts(1)) // ' scan points, ' // itoa(counts(2)) // &
-            ' transit, ' // itoa(counts(3)) // ' undecided, ' // itoa(counts(4)) // &
-            ' on the wrong side of the traced boundary'
-      end if
-    end function region_text
   end subroutine scene_transition
+
+  !> The transition region's failure at de in words (region_numbers' counts).
+  function region_text(st, o, de, stat, counts) result(m)
+    type(study_t), intent(in) :: st
+    type(transition_opts_t), intent(in) :: o
+    real(wp), intent(in) :: de
+    integer, intent(in) :: stat, counts(8)
+    character(:), allocatable :: m
+    if (stat == TUBES_ENARROW) then
+      m = 'tubes: the transition region at dE = ' // num(de) // ': &montecarlo gate = ' // num(o%gate) // &
+          trim(o%gate_units) // " lies within twice the reach of the NHIM across saddle " // trim(st%saddle) // &
+          "'s neck (raise gate; docs/input.md)"
+    else if (counts(1) == 0) then
+      m = 'tubes: the transition region at dE = ' // num(de) // ' failed: ' // status_message(stat) // &
+          ' (status ' // itoa(stat) // ')'
+    else
+      m = 'tubes: the transition region at dE = ' // num(de) // ' failed: ' // status_message(stat) // &
+          ' (status ' // itoa(stat) // '); ' // itoa(counts(1)) // ' scan points, ' // itoa(counts(2)) // &
+          ' transit, ' // itoa(counts(3)) // ' undecided, ' // itoa(counts(4)) // &
+          ' on the wrong side of the traced boundary'
+    end if
+  end function region_text
 
   !> The tube's cut at de (kind -1 stable, +1 unstable) on this rank alone, as the scenes take it:
   !> its area (NaN where it failed), the orbit's action and period, the status, and where it
@@ -301,7 +304,7 @@ contains
     call cut_outputs(c, orb, n, ta, ra, pa, tm, xs, ar, ap, action, period, nfail, nh, hn, ha)
     msg = ''
     if (stat == TUBES_EPASTEND) then
-      msg = 'tubes: ' // past_end_message(st, de, o, stores) // ' (and no tube)'
+      msg = past_end_message(st, de, o, .true., stores)
     else if (stat < 0) then
       nd = 0
       if (allocated(c%x)) nd = size(c%x, 1)/2
@@ -338,11 +341,12 @@ contains
   end subroutine cut
 
   !> Why the saddle's family has no orbit at de, for a cut asked past it: where the family ends
-  !> and why, as the orbits scene says (its continuation on this rank alone).
-  function past_end_message(st, de, o, stores) result(m)
+  !> and why, as the orbits scene says.
+  function past_end_message(st, de, o, local, stores) result(m)
     type(study_t), intent(in) :: st
     real(wp), intent(in) :: de
     type(transition_opts_t), intent(in) :: o
+    logical, intent(in) :: local           !! the continuation on this rank alone
     type(seed_stores_t), pointer, intent(in) :: stores
     character(:), allocatable :: m
     type(study_t) :: plain
@@ -355,14 +359,14 @@ contains
     plain = study_t(system=st%system, params=st%params, lo=st%lo, hi=st%hi, n_grid=st%n_grid, saddle=st%saddle, &
                     integ=st%integ)
     oo = orbit_opts_t(n_segments=st%n_segments, tol=st%orb_tol, rtol=st%orb_rtol, atol=st%orb_atol, &
-                      max_iter=o%orb_max_iter, n_samples=o%orb_n_samples, family=st%family, local=.true., &
+                      max_iter=o%orb_max_iter, n_samples=o%orb_n_samples, family=st%family, local=local, &
                       integ=st%integ)
     call study_family(plain, [de], oo, model, eqs, isad, orbs, end_de, reason, stat, stores)
     if (stat < 0) then
       end_de = -1
       reason = 0
     end if
-    m = family_stop_text(trim(st%saddle), de, end_de, reason, trim(o%energy_units))
+    m = 'tubes: ' // family_stop_text(trim(st%saddle), de, end_de, reason, trim(o%energy_units)) // ' (and no tube)'
   end function past_end_message
 
   !> Why the family has no orbit at de (its continuation ended at end_de, if > 0, for reason):
