@@ -291,6 +291,16 @@ int tubes_montecarlo_scene(const char *system, const double *params, const doubl
                            int max_iter, double gate, double mc_t_max, const char *dissip, int noisy,
                            const char *gate_at, const char *gate_units, const char *energy_units,
                            const char *speed_units, int written, void *stores);
+/* The tubes scene (src/workflow/tubes_scene_tubes.f90): as tubes_transition_scene, the nde energies
+ * des and kinds ("stable", "unstable", "both"), area_tol &tubes'; length: the coordinates' units in
+ * words; check_eps: repeat each cut with eps/10 (the program does). */
+int tubes_tubes_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
+                      const char *saddle, int sec_kind, int sec_index, double level, int dir, double angle_deg,
+                      int nde, const double *des, const char *kinds, double eps, double area_tol, double t_max,
+                      int n_init, int n_max, int n_segments, int family, double orb_tol, double orb_rtol,
+                      double orb_atol, int orb_max_iter, int orb_n_samples, int method, double h, double omega_bind,
+                      int solver, int max_iter, double gate, double mc_t_max, const char *dissip, const char *length,
+                      const char *gate_units, const char *energy_units, int check_eps, int written, void *stores);
 int tubes_record_code(int h);
 void tubes_record_sizes(int h, int *n_items, int *n_lines);
 int tubes_record_line(int h, int j, int *stream, char *buf, int len);

@@ -1549,6 +1549,42 @@ subroutine scene_montecarlo(system, params, lo, hi, n_grid, saddle, sec_kind, se
   h = record_keep(rec)
 end subroutine scene_montecarlo
 
+subroutine scene_tubes(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+                       nde, des, kinds, eps, area_tol, t_max, n_init, n_max, n_segments, family, &
+                       orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, method, hstep, &
+                       omega_bind, solver, max_iter, gate, mc_t_max, dissip, check_eps, stores, h)
+  ! the tubes scene (src/workflow/tubes_scene_tubes.f90), as the program's: the handle of its
+  ! result record (arguments as include/tubes.h tubes_tubes_scene; a plane's or the ray's
+  ! section; the console's units in words left out)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_study, only: seed_stores_t, stores_at, study_t, section_choice_t
+  use tubes_record, only: record_t, record_keep
+  use tubes_capi, only: integ_of
+  use tubes_scene_transition, only: transition_opts_t
+  use tubes_scene_tubes, only: scene_run => scene_tubes
+  implicit none
+  character(len=*), intent(in) :: system, saddle, kinds, dissip
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, des(nde), eps, area_tol, t_max, &
+                                orb_tol, orb_rtol, orb_atol, hstep, omega_bind, gate, mc_t_max
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, nde, n_init, n_max, n_segments, &
+                                family, orb_max_iter, orb_n_samples, method, solver, max_iter, check_eps
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: h
+  type(record_t), allocatable :: rec
+  type(study_t) :: st
+  type(transition_opts_t) :: o
+  allocate (rec)
+  st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+               n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, &
+               orb_atol=orb_atol, integ=integ_of(method, hstep, omega_bind, solver, max_iter))
+  o = transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
+                        orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
+                        mc_t_max=mc_t_max)
+  call scene_run(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), des, &
+                 trim(kinds), o, '', trim(dissip), check_eps /= 0, .false., stores_at(stores), rec)
+  h = record_keep(rec)
+end subroutine scene_tubes
+
 subroutine record_sizes(h, code, n_items, n_lines)
   ! a result record's exit code (-1: no record), numbers of items and of console lines
   use, intrinsic :: iso_c_binding, only: c_int

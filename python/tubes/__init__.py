@@ -1297,31 +1297,6 @@ def _normal_form_flux(model, st, de, order):
                             "smallest_divisor": float(diag[3])}}
 
 
-def _cut(model, st, de, kind, area_tol, eps=None):
-    n_max = int(st["tub_n_max"])
-    eps = float(st["tub_eps"]) if eps is None else eps
-    (stat, n, tau, r, pr, tm, xs, area, apoly, act, per, nfail, nh, hn, ha, floq, sigma) = _lib().tube_cut(
-        *_study(model, st), int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]),
-        float(st["orb_atol"]), *_section_args(st), float(de), int(kind), eps,
-        float(area_tol), float(st["tub_t_max"]), int(st["tub_n_init"]), n_max, *_integ(st, model),
-        model._stores())
-    _check(stat, f"tube_cut(dE = {de})")
-    nd = model.ndof
-    out = {"dE": float(de), "r": r[:n].copy(), "p_r": pr[:n].copy(), "tau": tau[:n].copy(),
-           "time": tm[:n].copy(), "state": xs[:2 * nd, :n].T.copy(), "area": float(area),
-           "area_polygon": float(apoly), "action": float(act), "period": float(per),
-           "kind": "stable" if kind < 0 else "unstable", "eps": eps, "converged": int(stat >= 0),
-           "history_n": hn[:nh].astype(np.int32), "history_area": ha[:nh].copy()}
-    if nd > 2:   # as the scene's 3-DOF /tubes/<kind>_<k> (docs/output.md)
-        k = int(st["sec_index"])
-        pairs = [j for j in range(1, nd + 1) if j != k]
-        out.update(section=np.stack([out["state"][:, c] for j in pairs for c in (j - 1, nd + j - 1)], axis=1),
-                   axes=" ".join(f"q{j} p{j}" for j in pairs), floquet_vector=floq[:2 * nd].copy(),
-                   sigma=float(sigma), family=int(st["orb_family"]), section_index=k,
-                   section_value=float(st["sec_level"]), section_direction=int(st["sec_dir"]))
-    return out
-
-
 TUBE_KINDS = {"stable": -1, "unstable": 1}   # the tubes scene's kind (src/io/tubes_scenes.c)
 
 
@@ -1361,10 +1336,34 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
     st = _settings(model, saddle, saddle_near, section=section, who="tube_cut", orbits=orb,
                    tubes=dict(options, de=[_scalar_de(dE, "tube_cut")]), integrator=integrator, equilibria=equilibria)
     de = float(st["des"][0, 1])
-    out = _cut(model, st, de, TUBE_KINDS[kind], st["tub_area_tol"])
-    if _args.flag("tube_cut", "check_eps", check_eps):
-        a10 = _cut(model, st, de, TUBE_KINDS[kind], st["tub_area_tol"], eps=out["eps"] / 10)["area"]
-        out.update(area_eps10=a10, area_eps_change=abs(out["area"] - a10))
+    check = _args.flag("tube_cut", "check_eps", check_eps)
+    # the program's tubes scene (src/workflow/tubes_scene_tubes.f90) at this one energy and kind,
+    # the conservative model's cut (a dissipative model's regions are transition_region's)
+    kind_, index, level, direction = _section_args(st)
+    rec = _record(_lib().scene_tubes(
+        *_study(model, st), kind_, index, level, direction, np.array([de]), kind, float(st["tub_eps"]),
+        float(st["tub_area_tol"]), float(st["tub_t_max"]), int(st["tub_n_init"]), int(st["tub_n_max"]),
+        int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]), float(st["orb_atol"]),
+        int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model), float(st["mc_gate"]),
+        float(st["mc_t_max"]), "", int(check), model._stores()))
+    errs = [t for s, t in rec["lines"] if s == 2]
+    if rec["code"]:
+        codes = [int(c) for c in re.findall(r"\(status (-?\d+)\)", " ".join(errs))]
+        if not codes and "past the end" in " ".join(errs):
+            codes = [int(_lib().status_code("EPASTEND"))]
+        raise TubesError(codes[0] if codes else -1, f"tube_cut(dE = {de}): " + "; ".join(errs))
+    g, a = rec["data"][f"tubes/{kind}_000"], rec["attrs"][f"tubes/{kind}_000"]
+    out = {"dE": a["dE"], "r": g["r"], "p_r": g["p_r"], "tau": g["tau"], "time": g["time"], "state": g["state"],
+           "area": a["area"], "area_polygon": a["area_polygon"], "action": a["action"], "period": a["period"],
+           "kind": a["kind"], "eps": a["eps"], "converged": a["converged"],
+           "history_n": g.get("history_n", np.zeros(0, dtype=np.int32)).astype(np.int32),
+           "history_area": g.get("history_area", np.zeros(0))}
+    if model.ndof > 2:   # as the scene's 3-DOF /tubes/<kind>_<k> (docs/output.md)
+        out.update(section=g["section"], axes=a["axes"], floquet_vector=g["floquet_vector"], sigma=a["sigma"],
+                   family=a["family"], section_index=a["section_index"], section_value=a["section_value"],
+                   section_direction=a["section_direction"])
+    if check:
+        out.update(area_eps10=a["area_eps10"], area_eps_change=a["area_eps_change"])
     return _table(out, f"/tubes/{kind}_0", model)
 
 

@@ -1193,143 +1193,6 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
   return e ? EXIT_IO : 0;
 }
 
-/* The end of the saddle's orbit family, for a cut asked past it: where it ends and why, as the
- * orbits scene says (the run's stores hold the continuation the cut made). local = 1: the cut
- * was this rank's alone (without it, multiple shooting on one rank waited for the others). */
-static void past_end_message(tubes_run_t *run, double de, char *buf, size_t len, int local) {
-  const tubes_config_t *c = run->cfg;
-  int mi = c->orb_max_iter, ns = c->orb_n_samples, conv = 0, it = 0, reason = 0;
-  double e, per, act, s0[2 * MD], mu, ms, mt[4], stab, res, clo, md, mono[4 * MD * MD], end_de = -1,
-      *hist = calloc(mi > 0 ? mi : 1, sizeof(double)), *ts = calloc(ns, sizeof(double)),
-      *xs = calloc((size_t)2 * MD * ns, sizeof(double));
-  if (hist && ts && xs)
-    tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, 1, &de, orb_nseg(c),
-                       c->orb_family,
-                       c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c), &e, &per, &act, s0, &mu, &ms, mt,
-                       &stab, &res, &clo, &it, &conv, &md, mono, ts, xs, hist, &end_de, &reason, local, run->seeds, 0,
-                       NULL, 0.0);
-  free(hist); free(ts); free(xs);
-  char m[448];
-  family_stop_text(run, de, end_de, reason, m, sizeof m);
-  snprintf(buf, len, "tubes: %s (and no tube)", m);
-}
-
-/* One tube cut into group loc (none if loc < 0); returns 0 or an exit code; *area gets the area.
- * local = 1: computed on this rank alone (the caller deals out cuts), else by all ranks together.
- * A failure is described in err (printed to stderr if err is NULL). */
-static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int kind, double eps,
-                  double area_tol, double *area, double *action, double *t_po_cut, int local, char *err,
-                  size_t errlen, int *status) {
-  const tubes_config_t *c = run->cfg;
-  int nout = c->tub_n_max, n = 0, nh = 0, hn[64], nfail = 0;
-  double *tau = malloc(sizeof(double) * nout), *r = malloc(sizeof(double) * nout), *pr = malloc(sizeof(double) * nout),
-         *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 2 * MD * nout), ha[64], ar = 0, ap = 0, act = 0, per = 0,
-         ftau = 0, floq[2 * MD], sigma = 0;
-  int rc = 0;
-  if (!tau || !r || !pr || !tm || !xs) rc = EXIT_NUMERIC;
-  int st = rc ? -1 : tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, kind, SECTION(c), eps, area_tol,
-                                    c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol, c->orb_atol,
-                                    INTEGRATOR(c), nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau,
-                                    floq, &sigma, local, run->seeds);
-  if (err && errlen) err[0] = 0;
-  if (status) *status = rc ? TUBES_EINPUT : st;
-  if (st == TUBES_EPASTEND) {
-    char buf[512];
-    past_end_message(run, de, buf, sizeof buf, local);
-    if (err) snprintf(err, errlen, "%s", buf);
-    else fprintf(stderr, "%s\n", buf);
-    rc = EXIT_PARTIAL;
-  } else if (st < 0 && !rc) {
-    char m[TUBES_LSTATUS], buf[2048];
-    size_t len = 0;
-    status_text(st, m, sizeof m);
-    len += snprintf(buf + len, sizeof buf - len, "tubes: the cut at dE = %g failed: %s (status %d)", de, m, st);
-    if (st == TUBES_ENOCONV && isnan(per) && len < sizeof buf)   /* the orbit, not the cut, failed */
-      len += snprintf(buf + len, sizeof buf - len, ": no orbit of the %s family at this dE%s",
-                      c->orb_family == -1 ? "halo_north" : c->orb_family == -2 ? "halo_south" : "saddle's",
-                      c->orb_family < 0 ? " (below the branch point of the planar family, where the halo branch "
-                                          "starts: the orbits scene locates it, /orbits/bifurcations; or beyond the "
-                                          "branch's continuation)" : "");
-    if (st == TUBES_EINPUT && run->ndof > 2 && len < sizeof buf)
-      len += snprintf(buf + len, sizeof buf - len, ": the plane q%d = %g passes through the saddle %s (no side for "
-                      "the manifold's branch to go to), or the orbit has no hyperbolic multiplier (no stable and "
-                      "unstable manifolds)", c->sec_index, c->sec_value, run->saddle);
-    if (st == TUBES_ENOCROSS && !sec_is_ray(c) && len < sizeof buf)
-      len += snprintf(buf + len, sizeof buf - len, ": the %s manifold's branch towards the plane q%d = %g does not "
-                      "reach it (crossing it with dq%d/dt %s 0) within &tubes t_max = %g; raise t_max or choose "
-                      "another plane or direction", kind < 0 ? "stable" : "unstable", c->sec_index, c->sec_value,
-                      c->sec_index, c->sec_direction > 0 ? ">" : "<", c->tub_t_max);
-    if (nfail > 0 && len < sizeof buf)
-      len += snprintf(buf + len, sizeof buf - len, "; %d seed(s) failed, the first at orbit phase tau = %.10g s of "
-                      "T = %.10g s", nfail, ftau, per);
-    if (nh > 0 && len < sizeof buf) {
-      len += snprintf(buf + len, sizeof buf - len, "; area after each round:");
-      for (int k = 0; k < nh && len < sizeof buf; k++) len += snprintf(buf + len, sizeof buf - len, " %d:%.12g", hn[k], ha[k]);
-    }
-    if (err) snprintf(err, errlen, "%s", buf);
-    else fprintf(stderr, "%s\n", buf);
-    rc = EXIT_PARTIAL;
-  }
-  if (loc >= 0 && n > 0) {
-    hid_t g = h5_group(loc, name);
-    int nd = run->ndof;
-    hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, (hsize_t)(2 * nd)}, dh = (hsize_t)nh;
-    int e = g < 0;
-    e |= h5_write_double(g, "r", 1, &dn, r, NULL);
-    e |= h5_write_double(g, "p_r", 1, &dn, pr, NULL);
-    e |= h5_write_double(g, "time", 1, &dn, tm, NULL);
-    e |= h5_write_double(g, "tau", 1, &dn, tau, NULL);
-    e |= h5_write_double(g, "state", 2, d4, xs, nd == 2 ? "cm, cm, cm/s, cm/s" : NULL);
-    if (nd > 2) {   /* the plane's pairs (q_j, p_j), j != index: the cut is a closed curve in them */
-      double *sc = malloc(sizeof(double) * (size_t)n * 2 * (nd - 1));
-      hsize_t ds[2] = {(hsize_t)n, (hsize_t)(2 * (nd - 1))};
-      char axes[64] = "";
-      for (int j = 1, l = 0; j <= nd; j++) {
-        if (j == c->sec_index) continue;
-        for (int i = 0; sc && i < n; i++) {
-          sc[(size_t)i * 2 * (nd - 1) + l] = xs[(size_t)i * 2 * nd + j - 1];
-          sc[(size_t)i * 2 * (nd - 1) + l + 1] = xs[(size_t)i * 2 * nd + nd + j - 1];
-        }
-        l += 2;
-        size_t al = strlen(axes);
-        snprintf(axes + al, sizeof axes - al, "%sq%d p%d", al ? " " : "", j, j);
-      }
-      e |= !sc;
-      if (sc) e |= h5_write_double(g, "section", 2, ds, sc, NULL);
-      free(sc);
-      e |= h5_attr_string(g, "axes", axes);
-      e |= h5_attr_long(g, "section_index", c->sec_index);
-      e |= h5_attr_double(g, "section_value", c->sec_value);
-      e |= h5_attr_long(g, "section_direction", c->sec_direction);
-    }
-    if (nh > 0) {
-      e |= h5_write_int(g, "history_n", dh, hn, NULL);
-      e |= h5_write_double(g, "history_area", 1, &dh, ha, NULL);
-    }
-    e |= h5_attr_double(g, "dE", de);
-    e |= h5_attr_string(g, "kind", kind < 0 ? "stable" : "unstable");
-    e |= h5_attr_double(g, "area", ar);
-    e |= h5_attr_double(g, "area_polygon", ap);
-    e |= h5_attr_double(g, "action", act);
-    e |= h5_attr_double(g, "period", per);
-    e |= h5_attr_double(g, "eps", eps);
-    e |= h5_attr_long(g, "converged", st >= 0);
-    if (nd > 2) {   /* (2 DOF: the Lyapunov family alone, the paper's cuts as they were) */
-      hsize_t d2n = (hsize_t)(2 * nd);
-      e |= h5_attr_long(g, "family", c->orb_family);
-      e |= h5_write_double(g, "floquet_vector", 1, &d2n, floq, NULL);
-      e |= h5_attr_double(g, "sigma", sigma);
-    }
-    if (g >= 0) H5Gclose(g);
-    if (e) rc = EXIT_IO;
-  }
-  *area = st < 0 ? NAN : ar;
-  *action = act;
-  *t_po_cut = per;
-  free(tau); free(r); free(pr); free(tm); free(xs);
-  return rc;
-}
-
 /* The start of a scene that draws on the section (tubes, sections): /section (write_section), then
  * the scene's own group in *g. */
 static int section_scene(tubes_run_t *run, const char *name, hid_t *g) {
@@ -1340,160 +1203,34 @@ static int section_scene(tubes_run_t *run, const char *name, hid_t *g) {
   return *g < 0 ? EXIT_IO : 0;
 }
 
-/* A transition region of the run's model with its dissipation (tubes_transition_region): the
- * Monte Carlo's transit test (&montecarlo gate, t_max), area_tol relative. */
-enum { REGION_NOUT = 4096, REGION_CURVE = 4096 };
-typedef struct {
-  int st, n, m, counts[8];
-  double res[12], phi[REGION_NOUT], rho[REGION_NOUT], s[REGION_NOUT], p[REGION_NOUT], t_in[REGION_NOUT],
-      cs[REGION_CURVE], cp[REGION_CURVE];
-} region_out_t;
-
-static int region_run(const tubes_run_t *run, double de, double area_tol, int local, region_out_t *o,
-                      int noiseless) {
-  const tubes_config_t *c = run->cfg;
-  o->st = tubes_transition_region(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c),
-                                  c->mc_gate, c->mc_t_max, area_tol, INTEGRATOR(c), REGION_NOUT, REGION_CURVE, &o->n,
-                                  o->phi, o->rho, o->s, o->p, o->t_in, &o->m, o->cs, o->cp, o->res, o->counts, local,
-                                  noiseless, run->seeds);
-  return o->st;
-}
-
-/* The region's failure (or its empty threshold) in words, into buf. */
-static void region_text(const tubes_run_t *run, double de, const region_out_t *o, char *buf, size_t len) {
-  char m[TUBES_LSTATUS];
-  buf[0] = 0;
-  if (o->st == TUBES_ENARROW) {
-    snprintf(buf, len, "tubes: the transition region at dE = %g: &montecarlo gate = %g%s lies within twice the "
-             "reach of the NHIM across saddle %s's neck (raise gate; docs/input.md)", de, run->cfg->mc_gate,
-             in_units(" cm"), run->saddle);
-  } else if (o->st < 0 && o->counts[0] == 0) {
-    status_text(o->st, m, sizeof m);
-    snprintf(buf, len, "tubes: the transition region at dE = %g failed: %s (status %d)", de, m, o->st);
-  } else if (o->st < 0) {
-    status_text(o->st, m, sizeof m);
-    snprintf(buf, len, "tubes: the transition region at dE = %g failed: %s (status %d); %d scan points, %d transit, "
-             "%d undecided, %d on the wrong side of the traced boundary", de, m, o->st, o->counts[0], o->counts[1],
-             o->counts[2], o->counts[3]);
-  }
-}
-
-/* The damped model's transition regions at &tubes de, into /tubes/region_<k> (docs/output.md). */
-static int tubes_regions(tubes_run_t *run, hid_t g) {
-  const tubes_config_t *c = run->cfg;
-  region_out_t *reg = malloc(sizeof *reg);
-  if (!reg) return EXIT_NUMERIC;
-  int rc = 0;
-  printf("tubes: the dissipative model (%s): its transition regions, the section points that pass the "
-         "saddle's gate (the cut of the damped saddle's stable manifold; area_tol %g)\n", run->dissip, c->tub_area_tol);
-  printf("  %10s %16s %12s %6s %10s %8s\n", "dE", "area", "p_trans", "rays", "scan", "s");
-  for (int k = 0; k < c->tub_nde; k++) {
-    double de = c->tub_de[k], t0 = now();
-    progress_item("tubes: the damped region at dE = %g (%d of %d)...\n", de, k + 1, c->tub_nde);
-    int st = region_run(run, de, c->tub_area_tol, 0, reg, 0);
-    if (st < 0) {
-      char m[1024];
-      region_text(run, de, reg, m, sizeof m);
-      fprintf(stderr, "%s\n", m);
-      printf("  %10.4g   failed (status %d)\n", de, st);
-      rc = EXIT_PARTIAL;
-      continue;
-    }
-    int empty = reg->counts[6];
-    double area = empty ? 0 : reg->res[0], ae = reg->res[7];
-    if (empty)
-      printf("  %10.4g %16.12g %12.6g %6s %4d/%-5d %8.2f   no point transits (none at dE <= %.8g)\n", de, 0.0, 0.0, "-",
-             reg->counts[1], reg->counts[0], now() - t0, reg->res[8]);
-    else
-      printf("  %10.4g %16.12g %12.6g %6d %4d/%-5d %8.2f\n", de, area, area / ae, reg->n, reg->counts[1],
-             reg->counts[0], now() - t0);
-    char name[32];
-    snprintf(name, sizeof name, "region_%03d", k);
-    hid_t o = h5_group(g, name);
-    hsize_t dn = (hsize_t)reg->n, dm = (hsize_t)reg->m;
-    int e = o < 0;
-    if (reg->n > 0) {
-      e |= h5_write_double(o, "r", 1, &dn, reg->s, NULL);
-      e |= h5_write_double(o, "p_r", 1, &dn, reg->p, NULL);
-      e |= h5_write_double(o, "phi", 1, &dn, reg->phi, NULL);
-      e |= h5_write_double(o, "rho", 1, &dn, reg->rho, NULL);
-      e |= h5_write_double(o, "t_in", 1, &dn, reg->t_in, NULL);
-      e |= h5_write_double(o, "curve_r", 1, &dm, reg->cs, NULL);
-      e |= h5_write_double(o, "curve_p_r", 1, &dm, reg->cp, NULL);
-    }
-    e |= h5_attr_double(o, "dE", de);
-    e |= h5_attr_double(o, "area", area);
-    e |= h5_attr_double(o, "area_polygon", reg->res[1]);
-    e |= h5_attr_double(o, "A_E", ae);
-    e |= h5_attr_double(o, "p_trans", area / ae);
-    e |= h5_attr_long(o, "empty", empty);
-    e |= h5_attr_double(o, "dE_threshold_lo", reg->res[8]);
-    e |= h5_attr_double(o, "dE_threshold_hi", reg->res[9]);
-    double cen[2] = {reg->res[2], reg->res[3]}, sc[2] = {reg->res[4], reg->res[5]};
-    hsize_t d2 = 2;
-    e |= h5_write_double(o, "centre", 1, &d2, cen, NULL);
-    e |= h5_write_double(o, "scale", 1, &d2, sc, NULL);
-    e |= h5_attr_long(o, "n_scan", reg->counts[0]);
-    e |= h5_attr_long(o, "n_scan_transit", reg->counts[1]);
-    e |= h5_attr_long(o, "n_inconsistent", reg->counts[3]);
-    e |= dissipation_attrs(o, run);
-    if (o >= 0) H5Gclose(o);
-    if (e) { rc = EXIT_IO; break; }
-  }
-  free(reg);
-  return rc;
-}
-
+/* The tubes scene: src/workflow/tubes_scene_tubes.f90 (its record written by record_emit); /tubes
+ * is made where no cut was recorded, and a dissipative model's regions take the dissipation's
+ * attributes. */
 int scene_tubes(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  hid_t g;
-  int rc = section_scene(run, "tubes", &g);
-  if (rc) return rc;
-  printf("tubes: %s manifold cuts on the section (eps = %g %s, area_tol = %g)%s\n", c->tub_kind, c->tub_eps,
-         strcmp(run->length_units, "1") ? run->length_units : "(length units)", c->tub_area_tol,
-         dissipative(run) ? ": the conservative model's Lyapunov orbits and tubes (a damped model has neither)" : "");
-  printf("  %10s %8s %16s %16s %11s %11s %8s\n", "dE", "kind", "area", "action", "area/action-1", "eps/10 chg", "s");
-  for (int k = 0; k < c->tub_nde; k++) {
-    for (int kind = -1; kind <= 1; kind += 2) {
-      if (kind < 0 && !strcmp(c->tub_kind, "unstable")) continue;
-      if (kind > 0 && !strcmp(c->tub_kind, "stable")) continue;
-      char name[48];
-      double a, a10, act, per, t0 = now(), de = c->tub_de[k];
-      progress_item("tubes: dE = %g, %s manifold (%d of %d)...\n", de, kind < 0 ? "stable" : "unstable", k + 1,
-                    c->tub_nde);
-      snprintf(name, sizeof name, "%s_%03d", kind < 0 ? "stable" : "unstable", k);
-      int st1 = 0;
-      int r1 = cut_to(run, g, name, de, kind, c->tub_eps, c->tub_area_tol, &a, &act, &per, 0, NULL, 0, &st1);
-      if (r1 == EXIT_IO) { H5Gclose(g); return EXIT_IO; }
-      if (st1 == TUBES_EPASTEND) {
-        printf("  %10.4g %8s   refused: past the end of the family (no orbit at this energy)\n", de,
-               kind < 0 ? "stable" : "unstable");
-        rc = EXIT_PARTIAL;
-        continue;
-      }
-      /* the eps/10 repetition of a cut that failed would only fail again (and say so twice) */
-      int r2 = r1 ? (a10 = NAN, 0)
-                  : cut_to(run, -1, "", de, kind, c->tub_eps / 10, c->tub_area_tol, &a10, &act, &per, 0, NULL, 0, NULL);
-      if (r1 || r2) rc = EXIT_PARTIAL;
-      char path[80];
-      snprintf(path, sizeof path, "%s", name);
-      if (H5Lexists(g, path, H5P_DEFAULT) > 0) {
-        hid_t o = H5Gopen2(g, path, H5P_DEFAULT);
-        h5_attr_double(o, "area_eps10", a10);
-        h5_attr_double(o, "area_eps_change", fabs(a - a10));
-        H5Gclose(o);
-      }
-      printf("  %10.4g %8s %16.12g %16.12g %11.2e %11.2e %8.2f\n", de, kind < 0 ? "stable" : "unstable", a, act,
-             a / act - 1, fabs(a - a10), now() - t0);
-    }
-  }
-  if (dissipative(run)) {
-    int r2 = tubes_regions(run, g);
-    if (r2 == EXIT_IO) rc = EXIT_IO;
-    else if (r2 && !rc) rc = r2;
+  int h = tubes_tubes_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
+                            c->sec_angle, c->tub_nde, c->tub_de, c->tub_kind, c->tub_eps, c->tub_area_tol, c->tub_t_max,
+                            c->tub_n_init, c->tub_n_max, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol,
+                            c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c), c->mc_gate, c->mc_t_max,
+                            dissipative(run) ? run->dissip : "",
+                            strcmp(run->length_units, "1") ? run->length_units : "(length units)", in_units(" cm"),
+                            in_units(" (cm/s)^2"), 1, H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
+  int rc = record_emit(run->file, h);
+  if (rc == EXIT_IO || H5Lexists(run->file, "section", H5P_DEFAULT) <= 0) return rc;
+  hid_t g = H5Lexists(run->file, "tubes", H5P_DEFAULT) > 0 ? H5Gopen2(run->file, "tubes", H5P_DEFAULT)
+                                                           : h5_group(run->file, "tubes");
+  if (g < 0) return EXIT_IO;
+  int e = 0;
+  for (int k = 0; dissipative(run) && k < c->tub_nde; k++) {
+    char name[32];
+    snprintf(name, sizeof name, "region_%03d", k);
+    if (H5Lexists(g, name, H5P_DEFAULT) <= 0) continue;
+    hid_t o = H5Gopen2(g, name, H5P_DEFAULT);
+    e |= o < 0 || dissipation_attrs(o, run);
+    if (o >= 0) H5Gclose(o);
   }
   H5Gclose(g);
-  return rc;
+  return e ? EXIT_IO : rc;
 }
 
 /* The transition scene: src/workflow/tubes_scene_transition.f90 (its record written by record_emit;

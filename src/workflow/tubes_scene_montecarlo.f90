@@ -12,14 +12,12 @@ module tubes_scene_montecarlo
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EPASTEND, TUBES_ENARROW, TUBES_EINTERRUPT, status_message
   use tubes_cstrings, only: num
   use tubes_record, only: record_t, EXIT_PARTIAL, EXIT_NUMERIC
-  use tubes_orbits, only: orbit_t
-  use tubes_manifold, only: tube_opts_t, tube_cut_t
   use tubes_region, only: region_opts_t, region_t
   use tubes_verdicts, only: mc_check
-  use tubes_study, only: study_t, section_choice_t, seed_stores_t, cut_at, cut_outputs, section_info, &
+  use tubes_study, only: study_t, section_choice_t, seed_stores_t, section_info, &
                          region_at, region_numbers, region_outputs, region_info_t, check_at, gate_reach
   use tubes_scene_section, only: scene_section
-  use tubes_scene_transition, only: transition_opts_t, past_end_message, region_text
+  use tubes_scene_transition, only: transition_opts_t, past_end_message, region_text, take_cut, scene_cut_t
   use tubes_scene_text, only: itoa, wall, progress_line
   implicit none
   private
@@ -46,18 +44,17 @@ contains
     type(seed_stores_t), pointer, intent(in) :: stores
     type(record_t), intent(inout) :: rec
     type(study_t) :: plain, mcst
-    type(tube_cut_t) :: c
-    type(orbit_t) :: orb
+    type(scene_cut_t) :: x
     type(region_t) :: reg
     type(region_info_t) :: info
     type(region_opts_t) :: ro
-    real(wp), allocatable :: tau_(:), cr(:), cp(:), tm(:), xl(:, :), r(:), pr(:), phi(:), rho(:), s(:), p(:), &
+    real(wp), allocatable :: cr(:), cp(:), r(:), pr(:), phi(:), rho(:), s(:), p(:), &
                              t_in(:), cs(:), cpp(:)
     integer, allocatable :: outc(:), ins(:)
     logical, allocatable :: inl(:)
-    real(wp) :: a0, tau, tpo, t0, ar, ap, act, per, ha(64), rmin, rmax, ae, darea, p_cons, reach, res(12), f, se, &
+    real(wp) :: a0, tau, tpo, t0, ar, rmin, rmax, ae, darea, p_cons, reach, res(12), f, se, &
                 pt, nsig, dev
-    integer :: nout, nc, nfail, nh, hn(64), stat, counts(8), nn, m, k, nt, nu, in_nt, out_t, nin, nesc, ntrap, &
+    integer :: nout, nc, nfail, stat, counts(8), nn, m, k, nt, nu, in_nt, out_t, nin, nesc, ntrap, &
                nbad, first, code
     logical :: ok, damped, mc_ran, agrees
     character(1024) :: verdict
@@ -68,22 +65,21 @@ contains
     nout = o%n_max
     damped = len_trim(dissip) > 0
     p_cons = ieee_value(1.0_wp, ieee_quiet_nan)
-    allocate (tau_(nout), cr(nout), cp(nout), tm(nout), r(n), pr(n), outc(n), ins(n), inl(n))
+    allocate (r(n), pr(n), outc(n), ins(n), inl(n))
     plain = study_t(system=st%system, params=st%params, lo=st%lo, hi=st%hi, n_grid=st%n_grid, saddle=st%saddle)
     mcst = plain
     mcst%integ = st%integ
     call progress_line('montecarlo: the tube cut at dE = ' // num(de) // '...', .false.)
-    call cut_at(st, sec, de, tube_opts_t(kind=-1, eps=o%eps, area_tol=o%area_tol, t_max=o%t_max, n_init=o%n_init, &
-                                         n_max=nout, local=.false.), c, orb, stat, stores)
-    if (allocated(c%x)) then
-      allocate (xl(size(c%x, 1), nout))
-    else
-      allocate (xl(4, nout))
-    end if
-    call cut_outputs(c, orb, nc, tau_, cr, cp, tm, xl, ar, ap, act, per, nfail, nh, hn, ha)
+    call take_cut(st, sec, de, -1, o%eps, o, .false., nout, stores, x)
+    stat = x%stat
+    nc = x%n
+    ar = x%area
+    nfail = x%n_failed
+    cr = x%r
+    cp = x%pr
     if (stat < 0 .and. nfail > 0) &
       call rec%err('tubes: montecarlo: the tube cut at dE = ' // num(de) // ': ' // itoa(nfail) // &
-                   ' seed(s) failed, the first at orbit phase tau = ' // num(c%fail_tau, '.10g') // ' s')
+                   ' seed(s) failed, the first at orbit phase tau = ' // num(x%fail_tau, '.10g') // ' s')
     if (stat >= 0) call section_info(plain, sec, de, rmin, rmax, ae, darea, stat, stores)
     if (stat >= 0 .and. damped) then
       ! the dissipative model's prediction: its transition region (the conservative tube's

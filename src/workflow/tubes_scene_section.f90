@@ -29,7 +29,7 @@ contains
   !> same in degrees as the input gave it); written: the output already holds /section (an
   !> earlier scene wrote it: nothing is recorded again). a0, tau, tpo: A0, tau and T_po for the
   !> scene (a0 and tau NaN with 3 degrees of freedom); ok: .false. after a verdict (the scene stops).
-  subroutine scene_section(st, sec, angle_deg, written, stores, rec, a0, tau, tpo, ok)
+  subroutine scene_section(st, sec, angle_deg, written, stores, rec, a0, tau, tpo, ok, ndof)
     type(study_t), intent(in) :: st
     type(section_choice_t), intent(in) :: sec
     real(wp), intent(in) :: angle_deg
@@ -38,6 +38,7 @@ contains
     type(record_t), intent(inout) :: rec
     real(wp), intent(out) :: a0, tau, tpo
     logical, intent(out) :: ok
+    integer, intent(out), optional :: ndof      !! the model's degrees of freedom
     real(wp) :: ee, rmin, rmax
     integer :: stat, nd
     character(:), allocatable :: dir, line
@@ -46,6 +47,7 @@ contains
     tau = a0
     tpo = a0
     call saddle_props(st, stores, ee, tpo, nd, stat)
+    if (present(ndof)) ndof = nd
     dir = merge('>', '<', sec%dir > 0)
     if (nd > 2) then     ! the tubes scene's plane, for its crossings alone: no region, no A0
       if (stat < 0) then

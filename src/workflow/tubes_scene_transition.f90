@@ -28,7 +28,7 @@ module tubes_scene_transition
   implicit none
   private
 
-  public :: scene_transition, family_stop_text, past_end_message, region_text
+  public :: scene_transition, family_stop_text, past_end_message, region_text, cut_message, take_cut
 
   !> The scene's settings beyond the study's (&tubes, &transition, &orbits, &montecarlo).
   type, public :: transition_opts_t
@@ -43,6 +43,14 @@ module tubes_scene_transition
     character(16) :: energy_units = '' !! ' (cm/s)^2', or ''
     character(16) :: speed_units = ''  !! ' cm/s', or ''
   end type transition_opts_t
+
+  !> A tube cut as the scenes take it (take_cut): its first n points, its numbers, its status.
+  type, public :: scene_cut_t
+    integer :: stat = 0, n = 0, n_failed = 0, nhist = 0, hist_n(64) = 0
+    real(wp), allocatable :: tau(:), r(:), pr(:), time(:), x(:, :)   !! x: the states (2N, n)
+    real(wp) :: area = 0, area_polygon = 0, action = 0, period = 0, hist_area(64) = 0, fail_tau = 0, sigma = 0
+    real(wp), allocatable :: floquet(:)
+  end type scene_cut_t
 
   !> The leading-order p_trans is flagged where |tau dE/A0| exceeds this.
   real(wp), parameter :: LEADING_RANGE = 0.3_wp
@@ -294,20 +302,64 @@ contains
     real(wp), intent(out) :: area, action, period
     integer, intent(out) :: stat
     character(:), allocatable, intent(out) :: msg
+    type(scene_cut_t) :: x
+    call take_cut(st, sec, de, kind, o%eps, o, .true., 0, stores, x)
+    stat = x%stat
+    action = x%action
+    period = x%period
+    msg = cut_message(st, sec, de, kind, o, stat, period, x%n_failed, x%fail_tau, x%hist_n(1:x%nhist), &
+                      x%hist_area(1:x%nhist), 2, .true., stores)
+    area = x%area
+    if (stat < 0) area = ieee_value(1.0_wp, ieee_quiet_nan)
+  end subroutine cut
+
+  !> The tube's cut at de (kind -1 stable, +1 unstable; step-off eps; o: the other &tubes
+  !> settings; on this rank alone if local) with its first nout points (tubes_study cut_at and
+  !> cut_outputs, as the C API's tubes_tube_cut).
+  subroutine take_cut(st, sec, de, kind, eps, o, local, nout, stores, x)
+    type(study_t), intent(in) :: st
+    type(section_choice_t), intent(in) :: sec
+    real(wp), intent(in) :: de, eps
+    integer, intent(in) :: kind, nout
+    type(transition_opts_t), intent(in) :: o
+    logical, intent(in) :: local
+    type(seed_stores_t), pointer, intent(in) :: stores
+    type(scene_cut_t), intent(out) :: x
     type(tube_cut_t) :: c
     type(orbit_t) :: orb
-    real(wp) :: ta(0), ra(0), pa(0), tm(0), xs(4, 0), ar, ap, ha(64)
-    character(:), allocatable :: fam
-    integer :: n, nfail, nh, hn(64), k, nd
-    call cut_at(st, sec, de, tube_opts_t(kind=kind, eps=o%eps, area_tol=o%area_tol, t_max=o%t_max, n_init=o%n_init, &
-                                         n_max=o%n_max, local=.true.), c, orb, stat, stores)
-    call cut_outputs(c, orb, n, ta, ra, pa, tm, xs, ar, ap, action, period, nfail, nh, hn, ha)
+    call cut_at(st, sec, de, tube_opts_t(kind=kind, eps=eps, area_tol=o%area_tol, t_max=o%t_max, n_init=o%n_init, &
+                                         n_max=o%n_max, local=local), c, orb, x%stat, stores)
+    allocate (x%tau(nout), x%r(nout), x%pr(nout), x%time(nout))
+    if (allocated(c%x)) then
+      allocate (x%x(size(c%x, 1), nout))
+    else
+      allocate (x%x(4, nout))
+    end if
+    call cut_outputs(c, orb, x%n, x%tau, x%r, x%pr, x%time, x%x, x%area, x%area_polygon, x%action, x%period, &
+                     x%n_failed, x%nhist, x%hist_n, x%hist_area)
+    x%fail_tau = c%fail_tau
+    x%sigma = c%sigma
+    if (allocated(c%floquet)) x%floquet = c%floquet
+  end subroutine take_cut
+
+  !> A tube cut's failure at de in words ('' where it worked: stat >= 0): past the family's end
+  !> (the family's continuation on this rank alone if local), or the cut's status with what it
+  !> means here; nfail seeds failed, the first at fail_tau; hn, ha its area after each round; nd
+  !> the model's degrees of freedom.
+  function cut_message(st, sec, de, kind, o, stat, period, nfail, fail_tau, hn, ha, nd, local, stores) result(msg)
+    type(study_t), intent(in) :: st
+    type(section_choice_t), intent(in) :: sec
+    real(wp), intent(in) :: de, period, fail_tau, ha(:)
+    integer, intent(in) :: kind, stat, nfail, hn(:), nd
+    type(transition_opts_t), intent(in) :: o
+    logical, intent(in) :: local
+    type(seed_stores_t), pointer, intent(in) :: stores
+    character(:), allocatable :: msg, fam
+    integer :: k
     msg = ''
     if (stat == TUBES_EPASTEND) then
-      msg = past_end_message(st, de, o, .true., stores)
+      msg = past_end_message(st, de, o, local, stores)
     else if (stat < 0) then
-      nd = 0
-      if (allocated(c%x)) nd = size(c%x, 1)/2
       msg = 'tubes: the cut at dE = ' // num(de) // ' failed: ' // status_message(stat) // ' (status ' // &
             itoa(stat) // ')'
       if (stat == TUBES_ENOCONV .and. ieee_is_nan(period)) then   ! the orbit, not the cut, failed
@@ -328,17 +380,15 @@ contains
         '/dt ' // merge('>', '<', sec%dir > 0) // ' 0) within &tubes t_max = ' // num(o%t_max) // &
         '; raise t_max or choose another plane or direction'
       if (nfail > 0) msg = msg // '; ' // itoa(nfail) // ' seed(s) failed, the first at orbit phase tau = ' // &
-                           num(c%fail_tau, '.10g') // ' s of T = ' // num(period, '.10g') // ' s'
-      if (nh > 0) then
+                           num(fail_tau, '.10g') // ' s of T = ' // num(period, '.10g') // ' s'
+      if (size(hn) > 0) then
         msg = msg // '; area after each round:'
-        do k = 1, nh
+        do k = 1, size(hn)
           msg = msg // ' ' // itoa(hn(k)) // ':' // num(ha(k), '.12g')
         end do
       end if
     end if
-    area = ar
-    if (stat < 0) area = ieee_value(1.0_wp, ieee_quiet_nan)
-  end subroutine cut
+  end function cut_message
 
   !> Why the saddle's family has no orbit at de, for a cut asked past it: where the family ends
   !> and why, as the orbits scene says.
