@@ -39,6 +39,8 @@ enum {
  * (src/base/tubes_progress_shim.c): off until turned on (the program does; the library and Python
  * are silent). */
 void tubes_progress_enable(int on);
+/* A scene's progress line on stderr (every = 1: an item of its list, at most one a second). */
+void tubes_progress_line(const char *text, int len, int every);
 
 void tubes_cancel_begin(void);
 int tubes_cancel_end(void);
@@ -289,6 +291,40 @@ enum { TUBES_REC_REAL = 1, TUBES_REC_INT = 2, TUBES_REC_STRINGS = 3, TUBES_REC_A
 int tubes_equilibria_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
                            double box, const char *want, int asked, const char *label, const char *dissip,
                            void *stores);
+/* The transition scene (src/workflow/tubes_scene_transition.f90): the saddle's section (sec_kind
+ * 1 ray, 2 plane; level the ray's angle [rad] or the plane's value; angle_deg the ray's as given),
+ * the nde energies des, &tubes eps, t_max, n_init, n_max, &transition area_tol, &orbits'
+ * n_segments, family, tol, rtol, atol, max_iter, n_samples, the integrator (as tubes_tube_cut),
+ * &montecarlo gate and t_max, dissip ("" conservative), the units of a gate and of an energy in
+ * messages (" cm", " (cm/s)^2" or ""), written: /section exists already. */
+int tubes_transition_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
+                           const char *saddle, int sec_kind, int sec_index, double level, int dir, double angle_deg,
+                           int nde, const double *des, double eps, double area_tol, double t_max, int n_init,
+                           int n_max, int n_segments, int family, double orb_tol, double orb_rtol, double orb_atol,
+                           int orb_max_iter, int orb_n_samples, int method, double h, double omega_bind, int solver,
+                           int max_iter, double gate, double mc_t_max, const char *dissip, const char *gate_units,
+                           const char *energy_units, int written, void *stores);
+/* The montecarlo scene (src/workflow/tubes_scene_montecarlo.f90): as tubes_transition_scene, at de
+ * with n points from seed; area_tol &montecarlo's; noisy: the model carries noise; gate_at: the
+ * head of a message about &montecarlo gate ("FILE:LINE: "); speed_units " cm/s" or "". */
+int tubes_montecarlo_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
+                           const char *saddle, int sec_kind, int sec_index, double level, int dir, double angle_deg,
+                           double de, int n, int seed, double eps, double area_tol, double t_max, int n_init,
+                           int n_max, int n_segments, int family, double orb_tol, double orb_rtol, double orb_atol,
+                           int orb_max_iter, int orb_n_samples, int method, double h, double omega_bind, int solver,
+                           int max_iter, double gate, double mc_t_max, const char *dissip, int noisy,
+                           const char *gate_at, const char *gate_units, const char *energy_units,
+                           const char *speed_units, int written, void *stores);
+/* The tubes scene (src/workflow/tubes_scene_tubes.f90): as tubes_transition_scene, the nde energies
+ * des and kinds ("stable", "unstable", "both"), area_tol &tubes'; length: the coordinates' units in
+ * words; check_eps: repeat each cut with eps/10 (the program does). */
+int tubes_tubes_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
+                      const char *saddle, int sec_kind, int sec_index, double level, int dir, double angle_deg,
+                      int nde, const double *des, const char *kinds, double eps, double area_tol, double t_max,
+                      int n_init, int n_max, int n_segments, int family, double orb_tol, double orb_rtol,
+                      double orb_atol, int orb_max_iter, int orb_n_samples, int method, double h, double omega_bind,
+                      int solver, int max_iter, double gate, double mc_t_max, const char *dissip, const char *length,
+                      const char *gate_units, const char *energy_units, int check_eps, int written, void *stores);
 int tubes_record_code(int h);
 void tubes_record_sizes(int h, int *n_items, int *n_lines);
 int tubes_record_line(int h, int j, int *stream, char *buf, int len);

@@ -825,29 +825,22 @@ subroutine section_info(system, params, lo, hi, n_grid, saddle, sec_kind, sec_in
                      smax, area, darea, stat, kept)
 end subroutine section_info
 
-subroutine transition_leading(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, n, de, &
-                              stores, stat, p)
-  ! the leading order of p_trans at the energies de (as the transition scene's p_trans_leading)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_study, only: study_t, section_choice_t, leading_order_at, p_trans_leading, seed_stores_t, stores_at
+subroutine dissipation_rates(system, params, stat, c, f)
+  ! the model's dissipation: its viscous rate c [1/s] and rolling drag f [cm/s^2] (as the
+  ! program's /model damping_rate and rolling_drag; include/tubes.h tubes_dissipation)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_field, only: vector_field_t
+  use tubes_models, only: make_field
   implicit none
-  character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, n
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de(n)
-  integer(c_int64_t), intent(in) :: stores
+  character(len=*), intent(in) :: system
+  real(c_double), intent(in) :: params(16)
   integer(c_int), intent(out) :: stat
-  real(c_double), intent(out) :: p(n)
-  type(seed_stores_t), pointer :: kept
-  real(c_double) :: tpo, a0, tau
-  integer :: k
-  kept => stores_at(stores)
-  call leading_order_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle), &
-                        section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), tpo, a0, tau, &
-                        stat, kept)
-  do k = 1, n
-    p(k) = p_trans_leading(tpo, a0, tau, de(k))
-  end do
-end subroutine transition_leading
+  real(c_double), intent(out) :: c, f
+  class(vector_field_t), allocatable :: field
+  integer :: ist
+  call make_field(system, params, field, c, ist, f)
+  stat = ist
+end subroutine dissipation_rates
 
 subroutine monte_carlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
                        nsamp, seed, t_max, gate, method, h, omega_bind, solver, int_max_iter, ncut, &
@@ -1490,6 +1483,120 @@ subroutine scene_equilibria(system, params, lo, hi, n_grid, box, want, asked, la
                  kept, rec)
   h = record_keep(rec)
 end subroutine scene_equilibria
+
+subroutine scene_transition(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+                            angle_deg, nde, des, eps, area_tol, t_max, n_init, n_max, n_segments, &
+                            family, orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, method, &
+                            hstep, omega_bind, solver, max_iter, gate, mc_t_max, dissip, gate_units, &
+                            energy_units, stores, h)
+  ! the transition scene (src/workflow/tubes_scene_transition.f90), as the program's: the handle
+  ! of its result record (arguments as include/tubes.h tubes_transition_scene; /section is
+  ! recorded too)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_study, only: seed_stores_t, stores_at, study_t, section_choice_t
+  use tubes_record, only: record_t, record_keep
+  use tubes_capi, only: integ_of
+  use tubes_scene_transition, only: scene_run => scene_transition, transition_opts_t
+  implicit none
+  character(len=*), intent(in) :: system, saddle, dissip, gate_units, energy_units
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, angle_deg, des(nde), eps, area_tol, &
+                                t_max, orb_tol, orb_rtol, orb_atol, hstep, omega_bind, gate, mc_t_max
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, nde, n_init, n_max, n_segments, &
+                                family, orb_max_iter, orb_n_samples, method, solver, max_iter
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: h
+  type(record_t), allocatable :: rec
+  type(seed_stores_t), pointer :: kept
+  type(study_t) :: st
+  type(transition_opts_t) :: o
+  allocate (rec)
+  kept => stores_at(stores)
+  st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+               n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, &
+               orb_atol=orb_atol, integ=integ_of(method, hstep, omega_bind, solver, max_iter))
+  o = transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
+                        orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
+                        mc_t_max=mc_t_max, angle_deg=angle_deg, gate_units=gate_units, &
+                        energy_units=energy_units)
+  call scene_run(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), des, o, &
+                 trim(dissip), .false., kept, rec)
+  h = record_keep(rec)
+end subroutine scene_transition
+
+subroutine scene_montecarlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+                            angle_deg, de, n, seed, eps, area_tol, t_max, n_init, n_max, n_segments, &
+                            family, orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, method, &
+                            hstep, omega_bind, solver, max_iter, gate, mc_t_max, dissip, noisy, gate_at, &
+                            gate_units, energy_units, speed_units, stores, h)
+  ! the montecarlo scene (src/workflow/tubes_scene_montecarlo.f90), as the program's: the handle
+  ! of its result record (arguments as include/tubes.h tubes_montecarlo_scene)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_study, only: seed_stores_t, stores_at, study_t, section_choice_t
+  use tubes_record, only: record_t, record_keep
+  use tubes_capi, only: integ_of
+  use tubes_scene_transition, only: transition_opts_t
+  use tubes_scene_montecarlo, only: scene_run => scene_montecarlo
+  implicit none
+  character(len=*), intent(in) :: system, saddle, dissip, gate_at, gate_units, energy_units, speed_units
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, angle_deg, de, eps, area_tol, t_max, &
+                                orb_tol, orb_rtol, orb_atol, hstep, omega_bind, gate, mc_t_max
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, n, seed, n_init, n_max, n_segments, &
+                                family, orb_max_iter, orb_n_samples, method, solver, max_iter, noisy
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: h
+  type(record_t), allocatable :: rec
+  type(seed_stores_t), pointer :: kept
+  type(study_t) :: st
+  type(transition_opts_t) :: o
+  allocate (rec)
+  kept => stores_at(stores)
+  st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+               n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, &
+               orb_atol=orb_atol, integ=integ_of(method, hstep, omega_bind, solver, max_iter))
+  o = transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
+                        orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
+                        mc_t_max=mc_t_max, angle_deg=angle_deg, gate_units=gate_units, &
+                        energy_units=energy_units, speed_units=speed_units)
+  call scene_run(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, n, &
+                 seed, o, trim(dissip), noisy /= 0, gate_at, .false., kept, rec)
+  h = record_keep(rec)
+end subroutine scene_montecarlo
+
+subroutine scene_tubes(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+                       nde, des, kinds, eps, area_tol, t_max, n_init, n_max, n_segments, family, &
+                       orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, method, hstep, &
+                       omega_bind, solver, max_iter, gate, mc_t_max, dissip, check_eps, stores, h)
+  ! the tubes scene (src/workflow/tubes_scene_tubes.f90), as the program's: the handle of its
+  ! result record (arguments as include/tubes.h tubes_tubes_scene; a plane's or the ray's
+  ! section; the console's units in words left out)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_study, only: seed_stores_t, stores_at, study_t, section_choice_t
+  use tubes_record, only: record_t, record_keep
+  use tubes_capi, only: integ_of
+  use tubes_scene_transition, only: transition_opts_t
+  use tubes_scene_tubes, only: scene_run => scene_tubes
+  implicit none
+  character(len=*), intent(in) :: system, saddle, kinds, dissip
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, des(nde), eps, area_tol, t_max, &
+                                orb_tol, orb_rtol, orb_atol, hstep, omega_bind, gate, mc_t_max
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, nde, n_init, n_max, n_segments, &
+                                family, orb_max_iter, orb_n_samples, method, solver, max_iter, check_eps
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: h
+  type(record_t), allocatable :: rec
+  type(study_t) :: st
+  type(transition_opts_t) :: o
+  allocate (rec)
+  st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+               n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, &
+               orb_atol=orb_atol, integ=integ_of(method, hstep, omega_bind, solver, max_iter))
+  o = transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
+                        orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
+                        mc_t_max=mc_t_max)
+  call scene_run(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), des, &
+                 trim(kinds), o, '', trim(dissip), check_eps /= 0, .false., stores_at(stores), rec)
+  h = record_keep(rec)
+end subroutine scene_tubes
 
 subroutine record_sizes(h, code, n_items, n_lines)
   ! a result record's exit code (-1: no record), numbers of items and of console lines

@@ -1298,31 +1298,6 @@ def _normal_form_flux(model, st, de, order):
                             "smallest_divisor": float(diag[3])}}
 
 
-def _cut(model, st, de, kind, area_tol, eps=None):
-    n_max = int(st["tub_n_max"])
-    eps = float(st["tub_eps"]) if eps is None else eps
-    (stat, n, tau, r, pr, tm, xs, area, apoly, act, per, nfail, nh, hn, ha, floq, sigma) = _lib().tube_cut(
-        *_study(model, st), int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]),
-        float(st["orb_atol"]), *_section_args(st), float(de), int(kind), eps,
-        float(area_tol), float(st["tub_t_max"]), int(st["tub_n_init"]), n_max, *_integ(st, model),
-        model._stores())
-    _check(stat, f"tube_cut(dE = {de})")
-    nd = model.ndof
-    out = {"dE": float(de), "r": r[:n].copy(), "p_r": pr[:n].copy(), "tau": tau[:n].copy(),
-           "time": tm[:n].copy(), "state": xs[:2 * nd, :n].T.copy(), "area": float(area),
-           "area_polygon": float(apoly), "action": float(act), "period": float(per),
-           "kind": "stable" if kind < 0 else "unstable", "eps": eps, "converged": int(stat >= 0),
-           "history_n": hn[:nh].astype(np.int32), "history_area": ha[:nh].copy()}
-    if nd > 2:   # as the scene's 3-DOF /tubes/<kind>_<k> (docs/output.md)
-        k = int(st["sec_index"])
-        pairs = [j for j in range(1, nd + 1) if j != k]
-        out.update(section=np.stack([out["state"][:, c] for j in pairs for c in (j - 1, nd + j - 1)], axis=1),
-                   axes=" ".join(f"q{j} p{j}" for j in pairs), floquet_vector=floq[:2 * nd].copy(),
-                   sigma=float(sigma), family=int(st["orb_family"]), section_index=k,
-                   section_value=float(st["sec_level"]), section_direction=int(st["sec_dir"]))
-    return out
-
-
 TUBE_KINDS = {"stable": -1, "unstable": 1}   # the tubes scene's kind (src/io/tubes_scenes.c)
 
 
@@ -1362,10 +1337,34 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
     st = _settings(model, saddle, saddle_near, section=section, who="tube_cut", orbits=orb,
                    tubes=dict(options, de=[_scalar_de(dE, "tube_cut")]), integrator=integrator, equilibria=equilibria)
     de = float(st["des"][0, 1])
-    out = _cut(model, st, de, TUBE_KINDS[kind], st["tub_area_tol"])
-    if _args.flag("tube_cut", "check_eps", check_eps):
-        a10 = _cut(model, st, de, TUBE_KINDS[kind], st["tub_area_tol"], eps=out["eps"] / 10)["area"]
-        out.update(area_eps10=a10, area_eps_change=abs(out["area"] - a10))
+    check = _args.flag("tube_cut", "check_eps", check_eps)
+    # the program's tubes scene (src/workflow/tubes_scene_tubes.f90) at this one energy and kind,
+    # the conservative model's cut (a dissipative model's regions are transition_region's)
+    kind_, index, level, direction = _section_args(st)
+    rec = _record(_lib().scene_tubes(
+        *_study(model, st), kind_, index, level, direction, np.array([de]), kind, float(st["tub_eps"]),
+        float(st["tub_area_tol"]), float(st["tub_t_max"]), int(st["tub_n_init"]), int(st["tub_n_max"]),
+        int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]), float(st["orb_atol"]),
+        int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model), float(st["mc_gate"]),
+        float(st["mc_t_max"]), "", int(check), model._stores()))
+    errs = [t for s, t in rec["lines"] if s == 2]
+    if rec["code"]:
+        codes = [int(c) for c in re.findall(r"\(status (-?\d+)\)", " ".join(errs))]
+        if not codes and "past the end" in " ".join(errs):
+            codes = [int(_lib().status_code("EPASTEND"))]
+        raise TubesError(codes[0] if codes else -1, f"tube_cut(dE = {de}): " + "; ".join(errs))
+    g, a = rec["data"][f"tubes/{kind}_000"], rec["attrs"][f"tubes/{kind}_000"]
+    out = {"dE": a["dE"], "r": g["r"], "p_r": g["p_r"], "tau": g["tau"], "time": g["time"], "state": g["state"],
+           "area": a["area"], "area_polygon": a["area_polygon"], "action": a["action"], "period": a["period"],
+           "kind": a["kind"], "eps": a["eps"], "converged": a["converged"],
+           "history_n": g.get("history_n", np.zeros(0, dtype=np.int32)).astype(np.int32),
+           "history_area": g.get("history_area", np.zeros(0))}
+    if model.ndof > 2:   # as the scene's 3-DOF /tubes/<kind>_<k> (docs/output.md)
+        out.update(section=g["section"], axes=a["axes"], floquet_vector=g["floquet_vector"], sigma=a["sigma"],
+                   family=a["family"], section_index=a["section_index"], section_value=a["section_value"],
+                   section_direction=a["section_direction"])
+    if check:
+        out.update(area_eps10=a["area_eps10"], area_eps_change=a["area_eps_change"])
     return _table(out, f"/tubes/{kind}_0", model)
 
 
@@ -1477,12 +1476,19 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     the end of the orbit family, a cut that did not converge) A_tube, action and p_trans are NaN;
     where the energy surface on the section failed A_E and p_trans are NaN (as in the output
     file's /transition, docs/output.md), status holds the TUBES_* code (0 where it
-    worked; tubes.EPASTEND past the family's end) and message its text.
+    worked; tubes.EPASTEND past the family's end) and message the program's messages on it.
+    The numbers, statuses and messages are the program's transition scene's
+    (src/workflow/tubes_scene_transition.f90, its result record), bit for bit; where the energy
+    surface at the saddle's energy fails (the scene's /section) it raises TubesError with the
+    program's message, as ./tubes exits 2 there. A dissipative model's Table adds A_region,
+    p_trans_conservative, status_conservative, region_rays, its dissipation, damping_rate and
+    dE_threshold (lo, hi), as /transition (status: the region's).
 
     check (default True): where an energy failed, raise TubesError (its code the first failed
     energy's status, its ``partial`` the whole Table) as ./tubes exits 4 there; check=False returns
     the Table with a RuntimeWarning naming the failed energies. Returns a tubes.Table of arrays dE,
-    A_tube, action, A_E, p_trans, status, and message (list of str, '' where it worked)."""
+    A_tube, action, A_E, p_trans, p_trans_leading, status, and message (list of str, '' where it
+    worked)."""
     model = model or Model()
     _need_2dof(model, "transition", "transition")
     de = _de_list(dE, "transition")
@@ -1494,90 +1500,67 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     st = _settings(model, saddle, saddle_near, section=section, who="transition", orbits=orbits, transition=tra,
                    integrator=integrator, equilibria=equilibria)
     de = np.array(st["des"][:int(st["ndes"][2]), 2])
-    sec = _section_args(st)
-    out = {k: np.full(de.size, np.nan) for k in ("A_tube", "action", "A_E", "p_trans")}
-    status, message = np.zeros(de.size, dtype=np.int32), [""] * de.size
     check = _args.flag("transition", "check", check)
     diss = _dissipation(model)
+    # the program's transition scene (src/workflow/tubes_scene_transition.f90): its record's
+    # /transition, its messages per energy, its verdicts
+    kind, index, level, direction = _section_args(st)
+    units = str(model.info.get("length_units", "1")) == "cm"
+    rec = _record(_lib().scene_transition(
+        *_study(model, st), kind, index, level, direction, float(np.degrees(level)) if kind == 1 else 0.0, de,
+        float(st["tub_eps"]), float(st["tra_area_tol"]), float(st["tub_t_max"]), int(st["tub_n_init"]),
+        int(st["tub_n_max"]), int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]),
+        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model),
+        float(st["mc_gate"]), float(st["mc_t_max"]), ", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation"),
+        " cm" if units else "", " (cm/s)^2" if units else "", model._stores()))
+    errs = [t for s, t in rec["lines"] if s == 2]
+    if "transition" not in rec["data"]:       # the section failed: the scene stopped there
+        codes = [int(c) for c in re.findall(r"\(status (-?\d+)\)", " ".join(errs))]
+        raise TubesError(codes[0] if codes else -1, "transition: " + "; ".join(errs))
+    g = rec["data"]["transition"]
+    out = {k: g[k] for k in ("dE", "A_tube", "action", "A_E", "p_trans", "p_trans_leading", "status")}
+    out["message"] = _energy_messages(de, errs)
     if diss:
-        return _failed_energies(_transition_damped(model, st, de, sec, diss), check)
-    for i, d in enumerate(de):
-        try:
-            c = _cut(model, st, d, -1, st["tra_area_tol"])
-        except TubesError as err:
-            c, status[i], message[i] = None, err.code, str(err)
-        if c is not None:
-            out["A_tube"][i], out["action"][i] = c["area"], c["action"]
-        stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *sec, float(d), model._stores())
-        if stat < 0:
-            message[i] = "; ".join(filter(None, (message[i], str(TubesError(stat, f"transition(dE = {d}): the energy surface")))))
-            status[i] = status[i] or stat
-        else:
-            out["A_E"][i] = ae
-            if c is not None:
-                out["p_trans"][i] = c["area"] / ae
-    out.update(dE=de, p_trans_leading=_leading(model, st, sec, de), status=status, message=message)
-    return _failed_energies(_table(out, "/transition", model), check)
+        a = rec["attrs"]["transition"]
+        stat, rate, _ = _lib().dissipation_rates(model.name, model.params())
+        out.update(A_region=g["A_region"], p_trans_conservative=g["p_trans_conservative"],
+                   status_conservative=g["status_conservative"], region_rays=g["region_rays"], **diss,
+                   damping_rate=float(rate) if stat >= 0 else np.nan,
+                   dE_threshold=(a["dE_threshold_lo"], a["dE_threshold_hi"]))
+    return _failed_energies(_table(out, "/transition", model), check, rec["code"] != 0)
 
 
-def _failed_energies(t, check):
-    """transition()'s end: where an energy failed, the TubesError of ./tubes' exit 4 (check) or a
-    RuntimeWarning (check=False); the Table is the error's partial."""
-    bad = np.flatnonzero(t["status"] != 0)
+def _energy_messages(de, errs):
+    """The scene's stderr lines per energy (each names its energy "dE = %g"), '; '-joined; '' where
+    the energy worked."""
+    msg = [[] for _ in de]
+    at = {f"{d:g}": i for i, d in enumerate(de)}
+    for t in errs:
+        m = re.search(r"dE = ([-+0-9.e]+)[ :]", t)
+        if m and m.group(1) in at:
+            msg[at[m.group(1)]].append(t)
+    return ["; ".join(m) for m in msg]
+
+
+def _failed_energies(t, check, failed):
+    """transition()'s end: where the scene failed at an energy (failed: the program exits non-zero;
+    the energies with a message), the TubesError of ./tubes' exit 4 (check) or a RuntimeWarning
+    (check=False); the Table is the error's partial."""
+    bad = np.flatnonzero([bool(m) for m in t["message"]]) if failed else np.zeros(0, dtype=int)
     if bad.size == 0:
         return t
     at = "transition: failed at dE = " + ", ".join(f"{d:g}" for d in t["dE"][bad])
     if check:
-        err = TubesError(int(t["status"][bad[0]]), at + " (NaN there; the Table, its status and message per "
-                         f"energy, in partial; check=False returns it); at dE = {t['dE'][bad[0]]:g}")
+        k = bad[0]
+        code = int(t["status"][k]) or int(t.get("status_conservative", t["status"])[k]) or -1
+        err = TubesError(code, at + " (NaN there; the Table, its status and message per "
+                         f"energy, in partial; check=False returns it); at dE = {t['dE'][k]:g}: {t['message'][k]}")
         err.partial = t
         raise err
     import warnings
     warnings.warn(at + " (NaN there; status and message hold why): " + "; ".join(m for m in t["message"] if m),
                   RuntimeWarning, stacklevel=3)
     return t
-
-
-def _leading(model, st, sec, de):
-    """p_trans_leading at the energies de (the transition scene's): NaN where its T_po, A0 or tau failed."""
-    stat, p = _lib().transition_leading(*_study(model, st), *sec, de, model._stores())
-    return np.asarray(p).copy() if stat >= 0 else np.full(de.size, np.nan)
-
-
-def _transition_damped(model, st, de, sec, diss):
-    """transition() of a dissipative model, as the transition scene's: p_trans = A_region / A_E, the
-    conservative model's A_tube / A_E beside it (p_trans_conservative)."""
-    cols = {k: np.full(de.size, np.nan) for k in ("A_region", "A_tube", "action", "A_E", "p_trans",
-                                                  "p_trans_conservative")}
-    status, status_c = np.zeros(de.size, dtype=np.int32), np.zeros(de.size, dtype=np.int32)
-    rays, message = np.zeros(de.size, dtype=np.int32), [""] * de.size
-    lo = hi = np.nan
-    rate = np.nan
-    for i, d in enumerate(de):
-        try:
-            c = _cut(model, st, d, -1, st["tra_area_tol"])
-            cols["A_tube"][i], cols["action"][i] = c["area"], c["action"]
-        except TubesError as err:
-            status_c[i] = err.code
-        stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *sec, float(d), model._stores())
-        if stat >= 0:
-            cols["A_E"][i] = ae
-            cols["p_trans_conservative"][i] = cols["A_tube"][i] / ae
-        r = _region(model, st, d, st["tra_area_tol"])
-        rate = r["damping_rate"]
-        status[i] = r["status"] if r["status"] < 0 else (stat if stat < 0 else 0)
-        if r["status"] < 0:
-            message[i] = str(TubesError(r["status"], f"transition(dE = {d:g}): the transition region"))
-            continue
-        cols["A_region"][i] = r["area"]
-        rays[i] = r["phi"].size
-        if stat >= 0:
-            cols["p_trans"][i] = r["area"] / ae
-        if r["empty"] and not np.isnan(r["dE_threshold"][0]) and not (r["dE_threshold"][0] <= lo):
-            lo, hi = r["dE_threshold"]
-    return _table(dict(dE=de, **cols, p_trans_leading=_leading(model, st, sec, de), status=status,
-                       status_conservative=status_c, region_rays=rays, message=message, **diss, damping_rate=rate,
-                       dE_threshold=(lo, hi)), "/transition", model)
 
 
 def _mc_agreement(n: int, n_transit: int, n_undecided: int, misclassified: int, p: float) -> dict:
@@ -1638,56 +1621,55 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     st = _settings(model, saddle, saddle_near, section=section, who="monte_carlo", orbits=orbits, montecarlo=mc,
                    integrator=integrator, equilibria=equilibria)
     de, ns, seed = float(st["mc_de"]), int(st["mc_n_samples"]), int(st["mc_seed"])
-    c = _cut(model, st, de, -1, float(st["mc_area_tol"]))
-    stat, smin, smax, ae, dae = _lib().section_info(*_study(model, st), *_section_args(st), de,
-                                                    model._stores())
-    _check(stat, "monte_carlo")
     diss = _dissipation(model)
-    damped = {}
-    cut_r, cut_p, area = c["r"], c["p_r"], c["area"]
     noisy = "noise" in diss.get("dissipation", "")
-    if diss:        # the dissipative model's prediction: its transition region (the scene's; noise-free)
-        reg = _region(model, st, de, float(st["mc_area_tol"]), noiseless=True)
-        if reg["status"] < 0:
-            err = TubesError(reg["status"], f"monte_carlo(dE = {de:g}): the transition region")
-            err.partial = reg
-            raise err
-        cut_r, cut_p, area = reg["curve_r"], reg["curve_p_r"], reg["area"]
-        damped = {**diss, "damping_rate": reg["damping_rate"], "p_trans_conservative": c["area"] / ae,
-                  "predicted_by": "none (noise): p_trans is the noise-free region's" if noisy else "region"}
-    stat, r, pr, outc, ins = _lib().monte_carlo(*_study(model, st), *_section_args(st), de,
-                                                ns, seed, float(st["mc_t_max"]),
-                                                float(st["mc_gate"]), *_integ(st, model), cut_r, cut_p,
-                                                model._stores())
-    if stat < 0:   # as the scene: how many samples failed, and the first
-        bad = np.flatnonzero(outc < 0)
-        where = "monte_carlo"
-        if bad.size:
-            k = int(bad[0])
-            where += (f": {bad.size} of {ns} samples failed (the first: sample {k + 1} at (s, p_s) = "
-                      f"({r[k]:.10g}, {pr[k]:.10g}))")
-        err = TubesError(stat, where)
-        err.partial = Table({"dE": de, "n_samples": ns, "seed": seed, "status": int(stat), "r": r.copy(), "p_r": pr.copy(),
-                             "transit": outc.copy(), "agrees": False})
+    # the program's montecarlo scene (src/workflow/tubes_scene_montecarlo.f90): its record's
+    # /montecarlo, its messages, its verdict
+    rec = _record(_lib().scene_montecarlo(*_study(model, st), *_scene_args(model, st, de, ns, seed, diss, noisy)))
+    errs = [t for s, t in rec["lines"] if s == 2]
+    a = rec["attrs"].get("montecarlo")
+    if a is None:       # the section failed: the scene stopped there
+        codes = [int(c) for c in re.findall(r"\(status (-?\d+)\)", " ".join(errs))]
+        raise TubesError(codes[0] if codes else -1, "monte_carlo: " + "; ".join(errs))
+    g = rec["data"].get("montecarlo", {})
+    if a["status"] < 0:     # as the scene: why, how many samples failed, and the first
+        err = TubesError(a["status"], "monte_carlo: " + "; ".join(errs))
+        err.partial = Table({"dE": de, "n_samples": ns, "seed": seed, "status": int(a["status"]),
+                             **{k: g[k].copy() for k in ("r", "p_r", "transit") if k in g}, "agrees": False})
         raise err
-    ins = ins.astype(bool)
-    nt, nu = int(np.sum(outc == 1)), int(np.sum(outc == 2))
-    in_nt, out_t = int(np.sum(ins & (outc != 1))), int(np.sum(~ins & (outc == 1)))
-    f, p = nt / ns, area / ae
-    out = Table({"dE": de, "n_samples": ns, "seed": seed, "status": 0, "fraction": f, "std_error": float(np.sqrt(f * (1 - f) / ns)),
-           "p_trans": p, **damped, "misclassified": in_nt + out_t, "misclassified_inside_no_transit": in_nt,
-           "misclassified_outside_transit": out_t, "undecided": nu, "escaped": int(np.sum(outc == 3)),
-           **({"trapped": int(np.sum(outc == 4))} if diss else {}),
-           **_mc_agreement(ns, nt, nu, in_nt + out_t, p),
-           "r": r.copy(), "p_r": pr.copy(), "transit": outc.copy(), "inside": ins})
+    ins = g["inside"] == 1
+    damped = {}
+    if diss:
+        stat, rate, _ = _lib().dissipation_rates(model.name, model.params())
+        damped = {**diss, "damping_rate": float(rate) if stat >= 0 else np.nan,
+                  "p_trans_conservative": a["p_trans_conservative"], "predicted_by": a["predicted_by"]}
+    nt, nu = int(np.sum(g["transit"] == 1)), a["undecided"]
+    out = Table({"dE": de, "n_samples": ns, "seed": seed, "status": 0, "fraction": a["fraction"],
+                 "std_error": a["std_error"], "p_trans": a["p_trans"], **damped, "misclassified": a["misclassified"],
+                 "misclassified_inside_no_transit": a["misclassified_inside_no_transit"],
+                 "misclassified_outside_transit": a["misclassified_outside_transit"], "undecided": nu,
+                 "escaped": a["escaped"], **({"trapped": a["trapped"]} if diss else {}),
+                 **_mc_agreement(ns, nt, nu, a["misclassified"], a["p_trans"]),
+                 "r": g["r"], "p_r": g["p_r"], "transit": g["transit"], "inside": ins})
     out = _table(out, "/montecarlo", model)
-    # the scene's check (src/workflow/tubes_verdicts.f90 mc_check; a noisy model: the undecided count alone)
-    code, _sig, agrees, msg = _lib().verdict_montecarlo(de, ns, nt, nu, in_nt + out_t, p, int(noisy), st["saddle"])
-    out["agrees"] = bool(agrees)
-    out["verdicts"] = [_str(msg)] if code else []
-    if check and code:
-        raise DisagreementError(_str(msg) + " (check=False returns the result with agrees False)", out)
+    out["agrees"] = bool(a["agrees"])
+    out["verdicts"] = errs if rec["code"] else []
+    if check and rec["code"]:
+        raise DisagreementError("; ".join(errs) + " (check=False returns the result with agrees False)", out)
     return out
+
+
+def _scene_args(model, st, de, ns, seed, diss, noisy):
+    """The montecarlo scene's arguments after the study's (python/tubes_f2py.f90 scene_montecarlo)."""
+    kind, index, level, direction = _section_args(st)
+    units = str(model.info.get("length_units", "1")) == "cm"
+    return (kind, index, level, direction, float(np.degrees(level)) if kind == 1 else 0.0, de, ns, seed,
+            float(st["tub_eps"]), float(st["mc_area_tol"]), float(st["tub_t_max"]), int(st["tub_n_init"]),
+            int(st["tub_n_max"]), int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]),
+            float(st["orb_rtol"]), float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]),
+            *_integ(st, model), float(st["mc_gate"]), float(st["mc_t_max"]),
+            ", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation"), int(noisy), "monte_carlo: ",
+            " cm" if units else "", " (cm/s)^2" if units else "", " cm/s" if units else "", model._stores())
 
 
 def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, n_iter=None, t_max=None,

@@ -53,3 +53,18 @@ void tubes_progress_tick(long done, long total) {
   }
   pthread_mutex_unlock(&lock);
 }
+
+/* A scene's own progress line, text (len bytes) and a newline on stderr now (a scene written in
+ * Fortran that returns a record prints its results at its end; its progress stays live): every = 1
+ * for one item of a scene's list (an energy), at most one such line a second and the first always
+ * (docs/usage.md), every = 0 always. The C scenes' progress_item calls it too: one clock for all. */
+void tubes_progress_line(const char *text, int len, int every) {
+  static double last_item = -1e300;
+  if (!atomic_load(&enabled)) return;
+  pthread_mutex_lock(&lock);
+  double t = wall();
+  int say = !every || t - last_item >= 1.0;
+  if (every && say) last_item = t;
+  if (say) fprintf(stderr, "%.*s\n", len, text);
+  pthread_mutex_unlock(&lock);
+}

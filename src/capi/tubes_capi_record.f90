@@ -9,6 +9,11 @@ module tubes_capi_record
   use tubes_record, only: record_t, record_keep, record_drop, record_sizes, record_item_info, record_reals, &
                           record_ints, record_string, record_line
   use tubes_scene_equilibria, only: scene_equilibria
+  use tubes_scene_transition, only: scene_transition, transition_opts_t
+  use tubes_scene_montecarlo, only: scene_montecarlo
+  use tubes_scene_tubes, only: scene_tubes
+  use tubes_study, only: study_t, section_choice_t
+  use tubes_capi, only: integ_of
   implicit none
   private
 
@@ -30,6 +35,96 @@ contains
                           trim(c_to_f(label)), trim(c_to_f(dissip)), kept, rec)
     h = record_keep(rec)
   end function c_scene_equilibria
+
+  !> The transition scene (tubes_scene_transition): the record's handle (include/tubes.h).
+  integer(c_int) function c_scene_transition(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+      angle_deg, nde, des, eps, area_tol, t_max, n_init, n_max, n_segments, family, orb_tol, orb_rtol, orb_atol, &
+      orb_max_iter, orb_n_samples, method, h, omega_bind, solver, max_iter, gate, mc_t_max, dissip, gate_units, &
+      energy_units, written, stores) result(hd) bind(C, name='tubes_transition_scene')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), dissip(128), gate_units(16), &
+                                          energy_units(16)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, nde, n_init, n_max, n_segments, family, orb_max_iter, &
+                             orb_n_samples, method, solver, max_iter, written
+    real(c_double), value :: level, angle_deg, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol, h, omega_bind, &
+                             gate, mc_t_max
+    real(c_double), intent(in) :: des(nde)
+    type(c_ptr), value :: stores
+    type(record_t), allocatable :: rec
+    type(seed_stores_t), pointer :: kept
+    type(study_t) :: st
+    allocate (rec)
+    kept => stores_at(transfer(stores, 0_c_intptr_t))
+    st = study_t(system=c_to_f(system), params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=c_to_f(saddle), &
+                 n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol, &
+                 integ=integ_of(method, h, omega_bind, solver, max_iter))
+    call scene_transition(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), des, &
+                          transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
+                                            orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
+                                            mc_t_max=mc_t_max, angle_deg=angle_deg, gate_units=c_to_f(gate_units), &
+                                            energy_units=c_to_f(energy_units)), &
+                          trim(c_to_f(dissip)), written /= 0, kept, rec)
+    hd = record_keep(rec)
+  end function c_scene_transition
+
+  !> The montecarlo scene (tubes_scene_montecarlo): the record's handle (include/tubes.h).
+  integer(c_int) function c_scene_montecarlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+      angle_deg, de, n, seed, eps, area_tol, t_max, n_init, n_max, n_segments, family, orb_tol, orb_rtol, orb_atol, &
+      orb_max_iter, orb_n_samples, method, h, omega_bind, solver, max_iter, gate, mc_t_max, dissip, noisy, gate_at, &
+      gate_units, energy_units, speed_units, written, stores) result(hd) bind(C, name='tubes_montecarlo_scene')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), dissip(128), gate_at(1024), &
+                                          gate_units(16), energy_units(16), speed_units(16)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, n, seed, n_init, n_max, n_segments, family, &
+                             orb_max_iter, orb_n_samples, method, solver, max_iter, noisy, written
+    real(c_double), value :: level, angle_deg, de, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol, h, omega_bind, &
+                             gate, mc_t_max
+    type(c_ptr), value :: stores
+    type(record_t), allocatable :: rec
+    type(seed_stores_t), pointer :: kept
+    type(study_t) :: st
+    allocate (rec)
+    kept => stores_at(transfer(stores, 0_c_intptr_t))
+    st = study_t(system=c_to_f(system), params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=c_to_f(saddle), &
+                 n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol, &
+                 integ=integ_of(method, h, omega_bind, solver, max_iter))
+    call scene_montecarlo(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, n, seed, &
+                          transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
+                                            orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
+                                            mc_t_max=mc_t_max, angle_deg=angle_deg, gate_units=c_to_f(gate_units), &
+                                            energy_units=c_to_f(energy_units), speed_units=c_to_f(speed_units)), &
+                          trim(c_to_f(dissip)), noisy /= 0, c_to_f(gate_at), written /= 0, kept, rec)
+    hd = record_keep(rec)
+  end function c_scene_montecarlo
+
+  !> The tubes scene (tubes_scene_tubes): the record's handle (include/tubes.h).
+  integer(c_int) function c_scene_tubes(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+      angle_deg, nde, des, kinds, eps, area_tol, t_max, n_init, n_max, n_segments, family, orb_tol, orb_rtol, orb_atol, &
+      orb_max_iter, orb_n_samples, method, h, omega_bind, solver, max_iter, gate, mc_t_max, dissip, length, gate_units, &
+      energy_units, check_eps, written, stores) result(hd) bind(C, name='tubes_tubes_scene')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), kinds(16), dissip(128), length(32), &
+                                          gate_units(16), energy_units(16)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, nde, n_init, n_max, n_segments, family, orb_max_iter, &
+                             orb_n_samples, method, solver, max_iter, check_eps, written
+    real(c_double), value :: level, angle_deg, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol, h, omega_bind, &
+                             gate, mc_t_max
+    real(c_double), intent(in) :: des(nde)
+    type(c_ptr), value :: stores
+    type(record_t), allocatable :: rec
+    type(study_t) :: st
+    allocate (rec)
+    st = study_t(system=c_to_f(system), params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=c_to_f(saddle), &
+                 n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol, &
+                 integ=integ_of(method, h, omega_bind, solver, max_iter))
+    call scene_tubes(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), des, &
+                     trim(c_to_f(kinds)), transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, &
+                     n_max=n_max, orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
+                     mc_t_max=mc_t_max, angle_deg=angle_deg, gate_units=c_to_f(gate_units), &
+                     energy_units=c_to_f(energy_units)), trim(c_to_f(length)), trim(c_to_f(dissip)), check_eps /= 0, &
+                     written /= 0, stores_at(transfer(stores, 0_c_intptr_t)), rec)
+    hd = record_keep(rec)
+  end function c_scene_tubes
 
   !> The record's exit code (the worst verdict's; 0: none), or -1 for no record.
   integer(c_int) function c_record_code(h) result(code) bind(C, name='tubes_record_code')

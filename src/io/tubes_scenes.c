@@ -34,14 +34,14 @@ static double now(void) {
 /* A progress line for one item of a scene's list (an energy): at most one a second, the first
  * always (docs/usage.md); the lines that report a scene's own long step are printed as they come. */
 static void progress_item(const char *fmt, ...) {
-  static double last = -1e300;
-  double t = now();
-  if (t - last < 1.0) return;
-  last = t;
+  char buf[512];
   va_list ap;
   va_start(ap, fmt);
-  vfprintf(stderr, fmt, ap);
+  int n = vsnprintf(buf, sizeof buf, fmt, ap);
   va_end(ap);
+  if (n > (int)sizeof buf - 1) n = (int)sizeof buf - 1;
+  if (n > 0 && buf[n - 1] == '\n') n--;   /* the shim ends the line */
+  tubes_progress_line(buf, n, 1);           /* one clock with the Fortran scenes' lines */
 }
 
 static void status_text(int code, char *buf, int len) { tubes_status_message(code, buf, len); }
@@ -75,8 +75,6 @@ static const char *method_label(const tubes_run_t *run) {
 }
 
 enum { NEQ_MAX = 256, MD = TUBES_MAXDOF };
-/* The leading-order p_trans, (T_po/A0) dE (1 - tau dE/A0), is flagged where |tau dE/A0| exceeds this. */
-#define LEADING_RANGE 0.3
 /* The &integrator choice as the C API's arguments (include/tubes.h): every analysis uses it. */
 #define INTEGRATOR(c) run->method, (c)->h, (c)->omega_bind, \
                       (strcmp((c)->solver, "fixed_point") ? 1 : 2), (c)->max_iter
@@ -1079,13 +1077,6 @@ out:
 
 /* ---------------------------------------------------------------- tube dynamics scenes */
 
-/* ", N escaped" for the Monte Carlo line (a static buffer: one line at a time). */
-static const char *escaped_text(int n) {
-  static char b[48];
-  snprintf(b, sizeof b, ", %d escaped (through another exit)", n);
-  return b;
-}
-
 /* E_e, T_po of the saddle named by &orbits saddle. */
 static int saddle_props(tubes_run_t *run, double *ee, double *tpo) {
   static eqlist_t L;
@@ -1184,143 +1175,6 @@ static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, doub
   return e ? EXIT_IO : 0;
 }
 
-/* The end of the saddle's orbit family, for a cut asked past it: where it ends and why, as the
- * orbits scene says (the run's stores hold the continuation the cut made). local = 1: the cut
- * was this rank's alone (without it, multiple shooting on one rank waited for the others). */
-static void past_end_message(tubes_run_t *run, double de, char *buf, size_t len, int local) {
-  const tubes_config_t *c = run->cfg;
-  int mi = c->orb_max_iter, ns = c->orb_n_samples, conv = 0, it = 0, reason = 0;
-  double e, per, act, s0[2 * MD], mu, ms, mt[4], stab, res, clo, md, mono[4 * MD * MD], end_de = -1,
-      *hist = calloc(mi > 0 ? mi : 1, sizeof(double)), *ts = calloc(ns, sizeof(double)),
-      *xs = calloc((size_t)2 * MD * ns, sizeof(double));
-  if (hist && ts && xs)
-    tubes_orbit_family(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, 1, &de, orb_nseg(c),
-                       c->orb_family,
-                       c->orb_tol, c->orb_rtol, c->orb_atol, mi, ns, INTEGRATOR(c), &e, &per, &act, s0, &mu, &ms, mt,
-                       &stab, &res, &clo, &it, &conv, &md, mono, ts, xs, hist, &end_de, &reason, local, run->seeds, 0,
-                       NULL, 0.0);
-  free(hist); free(ts); free(xs);
-  char m[448];
-  family_stop_text(run, de, end_de, reason, m, sizeof m);
-  snprintf(buf, len, "tubes: %s (and no tube)", m);
-}
-
-/* One tube cut into group loc (none if loc < 0); returns 0 or an exit code; *area gets the area.
- * local = 1: computed on this rank alone (the caller deals out cuts), else by all ranks together.
- * A failure is described in err (printed to stderr if err is NULL). */
-static int cut_to(tubes_run_t *run, hid_t loc, const char *name, double de, int kind, double eps,
-                  double area_tol, double *area, double *action, double *t_po_cut, int local, char *err,
-                  size_t errlen, int *status) {
-  const tubes_config_t *c = run->cfg;
-  int nout = c->tub_n_max, n = 0, nh = 0, hn[64], nfail = 0;
-  double *tau = malloc(sizeof(double) * nout), *r = malloc(sizeof(double) * nout), *pr = malloc(sizeof(double) * nout),
-         *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 2 * MD * nout), ha[64], ar = 0, ap = 0, act = 0, per = 0,
-         ftau = 0, floq[2 * MD], sigma = 0;
-  int rc = 0;
-  if (!tau || !r || !pr || !tm || !xs) rc = EXIT_NUMERIC;
-  int st = rc ? -1 : tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, kind, SECTION(c), eps, area_tol,
-                                    c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol, c->orb_atol,
-                                    INTEGRATOR(c), nout, &n, tau, r, pr, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau,
-                                    floq, &sigma, local, run->seeds);
-  if (err && errlen) err[0] = 0;
-  if (status) *status = rc ? TUBES_EINPUT : st;
-  if (st == TUBES_EPASTEND) {
-    char buf[512];
-    past_end_message(run, de, buf, sizeof buf, local);
-    if (err) snprintf(err, errlen, "%s", buf);
-    else fprintf(stderr, "%s\n", buf);
-    rc = EXIT_PARTIAL;
-  } else if (st < 0 && !rc) {
-    char m[TUBES_LSTATUS], buf[2048];
-    size_t len = 0;
-    status_text(st, m, sizeof m);
-    len += snprintf(buf + len, sizeof buf - len, "tubes: the cut at dE = %g failed: %s (status %d)", de, m, st);
-    if (st == TUBES_ENOCONV && isnan(per) && len < sizeof buf)   /* the orbit, not the cut, failed */
-      len += snprintf(buf + len, sizeof buf - len, ": no orbit of the %s family at this dE%s",
-                      c->orb_family == -1 ? "halo_north" : c->orb_family == -2 ? "halo_south" : "saddle's",
-                      c->orb_family < 0 ? " (below the branch point of the planar family, where the halo branch "
-                                          "starts: the orbits scene locates it, /orbits/bifurcations; or beyond the "
-                                          "branch's continuation)" : "");
-    if (st == TUBES_EINPUT && run->ndof > 2 && len < sizeof buf)
-      len += snprintf(buf + len, sizeof buf - len, ": the plane q%d = %g passes through the saddle %s (no side for "
-                      "the manifold's branch to go to), or the orbit has no hyperbolic multiplier (no stable and "
-                      "unstable manifolds)", c->sec_index, c->sec_value, run->saddle);
-    if (st == TUBES_ENOCROSS && !sec_is_ray(c) && len < sizeof buf)
-      len += snprintf(buf + len, sizeof buf - len, ": the %s manifold's branch towards the plane q%d = %g does not "
-                      "reach it (crossing it with dq%d/dt %s 0) within &tubes t_max = %g; raise t_max or choose "
-                      "another plane or direction", kind < 0 ? "stable" : "unstable", c->sec_index, c->sec_value,
-                      c->sec_index, c->sec_direction > 0 ? ">" : "<", c->tub_t_max);
-    if (nfail > 0 && len < sizeof buf)
-      len += snprintf(buf + len, sizeof buf - len, "; %d seed(s) failed, the first at orbit phase tau = %.10g s of "
-                      "T = %.10g s", nfail, ftau, per);
-    if (nh > 0 && len < sizeof buf) {
-      len += snprintf(buf + len, sizeof buf - len, "; area after each round:");
-      for (int k = 0; k < nh && len < sizeof buf; k++) len += snprintf(buf + len, sizeof buf - len, " %d:%.12g", hn[k], ha[k]);
-    }
-    if (err) snprintf(err, errlen, "%s", buf);
-    else fprintf(stderr, "%s\n", buf);
-    rc = EXIT_PARTIAL;
-  }
-  if (loc >= 0 && n > 0) {
-    hid_t g = h5_group(loc, name);
-    int nd = run->ndof;
-    hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, (hsize_t)(2 * nd)}, dh = (hsize_t)nh;
-    int e = g < 0;
-    e |= h5_write_double(g, "r", 1, &dn, r, NULL);
-    e |= h5_write_double(g, "p_r", 1, &dn, pr, NULL);
-    e |= h5_write_double(g, "time", 1, &dn, tm, NULL);
-    e |= h5_write_double(g, "tau", 1, &dn, tau, NULL);
-    e |= h5_write_double(g, "state", 2, d4, xs, nd == 2 ? "cm, cm, cm/s, cm/s" : NULL);
-    if (nd > 2) {   /* the plane's pairs (q_j, p_j), j != index: the cut is a closed curve in them */
-      double *sc = malloc(sizeof(double) * (size_t)n * 2 * (nd - 1));
-      hsize_t ds[2] = {(hsize_t)n, (hsize_t)(2 * (nd - 1))};
-      char axes[64] = "";
-      for (int j = 1, l = 0; j <= nd; j++) {
-        if (j == c->sec_index) continue;
-        for (int i = 0; sc && i < n; i++) {
-          sc[(size_t)i * 2 * (nd - 1) + l] = xs[(size_t)i * 2 * nd + j - 1];
-          sc[(size_t)i * 2 * (nd - 1) + l + 1] = xs[(size_t)i * 2 * nd + nd + j - 1];
-        }
-        l += 2;
-        size_t al = strlen(axes);
-        snprintf(axes + al, sizeof axes - al, "%sq%d p%d", al ? " " : "", j, j);
-      }
-      e |= !sc;
-      if (sc) e |= h5_write_double(g, "section", 2, ds, sc, NULL);
-      free(sc);
-      e |= h5_attr_string(g, "axes", axes);
-      e |= h5_attr_long(g, "section_index", c->sec_index);
-      e |= h5_attr_double(g, "section_value", c->sec_value);
-      e |= h5_attr_long(g, "section_direction", c->sec_direction);
-    }
-    if (nh > 0) {
-      e |= h5_write_int(g, "history_n", dh, hn, NULL);
-      e |= h5_write_double(g, "history_area", 1, &dh, ha, NULL);
-    }
-    e |= h5_attr_double(g, "dE", de);
-    e |= h5_attr_string(g, "kind", kind < 0 ? "stable" : "unstable");
-    e |= h5_attr_double(g, "area", ar);
-    e |= h5_attr_double(g, "area_polygon", ap);
-    e |= h5_attr_double(g, "action", act);
-    e |= h5_attr_double(g, "period", per);
-    e |= h5_attr_double(g, "eps", eps);
-    e |= h5_attr_long(g, "converged", st >= 0);
-    if (nd > 2) {   /* (2 DOF: the Lyapunov family alone, the paper's cuts as they were) */
-      hsize_t d2n = (hsize_t)(2 * nd);
-      e |= h5_attr_long(g, "family", c->orb_family);
-      e |= h5_write_double(g, "floquet_vector", 1, &d2n, floq, NULL);
-      e |= h5_attr_double(g, "sigma", sigma);
-    }
-    if (g >= 0) H5Gclose(g);
-    if (e) rc = EXIT_IO;
-  }
-  *area = st < 0 ? NAN : ar;
-  *action = act;
-  *t_po_cut = per;
-  free(tau); free(r); free(pr); free(tm); free(xs);
-  return rc;
-}
-
 /* The start of a scene that draws on the section (tubes, sections): /section (write_section), then
  * the scene's own group in *g. */
 static int section_scene(tubes_run_t *run, const char *name, hid_t *g) {
@@ -1331,500 +1185,79 @@ static int section_scene(tubes_run_t *run, const char *name, hid_t *g) {
   return *g < 0 ? EXIT_IO : 0;
 }
 
-/* A transition region of the run's model with its dissipation (tubes_transition_region): the
- * Monte Carlo's transit test (&montecarlo gate, t_max), area_tol relative. */
-enum { REGION_NOUT = 4096, REGION_CURVE = 4096 };
-typedef struct {
-  int st, n, m, counts[8];
-  double res[12], phi[REGION_NOUT], rho[REGION_NOUT], s[REGION_NOUT], p[REGION_NOUT], t_in[REGION_NOUT],
-      cs[REGION_CURVE], cp[REGION_CURVE];
-} region_out_t;
-
-static int region_run(const tubes_run_t *run, double de, double area_tol, int local, region_out_t *o,
-                      int noiseless) {
-  const tubes_config_t *c = run->cfg;
-  o->st = tubes_transition_region(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c),
-                                  c->mc_gate, c->mc_t_max, area_tol, INTEGRATOR(c), REGION_NOUT, REGION_CURVE, &o->n,
-                                  o->phi, o->rho, o->s, o->p, o->t_in, &o->m, o->cs, o->cp, o->res, o->counts, local,
-                                  noiseless, run->seeds);
-  return o->st;
-}
-
-/* The region's failure (or its empty threshold) in words, into buf. */
-static void region_text(const tubes_run_t *run, double de, const region_out_t *o, char *buf, size_t len) {
-  char m[TUBES_LSTATUS];
-  buf[0] = 0;
-  if (o->st == TUBES_ENARROW) {
-    snprintf(buf, len, "tubes: the transition region at dE = %g: &montecarlo gate = %g%s lies within twice the "
-             "reach of the NHIM across saddle %s's neck (raise gate; docs/input.md)", de, run->cfg->mc_gate,
-             in_units(" cm"), run->saddle);
-  } else if (o->st < 0 && o->counts[0] == 0) {
-    status_text(o->st, m, sizeof m);
-    snprintf(buf, len, "tubes: the transition region at dE = %g failed: %s (status %d)", de, m, o->st);
-  } else if (o->st < 0) {
-    status_text(o->st, m, sizeof m);
-    snprintf(buf, len, "tubes: the transition region at dE = %g failed: %s (status %d); %d scan points, %d transit, "
-             "%d undecided, %d on the wrong side of the traced boundary", de, m, o->st, o->counts[0], o->counts[1],
-             o->counts[2], o->counts[3]);
-  }
-}
-
-/* The damped model's transition regions at &tubes de, into /tubes/region_<k> (docs/output.md). */
-static int tubes_regions(tubes_run_t *run, hid_t g) {
-  const tubes_config_t *c = run->cfg;
-  region_out_t *reg = malloc(sizeof *reg);
-  if (!reg) return EXIT_NUMERIC;
-  int rc = 0;
-  printf("tubes: the dissipative model (%s): its transition regions, the section points that pass the "
-         "saddle's gate (the cut of the damped saddle's stable manifold; area_tol %g)\n", run->dissip, c->tub_area_tol);
-  printf("  %10s %16s %12s %6s %10s %8s\n", "dE", "area", "p_trans", "rays", "scan", "s");
-  for (int k = 0; k < c->tub_nde; k++) {
-    double de = c->tub_de[k], t0 = now();
-    progress_item("tubes: the damped region at dE = %g (%d of %d)...\n", de, k + 1, c->tub_nde);
-    int st = region_run(run, de, c->tub_area_tol, 0, reg, 0);
-    if (st < 0) {
-      char m[1024];
-      region_text(run, de, reg, m, sizeof m);
-      fprintf(stderr, "%s\n", m);
-      printf("  %10.4g   failed (status %d)\n", de, st);
-      rc = EXIT_PARTIAL;
-      continue;
-    }
-    int empty = reg->counts[6];
-    double area = empty ? 0 : reg->res[0], ae = reg->res[7];
-    if (empty)
-      printf("  %10.4g %16.12g %12.6g %6s %4d/%-5d %8.2f   no point transits (none at dE <= %.8g)\n", de, 0.0, 0.0, "-",
-             reg->counts[1], reg->counts[0], now() - t0, reg->res[8]);
-    else
-      printf("  %10.4g %16.12g %12.6g %6d %4d/%-5d %8.2f\n", de, area, area / ae, reg->n, reg->counts[1],
-             reg->counts[0], now() - t0);
-    char name[32];
-    snprintf(name, sizeof name, "region_%03d", k);
-    hid_t o = h5_group(g, name);
-    hsize_t dn = (hsize_t)reg->n, dm = (hsize_t)reg->m;
-    int e = o < 0;
-    if (reg->n > 0) {
-      e |= h5_write_double(o, "r", 1, &dn, reg->s, NULL);
-      e |= h5_write_double(o, "p_r", 1, &dn, reg->p, NULL);
-      e |= h5_write_double(o, "phi", 1, &dn, reg->phi, NULL);
-      e |= h5_write_double(o, "rho", 1, &dn, reg->rho, NULL);
-      e |= h5_write_double(o, "t_in", 1, &dn, reg->t_in, NULL);
-      e |= h5_write_double(o, "curve_r", 1, &dm, reg->cs, NULL);
-      e |= h5_write_double(o, "curve_p_r", 1, &dm, reg->cp, NULL);
-    }
-    e |= h5_attr_double(o, "dE", de);
-    e |= h5_attr_double(o, "area", area);
-    e |= h5_attr_double(o, "area_polygon", reg->res[1]);
-    e |= h5_attr_double(o, "A_E", ae);
-    e |= h5_attr_double(o, "p_trans", area / ae);
-    e |= h5_attr_long(o, "empty", empty);
-    e |= h5_attr_double(o, "dE_threshold_lo", reg->res[8]);
-    e |= h5_attr_double(o, "dE_threshold_hi", reg->res[9]);
-    double cen[2] = {reg->res[2], reg->res[3]}, sc[2] = {reg->res[4], reg->res[5]};
-    hsize_t d2 = 2;
-    e |= h5_write_double(o, "centre", 1, &d2, cen, NULL);
-    e |= h5_write_double(o, "scale", 1, &d2, sc, NULL);
-    e |= h5_attr_long(o, "n_scan", reg->counts[0]);
-    e |= h5_attr_long(o, "n_scan_transit", reg->counts[1]);
-    e |= h5_attr_long(o, "n_inconsistent", reg->counts[3]);
-    e |= dissipation_attrs(o, run);
-    if (o >= 0) H5Gclose(o);
-    if (e) { rc = EXIT_IO; break; }
-  }
-  free(reg);
-  return rc;
-}
-
+/* The tubes scene: src/workflow/tubes_scene_tubes.f90 (its record written by record_emit); /tubes
+ * is made where no cut was recorded, and a dissipative model's regions take the dissipation's
+ * attributes. */
 int scene_tubes(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  hid_t g;
-  int rc = section_scene(run, "tubes", &g);
-  if (rc) return rc;
-  printf("tubes: %s manifold cuts on the section (eps = %g %s, area_tol = %g)%s\n", c->tub_kind, c->tub_eps,
-         strcmp(run->length_units, "1") ? run->length_units : "(length units)", c->tub_area_tol,
-         dissipative(run) ? ": the conservative model's Lyapunov orbits and tubes (a damped model has neither)" : "");
-  printf("  %10s %8s %16s %16s %11s %11s %8s\n", "dE", "kind", "area", "action", "area/action-1", "eps/10 chg", "s");
-  for (int k = 0; k < c->tub_nde; k++) {
-    for (int kind = -1; kind <= 1; kind += 2) {
-      if (kind < 0 && !strcmp(c->tub_kind, "unstable")) continue;
-      if (kind > 0 && !strcmp(c->tub_kind, "stable")) continue;
-      char name[48];
-      double a, a10, act, per, t0 = now(), de = c->tub_de[k];
-      progress_item("tubes: dE = %g, %s manifold (%d of %d)...\n", de, kind < 0 ? "stable" : "unstable", k + 1,
-                    c->tub_nde);
-      snprintf(name, sizeof name, "%s_%03d", kind < 0 ? "stable" : "unstable", k);
-      int st1 = 0;
-      int r1 = cut_to(run, g, name, de, kind, c->tub_eps, c->tub_area_tol, &a, &act, &per, 0, NULL, 0, &st1);
-      if (r1 == EXIT_IO) { H5Gclose(g); return EXIT_IO; }
-      if (st1 == TUBES_EPASTEND) {
-        printf("  %10.4g %8s   refused: past the end of the family (no orbit at this energy)\n", de,
-               kind < 0 ? "stable" : "unstable");
-        rc = EXIT_PARTIAL;
-        continue;
-      }
-      /* the eps/10 repetition of a cut that failed would only fail again (and say so twice) */
-      int r2 = r1 ? (a10 = NAN, 0)
-                  : cut_to(run, -1, "", de, kind, c->tub_eps / 10, c->tub_area_tol, &a10, &act, &per, 0, NULL, 0, NULL);
-      if (r1 || r2) rc = EXIT_PARTIAL;
-      char path[80];
-      snprintf(path, sizeof path, "%s", name);
-      if (H5Lexists(g, path, H5P_DEFAULT) > 0) {
-        hid_t o = H5Gopen2(g, path, H5P_DEFAULT);
-        h5_attr_double(o, "area_eps10", a10);
-        h5_attr_double(o, "area_eps_change", fabs(a - a10));
-        H5Gclose(o);
-      }
-      printf("  %10.4g %8s %16.12g %16.12g %11.2e %11.2e %8.2f\n", de, kind < 0 ? "stable" : "unstable", a, act,
-             a / act - 1, fabs(a - a10), now() - t0);
-    }
-  }
-  if (dissipative(run)) {
-    int r2 = tubes_regions(run, g);
-    if (r2 == EXIT_IO) rc = EXIT_IO;
-    else if (r2 && !rc) rc = r2;
+  int h = tubes_tubes_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
+                            c->sec_angle, c->tub_nde, c->tub_de, c->tub_kind, c->tub_eps, c->tub_area_tol, c->tub_t_max,
+                            c->tub_n_init, c->tub_n_max, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol,
+                            c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c), c->mc_gate, c->mc_t_max,
+                            dissipative(run) ? run->dissip : "",
+                            strcmp(run->length_units, "1") ? run->length_units : "(length units)", in_units(" cm"),
+                            in_units(" (cm/s)^2"), 1, H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
+  int rc = record_emit(run->file, h);
+  if (rc == EXIT_IO || H5Lexists(run->file, "section", H5P_DEFAULT) <= 0) return rc;
+  hid_t g = H5Lexists(run->file, "tubes", H5P_DEFAULT) > 0 ? H5Gopen2(run->file, "tubes", H5P_DEFAULT)
+                                                           : h5_group(run->file, "tubes");
+  if (g < 0) return EXIT_IO;
+  int e = 0;
+  for (int k = 0; dissipative(run) && k < c->tub_nde; k++) {
+    char name[32];
+    snprintf(name, sizeof name, "region_%03d", k);
+    if (H5Lexists(g, name, H5P_DEFAULT) <= 0) continue;
+    hid_t o = H5Gopen2(g, name, H5P_DEFAULT);
+    e |= o < 0 || dissipation_attrs(o, run);
+    if (o >= 0) H5Gclose(o);
   }
   H5Gclose(g);
-  return rc;
-}
-
-/* Whole energies are dealt out to the MPI ranks (energy k on rank k mod nranks), each computed by
- * the rank alone with its OpenMP threads; the results and messages are then shared from each
- * energy's owner, and rank 0 prints them in energy order. */
-typedef struct {
-  double at, act, ae, pt, secs;
-  int rc, status;
-  char err[2048];
-  /* a dissipative model: its region's area and fraction, threshold, status, rays */
-  double ar, pd, de_lo, de_hi, area_hi;
-  int rstatus, empty, nrays;
-} transition_item_t;
-
-static void share_from(void *buf, int bytes, int owner, const tubes_run_t *run) {
-#ifdef TUBES_MPI
-  if (run->nranks > 1) MPI_Bcast(buf, bytes, MPI_BYTE, owner, MPI_COMM_WORLD);
-#else
-  (void)buf; (void)bytes; (void)owner; (void)run;
-#endif
-}
-
-int scene_transition(tubes_run_t *run) {
-  const tubes_config_t *c = run->cfg;
-  double a0, tau, tpo;
-  int rc = write_section(run, &a0, &tau, &tpo);
-  if (rc) return rc;
-  int n = c->tra_nde, damped = dissipative(run);
-  double *at = calloc(n, sizeof(double)), *act = calloc(n, sizeof(double)), *ae = calloc(n, sizeof(double)),
-         *pt = calloc(n, sizeof(double)), *pl = calloc(n, sizeof(double)), *ar = calloc(n, sizeof(double)),
-         *pd = calloc(n, sizeof(double));
-  transition_item_t *it = calloc(n, sizeof(transition_item_t));
-  int *stat = calloc(n, sizeof(int)), *rstat = calloc(n, sizeof(int)), *nrays = calloc(n, sizeof(int));
-  region_out_t *reg = damped ? malloc(sizeof *reg) : NULL;
-  if (!at || !act || !ae || !pt || !pl || !ar || !pd || !it || !stat || !rstat || !nrays || (damped && !reg)) {
-    fprintf(stderr, "tubes: transition: out of memory\n");
-    free(at); free(act); free(ae); free(pt); free(pl); free(ar); free(pd); free(it); free(stat); free(rstat);
-    free(nrays); free(reg);
-    return EXIT_NUMERIC;
-  }
-  if (run->nranks > 1)
-    fprintf(stderr, "transition: %d energies dealt out to %d MPI ranks\n", n, run->nranks);
-  for (int k = 0; k < n; k++) {
-    if (k % run->nranks != run->rank) continue;
-    transition_item_t *x = &it[k];
-    double de = c->tra_de[k], rmin, rmax, darea, per, t0 = now();
-    progress_item("transition: dE = %g (%d of %d)...\n", de, k + 1, n);
-    int r1 = cut_to(run, -1, "", de, -1, c->tub_eps, c->tra_area_tol, &x->at, &x->act, &per, 1, x->err,
-                    sizeof x->err, &x->status);
-    int st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &x->ae, &darea, run->seeds);
-    if (st < 0) {
-      char m[TUBES_LSTATUS];
-      status_text(st, m, sizeof m);
-      size_t l = strlen(x->err);
-      snprintf(x->err + l, sizeof x->err - l, "%stubes: transition: the energy surface on the section at dE = %g: "
-               "%s (status %d)", l ? "\n" : "", de, m, st);
-    }
-    x->rc = (r1 || st < 0) ? EXIT_PARTIAL : 0;
-    if (x->status >= 0 && st < 0) x->status = st;
-    if (st < 0) x->ae = NAN;          /* the failed call's area is no number of the program's */
-    if (x->status < 0 && x->act == 0) x->act = NAN;   /* no orbit (past the family's end): no action */
-    x->pt = (st < 0) ? NAN : x->at / x->ae;
-    x->ar = x->pd = x->de_lo = x->de_hi = x->area_hi = NAN;
-    if (damped) {            /* the dissipative model's region: p_trans is its fraction */
-      int rs = region_run(run, de, c->tra_area_tol, 1, reg, 0);
-      x->rstatus = rs;
-      x->empty = reg->counts[6];
-      x->nrays = reg->n;
-      x->de_lo = reg->res[8]; x->de_hi = reg->res[9]; x->area_hi = reg->res[10];
-      if (rs >= 0) {
-        x->ar = x->empty ? 0 : reg->res[0];
-        x->pd = st < 0 ? NAN : x->ar / x->ae;
-      } else {
-        char m[1024];
-        size_t l = strlen(x->err);
-        region_text(run, de, reg, m, sizeof m);
-        snprintf(x->err + l, sizeof x->err - l, "%s%s", l ? "\n" : "", m);
-        x->rc = EXIT_PARTIAL;
-      }
-    }
-    x->secs = now() - t0;
-  }
-  for (int k = 0; k < n; k++) share_from(&it[k], (int)sizeof it[k], k % run->nranks, run);
-  if (damped) {
-    printf("transition: the dissipative model (%s): p_trans(dE) = A_region / A_E on %d energies, A_region the "
-           "section points that pass the saddle's gate (area_tol %g); beside it the conservative model's A_tube / A_E\n",
-           run->dissip, n, c->tra_area_tol);
-    printf("  %10s %14s %14s %14s %12s %12s %6s\n", "dE", "A_region", "A_tube", "A_E", "p_trans", "conservative",
-           "rays");
-  } else {
-    printf("transition: p_trans(dE) = A_tube / A_E on %d energies (area_tol %g)\n", n, c->tra_area_tol);
-    printf("  %10s %14s %14s %14s %12s %12s\n", "dE", "A_tube", "action", "A_E", "p_trans", "leading");
-  }
-  int beyond = 0;   /* energies where the leading order's correction tau dE / A0 exceeds LEADING_RANGE */
-  double th_lo = NAN, th_hi = NAN, th_area = NAN;   /* the damped region's threshold, where one was found */
-  for (int k = 0; k < n; k++) {
-    double de = c->tra_de[k];
-    at[k] = it[k].at; act[k] = it[k].act; ae[k] = it[k].ae; pt[k] = it[k].pt;
-    ar[k] = it[k].ar; pd[k] = it[k].pd; rstat[k] = it[k].rstatus; nrays[k] = it[k].nrays;
-    pl[k] = tubes_p_trans_leading(tpo, a0, tau, de);
-    if (it[k].err[0]) fprintf(stderr, "%s\n", it[k].err);
-    if (it[k].rc) rc = EXIT_PARTIAL;
-    stat[k] = it[k].status;
-    if (damped) {
-      if (it[k].empty && !isnan(it[k].de_lo) && (isnan(th_lo) || it[k].de_lo > th_lo)) {
-        th_lo = it[k].de_lo; th_hi = it[k].de_hi; th_area = it[k].area_hi;
-      }
-      char cons[16];
-      if (it[k].status == TUBES_EPASTEND) snprintf(cons, sizeof cons, "%12s", "past end");
-      else snprintf(cons, sizeof cons, "%12.6g", pt[k]);
-      if (rstat[k] < 0)
-        printf("  %10.4g   failed (status %d, stderr says why)%25s %s  (%.1f s)\n", de, rstat[k], "", cons, it[k].secs);
-      else if (it[k].empty)
-        printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %s %6s  (%.1f s)\n", de, 0.0, at[k], ae[k], pd[k], cons, "-",
-               it[k].secs);
-      else
-        printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %s %6d  (%.1f s)\n", de, ar[k], at[k], ae[k], pd[k], cons,
-               nrays[k], it[k].secs);
-    } else if (it[k].status == TUBES_EPASTEND)
-      printf("  %10.4g   refused: past the end of the family (no orbit at this energy)\n", de);
-    else {
-      int out = fabs(tau / a0 * de) > LEADING_RANGE;
-      beyond += out;
-      printf("  %10.4g %14.8g %14.8g %14.8g %12.6g %12.6g%s  (%.1f s)\n", de, at[k], act[k], ae[k], pt[k], pl[k],
-             out ? "*" : " ", it[k].secs);
-    }
-  }
-  if (damped && !isnan(th_lo)) {
-    if (isnan(th_hi))
-      printf("  no point of the section found to transit at dE <= %g (the scan and the search up to there)\n",
-             th_lo);
-    else if (th_area > 0)
-      printf("  the region closes between dE = %.8g and %.8g (area %.3g at the upper end): the search from its "
-             "centre finds no point that transits at dE <= %.8g\n", th_lo, th_hi, th_area, th_lo);
-    else   /* the upper end's region: a point that transits, too small or ragged to trace */
-      printf("  the region closes between dE = %.8g and %.8g (at the upper end a point transits, its region "
-             "too small to trace): the search from its centre finds no point that transits at dE <= %.8g\n",
-             th_lo, th_hi, th_lo);
-  }
-  if (beyond)
-    printf("  * the leading order (T_po/A0) dE (1 - tau dE/A0) is outside its range there: tau dE/A0 > %g "
-           "(p_trans is A_tube/A_E, computed)\n", LEADING_RANGE);
-  hid_t g = h5_group(run->file, "transition");
-  int e = g < 0;
-  hsize_t dn = (hsize_t)n;
-  e |= h5_write_double(g, "dE", 1, &dn, c->tra_de, NULL);
-  e |= h5_write_double(g, "A_tube", 1, &dn, at, NULL);
-  e |= h5_write_double(g, "action", 1, &dn, act, NULL);
-  e |= h5_write_double(g, "A_E", 1, &dn, ae, NULL);
-  e |= h5_write_double(g, "p_trans", 1, &dn, damped ? pd : pt, NULL);
-  e |= h5_write_double(g, "p_trans_leading", 1, &dn, pl, NULL);
-  e |= h5_write_int(g, "status", dn, damped ? rstat : stat, NULL);
-  if (damped) {
-    e |= h5_write_double(g, "A_region", 1, &dn, ar, NULL);
-    e |= h5_write_double(g, "p_trans_conservative", 1, &dn, pt, NULL);
-    e |= h5_write_int(g, "status_conservative", dn, stat, NULL);
-    e |= h5_write_int(g, "region_rays", dn, nrays, NULL);
-    e |= dissipation_attrs(g, run);
-    e |= h5_attr_double(g, "dE_threshold_lo", th_lo);
-    e |= h5_attr_double(g, "dE_threshold_hi", th_hi);
-  }
-  if (g >= 0) H5Gclose(g);
-  free(at); free(act); free(ae); free(pt); free(pl); free(ar); free(pd); free(it); free(stat); free(rstat);
-  free(nrays); free(reg);
   return e ? EXIT_IO : rc;
 }
 
-/* The /montecarlo group with what every outcome records: dE, n_samples, seed, status, and the
- * points (r, p_r, transit) when they were integrated (r != NULL). *e collects write errors. */
-static hid_t mc_group(tubes_run_t *run, double de, int ns, int st, const double *r, const double *pr,
-                      const int *out, int *e) {
-  hid_t g = h5_group(run->file, "montecarlo");
-  hsize_t dn = (hsize_t)ns;
-  *e |= g < 0;
-  *e |= h5_attr_double(g, "dE", de);
-  *e |= h5_attr_long(g, "n_samples", ns);
-  *e |= h5_attr_long(g, "seed", run->cfg->mc_seed);
-  *e |= h5_attr_long(g, "status", st);
-  if (r) {
-    *e |= h5_write_double(g, "r", 1, &dn, r, NULL);
-    *e |= h5_write_double(g, "p_r", 1, &dn, pr, NULL);
-    *e |= h5_write_int(g, "transit", dn, out, NULL);
-  }
-  return g;
+/* The transition scene: src/workflow/tubes_scene_transition.f90 (its record written by record_emit;
+ * its energies dealt out over the MPI ranks there); with dissipation, /transition takes the
+ * dissipation's attributes. */
+int scene_transition(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  int h = tubes_transition_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
+                                 c->sec_angle, c->tra_nde, c->tra_de, c->tub_eps, c->tra_area_tol, c->tub_t_max,
+                                 c->tub_n_init, c->tub_n_max, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol,
+                                 c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c), c->mc_gate,
+                                 c->mc_t_max, dissipative(run) ? run->dissip : "", in_units(" cm"),
+                                 in_units(" (cm/s)^2"), H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
+  int rc = record_emit(run->file, h);
+  if (rc == EXIT_IO || !dissipative(run) || H5Lexists(run->file, "transition", H5P_DEFAULT) <= 0) return rc;
+  hid_t g = H5Gopen2(run->file, "transition", H5P_DEFAULT);
+  if (g < 0) return EXIT_IO;
+  int e = dissipation_attrs(g, run);
+  H5Gclose(g);
+  return e ? EXIT_IO : rc;
 }
 
+/* The montecarlo scene: src/workflow/tubes_scene_montecarlo.f90 (its record written by record_emit);
+ * a dissipative model's /montecarlo takes the dissipation's attributes where the check ran. */
 int scene_montecarlo(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  double a0, tau, tpo;
-  int rc = write_section(run, &a0, &tau, &tpo);
-  if (rc) return rc;
-  int nout = c->tub_n_max, n = 0, nh = 0, hn[64], nfail = 0;
-  double ftau = 0, floq[2 * MD], sigma = 0, de = c->mc_de, *tau_ = malloc(sizeof(double) * nout), *cr = malloc(sizeof(double) * nout),
-         *cp = malloc(sizeof(double) * nout), *tm = malloc(sizeof(double) * nout), *xs = malloc(sizeof(double) * 2 * MD * nout),
-         ha[64], ar = 0, ap = 0, act = 0, per = 0, rmin, rmax, ae, darea, t0 = now();
-  int ns = c->mc_n_samples, damped = dissipative(run);
-  double *r = malloc(sizeof(double) * ns), *pr = malloc(sizeof(double) * ns), p_cons = NAN;
-  int *out = malloc(sizeof(int) * ns), *ins = malloc(sizeof(int) * ns);
-  region_out_t *reg = damped ? malloc(sizeof *reg) : NULL;
-  fprintf(stderr, "montecarlo: the tube cut at dE = %g...\n", de);
-  int st = tubes_tube_cut(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, -1, SECTION(c), c->tub_eps, c->mc_area_tol,
-                          c->tub_t_max, c->tub_n_init, nout, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol,
-                          c->orb_atol, INTEGRATOR(c), nout,
-                          &n, tau_, cr, cp, tm, xs, &ar, &ap, &act, &per, &nh, hn, ha, &nfail, &ftau, floq, &sigma, 0,
-                          run->seeds);
-  if (st < 0 && nfail > 0)
-    fprintf(stderr, "tubes: montecarlo: the tube cut at dE = %g: %d seed(s) failed, the first at orbit phase "
-            "tau = %.10g s\n", de, nfail, ftau);
-  if (st >= 0) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), de, &rmin, &rmax, &ae, &darea, run->seeds);
-  if (st >= 0 && damped) {
-    /* the dissipative model's prediction: its transition region (the conservative tube's fraction
-     * beside it); the points are sorted by the region's boundary */
-    p_cons = ar / ae;
-    fprintf(stderr, "montecarlo: the damped model's transition region at dE = %g...\n", de);
-    if (!reg) st = TUBES_EINPUT;
-    else if (region_run(run, de, c->mc_area_tol, 0, reg, 1) < 0) {
-      char m[1024];
-      region_text(run, de, reg, m, sizeof m);
-      fprintf(stderr, "%s\n", m);
-      st = reg->st;
-    } else {
-      ar = reg->counts[6] ? 0 : reg->res[0];
-      n = reg->counts[6] ? 0 : reg->m;
-      for (int k = 0; k < n && k < nout; k++) { cr[k] = reg->cs[k]; cp[k] = reg->cp[k]; }
-      if (n > nout) n = nout;
-    }
-  }
-  int mc_ran = 0;
-  if (st >= 0) {
-    mc_ran = 1;
-    fprintf(stderr, "montecarlo: integrating %d points...\n", ns);
-    st = tubes_monte_carlo(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, c->mc_seed, c->mc_t_max,
-                           c->mc_gate, INTEGRATOR(c), n, cr, cp, r, pr, out, ins, run->seeds);
-  }
-  if (st < 0) {
-    char m[512];
-    status_text(st, m, sizeof m);
-    double reach = 0;
-    if (st == TUBES_EPASTEND) {
-      past_end_message(run, de, m, sizeof m, 0);
-      fprintf(stderr, "%s\n", m);
-    } else if (st == TUBES_ENARROW &&
-               !tubes_gate_reach(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, &reach,
-                                 run->seeds)) {
-      /* refused before any sample was integrated */
-      mc_ran = 0;
-      say_at(run, nml_line(run->where, "montecarlo", "gate"));
-      fprintf(stderr, "&montecarlo: gate = %g%s lies within twice the reach of the NHIM (the Lyapunov orbits) across "
-              "saddle %s's neck at dE = %g (%.3g%s): orbits near it swing past the gate and back and would count as "
-              "transits; allowed: gate > %.3g%s (docs/input.md)\n", c->mc_gate, in_units(" cm"), run->saddle, de, reach,
-              in_units(" cm"), 2 * reach, in_units(" cm"));
-    } else
-      fprintf(stderr, "tubes: montecarlo: failed: %s (status %d)\n", m, st);
-    int nbad = 0, first = -1;
-    if (st == TUBES_EINTERRUPT) mc_ran = 0;   /* stopped: the samples not drawn did not fail */
-    for (int k = 0; k < ns && mc_ran; k++)
-      if (out[k] < 0) {
-        if (first < 0) first = k;
-        nbad++;
-      }
-    if (first >= 0) {
-      status_text(out[first], m, sizeof m);
-      fprintf(stderr, "tubes: montecarlo: %d of %d samples failed; the first, sample %d at (r, p_r) = (%.10g%s, "
-              "%.10g%s): %s (status %d)\n", nbad, ns, first + 1, r[first], in_units(" cm"), pr[first],
-              in_units(" cm/s"), m, out[first]);
-    }
-    rc = st == TUBES_EPASTEND ? EXIT_PARTIAL : EXIT_NUMERIC;
-    /* the failure is recorded in the file (docs/output.md): the scene's status, no fraction */
-    int e = 0;
-    hid_t g = mc_group(run, de, ns, st, mc_ran ? r : NULL, pr, out, &e);
-    status_text(st, m, sizeof m);
-    e |= h5_attr_string(g, "status_message", m);
-    e |= h5_attr_long(g, "agrees", 0);
-    if (g >= 0) H5Gclose(g);
-    if (e) rc = EXIT_IO;
-  } else {
-    int nt = 0, nu = 0, in_nt = 0, out_t = 0, nin = 0, nesc = 0, ntrap = 0;
-    for (int k = 0; k < ns; k++) {
-      nt += out[k] == 1;
-      nu += out[k] == 2;
-      nesc += out[k] == 3;   /* left for good through another exit: no transition */
-      ntrap += out[k] == 4;  /* fell below the saddle's energy (dissipative): no transition */
-      nin += ins[k];
-      in_nt += ins[k] && out[k] != 1;
-      out_t += !ins[k] && out[k] == 1;
-    }
-    /* the two answers must agree (tubes_verdicts mc_check, Python's monte_carlo's too): the direct
-     * count within MC_SIGMA standard errors of the tube's p_trans, few misclassified, few
-     * undecided; else the run says so and exits 2 (docs/tubes.md, "Monte Carlo check") */
-    double f = (double)nt / ns, se = sqrt(f * (1 - f) / ns), p = ar / ae, nsig;
-    int agrees;
-    char verdict[1024];
-    tubes_verdict_montecarlo(de, ns, nt, nu, in_nt + out_t, p, run->noisy, run->saddle, &nsig, &agrees, verdict,
-                             (int)sizeof verdict);
-    if (run->noisy) {   /* no deterministic prediction to hold it to: the fraction under noise, beside the
-                         * noise-free region's (its D -> 0 limit); only the undecided count is checked */
-      printf("montecarlo: the noisy model (%s), dE = %g, %d points: transition fraction %.5f +- %.5f under noise "
-             "(the noise-free region's p_trans = %.5f, %+.1f standard errors from it; conservative A_tube/A_E = %.5f); "
-             "%d points end otherwise than the noise-free region says; %d undecided%s (%.1f s)\n",
-             run->dissip, de, ns, f, se, p, se > 0 ? (f - p) / se : 0.0, p_cons, in_nt + out_t, nu,
-             nesc ? escaped_text(nesc) : "", now() - t0);
-    } else if (damped)
-      printf("montecarlo: the dissipative model (%s), dE = %g, %d points: transition fraction "
-             "%.5f +- %.5f (p_trans = A_region/A_E = %.5f, %.1f standard errors; conservative A_tube/A_E = %.5f); %d "
-             "inside the region; misclassified %d (inside, no transit) + %d (outside, transit); %d fell below E_e; %d "
-             "undecided%s (%.1f s)\n",
-             run->dissip, de, ns, f, se, p, nsig, p_cons, nin, in_nt, out_t, ntrap, nu,
-             nesc ? escaped_text(nesc) : "", now() - t0);
-    else
-      printf("montecarlo: dE = %g, %d points: transition fraction %.5f +- %.5f (p_trans = %.5f, %.1f standard errors);"
-             " %d inside the tube; misclassified %d (inside, no transit) + %d (outside, transit); %d undecided%s (%.1f s)\n",
-             de, ns, f, se, p, nsig, nin, in_nt, out_t, nu, nesc ? escaped_text(nesc) : "", now() - t0);
-    int e = 0;
-    hsize_t dn = (hsize_t)ns;
-    hid_t g = mc_group(run, de, ns, 0, r, pr, out, &e);
-    if (damped) {
-      e |= dissipation_attrs(g, run);
-      e |= h5_attr_double(g, "p_trans_conservative", p_cons);
-      e |= h5_attr_string(g, "predicted_by", run->noisy ? "none (noise): p_trans is the noise-free region's" : "region");
-    }
-    e |= h5_attr_double(g, "fraction", f);
-    e |= h5_attr_double(g, "std_error", se);
-    e |= h5_attr_double(g, "p_trans", p);
-    e |= h5_attr_long(g, "misclassified", in_nt + out_t);
-    e |= h5_attr_long(g, "misclassified_inside_no_transit", in_nt);
-    e |= h5_attr_long(g, "misclassified_outside_transit", out_t);
-    e |= h5_attr_long(g, "undecided", nu);
-    e |= h5_attr_long(g, "escaped", nesc);
-    if (damped) e |= h5_attr_long(g, "trapped", ntrap);
-    e |= h5_write_int(g, "inside", dn, ins, NULL);
-    e |= h5_attr_long(g, "agrees", agrees);
-    if (g >= 0) H5Gclose(g);
-    if (e) rc = EXIT_IO;
-    else if (!agrees) {
-      fprintf(stderr, "%s\n", verdict);
-      rc = EXIT_NUMERIC;
-    }
-  }
-  free(tau_); free(cr); free(cp); free(tm); free(xs); free(r); free(pr); free(out); free(ins); free(reg);
-  return rc;
+  char at[1024];   /* the head of a message about &montecarlo gate (say_at's) */
+  int ln = nml_line(run->where, "montecarlo", "gate");
+  if (run->input && ln > 0) snprintf(at, sizeof at, "%s:%d: ", run->input, ln);
+  else if (run->input) snprintf(at, sizeof at, "%s: ", run->input);
+  else snprintf(at, sizeof at, "tubes: ");
+  int h = tubes_montecarlo_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
+                                 c->sec_angle, c->mc_de, c->mc_n_samples, c->mc_seed, c->tub_eps, c->mc_area_tol,
+                                 c->tub_t_max, c->tub_n_init, c->tub_n_max, orb_nseg(c), c->orb_family, c->orb_tol,
+                                 c->orb_rtol, c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c),
+                                 c->mc_gate, c->mc_t_max, dissipative(run) ? run->dissip : "", run->noisy, at,
+                                 in_units(" cm"), in_units(" (cm/s)^2"), in_units(" cm/s"),
+                                 H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
+  int rc = record_emit(run->file, h);
+  if (rc == EXIT_IO || !dissipative(run) || H5Lexists(run->file, "montecarlo", H5P_DEFAULT) <= 0) return rc;
+  hid_t g = H5Gopen2(run->file, "montecarlo", H5P_DEFAULT);
+  if (g < 0) return EXIT_IO;
+  int e = H5Aexists(g, "fraction") > 0 ? dissipation_attrs(g, run) : 0;
+  H5Gclose(g);
+  return e ? EXIT_IO : rc;
 }
 
 int scene_sections(tubes_run_t *run) {

@@ -8,6 +8,7 @@ module tubes_scene_equilibria
   use tubes_kinds, only: wp, PI
   use tubes_status, only: TUBES_OK, TUBES_ENOCONV, status_message
   use tubes_cstrings, only: num
+  use tubes_scene_text, only: itoa, ls, rs, wall
   use tubes_record, only: record_t, EXIT_NUMERIC
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_equilibria, only: equilibrium_t
@@ -233,37 +234,6 @@ contains
                                                            [2*n2]), [n2, 2])
     end if
   end subroutine scene_equilibria
-
-  !> Wall-clock seconds.
-  real(wp) function wall()
-    integer(8) :: c, r
-    call system_clock(c, r)
-    wall = real(c, wp)/real(r, wp)
-  end function wall
-
-  pure function itoa(i) result(s)
-    integer, intent(in) :: i
-    character(:), allocatable :: s
-    character(16) :: b
-    write (b, '(i0)') i
-    s = trim(b)
-  end function itoa
-
-  !> s left-justified in a field of w (C's %-ws).
-  pure function ls(s, w) result(r)
-    character(*), intent(in) :: s
-    integer, intent(in) :: w
-    character(:), allocatable :: r
-    r = s // repeat(' ', max(0, w - len(s)))
-  end function ls
-
-  !> s right-justified in a field of w (C's %ws).
-  pure function rs(s, w) result(r)
-    character(*), intent(in) :: s
-    integer, intent(in) :: w
-    character(:), allocatable :: r
-    r = repeat(' ', max(0, w - len(s))) // s
-  end function rs
 
   pure real(wp) function zero_if(c, v)
     logical, intent(in) :: c
