@@ -53,3 +53,12 @@ void tubes_progress_tick(long done, long total) {
   }
   pthread_mutex_unlock(&lock);
 }
+
+/* A line of a scene's own long step ("orbits: continuing the S12 family to dE = 760 ..."; the
+ * scene procedures of src/workflow), printed on stderr as it comes while the progress lines are on. */
+void tubes_progress_line(const char *text, int len) {
+  if (!atomic_load(&enabled)) return;
+  pthread_mutex_lock(&lock);
+  fprintf(stderr, "%.*s\n", len, text);
+  pthread_mutex_unlock(&lock);
+}
