@@ -18,6 +18,7 @@ module tubes_scene_equilibria
   private
 
   public :: scene_equilibria
+  public :: wall, ls, rs   ! the console's helpers of the other scenes too (tubes_scene_orbits)
 
 contains
 

@@ -23,6 +23,7 @@ module tubes_scene_orbits
   use tubes_orbit_parameter, only: family_parameter_des, PARAM_JACOBI, PARAM_PERIOD, PARAM_NOT_REACHED, &
                                    PARAM_NOCONV, PARAM_NOJACOBI
   use tubes_verdicts, only: orbit_coarse
+  use tubes_scene_equilibria, only: wall, ls, rs
   implicit none
   private
 
@@ -269,11 +270,11 @@ contains
     else
       call rec%out('  bifurcations (located by bisection to a bracket of ' // num(BIF_TOL, '.0e') // ' dE; ' // &
                    num(wall() - tb, '.2f') // ' s):')
-      call rec%out('  ' // left('kind', 16) // ' ' // right('dE', 18) // ' ' // right('bracket', 11) // ' ' // &
-                   right('energy', 18) // ' ' // right('period', 14) // '  Floquet indices (nu)')
+      call rec%out('  ' // ls('kind', 16) // ' ' // rs('dE', 18) // ' ' // rs('bracket', 11) // ' ' // &
+                   rs('energy', 18) // ' ' // rs('period', 14) // '  Floquet indices (nu)')
       do j = 1, nbif
         if (bconv(j) == 0) then
-          call rec%out('  ' // left(BIF_NAME(bkind(j)), 16) // ' ' // num(bde(j), '18.12g') // ' ' // &
+          call rec%out('  ' // ls(trim(BIF_NAME(bkind(j))), 16) // ' ' // num(bde(j), '18.12g') // ' ' // &
                        num(bwid(j), '11.2e') // '   the corrector failed inside the bracket')
           call rec%err('tubes: orbits: the ' // trim(BIF_NAME(bkind(j))) // ' between dE = ' // &
                        num(des(bafter(j) + 1)) // ' and ' // num(des(bafter(j) + 2)) // ': the corrector ' // &
@@ -282,7 +283,7 @@ contains
           if (rec%code == 0) rec%code = EXIT_PARTIAL
           cycle
         end if
-        line = '  ' // left(BIF_NAME(bkind(j)), 16) // ' ' // num(bde(j), '18.12g') // ' ' // &
+        line = '  ' // ls(trim(BIF_NAME(bkind(j))), 16) // ' ' // num(bde(j), '18.12g') // ' ' // &
                num(bwid(j), '11.2e') // ' ' // num(ben(j), '18.12f') // ' ' // num(bper(j), '14.10f') // ' '
         do i = 1, np
           line = line // ' ' // num(bnu(i, j), '.10g')
@@ -534,27 +535,4 @@ contains
     s = num(v, '.3g')
     if (s(1:1) /= '-') s = '+' // s
   end function signed
-
-  !> s left-justified in a field of w (C's %-ws).
-  pure function left(s, w) result(r)
-    character(*), intent(in) :: s
-    integer, intent(in) :: w
-    character(:), allocatable :: r
-    r = trim(s) // repeat(' ', max(0, w - len_trim(s)))
-  end function left
-
-  !> s right-justified in a field of w (C's %ws).
-  pure function right(s, w) result(r)
-    character(*), intent(in) :: s
-    integer, intent(in) :: w
-    character(:), allocatable :: r
-    r = repeat(' ', max(0, w - len(s))) // s
-  end function right
-
-  !> Wall-clock seconds.
-  real(wp) function wall()
-    integer(8) :: c, r
-    call system_clock(c, r)
-    wall = real(c, wp)/real(r, wp)
-  end function wall
 end module tubes_scene_orbits
