@@ -978,8 +978,9 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     if "orbits" not in rec["data"]:           # refused or failed before any orbit
         if rec["code"] == 1:
             raise ValueError(f"orbit_family: {msg}")
-        raise TubesError(_lib().status_code("EPASTEND" if "not reached" in msg else "ENOCONV"),
-                         f"orbit_family: {msg}")
+        stat = re.search(r"\(status (-\d+)\)$", said[-1]) if said else None   # the core's status, if it said one
+        raise TubesError(int(stat.group(1)) if stat else _lib().status_code("EPASTEND" if "not reached" in msg
+                                                                             else "ENOCONV"), f"orbit_family: {msg}")
     g, a = rec["data"]["orbits"], rec["attrs"]["orbits"]
     de = g["dE"]
     end_de = a.get("family_end_dE")
