@@ -291,6 +291,15 @@ enum { TUBES_REC_REAL = 1, TUBES_REC_INT = 2, TUBES_REC_STRINGS = 3, TUBES_REC_A
 int tubes_equilibria_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
                            double box, const char *want, int asked, const char *label, const char *dissip,
                            void *stores);
+/* The orbits scene at the n values of kind pkind (0 dE, 1 Jacobi constants, 2 periods), with the
+ * settings of tubes_orbit_family; sysname: the system as the input names it; dimensioned: the
+ * ball's units (cm, s); dissipative: the run's model dissipates (its orbits are the conservative
+ * model's). */
+int tubes_orbits_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
+                       const char *saddle, int pkind, int n, const double *values, int n_segments, int family,
+                       double tol, double rtol, double atol, int max_iter, int nsamp, int method, double h,
+                       double omega_bind, int solver, int int_max_iter, void *stores, int nguess, const double *guess,
+                       double guess_period, const char *sysname, int dimensioned, int dissipative);
 /* The transition scene (src/workflow/tubes_scene_transition.f90): the saddle's section (sec_kind
  * 1 ray, 2 plane; level the ray's angle [rad] or the plane's value; angle_deg the ray's as given),
  * the nde energies des, &tubes eps, t_max, n_init, n_max, &transition area_tol, &orbits'

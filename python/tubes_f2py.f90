@@ -1484,6 +1484,39 @@ subroutine scene_equilibria(system, params, lo, hi, n_grid, box, want, asked, la
   h = record_keep(rec)
 end subroutine scene_equilibria
 
+subroutine scene_orbits(system, params, lo, hi, n_grid, saddle, pkind, n, values, n_segments, family, tol, &
+                        rtol, atol, max_iter, nsamp, method, hs, omega_bind, solver, int_max_iter, stores, &
+                        nguess, guess, guess_period, sysname, dimensioned, dissipative, h)
+  ! the orbits scene (src/workflow/tubes_scene_orbits.f90), as the program's: the handle of its
+  ! result record, at the n values of kind pkind (0 dE, 1 Jacobi constants, 2 periods)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_orbits, only: orbit_opts_t
+  use tubes_study, only: study_t, seed_stores_t, stores_at
+  use tubes_record, only: record_t, record_keep
+  use tubes_capi, only: integ_of, guess_opts
+  use tubes_scene_orbits, only: scene_run => scene_orbits
+  implicit none
+  character(len=*), intent(in) :: system, saddle, sysname
+  integer(c_int), intent(in) :: n_grid, pkind, n, n_segments, family, max_iter, nsamp, method, solver
+  integer(c_int), intent(in) :: int_max_iter, nguess, dimensioned, dissipative
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), values(n), tol, rtol, atol, hs, omega_bind
+  real(c_double), intent(in) :: guess(6), guess_period
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: h
+  type(record_t), allocatable :: rec
+  type(seed_stores_t), pointer :: kept
+  type(orbit_opts_t) :: opts
+  allocate (rec)
+  opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, &
+                      n_samples=nsamp, family=family, integ=integ_of(method, hs, omega_bind, solver, int_max_iter))
+  call guess_opts(nguess, guess, guess_period, opts)
+  kept => stores_at(stores)
+  call scene_run(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+                         integ=opts%integ), opts, int(family), int(pkind), values, trim(sysname), &
+                 dimensioned /= 0, dissipative /= 0, kept, rec)
+  h = record_keep(rec)
+end subroutine scene_orbits
+
 subroutine scene_transition(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
                             angle_deg, nde, des, eps, area_tol, t_max, n_init, n_max, n_segments, &
                             family, orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, method, &

@@ -178,7 +178,7 @@ def test_bad_input_python():
         tubes.orbit_family(m, saddle="L1", jacobi=[3.17], periods=[2.72])
     with pytest.raises(ValueError, match="has no Jacobi constant"):
         tubes.orbit_family(tubes.Model("henon_heiles"), jacobi=[0.1])
-    with pytest.raises(ValueError, match="not below the saddle's C"):
+    with pytest.raises(ValueError, match="is not below the saddle L1's C"):
         tubes.orbit_family(m, saddle="L1", jacobi=[3.19])
     with pytest.raises(tubes.TubesError, match="not reached") as e:
         tubes.orbit_family(m, saddle="L1", periods=[2.6])

@@ -907,49 +907,6 @@ def _guess(st: dict) -> tuple:
     return int(st["orb_nguess"]), np.asarray(st["orb_guess"], float), float(st["orb_period"])
 
 
-def _orbit_parameter_des(model: Model, st: dict, name: str) -> np.ndarray:
-    """The excess energies of the orbits of &orbits jacobi or periods (st: the settings read; name:
-    which), located by the program's Fortran (tubes_orbit_parameter family_parameter_des, as the
-    orbits scene): ValueError where the model has no Jacobi constant, a C is not below the saddle's or
-    the orbits' dE do not increase along the list; TubesError EPASTEND for a period the family does
-    not reach (the program's exit 4), ENOCONV where the root finder failed."""
-    kind, npv = int(st["orb_pkind"]), int(st["orb_npvalues"])
-    vals = np.array(st["orb_pvalues"][:npv], dtype=float)
-    stat, des, found, t_po, t_reach, de_reach, e_sad = _lib().orbit_parameter(
-        *_study(model, st), kind, vals, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]),
-        float(st["orb_rtol"]), float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]),
-        *_integ(st, model), model._stores())
-    if stat == _lib().status_code("EINPUT"):
-        raise ValueError(f"orbit_family: {name}: not available for this family (allowed: periods with family 1 .. "
-                         "N-1; jacobi for a model with a Jacobi constant)")
-    _check(stat, "orbit_family")
-    for k, f in enumerate(found):
-        if f == 3:
-            raise ValueError(f"orbit_family: jacobi: system {model.system!r} has no Jacobi constant (give dE)")
-        if f == 1:
-            err = TubesError(_lib().status_code("EPASTEND"), f"orbit_family: periods[{k}] = {vals[k]:.12g}")
-            err.args = (f"orbit_family: periods[{k}] = {vals[k]:.12g}: not reached: the family's period runs from "
-                        f"T_po = {t_po:.12g} at the saddle to {t_reach:.12g} (at dE = {de_reach:.10g}) without taking "
-                        "this value",)
-            raise err
-        if f == 2:
-            raise TubesError(_lib().status_code("ENOCONV"), f"orbit_family: periods[{k}] = {vals[k]:.12g}: the root "
-                             "finder on T(dE) did not locate it to 1e-12 of the period")
-    if kind == 1:
-        e0 = np.array([e_sad])
-        c0 = float(_lib().jacobi_constant(model.name, model.params(), e0)[1][0])
-        bad = np.flatnonzero(~(des > 0))
-        if bad.size:
-            raise ValueError(f"orbit_family: jacobi[{bad[0]}] = {vals[bad[0]]:.12g} is not below the saddle's "
-                             f"C = {c0:.12g}: no orbit of its Lyapunov family there (allowed: C < {c0:.12g})")
-    dn = np.flatnonzero(np.diff(des) <= 0)
-    if dn.size:
-        raise ValueError(f"orbit_family: {name}[{dn[0] + 1}] = {vals[dn[0] + 1]:.12g}: its orbit (dE = "
-                         f"{des[dn[0] + 1]:.12g}) lies below the previous one's: give the {name} in the order the "
-                         "family reaches them (dE increasing)")
-    return np.array(des, dtype=float)
-
-
 def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
                  integrator: dict | None = None, equilibria: dict | None = None, check: bool = True,
                  **orbits) -> dict:
@@ -1008,68 +965,59 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     orb = dict(orbits, **byp) if de is None else dict(orbits, de=de)
     st = _settings(model, saddle, saddle_near, who="orbit_family", orbits=orb, integrator=integrator,
                    equilibria=equilibria)
-    de = np.array(st["des"][:int(st["ndes"][0]), 0])
-    if byp:
-        de = _orbit_parameter_des(model, st, next(iter(byp)))
-    n2 = 2 * model.ndof
-    (stat, en, per, act, mu, ms, mtr, stab, res, clo, it, conv, mind, mono, hist, s0, ts, xs, end_de,
-     reason) = _lib().orbit_family(
-        *_study(model, st), de, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]),
-        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model),
-        model._stores(), *_guess(st))
-    _check(stat, "orbit_family")
-    out = {"dE": de, "energy": en.copy(), "period": per.copy(), "action": act.copy(),
-           "mu_unstable": mu.copy(), "mu_stable": ms.copy(), "mu_trivial": mtr[[0, 2], :].T.copy(),
-           "mu_trivial_imag": mtr[[1, 3], :].T.copy(), "stability_index": stab.copy(),
-           "monodromy": mono[:n2 * n2, :].T.reshape(-1, n2, n2).transpose(0, 2, 1).copy(),
-           "residual": res.copy(), "closure": clo.copy(), "iterations": it.copy(),
-           "min_eq_distance": mind.copy(), "converged": conv.astype(bool), "state0": s0[:n2, :].T.copy(),
-           "end_dE": float(end_de) if end_de > 0 else None, "saddle": st["saddle"],
-           "family": int(st["orb_family"]), "method": "multiple" if int(st["n_segments"]) > 1 else "single",
-           "n_segments": int(st["n_segments"]), "tol": float(st["orb_tol"])}
+    pkind, npv = int(st["orb_pkind"]), int(st["orb_npvalues"])
+    vals = np.array(st["orb_pvalues"][:npv] if pkind else st["des"][:int(st["ndes"][0]), 0], dtype=float)
+    # the program's orbits scene (src/workflow/tubes_scene_orbits.f90): the orbits at dE, or at the dE
+    # its Fortran finds for &orbits jacobi or periods; its record's /orbits, its messages, its verdicts
+    rec = _record(_lib().scene_orbits(
+        *_study(model, st), pkind, vals, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]),
+        float(st["orb_rtol"]), float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]),
+        *_integ(st, model), model._stores(), *_guess(st), model.system,
+        int(str(model.info.get("length_units", "1")) == "cm"), int(bool(_dissipation(model)))))
+    said = [t for s, t in rec["lines"] if s == 2]
+    msg = "; ".join(t.removeprefix("tubes: orbits: ") for t in said)
+    if "orbits" not in rec["data"]:           # refused or failed before any orbit
+        if rec["code"] == 1:
+            raise ValueError(f"orbit_family: {msg}")
+        stat = re.search(r"\(status (-\d+)\)$", said[-1]) if said else None   # the core's status, if it said one
+        raise TubesError(int(stat.group(1)) if stat else _lib().status_code("EPASTEND" if "not reached" in msg
+                                                                             else "ENOCONV"), f"orbit_family: {msg}")
+    g, a = rec["data"]["orbits"], rec["attrs"]["orbits"]
+    de = g["dE"]
+    end_de = a.get("family_end_dE")
+    out = {"dE": de, "energy": g["energy"], "period": g["period"], "action": g["action"],
+           "mu_unstable": g["mu_unstable"], "mu_stable": g["mu_stable"], "mu_trivial": g["mu_trivial"],
+           "mu_trivial_imag": g["mu_trivial_imag"], "stability_index": g["stability_index"],
+           "monodromy": g["monodromy"], "residual": g["residual"], "closure": g["closure"],
+           "iterations": g["iterations"], "min_eq_distance": g["min_eq_distance"],
+           "converged": g["converged"] == 1, "state0": g["state0"],
+           "end_dE": end_de if end_de is not None and end_de > 0 else None, "saddle": a["saddle"],
+           "family": a["family"], "method": a["method"], "n_segments": a["n_segments"], "tol": a["tol"]}
     bad = ~out["converged"]
     for k in ("period", "action", "mu_unstable", "mu_stable", "mu_trivial", "mu_trivial_imag", "stability_index",
               "monodromy", "closure", "min_eq_distance", "state0"):
         out[k][bad] = np.nan          # no orbit: not a period of 0
     out["residual"][bad & (out["iterations"] == 0)] = np.nan
-    # the Floquet indices and the bifurcations between the orbits (tubes_study bifurcation_table)
-    (stat, nu, nb, kind, after, bconv, bde, bwid, ben, bper, bnu, bx0, btan, btol) = _lib().orbit_bifurcations(
-        *_study(model, st), de, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]),
-        float(st["orb_rtol"]), float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]),
-        *_integ(st, model), model._stores(), *_guess(st))
-    _check(stat, "orbit_family (bifurcations)")
-    npair = model.ndof - 1
-    out["floquet_index"], out["floquet_index_imag"] = nu[:npair].T.copy(), nu[2:2 + npair].T.copy()
-    nb = min(int(nb), 64)
-    out["bifurcations"] = {"kind": kind[:nb].copy(), "after": after[:nb].copy(), "converged": bconv[:nb].copy(),
-                           "dE": bde[:nb].copy(), "bracket": bwid[:nb].copy(), "energy": ben[:nb].copy(),
-                           "period": bper[:nb].copy(), "floquet_index": bnu[:npair, :nb].T.copy(),
-                           "floquet_index_imag": bnu[2:2 + npair, :nb].T.copy(), "state0": bx0[:n2, :nb].T.copy(),
-                           "tangent": btan[:n2, :nb].T.copy(), "tol": float(btol)}
-    fam = int(st["orb_family"])
-    out["family_name"] = ({-1: "halo_north", -2: "halo_south", -3: "vertical", -5: "axial"}.get(fam, "lyapunov")
-                          if fam > -101 and not int(st["orb_nguess"]) else
-                          f"branch:{-100 - fam}" if fam <= -101 else "guess")
-    # C of each orbit for a model that defines a Jacobi constant (the model's definition, Fortran)
-    stj, cj = _lib().jacobi_constant(model.name, model.params(), out["energy"])
-    if stj >= 0:
-        out["jacobi"] = cj.copy()
-    if byp:
-        out["parameter"] = next(iter(byp))
-        out["requested_jacobi" if "jacobi" in byp else "requested_period"] = np.array(next(iter(byp.values())))
-    # the scene's checks (src/workflow/tubes_verdicts.f90 orbit_coarse), then what it exits 4 on
-    out["verdicts"] = []
-    for k in np.flatnonzero(out["converged"]):
-        code, msg = _lib().verdict_orbit_coarse(float(de[k]), float(out["closure"][k]), float(out["mu_unstable"][k]),
-                                                float(np.max(np.abs(out["state0"][k]))))
-        if code:
-            out["verdicts"].append(_str(msg))
+    # the Floquet indices and the bifurcations between the orbits (/orbits/bifurcations)
+    out["floquet_index"], out["floquet_index_imag"] = g["floquet_index"], g["floquet_index_imag"]
+    out["bifurcations"] = dict(rec["data"]["orbits/bifurcations"], tol=rec["attrs"]["orbits/bifurcations"]["tol"])
+    out["family_name"] = a["family_name"]
+    if "jacobi" in g:                          # C of each orbit, a model with a Jacobi constant
+        out["jacobi"] = g["jacobi"]
+    if "parameter" in a:
+        out["parameter"] = a["parameter"]
+        out["requested_jacobi" if a["parameter"] == "jacobi" else "requested_period"] = \
+            g["requested_jacobi" if a["parameter"] == "jacobi" else "requested_period"]
+    # the scene's check of the integration's accuracy (src/workflow/tubes_verdicts.f90 orbit_coarse)
+    out["verdicts"] = [t for t in said if "the integration is too coarse" in t]
     t = _table(out, "/orbits", model)
     if not check:
         return t
     if t["verdicts"]:
         raise DisagreementError("; ".join(t["verdicts"]) + " (check=False returns the Table, its verdicts in "
                                 "'verdicts')", t)
+    if rec["code"] == 1:                      # a guess that did not converge, a family the modes do not define
+        raise ValueError(f"orbit_family: {msg}")
     bad = np.flatnonzero(~t["converged"])
     if bad.size:
         past = t["end_dE"] is not None and de[bad[0]] >= t["end_dE"] * (1 - 1e-6)

@@ -9,11 +9,13 @@ module tubes_capi_record
   use tubes_record, only: record_t, record_keep, record_drop, record_sizes, record_item_info, record_reals, &
                           record_ints, record_string, record_line
   use tubes_scene_equilibria, only: scene_equilibria
+  use tubes_scene_orbits, only: scene_orbits
+  use tubes_orbits, only: orbit_opts_t
+  use tubes_study, only: study_t, section_choice_t
+  use tubes_capi, only: study_of, integ_of, guess_opts
   use tubes_scene_transition, only: scene_transition, transition_opts_t
   use tubes_scene_montecarlo, only: scene_montecarlo
   use tubes_scene_tubes, only: scene_tubes
-  use tubes_study, only: study_t, section_choice_t
-  use tubes_capi, only: integ_of
   implicit none
   private
 
@@ -35,6 +37,36 @@ contains
                           trim(c_to_f(label)), trim(c_to_f(dissip)), kept, rec)
     h = record_keep(rec)
   end function c_scene_equilibria
+
+  !> The orbits scene (tubes_scene_orbits) at the n values of kind pkind (0 dE, 1 Jacobi constants,
+  !> 2 periods), with the arguments of tubes_orbit_family's settings (include/tubes.h); sysname: the
+  !> system as the input names it; dimensioned: the ball's units; dissipative: the run's model
+  !> dissipates. The record's handle (free it with tubes_record_free).
+  integer(c_int) function c_scene_orbits(system, params, lo, hi, n_grid, saddle, pkind, n, values, n_segments, &
+      family, tol, rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, nguess, guess, &
+      guess_period, sysname, dimensioned, dissipative) result(rh) bind(C, name='tubes_orbits_scene')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), sysname(32)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, pkind, n, n_segments, family, max_iter, nsamp, method, solver, int_max_iter, &
+                             nguess, dimensioned, dissipative
+    real(c_double), value :: tol, rtol, atol, h, omega_bind, guess_period
+    real(c_double), intent(in) :: values(n), guess(*)
+    type(c_ptr), value :: stores
+    type(record_t), allocatable :: rec
+    type(seed_stores_t), pointer :: kept
+    type(orbit_opts_t) :: opts
+    type(study_t) :: st
+    type(section_choice_t) :: sec
+    allocate (rec)
+    opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, &
+                        n_samples=nsamp, family=family, integ=integ_of(method, h, omega_bind, solver, int_max_iter))
+    call guess_opts(nguess, guess, guess_period, opts)
+    call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
+    kept => stores_at(transfer(stores, 0_c_intptr_t))
+    call scene_orbits(st, opts, int(family), int(pkind), values, trim(c_to_f(sysname)), dimensioned /= 0, &
+                      dissipative /= 0, kept, rec)
+    rh = record_keep(rec)
+  end function c_scene_orbits
 
   !> The transition scene (tubes_scene_transition): the record's handle (include/tubes.h).
   integer(c_int) function c_scene_transition(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
