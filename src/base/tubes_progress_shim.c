@@ -53,3 +53,18 @@ void tubes_progress_tick(long done, long total) {
   }
   pthread_mutex_unlock(&lock);
 }
+
+/* A scene's progress line for one item of its list (an energy; text with its newline, len bytes):
+ * at most one a second, the first always (docs/usage.md). The C drivers' and the Fortran scenes'
+ * (src/workflow/tubes_scene_*.f90) share the one clock; off as the ensembles' lines are. */
+void tubes_progress_item(const char *text, int len) {
+  static double last_item = -1e300;
+  if (!atomic_load(&enabled)) return;
+  pthread_mutex_lock(&lock);
+  double t = wall();
+  if (t - last_item >= 1.0) {
+    last_item = t;
+    fprintf(stderr, "%.*s", len, text);
+  }
+  pthread_mutex_unlock(&lock);
+}
