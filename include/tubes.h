@@ -291,6 +291,13 @@ enum { TUBES_REC_REAL = 1, TUBES_REC_INT = 2, TUBES_REC_STRINGS = 3, TUBES_REC_A
 int tubes_equilibria_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
                            double box, const char *want, int asked, const char *label, const char *dissip,
                            void *stores);
+/* The flux scene: saddle, who (the input file in messages), sysname (&model system), the &flux
+ * energies de[n_de] and settings, the &section plane (plane != 0: kind 'plane'), the &integrator. */
+int tubes_flux_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
+                     const char *saddle, const char *who, const char *sysname, int n_de, const double *de,
+                     int n_samples, int seed, double t_max, double gate, double tol, int order, int plane,
+                     int sec_index, double sec_value, int sec_dir, int n_cut, double cut_eps, int method, double h,
+                     double omega_bind, int solver, int max_iter, void *stores);
 /* The orbits scene at the n values of kind pkind (0 dE, 1 Jacobi constants, 2 periods), with the
  * settings of tubes_orbit_family; sysname: the system as the input names it; dimensioned: the
  * ball's units (cm, s); dissipative: the run's model dissipates (its orbits are the conservative
@@ -338,7 +345,7 @@ int tubes_record_code(int h);
 void tubes_record_sizes(int h, int *n_items, int *n_lines);
 int tubes_record_line(int h, int j, int *stream, char *buf, int len);
 int tubes_record_item(int h, int k, int *kind, char group[256], char name[64], char units[32], int *rank,
-                      long long dims[4], int *slen);
+                      long long dims[5], int *slen);
 void tubes_record_reals(int h, int k, int n, double *v);
 void tubes_record_ints(int h, int k, int n, int *v);
 void tubes_record_string(int h, int k, int j, char *buf, int len);
@@ -512,7 +519,8 @@ int tubes_section_info(const char system[TUBES_LSYSTEM], const double params[TUB
  * saddle's energy (tubes_section_info at de = 0). */
 double tubes_p_trans_leading(double tpo, double a0, double tau, double de);
 
-/* The flux scene's verdicts (src/workflow/tubes_verdicts.f90, which Python's tubes.flux calls too):
+/* The flux scene's verdicts (src/workflow/tubes_verdicts.f90, which the scene itself calls:
+ * src/workflow/tubes_scene_flux.f90), for the library's C callers:
  * 0 where the check holds, 2 (the exit code) where it fails, its message then in msg (len bytes). */
 int tubes_verdict_flux_too_small(double de, int ndof, double lead, char *msg, int len);
 int tubes_verdict_flux_undecided(double de, const int counts[4], double gate, double t_max, char *msg, int len);

@@ -960,63 +960,6 @@ subroutine status_text(code, msg)
   msg = status_message(code)
 end subroutine status_text
 
-subroutine verdict_flux_sample(de, ndof, lead, counts, gate, t_max, code, which, msg)
-  ! the sampled flux's verdicts at de (src/workflow/tubes_verdicts.f90, the flux scene's): too small
-  ! for a double (which 1: no number there), then too many undecided points (which 2); code 2 and
-  ! the message where one fails
-  use tubes_verdicts, only: flux_too_small, flux_undecided
-  implicit none
-  real(8), intent(in) :: de, lead, gate, t_max
-  integer, intent(in) :: ndof, counts(4)
-  integer, intent(out) :: code, which
-  character(len=1024), intent(out) :: msg
-  which = 1
-  code = flux_too_small(de, ndof, lead, msg)
-  if (code /= 0) return
-  which = 2
-  code = flux_undecided(de, counts, gate, t_max, msg)
-  if (code == 0) which = 0
-end subroutine verdict_flux_sample
-
-subroutine verdict_flux_normal_form(de, order, nf, change, fl, fe, code, z, msg)
-  ! the normal form's flux against the sampled flux (tubes_verdicts.f90, as the flux scene)
-  use tubes_verdicts, only: flux_normal_form_check
-  implicit none
-  real(8), intent(in) :: de, nf, change, fl, fe
-  integer, intent(in) :: order
-  integer, intent(out) :: code
-  real(8), intent(out) :: z
-  character(len=1024), intent(out) :: msg
-  code = flux_normal_form_check(de, order, nf, change, fl, fe, z, msg)
-end subroutine verdict_flux_normal_form
-
-subroutine verdict_section(de, nf, nfc, fl, fe, sv, sve, sf, sfe, ns, w, counts, t_max, code, use_nf, &
-                           p_theory, z, msg)
-  ! flux / volume on the section against its Monte Carlo fraction (tubes_verdicts.f90, as the flux scene)
-  use tubes_verdicts, only: section_check
-  implicit none
-  real(8), intent(in) :: de, nf, nfc, fl, fe, sv, sve, sf, sfe, t_max
-  integer, intent(in) :: ns, counts(4)
-  real(8), intent(in) :: w(ns)
-  integer, intent(out) :: code, use_nf
-  real(8), intent(out) :: p_theory, z
-  character(len=1024), intent(out) :: msg
-  logical :: u
-  code = section_check(de, nf, nfc, fl, fe, sv, sve, sf, sfe, w, counts, t_max, u, p_theory, z, msg)
-  use_nf = merge(1, 0, u)
-end subroutine verdict_section
-
-subroutine verdict_cut3(de, vol, vol_half, vol_x, f, sv, n_decided, n_misclassified, code, msg)
-  ! the 3-DOF tube cut's volume and misclassified points (tubes_verdicts.f90, as the flux scene)
-  use tubes_verdicts, only: cut3_check
-  implicit none
-  real(8), intent(in) :: de, vol, vol_half, vol_x, f, sv
-  integer, intent(in) :: n_decided, n_misclassified
-  integer, intent(out) :: code
-  character(len=1024), intent(out) :: msg
-  code = cut3_check(de, vol, vol_half, vol_x, f, sv, n_decided, n_misclassified, msg)
-end subroutine verdict_cut3
-
 subroutine method_choice(code, system, params, eps, m, why)
   ! the method a run integrates with (src/workflow/tubes_setup.f90 method_resolved, as ./tubes)
   use tubes_setup, only: method_resolved
@@ -1135,140 +1078,6 @@ subroutine dataset_units(group, name, dimensionless, stat, units)
     units(k:k) = buf(k)
   end do
 end subroutine dataset_units
-
-subroutine flux(system, params, lo, hi, n_grid, saddle, nde, des, nsamp, seed, t_max, gate, tol, method, h, &
-                omega_bind, solver, int_max_iter, stat, fl, err, leading, counts)
-  ! the flux through the saddle's bottleneck (as the flux scene; src/transport/tubes_flux.f90)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_equilibria, only: equilibrium_t
-  use tubes_study, only: setup_model
-  use tubes_capi, only: integ_of
-  use tubes_flux, only: flux_result_t, flux_leading_order, flux_sampled
-  implicit none
-  character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, nde, nsamp, seed, method, solver, int_max_iter
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), t_max, gate, tol, h, omega_bind
-  integer(c_int), intent(out) :: stat, counts(4, nde)
-  real(c_double), intent(out) :: fl(nde), err(nde), leading(nde)
-  class(hamiltonian_t), allocatable :: model
-  type(equilibrium_t), allocatable :: eqs(:)
-  type(flux_result_t) :: res
-  integer :: isad, k, nd
-  fl = 0; err = 0; leading = 0; counts = 0
-  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat, degenerate_ok=.true., &
-                   des=des, conservative=.true.)
-  if (stat /= 0) return
-  nd = model%ndof()
-  do k = 1, nde
-    leading(k) = flux_leading_order(eqs(isad)%omegas, des(k))
-    call flux_sampled(model, eqs(isad), des(k), nsamp, seed, t_max, tol, gate, maxval(hi(1:nd) - lo(1:nd)), &
-                      integ_of(method, h, omega_bind, solver, int_max_iter), res, stat)
-    if (stat /= 0) return
-    fl(k) = res%flux
-    err(k) = res%err
-    counts(:, k) = [res%n_inside, res%n_reactive, res%n_recrossing, res%n_undecided]
-  end do
-end subroutine flux
-
-subroutine birkhoff(nd, order, nt, expo, coef, nde, de, stat, flux, fstat, lambda, omegas, n_nf, nf_expo, &
-                    nf_coef, diag, msg)
-  ! the Birkhoff normal form from Taylor coefficients and its flux (as the flux scene's &flux order)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_normal_form, only: nf_result_t, normal_form_flux
-  implicit none
-  integer(c_int), intent(in) :: nd, order, nt, nde
-  integer(c_int), intent(in) :: expo(2*nd, nt)
-  real(c_double), intent(in) :: coef(nt), de(nde)
-  integer(c_int), intent(out) :: stat, fstat(nde), n_nf, nf_expo(3, 4096)
-  real(c_double), intent(out) :: flux(nde), lambda, omegas(2), nf_coef(4096), diag(4)
-  character(len=256), intent(out) :: msg
-  type(nf_result_t) :: res
-  integer :: k
-  lambda = 0; omegas = 0; n_nf = 0; nf_expo = 0; nf_coef = 0; diag = 0
-  call normal_form_flux(nd, order, expo, coef, de, res, flux, fstat, stat)
-  msg = res%message
-  if (stat /= 0) return
-  lambda = res%lambda
-  omegas(1:nd - 1) = res%omegas(1:nd - 1)
-  diag = [res%symplectic_error, res%residual, res%imaginary, res%smallest_divisor]
-  n_nf = min(res%nterms, 4096)
-  do k = 1, n_nf
-    nf_expo(1:nd, k) = res%expo(:, k)
-    nf_coef(k) = res%coef(k)
-  end do
-end subroutine birkhoff
-
-subroutine section_transit(system, params, lo, hi, n_grid, saddle, nde, des, k, c, dir, nsamp, seed, t_max, gate, &
-                           tol, method, h, omega_bind, solver, int_max_iter, stat, vol, vol_err, frac, frac_err, counts, &
-                           x, w, cls)
-  ! the energy surface's volume on a plane section and its transiting fraction (as the flux scene)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_equilibria, only: equilibrium_t
-  use tubes_study, only: setup_model
-  use tubes_capi, only: integ_of
-  use tubes_flux, only: flux_result_t, flux_sampled
-  implicit none
-  character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, nde, k, dir, nsamp, seed, method, solver, int_max_iter
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), c, t_max, gate, tol, h, omega_bind
-  integer(c_int), intent(out) :: stat, counts(4, nde)
-  real(c_double), intent(out) :: vol(nde), vol_err(nde), frac(nde), frac_err(nde)
-  real(c_double), intent(out) :: x(6, nsamp, nde), w(nsamp, nde)   ! every sample (tube_cut3's points)
-  integer(c_int), intent(out) :: cls(nsamp, nde)
-  class(hamiltonian_t), allocatable :: model
-  type(equilibrium_t), allocatable :: eqs(:)
-  type(flux_result_t) :: res
-  integer :: isad, j, nd
-  vol = 0; vol_err = 0; frac = 0; frac_err = 0; counts = 0
-  x = 0; w = 0; cls = 3
-  call setup_model(trim(system), params, lo, hi, n_grid, trim(saddle), model, eqs, isad, stat, degenerate_ok=.true., &
-                   des=des)
-  if (stat /= 0) return
-  nd = model%ndof()
-  do j = 1, nde
-    call flux_sampled(model, eqs(isad), des(j), nsamp, seed, t_max, tol, gate, maxval(hi(1:nd) - lo(1:nd)), &
-                      integ_of(method, h, omega_bind, solver, int_max_iter), res, stat, [k, dir], c)
-    if (stat /= 0) return
-    vol(j) = res%volume
-    vol_err(j) = res%volume_err
-    frac(j) = res%fraction
-    frac_err(j) = res%fraction_err
-    counts(:, j) = [res%n_inside, res%n_transit, res%n_return, res%n_undecided]
-    x(1:2*nd, :, j) = res%x
-    w(:, j) = res%w
-    cls(:, j) = res%cls
-  end do
-end subroutine section_transit
-
-subroutine tube_cut3(system, params, lo, hi, n_grid, saddle, order, nt, expo, coef, zs, de, k, c, dir, n_cut, eps, &
-                     t_max, tol, method, h, omega_bind, solver, int_max_iter, npts, pts, w, cls, stat, inside, &
-                     inside_pl, xcut, tcut, stcut, diag, msg)
-  ! the 3-DOF tube's cut with a plane section and the section's points inside it (as the flux scene)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_capi, only: integ_of
-  use tubes_cut3, only: cut3_t, CUT3_NDIAG
-  use tubes_flux3, only: cut3_study
-  implicit none
-  character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, order, nt, k, dir, n_cut, method, solver, int_max_iter, npts
-  integer(c_int), intent(in) :: expo(6, nt), cls(npts)
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), coef(nt), zs(6), de, c, eps, t_max, tol, h, omega_bind
-  real(c_double), intent(in) :: pts(6, npts), w(npts)
-  integer(c_int), intent(out) :: stat, inside(npts), inside_pl(npts), stcut((n_cut + 1)*4*n_cut*n_cut)
-  real(c_double), intent(out) :: xcut(6, (n_cut + 1)*4*n_cut*n_cut), tcut((n_cut + 1)*4*n_cut*n_cut), diag(12)
-  character(len=256), intent(out) :: msg
-  type(cut3_t) :: cut
-  xcut = 0; tcut = 0; stcut = -1
-  call cut3_study(trim(system), params, lo, hi, n_grid, trim(saddle), order, expo, coef, zs, de, k, c, dir, n_cut, &
-                  eps, t_max, tol, integ_of(method, h, omega_bind, solver, int_max_iter), pts, w, cls, inside, &
-                  inside_pl, cut, diag, msg, stat)
-  if (.not. allocated(cut%x)) return
-  xcut = cut%x
-  tcut = cut%t
-  stcut = cut%st
-end subroutine tube_cut3
 
 subroutine nf_map(nd, order, nt, expo, coef, to_model, npts, pts, stat, out, round_trip, msg)
   ! points through the Birkhoff normal form's coordinate change and back (tubes.normal_form_map)
@@ -1484,6 +1293,47 @@ subroutine scene_equilibria(system, params, lo, hi, n_grid, box, want, asked, la
   h = record_keep(rec)
 end subroutine scene_equilibria
 
+subroutine scene_flux(system, params, lo, hi, n_grid, saddle, who, sysname, n_de, de, n_samples, seed, &
+                      t_max, gate, tol, order, plane, sec_index, sec_value, sec_dir, n_cut, cut_eps, &
+                      method, step, omega_bind, solver, int_max_iter, stores, h)
+  ! the flux scene (src/workflow/tubes_scene_flux.f90), as the program's: the handle of its result
+  ! record (read as scene_equilibria's)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_study, only: seed_stores_t, stores_at
+  use tubes_record, only: record_t, record_keep
+  use tubes_capi, only: integ_of
+  use tubes_scene_flux, only: scene_run => scene_flux, flux_opts_t
+  implicit none
+  character(len=*), intent(in) :: system, saddle, who, sysname
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), de(n_de), t_max, gate, tol
+  real(c_double), intent(in) :: sec_value, cut_eps, step, omega_bind
+  integer(c_int), intent(in) :: n_grid, n_de, n_samples, seed, order, plane, sec_index, sec_dir
+  integer(c_int), intent(in) :: n_cut, method, solver, int_max_iter
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: h
+  type(record_t), allocatable :: rec
+  type(seed_stores_t), pointer :: kept
+  type(flux_opts_t) :: o
+  allocate (rec)
+  kept => stores_at(stores)
+  o%de = de
+  o%n_samples = n_samples
+  o%seed = seed
+  o%order = order
+  o%n_cut = n_cut
+  o%t_max = t_max
+  o%gate = gate
+  o%tol = tol
+  o%cut_eps = cut_eps
+  o%plane = plane /= 0
+  o%sec_index = sec_index
+  o%sec_value = sec_value
+  o%sec_dir = sec_dir
+  o%integ = integ_of(method, step, omega_bind, solver, int_max_iter)
+  call scene_run(trim(system), params, lo, hi, n_grid, trim(saddle), trim(who), trim(sysname), o, kept, rec)
+  h = record_keep(rec)
+end subroutine scene_flux
+
 subroutine scene_orbits(system, params, lo, hi, n_grid, saddle, pkind, n, values, n_segments, family, tol, &
                         rtol, atol, max_iter, nsamp, method, hs, omega_bind, solver, int_max_iter, stores, &
                         nguess, guess, guess_period, sysname, dimensioned, dissipative, h)
@@ -1652,7 +1502,7 @@ subroutine record_item(h, k, kind, group, name, units, rank, dims, n)
   character(len=256), intent(out) :: group
   character(len=64), intent(out) :: name
   character(len=32), intent(out) :: units
-  integer(c_int64_t), intent(out) :: dims(4)
+  integer(c_int64_t), intent(out) :: dims(5)
   character(:), allocatable :: g, nm, u
   integer :: slen
   call record_item_info(h, k, kind, g, nm, u, rank, dims, n, slen)

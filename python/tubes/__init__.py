@@ -1056,7 +1056,11 @@ def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
     the model's energy units; default &flux de (the &transition list, (cm/s)^2): the rolling ball
     only, required for any other model.
 
-    The scene's checks (src/workflow/tubes_verdicts.f90, the same functions as ./tubes): a flux
+    The numbers, messages and verdicts are the record of the program's own flux scene
+    (src/workflow/tubes_scene_flux.f90, one Fortran call). A model whose H is not quadratic in the
+    momenta is not sampled (flux_sampled NaN): with order, the normal form's flux alone, as ./tubes.
+    A sampling that fails raises TubesError with its status; a refused order or normal form
+    ValueError. The scene's checks (src/workflow/tubes_verdicts.f90): a flux
     below the smallest double (NaN there), more than 1 % undecided points, the normal form without a
     flux or more than 5 standard errors from the sampled flux, flux / volume (the normal form's
     where its change from order K - 2 is within 10 %, else the sampled) above 1 or more than 5
@@ -1078,100 +1082,50 @@ def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
     de = np.array(st["des"][:int(st["ndes"][4]), 4])
     if not model.info or model.info.get("ndof", 2) < 2:
         raise ValueError("flux: the model needs 2 or 3 degrees of freedom")
-    stat, f, e, lead, cnt = _lib().flux(*_study(model, st), de, int(st["flux_n_samples"]), int(st["flux_seed"]),
-                                        float(st["flux_t_max"]), float(st["flux_gate"]), float(st["flux_tol"]),
-                                        *_integ(st, model))
-    _check(stat, "flux")
-    f, e = f.copy(), e.copy()
-    verdicts = []      # the scene's checks (src/workflow/tubes_verdicts.f90): where ./tubes exits 2
-    for k, d in enumerate(de):
-        code, which, msg = _lib().verdict_flux_sample(d, model.ndof, lead[k], cnt[:, k], float(st["flux_gate"]),
-                                                      float(st["flux_t_max"]))
-        if code:
-            verdicts.append(_str(msg))
-            if which == 1:          # below the smallest double: no number there
-                f[k] = e[k] = np.nan
-    out = {"dE": de, "flux_sampled": f, "flux_sampled_err": e, "flux_leading_order": lead.copy(),
-           "n_inside": cnt[0].copy(), "n_reacting": cnt[1].copy(), "n_recrossing": cnt[2].copy(),
-           "n_undecided": cnt[3].copy()}
-    taylor = None
-    order = int(st["flux_order"])
-    if order > 0:
-        out.update(_normal_form_flux(model, st, de, order))
-        taylor = out.pop("_taylor")
-        for k, d in enumerate(de):
-            code, _z, msg = _lib().verdict_flux_normal_form(d, order, out["flux_normal_form"][k],
-                                                            out["flux_normal_form_change"][k], f[k], e[k])
-            if code:
-                verdicts.append(_str(msg))
-    if section is not None:
-        if model.ndof != 3 or int(st["sec_kind"]) != 2:
-            raise ValueError("flux: section: the transition fraction on a section is for a plane section in 3 "
-                             "degrees of freedom (2 DOF: tubes.transition)")
-        stat, v, ve, fr, fre, cnt, xs, ws, cls = _lib().section_transit(
-            *_study(model, st), de, int(st["sec_index"]), float(st["sec_level"]), int(st["sec_dir"]),
-            int(st["flux_n_samples"]), int(st["flux_seed"]), float(st["flux_t_max"]), float(st["flux_gate"]),
-            float(st["flux_tol"]), *_integ(st, model))
-        _check(stat, "flux (section)")
-        nf = out.get("flux_normal_form", np.full(de.size, np.nan))
-        nfc = out.get("flux_normal_form_change", np.full(de.size, np.nan))
-        p_th = np.full(de.size, np.nan)
-        for k, d in enumerate(de):       # flux / volume against the Monte Carlo fraction
-            code, _u, p_th[k], _z, msg = _lib().verdict_section(d, nf[k], nfc[k], f[k], e[k], v[k], ve[k], fr[k],
-                                                                fre[k], ws[:, k], cnt[:, k], float(st["flux_t_max"]))
-            if code:
-                verdicts.append(_str(msg))
-        out.update({"section_volume": v.copy(), "section_volume_err": ve.copy(), "p_trans_section": fr.copy(),
-                    "p_trans_section_err": fre.copy(), "p_trans_theory": p_th})
-        if taylor is not None and int(st["flux_n_cut"]) > 0:
-            out["tube_cut"] = tc = _tube_cut3(model, st, de, taylor, xs, ws, cls)
-            for k, d in enumerate(de):
-                code, msg = _lib().verdict_cut3(d, tc["volume"][k], tc["volume_half"][k], tc["volume_extrapolated"][k],
-                                                nf[k], v[k], tc["n_decided"][k], tc["misclassified"][k])
-                if code:
-                    verdicts.append(_str(msg))
+    if section is not None and (model.ndof != 3 or int(st["sec_kind"]) != 2):
+        raise ValueError("flux: section: the transition fraction on a section is for a plane section in 3 "
+                         "degrees of freedom (2 DOF: tubes.transition)")
+    # the program's flux scene (src/workflow/tubes_scene_flux.f90): its record's /flux, its verdicts
+    rec = _record(_lib().scene_flux(
+        *_study(model, st), "flux", model.system, de, int(st["flux_n_samples"]), int(st["flux_seed"]),
+        float(st["flux_t_max"]), float(st["flux_gate"]), float(st["flux_tol"]), int(st["flux_order"]),
+        int(int(st["sec_kind"]) == 2), int(st["sec_index"]), float(st["sec_level"]), int(st["sec_dir"]),
+        int(st["flux_n_cut"]), float(st["flux_cut_eps"]), *_integ(st, model), model._stores()))
+    verdicts = [t for s, t in rec["lines"] if s == 2]
+    g, a = rec["data"]["flux"], rec["attrs"]["flux"]
+    if rec["code"]:
+        sampled = not any(t.startswith("  (not sampled:") for s, t in rec["lines"] if s == 1)
+        failed = [int(s) for s in g["status"] if s < 0 and sampled]
+        if failed:       # the sampling failed (as the program's 'failed: ... (status N)')
+            raise TubesError(failed[0], "flux: " + "; ".join(verdicts))
+        if rec["code"] == 1:      # a refused request (the normal form's order, a model without a formula)
+            raise ValueError("; ".join(verdicts))
+    out = {k: g[k] for k in ("dE", "flux_sampled", "flux_sampled_err", "flux_leading_order", "n_inside",
+                             "n_reacting", "n_recrossing", "n_undecided")}
+    if "flux_normal_form" in g:
+        out.update(flux_normal_form=g["flux_normal_form"], flux_normal_form_change=g["flux_normal_form_change"])
+        if a["normal_form_status"] != 0:
+            raise ValueError(f"flux: {a['normal_form_message']}")
+        nf, na = rec["data"].get("flux/normal_form", {}), rec["attrs"].get("flux/normal_form", {})
+        if nf:
+            powers = [nf[k] for k in ("power_I1", "power_J2", "power_J3") if k in nf]
+            out["normal_form"] = {"lambda": na["lambda"], "omegas": nf["omegas"], "coefficients": nf["coefficients"],
+                                  "powers": np.stack(powers, axis=1),
+                                  **{k: na[k] for k in ("symplectic_error", "residual", "imaginary", "smallest_divisor")}}
+    sec = rec["data"].get("flux/section")
+    if section is not None and sec:
+        out.update({"section_volume": sec["volume"], "section_volume_err": sec["volume_err"],
+                    "p_trans_section": sec["p_trans"], "p_trans_section_err": sec["p_trans_err"],
+                    "p_trans_theory": sec["p_trans_theory"]})
+    cut = rec["data"].get("flux/tube_cut")
+    if section is not None and cut:
+        ca = rec["attrs"]["flux/tube_cut"]
+        out["tube_cut"] = dict(cut, axes=ca["axes"], n_cut=ca["n_cut"])
     out["verdicts"] = verdicts
     out = _table(out, "/flux", model)
     if verdicts and _args.flag("flux", "check", check):
         raise DisagreementError("; ".join(verdicts) + " (check=False returns the result, its "
                                 "verdicts in 'verdicts')", out)
-    return out
-
-
-def _tube_cut3(model, st, de, taylor, xs, ws, cls):
-    """The flux scene's tube cut (src/workflow/tubes_flux3.f90, cut3_study) at every dE, the section's Monte
-    Carlo points xs (6, n, nde), weights and classes placed inside or outside it."""
-    expo, coef, z = taylor
-    nc = int(st["flux_n_cut"])
-    names = ("seed_energy_error", "volume", "n_failed", "volume_half", "volume_extrapolated", "unresolved",
-             "misclassified", "misclassified_pl", "n_decided", "n_inside_tube", "p_trans_tube", "p_trans_monte_carlo")
-    res = {k: [] for k in names + ("section", "states", "time", "status", "inside", "inside_pl")}
-    k3 = int(st["sec_index"])
-    a = 2 if k3 == 1 else 1
-    b = 6 - k3 - a
-    ax = [a - 1, 3 + a - 1, b - 1, 3 + b - 1]
-    for j, d in enumerate(de):
-        pts = np.asfortranarray(np.where(cls[:, j] == 3, np.nan, xs[:, :, j]))
-        (stat, ins, inpl, xc, tc, sc, diag, msg) = _lib().tube_cut3(
-            *_study(model, st), int(st["flux_order"]), expo, coef, z, float(d), k3, float(st["sec_level"]),
-            int(st["sec_dir"]), nc, float(st["flux_cut_eps"]), float(st["flux_t_max"]), float(st["flux_tol"]),
-            *_integ(st, model), pts, ws[:, j], cls[:, j])
-        if stat != 0:
-            raise ValueError(f"flux: the tube's cut at dE = {d:g}: {_str(msg) or 'failed'} (status {stat})")
-        shape = (nc + 1, 2 * nc, 2 * nc)
-        for i, k in enumerate(names):
-            res[k].append(diag[i])
-        res["states"].append(xc.T.reshape(shape + (6,)))
-        res["section"].append(xc[ax].T.reshape(shape + (4,)))
-        res["time"].append(tc.reshape(shape))
-        res["status"].append(sc.reshape(shape))
-        res["inside"].append(ins.copy())
-        res["inside_pl"].append(inpl.copy())
-    out = {k: np.array(v) for k, v in res.items()}
-    for k in ("n_failed", "unresolved", "misclassified", "misclassified_pl", "n_decided", "n_inside_tube"):
-        out[k] = out[k].astype(int)
-    out.update({"points": np.transpose(xs, (2, 1, 0)).copy(), "weight": ws.T.copy(), "outcome": cls.T.copy(),
-                "axes": f"q{a} p{a} q{b} p{b}", "n_cut": nc})
     return out
 
 
@@ -1223,27 +1177,6 @@ def normal_form_map(model: Model, points, order: int = 8, to: str = "model", sad
     if to == "model":
         mapped += zs
     return Table({"points": mapped, "round_trip": rt.copy(), "saddle_state": zs})
-
-
-def _normal_form_flux(model, st, de, order):
-    """The flux scene's normal form (src/orbits/tubes_normal_form.f90) at orders K and K - 2."""
-    expo, coef, zstate = _taylor_at_saddle(model, st, order, "flux")
-    nd = model.ndof
-    res = []
-    for kk in (order, order - 2) if order >= 4 else (order,):
-        sel = expo.sum(axis=0) <= kk
-        res.append(_lib().birkhoff(kk, np.asfortranarray(expo[:, sel]), coef[sel], de, nd=nd))
-    stat, fl, fst, lam, om, n_nf, pw, cf, diag, msg = res[0]
-    if stat != 0:
-        raise ValueError(f"flux: {_str(msg)}")
-    change = np.abs(fl - res[1][1]) if len(res) > 1 else np.full(de.size, np.nan)
-    z = np.zeros(6)
-    z[:2 * nd] = zstate
-    return {"_taylor": (expo, coef, z), "flux_normal_form": fl.copy(), "flux_normal_form_change": change,
-            "normal_form": {"lambda": float(lam), "omegas": om[:nd - 1].copy(), "coefficients": cf[:n_nf].copy(),
-                            "powers": pw[:nd, :n_nf].T.copy(), "symplectic_error": float(diag[0]),
-                            "residual": float(diag[1]), "imaginary": float(diag[2]),
-                            "smallest_divisor": float(diag[3])}}
 
 
 TUBE_KINDS = {"stable": -1, "unstable": 1}   # the tubes scene's kind (src/io/tubes_scenes.c)

@@ -9,6 +9,7 @@ module tubes_capi_record
   use tubes_record, only: record_t, record_keep, record_drop, record_sizes, record_item_info, record_reals, &
                           record_ints, record_string, record_line
   use tubes_scene_equilibria, only: scene_equilibria
+  use tubes_scene_flux, only: scene_flux, flux_opts_t
   use tubes_scene_orbits, only: scene_orbits
   use tubes_orbits, only: orbit_opts_t
   use tubes_study, only: study_t, section_choice_t
@@ -37,6 +38,32 @@ contains
                           trim(c_to_f(label)), trim(c_to_f(dissip)), kept, rec)
     h = record_keep(rec)
   end function c_scene_equilibria
+
+  !> The flux scene (tubes_scene_flux): who (the input file in messages), sysname (&model system),
+  !> the &flux energies de(n_de) and settings, the &section plane (plane /= 0: kind 'plane'), the
+  !> &integrator choice. The record's handle.
+  integer(c_int) function c_scene_flux(system, params, lo, hi, n_grid, saddle, who, sysname, n_de, de, n_samples, &
+      seed, t_max, gate, tol, order, plane, sec_index, sec_value, sec_dir, n_cut, cut_eps, method, step, omega_bind, &
+      solver, max_iter, stores) result(h) bind(C, name='tubes_flux_scene')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), who(*), sysname(*)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, n_de, n_samples, seed, order, plane, sec_index, sec_dir, n_cut, method, solver, &
+                             max_iter
+    real(c_double), intent(in) :: de(n_de)
+    real(c_double), value :: t_max, gate, tol, sec_value, cut_eps, step, omega_bind
+    type(c_ptr), value :: stores
+    type(record_t), allocatable :: rec
+    type(seed_stores_t), pointer :: kept
+    type(flux_opts_t) :: opts
+    allocate (rec)
+    kept => stores_at(transfer(stores, 0_c_intptr_t))
+    opts = flux_opts_t(de=de, n_samples=n_samples, seed=seed, order=order, n_cut=n_cut, t_max=t_max, gate=gate, &
+                       tol=tol, cut_eps=cut_eps, plane=plane /= 0, sec_index=sec_index, sec_dir=sec_dir, &
+                       sec_value=sec_value, integ=integ_of(method, step, omega_bind, solver, max_iter))
+    call scene_flux(trim(c_to_f(system)), params, lo, hi, n_grid, trim(c_to_f(saddle)), c_to_f(who(1:4096)), &
+                    c_to_f(sysname(1:4096)), opts, kept, rec)
+    h = record_keep(rec)
+  end function c_scene_flux
 
   !> The orbits scene (tubes_scene_orbits) at the n values of kind pkind (0 dE, 1 Jacobi constants,
   !> 2 periods), with the arguments of tubes_orbit_family's settings (include/tubes.h); sysname: the
@@ -198,7 +225,7 @@ contains
     integer(c_int), value :: h, k
     integer(c_int), intent(out) :: kind, rank, slen
     character(kind=c_char), intent(out) :: group(256), name(64), units(32)
-    integer(c_long_long), intent(out) :: dims(4)
+    integer(c_long_long), intent(out) :: dims(5)
     character(:), allocatable :: g, nm, u
     integer :: kd, rk, nn, sl
     call record_item_info(h, k, kd, g, nm, u, rk, dims, nn, sl)

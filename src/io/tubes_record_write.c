@@ -34,15 +34,15 @@ static hid_t group_at(hid_t loc, const char *path) {
 static int write_item(hid_t file, int h, int k) {
   char group[256], name[64], units[32];
   int kind, rank, slen;
-  long long dims[4];
+  long long dims[5];
   int n = tubes_record_item(h, k, &kind, group, name, units, &rank, dims, &slen);
   if (n < 0) return 1;
   hid_t g = group_at(file, group);
   if (g < 0) return 1;
   int rc = 0;
   const char *u = units[0] ? units : NULL;
-  hsize_t hd[4];
-  for (int i = 0; i < rank && i < 4; i++) hd[i] = (hsize_t)dims[i];
+  hsize_t hd[5];
+  for (int i = 0; i < rank && i < 5; i++) hd[i] = (hsize_t)dims[i];
   switch (kind) {
   case TUBES_REC_REAL: {
     double *v = malloc(sizeof(double) * (n ? n : 1));

@@ -27,7 +27,7 @@ module tubes_record
     integer :: kind = 0
     character(:), allocatable :: group, name, units   !! units '' : none written
     integer :: rank = 0
-    integer(i8) :: dims(4) = 0
+    integer(i8) :: dims(5) = 0         !! at most rank 5 (/flux/tube_cut/states)
     real(wp), allocatable :: r(:)
     integer, allocatable :: i(:)
     character(:), allocatable :: s(:)                 !! strings (REC_STRINGS, REC_ATTR_STRING)
@@ -278,7 +278,7 @@ contains
     integer, intent(in) :: h, k
     integer, intent(out) :: kind, rank, n, slen
     character(:), allocatable, intent(out) :: group, name, units
-    integer(i8), intent(out) :: dims(4)
+    integer(i8), intent(out) :: dims(5)
     type(rec_item_t), pointer :: it
     kind = 0
     rank = 0
