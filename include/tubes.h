@@ -39,6 +39,8 @@ enum {
  * (src/base/tubes_progress_shim.c): off until turned on (the program does; the library and Python
  * are silent). */
 void tubes_progress_enable(int on);
+/* A scene's own progress line (its next step), printed at once when they are on. */
+void tubes_progress_line(const char *text, int len);
 
 void tubes_cancel_begin(void);
 int tubes_cancel_end(void);
@@ -265,6 +267,12 @@ enum { TUBES_REC_REAL = 1, TUBES_REC_INT = 2, TUBES_REC_STRINGS = 3, TUBES_REC_A
 int tubes_equilibria_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
                            double box, const char *want, int asked, const char *label, const char *dissip,
                            void *stores);
+/* Map k (0-based, /sections/map_k) of the sections scene at excess energy de; the section and
+ * integrator arguments as tubes_poincare's; dissipative: the model loses energy (its line says so). */
+int tubes_sections_scene(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], const double lo[TUBES_MAXDOF],
+                         const double hi[TUBES_MAXDOF], int n_grid, const char saddle[8], int sec_kind, int sec_index,
+                         double level, int dir, double de, int k, int n_seeds, int n_iter, double t_max, int method,
+                         double h, double omega_bind, int solver, int max_iter, int dissipative, void *stores);
 int tubes_record_code(int h);
 void tubes_record_sizes(int h, int *n_items, int *n_lines);
 int tubes_record_line(int h, int j, int *stream, char *buf, int len);

@@ -875,29 +875,6 @@ subroutine monte_carlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_ind
   inside = merge(1, 0, ins)
 end subroutine monte_carlo
 
-subroutine poincare(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
-                    n_seeds, n_iter, t_max, method, h, omega_bind, solver, int_max_iter, stores, stat, pts)
-  ! Poincare maps of the section at de (as the sections scene)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_study, only: study_t, section_choice_t, maps_at, seed_stores_t, stores_at
-  use tubes_capi, only: integ_of
-  implicit none
-  character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, n_seeds, n_iter, method, solver, &
-                                int_max_iter
-  real(c_double), intent(in) :: h, omega_bind
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, t_max
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: stat
-  real(c_double), intent(out) :: pts(2, n_iter, n_seeds)
-  type(seed_stores_t), pointer :: kept
-  kept => stores_at(stores)
-  call maps_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-                       integ=integ_of(method, h, omega_bind, solver, int_max_iter)), &
-               section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, n_seeds, &
-               n_iter, t_max, pts, stat, kept)
-end subroutine poincare
-
 subroutine status_code(name, code)
   ! the number of the status code TUBES_<name> (src/base/tubes_status.f90), 1000 for no such code
   use tubes_status, only: status_code_of => status_code
@@ -1477,6 +1454,35 @@ subroutine scene_equilibria(system, params, lo, hi, n_grid, box, want, asked, la
                  kept, rec)
   h = record_keep(rec)
 end subroutine scene_equilibria
+
+subroutine scene_sections(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, &
+                          dir, de, k, n_seeds, n_iter, t_max, method, step, omega_bind, solver, &
+                          int_max_iter, dissipative, stores, h)
+  ! map k (0-based) of the sections scene at de (src/workflow/tubes_scene_sections.f90), as the
+  ! program's: the handle of its result record (read as scene_equilibria's)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_study, only: study_t, section_choice_t, seed_stores_t, stores_at
+  use tubes_record, only: record_t, record_keep
+  use tubes_capi, only: integ_of
+  use tubes_scene_sections, only: scene_run => scene_sections
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, t_max, step, omega_bind
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, k, n_seeds, n_iter, method
+  integer(c_int), intent(in) :: solver, int_max_iter, dissipative
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: h
+  type(record_t), allocatable :: rec
+  type(seed_stores_t), pointer :: kept
+  allocate (rec)
+  kept => stores_at(stores)
+  call scene_run(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, &
+                         saddle=saddle, integ=integ_of(method, step, omega_bind, solver, &
+                         int_max_iter)), &
+                 section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), &
+                 de, k, n_seeds, n_iter, t_max, dissipative /= 0, kept, rec)
+  h = record_keep(rec)
+end subroutine scene_sections
 
 subroutine record_sizes(h, code, n_items, n_lines)
   ! a result record's exit code (-1: no record), numbers of items and of console lines

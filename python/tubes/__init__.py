@@ -1691,8 +1691,8 @@ def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, 
     """Poincare map of the section at dE (as the sections scene, a group /sections/map_K of the
     output file): a tubes.Table with points, an array (n_seeds, n_iter, 2) of (s, p_s) (the ray's
     (r, p_r)) of each return of each trajectory, NaN after one stops returning within t_max, and
-    dE, n_seeds, n_iter, t_max. Raises TubesError if a trajectory failed (the Table is in
-    err.partial). 2 degrees of freedom.
+    dE, status, n_seeds, n_iter, t_max. Raises TubesError if a trajectory failed (its code the
+    map's status, its message the scene's; the Table is in err.partial). 2 degrees of freedom.
 
     dE: the excess energy above the saddle, > 0, in the model's energy units ((cm/s)^2 for the
     ball); required (the scene's default list, &sections de = 100, 500, is the ball's and a list).
@@ -1707,14 +1707,18 @@ def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, 
                             ("t_max", t_max)) if v is not None}
     st = _settings(model, saddle, saddle_near, section=section, who="poincare", sections=pm, integrator=integrator,
                    equilibria=equilibria)
-    stat, pts = _lib().poincare(*_study(model, st), *_section_args(st), float(st["des"][0, 3]), int(st["pm_n_seeds"]),
-                                int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st, model),
-                                model._stores())
-    out = _table({"dE": float(st["des"][0, 3]), "points": np.moveaxis(pts, [0, 1, 2], [2, 1, 0]).copy(),
+    # the program's sections scene, its map at dE (src/workflow/tubes_scene_sections.f90): its
+    # record's /sections/map_000 and its verdict
+    de = float(st["des"][0, 3])
+    rec = _record(_lib().scene_sections(*_study(model, st), *_section_args(st), de, 0, int(st["pm_n_seeds"]),
+                                        int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st, model),
+                                        int(bool(_dissipation(model))), model._stores()))
+    status = rec["attrs"]["sections/map_000"]["status"]
+    out = _table({"dE": de, "points": rec["data"]["sections/map_000"]["points"], "status": status,
                   "n_seeds": int(st["pm_n_seeds"]), "n_iter": int(st["pm_n_iter"]), "t_max": float(st["pm_t_max"])},
                  "/sections/map_0", model)
-    if stat < 0:
-        err = TubesError(stat, "poincare")
+    if rec["code"]:
+        err = TubesError(status, "; ".join(t for s, t in rec["lines"] if s == 2))
         err.partial = out
         raise err
     return out

@@ -42,6 +42,15 @@ void tubes_progress_begin(const char *fault, int len) {
   pthread_mutex_unlock(&lock);
 }
 
+/* A scene's own progress line (its step about to start: "sections: Poincare map at dE = 100 ..."),
+ * printed at once, when progress lines are on: a scene's record holds its results, not these. */
+void tubes_progress_line(const char *text, int len) {
+  if (!atomic_load(&enabled)) return;
+  pthread_mutex_lock(&lock);
+  fprintf(stderr, "%.*s\n", len, text);
+  pthread_mutex_unlock(&lock);
+}
+
 void tubes_progress_tick(long done, long total) {
   if (!atomic_load(&enabled) || pthread_mutex_trylock(&lock)) return;   /* another thread prints */
   double t = wall();

@@ -9,6 +9,7 @@ module tubes_capi_record
   use tubes_record, only: record_t, record_keep, record_drop, record_sizes, record_item_info, record_reals, &
                           record_ints, record_string, record_line
   use tubes_scene_equilibria, only: scene_equilibria
+  use tubes_scene_sections, only: scene_sections
   implicit none
   private
 
@@ -30,6 +31,31 @@ contains
                           trim(c_to_f(label)), trim(c_to_f(dissip)), kept, rec)
     h = record_keep(rec)
   end function c_scene_equilibria
+
+  !> Map k (0-based) of the sections scene (tubes_scene_sections) at excess energy de: the
+  !> record's handle. The section and integrator arguments as tubes_poincare's (include/tubes.h).
+  integer(c_int) function c_scene_sections(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, &
+                                           dir, de, k, n_seeds, n_iter, t_max, method, step, omega_bind, solver, &
+                                           max_iter, dissipative, stores) result(h) bind(C, name='tubes_sections_scene')
+    use tubes_study, only: study_t, section_choice_t
+    use tubes_capi, only: study_of, integ_of
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, k, n_seeds, n_iter, method, solver, max_iter, &
+                             dissipative
+    real(c_double), value :: level, de, t_max, step, omega_bind
+    type(c_ptr), value :: stores
+    type(record_t), allocatable :: rec
+    type(seed_stores_t), pointer :: kept
+    type(study_t) :: st
+    type(section_choice_t) :: sec
+    allocate (rec)
+    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+                  integ_of(method, step, omega_bind, solver, max_iter), st, sec)
+    kept => stores_at(transfer(stores, 0_c_intptr_t))
+    call scene_sections(st, sec, de, k, n_seeds, n_iter, t_max, dissipative /= 0, kept, rec)
+    h = record_keep(rec)
+  end function c_scene_sections
 
   !> The record's exit code (the worst verdict's; 0: none), or -1 for no record.
   integer(c_int) function c_record_code(h) result(code) bind(C, name='tubes_record_code')

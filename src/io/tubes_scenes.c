@@ -1850,39 +1850,22 @@ int scene_sections(tubes_run_t *run) {
   hid_t g;
   int rc = section_scene(run, "sections", &g);
   if (rc) return rc;
-  for (int k = 0; k < c->pm_nde; k++) {
-    int ns = c->pm_n_seeds, ni = c->pm_n_iter;
-    double de = c->pm_de[k], t0 = now();
-    double *pts = malloc(sizeof(double) * 2 * (size_t)ns * ni);
-    if (!pts) {
-      fprintf(stderr, "tubes: sections: cannot allocate %.3g GB for the map at dE = %g (n_seeds x n_iter = %d x %d): "
-              "%s\n", 16.0 * ns * ni / 1e9, c->pm_de[k], ns, ni, strerror(errno));
-      H5Gclose(g);
-      return EXIT_NUMERIC;
-    }
-    fprintf(stderr, "sections: Poincare map at dE = %g (%d trajectories, %d returns)...\n", de, ns, ni);
-    int st = tubes_poincare(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, ni, c->pm_t_max, INTEGRATOR(c), pts, run->seeds);
-    if (st < 0) {
-      fprintf(stderr, "tubes: sections: the map at dE = %g failed (status %d); the returns found are written\n", de, st);
-      rc = EXIT_PARTIAL;
-    }
-    long npts = 0;
-    for (long i = 0; i < (long)ns * ni; i++) npts += !isnan(pts[2 * i]);
-    printf("sections: dE = %g: %ld returns of %d trajectories%s (%.1f s)\n", de, npts, ns,
-           dissipative(run) ? " of the dissipative model (released at dE; each return has less energy)" : "", now() - t0);
-    char name[32];
-    snprintf(name, sizeof name, "map_%03d", k);
-    hid_t m = h5_group(g, name);
-    hsize_t d3[3] = {(hsize_t)ns, (hsize_t)ni, 2};
-    int e = m < 0;
-    e |= h5_write_double(m, "points", 3, d3, pts, NULL);
-    e |= h5_attr_double(m, "dE", de);
-    if (dissipative(run)) e |= dissipation_attrs(m, run);
-    if (m >= 0) H5Gclose(m);
-    free(pts);
-    if (e) { H5Gclose(g); return EXIT_IO; }
-  }
   H5Gclose(g);
+  for (int k = 0; k < c->pm_nde; k++) {   /* a map's record written before the next starts */
+    int h = tubes_sections_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
+                                 c->pm_de[k], k, c->pm_n_seeds, c->pm_n_iter, c->pm_t_max, INTEGRATOR(c),
+                                 dissipative(run), run->seeds);
+    int r = record_emit(run->file, h);
+    if (r == EXIT_IO || r == EXIT_NUMERIC) return r;
+    if (r) rc = r;
+    if (!dissipative(run)) continue;
+    char name[32];
+    snprintf(name, sizeof name, "sections/map_%03d", k);
+    hid_t m = H5Gopen2(run->file, name, H5P_DEFAULT);
+    int e = m < 0 || dissipation_attrs(m, run);
+    if (m >= 0) H5Gclose(m);
+    if (e) return EXIT_IO;
+  }
   return rc;
 }
 

@@ -32,6 +32,12 @@ module tubes_ensemble
       character(kind=c_char), intent(in) :: fault(*)
       integer(c_int), value :: n
     end subroutine progress_begin
+    !> a scene's own progress line, printed at once (the program's scenes; not in a record)
+    subroutine progress_line(text, len) bind(C, name='tubes_progress_line')
+      import :: c_char, c_int
+      character(kind=c_char), intent(in) :: text(*)
+      integer(c_int), value :: len
+    end subroutine progress_line
     subroutine progress_tick(done, total) bind(C, name='tubes_progress_tick')
       import :: c_long
       integer(c_long), value :: done, total
@@ -70,6 +76,7 @@ module tubes_ensemble
 
   public :: ens_run, ens_chunk_items, ens_agree, ens_reuse_ok, ens_cancelled
   public :: progress_begin, progress_tick   ! the progress lines' C entries (a scene's own loop too)
+  public :: progress_line
 contains
 
   !> Compute items 1..n of ens: this rank's share over its threads, then every item's results on
