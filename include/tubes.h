@@ -273,6 +273,14 @@ int tubes_sections_scene(const char system[TUBES_LSYSTEM], const double params[T
                          const double hi[TUBES_MAXDOF], int n_grid, const char saddle[8], int sec_kind, int sec_index,
                          double level, int dir, double de, int k, int n_seeds, int n_iter, double t_max, int method,
                          double h, double omega_bind, int solver, int max_iter, int dissipative, void *stores);
+/* The synthetic_experiment scene: &experiment's settings, the integrator as tubes_synthetic_experiment's,
+ * method_label its name for /tracks@method. */
+int tubes_synthetic_experiment_scene(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                                     const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                                     const char saddle[8], int n_tracks, double duration, double camera_rate,
+                                     double pixel, double noise, double de_min, double de_max, double damping_ratio,
+                                     double rolling_resistance, int seed, int method, double h, double omega_bind,
+                                     int solver, int max_iter, const char method_label[32], void *stores);
 int tubes_record_code(int h);
 void tubes_record_sizes(int h, int *n_items, int *n_lines);
 int tubes_record_line(int h, int j, int *stream, char *buf, int len);

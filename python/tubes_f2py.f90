@@ -1262,37 +1262,6 @@ subroutine taylor_check(system, params, eps, stat, msg)
   call taylor_check_(field, eps, msg, stat)
 end subroutine taylor_check
 
-subroutine synthetic_experiment(params, e_e, n_tracks, duration, camera_rate, pixel, noise, de_min, &
-                                de_max, seed, method, h, omega_bind, solver, max_iter, ns, stat, t, &
-                                state, energy, noisy, measured, release, c_damp, n_draws, box, rtol)
-  ! synthetic tracks of the rolling ball (as the synthetic_experiment scene: the same C API call,
-  ! its release box and tolerance experiment_opts_t's defaults); ns = tubes_experiment_samples
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_capi, only: c_synthetic_experiment, c_experiment_defaults
-  implicit none
-  real(c_double), intent(in) :: params(16), e_e, duration, camera_rate, pixel, noise, de_min, de_max, &
-                                h, omega_bind
-  integer(c_int), intent(in) :: n_tracks, seed, method, solver, max_iter, ns
-  integer(c_int), intent(out) :: stat, n_draws
-  real(c_double), intent(out) :: t(ns), state(4, ns, n_tracks), energy(ns, n_tracks), &
-                                 noisy(2, ns, n_tracks), measured(2, ns, n_tracks), release(3, n_tracks), &
-                                 c_damp, box, rtol
-  call c_experiment_defaults(box, rtol)
-  stat = c_synthetic_experiment(params, e_e, n_tracks, duration, camera_rate, pixel, noise, de_min, de_max, &
-                                box, seed, rtol, method, h, omega_bind, solver, max_iter, ns, t, state, &
-                                energy, noisy, measured, release, c_damp, n_draws)
-end subroutine synthetic_experiment
-
-subroutine experiment_samples(duration, camera_rate, ns)
-  ! frames per track of the synthetic experiment (tubes_experiment_samples)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_capi, only: c_experiment_samples
-  implicit none
-  real(c_double), intent(in) :: duration, camera_rate
-  integer(c_int), intent(out) :: ns
-  ns = c_experiment_samples(duration, camera_rate)
-end subroutine experiment_samples
-
 subroutine transition_region(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
                              gate, t_max, area_tol, n_init, n_scan, xtol, method, h, omega_bind, solver, &
                              int_max_iter, nout, mcurve, noiseless, stores, stat, n, phi, rho, s, p, t_in, m, cs, cp, &
@@ -1483,6 +1452,39 @@ subroutine scene_sections(system, params, lo, hi, n_grid, saddle, sec_kind, sec_
                  de, k, n_seeds, n_iter, t_max, dissipative /= 0, kept, rec)
   h = record_keep(rec)
 end subroutine scene_sections
+
+subroutine scene_synthetic_experiment(system, params, lo, hi, n_grid, saddle, n_tracks, duration, &
+                                      camera_rate, pixel, noise, de_min, de_max, damping_ratio, &
+                                      rolling_resistance, seed, method, step, omega_bind, solver, &
+                                      int_max_iter, method_label, stores, h)
+  ! the synthetic_experiment scene (src/workflow/tubes_scene_synthetic_experiment.f90), as the
+  ! program's: the handle of its result record (read as scene_equilibria's)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t, c_long
+  use tubes_study, only: seed_stores_t, stores_at
+  use tubes_record, only: record_t, record_keep
+  use tubes_capi, only: integ_of
+  use tubes_experiment, only: experiment_opts_t
+  use tubes_scene_synthetic_experiment, only: scene_run => scene_synthetic_experiment
+  implicit none
+  character(len=*), intent(in) :: system, saddle, method_label
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), duration, camera_rate, pixel, noise
+  real(c_double), intent(in) :: de_min, de_max, damping_ratio, rolling_resistance, step, omega_bind
+  integer(c_int), intent(in) :: n_grid, n_tracks, seed, method, solver, int_max_iter
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: h
+  type(record_t), allocatable :: rec
+  type(seed_stores_t), pointer :: kept
+  allocate (rec)
+  kept => stores_at(stores)
+  call scene_run(trim(system), params, lo, hi, n_grid, trim(saddle), &
+                 experiment_opts_t(n_tracks=n_tracks, duration=duration, &
+                                   camera_rate=camera_rate, pixel=pixel, noise=noise, &
+                                   de_min=de_min, de_max=de_max, seed=int(seed, c_long)), &
+                 damping_ratio, rolling_resistance, &
+                 integ_of(method, step, omega_bind, solver, int_max_iter), trim(method_label), &
+                 kept, rec)
+  h = record_keep(rec)
+end subroutine scene_synthetic_experiment
 
 subroutine record_sizes(h, code, n_items, n_lines)
   ! a result record's exit code (-1: no record), numbers of items and of console lines

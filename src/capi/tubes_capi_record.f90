@@ -10,6 +10,7 @@ module tubes_capi_record
                           record_ints, record_string, record_line
   use tubes_scene_equilibria, only: scene_equilibria
   use tubes_scene_sections, only: scene_sections
+  use tubes_scene_synthetic_experiment, only: scene_synthetic_experiment
   implicit none
   private
 
@@ -56,6 +57,36 @@ contains
     call scene_sections(st, sec, de, k, n_seeds, n_iter, t_max, dissipative /= 0, kept, rec)
     h = record_keep(rec)
   end function c_scene_sections
+
+  !> The synthetic_experiment scene (tubes_scene_synthetic_experiment): &experiment's settings,
+  !> the integrator (its arguments as tubes_synthetic_experiment's; method_label its name for
+  !> /tracks@method): the record's handle.
+  integer(c_int) function c_scene_synthetic_experiment(system, params, lo, hi, n_grid, saddle, n_tracks, duration, &
+                                                       camera_rate, pixel, noise, de_min, de_max, damping_ratio, &
+                                                       rolling_resistance, seed, method, step, omega_bind, solver, &
+                                                       max_iter, method_label, stores) result(h) &
+      bind(C, name='tubes_synthetic_experiment_scene')
+    use, intrinsic :: iso_c_binding, only: c_long
+    use tubes_experiment, only: experiment_opts_t
+    use tubes_capi, only: integ_of
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), method_label(32)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, n_tracks, seed, method, solver, max_iter
+    real(c_double), value :: duration, camera_rate, pixel, noise, de_min, de_max, damping_ratio, rolling_resistance, &
+                             step, omega_bind
+    type(c_ptr), value :: stores
+    type(record_t), allocatable :: rec
+    type(seed_stores_t), pointer :: kept
+    allocate (rec)
+    kept => stores_at(transfer(stores, 0_c_intptr_t))
+    call scene_synthetic_experiment(trim(c_to_f(system)), params, lo, hi, n_grid, trim(c_to_f(saddle)), &
+                                    experiment_opts_t(n_tracks=n_tracks, duration=duration, camera_rate=camera_rate, &
+                                                      pixel=pixel, noise=noise, de_min=de_min, de_max=de_max, &
+                                                      seed=int(seed, c_long)), damping_ratio, rolling_resistance, &
+                                    integ_of(method, step, omega_bind, solver, max_iter), trim(c_to_f(method_label)), &
+                                    kept, rec)
+    h = record_keep(rec)
+  end function c_scene_synthetic_experiment
 
   !> The record's exit code (the worst verdict's; 0: none), or -1 for no record.
   integer(c_int) function c_record_code(h) result(code) bind(C, name='tubes_record_code')

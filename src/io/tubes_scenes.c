@@ -1871,22 +1871,31 @@ int scene_sections(tubes_run_t *run) {
 
 /* ---------------------------------------------------------------- synthetic experiment */
 
-/* The tracks as CSV (header track,t,x,y; 12 significant digits), written to path.tmp.<pid>
- * and renamed when complete. Returns 0 or -1. */
-static int write_tracks_csv(const char *path, int nt, int ns, const double *t, const double *meas) {
+/* n doubles of dataset path of file into v. Returns 0 or -1. */
+static int read_doubles(hid_t file, const char *path, double *v) {
+  hid_t d = H5Dopen2(file, path, H5P_DEFAULT);
+  if (d < 0) return -1;
+  herr_t r = H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v);
+  H5Dclose(d);
+  return r < 0 ? -1 : 0;
+}
+
+/* The file's /tracks (n = nt x ns frames) as CSV (header track,t,x,y; 12 significant digits),
+ * written to path.tmp.<pid> and renamed when complete. Returns 0 or -1. */
+static int write_tracks_csv(hid_t file, const char *path, int nt, int ns) {
+  size_t n = (size_t)nt * ns;
+  double *t = malloc(sizeof(double) * n), *x = malloc(sizeof(double) * n), *y = malloc(sizeof(double) * n);
   char tmp[TUBES_LPATH + 64];
   snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
-  FILE *f = fopen(tmp, "w");
-  if (!f) return -1;
-  int e = fprintf(f, "track,t,x,y\n") < 0;
-  for (int j = 0; j < nt && !e; j++)
-    for (int k = 0; k < ns && !e; k++) {
-      const double *m = meas + 2 * ((size_t)j * ns + k);
-      e = fprintf(f, "%d,%.12g,%.12g,%.12g\n", j, t[k], m[0], m[1]) < 0;
-    }
-  if (fclose(f) != 0) e = 1;
+  int e = !t || !x || !y || read_doubles(file, "tracks/t", t) || read_doubles(file, "tracks/x", x) ||
+          read_doubles(file, "tracks/y", y);
+  FILE *f = e ? NULL : fopen(tmp, "w");
+  e = !f || fprintf(f, "track,t,x,y\n") < 0;
+  for (size_t i = 0; i < n && !e; i++) e = fprintf(f, "%d,%.12g,%.12g,%.12g\n", (int)(i / ns), t[i], x[i], y[i]) < 0;
+  if (f && fclose(f) != 0) e = 1;
+  free(t); free(x); free(y);
   if (e || rename(tmp, path) != 0) {
-    remove(tmp);
+    if (f) remove(tmp);
     return -1;
   }
   return 0;
@@ -1894,136 +1903,21 @@ static int write_tracks_csv(const char *path, int nt, int ns, const double *t, c
 
 int scene_synthetic_experiment(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  double box, rtol, ee, tpo;
-  tubes_experiment_defaults(&box, &rtol);   /* docs/experiment-data.md */
-  int st = saddle_props(run, &ee, &tpo);
-  if (st < 0) {
-    fprintf(stderr, "tubes: synthetic_experiment: the saddle %s (E_e) was not found (status %d)\n",
-            run->saddle, st);
-    return EXIT_NUMERIC;
+  char method[32];
+  snprintf(method, sizeof method, "%s", method_label(run));
+  int h = tubes_synthetic_experiment_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle,
+                                           c->exp_n_tracks, c->exp_duration, c->exp_camera_rate, c->exp_pixel,
+                                           c->exp_noise, c->exp_de_min, c->exp_de_max, c->exp_damping_ratio,
+                                           c->exp_rolling_resistance, c->exp_seed, INTEGRATOR(c), method, run->seeds);
+  int rc = record_emit(run->file, h);
+  if (rc == EXIT_IO || !c->exp_csv[0] || run->rank != 0 || H5Lexists(run->file, "tracks", H5P_DEFAULT) <= 0)
+    return rc;
+  if (write_tracks_csv(run->file, c->exp_csv, c->exp_n_tracks,
+                       tubes_experiment_samples(c->exp_duration, c->exp_camera_rate))) {
+    fprintf(stderr, "tubes: synthetic_experiment: cannot write the CSV file '%s'\n", c->exp_csv);
+    return EXIT_IO;
   }
-  int nt = c->exp_n_tracks, ns = tubes_experiment_samples(c->exp_duration, c->exp_camera_rate);
-  size_t n = (size_t)nt * ns;
-  double *t = malloc(sizeof(double) * ns), *state = malloc(sizeof(double) * 4 * n),
-         *energy = malloc(sizeof(double) * n), *noisy = malloc(sizeof(double) * 2 * n),
-         *meas = malloc(sizeof(double) * 2 * n), *rel = malloc(sizeof(double) * 3 * nt),
-         *x = malloc(sizeof(double) * n), *y = malloc(sizeof(double) * n), *de = malloc(sizeof(double) * n),
-         *tt = malloc(sizeof(double) * n), *rxy = malloc(sizeof(double) * 2 * nt),
-         *rde = malloc(sizeof(double) * nt);
-  int *track = malloc(sizeof(int) * n);
-  int rc = 0;
-  if (!t || !state || !energy || !noisy || !meas || !rel || !x || !y || !de || !tt || !rxy || !rde || !track) {
-    fprintf(stderr, "tubes: synthetic_experiment: cannot allocate %zu frames\n", n);
-    rc = EXIT_NUMERIC;
-    goto out;
-  }
-  double model[TUBES_MAXPARAM], cd = 0, t0 = now();
-  memcpy(model, run->params, sizeof model);
-  model[6] = c->exp_damping_ratio;
-  model[7] = c->exp_rolling_resistance;
-  model[8] = model[9] = 0;           /* no noise: the experiment's ball has its own dissipation alone */
-  int ndraw = 0;
-  fprintf(stderr, "synthetic_experiment: %d tracks of %g s at %g Hz...\n", nt, c->exp_duration, c->exp_camera_rate);
-  st = tubes_synthetic_experiment(model, ee, nt, c->exp_duration, c->exp_camera_rate, c->exp_pixel, c->exp_noise,
-                                  c->exp_de_min, c->exp_de_max, box, c->exp_seed, rtol, INTEGRATOR(c), ns, t, state,
-                                  energy, noisy, meas, rel, &cd, &ndraw);
-  if (st == TUBES_EINPUT) {
-    fprintf(stderr, "tubes: synthetic_experiment: found fewer than %d release points with g H - E_e in "
-            "[%g, %g] (cm/s)^2 in the box |x|, |y| <= %g cm after %d draws (E_e = %.10g (cm/s)^2 of %s); "
-            "widen [de_min, de_max]\n", nt, c->exp_de_min, c->exp_de_max, box, ndraw, ee, run->saddle);
-    rc = EXIT_NUMERIC;
-    goto out;
-  }
-  if (st < 0) {
-    char m[TUBES_LSTATUS];
-    status_text(st, m, sizeof m);
-    fprintf(stderr, "tubes: synthetic_experiment: an integration failed: %s (status %d); the frames up to "
-            "the failure are written, NaN after it\n", m, st);
-    int nbad = 0, first = -1;
-    for (int j = 0; j < nt; j++)
-      if (isnan(state[4 * ((size_t)j * ns + ns - 1)])) {
-        if (first < 0) first = j;
-        nbad++;
-      }
-    if (first >= 0)
-      fprintf(stderr, "tubes: synthetic_experiment: %d of %d tracks stop early; the first, track %d released at "
-              "(%.10g, %.10g) cm with dE = %.10g (cm/s)^2\n", nbad, nt, first, rel[3 * first], rel[3 * first + 1],
-              rel[3 * first + 2]);
-    rc = EXIT_NUMERIC;
-  }
-  for (int j = 0; j < nt; j++) {
-    rxy[2 * j] = rel[3 * j];
-    rxy[2 * j + 1] = rel[3 * j + 1];
-    rde[j] = rel[3 * j + 2];
-    for (int k = 0; k < ns; k++) {
-      size_t i = (size_t)j * ns + k;
-      track[i] = j;
-      tt[i] = t[k];
-      x[i] = meas[2 * i];
-      y[i] = meas[2 * i + 1];
-      de[i] = energy[i] - ee;
-    }
-  }
-  char roll[64] = "";
-  if (c->exp_rolling_resistance > 0)
-    snprintf(roll, sizeof roll, ", rolling resistance %g (%.6g cm/s^2)", c->exp_rolling_resistance,
-             c->exp_rolling_resistance * run->params[5]);
-  printf("synthetic_experiment: %d tracks x %d frames (%g Hz, %g s), releases at dE in [%g, %g] (cm/s)^2 "
-         "(%d of %d draws accepted), zeta = %g (c = %.6g 1/s)%s, noise %g cm, pixel %g cm (%.2f s)\n",
-         nt, ns, c->exp_camera_rate, c->exp_duration, c->exp_de_min, c->exp_de_max, nt, ndraw,
-         c->exp_damping_ratio, cd, roll, c->exp_noise, c->exp_pixel, now() - t0);
-  hid_t g = h5_group(run->file, "tracks");
-  int e = g < 0;
-  hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, 4}, d2[2] = {(hsize_t)n, 2}, dr[2] = {(hsize_t)nt, 2},
-          dnt = (hsize_t)nt;
-  e |= h5_write_int(g, "track", dn, track, NULL);
-  e |= h5_write_double(g, "t", 1, &dn, tt, NULL);
-  e |= h5_write_double(g, "x", 1, &dn, x, NULL);
-  e |= h5_write_double(g, "y", 1, &dn, y, NULL);
-  e |= h5_attr_double(g, "camera_rate", c->exp_camera_rate);
-  e |= h5_attr_double(g, "pixel", c->exp_pixel);
-  e |= h5_attr_double(g, "noise", c->exp_noise);
-  e |= h5_attr_double(g, "damping_ratio", c->exp_damping_ratio);
-  e |= h5_attr_double(g, "damping_rate", cd);
-  if (c->exp_rolling_resistance > 0) e |= h5_attr_double(g, "rolling_resistance", c->exp_rolling_resistance);
-  e |= h5_attr_long(g, "seed", c->exp_seed);
-  e |= h5_attr_long(g, "n_tracks", nt);
-  e |= h5_attr_long(g, "n_samples", ns);
-  e |= h5_attr_double(g, "duration", c->exp_duration);
-  e |= h5_attr_double(g, "de_min", c->exp_de_min);
-  e |= h5_attr_double(g, "de_max", c->exp_de_max);
-  e |= h5_attr_double(g, "E_e", ee);
-  e |= h5_attr_string(g, "saddle", run->saddle);
-  e |= h5_attr_double(g, "box", box);
-  e |= h5_attr_string(g, "method", method_label(run));
-  e |= h5_attr_double(g, "rtol", rtol);
-  e |= h5_attr_long(g, "n_draws", ndraw);
-  e |= h5_attr_long(g, "status", st);
-  hid_t tg = g < 0 ? -1 : h5_group(g, "truth");
-  e |= tg < 0;
-  e |= h5_write_double(tg, "state", 2, d4, state, "cm, cm, cm/s, cm/s");
-  e |= h5_write_double(tg, "energy", 1, &dn, energy, NULL);
-  e |= h5_write_double(tg, "dE", 1, &dn, de, NULL);
-  e |= h5_write_double(tg, "noisy", 2, d2, noisy, NULL);
-  e |= h5_write_double(tg, "release", 2, dr, rxy, NULL);
-  e |= h5_write_double(tg, "release_dE", 1, &dnt, rde, NULL);
-  if (tg >= 0) H5Gclose(tg);
-  if (g >= 0) H5Gclose(g);
-  if (e) {
-    rc = EXIT_IO;
-    goto out;
-  }
-  if (c->exp_csv[0] && run->rank == 0) {
-    if (write_tracks_csv(c->exp_csv, nt, ns, t, meas)) {
-      fprintf(stderr, "tubes: synthetic_experiment: cannot write the CSV file '%s'\n", c->exp_csv);
-      rc = EXIT_IO;
-    } else {
-      printf("  wrote %s (track,t,x,y)\n", c->exp_csv);
-    }
-  }
-out:
-  free(t); free(state); free(energy); free(noisy); free(meas); free(rel); free(x); free(y); free(de); free(tt);
-  free(rxy); free(rde); free(track);
+  printf("  wrote %s (track,t,x,y)\n", c->exp_csv);
   return rc;
 }
 
