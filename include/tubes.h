@@ -281,6 +281,18 @@ int tubes_synthetic_experiment_scene(const char system[TUBES_LSYSTEM], const dou
                                      double pixel, double noise, double de_min, double de_max, double damping_ratio,
                                      double rolling_resistance, int seed, int method, double h, double omega_bind,
                                      int solver, int max_iter, const char method_label[32], void *stores);
+/* The trajectory scene: &trajectory's start (at_rest: momenta 0), times and section, the integrator
+ * (method as run, method_label its name, solver_name &integrator solver), the dissipation (zeta, crr,
+ * f_roll, dissip in words, "" conservative), the &equilibria box (the energy scale), label and input
+ * for messages, us and ue the units written after a time and an energy ("" dimensionless). */
+int tubes_trajectory_scene(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], const double x0[4],
+                           int at_rest, double t_end, double dt_out, const char section[32], int section_direction,
+                           double section_angle, double section_level, int stop_at_first, int max_crossings,
+                           int method, const char *method_label, double rtol, double atol, double h,
+                           long long max_steps, double omega_bind, int solver, const char solver_name[32],
+                           int max_iter, double zeta, double crr, double f_roll, const char *dissip,
+                           const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                           const char label[64], const char *input, const char *us, const char *ue, void *stores);
 int tubes_record_code(int h);
 void tubes_record_sizes(int h, int *n_items, int *n_lines);
 int tubes_record_line(int h, int j, int *stream, char *buf, int len);

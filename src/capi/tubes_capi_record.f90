@@ -11,6 +11,7 @@ module tubes_capi_record
   use tubes_scene_equilibria, only: scene_equilibria
   use tubes_scene_sections, only: scene_sections
   use tubes_scene_synthetic_experiment, only: scene_synthetic_experiment
+  use tubes_scene_trajectory, only: scene_trajectory, trajectory_settings_t
   implicit none
   private
 
@@ -87,6 +88,57 @@ contains
                                     kept, rec)
     h = record_keep(rec)
   end function c_scene_synthetic_experiment
+
+  !> The trajectory scene (tubes_scene_trajectory): &trajectory's start x0 (at_rest: its momenta
+  !> 0), times, section and its settings, the integrator (method as run, its name method_label,
+  !> solver its code and solver_name its name), the dissipation (zeta, crr, f_roll, dissip in
+  !> words), the box of the equilibria (the energy scale), label and input for messages, us and
+  !> ue the time's and the energy's units in them: the record's handle.
+  integer(c_int) function c_scene_trajectory(system, params, x0, at_rest, t_end, dt_out, section, section_direction, &
+                                             section_angle, section_level, stop_at_first, max_crossings, method, &
+                                             method_label, rtol, atol, step, max_steps, omega_bind, solver, &
+                                             solver_name, max_iter, zeta, crr, f_roll, dissip, lo, hi, n_grid, label, &
+                                             input, us, ue, stores) result(h) bind(C, name='tubes_trajectory_scene')
+    use tubes_methods, only: method_opts_t
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), section(32), solver_name(32), label(64)
+    character(kind=c_char), intent(in) :: method_label(*), dissip(*), input(*), us(*), ue(*)   ! (C literals)
+    real(c_double), intent(in) :: params(MAX_PARAMS), x0(4), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: at_rest, section_direction, stop_at_first, max_crossings, method, solver, max_iter, n_grid
+    real(c_double), value :: t_end, dt_out, section_angle, section_level, rtol, atol, step, omega_bind, zeta, crr, f_roll
+    integer(c_long_long), value :: max_steps
+    type(c_ptr), value :: stores
+    type(record_t), allocatable :: rec
+    type(seed_stores_t), pointer :: kept
+    type(trajectory_settings_t) :: s
+    allocate (rec)
+    ! (component by component: gfortran 12 garbles a constructor's deferred-length strings)
+    s%x0 = x0
+    s%at_rest = at_rest /= 0
+    s%t_end = t_end
+    s%dt_out = dt_out
+    s%section = trim(c_to_f(section))
+    s%section_direction = section_direction
+    s%max_crossings = max_crossings
+    s%section_angle = section_angle
+    s%section_level = section_level
+    s%stop_at_first = stop_at_first /= 0
+    s%method = method
+    s%method_label = c_to_f(method_label(1:32))
+    s%solver = trim(c_to_f(solver_name))
+    s%rtol = rtol
+    s%atol = atol
+    s%h = step
+    s%max_steps = max_steps
+    s%mopts = method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter)
+    s%zeta = zeta
+    s%crr = crr
+    s%f_roll = f_roll
+    s%dissip = c_to_f(dissip(1:128))
+    kept => stores_at(transfer(stores, 0_c_intptr_t))
+    call scene_trajectory(trim(c_to_f(system)), params, s, lo, hi, n_grid, trim(c_to_f(label)), &
+                          c_to_f(input(1:1024)), c_to_f(us(1:16)), c_to_f(ue(1:16)), kept, rec)
+    h = record_keep(rec)
+  end function c_scene_trajectory
 
   !> The record's exit code (the worst verdict's; 0: none), or -1 for no record.
   integer(c_int) function c_record_code(h) result(code) bind(C, name='tubes_record_code')

@@ -3,7 +3,6 @@
 #include "tubes_record.h"
 #include "tubes_h5.h"
 #include "tubes_input.h"
-#include <errno.h>
 #include <float.h>
 #include <math.h>
 #ifndef M_PI
@@ -462,179 +461,17 @@ int scene_equilibria(tubes_run_t *run) {
   return rc ? EXIT_IO : 0;
 }
 
-typedef struct {
-  double t_end, start, last;
-} progress_t;
-
-static int progress(double t, void *user) {
-  progress_t *p = user;
-  double w = now();
-  if (w - p->last >= 1.0) {
-    fprintf(stderr, "trajectory: t = %.4g of %.4g s (%.0f%%), %.1f s elapsed\n", t, p->t_end,
-            100.0 * t / p->t_end, w - p->start);
-    p->last = w;
-  }
-  return 0;
-}
-
 int scene_trajectory(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  double x0[4] = {c->x0, c->y0, c->at_rest ? 0.0 : c->px0, c->at_rest ? 0.0 : c->py0};
-  if (run->ndof != 2) {
-    fprintf(stderr, "tubes: trajectory: system %s has %d degrees of freedom; the trajectory scene takes "
-            "(x0, y0, px0, py0) of a 2-DOF model\n", run->label, run->ndof);
-    return EXIT_BADINPUT;
-  }
-  {   /* H and Hamilton's equations are finite at the start (a formula may not be: log(x) at x < 0) */
-    double e = 0, f[4] = {0, 0, 0, 0};
-    int se = tubes_energy(run->system, run->params, 4, x0, &e), sf = tubes_vector_field(run->system, run->params, 4, x0, f);
-    if (se < 0 || sf < 0 || !isfinite(e) || !isfinite(f[0] + f[1] + f[2] + f[3])) {
-      fprintf(stderr, "%s: &trajectory: the model is not defined at the starting point (x0, y0, px0, py0) = "
-              "(%g, %g, %g, %g): H = %g, dx/dt = (%g, %g, %g, %g); start where H is finite\n",
-              run->input ? run->input : "tubes", x0[0], x0[1], x0[2], x0[3], e, f[0], f[1], f[2], f[3]);
-      return EXIT_BADINPUT;
-    }
-  }
-  double nsd = floor(c->t_end / c->dt_out * (1 + 1e-12)) + 2;
-  int nmax = (int)nsd, n = 0;
-  /* section: kind, level, orientation (docs/input.md) */
-  int sk = 0, sd = c->section_direction, mc = c->max_crossings;
-  double sl = 0;
-  if (!strcmp(c->section, "U1-")) { sk = 1; sl = M_PI / 4; sd = 1; }          /* p_theta > 0 */
-  else if (!strcmp(c->section, "U1+")) { sk = 1; sl = M_PI / 4; sd = -1; }
-  else if (!strcmp(c->section, "U1")) { sk = 1; sl = M_PI / 4; sd = 0; }
-  else if (!strcmp(c->section, "theta")) { sk = 1; sl = c->section_angle * M_PI / 180; }
-  else if (!strcmp(c->section, "x")) { sk = 2; sl = c->section_level; }
-  else if (!strcmp(c->section, "y")) { sk = 3; sl = c->section_level; }
-  double *t = malloc(sizeof(double) * nmax), *st = malloc(sizeof(double) * 4 * nmax),
-         *en = malloc(sizeof(double) * nmax), *ct = malloc(sizeof(double) * mc),
-         *cx = malloc(sizeof(double) * 4 * mc);
-  int *cd = malloc(sizeof(int) * mc), ncross = 0;
-  if (!t || !st || !en || !ct || !cx || !cd) {
-    free(t); free(st); free(en); free(ct); free(cx); free(cd);
-    fprintf(stderr, "tubes: trajectory: cannot allocate %d samples\n", nmax);
-    return EXIT_NUMERIC;
-  }
-  int64_t cnt[4] = {0, 0, 0, 0};
-  double cdamp = 0;
-  progress_t pr = {c->t_end, now(), now()};
-  double t0 = now();
-  int s = tubes_run_trajectory(run->system, run->params, 4, x0, c->t_end, c->dt_out, run->method, c->rtol,
-                               c->atol, c->h, c->max_steps, c->omega_bind, strcmp(c->solver, "fixed_point") ? 1 : 2,
-                               c->max_iter, sk, sl, sd, c->stop_at_first, mc, nmax, &n, t, st, en, &ncross,
-                               ct, cx, cd, cnt, &cdamp, progress, &pr);
-  double wall = now() - t0;
-  char msg[128];
-  status_text(s, msg, sizeof msg);
-  int rc = 0;
-  double e0 = n > 0 ? en[0] : NAN, abserr = 0;   /* no sample (a start the model refuses): none */
-  for (int k = 0; k < n; k++) abserr = fmax(abserr, fabs(en[k] - e0));
-  /* the relative error's scale: |E0|, but at least the energy range spanned by E0 and the
-   * equilibria in the &equilibria box (barriers, the start's height above the lowest well), so that
-   * a start near E = 0 (the coupled quartic's saddle) is not measured against ~0 (docs/output.md) */
-  double escale = fabs(e0), range = 0;
-  int neq = 0;
-  if (n) {
-    static eqlist_t L;
-    if (find_eqs(run, &L) >= 0 && L.n > 0) {
-      double lo = e0, hi = e0;
-      for (int k = 0; k < L.n; k++) {
-        lo = fmin(lo, L.en[k]);
-        hi = fmax(hi, L.en[k]);
-      }
-      range = hi - lo;
-      neq = L.n;
-    }
-  }
-  escale = fmax(escale, range);
-  double maxerr = escale > 0 ? abserr / escale : NAN;
-  if (s < 0)
-    fprintf(stderr, "tubes: trajectory: integration failed after the sample at t = %.17g%s: %s (status %d) after "
-            "%lld steps, %lld rejected, %lld evaluations; the samples up to there are written\n",
-            n ? t[n - 1] : 0.0, in_units(" s"), msg, s, (long long)cnt[1], (long long)cnt[2], (long long)cnt[0]);
-  printf("trajectory: %s from (%g, %g, %g, %g), E0 = %.10g%s, to t = %g%s: %d samples, "
-         "%lld steps (%lld rejected), %lld evaluations, %.3f s\n",
-         method_label(run), x0[0], x0[1], x0[2], x0[3], e0, in_units(" (cm/s)^2"), n ? t[n - 1] : 0.0, in_units(" s"), n,
-         (long long)cnt[1],
-         (long long)cnt[2], (long long)cnt[0], wall);
-  if (sk) printf("  section %s: %d crossings\n", c->section, ncross);
-  if (s == TUBES_FULL)   /* before, t_end = 200000 s ended at 24,488 s, exit 0, nothing said */
-    fprintf(stderr, "tubes: trajectory: stopped at t = %g%s, before t_end = %g%s: the %d crossings max_crossings "
-            "allows were recorded; the samples up to there are written (raise &trajectory max_crossings, at most "
-            "1e7, or set stop_at_first)\n", n ? t[n - 1] : 0.0, in_units(" s"), c->t_end, in_units(" s"), mc);
-  if (run->zeta > 0 && !(run->crr > 0))
-    printf("  damped (zeta = %g, c = %.6g 1/s): energy lost %.6g (cm/s)^2\n", run->zeta, cdamp,
-           n > 0 ? e0 - en[n - 1] : NAN);
-  else if (dissipative(run))
-    printf("  damped (%s): energy lost %.6g%s\n", run->dissip, n > 0 ? e0 - en[n - 1] : NAN, in_units(" (cm/s)^2"));
-  else {
-    printf("  max energy error |E - E0| %.3e%s, relative %.3e to the energy scale %.6g%s", abserr,
-           in_units(" (cm/s)^2"), maxerr, escale, in_units(" (cm/s)^2"));
-    if (escale == fabs(e0) && escale > 0)
-      printf(" (|E0|)\n");
-    else if (escale > 0)
-      printf(" (the energy range of E0 and the %d equilibria in the &equilibria box; |E0| = %.3g)\n", neq,
-             fabs(e0));
-    else
-      printf(" (none: E0 = 0 and no equilibria at other energies)\n");
-  }
-  hid_t g = h5_group(run->file, "trajectory");
-  if (g < 0) rc = EXIT_IO;
-  else {
-    hsize_t dn = (hsize_t)n, d2[2] = {(hsize_t)n, 4};
-    int e = 0;
-    e |= h5_write_double(g, "t", 1, &dn, t, NULL);
-    e |= h5_write_double(g, "state", 2, d2, st, "cm, cm, cm/s, cm/s");
-    e |= h5_write_double(g, "energy", 1, &dn, en, NULL);
-    e |= h5_attr_string(g, "method", method_label(run));
-    e |= h5_attr_double(g, "rtol", c->rtol);
-    e |= h5_attr_double(g, "atol", c->atol);
-    e |= h5_attr_double(g, "h", c->h);
-    e |= h5_attr_long(g, "nfev", cnt[0]);
-    e |= h5_attr_long(g, "nsteps", cnt[1]);
-    e |= h5_attr_long(g, "nrejected", cnt[2]);
-    e |= h5_attr_long(g, "niter", cnt[3]);
-    e |= h5_attr_double(g, "omega_bind", c->omega_bind);
-    e |= h5_attr_string(g, "solver", c->solver);
-    e |= h5_attr_double(g, "wall_seconds", wall);
-    e |= h5_attr_double(g, "damping_rate", cdamp);
-    if (run->crr > 0) e |= h5_attr_double(g, "rolling_drag", run->f_roll);
-    e |= h5_attr_double(g, "max_rel_energy_error", maxerr);
-    e |= h5_attr_double(g, "max_energy_error", abserr);
-    e |= h5_attr_double(g, "energy_scale", escale);
-    e |= h5_attr_long(g, "status", s);
-    e |= h5_attr_string(g, "status_message", msg);
-    if (sk) {
-      hid_t cg = h5_group(g, "crossings");
-      hsize_t dc = (hsize_t)ncross, dc4[2] = {(hsize_t)ncross, 4};
-      e |= cg < 0;
-      e |= h5_write_double(cg, "t", 1, &dc, ct, NULL);
-      e |= h5_write_double(cg, "state", 2, dc4, cx, "cm, cm, cm/s, cm/s");
-      e |= h5_write_int(cg, "direction", dc, cd, NULL);
-      e |= h5_attr_string(cg, "section", c->section);
-      e |= h5_attr_double(cg, "level", sk == 1 ? sl : c->section_level);
-      if (sk == 1) {   /* polar canonical coordinates on the ray (docs/events.md) */
-        double *pr = malloc(sizeof(double) * (ncross ? ncross : 1)), *pth = malloc(sizeof(double) * (ncross ? ncross : 1)),
-               *rr = malloc(sizeof(double) * (ncross ? ncross : 1));
-        for (int k = 0; k < ncross; k++) {
-          const double *z = cx + 4 * k;
-          rr[k] = hypot(z[0], z[1]);
-          pr[k] = (z[0] * z[2] + z[1] * z[3]) / rr[k];
-          pth[k] = z[0] * z[3] - z[1] * z[2];
-        }
-        e |= h5_write_double(cg, "r", 1, &dc, rr, NULL);
-        e |= h5_write_double(cg, "p_r", 1, &dc, pr, NULL);
-        e |= h5_write_double(cg, "p_theta", 1, &dc, pth, NULL);
-        free(pr); free(pth); free(rr);
-      }
-      if (cg >= 0) H5Gclose(cg);
-    }
-    H5Gclose(g);
-    if (e) rc = EXIT_IO;
-  }
-  free(t); free(st); free(en); free(ct); free(cx); free(cd);
-  if (rc) return rc;
-  return s < 0 ? EXIT_NUMERIC : s == TUBES_FULL ? EXIT_PARTIAL : 0;
+  double x0[4] = {c->x0, c->y0, c->px0, c->py0};
+  int h = tubes_trajectory_scene(run->system, run->params, x0, c->at_rest, c->t_end, c->dt_out, c->section,
+                                 c->section_direction, c->section_angle, c->section_level, c->stop_at_first,
+                                 c->max_crossings, run->method, method_label(run), c->rtol, c->atol, c->h,
+                                 (long long)c->max_steps, c->omega_bind, strcmp(c->solver, "fixed_point") ? 1 : 2,
+                                 c->solver, c->max_iter, run->zeta, run->crr, run->f_roll,
+                                 dissipative(run) ? run->dissip : "", run->lo, run->hi, run->n_grid, run->label,
+                                 run->input ? run->input : "tubes", in_units(" s"), in_units(" (cm/s)^2"), run->seeds);
+  return record_emit(run->file, h);
 }
 
 static const char *end_reason_text(int r) {
