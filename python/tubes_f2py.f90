@@ -1486,6 +1486,22 @@ subroutine scene_synthetic_experiment(system, params, lo, hi, n_grid, saddle, n_
   h = record_keep(rec)
 end subroutine scene_synthetic_experiment
 
+subroutine trajectory_section(name, angle, level, direction, kind, lvl, dir, known)
+  ! the section of a trajectory by name (the trajectory scene's rule, tubes_scene_trajectory):
+  ! kind (0 none, 1 ray, 2 x, 3 y), level, orientation; known 0: no such name
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_scene_trajectory, only: section_of => trajectory_section
+  implicit none
+  character(len=*), intent(in) :: name
+  real(c_double), intent(in) :: angle, level
+  integer(c_int), intent(in) :: direction
+  integer(c_int), intent(out) :: kind, dir, known
+  real(c_double), intent(out) :: lvl
+  logical :: ok
+  call section_of(trim(name), angle, level, direction, kind, lvl, dir, ok)
+  known = merge(1, 0, ok)
+end subroutine trajectory_section
+
 subroutine record_sizes(h, code, n_items, n_lines)
   ! a result record's exit code (-1: no record), numbers of items and of console lines
   use, intrinsic :: iso_c_binding, only: c_int

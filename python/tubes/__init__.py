@@ -1928,20 +1928,15 @@ for _f in (orbit_family, tube_cut, transition, transition_region, monte_carlo, p
 del _f
 
 
-SECTIONS = {"U1-": (1, np.pi / 4, 1), "U1+": (1, np.pi / 4, -1), "U1": (1, np.pi / 4, 0)}
-
-
 def _section(section, level, direction):
-    """(kind, level, dir) of a section name (include/tubes.h, tubes_run_trajectory)."""
-    if section is None or section == "none":
-        return 0, 0.0, 0
-    if section in SECTIONS:
-        return SECTIONS[section]
-    if section == "theta":
-        return 1, np.radians(float(level)), int(direction)    # degrees, as &trajectory section_angle
-    if section in ("x", "y"):
-        return (2 if section == "x" else 3), float(level), int(direction)
-    raise ValueError(f"unknown section {section!r}; allowed: none, U1-, U1+, U1, theta, x, y")
+    """(kind, level, dir) of a section name: the trajectory scene's rule (tubes_scene_trajectory
+    trajectory_section; level: the ray's angle in degrees for 'theta', as &trajectory section_angle)."""
+    name = "none" if section is None else str(section)
+    # (the raw core: a table look-up, no Ctrl-C handling to set up around it)
+    kind, lvl, d, known = _lib()._core.trajectory_section(name, float(level), float(level), int(direction))
+    if not known:
+        raise ValueError(f"unknown section {section!r}; allowed: none, U1-, U1+, U1, theta, x, y")
+    return int(kind), float(lvl), int(d)
 
 
 def _check_integration(who, method, t_end, rtol, atol, h, max_steps, solver, omega_bind, max_iter):

@@ -23,7 +23,7 @@ module tubes_scene_trajectory
   implicit none
   private
 
-  public :: scene_trajectory, trajectory_settings_t
+  public :: scene_trajectory, trajectory_section
 
   !> The scene's settings: &trajectory's and &integrator's (docs/input.md), the model's
   !> dissipation as the console names it.
@@ -77,6 +77,7 @@ contains
     real(wp) :: x0(4), e, f(4), sl, t0, tw, cdamp, e0, abserr, escale, range, elo, ehi, maxerr, tlast, lost
     integer(i8) :: cnt(4)
     integer :: stat, nd, nmax, n, ncross, k, neq, ierr
+    logical :: known
     character(:), allocatable :: msg, line
     x0 = s%x0
     if (s%at_rest) x0(3:4) = 0
@@ -104,31 +105,9 @@ contains
     end if
     nmax = int(floor(s%t_end/s%dt_out*(1 + 1e-12_wp)) + 2)
     ! the section: kind, level, orientation (docs/input.md)
-    sec = section_spec_t(kind=SECTION_NONE, level=0.0_wp, dir=s%section_direction, stop_at_first=s%stop_at_first, &
-                         max_crossings=s%max_crossings)
-    select case (s%section)
-    case ('U1-')                                    ! p_theta > 0
-      sec%kind = SECTION_THETA
-      sec%level = PI/4
-      sec%dir = 1
-    case ('U1+')
-      sec%kind = SECTION_THETA
-      sec%level = PI/4
-      sec%dir = -1
-    case ('U1')
-      sec%kind = SECTION_THETA
-      sec%level = PI/4
-      sec%dir = 0
-    case ('theta')
-      sec%kind = SECTION_THETA
-      sec%level = s%section_angle*PI/180
-    case ('x')
-      sec%kind = SECTION_X
-      sec%level = s%section_level
-    case ('y')
-      sec%kind = SECTION_Y
-      sec%level = s%section_level
-    end select
+    sec = section_spec_t(stop_at_first=s%stop_at_first, max_crossings=s%max_crossings)
+    call trajectory_section(s%section, s%section_angle, s%section_level, s%section_direction, sec%kind, sec%level, &
+                            sec%dir, known)
     sl = sec%level
     allocate (t(nmax), st(4, nmax), en(nmax), ct(max(s%max_crossings, 1)), cx(4, max(s%max_crossings, 1)), &
               cd(max(s%max_crossings, 1)), stat=ierr)
@@ -249,6 +228,50 @@ contains
     call rec%real('trajectory/crossings', 'p_theta', cx(1, 1:ncross)*cx(4, 1:ncross) - cx(2, 1:ncross)*cx(3, 1:ncross), &
                   [ncross])
   end subroutine scene_trajectory
+
+  !> The section of &trajectory section = name (docs/input.md; Python's integrate too): its kind
+  !> (tubes_run SECTION_*), level and orientation dir. angle [deg]: the ray's ('theta'); level: the
+  !> line's ('x', 'y'); direction: their orientation. known = .false.: no such name (none).
+  pure subroutine trajectory_section(name, angle, level, direction, kind, lvl, dir, known)
+    character(*), intent(in) :: name
+    real(wp), intent(in) :: angle, level
+    integer, intent(in) :: direction
+    integer, intent(out) :: kind, dir
+    real(wp), intent(out) :: lvl
+    logical, intent(out) :: known
+    kind = SECTION_NONE
+    lvl = 0
+    dir = direction
+    known = .true.
+    select case (name)
+    case ('U1-')                                    ! p_theta > 0
+      kind = SECTION_THETA
+      lvl = PI/4
+      dir = 1
+    case ('U1+')
+      kind = SECTION_THETA
+      lvl = PI/4
+      dir = -1
+    case ('U1')
+      kind = SECTION_THETA
+      lvl = PI/4
+      dir = 0
+    case ('theta')
+      kind = SECTION_THETA
+      lvl = angle*PI/180
+    case ('x')
+      kind = SECTION_X
+      lvl = level
+    case ('y')
+      kind = SECTION_Y
+      lvl = level
+    case ('', 'none')
+      dir = 0
+    case default
+      dir = 0
+      known = .false.
+    end select
+  end subroutine trajectory_section
 
   !> The samples, and every PROGRESS_EVERY steps a progress line if a second has passed since the
   !> last (or the start).
