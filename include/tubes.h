@@ -291,6 +291,32 @@ enum { TUBES_REC_REAL = 1, TUBES_REC_INT = 2, TUBES_REC_STRINGS = 3, TUBES_REC_A
 int tubes_equilibria_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
                            double box, const char *want, int asked, const char *label, const char *dissip,
                            void *stores);
+/* Map k (0-based, /sections/map_k) of the sections scene at excess energy de; the section and
+ * integrator arguments as tubes_poincare's; dissipative: the model loses energy (its line says so). */
+int tubes_sections_scene(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], const double lo[TUBES_MAXDOF],
+                         const double hi[TUBES_MAXDOF], int n_grid, const char saddle[8], int sec_kind, int sec_index,
+                         double level, int dir, double de, int k, int n_seeds, int n_iter, double t_max, int method,
+                         double h, double omega_bind, int solver, int max_iter, int dissipative, void *stores);
+/* The synthetic_experiment scene: &experiment's settings, the integrator as tubes_synthetic_experiment's,
+ * method_label its name for /tracks@method. */
+int tubes_synthetic_experiment_scene(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
+                                     const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                                     const char saddle[8], int n_tracks, double duration, double camera_rate,
+                                     double pixel, double noise, double de_min, double de_max, double damping_ratio,
+                                     double rolling_resistance, int seed, int method, double h, double omega_bind,
+                                     int solver, int max_iter, const char method_label[32], void *stores);
+/* The trajectory scene: &trajectory's start (at_rest: momenta 0), times and section, the integrator
+ * (method as run, method_label its name, solver_name &integrator solver), the dissipation (zeta, crr,
+ * f_roll, dissip in words, "" conservative), the &equilibria box (the energy scale), label and input
+ * for messages, us and ue the units written after a time and an energy ("" dimensionless). */
+int tubes_trajectory_scene(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], const double x0[4],
+                           int at_rest, double t_end, double dt_out, const char section[32], int section_direction,
+                           double section_angle, double section_level, int stop_at_first, int max_crossings,
+                           int method, const char *method_label, double rtol, double atol, double h,
+                           long long max_steps, double omega_bind, int solver, const char solver_name[32],
+                           int max_iter, double zeta, double crr, double f_roll, const char *dissip,
+                           const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
+                           const char label[64], const char *input, const char *us, const char *ue, void *stores);
 /* The flux scene: saddle, who (the input file in messages), sysname (&model system), the &flux
  * energies de[n_de] and settings, the &section plane (plane != 0: kind 'plane'), the &integrator. */
 int tubes_flux_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,

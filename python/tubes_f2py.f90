@@ -868,29 +868,6 @@ subroutine monte_carlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_ind
   inside = merge(1, 0, ins)
 end subroutine monte_carlo
 
-subroutine poincare(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
-                    n_seeds, n_iter, t_max, method, h, omega_bind, solver, int_max_iter, stores, stat, pts)
-  ! Poincare maps of the section at de (as the sections scene)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_study, only: study_t, section_choice_t, maps_at, seed_stores_t, stores_at
-  use tubes_capi, only: integ_of
-  implicit none
-  character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, n_seeds, n_iter, method, solver, &
-                                int_max_iter
-  real(c_double), intent(in) :: h, omega_bind
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, t_max
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: stat
-  real(c_double), intent(out) :: pts(2, n_iter, n_seeds)
-  type(seed_stores_t), pointer :: kept
-  kept => stores_at(stores)
-  call maps_at(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-                       integ=integ_of(method, h, omega_bind, solver, int_max_iter)), &
-               section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, n_seeds, &
-               n_iter, t_max, pts, stat, kept)
-end subroutine poincare
-
 subroutine status_code(name, code)
   ! the number of the status code TUBES_<name> (src/base/tubes_status.f90), 1000 for no such code
   use tubes_status, only: status_code_of => status_code
@@ -1100,37 +1077,6 @@ subroutine nf_map(nd, order, nt, expo, coef, to_model, npts, pts, stat, out, rou
   call nf_map_points(ch, to_model /= 0, pts, out, round_trip)
 end subroutine nf_map
 
-subroutine synthetic_experiment(params, e_e, n_tracks, duration, camera_rate, pixel, noise, de_min, &
-                                de_max, seed, method, h, omega_bind, solver, max_iter, ns, stat, t, &
-                                state, energy, noisy, measured, release, c_damp, n_draws, box, rtol)
-  ! synthetic tracks of the rolling ball (as the synthetic_experiment scene: the same C API call,
-  ! its release box and tolerance experiment_opts_t's defaults); ns = tubes_experiment_samples
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_capi, only: c_synthetic_experiment, c_experiment_defaults
-  implicit none
-  real(c_double), intent(in) :: params(16), e_e, duration, camera_rate, pixel, noise, de_min, de_max, &
-                                h, omega_bind
-  integer(c_int), intent(in) :: n_tracks, seed, method, solver, max_iter, ns
-  integer(c_int), intent(out) :: stat, n_draws
-  real(c_double), intent(out) :: t(ns), state(4, ns, n_tracks), energy(ns, n_tracks), &
-                                 noisy(2, ns, n_tracks), measured(2, ns, n_tracks), release(3, n_tracks), &
-                                 c_damp, box, rtol
-  call c_experiment_defaults(box, rtol)
-  stat = c_synthetic_experiment(params, e_e, n_tracks, duration, camera_rate, pixel, noise, de_min, de_max, &
-                                box, seed, rtol, method, h, omega_bind, solver, max_iter, ns, t, state, &
-                                energy, noisy, measured, release, c_damp, n_draws)
-end subroutine synthetic_experiment
-
-subroutine experiment_samples(duration, camera_rate, ns)
-  ! frames per track of the synthetic experiment (tubes_experiment_samples)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_capi, only: c_experiment_samples
-  implicit none
-  real(c_double), intent(in) :: duration, camera_rate
-  integer(c_int), intent(out) :: ns
-  ns = c_experiment_samples(duration, camera_rate)
-end subroutine experiment_samples
-
 subroutine transition_region(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
                              gate, t_max, area_tol, n_init, n_scan, xtol, method, h, omega_bind, solver, &
                              int_max_iter, nout, mcurve, noiseless, stores, stat, n, phi, rho, s, p, t_in, m, cs, cp, &
@@ -1292,6 +1238,84 @@ subroutine scene_equilibria(system, params, lo, hi, n_grid, box, want, asked, la
                  kept, rec)
   h = record_keep(rec)
 end subroutine scene_equilibria
+
+subroutine scene_sections(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, &
+                          dir, de, k, n_seeds, n_iter, t_max, method, step, omega_bind, solver, &
+                          int_max_iter, dissipative, stores, h)
+  ! map k (0-based) of the sections scene at de (src/workflow/tubes_scene_sections.f90), as the
+  ! program's: the handle of its result record (read as scene_equilibria's)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+  use tubes_study, only: study_t, section_choice_t, seed_stores_t, stores_at
+  use tubes_record, only: record_t, record_keep
+  use tubes_capi, only: integ_of
+  use tubes_scene_sections, only: scene_run => scene_sections
+  implicit none
+  character(len=*), intent(in) :: system, saddle
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, t_max, step, omega_bind
+  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, k, n_seeds, n_iter, method
+  integer(c_int), intent(in) :: solver, int_max_iter, dissipative
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: h
+  type(record_t), allocatable :: rec
+  type(seed_stores_t), pointer :: kept
+  allocate (rec)
+  kept => stores_at(stores)
+  call scene_run(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, &
+                         saddle=saddle, integ=integ_of(method, step, omega_bind, solver, &
+                         int_max_iter)), &
+                 section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), &
+                 de, k, n_seeds, n_iter, t_max, dissipative /= 0, kept, rec)
+  h = record_keep(rec)
+end subroutine scene_sections
+
+subroutine scene_synthetic_experiment(system, params, lo, hi, n_grid, saddle, n_tracks, duration, &
+                                      camera_rate, pixel, noise, de_min, de_max, damping_ratio, &
+                                      rolling_resistance, seed, method, step, omega_bind, solver, &
+                                      int_max_iter, method_label, stores, h)
+  ! the synthetic_experiment scene (src/workflow/tubes_scene_synthetic_experiment.f90), as the
+  ! program's: the handle of its result record (read as scene_equilibria's)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t, c_long
+  use tubes_study, only: seed_stores_t, stores_at
+  use tubes_record, only: record_t, record_keep
+  use tubes_capi, only: integ_of
+  use tubes_experiment, only: experiment_opts_t
+  use tubes_scene_synthetic_experiment, only: scene_run => scene_synthetic_experiment
+  implicit none
+  character(len=*), intent(in) :: system, saddle, method_label
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), duration, camera_rate, pixel, noise
+  real(c_double), intent(in) :: de_min, de_max, damping_ratio, rolling_resistance, step, omega_bind
+  integer(c_int), intent(in) :: n_grid, n_tracks, seed, method, solver, int_max_iter
+  integer(c_int64_t), intent(in) :: stores
+  integer(c_int), intent(out) :: h
+  type(record_t), allocatable :: rec
+  type(seed_stores_t), pointer :: kept
+  allocate (rec)
+  kept => stores_at(stores)
+  call scene_run(trim(system), params, lo, hi, n_grid, trim(saddle), &
+                 experiment_opts_t(n_tracks=n_tracks, duration=duration, &
+                                   camera_rate=camera_rate, pixel=pixel, noise=noise, &
+                                   de_min=de_min, de_max=de_max, seed=int(seed, c_long)), &
+                 damping_ratio, rolling_resistance, &
+                 integ_of(method, step, omega_bind, solver, int_max_iter), trim(method_label), &
+                 kept, rec)
+  h = record_keep(rec)
+end subroutine scene_synthetic_experiment
+
+subroutine trajectory_section(name, angle, level, direction, kind, lvl, dir, known)
+  ! the section of a trajectory by name (the trajectory scene's rule, tubes_scene_trajectory):
+  ! kind (0 none, 1 ray, 2 x, 3 y), level, orientation; known 0: no such name
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_scene_trajectory, only: section_of => trajectory_section
+  implicit none
+  character(len=*), intent(in) :: name
+  real(c_double), intent(in) :: angle, level
+  integer(c_int), intent(in) :: direction
+  integer(c_int), intent(out) :: kind, dir, known
+  real(c_double), intent(out) :: lvl
+  logical :: ok
+  call section_of(trim(name), angle, level, direction, kind, lvl, dir, ok)
+  known = merge(1, 0, ok)
+end subroutine trajectory_section
 
 subroutine scene_flux(system, params, lo, hi, n_grid, saddle, who, sysname, n_de, de, n_samples, seed, &
                       t_max, gate, tol, order, plane, sec_index, sec_value, sec_dir, n_cut, cut_eps, &

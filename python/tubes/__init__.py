@@ -1558,8 +1558,8 @@ def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, 
     """Poincare map of the section at dE (as the sections scene, a group /sections/map_K of the
     output file): a tubes.Table with points, an array (n_seeds, n_iter, 2) of (s, p_s) (the ray's
     (r, p_r)) of each return of each trajectory, NaN after one stops returning within t_max, and
-    dE, n_seeds, n_iter, t_max. Raises TubesError if a trajectory failed (the Table is in
-    err.partial). 2 degrees of freedom.
+    dE, status, n_seeds, n_iter, t_max. Raises TubesError if a trajectory failed (its code the
+    map's status, its message the scene's; the Table is in err.partial). 2 degrees of freedom.
 
     dE: the excess energy above the saddle, > 0, in the model's energy units ((cm/s)^2 for the
     ball); required (the scene's default list, &sections de = 100, 500, is the ball's and a list).
@@ -1574,14 +1574,18 @@ def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, 
                             ("t_max", t_max)) if v is not None}
     st = _settings(model, saddle, saddle_near, section=section, who="poincare", sections=pm, integrator=integrator,
                    equilibria=equilibria)
-    stat, pts = _lib().poincare(*_study(model, st), *_section_args(st), float(st["des"][0, 3]), int(st["pm_n_seeds"]),
-                                int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st, model),
-                                model._stores())
-    out = _table({"dE": float(st["des"][0, 3]), "points": np.moveaxis(pts, [0, 1, 2], [2, 1, 0]).copy(),
+    # the program's sections scene, its map at dE (src/workflow/tubes_scene_sections.f90): its
+    # record's /sections/map_000 and its verdict
+    de = float(st["des"][0, 3])
+    rec = _record(_lib().scene_sections(*_study(model, st), *_section_args(st), de, 0, int(st["pm_n_seeds"]),
+                                        int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st, model),
+                                        int(bool(_dissipation(model))), model._stores()))
+    status = rec["attrs"]["sections/map_000"]["status"]
+    out = _table({"dE": de, "points": rec["data"]["sections/map_000"]["points"], "status": status,
                   "n_seeds": int(st["pm_n_seeds"]), "n_iter": int(st["pm_n_iter"]), "t_max": float(st["pm_t_max"])},
                  "/sections/map_0", model)
-    if stat < 0:
-        err = TubesError(stat, "poincare")
+    if rec["code"]:
+        err = TubesError(status, "; ".join(t for s, t in rec["lines"] if s == 2))
         err.partial = out
         raise err
     return out
@@ -1608,40 +1612,31 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
     # the program's reader refuses a model other than the ball on its four-well surface, with its message
     st = _settings(model, saddle, who="synthetic_experiment", run={"scenes": "synthetic_experiment"}, experiment=ex,
                    integrator=integrator, equilibria=equilibria)
-    eq = _settings_equilibria(model, st)
-    k = [i for i, n in enumerate(eq["name"]) if n == st["saddle"] and eq["rank1"][i]]
-    if not k:
-        raise ValueError(f"synthetic_experiment: the saddle {st['saddle']!r} (E_e) was not found")
-    e_e = float(eq["energy"][k[0]])
-    nt = int(st["exp_n_tracks"])
-    ns = int(_lib().experiment_samples(float(st["exp_duration"]), float(st["exp_camera_rate"])))
-    par = np.array(model.params(), dtype=np.float64)
-    par[6] = float(st["exp_damping_ratio"])
-    par[7] = float(st["exp_rolling_resistance"])
-    par[8] = par[9] = 0.0     # no noise: the experiment's ball has its own dissipation alone (the scene's)
-    (stat, t, state, energy, noisy, meas, rel, c_damp, n_draws, box, rtol) = _lib().synthetic_experiment(
-        par, e_e, nt, float(st["exp_duration"]), float(st["exp_camera_rate"]), float(st["exp_pixel"]),
-        float(st["exp_noise"]), float(st["exp_de_min"]), float(st["exp_de_max"]), int(st["exp_seed"]),
-        *_integ(st, model), ns)
-    if stat == __getattr__("EINPUT"):
-        raise ValueError(f"synthetic_experiment: found fewer than {nt} release points with g H - E_e in "
-                         f"[{st['exp_de_min']:g}, {st['exp_de_max']:g}] (cm/s)^2 in the box |x|, |y| <= {box:g} cm "
-                         f"after {n_draws} draws; widen [de_min, de_max]")
-    _check(stat, "synthetic_experiment")
-    n = nt * ns
-    st4 = state.reshape(4, n, order="F").T.copy()
-    en = energy.reshape(n, order="F").copy()
-    return _table({"track": np.repeat(np.arange(nt, dtype=np.int32), ns), "t": np.tile(t, nt),
-                  "x": meas[0].reshape(n, order="F").copy(), "y": meas[1].reshape(n, order="F").copy(),
-                  "truth": {"state": st4, "energy": en, "dE": en - e_e,
-                            "noisy": noisy.reshape(2, n, order="F").T.copy(),
-                            "release": rel[:2].T.copy(), "release_dE": rel[2].copy()},
-                  "E_e": e_e, "saddle": st["saddle"], "damping_rate": float(c_damp), "n_draws": int(n_draws),
-                  "n_samples": ns, "n_tracks": nt, "box": float(box), "rtol": float(rtol),
-                  "duration": float(st["exp_duration"]), "camera_rate": float(st["exp_camera_rate"]),
-                  "pixel": float(st["exp_pixel"]), "noise": float(st["exp_noise"]), "de_min": float(st["exp_de_min"]),
-                  "de_max": float(st["exp_de_max"]), "damping_ratio": float(st["exp_damping_ratio"]),
-                  "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": int(st["exp_seed"])}, "/tracks", model)
+    # the program's synthetic_experiment scene (src/workflow/tubes_scene_synthetic_experiment.f90):
+    # its record's /tracks and its verdicts (a request that leaves no tracks: ValueError)
+    integ = _integ(st, model)
+    asked = int(st["method"])
+    label = next(k for k, v in METHODS.items() if v == asked)
+    if asked == METHODS["auto"]:
+        label = "auto (taylor)" if integ[0] == METHODS["auto"] else "auto (dop853)"
+    rec = _record(_lib().scene_synthetic_experiment(
+        *_study(model, st), int(st["exp_n_tracks"]), float(st["exp_duration"]), float(st["exp_camera_rate"]),
+        float(st["exp_pixel"]), float(st["exp_noise"]), float(st["exp_de_min"]), float(st["exp_de_max"]),
+        float(st["exp_damping_ratio"]), float(st["exp_rolling_resistance"]), int(st["exp_seed"]), *integ, label,
+        model._stores()))
+    errors = "; ".join(t for s, t in rec["lines"] if s == 2 and t.startswith("tubes: "))
+    if "tracks" not in rec["data"]:
+        raise ValueError(errors)
+    a = rec["attrs"]["tracks"]
+    if rec["code"]:
+        raise TubesError(a["status"], errors)
+    g, truth = rec["data"]["tracks"], rec["data"]["tracks/truth"]
+    return _table({"track": g["track"], "t": g["t"], "x": g["x"], "y": g["y"], "truth": truth,
+                  "E_e": a["E_e"], "saddle": a["saddle"], "damping_rate": a["damping_rate"], "n_draws": a["n_draws"],
+                  "n_samples": a["n_samples"], "n_tracks": a["n_tracks"], "box": a["box"], "rtol": a["rtol"],
+                  "duration": a["duration"], "camera_rate": a["camera_rate"], "pixel": a["pixel"], "noise": a["noise"],
+                  "de_min": a["de_min"], "de_max": a["de_max"], "damping_ratio": a["damping_ratio"],
+                  "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": a["seed"]}, "/tracks", model)
 
 
 def _codes(a) -> str:
@@ -1800,20 +1795,15 @@ for _f in (orbit_family, tube_cut, transition, transition_region, monte_carlo, p
 del _f
 
 
-SECTIONS = {"U1-": (1, np.pi / 4, 1), "U1+": (1, np.pi / 4, -1), "U1": (1, np.pi / 4, 0)}
-
-
 def _section(section, level, direction):
-    """(kind, level, dir) of a section name (include/tubes.h, tubes_run_trajectory)."""
-    if section is None or section == "none":
-        return 0, 0.0, 0
-    if section in SECTIONS:
-        return SECTIONS[section]
-    if section == "theta":
-        return 1, np.radians(float(level)), int(direction)    # degrees, as &trajectory section_angle
-    if section in ("x", "y"):
-        return (2 if section == "x" else 3), float(level), int(direction)
-    raise ValueError(f"unknown section {section!r}; allowed: none, U1-, U1+, U1, theta, x, y")
+    """(kind, level, dir) of a section name: the trajectory scene's rule (tubes_scene_trajectory
+    trajectory_section; level: the ray's angle in degrees for 'theta', as &trajectory section_angle)."""
+    name = "none" if section is None else str(section)
+    # (the raw core: a table look-up, no Ctrl-C handling to set up around it)
+    kind, lvl, d, known = _lib()._core.trajectory_section(name, float(level), float(level), int(direction))
+    if not known:
+        raise ValueError(f"unknown section {section!r}; allowed: none, U1-, U1+, U1, theta, x, y")
+    return int(kind), float(lvl), int(d)
 
 
 def _check_integration(who, method, t_end, rtol, atol, h, max_steps, solver, omega_bind, max_iter):

@@ -3,7 +3,6 @@
 #include "tubes_record.h"
 #include "tubes_h5.h"
 #include "tubes_input.h"
-#include <errno.h>
 #include <float.h>
 #include <math.h>
 #ifndef M_PI
@@ -22,12 +21,6 @@
  * (h5_units). */
 static const char *in_units(const char *ball_units) {
   return strcmp(h5_units(ball_units), "1") ? ball_units : "";
-}
-
-static double now(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
 
 static void status_text(int code, char *buf, int len) { tubes_status_message(code, buf, len); }
@@ -428,179 +421,17 @@ int scene_equilibria(tubes_run_t *run) {
   return rc ? EXIT_IO : 0;
 }
 
-typedef struct {
-  double t_end, start, last;
-} progress_t;
-
-static int progress(double t, void *user) {
-  progress_t *p = user;
-  double w = now();
-  if (w - p->last >= 1.0) {
-    fprintf(stderr, "trajectory: t = %.4g of %.4g s (%.0f%%), %.1f s elapsed\n", t, p->t_end,
-            100.0 * t / p->t_end, w - p->start);
-    p->last = w;
-  }
-  return 0;
-}
-
 int scene_trajectory(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  double x0[4] = {c->x0, c->y0, c->at_rest ? 0.0 : c->px0, c->at_rest ? 0.0 : c->py0};
-  if (run->ndof != 2) {
-    fprintf(stderr, "tubes: trajectory: system %s has %d degrees of freedom; the trajectory scene takes "
-            "(x0, y0, px0, py0) of a 2-DOF model\n", run->label, run->ndof);
-    return EXIT_BADINPUT;
-  }
-  {   /* H and Hamilton's equations are finite at the start (a formula may not be: log(x) at x < 0) */
-    double e = 0, f[4] = {0, 0, 0, 0};
-    int se = tubes_energy(run->system, run->params, 4, x0, &e), sf = tubes_vector_field(run->system, run->params, 4, x0, f);
-    if (se < 0 || sf < 0 || !isfinite(e) || !isfinite(f[0] + f[1] + f[2] + f[3])) {
-      fprintf(stderr, "%s: &trajectory: the model is not defined at the starting point (x0, y0, px0, py0) = "
-              "(%g, %g, %g, %g): H = %g, dx/dt = (%g, %g, %g, %g); start where H is finite\n",
-              run->input ? run->input : "tubes", x0[0], x0[1], x0[2], x0[3], e, f[0], f[1], f[2], f[3]);
-      return EXIT_BADINPUT;
-    }
-  }
-  double nsd = floor(c->t_end / c->dt_out * (1 + 1e-12)) + 2;
-  int nmax = (int)nsd, n = 0;
-  /* section: kind, level, orientation (docs/input.md) */
-  int sk = 0, sd = c->section_direction, mc = c->max_crossings;
-  double sl = 0;
-  if (!strcmp(c->section, "U1-")) { sk = 1; sl = M_PI / 4; sd = 1; }          /* p_theta > 0 */
-  else if (!strcmp(c->section, "U1+")) { sk = 1; sl = M_PI / 4; sd = -1; }
-  else if (!strcmp(c->section, "U1")) { sk = 1; sl = M_PI / 4; sd = 0; }
-  else if (!strcmp(c->section, "theta")) { sk = 1; sl = c->section_angle * M_PI / 180; }
-  else if (!strcmp(c->section, "x")) { sk = 2; sl = c->section_level; }
-  else if (!strcmp(c->section, "y")) { sk = 3; sl = c->section_level; }
-  double *t = malloc(sizeof(double) * nmax), *st = malloc(sizeof(double) * 4 * nmax),
-         *en = malloc(sizeof(double) * nmax), *ct = malloc(sizeof(double) * mc),
-         *cx = malloc(sizeof(double) * 4 * mc);
-  int *cd = malloc(sizeof(int) * mc), ncross = 0;
-  if (!t || !st || !en || !ct || !cx || !cd) {
-    free(t); free(st); free(en); free(ct); free(cx); free(cd);
-    fprintf(stderr, "tubes: trajectory: cannot allocate %d samples\n", nmax);
-    return EXIT_NUMERIC;
-  }
-  int64_t cnt[4] = {0, 0, 0, 0};
-  double cdamp = 0;
-  progress_t pr = {c->t_end, now(), now()};
-  double t0 = now();
-  int s = tubes_run_trajectory(run->system, run->params, 4, x0, c->t_end, c->dt_out, run->method, c->rtol,
-                               c->atol, c->h, c->max_steps, c->omega_bind, strcmp(c->solver, "fixed_point") ? 1 : 2,
-                               c->max_iter, sk, sl, sd, c->stop_at_first, mc, nmax, &n, t, st, en, &ncross,
-                               ct, cx, cd, cnt, &cdamp, progress, &pr);
-  double wall = now() - t0;
-  char msg[128];
-  status_text(s, msg, sizeof msg);
-  int rc = 0;
-  double e0 = n > 0 ? en[0] : NAN, abserr = 0;   /* no sample (a start the model refuses): none */
-  for (int k = 0; k < n; k++) abserr = fmax(abserr, fabs(en[k] - e0));
-  /* the relative error's scale: |E0|, but at least the energy range spanned by E0 and the
-   * equilibria in the &equilibria box (barriers, the start's height above the lowest well), so that
-   * a start near E = 0 (the coupled quartic's saddle) is not measured against ~0 (docs/output.md) */
-  double escale = fabs(e0), range = 0;
-  int neq = 0;
-  if (n) {
-    static eqlist_t L;
-    if (find_eqs(run, &L) >= 0 && L.n > 0) {
-      double lo = e0, hi = e0;
-      for (int k = 0; k < L.n; k++) {
-        lo = fmin(lo, L.en[k]);
-        hi = fmax(hi, L.en[k]);
-      }
-      range = hi - lo;
-      neq = L.n;
-    }
-  }
-  escale = fmax(escale, range);
-  double maxerr = escale > 0 ? abserr / escale : NAN;
-  if (s < 0)
-    fprintf(stderr, "tubes: trajectory: integration failed after the sample at t = %.17g%s: %s (status %d) after "
-            "%lld steps, %lld rejected, %lld evaluations; the samples up to there are written\n",
-            n ? t[n - 1] : 0.0, in_units(" s"), msg, s, (long long)cnt[1], (long long)cnt[2], (long long)cnt[0]);
-  printf("trajectory: %s from (%g, %g, %g, %g), E0 = %.10g%s, to t = %g%s: %d samples, "
-         "%lld steps (%lld rejected), %lld evaluations, %.3f s\n",
-         method_label(run), x0[0], x0[1], x0[2], x0[3], e0, in_units(" (cm/s)^2"), n ? t[n - 1] : 0.0, in_units(" s"), n,
-         (long long)cnt[1],
-         (long long)cnt[2], (long long)cnt[0], wall);
-  if (sk) printf("  section %s: %d crossings\n", c->section, ncross);
-  if (s == TUBES_FULL)   /* before, t_end = 200000 s ended at 24,488 s, exit 0, nothing said */
-    fprintf(stderr, "tubes: trajectory: stopped at t = %g%s, before t_end = %g%s: the %d crossings max_crossings "
-            "allows were recorded; the samples up to there are written (raise &trajectory max_crossings, at most "
-            "1e7, or set stop_at_first)\n", n ? t[n - 1] : 0.0, in_units(" s"), c->t_end, in_units(" s"), mc);
-  if (run->zeta > 0 && !(run->crr > 0))
-    printf("  damped (zeta = %g, c = %.6g 1/s): energy lost %.6g (cm/s)^2\n", run->zeta, cdamp,
-           n > 0 ? e0 - en[n - 1] : NAN);
-  else if (dissipative(run))
-    printf("  damped (%s): energy lost %.6g%s\n", run->dissip, n > 0 ? e0 - en[n - 1] : NAN, in_units(" (cm/s)^2"));
-  else {
-    printf("  max energy error |E - E0| %.3e%s, relative %.3e to the energy scale %.6g%s", abserr,
-           in_units(" (cm/s)^2"), maxerr, escale, in_units(" (cm/s)^2"));
-    if (escale == fabs(e0) && escale > 0)
-      printf(" (|E0|)\n");
-    else if (escale > 0)
-      printf(" (the energy range of E0 and the %d equilibria in the &equilibria box; |E0| = %.3g)\n", neq,
-             fabs(e0));
-    else
-      printf(" (none: E0 = 0 and no equilibria at other energies)\n");
-  }
-  hid_t g = h5_group(run->file, "trajectory");
-  if (g < 0) rc = EXIT_IO;
-  else {
-    hsize_t dn = (hsize_t)n, d2[2] = {(hsize_t)n, 4};
-    int e = 0;
-    e |= h5_write_double(g, "t", 1, &dn, t, NULL);
-    e |= h5_write_double(g, "state", 2, d2, st, "cm, cm, cm/s, cm/s");
-    e |= h5_write_double(g, "energy", 1, &dn, en, NULL);
-    e |= h5_attr_string(g, "method", method_label(run));
-    e |= h5_attr_double(g, "rtol", c->rtol);
-    e |= h5_attr_double(g, "atol", c->atol);
-    e |= h5_attr_double(g, "h", c->h);
-    e |= h5_attr_long(g, "nfev", cnt[0]);
-    e |= h5_attr_long(g, "nsteps", cnt[1]);
-    e |= h5_attr_long(g, "nrejected", cnt[2]);
-    e |= h5_attr_long(g, "niter", cnt[3]);
-    e |= h5_attr_double(g, "omega_bind", c->omega_bind);
-    e |= h5_attr_string(g, "solver", c->solver);
-    e |= h5_attr_double(g, "wall_seconds", wall);
-    e |= h5_attr_double(g, "damping_rate", cdamp);
-    if (run->crr > 0) e |= h5_attr_double(g, "rolling_drag", run->f_roll);
-    e |= h5_attr_double(g, "max_rel_energy_error", maxerr);
-    e |= h5_attr_double(g, "max_energy_error", abserr);
-    e |= h5_attr_double(g, "energy_scale", escale);
-    e |= h5_attr_long(g, "status", s);
-    e |= h5_attr_string(g, "status_message", msg);
-    if (sk) {
-      hid_t cg = h5_group(g, "crossings");
-      hsize_t dc = (hsize_t)ncross, dc4[2] = {(hsize_t)ncross, 4};
-      e |= cg < 0;
-      e |= h5_write_double(cg, "t", 1, &dc, ct, NULL);
-      e |= h5_write_double(cg, "state", 2, dc4, cx, "cm, cm, cm/s, cm/s");
-      e |= h5_write_int(cg, "direction", dc, cd, NULL);
-      e |= h5_attr_string(cg, "section", c->section);
-      e |= h5_attr_double(cg, "level", sk == 1 ? sl : c->section_level);
-      if (sk == 1) {   /* polar canonical coordinates on the ray (docs/events.md) */
-        double *pr = malloc(sizeof(double) * (ncross ? ncross : 1)), *pth = malloc(sizeof(double) * (ncross ? ncross : 1)),
-               *rr = malloc(sizeof(double) * (ncross ? ncross : 1));
-        for (int k = 0; k < ncross; k++) {
-          const double *z = cx + 4 * k;
-          rr[k] = hypot(z[0], z[1]);
-          pr[k] = (z[0] * z[2] + z[1] * z[3]) / rr[k];
-          pth[k] = z[0] * z[3] - z[1] * z[2];
-        }
-        e |= h5_write_double(cg, "r", 1, &dc, rr, NULL);
-        e |= h5_write_double(cg, "p_r", 1, &dc, pr, NULL);
-        e |= h5_write_double(cg, "p_theta", 1, &dc, pth, NULL);
-        free(pr); free(pth); free(rr);
-      }
-      if (cg >= 0) H5Gclose(cg);
-    }
-    H5Gclose(g);
-    if (e) rc = EXIT_IO;
-  }
-  free(t); free(st); free(en); free(ct); free(cx); free(cd);
-  if (rc) return rc;
-  return s < 0 ? EXIT_NUMERIC : s == TUBES_FULL ? EXIT_PARTIAL : 0;
+  double x0[4] = {c->x0, c->y0, c->px0, c->py0};
+  int h = tubes_trajectory_scene(run->system, run->params, x0, c->at_rest, c->t_end, c->dt_out, c->section,
+                                 c->section_direction, c->section_angle, c->section_level, c->stop_at_first,
+                                 c->max_crossings, run->method, method_label(run), c->rtol, c->atol, c->h,
+                                 (long long)c->max_steps, c->omega_bind, strcmp(c->solver, "fixed_point") ? 1 : 2,
+                                 c->solver, c->max_iter, run->zeta, run->crr, run->f_roll,
+                                 dissipative(run) ? run->dissip : "", run->lo, run->hi, run->n_grid, run->label,
+                                 run->input ? run->input : "tubes", in_units(" s"), in_units(" (cm/s)^2"), run->seeds);
+  return record_emit(run->file, h);
 }
 
 /* The orbits scene: src/workflow/tubes_scene_orbits.f90 (its record written by record_emit), at
@@ -808,60 +639,52 @@ int scene_sections(tubes_run_t *run) {
   hid_t g;
   int rc = section_scene(run, "sections", &g);
   if (rc) return rc;
-  for (int k = 0; k < c->pm_nde; k++) {
-    int ns = c->pm_n_seeds, ni = c->pm_n_iter;
-    double de = c->pm_de[k], t0 = now();
-    double *pts = malloc(sizeof(double) * 2 * (size_t)ns * ni);
-    if (!pts) {
-      fprintf(stderr, "tubes: sections: cannot allocate %.3g GB for the map at dE = %g (n_seeds x n_iter = %d x %d): "
-              "%s\n", 16.0 * ns * ni / 1e9, c->pm_de[k], ns, ni, strerror(errno));
-      H5Gclose(g);
-      return EXIT_NUMERIC;
-    }
-    fprintf(stderr, "sections: Poincare map at dE = %g (%d trajectories, %d returns)...\n", de, ns, ni);
-    int st = tubes_poincare(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, de, SECTION(c), ns, ni, c->pm_t_max, INTEGRATOR(c), pts, run->seeds);
-    if (st < 0) {
-      fprintf(stderr, "tubes: sections: the map at dE = %g failed (status %d); the returns found are written\n", de, st);
-      rc = EXIT_PARTIAL;
-    }
-    long npts = 0;
-    for (long i = 0; i < (long)ns * ni; i++) npts += !isnan(pts[2 * i]);
-    printf("sections: dE = %g: %ld returns of %d trajectories%s (%.1f s)\n", de, npts, ns,
-           dissipative(run) ? " of the dissipative model (released at dE; each return has less energy)" : "", now() - t0);
-    char name[32];
-    snprintf(name, sizeof name, "map_%03d", k);
-    hid_t m = h5_group(g, name);
-    hsize_t d3[3] = {(hsize_t)ns, (hsize_t)ni, 2};
-    int e = m < 0;
-    e |= h5_write_double(m, "points", 3, d3, pts, NULL);
-    e |= h5_attr_double(m, "dE", de);
-    if (dissipative(run)) e |= dissipation_attrs(m, run);
-    if (m >= 0) H5Gclose(m);
-    free(pts);
-    if (e) { H5Gclose(g); return EXIT_IO; }
-  }
   H5Gclose(g);
+  for (int k = 0; k < c->pm_nde; k++) {   /* a map's record written before the next starts */
+    int h = tubes_sections_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
+                                 c->pm_de[k], k, c->pm_n_seeds, c->pm_n_iter, c->pm_t_max, INTEGRATOR(c),
+                                 dissipative(run), run->seeds);
+    int r = record_emit(run->file, h);
+    if (r == EXIT_IO || r == EXIT_NUMERIC) return r;
+    if (r) rc = r;
+    if (!dissipative(run)) continue;
+    char name[32];
+    snprintf(name, sizeof name, "sections/map_%03d", k);
+    hid_t m = H5Gopen2(run->file, name, H5P_DEFAULT);
+    int e = m < 0 || dissipation_attrs(m, run);
+    if (m >= 0) H5Gclose(m);
+    if (e) return EXIT_IO;
+  }
   return rc;
 }
 
 /* ---------------------------------------------------------------- synthetic experiment */
 
-/* The tracks as CSV (header track,t,x,y; 12 significant digits), written to path.tmp.<pid>
- * and renamed when complete. Returns 0 or -1. */
-static int write_tracks_csv(const char *path, int nt, int ns, const double *t, const double *meas) {
+/* n doubles of dataset path of file into v. Returns 0 or -1. */
+static int read_doubles(hid_t file, const char *path, double *v) {
+  hid_t d = H5Dopen2(file, path, H5P_DEFAULT);
+  if (d < 0) return -1;
+  herr_t r = H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v);
+  H5Dclose(d);
+  return r < 0 ? -1 : 0;
+}
+
+/* The file's /tracks (n = nt x ns frames) as CSV (header track,t,x,y; 12 significant digits),
+ * written to path.tmp.<pid> and renamed when complete. Returns 0 or -1. */
+static int write_tracks_csv(hid_t file, const char *path, int nt, int ns) {
+  size_t n = (size_t)nt * ns;
+  double *t = malloc(sizeof(double) * n), *x = malloc(sizeof(double) * n), *y = malloc(sizeof(double) * n);
   char tmp[TUBES_LPATH + 64];
   snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
-  FILE *f = fopen(tmp, "w");
-  if (!f) return -1;
-  int e = fprintf(f, "track,t,x,y\n") < 0;
-  for (int j = 0; j < nt && !e; j++)
-    for (int k = 0; k < ns && !e; k++) {
-      const double *m = meas + 2 * ((size_t)j * ns + k);
-      e = fprintf(f, "%d,%.12g,%.12g,%.12g\n", j, t[k], m[0], m[1]) < 0;
-    }
-  if (fclose(f) != 0) e = 1;
+  int e = !t || !x || !y || read_doubles(file, "tracks/t", t) || read_doubles(file, "tracks/x", x) ||
+          read_doubles(file, "tracks/y", y);
+  FILE *f = e ? NULL : fopen(tmp, "w");
+  e = !f || fprintf(f, "track,t,x,y\n") < 0;
+  for (size_t i = 0; i < n && !e; i++) e = fprintf(f, "%d,%.12g,%.12g,%.12g\n", (int)(i / ns), t[i], x[i], y[i]) < 0;
+  if (f && fclose(f) != 0) e = 1;
+  free(t); free(x); free(y);
   if (e || rename(tmp, path) != 0) {
-    remove(tmp);
+    if (f) remove(tmp);
     return -1;
   }
   return 0;
@@ -869,136 +692,21 @@ static int write_tracks_csv(const char *path, int nt, int ns, const double *t, c
 
 int scene_synthetic_experiment(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  double box, rtol, ee, tpo;
-  tubes_experiment_defaults(&box, &rtol);   /* docs/experiment-data.md */
-  int st = saddle_props(run, &ee, &tpo);
-  if (st < 0) {
-    fprintf(stderr, "tubes: synthetic_experiment: the saddle %s (E_e) was not found (status %d)\n",
-            run->saddle, st);
-    return EXIT_NUMERIC;
+  char method[32];
+  snprintf(method, sizeof method, "%s", method_label(run));
+  int h = tubes_synthetic_experiment_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle,
+                                           c->exp_n_tracks, c->exp_duration, c->exp_camera_rate, c->exp_pixel,
+                                           c->exp_noise, c->exp_de_min, c->exp_de_max, c->exp_damping_ratio,
+                                           c->exp_rolling_resistance, c->exp_seed, INTEGRATOR(c), method, run->seeds);
+  int rc = record_emit(run->file, h);
+  if (rc == EXIT_IO || !c->exp_csv[0] || run->rank != 0 || H5Lexists(run->file, "tracks", H5P_DEFAULT) <= 0)
+    return rc;
+  if (write_tracks_csv(run->file, c->exp_csv, c->exp_n_tracks,
+                       tubes_experiment_samples(c->exp_duration, c->exp_camera_rate))) {
+    fprintf(stderr, "tubes: synthetic_experiment: cannot write the CSV file '%s'\n", c->exp_csv);
+    return EXIT_IO;
   }
-  int nt = c->exp_n_tracks, ns = tubes_experiment_samples(c->exp_duration, c->exp_camera_rate);
-  size_t n = (size_t)nt * ns;
-  double *t = malloc(sizeof(double) * ns), *state = malloc(sizeof(double) * 4 * n),
-         *energy = malloc(sizeof(double) * n), *noisy = malloc(sizeof(double) * 2 * n),
-         *meas = malloc(sizeof(double) * 2 * n), *rel = malloc(sizeof(double) * 3 * nt),
-         *x = malloc(sizeof(double) * n), *y = malloc(sizeof(double) * n), *de = malloc(sizeof(double) * n),
-         *tt = malloc(sizeof(double) * n), *rxy = malloc(sizeof(double) * 2 * nt),
-         *rde = malloc(sizeof(double) * nt);
-  int *track = malloc(sizeof(int) * n);
-  int rc = 0;
-  if (!t || !state || !energy || !noisy || !meas || !rel || !x || !y || !de || !tt || !rxy || !rde || !track) {
-    fprintf(stderr, "tubes: synthetic_experiment: cannot allocate %zu frames\n", n);
-    rc = EXIT_NUMERIC;
-    goto out;
-  }
-  double model[TUBES_MAXPARAM], cd = 0, t0 = now();
-  memcpy(model, run->params, sizeof model);
-  model[6] = c->exp_damping_ratio;
-  model[7] = c->exp_rolling_resistance;
-  model[8] = model[9] = 0;           /* no noise: the experiment's ball has its own dissipation alone */
-  int ndraw = 0;
-  fprintf(stderr, "synthetic_experiment: %d tracks of %g s at %g Hz...\n", nt, c->exp_duration, c->exp_camera_rate);
-  st = tubes_synthetic_experiment(model, ee, nt, c->exp_duration, c->exp_camera_rate, c->exp_pixel, c->exp_noise,
-                                  c->exp_de_min, c->exp_de_max, box, c->exp_seed, rtol, INTEGRATOR(c), ns, t, state,
-                                  energy, noisy, meas, rel, &cd, &ndraw);
-  if (st == TUBES_EINPUT) {
-    fprintf(stderr, "tubes: synthetic_experiment: found fewer than %d release points with g H - E_e in "
-            "[%g, %g] (cm/s)^2 in the box |x|, |y| <= %g cm after %d draws (E_e = %.10g (cm/s)^2 of %s); "
-            "widen [de_min, de_max]\n", nt, c->exp_de_min, c->exp_de_max, box, ndraw, ee, run->saddle);
-    rc = EXIT_NUMERIC;
-    goto out;
-  }
-  if (st < 0) {
-    char m[TUBES_LSTATUS];
-    status_text(st, m, sizeof m);
-    fprintf(stderr, "tubes: synthetic_experiment: an integration failed: %s (status %d); the frames up to "
-            "the failure are written, NaN after it\n", m, st);
-    int nbad = 0, first = -1;
-    for (int j = 0; j < nt; j++)
-      if (isnan(state[4 * ((size_t)j * ns + ns - 1)])) {
-        if (first < 0) first = j;
-        nbad++;
-      }
-    if (first >= 0)
-      fprintf(stderr, "tubes: synthetic_experiment: %d of %d tracks stop early; the first, track %d released at "
-              "(%.10g, %.10g) cm with dE = %.10g (cm/s)^2\n", nbad, nt, first, rel[3 * first], rel[3 * first + 1],
-              rel[3 * first + 2]);
-    rc = EXIT_NUMERIC;
-  }
-  for (int j = 0; j < nt; j++) {
-    rxy[2 * j] = rel[3 * j];
-    rxy[2 * j + 1] = rel[3 * j + 1];
-    rde[j] = rel[3 * j + 2];
-    for (int k = 0; k < ns; k++) {
-      size_t i = (size_t)j * ns + k;
-      track[i] = j;
-      tt[i] = t[k];
-      x[i] = meas[2 * i];
-      y[i] = meas[2 * i + 1];
-      de[i] = energy[i] - ee;
-    }
-  }
-  char roll[64] = "";
-  if (c->exp_rolling_resistance > 0)
-    snprintf(roll, sizeof roll, ", rolling resistance %g (%.6g cm/s^2)", c->exp_rolling_resistance,
-             c->exp_rolling_resistance * run->params[5]);
-  printf("synthetic_experiment: %d tracks x %d frames (%g Hz, %g s), releases at dE in [%g, %g] (cm/s)^2 "
-         "(%d of %d draws accepted), zeta = %g (c = %.6g 1/s)%s, noise %g cm, pixel %g cm (%.2f s)\n",
-         nt, ns, c->exp_camera_rate, c->exp_duration, c->exp_de_min, c->exp_de_max, nt, ndraw,
-         c->exp_damping_ratio, cd, roll, c->exp_noise, c->exp_pixel, now() - t0);
-  hid_t g = h5_group(run->file, "tracks");
-  int e = g < 0;
-  hsize_t dn = (hsize_t)n, d4[2] = {(hsize_t)n, 4}, d2[2] = {(hsize_t)n, 2}, dr[2] = {(hsize_t)nt, 2},
-          dnt = (hsize_t)nt;
-  e |= h5_write_int(g, "track", dn, track, NULL);
-  e |= h5_write_double(g, "t", 1, &dn, tt, NULL);
-  e |= h5_write_double(g, "x", 1, &dn, x, NULL);
-  e |= h5_write_double(g, "y", 1, &dn, y, NULL);
-  e |= h5_attr_double(g, "camera_rate", c->exp_camera_rate);
-  e |= h5_attr_double(g, "pixel", c->exp_pixel);
-  e |= h5_attr_double(g, "noise", c->exp_noise);
-  e |= h5_attr_double(g, "damping_ratio", c->exp_damping_ratio);
-  e |= h5_attr_double(g, "damping_rate", cd);
-  if (c->exp_rolling_resistance > 0) e |= h5_attr_double(g, "rolling_resistance", c->exp_rolling_resistance);
-  e |= h5_attr_long(g, "seed", c->exp_seed);
-  e |= h5_attr_long(g, "n_tracks", nt);
-  e |= h5_attr_long(g, "n_samples", ns);
-  e |= h5_attr_double(g, "duration", c->exp_duration);
-  e |= h5_attr_double(g, "de_min", c->exp_de_min);
-  e |= h5_attr_double(g, "de_max", c->exp_de_max);
-  e |= h5_attr_double(g, "E_e", ee);
-  e |= h5_attr_string(g, "saddle", run->saddle);
-  e |= h5_attr_double(g, "box", box);
-  e |= h5_attr_string(g, "method", method_label(run));
-  e |= h5_attr_double(g, "rtol", rtol);
-  e |= h5_attr_long(g, "n_draws", ndraw);
-  e |= h5_attr_long(g, "status", st);
-  hid_t tg = g < 0 ? -1 : h5_group(g, "truth");
-  e |= tg < 0;
-  e |= h5_write_double(tg, "state", 2, d4, state, "cm, cm, cm/s, cm/s");
-  e |= h5_write_double(tg, "energy", 1, &dn, energy, NULL);
-  e |= h5_write_double(tg, "dE", 1, &dn, de, NULL);
-  e |= h5_write_double(tg, "noisy", 2, d2, noisy, NULL);
-  e |= h5_write_double(tg, "release", 2, dr, rxy, NULL);
-  e |= h5_write_double(tg, "release_dE", 1, &dnt, rde, NULL);
-  if (tg >= 0) H5Gclose(tg);
-  if (g >= 0) H5Gclose(g);
-  if (e) {
-    rc = EXIT_IO;
-    goto out;
-  }
-  if (c->exp_csv[0] && run->rank == 0) {
-    if (write_tracks_csv(c->exp_csv, nt, ns, t, meas)) {
-      fprintf(stderr, "tubes: synthetic_experiment: cannot write the CSV file '%s'\n", c->exp_csv);
-      rc = EXIT_IO;
-    } else {
-      printf("  wrote %s (track,t,x,y)\n", c->exp_csv);
-    }
-  }
-out:
-  free(t); free(state); free(energy); free(noisy); free(meas); free(rel); free(x); free(y); free(de); free(tt);
-  free(rxy); free(rde); free(track);
+  printf("  wrote %s (track,t,x,y)\n", c->exp_csv);
   return rc;
 }
 

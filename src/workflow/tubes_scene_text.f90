@@ -1,14 +1,19 @@
-!> The scenes' console helpers (src/workflow/tubes_scene_*.f90): C's %d, %-ws and %ws for their
+!> The scenes' console helpers (src/workflow/tubes_scene_*.f90): C's %d (%ld), %-ws and %ws for their
 !> tables (numbers: tubes_cstrings num, C's own printf), the wall clock for their timings, and their
 !> live progress lines (src/base/tubes_progress_shim.c).
 module tubes_scene_text
   use, intrinsic :: iso_c_binding, only: c_char, c_int
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, i8
   use tubes_cstrings, only: f_to_c
   implicit none
   private
 
   public :: itoa, ls, rs, wall, progress_line
+
+  !> An integer as C's %d (%ld) writes it.
+  interface itoa
+    module procedure itoa4, itoa8
+  end interface itoa
 
 contains
 
@@ -32,19 +37,24 @@ contains
 
   !> Wall-clock seconds.
   real(wp) function wall()
-    integer(8) :: c, r
+    integer(i8) :: c, r
     call system_clock(c, r)
     wall = real(c, wp)/real(r, wp)
   end function wall
 
-  !> i as C's %d.
-  pure function itoa(i) result(s)
+  pure function itoa4(i) result(s)
     integer, intent(in) :: i
     character(:), allocatable :: s
-    character(16) :: b
+    s = itoa8(int(i, i8))
+  end function itoa4
+
+  pure function itoa8(i) result(s)
+    integer(i8), intent(in) :: i
+    character(:), allocatable :: s
+    character(24) :: b
     write (b, '(i0)') i
     s = trim(b)
-  end function itoa
+  end function itoa8
 
   !> s left-justified in a field of w (C's %-ws).
   pure function ls(s, w) result(r)
