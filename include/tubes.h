@@ -374,6 +374,7 @@ int tubes_record_item(int h, int k, int *kind, char group[256], char name[64], c
                       long long dims[5], int *slen);
 void tubes_record_reals(int h, int k, int n, double *v);
 void tubes_record_ints(int h, int k, int n, int *v);
+long long tubes_record_long(int h, int k);
 void tubes_record_string(int h, int k, int j, char *buf, int len);
 void tubes_record_free(int h);
 

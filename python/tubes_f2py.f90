@@ -1555,6 +1555,16 @@ subroutine record_ints(h, k, n, v)
   call ints(h, k, v)
 end subroutine record_ints
 
+subroutine record_long(h, k, v)
+  ! item k's integer attribute (64 bits)
+  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
+  use tubes_record, only: long => record_long
+  implicit none
+  integer(c_int), intent(in) :: h, k
+  integer(c_int64_t), intent(out) :: v
+  v = long(h, k)
+end subroutine record_long
+
 subroutine record_string(h, k, j, s)
   ! string j (1-based) of item k
   use, intrinsic :: iso_c_binding, only: c_int

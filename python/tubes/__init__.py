@@ -572,7 +572,7 @@ def _record(h: int) -> dict:
             elif kind == 4:
                 v = float(lib.record_reals(h, k, 1)[0])
             elif kind == 5:
-                v = int(lib.record_ints(h, k, 1)[0])
+                v = int(lib.record_long(h, k))
             else:
                 v = _str(lib.record_string(h, k, 1)).rstrip()
             out["data" if kind <= 3 else "attrs"].setdefault(group, {})[name] = v

@@ -7,7 +7,7 @@ module tubes_capi_record
   use tubes_models, only: MAX_PARAMS, MAX_DOF, LEN_SYSTEM
   use tubes_study, only: seed_stores_t, stores_at
   use tubes_record, only: record_t, record_keep, record_drop, record_sizes, record_item_info, record_reals, &
-                          record_ints, record_string, record_line
+                          record_ints, record_string, record_line, record_long
   use tubes_scene_equilibria, only: scene_equilibria
   use tubes_scene_sections, only: scene_sections
   use tubes_scene_synthetic_experiment, only: scene_synthetic_experiment
@@ -353,6 +353,12 @@ contains
     real(c_double), intent(out) :: v(n)
     call record_reals(h, k, v)
   end subroutine c_record_reals
+
+  !> Item k's integer attribute (64 bits).
+  integer(c_long_long) function c_record_long(h, k) result(v) bind(C, name='tubes_record_long')
+    integer(c_int), value :: h, k
+    v = record_long(h, k)
+  end function c_record_long
 
   !> Item k's integer values (n of them, C order).
   subroutine c_record_ints(h, k, n, v) bind(C, name='tubes_record_ints')

@@ -80,12 +80,9 @@ static int write_item(hid_t file, int h, int k) {
     rc = h5_attr_double(g, name, v);
     break;
   }
-  case TUBES_REC_ATTR_INT: {
-    int v;
-    tubes_record_ints(h, k, 1, &v);
-    rc = h5_attr_long(g, name, v);
+  case TUBES_REC_ATTR_INT:
+    rc = h5_attr_long(g, name, tubes_record_long(h, k));
     break;
-  }
   case TUBES_REC_ATTR_STRING: {
     char *buf = malloc((size_t)slen + 1);
     if (!buf) { rc = 1; break; }

@@ -30,6 +30,7 @@ module tubes_record
     integer(i8) :: dims(5) = 0         !! at most rank 5 (/flux/tube_cut/states)
     real(wp), allocatable :: r(:)
     integer, allocatable :: i(:)
+    integer(i8), allocatable :: l(:)                  !! an integer attribute's value (64 bits)
     character(:), allocatable :: s(:)                 !! strings (REC_STRINGS, REC_ATTR_STRING)
   end type rec_item_t
 
@@ -48,7 +49,8 @@ module tubes_record
     procedure :: int => add_int
     procedure :: strings => add_strings
     procedure :: attr_real => add_attr_real
-    procedure :: attr_int => add_attr_int
+    procedure :: add_attr_int, add_attr_long
+    generic :: attr_int => add_attr_int, add_attr_long
     procedure :: attr_string => add_attr_string
     procedure :: out => add_out
     procedure :: err => add_err
@@ -61,7 +63,7 @@ module tubes_record
   type(kept_t), allocatable, target :: kept(:)   ! (a module variable: kept between calls)
 
   public :: record_keep, record_at, record_drop, record_sizes, record_item_info, record_reals, record_ints, &
-            record_string, record_line
+            record_string, record_line, record_long
 
 contains
 
@@ -149,11 +151,19 @@ contains
     class(record_t), intent(inout) :: self
     character(*), intent(in) :: group, name
     integer, intent(in) :: v
+    call self%add_attr_long(group, name, int(v, i8))
+  end subroutine add_attr_int
+
+  !> An integer attribute of 64 bits (counters: a trajectory's evaluations can pass 2^31).
+  subroutine add_attr_long(self, group, name, v)
+    class(record_t), intent(inout) :: self
+    character(*), intent(in) :: group, name
+    integer(i8), intent(in) :: v
     integer :: k
     k = next_item(self)
     call named(self%items(k), REC_ATTR_INT, group, name)
-    self%items(k)%i = [v]
-  end subroutine add_attr_int
+    self%items(k)%l = [v]
+  end subroutine add_attr_long
 
   subroutine add_attr_string(self, group, name, v)
     class(record_t), intent(inout) :: self
@@ -298,6 +308,7 @@ contains
     dims = it%dims
     if (allocated(it%r)) n = size(it%r)
     if (allocated(it%i)) n = size(it%i)
+    if (allocated(it%l)) n = size(it%l)
     if (allocated(it%s)) then
       n = size(it%s)
       slen = len(it%s)
@@ -325,6 +336,16 @@ contains
     if (.not. associated(it)) return
     if (allocated(it%i)) v = it%i(1:min(size(v), size(it%i)))
   end subroutine record_ints
+
+  !> Item k's integer attribute (0 where it has none).
+  integer(i8) function record_long(h, k) result(v)
+    integer, intent(in) :: h, k
+    type(rec_item_t), pointer :: it
+    v = 0
+    it => item_at(h, k)
+    if (.not. associated(it)) return
+    if (allocated(it%l)) v = it%l(1)
+  end function record_long
 
   !> String j of item k ('' if none).
   function record_string(h, k, j) result(s)
