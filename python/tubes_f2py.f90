@@ -210,43 +210,6 @@ subroutine equilibria(system, params, lo, hi, n_grid, stores, stat, n, ndof, q, 
   end do
 end subroutine equilibria
 
-subroutine equilibria_centres(system, params, lo, hi, n_grid, stores, stat, n, freqs, stable)
-  ! the centre frequencies and linear stability of equilibria's points, in its order (tubes_study
-  ! centres_of, as the C API's tubes_equilibria_centres)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_study, only: centres_of, seed_stores_t, stores_at
-  implicit none
-  character(len=*), intent(in) :: system
-  real(c_double), intent(in) :: params(16), lo(3), hi(3)
-  integer(c_int), intent(in) :: n_grid
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: stat, n, stable(256)
-  real(c_double), intent(out) :: freqs(3, 256)
-  type(seed_stores_t), pointer :: kept
-  integer :: nn, st(256)
-  kept => stores_at(stores)
-  call centres_of(trim(system), params, lo, hi, n_grid, kept, nn, freqs, st, stat)
-  n = nn
-  stable = st
-end subroutine equilibria_centres
-
-subroutine box_note(system, params, lo, hi, n_grid, stores, stat, note)
-  ! what the equilibrium search box may hide (tubes_study box_note_of, as the C API's
-  ! tubes_box_note): one line, or '' when nothing
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_study, only: box_note_of, seed_stores_t, stores_at
-  implicit none
-  character(len=*), intent(in) :: system
-  real(c_double), intent(in) :: params(16), lo(3), hi(3)
-  integer(c_int), intent(in) :: n_grid
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: stat
-  character(len=512), intent(out) :: note
-  type(seed_stores_t), pointer :: kept
-  kept => stores_at(stores)
-  call box_note_of(trim(system), params, lo, hi, n_grid, kept, note, stat)
-end subroutine box_note
-
 subroutine trajectory(system, params, n2, x0, t_end, dt_out, method, rtol, atol, h, max_steps, &
                       omega_bind, solver, max_iter, sec_kind, sec_level, sec_dir, stop_first, &
                       max_cross, nmax, stat, n, t, state, en, n_cross, cross_t, cross_x, cross_dir, &
@@ -616,97 +579,6 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   orb_period = cfg%orb_period
 end subroutine read_input
 
-subroutine orbit_parameter(system, params, lo, hi, n_grid, saddle, kind, n, values, n_segments, family, tol, rtol, &
-                           atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, stat, des, &
-                           found, t_po, t_reach, de_reach, e_saddle)
-  ! the excess energies of the family's orbits at n Jacobi constants (kind 1) or periods (kind 2), as
-  ! the orbits scene's &orbits jacobi, periods (tubes_orbit_parameter family_parameter_des)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_orbits, only: orbit_opts_t
-  use tubes_study, only: study_t, seed_stores_t, stores_at
-  use tubes_orbit_parameter, only: family_parameter_des
-  use tubes_capi, only: integ_of
-  implicit none
-  character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, kind, n, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), values(n), tol, rtol, atol, h, omega_bind
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: stat, found(n)
-  real(c_double), intent(out) :: des(n), t_po, t_reach, de_reach, e_saddle
-  type(orbit_opts_t) :: opts
-  type(seed_stores_t), pointer :: kept
-  integer :: fnd(n)
-  opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, n_samples=nsamp, &
-                      family=family, integ=integ_of(method, h, omega_bind, solver, int_max_iter))
-  kept => stores_at(stores)
-  call family_parameter_des(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-                                    integ=opts%integ), opts, int(kind), values, des, fnd, t_po, t_reach, de_reach, &
-                            e_saddle, stat, kept)
-  found = fnd
-end subroutine orbit_parameter
-
-subroutine jacobi_constant(system, params, n, energy, stat, c)
-  ! the model's Jacobi constants at the energies (tubes_hamiltonian jacobi_of_energy; the CR3BP's
-  ! C = -2 H); stat = TUBES_EINPUT (c = 0) for a model without one
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_hamiltonian, only: hamiltonian_t, jacobi_of_energy
-  use tubes_models, only: make_model
-  use tubes_status, only: TUBES_OK, TUBES_EINPUT
-  implicit none
-  character(len=*), intent(in) :: system
-  integer(c_int), intent(in) :: n
-  real(c_double), intent(in) :: params(16), energy(n)
-  integer(c_int), intent(out) :: stat
-  real(c_double), intent(out) :: c(n)
-  class(hamiltonian_t), allocatable :: model
-  integer :: k, st
-  c = 0
-  call make_model(trim(system), params, model, st)
-  stat = st
-  if (st /= TUBES_OK) return
-  if (model%jacobi_factor() == 0) then
-    stat = TUBES_EINPUT
-    return
-  end if
-  do k = 1, n
-    c(k) = jacobi_of_energy(model, energy(k))
-  end do
-end subroutine jacobi_constant
-
-subroutine orbit_bifurcations(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &
-                              atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, &
-                              nguess, guess, guess_period, stat, nu, nbif, kind, after, bconv, bde, bwidth, &
-                              benergy, bperiod, bnu, bx0, btan, &
-                              bracket_tol)
-  ! the family's Floquet indices and bifurcations (as the orbits scene's /orbits/floquet_index and
-  ! /orbits/bifurcations: tubes_study bifurcation_table); at most 64 bifurcations
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_orbits, only: orbit_opts_t
-  use tubes_study, only: study_t, bifurcation_table, seed_stores_t, stores_at, BIF_TOL
-  use tubes_capi, only: integ_of, guess_opts
-  implicit none
-  character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, nde, n_segments, family, max_iter, nsamp, method, solver, int_max_iter
-  real(c_double), intent(in) :: h, omega_bind
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), des(nde), tol, rtol, atol
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(in) :: nguess          ! &orbits guess: its values (0: none), and period
-  real(c_double), intent(in) :: guess(6), guess_period
-  integer(c_int), intent(out) :: stat, nbif, kind(64), after(64), bconv(64)
-  real(c_double), intent(out) :: nu(4, nde), bde(64), bwidth(64), benergy(64), bperiod(64), bnu(4, 64), &
-                                 bx0(6, 64), btan(6, 64), bracket_tol
-  type(orbit_opts_t) :: opts
-  type(seed_stores_t), pointer :: kept
-  opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, n_samples=nsamp, &
-                      family=family, integ=integ_of(method, h, omega_bind, solver, int_max_iter))
-  call guess_opts(nguess, guess, guess_period, opts)   ! (and family 'branch:K', as the C API's)
-  kept => stores_at(stores)
-  bracket_tol = BIF_TOL
-  call bifurcation_table(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-                                 integ=opts%integ), des, opts, nu, nbif, kind, after, bconv, bde, bwidth, benergy, &
-                         bperiod, bnu, bx0, btan, stat, kept)
-end subroutine orbit_bifurcations
-
 subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &
                         atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, &
                         nguess, guess, guess_period, stat, energy, period, action, mu_u, mu_s, mu_triv, stab, &
@@ -805,25 +677,6 @@ subroutine tube_cut(system, params, lo, hi, n_grid, saddle, n_segments, family, 
   if (allocated(cut%floquet)) floquet(1:size(cut%floquet)) = cut%floquet
   sigma = cut%sigma
 end subroutine tube_cut
-
-subroutine section_info(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, de, &
-                        stores, stat, smin, smax, area, darea)
-  ! the energy surface on the section at E_e + de: interval, A_E, dA_E/dE
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_study, only: study_t, section_choice_t, section_info_ => section_info, seed_stores_t, stores_at
-  implicit none
-  character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: stat
-  real(c_double), intent(out) :: smin, smax, area, darea
-  type(seed_stores_t), pointer :: kept
-  kept => stores_at(stores)
-  call section_info_(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle), &
-                     section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, smin, &
-                     smax, area, darea, stat, kept)
-end subroutine section_info
 
 subroutine dissipation_rates(system, params, stat, c, f)
   ! the model's dissipation: its viscous rate c [1/s] and rolling drag f [cm/s^2] (as the
@@ -1000,32 +853,6 @@ subroutine scene_check(scene, ndof, plane, label, code, msg)
   character(len=1024), intent(out) :: msg
   code = scene_refused(scene, ndof, plane /= 0, label, msg)
 end subroutine scene_check
-
-subroutine verdict_orbit_coarse(de, closure, mu, scale, code, msg)
-  ! an orbit integrated too coarsely (tubes_verdicts.f90, as the orbits scene)
-  use tubes_verdicts, only: orbit_coarse
-  implicit none
-  real(8), intent(in) :: de, closure, mu, scale
-  integer, intent(out) :: code
-  character(len=1024), intent(out) :: msg
-  code = orbit_coarse(de, closure, mu, scale, msg)
-end subroutine verdict_orbit_coarse
-
-subroutine verdict_montecarlo(de, n, n_transit, n_undecided, misclassified, p, noisy, saddle, code, sigmas, agrees, &
-                              msg)
-  ! the Monte Carlo check (tubes_verdicts.f90, as the montecarlo scene)
-  use tubes_verdicts, only: mc_check
-  implicit none
-  real(8), intent(in) :: de, p
-  integer, intent(in) :: n, n_transit, n_undecided, misclassified, noisy
-  character(len=*), intent(in) :: saddle
-  integer, intent(out) :: code, agrees
-  real(8), intent(out) :: sigmas
-  character(len=1024), intent(out) :: msg
-  logical :: ok
-  code = mc_check(de, n, n_transit, n_undecided, misclassified, p, noisy /= 0, saddle, sigmas, ok, msg)
-  agrees = merge(1, 0, ok)
-end subroutine verdict_montecarlo
 
 subroutine dataset_units(group, name, dimensionless, stat, units)
   ! the units of dataset (or attribute) name of group in the output file (src/io/tubes_units.c: the
