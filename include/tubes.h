@@ -367,6 +367,11 @@ int tubes_tubes_scene(const char *system, const double *params, const double *lo
                       double orb_atol, int orb_max_iter, int orb_n_samples, int method, double h, double omega_bind,
                       int solver, int max_iter, double gate, double mc_t_max, const char *dissip, const char *length,
                       const char *gate_units, const char *energy_units, int check_eps, int written, void *stores);
+/* /section alone (src/workflow/tubes_scene_section.f90), the section and integrator as
+ * tubes_transition_scene's; written: /section exists already (nothing recorded). */
+int tubes_section_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
+                        const char *saddle, int sec_kind, int sec_index, double level, int dir, double angle_deg,
+                        int method, double h, double omega_bind, int solver, int max_iter, int written, void *stores);
 int tubes_record_code(int h);
 void tubes_record_sizes(int h, int *n_items, int *n_lines);
 int tubes_record_line(int h, int j, int *stream, char *buf, int len);

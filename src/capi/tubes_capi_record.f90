@@ -9,6 +9,7 @@ module tubes_capi_record
   use tubes_record, only: record_t, record_keep, record_drop, record_sizes, record_item_info, record_reals, &
                           record_ints, record_string, record_line, record_long
   use tubes_scene_equilibria, only: scene_equilibria
+  use tubes_scene_section, only: scene_section
   use tubes_scene_sections, only: scene_sections
   use tubes_scene_synthetic_experiment, only: scene_synthetic_experiment
   use tubes_scene_trajectory, only: scene_trajectory, trajectory_settings_t
@@ -293,6 +294,29 @@ contains
                      written /= 0, stores_at(transfer(stores, 0_c_intptr_t)), rec)
     hd = record_keep(rec)
   end function c_scene_tubes
+
+  !> /section alone (tubes_scene_section), for a scene that draws on the section without its own use
+  !> of it (sections): the section as tubes_transition_scene's; written: /section exists already.
+  !> The record's handle.
+  integer(c_int) function c_scene_section(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
+                                          angle_deg, method, step, omega_bind, solver, max_iter, written, stores) &
+      result(hd) bind(C, name='tubes_section_scene')
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, method, solver, max_iter, written
+    real(c_double), value :: level, angle_deg, step, omega_bind
+    type(c_ptr), value :: stores
+    type(record_t), allocatable :: rec
+    type(study_t) :: st
+    real(c_double) :: a0, tau, tpo
+    logical :: ok
+    allocate (rec)
+    st = study_t(system=c_to_f(system), params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=c_to_f(saddle), &
+                 integ=integ_of(method, step, omega_bind, solver, max_iter))
+    call scene_section(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), angle_deg, &
+                       written /= 0, stores_at(transfer(stores, 0_c_intptr_t)), rec, a0, tau, tpo, ok)
+    hd = record_keep(rec)
+  end function c_scene_section
 
   !> The record's exit code (the worst verdict's; 0: none), or -1 for no record.
   integer(c_int) function c_record_code(h) result(code) bind(C, name='tubes_record_code')

@@ -23,7 +23,6 @@ static const char *in_units(const char *ball_units) {
   return strcmp(h5_units(ball_units), "1") ? ball_units : "";
 }
 
-static void status_text(int code, char *buf, int len) { tubes_status_message(code, buf, len); }
 
 /* Does the run's model dissipate (damping_ratio or rolling_resistance > 0; scene_model)? */
 static int dissipative(const tubes_run_t *run) { return run->law != NULL; }
@@ -152,25 +151,6 @@ int scene_model(tubes_run_t *run) {
   }
   H5Gclose(g);
   return rc ? EXIT_IO : 0;
-}
-
-/* The equilibria of the model in the run's box (tubes_find_equilibria), arrays of NEQ_MAX. */
-typedef struct {
-  int n, ndof, morse[NEQ_MAX], rank1[NEQ_MAX];
-  double q[MD * NEQ_MAX], p[MD * NEQ_MAX], hgt[NEQ_MAX], en[NEQ_MAX], gn[NEQ_MAX], lam[NEQ_MAX],
-      om[(MD - 1) * NEQ_MAX], ev[4 * MD * MD * NEQ_MAX];
-  char names[8 * NEQ_MAX];
-} eqlist_t;
-
-static int find_eqs(const tubes_run_t *run, eqlist_t *L) {
-  return tubes_find_equilibria(run->system, run->params, run->lo, run->hi, run->n_grid, NEQ_MAX, &L->n, &L->ndof,
-                               L->q, L->p, L->hgt, L->en, L->gn, L->morse, L->rank1, L->names, L->lam, L->om, L->ev, run->seeds);
-}
-
-static int find_named(const eqlist_t *L, const char *name) {
-  for (int k = 0; k < L->n; k++)
-    if (!strcmp(L->names + 8 * k, name)) return k;
-  return -1;
 }
 
 /* A message's head: "FILE:LINE: ", or "FILE: " for a value the file does not set (a default: no
@@ -451,113 +431,10 @@ int scene_orbits(tubes_run_t *run) {
 
 /* ---------------------------------------------------------------- tube dynamics scenes */
 
-/* E_e, T_po of the saddle named by &orbits saddle. */
-static int saddle_props(tubes_run_t *run, double *ee, double *tpo) {
-  static eqlist_t L;
-  int st = find_eqs(run, &L);
-  if (st < 0) return st;
-  int k = find_named(&L, run->saddle);
-  if (k < 0 || L.rank1[k] != 1) return TUBES_EINPUT;
-  *ee = L.en[k];
-  *tpo = 2 * M_PI / L.om[(MD - 1) * k];
-  return 0;
-}
-
 /* The section's arguments of the C API: kind, index, level, direction (include/tubes.h). */
 #define SECTION(c) (sec_is_ray(c) ? 1 : 2), (c)->sec_index, (sec_is_ray(c) ? sec_angle(c) : (c)->sec_value), \
                    (sec_is_ray(c) ? (c)->sec_pth_sign : (c)->sec_direction)
 static int orb_nseg(const tubes_config_t *c) { return strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments; }
-
-/* /section: the energy surface on the section at E_e (A0, tau, r range) and the growth rate. */
-static int write_section(tubes_run_t *run, double *a0_out, double *tau_out, double *tpo_out) {
-  const tubes_config_t *c = run->cfg;
-  double ee, tpo, rmin, rmax, a0, tau;
-  if (run->ndof > 2) {   /* the tubes scene's plane, for its crossings alone: no region, no A0 */
-    int s3 = saddle_props(run, &ee, &tpo);
-    if (s3 < 0) {
-      fprintf(stderr, "tubes: section: the saddle %s could not be found (status %d)\n", run->saddle, s3);
-      return EXIT_NUMERIC;
-    }
-    *a0_out = *tau_out = NAN;
-    *tpo_out = tpo;
-    if (H5Lexists(run->file, "section", H5P_DEFAULT) > 0) return 0;
-    printf("section q%d = %.10g (dq%d/dt %s 0), %d degrees of freedom: the tubes' crossings of the plane (no "
-           "region: the transition scenes are 2-DOF)\n", c->sec_index, c->sec_value, c->sec_index,
-           c->sec_direction > 0 ? ">" : "<", run->ndof);
-    hid_t g = h5_group(run->file, "section");
-    if (g < 0) return EXIT_IO;
-    int e = h5_attr_string(g, "kind", "plane");
-    e |= h5_attr_long(g, "index", c->sec_index);
-    e |= h5_attr_double(g, "value", c->sec_value);
-    e |= h5_attr_long(g, "direction", c->sec_direction);
-    e |= h5_attr_double(g, "E_e", ee);
-    e |= h5_attr_string(g, "saddle", run->saddle);
-    H5Gclose(g);
-    return e ? EXIT_IO : 0;
-  }
-  int st = saddle_props(run, &ee, &tpo);
-  if (!st) st = tubes_section_info(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c), 0.0, &rmin, &rmax, &a0, &tau, run->seeds);
-  if (st < 0) {
-    if (sec_is_ray(c) || st != TUBES_ENOREGION) {
-      char m[TUBES_LSTATUS];
-      status_text(st, m, sizeof m);
-      fprintf(stderr, "tubes: section: the energy surface on the section could not be computed: %s (status %d)\n",
-              m, st);
-    } else
-      fprintf(stderr, "tubes: section: the plane q%d = %g does not meet a bounded region of the energy surface at "
-              "E_e of %s (searched q%d over the &equilibria box widened by half its width on each side; status %d): "
-              "choose another value, or a box that holds the region\n", c->sec_index, c->sec_value, run->saddle,
-              3 - c->sec_index, st);
-    return EXIT_NUMERIC;
-  }
-  if (!isfinite(tau)) {            /* dA_E/dE's quadrature failed (the area stands): no tau to print */
-    fprintf(stderr, "tubes: section: dA_E/dE at E_e of %s could not be computed (its quadrature did not "
-            "converge; the energy surface on the section touches a maximum of V?)\n", run->saddle);
-    return EXIT_NUMERIC;
-  }
-  *a0_out = a0; *tau_out = tau; *tpo_out = tpo;
-  if (H5Lexists(run->file, "section", H5P_DEFAULT) > 0) return 0;
-  if (sec_is_ray(c))
-    printf("section theta = %g deg (p_theta %s 0): at E_e r in [%.6f, %.6f] cm, A0 = %.8g cm^2/s, "
-           "tau = dA_E/dE = %.8g s, T_po/A0 = %.6g (s/cm)^2\n", c->sec_angle, c->sec_pth_sign > 0 ? ">" : "<",
-           rmin, rmax, a0, tau, tpo / a0);
-  else
-    printf("section q%d = %.10g (dq%d/dt %s 0): at E_e q%d in [%.8g, %.8g], A0 = %.10g, tau = dA_E/dE = %.10g, "
-           "T_po/A0 = %.6g\n", c->sec_index, c->sec_value, c->sec_index, c->sec_direction > 0 ? ">" : "<",
-           3 - c->sec_index, rmin, rmax, a0, tau, tpo / a0);
-  hid_t g = h5_group(run->file, "section");
-  if (g < 0) return EXIT_IO;
-  int e = 0;
-  if (sec_is_ray(c)) {
-    e |= h5_attr_double(g, "angle", sec_angle(c));
-    e |= h5_attr_long(g, "p_theta_sign", c->sec_pth_sign);
-  } else {
-    e |= h5_attr_string(g, "kind", "plane");
-    e |= h5_attr_long(g, "index", c->sec_index);
-    e |= h5_attr_double(g, "value", c->sec_value);
-    e |= h5_attr_long(g, "direction", c->sec_direction);
-  }
-  e |= h5_attr_double(g, "A0", a0);
-  e |= h5_attr_double(g, "tau", tau);
-  e |= h5_attr_double(g, "growth_rate", tpo / a0);
-  e |= h5_attr_double(g, "T_po", tpo);
-  e |= h5_attr_double(g, "E_e", ee);
-  e |= h5_attr_string(g, "saddle", run->saddle);
-  e |= h5_attr_double(g, "r_min", rmin);
-  e |= h5_attr_double(g, "r_max", rmax);
-  H5Gclose(g);
-  return e ? EXIT_IO : 0;
-}
-
-/* The start of a scene that draws on the section (tubes, sections): /section (write_section), then
- * the scene's own group in *g. */
-static int section_scene(tubes_run_t *run, const char *name, hid_t *g) {
-  double a0, tau, tpo;
-  int rc = write_section(run, &a0, &tau, &tpo);
-  if (rc) return rc;
-  *g = h5_group(run->file, name);
-  return *g < 0 ? EXIT_IO : 0;
-}
 
 /* The tubes scene: src/workflow/tubes_scene_tubes.f90 (its record written by record_emit); /tubes
  * is made where no cut was recorded, and a dissipative model's regions take the dissipation's
@@ -636,9 +513,12 @@ int scene_montecarlo(tubes_run_t *run) {
 
 int scene_sections(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  hid_t g;
-  int rc = section_scene(run, "sections", &g);
+  int rc = record_emit(run->file, tubes_section_scene(run->system, run->params, run->lo, run->hi, run->n_grid,
+                                                      run->saddle, SECTION(c), c->sec_angle, INTEGRATOR(c),
+                                                      H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds));
   if (rc) return rc;
+  hid_t g = h5_group(run->file, "sections");
+  if (g < 0) return EXIT_IO;
   H5Gclose(g);
   for (int k = 0; k < c->pm_nde; k++) {   /* a map's record written before the next starts */
     int h = tubes_sections_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
