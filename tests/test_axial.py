@@ -153,6 +153,39 @@ def test_vertical_against_scipy(families):
     assert v["attrs"]["family"] == -3
 
 
+@pytest.mark.slow   # ~5 s: two period searches along the vertical family
+def test_vertical_by_period_against_scipy(tmp_path):
+    """&orbits family = 'vertical', periods = ...: the program's orbit at the dE it finds, corrected
+    again by scipy at that orbit's energy (the symmetric corrector above, the program's state only
+    its guess), has the period asked for (1e-10); 'lyapunov' (the planar family by name) is found by
+    period as family 2 is (the same dE)."""
+    ts = [3.0, 3.2]
+    (tmp_path / "vp.nml").write_text("&run scenes = 'orbits', output = 'vp.h5' /\n&model system = 'cr3bp', "
+                                     "spatial = .true. /\n&orbits saddle = 'L1', family = 'vertical', "
+                                     f"periods = {ts[0]}, {ts[1]} /\n")
+    r = run_tubes(["vp.nml"], cwd=tmp_path, timeout=300)
+    assert r.returncode == 0, r.stderr
+    with h5py.File(tmp_path / "vp.h5") as f:
+        g = f["orbits"]
+        period, energy, state0 = g["period"][()], g["energy"][()], g["state0"][()]
+    for k, t_star in enumerate(ts):
+        s = velocity_form(state0[k])
+        u, t, closure, res = correct(vertical_start, [1, 3, 5], [s[0], s[2], s[4], period[k] / 2], energy[k])
+        print(f"vertical by period {t_star}: scipy at the program's energy {t:.13f} ({t - t_star:.1e}); "
+              f"closure {closure:.1e}")
+        assert res < 1e-12 and closure < 1e-10
+        assert t == pytest.approx(t_star, abs=1e-10)
+    des = []
+    for fam in ("'lyapunov'", "2"):
+        (tmp_path / "pp.nml").write_text("&run scenes = 'orbits', output = 'pp.h5' /\n&model system = 'cr3bp', "
+                                         f"spatial = .true. /\n&orbits saddle = 'L1', family = {fam}, "
+                                         "periods = 2.75 /\n")
+        assert run_tubes(["pp.nml"], cwd=tmp_path, timeout=300).returncode == 0
+        with h5py.File(tmp_path / "pp.h5") as f:
+            des.append(f["orbits/dE"][0])
+    assert des[0] == des[1]
+
+
 @pytest.mark.slow
 def test_branch_off_the_vertical_family(tmp_path, families):
     """'branch:1' (the general branch switch off family 1, the vertical one, at its first branch point)

@@ -1167,11 +1167,11 @@ static int check_orbit_parameter(const char *path, const tubes_config_t *c, cons
       else if (!(c->orb_periods[k] > 0) || !isfinite(c->orb_periods[k]))
 
         return n + bad_at(path, c, w, "orbits", "periods", k + 1, err, "every period must be > 0", c->orb_periods[k]);
-    if (c->orb_nguess > 0 || c->orb_family < 0) {
+    if (c->orb_nguess > 0 || (c->orb_family < 0 && c->orb_family != -3 && c->orb_family != -4)) {
       fprintf(err, "%s:%d: &orbits: periods: the orbits by period are those of a saddle's Lyapunov family (family "
-              "1 .. N-1); the family of a guess, a branch ('branch:K') or a halo family is asked for by de or "
-              "jacobi (allowed: periods with family 1 .. N-1 and no guess)\n", path,
-              line_or_group(w, "orbits", "periods"));
+              "1 .. N-1, 'vertical' or 'lyapunov'); the family of a guess, a branch ('branch:K'), a halo or the "
+              "axial family is asked for by de or jacobi (allowed: periods with family 1 .. N-1, 'vertical' or "
+              "'lyapunov', and no guess)\n", path, line_or_group(w, "orbits", "periods"));
       n++;
     }
   }

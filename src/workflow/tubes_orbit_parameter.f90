@@ -14,14 +14,15 @@
 !>   In the bracket, GSL's Brent (tubes_quad quad_root) on T(dE) - T* to |bracket| <= 1e-14 dE;
 !>   the orbit at the root must have |T - T*| <= PERIOD_RTOL T* (else PARAM_NOCONV). A period the
 !>   family does not reach between T_po and its end: PARAM_NOT_REACHED. The Lyapunov families
-!>   (opts%family 1..N-1) only: a guess's, a branch's or a halo family is refused (stat TUBES_EINPUT).
+!>   (opts%family 1..N-1, or 'vertical' / 'lyapunov' by name) only: a guess's, a branch's, a halo or
+!>   the axial family is refused (stat TUBES_EINPUT).
 module tubes_orbit_parameter
   use, intrinsic :: iso_c_binding, only: c_double, c_ptr, c_loc, c_f_pointer, c_funloc
   use tubes_kinds, only: wp, PI
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EUNRESOLVED
   use tubes_hamiltonian, only: hamiltonian_t, energy_of_jacobi
   use tubes_equilibria, only: equilibrium_t
-  use tubes_orbits, only: orbit_t, orbit_opts_t, linear_guess
+  use tubes_orbits, only: orbit_t, orbit_opts_t, linear_guess, named_mode, FAMILY_VERTICAL, FAMILY_PLANAR
   use tubes_study, only: study_t, seed_stores_t, setup_model, family_at
   use tubes_quad, only: quad_root
   implicit none
@@ -68,7 +69,7 @@ contains
     integer, intent(out) :: found(size(values)), stat
     type(seed_stores_t), intent(inout), target, optional :: stores
     type(period_ctx_t), target :: c
-    integer :: k
+    integer :: k, mode
     des = 0
     found = PARAM_NOCONV
     t_po = 0
@@ -94,16 +95,20 @@ contains
       end do
       return
     end if
-    ! periods: the Lyapunov families of a saddle only
-    if (allocated(opts%guess) .or. opts%branch > 0 .or. opts%family < 1 .or. &
-        opts%family > size(c%eqs(c%isad)%omegas)) then
+    ! periods: the Lyapunov families of a saddle only (by number, or 'vertical' / 'lyapunov' by name:
+    ! their centre mode's, named_mode)
+    mode = opts%family
+    if (mode == FAMILY_VERTICAL .or. mode == FAMILY_PLANAR) &
+      mode = named_mode(c%eqs(c%isad), c%model%ndof(), opts%family)
+    if (allocated(opts%guess) .or. opts%branch > 0 .or. mode < 1 .or. &
+        mode > size(c%eqs(c%isad)%omegas)) then
       stat = TUBES_EINPUT
       return
     end if
     c%st = st
     c%opts = opts
     if (present(stores)) c%stores => stores
-    c%t_po = 2*PI/c%eqs(c%isad)%omegas(opts%family)
+    c%t_po = 2*PI/c%eqs(c%isad)%omegas(mode)
     t_po = c%t_po
     do k = 1, size(values)
       c%target = values(k)
