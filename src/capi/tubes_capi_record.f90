@@ -391,10 +391,10 @@ contains
                              max_iter, p_on, sec_kind, sec_index, dir, n_init, n_max, nd
     real(c_double), value :: to, tol, rtol, atol, h, omega_bind, level, eps, area_tol, t_max
     real(c_double), intent(in) :: des(*)
-    type(record_t), allocatable :: rec
-    type(study_t) :: st
-    type(section_choice_t) :: sec
     type(orbit_opts_t) :: opts
+    type(section_choice_t) :: sec
+    type(study_t) :: st
+    type(record_t), allocatable :: rec
     allocate (rec)
     opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=orb_max_iter, &
                         n_samples=orb_n_samples, integ=integ_of(method, h, omega_bind, solver, max_iter))
