@@ -60,7 +60,7 @@ int scene_sections(tubes_run_t *run);
 int scene_synthetic_experiment(tubes_run_t *run);
 /* The flux of trajectories through the saddle's bottleneck (/flux; src/transport/tubes_flux.f90). */
 int scene_flux(tubes_run_t *run);
-/* Continuation in a model parameter (&scan; /scan; src/io/tubes_scene_scan.c). Returns 0, EXIT_PARTIAL
+/* Continuation in a model parameter (&scan; /scan; src/workflow/tubes_scene_scan.f90). Returns 0, EXIT_PARTIAL
  * (an orbit not found at a step that has the saddle), EXIT_NUMERIC or EXIT_IO. */
 int scene_scan(tubes_run_t *run);
 #ifdef __cplusplus

@@ -989,60 +989,6 @@ subroutine formula_with_constant(system, name, value, stat, key, msg)
   call with_constant(trim(system), trim(name), value, key, msg, stat)
 end subroutine formula_with_constant
 
-subroutine param_scan(system, params, lo, hi, n_grid, saddle, ipar, to, n, nde, des, n_segments, tol, rtol, &
-                      atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stat, value, n_eq, &
-                      researched, eq_q, eq_energy, eq_index, eq_name, eq_det, saddle_found, saddle_q, &
-                      saddle_energy, lam, omega, period, action, stability, converged, restarted, n_fold, &
-                      fold_step, fold_value, fold_width, fold_kind, fold_q, fold_name, fold_partner, fold_tol, &
-                      p_trans_on, sec_kind, sec_index, level, dir, eps, area_tol, t_max, n_init, n_max, a_tube, &
-                      a_e, p_trans, p_status)
-  ! the parameter scan (as the scan scene and the C API's tubes_scan: tubes_scan scan_table);
-  ! n + 1 steps, at most 64 equilibria per step and 32 folds recorded; p_trans_on /= 0: p_trans at
-  ! each step and dE (the transition scene's: the section and the stable tube's options as tube_cut)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_orbits, only: orbit_opts_t
-  use tubes_study, only: study_t, section_choice_t
-  use tubes_scan, only: scan_table, SCAN_FOLD_TOL
-  use tubes_capi, only: integ_of, tube_opts_of
-  implicit none
-  character(len=*), intent(in) :: system, saddle
-  integer(c_int), intent(in) :: n_grid, ipar, n, nde, n_segments, max_iter, nsamp, method, solver, int_max_iter
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), to, des(nde), tol, rtol, atol, h, omega_bind
-  integer(c_int), intent(out) :: stat, n_eq(n + 1), researched(n + 1), eq_index(64, n + 1), &
-                                 eq_name(8, 64, n + 1), eq_det(64, n + 1), saddle_found(n + 1), &
-                                 converged(nde, n + 1), restarted(nde, n + 1), n_fold, fold_step(32), &
-                                 fold_kind(32), fold_name(8, 32), fold_partner(8, 32)
-  real(c_double), intent(out) :: value(n + 1), eq_q(3, 64, n + 1), eq_energy(64, n + 1), saddle_q(3, n + 1), &
-                                 saddle_energy(n + 1), lam(n + 1), omega(2, n + 1), period(nde, n + 1), &
-                                 action(nde, n + 1), stability(nde, n + 1), fold_value(32), fold_width(32), &
-                                 fold_q(3, 32), fold_tol
-  integer(c_int), intent(in) :: p_trans_on, sec_kind, sec_index, dir, n_init, n_max
-  real(c_double), intent(in) :: level, eps, area_tol, t_max
-  real(c_double), intent(out) :: a_tube(nde, n + 1), a_e(nde, n + 1), p_trans(nde, n + 1)
-  integer(c_int), intent(out) :: p_status(nde, n + 1)
-  type(orbit_opts_t) :: opts
-  type(study_t) :: st
-  integer :: s, nf
-  opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, n_samples=nsamp, &
-                      integ=integ_of(method, h, omega_bind, solver, int_max_iter))
-  fold_tol = SCAN_FOLD_TOL
-  st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, integ=opts%integ)
-  if (p_trans_on /= 0) then
-    call scan_table(st, ipar, to, n, des, opts, value, n_eq, researched, eq_q, eq_energy, eq_index, eq_name, &
-                    eq_det, saddle_found, saddle_q, saddle_energy, lam, omega, period, action, stability, converged, &
-                    restarted, nf, fold_step, fold_value, fold_width, fold_kind, fold_q, fold_name, fold_partner, s, &
-                    section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), &
-                    tube_opts_of(-1, eps, area_tol, t_max, n_init, n_max, .true.), a_tube, a_e, p_trans, p_status)
-  else
-    a_tube = 0; a_e = 0; p_trans = 0; p_status = 0
-    call scan_table(st, ipar, to, n, des, opts, value, n_eq, researched, eq_q, eq_energy, eq_index, eq_name, &
-                    eq_det, saddle_found, saddle_q, saddle_energy, lam, omega, period, action, stability, converged, &
-                    restarted, nf, fold_step, fold_value, fold_width, fold_kind, fold_q, fold_name, fold_partner, s)
-  end if
-  stat = s
-  n_fold = nf
-end subroutine param_scan
-
 subroutine scene_equilibria(system, params, lo, hi, n_grid, box, want, asked, label, dissip, stores, h)
   ! the equilibria scene (src/workflow/tubes_scene_equilibria.f90), as the program's: the handle of
   ! its result record (read with record_sizes, record_item, record_reals, record_ints,
@@ -1065,6 +1011,43 @@ subroutine scene_equilibria(system, params, lo, hi, n_grid, box, want, asked, la
                  kept, rec)
   h = record_keep(rec)
 end subroutine scene_equilibria
+
+subroutine scene_scan(system, params, lo, hi, n_grid, saddle, ipar, parameter, to, n, nde, des, &
+                      n_segments, tol, rtol, atol, max_iter, nsamp, method, step, omega_bind, &
+                      solver, int_max_iter, p_on, sec_kind, sec_index, level, dir, eps, area_tol, &
+                      t_max, n_init, n_max, nd, dissip, h)
+  ! the scan scene (src/workflow/tubes_scene_scan.f90), as the program's: the handle of its
+  ! result record (read as scene_equilibria's); p_on /= 0: p_trans per step and dE on the
+  ! section with the stable tube's options (as param_scan's)
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_record, only: record_t, record_keep
+  use tubes_orbits, only: orbit_opts_t
+  use tubes_study, only: study_t, section_choice_t
+  use tubes_capi, only: integ_of, tube_opts_of
+  use tubes_scene_scan, only: scene_run => scene_scan
+  implicit none
+  character(len=*), intent(in) :: system, saddle, parameter, dissip
+  integer(c_int), intent(in) :: n_grid, ipar, n, nde, n_segments, max_iter, nsamp, method
+  integer(c_int), intent(in) :: solver, int_max_iter, p_on, sec_kind, sec_index, dir
+  integer(c_int), intent(in) :: n_init, n_max, nd
+  real(c_double), intent(in) :: params(16), lo(3), hi(3), to, des(nde), tol, rtol, atol
+  real(c_double), intent(in) :: step, omega_bind, level, eps, area_tol, t_max
+  integer(c_int), intent(out) :: h
+  type(record_t), allocatable :: rec
+  type(orbit_opts_t) :: opts
+  type(study_t) :: st
+  allocate (rec)
+  opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, &
+                      max_iter=max_iter, n_samples=nsamp, &
+                      integ=integ_of(method, step, omega_bind, solver, int_max_iter))
+  st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
+               integ=opts%integ)
+  call scene_run(st, ipar, trim(parameter), to, n, des, opts, p_on /= 0, &
+                 section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), &
+                 tube_opts_of(-1, eps, area_tol, t_max, n_init, n_max, .true.), nd, &
+                 trim(dissip), 'tubes', rec)
+  h = record_keep(rec)
+end subroutine scene_scan
 
 subroutine scene_sections(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, &
                           dir, de, k, n_seeds, n_iter, t_max, method, step, omega_bind, solver, &

@@ -1639,11 +1639,6 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
                   "rolling_resistance": float(st["exp_rolling_resistance"]), "seed": a["seed"]}, "/tracks", model)
 
 
-def _codes(a) -> str:
-    """A name from the core's ASCII codes (blank-padded)."""
-    return bytes(int(c) for c in a).decode("ascii", "replace").strip()
-
-
 SCAN_CONSTANT = 1000   # a formula's constant k is the scan's parameter SCAN_CONSTANT + k (src/workflow/tubes_scan.f90)
 
 
@@ -1715,9 +1710,6 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
         _need_2dof(model, f"{who}: p_trans=True: p_trans is the transition scene's", "transition")
         if de is None:
             raise ValueError(f"{who}: p_trans=True needs the excess energies: give dE (> 0, increasing)")
-        if _dissipation(model):
-            raise ValueError(f"{who}: p_trans=True: the scan follows the conservative model, and the dissipative "
-                             "model's p_trans is its transition region's: call transition() at the values of interest")
     orb = dict(orbits) if de is None else dict(orbits, de=de)
     tra = {} if area_tol is None else {"area_tol": float(area_tol)}
     st = _settings(model, saddle, saddle_near, who=who, orbits=orb, integrator=integrator, equilibria=equilibria,
@@ -1726,47 +1718,48 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
     if len(des) and int(st["orb_family"]) != 1:
         raise ValueError(f"{who}: family = {orbits.get('family')!r}: the scan follows the orbits of family 1 (the "
                          "saddle's lowest centre frequency; docs/scan.md): allowed family=1, or no dE")
+    # the program's scan scene (src/workflow/tubes_scene_scan.f90): its record's /scan and verdicts
     sec = _section_args(st) if p_on else (0, 0, 0.0, 0)
-    (stat, value, n_eq, res, eq_q, eq_en, eq_ix, eq_nm, eq_det, sfound, sq, sen, lam, om, per, act, stab, conv,
-     rest, nf, fstep, fval, fwid, fkind, fq, fname, fpart, ftol, pat, pae, ptr, pst) = _lib().param_scan(
-        *_study(model, st), ipar, to, n, des, int(st["n_segments"]), float(st["orb_tol"]), float(st["orb_rtol"]),
-        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model),
-        int(p_on), *sec, float(st["tub_eps"]), float(st["tra_area_tol"]), float(st["tub_t_max"]),
-        int(st["tub_n_init"]), int(st["tub_n_max"]))
-    if stat == -1 and constant:
-        raise ValueError(f"{who}: the formula's library with a value of {parameter} between {start!r} and {to!r} "
-                         f"was not built (Model(constants=...) with that value says why), or more than 64 "
-                         "equilibria in the box")
-    if stat == -1:
-        raise ValueError(f"{who}: the model refused a value of {parameter} between {start!r} and {to!r} "
-                         f"(its range: Model({parameter}=...) says which), or more than 64 equilibria in the box")
-    _check(stat, who)
+    diss = _dissipation(model)
+    rec = _record(_lib().scene_scan(
+        *_study(model, st), ipar, parameter, to, n, des, int(st["n_segments"]), float(st["orb_tol"]),
+        float(st["orb_rtol"]), float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]),
+        *_integ(st, model), int(p_on), *sec, float(st["tub_eps"]), float(st["tra_area_tol"]),
+        float(st["tub_t_max"]), int(st["tub_n_init"]), int(st["tub_n_max"]), model.ndof,
+        ", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation")))
+    errors = [t for s, t in rec["lines"] if s == 2]
+    if "scan" not in rec["data"]:      # refused, or failed: the scene's message
+        import re  # noqa: PLC0415
+        m = re.search(r"\(status (-?\d+)\)", errors[0] if errors else "")
+        status = int(m.group(1)) if m else 0
+        if rec["code"] == 1 or status == -1:
+            raise ValueError("; ".join(errors))
+        e = TubesError(status, who)
+        e.args = ("; ".join(errors),)
+        raise e
+    g, f = rec["data"]["scan"], rec["data"].get("scan/folds", {})
+    a, fa = rec["attrs"]["scan"], rec["attrs"]["scan/folds"]
     nd = model.ndof
-    m = n + 1
-    nfr = min(int(nf), 32)
-    out = {"parameter": parameter, "start": start, "to": to, "n": n, "saddle": st["saddle"],
-           "value": value.copy(), "n_equilibria": n_eq.copy(), "researched": res.astype(bool),
-           "eq_q": eq_q[:nd].transpose(2, 1, 0).copy(), "eq_energy": eq_en.T.copy(), "eq_index": eq_ix.T.copy(),
-           "eq_det": eq_det.T.copy(),
-           "eq_name": [[_codes(eq_nm[:, k, i]) for k in range(int(n_eq[i]))] for i in range(m)],
-           "saddle_found": sfound.astype(bool), "saddle_q": sq[:nd].T.copy(), "saddle_energy": sen.copy(),
-           "lambda": lam.copy(), "omega": om[:max(nd - 1, 0)].T.copy(),
-           "n_folds": int(nf), "fold_value": fval[:nfr].copy(), "fold_bracket": fwid[:nfr].copy(),
-           "fold_kind": [{1: "meet", 2: "index", 3: "box"}[int(k)] for k in fkind[:nfr]], "fold_step": fstep[:nfr] - 1,
-           "fold_q": fq[:nd, :nfr].T.copy(), "fold_name": [_codes(fname[:, k]) for k in range(nfr)],
-           "fold_partner": [_codes(fpart[:, k]) for k in range(nfr)], "fold_tol": float(ftol)}
+    nfr = len(f.get("value", ()))
+    out = {"parameter": parameter, "start": a["start"], "to": to, "n": n, "saddle": st["saddle"],
+           "value": g["value"], "n_equilibria": g["n_equilibria"], "researched": g["researched"].astype(bool),
+           "eq_q": g["eq_q"][:, :, :nd].copy(), "eq_energy": g["eq_energy"], "eq_index": g["eq_index"],
+           "eq_det": g["eq_det"], "eq_name": [s.split() for s in g["eq_names"]],
+           "saddle_found": g["saddle_found"].astype(bool), "saddle_q": g["saddle_q"][:, :nd].copy(),
+           "saddle_energy": g["saddle_energy"], "lambda": g["lambda"], "omega": g["omega"][:, :max(nd - 1, 0)].copy(),
+           "n_folds": fa["n_found"], "fold_value": f["value"], "fold_bracket": f["bracket"],
+           "fold_kind": [{1: "meet", 2: "index", 3: "box"}[int(k)] for k in f["kind"]], "fold_step": f["step"],
+           "fold_q": f["q"][:, :nd].copy(), "fold_name": f.get("name", []) if nfr else [],
+           "fold_partner": f.get("partner", []) if nfr else [], "fold_tol": fa["tol"]}
     if len(des):
-        out.update({"dE": des, "period": per.T.copy(), "action": act.T.copy(), "stability_index": stab.T.copy(),
-                    "converged": conv.T.astype(bool), "restarted": rest.T.astype(bool)})
+        out.update({"dE": g["dE"], "period": g["period"], "action": g["action"],
+                    "stability_index": g["stability_index"], "converged": g["converged"].astype(bool),
+                    "restarted": g["restarted"].astype(bool)})
     if p_on:
-        out.update({"p_trans": ptr.T.copy(), "A_tube": pat.T.copy(), "A_E": pae.T.copy(),
-                    "p_trans_status": pst.T.copy()})
-        bad = [(i, j) for i in range(m) for j in range(len(des)) if sfound[i] and pst[j, i] < 0]
-        if bad:
+        out.update({k: g[k] for k in ("p_trans", "A_tube", "A_E", "p_trans_status")})
+        if errors:      # a step's p_trans failed: NaN there
             import warnings  # noqa: PLC0415
-            warnings.warn(f"{who}: p_trans failed at " + ", ".join(
-                f"{parameter} = {value[i]:.10g}, dE = {des[j]:g} (status {int(pst[j, i])})" for i, j in bad)
-                + " (NaN there; transition() at that value says more)", RuntimeWarning, stacklevel=3)
+            warnings.warn("; ".join(errors) + " (NaN there)", RuntimeWarning, stacklevel=3)
     del end
     return _table(out, "/scan", model)
 

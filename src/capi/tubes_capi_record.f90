@@ -21,6 +21,7 @@ module tubes_capi_record
   use tubes_scene_transition, only: scene_transition, transition_opts_t
   use tubes_scene_montecarlo, only: scene_montecarlo
   use tubes_scene_tubes, only: scene_tubes
+  use tubes_scene_scan, only: scene_scan
   implicit none
   private
 
@@ -403,4 +404,34 @@ contains
     integer(c_int), value :: h
     call record_drop(h)
   end subroutine c_record_free
+
+  !> The scan scene (tubes_scene_scan): the record's handle. Parameter ipar (tubes_scan_parameter's;
+  !> named parameter) to `to` in n steps, the orbits at des (nde) with &orbits' settings and the
+  !> integrator (as tubes_parameter_scan), with p_on p_trans on the section with &tubes' settings
+  !> and &transition area_tol; nd the model's degrees of freedom, dissip ("" conservative), input
+  !> the input's name for messages (include/tubes.h).
+  integer(c_int) function c_scene_scan(system, params, lo, hi, n_grid, saddle, ipar, parameter, to, n, nde, des, &
+      n_segments, tol, rtol, atol, orb_max_iter, orb_n_samples, method, h, omega_bind, solver, max_iter, p_on, &
+      sec_kind, sec_index, level, dir, eps, area_tol, t_max, n_init, n_max, nd, dissip, input) result(hd) &
+      bind(C, name='tubes_scan_scene')
+    use tubes_manifold, only: tube_opts_t
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), parameter(*), dissip(128), input(*)
+    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
+    integer(c_int), value :: n_grid, ipar, n, nde, n_segments, orb_max_iter, orb_n_samples, method, solver, &
+                             max_iter, p_on, sec_kind, sec_index, dir, n_init, n_max, nd
+    real(c_double), value :: to, tol, rtol, atol, h, omega_bind, level, eps, area_tol, t_max
+    real(c_double), intent(in) :: des(*)
+    type(orbit_opts_t) :: opts
+    type(section_choice_t) :: sec
+    type(study_t) :: st
+    type(record_t), allocatable :: rec
+    allocate (rec)
+    opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=orb_max_iter, &
+                        n_samples=orb_n_samples, integ=integ_of(method, h, omega_bind, solver, max_iter))
+    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, opts%integ, st, sec)
+    call scene_scan(st, ipar, trim(c_to_f(parameter(1:32))), to, n, des(1:max(nde, 0)), opts, p_on /= 0, sec, &
+                    tube_opts_t(kind=-1, eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
+                                local=.true.), nd, trim(c_to_f(dissip)), c_to_f(input(1:1024)), rec)
+    hd = record_keep(rec)
+  end function c_scene_scan
 end module tubes_capi_record

@@ -600,3 +600,15 @@ int scene_flux(tubes_run_t *run) {
                            c->flux_cut_eps, INTEGRATOR(c), run->seeds);
   return record_emit(run->file, h);
 }
+
+/* The scan scene: src/workflow/tubes_scene_scan.f90 (its record written by record_emit). */
+int scene_scan(tubes_run_t *run) {
+  const tubes_config_t *c = run->cfg;
+  int h = tubes_scan_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, c->scan_ipar,
+                           c->scan_parameter, c->scan_to, c->scan_n, c->scan_nde, c->scan_de, orb_nseg(c), c->orb_tol,
+                           c->orb_rtol, c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c),
+                           c->scan_p_trans != 0, SECTION(c), c->tub_eps, c->tra_area_tol, c->tub_t_max,
+                           c->tub_n_init, c->tub_n_max, run->ndof, dissipative(run) ? run->dissip : "",
+                           run->input ? run->input : "tubes");
+  return record_emit(run->file, h);
+}
