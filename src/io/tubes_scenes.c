@@ -28,23 +28,6 @@ static void status_text(int code, char *buf, int len) { tubes_status_message(cod
 /* Does the run's model dissipate (damping_ratio or rolling_resistance > 0; scene_model)? */
 static int dissipative(const tubes_run_t *run) { return run->law != NULL; }
 
-/* The dissipation's attributes of a group: dissipation (the law), damping_ratio, damping_rate,
- * rolling_resistance, rolling_drag (those of the laws in use). Returns the write errors. */
-static int dissipation_attrs(hid_t g, const tubes_run_t *run) {
-  int e = h5_attr_string(g, "dissipation", run->law);
-  if (run->zeta > 0) {
-    e |= h5_attr_double(g, "damping_ratio", run->zeta);
-    e |= h5_attr_double(g, "damping_rate", run->c_damp);
-  }
-  if (run->crr > 0) {
-    e |= h5_attr_double(g, "rolling_resistance", run->crr);
-    e |= h5_attr_double(g, "rolling_drag", run->f_roll);
-  }
-  if (run->noise > 0) e |= h5_attr_double(g, "noise", run->noise);
-  if (run->temperature > 0) e |= h5_attr_double(g, "temperature", run->temperature);
-  return e;
-}
-
 /* The method the run integrates with: &integrator method, and for 'auto' what it became
  * ("auto (taylor)": Taylor for the state, DOP853 for the variational equations; "auto (dop853)":
  * no Taylor kernel). */
@@ -331,19 +314,13 @@ int run_setup(tubes_run_t *run) {
 }
 
 /* The equilibria scene: src/workflow/tubes_scene_equilibria.f90 (its record written by
- * record_emit); with dissipation, /saddle takes the dissipation's attributes. */
+ * record_emit). */
 int scene_equilibria(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   int h = tubes_equilibria_scene(run->system, run->params, run->lo, run->hi, run->n_grid, c->box,
                                  c->saddle[0] ? c->saddle : run->saddle, saddle_asked(c), run->label,
                                  dissipative(run) ? run->dissip : "", run->seeds);
-  int rc = record_emit(run->file, h);
-  if (rc || !dissipative(run) || H5Lexists(run->file, "saddle", H5P_DEFAULT) <= 0) return rc;
-  hid_t g = H5Gopen2(run->file, "saddle", H5P_DEFAULT);
-  if (g < 0) return EXIT_IO;
-  rc = dissipation_attrs(g, run);
-  H5Gclose(g);
-  return rc ? EXIT_IO : 0;
+  return record_emit(run->file, h);
 }
 
 int scene_trajectory(tubes_run_t *run) {
@@ -485,8 +462,7 @@ static int section_scene(tubes_run_t *run, const char *name, hid_t *g) {
 }
 
 /* The tubes scene: src/workflow/tubes_scene_tubes.f90 (its record written by record_emit); /tubes
- * is made where no cut was recorded, and a dissipative model's regions take the dissipation's
- * attributes. */
+ * is made where no cut was recorded. */
 int scene_tubes(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   int h = tubes_tubes_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
@@ -497,26 +473,16 @@ int scene_tubes(tubes_run_t *run) {
                             strcmp(run->length_units, "1") ? run->length_units : "(length units)", in_units(" cm"),
                             in_units(" (cm/s)^2"), 1, H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
   int rc = record_emit(run->file, h);
-  if (rc == EXIT_IO || H5Lexists(run->file, "section", H5P_DEFAULT) <= 0) return rc;
-  hid_t g = H5Lexists(run->file, "tubes", H5P_DEFAULT) > 0 ? H5Gopen2(run->file, "tubes", H5P_DEFAULT)
-                                                           : h5_group(run->file, "tubes");
+  if (rc == EXIT_IO || H5Lexists(run->file, "section", H5P_DEFAULT) <= 0 || H5Lexists(run->file, "tubes", H5P_DEFAULT) > 0)
+    return rc;
+  hid_t g = h5_group(run->file, "tubes");
   if (g < 0) return EXIT_IO;
-  int e = 0;
-  for (int k = 0; dissipative(run) && k < c->tub_nde; k++) {
-    char name[32];
-    snprintf(name, sizeof name, "region_%03d", k);
-    if (H5Lexists(g, name, H5P_DEFAULT) <= 0) continue;
-    hid_t o = H5Gopen2(g, name, H5P_DEFAULT);
-    e |= o < 0 || dissipation_attrs(o, run);
-    if (o >= 0) H5Gclose(o);
-  }
   H5Gclose(g);
-  return e ? EXIT_IO : rc;
+  return rc;
 }
 
 /* The transition scene: src/workflow/tubes_scene_transition.f90 (its record written by record_emit;
- * its energies dealt out over the MPI ranks there); with dissipation, /transition takes the
- * dissipation's attributes. */
+ * its energies dealt out over the MPI ranks there). */
 int scene_transition(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   int h = tubes_transition_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
@@ -525,17 +491,10 @@ int scene_transition(tubes_run_t *run) {
                                  c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c), c->mc_gate,
                                  c->mc_t_max, dissipative(run) ? run->dissip : "", in_units(" cm"),
                                  in_units(" (cm/s)^2"), H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
-  int rc = record_emit(run->file, h);
-  if (rc == EXIT_IO || !dissipative(run) || H5Lexists(run->file, "transition", H5P_DEFAULT) <= 0) return rc;
-  hid_t g = H5Gopen2(run->file, "transition", H5P_DEFAULT);
-  if (g < 0) return EXIT_IO;
-  int e = dissipation_attrs(g, run);
-  H5Gclose(g);
-  return e ? EXIT_IO : rc;
+  return record_emit(run->file, h);
 }
 
-/* The montecarlo scene: src/workflow/tubes_scene_montecarlo.f90 (its record written by record_emit);
- * a dissipative model's /montecarlo takes the dissipation's attributes where the check ran. */
+/* The montecarlo scene: src/workflow/tubes_scene_montecarlo.f90 (its record written by record_emit). */
 int scene_montecarlo(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   char at[1024];   /* the head of a message about &montecarlo gate (say_at's) */
@@ -550,13 +509,7 @@ int scene_montecarlo(tubes_run_t *run) {
                                  c->mc_gate, c->mc_t_max, dissipative(run) ? run->dissip : "", run->noisy, at,
                                  in_units(" cm"), in_units(" (cm/s)^2"), in_units(" cm/s"),
                                  H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
-  int rc = record_emit(run->file, h);
-  if (rc == EXIT_IO || !dissipative(run) || H5Lexists(run->file, "montecarlo", H5P_DEFAULT) <= 0) return rc;
-  hid_t g = H5Gopen2(run->file, "montecarlo", H5P_DEFAULT);
-  if (g < 0) return EXIT_IO;
-  int e = H5Aexists(g, "fraction") > 0 ? dissipation_attrs(g, run) : 0;
-  H5Gclose(g);
-  return e ? EXIT_IO : rc;
+  return record_emit(run->file, h);
 }
 
 int scene_sections(tubes_run_t *run) {
@@ -572,13 +525,6 @@ int scene_sections(tubes_run_t *run) {
     int r = record_emit(run->file, h);
     if (r == EXIT_IO || r == EXIT_NUMERIC) return r;
     if (r) rc = r;
-    if (!dissipative(run)) continue;
-    char name[32];
-    snprintf(name, sizeof name, "sections/map_%03d", k);
-    hid_t m = H5Gopen2(run->file, name, H5P_DEFAULT);
-    int e = m < 0 || dissipation_attrs(m, run);
-    if (m >= 0) H5Gclose(m);
-    if (e) return EXIT_IO;
   }
   return rc;
 }

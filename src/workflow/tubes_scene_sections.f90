@@ -8,6 +8,7 @@ module tubes_scene_sections
   use tubes_kinds, only: wp, i8
   use tubes_cstrings, only: num
   use tubes_record, only: record_t, EXIT_NUMERIC, EXIT_PARTIAL
+  use tubes_setup, only: scene_dissipation, dissipation_attrs
   use tubes_study, only: study_t, section_choice_t, seed_stores_t, maps_at
   use tubes_scene_text, only: itoa, wall, progress_line
   implicit none
@@ -63,5 +64,6 @@ contains
     call rec%real(group, 'points', reshape(pts, [2*n_iter*n_seeds]), [n_seeds, n_iter, 2])
     call rec%attr_real(group, 'dE', de)
     call rec%attr_int(group, 'status', stat)
+    if (dissipative) call dissipation_attrs(scene_dissipation(trim(st%system), st%params), group, rec)
   end subroutine scene_sections
 end module tubes_scene_sections
