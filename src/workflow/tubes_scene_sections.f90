@@ -20,7 +20,7 @@ contains
 
   !> Map k (0-based: group /sections/map_k) of the study's section at excess energy de: n_seeds
   !> trajectories, n_iter returns each within t_max per return; dissipative: the model loses
-  !> energy (said on the console; its attributes are the driver's). stores: the run's kept
+  !> energy (said on the console, and the dissipation's attributes on the map). stores: the run's kept
   !> results (or null). rec: the map's record.
   subroutine scene_sections(st, sec, de, k, n_seeds, n_iter, t_max, dissipative, stores, rec)
     use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
