@@ -63,6 +63,17 @@ int scene_flux(tubes_run_t *run);
 /* Continuation in a model parameter (&scan; /scan; src/workflow/tubes_scene_scan.f90). Returns 0, EXIT_PARTIAL
  * (an orbit not found at a step that has the saddle), EXIT_NUMERIC or EXIT_IO. */
 int scene_scan(tubes_run_t *run);
+/* The model scene (src/workflow/tubes_scene_model.f90): system (params) the model's library, model and
+ * sysname &model's resolved name and system, a formula's source (hamiltonian, height, coordinates,
+ * momenta, constants), library lib, build or lookup time seconds and hit (1: from the cache); natural
+ * and dimensioned (the ball's units) its kind, input the input file ("" none). Its dissipation back as
+ * tubes_model_dissipation's (law, text: lens bytes each; v). The record's handle. */
+int tubes_model_scene(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], const char model[TUBES_LNAME],
+                      const char sysname[TUBES_LNAME], const char hamiltonian[TUBES_LEXPR],
+                      const char height[TUBES_LEXPR], const char coordinates[TUBES_MAXDOF][TUBES_LSYM],
+                      const char momenta[TUBES_MAXDOF][TUBES_LSYM], const char constants[TUBES_MAXCONST][TUBES_LCONST],
+                      const char lib[TUBES_LPATH], double seconds, int hit, int natural, int dimensioned,
+                      const char *input, char *law, char *text, int lens, double v[6]);
 #ifdef __cplusplus
 }
 #endif

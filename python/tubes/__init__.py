@@ -1265,6 +1265,13 @@ def _dissipation(model: Model) -> dict:
     return {"dissipation": law, **{k: float(x) for k, x in zip(names, v[:4]) if x > 0}}
 
 
+def _recorded_dissipation(attrs: dict) -> dict:
+    """The dissipation's attributes a scene's record gave its group (src/workflow/tubes_setup.f90
+    dissipation_attrs), as _dissipation returns them."""
+    names = ("dissipation", "damping_ratio", "rolling_resistance", "noise", "temperature")
+    return {k: attrs[k] for k in names if k in attrs}
+
+
 def conservative(model: Model) -> Model:
     """The model without its dissipation (damping_ratio and rolling_resistance 0): the one whose
     orbits and tubes a dissipative run's orbits and tubes scenes compute."""
@@ -1405,7 +1412,8 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
         a = rec["attrs"]["transition"]
         stat, rate, _ = _lib().dissipation_rates(model.name, model.params())
         out.update(A_region=g["A_region"], p_trans_conservative=g["p_trans_conservative"],
-                   status_conservative=g["status_conservative"], region_rays=g["region_rays"], **diss,
+                   status_conservative=g["status_conservative"], region_rays=g["region_rays"],
+                   **_recorded_dissipation(a),
                    damping_rate=float(rate) if stat >= 0 else np.nan,
                    dE_threshold=(a["dE_threshold_lo"], a["dE_threshold_hi"]))
     return _failed_energies(_table(out, "/transition", model), check, rec["code"] != 0)
@@ -1522,7 +1530,7 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     damped = {}
     if diss:
         stat, rate, _ = _lib().dissipation_rates(model.name, model.params())
-        damped = {**diss, "damping_rate": float(rate) if stat >= 0 else np.nan,
+        damped = {**_recorded_dissipation(a), "damping_rate": float(rate) if stat >= 0 else np.nan,
                   "p_trans_conservative": a["p_trans_conservative"], "predicted_by": a["predicted_by"]}
     nt, nu = int(np.sum(g["transit"] == 1)), a["undecided"]
     out = Table({"dE": de, "n_samples": ns, "seed": seed, "status": 0, "fraction": a["fraction"],

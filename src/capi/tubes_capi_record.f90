@@ -22,6 +22,7 @@ module tubes_capi_record
   use tubes_scene_montecarlo, only: scene_montecarlo
   use tubes_scene_tubes, only: scene_tubes
   use tubes_scene_scan, only: scene_scan
+  use tubes_scene_model, only: scene_model, model_formula_t
   implicit none
   private
 
@@ -43,6 +44,71 @@ contains
                           trim(c_to_f(label)), trim(c_to_f(dissip)), kept, rec)
     h = record_keep(rec)
   end function c_scene_equilibria
+
+  !> The model scene (tubes_scene_model): system (params) the model's library (model: &model's
+  !> resolved name, expr_<hash> for a formula), sysname &model system, and a formula's &model
+  !> hamiltonian, height, coordinates, momenta, constants, its library lib, the time its build or
+  !> lookup took (seconds) and hit (1: from the cache); natural and dimensioned the model's kind,
+  !> input the input file ('' none). Its dissipation back for the run's drivers: law and text
+  !> NUL-terminated (lens bytes each), v = (zeta, crr, noise, temperature, c, f), as
+  !> tubes_model_dissipation's. The record's handle.
+  integer(c_int) function c_scene_model(system, params, model, sysname, hamiltonian, height, coordinates, momenta, &
+      constants, lib, seconds, hit, natural, dimensioned, input, law, text, lens, v) result(h) &
+      bind(C, name='tubes_model_scene')
+    use tubes_setup, only: dissipation_t
+    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), model(32), sysname(32), hamiltonian(2048), &
+                                          height(2048), coordinates(16, MAX_DOF), momenta(16, MAX_DOF), &
+                                          constants(128, 32), lib(1024), input(*)
+    real(c_double), intent(in) :: params(MAX_PARAMS)
+    real(c_double), value :: seconds
+    integer(c_int), value :: hit, natural, dimensioned, lens
+    character(kind=c_char), intent(out) :: law(lens), text(lens)
+    real(c_double), intent(out) :: v(6)
+    type(record_t), allocatable :: rec
+    type(dissipation_t) :: d
+    type(model_formula_t) :: f
+    character(:), allocatable :: name
+    allocate (rec)
+    name = c_to_f(model)
+    if (name(1:min(5, len(name))) == 'expr_') then   ! a model written as a formula
+      ! (component by component: gfortran 12 garbles a constructor's deferred-length strings)
+      f%sysname = c_to_f(sysname)
+      f%text = c_to_f(height)
+      if (f%sysname == 'expression') f%text = c_to_f(hamiltonian)
+      f%coordinates = joined(coordinates, ' ', .true.)
+      f%momenta = joined(momenta, ' ', .true.)
+      f%constants = joined(constants, '; ', .false.)
+      f%library = c_to_f(lib)
+      f%seconds = seconds
+      f%cached = hit /= 0
+      call scene_model(trim(c_to_f(system)), params, f%sysname, natural /= 0, dimensioned /= 0, &
+                       c_to_f(input(1:4096)), rec, d, f)
+    else
+      call scene_model(trim(c_to_f(system)), params, name, natural /= 0, dimensioned /= 0, &
+                       c_to_f(input(1:4096)), rec, d)
+    end if
+    call f_to_c(d%law, law)
+    call f_to_c(d%text, text)
+    v = [d%zeta, d%crr, d%noise, d%temperature, d%c, d%f]
+    h = record_keep(rec)
+  contains
+    !> The C strings of c's columns joined by sep: up to the first empty one (upto), or every
+    !> one not empty.
+    function joined(c, sep, upto) result(r)
+      character(kind=c_char), intent(in) :: c(:, :)
+      character(*), intent(in) :: sep
+      logical, intent(in) :: upto
+      character(:), allocatable :: r
+      integer :: k
+      r = ''
+      do k = 1, size(c, 2)
+        if (c(1, k) == achar(0) .and. upto) exit
+        if (c(1, k) == achar(0)) cycle
+        if (len(r) > 0) r = r // sep
+        r = r // c_to_f(c(:, k))
+      end do
+    end function joined
+  end function c_scene_model
 
   !> Map k (0-based) of the sections scene (tubes_scene_sections) at excess energy de: the
   !> record's handle. The section and integrator arguments as tubes_poincare's (include/tubes.h).

@@ -27,23 +27,6 @@ static const char *in_units(const char *ball_units) {
 /* Does the run's model dissipate (damping_ratio or rolling_resistance > 0; scene_model)? */
 static int dissipative(const tubes_run_t *run) { return run->law != NULL; }
 
-/* The dissipation's attributes of a group: dissipation (the law), damping_ratio, damping_rate,
- * rolling_resistance, rolling_drag (those of the laws in use). Returns the write errors. */
-static int dissipation_attrs(hid_t g, const tubes_run_t *run) {
-  int e = h5_attr_string(g, "dissipation", run->law);
-  if (run->zeta > 0) {
-    e |= h5_attr_double(g, "damping_ratio", run->zeta);
-    e |= h5_attr_double(g, "damping_rate", run->c_damp);
-  }
-  if (run->crr > 0) {
-    e |= h5_attr_double(g, "rolling_resistance", run->crr);
-    e |= h5_attr_double(g, "rolling_drag", run->f_roll);
-  }
-  if (run->noise > 0) e |= h5_attr_double(g, "noise", run->noise);
-  if (run->temperature > 0) e |= h5_attr_double(g, "temperature", run->temperature);
-  return e;
-}
-
 /* The method the run integrates with: &integrator method, and for 'auto' what it became
  * ("auto (taylor)": Taylor for the state, DOP853 for the variational equations; "auto (dop853)":
  * no Taylor kernel). */
@@ -57,73 +40,16 @@ enum { NEQ_MAX = 256, MD = TUBES_MAXDOF };
 #define INTEGRATOR(c) run->method, (c)->h, (c)->omega_bind, \
                       (strcmp((c)->solver, "fixed_point") ? 1 : 2), (c)->max_iter
 
-/* /model's attributes of a model written as a formula (docs/output.md). */
-static int expr_attrs(hid_t g, const tubes_config_t *c) {
-  int rc = 0;
-  if (!strcmp(c->system, "expression")) {
-    rc |= h5_attr_string(g, "formula", c->hamiltonian);
-    char buf[TUBES_MAXDOF * (TUBES_LSYM + 2)] = "";
-    for (int k = 0; k < TUBES_MAXDOF && c->coordinates[k][0]; k++)
-      snprintf(buf + strlen(buf), sizeof buf - strlen(buf), "%s%s", k ? " " : "", c->coordinates[k]);
-    rc |= h5_attr_string(g, "coordinates", buf[0] ? buf : "x y");
-    buf[0] = 0;
-    for (int k = 0; k < TUBES_MAXDOF && c->momenta[k][0]; k++)
-      snprintf(buf + strlen(buf), sizeof buf - strlen(buf), "%s%s", k ? " " : "", c->momenta[k]);
-    if (!buf[0]) {   /* the default: 'p' + each coordinate (docs/input.md) */
-      const char *dq[] = {"x", "y"};
-      for (int k = 0; k < TUBES_MAXDOF && (c->coordinates[0][0] ? c->coordinates[k][0] != 0 : k < 2); k++)
-        snprintf(buf + strlen(buf), sizeof buf - strlen(buf), "%sp%s", k ? " " : "",
-                 c->coordinates[0][0] ? c->coordinates[k] : dq[k]);
-    }
-    rc |= h5_attr_string(g, "momenta", buf);
-  } else {
-    rc |= h5_attr_string(g, "formula", c->height);
-  }
-  static char consts[TUBES_MAXCONST * (TUBES_LCONST + 2)];
-  consts[0] = 0;
-  for (int k = 0; k < TUBES_MAXCONST; k++)
-    if (c->constants[k][0])
-      snprintf(consts + strlen(consts), sizeof consts - strlen(consts), "%s%s", consts[0] ? "; " : "", c->constants[k]);
-  rc |= h5_attr_string(g, "constants", consts);
-  rc |= h5_attr_string(g, "library", c->expr_lib);
-  rc |= h5_attr_string(g, "library_name", c->model);
-  return rc;
-}
-
+/* The model scene: src/workflow/tubes_scene_model.f90 (its record written by record_emit); the run
+ * keeps its dissipation (law, rates and sentence) for the other scenes. */
 int scene_model(tubes_run_t *run) {
-  const tubes_config_t *c = run->cfg;
-  int ndof = 0, np = 0, si = 0, sd = 0;
-  static char names[TUBES_MAXPARAM * TUBES_LPARAM], units[TUBES_MAXPARAM * TUBES_LUNITS],
-      docs[TUBES_MAXPARAM * TUBES_LDOC];
-  char summary[TUBES_LSUMMARY], lu[8], dsad[8], skind[8], surf[TUBES_LSUMMARY];
-  double defs[TUBES_MAXPARAM], box[MD], boxc[MD], near[MD], sv, sa, gate;
-  if (tubes_model_info(run->system, &ndof, &np, names, defs, units, docs, summary, lu, box, boxc, dsad, near,
-                       skind, &si, &sv, &sd, &sa, &gate, surf) < 0)
-    return EXIT_BADINPUT;
-  hid_t g = h5_group(run->file, "model");
-  if (g < 0) return EXIT_IO;
-  int rc = 0;
-  int formula = !strncmp(c->model, "expr_", 5);   /* a model written as a formula: its library */
-  /* a built-in: the library's name (cr3bp with spatial = .true. is cr3bp_spatial) */
-  rc |= h5_attr_string(g, "system", formula ? c->system : c->model);
-  rc |= h5_attr_string(g, "hamiltonian", summary);
-  rc |= h5_attr_long(g, "ndof", ndof);
-  if (surf[0]) rc |= h5_attr_string(g, "surface", surf);
-  for (int k = 0; k < np; k++) rc |= h5_attr_double(g, names + TUBES_LPARAM * k, run->params[k]);
-  if (formula) {
-    rc |= expr_attrs(g, c);
-    rc |= h5_attr_double(g, "library_seconds", c->expr_seconds);
-    rc |= h5_attr_long(g, "library_cached", c->expr_hit);
-    printf("model: %s, %d degree%s of freedom%s: %s %.*f %s (%s)\n", summary, ndof, ndof > 1 ? "s" : "",
-           run->natural ? ", natural" : "", c->expr_hit ? "generated code loaded from the cache in" :
-           "code generated (SymPy) and compiled in", c->expr_hit ? 1 : 2, c->expr_seconds * (c->expr_hit ? 1e3 : 1),
-           c->expr_hit ? "ms" : "s", c->expr_lib);
-  }
-  /* the dissipation (src/workflow/tubes_setup.f90 model_dissipation: its law, rates and sentence) */
   static char law[128];
   double v[6];
-  int st = tubes_model_dissipation(run->system, run->params, in_units(" 1/s")[0] != 0, law, run->dissip,
-                                   (int)sizeof run->dissip, v);
+  const tubes_config_t *c = run->cfg;
+  int h = tubes_model_scene(run->system, run->params, c->model, c->system, c->hamiltonian, c->height, c->coordinates,
+                            c->momenta, c->constants, c->expr_lib, c->expr_seconds, c->expr_hit, run->natural,
+                            in_units(" 1/s")[0] != 0, run->input ? run->input : "", law, run->dissip,
+                            (int)sizeof run->dissip, v);
   run->zeta = v[0];    /* the built-in ball's &model damping_ratio, or a formula surface's */
   run->crr = v[1];
   run->noise = v[2];
@@ -132,25 +58,7 @@ int scene_model(tubes_run_t *run) {
   run->c_damp = v[4];
   run->f_roll = v[5];
   run->law = law[0] ? law : NULL;
-  if (st < 0) {   /* c = 2 zeta omega_1 (and the noise's step) need the lowest well's slow mode */
-    if (st == TUBES_EINPUT)
-      fprintf(stderr, "%s: &model %s: the model has no well (a minimum of its potential with a positive "
-              "frequency) in its search box, and its dissipation is defined by the lowest well's slow mode "
-              "omega_1 (docs/dissipation.md#other-models)\n", run->input ? run->input : "tubes",
-              run->zeta > 0 ? "damping_ratio" : (run->noise > 0 ? "noise" : "temperature"));
-    else
-      fprintf(stderr, "tubes: &model: the lowest well's slow mode omega_1 (its dissipation's rate) failed, "
-              "status %d\n", st);
-    H5Gclose(g);
-    return st == TUBES_EINPUT ? EXIT_BADINPUT : EXIT_NUMERIC;
-  }
-  if (run->law) {
-    if (run->zeta > 0) rc |= h5_attr_double(g, "damping_rate", run->c_damp);
-    if (run->crr > 0) rc |= h5_attr_double(g, "rolling_drag", run->f_roll);
-    rc |= h5_attr_string(g, "dissipation", run->law);
-  }
-  H5Gclose(g);
-  return rc ? EXIT_IO : 0;
+  return record_emit(run->file, h);
 }
 
 /* A message's head: "FILE:LINE: ", or "FILE: " for a value the file does not set (a default: no
@@ -386,19 +294,13 @@ int run_setup(tubes_run_t *run) {
 }
 
 /* The equilibria scene: src/workflow/tubes_scene_equilibria.f90 (its record written by
- * record_emit); with dissipation, /saddle takes the dissipation's attributes. */
+ * record_emit). */
 int scene_equilibria(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   int h = tubes_equilibria_scene(run->system, run->params, run->lo, run->hi, run->n_grid, c->box,
                                  c->saddle[0] ? c->saddle : run->saddle, saddle_asked(c), run->label,
                                  dissipative(run) ? run->dissip : "", run->seeds);
-  int rc = record_emit(run->file, h);
-  if (rc || !dissipative(run) || H5Lexists(run->file, "saddle", H5P_DEFAULT) <= 0) return rc;
-  hid_t g = H5Gopen2(run->file, "saddle", H5P_DEFAULT);
-  if (g < 0) return EXIT_IO;
-  rc = dissipation_attrs(g, run);
-  H5Gclose(g);
-  return rc ? EXIT_IO : 0;
+  return record_emit(run->file, h);
 }
 
 int scene_trajectory(tubes_run_t *run) {
@@ -437,8 +339,7 @@ int scene_orbits(tubes_run_t *run) {
 static int orb_nseg(const tubes_config_t *c) { return strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments; }
 
 /* The tubes scene: src/workflow/tubes_scene_tubes.f90 (its record written by record_emit); /tubes
- * is made where no cut was recorded, and a dissipative model's regions take the dissipation's
- * attributes. */
+ * is made where no cut was recorded. */
 int scene_tubes(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   int h = tubes_tubes_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
@@ -449,26 +350,16 @@ int scene_tubes(tubes_run_t *run) {
                             strcmp(run->length_units, "1") ? run->length_units : "(length units)", in_units(" cm"),
                             in_units(" (cm/s)^2"), 1, H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
   int rc = record_emit(run->file, h);
-  if (rc == EXIT_IO || H5Lexists(run->file, "section", H5P_DEFAULT) <= 0) return rc;
-  hid_t g = H5Lexists(run->file, "tubes", H5P_DEFAULT) > 0 ? H5Gopen2(run->file, "tubes", H5P_DEFAULT)
-                                                           : h5_group(run->file, "tubes");
+  if (rc == EXIT_IO || H5Lexists(run->file, "section", H5P_DEFAULT) <= 0 || H5Lexists(run->file, "tubes", H5P_DEFAULT) > 0)
+    return rc;
+  hid_t g = h5_group(run->file, "tubes");
   if (g < 0) return EXIT_IO;
-  int e = 0;
-  for (int k = 0; dissipative(run) && k < c->tub_nde; k++) {
-    char name[32];
-    snprintf(name, sizeof name, "region_%03d", k);
-    if (H5Lexists(g, name, H5P_DEFAULT) <= 0) continue;
-    hid_t o = H5Gopen2(g, name, H5P_DEFAULT);
-    e |= o < 0 || dissipation_attrs(o, run);
-    if (o >= 0) H5Gclose(o);
-  }
   H5Gclose(g);
-  return e ? EXIT_IO : rc;
+  return rc;
 }
 
 /* The transition scene: src/workflow/tubes_scene_transition.f90 (its record written by record_emit;
- * its energies dealt out over the MPI ranks there); with dissipation, /transition takes the
- * dissipation's attributes. */
+ * its energies dealt out over the MPI ranks there). */
 int scene_transition(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   int h = tubes_transition_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
@@ -477,17 +368,10 @@ int scene_transition(tubes_run_t *run) {
                                  c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c), c->mc_gate,
                                  c->mc_t_max, dissipative(run) ? run->dissip : "", in_units(" cm"),
                                  in_units(" (cm/s)^2"), H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
-  int rc = record_emit(run->file, h);
-  if (rc == EXIT_IO || !dissipative(run) || H5Lexists(run->file, "transition", H5P_DEFAULT) <= 0) return rc;
-  hid_t g = H5Gopen2(run->file, "transition", H5P_DEFAULT);
-  if (g < 0) return EXIT_IO;
-  int e = dissipation_attrs(g, run);
-  H5Gclose(g);
-  return e ? EXIT_IO : rc;
+  return record_emit(run->file, h);
 }
 
-/* The montecarlo scene: src/workflow/tubes_scene_montecarlo.f90 (its record written by record_emit);
- * a dissipative model's /montecarlo takes the dissipation's attributes where the check ran. */
+/* The montecarlo scene: src/workflow/tubes_scene_montecarlo.f90 (its record written by record_emit). */
 int scene_montecarlo(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
   char at[1024];   /* the head of a message about &montecarlo gate (say_at's) */
@@ -502,13 +386,7 @@ int scene_montecarlo(tubes_run_t *run) {
                                  c->mc_gate, c->mc_t_max, dissipative(run) ? run->dissip : "", run->noisy, at,
                                  in_units(" cm"), in_units(" (cm/s)^2"), in_units(" cm/s"),
                                  H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
-  int rc = record_emit(run->file, h);
-  if (rc == EXIT_IO || !dissipative(run) || H5Lexists(run->file, "montecarlo", H5P_DEFAULT) <= 0) return rc;
-  hid_t g = H5Gopen2(run->file, "montecarlo", H5P_DEFAULT);
-  if (g < 0) return EXIT_IO;
-  int e = H5Aexists(g, "fraction") > 0 ? dissipation_attrs(g, run) : 0;
-  H5Gclose(g);
-  return e ? EXIT_IO : rc;
+  return record_emit(run->file, h);
 }
 
 int scene_sections(tubes_run_t *run) {
@@ -527,13 +405,6 @@ int scene_sections(tubes_run_t *run) {
     int r = record_emit(run->file, h);
     if (r == EXIT_IO || r == EXIT_NUMERIC) return r;
     if (r) rc = r;
-    if (!dissipative(run)) continue;
-    char name[32];
-    snprintf(name, sizeof name, "sections/map_%03d", k);
-    hid_t m = H5Gopen2(run->file, name, H5P_DEFAULT);
-    int e = m < 0 || dissipation_attrs(m, run);
-    if (m >= 0) H5Gclose(m);
-    if (e) return EXIT_IO;
   }
   return rc;
 }

@@ -13,6 +13,7 @@ module tubes_scene_equilibria
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_equilibria, only: equilibrium_t
   use tubes_models, only: MAX_DOF
+  use tubes_setup, only: scene_dissipation, dissipation_attrs
   use tubes_study, only: study_t, seed_stores_t, model_equilibria, equilibria_table, centres_of, box_note, &
                          damped_spectrum
   implicit none
@@ -200,6 +201,7 @@ contains
     call rec%attr_real('saddle', 'omega', omk)
     call rec%attr_real('saddle', 'T_po', 2*PI/omk)
     call rec%real('saddle', 'eigenvectors', reshape(transpose(evr(1:n2, 1:n2)), [n2*n2]), [n2, n2])
+    if (len_trim(dissip) > 0) call dissipation_attrs(scene_dissipation(system, params), 'saddle', rec)
     if (len_trim(dissip) > 0) then                ! the damped saddle: its own spectrum (docs/dissipation.md)
       study%system = system
       study%params = 0

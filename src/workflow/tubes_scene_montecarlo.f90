@@ -14,6 +14,7 @@ module tubes_scene_montecarlo
   use tubes_record, only: record_t, EXIT_PARTIAL, EXIT_NUMERIC
   use tubes_region, only: region_opts_t, region_t
   use tubes_verdicts, only: mc_check
+  use tubes_setup, only: scene_dissipation, dissipation_attrs
   use tubes_study, only: study_t, section_choice_t, seed_stores_t, section_info, &
                          region_at, region_numbers, region_outputs, region_info_t, check_at, gate_reach
   use tubes_scene_section, only: scene_section
@@ -211,6 +212,7 @@ contains
     call rec%int('montecarlo', 'inside', ins, [n])
     call rec%attr_int('montecarlo', 'agrees', merge(1, 0, agrees))
     if (.not. agrees) call rec%verdict(EXIT_NUMERIC, trim(verdict))
+    if (damped) call dissipation_attrs(scene_dissipation(trim(st%system), st%params), 'montecarlo', rec, 'fraction')
   contains
     !> v as C's %+.1f.
     function signed(v) result(t)

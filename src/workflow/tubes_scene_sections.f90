@@ -8,6 +8,7 @@ module tubes_scene_sections
   use tubes_kinds, only: wp, i8
   use tubes_cstrings, only: num
   use tubes_record, only: record_t, EXIT_NUMERIC, EXIT_PARTIAL
+  use tubes_setup, only: scene_dissipation, dissipation_attrs
   use tubes_study, only: study_t, section_choice_t, seed_stores_t, maps_at
   use tubes_scene_text, only: itoa, wall, progress_line
   implicit none
@@ -19,7 +20,7 @@ contains
 
   !> Map k (0-based: group /sections/map_k) of the study's section at excess energy de: n_seeds
   !> trajectories, n_iter returns each within t_max per return; dissipative: the model loses
-  !> energy (said on the console; its attributes are the driver's). stores: the run's kept
+  !> energy (said on the console, and the dissipation's attributes on the map). stores: the run's kept
   !> results (or null). rec: the map's record.
   subroutine scene_sections(st, sec, de, k, n_seeds, n_iter, t_max, dissipative, stores, rec)
     use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
@@ -63,5 +64,6 @@ contains
     call rec%real(group, 'points', reshape(pts, [2*n_iter*n_seeds]), [n_seeds, n_iter, 2])
     call rec%attr_real(group, 'dE', de)
     call rec%attr_int(group, 'status', stat)
+    if (dissipative) call dissipation_attrs(scene_dissipation(trim(st%system), st%params), group, rec)
   end subroutine scene_sections
 end module tubes_scene_sections

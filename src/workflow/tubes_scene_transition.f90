@@ -21,6 +21,7 @@ module tubes_scene_transition
   use tubes_manifold, only: tube_opts_t, tube_cut_t
   use tubes_region, only: region_opts_t, region_t
   use tubes_par, only: par_t, par_here, par_share
+  use tubes_setup, only: scene_dissipation, dissipation_attrs
   use tubes_study, only: study_t, section_choice_t, seed_stores_t, cut_at, cut_outputs, section_info, &
                          region_at, region_numbers, region_info_t, study_family, p_trans_leading
   use tubes_scene_section, only: scene_section, SEC_KIND_RAY
@@ -201,6 +202,7 @@ contains
     else
       call rec%int('transition', 'status', iv(2, :), [n])
     end if
+    if (damped) call dissipation_attrs(scene_dissipation(trim(st%system), st%params), 'transition', rec, '')
 
   contains
     !> Energy k on this rank: its numbers x, its codes c and its messages e (character codes, 0 ended).

@@ -12,6 +12,7 @@ module tubes_scene_tubes
   use tubes_cstrings, only: num
   use tubes_record, only: record_t, EXIT_PARTIAL
   use tubes_region, only: region_opts_t, region_t
+  use tubes_setup, only: dissipation_t, scene_dissipation, dissipation_attrs
   use tubes_study, only: study_t, section_choice_t, seed_stores_t, region_at, region_numbers, region_outputs, region_info_t
   use tubes_scene_section, only: scene_section
   use tubes_scene_transition, only: transition_opts_t, region_text, cut_message, take_cut, scene_cut_t
@@ -189,6 +190,7 @@ contains
     type(region_t) :: reg
     type(region_info_t) :: info
     type(region_opts_t) :: ro
+    type(dissipation_t) :: d
     real(wp) :: de, t0, res(12), area, ae
     real(wp), allocatable :: phi(:), rho(:), s(:), p(:), t_in(:), cs(:), cp(:)
     integer :: k, stat, counts(8), n, m, empty
@@ -197,6 +199,7 @@ contains
               cs(REGION_CURVE), cp(REGION_CURVE))
     rst = study_t(system=st%system, params=st%params, lo=st%lo, hi=st%hi, n_grid=st%n_grid, saddle=st%saddle, &
                   integ=st%integ)
+    d = scene_dissipation(trim(st%system), st%params)
     call rec%out('tubes: the dissipative model (' // dissip // "): its transition regions, the section points that " // &
                  "pass the saddle's gate (the cut of the damped saddle's stable manifold; area_tol " // &
                  num(o%area_tol) // ')')
@@ -256,6 +259,7 @@ contains
       call rec%attr_int(g, 'n_scan', counts(1))
       call rec%attr_int(g, 'n_scan_transit', counts(2))
       call rec%attr_int(g, 'n_inconsistent', counts(4))
+      call dissipation_attrs(d, g, rec)
     end do
   contains
     pure function ls5(t) result(u)

@@ -15,6 +15,7 @@ module tubes_setup
   use tubes_models, only: system_info_t, system_info, make_field, MAX_PARAMS, MAX_DOF, LEN_SYSTEM
   use tubes_methods, only: METHOD_AUTO, METHOD_TAYLOR, METHOD_DOP853
   use tubes_taylor, only: taylor_check
+  use tubes_record, only: record_t
   implicit none
   private
 
@@ -32,7 +33,8 @@ module tubes_setup
   integer, parameter, public :: SADDLE_NOT_ONE = 1     !! the name is not a saddle the scenes take
   integer, parameter, public :: SADDLE_NONE_NEAR = 2   !! no saddle the scenes take in the box
 
-  public :: choose_saddle, scene_refused, model_dissipation, method_resolved, run_saddle
+  public :: choose_saddle, scene_refused, model_dissipation, method_resolved, run_saddle, dissipation_attrs, &
+            scene_dissipation
 
   integer, parameter, public :: SCENE_TAKEN = 0           !! the scene applies to the model
   integer, parameter, public :: SCENE_NOT_FOR_MODEL = 1   !! not with this many degrees of freedom
@@ -255,6 +257,50 @@ contains
       if (dimensioned) r = u
     end function units
   end subroutine model_dissipation
+
+  !> The dissipation d's attributes of group in rec (docs/output.md): dissipation (the law),
+  !> damping_ratio and damping_rate, rolling_resistance and rolling_drag (those of the laws in use),
+  !> noise, temperature; none for a conservative model. held: only where rec already holds an item
+  !> of group (named held, where not '').
+  subroutine dissipation_attrs(d, group, rec, held)
+    type(dissipation_t), intent(in) :: d
+    character(*), intent(in) :: group
+    type(record_t), intent(inout) :: rec
+    character(*), intent(in), optional :: held
+    integer :: k
+    if (.not. allocated(d%law)) return
+    if (len(d%law) == 0) return
+    if (present(held)) then
+      do k = 1, rec%n_items
+        if (rec%items(k)%group /= group) cycle
+        if (len(held) == 0) exit
+        if (rec%items(k)%name == held) exit
+      end do
+      if (k > rec%n_items) return
+    end if
+    call rec%attr_string(group, 'dissipation', d%law)
+    if (d%zeta > 0) then
+      call rec%attr_real(group, 'damping_ratio', d%zeta)
+      call rec%attr_real(group, 'damping_rate', d%c)
+    end if
+    if (d%crr > 0) then
+      call rec%attr_real(group, 'rolling_resistance', d%crr)
+      call rec%attr_real(group, 'rolling_drag', d%f)
+    end if
+    if (d%noise > 0) call rec%attr_real(group, 'noise', d%noise)
+    if (d%temperature > 0) call rec%attr_real(group, 'temperature', d%temperature)
+  end subroutine dissipation_attrs
+
+  !> The dissipation of system (params) for a scene's records (model_dissipation's, its text
+  !> without units): conservative where it fails (the model scene said so before any other ran).
+  function scene_dissipation(system, params) result(d)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:)
+    type(dissipation_t) :: d
+    integer :: stat
+    call model_dissipation(system, params, .false., d, stat)
+    if (stat /= TUBES_OK) d%law = ''
+  end function scene_dissipation
 
   !> The method a run integrates with (docs/integrators-taylor.md): code itself, but 'taylor' and
   !> 'auto' need the model's Taylor kernel at relative tolerance eps (built or loaded now): without
