@@ -238,14 +238,6 @@ int tubes_run_saddle(const char system[TUBES_LSYSTEM], const double params[TUBES
                      const double near[TUBES_MAXDOF], int degenerate_ok, const char *label, int dflt, char chosen[8],
                      double *e_saddle, char *msg, int len);
 
-/* The model's dissipation (src/workflow/tubes_setup.f90 model_dissipation): its law ("viscous",
- * "rolling", "noise" joined by "+"; "" conservative) and the run's sentence about it, NUL-terminated in
- * lens bytes each (dimensioned: with the ball's units); v = (damping_ratio, rolling_resistance, noise,
- * temperature, c [1/s], f [cm/s^2]). Returns 0, or a status where the rates failed (TUBES_EINPUT:
- * no well in the model's box). */
-int tubes_model_dissipation(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], int dimensioned,
-                            char *law, char *text, int lens, double v[6]);
-
 /* The dissipation of the field the scenes integrate (docs/dissipation.md): *c the viscous rate
  * [1/s] (damping_ratio), *f the rolling drag C_rr g [cm/s^2] (rolling_resistance); 0 for none. */
 int tubes_dissipation(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], double *c,

@@ -66,8 +66,9 @@ int scene_scan(tubes_run_t *run);
 /* The model scene (src/workflow/tubes_scene_model.f90): system (params) the model's library, model and
  * sysname &model's resolved name and system, a formula's source (hamiltonian, height, coordinates,
  * momenta, constants), library lib, build or lookup time seconds and hit (1: from the cache); natural
- * and dimensioned (the ball's units) its kind, input the input file ("" none). Its dissipation back as
- * tubes_model_dissipation's (law, text: lens bytes each; v). The record's handle. */
+ * and dimensioned (the ball's units) its kind, input the input file ("" none). Its dissipation back
+ * (src/workflow/tubes_setup.f90 model_dissipation): law and text (lens bytes each), v = (damping_ratio,
+ * rolling_resistance, noise, temperature, c [1/s], f [cm/s^2]). The record's handle. */
 int tubes_model_scene(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], const char model[TUBES_LNAME],
                       const char sysname[TUBES_LNAME], const char hamiltonian[TUBES_LEXPR],
                       const char height[TUBES_LEXPR], const char coordinates[TUBES_MAXDOF][TUBES_LSYM],

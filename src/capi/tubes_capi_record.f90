@@ -50,8 +50,8 @@ contains
   !> hamiltonian, height, coordinates, momenta, constants, its library lib, the time its build or
   !> lookup took (seconds) and hit (1: from the cache); natural and dimensioned the model's kind,
   !> input the input file ('' none). Its dissipation back for the run's drivers: law and text
-  !> NUL-terminated (lens bytes each), v = (zeta, crr, noise, temperature, c, f), as
-  !> tubes_model_dissipation's. The record's handle.
+  !> NUL-terminated (lens bytes each), v = (zeta, crr, noise, temperature, c, f) (tubes_setup
+  !> model_dissipation's dissipation_t). The record's handle.
   integer(c_int) function c_scene_model(system, params, model, sysname, hamiltonian, height, coordinates, momenta, &
       constants, lib, seconds, hit, natural, dimensioned, input, law, text, lens, v) result(h) &
       bind(C, name='tubes_model_scene')

@@ -339,24 +339,6 @@ contains
   end function c_scene_refused
 
 
-  !> model_dissipation for C: law and text NUL-terminated (lens bytes each), v = (zeta, crr, noise,
-  !> temperature, c, f). Returns its stat.
-  integer(c_int) function c_model_dissipation(system, params, dimensioned, law, text, lens, v) result(stat) &
-      bind(C, name='tubes_model_dissipation')
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM)
-    real(c_double), intent(in) :: params(MAX_PARAMS)
-    integer(c_int), value :: dimensioned, lens
-    character(kind=c_char), intent(out) :: law(lens), text(lens)
-    real(c_double), intent(out) :: v(6)
-    type(dissipation_t) :: d
-    integer :: st
-    call model_dissipation(trim(c_to_f(system)), params, dimensioned /= 0, d, st)
-    stat = st
-    call f_to_c(d%law, law)
-    call f_to_c(d%text, text)
-    v = [d%zeta, d%crr, d%noise, d%temperature, d%c, d%f]
-  end function c_model_dissipation
-
   !> method_resolved for C (why: NUL-terminated, lwhy bytes).
   integer(c_int) function c_method_resolved(code, system, params, eps, why, lwhy) result(m) &
       bind(C, name='tubes_method_resolved')
