@@ -156,10 +156,10 @@ $(STACK_OBJ): private FFLAGS_ALL += -fstack-arrays
 $(BUILD)/obj/tubes_par.o: FFLAGS_ALL += -cpp $(MPI_DEF)
 $(BUILD)/obj/%.o: %.c $(wildcard include/*.h) $(CONFIG_H) | $(BUILD)/obj
 	$(CC) $(CFLAGS_ALL) -c $< -o $@
-# C's tubes_config_t, generated from its one definition in src/io/tubes_nml.f90 (include/tubes_config.h)
-$(CONFIG_H): src/io/tubes_nml.f90 src/io/tubes_config_gen.awk
+# C's tubes_config_t, generated from its one definition in src/workflow/tubes_config.f90 (include/tubes_config.h)
+$(CONFIG_H): src/workflow/tubes_config.f90 src/io/tubes_config_gen.awk
 	@mkdir -p $(@D)
-	awk -f src/io/tubes_config_gen.awk src/io/tubes_nml.f90 > $@.tmp && mv $@.tmp $@
+	awk -f src/io/tubes_config_gen.awk src/workflow/tubes_config.f90 > $@.tmp && mv $@.tmp $@
 
 # The commit recorded in every output file: tubes_main.o is rebuilt whenever it changes (a commit,
 # or the tree turning dirty or clean), not only when tubes_main.c does.

@@ -309,13 +309,6 @@ int tubes_trajectory_scene(const char system[TUBES_LSYSTEM], const double params
                            int max_iter, double zeta, double crr, double f_roll, const char *dissip,
                            const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
                            const char label[64], const char *input, const char *us, const char *ue, void *stores);
-/* The flux scene: saddle, who (the input file in messages), sysname (&model system), the &flux
- * energies de[n_de] and settings, the &section plane (plane != 0: kind 'plane'), the &integrator. */
-int tubes_flux_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
-                     const char *saddle, const char *who, const char *sysname, int n_de, const double *de,
-                     int n_samples, int seed, double t_max, double gate, double tol, int order, int plane,
-                     int sec_index, double sec_value, int sec_dir, int n_cut, double cut_eps, int method, double h,
-                     double omega_bind, int solver, int max_iter, void *stores);
 /* The orbits scene at the n values of kind pkind (0 dE, 1 Jacobi constants, 2 periods), with the
  * settings of tubes_orbit_family; sysname: the system as the input names it; dimensioned: the
  * ball's units (cm, s); dissipative: the run's model dissipates (its orbits are the conservative

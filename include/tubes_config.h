@@ -13,7 +13,7 @@ enum { TUBES_MAX_INPUT = 1 << 20 /* bytes of an input file at most */ };
 
 /* tubes_config_t, the settings of a run, and the lengths of its fields (TUBES_NSCENES, TUBES_LNAME,
  * TUBES_MAXDE, ...): generated at build time from their one definition, the bind(C) type
- * tubes_config_t of src/io/tubes_nml.f90, where each field is documented (src/io/tubes_config_gen.awk
+ * tubes_config_t of src/workflow/tubes_config.f90, where each field is documented (src/io/tubes_config_gen.awk
  * writes build/include/tubes_config_fields.h). */
 #include "tubes_config_fields.h"
 

@@ -75,6 +75,11 @@ int tubes_model_scene(const char system[TUBES_LSYSTEM], const double params[TUBE
                       const char momenta[TUBES_MAXDOF][TUBES_LSYM], const char constants[TUBES_MAXCONST][TUBES_LCONST],
                       const char lib[TUBES_LPATH], double seconds, int hit, int natural, int dimensioned,
                       const char *input, char *law, char *text, int lens, double v[6]);
+
+/* The core's scenes on the run's settings (src/workflow/tubes_scene_<name>.f90, entered through
+ * src/capi/tubes_capi_record.f90): cfg as the reader left it, the saddle and the method the run chose
+ * (run_setup), who the input file in messages, the run's stores. Each returns its record's handle. */
+int tubes_flux_scene(const tubes_config_t *cfg, const char saddle[8], int method, const char *who, void *stores);
 #ifdef __cplusplus
 }
 #endif

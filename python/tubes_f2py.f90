@@ -431,13 +431,15 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
                       flux_t_max, flux_gate, flux_tol, flux_order, flux_n_cut, flux_cut_eps, expr_lib, &
                       exp_n_tracks, exp_seed, exp_duration, exp_camera_rate, exp_pixel, exp_noise, &
                       exp_de_min, exp_de_max, exp_damping_ratio, exp_rolling_resistance, mc_n_samples, mc_seed, &
-                      mc_de, des, ndes, orb_pkind, orb_pvalues, orb_npvalues, orb_guess, orb_nguess, orb_period)
+                      mc_de, des, ndes, orb_pkind, orb_pvalues, orb_npvalues, orb_guess, orb_nguess, orb_period, &
+                      nconfig, config)
   ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
   ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
-  ! scene calls take their defaults and their checks from here; msg holds the messages
+  ! scene calls take their defaults and their checks from here; msg holds the messages; config the
+  ! settings themselves (nconfig = settings_size() bytes), as the scenes take them
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char
   use tubes_cstrings, only: c_to_f, f_to_c
-  use tubes_nml, only: tubes_config_t
+  use tubes_config, only: tubes_config_t
   use tubes_kinds, only: PI
   implicit none
   character(len=*), intent(in) :: path
@@ -461,6 +463,8 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   ! &orbits guess (its orb_nguess values; 0: none) and period
   real(c_double), intent(out) :: orb_guess(6), orb_period
   integer(c_int), intent(out) :: orb_nguess
+  integer(c_int), intent(in) :: nconfig
+  integer(1), intent(out) :: config(nconfig)
   character(len=2048), intent(out) :: msg
   character(len=32), intent(out) :: system
   character(len=8), intent(out) :: saddle
@@ -577,7 +581,17 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   orb_guess = cfg%orb_guess(1:6)
   orb_nguess = cfg%orb_nguess
   orb_period = cfg%orb_period
+  config = 0
+  if (nconfig == size(transfer(cfg, config))) config = transfer(cfg, config)
 end subroutine read_input
+
+subroutine settings_size(n)
+  ! the size of the settings (read_input's config) in bytes
+  use tubes_settings, only: settings_bytes
+  implicit none
+  integer, intent(out) :: n
+  n = settings_bytes()
+end subroutine settings_size
 
 subroutine orbit_family(system, params, lo, hi, n_grid, saddle, nde, des, n_segments, family, tol, rtol, &
                         atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, &
@@ -1127,44 +1141,32 @@ subroutine trajectory_section(name, angle, level, direction, kind, lvl, dir, kno
   known = merge(1, 0, ok)
 end subroutine trajectory_section
 
-subroutine scene_flux(system, params, lo, hi, n_grid, saddle, who, sysname, n_de, de, n_samples, seed, &
-                      t_max, gate, tol, order, plane, sec_index, sec_value, sec_dir, n_cut, cut_eps, &
-                      method, step, omega_bind, solver, int_max_iter, stores, h)
-  ! the flux scene (src/workflow/tubes_scene_flux.f90), as the program's: the handle of its result
-  ! record (read as scene_equilibria's)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
+subroutine scene_flux(config, n, saddle, method, who, stores, h)
+  ! the flux scene (src/workflow/tubes_scene_flux.f90), as the program's, on the settings read_input
+  ! returned (config), the saddle and the method the run chose: the handle of its result record (read
+  ! as scene_equilibria's)
+  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
   use tubes_study, only: seed_stores_t, stores_at
   use tubes_record, only: record_t, record_keep
-  use tubes_capi, only: integ_of
-  use tubes_scene_flux, only: scene_run => scene_flux, flux_opts_t
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_of_bytes
+  use tubes_scene_flux, only: scene_run => scene_flux
   implicit none
-  character(len=*), intent(in) :: system, saddle, who, sysname
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), de(n_de), t_max, gate, tol
-  real(c_double), intent(in) :: sec_value, cut_eps, step, omega_bind
-  integer(c_int), intent(in) :: n_grid, n_de, n_samples, seed, order, plane, sec_index, sec_dir
-  integer(c_int), intent(in) :: n_cut, method, solver, int_max_iter
+  integer(c_int), intent(in) :: n, method
+  integer(1), intent(in) :: config(n)
+  character(len=*), intent(in) :: saddle, who
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: h
   type(record_t), allocatable :: rec
   type(seed_stores_t), pointer :: kept
-  type(flux_opts_t) :: o
+  type(tubes_config_t) :: cfg
+  integer :: st
+  h = -1
+  call settings_of_bytes(config, cfg, st)
+  if (st /= 0) return
   allocate (rec)
   kept => stores_at(stores)
-  o%de = de
-  o%n_samples = n_samples
-  o%seed = seed
-  o%order = order
-  o%n_cut = n_cut
-  o%t_max = t_max
-  o%gate = gate
-  o%tol = tol
-  o%cut_eps = cut_eps
-  o%plane = plane /= 0
-  o%sec_index = sec_index
-  o%sec_value = sec_value
-  o%sec_dir = sec_dir
-  o%integ = integ_of(method, step, omega_bind, solver, int_max_iter)
-  call scene_run(trim(system), params, lo, hi, n_grid, trim(saddle), trim(who), trim(sysname), o, kept, rec)
+  call scene_run(cfg, trim(saddle), int(method), trim(who), kept, rec)
   h = record_keep(rec)
 end subroutine scene_flux
 

@@ -708,7 +708,7 @@ _SETTINGS = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", 
              "exp_pixel", "exp_noise", "exp_de_min", "exp_de_max", "exp_damping_ratio", "exp_rolling_resistance",
              "mc_n_samples",
              "mc_seed", "mc_de", "des", "ndes", "orb_pkind", "orb_pvalues", "orb_npvalues", "orb_guess", "orb_nguess",
-             "orb_period")
+             "orb_period", "config")
 
 
 def _read_namelist(lines: list[str], who: str, groups=None) -> dict:
@@ -723,7 +723,7 @@ def _read_namelist(lines: list[str], who: str, groups=None) -> dict:
     try:
         with os.fdopen(fd, "w") as f:
             f.write("\n".join(lines) + "\n")
-        out = _lib().read_input(path)
+        out = _lib().read_input(path, _settings_size())
     finally:
         os.remove(path)
     st = dict(zip(_SETTINGS, out))
@@ -736,6 +736,12 @@ def _read_namelist(lines: list[str], who: str, groups=None) -> dict:
         msgs = list(dict.fromkeys(msgs))   # a message once
         raise ValueError(f"{who}: " + "\n".join(msgs or ["refused (no message)"]))
     return st
+
+
+@functools.lru_cache(maxsize=None)
+def _settings_size() -> int:
+    """The size in bytes of the run's settings (tubes_config_t; read_input's config, the scenes' input)."""
+    return int(_lib().settings_size())
 
 
 _INT32 = 2**31 - 1   # the input file's integers (C int, Fortran default integer)
@@ -1086,11 +1092,8 @@ def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
         raise ValueError("flux: section: the transition fraction on a section is for a plane section in 3 "
                          "degrees of freedom (2 DOF: tubes.transition)")
     # the program's flux scene (src/workflow/tubes_scene_flux.f90): its record's /flux, its verdicts
-    rec = _record(_lib().scene_flux(
-        *_study(model, st), "flux", model.system, de, int(st["flux_n_samples"]), int(st["flux_seed"]),
-        float(st["flux_t_max"]), float(st["flux_gate"]), float(st["flux_tol"]), int(st["flux_order"]),
-        int(int(st["sec_kind"]) == 2), int(st["sec_index"]), float(st["sec_level"]), int(st["sec_dir"]),
-        int(st["flux_n_cut"]), float(st["flux_cut_eps"]), *_integ(st, model), model._stores()))
+    rec = _record(_lib().scene_flux(st["config"], st["saddle"], _method(int(st["method"]), model), "flux",
+                                    model._stores()))
     verdicts = [t for s, t in rec["lines"] if s == 2]
     g, a = rec["data"]["flux"], rec["attrs"]["flux"]
     if rec["code"]:

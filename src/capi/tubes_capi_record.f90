@@ -13,7 +13,8 @@ module tubes_capi_record
   use tubes_scene_sections, only: scene_sections
   use tubes_scene_synthetic_experiment, only: scene_synthetic_experiment
   use tubes_scene_trajectory, only: scene_trajectory, trajectory_settings_t
-  use tubes_scene_flux, only: scene_flux, flux_opts_t
+  use tubes_scene_flux, only: scene_flux
+  use tubes_config, only: tubes_config_t
   use tubes_scene_orbits, only: scene_orbits
   use tubes_orbits, only: orbit_opts_t
   use tubes_study, only: study_t, section_choice_t
@@ -216,29 +217,18 @@ contains
     h = record_keep(rec)
   end function c_scene_trajectory
 
-  !> The flux scene (tubes_scene_flux): who (the input file in messages), sysname (&model system),
-  !> the &flux energies de(n_de) and settings, the &section plane (plane /= 0: kind 'plane'), the
-  !> &integrator choice. The record's handle.
-  integer(c_int) function c_scene_flux(system, params, lo, hi, n_grid, saddle, who, sysname, n_de, de, n_samples, &
-      seed, t_max, gate, tol, order, plane, sec_index, sec_value, sec_dir, n_cut, cut_eps, method, step, omega_bind, &
-      solver, max_iter, stores) result(h) bind(C, name='tubes_flux_scene')
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), who(*), sysname(*)
-    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, n_de, n_samples, seed, order, plane, sec_index, sec_dir, n_cut, method, solver, &
-                             max_iter
-    real(c_double), intent(in) :: de(n_de)
-    real(c_double), value :: t_max, gate, tol, sec_value, cut_eps, step, omega_bind
+  !> The flux scene (tubes_scene_flux) on the run's settings cfg, with the saddle and the method the
+  !> run chose; who names the input file in messages. The record's handle.
+  integer(c_int) function c_scene_flux(cfg, saddle, method, who, stores) result(h) bind(C, name='tubes_flux_scene')
+    type(tubes_config_t), intent(in) :: cfg
+    character(kind=c_char), intent(in) :: saddle(8), who(*)
+    integer(c_int), value :: method
     type(c_ptr), value :: stores
     type(record_t), allocatable :: rec
     type(seed_stores_t), pointer :: kept
-    type(flux_opts_t) :: opts
     allocate (rec)
     kept => stores_at(transfer(stores, 0_c_intptr_t))
-    opts = flux_opts_t(de=de, n_samples=n_samples, seed=seed, order=order, n_cut=n_cut, t_max=t_max, gate=gate, &
-                       tol=tol, cut_eps=cut_eps, plane=plane /= 0, sec_index=sec_index, sec_dir=sec_dir, &
-                       sec_value=sec_value, integ=integ_of(method, step, omega_bind, solver, max_iter))
-    call scene_flux(trim(c_to_f(system)), params, lo, hi, n_grid, trim(c_to_f(saddle)), c_to_f(who(1:4096)), &
-                    c_to_f(sysname(1:4096)), opts, kept, rec)
+    call scene_flux(cfg, trim(c_to_f(saddle)), int(method), c_to_f(who(1:4096)), kept, rec)
     h = record_keep(rec)
   end function c_scene_flux
 

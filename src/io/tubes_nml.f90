@@ -6,113 +6,12 @@ module tubes_nml
   use, intrinsic :: iso_fortran_env, only: iostat_end
   use tubes_cstrings, only: c_to_f, f_to_c
   use tubes_models, only: system_info_t, system_info, MAX_PARAMS, MAX_DOF
+  use tubes_config, only: tubes_config_t, NGROUPS, NSCENES, LSCENE, LPATH, LNAME, MAXDE, LSADDLE, MAXGUESS, &
+                          LEXPR, LSYM, LCONST, MAXCONST, LMSG, UNSET, UNSET_INT
   use tubes_scan, only: scan_index
   implicit none
   private
 
-  !> run, model, equilibria, trajectory, integrator, orbits, section, tubes, transition,
-  !> montecarlo, sections, experiment, flux, scan
-  integer, parameter :: NGROUPS = 14
-  integer, parameter :: NSCENES = 16, LSCENE = 32, LPATH = 1024, LNAME = 32, MAXDE = 256, LSADDLE = 8, MAXGUESS = 64
-  !> models written as formulas: a formula, a name, a constant 'name = value', how many
-  integer, parameter :: LEXPR = 2048, LSYM = 16, LCONST = 128, MAXCONST = 32, LMSG = 1024
-  !> An unset entry of a list (dE): any value a user cannot mean.
-  real(c_double), parameter :: UNSET = -huge(1.0_c_double)
-  !> An unset integer (&section index, direction, p_theta_sign): 0 is a value a user can mean.
-  integer, parameter :: UNSET_INT = -huge(1)
-
-  !> The settings of a run: every namelist variable, then what the reader resolved. The one
-  !> definition of their layout: C's struct (include/tubes_config.h) is generated from this type
-  !> and the length parameters above (src/io/tubes_config_gen.awk, at build time): a field added
-  !> here is C's too. Unset reals are -huge (C: -DBL_MAX).
-  type, bind(C), public :: tubes_config_t
-    character(kind=c_char) :: scenes(LSCENE, NSCENES)   ! &run
-    character(kind=c_char) :: output(LPATH)
-    real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, noise_d, temperature   ! &model
-    real(c_double) :: box   ! &equilibria
-    integer(c_int) :: n_grid
-    character(kind=c_char) :: saddle(LSADDLE)
-    real(c_double) :: x0, y0, px0, py0, t_end, dt_out   ! &trajectory
-    integer(c_int) :: at_rest
-    character(kind=c_char) :: section(LNAME)
-    real(c_double) :: section_angle, section_level
-    integer(c_int) :: section_direction, max_crossings, stop_at_first
-    character(kind=c_char) :: method(LNAME)   ! &integrator
-    real(c_double) :: rtol, atol, h
-    integer(c_int64_t) :: max_steps
-    real(c_double) :: omega_bind
-    character(kind=c_char) :: solver(LNAME)
-    integer(c_int) :: max_iter
-    character(kind=c_char) :: orb_saddle(LSADDLE)   ! &orbits
-    real(c_double) :: orb_de(MAXDE)
-    integer(c_int) :: orb_nde
-    character(kind=c_char) :: orb_method(LNAME)
-    integer(c_int) :: orb_n_segments, orb_max_iter, orb_n_samples
-    real(c_double) :: orb_tol, orb_rtol, orb_atol
-    real(c_double) :: sec_angle   ! &section
-    integer(c_int) :: sec_pth_sign
-    real(c_double) :: tub_de(MAXDE)   ! &tubes
-    integer(c_int) :: tub_nde
-    character(kind=c_char) :: tub_kind(LNAME)
-    real(c_double) :: tub_eps, tub_area_tol, tub_t_max
-    integer(c_int) :: tub_n_init, tub_n_max
-    real(c_double) :: tra_de(MAXDE)   ! &transition
-    integer(c_int) :: tra_nde
-    real(c_double) :: tra_area_tol
-    real(c_double) :: mc_de, mc_t_max, mc_gate, mc_area_tol   ! &montecarlo
-    integer(c_int) :: mc_n_samples, mc_seed
-    real(c_double) :: pm_de(MAXDE)   ! &sections
-    integer(c_int) :: pm_nde, pm_n_seeds, pm_n_iter
-    real(c_double) :: pm_t_max
-    integer(c_int) :: exp_n_tracks, exp_seed   ! &experiment
-    real(c_double) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
-                      exp_de_max, exp_damping_ratio, exp_rolling_resistance
-    character(kind=c_char) :: exp_csv(LPATH)
-    ! the any-Hamiltonian additions (docs/input.md): &model system and the other systems' parameters,
-    ! &equilibria box (list) and box_center, &orbits saddle_near, &section kind, index, direction, value
-    character(kind=c_char) :: system(LNAME)
-    real(c_double) :: m_a, m_b, d, lambda, zeta, eps_s, omega, eps, mu
-    real(c_double) :: box_list(MAX_DOF), box_center(MAX_DOF), orb_saddle_near(MAX_DOF)
-    character(kind=c_char) :: sec_kind(LNAME)
-    integer(c_int) :: sec_index, sec_direction
-    real(c_double) :: sec_value
-    ! resolved by the reader from the library's table (src/models/tubes_models.f90): the system's degrees
-    ! of freedom and parameters in the table's order (nparams = -1: unknown system), the search box,
-    ! whether the saddle is chosen by position; box_list, box_center, the section's fields, the saddle
-    ! and mc_gate then hold the effective values
-    integer(c_int) :: ndof, nparams, orb_use_near
-    real(c_double) :: params(MAX_PARAMS), box_lo(MAX_DOF), box_hi(MAX_DOF)
-    ! models written as formulas (docs/models.md): &model hamiltonian, coordinates, momenta, constants,
-    ! surface, height; then model: the name the library knows the model by (the system's, or expr_<hash>
-    ! for a formula; nparams = -2 when building it failed: expr_var names the variable at fault, expr_msg
-    ! says why), expr_lib its shared library, expr_seconds the time the build or the cache lookup took,
-    ! expr_hit 1 for a cache hit
-    character(kind=c_char) :: hamiltonian(LEXPR), coordinates(LSYM, MAX_DOF), momenta(LSYM, MAX_DOF), &
-      constants(LCONST, MAXCONST), surface(LNAME), height(LEXPR)
-    character(kind=c_char) :: dissipation(LNAME)   !! &model dissipation as declared ('' : not; checked by nml_validate)
-    character(kind=c_char) :: model(LNAME), expr_var(LNAME), expr_msg(LMSG), expr_lib(LPATH)
-    real(c_double) :: expr_seconds
-    integer(c_int) :: expr_hit
-    real(c_double) :: flux_de(MAXDE)   ! &flux (flux_gate resolved like mc_gate)
-    integer(c_int) :: flux_nde, flux_n_samples, flux_seed, flux_order, flux_n_cut
-    real(c_double) :: flux_t_max, flux_gate, flux_tol, flux_cut_eps
-    integer(c_int) :: orb_family   !! &orbits family: a centre mode (1 .. N-1), a family by name (< 0), 'branch:K' = -100 - K
-    integer(c_int) :: spatial      !! &model spatial: the cr3bp in three dimensions (model cr3bp_spatial)
-    ! &scan (docs/scan.md): the parameter, its end value (unset: -huge), the steps, the orbits' dE
-    ! (scan_nde 0: none; &orbits de when &scan de is not set and &orbits de is); scan_ipar resolved by
-    ! the reader: the parameter's index (1-based) in params, 0 when the scan does not take it
-    character(kind=c_char) :: scan_parameter(LNAME)
-    real(c_double) :: scan_to
-    real(c_double) :: scan_de(MAXDE)
-    integer(c_int) :: scan_n, scan_nde, scan_ipar
-    real(c_double) :: orb_guess(2*MAX_DOF)   !! &orbits guess (the first 2 MAX_DOF values)
-    integer(c_int) :: orb_nguess             !! how many values guess was given (0: none)
-    real(c_double) :: orb_period             !! &orbits period (of the guess)
-    integer(c_int) :: scan_p_trans           !! &scan p_trans (1: .true.)
-    real(c_double) :: orb_jacobi(MAXDE)      !! &orbits jacobi (the first orb_njacobi)
-    real(c_double) :: orb_periods(MAXDE)     !! &orbits periods (the first orb_nperiods)
-    integer(c_int) :: orb_njacobi, orb_nperiods, orb_de_given   !! orb_de_given 1: &orbits de given
-  end type tubes_config_t
 
   !> Namelist variables as Fortran sees them (one instance per call, never saved), with their
   !> defaults: the values a group the file leaves out keeps (UNSET: the system's, resolve).

@@ -463,11 +463,7 @@ int scene_synthetic_experiment(tubes_run_t *run) {
 /* The flux scene: src/workflow/tubes_scene_flux.f90 (its record written by record_emit). */
 int scene_flux(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  int h = tubes_flux_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle,
-                           run->input ? run->input : "tubes", c->system, c->flux_nde, c->flux_de, c->flux_n_samples,
-                           c->flux_seed, c->flux_t_max, c->flux_gate, c->flux_tol, c->flux_order,
-                           !strcmp(c->sec_kind, "plane"), c->sec_index, c->sec_value, c->sec_direction, c->flux_n_cut,
-                           c->flux_cut_eps, INTEGRATOR(c), run->seeds);
+  int h = tubes_flux_scene(c, run->saddle, run->method, run->input ? run->input : "tubes", run->seeds);
   return record_emit(run->file, h);
 }
 

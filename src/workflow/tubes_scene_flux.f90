@@ -24,11 +24,13 @@ module tubes_scene_flux
   use tubes_cut3, only: cut3_t, CUT3_NDIAG
   use tubes_flux3, only: cut3_study
   use tubes_scene_text, only: progress_line
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_integ, settings_text
   use tubes_verdicts, only: flux_too_small, flux_undecided, flux_normal_form_check, section_check, cut3_check
   implicit none
   private
 
-  public :: scene_flux, flux_opts_t
+  public :: scene_flux, flux_opts_t, flux_opts_of
 
   !> The scene's settings (&flux, &section; docs/input.md).
   type, public :: flux_opts_t
@@ -92,7 +94,40 @@ contains
   !> the scene's record. Its exit code keeps the program's precedence: a numerical failure (2)
   !> overrides an energy past the bottleneck (4); a refused request (1) of the normal form
   !> overrides both.
-  subroutine scene_flux(system, params, lo, hi, n_grid, saddle, who, sysname, opts, stores, rec)
+  !> The scene's settings from the run's (&flux, &section, &integrator with the run's method).
+  function flux_opts_of(cfg, method) result(o)
+    type(tubes_config_t), intent(in) :: cfg
+    integer, intent(in) :: method
+    type(flux_opts_t) :: o
+    o%de = cfg%flux_de(1:cfg%flux_nde)
+    o%n_samples = cfg%flux_n_samples
+    o%seed = cfg%flux_seed
+    o%order = cfg%flux_order
+    o%n_cut = cfg%flux_n_cut
+    o%t_max = cfg%flux_t_max
+    o%gate = cfg%flux_gate
+    o%tol = cfg%flux_tol
+    o%cut_eps = cfg%flux_cut_eps
+    o%plane = settings_text(cfg%sec_kind) == 'plane'
+    o%sec_index = cfg%sec_index
+    o%sec_dir = cfg%sec_direction
+    o%sec_value = cfg%sec_value
+    o%integ = settings_integ(cfg, method)
+  end function flux_opts_of
+
+  !> The scene on the run's settings cfg, the saddle and the method the run chose (tubes_setup
+  !> run_saddle, method_resolved); who names the input in messages.
+  subroutine scene_flux(cfg, saddle, method, who, stores, rec)
+    type(tubes_config_t), intent(in) :: cfg
+    character(*), intent(in) :: saddle, who
+    integer, intent(in) :: method
+    type(seed_stores_t), pointer, intent(in) :: stores
+    type(record_t), intent(inout) :: rec
+    call flux_scene_body(settings_text(cfg%model), cfg%params, cfg%box_lo, cfg%box_hi, cfg%n_grid, saddle, who, &
+                         settings_text(cfg%system), flux_opts_of(cfg, method), stores, rec)
+  end subroutine scene_flux
+
+  subroutine flux_scene_body(system, params, lo, hi, n_grid, saddle, who, sysname, opts, stores, rec)
     character(*), intent(in) :: system, saddle, who, sysname
     real(wp), intent(in) :: params(:), lo(:), hi(:)
     integer, intent(in) :: n_grid
@@ -666,7 +701,7 @@ contains
                            inum(so%axes(3)) // ' p' // inum(so%axes(3)))
       call rec%attr_int('flux/tube_cut', 'n_cut', nc)
     end subroutine write_flux
-  end subroutine scene_flux
+  end subroutine flux_scene_body
 
   !> The transits, returns and undecided of a section's counts, as the table's last columns.
   function counts3(c) result(s)
