@@ -283,32 +283,6 @@ enum { TUBES_REC_REAL = 1, TUBES_REC_INT = 2, TUBES_REC_STRINGS = 3, TUBES_REC_A
 int tubes_equilibria_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
                            double box, const char *want, int asked, const char *label, const char *dissip,
                            void *stores);
-/* Map k (0-based, /sections/map_k) of the sections scene at excess energy de; the section and
- * integrator arguments as tubes_poincare's; dissipative: the model loses energy (its line says so). */
-int tubes_sections_scene(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], const double lo[TUBES_MAXDOF],
-                         const double hi[TUBES_MAXDOF], int n_grid, const char saddle[8], int sec_kind, int sec_index,
-                         double level, int dir, double de, int k, int n_seeds, int n_iter, double t_max, int method,
-                         double h, double omega_bind, int solver, int max_iter, int dissipative, void *stores);
-/* The synthetic_experiment scene: &experiment's settings, the integrator as tubes_synthetic_experiment's,
- * method_label its name for /tracks@method. */
-int tubes_synthetic_experiment_scene(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM],
-                                     const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
-                                     const char saddle[8], int n_tracks, double duration, double camera_rate,
-                                     double pixel, double noise, double de_min, double de_max, double damping_ratio,
-                                     double rolling_resistance, int seed, int method, double h, double omega_bind,
-                                     int solver, int max_iter, const char method_label[32], void *stores);
-/* The trajectory scene: &trajectory's start (at_rest: momenta 0), times and section, the integrator
- * (method as run, method_label its name, solver_name &integrator solver), the dissipation (zeta, crr,
- * f_roll, dissip in words, "" conservative), the &equilibria box (the energy scale), label and input
- * for messages, us and ue the units written after a time and an energy ("" dimensionless). */
-int tubes_trajectory_scene(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], const double x0[4],
-                           int at_rest, double t_end, double dt_out, const char section[32], int section_direction,
-                           double section_angle, double section_level, int stop_at_first, int max_crossings,
-                           int method, const char *method_label, double rtol, double atol, double h,
-                           long long max_steps, double omega_bind, int solver, const char solver_name[32],
-                           int max_iter, double zeta, double crr, double f_roll, const char *dissip,
-                           const double lo[TUBES_MAXDOF], const double hi[TUBES_MAXDOF], int n_grid,
-                           const char label[64], const char *input, const char *us, const char *ue, void *stores);
 /* The orbits scene at the n values of kind pkind (0 dE, 1 Jacobi constants, 2 periods), with the
  * settings of tubes_orbit_family; sysname: the system as the input names it; dimensioned: the
  * ball's units (cm, s); dissipative: the run's model dissipates (its orbits are the conservative
@@ -318,45 +292,6 @@ int tubes_orbits_scene(const char *system, const double *params, const double *l
                        double tol, double rtol, double atol, int max_iter, int nsamp, int method, double h,
                        double omega_bind, int solver, int int_max_iter, void *stores, int nguess, const double *guess,
                        double guess_period, const char *sysname, int dimensioned, int dissipative);
-/* The transition scene (src/workflow/tubes_scene_transition.f90): the saddle's section (sec_kind
- * 1 ray, 2 plane; level the ray's angle [rad] or the plane's value; angle_deg the ray's as given),
- * the nde energies des, &tubes eps, t_max, n_init, n_max, &transition area_tol, &orbits'
- * n_segments, family, tol, rtol, atol, max_iter, n_samples, the integrator (as tubes_tube_cut),
- * &montecarlo gate and t_max, dissip ("" conservative), the units of a gate and of an energy in
- * messages (" cm", " (cm/s)^2" or ""), written: /section exists already. */
-int tubes_transition_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
-                           const char *saddle, int sec_kind, int sec_index, double level, int dir, double angle_deg,
-                           int nde, const double *des, double eps, double area_tol, double t_max, int n_init,
-                           int n_max, int n_segments, int family, double orb_tol, double orb_rtol, double orb_atol,
-                           int orb_max_iter, int orb_n_samples, int method, double h, double omega_bind, int solver,
-                           int max_iter, double gate, double mc_t_max, const char *dissip, const char *gate_units,
-                           const char *energy_units, int written, void *stores);
-/* The montecarlo scene (src/workflow/tubes_scene_montecarlo.f90): as tubes_transition_scene, at de
- * with n points from seed; area_tol &montecarlo's; noisy: the model carries noise; gate_at: the
- * head of a message about &montecarlo gate ("FILE:LINE: "); speed_units " cm/s" or "". */
-int tubes_montecarlo_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
-                           const char *saddle, int sec_kind, int sec_index, double level, int dir, double angle_deg,
-                           double de, int n, int seed, double eps, double area_tol, double t_max, int n_init,
-                           int n_max, int n_segments, int family, double orb_tol, double orb_rtol, double orb_atol,
-                           int orb_max_iter, int orb_n_samples, int method, double h, double omega_bind, int solver,
-                           int max_iter, double gate, double mc_t_max, const char *dissip, int noisy,
-                           const char *gate_at, const char *gate_units, const char *energy_units,
-                           const char *speed_units, int written, void *stores);
-/* The tubes scene (src/workflow/tubes_scene_tubes.f90): as tubes_transition_scene, the nde energies
- * des and kinds ("stable", "unstable", "both"), area_tol &tubes'; length: the coordinates' units in
- * words; check_eps: repeat each cut with eps/10 (the program does). */
-int tubes_tubes_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
-                      const char *saddle, int sec_kind, int sec_index, double level, int dir, double angle_deg,
-                      int nde, const double *des, const char *kinds, double eps, double area_tol, double t_max,
-                      int n_init, int n_max, int n_segments, int family, double orb_tol, double orb_rtol,
-                      double orb_atol, int orb_max_iter, int orb_n_samples, int method, double h, double omega_bind,
-                      int solver, int max_iter, double gate, double mc_t_max, const char *dissip, const char *length,
-                      const char *gate_units, const char *energy_units, int check_eps, int written, void *stores);
-/* /section alone (src/workflow/tubes_scene_section.f90), the section and integrator as
- * tubes_transition_scene's; written: /section exists already (nothing recorded). */
-int tubes_section_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
-                        const char *saddle, int sec_kind, int sec_index, double level, int dir, double angle_deg,
-                        int method, double h, double omega_bind, int solver, int max_iter, int written, void *stores);
 int tubes_record_code(int h);
 void tubes_record_sizes(int h, int *n_items, int *n_lines);
 int tubes_record_line(int h, int j, int *stream, char *buf, int len);

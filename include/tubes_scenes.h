@@ -80,6 +80,29 @@ int tubes_model_scene(const char system[TUBES_LSYSTEM], const double params[TUBE
  * src/capi/tubes_capi_record.f90): cfg as the reader left it, the saddle and the method the run chose
  * (run_setup), who the input file in messages, the run's stores. Each returns its record's handle. */
 int tubes_flux_scene(const tubes_config_t *cfg, const char saddle[8], int method, const char *who, void *stores);
+/* units: the messages carry the ball's units (cm, (cm/s)^2, cm/s); dissip: the dissipation in words ("" for
+ * a conservative model); written: /section is in the output already. */
+int tubes_transition_scene(const tubes_config_t *cfg, const char saddle[8], int method, int units,
+                           const char dissip[128], int written, void *stores);
+/* noisy: the model carries noise; gate_at: the head of a message about &montecarlo gate ("FILE:LINE: "). */
+int tubes_montecarlo_scene(const tubes_config_t *cfg, const char saddle[8], int method, int units,
+                           const char dissip[128], int noisy, const char gate_at[1024], int written, void *stores);
+/* length: the coordinates' units in words; check_eps: each cut repeated with eps/10 (the program does). */
+/* Map k (0-based, /sections/map_k) of the sections scene; dissipative: the model loses energy (its
+ * line says so). */
+int tubes_sections_scene(const tubes_config_t *cfg, const char saddle[8], int method, int k, int dissipative,
+                         void *stores);
+/* /section alone, for a scene that draws on the section without its own use of it (sections). */
+int tubes_section_scene(const tubes_config_t *cfg, const char saddle[8], int method, int written, void *stores);
+int tubes_synthetic_experiment_scene(const tubes_config_t *cfg, const char saddle[8], int method, void *stores);
+/* The trajectory scene with the run's dissipation (zeta, crr, f_roll [cm/s^2], dissip in words, "" for a
+ * conservative model), label the model in messages, input the input file, us and ue the units written
+ * after a time and an energy ("" dimensionless). */
+int tubes_trajectory_scene(const tubes_config_t *cfg, int method, double zeta, double crr, double f_roll,
+                           const char *dissip, const char label[64], const char *input, const char *us, const char *ue,
+                           void *stores);
+int tubes_tubes_scene(const tubes_config_t *cfg, const char saddle[8], int method, int units, const char length[32],
+                      const char dissip[128], int check_eps, int written, void *stores);
 #ifdef __cplusplus
 }
 #endif

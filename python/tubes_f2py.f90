@@ -1063,65 +1063,57 @@ subroutine scene_scan(system, params, lo, hi, n_grid, saddle, ipar, parameter, t
   h = record_keep(rec)
 end subroutine scene_scan
 
-subroutine scene_sections(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, &
-                          dir, de, k, n_seeds, n_iter, t_max, method, step, omega_bind, solver, &
-                          int_max_iter, dissipative, stores, h)
-  ! map k (0-based) of the sections scene at de (src/workflow/tubes_scene_sections.f90), as the
-  ! program's: the handle of its result record (read as scene_equilibria's)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_study, only: study_t, section_choice_t, seed_stores_t, stores_at
+subroutine scene_sections(config, n, saddle, method, k, dissipative, stores, h)
+  ! map k (0-based) of the sections scene (src/workflow/tubes_scene_sections.f90), as the program's,
+  ! on the settings read_input returned, the saddle and the method the run chose: the handle of its
+  ! result record (read as scene_equilibria's)
+  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
+  use tubes_study, only: stores_at
   use tubes_record, only: record_t, record_keep
-  use tubes_capi, only: integ_of
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_of_bytes
   use tubes_scene_sections, only: scene_run => scene_sections
   implicit none
-  character(len=*), intent(in) :: system, saddle
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, de, t_max, step, omega_bind
-  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, k, n_seeds, n_iter, method
-  integer(c_int), intent(in) :: solver, int_max_iter, dissipative
+  integer(c_int), intent(in) :: n, method, k, dissipative
+  integer(1), intent(in) :: config(n)
+  character(len=*), intent(in) :: saddle
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: h
   type(record_t), allocatable :: rec
-  type(seed_stores_t), pointer :: kept
+  type(tubes_config_t) :: cfg
+  integer :: st
+  h = -1
+  call settings_of_bytes(config, cfg, st)
+  if (st /= 0) return
   allocate (rec)
-  kept => stores_at(stores)
-  call scene_run(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, &
-                         saddle=saddle, integ=integ_of(method, step, omega_bind, solver, &
-                         int_max_iter)), &
-                 section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), &
-                 de, k, n_seeds, n_iter, t_max, dissipative /= 0, kept, rec)
+  call scene_run(cfg, trim(saddle), int(method), int(k), dissipative /= 0, stores_at(stores), rec)
   h = record_keep(rec)
 end subroutine scene_sections
 
-subroutine scene_synthetic_experiment(system, params, lo, hi, n_grid, saddle, n_tracks, duration, &
-                                      camera_rate, pixel, noise, de_min, de_max, damping_ratio, &
-                                      rolling_resistance, seed, method, step, omega_bind, solver, &
-                                      int_max_iter, method_label, stores, h)
+subroutine scene_synthetic_experiment(config, n, saddle, method, stores, h)
   ! the synthetic_experiment scene (src/workflow/tubes_scene_synthetic_experiment.f90), as the
-  ! program's: the handle of its result record (read as scene_equilibria's)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t, c_long
-  use tubes_study, only: seed_stores_t, stores_at
+  ! program's, on the settings read_input returned, the saddle and the method the run chose: the
+  ! handle of its result record (read as scene_equilibria's)
+  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
+  use tubes_study, only: stores_at
   use tubes_record, only: record_t, record_keep
-  use tubes_capi, only: integ_of
-  use tubes_experiment, only: experiment_opts_t
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_of_bytes
   use tubes_scene_synthetic_experiment, only: scene_run => scene_synthetic_experiment
   implicit none
-  character(len=*), intent(in) :: system, saddle, method_label
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), duration, camera_rate, pixel, noise
-  real(c_double), intent(in) :: de_min, de_max, damping_ratio, rolling_resistance, step, omega_bind
-  integer(c_int), intent(in) :: n_grid, n_tracks, seed, method, solver, int_max_iter
+  integer(c_int), intent(in) :: n, method
+  integer(1), intent(in) :: config(n)
+  character(len=*), intent(in) :: saddle
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: h
   type(record_t), allocatable :: rec
-  type(seed_stores_t), pointer :: kept
+  type(tubes_config_t) :: cfg
+  integer :: st
+  h = -1
+  call settings_of_bytes(config, cfg, st)
+  if (st /= 0) return
   allocate (rec)
-  kept => stores_at(stores)
-  call scene_run(trim(system), params, lo, hi, n_grid, trim(saddle), &
-                 experiment_opts_t(n_tracks=n_tracks, duration=duration, &
-                                   camera_rate=camera_rate, pixel=pixel, noise=noise, &
-                                   de_min=de_min, de_max=de_max, seed=int(seed, c_long)), &
-                 damping_ratio, rolling_resistance, &
-                 integ_of(method, step, omega_bind, solver, int_max_iter), trim(method_label), &
-                 kept, rec)
+  call scene_run(cfg, trim(saddle), int(method), stores_at(stores), rec)
   h = record_keep(rec)
 end subroutine scene_synthetic_experiment
 
@@ -1203,117 +1195,84 @@ subroutine scene_orbits(system, params, lo, hi, n_grid, saddle, pkind, n, values
   h = record_keep(rec)
 end subroutine scene_orbits
 
-subroutine scene_transition(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
-                            angle_deg, nde, des, eps, area_tol, t_max, n_init, n_max, n_segments, &
-                            family, orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, method, &
-                            hstep, omega_bind, solver, max_iter, gate, mc_t_max, dissip, gate_units, &
-                            energy_units, stores, h)
-  ! the transition scene (src/workflow/tubes_scene_transition.f90), as the program's: the handle
-  ! of its result record (arguments as include/tubes.h tubes_transition_scene; /section is
-  ! recorded too)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_study, only: seed_stores_t, stores_at, study_t, section_choice_t
+subroutine scene_transition(config, n, saddle, method, units, dissip, stores, h)
+  ! the transition scene (src/workflow/tubes_scene_transition.f90), as the program's, on the settings
+  ! read_input returned, the saddle and the method the run chose: the handle of its result record
+  ! (units /= 0: messages in the ball's units; /section is recorded too)
+  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
+  use tubes_study, only: stores_at
   use tubes_record, only: record_t, record_keep
-  use tubes_capi, only: integ_of
-  use tubes_scene_transition, only: scene_run => scene_transition, transition_opts_t
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_of_bytes
+  use tubes_scene_transition, only: scene_run => scene_transition
   implicit none
-  character(len=*), intent(in) :: system, saddle, dissip, gate_units, energy_units
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, angle_deg, des(nde), eps, area_tol, &
-                                t_max, orb_tol, orb_rtol, orb_atol, hstep, omega_bind, gate, mc_t_max
-  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, nde, n_init, n_max, n_segments, &
-                                family, orb_max_iter, orb_n_samples, method, solver, max_iter
+  integer(c_int), intent(in) :: n, method, units
+  integer(1), intent(in) :: config(n)
+  character(len=*), intent(in) :: saddle, dissip
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: h
   type(record_t), allocatable :: rec
-  type(seed_stores_t), pointer :: kept
-  type(study_t) :: st
-  type(transition_opts_t) :: o
+  type(tubes_config_t) :: cfg
+  integer :: st
+  h = -1
+  call settings_of_bytes(config, cfg, st)
+  if (st /= 0) return
   allocate (rec)
-  kept => stores_at(stores)
-  st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-               n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, &
-               orb_atol=orb_atol, integ=integ_of(method, hstep, omega_bind, solver, max_iter))
-  o = transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
-                        orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
-                        mc_t_max=mc_t_max, angle_deg=angle_deg, gate_units=gate_units, &
-                        energy_units=energy_units)
-  call scene_run(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), des, o, &
-                 trim(dissip), .false., kept, rec)
+  call scene_run(cfg, trim(saddle), int(method), units /= 0, trim(dissip), .false., stores_at(stores), rec)
   h = record_keep(rec)
 end subroutine scene_transition
 
-subroutine scene_montecarlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
-                            angle_deg, de, n, seed, eps, area_tol, t_max, n_init, n_max, n_segments, &
-                            family, orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, method, &
-                            hstep, omega_bind, solver, max_iter, gate, mc_t_max, dissip, noisy, gate_at, &
-                            gate_units, energy_units, speed_units, stores, h)
-  ! the montecarlo scene (src/workflow/tubes_scene_montecarlo.f90), as the program's: the handle
-  ! of its result record (arguments as include/tubes.h tubes_montecarlo_scene)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_study, only: seed_stores_t, stores_at, study_t, section_choice_t
+subroutine scene_montecarlo(config, n, saddle, method, units, dissip, noisy, gate_at, stores, h)
+  ! the montecarlo scene (src/workflow/tubes_scene_montecarlo.f90), as the program's: the handle of
+  ! its result record (arguments as scene_transition's; noisy /= 0: the model carries noise)
+  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
+  use tubes_study, only: stores_at
   use tubes_record, only: record_t, record_keep
-  use tubes_capi, only: integ_of
-  use tubes_scene_transition, only: transition_opts_t
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_of_bytes
   use tubes_scene_montecarlo, only: scene_run => scene_montecarlo
   implicit none
-  character(len=*), intent(in) :: system, saddle, dissip, gate_at, gate_units, energy_units, speed_units
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, angle_deg, de, eps, area_tol, t_max, &
-                                orb_tol, orb_rtol, orb_atol, hstep, omega_bind, gate, mc_t_max
-  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, n, seed, n_init, n_max, n_segments, &
-                                family, orb_max_iter, orb_n_samples, method, solver, max_iter, noisy
+  integer(c_int), intent(in) :: n, method, units, noisy
+  integer(1), intent(in) :: config(n)
+  character(len=*), intent(in) :: saddle, dissip, gate_at
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: h
   type(record_t), allocatable :: rec
-  type(seed_stores_t), pointer :: kept
-  type(study_t) :: st
-  type(transition_opts_t) :: o
+  type(tubes_config_t) :: cfg
+  integer :: st
+  h = -1
+  call settings_of_bytes(config, cfg, st)
+  if (st /= 0) return
   allocate (rec)
-  kept => stores_at(stores)
-  st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-               n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, &
-               orb_atol=orb_atol, integ=integ_of(method, hstep, omega_bind, solver, max_iter))
-  o = transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
-                        orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
-                        mc_t_max=mc_t_max, angle_deg=angle_deg, gate_units=gate_units, &
-                        energy_units=energy_units, speed_units=speed_units)
-  call scene_run(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, n, &
-                 seed, o, trim(dissip), noisy /= 0, gate_at, .false., kept, rec)
+  call scene_run(cfg, trim(saddle), int(method), units /= 0, trim(dissip), noisy /= 0, gate_at, .false., &
+                 stores_at(stores), rec)
   h = record_keep(rec)
 end subroutine scene_montecarlo
 
-subroutine scene_tubes(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
-                       nde, des, kinds, eps, area_tol, t_max, n_init, n_max, n_segments, family, &
-                       orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, method, hstep, &
-                       omega_bind, solver, max_iter, gate, mc_t_max, dissip, check_eps, stores, h)
-  ! the tubes scene (src/workflow/tubes_scene_tubes.f90), as the program's: the handle of its
-  ! result record (arguments as include/tubes.h tubes_tubes_scene; a plane's or the ray's
-  ! section; the console's units in words left out)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_study, only: seed_stores_t, stores_at, study_t, section_choice_t
+subroutine scene_tubes(config, n, saddle, method, dissip, check_eps, stores, h)
+  ! the tubes scene (src/workflow/tubes_scene_tubes.f90), as the program's: the handle of its result
+  ! record (arguments as scene_transition's; the console's units in words left out)
+  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
+  use tubes_study, only: stores_at
   use tubes_record, only: record_t, record_keep
-  use tubes_capi, only: integ_of
-  use tubes_scene_transition, only: transition_opts_t
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_of_bytes
   use tubes_scene_tubes, only: scene_run => scene_tubes
   implicit none
-  character(len=*), intent(in) :: system, saddle, kinds, dissip
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), level, des(nde), eps, area_tol, t_max, &
-                                orb_tol, orb_rtol, orb_atol, hstep, omega_bind, gate, mc_t_max
-  integer(c_int), intent(in) :: n_grid, sec_kind, sec_index, dir, nde, n_init, n_max, n_segments, &
-                                family, orb_max_iter, orb_n_samples, method, solver, max_iter, check_eps
+  integer(c_int), intent(in) :: n, method, check_eps
+  integer(1), intent(in) :: config(n)
+  character(len=*), intent(in) :: saddle, dissip
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: h
   type(record_t), allocatable :: rec
-  type(study_t) :: st
-  type(transition_opts_t) :: o
+  type(tubes_config_t) :: cfg
+  integer :: st
+  h = -1
+  call settings_of_bytes(config, cfg, st)
+  if (st /= 0) return
   allocate (rec)
-  st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-               n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, &
-               orb_atol=orb_atol, integ=integ_of(method, hstep, omega_bind, solver, max_iter))
-  o = transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
-                        orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
-                        mc_t_max=mc_t_max)
-  call scene_run(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), des, &
-                 trim(kinds), o, '', trim(dissip), check_eps /= 0, .false., stores_at(stores), rec)
+  call scene_run(cfg, trim(saddle), int(method), .false., '', trim(dissip), check_eps /= 0, .false., &
+                 stores_at(stores), rec)
   h = record_keep(rec)
 end subroutine scene_tubes
 

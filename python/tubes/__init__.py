@@ -1219,18 +1219,15 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
         raise ValueError("tube_cut: give dE, the excess energy above the saddle (> 0, in the model's energy units)")
     orb = {k: options.pop(k) for k in list(options) if k in ("method", "n_segments", "tol", "rtol", "atol", "family")}
     st = _settings(model, saddle, saddle_near, section=section, who="tube_cut", orbits=orb,
-                   tubes=dict(options, de=[_scalar_de(dE, "tube_cut")]), integrator=integrator, equilibria=equilibria)
+                   tubes=dict(options, de=[_scalar_de(dE, "tube_cut")], kind=kind), integrator=integrator,
+                   equilibria=equilibria)
     de = float(st["des"][0, 1])
     check = _args.flag("tube_cut", "check_eps", check_eps)
     # the program's tubes scene (src/workflow/tubes_scene_tubes.f90) at this one energy and kind,
     # the conservative model's cut (a dissipative model's regions are transition_region's)
-    kind_, index, level, direction = _section_args(st)
-    rec = _record(_lib().scene_tubes(
-        *_study(model, st), kind_, index, level, direction, np.array([de]), kind, float(st["tub_eps"]),
-        float(st["tub_area_tol"]), float(st["tub_t_max"]), int(st["tub_n_init"]), int(st["tub_n_max"]),
-        int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]), float(st["orb_atol"]),
-        int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model), float(st["mc_gate"]),
-        float(st["mc_t_max"]), "", int(check), model._stores()))
+    _section_args(st)
+    rec = _record(_lib().scene_tubes(st["config"], st["saddle"], _method(int(st["method"]), model), "", int(check),
+                                     model._stores()))
     errs = [t for s, t in rec["lines"] if s == 2]
     if rec["code"]:
         codes = [int(c) for c in re.findall(r"\(status (-?\d+)\)", " ".join(errs))]
@@ -1395,15 +1392,11 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     diss = _dissipation(model)
     # the program's transition scene (src/workflow/tubes_scene_transition.f90): its record's
     # /transition, its messages per energy, its verdicts
-    kind, index, level, direction = _section_args(st)
+    _section_args(st)
     units = str(model.info.get("length_units", "1")) == "cm"
     rec = _record(_lib().scene_transition(
-        *_study(model, st), kind, index, level, direction, float(np.degrees(level)) if kind == 1 else 0.0, de,
-        float(st["tub_eps"]), float(st["tra_area_tol"]), float(st["tub_t_max"]), int(st["tub_n_init"]),
-        int(st["tub_n_max"]), int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]), float(st["orb_rtol"]),
-        float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]), *_integ(st, model),
-        float(st["mc_gate"]), float(st["mc_t_max"]), ", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation"),
-        " cm" if units else "", " (cm/s)^2" if units else "", model._stores()))
+        st["config"], st["saddle"], _method(int(st["method"]), model), int(units),
+        ", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation"), model._stores()))
     errs = [t for s, t in rec["lines"] if s == 2]
     if "transition" not in rec["data"]:       # the section failed: the scene stopped there
         codes = [int(c) for c in re.findall(r"\(status (-?\d+)\)", " ".join(errs))]
@@ -1517,7 +1510,12 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     noisy = "noise" in diss.get("dissipation", "")
     # the program's montecarlo scene (src/workflow/tubes_scene_montecarlo.f90): its record's
     # /montecarlo, its messages, its verdict
-    rec = _record(_lib().scene_montecarlo(*_study(model, st), *_scene_args(model, st, de, ns, seed, diss, noisy)))
+    _section_args(st)
+    rec = _record(_lib().scene_montecarlo(
+        st["config"], st["saddle"], _method(int(st["method"]), model),
+        int(str(model.info.get("length_units", "1")) == "cm"),
+        ", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation"), int(noisy), "monte_carlo: ",
+        model._stores()))
     errs = [t for s, t in rec["lines"] if s == 2]
     a = rec["attrs"].get("montecarlo")
     if a is None:       # the section failed: the scene stopped there
@@ -1551,19 +1549,6 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     return out
 
 
-def _scene_args(model, st, de, ns, seed, diss, noisy):
-    """The montecarlo scene's arguments after the study's (python/tubes_f2py.f90 scene_montecarlo)."""
-    kind, index, level, direction = _section_args(st)
-    units = str(model.info.get("length_units", "1")) == "cm"
-    return (kind, index, level, direction, float(np.degrees(level)) if kind == 1 else 0.0, de, ns, seed,
-            float(st["tub_eps"]), float(st["mc_area_tol"]), float(st["tub_t_max"]), int(st["tub_n_init"]),
-            int(st["tub_n_max"]), int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]),
-            float(st["orb_rtol"]), float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]),
-            *_integ(st, model), float(st["mc_gate"]), float(st["mc_t_max"]),
-            ", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation"), int(noisy), "monte_carlo: ",
-            " cm" if units else "", " (cm/s)^2" if units else "", " cm/s" if units else "", model._stores())
-
-
 def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, n_iter=None, t_max=None,
              saddle=None, saddle_near=None, section=None, integrator: dict | None = None, equilibria: dict | None = None) -> Table:
     """Poincare map of the section at dE (as the sections scene, a group /sections/map_K of the
@@ -1588,8 +1573,8 @@ def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, 
     # the program's sections scene, its map at dE (src/workflow/tubes_scene_sections.f90): its
     # record's /sections/map_000 and its verdict
     de = float(st["des"][0, 3])
-    rec = _record(_lib().scene_sections(*_study(model, st), *_section_args(st), de, 0, int(st["pm_n_seeds"]),
-                                        int(st["pm_n_iter"]), float(st["pm_t_max"]), *_integ(st, model),
+    _section_args(st)
+    rec = _record(_lib().scene_sections(st["config"], st["saddle"], _method(int(st["method"]), model), 0,
                                         int(bool(_dissipation(model))), model._stores()))
     status = rec["attrs"]["sections/map_000"]["status"]
     out = _table({"dE": de, "points": rec["data"]["sections/map_000"]["points"], "status": status,
@@ -1625,16 +1610,8 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
                    integrator=integrator, equilibria=equilibria)
     # the program's synthetic_experiment scene (src/workflow/tubes_scene_synthetic_experiment.f90):
     # its record's /tracks and its verdicts (a request that leaves no tracks: ValueError)
-    integ = _integ(st, model)
-    asked = int(st["method"])
-    label = next(k for k, v in METHODS.items() if v == asked)
-    if asked == METHODS["auto"]:
-        label = "auto (taylor)" if integ[0] == METHODS["auto"] else "auto (dop853)"
-    rec = _record(_lib().scene_synthetic_experiment(
-        *_study(model, st), int(st["exp_n_tracks"]), float(st["exp_duration"]), float(st["exp_camera_rate"]),
-        float(st["exp_pixel"]), float(st["exp_noise"]), float(st["exp_de_min"]), float(st["exp_de_max"]),
-        float(st["exp_damping_ratio"]), float(st["exp_rolling_resistance"]), int(st["exp_seed"]), *integ, label,
-        model._stores()))
+    rec = _record(_lib().scene_synthetic_experiment(st["config"], st["saddle"], _method(int(st["method"]), model),
+                                                    model._stores()))
     errors = "; ".join(t for s, t in rec["lines"] if s == 2 and t.startswith("tubes: "))
     if "tracks" not in rec["data"]:
         raise ValueError(errors)

@@ -9,17 +9,17 @@ module tubes_capi_record
   use tubes_record, only: record_t, record_keep, record_drop, record_sizes, record_item_info, record_reals, &
                           record_ints, record_string, record_line, record_long
   use tubes_scene_equilibria, only: scene_equilibria
-  use tubes_scene_section, only: scene_section
+  use tubes_scene_section, only: scene_section_alone
   use tubes_scene_sections, only: scene_sections
   use tubes_scene_synthetic_experiment, only: scene_synthetic_experiment
-  use tubes_scene_trajectory, only: scene_trajectory, trajectory_settings_t
+  use tubes_scene_trajectory, only: scene_trajectory
   use tubes_scene_flux, only: scene_flux
   use tubes_config, only: tubes_config_t
   use tubes_scene_orbits, only: scene_orbits
   use tubes_orbits, only: orbit_opts_t
   use tubes_study, only: study_t, section_choice_t
   use tubes_capi, only: study_of, integ_of, guess_opts
-  use tubes_scene_transition, only: scene_transition, transition_opts_t
+  use tubes_scene_transition, only: scene_transition
   use tubes_scene_montecarlo, only: scene_montecarlo
   use tubes_scene_tubes, only: scene_tubes
   use tubes_scene_scan, only: scene_scan
@@ -111,109 +111,53 @@ contains
     end function joined
   end function c_scene_model
 
-  !> Map k (0-based) of the sections scene (tubes_scene_sections) at excess energy de: the
-  !> record's handle. The section and integrator arguments as tubes_poincare's (include/tubes.h).
-  integer(c_int) function c_scene_sections(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, &
-                                           dir, de, k, n_seeds, n_iter, t_max, method, step, omega_bind, solver, &
-                                           max_iter, dissipative, stores) result(h) bind(C, name='tubes_sections_scene')
-    use tubes_study, only: study_t, section_choice_t
-    use tubes_capi, only: study_of, integ_of
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
-    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, k, n_seeds, n_iter, method, solver, max_iter, &
-                             dissipative
-    real(c_double), value :: level, de, t_max, step, omega_bind
+  !> Map k (0-based) of the sections scene (tubes_scene_sections) on the run's settings cfg, with the
+  !> saddle and the method the run chose; dissipative /= 0: the run's model dissipates. The record's
+  !> handle.
+  integer(c_int) function c_scene_sections(cfg, saddle, method, k, dissipative, stores) result(h) &
+      bind(C, name='tubes_sections_scene')
+    type(tubes_config_t), intent(in) :: cfg
+    character(kind=c_char), intent(in) :: saddle(8)
+    integer(c_int), value :: method, k, dissipative
     type(c_ptr), value :: stores
     type(record_t), allocatable :: rec
-    type(seed_stores_t), pointer :: kept
-    type(study_t) :: st
-    type(section_choice_t) :: sec
     allocate (rec)
-    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
-                  integ_of(method, step, omega_bind, solver, max_iter), st, sec)
-    kept => stores_at(transfer(stores, 0_c_intptr_t))
-    call scene_sections(st, sec, de, k, n_seeds, n_iter, t_max, dissipative /= 0, kept, rec)
+    call scene_sections(cfg, trim(c_to_f(saddle)), int(method), int(k), dissipative /= 0, &
+                        stores_at(transfer(stores, 0_c_intptr_t)), rec)
     h = record_keep(rec)
   end function c_scene_sections
 
-  !> The synthetic_experiment scene (tubes_scene_synthetic_experiment): &experiment's settings,
-  !> the integrator (its arguments as tubes_synthetic_experiment's; method_label its name for
-  !> /tracks@method): the record's handle.
-  integer(c_int) function c_scene_synthetic_experiment(system, params, lo, hi, n_grid, saddle, n_tracks, duration, &
-                                                       camera_rate, pixel, noise, de_min, de_max, damping_ratio, &
-                                                       rolling_resistance, seed, method, step, omega_bind, solver, &
-                                                       max_iter, method_label, stores) result(h) &
+  !> The synthetic_experiment scene (tubes_scene_synthetic_experiment) on the run's settings cfg, with
+  !> the saddle and the method the run chose. The record's handle.
+  integer(c_int) function c_scene_synthetic_experiment(cfg, saddle, method, stores) result(h) &
       bind(C, name='tubes_synthetic_experiment_scene')
-    use, intrinsic :: iso_c_binding, only: c_long
-    use tubes_experiment, only: experiment_opts_t
-    use tubes_capi, only: integ_of
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), method_label(32)
-    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, n_tracks, seed, method, solver, max_iter
-    real(c_double), value :: duration, camera_rate, pixel, noise, de_min, de_max, damping_ratio, rolling_resistance, &
-                             step, omega_bind
+    type(tubes_config_t), intent(in) :: cfg
+    character(kind=c_char), intent(in) :: saddle(8)
+    integer(c_int), value :: method
     type(c_ptr), value :: stores
     type(record_t), allocatable :: rec
-    type(seed_stores_t), pointer :: kept
     allocate (rec)
-    kept => stores_at(transfer(stores, 0_c_intptr_t))
-    call scene_synthetic_experiment(trim(c_to_f(system)), params, lo, hi, n_grid, trim(c_to_f(saddle)), &
-                                    experiment_opts_t(n_tracks=n_tracks, duration=duration, camera_rate=camera_rate, &
-                                                      pixel=pixel, noise=noise, de_min=de_min, de_max=de_max, &
-                                                      seed=int(seed, c_long)), damping_ratio, rolling_resistance, &
-                                    integ_of(method, step, omega_bind, solver, max_iter), trim(c_to_f(method_label)), &
-                                    kept, rec)
+    call scene_synthetic_experiment(cfg, trim(c_to_f(saddle)), int(method), stores_at(transfer(stores, 0_c_intptr_t)), &
+                                    rec)
     h = record_keep(rec)
   end function c_scene_synthetic_experiment
 
-  !> The trajectory scene (tubes_scene_trajectory): &trajectory's start x0 (at_rest: its momenta
-  !> 0), times, section and its settings, the integrator (method as run, its name method_label,
-  !> solver its code and solver_name its name), the dissipation (zeta, crr, f_roll, dissip in
-  !> words), the box of the equilibria (the energy scale), label and input for messages, us and
-  !> ue the time's and the energy's units in them: the record's handle.
-  integer(c_int) function c_scene_trajectory(system, params, x0, at_rest, t_end, dt_out, section, section_direction, &
-                                             section_angle, section_level, stop_at_first, max_crossings, method, &
-                                             method_label, rtol, atol, step, max_steps, omega_bind, solver, &
-                                             solver_name, max_iter, zeta, crr, f_roll, dissip, lo, hi, n_grid, label, &
-                                             input, us, ue, stores) result(h) bind(C, name='tubes_trajectory_scene')
-    use tubes_methods, only: method_opts_t
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), section(32), solver_name(32), label(64)
-    character(kind=c_char), intent(in) :: method_label(*), dissip(*), input(*), us(*), ue(*)   ! (C literals)
-    real(c_double), intent(in) :: params(MAX_PARAMS), x0(4), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: at_rest, section_direction, stop_at_first, max_crossings, method, solver, max_iter, n_grid
-    real(c_double), value :: t_end, dt_out, section_angle, section_level, rtol, atol, step, omega_bind, zeta, crr, f_roll
-    integer(c_long_long), value :: max_steps
+  !> The trajectory scene (tubes_scene_trajectory) on the run's settings cfg with the method the run
+  !> chose, the run's dissipation (zeta, crr, f_roll, dissip in words), label the model's name, input
+  !> the input file, us and ue the time's and the energy's units in messages. The record's handle.
+  integer(c_int) function c_scene_trajectory(cfg, method, zeta, crr, f_roll, dissip, label, input, us, ue, stores) &
+      result(h) bind(C, name='tubes_trajectory_scene')
+    type(tubes_config_t), intent(in) :: cfg
+    integer(c_int), value :: method
+    real(c_double), value :: zeta, crr, f_roll
+    character(kind=c_char), intent(in) :: label(64)
+    character(kind=c_char), intent(in) :: dissip(*), input(*), us(*), ue(*)   ! (C literals)
     type(c_ptr), value :: stores
     type(record_t), allocatable :: rec
-    type(seed_stores_t), pointer :: kept
-    type(trajectory_settings_t) :: s
     allocate (rec)
-    ! (component by component: gfortran 12 garbles a constructor's deferred-length strings)
-    s%x0 = x0
-    s%at_rest = at_rest /= 0
-    s%t_end = t_end
-    s%dt_out = dt_out
-    s%section = trim(c_to_f(section))
-    s%section_direction = section_direction
-    s%max_crossings = max_crossings
-    s%section_angle = section_angle
-    s%section_level = section_level
-    s%stop_at_first = stop_at_first /= 0
-    s%method = method
-    s%method_label = c_to_f(method_label(1:32))
-    s%solver = trim(c_to_f(solver_name))
-    s%rtol = rtol
-    s%atol = atol
-    s%h = step
-    s%max_steps = max_steps
-    s%mopts = method_opts_t(omega_bind=omega_bind, solver=solver, max_iter=max_iter)
-    s%zeta = zeta
-    s%crr = crr
-    s%f_roll = f_roll
-    s%dissip = c_to_f(dissip(1:128))
-    kept => stores_at(transfer(stores, 0_c_intptr_t))
-    call scene_trajectory(trim(c_to_f(system)), params, s, lo, hi, n_grid, trim(c_to_f(label)), &
-                          c_to_f(input(1:1024)), c_to_f(us(1:16)), c_to_f(ue(1:16)), kept, rec)
+    call scene_trajectory(cfg, int(method), zeta, crr, f_roll, c_to_f(dissip(1:128)), trim(c_to_f(label)), &
+                          c_to_f(input(1:1024)), c_to_f(us(1:16)), c_to_f(ue(1:16)), stores_at(transfer(stores, 0_c_intptr_t)), &
+                          rec)
     h = record_keep(rec)
   end function c_scene_trajectory
 
@@ -262,116 +206,65 @@ contains
     rh = record_keep(rec)
   end function c_scene_orbits
 
-  !> The transition scene (tubes_scene_transition): the record's handle (include/tubes.h).
-  integer(c_int) function c_scene_transition(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
-      angle_deg, nde, des, eps, area_tol, t_max, n_init, n_max, n_segments, family, orb_tol, orb_rtol, orb_atol, &
-      orb_max_iter, orb_n_samples, method, h, omega_bind, solver, max_iter, gate, mc_t_max, dissip, gate_units, &
-      energy_units, written, stores) result(hd) bind(C, name='tubes_transition_scene')
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), dissip(128), gate_units(16), &
-                                          energy_units(16)
-    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, nde, n_init, n_max, n_segments, family, orb_max_iter, &
-                             orb_n_samples, method, solver, max_iter, written
-    real(c_double), value :: level, angle_deg, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol, h, omega_bind, &
-                             gate, mc_t_max
-    real(c_double), intent(in) :: des(nde)
+  !> The transition scene (tubes_scene_transition) on the run's settings cfg, with the saddle and the
+  !> method the run chose; units /= 0: the messages carry the ball's units; dissip: the dissipation in
+  !> words ('' conservative); written /= 0: /section is in the output already. The record's handle.
+  integer(c_int) function c_scene_transition(cfg, saddle, method, units, dissip, written, stores) result(hd) &
+      bind(C, name='tubes_transition_scene')
+    type(tubes_config_t), intent(in) :: cfg
+    character(kind=c_char), intent(in) :: saddle(8), dissip(128)
+    integer(c_int), value :: method, units, written
     type(c_ptr), value :: stores
     type(record_t), allocatable :: rec
-    type(seed_stores_t), pointer :: kept
-    type(study_t) :: st
     allocate (rec)
-    kept => stores_at(transfer(stores, 0_c_intptr_t))
-    st = study_t(system=c_to_f(system), params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=c_to_f(saddle), &
-                 n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol, &
-                 integ=integ_of(method, h, omega_bind, solver, max_iter))
-    call scene_transition(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), des, &
-                          transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
-                                            orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
-                                            mc_t_max=mc_t_max, angle_deg=angle_deg, gate_units=c_to_f(gate_units), &
-                                            energy_units=c_to_f(energy_units)), &
-                          trim(c_to_f(dissip)), written /= 0, kept, rec)
+    call scene_transition(cfg, trim(c_to_f(saddle)), int(method), units /= 0, trim(c_to_f(dissip)), written /= 0, &
+                          stores_at(transfer(stores, 0_c_intptr_t)), rec)
     hd = record_keep(rec)
   end function c_scene_transition
 
-  !> The montecarlo scene (tubes_scene_montecarlo): the record's handle (include/tubes.h).
-  integer(c_int) function c_scene_montecarlo(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
-      angle_deg, de, n, seed, eps, area_tol, t_max, n_init, n_max, n_segments, family, orb_tol, orb_rtol, orb_atol, &
-      orb_max_iter, orb_n_samples, method, h, omega_bind, solver, max_iter, gate, mc_t_max, dissip, noisy, gate_at, &
-      gate_units, energy_units, speed_units, written, stores) result(hd) bind(C, name='tubes_montecarlo_scene')
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), dissip(128), gate_at(1024), &
-                                          gate_units(16), energy_units(16), speed_units(16)
-    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, n, seed, n_init, n_max, n_segments, family, &
-                             orb_max_iter, orb_n_samples, method, solver, max_iter, noisy, written
-    real(c_double), value :: level, angle_deg, de, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol, h, omega_bind, &
-                             gate, mc_t_max
+  !> The montecarlo scene (tubes_scene_montecarlo), as tubes_transition_scene; noisy /= 0: the model
+  !> carries noise; gate_at: the head of a message about &montecarlo gate. The record's handle.
+  integer(c_int) function c_scene_montecarlo(cfg, saddle, method, units, dissip, noisy, gate_at, written, stores) &
+      result(hd) bind(C, name='tubes_montecarlo_scene')
+    type(tubes_config_t), intent(in) :: cfg
+    character(kind=c_char), intent(in) :: saddle(8), dissip(128), gate_at(1024)
+    integer(c_int), value :: method, units, noisy, written
     type(c_ptr), value :: stores
     type(record_t), allocatable :: rec
-    type(seed_stores_t), pointer :: kept
-    type(study_t) :: st
     allocate (rec)
-    kept => stores_at(transfer(stores, 0_c_intptr_t))
-    st = study_t(system=c_to_f(system), params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=c_to_f(saddle), &
-                 n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol, &
-                 integ=integ_of(method, h, omega_bind, solver, max_iter))
-    call scene_montecarlo(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), de, n, seed, &
-                          transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
-                                            orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
-                                            mc_t_max=mc_t_max, angle_deg=angle_deg, gate_units=c_to_f(gate_units), &
-                                            energy_units=c_to_f(energy_units), speed_units=c_to_f(speed_units)), &
-                          trim(c_to_f(dissip)), noisy /= 0, c_to_f(gate_at), written /= 0, kept, rec)
+    call scene_montecarlo(cfg, trim(c_to_f(saddle)), int(method), units /= 0, trim(c_to_f(dissip)), noisy /= 0, &
+                          c_to_f(gate_at), written /= 0, stores_at(transfer(stores, 0_c_intptr_t)), rec)
     hd = record_keep(rec)
   end function c_scene_montecarlo
 
-  !> The tubes scene (tubes_scene_tubes): the record's handle (include/tubes.h).
-  integer(c_int) function c_scene_tubes(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
-      angle_deg, nde, des, kinds, eps, area_tol, t_max, n_init, n_max, n_segments, family, orb_tol, orb_rtol, orb_atol, &
-      orb_max_iter, orb_n_samples, method, h, omega_bind, solver, max_iter, gate, mc_t_max, dissip, length, gate_units, &
-      energy_units, check_eps, written, stores) result(hd) bind(C, name='tubes_tubes_scene')
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), kinds(16), dissip(128), length(32), &
-                                          gate_units(16), energy_units(16)
-    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, nde, n_init, n_max, n_segments, family, orb_max_iter, &
-                             orb_n_samples, method, solver, max_iter, check_eps, written
-    real(c_double), value :: level, angle_deg, eps, area_tol, t_max, orb_tol, orb_rtol, orb_atol, h, omega_bind, &
-                             gate, mc_t_max
-    real(c_double), intent(in) :: des(nde)
+  !> The tubes scene (tubes_scene_tubes), as tubes_transition_scene; length: the coordinates' units in
+  !> words; check_eps /= 0: each cut repeated with eps/10. The record's handle.
+  integer(c_int) function c_scene_tubes(cfg, saddle, method, units, length, dissip, check_eps, written, stores) &
+      result(hd) bind(C, name='tubes_tubes_scene')
+    type(tubes_config_t), intent(in) :: cfg
+    character(kind=c_char), intent(in) :: saddle(8), length(32), dissip(128)
+    integer(c_int), value :: method, units, check_eps, written
     type(c_ptr), value :: stores
     type(record_t), allocatable :: rec
-    type(study_t) :: st
     allocate (rec)
-    st = study_t(system=c_to_f(system), params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=c_to_f(saddle), &
-                 n_segments=n_segments, family=family, orb_tol=orb_tol, orb_rtol=orb_rtol, orb_atol=orb_atol, &
-                 integ=integ_of(method, h, omega_bind, solver, max_iter))
-    call scene_tubes(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), des, &
-                     trim(c_to_f(kinds)), transition_opts_t(eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, &
-                     n_max=n_max, orb_max_iter=orb_max_iter, orb_n_samples=orb_n_samples, gate=gate, &
-                     mc_t_max=mc_t_max, angle_deg=angle_deg, gate_units=c_to_f(gate_units), &
-                     energy_units=c_to_f(energy_units)), trim(c_to_f(length)), trim(c_to_f(dissip)), check_eps /= 0, &
-                     written /= 0, stores_at(transfer(stores, 0_c_intptr_t)), rec)
+    call scene_tubes(cfg, trim(c_to_f(saddle)), int(method), units /= 0, trim(c_to_f(length)), trim(c_to_f(dissip)), &
+                     check_eps /= 0, written /= 0, stores_at(transfer(stores, 0_c_intptr_t)), rec)
     hd = record_keep(rec)
   end function c_scene_tubes
 
-  !> /section alone (tubes_scene_section), for a scene that draws on the section without its own use
-  !> of it (sections): the section as tubes_transition_scene's; written: /section exists already.
-  !> The record's handle.
-  integer(c_int) function c_scene_section(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, &
-                                          angle_deg, method, step, omega_bind, solver, max_iter, written, stores) &
-      result(hd) bind(C, name='tubes_section_scene')
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8)
-    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, sec_kind, sec_index, dir, method, solver, max_iter, written
-    real(c_double), value :: level, angle_deg, step, omega_bind
+  !> /section alone (tubes_scene_section) on the run's settings cfg, with the saddle and the method the
+  !> run chose, for a scene that draws on the section without its own use of it (sections); written
+  !> /= 0: /section exists already. The record's handle.
+  integer(c_int) function c_scene_section(cfg, saddle, method, written, stores) result(hd) &
+      bind(C, name='tubes_section_scene')
+    type(tubes_config_t), intent(in) :: cfg
+    character(kind=c_char), intent(in) :: saddle(8)
+    integer(c_int), value :: method, written
     type(c_ptr), value :: stores
     type(record_t), allocatable :: rec
-    type(study_t) :: st
-    real(c_double) :: a0, tau, tpo
-    logical :: ok
     allocate (rec)
-    st = study_t(system=c_to_f(system), params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=c_to_f(saddle), &
-                 integ=integ_of(method, step, omega_bind, solver, max_iter))
-    call scene_section(st, section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), angle_deg, &
-                       written /= 0, stores_at(transfer(stores, 0_c_intptr_t)), rec, a0, tau, tpo, ok)
+    call scene_section_alone(cfg, trim(c_to_f(saddle)), int(method), written /= 0, &
+                             stores_at(transfer(stores, 0_c_intptr_t)), rec)
     hd = record_keep(rec)
   end function c_scene_section
 

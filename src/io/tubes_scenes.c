@@ -26,13 +26,6 @@ static const char *in_units(const char *ball_units) {
 /* Does the run's model dissipate (damping_ratio or rolling_resistance > 0; scene_model)? */
 static int dissipative(const tubes_run_t *run) { return run->law != NULL; }
 
-/* The method the run integrates with: &integrator method, and for 'auto' what it became
- * ("auto (taylor)": Taylor for the state, DOP853 for the variational equations; "auto (dop853)":
- * no Taylor kernel). */
-static const char *method_label(const tubes_run_t *run) {
-  if (strcmp(run->cfg->method, "auto")) return run->cfg->method;
-  return run->method == TUBES_METHOD_AUTO ? "auto (taylor)" : "auto (dop853)";
-}
 
 enum { NEQ_MAX = 256, MD = TUBES_MAXDOF };
 /* The &integrator choice as the C API's arguments (include/tubes.h): every analysis uses it. */
@@ -304,14 +297,9 @@ int scene_equilibria(tubes_run_t *run) {
 
 int scene_trajectory(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  double x0[4] = {c->x0, c->y0, c->px0, c->py0};
-  int h = tubes_trajectory_scene(run->system, run->params, x0, c->at_rest, c->t_end, c->dt_out, c->section,
-                                 c->section_direction, c->section_angle, c->section_level, c->stop_at_first,
-                                 c->max_crossings, run->method, method_label(run), c->rtol, c->atol, c->h,
-                                 (long long)c->max_steps, c->omega_bind, strcmp(c->solver, "fixed_point") ? 1 : 2,
-                                 c->solver, c->max_iter, run->zeta, run->crr, run->f_roll,
-                                 dissipative(run) ? run->dissip : "", run->lo, run->hi, run->n_grid, run->label,
-                                 run->input ? run->input : "tubes", in_units(" s"), in_units(" (cm/s)^2"), run->seeds);
+  int h = tubes_trajectory_scene(c, run->method, run->zeta, run->crr, run->f_roll, dissipative(run) ? run->dissip : "",
+                                 run->label, run->input ? run->input : "tubes", in_units(" s"), in_units(" (cm/s)^2"),
+                                 run->seeds);
   return record_emit(run->file, h);
 }
 
@@ -341,13 +329,11 @@ static int orb_nseg(const tubes_config_t *c) { return strcmp(c->orb_method, "mul
  * is made where no cut was recorded. */
 int scene_tubes(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  int h = tubes_tubes_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
-                            c->sec_angle, c->tub_nde, c->tub_de, c->tub_kind, c->tub_eps, c->tub_area_tol, c->tub_t_max,
-                            c->tub_n_init, c->tub_n_max, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol,
-                            c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c), c->mc_gate, c->mc_t_max,
-                            dissipative(run) ? run->dissip : "",
-                            strcmp(run->length_units, "1") ? run->length_units : "(length units)", in_units(" cm"),
-                            in_units(" (cm/s)^2"), 1, H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
+  char length[32];
+  snprintf(length, sizeof length, "%s", strcmp(run->length_units, "1") ? run->length_units : "(length units)");
+  int h = tubes_tubes_scene(c, run->saddle, run->method, in_units(" cm")[0] != 0, length,
+                            dissipative(run) ? run->dissip : "", 1, H5Lexists(run->file, "section", H5P_DEFAULT) > 0,
+                            run->seeds);
   int rc = record_emit(run->file, h);
   if (rc == EXIT_IO || H5Lexists(run->file, "section", H5P_DEFAULT) <= 0 || H5Lexists(run->file, "tubes", H5P_DEFAULT) > 0)
     return rc;
@@ -361,12 +347,9 @@ int scene_tubes(tubes_run_t *run) {
  * its energies dealt out over the MPI ranks there). */
 int scene_transition(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  int h = tubes_transition_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
-                                 c->sec_angle, c->tra_nde, c->tra_de, c->tub_eps, c->tra_area_tol, c->tub_t_max,
-                                 c->tub_n_init, c->tub_n_max, orb_nseg(c), c->orb_family, c->orb_tol, c->orb_rtol,
-                                 c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c), c->mc_gate,
-                                 c->mc_t_max, dissipative(run) ? run->dissip : "", in_units(" cm"),
-                                 in_units(" (cm/s)^2"), H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
+  int h = tubes_transition_scene(c, run->saddle, run->method, in_units(" cm")[0] != 0,
+                                 dissipative(run) ? run->dissip : "", H5Lexists(run->file, "section", H5P_DEFAULT) > 0,
+                                 run->seeds);
   return record_emit(run->file, h);
 }
 
@@ -378,29 +361,22 @@ int scene_montecarlo(tubes_run_t *run) {
   if (run->input && ln > 0) snprintf(at, sizeof at, "%s:%d: ", run->input, ln);
   else if (run->input) snprintf(at, sizeof at, "%s: ", run->input);
   else snprintf(at, sizeof at, "tubes: ");
-  int h = tubes_montecarlo_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
-                                 c->sec_angle, c->mc_de, c->mc_n_samples, c->mc_seed, c->tub_eps, c->mc_area_tol,
-                                 c->tub_t_max, c->tub_n_init, c->tub_n_max, orb_nseg(c), c->orb_family, c->orb_tol,
-                                 c->orb_rtol, c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c),
-                                 c->mc_gate, c->mc_t_max, dissipative(run) ? run->dissip : "", run->noisy, at,
-                                 in_units(" cm"), in_units(" (cm/s)^2"), in_units(" cm/s"),
+  int h = tubes_montecarlo_scene(c, run->saddle, run->method, in_units(" cm")[0] != 0,
+                                 dissipative(run) ? run->dissip : "", run->noisy, at,
                                  H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds);
   return record_emit(run->file, h);
 }
 
 int scene_sections(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  int rc = record_emit(run->file, tubes_section_scene(run->system, run->params, run->lo, run->hi, run->n_grid,
-                                                      run->saddle, SECTION(c), c->sec_angle, INTEGRATOR(c),
+  int rc = record_emit(run->file, tubes_section_scene(c, run->saddle, run->method,
                                                       H5Lexists(run->file, "section", H5P_DEFAULT) > 0, run->seeds));
   if (rc) return rc;
   hid_t g = h5_group(run->file, "sections");
   if (g < 0) return EXIT_IO;
   H5Gclose(g);
   for (int k = 0; k < c->pm_nde; k++) {   /* a map's record written before the next starts */
-    int h = tubes_sections_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, SECTION(c),
-                                 c->pm_de[k], k, c->pm_n_seeds, c->pm_n_iter, c->pm_t_max, INTEGRATOR(c),
-                                 dissipative(run), run->seeds);
+    int h = tubes_sections_scene(c, run->saddle, run->method, k, dissipative(run), run->seeds);
     int r = record_emit(run->file, h);
     if (r == EXIT_IO || r == EXIT_NUMERIC) return r;
     if (r) rc = r;
@@ -442,12 +418,7 @@ static int write_tracks_csv(hid_t file, const char *path, int nt, int ns) {
 
 int scene_synthetic_experiment(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  char method[32];
-  snprintf(method, sizeof method, "%s", method_label(run));
-  int h = tubes_synthetic_experiment_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle,
-                                           c->exp_n_tracks, c->exp_duration, c->exp_camera_rate, c->exp_pixel,
-                                           c->exp_noise, c->exp_de_min, c->exp_de_max, c->exp_damping_ratio,
-                                           c->exp_rolling_resistance, c->exp_seed, INTEGRATOR(c), method, run->seeds);
+  int h = tubes_synthetic_experiment_scene(c, run->saddle, run->method, run->seeds);
   int rc = record_emit(run->file, h);
   if (rc == EXIT_IO || !c->exp_csv[0] || run->rank != 0 || H5Lexists(run->file, "tracks", H5P_DEFAULT) <= 0)
     return rc;

@@ -18,8 +18,10 @@ module tubes_scene_montecarlo
   use tubes_study, only: study_t, section_choice_t, seed_stores_t, section_info, &
                          region_at, region_numbers, region_outputs, region_info_t, check_at, gate_reach
   use tubes_scene_section, only: scene_section
-  use tubes_scene_transition, only: transition_opts_t, past_end_message, region_text, take_cut, scene_cut_t
+  use tubes_scene_transition, only: transition_opts_t, transition_opts_of, past_end_message, region_text, take_cut, scene_cut_t
   use tubes_scene_text, only: itoa, wall, progress_line
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_study, settings_section
   implicit none
   private
 
@@ -34,7 +36,22 @@ contains
   !> the transit test's); dissip: the dissipation in words ('' conservative); noisy: the model
   !> carries noise; gate_at: the head of a message about &montecarlo gate ("FILE:LINE: "); written:
   !> /section is in the output already; stores: the run's kept results (or null).
-  subroutine scene_montecarlo(st, sec, de, n, seed, o, dissip, noisy, gate_at, written, stores, rec)
+  !> The scene on the run's settings cfg (&montecarlo de, n_samples, seed, area_tol), the saddle and
+  !> the method the run chose; units: the messages carry the ball's units; the rest as
+  !> montecarlo_scene_body's.
+  subroutine scene_montecarlo(cfg, saddle, method, units, dissip, noisy, gate_at, written, stores, rec)
+    type(tubes_config_t), intent(in) :: cfg
+    character(*), intent(in) :: saddle, dissip, gate_at
+    integer, intent(in) :: method
+    logical, intent(in) :: units, noisy, written
+    type(seed_stores_t), pointer, intent(in) :: stores
+    type(record_t), intent(inout) :: rec
+    call montecarlo_scene_body(settings_study(cfg, saddle, method), settings_section(cfg), cfg%mc_de, cfg%mc_n_samples, &
+                               cfg%mc_seed, transition_opts_of(cfg, cfg%mc_area_tol, units), dissip, noisy, gate_at, &
+                               written, stores, rec)
+  end subroutine scene_montecarlo
+
+  subroutine montecarlo_scene_body(st, sec, de, n, seed, o, dissip, noisy, gate_at, written, stores, rec)
     type(study_t), intent(in) :: st
     type(section_choice_t), intent(in) :: sec
     real(wp), intent(in) :: de
@@ -237,5 +254,5 @@ contains
         call rec%int('montecarlo', 'transit', outc, [n])
       end if
     end subroutine group
-  end subroutine scene_montecarlo
+  end subroutine montecarlo_scene_body
 end module tubes_scene_montecarlo

@@ -15,13 +15,15 @@ module tubes_scene_section
   use tubes_equilibria, only: equilibrium_t
   use tubes_models, only: MAX_DOF
   use tubes_study, only: study_t, section_choice_t, seed_stores_t, model_equilibria, equilibria_table, section_info
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_study, settings_section
   implicit none
   private
 
   integer, parameter, public :: SEC_KIND_RAY = 1, SEC_KIND_PLANE = 2   !! section_choice_t%kind
   integer, parameter :: NEQ_MAX = 256      ! the equilibria a saddle is looked up among (as the C API's)
 
-  public :: scene_section, saddle_props
+  public :: scene_section, scene_section_alone, saddle_props
 
 contains
 
@@ -29,6 +31,22 @@ contains
   !> same in degrees as the input gave it); written: the output already holds /section (an
   !> earlier scene wrote it: nothing is recorded again). a0, tau, tpo: A0, tau and T_po for the
   !> scene (a0 and tau NaN with 3 degrees of freedom); ok: .false. after a verdict (the scene stops).
+  !> /section alone on the run's settings cfg, the saddle and the method the run chose, for a scene
+  !> that draws on the section without its own use of it (sections); written: /section is in the
+  !> output already (nothing recorded).
+  subroutine scene_section_alone(cfg, saddle, method, written, stores, rec)
+    type(tubes_config_t), intent(in) :: cfg
+    character(*), intent(in) :: saddle
+    integer, intent(in) :: method
+    logical, intent(in) :: written
+    type(seed_stores_t), pointer, intent(in) :: stores
+    type(record_t), intent(inout) :: rec
+    real(wp) :: a0, tau, tpo
+    logical :: ok
+    call scene_section(settings_study(cfg, saddle, method), settings_section(cfg), cfg%sec_angle, written, stores, rec, &
+                       a0, tau, tpo, ok)
+  end subroutine scene_section_alone
+
   subroutine scene_section(st, sec, angle_deg, written, stores, rec, a0, tau, tpo, ok, ndof)
     type(study_t), intent(in) :: st
     type(section_choice_t), intent(in) :: sec

@@ -11,6 +11,8 @@ module tubes_scene_sections
   use tubes_setup, only: scene_dissipation, dissipation_attrs
   use tubes_study, only: study_t, section_choice_t, seed_stores_t, maps_at
   use tubes_scene_text, only: itoa, wall, progress_line
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_study, settings_section
   implicit none
   private
 
@@ -22,7 +24,20 @@ contains
   !> trajectories, n_iter returns each within t_max per return; dissipative: the model loses
   !> energy (said on the console, and the dissipation's attributes on the map). stores: the run's kept
   !> results (or null). rec: the map's record.
-  subroutine scene_sections(st, sec, de, k, n_seeds, n_iter, t_max, dissipative, stores, rec)
+  !> Map k (0-based) of the scene on the run's settings cfg (&sections de(k + 1), n_seeds, n_iter,
+  !> t_max), the saddle and the method the run chose; dissipative: the run's model dissipates.
+  subroutine scene_sections(cfg, saddle, method, k, dissipative, stores, rec)
+    type(tubes_config_t), intent(in) :: cfg
+    character(*), intent(in) :: saddle
+    integer, intent(in) :: method, k
+    logical, intent(in) :: dissipative
+    type(seed_stores_t), pointer, intent(in) :: stores
+    type(record_t), intent(inout) :: rec
+    call sections_scene_body(settings_study(cfg, saddle, method), settings_section(cfg), cfg%pm_de(k + 1), k, &
+                             cfg%pm_n_seeds, cfg%pm_n_iter, cfg%pm_t_max, dissipative, stores, rec)
+  end subroutine scene_sections
+
+  subroutine sections_scene_body(st, sec, de, k, n_seeds, n_iter, t_max, dissipative, stores, rec)
     use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
     type(study_t), intent(in) :: st
     type(section_choice_t), intent(in) :: sec
@@ -65,5 +80,5 @@ contains
     call rec%attr_real(group, 'dE', de)
     call rec%attr_int(group, 'status', stat)
     if (dissipative) call dissipation_attrs(scene_dissipation(trim(st%system), st%params), group, rec)
-  end subroutine scene_sections
+  end subroutine sections_scene_body
 end module tubes_scene_sections

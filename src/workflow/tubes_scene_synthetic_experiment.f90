@@ -15,6 +15,9 @@ module tubes_scene_synthetic_experiment
   use tubes_study, only: seed_stores_t, model_equilibria
   use tubes_experiment, only: experiment_opts_t, experiment_samples, synthetic_experiment
   use tubes_scene_text, only: itoa, wall, progress_line
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_integ, settings_text, settings_method_label
+  use, intrinsic :: iso_c_binding, only: c_long
   implicit none
   private
 
@@ -28,8 +31,25 @@ contains
   !> ball damped by damping_ratio and rolling_resistance (the model's own dissipation replaced,
   !> without noise), integrated by integ (method: its name for /tracks@method). stores: the run's
   !> kept results (or null). rec: the scene's record.
-  subroutine scene_synthetic_experiment(system, params, lo, hi, n_grid, saddle, ex, damping_ratio, &
-                                        rolling_resistance, integ, method, stores, rec)
+  !> The scene on the run's settings cfg (&experiment; the integrator with the method the run chose)
+  !> at the saddle the run chose.
+  subroutine scene_synthetic_experiment(cfg, saddle, method, stores, rec)
+    type(tubes_config_t), intent(in) :: cfg
+    character(*), intent(in) :: saddle
+    integer, intent(in) :: method
+    type(seed_stores_t), pointer, intent(in) :: stores
+    type(record_t), intent(inout) :: rec
+    call experiment_scene_body(settings_text(cfg%model), cfg%params, cfg%box_lo, cfg%box_hi, cfg%n_grid, saddle, &
+                               experiment_opts_t(n_tracks=cfg%exp_n_tracks, duration=cfg%exp_duration, &
+                                                 camera_rate=cfg%exp_camera_rate, pixel=cfg%exp_pixel, &
+                                                 noise=cfg%exp_noise, de_min=cfg%exp_de_min, de_max=cfg%exp_de_max, &
+                                                 seed=int(cfg%exp_seed, c_long)), &
+                               cfg%exp_damping_ratio, cfg%exp_rolling_resistance, settings_integ(cfg, method), &
+                               settings_method_label(cfg, method), stores, rec)
+  end subroutine scene_synthetic_experiment
+
+  subroutine experiment_scene_body(system, params, lo, hi, n_grid, saddle, ex, damping_ratio, &
+                                   rolling_resistance, integ, method, stores, rec)
     use, intrinsic :: ieee_arithmetic, only: ieee_is_nan
     character(*), intent(in) :: system, saddle, method
     real(wp), intent(in) :: params(:), lo(:), hi(:), damping_ratio, rolling_resistance
@@ -145,5 +165,5 @@ contains
     call rec%real('tracks/truth', 'noisy', reshape(noisy, [2*n]), [n, 2])
     call rec%real('tracks/truth', 'release', reshape(rel(1:2, :), [2*nt]), [nt, 2])
     call rec%real('tracks/truth', 'release_dE', rel(3, :), [nt])
-  end subroutine scene_synthetic_experiment
+  end subroutine experiment_scene_body
 end module tubes_scene_synthetic_experiment

@@ -19,6 +19,8 @@ module tubes_scene_trajectory
   use tubes_study, only: seed_stores_t, model_equilibria
   use tubes_models, only: make_model
   use tubes_scene_text, only: itoa, wall, progress_line
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_text, settings_method_label
   implicit none
   private
 
@@ -60,7 +62,47 @@ contains
   !> ('tubes' without one); us, ue: ' s' and ' (cm/s)^2' as messages write them after a time and an
   !> energy ('' for a dimensionless model). stores: the run's kept results (or null). rec: the
   !> scene's record.
-  subroutine scene_trajectory(system, params, s, lo, hi, n_grid, label, input, us, ue, stores, rec)
+  !> The scene on the run's settings cfg (&trajectory, &integrator with the method the run chose), the
+  !> run's dissipation (zeta, crr, f_roll [cm/s^2], dissip in words: tubes_setup model_dissipation's),
+  !> label the model's name, input the input file and us, ue the time's and the energy's units in
+  !> messages.
+  subroutine scene_trajectory(cfg, method, zeta, crr, f_roll, dissip, label, input, us, ue, stores, rec)
+    type(tubes_config_t), intent(in) :: cfg
+    integer, intent(in) :: method
+    real(wp), intent(in) :: zeta, crr, f_roll
+    character(*), intent(in) :: dissip, label, input, us, ue
+    type(seed_stores_t), pointer, intent(in) :: stores
+    type(record_t), intent(inout) :: rec
+    type(trajectory_settings_t) :: s
+    ! (component by component: gfortran 12 garbles a constructor's deferred-length strings)
+    s%x0 = [cfg%x0, cfg%y0, cfg%px0, cfg%py0]
+    s%at_rest = cfg%at_rest /= 0
+    s%t_end = cfg%t_end
+    s%dt_out = cfg%dt_out
+    s%section = settings_text(cfg%section)
+    s%section_direction = cfg%section_direction
+    s%max_crossings = cfg%max_crossings
+    s%section_angle = cfg%section_angle
+    s%section_level = cfg%section_level
+    s%stop_at_first = cfg%stop_at_first /= 0
+    s%method = method
+    s%method_label = settings_method_label(cfg, method)
+    s%solver = settings_text(cfg%solver)
+    s%rtol = cfg%rtol
+    s%atol = cfg%atol
+    s%h = cfg%h
+    s%max_steps = cfg%max_steps
+    s%mopts = method_opts_t(omega_bind=cfg%omega_bind, solver=merge(2, 1, s%solver == 'fixed_point'), &
+                            max_iter=cfg%max_iter)
+    s%zeta = zeta
+    s%crr = crr
+    s%f_roll = f_roll
+    s%dissip = dissip
+    call trajectory_scene_body(settings_text(cfg%model), cfg%params, s, cfg%box_lo, cfg%box_hi, cfg%n_grid, label, &
+                               input, us, ue, stores, rec)
+  end subroutine scene_trajectory
+
+  subroutine trajectory_scene_body(system, params, s, lo, hi, n_grid, label, input, us, ue, stores, rec)
     character(*), intent(in) :: system, label, input, us, ue
     real(wp), intent(in) :: params(:), lo(:), hi(:)
     type(trajectory_settings_t), intent(in) :: s
@@ -226,7 +268,7 @@ contains
                   [ncross])
     call rec%real('trajectory/crossings', 'p_theta', cx(1, 1:ncross)*cx(4, 1:ncross) - cx(2, 1:ncross)*cx(3, 1:ncross), &
                   [ncross])
-  end subroutine scene_trajectory
+  end subroutine trajectory_scene_body
 
   !> The section of &trajectory section = name (docs/input.md; Python's integrate too): its kind
   !> (tubes_run SECTION_*), level and orientation dir. angle [deg]: the ray's ('theta'); level: the

@@ -26,10 +26,12 @@ module tubes_scene_transition
                          region_at, region_numbers, region_info_t, study_family, p_trans_leading
   use tubes_scene_section, only: scene_section, SEC_KIND_RAY
   use tubes_scene_text, only: itoa, rs, wall, progress_line
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_study, settings_section
   implicit none
   private
 
-  public :: scene_transition, family_stop_text, past_end_message, region_text, cut_message, take_cut
+  public :: scene_transition, transition_opts_of, family_stop_text, past_end_message, region_text, cut_message, take_cut
 
   !> The scene's settings beyond the study's (&tubes, &transition, &orbits, &montecarlo).
   type, public :: transition_opts_t
@@ -65,7 +67,44 @@ contains
   !> integrator) with section sec; o: the other settings; dissip: the dissipation in words ('' for
   !> a conservative model); written: /section is in the output already; stores: the run's kept
   !> results (or null). rec: the scene's record.
-  subroutine scene_transition(st, sec, des, o, dissip, written, stores, rec)
+  !> The tube-dynamics scenes' shared settings from the run's (&tubes, &orbits, &montecarlo gate and
+  !> t_max, &section angle), with area_tol the scene's own; units: the messages carry the ball's units.
+  function transition_opts_of(cfg, area_tol, units) result(o)
+    type(tubes_config_t), intent(in) :: cfg
+    real(wp), intent(in) :: area_tol
+    logical, intent(in) :: units
+    type(transition_opts_t) :: o
+    o%eps = cfg%tub_eps
+    o%area_tol = area_tol
+    o%t_max = cfg%tub_t_max
+    o%n_init = cfg%tub_n_init
+    o%n_max = cfg%tub_n_max
+    o%orb_max_iter = cfg%orb_max_iter
+    o%orb_n_samples = cfg%orb_n_samples
+    o%gate = cfg%mc_gate
+    o%mc_t_max = cfg%mc_t_max
+    o%angle_deg = cfg%sec_angle
+    if (units) then
+      o%gate_units = ' cm'
+      o%energy_units = ' (cm/s)^2'
+      o%speed_units = ' cm/s'
+    end if
+  end function transition_opts_of
+
+  !> The scene on the run's settings cfg (&transition de and area_tol), the saddle and the method the
+  !> run chose; units, dissip, written, stores as transition_scene_body's.
+  subroutine scene_transition(cfg, saddle, method, units, dissip, written, stores, rec)
+    type(tubes_config_t), intent(in) :: cfg
+    character(*), intent(in) :: saddle, dissip
+    integer, intent(in) :: method
+    logical, intent(in) :: units, written
+    type(seed_stores_t), pointer, intent(in) :: stores
+    type(record_t), intent(inout) :: rec
+    call transition_scene_body(settings_study(cfg, saddle, method), settings_section(cfg), cfg%tra_de(1:cfg%tra_nde), &
+                               transition_opts_of(cfg, cfg%tra_area_tol, units), dissip, written, stores, rec)
+  end subroutine scene_transition
+
+  subroutine transition_scene_body(st, sec, des, o, dissip, written, stores, rec)
     type(study_t), intent(in) :: st
     type(section_choice_t), intent(in) :: sec
     real(wp), intent(in) :: des(:)
@@ -267,7 +306,7 @@ contains
       end do
     end subroutine energy
 
-  end subroutine scene_transition
+  end subroutine transition_scene_body
 
   !> The transition region's failure at de in words (region_numbers' counts).
   function region_text(st, o, de, stat, counts) result(m)

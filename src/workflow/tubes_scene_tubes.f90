@@ -15,8 +15,10 @@ module tubes_scene_tubes
   use tubes_setup, only: dissipation_t, scene_dissipation, dissipation_attrs
   use tubes_study, only: study_t, section_choice_t, seed_stores_t, region_at, region_numbers, region_outputs, region_info_t
   use tubes_scene_section, only: scene_section
-  use tubes_scene_transition, only: transition_opts_t, region_text, cut_message, take_cut, scene_cut_t
+  use tubes_scene_transition, only: transition_opts_t, transition_opts_of, region_text, cut_message, take_cut, scene_cut_t
   use tubes_scene_text, only: itoa, rs, wall, progress_line
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_study, settings_section, settings_text
   implicit none
   private
 
@@ -30,7 +32,21 @@ contains
   !> kinds 'stable', 'unstable' or 'both'; length: the coordinates' units in words; dissip: the
   !> dissipation in words ('' conservative); check_eps: repeat each cut with eps/10 (the program
   !> does); written: /section is in the output already; stores: the run's kept results (or null).
-  subroutine scene_tubes(st, sec, des, kinds, o, length, dissip, check_eps, written, stores, rec)
+  !> The scene on the run's settings cfg (&tubes de, kind, area_tol), the saddle and the method the
+  !> run chose; units: the messages carry the ball's units; the rest as tubes_scene_body's.
+  subroutine scene_tubes(cfg, saddle, method, units, length, dissip, check_eps, written, stores, rec)
+    type(tubes_config_t), intent(in) :: cfg
+    character(*), intent(in) :: saddle, length, dissip
+    integer, intent(in) :: method
+    logical, intent(in) :: units, check_eps, written
+    type(seed_stores_t), pointer, intent(in) :: stores
+    type(record_t), intent(inout) :: rec
+    call tubes_scene_body(settings_study(cfg, saddle, method), settings_section(cfg), cfg%tub_de(1:cfg%tub_nde), &
+                          settings_text(cfg%tub_kind), transition_opts_of(cfg, cfg%tub_area_tol, units), length, dissip, &
+                          check_eps, written, stores, rec)
+  end subroutine scene_tubes
+
+  subroutine tubes_scene_body(st, sec, des, kinds, o, length, dissip, check_eps, written, stores, rec)
     type(study_t), intent(in) :: st
     type(section_choice_t), intent(in) :: sec
     real(wp), intent(in) :: des(:)
@@ -83,7 +99,7 @@ contains
       end do
     end do
     if (len(dissip) > 0) call regions(st, sec, des, o, dissip, stores, rec)
-  end subroutine scene_tubes
+  end subroutine tubes_scene_body
 
   !> k as C's %03d.
   pure function zeros3(k) result(u)

@@ -9,14 +9,14 @@ module tubes_settings
   use tubes_kinds, only: wp, PI
   use tubes_cstrings, only: c_to_f
   use tubes_config, only: tubes_config_t
-  use tubes_methods, only: integ_choice_t, method_opts_t
+  use tubes_methods, only: integ_choice_t, method_opts_t, METHOD_AUTO
   use tubes_orbits, only: orbit_opts_t
   use tubes_study, only: study_t, section_choice_t, SECTION_RAY, SECTION_PLANE
   implicit none
   private
 
   public :: settings_of_bytes, settings_bytes, settings_integ, settings_section, settings_study, &
-            settings_orbit_opts, settings_n_segments, settings_text
+            settings_orbit_opts, settings_n_segments, settings_text, settings_method_label
 
 contains
 
@@ -59,6 +59,18 @@ contains
     c%opts = method_opts_t(omega_bind=cfg%omega_bind, solver=merge(2, 1, c_to_f(cfg%solver) == 'fixed_point'), &
                            max_iter=cfg%max_iter)
   end function settings_integ
+
+  !> The method the run integrates with in words: &integrator method, and for 'auto' what it became
+  !> ('auto (taylor)': the Taylor method for the state, DOP853 for the variational equations;
+  !> 'auto (dop853)': no Taylor kernel, tubes_setup method_resolved).
+  pure function settings_method_label(cfg, method) result(s)
+    type(tubes_config_t), intent(in) :: cfg
+    integer, intent(in) :: method
+    character(:), allocatable :: s
+    s = c_to_f(cfg%method)
+    if (s /= 'auto') return
+    s = merge('auto (taylor)', 'auto (dop853)', method == METHOD_AUTO)
+  end function settings_method_label
 
   !> &section: the ball's ray at &section angle (degrees in the input, radians here) or the plane
   !> q_index = value.
