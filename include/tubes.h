@@ -278,20 +278,6 @@ int tubes_box_note(const char *system, const double *params, const double *lo, c
  * walks it (src/io/tubes_record_write.c); tubes_record_free forgets it. */
 enum { TUBES_REC_REAL = 1, TUBES_REC_INT = 2, TUBES_REC_STRINGS = 3, TUBES_REC_ATTR_REAL = 4, TUBES_REC_ATTR_INT = 5,
        TUBES_REC_ATTR_STRING = 6 };
-/* The equilibria scene: the saddle want (asked: the input names it), label (the model in
- * messages), dissip (the dissipation in words, "" conservative), box (&equilibria box). */
-int tubes_equilibria_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
-                           double box, const char *want, int asked, const char *label, const char *dissip,
-                           void *stores);
-/* The orbits scene at the n values of kind pkind (0 dE, 1 Jacobi constants, 2 periods), with the
- * settings of tubes_orbit_family; sysname: the system as the input names it; dimensioned: the
- * ball's units (cm, s); dissipative: the run's model dissipates (its orbits are the conservative
- * model's). */
-int tubes_orbits_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
-                       const char *saddle, int pkind, int n, const double *values, int n_segments, int family,
-                       double tol, double rtol, double atol, int max_iter, int nsamp, int method, double h,
-                       double omega_bind, int solver, int int_max_iter, void *stores, int nguess, const double *guess,
-                       double guess_period, const char *sysname, int dimensioned, int dissipative);
 int tubes_record_code(int h);
 void tubes_record_sizes(int h, int *n_items, int *n_lines);
 int tubes_record_line(int h, int j, int *stream, char *buf, int len);
@@ -451,17 +437,6 @@ int tubes_scan_parameter(const char system[TUBES_LSYSTEM], const char name[TUBES
  * above TUBES_SCAN_CONSTANT) of system with params: params[ipar - 1] or the constant's value. */
 enum { TUBES_SCAN_CONSTANT = 1000 };
 int tubes_scan_start(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], int ipar, double *start);
-/* The scan scene (src/workflow/tubes_scene_scan.f90): parameter ipar (tubes_scan_parameter's, named
- * parameter) to `to` in n steps, the orbits at the nde energies des with &orbits' settings and the
- * integrator (as tubes_parameter_scan); p_on: p_trans per step and dE on the section (as
- * tubes_transition_scene's) with &tubes eps, t_max, n_init, n_max and &transition area_tol; nd the
- * model's degrees of freedom, dissip ("" conservative), input the input's name for messages. */
-int tubes_scan_scene(const char *system, const double *params, const double *lo, const double *hi, int n_grid,
-                     const char *saddle, int ipar, const char *parameter, double to, int n, int nde,
-                     const double *des, int n_segments, double tol, double rtol, double atol, int orb_max_iter,
-                     int orb_n_samples, int method, double h, double omega_bind, int solver, int max_iter, int p_on,
-                     int sec_kind, int sec_index, double level, int dir, double eps, double area_tol, double t_max,
-                     int n_init, int n_max, int nd, const char *dissip, const char *input);
 
 /* Sections of the tube-dynamics calls (docs/tubes.md, "Sections"): sec_kind 1 = the rolling
  * ball's ray theta = level [rad], dir = sign of p_theta, coordinates (r, p_r); sec_kind 2 = the

@@ -63,22 +63,20 @@ int scene_flux(tubes_run_t *run);
 /* Continuation in a model parameter (&scan; /scan; src/workflow/tubes_scene_scan.f90). Returns 0, EXIT_PARTIAL
  * (an orbit not found at a step that has the saddle), EXIT_NUMERIC or EXIT_IO. */
 int scene_scan(tubes_run_t *run);
-/* The model scene (src/workflow/tubes_scene_model.f90): system (params) the model's library, model and
- * sysname &model's resolved name and system, a formula's source (hamiltonian, height, coordinates,
- * momenta, constants), library lib, build or lookup time seconds and hit (1: from the cache); natural
- * and dimensioned (the ball's units) its kind, input the input file ("" none). Its dissipation back
- * (src/workflow/tubes_setup.f90 model_dissipation): law and text (lens bytes each), v = (damping_ratio,
- * rolling_resistance, noise, temperature, c [1/s], f [cm/s^2]). The record's handle. */
-int tubes_model_scene(const char system[TUBES_LSYSTEM], const double params[TUBES_MAXPARAM], const char model[TUBES_LNAME],
-                      const char sysname[TUBES_LNAME], const char hamiltonian[TUBES_LEXPR],
-                      const char height[TUBES_LEXPR], const char coordinates[TUBES_MAXDOF][TUBES_LSYM],
-                      const char momenta[TUBES_MAXDOF][TUBES_LSYM], const char constants[TUBES_MAXCONST][TUBES_LCONST],
-                      const char lib[TUBES_LPATH], double seconds, int hit, int natural, int dimensioned,
-                      const char *input, char *law, char *text, int lens, double v[6]);
+/* The model scene (src/workflow/tubes_scene_model.f90) on the run's settings: natural and dimensioned (the
+ * ball's units) its kind, input the input file ("" none). Its dissipation back (src/workflow/tubes_setup.f90
+ * model_dissipation): law and text (lens bytes each), v = (damping_ratio, rolling_resistance, noise,
+ * temperature, c [1/s], f [cm/s^2]). The record's handle. */
+int tubes_model_scene(const tubes_config_t *cfg, int natural, int dimensioned, const char *input, char *law,
+                      char *text, int lens, double v[6]);
 
 /* The core's scenes on the run's settings (src/workflow/tubes_scene_<name>.f90, entered through
  * src/capi/tubes_capi_record.f90): cfg as the reader left it, the saddle and the method the run chose
  * (run_setup), who the input file in messages, the run's stores. Each returns its record's handle. */
+/* The equilibria scene: the saddle want (asked: the input names it), label (the model in messages), dissip
+ * (the dissipation in words, "" conservative). */
+int tubes_equilibria_scene(const tubes_config_t *cfg, const char want[8], int asked, const char label[64],
+                           const char dissip[128], void *stores);
 int tubes_flux_scene(const tubes_config_t *cfg, const char saddle[8], int method, const char *who, void *stores);
 /* units: the messages carry the ball's units (cm, (cm/s)^2, cm/s); dissip: the dissipation in words ("" for
  * a conservative model); written: /section is in the output already. */
@@ -101,6 +99,14 @@ int tubes_synthetic_experiment_scene(const tubes_config_t *cfg, const char saddl
 int tubes_trajectory_scene(const tubes_config_t *cfg, int method, double zeta, double crr, double f_roll,
                            const char *dissip, const char label[64], const char *input, const char *us, const char *ue,
                            void *stores);
+/* The orbits scene (&orbits de, or jacobi, or periods); dimensioned: the ball's units (cm, s); dissipative:
+ * the run's model dissipates (its orbits are the conservative model's). */
+int tubes_orbits_scene(const tubes_config_t *cfg, const char saddle[8], int method, int dimensioned, int dissipative,
+                       void *stores);
+/* The scan scene (&scan); dissip: the dissipation in words ("" conservative), input the input's name in
+ * messages. */
+int tubes_scan_scene(const tubes_config_t *cfg, const char saddle[8], int method, const char dissip[128],
+                     const char *input);
 int tubes_tubes_scene(const tubes_config_t *cfg, const char saddle[8], int method, int units, const char length[32],
                       const char dissip[128], int check_eps, int written, void *stores);
 #ifdef __cplusplus

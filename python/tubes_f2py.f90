@@ -1003,62 +1003,56 @@ subroutine formula_with_constant(system, name, value, stat, key, msg)
   call with_constant(trim(system), trim(name), value, key, msg, stat)
 end subroutine formula_with_constant
 
-subroutine scene_equilibria(system, params, lo, hi, n_grid, box, want, asked, label, dissip, stores, h)
-  ! the equilibria scene (src/workflow/tubes_scene_equilibria.f90), as the program's: the handle of
-  ! its result record (read with record_sizes, record_item, record_reals, record_ints,
-  ! record_string, record_line, record_code; forget it with record_free)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_study, only: seed_stores_t, stores_at
+subroutine scene_equilibria(config, n, want, asked, label, dissip, stores, h)
+  ! the equilibria scene (src/workflow/tubes_scene_equilibria.f90), as the program's, on the settings
+  ! read_input returned: the handle of its result record (read with record_sizes, record_item,
+  ! record_reals, record_ints, record_string, record_line, record_code; forget it with record_free)
+  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
+  use tubes_study, only: stores_at
   use tubes_record, only: record_t, record_keep
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_of_bytes
   use tubes_scene_equilibria, only: scene_run => scene_equilibria
   implicit none
-  character(len=*), intent(in) :: system, want, label, dissip
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), box
-  integer(c_int), intent(in) :: n_grid, asked
+  integer(c_int), intent(in) :: n, asked
+  integer(1), intent(in) :: config(n)
+  character(len=*), intent(in) :: want, label, dissip
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: h
   type(record_t), allocatable :: rec
-  type(seed_stores_t), pointer :: kept
+  type(tubes_config_t) :: cfg
+  integer :: st
+  h = -1
+  call settings_of_bytes(config, cfg, st)
+  if (st /= 0) return
   allocate (rec)
-  kept => stores_at(stores)
-  call scene_run(trim(system), params, lo, hi, n_grid, box, trim(want), asked /= 0, trim(label), trim(dissip), &
-                 kept, rec)
+  call scene_run(cfg, trim(want), asked /= 0, trim(label), trim(dissip), stores_at(stores), rec)
   h = record_keep(rec)
 end subroutine scene_equilibria
 
-subroutine scene_scan(system, params, lo, hi, n_grid, saddle, ipar, parameter, to, n, nde, des, &
-                      n_segments, tol, rtol, atol, max_iter, nsamp, method, step, omega_bind, &
-                      solver, int_max_iter, p_on, sec_kind, sec_index, level, dir, eps, area_tol, &
-                      t_max, n_init, n_max, nd, dissip, h)
-  ! the scan scene (src/workflow/tubes_scene_scan.f90), as the program's: the handle of its
-  ! result record (read as scene_equilibria's); p_on /= 0: p_trans per step and dE on the
-  ! section with the stable tube's options (as param_scan's)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int
+subroutine scene_scan(config, n, saddle, method, ipar, parameter, to, nsteps, nde, des, p_on, dissip, h)
+  ! the scan scene (src/workflow/tubes_scene_scan.f90), as the program's, on the settings read_input
+  ! returned, the saddle and the method the run chose: parameter ipar (its name parameter) to `to` in
+  ! nsteps steps, the orbits at des, p_on: p_trans too. The handle of its result record
+  use, intrinsic :: iso_c_binding, only: c_int, c_double
   use tubes_record, only: record_t, record_keep
-  use tubes_orbits, only: orbit_opts_t
-  use tubes_study, only: study_t, section_choice_t
-  use tubes_capi, only: integ_of, tube_opts_of
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_of_bytes
   use tubes_scene_scan, only: scene_run => scene_scan
   implicit none
-  character(len=*), intent(in) :: system, saddle, parameter, dissip
-  integer(c_int), intent(in) :: n_grid, ipar, n, nde, n_segments, max_iter, nsamp, method
-  integer(c_int), intent(in) :: solver, int_max_iter, p_on, sec_kind, sec_index, dir
-  integer(c_int), intent(in) :: n_init, n_max, nd
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), to, des(nde), tol, rtol, atol
-  real(c_double), intent(in) :: step, omega_bind, level, eps, area_tol, t_max
+  integer(c_int), intent(in) :: n, method, ipar, nsteps, nde, p_on
+  integer(1), intent(in) :: config(n)
+  character(len=*), intent(in) :: saddle, parameter, dissip
+  real(c_double), intent(in) :: to, des(nde)
   integer(c_int), intent(out) :: h
   type(record_t), allocatable :: rec
-  type(orbit_opts_t) :: opts
-  type(study_t) :: st
+  type(tubes_config_t) :: cfg
+  integer :: st
+  h = -1
+  call settings_of_bytes(config, cfg, st)
+  if (st /= 0) return
   allocate (rec)
-  opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, &
-                      max_iter=max_iter, n_samples=nsamp, &
-                      integ=integ_of(method, step, omega_bind, solver, int_max_iter))
-  st = study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-               integ=opts%integ)
-  call scene_run(st, ipar, trim(parameter), to, n, des, opts, p_on /= 0, &
-                 section_choice_t(kind=sec_kind, index=sec_index, level=level, dir=dir), &
-                 tube_opts_of(-1, eps, area_tol, t_max, n_init, n_max, .true.), nd, &
+  call scene_run(cfg, trim(saddle), int(method), int(ipar), trim(parameter), to, int(nsteps), des, p_on /= 0, &
                  trim(dissip), 'tubes', rec)
   h = record_keep(rec)
 end subroutine scene_scan
@@ -1162,36 +1156,29 @@ subroutine scene_flux(config, n, saddle, method, who, stores, h)
   h = record_keep(rec)
 end subroutine scene_flux
 
-subroutine scene_orbits(system, params, lo, hi, n_grid, saddle, pkind, n, values, n_segments, family, tol, &
-                        rtol, atol, max_iter, nsamp, method, hs, omega_bind, solver, int_max_iter, stores, &
-                        nguess, guess, guess_period, sysname, dimensioned, dissipative, h)
-  ! the orbits scene (src/workflow/tubes_scene_orbits.f90), as the program's: the handle of its
-  ! result record, at the n values of kind pkind (0 dE, 1 Jacobi constants, 2 periods)
-  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_int64_t
-  use tubes_orbits, only: orbit_opts_t
-  use tubes_study, only: study_t, seed_stores_t, stores_at
+subroutine scene_orbits(config, n, saddle, method, dimensioned, dissipative, stores, h)
+  ! the orbits scene (src/workflow/tubes_scene_orbits.f90), as the program's, on the settings
+  ! read_input returned, the saddle and the method the run chose: the handle of its result record
+  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
+  use tubes_study, only: stores_at
   use tubes_record, only: record_t, record_keep
-  use tubes_capi, only: integ_of, guess_opts
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_of_bytes
   use tubes_scene_orbits, only: scene_run => scene_orbits
   implicit none
-  character(len=*), intent(in) :: system, saddle, sysname
-  integer(c_int), intent(in) :: n_grid, pkind, n, n_segments, family, max_iter, nsamp, method, solver
-  integer(c_int), intent(in) :: int_max_iter, nguess, dimensioned, dissipative
-  real(c_double), intent(in) :: params(16), lo(3), hi(3), values(n), tol, rtol, atol, hs, omega_bind
-  real(c_double), intent(in) :: guess(6), guess_period
+  integer(c_int), intent(in) :: n, method, dimensioned, dissipative
+  integer(1), intent(in) :: config(n)
+  character(len=*), intent(in) :: saddle
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: h
   type(record_t), allocatable :: rec
-  type(seed_stores_t), pointer :: kept
-  type(orbit_opts_t) :: opts
+  type(tubes_config_t) :: cfg
+  integer :: st
+  h = -1
+  call settings_of_bytes(config, cfg, st)
+  if (st /= 0) return
   allocate (rec)
-  opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, &
-                      n_samples=nsamp, family=family, integ=integ_of(method, hs, omega_bind, solver, int_max_iter))
-  call guess_opts(nguess, guess, guess_period, opts)
-  kept => stores_at(stores)
-  call scene_run(study_t(system=system, params=params, lo=lo, hi=hi, n_grid=n_grid, saddle=saddle, &
-                         integ=opts%integ), opts, int(family), int(pkind), values, trim(sysname), &
-                 dimensioned /= 0, dissipative /= 0, kept, rec)
+  call scene_run(cfg, trim(saddle), int(method), dimensioned /= 0, dissipative /= 0, stores_at(stores), rec)
   h = record_keep(rec)
 end subroutine scene_orbits
 

@@ -611,8 +611,7 @@ def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, 
     lo, hi, n_grid = st["lo"], st["hi"], st["n_grid"]
     # the program's equilibria scene (src/workflow/tubes_scene_equilibria.f90): its record's
     # /equilibria, its note on what the box may hide, its verdict
-    rec = _record(_lib().scene_equilibria(model.name, model.params(), lo, hi, int(n_grid), float((hi[0] - lo[0]) / 2), "", 0,
-                                          model.name, "", model._stores()))
+    rec = _record(_lib().scene_equilibria(st["config"], "", 0, model.name, "", model._stores()))
     if rec["code"]:
         raise TubesError(-1, "; ".join(t for s, t in rec["lines"] if s == 2))
     g = rec["data"]["equilibria"]
@@ -971,15 +970,9 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     orb = dict(orbits, **byp) if de is None else dict(orbits, de=de)
     st = _settings(model, saddle, saddle_near, who="orbit_family", orbits=orb, integrator=integrator,
                    equilibria=equilibria)
-    pkind, npv = int(st["orb_pkind"]), int(st["orb_npvalues"])
-    vals = np.array(st["orb_pvalues"][:npv] if pkind else st["des"][:int(st["ndes"][0]), 0], dtype=float)
-    # the program's orbits scene (src/workflow/tubes_scene_orbits.f90): the orbits at dE, or at the dE
-    # its Fortran finds for &orbits jacobi or periods; its record's /orbits, its messages, its verdicts
-    rec = _record(_lib().scene_orbits(
-        *_study(model, st), pkind, vals, int(st["n_segments"]), int(st["orb_family"]), float(st["orb_tol"]),
-        float(st["orb_rtol"]), float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]),
-        *_integ(st, model), model._stores(), *_guess(st), model.system,
-        int(str(model.info.get("length_units", "1")) == "cm"), int(bool(_dissipation(model)))))
+    rec = _record(_lib().scene_orbits(st["config"], st["saddle"], _method(int(st["method"]), model),
+                                      int(str(model.info.get("length_units", "1")) == "cm"),
+                                      int(bool(_dissipation(model))), model._stores()))
     said = [t for s, t in rec["lines"] if s == 2]
     msg = "; ".join(t.removeprefix("tubes: orbits: ") for t in said)
     if "orbits" not in rec["data"]:           # refused or failed before any orbit
@@ -1707,13 +1700,11 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
         raise ValueError(f"{who}: family = {orbits.get('family')!r}: the scan follows the orbits of family 1 (the "
                          "saddle's lowest centre frequency; docs/scan.md): allowed family=1, or no dE")
     # the program's scan scene (src/workflow/tubes_scene_scan.f90): its record's /scan and verdicts
-    sec = _section_args(st) if p_on else (0, 0, 0.0, 0)
+    if p_on:
+        _section_args(st)
     diss = _dissipation(model)
     rec = _record(_lib().scene_scan(
-        *_study(model, st), ipar, parameter, to, n, des, int(st["n_segments"]), float(st["orb_tol"]),
-        float(st["orb_rtol"]), float(st["orb_atol"]), int(st["orb_max_iter"]), int(st["orb_n_samples"]),
-        *_integ(st, model), int(p_on), *sec, float(st["tub_eps"]), float(st["tra_area_tol"]),
-        float(st["tub_t_max"]), int(st["tub_n_init"]), int(st["tub_n_max"]), model.ndof,
+        st["config"], st["saddle"], _method(int(st["method"]), model), ipar, parameter, to, n, des, int(p_on),
         ", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation")))
     errors = [t for s, t in rec["lines"] if s == 2]
     if "scan" not in rec["data"]:      # refused, or failed: the scene's message

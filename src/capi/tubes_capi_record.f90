@@ -23,92 +23,46 @@ module tubes_capi_record
   use tubes_scene_montecarlo, only: scene_montecarlo
   use tubes_scene_tubes, only: scene_tubes
   use tubes_scene_scan, only: scene_scan
-  use tubes_scene_model, only: scene_model, model_formula_t
+  use tubes_scene_model, only: scene_model_of
   implicit none
   private
 
 contains
 
   !> The equilibria scene (tubes_scene_equilibria): the record's handle (free it with tubes_record_free).
-  integer(c_int) function c_scene_equilibria(system, params, lo, hi, n_grid, box, want, asked, label, dissip, &
-                                             stores) result(h) bind(C, name='tubes_equilibria_scene')
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), want(8), label(64), dissip(128)
-    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, asked
-    real(c_double), value :: box
+  integer(c_int) function c_scene_equilibria(cfg, want, asked, label, dissip, stores) result(h) &
+      bind(C, name='tubes_equilibria_scene')
+    type(tubes_config_t), intent(in) :: cfg
+    character(kind=c_char), intent(in) :: want(8), label(64), dissip(128)
+    integer(c_int), value :: asked
     type(c_ptr), value :: stores
     type(record_t), allocatable :: rec
-    type(seed_stores_t), pointer :: kept
     allocate (rec)
-    kept => stores_at(transfer(stores, 0_c_intptr_t))
-    call scene_equilibria(trim(c_to_f(system)), params, lo, hi, n_grid, box, trim(c_to_f(want)), asked /= 0, &
-                          trim(c_to_f(label)), trim(c_to_f(dissip)), kept, rec)
+    call scene_equilibria(cfg, trim(c_to_f(want)), asked /= 0, trim(c_to_f(label)), trim(c_to_f(dissip)), &
+                          stores_at(transfer(stores, 0_c_intptr_t)), rec)
     h = record_keep(rec)
   end function c_scene_equilibria
 
-  !> The model scene (tubes_scene_model): system (params) the model's library (model: &model's
-  !> resolved name, expr_<hash> for a formula), sysname &model system, and a formula's &model
-  !> hamiltonian, height, coordinates, momenta, constants, its library lib, the time its build or
-  !> lookup took (seconds) and hit (1: from the cache); natural and dimensioned the model's kind,
-  !> input the input file ('' none). Its dissipation back for the run's drivers: law and text
+  !> The model scene (tubes_scene_model) on the run's settings cfg; natural and dimensioned the model's
+  !> kind, input the input file ('' none). Its dissipation back for the run's drivers: law and text
   !> NUL-terminated (lens bytes each), v = (zeta, crr, noise, temperature, c, f) (tubes_setup
   !> model_dissipation's dissipation_t). The record's handle.
-  integer(c_int) function c_scene_model(system, params, model, sysname, hamiltonian, height, coordinates, momenta, &
-      constants, lib, seconds, hit, natural, dimensioned, input, law, text, lens, v) result(h) &
+  integer(c_int) function c_scene_model(cfg, natural, dimensioned, input, law, text, lens, v) result(h) &
       bind(C, name='tubes_model_scene')
     use tubes_setup, only: dissipation_t
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), model(32), sysname(32), hamiltonian(2048), &
-                                          height(2048), coordinates(16, MAX_DOF), momenta(16, MAX_DOF), &
-                                          constants(128, 32), lib(1024), input(*)
-    real(c_double), intent(in) :: params(MAX_PARAMS)
-    real(c_double), value :: seconds
-    integer(c_int), value :: hit, natural, dimensioned, lens
+    type(tubes_config_t), intent(in) :: cfg
+    character(kind=c_char), intent(in) :: input(*)
+    integer(c_int), value :: natural, dimensioned, lens
     character(kind=c_char), intent(out) :: law(lens), text(lens)
     real(c_double), intent(out) :: v(6)
     type(record_t), allocatable :: rec
     type(dissipation_t) :: d
-    type(model_formula_t) :: f
-    character(:), allocatable :: name
     allocate (rec)
-    name = c_to_f(model)
-    if (name(1:min(5, len(name))) == 'expr_') then   ! a model written as a formula
-      ! (component by component: gfortran 12 garbles a constructor's deferred-length strings)
-      f%sysname = c_to_f(sysname)
-      f%text = c_to_f(height)
-      if (f%sysname == 'expression') f%text = c_to_f(hamiltonian)
-      f%coordinates = joined(coordinates, ' ', .true.)
-      f%momenta = joined(momenta, ' ', .true.)
-      f%constants = joined(constants, '; ', .false.)
-      f%library = c_to_f(lib)
-      f%seconds = seconds
-      f%cached = hit /= 0
-      call scene_model(trim(c_to_f(system)), params, f%sysname, natural /= 0, dimensioned /= 0, &
-                       c_to_f(input(1:4096)), rec, d, f)
-    else
-      call scene_model(trim(c_to_f(system)), params, name, natural /= 0, dimensioned /= 0, &
-                       c_to_f(input(1:4096)), rec, d)
-    end if
+    call scene_model_of(cfg, natural /= 0, dimensioned /= 0, c_to_f(input(1:4096)), rec, d)
     call f_to_c(d%law, law)
     call f_to_c(d%text, text)
     v = [d%zeta, d%crr, d%noise, d%temperature, d%c, d%f]
     h = record_keep(rec)
-  contains
-    !> The C strings of c's columns joined by sep: up to the first empty one (upto), or every
-    !> one not empty.
-    function joined(c, sep, upto) result(r)
-      character(kind=c_char), intent(in) :: c(:, :)
-      character(*), intent(in) :: sep
-      logical, intent(in) :: upto
-      character(:), allocatable :: r
-      integer :: k
-      r = ''
-      do k = 1, size(c, 2)
-        if (c(1, k) == achar(0) .and. upto) exit
-        if (c(1, k) == achar(0)) cycle
-        if (len(r) > 0) r = r // sep
-        r = r // c_to_f(c(:, k))
-      end do
-    end function joined
   end function c_scene_model
 
   !> Map k (0-based) of the sections scene (tubes_scene_sections) on the run's settings cfg, with the
@@ -176,33 +130,19 @@ contains
     h = record_keep(rec)
   end function c_scene_flux
 
-  !> The orbits scene (tubes_scene_orbits) at the n values of kind pkind (0 dE, 1 Jacobi constants,
-  !> 2 periods), with the arguments of tubes_orbit_family's settings (include/tubes.h); sysname: the
-  !> system as the input names it; dimensioned: the ball's units; dissipative: the run's model
-  !> dissipates. The record's handle (free it with tubes_record_free).
-  integer(c_int) function c_scene_orbits(system, params, lo, hi, n_grid, saddle, pkind, n, values, n_segments, &
-      family, tol, rtol, atol, max_iter, nsamp, method, h, omega_bind, solver, int_max_iter, stores, nguess, guess, &
-      guess_period, sysname, dimensioned, dissipative) result(rh) bind(C, name='tubes_orbits_scene')
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), sysname(32)
-    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, pkind, n, n_segments, family, max_iter, nsamp, method, solver, int_max_iter, &
-                             nguess, dimensioned, dissipative
-    real(c_double), value :: tol, rtol, atol, h, omega_bind, guess_period
-    real(c_double), intent(in) :: values(n), guess(*)
+  !> The orbits scene (tubes_scene_orbits) on the run's settings cfg, with the saddle and the method the
+  !> run chose; dimensioned /= 0: the ball's units; dissipative /= 0: the run's model dissipates. The
+  !> record's handle (free it with tubes_record_free).
+  integer(c_int) function c_scene_orbits(cfg, saddle, method, dimensioned, dissipative, stores) result(rh) &
+      bind(C, name='tubes_orbits_scene')
+    type(tubes_config_t), intent(in) :: cfg
+    character(kind=c_char), intent(in) :: saddle(8)
+    integer(c_int), value :: method, dimensioned, dissipative
     type(c_ptr), value :: stores
     type(record_t), allocatable :: rec
-    type(seed_stores_t), pointer :: kept
-    type(orbit_opts_t) :: opts
-    type(study_t) :: st
-    type(section_choice_t) :: sec
     allocate (rec)
-    opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=max_iter, &
-                        n_samples=nsamp, family=family, integ=integ_of(method, h, omega_bind, solver, int_max_iter))
-    call guess_opts(nguess, guess, guess_period, opts)
-    call study_of(system, params, lo, hi, n_grid, saddle, 0, 0, 0.0_c_double, 0, opts%integ, st, sec)
-    kept => stores_at(transfer(stores, 0_c_intptr_t))
-    call scene_orbits(st, opts, int(family), int(pkind), values, trim(c_to_f(sysname)), dimensioned /= 0, &
-                      dissipative /= 0, kept, rec)
+    call scene_orbits(cfg, trim(c_to_f(saddle)), int(method), dimensioned /= 0, dissipative /= 0, &
+                      stores_at(transfer(stores, 0_c_intptr_t)), rec)
     rh = record_keep(rec)
   end function c_scene_orbits
 
@@ -354,33 +294,18 @@ contains
     call record_drop(h)
   end subroutine c_record_free
 
-  !> The scan scene (tubes_scene_scan): the record's handle. Parameter ipar (tubes_scan_parameter's;
-  !> named parameter) to `to` in n steps, the orbits at des (nde) with &orbits' settings and the
-  !> integrator (as tubes_parameter_scan), with p_on p_trans on the section with &tubes' settings
-  !> and &transition area_tol; nd the model's degrees of freedom, dissip ("" conservative), input
-  !> the input's name for messages (include/tubes.h).
-  integer(c_int) function c_scene_scan(system, params, lo, hi, n_grid, saddle, ipar, parameter, to, n, nde, des, &
-      n_segments, tol, rtol, atol, orb_max_iter, orb_n_samples, method, h, omega_bind, solver, max_iter, p_on, &
-      sec_kind, sec_index, level, dir, eps, area_tol, t_max, n_init, n_max, nd, dissip, input) result(hd) &
-      bind(C, name='tubes_scan_scene')
-    use tubes_manifold, only: tube_opts_t
-    character(kind=c_char), intent(in) :: system(LEN_SYSTEM), saddle(8), parameter(*), dissip(128), input(*)
-    real(c_double), intent(in) :: params(MAX_PARAMS), lo(MAX_DOF), hi(MAX_DOF)
-    integer(c_int), value :: n_grid, ipar, n, nde, n_segments, orb_max_iter, orb_n_samples, method, solver, &
-                             max_iter, p_on, sec_kind, sec_index, dir, n_init, n_max, nd
-    real(c_double), value :: to, tol, rtol, atol, h, omega_bind, level, eps, area_tol, t_max
-    real(c_double), intent(in) :: des(*)
-    type(orbit_opts_t) :: opts
-    type(section_choice_t) :: sec
-    type(study_t) :: st
+  !> The scan scene (tubes_scene_scan) on the run's settings cfg (&scan: parameter scan_ipar to scan_to in
+  !> scan_n steps, the orbits at scan_de, p_trans with scan_p_trans), with the saddle and the method the
+  !> run chose; dissip ("" conservative), input the input's name for messages. The record's handle.
+  integer(c_int) function c_scene_scan(cfg, saddle, method, dissip, input) result(hd) bind(C, name='tubes_scan_scene')
+    type(tubes_config_t), intent(in) :: cfg
+    character(kind=c_char), intent(in) :: saddle(8), dissip(128), input(*)
+    integer(c_int), value :: method
     type(record_t), allocatable :: rec
     allocate (rec)
-    opts = orbit_opts_t(n_segments=n_segments, tol=tol, rtol=rtol, atol=atol, max_iter=orb_max_iter, &
-                        n_samples=orb_n_samples, integ=integ_of(method, h, omega_bind, solver, max_iter))
-    call study_of(system, params, lo, hi, n_grid, saddle, sec_kind, sec_index, level, dir, opts%integ, st, sec)
-    call scene_scan(st, ipar, trim(c_to_f(parameter(1:32))), to, n, des(1:max(nde, 0)), opts, p_on /= 0, sec, &
-                    tube_opts_t(kind=-1, eps=eps, area_tol=area_tol, t_max=t_max, n_init=n_init, n_max=n_max, &
-                                local=.true.), nd, trim(c_to_f(dissip)), c_to_f(input(1:1024)), rec)
+    call scene_scan(cfg, trim(c_to_f(saddle)), int(method), int(cfg%scan_ipar), trim(c_to_f(cfg%scan_parameter)), &
+                    cfg%scan_to, int(cfg%scan_n), cfg%scan_de(1:max(cfg%scan_nde, 0)), cfg%scan_p_trans /= 0, &
+                    trim(c_to_f(dissip)), c_to_f(input(1:1024)), rec)
     hd = record_keep(rec)
   end function c_scene_scan
 end module tubes_capi_record

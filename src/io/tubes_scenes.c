@@ -5,9 +5,6 @@
 #include "tubes_input.h"
 #include <float.h>
 #include <math.h>
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -28,9 +25,6 @@ static int dissipative(const tubes_run_t *run) { return run->law != NULL; }
 
 
 enum { NEQ_MAX = 256, MD = TUBES_MAXDOF };
-/* The &integrator choice as the C API's arguments (include/tubes.h): every analysis uses it. */
-#define INTEGRATOR(c) run->method, (c)->h, (c)->omega_bind, \
-                      (strcmp((c)->solver, "fixed_point") ? 1 : 2), (c)->max_iter
 
 /* The model scene: src/workflow/tubes_scene_model.f90 (its record written by record_emit); the run
  * keeps its dissipation (law, rates and sentence) for the other scenes. */
@@ -38,9 +32,7 @@ int scene_model(tubes_run_t *run) {
   static char law[128];
   double v[6];
   const tubes_config_t *c = run->cfg;
-  int h = tubes_model_scene(run->system, run->params, c->model, c->system, c->hamiltonian, c->height, c->coordinates,
-                            c->momenta, c->constants, c->expr_lib, c->expr_seconds, c->expr_hit, run->natural,
-                            in_units(" 1/s")[0] != 0, run->input ? run->input : "", law, run->dissip,
+  int h = tubes_model_scene(c, run->natural, in_units(" 1/s")[0] != 0, run->input ? run->input : "", law, run->dissip,
                             (int)sizeof run->dissip, v);
   run->zeta = v[0];    /* the built-in ball's &model damping_ratio, or a formula surface's */
   run->crr = v[1];
@@ -68,7 +60,6 @@ static int degenerate_ok(const tubes_config_t *c) {
   return 1;
 }
 
-static double sec_angle(const tubes_config_t *c) { return c->sec_angle * M_PI / 180; }
 static int sec_is_ray(const tubes_config_t *c) { return !strcmp(c->sec_kind, "ray"); }
 
 static int scene_asked(const tubes_config_t *c, const char *name) {
@@ -289,8 +280,7 @@ int run_setup(tubes_run_t *run) {
  * record_emit). */
 int scene_equilibria(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  int h = tubes_equilibria_scene(run->system, run->params, run->lo, run->hi, run->n_grid, c->box,
-                                 c->saddle[0] ? c->saddle : run->saddle, saddle_asked(c), run->label,
+  int h = tubes_equilibria_scene(c, c->saddle[0] ? c->saddle : run->saddle, saddle_asked(c), run->label,
                                  dissipative(run) ? run->dissip : "", run->seeds);
   return record_emit(run->file, h);
 }
@@ -307,23 +297,13 @@ int scene_trajectory(tubes_run_t *run) {
  * &orbits de, or at the orbits of &orbits jacobi or periods. */
 int scene_orbits(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  int pkind = c->orb_njacobi > 0 ? 1 : c->orb_nperiods > 0 ? 2 : 0;
-  int h = tubes_orbits_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, pkind,
-                             pkind == 1 ? c->orb_njacobi : pkind == 2 ? c->orb_nperiods : c->orb_nde,
-                             pkind == 1 ? c->orb_jacobi : pkind == 2 ? c->orb_periods : c->orb_de,
-                             strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments, c->orb_family, c->orb_tol,
-                             c->orb_rtol, c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c), run->seeds,
-                             c->orb_nguess, c->orb_guess, c->orb_period, c->system, !strcmp(run->length_units, "cm"),
-                             dissipative(run));
+  int h = tubes_orbits_scene(c, run->saddle, run->method, !strcmp(run->length_units, "cm"), dissipative(run),
+                             run->seeds);
   return record_emit(run->file, h);
 }
 
 /* ---------------------------------------------------------------- tube dynamics scenes */
 
-/* The section's arguments of the C API: kind, index, level, direction (include/tubes.h). */
-#define SECTION(c) (sec_is_ray(c) ? 1 : 2), (c)->sec_index, (sec_is_ray(c) ? sec_angle(c) : (c)->sec_value), \
-                   (sec_is_ray(c) ? (c)->sec_pth_sign : (c)->sec_direction)
-static int orb_nseg(const tubes_config_t *c) { return strcmp(c->orb_method, "multiple") ? 1 : c->orb_n_segments; }
 
 /* The tubes scene: src/workflow/tubes_scene_tubes.f90 (its record written by record_emit); /tubes
  * is made where no cut was recorded. */
@@ -441,11 +421,7 @@ int scene_flux(tubes_run_t *run) {
 /* The scan scene: src/workflow/tubes_scene_scan.f90 (its record written by record_emit). */
 int scene_scan(tubes_run_t *run) {
   const tubes_config_t *c = run->cfg;
-  int h = tubes_scan_scene(run->system, run->params, run->lo, run->hi, run->n_grid, run->saddle, c->scan_ipar,
-                           c->scan_parameter, c->scan_to, c->scan_n, c->scan_nde, c->scan_de, orb_nseg(c), c->orb_tol,
-                           c->orb_rtol, c->orb_atol, c->orb_max_iter, c->orb_n_samples, INTEGRATOR(c),
-                           c->scan_p_trans != 0, SECTION(c), c->tub_eps, c->tra_area_tol, c->tub_t_max,
-                           c->tub_n_init, c->tub_n_max, run->ndof, dissipative(run) ? run->dissip : "",
+  int h = tubes_scan_scene(c, run->saddle, run->method, dissipative(run) ? run->dissip : "",
                            run->input ? run->input : "tubes");
   return record_emit(run->file, h);
 }

@@ -9,6 +9,8 @@ module tubes_scene_equilibria
   use tubes_status, only: TUBES_OK, TUBES_ENOCONV, status_message
   use tubes_cstrings, only: num
   use tubes_scene_text, only: itoa, ls, rs, wall
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_text
   use tubes_record, only: record_t, EXIT_NUMERIC
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_equilibria, only: equilibrium_t
@@ -23,13 +25,25 @@ module tubes_scene_equilibria
 
 contains
 
+  !> The scene on the run's settings cfg (the model, &equilibria box, box_center, n_grid); want, asked,
+  !> label, dissip, stores as equilibria_scene_body's.
+  subroutine scene_equilibria(cfg, want, asked, label, dissip, stores, rec)
+    type(tubes_config_t), intent(in) :: cfg
+    character(*), intent(in) :: want, label, dissip
+    logical, intent(in) :: asked
+    type(seed_stores_t), pointer, intent(in) :: stores
+    type(record_t), intent(inout) :: rec
+    call equilibria_scene_body(settings_text(cfg%model), cfg%params, cfg%box_lo, cfg%box_hi, cfg%n_grid, cfg%box, want, &
+                               asked, label, dissip, stores, rec)
+  end subroutine scene_equilibria
+
   !> The scene for system (params) in the box [lo, hi] (n_grid starts per axis; box: &equilibria
   !> box, the ball's half-width [cm], for its table's head and /equilibria@box); want: the saddle
   !> whose data /saddle holds (asked: the input names it; else the model's default, whose absence
   !> is said and is no failure); label: the model as messages name it; dissip: the dissipation in
   !> words ('' for a conservative model: no damped spectrum); stores: the run's kept results (or
   !> null). rec: the scene's record.
-  subroutine scene_equilibria(system, params, lo, hi, n_grid, box, want, asked, label, dissip, stores, rec)
+  subroutine equilibria_scene_body(system, params, lo, hi, n_grid, box, want, asked, label, dissip, stores, rec)
     character(*), intent(in) :: system, want, label, dissip
     real(wp), intent(in) :: params(:), lo(:), hi(:), box
     integer, intent(in) :: n_grid
@@ -235,7 +249,7 @@ contains
       call rec%real('saddle', 'damped_eigenvalues', reshape(transpose(reshape([wr(1:n2), wi(1:n2)], [n2, 2])), &
                                                            [2*n2]), [n2, 2])
     end if
-  end subroutine scene_equilibria
+  end subroutine equilibria_scene_body
 
   pure real(wp) function zero_if(c, v)
     logical, intent(in) :: c

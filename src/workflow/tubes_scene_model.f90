@@ -11,10 +11,12 @@ module tubes_scene_model
   use tubes_record, only: record_t, EXIT_BADINPUT, EXIT_NUMERIC
   use tubes_models, only: system_info_t, system_info
   use tubes_setup, only: dissipation_t, model_dissipation
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_text
   implicit none
   private
 
-  public :: scene_model, model_formula_t
+  public :: scene_model, scene_model_of, model_formula_t
 
   !> A model written as a formula (&model hamiltonian or surface/height, docs/models.md): what
   !> /model records of it. Assign component by component (gfortran 12, deferred-length strings).
@@ -30,6 +32,53 @@ module tubes_scene_model
   end type model_formula_t
 
 contains
+
+  !> The scene on the run's settings cfg: the model's library (cfg%model; expr_<hash> for a formula,
+  !> whose &model hamiltonian or height, coordinates, momenta, constants, library and build time it
+  !> records), natural and dimensioned its kind, input the input file ('' none); d its dissipation.
+  subroutine scene_model_of(cfg, natural, dimensioned, input, rec, d)
+    type(tubes_config_t), intent(in) :: cfg
+    logical, intent(in) :: natural, dimensioned
+    character(*), intent(in) :: input
+    type(record_t), intent(inout) :: rec
+    type(dissipation_t), intent(out) :: d
+    type(model_formula_t) :: f
+    character(:), allocatable :: name
+    name = settings_text(cfg%model)
+    if (name(1:min(5, len(name))) /= 'expr_') then
+      call scene_model(name, cfg%params, name, natural, dimensioned, input, rec, d)
+      return
+    end if
+    ! a model written as a formula (component by component: gfortran 12 garbles a constructor's
+    ! deferred-length strings)
+    f%sysname = settings_text(cfg%system)
+    f%text = settings_text(cfg%height)
+    if (f%sysname == 'expression') f%text = settings_text(cfg%hamiltonian)
+    f%coordinates = joined(cfg%coordinates, ' ', .true.)
+    f%momenta = joined(cfg%momenta, ' ', .true.)
+    f%constants = joined(cfg%constants, '; ', .false.)
+    f%library = settings_text(cfg%expr_lib)
+    f%seconds = cfg%expr_seconds
+    f%cached = cfg%expr_hit /= 0
+    call scene_model(name, cfg%params, f%sysname, natural, dimensioned, input, rec, d, f)
+  contains
+    !> The C strings of c's columns joined by sep: up to the first empty one (upto), or every one
+    !> not empty.
+    function joined(c, sep, upto) result(r)
+      character(len=1), intent(in) :: c(:, :)
+      character(*), intent(in) :: sep
+      logical, intent(in) :: upto
+      character(:), allocatable :: r
+      integer :: k
+      r = ''
+      do k = 1, size(c, 2)
+        if (c(1, k) == achar(0) .and. upto) exit
+        if (c(1, k) == achar(0)) cycle
+        if (len(r) > 0) r = r // sep
+        r = r // settings_text(c(:, k))
+      end do
+    end function joined
+  end subroutine scene_model_of
 
   !> The scene for system (params), the library's name of the model: name its name as /model
   !> says it (the built-in's library, or for a formula (formula present) the &model system);

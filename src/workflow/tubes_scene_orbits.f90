@@ -24,6 +24,8 @@ module tubes_scene_orbits
                                    PARAM_NOCONV, PARAM_NOJACOBI
   use tubes_verdicts, only: orbit_coarse
   use tubes_scene_text, only: wall, ls, rs, progress_line
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_study, settings_orbit_opts, settings_text
   implicit none
   private
 
@@ -41,7 +43,32 @@ contains
   !> constants, PARAM_PERIOD periods; sysname: the system as the input names it; dimensioned: the
   !> model's units are the ball's (cm, s); dissipative: the run's model dissipates (the orbits are
   !> the conservative model's); stores: the run's kept results (or null). rec: the scene's record.
-  subroutine scene_orbits(st, opts, family, pkind, values, sysname, dimensioned, dissipative, stores, rec)
+  !> The scene on the run's settings cfg (&orbits: de, or jacobi, or periods; the family, a guess),
+  !> the saddle and the method the run chose; dimensioned: the ball's units; dissipative: the run's
+  !> model dissipates (its orbits are the conservative model's).
+  subroutine scene_orbits(cfg, saddle, method, dimensioned, dissipative, stores, rec)
+    type(tubes_config_t), intent(in) :: cfg
+    character(*), intent(in) :: saddle
+    integer, intent(in) :: method
+    logical, intent(in) :: dimensioned, dissipative
+    type(seed_stores_t), pointer, intent(in) :: stores
+    type(record_t), intent(inout) :: rec
+    if (cfg%orb_njacobi > 0) then
+      call orbits_scene_body(settings_study(cfg, saddle, method), settings_orbit_opts(cfg, method), cfg%orb_family, &
+                             PARAM_JACOBI, cfg%orb_jacobi(1:cfg%orb_njacobi), settings_text(cfg%system), dimensioned, &
+                             dissipative, stores, rec)
+    else if (cfg%orb_nperiods > 0) then
+      call orbits_scene_body(settings_study(cfg, saddle, method), settings_orbit_opts(cfg, method), cfg%orb_family, &
+                             PARAM_PERIOD, cfg%orb_periods(1:cfg%orb_nperiods), settings_text(cfg%system), dimensioned, &
+                             dissipative, stores, rec)
+    else
+      call orbits_scene_body(settings_study(cfg, saddle, method), settings_orbit_opts(cfg, method), cfg%orb_family, &
+                             0, cfg%orb_de(1:cfg%orb_nde), settings_text(cfg%system), dimensioned, dissipative, stores, &
+                             rec)
+    end if
+  end subroutine scene_orbits
+
+  subroutine orbits_scene_body(st, opts, family, pkind, values, sysname, dimensioned, dissipative, stores, rec)
     type(study_t), intent(in) :: st
     type(orbit_opts_t), intent(in) :: opts
     integer, intent(in) :: family, pkind
@@ -366,7 +393,7 @@ contains
       end if
     end do
     if (nfail > 0 .and. rec%code == 0) rec%code = EXIT_PARTIAL
-  end subroutine scene_orbits
+  end subroutine orbits_scene_body
 
   !> The dE of the orbits asked for by &orbits jacobi (pkind PARAM_JACOBI) or periods (PARAM_PERIOD)
   !> (docs/orbits.md, "Orbits by Jacobi constant or period"; family_parameter_des), their lines, or

@@ -13,6 +13,8 @@ module tubes_scene_scan
   use tubes_orbits, only: orbit_opts_t
   use tubes_manifold, only: tube_opts_t
   use tubes_study, only: study_t, section_choice_t
+  use tubes_config, only: tubes_config_t
+  use tubes_settings, only: settings_study, settings_section, settings_integ, settings_n_segments
   use tubes_scan, only: scan_table, scan_start, SCAN_MAXEQ, SCAN_MAXFOLD, SCAN_FOLD_TOL, SCAN_CONSTANT
   implicit none
   private
@@ -21,13 +23,36 @@ module tubes_scene_scan
 
 contains
 
+  !> The scan on the run's settings cfg (&orbits' corrector, &section, &tubes and &transition area_tol
+  !> for p_trans, &integrator with the method the run chose) at the saddle the run chose: parameter
+  !> ipar (tubes_scan scan_index's; named parameter) to `to` in n steps, family 1's orbits at des, with
+  !> p_on p_trans on the section; dissip the dissipation in words ('' conservative), input the input's
+  !> name in messages.
+  subroutine scene_scan(cfg, saddle, method, ipar, parameter, to, n, des, p_on, dissip, input, rec)
+    type(tubes_config_t), intent(in) :: cfg
+    character(*), intent(in) :: saddle, parameter, dissip, input
+    integer, intent(in) :: method, ipar, n
+    real(wp), intent(in) :: to, des(:)
+    logical, intent(in) :: p_on
+    type(record_t), intent(inout) :: rec
+    type(study_t) :: st
+    st = settings_study(cfg, saddle, method)
+    st%family = 1
+    call scan_scene_body(st, ipar, parameter, to, n, des, &
+                         orbit_opts_t(n_segments=settings_n_segments(cfg), tol=cfg%orb_tol, rtol=cfg%orb_rtol, &
+                                      atol=cfg%orb_atol, max_iter=cfg%orb_max_iter, n_samples=cfg%orb_n_samples, &
+                                      integ=settings_integ(cfg, method)), p_on, settings_section(cfg), &
+                         tube_opts_t(kind=-1, eps=cfg%tub_eps, area_tol=cfg%tra_area_tol, t_max=cfg%tub_t_max, &
+                                     n_init=cfg%tub_n_init, n_max=cfg%tub_n_max, local=.true.), cfg%ndof, dissip, input, rec)
+  end subroutine scene_scan
+
   !> The scan of parameter ipar (tubes_scan scan_index's; named parameter as the input names it)
   !> of the study st (st%saddle the run's saddle) from its value to `to` in n steps, with the
   !> Lyapunov orbits at des (opts) and, with p_on, p_trans at each step on the section sec with
   !> the stable tube's options topts. nd: the model's degrees of freedom; dissip: the dissipation
   !> in words ('' for a conservative model); input: the input's name for messages. rec: the
   !> scene's record.
-  subroutine scene_scan(st, ipar, parameter, to, n, des, opts, p_on, sec, topts, nd, dissip, input, rec)
+  subroutine scan_scene_body(st, ipar, parameter, to, n, des, opts, p_on, sec, topts, nd, dissip, input, rec)
     type(study_t), intent(in) :: st
     integer, intent(in) :: ipar, n, nd
     character(*), intent(in) :: parameter, dissip, input
@@ -229,7 +254,7 @@ contains
     call rec%attr_string('scan', 'saddle', trim(st%saddle))
     call rec%attr_string('scan', 'parameter_units', pu)
     if (nlost > 0) rec%code = max(rec%code, EXIT_PARTIAL)
-  end subroutine scene_scan
+  end subroutine scan_scene_body
 
   !> The units of parameter ipar of system from the library's table ('1' if none: a formula's
   !> constant, or no such parameter).
