@@ -423,16 +423,11 @@ subroutine differentiate_savgol(x, n, dt, order, window, stat, v, xs)
   call diff_savgol(x, dt, order, window, v, xs, stat)
 end subroutine differentiate_savgol
 
-subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, use_near, near, &
-                      n_segments, orb_tol, orb_rtol, orb_atol, orb_max_iter, orb_n_samples, sec_kind, &
-                      sec_index, sec_level, sec_dir, tub_eps, tub_area_tol, tub_t_max, tub_n_init, &
-                      tub_n_max, tra_area_tol, mc_t_max, mc_gate, mc_area_tol, pm_n_seeds, pm_n_iter, pm_t_max, &
-                      method, h, omega_bind, solver, int_max_iter, orb_family, flux_n_samples, flux_seed, &
-                      flux_t_max, flux_gate, flux_tol, flux_order, flux_n_cut, flux_cut_eps, expr_lib, &
-                      exp_n_tracks, exp_seed, exp_duration, exp_camera_rate, exp_pixel, exp_noise, &
-                      exp_de_min, exp_de_max, exp_damping_ratio, exp_rolling_resistance, mc_n_samples, mc_seed, &
-                      mc_de, des, ndes, orb_pkind, orb_pvalues, orb_npvalues, orb_guess, orb_nguess, orb_period, &
-                      nconfig, config)
+subroutine read_input(path, stat, msg, system, lo, hi, n_grid, saddle, use_near, near, n_segments, &
+                      sec_kind, sec_index, sec_level, sec_dir, tra_area_tol, mc_t_max, mc_gate, &
+                      pm_n_seeds, pm_n_iter, pm_t_max, method, h, omega_bind, solver, int_max_iter, &
+                      orb_family, expr_lib, exp_rolling_resistance, mc_n_samples, mc_seed, mc_de, &
+                      des, ndes, nconfig, config)
   ! an input file read and validated as the program reads it (nml_load: the lexer, the namelist
   ! reader src/io/tubes_nml.f90, the validator), with the system's defaults filled in: Python's
   ! scene calls take their defaults and their checks from here; msg holds the messages; config the
@@ -443,34 +438,21 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   use tubes_kinds, only: PI
   implicit none
   character(len=*), intent(in) :: path
-  integer(c_int), intent(out) :: stat, n_grid, use_near, n_segments, orb_max_iter, orb_n_samples, &
-                                 sec_kind, sec_index, sec_dir, tub_n_init, tub_n_max, pm_n_seeds, &
-                                 pm_n_iter, method, solver, int_max_iter, orb_family, flux_n_samples, &
-                                 flux_seed
-  real(c_double), intent(out) :: flux_t_max, flux_gate, flux_tol, flux_cut_eps
-  integer(c_int), intent(out) :: flux_order, flux_n_cut
+  integer(c_int), intent(out) :: stat, n_grid, use_near, n_segments, sec_kind, sec_index, sec_dir, &
+                                 pm_n_seeds, pm_n_iter, method, solver, int_max_iter, orb_family
   character(len=1024), intent(out) :: expr_lib
-  integer(c_int), intent(out) :: exp_n_tracks, exp_seed
-  real(c_double), intent(out) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
-                                 exp_de_max, exp_damping_ratio, exp_rolling_resistance
+  real(c_double), intent(out) :: exp_rolling_resistance
   ! &montecarlo's n_samples, seed and de; the lists of excess energies of &orbits, &tubes,
   ! &transition, &sections and &flux (columns 1..5, each with its length in ndes)
   integer(c_int), intent(out) :: mc_n_samples, mc_seed, ndes(5)
   real(c_double), intent(out) :: mc_de, des(256, 5)
-  ! &orbits jacobi or periods (orb_pkind 1 or 2; 0: by de): the orb_npvalues values given
-  integer(c_int), intent(out) :: orb_pkind, orb_npvalues
-  real(c_double), intent(out) :: orb_pvalues(256)
-  ! &orbits guess (its orb_nguess values; 0: none) and period
-  real(c_double), intent(out) :: orb_guess(6), orb_period
-  integer(c_int), intent(out) :: orb_nguess
   integer(c_int), intent(in) :: nconfig
   integer(1), intent(out) :: config(nconfig)
   character(len=2048), intent(out) :: msg
   character(len=32), intent(out) :: system
   character(len=8), intent(out) :: saddle
-  real(c_double), intent(out) :: params(16), lo(3), hi(3), near(3), orb_tol, orb_rtol, orb_atol, &
-                                 sec_level, tub_eps, tub_area_tol, tub_t_max, tra_area_tol, mc_t_max, &
-                                 mc_gate, mc_area_tol, pm_t_max, h, omega_bind
+  real(c_double), intent(out) :: lo(3), hi(3), near(3), sec_level, tra_area_tol, mc_t_max, mc_gate, pm_t_max, h, &
+                                 omega_bind
   interface
     integer(c_int) function method_code(name) bind(C, name='tubes_method_code')
       import :: c_int, c_char
@@ -490,7 +472,6 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   stat = input_check(cpath, cfg, cmsg, 2048)
   msg = c_to_f(cmsg)
   system = c_to_f(cfg%model)   ! the library's name of the model (expr_<hash> for a formula)
-  params = cfg%params
   lo = cfg%box_lo
   hi = cfg%box_hi
   n_grid = cfg%n_grid
@@ -498,11 +479,6 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   use_near = cfg%orb_use_near
   near = cfg%orb_saddle_near
   n_segments = merge(cfg%orb_n_segments, 1, c_to_f(cfg%orb_method) == 'multiple')
-  orb_tol = cfg%orb_tol
-  orb_rtol = cfg%orb_rtol
-  orb_atol = cfg%orb_atol
-  orb_max_iter = cfg%orb_max_iter
-  orb_n_samples = cfg%orb_n_samples
   if (c_to_f(cfg%sec_kind) == 'ray') then
     sec_kind = 1
     sec_index = 0
@@ -519,15 +495,9 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
     sec_level = 0
     sec_dir = 0
   end if
-  tub_eps = cfg%tub_eps
-  tub_area_tol = cfg%tub_area_tol
-  tub_t_max = cfg%tub_t_max
-  tub_n_init = cfg%tub_n_init
-  tub_n_max = cfg%tub_n_max
   tra_area_tol = cfg%tra_area_tol
   mc_t_max = cfg%mc_t_max
   mc_gate = cfg%mc_gate
-  mc_area_tol = cfg%mc_area_tol
   pm_n_seeds = cfg%pm_n_seeds
   pm_n_iter = cfg%pm_n_iter
   pm_t_max = cfg%pm_t_max
@@ -537,24 +507,7 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   solver = merge(2, 1, c_to_f(cfg%solver) == 'fixed_point')
   int_max_iter = cfg%max_iter
   orb_family = cfg%orb_family
-  flux_n_samples = cfg%flux_n_samples
-  flux_seed = cfg%flux_seed
-  flux_t_max = cfg%flux_t_max
-  flux_gate = cfg%flux_gate
-  flux_tol = cfg%flux_tol
-  flux_order = cfg%flux_order
-  flux_n_cut = cfg%flux_n_cut
-  flux_cut_eps = cfg%flux_cut_eps
   expr_lib = c_to_f(cfg%expr_lib)   ! a formula model's library file ('' for a built-in)
-  exp_n_tracks = cfg%exp_n_tracks
-  exp_seed = cfg%exp_seed
-  exp_duration = cfg%exp_duration
-  exp_camera_rate = cfg%exp_camera_rate
-  exp_pixel = cfg%exp_pixel
-  exp_noise = cfg%exp_noise
-  exp_de_min = cfg%exp_de_min
-  exp_de_max = cfg%exp_de_max
-  exp_damping_ratio = cfg%exp_damping_ratio
   exp_rolling_resistance = cfg%exp_rolling_resistance
   mc_n_samples = cfg%mc_n_samples
   mc_seed = cfg%mc_seed
@@ -566,21 +519,6 @@ subroutine read_input(path, stat, msg, system, params, lo, hi, n_grid, saddle, u
   des(:, 4) = cfg%pm_de
   des(:, 5) = cfg%flux_de
   ndes = [cfg%orb_nde, cfg%tub_nde, cfg%tra_nde, cfg%pm_nde, cfg%flux_nde]
-  orb_pvalues = 0
-  orb_pkind = 0
-  orb_npvalues = 0
-  if (cfg%orb_njacobi > 0) then
-    orb_pkind = 1
-    orb_npvalues = cfg%orb_njacobi
-    orb_pvalues = cfg%orb_jacobi
-  else if (cfg%orb_nperiods > 0) then
-    orb_pkind = 2
-    orb_npvalues = cfg%orb_nperiods
-    orb_pvalues = cfg%orb_periods
-  end if
-  orb_guess = cfg%orb_guess(1:6)
-  orb_nguess = cfg%orb_nguess
-  orb_period = cfg%orb_period
   config = 0
   if (nconfig == size(transfer(cfg, config))) config = transfer(cfg, config)
 end subroutine read_input

@@ -88,5 +88,5 @@ def test_a_model_keeps_what_its_calls_computed():
     # a core call that makes no sense (energies not increasing: refused by the core) keeps no family
     st = tubes._settings(m, None, None, orbits={"de": [10, 300]})
     r = tubes._lib().orbit_family(*tubes._study(m, st), np.array([300.0, 10.0]), 1, 1, 1e-11, 1e-13, 1e-13,
-                                  25, 201, *tubes._integ(st, m), m._stores(), *tubes._guess(st))
+                                  25, 201, *tubes._integ(st, m), m._stores(), 0, np.zeros(6), 0.0)   # no guess
     assert r[0] < 0 and m.kept()["families"] == 0

@@ -697,17 +697,11 @@ def _nml_value(v) -> str:
     return repr(float(v)) if isinstance(v, float) else str(v)
 
 
-_SETTINGS = ("stat", "msg", "system", "params", "lo", "hi", "n_grid", "saddle", "use_near", "near",
-             "n_segments", "orb_tol", "orb_rtol", "orb_atol", "orb_max_iter", "orb_n_samples",
-             "sec_kind", "sec_index", "sec_level", "sec_dir", "tub_eps", "tub_area_tol", "tub_t_max",
-             "tub_n_init", "tub_n_max", "tra_area_tol", "mc_t_max", "mc_gate", "mc_area_tol", "pm_n_seeds",
-             "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter", "orb_family",
-             "flux_n_samples", "flux_seed", "flux_t_max", "flux_gate", "flux_tol", "flux_order", "flux_n_cut",
-             "flux_cut_eps", "expr_lib", "exp_n_tracks", "exp_seed", "exp_duration", "exp_camera_rate",
-             "exp_pixel", "exp_noise", "exp_de_min", "exp_de_max", "exp_damping_ratio", "exp_rolling_resistance",
-             "mc_n_samples",
-             "mc_seed", "mc_de", "des", "ndes", "orb_pkind", "orb_pvalues", "orb_npvalues", "orb_guess", "orb_nguess",
-             "orb_period", "config")
+_SETTINGS = ("stat", "msg", "system", "lo", "hi", "n_grid", "saddle", "use_near", "near", "n_segments",
+             "sec_kind", "sec_index", "sec_level", "sec_dir", "tra_area_tol", "mc_t_max", "mc_gate",
+             "pm_n_seeds", "pm_n_iter", "pm_t_max", "method", "h", "omega_bind", "solver", "int_max_iter",
+             "orb_family", "expr_lib", "exp_rolling_resistance", "mc_n_samples", "mc_seed", "mc_de", "des",
+             "ndes", "config")
 
 
 def _read_namelist(lines: list[str], who: str, groups=None) -> dict:
@@ -792,13 +786,6 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, who: st
             raise ValueError(f"{who}: {_str(msg)}")
         st["saddle"] = _str(chosen)
     return st
-
-
-def _settings_equilibria(model: Model, st: dict) -> dict:
-    """The equilibria in the settings' search box (&equilibria box, box_center, n_grid), as the
-    program finds them."""
-    return equilibria(model, box=(st["hi"] - st["lo"])[:model.ndof] / 2,
-                      box_center=((st["hi"] + st["lo"]) / 2)[:model.ndof], n_grid=int(st["n_grid"]))
 
 
 def _study(model, st):
@@ -905,11 +892,6 @@ def _de_list(dE, who: str):
     if np.size(dE) == 0:
         raise ValueError(f"{who}: dE is empty: give at least one excess energy > 0")
     return _args.reals(who, "dE", dE)
-
-
-def _guess(st: dict) -> tuple:
-    """&orbits guess and period as the core's orbit calls take them (nguess 0: none)."""
-    return int(st["orb_nguess"]), np.asarray(st["orb_guess"], float), float(st["orb_period"])
 
 
 def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
