@@ -20,6 +20,7 @@ module tubes_capi
   use tubes_run, only: run_trajectory, section_spec_t, sized_model, field_rates
   use tubes_sampler, only: sampler_t
   use tubes_orbits, only: orbit_t, orbit_opts_t
+  use tubes_settings, only: orbit_guess_branch
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, SEC_RAY, SEC_PLANE, &
                                  plane_search_range, plane_quadratic_in_p
@@ -586,14 +587,7 @@ contains
     integer(c_int), intent(in) :: nguess
     real(c_double), intent(in) :: guess(*), guess_period
     type(orbit_opts_t), intent(inout) :: opts
-    if (nguess > 0) then
-      opts%guess = guess(1:nguess)
-      opts%guess_period = guess_period
-    end if
-    if (opts%family <= -101) then
-      opts%branch = -100 - opts%family
-      opts%family = 1
-    end if
+    call orbit_guess_branch(int(nguess), guess(1:max(nguess, 0)), guess_period, opts)
   end subroutine guess_opts
 
   !> The study (model, box, saddle, orbit corrector) and the section of a C call.

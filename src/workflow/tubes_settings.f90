@@ -16,7 +16,7 @@ module tubes_settings
   private
 
   public :: settings_of_bytes, settings_bytes, settings_integ, settings_section, settings_study, &
-            settings_orbit_opts, settings_n_segments, settings_text, settings_method_label
+            settings_orbit_opts, settings_n_segments, settings_text, settings_method_label, orbit_guess_branch
 
 contains
 
@@ -125,13 +125,22 @@ contains
     o%n_samples = cfg%orb_n_samples
     o%family = cfg%orb_family
     o%integ = settings_integ(cfg, method)
-    if (cfg%orb_nguess > 0) then
-      o%guess = cfg%orb_guess(1:cfg%orb_nguess)
-      o%guess_period = cfg%orb_period
+    call orbit_guess_branch(cfg%orb_nguess, cfg%orb_guess, cfg%orb_period, o)
+  end function settings_orbit_opts
+
+  !> &orbits guess (nguess > 0 values: the family through it, its period) and 'branch:K' (family
+  !> <= -101: branch K = -100 - family of family 1) into o, for the scenes and the C API's calls.
+  pure subroutine orbit_guess_branch(nguess, guess, period, o)
+    integer, intent(in) :: nguess
+    real(wp), intent(in) :: guess(:), period
+    type(orbit_opts_t), intent(inout) :: o
+    if (nguess > 0) then
+      o%guess = guess(1:nguess)
+      o%guess_period = period
     end if
     if (o%family <= -101) then
       o%branch = -100 - o%family
       o%family = 1
     end if
-  end function settings_orbit_opts
+  end subroutine orbit_guess_branch
 end module tubes_settings
