@@ -69,6 +69,7 @@ SRC_DIRS := $(sort $(dir $(wildcard src/*/)))
 FFLAGS_ALL += $(addprefix -I,$(SRC_DIRS))   # the kind-generic sources' include lines
 F_SRC := $(wildcard $(addsuffix *.f90,$(SRC_DIRS)))
 CONFIG_H := $(BUILD)/include/tubes_config_fields.h
+REGISTRY_H := $(BUILD)/include/tubes_registry.h
 C_SRC := $(filter-out src/io/tubes_main.c,$(wildcard $(addsuffix *.c,$(SRC_DIRS))))
 F_OBJ := $(patsubst %.f90,$(BUILD)/obj/%.o,$(notdir $(F_SRC)))
 C_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(notdir $(C_SRC)))
@@ -142,7 +143,7 @@ $(BUILD)/deps.mk: $(F_SRC) $(T_F_SRC) Makefile | $(BUILD)/obj
 	  for m in $$(sed -n 's/^ *use  *\(tubes_[a-z0-9_]*\).*/\1/p' $$f | sort -u); do \
 	    [ "$$m" = "$$b" ] || echo "$(BUILD)/obj/$$b.o: $(BUILD)/obj/$$m.o"; done; \
 	  for i in $$(sed -n "s/^ *include  *'\([a-z0-9_]*\.inc\)'.*/\1/p" $$f | sort -u); do \
-	    echo "$(BUILD)/obj/$$b.o: $$(ls src/*/$$i)"; done; done > $@
+	    case $$i in nml_*) ;; *) echo "$(BUILD)/obj/$$b.o: $$(ls src/*/$$i)";; esac; done; done > $@
 -include $(BUILD)/deps.mk
 
 $(BUILD)/obj/%.o: %.f90 | $(BUILD)/obj $(BUILD)/mod
@@ -154,12 +155,20 @@ STACK_OBJ := $(patsubst %.f90,$(BUILD)/obj/%.o,$(notdir $(wildcard src/integrato
 $(STACK_OBJ): private FFLAGS_ALL += -fstack-arrays
 # tubes_par is the one preprocessed source: MPI or the one-rank identity (src/parallel/tubes_par.f90)
 $(BUILD)/obj/tubes_par.o: FFLAGS_ALL += -cpp $(MPI_DEF)
-$(BUILD)/obj/%.o: %.c $(wildcard include/*.h) $(CONFIG_H) | $(BUILD)/obj
+$(BUILD)/obj/%.o: %.c $(wildcard include/*.h) $(CONFIG_H) $(REGISTRY_H) | $(BUILD)/obj
 	$(CC) $(CFLAGS_ALL) -c $< -o $@
 # C's tubes_config_t, generated from its one definition in src/workflow/tubes_config.f90 (include/tubes_config.h)
 $(CONFIG_H): src/workflow/tubes_config.f90 src/io/tubes_config_gen.awk
 	@mkdir -p $(@D)
 	awk -f src/io/tubes_config_gen.awk src/workflow/tubes_config.f90 > $@.tmp && mv $@.tmp $@
+# The registered namelist variables (the annotated fields of src/workflow/tubes_config.f90): the reader's
+# table rows and range checks (C) and the namelist's variables and copies (Fortran include files of
+# src/io/tubes_nml.f90), all written by one run (src/io/tubes_registry_gen.awk; docs/development.md)
+$(REGISTRY_H): src/workflow/tubes_config.f90 src/io/tubes_registry_gen.awk
+	@mkdir -p $(@D)
+	awk -v dir=$(@D) -f src/io/tubes_registry_gen.awk src/workflow/tubes_config.f90
+$(BUILD)/obj/tubes_nml.o: $(REGISTRY_H)
+$(BUILD)/obj/tubes_nml.o: FFLAGS_ALL += -I$(BUILD)/include
 
 # The commit recorded in every output file: tubes_main.o is rebuilt whenever it changes (a commit,
 # or the tree turning dirty or clean), not only when tubes_main.c does.
@@ -260,7 +269,7 @@ sanitize:
 FUZZ_CC   ?= clang-14
 FUZZ_TIME ?= 600
 FUZZ_BIN  := $(BUILD)/fuzz/fuzz_namelist
-$(FUZZ_BIN): tests/fuzz/fuzz_namelist.c src/io/tubes_input.c include/tubes_input.h include/tubes_config.h $(CONFIG_H) $(LIB)
+$(FUZZ_BIN): tests/fuzz/fuzz_namelist.c src/io/tubes_input.c include/tubes_input.h include/tubes_config.h $(CONFIG_H) $(REGISTRY_H) $(LIB)
 	@mkdir -p $(@D)
 	$(FUZZ_CC) -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -std=c11 \
 	  -D_POSIX_C_SOURCE=200809L -Iinclude -I$(BUILD)/include -o $@ tests/fuzz/fuzz_namelist.c src/io/tubes_input.c \

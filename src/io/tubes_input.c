@@ -2,11 +2,13 @@
  * Fortran's namelist READ (src/io/tubes_nml.f90) reads the values; this file makes sure every
  * mistake is reported with the file, group, variable and line before and after it does. */
 #include "tubes_input.h"
+#include "tubes_registry.h"
 #include <ctype.h>
 #include <errno.h>
 #include <float.h>
 #include <limits.h>
 #include <math.h>
+#include <stddef.h>
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
@@ -181,18 +183,15 @@ const nml_var tubes_nml_vars[] = {
     {"tubes", "n_max", NML_INT, 1, "-", "8192", "n_init .. 1000000", "seeds at most"},
     {"transition", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 2, 5, ..., 700, 750", "> 0, increasing",
      "excess energies of p_trans(dE)"},
-    {"transition", "area_tol", NML_REAL, 1, "1", "1e-8", "1e-13 .. 1e-2", "relative accuracy of each tube area"},
     {"montecarlo", "de", NML_REAL, 1, "(cm/s)^2", "100", "> 0", "excess energy of the samples"},
     {"montecarlo", "n_samples", NML_INT, 1, "-", "10000", "1 .. 10000000", "points on the section"},
     {"montecarlo", "seed", NML_INT, 1, "-", "12345", ">= 0", "seed of GSL's MT19937"},
     {"montecarlo", "t_max", NML_REAL, 1, "s", "20", "> 0", "longest integration of a point"},
-    {"montecarlo", "area_tol", NML_REAL, 1, "1", "1e-8", "1e-13 .. 1e-2", "relative accuracy of the tube cut the points are sorted by"},
     {"montecarlo", "gate", NML_REAL, 1, "units of q", "the system's (1.5 cm for the ball)", "> 0",
      "a point has transited when it is this far past the saddle along its reaction coordinate"},
     {"sections", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "100, 500", "> 0, increasing", "excess energies of the maps"},
     {"sections", "n_seeds", NML_INT, 1, "-", "40", "1 .. 100000", "trajectories per map"},
     {"sections", "n_iter", NML_INT, 1, "-", "300", "1 .. 1000000", "returns recorded per trajectory"},
-    {"sections", "t_max", NML_REAL, 1, "s", "2000", "> 0", "longest integration per trajectory"},
     {"experiment", "n_tracks", NML_INT, 1, "-", "120", "1 .. 100000", "trajectories released"},
     {"experiment", "duration", NML_REAL, 1, "s", "14", "> 0", "length of each track"},
     {"experiment", "camera_rate", NML_REAL, 1, "Hz", "50", "> 0, duration*camera_rate <= 1e6",
@@ -225,8 +224,6 @@ const nml_var tubes_nml_vars[] = {
     {"flux", "n_cut", NML_INT, 1, "-", "16", "0, or even 4 .. 64",
      "3 DOF with order and a plane &section: the tube's cut on a grid of n_cut + 1 rings of "
      "(2 n_cut)^2 NHIM points; 0 = none"},
-    {"flux", "cut_eps", NML_REAL, 1, "1", "1e-3", "1e-8 .. 0.1",
-     "step-off of the tube's seeds from the NHIM, in units of its radius sqrt(2 dE / omega_2)"},
     {"scan", "parameter", NML_STRING, 1, "-", "- (required)",
      "a parameter of the system (&model), not a dissipation one; not a formula's constant",
      "the model parameter the scan scene moves (docs/scan.md)"},
@@ -238,6 +235,8 @@ const nml_var tubes_nml_vars[] = {
     {"scan", "p_trans", NML_LOGICAL, 1, "-", ".false.", ".true., .false. (2 degrees of freedom, as the transition scene)",
      "p_trans(dE) = A_tube/A_E at each step and each de, as the transition scene computes it (costs a tube cut "
      "per step and dE: docs/scan.md)"},
+    /* the registered variables (src/workflow/tubes_config.f90's annotated fields) */
+    TUBES_REGISTRY_ROWS
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 _Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 192, "nml_where holds 192 variables");
@@ -1187,6 +1186,31 @@ static int check_orbit_parameter(const char *path, const tubes_config_t *c, cons
   return n;
 }
 
+/* The registered variables' ranges (src/workflow/tubes_config.f90's annotations, build/include/tubes_registry.h):
+ * each field's value against its bounds, the message bad()'s with the row's allowed text. */
+static int check_registered(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
+  static const struct {
+    const char *group, *name;
+    size_t offset;
+    int is_int;
+    double lo, hi;
+    int lo_open, hi_open;
+  } reg[] = {TUBES_REGISTRY_RANGES};
+  int n = 0;
+  for (int k = 0; k < TUBES_REGISTRY_N; k++) {
+    const char *p = (const char *)c + reg[k].offset;
+    double x;
+    if (reg[k].is_int) {
+      int i;
+      memcpy(&i, p, sizeof i);
+      x = i;
+    } else memcpy(&x, p, sizeof x);
+    int ok = (reg[k].lo_open ? x > reg[k].lo : x >= reg[k].lo) && (reg[k].hi_open ? x < reg[k].hi : x <= reg[k].hi);
+    if (!ok) n += bad(path, c, w, reg[k].group, reg[k].name, err, "", x);
+  }
+  return n;
+}
+
 int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int n = 0, nscenes = 0;
   for (int k = 0; k < TUBES_NSCENES; k++) {
@@ -1350,13 +1374,11 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->tub_t_max > 0)) n += bad(path, c, w, "tubes", "t_max", err, "", c->tub_t_max);
   if (!(c->tub_n_init >= 8 && c->tub_n_init <= 100000)) n += bad(path, c, w, "tubes", "n_init", err, "", c->tub_n_init);
   if (!(c->tub_n_max >= c->tub_n_init && c->tub_n_max <= 1000000)) n += bad(path, c, w, "tubes", "n_max", err, "", c->tub_n_max);
-  if (!(c->tra_area_tol >= 1e-13 && c->tra_area_tol <= 1e-2)) n += bad(path, c, w, "transition", "area_tol", err, "", c->tra_area_tol);
+  n += check_registered(path, c, w, err);
   if (!(c->mc_de > 0)) n += bad(path, c, w, "montecarlo", "de", err, "", c->mc_de);
   if (!(c->mc_n_samples >= 1 && c->mc_n_samples <= 10000000)) n += bad(path, c, w, "montecarlo", "n_samples", err, "", c->mc_n_samples);
   if (!(c->mc_seed >= 0)) n += bad(path, c, w, "montecarlo", "seed", err, "", c->mc_seed);
   if (!(c->mc_t_max > 0)) n += bad(path, c, w, "montecarlo", "t_max", err, "", c->mc_t_max);
-  if (!(c->mc_area_tol >= 1e-13 && c->mc_area_tol <= 1e-2))
-    n += bad(path, c, w, "montecarlo", "area_tol", err, "", c->mc_area_tol);
   if (c->nparams >= 0 && !(c->mc_gate > 0 && c->mc_gate < DBL_MAX))
     n += bad(path, c, w, "montecarlo", "gate", err, "", c->mc_gate);
   /* &flux de and gate not set in the file are &transition's de and &montecarlo's gate, checked there */
@@ -1382,10 +1404,8 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   }
   if (!(c->flux_n_cut == 0 || (c->flux_n_cut >= 4 && c->flux_n_cut <= 64 && c->flux_n_cut % 2 == 0)))
     n += bad(path, c, w, "flux", "n_cut", err, "", c->flux_n_cut);
-  if (!(c->flux_cut_eps >= 1e-8 && c->flux_cut_eps <= 0.1)) n += bad(path, c, w, "flux", "cut_eps", err, "", c->flux_cut_eps);
   if (!(c->pm_n_seeds >= 1 && c->pm_n_seeds <= 100000)) n += bad(path, c, w, "sections", "n_seeds", err, "", c->pm_n_seeds);
   if (!(c->pm_n_iter >= 1 && c->pm_n_iter <= 1000000)) n += bad(path, c, w, "sections", "n_iter", err, "", c->pm_n_iter);
-  if (!(c->pm_t_max > 0)) n += bad(path, c, w, "sections", "t_max", err, "", c->pm_t_max);
   if (!(c->exp_n_tracks >= 1 && c->exp_n_tracks <= 100000))
     n += bad(path, c, w, "experiment", "n_tracks", err, "", c->exp_n_tracks);
   if (!(c->exp_duration > 0)) n += bad(path, c, w, "experiment", "duration", err, "", c->exp_duration);

@@ -48,12 +48,10 @@ module tubes_nml
     real(c_double) :: tub_eps = 1.0e-6_c_double, tub_area_tol = 1.0e-10_c_double, tub_t_max = 30
     integer :: tub_n_init = 64, tub_n_max = 8192
     real(c_double) :: tra_de(MAXDE) = UNSET
-    real(c_double) :: tra_area_tol = 1.0e-8_c_double
-    real(c_double) :: mc_de = 100, mc_t_max = 20, mc_gate = UNSET, mc_area_tol = 1.0e-8_c_double
+    real(c_double) :: mc_de = 100, mc_t_max = 20, mc_gate = UNSET
     integer :: mc_n_samples = 10000, mc_seed = 12345
     real(c_double) :: pm_de(MAXDE) = UNSET
     integer :: pm_n_seeds = 40, pm_n_iter = 300
-    real(c_double) :: pm_t_max = 2000
     integer :: exp_n_tracks = 120, exp_seed = 2018
     real(c_double) :: exp_duration = 14, exp_camera_rate = 50, exp_pixel = 0.16_c_double, &
                       exp_noise = 0.05_c_double, exp_de_min = 1000, exp_de_max = 3000, &
@@ -74,8 +72,7 @@ module tubes_nml
     character(LNAME) :: model_name = ''   !! the library's name of the model (written only)
     real(c_double) :: flux_de(MAXDE) = UNSET
     integer :: flux_n_samples = 4000, flux_seed = 1, flux_order = 0, flux_n_cut = 16
-    real(c_double) :: flux_t_max = 20, flux_gate = UNSET, flux_tol = 1.0e-10_c_double, &
-                      flux_cut_eps = 1.0e-3_c_double
+    real(c_double) :: flux_t_max = 20, flux_gate = UNSET, flux_tol = 1.0e-10_c_double
     integer :: orb_family = 1
     logical :: spatial = .false.
     character(LNAME) :: scan_parameter = ''
@@ -86,6 +83,7 @@ module tubes_nml
     real(c_double) :: orb_period = 0
     logical :: scan_p_trans = .false.
     real(c_double) :: orb_jacobi(MAXDE) = UNSET, orb_periods(MAXDE) = UNSET   !! &orbits jacobi, periods
+    include 'nml_vars.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
   end type vars_t
 
 contains
@@ -149,15 +147,15 @@ contains
     call put_list(v%tra_de, cfg%tra_de, cfg%tra_nde, [1.0_c_double, 2.0_c_double, 5.0_c_double, &
       10.0_c_double, 20.0_c_double, 50.0_c_double, 100.0_c_double, 200.0_c_double, 300.0_c_double, &
       400.0_c_double, 500.0_c_double, 600.0_c_double, 700.0_c_double, 750.0_c_double])
-    cfg%tra_area_tol = v%tra_area_tol
     call put_list(v%flux_de, cfg%flux_de, cfg%flux_nde, cfg%tra_de(1:cfg%tra_nde))
     cfg%flux_n_samples = v%flux_n_samples; cfg%flux_seed = v%flux_seed; cfg%flux_order = v%flux_order
     cfg%flux_t_max = v%flux_t_max; cfg%flux_tol = v%flux_tol
-    cfg%flux_n_cut = v%flux_n_cut; cfg%flux_cut_eps = v%flux_cut_eps
-    cfg%mc_de = v%mc_de; cfg%mc_t_max = v%mc_t_max; cfg%mc_area_tol = v%mc_area_tol
+    cfg%flux_n_cut = v%flux_n_cut
+    cfg%mc_de = v%mc_de; cfg%mc_t_max = v%mc_t_max
     cfg%mc_n_samples = v%mc_n_samples; cfg%mc_seed = v%mc_seed
     call put_list(v%pm_de, cfg%pm_de, cfg%pm_nde, [100.0_c_double, 500.0_c_double])
-    cfg%pm_n_seeds = v%pm_n_seeds; cfg%pm_n_iter = v%pm_n_iter; cfg%pm_t_max = v%pm_t_max
+    cfg%pm_n_seeds = v%pm_n_seeds; cfg%pm_n_iter = v%pm_n_iter
+    include 'nml_to_c.inc'   ! the registered variables
     cfg%exp_n_tracks = v%exp_n_tracks; cfg%exp_seed = v%exp_seed
     cfg%exp_duration = v%exp_duration; cfg%exp_camera_rate = v%exp_camera_rate
     cfg%exp_pixel = v%exp_pixel; cfg%exp_noise = v%exp_noise
@@ -534,16 +532,15 @@ contains
     v%tub_eps = cfg%tub_eps; v%tub_area_tol = cfg%tub_area_tol; v%tub_t_max = cfg%tub_t_max
     v%tub_n_init = cfg%tub_n_init; v%tub_n_max = cfg%tub_n_max
     v%tra_de = cfg%tra_de
-    v%tra_area_tol = cfg%tra_area_tol
     v%mc_de = cfg%mc_de; v%mc_t_max = cfg%mc_t_max; v%mc_gate = cfg%mc_gate
-    v%mc_area_tol = cfg%mc_area_tol
     v%mc_n_samples = cfg%mc_n_samples; v%mc_seed = cfg%mc_seed
     v%flux_de = cfg%flux_de
     v%flux_n_samples = cfg%flux_n_samples; v%flux_seed = cfg%flux_seed; v%flux_order = cfg%flux_order
     v%flux_t_max = cfg%flux_t_max; v%flux_gate = cfg%flux_gate; v%flux_tol = cfg%flux_tol
-    v%flux_n_cut = cfg%flux_n_cut; v%flux_cut_eps = cfg%flux_cut_eps
+    v%flux_n_cut = cfg%flux_n_cut
     v%pm_de = cfg%pm_de
-    v%pm_n_seeds = cfg%pm_n_seeds; v%pm_n_iter = cfg%pm_n_iter; v%pm_t_max = cfg%pm_t_max
+    v%pm_n_seeds = cfg%pm_n_seeds; v%pm_n_iter = cfg%pm_n_iter
+    include 'nml_from_c.inc'   ! the registered variables
     v%exp_n_tracks = cfg%exp_n_tracks; v%exp_seed = cfg%exp_seed
     v%exp_duration = cfg%exp_duration; v%exp_camera_rate = cfg%exp_camera_rate
     v%exp_pixel = cfg%exp_pixel; v%exp_noise = cfg%exp_noise
@@ -731,7 +728,9 @@ contains
       integer :: n_grid
       character(8) :: saddle
       namelist /equilibria/ box, box_center, n_grid, saddle
+      include 'nml_equilibria_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
       n_grid = v%n_grid; saddle = v%saddle
+      include 'nml_equilibria_in.inc'
       if (mode == 'r') then
         box = v%box_list
         box_center = v%box_center
@@ -744,6 +743,7 @@ contains
         write (u, nml=equilibria, iostat=ios, iomsg=iomsg)
       end if
       v%n_grid = n_grid; v%saddle = saddle
+      include 'nml_equilibria_out.inc'
     end subroutine io_equilibria
     subroutine io_trajectory()
       real(c_double) :: x0, y0, px0, py0, t_end, dt_out, section_angle, section_level
@@ -752,11 +752,13 @@ contains
       integer :: section_direction, max_crossings
       namelist /trajectory/ x0, y0, px0, py0, at_rest, t_end, dt_out, section, section_angle, &
         section_level, section_direction, max_crossings, stop_at_first
+      include 'nml_trajectory_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
       x0 = v%x0; y0 = v%y0; px0 = v%px0; py0 = v%py0; at_rest = v%at_rest
       t_end = v%t_end; dt_out = v%dt_out
       section = v%section; section_angle = v%section_angle; section_level = v%section_level
       section_direction = v%section_direction; max_crossings = v%max_crossings
       stop_at_first = v%stop_at_first
+      include 'nml_trajectory_in.inc'
       if (mode == 'r') then
         read (u, nml=trajectory, iostat=ios, iomsg=iomsg)
       else
@@ -767,6 +769,7 @@ contains
       v%section = section; v%section_angle = section_angle; v%section_level = section_level
       v%section_direction = section_direction; v%max_crossings = max_crossings
       v%stop_at_first = stop_at_first
+      include 'nml_trajectory_out.inc'
     end subroutine io_trajectory
     subroutine io_integrator()
       character(LNAME) :: method, solver
@@ -774,8 +777,10 @@ contains
       integer(c_int64_t) :: max_steps
       integer :: max_iter
       namelist /integrator/ method, rtol, atol, h, max_steps, omega_bind, solver, max_iter
+      include 'nml_integrator_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
       method = v%method; rtol = v%rtol; atol = v%atol; h = v%h; max_steps = v%max_steps
       omega_bind = v%omega_bind; solver = v%solver; max_iter = v%max_iter
+      include 'nml_integrator_in.inc'
       if (mode == 'r') then
         read (u, nml=integrator, iostat=ios, iomsg=iomsg)
       else
@@ -783,6 +788,7 @@ contains
       end if
       v%method = method; v%rtol = rtol; v%atol = atol; v%h = h; v%max_steps = max_steps
       v%omega_bind = omega_bind; v%solver = solver; v%max_iter = max_iter
+      include 'nml_integrator_out.inc'
     end subroutine io_integrator
     subroutine io_orbits()
       character(8) :: saddle
@@ -929,9 +935,11 @@ contains
       real(c_double) :: eps, area_tol, t_max
       integer :: n_init, n_max
       namelist /tubes/ de, kind, eps, area_tol, t_max, n_init, n_max
+      include 'nml_tubes_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
       call list_io(v%tub_de, de)
       kind = v%tub_kind; eps = v%tub_eps; area_tol = v%tub_area_tol; t_max = v%tub_t_max
       n_init = v%tub_n_init; n_max = v%tub_n_max
+      include 'nml_tubes_in.inc'
       if (mode == 'r') then
         read (u, nml=tubes, iostat=ios, iomsg=iomsg)
         v%tub_de = de
@@ -940,45 +948,49 @@ contains
       end if
       v%tub_kind = kind; v%tub_eps = eps; v%tub_area_tol = area_tol; v%tub_t_max = t_max
       v%tub_n_init = n_init; v%tub_n_max = n_max
+      include 'nml_tubes_out.inc'
     end subroutine io_tubes
     subroutine io_transition()
       real(c_double), allocatable :: de(:)
-      real(c_double) :: area_tol
-      namelist /transition/ de, area_tol
+      namelist /transition/ de
+      include 'nml_transition_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
       call list_io(v%tra_de, de)
-      area_tol = v%tra_area_tol
+      include 'nml_transition_in.inc'
       if (mode == 'r') then
         read (u, nml=transition, iostat=ios, iomsg=iomsg)
         v%tra_de = de
       else
         write (u, nml=transition, iostat=ios, iomsg=iomsg)
       end if
-      v%tra_area_tol = area_tol
+      include 'nml_transition_out.inc'
     end subroutine io_transition
     subroutine io_montecarlo()
-      real(c_double) :: de, t_max, gate, area_tol
+      real(c_double) :: de, t_max, gate
       integer :: n_samples, seed
-      namelist /montecarlo/ de, n_samples, seed, t_max, gate, area_tol
+      namelist /montecarlo/ de, n_samples, seed, t_max, gate
+      include 'nml_montecarlo_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
       de = v%mc_de; t_max = v%mc_t_max; gate = v%mc_gate; n_samples = v%mc_n_samples
-      area_tol = v%mc_area_tol
       seed = v%mc_seed
+      include 'nml_montecarlo_in.inc'
       if (mode == 'r') then
         read (u, nml=montecarlo, iostat=ios, iomsg=iomsg)
       else
         write (u, nml=montecarlo, iostat=ios, iomsg=iomsg)
       end if
       v%mc_de = de; v%mc_t_max = t_max; v%mc_gate = gate; v%mc_n_samples = n_samples
-      v%mc_area_tol = area_tol
       v%mc_seed = seed
+      include 'nml_montecarlo_out.inc'
     end subroutine io_montecarlo
     subroutine io_flux()
       real(c_double), allocatable :: de(:)
       integer :: n_samples, seed, order, n_cut
-      real(c_double) :: t_max, gate, tol, cut_eps
-      namelist /flux/ de, n_samples, seed, t_max, gate, tol, order, n_cut, cut_eps
+      real(c_double) :: t_max, gate, tol
+      namelist /flux/ de, n_samples, seed, t_max, gate, tol, order, n_cut
+      include 'nml_flux_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
       call list_io(v%flux_de, de)
       n_samples = v%flux_n_samples; seed = v%flux_seed; t_max = v%flux_t_max; order = v%flux_order
-      gate = v%flux_gate; tol = v%flux_tol; n_cut = v%flux_n_cut; cut_eps = v%flux_cut_eps
+      gate = v%flux_gate; tol = v%flux_tol; n_cut = v%flux_n_cut
+      include 'nml_flux_in.inc'
       if (mode == 'r') then
         read (u, nml=flux, iostat=ios, iomsg=iomsg)
         v%flux_de = de
@@ -986,7 +998,8 @@ contains
         write (u, nml=flux, iostat=ios, iomsg=iomsg)
       end if
       v%flux_n_samples = n_samples; v%flux_seed = seed; v%flux_t_max = t_max; v%flux_order = order
-      v%flux_gate = gate; v%flux_tol = tol; v%flux_n_cut = n_cut; v%flux_cut_eps = cut_eps
+      v%flux_gate = gate; v%flux_tol = tol; v%flux_n_cut = n_cut
+      include 'nml_flux_out.inc'
     end subroutine io_flux
     subroutine io_scan()
       character(LNAME) :: parameter
@@ -995,12 +1008,14 @@ contains
       integer :: n
       logical :: p_trans
       namelist /scan/ parameter, to, n, de, p_trans
+      include 'nml_scan_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
       if (mode /= 'r' .and. len_trim(v%scan_parameter) == 0) return   ! echoed only when set
       parameter = v%scan_parameter
       to = v%scan_to
       n = v%scan_n
       p_trans = v%scan_p_trans
       call list_io(v%scan_de, de)
+      include 'nml_scan_in.inc'
       if (mode == 'r') then
         read (u, nml=scan, iostat=ios, iomsg=iomsg)
         v%scan_de = de
@@ -1011,21 +1026,24 @@ contains
       v%scan_to = to
       v%scan_n = n
       v%scan_p_trans = p_trans
+      include 'nml_scan_out.inc'
     end subroutine io_scan
     subroutine io_sections()
       real(c_double), allocatable :: de(:)
       integer :: n_seeds, n_iter
-      real(c_double) :: t_max
-      namelist /sections/ de, n_seeds, n_iter, t_max
+      namelist /sections/ de, n_seeds, n_iter
+      include 'nml_sections_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
       call list_io(v%pm_de, de)
-      n_seeds = v%pm_n_seeds; n_iter = v%pm_n_iter; t_max = v%pm_t_max
+      n_seeds = v%pm_n_seeds; n_iter = v%pm_n_iter
+      include 'nml_sections_in.inc'
       if (mode == 'r') then
         read (u, nml=sections, iostat=ios, iomsg=iomsg)
         v%pm_de = de
       else
         write (u, nml=sections, iostat=ios, iomsg=iomsg)
       end if
-      v%pm_n_seeds = n_seeds; v%pm_n_iter = n_iter; v%pm_t_max = t_max
+      v%pm_n_seeds = n_seeds; v%pm_n_iter = n_iter
+      include 'nml_sections_out.inc'
     end subroutine io_sections
     subroutine io_experiment()
       integer :: n_tracks, seed
@@ -1034,10 +1052,12 @@ contains
       character(LPATH) :: buf
       namelist /experiment/ n_tracks, duration, camera_rate, pixel, noise, de_min, de_max, &
         damping_ratio, rolling_resistance, seed, csv
+      include 'nml_experiment_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
       n_tracks = v%exp_n_tracks; seed = v%exp_seed; duration = v%exp_duration
       camera_rate = v%exp_camera_rate; pixel = v%exp_pixel; noise = v%exp_noise
       de_min = v%exp_de_min; de_max = v%exp_de_max; damping_ratio = v%exp_damping_ratio
       rolling_resistance = v%exp_rolling_resistance
+      include 'nml_experiment_in.inc'
       if (mode == 'r') then
         buf = v%exp_csv
         csv = buf
@@ -1051,6 +1071,7 @@ contains
       v%exp_camera_rate = camera_rate; v%exp_pixel = pixel; v%exp_noise = noise
       v%exp_de_min = de_min; v%exp_de_max = de_max; v%exp_damping_ratio = damping_ratio
       v%exp_rolling_resistance = rolling_resistance
+      include 'nml_experiment_out.inc'
     end subroutine io_experiment
   end subroutine group_io
 

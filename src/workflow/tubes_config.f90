@@ -22,7 +22,10 @@ module tubes_config
   !> An unset integer (&section index, direction, p_theta_sign): 0 is a value a user can mean.
   integer, parameter :: UNSET_INT = -huge(1)
 
-  !> The settings of a run: every namelist variable, then what the reader resolved. The one
+  !> The settings of a run: every namelist variable, then what the reader resolved. A field with an
+  !> annotation (a line '!@ &group name | units | default | allowed | text' right before it) is a
+  !> registered variable: the reader's table row, its range check, its namelist variable and its copies
+  !> are generated from the annotation (src/io/tubes_registry_gen.awk; docs/development.md). The one
   !> definition of their layout: C's struct (include/tubes_config.h) is generated from this type
   !> and the length parameters above (src/io/tubes_config_gen.awk, at build time): a field added
   !> here is C's too. Unset reals are -huge (C: -DBL_MAX).
@@ -59,11 +62,15 @@ module tubes_config
     integer(c_int) :: tub_n_init, tub_n_max
     real(c_double) :: tra_de(MAXDE)   ! &transition
     integer(c_int) :: tra_nde
+    !@ &transition area_tol | 1 | 1e-8 | 1e-13 .. 1e-2 | relative accuracy of each tube area
     real(c_double) :: tra_area_tol
-    real(c_double) :: mc_de, mc_t_max, mc_gate, mc_area_tol   ! &montecarlo
+    real(c_double) :: mc_de, mc_t_max, mc_gate   ! &montecarlo
+    !@ &montecarlo area_tol | 1 | 1e-8 | 1e-13 .. 1e-2 | relative accuracy of the tube cut the points are sorted by
+    real(c_double) :: mc_area_tol
     integer(c_int) :: mc_n_samples, mc_seed
     real(c_double) :: pm_de(MAXDE)   ! &sections
     integer(c_int) :: pm_nde, pm_n_seeds, pm_n_iter
+    !@ &sections t_max | s | 2000 | > 0 | longest integration per trajectory
     real(c_double) :: pm_t_max
     integer(c_int) :: exp_n_tracks, exp_seed   ! &experiment
     real(c_double) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
@@ -96,7 +103,9 @@ module tubes_config
     integer(c_int) :: expr_hit
     real(c_double) :: flux_de(MAXDE)   ! &flux (flux_gate resolved like mc_gate)
     integer(c_int) :: flux_nde, flux_n_samples, flux_seed, flux_order, flux_n_cut
-    real(c_double) :: flux_t_max, flux_gate, flux_tol, flux_cut_eps
+    real(c_double) :: flux_t_max, flux_gate, flux_tol
+    !@ &flux cut_eps | 1 | 1e-3 | 1e-8 .. 0.1 | step-off of the tube's seeds from the NHIM, in units of its radius sqrt(2 dE / omega_2)
+    real(c_double) :: flux_cut_eps
     integer(c_int) :: orb_family   !! &orbits family: a centre mode (1 .. N-1), a family by name (< 0), 'branch:K' = -100 - K
     integer(c_int) :: spatial      !! &model spatial: the cr3bp in three dimensions (model cr3bp_spatial)
     ! &scan (docs/scan.md): the parameter, its end value (unset: -huge), the steps, the orbits' dE
