@@ -19,9 +19,11 @@
 !>   ('halo_north', 'halo_south'), the axial family, a guess's family. Its T(dE) is probed on its own
 !>   continuation (each probe the orbit `de` = that dE gives: the first crossing of that energy along
 !>   the family's arc) once for all the periods asked for: the halo and axial families from dE_1 2^j
-!>   up (below their branch point there is no orbit) to their end, a guess's family from the guess's
-!>   energy dE_g on dE_g +- delta 2^j (delta = 1e-3 |dE_g|) both ways to its ends; where a period is
-!>   not bracketed, 30 points close in on each end of the probed range. Every interval of the probes
+!>   up (below their branch point there is no orbit) to their end (where a doubling jumps over the
+!>   whole family, points from below it that close in on the end the family said), a guess's family
+!>   from the guess's energy dE_g on dE_g +- delta 2^j (delta = 1e-3 |dE_g|) both ways to its ends;
+!>   where a period is not bracketed, each end of the probed range is closed in on (bisection,
+!>   CLOSE_AWAY steps; CLOSE_FOLD points towards a fold in energy). Every interval of the probes
 !>   where T - T* changes sign is a crossing; the one nearest the family's start (the lowest dE for a
 !>   branch, the one nearest dE_g for a guess) is solved by Brent as above, and the number of the
 !>   others and the nearest other's dE are returned (a fold in T(dE): one period, two orbits; the
@@ -52,6 +54,8 @@ module tubes_orbit_parameter
   !> last 2^-CLOSE_FOLD of the interval is left out: there the orbit at a fixed energy is
   !> ill-conditioned, and at L1's halo fold the corrector took the far side 1.6e-6 from it)
   integer, parameter :: CLOSE_FOLD = 12
+  integer, parameter :: CLOSE_AWAY = 20      !! ... bisection steps on an end's probes (2^-20 of the interval)
+  integer, parameter :: MAX_DOUBLINGS = 48   !! a branch not met by dE_1 2^MAX_DOUBLINGS: none
   real(wp), parameter :: GUESS_STEP = 1.0e-3_wp             !! a guess's family: the first probe step / |dE_g|
 
   !> The family whose period is sought (the root finder's user data).
@@ -203,7 +207,7 @@ contains
   !> from dE_g both ways on dE_g +- delta 2^j to the first energy without an orbit on each side; a
   !> branch from dE_1 2^j up, past the energies below its start (no orbit), to the first energy
   !> without an orbit above it. close: add the points that close in on each end of the probed range
-  !> (bisection between the end's probes with and without an orbit, CLOSE_IN steps; towards a fold
+  !> (bisection between the end's probes with and without an orbit, CLOSE_AWAY steps; towards a fold
   !> in energy the family said it ends at, CLOSE_FOLD points).
   subroutine probe_family(c, pr, close)
     type(period_ctx_t), intent(inout) :: c
@@ -220,7 +224,7 @@ contains
       if (pr%has_lo) then
         a = pr%lo_fail
         b = pr%de(1)
-        do j = 1, CLOSE_IN
+        do j = 1, CLOSE_AWAY
           d = a + (b - a)/2
           call probe(d, ok)
           if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
@@ -243,7 +247,7 @@ contains
             if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
           end do
         else
-          do j = 1, CLOSE_IN
+          do j = 1, CLOSE_AWAY
             d = a + (b - a)/2
             call probe(d, ok)
             if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
@@ -294,10 +298,24 @@ contains
     amp = norm2(x0(1:size(c%eqs(c%isad)%q)) - c%eqs(c%isad)%q)
     d = 1.0e-6_wp
     if (amp > 0) d = (GRID_AMP*dist/amp)**2
+    pr%de_start = d
     seen = .false.
+    a = 0
     do j = 1, GRID_MAX
       call probe(d, ok, end_de)
       if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
+      if (.not. ok .and. .not. seen .and. end_de > a .and. end_de < d) then
+        ! past the end of a family not yet met (the axial family lies within one doubling): it lies
+        ! below its end, above the last energy below its start; points from there that close in on
+        ! the end, to the first orbit
+        do side = 1, CLOSE_IN
+          call probe(a + (end_de - a)*(1 - 0.5_wp**side), seen)
+          if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
+          if (seen) exit
+          pr%has_lo = .true.
+          pr%lo_fail = a + (end_de - a)*(1 - 0.5_wp**side)
+        end do
+      end if
       if (ok) then
         seen = .true.
       else if (seen) then
@@ -308,6 +326,8 @@ contains
       else
         pr%has_lo = .true.
         pr%lo_fail = d
+        a = d
+        if (d > 2.0_wp**MAX_DOUBLINGS*pr%de_start) exit   ! no family met in this range: none
       end if
       d = 2*d
     end do
@@ -339,7 +359,7 @@ contains
     type(probes_t), intent(inout) :: pr
     real(wp), intent(out) :: de, de_again
     integer, intent(out) :: found, n_again
-    real(wp) :: g(size(pr%de) + 2*CLOSE_IN + CLOSE_FOLD), dist, best, next, root, t, end_de, a, b
+    real(wp) :: g(size(pr%de) + 2*CLOSE_AWAY + CLOSE_FOLD), dist, best, next, root, t, end_de, a, b
     integer :: i, n, ibest, ncross, gst
     logical :: ok
     de = 0
