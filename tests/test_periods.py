@@ -116,3 +116,15 @@ def test_branch_by_period_refused(tmp_path):
     with pytest.raises(ValueError, match="not for family = 'branch:1'"):
         tubes.orbit_family(tubes.Model("henon_heiles"), saddle="S2", guess=[0, 0, 0, 0.4], period=6.9,
                            family="branch:1", periods=[15.6])
+
+
+@pytest.mark.slow   # ~15 s: the L2 halo family probed to its ends
+def test_period_not_reached(tmp_path):
+    """A period the family's probes do not take: said with the probed range (exit 4; Python EPASTEND)."""
+    r, _ = run(tmp_path, "n", SPATIAL, "saddle = 'L2', family = 'halo_south', periods = 5.0")
+    assert r.returncode == 4, r.stderr
+    assert "&orbits periods(1) = 5: not reached: the L2 family's orbits probed along its continuation" in r.stderr
+    import tubes
+    with pytest.raises(tubes.TubesError, match="not reached") as e:
+        tubes.orbit_family(tubes.Model("cr3bp", spatial=True), saddle="L2", family="halo_south", periods=[5.0])
+    assert e.value.code == tubes.EPASTEND
