@@ -914,7 +914,7 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     'halo_north' / 'halo_south', 'axial': docs/orbits.md "Branch switching"; 'branch:K', the family
     off the K-th bifurcation); guess=[2N reals], period=T (a family through a guess: docs/orbits.md
     "Orbits from a guess"; dE may then be of any sign); jacobi=[C, ...] or
-    periods=[T, ...] instead of dE (&orbits jacobi, periods,
+    periods=[T, ...] instead of dE (&orbits jacobi, periods, periods for any family but 'branch:K',
     docs/orbits.md "Orbits by Jacobi constant or period": one of dE, jacobi, periods; the orbits are
     those at the dE the program's Fortran finds for them; the Table adds jacobi (C of each orbit,
     a model with a Jacobi constant), parameter and requested_jacobi or requested_period; a period

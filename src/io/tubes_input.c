@@ -162,8 +162,8 @@ const nml_var tubes_nml_vars[] = {
      "increasing); a model with a Jacobi constant (cr3bp); not with de or periods",
      "the orbits at these Jacobi constants C = -2 H instead of de (docs/orbits.md, Orbits by Jacobi constant or period)"},
     {"orbits", "periods", NML_REAL, TUBES_MAXDE, "time", "none", "> 0, in the order the family reaches them; "
-     "families 1 .. N-1; not with de or jacobi",
-     "the orbits with these periods instead of de (the first crossing from the saddle; docs/orbits.md)"},
+     "any family but 'branch:K'; not with de or jacobi",
+     "the orbits with these periods instead of de (the crossing nearest the family's start; docs/orbits.md)"},
     {"section", "kind", NML_STRING, 1, "-", "the system's ('ray' for the ball)", "ray, plane",
      "ray: the ball's polar ray theta = angle; plane: q_index = value (docs/tubes.md, Sections)"},
     {"section", "angle", NML_REAL, 1, "deg", "45", "-360 .. 360", "kind = 'ray': the ray theta = angle (U1: 45)"},
@@ -1126,7 +1126,7 @@ static int validate_scan(const char *path, const tubes_config_t *c, const nml_wh
 
 /* &orbits jacobi, periods (docs/orbits.md, "Orbits by Jacobi constant or period"): at most one of de,
  * jacobi, periods; jacobi for a model with a Jacobi constant (the model's, tubes_jacobi_constant),
- * decreasing; periods > 0, for the Lyapunov families 1 .. N-1; the scan scene takes &orbits de only. */
+ * decreasing; periods > 0, for any family but 'branch:K'; the scan scene takes &orbits de only. */
 static int check_orbit_parameter(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   const char *given[3];
   int ng = 0, n = 0;
@@ -1166,11 +1166,11 @@ static int check_orbit_parameter(const char *path, const tubes_config_t *c, cons
       else if (!(c->orb_periods[k] > 0) || !isfinite(c->orb_periods[k]))
 
         return n + bad_at(path, c, w, "orbits", "periods", k + 1, err, "every period must be > 0", c->orb_periods[k]);
-    if (c->orb_nguess > 0 || (c->orb_family < 0 && c->orb_family != -3 && c->orb_family != -4)) {
-      fprintf(err, "%s:%d: &orbits: periods: the orbits by period are those of a saddle's Lyapunov family (family "
-              "1 .. N-1, 'vertical' or 'lyapunov'); the family of a guess, a branch ('branch:K'), a halo or the "
-              "axial family is asked for by de or jacobi (allowed: periods with family 1 .. N-1, 'vertical' or "
-              "'lyapunov', and no guess)\n", path, line_or_group(w, "orbits", "periods"));
+    if (c->orb_family <= -101) {   /* 'branch:K' (-100 - K): K counts the parent's bifurcations between the de */
+      fprintf(err, "%s:%d: &orbits: periods: not for family = 'branch:%d': its K counts the parent family's "
+              "bifurcations between the requested energies, which periods do not give (allowed: periods with "
+              "family 1 .. N-1, 'lyapunov', 'vertical', 'halo_north', 'halo_south', 'axial' or a guess; ask for the "
+              "branch by de or jacobi)\n", path, line_or_group(w, "orbits", "periods"), -100 - c->orb_family);
       n++;
     }
   }

@@ -410,17 +410,28 @@ contains
     real(wp), allocatable, intent(out) :: des(:)
     type(record_t), intent(inout) :: rec
     class(hamiltonian_t), allocatable :: model
-    character(:), allocatable :: name
-    integer :: found(size(values)), n, k, stat
-    real(wp) :: t_po, t_reach, de_reach, e_sad, c_sad, t0
-    logical :: guessed
+    character(:), allocatable :: name, line
+    integer :: found(size(values)), n, k, stat, n_again(size(values))
+    real(wp) :: t_po, t_reach, de_reach, e_sad, c_sad, t0, de_again(size(values)), span(4)
+    logical :: guessed, away
     n = size(values)
     name = trim(merge('jacobi ', 'periods', pkind == PARAM_JACOBI))
     allocate (des(n))
     t0 = wall()
+    ! a family that starts away from the saddle (a guess's, a halo, the axial family): T(dE) probed
+    ! along its own continuation (tubes_orbit_parameter period_de_away)
+    away = allocated(opts%guess) .or. opts%family == FAMILY_BRANCH_PLUS .or. opts%family == FAMILY_BRANCH_MINUS .or. &
+           opts%family == FAMILY_AXIAL
     if (pkind == PARAM_PERIOD) call say('orbits: locating the ' // trim(st%saddle) // ' family''s orbits of the ' // &
                                         inum(n) // ' period' // trim(merge('s', ' ', n > 1)) // ' (Brent on T(dE))...')
-    call family_parameter_des(st, opts, pkind, values, des, found, t_po, t_reach, de_reach, e_sad, stat, stores)
+    call family_parameter_des(st, opts, pkind, values, des, found, t_po, t_reach, de_reach, e_sad, stat, stores, &
+                              n_again, de_again, span)
+    if (stat < 0 .and. pkind == PARAM_PERIOD .and. opts%branch > 0 .and. stat == TUBES_EINPUT) then
+      call rec%verdict(EXIT_BADINPUT, 'tubes: orbits: &orbits periods: not for family = ''branch:' // &
+                       inum(opts%branch) // ''': its K counts the parent family''s bifurcations between the ' // &
+                       'requested energies, which periods do not give (ask for the branch by de or jacobi)')
+      return
+    end if
     if (stat < 0) then
       call rec%verdict(merge(EXIT_BADINPUT, EXIT_NUMERIC, stat == TUBES_EINPUT), 'tubes: orbits: &orbits ' // &
                        name // ': the family''s orbits could not be located: ' // status_message(stat) // &
@@ -439,6 +450,18 @@ contains
       if (found(k) == PARAM_NOJACOBI) then
         call rec%verdict(EXIT_BADINPUT, 'tubes: orbits: &orbits jacobi: system ''' // sysname // ''' has no ' // &
                          'Jacobi constant (give de)')
+      else if (found(k) == PARAM_NOT_REACHED .and. away .and. span(2) > 0) then
+        call rec%verdict(EXIT_PARTIAL, 'tubes: orbits: &orbits periods(' // inum(k) // ') = ' // &
+                         num(values(k), '.12g') // ': not reached: the ' // trim(st%saddle) // ' family''s ' // &
+                         'orbits probed along its continuation, from dE = ' // num(span(1), '.10g') // ' to ' // &
+                         num(span(2), '.10g') // ' (its ends closed in on), have periods from ' // &
+                         num(span(3), '.12g') // ' to ' // num(span(4), '.12g') // ' without taking this value; ' // &
+                         'no orbit computed')
+      else if (found(k) == PARAM_NOT_REACHED .and. away) then
+        call rec%verdict(EXIT_PARTIAL, 'tubes: orbits: &orbits periods(' // inum(k) // ') = ' // &
+                         num(values(k), '.12g') // ': not reached: the family has no orbit where it was probed ' // &
+                         '(a guess that did not converge, or no branch point: ask for it by de to see why); no ' // &
+                         'orbit computed')
       else if (found(k) == PARAM_NOT_REACHED) then
         call rec%verdict(EXIT_PARTIAL, 'tubes: orbits: &orbits periods(' // inum(k) // ') = ' // &
                          num(values(k), '.12g') // ': not reached: the ' // trim(st%saddle) // ' family''s ' // &
@@ -463,7 +486,26 @@ contains
       end if
       if (rec%code /= 0) return
     end do
-    if (pkind == PARAM_PERIOD) then
+    if (pkind == PARAM_PERIOD .and. away) then
+      call rec%out('orbits: by period along the family''s own continuation: ' // inum(size(values)) // &
+                   ' period' // trim(merge('s', ' ', n > 1)) // ' on T(dE) probed from dE = ' // num(span(1), '.10g') // &
+                   ' to ' // num(span(2), '.10g') // ' (T from ' // num(span(3), '.12g') // ' to ' // &
+                   num(span(4), '.12g') // '), each the crossing nearest the family''s start, Brent on T(dE) ' // &
+                   'to |T - T*| <= 1e-12 T* (' // num(wall() - t0, '.2f') // ' s)')
+      do k = 1, n
+        line = '  period ' // num(values(k), '.12g') // ' -> dE = ' // num(des(k), '.15g')
+        if (n_again(k) > 0) then
+          line = line // ' (a fold in T(dE): ' // inum(n_again(k)) // ' more crossing' // &
+                 trim(merge('s', ' ', n_again(k) > 1)) // ', the nearest near dE ~ ' // num(de_again(k), '.6g') // ')'
+          call rec%err('tubes: orbits: &orbits periods(' // inum(k) // ') = ' // num(values(k), '.12g') // &
+                       ': more than one orbit of the family has this period (T(dE) turns back along it: a fold ' // &
+                       'in T): taken the one nearest the family''s start, dE = ' // num(des(k), '.12g') // &
+                       '; ' // inum(n_again(k)) // ' more among the probes, the nearest near dE ~ ' // &
+                       num(de_again(k), '.6g') // ' (ask for it by de)')
+        end if
+        call rec%out(line)
+      end do
+    else if (pkind == PARAM_PERIOD) then
       call rec%out('orbits: by period: T_po = 2 pi/omega = ' // num(t_po, '.12g') // ' at the saddle; the first ' // &
                    'crossing of each period from the saddle, Brent on T(dE) to |T - T*| <= 1e-12 T* (' // &
                    num(wall() - t0, '.2f') // ' s)')
