@@ -166,10 +166,12 @@ contains
                              dir(:), left(:), slack(:), eps_last(:), q_bound(:), pdir(:), r1(:), r2(:), r3(:)
     integer, allocatable :: pl(:), p_last(:), ford(:), nq(:)
     integer(i8), allocatable :: nsteps(:), nfev(:), nps(:), maxst(:)
-    logical, allocatable :: relative(:), fresh(:), solo(:), rich(:)
+    real(wp), allocatable :: relative(:)           ! (masks over the lanes: 1 or 0, as reals: they vectorise)
+    logical, allocatable :: fresh(:), solo(:), rich(:)
     ! the step's temporaries
     real(wp), allocatable :: n1(:), n2(:), h(:), hn(:), ds(:)
-    logical, allocatable :: go(:), fin(:), grp(:), lst(:), bad(:), ok(:)
+    real(wp), allocatable :: fin(:), grp(:), lst(:), bad(:), ok(:)
+    logical, allocatable :: go(:)
     integer, allocatable :: ord(:)
     real(wp) :: eps, lrho, ru(3)
     integer :: nxt, l, m, p, s, i, k, st, kslot, nl, nn, st1
@@ -230,8 +232,8 @@ contains
       do l = 1, nl
         ord(l) = 0
         if (.not. go(l)) cycle
-        eps = merge(rtol(l), atol(l), relative(l))
-        if (.not. (fin(l) .and. eps > 0)) then   ! its own step says what is wrong
+        eps = merge(rtol(l), atol(l), relative(l) > 0)
+        if (.not. (fin(l) > 0 .and. eps > 0)) then   ! its own step says what is wrong
           call slow(l, .false.)
           cycle
         end if
@@ -261,13 +263,13 @@ contains
       ! the lanes' orders (one, unless rtol and atol make some lanes relative and others not)
       do while (any(ord > 0))
         p = maxval(ord)
-        grp = ord == p
-        ord = merge(0, ord, grp)
-        m = findloc(grp, .true., 1)
+        grp = merge(1.0_wp, 0.0_wp, ord == p)
+        ord = merge(0, ord, grp > 0)
+        m = findloc(grp > 0, .true., 1)
         call batch_kernel(p, kslot, st, msg)
         if (st /= TUBES_OK) then                ! no lanes kernel: each lane on its own
           do l = 1, nl
-            if (grp(l)) call slow(l, .true.)
+            if (grp(l) > 0) call slow(l, .true.)
           end do
           cycle
         end if
@@ -283,16 +285,16 @@ contains
         call lanes_states(nl, s, nn, xs, grp, m, tcb)
         if (kern(kslot)%fn(p, lane(m)%ig%par, tcb, wb) /= 0) then   ! some lane not finite:
           do l = 1, nl                                           ! each on its own says which
-            if (grp(l)) call slow(l, .true.)
+            if (grp(l) > 0) call slow(l, .true.)
           end do
           cycle
         end if
         ! the steps' sizes (taylor_size): the norms of the last two orders over the lanes, each
         ! lane's log and exp, then the rest over the lanes again
-        call lanes_norms(tcb, nl, s, nn, rxn, relative .and. grp, n1, n2)
+        call lanes_norms(tcb, nl, s, nn, rxn, relative*grp, n1, n2)
         do l = 1, nl
           h(l) = 0
-          if (.not. grp(l)) cycle
+          if (.not. grp(l) > 0) cycle
           if (tiny(1.0_wp) <= min(n1(l), n2(l)) .and. max(n1(l), n2(l)) <= huge(1.0_wp)) then
             lrho = log_rho(n1(l), n2(l), r1(l), r2(l))
           else
@@ -316,10 +318,10 @@ contains
         call lanes_advance(nl, nn, xb, nq, q_bound, grp, bad, lst, tend, hn, t, t_old, hs, nsteps, xs, ok)
         ! each lane's end of step: its failure, its event and observer, its end
         do l = 1, nl
-          if (.not. grp(l)) cycle
-          if (bad(l) .or. .not. ok(l)) then
+          if (.not. grp(l) > 0) cycle
+          if (.not. ok(l) > 0) then
             call store(l)
-            call finish(l, merge(TUBES_ESTEP, TUBES_EMODEL, bad(l)))
+            call finish(l, merge(TUBES_ESTEP, TUBES_EMODEL, bad(l) > 0))
           else if (rich(l)) then                  ! its taylor_t with the step's dense output
             call store(l)
             if (allocated(lane(l)%ig%tc)) then
@@ -433,7 +435,7 @@ contains
         ig%t_old = t_old(l)
         ig%hs = hs(l)
         ig%xn = xn(l)
-        ig%relative = relative(l)
+        ig%relative = relative(l) > 0
         ig%rxn = rxn(l)
         ig%dir = dir(l)
         ig%left = left(l)
@@ -466,7 +468,7 @@ contains
       atol(l) = 1
       xn(l) = 1
       rxn(l) = 1
-      relative(l) = .false.
+      relative(l) = 0
       q_bound(l) = huge(1.0_wp)
       nq(l) = 0
       pdir(l) = 1
@@ -539,31 +541,42 @@ contains
   end subroutine run_lanes
 
   !> The steps' start (taylor_begin's) of the lanes' states xs(l, :) at t(l) towards tend(l):
-  !> xn = |x|_inf, fin: x finite, relative control or not, rxn = 1/xn (relative lanes), the
-  !> direction, what is left, and the slack of the last step.
+  !> xn = |x|_inf, fin: x finite (1, else 0), relative control (1) or not (0), rxn = 1/xn
+  !> (relative lanes), the direction, what is left, and the slack of the last step.
+  !> (Here and in the lanes_* below: masks as reals 1 or 0, values loaded and computed into
+  !> locals before a merge chooses between them: loops gfortran vectorises, -fopt-info-vec; a
+  !> merge of an expression is a branch, and so is an integer or logical mask from a real
+  !> comparison.)
   pure subroutine lanes_begin(nl, n, xs, rtol, atol, t, tend, xn, fin, relative, rxn, dir, left, slack)
     integer, intent(in) :: nl, n
     real(wp), intent(in) :: xs(nl, n), rtol(nl), atol(nl), t(nl), tend(nl)
-    real(wp), intent(out) :: xn(nl), dir(nl), left(nl), slack(nl)
+    real(wp), intent(out) :: xn(nl), dir(nl), left(nl), slack(nl), fin(nl), relative(nl)
     real(wp), intent(inout) :: rxn(nl)
-    logical, intent(out) :: fin(nl), relative(nl)
-    real(wp) :: a
+    real(wp) :: a, f, hi
     integer :: i, l
-    xn = 0
-    fin = .true.
+    do l = 1, nl
+      xn(l) = 0
+      fin(l) = 1
+    end do
+    hi = huge(1.0_wp)
     do i = 1, n
+      !$omp simd private(a, f)
       do l = 1, nl
         a = abs(xs(l, i))
+        f = fin(l)
         xn(l) = max(xn(l), a)
-        fin(l) = fin(l) .and. a <= huge(1.0_wp)
+        fin(l) = merge(f, 0.0_wp, a <= hi)
       end do
     end do
+    !$omp simd
     do l = 1, nl
-      relative(l) = rtol(l)*xn(l) > atol(l)
-      rxn(l) = 1/merge(xn(l), 1.0_wp, relative(l))   ! (the others' is not used)
+      relative(l) = merge(1.0_wp, 0.0_wp, rtol(l)*xn(l) > atol(l))
       dir(l) = sign(1.0_wp, tend(l) - t(l))
       left(l) = abs(tend(l) - t(l))
       slack(l) = 64*epsilon(1.0_wp)*max(abs(t(l)), abs(tend(l)))
+    end do
+    do l = 1, nl                    ! (a division only where relative: xn may be 0 elsewhere)
+      if (relative(l) > 0) rxn(l) = 1/xn(l)
     end do
   end subroutine lanes_begin
 
@@ -571,38 +584,45 @@ contains
   !> of the lanes in grp, lane m's for the others (a copy that computes nothing of use).
   pure subroutine lanes_states(nl, s, n, xs, grp, m, tc)
     integer, intent(in) :: nl, s, n, m
-    real(wp), intent(in) :: xs(nl, n)
-    logical, intent(in) :: grp(nl)
+    real(wp), intent(in) :: xs(nl, n), grp(nl)
     real(wp), intent(inout) :: tc(nl, s, n)
+    real(wp) :: a, b
     integer :: i, l
     do i = 1, n
+      b = xs(m, i)
+      !$omp simd private(a)
       do l = 1, nl
-        tc(l, 1, i) = merge(xs(l, i), xs(m, i), grp(l))
+        a = xs(l, i)
+        tc(l, 1, i) = merge(a, b, grp(l) > 0)
       end do
     end do
   end subroutine lanes_states
 
   !> The largest |coefficient| of orders s - 2 and s - 1 of each lane over the components
   !> (taylor_size's n1, n2), tc(l, k + 1, i): coefficient k of component i in lane l; times
-  !> rxn(l) where rel(l) (relative control).
+  !> rxn(l) where rel(l) = 1 (relative control).
   pure subroutine lanes_norms(tc, nl, s, n, rxn, rel, n1, n2)
     integer, intent(in) :: nl, s, n
-    real(wp), intent(in) :: tc(nl, s, n), rxn(nl)
-    logical, intent(in) :: rel(nl)
+    real(wp), intent(in) :: tc(nl, s, n), rxn(nl), rel(nl)
     real(wp), intent(out) :: n1(nl), n2(nl)
-    real(wp) :: sc
+    real(wp) :: a, sc
     integer :: i, l
-    n1 = 0
-    n2 = 0
+    do l = 1, nl
+      n1(l) = 0
+      n2(l) = 0
+    end do
     do i = 1, n
+      !$omp simd
       do l = 1, nl
         n1(l) = max(n1(l), abs(tc(l, s - 1, i)))
         n2(l) = max(n2(l), abs(tc(l, s, i)))
       end do
     end do
+    !$omp simd private(a, sc)
     do l = 1, nl
-      sc = merge(rxn(l), 1.0_wp, rel(l))      ! (x 1: exact)
-      n1(l) = n1(l)*sc
+      a = rxn(l)
+      sc = merge(a, 1.0_wp, rel(l) > 0)
+      n1(l) = n1(l)*sc                        ! (x 1: exact)
       n2(l) = n2(l)*sc
     end do
   end subroutine lanes_norms
@@ -612,64 +632,80 @@ contains
   !> ds (hn for the lanes in grp that take it, else 0) for Horner's scheme.
   pure subroutine lanes_sizes(nl, h, hmax, left, slack, t, dir, grp, lst, bad, hn, ds)
     integer, intent(in) :: nl
-    real(wp), intent(in) :: h(nl), hmax(nl), left(nl), slack(nl), t(nl), dir(nl)
-    logical, intent(in) :: grp(nl)
-    logical, intent(out) :: lst(nl), bad(nl)
-    real(wp), intent(out) :: hn(nl), ds(nl)
-    real(wp) :: hh, hmin
+    real(wp), intent(in) :: h(nl), hmax(nl), left(nl), slack(nl), t(nl), dir(nl), grp(nl)
+    real(wp), intent(out) :: lst(nl), bad(nl), hn(nl), ds(nl)
+    real(wp) :: a, b, c, hm, hh, hmin, ls, bd, g
     integer :: l
+    !$omp simd private(a, b, c, hm, hh, hmin, ls, bd, g)
     do l = 1, nl
-      hh = h(l)
-      if (hmax(l) > 0) hh = min(hh, hmax(l))
-      lst(l) = hh >= left(l) - slack(l)
-      if (lst(l)) hh = left(l)
+      a = h(l)
+      b = hmax(l)
+      c = left(l)
+      hm = min(a, b)
+      hh = merge(hm, a, b > 0)
+      ls = merge(1.0_wp, 0.0_wp, hh >= c - slack(l))
+      hh = merge(c, hh, ls > 0)
       hmin = 16*epsilon(1.0_wp)*max(abs(t(l)), tiny(1.0_wp))
-      bad(l) = .not. lst(l) .and. hh < hmin
-      hn(l) = dir(l)*hh
-      ds(l) = merge(hn(l), 0.0_wp, grp(l) .and. .not. bad(l))
+      bd = merge(0.0_wp, 1.0_wp, hh >= hmin)*(1 - ls)
+      lst(l) = ls
+      bad(l) = bd
+      a = dir(l)*hh
+      hn(l) = a
+      g = grp(l)*(1 - bd)
+      ds(l) = merge(a, 0.0_wp, g > 0)
     end do
   end subroutine lanes_sizes
 
-  !> taylor_advance for the lanes in grp that are not bad: the step taken (ok) if the new state
-  !> x(l, :) is finite and |x(l, 1:nq(l))|_1 <= q_bound(l) (summed in the order of the components,
-  !> as sum's): xs, t (tend on the last step), nsteps; hs and t_old as taylor_size's.
+  !> taylor_advance for the lanes in grp that are not bad: the step taken (ok = 1) if the new
+  !> state x(l, :) is finite and |x(l, 1:nq(l))|_1 <= q_bound(l) (summed in the order of the
+  !> components, as sum's): xs, t (tend on the last step), nsteps; hs and t_old as taylor_size's.
   pure subroutine lanes_advance(nl, n, x, nq, q_bound, grp, bad, lst, tend, hn, t, t_old, hs, nsteps, xs, ok)
     integer, intent(in) :: nl, n, nq(nl)
-    real(wp), intent(in) :: x(nl, n), q_bound(nl), tend(nl), hn(nl)
-    logical, intent(in) :: grp(nl), bad(nl), lst(nl)
+    real(wp), intent(in) :: x(nl, n), q_bound(nl), tend(nl), hn(nl), grp(nl), bad(nl), lst(nl)
     real(wp), intent(inout) :: t(nl), t_old(nl), hs(nl), xs(nl, n)
     integer(i8), intent(inout) :: nsteps(nl)
-    logical, intent(out) :: ok(nl)
-    logical :: fin(nl)
-    real(wp) :: qs(nl), a
+    real(wp), intent(out) :: ok(nl)
+    real(wp) :: qs(nl), fin(nl), a, b, f, q, g, tl, tn, te, hi
     integer :: i, l
-    fin = .true.
-    qs = 0
+    do l = 1, nl
+      fin(l) = 1
+      qs(l) = 0
+    end do
+    hi = huge(1.0_wp)
     do i = 1, n
+      !$omp simd private(a, f, q)
       do l = 1, nl
         a = abs(x(l, i))
-        fin(l) = fin(l) .and. a <= huge(1.0_wp)
-        qs(l) = qs(l) + merge(a, 0.0_wp, i <= nq(l))   ! (+ 0: exact)
+        f = fin(l)
+        fin(l) = merge(f, 0.0_wp, a <= hi)
+        q = merge(a, 0.0_wp, i <= nq(l))
+        qs(l) = qs(l) + q                      ! (+ 0: exact)
       end do
     end do
+    !$omp simd private(a, b, g, tl, tn, te)
     do l = 1, nl
-      ok(l) = grp(l) .and. .not. bad(l) .and. fin(l) .and. qs(l) <= q_bound(l)
-      if (grp(l) .and. .not. bad(l)) then
-        hs(l) = hn(l)
-        t_old(l) = t(l)
-      end if
-      if (ok(l)) then
-        if (lst(l)) then
-          t(l) = tend(l)
-        else
-          t(l) = t(l) + hn(l)
-        end if
-        nsteps(l) = nsteps(l) + 1
-      end if
+      g = grp(l)*(1 - bad(l))
+      ok(l) = merge(g*fin(l), 0.0_wp, qs(l) <= q_bound(l))
+      a = hn(l)
+      b = hs(l)
+      hs(l) = merge(a, b, g > 0)
+      tl = t(l)
+      b = t_old(l)
+      t_old(l) = merge(tl, b, g > 0)
+      te = tend(l)
+      tn = tl + a
+      tn = merge(te, tn, lst(l) > 0)
+      t(l) = merge(tn, tl, ok(l) > 0)
+    end do
+    do l = 1, nl
+      if (ok(l) > 0) nsteps(l) = nsteps(l) + 1
     end do
     do i = 1, n
+      !$omp simd private(a, b)
       do l = 1, nl
-        if (ok(l)) xs(l, i) = x(l, i)
+        a = x(l, i)
+        b = xs(l, i)
+        xs(l, i) = merge(a, b, ok(l) > 0)
       end do
     end do
   end subroutine lanes_advance
