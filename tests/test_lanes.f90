@@ -1,7 +1,7 @@
 !> Test items for test_lanes: trajectories of the ball from a list of states, each to a time of
 !> its own, with a section (non-terminal, logged) and, for every third item, a terminal one.
 module test_lanes_jobs
-  use tubes_kinds, only: wp
+  use tubes_kinds, only: wp, i8
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_integrator, only: plane_t, propagate, crossing_log_t
   use tubes_taylor, only: taylor_t
@@ -18,7 +18,9 @@ module test_lanes_jobs
   type, extends(lane_jobs_t) :: traj_jobs_t
     class(hamiltonian_t), allocatable :: model
     real(wp), allocatable :: x0(:, :), tend(:)
-    real(wp) :: tol = 1.0e-12_wp
+    real(wp) :: tol = 1.0e-12_wp      !! rtol (and atol, unless atol > 0)
+    real(wp) :: atol = -1
+    integer(i8) :: budget = 0         !! > 0: the step budget (max_steps) of every fourth item
     logical :: sections = .true.      !! the items' section (else none: no dense output needed)
   contains
     procedure :: item => traj_item
@@ -39,7 +41,8 @@ contains
     integer :: stat
     call ig%init(self%model, 0.0_wp)
     ig%rtol = self%tol
-    ig%atol = self%tol
+    ig%atol = merge(self%atol, self%tol, self%atol > 0)
+    if (self%budget > 0 .and. mod(k, 4) == 2) ig%max_steps = self%budget
     x = self%x0(:, k)
     log%max_crossings = MAXX
     if (self%sections) then
@@ -56,11 +59,14 @@ contains
     integer, intent(in) :: k
     type(lane_t), intent(inout) :: lane
     integer, intent(out) :: stat
+    type(taylor_t) :: fresh
     stat = TUBES_OK
     lane%x = self%x0(:, k)
     call lane%ig%init(self%model, 0.0_wp)
     lane%ig%rtol = self%tol
-    lane%ig%atol = self%tol
+    lane%ig%atol = merge(self%atol, self%tol, self%atol > 0)
+    lane%ig%max_steps = fresh%max_steps       ! (a lane's integrator keeps it from its last item)
+    if (self%budget > 0 .and. mod(k, 4) == 2) lane%ig%max_steps = self%budget
     lane%tend = self%tend(k)
     if (.not. self%sections) return
     allocate (lane%event, source=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0))
@@ -103,7 +109,7 @@ end module test_lanes_jobs
 program test_lanes
   use tubes_kinds, only: wp
   use tubes_check, only: check_true, check_eq, finish
-  use tubes_status, only: TUBES_OK, TUBES_EVENT
+  use tubes_status, only: TUBES_OK, TUBES_EVENT, TUBES_EMAXSTEPS
   use tubes_models, only: make_model, MAX_PARAMS
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_lanes, only: run_lanes, lane_width
@@ -161,6 +167,29 @@ program test_lanes
     write (name, '(a,i0,a)') 'lanes: no section, width ', WIDTHS(k), ', each item as a lone propagate, bit for bit'
     call check_true(trim(name), same(wide, alone))
   end do
+  ! rtol 1e-12, atol 1e-11: a lane is relative (order 15) while |x|_inf > 10 and absolute (order
+  ! 14) otherwise, so the lanes split into two kernel calls of two orders; and every fourth item
+  ! runs out of steps (TUBES_EMAXSTEPS): the lanes' own steps of a group and their budget's end
+  a%atol = 1.0e-11_wp
+  a%budget = 40
+  a%lanes = .false.
+  call ens_run(a, N, alone, NR, 0)
+  call check_true('lanes: mixed orders, a step budget: some items out of steps', &
+                  count(alone%st == TUBES_EMAXSTEPS) == 3)   ! items 2, 6, 10
+  call check_true('lanes: mixed orders, a step budget: the others ran to their end', &
+                  count(alone%st == TUBES_OK) == N - 3)
+  do k = 1, size(WIDTHS)
+    a%lanes = .true.
+    a%width = WIDTHS(k)
+    call ens_run(a, N, wide, NR, 0, chunk=N)
+    write (name, '(a,i0,a)') 'lanes: mixed orders, a step budget, width ', WIDTHS(k), ', bit for bit'
+    call check_true(trim(name), same(wide, alone))
+  end do
+  a%atol = -1
+  a%budget = 0
+  a%lanes = .false.
+  call ens_run(a, N, alone, NR, 0)
+  a%lanes = .true.
   a%width = 0                                ! the processor's width (TUBES_LANES unset, or forced)
   call ens_run(a, N, wide, NR, 0, chunk=N)
   call check_true('lanes: the processor''s width, bit for bit', same(wide, alone))

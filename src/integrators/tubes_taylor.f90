@@ -102,7 +102,7 @@ module tubes_taylor
   end type taylor_record_t
 
   public :: taylor_order, isolate_roots, taylor_check, taylor_begin, taylor_end, taylor_size, taylor_advance, &
-            horner_lanes, jet_kernel
+            horner_lanes, jet_kernel, taylor_prepare, taylor_rule, log_rho
 
 contains
 
@@ -300,6 +300,23 @@ contains
     call taylor_end(self, x, tmax, stat)
   end subroutine taylor_step
 
+  !> The step rule's constants of order p: 1/(p - 1), 1/p, -2 - 0.7/(p - 1) (taylor_size).
+  pure function taylor_rule(p) result(r)
+    integer, intent(in) :: p
+    real(wp) :: r(3)
+    r = [1.0_wp/(p - 1), 1.0_wp/p, -2 - 0.7_wp/(p - 1)]
+  end function taylor_rule
+
+  !> Set up for a state of size n if not yet (a new model, taylor_init): the model's formula, its
+  !> parameters and bounds. stat TUBES_ENOJET if the model is not written as a formula.
+  subroutine taylor_prepare(self, n, stat)
+    class(taylor_t), intent(inout) :: self
+    integer, intent(in) :: n
+    integer, intent(out) :: stat
+    stat = TUBES_OK
+    if (.not. allocated(self%spec) .or. self%n /= n) call taylor_setup(self, n, stat)
+  end subroutine taylor_prepare
+
   !> The first half of a step: the order and its kernel (ik, in self%kernels; its order is
   !> self%p), the coefficients' storage, x as the coefficients of order 0. The kernel then fills
   !> self%tc (taylor_step, or the lanes' driver for several integrations at once).
@@ -313,10 +330,8 @@ contains
     integer :: p, i, s
     stat = TUBES_OK
     ik = 1
-    if (.not. allocated(self%spec) .or. self%n /= size(x)) then   ! a new model (taylor_init)
-      call taylor_setup(self, size(x), stat)
-      if (stat /= TUBES_OK) return
-    end if
+    call taylor_prepare(self, size(x), stat)
+    if (stat /= TUBES_OK) return
     self%fresh = .false.
     self%xn = maxval(abs(x))
     self%relative = self%rtol*self%xn > self%atol
@@ -351,7 +366,7 @@ contains
         deallocate (self%w)
         allocate (self%w(self%kernels(ik)%nwork*s))
       end if
-      self%rule = [1.0_wp/(p - 1), 1.0_wp/p, -2 - 0.7_wp/(p - 1)]   ! not a division per step
+      self%rule = taylor_rule(p)                                     ! not a division per step
       self%p = p
       self%ik = ik
     end if
