@@ -99,7 +99,8 @@ contains
     type(tubes_config_t), intent(in) :: cfg
     integer, intent(in) :: method
     type(flux_opts_t) :: o
-    o%de = cfg%flux_de(1:cfg%flux_nde)
+    allocate (o%de(cfg%flux_nde))   ! (not by assignment: gfortran 12 warns of the result's unset bounds)
+    o%de(:) = cfg%flux_de(1:cfg%flux_nde)
     o%n_samples = cfg%flux_n_samples
     o%seed = cfg%flux_seed
     o%order = cfg%flux_order
