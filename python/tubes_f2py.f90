@@ -941,32 +941,71 @@ subroutine formula_with_constant(system, name, value, stat, key, msg)
   call with_constant(trim(system), trim(name), value, key, msg, stat)
 end subroutine formula_with_constant
 
-subroutine scene_equilibria(config, n, want, asked, label, dissip, stores, h)
-  ! the equilibria scene (src/workflow/tubes_scene_equilibria.f90), as the program's, on the settings
-  ! read_input returned: the handle of its result record (read with record_sizes, record_item,
-  ! record_reals, record_ints, record_string, record_line, record_code; forget it with record_free)
+subroutine scene(name, config, n, saddle, method, flags, text1, text2, stores, h)
+  ! the program's scene `name` (src/workflow/tubes_scene_<name>.f90) on the settings read_input
+  ! returned (config), the saddle and the method the run chose: the handle of its result record (read
+  ! with record_sizes, record_item, record_reals, record_ints, record_string, record_line, record_code;
+  ! forget it with record_free). The run's facts each scene takes besides:
+  !   equilibria: flags(1) asked (saddle the one asked for), text1 the model's label, text2 dissip
+  !   orbits: flags(1) dimensioned, flags(2) dissipative
+  !   flux: text1 who (the messages' head)
+  !   transition: flags(1) units, text1 dissip
+  !   montecarlo: flags(1) units, flags(2) noisy, text1 dissip, text2 gate_at
+  !   tubes: flags(1) check_eps, text1 dissip
+  !   sections: flags(1) k (the map), flags(2) dissipative
+  !   synthetic_experiment: none
+  ! h = -1: no such scene, or config not the settings' size
   use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
-  use tubes_study, only: stores_at
+  use tubes_study, only: seed_stores_t, stores_at
   use tubes_record, only: record_t, record_keep
   use tubes_config, only: tubes_config_t
   use tubes_settings, only: settings_of_bytes
-  use tubes_scene_equilibria, only: scene_run => scene_equilibria
+  use tubes_scene_equilibria, only: scene_equilibria
+  use tubes_scene_orbits, only: scene_orbits
+  use tubes_scene_flux, only: scene_flux
+  use tubes_scene_transition, only: scene_transition
+  use tubes_scene_montecarlo, only: scene_montecarlo
+  use tubes_scene_tubes, only: scene_tubes
+  use tubes_scene_sections, only: scene_sections
+  use tubes_scene_synthetic_experiment, only: scene_synthetic_experiment
   implicit none
-  integer(c_int), intent(in) :: n, asked
+  character(len=*), intent(in) :: name, saddle, text1, text2
+  integer(c_int), intent(in) :: n, method, flags(4)
   integer(1), intent(in) :: config(n)
-  character(len=*), intent(in) :: want, label, dissip
   integer(c_int64_t), intent(in) :: stores
   integer(c_int), intent(out) :: h
   type(record_t), allocatable :: rec
   type(tubes_config_t) :: cfg
-  integer :: st
+  type(seed_stores_t), pointer :: kept
+  integer :: st, m
   h = -1
   call settings_of_bytes(config, cfg, st)
   if (st /= 0) return
   allocate (rec)
-  call scene_run(cfg, trim(want), asked /= 0, trim(label), trim(dissip), stores_at(stores), rec)
+  kept => stores_at(stores)
+  m = int(method)
+  select case (name)
+  case ('equilibria')
+    call scene_equilibria(cfg, trim(saddle), flags(1) /= 0, trim(text1), trim(text2), kept, rec)
+  case ('orbits')
+    call scene_orbits(cfg, trim(saddle), m, flags(1) /= 0, flags(2) /= 0, kept, rec)
+  case ('flux')
+    call scene_flux(cfg, trim(saddle), m, trim(text1), kept, rec)
+  case ('transition')
+    call scene_transition(cfg, trim(saddle), m, flags(1) /= 0, trim(text1), .false., kept, rec)
+  case ('montecarlo')
+    call scene_montecarlo(cfg, trim(saddle), m, flags(1) /= 0, trim(text1), flags(2) /= 0, text2, .false., kept, rec)
+  case ('tubes')
+    call scene_tubes(cfg, trim(saddle), m, .false., '', trim(text1), flags(1) /= 0, .false., kept, rec)
+  case ('sections')
+    call scene_sections(cfg, trim(saddle), m, int(flags(1)), flags(2) /= 0, kept, rec)
+  case ('synthetic_experiment')
+    call scene_synthetic_experiment(cfg, trim(saddle), m, kept, rec)
+  case default
+    return
+  end select
   h = record_keep(rec)
-end subroutine scene_equilibria
+end subroutine scene
 
 subroutine scene_scan(config, n, saddle, method, ipar, parameter, to, nsteps, nde, des, p_on, dissip, h)
   ! the scan scene (src/workflow/tubes_scene_scan.f90), as the program's, on the settings read_input
@@ -995,60 +1034,6 @@ subroutine scene_scan(config, n, saddle, method, ipar, parameter, to, nsteps, nd
   h = record_keep(rec)
 end subroutine scene_scan
 
-subroutine scene_sections(config, n, saddle, method, k, dissipative, stores, h)
-  ! map k (0-based) of the sections scene (src/workflow/tubes_scene_sections.f90), as the program's,
-  ! on the settings read_input returned, the saddle and the method the run chose: the handle of its
-  ! result record (read as scene_equilibria's)
-  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
-  use tubes_study, only: stores_at
-  use tubes_record, only: record_t, record_keep
-  use tubes_config, only: tubes_config_t
-  use tubes_settings, only: settings_of_bytes
-  use tubes_scene_sections, only: scene_run => scene_sections
-  implicit none
-  integer(c_int), intent(in) :: n, method, k, dissipative
-  integer(1), intent(in) :: config(n)
-  character(len=*), intent(in) :: saddle
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: h
-  type(record_t), allocatable :: rec
-  type(tubes_config_t) :: cfg
-  integer :: st
-  h = -1
-  call settings_of_bytes(config, cfg, st)
-  if (st /= 0) return
-  allocate (rec)
-  call scene_run(cfg, trim(saddle), int(method), int(k), dissipative /= 0, stores_at(stores), rec)
-  h = record_keep(rec)
-end subroutine scene_sections
-
-subroutine scene_synthetic_experiment(config, n, saddle, method, stores, h)
-  ! the synthetic_experiment scene (src/workflow/tubes_scene_synthetic_experiment.f90), as the
-  ! program's, on the settings read_input returned, the saddle and the method the run chose: the
-  ! handle of its result record (read as scene_equilibria's)
-  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
-  use tubes_study, only: stores_at
-  use tubes_record, only: record_t, record_keep
-  use tubes_config, only: tubes_config_t
-  use tubes_settings, only: settings_of_bytes
-  use tubes_scene_synthetic_experiment, only: scene_run => scene_synthetic_experiment
-  implicit none
-  integer(c_int), intent(in) :: n, method
-  integer(1), intent(in) :: config(n)
-  character(len=*), intent(in) :: saddle
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: h
-  type(record_t), allocatable :: rec
-  type(tubes_config_t) :: cfg
-  integer :: st
-  h = -1
-  call settings_of_bytes(config, cfg, st)
-  if (st /= 0) return
-  allocate (rec)
-  call scene_run(cfg, trim(saddle), int(method), stores_at(stores), rec)
-  h = record_keep(rec)
-end subroutine scene_synthetic_experiment
-
 subroutine trajectory_section(name, angle, level, direction, kind, lvl, dir, known)
   ! the section of a trajectory by name (the trajectory scene's rule, tubes_scene_trajectory):
   ! kind (0 none, 1 ray, 2 x, 3 y), level, orientation; known 0: no such name
@@ -1064,142 +1049,6 @@ subroutine trajectory_section(name, angle, level, direction, kind, lvl, dir, kno
   call section_of(trim(name), angle, level, direction, kind, lvl, dir, ok)
   known = merge(1, 0, ok)
 end subroutine trajectory_section
-
-subroutine scene_flux(config, n, saddle, method, who, stores, h)
-  ! the flux scene (src/workflow/tubes_scene_flux.f90), as the program's, on the settings read_input
-  ! returned (config), the saddle and the method the run chose: the handle of its result record (read
-  ! as scene_equilibria's)
-  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
-  use tubes_study, only: seed_stores_t, stores_at
-  use tubes_record, only: record_t, record_keep
-  use tubes_config, only: tubes_config_t
-  use tubes_settings, only: settings_of_bytes
-  use tubes_scene_flux, only: scene_run => scene_flux
-  implicit none
-  integer(c_int), intent(in) :: n, method
-  integer(1), intent(in) :: config(n)
-  character(len=*), intent(in) :: saddle, who
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: h
-  type(record_t), allocatable :: rec
-  type(seed_stores_t), pointer :: kept
-  type(tubes_config_t) :: cfg
-  integer :: st
-  h = -1
-  call settings_of_bytes(config, cfg, st)
-  if (st /= 0) return
-  allocate (rec)
-  kept => stores_at(stores)
-  call scene_run(cfg, trim(saddle), int(method), trim(who), kept, rec)
-  h = record_keep(rec)
-end subroutine scene_flux
-
-subroutine scene_orbits(config, n, saddle, method, dimensioned, dissipative, stores, h)
-  ! the orbits scene (src/workflow/tubes_scene_orbits.f90), as the program's, on the settings
-  ! read_input returned, the saddle and the method the run chose: the handle of its result record
-  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
-  use tubes_study, only: stores_at
-  use tubes_record, only: record_t, record_keep
-  use tubes_config, only: tubes_config_t
-  use tubes_settings, only: settings_of_bytes
-  use tubes_scene_orbits, only: scene_run => scene_orbits
-  implicit none
-  integer(c_int), intent(in) :: n, method, dimensioned, dissipative
-  integer(1), intent(in) :: config(n)
-  character(len=*), intent(in) :: saddle
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: h
-  type(record_t), allocatable :: rec
-  type(tubes_config_t) :: cfg
-  integer :: st
-  h = -1
-  call settings_of_bytes(config, cfg, st)
-  if (st /= 0) return
-  allocate (rec)
-  call scene_run(cfg, trim(saddle), int(method), dimensioned /= 0, dissipative /= 0, stores_at(stores), rec)
-  h = record_keep(rec)
-end subroutine scene_orbits
-
-subroutine scene_transition(config, n, saddle, method, units, dissip, stores, h)
-  ! the transition scene (src/workflow/tubes_scene_transition.f90), as the program's, on the settings
-  ! read_input returned, the saddle and the method the run chose: the handle of its result record
-  ! (units /= 0: messages in the ball's units; /section is recorded too)
-  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
-  use tubes_study, only: stores_at
-  use tubes_record, only: record_t, record_keep
-  use tubes_config, only: tubes_config_t
-  use tubes_settings, only: settings_of_bytes
-  use tubes_scene_transition, only: scene_run => scene_transition
-  implicit none
-  integer(c_int), intent(in) :: n, method, units
-  integer(1), intent(in) :: config(n)
-  character(len=*), intent(in) :: saddle, dissip
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: h
-  type(record_t), allocatable :: rec
-  type(tubes_config_t) :: cfg
-  integer :: st
-  h = -1
-  call settings_of_bytes(config, cfg, st)
-  if (st /= 0) return
-  allocate (rec)
-  call scene_run(cfg, trim(saddle), int(method), units /= 0, trim(dissip), .false., stores_at(stores), rec)
-  h = record_keep(rec)
-end subroutine scene_transition
-
-subroutine scene_montecarlo(config, n, saddle, method, units, dissip, noisy, gate_at, stores, h)
-  ! the montecarlo scene (src/workflow/tubes_scene_montecarlo.f90), as the program's: the handle of
-  ! its result record (arguments as scene_transition's; noisy /= 0: the model carries noise)
-  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
-  use tubes_study, only: stores_at
-  use tubes_record, only: record_t, record_keep
-  use tubes_config, only: tubes_config_t
-  use tubes_settings, only: settings_of_bytes
-  use tubes_scene_montecarlo, only: scene_run => scene_montecarlo
-  implicit none
-  integer(c_int), intent(in) :: n, method, units, noisy
-  integer(1), intent(in) :: config(n)
-  character(len=*), intent(in) :: saddle, dissip, gate_at
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: h
-  type(record_t), allocatable :: rec
-  type(tubes_config_t) :: cfg
-  integer :: st
-  h = -1
-  call settings_of_bytes(config, cfg, st)
-  if (st /= 0) return
-  allocate (rec)
-  call scene_run(cfg, trim(saddle), int(method), units /= 0, trim(dissip), noisy /= 0, gate_at, .false., &
-                 stores_at(stores), rec)
-  h = record_keep(rec)
-end subroutine scene_montecarlo
-
-subroutine scene_tubes(config, n, saddle, method, dissip, check_eps, stores, h)
-  ! the tubes scene (src/workflow/tubes_scene_tubes.f90), as the program's: the handle of its result
-  ! record (arguments as scene_transition's; the console's units in words left out)
-  use, intrinsic :: iso_c_binding, only: c_int, c_int64_t
-  use tubes_study, only: stores_at
-  use tubes_record, only: record_t, record_keep
-  use tubes_config, only: tubes_config_t
-  use tubes_settings, only: settings_of_bytes
-  use tubes_scene_tubes, only: scene_run => scene_tubes
-  implicit none
-  integer(c_int), intent(in) :: n, method, check_eps
-  integer(1), intent(in) :: config(n)
-  character(len=*), intent(in) :: saddle, dissip
-  integer(c_int64_t), intent(in) :: stores
-  integer(c_int), intent(out) :: h
-  type(record_t), allocatable :: rec
-  type(tubes_config_t) :: cfg
-  integer :: st
-  h = -1
-  call settings_of_bytes(config, cfg, st)
-  if (st /= 0) return
-  allocate (rec)
-  call scene_run(cfg, trim(saddle), int(method), .false., '', trim(dissip), check_eps /= 0, .false., &
-                 stores_at(stores), rec)
-  h = record_keep(rec)
-end subroutine scene_tubes
 
 subroutine record_sizes(h, code, n_items, n_lines)
   ! a result record's exit code (-1: no record), numbers of items and of console lines

@@ -611,7 +611,7 @@ def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, 
     lo, hi, n_grid = st["lo"], st["hi"], st["n_grid"]
     # the program's equilibria scene (src/workflow/tubes_scene_equilibria.f90): its record's
     # /equilibria, its note on what the box may hide, its verdict
-    rec = _record(_lib().scene_equilibria(st["config"], "", 0, model.name, "", model._stores()))
+    rec = _scene("equilibria", st, model, method=0, saddle="", text1=model.name)
     if rec["code"]:
         raise TubesError(-1, "; ".join(t for s, t in rec["lines"] if s == 2))
     g = rec["data"]["equilibria"]
@@ -738,6 +738,18 @@ def _settings_size() -> int:
 
 
 _INT32 = 2**31 - 1   # the input file's integers (C int, Fortran default integer)
+
+
+def _scene(name: str, st: dict, model, method=None, saddle=None, flags=(), text1: str = "", text2: str = ""):
+    """The record of the program's scene `name` (src/workflow/tubes_scene_<name>.f90) on the settings st
+    (_settings': their bytes, the saddle chosen) with the run's method (default &integrator's, resolved
+    as the program resolves it) and the scene's own facts (python/tubes_f2py.f90 scene: flags, text1,
+    text2)."""
+    f = np.zeros(4, dtype=np.int32)
+    f[:len(flags)] = [int(x) for x in flags]
+    m = _method(int(st["method"]), model) if method is None else method
+    return _record(_lib().scene(name, st["config"], st["saddle"] if saddle is None else saddle, m, f, text1, text2,
+                                model._stores()))
 
 
 def _settings(model: Model, saddle=None, saddle_near=None, section=None, who: str = "tubes", **groups) -> dict:
@@ -952,9 +964,8 @@ def orbit_family(model: Model | None = None, dE=None, saddle=None, saddle_near=N
     orb = dict(orbits, **byp) if de is None else dict(orbits, de=de)
     st = _settings(model, saddle, saddle_near, who="orbit_family", orbits=orb, integrator=integrator,
                    equilibria=equilibria)
-    rec = _record(_lib().scene_orbits(st["config"], st["saddle"], _method(int(st["method"]), model),
-                                      int(str(model.info.get("length_units", "1")) == "cm"),
-                                      int(bool(_dissipation(model))), model._stores()))
+    rec = _scene("orbits", st, model, flags=(str(model.info.get("length_units", "1")) == "cm",
+                                             bool(_dissipation(model))))
     said = [t for s, t in rec["lines"] if s == 2]
     msg = "; ".join(t.removeprefix("tubes: orbits: ") for t in said)
     if "orbits" not in rec["data"]:           # refused or failed before any orbit
@@ -1067,8 +1078,7 @@ def flux(model: Model | None = None, dE=None, saddle=None, saddle_near=None,
         raise ValueError("flux: section: the transition fraction on a section is for a plane section in 3 "
                          "degrees of freedom (2 DOF: tubes.transition)")
     # the program's flux scene (src/workflow/tubes_scene_flux.f90): its record's /flux, its verdicts
-    rec = _record(_lib().scene_flux(st["config"], st["saddle"], _method(int(st["method"]), model), "flux",
-                                    model._stores()))
+    rec = _scene("flux", st, model, text1="flux")
     verdicts = [t for s, t in rec["lines"] if s == 2]
     g, a = rec["data"]["flux"], rec["attrs"]["flux"]
     if rec["code"]:
@@ -1201,8 +1211,7 @@ def tube_cut(model: Model | None = None, dE: float | None = None, kind: str = "s
     # the program's tubes scene (src/workflow/tubes_scene_tubes.f90) at this one energy and kind,
     # the conservative model's cut (a dissipative model's regions are transition_region's)
     _section_args(st)
-    rec = _record(_lib().scene_tubes(st["config"], st["saddle"], _method(int(st["method"]), model), "", int(check),
-                                     model._stores()))
+    rec = _scene("tubes", st, model, flags=(check,))
     errs = [t for s, t in rec["lines"] if s == 2]
     if rec["code"]:
         codes = [int(c) for c in re.findall(r"\(status (-?\d+)\)", " ".join(errs))]
@@ -1369,9 +1378,8 @@ def transition(model: Model | None = None, dE=None, saddle=None, saddle_near=Non
     # /transition, its messages per energy, its verdicts
     _section_args(st)
     units = str(model.info.get("length_units", "1")) == "cm"
-    rec = _record(_lib().scene_transition(
-        st["config"], st["saddle"], _method(int(st["method"]), model), int(units),
-        ", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation"), model._stores()))
+    rec = _scene("transition", st, model, flags=(units,),
+                 text1=", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation"))
     errs = [t for s, t in rec["lines"] if s == 2]
     if "transition" not in rec["data"]:       # the section failed: the scene stopped there
         codes = [int(c) for c in re.findall(r"\(status (-?\d+)\)", " ".join(errs))]
@@ -1486,11 +1494,9 @@ def monte_carlo(model: Model | None = None, dE: float | None = None, n_samples: 
     # the program's montecarlo scene (src/workflow/tubes_scene_montecarlo.f90): its record's
     # /montecarlo, its messages, its verdict
     _section_args(st)
-    rec = _record(_lib().scene_montecarlo(
-        st["config"], st["saddle"], _method(int(st["method"]), model),
-        int(str(model.info.get("length_units", "1")) == "cm"),
-        ", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation"), int(noisy), "monte_carlo: ",
-        model._stores()))
+    rec = _scene("montecarlo", st, model, flags=(str(model.info.get("length_units", "1")) == "cm", noisy),
+                 text1=", ".join(f"{k} = {v:g}" for k, v in diss.items() if k != "dissipation"),
+                 text2="monte_carlo: ")
     errs = [t for s, t in rec["lines"] if s == 2]
     a = rec["attrs"].get("montecarlo")
     if a is None:       # the section failed: the scene stopped there
@@ -1549,8 +1555,7 @@ def poincare(model: Model | None = None, dE: float | None = None, n_seeds=None, 
     # record's /sections/map_000 and its verdict
     de = float(st["des"][0, 3])
     _section_args(st)
-    rec = _record(_lib().scene_sections(st["config"], st["saddle"], _method(int(st["method"]), model), 0,
-                                        int(bool(_dissipation(model))), model._stores()))
+    rec = _scene("sections", st, model, flags=(0, bool(_dissipation(model))))
     status = rec["attrs"]["sections/map_000"]["status"]
     out = _table({"dE": de, "points": rec["data"]["sections/map_000"]["points"], "status": status,
                   "n_seeds": int(st["pm_n_seeds"]), "n_iter": int(st["pm_n_iter"]), "t_max": float(st["pm_t_max"])},
@@ -1585,8 +1590,7 @@ def synthetic_experiment(model: Model | None = None, n_tracks=None, duration=Non
                    integrator=integrator, equilibria=equilibria)
     # the program's synthetic_experiment scene (src/workflow/tubes_scene_synthetic_experiment.f90):
     # its record's /tracks and its verdicts (a request that leaves no tracks: ValueError)
-    rec = _record(_lib().scene_synthetic_experiment(st["config"], st["saddle"], _method(int(st["method"]), model),
-                                                    model._stores()))
+    rec = _scene("synthetic_experiment", st, model)
     errors = "; ".join(t for s, t in rec["lines"] if s == 2 and t.startswith("tubes: "))
     if "tracks" not in rec["data"]:
         raise ValueError(errors)

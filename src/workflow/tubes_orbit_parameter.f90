@@ -359,9 +359,8 @@ contains
     type(probes_t), intent(inout) :: pr
     real(wp), intent(out) :: de, de_again
     integer, intent(out) :: found, n_again
-    real(wp) :: g(size(pr%de) + 2*CLOSE_AWAY + CLOSE_FOLD), dist, best, next, root, t, end_de, a, b
-    integer :: i, n, ibest, ncross, gst
-    logical :: ok
+    real(wp) :: g(size(pr%de) + 2*CLOSE_AWAY + CLOSE_FOLD), dist, best, next
+    integer :: i, n, ibest, ncross
     de = 0
     de_again = 0
     n_again = 0
@@ -402,29 +401,12 @@ contains
     end do
     n_again = ncross - 1
     if (g(ibest) == 0) then
-      root = pr%de(ibest)
+      call period_root(c, pr%de(ibest), pr%de(ibest), de, found)
+    else if (g(ibest + 1) == 0) then
+      call period_root(c, pr%de(ibest + 1), pr%de(ibest + 1), de, found)
     else
-      a = pr%de(ibest)
-      b = pr%de(ibest + 1)
-      if (g(ibest + 1) == 0) then
-        root = b
-      else
-        gst = quad_root(c_funloc(period_gap), c_loc(c), a, b, 0.0_wp, BRENT_XTOL, root)
-        if (gst /= 0 .or. c%stat /= TUBES_OK) then
-          found = PARAM_NOCONV
-          c%stat = TUBES_ENOCONV
-          return
-        end if
-      end if
+      call period_root(c, pr%de(ibest), pr%de(ibest + 1), de, found)
     end if
-    call period_at(c, root, t, ok, end_de)
-    if (.not. ok .or. abs(t - c%target) > PERIOD_RTOL*c%target) then
-      found = PARAM_NOCONV
-      c%stat = TUBES_ENOCONV
-      return
-    end if
-    de = root
-    found = PARAM_FOUND
   contains
     logical function crosses(i)   ! T - T* is 0 at probe i or changes sign between probes i and i + 1
       integer, intent(in) :: i
@@ -452,7 +434,7 @@ contains
     integer, intent(out) :: found
     real(wp), intent(inout) :: t_reach, de_reach
     real(wp) :: a, b, ga, gb, t, root, x0(c%model%dim()), tau, amp, dist, last_ok, end_de
-    integer :: j, gst
+    integer :: j
     logical :: ok, bracketed
     de = 0
     found = PARAM_NOT_REACHED
@@ -508,25 +490,38 @@ contains
       end do
     end if
     if (.not. bracketed) return
-    if (gb == 0) then
-      root = b
-    else
+    if (gb == 0) a = b
+    call period_root(c, a, b, de, found)
+  end subroutine period_de
+
+  !> The dE of the period c%target between a and b (T - T* changes sign there; a == b: the root
+  !> itself): Brent's root, and T there checked to PERIOD_RTOL. found PARAM_FOUND with de, or
+  !> PARAM_NOCONV (c%stat TUBES_ENOCONV).
+  subroutine period_root(c, a, b, de, found)
+    type(period_ctx_t), intent(inout), target :: c
+    real(wp), intent(in) :: a, b
+    real(wp), intent(inout) :: de
+    integer, intent(out) :: found
+    real(wp) :: root, t, end_de
+    logical :: ok
+    integer :: gst
+    found = PARAM_NOCONV
+    root = b
+    if (a /= b) then
       gst = quad_root(c_funloc(period_gap), c_loc(c), a, b, 0.0_wp, BRENT_XTOL, root)
       if (gst /= 0 .or. c%stat /= TUBES_OK) then
-        found = PARAM_NOCONV
         c%stat = TUBES_ENOCONV
         return
       end if
     end if
     call period_at(c, root, t, ok, end_de)
     if (.not. ok .or. abs(t - c%target) > PERIOD_RTOL*c%target) then
-      found = PARAM_NOCONV
       c%stat = TUBES_ENOCONV
       return
     end if
     de = root
     found = PARAM_FOUND
-  end subroutine period_de
+  end subroutine period_root
 
   !> The period t of the family's orbit at de alone (family_at); de <= 0: the saddle's limit T_po
   !> (a Lyapunov family; a family away from the saddle, c%away, its orbit there).
