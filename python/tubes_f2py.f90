@@ -941,6 +941,21 @@ subroutine formula_with_constant(system, name, value, stat, key, msg)
   call with_constant(trim(system), trim(name), value, key, msg, stat)
 end subroutine formula_with_constant
 
+subroutine de_unresolved(des, n, group, saddle, ee, k, msg)
+  ! the first of a group's excess energies below what the energy resolves at the saddle of energy ee
+  ! (src/workflow/tubes_setup.f90 de_unresolved, the program's check): its index (1-based) and the
+  ! message, or 0
+  use, intrinsic :: iso_c_binding, only: c_double, c_int
+  use tubes_setup, only: rule => de_unresolved
+  implicit none
+  integer(c_int), intent(in) :: n
+  real(c_double), intent(in) :: des(n), ee
+  character(len=*), intent(in) :: group, saddle
+  integer(c_int), intent(out) :: k
+  character(len=1024), intent(out) :: msg
+  k = rule(des, trim(group), trim(saddle), ee, msg)
+end subroutine de_unresolved
+
 subroutine scene(name, config, n, saddle, method, flags, text1, text2, stores, h)
   ! the program's scene `name` (src/workflow/tubes_scene_<name>.f90) on the settings read_input
   ! returned (config), the saddle and the method the run chose: the handle of its result record (read

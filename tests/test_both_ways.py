@@ -45,6 +45,12 @@ CASES = {
     "transition dE = 0": (
         "&run scenes = 'transition' /\n&transition de = 0 /\n", 1,
         lambda: ball().transition(dE=[0.0]), True),
+    "transition dE below the energy's resolution (the ball's h0 = 1e10)": (
+        "&model h0 = 1e10 /\n&run scenes = 'transition' /\n&transition de = 1 /\n", 1,
+        lambda: ball(h0=1e10).transition(dE=[1.0]), True),
+    "monte_carlo dE below the energy's resolution": (
+        "&model h0 = 1e10 /\n&run scenes = 'montecarlo' /\n&montecarlo de = 1 /\n", 1,
+        lambda: ball(h0=1e10).monte_carlo(dE=1.0), True),
     "transition dE decreasing": (
         "&run scenes = 'transition' /\n&transition de = 5, 2 /\n", 1,
         lambda: ball().transition(dE=[5.0, 2.0]), True),

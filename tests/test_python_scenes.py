@@ -308,24 +308,25 @@ def test_cr3bp_action_is_the_gauge_fixed_integral():
 
 
 def test_an_unresolved_de_is_refused_by_the_library():
-    """The dE-resolution rule is the library's (tubes_study de_floor): Python's calls get it too
-    (orbit_family answered "invalid input" or, with a findable saddle, a 0.3 % wrong action).
-    The ball with h0 = 1e8 cm: E_e ~ 9.8e10 (cm/s)^2 is known to 16 ulps, and a dE below 1e6 times
-    that (349) is refused by every call that takes one, with EUNRESOLVED; a dE above it is computed."""
+    """The dE-resolution rule (tubes_study de_floor) is checked before any work, as the program checks
+    it when it reads an input (src/workflow/tubes_setup.f90 de_unresolved: a ValueError with the
+    program's message), and the library refuses such a dE itself too (EUNRESOLVED; orbit_family once
+    answered "invalid input" or, with a findable saddle, a 0.3 % wrong action). The ball with h0 =
+    1e8 cm: E_e ~ 9.8e10 (cm/s)^2 is known to 16 ulps, and a dE below 1e6 times that (349) is refused
+    by every call that takes one; a dE above it is computed."""
     m = tubes.Model(h0=1e8)
     e_s = m.equilibria()["energy"][list(m.equilibria()["name"]).index("S12")]
     floor = 1e6 * 16 * np.finfo(float).eps * abs(e_s)
     assert 340 < floor < 360
-    for call in (lambda: m.orbit_family(dE=[0.99 * floor]), lambda: m.poincare(1.0), lambda: m.flux(dE=[1.0])):
-        with pytest.raises(tubes.TubesError, match="below what the energy resolves") as e:
+    for call in (lambda: m.orbit_family(dE=[0.99 * floor]), lambda: m.poincare(1.0), lambda: m.flux(dE=[1.0]),
+                 lambda: m.tube_cut(1.0), lambda: m.transition(dE=[1.0]), lambda: m.monte_carlo(1.0, 10, 1)):
+        with pytest.raises(ValueError, match="below what the energy resolves at the saddle S12"):
             call()
-        assert e.value.code == tubes.EUNRESOLVED
-    # the tube cut, the transition and the Monte Carlo check are the program's scenes (src/workflow/tubes_scene_*.f90):
-    # their /section at E_e fails first (dA_E/dE's quadrature), and they stop there (the program
-    # refuses dE = 1 already when it reads the input, exit 1)
-    for call in (lambda: m.tube_cut(1.0), lambda: m.transition(dE=[1.0]), lambda: m.monte_carlo(1.0, 10, 1)):
-        with pytest.raises(tubes.TubesError, match="dA_E/dE at E_e of S12 could not be computed"):
-            call()
+    # the core's own refusal, past Python's check
+    st = tubes._settings(m, None, None)
+    r = tubes._lib().orbit_family(*tubes._study(m, st), np.array([0.99 * floor]), 1, 1, 1e-11, 1e-13, 1e-13,
+                                  25, 201, *tubes._integ(st, m), m._stores(), 0, np.zeros(6), 0.0)   # no guess
+    assert r[0] == tubes.EUNRESOLVED
     assert m.orbit_family(dE=[1.01 * floor])["converged"][0]
 
 

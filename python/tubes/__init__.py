@@ -797,7 +797,20 @@ def _settings(model: Model, saddle=None, saddle_near=None, section=None, who: st
         if code:
             raise ValueError(f"{who}: {_str(msg)}")
         st["saddle"] = _str(chosen)
+        # the scene's excess energies against what the energy resolves at the saddle (the program's
+        # check, src/workflow/tubes_setup.f90 de_unresolved)
+        group = _DE_GROUPS.get(who)
+        given = (groups.get(group) or {}).get("de") if group else None
+        if given is not None:
+            k, dmsg = _lib().de_unresolved(np.atleast_1d(np.asarray(given, dtype=float)), group, st["saddle"], float(_e))
+            if k:
+                raise ValueError(f"{who}: {_str(dmsg)}")
     return st
+
+
+# the group whose excess energies each scene function takes (_settings' resolution check)
+_DE_GROUPS = {"orbit_family": "orbits", "tube_cut": "tubes", "transition": "transition", "monte_carlo": "montecarlo",
+              "poincare": "sections", "flux": "flux"}
 
 
 def _study(model, st):

@@ -4,7 +4,6 @@
 #include "tubes_h5.h"
 #include "tubes_input.h"
 #include <float.h>
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -174,18 +173,14 @@ static int de_resolvable(const tubes_run_t *run, double ee) {
       {"tubes", "tubes", c->tub_de, c->tub_nde},
       {"transition", "transition", c->tra_de, c->tra_nde}, {"montecarlo", "montecarlo", &c->mc_de, 1},
       {"sections", "sections", c->pm_de, c->pm_nde},    {"flux", "flux", c->flux_de, c->flux_nde}};
-  double need = tubes_de_floor(ee), res = need / 1e6;
   for (size_t j = 0; j < sizeof lists / sizeof lists[0]; j++) {
     if (!scene_asked(c, lists[j].scene)) continue;
-    for (int i = 0; i < lists[j].n; i++)
-      if (fabs(lists[j].de[i]) < need) {
-        say_at(run, nml_line(run->where, lists[j].group, "de"));
-        fprintf(stderr, "&%s de = %g: below what the energy resolves at the saddle %s: E_e = %.10g is "
-                "known to about %.2g (16 ulps), and E_e + dE only to a relative %.2g of dE; dE must be at least %.3g "
-                "(16 ulps a millionth of it), or H's additive constant smaller (a large constant term: the ball's h0)\n",
-                lists[j].group, lists[j].de[i], run->saddle, ee, res, res / fabs(lists[j].de[i]), need);
-        return EXIT_BADINPUT;
-      }
+    char m[1024];
+    if (tubes_de_unresolved(lists[j].n, lists[j].de, lists[j].group, run->saddle, ee, m, (int)sizeof m)) {
+      say_at(run, nml_line(run->where, lists[j].group, "de"));
+      fprintf(stderr, "%s\n", m);
+      return EXIT_BADINPUT;
+    }
   }
   return 0;
 }

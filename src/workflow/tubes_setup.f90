@@ -10,7 +10,7 @@ module tubes_setup
   use tubes_status, only: TUBES_OK, TUBES_ENOCONV, status_message
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_equilibria, only: equilibrium_t
-  use tubes_study, only: seed_stores_t, model_equilibria, stores_at
+  use tubes_study, only: seed_stores_t, model_equilibria, stores_at, de_floor
   use tubes_field, only: vector_field_t
   use tubes_models, only: system_info_t, system_info, make_field, MAX_PARAMS, MAX_DOF, LEN_SYSTEM
   use tubes_methods, only: METHOD_AUTO, METHOD_TAYLOR, METHOD_DOP853
@@ -34,7 +34,7 @@ module tubes_setup
   integer, parameter, public :: SADDLE_NONE_NEAR = 2   !! no saddle the scenes take in the box
 
   public :: choose_saddle, scene_refused, model_dissipation, method_resolved, run_saddle, dissipation_attrs, &
-            scene_dissipation
+            scene_dissipation, de_unresolved
 
   integer, parameter, public :: SCENE_TAKEN = 0           !! the scene applies to the model
   integer, parameter, public :: SCENE_NOT_FOR_MODEL = 1   !! not with this many degrees of freedom
@@ -326,7 +326,41 @@ contains
     m = merge(METHOD_DOP853, 0, code == METHOD_AUTO)
   end function method_resolved
 
+  !> The first of a group's excess energies des below what the energy resolves at the saddle (its
+  !> energy ee; tubes_study de_floor): its index (1-based) and the message's body in msg, or 0.
+  integer function de_unresolved(des, group, saddle, ee, msg) result(k)
+    real(wp), intent(in) :: des(:), ee
+    character(*), intent(in) :: group, saddle
+    character(*), intent(out) :: msg
+    real(wp) :: need, res
+    msg = ''
+    need = de_floor(ee)
+    res = need/1e6_wp
+    do k = 1, size(des)
+      if (abs(des(k)) >= need) cycle
+      msg = '&' // group // ' de = ' // num(des(k)) // ': below what the energy resolves at the saddle ' // saddle // &
+            ': E_e = ' // num(ee, '.10g') // ' is known to about ' // num(res, '.2g') // ' (16 ulps), and E_e + dE ' // &
+            'only to a relative ' // num(res/abs(des(k)), '.2g') // ' of dE; dE must be at least ' // num(need, '.3g') // &
+            ' (16 ulps a millionth of it), or H''s additive constant smaller (a large constant term: the ball''s h0)'
+      return
+    end do
+    k = 0
+  end function de_unresolved
+
   ! ---------------------------------------------------------------- the C entries (src/io/tubes_scenes.c)
+
+  !> de_unresolved for C: group and saddle NUL-terminated, msg (len bytes) NUL-terminated.
+  integer(c_int) function c_de_unresolved(n, des, group, saddle, ee, msg, len) result(k) &
+      bind(C, name='tubes_de_unresolved')
+    integer(c_int), value :: n, len
+    real(c_double), intent(in) :: des(n)
+    character(kind=c_char), intent(in) :: group(*), saddle(*)
+    real(c_double), value :: ee
+    character(kind=c_char), intent(out) :: msg(len)
+    character(1024) :: m
+    k = de_unresolved(des, c_to_f(group(1:32)), c_to_f(saddle(1:8)), ee, m)
+    call f_to_c(m, msg)
+  end function c_de_unresolved
 
   integer(c_int) function c_scene_refused(scene, ndof, plane, label, msg, len) result(code) &
       bind(C, name='tubes_scene_refused')
