@@ -110,8 +110,7 @@ const nml_var tubes_nml_vars[] = {
     {"trajectory", "py0", NML_REAL, 1, "cm/s", "0", "finite", "initial p_y (ignored if at_rest)"},
     {"trajectory", "at_rest", NML_LOGICAL, 1, "-", ".true.", ".true., .false.",
      "start from rest at (x0, y0)"},
-    {"trajectory", "t_end", NML_REAL, 1, "s", "10", ">= 0", "final time"},
-    {"trajectory", "dt_out", NML_REAL, 1, "s", "0.01", "> 0", "sample spacing of the output (t_end is always the last sample)"},
+    TUBES_REGISTRY_ROWS_TRAJECTORY   /* t_end, dt_out (registered: src/workflow/tubes_config.f90) */
     {"trajectory", "section", NML_STRING, 1, "-", "'none'", "none, U1-, U1+, U1, theta, x, y",
      "Poincare section whose crossings are recorded (docs/events.md)"},
     {"trajectory", "section_angle", NML_REAL, 1, "deg", "45", "-360 .. 360", "section = 'theta': the ray's angle"},
@@ -123,12 +122,7 @@ const nml_var tubes_nml_vars[] = {
     {"integrator", "method", NML_STRING, 1, "-", "'auto'",
      "dop853, rk4, tao2, tao4, tao6, gauss4, gauss6, gauss8, gsl_rk8pd, gsl_rk4imp, cvode_adams, arkode_erk8, taylor, auto",
      "integration method (docs/integrators.md)"},
-    {"integrator", "rtol", NML_REAL, 1, "1", "1e-12", "1e-15 <= rtol < 1",
-     "relative tolerance (variable-step methods)"},
-    {"integrator", "atol", NML_REAL, 1, "state units", "1e-12", "> 0",
-     "absolute tolerance (variable-step methods)"},
-    {"integrator", "h", NML_REAL, 1, "s", "0", ">= 0",
-     "fixed step; 0 = variable step with rtol/atol"},
+    TUBES_REGISTRY_ROWS_INTEGRATOR   /* rtol, atol, h */
     {"integrator", "max_steps", NML_INT, 1, "-", "10000000", ">= 1", "step budget"},
     {"integrator", "omega_bind", NML_REAL, 1, "1/s", "200", "> 0", "tao*: binding constant of the extended phase space"},
     {"integrator", "solver", NML_STRING, 1, "-", "'newton'", "newton, fixed_point", "gauss*: stage equation solver"},
@@ -176,22 +170,20 @@ const nml_var tubes_nml_vars[] = {
      "kind = 'plane': the sign of dq_k/dt at the crossings"},
     {"tubes", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "10, 100", "> 0, increasing", "excess energies of the tube cuts"},
     {"tubes", "kind", NML_STRING, 1, "-", "'stable'", "stable, unstable, both", "which manifold"},
-    {"tubes", "eps", NML_REAL, 1, "cm", "1e-6", "1e-10 .. 1e-2", "step-off from the orbit"},
-    {"tubes", "area_tol", NML_REAL, 1, "1", "1e-10", "1e-13 .. 1e-2", "relative area change that ends the refinement"},
-    {"tubes", "t_max", NML_REAL, 1, "s", "30", "> 0", "longest flight from the orbit to the section"},
-    {"tubes", "n_init", NML_INT, 1, "-", "64", "8 .. 100000", "seeds of the first round"},
+    TUBES_REGISTRY_ROWS_TUBES   /* eps, area_tol, t_max, n_init */
     {"tubes", "n_max", NML_INT, 1, "-", "8192", "n_init .. 1000000", "seeds at most"},
     {"transition", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 2, 5, ..., 700, 750", "> 0, increasing",
      "excess energies of p_trans(dE)"},
+    TUBES_REGISTRY_ROWS_TRANSITION   /* area_tol */
     {"montecarlo", "de", NML_REAL, 1, "(cm/s)^2", "100", "> 0", "excess energy of the samples"},
     {"montecarlo", "n_samples", NML_INT, 1, "-", "10000", "1 .. 10000000", "points on the section"},
     {"montecarlo", "seed", NML_INT, 1, "-", "12345", ">= 0", "seed of GSL's MT19937"},
     {"montecarlo", "t_max", NML_REAL, 1, "s", "20", "> 0", "longest integration of a point"},
     {"montecarlo", "gate", NML_REAL, 1, "units of q", "the system's (1.5 cm for the ball)", "> 0",
      "a point has transited when it is this far past the saddle along its reaction coordinate"},
+    TUBES_REGISTRY_ROWS_MONTECARLO   /* area_tol */
     {"sections", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "100, 500", "> 0, increasing", "excess energies of the maps"},
-    {"sections", "n_seeds", NML_INT, 1, "-", "40", "1 .. 100000", "trajectories per map"},
-    {"sections", "n_iter", NML_INT, 1, "-", "300", "1 .. 1000000", "returns recorded per trajectory"},
+    TUBES_REGISTRY_ROWS_SECTIONS   /* n_seeds, n_iter, t_max */
     {"experiment", "n_tracks", NML_INT, 1, "-", "120", "1 .. 100000", "trajectories released"},
     {"experiment", "duration", NML_REAL, 1, "s", "14", "> 0", "length of each track"},
     {"experiment", "camera_rate", NML_REAL, 1, "Hz", "50", "> 0, duration*camera_rate <= 1e6",
@@ -204,11 +196,7 @@ const nml_var tubes_nml_vars[] = {
      "release excess energy g H - E_e at rest: lower bound"},
     {"experiment", "de_max", NML_REAL, 1, "(cm/s)^2", "3000", "finite, > de_min",
      "release excess energy: upper bound"},
-    {"experiment", "damping_ratio", NML_REAL, 1, "1", "0.014", "0 <= zeta < 1",
-     "damping ratio of the experiment's ball (docs/theory.md#damping)"},
-    {"experiment", "rolling_resistance", NML_REAL, 1, "1", "0", "0 <= C_rr < 1",
-     "rolling resistance coefficient of the experiment's ball (docs/dissipation.md)"},
-    {"experiment", "seed", NML_INT, 1, "-", "2018", ">= 0", "seed of GSL's MT19937"},
+    TUBES_REGISTRY_ROWS_EXPERIMENT   /* damping_ratio, rolling_resistance, seed */
     {"experiment", "csv", NML_STRING, 1, "-", "''", "a writable path or ''",
      "also write the tracks as CSV (track,t,x,y) to this file; '' = no CSV"},
     {"flux", "de", NML_REAL, TUBES_MAXDE, "energy", "the &transition list", "> 0, increasing",
@@ -224,19 +212,19 @@ const nml_var tubes_nml_vars[] = {
     {"flux", "n_cut", NML_INT, 1, "-", "16", "0, or even 4 .. 64",
      "3 DOF with order and a plane &section: the tube's cut on a grid of n_cut + 1 rings of "
      "(2 n_cut)^2 NHIM points; 0 = none"},
+    TUBES_REGISTRY_ROWS_FLUX   /* cut_eps */
     {"scan", "parameter", NML_STRING, 1, "-", "- (required)",
      "a parameter of the system (&model), not a dissipation one; not a formula's constant",
      "the model parameter the scan scene moves (docs/scan.md)"},
     {"scan", "to", NML_REAL, 1, "the parameter's", "- (required)", "finite, not the start value; the model's range",
      "the parameter's end value (the start: its &model value)"},
-    {"scan", "n", NML_INT, 1, "-", "10", "1 .. 100000", "steps (n + 1 parameter values, equally spaced)"},
+    TUBES_REGISTRY_ROWS_SCAN   /* n */
     {"scan", "de", NML_REAL, TUBES_MAXDE, "energy", "&orbits de if set there, else none", "> 0, increasing",
      "excess energies of the saddle's Lyapunov orbits followed along the scan (none: no orbits)"},
     {"scan", "p_trans", NML_LOGICAL, 1, "-", ".false.", ".true., .false. (2 degrees of freedom, as the transition scene)",
      "p_trans(dE) = A_tube/A_E at each step and each de, as the transition scene computes it (costs a tube cut "
      "per step and dE: docs/scan.md)"},
-    /* the registered variables (src/workflow/tubes_config.f90's annotated fields) */
-    TUBES_REGISTRY_ROWS
+    TUBES_REGISTRY_ROWS_EQUILIBRIA   /* none yet */
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 _Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 192, "nml_where holds 192 variables");
@@ -1080,7 +1068,6 @@ static int validate_scan(const char *path, const tubes_config_t *c, const nml_wh
                 : " (dissipation parameters are not scanned: the scan follows the conservative model)");
     n++;
   }
-  if (!(c->scan_n >= 1 && c->scan_n <= 100000)) n += bad(path, c, w, "scan", "n", err, "", c->scan_n);
   if (c->scan_to == -DBL_MAX) {
     fprintf(err, "%s:%d: &scan: to is not set: the scan scene needs the parameter's end value\n", path,
             line_or_group(w, "scan", "to"));
@@ -1248,9 +1235,7 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   int nm = validate_model(path, c, w, err);
   n += nm;
   if (!nm && c->nparams >= 0) n += validate_geometry(path, c, w, err);
-  if (!(c->t_end >= 0)) n += bad(path, c, w, "trajectory", "t_end", err, "", c->t_end);
-  if (!(c->dt_out > 0)) n += bad(path, c, w, "trajectory", "dt_out", err, "", c->dt_out);
-  else if (c->t_end / c->dt_out > 5.0e7)
+  if (c->dt_out > 0 && c->t_end / c->dt_out > 5.0e7)   /* t_end, dt_out themselves: check_registered */
     n += bad(path, c, w, "trajectory", "dt_out", err, "t_end/dt_out exceeds 5e7 samples", c->dt_out);
   {
     const char *ok[] = {"none", "U1-", "U1+", "U1", "theta", "x", "y"};
@@ -1297,9 +1282,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (strcmp(c->solver, "newton") && strcmp(c->solver, "fixed_point"))
     n += bad_string(path, w, "integrator", "solver", c->solver, err);
   if (!(c->max_iter >= 0 && c->max_iter <= 1000)) n += bad(path, c, w, "integrator", "max_iter", err, "", c->max_iter);
-  if (!(c->rtol >= 1e-15 && c->rtol < 1)) n += bad(path, c, w, "integrator", "rtol", err, "", c->rtol);
-  if (!(c->atol > 0)) n += bad(path, c, w, "integrator", "atol", err, "", c->atol);
-  if (!(c->h >= 0)) n += bad(path, c, w, "integrator", "h", err, "", c->h);
   if (!(c->max_steps >= 1)) n += bad(path, c, w, "integrator", "max_steps", err, "", (double)c->max_steps);
   n += check_list_sign(path, c, w, "orbits", c->orb_de, c->orb_nde, err, c->orb_nguess == 0);
   /* a family from a guess (docs/orbits.md, "Orbits from a guess") */
@@ -1369,10 +1351,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   n += check_list(path, c, w, "sections", c->pm_de, c->pm_nde, err);
   if (strcmp(c->tub_kind, "stable") && strcmp(c->tub_kind, "unstable") && strcmp(c->tub_kind, "both"))
     n += bad_string(path, w, "tubes", "kind", c->tub_kind, err);
-  if (!(c->tub_eps >= 1e-10 && c->tub_eps <= 1e-2)) n += bad(path, c, w, "tubes", "eps", err, "", c->tub_eps);
-  if (!(c->tub_area_tol >= 1e-13 && c->tub_area_tol <= 1e-2)) n += bad(path, c, w, "tubes", "area_tol", err, "", c->tub_area_tol);
-  if (!(c->tub_t_max > 0)) n += bad(path, c, w, "tubes", "t_max", err, "", c->tub_t_max);
-  if (!(c->tub_n_init >= 8 && c->tub_n_init <= 100000)) n += bad(path, c, w, "tubes", "n_init", err, "", c->tub_n_init);
   if (!(c->tub_n_max >= c->tub_n_init && c->tub_n_max <= 1000000)) n += bad(path, c, w, "tubes", "n_max", err, "", c->tub_n_max);
   n += check_registered(path, c, w, err);
   if (!(c->mc_de > 0)) n += bad(path, c, w, "montecarlo", "de", err, "", c->mc_de);
@@ -1404,8 +1382,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   }
   if (!(c->flux_n_cut == 0 || (c->flux_n_cut >= 4 && c->flux_n_cut <= 64 && c->flux_n_cut % 2 == 0)))
     n += bad(path, c, w, "flux", "n_cut", err, "", c->flux_n_cut);
-  if (!(c->pm_n_seeds >= 1 && c->pm_n_seeds <= 100000)) n += bad(path, c, w, "sections", "n_seeds", err, "", c->pm_n_seeds);
-  if (!(c->pm_n_iter >= 1 && c->pm_n_iter <= 1000000)) n += bad(path, c, w, "sections", "n_iter", err, "", c->pm_n_iter);
   if (!(c->exp_n_tracks >= 1 && c->exp_n_tracks <= 100000))
     n += bad(path, c, w, "experiment", "n_tracks", err, "", c->exp_n_tracks);
   if (!(c->exp_duration > 0)) n += bad(path, c, w, "experiment", "duration", err, "", c->exp_duration);
@@ -1421,11 +1397,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!(c->exp_noise >= 0)) n += bad(path, c, w, "experiment", "noise", err, "", c->exp_noise);
   if (!(c->exp_de_min < c->exp_de_max))
     n += bad(path, c, w, "experiment", "de_min", err, "de_min must be below de_max", c->exp_de_min);
-  if (!(c->exp_damping_ratio >= 0 && c->exp_damping_ratio < 1))
-    n += bad(path, c, w, "experiment", "damping_ratio", err, "", c->exp_damping_ratio);
-  if (!(c->exp_rolling_resistance >= 0 && c->exp_rolling_resistance < 1))
-    n += bad(path, c, w, "experiment", "rolling_resistance", err, "", c->exp_rolling_resistance);
-  if (!(c->exp_seed >= 0)) n += bad(path, c, w, "experiment", "seed", err, "", c->exp_seed);
   if (!n) n += check_memory(path, c, w, err);
   return n;
 }

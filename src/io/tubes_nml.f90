@@ -23,15 +23,13 @@ module tubes_nml
     real(c_double) :: box = 0
     integer :: n_grid = 41
     character(LSADDLE) :: saddle = ''
-    real(c_double) :: x0 = 4, y0 = 12.614863819914357_c_double, px0 = 0, py0 = 0, t_end = 10, &
-                      dt_out = 0.01_c_double
+    real(c_double) :: x0 = 4, y0 = 12.614863819914357_c_double, px0 = 0, py0 = 0
     logical :: at_rest = .true.
     character(LNAME) :: section = 'none'
     real(c_double) :: section_angle = 45, section_level = 0
     integer :: section_direction = 0, max_crossings = 10000
     logical :: stop_at_first = .false.
     character(LNAME) :: method = 'auto'
-    real(c_double) :: rtol = 1.0e-12_c_double, atol = 1.0e-12_c_double, h = 0
     integer(c_int64_t) :: max_steps = 10000000_c_int64_t
     real(c_double) :: omega_bind = 200
     character(LNAME) :: solver = 'newton'
@@ -45,17 +43,14 @@ module tubes_nml
     integer :: sec_pth_sign = UNSET_INT
     real(c_double) :: tub_de(MAXDE) = UNSET
     character(LNAME) :: tub_kind = 'stable'
-    real(c_double) :: tub_eps = 1.0e-6_c_double, tub_area_tol = 1.0e-10_c_double, tub_t_max = 30
-    integer :: tub_n_init = 64, tub_n_max = 8192
+    integer :: tub_n_max = 8192
     real(c_double) :: tra_de(MAXDE) = UNSET
     real(c_double) :: mc_de = 100, mc_t_max = 20, mc_gate = UNSET
     integer :: mc_n_samples = 10000, mc_seed = 12345
     real(c_double) :: pm_de(MAXDE) = UNSET
-    integer :: pm_n_seeds = 40, pm_n_iter = 300
-    integer :: exp_n_tracks = 120, exp_seed = 2018
+    integer :: exp_n_tracks = 120
     real(c_double) :: exp_duration = 14, exp_camera_rate = 50, exp_pixel = 0.16_c_double, &
-                      exp_noise = 0.05_c_double, exp_de_min = 1000, exp_de_max = 3000, &
-                      exp_damping_ratio = 0.014_c_double, exp_rolling_resistance = 0
+                      exp_noise = 0.05_c_double, exp_de_min = 1000, exp_de_max = 3000
     character(LPATH) :: exp_csv = ''
     character(LNAME) :: system = 'rolling_ball'
     real(c_double) :: m_a = UNSET, m_b = UNSET, d = UNSET, lambda = UNSET, zeta = UNSET, eps_s = UNSET, &
@@ -78,7 +73,6 @@ module tubes_nml
     character(LNAME) :: scan_parameter = ''
     real(c_double) :: scan_to = UNSET
     real(c_double) :: scan_de(MAXDE) = UNSET
-    integer :: scan_n = 10
     real(c_double) :: orb_guess(MAXGUESS) = UNSET   !! &orbits guess (a longer list is said so)
     real(c_double) :: orb_period = 0
     logical :: scan_p_trans = .false.
@@ -106,7 +100,6 @@ contains
     cfg%n_grid = v%n_grid
     call f_to_c(v%saddle, cfg%saddle)
     cfg%x0 = v%x0; cfg%y0 = v%y0; cfg%px0 = v%px0; cfg%py0 = v%py0
-    cfg%t_end = v%t_end; cfg%dt_out = v%dt_out
     cfg%at_rest = merge(1, 0, v%at_rest)
     cfg%spatial = merge(1, 0, v%spatial)
     call f_to_c(v%section, cfg%section)
@@ -114,7 +107,7 @@ contains
     cfg%section_direction = v%section_direction; cfg%max_crossings = v%max_crossings
     cfg%stop_at_first = merge(1, 0, v%stop_at_first)
     call f_to_c(v%method, cfg%method)
-    cfg%rtol = v%rtol; cfg%atol = v%atol; cfg%h = v%h; cfg%max_steps = v%max_steps
+    cfg%max_steps = v%max_steps
     cfg%omega_bind = v%omega_bind; cfg%max_iter = v%max_iter
     call f_to_c(v%solver, cfg%solver)
     call f_to_c(v%orb_saddle, cfg%orb_saddle)
@@ -142,8 +135,7 @@ contains
     cfg%orb_tol = v%orb_tol; cfg%orb_rtol = v%orb_rtol; cfg%orb_atol = v%orb_atol
     call put_list(v%tub_de, cfg%tub_de, cfg%tub_nde, [10.0_c_double, 100.0_c_double])
     call f_to_c(v%tub_kind, cfg%tub_kind)
-    cfg%tub_eps = v%tub_eps; cfg%tub_area_tol = v%tub_area_tol; cfg%tub_t_max = v%tub_t_max
-    cfg%tub_n_init = v%tub_n_init; cfg%tub_n_max = v%tub_n_max
+    cfg%tub_n_max = v%tub_n_max
     call put_list(v%tra_de, cfg%tra_de, cfg%tra_nde, [1.0_c_double, 2.0_c_double, 5.0_c_double, &
       10.0_c_double, 20.0_c_double, 50.0_c_double, 100.0_c_double, 200.0_c_double, 300.0_c_double, &
       400.0_c_double, 500.0_c_double, 600.0_c_double, 700.0_c_double, 750.0_c_double])
@@ -154,14 +146,11 @@ contains
     cfg%mc_de = v%mc_de; cfg%mc_t_max = v%mc_t_max
     cfg%mc_n_samples = v%mc_n_samples; cfg%mc_seed = v%mc_seed
     call put_list(v%pm_de, cfg%pm_de, cfg%pm_nde, [100.0_c_double, 500.0_c_double])
-    cfg%pm_n_seeds = v%pm_n_seeds; cfg%pm_n_iter = v%pm_n_iter
     include 'nml_to_c.inc'   ! the registered variables
-    cfg%exp_n_tracks = v%exp_n_tracks; cfg%exp_seed = v%exp_seed
+    cfg%exp_n_tracks = v%exp_n_tracks
     cfg%exp_duration = v%exp_duration; cfg%exp_camera_rate = v%exp_camera_rate
     cfg%exp_pixel = v%exp_pixel; cfg%exp_noise = v%exp_noise
     cfg%exp_de_min = v%exp_de_min; cfg%exp_de_max = v%exp_de_max
-    cfg%exp_damping_ratio = v%exp_damping_ratio
-    cfg%exp_rolling_resistance = v%exp_rolling_resistance
     call f_to_c(v%exp_csv, cfg%exp_csv)
     call f_to_c(v%hamiltonian, cfg%hamiltonian)
     call f_to_c(v%height, cfg%height)
@@ -176,7 +165,6 @@ contains
     end do
     call f_to_c(v%scan_parameter, cfg%scan_parameter)
     cfg%scan_to = v%scan_to
-    cfg%scan_n = v%scan_n
     cfg%scan_de = v%scan_de
     cfg%scan_p_trans = merge(1, 0, v%scan_p_trans)
     cfg%scan_nde = count(v%scan_de /= UNSET)
@@ -500,7 +488,6 @@ contains
     call effective_model(cfg, v)
     v%saddle = c_to_f(cfg%saddle)
     v%x0 = cfg%x0; v%y0 = cfg%y0; v%px0 = cfg%px0; v%py0 = cfg%py0
-    v%t_end = cfg%t_end; v%dt_out = cfg%dt_out
     v%at_rest = cfg%at_rest /= 0
     v%spatial = cfg%spatial /= 0
     v%section = c_to_f(cfg%section)
@@ -508,7 +495,7 @@ contains
     v%section_direction = cfg%section_direction; v%max_crossings = cfg%max_crossings
     v%stop_at_first = cfg%stop_at_first /= 0
     v%method = c_to_f(cfg%method)
-    v%rtol = cfg%rtol; v%atol = cfg%atol; v%h = cfg%h; v%max_steps = cfg%max_steps
+    v%max_steps = cfg%max_steps
     v%omega_bind = cfg%omega_bind; v%max_iter = cfg%max_iter
     v%solver = c_to_f(cfg%solver)
     v%orb_saddle = c_to_f(cfg%orb_saddle)
@@ -529,8 +516,7 @@ contains
     v%sec_angle = cfg%sec_angle; v%sec_pth_sign = cfg%sec_pth_sign
     v%tub_de = cfg%tub_de
     v%tub_kind = c_to_f(cfg%tub_kind)
-    v%tub_eps = cfg%tub_eps; v%tub_area_tol = cfg%tub_area_tol; v%tub_t_max = cfg%tub_t_max
-    v%tub_n_init = cfg%tub_n_init; v%tub_n_max = cfg%tub_n_max
+    v%tub_n_max = cfg%tub_n_max
     v%tra_de = cfg%tra_de
     v%mc_de = cfg%mc_de; v%mc_t_max = cfg%mc_t_max; v%mc_gate = cfg%mc_gate
     v%mc_n_samples = cfg%mc_n_samples; v%mc_seed = cfg%mc_seed
@@ -539,18 +525,14 @@ contains
     v%flux_t_max = cfg%flux_t_max; v%flux_gate = cfg%flux_gate; v%flux_tol = cfg%flux_tol
     v%flux_n_cut = cfg%flux_n_cut
     v%pm_de = cfg%pm_de
-    v%pm_n_seeds = cfg%pm_n_seeds; v%pm_n_iter = cfg%pm_n_iter
     include 'nml_from_c.inc'   ! the registered variables
-    v%exp_n_tracks = cfg%exp_n_tracks; v%exp_seed = cfg%exp_seed
+    v%exp_n_tracks = cfg%exp_n_tracks
     v%exp_duration = cfg%exp_duration; v%exp_camera_rate = cfg%exp_camera_rate
     v%exp_pixel = cfg%exp_pixel; v%exp_noise = cfg%exp_noise
     v%exp_de_min = cfg%exp_de_min; v%exp_de_max = cfg%exp_de_max
-    v%exp_damping_ratio = cfg%exp_damping_ratio
-    v%exp_rolling_resistance = cfg%exp_rolling_resistance
     v%exp_csv = c_to_f(cfg%exp_csv)
     v%scan_parameter = c_to_f(cfg%scan_parameter)
     v%scan_to = cfg%scan_to
-    v%scan_n = cfg%scan_n
     v%scan_de = cfg%scan_de
     v%scan_p_trans = cfg%scan_p_trans /= 0
   end subroutine from_c
@@ -746,15 +728,14 @@ contains
       include 'nml_equilibria_out.inc'
     end subroutine io_equilibria
     subroutine io_trajectory()
-      real(c_double) :: x0, y0, px0, py0, t_end, dt_out, section_angle, section_level
+      real(c_double) :: x0, y0, px0, py0, section_angle, section_level
       logical :: at_rest, stop_at_first
       character(LNAME) :: section
       integer :: section_direction, max_crossings
-      namelist /trajectory/ x0, y0, px0, py0, at_rest, t_end, dt_out, section, section_angle, &
-        section_level, section_direction, max_crossings, stop_at_first
-      include 'nml_trajectory_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
+      namelist /trajectory/ x0, y0, px0, py0, at_rest
+      include 'nml_trajectory_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): t_end, dt_out
+      namelist /trajectory/ section, section_angle, section_level, section_direction, max_crossings, stop_at_first
       x0 = v%x0; y0 = v%y0; px0 = v%px0; py0 = v%py0; at_rest = v%at_rest
-      t_end = v%t_end; dt_out = v%dt_out
       section = v%section; section_angle = v%section_angle; section_level = v%section_level
       section_direction = v%section_direction; max_crossings = v%max_crossings
       stop_at_first = v%stop_at_first
@@ -765,7 +746,6 @@ contains
         write (u, nml=trajectory, iostat=ios, iomsg=iomsg)
       end if
       v%x0 = x0; v%y0 = y0; v%px0 = px0; v%py0 = py0; v%at_rest = at_rest
-      v%t_end = t_end; v%dt_out = dt_out
       v%section = section; v%section_angle = section_angle; v%section_level = section_level
       v%section_direction = section_direction; v%max_crossings = max_crossings
       v%stop_at_first = stop_at_first
@@ -773,12 +753,13 @@ contains
     end subroutine io_trajectory
     subroutine io_integrator()
       character(LNAME) :: method, solver
-      real(c_double) :: rtol, atol, h, omega_bind
+      real(c_double) :: omega_bind
       integer(c_int64_t) :: max_steps
       integer :: max_iter
-      namelist /integrator/ method, rtol, atol, h, max_steps, omega_bind, solver, max_iter
-      include 'nml_integrator_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
-      method = v%method; rtol = v%rtol; atol = v%atol; h = v%h; max_steps = v%max_steps
+      namelist /integrator/ method
+      include 'nml_integrator_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): rtol, atol, h
+      namelist /integrator/ max_steps, omega_bind, solver, max_iter
+      method = v%method; max_steps = v%max_steps
       omega_bind = v%omega_bind; solver = v%solver; max_iter = v%max_iter
       include 'nml_integrator_in.inc'
       if (mode == 'r') then
@@ -786,7 +767,7 @@ contains
       else
         write (u, nml=integrator, iostat=ios, iomsg=iomsg)
       end if
-      v%method = method; v%rtol = rtol; v%atol = atol; v%h = h; v%max_steps = max_steps
+      v%method = method; v%max_steps = max_steps
       v%omega_bind = omega_bind; v%solver = solver; v%max_iter = max_iter
       include 'nml_integrator_out.inc'
     end subroutine io_integrator
@@ -932,13 +913,12 @@ contains
     subroutine io_tubes()
       real(c_double), allocatable :: de(:)
       character(LNAME) :: kind
-      real(c_double) :: eps, area_tol, t_max
-      integer :: n_init, n_max
-      namelist /tubes/ de, kind, eps, area_tol, t_max, n_init, n_max
-      include 'nml_tubes_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
+      integer :: n_max
+      namelist /tubes/ de, kind
+      include 'nml_tubes_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): eps .. n_init
+      namelist /tubes/ n_max
       call list_io(v%tub_de, de)
-      kind = v%tub_kind; eps = v%tub_eps; area_tol = v%tub_area_tol; t_max = v%tub_t_max
-      n_init = v%tub_n_init; n_max = v%tub_n_max
+      kind = v%tub_kind; n_max = v%tub_n_max
       include 'nml_tubes_in.inc'
       if (mode == 'r') then
         read (u, nml=tubes, iostat=ios, iomsg=iomsg)
@@ -946,8 +926,7 @@ contains
       else
         write (u, nml=tubes, iostat=ios, iomsg=iomsg)
       end if
-      v%tub_kind = kind; v%tub_eps = eps; v%tub_area_tol = area_tol; v%tub_t_max = t_max
-      v%tub_n_init = n_init; v%tub_n_max = n_max
+      v%tub_kind = kind; v%tub_n_max = n_max
       include 'nml_tubes_out.inc'
     end subroutine io_tubes
     subroutine io_transition()
@@ -1005,14 +984,13 @@ contains
       character(LNAME) :: parameter
       real(c_double) :: to
       real(c_double), allocatable :: de(:)
-      integer :: n
       logical :: p_trans
-      namelist /scan/ parameter, to, n, de, p_trans
-      include 'nml_scan_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
+      namelist /scan/ parameter, to
+      include 'nml_scan_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): n
+      namelist /scan/ de, p_trans
       if (mode /= 'r' .and. len_trim(v%scan_parameter) == 0) return   ! echoed only when set
       parameter = v%scan_parameter
       to = v%scan_to
-      n = v%scan_n
       p_trans = v%scan_p_trans
       call list_io(v%scan_de, de)
       include 'nml_scan_in.inc'
@@ -1024,17 +1002,14 @@ contains
       end if
       v%scan_parameter = parameter
       v%scan_to = to
-      v%scan_n = n
       v%scan_p_trans = p_trans
       include 'nml_scan_out.inc'
     end subroutine io_scan
     subroutine io_sections()
       real(c_double), allocatable :: de(:)
-      integer :: n_seeds, n_iter
-      namelist /sections/ de, n_seeds, n_iter
-      include 'nml_sections_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
+      namelist /sections/ de
+      include 'nml_sections_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): n_seeds .. t_max
       call list_io(v%pm_de, de)
-      n_seeds = v%pm_n_seeds; n_iter = v%pm_n_iter
       include 'nml_sections_in.inc'
       if (mode == 'r') then
         read (u, nml=sections, iostat=ios, iomsg=iomsg)
@@ -1042,21 +1017,19 @@ contains
       else
         write (u, nml=sections, iostat=ios, iomsg=iomsg)
       end if
-      v%pm_n_seeds = n_seeds; v%pm_n_iter = n_iter
       include 'nml_sections_out.inc'
     end subroutine io_sections
     subroutine io_experiment()
-      integer :: n_tracks, seed
-      real(c_double) :: duration, camera_rate, pixel, noise, de_min, de_max, damping_ratio, rolling_resistance
+      integer :: n_tracks
+      real(c_double) :: duration, camera_rate, pixel, noise, de_min, de_max
       character(:), allocatable :: csv
       character(LPATH) :: buf
-      namelist /experiment/ n_tracks, duration, camera_rate, pixel, noise, de_min, de_max, &
-        damping_ratio, rolling_resistance, seed, csv
-      include 'nml_experiment_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
-      n_tracks = v%exp_n_tracks; seed = v%exp_seed; duration = v%exp_duration
+      namelist /experiment/ n_tracks, duration, camera_rate, pixel, noise, de_min, de_max
+      include 'nml_experiment_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): damping_ratio .. seed
+      namelist /experiment/ csv
+      n_tracks = v%exp_n_tracks; duration = v%exp_duration
       camera_rate = v%exp_camera_rate; pixel = v%exp_pixel; noise = v%exp_noise
-      de_min = v%exp_de_min; de_max = v%exp_de_max; damping_ratio = v%exp_damping_ratio
-      rolling_resistance = v%exp_rolling_resistance
+      de_min = v%exp_de_min; de_max = v%exp_de_max
       include 'nml_experiment_in.inc'
       if (mode == 'r') then
         buf = v%exp_csv
@@ -1067,10 +1040,9 @@ contains
         csv = trim(v%exp_csv)
         write (u, nml=experiment, iostat=ios, iomsg=iomsg)
       end if
-      v%exp_n_tracks = n_tracks; v%exp_seed = seed; v%exp_duration = duration
+      v%exp_n_tracks = n_tracks; v%exp_duration = duration
       v%exp_camera_rate = camera_rate; v%exp_pixel = pixel; v%exp_noise = noise
-      v%exp_de_min = de_min; v%exp_de_max = de_max; v%exp_damping_ratio = damping_ratio
-      v%exp_rolling_resistance = rolling_resistance
+      v%exp_de_min = de_min; v%exp_de_max = de_max
       include 'nml_experiment_out.inc'
     end subroutine io_experiment
   end subroutine group_io

@@ -36,13 +36,22 @@ module tubes_config
     real(c_double) :: box   ! &equilibria
     integer(c_int) :: n_grid
     character(kind=c_char) :: saddle(LSADDLE)
-    real(c_double) :: x0, y0, px0, py0, t_end, dt_out   ! &trajectory
+    real(c_double) :: x0, y0, px0, py0   ! &trajectory
+    !@ &trajectory t_end | s | 10 | >= 0 | final time
+    real(c_double) :: t_end
+    !@ &trajectory dt_out | s | 0.01 | > 0 | sample spacing of the output (t_end is always the last sample)
+    real(c_double) :: dt_out
     integer(c_int) :: at_rest
     character(kind=c_char) :: section(LNAME)
     real(c_double) :: section_angle, section_level
     integer(c_int) :: section_direction, max_crossings, stop_at_first
     character(kind=c_char) :: method(LNAME)   ! &integrator
-    real(c_double) :: rtol, atol, h
+    !@ &integrator rtol | 1 | 1e-12 | 1e-15 <= rtol < 1 | relative tolerance (variable-step methods)
+    real(c_double) :: rtol
+    !@ &integrator atol | state units | 1e-12 | > 0 | absolute tolerance (variable-step methods)
+    real(c_double) :: atol
+    !@ &integrator h | s | 0 | >= 0 | fixed step; 0 = variable step with rtol/atol
+    real(c_double) :: h
     integer(c_int64_t) :: max_steps
     real(c_double) :: omega_bind
     character(kind=c_char) :: solver(LNAME)
@@ -58,8 +67,15 @@ module tubes_config
     real(c_double) :: tub_de(MAXDE)   ! &tubes
     integer(c_int) :: tub_nde
     character(kind=c_char) :: tub_kind(LNAME)
-    real(c_double) :: tub_eps, tub_area_tol, tub_t_max
-    integer(c_int) :: tub_n_init, tub_n_max
+    !@ &tubes eps | cm | 1e-6 | 1e-10 .. 1e-2 | step-off from the orbit
+    real(c_double) :: tub_eps
+    !@ &tubes area_tol | 1 | 1e-10 | 1e-13 .. 1e-2 | relative area change that ends the refinement
+    real(c_double) :: tub_area_tol
+    !@ &tubes t_max | s | 30 | > 0 | longest flight from the orbit to the section
+    real(c_double) :: tub_t_max
+    !@ &tubes n_init | - | 64 | 8 .. 100000 | seeds of the first round
+    integer(c_int) :: tub_n_init
+    integer(c_int) :: tub_n_max
     real(c_double) :: tra_de(MAXDE)   ! &transition
     integer(c_int) :: tra_nde
     !@ &transition area_tol | 1 | 1e-8 | 1e-13 .. 1e-2 | relative accuracy of each tube area
@@ -69,12 +85,21 @@ module tubes_config
     real(c_double) :: mc_area_tol
     integer(c_int) :: mc_n_samples, mc_seed
     real(c_double) :: pm_de(MAXDE)   ! &sections
-    integer(c_int) :: pm_nde, pm_n_seeds, pm_n_iter
+    integer(c_int) :: pm_nde
+    !@ &sections n_seeds | - | 40 | 1 .. 100000 | trajectories per map
+    integer(c_int) :: pm_n_seeds
+    !@ &sections n_iter | - | 300 | 1 .. 1000000 | returns recorded per trajectory
+    integer(c_int) :: pm_n_iter
     !@ &sections t_max | s | 2000 | > 0 | longest integration per trajectory
     real(c_double) :: pm_t_max
-    integer(c_int) :: exp_n_tracks, exp_seed   ! &experiment
-    real(c_double) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, &
-                      exp_de_max, exp_damping_ratio, exp_rolling_resistance
+    integer(c_int) :: exp_n_tracks   ! &experiment
+    real(c_double) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, exp_de_max
+    !@ &experiment damping_ratio | 1 | 0.014 | 0 <= zeta < 1 | damping ratio of the experiment's ball (docs/theory.md#damping)
+    real(c_double) :: exp_damping_ratio
+    !@ &experiment rolling_resistance | 1 | 0 | 0 <= C_rr < 1 | rolling resistance coefficient of the experiment's ball (docs/dissipation.md)
+    real(c_double) :: exp_rolling_resistance
+    !@ &experiment seed | - | 2018 | >= 0 | seed of GSL's MT19937
+    integer(c_int) :: exp_seed
     character(kind=c_char) :: exp_csv(LPATH)
     ! the any-Hamiltonian additions (docs/input.md): &model system and the other systems' parameters,
     ! &equilibria box (list) and box_center, &orbits saddle_near, &section kind, index, direction, value
@@ -114,7 +139,9 @@ module tubes_config
     character(kind=c_char) :: scan_parameter(LNAME)
     real(c_double) :: scan_to
     real(c_double) :: scan_de(MAXDE)
-    integer(c_int) :: scan_n, scan_nde, scan_ipar
+    !@ &scan n | - | 10 | 1 .. 100000 | steps (n + 1 parameter values, equally spaced)
+    integer(c_int) :: scan_n
+    integer(c_int) :: scan_nde, scan_ipar
     real(c_double) :: orb_guess(2*MAX_DOF)   !! &orbits guess (the first 2 MAX_DOF values)
     integer(c_int) :: orb_nguess             !! how many values guess was given (0: none)
     real(c_double) :: orb_period             !! &orbits period (of the guess)
