@@ -22,6 +22,13 @@ SLOW = {"test_plots_every_model.py", "test_expression.py", "test_experiment.py",
         "test_centres.py", "test_experiment_law.py"}
 # and single tests: those that run input/paper.nml (the paper_h5 fixture, ~25 s) or take > 8 s
 SLOW_TESTS = {"test_load_reads_a_run", "test_a_long_ensemble_reports_its_progress"}
+# single tests by file and name, > 10 s each under make quick (--durations, 2026-11-29: 77, 33, 16, 13,
+# 12, 10 s with two other builds running beside it)
+SLOW_IN_FILE = {("test_guess.py", "test_python_guess_and_branch_are_the_program_s"),
+                ("test_guess.py", "test_fold_of_l2_halo_family"),
+                ("test_halo_tubes.py", "test_gallery_halo_tubes"), ("test_halo_tubes.py", "test_refusals"),
+                ("test_table_file.py", "test_the_orbit_family_s_bifurcations_are_the_file_s"),
+                ("test_scan.py", "test_formula_constant_scan_in_the_program")}
 
 
 def pytest_configure(config):
@@ -30,7 +37,8 @@ def pytest_configure(config):
 
 def pytest_collection_modifyitems(config, items):
     for item in items:
-        if item.path.name in SLOW or item.originalname in SLOW_TESTS or "paper_h5" in item.fixturenames:
+        if (item.path.name in SLOW or item.originalname in SLOW_TESTS or "paper_h5" in item.fixturenames
+                or (item.path.name, item.originalname) in SLOW_IN_FILE):
             item.add_marker(pytest.mark.slow)
 
 
