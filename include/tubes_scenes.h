@@ -73,6 +73,9 @@ int tubes_model_scene(const tubes_config_t *cfg, int natural, int dimensioned, c
 /* The first of a group's n excess energies des below what the energy resolves at the saddle of energy ee
  * (src/workflow/tubes_setup.f90 de_unresolved): its index (1-based) and the message in msg (len bytes), or 0. */
 int tubes_de_unresolved(int n, const double *des, const char *group, const char *saddle, double ee, char *msg, int len);
+/* The paper's defaults (the excess energies of group's scene, group "trajectory": the start) for model:
+ * 0, or 1 with the message's body in msg (src/workflow/tubes_setup.f90 default_refused). */
+int tubes_default_refused(const char *model, const char *group, const char *label, char *msg, int len);
 
 /* The core's scenes on the run's settings (src/workflow/tubes_scene_<name>.f90, entered through
  * src/capi/tubes_capi_record.f90): cfg as the reader left it, the saddle and the method the run chose

@@ -956,6 +956,18 @@ subroutine de_unresolved(des, n, group, saddle, ee, k, msg)
   k = rule(des, trim(group), trim(saddle), ee, msg)
 end subroutine de_unresolved
 
+subroutine default_refused(model, group, label, k, msg)
+  ! whether the model lacks the paper's defaults of group (its excess energies; 'trajectory': the
+  ! start): 0, or 1 with the message (src/workflow/tubes_setup.f90 default_refused, the program's)
+  use, intrinsic :: iso_c_binding, only: c_int
+  use tubes_setup, only: rule => default_refused
+  implicit none
+  character(len=*), intent(in) :: model, group, label
+  integer(c_int), intent(out) :: k
+  character(len=1024), intent(out) :: msg
+  k = rule(trim(model), trim(group), trim(label), msg)
+end subroutine default_refused
+
 subroutine scene(name, config, n, saddle, method, flags, text1, text2, stores, h)
   ! the program's scene `name` (src/workflow/tubes_scene_<name>.f90) on the settings read_input
   ! returned (config), the saddle and the method the run chose: the handle of its result record (read

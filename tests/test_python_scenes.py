@@ -224,7 +224,7 @@ def test_monte_carlo_arguments_are_the_input_file_s():
                     ({"seed": 2**40}, "seed = 1099511627776 is out of range"),
                     ({"dE": -0.01}, r"de(\(1\))? = -0.01 is out of range: allowed > 0"),
                     ({"dE": float("nan")}, "monte_carlo: dE = nan is out of range: allowed a finite real number"),
-                    ({"dE": None}, "give dE for system 'henon_heiles'")):
+                    ({"dE": None}, "monte_carlo: &montecarlo: de is not set: system henon_heiles has no default excess energies")):
         with pytest.raises(ValueError, match=msg):
             hh.monte_carlo(**{"dE": 0.02, "n_samples": 100, **kw})
     with pytest.raises(ValueError, match=r"poincare: &sections: de\(1\) = -0.01 is out of range"):
@@ -281,8 +281,8 @@ def test_string_choices_and_saddles_are_checked():
     for f, msg in ((lambda: hh.tube_cut(-0.01), r"tube_cut: &tubes: de\(1\) = -0.01 is out of range: allowed > 0"),
                    (lambda: hh.tube_cut(), "tube_cut: give dE"),
                    (lambda: hh.transition([0.0]), r"transition: &transition: de\(1\) = 0 is out of range"),
-                   (lambda: hh.transition(), "transition: give dE for system 'henon_heiles'"),
-                   (lambda: hh.orbit_family(), "orbit_family: give dE")):
+                   (lambda: hh.transition(), "transition: &transition: de is not set: system henon_heiles has no default"),
+                   (lambda: hh.orbit_family(), "orbit_family: &orbits: de is not set: system henon_heiles")):
         with pytest.raises(ValueError, match=msg):
             f()
 

@@ -894,11 +894,12 @@ def _need_2dof(model: Model, who: str, scene: str, plane: bool = True) -> None:
 
 
 def _default_de(model: Model, who: str, group: str) -> None:
-    """The scenes' default excess energies (&<group> de) are the paper's, in the ball's units:
-    a default for the library's rolling ball only; any other model must give dE."""
-    if model.name != "rolling_ball":
-        raise ValueError(f"{who}: give dE for system {model.system!r} (in its energy units): the default "
-                         f"(&{group} de) is the rolling ball's, in (cm/s)^2")
+    """The scenes' default excess energies (&<group> de) are the paper's, in the ball's units: the
+    program's rule (src/workflow/tubes_setup.f90 default_refused): any model but the library's
+    rolling ball must give dE."""
+    k, msg = _lib().default_refused(model.name, group, model.system)
+    if k:
+        raise ValueError(f"{who}: {_str(msg)}")
 
 
 def _scalar_de(dE, who: str):

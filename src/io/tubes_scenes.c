@@ -123,26 +123,20 @@ static int scenes_apply(tubes_run_t *run) {
   return 0;
 }
 
-/* Every dE the scenes ask for is resolvable against the saddle's energy E_e (tubes_de_floor, the
- * library's rule, which its calls also apply: TUBES_EUNRESOLVED), said before any work with the
- * file and line. 0, or EXIT_BADINPUT with the reason. */
-/* The scenes' default excess energies and the trajectory's default start are the paper's, in the
- * four-well ball's units and place: any other model (another system, or the ball on a formula
- * surface) sets them, as Python's calls require (tubes._default_de). Before, a formula model ran
- * the ball's 15 energies 1 .. 750 (NaN rows, exit 4) and Henon-Heiles' trajectory started at the
- * ball's (4, 12.6) cm and blew up. des: the excess energies (else the trajectory's start). Checked
- * after the scene and saddle checks, whose messages say more. */
+/* The scenes' default excess energies and the trajectory's default start are the paper's: a model
+ * without them must set them (tubes_setup default_refused, which Python's calls apply alike), said
+ * with the line of &run scenes. des: the excess energies (else the trajectory's start). Checked after
+ * the scene and saddle checks, whose messages say more. */
 static int defaults_given(const tubes_run_t *run, int des) {
   const tubes_config_t *c = run->cfg;
-  if (!strcmp(c->system, "rolling_ball") && strcmp(c->surface, "expression")) return 0;
+  char m[1024];
   int n = 0;
   if (!des) {
     if (scene_asked(c, "trajectory") && !nml_line(run->where, "trajectory", "x0") &&
-        !nml_line(run->where, "trajectory", "y0")) {
+        !nml_line(run->where, "trajectory", "y0") &&
+        tubes_default_refused(run->system, "trajectory", run->label, m, (int)sizeof m)) {
       say_at(run, nml_line(run->where, "run", "scenes"));
-      fprintf(stderr, "&trajectory: x0, y0 are not set: system %s has no default start (the default, (4, "
-              "12.614863819914357) cm, is on the four-well ball's surface); give x0, y0 (and px0, py0 or at_rest) "
-              "in the model's units (docs/input.md)\n", run->label);
+      fprintf(stderr, "%s\n", m);
       n++;
     }
     return n ? EXIT_BADINPUT : 0;
@@ -153,18 +147,17 @@ static int defaults_given(const tubes_run_t *run, int des) {
     if (!scene_asked(c, g) || nml_line(run->where, g, "de")) continue;
     if (!strcmp(g, "flux") && nml_line(run->where, "transition", "de")) continue;   /* &flux de defaults to it */
     if (!strcmp(g, "orbits") && c->orb_njacobi + c->orb_nperiods > 0) continue;   /* by C or period instead */
-    const char *def = "?";
-    for (int j = 0; j < tubes_nml_nvars; j++)
-      if (!strcmp(tubes_nml_vars[j].group, g) && !strcmp(tubes_nml_vars[j].name, "de")) def = tubes_nml_vars[j].deflt;
+    if (!tubes_default_refused(run->system, g, run->label, m, (int)sizeof m)) continue;
     say_at(run, nml_line(run->where, "run", "scenes"));
-    fprintf(stderr, "&%s: de is not set: system %s has no default excess energies (the default, %s, is the four-well "
-            "ball's, in (cm/s)^2); give de in the model's energy units for the scene '%s' (docs/input.md)\n", g,
-            run->label, def, g);
+    fprintf(stderr, "%s\n", m);
     n++;
   }
   return n ? EXIT_BADINPUT : 0;
 }
 
+/* Every dE the scenes ask for is resolvable against the saddle's energy E_e (tubes_de_floor, the
+ * library's rule, which its calls also apply: TUBES_EUNRESOLVED), said before any work with the
+ * file and line. 0, or EXIT_BADINPUT with the reason. */
 static int de_resolvable(const tubes_run_t *run, double ee) {
   const tubes_config_t *c = run->cfg;
   if (defaults_given(run, 1)) return EXIT_BADINPUT;

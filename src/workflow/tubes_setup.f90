@@ -34,7 +34,7 @@ module tubes_setup
   integer, parameter, public :: SADDLE_NONE_NEAR = 2   !! no saddle the scenes take in the box
 
   public :: choose_saddle, scene_refused, model_dissipation, method_resolved, run_saddle, dissipation_attrs, &
-            scene_dissipation, de_unresolved
+            scene_dissipation, de_unresolved, default_refused
 
   integer, parameter, public :: SCENE_TAKEN = 0           !! the scene applies to the model
   integer, parameter, public :: SCENE_NOT_FOR_MODEL = 1   !! not with this many degrees of freedom
@@ -347,7 +347,44 @@ contains
     k = 0
   end function de_unresolved
 
+  !> The defaults that are the paper's, in the four-well ball's units and place: the scenes' excess
+  !> energies (&GROUP de) and the trajectory's start (GROUP 'trajectory': x0, y0). The library's
+  !> rolling ball (model 'rolling_ball') has them; any other model (another system, or the ball on a
+  !> formula surface) must give them. Before, a formula model ran the ball's 15 energies 1 .. 750 (NaN
+  !> rows, exit 4) and Henon-Heiles' trajectory started at the ball's (4, 12.6) cm and blew up. 0 when
+  !> the model has the default, else 1 with the message's body in msg (label: the model as messages
+  !> name it).
+  integer function default_refused(model, group, label, msg) result(k)
+    character(*), intent(in) :: model, group, label
+    character(*), intent(out) :: msg
+    msg = ''
+    k = 0
+    if (model == 'rolling_ball') return
+    k = 1
+    if (group == 'trajectory') then
+      msg = '&trajectory: x0, y0 are not set: system ' // label // ' has no default start (the default, (4, ' // &
+            '12.614863819914357) cm, is on the four-well ball''s surface); give x0, y0 (and px0, py0 or at_rest) ' // &
+            'in the model''s units (docs/input.md)'
+    else
+      msg = '&' // group // ': de is not set: system ' // label // ' has no default excess energies (the ' // &
+            'defaults are the four-well ball''s, in (cm/s)^2); give de in the model''s energy units for the ' // &
+            'scene ''' // group // ''' (docs/input.md)'
+    end if
+  end function default_refused
+
   ! ---------------------------------------------------------------- the C entries (src/io/tubes_scenes.c)
+
+  !> default_refused for C: model, group and label NUL-terminated, msg (len bytes) NUL-terminated.
+  integer(c_int) function c_default_refused(model, group, label, msg, len) result(k) &
+      bind(C, name='tubes_default_refused')
+    character(kind=c_char), intent(in) :: model(*), group(*), label(*)
+    integer(c_int), value :: len
+    character(kind=c_char), intent(out) :: msg(len)
+    character(1024) :: m
+    k = default_refused(c_to_f(model(1:32)), c_to_f(group(1:32)), c_to_f(label(1:256)), m)
+    call f_to_c(m, msg)
+  end function c_default_refused
+
 
   !> de_unresolved for C: group and saddle NUL-terminated, msg (len bytes) NUL-terminated.
   integer(c_int) function c_de_unresolved(n, des, group, saddle, ee, msg, len) result(k) &
