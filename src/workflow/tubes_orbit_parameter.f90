@@ -69,6 +69,7 @@ module tubes_orbit_parameter
     real(wp) :: target = 0, t_po = 0
     integer :: stat = TUBES_OK
     logical :: away = .false.   !! a family that starts away from the saddle: no T_po at dE <= 0
+    real(wp) :: off_branch = -1 !! a probe's dE whose orbit the corrector took off its branch (-1: none)
   end type period_ctx_t
 
   !> A family's T(dE) probed along its continuation (period_de_away): the converged probes, dE ascending.
@@ -154,14 +155,16 @@ contains
       if (present(stores)) c%stores => stores
       c%away = .true.
       call probe_family(c, pr, .false.)
-      if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) then
+      if (c%off_branch >= 0) c%stat = TUBES_ENOCONV    ! the family's T(dE) is not known there: no answer
+      if ((c%stat < 0 .and. c%stat /= TUBES_ENOCONV) .or. c%off_branch >= 0) then
         stat = c%stat
         return
       end if
       do k = 1, size(values)
         c%target = values(k)
         call period_de_away(c, pr, des(k), found(k), na(k), da(k))
-        if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) then
+        if (c%off_branch >= 0) c%stat = TUBES_ENOCONV
+        if ((c%stat < 0 .and. c%stat /= TUBES_ENOCONV) .or. c%off_branch >= 0) then
           stat = c%stat
           return
         end if
@@ -525,7 +528,9 @@ contains
 
   !> The period t of the family's orbit at de alone (family_at); de <= 0: the saddle's limit T_po
   !> (a Lyapunov family; a family away from the saddle, c%away, its orbit there).
-  !> ok: the orbit converged; end_de: the family's end where it did not (else -1).
+  !> ok: the orbit converged; end_de: the family's end where it did not (else -1). An orbit of a branch
+  !> the corrector took off it (orbit_t off_branch) is not an end: c%off_branch = de, and the search
+  !> stops with TUBES_ENOCONV (family_parameter_des).
   subroutine period_at(c, de, t, ok, end_de)
     type(period_ctx_t), intent(inout) :: c
     real(wp), intent(in) :: de
@@ -539,6 +544,7 @@ contains
     if (de <= 0 .and. .not. c%away) return
     call family_at(c%st, c%model, c%eqs, c%isad, [de], c%opts, orbs, end_de, reason, st, c%stores)
     ok = st == TUBES_OK .and. orbs(1)%converged
+    if (orbs(1)%off_branch .and. c%off_branch < 0) c%off_branch = de
     if (st < 0 .and. st /= TUBES_EUNRESOLVED) c%stat = st   ! below the energy's resolution: no orbit
     if (ok) t = orbs(1)%period
   end subroutine period_at
