@@ -225,18 +225,10 @@ contains
       ! the lower end: bisection between the nearest probe without an orbit and the lowest with one
       ! (the family's start lies between them), each midpoint with an orbit a probe
       if (pr%has_lo) then
-        a = pr%lo_fail
-        b = pr%de(1)
-        do j = 1, CLOSE_AWAY
-          d = a + (b - a)/2
-          call probe(d, ok)
-          if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
-          if (ok) then
-            b = d
-          else
-            a = d
-          end if
-        end do
+        a = pr%de(1)                    ! (a copy: probe reallocates pr%de)
+        b = pr%lo_fail
+        call bisect_end(a, b)
+        if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
       end if
       ! the upper end: towards the family's end where it said one (a fold: CLOSE_FOLD points, from the
       ! highest probe, that close in on it), else bisection as at the lower end
@@ -250,16 +242,7 @@ contains
             if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
           end do
         else
-          do j = 1, CLOSE_AWAY
-            d = a + (b - a)/2
-            call probe(d, ok)
-            if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
-            if (ok) then
-              a = d
-            else
-              b = d
-            end if
-          end do
+          call bisect_end(a, b)
         end if
       end if
       return
@@ -336,6 +319,27 @@ contains
     end do
     if (size(pr%de) > 0) pr%de_start = pr%de(1)
   contains
+    ! CLOSE_AWAY bisection steps between the energies yes (with an orbit) and no (without), each
+    ! midpoint a probe: one end of the probed range closed in on
+    subroutine bisect_end(yes, no)
+      real(wp), intent(in) :: yes, no
+      real(wp) :: lo, hi, mid
+      integer :: i
+      logical :: okm
+      lo = min(yes, no)
+      hi = max(yes, no)
+      do i = 1, CLOSE_AWAY
+        mid = lo + (hi - lo)/2
+        call probe(mid, okm)
+        if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
+        if (okm .eqv. (yes < no)) then
+          lo = mid
+        else
+          hi = mid
+        end if
+      end do
+    end subroutine bisect_end
+
     subroutine probe(de, ok_out, end_out)   ! the family's orbit at de, kept if it converged
       real(wp), intent(in) :: de
       logical, intent(out), optional :: ok_out
