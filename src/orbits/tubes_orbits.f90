@@ -152,6 +152,9 @@ module tubes_orbits
     real(wp) :: min_eq_distance = 0   !! closest approach to another equilibrium [cm]
     integer :: iterations = 0         !! Newton iterations used
     logical :: converged = .false.
+    logical :: off_branch = .false.   !! a branch's orbit that the corrector at its energy, started on
+                                      !! the branch's arc, took off the branch (to the parent family or
+                                      !! the mirror branch): not returned (converged false)
     real(wp), allocatable :: history(:)  !! scaled residual after each iteration
     real(wp), allocatable :: t(:)        !! sample times [s]
     real(wp), allocatable :: x(:, :)     !! samples (2N, n_samples)
@@ -1081,8 +1084,8 @@ contains
     type(orbit_t) :: ob(1)
     real(wp), allocatable :: dg(:), w(:), wn(:), t(:), tn(:), wprev(:), xx(:), phi(:, :), fx(:), v(:)
     type(symmetric_arc_t) :: sys
-    real(wp) :: lo, hi, mid, e_sad, h, h0, e_prev, e_now, xi, tau, zbig
-    real(wp), allocatable :: wb(:), tb(:)
+    real(wp) :: lo, hi, mid, e_sad, h, h0, e_prev, e_now, tau, zbig
+    real(wp), allocatable :: wb(:), tb(:), tprev(:), wk(:)
     logical :: oriented
     integer :: n2, nd, k, c_lo, np, it, j, nstep, iz
     integer, allocatable :: ev(:), od(:), rev(:), cnt(:)
@@ -1169,7 +1172,7 @@ contains
     end if
     call floquet_tangent(ob(1)%monodromy, fx, 1, v, stat)
     if (stat /= TUBES_OK) return
-    allocate (t(nd + 1), tn(nd + 1), w(nd + 1), wn(nd + 1), wprev(nd + 1))
+    allocate (t(nd + 1), tn(nd + 1), w(nd + 1), wn(nd + 1), wprev(nd + 1), tprev(nd + 1), wk(nd + 1))
     t = [v(ev), 0.0_wp]
     t = t/sqrt(sum(t**2))
     w = [ob(1)%x0(ev), ob(1)%period/2]
@@ -1215,6 +1218,7 @@ contains
         end if
       end if
       wprev = w
+      tprev = t
       w = wn
       t = tn
       e_now = model%energy(state_of(w))
@@ -1236,15 +1240,22 @@ contains
           k = k + 1
           cycle
         end if
-        xi = (e_sad + des(k) - e_prev)/(e_now - e_prev)
-        xx = state_of(wprev + xi*(w - wprev))
-        tau = wprev(nd + 1) + xi*(w(nd + 1) - wprev(nd + 1))
+        ! the arc's own point at this energy (not the chord's: off the branch point the energy
+        ! grows like the square of the arc length, and the chord's point fell in the corrector's
+        ! basin of the planar orbit or of the mirror branch), corrected at the energy
+        call arc_point_at(sys, model, ev, wprev, tprev, 0.0_wp, h, e_prev, e_now, wprev, w, e_sad + des(k), &
+                          opts, wk)
+        xx = state_of(wk)
+        tau = wk(nd + 1)
         orbits(k)%de = des(k)
         call correct_symmetric(model, e_sad + des(k), des(k), xx, tau, opts, orbits(k), stat)
         if (stat < 0) return
         orbits(k)%de = des(k)
         if (stat == TUBES_OK) call finish_orbit(model, orbits(k), opts, eqs, isad, stat)
         if (stat < 0) return
+        if (orbits(k)%converged) call check_on_branch(orbits(k), [orbits(k)%x0(ev), orbits(k)%period/2], wk, wb, &
+                                                      nd, merge(1, -1, opts%family == FAMILY_BRANCH_PLUS), opts%tol* &
+                                                      model%length_scale())
         stat = TUBES_OK
         k = k + 1
       end do
@@ -1261,6 +1272,91 @@ contains
       x(ev) = u(1:nd)
     end function state_of
   end subroutine branch_family
+
+  !> The point of an arc at the energy ek, between two of its points: wa + (steps of length h in
+  !> [h1, h2] from wa along ta, arc_step; h = 0 is wa itself) whose ends w1, w2 have the energies e1
+  !> and e2 (ek between them). The step length h with H(x(h)) = ek is found by the Illinois method
+  !> (to 1e-6 of the nearer end's distance in energy, at most 60 steps), the state of a point w
+  !> being x(ev) = w(1:size(ev)), 0 elsewhere. Off a branch point (and near a fold) the energy moves
+  !> quadratically along the arc, and the chord's point at ek, linear in energy, lies short of
+  !> the arc: at L1's halo branch 16 % to 40 % short in |z0| within 1e-5 of the branch point, where
+  !> the corrector at fixed energy then went to the planar orbit or to the mirror branch
+  !> (docs/orbits.md, "Branch switching"). Where an arc step fails, the chord's point (wk is
+  !> always set).
+  subroutine arc_point_at(sys, model, ev, wa, ta, h1, h2, e1, e2, w1, w2, ek, opts, wk)
+    class(arc_system_t), intent(in) :: sys
+    class(hamiltonian_t), intent(in) :: model
+    integer, intent(in) :: ev(:)
+    real(wp), intent(in) :: wa(:), ta(:), h1, h2, e1, e2, w1(:), w2(:), ek
+    type(orbit_opts_t), intent(in) :: opts
+    real(wp), intent(out) :: wk(:)
+    real(wp) :: lo, hi, glo, ghi, hm, gm, etol, wm(size(wa)), tm(size(wa)), x(model%dim())
+    integer :: it, its, side
+    logical :: okm
+    wk = w1
+    if (e2 /= e1) wk = w1 + (ek - e1)/(e2 - e1)*(w2 - w1)     ! the chord's point: the fallback
+    lo = h1
+    hi = h2
+    glo = e1 - ek
+    ghi = e2 - ek
+    if (glo == 0 .or. ghi == 0) then
+      if (ghi == 0) wk = w2
+      if (glo == 0) wk = w1
+      return
+    end if
+    if (glo*ghi > 0) return
+    etol = max(1.0e-6_wp*min(abs(glo), abs(ghi)), 4*epsilon(1.0_wp)*abs(ek))
+    side = 0
+    do it = 1, 60
+      hm = (lo*ghi - hi*glo)/(ghi - glo)
+      if (.not. (hm > min(lo, hi) .and. hm < max(lo, hi))) hm = lo + (hi - lo)/2
+      call arc_step(sys, wa, ta, hm, opts, wm, tm, its, okm)
+      if (.not. okm) return
+      x = 0
+      x(ev) = wm(1:size(ev))
+      gm = model%energy(x) - ek
+      wk = wm
+      if (abs(gm) <= etol) exit
+      if (gm*ghi > 0) then
+        hi = hm
+        ghi = gm
+        if (side == -1) glo = glo/2
+        side = -1
+      else
+        lo = hm
+        glo = gm
+        if (side == 1) ghi = ghi/2
+        side = 1
+      end if
+      if (abs(hi - lo) <= 1.0e-14_wp*abs(h2)) exit
+    end do
+  end subroutine arc_point_at
+
+  !> A branch's corrected orbit orb (its unknowns wo) against the arc's point wk at its energy it
+  !> was corrected from (the bifurcation's point wb): on the branch when it stayed within 1/10 of
+  !> wk's distance from wb (the parent family's orbit at that energy is ~ that distance away, the
+  !> mirror branch's twice it: a pitchfork's branches leave its point like sqrt(dE - dE_b)); for
+  !> the halo branches (iz > 0: q_iz the out-of-plane coordinate, side +1 north, -1 south) also
+  !> the larger excursion of q_iz over the orbit's samples on the branch's side and above zmin.
+  !> Off the branch: orb%off_branch, not converged (docs/orbits.md, "Branch switching").
+  subroutine check_on_branch(orb, wo, wk, wb, iz, side, zmin)
+    type(orbit_t), intent(inout) :: orb
+    real(wp), intent(in) :: wo(:), wk(:), wb(:), zmin
+    integer, intent(in) :: iz, side
+    real(wp) :: zhi, zlo
+    logical :: on
+    on = norm2(wo - wk) <= 0.1_wp*norm2(wk - wb)
+    if (on .and. iz > 0) then
+      zhi = maxval(orb%x(iz, :))
+      zlo = minval(orb%x(iz, :))
+      if (side > 0) on = zhi > -zlo .and. zhi > zmin
+      if (side < 0) on = -zlo > zhi .and. -zlo > zmin
+    end if
+    if (.not. on) then
+      orb%off_branch = .true.
+      orb%converged = .false.
+    end if
+  end subroutine check_on_branch
 
   !> One pseudo-arclength step of the arc system sys from the corrected point w with unit
   !> tangent t (docs/orbits.md, "Orbits from a guess"): the predictor w + h t, corrected by
@@ -1358,10 +1454,11 @@ contains
     type(fold_t), allocatable, intent(inout) :: folds(:)
     logical, intent(in), optional :: end_at_fold   !! stop at the first fold (END_FOLD, end_de the fold's)
     real(wp) :: w(size(w0)), t(size(w0)), wn(size(w0)), tn(size(w0)), wf(size(w0)), tf(size(w0))
-    real(wp) :: h, h0, e_sad, e_start, e_prev, e_now, g_prev, g_now, ef
-    integer :: d, nw, nstep, it, sgn0, nfold, naccept
+    real(wp) :: h, h0, e_sad, e_start, e_prev, e_now, g_prev, g_now, ef, hf
+    integer :: d, nw, nstep, it, sgn0, nfold, naccept, k
     logical :: ok, found(size(des))
     type(fold_t) :: fo
+    integer, allocatable :: ev1(:)
     d = model%dim()
     nw = size(w0)
     e_sad = eqs(isad)%energy
@@ -1369,6 +1466,7 @@ contains
     end_de = -1
     end_reason = END_NONE
     found = .false.
+    ev1 = [(k, k = 1, d)]
     w = w0
     t = t0
     h0 = 1.0e-2_wp*model%length_scale()*sqrt(real(n, wp))
@@ -1409,11 +1507,11 @@ contains
       ! a fold inside this step (not in a branch's first: at the bifurcation dE/ds = 0, the energy
       ! moving quadratically off it, so the sign there is noise)
       if (g_now*g_prev < 0 .and. .not. (dir == 0 .and. naccept == 1)) then
-        call locate_fold(w, t, h, g_prev, wf, tf, fo)
+        call locate_fold(w, t, h, g_prev, wf, tf, hf, fo)
         folds = [folds, fo]
         nfold = nfold + 1
         ef = model%energy(wf(1:d))
-        call take(w, e_prev, wf, ef)
+        call take(0.0_wp, hf, w, e_prev, wf, ef)
         if (stat < 0) return
         if (present(end_at_fold)) then
           if (end_at_fold) then
@@ -1432,9 +1530,9 @@ contains
           e_prev = ef
           exit
         end if
-        call take(wf, ef, wn, e_now)
+        call take(hf, h, wf, ef, wn, e_now)
       else
-        call take(w, e_prev, wn, e_now)
+        call take(0.0_wp, h, w, e_prev, wn, e_now)
       end if
       if (stat < 0) return
       e_prev = e_now
@@ -1464,9 +1562,10 @@ contains
       if (st /= 0) slope = 0
     end function slope
 
-    subroutine locate_fold(wa, ta, ha, ga, wf, tf, fo)   ! bisection in the step's length
+    subroutine locate_fold(wa, ta, ha, ga, wf, tf, hf, fo)   ! bisection in the step's length
       real(wp), intent(in) :: wa(:), ta(:), ha, ga
-      real(wp), intent(out) :: wf(:), tf(:)
+      real(wp), intent(out) :: wf(:), tf(:), hf        ! the fold's point, tangent and step length
+
       type(fold_t), intent(out) :: fo
       real(wp) :: lo, hi, mid, wm(size(wa)), tm(size(wa)), phi(d, d), xe(d)
       integer :: itf, st
@@ -1475,6 +1574,7 @@ contains
       hi = ha
       wf = wn
       tf = tn
+      hf = ha
       do while (hi - lo > 1.0e-9_wp*ha)
         mid = lo + (hi - lo)/2
         call arc_step(sys, wa, ta, mid, opts, wm, tm, itf, okm)
@@ -1485,6 +1585,7 @@ contains
           hi = mid
           wf = wm
           tf = tm
+          hf = mid
         end if
       end do
       mid = lo + (hi - lo)/2
@@ -1492,6 +1593,7 @@ contains
       if (okm) then
         wf = wm
         tf = tm
+        hf = mid
       end if
       fo%de = model%energy(wf(1:d)) - e_sad
       fo%period = wf(nw)
@@ -1502,17 +1604,17 @@ contains
       fo%monodromy = phi
     end subroutine locate_fold
 
-    subroutine take(wa, ea, wb, eb)   ! the wanted energies between ea and eb, from the chord
-      real(wp), intent(in) :: wa(:), ea, wb(:), eb
-      real(wp) :: xi, wc(size(wa)), nodes(d, n), period, ek
+    ! the wanted energies between ea and eb, the arc's points a step of length ha and hb along t from w,
+    ! each from the arc's own point at its energy (arc_point_at)
+    subroutine take(ha, hb, wa, ea, wb, eb)
+      real(wp), intent(in) :: ha, hb, wa(:), ea, wb(:), eb
+      real(wp) :: wc(size(wa)), nodes(d, n), period, ek
       integer :: k, st
       do k = 1, size(des)
         if (.not. want(k) .or. found(k)) cycle
         ek = e_sad + des(k)
         if (ek < min(ea, eb) .or. ek > max(ea, eb)) cycle
-        xi = 0
-        if (eb /= ea) xi = (ek - ea)/(eb - ea)
-        wc = wa + xi*(wb - wa)
+        call arc_point_at(sys, model, ev1, w, t, ha, hb, ea, eb, wa, wb, ek, opts, wc)
         nodes = reshape(wc(1:d*n), [d, n])
         period = wc(nw)
         found(k) = .true.
@@ -1528,6 +1630,8 @@ contains
           return
         end if
         if (st /= TUBES_OK) orbits(k)%converged = .false.
+        if (dir == 0 .and. orbits(k)%converged) &      ! a branch: its orbits on it
+          call check_on_branch(orbits(k), [reshape(nodes, [d*n]), period], wc, w0, 0, 0, 0.0_wp)
       end do
     end subroutine take
   end subroutine arc_run

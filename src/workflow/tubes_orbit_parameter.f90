@@ -69,6 +69,7 @@ module tubes_orbit_parameter
     real(wp) :: target = 0, t_po = 0
     integer :: stat = TUBES_OK
     logical :: away = .false.   !! a family that starts away from the saddle: no T_po at dE <= 0
+    real(wp) :: off_branch = -1 !! a probe's dE whose orbit the corrector took off its branch (-1: none)
   end type period_ctx_t
 
   !> A family's T(dE) probed along its continuation (period_de_away): the converged probes, dE ascending.
@@ -154,14 +155,16 @@ contains
       if (present(stores)) c%stores => stores
       c%away = .true.
       call probe_family(c, pr, .false.)
-      if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) then
+      if (c%off_branch >= 0) c%stat = TUBES_ENOCONV    ! the family's T(dE) is not known there: no answer
+      if ((c%stat < 0 .and. c%stat /= TUBES_ENOCONV) .or. c%off_branch >= 0) then
         stat = c%stat
         return
       end if
       do k = 1, size(values)
         c%target = values(k)
         call period_de_away(c, pr, des(k), found(k), na(k), da(k))
-        if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) then
+        if (c%off_branch >= 0) c%stat = TUBES_ENOCONV
+        if ((c%stat < 0 .and. c%stat /= TUBES_ENOCONV) .or. c%off_branch >= 0) then
           stat = c%stat
           return
         end if
@@ -222,18 +225,10 @@ contains
       ! the lower end: bisection between the nearest probe without an orbit and the lowest with one
       ! (the family's start lies between them), each midpoint with an orbit a probe
       if (pr%has_lo) then
-        a = pr%lo_fail
-        b = pr%de(1)
-        do j = 1, CLOSE_AWAY
-          d = a + (b - a)/2
-          call probe(d, ok)
-          if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
-          if (ok) then
-            b = d
-          else
-            a = d
-          end if
-        end do
+        a = pr%de(1)                    ! (a copy: probe reallocates pr%de)
+        b = pr%lo_fail
+        call bisect_end(a, b)
+        if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
       end if
       ! the upper end: towards the family's end where it said one (a fold: CLOSE_FOLD points, from the
       ! highest probe, that close in on it), else bisection as at the lower end
@@ -247,16 +242,7 @@ contains
             if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
           end do
         else
-          do j = 1, CLOSE_AWAY
-            d = a + (b - a)/2
-            call probe(d, ok)
-            if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
-            if (ok) then
-              a = d
-            else
-              b = d
-            end if
-          end do
+          call bisect_end(a, b)
         end if
       end if
       return
@@ -333,6 +319,27 @@ contains
     end do
     if (size(pr%de) > 0) pr%de_start = pr%de(1)
   contains
+    ! CLOSE_AWAY bisection steps between the energies yes (with an orbit) and no (without), each
+    ! midpoint a probe: one end of the probed range closed in on
+    subroutine bisect_end(yes, no)
+      real(wp), intent(in) :: yes, no
+      real(wp) :: lo, hi, mid
+      integer :: i
+      logical :: okm
+      lo = min(yes, no)
+      hi = max(yes, no)
+      do i = 1, CLOSE_AWAY
+        mid = lo + (hi - lo)/2
+        call probe(mid, okm)
+        if (c%stat < 0 .and. c%stat /= TUBES_ENOCONV) return
+        if (okm .eqv. (yes < no)) then
+          lo = mid
+        else
+          hi = mid
+        end if
+      end do
+    end subroutine bisect_end
+
     subroutine probe(de, ok_out, end_out)   ! the family's orbit at de, kept if it converged
       real(wp), intent(in) :: de
       logical, intent(out), optional :: ok_out
@@ -525,7 +532,9 @@ contains
 
   !> The period t of the family's orbit at de alone (family_at); de <= 0: the saddle's limit T_po
   !> (a Lyapunov family; a family away from the saddle, c%away, its orbit there).
-  !> ok: the orbit converged; end_de: the family's end where it did not (else -1).
+  !> ok: the orbit converged; end_de: the family's end where it did not (else -1). An orbit of a branch
+  !> the corrector took off it (orbit_t off_branch) is not an end: c%off_branch = de, and the search
+  !> stops with TUBES_ENOCONV (family_parameter_des).
   subroutine period_at(c, de, t, ok, end_de)
     type(period_ctx_t), intent(inout) :: c
     real(wp), intent(in) :: de
@@ -539,6 +548,7 @@ contains
     if (de <= 0 .and. .not. c%away) return
     call family_at(c%st, c%model, c%eqs, c%isad, [de], c%opts, orbs, end_de, reason, st, c%stores)
     ok = st == TUBES_OK .and. orbs(1)%converged
+    if (orbs(1)%off_branch .and. c%off_branch < 0) c%off_branch = de
     if (st < 0 .and. st /= TUBES_EUNRESOLVED) c%stat = st   ! below the energy's resolution: no orbit
     if (ok) t = orbs(1)%period
   end subroutine period_at

@@ -176,6 +176,12 @@ contains
         if (.not. guessed .and. end_de > 0 .and. des(k) >= end_de*(1 - 1e-6_wp)) then
           call rec%out('  ' // num(des(k), '10.4g') // '   refused: past the end of the family (dE ~ ' // &
                        num(end_de, '.6g') // ')')
+        else if (orbs(k)%off_branch) then
+          call rec%out('  ' // num(des(k), '10.4g') // '   off the branch (not returned)')
+          call rec%err('tubes: orbits: dE = ' // num(des(k)) // ': no ' // famname // ' orbit: the corrector ' // &
+                       'at this energy, started on the branch''s arc, converged off the branch (to ' // &
+                       'the parent family''s orbit or the mirror branch''s, period ' // num(orbs(k)%period, '.10g') // &
+                       '); not returned (docs/orbits.md, "Branch switching")')
         else if (guessed .and. it(k) == 0) then
           call rec%out('  ' // num(des(k), '10.4g') // '   not reached (the family stop below)')
         else
@@ -209,7 +215,8 @@ contains
         line = line // ' (at dE = ' // num(end_de, '.10g') // ')'
       call rec%out(line)
       do k = 1, n
-        if (conv(k) /= 0 .or. reason == END_NOGUESS .or. reason == END_NOBRANCH .or. reason == END_NOMODE) cycle
+        if (conv(k) /= 0 .or. orbs(k)%off_branch .or. reason == END_NOGUESS .or. reason == END_NOBRANCH .or. &
+            reason == END_NOMODE) cycle
         if (reason == END_NOTBRANCH .or. reason == END_NONE) then
           call rec%err('tubes: orbits: dE = ' // num(des(k)) // ': no ' // famname // ' orbit: not on this ' // &
                        'side of the start (each energy is taken where the continuation first crosses it)')
@@ -227,19 +234,21 @@ contains
                    num(des(n)) // '; not computed')
     else if (family < 0 .and. nfail > 0 .and. end_de <= 0) then
       do k = 1, n
-        if (conv(k) == 0) call rec%err('tubes: orbits: dE = ' // num(des(k)) // ': no ' // famname // ' orbit: ' // &
-                                       'below the branch point (the branch starts at the energy of the planar ' // &
-                                       'family''s first branch point, /orbits/bifurcations of that family)')
+        if (conv(k) == 0 .and. .not. orbs(k)%off_branch) &
+          call rec%err('tubes: orbits: dE = ' // num(des(k)) // ': no ' // famname // ' orbit: ' // &
+                       'below the branch point (the branch starts at the energy of the planar ' // &
+                       'family''s first branch point, /orbits/bifurcations of that family)')
       end do
     else if (end_de > 0) then
       call rec%out('  family end: dE ~ ' // num(end_de, '.8g') // units_e // ': ' // end_reason_text(reason))
       do k = 1, n
-        if (conv(k) == 0) call rec%err('tubes: orbits: ' // family_stop_text(st%saddle, des(k), end_de, reason, &
-                                                                             units_e) // '; not computed')
+        if (conv(k) == 0 .and. .not. orbs(k)%off_branch) &
+          call rec%err('tubes: orbits: ' // family_stop_text(st%saddle, des(k), end_de, reason, units_e) // &
+                       '; not computed')
       end do
     else
       do k = 1, n
-        if (conv(k) /= 0) cycle
+        if (conv(k) /= 0 .or. orbs(k)%off_branch) cycle
         line = 'tubes: orbits: dE = ' // num(des(k)) // ': the correction did not converge; residual history:'
         do j = 1, min(it(k), mi)
           line = line // ' ' // num(hist(j, k), '.2e')
