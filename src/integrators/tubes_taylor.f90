@@ -102,7 +102,7 @@ module tubes_taylor
   end type taylor_record_t
 
   public :: taylor_order, isolate_roots, taylor_check, taylor_begin, taylor_end, taylor_size, taylor_advance, &
-            horner_lanes, jet_kernel, taylor_prepare, taylor_rule, log_rho
+            jet_kernel, taylor_prepare, taylor_rule, log_rho
 
 contains
 
@@ -398,7 +398,7 @@ contains
   !> tc(1 + ((i - 1)(p + 1) + k) ld): self%tc (ld = 1), or one lane of the lanes' kernel array
   !> (ld the lanes' width), read in place. In three parts: taylor_size, Horner's scheme,
   !> taylor_advance (the lanes' driver, tubes_lanes, does the middle one for all its lanes at
-  !> once, horner_lanes).
+  !> once, horner_lanes in src/integrators/tubes_lanes_run.f90).
   subroutine taylor_end_from(self, tc, ld, x, tmax, stat)
     class(taylor_t), intent(inout) :: self
     real(wp), intent(in) :: tc(*)
@@ -552,43 +552,6 @@ contains
       x(i) = a1
     end do
   end subroutine horner
-
-  !> Horner's scheme for the lanes of the lanes' kernel array (tc(l, k + 1, i): coefficient k of
-  !> component i in lane l), each lane at its own ds(l): x(l, :) = sum_k tc(l, k + 1, :) ds(l)^k.
-  !> The lanes are independent chains (the vector unit takes several at once, and their latencies
-  !> overlap); each lane's arithmetic is horner's, bit for bit.
-  pure subroutine horner_lanes(tc, nl, s, n, p, ds, x)
-    integer, intent(in) :: nl, s, n, p
-    real(wp), intent(in) :: tc(nl, s, n), ds(nl)
-    real(wp), intent(out) :: x(nl, n)
-    real(wp) :: a1, a2, a3, a4
-    integer :: i, k, l
-    do i = 1, n                        ! four lanes at a time in registers (as horner's components)
-      do l = 1, nl - 3, 4
-        a1 = tc(l, p + 1, i)
-        a2 = tc(l + 1, p + 1, i)
-        a3 = tc(l + 2, p + 1, i)
-        a4 = tc(l + 3, p + 1, i)
-        do k = p, 1, -1
-          a1 = a1*ds(l) + tc(l, k, i)
-          a2 = a2*ds(l + 1) + tc(l + 1, k, i)
-          a3 = a3*ds(l + 2) + tc(l + 2, k, i)
-          a4 = a4*ds(l + 3) + tc(l + 3, k, i)
-        end do
-        x(l, i) = a1
-        x(l + 1, i) = a2
-        x(l + 2, i) = a3
-        x(l + 3, i) = a4
-      end do
-      do l = 4*(nl/4) + 1, nl
-        a1 = tc(l, p + 1, i)
-        do k = p, 1, -1
-          a1 = a1*ds(l) + tc(l, k, i)
-        end do
-        x(l, i) = a1
-      end do
-    end do
-  end subroutine horner_lanes
 
   !> The step's polynomial at s in [t_old, t].
   subroutine taylor_interp(self, s, xs)
