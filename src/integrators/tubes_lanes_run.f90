@@ -591,8 +591,39 @@ contains
     integer, intent(in) :: nl, s, n, p
     real(wp), intent(in) :: tc(nl, s, n), ds(nl)
     real(wp), intent(out) :: x(nl, n)
-    real(wp) :: a1, a2, a3, a4
+    real(wp) :: a1, a2, a3, a4, a5, a6, a7, a8
     integer :: i, k, l
+    if (nl == 8) then                  ! eight lanes at a time in registers (one AVX-512 vector)
+      do i = 1, n
+        a1 = tc(1, p + 1, i)
+        a2 = tc(2, p + 1, i)
+        a3 = tc(3, p + 1, i)
+        a4 = tc(4, p + 1, i)
+        a5 = tc(5, p + 1, i)
+        a6 = tc(6, p + 1, i)
+        a7 = tc(7, p + 1, i)
+        a8 = tc(8, p + 1, i)
+        do k = p, 1, -1
+          a1 = a1*ds(1) + tc(1, k, i)
+          a2 = a2*ds(2) + tc(2, k, i)
+          a3 = a3*ds(3) + tc(3, k, i)
+          a4 = a4*ds(4) + tc(4, k, i)
+          a5 = a5*ds(5) + tc(5, k, i)
+          a6 = a6*ds(6) + tc(6, k, i)
+          a7 = a7*ds(7) + tc(7, k, i)
+          a8 = a8*ds(8) + tc(8, k, i)
+        end do
+        x(1, i) = a1
+        x(2, i) = a2
+        x(3, i) = a3
+        x(4, i) = a4
+        x(5, i) = a5
+        x(6, i) = a6
+        x(7, i) = a7
+        x(8, i) = a8
+      end do
+      return
+    end if
     do i = 1, n                        ! four lanes at a time in registers (as horner's components)
       do l = 1, nl - 3, 4
         a1 = tc(l, p + 1, i)
