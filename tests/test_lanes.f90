@@ -122,9 +122,8 @@ program test_lanes
   type(traj_jobs_t) :: a
   type(ens_out_t) :: in_order, reordered, alone, chunked, wide
   real(wp) :: params(MAX_PARAMS)
-  integer :: k, perm(N), w, stat, d, dw
+  integer :: k, perm(N), w, stat, dw
   character(512) :: msg
-  character(128) :: name
   params = 0
   params(1:7) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, 981.0_wp, 0.0_wp]
   call setup(a)
@@ -150,36 +149,13 @@ program test_lanes
   call lane_driver(-1, dw, stat, msg)         ! the widest driver this processor runs
   call check_eq('lanes: lane_driver status', stat, TUBES_OK)
   write (*, '(a,i0)') 'lanes: this processor''s widest driver ', dw
-  do d = LANES_BASE, dw                      ! every driver it runs and every width: the lone
-    a%driver = d                             ! propagate's numbers
-    do k = 1, size(WIDTHS)
-      a%lanes = .true.
-      a%width = WIDTHS(k)
-      call ens_run(a, N, wide, NR, 0, chunk=N)
-      write (name, '(a,i0,a,i0,a)') 'lanes: driver ', d, ', width ', WIDTHS(k), ', each item as a lone propagate, bit for bit'
-      call check_true(trim(name), same(wide, alone))
-      call ens_run(a, N, wide, NR, 0, chunk=5, threads=2)
-      write (name, '(a,i0,a,i0,a)') 'lanes: driver ', d, ', width ', WIDTHS(k), ' in chunks of 5 over 2 threads, bit for bit'
-      call check_true(trim(name), same(wide, alone))
-    end do
-  end do
-  a%driver = -1
+  call every_driver_width('', .true.)         ! every driver it runs and every width: the lone
+                                             ! propagate's numbers
   a%lanes = .false.                          ! no section: the lanes never copy their coefficients
   a%sections = .false.
   call ens_run(a, N, alone, NR, 0)
   call check_true('lanes: no section, the items ran to their end', all(alone%st == TUBES_OK))
-  do d = LANES_BASE, dw
-    a%driver = d
-    do k = 1, size(WIDTHS)
-      a%lanes = .true.
-      a%width = WIDTHS(k)
-      call ens_run(a, N, wide, NR, 0, chunk=N)
-      write (name, '(a,i0,a,i0,a)') 'lanes: no section, driver ', d, ', width ', WIDTHS(k), &
-        ', each item as a lone propagate, bit for bit'
-      call check_true(trim(name), same(wide, alone))
-    end do
-  end do
-  a%driver = -1
+  call every_driver_width('no section, ', .false.)
   ! rtol 1e-12, atol 1e-11: a lane is relative (order 15) while |x|_inf > 10 and absolute (order
   ! 14) otherwise, so the lanes split into two kernel calls of two orders; and every fourth item
   ! runs out of steps (TUBES_EMAXSTEPS): the lanes' own steps of a group and their budget's end
@@ -191,18 +167,7 @@ program test_lanes
                   count(alone%st == TUBES_EMAXSTEPS) == 3)   ! items 2, 6, 10
   call check_true('lanes: mixed orders, a step budget: the others ran to their end', &
                   count(alone%st == TUBES_OK) == N - 3)
-  do d = LANES_BASE, dw
-    a%driver = d
-    do k = 1, size(WIDTHS)
-      a%lanes = .true.
-      a%width = WIDTHS(k)
-      call ens_run(a, N, wide, NR, 0, chunk=N)
-      write (name, '(a,i0,a,i0,a)') 'lanes: mixed orders, a step budget, driver ', d, ', width ', WIDTHS(k), &
-        ', bit for bit'
-      call check_true(trim(name), same(wide, alone))
-    end do
-  end do
-  a%driver = -1
+  call every_driver_width('mixed orders, a step budget, ', .false.)
   a%atol = -1
   a%budget = 0
   a%lanes = .false.
@@ -223,6 +188,32 @@ program test_lanes
   end if
   call finish('test_lanes')
 contains
+  !> Items 1..N in lanes with every build of the driver this processor runs (dw the widest) and
+  !> every width, in one chunk (and with threads in chunks of 5 over 2 threads): alone's numbers.
+  subroutine every_driver_width(what, threads)
+    character(*), intent(in) :: what
+    logical, intent(in) :: threads
+    integer :: d, k
+    character(160) :: name
+    do d = LANES_BASE, dw
+      a%driver = d
+      do k = 1, size(WIDTHS)
+        a%lanes = .true.
+        a%width = WIDTHS(k)
+        call ens_run(a, N, wide, NR, 0, chunk=N)
+        write (name, '(3a,i0,a,i0,a)') 'lanes: ', what, 'driver ', d, ', width ', WIDTHS(k), &
+          ', each item as a lone propagate, bit for bit'
+        call check_true(trim(name), same(wide, alone))
+        if (.not. threads) cycle
+        call ens_run(a, N, wide, NR, 0, chunk=5, threads=2)
+        write (name, '(3a,i0,a,i0,a)') 'lanes: ', what, 'driver ', d, ', width ', WIDTHS(k), &
+          ' in chunks of 5 over 2 threads, bit for bit'
+        call check_true(trim(name), same(wide, alone))
+      end do
+    end do
+    a%driver = -1
+  end subroutine every_driver_width
+
   logical function same(u, v)
     type(ens_out_t), intent(in) :: u, v
     same = all(u%r == v%r) .and. all(u%st == v%st)
