@@ -1051,8 +1051,19 @@ static int lanes_driver_runs(int d) {
   if (d == 0) return 1;
 #if defined(__x86_64__)
   __builtin_cpu_init();
+#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 12
   if (d == 1) return __builtin_cpu_supports("x86-64-v3") != 0;
   if (d == 2) return __builtin_cpu_supports("x86-64-v4") != 0;
+#else  /* compilers without the levels' names (clang 14): their vector features (every processor
+        * with these also has the levels' F16C, LZCNT and MOVBE) */
+  int v3 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && __builtin_cpu_supports("bmi") &&
+           __builtin_cpu_supports("bmi2");
+  if (d == 1) return v3;
+  if (d == 2)
+    return v3 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+           __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512dq") &&
+           __builtin_cpu_supports("avx512vl");
+#endif
 #endif
   return 0;
 }
