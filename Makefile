@@ -153,6 +153,22 @@ $(BUILD)/obj/%.o: %.f90 | $(BUILD)/obj $(BUILD)/mod
 # paper's run (docs/benchmarks.md). Elsewhere arrays can be large (ensembles, tracks): the heap.
 STACK_OBJ := $(patsubst %.f90,$(BUILD)/obj/%.o,$(notdir $(wildcard src/integrators/*.f90 src/models/*.f90)))
 $(STACK_OBJ): private FFLAGS_ALL += -fstack-arrays
+# The lanes' driver (src/integrators/tubes_lanes_run.f90, a submodule of tubes_lanes) is built three
+# times: with the library's flags (for any processor of its architecture: SSE2's two doubles a
+# vector on x86-64), and as the submodules tubes_lanes_run_v3 (-march=x86-64-v3: AVX2, four) and
+# tubes_lanes_run_v4 (-march=x86-64-v4: AVX-512, eight); tubes_lanes runs the widest the processor
+# has (tubes_lanes_driver, src/io/tubes_expr.c). -ffp-contract=off: no multiply-add the library's
+# build lacks, so every build's numbers are the lone integrator's, bit for bit (tests/test_lanes).
+# On another architecture the three are the same code, and the first is the one run.
+LANES_RUN_V := $(BUILD)/obj/tubes_lanes_run_v3.o $(BUILD)/obj/tubes_lanes_run_v4.o
+ifneq ($(filter x86_64-%,$(shell $(FC) -dumpmachine)),)
+LANES_MARCH_3 := -march=x86-64-v3
+LANES_MARCH_4 := -march=x86-64-v4 -mprefer-vector-width=512
+endif
+$(BUILD)/obj/tubes_lanes_run.o: $(BUILD)/obj/tubes_lanes.o
+$(BUILD)/obj/tubes_lanes_run.o: private FFLAGS_ALL += -cpp
+$(BUILD)/obj/tubes_lanes_run_v%.o: src/integrators/tubes_lanes_run.f90 $(BUILD)/obj/tubes_lanes_run.o
+	$(FC) $(FFLAGS_ALL) -fstack-arrays -cpp -DTUBES_LANES_V=$* -ffp-contract=off $(LANES_MARCH_$*) -c $< -o $@
 # tubes_par is the one preprocessed source: MPI or the one-rank identity (src/parallel/tubes_par.f90)
 $(BUILD)/obj/tubes_par.o: FFLAGS_ALL += -cpp $(MPI_DEF)
 $(BUILD)/obj/%.o: %.c $(wildcard include/*.h) $(CONFIG_H) $(REGISTRY_H) | $(BUILD)/obj
@@ -179,7 +195,7 @@ $(BUILD)/obj/tubes_main.o: $(BUILD)/git_commit.txt
 $(BUILD)/obj/tubes_expr.o: CFLAGS_ALL += -DTUBES_MODEL_CC='"$(CC)"' -DTUBES_SOURCE_DIR='"$(abspath .)"' \
   -DTUBES_MODEL_CC_VERSION='"$(shell $(CC) -dumpfullversion 2>/dev/null)"'
 
-$(LIB): $(F_OBJ) $(C_OBJ)
+$(LIB): $(F_OBJ) $(LANES_RUN_V) $(C_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 

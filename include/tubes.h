@@ -174,6 +174,15 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
  * set (1, 2, 4 or 8), else 8 with AVX-512F, 4 with AVX, 2 otherwise. Returns the width, or
  * TUBES_EINPUT with the reason in msg (an invalid TUBES_LANES). */
 int tubes_jet_lanes_default(char *msg, int lmsg);
+/* The lanes' driver's build to run (src/integrators/tubes_lanes_run.f90, compiled once per
+ * instruction set): 0 the build for any processor of the architecture, 1 x86-64-v3 (AVX2), 2
+ * x86-64-v4 (AVX-512). forced >= 0: that one; else $TUBES_LANES_DRIVER if set (x86-64, x86-64-v3
+ * or x86-64-v4); else the widest this processor runs. TUBES_EINPUT with the reason in msg for a
+ * build this processor cannot run or an unknown name. */
+int tubes_lanes_driver(int forced, char *msg, int lmsg);
+/* The name of the lanes' driver's build d (0, 1, 2: "x86-64" (or the architecture's on another
+ * processor), "x86-64-v3", "x86-64-v4"). */
+const char *tubes_lanes_driver_name(int d);
 
 /* Copy the text of status `code` into buf (NUL-terminated, at most len bytes; TUBES_LSTATUS holds
  * every message whole). */

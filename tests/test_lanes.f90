@@ -105,14 +105,15 @@ end module test_lanes_jobs
 !> in chunks over 2 threads through the ensemble layer), and the same as the item run alone
 !> (ens_run without lanes); items that end early (a terminal crossing) hand their lane to the next.
 !> The same at every width (1, 2, 4, 8 lanes per kernel call, forced through jobs%width), and the
-!> processor's width (lane_width) is one of them.
+!> processor's width (lane_width) is one of them; and with every build of the lanes' driver that
+!> the processor runs (x86-64, x86-64-v3, x86-64-v4: forced through jobs%driver).
 program test_lanes
   use tubes_kinds, only: wp
   use tubes_check, only: check_true, check_eq, finish
-  use tubes_status, only: TUBES_OK, TUBES_EVENT, TUBES_EMAXSTEPS
+  use tubes_status, only: TUBES_OK, TUBES_EVENT, TUBES_EMAXSTEPS, TUBES_EINPUT
   use tubes_models, only: make_model, MAX_PARAMS
   use tubes_hamiltonian, only: hamiltonian_t
-  use tubes_lanes, only: run_lanes, lane_width
+  use tubes_lanes, only: run_lanes, lane_width, lane_driver, LANES_BASE, LANES_X86_64_V4
   use tubes_ensemble, only: ens_out_t, ens_run
   use test_lanes_jobs, only: traj_jobs_t, NR
   implicit none
@@ -121,9 +122,8 @@ program test_lanes
   type(traj_jobs_t) :: a
   type(ens_out_t) :: in_order, reordered, alone, chunked, wide
   real(wp) :: params(MAX_PARAMS)
-  integer :: k, perm(N), w, stat
+  integer :: k, perm(N), w, stat, dw
   character(512) :: msg
-  character(128) :: name
   params = 0
   params(1:7) = [0.07_wp, 1.017_wp, 15.103_wp, 0.00656_wp, 12.065_wp, 981.0_wp, 0.0_wp]
   call setup(a)
@@ -146,27 +146,16 @@ program test_lanes
   call check_true('lanes: the others ran to their end', &
                   all(pack(in_order%st, [(mod(k, 3) /= 0, k = 1, N)]) == TUBES_OK))
   call check_true('lanes: crossings found', sum(in_order%r(6, :)) > N)
-  do k = 1, size(WIDTHS)                     ! every width: the lone propagate's numbers
-    a%lanes = .true.
-    a%width = WIDTHS(k)
-    call ens_run(a, N, wide, NR, 0, chunk=N)
-    write (name, '(a,i0,a)') 'lanes: width ', WIDTHS(k), ', each item as a lone propagate, bit for bit'
-    call check_true(trim(name), same(wide, alone))
-    call ens_run(a, N, wide, NR, 0, chunk=5, threads=2)
-    write (name, '(a,i0,a)') 'lanes: width ', WIDTHS(k), ' in chunks of 5 over 2 threads, bit for bit'
-    call check_true(trim(name), same(wide, alone))
-  end do
+  call lane_driver(-1, dw, stat, msg)         ! the driver run by default (the processor's widest,
+  call check_eq('lanes: lane_driver status', stat, TUBES_OK)   ! or TUBES_LANES_DRIVER's)
+  write (*, '(a,i0)') 'lanes: the default driver ', dw
+  call every_driver_width('', .true.)         ! every driver it runs and every width: the lone
+                                             ! propagate's numbers
   a%lanes = .false.                          ! no section: the lanes never copy their coefficients
   a%sections = .false.
   call ens_run(a, N, alone, NR, 0)
   call check_true('lanes: no section, the items ran to their end', all(alone%st == TUBES_OK))
-  do k = 1, size(WIDTHS)
-    a%lanes = .true.
-    a%width = WIDTHS(k)
-    call ens_run(a, N, wide, NR, 0, chunk=N)
-    write (name, '(a,i0,a)') 'lanes: no section, width ', WIDTHS(k), ', each item as a lone propagate, bit for bit'
-    call check_true(trim(name), same(wide, alone))
-  end do
+  call every_driver_width('no section, ', .false.)
   ! rtol 1e-12, atol 1e-11: a lane is relative (order 15) while |x|_inf > 10 and absolute (order
   ! 14) otherwise, so the lanes split into two kernel calls of two orders; and every fourth item
   ! runs out of steps (TUBES_EMAXSTEPS): the lanes' own steps of a group and their budget's end
@@ -178,13 +167,7 @@ program test_lanes
                   count(alone%st == TUBES_EMAXSTEPS) == 3)   ! items 2, 6, 10
   call check_true('lanes: mixed orders, a step budget: the others ran to their end', &
                   count(alone%st == TUBES_OK) == N - 3)
-  do k = 1, size(WIDTHS)
-    a%lanes = .true.
-    a%width = WIDTHS(k)
-    call ens_run(a, N, wide, NR, 0, chunk=N)
-    write (name, '(a,i0,a)') 'lanes: mixed orders, a step budget, width ', WIDTHS(k), ', bit for bit'
-    call check_true(trim(name), same(wide, alone))
-  end do
+  call every_driver_width('mixed orders, a step budget, ', .false.)
   a%atol = -1
   a%budget = 0
   a%lanes = .false.
@@ -197,8 +180,44 @@ program test_lanes
   call check_eq('lanes: lane_width status', stat, TUBES_OK)
   call check_true('lanes: lane_width is 1, 2, 4 or 8', any(w == WIDTHS))
   write (*, '(a,i0)') 'lanes: this processor''s width ', w
+  call lane_driver(LANES_X86_64_V4, dw, stat, msg)
+  if (stat /= TUBES_OK) then                 ! a build the processor lacks: every item TUBES_EINPUT
+    a%driver = LANES_X86_64_V4
+    call ens_run(a, N, wide, NR, 0, chunk=N)
+    call check_true('lanes: a driver the processor cannot run: every item refused', all(wide%st == TUBES_EINPUT))
+    a%driver = -1
+  end if
   call finish('test_lanes')
 contains
+  !> Items 1..N in lanes with every build of the driver this processor runs and every width, in
+  !> one chunk (and with threads in chunks of 5 over 2 threads): alone's numbers.
+  subroutine every_driver_width(what, threads)
+    character(*), intent(in) :: what
+    logical, intent(in) :: threads
+    integer :: d, k, dd, st
+    character(160) :: name
+    character(512) :: why
+    do d = LANES_BASE, LANES_X86_64_V4
+      call lane_driver(d, dd, st, why)
+      if (st /= TUBES_OK) cycle
+      a%driver = d
+      do k = 1, size(WIDTHS)
+        a%lanes = .true.
+        a%width = WIDTHS(k)
+        call ens_run(a, N, wide, NR, 0, chunk=N)
+        write (name, '(3a,i0,a,i0,a)') 'lanes: ', what, 'driver ', d, ', width ', WIDTHS(k), &
+          ', each item as a lone propagate, bit for bit'
+        call check_true(trim(name), same(wide, alone))
+        if (.not. threads) cycle
+        call ens_run(a, N, wide, NR, 0, chunk=5, threads=2)
+        write (name, '(3a,i0,a,i0,a)') 'lanes: ', what, 'driver ', d, ', width ', WIDTHS(k), &
+          ' in chunks of 5 over 2 threads, bit for bit'
+        call check_true(trim(name), same(wide, alone))
+      end do
+    end do
+    a%driver = -1
+  end subroutine every_driver_width
+
   logical function same(u, v)
     type(ens_out_t), intent(in) :: u, v
     same = all(u%r == v%r) .and. all(u%st == v%st)

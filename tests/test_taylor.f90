@@ -10,7 +10,7 @@ program test_taylor
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
   use tubes_status, only: TUBES_OK, TUBES_EVENT, TUBES_EMODEL
   use tubes_test_models, only: X0_BALL, PI, oscillator_t
-  use tubes_taylor, only: taylor_t, isolate_roots, taylor_order
+  use tubes_taylor, only: taylor_t, isolate_roots, taylor_order, log_rho, taylor_rule
   use tubes_dop853, only: dop853_t
   use tubes_integrator, only: integrator_t, propagate, plane_t, crossing_log_t
   use tubes_field, only: vector_field_t
@@ -23,6 +23,7 @@ program test_taylor
                                       0.0_wp, 0.0_wp, 0.0_wp]
 
   call roots()
+  call log_rho_choice()
   call oscillator_order()
   call oscillator_events()
   call two_crossings_in_one_step()
@@ -33,6 +34,33 @@ program test_taylor
   call finish('test_taylor')
 
 contains
+
+  !> log_rho takes one logarithm where the exponents and first mantissa bits decide: its value is
+  !> min(-log(n1) r1, -log(n2) r2) computed directly, bit for bit, on random normal n1, n2 over
+  !> 600 binades and on near-ties (n2 with -log(n2) r2 within a few ulps to 1e-3 of -log(n1) r1,
+  !> where its brackets overlap), r1, r2 the step rule's (taylor_rule) of orders 2 to 30.
+  subroutine log_rho_choice()
+    real(wp) :: u(4), n1, n2, r(3), r2, want, got
+    integer :: k, p, bad
+    bad = 0
+    call random_seed(put=[(36 + k, k = 1, 64)])
+    do k = 1, 400000
+      call random_number(u)
+      p = 2 + int(29*u(1))
+      r = taylor_rule(p)
+      r2 = r(2)
+      n1 = (0.5_wp + u(2))*2.0_wp**int(600*u(3) - 300)
+      if (mod(k, 2) == 0) then               ! a near-tie: n2 from n1, moved by 1e-16 .. 1e-3
+        n2 = exp(log(n1)*r(1)/r2)*(1 + (u(4) - 0.5_wp)*10.0_wp**(-16 + 13*u(2)))
+      else
+        n2 = (0.5_wp + u(4))*2.0_wp**int(600*u(2) - 300)
+      end if
+      want = min(-log(n1)*r(1), -log(n2)*r2)
+      got = log_rho(n1, n2, r(1), r2)
+      if (got /= want) bad = bad + 1
+    end do
+    call check_eq('log_rho: min(-log(n1) r1, -log(n2) r2) bit for bit on 400000 pairs (half near-ties)', bad, 0)
+  end subroutine log_rho_choice
 
   !> P(s) = (s - 0.1)(s - 0.15)(s - 0.7)(s + 0.3)(s - 2): three roots in (0, 1), each alone in an
   !> interval of the samples (P changes sign across it, and nowhere else); backwards, the roots

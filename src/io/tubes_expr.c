@@ -1033,6 +1033,75 @@ int tubes_jet_lanes_default(char *msg, int lmsg) {
 #endif
 }
 
+/* The lanes' driver's builds (src/integrators/tubes_lanes_run.f90, the Makefile): the library's
+ * own, and for x86-64 the levels v3 (AVX2, FMA; its vectors 4 doubles) and v4 (AVX-512: 8). */
+static const char *const lanes_driver_names[3] = {
+#if defined(__x86_64__)
+    "x86-64",
+#else
+    "generic",
+#endif
+    "x86-64-v3", "x86-64-v4"};
+
+const char *tubes_lanes_driver_name(int d) { return d >= 0 && d <= 2 ? lanes_driver_names[d] : "none"; }
+
+/* Can this processor run the lanes' driver's build d? (On another architecture than x86-64 the
+ * builds 1 and 2 are the same code as 0, and never chosen by default.) */
+static int lanes_driver_runs(int d) {
+  if (d == 0) return 1;
+#if defined(__x86_64__)
+  __builtin_cpu_init();
+#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 12
+  if (d == 1) return __builtin_cpu_supports("x86-64-v3") != 0;
+  if (d == 2) return __builtin_cpu_supports("x86-64-v4") != 0;
+#else  /* compilers without the levels' names (clang 14): their vector features (every processor
+        * with these also has the levels' F16C, LZCNT and MOVBE) */
+  int v3 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && __builtin_cpu_supports("bmi") &&
+           __builtin_cpu_supports("bmi2");
+  if (d == 1) return v3;
+  if (d == 2)
+    return v3 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+           __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512dq") &&
+           __builtin_cpu_supports("avx512vl");
+#endif
+#endif
+  return 0;
+}
+
+/* tubes_lanes_driver without its message on stderr (free of jet_lock) */
+static int lanes_driver_pick(int forced, char *msg, int lmsg) {
+  msg[0] = 0;
+  int widest = 2, d = forced;
+  while (widest > 0 && !lanes_driver_runs(widest)) widest--;
+  const char *env = getenv("TUBES_LANES_DRIVER");
+  if (d < 0 && env && env[0]) {
+    for (int i = 0; i < 3; i++)
+      if (!strcmp(env, lanes_driver_names[i])) d = i;
+    if (d < 0)
+      say(msg, lmsg, "TUBES_LANES_DRIVER='%s': the lanes' driver must be %s, %s or %s (unset: the processor's widest)",
+          env, lanes_driver_names[0], lanes_driver_names[1], lanes_driver_names[2]);
+  } else if (d < 0) {
+    return widest;
+  }
+  if (d >= 0 && (d > 2 || !lanes_driver_runs(d))) {
+    say(msg, lmsg, "the lanes' driver %s: this processor lacks its instructions (its widest: %s)",
+        tubes_lanes_driver_name(d), tubes_lanes_driver_name(widest));
+    d = -1;
+  }
+  return d >= 0 ? d : TUBES_EINPUT;
+}
+
+int tubes_lanes_driver(int forced, char *msg, int lmsg) {
+  int d = lanes_driver_pick(forced, msg, lmsg);
+  if (d >= 0) return d;
+  static int said;               /* on stderr once: the ensembles' items fail with TUBES_EINPUT */
+  pthread_mutex_lock(&jet_lock);
+  if (!said) fprintf(stderr, "taylor: %s\n", msg);
+  said = 1;
+  pthread_mutex_unlock(&jet_lock);
+  return TUBES_EINPUT;
+}
+
 int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_fn *fn, int *dim, int *nwork,
                   char *msg, int lmsg) {
   *fn = NULL;
@@ -1107,8 +1176,9 @@ int tubes_jet_get(const char *model, int order, int lanes, int flags, tubes_jet_
     }
     if (!hit) {
       if (order > 0)
-        fprintf(stderr, "taylor: built the order-%d jet kernel (%d lane%s) in %.1f s: %s\n", order, lanes,
-                lanes > 1 ? "s" : "", now() - t0, lib);
+        fprintf(stderr, "taylor: built the order-%d jet kernel (%d lane%s%s%s) in %.1f s: %s\n", order, lanes,
+                lanes > 1 ? "s" : "", lanes > 1 ? "; the lanes' driver " : "",
+                lanes > 1 ? tubes_lanes_driver_name(lanes_driver_pick(-1, (char[512]){0}, 512)) : "", now() - t0, lib);
       else
         fprintf(stderr, "taylor: built the%s%s%s jet kernel of any order in %.1f s: %s\n",
                 (flags & TUBES_JET_VARIATIONAL) ? " variational" : "", (flags & TUBES_JET_TANGENT) ? " tangent" : "",
