@@ -3,6 +3,7 @@ numerical failure, and the HDF5 contract of docs/output.md."""
 import math
 import os
 import pathlib
+import platform
 import re
 import subprocess
 import textwrap
@@ -207,6 +208,25 @@ def test_bad_lanes_width_refused(tmp_path, tubes_exe):
         assert r.returncode == 1, (bad, r.returncode, r.stderr)
         assert f"TUBES_LANES='{bad}'" in r.stderr and "1, 2, 4 or 8" in r.stderr, r.stderr
     _no_outputs(tmp_path)
+
+
+def test_bad_lanes_driver_refused(tmp_path, tubes_exe):
+    """An unknown TUBES_LANES_DRIVER (the build of the lanes' driver) stops the run before anything
+    runs, naming the builds allowed; a build this processor runs is taken and recorded in the
+    output's provenance (taylor_lanes_driver)."""
+    env = dict(os.environ, OMP_NUM_THREADS="1", TUBES_LANES_DRIVER="avx9")
+    r = subprocess.run([str(TUBES), "--check", str(ROOT / "input" / "paper.nml")], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=120, env=env)
+    assert r.returncode == 1, (r.returncode, r.stderr)
+    assert "TUBES_LANES_DRIVER='avx9'" in r.stderr and "x86-64-v3" in r.stderr, r.stderr
+    _no_outputs(tmp_path)
+    (tmp_path / "e.nml").write_text("&run scenes = 'equilibria', output = 'e.h5' /\n")
+    env["TUBES_LANES_DRIVER"] = "x86-64"                 # the build every x86-64 processor runs
+    r = subprocess.run([str(TUBES), "e.nml"], cwd=tmp_path, capture_output=True, text=True, timeout=120, env=env)
+    if platform.machine() == "x86_64":
+        assert r.returncode == 0, r.stderr
+        with h5py.File(tmp_path / "e.h5") as f:
+            assert f.attrs["taylor_lanes_driver"] in (b"x86-64", "x86-64")
 
 
 def test_empty_namelist_is_the_paper(tmp_path, tubes_exe):

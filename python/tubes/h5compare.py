@@ -18,6 +18,7 @@ import h5py
 import numpy as np
 
 PROVENANCE = ("created", "command_line", "compiler", "fflags", "mpi_ranks", "omp_threads", "taylor_lanes",
+              "taylor_lanes_driver",
               "input_file", "wall_seconds", "git_commit",
               # a formula's compiled library: where it is cached, its name (a hash that includes the
               # compiler: mpicc and gcc builds differ), how long building or loading it took

@@ -376,6 +376,10 @@ static int run_main(int argc, char **argv) {
   char lanes_msg[512];
   int lanes = tubes_jet_lanes_default(lanes_msg, (int)sizeof lanes_msg);
   if (lanes < 0) return EXIT_BADINPUT;
+  /* and the build of the lanes' driver (TUBES_LANES_DRIVER, else the processor's widest): recorded
+   * too; one the processor cannot run, or an unknown name, stops the run here (said on stderr) */
+  int lanes_driver = tubes_lanes_driver(-1, lanes_msg, (int)sizeof lanes_msg);
+  if (lanes_driver < 0) return EXIT_BADINPUT;
 
   static char nml_text[65536];
   if (tubes_nml_write(&cfg, nml_text, (int)sizeof nml_text) < 0) {
@@ -450,6 +454,7 @@ static int run_main(int argc, char **argv) {
   rc |= h5_attr_string(f, "fflags", TUBES_FFLAGS);
   rc |= h5_attr_long(f, "mpi_ranks", g_nranks);
   rc |= h5_attr_long(f, "taylor_lanes", lanes);
+  rc |= h5_attr_string(f, "taylor_lanes_driver", tubes_lanes_driver_name(lanes_driver));
 #ifdef _OPENMP
   rc |= h5_attr_long(f, "omp_threads", omp_get_max_threads());
 #else
