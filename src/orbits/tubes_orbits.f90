@@ -1069,7 +1069,9 @@ contains
   !> between two steps: correct_symmetric at that energy from the chord between them. The
   !> continuation ends when the energy turns back (a fold: END_FOLD), the step falls below its
   !> floor (END_NOCONV), the period passes period_max T_po (END_PERIOD) or after 2000 steps.
-  !> Needs a model with a reversor whose fixed set holds N components (single shooting).
+  !> Needs a model with a reversor whose fixed set holds N components (single shooting). The grid's
+  !> and the bisection's orbits of family N - 1 share one path (family_path_t: its ladder climbed
+  !> once; each orbit bit for bit the one a path of its own gives).
   subroutine branch_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: eqs(:)
@@ -1084,6 +1086,7 @@ contains
     type(orbit_t) :: ob(1)
     real(wp), allocatable :: dg(:), w(:), wn(:), t(:), tn(:), wprev(:), xx(:), phi(:, :), fx(:), v(:)
     type(symmetric_arc_t) :: sys
+    type(family_path_t) :: pp   ! family N - 1's path: the grid's and the bisection's orbits
     real(wp) :: lo, hi, mid, e_sad, h, h0, e_prev, e_now, tau, zbig
     real(wp), allocatable :: wb(:), tb(:), tprev(:), wk(:)
     logical :: oriented
@@ -1116,7 +1119,7 @@ contains
     ! (1) the first branch point of family N - 1 below des(n)
     allocate (dg(16), grid(16), cnt(16))
     dg = [(des(size(des))*10.0_wp**(-3 + 3*real(k - 1, wp)/15), k = 1, 16)]
-    call orbit_family(model, eqs, isad, dg, po, grid, end_de, end_reason, stat)
+    call parent_orbits(dg, grid)
     if (stat < 0) return
     cnt = -1
     do k = 1, 16
@@ -1144,7 +1147,7 @@ contains
     c_lo = cnt(j)
     do while (hi - lo > 1.0e-11_wp*hi)
       mid = lo + (hi - lo)/2
-      call orbit_family(model, eqs, isad, [mid], po, ob, end_de, end_reason, stat)
+      call parent_orbits([mid], ob)
       if (stat < 0) return
       if (.not. ob(1)%converged) then
         stat = TUBES_ENOCONV
@@ -1157,7 +1160,7 @@ contains
         hi = mid
       end if
     end do
-    call orbit_family(model, eqs, isad, [lo + (hi - lo)/2], po, ob, end_de, end_reason, stat)
+    call parent_orbits([lo + (hi - lo)/2], ob)
     if (stat < 0) return
     if (.not. ob(1)%converged) then
       stat = TUBES_ENOCONV
@@ -1271,6 +1274,11 @@ contains
       x = 0
       x(ev) = u(1:nd)
     end function state_of
+    subroutine parent_orbits(d, o)   ! family N - 1 at the energies d, on the call's path pp
+      real(wp), intent(in) :: d(:)
+      type(orbit_t), intent(out) :: o(size(d))
+      call orbit_family(model, eqs, isad, d, po, o, end_de, end_reason, stat, pp)
+    end subroutine parent_orbits
   end subroutine branch_family
 
   !> The point of an arc at the energy ek, between two of its points: wa + (steps of length h in
