@@ -4,6 +4,7 @@
 !> 16 ulps a millionth of E_e, ...), not from the code's own expression.
 program test_verdicts
   use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_positive_inf
+  use, intrinsic :: ieee_exceptions, only: ieee_get_halting_mode, ieee_set_halting_mode, ieee_invalid
   use tubes_kinds, only: wp
   use tubes_check, only: check_true, check_eq, check_close, finish
   use tubes_verdicts, only: mc_check, orbit_coarse, flux_too_small, flux_undecided, flux_normal_form_check, &
@@ -12,7 +13,9 @@ program test_verdicts
                          SCENE_NEEDS_PLANE
   implicit none
   real(wp) :: nan, inf
+  logical :: halts   ! the debug build traps invalid operations (-ffpe-trap=invalid): NaN's cases run without
 
+  call ieee_get_halting_mode(ieee_invalid, halts)
   nan = ieee_value(1.0_wp, ieee_quiet_nan)
   inf = ieee_value(1.0_wp, ieee_positive_inf)
   call monte_carlo()
@@ -24,6 +27,13 @@ program test_verdicts
   call finish('test_verdicts')
 
 contains
+
+  !> Around the cases with a NaN input (the verdicts take NaN for "no number there"): a comparison
+  !> with NaN is an invalid operation, which the debug build's -ffpe-trap=invalid would stop on.
+  subroutine nan_inputs(on)
+    logical, intent(in) :: on
+    if (halts) call ieee_set_halting_mode(ieee_invalid, .not. on)
+  end subroutine nan_inputs
 
   !> The Monte Carlo fraction f = k/n against the tube's p: within 5 binomial standard errors
   !> sqrt(p (1 - p) / n) of p, at most 2 + n/1000 misclassified and 2 + n/100 undecided (docs/theory.md).
@@ -77,7 +87,9 @@ contains
     call check_true('orbit: says tighten &integrator', index(msg, 'tighten &integrator') > 0, trim(msg))
     call check_eq('orbit: scaled by the state (12 cm)', orbit_coarse(1.0_wp, 1.1e-4_wp, 1e3_wp, 12.0_wp, msg), 0)
     call check_eq('orbit: mu = 1 not judged', orbit_coarse(1.0_wp, 1.0_wp, 1.0_wp, 1.0_wp, msg), 0)
+    call nan_inputs(.true.)
     call check_eq('orbit: mu NaN not judged', orbit_coarse(1.0_wp, 1.0_wp, nan, 1.0_wp, msg), 0)
+    call nan_inputs(.false.)
   end subroutine orbits
 
   !> The flux's verdicts: a leading order below the smallest normal double, more than 1 % undecided,
@@ -138,9 +150,11 @@ contains
     call check_eq('section: flux/volume 1.2 +- 0.001 above 1 fails', section_check(1.0_wp, nan, nan, 1.2_wp, 1e-3_wp, &
                   1.0_wp, 0.0_wp, 1.0_wp, 0.0_wp, w, [n, n, 0, 0], 20.0_wp, use_nf, pt, z, msg), VERDICT_FAILS)
     call check_true('section: says exceeds 1', index(msg, 'exceeds 1') > 0, trim(msg))
+    call nan_inputs(.true.)
     call check_eq('section: no flux, nothing checked', section_check(1.0_wp, nan, nan, nan, nan, 1.0_wp, 1e-3_wp, &
                   0.5_wp, 0.01_wp, w, [n, 500, 500, 0], 20.0_wp, use_nf, pt, z, msg), 0)
     call check_true('section: no flux, p_theory NaN', pt /= pt)
+    call nan_inputs(.false.)
   end subroutine section
 
   !> The 3-DOF cut: its extrapolated 4-volume within a quarter of the grid's change (plus 1e-6) of
