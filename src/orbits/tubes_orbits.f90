@@ -187,6 +187,9 @@ module tubes_orbits
     type(orbit_t), allocatable :: orbs(:)          !! the orbit at des(i) (converged or not)
     real(wp), allocatable :: end_de(:)             !! where the family ends, for an orbit past it
     integer, allocatable :: end_reason(:)
+    !> a branch family (branch_family): its branch point on the parent family, once found: the
+    !> fixed-set unknowns and half-period there (w) and the branch's tangent (t)
+    real(wp), allocatable :: branch_w(:), branch_t(:)
   end type family_path_t
 
   !> Integral of p . dq/dt alongside the flow: dimension 2N + 1.
@@ -199,7 +202,7 @@ module tubes_orbits
   end type action_field_t
 
   public :: linear_guess, correct_symmetric, correct_multiple, finish_orbit, orbit_family, floquet_indices, &
-            floquet_tangent, branch_arc, named_mode, tilt_of
+            floquet_tangent, branch_arc, named_mode, tilt_of, branch_ladder
 
 
 contains
@@ -995,7 +998,11 @@ contains
       return
     end if
     if (opts%family == FAMILY_BRANCH_PLUS .or. opts%family == FAMILY_BRANCH_MINUS) then
-      call branch_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
+      if (present(path) .and. ens_reuse_ok('segment', opts%local)) then   ! its branch point kept there
+        call branch_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat, path)
+      else
+        call branch_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
+      end if
       return
     end if
     if (opts%family /= 1) then   ! another centre mode's family: that mode first, then as family 1
@@ -1059,8 +1066,10 @@ contains
 
   !> The symmetric family branching off family N - 1 at its first branch point (opts%family =
   !> FAMILY_BRANCH_PLUS or _MINUS), at the ascending excess energies des (docs/orbits.md, "Branch
-  !> switching"): (1) family N - 1 at a geometric grid of 16 energies up to des(n) and its first
-  !> change in the count of indices above +1, bisected to 1e-11 dE; (2) there the monodromy's
+  !> switching"): (1) family N - 1 on the ladder dE_1 2^j (dE_1 = 1e-2 s_0^2, s_0 the
+  !> continuation's first step, start_step: the ladder does not depend on des) up to the first
+  !> energy at or above des(n), its first change in the count of indices above +1, bisected to
+  !> 1e-11 dE (the branch point: the same for any des that reach it, and kept on path); (2) there the monodromy's
   !> eigenvector for +1 off the flow (floquet_tangent), its part on the reversor's fixed set the
   !> tangent of the new branch; (3) pseudo-arclength continuation along the branch in the
   !> symmetric unknowns w = (x0 on the fixed set, tau), conditions: the odd components of
@@ -1071,8 +1080,10 @@ contains
   !> floor (END_NOCONV), the period passes period_max T_po (END_PERIOD) or after 2000 steps.
   !> Needs a model with a reversor whose fixed set holds N components (single shooting). The grid's
   !> and the bisection's orbits of family N - 1 share one path (family_path_t: its ladder climbed
-  !> once; each orbit bit for bit the one a path of its own gives).
-  subroutine branch_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat)
+  !> once; each orbit bit for bit the one a path of its own gives). path: the caller's kept path of
+  !> this branch family, which holds its branch point once found (a period search's probes find it
+  !> once).
+  subroutine branch_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, stat, path)
     class(hamiltonian_t), intent(in) :: model
     type(equilibrium_t), intent(in) :: eqs(:)
     integer, intent(in) :: isad
@@ -1086,6 +1097,7 @@ contains
     type(orbit_t) :: ob(1)
     real(wp), allocatable :: dg(:), w(:), wn(:), t(:), tn(:), wprev(:), xx(:), phi(:, :), fx(:), v(:)
     type(symmetric_arc_t) :: sys
+    type(family_path_t), intent(inout), optional :: path
     type(family_path_t) :: pp   ! family N - 1's path: the grid's and the bisection's orbits
     real(wp) :: lo, hi, mid, e_sad, h, h0, e_prev, e_now, tau, zbig
     real(wp), allocatable :: wb(:), tb(:), tprev(:), wk(:)
@@ -1116,69 +1128,32 @@ contains
     po = opts
     po%family = np
     po%n_segments = 1
-    ! (1) the first branch point of family N - 1 below des(n)
-    allocate (dg(16), grid(16), cnt(16))
-    dg = [(des(size(des))*10.0_wp**(-3 + 3*real(k - 1, wp)/15), k = 1, 16)]
-    call parent_orbits(dg, grid)
-    if (stat < 0) return
-    cnt = -1
-    do k = 1, 16
-      if (.not. grid(k)%converged) exit
-      call floquet_indices(grid(k)%monodromy, nre, nim, stat)
-      if (stat /= TUBES_OK) return
-      cnt(k) = count(nre > 1 .and. nim == 0)
-    end do
-    j = 0
-    do k = 1, 15
-      if (cnt(k) >= 0 .and. cnt(k + 1) >= 0 .and. cnt(k) /= cnt(k + 1)) then
-        j = k
-        exit
-      end if
-    end do
+    allocate (t(nd + 1), tn(nd + 1), w(nd + 1), wn(nd + 1), wprev(nd + 1), tprev(nd + 1), wk(nd + 1))
     end_de = -1
     end_reason = END_NONE
-    if (j == 0) then        ! no branch point below the largest energy: no branch to follow
+    if (present(path)) then
+      if (allocated(path%branch_w)) then
+        w = path%branch_w
+        t = path%branch_t
+      end if
+    end if
+    if (.not. present(path)) then
+      call branch_point(ok)
+    else if (.not. allocated(path%branch_w)) then
+      call branch_point(ok)
+      if (ok) then
+        path%branch_w = w
+        path%branch_t = t
+      end if
+    else
+      ok = .true.
+    end if
+    if (stat /= TUBES_OK .or. end_reason == END_NOBRANCH) return
+    if (model%energy(state_of(w)) - e_sad > des(size(des))) then   ! every energy below the branch point
       end_reason = END_NOBRANCH
       orbits(:)%de = des
       return
     end if
-    lo = dg(j)
-    hi = dg(j + 1)
-    c_lo = cnt(j)
-    do while (hi - lo > 1.0e-11_wp*hi)
-      mid = lo + (hi - lo)/2
-      call parent_orbits([mid], ob)
-      if (stat < 0) return
-      if (.not. ob(1)%converged) then
-        stat = TUBES_ENOCONV
-        return
-      end if
-      call floquet_indices(ob(1)%monodromy, nre, nim, stat)
-      if (count(nre > 1 .and. nim == 0) == c_lo) then
-        lo = mid
-      else
-        hi = mid
-      end if
-    end do
-    call parent_orbits([lo + (hi - lo)/2], ob)
-    if (stat < 0) return
-    if (.not. ob(1)%converged) then
-      stat = TUBES_ENOCONV
-      return
-    end if
-    ! (2) the tangent on the fixed set
-    allocate (fx(n2), v(n2))
-    call model%eval(0.0_wp, ob(1)%x0, fx, stat)
-    if (stat /= TUBES_OK) then
-      stat = TUBES_ENOCONV
-      return
-    end if
-    call floquet_tangent(ob(1)%monodromy, fx, 1, v, stat)
-    if (stat /= TUBES_OK) return
-    allocate (t(nd + 1), tn(nd + 1), w(nd + 1), wn(nd + 1), wprev(nd + 1), tprev(nd + 1), wk(nd + 1))
-    t = [v(ev), 0.0_wp]
-    t = t/sqrt(sum(t**2))
-    w = [ob(1)%x0(ev), ob(1)%period/2]
     wb = w                                                 ! the branch point, for a restart
     tb = t
     oriented = .false.
@@ -1274,12 +1249,104 @@ contains
       x = 0
       x(ev) = u(1:nd)
     end function state_of
+    ! (1) the first branch point of family N - 1 on the ladder dE_1 2^j (up to the first energy at
+    ! or above des(n)) and (2) the branch's tangent there: w, t; END_NOBRANCH where none
+    subroutine branch_point(found)
+      logical, intent(out) :: found
+      found = .false.
+      dg = branch_ladder(model, eqs, isad, des(size(des)))
+      allocate (grid(size(dg)), cnt(size(dg)))
+      call parent_orbits(dg, grid)
+      if (stat < 0) return
+      cnt = -1
+      do k = 1, size(dg)
+        if (.not. grid(k)%converged) exit
+        call floquet_indices(grid(k)%monodromy, nre, nim, stat)
+        if (stat /= TUBES_OK) return
+        cnt(k) = count(nre > 1 .and. nim == 0)
+      end do
+      j = 0
+      do k = 1, size(dg) - 1
+        if (cnt(k) >= 0 .and. cnt(k + 1) >= 0 .and. cnt(k) /= cnt(k + 1)) then
+          j = k
+          exit
+        end if
+      end do
+      end_de = -1
+      end_reason = END_NONE
+      stat = TUBES_OK
+      if (j == 0) then        ! no branch point below the largest energy: no branch to follow
+        end_reason = END_NOBRANCH
+        orbits(:)%de = des
+        return
+      end if
+      lo = dg(j)
+      hi = dg(j + 1)
+      c_lo = cnt(j)
+      do while (hi - lo > 1.0e-11_wp*hi)
+        mid = lo + (hi - lo)/2
+        call parent_orbits([mid], ob)
+        if (stat < 0) return
+        if (.not. ob(1)%converged) then
+          stat = TUBES_ENOCONV
+          return
+        end if
+        call floquet_indices(ob(1)%monodromy, nre, nim, stat)
+        if (count(nre > 1 .and. nim == 0) == c_lo) then
+          lo = mid
+        else
+          hi = mid
+        end if
+      end do
+      call parent_orbits([lo + (hi - lo)/2], ob)
+      if (stat < 0) return
+      if (.not. ob(1)%converged) then
+        stat = TUBES_ENOCONV
+        return
+      end if
+      end_de = -1
+      end_reason = END_NONE
+      ! (2) the tangent on the fixed set
+      allocate (fx(n2), v(n2))
+      call model%eval(0.0_wp, ob(1)%x0, fx, stat)
+      if (stat /= TUBES_OK) then
+        stat = TUBES_ENOCONV
+        return
+      end if
+      call floquet_tangent(ob(1)%monodromy, fx, 1, v, stat)
+      if (stat /= TUBES_OK) return
+      t = [v(ev), 0.0_wp]
+      t = t/sqrt(sum(t**2))
+      w = [ob(1)%x0(ev), ob(1)%period/2]
+      found = .true.
+    end subroutine branch_point
     subroutine parent_orbits(d, o)   ! family N - 1 at the energies d, on the call's path pp
       real(wp), intent(in) :: d(:)
       type(orbit_t), intent(out) :: o(size(d))
       call orbit_family(model, eqs, isad, d, po, o, end_de, end_reason, stat, pp)
     end subroutine parent_orbits
   end subroutine branch_family
+
+  !> The energies on which a family's branch points are sought (branch_family, the axial family):
+  !> the ladder dE_1 2^j, j = 0, 1, ..., up to the first at or above de_max (at most 200), dE_1 =
+  !> 1e-2 s_0^2 with s_0 the continuation's first step (start_step). It does not depend on the
+  !> energies asked for beyond their largest, so neither do the branch points found on it (bisected
+  !> within one of its intervals): a period search's probes find the same point and keep it.
+  function branch_ladder(model, eqs, isad, de_max) result(dg)
+    class(hamiltonian_t), intent(in) :: model
+    type(equilibrium_t), intent(in) :: eqs(:)
+    integer, intent(in) :: isad
+    real(wp), intent(in) :: de_max
+    real(wp), allocatable :: dg(:)
+    real(wp) :: d1
+    integer :: k
+    d1 = 1.0e-2_wp*start_step(model, eqs, isad)**2
+    allocate (dg(0))
+    do k = 1, 200
+      dg = [dg, d1*2.0_wp**(k - 1)]
+      if (dg(k) >= de_max) exit
+    end do
+  end function branch_ladder
 
   !> The point of an arc at the energy ek, between two of its points: wa + (steps of length h in
   !> [h1, h2] from wa along ta, arc_step; h = 0 is wa itself) whose ends w1, w2 have the energies e1

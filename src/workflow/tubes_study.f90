@@ -17,7 +17,8 @@ module tubes_study
   use tubes_equilibria, only: equilibrium_t, find_equilibria, neck_normal, nhim_reach, gate_holds_nhim
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t, floquet_indices, floquet_tangent, &
                           fold_t, branch_arc, END_NOBRANCH, END_NOMODE, named_mode, tilt_of, FAMILY_VERTICAL, &
-                          FAMILY_PLANAR, FAMILY_AXIAL
+                          FAMILY_PLANAR, FAMILY_AXIAL, branch_ladder
+  use tubes_ensemble, only: ens_reuse_ok
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, plane_search_range, &
                                  make_plane_crossing, SEC_PLANE, SEC_RAY
   use tubes_manifold, only: tube_opts_t, tube_cut_t, tube_cut, seed_store_t
@@ -692,8 +693,9 @@ contains
   end subroutine branch_at
 
   !> The axial family ('axial'; docs/orbits.md, "Branch switching"): the planar family ('lyapunov',
-  !> named_mode) at 16 energies geometrically spaced from 1e-3 to 1 times the largest of des, upwards
-  !> until its bifurcations (family_bifurcations) hold the first branch point whose tangent (the monodromy's
+  !> named_mode) on the ladder of branch_ladder (dE_1 2^j up to the first energy at or above the
+  !> largest of des: the branch point found does not depend on des, and is kept in stores for the
+  !> next call), upwards until its bifurcations (family_bifurcations) hold the first branch point whose tangent (the monodromy's
   !> eigenvector for +1) lies mostly on the reversor's odd components (the branch keeps the symmetry
   !> q_2, q_N -> -q_2, -q_N, t -> -t; the halo branch point's tangent is even), branch_arc along the
   !> tangent's side of positive tilt (tilt_of: the mean of q_2 q_N grows), stopped at the branch's
@@ -714,12 +716,15 @@ contains
     type(fold_t), allocatable, intent(inout), optional :: folds(:)   !! the branch's folds
     integer, parameter :: AXIAL_SEGMENTS = 4
     type(orbit_opts_t) :: po, ao
-    type(orbit_t) :: grid(16)
+    type(orbit_t), allocatable :: grid(:)
     type(bifurcation_t), allocatable :: bifs(:)
     type(fold_t), allocatable :: fl(:)
-    real(wp) :: dg(16), nu(2*model%ndof() - 2, 16), tl, v(model%dim())
+    real(wp), allocatable :: dg(:), nu(:, :)
+    real(wp) :: tl, v(model%dim()), x0(model%dim()), period
     integer :: rev(model%dim())
-    integer :: k, j, jp, i
+    integer :: k, j, jp, i, ik
+    integer(i8) :: key(NKEY)
+    type(kept_path_t) :: entry
     end_de = -1
     end_reason = END_NOMODE
     stat = TUBES_OK
@@ -734,13 +739,36 @@ contains
     po = opts
     po%family = jp
     po%branch = 0
-    dg = [(maxval(des)*10.0_wp**(-3 + 3*real(k - 1, wp)/15), k = 1, 16)]
-    ! the grid upwards, one energy at a time (on the run's path of the planar family), each interval's
+    ! the branch point kept by an earlier call (a period search's probes), with its ladder's top
+    ik = 0
+    if (present(stores)) then
+      key = family_key(st, opts)
+      if (.not. allocated(stores%paths)) allocate (stores%paths(0))
+      ik = kept_at(stores%paths, st, key)
+      if (ik > 0) then
+        if (allocated(stores%paths(ik)%path%branch_w)) then
+          ! found in the ladder's interval (dE_top / 2, dE_top]: this call's ladder, up to the first
+          ! energy at or above max(des), walks the same lower intervals and reaches that one exactly
+          ! when max(des) > dE_top / 2 (else it finds none)
+          associate (bw => stores%paths(ik)%path%branch_w)
+            if (.not. maxval(des) > bw(size(bw))/2) return
+            x0 = bw(1:model%dim())
+            period = bw(model%dim() + 1)
+          end associate
+          v = stores%paths(ik)%path%branch_t
+          call arc(x0, period, v)
+          return
+        end if
+      end if
+    end if
+    dg = branch_ladder(model, eqs, isad, maxval(des))
+    allocate (grid(size(dg)), nu(2*model%ndof() - 2, size(dg)))
+    ! the ladder upwards, one energy at a time (on the run's path of the planar family), each interval's
     ! bifurcations located as soon as it is known, until the first odd branch point: the family is not
-    ! continued further than needed (L1: to the 13th energy of de = 0.1's grid; a grid up to 0.2 at L2
-    ! continued the planar family to its end near dE = 0.165, 3 minutes)
+    ! continued further than needed (a grid up to 0.2 at L2 continued the planar family to its end near
+    ! dE = 0.165, 3 minutes)
     j = 0
-    do k = 1, 16
+    do k = 1, size(dg)
       call family_at(st, model, eqs, isad, dg(k:k), po, grid(k:k), end_de, end_reason, stat, stores)
       if (stat < 0) return
       if (.not. grid(k)%converged) exit
@@ -765,15 +793,36 @@ contains
     tl = tilt_of(model, bifs(j)%x0, bifs(j)%period, v, opts, stat)
     if (stat < 0) return
     if (tl < 0) v = -v
+    x0 = bifs(j)%x0
+    period = bifs(j)%period
+    if (present(stores) .and. ens_reuse_ok('segment', opts%local)) then   ! kept: the point, its energy, the ladder's top
+      if (ik == 0) then
+        entry%system = st%system
+        entry%saddle = st%saddle
+        entry%key = key
+        stores%paths = [stores%paths, entry]
+        ik = size(stores%paths)
+      end if
+      stores%paths(ik)%path%branch_w = [x0, period, dg(k)]   ! dg(k): the top of its interval
+      stores%paths(ik)%path%branch_t = v
+    end if
+    call arc(x0, period, v)
+  contains
     ! the arc by multiple shooting: n_segments (method = 'multiple'), at least AXIAL_SEGMENTS (with
     ! one segment, I - M of the branch point's orbit (multipliers ~400 at L1) left the first step's
     ! Newton iteration without convergence for h down to 1/4 of the first step; with 4 it takes 3)
-    ao = opts
-    ao%n_segments = max(opts%n_segments, AXIAL_SEGMENTS)
-    allocate (fl(0))
-    call branch_arc(model, eqs, isad, bifs(j)%x0, bifs(j)%period, v, 1, des, ao, orbs, end_de, end_reason, fl, &
-                    stat, end_at_fold=.true.)
-    if (present(folds)) call move_alloc(fl, folds)
+    subroutine arc(xb, tb, vb)
+      real(wp), intent(in) :: xb(:), tb, vb(:)
+      ao = opts
+      ao%n_segments = max(opts%n_segments, AXIAL_SEGMENTS)
+      allocate (fl(0))
+      end_de = -1
+      end_reason = END_NOBRANCH
+      stat = TUBES_OK
+      call branch_arc(model, eqs, isad, xb, tb, vb, 1, des, ao, orbs, end_de, end_reason, fl, &
+                      stat, end_at_fold=.true.)
+      if (present(folds)) call move_alloc(fl, folds)
+    end subroutine arc
   end subroutine axial_at
 
   !> The orbits scene's call: the study's model, equilibria and saddle (setup_model), then the
