@@ -110,11 +110,7 @@ const nml_var tubes_nml_vars[] = {
     {"trajectory", "py0", NML_REAL, 1, "cm/s", "0", "finite", "initial p_y (ignored if at_rest)"},
     {"trajectory", "at_rest", NML_LOGICAL, 1, "-", ".true.", ".true., .false.",
      "start from rest at (x0, y0)"},
-    TUBES_REGISTRY_ROWS_TRAJECTORY   /* t_end, dt_out (registered: src/workflow/tubes_config.f90) */
-    {"trajectory", "section", NML_STRING, 1, "-", "'none'", "none, U1-, U1+, U1, theta, x, y",
-     "Poincare section whose crossings are recorded (docs/events.md)"},
-    {"trajectory", "section_angle", NML_REAL, 1, "deg", "45", "-360 .. 360", "section = 'theta': the ray's angle"},
-    {"trajectory", "section_level", NML_REAL, 1, "cm", "0", "finite", "section = 'x' or 'y': the line x = c or y = c"},
+    TUBES_REGISTRY_ROWS_TRAJECTORY   /* t_end .. section_level (registered: src/workflow/tubes_config.f90) */
     {"trajectory", "section_direction", NML_INT, 1, "-", "0", "-1, 0, 1",
      "theta: sign of p_theta; x, y: sign of dx/dt or dy/dt; 0 both"},
     {"trajectory", "max_crossings", NML_INT, 1, "-", "10000", "1 .. 10000000", "crossings recorded at most (then the run stops)"},
@@ -169,8 +165,7 @@ const nml_var tubes_nml_vars[] = {
     {"section", "direction", NML_INT, 1, "-", "the system's", "-1, 1",
      "kind = 'plane': the sign of dq_k/dt at the crossings"},
     {"tubes", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "10, 100", "> 0, increasing", "excess energies of the tube cuts"},
-    {"tubes", "kind", NML_STRING, 1, "-", "'stable'", "stable, unstable, both", "which manifold"},
-    TUBES_REGISTRY_ROWS_TUBES   /* eps, area_tol, t_max, n_init */
+    TUBES_REGISTRY_ROWS_TUBES   /* kind, eps, area_tol, t_max, n_init */
     {"tubes", "n_max", NML_INT, 1, "-", "8192", "n_init .. 1000000", "seeds at most"},
     {"transition", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 2, 5, ..., 700, 750", "> 0, increasing",
      "excess energies of p_trans(dE)"},
@@ -1195,6 +1190,24 @@ static int check_registered(const char *path, const tubes_config_t *c, const nml
     int ok = (reg[k].lo_open ? x > reg[k].lo : x >= reg[k].lo) && (reg[k].hi_open ? x < reg[k].hi : x <= reg[k].hi);
     if (!ok) n += bad(path, c, w, reg[k].group, reg[k].name, err, "", x);
   }
+  /* the strings: one of their values (the allowed text's, ", " between them) */
+  static const struct {
+    const char *group, *name;
+    size_t offset;
+    const char *values;
+  } str[] = {TUBES_REGISTRY_STRINGS};
+  for (int k = 0; k < TUBES_REGISTRY_NS; k++) {
+    const char *v = (const char *)c + str[k].offset, *p = str[k].values;
+    size_t lv = strlen(v);
+    int found = 0;
+    while (!found && *p) {
+      size_t l = strcspn(p, ",");
+      found = l == lv && !strncmp(p, v, l);
+      p += l;
+      p += strspn(p, ", ");
+    }
+    if (!found) n += bad_string(path, w, str[k].group, str[k].name, v, err);
+  }
   return n;
 }
 
@@ -1237,14 +1250,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!nm && c->nparams >= 0) n += validate_geometry(path, c, w, err);
   if (c->dt_out > 0 && c->t_end / c->dt_out > 5.0e7)   /* t_end, dt_out themselves: check_registered */
     n += bad(path, c, w, "trajectory", "dt_out", err, "t_end/dt_out exceeds 5e7 samples", c->dt_out);
-  {
-    const char *ok[] = {"none", "U1-", "U1+", "U1", "theta", "x", "y"};
-    int found = 0;
-    for (int j = 0; j < 7; j++) found |= strcmp(c->section, ok[j]) == 0;
-    if (!found) n += bad_string(path, w, "trajectory", "section", c->section, err);
-  }
-  if (!(c->section_angle >= -360 && c->section_angle <= 360))
-    n += bad(path, c, w, "trajectory", "section_angle", err, "", c->section_angle);
   if (!(c->section_direction >= -1 && c->section_direction <= 1))
     n += bad(path, c, w, "trajectory", "section_direction", err, "", c->section_direction);
   if (!(c->max_crossings >= 1 && c->max_crossings <= 10000000))
@@ -1349,8 +1354,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   n += check_list(path, c, w, "tubes", c->tub_de, c->tub_nde, err);
   n += check_list(path, c, w, "transition", c->tra_de, c->tra_nde, err);
   n += check_list(path, c, w, "sections", c->pm_de, c->pm_nde, err);
-  if (strcmp(c->tub_kind, "stable") && strcmp(c->tub_kind, "unstable") && strcmp(c->tub_kind, "both"))
-    n += bad_string(path, w, "tubes", "kind", c->tub_kind, err);
   if (!(c->tub_n_max >= c->tub_n_init && c->tub_n_max <= 1000000)) n += bad(path, c, w, "tubes", "n_max", err, "", c->tub_n_max);
   n += check_registered(path, c, w, err);
   if (!(c->mc_de > 0)) n += bad(path, c, w, "montecarlo", "de", err, "", c->mc_de);

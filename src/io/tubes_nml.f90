@@ -25,8 +25,6 @@ module tubes_nml
     character(LSADDLE) :: saddle = ''
     real(c_double) :: x0 = 4, y0 = 12.614863819914357_c_double, px0 = 0, py0 = 0
     logical :: at_rest = .true.
-    character(LNAME) :: section = 'none'
-    real(c_double) :: section_angle = 45, section_level = 0
     integer :: section_direction = 0, max_crossings = 10000
     logical :: stop_at_first = .false.
     character(LNAME) :: method = 'auto'
@@ -42,7 +40,6 @@ module tubes_nml
     real(c_double) :: sec_angle = UNSET
     integer :: sec_pth_sign = UNSET_INT
     real(c_double) :: tub_de(MAXDE) = UNSET
-    character(LNAME) :: tub_kind = 'stable'
     integer :: tub_n_max = 8192
     real(c_double) :: tra_de(MAXDE) = UNSET
     real(c_double) :: mc_de = 100, mc_t_max = 20, mc_gate = UNSET
@@ -102,8 +99,6 @@ contains
     cfg%x0 = v%x0; cfg%y0 = v%y0; cfg%px0 = v%px0; cfg%py0 = v%py0
     cfg%at_rest = merge(1, 0, v%at_rest)
     cfg%spatial = merge(1, 0, v%spatial)
-    call f_to_c(v%section, cfg%section)
-    cfg%section_angle = v%section_angle; cfg%section_level = v%section_level
     cfg%section_direction = v%section_direction; cfg%max_crossings = v%max_crossings
     cfg%stop_at_first = merge(1, 0, v%stop_at_first)
     call f_to_c(v%method, cfg%method)
@@ -134,7 +129,6 @@ contains
     cfg%orb_periods(1:cfg%orb_nperiods) = v%orb_periods(1:cfg%orb_nperiods)
     cfg%orb_tol = v%orb_tol; cfg%orb_rtol = v%orb_rtol; cfg%orb_atol = v%orb_atol
     call put_list(v%tub_de, cfg%tub_de, cfg%tub_nde, [10.0_c_double, 100.0_c_double])
-    call f_to_c(v%tub_kind, cfg%tub_kind)
     cfg%tub_n_max = v%tub_n_max
     call put_list(v%tra_de, cfg%tra_de, cfg%tra_nde, [1.0_c_double, 2.0_c_double, 5.0_c_double, &
       10.0_c_double, 20.0_c_double, 50.0_c_double, 100.0_c_double, 200.0_c_double, 300.0_c_double, &
@@ -490,8 +484,6 @@ contains
     v%x0 = cfg%x0; v%y0 = cfg%y0; v%px0 = cfg%px0; v%py0 = cfg%py0
     v%at_rest = cfg%at_rest /= 0
     v%spatial = cfg%spatial /= 0
-    v%section = c_to_f(cfg%section)
-    v%section_angle = cfg%section_angle; v%section_level = cfg%section_level
     v%section_direction = cfg%section_direction; v%max_crossings = cfg%max_crossings
     v%stop_at_first = cfg%stop_at_first /= 0
     v%method = c_to_f(cfg%method)
@@ -515,7 +507,6 @@ contains
     v%orb_tol = cfg%orb_tol; v%orb_rtol = cfg%orb_rtol; v%orb_atol = cfg%orb_atol
     v%sec_angle = cfg%sec_angle; v%sec_pth_sign = cfg%sec_pth_sign
     v%tub_de = cfg%tub_de
-    v%tub_kind = c_to_f(cfg%tub_kind)
     v%tub_n_max = cfg%tub_n_max
     v%tra_de = cfg%tra_de
     v%mc_de = cfg%mc_de; v%mc_t_max = cfg%mc_t_max; v%mc_gate = cfg%mc_gate
@@ -728,15 +719,13 @@ contains
       include 'nml_equilibria_out.inc'
     end subroutine io_equilibria
     subroutine io_trajectory()
-      real(c_double) :: x0, y0, px0, py0, section_angle, section_level
+      real(c_double) :: x0, y0, px0, py0
       logical :: at_rest, stop_at_first
-      character(LNAME) :: section
       integer :: section_direction, max_crossings
       namelist /trajectory/ x0, y0, px0, py0, at_rest
-      include 'nml_trajectory_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): t_end, dt_out
-      namelist /trajectory/ section, section_angle, section_level, section_direction, max_crossings, stop_at_first
+      include 'nml_trajectory_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): t_end .. section_level
+      namelist /trajectory/ section_direction, max_crossings, stop_at_first
       x0 = v%x0; y0 = v%y0; px0 = v%px0; py0 = v%py0; at_rest = v%at_rest
-      section = v%section; section_angle = v%section_angle; section_level = v%section_level
       section_direction = v%section_direction; max_crossings = v%max_crossings
       stop_at_first = v%stop_at_first
       include 'nml_trajectory_in.inc'
@@ -746,7 +735,6 @@ contains
         write (u, nml=trajectory, iostat=ios, iomsg=iomsg)
       end if
       v%x0 = x0; v%y0 = y0; v%px0 = px0; v%py0 = py0; v%at_rest = at_rest
-      v%section = section; v%section_angle = section_angle; v%section_level = section_level
       v%section_direction = section_direction; v%max_crossings = max_crossings
       v%stop_at_first = stop_at_first
       include 'nml_trajectory_out.inc'
@@ -912,13 +900,12 @@ contains
     end subroutine io_section
     subroutine io_tubes()
       real(c_double), allocatable :: de(:)
-      character(LNAME) :: kind
       integer :: n_max
-      namelist /tubes/ de, kind
-      include 'nml_tubes_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): eps .. n_init
+      namelist /tubes/ de
+      include 'nml_tubes_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): kind .. n_init
       namelist /tubes/ n_max
       call list_io(v%tub_de, de)
-      kind = v%tub_kind; n_max = v%tub_n_max
+      n_max = v%tub_n_max
       include 'nml_tubes_in.inc'
       if (mode == 'r') then
         read (u, nml=tubes, iostat=ios, iomsg=iomsg)
@@ -926,7 +913,7 @@ contains
       else
         write (u, nml=tubes, iostat=ios, iomsg=iomsg)
       end if
-      v%tub_kind = kind; v%tub_n_max = n_max
+      v%tub_n_max = n_max
       include 'nml_tubes_out.inc'
     end subroutine io_tubes
     subroutine io_transition()

@@ -3,17 +3,19 @@
 # (docs/development.md, "Adding a namelist variable"). Run by the Makefile:
 #   awk -v dir=build/include -f src/io/tubes_registry_gen.awk src/workflow/tubes_config.f90
 # An annotation is a comment line right before the field's declaration (one field, real(c_double)
-# or integer(c_int)):
+# or integer(c_int), or a string character(kind=c_char) :: FIELD(LENGTH)):
 #   !@ &GROUP NAME | UNITS | DEFAULT | ALLOWED | TEXT
 #   real(c_double) :: FIELD
 # ALLOWED is the reader's check and the text of its message: "LO .. HI" (both included), "> LO",
 # ">= LO", "< HI", "<= HI", "LO OP SYMBOL OP HI" (OP < or <=: "0 <= zeta < 1") or "finite"; DEFAULT
-# a number. The group's registered variables keep their annotations' order, in the namelist, in the
-# effective namelist and in --help, at the place tubes_nml.f90 includes them and tubes_input.c's
-# table puts TUBES_REGISTRY_ROWS_<GROUP>. It writes into dir:
+# a number. A string (character(kind=c_char) :: FIELD(LENGTH)): DEFAULT quoted ('stable'), ALLOWED
+# its values separated by ", " (stable, unstable, both), the reader's check. The group's registered
+# variables keep their annotations' order, in the namelist, in the effective namelist and in
+# --help, at the place tubes_nml.f90 includes them and tubes_input.c's table puts
+# TUBES_REGISTRY_ROWS_<GROUP>. It writes into dir:
 #   tubes_registry.h        C: each group's rows of the reader's table (TUBES_REGISTRY_ROWS_<GROUP>:
-#                           tubes_input.c tubes_nml_vars, --help, messages) and each range with the
-#                           field's offset (nml_validate's check)
+#                           tubes_input.c tubes_nml_vars, --help, messages), each range with the
+#                           field's offset (nml_validate's check) and each string's values
 #   nml_vars.inc            Fortran: the fields of tubes_nml's vars_t with their defaults
 #   nml_to_c.inc, nml_from_c.inc   the copies between vars_t and tubes_config_t
 #   nml_GROUP_decl.inc, nml_GROUP_in.inc, nml_GROUP_out.inc   per group of GROUPS: the namelist
@@ -37,7 +39,6 @@ function cstr(s) { gsub(/\\/, "\\\\", s); gsub(/"/, "\\\"", s); return "\"" s "\
   pg = substr(gn[1], 2); pn = gn[2]
   if (!(pg in known)) fail("group &" pg " takes no registered variable (allowed: " join() ")")
   pu = trim(f[2]); pd = trim(f[3]); pa = trim(f[4]); pt = trim(f[5])
-  if (pd !~ /^[-+]?[0-9.]+([eE][-+]?[0-9]+)?$/) fail("default '" pd "' is not a number")
   pending = 1
   next
 }
@@ -45,16 +46,27 @@ pending {
   line = $0; sub(/!.*/, "", line)
   if (!match(line, /::/)) fail("an annotation is followed by the field's declaration")
   type = substr(line, 1, RSTART - 1); field = trim(substr(line, RSTART + 2)); gsub(/[ \t]/, "", type)
-  if (field ~ /[,(]/) fail("an annotated declaration declares one scalar field")
-  if (type == "real(c_double)") { ct = "NML_REAL"; ft = "real(c_double)"; fd = pd (pd ~ /[.eE]/ ? "" : ".0") "_c_double"; isint = 0 }
+  len = ""
+  if (type == "character(kind=c_char)" && match(field, /^[A-Za-z_][A-Za-z_0-9]*\([A-Z]+\)$/)) {
+    len = field; sub(/^[^(]*\(/, "", len); sub(/\)$/, "", len); sub(/\(.*/, "", field)
+  }
+  if (field ~ /[,(]/) fail("an annotated declaration declares one scalar field (or one string, NAME(LENGTH))")
+  isint = 0; isstr = 0
+  if (len != "") {
+    if (pd !~ /^'[^']*'$/) fail("a string's default " pd " is not quoted ('...')")
+    if (pa !~ /^[^,]+(, [^,]+)*$/) fail("a string's allowed '" pa "' is not its values separated by ', '")
+    ct = "NML_STRING"; ft = "character(" len ")"; fd = pd; isstr = 1
+  } else if (pd !~ /^[-+]?[0-9.]+([eE][-+]?[0-9]+)?$/) fail("default '" pd "' is not a number")
+  else if (type == "real(c_double)") { ct = "NML_REAL"; ft = "real(c_double)"; fd = pd (pd ~ /[.eE]/ ? "" : ".0") "_c_double" }
   else if (type == "integer(c_int)") {
     if (pd !~ /^[-+]?[0-9]+$/) fail("an integer's default '" pd "' is not an integer")
     ct = "NML_INT"; ft = "integer"; fd = pd; isint = 1
   }
-  else fail("type " type " is not registered (real(c_double), integer(c_int))")
+  else fail("type " type " is not registered (real(c_double), integer(c_int), character(kind=c_char) NAME(LENGTH))")
   lo = "-INFINITY"; hi = "INFINITY"; lo_open = 0; hi_open = 0
   a = pa
-  if (a == "finite") { lo = "-DBL_MAX"; hi = "DBL_MAX" }   # an infinity is not finite
+  if (isstr) ;
+  else if (a == "finite") { lo = "-DBL_MAX"; hi = "DBL_MAX" }   # an infinity is not finite
   else if (match(a, /^[-+0-9.eE]+ \.\. [-+0-9.eE]+$/)) { split(a, r, / \.\. /); lo = r[1]; hi = r[2] }
   else if (a ~ /^>= /) lo = substr(a, 4)
   else if (a ~ /^> /) { lo = substr(a, 3); lo_open = 1 }
@@ -67,7 +79,7 @@ pending {
   else fail("allowed '" a "' is not one of: LO .. HI, > LO, >= LO, < HI, <= HI, LO <= X < HI (< or <=), finite")
   n++
   G[n] = pg; N[n] = pn; U[n] = pu; D[n] = pd; A[n] = pa; T[n] = pt; F[n] = field; CT[n] = ct; FT[n] = ft; FD[n] = fd
-  LO[n] = lo; HI[n] = hi; LOO[n] = lo_open; HIO[n] = hi_open; INT[n] = isint
+  LO[n] = lo; HI[n] = hi; LOO[n] = lo_open; HIO[n] = hi_open; INT[n] = isint; STR[n] = isstr
   pending = 0
   next
 }
@@ -86,20 +98,38 @@ END {
                cstr(A[i]), cstr(T[i]) > h
     print "" > h
   }
-  print "#define TUBES_REGISTRY_RANGES \\" > h
+  nr = 0; ns = 0
+  printf "#define TUBES_REGISTRY_RANGES" > h
   for (i = 1; i <= n; i++)
-    printf "  {%s, %s, offsetof(tubes_config_t, %s), %d, %s, %s, %d, %d},%s\n", cstr(G[i]), cstr(N[i]), F[i], INT[i],
-           LO[i], HI[i], LOO[i], HIO[i], (i < n ? " \\" : "") > h
-  if (n == 0) print "  {NULL, NULL, 0, 0, 0, 0, 0, 0}" > h
-  printf "enum { TUBES_REGISTRY_N = %d };\n", n > h
+    if (!STR[i]) {
+      printf " \\\n  {%s, %s, offsetof(tubes_config_t, %s), %d, %s, %s, %d, %d},", cstr(G[i]), cstr(N[i]), F[i], INT[i],
+             LO[i], HI[i], LOO[i], HIO[i] > h
+      nr++
+    }
+  if (nr == 0) printf " \\\n  {NULL, NULL, 0, 0, 0, 0, 0, 0}," > h
+  print "" > h
+  printf "#define TUBES_REGISTRY_STRINGS" > h    # a string's values: its allowed text, ", " between them
+  for (i = 1; i <= n; i++)
+    if (STR[i]) {
+      printf " \\\n  {%s, %s, offsetof(tubes_config_t, %s), %s},", cstr(G[i]), cstr(N[i]), F[i], cstr(A[i]) > h
+      ns++
+    }
+  if (ns == 0) printf " \\\n  {NULL, NULL, 0, NULL}," > h
+  print "" > h
+  printf "enum { TUBES_REGISTRY_N = %d, TUBES_REGISTRY_NS = %d };\n", nr, ns > h
   v = dir "/nml_vars.inc"; tc = dir "/nml_to_c.inc"; fc = dir "/nml_from_c.inc"
   print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > v
   print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > tc
   print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > fc
   for (i = 1; i <= n; i++) {
     printf "    %s :: %s = %s\n", FT[i], F[i], FD[i] > v
-    printf "    cfg%%%s = v%%%s\n", F[i], F[i] > tc
-    printf "    v%%%s = cfg%%%s\n", F[i], F[i] > fc
+    if (STR[i]) {
+      printf "    call f_to_c(v%%%s, cfg%%%s)\n", F[i], F[i] > tc
+      printf "    v%%%s = c_to_f(cfg%%%s)\n", F[i], F[i] > fc
+    } else {
+      printf "    cfg%%%s = v%%%s\n", F[i], F[i] > tc
+      printf "    v%%%s = cfg%%%s\n", F[i], F[i] > fc
+    }
   }
   for (j = 1; j <= ng; j++) {
     g = groups[j]

@@ -42,8 +42,12 @@ module tubes_config
     !@ &trajectory dt_out | s | 0.01 | > 0 | sample spacing of the output (t_end is always the last sample)
     real(c_double) :: dt_out
     integer(c_int) :: at_rest
+    !@ &trajectory section | - | 'none' | none, U1-, U1+, U1, theta, x, y | Poincare section whose crossings are recorded (docs/events.md)
     character(kind=c_char) :: section(LNAME)
-    real(c_double) :: section_angle, section_level
+    !@ &trajectory section_angle | deg | 45 | -360 .. 360 | section = 'theta': the ray's angle
+    real(c_double) :: section_angle
+    !@ &trajectory section_level | cm | 0 | finite | section = 'x' or 'y': the line x = c or y = c
+    real(c_double) :: section_level
     integer(c_int) :: section_direction, max_crossings, stop_at_first
     character(kind=c_char) :: method(LNAME)   ! &integrator
     !@ &integrator rtol | 1 | 1e-12 | 1e-15 <= rtol < 1 | relative tolerance (variable-step methods)
@@ -66,6 +70,7 @@ module tubes_config
     integer(c_int) :: sec_pth_sign
     real(c_double) :: tub_de(MAXDE)   ! &tubes
     integer(c_int) :: tub_nde
+    !@ &tubes kind | - | 'stable' | stable, unstable, both | which manifold
     character(kind=c_char) :: tub_kind(LNAME)
     !@ &tubes eps | cm | 1e-6 | 1e-10 .. 1e-2 | step-off from the orbit
     real(c_double) :: tub_eps
