@@ -70,6 +70,11 @@ int tubes_units_dimensioned(const char *units);
 /* Print the groups, variables and scenes (for --help). */
 void nml_print_help(FILE *out);
 
+/* A registered number's range (src/workflow/tubes_config.f90's annotations): 1 with its bounds, whether
+ * they are open, whether it is an integer and its allowed text (len bytes); 0 if not registered. */
+int tubes_registry_range(const char *group, const char *name, double *lo, double *hi, int *lo_open, int *hi_open,
+                         int *is_int, char *allowed, int len);
+
 #ifdef __cplusplus
 }
 #endif

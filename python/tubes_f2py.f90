@@ -941,6 +941,35 @@ subroutine formula_with_constant(system, name, value, stat, key, msg)
   call with_constant(trim(system), trim(name), value, key, msg, stat)
 end subroutine formula_with_constant
 
+subroutine registry_range(group, name, found, lo, hi, lo_open, hi_open, is_int, allowed)
+  ! a registered number's range (src/workflow/tubes_config.f90's annotations, the reader's check):
+  ! found 1 with its bounds (+-huge or +-inf where open-ended), whether they are open, whether it
+  ! is an integer and the allowed text of the reader's messages; found 0: not registered
+  use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char, c_null_char
+  use tubes_cstrings, only: c_to_f
+  implicit none
+  character(len=*), intent(in) :: group, name
+  integer(c_int), intent(out) :: found, lo_open, hi_open, is_int
+  real(c_double), intent(out) :: lo, hi
+  character(len=256), intent(out) :: allowed
+  interface
+    integer(c_int) function c_range(group, name, lo, hi, lo_open, hi_open, is_int, allowed, len) &
+        bind(C, name='tubes_registry_range')
+      import :: c_int, c_double, c_char
+      character(kind=c_char), intent(in) :: group(*), name(*)
+      real(c_double), intent(out) :: lo, hi
+      integer(c_int), intent(out) :: lo_open, hi_open, is_int
+      character(kind=c_char), intent(out) :: allowed(*)
+      integer(c_int), value :: len
+    end function c_range
+  end interface
+  character(kind=c_char) :: buf(256)
+  found = c_range(trim(group) // c_null_char, trim(name) // c_null_char, lo, hi, lo_open, hi_open, is_int, buf, &
+                  256_c_int)
+  allowed = ''
+  if (found /= 0) allowed = c_to_f(buf)
+end subroutine registry_range
+
 subroutine de_unresolved(des, n, group, saddle, ee, k, msg)
   ! the first of a group's excess energies below what the energy resolves at the saddle of energy ee
   ! (src/workflow/tubes_setup.f90 de_unresolved, the program's check): its index (1-based) and the

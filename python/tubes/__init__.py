@@ -1778,13 +1778,37 @@ def _section(section, level, direction):
     return int(kind), float(lvl), int(d)
 
 
+_RANGES: dict = {}   # (group, name) -> a registered variable's range (_in_range)
+
+
+def _in_range(who: str, group: str, name: str, v, label: str | None = None):
+    """v checked against the input file's range of &group name, a registered variable (its annotation
+    in src/workflow/tubes_config.f90 is the one definition of its range and of the reader's message,
+    python/tubes_f2py.f90 registry_range): the float (or int), else ValueError with the reader's
+    text. label: the argument's name where it is not the variable's."""
+    r = _RANGES.get((group, name))
+    if r is None:
+        found, lo, hi, lo_open, hi_open, is_int, allowed = _lib().registry_range(group, name)
+        if not found:
+            raise KeyError(f"&{group} {name} is not a registered variable")
+        r = _RANGES[(group, name)] = (float(lo) if math.isfinite(lo) else None, float(hi) if math.isfinite(hi) else None,
+                                      bool(lo_open), bool(hi_open), bool(is_int), _str(allowed).strip())
+    lo, hi, lo_open, hi_open, is_int, allowed = r
+    label = label or name
+    x = _args.integer(who, label, v) if is_int else _args.real(who, label, v)
+    if (lo is not None and (x <= lo if lo_open else x < lo)) or (hi is not None and (x >= hi if hi_open else x > hi)):
+        raise ValueError(f"{who}: {label} = {v!r} is out of range: allowed {allowed}")
+    return x
+
+
 def _check_integration(who, method, t_end, rtol, atol, h, max_steps, solver, omega_bind, max_iter):
-    """The input file's ranges for an integration (docs/input.md, &integrator and &trajectory),
-    with the same messages; returns (t_end, rtol, atol, h, max_steps, omega_bind, max_iter) checked."""
-    t_end = _args.real(who, "t_end", t_end, lo=0)
-    rtol = _args.real(who, "rtol", rtol, lo=1e-15, hi=1, hi_open=True)
-    atol = _args.real(who, "atol", atol, lo=0, lo_open=True)
-    h = _args.real(who, "h", h, lo=0)
+    """The input file's ranges for an integration (docs/input.md, &integrator and &trajectory: the
+    reader's own, _in_range), with the same messages; returns (t_end, rtol, atol, h, max_steps,
+    omega_bind, max_iter) checked."""
+    t_end = _in_range(who, "trajectory", "t_end", t_end)
+    rtol = _in_range(who, "integrator", "rtol", rtol)
+    atol = _in_range(who, "integrator", "atol", atol)
+    h = _in_range(who, "integrator", "h", h)
     max_steps = _args.integer(who, "max_steps", max_steps, lo=1)
     omega_bind = _args.real(who, "omega_bind", omega_bind, lo=0)   # Tao's binding; 0: its default
     max_iter = _args.integer(who, "max_iter", max_iter, lo=0)      # gauss*; 0: its default
@@ -1794,14 +1818,6 @@ def _check_integration(who, method, t_end, rtol, atol, h, max_steps, solver, ome
         raise ValueError(f"method {method!r} is fixed-step: give h > 0")
     if solver not in ("newton", "fixed_point"):
         raise ValueError("solver must be 'newton' or 'fixed_point'")
-    if not t_end >= 0:
-        raise ValueError(f"t_end = {t_end} is out of range: allowed >= 0")
-    if not (1e-15 <= rtol < 1):
-        raise ValueError(f"rtol = {rtol} is out of range: allowed 1e-15 <= rtol < 1")
-    if not atol > 0:
-        raise ValueError(f"atol = {atol} is out of range: allowed > 0")
-    if not h >= 0:
-        raise ValueError(f"h = {h} is out of range: allowed >= 0 (0: variable step)")
     if not max_steps >= 1:
         raise ValueError(f"max_steps = {max_steps} is out of range: allowed >= 1")
     return t_end, rtol, atol, h, max_steps, omega_bind, max_iter
@@ -1838,13 +1854,13 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
     direction = _args.integer("integrate", "direction", direction, lo=-1, hi=1)
     max_crossings = _args.integer("integrate", "max_crossings", max_crossings, lo=1)
     stop_at_first = _args.flag("integrate", "stop_at_first", stop_at_first)
-    if section == "theta" and not -360 <= level <= 360:
-        raise ValueError(f"level = {level} is out of range for section 'theta': allowed -360 .. 360 [deg]")
+    if section == "theta":          # the ray's angle [deg], as the input file's section_angle
+        level = _in_range("integrate", "trajectory", "section_angle", level, label="level")
     if direction not in (-1, 0, 1):
         raise ValueError(f"direction = {direction} is out of range: allowed -1, 0, 1")
     if dt_out is None:
         dt_out = max(t_end, 1e-300)
-    dt_out = _args.real("integrate", "dt_out", dt_out, lo=0, lo_open=True)
+    dt_out = _in_range("integrate", "trajectory", "dt_out", dt_out)
     kind, lev, dirn = _section(section, level, direction)
     nmax = math.floor(t_end / dt_out * (1 + 1e-12)) + 2
     mc = max_crossings if kind else 1   # no section: no crossings to hold

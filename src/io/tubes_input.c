@@ -1170,14 +1170,35 @@ static int check_orbit_parameter(const char *path, const tubes_config_t *c, cons
 
 /* The registered variables' ranges (src/workflow/tubes_config.f90's annotations, build/include/tubes_registry.h):
  * each field's value against its bounds, the message bad()'s with the row's allowed text. */
+static const struct {
+  const char *group, *name;
+  size_t offset;
+  int is_int;
+  double lo, hi;
+  int lo_open, hi_open;
+} reg[] = {TUBES_REGISTRY_RANGES};
+
+/* A registered number's range for a caller that takes the value outside a file (Python's
+ * tubes.integrate, tubes.scan): 1 with its bounds (+-INFINITY where open-ended, +-DBL_MAX for
+ * "finite"), whether they are open, whether it is an integer, and the allowed text of its messages
+ * (NUL-terminated, at most len bytes); 0 when group/name is not a registered number. */
+int tubes_registry_range(const char *group, const char *name, double *lo, double *hi, int *lo_open, int *hi_open,
+                         int *is_int, char *allowed, int len) {
+  for (int k = 0; k < TUBES_REGISTRY_N; k++) {
+    if (!reg[k].group || strcmp(reg[k].group, group) || strcmp(reg[k].name, name)) continue;
+    *lo = reg[k].lo;
+    *hi = reg[k].hi;
+    *lo_open = reg[k].lo_open;
+    *hi_open = reg[k].hi_open;
+    *is_int = reg[k].is_int;
+    int i = var_index(group, name);
+    snprintf(allowed, (size_t)len, "%s", i >= 0 ? tubes_nml_vars[i].allowed : "");
+    return 1;
+  }
+  return 0;
+}
+
 static int check_registered(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
-  static const struct {
-    const char *group, *name;
-    size_t offset;
-    int is_int;
-    double lo, hi;
-    int lo_open, hi_open;
-  } reg[] = {TUBES_REGISTRY_RANGES};
   int n = 0;
   for (int k = 0; k < TUBES_REGISTRY_N; k++) {
     const char *p = (const char *)c + reg[k].offset;
