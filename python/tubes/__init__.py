@@ -1670,7 +1670,7 @@ def scan(model: Model | None = None, parameter: str | None = None, to=None, n=No
     if to is None or n is None:
         raise ValueError(f"{who}: give to (the parameter's end value) and n (steps, >= 1)")
     to = _args.real(who, "to", to)
-    n = _args.integer(who, "n", n, lo=1, hi=100000)
+    n = _in_range(who, "scan", "n", n)
     sstat, start = _lib().scan_start_value(model.name, model.params(), ipar)
     _check(sstat, who)
     start = float(start)
@@ -1983,7 +1983,7 @@ class Integrator:
         TubesError on failure (err.partial = (state where it stopped, counters))."""
         if not self._handle:
             raise ValueError("this Integrator is closed")
-        t_end = _args.real("Integrator.propagate", "t_end", t_end, lo=0)
+        t_end = _in_range("Integrator.propagate", "trajectory", "t_end", t_end)
         x, counters, stat = self._propagate(self._handle, _vec(state0, self._n2, "state0", "Integrator.propagate"), float(t_end))
         if stat < 0:
             err = TubesError(stat, "Integrator.propagate")
