@@ -216,7 +216,7 @@ contains
     type(period_ctx_t), intent(inout) :: c
     type(probes_t), intent(inout) :: pr
     logical, intent(in) :: close
-    real(wp) :: d, t, end_de, delta, x0(c%model%dim()), tau, amp, dist, a, b
+    real(wp) :: d, t, end_de, delta, a, b
     integer :: j, side
     logical :: ok, seen
     if (close) then
@@ -275,15 +275,7 @@ contains
       return
     end if
     ! a branch: the grid's first energy as a Lyapunov family's (period_de)
-    dist = huge(1.0_wp)
-    do j = 1, size(c%eqs)
-      if (j /= c%isad) dist = min(dist, norm2(c%eqs(j)%q - c%eqs(c%isad)%q))
-    end do
-    if (dist == huge(1.0_wp)) dist = c%model%length_scale()
-    call linear_guess(c%model, c%eqs(c%isad), 1.0_wp, x0, tau)
-    amp = norm2(x0(1:size(c%eqs(c%isad)%q)) - c%eqs(c%isad)%q)
-    d = 1.0e-6_wp
-    if (amp > 0) d = (GRID_AMP*dist/amp)**2
+    d = grid_first(c)
     pr%de_start = d
     seen = .false.
     a = 0
@@ -440,7 +432,7 @@ contains
     real(wp), intent(out) :: de
     integer, intent(out) :: found
     real(wp), intent(inout) :: t_reach, de_reach
-    real(wp) :: a, b, ga, gb, t, root, x0(c%model%dim()), tau, amp, dist, last_ok, end_de
+    real(wp) :: a, b, ga, gb, t, root, last_ok, end_de
     integer :: j
     logical :: ok, bracketed
     de = 0
@@ -449,17 +441,7 @@ contains
     if (.not. (c%target > 0)) return
     ga = c%t_po - c%target
     if (ga == 0) return                     ! the limit itself: no orbit (dE = 0)
-    ! the grid's first energy: the linear orbit's amplitude GRID_AMP of the saddle's distance to
-    ! the nearest other equilibrium (the model's length scale if none)
-    dist = huge(1.0_wp)
-    do j = 1, size(c%eqs)
-      if (j /= c%isad) dist = min(dist, norm2(c%eqs(j)%q - c%eqs(c%isad)%q))
-    end do
-    if (dist == huge(1.0_wp)) dist = c%model%length_scale()
-    call linear_guess(c%model, c%eqs(c%isad), 1.0_wp, x0, tau)
-    amp = norm2(x0(1:size(c%eqs(c%isad)%q)) - c%eqs(c%isad)%q)
-    b = 1.0e-6_wp
-    if (amp > 0) b = (GRID_AMP*dist/amp)**2
+    b = grid_first(c)
     a = 0
     last_ok = 0
     bracketed = .false.
@@ -552,6 +534,23 @@ contains
     if (st < 0 .and. st /= TUBES_EUNRESOLVED) c%stat = st   ! below the energy's resolution: no orbit
     if (ok) t = orbs(1)%period
   end subroutine period_at
+
+  !> The grid's first energy: where the linear orbit's amplitude is GRID_AMP of the saddle's distance
+  !> to the nearest other equilibrium (the model's length scale if none); 1e-6 without an amplitude.
+  real(wp) function grid_first(c) result(d)
+    type(period_ctx_t), intent(in) :: c
+    real(wp) :: dist, amp, tau, x0(c%model%dim())
+    integer :: j
+    dist = huge(1.0_wp)
+    do j = 1, size(c%eqs)
+      if (j /= c%isad) dist = min(dist, norm2(c%eqs(j)%q - c%eqs(c%isad)%q))
+    end do
+    if (dist == huge(1.0_wp)) dist = c%model%length_scale()
+    call linear_guess(c%model, c%eqs(c%isad), 1.0_wp, x0, tau)
+    amp = norm2(x0(1:size(c%eqs(c%isad)%q)) - c%eqs(c%isad)%q)
+    d = 1.0e-6_wp
+    if (amp > 0) d = (GRID_AMP*dist/amp)**2
+  end function grid_first
 
   !> T(dE) - T* for Brent (the user pointer: a period_ctx_t); a failed orbit inside the bracket
   !> sets the context's stat and answers 0, which ends the search.
