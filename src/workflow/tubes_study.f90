@@ -17,7 +17,7 @@ module tubes_study
   use tubes_equilibria, only: equilibrium_t, find_equilibria, neck_normal, nhim_reach, gate_holds_nhim
   use tubes_orbits, only: orbit_t, orbit_opts_t, orbit_family, family_path_t, floquet_indices, floquet_tangent, &
                           fold_t, branch_arc, END_NOBRANCH, END_NOMODE, named_mode, tilt_of, FAMILY_VERTICAL, &
-                          FAMILY_PLANAR, FAMILY_AXIAL, branch_ladder
+                          FAMILY_PLANAR, FAMILY_AXIAL, branch_ladder, END_NONE
   use tubes_ensemble, only: ens_reuse_ok
   use tubes_section_kinds, only: poincare_t, make_ray_section, make_plane_section, plane_search_range, &
                                  make_plane_crossing, SEC_PLANE, SEC_RAY
@@ -725,6 +725,7 @@ contains
     integer :: k, j, jp, i, ik
     integer(i8) :: key(NKEY)
     type(kept_path_t) :: entry
+    logical :: kept
     end_de = -1
     end_reason = END_NOMODE
     stat = TUBES_OK
@@ -741,6 +742,7 @@ contains
     po%branch = 0
     ! the branch point kept by an earlier call (a period search's probes), with its ladder's top
     ik = 0
+    kept = .false.
     if (present(stores)) then
       key = family_key(st, opts)
       if (.not. allocated(stores%paths)) allocate (stores%paths(0))
@@ -756,11 +758,29 @@ contains
             period = bw(model%dim() + 1)
           end associate
           v = stores%paths(ik)%path%branch_t
-          call arc(x0, period, v)
-          return
+          kept = .true.
+          end_reason = END_NONE
         end if
       end if
     end if
+    if (.not. kept) call search()
+    if (stat < 0 .or. end_reason == END_NOBRANCH) return
+    ! the arc by multiple shooting: n_segments (method = 'multiple'), at least AXIAL_SEGMENTS (with
+    ! one segment, I - M of the branch point's orbit (multipliers ~400 at L1) left the first step's
+    ! Newton iteration without convergence for h down to 1/4 of the first step; with 4 it takes 3)
+    ao = opts
+    ao%n_segments = max(opts%n_segments, AXIAL_SEGMENTS)
+    allocate (fl(0))
+    end_de = -1
+    end_reason = END_NOBRANCH
+    stat = TUBES_OK
+    call branch_arc(model, eqs, isad, x0, period, v, 1, des, ao, orbs, end_de, end_reason, fl, &
+                    stat, end_at_fold=.true.)
+    if (present(folds)) call move_alloc(fl, folds)
+  contains
+    ! the planar family's first odd branch point on the ladder: x0, period, v (kept in stores), and
+    ! end_reason END_NONE; or end_reason END_NOBRANCH (none), or stat < 0
+    subroutine search()
     dg = branch_ladder(model, eqs, isad, maxval(des))
     allocate (grid(size(dg)), nu(2*model%ndof() - 2, size(dg)))
     ! the ladder upwards, one energy at a time (on the run's path of the planar family), each interval's
@@ -806,23 +826,8 @@ contains
       stores%paths(ik)%path%branch_w = [x0, period, dg(k)]   ! dg(k): the top of its interval
       stores%paths(ik)%path%branch_t = v
     end if
-    call arc(x0, period, v)
-  contains
-    ! the arc by multiple shooting: n_segments (method = 'multiple'), at least AXIAL_SEGMENTS (with
-    ! one segment, I - M of the branch point's orbit (multipliers ~400 at L1) left the first step's
-    ! Newton iteration without convergence for h down to 1/4 of the first step; with 4 it takes 3)
-    subroutine arc(xb, tb, vb)
-      real(wp), intent(in) :: xb(:), tb, vb(:)
-      ao = opts
-      ao%n_segments = max(opts%n_segments, AXIAL_SEGMENTS)
-      allocate (fl(0))
-      end_de = -1
-      end_reason = END_NOBRANCH
-      stat = TUBES_OK
-      call branch_arc(model, eqs, isad, xb, tb, vb, 1, des, ao, orbs, end_de, end_reason, fl, &
-                      stat, end_at_fold=.true.)
-      if (present(folds)) call move_alloc(fl, folds)
-    end subroutine arc
+    end_reason = END_NONE
+    end subroutine search
   end subroutine axial_at
 
   !> The orbits scene's call: the study's model, equilibria and saddle (setup_model), then the
@@ -1086,9 +1091,10 @@ contains
     type(orbit_t), intent(out) :: orb
     integer, intent(out) :: stat
     type(seed_stores_t), intent(inout), optional :: stores   !! the run's kept results
-    type(orbit_t) :: orbs(1)
+    type(orbit_t), allocatable :: orbs(:)   ! (a local array: gfortran 12 -O1 -fcheck=all warned on its initialiser)
     real(wp) :: end_de
     integer :: reason
+    allocate (orbs(1))
     call family_at(st, model, eqs, isad, [de], study_orbit_opts(st, local), orbs, end_de, reason, stat, stores)
     if (stat /= TUBES_OK) return
     orb = orbs(1)
