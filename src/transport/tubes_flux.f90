@@ -558,7 +558,7 @@ contains
     end associate
   end subroutine point_item
 
-  !> Integration j (flux_runs_t) item by item: outcome_of's class and status.
+  !> Integration k (flux_runs_t) item by item: outcome_of's class and status.
   subroutine run_item(self, k, out)
     class(flux_runs_t), intent(in) :: self
     integer, intent(in) :: k
