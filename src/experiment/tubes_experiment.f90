@@ -17,17 +17,19 @@ module tubes_experiment
   use tubes_ball, only: ball_t
   use tubes_models, only: NMODEL, model_ball, conservative_ball
   use tubes_field, only: vector_field_t
-  use tubes_methods, only: integ_choice_t, make_integrator
+  use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor, noisy_field => noisy
   use tubes_sampler, only: sampler_t
-  use tubes_integrator, only: integrator_t, propagate
+  use tubes_integrator, only: integrator_t, observer_t, propagate
+  use tubes_lanes, only: lane_t, lane_jobs_t, MAX_LANES
   implicit none
   private
 
   !> Rejection sampling gives up after this many draws of a release point.
   integer, parameter, public :: MAX_RELEASE_DRAWS = 2**22
 
-  !> The noise-free tracks: item j released from rest at release(:, j).
-  type, extends(ensemble_t) :: track_ens_t
+  !> The noise-free tracks: item j released from rest at release(:, j) (in lanes with the Taylor
+  !> method, tubes_lanes; a noisy field: one by one).
+  type, extends(lane_jobs_t) :: track_ens_t
     class(vector_field_t), allocatable :: model
     type(integ_choice_t) :: integ
     real(wp), allocatable :: release(:, :)      !! x0, y0 [cm] (2, n_tracks)
@@ -35,6 +37,8 @@ module tubes_experiment
     integer :: ns = 0
   contains
     procedure :: item => track_item
+    procedure :: start => track_start
+    procedure :: finish => track_finish
   end type track_ens_t
 
   !> What to simulate. Defaults are the paper's set-up (docs/experiment-data.md).
@@ -151,9 +155,11 @@ contains
 
     ! the noise-free tracks, dealt out over MPI ranks and threads (tubes_ensemble)
     call ens_agree(release)
-    tracks = track_ens_t(integ=integ, release=release(1:2, :), dt=dt, ns=ns, rtol=opts%rtol, atol=opts%atol)
+    tracks = track_ens_t(lanes=uses_taylor(integ), integ=integ, release=release(1:2, :), dt=dt, ns=ns, &
+                         rtol=opts%rtol, atol=opts%atol)
+    tracks%lanes = tracks%lanes .and. .not. noisy_field(model)   ! a noisy field: one by one
     allocate (tracks%model, source=model)
-    call ens_run(tracks, nt, out, 4*ns, 0, fault='track')
+    call ens_run(tracks, nt, out, 4*ns, 0, fault='track', chunk=merge(MAX_LANES, 1, tracks%lanes))
     state = reshape(out%r, [4, ns, nt])
     st = out%st
     do j = 1, nt
@@ -203,16 +209,15 @@ contains
     class(integrator_t), allocatable :: ig
     type(sampler_t) :: obs
     real(wp) :: x(4)
+    integer :: st
     xs = ieee_nan()
     call make_integrator(integ, ig, stat, f=model, rtol=rtol, atol=atol)
     if (stat /= TUBES_OK) return
     call obs%start(0.0_wp, dt, x0, ns)
     x = x0
-    stat = TUBES_OK
-    if (ns > 1) call propagate(ig, x, (ns - 1)*dt, stat, observer=obs)
-    xs = ieee_nan()
-    xs(:, 1:obs%n) = obs%x(:, 1:obs%n)
-    if (stat == TUBES_OK .and. obs%n /= ns) stat = TUBES_EINPUT   ! grid mismatch: cannot happen
+    st = TUBES_OK
+    if (ns > 1) call propagate(ig, x, (ns - 1)*dt, st, observer=obs)
+    call frames(obs, ns, st, xs, stat)
   end subroutine one_track
 
   subroutine track_item(self, k, out)
@@ -222,6 +227,47 @@ contains
     call one_track(self%model, self%integ, [self%release(:, k), 0.0_wp, 0.0_wp], self%dt, self%ns, &
                    self%rtol, self%atol, out%r(:, k), out%st(k))
   end subroutine track_item
+
+  !> Track k in a lane: one_track's set-up (the integrator of the choice from t = 0 with rtol and
+  !> atol, the frames' sampler as its observer).
+  subroutine track_start(self, k, lane, stat)
+    class(track_ens_t), intent(inout) :: self
+    integer, intent(in) :: k
+    type(lane_t), intent(inout) :: lane
+    integer, intent(out) :: stat
+    type(sampler_t) :: obs
+    stat = TUBES_OK
+    call lane%setup(self%model, self%integ%h, self%rtol, self%atol)
+    lane%x = [self%release(:, k), 0.0_wp, 0.0_wp]
+    lane%tend = (self%ns - 1)*self%dt
+    call obs%start(0.0_wp, self%dt, lane%x, self%ns)
+    allocate (lane%observer, source=obs)
+  end subroutine track_start
+
+  !> Track k's frames, as one_track's (NaN after the last reached).
+  subroutine track_finish(self, k, lane, out)
+    class(track_ens_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(lane_t), intent(inout) :: lane
+    type(ens_out_t), intent(inout) :: out
+    call frames(lane%observer, self%ns, lane%stat, out%r(:, k), out%st(k))
+  end subroutine track_finish
+
+  !> A track's frames xs (4, ns) from its sampler obs after an integration that ended with stat
+  !> (its status, TUBES_EINPUT if the frames are short of ns on success: cannot happen).
+  subroutine frames(obs, ns, stat, xs, st)
+    class(observer_t), intent(in) :: obs
+    integer, intent(in) :: ns, stat
+    real(wp), intent(out) :: xs(4, ns)
+    integer, intent(out) :: st
+    xs = ieee_nan()
+    st = stat
+    select type (obs)
+    type is (sampler_t)
+      xs(:, 1:obs%n) = obs%x(:, 1:obs%n)
+      if (stat == TUBES_OK .and. obs%n /= ns) st = TUBES_EINPUT   ! grid mismatch: cannot happen
+    end select
+  end subroutine frames
 
   pure real(wp) function ieee_nan() result(v)
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan

@@ -28,14 +28,16 @@ module tubes_flux
   use tubes_hamiltonian, only: hamiltonian_t, quadratic_parts, veff, quadratic_in_p
   use tubes_equilibria, only: equilibrium_t, neck_normal, nhim_reach, gate_holds_nhim
   use tubes_integrator, only: integrator_t, observer_t, propagate
-  use tubes_methods, only: integ_choice_t, make_integrator
+  use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor
   use tubes_quad, only: rng_uniform
   use tubes_ensemble, only: ensemble_t, ens_out_t, ens_run, ens_agree
+  use tubes_lanes, only: lane_t, lane_jobs_t
   implicit none
   private
 
   integer, parameter :: MAXN = 3
   integer, parameter :: NSTAR = 64     !! points checked on the segment from the saddle to a sample
+  integer, parameter :: FLUX_CHUNK = 64 !! integrations per call of run_lanes (a thread's unit of work)
 
   !> An observer that stops an integration with a class for it (outcome_of).
   type, abstract, extends(observer_t) :: classifier_t
@@ -61,22 +63,35 @@ module tubes_flux
     procedure :: on_step => transit_on_step
   end type transit_t
 
-  !> The flux's samples as an ensemble (tubes_ensemble): item i's weighted class (its reals: val,
-  !> then with a section its state, 2N), its class (its integer: 1, -1, 0, 2, or 3 outside the
-  !> shell). The components are flux_sampled's set-up.
-  type, extends(ensemble_t) :: flux_ens_t
+  !> The flux's samples, first pass (tubes_ensemble): sample i's point and weight, no integration.
+  !> Its reals: w, then its state x (2N; NaN where it has none), its integer: 0 (to integrate) or
+  !> 3 (outside the shell). The components are flux_sampled's set-up.
+  type, extends(ensemble_t) :: flux_pts_t
     class(hamiltonian_t), allocatable :: model
     integer :: nd = 0
     real(wp), allocatable :: u(:)             !! the uniforms, 2 (N - 1) per sample
     real(wp), allocatable :: box(:, :)        !! the box of Q' (2, N - 1)
-    real(wp) :: r(MAXN, MAXN) = 0, q0(MAXN) = 0, energy = 0, cball = 0, t_max = 0, tol = 0
-    logical :: section = .false., natural = .false.
-    type(transit_t) :: tobs
-    type(slab_t) :: slab
+    real(wp) :: r(MAXN, MAXN) = 0, q0(MAXN) = 0, energy = 0, cball = 0
+  contains
+    procedure :: item => point_item
+  end type flux_pts_t
+
+  !> The flux's samples, second pass: the integrations that classify them, one item each (a
+  !> sample's future, and off the section its past: two items), as outcome_of integrates them; in
+  !> lanes with the Taylor method (tubes_lanes). Item j's integer: the class obs gives (0: none by
+  !> tend), its status: outcome_of's.
+  type, extends(lane_jobs_t) :: flux_runs_t
+    class(hamiltonian_t), allocatable :: model
+    class(classifier_t), allocatable :: obs   !! the classifier (slab_t or transit_t), as it starts
+    real(wp), allocatable :: x0(:, :)         !! the start states (2N, items)
+    real(wp), allocatable :: tend(:)          !! the end times (items): t_max, or -t_max (the past)
+    real(wp) :: tol = 0
     type(integ_choice_t) :: integ
   contains
-    procedure :: item => flux_item
-  end type flux_ens_t
+    procedure :: item => run_item
+    procedure :: start => run_start
+    procedure :: finish => run_finish
+  end type flux_runs_t
 
   !> What flux_sampled found.
   type, public :: flux_result_t
@@ -253,11 +268,12 @@ contains
     real(wp), intent(in), optional :: plane_c
     real(wp) :: r(MAXN, MAXN), energy, vol, ex(2), cball, q0(MAXN), sw
     real(wp), allocatable :: u(:), val(:)
-    integer, allocatable :: cls(:), st(:)
-    integer :: nd, m, j, k, rv(2*MAXN)
+    integer, allocatable :: cls(:), st(:), todo(:)
+    integer :: nd, m, j, k, rv(2*MAXN), nper, fw, bw, sf, sb
     logical :: section, natural
-    type(flux_ens_t) :: ens
-    type(ens_out_t) :: out
+    type(flux_pts_t) :: pts
+    type(flux_runs_t) :: runs
+    type(ens_out_t) :: out, oruns
     type(slab_t) :: slab
     type(transit_t) :: tobs
     stat = TUBES_EINPUT
@@ -367,18 +383,75 @@ contains
       call ens_agree(slab%origin)
       slab%normal(1:nd) = r(1, 1:nd)
       slab%dist = gate
-      val = 0
-      cls = 0
-      st = TUBES_OK
-      ! the samples are dealt out over MPI ranks and threads (tubes_ensemble)
-      ens = flux_ens_t(nd=nd, u=u, box=res%box, r=r, q0=q0, energy=energy, cball=cball, t_max=t_max, tol=tol, &
-                       section=section, natural=natural, tobs=tobs, slab=slab, integ=integ)
-      allocate (ens%model, source=model)
-      call ens_run(ens, n, out, 1 + merge(2*nd, 0, section), 1)
-      val = out%r(1, :)
-      cls = out%i(1, :)
+      ! the samples are dealt out over MPI ranks and threads (tubes_ensemble): first their points
+      pts%nd = nd
+      pts%u = u
+      pts%box = res%box
+      pts%r = r
+      pts%q0 = q0
+      pts%energy = energy
+      pts%cball = cball
+      allocate (pts%model, source=model)
+      call ens_run(pts, n, out, 1 + 2*nd, 1)
       st = out%st
+      cls = out%i(1, :)
       if (section) res%x = out%r(2:, :)
+      ! then their integrations, in lanes with the Taylor method: each point inside the shell
+      ! followed forwards; off the section its past too (natural: the future of (q, -p); else
+      ! followed backwards), the item after its future's
+      todo = pack([(j, j=1, n)], st == TUBES_OK .and. cls == 0)
+      nper = merge(1, 2, section)
+      runs%lanes = uses_taylor(integ)
+      runs%tol = tol
+      runs%integ = integ
+      allocate (runs%model, source=model)
+      if (section) then
+        allocate (runs%obs, source=tobs)
+      else
+        allocate (runs%obs, source=slab)
+      end if
+      allocate (runs%x0(2*nd, nper*size(todo)), runs%tend(nper*size(todo)))
+      do j = 1, size(todo)
+        runs%x0(:, nper*(j - 1) + 1) = out%r(2:, todo(j))
+        runs%tend(nper*(j - 1) + 1) = t_max
+        if (section) cycle
+        runs%x0(:, 2*j) = out%r(2:, todo(j))
+        runs%tend(2*j) = -t_max
+        if (natural) then         ! the past of (q, p) is the future of (q, -p)
+          runs%x0(nd + 1:, 2*j) = -runs%x0(nd + 1:, 2*j)
+          runs%tend(2*j) = t_max
+        end if
+      end do
+      call ens_run(runs, size(runs%tend), oruns, 0, 1, chunk=merge(FLUX_CHUNK, 1, runs%lanes))
+      val = 0
+      do j = 1, size(todo)
+        k = todo(j)
+        fw = oruns%i(1, nper*(j - 1) + 1)
+        sf = oruns%st(nper*(j - 1) + 1)
+        if (section) then          ! val = w, cls = 1 transit, -1 return, 2 undecided
+          if (sf /= TUBES_OK) then
+            st(k) = sf
+            cycle
+          end if
+          cls(k) = merge(2, fw, fw == 0)
+          val(k) = out%r(1, k)
+          cycle
+        end if
+        bw = oruns%i(1, 2*j)
+        sb = oruns%st(2*j)
+        if (sf /= TUBES_OK .or. sb /= TUBES_OK) then
+          st(k) = merge(sf, sb, sf /= TUBES_OK)
+          cycle
+        end if
+        if (fw == 0 .or. bw == 0) then
+          cls(k) = 2
+        else if (fw == 1 .and. bw == -1) then
+          cls(k) = 1
+        else if (fw == -1 .and. bw == 1) then
+          cls(k) = -1
+        end if
+        if (cls(k) == 1 .or. cls(k) == -1) val(k) = cls(k)*out%r(1, k)
+      end do
       if (any(st /= TUBES_OK)) then
         stat = st(findloc(st /= TUBES_OK, .true., dim=1))
         return
@@ -411,23 +484,21 @@ contains
 
   end subroutine flux_sampled
 
-  !> Sample k: its weight times its class into val(k); cls(k) = 1, -1, 0, 2 (undecided) or
-  !> 3 (outside the shell).
-  subroutine flux_item(self, k, out)
-    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan
-    class(flux_ens_t), intent(in) :: self
+  !> Sample k's point (flux_pts_t): its weight w into out%r(1, k), its state (q, p) on the branch
+  !> dQ1/dt > 0 into out%r(2:, k) (NaN where none); out%i(1, k) = 3 outside the shell, else 0
+  !> (its integrations follow: flux_runs_t).
+  subroutine point_item(self, k, out)
+    class(flux_pts_t), intent(in) :: self
     integer, intent(in) :: k
     type(ens_out_t), intent(inout) :: out
     real(wp) :: q(self%nd), a(self%nd, self%nd), ar(self%nd, self%nd), s(self%nd - 1, self%nd - 1), &
-                l(self%nd - 1, self%nd - 1), pp(self%nd - 1), bigp(self%nd), p(self%nd), x(2*self%nd), v, w, &
+                l(self%nd - 1, self%nd - 1), pp(self%nd - 1), bigp(self%nd), p(self%nd), v, w, &
                 qa, qb, qc, rad, uu(2*(self%nd - 1)), pc(self%nd)
-    integer :: fw, bw, sf, sb, j2, i
+    integer :: j2, i
     i = k
-    if (self%section) out%r(2:, i) = ieee_value(1.0_wp, ieee_quiet_nan)
+    out%r(2:, i) = ieee_value(1.0_wp, ieee_quiet_nan)
     associate (model => self%model, nd => self%nd, u => self%u, q0 => self%q0, r => self%r, &
-               energy => self%energy, cball => self%cball, section => self%section, natural => self%natural, &
-               tobs => self%tobs, slab => self%slab, t_max => self%t_max, tol => self%tol, integ => self%integ, &
-               val => out%r(1, :), cls => out%i(1, :), st => out%st, resx => out%r(2:, :))
+               energy => self%energy, cball => self%cball, cls => out%i(1, :), st => out%st)
     uu = u(2*(nd - 1)*(i - 1) + 1:2*(nd - 1)*i)
     q = q0(1:nd)
     do j2 = 2, nd
@@ -481,39 +552,49 @@ contains
     bigp(1) = (-qb + sqrt(max(0.0_wp, qb*qb - 4*qa*qc)))/(2*qa)
     bigp(2:nd) = pp
     p = pc + matmul(transpose(r(1:nd, 1:nd)), bigp)    ! the ellipsoid's centre pc (gyroscopic)
-    x(1:nd) = q
-    x(nd + 1:2*nd) = p
-    if (section) then
-      resx(:, i) = x
-      call outcome_of(model, tobs, x, t_max, tol, integ, fw, sf)
-      if (sf /= TUBES_OK) then
-        st(i) = sf
-        return
-      end if
-      cls(i) = merge(2, fw, fw == 0)
-      val(i) = w
-      return
-    end if
-    call outcome_of(model, slab, x, t_max, tol, integ, fw, sf)
-    if (natural) then              ! the past of (q, p) is the future of (q, -p)
-      x(nd + 1:2*nd) = -p
-      call outcome_of(model, slab, x, t_max, tol, integ, bw, sb)
-    else                           ! followed backwards
-      call outcome_of(model, slab, x, -t_max, tol, integ, bw, sb)
-    end if
-    if (sf /= TUBES_OK .or. sb /= TUBES_OK) then
-      st(i) = merge(sf, sb, sf /= TUBES_OK)
-      return
-    end if
-    if (fw == 0 .or. bw == 0) then
-      cls(i) = 2
-    else if (fw == 1 .and. bw == -1) then
-      cls(i) = 1
-    else if (fw == -1 .and. bw == 1) then
-      cls(i) = -1
-    end if
-    if (cls(i) == 1 .or. cls(i) == -1) val(i) = cls(i)*w
+    out%r(1, i) = w
+    out%r(2:nd + 1, i) = q
+    out%r(nd + 2:2*nd + 1, i) = p
     end associate
-  end subroutine flux_item
+  end subroutine point_item
+
+  !> Integration k (flux_runs_t) item by item: outcome_of's class and status.
+  subroutine run_item(self, k, out)
+    class(flux_runs_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(ens_out_t), intent(inout) :: out
+    call outcome_of(self%model, self%obs, self%x0(:, k), self%tend(k), self%tol, self%integ, out%i(1, k), &
+                    out%st(k))
+  end subroutine run_item
+
+  !> Integration k in a lane: outcome_of's set-up (the integrator of the choice with rtol = atol =
+  !> tol from t = 0, a fresh copy of the classifier as its observer).
+  subroutine run_start(self, k, lane, stat)
+    class(flux_runs_t), intent(inout) :: self
+    integer, intent(in) :: k
+    type(lane_t), intent(inout) :: lane
+    integer, intent(out) :: stat
+    stat = TUBES_OK
+    call lane%setup(self%model, self%integ%h, self%tol, self%tol)
+    lane%x = self%x0(:, k)
+    lane%tend = self%tend(k)
+    allocate (lane%observer, source=self%obs)
+  end subroutine run_start
+
+  !> Integration k's class and status, as outcome_of's.
+  subroutine run_finish(self, k, lane, out)
+    class(flux_runs_t), intent(in) :: self
+    integer, intent(in) :: k
+    type(lane_t), intent(inout) :: lane
+    type(ens_out_t), intent(inout) :: out
+    out%i(1, k) = 0
+    out%st(k) = lane%stat
+    if (lane%stat < 0) return
+    out%st(k) = TUBES_OK
+    select type (obs => lane%observer)
+    class is (classifier_t)
+      out%i(1, k) = obs%outcome
+    end select
+  end subroutine run_finish
 end module tubes_flux
 
