@@ -522,12 +522,13 @@ contains
     real(wp), intent(in) :: de
     real(wp), intent(out) :: t, end_de
     logical, intent(out) :: ok
-    type(orbit_t) :: orbs(1)
+    type(orbit_t), allocatable :: orbs(:)   ! (a local array: gfortran 12 -O1 -fcheck=all warned on its initialiser)
     integer :: reason, st
     end_de = -1
     t = c%t_po
     ok = .true.
     if (de <= 0 .and. .not. c%away) return
+    allocate (orbs(1))
     call family_at(c%st, c%model, c%eqs, c%isad, [de], c%opts, orbs, end_de, reason, st, c%stores)
     ok = st == TUBES_OK .and. orbs(1)%converged
     if (orbs(1)%off_branch .and. c%off_branch < 0) c%off_branch = de

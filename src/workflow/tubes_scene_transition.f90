@@ -442,7 +442,7 @@ contains
     character(:), allocatable :: m
     type(study_t) :: plain
     type(orbit_opts_t) :: oo
-    type(orbit_t) :: orbs(1)
+    type(orbit_t), allocatable :: orbs(:)   ! (a local array: gfortran 12 -O1 -fcheck=all warned on its initialiser)
     class(hamiltonian_t), allocatable :: model
     type(equilibrium_t), allocatable :: eqs(:)
     real(wp) :: end_de
@@ -452,6 +452,7 @@ contains
     oo = orbit_opts_t(n_segments=st%n_segments, tol=st%orb_tol, rtol=st%orb_rtol, atol=st%orb_atol, &
                       max_iter=o%orb_max_iter, n_samples=o%orb_n_samples, family=st%family, local=local, &
                       integ=st%integ)
+    allocate (orbs(1))
     call study_family(plain, [de], oo, model, eqs, isad, orbs, end_de, reason, stat, stores)
     if (stat < 0) then
       end_de = -1
