@@ -598,12 +598,18 @@ contains
     v = model%energy(x) - dot_product(pc, matmul(a, pc))/2
   end subroutine quadratic_parts
 
-  !> V_eff(q) (quadratic_parts); +huge where H is not defined.
+  !> V_eff(q) (quadratic_parts); +huge where H is not defined. A natural model's is its potential,
+  !> taken directly (quadratic_parts' value, without the kinetic matrix it would build and discard).
   real(wp) function veff(model, q) result(v)
     class(hamiltonian_t), intent(in) :: model
     real(wp), intent(in) :: q(:)
     real(wp) :: a(size(q), size(q)), pc(size(q))
     integer :: st
+    select type (model)
+    class is (natural_t)
+      v = model%potential(q)
+      return
+    end select
     call quadratic_parts(model, q, a, pc, v, st)
     if (st /= 0) v = huge(1.0_wp)
   end function veff
