@@ -139,18 +139,14 @@ const nml_var tubes_nml_vars[] = {
     {"section", "value", NML_REAL, 1, "units of q", "the system's", "finite", "kind = 'plane': the level c of q_k = c"},
     {"section", "direction", NML_INT, 1, "-", "the system's", "-1, 1",
      "kind = 'plane': the sign of dq_k/dt at the crossings"},
-    {"tubes", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "10, 100", "> 0, increasing", "excess energies of the tube cuts"},
-    TUBES_REGISTRY_ROWS_TUBES   /* kind, eps, area_tol, t_max, n_init */
+    TUBES_REGISTRY_ROWS_TUBES   /* de, kind, eps, area_tol, t_max, n_init */
     {"tubes", "n_max", NML_INT, 1, "-", "8192", "n_init .. 1000000", "seeds at most"},
-    {"transition", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 2, 5, ..., 700, 750", "> 0, increasing",
-     "excess energies of p_trans(dE)"},
-    TUBES_REGISTRY_ROWS_TRANSITION   /* area_tol */
+    TUBES_REGISTRY_ROWS_TRANSITION   /* every variable */
     TUBES_REGISTRY_ROWS_MONTECARLO   /* de .. t_max */
     {"montecarlo", "gate", NML_REAL, 1, "units of q", "the system's (1.5 cm for the ball)", "> 0",
      "a point has transited when it is this far past the saddle along its reaction coordinate"},
     TUBES_REGISTRY_ROWS_MONTECARLO_2   /* area_tol */
-    {"sections", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "100, 500", "> 0, increasing", "excess energies of the maps"},
-    TUBES_REGISTRY_ROWS_SECTIONS   /* n_seeds, n_iter, t_max */
+    TUBES_REGISTRY_ROWS_SECTIONS   /* every variable */
     TUBES_REGISTRY_ROWS_EXPERIMENT   /* n_tracks, duration */
     {"experiment", "camera_rate", NML_REAL, 1, "Hz", "50", "> 0, duration*camera_rate <= 1e6",
      "frames per second"},
@@ -162,9 +158,7 @@ const nml_var tubes_nml_vars[] = {
     TUBES_REGISTRY_ROWS_EXPERIMENT_3   /* damping_ratio, rolling_resistance, seed */
     {"experiment", "csv", NML_STRING, 1, "-", "''", "a writable path or ''",
      "also write the tracks as CSV (track,t,x,y) to this file; '' = no CSV"},
-    {"flux", "de", NML_REAL, TUBES_MAXDE, "energy", "the &transition list", "> 0, increasing",
-     "excess energies of the flux"},
-    TUBES_REGISTRY_ROWS_FLUX   /* n_samples, seed, t_max */
+    TUBES_REGISTRY_ROWS_FLUX   /* de, n_samples, seed, t_max */
     {"flux", "gate", NML_REAL, 1, "units of q", "the &montecarlo gate", "> 0",
      "half-width of the slab around the dividing surface that a passage crosses"},
     TUBES_REGISTRY_ROWS_FLUX_2   /* tol */
@@ -1179,6 +1173,18 @@ static int check_registered(const char *path, const tubes_config_t *c, const nml
     int ok = (reg[k].lo_open ? x > reg[k].lo : x >= reg[k].lo) && (reg[k].hi_open ? x < reg[k].hi : x <= reg[k].hi);
     if (!ok) n += bad(path, c, w, reg[k].group, reg[k].name, err, "", x);
   }
+  /* the lists of excess energies; one whose default is another's list only where the file sets it */
+  static const struct {
+    const char *group, *name;
+    size_t offset, count;
+    int only_set;
+  } lst[] = {TUBES_REGISTRY_LISTS};
+  for (int k = 0; k < TUBES_REGISTRY_NL; k++) {
+    int nde;
+    memcpy(&nde, (const char *)c + lst[k].count, sizeof nde);
+    if (!lst[k].only_set || line_of(w, lst[k].group, lst[k].name))
+      n += check_list(path, c, w, lst[k].group, (const double *)((const char *)c + lst[k].offset), nde, err);
+  }
   /* the strings: one of their values (the allowed text's, ", " between them) */
   static const struct {
     const char *group, *name;
@@ -1321,15 +1327,11 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
             line_or_group(w, "orbits", "family"), c->orb_family, c->ndof > 1 ? c->ndof - 1 : 1, c->system, c->ndof);
     n++;
   }
-  n += check_list(path, c, w, "tubes", c->tub_de, c->tub_nde, err);
-  n += check_list(path, c, w, "transition", c->tra_de, c->tra_nde, err);
-  n += check_list(path, c, w, "sections", c->pm_de, c->pm_nde, err);
   if (!(c->tub_n_max >= c->tub_n_init && c->tub_n_max <= 1000000)) n += bad(path, c, w, "tubes", "n_max", err, "", c->tub_n_max);
   n += check_registered(path, c, w, err);
   if (c->nparams >= 0 && !(c->mc_gate > 0 && c->mc_gate < DBL_MAX))
     n += bad(path, c, w, "montecarlo", "gate", err, "", c->mc_gate);
-  /* &flux de and gate not set in the file are &transition's de and &montecarlo's gate, checked there */
-  if (line_of(w, "flux", "de")) n += check_list(path, c, w, "flux", c->flux_de, c->flux_nde, err);
+  /* &flux gate not set in the file is &montecarlo's gate, checked there (de: check_registered) */
   if (c->nparams >= 0 && line_of(w, "flux", "gate") && !(c->flux_gate > 0 && c->flux_gate < DBL_MAX))
     n += bad(path, c, w, "flux", "gate", err, "", c->flux_gate);
   n += validate_scan(path, c, w, err);

@@ -27,11 +27,8 @@ module tubes_nml
     real(c_double) :: orb_de(MAXDE) = UNSET
     real(c_double) :: sec_angle = UNSET
     integer :: sec_pth_sign = UNSET_INT
-    real(c_double) :: tub_de(MAXDE) = UNSET
     integer :: tub_n_max = 8192
-    real(c_double) :: tra_de(MAXDE) = UNSET
     real(c_double) :: mc_gate = UNSET
-    real(c_double) :: pm_de(MAXDE) = UNSET
     real(c_double) :: exp_camera_rate = 50, exp_de_min = 1000, exp_de_max = 3000
     character(LPATH) :: exp_csv = ''
     character(LNAME) :: system = 'rolling_ball'
@@ -47,7 +44,6 @@ module tubes_nml
     character(LNAME) :: surface = 'fourwell'
     character(LNAME) :: dissipation = ''
     character(LNAME) :: model_name = ''   !! the library's name of the model (written only)
-    real(c_double) :: flux_de(MAXDE) = UNSET
     integer :: flux_order = 0, flux_n_cut = 16
     real(c_double) :: flux_gate = UNSET
     integer :: orb_family = 1
@@ -100,15 +96,9 @@ contains
     cfg%orb_nperiods = findloc(v%orb_periods /= UNSET, .true., dim=1, back=.true.)
     cfg%orb_periods = 0
     cfg%orb_periods(1:cfg%orb_nperiods) = v%orb_periods(1:cfg%orb_nperiods)
-    call put_list(v%tub_de, cfg%tub_de, cfg%tub_nde, [10.0_c_double, 100.0_c_double])
     cfg%tub_n_max = v%tub_n_max
-    call put_list(v%tra_de, cfg%tra_de, cfg%tra_nde, [1.0_c_double, 2.0_c_double, 5.0_c_double, &
-      10.0_c_double, 20.0_c_double, 50.0_c_double, 100.0_c_double, 200.0_c_double, 300.0_c_double, &
-      400.0_c_double, 500.0_c_double, 600.0_c_double, 700.0_c_double, 750.0_c_double])
-    call put_list(v%flux_de, cfg%flux_de, cfg%flux_nde, cfg%tra_de(1:cfg%tra_nde))
     cfg%flux_order = v%flux_order
     cfg%flux_n_cut = v%flux_n_cut
-    call put_list(v%pm_de, cfg%pm_de, cfg%pm_nde, [100.0_c_double, 500.0_c_double])
     include 'nml_to_c.inc'   ! the registered variables
     cfg%exp_camera_rate = v%exp_camera_rate
     cfg%exp_de_min = v%exp_de_min; cfg%exp_de_max = v%exp_de_max
@@ -460,14 +450,10 @@ contains
     v%orb_periods(1:cfg%orb_nperiods) = cfg%orb_periods(1:cfg%orb_nperiods)
     if (cfg%orb_de_given == 0 .and. cfg%orb_njacobi + cfg%orb_nperiods > 0) v%orb_de = UNSET   ! the default's not written
     v%sec_angle = cfg%sec_angle; v%sec_pth_sign = cfg%sec_pth_sign
-    v%tub_de = cfg%tub_de
     v%tub_n_max = cfg%tub_n_max
-    v%tra_de = cfg%tra_de
     v%mc_gate = cfg%mc_gate
-    v%flux_de = cfg%flux_de
     v%flux_order = cfg%flux_order; v%flux_gate = cfg%flux_gate
     v%flux_n_cut = cfg%flux_n_cut
-    v%pm_de = cfg%pm_de
     include 'nml_from_c.inc'   ! the registered variables
     v%exp_camera_rate = cfg%exp_camera_rate
     v%exp_de_min = cfg%exp_de_min; v%exp_de_max = cfg%exp_de_max
@@ -824,17 +810,13 @@ contains
       v%sec_index = index; v%sec_value = value; v%sec_direction = direction
     end subroutine io_section
     subroutine io_tubes()
-      real(c_double), allocatable :: de(:)
       integer :: n_max
-      namelist /tubes/ de
-      include 'nml_tubes_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): kind .. n_init
+      include 'nml_tubes_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): de .. n_init
       namelist /tubes/ n_max
-      call list_io(v%tub_de, de)
       n_max = v%tub_n_max
       include 'nml_tubes_in.inc'
       if (mode == 'r') then
         read (u, nml=tubes, iostat=ios, iomsg=iomsg)
-        v%tub_de = de
       else
         write (u, nml=tubes, iostat=ios, iomsg=iomsg)
       end if
@@ -842,14 +824,10 @@ contains
       include 'nml_tubes_out.inc'
     end subroutine io_tubes
     subroutine io_transition()
-      real(c_double), allocatable :: de(:)
-      namelist /transition/ de
-      include 'nml_transition_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
-      call list_io(v%tra_de, de)
+      include 'nml_transition_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): all
       include 'nml_transition_in.inc'
       if (mode == 'r') then
         read (u, nml=transition, iostat=ios, iomsg=iomsg)
-        v%tra_de = de
       else
         write (u, nml=transition, iostat=ios, iomsg=iomsg)
       end if
@@ -871,21 +849,17 @@ contains
       include 'nml_montecarlo_out.inc'
     end subroutine io_montecarlo
     subroutine io_flux()
-      real(c_double), allocatable :: de(:)
       integer :: order, n_cut
       real(c_double) :: gate
-      namelist /flux/ de
-      include 'nml_flux_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): n_samples .. t_max
+      include 'nml_flux_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): de .. t_max
       namelist /flux/ gate
       include 'nml_flux_decl_2.inc'   ! tol
       namelist /flux/ order, n_cut
       include 'nml_flux_decl_3.inc'   ! cut_eps
-      call list_io(v%flux_de, de)
       order = v%flux_order; gate = v%flux_gate; n_cut = v%flux_n_cut
       include 'nml_flux_in.inc'
       if (mode == 'r') then
         read (u, nml=flux, iostat=ios, iomsg=iomsg)
-        v%flux_de = de
       else
         write (u, nml=flux, iostat=ios, iomsg=iomsg)
       end if
@@ -916,14 +890,10 @@ contains
       include 'nml_scan_out.inc'
     end subroutine io_scan
     subroutine io_sections()
-      real(c_double), allocatable :: de(:)
-      namelist /sections/ de
-      include 'nml_sections_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): n_seeds .. t_max
-      call list_io(v%pm_de, de)
+      include 'nml_sections_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): all
       include 'nml_sections_in.inc'
       if (mode == 'r') then
         read (u, nml=sections, iostat=ios, iomsg=iomsg)
-        v%pm_de = de
       else
         write (u, nml=sections, iostat=ios, iomsg=iomsg)
       end if

@@ -62,12 +62,28 @@ pending {
   if (!match(line, /::/)) fail("an annotation is followed by the field's declaration")
   type = substr(line, 1, RSTART - 1); field = trim(substr(line, RSTART + 2)); gsub(/[ \t]/, "", type)
   len = ""
-  if (type == "character(kind=c_char)" && match(field, /^[A-Za-z_][A-Za-z_0-9]*\([A-Z]+\)$/)) {
+  if ((type == "character(kind=c_char)" || type == "real(c_double)") && match(field, /^[A-Za-z_][A-Za-z_0-9]*\([A-Z]+\)$/)) {
     len = field; sub(/^[^(]*\(/, "", len); sub(/\)$/, "", len); sub(/\(.*/, "", field)
   }
-  if (field ~ /[,(]/) fail("an annotated declaration declares one scalar field (or one string, NAME(LENGTH))")
-  isint = 0; isstr = 0; islog = 0
-  if (len != "") {
+  if (field ~ /[,(]/) fail("an annotated declaration declares one scalar field (or one string or list, NAME(LENGTH))")
+  isint = 0; isstr = 0; islog = 0; islist = 0; shown = pd; cnt = ""; fdl = ""; lset = 0
+  if (len != "" && type == "real(c_double)") {   # a list of excess energies and its count
+    if (pa != "> 0, increasing") fail("a list's allowed is '> 0, increasing' (the reader's check_list), not '" pa "'")
+    cnt = field; sub(/_[^_]*$/, "", cnt); cnt = cnt "_n" substr(field, length(cnt) + 2)   # tub_de: tub_nde
+    if (pd ~ /^[-+0-9.eE]+(, [-+0-9.eE]+)*$/) {
+      nv = split(pd, r, /, /); fdl = ""
+      for (k = 1; k <= nv; k++)   # four a line: Fortran's lines end at 132 characters
+        fdl = fdl (k == 1 ? "" : k % 4 == 1 ? ", &\n      " : ", ") r[k] (r[k] ~ /[.eE]/ ? "" : ".0") "_c_double"
+      fdl = "[" fdl "]"
+      if (nv > 5) shown = r[1] ", " r[2] ", " r[3] ", ..., " r[nv - 1] ", " r[nv]   # --help's text
+    } else if (match(pd, /^the &[a-z]+ list$/)) {   # another group's list: checked only where the file sets this one
+      og = substr(pd, 6); sub(/ list$/, "", og)
+      for (k = 1; k <= n; k++) if (G[k] == og && LIST[k]) fdl = "cfg%" F[k] "(1:cfg%" CNT[k] ")"
+      if (fdl == "") fail("the list of &" og " is not registered before this one")
+      lset = 1
+    } else fail("a list's default '" pd "' is neither numbers separated by ', ' nor 'the &group list'")
+    ct = "NML_REAL"; ft = "real(c_double), allocatable"; fd = "UNSET"; islist = 1
+  } else if (len != "") {
     if (pd !~ /^'[^']*'$/) fail("a string's default " pd " is not quoted ('...')")
     if (pa !~ /^[^,]+(, [^,]+)*$/) fail("a string's allowed '" pa "' is not its values separated by ', '")
     ct = "NML_STRING"; ft = "character(" len ")"; fd = pd; isstr = 1
@@ -86,7 +102,7 @@ pending {
   else fail("type " type " is not registered (real(c_double), integer(c_int), integer(c_int64_t), character(kind=c_char) NAME(LENGTH))")
   lo = "-INFINITY"; hi = "INFINITY"; lo_open = 0; hi_open = 0
   a = pa
-  if (isstr || islog) ;
+  if (isstr || islog || islist) ;
   else if (isint && a ~ /^[-+]?[0-9]+(, [-+]?[0-9]+)+$/) {   # an integer's values: consecutive, a range
     nv = split(a, r, /, /); lo = r[1] + 0; hi = r[nv] + 0
     for (k = 2; k <= nv; k++) if (r[k] + 0 != r[k - 1] + 1) fail("an integer's values '" a "' are not consecutive")
@@ -105,6 +121,7 @@ pending {
   n++
   G[n] = pg; N[n] = pn; U[n] = pu; D[n] = pd; A[n] = pa; T[n] = pt; F[n] = field; CT[n] = ct; FT[n] = ft; FD[n] = fd
   LO[n] = lo; HI[n] = hi; LOO[n] = lo_open; HIO[n] = hi_open; INT[n] = isint; STR[n] = isstr; LOG[n] = islog
+  LIST[n] = islist; LEN[n] = len; CNT[n] = cnt; FDL[n] = fdl; LSET[n] = lset; SHOWN[n] = shown
   R[n] = run[pg] + 0; runlen[pg, R[n]]++; if (R[n] > nrun[pg]) nrun[pg] = R[n]
   pending = 0
   next
@@ -122,7 +139,8 @@ END {
       printf "#define TUBES_REGISTRY_ROWS_%s%s", toupper(g), sfx(rr) > h
       for (i = 1; i <= n; i++)
         if (G[i] == g && R[i] == rr)
-          printf " \\\n  {%s, %s, %s, 1, %s, %s, %s, %s},", cstr(G[i]), cstr(N[i]), CT[i], cstr(U[i]), cstr(D[i]),
+          printf " \\\n  {%s, %s, %s, %s, %s, %s, %s, %s},", cstr(G[i]), cstr(N[i]), CT[i], LIST[i] ? "TUBES_" LEN[i] : 1,
+                 cstr(U[i]), cstr(SHOWN[i]),
                  cstr(A[i]), cstr(T[i]) > h
       print "" > h
     }
@@ -130,7 +148,7 @@ END {
   nr = 0; ns = 0
   printf "#define TUBES_REGISTRY_RANGES" > h
   for (i = 1; i <= n; i++)
-    if (!STR[i] && !LOG[i]) {
+    if (!STR[i] && !LOG[i] && !LIST[i]) {
       printf " \\\n  {%s, %s, offsetof(tubes_config_t, %s), %d, %s, %s, %d, %d},", cstr(G[i]), cstr(N[i]), F[i], INT[i],
              LO[i], HI[i], LOO[i], HIO[i] > h
       nr++
@@ -145,12 +163,28 @@ END {
     }
   if (ns == 0) printf " \\\n  {NULL, NULL, 0, NULL}," > h
   print "" > h
-  printf "enum { TUBES_REGISTRY_N = %d, TUBES_REGISTRY_NS = %d };\n", nr, ns > h
+  nl = 0
+  printf "#define TUBES_REGISTRY_LISTS" > h   # a list: its values' and its count's offsets, checked only when set
+  for (i = 1; i <= n; i++)
+    if (LIST[i]) {
+      printf " \\\n  {%s, %s, offsetof(tubes_config_t, %s), offsetof(tubes_config_t, %s), %d},", cstr(G[i]), cstr(N[i]),
+             F[i], CNT[i], LSET[i] > h
+      nl++
+    }
+  if (nl == 0) printf " \\\n  {NULL, NULL, 0, 0, 0}," > h
+  print "" > h
+  printf "enum { TUBES_REGISTRY_N = %d, TUBES_REGISTRY_NS = %d, TUBES_REGISTRY_NL = %d };\n", nr, ns, nl > h
   v = dir "/nml_vars.inc"; tc = dir "/nml_to_c.inc"; fc = dir "/nml_from_c.inc"
   print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > v
   print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > tc
   print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > fc
   for (i = 1; i <= n; i++) {
+    if (LIST[i]) {
+      printf "    real(c_double) :: %s(%s) = UNSET\n", F[i], LEN[i] > v
+      printf "    call put_list(v%%%s, cfg%%%s, cfg%%%s, %s)\n", F[i], F[i], CNT[i], FDL[i] > tc
+      printf "    v%%%s = cfg%%%s\n", F[i], F[i] > fc
+      continue
+    }
     printf "    %s :: %s = %s\n", FT[i], F[i], FD[i] > v
     if (STR[i]) {
       printf "    call f_to_c(v%%%s, cfg%%%s)\n", F[i], F[i] > tc
@@ -173,13 +207,18 @@ END {
       print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > de
       for (i = 1; i <= n; i++) {
         if (G[i] != g || R[i] != rr) continue
-        printf "      %s :: %s\n", FT[i], N[i] > de
+        printf "      %s :: %s%s\n", FT[i], N[i], LIST[i] ? "(:)" : "" > de
         printf "      namelist /%s/ %s\n", g, N[i] > de
       }
       close(de)
     }
     for (i = 1; i <= n; i++) {
       if (G[i] != g) continue
+      if (LIST[i]) {   # read: every entry (unset ones too); write: the set ones (list_io)
+        printf "      call list_io(v%%%s, %s)\n", F[i], N[i] > di
+        printf "      if (mode == 'r') v%%%s = %s\n", F[i], N[i] > do_
+        continue
+      }
       printf "      %s = v%%%s\n", N[i], F[i] > di
       printf "      v%%%s = %s\n", F[i], N[i] > do_
     }

@@ -97,7 +97,8 @@ module tubes_config
     integer(c_int) :: orb_n_samples
     real(c_double) :: sec_angle   ! &section
     integer(c_int) :: sec_pth_sign
-    real(c_double) :: tub_de(MAXDE)   ! &tubes
+    !@ &tubes de | (cm/s)^2 | 10, 100 | > 0, increasing | excess energies of the tube cuts
+    real(c_double) :: tub_de(MAXDE)
     integer(c_int) :: tub_nde
     !@ &tubes kind | - | 'stable' | stable, unstable, both | which manifold
     character(kind=c_char) :: tub_kind(LNAME)
@@ -110,7 +111,8 @@ module tubes_config
     !@ &tubes n_init | - | 64 | 8 .. 100000 | seeds of the first round
     integer(c_int) :: tub_n_init
     integer(c_int) :: tub_n_max
-    real(c_double) :: tra_de(MAXDE)   ! &transition
+    !@ &transition de | (cm/s)^2 | 1, 2, 5, 10, 20, 50, 100, 200, 300, 400, 500, 600, 700, 750 | > 0, increasing | excess energies of p_trans(dE)
+    real(c_double) :: tra_de(MAXDE)
     integer(c_int) :: tra_nde
     !@ &transition area_tol | 1 | 1e-8 | 1e-13 .. 1e-2 | relative accuracy of each tube area
     real(c_double) :: tra_area_tol
@@ -126,7 +128,8 @@ module tubes_config
     real(c_double) :: mc_gate
     !@ &montecarlo area_tol | 1 | 1e-8 | 1e-13 .. 1e-2 | relative accuracy of the tube cut the points are sorted by
     real(c_double) :: mc_area_tol
-    real(c_double) :: pm_de(MAXDE)   ! &sections
+    !@ &sections de | (cm/s)^2 | 100, 500 | > 0, increasing | excess energies of the maps
+    real(c_double) :: pm_de(MAXDE)
     integer(c_int) :: pm_nde
     !@ &sections n_seeds | - | 40 | 1 .. 100000 | trajectories per map
     integer(c_int) :: pm_n_seeds
@@ -179,7 +182,8 @@ module tubes_config
     character(kind=c_char) :: model(LNAME), expr_var(LNAME), expr_msg(LMSG), expr_lib(LPATH)
     real(c_double) :: expr_seconds
     integer(c_int) :: expr_hit
-    real(c_double) :: flux_de(MAXDE)   ! &flux (flux_gate resolved like mc_gate)
+    !@ &flux de | energy | the &transition list | > 0, increasing | excess energies of the flux
+    real(c_double) :: flux_de(MAXDE)   ! (flux_gate resolved like mc_gate)
     integer(c_int) :: flux_nde
     !@ &flux n_samples | - | 4000 | 2 .. 1e7 | points on the dividing surface per energy
     integer(c_int) :: flux_n_samples
