@@ -13,7 +13,10 @@
 # A string (character(kind=c_char) :: FIELD(LENGTH)): DEFAULT quoted ('stable'), ALLOWED its values
 # separated by ", " (stable, unstable, both), the reader's check. A logical (integer(c_int), 1 for
 # .true.; the namelist's variable a LOGICAL): DEFAULT .true. or .false., ALLOWED only text (the
-# lexer checks the value). The group's registered
+# lexer checks the value). A list of excess energies (real(c_double) :: X_de(MAXDE), its count the
+# field X_nde): ALLOWED "> 0, increasing" (the reader's check_list), DEFAULT its numbers separated
+# by ", " (--help shows more than five as "1, 2, 5, ..., 700, 750") or "the &GROUP list" (that
+# group's registered list, annotated before it: then checked only where the file sets it). The group's registered
 # variables keep their annotations' order, in the namelist, in the effective namelist and in
 # --help. A variable written by hand that stands between registered ones in its group's order is
 # named by an annotation without '|' (!@ &GROUP NAME: a mark, no field follows it): it ends the
@@ -23,7 +26,8 @@
 # TUBES_REGISTRY_ROWS_<GROUP>_K. It writes into dir:
 #   tubes_registry.h        C: each run's rows of the reader's table (TUBES_REGISTRY_ROWS_<GROUP>[_K]:
 #                           tubes_input.c tubes_nml_vars, --help, messages), each range with the
-#                           field's offset (nml_validate's check) and each string's values
+#                           field's offset (nml_validate's check), each string's values, each
+#                           list's offsets
 #   nml_vars.inc            Fortran: the fields of tubes_nml's vars_t with their defaults
 #   nml_to_c.inc, nml_from_c.inc   the copies between vars_t and tubes_config_t
 #   nml_GROUP_decl[_K].inc, nml_GROUP_in.inc, nml_GROUP_out.inc   per group of GROUPS: the namelist
