@@ -655,23 +655,11 @@ contains
     end subroutine io_equilibria
     subroutine io_trajectory()
       include 'nml_trajectory_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): all
-      include 'nml_trajectory_in.inc'
-      if (mode == 'r') then
-        read (u, nml=trajectory, iostat=ios, iomsg=iomsg)
-      else
-        write (u, nml=trajectory, iostat=ios, iomsg=iomsg)
-      end if
-      include 'nml_trajectory_out.inc'
+      include 'nml_trajectory_io.inc'   ! the copies in, the READ or WRITE, the copies out
     end subroutine io_trajectory
     subroutine io_integrator()
       include 'nml_integrator_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): all
-      include 'nml_integrator_in.inc'
-      if (mode == 'r') then
-        read (u, nml=integrator, iostat=ios, iomsg=iomsg)
-      else
-        write (u, nml=integrator, iostat=ios, iomsg=iomsg)
-      end if
-      include 'nml_integrator_out.inc'
+      include 'nml_integrator_io.inc'   ! the copies in, the READ or WRITE, the copies out
     end subroutine io_integrator
     subroutine io_orbits()
       character(8) :: saddle
@@ -814,24 +802,12 @@ contains
       include 'nml_tubes_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): de .. n_init
       namelist /tubes/ n_max
       n_max = v%tub_n_max
-      include 'nml_tubes_in.inc'
-      if (mode == 'r') then
-        read (u, nml=tubes, iostat=ios, iomsg=iomsg)
-      else
-        write (u, nml=tubes, iostat=ios, iomsg=iomsg)
-      end if
+      include 'nml_tubes_io.inc'   ! the copies in, the READ or WRITE, the copies out
       v%tub_n_max = n_max
-      include 'nml_tubes_out.inc'
     end subroutine io_tubes
     subroutine io_transition()
       include 'nml_transition_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): all
-      include 'nml_transition_in.inc'
-      if (mode == 'r') then
-        read (u, nml=transition, iostat=ios, iomsg=iomsg)
-      else
-        write (u, nml=transition, iostat=ios, iomsg=iomsg)
-      end if
-      include 'nml_transition_out.inc'
+      include 'nml_transition_io.inc'   ! the copies in, the READ or WRITE, the copies out
     end subroutine io_transition
     subroutine io_montecarlo()
       real(c_double) :: gate
@@ -839,14 +815,8 @@ contains
       namelist /montecarlo/ gate
       include 'nml_montecarlo_decl_2.inc'   ! area_tol
       gate = v%mc_gate
-      include 'nml_montecarlo_in.inc'
-      if (mode == 'r') then
-        read (u, nml=montecarlo, iostat=ios, iomsg=iomsg)
-      else
-        write (u, nml=montecarlo, iostat=ios, iomsg=iomsg)
-      end if
+      include 'nml_montecarlo_io.inc'   ! the copies in, the READ or WRITE, the copies out
       v%mc_gate = gate
-      include 'nml_montecarlo_out.inc'
     end subroutine io_montecarlo
     subroutine io_flux()
       integer :: order, n_cut
@@ -857,14 +827,8 @@ contains
       namelist /flux/ order, n_cut
       include 'nml_flux_decl_3.inc'   ! cut_eps
       order = v%flux_order; gate = v%flux_gate; n_cut = v%flux_n_cut
-      include 'nml_flux_in.inc'
-      if (mode == 'r') then
-        read (u, nml=flux, iostat=ios, iomsg=iomsg)
-      else
-        write (u, nml=flux, iostat=ios, iomsg=iomsg)
-      end if
+      include 'nml_flux_io.inc'   ! the copies in, the READ or WRITE, the copies out
       v%flux_order = order; v%flux_gate = gate; v%flux_n_cut = n_cut
-      include 'nml_flux_out.inc'
     end subroutine io_flux
     subroutine io_scan()
       character(LNAME) :: parameter
@@ -891,13 +855,7 @@ contains
     end subroutine io_scan
     subroutine io_sections()
       include 'nml_sections_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): all
-      include 'nml_sections_in.inc'
-      if (mode == 'r') then
-        read (u, nml=sections, iostat=ios, iomsg=iomsg)
-      else
-        write (u, nml=sections, iostat=ios, iomsg=iomsg)
-      end if
-      include 'nml_sections_out.inc'
+      include 'nml_sections_io.inc'   ! the copies in, the READ or WRITE, the copies out
     end subroutine io_sections
     subroutine io_experiment()
       real(c_double) :: camera_rate, de_min, de_max
