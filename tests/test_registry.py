@@ -154,3 +154,21 @@ def test_range_is_the_annotation_s(tmp_path, group, name, kind, default, allowed
         assert f"&{group}: " in msg and name in msg, msg   # the message names the variable
         if kind in ("real", "int", "int64", "string") and "309" not in v:
             assert allowed in msg, msg   # and says what is allowed, in the annotation's words
+
+
+def test_docs_rows_state_the_annotation():
+    """docs/input.md's row of each registered variable states its annotation's default, and (but
+    for a logical, whose allowed is text only) its allowed range in the annotation's words."""
+    rows, group = {}, None
+    for ln in (ROOT / "docs" / "input.md").read_text().splitlines():
+        m = re.match(r"## `&(\w+)`", ln)
+        group = m.group(1) if m else group
+        cells = [c.strip().replace("`", "") for c in ln.split("|")[1:-1]]
+        if len(cells) >= 5 and re.fullmatch(r"\w+", cells[0]):
+            rows[(group, cells[0])] = cells
+    for group, name, kind, default, allowed in REGISTERED:
+        cells = rows.get((group, name))
+        assert cells, f"&{group} {name}: no row in docs/input.md"
+        assert cells[3] in (default, default.strip("'")), f"&{group} {name}: docs default {cells[3]!r}, annotation {default!r}"
+        if kind != "logical":
+            assert allowed in cells[4], f"&{group} {name}: docs allowed {cells[4]!r}, annotation {allowed!r}"
