@@ -1809,7 +1809,7 @@ def _check_integration(who, method, t_end, rtol, atol, h, max_steps, solver, ome
     rtol = _in_range(who, "integrator", "rtol", rtol)
     atol = _in_range(who, "integrator", "atol", atol)
     h = _in_range(who, "integrator", "h", h)
-    max_steps = _args.integer(who, "max_steps", max_steps, lo=1)
+    max_steps = _in_range(who, "integrator", "max_steps", max_steps)
     omega_bind = _args.real(who, "omega_bind", omega_bind, lo=0)   # Tao's binding; 0: its default
     max_iter = _args.integer(who, "max_iter", max_iter, lo=0)      # gauss*; 0: its default
     if method not in METHODS:
@@ -1818,8 +1818,6 @@ def _check_integration(who, method, t_end, rtol, atol, h, max_steps, solver, ome
         raise ValueError(f"method {method!r} is fixed-step: give h > 0")
     if solver not in ("newton", "fixed_point"):
         raise ValueError("solver must be 'newton' or 'fixed_point'")
-    if not max_steps >= 1:
-        raise ValueError(f"max_steps = {max_steps} is out of range: allowed >= 1")
     return t_end, rtol, atol, h, max_steps, omega_bind, max_iter
 
 

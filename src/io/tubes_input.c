@@ -104,25 +104,8 @@ const nml_var tubes_nml_vars[] = {
     {"equilibria", "n_grid", NML_INT, 1, "-", "41", "2 .. 2001, n_grid^N <= 1e6", "Newton starts per axis"},
     {"equilibria", "saddle", NML_STRING, 1, "-", "'' (the &orbits choice)", "a rank-1 saddle's name",
      "the rank-1 saddle the equilibria scene reports in /saddle"},
-    {"trajectory", "x0", NML_REAL, 1, "cm", "4", "finite", "initial x"},
-    {"trajectory", "y0", NML_REAL, 1, "cm", "12.614863819914357", "finite", "initial y"},
-    {"trajectory", "px0", NML_REAL, 1, "cm/s", "0", "finite", "initial p_x (ignored if at_rest)"},
-    {"trajectory", "py0", NML_REAL, 1, "cm/s", "0", "finite", "initial p_y (ignored if at_rest)"},
-    {"trajectory", "at_rest", NML_LOGICAL, 1, "-", ".true.", ".true., .false.",
-     "start from rest at (x0, y0)"},
-    TUBES_REGISTRY_ROWS_TRAJECTORY   /* t_end .. section_level (registered: src/workflow/tubes_config.f90) */
-    {"trajectory", "section_direction", NML_INT, 1, "-", "0", "-1, 0, 1",
-     "theta: sign of p_theta; x, y: sign of dx/dt or dy/dt; 0 both"},
-    {"trajectory", "max_crossings", NML_INT, 1, "-", "10000", "1 .. 10000000", "crossings recorded at most (then the run stops)"},
-    {"trajectory", "stop_at_first", NML_LOGICAL, 1, "-", ".false.", ".true., .false.", "stop at the first crossing"},
-    {"integrator", "method", NML_STRING, 1, "-", "'auto'",
-     "dop853, rk4, tao2, tao4, tao6, gauss4, gauss6, gauss8, gsl_rk8pd, gsl_rk4imp, cvode_adams, arkode_erk8, taylor, auto",
-     "integration method (docs/integrators.md)"},
-    TUBES_REGISTRY_ROWS_INTEGRATOR   /* rtol, atol, h */
-    {"integrator", "max_steps", NML_INT, 1, "-", "10000000", ">= 1", "step budget"},
-    {"integrator", "omega_bind", NML_REAL, 1, "1/s", "200", "> 0", "tao*: binding constant of the extended phase space"},
-    {"integrator", "solver", NML_STRING, 1, "-", "'newton'", "newton, fixed_point", "gauss*: stage equation solver"},
-    {"integrator", "max_iter", NML_INT, 1, "-", "0", "0 .. 1000", "gauss*: iterations per step (0: 10 newton, 100 fixed_point)"},
+    TUBES_REGISTRY_ROWS_TRAJECTORY   /* every variable (registered: src/workflow/tubes_config.f90) */
+    TUBES_REGISTRY_ROWS_INTEGRATOR   /* every variable */
     {"orbits", "saddle", NML_STRING, 1, "-", "the system's (S12 for the ball, L1 for cr3bp)",
      "the name of a rank-1 saddle of the model (docs/models.md)",
      "the rank-1 saddle of every scene that needs one"},
@@ -130,15 +113,7 @@ const nml_var tubes_nml_vars[] = {
      "finite; not with saddle", "choose the rank-1 saddle nearest this configuration point instead"},
     {"orbits", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 10, 100", "> 0, increasing (with guess: any sign)",
      "excess energies dE = E - E_e of the orbits"},
-    {"orbits", "method", NML_STRING, 1, "-", "'single'", "single, multiple",
-     "single shooting of the brake orbit, or multiple shooting"},
-    {"orbits", "n_segments", NML_INT, 1, "-", "8", "2 .. 64", "segments of multiple shooting"},
-    {"orbits", "tol", NML_REAL, 1, "cm, cm/s", "1e-11", "1e-14 .. 1e-4",
-     "Newton tolerance on the periodicity mismatch (and |H - E|/E)"},
-    {"orbits", "rtol", NML_REAL, 1, "1", "1e-13", "1e-15 <= rtol < 1e-4", "integration tolerance (relative)"},
-    {"orbits", "atol", NML_REAL, 1, "state units", "1e-13", "> 0", "integration tolerance (absolute)"},
-    {"orbits", "max_iter", NML_INT, 1, "-", "25", "1 .. 200", "Newton iterations per orbit"},
-    {"orbits", "n_samples", NML_INT, 1, "-", "201", "2 .. 100000", "samples along each orbit in the output"},
+    TUBES_REGISTRY_ROWS_ORBITS   /* method .. n_samples */
     {"orbits", "family", NML_INT, 1, "-", "1",
      "1 .. N-1, 'lyapunov', 'vertical', 'halo_north', 'halo_south', 'axial', 'branch:K'",
      "the Lyapunov family of the saddle's k-th centre frequency (ascending; N = 3: 2 families), the planar "
@@ -164,50 +139,35 @@ const nml_var tubes_nml_vars[] = {
     {"section", "value", NML_REAL, 1, "units of q", "the system's", "finite", "kind = 'plane': the level c of q_k = c"},
     {"section", "direction", NML_INT, 1, "-", "the system's", "-1, 1",
      "kind = 'plane': the sign of dq_k/dt at the crossings"},
-    {"tubes", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "10, 100", "> 0, increasing", "excess energies of the tube cuts"},
-    TUBES_REGISTRY_ROWS_TUBES   /* kind, eps, area_tol, t_max, n_init */
+    TUBES_REGISTRY_ROWS_TUBES   /* de, kind, eps, area_tol, t_max, n_init */
     {"tubes", "n_max", NML_INT, 1, "-", "8192", "n_init .. 1000000", "seeds at most"},
-    {"transition", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 2, 5, ..., 700, 750", "> 0, increasing",
-     "excess energies of p_trans(dE)"},
-    TUBES_REGISTRY_ROWS_TRANSITION   /* area_tol */
-    {"montecarlo", "de", NML_REAL, 1, "(cm/s)^2", "100", "> 0", "excess energy of the samples"},
-    {"montecarlo", "n_samples", NML_INT, 1, "-", "10000", "1 .. 10000000", "points on the section"},
-    {"montecarlo", "seed", NML_INT, 1, "-", "12345", ">= 0", "seed of GSL's MT19937"},
-    {"montecarlo", "t_max", NML_REAL, 1, "s", "20", "> 0", "longest integration of a point"},
+    TUBES_REGISTRY_ROWS_TRANSITION   /* every variable */
+    TUBES_REGISTRY_ROWS_MONTECARLO   /* de .. t_max */
     {"montecarlo", "gate", NML_REAL, 1, "units of q", "the system's (1.5 cm for the ball)", "> 0",
      "a point has transited when it is this far past the saddle along its reaction coordinate"},
-    TUBES_REGISTRY_ROWS_MONTECARLO   /* area_tol */
-    {"sections", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "100, 500", "> 0, increasing", "excess energies of the maps"},
-    TUBES_REGISTRY_ROWS_SECTIONS   /* n_seeds, n_iter, t_max */
-    {"experiment", "n_tracks", NML_INT, 1, "-", "120", "1 .. 100000", "trajectories released"},
-    {"experiment", "duration", NML_REAL, 1, "s", "14", "> 0", "length of each track"},
+    TUBES_REGISTRY_ROWS_MONTECARLO_2   /* area_tol */
+    TUBES_REGISTRY_ROWS_SECTIONS   /* every variable */
+    TUBES_REGISTRY_ROWS_EXPERIMENT   /* n_tracks, duration */
     {"experiment", "camera_rate", NML_REAL, 1, "Hz", "50", "> 0, duration*camera_rate <= 1e6",
      "frames per second"},
-    {"experiment", "pixel", NML_REAL, 1, "cm", "0.16", ">= 0",
-     "pixel size: measured positions are multiples of it (0 = no rounding)"},
-    {"experiment", "noise", NML_REAL, 1, "cm", "0.05", ">= 0",
-     "standard deviation of the Gaussian position noise (before rounding)"},
+    TUBES_REGISTRY_ROWS_EXPERIMENT_2   /* pixel, noise */
     {"experiment", "de_min", NML_REAL, 1, "(cm/s)^2", "1000", "finite, < de_max",
      "release excess energy g H - E_e at rest: lower bound"},
     {"experiment", "de_max", NML_REAL, 1, "(cm/s)^2", "3000", "finite, > de_min",
      "release excess energy: upper bound"},
-    TUBES_REGISTRY_ROWS_EXPERIMENT   /* damping_ratio, rolling_resistance, seed */
+    TUBES_REGISTRY_ROWS_EXPERIMENT_3   /* damping_ratio, rolling_resistance, seed */
     {"experiment", "csv", NML_STRING, 1, "-", "''", "a writable path or ''",
      "also write the tracks as CSV (track,t,x,y) to this file; '' = no CSV"},
-    {"flux", "de", NML_REAL, TUBES_MAXDE, "energy", "the &transition list", "> 0, increasing",
-     "excess energies of the flux"},
-    {"flux", "n_samples", NML_INT, 1, "-", "4000", "2 .. 1e7", "points on the dividing surface per energy"},
-    {"flux", "seed", NML_INT, 1, "-", "1", ">= 0", "seed of GSL's MT19937"},
-    {"flux", "t_max", NML_REAL, 1, "time", "20", "> 0", "integration limit of each point's future and past"},
+    TUBES_REGISTRY_ROWS_FLUX   /* de, n_samples, seed, t_max */
     {"flux", "gate", NML_REAL, 1, "units of q", "the &montecarlo gate", "> 0",
      "half-width of the slab around the dividing surface that a passage crosses"},
-    {"flux", "tol", NML_REAL, 1, "1", "1e-10", "1e-14 .. 1e-3", "rtol = atol of the integrations"},
+    TUBES_REGISTRY_ROWS_FLUX_2   /* tol */
     {"flux", "order", NML_INT, 1, "-", "0", "0, or 2 .. 16 (2 DOF), 2 .. 10 (3 DOF)",
      "degree of the Birkhoff normal form (formula models); 0 = none"},
     {"flux", "n_cut", NML_INT, 1, "-", "16", "0, or even 4 .. 64",
      "3 DOF with order and a plane &section: the tube's cut on a grid of n_cut + 1 rings of "
      "(2 n_cut)^2 NHIM points; 0 = none"},
-    TUBES_REGISTRY_ROWS_FLUX   /* cut_eps */
+    TUBES_REGISTRY_ROWS_FLUX_3   /* cut_eps */
     {"scan", "parameter", NML_STRING, 1, "-", "- (required)",
      "a parameter of the system (&model), not a dissipation one; not a formula's constant",
      "the model parameter the scan scene moves (docs/scan.md)"},
@@ -216,9 +176,7 @@ const nml_var tubes_nml_vars[] = {
     TUBES_REGISTRY_ROWS_SCAN   /* n */
     {"scan", "de", NML_REAL, TUBES_MAXDE, "energy", "&orbits de if set there, else none", "> 0, increasing",
      "excess energies of the saddle's Lyapunov orbits followed along the scan (none: no orbits)"},
-    {"scan", "p_trans", NML_LOGICAL, 1, "-", ".false.", ".true., .false. (2 degrees of freedom, as the transition scene)",
-     "p_trans(dE) = A_tube/A_E at each step and each de, as the transition scene computes it (costs a tube cut "
-     "per step and dE: docs/scan.md)"},
+    TUBES_REGISTRY_ROWS_SCAN_2   /* p_trans */
     TUBES_REGISTRY_ROWS_EQUILIBRIA   /* none yet */
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
@@ -1173,7 +1131,7 @@ static int check_orbit_parameter(const char *path, const tubes_config_t *c, cons
 static const struct {
   const char *group, *name;
   size_t offset;
-  int is_int;
+  int is_int;   /* 0 a real, 1 an integer (int), 2 a 64-bit integer (int64_t) */
   double lo, hi;
   int lo_open, hi_open;
 } reg[] = {TUBES_REGISTRY_RANGES};
@@ -1203,13 +1161,29 @@ static int check_registered(const char *path, const tubes_config_t *c, const nml
   for (int k = 0; k < TUBES_REGISTRY_N; k++) {
     const char *p = (const char *)c + reg[k].offset;
     double x;
-    if (reg[k].is_int) {
+    if (reg[k].is_int == 2) {   /* a 64-bit integer (max_steps) */
+      int64_t i;
+      memcpy(&i, p, sizeof i);
+      x = (double)i;
+    } else if (reg[k].is_int) {
       int i;
       memcpy(&i, p, sizeof i);
       x = i;
     } else memcpy(&x, p, sizeof x);
     int ok = (reg[k].lo_open ? x > reg[k].lo : x >= reg[k].lo) && (reg[k].hi_open ? x < reg[k].hi : x <= reg[k].hi);
     if (!ok) n += bad(path, c, w, reg[k].group, reg[k].name, err, "", x);
+  }
+  /* the lists of excess energies; one whose default is another's list only where the file sets it */
+  static const struct {
+    const char *group, *name;
+    size_t offset, count;
+    int only_set;
+  } lst[] = {TUBES_REGISTRY_LISTS};
+  for (int k = 0; k < TUBES_REGISTRY_NL; k++) {
+    int nde;
+    memcpy(&nde, (const char *)c + lst[k].count, sizeof nde);
+    if (!lst[k].only_set || line_of(w, lst[k].group, lst[k].name))
+      n += check_list(path, c, w, lst[k].group, (const double *)((const char *)c + lst[k].offset), nde, err);
   }
   /* the strings: one of their values (the allowed text's, ", " between them) */
   static const struct {
@@ -1271,12 +1245,8 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (!nm && c->nparams >= 0) n += validate_geometry(path, c, w, err);
   if (c->dt_out > 0 && c->t_end / c->dt_out > 5.0e7)   /* t_end, dt_out themselves: check_registered */
     n += bad(path, c, w, "trajectory", "dt_out", err, "t_end/dt_out exceeds 5e7 samples", c->dt_out);
-  if (!(c->section_direction >= -1 && c->section_direction <= 1))
-    n += bad(path, c, w, "trajectory", "section_direction", err, "", c->section_direction);
-  if (!(c->max_crossings >= 1 && c->max_crossings <= 10000000))
-    n += bad(path, c, w, "trajectory", "max_crossings", err, "", c->max_crossings);
-  if (tubes_method_code(c->method) == 0) n += bad_string(path, w, "integrator", "method", c->method, err);
-  else if (tubes_method_code(c->method) >= TUBES_METHOD_RK4 && tubes_method_code(c->method) <= TUBES_METHOD_GAUSS8 &&
+  /* method, its values: check_registered */
+  if (tubes_method_code(c->method) >= TUBES_METHOD_RK4 && tubes_method_code(c->method) <= TUBES_METHOD_GAUSS8 &&
            !(c->h > 0)) {
     int ln = line_of(w, "integrator", "h") ? line_of(w, "integrator", "h") : line_of(w, "integrator", "method");
     fprintf(err, "%s:%d: &integrator: method = '%s' is fixed-step: it needs h > 0 (the step [%s]); h = %g\n", path,
@@ -1293,8 +1263,7 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
             "h > 0 without rtol and atol\n", path, ln, c->h);
     n++;
   }
-  if (!(c->omega_bind > 0)) n += bad(path, c, w, "integrator", "omega_bind", err, "", c->omega_bind);
-  else if (tubes_method_code(c->method) >= TUBES_METHOD_TAO2 && tubes_method_code(c->method) <= TUBES_METHOD_TAO6 &&
+  if (c->omega_bind > 0 && tubes_method_code(c->method) >= TUBES_METHOD_TAO2 && tubes_method_code(c->method) <= TUBES_METHOD_TAO6 &&
            c->h > 0 && !(2 * c->omega_bind * c->h < M_PI)) {
     /* Tao's coupling flow rotates by 2 omega h a step: at pi and beyond the method blows up
      * (docs/integrators-tao.md, "Hard limit") */
@@ -1305,10 +1274,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
             c->method, c->h, c->omega_bind, 2 * c->omega_bind * c->h, M_PI / (2 * c->omega_bind));
     n++;
   }
-  if (strcmp(c->solver, "newton") && strcmp(c->solver, "fixed_point"))
-    n += bad_string(path, w, "integrator", "solver", c->solver, err);
-  if (!(c->max_iter >= 0 && c->max_iter <= 1000)) n += bad(path, c, w, "integrator", "max_iter", err, "", c->max_iter);
-  if (!(c->max_steps >= 1)) n += bad(path, c, w, "integrator", "max_steps", err, "", (double)c->max_steps);
   n += check_list_sign(path, c, w, "orbits", c->orb_de, c->orb_nde, err, c->orb_nguess == 0);
   /* a family from a guess (docs/orbits.md, "Orbits from a guess") */
   if (c->orb_nguess > 0 && c->nparams >= 0 && c->orb_nguess != 2 * c->ndof) {
@@ -1333,14 +1298,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
     n++;
   }
   n += check_orbit_parameter(path, c, w, err);
-  if (strcmp(c->orb_method, "single") && strcmp(c->orb_method, "multiple"))
-    n += bad_string(path, w, "orbits", "method", c->orb_method, err);
-  if (!(c->orb_n_segments >= 2 && c->orb_n_segments <= 64))
-    n += bad(path, c, w, "orbits", "n_segments", err, "", c->orb_n_segments);
-  if (!(c->orb_tol >= 1e-14 && c->orb_tol <= 1e-4)) n += bad(path, c, w, "orbits", "tol", err, "", c->orb_tol);
-  if (!(c->orb_rtol >= 1e-15 && c->orb_rtol < 1e-4)) n += bad(path, c, w, "orbits", "rtol", err, "", c->orb_rtol);
-  if (!(c->orb_atol > 0)) n += bad(path, c, w, "orbits", "atol", err, "", c->orb_atol);
-  if (!(c->orb_max_iter >= 1 && c->orb_max_iter <= 200)) n += bad(path, c, w, "orbits", "max_iter", err, "", c->orb_max_iter);
   if (c->orb_family == -99) {
     fprintf(err, "%s:%d: &orbits: family: the name is not one of the families: allowed 1 .. N-1 (the saddle's "
             "centre modes), 'lyapunov' (family 1; in 3 degrees of freedom the planar one), 'vertical' (the centre "
@@ -1370,28 +1327,13 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
             line_or_group(w, "orbits", "family"), c->orb_family, c->ndof > 1 ? c->ndof - 1 : 1, c->system, c->ndof);
     n++;
   }
-  if (!(c->orb_n_samples >= 2 && c->orb_n_samples <= 100000))
-    n += bad(path, c, w, "orbits", "n_samples", err, "", c->orb_n_samples);
-  n += check_list(path, c, w, "tubes", c->tub_de, c->tub_nde, err);
-  n += check_list(path, c, w, "transition", c->tra_de, c->tra_nde, err);
-  n += check_list(path, c, w, "sections", c->pm_de, c->pm_nde, err);
   if (!(c->tub_n_max >= c->tub_n_init && c->tub_n_max <= 1000000)) n += bad(path, c, w, "tubes", "n_max", err, "", c->tub_n_max);
   n += check_registered(path, c, w, err);
-  if (!(c->mc_de > 0)) n += bad(path, c, w, "montecarlo", "de", err, "", c->mc_de);
-  if (!(c->mc_n_samples >= 1 && c->mc_n_samples <= 10000000)) n += bad(path, c, w, "montecarlo", "n_samples", err, "", c->mc_n_samples);
-  if (!(c->mc_seed >= 0)) n += bad(path, c, w, "montecarlo", "seed", err, "", c->mc_seed);
-  if (!(c->mc_t_max > 0)) n += bad(path, c, w, "montecarlo", "t_max", err, "", c->mc_t_max);
   if (c->nparams >= 0 && !(c->mc_gate > 0 && c->mc_gate < DBL_MAX))
     n += bad(path, c, w, "montecarlo", "gate", err, "", c->mc_gate);
-  /* &flux de and gate not set in the file are &transition's de and &montecarlo's gate, checked there */
-  if (line_of(w, "flux", "de")) n += check_list(path, c, w, "flux", c->flux_de, c->flux_nde, err);
-  if (!(c->flux_n_samples >= 2 && c->flux_n_samples <= 10000000))
-    n += bad(path, c, w, "flux", "n_samples", err, "", c->flux_n_samples);
-  if (!(c->flux_seed >= 0)) n += bad(path, c, w, "flux", "seed", err, "", c->flux_seed);
-  if (!(c->flux_t_max > 0)) n += bad(path, c, w, "flux", "t_max", err, "", c->flux_t_max);
+  /* &flux gate not set in the file is &montecarlo's gate, checked there (de: check_registered) */
   if (c->nparams >= 0 && line_of(w, "flux", "gate") && !(c->flux_gate > 0 && c->flux_gate < DBL_MAX))
     n += bad(path, c, w, "flux", "gate", err, "", c->flux_gate);
-  if (!(c->flux_tol >= 1e-14 && c->flux_tol <= 1e-3)) n += bad(path, c, w, "flux", "tol", err, "", c->flux_tol);
   n += validate_scan(path, c, w, err);
   if (!(c->flux_order == 0 || (c->flux_order >= 2 && c->flux_order <= 16)))
     n += bad(path, c, w, "flux", "order", err, "", c->flux_order);
@@ -1406,9 +1348,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   }
   if (!(c->flux_n_cut == 0 || (c->flux_n_cut >= 4 && c->flux_n_cut <= 64 && c->flux_n_cut % 2 == 0)))
     n += bad(path, c, w, "flux", "n_cut", err, "", c->flux_n_cut);
-  if (!(c->exp_n_tracks >= 1 && c->exp_n_tracks <= 100000))
-    n += bad(path, c, w, "experiment", "n_tracks", err, "", c->exp_n_tracks);
-  if (!(c->exp_duration > 0)) n += bad(path, c, w, "experiment", "duration", err, "", c->exp_duration);
   if (!(c->exp_camera_rate > 0)) n += bad(path, c, w, "experiment", "camera_rate", err, "", c->exp_camera_rate);
   else if (c->exp_duration > 0 && c->exp_duration * c->exp_camera_rate > 1e6)
     n += bad(path, c, w, "experiment", "camera_rate", err, "duration*camera_rate exceeds 1e6 frames per track",
@@ -1417,8 +1356,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
            (double)tubes_experiment_samples(c->exp_duration, c->exp_camera_rate) * c->exp_n_tracks > 5e7)
     n += bad(path, c, w, "experiment", "n_tracks", err, "n_tracks times the frames per track exceeds 5e7",
              c->exp_n_tracks);
-  if (!(c->exp_pixel >= 0)) n += bad(path, c, w, "experiment", "pixel", err, "", c->exp_pixel);
-  if (!(c->exp_noise >= 0)) n += bad(path, c, w, "experiment", "noise", err, "", c->exp_noise);
   if (!(c->exp_de_min < c->exp_de_max))
     n += bad(path, c, w, "experiment", "de_min", err, "de_min must be below de_max", c->exp_de_min);
   if (!n) n += check_memory(path, c, w, err);

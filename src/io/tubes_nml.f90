@@ -23,31 +23,13 @@ module tubes_nml
     real(c_double) :: box = 0
     integer :: n_grid = 41
     character(LSADDLE) :: saddle = ''
-    real(c_double) :: x0 = 4, y0 = 12.614863819914357_c_double, px0 = 0, py0 = 0
-    logical :: at_rest = .true.
-    integer :: section_direction = 0, max_crossings = 10000
-    logical :: stop_at_first = .false.
-    character(LNAME) :: method = 'auto'
-    integer(c_int64_t) :: max_steps = 10000000_c_int64_t
-    real(c_double) :: omega_bind = 200
-    character(LNAME) :: solver = 'newton'
-    integer :: max_iter = 0
     character(LSADDLE) :: orb_saddle = ''
     real(c_double) :: orb_de(MAXDE) = UNSET
-    character(LNAME) :: orb_method = 'single'
-    integer :: orb_n_segments = 8, orb_max_iter = 25, orb_n_samples = 201
-    real(c_double) :: orb_tol = 1.0e-11_c_double, orb_rtol = 1.0e-13_c_double, orb_atol = 1.0e-13_c_double
     real(c_double) :: sec_angle = UNSET
     integer :: sec_pth_sign = UNSET_INT
-    real(c_double) :: tub_de(MAXDE) = UNSET
     integer :: tub_n_max = 8192
-    real(c_double) :: tra_de(MAXDE) = UNSET
-    real(c_double) :: mc_de = 100, mc_t_max = 20, mc_gate = UNSET
-    integer :: mc_n_samples = 10000, mc_seed = 12345
-    real(c_double) :: pm_de(MAXDE) = UNSET
-    integer :: exp_n_tracks = 120
-    real(c_double) :: exp_duration = 14, exp_camera_rate = 50, exp_pixel = 0.16_c_double, &
-                      exp_noise = 0.05_c_double, exp_de_min = 1000, exp_de_max = 3000
+    real(c_double) :: mc_gate = UNSET
+    real(c_double) :: exp_camera_rate = 50, exp_de_min = 1000, exp_de_max = 3000
     character(LPATH) :: exp_csv = ''
     character(LNAME) :: system = 'rolling_ball'
     real(c_double) :: m_a = UNSET, m_b = UNSET, d = UNSET, lambda = UNSET, zeta = UNSET, eps_s = UNSET, &
@@ -62,9 +44,8 @@ module tubes_nml
     character(LNAME) :: surface = 'fourwell'
     character(LNAME) :: dissipation = ''
     character(LNAME) :: model_name = ''   !! the library's name of the model (written only)
-    real(c_double) :: flux_de(MAXDE) = UNSET
-    integer :: flux_n_samples = 4000, flux_seed = 1, flux_order = 0, flux_n_cut = 16
-    real(c_double) :: flux_t_max = 20, flux_gate = UNSET, flux_tol = 1.0e-10_c_double
+    integer :: flux_order = 0, flux_n_cut = 16
+    real(c_double) :: flux_gate = UNSET
     integer :: orb_family = 1
     logical :: spatial = .false.
     character(LNAME) :: scan_parameter = ''
@@ -72,7 +53,6 @@ module tubes_nml
     real(c_double) :: scan_de(MAXDE) = UNSET
     real(c_double) :: orb_guess(MAXGUESS) = UNSET   !! &orbits guess (a longer list is said so)
     real(c_double) :: orb_period = 0
-    logical :: scan_p_trans = .false.
     real(c_double) :: orb_jacobi(MAXDE) = UNSET, orb_periods(MAXDE) = UNSET   !! &orbits jacobi, periods
     include 'nml_vars.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
   end type vars_t
@@ -96,15 +76,7 @@ contains
     call f_to_c(v%output, cfg%output)
     cfg%n_grid = v%n_grid
     call f_to_c(v%saddle, cfg%saddle)
-    cfg%x0 = v%x0; cfg%y0 = v%y0; cfg%px0 = v%px0; cfg%py0 = v%py0
-    cfg%at_rest = merge(1, 0, v%at_rest)
     cfg%spatial = merge(1, 0, v%spatial)
-    cfg%section_direction = v%section_direction; cfg%max_crossings = v%max_crossings
-    cfg%stop_at_first = merge(1, 0, v%stop_at_first)
-    call f_to_c(v%method, cfg%method)
-    cfg%max_steps = v%max_steps
-    cfg%omega_bind = v%omega_bind; cfg%max_iter = v%max_iter
-    call f_to_c(v%solver, cfg%solver)
     call f_to_c(v%orb_saddle, cfg%orb_saddle)
     cfg%orb_de = v%orb_de
     cfg%orb_nde = count(v%orb_de /= UNSET)
@@ -112,9 +84,6 @@ contains
       cfg%orb_de(1:3) = [1.0_c_double, 10.0_c_double, 100.0_c_double]
       cfg%orb_nde = 3
     end if
-    call f_to_c(v%orb_method, cfg%orb_method)
-    cfg%orb_n_segments = v%orb_n_segments; cfg%orb_max_iter = v%orb_max_iter
-    cfg%orb_n_samples = v%orb_n_samples
     cfg%orb_family = v%orb_family
     cfg%orb_nguess = count(v%orb_guess /= UNSET)
     cfg%orb_guess = 0
@@ -127,23 +96,11 @@ contains
     cfg%orb_nperiods = findloc(v%orb_periods /= UNSET, .true., dim=1, back=.true.)
     cfg%orb_periods = 0
     cfg%orb_periods(1:cfg%orb_nperiods) = v%orb_periods(1:cfg%orb_nperiods)
-    cfg%orb_tol = v%orb_tol; cfg%orb_rtol = v%orb_rtol; cfg%orb_atol = v%orb_atol
-    call put_list(v%tub_de, cfg%tub_de, cfg%tub_nde, [10.0_c_double, 100.0_c_double])
     cfg%tub_n_max = v%tub_n_max
-    call put_list(v%tra_de, cfg%tra_de, cfg%tra_nde, [1.0_c_double, 2.0_c_double, 5.0_c_double, &
-      10.0_c_double, 20.0_c_double, 50.0_c_double, 100.0_c_double, 200.0_c_double, 300.0_c_double, &
-      400.0_c_double, 500.0_c_double, 600.0_c_double, 700.0_c_double, 750.0_c_double])
-    call put_list(v%flux_de, cfg%flux_de, cfg%flux_nde, cfg%tra_de(1:cfg%tra_nde))
-    cfg%flux_n_samples = v%flux_n_samples; cfg%flux_seed = v%flux_seed; cfg%flux_order = v%flux_order
-    cfg%flux_t_max = v%flux_t_max; cfg%flux_tol = v%flux_tol
+    cfg%flux_order = v%flux_order
     cfg%flux_n_cut = v%flux_n_cut
-    cfg%mc_de = v%mc_de; cfg%mc_t_max = v%mc_t_max
-    cfg%mc_n_samples = v%mc_n_samples; cfg%mc_seed = v%mc_seed
-    call put_list(v%pm_de, cfg%pm_de, cfg%pm_nde, [100.0_c_double, 500.0_c_double])
     include 'nml_to_c.inc'   ! the registered variables
-    cfg%exp_n_tracks = v%exp_n_tracks
-    cfg%exp_duration = v%exp_duration; cfg%exp_camera_rate = v%exp_camera_rate
-    cfg%exp_pixel = v%exp_pixel; cfg%exp_noise = v%exp_noise
+    cfg%exp_camera_rate = v%exp_camera_rate
     cfg%exp_de_min = v%exp_de_min; cfg%exp_de_max = v%exp_de_max
     call f_to_c(v%exp_csv, cfg%exp_csv)
     call f_to_c(v%hamiltonian, cfg%hamiltonian)
@@ -160,7 +117,6 @@ contains
     call f_to_c(v%scan_parameter, cfg%scan_parameter)
     cfg%scan_to = v%scan_to
     cfg%scan_de = v%scan_de
-    cfg%scan_p_trans = merge(1, 0, v%scan_p_trans)
     cfg%scan_nde = count(v%scan_de /= UNSET)
     if (cfg%scan_nde == 0 .and. count(v%orb_de /= UNSET) > 0) then   ! &orbits de, as given
       cfg%scan_de = v%orb_de
@@ -481,20 +437,9 @@ contains
     end do
     call effective_model(cfg, v)
     v%saddle = c_to_f(cfg%saddle)
-    v%x0 = cfg%x0; v%y0 = cfg%y0; v%px0 = cfg%px0; v%py0 = cfg%py0
-    v%at_rest = cfg%at_rest /= 0
     v%spatial = cfg%spatial /= 0
-    v%section_direction = cfg%section_direction; v%max_crossings = cfg%max_crossings
-    v%stop_at_first = cfg%stop_at_first /= 0
-    v%method = c_to_f(cfg%method)
-    v%max_steps = cfg%max_steps
-    v%omega_bind = cfg%omega_bind; v%max_iter = cfg%max_iter
-    v%solver = c_to_f(cfg%solver)
     v%orb_saddle = c_to_f(cfg%orb_saddle)
     v%orb_de = cfg%orb_de
-    v%orb_method = c_to_f(cfg%orb_method)
-    v%orb_n_segments = cfg%orb_n_segments; v%orb_max_iter = cfg%orb_max_iter
-    v%orb_n_samples = cfg%orb_n_samples
     v%orb_family = cfg%orb_family
     v%orb_guess = UNSET
     v%orb_guess(1:min(cfg%orb_nguess, 2*MAX_DOF)) = cfg%orb_guess(1:min(cfg%orb_nguess, 2*MAX_DOF))
@@ -504,28 +449,18 @@ contains
     v%orb_periods = UNSET
     v%orb_periods(1:cfg%orb_nperiods) = cfg%orb_periods(1:cfg%orb_nperiods)
     if (cfg%orb_de_given == 0 .and. cfg%orb_njacobi + cfg%orb_nperiods > 0) v%orb_de = UNSET   ! the default's not written
-    v%orb_tol = cfg%orb_tol; v%orb_rtol = cfg%orb_rtol; v%orb_atol = cfg%orb_atol
     v%sec_angle = cfg%sec_angle; v%sec_pth_sign = cfg%sec_pth_sign
-    v%tub_de = cfg%tub_de
     v%tub_n_max = cfg%tub_n_max
-    v%tra_de = cfg%tra_de
-    v%mc_de = cfg%mc_de; v%mc_t_max = cfg%mc_t_max; v%mc_gate = cfg%mc_gate
-    v%mc_n_samples = cfg%mc_n_samples; v%mc_seed = cfg%mc_seed
-    v%flux_de = cfg%flux_de
-    v%flux_n_samples = cfg%flux_n_samples; v%flux_seed = cfg%flux_seed; v%flux_order = cfg%flux_order
-    v%flux_t_max = cfg%flux_t_max; v%flux_gate = cfg%flux_gate; v%flux_tol = cfg%flux_tol
+    v%mc_gate = cfg%mc_gate
+    v%flux_order = cfg%flux_order; v%flux_gate = cfg%flux_gate
     v%flux_n_cut = cfg%flux_n_cut
-    v%pm_de = cfg%pm_de
     include 'nml_from_c.inc'   ! the registered variables
-    v%exp_n_tracks = cfg%exp_n_tracks
-    v%exp_duration = cfg%exp_duration; v%exp_camera_rate = cfg%exp_camera_rate
-    v%exp_pixel = cfg%exp_pixel; v%exp_noise = cfg%exp_noise
+    v%exp_camera_rate = cfg%exp_camera_rate
     v%exp_de_min = cfg%exp_de_min; v%exp_de_max = cfg%exp_de_max
     v%exp_csv = c_to_f(cfg%exp_csv)
     v%scan_parameter = c_to_f(cfg%scan_parameter)
     v%scan_to = cfg%scan_to
     v%scan_de = cfg%scan_de
-    v%scan_p_trans = cfg%scan_p_trans /= 0
   end subroutine from_c
 
   subroutine c_defaults(cfg) bind(C, name='tubes_nml_defaults')
@@ -719,62 +654,28 @@ contains
       include 'nml_equilibria_out.inc'
     end subroutine io_equilibria
     subroutine io_trajectory()
-      real(c_double) :: x0, y0, px0, py0
-      logical :: at_rest, stop_at_first
-      integer :: section_direction, max_crossings
-      namelist /trajectory/ x0, y0, px0, py0, at_rest
-      include 'nml_trajectory_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): t_end .. section_level
-      namelist /trajectory/ section_direction, max_crossings, stop_at_first
-      x0 = v%x0; y0 = v%y0; px0 = v%px0; py0 = v%py0; at_rest = v%at_rest
-      section_direction = v%section_direction; max_crossings = v%max_crossings
-      stop_at_first = v%stop_at_first
-      include 'nml_trajectory_in.inc'
-      if (mode == 'r') then
-        read (u, nml=trajectory, iostat=ios, iomsg=iomsg)
-      else
-        write (u, nml=trajectory, iostat=ios, iomsg=iomsg)
-      end if
-      v%x0 = x0; v%y0 = y0; v%px0 = px0; v%py0 = py0; v%at_rest = at_rest
-      v%section_direction = section_direction; v%max_crossings = max_crossings
-      v%stop_at_first = stop_at_first
-      include 'nml_trajectory_out.inc'
+      include 'nml_trajectory_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): all
+      include 'nml_trajectory_io.inc'   ! the copies in, the READ or WRITE, the copies out
     end subroutine io_trajectory
     subroutine io_integrator()
-      character(LNAME) :: method, solver
-      real(c_double) :: omega_bind
-      integer(c_int64_t) :: max_steps
-      integer :: max_iter
-      namelist /integrator/ method
-      include 'nml_integrator_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): rtol, atol, h
-      namelist /integrator/ max_steps, omega_bind, solver, max_iter
-      method = v%method; max_steps = v%max_steps
-      omega_bind = v%omega_bind; solver = v%solver; max_iter = v%max_iter
-      include 'nml_integrator_in.inc'
-      if (mode == 'r') then
-        read (u, nml=integrator, iostat=ios, iomsg=iomsg)
-      else
-        write (u, nml=integrator, iostat=ios, iomsg=iomsg)
-      end if
-      v%method = method; v%max_steps = max_steps
-      v%omega_bind = omega_bind; v%solver = solver; v%max_iter = max_iter
-      include 'nml_integrator_out.inc'
+      include 'nml_integrator_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): all
+      include 'nml_integrator_io.inc'   ! the copies in, the READ or WRITE, the copies out
     end subroutine io_integrator
     subroutine io_orbits()
       character(8) :: saddle
       real(c_double), allocatable :: de(:)
-      character(LNAME) :: method
-      integer :: n_segments, max_iter, n_samples, m, ifam, iosf
+      integer :: m, ifam, iosf
       character(LNAME) :: family
-      real(c_double) :: tol, rtol, atol
       real(c_double), allocatable :: saddle_near(:), guess(:)
       real(c_double) :: period
       real(c_double), allocatable :: jacobi(:), periods(:)
       character(512) :: buf(40)
       logical :: by_name
       integer :: k
-      namelist /orbits/ saddle, saddle_near, de, method, n_segments, tol, rtol, atol, max_iter, &
-        n_samples, family, guess, period, jacobi, periods
-      saddle = v%orb_saddle; method = v%orb_method; n_segments = v%orb_n_segments
+      namelist /orbits/ saddle, saddle_near, de
+      include 'nml_orbits_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): method .. n_samples
+      namelist /orbits/ family, guess, period, jacobi, periods
+      saddle = v%orb_saddle
       period = v%orb_period
       call list_io(v%orb_guess, guess)
       call list_io(v%orb_jacobi, jacobi)
@@ -796,8 +697,7 @@ contains
         write (family, '(i0)') v%orb_family
       end select
       call list_io(v%orb_saddle_near, saddle_near)
-      tol = v%orb_tol; rtol = v%orb_rtol; atol = v%orb_atol; max_iter = v%orb_max_iter
-      n_samples = v%orb_n_samples
+      include 'nml_orbits_in.inc'
       if (mode == 'r') then
         allocate (de(MAXDE))
         de = v%orb_de
@@ -835,10 +735,9 @@ contains
           write (u, '(a)', iostat=ios) trim(buf(k))
         end do
       end if
-      v%orb_saddle = saddle; v%orb_method = method; v%orb_n_segments = n_segments
-      v%orb_tol = tol; v%orb_rtol = rtol; v%orb_atol = atol; v%orb_max_iter = max_iter
-      v%orb_n_samples = n_samples
+      v%orb_saddle = saddle
       v%orb_period = period
+      include 'nml_orbits_out.inc'
       select case (trim(family))
       case ('halo_north')
         v%orb_family = -1
@@ -899,86 +798,49 @@ contains
       v%sec_index = index; v%sec_value = value; v%sec_direction = direction
     end subroutine io_section
     subroutine io_tubes()
-      real(c_double), allocatable :: de(:)
       integer :: n_max
-      namelist /tubes/ de
-      include 'nml_tubes_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): kind .. n_init
+      include 'nml_tubes_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): de .. n_init
       namelist /tubes/ n_max
-      call list_io(v%tub_de, de)
       n_max = v%tub_n_max
-      include 'nml_tubes_in.inc'
-      if (mode == 'r') then
-        read (u, nml=tubes, iostat=ios, iomsg=iomsg)
-        v%tub_de = de
-      else
-        write (u, nml=tubes, iostat=ios, iomsg=iomsg)
-      end if
+      include 'nml_tubes_io.inc'   ! the copies in, the READ or WRITE, the copies out
       v%tub_n_max = n_max
-      include 'nml_tubes_out.inc'
     end subroutine io_tubes
     subroutine io_transition()
-      real(c_double), allocatable :: de(:)
-      namelist /transition/ de
-      include 'nml_transition_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
-      call list_io(v%tra_de, de)
-      include 'nml_transition_in.inc'
-      if (mode == 'r') then
-        read (u, nml=transition, iostat=ios, iomsg=iomsg)
-        v%tra_de = de
-      else
-        write (u, nml=transition, iostat=ios, iomsg=iomsg)
-      end if
-      include 'nml_transition_out.inc'
+      include 'nml_transition_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): all
+      include 'nml_transition_io.inc'   ! the copies in, the READ or WRITE, the copies out
     end subroutine io_transition
     subroutine io_montecarlo()
-      real(c_double) :: de, t_max, gate
-      integer :: n_samples, seed
-      namelist /montecarlo/ de, n_samples, seed, t_max, gate
-      include 'nml_montecarlo_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
-      de = v%mc_de; t_max = v%mc_t_max; gate = v%mc_gate; n_samples = v%mc_n_samples
-      seed = v%mc_seed
-      include 'nml_montecarlo_in.inc'
-      if (mode == 'r') then
-        read (u, nml=montecarlo, iostat=ios, iomsg=iomsg)
-      else
-        write (u, nml=montecarlo, iostat=ios, iomsg=iomsg)
-      end if
-      v%mc_de = de; v%mc_t_max = t_max; v%mc_gate = gate; v%mc_n_samples = n_samples
-      v%mc_seed = seed
-      include 'nml_montecarlo_out.inc'
+      real(c_double) :: gate
+      include 'nml_montecarlo_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): de .. t_max
+      namelist /montecarlo/ gate
+      include 'nml_montecarlo_decl_2.inc'   ! area_tol
+      gate = v%mc_gate
+      include 'nml_montecarlo_io.inc'   ! the copies in, the READ or WRITE, the copies out
+      v%mc_gate = gate
     end subroutine io_montecarlo
     subroutine io_flux()
-      real(c_double), allocatable :: de(:)
-      integer :: n_samples, seed, order, n_cut
-      real(c_double) :: t_max, gate, tol
-      namelist /flux/ de, n_samples, seed, t_max, gate, tol, order, n_cut
-      include 'nml_flux_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
-      call list_io(v%flux_de, de)
-      n_samples = v%flux_n_samples; seed = v%flux_seed; t_max = v%flux_t_max; order = v%flux_order
-      gate = v%flux_gate; tol = v%flux_tol; n_cut = v%flux_n_cut
-      include 'nml_flux_in.inc'
-      if (mode == 'r') then
-        read (u, nml=flux, iostat=ios, iomsg=iomsg)
-        v%flux_de = de
-      else
-        write (u, nml=flux, iostat=ios, iomsg=iomsg)
-      end if
-      v%flux_n_samples = n_samples; v%flux_seed = seed; v%flux_t_max = t_max; v%flux_order = order
-      v%flux_gate = gate; v%flux_tol = tol; v%flux_n_cut = n_cut
-      include 'nml_flux_out.inc'
+      integer :: order, n_cut
+      real(c_double) :: gate
+      include 'nml_flux_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): de .. t_max
+      namelist /flux/ gate
+      include 'nml_flux_decl_2.inc'   ! tol
+      namelist /flux/ order, n_cut
+      include 'nml_flux_decl_3.inc'   ! cut_eps
+      order = v%flux_order; gate = v%flux_gate; n_cut = v%flux_n_cut
+      include 'nml_flux_io.inc'   ! the copies in, the READ or WRITE, the copies out
+      v%flux_order = order; v%flux_gate = gate; v%flux_n_cut = n_cut
     end subroutine io_flux
     subroutine io_scan()
       character(LNAME) :: parameter
       real(c_double) :: to
       real(c_double), allocatable :: de(:)
-      logical :: p_trans
       namelist /scan/ parameter, to
       include 'nml_scan_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): n
-      namelist /scan/ de, p_trans
+      namelist /scan/ de
+      include 'nml_scan_decl_2.inc'   ! p_trans
       if (mode /= 'r' .and. len_trim(v%scan_parameter) == 0) return   ! echoed only when set
       parameter = v%scan_parameter
       to = v%scan_to
-      p_trans = v%scan_p_trans
       call list_io(v%scan_de, de)
       include 'nml_scan_in.inc'
       if (mode == 'r') then
@@ -989,33 +851,23 @@ contains
       end if
       v%scan_parameter = parameter
       v%scan_to = to
-      v%scan_p_trans = p_trans
       include 'nml_scan_out.inc'
     end subroutine io_scan
     subroutine io_sections()
-      real(c_double), allocatable :: de(:)
-      namelist /sections/ de
-      include 'nml_sections_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): n_seeds .. t_max
-      call list_io(v%pm_de, de)
-      include 'nml_sections_in.inc'
-      if (mode == 'r') then
-        read (u, nml=sections, iostat=ios, iomsg=iomsg)
-        v%pm_de = de
-      else
-        write (u, nml=sections, iostat=ios, iomsg=iomsg)
-      end if
-      include 'nml_sections_out.inc'
+      include 'nml_sections_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): all
+      include 'nml_sections_io.inc'   ! the copies in, the READ or WRITE, the copies out
     end subroutine io_sections
     subroutine io_experiment()
-      integer :: n_tracks
-      real(c_double) :: duration, camera_rate, pixel, noise, de_min, de_max
+      real(c_double) :: camera_rate, de_min, de_max
       character(:), allocatable :: csv
       character(LPATH) :: buf
-      namelist /experiment/ n_tracks, duration, camera_rate, pixel, noise, de_min, de_max
-      include 'nml_experiment_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): damping_ratio .. seed
+      include 'nml_experiment_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): n_tracks, duration
+      namelist /experiment/ camera_rate
+      include 'nml_experiment_decl_2.inc'   ! pixel, noise
+      namelist /experiment/ de_min, de_max
+      include 'nml_experiment_decl_3.inc'   ! damping_ratio .. seed
       namelist /experiment/ csv
-      n_tracks = v%exp_n_tracks; duration = v%exp_duration
-      camera_rate = v%exp_camera_rate; pixel = v%exp_pixel; noise = v%exp_noise
+      camera_rate = v%exp_camera_rate
       de_min = v%exp_de_min; de_max = v%exp_de_max
       include 'nml_experiment_in.inc'
       if (mode == 'r') then
@@ -1027,8 +879,7 @@ contains
         csv = trim(v%exp_csv)
         write (u, nml=experiment, iostat=ios, iomsg=iomsg)
       end if
-      v%exp_n_tracks = n_tracks; v%exp_duration = duration
-      v%exp_camera_rate = camera_rate; v%exp_pixel = pixel; v%exp_noise = noise
+      v%exp_camera_rate = camera_rate
       v%exp_de_min = de_min; v%exp_de_max = de_max
       include 'nml_experiment_out.inc'
     end subroutine io_experiment

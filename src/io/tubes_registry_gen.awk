@@ -2,28 +2,42 @@
 # (src/workflow/tubes_config.f90), from which the build writes everything else a variable needs
 # (docs/development.md, "Adding a namelist variable"). Run by the Makefile:
 #   awk -v dir=build/include -f src/io/tubes_registry_gen.awk src/workflow/tubes_config.f90
-# An annotation is a comment line right before the field's declaration (one field, real(c_double)
-# or integer(c_int), or a string character(kind=c_char) :: FIELD(LENGTH)):
+# An annotation is a comment line right before the field's declaration (one field, real(c_double),
+# integer(c_int), integer(c_int64_t), a logical (integer(c_int) 0/1) or a string
+# character(kind=c_char) :: FIELD(LENGTH)):
 #   !@ &GROUP NAME | UNITS | DEFAULT | ALLOWED | TEXT
 #   real(c_double) :: FIELD
 # ALLOWED is the reader's check and the text of its message: "LO .. HI" (both included), "> LO",
-# ">= LO", "< HI", "<= HI", "LO OP SYMBOL OP HI" (OP < or <=: "0 <= zeta < 1") or "finite"; DEFAULT
-# a number. A string (character(kind=c_char) :: FIELD(LENGTH)): DEFAULT quoted ('stable'), ALLOWED
-# its values separated by ", " (stable, unstable, both), the reader's check. The group's registered
+# ">= LO", "< HI", "<= HI", "LO OP SYMBOL OP HI" (OP < or <=: "0 <= zeta < 1"), "finite", or for
+# an integer its values separated by ", " when they are consecutive ("-1, 0, 1"); DEFAULT a number.
+# A string (character(kind=c_char) :: FIELD(LENGTH)): DEFAULT quoted ('stable'), ALLOWED its values
+# separated by ", " (stable, unstable, both), the reader's check. A logical (integer(c_int), 1 for
+# .true.; the namelist's variable a LOGICAL): DEFAULT .true. or .false., ALLOWED only text (the
+# lexer checks the value). A list of excess energies (real(c_double) :: X_de(MAXDE), its count the
+# field X_nde): ALLOWED "> 0, increasing" (the reader's check_list), DEFAULT its numbers separated
+# by ", " (--help shows more than five as "1, 2, 5, ..., 700, 750") or "the &GROUP list" (that
+# group's registered list, annotated before it: then checked only where the file sets it). The group's registered
 # variables keep their annotations' order, in the namelist, in the effective namelist and in
-# --help, at the place tubes_nml.f90 includes them and tubes_input.c's table puts
-# TUBES_REGISTRY_ROWS_<GROUP>. It writes into dir:
-#   tubes_registry.h        C: each group's rows of the reader's table (TUBES_REGISTRY_ROWS_<GROUP>:
+# --help. A variable written by hand that stands between registered ones in its group's order is
+# named by an annotation without '|' (!@ &GROUP NAME: a mark, no field follows it): it ends the
+# group's run of registered variables, and the next ones make run 2, 3, ... Run 1 stands where
+# tubes_nml.f90 includes nml_<group>_decl.inc and tubes_input.c's table puts
+# TUBES_REGISTRY_ROWS_<GROUP>, run K where they put nml_<group>_decl_K.inc and
+# TUBES_REGISTRY_ROWS_<GROUP>_K. It writes into dir:
+#   tubes_registry.h        C: each run's rows of the reader's table (TUBES_REGISTRY_ROWS_<GROUP>[_K]:
 #                           tubes_input.c tubes_nml_vars, --help, messages), each range with the
-#                           field's offset (nml_validate's check) and each string's values
+#                           field's offset (nml_validate's check), each string's values, each
+#                           list's offsets
 #   nml_vars.inc            Fortran: the fields of tubes_nml's vars_t with their defaults
 #   nml_to_c.inc, nml_from_c.inc   the copies between vars_t and tubes_config_t
-#   nml_GROUP_decl.inc, nml_GROUP_in.inc, nml_GROUP_out.inc   per group of GROUPS: the namelist
-#                           variable, its place in the group, its copy in and out of vars_t
-# A group not in GROUPS (run, model, orbits, section: their reading or writing has rules of its own) or a declaration
+#   nml_GROUP_decl[_K].inc, nml_GROUP_in.inc, nml_GROUP_out.inc   per group of GROUPS: the namelist
+#                           variables of a run and their place in the group, the copies in and out of vars_t
+#   nml_GROUP_io.inc        the copies in, the group's READ (mode 'r') or WRITE, the copies out: the
+#                           whole io_GROUP of tubes_nml where no other statement stands between them
+# A group not in GROUPS (run, model, section: their reading or writing has rules of its own) or a declaration
 # it cannot read stops the build.
 BEGIN {
-  ng = split("equilibria trajectory integrator tubes transition montecarlo sections experiment flux scan", groups, " ")
+  ng = split("equilibria trajectory integrator orbits tubes transition montecarlo sections experiment flux scan", groups, " ")
   for (i = 1; i <= ng; i++) known[groups[i]] = 1
   n = 0
 }
@@ -33,7 +47,14 @@ function cstr(s) { gsub(/\\/, "\\\\", s); gsub(/"/, "\\\"", s); return "\"" s "\
 /^[ \t]*!@/ {
   s = $0; sub(/^[ \t]*!@[ \t]*/, "", s)
   m = split(s, f, "|")
-  if (m != 5) fail("an annotation has 5 fields separated by |: &group name | units | default | allowed | text")
+  if (m == 1 && split(trim(s), gn, /[ \t]+/) == 2 && substr(gn[1], 1, 1) == "&") {   # a hand-written variable: a run ends
+    pg = substr(gn[1], 2)
+    if (!(pg in known)) fail("group &" pg " takes no registered variable (allowed: " join() ")")
+    if (runlen[pg, run[pg] + 0] > 0) run[pg]++
+    next
+  }
+  if (m < 5) fail("an annotation has 5 fields separated by |: &group name | units | default | allowed | text")
+  for (k = 6; k <= m; k++) f[5] = f[5] "|" f[k]   # the text, the last field, may hold a | (|H - E|/E)
   split(trim(f[1]), gn, /[ \t]+/)
   if (substr(gn[1], 1, 1) != "&" || gn[2] == "") fail("an annotation starts with &group name")
   pg = substr(gn[1], 2); pn = gn[2]
@@ -47,25 +68,51 @@ pending {
   if (!match(line, /::/)) fail("an annotation is followed by the field's declaration")
   type = substr(line, 1, RSTART - 1); field = trim(substr(line, RSTART + 2)); gsub(/[ \t]/, "", type)
   len = ""
-  if (type == "character(kind=c_char)" && match(field, /^[A-Za-z_][A-Za-z_0-9]*\([A-Z]+\)$/)) {
+  if ((type == "character(kind=c_char)" || type == "real(c_double)") && match(field, /^[A-Za-z_][A-Za-z_0-9]*\([A-Z]+\)$/)) {
     len = field; sub(/^[^(]*\(/, "", len); sub(/\)$/, "", len); sub(/\(.*/, "", field)
   }
-  if (field ~ /[,(]/) fail("an annotated declaration declares one scalar field (or one string, NAME(LENGTH))")
-  isint = 0; isstr = 0
-  if (len != "") {
+  if (field ~ /[,(]/) fail("an annotated declaration declares one scalar field (or one string or list, NAME(LENGTH))")
+  isint = 0; isstr = 0; islog = 0; islist = 0; shown = pd; cnt = ""; fdl = ""; lset = 0
+  if (len != "" && type == "real(c_double)") {   # a list of excess energies and its count
+    if (pa != "> 0, increasing") fail("a list's allowed is '> 0, increasing' (the reader's check_list), not '" pa "'")
+    cnt = field; sub(/_[^_]*$/, "", cnt); cnt = cnt "_n" substr(field, length(cnt) + 2)   # tub_de: tub_nde
+    if (pd ~ /^[-+0-9.eE]+(, [-+0-9.eE]+)*$/) {
+      nv = split(pd, r, /, /); fdl = ""
+      for (k = 1; k <= nv; k++)   # four a line: Fortran's lines end at 132 characters
+        fdl = fdl (k == 1 ? "" : k % 4 == 1 ? ", &\n      " : ", ") r[k] (r[k] ~ /[.eE]/ ? "" : ".0") "_c_double"
+      fdl = "[" fdl "]"
+      if (nv > 5) shown = r[1] ", " r[2] ", " r[3] ", ..., " r[nv - 1] ", " r[nv]   # --help's text
+    } else if (match(pd, /^the &[a-z]+ list$/)) {   # another group's list: checked only where the file sets this one
+      og = substr(pd, 6); sub(/ list$/, "", og)
+      for (k = 1; k <= n; k++) if (G[k] == og && LIST[k]) fdl = "cfg%" F[k] "(1:cfg%" CNT[k] ")"
+      if (fdl == "") fail("the list of &" og " is not registered before this one")
+      lset = 1
+    } else fail("a list's default '" pd "' is neither numbers separated by ', ' nor 'the &group list'")
+    ct = "NML_REAL"; ft = "real(c_double), allocatable"; fd = "UNSET"; islist = 1
+  } else if (len != "") {
     if (pd !~ /^'[^']*'$/) fail("a string's default " pd " is not quoted ('...')")
     if (pa !~ /^[^,]+(, [^,]+)*$/) fail("a string's allowed '" pa "' is not its values separated by ', '")
     ct = "NML_STRING"; ft = "character(" len ")"; fd = pd; isstr = 1
-  } else if (pd !~ /^[-+]?[0-9.]+([eE][-+]?[0-9]+)?$/) fail("default '" pd "' is not a number")
+  } else if (type == "integer(c_int)" && (pd == ".true." || pd == ".false.")) {
+    ct = "NML_LOGICAL"; ft = "logical"; fd = pd; islog = 1
+  } else if (pd !~ /^[-+]?[0-9.]+([eE][-+]?[0-9]+)?$/) fail("default '" pd "' is not a number (or .true., .false. for a logical)")
   else if (type == "real(c_double)") { ct = "NML_REAL"; ft = "real(c_double)"; fd = pd (pd ~ /[.eE]/ ? "" : ".0") "_c_double" }
   else if (type == "integer(c_int)") {
     if (pd !~ /^[-+]?[0-9]+$/) fail("an integer's default '" pd "' is not an integer")
     ct = "NML_INT"; ft = "integer"; fd = pd; isint = 1
   }
-  else fail("type " type " is not registered (real(c_double), integer(c_int), character(kind=c_char) NAME(LENGTH))")
+  else if (type == "integer(c_int64_t)") {
+    if (pd !~ /^[-+]?[0-9]+$/) fail("an integer's default '" pd "' is not an integer")
+    ct = "NML_INT"; ft = "integer(c_int64_t)"; fd = pd "_c_int64_t"; isint = 2
+  }
+  else fail("type " type " is not registered (real(c_double), integer(c_int), integer(c_int64_t), character(kind=c_char) NAME(LENGTH))")
   lo = "-INFINITY"; hi = "INFINITY"; lo_open = 0; hi_open = 0
   a = pa
-  if (isstr) ;
+  if (isstr || islog || islist) ;
+  else if (isint && a ~ /^[-+]?[0-9]+(, [-+]?[0-9]+)+$/) {   # an integer's values: consecutive, a range
+    nv = split(a, r, /, /); lo = r[1] + 0; hi = r[nv] + 0
+    for (k = 2; k <= nv; k++) if (r[k] + 0 != r[k - 1] + 1) fail("an integer's values '" a "' are not consecutive")
+  }
   else if (a == "finite") { lo = "-DBL_MAX"; hi = "DBL_MAX" }   # an infinity is not finite
   else if (match(a, /^[-+0-9.eE]+ \.\. [-+0-9.eE]+$/)) { split(a, r, / \.\. /); lo = r[1]; hi = r[2] }
   else if (a ~ /^>= /) lo = substr(a, 4)
@@ -79,10 +126,13 @@ pending {
   else fail("allowed '" a "' is not one of: LO .. HI, > LO, >= LO, < HI, <= HI, LO <= X < HI (< or <=), finite")
   n++
   G[n] = pg; N[n] = pn; U[n] = pu; D[n] = pd; A[n] = pa; T[n] = pt; F[n] = field; CT[n] = ct; FT[n] = ft; FD[n] = fd
-  LO[n] = lo; HI[n] = hi; LOO[n] = lo_open; HIO[n] = hi_open; INT[n] = isint; STR[n] = isstr
+  LO[n] = lo; HI[n] = hi; LOO[n] = lo_open; HIO[n] = hi_open; INT[n] = isint; STR[n] = isstr; LOG[n] = islog
+  LIST[n] = islist; LEN[n] = len; CNT[n] = cnt; FDL[n] = fdl; LSET[n] = lset; SHOWN[n] = shown
+  R[n] = run[pg] + 0; runlen[pg, R[n]]++; if (R[n] > nrun[pg]) nrun[pg] = R[n]
   pending = 0
   next
 }
+function sfx(k) { return k ? "_" (k + 1) : "" }   # a group's run r (0: the first) in the generated names
 function join(   s, i) { s = ""; for (i = 1; i <= ng; i++) s = s (i > 1 ? ", " : "") groups[i]; return s }
 END {
   if (bad) exit 1
@@ -91,17 +141,20 @@ END {
   print "/* Generated by src/io/tubes_registry_gen.awk from src/workflow/tubes_config.f90: do not edit. */" > h
   for (j = 1; j <= ng; j++) {
     g = groups[j]
-    printf "#define TUBES_REGISTRY_ROWS_%s", toupper(g) > h
-    for (i = 1; i <= n; i++)
-      if (G[i] == g)
-        printf " \\\n  {%s, %s, %s, 1, %s, %s, %s, %s},", cstr(G[i]), cstr(N[i]), CT[i], cstr(U[i]), cstr(D[i]),
-               cstr(A[i]), cstr(T[i]) > h
-    print "" > h
+    for (rr = 0; rr <= nrun[g]; rr++) {
+      printf "#define TUBES_REGISTRY_ROWS_%s%s", toupper(g), sfx(rr) > h
+      for (i = 1; i <= n; i++)
+        if (G[i] == g && R[i] == rr)
+          printf " \\\n  {%s, %s, %s, %s, %s, %s, %s, %s},", cstr(G[i]), cstr(N[i]), CT[i], LIST[i] ? "TUBES_" LEN[i] : 1,
+                 cstr(U[i]), cstr(SHOWN[i]),
+                 cstr(A[i]), cstr(T[i]) > h
+      print "" > h
+    }
   }
   nr = 0; ns = 0
   printf "#define TUBES_REGISTRY_RANGES" > h
   for (i = 1; i <= n; i++)
-    if (!STR[i]) {
+    if (!STR[i] && !LOG[i] && !LIST[i]) {
       printf " \\\n  {%s, %s, offsetof(tubes_config_t, %s), %d, %s, %s, %d, %d},", cstr(G[i]), cstr(N[i]), F[i], INT[i],
              LO[i], HI[i], LOO[i], HIO[i] > h
       nr++
@@ -116,16 +169,35 @@ END {
     }
   if (ns == 0) printf " \\\n  {NULL, NULL, 0, NULL}," > h
   print "" > h
-  printf "enum { TUBES_REGISTRY_N = %d, TUBES_REGISTRY_NS = %d };\n", nr, ns > h
+  nl = 0
+  printf "#define TUBES_REGISTRY_LISTS" > h   # a list: its values' and its count's offsets, checked only when set
+  for (i = 1; i <= n; i++)
+    if (LIST[i]) {
+      printf " \\\n  {%s, %s, offsetof(tubes_config_t, %s), offsetof(tubes_config_t, %s), %d},", cstr(G[i]), cstr(N[i]),
+             F[i], CNT[i], LSET[i] > h
+      nl++
+    }
+  if (nl == 0) printf " \\\n  {NULL, NULL, 0, 0, 0}," > h
+  print "" > h
+  printf "enum { TUBES_REGISTRY_N = %d, TUBES_REGISTRY_NS = %d, TUBES_REGISTRY_NL = %d };\n", nr, ns, nl > h
   v = dir "/nml_vars.inc"; tc = dir "/nml_to_c.inc"; fc = dir "/nml_from_c.inc"
   print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > v
   print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > tc
   print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > fc
   for (i = 1; i <= n; i++) {
+    if (LIST[i]) {
+      printf "    real(c_double) :: %s(%s) = UNSET\n", F[i], LEN[i] > v
+      printf "    call put_list(v%%%s, cfg%%%s, cfg%%%s, %s)\n", F[i], F[i], CNT[i], FDL[i] > tc
+      printf "    v%%%s = cfg%%%s\n", F[i], F[i] > fc
+      continue
+    }
     printf "    %s :: %s = %s\n", FT[i], F[i], FD[i] > v
     if (STR[i]) {
       printf "    call f_to_c(v%%%s, cfg%%%s)\n", F[i], F[i] > tc
       printf "    v%%%s = c_to_f(cfg%%%s)\n", F[i], F[i] > fc
+    } else if (LOG[i]) {
+      printf "    cfg%%%s = merge(1, 0, v%%%s)\n", F[i], F[i] > tc
+      printf "    v%%%s = cfg%%%s /= 0\n", F[i], F[i] > fc
     } else {
       printf "    cfg%%%s = v%%%s\n", F[i], F[i] > tc
       printf "    v%%%s = cfg%%%s\n", F[i], F[i] > fc
@@ -133,16 +205,36 @@ END {
   }
   for (j = 1; j <= ng; j++) {
     g = groups[j]
-    de = dir "/nml_" g "_decl.inc"; di = dir "/nml_" g "_in.inc"; do_ = dir "/nml_" g "_out.inc"
-    print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > de
+    di = dir "/nml_" g "_in.inc"; do_ = dir "/nml_" g "_out.inc"; rw = dir "/nml_" g "_io.inc"
     print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > di
     print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > do_
+    print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > rw
+    for (rr = 0; rr <= nrun[g]; rr++) {
+      de = dir "/nml_" g "_decl" sfx(rr) ".inc"
+      print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > de
+      for (i = 1; i <= n; i++) {
+        if (G[i] != g || R[i] != rr) continue
+        printf "      %s :: %s%s\n", FT[i], N[i], LIST[i] ? "(:)" : "" > de
+        printf "      namelist /%s/ %s\n", g, N[i] > de
+      }
+      close(de)
+    }
     for (i = 1; i <= n; i++) {
       if (G[i] != g) continue
-      printf "      %s :: %s\n", FT[i], N[i] > de
-      printf "      namelist /%s/ %s\n", g, N[i] > de
+      if (LIST[i]) {   # read: every entry (unset ones too); write: the set ones (list_io)
+        printf "      call list_io(v%%%s, %s)\n", F[i], N[i] > di
+        printf "      if (mode == 'r') v%%%s = %s\n", F[i], N[i] > do_
+        continue
+      }
       printf "      %s = v%%%s\n", N[i], F[i] > di
       printf "      v%%%s = %s\n", F[i], N[i] > do_
     }
+    close(di); close(do_)
+    # the group's whole read or write where nothing but copies surrounds it
+    printf "      include 'nml_%s_in.inc'\n      if (mode == 'r') then\n", g > rw
+    printf "        read (u, nml=%s, iostat=ios, iomsg=iomsg)\n      else\n", g > rw
+    printf "        write (u, nml=%s, iostat=ios, iomsg=iomsg)\n      end if\n", g > rw
+    printf "      include 'nml_%s_out.inc'\n", g > rw
+    close(rw)
   }
 }

@@ -36,39 +36,69 @@ module tubes_config
     real(c_double) :: box   ! &equilibria
     integer(c_int) :: n_grid
     character(kind=c_char) :: saddle(LSADDLE)
-    real(c_double) :: x0, y0, px0, py0   ! &trajectory
+    !@ &trajectory x0 | cm | 4 | finite | initial x
+    real(c_double) :: x0
+    !@ &trajectory y0 | cm | 12.614863819914357 | finite | initial y
+    real(c_double) :: y0
+    !@ &trajectory px0 | cm/s | 0 | finite | initial p_x (ignored if at_rest)
+    real(c_double) :: px0
+    !@ &trajectory py0 | cm/s | 0 | finite | initial p_y (ignored if at_rest)
+    real(c_double) :: py0
+    !@ &trajectory at_rest | - | .true. | .true., .false. | start from rest at (x0, y0)
+    integer(c_int) :: at_rest
     !@ &trajectory t_end | s | 10 | >= 0 | final time
     real(c_double) :: t_end
     !@ &trajectory dt_out | s | 0.01 | > 0 | sample spacing of the output (t_end is always the last sample)
     real(c_double) :: dt_out
-    integer(c_int) :: at_rest
     !@ &trajectory section | - | 'none' | none, U1-, U1+, U1, theta, x, y | Poincare section whose crossings are recorded (docs/events.md)
     character(kind=c_char) :: section(LNAME)
     !@ &trajectory section_angle | deg | 45 | -360 .. 360 | section = 'theta': the ray's angle
     real(c_double) :: section_angle
     !@ &trajectory section_level | cm | 0 | finite | section = 'x' or 'y': the line x = c or y = c
     real(c_double) :: section_level
-    integer(c_int) :: section_direction, max_crossings, stop_at_first
-    character(kind=c_char) :: method(LNAME)   ! &integrator
+    !@ &trajectory section_direction | - | 0 | -1, 0, 1 | theta: sign of p_theta; x, y: sign of dx/dt or dy/dt; 0 both
+    integer(c_int) :: section_direction
+    !@ &trajectory max_crossings | - | 10000 | 1 .. 10000000 | crossings recorded at most (then the run stops)
+    integer(c_int) :: max_crossings
+    !@ &trajectory stop_at_first | - | .false. | .true., .false. | stop at the first crossing
+    integer(c_int) :: stop_at_first
+    !@ &integrator method | - | 'auto' | dop853, rk4, tao2, tao4, tao6, gauss4, gauss6, gauss8, gsl_rk8pd, gsl_rk4imp, cvode_adams, arkode_erk8, taylor, auto | integration method (docs/integrators.md)
+    character(kind=c_char) :: method(LNAME)
     !@ &integrator rtol | 1 | 1e-12 | 1e-15 <= rtol < 1 | relative tolerance (variable-step methods)
     real(c_double) :: rtol
     !@ &integrator atol | state units | 1e-12 | > 0 | absolute tolerance (variable-step methods)
     real(c_double) :: atol
     !@ &integrator h | s | 0 | >= 0 | fixed step; 0 = variable step with rtol/atol
     real(c_double) :: h
+    !@ &integrator max_steps | - | 10000000 | >= 1 | step budget
     integer(c_int64_t) :: max_steps
+    !@ &integrator omega_bind | 1/s | 200 | > 0 | tao*: binding constant of the extended phase space
     real(c_double) :: omega_bind
+    !@ &integrator solver | - | 'newton' | newton, fixed_point | gauss*: stage equation solver
     character(kind=c_char) :: solver(LNAME)
+    !@ &integrator max_iter | - | 0 | 0 .. 1000 | gauss*: iterations per step (0: 10 newton, 100 fixed_point)
     integer(c_int) :: max_iter
     character(kind=c_char) :: orb_saddle(LSADDLE)   ! &orbits
     real(c_double) :: orb_de(MAXDE)
     integer(c_int) :: orb_nde
+    !@ &orbits method | - | 'single' | single, multiple | single shooting of the brake orbit, or multiple shooting
     character(kind=c_char) :: orb_method(LNAME)
-    integer(c_int) :: orb_n_segments, orb_max_iter, orb_n_samples
-    real(c_double) :: orb_tol, orb_rtol, orb_atol
+    !@ &orbits n_segments | - | 8 | 2 .. 64 | segments of multiple shooting
+    integer(c_int) :: orb_n_segments
+    !@ &orbits tol | cm, cm/s | 1e-11 | 1e-14 .. 1e-4 | Newton tolerance on the periodicity mismatch (and |H - E|/E)
+    real(c_double) :: orb_tol
+    !@ &orbits rtol | 1 | 1e-13 | 1e-15 <= rtol < 1e-4 | integration tolerance (relative)
+    real(c_double) :: orb_rtol
+    !@ &orbits atol | state units | 1e-13 | > 0 | integration tolerance (absolute)
+    real(c_double) :: orb_atol
+    !@ &orbits max_iter | - | 25 | 1 .. 200 | Newton iterations per orbit
+    integer(c_int) :: orb_max_iter
+    !@ &orbits n_samples | - | 201 | 2 .. 100000 | samples along each orbit in the output
+    integer(c_int) :: orb_n_samples
     real(c_double) :: sec_angle   ! &section
     integer(c_int) :: sec_pth_sign
-    real(c_double) :: tub_de(MAXDE)   ! &tubes
+    !@ &tubes de | (cm/s)^2 | 10, 100 | > 0, increasing | excess energies of the tube cuts
+    real(c_double) :: tub_de(MAXDE)
     integer(c_int) :: tub_nde
     !@ &tubes kind | - | 'stable' | stable, unstable, both | which manifold
     character(kind=c_char) :: tub_kind(LNAME)
@@ -81,15 +111,25 @@ module tubes_config
     !@ &tubes n_init | - | 64 | 8 .. 100000 | seeds of the first round
     integer(c_int) :: tub_n_init
     integer(c_int) :: tub_n_max
-    real(c_double) :: tra_de(MAXDE)   ! &transition
+    !@ &transition de | (cm/s)^2 | 1, 2, 5, 10, 20, 50, 100, 200, 300, 400, 500, 600, 700, 750 | > 0, increasing | excess energies of p_trans(dE)
+    real(c_double) :: tra_de(MAXDE)
     integer(c_int) :: tra_nde
     !@ &transition area_tol | 1 | 1e-8 | 1e-13 .. 1e-2 | relative accuracy of each tube area
     real(c_double) :: tra_area_tol
-    real(c_double) :: mc_de, mc_t_max, mc_gate   ! &montecarlo
+    !@ &montecarlo de | (cm/s)^2 | 100 | > 0 | excess energy of the samples
+    real(c_double) :: mc_de
+    !@ &montecarlo n_samples | - | 10000 | 1 .. 10000000 | points on the section
+    integer(c_int) :: mc_n_samples
+    !@ &montecarlo seed | - | 12345 | >= 0 | seed of GSL's MT19937
+    integer(c_int) :: mc_seed
+    !@ &montecarlo t_max | s | 20 | > 0 | longest integration of a point
+    real(c_double) :: mc_t_max
+    !@ &montecarlo gate
+    real(c_double) :: mc_gate
     !@ &montecarlo area_tol | 1 | 1e-8 | 1e-13 .. 1e-2 | relative accuracy of the tube cut the points are sorted by
     real(c_double) :: mc_area_tol
-    integer(c_int) :: mc_n_samples, mc_seed
-    real(c_double) :: pm_de(MAXDE)   ! &sections
+    !@ &sections de | (cm/s)^2 | 100, 500 | > 0, increasing | excess energies of the maps
+    real(c_double) :: pm_de(MAXDE)
     integer(c_int) :: pm_nde
     !@ &sections n_seeds | - | 40 | 1 .. 100000 | trajectories per map
     integer(c_int) :: pm_n_seeds
@@ -97,8 +137,19 @@ module tubes_config
     integer(c_int) :: pm_n_iter
     !@ &sections t_max | s | 2000 | > 0 | longest integration per trajectory
     real(c_double) :: pm_t_max
-    integer(c_int) :: exp_n_tracks   ! &experiment
-    real(c_double) :: exp_duration, exp_camera_rate, exp_pixel, exp_noise, exp_de_min, exp_de_max
+    !@ &experiment n_tracks | - | 120 | 1 .. 100000 | trajectories released
+    integer(c_int) :: exp_n_tracks
+    !@ &experiment duration | s | 14 | > 0 | length of each track
+    real(c_double) :: exp_duration
+    !@ &experiment camera_rate
+    real(c_double) :: exp_camera_rate
+    !@ &experiment pixel | cm | 0.16 | >= 0 | pixel size: measured positions are multiples of it (0 = no rounding)
+    real(c_double) :: exp_pixel
+    !@ &experiment noise | cm | 0.05 | >= 0 | standard deviation of the Gaussian position noise (before rounding)
+    real(c_double) :: exp_noise
+    !@ &experiment de_min
+    !@ &experiment de_max
+    real(c_double) :: exp_de_min, exp_de_max
     !@ &experiment damping_ratio | 1 | 0.014 | 0 <= zeta < 1 | damping ratio of the experiment's ball (docs/theory.md#damping)
     real(c_double) :: exp_damping_ratio
     !@ &experiment rolling_resistance | 1 | 0 | 0 <= C_rr < 1 | rolling resistance coefficient of the experiment's ball (docs/dissipation.md)
@@ -131,9 +182,22 @@ module tubes_config
     character(kind=c_char) :: model(LNAME), expr_var(LNAME), expr_msg(LMSG), expr_lib(LPATH)
     real(c_double) :: expr_seconds
     integer(c_int) :: expr_hit
-    real(c_double) :: flux_de(MAXDE)   ! &flux (flux_gate resolved like mc_gate)
-    integer(c_int) :: flux_nde, flux_n_samples, flux_seed, flux_order, flux_n_cut
-    real(c_double) :: flux_t_max, flux_gate, flux_tol
+    !@ &flux de | energy | the &transition list | > 0, increasing | excess energies of the flux
+    real(c_double) :: flux_de(MAXDE)   ! (flux_gate resolved like mc_gate)
+    integer(c_int) :: flux_nde
+    !@ &flux n_samples | - | 4000 | 2 .. 1e7 | points on the dividing surface per energy
+    integer(c_int) :: flux_n_samples
+    !@ &flux seed | - | 1 | >= 0 | seed of GSL's MT19937
+    integer(c_int) :: flux_seed
+    !@ &flux t_max | time | 20 | > 0 | integration limit of each point's future and past
+    real(c_double) :: flux_t_max
+    !@ &flux gate
+    real(c_double) :: flux_gate
+    !@ &flux tol | 1 | 1e-10 | 1e-14 .. 1e-3 | rtol = atol of the integrations
+    real(c_double) :: flux_tol
+    !@ &flux order
+    !@ &flux n_cut
+    integer(c_int) :: flux_order, flux_n_cut
     !@ &flux cut_eps | 1 | 1e-3 | 1e-8 .. 0.1 | step-off of the tube's seeds from the NHIM, in units of its radius sqrt(2 dE / omega_2)
     real(c_double) :: flux_cut_eps
     integer(c_int) :: orb_family   !! &orbits family: a centre mode (1 .. N-1), a family by name (< 0), 'branch:K' = -100 - K
@@ -146,11 +210,13 @@ module tubes_config
     real(c_double) :: scan_de(MAXDE)
     !@ &scan n | - | 10 | 1 .. 100000 | steps (n + 1 parameter values, equally spaced)
     integer(c_int) :: scan_n
+    !@ &scan de
     integer(c_int) :: scan_nde, scan_ipar
     real(c_double) :: orb_guess(2*MAX_DOF)   !! &orbits guess (the first 2 MAX_DOF values)
     integer(c_int) :: orb_nguess             !! how many values guess was given (0: none)
     real(c_double) :: orb_period             !! &orbits period (of the guess)
-    integer(c_int) :: scan_p_trans           !! &scan p_trans (1: .true.)
+    !@ &scan p_trans | - | .false. | .true., .false. (2 degrees of freedom, as the transition scene) | p_trans(dE) = A_tube/A_E at each step and each de, as the transition scene computes it (costs a tube cut per step and dE: docs/scan.md)
+    integer(c_int) :: scan_p_trans
     real(c_double) :: orb_jacobi(MAXDE)      !! &orbits jacobi (the first orb_njacobi)
     real(c_double) :: orb_periods(MAXDE)     !! &orbits periods (the first orb_nperiods)
     integer(c_int) :: orb_njacobi, orb_nperiods, orb_de_given   !! orb_de_given 1: &orbits de given

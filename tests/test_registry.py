@@ -1,0 +1,174 @@
+"""The registered namelist variables (annotations '!@ &group name | units | default | allowed | text'
+in src/workflow/tubes_config.f90; docs/development.md, "Adding a namelist variable"): for each one
+the reader (./tubes FILE --check) refuses a value just outside its allowed range and accepts values
+just inside it. The bounds are read here from the annotations' text, not from the generated checks:
+a generator or a reader that drifted from the annotation fails."""
+import math
+import re
+import subprocess
+
+import pytest
+
+from conftest import ROOT, TUBES
+
+
+def annotations():
+    """(group, name, kind, default, allowed) of every registered variable, kind from the declaration
+    that follows its annotation: real, int, int64, logical, string, list."""
+    lines = (ROOT / "src/workflow/tubes_config.f90").read_text().splitlines()
+    out = []
+    for k, line in enumerate(lines):
+        m = re.match(r"\s*!@\s*&(\w+)\s+(\w+)\s*\|(.*)$", line)
+        if not m:
+            continue
+        group, name, rest = m.groups()
+        units, default, allowed = (f.strip() for f in rest.split("|")[:3])
+        decl = lines[k + 1].split("!")[0]
+        if re.search(r"character\(kind=c_char\)", decl):
+            kind = "string"
+        elif re.search(r"real\(c_double\).*\(\w+\)\s*$", decl):
+            kind = "list"
+        elif "real(c_double)" in decl:
+            kind = "real"
+        elif "integer(c_int64_t)" in decl:
+            kind = "int64"
+        elif default in (".true.", ".false."):
+            kind = "logical"
+        else:
+            kind = "int"
+        out.append((group, name, kind, default, allowed))
+    return out
+
+
+REGISTERED = annotations()
+
+# Settings a value needs to be judged on its own range: another variable's check would refuse it
+# otherwise (those checks are the reader's rules between variables, docs/input.md).
+CONTEXT = {
+    ("experiment", "n_tracks"): "&experiment duration = 0.1 /\n",      # n_tracks x frames <= 5e7
+    ("tubes", "n_init"): "&tubes n_max = 1000000 /\n",                 # n_max >= n_init
+    ("trajectory", "dt_out"): "&trajectory t_end = 0 /\n",             # t_end/dt_out <= 5e7
+    ("integrator", "method"): "&integrator h = 0.001 /\n",             # fixed-step methods need h > 0
+    ("integrator", "rtol"): "&integrator method = 'dop853' /\n",       # not 'auto''s choice
+    ("scan", "*"): "&scan parameter = 'alpha', to = 0.08, de = 10 /\n",   # the scan's required variables
+}
+
+
+def run(group, name, value):
+    """Exit code and messages of --check on a file that sets &group name = value."""
+    ctx = CONTEXT.get((group, name), "") + CONTEXT.get((group, "*"), "")
+    text = "&run scenes = 'equilibria' /\n" + ctx
+    if f"&{group} " in ctx:   # one group, once: put the value into the context's group
+        text = text.replace(f"&{group} ", f"&{group} {name} = {value},\n ", 1)
+    else:
+        text += f"&{group}\n  {name} = {value}\n/\n"
+    return text
+
+
+def check(tmp_path, group, name, value):
+    path = tmp_path / "r.nml"
+    path.write_text(run(group, name, value))
+    p = subprocess.run([str(TUBES), str(path), "--check"], capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    return p.returncode, p.stderr + p.stdout
+
+
+def num(s):
+    return float(s)
+
+
+def step(x, direction):
+    """The double next to x towards direction (+1, -1); next to 0 a small normal number (C's strtod
+    calls a subnormal an overflow of range)."""
+    if x == 0:
+        return direction * 1e-300
+    return math.nextafter(x, direction * math.inf)
+
+
+def text(x, is_int):
+    return str(int(x)) if is_int else repr(float(x))
+
+
+def bounds(allowed):
+    """lo, hi, lo_open, hi_open of a range form (docs/development.md), None where unbounded."""
+    a = allowed
+    if a == "finite":
+        return None, None, False, False
+    m = re.fullmatch(r"(\S+) \.\. (\S+)", a)
+    if m:
+        return num(m[1]), num(m[2]), False, False
+    m = re.fullmatch(r"(>=|>|<=|<) (\S+)", a)
+    if m:
+        op, x = m[1], num(m[2])
+        return (x, None, op == ">", False) if op[0] == ">" else (None, x, False, op == "<")
+    m = re.fullmatch(r"(\S+) (<=?) \w+ (<=?) (\S+)", a)
+    if m:
+        return num(m[1]), num(m[4]), m[2] == "<", m[3] == "<"
+    raise AssertionError(f"allowed {a!r} is not a range form")
+
+
+def cases(group, name, kind, default, allowed):
+    """(inside, outside): values the reader must accept, values it must refuse."""
+    if kind == "logical":
+        return [".true.", ".false."], ["2", "'yes'"]
+    if kind == "string":
+        return [f"'{v}'" for v in allowed.split(", ")], ["'no_such_value'"]
+    if kind == "list":
+        assert allowed == "> 0, increasing"
+        return ["1e-300, 1", "1, 2, 3"], ["0", "-1, 2", "2, 2", "3, 2"]
+    is_int = kind in ("int", "int64")
+    if is_int and re.fullmatch(r"-?\d+(, -?\d+)+", allowed):   # an integer's values
+        vals = [int(v) for v in allowed.split(", ")]
+        return [str(v) for v in vals], [str(min(vals) - 1), str(max(vals) + 1)]
+    lo, hi, lo_open, hi_open = bounds(allowed)
+    inside, outside = [default], []
+    if allowed == "finite":
+        return [default, "1.7976931348623157e308", "-1.7976931348623157e308"], ["1e309", "-1e309"]
+    for b, is_open, d in ((lo, lo_open, -1), (hi, hi_open, +1)):
+        if b is None:
+            continue
+        if is_int:
+            inside.append(text(b - d if is_open else b, True))
+            outside.append(text(b if is_open else b + d, True))
+        else:
+            inside.append(text(step(b, -d) if is_open else b, False))
+            outside.append(text(b if is_open else step(b, d), False))
+    return inside, outside
+
+
+def test_the_annotations_are_read():
+    """The parse above sees every kind the generator takes (a regression of this file's own reader)."""
+    kinds = {k for _, _, k, _, _ in REGISTERED}
+    assert kinds == {"real", "int", "int64", "logical", "string", "list"}, kinds
+    assert len(REGISTERED) >= 50
+
+
+@pytest.mark.parametrize("group,name,kind,default,allowed", REGISTERED, ids=[f"{g}.{n}" for g, n, *_ in REGISTERED])
+def test_range_is_the_annotation_s(tmp_path, group, name, kind, default, allowed):
+    inside, outside = cases(group, name, kind, default, allowed)
+    for v in inside:
+        rc, msg = check(tmp_path, group, name, v)
+        assert rc == 0, f"&{group} {name} = {v} (allowed {allowed}) refused:\n{msg}"
+    for v in outside:
+        rc, msg = check(tmp_path, group, name, v)
+        assert rc == 1, f"&{group} {name} = {v} (allowed {allowed}) accepted:\n{msg}"
+        assert f"&{group}: " in msg and name in msg, msg   # the message names the variable
+        if kind in ("real", "int", "int64", "string") and "309" not in v:
+            assert allowed in msg, msg   # and says what is allowed, in the annotation's words
+
+
+def test_docs_rows_state_the_annotation():
+    """docs/input.md's row of each registered variable states its annotation's default, and (but
+    for a logical, whose allowed is text only) its allowed range in the annotation's words."""
+    rows, group = {}, None
+    for ln in (ROOT / "docs" / "input.md").read_text().splitlines():
+        m = re.match(r"## `&(\w+)`", ln)
+        group = m.group(1) if m else group
+        cells = [c.strip().replace("`", "") for c in ln.split("|")[1:-1]]
+        if len(cells) >= 5 and re.fullmatch(r"\w+", cells[0]):
+            rows[(group, cells[0])] = cells
+    for group, name, kind, default, allowed in REGISTERED:
+        cells = rows.get((group, name))
+        assert cells, f"&{group} {name}: no row in docs/input.md"
+        assert cells[3] in (default, default.strip("'")), f"&{group} {name}: docs default {cells[3]!r}, annotation {default!r}"
+        if kind != "logical":
+            assert allowed in cells[4], f"&{group} {name}: docs allowed {cells[4]!r}, annotation {allowed!r}"
