@@ -21,10 +21,10 @@ same orbits (the general branch switch from the other end) and, asked for energi
 stops where its arc closes into a loop instead of running its 2000 steps; the names refused where they
 mean nothing. Literature for orientation only (Doedel et al. 2007, IJBC 17, 2625): the axial family A1
 joins L1's planar Lyapunov family to its vertical family."""
-import h5py
 import numpy as np
 import pytest
 
+from _helpers import SPATIAL_CR3BP, newton, run_orbits
 from conftest import run_tubes
 from cr3bp_velocity import energy, flow
 
@@ -41,22 +41,11 @@ def correct(start, odd, u, e):
     """Newton on the symmetric orbit: start(u[:-1]) the state at t = 0, u[-1] the half period; the
     components odd of the state vanish at the half period and H = e. Returns u, the period, the
     closure over a full period and the final residual."""
-    u = np.array(u, float)
-
     def f(u):
         s = flow(start(u[:-1]), u[-1])
         return np.array([*s[odd], energy(start(u[:-1])) - e])
 
-    for _ in range(20):
-        r = f(u)
-        if np.max(np.abs(r)) < 1e-13:
-            break
-        j = np.empty((4, 4))
-        for i in range(4):
-            du = np.zeros(4)
-            du[i] = 1e-7
-            j[:, i] = (f(u + du) - f(u - du)) / 2e-7
-        u = u - np.linalg.solve(j, r)
+    u = newton(f, u, 20)
     s0 = start(u[:-1])
     return u, 2 * u[-1], np.max(np.abs(flow(s0, 2 * u[-1]) - s0)), np.max(np.abs(f(u)))
 
@@ -69,20 +58,31 @@ def vertical_start(v):
     return np.array([v[0], 0, v[1], 0, v[2], 0])
 
 
+# each symmetric start: the components of the state that vanish at the half period (odd) and those
+# that are unknowns at t = 0 (free: start's arguments)
+SYMMETRY = {axial_start: ([1, 2, 3], [0, 4, 5]), vertical_start: ([1, 3, 5], [0, 2, 4])}
+
+
+def recorrect(start, o, k):
+    """The program's orbit k of o (its state0, period and energy) corrected again by `correct` from
+    start (axial_start or vertical_start) at the orbit's energy, the program's state only the guess.
+    Returns the velocity form s of the program's state0, then correct's u, period, closure and
+    residual."""
+    odd, free = SYMMETRY[start]
+    s = velocity_form(o["state0"][k])
+    return (s, *correct(start, odd, [*s[free], o["period"][k] / 2], o["energy"][k]))
+
+
 def run(tmp_path, name, fam, des, extra=""):
-    (tmp_path / f"{name}.nml").write_text(
-        f"&run scenes = 'orbits', output = '{name}.h5' /\n&model system = 'cr3bp', spatial = .true. /\n"
-        f"&orbits saddle = 'L1', family = '{fam}', de = {', '.join(map(repr, des))}{extra} /\n")
-    r = run_tubes([f"{name}.nml"], cwd=tmp_path, timeout=300)
-    with h5py.File(tmp_path / f"{name}.h5") as f:
+    def more(f):
         g = f["orbits"]
-        out = {k: g[k][()] for k in ("energy", "period", "state0", "converged")}
-        out["attrs"] = dict(g.attrs)
         b = g["bifurcations"]
-        out["bif"] = {k: b[k][()] for k in ("kind", "dE")}
-        out["yz"] = [np.mean(g[f"orbit_{k:03d}"]["state"][:-1, 1] * g[f"orbit_{k:03d}"]["state"][:-1, 2])
-                     if out["converged"][k] else np.nan for k in range(len(des))]
-    return r, out
+        return {"bif": {k: b[k][()] for k in ("kind", "dE")},
+                "yz": [np.mean(g[f"orbit_{k:03d}"]["state"][:-1, 1] * g[f"orbit_{k:03d}"]["state"][:-1, 2])
+                       if g["converged"][k] else np.nan for k in range(len(des))]}
+
+    return run_orbits(tmp_path, name, SPATIAL_CR3BP,
+                      f"saddle = 'L1', family = '{fam}', de = {', '.join(map(repr, des))}{extra}", more=more)
 
 
 @pytest.fixture(scope="module")
@@ -100,10 +100,8 @@ def test_axial_against_scipy(families):
     assert list(a["converged"]) == [0, 1, 1, 1, 0]
     assert a["attrs"]["family_name"] == "axial" and "a fold" in a["attrs"]["family_end_reason"]
     for k in (1, 2, 3):
-        s = velocity_form(a["state0"][k])
+        s, u, t, closure, res = recorrect(axial_start, a, k)
         assert np.max(np.abs(s[[1, 2, 3]])) < 1e-10       # the program's orbit starts on the x axis, vx = 0
-        u, t, closure, res = correct(axial_start, [1, 2, 3], [s[0], s[4], s[5], a["period"][k] / 2],
-                                     a["energy"][k])
         print(f"axial dE = {DE_AXIAL[k]}: T {a['period'][k]:.12f} vs scipy {t:.12f} ({a['period'][k] - t:.1e}); "
               f"x0 {s[0] - u[0]:.1e}, vy0 {s[4] - u[1]:.1e}, vz0 {s[5] - u[2]:.1e}; scipy closure {closure:.1e}; "
               f"vz0 {s[5]:.10f}")
@@ -139,10 +137,8 @@ def test_vertical_against_scipy(families):
     _, v = families["vertical"]
     assert np.all(v["converged"] == 1)
     for k, de in enumerate([0.01, 0.05, 0.1]):
-        s = velocity_form(v["state0"][k])
+        s, u, t, closure, res = recorrect(vertical_start, v, k)
         assert np.max(np.abs(s[[1, 3, 5]])) == 0           # on the xz plane, vx = vz = 0
-        u, t, closure, res = correct(vertical_start, [1, 3, 5], [s[0], s[2], s[4], v["period"][k] / 2],
-                                     v["energy"][k])
         print(f"vertical dE = {de}: T {v['period'][k]:.12f} vs scipy {t:.12f} ({v['period'][k] - t:.1e}); "
               f"x0 {s[0] - u[0]:.1e}, z0 {s[2] - u[1]:.1e}, vy0 {s[4] - u[2]:.1e}; scipy closure {closure:.1e}")
         assert res < 1e-12 and closure < 1e-10
@@ -160,29 +156,19 @@ def test_vertical_by_period_against_scipy(tmp_path):
     its guess), has the period asked for (1e-10); 'lyapunov' (the planar family by name) is found by
     period as family 2 is (the same dE)."""
     ts = [3.0, 3.2]
-    (tmp_path / "vp.nml").write_text("&run scenes = 'orbits', output = 'vp.h5' /\n&model system = 'cr3bp', "
-                                     "spatial = .true. /\n&orbits saddle = 'L1', family = 'vertical', "
-                                     f"periods = {ts[0]}, {ts[1]} /\n")
-    r = run_tubes(["vp.nml"], cwd=tmp_path, timeout=300)
+    r, o = run_orbits(tmp_path, "vp", SPATIAL_CR3BP, f"saddle = 'L1', family = 'vertical', periods = {ts[0]}, {ts[1]}")
     assert r.returncode == 0, r.stderr
-    with h5py.File(tmp_path / "vp.h5") as f:
-        g = f["orbits"]
-        period, energy, state0 = g["period"][()], g["energy"][()], g["state0"][()]
     for k, t_star in enumerate(ts):
-        s = velocity_form(state0[k])
-        u, t, closure, res = correct(vertical_start, [1, 3, 5], [s[0], s[2], s[4], period[k] / 2], energy[k])
+        _, u, t, closure, res = recorrect(vertical_start, o, k)
         print(f"vertical by period {t_star}: scipy at the program's energy {t:.13f} ({t - t_star:.1e}); "
               f"closure {closure:.1e}")
         assert res < 1e-12 and closure < 1e-10
         assert t == pytest.approx(t_star, abs=1e-10)
     des = []
     for fam in ("'lyapunov'", "2"):
-        (tmp_path / "pp.nml").write_text("&run scenes = 'orbits', output = 'pp.h5' /\n&model system = 'cr3bp', "
-                                         f"spatial = .true. /\n&orbits saddle = 'L1', family = {fam}, "
-                                         "periods = 2.75 /\n")
-        assert run_tubes(["pp.nml"], cwd=tmp_path, timeout=300).returncode == 0
-        with h5py.File(tmp_path / "pp.h5") as f:
-            des.append(f["orbits/dE"][0])
+        r, o = run_orbits(tmp_path, "pp", SPATIAL_CR3BP, f"saddle = 'L1', family = {fam}, periods = 2.75")
+        assert r.returncode == 0
+        des.append(o["dE"][0])
     assert des[0] == des[1]
 
 
@@ -221,13 +207,11 @@ def test_names_refused_where_they_mean_nothing(tmp_path):
     r = run_tubes(["c.nml"], cwd=tmp_path)
     assert r.returncode == 1 and "no centre mode of the S1 of system 'expression' lies out of the plane" in r.stderr
     # in 2 DOF 'lyapunov' is family 1, bit for bit
-    for name, fam in (("d", "'lyapunov'"), ("e", "1")):
-        (tmp_path / f"{name}.nml").write_text(f"&run scenes = 'orbits', output = '{name}.h5' /\n"
-                                              f"&model system = 'henon_heiles' /\n&orbits family = {fam}, de = 0.01 /\n")
-        assert run_tubes([f"{name}.nml"], cwd=tmp_path).returncode == 0
-    with h5py.File(tmp_path / "d.h5") as d, h5py.File(tmp_path / "e.h5") as e:
-        assert np.array_equal(d["orbits/state0"][()], e["orbits/state0"][()])
-        assert d["orbits/period"][()] == e["orbits/period"][()]
+    d, e = [run_orbits(tmp_path, name, "&model system = 'henon_heiles' /\n", f"family = {fam}, de = 0.01", timeout=120)
+            for name, fam in (("d", "'lyapunov'"), ("e", "1"))]
+    assert d[0].returncode == 0 and e[0].returncode == 0
+    assert np.array_equal(d[1]["state0"], e[1]["state0"])
+    assert d[1]["period"] == e[1]["period"]
     (tmp_path / "f.nml").write_text("&run scenes = 'orbits' /\n&model system = 'cr3bp', spatial = .true. /\n"
                                     "&orbits family = 'axial', guess = 0.9, 0, 0, 0, 0.3, 0.1, period = 4, "
                                     "de = 0.09 /\n")

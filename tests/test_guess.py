@@ -22,6 +22,7 @@ import pytest
 from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
+from _helpers import newton
 from conftest import run_tubes
 
 E_SAD = 1.0 / 6.0           # Henon-Heiles' saddles: dE = E - 1/6
@@ -249,17 +250,7 @@ def test_fold_of_l2_halo_family(tmp_path, tubes_exe):
     def energy_at(xx, u0=(x0[2], x0[4] - x0[0])):   # momentum form: vy = py - x at y = 0
         """E of the symmetric halo orbit through x = xx: (z0, vy0) with vx = vz = 0 at the y = 0
         crossing (x, not z: z turns back near the fold too)."""
-        u = np.array(u0, float)
-        for _ in range(30):
-            f0 = g(u, xx)
-            if np.max(np.abs(f0)) < 1e-13:
-                break
-            jm = np.empty((2, 2))
-            for i in range(2):
-                du = np.zeros(2)
-                du[i] = 1e-7
-                jm[:, i] = (g(u + du, xx) - g(u - du, xx)) / 2e-7
-            u = u - np.linalg.solve(jm, f0)
+        u = newton(lambda u: g(u, xx), u0, 30)
         assert np.max(np.abs(g(u, xx))) < 1e-11
         return th.energy([xx, 0, u[0], 0, u[1], 0])
 

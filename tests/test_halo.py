@@ -9,11 +9,11 @@ Asserted: the period, x0 and z0 to 1e-10, the scipy orbit's closure over a full 
 larger excursion in z positive (south's negative: the conventional naming), and the halo orbits
 out of the plane (|z0| growing with dE) on the planar family's side of the branch point
 (dE above the branch point the bifurcation monitor locates)."""
-import h5py
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from _helpers import SPATIAL_CR3BP, newton, run_orbits
 from conftest import run_tubes
 from cr3bp_velocity import MU, TOL, energy, rhs
 
@@ -30,23 +30,11 @@ def half(u):
 def correct(u, e):
     """The symmetric orbit of energy e near u = (x0, z0, vy0): vx = vz = 0 at the half period, and
     H = e (the crossing time is the event's, so three conditions in three unknowns)."""
-    u = np.array(u, float)
-
     def f(u):
         _, s = half(u)
         return np.array([s[3], s[5], energy([u[0], 0, u[1], 0, u[2], 0]) - e])
 
-    for _ in range(30):
-        r = f(u)
-        if np.max(np.abs(r)) < 1e-13:
-            break
-        j = np.empty((3, 3))
-        for i in range(3):
-            h = 1e-7
-            du = np.zeros(3)
-            du[i] = h
-            j[:, i] = (f(u + du) - f(u - du)) / (2 * h)
-        u = u - np.linalg.solve(j, r)
+    u = newton(f, u, 30)
     th, _ = half(u)
     s0 = [u[0], 0, u[1], 0, u[2], 0]
     end = solve_ivp(rhs, (0, 2 * th), s0, **TOL).y[:, -1]
@@ -54,19 +42,16 @@ def correct(u, e):
 
 
 def run(tmp_path, saddle, fam, des, name):
-    (tmp_path / f"{name}.nml").write_text(
-        f"&run scenes = 'orbits', output = '{name}.h5' /\n&model system = 'cr3bp', spatial = .true. /\n"
-        f"&orbits saddle = '{saddle}', family = '{fam}', de = {', '.join(map(repr, des))} /\n")
-    r = run_tubes([f"{name}.nml"], cwd=tmp_path, timeout=300)
+    def more(f):
+        z = [f["orbits"][f"orbit_{k:03d}"]["state"][:, 2] for k in range(len(des))]
+        return {"zmax": np.array([v.max() for v in z]), "zmin": np.array([v.min() for v in z])}
+
+    r, out = run_orbits(tmp_path, name, SPATIAL_CR3BP,
+                        f"saddle = '{saddle}', family = '{fam}', de = {', '.join(map(repr, des))}", more=more)
     assert r.returncode == 0, r.stderr
     assert f"{saddle} {fam} family" in r.stdout
-    with h5py.File(tmp_path / f"{name}.h5") as f:
-        g = f["orbits"]
-        assert g.attrs["family_name"] == fam
-        out = {k: g[k][()] for k in ("energy", "period", "state0", "converged", "floquet_index")}
-        z = [g[f"orbit_{k:03d}"]["state"][:, 2] for k in range(len(des))]
-        out["zmax"], out["zmin"] = np.array([v.max() for v in z]), np.array([v.min() for v in z])
-        return out
+    assert out["attrs"]["family_name"] == fam
+    return out
 
 
 @pytest.mark.parametrize("saddle,des,de_branch", [("L1", [0.008, 0.01, 0.015], 0.0069945818),
@@ -109,9 +94,6 @@ def test_halo_refused_where_it_makes_no_sense(tmp_path):
 
 def test_halo_below_the_branch_point(tmp_path):
     """All requested energies below the L1 branch point (dE ~ 0.006995): no halo orbit there."""
-    (tmp_path / "c.nml").write_text("&run scenes = 'orbits', output = 'c.h5' /\n"
-                                    "&model system = 'cr3bp', spatial = .true. /\n"
-                                    "&orbits family = 'halo_north', de = 0.002, 0.004 /\n")
-    r = run_tubes(["c.nml"], cwd=tmp_path)
+    r, _ = run_orbits(tmp_path, "c", SPATIAL_CR3BP, "family = 'halo_north', de = 0.002, 0.004", timeout=120)
     assert r.returncode == 4, r.stdout + r.stderr
     assert "no branch point below the largest dE" in r.stdout + r.stderr

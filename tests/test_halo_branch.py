@@ -14,12 +14,11 @@ program's orbits (its slope and dE_b the fit's own), each orbit within FIT_RTOL 
 halo_south orbits are the mirror images z -> -z of the halo_north ones; (3) each orbit corrected
 again by the scipy corrector of tests/test_axial.py at the program's energy (the program's state
 only its guess): the same |z0| (|v_z0|) and period."""
-import h5py
 import numpy as np
 import pytest
 
-from conftest import run_tubes
-from test_axial import axial_start, correct, vertical_start, velocity_form
+from _helpers import SPATIAL_CR3BP, run_orbits
+from test_axial import axial_start, recorrect, velocity_form, vertical_start
 
 HALO_DE = [0.0069950, 0.0070, 0.0070048, 0.0070132]
 AXIAL_DE = [0.08348, 0.08349, 0.0835]
@@ -27,14 +26,7 @@ FIT_RTOL = 2e-3   # each amplitude^2 off the fitted line, relative to it (the O(
 
 
 def run(tmp_path, name, fam, des):
-    (tmp_path / f"{name}.nml").write_text(
-        f"&run scenes = 'orbits', output = '{name}.h5' /\n&model system = 'cr3bp', spatial = .true. /\n"
-        f"&orbits saddle = 'L1', family = '{fam}', de = {', '.join(map(repr, des))} /\n")
-    r = run_tubes([f"{name}.nml"], cwd=tmp_path, timeout=300)
-    with h5py.File(tmp_path / f"{name}.h5") as f:
-        g = f["orbits"]
-        out = {k: g[k][()] for k in ("dE", "energy", "period", "state0", "converged")}
-    return r, out
+    return run_orbits(tmp_path, name, SPATIAL_CR3BP, f"saddle = 'L1', family = '{fam}', de = {', '.join(map(repr, des))}")
 
 
 def line_fit(de, a2):
@@ -42,6 +34,20 @@ def line_fit(de, a2):
     c, c0 = np.polyfit(de, a2, 1)
     de_b = -c0 / c
     return c, de_b, np.abs(a2 - c * (de - de_b)) / np.abs(a2)
+
+
+def agrees_with_scipy(o, des, start, name, amp, j):
+    """scipy's corrector at the program's energy (recorrect from start) on each orbit k of o (at
+    des[k]): it converges (residual 1e-12) to an orbit that closes over its period (1e-9), whose
+    amplitude u[j] is the program's amp[k] (named name; 1e-6 relative) and whose period is the
+    program's (1e-10 relative)."""
+    for k in range(len(des)):
+        _, u, t, closure, res = recorrect(start, o, k)
+        print(f"  dE = {des[k]}: program {name} = {amp[k]:.10f}, T = {o['period'][k]:.12f}; scipy {name} = "
+              f"{u[j]:.10f}, T = {t:.12f}, closure {closure:.1e}")
+        assert res < 1e-12 and closure < 1e-9
+        assert u[j] == pytest.approx(amp[k], rel=1e-6)
+        assert t == pytest.approx(o["period"][k], rel=1e-10)
 
 
 @pytest.mark.slow   # ~15 s: two halo runs, eight scipy corrections
@@ -62,16 +68,7 @@ def test_halo_just_above_its_branch_point(tmp_path):
     assert np.all(s["converged"] == 1)
     np.testing.assert_allclose(s["state0"][:, 2], -z0, rtol=1e-7)
     np.testing.assert_allclose(s["period"], o["period"], rtol=1e-12)
-    # scipy's corrector at the program's energy
-    for k in range(len(HALO_DE)):
-        v = velocity_form(o["state0"][k])
-        u, t, closure, res = correct(vertical_start, [1, 3, 5], [v[0], v[2], v[4], o["period"][k] / 2],
-                                     o["energy"][k])
-        print(f"  dE = {HALO_DE[k]}: program z0 = {z0[k]:.10f}, T = {o['period'][k]:.12f}; scipy z0 = {u[1]:.10f}, "
-              f"T = {t:.12f}, closure {closure:.1e}")
-        assert res < 1e-12 and closure < 1e-9
-        assert u[1] == pytest.approx(z0[k], rel=1e-6)
-        assert t == pytest.approx(o["period"][k], rel=1e-10)
+    agrees_with_scipy(o, HALO_DE, vertical_start, "z0", z0, 1)
 
 
 @pytest.mark.slow   # ~10 s: the planar family, its branch point, the axial arc
@@ -86,11 +83,4 @@ def test_axial_just_above_its_branch_point(tmp_path):
     print(f"axial: vz0 = {vz0}, vz0^2 = {c:.6f} (dE - {de_b:.10f}), misfit {mis.max():.1e}")
     assert 0.0834 < de_b < AXIAL_DE[0]
     assert mis.max() < FIT_RTOL
-    for k in range(len(AXIAL_DE)):
-        v = velocity_form(o["state0"][k])
-        u, t, closure, res = correct(axial_start, [1, 2, 3], [v[0], v[4], v[5], o["period"][k] / 2], o["energy"][k])
-        print(f"  dE = {AXIAL_DE[k]}: program vz0 = {vz0[k]:.10f}; scipy vz0 = {u[2]:.10f}, T = {t:.12f}, "
-              f"closure {closure:.1e}")
-        assert res < 1e-12 and closure < 1e-9
-        assert u[2] == pytest.approx(vz0[k], rel=1e-6)
-        assert t == pytest.approx(o["period"][k], rel=1e-10)
+    agrees_with_scipy(o, AXIAL_DE, axial_start, "vz0", vz0, 2)

@@ -10,13 +10,13 @@ constant or period"; &orbits jacobi, periods).
     (x0, 0) with vy0 from the energy, x0 by brentq on vx at the half period; Henon-Heiles' saddle
     family: the brake orbit by Newton on (q0, T/2) with p(T/2) = 0, V(q0) = E).
 (c) Bad input, the CLI (exit 1; a period not reached: exit 4) and Python (ValueError, TubesError)."""
-import h5py
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 import tubes
+from _helpers import run_orbits
 from conftest import run_tubes
 
 MU = 0.01215058560962404
@@ -25,16 +25,8 @@ CR3BP = f"&model system = 'cr3bp', mu = {MU!r} /\n"
 
 
 def scene(tmp_path, model, orbits, name="o"):
-    (tmp_path / f"{name}.nml").write_text(f"&run scenes = 'equilibria', 'orbits', output = '{name}.h5' /\n{model}"
-                                          f"&orbits {orbits} /\n")
-    r = run_tubes([f"{name}.nml"], cwd=tmp_path, timeout=300)
-    out = None
-    if (tmp_path / f"{name}.h5").exists():
-        with h5py.File(tmp_path / f"{name}.h5") as f:
-            if "orbits" in f:
-                out = {k: f["orbits"][k][()] for k in f["orbits"] if not isinstance(f["orbits"][k], h5py.Group)}
-                out["E_e"] = f["saddle"].attrs["energy"]
-    return r, out
+    return run_orbits(tmp_path, name, model, orbits, scenes="'equilibria', 'orbits'",
+                      more=lambda f: {"E_e": f["saddle"].attrs["energy"]})
 
 
 def omega_eff(x, y=0.0):

@@ -9,30 +9,16 @@ and the Newton least-squares corrector of tests/test_guess.py for Henon-Heiles' 
 period scipy gives must be the one asked for to 1e-10 (relative). 'branch:K' by period is refused
 (exit 1, naming &orbits periods and why). The figures of docs/orbits.md are printed by
 `.venv/bin/python -m pytest -s -m slow tests/test_periods.py`."""
-import h5py
 import numpy as np
 import pytest
 
-from conftest import run_tubes
-from test_axial import axial_start, correct, velocity_form, vertical_start
+from _helpers import SPATIAL_CR3BP, run_orbits
+from test_axial import axial_start, recorrect, vertical_start
 from test_guess import E_SAD, correct as correct_hh, yaxis_period
 
 
 def run(tmp_path, name, model, orbits):
-    (tmp_path / f"{name}.nml").write_text(f"&run scenes = 'orbits', output = '{name}.h5' /\n{model}"
-                                          f"&orbits {orbits} /\n")
-    r = run_tubes([f"{name}.nml"], cwd=tmp_path, timeout=900)
-    out = None
-    if (tmp_path / f"{name}.h5").exists():
-        with h5py.File(tmp_path / f"{name}.h5") as f:
-            if "orbits" in f:
-                g = f["orbits"]
-                out = {k: g[k][()] for k in ("dE", "energy", "period", "state0", "converged", "requested_period")}
-                out["attrs"] = dict(g.attrs)
-    return r, out
-
-
-SPATIAL = "&model system = 'cr3bp', spatial = .true. /\n"
+    return run_orbits(tmp_path, name, model, orbits, timeout=900)
 
 
 @pytest.mark.slow   # ~30 s: the L1 halo family probed from below its branch point to its fold
@@ -42,16 +28,14 @@ def test_halo_by_period_against_scipy(tmp_path, saddle, fam, ts, again):
     """The halo orbits of the asked periods; at L1 the period rises from the branch point's 2.74299
     to ~2.78 and falls again towards the fold: 2.745 and 2.75 are met twice, the crossing nearest the
     branch point is taken and the other is said on stderr (exit 0)."""
-    r, o = run(tmp_path, "h", SPATIAL, f"saddle = '{saddle}', family = '{fam}', "
+    r, o = run(tmp_path, "h", SPATIAL_CR3BP, f"saddle = '{saddle}', family = '{fam}', "
                                        f"periods = {', '.join(map(repr, ts))}")
     assert r.returncode == 0, r.stderr
     assert o["attrs"]["parameter"] == "periods" and o["attrs"]["family_name"] == fam
     assert np.all(o["converged"] == 1)
     assert ("more than one orbit of the family has this period" in r.stderr) == again, r.stderr
     for k, t_star in enumerate(ts):
-        s = velocity_form(o["state0"][k])
-        u, t, closure, res = correct(vertical_start, [1, 3, 5], [s[0], s[2], s[4], o["period"][k] / 2],
-                                     o["energy"][k])
+        _, u, t, closure, res = recorrect(vertical_start, o, k)
         print(f"{saddle} {fam} by period {t_star}: dE = {o['dE'][k]:.13g}, program T - T* = "
               f"{o['period'][k] - t_star:.1e}, scipy at the program's energy T = {t:.13f} "
               f"((T - T*)/T* = {(t - t_star) / t_star:.1e}), |z0| = {abs(u[1]):.7f}, closure {closure:.1e}")
@@ -63,11 +47,10 @@ def test_halo_by_period_against_scipy(tmp_path, saddle, fam, ts, again):
 @pytest.mark.slow   # the axial family's probes: each a planar family, its monitor and an arc
 def test_axial_by_period_against_scipy(tmp_path):
     t_star = 4.0
-    r, o = run(tmp_path, "a", SPATIAL, f"saddle = 'L1', family = 'axial', periods = {t_star}")
+    r, o = run(tmp_path, "a", SPATIAL_CR3BP, f"saddle = 'L1', family = 'axial', periods = {t_star}")
     assert r.returncode == 0, r.stderr
     assert o["converged"][0] == 1
-    s = velocity_form(o["state0"][0])
-    u, t, closure, res = correct(axial_start, [1, 2, 3], [s[0], s[4], s[5], o["period"][0] / 2], o["energy"][0])
+    _, u, t, closure, res = recorrect(axial_start, o, 0)
     print(f"axial by period {t_star}: dE = {o['dE'][0]:.13g}, program T - T* = {o['period'][0] - t_star:.1e}, "
           f"scipy T = {t:.13f} ((T - T*)/T* = {(t - t_star) / t_star:.1e}), vz0 = {u[2]:.10f}, "
           f"closure {closure:.1e}")
@@ -100,7 +83,7 @@ def test_guess_by_period_against_scipy(tmp_path):
 def test_python_takes_the_same_path(tmp_path):
     """orbit_family(periods=..., family='halo_south') is the program's scene: the same dE, bit for bit."""
     import tubes
-    _, o = run(tmp_path, "p", SPATIAL, "saddle = 'L2', family = 'halo_south', periods = 3.40")
+    _, o = run(tmp_path, "p", SPATIAL_CR3BP, "saddle = 'L2', family = 'halo_south', periods = 3.40")
     t = tubes.orbit_family(tubes.Model("cr3bp", spatial=True), saddle="L2", family="halo_south", periods=[3.40])
     assert t["family_name"] == "halo_south"
     np.testing.assert_array_equal(t["dE"], o["dE"])
@@ -121,7 +104,7 @@ def test_branch_by_period_refused(tmp_path):
 @pytest.mark.slow   # ~15 s: the L2 halo family probed to its ends
 def test_period_not_reached(tmp_path):
     """A period the family's probes do not take: said with the probed range (exit 4; Python EPASTEND)."""
-    r, _ = run(tmp_path, "n", SPATIAL, "saddle = 'L2', family = 'halo_south', periods = 5.0")
+    r, _ = run(tmp_path, "n", SPATIAL_CR3BP, "saddle = 'L2', family = 'halo_south', periods = 5.0")
     assert r.returncode == 4, r.stderr
     assert "&orbits periods(1) = 5: not reached: the L2 family's orbits probed along its continuation" in r.stderr
     import tubes

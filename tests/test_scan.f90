@@ -29,7 +29,7 @@ program test_scan
   type(equilibrium_t), allocatable :: eqs(:), cont(:), direct(:)
   integer, allocatable :: origin(:)
   real(wp), allocatable :: starts(:, :)
-  real(wp) :: params(MAX_PARAMS), lo(2), hi(2), dmax
+  real(wp) :: params(MAX_PARAMS), lo(2), hi(2)
   integer :: stat, k
 
   ! (1) the rolling ball: its defaults (the paper's) in the table's order
@@ -49,12 +49,7 @@ program test_scan
   call check_eq('continued from themselves: status', stat, TUBES_OK)
   call check_eq('continued from themselves: count', size(cont), size(eqs))
   call check_true('continued from themselves: origin is the identity', all(origin == [(k, k = 1, size(eqs))]))
-  call check_true('continued from themselves: names', all([(cont(k)%name == eqs(k)%name, k = 1, size(eqs))]))
-  dmax = 0
-  do k = 1, size(eqs)
-    dmax = max(dmax, maxval(abs(cont(k)%q - eqs(k)%q)))
-  end do
-  call check_close('continued from themselves: positions [cm]', dmax, 0.0_wp, 1.0e-12_wp)
+  call check_same_equilibria('continued from themselves', '', cont, eqs)
   params(1) = 0.0705_wp
   call make_model('rolling_ball', params, model, stat)
   call continue_equilibria(model, lo, hi, 41, starts, cont, origin, stat)
@@ -62,12 +57,7 @@ program test_scan
   call check_eq('alpha 0.0705: continued count', size(cont), size(direct))
   call check_true('alpha 0.0705: each start its own equilibrium', all(origin > 0) .and. &
                   all([(count(origin == origin(k)) == 1, k = 1, size(origin))]))
-  call check_true('alpha 0.0705: names as the search', all([(cont(k)%name == direct(k)%name, k = 1, size(direct))]))
-  dmax = 0
-  do k = 1, size(direct)
-    dmax = max(dmax, maxval(abs(cont(k)%q - direct(k)%q)))
-  end do
-  call check_close('alpha 0.0705: positions as the search [cm]', dmax, 0.0_wp, 1.0e-12_wp)
+  call check_same_equilibria('alpha 0.0705', ' as the search', cont, direct)
   call check_rel('alpha 0.0705: S12 lambda as the search', cont(5)%lambda, direct(5)%lambda, 1.0e-12_wp)
 
   call fold_case()
@@ -197,6 +187,22 @@ contains
                     fold_name, fold_partner, stat, p_trans=p)
     call check_eq('p_trans: without its section and areas', stat, TUBES_EINPUT)
   end subroutine p_trans_case
+
+  !> got holds want's equilibria (the first size(want) of got, in want's order): the same names, and
+  !> the same positions to 1e-12 cm (the Newton of another start: ~1e-14 cm, header). The checks are
+  !> named what // ': names' // how and what // ': positions' // how // ' [cm]'.
+  subroutine check_same_equilibria(what, how, got, want)
+    character(*), intent(in) :: what, how
+    type(equilibrium_t), intent(in) :: got(:), want(:)
+    real(wp) :: dmax
+    integer :: k
+    call check_true(what // ': names' // how, all([(got(k)%name == want(k)%name, k = 1, size(want))]))
+    dmax = 0
+    do k = 1, size(want)
+      dmax = max(dmax, maxval(abs(got(k)%q - want(k)%q)))
+    end do
+    call check_close(what // ': positions' // how // ' [cm]', dmax, 0.0_wp, 1.0e-12_wp)
+  end subroutine check_same_equilibria
 
   !> scan_table of st with (ipar, to, n), dE = 0.01: its status.
   subroutine try(st, opts, ipar, to, n, stat)

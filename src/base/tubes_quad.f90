@@ -1,11 +1,13 @@
 !> The Fortran interface of src/base/tubes_quad_shim.c: GSL's adaptive quadrature (QAGS), Brent's
 !> root finder, the periodic cubic spline's enclosed area and the MT19937 uniform stream. The
-!> integrands are bind(C) functions f(x, user) of a user pointer; every call is thread-safe.
+!> integrands are bind(C) functions f(x, user) of a user pointer; every call is thread-safe. Also
+!> the closed polygon's shoelace sum (polygon_area, in Fortran).
 module tubes_quad
   use, intrinsic :: iso_c_binding, only: c_int, c_long, c_double, c_ptr, c_funptr
+  use tubes_kinds, only: wp
   implicit none
   private
-  public :: quad_qags, quad_root, spline_area, rng_uniform, quad_area
+  public :: quad_qags, quad_root, spline_area, rng_uniform, quad_area, polygon_area
 
   interface
     !> The integral of f over [a, b] to max(epsabs, epsrel |result|): the GSL status.
@@ -60,4 +62,17 @@ contains
     stat = int(quad_qags(f, user, a, b, 0.0_c_double, 1.0e-12_c_double, result, abserr))
     if (stat /= 0 .and. abs(result) <= huge(1.0_c_double) .and. abserr <= 1.0e-9_c_double*abs(result)) stat = 0
   end function quad_area
+
+  !> The shoelace sum of the closed polygon through (s(i), p(i)), i = 1 .. n (its last vertex
+  !> joined to its first): the enclosed area, positive when the polygon turns counter-clockwise in
+  !> the (s, p) plane (then minus the integral of p ds around it, by Green).
+  pure real(wp) function polygon_area(s, p) result(a)
+    real(wp), intent(in) :: s(:), p(:)
+    integer :: i, j
+    a = 0
+    do i = 1, size(s)
+      j = mod(i, size(s)) + 1
+      a = a + 0.5_wp*(s(i)*p(j) - s(j)*p(i))
+    end do
+  end function polygon_area
 end module tubes_quad

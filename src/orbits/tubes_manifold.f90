@@ -11,7 +11,7 @@ module tubes_manifold
   use, intrinsic :: iso_c_binding, only: c_int, c_double
   use tubes_kinds, only: wp
   use tubes_lapack, only: dlasrt, eigen
-  use tubes_quad, only: spline_area
+  use tubes_quad, only: spline_area, polygon_area
   use tubes_status, only: TUBES_OK, TUBES_EDIRECTION, TUBES_EINPUT, TUBES_ENOCONV, TUBES_EVENT, TUBES_EFAULT, &
                           TUBES_ENOCROSS
   use tubes_ensemble, only: ens_out_t, ens_run, ens_agree, ens_reuse_ok
@@ -491,9 +491,9 @@ contains
     cut%x = xcs
     cut%sec = pcs
     cut%area = abs(a_new)
-    cut%area_polygon = polygon(pcs(1, :), pcs(2, :))
-    do l = 3, nc - 1, 2
-      cut%area_polygon = cut%area_polygon + polygon(pcs(l, :), pcs(l + 1, :))
+    cut%area_polygon = -polygon_area(pcs(1, :), pcs(2, :))   ! Green: the integral of p dr is minus the
+    do l = 3, nc - 1, 2                                        ! shoelace sum of (r, p)
+      cut%area_polygon = cut%area_polygon - polygon_area(pcs(l, :), pcs(l + 1, :))
     end do
     cut%area_polygon = abs(cut%area_polygon)
     if (stat == TUBES_ENOCONV .and. cut%area_change <= 1.0e3_wp*opts%area_tol*abs(a_new)) stat = TUBES_OK
@@ -714,17 +714,6 @@ contains
       d = d + v(k)*w(k)
     end do
   end function dot2
-
-  pure real(wp) function polygon(r, p) result(a)
-    real(wp), intent(in) :: r(:), p(:)
-    integer :: i, j
-    a = 0
-    do i = 1, size(r)
-      j = mod(i, size(r)) + 1
-      a = a + 0.5_wp*(r(i)*p(j) - r(j)*p(i))
-    end do
-    a = -a      ! Green: the integral of p dr is minus the shoelace sum of (r, p)
-  end function polygon
 
   !> The median (the upper one for an even count), by LAPACK's sort.
   real(wp) function median(a) result(m)

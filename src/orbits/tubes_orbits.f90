@@ -974,16 +974,10 @@ contains
     if (present(folds)) allocate (folds(0))
     if (size(des) == 0) return
     if (allocated(opts%guess)) then   ! a family from a guess: any energies, ascending
-      if (isad < 1 .or. isad > size(eqs)) then
+      if (isad < 1 .or. isad > size(eqs) .or. .not. ascending(des)) then
         stat = TUBES_EINPUT
         return
       end if
-      do k = 2, size(des)
-        if (des(k) <= des(k - 1)) then
-          stat = TUBES_EINPUT
-          return
-        end if
-      end do
       allocate (fl(0))
       call guess_family(model, eqs, isad, des, opts, orbits, end_de, end_reason, fl, stat)
       if (present(folds)) call move_alloc(fl, folds)
@@ -1025,12 +1019,10 @@ contains
         return
       end block
     end if
-    do k = 2, size(des)
-      if (des(k) <= des(k - 1)) then
-        stat = TUBES_EINPUT
-        return
-      end if
-    end do
+    if (.not. ascending(des)) then
+      stat = TUBES_EINPUT
+      return
+    end if
     ended = .false.
     do k = 1, size(des)
       if (.not. ended) then
@@ -1063,6 +1055,13 @@ contains
       call keep_orbit(p, des(k), orbits(k), end_de, end_reason)
     end subroutine path_orbit
   end subroutine orbit_family
+
+  !> Are the energies des strictly ascending (no des(k) <= des(k - 1))? orbit_family's requirement
+  !> of every family's des.
+  pure logical function ascending(des)
+    real(wp), intent(in) :: des(:)
+    ascending = .not. any(des(2:) <= des(:size(des) - 1))
+  end function ascending
 
   !> The symmetric family branching off family N - 1 at its first branch point (opts%family =
   !> FAMILY_BRANCH_PLUS or _MINUS), at the ascending excess energies des (docs/orbits.md, "Branch

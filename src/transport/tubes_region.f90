@@ -17,6 +17,7 @@ module tubes_region
   use tubes_field, only: vector_field_t
   use tubes_methods, only: integ_choice_t
   use tubes_section_kinds, only: poincare_t
+  use tubes_quad, only: polygon_area
   use tubes_transport, only: gate_spec_t, mc_classify, classify_points, MC_TRANSIT, MC_RETURN, MC_ESCAPE, MC_TRAPPED, &
                              MC_UNDECIDED
   implicit none
@@ -222,7 +223,7 @@ contains
     reg%t_in = tin
     reg%edge = edge
     reg%area = a_new
-    reg%area_polygon = abs(polygon(sb, pb))
+    reg%area_polygon = abs(polygon_area(sb, pb))
     call interpolant(reg)
     ! the scan against the traced region
     do i = 1, ns
@@ -541,16 +542,6 @@ contains
     c = c/(3*a)
     half = [maxval(s) - minval(s), maxval(p) - minval(p)]/2
   end subroutine centroid
-
-  pure real(wp) function polygon(s, p) result(a)
-    real(wp), intent(in) :: s(:), p(:)
-    integer :: i, j
-    a = 0
-    do i = 1, size(s)
-      j = mod(i, size(s)) + 1
-      a = a + 0.5_wp*(s(i)*p(j) - s(j)*p(i))
-    end do
-  end function polygon
 
   pure function interleave(a, b) result(c)
     real(wp), intent(in) :: a(:), b(:)

@@ -78,15 +78,11 @@ contains
     stat = TUBES_EINPUT
     if (model%ndof() /= 2 .or. k < 1 .or. k > 2 .or. abs(direction) /= 1 .or. .not. s_hi > s_lo) return
     if (.not. plane_quadratic_in_p(model, k, c, s_lo, s_hi)) return   ! the region's D(p_s) would be wrong
-    sec%kind = SEC_PLANE
+    call make_plane_crossing(sec, 2, k, c, direction, stat)            ! the plane itself (TUBES_OK here)
     allocate (sec%model, source=model)
-    sec%k = k
-    sec%c = c
-    sec%branch = direction
     sec%s_anchor = s_anchor
     sec%s_lo = s_lo
     sec%s_hi = s_hi
-    stat = TUBES_OK
   end subroutine make_plane_section
 
   !> The plane q_k = c of a model with any number N of degrees of freedom, crossed with

@@ -317,13 +317,8 @@ contains
     class(event_t), allocatable :: ret
     outcome = MC_UNDECIDED
     t_end = 0
-    if (present(field)) then
-      call make_integrator(integ, ig, stat, f=field, rtol=tol, atol=tol)
-    else
-      call make_integrator(integ, ig, stat, f=ball, rtol=tol, atol=tol)
-    end if
+    call trajectory_integrator(ball, tol, integ, ig, stat, field, stream)
     if (stat /= TUBES_OK) return
-    if (present(stream)) call noise_stream(ig, stream)
     call psec%return_event(ret)
     x = x0
     gate%spec = gspec
@@ -331,6 +326,26 @@ contains
     t_end = ig%t
     call mc_outcome(ball, gate%passed, x, stat, outcome, gate%trapped)
   end subroutine mc_classify
+
+  !> The integrator of one trajectory of mc_classify or one_map: integ's method at rtol = atol = tol
+  !> on field (the model with its dissipation) or, without one, on the model ball itself; a noisy
+  !> field's trajectory number stream (its noise) set.
+  subroutine trajectory_integrator(ball, tol, integ, ig, stat, field, stream)
+    class(hamiltonian_t), intent(in) :: ball
+    real(wp), intent(in) :: tol
+    type(integ_choice_t), intent(in) :: integ
+    class(integrator_t), allocatable, intent(out) :: ig
+    integer, intent(out) :: stat
+    class(vector_field_t), intent(in), optional :: field
+    integer, intent(in), optional :: stream
+    if (present(field)) then
+      call make_integrator(integ, ig, stat, f=field, rtol=tol, atol=tol)
+    else
+      call make_integrator(integ, ig, stat, f=ball, rtol=tol, atol=tol)
+    end if
+    if (stat /= TUBES_OK) return
+    if (present(stream)) call noise_stream(ig, stream)
+  end subroutine trajectory_integrator
 
   !> A point's class from the end of its integration (stat, the state x there, whether it passed
   !> the gate): a return to the section (the terminal event) MC_RETURN, the gate passed
@@ -661,13 +676,8 @@ contains
     real(wp) :: x(size(x0))
     integer :: k
     pts = ieee_value(1.0_wp, ieee_quiet_nan)
-    if (present(field)) then
-      call make_integrator(integ, ig, stat, f=field, rtol=tol, atol=tol)
-    else
-      call make_integrator(integ, ig, stat, f=ball, rtol=tol, atol=tol)
-    end if
+    call trajectory_integrator(ball, tol, integ, ig, stat, field, stream)
     if (stat /= TUBES_OK) return
-    if (present(stream)) call noise_stream(ig, stream)
     ig%max_steps = 100000000
     x = x0
     log%max_crossings = n_iter
