@@ -487,7 +487,7 @@ contains
     real(wp), intent(out) :: s(:, :)
     integer, intent(out) :: stat
     real(wp) :: a(size(s, 1), size(s, 1)), ai(size(s, 1), size(s, 1)), pc(size(s, 1)), v
-    integer :: n, i, j, ipiv(size(s, 1))
+    integer :: n, i, ipiv(size(s, 1))
     n = size(s, 1)
     s = 0
     stat = 0
@@ -506,18 +506,31 @@ contains
     call dgesv(n, n, a, n, ipiv, ai, n, stat)        ! A^-1
     if (stat /= 0) return
     ai = 2*self%c*self%temperature*ai
-    do j = 1, n                                       ! Cholesky: S S^T = 2 c theta A^-1
-      s(j, j) = ai(j, j) - sum(s(j, 1:j - 1)**2)
-      if (.not. s(j, j) > 0) then
+    call cholesky_lower(ai, s, stat)                  ! S S^T = 2 c theta A^-1
+  end subroutine damped_noise_factor
+
+  !> The Cholesky factor of a symmetric positive definite a: l lower triangular (its upper part 0),
+  !> l l^T = a; stat = -1 (l unfinished) where a pivot is not > 0 (a not positive definite).
+  pure subroutine cholesky_lower(a, l, stat)
+    real(wp), intent(in) :: a(:, :)
+    real(wp), intent(out) :: l(:, :)
+    integer, intent(out) :: stat
+    integer :: i, j, n
+    n = size(a, 1)
+    l = 0
+    stat = 0
+    do j = 1, n
+      l(j, j) = a(j, j) - sum(l(j, 1:j - 1)**2)
+      if (.not. l(j, j) > 0) then
         stat = -1
         return
       end if
-      s(j, j) = sqrt(s(j, j))
+      l(j, j) = sqrt(l(j, j))
       do i = j + 1, n
-        s(i, j) = (ai(i, j) - sum(s(i, 1:j - 1)*s(j, 1:j - 1)))/s(j, j)
+        l(i, j) = (a(i, j) - sum(l(i, 1:j - 1)*l(j, 1:j - 1)))/l(j, j)
       end do
     end do
-  end subroutine damped_noise_factor
+  end subroutine cholesky_lower
 
   pure subroutine damped_jacobian(self, t, x, jac, stat)
     class(damped_t), intent(in) :: self
@@ -558,7 +571,7 @@ contains
     real(wp), intent(out) :: a(:, :), pc(:), v
     integer, intent(out) :: stat
     real(wp) :: x(2*size(q)), g(2*size(q)), h(2*size(q), 2*size(q)), l(size(q), size(q))
-    integer :: nd, i, j
+    integer :: nd, i
     nd = size(q)
     stat = 0
     select type (model)
@@ -576,18 +589,8 @@ contains
     if (stat /= 0) return
     a = h(nd + 1:, nd + 1:)
     ! pc = -A^-1 b by Cholesky (A is positive definite for a kinetic energy)
-    l = 0
-    do j = 1, nd
-      l(j, j) = a(j, j) - sum(l(j, 1:j - 1)**2)
-      if (.not. l(j, j) > 0) then
-        stat = -1
-        return
-      end if
-      l(j, j) = sqrt(l(j, j))
-      do i = j + 1, nd
-        l(i, j) = (a(i, j) - sum(l(i, 1:j - 1)*l(j, 1:j - 1)))/l(j, j)
-      end do
-    end do
+    call cholesky_lower(a, l, stat)
+    if (stat /= 0) return
     pc = -g(nd + 1:)
     do i = 1, nd
       pc(i) = (pc(i) - sum(l(i, 1:i - 1)*pc(1:i - 1)))/l(i, i)
