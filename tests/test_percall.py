@@ -95,3 +95,20 @@ def test_two_threads_get_the_serial_bits():
         th.join()
     for (tag, i), r in got.items():
         same(r, serial[i])
+
+
+def test_kept_argument_checks_refuse_as_before():
+    """integrate keeps its checked arguments per values and types (_integrate_args): a value
+    refused is refused again, and one of another type is checked afresh (True for an integer, a
+    string for a number), whatever was accepted before with an equal value."""
+    m = tubes.Model()
+    ok = tubes.integrate(Z0, 0.01, model=m, max_steps=10_000, rtol=1e-8, atol=1e-8)
+    for kw, err in ((dict(max_steps=True), TypeError), (dict(max_steps="10000"), TypeError),
+                    (dict(rtol=2.0), ValueError), (dict(rtol=1), ValueError), (dict(direction=2), ValueError)):
+        for _ in range(2):
+            with pytest.raises(err):
+                tubes.integrate(Z0, 0.01, model=m, **{"max_steps": 10_000, "rtol": 1e-8, "atol": 1e-8, **kw})
+    again = tubes.integrate(Z0, 0.01, model=m, max_steps=10_000, rtol=1e-8, atol=1e-8)
+    same(ok, again)
+    once = tubes.integrate(Z0, 0.01, model=m, max_steps=10_000.0, rtol=1e-8, atol=1e-8)   # as before: accepted
+    same(ok, once)

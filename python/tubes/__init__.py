@@ -1821,6 +1821,45 @@ def _check_integration(who, method, t_end, rtol, atol, h, max_steps, solver, ome
     return t_end, rtol, atol, h, max_steps, omega_bind, max_iter
 
 
+_ARGS_SEEN: dict = {}   # integrate's arguments already checked (_integrate_args)
+
+
+def _integrate_args(method, t_end, rtol, atol, h, max_steps, solver, omega_bind, max_iter, level, direction,
+                    max_crossings, stop_at_first, section, dt_out):
+    """integrate's arguments checked (the input file's ranges, _check_integration, _in_range) and
+    resolved (the section, dt_out's default): a tuple. The answer for the same values of the same
+    types is kept (a loop over starts calls with the same options: issue 36's per-call cost); an
+    argument that is not a plain number, string or None is checked every time."""
+    args = (method, t_end, rtol, atol, h, max_steps, solver, omega_bind, max_iter, level, direction,
+            max_crossings, stop_at_first, section, dt_out)
+    plain = all(a is None or type(a) in (int, float, str, bool) for a in args)
+    key = tuple((type(a), a) for a in args) if plain else None
+    got = _ARGS_SEEN.get(key) if plain else None
+    if got is not None:
+        return got
+    t_end, rtol, atol, h, max_steps, omega_bind, max_iter = _check_integration(
+        "integrate", method, t_end, rtol, atol, h, max_steps, solver, omega_bind, max_iter)
+    level = _args.real("integrate", "level", level)
+    direction = _args.integer("integrate", "direction", direction, lo=-1, hi=1)
+    max_crossings = _args.integer("integrate", "max_crossings", max_crossings, lo=1)
+    stop_at_first = _args.flag("integrate", "stop_at_first", stop_at_first)
+    if section == "theta":          # the ray's angle [deg], as the input file's section_angle
+        level = _in_range("integrate", "trajectory", "section_angle", level, label="level")
+    if direction not in (-1, 0, 1):
+        raise ValueError(f"direction = {direction} is out of range: allowed -1, 0, 1")
+    if dt_out is None:
+        dt_out = max(t_end, 1e-300)
+    dt_out = _in_range("integrate", "trajectory", "dt_out", dt_out)
+    kind, lev, dirn = _section(section, level, direction)
+    got = (t_end, rtol, atol, h, max_steps, omega_bind, max_iter, dt_out, kind, lev, dirn, max_crossings,
+           stop_at_first)
+    if plain:
+        if len(_ARGS_SEEN) >= 256:
+            _ARGS_SEEN.clear()
+        _ARGS_SEEN[key] = got
+    return got
+
+
 def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | None = None,
               method: str = "auto", rtol: float = 1e-12, atol: float = 1e-12, h: float = 0.0,
               max_steps: int = 10_000_000, omega_bind: float = 0.0, solver: str = "newton",
@@ -1846,20 +1885,9 @@ def integrate(state0, t_end: float, dt_out: float | None = None, model: Model | 
     r, p_r, p_theta (polar canonical coordinates). Raises TubesError on failure.
     """
     model = model or Model()
-    t_end, rtol, atol, h, max_steps, omega_bind, max_iter = _check_integration(
-        "integrate", method, t_end, rtol, atol, h, max_steps, solver, omega_bind, max_iter)
-    level = _args.real("integrate", "level", level)
-    direction = _args.integer("integrate", "direction", direction, lo=-1, hi=1)
-    max_crossings = _args.integer("integrate", "max_crossings", max_crossings, lo=1)
-    stop_at_first = _args.flag("integrate", "stop_at_first", stop_at_first)
-    if section == "theta":          # the ray's angle [deg], as the input file's section_angle
-        level = _in_range("integrate", "trajectory", "section_angle", level, label="level")
-    if direction not in (-1, 0, 1):
-        raise ValueError(f"direction = {direction} is out of range: allowed -1, 0, 1")
-    if dt_out is None:
-        dt_out = max(t_end, 1e-300)
-    dt_out = _in_range("integrate", "trajectory", "dt_out", dt_out)
-    kind, lev, dirn = _section(section, level, direction)
+    (t_end, rtol, atol, h, max_steps, omega_bind, max_iter, dt_out, kind, lev, dirn, max_crossings,
+     stop_at_first) = _integrate_args(method, t_end, rtol, atol, h, max_steps, solver, omega_bind, max_iter,
+                                      level, direction, max_crossings, stop_at_first, section, dt_out)
     nmax = math.floor(t_end / dt_out * (1 + 1e-12)) + 2
     mc = max_crossings if kind else 1   # no section: no crossings to hold
     n2 = 2 * model.ndof
