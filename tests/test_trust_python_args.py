@@ -147,3 +147,17 @@ def test_section_boundary_plane_section(key, value):
     """A plane section's index 0.5 was read as 0 (int()), 7 and NaN ended in 'invalid input'."""
     sec = dict({"kind": "plane", "index": 0, "value": 0.0, "direction": 1}, **{key: value})
     refused(lambda: tubes.section_boundary(M, dE=1.0, section=sec), "section_boundary", f"section['{key}']", value)
+
+
+def test_max_iter_and_omega_bind_take_the_file_s_ranges():
+    """&integrator max_iter is 0 .. 1000 and omega_bind > 0 in the input file (their annotations in
+    src/workflow/tubes_config.f90); Python refuses what the file refuses, with the reader's words,
+    and keeps its own 0 for omega_bind (Tao's default, the file's 200)."""
+    msg = refused(lambda: tubes.integrate(X0, 0.1, method="gauss4", h=0.01, max_iter=1001),
+                  "integrate", "max_iter", 1001)
+    assert "0 .. 1000" in msg, msg
+    refused(lambda: tubes.Integrator(tubes.Model(), method="gauss4", h=0.01, max_iter=-1), "Integrator", "max_iter", -1)
+    assert tubes.integrate(X0, 0.1, method="tao2", h=0.01, omega_bind=0)["status"] == 0
+    a = tubes.integrate(X0, 0.1, method="tao2", h=0.01, omega_bind=0)
+    b = tubes.integrate(X0, 0.1, method="tao2", h=0.01, omega_bind=200.0)
+    assert np.array_equal(a["state"], b["state"])

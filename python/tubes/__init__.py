@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 import re
 import sys
 import threading
@@ -1810,8 +1811,11 @@ def _check_integration(who, method, t_end, rtol, atol, h, max_steps, solver, ome
     atol = _in_range(who, "integrator", "atol", atol)
     h = _in_range(who, "integrator", "h", h)
     max_steps = _in_range(who, "integrator", "max_steps", max_steps)
-    omega_bind = _args.real(who, "omega_bind", omega_bind, lo=0)   # Tao's binding; 0: its default
-    max_iter = _args.integer(who, "max_iter", max_iter, lo=0)      # gauss*; 0: its default
+    zero = isinstance(omega_bind, numbers.Real) and not isinstance(omega_bind, bool) and omega_bind == 0
+    if not zero:                                                     # 0: Tao's default (the file's 200)
+        omega_bind = _in_range(who, "integrator", "omega_bind", omega_bind)
+    omega_bind = float(omega_bind)
+    max_iter = _in_range(who, "integrator", "max_iter", max_iter)   # gauss*; 0: its default
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; allowed: {', '.join(METHODS)}")
     if method in FIXED_STEP and not h > 0:
