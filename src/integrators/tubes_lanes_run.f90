@@ -62,7 +62,7 @@ contains
     logical, allocatable :: go(:)
     integer, allocatable :: ord(:)
     real(wp) :: eps, lrho, ru(3)
-    integer :: nxt, l, m, p, s, i, k, st, kslot, nn, st1
+    integer :: nxt, l, m, p, s, k, st, kslot, nn, st1
     logical :: done
     character(512) :: msg
     allocate (lane(nl), ord(nl), grp(nl), tcb(0), wb(0), xb(nl, 0), xs(nl, 0))
@@ -201,11 +201,7 @@ contains
               if (size(lane(l)%ig%tc) < nn*s) deallocate (lane(l)%ig%tc)
             end if
             if (.not. allocated(lane(l)%ig%tc)) allocate (lane(l)%ig%tc(nn*s))
-            do i = 1, nn
-              do k = 1, s
-                lane(l)%ig%tc((i - 1)*s + k) = tcb(((i - 1)*s + k - 1)*nl + l)
-              end do
-            end do
+            call lane_coefficients(tcb, nl, l, nn*s, lane(l)%ig%tc)
             st1 = TUBES_OK
             k = lane(l)%item
             call stepped(l, st1)
@@ -412,6 +408,20 @@ contains
       end if
     end subroutine batch_kernel
   end subroutine TUBES_LANES_RUN
+
+  !> Lane l's coefficients out of the lanes' kernel array (tc(l, j): lane l's j-th, j = (i - 1) s +
+  !> k for coefficient k - 1 of component i) into its integrator's array c(1:m), m = n s: its dense
+  !> output for an event or observer (a plain strided copy, without the kernel array's index
+  !> arithmetic per element).
+  pure subroutine lane_coefficients(tc, nl, l, m, c)
+    integer, intent(in) :: nl, l, m
+    real(wp), intent(in) :: tc(nl, m)
+    real(wp), intent(inout) :: c(:)
+    integer :: j
+    do j = 1, m
+      c(j) = tc(l, j)
+    end do
+  end subroutine lane_coefficients
 
   !> The steps' start (taylor_begin's) of the lanes' states xs(l, :) at t(l) towards tend(l):
   !> xn = |x|_inf, fin: x finite (1, else 0), relative control (1) or not (0), rxn = 1/xn
