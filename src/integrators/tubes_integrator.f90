@@ -35,6 +35,9 @@ module tubes_integrator
     !> interior times of the last step at which an event's g is sampled (scan_step); default:
     !> the event's nsub equally spaced points; the Taylor method isolates the roots instead
     procedure :: event_samples => integrator_event_samples
+    !> whether the last step surely holds no root of the event's g (default: not known); then
+    !> scan_step need not sample it (the Taylor method: event_samples' own bound, below)
+    procedure :: event_clear => integrator_event_clear
   end type integrator_t
 
   abstract interface
@@ -233,6 +236,13 @@ contains
     ok = self%k >= 1 .and. self%k <= n
     if (ok) w(self%k) = 1
   end subroutine plane_affine
+
+  !> Not known (the default): the step is sampled.
+  logical function integrator_event_clear(self, event) result(clear)
+    class(integrator_t), intent(inout) :: self
+    class(event_t), intent(in) :: event
+    clear = .false.
+  end function integrator_event_clear
 
   !> The event's nsub equally spaced interior points of the last step.
   subroutine integrator_event_samples(self, event, ts, m)
@@ -537,6 +547,14 @@ contains
     stat = TUBES_OK
     hit = .false.
     te = ig%t
+    ! a step the integrator knows to hold no root, with finite ends and no sign change between
+    ! them: nothing to sample (what scan_samples would conclude with no interior sample; most
+    ! steps of an ensemble: the Taylor method's bound, without its samples' arrays)
+    if (ig%event_clear(event)) then
+      if (abs(g0) <= huge(1.0_wp) .and. abs(g1) <= huge(1.0_wp)) then
+        if (.not. ((g0 < 0 .and. g1 >= 0) .or. (g0 > 0 .and. g1 <= 0))) return
+      end if
+    end if
     call ig%event_samples(event, inner, m)
     call scan_samples(m + 1)
   contains

@@ -85,6 +85,7 @@ module tubes_taylor
     procedure :: step => taylor_step
     procedure :: interp => taylor_interp
     procedure :: event_samples => taylor_event_samples
+    procedure :: event_clear => taylor_event_clear
   end type taylor_t
 
   !> Every step of a Taylor integration, its polynomial: the dense output of the whole
@@ -580,10 +581,10 @@ contains
     class(event_t), intent(in) :: event
     real(wp), allocatable, intent(out) :: ts(:)   !! in the order of integration
     integer, intent(out) :: m
-    real(wp) :: w(self%n), c, a(0:self%p)
-    integer :: i, k, s
+    real(wp) :: a(0:self%p)
+    integer :: i
     logical :: ok
-    call event%affine(self%n, w, c, ok)
+    call event_polynomial(self, event, a, ok)
     if (.not. ok) then
       allocate (ts(event%nsub))
       m = event%nsub
@@ -592,6 +593,35 @@ contains
       end do
       return
     end if
+    call isolate_roots(a, self%t - self%t_old, ts, m)
+    ts(1:m) = self%t_old + ts(1:m)
+  end subroutine taylor_event_samples
+
+  !> Whether an affine event's g surely has no root in the last step: isolate_roots' first test
+  !> (root_free), the same arithmetic, so that where it holds event_samples finds no sample.
+  logical function taylor_event_clear(self, event) result(clear)
+    class(taylor_t), intent(inout) :: self
+    class(event_t), intent(in) :: event
+    real(wp) :: a(0:self%p), q(0:self%p)
+    logical :: ok
+    call event_polynomial(self, event, a, ok)
+    clear = .false.
+    if (.not. ok) return
+    call scaled_to_step(a, self%t - self%t_old, q)
+    clear = root_free(q)
+  end function taylor_event_clear
+
+  !> g(t_old + s) = sum_k a(k) s^k on the last step for an affine event g = w . x - c (ok), from
+  !> the step's coefficients.
+  subroutine event_polynomial(self, event, a, ok)
+    class(taylor_t), intent(in) :: self
+    class(event_t), intent(in) :: event
+    real(wp), intent(out) :: a(0:self%p)
+    logical, intent(out) :: ok
+    real(wp) :: w(self%n), c
+    integer :: i, k, s
+    call event%affine(self%n, w, c, ok)
+    if (.not. ok) return
     s = self%p + 1
     do k = 0, self%p
       a(k) = 0
@@ -600,9 +630,34 @@ contains
       end do
     end do
     a(0) = a(0) - c
-    call isolate_roots(a, self%t - self%t_old, ts, m)
-    ts(1:m) = self%t_old + ts(1:m)
-  end subroutine taylor_event_samples
+  end subroutine event_polynomial
+
+  !> q(k) = a(k) h^k: the polynomial in u = s/h on [0, 1].
+  pure subroutine scaled_to_step(a, h, q)
+    real(wp), intent(in) :: a(0:), h
+    real(wp), intent(out) :: q(0:)
+    real(wp) :: hk
+    integer :: k
+    hk = 1
+    do k = 0, size(a) - 1
+      q(k) = a(k)*hk
+      hk = hk*h
+    end do
+  end subroutine scaled_to_step
+
+  !> No root in [0, 1] when |q(0)| > sum |q(k)| (|P(u)| >= |q(0)| - sum |q(k)| u^k > 0); with a
+  !> margin far above the sums' rounding. Most steps are far from the event: this O(d) test
+  !> spares them the bisection's O(d^2) shifts, and finds nothing the bisection would have.
+  pure logical function root_free(q) result(clear)
+    real(wp), intent(in) :: q(0:)
+    real(wp) :: tail
+    integer :: k
+    tail = 0
+    do k = 1, size(q) - 1
+      tail = tail + abs(q(k))
+    end do
+    clear = abs(q(0)) > tail*(1 + 1.0e-3_wp)
+  end function root_free
 
   !> Points 0 < |s_1| < ... < |s_m| < |h| (the sign of h) that isolate the real roots of
   !> P(s) = sum_k a(k) s^k in (0, h): each root of odd multiplicity lies in an interval between
@@ -615,22 +670,10 @@ contains
     real(wp), intent(in) :: h
     real(wp), allocatable, intent(out) :: ts(:)
     integer, intent(out) :: m
-    real(wp) :: q(0:size(a) - 1), hk, tail, ends(2*size(a))
-    integer :: d, k, ne
-    d = size(a) - 1
-    hk = 1
-    do k = 0, d
-      q(k) = a(k)*hk
-      hk = hk*h
-    end do
-    ! no root in [0, 1] when |q(0)| > sum |q(k)| (|P(u)| >= |q(0)| - sum |q(k)| u^k > 0); with a
-    ! margin far above the sums' rounding. Most steps are far from the event: this O(d) test
-    ! spares them the bisection's O(d^2) shifts, and finds nothing the bisection would have
-    tail = 0
-    do k = 1, d
-      tail = tail + abs(q(k))
-    end do
-    if (abs(q(0)) > tail*(1 + 1.0e-3_wp)) then
+    real(wp) :: q(0:size(a) - 1), ends(2*size(a))
+    integer :: k, ne
+    call scaled_to_step(a, h, q)
+    if (root_free(q)) then
       allocate (ts(0))
       m = 0
       return
