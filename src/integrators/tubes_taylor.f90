@@ -623,10 +623,11 @@ contains
     call event%affine(self%n, w, c, ok)
     if (.not. ok) return
     s = self%p + 1
-    do k = 0, self%p
-      a(k) = 0
-      do i = 1, self%n
-        if (w(i) /= 0) a(k) = a(k) + w(i)*self%tc((i - 1)*s + k + 1)
+    a = 0
+    do i = 1, self%n                      ! (each a(k) summed over i in order, as written out)
+      if (w(i) == 0) cycle
+      do k = 0, self%p
+        a(k) = a(k) + w(i)*self%tc((i - 1)*s + k + 1)
       end do
     end do
     a(0) = a(0) - c
