@@ -8,6 +8,7 @@ module tubes_transport
   use tubes_status, only: TUBES_OK, TUBES_EINPUT, TUBES_EVENT, TUBES_ENOCONV, TUBES_EFAULT, TUBES_EMODEL, TUBES_EINTERRUPT
   use tubes_ensemble, only: ens_out_t, ens_run, ens_agree, ens_cancelled
   use tubes_hamiltonian, only: hamiltonian_t, veff, damped_t
+  use tubes_models, only: MAX_DOF
   use tubes_field, only: vector_field_t
   use tubes_integrator, only: integrator_t, observer_t, propagate, crossing_log_t
   use tubes_methods, only: integ_choice_t, make_integrator, uses_taylor, noisy, noise_stream
@@ -147,7 +148,23 @@ contains
     class(gate_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: t_hi
-    real(wp) :: x(ig%f%dim()), g, g0, a, b, m, gm
+    real(wp) :: buf(2*MAX_DOF)                        ! (the state, off the heap: every step)
+    real(wp), allocatable :: big(:)
+    if (ig%f%dim() <= size(buf)) then
+      call gate_step(self, ig, t_hi, buf(1:ig%f%dim()))
+    else
+      allocate (big(ig%f%dim()))
+      call gate_step(self, ig, t_hi, big)
+    end if
+  end subroutine gate_on_step
+
+  !> gate_on_step's work, x the state's room.
+  subroutine gate_step(self, ig, t_hi, x)
+    class(gate_t), intent(inout) :: self
+    class(integrator_t), intent(inout) :: ig
+    real(wp), intent(in) :: t_hi
+    real(wp), intent(inout) :: x(:)
+    real(wp) :: g, g0, a, b, m, gm
     integer :: n, k
     n = size(self%spec%normal)
     call ig%interp(t_hi, x)
@@ -189,7 +206,7 @@ contains
     else
       self%outside = self%outside + 1                 ! through another opening of the line
     end if
-  end subroutine gate_on_step
+  end subroutine gate_step
 
   !> A dissipative field's trajectory at the step's end t, before the gate, is trapped when on the
   !> section's side of the saddle ((q - q_s) . n < 0: the neck still to pass) its energy is below the
@@ -202,7 +219,7 @@ contains
     class(gate_t), intent(inout) :: self
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(in) :: x(:), t
-    real(wp) :: v(size(x))
+    real(wp) :: v(2*MAX_DOF)                          ! (dq/dt in its first n: off the heap)
     integer :: n, st
     if (self%passed .or. self%spec%e_floor == -huge(1.0_wp)) return
     n = size(self%spec%normal)
@@ -215,7 +232,8 @@ contains
         return
       end if
       if (.not. f%f > 0) return
-      call f%base%eval(t, x, v, st)
+      if (size(x) > size(v)) error stop 'gate_floor: a state larger than 2 MAX_DOF'   ! (a model's: never)
+      call f%base%eval(t, x, v(1:size(x)), st)
       if (st /= 0) return
       if (f%sigma*dot_product(x(n + 1:2*n), v(1:n)) < f%v_reg**2) then
         if (self%t_slow < 0) self%t_slow = t
