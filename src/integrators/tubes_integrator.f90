@@ -480,7 +480,7 @@ contains
   !> After an accepted step of a propagate call: the step's crossings and the observer.
   !> done: the call ends here with stat (TUBES_EVENT at a stopping crossing, x and ig%t moved
   !> there; TUBES_OK when the observer asks; < 0 on failure); else it goes on (stat TUBES_OK).
-  subroutine prop_after_step(ig, x, ps, done, stat, event, observer, crossings)
+  subroutine prop_after_step(ig, x, ps, done, stat, event, observer, crossings, clear)
     class(integrator_t), intent(inout) :: ig
     real(wp), intent(inout) :: x(:)
     type(prop_t), intent(inout) :: ps
@@ -489,6 +489,9 @@ contains
     class(event_t), intent(in), optional :: event
     class(observer_t), intent(inout), optional :: observer
     type(crossing_log_t), intent(inout), optional :: crossings
+    !> ig%event_clear(event) of this step, where the caller has it already (the lanes: for all
+    !> lanes at once)
+    logical, intent(in), optional :: clear
     real(wp) :: g1, te
     logical :: hit
     stat = TUBES_OK
@@ -497,7 +500,7 @@ contains
     hit = .false.
     if (present(event)) then
       g1 = event%g(ig%t, x)
-      call scan_step(ig, event, x, ps%g0, g1, ps%dir, ps%t_start, te, ps%xe, hit, stat, crossings)
+      call scan_step(ig, event, x, ps%g0, g1, ps%dir, ps%t_start, te, ps%xe, hit, stat, crossings, clear)
       if (stat < 0) then
         done = .true.
         return
@@ -530,7 +533,7 @@ contains
   !> points of the dense output; each sign change between consecutive samples is refined.
   !> Accepted crossings go to the log; `hit` (with te, xe) reports the first one that stops
   !> the integration (terminal event, or the log reaching max_crossings).
-  subroutine scan_step(ig, event, x, g0, g1, dir, t_start, te, xe, hit, stat, crossings)
+  subroutine scan_step(ig, event, x, g0, g1, dir, t_start, te, xe, hit, stat, crossings, clear)
     class(integrator_t), intent(inout) :: ig
     class(event_t), intent(in) :: event
     real(wp), intent(in) :: x(:)          !! state at ig%t (end of the step)
@@ -542,15 +545,22 @@ contains
     logical, intent(out) :: hit
     integer, intent(out) :: stat
     type(crossing_log_t), intent(inout), optional :: crossings
+    logical, intent(in), optional :: clear    !! ig%event_clear(event), known already
     real(wp), allocatable :: inner(:)
     integer :: m
+    logical :: cl
     stat = TUBES_OK
     hit = .false.
     te = ig%t
     ! a step the integrator knows to hold no root, with finite ends and no sign change between
     ! them: nothing to sample (what scan_samples would conclude with no interior sample; most
     ! steps of an ensemble: the Taylor method's bound, without its samples' arrays)
-    if (ig%event_clear(event)) then
+    if (present(clear)) then
+      cl = clear
+    else
+      cl = ig%event_clear(event)
+    end if
+    if (cl) then
       if (abs(g0) <= huge(1.0_wp) .and. abs(g1) <= huge(1.0_wp)) then
         if (.not. ((g0 < 0 .and. g1 >= 0) .or. (g0 > 0 .and. g1 <= 0))) return
       end if

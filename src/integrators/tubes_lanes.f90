@@ -228,14 +228,15 @@ contains
 
   !> prop_after_step with the lane's own event, observer and log (unallocated: absent): a lane's
   !> end of step in run_lanes.
-  subroutine lane_after_step(ln, done, stat)
+  subroutine lane_after_step(ln, done, stat, clear)
     type(lane_t), intent(inout) :: ln
     logical, intent(out) :: done
     integer, intent(out) :: stat
+    logical, intent(in), optional :: clear      !! the step's event_clear, known (prop_after_step)
     if (ln%use_log) then
-      call prop_after_step(ln%ig, ln%x, ln%ps, done, stat, ln%event, ln%observer, ln%log)
+      call prop_after_step(ln%ig, ln%x, ln%ps, done, stat, ln%event, ln%observer, ln%log, clear)
     else
-      call prop_after_step(ln%ig, ln%x, ln%ps, done, stat, ln%event, ln%observer)
+      call prop_after_step(ln%ig, ln%x, ln%ps, done, stat, ln%event, ln%observer, clear=clear)
     end if
   end subroutine lane_after_step
 end module tubes_lanes

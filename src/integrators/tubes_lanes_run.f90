@@ -59,13 +59,16 @@ contains
     ! the step's temporaries
     real(wp), allocatable :: n1(:), n2(:), h(:), hn(:), ds(:)
     real(wp), allocatable :: fin(:), grp(:), lst(:), bad(:), ok(:)
+    ! the lanes' events where affine (g = ew(l, :) . x - ec(l); eaf(l) = 1), and the step's
+    ! event_clear of each (clr(l) = 1: no root in the step) for all lanes at once
+    real(wp), allocatable :: ew(:, :), ec(:), eaf(:), clr(:)
     logical, allocatable :: go(:)
     integer, allocatable :: ord(:)
     real(wp) :: eps, lrho, ru(3)
     integer :: nxt, l, m, p, s, k, st, kslot, nn, st1
     logical :: done
     character(512) :: msg
-    allocate (lane(nl), ord(nl), grp(nl), tcb(0), wb(0), xb(nl, 0), xs(nl, 0))
+    allocate (lane(nl), ord(nl), grp(nl), tcb(0), wb(0), xb(nl, 0), xs(nl, 0), ew(nl, 0), ec(nl), eaf(nl), clr(nl))
     allocate (t(nl), t_old(nl), tend(nl), hs(nl), hmax(nl), rtol(nl), atol(nl), xn(nl), rxn(nl), dir(nl), &
               left(nl), slack(nl), eps_last(nl), q_bound(nl), pdir(nl), r1(nl), r2(nl), r3(nl), pl(nl), &
               p_last(nl), ford(nl), nq(nl), nsteps(nl), nfev(nl), nps(nl), maxst(nl), relative(nl), &
@@ -189,6 +192,7 @@ contains
         end if
         call horner_lanes(tcb, nl, s, nn, p, ds, xb)
         call lanes_advance(nl, nn, xb, nq, q_bound, grp, bad, lst, tend, hn, t, t_old, hs, nsteps, xs, ok)
+        call lanes_event_clear(tcb, nl, s, nn, ew, ec, t, t_old, eaf*ok, clr)
         ! each lane's end of step: its failure, its event and observer, its end
         do l = 1, nl
           if (.not. grp(l) > 0) cycle
@@ -204,7 +208,11 @@ contains
             call lane_coefficients(tcb, nl, l, nn*s, lane(l)%ig%tc)
             st1 = TUBES_OK
             k = lane(l)%item
-            call stepped(l, st1)
+            if (eaf(l) > 0) then
+              call stepped(l, st1, clr(l) > 0)
+            else
+              call stepped(l, st1)
+            end if
             if (lane(l)%active .and. lane(l)%item == k) nps(l) = lane(l)%ps%n   ! (t, x: as they were)
           else
             nps(l) = nps(l) + 1
@@ -256,9 +264,10 @@ contains
       call taylor_prepare(lane(l)%ig, size(lane(l)%x), st0)
       if (nn < 0 .and. st0 == TUBES_OK) then     ! the first item: the state's size
         nn = size(lane(l)%x)
-        deallocate (xs)
-        allocate (xs(nl, nn))
+        deallocate (xs, ew)
+        allocate (xs(nl, nn), ew(nl, nn))
         xs = 1
+        ew = 0
       end if
       rich(l) = allocated(lane(l)%event) .or. allocated(lane(l)%observer)
       solo(l) = st0 /= TUBES_OK .or. lane(l)%ig%flags /= 0 .or. size(lane(l)%x) /= nn
@@ -294,6 +303,21 @@ contains
       xs(l, :) = lane(l)%x
       nps(l) = lane(l)%ps%n
       pdir(l) = lane(l)%ps%dir
+      eaf(l) = 0
+      ew(l, :) = 0
+      ec(l) = 0
+      if (allocated(lane(l)%event)) then
+        block
+          real(wp) :: wv(nn), cv
+          logical :: aff
+          call lane(l)%event%affine(nn, wv, cv, aff)
+          if (aff) then
+            ew(l, :) = wv
+            ec(l) = cv
+            eaf(l) = 1
+          end if
+        end block
+      end if
     end subroutine load
 
     !> Lane l's arrays back into its integrator and state (its own code takes over).
@@ -344,6 +368,9 @@ contains
       nps(l) = 0
       maxst(l) = 1
       pl(l) = 0
+      if (size(ew, 2) > 0) ew(l, :) = 0
+      ec(l) = 0
+      eaf(l) = 0
     end subroutine benign
 
     !> Lane l ends with status st (its integrator and state are up to date): its result, then
@@ -370,14 +397,15 @@ contains
 
     !> Lane l has taken its step with status st1 (its integrator and state up to date): its
     !> events, observer and end, as propagate's.
-    subroutine stepped(l, st1)
+    subroutine stepped(l, st1, clear)
       integer, intent(in) :: l
       integer, intent(inout) :: st1
+      logical, intent(in), optional :: clear   !! the step's event_clear, known
       if (st1 < 0) then
         call finish(l, st1)
         return
       end if
-      call lane_after_step(lane(l), done, st1)
+      call lane_after_step(lane(l), done, st1, clear)
       if (done) then
         call finish(l, st1)
       else if (.not. lane(l)%ps%dir*(lane(l)%tend - lane(l)%ig%t) > 0) then
@@ -408,6 +436,55 @@ contains
       end if
     end subroutine batch_kernel
   end subroutine TUBES_LANES_RUN
+
+  !> taylor_event_clear for the lanes with on(l) = 1 (an affine event g = w(l, :) . x - c(l), the
+  !> step taken), all at once: clr(l) = 1 where the step surely holds no root (isolate_roots'
+  !> bound, root_free), else 0. Each lane's sums are taylor_event_clear's operation for operation
+  !> (event_polynomial over the components in order, a weight 0 adding 0; the powers of the step
+  !> t - t_old), so the answer is the lone integrator's.
+  pure subroutine lanes_event_clear(tc, nl, s, n, w, c, t, t_old, on, clr)
+    integer, intent(in) :: nl, s, n
+    real(wp), intent(in) :: tc(nl, s, n), w(nl, n), c(nl), t(nl), t_old(nl), on(nl)
+    real(wp), intent(out) :: clr(nl)
+    real(wp) :: a(nl, s), hk(nl), h(nl), tail(nl), q0(nl), wv, tv, q
+    integer :: i, k, l
+    do k = 1, s
+      do l = 1, nl
+        a(l, k) = 0
+      end do
+    end do
+    do i = 1, n
+      do k = 1, s
+        !$omp simd private(wv, tv)
+        do l = 1, nl
+          wv = w(l, i)
+          tv = tc(l, k, i)
+          a(l, k) = a(l, k) + merge(wv*tv, 0.0_wp, wv /= 0)
+        end do
+      end do
+    end do
+    !$omp simd
+    do l = 1, nl
+      a(l, 1) = a(l, 1) - c(l)
+      h(l) = t(l) - t_old(l)
+      hk(l) = 1
+      q0(l) = a(l, 1)*hk(l)
+      hk(l) = hk(l)*h(l)
+      tail(l) = 0
+    end do
+    do k = 2, s
+      !$omp simd private(q)
+      do l = 1, nl
+        q = a(l, k)*hk(l)
+        hk(l) = hk(l)*h(l)
+        tail(l) = tail(l) + abs(q)
+      end do
+    end do
+    !$omp simd
+    do l = 1, nl
+      clr(l) = merge(on(l), 0.0_wp, abs(q0(l)) > tail(l)*(1 + 1.0e-3_wp))
+    end do
+  end subroutine lanes_event_clear
 
   !> Lane l's coefficients out of the lanes' kernel array (tc(l, j): lane l's j-th, j = (i - 1) s +
   !> k for coefficient k - 1 of component i) into its integrator's array c(1:m), m = n s: its dense
