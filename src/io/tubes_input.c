@@ -111,7 +111,7 @@ const nml_var tubes_nml_vars[] = {
      "the rank-1 saddle of every scene that needs one"},
     {"orbits", "saddle_near", NML_REAL, TUBES_MAXDOF, "units of q", "the system's (henon_heiles: 0, 1)",
      "finite; not with saddle", "choose the rank-1 saddle nearest this configuration point instead"},
-    {"orbits", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 10, 100", "> 0, increasing (with guess: any sign)",
+    {"orbits", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", TUBES_REGISTRY_DEFAULT_ORBITS_DE, "> 0, increasing (with guess: any sign)",
      "excess energies dE = E - E_e of the orbits"},
     TUBES_REGISTRY_ROWS_ORBITS   /* method .. n_samples */
     {"orbits", "family", NML_INT, 1, "-", "1",
