@@ -79,6 +79,8 @@ CONTEXT = {
     ("integrator", "method"): "&integrator h = 0.001 /\n",             # fixed-step methods need h > 0
     ("integrator", "rtol"): "&integrator method = 'dop853' /\n",       # not 'auto''s choice
     ("scan", "*"): "&scan parameter = 'alpha', to = 0.08, de = 10 /\n",   # the scan's required variables
+    # order > 0 needs a model written as a formula (Henon-Heiles')
+    ("flux", "order"): "&model system = 'expression', hamiltonian = '(px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2*y - y^3/3' /\n",
 }
 
 
@@ -134,8 +136,29 @@ def bounds(allowed):
     raise AssertionError(f"allowed {a!r} is not a range form")
 
 
+def default_of(group, name):
+    """The registered default of &group name (a per-model one: the rolling ball's, the test files' model)."""
+    return next(the_default(d) for g, n, _, d, _ in REGISTERED if (g, n) == (group, name))
+
+
 def cases(group, name, kind, default, allowed):
-    """(inside, outside): values the reader must accept, values it must refuse."""
+    """(inside, outside): values the reader must accept, values it must refuse. Forms beside the
+    range forms: "V, or [even] LO .. HI[ TEXT]" (V allowed too; even: only even values in the range;
+    TEXT a rule checked elsewhere), "OTHER .. HI" (bounded below by the group's variable OTHER, at its
+    default here), "FORM, RULE" (RULE another check's: a pair's "< OTHER" or "> OTHER")."""
+    m = re.fullmatch(r"(-?\d+), or (even )?(-?\d+) \.\. (-?\d+)( .*)?", allowed)
+    if kind == "int" and m:
+        alt, even, lo, hi = int(m[1]), bool(m[2]), int(m[3]), int(m[4])
+        inside = [alt, lo, hi] + ([lo + 2] if even else [])
+        outside = [v for v in (lo - 1, hi + 1, hi + 2, -1) if v != alt] + ([lo + 1, hi - 1] if even else [])
+        return [str(v) for v in inside], [str(v) for v in outside]
+    m = re.fullmatch(r"([a-z_]\w*) \.\. (\S+)", allowed)
+    if m:   # bounded below by another variable
+        lo = int(default_of(group, m[1]))
+        return [default, str(lo), m[2]], [str(lo - 1), str(int(m[2]) + 1)]
+    rule = ""
+    if ", " in allowed and not re.fullmatch(r"-?\d+(, -?\d+)+", allowed) and kind in ("real", "int", "int64"):
+        allowed, rule = allowed.split(", ", 1)
     if kind == "logical":
         return [".true.", ".false."], ["2", "'yes'"]
     if kind == "string":
@@ -149,8 +172,9 @@ def cases(group, name, kind, default, allowed):
         return [str(v) for v in vals], [str(min(vals) - 1), str(max(vals) + 1)]
     lo, hi, lo_open, hi_open = bounds(allowed)
     inside, outside = [default], []
-    if allowed == "finite":
-        return [default, "1.7976931348623157e308", "-1.7976931348623157e308"], ["1e309", "-1e309"]
+    if allowed == "finite":   # a pair's rule "< OTHER" ("> OTHER") refuses the largest (smallest) double
+        big = [v for v, r in (("1.7976931348623157e308", "<"), ("-1.7976931348623157e308", ">")) if not rule.startswith(r)]
+        return [default] + big, ["1e309", "-1e309"]
     for b, is_open, d in ((lo, lo_open, -1), (hi, hi_open, +1)):
         if b is None:
             continue
@@ -182,6 +206,15 @@ def test_range_is_the_annotation_s(tmp_path, group, name, kind, default, allowed
         assert f"&{group}: " in msg and name in msg, msg   # the message names the variable
         if kind in ("real", "int", "int64", "string") and "309" not in v:
             assert allowed in msg, msg   # and says what is allowed, in the annotation's words
+
+
+def test_the_forms_beside_the_ranges_are_used():
+    """The forms this file's cases() reads beyond the range forms are those of registered variables."""
+    allowed = {(g, n): a for g, n, _, _, a in REGISTERED}
+    assert allowed[("flux", "n_cut")] == "0, or even 4 .. 64"
+    assert allowed[("tubes", "n_max")] == "n_init .. 1000000"
+    assert allowed[("experiment", "de_min")] == "finite, < de_max"
+    assert allowed[("experiment", "camera_rate")].startswith("> 0, ")
 
 
 def test_docs_rows_state_the_annotation():

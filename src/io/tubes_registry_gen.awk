@@ -127,15 +127,28 @@ pending {
     ct = "NML_INT"; ft = "integer(c_int64_t)"; fd = pd "_c_int64_t"; isint = 2
   }
   else fail("type " type " is not registered (real(c_double), integer(c_int), integer(c_int64_t), character(kind=c_char) NAME(LENGTH))")
-  lo = "-INFINITY"; hi = "INFINITY"; lo_open = 0; hi_open = 0
+  lo = "-INFINITY"; hi = "INFINITY"; lo_open = 0; hi_open = 0; alt = 0; altok = 0; even = 0; lof = ""
   a = pa
+  if (!isstr && !islog && !islist) {
+    if (isint && match(a, /^[-+]?[0-9]+, or (even )?[-+]?[0-9]+ \.\. [-+]?[0-9]+/)) {   # "V, or [even] LO .. HI[ RULE]"
+      a = substr(a, 1, RLENGTH); split(a, r, /, or /); alt = r[1]; altok = 1; a = r[2]
+      if (a ~ /^even /) { even = 1; a = substr(a, 6) }
+    } else if (!(isint && a ~ /^[-+]?[0-9]+(, [-+]?[0-9]+)+$/) && index(a, ", "))
+      a = substr(a, 1, index(a, ", ") - 1)   # "FORM, RULE": the rule is another check's, kept by hand
+    if (match(a, /^[a-z_][a-z_0-9]* \.\. [-+0-9.eE]+$/)) {   # "OTHER .. HI": bounded below by the group's OTHER
+      split(a, r, / \.\. /); a = "-INFINITY .. " r[2]
+      for (k = 1; k <= n; k++) if (G[k] == pg && N[k] == r[1] && !STR[k] && !LOG[k] && !LIST[k]) lof = F[k]
+      if (lof == "") fail("allowed '" pa "': " r[1] " is not a number registered before " pn " in &" pg)
+      for (k = 1; k <= n; k++) if (F[k] == lof && INT[k] != isint) fail("allowed '" pa "': " r[1] " is not of " pn "'s type")
+    }
+  }
   if (isstr || islog || islist) ;
   else if (isint && a ~ /^[-+]?[0-9]+(, [-+]?[0-9]+)+$/) {   # an integer's values: consecutive, a range
     nv = split(a, r, /, /); lo = r[1] + 0; hi = r[nv] + 0
     for (k = 2; k <= nv; k++) if (r[k] + 0 != r[k - 1] + 1) fail("an integer's values '" a "' are not consecutive")
   }
   else if (a == "finite") { lo = "-DBL_MAX"; hi = "DBL_MAX" }   # an infinity is not finite
-  else if (match(a, /^[-+0-9.eE]+ \.\. [-+0-9.eE]+$/)) { split(a, r, / \.\. /); lo = r[1]; hi = r[2] }
+  else if (match(a, /^([-+0-9.eE]+|-INFINITY) \.\. [-+0-9.eE]+$/)) { split(a, r, / \.\. /); lo = r[1]; hi = r[2] }
   else if (a ~ /^>= /) lo = substr(a, 4)
   else if (a ~ /^> /) { lo = substr(a, 3); lo_open = 1 }
   else if (a ~ /^<= /) hi = substr(a, 4)
@@ -150,6 +163,7 @@ pending {
   n++
   G[n] = pg; N[n] = pn; U[n] = pu; D[n] = pd; A[n] = pa; T[n] = pt; F[n] = field; CT[n] = ct; FT[n] = ft; FD[n] = fd
   LO[n] = lo; HI[n] = hi; LOO[n] = lo_open; HIO[n] = hi_open; INT[n] = isint; STR[n] = isstr; LOG[n] = islog
+  ALT[n] = alt; ALTOK[n] = altok; EVEN[n] = even; LOF[n] = lof
   LIST[n] = islist; LEN[n] = len; CNT[n] = cnt; FDL[n] = fdl; LSET[n] = lset; SHOWN[n] = shown; PM[n] = pmodel
   R[n] = run[pg] + 0; runlen[pg, R[n]]++; if (R[n] > nrun[pg]) nrun[pg] = R[n]
   pending = 0
@@ -186,11 +200,12 @@ END {
   printf "#define TUBES_REGISTRY_RANGES" > h
   for (i = 1; i <= n; i++)
     if (!STR[i] && !LOG[i] && !LIST[i]) {
-      printf " \\\n  {%s, %s, offsetof(tubes_config_t, %s), %d, %s, %s, %d, %d},", cstr(G[i]), cstr(N[i]), F[i], INT[i],
-             LO[i], HI[i], LOO[i], HIO[i] > h
+      printf " \\\n  {%s, %s, offsetof(tubes_config_t, %s), %d, %s, %s, %d, %d, %s, %d, %s, %d},", cstr(G[i]), cstr(N[i]),
+             F[i], INT[i], LO[i], HI[i], LOO[i], HIO[i], LOF[i] == "" ? "-1" : "(long)offsetof(tubes_config_t, " LOF[i] ")",
+             ALTOK[i], ALT[i], EVEN[i] > h
       nr++
     }
-  if (nr == 0) printf " \\\n  {NULL, NULL, 0, 0, 0, 0, 0, 0}," > h
+  if (nr == 0) printf " \\\n  {NULL, NULL, 0, 0, 0, 0, 0, 0, -1, 0, 0, 0}," > h
   print "" > h
   printf "#define TUBES_REGISTRY_STRINGS" > h    # a string's values: its allowed text, ", " between them
   for (i = 1; i <= n; i++)

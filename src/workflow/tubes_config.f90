@@ -111,6 +111,7 @@ module tubes_config
     real(c_double) :: tub_t_max
     !@ &tubes n_init | - | 64 | 8 .. 100000 | seeds of the first round
     integer(c_int) :: tub_n_init
+    !@ &tubes n_max | - | 8192 | n_init .. 1000000 | seeds at most
     integer(c_int) :: tub_n_max
     !@ &transition de | (cm/s)^2 | rolling_ball: 1, 2, 5, 10, 20, 50, 100, 200, 300, 400, 500, 600, 700, 750; other models: required | > 0, increasing | excess energies of p_trans(dE)
     real(c_double) :: tra_de(MAXDE)
@@ -142,15 +143,16 @@ module tubes_config
     integer(c_int) :: exp_n_tracks
     !@ &experiment duration | s | 14 | > 0 | length of each track
     real(c_double) :: exp_duration
-    !@ &experiment camera_rate
+    !@ &experiment camera_rate | Hz | 50 | > 0, duration*camera_rate <= 1e6 | frames per second
     real(c_double) :: exp_camera_rate
     !@ &experiment pixel | cm | 0.16 | >= 0 | pixel size: measured positions are multiples of it (0 = no rounding)
     real(c_double) :: exp_pixel
     !@ &experiment noise | cm | 0.05 | >= 0 | standard deviation of the Gaussian position noise (before rounding)
     real(c_double) :: exp_noise
-    !@ &experiment de_min
-    !@ &experiment de_max
-    real(c_double) :: exp_de_min, exp_de_max
+    !@ &experiment de_min | (cm/s)^2 | 1000 | finite, < de_max | release excess energy g H - E_e at rest: lower bound
+    real(c_double) :: exp_de_min
+    !@ &experiment de_max | (cm/s)^2 | 3000 | finite, > de_min | release excess energy: upper bound
+    real(c_double) :: exp_de_max
     !@ &experiment damping_ratio | 1 | 0.014 | 0 <= zeta < 1 | damping ratio of the experiment's ball (docs/theory.md#damping)
     real(c_double) :: exp_damping_ratio
     !@ &experiment rolling_resistance | 1 | 0 | 0 <= C_rr < 1 | rolling resistance coefficient of the experiment's ball (docs/dissipation.md)
@@ -196,9 +198,10 @@ module tubes_config
     real(c_double) :: flux_gate
     !@ &flux tol | 1 | 1e-10 | 1e-14 .. 1e-3 | rtol = atol of the integrations
     real(c_double) :: flux_tol
-    !@ &flux order
-    !@ &flux n_cut
-    integer(c_int) :: flux_order, flux_n_cut
+    !@ &flux order | - | 0 | 0, or 2 .. 16 (2 DOF), 2 .. 10 (3 DOF) | degree of the Birkhoff normal form (formula models); 0 = none
+    integer(c_int) :: flux_order
+    !@ &flux n_cut | - | 16 | 0, or even 4 .. 64 | 3 DOF with order and a plane &section: the tube's cut on a grid of n_cut + 1 rings of (2 n_cut)^2 NHIM points; 0 = none
+    integer(c_int) :: flux_n_cut
     !@ &flux cut_eps | 1 | 1e-3 | 1e-8 .. 0.1 | step-off of the tube's seeds from the NHIM, in units of its radius sqrt(2 dE / omega_2)
     real(c_double) :: flux_cut_eps
     integer(c_int) :: orb_family   !! &orbits family: a centre mode (1 .. N-1), a family by name (< 0), 'branch:K' = -100 - K
