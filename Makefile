@@ -185,6 +185,8 @@ $(REGISTRY_H): src/workflow/tubes_config.f90 src/io/tubes_registry_gen.awk
 	awk -v dir=$(@D) -f src/io/tubes_registry_gen.awk src/workflow/tubes_config.f90
 $(BUILD)/obj/tubes_nml.o: $(REGISTRY_H)
 $(BUILD)/obj/tubes_nml.o: FFLAGS_ALL += -I$(BUILD)/include
+$(BUILD)/obj/tubes_setup.o: $(REGISTRY_H)   # the per-model defaults' rule (nml_defaults.inc)
+$(BUILD)/obj/tubes_setup.o: FFLAGS_ALL += -I$(BUILD)/include
 
 # The commit recorded in every output file: tubes_main.o is rebuilt whenever it changes (a commit,
 # or the tree turning dirty or clean), not only when tubes_main.c does.

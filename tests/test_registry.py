@@ -22,6 +22,8 @@ def annotations():
         if not m:
             continue
         group, name, rest = m.groups()
+        if rest.strip().startswith("default "):   # a hand-written variable's per-model default: a mark
+            continue
         units, default, allowed = (f.strip() for f in rest.split("|")[:3])
         decl = lines[k + 1].split("!")[0]
         if re.search(r"character\(kind=c_char\)", decl):
@@ -41,6 +43,32 @@ def annotations():
 
 
 REGISTERED = annotations()
+PER_MODEL = re.compile(r"([a-z][a-z0-9_]*): ([^;]+); other models: required")
+
+
+def per_model_defaults():
+    """(group, name, model, value) of every per-model default (DEFAULT 'MODEL: VALUE; other models:
+    required'), of registered variables and of hand-written ones' marks ('!@ &group name | default ...')."""
+    out = []
+    for line in (ROOT / "src/workflow/tubes_config.f90").read_text().splitlines():
+        m = re.match(r"\s*!@\s*&(\w+)\s+(\w+)\s*\|\s*(default )?([^|]*)\|?\s*([^|]*)", line)
+        if not m:
+            continue
+        group, name, mark, first, second = m.groups()
+        d = PER_MODEL.fullmatch((first if mark else second).strip())
+        if d:
+            out.append((group, name, d[1], d[2]))
+    return out
+
+
+PER_MODEL_DEFAULTS = per_model_defaults()
+
+
+def the_default(default):
+    """The value the reader stores: a per-model default's value (the test files run its model, the
+    rolling ball), else the default itself."""
+    m = PER_MODEL.fullmatch(default)
+    return m[2] if m else default
 
 # Settings a value needs to be judged on its own range: another variable's check would refuse it
 # otherwise (those checks are the reader's rules between variables, docs/input.md).
@@ -51,6 +79,8 @@ CONTEXT = {
     ("integrator", "method"): "&integrator h = 0.001 /\n",             # fixed-step methods need h > 0
     ("integrator", "rtol"): "&integrator method = 'dop853' /\n",       # not 'auto''s choice
     ("scan", "*"): "&scan parameter = 'alpha', to = 0.08, de = 10 /\n",   # the scan's required variables
+    # order > 0 needs a model written as a formula (Henon-Heiles')
+    ("flux", "order"): "&model system = 'expression', hamiltonian = '(px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2*y - y^3/3' /\n",
 }
 
 
@@ -106,8 +136,29 @@ def bounds(allowed):
     raise AssertionError(f"allowed {a!r} is not a range form")
 
 
+def default_of(group, name):
+    """The registered default of &group name (a per-model one: the rolling ball's, the test files' model)."""
+    return next(the_default(d) for g, n, _, d, _ in REGISTERED if (g, n) == (group, name))
+
+
 def cases(group, name, kind, default, allowed):
-    """(inside, outside): values the reader must accept, values it must refuse."""
+    """(inside, outside): values the reader must accept, values it must refuse. Forms beside the
+    range forms: "V, or [even] LO .. HI[ TEXT]" (V allowed too; even: only even values in the range;
+    TEXT a rule checked elsewhere), "OTHER .. HI" (bounded below by the group's variable OTHER, at its
+    default here), "FORM, RULE" (RULE another check's: a pair's "< OTHER" or "> OTHER")."""
+    m = re.fullmatch(r"(-?\d+), or (even )?(-?\d+) \.\. (-?\d+)( .*)?", allowed)
+    if kind == "int" and m:
+        alt, even, lo, hi = int(m[1]), bool(m[2]), int(m[3]), int(m[4])
+        inside = [alt, lo, hi] + ([lo + 2] if even else [])
+        outside = [v for v in (lo - 1, hi + 1, hi + 2, -1) if v != alt] + ([lo + 1, hi - 1] if even else [])
+        return [str(v) for v in inside], [str(v) for v in outside]
+    m = re.fullmatch(r"([a-z_]\w*) \.\. (\S+)", allowed)
+    if m:   # bounded below by another variable
+        lo = int(default_of(group, m[1]))
+        return [default, str(lo), m[2]], [str(lo - 1), str(int(m[2]) + 1)]
+    rule = ""
+    if ", " in allowed and not re.fullmatch(r"-?\d+(, -?\d+)+", allowed) and kind in ("real", "int", "int64"):
+        allowed, rule = allowed.split(", ", 1)
     if kind == "logical":
         return [".true.", ".false."], ["2", "'yes'"]
     if kind == "string":
@@ -121,8 +172,9 @@ def cases(group, name, kind, default, allowed):
         return [str(v) for v in vals], [str(min(vals) - 1), str(max(vals) + 1)]
     lo, hi, lo_open, hi_open = bounds(allowed)
     inside, outside = [default], []
-    if allowed == "finite":
-        return [default, "1.7976931348623157e308", "-1.7976931348623157e308"], ["1e309", "-1e309"]
+    if allowed == "finite":   # a pair's rule "< OTHER" ("> OTHER") refuses the largest (smallest) double
+        big = [v for v, r in (("1.7976931348623157e308", "<"), ("-1.7976931348623157e308", ">")) if not rule.startswith(r)]
+        return [default] + big, ["1e309", "-1e309"]
     for b, is_open, d in ((lo, lo_open, -1), (hi, hi_open, +1)):
         if b is None:
             continue
@@ -144,7 +196,7 @@ def test_the_annotations_are_read():
 
 @pytest.mark.parametrize("group,name,kind,default,allowed", REGISTERED, ids=[f"{g}.{n}" for g, n, *_ in REGISTERED])
 def test_range_is_the_annotation_s(tmp_path, group, name, kind, default, allowed):
-    inside, outside = cases(group, name, kind, default, allowed)
+    inside, outside = cases(group, name, kind, the_default(default), allowed)
     for v in inside:
         rc, msg = check(tmp_path, group, name, v)
         assert rc == 0, f"&{group} {name} = {v} (allowed {allowed}) refused:\n{msg}"
@@ -154,6 +206,15 @@ def test_range_is_the_annotation_s(tmp_path, group, name, kind, default, allowed
         assert f"&{group}: " in msg and name in msg, msg   # the message names the variable
         if kind in ("real", "int", "int64", "string") and "309" not in v:
             assert allowed in msg, msg   # and says what is allowed, in the annotation's words
+
+
+def test_the_forms_beside_the_ranges_are_used():
+    """The forms this file's cases() reads beyond the range forms are those of registered variables."""
+    allowed = {(g, n): a for g, n, _, _, a in REGISTERED}
+    assert allowed[("flux", "n_cut")] == "0, or even 4 .. 64"
+    assert allowed[("tubes", "n_max")] == "n_init .. 1000000"
+    assert allowed[("experiment", "de_min")] == "finite, < de_max"
+    assert allowed[("experiment", "camera_rate")].startswith("> 0, ")
 
 
 def test_docs_rows_state_the_annotation():
@@ -172,3 +233,42 @@ def test_docs_rows_state_the_annotation():
         assert cells[3] in (default, default.strip("'")), f"&{group} {name}: docs default {cells[3]!r}, annotation {default!r}"
         if kind != "logical":
             assert allowed in cells[4], f"&{group} {name}: docs allowed {cells[4]!r}, annotation {allowed!r}"
+
+
+def test_per_model_defaults_are_read():
+    """The excess energies' lists and the trajectory's start are the four-well ball's defaults."""
+    named = {(g, n) for g, n, _, _ in PER_MODEL_DEFAULTS}
+    assert {("trajectory", "x0"), ("trajectory", "y0"), ("orbits", "de"), ("tubes", "de"), ("transition", "de"),
+            ("montecarlo", "de"), ("sections", "de")} <= named, named
+
+
+def test_help_shows_the_per_model_defaults():
+    """--help states each per-model default as 'VALUE (MODEL; other models: required)' (a list of
+    more than five values shortened as the generator does)."""
+    out = subprocess.run([str(TUBES), "--help"], capture_output=True, text=True, timeout=60).stdout
+    group = None
+    shown = {}
+    for ln in out.splitlines():
+        m = re.fullmatch(r"  &(\w+)", ln)
+        group = m[1] if m else group
+        m = re.match(r"    (\w+)\s+\w+\s+\[[^]]*\] default ((?:[^;(]|\([^)]*\))*); ", ln)
+        if m:
+            shown[(group, m[1])] = m[2]
+    for group, name, model, value in PER_MODEL_DEFAULTS:
+        v = value.split(", ")
+        text = ", ".join(v[:3] + ["..."] + v[-2:]) if len(v) > 5 else value
+        assert shown.get((group, name)) == f"{text} ({model}; other models: required)", (group, name, shown.get((group, name)))
+
+
+@pytest.mark.parametrize("group,name,model,value", PER_MODEL_DEFAULTS,
+                         ids=[f"{g}.{n}" for g, n, *_ in PER_MODEL_DEFAULTS])
+def test_per_model_default_is_required_for_other_models(tmp_path, group, name, model, value):
+    """A model other than the default's (Hénon–Heiles) running the group's scene without the variable
+    is refused before any work, naming the group and the variable (exit 1)."""
+    assert model == "rolling_ball"   # the other model below is not the default's
+    scene = group   # the groups with per-model defaults are their scenes'
+    path = tmp_path / "r.nml"
+    path.write_text(f"&run scenes = '{scene}', output = '{tmp_path}/o.h5' /\n&model system = 'henon_heiles' /\n")
+    p = subprocess.run([str(TUBES), str(path)], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert p.returncode == 1, p.stderr
+    assert f"&{group}: " in p.stderr and f"{name}" in p.stderr and "not set" in p.stderr, p.stderr

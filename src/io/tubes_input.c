@@ -111,7 +111,7 @@ const nml_var tubes_nml_vars[] = {
      "the rank-1 saddle of every scene that needs one"},
     {"orbits", "saddle_near", NML_REAL, TUBES_MAXDOF, "units of q", "the system's (henon_heiles: 0, 1)",
      "finite; not with saddle", "choose the rank-1 saddle nearest this configuration point instead"},
-    {"orbits", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", "1, 10, 100", "> 0, increasing (with guess: any sign)",
+    {"orbits", "de", NML_REAL, TUBES_MAXDE, "(cm/s)^2", TUBES_REGISTRY_DEFAULT_ORBITS_DE, "> 0, increasing (with guess: any sign)",
      "excess energies dE = E - E_e of the orbits"},
     TUBES_REGISTRY_ROWS_ORBITS   /* method .. n_samples */
     {"orbits", "family", NML_INT, 1, "-", "1",
@@ -139,35 +139,20 @@ const nml_var tubes_nml_vars[] = {
     {"section", "value", NML_REAL, 1, "units of q", "the system's", "finite", "kind = 'plane': the level c of q_k = c"},
     {"section", "direction", NML_INT, 1, "-", "the system's", "-1, 1",
      "kind = 'plane': the sign of dq_k/dt at the crossings"},
-    TUBES_REGISTRY_ROWS_TUBES   /* de, kind, eps, area_tol, t_max, n_init */
-    {"tubes", "n_max", NML_INT, 1, "-", "8192", "n_init .. 1000000", "seeds at most"},
+    TUBES_REGISTRY_ROWS_TUBES   /* every variable */
     TUBES_REGISTRY_ROWS_TRANSITION   /* every variable */
     TUBES_REGISTRY_ROWS_MONTECARLO   /* de .. t_max */
     {"montecarlo", "gate", NML_REAL, 1, "units of q", "the system's (1.5 cm for the ball)", "> 0",
      "a point has transited when it is this far past the saddle along its reaction coordinate"},
     TUBES_REGISTRY_ROWS_MONTECARLO_2   /* area_tol */
     TUBES_REGISTRY_ROWS_SECTIONS   /* every variable */
-    TUBES_REGISTRY_ROWS_EXPERIMENT   /* n_tracks, duration */
-    {"experiment", "camera_rate", NML_REAL, 1, "Hz", "50", "> 0, duration*camera_rate <= 1e6",
-     "frames per second"},
-    TUBES_REGISTRY_ROWS_EXPERIMENT_2   /* pixel, noise */
-    {"experiment", "de_min", NML_REAL, 1, "(cm/s)^2", "1000", "finite, < de_max",
-     "release excess energy g H - E_e at rest: lower bound"},
-    {"experiment", "de_max", NML_REAL, 1, "(cm/s)^2", "3000", "finite, > de_min",
-     "release excess energy: upper bound"},
-    TUBES_REGISTRY_ROWS_EXPERIMENT_3   /* damping_ratio, rolling_resistance, seed */
+    TUBES_REGISTRY_ROWS_EXPERIMENT   /* n_tracks .. seed */
     {"experiment", "csv", NML_STRING, 1, "-", "''", "a writable path or ''",
      "also write the tracks as CSV (track,t,x,y) to this file; '' = no CSV"},
     TUBES_REGISTRY_ROWS_FLUX   /* de, n_samples, seed, t_max */
     {"flux", "gate", NML_REAL, 1, "units of q", "the &montecarlo gate", "> 0",
      "half-width of the slab around the dividing surface that a passage crosses"},
-    TUBES_REGISTRY_ROWS_FLUX_2   /* tol */
-    {"flux", "order", NML_INT, 1, "-", "0", "0, or 2 .. 16 (2 DOF), 2 .. 10 (3 DOF)",
-     "degree of the Birkhoff normal form (formula models); 0 = none"},
-    {"flux", "n_cut", NML_INT, 1, "-", "16", "0, or even 4 .. 64",
-     "3 DOF with order and a plane &section: the tube's cut on a grid of n_cut + 1 rings of "
-     "(2 n_cut)^2 NHIM points; 0 = none"},
-    TUBES_REGISTRY_ROWS_FLUX_3   /* cut_eps */
+    TUBES_REGISTRY_ROWS_FLUX_2   /* tol .. cut_eps */
     {"scan", "parameter", NML_STRING, 1, "-", "- (required)",
      "a parameter of the system (&model), not a dissipation one; not a formula's constant",
      "the model parameter the scan scene moves (docs/scan.md)"},
@@ -1134,7 +1119,44 @@ static const struct {
   int is_int;   /* 0 a real, 1 an integer (int), 2 a 64-bit integer (int64_t) */
   double lo, hi;
   int lo_open, hi_open;
+  long lo_at;   /* >= 0: the lower bound is the field at this offset (allowed "OTHER .. HI"), of the same type */
+  int alt_ok;   /* 1: the value alt is allowed too (allowed "0, or LO .. HI") */
+  double alt;
+  int even;     /* 1: only even values in [lo, hi] (allowed "0, or even LO .. HI") */
 } reg[] = {TUBES_REGISTRY_RANGES};
+
+/* The number at offset of the settings: a real, an integer (is_int 1) or a 64-bit integer (2). */
+static double field_value(const tubes_config_t *c, size_t offset, int is_int) {
+  const char *p = (const char *)c + offset;
+  double x;
+  if (is_int == 2) {   /* a 64-bit integer (max_steps) */
+    int64_t i;
+    memcpy(&i, p, sizeof i);
+    x = (double)i;
+  } else if (is_int) {
+    int i;
+    memcpy(&i, p, sizeof i);
+    x = i;
+  } else memcpy(&x, p, sizeof x);
+  return x;
+}
+
+/* Whether registered number k of the settings is in its annotation's range. */
+static int registered_ok(const tubes_config_t *c, int k) {
+  double x = field_value(c, reg[k].offset, reg[k].is_int);
+  double lo = reg[k].lo_at >= 0 ? field_value(c, (size_t)reg[k].lo_at, reg[k].is_int) : reg[k].lo;
+  int ok = (reg[k].lo_open ? x > lo : x >= lo) && (reg[k].hi_open ? x < reg[k].hi : x <= reg[k].hi) &&
+           (!reg[k].even || fmod(x, 2) == 0);
+  return ok || (reg[k].alt_ok && x == reg[k].alt);
+}
+
+/* Whether group.name, a registered number, is in its range (a rule kept by hand beside it, "FORM, RULE",
+ * judges only a value the range allows: check_registered has said the rest). */
+static int in_registered_range(const tubes_config_t *c, const char *group, const char *name) {
+  for (int k = 0; k < TUBES_REGISTRY_N; k++)
+    if (reg[k].group && !strcmp(reg[k].group, group) && !strcmp(reg[k].name, name)) return registered_ok(c, k);
+  return 0;
+}
 
 /* A registered number's range for a caller that takes the value outside a file (Python's
  * tubes.integrate, tubes.scan): 1 with its bounds (+-INFINITY where open-ended, +-DBL_MAX for
@@ -1158,21 +1180,8 @@ int tubes_registry_range(const char *group, const char *name, double *lo, double
 
 static int check_registered(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int n = 0;
-  for (int k = 0; k < TUBES_REGISTRY_N; k++) {
-    const char *p = (const char *)c + reg[k].offset;
-    double x;
-    if (reg[k].is_int == 2) {   /* a 64-bit integer (max_steps) */
-      int64_t i;
-      memcpy(&i, p, sizeof i);
-      x = (double)i;
-    } else if (reg[k].is_int) {
-      int i;
-      memcpy(&i, p, sizeof i);
-      x = i;
-    } else memcpy(&x, p, sizeof x);
-    int ok = (reg[k].lo_open ? x > reg[k].lo : x >= reg[k].lo) && (reg[k].hi_open ? x < reg[k].hi : x <= reg[k].hi);
-    if (!ok) n += bad(path, c, w, reg[k].group, reg[k].name, err, "", x);
-  }
+  for (int k = 0; k < TUBES_REGISTRY_N; k++)
+    if (!registered_ok(c, k)) n += bad(path, c, w, reg[k].group, reg[k].name, err, "", field_value(c, reg[k].offset, reg[k].is_int));
   /* the lists of excess energies; one whose default is another's list only where the file sets it */
   static const struct {
     const char *group, *name;
@@ -1327,7 +1336,6 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
             line_or_group(w, "orbits", "family"), c->orb_family, c->ndof > 1 ? c->ndof - 1 : 1, c->system, c->ndof);
     n++;
   }
-  if (!(c->tub_n_max >= c->tub_n_init && c->tub_n_max <= 1000000)) n += bad(path, c, w, "tubes", "n_max", err, "", c->tub_n_max);
   n += check_registered(path, c, w, err);
   if (c->nparams >= 0 && !(c->mc_gate > 0 && c->mc_gate < DBL_MAX))
     n += bad(path, c, w, "montecarlo", "gate", err, "", c->mc_gate);
@@ -1335,9 +1343,8 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
   if (c->nparams >= 0 && line_of(w, "flux", "gate") && !(c->flux_gate > 0 && c->flux_gate < DBL_MAX))
     n += bad(path, c, w, "flux", "gate", err, "", c->flux_gate);
   n += validate_scan(path, c, w, err);
-  if (!(c->flux_order == 0 || (c->flux_order >= 2 && c->flux_order <= 16)))
-    n += bad(path, c, w, "flux", "order", err, "", c->flux_order);
-  else if (c->flux_order > 0 && strcmp(c->system, "expression") &&
+  /* &flux order, n_cut, their ranges: check_registered */
+  if (c->flux_order > 0 && in_registered_range(c, "flux", "order") && strcmp(c->system, "expression") &&
            !(!strcmp(c->system, "rolling_ball") && !strcmp(c->surface, "expression"))) {
     /* refused before the run samples the flux (tubes_expr_taylor's own check comes after it) */
     fprintf(err, "%s:%d: &flux: order = %d: the normal form needs the model written as a formula (&model system = "
@@ -1346,9 +1353,8 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
             c->flux_order, c->system);
     n++;
   }
-  if (!(c->flux_n_cut == 0 || (c->flux_n_cut >= 4 && c->flux_n_cut <= 64 && c->flux_n_cut % 2 == 0)))
-    n += bad(path, c, w, "flux", "n_cut", err, "", c->flux_n_cut);
-  if (!(c->exp_camera_rate > 0)) n += bad(path, c, w, "experiment", "camera_rate", err, "", c->exp_camera_rate);
+  if (!in_registered_range(c, "experiment", "camera_rate"))
+    ;   /* check_registered said so: the frames are not counted */
   else if (c->exp_duration > 0 && c->exp_duration * c->exp_camera_rate > 1e6)
     n += bad(path, c, w, "experiment", "camera_rate", err, "duration*camera_rate exceeds 1e6 frames per track",
              c->exp_camera_rate);
@@ -1356,7 +1362,7 @@ int nml_validate(const char *path, const tubes_config_t *c, const nml_where *w, 
            (double)tubes_experiment_samples(c->exp_duration, c->exp_camera_rate) * c->exp_n_tracks > 5e7)
     n += bad(path, c, w, "experiment", "n_tracks", err, "n_tracks times the frames per track exceeds 5e7",
              c->exp_n_tracks);
-  if (!(c->exp_de_min < c->exp_de_max))
+  if (!(c->exp_de_min < c->exp_de_max))   /* the pair's rule; each one finite: check_registered */
     n += bad(path, c, w, "experiment", "de_min", err, "de_min must be below de_max", c->exp_de_min);
   if (!n) n += check_memory(path, c, w, err);
   return n;

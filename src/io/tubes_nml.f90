@@ -27,9 +27,7 @@ module tubes_nml
     real(c_double) :: orb_de(MAXDE) = UNSET
     real(c_double) :: sec_angle = UNSET
     integer :: sec_pth_sign = UNSET_INT
-    integer :: tub_n_max = 8192
     real(c_double) :: mc_gate = UNSET
-    real(c_double) :: exp_camera_rate = 50, exp_de_min = 1000, exp_de_max = 3000
     character(LPATH) :: exp_csv = ''
     character(LNAME) :: system = 'rolling_ball'
     real(c_double) :: m_a = UNSET, m_b = UNSET, d = UNSET, lambda = UNSET, zeta = UNSET, eps_s = UNSET, &
@@ -44,7 +42,6 @@ module tubes_nml
     character(LNAME) :: surface = 'fourwell'
     character(LNAME) :: dissipation = ''
     character(LNAME) :: model_name = ''   !! the library's name of the model (written only)
-    integer :: flux_order = 0, flux_n_cut = 16
     real(c_double) :: flux_gate = UNSET
     integer :: orb_family = 1
     logical :: spatial = .false.
@@ -96,12 +93,7 @@ contains
     cfg%orb_nperiods = findloc(v%orb_periods /= UNSET, .true., dim=1, back=.true.)
     cfg%orb_periods = 0
     cfg%orb_periods(1:cfg%orb_nperiods) = v%orb_periods(1:cfg%orb_nperiods)
-    cfg%tub_n_max = v%tub_n_max
-    cfg%flux_order = v%flux_order
-    cfg%flux_n_cut = v%flux_n_cut
     include 'nml_to_c.inc'   ! the registered variables
-    cfg%exp_camera_rate = v%exp_camera_rate
-    cfg%exp_de_min = v%exp_de_min; cfg%exp_de_max = v%exp_de_max
     call f_to_c(v%exp_csv, cfg%exp_csv)
     call f_to_c(v%hamiltonian, cfg%hamiltonian)
     call f_to_c(v%height, cfg%height)
@@ -450,13 +442,9 @@ contains
     v%orb_periods(1:cfg%orb_nperiods) = cfg%orb_periods(1:cfg%orb_nperiods)
     if (cfg%orb_de_given == 0 .and. cfg%orb_njacobi + cfg%orb_nperiods > 0) v%orb_de = UNSET   ! the default's not written
     v%sec_angle = cfg%sec_angle; v%sec_pth_sign = cfg%sec_pth_sign
-    v%tub_n_max = cfg%tub_n_max
     v%mc_gate = cfg%mc_gate
-    v%flux_order = cfg%flux_order; v%flux_gate = cfg%flux_gate
-    v%flux_n_cut = cfg%flux_n_cut
+    v%flux_gate = cfg%flux_gate
     include 'nml_from_c.inc'   ! the registered variables
-    v%exp_camera_rate = cfg%exp_camera_rate
-    v%exp_de_min = cfg%exp_de_min; v%exp_de_max = cfg%exp_de_max
     v%exp_csv = c_to_f(cfg%exp_csv)
     v%scan_parameter = c_to_f(cfg%scan_parameter)
     v%scan_to = cfg%scan_to
@@ -798,12 +786,8 @@ contains
       v%sec_index = index; v%sec_value = value; v%sec_direction = direction
     end subroutine io_section
     subroutine io_tubes()
-      integer :: n_max
-      include 'nml_tubes_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): de .. n_init
-      namelist /tubes/ n_max
-      n_max = v%tub_n_max
+      include 'nml_tubes_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): all
       include 'nml_tubes_io.inc'   ! the copies in, the READ or WRITE, the copies out
-      v%tub_n_max = n_max
     end subroutine io_tubes
     subroutine io_transition()
       include 'nml_transition_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): all
@@ -819,16 +803,13 @@ contains
       v%mc_gate = gate
     end subroutine io_montecarlo
     subroutine io_flux()
-      integer :: order, n_cut
       real(c_double) :: gate
       include 'nml_flux_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): de .. t_max
       namelist /flux/ gate
-      include 'nml_flux_decl_2.inc'   ! tol
-      namelist /flux/ order, n_cut
-      include 'nml_flux_decl_3.inc'   ! cut_eps
-      order = v%flux_order; gate = v%flux_gate; n_cut = v%flux_n_cut
+      include 'nml_flux_decl_2.inc'   ! tol .. cut_eps
+      gate = v%flux_gate
       include 'nml_flux_io.inc'   ! the copies in, the READ or WRITE, the copies out
-      v%flux_order = order; v%flux_gate = gate; v%flux_n_cut = n_cut
+      v%flux_gate = gate
     end subroutine io_flux
     subroutine io_scan()
       character(LNAME) :: parameter
@@ -858,17 +839,10 @@ contains
       include 'nml_sections_io.inc'   ! the copies in, the READ or WRITE, the copies out
     end subroutine io_sections
     subroutine io_experiment()
-      real(c_double) :: camera_rate, de_min, de_max
       character(:), allocatable :: csv
       character(LPATH) :: buf
-      include 'nml_experiment_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): n_tracks, duration
-      namelist /experiment/ camera_rate
-      include 'nml_experiment_decl_2.inc'   ! pixel, noise
-      namelist /experiment/ de_min, de_max
-      include 'nml_experiment_decl_3.inc'   ! damping_ratio .. seed
+      include 'nml_experiment_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): n_tracks .. seed
       namelist /experiment/ csv
-      camera_rate = v%exp_camera_rate
-      de_min = v%exp_de_min; de_max = v%exp_de_max
       include 'nml_experiment_in.inc'
       if (mode == 'r') then
         buf = v%exp_csv
@@ -879,8 +853,6 @@ contains
         csv = trim(v%exp_csv)
         write (u, nml=experiment, iostat=ios, iomsg=iomsg)
       end if
-      v%exp_camera_rate = camera_rate
-      v%exp_de_min = de_min; v%exp_de_max = de_max
       include 'nml_experiment_out.inc'
     end subroutine io_experiment
   end subroutine group_io

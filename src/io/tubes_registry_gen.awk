@@ -16,7 +16,13 @@
 # lexer checks the value). A list of excess energies (real(c_double) :: X_de(MAXDE), its count the
 # field X_nde): ALLOWED "> 0, increasing" (the reader's check_list), DEFAULT its numbers separated
 # by ", " (--help shows more than five as "1, 2, 5, ..., 700, 750") or "the &GROUP list" (that
-# group's registered list, annotated before it: then checked only where the file sets it). The group's registered
+# group's registered list, annotated before it: then checked only where the file sets it, and its
+# per-model rule is that list's). A number's or a list's DEFAULT may be one model's:
+# "MODEL: VALUE; other models: required" (VALUE stored as the default; --help "VALUE (MODEL; other
+# models: required)"; the run refuses other models without the variable: nml_defaults.inc). A
+# hand-written variable's per-model default is a mark that carries it:
+#   !@ &GROUP NAME | default MODEL: VALUE; other models: required
+# (the rule, and TUBES_REGISTRY_DEFAULT_<GROUP>_<NAME>, --help's text, for its table row). The group's registered
 # variables keep their annotations' order, in the namelist, in the effective namelist and in
 # --help. A variable written by hand that stands between registered ones in its group's order is
 # named by an annotation without '|' (!@ &GROUP NAME: a mark, no field follows it): it ends the
@@ -32,6 +38,8 @@
 #   nml_to_c.inc, nml_from_c.inc   the copies between vars_t and tubes_config_t
 #   nml_GROUP_decl[_K].inc, nml_GROUP_in.inc, nml_GROUP_out.inc   per group of GROUPS: the namelist
 #                           variables of a run and their place in the group, the copies in and out of vars_t
+#   nml_defaults.inc        Fortran (included by src/workflow/tubes_setup.f90): default_given(model, group,
+#                           name), whether model has the default, and default_text(group, name), its value
 #   nml_GROUP_io.inc        the copies in, the group's READ (mode 'r') or WRITE, the copies out: the
 #                           whole io_GROUP of tubes_nml where no other statement stands between them
 # A group not in GROUPS (run, model, section: their reading or writing has rules of its own) or a declaration
@@ -53,6 +61,17 @@ function cstr(s) { gsub(/\\/, "\\\\", s); gsub(/"/, "\\\"", s); return "\"" s "\
     if (runlen[pg, run[pg] + 0] > 0) run[pg]++
     next
   }
+  if (m == 2 && split(trim(f[1]), gn, /[ \t]+/) == 2 && substr(gn[1], 1, 1) == "&" && trim(f[2]) ~ /^default /) {
+    # a hand-written variable's per-model default: a mark (its run ends) whose default joins the rule
+    pg = substr(gn[1], 2)
+    if (!(pg in known)) fail("group &" pg " takes no registered variable (allowed: " join() ")")
+    if (runlen[pg, run[pg] + 0] > 0) run[pg]++
+    pd = trim(f[2]); sub(/^default /, "", pd)
+    if (!per_model(pd)) fail("a mark's default '" pd "' is not 'MODEL: VALUE; other models: required'")
+    nh++; HG[nh] = pg; HN[nh] = gn[2]; HM[nh] = pm_model; HV[nh] = pm_value
+    HS[nh] = pm_value " (" pm_model "; other models: required)"
+    next
+  }
   if (m < 5) fail("an annotation has 5 fields separated by |: &group name | units | default | allowed | text")
   for (k = 6; k <= m; k++) f[5] = f[5] "|" f[k]   # the text, the last field, may hold a | (|H - E|/E)
   split(trim(f[1]), gn, /[ \t]+/)
@@ -72,6 +91,8 @@ pending {
     len = field; sub(/^[^(]*\(/, "", len); sub(/\)$/, "", len); sub(/\(.*/, "", field)
   }
   if (field ~ /[,(]/) fail("an annotated declaration declares one scalar field (or one string or list, NAME(LENGTH))")
+  pmodel = ""   # a per-model default: the value is that model's, the variable required for the others
+  if (per_model(pd)) { pmodel = pm_model; pd = pm_value }
   isint = 0; isstr = 0; islog = 0; islist = 0; shown = pd; cnt = ""; fdl = ""; lset = 0
   if (len != "" && type == "real(c_double)") {   # a list of excess energies and its count
     if (pa != "> 0, increasing") fail("a list's allowed is '> 0, increasing' (the reader's check_list), not '" pa "'")
@@ -84,7 +105,7 @@ pending {
       if (nv > 5) shown = r[1] ", " r[2] ", " r[3] ", ..., " r[nv - 1] ", " r[nv]   # --help's text
     } else if (match(pd, /^the &[a-z]+ list$/)) {   # another group's list: checked only where the file sets this one
       og = substr(pd, 6); sub(/ list$/, "", og)
-      for (k = 1; k <= n; k++) if (G[k] == og && LIST[k]) fdl = "cfg%" F[k] "(1:cfg%" CNT[k] ")"
+      for (k = 1; k <= n; k++) if (G[k] == og && LIST[k]) { fdl = "cfg%" F[k] "(1:cfg%" CNT[k] ")"; pmodel = PM[k] }
       if (fdl == "") fail("the list of &" og " is not registered before this one")
       lset = 1
     } else fail("a list's default '" pd "' is neither numbers separated by ', ' nor 'the &group list'")
@@ -106,15 +127,28 @@ pending {
     ct = "NML_INT"; ft = "integer(c_int64_t)"; fd = pd "_c_int64_t"; isint = 2
   }
   else fail("type " type " is not registered (real(c_double), integer(c_int), integer(c_int64_t), character(kind=c_char) NAME(LENGTH))")
-  lo = "-INFINITY"; hi = "INFINITY"; lo_open = 0; hi_open = 0
+  lo = "-INFINITY"; hi = "INFINITY"; lo_open = 0; hi_open = 0; alt = 0; altok = 0; even = 0; lof = ""
   a = pa
+  if (!isstr && !islog && !islist) {
+    if (isint && match(a, /^[-+]?[0-9]+, or (even )?[-+]?[0-9]+ \.\. [-+]?[0-9]+/)) {   # "V, or [even] LO .. HI[ RULE]"
+      a = substr(a, 1, RLENGTH); split(a, r, /, or /); alt = r[1]; altok = 1; a = r[2]
+      if (a ~ /^even /) { even = 1; a = substr(a, 6) }
+    } else if (!(isint && a ~ /^[-+]?[0-9]+(, [-+]?[0-9]+)+$/) && index(a, ", "))
+      a = substr(a, 1, index(a, ", ") - 1)   # "FORM, RULE": the rule is another check's, kept by hand
+    if (match(a, /^[a-z_][a-z_0-9]* \.\. [-+0-9.eE]+$/)) {   # "OTHER .. HI": bounded below by the group's OTHER
+      split(a, r, / \.\. /); a = "-INFINITY .. " r[2]
+      for (k = 1; k <= n; k++) if (G[k] == pg && N[k] == r[1] && !STR[k] && !LOG[k] && !LIST[k]) lof = F[k]
+      if (lof == "") fail("allowed '" pa "': " r[1] " is not a number registered before " pn " in &" pg)
+      for (k = 1; k <= n; k++) if (F[k] == lof && INT[k] != isint) fail("allowed '" pa "': " r[1] " is not of " pn "'s type")
+    }
+  }
   if (isstr || islog || islist) ;
   else if (isint && a ~ /^[-+]?[0-9]+(, [-+]?[0-9]+)+$/) {   # an integer's values: consecutive, a range
     nv = split(a, r, /, /); lo = r[1] + 0; hi = r[nv] + 0
     for (k = 2; k <= nv; k++) if (r[k] + 0 != r[k - 1] + 1) fail("an integer's values '" a "' are not consecutive")
   }
   else if (a == "finite") { lo = "-DBL_MAX"; hi = "DBL_MAX" }   # an infinity is not finite
-  else if (match(a, /^[-+0-9.eE]+ \.\. [-+0-9.eE]+$/)) { split(a, r, / \.\. /); lo = r[1]; hi = r[2] }
+  else if (match(a, /^([-+0-9.eE]+|-INFINITY) \.\. [-+0-9.eE]+$/)) { split(a, r, / \.\. /); lo = r[1]; hi = r[2] }
   else if (a ~ /^>= /) lo = substr(a, 4)
   else if (a ~ /^> /) { lo = substr(a, 3); lo_open = 1 }
   else if (a ~ /^<= /) hi = substr(a, 4)
@@ -124,13 +158,24 @@ pending {
     lo = r[1]; hi = r[5]; lo_open = (r[2] == "<"); hi_open = (r[4] == "<")
   }
   else fail("allowed '" a "' is not one of: LO .. HI, > LO, >= LO, < HI, <= HI, LO <= X < HI (< or <=), finite")
+  if (pmodel != "" && (isstr || islog)) fail("a per-model default is a number's or a list's")
+  if (pmodel != "" && !lset) shown = shown " (" pmodel "; other models: required)"
   n++
   G[n] = pg; N[n] = pn; U[n] = pu; D[n] = pd; A[n] = pa; T[n] = pt; F[n] = field; CT[n] = ct; FT[n] = ft; FD[n] = fd
   LO[n] = lo; HI[n] = hi; LOO[n] = lo_open; HIO[n] = hi_open; INT[n] = isint; STR[n] = isstr; LOG[n] = islog
-  LIST[n] = islist; LEN[n] = len; CNT[n] = cnt; FDL[n] = fdl; LSET[n] = lset; SHOWN[n] = shown
+  ALT[n] = alt; ALTOK[n] = altok; EVEN[n] = even; LOF[n] = lof
+  LIST[n] = islist; LEN[n] = len; CNT[n] = cnt; FDL[n] = fdl; LSET[n] = lset; SHOWN[n] = shown; PM[n] = pmodel
   R[n] = run[pg] + 0; runlen[pg, R[n]]++; if (R[n] > nrun[pg]) nrun[pg] = R[n]
   pending = 0
   next
+}
+# DEFAULT "MODEL: VALUE; other models: required" (one model's value: the reader stores one default):
+# 1 with pm_model and pm_value set, else 0
+function per_model(d,   p) {
+  if (!match(d, /^[a-z][a-z0-9_]*: [^;]+; other models: required$/)) return 0
+  p = index(d, ":"); pm_model = substr(d, 1, p - 1); pm_value = substr(d, p + 2)
+  sub(/; other models: required$/, "", pm_value)
+  return 1
 }
 function sfx(k) { return k ? "_" (k + 1) : "" }   # a group's run r (0: the first) in the generated names
 function join(   s, i) { s = ""; for (i = 1; i <= ng; i++) s = s (i > 1 ? ", " : "") groups[i]; return s }
@@ -155,11 +200,12 @@ END {
   printf "#define TUBES_REGISTRY_RANGES" > h
   for (i = 1; i <= n; i++)
     if (!STR[i] && !LOG[i] && !LIST[i]) {
-      printf " \\\n  {%s, %s, offsetof(tubes_config_t, %s), %d, %s, %s, %d, %d},", cstr(G[i]), cstr(N[i]), F[i], INT[i],
-             LO[i], HI[i], LOO[i], HIO[i] > h
+      printf " \\\n  {%s, %s, offsetof(tubes_config_t, %s), %d, %s, %s, %d, %d, %s, %d, %s, %d},", cstr(G[i]), cstr(N[i]),
+             F[i], INT[i], LO[i], HI[i], LOO[i], HIO[i], LOF[i] == "" ? "-1" : "(long)offsetof(tubes_config_t, " LOF[i] ")",
+             ALTOK[i], ALT[i], EVEN[i] > h
       nr++
     }
-  if (nr == 0) printf " \\\n  {NULL, NULL, 0, 0, 0, 0, 0, 0}," > h
+  if (nr == 0) printf " \\\n  {NULL, NULL, 0, 0, 0, 0, 0, 0, -1, 0, 0, 0}," > h
   print "" > h
   printf "#define TUBES_REGISTRY_STRINGS" > h    # a string's values: its allowed text, ", " between them
   for (i = 1; i <= n; i++)
@@ -180,6 +226,37 @@ END {
   if (nl == 0) printf " \\\n  {NULL, NULL, 0, 0, 0}," > h
   print "" > h
   printf "enum { TUBES_REGISTRY_N = %d, TUBES_REGISTRY_NS = %d, TUBES_REGISTRY_NL = %d };\n", nr, ns, nl > h
+  for (i = 1; i <= nh; i++)   # a hand-written variable's per-model default, as --help shows it (its table row)
+    printf "#define TUBES_REGISTRY_DEFAULT_%s_%s %s\n", toupper(HG[i]), toupper(HN[i]), cstr(HS[i]) > h
+  # the per-model defaults' rule (src/workflow/tubes_setup.f90 includes it: default_refused)
+  pmf = dir "/nml_defaults.inc"
+  print "! Generated by src/io/tubes_registry_gen.awk from src/workflow/tubes_config.f90: do not edit." > pmf
+  print "" > pmf
+  print "  !> Whether model has the registry's default of &group name: .false. where that default is one" > pmf
+  print "  !> model's (annotation DEFAULT 'MODEL: VALUE; other models: required') and model is another, so" > pmf
+  print "  !> the variable must be given; .true. where the default is every model's (or none is registered)." > pmf
+  print "  pure logical function default_given(model, group, name) result(given)" > pmf
+  print "    character(*), intent(in) :: model, group, name" > pmf
+  print "    given = .true." > pmf
+  for (i = 1; i <= n; i++)
+    if (PM[i] != "")
+      printf "    if (group == '%s' .and. name == '%s') given = model == '%s'\n", G[i], N[i], PM[i] > pmf
+  for (i = 1; i <= nh; i++)
+    printf "    if (group == '%s' .and. name == '%s') given = model == '%s'\n", HG[i], HN[i], HM[i] > pmf
+  print "  end function default_given" > pmf
+  print "" > pmf
+  print "  !> The value of the registry's per-model default of &group name, as its annotation writes it ('': none)." > pmf
+  print "  pure function default_text(group, name) result(text)" > pmf
+  print "    character(*), intent(in) :: group, name" > pmf
+  print "    character(:), allocatable :: text" > pmf
+  print "    text = ''" > pmf
+  for (i = 1; i <= n; i++)
+    if (PM[i] != "" && !LSET[i])
+      printf "    if (group == '%s' .and. name == '%s') text = '%s'\n", G[i], N[i], D[i] > pmf
+  for (i = 1; i <= nh; i++)
+    printf "    if (group == '%s' .and. name == '%s') text = '%s'\n", HG[i], HN[i], HV[i] > pmf
+  print "  end function default_text" > pmf
+  close(pmf)
   v = dir "/nml_vars.inc"; tc = dir "/nml_to_c.inc"; fc = dir "/nml_from_c.inc"
   print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > v
   print "! Generated by src/io/tubes_registry_gen.awk: do not edit." > tc

@@ -36,9 +36,9 @@ module tubes_config
     real(c_double) :: box   ! &equilibria
     integer(c_int) :: n_grid
     character(kind=c_char) :: saddle(LSADDLE)
-    !@ &trajectory x0 | cm | 4 | finite | initial x
+    !@ &trajectory x0 | cm | rolling_ball: 4; other models: required | finite | initial x
     real(c_double) :: x0
-    !@ &trajectory y0 | cm | 12.614863819914357 | finite | initial y
+    !@ &trajectory y0 | cm | rolling_ball: 12.614863819914357; other models: required | finite | initial y
     real(c_double) :: y0
     !@ &trajectory px0 | cm/s | 0 | finite | initial p_x (ignored if at_rest)
     real(c_double) :: px0
@@ -79,6 +79,7 @@ module tubes_config
     !@ &integrator max_iter | - | 0 | 0 .. 1000 | gauss*: iterations per step (0: 10 newton, 100 fixed_point)
     integer(c_int) :: max_iter
     character(kind=c_char) :: orb_saddle(LSADDLE)   ! &orbits
+    !@ &orbits de | default rolling_ball: 1, 10, 100; other models: required
     real(c_double) :: orb_de(MAXDE)
     integer(c_int) :: orb_nde
     !@ &orbits method | - | 'single' | single, multiple | single shooting of the brake orbit, or multiple shooting
@@ -97,7 +98,7 @@ module tubes_config
     integer(c_int) :: orb_n_samples
     real(c_double) :: sec_angle   ! &section
     integer(c_int) :: sec_pth_sign
-    !@ &tubes de | (cm/s)^2 | 10, 100 | > 0, increasing | excess energies of the tube cuts
+    !@ &tubes de | (cm/s)^2 | rolling_ball: 10, 100; other models: required | > 0, increasing | excess energies of the tube cuts
     real(c_double) :: tub_de(MAXDE)
     integer(c_int) :: tub_nde
     !@ &tubes kind | - | 'stable' | stable, unstable, both | which manifold
@@ -110,13 +111,14 @@ module tubes_config
     real(c_double) :: tub_t_max
     !@ &tubes n_init | - | 64 | 8 .. 100000 | seeds of the first round
     integer(c_int) :: tub_n_init
+    !@ &tubes n_max | - | 8192 | n_init .. 1000000 | seeds at most
     integer(c_int) :: tub_n_max
-    !@ &transition de | (cm/s)^2 | 1, 2, 5, 10, 20, 50, 100, 200, 300, 400, 500, 600, 700, 750 | > 0, increasing | excess energies of p_trans(dE)
+    !@ &transition de | (cm/s)^2 | rolling_ball: 1, 2, 5, 10, 20, 50, 100, 200, 300, 400, 500, 600, 700, 750; other models: required | > 0, increasing | excess energies of p_trans(dE)
     real(c_double) :: tra_de(MAXDE)
     integer(c_int) :: tra_nde
     !@ &transition area_tol | 1 | 1e-8 | 1e-13 .. 1e-2 | relative accuracy of each tube area
     real(c_double) :: tra_area_tol
-    !@ &montecarlo de | (cm/s)^2 | 100 | > 0 | excess energy of the samples
+    !@ &montecarlo de | (cm/s)^2 | rolling_ball: 100; other models: required | > 0 | excess energy of the samples
     real(c_double) :: mc_de
     !@ &montecarlo n_samples | - | 10000 | 1 .. 10000000 | points on the section
     integer(c_int) :: mc_n_samples
@@ -128,7 +130,7 @@ module tubes_config
     real(c_double) :: mc_gate
     !@ &montecarlo area_tol | 1 | 1e-8 | 1e-13 .. 1e-2 | relative accuracy of the tube cut the points are sorted by
     real(c_double) :: mc_area_tol
-    !@ &sections de | (cm/s)^2 | 100, 500 | > 0, increasing | excess energies of the maps
+    !@ &sections de | (cm/s)^2 | rolling_ball: 100, 500; other models: required | > 0, increasing | excess energies of the maps
     real(c_double) :: pm_de(MAXDE)
     integer(c_int) :: pm_nde
     !@ &sections n_seeds | - | 40 | 1 .. 100000 | trajectories per map
@@ -141,15 +143,16 @@ module tubes_config
     integer(c_int) :: exp_n_tracks
     !@ &experiment duration | s | 14 | > 0 | length of each track
     real(c_double) :: exp_duration
-    !@ &experiment camera_rate
+    !@ &experiment camera_rate | Hz | 50 | > 0, duration*camera_rate <= 1e6 | frames per second
     real(c_double) :: exp_camera_rate
     !@ &experiment pixel | cm | 0.16 | >= 0 | pixel size: measured positions are multiples of it (0 = no rounding)
     real(c_double) :: exp_pixel
     !@ &experiment noise | cm | 0.05 | >= 0 | standard deviation of the Gaussian position noise (before rounding)
     real(c_double) :: exp_noise
-    !@ &experiment de_min
-    !@ &experiment de_max
-    real(c_double) :: exp_de_min, exp_de_max
+    !@ &experiment de_min | (cm/s)^2 | 1000 | finite, < de_max | release excess energy g H - E_e at rest: lower bound
+    real(c_double) :: exp_de_min
+    !@ &experiment de_max | (cm/s)^2 | 3000 | finite, > de_min | release excess energy: upper bound
+    real(c_double) :: exp_de_max
     !@ &experiment damping_ratio | 1 | 0.014 | 0 <= zeta < 1 | damping ratio of the experiment's ball (docs/theory.md#damping)
     real(c_double) :: exp_damping_ratio
     !@ &experiment rolling_resistance | 1 | 0 | 0 <= C_rr < 1 | rolling resistance coefficient of the experiment's ball (docs/dissipation.md)
@@ -195,9 +198,10 @@ module tubes_config
     real(c_double) :: flux_gate
     !@ &flux tol | 1 | 1e-10 | 1e-14 .. 1e-3 | rtol = atol of the integrations
     real(c_double) :: flux_tol
-    !@ &flux order
-    !@ &flux n_cut
-    integer(c_int) :: flux_order, flux_n_cut
+    !@ &flux order | - | 0 | 0, or 2 .. 16 (2 DOF), 2 .. 10 (3 DOF) | degree of the Birkhoff normal form (formula models); 0 = none
+    integer(c_int) :: flux_order
+    !@ &flux n_cut | - | 16 | 0, or even 4 .. 64 | 3 DOF with order and a plane &section: the tube's cut on a grid of n_cut + 1 rings of (2 n_cut)^2 NHIM points; 0 = none
+    integer(c_int) :: flux_n_cut
     !@ &flux cut_eps | 1 | 1e-3 | 1e-8 .. 0.1 | step-off of the tube's seeds from the NHIM, in units of its radius sqrt(2 dE / omega_2)
     real(c_double) :: flux_cut_eps
     integer(c_int) :: orb_family   !! &orbits family: a centre mode (1 .. N-1), a family by name (< 0), 'branch:K' = -100 - K

@@ -348,29 +348,36 @@ contains
   end function de_unresolved
 
   !> The defaults that are the paper's, in the four-well ball's units and place: the scenes' excess
-  !> energies (&GROUP de) and the trajectory's start (GROUP 'trajectory': x0, y0). The library's
-  !> rolling ball (model 'rolling_ball') has them; any other model (another system, or the ball on a
-  !> formula surface) must give them. Before, a formula model ran the ball's 15 energies 1 .. 750 (NaN
-  !> rows, exit 4) and Henon-Heiles' trajectory started at the ball's (4, 12.6) cm and blew up. 0 when
-  !> the model has the default, else 1 with the message's body in msg (label: the model as messages
-  !> name it).
+  !> energies (&GROUP de) and the trajectory's start (GROUP 'trajectory': x0, y0). Which models have
+  !> them is the registry's (their annotations' DEFAULT 'rolling_ball: ...; other models: required' in
+  !> src/workflow/tubes_config.f90; default_given is generated from them): the library's rolling ball
+  !> (model 'rolling_ball') has them; any other model (another system, or the ball on a formula
+  !> surface) must give them. Before, a formula model ran the ball's 15 energies 1 .. 750 (NaN rows,
+  !> exit 4) and Henon-Heiles' trajectory started at the ball's (4, 12.6) cm and blew up. 0 when the
+  !> model has the default, else 1 with the message's body in msg (label: the model as messages name
+  !> it).
   integer function default_refused(model, group, label, msg) result(k)
     character(*), intent(in) :: model, group, label
     character(*), intent(out) :: msg
     msg = ''
     k = 0
-    if (model == 'rolling_ball') return
-    k = 1
     if (group == 'trajectory') then
-      msg = '&trajectory: x0, y0 are not set: system ' // label // ' has no default start (the default, (4, ' // &
-            '12.614863819914357) cm, is on the four-well ball''s surface); give x0, y0 (and px0, py0 or at_rest) ' // &
-            'in the model''s units (docs/input.md)'
+      if (default_given(model, group, 'x0') .and. default_given(model, group, 'y0')) return
+      k = 1
+      msg = '&trajectory: x0, y0 are not set: system ' // label // ' has no default start (the default, (' // &
+            default_text(group, 'x0') // ', ' // default_text(group, 'y0') // ') cm, is on the four-well ball''s ' // &
+            'surface); give x0, y0 (and px0, py0 or at_rest) in the model''s units (docs/input.md)'
     else
+      if (default_given(model, group, 'de')) return
+      k = 1
       msg = '&' // group // ': de is not set: system ' // label // ' has no default excess energies (the ' // &
             'defaults are the four-well ball''s, in (cm/s)^2); give de in the model''s energy units for the ' // &
             'scene ''' // group // ''' (docs/input.md)'
     end if
   end function default_refused
+
+  ! the registry's per-model defaults: default_given, default_text (generated, src/io/tubes_registry_gen.awk)
+  include 'nml_defaults.inc'
 
   ! ---------------------------------------------------------------- the C entries (src/io/tubes_scenes.c)
 
