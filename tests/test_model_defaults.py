@@ -36,7 +36,13 @@ def test_the_flux_takes_the_transition_list_when_given(tmp_path):
 def test_a_trajectory_of_another_model_needs_its_start(tmp_path):
     (tmp_path / "t.nml").write_text("&run scenes = 'trajectory', output = 't.h5' /\n&model system = 'henon_heiles' /\n")
     r = run_tubes(["t.nml"], tmp_path)
-    assert r.returncode == 1 and "&trajectory: x0, y0 are not set: system henon_heiles has no default start" in r.stderr
+    assert r.returncode == 1 and "&trajectory: x0 or y0 is not set: system henon_heiles has no default start" in r.stderr
+    # one of them alone: refused too (it ran from the ball's y0 = 12.6 before: Henon-Heiles escapes)
+    (tmp_path / "t.nml").write_text("&run scenes = 'trajectory', output = 't.h5' /\n&model system = 'henon_heiles' /\n"
+                                    "&trajectory x0 = 0.1, t_end = 10 /\n")
+    r = run_tubes(["t.nml"], tmp_path)
+    assert r.returncode == 1 and "x0 or y0 is not set: system henon_heiles" in r.stderr
+    assert not list(tmp_path.glob("t.h5*"))
     (tmp_path / "t.nml").write_text("&run scenes = 'trajectory', output = 't.h5' /\n&model system = 'henon_heiles' /\n"
                                     "&trajectory x0 = 0.1, y0 = 0.1, t_end = 10 /\n")
     r = run_tubes(["t.nml"], tmp_path)

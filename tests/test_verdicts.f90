@@ -185,7 +185,7 @@ contains
                     index(msg, '&transition: de is not set: system henon_heiles') > 0, trim(msg))
     call check_eq('defaults: a formula model has no start', default_refused('expr_0123', 'trajectory', 'expression', &
                   msg), 1)
-    call check_true('defaults: says x0, y0', index(msg, 'x0, y0 are not set') > 0, trim(msg))
+    call check_true('defaults: says x0, y0', index(msg, 'x0 or y0 is not set') > 0, trim(msg))
     ! dE resolvable at the saddle: at least a million times 16 ulps of |E_e| (2^-52 each)
     ee = 1.0e4_wp
     need = 1.0e6_wp*16*ee*2.0_wp**(-52)

@@ -132,8 +132,9 @@ static int defaults_given(const tubes_run_t *run, int des) {
   char m[1024];
   int n = 0;
   if (!des) {
-    if (scene_asked(c, "trajectory") && !nml_line(run->where, "trajectory", "x0") &&
-        !nml_line(run->where, "trajectory", "y0") &&
+    /* both: one alone would start other models at the ball's value of the other */
+    if (scene_asked(c, "trajectory") &&
+        (!nml_line(run->where, "trajectory", "x0") || !nml_line(run->where, "trajectory", "y0")) &&
         tubes_default_refused(run->system, "trajectory", run->label, m, (int)sizeof m)) {
       say_at(run, nml_line(run->where, "run", "scenes"));
       fprintf(stderr, "%s\n", m);

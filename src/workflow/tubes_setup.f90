@@ -364,7 +364,7 @@ contains
     if (group == 'trajectory') then
       if (default_given(model, group, 'x0') .and. default_given(model, group, 'y0')) return
       k = 1
-      msg = '&trajectory: x0, y0 are not set: system ' // label // ' has no default start (the default, (' // &
+      msg = '&trajectory: x0 or y0 is not set: system ' // label // ' has no default start (the default, (' // &
             default_text(group, 'x0') // ', ' // default_text(group, 'y0') // ') cm, is on the four-well ball''s ' // &
             'surface); give x0, y0 (and px0, py0 or at_rest) in the model''s units (docs/input.md)'
     else
