@@ -192,7 +192,7 @@ contains
         end if
         call horner_lanes(tcb, nl, s, nn, p, ds, xb)
         call lanes_advance(nl, nn, xb, nq, q_bound, grp, bad, lst, tend, hn, t, t_old, hs, nsteps, xs, ok)
-        call lanes_event_clear(tcb, nl, s, nn, ew, ec, t, t_old, eaf*ok, clr)
+        if (any(eaf*ok > 0)) call lanes_event_clear(tcb, nl, s, nn, ew, ec, t, t_old, eaf*ok, clr)
         ! each lane's end of step: its failure, its event and observer, its end
         do l = 1, nl
           if (.not. grp(l) > 0) cycle
