@@ -1,6 +1,12 @@
 # tubes: one Makefile. `make deps`, `make`, `make check`, `make bench`, `make lint`, `make clean`.
 # Release objects go to build/, the runtime-checked variant used by `make check` to build/debug/.
 
+# Parallel by default: as many jobs as the machine has processors (at most 8), unless -j is given
+# (make -j1 for a serial build). The module order comes from the sources' use lines (race-free).
+ifeq ($(filter -j%,$(MAKEFLAGS)),)
+MAKEFLAGS += -j$(shell n=$$(nproc 2>/dev/null || echo 1); [ "$$n" -gt 8 ] && n=8; echo $$n)
+endif
+
 # MPI=1: the MPI flavour (docs/cluster.md), built with the MPI compiler wrappers into build/mpi;
 # `./tubes` is a copy of the flavour built last (`make` and `make MPI=1` each restore their own).
 ifeq ($(MPI),1)
