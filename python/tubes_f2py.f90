@@ -944,7 +944,8 @@ end subroutine formula_with_constant
 subroutine registry_range(group, name, found, lo, hi, lo_open, hi_open, is_int, allowed)
   ! a registered number's range (src/workflow/tubes_config.f90's annotations, the reader's check):
   ! found 1 with its bounds (+-huge or +-inf where open-ended), whether they are open, whether it
-  ! is an integer and the allowed text of the reader's messages; found 0: not registered
+  ! is an integer and the allowed text of the reader's messages; found 2: a registered string, its
+  ! values in allowed; found 0: not registered
   use, intrinsic :: iso_c_binding, only: c_double, c_int, c_char, c_null_char
   use tubes_cstrings, only: c_to_f
   implicit none

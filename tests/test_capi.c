@@ -15,7 +15,22 @@ static void check(const char *name, int ok, double got, double want) {
   printf("%s %s (got %.17g, want %.17g)\n", ok ? "ok  " : "FAIL", name, got, want);
 }
 
+int tubes_method_code(const char *name);   /* src/io/tubes_input.c: &integrator method's registered list */
+
 int main(void) {
+  /* a method's code is its place in the registry's list of names: the enum must follow it */
+  {
+    static const struct { const char *name; int code; } m[] = {
+        {"dop853", TUBES_METHOD_DOP853}, {"rk4", TUBES_METHOD_RK4}, {"tao2", TUBES_METHOD_TAO2},
+        {"tao4", TUBES_METHOD_TAO4}, {"tao6", TUBES_METHOD_TAO6}, {"gauss4", TUBES_METHOD_GAUSS4},
+        {"gauss6", TUBES_METHOD_GAUSS6}, {"gauss8", TUBES_METHOD_GAUSS8}, {"gsl_rk8pd", TUBES_METHOD_GSL_RK8PD},
+        {"gsl_rk4imp", TUBES_METHOD_GSL_RK4IMP}, {"cvode_adams", TUBES_METHOD_CVODE_ADAMS},
+        {"arkode_erk8", TUBES_METHOD_ARKODE_ERK8}, {"taylor", TUBES_METHOD_TAYLOR}, {"auto", TUBES_METHOD_AUTO}};
+    int bad = 0;
+    for (size_t i = 0; i < sizeof m / sizeof m[0]; i++) bad += tubes_method_code(m[i].name) != m[i].code;
+    check("method codes: the registry's list of names in TUBES_METHOD_* order", bad == 0, bad, 0);
+    check("method codes: an unknown name is 0", tubes_method_code("dop") == 0, tubes_method_code("dop"), 0);
+  }
   const char sys[TUBES_LSYSTEM] = "rolling_ball";
   double model[TUBES_MAXPARAM] = {0};
   enum { NMAX = 32, MD = TUBES_MAXDOF };

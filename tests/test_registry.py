@@ -8,6 +8,7 @@ import re
 import subprocess
 
 import pytest
+import tubes
 
 from conftest import ROOT, TUBES
 
@@ -272,3 +273,14 @@ def test_per_model_default_is_required_for_other_models(tmp_path, group, name, m
     p = subprocess.run([str(TUBES), str(path)], capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert p.returncode == 1, p.stderr
     assert f"&{group}: " in p.stderr and f"{name}" in p.stderr and "not set" in p.stderr, p.stderr
+
+
+def test_python_method_codes_are_the_registry_list():
+    """tubes.METHODS (the codes Python hands the core) are the places of the names in &integrator
+    method's registered list (src/workflow/tubes_config.f90's annotation), as the reader's
+    tubes_method_code and the C enum TUBES_METHOD_* (tests/test_capi.c) take them."""
+    found, *_, allowed = tubes._lib().registry_range("integrator", "method")
+    assert found == 2
+    names = [v.strip() for v in tubes._str(allowed).strip().split(",")]
+    assert list(tubes.METHODS) == names
+    assert list(tubes.METHODS.values()) == list(range(1, len(names) + 1))

@@ -1790,8 +1790,8 @@ def _in_range(who: str, group: str, name: str, v, label: str | None = None):
     r = _RANGES.get((group, name))
     if r is None:
         found, lo, hi, lo_open, hi_open, is_int, allowed = _lib().registry_range(group, name)
-        if not found:
-            raise KeyError(f"&{group} {name} is not a registered variable")
+        if found != 1:
+            raise KeyError(f"&{group} {name} is not a registered number")
         r = _RANGES[(group, name)] = (float(lo) if math.isfinite(lo) else None, float(hi) if math.isfinite(hi) else None,
                                       bool(lo_open), bool(hi_open), bool(is_int), _str(allowed).strip())
     lo, hi, lo_open, hi_open, is_int, allowed = r

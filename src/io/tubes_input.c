@@ -167,13 +167,34 @@ const nml_var tubes_nml_vars[] = {
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 _Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 192, "nml_where holds 192 variables");
 
-int tubes_method_code(const char *name) {
-  static const char *names[] = {"dop853", "rk4", "tao2", "tao4", "tao6", "gauss4", "gauss6", "gauss8",
-                                "gsl_rk8pd", "gsl_rk4imp", "cvode_adams", "arkode_erk8", "taylor", "auto"};
-  for (int i = 0; i < (int)(sizeof names / sizeof names[0]); i++)
-    if (!strcmp(name, names[i])) return i + 1;   /* = TUBES_METHOD_* */
+/* The registered strings and their values (the annotations' allowed text, ", " between them). */
+static const struct {
+  const char *group, *name;
+  size_t offset;
+  const char *values;
+} reg_str[] = {TUBES_REGISTRY_STRINGS};
+
+/* The position (1-based) of v among the values of the registered string &group name; 0: not one. */
+static int registered_value(const char *group, const char *name, const char *v) {
+  for (int k = 0; k < TUBES_REGISTRY_NS; k++) {
+    if (strcmp(reg_str[k].group, group) || strcmp(reg_str[k].name, name)) continue;
+    const char *p = reg_str[k].values;
+    size_t lv = strlen(v);
+    for (int i = 1; *p; i++) {
+      size_t l = strcspn(p, ",");
+      if (l == lv && !strncmp(p, v, l)) return i;
+      p += l;
+      p += strspn(p, ", ");
+    }
+    return 0;
+  }
   return 0;
 }
+
+/* A method's code: its place in &integrator method's list of values (src/workflow/tubes_config.f90's
+ * annotation, the one list of the names), = TUBES_METHOD_* (include/tubes.h; tests/test_registry.py
+ * checks the two agree); 0: no method of that name. */
+int tubes_method_code(const char *name) { return registered_value("integrator", "method", name); }
 
 static int group_index(const char *g) {
   for (int i = 0; i < tubes_nml_ngroups; i++)
@@ -1161,7 +1182,8 @@ static int in_registered_range(const tubes_config_t *c, const char *group, const
 /* A registered number's range for a caller that takes the value outside a file (Python's
  * tubes.integrate, tubes.scan): 1 with its bounds (+-INFINITY where open-ended, +-DBL_MAX for
  * "finite"), whether they are open, whether it is an integer, and the allowed text of its messages
- * (NUL-terminated, at most len bytes); 0 when group/name is not a registered number. */
+ * (NUL-terminated, at most len bytes); 2 for a registered string, its values in allowed; 0 when
+ * group/name is not registered. */
 int tubes_registry_range(const char *group, const char *name, double *lo, double *hi, int *lo_open, int *hi_open,
                          int *is_int, char *allowed, int len) {
   for (int k = 0; k < TUBES_REGISTRY_N; k++) {
@@ -1174,6 +1196,13 @@ int tubes_registry_range(const char *group, const char *name, double *lo, double
     int i = var_index(group, name);
     snprintf(allowed, (size_t)len, "%s", i >= 0 ? tubes_nml_vars[i].allowed : "");
     return 1;
+  }
+  for (int k = 0; k < TUBES_REGISTRY_NS; k++) {   /* a registered string: 2 and its values */
+    if (strcmp(reg_str[k].group, group) || strcmp(reg_str[k].name, name)) continue;
+    *lo = *hi = 0;
+    *lo_open = *hi_open = *is_int = 0;
+    snprintf(allowed, (size_t)len, "%s", reg_str[k].values);
+    return 2;
   }
   return 0;
 }
@@ -1195,22 +1224,10 @@ static int check_registered(const char *path, const tubes_config_t *c, const nml
       n += check_list(path, c, w, lst[k].group, (const double *)((const char *)c + lst[k].offset), nde, err);
   }
   /* the strings: one of their values (the allowed text's, ", " between them) */
-  static const struct {
-    const char *group, *name;
-    size_t offset;
-    const char *values;
-  } str[] = {TUBES_REGISTRY_STRINGS};
   for (int k = 0; k < TUBES_REGISTRY_NS; k++) {
-    const char *v = (const char *)c + str[k].offset, *p = str[k].values;
-    size_t lv = strlen(v);
-    int found = 0;
-    while (!found && *p) {
-      size_t l = strcspn(p, ",");
-      found = l == lv && !strncmp(p, v, l);
-      p += l;
-      p += strspn(p, ", ");
-    }
-    if (!found) n += bad_string(path, w, str[k].group, str[k].name, v, err);
+    const char *v = (const char *)c + reg_str[k].offset;
+    if (!registered_value(reg_str[k].group, reg_str[k].name, v))
+      n += bad_string(path, w, reg_str[k].group, reg_str[k].name, v, err);
   }
   return n;
 }
