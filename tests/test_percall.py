@@ -112,3 +112,17 @@ def test_kept_argument_checks_refuse_as_before():
     same(ok, again)
     once = tubes.integrate(Z0, 0.01, model=m, max_steps=10_000.0, rtol=1e-8, atol=1e-8)   # as before: accepted
     same(ok, once)
+
+
+def test_the_core_refuses_a_nan_end_time():
+    """The core's trajectory (the C API's and Python's path under tubes.integrate's checks) refuses
+    t_end or dt_out = NaN (TUBES_EINPUT, -1) instead of returning the start as the state at t = NaN
+    (its 't_end < 0' let a NaN through)."""
+    m = tubes.Model()
+    for t_end, dt in ((float("nan"), 1.0), (1.0, float("nan"))):
+        r = _lib().trajectory(m.name, m.params(), Z0, t_end, dt, METHODS["dop853"], 1e-8, 1e-8, 0.0,
+                              10_000_000, 0.0, 1, 0, 0, 0.0, 0, 0, 1, 3)
+        assert r[0] == -1, (t_end, dt, r[0])
+    r = _lib().trajectory(m.name, m.params(), Z0, 1.0, 1.0, METHODS["dop853"], 1e-8, 1e-8, 0.0,
+                          10_000_000, 0.0, 1, 0, 0, 0.0, 0, 0, 1, 3)
+    assert r[0] == 0

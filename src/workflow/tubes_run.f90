@@ -241,7 +241,7 @@ contains
     integer :: k
     n = 0; n_cross = 0; counters = 0; c_damp = 0
     t = 0; state = 0; energy = 0; cross_t = 0; cross_x = 0; cross_dir = 0
-    if (dt_out <= 0 .or. t_end < 0 .or. size(t) < 2 .or. sec%max_crossings < 0) then
+    if (.not. dt_out > 0 .or. .not. t_end >= 0 .or. size(t) < 2 .or. sec%max_crossings < 0) then
       stat = TUBES_EINPUT
       return
     end if
@@ -367,7 +367,7 @@ contains
     call make_field(system, params, field, c_damp, stat)
     if (stat /= TUBES_OK) return
     d = field%dim()
-    if (size(x0, 1) /= d .or. t_end < 0 .or. any(shape(xs) /= shape(x0)) .or. &
+    if (size(x0, 1) /= d .or. .not. t_end >= 0 .or. any(shape(xs) /= shape(x0)) .or. &
         size(st) /= m .or. size(nsteps) /= m) then
       stat = TUBES_EINPUT
       return
