@@ -15,6 +15,9 @@ OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python bench/bench_integrators.p
 if [ -f bench/bench_stability.py ]; then .venv/bin/python bench/bench_stability.py; fi
 .venv/bin/python bench/bench_taylor.py
 .venv/bin/python bench/bench_percall.py
+# ensembles in lanes against heyoka's batch mode and the lone integrator (issue 36; printed, the
+# tables in docs/benchmarks.md "Ensembles of 64 distinct starts" are copied from it by hand)
+.venv/bin/python bench/bench_lanes.py 7
 OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python bench/bench_paper_method.py
 # the MPI flavour's scaling (docs/cluster.md), when an MPI compiler wrapper is installed
 if command -v mpifort >/dev/null 2>&1; then
