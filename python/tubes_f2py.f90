@@ -81,36 +81,42 @@ subroutine energies(system, params, n, m, x, stat, e)
   end do
 end subroutine energies
 
-subroutine vector_field(system, params, n, x, stat, dxdt)
-  ! Hamilton's equations (damped for the rolling ball with damping_ratio > 0)
+subroutine vector_field(system, params, n, m, x, stat, dxdt)
+  ! Hamilton's equations (damped for the rolling ball with damping_ratio > 0) at m states
+  ! (columns of x), the model made once
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_run, only: field_rates
   implicit none
   character(len=*), intent(in) :: system
-  integer(c_int), intent(in) :: n
-  real(c_double), intent(in) :: params(16), x(n)
+  integer(c_int), intent(in) :: n, m
+  real(c_double), intent(in) :: params(16), x(n, m)
   integer(c_int), intent(out) :: stat
-  real(c_double), intent(out) :: dxdt(n)
+  real(c_double), intent(out) :: dxdt(n, m)
   call field_rates(system, params, x, dxdt, stat)
 end subroutine vector_field
 
-subroutine momentum(system, params, n, q, v, stat, p)
-  ! natural systems: the momenta of velocity v at q, p = A(q)^-1 v (the ball: (7/5) M v)
+subroutine momentum(system, params, n, m, q, v, stat, p)
+  ! natural systems: the momenta of velocity v at q, p = A(q)^-1 v (the ball: (7/5) M v), at m
+  ! configurations (columns of q and v), the model made once
   use, intrinsic :: iso_c_binding, only: c_double, c_int
   use tubes_hamiltonian, only: hamiltonian_t
   use tubes_models, only: momentum_of
   use tubes_run, only: sized_model
   implicit none
   character(len=*), intent(in) :: system
-  integer(c_int), intent(in) :: n
-  real(c_double), intent(in) :: params(16), q(n), v(n)
+  integer(c_int), intent(in) :: n, m
+  real(c_double), intent(in) :: params(16), q(n, m), v(n, m)
   integer(c_int), intent(out) :: stat
-  real(c_double), intent(out) :: p(n)
+  real(c_double), intent(out) :: p(n, m)
   class(hamiltonian_t), allocatable :: model
+  integer :: k
   p = 0
   call sized_model(system, params, n, .true., model, stat)
   if (stat /= 0) return
-  call momentum_of(model, q, v, p, stat)
+  do k = 1, m
+    call momentum_of(model, q(:, k), v(:, k), p(:, k), stat)
+    if (stat /= 0) return
+  end do
 end subroutine momentum
 
 subroutine potentials(system, params, n, m, q, stat, v)

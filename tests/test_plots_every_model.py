@@ -6,8 +6,9 @@ figures the file has data for (before: KeyError 'angle' on every plane-section f
 of every figure the CLI draws (its Axes, caught before they are written) carry the model's units
 (cm and s for the ball, no cm and no "[1]" for a dimensionless model) and the section's own
 coordinate names; the leading-order p_trans is drawn only where it is valid and does not set the
-axis limits; and the plotting API draws the results of the Python calls (not a file). About 150 s
-on 1 core (most of it matplotlib drawing the figures)."""
+axis limits; and the plotting API draws the results of the Python calls (not a file). About 60 s
+on 1 core (most of it matplotlib drawing the figures; 150 s while the tube figure asked the core
+for each point's velocity one call at a time)."""
 import os
 import re
 import subprocess

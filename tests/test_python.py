@@ -62,6 +62,24 @@ def test_vector_field_is_hamiltonian(s):
     assert np.allclose(f, expect, rtol=1e-7, atol=1e-6)
 
 
+def test_vector_field_and_velocity_of_rows():
+    """Rows of states (m, 4) in one call: each row the one-state call's value, bit for bit, and
+    the central differences of the paper's energy; velocity is its first half; the columns'
+    layout (4, m) is refused."""
+    rows = np.array(STATES, dtype=float)
+    f = tubes.vector_field(rows)
+    assert f.shape == rows.shape
+    assert np.array_equal(f, np.array([tubes.vector_field(s) for s in rows]))
+    eps = 1e-5
+    for s, fs in zip(rows, f):
+        grad = np.array([(energy_paper(s + eps * e) - energy_paper(s - eps * e)) / (2 * eps) for e in np.eye(4)])
+        assert np.allclose(fs, [grad[2], grad[3], -grad[0], -grad[1]], rtol=1e-7, atol=1e-6)
+    assert np.array_equal(tubes.velocity(rows), f[:, :2])
+    assert tubes.velocity(rows[0]).shape == (2,)
+    with pytest.raises(ValueError, match="pass the transpose"):
+        tubes.vector_field(rows[:3].T)
+
+
 def test_velocity_momentum_roundtrip():
     q, v = np.array([3.0, -2.0]), np.array([12.0, -40.0])
     p = tubes.momentum(q, v)

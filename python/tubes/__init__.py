@@ -514,29 +514,48 @@ def shape_derivatives(q, model: Model | None = None):
 
 
 def vector_field(state, model: Model | None = None) -> np.ndarray:
-    """Hamilton's equations dx/dt at a state (damped for the ball with damping_ratio > 0)."""
+    """Hamilton's equations dx/dt at a state (2N,) (damped for the ball with damping_ratio > 0),
+    or at each row of states (m, 2N) in one call to the core (the model made once): returns the
+    same shape. States are rows: an array (2N, m) (scipy's sol.y) is refused (ValueError; pass
+    sol.y.T)."""
     model = model or Model()
     n = 2 * model.ndof
-    stat, f = _lib().vector_field(model.name, model.params(), _vec(state, n, "state", "vector_field"))
+    one = np.ndim(state) == 1
+    a = np.asfortranarray(_as_rows(state, n, "vector_field", "state", "state").T)
+    if a.shape[1] == 0:
+        return np.zeros((0, n))
+    stat, f = _lib().vector_field(model.name, model.params(), a)
     _check(stat, "vector_field")
-    return np.asarray(f)
+    f = np.asarray(f).T.copy()
+    return f[0] if one else f
 
 
 def velocity(state, model: Model | None = None) -> np.ndarray:
-    """dq/dt = dH/dp of a state on the conservative model (the ball: (dx/dt, dy/dt) [cm/s])."""
+    """dq/dt = dH/dp of a state on the conservative model (the ball: (dx/dt, dy/dt) [cm/s]); of
+    each row of states (m, 2N): (m, N), in one call to the core."""
     model = model or Model()
     # a new Model only when there is damping to take off (making one reads a namelist: ~1 ms)
     cons = model.replace(damping_ratio=0.0) if model.parameters.get("damping_ratio", 0.0) != 0.0 else model
-    return vector_field(state, cons)[:model.ndof]
+    return vector_field(state, cons)[..., :model.ndof]
 
 
 def momentum(q, v, model: Model | None = None) -> np.ndarray:
-    """Natural systems: the momenta of velocity v at q (the ball: p = (7/5) M v [cm/s])."""
+    """Natural systems: the momenta of velocity v at q (the ball: p = (7/5) M v [cm/s]); q and v
+    one position and velocity (N,) each, or rows (m, N) of them (one call to the core): returns
+    the same shape."""
     model = model or Model()
     n = model.ndof
-    stat, p = _lib().momentum(model.name, model.params(), _vec(q, n, "q", "momentum"), _vec(v, n, "v", "momentum"))
+    one = np.ndim(q) == 1 and np.ndim(v) == 1
+    a = _as_rows(q, n, "momentum", "q", "position")
+    b = _as_rows(v, n, "momentum", "v", "velocity")
+    if a.shape != b.shape:
+        raise ValueError(f"momentum: q and v must have the same shape: got {np.shape(q)} and {np.shape(v)}")
+    if a.shape[0] == 0:
+        return np.zeros((0, n))
+    stat, p = _lib().momentum(model.name, model.params(), np.asfortranarray(a.T), np.asfortranarray(b.T))
     _check(stat, "momentum")
-    return np.asarray(p)
+    p = np.asarray(p).T.copy()
+    return p[0] if one else p
 
 
 def _box(model: Model, box, box_center):

@@ -826,24 +826,12 @@ def surface_derivatives(x, y, model: Model = Model()):
 
 
 def state_energy(x, y, vx, vy, model: Model = Model()):
-    """Momenta and energy at each sample: the Fortran routines behind tubes.momentum and
-    tubes.energy, called on the extension directly with the parameters built once (the public
-    wrappers spend ~3 us per call on Python checks, 10 times the routine; test_experiment checks
-    that both give the same numbers). Returns px, py, E, T with T = p.v / 2 (T is quadratic in v)."""
-    from . import _lib
-    core = _lib()
-    par = model.params()
-    n = len(x)
-    px, py = np.empty(n), np.empty(n)
-    q = np.empty(2)
-    v = np.empty(2)
-    for i in range(n):
-        q[0], q[1], v[0], v[1] = x[i], y[i], vx[i], vy[i]
-        st, p = core.momentum(model.name, par, q, v)
-        if st < 0:
-            raise TubesError(st, "momentum")
-        px[i], py[i] = p[0], p[1]
-    E = energies(np.stack([np.asarray(x, float), np.asarray(y, float), px, py], axis=1), model)
+    """Momenta and energy at each sample, by tubes.momentum and tubes.energies (each one call to
+    the core for all the samples). Returns px, py, E, T with T = p.v / 2 (T is quadratic in v)."""
+    x, y, vx, vy = (np.asarray(a, float).ravel() for a in (x, y, vx, vy))
+    p = momentum(np.stack([x, y], axis=1), np.stack([vx, vy], axis=1), model)
+    px, py = p[:, 0].copy(), p[:, 1].copy()
+    E = energies(np.stack([x, y, px, py], axis=1), model)
     T = 0.5 * (px * vx + py * vy)
     return px, py, E, T
 
@@ -1957,7 +1945,7 @@ def truth_crossings(tracks: Tracks, segs, model: Model, x_gate: float, opt: Opti
     out = []
     for j, s in enumerate(segs):
         st = tr["state"][s.index]
-        v = np.array([vector_field(z, cons)[:nd] for z in st])
+        v = vector_field(st.reshape(-1, 2 * nd), cons)[:, :nd]
         est = {"t": s.t, "x": st[:, 0], "y": st[:, 1], "vx": v[:, 0], "vy": v[:, 1]}
         for k in FOLDS[opt.fold]:
             c, tg = find_crossings(est, model, x_gate, k)
@@ -2282,7 +2270,7 @@ def tune(tracks: Tracks, grid: dict | None = None, windows=(0.0, 0.5, 1.0, 2.0),
     tv = {}
     for s in segs:
         st = tracks.truth["state"][s.index]
-        tv[id(s)] = np.array([velocity(z, model) for z in st])
+        tv[id(s)] = velocity(st.reshape(-1, 2 * model.ndof), model)
     rows = []
     for method, opts in grid.items():
         for o in opts:

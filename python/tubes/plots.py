@@ -670,7 +670,7 @@ def tube_trajectories(res, ax=None, ax3d=None, n_manifold=60):
         ax.plot(tr["state"][:, 0], tr["state"][:, 1], color="c", lw=0.4)
         seen.append(tr["state"][:, :2])
         if ax3d is not None:
-            v = np.array([velocity(z, model) for z in tr["state"]])
+            v = velocity(tr["state"], model)
             ax3d.plot(tr["state"][:, 0], tr["state"][:, 1], v[:, 1], color="c", lw=0.4)
     e_target = energy(st[0], model)
     rc, pin = np.mean(r), np.mean(p)
@@ -705,7 +705,7 @@ def tube_trajectories(res, ax=None, ax3d=None, n_manifold=60):
         z = z[:far[0] + 1] if far.size else z
         ax.plot(z[:, 0], z[:, 1], color=col, lw=1.2, label=lab)
         if ax3d is not None:
-            v = np.array([velocity(q, model) for q in z])
+            v = velocity(z, model)
             ax3d.plot(z[:, 0], z[:, 1], v[:, 1], color=col, lw=1.2)
     if _natural_2dof(model):
         X, Y = np.meshgrid(np.linspace(*xr, 300), np.linspace(*yr, 300))

@@ -34,6 +34,10 @@ module tubes_run
   public :: run_integration, run_trajectory, run_ensemble
   public :: open_integrator, propagate_kept, close_integrator, trajectory_kept
   public :: sized_model, field_rates
+  !> dx/dt at one state (x(:)) or at each column of x(:, :)
+  interface field_rates
+    module procedure field_rates_one, field_rates_many
+  end interface field_rates
 
   !> An integrator kept between calls (Python's tubes.Integrator, as heyoka's taylor_adaptive):
   !> the model's field, the method and, for the Taylor method, its kernel set up once; each
@@ -452,21 +456,40 @@ contains
 
   !> dx/dt of the model's vector field at x (damped for a rolling ball with damping_ratio > 0):
   !> TUBES_EINPUT if x is not its state's size, TUBES_EMODEL if the field fails there.
-  subroutine field_rates(system, params, x, dxdt, stat)
+  subroutine field_rates_one(system, params, x, dxdt, stat)
     character(*), intent(in) :: system
     real(wp), intent(in) :: params(:), x(:)
     real(wp), intent(out) :: dxdt(:)
     integer, intent(out) :: stat
+    real(wp) :: f(size(dxdt), 1)
+    call field_rates_many(system, params, reshape(x, [size(x), 1]), f, stat)
+    dxdt = f(:, 1)
+  end subroutine field_rates_one
+
+  !> The same at each column of x (the model made once: a formula's library is looked up and
+  !> checked once for all of them, not per state): dxdt(:, k) at x(:, k); stat TUBES_EMODEL at the
+  !> first column where the field fails (what the field gave there; the columns after it are 0).
+  subroutine field_rates_many(system, params, x, dxdt, stat)
+    character(*), intent(in) :: system
+    real(wp), intent(in) :: params(:), x(:, :)
+    real(wp), intent(out) :: dxdt(:, :)
+    integer, intent(out) :: stat
     class(vector_field_t), allocatable :: field
     real(wp) :: c
+    integer :: k
     dxdt = 0
     call make_field(trim(system), params, field, c, stat)
     if (stat /= TUBES_OK) return
-    if (size(x) /= field%dim()) then
+    if (size(x, 1) /= field%dim() .or. size(dxdt, 1) /= size(x, 1) .or. size(dxdt, 2) /= size(x, 2)) then
       stat = TUBES_EINPUT
       return
     end if
-    call field%eval(0.0_wp, x, dxdt, stat)
-    if (stat /= 0) stat = TUBES_EMODEL
-  end subroutine field_rates
+    do k = 1, size(x, 2)
+      call field%eval(0.0_wp, x(:, k), dxdt(:, k), stat)
+      if (stat /= 0) then
+        stat = TUBES_EMODEL
+        return
+      end if
+    end do
+  end subroutine field_rates_many
 end module tubes_run
