@@ -467,10 +467,23 @@ def _vec(x, n: int, name: str, who: str) -> np.ndarray:
     return a.reshape(-1)
 
 
+_DEFAULT_MODEL: list = []
+
+
+def _default_model() -> "Model":
+    """The default Model() for the functions of a state or position (energy, vector_field,
+    momentum, ...), built once: building one reads and checks a namelist (~0.5 ms, more than the
+    call). Those functions keep nothing in it; the calls that keep results (equilibria, orbits,
+    transition, ...) still start afresh with a new Model() when model is None."""
+    if not _DEFAULT_MODEL:
+        _DEFAULT_MODEL.append(Model())
+    return _DEFAULT_MODEL[0]
+
+
 def energy(state, model: Model | None = None) -> float:
     """H of a state (q, p) (2N components) on the conservative model; for the ball the energy
     per unit mass T + g H [(cm/s)^2] of (x, y, px, py)."""
-    model = model or Model()
+    model = model or _default_model()
     n = 2 * model.ndof
     stat, e = _lib().energies(model.name, model.params(),
                               _vec(state, n, "state", "energy").reshape(n, 1, order="F"))
@@ -482,7 +495,7 @@ def energies(states, model: Model | None = None) -> np.ndarray:
     """H of each row of states (m, 2N) (or of one state (2N,)), in one call to the core; returns
     (m,) (m = 1 for one state). States are rows: an array (2N, m) (scipy's sol.y) is refused
     (ValueError; pass sol.y.T)."""
-    model = model or Model()
+    model = model or _default_model()
     n = 2 * model.ndof
     a = np.asfortranarray(_as_rows(states, n, "energies", "states", "state").T)
     stat, e = _lib().energies(model.name, model.params(), a)
@@ -493,7 +506,7 @@ def energies(states, model: Model | None = None) -> np.ndarray:
 def potentials(q, model: Model | None = None) -> np.ndarray:
     """V at each row of q (m, N) (or at one position (N,)) (natural systems: the ball's g H);
     returns (m,). Positions are rows: an array (N, m) is refused (ValueError; pass q.T)."""
-    model = model or Model()
+    model = model or _default_model()
     n = model.ndof
     a = np.asfortranarray(_as_rows(q, n, "potentials", "q", "position").T)
     stat, v = _lib().potentials(model.name, model.params(), a)
@@ -505,7 +518,7 @@ def shape_derivatives(q, model: Model | None = None):
     """Gradient (N, m) and Hessian (N, N, m) of the potential's shape at each row of q (m, N) (or
     at one position (N,): m = 1) (natural systems; the ball: of the surface's height H(x, y),
     V = g H). Positions are rows: an array (N, m) is refused (ValueError; pass q.T)."""
-    model = model or Model()
+    model = model or _default_model()
     n = model.ndof
     a = np.asfortranarray(_as_rows(q, n, "shape_derivatives", "q", "position").T)
     stat, g, h = _lib().shape_derivs(model.name, model.params(), a)
@@ -518,7 +531,7 @@ def vector_field(state, model: Model | None = None) -> np.ndarray:
     or at each row of states (m, 2N) in one call to the core (the model made once): returns the
     same shape. States are rows: an array (2N, m) (scipy's sol.y) is refused (ValueError; pass
     sol.y.T)."""
-    model = model or Model()
+    model = model or _default_model()
     n = 2 * model.ndof
     one = np.ndim(state) == 1
     a = np.asfortranarray(_as_rows(state, n, "vector_field", "state", "state").T)
@@ -533,7 +546,7 @@ def vector_field(state, model: Model | None = None) -> np.ndarray:
 def velocity(state, model: Model | None = None) -> np.ndarray:
     """dq/dt = dH/dp of a state on the conservative model (the ball: (dx/dt, dy/dt) [cm/s]); of
     each row of states (m, 2N): (m, N), in one call to the core."""
-    model = model or Model()
+    model = model or _default_model()
     # a new Model only when there is damping to take off (making one reads a namelist: ~1 ms)
     cons = model.replace(damping_ratio=0.0) if model.parameters.get("damping_ratio", 0.0) != 0.0 else model
     return vector_field(state, cons)[..., :model.ndof]
@@ -543,7 +556,7 @@ def momentum(q, v, model: Model | None = None) -> np.ndarray:
     """Natural systems: the momenta of velocity v at q (the ball: p = (7/5) M v [cm/s]); q and v
     one position and velocity (N,) each, or rows (m, N) of them (one call to the core): returns
     the same shape."""
-    model = model or Model()
+    model = model or _default_model()
     n = model.ndof
     one = np.ndim(q) == 1 and np.ndim(v) == 1
     a = _as_rows(q, n, "momentum", "q", "position")
