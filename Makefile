@@ -210,8 +210,9 @@ $(LIB): $(F_OBJ) $(LANES_RUN_V) $(C_OBJ)
 $(BUILD)/bin/tubes: $(BUILD)/obj/tubes_main.o $(LIB)
 	@mkdir -p $(BUILD)/bin
 	$(FC) -fopenmp $(SAN) -o $@ $^ $(LDLIBS_ALL)
+# (copied, then renamed over ./tubes: a run of the old one keeps its file, no 'Text file busy')
 tubes: $(BUILD)/bin/tubes FORCE
-	@cmp -s $< $@ || { cp $< $@ && echo "tubes: the $(if $(MPI_DEF),MPI,serial) flavour ($<)"; }
+	@cmp -s $< $@ || { cp $< $@.new && mv -f $@.new $@ && echo "tubes: the $(if $(MPI_DEF),MPI,serial) flavour ($<)"; }
 
 # ---------------------------------------------------------------- python extension (f2py, meson)
 # PYEXT_PYTHON: the Python (with numpy, meson and ninja) that builds the extension, and whose

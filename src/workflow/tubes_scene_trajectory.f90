@@ -340,11 +340,9 @@ contains
     if (ieee_is_nan(b)) fmin = a
   end function fmin
 
-  !> C's fmax: the larger of a and b, a NaN ignored.
+  !> C's fmax: the larger of a and b, a NaN ignored (fmin of the negatives: negation is exact).
   pure real(wp) function fmax(a, b)
     real(wp), intent(in) :: a, b
-    fmax = max(a, b)
-    if (ieee_is_nan(a)) fmax = b
-    if (ieee_is_nan(b)) fmax = a
+    fmax = -fmin(-a, -b)
   end function fmax
 end module tubes_scene_trajectory
