@@ -43,6 +43,19 @@ def pytest_collection_modifyitems(config, items):
 
 
 @pytest.fixture(scope="session")
+def model_cache():
+    """The formula models' and Taylor kernels' cache (TUBES_CACHE_DIR) the tests share: one
+    directory for every test file, worker and run (build/test-cache, or TUBES_TEST_CACHE), so
+    that each library is built once, not once per test module (building one is 1-5 s: SymPy and
+    the C compiler). Its entries are named by the hash of their source and generator and checked
+    by their SHA-256 (docs/models.md), so a changed model or generator builds anew. A test of the
+    cache itself (a first build, a damaged or foreign file) makes its own empty one."""
+    d = pathlib.Path(os.environ.get("TUBES_TEST_CACHE", ROOT / "build" / "test-cache"))
+    d.mkdir(parents=True, exist_ok=True)
+    return str(d)
+
+
+@pytest.fixture(scope="session")
 def tubes_exe():
     if not TUBES.exists():
         pytest.fail("./tubes is not built (run make)")

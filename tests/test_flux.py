@@ -18,8 +18,8 @@ SIGMAS = 4
 
 
 @pytest.fixture(scope="module")
-def cache(tmp_path_factory):
-    return str(tmp_path_factory.mktemp("model-cache"))
+def cache(model_cache):
+    return model_cache          # the tests' shared model cache (conftest.py)
 
 
 def run(tmp, text, cache):

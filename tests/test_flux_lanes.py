@@ -18,8 +18,8 @@ RUNS = (("1", "1"), ("2", "2"), ("1", "8"), ("2", "8"))
 
 
 @pytest.fixture(scope="module")
-def cache(tmp_path_factory):
-    return str(tmp_path_factory.mktemp("model-cache"))
+def cache(model_cache):
+    return model_cache          # the tests' shared model cache (conftest.py)
 
 
 def run_all(tmp, text, cache, groups):

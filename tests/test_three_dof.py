@@ -20,8 +20,8 @@ SPATIAL = ("(px^2 + py^2 + pz^2)/2 + y*px - x*py - (1 - mu)/sqrt((x + mu)^2 + y^
 
 
 @pytest.fixture(scope="module")
-def cache(tmp_path_factory):
-    return str(tmp_path_factory.mktemp("model-cache"))
+def cache(model_cache):
+    return model_cache          # the tests' shared model cache (conftest.py)
 
 
 def run(tmp, name, text, cache):
