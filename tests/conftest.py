@@ -28,7 +28,9 @@ SLOW_IN_FILE = {("test_guess.py", "test_python_guess_and_branch_are_the_program_
                 ("test_guess.py", "test_fold_of_l2_halo_family"),
                 ("test_halo_tubes.py", "test_gallery_halo_tubes"), ("test_halo_tubes.py", "test_refusals"),
                 ("test_table_file.py", "test_the_orbit_family_s_bifurcations_are_the_file_s"),
-                ("test_scan.py", "test_formula_constant_scan_in_the_program")}
+                ("test_scan.py", "test_formula_constant_scan_in_the_program"),
+                # 2026-11-30 (make quick's slowest, 11 s): the family searched to its end for a period
+                ("test_orbit_parameter.py", "test_bad_input_python")}
 
 
 def pytest_configure(config):
