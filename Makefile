@@ -199,9 +199,12 @@ $(BUILD)/obj/tubes_setup.o: FFLAGS_ALL += -I$(BUILD)/include
 $(BUILD)/git_commit.txt: FORCE | $(BUILD)/obj
 	@echo '$(GIT_HASH)' | cmp -s - $@ || echo '$(GIT_HASH)' > $@
 $(BUILD)/obj/tubes_main.o: $(BUILD)/git_commit.txt
-# models written as formulas are compiled by the build's C compiler (src/io/tubes_expr.c)
-$(BUILD)/obj/tubes_expr.o: CFLAGS_ALL += -DTUBES_MODEL_CC='"$(CC)"' -DTUBES_SOURCE_DIR='"$(abspath .)"' \
-  -DTUBES_MODEL_CC_VERSION='"$(shell $(CC) -dumpfullversion 2>/dev/null)"'
+# models written as formulas are compiled by the build's C compiler (src/io/tubes_expr.c); the MPI
+# flavour's is the compiler under its wrapper (OpenMPI's --showme, MPICH's -show): the kernels are
+# plain C, so both flavours name them alike and share a model cache
+MODEL_CC := $(if $(MPI_DEF),$(or $(firstword $(shell $(CC) --showme:command 2>/dev/null || $(CC) -show 2>/dev/null)),$(CC)),$(CC))
+$(BUILD)/obj/tubes_expr.o: CFLAGS_ALL += -DTUBES_MODEL_CC='"$(MODEL_CC)"' -DTUBES_SOURCE_DIR='"$(abspath .)"' \
+  -DTUBES_MODEL_CC_VERSION='"$(shell $(MODEL_CC) -dumpfullversion 2>/dev/null)"'
 
 $(LIB): $(F_OBJ) $(LANES_RUN_V) $(C_OBJ)
 	@rm -f $@
