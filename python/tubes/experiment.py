@@ -957,13 +957,19 @@ def noise_estimate(segments) -> float:
 # Crossings of U1 and their fate
 # --------------------------------------------------------------------------------------------
 
+def _windows(t, i):
+    """The first index of the 4 samples around each interval i (i-1 .. i+2, shifted at the ends)."""
+    return np.minimum(np.maximum(i - 1, 0), t.size - 4)
+
+
 def _cubic_weights(t4, tq):
-    """Lagrange weights of the cubic through the 4 sample times t4 evaluated at tq."""
-    w = np.ones(4)
+    """Lagrange weights of the cubics through the 4 sample times of each row of t4 (m, 4),
+    evaluated at tq (m): (m, 4)."""
+    w = np.ones(t4.shape)
     for j in range(4):
         for m in range(4):
             if m != j:
-                w[j] *= (tq - t4[m]) / (t4[j] - t4[m])
+                w[:, j] *= (tq - t4[:, m]) / (t4[:, j] - t4[:, m])
     return w
 
 
@@ -971,37 +977,45 @@ def _cubic_roots(t, g, level: float = 0.0):
     """Times where the sampled g crosses level: one per sign change of g - level between
     consecutive samples, the root inside that interval of the cubic through the 4 nearest samples
     (i-1 .. i+2, shifted at the ends; the middle root if there are three, linear interpolation if
-    the cubic has none there). Returns (times, index of the sample before)."""
+    the cubic has none there). Returns (times, index of the sample before). All intervals at
+    once: each cubic's coefficients in u = (t - t_i)/(t_{i+1} - t_i) by a 4x4 solve, its roots
+    as the eigenvalues of its companion matrix (numpy's roots, batched)."""
     h = g - level
     s = np.sign(h)
     idx = np.nonzero((s[:-1] != 0) & (s[:-1] != s[1:]))[0]
-    out = np.empty(idx.size)
     n = t.size
-    for j, i in enumerate(idx):
-        a, b = t[i], t[i + 1]
-        lin = a + (b - a) * h[i] / (h[i] - h[i + 1])
-        if n < 4:
-            out[j] = lin
-            continue
-        k0 = min(max(i - 1, 0), n - 4)
-        tt, hh = t[k0:k0 + 4], h[k0:k0 + 4]
-        u = (tt - a) / (b - a)
-        c = np.polyfit(u, hh, 3)                 # exact through 4 points
-        r = np.roots(c)
+    a, b = t[idx], t[idx + 1]
+    lin = a + (b - a) * h[idx] / (h[idx] - h[idx + 1])
+    if n < 4 or idx.size == 0:
+        return lin, idx
+    w = _windows(t, idx)[:, None] + np.arange(4)
+    u = (t[w] - a[:, None]) / (b - a)[:, None]
+    c = np.linalg.solve(u[:, :, None] ** np.arange(3, -1, -1), h[w][:, :, None])[:, :, 0]   # exact through 4 points
+    out = lin.copy()
+    cubic = np.abs(c[:, 0]) > 0
+    comp = np.zeros((idx.size, 3, 3))
+    comp[:, 1, 0] = comp[:, 2, 1] = 1
+    comp[:, 0, :] = -c[:, 1:] / np.where(cubic, c[:, 0], 1)[:, None]
+    r = np.linalg.eigvals(comp)
+    ok = (np.abs(r.imag) < 1e-9) & (r.real >= -1e-12) & (r.real <= 1 + 1e-12)
+    rr = np.sort(np.where(ok, r.real, np.inf), axis=1)
+    nr = ok.sum(axis=1)
+    pick = rr[np.arange(idx.size), nr // 2]
+    use = cubic & (nr > 0)
+    out[use] = (a + (b - a) * pick)[use]
+    for j in np.nonzero(~cubic)[0]:            # a degenerate cubic (a parabola or a line)
+        r = np.roots(c[j])
         r = np.sort(r[(np.abs(r.imag) < 1e-9) & (r.real >= -1e-12) & (r.real <= 1 + 1e-12)].real)
-        out[j] = a + (b - a) * r[r.size // 2] if r.size else lin
+        out[j] = a[j] + (b[j] - a[j]) * r[r.size // 2] if r.size else lin[j]
     return out, idx
 
 
 def _at(t, arr, tq):
     """Cubic (4-point Lagrange) interpolation of the sampled arr at the times tq."""
-    n = t.size
-    out = np.empty(len(tq))
-    for j, c in enumerate(tq):
-        i = int(np.clip(np.searchsorted(t, c) - 1, 0, n - 2))
-        k0 = min(max(i - 1, 0), n - 4)
-        out[j] = _cubic_weights(t[k0:k0 + 4], c) @ arr[k0:k0 + 4]
-    return out
+    tq = np.asarray(tq, dtype=float)
+    i = np.clip(np.searchsorted(t, tq) - 1, 0, t.size - 2)
+    w = _windows(t, i)[:, None] + np.arange(4)
+    return np.einsum("ij,ij->i", _cubic_weights(t[w], tq), arr[w])
 
 
 def _image(est: dict, k: int) -> dict:
