@@ -80,6 +80,22 @@ def test_vector_field_and_velocity_of_rows():
         tubes.vector_field(rows[:3].T)
 
 
+def test_rows_refused_by_name():
+    """A row the model refuses (a blown-up state) is named by its index and values; momentum's q
+    and v of different shapes are refused (ValueError), as is a layout of columns."""
+    rows = np.array([[4.0, 12.6, 0, 0], [1.0, 1.0, 0, 0], [1e7, 0, 0, 0], [1e8, 0, 0, 0]])
+    with pytest.raises(tubes.TubesError, match=r"vector_field: row 2 of 4 \(10000000, 0, 0, 0\): the model refused"):
+        tubes.vector_field(rows)
+    with pytest.raises(tubes.TubesError, match=r"velocity|vector_field: row 2 of 4"):
+        tubes.velocity(rows)
+    with pytest.raises(tubes.TubesError, match=r"^vector_field: the model refused"):
+        tubes.vector_field(rows[2])                                  # one state: no row to name
+    with pytest.raises(ValueError, match=r"q and v must have the same shape: got \(3, 2\) and \(2, 2\)"):
+        tubes.momentum(rows[:3, :2], rows[:2, 2:])
+    with pytest.raises(ValueError, match="pass the transpose"):
+        tubes.momentum(rows[:3, :2].T, rows[:3, 2:].T)
+
+
 def test_velocity_momentum_roundtrip():
     q, v = np.array([3.0, -2.0]), np.array([12.0, -40.0])
     p = tubes.momentum(q, v)

@@ -441,6 +441,21 @@ def _check(stat: int, where: str) -> None:
         raise TubesError(stat, where)
 
 
+def _check_rows(stat: int, where: str, call, *cols) -> None:
+    """_check for a core call over the columns of cols (one row of the caller's each): on a failure
+    of several, the first column that fails alone is named (its row index and values); the calls
+    one by one are made only then."""
+    if stat >= 0:
+        return
+    m = cols[0].shape[1]
+    for k in range(m if m > 1 else 0):
+        st = call(*(np.asfortranarray(c[:, k:k + 1]) for c in cols))[0]
+        if st < 0:
+            vals = "; ".join(", ".join(f"{v:.17g}" for v in c[:, k]) for c in cols)
+            raise TubesError(st, f"{where}: row {k} of {m} ({vals})")
+    raise TubesError(stat, where)
+
+
 def _as_rows(x, n: int, who: str, name: str, what: str) -> np.ndarray:
     """x as a float64 copy of shape (m, n), one `what` (a state: n = 2N, or a position: n = N) per
     row: x is (m, n), or one of them (n,) (m = 1). Any other layout is refused, never reshaped: an
@@ -530,15 +545,17 @@ def vector_field(state, model: Model | None = None) -> np.ndarray:
     """Hamilton's equations dx/dt at a state (2N,) (damped for the ball with damping_ratio > 0),
     or at each row of states (m, 2N) in one call to the core (the model made once): returns the
     same shape. States are rows: an array (2N, m) (scipy's sol.y) is refused (ValueError; pass
-    sol.y.T)."""
+    sol.y.T). A state the model refuses (NaN, blown up) raises TubesError naming, of rows, the
+    first such row (its index and values)."""
     model = model or _default_model()
     n = 2 * model.ndof
     one = np.ndim(state) == 1
     a = np.asfortranarray(_as_rows(state, n, "vector_field", "state", "state").T)
     if a.shape[1] == 0:
         return np.zeros((0, n))
-    stat, f = _lib().vector_field(model.name, model.params(), a)
-    _check(stat, "vector_field")
+    lib, name, par = _lib(), model.name, model.params()
+    stat, f = lib.vector_field(name, par, a)
+    _check_rows(stat, "vector_field", lambda x: lib.vector_field(name, par, x), a)
     f = np.asarray(f).T.copy()
     return f[0] if one else f
 
@@ -565,8 +582,10 @@ def momentum(q, v, model: Model | None = None) -> np.ndarray:
         raise ValueError(f"momentum: q and v must have the same shape: got {np.shape(q)} and {np.shape(v)}")
     if a.shape[0] == 0:
         return np.zeros((0, n))
-    stat, p = _lib().momentum(model.name, model.params(), np.asfortranarray(a.T), np.asfortranarray(b.T))
-    _check(stat, "momentum")
+    lib, name, par = _lib(), model.name, model.params()
+    a, b = np.asfortranarray(a.T), np.asfortranarray(b.T)
+    stat, p = lib.momentum(name, par, a, b)
+    _check_rows(stat, "momentum", lambda x, y: lib.momentum(name, par, x, y), a, b)
     p = np.asarray(p).T.copy()
     return p[0] if one else p
 
