@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # make check: every Fortran and C test program (optimised build, then the runtime-checked
-# build in build/debug), the MPI flavour's 2-rank checks (tests/mpi_check.sh), then pytest
+# build in build/debug) with the fuzzers beside them, the MPI flavour's 2-rank checks
+# (tests/mpi_check.sh), then pytest
 # (Python layer and the tubes executable).
 # Ends with one line "N passed, N failed"; exits non-zero if anything failed.
 # QUICK=1 (make quick): the optimised build's test programs and the Python tests not marked slow only.
@@ -10,14 +11,50 @@ log_dir=build/testlogs
 mkdir -p "$log_dir"
 show_log='^FAIL|Error|error'
 . tests/harness.sh
+# the fuzzers: 20 s of the namelist fuzzer (make fuzz runs it longer; docs/development.md), then
+# each Python (Atheris) target's corpus replayed and 5 s of fuzzing (SKIP without atheris). Each
+# runs on one core for a fixed time, so they run beside the one-core test programs (started
+# before them; their lines printed, and counted, when they end)
+fuzz_all() {
+  if [ -x build/fuzz/fuzz_namelist ]; then
+    run "fuzz/namelist (20 s)" bash tests/fuzz/run.sh build/fuzz/fuzz_namelist 20
+  else
+    echo "SKIP fuzz/namelist (no build/fuzz/fuzz_namelist: no clang-14)"
+  fi
+  for t in tests/fuzz/fuzz_*.py; do
+    [ -f "$t" ] || continue
+    n=$(basename "$t" .py); n=${n#fuzz_}
+    if .venv/bin/python -c 'import atheris' 2>/dev/null; then
+      run "fuzz/$n (5 s)" bash tests/fuzz/run.sh "$t" 5
+    else
+      echo "SKIP fuzz/$n (atheris is not installed in .venv: make deps installs it)"
+    fi
+  done
+  echo "$pass $fail" >"$log_dir/fuzz.count"
+}
+quick=${QUICK:-0}
+if [ "$quick" != 1 ]; then
+  rm -f "$log_dir/fuzz.count"
+  (pass=0; fail=0; fuzz_all) >"$log_dir/fuzz.out" 2>&1 &
+  fuzz_pid=$!
+fi
 for t in build/tests/test_*; do
   [ -x "$t" ] && run "release/$(basename "$t")" "$t"
 done
-quick=${QUICK:-0}
 for t in build/debug/tests/test_*; do
   [ "$quick" = 1 ] && break
   [ -x "$t" ] && run "debug/$(basename "$t")" "$t"
 done
+if [ "$quick" != 1 ]; then
+  wait "$fuzz_pid"
+  cat "$log_dir/fuzz.out"
+  if [ -f "$log_dir/fuzz.count" ]; then
+    read -r fp ff <"$log_dir/fuzz.count"
+    pass=$((pass + fp)); fail=$((fail + ff))
+  else
+    fail=$((fail + 1)); echo "FAIL fuzz/* (the fuzzers' job left no count: $log_dir/fuzz.out)"
+  fi
+fi
 # the MPI flavour (built by make check when mpifort exists): 2-rank runs against the serial one
 if [ "$quick" = 1 ]; then
   echo "SKIP debug/*, mpi/*, fuzz/* and the slow Python tests (make quick; make check runs them)"
@@ -28,25 +65,6 @@ elif [ -x build/mpi/bin/tubes ]; then
 else
   echo "SKIP mpi/* (no build/mpi/bin/tubes: no MPI compiler wrapper)"
 fi
-# 20 s of the namelist fuzzer (make fuzz runs it longer; docs/development.md)
-if [ "$quick" = 1 ]; then
-  :
-elif [ -x build/fuzz/fuzz_namelist ]; then
-  run "fuzz/namelist (20 s)" bash tests/fuzz/run.sh build/fuzz/fuzz_namelist 20
-else
-  echo "SKIP fuzz/namelist (no build/fuzz/fuzz_namelist: no clang-14)"
-fi
-# each Python (Atheris) target: its corpus replayed, then 5 s of fuzzing; SKIP without atheris
-for t in tests/fuzz/fuzz_*.py; do
-  [ "$quick" = 1 ] && break
-  [ -f "$t" ] || continue
-  n=$(basename "$t" .py); n=${n#fuzz_}
-  if .venv/bin/python -c 'import atheris' 2>/dev/null; then
-    run "fuzz/$n (5 s)" bash tests/fuzz/run.sh "$t" 5
-  else
-    echo "SKIP fuzz/$n (atheris is not installed in .venv: make deps installs it)"
-  fi
-done
 # pip install . into a fresh venv (tests/pip_check.sh, about 2 minutes): make pipcheck, run by .ci/run
 # (kept out of make check's 10-minute budget)
 log=build/testlogs/pytest.log
