@@ -27,6 +27,18 @@ module tubes_differentiate
 
   public :: diff_spectral, diff_savgol, savgol_weights, lowpass_gain
 
+  !> FFTW plans kept for the next transform of their size and direction (fft_real): making one
+  !> (its twiddle factors, its problem's hash, its buffers) was nearly all of a column's time for a
+  !> few hundred samples. The last PLANS_MAX made are kept; then the oldest is destroyed.
+  integer, parameter :: PLANS_MAX = 64
+  type :: plan_slot_t
+    integer :: n = -1
+    logical :: forward = .false.
+    type(c_ptr) :: plan = c_null_ptr
+  end type plan_slot_t
+  type(plan_slot_t), save :: plans(PLANS_MAX)
+  integer, save :: plans_next = 1
+
 contains
 
   !> Gain of the zero-phase low-pass filter at frequency f [Hz]: 1 up to
@@ -154,24 +166,42 @@ contains
   end subroutine diff_spectral
 
   !> Unnormalised FFTs of real data: forward, x into its half spectrum y (real-to-complex);
-  !> backward, the half spectrum y into x (complex-to-real, size(x) points). FFTW_ESTIMATE: the
-  !> same plan, and so the same bits, on every call. Planning is not thread-safe in FFTW: it is
-  !> serialised.
+  !> backward, the half spectrum y into x (complex-to-real, size(x) points). FFTW_ESTIMATE on
+  !> arrays from fftw_alloc_* (always SIMD-aligned): the same plan, and so the same bits, on every
+  !> call; the plan is kept (plans) and executed on this call's arrays. FFTW's planner is not
+  !> thread-safe and a kept plan may be destroyed by another thread's: the whole transform is one
+  !> critical section (the transforms of one column are short; the callers are serial).
   subroutine fft_real(x, y, forward)
     real(wp), intent(inout) :: x(:)
     complex(wp), intent(inout) :: y(:)
     logical, intent(in) :: forward
-    real(c_double), allocatable :: a(:)
-    complex(c_double_complex), allocatable :: b(:)
-    type(c_ptr) :: plan
-    allocate (a(size(x)), b(size(y)))
+    real(c_double), pointer :: a(:)
+    complex(c_double_complex), pointer :: b(:)
+    type(c_ptr) :: pa, pb, plan
+    integer :: n, k
+    n = size(x)
     !$omp critical (tubes_fftw_planner)
-    if (forward) then
-      plan = fftw_plan_dft_r2c_1d(int(size(x), c_int), a, b, FFTW_ESTIMATE)
-    else
-      plan = fftw_plan_dft_c2r_1d(int(size(x), c_int), b, a, FFTW_ESTIMATE)
+    pa = fftw_alloc_real(int(n, c_size_t))
+    pb = fftw_alloc_complex(int(size(y), c_size_t))
+    call c_f_pointer(pa, a, [n])
+    call c_f_pointer(pb, b, [size(y)])
+    plan = c_null_ptr
+    do k = 1, PLANS_MAX
+      if (plans(k)%n == n .and. (plans(k)%forward .eqv. forward)) then
+        plan = plans(k)%plan
+        exit
+      end if
+    end do
+    if (.not. c_associated(plan)) then
+      if (forward) then
+        plan = fftw_plan_dft_r2c_1d(int(n, c_int), a, b, FFTW_ESTIMATE)
+      else
+        plan = fftw_plan_dft_c2r_1d(int(n, c_int), b, a, FFTW_ESTIMATE)
+      end if
+      if (c_associated(plans(plans_next)%plan)) call fftw_destroy_plan(plans(plans_next)%plan)
+      plans(plans_next) = plan_slot_t(n, forward, plan)
+      plans_next = mod(plans_next, PLANS_MAX) + 1
     end if
-    !$omp end critical (tubes_fftw_planner)
     if (forward) then
       a = x
       call fftw_execute_dft_r2c(plan, a, b)
@@ -181,8 +211,8 @@ contains
       call fftw_execute_dft_c2r(plan, b, a)
       x = a
     end if
-    !$omp critical (tubes_fftw_planner)
-    call fftw_destroy_plan(plan)
+    call fftw_free(pa)
+    call fftw_free(pb)
     !$omp end critical (tubes_fftw_planner)
   end subroutine fft_real
 
