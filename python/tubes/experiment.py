@@ -1602,8 +1602,8 @@ def _impossible_heights(s: Segment, est: dict, model: Model, sigma: float):
     b = float(np.clip(coef[1], -2.0, 0.0))
     F = E - b * D
     h = max(1, min(int(round(1.0 / est["dt"])), (n - 1) // 2))
-    win = np.lib.stride_tricks.sliding_window_view(np.pad(F, h, mode="edge"), 2 * h + 1)
-    ref = np.median(win, axis=1) + b * D
+    from scipy.ndimage import median_filter       # the running median (an odd window: exact)
+    ref = median_filter(F, size=2 * h + 1, mode="nearest") + b * D
     d = np.diff(E)
     sig_e = 1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2) if d.size else 0.0
     V = potential_energy(est["x"], est["y"], model)
