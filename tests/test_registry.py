@@ -80,6 +80,9 @@ CONTEXT = {
     ("integrator", "method"): "&integrator h = 0.001 /\n",             # fixed-step methods need h > 0
     ("integrator", "rtol"): "&integrator method = 'dop853' /\n",       # not 'auto''s choice
     ("scan", "*"): "&scan parameter = 'alpha', to = 0.08, de = 10 /\n",   # the scan's required variables
+    # n_grid^N <= 1e6 (the model's N): a 1-DOF model reaches the range's 2001
+    ("equilibria", "n_grid"): "&model system = 'expression', hamiltonian = 'p^2/2 + q^4/4 - q^2/2', "
+                              "coordinates = 'q', momenta = 'p' /\n",
     # order > 0 needs a model written as a formula (Henon-Heiles')
     ("flux", "order"): "&model system = 'expression', hamiltonian = '(px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2*y - y^3/3' /\n",
 }
@@ -193,6 +196,22 @@ def test_the_annotations_are_read():
     kinds = {k for _, _, k, _, _ in REGISTERED}
     assert kinds == {"real", "int", "int64", "logical", "string", "list"}, kinds
     assert len(REGISTERED) >= 50
+
+
+@pytest.mark.parametrize("model,n,ok", [("", 1000, True), ("", 1001, False),
+                                         ("&model system = 'cr3bp', spatial = .true. /\n", 100, True),
+                                         ("&model system = 'cr3bp', spatial = .true. /\n", 101, False)])
+def test_n_grid_rule_is_the_model_s(tmp_path, model, n, ok):
+    """&equilibria n_grid's rule beside its range (2 .. 2001): n_grid^N Newton starts at most 1e6,
+    N the model's degrees of freedom (the ball's 2: 1000, not 1001; the spatial CR3BP's 3: 100, not 101)."""
+    (tmp_path / "g.nml").write_text(f"&run scenes = 'equilibria' /\n{model}&equilibria n_grid = {n} /\n")
+    p = subprocess.run([str(TUBES), "g.nml", "--check"], capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    if ok:
+        assert p.returncode == 0, p.stderr
+    else:
+        assert p.returncode == 1 and (f"g.nml:{2 + bool(model)}: &equilibria: n_grid = {n} is out of range: allowed "
+                                      "2 .. 2001, n_grid^N <= 1e6") in p.stderr, p.stderr
+        assert "n_grid^N Newton starts at most 1e6" in p.stderr, p.stderr
 
 
 @pytest.mark.parametrize("group,name,kind,default,allowed", REGISTERED, ids=[f"{g}.{n}" for g, n, *_ in REGISTERED])

@@ -101,7 +101,7 @@ const nml_var tubes_nml_vars[] = {
      "half-widths of the search box per coordinate (one value: every coordinate)"},
     {"equilibria", "box_center", NML_REAL, TUBES_MAXDOF, "units of q", "the system's (0)", "finite",
      "centre of the search box"},
-    {"equilibria", "n_grid", NML_INT, 1, "-", "41", "2 .. 2001, n_grid^N <= 1e6", "Newton starts per axis"},
+    TUBES_REGISTRY_ROWS_EQUILIBRIA   /* n_grid */
     {"equilibria", "saddle", NML_STRING, 1, "-", "'' (the &orbits choice)", "a rank-1 saddle's name",
      "the rank-1 saddle the equilibria scene reports in /saddle"},
     TUBES_REGISTRY_ROWS_TRAJECTORY   /* every variable (registered: src/workflow/tubes_config.f90) */
@@ -162,7 +162,6 @@ const nml_var tubes_nml_vars[] = {
     {"scan", "de", NML_REAL, TUBES_MAXDE, "energy", "&orbits de if set there, else none", "> 0, increasing",
      "excess energies of the saddle's Lyapunov orbits followed along the scan (none: no orbits)"},
     TUBES_REGISTRY_ROWS_SCAN_2   /* p_trans */
-    TUBES_REGISTRY_ROWS_EQUILIBRIA   /* none yet */
 };
 const int tubes_nml_nvars = (int)(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0]);
 _Static_assert(sizeof tubes_nml_vars / sizeof tubes_nml_vars[0] <= 192, "nml_where holds 192 variables");
@@ -839,6 +838,8 @@ static int scene_requested(const tubes_config_t *c, const char *name) {
 }
 
 /* &equilibria box, &orbits saddle / saddle_near, &section for the chosen system. */
+static int in_registered_range(const tubes_config_t *c, const char *group, const char *name);   /* below */
+
 static int validate_geometry(const char *path, const tubes_config_t *c, const nml_where *w, FILE *err) {
   int n = 0, nd = c->ndof;
   /* a value for a coordinate the model does not have (0 is let through: the effective namelist
@@ -865,7 +866,7 @@ static int validate_geometry(const char *path, const tubes_config_t *c, const nm
     }
   for (int k = 0; k < nd; k++)
     if (!isfinite(c->box_center[k])) n += bad_at(path, c, w, "equilibria", "box_center", k + 1, err, "", c->box_center[k]);
-  if (!(c->n_grid >= 2 && c->n_grid <= 2001 && pow(c->n_grid, nd) <= 1e6))
+  if (in_registered_range(c, "equilibria", "n_grid") && pow(c->n_grid, nd) > 1e6)   /* its rule: by the model's N */
     n += bad(path, c, w, "equilibria", "n_grid", err, "n_grid^N Newton starts at most 1e6", c->n_grid);
   if (line_of(w, "orbits", "saddle") && line_of(w, "orbits", "saddle_near")) {
     fprintf(err, "%s:%d: &orbits: saddle and saddle_near are both set: choose the saddle by name or by "

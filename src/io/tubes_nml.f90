@@ -21,7 +21,6 @@ module tubes_nml
     real(c_double) :: alpha = UNSET, beta = UNSET, gamma = UNSET, xi = UNSET, h0 = UNSET, g = UNSET, &
                       damping_ratio = UNSET, rolling_resistance = UNSET, noise_d = UNSET, temperature = UNSET
     real(c_double) :: box = 0
-    integer :: n_grid = 41
     character(LSADDLE) :: saddle = ''
     character(LSADDLE) :: orb_saddle = ''
     real(c_double) :: orb_de(MAXDE) = UNSET
@@ -71,7 +70,6 @@ contains
       call f_to_c(v%scenes(k), cfg%scenes(:, k))
     end do
     call f_to_c(v%output, cfg%output)
-    cfg%n_grid = v%n_grid
     call f_to_c(v%saddle, cfg%saddle)
     cfg%spatial = merge(1, 0, v%spatial)
     call f_to_c(v%orb_saddle, cfg%orb_saddle)
@@ -409,7 +407,7 @@ contains
     v%temperature = cfg%temperature
     v%m_a = cfg%m_a; v%m_b = cfg%m_b; v%d = cfg%d; v%lambda = cfg%lambda; v%zeta = cfg%zeta
     v%eps_s = cfg%eps_s; v%omega = cfg%omega; v%eps = cfg%eps; v%mu = cfg%mu
-    v%box = cfg%box; v%n_grid = cfg%n_grid
+    v%box = cfg%box
     v%box_list = cfg%box_list
     v%box_center = cfg%box_center
     v%orb_saddle_near = cfg%orb_saddle_near
@@ -621,11 +619,11 @@ contains
     end function upper
     subroutine io_equilibria()
       real(c_double), allocatable :: box(:), box_center(:)
-      integer :: n_grid
       character(8) :: saddle
-      namelist /equilibria/ box, box_center, n_grid, saddle
-      include 'nml_equilibria_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk)
-      n_grid = v%n_grid; saddle = v%saddle
+      namelist /equilibria/ box, box_center
+      include 'nml_equilibria_decl.inc'   ! the registered variables (src/io/tubes_registry_gen.awk): n_grid
+      namelist /equilibria/ saddle
+      saddle = v%saddle
       include 'nml_equilibria_in.inc'
       if (mode == 'r') then
         box = v%box_list
@@ -638,7 +636,7 @@ contains
         call list_io(v%box_center, box_center)
         write (u, nml=equilibria, iostat=ios, iomsg=iomsg)
       end if
-      v%n_grid = n_grid; v%saddle = saddle
+      v%saddle = saddle
       include 'nml_equilibria_out.inc'
     end subroutine io_equilibria
     subroutine io_trajectory()

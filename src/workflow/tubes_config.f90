@@ -34,6 +34,7 @@ module tubes_config
     character(kind=c_char) :: output(LPATH)
     real(c_double) :: alpha, beta, gamma, xi, h0, g, damping_ratio, rolling_resistance, noise_d, temperature   ! &model
     real(c_double) :: box   ! &equilibria
+    !@ &equilibria n_grid | - | 41 | 2 .. 2001, n_grid^N <= 1e6 | Newton starts per axis
     integer(c_int) :: n_grid
     character(kind=c_char) :: saddle(LSADDLE)
     !@ &trajectory x0 | cm | rolling_ball: 4; other models: required | finite | initial x
