@@ -235,6 +235,12 @@ def test_henon_heiles_from_python_against_closed_forms():
     r = np.sqrt(2 * (1 / 6 + 0.02))
     assert abs(b["s_min"] + r) < 1e-12 and abs(b["s_max"] - r) < 1e-12
     assert np.allclose(b["p_max"], np.sqrt(np.maximum(0, r * r - b["s"] ** 2)), atol=1e-7)
+    # n_grid: &equilibria's default, range and rule from the reader (41; n_grid^2 <= 1e6 at N = 2)
+    sec = {"kind": "plane", "index": 2, "value": 0.0, "direction": 1}
+    assert np.array_equal(tubes.section_boundary(hh, 0.02, section=sec, n_grid=41)["s"], b["s"])
+    with pytest.raises(ValueError, match=r"section_boundary: &equilibria: n_grid = 1001 is out of range: .*"
+                                         r"n_grid\^N Newton starts at most 1e6"):
+        tubes.section_boundary(hh, 0.02, section=sec, n_grid=1001)
 
 
 def test_model_of_a_result_file(tmp_path):

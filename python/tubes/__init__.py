@@ -684,7 +684,7 @@ def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, 
 
 
 def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | None = None,
-                     section: dict | None = None, m: int = 400, box=None, n_grid: int = 41, *,
+                     section: dict | None = None, m: int = 400, box=None, n_grid: int | None = None, *,
                      de: float | None = None) -> dict:
     """The energy surface's boundary on a section at E_e(saddle) + dE (docs/tubes.md,
     "Sections"; 2 degrees of freedom). dE: the excess energy, >= 0, in the model's energy units
@@ -692,7 +692,8 @@ def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | 
     saddle: a rank-1 saddle's name (default the system's, else the one nearest its saddle_near);
     section: {"kind": "ray", "angle": deg, "p_theta_sign": +-1} or {"kind": "plane", "index": k,
     "value": c, "direction": +-1}, default the system's; m: points on the boundary (>= 2); box,
-    n_grid: the equilibria's search box (as equilibria). Returns a dict s (m,), p_min, p_max
+    n_grid: the equilibria's search box (as equilibria; n_grid's default and range &equilibria's,
+    from the program's reader). Returns a dict s (m,), p_min, p_max
     (m,), s_min, s_max."""
     model = model or Model()
     if de is not None:
@@ -703,7 +704,9 @@ def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | 
     _need_2dof(model, "section_boundary", "transition")
     dE = _args.real("section_boundary", "dE", dE, lo=0)
     m = _args.integer("section_boundary", "m", m, lo=2)
-    n_grid = _args.integer("section_boundary", "n_grid", n_grid, lo=2, hi=2001)   # &equilibria n_grid's range
+    # &equilibria n_grid: its default, range and rule (n_grid^N <= 1e6) and messages, the reader's
+    n_grid = _read_namelist([model._nml()] + ([f"&equilibria n_grid = {_nml_value(n_grid)} /"] if n_grid is not None
+                                              else []), "section_boundary", {"model", "equilibria"})["n_grid"]
     info = model.info
     sec = dict(info["section"])
     if section:
