@@ -303,3 +303,39 @@ def test_python_method_codes_are_the_registry_list():
     names = [v.strip() for v in tubes._str(allowed).strip().split(",")]
     assert list(tubes.METHODS) == names
     assert list(tubes.METHODS.values()) == list(range(1, len(names) + 1))
+
+
+# Python's calls that bypass the reader (a namelist per call would cost more than the integration)
+# and their keywords that are registered variables: keyword -> (group, name)
+BYPASS = {"integrate": {"method": ("integrator", "method"), "rtol": ("integrator", "rtol"),
+                        "atol": ("integrator", "atol"), "h": ("integrator", "h"),
+                        "max_steps": ("integrator", "max_steps"), "solver": ("integrator", "solver"),
+                        "max_iter": ("integrator", "max_iter"), "max_crossings": ("trajectory", "max_crossings")},
+          "ensemble": {"method": ("integrator", "method"), "rtol": ("integrator", "rtol"),
+                       "atol": ("integrator", "atol"), "h": ("integrator", "h"),
+                       "max_steps": ("integrator", "max_steps"), "solver": ("integrator", "solver"),
+                       "max_iter": ("integrator", "max_iter")},
+          "Integrator": {"method": ("integrator", "method"), "rtol": ("integrator", "rtol"),
+                         "atol": ("integrator", "atol"), "h": ("integrator", "h"),
+                         "max_steps": ("integrator", "max_steps"), "solver": ("integrator", "solver"),
+                         "max_iter": ("integrator", "max_iter")},
+          "trajectory": {"dt_out": ("trajectory", "dt_out")}}
+
+
+@pytest.mark.parametrize("fn", sorted(BYPASS))
+def test_python_keyword_defaults_are_the_annotations(fn):
+    """The keyword defaults of the Python calls that bypass the reader (tubes.integrate, ensemble,
+    Integrator, trajectory) are the registered variables' defaults in their annotations (omega_bind's
+    0, "Tao's default", stands for the annotation's value, and integrate's dt_out None, "the final
+    state only", is not a sample spacing: both left out): a default changed in one place and not the
+    other fails here."""
+    import inspect
+    ann = {(g, n): d for g, n, _, d, _ in REGISTERED}
+    params = inspect.signature(getattr(tubes, fn)).parameters
+    for kw, key in BYPASS[fn].items():
+        want = ann[key]
+        got = params[kw].default
+        if isinstance(got, str):
+            assert repr(got) == want, (fn, kw, got, want)
+        else:
+            assert got is not inspect.Parameter.empty and float(got) == float(want), (fn, kw, got, want)
