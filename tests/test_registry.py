@@ -319,13 +319,14 @@ BYPASS = {"integrate": {"method": ("integrator", "method"), "rtol": ("integrator
                          "atol": ("integrator", "atol"), "h": ("integrator", "h"),
                          "max_steps": ("integrator", "max_steps"), "solver": ("integrator", "solver"),
                          "max_iter": ("integrator", "max_iter")},
-          "trajectory": {"dt_out": ("trajectory", "dt_out")}}
+          "trajectory": {"dt_out": ("trajectory", "dt_out")},
+          "tube_cut": {"kind": ("tubes", "kind")}}           # (a keyword always written into its namelist)
 
 
 @pytest.mark.parametrize("fn", sorted(BYPASS))
 def test_python_keyword_defaults_are_the_annotations(fn):
     """The keyword defaults of the Python calls that bypass the reader (tubes.integrate, ensemble,
-    Integrator, trajectory) are the registered variables' defaults in their annotations (omega_bind's
+    Integrator, trajectory; and tube_cut's kind) are the registered variables' defaults in their annotations (omega_bind's
     0, "Tao's default", stands for the annotation's value, and integrate's dt_out None, "the final
     state only", is not a sample spacing: both left out): a default changed in one place and not the
     other fails here."""
