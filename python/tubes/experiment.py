@@ -920,14 +920,18 @@ def window_energy(t, E, T, tc, half_width: float, trim: float = TRIM):
         if sel.size < 3:
             sel = np.argsort(np.abs(t - c))[:3]
         dc = np.interp(c, t, D)
-        A = np.column_stack([np.ones(sel.size), D[sel] - dc])
+        d = D[sel] - dc
         if np.ptp(D[sel]) <= 0:
             w = np.full(sel.size, 1.0 / sel.size)
             slope[i] = 0.0
         else:
-            pinv = np.linalg.pinv(A)
-            w = pinv[0]
-            slope[i] = pinv[1] @ E[sel]
+            # the least-squares line E = a + b d: (a, b) = pinv([1, d]) E, the pseudo-inverse's rows
+            # in closed form, about the points' mean dm (the two columns 1 and d - dm orthogonal)
+            dm = d.mean()
+            u = d - dm
+            suu = u @ u
+            w = 1.0 / sel.size - dm * u / suu
+            slope[i] = (u / suu) @ E[sel]
         out[i] = w @ E[sel]
         rows.append((sel, w))
     return out, slope, rows
