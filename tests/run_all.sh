@@ -11,33 +11,52 @@ log_dir=build/testlogs
 mkdir -p "$log_dir"
 show_log='^FAIL|Error|error'
 . tests/harness.sh
-# the fuzzers: 20 s of the namelist fuzzer (make fuzz runs it longer; docs/development.md), then
+# the fuzzers: 20 s of the namelist fuzzer (make fuzz runs it longer; docs/development.md), and
 # each Python (Atheris) target's corpus replayed and 5 s of fuzzing (SKIP without atheris). Each
-# runs on one core for a fixed time, so they run beside the one-core test programs (started
-# before them; their lines printed, and counted, when they end)
-fuzz_all() {
+# runs for a fixed time on one core: they run at once, beside the one-core test programs (started
+# before them; their lines printed, and counted, in this order when they end; a finding is saved
+# as build/fuzz/findings/<target>-crash-*, so each target counts its own)
+fuzz_one() {   # fuzz_one K NAME CMD...: run NAME in the background, its lines and count in fuzz.K.*
+  local k=$1
+  shift
+  (pass=0; fail=0; run "$@"; echo "$pass $fail" >"$log_dir/fuzz.$k.count") >"$log_dir/fuzz.$k.out" 2>&1 &
+  fuzz_pids+=($!)
+}
+fuzz_start() {
+  fuzz_pids=()
+  rm -f "$log_dir"/fuzz.*.count "$log_dir"/fuzz.*.out
   if [ -x build/fuzz/fuzz_namelist ]; then
-    run "fuzz/namelist (20 s)" bash tests/fuzz/run.sh build/fuzz/fuzz_namelist 20
+    fuzz_one 0 "fuzz/namelist (20 s)" bash tests/fuzz/run.sh build/fuzz/fuzz_namelist 20
   else
-    echo "SKIP fuzz/namelist (no build/fuzz/fuzz_namelist: no clang-14)"
+    echo "SKIP fuzz/namelist (no build/fuzz/fuzz_namelist: no clang-14)" >"$log_dir/fuzz.0.out"
   fi
+  local k=1
   for t in tests/fuzz/fuzz_*.py; do
     [ -f "$t" ] || continue
     n=$(basename "$t" .py); n=${n#fuzz_}
     if .venv/bin/python -c 'import atheris' 2>/dev/null; then
-      run "fuzz/$n (5 s)" bash tests/fuzz/run.sh "$t" 5
+      fuzz_one $k "fuzz/$n (5 s)" bash tests/fuzz/run.sh "$t" 5
     else
-      echo "SKIP fuzz/$n (atheris is not installed in .venv: make deps installs it)"
+      echo "SKIP fuzz/$n (atheris is not installed in .venv: make deps installs it)" >"$log_dir/fuzz.$k.out"
+    fi
+    k=$((k + 1))
+  done
+}
+fuzz_end() {
+  local f
+  wait "${fuzz_pids[@]}"
+  for f in $(ls "$log_dir"/fuzz.*.out 2>/dev/null | sort -t. -k2 -n); do
+    cat "$f"
+    if [ -f "${f%.out}.count" ]; then
+      read -r fp ff <"${f%.out}.count"
+      pass=$((pass + fp)); fail=$((fail + ff))
+    elif ! grep -q '^SKIP' "$f"; then
+      fail=$((fail + 1)); echo "FAIL $(basename "$f") (the fuzzer's job left no count)"
     fi
   done
-  echo "$pass $fail" >"$log_dir/fuzz.count"
 }
 quick=${QUICK:-0}
-if [ "$quick" != 1 ]; then
-  rm -f "$log_dir/fuzz.count"
-  (pass=0; fail=0; fuzz_all) >"$log_dir/fuzz.out" 2>&1 &
-  fuzz_pid=$!
-fi
+[ "$quick" != 1 ] && fuzz_start
 for t in build/tests/test_*; do
   [ -x "$t" ] && run "release/$(basename "$t")" "$t"
 done
@@ -45,16 +64,7 @@ for t in build/debug/tests/test_*; do
   [ "$quick" = 1 ] && break
   [ -x "$t" ] && run "debug/$(basename "$t")" "$t"
 done
-if [ "$quick" != 1 ]; then
-  wait "$fuzz_pid"
-  cat "$log_dir/fuzz.out"
-  if [ -f "$log_dir/fuzz.count" ]; then
-    read -r fp ff <"$log_dir/fuzz.count"
-    pass=$((pass + fp)); fail=$((fail + ff))
-  else
-    fail=$((fail + 1)); echo "FAIL fuzz/* (the fuzzers' job left no count: $log_dir/fuzz.out)"
-  fi
-fi
+[ "$quick" != 1 ] && fuzz_end
 # the MPI flavour (built by make check when mpifort exists): 2-rank runs against the serial one
 if [ "$quick" = 1 ]; then
   echo "SKIP debug/*, mpi/*, fuzz/* and the slow Python tests (make quick; make check runs them)"

@@ -704,7 +704,10 @@ def section_boundary(model: Model | None = None, dE: float = 0.0, saddle: str | 
     _need_2dof(model, "section_boundary", "transition")
     dE = _args.real("section_boundary", "dE", dE, lo=0)
     m = _args.integer("section_boundary", "m", m, lo=2)
-    # &equilibria n_grid: its default, range and rule (n_grid^N <= 1e6) and messages, the reader's
+    # &equilibria n_grid: its range (the registry's, in this API's words: _in_range), then its default
+    # and its rule n_grid^N <= 1e6 (the model's N) from the reader
+    if n_grid is not None:
+        n_grid = _in_range("section_boundary", "equilibria", "n_grid", n_grid)
     n_grid = _read_namelist([model._nml()] + ([f"&equilibria n_grid = {_nml_value(n_grid)} /"] if n_grid is not None
                                               else []), "section_boundary", {"model", "equilibria"})["n_grid"]
     info = model.info

@@ -45,19 +45,19 @@ touch "$log.start"; sleep 1
 if [ "$secs" -gt 0 ]; then limit=(-max_total_time="$secs"); else limit=(-runs=0); fi
 t0=$(date +%s)
 "${cmd[@]}" "${limit[@]}" -timeout=10 -rss_limit_mb=4096 -print_final_stats=1 \
-  -artifact_prefix="$work/findings/" ${FUZZ_FLAGS:-} "$new" "$seeds" >"$log" 2>&1
+  -artifact_prefix="$work/findings/$name-" ${FUZZ_FLAGS:-} "$new" "$seeds" >"$log" 2>&1
 rc=$?
 t1=$(date +%s)
 execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
-crashes=$(find "$work/findings" -name 'crash-*' -newer "$log.start" 2>/dev/null | wc -l)
-leaks=$(find "$work/findings" -name 'leak-*' -newer "$log.start" 2>/dev/null | wc -l)
-hangs=$(find "$work/findings" -name 'timeout-*' -newer "$log.start" 2>/dev/null | wc -l)
+crashes=$(find "$work/findings" -name "$name-crash-*" -newer "$log.start" 2>/dev/null | wc -l)
+leaks=$(find "$work/findings" -name "$name-leak-*" -newer "$log.start" 2>/dev/null | wc -l)
+hangs=$(find "$work/findings" -name "$name-timeout-*" -newer "$log.start" 2>/dev/null | wc -l)
 ncorp=$(find "$new" "$seeds" -type f | wc -l)
 echo "fuzz/$name: ${execs:-0} executions in $((t1 - t0)) s ($(( ${execs:-0} / ( t1 - t0 > 0 ? t1 - t0 : 1) ))/s)," \
      "$crashes crashes, $hangs hangs, $leaks leaks; corpus $ncorp inputs; $(date -u +%Y-%m-%d)"
 if [ "$rc" -ne 0 ]; then
   grep -a -E '^(fuzz:|==[0-9]+==ERROR|SUMMARY|[A-Za-z]*Error)|nml:[0-9]+:|^ +File ' "$log" | head -20
-  for f in $(find "$work/findings" -type f -newer "$log.start"); do
+  for f in $(find "$work/findings" -type f -name "$name-*" -newer "$log.start"); do
     echo "finding: $f (reproduce: ${repro:-${cmd[*]}} $f)"
   done
   if [ $((crashes + hangs + leaks)) -gt 0 ]; then
