@@ -98,6 +98,7 @@ SWEEP += [("integrate", _INTEG[0][1], "max_crossings", [True, 2.5, "10", NAN, 0,
           ("section_boundary", _p(tubes.section_boundary, M), "dE", [True, "1"]),   # NaN, inf, < 0 were refused before
           ("section_boundary", _p(tubes.section_boundary, M), "m", [True, "400"]),
           ("section_boundary", _p(tubes.section_boundary, M), "n_grid", [True, 2.5, -1, 1]),
+          ("equilibria", _p(tubes.equilibria, M), "n_grid", [True, 2.5, -1, 1, 2002]),
           ("section_boundary", _p(tubes.section_boundary, M, dE=1.0), "box", [True, NAN, -2.0, "3"]),
           ("monte_carlo", _p(tubes.monte_carlo, M), "dE", [True, "100", NAN, INF]),
           ("transition", _p(tubes.transition, M), "dE", [True, "100", NAN]),

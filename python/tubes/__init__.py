@@ -656,6 +656,8 @@ def equilibria(model: Model | None = None, box=None, n_grid: int | None = None, 
         if v is not None and np.size(v) not in ((1, model.ndof) if name == "box" else (model.ndof,)):
             raise ValueError(f"equilibria: {name} has {np.size(v)} values: allowed "
                              + ("1 (every coordinate) or " if name == "box" else "") + f"{model.ndof} (one per coordinate)")
+    if n_grid is not None:   # its range in this API's words (as section_boundary's); its rule: the reader's
+        n_grid = _in_range("equilibria", "equilibria", "n_grid", n_grid)
     eqg = {k: v for k, v in (("box", box), ("box_center", box_center), ("n_grid", n_grid)) if v is not None}
     # the input file's &equilibria: its defaults, ranges and messages (box > 0, n_grid^N <= 1e6)
     st = _read_namelist([model._nml()] + (["&equilibria " + ", ".join(f"{k} = {_nml_value(v)}" for k, v in eqg.items())
