@@ -401,18 +401,20 @@ end subroutine reference_solution
 subroutine differentiate_spectral(x, n, dt, cutoff, rolloff, edge, end_order, end_window, stat, v, xs)
   ! tubes_differentiate: diff_spectral. edge 0 periodic, 1 odd, 2 mirror; end_window <= 0: default
   use, intrinsic :: iso_c_binding, only: c_double, c_int
-  use tubes_differentiate, only: diff_spectral
+  ! (the FFTW plans kept for the Python session: tubes_differentiate's fft_plans_t)
+  use tubes_differentiate, only: diff_spectral, fft_plans_t
   implicit none
   integer(c_int), intent(in) :: n
   real(c_double), intent(in) :: x(n), dt, cutoff, rolloff
   integer(c_int), intent(in) :: edge, end_order, end_window
   integer(c_int), intent(out) :: stat
   real(c_double), intent(out) :: v(n), xs(n)
+  type(fft_plans_t), save :: plans
   if (end_window > 0) then
     call diff_spectral(x, dt, cutoff, rolloff, edge, v, xs, stat, end_order=end_order, &
-                       end_window=end_window)
+                       end_window=end_window, plans=plans)
   else
-    call diff_spectral(x, dt, cutoff, rolloff, edge, v, xs, stat, end_order=end_order)
+    call diff_spectral(x, dt, cutoff, rolloff, edge, v, xs, stat, end_order=end_order, plans=plans)
   end if
 end subroutine differentiate_spectral
 

@@ -27,17 +27,19 @@ module tubes_differentiate
 
   public :: diff_spectral, diff_savgol, savgol_weights, lowpass_gain
 
-  !> FFTW plans kept for the next transform of their size and direction (fft_real): making one
-  !> (its twiddle factors, its problem's hash, its buffers) was nearly all of a column's time for a
-  !> few hundred samples. The last PLANS_MAX made are kept; then the oldest is destroyed.
+  !> FFTW plans kept between transforms by the caller that holds this (python/tubes_f2py.f90's
+  !> differentiate_spectral keeps one for the Python session), for the next transform of their
+  !> size and direction: making a plan (its twiddle factors, its problem's hash) was nearly all of
+  !> a column's time for a few hundred samples. The last PLANS_MAX made are kept; then the oldest
+  !> is destroyed. Without it (diff_spectral's plans absent) each transform makes and destroys its
+  !> own: the same plan, the same bits.
   integer, parameter :: PLANS_MAX = 64
-  type :: plan_slot_t
-    integer :: n = -1
-    logical :: forward = .false.
-    type(c_ptr) :: plan = c_null_ptr
-  end type plan_slot_t
-  type(plan_slot_t), save :: plans(PLANS_MAX)
-  integer, save :: plans_next = 1
+  type, public :: fft_plans_t
+    integer :: n(PLANS_MAX) = -1
+    logical :: forward(PLANS_MAX) = .false.
+    type(c_ptr) :: plan(PLANS_MAX) = c_null_ptr
+    integer :: next = 1
+  end type fft_plans_t
 
 contains
 
@@ -69,7 +71,7 @@ contains
   !> the end slopes by a least-squares polynomial of degree end_order over end_window samples
   !> at each end (defaults below); the derivative at the two end samples is that estimate.
   !> stat: TUBES_OK, or TUBES_EINPUT (n < 4, dt <= 0, bad rolloff/edge/end fit, size mismatch).
-  subroutine diff_spectral(x, dt, cutoff, rolloff, edge, v, xs, stat, end_order, end_window)
+  subroutine diff_spectral(x, dt, cutoff, rolloff, edge, v, xs, stat, end_order, end_window, plans)
     real(wp), intent(in) :: x(:)             !! samples [any unit]
     real(wp), intent(in) :: dt               !! sample spacing [s]
     real(wp), intent(in) :: cutoff           !! low-pass half-gain frequency [Hz]; <= 0: none
@@ -83,6 +85,8 @@ contains
     !> EDGE_MIRROR: samples of the end-slope fits (default: two cutoff periods, at least
     !> end_order + 4; end_order + 4 without a filter; at most n)
     integer, intent(in), optional :: end_window
+    !> plans kept between calls (fft_plans_t); absent: each transform plans anew (the same bits)
+    type(fft_plans_t), intent(inout), optional :: plans
     real(wp), allocatable :: r(:), trend(:), dtrend(:), ext(:), w0(:), w1(:)
     complex(wp), allocatable :: spec(:), dspec(:)
     real(wp) :: big_t, d0, d1, f, gain, s
@@ -150,7 +154,7 @@ contains
         ext(n + k) = r(n - k)
       end do
     end select
-    call fft_real(ext, spec, forward=.true.)
+    call fft_real(ext, spec, .true., plans)
     do k = 0, nn/2
       f = k/(nn*dt)
       gain = lowpass_gain(f, cutoff, rolloff)
@@ -158,9 +162,9 @@ contains
       dspec(k + 1) = spec(k + 1)*cmplx(0.0_wp, 2*PI*f, wp)
     end do
     if (mod(nn, 2) == 0) dspec(nn/2 + 1) = 0   ! the Nyquist mode has no odd-symmetric derivative
-    call fft_real(ext, spec, forward=.false.)
+    call fft_real(ext, spec, .false., plans)
     xs = trend + ext(1:n)/nn
-    call fft_real(ext, dspec, forward=.false.)
+    call fft_real(ext, dspec, .false., plans)
     v = dtrend + ext(1:n)/nn
     stat = TUBES_OK
   end subroutine diff_spectral
@@ -168,13 +172,14 @@ contains
   !> Unnormalised FFTs of real data: forward, x into its half spectrum y (real-to-complex);
   !> backward, the half spectrum y into x (complex-to-real, size(x) points). FFTW_ESTIMATE on
   !> arrays from fftw_alloc_* (always SIMD-aligned): the same plan, and so the same bits, on every
-  !> call; the plan is kept (plans) and executed on this call's arrays. FFTW's planner is not
-  !> thread-safe and a kept plan may be destroyed by another thread's: the whole transform is one
-  !> critical section (the transforms of one column are short; the callers are serial).
-  subroutine fft_real(x, y, forward)
+  !> call; kept in plans if present (else destroyed after), executed on this call's arrays.
+  !> FFTW's planner is not thread-safe and a kept plan may be replaced by another thread's: the
+  !> whole transform is one critical section (a column's transforms are short; the callers serial).
+  subroutine fft_real(x, y, forward, plans)
     real(wp), intent(inout) :: x(:)
     complex(wp), intent(inout) :: y(:)
     logical, intent(in) :: forward
+    type(fft_plans_t), intent(inout), optional :: plans
     real(c_double), pointer :: a(:)
     complex(c_double_complex), pointer :: b(:)
     type(c_ptr) :: pa, pb, plan
@@ -186,21 +191,28 @@ contains
     call c_f_pointer(pa, a, [n])
     call c_f_pointer(pb, b, [size(y)])
     plan = c_null_ptr
-    do k = 1, PLANS_MAX
-      if (plans(k)%n == n .and. (plans(k)%forward .eqv. forward)) then
-        plan = plans(k)%plan
-        exit
-      end if
-    end do
+    if (present(plans)) then
+      do k = 1, PLANS_MAX
+        if (plans%n(k) == n .and. (plans%forward(k) .eqv. forward)) then
+          plan = plans%plan(k)
+          exit
+        end if
+      end do
+    end if
     if (.not. c_associated(plan)) then
       if (forward) then
         plan = fftw_plan_dft_r2c_1d(int(n, c_int), a, b, FFTW_ESTIMATE)
       else
         plan = fftw_plan_dft_c2r_1d(int(n, c_int), b, a, FFTW_ESTIMATE)
       end if
-      if (c_associated(plans(plans_next)%plan)) call fftw_destroy_plan(plans(plans_next)%plan)
-      plans(plans_next) = plan_slot_t(n, forward, plan)
-      plans_next = mod(plans_next, PLANS_MAX) + 1
+      if (present(plans)) then
+        k = plans%next
+        if (c_associated(plans%plan(k))) call fftw_destroy_plan(plans%plan(k))
+        plans%n(k) = n
+        plans%forward(k) = forward
+        plans%plan(k) = plan
+        plans%next = mod(k, PLANS_MAX) + 1
+      end if
     end if
     if (forward) then
       a = x
@@ -211,6 +223,7 @@ contains
       call fftw_execute_dft_c2r(plan, b, a)
       x = a
     end if
+    if (.not. present(plans)) call fftw_destroy_plan(plan)
     call fftw_free(pa)
     call fftw_free(pb)
     !$omp end critical (tubes_fftw_planner)
