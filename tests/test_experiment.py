@@ -95,6 +95,23 @@ def cons():
                                noise=NOISE, pixel=PIXEL, rate=RATE)
 
 
+def test_crossing_interpolation_against_closed_forms():
+    """The crossings' cubic roots and interpolation (all intervals at once) on a cubic they must
+    reproduce: g = (t - 0.3)(t - 1.45)(t - 2.2) sampled every 0.1 s has its three roots to rounding,
+    and the 4-point interpolation of t^3 is exact; with fewer than 4 samples both are linear
+    (the 4-point windows would start before the first sample)."""
+    t = np.arange(0.0, 3.0, 0.1)
+    g = (t - 0.3) * (t - 1.45) * (t - 2.2)
+    tc, idx = ex._cubic_roots(t, g)
+    assert np.allclose(tc, [0.3, 1.45, 2.2], rtol=0, atol=1e-13) and list(idx) == [2, 14, 21], (tc, idx)
+    tq = np.array([0.05, 1.234, 2.87])
+    assert np.allclose(ex._at(t, t ** 3, tq), tq ** 3, rtol=1e-13, atol=1e-15)
+    t3, g3 = np.array([0.0, 1.0, 2.0]), np.array([-1.0, 1.0, 5.0])
+    tc3, idx3 = ex._cubic_roots(t3, g3)
+    assert np.allclose(tc3, [0.5]) and list(idx3) == [0]
+    assert np.allclose(ex._at(t3, g3, [0.5, 1.5]), [0.0, 3.0])
+
+
 def test_energy_helpers_match_the_public_api():
     """The batched calls give the numbers of tubes.momentum and tubes.energy (same Fortran
     routines: equal to roundoff), and the numpy surface derivatives those of tubes.vector_field

@@ -961,6 +961,11 @@ def noise_estimate(segments) -> float:
 # Crossings of U1 and their fate
 # --------------------------------------------------------------------------------------------
 
+def _in_interval(r):
+    """Of roots r (complex), those real (|imaginary part| < 1e-9) and in [0, 1] (to 1e-12)."""
+    return (np.abs(r.imag) < 1e-9) & (r.real >= -1e-12) & (r.real <= 1 + 1e-12)
+
+
 def _windows(t, i):
     """The first index of the 4 samples around each interval i (i-1 .. i+2, shifted at the ends)."""
     return np.minimum(np.maximum(i - 1, 0), t.size - 4)
@@ -1001,7 +1006,7 @@ def _cubic_roots(t, g, level: float = 0.0):
     comp[:, 1, 0] = comp[:, 2, 1] = 1
     comp[:, 0, :] = -c[:, 1:] / np.where(cubic, c[:, 0], 1)[:, None]
     r = np.linalg.eigvals(comp)
-    ok = (np.abs(r.imag) < 1e-9) & (r.real >= -1e-12) & (r.real <= 1 + 1e-12)
+    ok = _in_interval(r)
     rr = np.sort(np.where(ok, r.real, np.inf), axis=1)
     nr = ok.sum(axis=1)
     pick = rr[np.arange(idx.size), nr // 2]
@@ -1009,14 +1014,17 @@ def _cubic_roots(t, g, level: float = 0.0):
     out[use] = (a + (b - a) * pick)[use]
     for j in np.nonzero(~cubic)[0]:            # a degenerate cubic (a parabola or a line)
         r = np.roots(c[j])
-        r = np.sort(r[(np.abs(r.imag) < 1e-9) & (r.real >= -1e-12) & (r.real <= 1 + 1e-12)].real)
+        r = np.sort(r[_in_interval(r)].real)
         out[j] = a[j] + (b[j] - a[j]) * r[r.size // 2] if r.size else lin[j]
     return out, idx
 
 
 def _at(t, arr, tq):
-    """Cubic (4-point Lagrange) interpolation of the sampled arr at the times tq."""
+    """Cubic (4-point Lagrange) interpolation of the sampled arr at the times tq (linear with fewer
+    than 4 samples, as _cubic_roots)."""
     tq = np.asarray(tq, dtype=float)
+    if t.size < 4:       # (the windows would start before the first sample)
+        return np.interp(tq, t, arr)
     i = np.clip(np.searchsorted(t, tq) - 1, 0, t.size - 2)
     w = _windows(t, i)[:, None] + np.arange(4)
     return np.einsum("ij,ij->i", _cubic_weights(t[w], tq), arr[w])
