@@ -175,6 +175,11 @@ $(BUILD)/obj/tubes_lanes_run.o: $(BUILD)/obj/tubes_lanes.o
 $(BUILD)/obj/tubes_lanes_run.o: private FFLAGS_ALL += -cpp
 $(BUILD)/obj/tubes_lanes_run_v%.o: src/integrators/tubes_lanes_run.f90 $(BUILD)/obj/tubes_lanes_run.o
 	$(FC) $(FFLAGS_ALL) -fstack-arrays -cpp -DTUBES_LANES_V=$* -ffp-contract=off $(LANES_MARCH_$*) -c $< -o $@
+# The integrators' module procedures inlined within their file (-fPIC alone makes each a symbol
+# that could be replaced at link time, never inlined): the Taylor method's step size in the lanes'
+# loop, which then vectorises (src/integrators/tubes_step_size.inc).
+INTEGRATOR_OBJ := $(patsubst %.f90,$(BUILD)/obj/%.o,$(notdir $(wildcard src/integrators/*.f90)))
+$(INTEGRATOR_OBJ) $(LANES_RUN_V): private FFLAGS_ALL += -fno-semantic-interposition
 # tubes_par is the one preprocessed source: MPI or the one-rank identity (src/parallel/tubes_par.f90)
 $(BUILD)/obj/tubes_par.o: FFLAGS_ALL += -cpp $(MPI_DEF)
 $(BUILD)/obj/%.o: %.c $(wildcard include/*.h) $(CONFIG_H) $(REGISTRY_H) | $(BUILD)/obj

@@ -10,7 +10,7 @@ program test_taylor
   use tubes_check, only: check_close, check_rel, check_true, check_eq, finish
   use tubes_status, only: TUBES_OK, TUBES_EVENT, TUBES_EMODEL
   use tubes_test_models, only: X0_BALL, PI, oscillator_t
-  use tubes_taylor, only: taylor_t, isolate_roots, taylor_order, log_rho, taylor_rule
+  use tubes_taylor, only: taylor_t, isolate_roots, taylor_order, step_sizes, taylor_rule
   use tubes_dop853, only: dop853_t
   use tubes_integrator, only: integrator_t, propagate, plane_t, crossing_log_t
   use tubes_field, only: vector_field_t
@@ -23,7 +23,7 @@ program test_taylor
                                       0.0_wp, 0.0_wp, 0.0_wp]
 
   call roots()
-  call log_rho_choice()
+  call step_size_rule()
   call oscillator_order()
   call oscillator_events()
   call two_crossings_in_one_step()
@@ -35,32 +35,65 @@ program test_taylor
 
 contains
 
-  !> log_rho takes one logarithm where the exponents and first mantissa bits decide: its value is
-  !> min(-log(n1) r1, -log(n2) r2) computed directly, bit for bit, on random normal n1, n2 over
-  !> 600 binades and on near-ties (n2 with -log(n2) r2 within a few ulps to 1e-3 of -log(n1) r1,
-  !> where its brackets overlap), r1, r2 the step rule's (taylor_rule) of orders 2 to 30.
-  subroutine log_rho_choice()
-    real(wp) :: u(4), n1, n2, r(3), r2, want, got
-    integer :: k, p, bad
-    bad = 0
+  !> The step size (step_sizes) against Jorba and Zou's rule computed with libm,
+  !> h_JZ = exp(min(-log(n1)/(p - 1), -log(n2)/p) - 2 - 0.7/(p - 1)): never above it and at most
+  !> the factor 2^(-1/128 - log2(1 + 1/128)/(p - 1)) below it (the docs' bound), on random normal
+  !> n1, n2 over 600 binades and orders 2 to 30, also where both terms nearly tie, one call of 8
+  !> and eight calls of 1 the same bits; a zero norm sets no limit (h > 1e300 with both zero, the
+  !> other's limit with one); an infinite or NaN norm gives h = 0.
+  subroutine step_size_rule()
+    use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_positive_inf, ieee_quiet_nan
+    real(wp) :: u(4), n1(8), n2(8), r1(8), r2(8), c(8), h(8), h1(1), r(3), want, lo, worst_lo, worst_hi
+    integer :: k, l, p(8), above, below, differ
+    above = 0
+    below = 0
+    differ = 0
+    worst_lo = 1
+    worst_hi = 0
     call random_seed(put=[(36 + k, k = 1, 64)])
-    do k = 1, 400000
-      call random_number(u)
-      p = 2 + int(29*u(1))
-      r = taylor_rule(p)
-      r2 = r(2)
-      n1 = (0.5_wp + u(2))*2.0_wp**int(600*u(3) - 300)
-      if (mod(k, 2) == 0) then               ! a near-tie: n2 from n1, moved by 1e-16 .. 1e-3
-        n2 = exp(log(n1)*r(1)/r2)*(1 + (u(4) - 0.5_wp)*10.0_wp**(-16 + 13*u(2)))
-      else
-        n2 = (0.5_wp + u(4))*2.0_wp**int(600*u(2) - 300)
-      end if
-      want = min(-log(n1)*r(1), -log(n2)*r2)
-      got = log_rho(n1, n2, r(1), r2)
-      if (got /= want) bad = bad + 1
+    do k = 1, 50000
+      do l = 1, 8
+        call random_number(u)
+        p(l) = 2 + int(29*u(1))
+        r = taylor_rule(p(l))
+        r1(l) = r(1)
+        r2(l) = r(2)
+        c(l) = r(3)
+        n1(l) = (0.5_wp + u(2))*2.0_wp**int(600*u(3) - 300)
+        if (mod(l, 2) == 0) then               ! a near-tie: n2 from n1, moved by 1e-16 .. 1e-3
+          n2(l) = exp(log(n1(l))*r1(l)/r2(l))*(1 + (u(4) - 0.5_wp)*10.0_wp**(-16 + 13*u(2)))
+        else
+          n2(l) = (0.5_wp + u(4))*2.0_wp**int(600*u(2) - 300)
+        end if
+      end do
+      call step_sizes(8, n1, n2, r1, r2, c, h)
+      do l = 1, 8
+        want = exp(min(-log(n1(l))*r1(l), -log(n2(l))*r2(l)) - 2 - 0.7_wp/(p(l) - 1))
+        if (.not. (want > 1.0e-290_wp .and. want < 1.0e290_wp)) cycle
+        lo = 2.0_wp**(-1.0_wp/128 - log(1 + 1.0_wp/128)/log(2.0_wp)*r1(l))
+        if (h(l) > want*(1 + 1.0e-13_wp)) above = above + 1
+        if (h(l) < want*lo*(1 - 1.0e-13_wp)) below = below + 1
+        worst_lo = min(worst_lo, h(l)/want)
+        worst_hi = max(worst_hi, h(l)/want)
+        call step_sizes(1, n1(l:l), n2(l:l), r1(l:l), r2(l:l), c(l:l), h1)
+        if (h1(1) /= h(l)) differ = differ + 1
+      end do
     end do
-    call check_eq('log_rho: min(-log(n1) r1, -log(n2) r2) bit for bit on 400000 pairs (half near-ties)', bad, 0)
-  end subroutine log_rho_choice
+    print '(a, f8.5, a, f8.5, a)', '  step_sizes / Jorba-Zou in [', worst_lo, ', ', worst_hi, ']'
+    call check_eq('step_sizes: never above Jorba and Zou''s h (400000 pairs, orders 2..30)', above, 0)
+    call check_eq('step_sizes: never below it by more than 2^(-1/128 - log2(1 + 1/128)/(p - 1))', below, 0)
+    call check_eq('step_sizes: nl = 8 and nl = 1 the same bits', differ, 0)
+    r = taylor_rule(11)
+    call step_sizes(1, [0.0_wp], [0.0_wp], r(1:1), r(2:2), r(3:3), h1)
+    call check_true('step_sizes: zero norms set no limit', h1(1) > 1.0e300_wp .and. h1(1) <= huge(1.0_wp))
+    call step_sizes(1, [0.0_wp], [1.0e-20_wp], r(1:1), r(2:2), r(3:3), h1)
+    want = exp(-log(1.0e-20_wp)*r(2) - 2 - 0.7_wp/10)
+    call check_true('step_sizes: one zero norm, the other''s limit', h1(1) <= want .and. h1(1) > 0.99_wp*want)
+    call step_sizes(1, [1.0_wp], [ieee_value(1.0_wp, ieee_positive_inf)], r(1:1), r(2:2), r(3:3), h1)
+    call check_true('step_sizes: an infinite norm gives h = 0', h1(1) == 0)
+    call step_sizes(1, [ieee_value(1.0_wp, ieee_quiet_nan)], [1.0_wp], r(1:1), r(2:2), r(3:3), h1)
+    call check_true('step_sizes: a NaN norm gives h = 0', h1(1) == 0)
+  end subroutine step_size_rule
 
   !> P(s) = (s - 0.1)(s - 0.15)(s - 0.7)(s + 0.3)(s - 2): three roots in (0, 1), each alone in an
   !> interval of the samples (P changes sign across it, and nowhere else); backwards, the roots

@@ -20,7 +20,7 @@
 #endif
 submodule (tubes_lanes) TUBES_LANES_SUB
   use tubes_integrator, only: prop_begin
-  use tubes_taylor, only: kernel_t, jet_kernel, taylor_prepare, taylor_rule, taylor_order, log_rho, TAYLOR_MAX_ORDER
+  use tubes_taylor, only: kernel_t, jet_kernel, taylor_prepare, taylor_rule, taylor_order, TAYLOR_MAX_ORDER
   use tubes_status, only: TUBES_EMAXSTEPS, TUBES_EMODEL, TUBES_ESTEP
   implicit none
 
@@ -34,9 +34,9 @@ contains
   !> integrator's fields that a step reads and writes (t, the tolerances, the order and its rule,
   !> the norms, the step's size and end, the counters) and its state live in arrays of W (xs(l, :):
   !> lane l's state), and the step's start (|x|_inf, relative or absolute, 1/|x|, direction, what
-  !> is left), the coefficients' norms, Horner's scheme and the refusal checks are loops over the
-  !> lanes; only the order's logarithm (when the tolerance changes), the step size's log and exp
-  !> (libm's scalar functions, as the lone integrator's) and a lane's end run lane by lane. Every
+  !> is left), the coefficients' norms, the step size (step_sizes: no libm), Horner's scheme and the
+  !> refusal checks are loops over the lanes; only the order's logarithm (when the tolerance
+  !> changes) and a lane's end run lane by lane. Every
   !> lane's arithmetic is taylor_begin's, taylor_size's, horner's and taylor_advance's, bit for
   !> bit. The lane's taylor_t is written back (store) where its own code takes over: at the item's
   !> end, for an event or an observer (the dense output), and for a step the lanes' kernel cannot
@@ -64,7 +64,7 @@ contains
     real(wp), allocatable :: ew(:, :), ec(:), eaf(:), clr(:)
     logical, allocatable :: go(:)
     integer, allocatable :: ord(:)
-    real(wp) :: eps, lrho, ru(3)
+    real(wp) :: eps, ru(3)
     integer :: nxt, l, m, p, s, k, st, kslot, nn, st1
     logical :: done
     character(512) :: msg
@@ -165,25 +165,11 @@ contains
           end do
           cycle
         end if
-        ! the steps' sizes (taylor_size): the norms of the last two orders over the lanes, each
-        ! lane's log and exp, then the rest over the lanes again
+        ! the steps' sizes (taylor_size): the norms of the last two orders, the rule's size
+        ! (step_sizes: a vector loop) and the rest over the lanes
         call lanes_norms(tcb, nl, s, nn, rxn, relative*grp, n1, n2)
-        do l = 1, nl
-          h(l) = 0
-          if (.not. grp(l) > 0) cycle
-          if (tiny(1.0_wp) <= min(n1(l), n2(l)) .and. max(n1(l), n2(l)) <= huge(1.0_wp)) then
-            lrho = log_rho(n1(l), n2(l), r1(l), r2(l))
-          else
-            lrho = huge(1.0_wp)
-            if (n1(l) > 0) lrho = -log(n1(l))*r1(l)
-            if (n2(l) > 0) lrho = min(lrho, -log(n2(l))*r2(l))
-          end if
-          if (lrho < log(huge(1.0_wp))) then
-            h(l) = exp(lrho + r3(l))
-          else
-            h(l) = huge(1.0_wp)
-          end if
-        end do
+        call step_sizes(nl, n1, n2, r1, r2, r3, h)
+        h = h*grp
         call lanes_sizes(nl, h, hmax, left, slack, t, dir, grp, lst, bad, hn, ds)
         ! the new states (Horner's scheme) and the model's checks (taylor_advance), all lanes
         if (size(xb, 2) < nn) then
@@ -368,6 +354,9 @@ contains
       nps(l) = 0
       maxst(l) = 1
       pl(l) = 0
+      r1(l) = 1                                 ! (the step size is computed for every lane)
+      r2(l) = 0.5_wp
+      r3(l) = -3
       if (size(ew, 2) > 0) ew(l, :) = 0
       ec(l) = 0
       eaf(l) = 0
@@ -737,4 +726,6 @@ contains
       end do
     end do
   end subroutine horner_lanes
+  include 'tubes_step_size.inc'
+
 end submodule TUBES_LANES_SUB

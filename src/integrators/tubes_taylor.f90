@@ -66,7 +66,7 @@ module tubes_taylor
     integer :: p_last = 0                  !! and that order
     logical :: relative = .false.          !! the step's error control is relative
     integer :: ik = 0                      !! the kernel of order p in kernels (0: none yet)
-    real(wp) :: rule(3) = 0                !! 1/(p - 1), 1/p, -2 - 0.7/(p - 1) of order p
+    real(wp) :: rule(3) = 0                !! 1/(p - 1), 1/p, (-2 - 0.7/(p - 1))/ln 2 of order p
     real(wp) :: rxn = 0                    !! 1/xn (relative control)
     real(wp) :: dir = 1                    !! the step's direction, sign(tmax - t)
     real(wp) :: left = 0                   !! |tmax - t| at the step's start [time]
@@ -103,7 +103,7 @@ module tubes_taylor
   end type taylor_record_t
 
   public :: taylor_order, isolate_roots, taylor_check, taylor_begin, taylor_end, taylor_size, taylor_advance, &
-            jet_kernel, taylor_prepare, taylor_rule, log_rho
+            jet_kernel, taylor_prepare, taylor_rule, step_sizes
 
 contains
 
@@ -301,11 +301,11 @@ contains
     call taylor_end(self, x, tmax, stat)
   end subroutine taylor_step
 
-  !> The step rule's constants of order p: 1/(p - 1), 1/p, -2 - 0.7/(p - 1) (taylor_size).
+  !> The step rule's constants of order p: 1/(p - 1), 1/p, (-2 - 0.7/(p - 1))/ln 2 (step_size).
   pure function taylor_rule(p) result(r)
     integer, intent(in) :: p
     real(wp) :: r(3)
-    r = [1.0_wp/(p - 1), 1.0_wp/p, -2 - 0.7_wp/(p - 1)]
+    r = [1.0_wp/(p - 1), 1.0_wp/p, (-2 - 0.7_wp/(p - 1))/log(2.0_wp)]
   end function taylor_rule
 
   !> Set up for a state of size n if not yet (a new model, taylor_init): the model's formula, its
@@ -422,7 +422,7 @@ contains
     integer, intent(in) :: ld
     logical, intent(out) :: last
     integer, intent(out) :: stat
-    real(wp) :: n1, n2, lrho, h, hmin
+    real(wp) :: n1(1), n2(1), h, hv(1), hmin
     integer :: p, s, i
     stat = TUBES_OK
     p = self%p
@@ -437,20 +437,8 @@ contains
       n1 = n1*self%rxn
       n2 = n2*self%rxn
     end if
-    ! rho = min(n1^(-1/(p-1)), n2^(-1/p)) and h = rho exp(-2 - 0.7/(p-1)), in logarithms (on most
-    ! steps one log and an exp, log_rho, instead of two powers and an exp)
-    if (tiny(1.0_wp) <= min(n1, n2) .and. max(n1, n2) <= huge(1.0_wp)) then
-      lrho = log_rho(n1, n2, self%rule(1), self%rule(2))
-    else
-      lrho = huge(1.0_wp)
-      if (n1 > 0) lrho = -log(n1)*self%rule(1)
-      if (n2 > 0) lrho = min(lrho, -log(n2)*self%rule(2))
-    end if
-    if (lrho < log(huge(1.0_wp))) then
-      h = exp(lrho + self%rule(3))
-    else
-      h = huge(1.0_wp)                              ! a polynomial solution: no limit
-    end if
+    call step_sizes(1, n1, n2, self%rule(1:1), self%rule(2:2), self%rule(3:3), hv)   ! rho e^(-2-0.7/(p-1))
+    h = hv(1)
     if (self%h > 0) h = min(h, self%h)              ! &integrator h: the largest step
     ! the last step: it reaches tmax, or would leave less than 64 ulps of it (no sliver of a step)
     last = h >= self%left - self%slack
@@ -494,40 +482,7 @@ contains
     self%nsteps = self%nsteps + 1
   end subroutine taylor_advance
 
-  !> min(-log(n1) r1, -log(n2) r2) for normal n1, n2 > 0 and r1, r2 > 0, with one logarithm where
-  !> the exponents and the first four bits of the mantissas alone decide which is the smaller (for
-  !> n = f 2^e, f in [1/2 + j/32, 1/2 + (j + 1)/32), j = 0 .. 15 those bits, log n lies in
-  !> [e ln 2 + log(1/2 + j/32), e ln 2 + log(1/2 + (j + 1)/32)]): the same value, bit for bit, as
-  !> taking both and the minimum. (With the exponents alone, half the steps of the benchmark's
-  !> ensembles took both logarithms: the two estimates of the radius are close.)
-  pure real(wp) function log_rho(n1, n2, r1, r2) result(l)
-    use, intrinsic :: iso_fortran_env, only: int64
-    real(wp), intent(in) :: n1, n2, r1, r2
-    real(wp), parameter :: LN2 = 0.693147180559945309417232121458_wp
-    integer :: j
-    real(wp), parameter :: LOGF(0:16) = log([(0.5_wp + j/32.0_wp, j = 0, 16)])   ! log f at the bounds
-    real(wp) :: a_lo, a_hi, b_lo, b_hi, gap
-    integer(int64) :: b
-    integer :: e1, e2, j1, j2
-    b = transfer(n1, 0_int64)
-    e1 = int(ishft(b, -52)) - 1022                      ! frexp's exponent of a normal n > 0
-    j1 = int(iand(ishft(b, -48), 15_int64))             ! the mantissa's first four bits
-    b = transfer(n2, 0_int64)
-    e2 = int(ishft(b, -52)) - 1022
-    j2 = int(iand(ishft(b, -48), 15_int64))
-    a_lo = -(e1*LN2 + LOGF(j1 + 1))*r1                  ! -log(n1) r1 in [a_lo, a_hi]
-    a_hi = -(e1*LN2 + LOGF(j1))*r1
-    b_lo = -(e2*LN2 + LOGF(j2 + 1))*r2
-    b_hi = -(e2*LN2 + LOGF(j2))*r2
-    gap = 1.0e-9_wp*(abs(a_lo) + abs(b_lo) + 1)   ! far above the rounding of the bounds and logs
-    if (a_hi + gap < b_lo) then
-      l = -log(n1)*r1
-    else if (b_hi + gap < a_lo) then
-      l = -log(n2)*r2
-    else
-      l = min(-log(n1)*r1, -log(n2)*r2)
-    end if
-  end function log_rho
+  include 'tubes_step_size.inc'
 
   !> x = sum_k tc(1, k, :) ds^k by Horner's scheme, four components at a time in four independent
   !> chains (a chain's multiply-add waits for its last one: four in flight hide that latency);
