@@ -192,6 +192,8 @@ contains
             end if
             if (.not. allocated(lane(l)%ig%tc)) allocate (lane(l)%ig%tc(nn*s))
             call lane_coefficients(tcb, nl, l, nn*s, lane(l)%ig%tc)
+            lane(l)%ig%x_end(1:nn) = xs(l, :)     ! the new state: its polynomial at hs (horner_lanes)
+            lane(l)%ig%end_ok = .true.
             st1 = TUBES_OK
             k = lane(l)%item
             if (eaf(l) > 0) then
@@ -328,6 +330,7 @@ contains
         ig%nsteps = nsteps(l)
         ig%nfev = nfev(l)
         ig%fresh = fresh(l)
+        ig%end_ok = .false.                     ! (its coefficients are not copied here)
       end associate
       lane(l)%x = xs(l, :)
       lane(l)%ps%n = nps(l)

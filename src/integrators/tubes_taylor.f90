@@ -78,6 +78,8 @@ module tubes_taylor
     integer :: flags = 0                   !! include/tubes.h TUBES_JET_* of the field
     type(kernel_t) :: kernels(2)           !! the kernels of the (at most two) orders in use
     real(wp), allocatable :: tc(:)         !! the last step's coefficients at t_old
+    real(wp), allocatable :: x_end(:)      !! the last step's new state, tc's polynomial at hs
+    logical :: end_ok = .false.            !! x_end is that of tc, t_old and hs (taylor_interp)
     real(wp), allocatable :: w(:)          !! the kernel's scratch
     character(512) :: msg = ''             !! why the last kernel could not be had
   contains
@@ -273,6 +275,9 @@ contains
     self%nq = min(js%nq, n)
     self%q_bound = js%q_bound
     self%n = n
+    if (allocated(self%x_end)) deallocate (self%x_end)
+    allocate (self%x_end(n))
+    self%end_ok = .false.
   end subroutine taylor_setup
 
   !> A copy of the model and a new integration (integrator_t%init); the model's formula is read
@@ -283,6 +288,7 @@ contains
     real(wp), intent(in) :: t0
     call integrator_init(self, f, t0)
     self%n = -1
+    self%end_ok = .false.
   end subroutine taylor_init
 
   !> One step from (t, x) towards tmax (never past it).
@@ -334,6 +340,7 @@ contains
     call taylor_prepare(self, size(x), stat)
     if (stat /= TUBES_OK) return
     self%fresh = .false.
+    self%end_ok = .false.            ! (the coefficients are about to change)
     self%xn = maxval(abs(x))
     self%relative = self%rtol*self%xn > self%atol
     eps = merge(self%rtol, self%atol, self%relative)
@@ -393,6 +400,10 @@ contains
     real(wp), intent(in) :: tmax
     integer, intent(out) :: stat
     call taylor_end_from(self, self%tc, 1, x, tmax, stat)
+    if (stat == TUBES_OK) then       ! the new state, for an observer's taylor_interp at t
+      self%x_end(1:self%n) = x
+      self%end_ok = .true.
+    end if
   end subroutine taylor_end
 
   !> taylor_end with the step's coefficients in tc, coefficient k of component i at
@@ -524,7 +535,15 @@ contains
     class(taylor_t), intent(inout) :: self
     real(wp), intent(in) :: s
     real(wp), intent(out) :: xs(:)
-    call horner(self%tc, 1, self%p + 1, self%n, self%p, s - self%t_old, xs)
+    real(wp) :: ds
+    ds = s - self%t_old
+    if (self%end_ok) then            ! at the step's end (an observer, every step): its new state,
+      if (ds == self%hs) then        ! the same polynomial at the same point, computed once
+        xs = self%x_end(1:self%n)
+        return
+      end if
+    end if
+    call horner(self%tc, 1, self%p + 1, self%n, self%p, ds, xs)
   end subroutine taylor_interp
 
   !> Interior sample times of the last step for an event's scan: for an event affine in the state
