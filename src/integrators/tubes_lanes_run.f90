@@ -57,7 +57,7 @@ contains
     real(wp), allocatable :: relative(:)           ! (masks over the lanes: 1 or 0, as reals: they vectorise)
     logical, allocatable :: fresh(:), solo(:), rich(:)
     ! the step's temporaries
-    real(wp), allocatable :: n1(:), n2(:), h(:), hn(:), ds(:)
+    real(wp), allocatable :: n1(:), n2(:), h(:), hn(:), ds(:), tnx(:)
     real(wp), allocatable :: fin(:), grp(:), lst(:), bad(:), ok(:)
     ! the lanes' events where affine (g = ew(l, :) . x - ec(l); eaf(l) = 1), and the step's
     ! event_clear of each (clr(l) = 1: no root in the step) for all lanes at once
@@ -72,7 +72,7 @@ contains
     allocate (t(nl), t_old(nl), tend(nl), hs(nl), hmax(nl), rtol(nl), atol(nl), xn(nl), rxn(nl), dir(nl), &
               left(nl), slack(nl), eps_last(nl), q_bound(nl), pdir(nl), r1(nl), r2(nl), r3(nl), pl(nl), &
               p_last(nl), ford(nl), nq(nl), nsteps(nl), nfev(nl), nps(nl), maxst(nl), relative(nl), &
-              fresh(nl), solo(nl), rich(nl), n1(nl), n2(nl), h(nl), hn(nl), ds(nl), go(nl), &
+              fresh(nl), solo(nl), rich(nl), n1(nl), n2(nl), h(nl), hn(nl), ds(nl), tnx(nl), go(nl), &
               fin(nl), lst(nl), bad(nl), ok(nl))
     nn = -1                                     ! the state's size (the first item's)
     do l = 1, nl
@@ -170,14 +170,14 @@ contains
         call lanes_norms(tcb, nl, s, nn, rxn, relative*grp, n1, n2)
         call step_sizes(nl, n1, n2, r1, r2, r3, h)
         h = h*grp
-        call lanes_sizes(nl, h, hmax, left, slack, t, dir, grp, lst, bad, hn, ds)
+        call lanes_sizes(nl, h, hmax, left, slack, t, dir, grp, lst, bad, hn, ds, tnx)
         ! the new states (Horner's scheme) and the model's checks (taylor_advance), all lanes
         if (size(xb, 2) < nn) then
           deallocate (xb)
           allocate (xb(nl, nn))
         end if
         call horner_lanes(tcb, nl, s, nn, p, ds, xb)
-        call lanes_advance(nl, nn, xb, nq, q_bound, grp, bad, lst, tend, hn, t, t_old, hs, nsteps, xs, ok)
+        call lanes_advance(nl, nn, xb, nq, q_bound, grp, bad, lst, tend, hn, tnx, t, t_old, hs, nsteps, xs, ok)
         if (any(eaf*ok > 0)) call lanes_event_clear(tcb, nl, s, nn, ew, ec, t, t_old, eaf*ok, clr)
         ! each lane's end of step: its failure, its event and observer, its end
         do l = 1, nl
@@ -582,13 +582,13 @@ contains
   !> The rest of taylor_size for the lanes, from each lane's h (the series' step): at most hmax
   !> (if > 0), the last step lst (h = left), bad: too small to be taken, the signed step hn, and
   !> ds (hn for the lanes in grp that take it, else 0) for Horner's scheme.
-  pure subroutine lanes_sizes(nl, h, hmax, left, slack, t, dir, grp, lst, bad, hn, ds)
+  pure subroutine lanes_sizes(nl, h, hmax, left, slack, t, dir, grp, lst, bad, hn, ds, tnx)
     integer, intent(in) :: nl
     real(wp), intent(in) :: h(nl), hmax(nl), left(nl), slack(nl), t(nl), dir(nl), grp(nl)
-    real(wp), intent(out) :: lst(nl), bad(nl), hn(nl), ds(nl)
-    real(wp) :: a, b, c, hm, hh, hmin, ls, bd, g
+    real(wp), intent(out) :: lst(nl), bad(nl), hn(nl), ds(nl), tnx(nl)
+    real(wp) :: a, b, c, hm, hh, hmin, ls, bd, g, tn, a2
     integer :: l
-    !$omp simd private(a, b, c, hm, hh, hmin, ls, bd, g)
+    !$omp simd private(a, b, c, hm, hh, hmin, ls, bd, g, tn, a2)
     do l = 1, nl
       a = h(l)
       b = hmax(l)
@@ -602,6 +602,10 @@ contains
       lst(l) = ls
       bad(l) = bd
       a = dir(l)*hh
+      tn = t(l) + a                            ! the step on the time grid (taylor_size)
+      a2 = tn - t(l)
+      a = merge(a, a2, ls > 0)
+      tnx(l) = tn
       hn(l) = a
       g = grp(l)*(1 - bd)
       ds(l) = merge(a, 0.0_wp, g > 0)
@@ -611,9 +615,9 @@ contains
   !> taylor_advance for the lanes in grp that are not bad: the step taken (ok = 1) if the new
   !> state x(l, :) is finite and |x(l, 1:nq(l))|_1 <= q_bound(l) (summed in the order of the
   !> components, as sum's): xs, t (tend on the last step), nsteps; hs and t_old as taylor_size's.
-  pure subroutine lanes_advance(nl, n, x, nq, q_bound, grp, bad, lst, tend, hn, t, t_old, hs, nsteps, xs, ok)
+  pure subroutine lanes_advance(nl, n, x, nq, q_bound, grp, bad, lst, tend, hn, tnx, t, t_old, hs, nsteps, xs, ok)
     integer, intent(in) :: nl, n, nq(nl)
-    real(wp), intent(in) :: x(nl, n), q_bound(nl), tend(nl), hn(nl), grp(nl), bad(nl), lst(nl)
+    real(wp), intent(in) :: x(nl, n), q_bound(nl), tend(nl), hn(nl), tnx(nl), grp(nl), bad(nl), lst(nl)
     real(wp), intent(inout) :: t(nl), t_old(nl), hs(nl), xs(nl, n)
     integer(i8), intent(inout) :: nsteps(nl)
     real(wp), intent(out) :: ok(nl)
@@ -645,7 +649,7 @@ contains
       b = t_old(l)
       t_old(l) = merge(tl, b, g > 0)
       te = tend(l)
-      tn = tl + a
+      tn = tnx(l)
       tn = merge(te, tn, lst(l) > 0)
       t(l) = merge(tn, tl, ok(l) > 0)
     end do

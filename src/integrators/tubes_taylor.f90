@@ -61,6 +61,7 @@ module tubes_taylor
     integer :: p = 0                       !! order of the last step
     integer :: n = 0                       !! state dimension
     real(wp) :: hs = 0                     !! signed size of the last step [time]
+    real(wp) :: t_next = 0                 !! the step's end, t + hs exactly (taylor_size)
     real(wp) :: xn = 0                     !! |x|_inf at the step's start
     real(wp) :: eps_last = -1              !! the tolerance of the last order chosen
     integer :: p_last = 0                  !! and that order
@@ -459,7 +460,14 @@ contains
       stat = TUBES_ESTEP
       return
     end if
-    self%hs = self%dir*h
+    ! the step on the time grid: hs = fl(t + dir h) - t, so that the new state, the polynomial at
+    ! hs, is also its value at the new time t_next (taylor_interp there: the same point)
+    if (last) then
+      self%hs = self%dir*h
+    else
+      self%t_next = self%t + self%dir*h
+      self%hs = self%t_next - self%t
+    end if
     self%t_old = self%t
   end subroutine taylor_size
 
@@ -488,7 +496,7 @@ contains
     if (last) then
       self%t = tmax
     else
-      self%t = self%t + self%hs
+      self%t = self%t_next
     end if
     self%nsteps = self%nsteps + 1
   end subroutine taylor_advance
