@@ -19,6 +19,8 @@ if [ -f bench/bench_stability.py ]; then .venv/bin/python bench/bench_stability.
 # tables in docs/benchmarks.md "Ensembles of 64 distinct starts" are copied from it by hand)
 .venv/bin/python bench/bench_lanes.py 7
 OMP_NUM_THREADS=${OMP_NUM_THREADS:-2} .venv/bin/python bench/bench_paper_method.py
+# the Monte Carlo against the commit issue 36 was filed on (built once in build/bench-base)
+.venv/bin/python bench/bench_mc_base.py
 # the MPI flavour's scaling (docs/cluster.md), when an MPI compiler wrapper is installed
 if command -v mpifort >/dev/null 2>&1; then
   make --no-print-directory MPI=1 build/mpi/bin/tubes
