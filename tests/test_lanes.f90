@@ -1,5 +1,10 @@
 !> Test items for test_lanes: trajectories of the ball from a list of states, each to a time of
-!> its own, with a section (non-terminal, logged) and, for every third item, a terminal one.
+!> its own, with a section (non-terminal, logged) and, for every third item, a terminal one; every
+!> second item also watched by the Monte Carlo's gate (a line with a bounded segment: the
+!> integration ends where it passes the segment, crossings beside it counted), whose steps the
+!> lanes leave out where it is quiet (observer_t%quiet). Item 10's section is a plane it never
+!> reaches (y = -100 cm): it crosses the gate's line beside the segment, back, and then within
+!> it with every step between on the quiet path.
 module test_lanes_jobs
   use tubes_kinds, only: wp, i8
   use tubes_hamiltonian, only: hamiltonian_t
@@ -8,12 +13,14 @@ module test_lanes_jobs
   use tubes_lanes, only: lane_t, lane_jobs_t
   use tubes_ensemble, only: ens_out_t
   use tubes_status, only: TUBES_OK
+  use tubes_transport, only: gate_t
   implicit none
   private
   public :: traj_jobs_t
 
   integer, parameter, public :: MAXX = 50           !! crossing times kept per item
-  integer, parameter, public :: NR = 4 + 2 + MAXX   !! an item's reals: final state, time, crossings, their times
+  !> an item's reals: final state, time, crossings, their times, the gate passed (1) and crossings beside it
+  integer, parameter, public :: NR = 4 + 2 + MAXX + 2
 
   type, extends(lane_jobs_t) :: traj_jobs_t
     class(hamiltonian_t), allocatable :: model
@@ -37,6 +44,7 @@ contains
     type(ens_out_t), intent(inout) :: out
     type(taylor_t) :: ig
     type(crossing_log_t) :: log
+    type(gate_t) :: gate
     real(wp) :: x(4)
     integer :: stat
     call ig%init(self%model, 0.0_wp)
@@ -45,14 +53,30 @@ contains
     if (self%budget > 0 .and. mod(k, 4) == 2) ig%max_steps = self%budget
     x = self%x0(:, k)
     log%max_crossings = MAXX
-    if (self%sections) then
-      call propagate(ig, x, self%tend(k), stat, event=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0), &
+    gate = a_gate()
+    if (self%sections .and. mod(k, 2) == 0) then
+      call propagate(ig, x, self%tend(k), stat, event=plane_t(k=2, c=merge(-100.0_wp, 9.0_wp, k == 10), terminal=mod(k, 3) == 0), &
+                     crossings=log, observer=gate)
+    else if (self%sections) then
+      call propagate(ig, x, self%tend(k), stat, event=plane_t(k=2, c=merge(-100.0_wp, 9.0_wp, k == 10), terminal=mod(k, 3) == 0), &
                      crossings=log)
     else
       call propagate(ig, x, self%tend(k), stat)
     end if
-    call put(out, k, stat, x, ig%t, log)
+    call put(out, k, stat, x, ig%t, log, gate)
   end subroutine traj_item
+
+  !> The gate: the line y = 5 cm passed downwards, its segment x in [6.6, 7] cm (the test's
+  !> trajectories cross the line downwards at x = 6.94 (item 2), 6.98 (4), 6.51 then 6.81 (10),
+  !> ...: both within the segment and beside it).
+  type(gate_t) function a_gate() result(g)
+    g%spec%origin = [0.0_wp, 0.0_wp]
+    g%spec%normal = [0.0_wp, -1.0_wp]
+    g%spec%dist = -5.0_wp
+    g%spec%tangent = [1.0_wp, 0.0_wp]
+    g%spec%seg_lo = 6.6_wp
+    g%spec%seg_hi = 7.0_wp
+  end function a_gate
 
   subroutine traj_start(self, k, lane, stat)
     class(traj_jobs_t), intent(inout) :: self
@@ -69,7 +93,8 @@ contains
     if (self%budget > 0 .and. mod(k, 4) == 2) lane%ig%max_steps = self%budget
     lane%tend = self%tend(k)
     if (.not. self%sections) return
-    allocate (lane%event, source=plane_t(k=2, c=9.0_wp, terminal=mod(k, 3) == 0))
+    allocate (lane%event, source=plane_t(k=2, c=merge(-100.0_wp, 9.0_wp, k == 10), terminal=mod(k, 3) == 0))
+    if (mod(k, 2) == 0) allocate (lane%observer, source=a_gate())
     lane%use_log = .true.
     lane%log%max_crossings = MAXX
   end subroutine traj_start
@@ -79,15 +104,23 @@ contains
     integer, intent(in) :: k
     type(lane_t), intent(inout) :: lane
     type(ens_out_t), intent(inout) :: out
-    call put(out, k, lane%stat, lane%x, lane%ig%t, lane%log)
+    if (allocated(lane%observer)) then
+      select type (g => lane%observer)
+      type is (gate_t)
+        call put(out, k, lane%stat, lane%x, lane%ig%t, lane%log, g)
+      end select
+    else
+      call put(out, k, lane%stat, lane%x, lane%ig%t, lane%log, a_gate())
+    end if
   end subroutine traj_finish
 
-  !> Item k's outputs: its status, final state and time, and its crossings.
-  subroutine put(out, k, stat, x, t, log)
+  !> Item k's outputs: its status, final state and time, its crossings, and its gate's findings.
+  subroutine put(out, k, stat, x, t, log, gate)
     type(ens_out_t), intent(inout) :: out
     integer, intent(in) :: k, stat
     real(wp), intent(in) :: x(4), t
     type(crossing_log_t), intent(in) :: log
+    type(gate_t), intent(in) :: gate
     integer :: n
     n = min(log%n, MAXX)
     out%st(k) = stat
@@ -96,6 +129,8 @@ contains
     out%r(5, k) = t
     out%r(6, k) = log%n
     out%r(7:6 + n, k) = log%t(1:n)
+    out%r(NR - 1, k) = merge(1, 0, gate%passed)
+    out%r(NR, k) = gate%outside
   end subroutine put
 end module test_lanes_jobs
 
@@ -137,6 +172,10 @@ program test_lanes
   reordered%st = TUBES_OK
   call run_lanes(a, perm, reordered)
   call check_true('lanes: the same numbers in another order of the items', same(in_order, reordered))
+  print '(a, i0, a, i0)', '  gates passed: ', nint(sum(in_order%r(NR - 1, :))), ', crossings beside them: ', &
+    nint(sum(in_order%r(NR, :)))
+  call check_true('lanes: some gates passed, some crossed beside their segment (both paths of gate_t)', &
+                  sum(in_order%r(NR - 1, :)) > 0 .and. sum(in_order%r(NR, :)) > 0)
   call ens_run(a, N, chunked, NR, 0, chunk=3, threads=2)
   call check_true('lanes: the same numbers in chunks of 3 over 2 threads', same(in_order, chunked))
   a%lanes = .false.

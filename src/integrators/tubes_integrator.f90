@@ -133,6 +133,7 @@ module tubes_integrator
     logical :: stop_now = .false.   !! set by on_step to end propagate with TUBES_OK (reset before each call)
   contains
     procedure(on_step_i), deferred :: on_step
+    procedure :: quiet => observer_quiet
   end type observer_t
 
   abstract interface
@@ -527,6 +528,17 @@ contains
       done = .true.
     end if
   end subroutine prop_after_step
+
+  !> Whether the step that ends at (t, x) needs nothing of on_step but what quiet has done (the
+  !> observer's own state updated as on_step would, for a step whose end is all it looks at):
+  !> then the lanes' driver leaves out on_step and the step's dense output (tubes_lanes). On
+  !> .false. nothing is changed. The default: .false. (on_step every step).
+  logical function observer_quiet(self, t, x) result(q)
+    class(observer_t), intent(inout) :: self
+    real(wp), intent(in) :: t
+    real(wp), intent(in) :: x(:)
+    q = .false.
+  end function observer_quiet
 
   !> All crossings of `event` in the last accepted step [t_old, t], in the order of
   !> integration. g is sampled at the step ends (g0, g1) and at nsub equally spaced interior

@@ -185,6 +185,12 @@ contains
           if (.not. ok(l) > 0) then
             call store(l)
             call finish(l, merge(TUBES_ESTEP, TUBES_EMODEL, bad(l) > 0))
+          else if (quiet(l)) then                 ! nothing for its event and observer
+            nps(l) = nps(l) + 1
+            if (.not. pdir(l)*(tend(l) - t(l)) > 0) then
+              call store(l)
+              call finish(l, TUBES_OK)
+            end if
           else if (rich(l)) then                  ! its taylor_t with the step's dense output
             call store(l)
             if (allocated(lane(l)%ig%tc)) then
@@ -244,6 +250,30 @@ contains
       lane(l)%active = .false.
       call benign(l)
     end subroutine fill
+
+    !> A taken step of lane l (with an event or observer) that needs neither: what
+    !> prop_after_step would conclude without the step's dense output. Its event (affine, so the
+    !> step's clr(l) is known) has no root in the step and no sign change between its ends (g
+    !> then kept as prop_after_step keeps it), and its observer is quiet (observer_t%quiet) at the
+    !> step's end. .false.: nothing changed, the lane takes the full path.
+    logical function quiet(l) result(q)
+      integer, intent(in) :: l
+      real(wp) :: g0, g1
+      q = .false.
+      if (.not. rich(l)) return
+      if (allocated(lane(l)%event)) then
+        if (.not. (eaf(l) > 0 .and. clr(l) > 0)) return
+        g0 = lane(l)%ps%g0
+        g1 = lane(l)%event%g(t(l), xs(l, :))
+        if (.not. (abs(g0) <= huge(1.0_wp) .and. abs(g1) <= huge(1.0_wp))) return
+        if ((g0 < 0 .and. g1 >= 0) .or. (g0 > 0 .and. g1 <= 0)) return
+      end if
+      if (allocated(lane(l)%observer)) then
+        if (.not. lane(l)%observer%quiet(t(l), xs(l, :))) return
+      end if
+      if (allocated(lane(l)%event)) lane(l)%ps%g0 = g1
+      q = .true.
+    end function quiet
 
     !> Lane l's integrator into the arrays (a new item, or after its own code ran).
     subroutine load(l)

@@ -58,6 +58,7 @@ module tubes_transport
     logical :: started = .false.
   contains
     procedure :: on_step => gate_on_step
+    procedure :: quiet => gate_quiet
   end type gate_t
 
   !> The Monte Carlo's points as an ensemble (tubes_ensemble; in lanes with the Taylor method,
@@ -157,6 +158,25 @@ contains
       call gate_step(self, ig, t_hi, big)
     end if
   end subroutine gate_on_step
+
+  !> A step of a bounded gate without an energy floor (a conservative field) after the first:
+  !> nothing happens unless the line is crossed outwards (g_prev <= 0 < g), so any other step only
+  !> keeps g (gate_step's arithmetic, the same g).
+  logical function gate_quiet(self, t, x) result(q)
+    class(gate_t), intent(inout) :: self
+    real(wp), intent(in) :: t
+    real(wp), intent(in) :: x(:)
+    real(wp) :: g
+    integer :: n
+    q = .false.
+    if (.not. self%started .or. .not. allocated(self%spec%tangent)) return
+    if (.not. (self%passed .or. self%spec%e_floor == -huge(1.0_wp))) return   ! gate_floor's work
+    n = size(self%spec%normal)
+    g = dot_product(x(1:n) - self%spec%origin, self%spec%normal) - self%spec%dist
+    if (self%g_prev <= 0 .and. g > 0) return
+    self%g_prev = g
+    q = .true.
+  end function gate_quiet
 
   !> gate_on_step's work, x the state's room.
   subroutine gate_step(self, ig, t_hi, x)
