@@ -78,8 +78,7 @@ def main():
                      + f" | **{rate[('now', 'taylor', threads)] / best:.2f}** |")
     lines += ["", "Issue 36's target: at least 2.5x the base's throughput (its faster method).",
               "<!-- bench_mc_base end -->", ""]
-    for ln in lines:
-        print(ln)
+    print("\n".join(lines))
     write_section("bench_mc_base", lines)
 
 
