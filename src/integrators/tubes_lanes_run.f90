@@ -476,7 +476,8 @@ contains
       end do
     end do
     do i = 1, n
-      do k = 1, s
+      if (all(w(:, i) == 0)) cycle       ! (it would add 0 to every sum: a section's plane or ray
+      do k = 1, s                        ! weighs 1 or 2 of the components)
         !$omp simd private(wv, tv)
         do l = 1, nl
           wv = w(l, i)
