@@ -6,10 +6,12 @@ figures the file has data for (before: KeyError 'angle' on every plane-section f
 of every figure the CLI draws (its Axes, caught before they are written) carry the model's units
 (cm and s for the ball, no cm and no "[1]" for a dimensionless model) and the section's own
 coordinate names; the leading-order p_trans is drawn only where it is valid and does not set the
-axis limits; and the plotting API draws the results of the Python calls (not a file). About 60 s
-on 1 core (most of it matplotlib drawing the figures; 150 s while the tube figure asked the core
-for each point's velocity one call at a time)."""
+axis limits; and the plotting API draws the results of the Python calls (not a file). The figures
+are drawn once per case, by tubes.figures' main in this process (before: in the process to read
+their texts, then again by a `python -m tubes.figures` subprocess per case; now one case's
+subprocess checks the module's entry point)."""
 import os
+import pathlib
 import re
 import subprocess
 import sys
@@ -99,22 +101,29 @@ def results(tmp_path_factory, tubes_exe):
 
 @pytest.fixture(scope="module")
 def drawn(results):
-    """The figures python -m tubes.plots draws of every case (plots.main in this process), caught
-    before they are written: case -> {file name: (texts, (xlabel, ylabel) per Axes)}."""
+    """What python -m tubes.figures does on every case, run in this process (figures.main; one
+    case also as `python -m`, test_the_module_entry_point): its exit code, its listing on stdout,
+    the figures it wrote, and their texts, caught as they are written: case -> dict(rc, stdout,
+    figs={file name: (texts, (xlabel, ylabel) per Axes)})."""
+    import contextlib
+    import io
     import matplotlib.pyplot as plt
-    from tubes import _output, plots
+    from tubes import _output, figures
     caught = {}
     real = _output.save_figure
 
     def catch(fig, path, option=None, **kw):
         caught[os.path.basename(str(path))] = (_texts(fig), _labels(fig))
+        return real(fig, path, option, **kw)
     out = {}
     _output.save_figure = catch
     try:
         for case, h5 in results.items():
             caught = {}
-            assert plots.main([str(h5), "-o", str(h5.parent / "inproc")]) == 0, case
-            out[case] = caught
+            buf = io.StringIO()
+            with contextlib.redirect_stdout(buf):
+                rc = figures.main([str(h5), "-o", str(h5.parent / (h5.stem + "_figs"))])
+            out[case] = dict(rc=rc, stdout=buf.getvalue(), figs=caught)
             plt.close("all")
     finally:
         _output.save_figure = real
@@ -153,16 +162,27 @@ def _run_cli(tool, h5, cwd):
 
 
 @pytest.mark.parametrize("case", CASES)
-def test_the_cli_draws_every_figure(results, drawn, case, tmp_path):
-    """python -m tubes.figures (python -m tubes.plots' figures, and the experiment's) exits 0 on the
-    case's file and lists and writes every figure it has data for; tubes.plots.main, drawn in
-    this process (the fixture drawn), drew the same set but the experiment."""
-    h5 = results[case]
-    want = _expected(case, h5)
-    assert {"section_dE*" if n.startswith("section_dE") else n for n in drawn[case]} == want, case
-    r = _run_cli("tubes.figures", h5, tmp_path)
-    assert r.returncode == 0, (case, r.stderr[-3000:])
-    assert _names(r.stdout) == want | ({"experiment.png"} if case == "input/paper" else set()), (case, r.stdout)
+def test_the_cli_draws_every_figure(results, drawn, case):
+    """python -m tubes.figures (python -m tubes.plots' figures, and the experiment's; its main, in
+    this process: the fixture drawn) exits 0 on the case's file and lists and writes every figure
+    it has data for."""
+    h5, d = results[case], drawn[case]
+    want = _expected(case, h5) | ({"experiment.png"} if case == "input/paper" else set())
+    assert d["rc"] == 0, case
+    assert {"section_dE*" if n.startswith("section_dE") else n for n in d["figs"]} == want, case
+    assert _names(d["stdout"]) == want, (case, d["stdout"])
+    for line in d["stdout"].splitlines():
+        if line.endswith(".png"):
+            assert pathlib.Path(line).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", line
+
+
+def test_the_module_entry_point(results, drawn, tmp_path):
+    """`python -m tubes.figures` as a user runs it (a new interpreter: the module's entry point) on
+    one case lists the same figures as its main did in this process."""
+    r = _run_cli("tubes.figures", results["henon_heiles"], tmp_path)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert _names(r.stdout) == _names(drawn["henon_heiles"]["stdout"]) == _expected("henon_heiles",
+                                                                                     results["henon_heiles"])
     for line in r.stdout.splitlines():
         if line.endswith(".png"):
             assert (tmp_path / line).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", line
@@ -179,7 +199,7 @@ def test_python_m_tubes_plots_on_a_plane_section(results, case, tmp_path):
 
 @pytest.mark.parametrize("case", CASES)
 def test_labels_carry_the_models_units_and_the_sections_names(drawn, case):
-    figs = drawn[case]
+    figs = drawn[case]["figs"]
     assert figs, case
     every = [t for texts, _ in figs.values() for t in texts]
     if case in BALL:
