@@ -532,9 +532,12 @@ contains
   !> Whether the step that ends at (t, x) needs nothing of on_step but what quiet has done (the
   !> observer's own state updated as on_step would, for a step whose end is all it looks at):
   !> then the lanes' driver leaves out on_step and the step's dense output (tubes_lanes). On
-  !> .false. nothing is changed. The default: .false. (on_step every step).
-  logical function observer_quiet(self, t, x) result(q)
+  !> .false. nothing is changed. ig: the integration's integrator, for its field (ig%f) only (its
+  !> step's fields and dense output are not up to date there). The default: .false. (on_step
+  !> every step).
+  logical function observer_quiet(self, ig, t, x) result(q)
     class(observer_t), intent(inout) :: self
+    class(integrator_t), intent(in) :: ig
     real(wp), intent(in) :: t
     real(wp), intent(in) :: x(:)
     q = .false.

@@ -269,7 +269,7 @@ contains
         if ((g0 < 0 .and. g1 >= 0) .or. (g0 > 0 .and. g1 <= 0)) return
       end if
       if (allocated(lane(l)%observer)) then
-        if (.not. lane(l)%observer%quiet(t(l), xs(l, :))) return
+        if (.not. lane(l)%observer%quiet(lane(l)%ig, t(l), xs(l, :))) return
       end if
       if (allocated(lane(l)%event)) lane(l)%ps%g0 = g1
       q = .true.

@@ -159,19 +159,28 @@ contains
     end if
   end subroutine gate_on_step
 
-  !> A step of a bounded gate without an energy floor (a conservative field) after the first:
-  !> nothing happens unless the line is crossed outwards (g_prev <= 0 < g), so any other step only
-  !> keeps g (gate_step's arithmetic, the same g).
-  logical function gate_quiet(self, t, x) result(q)
+  !> A step of a bounded gate after the first: nothing happens unless the line is crossed outwards
+  !> (g_prev <= 0 < g) or gate_floor finds the trajectory trapped (a dissipative field: its energy
+  !> below the floor before the neck) or has a stall clock to keep (rolling resistance), so any
+  !> other step only keeps g (gate_step's arithmetic, the same g); gate_floor's test is its own.
+  logical function gate_quiet(self, ig, t, x) result(q)
     class(gate_t), intent(inout) :: self
+    class(integrator_t), intent(in) :: ig
     real(wp), intent(in) :: t
     real(wp), intent(in) :: x(:)
     real(wp) :: g
     integer :: n
     q = .false.
     if (.not. self%started .or. .not. allocated(self%spec%tangent)) return
-    if (.not. (self%passed .or. self%spec%e_floor == -huge(1.0_wp))) return   ! gate_floor's work
     n = size(self%spec%normal)
+    if (.not. (self%passed .or. self%spec%e_floor == -huge(1.0_wp))) then   ! gate_floor's work
+      select type (f => ig%f)
+      type is (damped_t)
+        if (f%base%energy(x) < self%spec%e_floor .and. &
+            dot_product(x(1:n) - self%spec%origin, self%spec%normal) < 0) return   ! trapped
+        if (f%f > 0) return                                                      ! its stall clock
+      end select
+    end if
     g = dot_product(x(1:n) - self%spec%origin, self%spec%normal) - self%spec%dist
     if (self%g_prev <= 0 .and. g > 0) return
     self%g_prev = g
