@@ -176,9 +176,8 @@ contains
     if (.not. (self%passed .or. self%spec%e_floor == -huge(1.0_wp))) then   ! gate_floor's work
       select type (f => ig%f)
       type is (damped_t)
-        if (f%base%energy(x) < self%spec%e_floor .and. &
-            dot_product(x(1:n) - self%spec%origin, self%spec%normal) < 0) return   ! trapped
-        if (f%f > 0) return                                                      ! its stall clock
+        if (below_floor(self, f, x)) return      ! trapped
+        if (f%f > 0) return                      ! its stall clock
       end select
     end if
     g = dot_product(x(1:n) - self%spec%origin, self%spec%normal) - self%spec%dist
@@ -254,8 +253,7 @@ contains
     n = size(self%spec%normal)
     select type (f => ig%f)
     type is (damped_t)
-      if (f%base%energy(x) < self%spec%e_floor .and. &
-          dot_product(x(1:n) - self%spec%origin, self%spec%normal) < 0) then
+      if (below_floor(self, f, x)) then
         self%trapped = .true.
         self%stop_now = .true.
         return
@@ -275,6 +273,18 @@ contains
       end if
     end select
   end subroutine gate_floor
+
+  !> gate_floor's trap: x on the section's side of the saddle ((q - q_s) . n < 0) with the energy
+  !> of the field's conservative model below the floor.
+  logical function below_floor(self, f, x)
+    class(gate_t), intent(in) :: self
+    type(damped_t), intent(in) :: f
+    real(wp), intent(in) :: x(:)
+    integer :: n
+    n = size(self%spec%normal)
+    below_floor = f%base%energy(x) < self%spec%e_floor .and. &
+                  dot_product(x(1:n) - self%spec%origin, self%spec%normal) < 0
+  end function below_floor
 
   !> Bound the gate to the neck at energy e (2 DOF): the segment of the gate line around its point
   !> q_s + dist n where V_eff <= e, found by marching out along the line in steps of
