@@ -154,7 +154,7 @@ module tubes_integrator
   real(wp), parameter, public :: T_RTOL = 4*EPS
   real(wp), parameter, public :: T_ATOL = 1.0e-15_wp
 
-  public :: propagate, prop_begin, prop_after_step, start_step, hermite, stale_state, all_finite
+  public :: propagate, prop_begin, prop_after_step, start_step, hermite, stale_state, all_finite, no_crossing
   public :: integrator_init   ! for a method that extends init (tubes_taylor)
 
 contains
@@ -529,6 +529,16 @@ contains
     end if
   end subroutine prop_after_step
 
+  !> g0, g1 at the ends of a step that holds no root of the event (event_clear): nothing to
+  !> sample, both finite and without a sign change between them (scan_step's rule for a crossing:
+  !> the left end nonzero, the right one zero or of the other sign).
+  pure logical function no_crossing(g0, g1)
+    real(wp), intent(in) :: g0, g1
+    no_crossing = .false.
+    if (.not. (abs(g0) <= huge(1.0_wp) .and. abs(g1) <= huge(1.0_wp))) return
+    no_crossing = .not. ((g0 < 0 .and. g1 >= 0) .or. (g0 > 0 .and. g1 <= 0))
+  end function no_crossing
+
   !> Whether the step that ends at (t, x) needs nothing of on_step but what quiet has done (the
   !> observer's own state updated as on_step would, for a step whose end is all it looks at):
   !> then the lanes' driver leaves out on_step and the step's dense output (tubes_lanes). On
@@ -576,9 +586,7 @@ contains
       cl = ig%event_clear(event)
     end if
     if (cl) then
-      if (abs(g0) <= huge(1.0_wp) .and. abs(g1) <= huge(1.0_wp)) then
-        if (.not. ((g0 < 0 .and. g1 >= 0) .or. (g0 > 0 .and. g1 <= 0))) return
-      end if
+      if (no_crossing(g0, g1)) return
     end if
     call ig%event_samples(event, inner, m)
     call scan_samples(m + 1)

@@ -19,7 +19,7 @@
 #define TUBES_LANES_RUN run_lanes_base
 #endif
 submodule (tubes_lanes) TUBES_LANES_SUB
-  use tubes_integrator, only: prop_begin
+  use tubes_integrator, only: prop_begin, no_crossing
   use tubes_taylor, only: kernel_t, jet_kernel, taylor_prepare, taylor_rule, taylor_order, TAYLOR_MAX_ORDER
   use tubes_status, only: TUBES_EMAXSTEPS, TUBES_EMODEL, TUBES_ESTEP
   implicit none
@@ -265,8 +265,7 @@ contains
         if (.not. (eaf(l) > 0 .and. clr(l) > 0)) return
         g0 = lane(l)%ps%g0
         g1 = lane(l)%event%g(t(l), xs(l, :))
-        if (.not. (abs(g0) <= huge(1.0_wp) .and. abs(g1) <= huge(1.0_wp))) return
-        if ((g0 < 0 .and. g1 >= 0) .or. (g0 > 0 .and. g1 <= 0)) return
+        if (.not. no_crossing(g0, g1)) return
       end if
       if (allocated(lane(l)%observer)) then
         if (.not. lane(l)%observer%quiet(lane(l)%ig, t(l), xs(l, :))) return
